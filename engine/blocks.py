@@ -1,0 +1,221 @@
+"""Transfer elements of a plant: rational expressions (polynomial, factored or
+free form), tabulated frequency responses, and pure delays.
+
+Every transfer answers `evaluate(x, params, with_dvar)` with a `Dual`: its
+complex response at the points ``x`` of the frequency variable (``x = j*omega``)
+with derivatives with respect to its parameters and, when it can, to ``x``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import BlockError, ExtrapolationError
+from .expressions import Dual, Expression
+from .polynomials import Rational, degree
+
+Coefficient = float | str  # a number or the name of a parameter
+TWO_PI = 2.0 * np.pi
+
+
+def _term(c: Coefficient) -> str:
+    return repr(float(c)) if isinstance(c, (int, float)) else str(c)
+
+
+class ExpressionTransfer:
+    """A rational transfer function given by an `Expression`."""
+
+    exact = True
+    rational_form = True
+
+    def __init__(self, expression: Expression | str, variable: str = "s"):
+        self.expression = expression if isinstance(expression, Expression) else Expression(expression, variable)
+        self.parameters = self.expression.parameters
+
+    @property
+    def text(self) -> str:
+        return self.expression.text
+
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
+        return self.expression.evaluate(x, params, with_dvar)
+
+    def rational(self, params: Mapping[str, float]) -> Rational:
+        """Polynomial ratio for the given parameter values; checks it is usable."""
+        r = self.expression.rational(params)
+        if r.is_zero_denominator:
+            raise BlockError(f"{self.text!r}: denominator is identically zero")
+        return r
+
+    def check_proper(self, params: Mapping[str, float], where: str) -> Rational:
+        r = self.rational(params)
+        if r.relative_degree < 0:
+            raise BlockError(f"{where}: {self.text!r} is improper (numerator degree "
+                             f"{degree(r.num)} > denominator degree {degree(r.den)})")
+        return r
+
+
+def polynomial_transfer(numerator: Sequence[Coefficient], denominator: Sequence[Coefficient],
+                        order: Literal["ascending", "descending"], variable: str = "s") -> ExpressionTransfer:
+    """A ratio of polynomials from coefficient lists.
+
+    ``order="ascending"`` reads x_0, x_1, ... as the CIP listing does;
+    ``order="descending"`` reads the highest power first.
+    """
+    if order not in ("ascending", "descending"):
+        raise BlockError(f"coefficient order must be 'ascending' or 'descending', not {order!r}")
+
+    def poly(coefficients: Sequence[Coefficient], what: str) -> str:
+        if len(coefficients) == 0:
+            raise BlockError(f"{what} has no coefficients")
+        ascending = list(coefficients) if order == "ascending" else list(coefficients)[::-1]
+        return "(" + " + ".join(f"{_term(c)}*{variable}**{k}" for k, c in enumerate(ascending)) + ")"
+
+    return ExpressionTransfer(f"{poly(numerator, 'numerator')}/{poly(denominator, 'denominator')}", variable)
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One factor of a factored transfer function.
+
+    kind ``time_constant``: (1 + T x); ``root``: (x + a);
+    ``second_order``: (x^2/omega^2 + 2 zeta x/omega + 1), COEBRA's shorthand.
+    """
+
+    kind: Literal["time_constant", "root", "second_order"]
+    T: Coefficient = 0.0
+    a: Coefficient = 0.0
+    zeta: Coefficient = 0.0
+    omega: Coefficient = 1.0
+
+    def text(self, x: str) -> str:
+        if self.kind == "time_constant":
+            return f"(1 + {_term(self.T)}*{x})"
+        if self.kind == "root":
+            return f"({x} + {_term(self.a)})"
+        if self.kind == "second_order":
+            w, z = _term(self.omega), _term(self.zeta)
+            return f"({x}**2/{w}**2 + 2*{z}*{x}/{w} + 1)"
+        raise BlockError(f"unknown factor kind {self.kind!r}")
+
+
+def factored_transfer(gain: Coefficient = 1.0, s_power: int = 0, zeros: Sequence[Factor] = (),
+                      poles: Sequence[Factor] = (), variable: str = "s") -> ExpressionTransfer:
+    """gain * x^s_power * prod(zeros) / prod(poles)."""
+    num = [_term(gain)] + [f.text(variable) for f in zeros]
+    den = [f.text(variable) for f in poles] or ["1"]
+    if s_power > 0:
+        num.append(f"{variable}**{s_power}")
+    elif s_power < 0:
+        den.append(f"{variable}**{-s_power}")
+    return ExpressionTransfer(f"{'*'.join(num)}/({'*'.join(den)})", variable)
+
+
+class DelayTransfer:
+    """exp(-x tau): a pure delay (frequency domain only)."""
+
+    exact = True
+    rational_form = False
+
+    def __init__(self, tau: Coefficient):
+        self.tau = tau
+        self.parameters = (tau,) if isinstance(tau, str) else ()
+        if not isinstance(tau, str) and not (np.isfinite(tau) and tau >= 0):
+            raise BlockError(f"delay must be finite and >= 0, not {tau!r}")
+
+    @property
+    def text(self) -> str:
+        return f"exp(-s*{_term(self.tau)})"
+
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
+        tau = float(params[self.tau]) if isinstance(self.tau, str) else float(self.tau)
+        value = np.exp(-np.asarray(x, dtype=complex) * tau)
+        grad = {self.tau: -x * value} if isinstance(self.tau, str) else {}
+        return Dual(value, grad, -tau * value if with_dvar else None)
+
+
+@dataclass(frozen=True)
+class FrequencyTable:
+    """A measured frequency response on increasing frequencies (rad/s)."""
+
+    omega: NDArray[np.float64]
+    response: NDArray[np.complex128]
+    source: str = "table"
+
+    @staticmethod
+    def from_polar(frequencies: ArrayLike, magnitude: ArrayLike, phase_deg: ArrayLike, *,
+                   unit: Literal["hz", "rad/s"] = "rad/s", gain: float = 1.0,
+                   source: str = "table") -> FrequencyTable:
+        """Magnitude (normalized, multiplied by ``gain``) and phase in degrees."""
+        mag = np.asarray(magnitude, dtype=float)
+        phase = np.deg2rad(np.asarray(phase_deg, dtype=float))
+        return FrequencyTable._make(frequencies, gain * mag * np.exp(1j * phase), unit, source)
+
+    @staticmethod
+    def from_cartesian(frequencies: ArrayLike, real: ArrayLike, imag: ArrayLike, *,
+                       unit: Literal["hz", "rad/s"] = "rad/s", gain: float = 1.0,
+                       source: str = "table") -> FrequencyTable:
+        """Real and imaginary parts, multiplied by ``gain``."""
+        response = gain * (np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float))
+        return FrequencyTable._make(frequencies, response, unit, source)
+
+    @staticmethod
+    def _make(frequencies: ArrayLike, response: NDArray, unit: str, source: str) -> FrequencyTable:
+        f = np.asarray(frequencies, dtype=float)
+        if unit not in ("hz", "rad/s"):
+            raise BlockError(f"{source}: frequency unit must be 'hz' or 'rad/s', not {unit!r}")
+        if f.ndim != 1 or f.shape != np.shape(response) or f.size < 2:
+            raise BlockError(f"{source}: needs at least two rows of equal length")
+        bad = np.flatnonzero(~np.isfinite(f) | ~np.isfinite(response))
+        if bad.size:
+            raise BlockError(f"{source}: non-finite value in row {bad[0] + 1}")
+        if np.any(f <= 0):
+            raise BlockError(f"{source}: frequencies must be > 0 (row {np.flatnonzero(f <= 0)[0] + 1})")
+        step = np.flatnonzero(np.diff(f) <= 0)
+        if step.size:
+            raise BlockError(f"{source}: frequencies must increase strictly (row {step[0] + 2})")
+        if np.any(response == 0):
+            raise BlockError(f"{source}: zero magnitude in row {np.flatnonzero(response == 0)[0] + 1} "
+                             "(log-magnitude interpolation needs |G| > 0)")
+        omega = f * TWO_PI if unit == "hz" else f
+        return FrequencyTable(omega, np.asarray(response, dtype=complex), source)
+
+    def interpolate(self, omega: ArrayLike) -> NDArray[np.complex128]:
+        """Linear in log frequency on log magnitude and unwrapped phase."""
+        omega = np.asarray(omega, dtype=float)
+        lo, hi = self.omega[0], self.omega[-1]
+        tol = 1e-12 * hi
+        outside = (omega < lo * (1 - 1e-12)) | (omega > hi + tol)
+        if np.any(outside):
+            w = omega[outside][0]
+            raise ExtrapolationError(f"{self.source}: frequency {w:.6g} rad/s is outside the data "
+                                     f"[{lo:.6g}, {hi:.6g}] rad/s; extrapolation is not allowed")
+        logw = np.log(self.omega)
+        logmag = np.interp(np.log(np.clip(omega, lo, hi)), logw, np.log(np.abs(self.response)))
+        phase = np.interp(np.log(np.clip(omega, lo, hi)), logw, np.unwrap(np.angle(self.response)))
+        return np.exp(logmag + 1j * phase)
+
+
+class TabulatedTransfer:
+    """A block known only from a `FrequencyTable` (grid rule for margins)."""
+
+    exact = False
+    rational_form = False
+    parameters: tuple[str, ...] = ()
+
+    def __init__(self, table: FrequencyTable):
+        self.table = table
+
+    @property
+    def text(self) -> str:
+        return f"table({self.table.source})"
+
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
+        return Dual(self.table.interpolate(np.asarray(x).imag), {}, None)
+
+
+Transfer = ExpressionTransfer | DelayTransfer | TabulatedTransfer

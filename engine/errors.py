@@ -1,0 +1,39 @@
+"""Typed errors raised by the engine; every message names what and where."""
+
+
+class EngineError(ValueError):
+    """Base class of every error the engine raises on bad input."""
+
+
+class ExpressionError(EngineError):
+    """An expression could not be parsed or evaluated.
+
+    ``position`` is the 0-based column of the offending token (or None).
+    """
+
+    def __init__(self, message: str, expression: str = "", position: int | None = None):
+        self.expression = expression
+        self.position = position
+        where = f" at column {position + 1}" if position is not None else ""
+        super().__init__(f"{message}{where} in {expression!r}" if expression else message)
+
+
+class BlockError(EngineError):
+    """A block is ill-formed: improper, zero denominator, bad data table."""
+
+
+class GridError(EngineError):
+    """A frequency grid is empty, non-finite or not strictly increasing."""
+
+
+class ExtrapolationError(EngineError):
+    """Tabulated data was asked for outside the frequencies it covers."""
+
+
+class InterconnectionError(EngineError):
+    """A diagram or matrix is inconsistent: unknown signals, duplicate
+    definitions, or a singular interconnection at some frequency."""
+
+
+class ParameterError(EngineError):
+    """A parameter is unknown, missing a value, or not finite."""

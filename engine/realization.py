@@ -1,0 +1,140 @@
+"""State-space realization of a rational interconnection, closed-loop poles.
+
+Every entry G_ij (proper, rational) is realized in controllable canonical
+form; with D the matrix of direct feedthroughs and C the state-to-signal map,
+the signal equation x = D x + C z + E u gives x = (I - D)^-1 (C z + E u),
+and the states obey z' = A_blk z + B_blk x.  The result maps the exogenous
+inputs to every signal, with all loops closed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import linalg
+from scipy import signal as sps
+
+from .errors import BlockError, InterconnectionError
+from .network import Network
+
+
+@dataclass(frozen=True)
+class StateSpace:
+    """x' = A x + B u, y = C x + D u; ``outputs`` are signal names, ``inputs`` exogenous."""
+
+    A: NDArray[np.float64]
+    B: NDArray[np.float64]
+    C: NDArray[np.float64]
+    D: NDArray[np.float64]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Pole:
+    """A closed-loop pole with its damping ratio and natural frequency (rad/s)."""
+
+    value: complex
+    damping: float
+    natural_frequency: float
+
+
+def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
+    """Closed-loop state space from the network's inputs to all its signals."""
+    if not network.rational:
+        kinds = sorted({type(e.transfer).__name__ for e in network.entries if not e.transfer.rational_form})
+        raise InterconnectionError(f"no state-space realization: the network has {', '.join(kinds)} entries")
+    n = len(network.signals)
+    blocks, feed, sizes = [], np.zeros((n, n)), []
+    for entry in network.entries:
+        r = entry.transfer.check_proper(params, entry.label)
+        a, b, c, d = cascade(r.num, r.den)
+        blocks.append((entry, a, b, c))
+        feed[entry.row, entry.col] += d[0, 0] if d.size else 0.0
+        sizes.append(a.shape[0])
+    m = int(np.sum(sizes))
+    A_blk, B_blk, C_sig = np.zeros((m, m)), np.zeros((m, n)), np.zeros((n, m))
+    offset = 0
+    for (entry, a, b, c), size in zip(blocks, sizes):
+        sl = slice(offset, offset + size)
+        A_blk[sl, sl], B_blk[sl, entry.col], C_sig[entry.row, sl] = a, b[:, 0], c[0, :]
+        offset += size
+    E = np.zeros((n, len(network.inputs)))
+    for k, name in enumerate(network.inputs):
+        E[network.signal(name), k] = 1.0
+    try:
+        lu = linalg.lu_factor(np.eye(n) - feed, check_finite=True)
+        if np.any(np.abs(np.diag(lu[0])) < 1e-14):
+            raise linalg.LinAlgError
+    except (linalg.LinAlgError, ValueError):
+        raise InterconnectionError("algebraic loop is singular: I - D (direct feedthrough) "
+                                   "has no inverse") from None
+    P_state, P_input = linalg.lu_solve(lu, C_sig), linalg.lu_solve(lu, E)
+    return StateSpace(A_blk + B_blk @ P_state, B_blk @ P_input, P_state, P_input,
+                      network.inputs, network.signals)
+
+
+def _sections(roots: NDArray[np.complex128]) -> list[NDArray[np.float64]]:
+    """Real polynomials of degree 1 or 2 whose product has the given roots."""
+    roots = np.asarray(roots, dtype=complex)
+    upper = sorted((r for r in roots if r.imag > 1e-12 * max(1.0, abs(r))), key=abs)
+    reals = sorted((r.real for r in roots if abs(r.imag) <= 1e-12 * max(1.0, abs(r))), key=abs)
+    out = [np.array([1.0, -2.0 * r.real, abs(r) ** 2]) for r in upper]
+    out += [np.poly(reals[i:i + 2]).real for i in range(0, len(reals), 2)]
+    return out
+
+
+def cascade(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """A well-scaled realization of num/den (proper): a series of first- and
+    second-order sections built from its roots (high-order companion forms lose
+    digits).  Sections sorted by degree pair up properly because each
+    polynomial has at most one first-order section."""
+    gain = num[0] / den[0]
+    zeros = sorted(_sections(np.roots(num)) if num.size > 1 else [], key=len, reverse=True)
+    poles = sorted(_sections(np.roots(den)) if den.size > 1 else [], key=len, reverse=True)
+    if len(zeros) > len(poles):
+        raise BlockError("improper transfer function in cascade realization")
+    A, B, C, D = np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])
+    for k, p in enumerate(poles):
+        a, b, c, d = sps.tf2ss(zeros[k] if k < len(zeros) else np.ones(1), p)
+        A = np.block([[A, np.zeros((A.shape[0], a.shape[0]))], [b @ C, a]])
+        B = np.vstack([B, b @ D])
+        C = np.hstack([d @ C, c])
+        D = d @ D
+    return A, B, C, D
+
+
+def poles(ss: StateSpace) -> list[Pole]:
+    """Eigenvalues of the closed-loop A, sorted by real part (least stable last)."""
+    eig = np.linalg.eigvals(ss.A) if ss.A.size else np.zeros(0, dtype=complex)
+    eig = sorted(eig, key=lambda p: (p.real, p.imag))
+    out = []
+    for p in eig:
+        wn = abs(p)
+        out.append(Pole(complex(p), float(-p.real / wn) if wn > 0 else 1.0, float(wn)))
+    return out
+
+
+def stability(pole_list: list[Pole], tolerance: float = 1e-9) -> str:
+    """'stable', 'unstable' or 'marginally stable' (a pole within tolerance of the axis)."""
+    if not pole_list:
+        return "stable"
+    scale = max(1.0, max(abs(p.value) for p in pole_list))
+    worst = max(p.value.real for p in pole_list)
+    if worst > tolerance * scale:
+        return "unstable"
+    if worst >= -tolerance * scale:
+        return "marginally stable"
+    return "stable"
+
+
+def check_blocks_proper(network: Network, params: Mapping[str, float]) -> None:
+    """Raise `BlockError` naming the first improper entry."""
+    for entry in network.entries:
+        if entry.transfer.rational_form:
+            entry.transfer.check_proper(params, entry.label)
+    if not network.entries:
+        raise BlockError("the network has no blocks")

@@ -1,0 +1,48 @@
+"""Random and reference loops for the margin tests (seeded, reproducible)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from engine.analysis import unity_feedback
+
+
+def random_poly(rng: np.random.Generator, order: int, unstable: bool) -> np.ndarray:
+    """A real polynomial of the given order with real roots and complex pairs,
+    damping down to 0.005, natural frequencies 0.1..100 rad/s."""
+    roots: list[complex] = []
+    while len(roots) < order:
+        wn = 10 ** rng.uniform(-1, 2)
+        if order - len(roots) >= 2 and rng.random() < 0.6:
+            zeta = 10 ** rng.uniform(np.log10(0.005), 0)
+            zeta = min(zeta, 0.99)
+            sign = -1.0 if (unstable and rng.random() < 0.3) else 1.0
+            re, im = -sign * zeta * wn, wn * np.sqrt(1 - zeta**2)
+            roots += [complex(re, im), complex(re, -im)]
+        else:
+            sign = -1.0 if (unstable and rng.random() < 0.3) else 1.0
+            roots.append(complex(-sign * wn, 0.0))
+    return np.real(np.poly(roots))
+
+
+def random_loop(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """(num, den) descending, order 1..12, proper, about half with unstable roots."""
+    rng = np.random.default_rng(seed)
+    order = int(rng.integers(1, 13))
+    nzeros = int(rng.integers(0, order + 1))
+    unstable = rng.random() < 0.5
+    den = random_poly(rng, order, unstable)
+    num = random_poly(rng, nzeros, unstable) if nzeros else np.ones(1)
+    w0 = 10 ** rng.uniform(-0.5, 1.5)
+    gain = 10 ** rng.uniform(-1, 1) / abs(np.polyval(num, 1j * w0) / np.polyval(den, 1j * w0))
+    return gain * num, den
+
+
+def poly_text(c: np.ndarray, x: str = "s") -> str:
+    """Descending coefficients as an expression (full repr precision)."""
+    n = len(c) - 1
+    return "(" + " + ".join(f"({float(v)!r})*{x}**{n - k}" for k, v in enumerate(c)) + ")"
+
+
+def loop_network(num: np.ndarray, den: np.ndarray):
+    return unity_feedback([f"{poly_text(num)}/{poly_text(den)}"])
