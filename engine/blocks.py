@@ -8,7 +8,7 @@ with derivatives with respect to its parameters and, when it can, to ``x``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -20,6 +20,7 @@ from .expressions import Dual, Expression
 from .polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
+Compiled = Callable[[NDArray], tuple[NDArray, NDArray | None]]
 TWO_PI = 2.0 * np.pi
 
 
@@ -43,6 +44,10 @@ class ExpressionTransfer:
 
     def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
         return self.expression.evaluate(x, params, with_dvar)
+
+    def compile(self, params: Mapping[str, float]) -> Compiled:
+        """Fast (value, d/dx) evaluator for fixed parameters."""
+        return self.expression.compile(params)
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """Polynomial ratio for the given parameter values; checks it is usable."""
@@ -131,6 +136,14 @@ class DelayTransfer:
     def text(self) -> str:
         return f"exp(-s*{_term(self.tau)})"
 
+    def compile(self, params: Mapping[str, float]) -> Compiled:
+        tau = float(params[self.tau]) if isinstance(self.tau, str) else float(self.tau)
+
+        def evaluate(x: NDArray) -> tuple[NDArray, NDArray]:
+            value = np.exp(-x * tau)
+            return value, -tau * value
+        return evaluate
+
     def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
         tau = float(params[self.tau]) if isinstance(self.tau, str) else float(self.tau)
         value = np.exp(-np.asarray(x, dtype=complex) * tau)
@@ -216,6 +229,9 @@ class TabulatedTransfer:
 
     def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
         return Dual(self.table.interpolate(np.asarray(x).imag), {}, None)
+
+    def compile(self, params: Mapping[str, float]) -> Compiled:
+        return lambda x: (self.table.interpolate(np.asarray(x).imag), None)
 
 
 Transfer = ExpressionTransfer | DelayTransfer | TabulatedTransfer

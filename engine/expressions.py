@@ -15,7 +15,7 @@ is a parameter.  An expression evaluates to
 from __future__ import annotations
 
 import ast
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,6 +26,7 @@ from .polynomials import Rational
 
 VARIABLES = ("s", "w", "z")
 MAX_POWER = 64
+MAX_LENGTH = 10_000
 
 
 @dataclass(frozen=True)
@@ -77,7 +78,7 @@ class Dual:
 
     def power(self, k: int) -> Dual:
         if k == 0:
-            return Dual(np.ones_like(self.value))
+            return Dual(np.complex128(1.0))
         scale = k * self.value ** (k - 1)
         grad = {name: scale * g for name, g in self.grad.items()}
         dvar = None if self.dvar is None else scale * self.dvar
@@ -94,6 +95,17 @@ class Expression:
         self.variable = variable
         self.root = _Parser(text, variable).parse()
         self.parameters: tuple[str, ...] = tuple(sorted(_collect_parameters(self.root)))
+        self._cache: dict[tuple, object] = {}
+
+    def _cached(self, what: str, params: Mapping[str, float], make):
+        """Results for the last few parameter values (rational forms are reused a lot)."""
+        self._check_params(params)
+        key = (what,) + tuple(float(params[p]) for p in self.parameters)
+        if key not in self._cache:
+            if len(self._cache) > 32:
+                self._cache.clear()
+            self._cache[key] = make()
+        return self._cache[key]
 
     def __repr__(self) -> str:
         return f"Expression({self.text!r}, variable={self.variable!r})"
@@ -103,13 +115,28 @@ class Expression:
     ) -> Dual:
         """Value at every point of ``x`` with derivatives w.r.t. every parameter."""
         self._check_params(params)
+        x = np.asarray(x, dtype=complex)
         with np.errstate(divide="ignore", invalid="ignore"):
-            return _evaluate(self.root, np.asarray(x, dtype=complex), params, with_dvar)
+            dual = _evaluate(self.root, x, params, with_dvar)
+        return _broadcast(dual, x.shape, with_dvar)
+
+    def compile(self, params: Mapping[str, float]) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+        """A fast evaluator of (value, d/dvariable) for fixed parameter values.
+
+        Subtrees of low degree are folded into small polynomial ratios
+        (evaluated by Horner's rule); larger products stay products, so the
+        accuracy of a factored form is kept.
+        """
+        return _as_callable(self._cached("compiled", params, lambda: _compile(self.root, params)))
+
+    def folded(self, params: Mapping[str, float]) -> Rational | None:
+        """The expression as a polynomial ratio of degree <= FOLD_DEGREE, else None."""
+        compiled = self._cached("compiled", params, lambda: _compile(self.root, params))
+        return compiled if isinstance(compiled, Rational) else None
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """The expression as a ratio of polynomials in the variable."""
-        self._check_params(params)
-        return _to_rational(self.root, params)
+        return self._cached("rational", params, lambda: _to_rational(self.root, params))
 
     def value(self, params: Mapping[str, float]) -> float:
         """Evaluate a parameter expression that does not contain the variable."""
@@ -136,25 +163,43 @@ class _Parser:
     def parse(self) -> Node:
         if not isinstance(self.text, str) or not self.text.strip():
             raise ExpressionError("empty expression", str(self.text))
+        if len(self.text) > MAX_LENGTH:
+            raise ExpressionError(f"expression longer than {MAX_LENGTH} characters", self.text[:40] + "...")
+        # '^' means power; Python would read it as xor with a lower precedence than '+'
+        self.carets = [i for i, ch in enumerate(self.text) if ch == "^"]
+        source = self.text.replace("^", "**")
         try:
-            tree = ast.parse(self.text.strip(), mode="eval")
+            tree = ast.parse(source, mode="eval")
         except SyntaxError as exc:
-            col = (exc.offset or 1) - 1
-            token = self.text.strip()[col:col + 1] if col < len(self.text.strip()) else "end of input"
+            col = self._original_column(source, (exc.offset or 1) - 1)
+            token = self.text[col:col + 1] if col < len(self.text) else "end of input"
             reason = exc.msg.removeprefix("invalid syntax").strip(" .") or "invalid syntax"
             raise ExpressionError(f"{reason} near {token!r}", self.text, col) from None
+        except (ValueError, RecursionError, MemoryError):
+            raise ExpressionError("expression cannot be read", self.text) from None
         return self._node(tree.body)
 
+    def _original_column(self, source: str, col: int) -> int:
+        """Map a column of the '^'-rewritten source back to the user's text."""
+        before = sum(1 for i in self.carets if i + self.carets.index(i) < col)
+        return max(0, min(col - before, len(self.text)))
+
     def _fail(self, message: str, node: ast.AST) -> ExpressionError:
-        return ExpressionError(message, self.text, getattr(node, "col_offset", None))
+        col = getattr(node, "col_offset", None)
+        col = None if col is None else self._original_column(self.text.replace("^", "**"), col)
+        return ExpressionError(message, self.text, col)
 
     def _node(self, node: ast.AST) -> Node:
         if isinstance(node, ast.Constant):
             if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
                 raise self._fail(f"unsupported constant {node.value!r}", node)
-            if not np.isfinite(node.value):
+            try:
+                value = float(node.value)
+            except OverflowError:
+                value = float("inf")
+            if not np.isfinite(value):
                 raise self._fail("non-finite number", node)
-            return Node("num", value=float(node.value))
+            return Node("num", value=value)
         if isinstance(node, ast.Name):
             if node.id == self.variable:
                 return Node("var")
@@ -167,7 +212,9 @@ class _Parser:
         if isinstance(node, ast.BinOp):
             return self._binop(node)
         if isinstance(node, ast.Call):
-            col = getattr(node.func, "end_col_offset", node.col_offset)
+            source = self.text.replace("^", "**")
+            col = source.find("(", getattr(node.func, "end_col_offset", node.col_offset))
+            col = self._original_column(source, col if col >= 0 else node.col_offset)
             raise ExpressionError("function calls are not allowed (a '*' missing before '('?)", self.text, col)
         token = type(node).__name__
         raise self._fail(f"unsupported element {token!r} (only numbers, names, + - * / ** and parentheses)", node)
@@ -201,18 +248,28 @@ def _collect_parameters(node: Node) -> set[str]:
     return names
 
 
+def _broadcast(dual: Dual, shape: tuple[int, ...], with_dvar: bool) -> Dual:
+    """Constants and parameters evaluate to scalars; give every part the full shape."""
+
+    def full(v) -> NDArray:
+        return v if np.shape(v) == shape else np.full(shape, v, dtype=complex)
+
+    dvar = full(0.0 if dual.dvar is None else dual.dvar) if with_dvar else None
+    return Dual(full(dual.value), {k: full(g) for k, g in dual.grad.items()}, dvar)
+
+
 def _evaluate(node: Node, x: NDArray, params: Mapping[str, float], with_dvar: bool) -> Dual:
+    """Forward-mode evaluation; subtrees free of the variable stay scalars."""
     op = node.op
     if op == "num":
-        return Dual(np.full(x.shape, node.value, dtype=complex))
+        return Dual(np.complex128(node.value))
     if op == "var":
-        return Dual(x.copy(), {}, np.ones(x.shape, dtype=complex) if with_dvar else None)
+        return Dual(x, {}, 1.0 if with_dvar else None)
     if op == "param":
-        value = float(params[node.name])
-        return Dual(np.full(x.shape, value, dtype=complex), {node.name: np.ones(x.shape, dtype=complex)})
+        return Dual(np.complex128(float(params[node.name])), {node.name: 1.0})
     args = [_evaluate(a, x, params, with_dvar) for a in node.args]
     if op == "neg":
-        return args[0].mul(Dual(np.full(x.shape, -1.0, dtype=complex)))
+        return args[0].mul(Dual(np.complex128(-1.0)))
     if op == "pow":
         return args[0].power(node.exponent)
     if op == "add":
@@ -232,11 +289,14 @@ def _to_rational(node: Node, params: Mapping[str, float]) -> Rational:
         return Rational.variable()
     if op == "param":
         return Rational.constant(float(params[node.name]))
-    args = [_to_rational(a, params) for a in node.args]
+    return _combine_rationals(op, [_to_rational(a, params) for a in node.args], node.exponent)
+
+
+def _combine_rationals(op: str, args: list[Rational], exponent: int) -> Rational:
     if op == "neg":
         return -args[0]
     if op == "pow":
-        return args[0] ** node.exponent
+        return args[0] ** exponent
     if op == "add":
         return args[0] + args[1]
     if op == "sub":
@@ -244,3 +304,70 @@ def _to_rational(node: Node, params: Mapping[str, float]) -> Rational:
     if op == "mul":
         return args[0] * args[1]
     return args[0] / args[1]
+
+
+FOLD_DEGREE = 2
+Compiled = Rational | Callable[[NDArray], tuple[NDArray, NDArray]]
+
+
+def _rational_evaluator(r: Rational) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+    num, den = r.num, r.den
+    dnum, dden = np.polyder(num) if num.size > 1 else np.zeros(1), np.polyder(den) if den.size > 1 else np.zeros(1)
+
+    def evaluate(x: NDArray) -> tuple[NDArray, NDArray]:
+        n, d = _horner(num, x), _horner(den, x)
+        value = n / d
+        return value, (_horner(dnum, x) - value * _horner(dden, x)) / d
+
+    return evaluate
+
+
+def _horner(c: NDArray, x: NDArray) -> NDArray:
+    value = np.full(x.shape, c[0], dtype=complex)
+    for coefficient in c[1:]:
+        value = value * x + coefficient
+    return value
+
+
+def _as_callable(c: Compiled) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+    return _rational_evaluator(c) if isinstance(c, Rational) else c
+
+
+def _compile(node: Node, params: Mapping[str, float]) -> Compiled:
+    op = node.op
+    if op == "num":
+        return Rational.constant(node.value)
+    if op == "var":
+        return Rational.variable()
+    if op == "param":
+        return Rational.constant(float(params[node.name]))
+    args = [_compile(a, params) for a in node.args]
+    if all(isinstance(a, Rational) for a in args):
+        folded = _combine_rationals(op, args, node.exponent)
+        if max(folded.num.size, folded.den.size) - 1 <= FOLD_DEGREE:
+            return folded
+    f = [_as_callable(a) for a in args]
+    if op == "neg":
+        return lambda x: tuple(-v for v in f[0](x))
+    if op == "pow":
+        k = node.exponent
+
+        def power(x):
+            v, dv = f[0](x)
+            return v**k, k * v ** (k - 1) * dv if k != 0 else 0 * dv
+        return power
+    return _binary(op, f[0], f[1])
+
+
+def _binary(op: str, f, g) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+    def evaluate(x):
+        (a, da), (b, db) = f(x), g(x)
+        if op == "add":
+            return a + b, da + db
+        if op == "sub":
+            return a - b, da - db
+        if op == "mul":
+            return a * b, da * b + a * db
+        q = a / b
+        return q, (da - q * db) / b
+    return evaluate

@@ -20,6 +20,8 @@ or the grid extremum; results then say ``method = "grid"``.
 
 from __future__ import annotations
 
+import cmath
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -95,18 +97,54 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
     if loop.evaluate is None:
         return _grid_margins(loop, gain_band, phase_band, attenuation_above)
     w, gh, dgh = detection_grid(loop)
-    notes = [] if loop.rational else [f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s"]
-    gain = _phase_crossovers(loop, w, gh)
-    if loop.rational and loop.dc_value is not None and loop.dc_value.real < 0 and loop.dc_value.imag == 0:
-        gain = [_margin("G", 0.0, loop.dc_value)] + gain
-    result = Margins(
+    found = _refined(loop, w, gh, dgh)
+    gain = [m for m in found["G"] if m.gh.real < 0]
+    dc = loop.dc_value
+    if loop.rational and dc is not None and dc.real < 0:
+        gain = [_margin("G", 0.0, dc)] + gain
+    notes = () if loop.rational else (
+        f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s",)
+    above = float("inf") if attenuation_above is None else attenuation_above
+    return Margins(
         gain=tuple(m for m in gain if gain_band.contains(m.frequency)),
-        phase=tuple(m for m in _gain_crossovers(loop, w, gh) if phase_band.contains(m.frequency)),
-        stability=tuple(_extrema(loop, w, gh, dgh, "S")),
-        attenuation=tuple(m for m in _extrema(loop, w, gh, dgh, "A")
-                          if attenuation_above is not None and m.frequency >= attenuation_above),
-        method="refined", notes=tuple(notes))
-    return result
+        phase=tuple(m for m in found["P"] if phase_band.contains(m.frequency)),
+        stability=tuple(found["S"]),
+        attenuation=tuple(m for m in found["A"] if m.frequency >= above),
+        method="refined", notes=notes)
+
+
+def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str, list[Margin]]:
+    """Every sign change of the four defining functions, refined together."""
+    functions = {"G": _imag_sign, "P": _log_magnitude, "S": _slope_distance, "A": _slope_magnitude}
+    starts, kinds, exact = [], [], {}
+    values = {kind: f(gh, dgh) for kind, f in functions.items()}
+    for kind, f in values.items():
+        idx = sign_changes(f, rising_only=(kind == "S"), falling_only=(kind == "A"))
+        starts.append(idx)
+        kinds.append(np.full(idx.size, kind))
+        exact[kind] = w[np.flatnonzero(f == 0)] if kind in "GP" else np.zeros(0)
+    idx, kind = np.concatenate(starts), np.concatenate(kinds)
+
+    def fun(points: NDArray, which: NDArray) -> NDArray:
+        g, dg = loop.evaluate(points)
+        out = np.empty(points.size)
+        for name, f in functions.items():
+            sel = kind[which] == name
+            if sel.any():
+                out[sel] = f(g[sel], dg[sel])
+        return out
+
+    fa = np.array([values[k][i] for k, i in zip(kind, idx)])
+    fb = np.array([values[k][i + 1] for k, i in zip(kind, idx)])
+    roots = refine_roots(fun, w[idx], w[idx + 1], fa, fb) if idx.size else np.zeros(0)
+    every = [np.sort(np.concatenate([roots[kind == name], exact[name]])) for name in functions]
+    values = loop.evaluate(np.concatenate(every))[0] if sum(r.size for r in every) else np.zeros(0)
+    found: dict[str, list[Margin]] = {}
+    start = 0
+    for name, r in zip(functions, every):
+        found[name] = [_margin(name, f, v) for f, v in zip(r, values[start:start + r.size])]
+        start += r.size
+    return found
 
 
 def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:
@@ -198,25 +236,19 @@ def _extend_to_crossovers(loop: LoopModel, lo: float, hi: float) -> tuple[float,
     return lo, hi
 
 
-def _margin(kind: str, w: float, gh: complex, dgh: complex | None = None) -> Margin:
-    gh = complex(gh)
+def _margin(kind: str, w: float, gh: complex) -> Margin:
+    """A margin with its distance value and, for G and P, the classical forms."""
+    gh, w = complex(gh), float(w)
     distance = abs(1.0 + gh)
     if kind == "G":
-        db = -20.0 * np.log10(abs(gh)) if gh != 0 else float("inf")
-        return Margin("G", float(w), distance, gh, gain_db=float(db))
+        db = -20.0 * math.log10(abs(gh)) if gh != 0 else math.inf
+        return Margin("G", w, distance, gh, gain_db=db)
     if kind == "P":
-        phase = 180.0 + np.degrees(np.angle(gh))
+        phase = 180.0 + math.degrees(cmath.phase(gh))
         phase = phase - 360.0 if phase > 180.0 else phase
-        lag = np.mod(np.radians(phase), 2 * np.pi)
-        return Margin("P", float(w), distance, gh, phase_deg=float(phase),
-                      delay=float(lag / w) if w > 0 else None)
-    return Margin(kind, float(w), distance if kind == "S" else abs(gh), gh)
-
-
-def _refine(loop: LoopModel, fun, w: NDArray, f: NDArray, idx: NDArray) -> NDArray:
-    if idx.size == 0:
-        return np.zeros(0)
-    return refine_roots(lambda x: fun(*loop.evaluate(x)), w[idx], w[idx + 1], f[idx], f[idx + 1])
+        lag = math.radians(phase) % (2 * math.pi)
+        return Margin("P", w, distance, gh, phase_deg=phase, delay=lag / w if w > 0 else None)
+    return Margin(kind, w, distance if kind == "S" else abs(gh), gh)
 
 
 def _imag_sign(gh: NDArray, dgh: NDArray | None = None) -> NDArray:
@@ -235,38 +267,6 @@ def _slope_distance(gh: NDArray, dgh: NDArray) -> NDArray:
 def _slope_magnitude(gh: NDArray, dgh: NDArray) -> NDArray:
     """Sign of d|GH|/domega, scaled to be O(1)."""
     return np.real(np.conj(gh) * dgh) / (np.abs(gh) * np.abs(dgh) + 1e-300)
-
-
-def _phase_crossovers(loop: LoopModel, w: NDArray, gh: NDArray) -> list[Margin]:
-    f = _imag_sign(gh)
-    idx = sign_changes(f)
-    roots = _refine(loop, _imag_sign, w, f, idx)
-    exact = np.flatnonzero(f == 0)
-    roots = np.concatenate([roots, w[exact]])
-    if roots.size == 0:
-        return []
-    values = loop.evaluate(np.sort(roots))[0]
-    return [_margin("G", r, v) for r, v in zip(np.sort(roots), values) if v.real < 0]
-
-
-def _gain_crossovers(loop: LoopModel, w: NDArray, gh: NDArray) -> list[Margin]:
-    f = _log_magnitude(gh)
-    roots = np.sort(np.concatenate([_refine(loop, _log_magnitude, w, f, sign_changes(f)),
-                                    w[np.flatnonzero(f == 0)]]))
-    if roots.size == 0:
-        return []
-    return [_margin("P", r, v) for r, v in zip(roots, loop.evaluate(roots)[0])]
-
-
-def _extrema(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, kind: str) -> list[Margin]:
-    slope = _slope_distance if kind == "S" else _slope_magnitude
-    f = slope(gh, dgh)
-    idx = sign_changes(f, rising_only=(kind == "S"), falling_only=(kind == "A"))
-    roots = _refine(loop, slope, w, f, idx)
-    if roots.size == 0:
-        return []
-    roots = np.sort(roots)
-    return [_margin(kind, r, v) for r, v in zip(roots, loop.evaluate(roots)[0])]
 
 
 def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,

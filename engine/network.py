@@ -3,9 +3,11 @@ form, solved for all frequencies at once with parameter sensitivities.
 
 The compiled form is a set of signals x_1..x_n in which equation i defines
 signal i:  x_i = sum_j G_ij(s) x_j  (+ an injection).  Exogenous inputs have
-no terms.  At every frequency M(s) = I - G(s) and M x = b is solved as one
-batched linear solve; sensitivities come from the same matrices:
-dx/dp = M^-1 (dG/dp) x.
+no terms.  M(s) x = b with M = I - G(s) is solved for all frequencies at once
+by the sparse structure of G: a few "tear" signals cut every cycle, every
+other signal follows in topological order as an affine function of the tears
+(vectorized over frequencies), and a small batched solve closes the tears.
+Sensitivities reuse the same schedule: M dx/dp = (dG/dp) x.
 
 Breaking the loop at signal k replaces every *use* of x_k (column k of G) by
 an injected unit signal v; the open loop is GH = -x_k (returned), so that the
@@ -21,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .blocks import ExpressionTransfer, Transfer
+from .expressions import Dual
 from .errors import EngineError, GridError, InterconnectionError, ParameterError
 
 
@@ -62,6 +65,7 @@ class Network:
     entries: tuple[Entry, ...]
     variable: str = "s"
     index: dict[str, int] = field(default_factory=dict, compare=False, repr=False)
+    schedules: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         self.index.update({name: i for i, name in enumerate(self.signals)})
@@ -169,7 +173,9 @@ def check_grid(omega: ArrayLike, what: str = "frequency grid") -> NDArray[np.flo
 class Solution:
     """Signals for one injection at every frequency, with sensitivities.
 
-    x: (F, n); dx: (F, n, P) in the order of ``parameters``; dx_domega: (F, n) or None.
+    x: (F, n).  dx: (F, len(rows), P) for the signals ``rows`` (all signals,
+    or just the requested output), parameters in the order of ``parameters``.
+    dx_domega: (F, len(rows)) or None.
     """
 
     omega: NDArray[np.float64]
@@ -177,52 +183,80 @@ class Solution:
     parameters: tuple[str, ...]
     dx: NDArray[np.complex128] | None
     dx_domega: NDArray[np.complex128] | None
+    rows: tuple[int, ...] = ()
 
 
 def solve(network: Network, omega: ArrayLike, params: Mapping[str, float], inject: str, *,
-          break_at: str | None = None, sensitivities: bool = True, d_omega: bool = False,
-          check: bool = True) -> Solution:
+          break_at: str | None = None, output: str | None = None, sensitivities: bool = True,
+          d_omega: bool = False, check: bool = True, compiled: list | None = None) -> Solution:
     """Solve the network with a unit injection at signal ``inject``.
 
     With ``break_at``, every use of that signal is fed by the injection
-    instead (then ``inject`` must equal ``break_at``).
+    instead (then ``inject`` must equal ``break_at``).  Derivatives are of
+    every signal, or, with ``output``, of that signal only by one adjoint
+    solve (much cheaper with many parameters).  ``compiled`` (from
+    `compile_entries`) evaluates the blocks faster when no parameter
+    derivatives are needed.
     """
     w = check_grid(omega) if check else np.asarray(omega, dtype=float)
     _check_params(network, params)
+    if d_omega and not network.exact:
+        raise InterconnectionError("d/domega needs every block in closed form (a table has none)")
     n, k = len(network.signals), network.signal(inject)
     broken = None if break_at is None else network.signal(break_at)
-    x_var = 1j * w
-    duals = _evaluate_entries(network, x_var, params, sensitivities, d_omega)
-    M = np.zeros((w.size, n, n), dtype=complex)
-    M[:, np.arange(n), np.arange(n)] = 1.0
-    rhs = np.zeros((w.size, n), dtype=complex)
+    out = None if output is None else network.signal(output)
+    if compiled is not None and not sensitivities:
+        duals = _evaluate_compiled(network, compiled, 1j * w)
+    else:
+        duals = _evaluate_entries(network, 1j * w, params, sensitivities, d_omega)
+    values = [d.value for d in duals]
+    # internal layout (signal, column, frequency): frequency last and contiguous
+    rhs = np.zeros((n, 1, w.size), dtype=complex)
     if broken is None:
-        rhs[:, k] = 1.0
+        rhs[k, 0] = 1.0
     for entry, dual in zip(network.entries, duals):
         if entry.col == broken:
-            rhs[:, entry.row] += dual.value
-        else:
-            M[:, entry.row, entry.col] -= dual.value
-    x = _batched_solve(M, rhs[:, :, None], w, network)[:, :, 0]
+            rhs[entry.row, 0] += dual.value
+    x = sparse_solve(_schedule(network, broken, False), values, rhs, w)[:, 0, :]
+    names = network.parameters
+    if not (sensitivities or d_omega):
+        return Solution(w, x.T, names, None, None)
     feed = x.copy()
     if broken is not None:
-        feed[:, broken] = 1.0
-    names = network.parameters
-    columns = (len(names) if sensitivities else 0) + (1 if d_omega else 0)
-    if columns == 0:
-        return Solution(w, x, names, None, None)
-    R = np.zeros((w.size, n, columns), dtype=complex)
+        feed[broken] = 1.0
+    columns = [(number, p) for number, dual in enumerate(duals) for p in dual.grad] if sensitivities else []
+    if out is not None:
+        return _adjoint(network, duals, feed, names, columns, d_omega, broken, out, w, x)
+    R = np.zeros((n, len(names) + 1, w.size), dtype=complex)
     position = {p: i for i, p in enumerate(names)}
-    for entry, dual in zip(network.entries, duals):
-        source = feed[:, entry.col]
-        if sensitivities:
-            for p, g in dual.grad.items():
-                R[:, entry.row, position[p]] += g * source
-        if d_omega and dual.dvar is not None:
-            R[:, entry.row, -1] += 1j * dual.dvar * source
-    D = _batched_solve(M, R, w, network)
-    dx = D[:, :, :len(names)] if sensitivities else None
-    return Solution(w, x, names, dx, D[:, :, -1] if d_omega else None)
+    for number, p in columns:
+        e = network.entries[number]
+        R[e.row, position[p]] += duals[number].grad[p] * feed[e.col]
+    if d_omega:
+        for e, dual in zip(network.entries, duals):
+            R[e.row, -1] += 1j * dual.dvar * feed[e.col]
+    D = sparse_solve(_schedule(network, broken, False), values, R if d_omega else R[:, :-1], w)
+    dx = D[:, :len(names), :].transpose(2, 0, 1) if sensitivities else None
+    return Solution(w, x.T, names, dx, D[:, -1, :].T if d_omega else None, tuple(range(n)))
+
+
+def _adjoint(network: Network, duals: list, feed: NDArray, names: tuple[str, ...], columns: list,
+             d_omega: bool, broken: int | None, out: int, w: NDArray, x: NDArray) -> Solution:
+    """d x_out / dp = y' R_p with (I - G)' y = e_out: one solve for any number of parameters."""
+    n = len(network.signals)
+    unit = np.zeros((n, 1, w.size), dtype=complex)
+    unit[out, 0] = 1.0
+    y = sparse_solve(_schedule(network, broken, True), [d.value for d in duals], unit, w)[:, 0, :]
+    dx = np.zeros((w.size, 1, len(names)), dtype=complex)
+    position = {p: i for i, p in enumerate(names)}
+    for number, p in columns:
+        e = network.entries[number]
+        dx[:, 0, position[p]] += y[e.row] * duals[number].grad[p] * feed[e.col]
+    dw = None
+    if d_omega:
+        dw = sum(y[e.row] * 1j * dual.dvar * feed[e.col] for e, dual in zip(network.entries, duals))
+        dw = np.asarray(dw, dtype=complex).reshape(w.size, 1)
+    return Solution(w, x.T, names, dx if columns else None, dw, (out,))
 
 
 def _check_params(network: Network, params: Mapping[str, float]) -> None:
@@ -233,6 +267,29 @@ def _check_params(network: Network, params: Mapping[str, float]) -> None:
             raise ParameterError(f"parameter {p!r} is not finite ({params[p]!r})")
 
 
+def compile_entries(network: Network, params: Mapping[str, float]) -> list:
+    """Per entry, a fast (value, d/dx) evaluator for fixed parameters."""
+    _check_params(network, params)
+    return [e.transfer.compile(params) for e in network.entries]
+
+
+def _evaluate_compiled(network: Network, compiled: list, x_var: NDArray) -> list[Dual]:
+    duals = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for entry, fun in zip(network.entries, compiled):
+            value, dvar = fun(x_var)
+            _check_finite(entry, value, x_var)
+            duals.append(Dual(value, {}, dvar))
+    return duals
+
+
+def _check_finite(entry: Entry, value: NDArray, x_var: NDArray) -> None:
+    bad = ~np.isfinite(value)
+    if np.any(bad):
+        raise InterconnectionError(f"{entry.label} ({entry.transfer.text}) is not finite at "
+                                   f"{np.abs(x_var[bad][0]):.6g} rad/s (a pole on the grid?)")
+
+
 def _evaluate_entries(network: Network, x_var: NDArray, params: Mapping[str, float],
                       sensitivities: bool, d_omega: bool) -> list:
     duals = []
@@ -241,21 +298,96 @@ def _evaluate_entries(network: Network, x_var: NDArray, params: Mapping[str, flo
             dual = entry.transfer.evaluate(x_var, params, d_omega)
         except EngineError as exc:
             raise type(exc)(f"{entry.label}: {exc}") from None
-        bad = ~np.isfinite(dual.value)
-        if np.any(bad):
-            raise InterconnectionError(f"{entry.label} ({entry.transfer.text}) is not finite at "
-                                       f"{np.abs(x_var[bad][0]):.6g} rad/s (a pole on the grid?)")
+        _check_finite(entry, dual.value, x_var)
         duals.append(dual)
     return duals
 
 
-def _batched_solve(M: NDArray, B: NDArray, w: NDArray, network: Network) -> NDArray:
-    try:
-        X = np.linalg.solve(M, B)
-        bad = ~np.all(np.isfinite(X.reshape(X.shape[0], -1)), axis=1)
-    except np.linalg.LinAlgError:
-        bad = np.linalg.det(M) == 0
+@dataclass(frozen=True)
+class _Schedule:
+    """How to solve (I - G) x = b (or its transpose): non-tear signals in
+    topological order, the tears, and for each signal the (source, entry)
+    pairs that feed it (the broken signal's uses excluded)."""
+
+    order: tuple[int, ...]
+    tears: tuple[int, ...]
+    feeds: tuple[tuple[tuple[int, int], ...], ...]
+
+
+def _schedule(network: Network, broken: int | None, transposed: bool) -> _Schedule:
+    """The schedule of the network broken at ``broken`` (or not), cached per case."""
+    key = (broken, transposed)
+    if key not in network.schedules:
+        edges = [((e.col, e.row) if transposed else (e.row, e.col)) + (number,)
+                 for number, e in enumerate(network.entries) if e.col != broken]
+        network.schedules[key] = schedule_edges(len(network.signals), edges)
+    return network.schedules[key]
+
+
+def schedule_edges(n: int, edges: list[tuple[int, int, int]]) -> _Schedule:
+    """Schedule for x_target += g_number * x_source over the (target, source, number) edges.
+
+    Kahn's topological sort; when every remaining signal sits on a cycle, the
+    one with most in x out connections becomes a tear.
+    """
+    feeds: list[list[tuple[int, int]]] = [[] for _ in range(n)]
+    for target, source, number in edges:
+        feeds[target].append((source, number))
+    users: list[set[int]] = [set() for _ in range(n)]
+    for i in range(n):
+        for j, _ in feeds[i]:
+            users[j].add(i)
+    pending = [len({j for j, _ in feeds[i]}) for i in range(n)]
+    done, order, tears = [False] * n, [], []
+    ready = [i for i in range(n) if pending[i] == 0]
+    while len(order) + len(tears) < n:
+        if ready:
+            i = ready.pop()
+            order.append(i)
+        else:
+            i = max((j for j in range(n) if not done[j]), key=lambda j: (pending[j] * len(users[j]), -j))
+            tears.append(i)
+        done[i] = True
+        for u in users[i]:
+            pending[u] -= 1
+            if pending[u] == 0 and not done[u]:
+                ready.append(u)
+    return _Schedule(tuple(order), tuple(tears), tuple(tuple(f) for f in feeds))
+
+
+def sparse_solve(schedule: _Schedule, gains: Sequence[NDArray], B: NDArray, w: NDArray) -> NDArray:
+    """X with (I - G) X = B; B and X of shape (n, m, F); ``gains[number]`` of shape (F,)."""
+    n, m, F = B.shape
+    t = len(schedule.tears)
+    A = np.empty((n, m, F), dtype=complex)
+    C = np.zeros((n, t, F), dtype=complex)
+    for q, k in enumerate(schedule.tears):
+        A[k] = 0.0
+        C[k, q] = 1.0
+
+    def affine(i: int) -> tuple[NDArray, NDArray]:
+        a, c = B[i].copy(), np.zeros((t, F), dtype=complex)
+        for j, number in schedule.feeds[i]:
+            g = gains[number]
+            a += g * A[j]
+            if t:
+                c += g * C[j]
+        return a, c
+
+    for i in schedule.order:
+        A[i], C[i] = affine(i)
+    if t == 0:
+        return A
+    closing = [affine(k) for k in schedule.tears]
+    lhs = np.eye(t)[None, :, :] - np.stack([c for _, c in closing]).transpose(2, 0, 1)
+    rhs = np.stack([a for a, _ in closing]).transpose(2, 0, 1)
+    with np.errstate(all="ignore"):
+        try:
+            tau = np.linalg.solve(lhs, rhs)
+            bad = ~np.all(np.isfinite(tau.reshape(F, -1)), axis=1)
+        except np.linalg.LinAlgError:
+            bad = np.linalg.det(lhs) == 0
     if np.any(bad):
         raise InterconnectionError(f"the interconnection is singular at {w[bad][0]:.6g} rad/s "
                                    "(I - G has no inverse there)")
-    return X
+    return A + np.einsum("ntf,ftm->nmf", C, tau)

@@ -14,8 +14,31 @@ from numpy.typing import ArrayLike, NDArray
 def trim(coefficients: ArrayLike) -> NDArray[np.float64]:
     """Drop leading zeros of a descending coefficient vector (keeps at least one)."""
     c = np.atleast_1d(np.asarray(coefficients, dtype=float))
+    if c[0] != 0.0:
+        return c
     nonzero = np.flatnonzero(c)
     return c[nonzero[0]:] if nonzero.size else np.zeros(1)
+
+
+def _convolve(a: NDArray, b: NDArray) -> NDArray:
+    """np.convolve, in plain Python for the short polynomials of blocks (much faster)."""
+    if a.size * b.size > 16:
+        return np.convolve(a, b)
+    out = [0.0] * (a.size + b.size - 1)
+    for i, x in enumerate(a.tolist()):
+        for j, y in enumerate(b.tolist()):
+            out[i + j] += x * y
+    return np.array(out)
+
+
+def _add(a: NDArray, b: NDArray) -> NDArray:
+    if a.size == b.size:
+        return a + b
+    if a.size < b.size:
+        a, b = b, a
+    out = a.copy()
+    out[a.size - b.size:] += b
+    return out
 
 
 def degree(coefficients: NDArray[np.float64]) -> int:
@@ -41,10 +64,10 @@ class Rational:
 
     def __add__(self, other: Rational) -> Rational:
         if np.array_equal(self.den, other.den):
-            return Rational(trim(np.polyadd(self.num, other.num)), self.den)
+            return Rational(trim(_add(self.num, other.num)), self.den)
         return Rational(
-            trim(np.polyadd(np.polymul(self.num, other.den), np.polymul(other.num, self.den))),
-            trim(np.polymul(self.den, other.den)),
+            trim(_add(_convolve(self.num, other.den), _convolve(other.num, self.den))),
+            trim(_convolve(self.den, other.den)),
         )
 
     def __neg__(self) -> Rational:
@@ -54,7 +77,7 @@ class Rational:
         return self + (-other)
 
     def __mul__(self, other: Rational) -> Rational:
-        return Rational(trim(np.polymul(self.num, other.num)), trim(np.polymul(self.den, other.den)))
+        return Rational(trim(_convolve(self.num, other.num)), trim(_convolve(self.den, other.den)))
 
     def reciprocal(self) -> Rational:
         return Rational(self.den, self.num)

@@ -1,0 +1,102 @@
+"""Margins that must not depend on the grid; the grid rule for tables; w-plane loops."""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+import pytest
+
+from engine.analysis import analyze, unity_feedback
+from engine.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from engine.discrete import real_frequency, w_frequency, z_to_w
+from engine.loops import LoopModel, loop_model
+from engine.margins import Band, margins
+from engine.network import Block, Junction, block_diagram
+from engine.polynomials import Rational
+
+# a rigid-body loop with a bending mode at zeta = 0.001 (gain-stabilized peak)
+LIGHT_MODE = "40*(s+2)/(s*(s+10)*(s+30)) * 1/(s**2/25**2 + 2*0.001*s/25 + 1)"
+
+
+def _all(m):
+    return [(x.kind, x.frequency, x.value) for x in m.all()]
+
+
+def test_margins_identical_on_100_and_10000_point_grids():
+    net = unity_feedback([LIGHT_MODE])
+    coarse = margins(loop_model(net, "e", np.geomspace(0.1, 100, 100), {}), attenuation_above=1.0)
+    fine = margins(loop_model(net, "e", np.geomspace(0.1, 100, 10_000), {}), attenuation_above=1.0)
+    a, b = _all(coarse), _all(fine)
+    assert [k for k, _, _ in a] == [k for k, _, _ in b]
+    np.testing.assert_allclose([f for _, f, _ in a], [f for _, f, _ in b], rtol=1e-9)
+    np.testing.assert_allclose([v for _, _, v in a], [v for _, _, v in b], rtol=1e-9)
+    # the mode's peak is found as an attenuation margin at the mode
+    peak = max(coarse.attenuation, key=lambda m: m.value)
+    assert peak.frequency == pytest.approx(25.0, rel=2e-3)
+
+
+def test_light_mode_against_python_control():
+    net = unity_feedback([LIGHT_MODE])
+    m = margins(loop_model(net, "e", np.geomspace(0.1, 100, 100), {}))
+    r = ExpressionTransfer(LIGHT_MODE).rational({})
+    gm, pm, sm, wg, wp, ws = ct.stability_margins(ct.tf(r.num, r.den), returnall=True)
+    np.testing.assert_allclose([g.frequency for g in m.gain], np.sort(wg), rtol=1e-6)
+    np.testing.assert_allclose([p.phase_deg for p in m.phase], pm, rtol=1e-6)
+    np.testing.assert_allclose([s.frequency for s in m.stability], np.sort(ws), rtol=1e-6)
+
+
+def test_tabulated_loop_uses_the_grid_rule():
+    """A table sampled from a rational loop: the grid rule lands on the grid point
+    nearest each refined crossing, and says so."""
+    expr = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"
+    w = np.geomspace(0.5, 200, 400)
+    gh = ExpressionTransfer(expr).evaluate(1j * w, {}).value
+    grid = margins(LoopModel.from_table(w, gh))
+    exact = margins(loop_model(unity_feedback([expr]), "e", w, {}))
+    assert grid.method == "grid" and exact.method == "refined"
+    for g, e in [(grid.gain[0], exact.gain[0]), (grid.phase[0], exact.phase[0]),
+                 (grid.stability[0], exact.stability[0])]:
+        i = np.argmin(np.abs(w - e.frequency))
+        assert g.frequency in (w[i], w[max(i - 1, 0)], w[min(i + 1, w.size - 1)])
+        assert g.value == pytest.approx(e.value, rel=2e-2)
+
+
+def test_tabulated_block_in_a_diagram_is_not_refined():
+    w = np.geomspace(0.1, 100, 200)
+    table = FrequencyTable.from_polar(w, 10 / (w * np.sqrt(1 + w**2)), -90 - np.degrees(np.arctan(w)))
+    net = block_diagram([Block("P", "e", "y", TabulatedTransfer(table))],
+                        [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"])
+    a = analyze(net, "e", w, {})
+    assert a.margins.method == "grid"
+    assert a.verdict == "unknown"
+    # 10/(s(s+1)): |GH| = 1 where w^4 + w^2 = 100, w = 3.0842
+    assert a.margins.phase[0].frequency == pytest.approx(3.0842, rel=2e-2)
+
+
+def test_bands_filter_gain_and_phase_margins():
+    net = unity_feedback(["16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"])
+    model = loop_model(net, "e", np.geomspace(0.1, 100, 50), {})
+    assert margins(model, gain_band=Band(0, 10)).gain == ()
+    assert len(margins(model, gain_band=Band(10, 100)).gain) == 1
+    assert margins(model, phase_band=Band(20, 100)).phase == ()
+
+
+def test_w_plane_example_1_of_report_003():
+    """003 Example 1: the lag (1 + 50w)/(1 + 195w) gives PM >= 50 deg, GM >= 12 dB, stable."""
+    plant = "0.77*(1-w)*(1-0.136*w)*(1+0.8925*w)/(w*(1+w)*(1+2.165*w))"
+    a = analyze(unity_feedback([plant, "(1+50*w)/(1+195*w)"], "w"), "e", np.geomspace(1e-3, 10, 50), {})
+    assert min(p.phase_deg for p in a.margins.phase) >= 50.0
+    assert min(g.gain_db for g in a.margins.gain) >= 12.0
+    assert a.verdict == "stable"
+
+
+def test_z_to_w_preserves_the_response_on_the_unit_circle():
+    h = Rational(np.array([0.2, 0.1]), np.array([1.0, -1.5, 0.7]))
+    T = 0.05
+    omega = np.array([0.5, 3.0, 20.0, 60.0])
+    z = np.exp(1j * omega * T)
+    for scaled in (False, True):
+        hw = z_to_w(h, T if scaled else None)
+        nu = w_frequency(omega, T, scaled)
+        np.testing.assert_allclose(hw(1j * nu), h(z), rtol=1e-12)
+        np.testing.assert_allclose(real_frequency(nu, T, scaled), omega, rtol=1e-12)

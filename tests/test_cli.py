@@ -1,0 +1,50 @@
+"""The `loopcraft` command line, run as a subprocess the way a user runs it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+CMD = [sys.executable, "-m", "tui.cli"]
+
+
+def run(*args):
+    return subprocess.run(CMD + list(args), capture_output=True, text=True, timeout=120)
+
+
+def test_analyze_json_report_003():
+    out = run("analyze", "--tf", "16000/(s*(s+8)*(s+20))", "--tf", "(s+1)*(s+5)/((s+0.1)*(s+50))", "--json")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    (pm,), (gm,) = data["phase_margins"], data["gain_margins"]
+    assert pm["phase_deg"] == pytest.approx(52.13, abs=0.005)
+    assert gm["gain_db"] == pytest.approx(14.11, abs=0.005)
+    assert data["crossover_frequency"] == pytest.approx(12.06, abs=0.005)
+    assert data["closed_loop_stable"] is True
+    assert len(data["closed_loop_poles"]) == 5
+    assert {"frequency", "distance"} <= set(data["stability_margins"][0])
+    assert pm["distance"] == pytest.approx(abs(2 * __import__("math").sin(__import__("math").radians(pm["phase_deg"]) / 2)))
+
+
+def test_analyze_text_table():
+    out = run("analyze", "--tf", "16000/(s*(s+8)*(s+20))")
+    assert out.returncode == 0
+    assert "-28.5863 deg" in out.stdout and "-11.0568 dB" in out.stdout
+    assert "closed loop: unstable" in out.stdout
+
+
+@pytest.mark.parametrize("expr", ["16000/(s*(s+8)(s+20))", "2s+1", "s**0.5", "__import__('os')", "K/s"])
+def test_bad_expression_exits_2_with_one_line(expr):
+    out = run("analyze", "--tf", expr)
+    assert out.returncode == 2
+    assert out.stdout == ""
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in out.stderr
+
+
+def test_help_without_command():
+    out = run()
+    assert out.returncode == 0 and "analyze" in out.stdout
