@@ -120,7 +120,7 @@ class Expression:
             dual = _evaluate(self.root, x, params, with_dvar)
         return _broadcast(dual, x.shape, with_dvar)
 
-    def compile(self, params: Mapping[str, float]) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+    def compile(self, params: Mapping[str, float]) -> Evaluator:
         """A fast evaluator of (value, d/dvariable) for fixed parameter values.
 
         Subtrees of low degree are folded into small polynomial ratios
@@ -132,7 +132,7 @@ class Expression:
     def folded(self, params: Mapping[str, float]) -> Rational | None:
         """The expression as a polynomial ratio of degree <= FOLD_DEGREE, else None."""
         compiled = self._cached("compiled", params, lambda: _compile(self.root, params))
-        return compiled if isinstance(compiled, Rational) else None
+        return compiled.rational() if isinstance(compiled, _Folded) else None
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """The expression as a ratio of polynomials in the variable."""
@@ -307,10 +307,67 @@ def _combine_rationals(op: str, args: list[Rational], exponent: int) -> Rational
 
 
 FOLD_DEGREE = 2
-Compiled = Rational | Callable[[NDArray], tuple[NDArray, NDArray]]
+Evaluator = Callable[[NDArray], tuple[NDArray, NDArray]]
+Poly = tuple[float, ...]  # descending coefficients, plain floats: fast for tiny polynomials
 
 
-def _rational_evaluator(r: Rational) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+def _ptrim(a: Poly) -> Poly:
+    i = 0
+    while i < len(a) - 1 and a[i] == 0.0:
+        i += 1
+    return a[i:]
+
+
+def _pmul(a: Poly, b: Poly) -> Poly:
+    out = [0.0] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for j, y in enumerate(b):
+            out[i + j] += x * y
+    return _ptrim(tuple(out))
+
+
+def _padd(a: Poly, b: Poly) -> Poly:
+    if len(a) < len(b):
+        a, b = b, a
+    shift = len(a) - len(b)
+    return _ptrim(tuple(x + (b[i - shift] if i >= shift else 0.0) for i, x in enumerate(a)))
+
+
+class _Folded:
+    """A small polynomial ratio met while compiling; becomes a Rational at the end."""
+
+    __slots__ = ("num", "den")
+
+    def __init__(self, num: Poly, den: Poly):
+        self.num, self.den = num, den
+
+    @property
+    def degree(self) -> int:
+        return max(len(self.num), len(self.den)) - 1
+
+    def combine(self, op: str, other: "_Folded | None", exponent: int) -> "_Folded":
+        if op == "neg":
+            return _Folded(tuple(-c for c in self.num), self.den)
+        if op == "pow":
+            base = self if exponent >= 0 else _Folded(self.den, self.num)
+            out = _Folded((1.0,), (1.0,))
+            for _ in range(abs(exponent)):
+                out = _Folded(_pmul(out.num, base.num), _pmul(out.den, base.den))
+            return out
+        if op in ("add", "sub"):
+            num = other.num if op == "add" else tuple(-c for c in other.num)
+            if self.den == other.den:
+                return _Folded(_padd(self.num, num), self.den)
+            return _Folded(_padd(_pmul(self.num, other.den), _pmul(num, self.den)), _pmul(self.den, other.den))
+        if op == "mul":
+            return _Folded(_pmul(self.num, other.num), _pmul(self.den, other.den))
+        return _Folded(_pmul(self.num, other.den), _pmul(self.den, other.num))
+
+    def rational(self) -> Rational:
+        return Rational(np.array(self.num, dtype=float), np.array(self.den, dtype=float))
+
+
+def _rational_evaluator(r: Rational) -> Evaluator:
     num, den = r.num, r.den
     dnum, dden = np.polyder(num) if num.size > 1 else np.zeros(1), np.polyder(den) if den.size > 1 else np.zeros(1)
 
@@ -329,22 +386,23 @@ def _horner(c: NDArray, x: NDArray) -> NDArray:
     return value
 
 
-def _as_callable(c: Compiled) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
-    return _rational_evaluator(c) if isinstance(c, Rational) else c
+def _as_callable(c: "_Folded | Evaluator") -> Evaluator:
+    return _rational_evaluator(c.rational()) if isinstance(c, _Folded) else c
 
 
-def _compile(node: Node, params: Mapping[str, float]) -> Compiled:
+def _compile(node: Node, params: Mapping[str, float]) -> "_Folded | Evaluator":
+    """Fold subtrees of degree <= FOLD_DEGREE into polynomial ratios; keep the rest as closures."""
     op = node.op
     if op == "num":
-        return Rational.constant(node.value)
+        return _Folded((node.value,), (1.0,))
     if op == "var":
-        return Rational.variable()
+        return _Folded((1.0, 0.0), (1.0,))
     if op == "param":
-        return Rational.constant(float(params[node.name]))
+        return _Folded((float(params[node.name]),), (1.0,))
     args = [_compile(a, params) for a in node.args]
-    if all(isinstance(a, Rational) for a in args):
-        folded = _combine_rationals(op, args, node.exponent)
-        if max(folded.num.size, folded.den.size) - 1 <= FOLD_DEGREE:
+    if all(isinstance(a, _Folded) for a in args):
+        folded = args[0].combine(op, args[1] if len(args) > 1 else None, node.exponent)
+        if folded.degree <= FOLD_DEGREE:
             return folded
     f = [_as_callable(a) for a in args]
     if op == "neg":
@@ -359,7 +417,7 @@ def _compile(node: Node, params: Mapping[str, float]) -> Compiled:
     return _binary(op, f[0], f[1])
 
 
-def _binary(op: str, f, g) -> Callable[[NDArray], tuple[NDArray, NDArray]]:
+def _binary(op: str, f, g) -> Evaluator:
     def evaluate(x):
         (a, da), (b, db) = f(x), g(x)
         if op == "add":

@@ -63,33 +63,42 @@ class LoopEvaluator:
         """Collapse single-in, single-out signals (not the break point) into chains."""
         n, k = len(self.network.signals), self.k
         source = n  # the injection replaces every use of x_k
-        edges = [[e.row, source if e.col == k else e.col, [number]] for number, e in enumerate(self.entries)]
-        while True:
-            into = {i: [ed for ed in edges if ed[0] == i] for i in range(n)}
-            out_of = {i: [ed for ed in edges if ed[1] == i] for i in range(n)}
-            merge = next((i for i in range(n) if i != k and len(into[i]) == 1 and len(out_of[i]) == 1
-                          and into[i][0] is not out_of[i][0]), None)
-            if merge is None:
-                break
-            first, second = into[merge][0], out_of[merge][0]
-            edges.remove(first)
-            second[1], second[2] = first[1], first[2] + second[2]
-        self.chains = [ed[2] for ed in edges]
-        self.schedule = schedule_edges(n + 1, [(ed[0], ed[1], c) for c, ed in enumerate(edges)])
-        self.size = n + 1
+        edges = {number: [e.row, source if e.col == k else e.col, [number]]
+                 for number, e in enumerate(self.entries)}
+        into: list[set[int]] = [set() for _ in range(n + 1)]
+        out_of: list[set[int]] = [set() for _ in range(n + 1)]
+        for number, (target, src, _) in edges.items():
+            into[target].add(number)
+            out_of[src].add(number)
+        for signal in range(n):
+            if signal == k or len(into[signal]) != 1 or len(out_of[signal]) != 1:
+                continue
+            (first,), (second,) = into[signal], out_of[signal]
+            if first == second:
+                continue  # a self-loop stays
+            upstream = edges[first][1]
+            edges[second][1] = upstream
+            edges[second][2] = edges[first][2] + edges[second][2]
+            out_of[upstream].discard(first)
+            out_of[upstream].add(second)
+            into[signal].clear()
+            out_of[signal].clear()
+            del edges[first]
+        kept = list(edges.values())
+        live = sorted({k, source} | {ed[0] for ed in kept} | {ed[1] for ed in kept})
+        compact = {signal: i for i, signal in enumerate(live)}
+        self.chains = [ed[2] for ed in kept]
+        self.schedule = schedule_edges(len(live), [(compact[ed[0]], compact[ed[1]], c)
+                                                   for c, ed in enumerate(kept)])
+        self.size, self.out, self.source = len(live), compact[k], compact[source]
 
-    def _blocks(self, x: NDArray) -> tuple[NDArray, NDArray]:
-        values = np.empty((len(self.entries), x.size), dtype=complex)
+    def _blocks(self, omega: NDArray) -> tuple[NDArray, NDArray]:
+        """Every block's value and d/dx at x = j omega."""
+        x = 1j * omega
+        values = np.empty((len(self.entries), omega.size), dtype=complex)
         slopes = np.empty_like(values)
         if self.batch.size:
-            n = d = np.zeros((self.batch.size, x.size), dtype=complex)
-            dn = dd = np.zeros_like(n)
-            for c in range(FOLD_WIDTH):  # Horner with derivative
-                dn, n = dn * x + n, n * x + self.num[:, c:c + 1]
-                dd, d = dd * x + d, d * x + self.den[:, c:c + 1]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                v = n / d
-                values[self.batch], slopes[self.batch] = v, (dn - v * dd) / d
+            values[self.batch], slopes[self.batch] = _quadratic_ratios(self.num, self.den, omega)
         for number, fun in self.single.items():
             values[number], slopes[number] = fun(x)
         bad = ~np.isfinite(values)
@@ -97,30 +106,55 @@ class LoopEvaluator:
             row, col = np.argwhere(bad)[0]
             e = self.entries[row]
             raise InterconnectionError(f"{e.label} ({e.transfer.text}) is not finite at "
-                                       f"{abs(x[col]):.6g} rad/s (a pole on the grid?)")
+                                       f"{omega[col]:.6g} rad/s (a pole on the grid?)")
         return values, slopes
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         """GH(j omega) and dGH/domega."""
-        x = 1j * np.asarray(omega, dtype=float)
-        values, slopes = self._blocks(x)
-        gains, dgains = [], []
-        for chain in self.chains:
-            g, dg = values[chain[0]], slopes[chain[0]]
-            for number in chain[1:]:
-                dg, g = dg * values[number] + g * slopes[number], g * values[number]
-            gains.append(g)
-            dgains.append(dg)
-        F = x.size
+        omega = np.asarray(omega, dtype=float)
+        values, slopes = self._blocks(omega)
+        gains, dgains = zip(*(_chain_product(values[chain], slopes[chain]) for chain in self.chains))
+        F = omega.size
         rhs = np.zeros((self.size, 1, F), dtype=complex)
-        rhs[-1, 0] = 1.0
-        sol = sparse_solve(self.schedule, gains, rhs, np.asarray(omega, dtype=float))[:, 0, :]
+        rhs[self.source, 0] = 1.0
+        sol = sparse_solve(self.schedule, gains, rhs, omega)[:, 0, :]
         R = np.zeros((self.size, 1, F), dtype=complex)
         for (target, pairs) in enumerate(self.schedule.feeds):
             for src, c in pairs:
                 R[target, 0] += 1j * dgains[c] * sol[src]
-        dsol = sparse_solve(self.schedule, gains, R, np.asarray(omega, dtype=float))[:, 0, :]
-        return -sol[self.k], -dsol[self.k]
+        dsol = sparse_solve(self.schedule, gains, R, omega)[:, 0, :]
+        return -sol[self.out], -dsol[self.out]
+
+
+def _quadratic_ratios(num: NDArray, den: NDArray, omega: NDArray) -> tuple[NDArray, NDArray]:
+    """(a x^2 + b x + c)/(d x^2 + e x + f) and its d/dx at x = j omega, row by row,
+    in real arithmetic: at x = j omega a quadratic is (c - a omega^2) + j b omega."""
+    w, w2 = omega[None, :], (omega * omega)[None, :]
+
+    def quad(c: NDArray) -> tuple[NDArray, NDArray]:
+        value = (c[:, 2:3] - c[:, 0:1] * w2) + 1j * (c[:, 1:2] * w)
+        slope = c[:, 1:2] + 1j * (2.0 * c[:, 0:1] * w)
+        return value, slope
+
+    (n, dn), (d, dd) = quad(num), quad(den)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse = 1.0 / d
+        value = n * inverse
+        return value, (dn - value * dd) * inverse
+
+
+def _chain_product(values: NDArray, slopes: NDArray) -> tuple[NDArray, NDArray]:
+    """Product of the rows and its derivative (product rule)."""
+    g = np.prod(values, axis=0)
+    if values.shape[0] == 1:
+        return g, slopes[0]
+    if np.all(values != 0):
+        return g, g * np.sum(slopes / values, axis=0)
+    dg = slopes[0]
+    gi = values[0]
+    for v, s in zip(values[1:], slopes[1:]):  # a zero on the grid: no division
+        dg, gi = dg * v + gi * s, gi * v
+    return g, dg
 
 
 def _quadratic_roots(c: NDArray) -> NDArray[np.complex128]:

@@ -30,8 +30,8 @@ from numpy.typing import NDArray
 from .loops import LoopModel
 from .rootfind import refine_roots, sign_changes
 
-POINTS_PER_DECADE = 20
-CLUSTER = np.array([-4.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 4.0])  # around a mode, in zeta*omega_n
+POINTS_PER_DECADE = 10
+CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
 LIGHT_DAMPING = 0.3
 DECADES_BEYOND = 2.0
 MAX_ROUNDS = 60

@@ -23,7 +23,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .blocks import ExpressionTransfer, Transfer
-from .expressions import Dual
 from .errors import EngineError, GridError, InterconnectionError, ParameterError
 
 
@@ -188,15 +187,13 @@ class Solution:
 
 def solve(network: Network, omega: ArrayLike, params: Mapping[str, float], inject: str, *,
           break_at: str | None = None, output: str | None = None, sensitivities: bool = True,
-          d_omega: bool = False, check: bool = True, compiled: list | None = None) -> Solution:
+          d_omega: bool = False, check: bool = True) -> Solution:
     """Solve the network with a unit injection at signal ``inject``.
 
     With ``break_at``, every use of that signal is fed by the injection
     instead (then ``inject`` must equal ``break_at``).  Derivatives are of
     every signal, or, with ``output``, of that signal only by one adjoint
-    solve (much cheaper with many parameters).  ``compiled`` (from
-    `compile_entries`) evaluates the blocks faster when no parameter
-    derivatives are needed.
+    solve (much cheaper with many parameters).
     """
     w = check_grid(omega) if check else np.asarray(omega, dtype=float)
     _check_params(network, params)
@@ -205,10 +202,7 @@ def solve(network: Network, omega: ArrayLike, params: Mapping[str, float], injec
     n, k = len(network.signals), network.signal(inject)
     broken = None if break_at is None else network.signal(break_at)
     out = None if output is None else network.signal(output)
-    if compiled is not None and not sensitivities:
-        duals = _evaluate_compiled(network, compiled, 1j * w)
-    else:
-        duals = _evaluate_entries(network, 1j * w, params, sensitivities, d_omega)
+    duals = _evaluate_entries(network, 1j * w, params, sensitivities, d_omega)
     values = [d.value for d in duals]
     # internal layout (signal, column, frequency): frequency last and contiguous
     rhs = np.zeros((n, 1, w.size), dtype=complex)
@@ -265,22 +259,6 @@ def _check_params(network: Network, params: Mapping[str, float]) -> None:
             raise ParameterError(f"no value given for parameter {p!r}")
         if not np.isfinite(float(params[p])):
             raise ParameterError(f"parameter {p!r} is not finite ({params[p]!r})")
-
-
-def compile_entries(network: Network, params: Mapping[str, float]) -> list:
-    """Per entry, a fast (value, d/dx) evaluator for fixed parameters."""
-    _check_params(network, params)
-    return [e.transfer.compile(params) for e in network.entries]
-
-
-def _evaluate_compiled(network: Network, compiled: list, x_var: NDArray) -> list[Dual]:
-    duals = []
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for entry, fun in zip(network.entries, compiled):
-            value, dvar = fun(x_var)
-            _check_finite(entry, value, x_var)
-            duals.append(Dual(value, {}, dvar))
-    return duals
 
 
 def _check_finite(entry: Entry, value: NDArray, x_var: NDArray) -> None:
@@ -366,6 +344,8 @@ def sparse_solve(schedule: _Schedule, gains: Sequence[NDArray], B: NDArray, w: N
         C[k, q] = 1.0
 
     def affine(i: int) -> tuple[NDArray, NDArray]:
+        if not schedule.feeds[i]:
+            return B[i], 0.0
         a, c = B[i].copy(), np.zeros((t, F), dtype=complex)
         for j, number in schedule.feeds[i]:
             g = gains[number]

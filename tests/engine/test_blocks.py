@@ -75,7 +75,8 @@ def test_bad_tables(freq, mag, message):
 
 def test_inlet_table_of_report_001_with_its_gains():
     """Table I of 001: normalized G1 times 0.016, frequencies in Hz."""
-    rows = [r for r in csv.reader(line for line in SHARED.open() if not line.startswith("#"))]
+    with SHARED.open() as fh:
+        rows = list(csv.reader(line for line in fh if not line.startswith("#")))
     header, data = rows[0], np.array(rows[1:], dtype=float)
     hz = data[:, header.index("hz")]
     g1 = FrequencyTable.from_polar(hz, data[:, header.index("g1_mag")], data[:, header.index("g1_phase_deg")],
