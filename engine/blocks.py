@@ -37,6 +37,8 @@ class ExpressionTransfer:
     def __init__(self, expression: Expression | str, variable: str = "s"):
         self.expression = expression if isinstance(expression, Expression) else Expression(expression, variable)
         self.parameters = self.expression.parameters
+        if not self.parameters:
+            self.rational({})  # a zero denominator is an error now, not at the first evaluation
 
     @property
     def text(self) -> str:

@@ -100,3 +100,8 @@ def test_delay_block():
     np.testing.assert_allclose(dual.dvar, -0.01 * np.exp(-X * 0.01))
     with pytest.raises(BlockError):
         DelayTransfer(-1.0)
+
+
+def test_zero_denominator_is_refused_at_once():
+    with pytest.raises(BlockError, match="denominator is identically zero"):
+        ExpressionTransfer("1/(s - s)")

@@ -100,3 +100,37 @@ def test_z_to_w_preserves_the_response_on_the_unit_circle():
         nu = w_frequency(omega, T, scaled)
         np.testing.assert_allclose(hw(1j * nu), h(z), rtol=1e-12)
         np.testing.assert_allclose(real_frequency(nu, T, scaled), omega, rtol=1e-12)
+
+
+def test_delay_margin_puts_the_crossover_on_minus_one():
+    """Adding a delay equal to the delay margin must leave a phase margin of 0 deg
+    at the same crossover (an independent check of DM = PM / omega_c)."""
+    from engine.blocks import DelayTransfer
+    expr = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"
+    before = analyze(unity_feedback([expr]), "e", GRID, {}).margins
+    assert before.delay_margin == pytest.approx(np.radians(52.1337) / 12.0571, rel=1e-4)
+    net = block_diagram([Block("L", "e", "y", ExpressionTransfer(expr)),
+                         Block("D", "y", "yd", DelayTransfer(before.delay_margin))],
+                        [Junction("sum", "e", ((1.0, "r"), (-1.0, "yd")))], ["r"])
+    after = margins(loop_model(net, "e", np.geomspace(0.1, 100, 400), {}))
+    (pm,) = [p for p in after.phase]
+    assert pm.frequency == pytest.approx(before.crossover_frequency, rel=1e-12)
+    assert pm.phase_deg == pytest.approx(0.0, abs=1e-9)
+    assert after.notes  # searched within the grid: it says so
+
+
+def test_modal_peaks_with_their_phase():
+    from engine.analysis import modal_peaks
+    model = loop_model(unity_feedback([LIGHT_MODE]), "e", np.geomspace(0.1, 100, 100), {})
+    (peak,) = modal_peaks(model, [Band(20.0, 30.0)])
+    gh = ExpressionTransfer(LIGHT_MODE).evaluate(np.array([1j * peak.frequency]), {}).value[0]
+    assert peak.magnitude_db == pytest.approx(20 * np.log10(abs(gh)), rel=1e-12)
+    assert peak.phase_deg == pytest.approx(np.degrees(np.angle(gh)), rel=1e-12)
+    # |GH| is stationary there: d|GH|/dw = 0 (checked by central differences)
+    h = 1e-6 * peak.frequency
+    up, down = (abs(ExpressionTransfer(LIGHT_MODE).evaluate(np.array([1j * (peak.frequency + d)]), {}).value[0])
+                for d in (h, -h))
+    assert abs(up - down) / (2 * h) < 1e-6 * abs(gh) / peak.frequency * 1e3
+
+
+GRID = np.geomspace(1e-2, 1e2, 50)
