@@ -114,21 +114,49 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
 
 
 def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str, list[Margin]]:
-    """Every sign change of the four defining functions, refined together."""
-    functions = {"G": _imag_sign, "P": _log_magnitude, "S": _slope_distance, "A": _slope_magnitude}
+    """Every crossing and extremum, refined in two passes.
+
+    First the extrema: of |1 + GH| (S), of |GH| (A, and the minima too) and
+    of the phase.  Between consecutive extrema of |GH| and of the phase, |GH|
+    and arg GH are monotone, so inserting the extrema into the grid leaves at
+    most one gain or phase crossover per interval: the second pass finds them.
+    """
+    extrema = {"S": (_slope_distance, 1), "A": (_slope_magnitude, -1), "Amin": (_slope_magnitude, 1),
+               "phase": (_slope_phase, 0)}
+    found_extrema = _refine_sign_changes(loop, w, gh, dgh, extrema)
+    points = np.concatenate([found_extrema[k] for k in ("A", "Amin", "phase")])
+    if points.size:
+        g, dg = loop.evaluate(points)
+        order = np.argsort(np.concatenate([w, points]), kind="stable")
+        w, gh, dgh = (np.concatenate(p)[order] for p in ((w, points), (gh, g), (dgh, dg)))
+    crossings = _refine_sign_changes(loop, w, gh, dgh, {"G": (_imag_sign, 0), "P": (_log_magnitude, 0)})
+    every = {"G": crossings["G"], "P": crossings["P"], "S": found_extrema["S"], "A": found_extrema["A"]}
+    frequencies = np.concatenate(list(every.values()))
+    values = loop.evaluate(frequencies)[0] if frequencies.size else np.zeros(0)
+    found: dict[str, list[Margin]] = {}
+    start = 0
+    for name, r in every.items():
+        found[name] = [_margin(name, f, v) for f, v in zip(r, values[start:start + r.size])]
+        start += r.size
+    return found
+
+
+def _refine_sign_changes(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray,
+                         functions: dict) -> dict[str, NDArray]:
+    """Sorted roots of each function (direction +1 rising, -1 falling, 0 both), refined together."""
     starts, kinds, exact = [], [], {}
-    values = {kind: f(gh, dgh) for kind, f in functions.items()}
-    for kind, f in values.items():
-        idx = sign_changes(f, rising_only=(kind == "S"), falling_only=(kind == "A"))
+    values = {name: f(gh, dgh) for name, (f, _) in functions.items()}
+    for name, (_, direction) in functions.items():
+        idx = sign_changes(values[name], rising_only=direction > 0, falling_only=direction < 0)
         starts.append(idx)
-        kinds.append(np.full(idx.size, kind))
-        exact[kind] = w[np.flatnonzero(f == 0)] if kind in "GP" else np.zeros(0)
+        kinds.append(np.full(idx.size, name))
+        exact[name] = w[np.flatnonzero(values[name] == 0)] if direction == 0 else np.zeros(0)
     idx, kind = np.concatenate(starts), np.concatenate(kinds)
 
     def fun(points: NDArray, which: NDArray) -> NDArray:
         g, dg = loop.evaluate(points)
         out = np.empty(points.size)
-        for name, f in functions.items():
+        for name, (f, _) in functions.items():
             sel = kind[which] == name
             if sel.any():
                 out[sel] = f(g[sel], dg[sel])
@@ -137,23 +165,17 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     fa = np.array([values[k][i] for k, i in zip(kind, idx)])
     fb = np.array([values[k][i + 1] for k, i in zip(kind, idx)])
     roots = refine_roots(fun, w[idx], w[idx + 1], fa, fb) if idx.size else np.zeros(0)
-    every = [np.sort(np.concatenate([roots[kind == name], exact[name]])) for name in functions]
-    values = loop.evaluate(np.concatenate(every))[0] if sum(r.size for r in every) else np.zeros(0)
-    found: dict[str, list[Margin]] = {}
-    start = 0
-    for name, r in zip(functions, every):
-        found[name] = [_margin(name, f, v) for f, v in zip(r, values[start:start + r.size])]
-        start += r.size
-    return found
+    return {name: np.unique(np.concatenate([roots[kind == name], exact[name]])) for name in functions}
 
 
 def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:
     """Frequencies that resolve every feature of GH, with GH and dGH/domega there.
 
     Starts from a log-spaced background and a few points around every
-    lightly damped corner, then halves every interval that could hold more
-    than one crossing or extremum: a phase step over 20 deg, or a curve that
-    turns enough to hide a minimum-maximum pair of |GH| or |1 + GH|.
+    lightly damped corner, then halves every interval that could hide a
+    minimum-maximum pair of |GH|, of |1 + GH| or of arg GH, or that steps
+    more than 20 deg in phase.  Single extrema are found by their slope's
+    sign change and inserted before crossings are sought (`_refined`).
     """
     w = _initial_grid(loop)
     gh, dgh = loop.evaluate(w)
@@ -174,7 +196,8 @@ def _needs_split(w: NDArray, gh: NDArray, dgh: NDArray) -> NDArray[np.bool_]:
     """Intervals that could hide a crossing or extremum pair, or step too far in phase."""
     with np.errstate(all="ignore"):
         phase_step = np.abs(np.angle(gh[1:] / gh[:-1]))
-        coarse = (phase_step > MAX_PHASE_STEP) | _may_hide_pair(gh + 1.0, dgh) | _may_hide_pair(gh, dgh)
+        coarse = (phase_step > MAX_PHASE_STEP) | _may_hide_pair(gh + 1.0, dgh) | _may_hide_pair(gh, dgh) \
+            | _may_hide_phase_pair(gh, dgh)
     resolvable = (w[1:] - w[:-1]) > 1e-12 * w[1:]
     return coarse & resolvable & np.isfinite(gh[1:]) & np.isfinite(gh[:-1])
 
@@ -192,6 +215,20 @@ def _may_hide_pair(r: NDArray, dr: NDArray) -> NDArray[np.bool_]:
     variation = np.abs(np.angle(dr[1:] / dr[:-1])) + np.abs(np.angle(r[1:] / r[:-1]))
     same_side = (phi[1:] < np.pi / 2) == (phi[:-1] < np.pi / 2)
     return same_side & (PAIR_SAFETY * variation > to_right_angle[1:] + to_right_angle[:-1])
+
+
+def _may_hide_phase_pair(r: NDArray, dr: NDArray) -> NDArray[np.bool_]:
+    """Could the phase of r have a maximum and a minimum inside an interval?
+
+    d(arg r)/domega changes sign where the tangent dr is parallel to r: the
+    signed angle theta between them crosses 0 or 180 deg.  Same test as
+    `_may_hide_pair`, with the distance to the nearer of 0 and 180 deg.
+    """
+    theta = np.angle(dr / r)
+    to_radial = np.minimum(np.abs(theta), np.pi - np.abs(theta))
+    variation = np.abs(np.angle(dr[1:] / dr[:-1])) + np.abs(np.angle(r[1:] / r[:-1]))
+    same_side = (theta[1:] > 0) == (theta[:-1] > 0)
+    return same_side & (PAIR_SAFETY * variation > to_radial[1:] + to_radial[:-1])
 
 
 def _initial_grid(loop: LoopModel) -> NDArray[np.float64]:
@@ -262,6 +299,11 @@ def _log_magnitude(gh: NDArray, dgh: NDArray | None = None) -> NDArray:
 def _slope_distance(gh: NDArray, dgh: NDArray) -> NDArray:
     """Sign of d|1 + GH|/domega, scaled to be O(1)."""
     return np.real(np.conj(1.0 + gh) * dgh) / (np.abs(1.0 + gh) * np.abs(dgh) + 1e-300)
+
+
+def _slope_phase(gh: NDArray, dgh: NDArray) -> NDArray:
+    """Sign of d(arg GH)/domega, scaled to be O(1)."""
+    return np.imag(dgh / gh) / (np.abs(dgh / gh) + 1e-300)
 
 
 def _slope_magnitude(gh: NDArray, dgh: NDArray) -> NDArray:
