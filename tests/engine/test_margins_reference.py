@@ -183,14 +183,29 @@ def test_python_control_tricky_systems(name):
 
 
 def test_40th_order_benchmark_loop_against_python_control_and_dense_sampling():
-    """The benchmark loop: 20 lightly damped sections.  A pair of phase crossovers
-    (2.828 and 3.403 rad/s) sits on a phase excursion past -180 deg; a dense
-    sampling (2e6 points, numpy polynomials) confirms them independently."""
+    """The benchmark loop: 20 lightly damped sections, 40th order.
+
+    Gain and phase margins agree with python-control to 1e-6.  Its stability
+    margins come from the real roots of a degree-160 polynomial and several
+    are off (11.67 instead of 11.79 rad/s); an independent dense sampling of
+    |1 + GH| (1e6 points, GH as the product of its roots, no engine code)
+    confirms ours.  A pair of phase crossovers (2.828 and 3.403 rad/s) sits on
+    a phase excursion past -180 deg; the dense sampling confirms them too."""
     from tests.bench.run import benchmark_loop
     net, params, num, den = benchmark_loop()
     m = margins(loop_model(net, "e", GRID, params))
-    assert _unexplained(num, den, m, "bench") == []
-    w = np.geomspace(1e-2, 1e3, 2_000_001)
-    gh = _gh(num, den, w)
+    ours, theirs = _ours_as_arrays(m), pc_margins(num, den)
+    for (w_o, v_o), (w_t, v_t) in zip(ours[:2], theirs[:2]):
+        order = np.argsort(w_t)
+        np.testing.assert_allclose(w_o, w_t[order], rtol=1e-6)
+        np.testing.assert_allclose(v_o, v_t[order], rtol=1e-6)
+    w = np.geomspace(0.3, 110.0, 1_000_001)
+    gh = np.full(w.size, num[0] / den[0], dtype=complex)
+    for z, p in zip(np.roots(num), np.roots(den)):
+        gh *= (1j * w - z) / (1j * w - p)
+    d = np.abs(1 + gh)
+    minima = np.flatnonzero((d[1:-1] < d[:-2]) & (d[1:-1] < d[2:])) + 1
+    np.testing.assert_allclose([x.frequency for x in m.stability if 0.3 < x.frequency < 110], w[minima],
+                               rtol=1e-5)
     change = np.flatnonzero((np.sign(gh.imag[:-1]) * np.sign(gh.imag[1:]) < 0) & (gh.real[1:] < 0))
-    np.testing.assert_allclose([g.frequency for g in m.gain], w[change], rtol=1e-5)
+    np.testing.assert_allclose([g.frequency for g in m.gain if 0.3 < g.frequency < 110], w[change], rtol=1e-5)
