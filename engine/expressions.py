@@ -174,6 +174,8 @@ class _Parser:
             col = self._original_column(source, (exc.offset or 1) - 1)
             token = self.text[col:col + 1] if col < len(self.text) else "end of input"
             reason = exc.msg.removeprefix("invalid syntax").strip(" .") or "invalid syntax"
+            if "forgot a comma" in reason:
+                reason = "a missing operator (write '*' for products)"
             raise ExpressionError(f"{reason} near {token!r}", self.text, col) from None
         except (ValueError, RecursionError, MemoryError):
             raise ExpressionError("expression cannot be read", self.text) from None

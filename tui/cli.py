@@ -3,15 +3,23 @@
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import math
+import shutil
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
+from engine.algorithm import MeasureRow, StepRecord
 from engine.analysis import LoopAnalysis, analyze, unity_feedback
 from engine.errors import EngineError
+from engine.measures import tableau
+from sessions.errors import SessionError
+from sessions.runner import replay, run_session
+from sessions.store import Session, load_session, save_session
 
 
 class CliError(Exception):
@@ -19,7 +27,7 @@ class CliError(Exception):
 
 
 def _number(x: float | None) -> float | None:
-    return None if x is None or not math.isfinite(x) else float(x)
+    return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
 
 
 def analysis_to_json(a: LoopAnalysis) -> dict:
@@ -83,6 +91,118 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     return 0
 
 
+EXAMPLES = Path(__file__).resolve().parent.parent / "sessions" / "examples"
+
+
+def tableau_text(rows: Sequence[MeasureRow]) -> str:
+    """The report-000 style table: number, kind, value, frequency, desired value."""
+    lines = [f"{'no.':>4} {'name':<5} {'kind':<20} {'condition':<12} {'value':>12} {'frequency':>12} "
+             f"{'desired':>10}  met"]
+    for n, r in enumerate(rows, start=1):
+        freq = "" if r.frequency is None else f"{r.frequency:.6g}"
+        desired = "" if r.target is None else f"{r.target:.6g}"
+        lines.append(f"{n:>4} {r.name:<5} {r.kind:<20} {r.condition:<12} {r.value:>12.6g} {freq:>12} "
+                     f"{desired:>10}  {'yes' if r.satisfied else 'NO'}")
+    return "\n".join(lines)
+
+
+def _rows_now(session: Session, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:
+    records = session.records[:session.model.current_iteration]
+    if iteration is None:
+        iteration = len(records)
+    if not 0 <= iteration <= len(records):
+        raise CliError(f"--iteration: {iteration} is outside 0..{len(records)}")
+    if iteration == 0:
+        try:
+            return tableau(session.problem), None
+        except EngineError as exc:
+            raise CliError(f"initial tableau: {exc}") from None
+    record = records[iteration - 1]
+    return list(record.measures), record
+
+
+def _summary_json(session: Session) -> dict:
+    rows, record = _rows_now(session)
+    return {
+        "algorithm": session.model.algorithm.name,
+        "status": "not started" if record is None else record.status.value,
+        "iterations": session.model.current_iteration,
+        "parameters": session.problem.named_values() if record is None else dict(record.parameters),
+        "objective": None if record is None else record.objective,
+        "measures": [{"name": r.name, "kind": r.kind, "condition": r.condition, "value": _number(r.value),
+                      "target": r.target, "satisfied": r.satisfied, "frequency": _number(r.frequency)}
+                     for r in rows],
+        "counters": {} if record is None else dict(record.counters),
+    }
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    session = load_session(args.file)
+    if args.algorithm:
+        session.model.algorithm.name = args.algorithm
+        session.model.algorithm.settings = {}
+        session.model.current_iteration = 0
+        session.model.state = None
+    show = sys.stderr.isatty() and not args.json
+
+    def progress(record: StepRecord) -> None:
+        if show:
+            print(f"\riteration {record.iteration}: {record.status.value}"
+                  + ("" if record.objective is None else f", objective {record.objective:.6g}"),
+                  end="", file=sys.stderr, flush=True)
+
+    run_session(session, None if args.until_done else args.iterations, args.until_done, progress)
+    if show:
+        print(file=sys.stderr)
+    save_session(session, args.out or args.file)
+    if args.json:
+        print(json.dumps(_summary_json(session), indent=2, sort_keys=True))
+    else:
+        rows, record = _rows_now(session)
+        status = "not started" if record is None else record.status.value
+        print(f"{session.model.algorithm.name}: iteration {session.model.current_iteration}, {status}")
+        print(tableau_text(rows))
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    result = replay(load_session(args.file))
+    print(result.message, file=sys.stdout if result.ok else sys.stderr)
+    return 0 if result.ok else 1
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    session = load_session(args.file)
+    rows, record = _rows_now(session, args.iteration)
+    if args.format == "json":
+        data = _summary_json(session) if args.iteration is None else {
+            "iteration": args.iteration, "measures": [dict(vars(r)) for r in rows]}
+        print(json.dumps(data, indent=2, sort_keys=True, default=_number))
+    elif args.format == "csv":
+        writer = csv.writer(sys.stdout)
+        writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied"])
+        for r in rows:
+            writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied])
+    else:
+        print(tableau_text(rows))
+    return 0
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    files = sorted(EXAMPLES.glob("*.json"))
+    for f in files:
+        notes = json.loads(f.read_text()).get("notes", "")
+        print(f"{f.name}: {notes.split('. ')[0]}")
+    if args.copy:
+        target = Path(args.copy)
+        target.mkdir(parents=True, exist_ok=True)
+        for f in EXAMPLES.iterdir():
+            if f.suffix in (".json", ".csv"):
+                shutil.copy2(f, target / f.name)
+        print(f"copied {len(files)} example(s) to {target}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="loopcraft", description="Classical compensator design workbench.")
     sub = parser.add_subparsers(dest="command")
@@ -95,6 +215,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--wmax", type=float, default=1e3, help="plot grid end, rad/s")
     p.add_argument("--points", type=int, default=400, help="plot grid points")
     p.set_defaults(handler=cmd_analyze)
+    p = sub.add_parser("run", help="run a session's algorithm and save its records")
+    p.add_argument("file")
+    p.add_argument("--algorithm", help="switch to this algorithm (restarts from iteration 0)")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--iterations", type=int, default=1, metavar="N")
+    group.add_argument("--until-done", action="store_true")
+    p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(handler=cmd_run)
+    p = sub.add_parser("replay", help="re-run a session and compare every recorded iteration")
+    p.add_argument("file")
+    p.set_defaults(handler=cmd_replay)
+    p = sub.add_parser("report", help="the tableau of a session")
+    p.add_argument("file")
+    p.add_argument("--iteration", type=int)
+    p.add_argument("--format", choices=["text", "json", "csv"], default="text")
+    p.set_defaults(handler=cmd_report)
+    p = sub.add_parser("examples", help="list (or copy) the bundled example sessions")
+    p.add_argument("--copy", metavar="DIR")
+    p.set_defaults(handler=cmd_examples)
     return parser
 
 
@@ -106,7 +246,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         return args.handler(args)
-    except (EngineError, CliError) as exc:
+    except (EngineError, CliError, SessionError) as exc:
         print(f"loopcraft {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

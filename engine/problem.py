@@ -1,0 +1,181 @@
+"""The design problem every algorithm reads: flight conditions, tunable
+parameters, targets, an objective, and the frequency grid.
+
+Parameters are shared by all conditions or have one value per condition.
+The algorithms move the *free* ones; `Problem.vector` and
+`Problem.with_vector` translate between named values and the flat vector of
+free values (per-condition parameters contribute one entry per condition).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import EngineError
+from .network import Network
+
+Sign = Literal["any", "positive", "negative"]
+Value = float | tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A tunable parameter; ``value`` is a float, or a tuple (one per condition)."""
+
+    name: str
+    value: Value
+    minimum: float = -np.inf
+    maximum: float = np.inf
+    free: bool = True
+    sign: Sign = "any"
+
+    @property
+    def per_condition(self) -> bool:
+        return isinstance(self.value, tuple)
+
+    def at(self, condition: int) -> float:
+        return self.value[condition] if isinstance(self.value, tuple) else self.value
+
+    def lower(self) -> float:
+        """Lower bound, including the sign constraint."""
+        return max(self.minimum, 0.0) if self.sign == "positive" else self.minimum
+
+    def upper(self) -> float:
+        return min(self.maximum, 0.0) if self.sign == "negative" else self.maximum
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One flight condition: a plant interconnection and where its loop is broken."""
+
+    name: str
+    network: Network
+    break_at: str
+    outputs: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class BandValue:
+    """A desired value that holds for frequencies in [low, high] (rad/s)."""
+
+    low: float
+    high: float
+    desired: float
+
+
+@dataclass(frozen=True)
+class Point:
+    """A push or pull point in the GH plane."""
+
+    value: complex
+    mode: Literal["push", "pull"]
+
+
+@dataclass(frozen=True)
+class Target:
+    """A requirement on one measure kind, in one condition or all of them."""
+
+    measure: str
+    bands: tuple[BandValue, ...]
+    condition: str | None = None
+    weight: float = 1.0
+    scale: float = 1.0
+    points: tuple[Point, ...] = ()
+    detect_low: float = 0.0
+    detect_high: float = np.inf
+
+    def desired(self, frequency: float) -> float | None:
+        """The desired value at a frequency (the first band containing it), or None."""
+        for band in self.bands:
+            if band.low <= frequency <= band.high:
+                return band.desired
+        return None
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Frequencies in rad/s, with the unit the user chose for display."""
+
+    omega: NDArray[np.float64]
+    unit: Literal["rad/s", "hz"] = "rad/s"
+
+    def shown(self) -> NDArray[np.float64]:
+        return self.omega / (2 * np.pi) if self.unit == "hz" else self.omega
+
+
+@dataclass(frozen=True)
+class Objective:
+    """What an algorithm minimizes or maximizes, where it has one (kind + options)."""
+
+    kind: str
+    options: Mapping[str, float | str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Problem:
+    conditions: tuple[Condition, ...]
+    parameters: tuple[Parameter, ...]
+    targets: tuple[Target, ...]
+    grid: Grid
+    objective: Objective | None = None
+
+    def __post_init__(self) -> None:
+        if not self.conditions:
+            raise EngineError("a problem needs at least one condition")
+        names = [p.name for p in self.parameters]
+        if len(set(names)) != len(names):
+            raise EngineError("parameter names must be unique")
+        for p in self.parameters:
+            if p.per_condition and len(p.value) != len(self.conditions):
+                raise EngineError(f"parameter {p.name!r} has {len(p.value)} values for "
+                                  f"{len(self.conditions)} conditions")
+        needed = {q for c in self.conditions for q in c.network.parameters}
+        missing = sorted(needed - set(names))
+        if missing:
+            raise EngineError(f"no parameter defined for {', '.join(missing)}")
+
+    def values(self, condition: int) -> dict[str, float]:
+        """Parameter values seen by one condition."""
+        return {p.name: p.at(condition) for p in self.parameters}
+
+    def free_slots(self) -> list[tuple[int, int | None]]:
+        """(parameter index, condition or None) for every entry of the free vector."""
+        slots: list[tuple[int, int | None]] = []
+        for i, p in enumerate(self.parameters):
+            if p.free:
+                slots += [(i, c) for c in range(len(self.conditions))] if p.per_condition else [(i, None)]
+        return slots
+
+    def slot_names(self) -> list[str]:
+        return [self.parameters[i].name + ("" if c is None else f"[{self.conditions[c].name}]")
+                for i, c in self.free_slots()]
+
+    def vector(self) -> NDArray[np.float64]:
+        return np.array([self.parameters[i].value[c] if c is not None else self.parameters[i].value
+                         for i, c in self.free_slots()], dtype=float)
+
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        slots = self.free_slots()
+        return (np.array([self.parameters[i].lower() for i, _ in slots]),
+                np.array([self.parameters[i].upper() for i, _ in slots]))
+
+    def with_vector(self, x: Sequence[float]) -> Problem:
+        """A copy with the free values replaced by ``x``."""
+        values: dict[int, Value] = {i: p.value for i, p in enumerate(self.parameters)}
+        for (i, c), v in zip(self.free_slots(), x, strict=True):
+            if c is None:
+                values[i] = float(v)
+            else:
+                per = list(values[i])
+                per[c] = float(v)
+                values[i] = tuple(per)
+        return replace(self, parameters=tuple(replace(p, value=values[i]) for i, p in enumerate(self.parameters)))
+
+    def named_values(self) -> dict[str, float | list[float]]:
+        """name -> value, or name -> list per condition (JSON-ready)."""
+        return {p.name: list(p.value) if p.per_condition else p.value for p in self.parameters}

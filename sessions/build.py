@@ -1,0 +1,131 @@
+"""Turn a validated `SessionModel` into the engine's `Problem`.
+
+Engine errors (an expression that does not parse, an unknown signal) are
+re-raised as `SessionError` prefixed with the JSON path of what caused them.
+CSV tables are read here, relative to the session's folder.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from engine.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, TabulatedTransfer,
+                           factored_transfer, polynomial_transfer)
+from engine.errors import EngineError
+from engine.network import Block, Junction, block_diagram, matrix_format
+from engine.problem import BandValue, Condition, Grid, Objective, Parameter, Point, Problem, Target
+
+from .errors import SessionError
+from .schema import ConditionModel, GridModel, ParameterModel, ProblemModel, TableModel, TargetModel
+
+
+def build_problem(model: ProblemModel, folder: Path) -> Problem:
+    """The engine problem of a session; errors name their JSON path."""
+    conditions = tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
+    parameters = tuple(_parameter(p, f"problem.parameters[{i}]", len(conditions))
+                       for i, p in enumerate(model.parameters))
+    targets = tuple(_target(t) for t in model.targets)
+    objective = None if model.objective is None else Objective(model.objective.kind, dict(model.objective.options))
+    try:
+        return Problem(conditions, parameters, targets, _grid(model.grid), objective)
+    except EngineError as exc:
+        raise SessionError(f"problem: {exc}") from None
+
+
+def _grid(g: GridModel) -> Grid:
+    values = np.geomspace(g.start, g.stop, g.points) if g.spacing == "log" else np.linspace(g.start, g.stop, g.points)
+    return Grid(values * (2 * np.pi) if g.unit == "hz" else values, g.unit)
+
+
+def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
+    plant = c.plant
+    try:
+        if plant.format == "matrix":
+            entries = {(e.row, e.col): e.expression for e in plant.entries}
+            network = matrix_format(plant.signals, entries, plant.forcing_row, plant.forcing, plant.input_name,
+                                    c.variable)
+        else:
+            blocks = [_block(b, f"{path}.plant.blocks[{i}]", folder, c.variable) for i, b in enumerate(plant.blocks)]
+            junctions = [Junction(j.name, j.output, tuple((1.0, s) for s in j.plus) + tuple((-1.0, s) for s in j.minus))
+                         for j in plant.junctions]
+            network = block_diagram(blocks, junctions, plant.inputs, c.variable)
+        network.signal(c.break_at)
+    except SessionError:
+        raise
+    except EngineError as exc:
+        raise SessionError(f"{path}: {exc}") from None
+    return Condition(c.name, network, c.break_at)
+
+
+def _block(b, path: str, folder: Path, variable: str) -> Block:
+    t = b.transfer
+    try:
+        if t.kind == "expression":
+            transfer = ExpressionTransfer(t.expression, variable)
+        elif t.kind == "polynomial":
+            transfer = polynomial_transfer(t.numerator, t.denominator, t.order, variable)
+        elif t.kind == "factored":
+            transfer = factored_transfer(t.gain, t.s_power, [Factor(**f.model_dump()) for f in t.zeros],
+                                         [Factor(**f.model_dump()) for f in t.poles], variable)
+        elif t.kind == "delay":
+            transfer = DelayTransfer(t.tau)
+        else:
+            transfer = TabulatedTransfer(_table(t.table, f"{path}.transfer.table", folder))
+    except SessionError:
+        raise
+    except EngineError as exc:
+        raise SessionError(f"{path}.transfer: {exc}") from None
+    return Block(b.name, b.input, b.output, transfer)
+
+
+def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
+    if t.csv is not None:
+        f, first, second = _read_csv(folder / t.csv, t.columns, path)
+    else:
+        f, first, second = t.frequency, t.first, t.second
+    make = FrequencyTable.from_polar if t.form == "polar" else FrequencyTable.from_cartesian
+    try:
+        return make(f, first, second, unit=t.unit, gain=t.gain, source=path)
+    except EngineError as exc:
+        raise SessionError(str(exc)) from None
+
+
+def _read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], list[float], list[float]]:
+    try:
+        with file.open(newline="") as fh:
+            reader = csv.DictReader(line for line in fh if not line.startswith("#"))
+            rows = list(reader)
+            header = reader.fieldnames or []
+    except OSError as exc:
+        raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror}") from None
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise SessionError(f"{path}.columns: {file.name} has no column(s) {', '.join(missing)}")
+    out: list[list[float]] = [[], [], []]
+    for n, row in enumerate(rows, start=2):
+        for k, name in enumerate(columns):
+            try:
+                out[k].append(float(row[name]))
+            except (TypeError, ValueError):
+                raise SessionError(f"{file.name}: line {n}, column {name!r}: not a number: {row[name]!r}") from None
+    return out[0], out[1], out[2]
+
+
+def _parameter(p: ParameterModel, path: str, conditions: int) -> Parameter:
+    value = tuple(p.value) if isinstance(p.value, list) else p.value
+    if isinstance(value, tuple) and len(value) != conditions:
+        raise SessionError(f"{path}.value: {len(value)} values for {conditions} conditions")
+    return Parameter(p.name, value, -np.inf if p.min is None else p.min, np.inf if p.max is None else p.max,
+                     p.free, p.sign)
+
+
+def _target(t: TargetModel) -> Target:
+    def upper(x: float | None) -> float:
+        return np.inf if x is None else x
+
+    return Target(t.measure, tuple(BandValue(b.low, upper(b.high), b.desired) for b in t.bands), t.condition,
+                  t.weight, t.scale, tuple(Point(complex(q.real, q.imag), q.mode) for q in t.points),
+                  t.detect_low, upper(t.detect_high))

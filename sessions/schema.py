@@ -1,0 +1,231 @@
+"""The session file format (JSON), modelled with pydantic.
+
+Every model forbids unknown fields, so a misspelt key is an error that names
+its path rather than something silently ignored.  `SCHEMA_VERSION` is the
+version this code writes; older files are migrated (`store.MIGRATIONS`).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+SCHEMA_VERSION = 1
+Number = float
+Coefficient = Union[float, str]  # a number or a parameter name
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class GridModel(Strict):
+    """Frequency grid: ``points`` values from ``start`` to ``stop`` in ``unit``."""
+
+    unit: Literal["rad/s", "hz"] = "rad/s"
+    start: Annotated[float, Field(gt=0)]
+    stop: Annotated[float, Field(gt=0)]
+    points: Annotated[int, Field(ge=2, le=100_000)] = 200
+    spacing: Literal["log", "linear"] = "log"
+
+    @model_validator(mode="after")
+    def _increasing(self) -> GridModel:
+        if self.stop <= self.start:
+            raise ValueError("stop must be greater than start")
+        return self
+
+
+class FactorModel(Strict):
+    kind: Literal["time_constant", "root", "second_order"]
+    T: Coefficient = 0.0
+    a: Coefficient = 0.0
+    zeta: Coefficient = 0.5
+    omega: Coefficient = 1.0
+
+    @model_validator(mode="after")
+    def _physical(self) -> FactorModel:
+        if self.kind == "second_order":
+            if isinstance(self.zeta, float) and not self.zeta > 0:
+                raise ValueError("zeta: must be > 0")
+            if isinstance(self.omega, float) and not self.omega > 0:
+                raise ValueError("omega: must be > 0")
+        return self
+
+
+class TableModel(Strict):
+    """Tabulated response, inline (``frequency`` and two columns) or in a CSV file
+    next to the session (``csv`` with column names)."""
+
+    unit: Literal["rad/s", "hz"] = "rad/s"
+    form: Literal["polar", "cartesian"] = "polar"
+    gain: float = 1.0
+    frequency: list[float] | None = None
+    first: list[float] | None = Field(default=None, description="magnitude, or real part")
+    second: list[float] | None = Field(default=None, description="phase in degrees, or imaginary part")
+    csv: str | None = None
+    columns: list[str] | None = Field(default=None, description="CSV columns: frequency, first, second")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> TableModel:
+        inline = self.frequency is not None
+        if inline == (self.csv is not None):
+            raise ValueError("give either frequency/first/second inline or csv with columns")
+        if inline and (self.first is None or self.second is None):
+            raise ValueError("inline tables need frequency, first and second")
+        if self.csv is not None and (self.columns is None or len(self.columns) != 3):
+            raise ValueError("csv tables need three column names: frequency, first, second")
+        return self
+
+
+class ExpressionBlock(Strict):
+    kind: Literal["expression"]
+    expression: str
+
+
+class PolynomialBlock(Strict):
+    kind: Literal["polynomial"]
+    numerator: list[Coefficient]
+    denominator: list[Coefficient]
+    order: Literal["ascending", "descending"]
+
+
+class FactoredBlock(Strict):
+    kind: Literal["factored"]
+    gain: Coefficient = 1.0
+    s_power: int = 0
+    zeros: list[FactorModel] = []
+    poles: list[FactorModel] = []
+
+
+class TableBlock(Strict):
+    kind: Literal["table"]
+    table: TableModel
+
+
+class DelayBlock(Strict):
+    kind: Literal["delay"]
+    tau: Coefficient
+
+
+Transfer = Annotated[Union[ExpressionBlock, PolynomialBlock, FactoredBlock, TableBlock, DelayBlock],
+                     Field(discriminator="kind")]
+
+
+class BlockModel(Strict):
+    name: str
+    input: str
+    output: str
+    transfer: Transfer
+
+
+class JunctionModel(Strict):
+    name: str
+    output: str
+    plus: list[str] = []
+    minus: list[str] = []
+
+
+class DiagramModel(Strict):
+    format: Literal["diagram"]
+    inputs: list[str] = []
+    blocks: list[BlockModel]
+    junctions: list[JunctionModel] = []
+
+
+class MatrixEntry(Strict):
+    row: Annotated[int, Field(ge=1)]
+    col: Annotated[int, Field(ge=1)]
+    expression: str
+
+
+class MatrixModel(Strict):
+    format: Literal["matrix"]
+    signals: list[str]
+    entries: list[MatrixEntry]
+    forcing_row: Annotated[int, Field(ge=1)]
+    forcing: str = "1"
+    input_name: str = "theta"
+
+
+class ConditionModel(Strict):
+    name: str
+    variable: Literal["s", "w"] = "s"
+    break_at: str
+    plant: Annotated[Union[DiagramModel, MatrixModel], Field(discriminator="format")]
+
+
+class ParameterModel(Strict):
+    name: str
+    value: Union[float, list[float]]
+    min: float | None = None
+    max: float | None = None
+    free: bool = True
+    sign: Literal["any", "positive", "negative"] = "any"
+
+    @model_validator(mode="after")
+    def _bounds(self) -> ParameterModel:
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise ValueError("min must not exceed max")
+        return self
+
+
+class BandModel(Strict):
+    low: Annotated[float, Field(ge=0)] = 0.0
+    high: float | None = Field(default=None, description="upper edge in rad/s; null: no limit")
+    desired: float
+
+
+class PointModel(Strict):
+    real: float
+    imag: float = 0.0
+    mode: Literal["push", "pull"] = "push"
+
+
+class TargetModel(Strict):
+    measure: Literal["gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
+                     "gain_margin_db", "phase_margin_deg", "crossover_frequency"]
+    condition: str | None = None
+    bands: list[BandModel]
+    weight: float = 1.0
+    scale: float = 1.0
+    points: list[PointModel] = []
+    detect_low: Annotated[float, Field(ge=0)] = 0.0
+    detect_high: float | None = Field(default=None, description="null: no upper limit")
+
+
+class ObjectiveModel(Strict):
+    kind: str
+    options: dict[str, Union[float, str]] = {}
+
+
+class ProblemModel(Strict):
+    grid: GridModel
+    conditions: Annotated[list[ConditionModel], Field(min_length=1)]
+    parameters: list[ParameterModel] = []
+    targets: list[TargetModel] = []
+    objective: ObjectiveModel | None = None
+
+
+class AlgorithmModel(Strict):
+    name: str
+    settings: dict[str, Any] = {}
+
+
+class ProvenanceModel(Strict):
+    loopcraft_version: str
+    created: str
+    modified: str
+
+
+class SessionModel(Strict):
+    """A whole session: the problem, the algorithm, what it did, and notes."""
+
+    schema_version: Literal[1]
+    provenance: ProvenanceModel
+    notes: str = ""
+    problem: ProblemModel
+    algorithm: AlgorithmModel
+    records: list[dict[str, Any]] = []
+    current_iteration: Annotated[int, Field(ge=0)] = 0
+    state: dict[str, Any] | None = Field(default=None, description="the algorithm state after the current iteration")

@@ -1,0 +1,196 @@
+"""Load, save and autosave sessions.
+
+Loading never raises anything but `SessionError` and never writes.  Saving is
+atomic: the JSON goes to a temporary file in the same folder, is flushed to
+disk, and replaces the target by a rename; the previous file is kept as
+``NAME.json.bak``.  An autosave ``NAME.json.autosave`` is written after each
+completed iteration and offered back when it is newer than the session.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from engine.algorithm import State, StepRecord
+from engine.problem import Problem
+
+from .build import build_problem
+from .errors import SessionError
+from .schema import SCHEMA_VERSION, SessionModel
+
+VERSION = "0.1.0"
+# version -> function turning a session dict of that version into the next version's
+MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
+
+
+@dataclass
+class Session:
+    """A loaded session: the validated model, the engine problem, where it lives."""
+
+    model: SessionModel
+    problem: Problem
+    path: Path | None = None
+    messages: list[str] = field(default_factory=list)
+
+    @property
+    def records(self) -> list[StepRecord]:
+        return [StepRecord.from_json(r) for r in self.model.records]
+
+    @property
+    def state(self) -> State | None:
+        return None if self.model.state is None else State.from_json(self.model.state)
+
+
+def now() -> str:
+    return datetime.now(timezone.utc).replace(microsecond=0).isoformat()
+
+
+def _location(loc: tuple) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(top)"
+
+
+def parse_session(text: str, source: str, folder: Path) -> Session:
+    """A session from JSON text; ``source`` names it in messages."""
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise SessionError(f"{source}: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except RecursionError:
+        raise SessionError(f"{source}: nested too deeply") from None
+    data, messages = _migrate(data, source)
+    try:
+        model = SessionModel.model_validate(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
+        msg = first["msg"].removeprefix("Value error, ")
+        raise SessionError(f"{source}: {_location(first['loc'])}: {msg}{more}") from None
+    for i, record in enumerate(model.records):
+        try:
+            StepRecord.from_json(record)
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise SessionError(f"{source}: records[{i}]: malformed record ({exc})") from None
+    if model.current_iteration > len(model.records):
+        raise SessionError(f"{source}: current_iteration {model.current_iteration} exceeds "
+                           f"the {len(model.records)} records")
+    try:
+        problem = build_problem(model.problem, folder)
+    except SessionError as exc:
+        raise SessionError(f"{source}: {exc}") from None
+    return Session(model, problem, None, messages)
+
+
+def _migrate(data: Any, source: str) -> tuple[Any, list[str]]:
+    if not isinstance(data, dict):
+        raise SessionError(f"{source}: a session is a JSON object, not {type(data).__name__}")
+    version = data.get("schema_version")
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise SessionError(f"{source}: schema_version: missing or not an integer")
+    if version > SCHEMA_VERSION:
+        raise SessionError(f"{source}: schema_version {version} is newer than this loopcraft reads "
+                           f"({SCHEMA_VERSION}); update loopcraft to open it")
+    messages = []
+    while version < SCHEMA_VERSION:
+        if version not in MIGRATIONS:
+            raise SessionError(f"{source}: schema_version {version} cannot be migrated")
+        data = MIGRATIONS[version](dict(data))
+        messages.append(f"migrated from schema version {version} to {version + 1}")
+        version += 1
+        data["schema_version"] = version
+    return data, messages
+
+
+def load_session(path: str | Path) -> Session:
+    """Read and validate a session file; never modifies it."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SessionError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    session = parse_session(text, str(path), path.parent)
+    session.path = path
+    return session
+
+
+def dumps(model: SessionModel) -> str:
+    """Stable JSON: sorted keys, shortest float repr, two-space indent."""
+    data = model.model_dump(mode="json", exclude_none=False)
+    return json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n"
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    try:
+        dir_fd = os.open(path.parent, os.O_RDONLY)
+        try:
+            os.fsync(dir_fd)
+        finally:
+            os.close(dir_fd)
+    except OSError:
+        pass
+
+
+def save_session(session: Session, path: str | Path | None = None) -> Path:
+    """Write atomically; the file it replaces is kept as NAME.json.bak."""
+    target = Path(path) if path is not None else session.path
+    if target is None:
+        raise SessionError("no file to save to")
+    session.model.provenance.modified = now()
+    text = dumps(session.model)
+    try:
+        if target.exists():
+            _atomic_write(target.with_name(target.name + ".bak"), target.read_text(encoding="utf-8"))
+        _atomic_write(target, text)
+    except OSError as exc:
+        raise SessionError(f"{target}: cannot save: {exc.strerror or exc}") from None
+    autosave = autosave_path(target)
+    if autosave.exists():
+        autosave.unlink()
+    session.path = target
+    return target
+
+
+def autosave_path(path: Path) -> Path:
+    return path.with_name(path.name + ".autosave")
+
+
+def write_autosave(session: Session) -> Path | None:
+    """After an iteration: the whole session beside its file (never over it)."""
+    if session.path is None:
+        return None
+    target = autosave_path(session.path)
+    _atomic_write(target, dumps(session.model))
+    return target
+
+
+def autosave_candidate(path: str | Path) -> Path | None:
+    """The autosave of ``path`` when it is newer than the file itself."""
+    path = Path(path)
+    auto = autosave_path(path)
+    if not auto.exists():
+        return None
+    if not path.exists() or auto.stat().st_mtime > path.stat().st_mtime:
+        return auto
+    return None

@@ -1,0 +1,170 @@
+"""Sessions: round trips, error messages with JSON paths, versions, atomic
+saves, autosave, and the stepper protocol through the tests' algorithm."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sessions.store as store
+from engine.algorithm import State, iterate, lookup, make_settings
+from sessions.errors import SessionError
+from sessions.jsonschema import SCHEMA_FILE, schema_text
+from sessions.runner import replay, run_session
+from sessions.store import autosave_candidate, autosave_path, dumps, load_session, save_session
+
+EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "sessions" / "examples").glob("*.json"))
+
+
+@pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.name)
+def test_examples_round_trip_to_equal_sessions_and_stable_json(example, tmp_path):
+    first = load_session(example)
+    saved = save_session(first, tmp_path / example.name)
+    again = load_session(saved)
+    assert again.model.problem == first.model.problem and again.model.records == first.model.records
+    text = saved.read_text()
+    save_session(again, tmp_path / "again.json")
+    assert (tmp_path / "again.json").read_text().replace(again.model.provenance.modified, "") == \
+        text.replace(json.loads(text)["provenance"]["modified"], "")
+    assert json.loads(text) == json.loads(dumps(again.model))
+
+
+def test_json_schema_file_is_current():
+    assert SCHEMA_FILE.read_text() == schema_text(), "run: python -m sessions.jsonschema"
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"].update(
+        poles=[{"kind": "second_order", "zeta": -0.1, "omega": 3.0}]),
+     r"problem\.conditions\[0\]\.plant\.diagram\.blocks\[1\]\.transfer\.factored\.poles\[0\]: zeta: must be > 0"),
+    (lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0]["transfer"].update(expression="K*(1+T s)"),
+     r"problem\.conditions\[0\]\.plant\.blocks\[0\]\.transfer: a missing operator .* at column 4"),
+    (lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0].update(input="ee"),
+     r"problem\.conditions\[0\]: block 'C' reads signal 'ee'"),
+    (lambda d: d["problem"]["grid"].update(stop=0.01), r"problem\.grid: stop must be greater than start"),
+    (lambda d: d["problem"].update(colour="blue"), r"problem\.colour: Extra inputs are not permitted"),
+    (lambda d: d["problem"]["parameters"].pop(), r"no parameter defined for T"),
+    (lambda d: d.update(schema_version=7), r"schema_version 7 is newer than this loopcraft reads"),
+    (lambda d: d.pop("schema_version"), r"schema_version: missing"),
+])
+def test_errors_name_the_json_path(matching_dict, tmp_path, change, message):
+    change(matching_dict)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(matching_dict))
+    before = path.read_bytes()
+    with pytest.raises(SessionError, match=message):
+        load_session(path)
+    assert path.read_bytes() == before
+
+
+def test_syntax_errors_give_line_and_column(tmp_path):
+    path = tmp_path / "broken.json"
+    path.write_text('{\n  "schema_version": 1,\n  "notes": oops\n}')
+    with pytest.raises(SessionError, match=r"broken.json: line 3, column 12"):
+        load_session(path)
+
+
+def test_older_versions_are_migrated_and_say_so(matching_dict, tmp_path, monkeypatch):
+    def from_0(data):  # version 0 called the notes "comment"
+        data["notes"] = data.pop("comment")
+        return data
+
+    monkeypatch.setitem(store.MIGRATIONS, 0, from_0)
+    matching_dict["schema_version"] = 0
+    matching_dict["comment"] = matching_dict.pop("notes")
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(matching_dict))
+    session = load_session(path)
+    assert session.messages == ["migrated from schema version 0 to 1"]
+    assert session.model.notes.startswith("model matching")
+
+
+def test_save_keeps_a_backup_and_autosave_is_offered_when_newer(matching, tmp_path):
+    session = load_session(matching)
+    original = matching.read_text()
+    run_session(session, iterations=2)
+    assert autosave_candidate(matching) == autosave_path(matching)
+    assert json.loads(autosave_path(matching).read_text())["current_iteration"] == 2
+    save_session(session)
+    assert Path(str(matching) + ".bak").read_text() == original
+    assert autosave_candidate(matching) is None
+    assert load_session(matching).model.current_iteration == 2
+
+
+def test_gradient_algorithm_descends_and_replay_reproduces(matching):
+    session = load_session(matching)
+    records = run_session(session, until_done=True, autosave=False)
+    objectives = [r.objective for r in records]
+    assert all(b < a for a, b in zip(objectives[:-1], objectives[1:-1]))
+    assert records[-1].status.value == "converged" and objectives[-1] < 1e-24
+    final = records[-1].parameters
+    assert final["K"] == pytest.approx(4.0, rel=1e-3) and final["T"] == pytest.approx(0.5, rel=1e-3)
+    save_session(session)
+    result = replay(load_session(matching))
+    assert result.ok and result.iterations == len(records)
+
+
+def test_replay_names_the_first_altered_iteration(matching):
+    session = load_session(matching)
+    run_session(session, iterations=4, autosave=False)
+    session.model.records[2]["parameters"]["K"] *= 1 + 1e-7
+    save_session(session)
+    result = replay(load_session(matching))
+    assert not result.ok and result.iterations == 3
+    assert "iteration 3 diverges: parameter K" in result.message
+
+
+def test_step_never_mutates_its_input(matching):
+    session = load_session(matching)
+    algorithm = lookup("gradient").factory()
+    state = algorithm.init(session.problem, make_settings("gradient", {}))
+    frozen = json.dumps(state.to_json(), sort_keys=True)
+    new, record = algorithm.step(state)
+    assert json.dumps(state.to_json(), sort_keys=True) == frozen
+    assert new.iteration == 1 and State.from_json(json.loads(json.dumps(new.to_json()))) == new
+    assert record.to_json() == type(record).from_json(json.loads(json.dumps(record.to_json()))).to_json()
+    steps = list(iterate(algorithm, session.problem, make_settings("gradient", {}), max_iter=3))
+    assert [s.iteration for s, _ in steps] == [1, 2, 3]
+
+
+KILLER = r"""
+import sys, time
+from sessions.store import load_session, save_session
+s = load_session(sys.argv[1])
+s.model.notes = "x" * 2_000_000
+print("ready", flush=True)
+i = 0
+while True:
+    i += 1
+    s.model.notes = str(i % 10) * 2_000_000
+    save_session(s)
+"""
+
+
+def test_a_killed_save_leaves_the_old_or_the_new_file(matching):
+    for delay in (0.05, 0.2, 0.45):
+        proc = subprocess.Popen([sys.executable, "-c", KILLER, str(matching)], stdout=subprocess.PIPE,
+                                cwd=Path(__file__).resolve().parents[2])
+        assert proc.stdout.readline().strip() == b"ready"
+        import time
+        time.sleep(delay)
+        proc.kill()
+        proc.wait()
+        notes = load_session(matching).model.notes  # parses: never a broken file
+        assert notes.startswith("model matching") or len(set(notes)) == 1
+    leftovers = [p for p in matching.parent.iterdir() if p.name.endswith(".tmp")]
+    assert len(leftovers) <= 1  # at most the one being written when killed
+
+
+def test_grid_units_are_kept(matching_dict, tmp_path):
+    matching_dict["problem"]["grid"].update(unit="hz", start=0.1, stop=10.0)
+    path = tmp_path / "hz.json"
+    path.write_text(json.dumps(matching_dict))
+    grid = load_session(path).problem.grid
+    assert grid.unit == "hz"
+    np.testing.assert_allclose(grid.omega[[0, -1]], [2 * np.pi * 0.1, 2 * np.pi * 10.0])
