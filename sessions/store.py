@@ -159,6 +159,8 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
         raise SessionError("no file to save to")
     session.model.provenance.modified = now()
     text = dumps(session.model)
+    for stale in target.parent.glob(f".{target.name}.*tmp"):  # left by a save that was killed
+        stale.unlink(missing_ok=True)
     try:
         if target.exists():
             _atomic_write(target.with_name(target.name + ".bak"), target.read_text(encoding="utf-8"))
