@@ -56,11 +56,3 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         rows.append(MeasureRow(f"{kind}{n}", target.measure, condition, value, desired, bool(ok), m.frequency))
     return rows
 
-
-def smallest_stability_margin(rows: list[MeasureRow]) -> float:
-    """The convergence curve of report 000: the smallest S margin (nan if none)."""
-    values = [r.value for r in rows if r.kind == "stability_margin"]
-    return min(values) if values else float("nan")
-
-
-

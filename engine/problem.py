@@ -104,10 +104,6 @@ class Grid:
     omega: NDArray[np.float64]
     unit: Literal["rad/s", "hz"] = "rad/s"
 
-    def shown(self) -> NDArray[np.float64]:
-        return self.omega / (2 * np.pi) if self.unit == "hz" else self.omega
-
-
 @dataclass(frozen=True)
 class Objective:
     """What an algorithm minimizes or maximizes, where it has one (kind + options)."""
@@ -150,10 +146,6 @@ class Problem:
             if p.free:
                 slots += [(i, c) for c in range(len(self.conditions))] if p.per_condition else [(i, None)]
         return slots
-
-    def slot_names(self) -> list[str]:
-        return [self.parameters[i].name + ("" if c is None else f"[{self.conditions[c].name}]")
-                for i, c in self.free_slots()]
 
     def vector(self) -> NDArray[np.float64]:
         return np.array([self.parameters[i].value[c] if c is not None else self.parameters[i].value

@@ -130,11 +130,3 @@ def stability(pole_list: list[Pole], tolerance: float = 1e-9) -> str:
         return "marginally stable"
     return "stable"
 
-
-def check_blocks_proper(network: Network, params: Mapping[str, float]) -> None:
-    """Raise `BlockError` naming the first improper entry."""
-    for entry in network.entries:
-        if entry.transfer.rational_form:
-            entry.transfer.check_proper(params, entry.label)
-    if not network.entries:
-        raise BlockError("the network has no blocks")

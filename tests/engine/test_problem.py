@@ -1,0 +1,42 @@
+"""The problem's free vector: shared and per-condition parameters, sign bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from engine.analysis import unity_feedback
+from engine.errors import EngineError
+from engine.problem import Condition, Grid, Parameter, Problem
+
+
+def problem():
+    net = unity_feedback(["K*(1+T*s)/(s*(s+2))"])
+    conditions = (Condition("low q", net, "e"), Condition("high q", net, "e"))
+    params = (Parameter("K", (1.0, 2.0), minimum=-5.0, sign="positive"), Parameter("T", 0.1, maximum=1.0),
+              Parameter("unused", 3.0, free=False))
+    return Problem(conditions, params, (), Grid(np.geomspace(0.1, 10, 5)))
+
+
+def test_vector_round_trip_and_values_per_condition():
+    p = problem()
+    assert p.free_slots() == [(0, 0), (0, 1), (1, None)]
+    np.testing.assert_array_equal(p.vector(), [1.0, 2.0, 0.1])
+    q = p.with_vector([3.0, 4.0, 0.2])
+    assert q.values(1) == {"K": 4.0, "T": 0.2, "unused": 3.0}
+    assert q.named_values() == {"K": [3.0, 4.0], "T": 0.2, "unused": 3.0}
+    assert p.vector().tolist() == [1.0, 2.0, 0.1]  # the original is unchanged
+
+
+def test_bounds_include_the_sign_constraint():
+    lower, upper = problem().bounds()
+    np.testing.assert_array_equal(lower, [0.0, 0.0, -np.inf])
+    np.testing.assert_array_equal(upper, [np.inf, np.inf, 1.0])
+
+
+def test_inconsistent_problems_are_refused():
+    net = unity_feedback(["K/s"])
+    with pytest.raises(EngineError, match="no parameter defined for K"):
+        Problem((Condition("c", net, "e"),), (), (), Grid(np.ones(1)))
+    with pytest.raises(EngineError, match="2 values for 1 conditions"):
+        Problem((Condition("c", net, "e"),), (Parameter("K", (1.0, 2.0)),), (), Grid(np.ones(1)))
