@@ -96,16 +96,16 @@ def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
 def _read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], list[float], list[float]]:
     try:
         with file.open(newline="") as fh:
-            reader = csv.DictReader(line for line in fh if not line.startswith("#"))
-            rows = list(reader)
-            header = reader.fieldnames or []
-    except OSError as exc:
-        raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror}") from None
+            numbered = [(n, line) for n, line in enumerate(fh, start=1) if not line.startswith("#")]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SessionError(f"{path}.csv: cannot read {file}: {getattr(exc, 'strerror', None) or exc}") from None
+    reader = csv.DictReader(line for _, line in numbered)
+    rows, header = list(reader), reader.fieldnames or []
     missing = [c for c in columns if c not in header]
     if missing:
         raise SessionError(f"{path}.columns: {file.name} has no column(s) {', '.join(missing)}")
     out: list[list[float]] = [[], [], []]
-    for n, row in enumerate(rows, start=2):
+    for (n, _), row in zip(numbered[1:], rows):
         for k, name in enumerate(columns):
             try:
                 out[k].append(float(row[name]))

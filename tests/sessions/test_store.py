@@ -169,3 +169,23 @@ def test_grid_units_are_kept(matching_dict, tmp_path):
     grid = load_session(path).problem.grid
     assert grid.unit == "hz"
     np.testing.assert_allclose(grid.omega[[0, -1]], [2 * np.pi * 0.1, 2 * np.pi * 10.0])
+
+
+def test_csv_table_next_to_the_session(matching_dict, tmp_path):
+    """The inlet data of report 001 as a CSV block; a bad cell names its line and column."""
+    shared = Path(__file__).resolve().parents[3] / "shared" / "data" / "seidel_inlet_table1.csv"
+    (tmp_path / "inlet.csv").write_text(shared.read_text())
+    plant = matching_dict["problem"]["conditions"][0]["plant"]
+    plant["blocks"][1]["transfer"] = {"kind": "table", "table": {
+        "unit": "hz", "gain": 0.016, "csv": "inlet.csv", "columns": ["hz", "g1_mag", "g1_phase_deg"]}}
+    matching_dict["problem"]["grid"] = {"unit": "hz", "start": 1.0, "stop": 600.0, "points": 50}
+    path = tmp_path / "inlet.json"
+    path.write_text(json.dumps(matching_dict))
+    table = load_session(path).problem.conditions[0].network.entries[1].transfer.table
+    assert abs(table.interpolate([2 * np.pi * 60])[0]) == pytest.approx(0.016 * 0.326)
+    lines = (tmp_path / "inlet.csv").read_text().splitlines(keepends=True)
+    bad = next(i for i, line in enumerate(lines) if line.startswith("60,"))
+    lines[bad] = lines[bad].replace("0.326,-55", "0.326,oops")
+    (tmp_path / "inlet.csv").write_text("".join(lines))
+    with pytest.raises(SessionError, match=rf"inlet.csv: line {bad + 1}, column 'g1_phase_deg': not a number: 'oops'"):
+        load_session(path)
