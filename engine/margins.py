@@ -123,7 +123,13 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     """
     extrema = {"S": (_slope_distance, 1), "A": (_slope_magnitude, -1), "Amin": (_slope_magnitude, 1),
                "phase": (_slope_phase, 0)}
-    found_extrema = _refine_sign_changes(loop, w, gh, dgh, extrema)
+    # an extremum can hide two crossings only where the level function has the
+    # same sign at both ends: a minimum of |GH| above 1, a phase extremum short of
+    # the negative real axis (|GH| maxima are margins of their own: all kept)
+    im, mag = np.sign(gh.imag), np.abs(gh)
+    relevant = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1),
+                "phase": (im[:-1] == im[1:]) & ((gh.real[:-1] < 0) | (gh.real[1:] < 0))}
+    found_extrema = _refine_sign_changes(loop, w, gh, dgh, extrema, relevant)
     points = np.concatenate([found_extrema[k] for k in ("A", "Amin", "phase")])
     if points.size:
         g, dg = loop.evaluate(points)
@@ -141,13 +147,16 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     return found
 
 
-def _refine_sign_changes(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray,
-                         functions: dict) -> dict[str, NDArray]:
-    """Sorted roots of each function (direction +1 rising, -1 falling, 0 both), refined together."""
+def _refine_sign_changes(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, functions: dict,
+                         relevant: dict[str, NDArray] | None = None) -> dict[str, NDArray]:
+    """Sorted roots of each function (direction +1 rising, -1 falling, 0 both), refined
+    together; ``relevant[name]`` (per interval) limits which intervals are searched."""
     starts, kinds, exact = [], [], {}
     values = {name: f(gh, dgh) for name, (f, _) in functions.items()}
     for name, (_, direction) in functions.items():
         idx = sign_changes(values[name], rising_only=direction > 0, falling_only=direction < 0)
+        if relevant and name in relevant:
+            idx = idx[relevant[name][idx]]
         starts.append(idx)
         kinds.append(np.full(idx.size, name))
         exact[name] = w[np.flatnonzero(values[name] == 0)] if direction == 0 else np.zeros(0)
