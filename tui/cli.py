@@ -19,7 +19,7 @@ from engine.errors import EngineError
 from engine.measures import tableau
 from sessions.errors import SessionError
 from sessions.runner import replay, run_session
-from sessions.store import Session, load_session, save_session
+from sessions.store import Session, autosave_candidate, load_session, save_session
 
 
 class CliError(Exception):
@@ -136,8 +136,20 @@ def _summary_json(session: Session) -> dict:
     }
 
 
+def _load(file: str) -> Session:
+    """Load a session; say so when a newer autosave sits beside it."""
+    session = load_session(file)
+    for message in session.messages:
+        print(f"note: {message}", file=sys.stderr)
+    autosave = autosave_candidate(file)
+    if autosave is not None:
+        print(f"note: {autosave.name} is newer than {Path(file).name}; open it to recover unsaved work",
+              file=sys.stderr)
+    return session
+
+
 def cmd_run(args: argparse.Namespace) -> int:
-    session = load_session(args.file)
+    session = _load(args.file)
     if args.algorithm:
         session.model.algorithm.name = args.algorithm
         session.model.algorithm.settings = {}
@@ -166,13 +178,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    result = replay(load_session(args.file))
+    result = replay(_load(args.file))
     print(result.message, file=sys.stdout if result.ok else sys.stderr)
     return 0 if result.ok else 1
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    session = load_session(args.file)
+    session = _load(args.file)
     rows, record = _rows_now(session, args.iteration)
     if args.format == "json":
         data = _summary_json(session) if args.iteration is None else {

@@ -68,3 +68,11 @@ def test_bad_input_exits_2_with_one_line(args):
     out = subprocess.run([sys.executable, "-m", "tui.cli"] + args, capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr
+
+
+def test_a_newer_autosave_is_mentioned(matching, capsys):
+    from sessions.runner import run_session
+    from sessions.store import load_session
+    run_session(load_session(matching), iterations=1)  # autosaves, does not save
+    assert main(["report", str(matching)]) == 0
+    assert "matching.json.autosave is newer than matching.json" in capsys.readouterr().err
