@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike
 from .blocks import ExpressionTransfer
 from .errors import EngineError
 from .loops import LoopModel, loop_model
-from .margins import Band, Margin, Margins, margins
+from .margins import Band, Margins, margins
 from .network import Block, Junction, Network, block_diagram
 from .realization import Pole, poles, realize, stability
 
@@ -72,5 +72,3 @@ def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[s
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
     return LoopAnalysis(result, pole_list, verdict, modal_peaks(model, peak_bands), tuple(notes))
 
-
-__all__ = ["LoopAnalysis", "ModalPeak", "analyze", "unity_feedback", "modal_peaks", "Margin"]

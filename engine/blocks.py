@@ -232,8 +232,5 @@ class TabulatedTransfer:
     def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
         return Dual(self.table.interpolate(np.asarray(x).imag), {}, None)
 
-    def compile(self, params: Mapping[str, float]) -> Compiled:
-        return lambda x: (self.table.interpolate(np.asarray(x).imag), None)
-
 
 Transfer = ExpressionTransfer | DelayTransfer | TabulatedTransfer

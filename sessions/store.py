@@ -27,7 +27,6 @@ from .build import build_problem
 from .errors import SessionError
 from .schema import SCHEMA_VERSION, SessionModel
 
-VERSION = "0.1.0"
 # version -> function turning a session dict of that version into the next version's
 MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
 
