@@ -42,9 +42,6 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         value = float("nan") if wc is None else wc
         return [MeasureRow("wc", "crossover_frequency", condition, value, desired,
                            desired is None or (wc is not None and wc >= desired), wc)]
-    if target.measure not in MEASURES:
-        raise ValueError(f"unknown measure {target.measure!r}; known: crossover_frequency, "
-                         + ", ".join(sorted(MEASURES)))
     kind, attribute, at_least = MEASURES[target.measure]
     band = Band(target.detect_low, target.detect_high)
     chosen: list[Margin] = [m for m in found.all() if m.kind == kind and band.contains(m.frequency)]

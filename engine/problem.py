@@ -20,6 +20,8 @@ from .errors import EngineError
 from .network import Network
 
 Sign = Literal["any", "positive", "negative"]
+MEASURE_NAMES = ("gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
+                 "gain_margin_db", "phase_margin_deg", "crossover_frequency")
 Value = float | tuple[float, ...]
 
 
@@ -56,7 +58,6 @@ class Condition:
     name: str
     network: Network
     break_at: str
-    outputs: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -131,6 +132,9 @@ class Problem:
                 raise EngineError(f"parameter {p.name!r} has {len(p.value)} values for "
                                   f"{len(self.conditions)} conditions")
         needed = {q for c in self.conditions for q in c.network.parameters}
+        unknown = [t.measure for t in self.targets if t.measure not in MEASURE_NAMES]
+        if unknown:
+            raise EngineError(f"unknown measure {unknown[0]!r}; known: {', '.join(MEASURE_NAMES)}")
         missing = sorted(needed - set(names))
         if missing:
             raise EngineError(f"no parameter defined for {', '.join(missing)}")

@@ -40,3 +40,10 @@ def test_inconsistent_problems_are_refused():
         Problem((Condition("c", net, "e"),), (), (), Grid(np.ones(1)))
     with pytest.raises(EngineError, match="2 values for 1 conditions"):
         Problem((Condition("c", net, "e"),), (Parameter("K", (1.0, 2.0)),), (), Grid(np.ones(1)))
+
+
+def test_unknown_measures_are_refused_when_the_problem_is_made():
+    from engine.problem import BandValue, Target
+    net = unity_feedback(["2/s"])
+    with pytest.raises(EngineError, match="unknown measure 'overshoot'"):
+        Problem((Condition("c", net, "e"),), (), (Target("overshoot", (BandValue(0, 1, 1),)),), Grid(np.ones(1)))
