@@ -9,6 +9,7 @@ JSON (`to_json`/`from_json`), so a session can store them and replay them.
 from __future__ import annotations
 
 import copy
+import importlib
 import dataclasses
 import math
 from collections.abc import Callable, Iterator, Mapping
@@ -144,6 +145,14 @@ class Registration:
 
 
 REGISTRY: dict[str, Registration] = {}
+BUILTIN = (".cip",)  # packages that register the report algorithms when imported
+
+
+def load_builtin() -> dict[str, Registration]:
+    """Import the bundled algorithms (they register themselves); the registry."""
+    for module in BUILTIN:
+        importlib.import_module(module, __package__)
+    return REGISTRY
 
 
 def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str) -> None:
@@ -152,6 +161,7 @@ def register(name: str, factory: Callable[[], Algorithm], settings: type, summar
 
 
 def lookup(name: str) -> Registration:
+    load_builtin()
     if name not in REGISTRY:
         known = ", ".join(sorted(REGISTRY)) or "none yet"
         raise EngineError(f"unknown algorithm {name!r} (known: {known})")

@@ -66,8 +66,30 @@ class ExpressionTransfer:
         return r
 
 
+class PolynomialTransfer(ExpressionTransfer):
+    """A ratio of polynomials that remembers its coefficient lists (ascending
+    powers), so a compensator can be shown factored and multiplied out."""
+
+    def __init__(self, numerator: Sequence[Coefficient], denominator: Sequence[Coefficient], variable: str = "s"):
+        self.numerator = tuple(numerator)
+        self.denominator = tuple(denominator)
+
+        def poly(coefficients: tuple[Coefficient, ...], what: str) -> str:
+            if len(coefficients) == 0:
+                raise BlockError(f"{what} has no coefficients")
+            return "(" + " + ".join(f"{_term(c)}*{variable}**{k}" for k, c in enumerate(coefficients)) + ")"
+
+        super().__init__(f"{poly(self.numerator, 'numerator')}/{poly(self.denominator, 'denominator')}", variable)
+
+    def coefficients(self, params: Mapping[str, float]) -> tuple[list[float], list[float]]:
+        """Numerator and denominator coefficients (ascending) for parameter values."""
+        def value(c: Coefficient) -> float:
+            return float(params[c]) if isinstance(c, str) else float(c)
+        return [value(c) for c in self.numerator], [value(c) for c in self.denominator]
+
+
 def polynomial_transfer(numerator: Sequence[Coefficient], denominator: Sequence[Coefficient],
-                        order: Literal["ascending", "descending"], variable: str = "s") -> ExpressionTransfer:
+                        order: Literal["ascending", "descending"], variable: str = "s") -> PolynomialTransfer:
     """A ratio of polynomials from coefficient lists.
 
     ``order="ascending"`` reads x_0, x_1, ... as the CIP listing does;
@@ -75,14 +97,9 @@ def polynomial_transfer(numerator: Sequence[Coefficient], denominator: Sequence[
     """
     if order not in ("ascending", "descending"):
         raise BlockError(f"coefficient order must be 'ascending' or 'descending', not {order!r}")
-
-    def poly(coefficients: Sequence[Coefficient], what: str) -> str:
-        if len(coefficients) == 0:
-            raise BlockError(f"{what} has no coefficients")
-        ascending = list(coefficients) if order == "ascending" else list(coefficients)[::-1]
-        return "(" + " + ".join(f"{_term(c)}*{variable}**{k}" for k, c in enumerate(ascending)) + ")"
-
-    return ExpressionTransfer(f"{poly(numerator, 'numerator')}/{poly(denominator, 'denominator')}", variable)
+    if order == "descending":
+        numerator, denominator = list(numerator)[::-1], list(denominator)[::-1]
+    return PolynomialTransfer(numerator, denominator, variable)
 
 
 @dataclass(frozen=True)

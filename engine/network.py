@@ -28,12 +28,14 @@ from .errors import EngineError, GridError, InterconnectionError, ParameterError
 
 @dataclass(frozen=True)
 class Block:
-    """output = transfer(s) * input."""
+    """output = transfer(s) * input; ``group`` gathers the blocks of one channel
+    (a cascade of sub-compensators is shown multiplied out per group)."""
 
     name: str
     input: str
     output: str
     transfer: Transfer
+    group: str = ""
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,7 @@ class Entry:
     col: int
     transfer: Transfer
     label: str
+    group: str = ""
 
 
 @dataclass(frozen=True)
@@ -107,7 +110,7 @@ def block_diagram(blocks: Sequence[Block], junctions: Sequence[Junction] = (),
                                        "produces and which is not a declared input")
         return index[signal]
 
-    entries = [Entry(index[b.output], read(b.input, f"block {b.name!r}"), b.transfer, b.name)
+    entries = [Entry(index[b.output], read(b.input, f"block {b.name!r}"), b.transfer, b.name, b.group)
                for b in blocks]
     for j in junctions:
         for sign, signal in j.terms:

@@ -15,11 +15,11 @@ import numpy as np
 from engine.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, TabulatedTransfer,
                            factored_transfer, polynomial_transfer)
 from engine.errors import EngineError
-from engine.network import Block, Junction, block_diagram, matrix_format
+from engine.network import Block, Junction, Network, block_diagram, matrix_format
 from engine.problem import BandValue, Condition, Grid, Objective, Parameter, Point, Problem, Target
 
 from .errors import SessionError
-from .schema import ConditionModel, GridModel, ParameterModel, ProblemModel, TableModel, TargetModel
+from .schema import ChannelsModel, ConditionModel, GridModel, ParameterModel, ProblemModel, TableModel, TargetModel
 
 
 def build_problem(model: ProblemModel, folder: Path) -> Problem:
@@ -47,6 +47,8 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
             entries = {(e.row, e.col): e.expression for e in plant.entries}
             network = matrix_format(plant.signals, entries, plant.forcing_row, plant.forcing, plant.input_name,
                                     c.variable)
+        elif plant.format == "channels":
+            network = _channels(plant, path, folder, c.variable)
         else:
             blocks = [_block(b, f"{path}.plant.blocks[{i}]", folder, c.variable) for i, b in enumerate(plant.blocks)]
             junctions = [Junction(j.name, j.output, tuple((1.0, s) for s in j.plus) + tuple((-1.0, s) for s in j.minus))
@@ -60,8 +62,39 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
     return Condition(c.name, network, c.break_at)
 
 
+def _channels(plant: ChannelsModel, path: str, folder: Path, variable: str) -> Network:
+    """Report 000's Figure 1 as a block diagram: e -> response x gain -> cascade -> sum c; e = r - c."""
+    blocks, outputs = [], []
+    for k, ch in enumerate(plant.channels):
+        where = f"{path}.plant.channels[{k}]"
+        theta = f"{ch.name}.theta"
+        blocks.append(Block(f"{ch.name}.response", "e", theta, _transfer(ch.response, f"{where}.response", folder,
+                                                                        variable), ch.name))
+        signal = theta
+        if ch.gain != 1.0:
+            blocks.append(Block(f"{ch.name}.gain", signal, f"{ch.name}.scaled", ExpressionTransfer(repr(ch.gain),
+                                                                                                   variable), ch.name))
+            signal = f"{ch.name}.scaled"
+        for i, sub in enumerate(ch.compensators, start=1):
+            try:
+                transfer = polynomial_transfer(sub.numerator, sub.denominator, "ascending", variable)
+            except EngineError as exc:
+                raise SessionError(f"{where}.compensators[{i - 1}]: {exc}") from None
+            out = f"{ch.name}.u" if i == len(ch.compensators) else f"{ch.name}.{i}"
+            blocks.append(Block(f"{ch.name}.{i}", signal, out, transfer, ch.name))
+            signal = out
+        if not ch.compensators:
+            blocks.append(Block(f"{ch.name}.direct", signal, f"{ch.name}.u", ExpressionTransfer("1", variable), ch.name))
+        outputs.append(f"{ch.name}.u")
+    junctions = [Junction("sum", "c", tuple((1.0, u) for u in outputs)), Junction("error", "e", ((1.0, "r"), (-1.0, "c")))]
+    return block_diagram(blocks, junctions, ["r"], variable)
+
+
 def _block(b, path: str, folder: Path, variable: str) -> Block:
-    t = b.transfer
+    return Block(b.name, b.input, b.output, _transfer(b.transfer, f"{path}.transfer", folder, variable))
+
+
+def _transfer(t, path: str, folder: Path, variable: str):
     try:
         if t.kind == "expression":
             transfer = ExpressionTransfer(t.expression, variable)
@@ -73,12 +106,12 @@ def _block(b, path: str, folder: Path, variable: str) -> Block:
         elif t.kind == "delay":
             transfer = DelayTransfer(t.tau)
         else:
-            transfer = TabulatedTransfer(_table(t.table, f"{path}.transfer.table", folder))
+            transfer = TabulatedTransfer(_table(t.table, f"{path}.table", folder))
     except SessionError:
         raise
     except EngineError as exc:
-        raise SessionError(f"{path}.transfer: {exc}") from None
-    return Block(b.name, b.input, b.output, transfer)
+        raise SessionError(f"{path}: {exc}") from None
+    return transfer
 
 
 def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
@@ -123,9 +156,12 @@ def _parameter(p: ParameterModel, path: str, conditions: int) -> Parameter:
 
 
 def _target(t: TargetModel) -> Target:
-    def upper(x: float | None) -> float:
-        return np.inf if x is None else x
+    """Band edges and detection limits are converted to rad/s."""
+    scale = 2 * np.pi if t.unit == "hz" else 1.0
 
-    return Target(t.measure, tuple(BandValue(b.low, upper(b.high), b.desired) for b in t.bands), t.condition,
+    def upper(x: float | None) -> float:
+        return np.inf if x is None else x * scale
+
+    return Target(t.measure, tuple(BandValue(b.low * scale, upper(b.high), b.desired) for b in t.bands), t.condition,
                   t.weight, t.scale, tuple(Point(complex(q.real, q.imag), q.mode) for q in t.points),
-                  t.detect_low, upper(t.detect_high))
+                  t.detect_low * scale, upper(t.detect_high))

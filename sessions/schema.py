@@ -148,11 +148,38 @@ class MatrixModel(Strict):
     input_name: str = "theta"
 
 
+class SubCompensatorModel(Strict):
+    """One factor of a channel's compensator, coefficients in ascending powers
+    (x_0, x_1, ... over y_0, y_1, ...) as the CIP listing reads them."""
+
+    numerator: Annotated[list[Coefficient], Field(min_length=1)]
+    denominator: Annotated[list[Coefficient], Field(min_length=1)]
+
+
+class ChannelModel(Strict):
+    """One channel of report 000's Figure 1: its uncompensated open-loop
+    response theta_k/R times ``gain``, then a cascade of sub-compensators."""
+
+    name: str
+    response: Transfer
+    gain: float = 1.0
+    compensators: list[SubCompensatorModel] = []
+
+
+class ChannelsModel(Strict):
+    """GH = sum over channels of response x gain x compensators.  Signals: the
+    error ``e`` (break the loop there), the sum ``c``, and per channel
+    ``NAME.theta`` and ``NAME.u``."""
+
+    format: Literal["channels"]
+    channels: Annotated[list[ChannelModel], Field(min_length=1)]
+
+
 class ConditionModel(Strict):
     name: str
     variable: Literal["s", "w"] = "s"
     break_at: str
-    plant: Annotated[Union[DiagramModel, MatrixModel], Field(discriminator="format")]
+    plant: Annotated[Union[DiagramModel, MatrixModel, ChannelsModel], Field(discriminator="format")]
 
 
 class ParameterModel(Strict):
@@ -172,7 +199,7 @@ class ParameterModel(Strict):
 
 class BandModel(Strict):
     low: Annotated[float, Field(ge=0)] = 0.0
-    high: float | None = Field(default=None, description="upper edge in rad/s; null: no limit")
+    high: float | None = Field(default=None, description="upper edge (the target's unit); null: no limit")
     desired: float
 
 
@@ -192,6 +219,7 @@ class TargetModel(Strict):
     points: list[PointModel] = []
     detect_low: Annotated[float, Field(ge=0)] = 0.0
     detect_high: float | None = Field(default=None, description="null: no upper limit")
+    unit: Literal["rad/s", "hz"] = Field(default="rad/s", description="unit of band edges and detect_low/high")
 
 
 class ObjectiveModel(Strict):

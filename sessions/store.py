@@ -156,6 +156,8 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
     target = Path(path) if path is not None else session.path
     if target is None:
         raise SessionError("no file to save to")
+    if session.path is not None and target.parent.resolve() != session.path.parent.resolve():
+        _rebase_tables(session.model, session.path.parent, target.parent)
     session.model.provenance.modified = now()
     text = dumps(session.model)
     for stale in target.parent.glob(f".{target.name}.*tmp"):  # left by a save that was killed
@@ -171,6 +173,18 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
         autosave.unlink()
     session.path = target
     return target
+
+
+def _rebase_tables(model: SessionModel, old: Path, new: Path) -> None:
+    """CSV tables are named relative to the session: saved elsewhere, the
+    names are rewritten so they still reach the same files."""
+    for condition in model.problem.conditions:
+        plant = condition.plant
+        transfers = ([b.transfer for b in plant.blocks] if plant.format == "diagram" else
+                     [c.response for c in plant.channels] if plant.format == "channels" else [])
+        for t in transfers:
+            if t.kind == "table" and t.table.csv is not None and not Path(t.table.csv).is_absolute():
+                t.table.csv = Path(os.path.relpath((old / t.table.csv).resolve(), new.resolve())).as_posix()
 
 
 def autosave_path(path: Path) -> Path:

@@ -4,6 +4,7 @@ saves, autosave, and the stepper protocol through the tests' algorithm."""
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -23,6 +24,8 @@ EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 @pytest.mark.parametrize("example", EXAMPLES, ids=lambda p: p.name)
 def test_examples_round_trip_to_equal_sessions_and_stable_json(example, tmp_path):
+    for table in example.parent.glob("*.csv"):
+        shutil.copy2(table, tmp_path / table.name)
     first = load_session(example)
     saved = save_session(first, tmp_path / example.name)
     again = load_session(saved)
@@ -32,6 +35,15 @@ def test_examples_round_trip_to_equal_sessions_and_stable_json(example, tmp_path
     assert (tmp_path / "again.json").read_text().replace(again.model.provenance.modified, "") == \
         text.replace(json.loads(text)["provenance"]["modified"], "")
     assert json.loads(text) == json.loads(dumps(again.model))
+
+
+def test_saving_elsewhere_keeps_csv_tables_reachable(tmp_path):
+    session = load_session(EXAMPLES[0].parent / "cip_launch_vehicle.json")
+    (tmp_path / "deeper").mkdir()
+    saved = save_session(session, tmp_path / "deeper" / "copy.json")
+    again = load_session(saved)
+    assert again.model.problem.conditions[0].plant.channels[0].response.table.csv.endswith("cip_launch_vehicle.csv")
+    assert np.allclose(again.problem.grid.omega, session.problem.grid.omega)
 
 
 def test_json_schema_file_is_current():

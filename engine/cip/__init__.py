@@ -1,0 +1,9 @@
+"""`cip`: constraint improvement on margins (Mitchell & McDaniel, report 000)."""
+
+from ..algorithm import register
+from .algorithm import Cip, CipSettings
+
+register("cip", Cip, CipSettings,
+         "constraint improvement on gain/phase/stability/attenuation margins (report 000, CIP)")
+
+__all__ = ["Cip", "CipSettings"]

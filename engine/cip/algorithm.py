@@ -1,0 +1,284 @@
+"""`cip`: the Compensator Improvement Program of report 000 as a stepper.
+
+One `step` is one accepted iteration of the listing's main loop:
+  1. the margins at the current coefficients are known (from the last step);
+     if none is active, all requirements are met;
+  2. the direction D = G'(G G')^-1 c of the active constraints (direction.py),
+     with coefficients held at their bounds;
+  3. a trial move x + h D/|D| (clipped to the bounds), margins detected again;
+     the move is accepted when it improves every active margin (TIFR) or
+     their sum (SIFR); otherwise h is halved and the trial repeated from the
+     same coefficients, down to the minimum step;
+  4. after an accepted move h grows by `growth` (the listing's 1.41416; the
+     text says doubling), capped at the maximum step.
+The best coefficients so far (largest smallest relative-stability margin,
+the listing's IBEST) are kept in the state and reported.
+
+Departures from the listing, each a strict improvement and recorded here:
+margins are matched from one iteration to the next by kind, target and
+nearest frequency (the listing matched grid indices, so a margin that moved
+by one grid point escaped the ratchet); a constraint that became satisfied
+counts its gain in the SIFR sum; a move that changes the number of turns of
+1 + GH about the origin along the grid (closed-loop stability changes) is
+rejected (`stability_guard`); the run never ends on a rejected trial point;
+identical gradient rows are not duplicated when a copied margin and its
+original are both active.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..algorithm import MeasureRow, State, Status, StepRecord
+from ..compensators import compensators, split_by_role
+from ..errors import EngineError
+from ..problem import Problem
+from .constraints import Constraint, check_targets, detect
+from .direction import Direction, Rows, gradient_rows, improvement_direction
+
+TERMINATION_STATUS = {"theorem2": Status.INFEASIBLE, "dependent": Status.NO_IMPROVEMENT,
+                      "zero_gradient": Status.NO_IMPROVEMENT}
+
+
+@dataclass(frozen=True)
+class CipSettings:
+    """The listing's inputs (names in parentheses) and this program's options."""
+
+    mode: Literal["tifr", "sifr"] = "sifr"          # continuance criterion (chapter VI, a or b)
+    max_step: float = 0.1                           # STPMAX
+    min_step: float = 1e-4                          # STPMIN
+    initial_step: float | None = None               # default: the maximum step, as the listing
+    growth: float = 1.41416                         # step factor after an accepted move
+    max_iterations: int = 200                       # KQUIT
+    detection: Literal["grid", "refined"] = "grid"  # refined: exact margins of rational loops
+    gain_as_stability: bool = False                 # INCGMS
+    phase_as_stability: bool = False                # INCPMS
+    tolerance: float = 0.0                          # TIFR slack (the listing: 1e-5, single precision)
+    guard_band: float = 0.0                         # met margins this close (relative) to desired also steer D
+    keep_met: bool = False                          # reject a move that makes a met margin unmet
+    hold_tolerance: float = 1e-5                    # a coefficient this close to a bound is "at" it
+    stability_guard: bool = True
+
+    def __post_init__(self) -> None:
+        if self.mode not in ("tifr", "sifr"):
+            raise EngineError(f"cip: mode must be 'tifr' or 'sifr', not {self.mode!r}")
+        if self.detection not in ("grid", "refined"):
+            raise EngineError(f"cip: detection must be 'grid' or 'refined', not {self.detection!r}")
+        if not (0 < self.min_step <= self.max_step):
+            raise EngineError("cip: need 0 < min_step <= max_step")
+        if self.initial_step is not None and not self.initial_step > 0:
+            raise EngineError("cip: initial_step must be > 0")
+        if not self.guard_band >= 0.0:
+            raise EngineError("cip: guard_band must be >= 0")
+        if not self.growth >= 1.0:
+            raise EngineError("cip: growth must be >= 1")
+        if self.max_iterations < 1:
+            raise EngineError("cip: max_iterations must be >= 1")
+
+
+class Cip:
+    """The stepper (see the module docstring)."""
+
+    name = "cip"
+
+    def init(self, problem: Problem, settings: CipSettings) -> State:
+        check_targets(problem)
+        if not problem.free_slots():
+            raise EngineError("cip: no free coefficients to vary")
+        self.problem, self.settings = problem, settings
+        self.lower, self.upper = problem.bounds()
+        x = problem.vector()
+        outside = np.flatnonzero((x < self.lower) | (x > self.upper))
+        if outside.size:
+            raise EngineError(f"cip: {self._slot_names()[outside[0]]} = {x[outside[0]]:.6g} is outside its bounds")
+        constraints, windings = self._detect(x)
+        step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
+        smallest = smallest_stability_margin(constraints)
+        memory = {"constraints": [c.to_json() for c in constraints], "windings": windings, "step": step,
+                  "unmet_start": sum(c.active for c in constraints),
+                  "best": {"iteration": 0, "x": x.tolist(), "smallest": smallest}}
+        return State(0, tuple(x.tolist()), Status.RUNNING, memory)
+
+    def step(self, state: State) -> tuple[State, StepRecord]:
+        x = np.array(state.x, dtype=float)
+        memory = state.memory
+        constraints = [Constraint.from_json(d) for d in memory["constraints"]]
+        active = [c for c in constraints if c.active]
+        k = state.iteration + 1
+        if not active:
+            return self._stop(state, Status.CONVERGED, "all system requirements have been met", constraints)
+        steering = active + self._near(constraints)
+        labels = [_label(c, constraints.index(c) + 1) for c in steering]
+        rows = _distinct(gradient_rows(self.problem, x, steering))
+        if rows.gradients.shape[0] > x.size and len(steering) > len(active):
+            rows = _distinct(gradient_rows(self.problem, x, active))  # guard rows are optional
+        direction = improvement_direction(rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels)
+        if direction.vector is None:
+            return self._stop(state, TERMINATION_STATUS[direction.termination], direction.reason, constraints,
+                              termination=direction.termination)
+        h, trials, guarded = memory["step"], 0, 0
+        while True:
+            trials += 1
+            trial = np.clip(x + h * direction.vector, self.lower, self.upper)
+            outcome = self._trial(trial, constraints, active, memory["windings"])
+            if outcome is not None:
+                break
+            h /= 2.0
+            if h < self.settings.min_step:
+                return self._stop(state, Status.STEP_BELOW_MINIMUM,
+                                  f"step size fell below the minimum {self.settings.min_step:g} "
+                                  f"after {trials} trials", constraints, direction=direction.vector,
+                                  trials=trials)
+        new, windings, matched = outcome
+        return self._accepted(state, k, trial, new, windings, matched, h, direction, trials)
+
+    # -- pieces of a step --------------------------------------------------
+
+    def _near(self, constraints: list[Constraint]) -> list[Constraint]:
+        """Met margins within the guard band of their desired value."""
+        band = self.settings.guard_band
+        return [c for c in constraints if not c.active and band > 0
+                and abs(c.value - c.desired) < band * max(abs(c.desired), 1e-12)]
+
+    def _detect(self, x: NDArray) -> tuple[list[Constraint], list[float]]:
+        s = self.settings
+        return detect(self.problem, x, s.detection == "refined", s.gain_as_stability, s.phase_as_stability)
+
+    def _trial(self, trial: NDArray, old: list[Constraint], active: list[Constraint],
+               windings: list[float]) -> tuple[list[Constraint], list[float], list] | None:
+        """The constraints at an accepted trial point, or None when rejected."""
+        try:
+            new, new_windings = self._detect(trial)
+        except EngineError:
+            return None  # e.g. a denominator that vanishes on the grid: not a usable compensator
+        if self.settings.stability_guard and any(abs(a - b) >= 0.5 for a, b in zip(windings, new_windings)):
+            return None
+        matched = match_constraints(old, new, active)
+        if not improved(matched, self.settings.mode, self.settings.tolerance):
+            return None
+        if self.settings.keep_met and any(n.active for o, n in match_constraints(old, new, old) if not o.active):
+            return None
+        return new, new_windings, matched
+
+    def _accepted(self, state: State, k: int, x: NDArray, constraints: list[Constraint], windings: list[float],
+                  matched: list, h: float, direction: Direction, trials: int) -> tuple[State, StepRecord]:
+        s = self.settings
+        best = dict(state.memory["best"])
+        smallest = smallest_stability_margin(constraints)
+        if smallest is not None and (best["smallest"] is None or smallest > best["smallest"]):
+            best = {"iteration": k, "x": x.tolist(), "smallest": smallest}
+        status, reason = Status.RUNNING, ""
+        if not any(c.active for c in constraints):
+            status, reason = Status.CONVERGED, "all system requirements have been met"
+        elif k >= s.max_iterations:
+            status, reason = Status.ITERATION_LIMIT, f"maximum iterations ({s.max_iterations})"
+        memory = dict(state.memory, constraints=[c.to_json() for c in constraints], windings=windings,
+                      step=min(h * s.growth, s.max_step), best=best)
+        new_state = State(k, tuple(x.tolist()), status, memory)
+        names = self._slot_names()
+        extra = self._extra(x, constraints, best, state.memory) | {
+            "matched": [{"kind": o.kind, "frequency": o.frequency, "before": o.value, "after": n.value,
+                         "active_after": n.active} for o, n in matched],
+            "held": [names[i] for i in np.flatnonzero(direction.held)],
+            "partials": self._split(dict(zip(names, direction.vector.tolist())))}
+        record = StepRecord(k, status, self.problem.with_vector(x).named_values(), _rows(self.problem, constraints),
+                            step_size=h, direction=tuple(direction.vector.tolist()),
+                            counters={"evaluations": trials, "trials": trials},
+                            reason=reason, extra=extra)
+        return new_state, record
+
+    def _stop(self, state: State, status: Status, reason: str, constraints: list[Constraint], *,
+              termination: str = "", direction: NDArray | None = None, trials: int = 0) -> tuple[State, StepRecord]:
+        """End without moving: the record shows the current coefficients."""
+        x = np.array(state.x)
+        k = state.iteration + 1
+        extra = self._extra(x, constraints, state.memory["best"], state.memory) | {"termination": termination}
+        if direction is not None:
+            extra["partials"] = self._split(dict(zip(self._slot_names(), direction.tolist())))
+        record = StepRecord(k, status, self.problem.with_vector(x).named_values(), _rows(self.problem, constraints),
+                            step_size=state.memory["step"], direction=() if direction is None else
+                            tuple(direction.tolist()), counters={"evaluations": trials, "trials": trials},
+                            reason=reason, extra=extra)
+        return State(k, state.x, status, dict(state.memory)), record
+
+    def _extra(self, x: NDArray, constraints: list[Constraint], best: dict, memory) -> dict:
+        best_problem = self.problem.with_vector(best["x"])
+        return {"unmet": sum(c.active for c in constraints), "unmet_start": memory["unmet_start"],
+                "unmet_before": sum(c.active for c in _from(memory)),
+                "smallest_stability_margin": smallest_stability_margin(constraints),
+                "best": {"iteration": best["iteration"], "smallest_stability_margin": best["smallest"],
+                         "parameters": best_problem.named_values()},
+                "compensators": [c.to_json() for c in self._compensators(x)]}
+
+    def _compensators(self, x: NDArray):
+        current = self.problem.with_vector(x)
+        return compensators(current.conditions[0].network, current.values(0))
+
+    def _split(self, values: dict[str, float]) -> dict[str, dict[str, float]]:
+        return split_by_role(self.problem.conditions[0].network, values)
+
+    def _slot_names(self) -> list[str]:
+        p = self.problem
+        return [p.parameters[i].name if c is None else f"{p.parameters[i].name}[{p.conditions[c].name}]"
+                for i, c in p.free_slots()]
+
+
+def _from(memory) -> list[Constraint]:
+    return [Constraint.from_json(d) for d in memory["constraints"]]
+
+
+def smallest_stability_margin(constraints: list[Constraint]) -> float | None:
+    """The smallest relative-stability margin (G, P or S distance from -1)."""
+    values = [c.value for c in constraints if c.kind != "A"]
+    return min(values) if values else None
+
+
+def match_constraints(old: list[Constraint], new: list[Constraint], active: list[Constraint]) -> list:
+    """(old, new) pairs for the active old constraints: same family, mutually
+    nearest in log frequency."""
+    def position(c: Constraint) -> float:
+        return math.log(c.frequency) if c.frequency > 0 else -1e3
+
+    def nearest(c: Constraint, pool: list[Constraint]) -> Constraint | None:
+        same = [p for p in pool if p.family == c.family]
+        return min(same, key=lambda p: abs(position(p) - position(c))) if same else None
+
+    pairs = []
+    for o in active:
+        n = nearest(o, new)
+        if n is not None and nearest(n, old) is o:
+            pairs.append((o, n))
+    return pairs
+
+
+def improved(pairs: list, mode: str, tolerance: float) -> bool:
+    """TIFR: no matched active margin that is still unmet got worse, and the
+    sum improved; SIFR: the sum improved.  Nothing matched: accepted (the
+    listing's rule when every margin moved)."""
+    if not pairs:
+        return True
+    deltas = [n.goodness - o.goodness for o, n in pairs]
+    if mode == "tifr" and any(d < -tolerance and n.active for d, (_, n) in zip(deltas, pairs)):
+        return False
+    return sum(deltas) > 0
+
+
+def _distinct(rows: Rows) -> Rows:
+    """Drop repeated gradient rows (a copied margin and its original, both active)."""
+    key = [tuple(np.round(r, 12)) + (w,) for r, w in zip(rows.gradients.tolist(), rows.weights.tolist())]
+    keep = [i for i, k in enumerate(key) if k not in key[:i]]
+    return Rows(rows.gradients[keep], rows.weights[keep], tuple(rows.owners[i] for i in keep), rows.distances[keep])
+
+
+def _label(c: Constraint, number: int) -> str:
+    return f"margin {number} ({c.kind} at {c.frequency / (2 * math.pi):.5g} Hz)"
+
+
+def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, ...]:
+    return tuple(MeasureRow(str(n), c.measure, problem.conditions[c.condition].name, c.shown, c.shown_desired,
+                            not c.active, c.frequency) for n, c in enumerate(constraints, start=1))

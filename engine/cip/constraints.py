@@ -1,0 +1,176 @@
+"""CIP's constraints: the margins of every condition's loop, each with its
+desired value, written as report 000 does (chapter VI, listing MAIN).
+
+Order and numbering follow the listing's tableau: relative stability first
+(gain margins, phase margins, gain/phase margins copied as stability margins
+when asked (INCGMS/INCPMS), then the stability margins), attenuation margins
+last.  A stability minimum found at the frequency of a copied gain or phase
+margin is dropped, as the listing keeps only the first of equal points.
+
+Reading of the listing where it is ambiguous: a copied margin takes the
+*stability* target's desired value and push point (Table 1 of the report
+shows the copy of the 0.88436 gain margin with desired 0.505, whereas the
+listing's loop 220 would keep the gain-margin radius).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import EngineError
+from ..loops import LoopModel, loop_model, open_loop
+from ..margins import Margin, margins
+from ..problem import Point, Problem, Target
+
+KIND = {"gain_margin": "G", "gain_margin_db": "G", "phase_margin": "P", "phase_margin_deg": "P",
+        "stability_margin": "S", "attenuation_margin": "A"}
+DEFAULT_POINTS = {"G": (Point(-1.0, "push"),), "P": (Point(-1.0, "push"),), "S": (Point(-1.0, "push"),),
+                  "A": (Point(0.0, "pull"),)}
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One margin with its requirement.
+
+    ``value``/``desired`` are distances (report 000's units: from -1 for G, P
+    and S, from the origin for A); ``shown``/``shown_desired`` are in the
+    target's own units (dB and degrees for the classical forms).
+    ``family`` identifies the target (and copy) it belongs to, for matching
+    margins from one iteration to the next.
+    """
+
+    family: str
+    kind: str
+    measure: str
+    condition: int
+    frequency: float
+    value: float
+    desired: float
+    shown: float
+    shown_desired: float
+    weight: float
+    points: tuple[Point, ...]
+    gh: complex
+
+    @property
+    def at_least(self) -> bool:
+        return self.kind != "A"
+
+    @property
+    def active(self) -> bool:
+        """Unsatisfied (the report's active constraint)."""
+        return self.value < self.desired if self.at_least else self.value > self.desired
+
+    @property
+    def goodness(self) -> float:
+        """The value in >= form: larger is better."""
+        return self.value if self.at_least else -self.value
+
+    def to_json(self) -> dict:
+        data = {k: getattr(self, k) for k in ("family", "kind", "measure", "condition", "frequency", "value",
+                                               "desired", "shown", "shown_desired", "weight")}
+        data["points"] = [[p.value.real, p.value.imag, p.mode] for p in self.points]
+        data["gh"] = [self.gh.real, self.gh.imag]
+        return data
+
+    @staticmethod
+    def from_json(data: dict) -> Constraint:
+        points = tuple(Point(complex(re, im), mode) for re, im, mode in data["points"])
+        rest = {k: v for k, v in data.items() if k not in ("points", "gh")}
+        return Constraint(**rest, points=points, gh=complex(*data["gh"]))
+
+
+def check_targets(problem: Problem) -> None:
+    """CIP works on the four margin kinds (and their classical forms) only."""
+    for target in problem.targets:
+        if target.measure not in KIND:
+            raise EngineError(f"cip: target {target.measure!r} is not a margin; cip improves gain, phase, "
+                              "stability and attenuation margins")
+    if not problem.targets:
+        raise EngineError("cip: the problem has no targets to improve")
+
+
+def detect(problem: Problem, x: NDArray, refined: bool, gain_as_stability: bool = False,
+           phase_as_stability: bool = False) -> tuple[list[Constraint], list[float]]:
+    """Every constraint at the free vector ``x``, in tableau order, and the
+    winding of 1 + GH along the grid per condition (turns; a stability guard)."""
+    current = problem.with_vector(x)
+    found: list[Constraint] = []
+    windings = []
+    for c, condition in enumerate(problem.conditions):
+        targets = [(i, t) for i, t in enumerate(problem.targets) if t.condition in (None, condition.name)]
+        if not targets:
+            windings.append(0.0)
+            continue
+        loop = _loop(current, c, refined)
+        above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
+        found_margins = margins(loop, attenuation_above=above)
+        found += _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability)
+        windings.append(winding(loop.gh))
+    return sorted(found, key=_tableau_order), windings
+
+
+def _loop(problem: Problem, c: int, refined: bool) -> LoopModel:
+    condition = problem.conditions[c]
+    params = problem.values(c)
+    if refined and condition.network.exact:
+        return loop_model(condition.network, condition.break_at, problem.grid.omega, params)
+    gh = open_loop(condition.network, condition.break_at, problem.grid.omega, params, sensitivities=False).value
+    return LoopModel.from_table(problem.grid.omega, gh)
+
+
+def winding(gh: NDArray) -> float:
+    """Net turns of 1 + GH about the origin along the grid (sampled)."""
+    phase = np.unwrap(np.angle(1.0 + gh))
+    return float((phase[-1] - phase[0]) / (2 * math.pi))
+
+
+SECTION_ORDER = {"G": 0, "P": 1, "copy": 2, "S": 3, "A": 4}
+
+
+def _tableau_order(c: Constraint) -> tuple:
+    section = "copy" if "<" in c.family else c.kind
+    return (c.condition, SECTION_ORDER[section], c.family.split("@")[0], c.frequency)
+
+
+def _constraints(found: tuple[Margin, ...], targets: list[tuple[int, Target]], c: int,
+                 gain_as_stability: bool, phase_as_stability: bool) -> list[Constraint]:
+    out: list[Constraint] = []
+    stability_targets = [(i, t) for i, t in targets if KIND[t.measure] == "S"]
+    for i, target in targets:
+        kind = KIND[target.measure]
+        for m in found:
+            if m.kind == kind and target.detect_low <= m.frequency <= target.detect_high:
+                made = _constraint(m, target, f"{target.measure}#{i}@{c}", c)
+                if made is not None:
+                    out.append(made)
+    copies = [k for k, wanted in (("G", gain_as_stability), ("P", phase_as_stability)) if wanted]
+    copied = [made for made in out if made.kind in copies]
+    for made in copied:
+        for i, target in stability_targets:
+            margin = Margin("S", made.frequency, made.value, made.gh)
+            copy = _constraint(margin, target, f"stability_margin#{i}@{c}<{made.kind}", c)
+            if copy is not None:
+                out.append(copy)
+    taken = {(made.frequency, made.family.split("<")[0]) for made in out if "<" in made.family}
+    return [made for made in out if "<" in made.family or made.kind != "S"
+            or (made.frequency, made.family) not in taken]
+
+
+def _constraint(m: Margin, target: Target, family: str, c: int) -> Constraint | None:
+    desired = target.desired(m.frequency)
+    if desired is None:
+        return None
+    value, shown = m.value, m.value
+    shown_desired, goal = desired, desired
+    if target.measure == "phase_margin_deg":
+        shown, goal = math.degrees(2 * math.asin(min(m.value, 2.0) / 2)), 2 * math.sin(math.radians(desired) / 2)
+    elif target.measure == "gain_margin_db":
+        shown, goal = m.gain_db, 1.0 - 10.0 ** (-desired / 20.0)
+    points = target.points or DEFAULT_POINTS[KIND[target.measure]]
+    return Constraint(family, KIND[target.measure], target.measure, c, m.frequency, value, goal, shown,
+                      shown_desired, target.weight, points, m.gh)

@@ -1,0 +1,139 @@
+"""The constraint-improvement direction of report 000 (chapter IV, listing
+PARCLT and DIRVEC).
+
+Each active margin is moved relative to its push or pull points: the
+constraint is the squared distance d(w) = |GH(jw) - q|^2 at the margin's
+frequency, to be increased (push) or decreased (pull).  Its gradient with
+respect to the free coefficients comes from the engine's analytic
+sensitivities, d d / d p = 2 Re(conj(GH - q) dGH/dp); `partials.py` has the
+report's closed form (5-9)..(5-19), which the tests compare.  Rows are scaled
+to unit length as CIP does.  The direction is D = G'(G G')^-1 c with G the
+matrix of unit gradient rows and c the weights (all ones in the report).
+
+Coefficients at a bound that the direction would push through are held and
+their columns removed, then D is recomputed (the listing's loop at 423-431,
+there for coefficients at zero).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..loops import open_loop
+from ..problem import Problem
+from .constraints import Constraint
+
+DEPENDENT = 1e-7   # smallest/largest singular value of G below this: dependent gradients
+ZERO = 1e-12       # relative size of a gradient treated as zero
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Raw gradient rows (one per active margin and point), their weights,
+    the constraint each row belongs to, and the squared distances."""
+
+    gradients: NDArray[np.float64]
+    weights: NDArray[np.float64]
+    owners: tuple[int, ...]
+    distances: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Direction:
+    """A unit direction over the free vector, or why there is none."""
+
+    vector: NDArray[np.float64] | None
+    held: NDArray[np.bool_]
+    termination: str = ""
+    reason: str = ""
+
+
+def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Rows:
+    """Gradients of d(w) for every active constraint and each of its points."""
+    current = problem.with_vector(x)
+    slot_of = _slot_index(problem)
+    m = len(problem.free_slots())
+    rows, weights, owners, distances = [], [], [], []
+    for c, condition in enumerate(problem.conditions):
+        mine = [(k, con) for k, con in enumerate(active) if con.condition == c]
+        if not mine:
+            continue
+        freqs = np.unique([con.frequency for _, con in mine])
+        response = open_loop(condition.network, condition.break_at, freqs, current.values(c))
+        columns = [slot_of.get((name, c)) for name in response.parameters]
+        for k, con in mine:
+            f = int(np.searchsorted(freqs, con.frequency))
+            gh = response.value[f]
+            dgh = response.sensitivity[f] if response.sensitivity is not None else np.zeros(0)
+            for point in con.points:
+                sign = 1.0 if point.mode == "push" else -1.0
+                partial = 2.0 * np.real(np.conj(gh - point.value) * dgh) * sign
+                row = np.zeros(m)
+                for j, slot in enumerate(columns):
+                    if slot is not None:
+                        row[slot] += partial[j]
+                rows.append(row)
+                weights.append(con.weight)
+                owners.append(k)
+                distances.append(abs(gh - point.value) ** 2)
+    return Rows(np.array(rows).reshape(len(rows), m), np.array(weights), tuple(owners), np.array(distances))
+
+
+def _slot_index(problem: Problem) -> dict[tuple[str, int], int]:
+    """(parameter name, condition) -> position in the free vector."""
+    index = {}
+    for k, (i, c) in enumerate(problem.free_slots()):
+        name = problem.parameters[i].name
+        for condition in (range(len(problem.conditions)) if c is None else (c,)):
+            index[(name, condition)] = k
+    return index
+
+
+def improvement_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray,
+                          hold_tolerance: float, labels: list[str]) -> Direction:
+    """D = G'(G G')^-1 c over unit gradient rows, with coefficients held at bounds."""
+    norms = np.linalg.norm(rows.gradients, axis=1)
+    scale = np.maximum(np.abs(x), 1.0)
+    zero = np.linalg.norm(rows.gradients * scale, axis=1) <= ZERO * np.maximum(rows.distances, 1e-300)
+    held = np.zeros(x.size, dtype=bool)
+    if zero.any():
+        return Direction(None, held, "zero_gradient", _zero_reason(rows, zero, labels))
+    unit = rows.gradients / norms[:, None]
+    while True:
+        free = ~held
+        G = unit[:, free]
+        if np.any(np.linalg.norm(G, axis=1) <= ZERO):
+            return Direction(None, held, "zero_gradient",
+                             "a gradient is zero once the coefficients at their bounds are held")
+        if G.shape[0] > G.shape[1]:
+            return Direction(None, held, "theorem2",
+                             f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
+                             "free coefficients: improvement cannot be assured (report 000, Theorem 2)")
+        singular = np.linalg.svd(G, compute_uv=False)
+        if singular[-1] <= DEPENDENT * singular[0]:
+            return Direction(None, held, "dependent",
+                             "the gradients of the active constraints are linearly dependent "
+                             f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})")
+        a = np.linalg.solve(G @ G.T, rows.weights)
+        d = np.zeros(x.size)
+        d[free] = G.T @ a
+        blocked = free & ((_at(x, lower, hold_tolerance) & (d < 0)) | (_at(x, upper, hold_tolerance) & (d > 0)))
+        if not blocked.any():
+            return Direction(d / np.linalg.norm(d), held)
+        held |= blocked
+
+
+def _at(x: NDArray, bound: NDArray, tolerance: float) -> NDArray[np.bool_]:
+    """x is within ``tolerance`` (relative above 1) of a finite bound."""
+    finite = np.isfinite(bound)
+    gap = np.abs(x - np.where(finite, bound, 0.0))
+    return finite & (gap <= tolerance * np.maximum(1.0, np.abs(np.where(finite, bound, 0.0))))
+
+
+def _zero_reason(rows: Rows, zero: NDArray, labels: list[str]) -> str:
+    owner = rows.owners[int(np.flatnonzero(zero)[0])]
+    return (f"the gradient of {labels[owner]} is zero: no free coefficient moves it "
+            "(a relative extremum, report 000 chapter IV)")
