@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -37,14 +38,21 @@ class ExpressionTransfer:
     def __init__(self, expression: Expression | str, variable: str = "s"):
         self.expression = expression if isinstance(expression, Expression) else Expression(expression, variable)
         self.parameters = self.expression.parameters
+        self._constant: complex | None = None
         if not self.parameters:
-            self.rational({})  # a zero denominator is an error now, not at the first evaluation
+            r = self.rational({})  # a zero denominator is an error now, not at the first evaluation
+            if degree(r.num) <= 0 and degree(r.den) == 0:
+                self._constant = complex(r.num[-1] / r.den[-1])  # a gain or a junction sign
 
     @property
     def text(self) -> str:
         return self.expression.text
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
+                 with_grad: bool = True) -> Dual:
+        if self._constant is not None:
+            value = np.full(np.shape(x), self._constant)
+            return Dual(value, {}, np.zeros_like(value) if with_dvar else None)
         return self.expression.evaluate(x, params, with_dvar)
 
     def compile(self, params: Mapping[str, float]) -> Compiled:
@@ -81,11 +89,43 @@ class PolynomialTransfer(ExpressionTransfer):
 
         super().__init__(f"{poly(self.numerator, 'numerator')}/{poly(self.denominator, 'denominator')}", variable)
 
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
+                 with_grad: bool = True) -> Dual:
+        """N(x)/D(x) by Horner's rule, with d/dcoefficient = x^i/D (numerator)
+        and -N x^i/D^2 (denominator): no expression tree on this hot path."""
+        x = np.asarray(x, dtype=complex)
+        num, den = self.coefficients(params)
+        n, d = _horner(num, x), _horner(den, x)
+        value = n / d
+        grad: dict[str, NDArray] = {}
+        power = np.ones_like(x)
+        for i in range(max(len(num), len(den)) if with_grad else 0):
+            for coefficients, factor in ((self.numerator, 1.0 / d), (self.denominator, -value / d)):
+                if i < len(coefficients) and isinstance(coefficients[i], str):
+                    name = coefficients[i]
+                    grad[name] = grad[name] + power * factor if name in grad else power * factor
+            power = power * x
+        dvar = None
+        if with_dvar:
+            dn = _horner([i * c for i, c in enumerate(num)][1:] or [0.0], x)
+            dd = _horner([i * c for i, c in enumerate(den)][1:] or [0.0], x)
+            dvar = (dn - value * dd) / d
+        return Dual(value, grad, dvar)
+
     def coefficients(self, params: Mapping[str, float]) -> tuple[list[float], list[float]]:
         """Numerator and denominator coefficients (ascending) for parameter values."""
-        def value(c: Coefficient) -> float:
-            return float(params[c]) if isinstance(c, str) else float(c)
-        return [value(c) for c in self.numerator], [value(c) for c in self.denominator]
+        return ([params[c] if type(c) is str else c for c in self.numerator],
+                [params[c] if type(c) is str else c for c in self.denominator])
+
+
+def _horner(ascending: Sequence[float], x: NDArray) -> NDArray:
+    """sum c_i x^i by Horner's rule (fewer array operations than numpy's polyval)."""
+    if len(ascending) == 1:
+        return np.full_like(x, ascending[0])
+    value = ascending[-1] * x + ascending[-2]
+    for c in reversed(ascending[:-2]):
+        value = value * x + c
+    return value
 
 
 def polynomial_transfer(numerator: Sequence[Coefficient], denominator: Sequence[Coefficient],
@@ -163,7 +203,8 @@ class DelayTransfer:
             return value, -tau * value
         return evaluate
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
+                 with_grad: bool = True) -> Dual:
         tau = float(params[self.tau]) if isinstance(self.tau, str) else float(self.tau)
         value = np.exp(-np.asarray(x, dtype=complex) * tau)
         grad = {self.tau: -x * value} if isinstance(self.tau, str) else {}
@@ -226,10 +267,14 @@ class FrequencyTable:
             w = omega[outside][0]
             raise ExtrapolationError(f"{self.source}: frequency {w:.6g} rad/s is outside the data "
                                      f"[{lo:.6g}, {hi:.6g}] rad/s; extrapolation is not allowed")
-        logw = np.log(self.omega)
-        logmag = np.interp(np.log(np.clip(omega, lo, hi)), logw, np.log(np.abs(self.response)))
-        phase = np.interp(np.log(np.clip(omega, lo, hi)), logw, np.unwrap(np.angle(self.response)))
-        return np.exp(logmag + 1j * phase)
+        logw, logmag, phase = self._log_data
+        at = np.log(np.clip(omega, lo, hi))
+        return np.exp(np.interp(at, logw, logmag) + 1j * np.interp(at, logw, phase))
+
+    @cached_property
+    def _log_data(self) -> tuple[NDArray, NDArray, NDArray]:
+        """log frequency, log magnitude and unwrapped phase of the data, computed once."""
+        return np.log(self.omega), np.log(np.abs(self.response)), np.unwrap(np.angle(self.response))
 
 
 class TabulatedTransfer:
@@ -241,13 +286,24 @@ class TabulatedTransfer:
 
     def __init__(self, table: FrequencyTable):
         self.table = table
+        self._recent: dict[bytes, NDArray] = {}  # the same few grids are asked for again and again
+
+    def response(self, omega: NDArray) -> NDArray[np.complex128]:
+        """The interpolated response, remembered for the last few grids asked for."""
+        key = np.asarray(omega, dtype=float).tobytes()
+        if key not in self._recent:
+            if len(self._recent) >= 4:
+                del self._recent[next(iter(self._recent))]
+            self._recent[key] = self.table.interpolate(omega)
+        return self._recent[key]
 
     @property
     def text(self) -> str:
         return f"table({self.table.source})"
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False) -> Dual:
-        return Dual(self.table.interpolate(np.asarray(x).imag), {}, None)
+    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
+                 with_grad: bool = True) -> Dual:
+        return Dual(self.response(np.asarray(x).imag), {}, None)
 
 
 Transfer = ExpressionTransfer | DelayTransfer | TabulatedTransfer

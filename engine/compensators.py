@@ -76,16 +76,22 @@ def _sub(label: str, transfer: ExpressionTransfer, params: Mapping[str, float]) 
     return SubCompensator(label, tuple(num), tuple(den), (None,) * len(num), (None,) * len(den))
 
 
-def split_by_role(network: Network, values: Mapping[str, float]) -> dict[str, dict[str, float]]:
-    """Parameter values (e.g. a direction) split into numerator coefficients,
-    denominator coefficients and other parameters, as the listing prints
-    "partials with respect to X" and "with respect to Y"."""
+def coefficient_roles(network: Network) -> dict[str, str]:
+    """Parameter name -> "numerator" or "denominator" for the coefficients of
+    polynomial blocks (other parameters are absent)."""
     role: dict[str, str] = {}
     for entry in network.entries:
         if isinstance(entry.transfer, PolynomialTransfer):
             role.update({c: "numerator" for c in entry.transfer.numerator if isinstance(c, str)})
             role.update({c: "denominator" for c in entry.transfer.denominator if isinstance(c, str)})
+    return role
+
+
+def split_by_role(roles: Mapping[str, str], values: Mapping[str, float]) -> dict[str, dict[str, float]]:
+    """Parameter values (e.g. a direction) split into numerator coefficients,
+    denominator coefficients and other parameters, as the listing prints
+    "partials with respect to X" and "with respect to Y"."""
     split: dict[str, dict[str, float]] = {"numerator": {}, "denominator": {}, "other": {}}
     for name, value in values.items():
-        split[role.get(name, "other")][name] = value
+        split[roles.get(name.split("[")[0], "other")][name] = value
     return split

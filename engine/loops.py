@@ -32,10 +32,11 @@ class Response:
 
 
 def open_loop(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],
-              sensitivities: bool = True) -> Response:
-    """GH(j omega) with the loop broken at ``break_at`` (1 + GH = 0 closes it)."""
+              sensitivities: bool = True, check: bool = True) -> Response:
+    """GH(j omega) with the loop broken at ``break_at`` (1 + GH = 0 closes it);
+    ``check=False`` skips validating a grid the caller has validated already."""
     sol = solve(network, omega, params, break_at, break_at=break_at, output=break_at,
-                sensitivities=sensitivities)
+                sensitivities=sensitivities, check=check)
     k = network.signal(break_at)
     dgh = None if sol.dx is None else -sol.dx[:, 0, :]
     return Response(sol.omega, -sol.x[:, k], sol.parameters, dgh)

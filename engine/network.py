@@ -265,6 +265,8 @@ def _check_params(network: Network, params: Mapping[str, float]) -> None:
 
 
 def _check_finite(entry: Entry, value: NDArray, x_var: NDArray) -> None:
+    if np.isfinite(value).all():
+        return
     bad = ~np.isfinite(value)
     if np.any(bad):
         raise InterconnectionError(f"{entry.label} ({entry.transfer.text}) is not finite at "
@@ -276,7 +278,7 @@ def _evaluate_entries(network: Network, x_var: NDArray, params: Mapping[str, flo
     duals = []
     for entry in network.entries:
         try:
-            dual = entry.transfer.evaluate(x_var, params, d_omega)
+            dual = entry.transfer.evaluate(x_var, params, d_omega, with_grad=sensitivities)
         except EngineError as exc:
             raise type(exc)(f"{entry.label}: {exc}") from None
         _check_finite(entry, dual.value, x_var)

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .errors import EngineError
-from .network import Network
+from .network import Network, check_grid
 
 Sign = Literal["any", "positive", "negative"]
 MEASURE_NAMES = ("gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
@@ -124,6 +125,7 @@ class Problem:
     def __post_init__(self) -> None:
         if not self.conditions:
             raise EngineError("a problem needs at least one condition")
+        check_grid(self.grid.omega, "problem grid")
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):
             raise EngineError("parameter names must be unique")
@@ -145,11 +147,15 @@ class Problem:
 
     def free_slots(self) -> list[tuple[int, int | None]]:
         """(parameter index, condition or None) for every entry of the free vector."""
+        return list(self._free_slots)
+
+    @cached_property
+    def _free_slots(self) -> tuple[tuple[int, int | None], ...]:
         slots: list[tuple[int, int | None]] = []
         for i, p in enumerate(self.parameters):
             if p.free:
                 slots += [(i, c) for c in range(len(self.conditions))] if p.per_condition else [(i, None)]
-        return slots
+        return tuple(slots)
 
     def vector(self) -> NDArray[np.float64]:
         return np.array([self.parameters[i].value[c] if c is not None else self.parameters[i].value
@@ -171,6 +177,26 @@ class Problem:
                 per[c] = float(v)
                 values[i] = tuple(per)
         return replace(self, parameters=tuple(replace(p, value=values[i]) for i, p in enumerate(self.parameters)))
+
+    def values_at(self, x: Sequence[float], condition: int) -> dict[str, float]:
+        """Parameter values one condition sees with the free values ``x``
+        (what ``with_vector(x).values(condition)`` gives, without copying)."""
+        values = self.values(condition)
+        for (i, c), v in zip(self.free_slots(), x, strict=True):
+            if c is None or c == condition:
+                values[self.parameters[i].name] = float(v)
+        return values
+
+    def named_values_at(self, x: Sequence[float]) -> dict[str, float | list[float]]:
+        """`named_values` with the free values ``x`` (no copy of the problem)."""
+        named = self.named_values()
+        for (i, c), v in zip(self.free_slots(), x, strict=True):
+            name = self.parameters[i].name
+            if c is None:
+                named[name] = float(v)
+            else:
+                named[name][c] = float(v)
+        return named
 
     def named_values(self) -> dict[str, float | list[float]]:
         """name -> value, or name -> list per condition (JSON-ready)."""

@@ -13,13 +13,15 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.algorithm import MeasureRow, StepRecord
+from engine.algorithm import MeasureRow, StepRecord, lookup, make_settings
 from engine.analysis import LoopAnalysis, analyze, unity_feedback
 from engine.errors import EngineError
 from engine.measures import tableau
 from sessions.errors import SessionError
 from sessions.runner import replay, run_session
 from sessions.store import Session, autosave_candidate, load_session, save_session
+
+from .cip_report import cip_report_text
 
 
 class CliError(Exception):
@@ -113,6 +115,8 @@ def _rows_now(session: Session, iteration: int | None = None) -> tuple[list[Meas
     if not 0 <= iteration <= len(records):
         raise CliError(f"--iteration: {iteration} is outside 0..{len(records)}")
     if iteration == 0:
+        if session.model.algorithm.name == "cip":
+            return list(_cip_initial(session).measures), None
         try:
             return tableau(session.problem), None
         except EngineError as exc:
@@ -195,9 +199,21 @@ def cmd_report(args: argparse.Namespace) -> int:
         writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied"])
         for r in rows:
             writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied])
+    elif session.model.algorithm.name == "cip":
+        print(cip_report_text(record if record is not None else _cip_initial(session)))
     else:
         print(tableau_text(rows))
     return 0
+
+
+def _cip_initial(session: Session) -> StepRecord:
+    """Iteration 0 of a cip session: the initial tableau (the report's Table 1)."""
+    settings = make_settings("cip", session.model.algorithm.settings)
+    algorithm = lookup("cip").factory()
+    try:
+        return algorithm.initial_record(algorithm.init(session.problem, settings))
+    except EngineError as exc:
+        raise CliError(f"initial tableau: {exc}") from None
 
 
 def cmd_examples(args: argparse.Namespace) -> int:

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..algorithm import MeasureRow, State, Status, StepRecord
-from ..compensators import compensators, split_by_role
+from ..compensators import coefficient_roles, compensators, split_by_role
 from ..errors import EngineError
 from ..problem import Problem
 from .constraints import Constraint, check_targets, detect
@@ -92,6 +92,7 @@ class Cip:
             raise EngineError("cip: no free coefficients to vary")
         self.problem, self.settings = problem, settings
         self.lower, self.upper = problem.bounds()
+        self._roles = coefficient_roles(problem.conditions[0].network)
         x = problem.vector()
         outside = np.flatnonzero((x < self.lower) | (x > self.upper))
         if outside.size:
@@ -99,7 +100,8 @@ class Cip:
         constraints, windings = self._detect(x)
         step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
         smallest = smallest_stability_margin(constraints)
-        memory = {"constraints": [c.to_json() for c in constraints], "windings": windings, "step": step,
+        self._last = None
+        memory = {"constraints": self._remember(constraints), "windings": windings, "step": step,
                   "unmet_start": sum(c.active for c in constraints),
                   "best": {"iteration": 0, "x": x.tolist(), "smallest": smallest}}
         return State(0, tuple(x.tolist()), Status.RUNNING, memory)
@@ -107,13 +109,14 @@ class Cip:
     def step(self, state: State) -> tuple[State, StepRecord]:
         x = np.array(state.x, dtype=float)
         memory = state.memory
-        constraints = [Constraint.from_json(d) for d in memory["constraints"]]
+        constraints = self._parsed(memory["constraints"])
         active = [c for c in constraints if c.active]
         k = state.iteration + 1
         if not active:
             return self._stop(state, Status.CONVERGED, "all system requirements have been met", constraints)
         steering = active + self._near(constraints)
-        labels = [_label(c, constraints.index(c) + 1) for c in steering]
+        number = {id(c): n for n, c in enumerate(constraints, start=1)}
+        labels = [_label(c, number[id(c)]) for c in steering]
         rows = _distinct(gradient_rows(self.problem, x, steering))
         if rows.gradients.shape[0] > x.size and len(steering) > len(active):
             rows = _distinct(gradient_rows(self.problem, x, active))  # guard rows are optional
@@ -135,9 +138,29 @@ class Cip:
                                   f"after {trials} trials", constraints, direction=direction.vector,
                                   trials=trials)
         new, windings, matched = outcome
-        return self._accepted(state, k, trial, new, windings, matched, h, direction, trials)
+        return self._accepted(state, k, trial, new, windings, matched, h, direction, trials, len(active))
+
+    def initial_record(self, state: State) -> StepRecord:
+        """The tableau before any iteration (the report's Table 1), as iteration 0."""
+        x = np.array(state.x)
+        constraints = _from(state.memory)
+        return StepRecord(0, state.status, self.problem.named_values_at(x),
+                          _rows(self.problem, constraints), step_size=state.memory["step"],
+                          extra=self._extra(x, constraints, state.memory["best"], state.memory,
+                                            sum(c.active for c in constraints)))
 
     # -- pieces of a step --------------------------------------------------
+
+    def _parsed(self, stored: list) -> list[Constraint]:
+        """The constraints of a state; those this stepper just wrote are reused, not re-read."""
+        if self._last is not None and self._last[0] is stored:
+            return self._last[1]
+        return [Constraint.from_json(d) for d in stored]
+
+    def _remember(self, constraints: list[Constraint]) -> list:
+        stored = [c.to_json() for c in constraints]
+        self._last = (stored, constraints)
+        return stored
 
     def _near(self, constraints: list[Constraint]) -> list[Constraint]:
         """Met margins within the guard band of their desired value."""
@@ -166,7 +189,8 @@ class Cip:
         return new, new_windings, matched
 
     def _accepted(self, state: State, k: int, x: NDArray, constraints: list[Constraint], windings: list[float],
-                  matched: list, h: float, direction: Direction, trials: int) -> tuple[State, StepRecord]:
+                  matched: list, h: float, direction: Direction, trials: int,
+                  before: int) -> tuple[State, StepRecord]:
         s = self.settings
         best = dict(state.memory["best"])
         smallest = smallest_stability_margin(constraints)
@@ -177,16 +201,16 @@ class Cip:
             status, reason = Status.CONVERGED, "all system requirements have been met"
         elif k >= s.max_iterations:
             status, reason = Status.ITERATION_LIMIT, f"maximum iterations ({s.max_iterations})"
-        memory = dict(state.memory, constraints=[c.to_json() for c in constraints], windings=windings,
+        memory = dict(state.memory, constraints=self._remember(constraints), windings=windings,
                       step=min(h * s.growth, s.max_step), best=best)
         new_state = State(k, tuple(x.tolist()), status, memory)
         names = self._slot_names()
-        extra = self._extra(x, constraints, best, state.memory) | {
+        extra = self._extra(x, constraints, best, state.memory, before) | {
             "matched": [{"kind": o.kind, "frequency": o.frequency, "before": o.value, "after": n.value,
                          "active_after": n.active} for o, n in matched],
             "held": [names[i] for i in np.flatnonzero(direction.held)],
             "partials": self._split(dict(zip(names, direction.vector.tolist())))}
-        record = StepRecord(k, status, self.problem.with_vector(x).named_values(), _rows(self.problem, constraints),
+        record = StepRecord(k, status, self.problem.named_values_at(x), _rows(self.problem, constraints),
                             step_size=h, direction=tuple(direction.vector.tolist()),
                             counters={"evaluations": trials, "trials": trials},
                             reason=reason, extra=extra)
@@ -197,30 +221,29 @@ class Cip:
         """End without moving: the record shows the current coefficients."""
         x = np.array(state.x)
         k = state.iteration + 1
-        extra = self._extra(x, constraints, state.memory["best"], state.memory) | {"termination": termination}
+        before = sum(c.active for c in constraints)
+        extra = self._extra(x, constraints, state.memory["best"], state.memory, before) | {"termination": termination}
         if direction is not None:
             extra["partials"] = self._split(dict(zip(self._slot_names(), direction.tolist())))
-        record = StepRecord(k, status, self.problem.with_vector(x).named_values(), _rows(self.problem, constraints),
+        record = StepRecord(k, status, self.problem.named_values_at(x), _rows(self.problem, constraints),
                             step_size=state.memory["step"], direction=() if direction is None else
                             tuple(direction.tolist()), counters={"evaluations": trials, "trials": trials},
                             reason=reason, extra=extra)
         return State(k, state.x, status, dict(state.memory)), record
 
-    def _extra(self, x: NDArray, constraints: list[Constraint], best: dict, memory) -> dict:
-        best_problem = self.problem.with_vector(best["x"])
+    def _extra(self, x: NDArray, constraints: list[Constraint], best: dict, memory, before: int) -> dict:
         return {"unmet": sum(c.active for c in constraints), "unmet_start": memory["unmet_start"],
-                "unmet_before": sum(c.active for c in _from(memory)),
+                "unmet_before": before,
                 "smallest_stability_margin": smallest_stability_margin(constraints),
                 "best": {"iteration": best["iteration"], "smallest_stability_margin": best["smallest"],
-                         "parameters": best_problem.named_values()},
+                         "parameters": self.problem.named_values_at(best["x"])},
                 "compensators": [c.to_json() for c in self._compensators(x)]}
 
     def _compensators(self, x: NDArray):
-        current = self.problem.with_vector(x)
-        return compensators(current.conditions[0].network, current.values(0))
+        return compensators(self.problem.conditions[0].network, self.problem.values_at(x, 0))
 
     def _split(self, values: dict[str, float]) -> dict[str, dict[str, float]]:
-        return split_by_role(self.problem.conditions[0].network, values)
+        return split_by_role(self._roles, values)
 
     def _slot_names(self) -> list[str]:
         p = self.problem
@@ -238,20 +261,25 @@ def smallest_stability_margin(constraints: list[Constraint]) -> float | None:
     return min(values) if values else None
 
 
-def match_constraints(old: list[Constraint], new: list[Constraint], active: list[Constraint]) -> list:
-    """(old, new) pairs for the active old constraints: same family, mutually
-    nearest in log frequency."""
-    def position(c: Constraint) -> float:
-        return math.log(c.frequency) if c.frequency > 0 else -1e3
+def match_constraints(old: list[Constraint], new: list[Constraint], chosen: list[Constraint]) -> list:
+    """(old, new) pairs for the ``chosen`` old constraints: same family,
+    mutually nearest in log frequency."""
+    def by_family(pool: list[Constraint]) -> dict[str, tuple[list[Constraint], NDArray]]:
+        groups: dict[str, list[Constraint]] = {}
+        for c in pool:
+            groups.setdefault(c.family, []).append(c)
+        return {f: (cs, np.log(np.maximum([c.frequency for c in cs], 1e-300))) for f, cs in groups.items()}
 
-    def nearest(c: Constraint, pool: list[Constraint]) -> Constraint | None:
-        same = [p for p in pool if p.family == c.family]
-        return min(same, key=lambda p: abs(position(p) - position(c))) if same else None
-
+    olds, news = by_family(old), by_family(new)
     pairs = []
-    for o in active:
-        n = nearest(o, new)
-        if n is not None and nearest(n, old) is o:
+    for o in chosen:
+        if o.family not in news:
+            continue
+        candidates, positions = news[o.family]
+        here = math.log(max(o.frequency, 1e-300))
+        n = candidates[int(np.argmin(np.abs(positions - here)))]
+        back, back_positions = olds[o.family]
+        if back[int(np.argmin(np.abs(back_positions - math.log(max(n.frequency, 1e-300)))))] is o:
             pairs.append((o, n))
     return pairs
 
@@ -270,8 +298,15 @@ def improved(pairs: list, mode: str, tolerance: float) -> bool:
 
 def _distinct(rows: Rows) -> Rows:
     """Drop repeated gradient rows (a copied margin and its original, both active)."""
-    key = [tuple(np.round(r, 12)) + (w,) for r, w in zip(rows.gradients.tolist(), rows.weights.tolist())]
-    keep = [i for i, k in enumerate(key) if k not in key[:i]]
+    keys = np.column_stack([np.round(rows.gradients, 12), rows.weights])
+    seen: set[bytes] = set()
+    keep = []
+    for i, key in enumerate(keys):
+        if key.tobytes() not in seen:
+            seen.add(key.tobytes())
+            keep.append(i)
+    if len(keep) == len(keys):
+        return rows
     return Rows(rows.gradients[keep], rows.weights[keep], tuple(rows.owners[i] for i in keep), rows.distances[keep])
 
 

@@ -98,7 +98,6 @@ def detect(problem: Problem, x: NDArray, refined: bool, gain_as_stability: bool 
            phase_as_stability: bool = False) -> tuple[list[Constraint], list[float]]:
     """Every constraint at the free vector ``x``, in tableau order, and the
     winding of 1 + GH along the grid per condition (turns; a stability guard)."""
-    current = problem.with_vector(x)
     found: list[Constraint] = []
     windings = []
     for c, condition in enumerate(problem.conditions):
@@ -106,7 +105,7 @@ def detect(problem: Problem, x: NDArray, refined: bool, gain_as_stability: bool 
         if not targets:
             windings.append(0.0)
             continue
-        loop = _loop(current, c, refined)
+        loop = _loop(problem, c, problem.values_at(x, c), refined)
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
         found_margins = margins(loop, attenuation_above=above)
         found += _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability)
@@ -114,13 +113,13 @@ def detect(problem: Problem, x: NDArray, refined: bool, gain_as_stability: bool 
     return sorted(found, key=_tableau_order), windings
 
 
-def _loop(problem: Problem, c: int, refined: bool) -> LoopModel:
+def _loop(problem: Problem, c: int, params: dict[str, float], refined: bool) -> LoopModel:
     condition = problem.conditions[c]
-    params = problem.values(c)
     if refined and condition.network.exact:
         return loop_model(condition.network, condition.break_at, problem.grid.omega, params)
-    gh = open_loop(condition.network, condition.break_at, problem.grid.omega, params, sensitivities=False).value
-    return LoopModel.from_table(problem.grid.omega, gh)
+    gh = open_loop(condition.network, condition.break_at, problem.grid.omega, params, sensitivities=False,
+                   check=False).value
+    return LoopModel(problem.grid.omega, gh)  # the grid was checked when the problem was made
 
 
 def winding(gh: NDArray) -> float:

@@ -53,7 +53,6 @@ class Direction:
 
 def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Rows:
     """Gradients of d(w) for every active constraint and each of its points."""
-    current = problem.with_vector(x)
     slot_of = _slot_index(problem)
     m = len(problem.free_slots())
     rows, weights, owners, distances = [], [], [], []
@@ -62,8 +61,10 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Row
         if not mine:
             continue
         freqs = np.unique([con.frequency for _, con in mine])
-        response = open_loop(condition.network, condition.break_at, freqs, current.values(c))
+        response = open_loop(condition.network, condition.break_at, freqs, problem.values_at(x, c), check=False)
         columns = [slot_of.get((name, c)) for name in response.parameters]
+        used = np.array([j for j, slot in enumerate(columns) if slot is not None], dtype=int)
+        slots = np.array([columns[j] for j in used], dtype=int)
         for k, con in mine:
             f = int(np.searchsorted(freqs, con.frequency))
             gh = response.value[f]
@@ -72,9 +73,8 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Row
                 sign = 1.0 if point.mode == "push" else -1.0
                 partial = 2.0 * np.real(np.conj(gh - point.value) * dgh) * sign
                 row = np.zeros(m)
-                for j, slot in enumerate(columns):
-                    if slot is not None:
-                        row[slot] += partial[j]
+                if used.size:
+                    np.add.at(row, slots, partial[used])
                 rows.append(row)
                 weights.append(con.weight)
                 owners.append(k)

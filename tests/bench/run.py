@@ -1,6 +1,9 @@
 """Benchmarks (`make bench`): medians, and ratios against python-control run
 in the same process on the same loop.  Writes JSON; prints a summary.
 
+The `cip` problem: two channels tabulated at 999 points, 34 free coefficients;
+one iteration timed as a user steps (consecutive iterations from the start).
+
 The loop: 20 second-order sections in series (a 40th-order open loop, lightly
 damped modes from zeta = 0.005), 30 free parameters (zeta and omega of 15
 sections), unity feedback; 1000 frequencies."""
@@ -50,6 +53,54 @@ def benchmark_loop():
     return net, params, num, den
 
 
+def cip_problem():
+    """2 channels (attitude and rate of the single-channel vehicle), 999 points,
+    4 second-order sub-compensators each: 34 free coefficients."""
+    from engine.blocks import FrequencyTable, TabulatedTransfer, polynomial_transfer
+    from engine.problem import BandValue, Condition, Grid, Parameter, Problem, Target
+    from sessions.examples.launch_vehicles import E1_1, SINGLE_GRID, single_channel
+
+    f = SINGLE_GRID
+    attitude = single_channel(f)
+    responses = {"att": attitude, "rate": 2j * np.pi * f * attitude * 0.2}
+    factors = E1_1 + [([400.0, 2.0, 1.0], [400.0, 8.0, 1.0])]
+    blocks, params, outputs = [], [], []
+    for ch, response in responses.items():
+        blocks.append(Block(f"{ch}.response", "e", f"{ch}.0", TabulatedTransfer(FrequencyTable(f * 2 * np.pi, response)),
+                            ch))
+        for k, (num, den) in enumerate(factors, start=1):
+            names = ([f"{ch}{k}x{i}" for i in range(len(num))], [f"{ch}{k}y{i}" for i in range(len(den))])
+            for side, values in zip(names, (num, den)):
+                params += [Parameter(n, float(v), minimum=0.0, free=i > 0 or (k == 1 and n.endswith("y0")))
+                           for i, (n, v) in enumerate(zip(side, values))]
+            blocks.append(Block(f"{ch}.{k}", f"{ch}.{k - 1}", f"{ch}.{k}", polynomial_transfer(*names, "ascending"), ch))
+        outputs.append(f"{ch}.{len(factors)}")
+    junctions = [Junction("sum", "c", tuple((1.0, o) for o in outputs)), Junction("err", "e", ((1.0, "r"), (-1.0, "c")))]
+    net = block_diagram(blocks, junctions, ["r"])
+    every = (0.0, np.inf)
+    targets = (Target("gain_margin", (BandValue(*every, 1.5),), detect_high=2 * np.pi * 0.1),
+               Target("stability_margin", (BandValue(*every, 0.6),)),
+               Target("attenuation_margin", (BandValue(*every, 0.2),), detect_low=2 * np.pi * 2.1))
+    return Problem((Condition("flight", net, "e"),), tuple(params), targets, Grid(f * 2 * np.pi))
+
+
+def cip_iterations(problem, repeat: int) -> tuple[float, list[int]]:
+    """Median wall time of one `cip` step over runs of consecutive iterations
+    (as a user steps), and the number of trial moves each step made."""
+    from engine.cip import Cip, CipSettings
+    cip, times, trials = Cip(), [], []
+    for _ in range(max(repeat // 6, 3)):
+        state = cip.init(problem, CipSettings(mode="tifr", max_step=0.05))
+        for _ in range(40):
+            start = time.perf_counter()
+            state, record = cip.step(state)
+            times.append(time.perf_counter() - start)
+            trials.append(record.counters.get("trials", 0))
+            if state.status.finished:
+                break
+    return statistics.median(times), trials
+
+
 def median_time(fun, repeat: int) -> float:
     """Median wall time of fun(i) over i = 1..repeat, after one warm-up call."""
     fun(0)
@@ -93,6 +144,8 @@ def main() -> None:
     t_pc = median_time(pc_margins, args.repeat)
     t_pc_freq = median_time(lambda i: system(1j * omega), args.repeat)
     m = all_margins()
+    cip_problem_ = cip_problem()
+    t_cip, cip_steps = cip_iterations(cip_problem_, args.repeat)
     results = {
         "machine": {"python": platform.python_version(), "processor": platform.processor(),
                     "numpy": np.__version__, "control": ct.__version__},
@@ -103,9 +156,14 @@ def main() -> None:
                                                           "S": len(m.stability), "A": len(m.attenuation)}},
             "python_control_stability_margins": {"median_s": t_pc},
             "python_control_tf_response_no_sensitivities": {"median_s": t_pc_freq},
+            "cip_iteration": {"median_s": t_cip, "target_s": 0.002, "frequencies": cip_problem_.grid.omega.size,
+                              "channels": 2, "free_coefficients": len(cip_problem_.free_slots()),
+                              "iterations_timed": len(cip_steps), "mean_trials": statistics.mean(cip_steps),
+                              "report_univac_1106_s": 0.9},
         },
         "ratios": {"python_control_margins_over_ours": t_pc / t_marg,
-                   "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp},
+                   "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp,
+                   "cip_target_over_ours": 0.002 / t_cip},
         "repeat": args.repeat,
     }
     with open(args.out, "w") as fh:
