@@ -124,21 +124,21 @@ class Cip:
         if direction.vector is None:
             return self._stop(state, TERMINATION_STATUS[direction.termination], direction.reason, constraints,
                               termination=direction.termination)
-        h, trials, guarded = memory["step"], 0, 0
+        h, rejected = memory["step"], {}
         while True:
-            trials += 1
             trial = np.clip(x + h * direction.vector, self.lower, self.upper)
             outcome = self._trial(trial, constraints, active, memory["windings"])
-            if outcome is not None:
+            if not isinstance(outcome, str):
                 break
+            rejected[outcome] = rejected.get(outcome, 0) + 1
             h /= 2.0
             if h < self.settings.min_step:
                 return self._stop(state, Status.STEP_BELOW_MINIMUM,
                                   f"step size fell below the minimum {self.settings.min_step:g} "
-                                  f"after {trials} trials", constraints, direction=direction.vector,
-                                  trials=trials)
+                                  f"after {sum(rejected.values())} trials", constraints, direction=direction.vector,
+                                  rejected=rejected)
         new, windings, matched = outcome
-        return self._accepted(state, k, trial, new, windings, matched, h, direction, trials, len(active))
+        return self._accepted(state, k, trial, new, windings, matched, h, direction, rejected, len(active))
 
     def initial_record(self, state: State) -> StepRecord:
         """The tableau before any iteration (the report's Table 1), as iteration 0."""
@@ -173,23 +173,23 @@ class Cip:
         return detect(self.problem, x, s.detection == "refined", s.gain_as_stability, s.phase_as_stability)
 
     def _trial(self, trial: NDArray, old: list[Constraint], active: list[Constraint],
-               windings: list[float]) -> tuple[list[Constraint], list[float], list] | None:
-        """The constraints at an accepted trial point, or None when rejected."""
+               windings: list[float]) -> tuple[list[Constraint], list[float], list] | str:
+        """The constraints at an accepted trial point, or why it was rejected."""
         try:
             new, new_windings = self._detect(trial)
         except EngineError:
-            return None  # e.g. a denominator that vanishes on the grid: not a usable compensator
+            return "unusable"  # e.g. a denominator that vanishes on the grid
         if self.settings.stability_guard and any(abs(a - b) >= 0.5 for a, b in zip(windings, new_windings)):
-            return None
+            return "stability_changed"
         matched = match_constraints(old, new, active)
         if not improved(matched, self.settings.mode, self.settings.tolerance):
-            return None
+            return "not_improved"
         if self.settings.keep_met and any(n.active for o, n in match_constraints(old, new, old) if not o.active):
-            return None
+            return "met_margin_lost"
         return new, new_windings, matched
 
     def _accepted(self, state: State, k: int, x: NDArray, constraints: list[Constraint], windings: list[float],
-                  matched: list, h: float, direction: Direction, trials: int,
+                  matched: list, h: float, direction: Direction, rejected: dict[str, int],
                   before: int) -> tuple[State, StepRecord]:
         s = self.settings
         best = dict(state.memory["best"])
@@ -212,12 +212,12 @@ class Cip:
             "partials": self._split(dict(zip(names, direction.vector.tolist())))}
         record = StepRecord(k, status, self.problem.named_values_at(x), _rows(self.problem, constraints),
                             step_size=h, direction=tuple(direction.vector.tolist()),
-                            counters={"evaluations": trials, "trials": trials},
-                            reason=reason, extra=extra)
+                            counters=_counters(rejected, accepted=True), reason=reason, extra=extra)
         return new_state, record
 
     def _stop(self, state: State, status: Status, reason: str, constraints: list[Constraint], *,
-              termination: str = "", direction: NDArray | None = None, trials: int = 0) -> tuple[State, StepRecord]:
+              termination: str = "", direction: NDArray | None = None,
+              rejected: dict[str, int] | None = None) -> tuple[State, StepRecord]:
         """End without moving: the record shows the current coefficients."""
         x = np.array(state.x)
         k = state.iteration + 1
@@ -227,7 +227,7 @@ class Cip:
             extra["partials"] = self._split(dict(zip(self._slot_names(), direction.tolist())))
         record = StepRecord(k, status, self.problem.named_values_at(x), _rows(self.problem, constraints),
                             step_size=state.memory["step"], direction=() if direction is None else
-                            tuple(direction.tolist()), counters={"evaluations": trials, "trials": trials},
+                            tuple(direction.tolist()), counters=_counters(rejected or {}, accepted=False),
                             reason=reason, extra=extra)
         return State(k, state.x, status, dict(state.memory)), record
 
@@ -253,6 +253,12 @@ class Cip:
 
 def _from(memory) -> list[Constraint]:
     return [Constraint.from_json(d) for d in memory["constraints"]]
+
+
+def _counters(rejected: dict[str, int], accepted: bool) -> dict[str, int]:
+    """Trial moves made (each one margin detection) and why the rejected ones were."""
+    trials = sum(rejected.values()) + accepted
+    return {"trials": trials, "evaluations": trials} | {f"rejected_{k}": v for k, v in rejected.items()}
 
 
 def smallest_stability_margin(constraints: list[Constraint]) -> float | None:

@@ -213,3 +213,11 @@ def test_examples_are_generated_by_their_script(tmp_path):
         assert (tmp_path / name).read_text() == (EXAMPLES / name).read_text()
     for name in ("cip_launch_vehicle.json", "cip_dual_channel.json"):
         assert json.loads((tmp_path / name).read_text()) == json.loads((EXAMPLES / name).read_text())
+
+
+def test_without_the_guard_met_margins_slip_on_the_dual_channel_example():
+    """The report's caveat (chapter VII): TIFR ratchets active margins only, so met ones can slip."""
+    session = load_session(EXAMPLES / "cip_dual_channel.json")
+    settings = dict(session.model.algorithm.settings, guard_band=0.0, keep_met=False)
+    records = [r for _, r in iterate(Cip(), session.problem, CipSettings(**settings), max_iter=300)]
+    assert records[-1].extra["unmet"] > records[0].extra["unmet_start"]

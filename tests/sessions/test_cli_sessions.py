@@ -76,3 +76,21 @@ def test_a_newer_autosave_is_mentioned(matching, capsys):
     run_session(load_session(matching), iterations=1)  # autosaves, does not save
     assert main(["report", str(matching)]) == 0
     assert "matching.json.autosave is newer than matching.json" in capsys.readouterr().err
+
+
+def test_cip_report_in_the_listing_layout(tmp_path, capsys):
+    assert main(["examples", "--copy", str(tmp_path)]) == 0
+    session = str(tmp_path / "cip_launch_vehicle.json")
+    capsys.readouterr()
+    assert main(["report", session]) == 0
+    initial = capsys.readouterr().out
+    assert "ITERATION NO.    0" in initial and "RELATIVE STABILITY INFORMATION" in initial
+    assert "ATTENUATED FREQUENCY INFORMATION" in initial
+    assert "MARGIN RADIUS NO.   1 =    0.90693   FREQUENCY =    0.01852 HZ" in initial
+    assert "UNMET REQUIREMENTS: 4" in initial
+    assert main(["run", session, "--iterations", "2"]) == 0
+    capsys.readouterr()
+    assert main(["report", session]) == 0
+    after = capsys.readouterr().out
+    assert "ITERATION NO.    2" in after and "PARTIALS WITH RESPECT TO X" in after
+    assert "PARTIALS WITH RESPECT TO Y" in after and "multiplied out" in after
