@@ -8,6 +8,7 @@ CSV tables are read here, relative to the session's folder.
 from __future__ import annotations
 
 import csv
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -27,12 +28,23 @@ def build_problem(model: ProblemModel, folder: Path) -> Problem:
     conditions = tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
     parameters = tuple(_parameter(p, f"problem.parameters[{i}]", len(conditions))
                        for i, p in enumerate(model.parameters))
+    parameters = _hold_dc_gains(model, parameters)
     targets = tuple(_target(t) for t in model.targets)
     objective = None if model.objective is None else Objective(model.objective.kind, dict(model.objective.options))
     try:
         return Problem(conditions, parameters, targets, _grid(model.grid), objective)
     except EngineError as exc:
         raise SessionError(f"problem: {exc}") from None
+
+
+def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
+    """Channels with ``hold_dc_gain``: the parameters that are constant terms stay fixed."""
+    held = {coefficient
+            for condition in model.conditions if condition.plant.format == "channels"
+            for channel in condition.plant.channels if channel.hold_dc_gain
+            for sub in channel.compensators for coefficient in (sub.numerator[0], sub.denominator[0])
+            if isinstance(coefficient, str)}
+    return tuple(replace(p, free=False) if p.name in held else p for p in parameters)
 
 
 def _grid(g: GridModel) -> Grid:

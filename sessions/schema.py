@@ -164,6 +164,7 @@ class ChannelModel(Strict):
     response: Transfer
     gain: float = 1.0
     compensators: list[SubCompensatorModel] = []
+    hold_dc_gain: bool = Field(default=False, description="fix every constant term (the listing's KONT = 2)")
 
 
 class ChannelsModel(Strict):

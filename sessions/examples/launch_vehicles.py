@@ -106,7 +106,7 @@ def _csv(path: Path, header: str, columns: list[np.ndarray]) -> None:
 
 
 def _channel(name: str, csv: str, columns: list[str], gain: float, factors: list) -> tuple[dict, list]:
-    """The channel's JSON and its parameters: constant terms held (the listing's KONT = 2)."""
+    """The channel's JSON and its parameters; its d.c. gain is held (the listing's KONT = 2)."""
     subs, params = [], []
     for k, (num, den) in enumerate(factors, start=1):
         entry = {"numerator": [], "denominator": []}
@@ -114,10 +114,10 @@ def _channel(name: str, csv: str, columns: list[str], gain: float, factors: list
             for i, value in enumerate(coefficients):
                 pname = f"{name}_{k}_{letter}{i}"
                 entry[side].append(pname)
-                params.append({"name": pname, "value": value, "min": 0.0, "free": i > 0})
+                params.append({"name": pname, "value": value, "min": 0.0})
         subs.append(entry)
     response = {"kind": "table", "table": {"unit": "hz", "form": "cartesian", "csv": csv, "columns": columns}}
-    return {"name": name, "response": response, "gain": gain, "compensators": subs}, params
+    return {"name": name, "response": response, "gain": gain, "compensators": subs, "hold_dc_gain": True}, params
 
 
 def _session(notes: str, channels: list[dict], params: list, grid: dict, targets: list, settings: dict) -> dict:

@@ -189,7 +189,7 @@ def test_examples_ratchet_and_end_with_fewer_unmet_targets(example_runs, name):
     initial = Cip()
     first = initial.init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
     assert records[-1].extra["best"]["smallest_stability_margin"] >= first.memory["best"]["smallest"]
-    assert records[-1].status.finished
+    assert records[-1].status is (Status.CONVERGED if name == "cip_launch_vehicle" else Status.STEP_BELOW_MINIMUM)
 
 
 def test_launch_vehicle_tableau_starts_like_table_1(example_runs):
