@@ -179,6 +179,43 @@ def factored_transfer(gain: Coefficient = 1.0, s_power: int = 0, zeros: Sequence
     return ExpressionTransfer(f"{'*'.join(num)}/({'*'.join(den)})", variable)
 
 
+@dataclass(frozen=True)
+class ControllerFactor:
+    """A factor of report 001's controller form (eq. 27).
+
+    ``zero``/``pole``: (x/b + 1)^(+1/-1) with b a corner (rad/s);
+    ``complex_zero``/``complex_pole``: (x^2/w^2 + 2 zeta x/w + 1)^(+1/-1).
+    The listing's parameter kinds: 1 zero, 2 gain, 3 pole, 4/5 complex-zero
+    damping/frequency, 6/7 complex-pole damping/frequency.
+    """
+
+    kind: Literal["zero", "pole", "complex_zero", "complex_pole"]
+    b: Coefficient = 1.0
+    damping: Coefficient = 0.5
+    frequency: Coefficient = 1.0
+
+    def text(self, x: str) -> str:
+        if self.kind in ("zero", "pole"):
+            body = f"({x}/{_term(self.b)} + 1)"
+        elif self.kind in ("complex_zero", "complex_pole"):
+            w, z = _term(self.frequency), _term(self.damping)
+            body = f"({x}**2/{w}**2 + 2*{z}*{x}/{w} + 1)"
+        else:
+            raise BlockError(f"unknown controller factor kind {self.kind!r}")
+        return body if self.kind.endswith("zero") else f"1/{body}"
+
+
+def controller_transfer(gain: Coefficient, s_power: int = 0, factors: Sequence[ControllerFactor] = (),
+                        variable: str = "s") -> ExpressionTransfer:
+    """gain * x^s_power * prod(factors): report 001's eq. (27) (K is kept with the actuator)."""
+    terms = [_term(gain)] + [f.text(variable) for f in factors]
+    if s_power > 0:
+        terms.append(f"{variable}**{s_power}")
+    elif s_power < 0:
+        terms.append(f"1/{variable}**{-s_power}")
+    return ExpressionTransfer("*".join(terms), variable)
+
+
 class DelayTransfer:
     """exp(-x tau): a pure delay (frequency domain only)."""
 

@@ -17,6 +17,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from .blocks import FrequencyTable
 from .errors import EngineError
 from .network import Network, check_grid
 
@@ -112,6 +113,7 @@ class Objective:
 
     kind: str
     options: Mapping[str, float | str] = field(default_factory=dict)
+    tables: Mapping[str, FrequencyTable] = field(default_factory=dict)  # e.g. a noise PSD
 
 
 @dataclass(frozen=True)

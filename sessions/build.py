@@ -13,14 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, TabulatedTransfer,
-                           factored_transfer, polynomial_transfer)
+from engine.blocks import (ControllerFactor, DelayTransfer, ExpressionTransfer, Factor, FrequencyTable,
+                           TabulatedTransfer, controller_transfer, factored_transfer, polynomial_transfer)
 from engine.errors import EngineError
 from engine.network import Block, Junction, Network, block_diagram, matrix_format
 from engine.problem import BandValue, Condition, Grid, Objective, Parameter, Point, Problem, Target
 
 from .errors import SessionError
-from .schema import ChannelsModel, ConditionModel, GridModel, ParameterModel, ProblemModel, TableModel, TargetModel
+from .schema import CascadeModel, ChannelsModel, ConditionModel, GridModel, ParameterModel, ProblemModel, TableModel, TargetModel
 
 
 def build_problem(model: ProblemModel, folder: Path) -> Problem:
@@ -30,7 +30,9 @@ def build_problem(model: ProblemModel, folder: Path) -> Problem:
                        for i, p in enumerate(model.parameters))
     parameters = _hold_dc_gains(model, parameters)
     targets = tuple(_target(t) for t in model.targets)
-    objective = None if model.objective is None else Objective(model.objective.kind, dict(model.objective.options))
+    objective = None if model.objective is None else Objective(
+        model.objective.kind, dict(model.objective.options),
+        {name: _table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()})
     try:
         return Problem(conditions, parameters, targets, _grid(model.grid), objective)
     except EngineError as exc:
@@ -48,7 +50,12 @@ def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tu
 
 
 def _grid(g: GridModel) -> Grid:
-    values = np.geomspace(g.start, g.stop, g.points) if g.spacing == "log" else np.linspace(g.start, g.stop, g.points)
+    if g.values is not None:
+        values = np.array(g.values, dtype=float)
+    elif g.spacing == "log":
+        values = np.geomspace(g.start, g.stop, g.points)
+    else:
+        values = np.linspace(g.start, g.stop, g.points)
     return Grid(values * (2 * np.pi) if g.unit == "hz" else values, g.unit)
 
 
@@ -61,6 +68,8 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
                                     c.variable)
         elif plant.format == "channels":
             network = _channels(plant, path, folder, c.variable)
+        elif plant.format == "cascade":
+            network = _cascade(plant, f"{path}.plant", folder, c.variable)
         else:
             blocks = [_block(b, f"{path}.plant.blocks[{i}]", folder, c.variable) for i, b in enumerate(plant.blocks)]
             junctions = [Junction(j.name, j.output, tuple((1.0, s) for s in j.plus) + tuple((-1.0, s) for s in j.minus))
@@ -102,6 +111,48 @@ def _channels(plant: ChannelsModel, path: str, folder: Path, variable: str) -> N
     return block_diagram(blocks, junctions, ["r"], variable)
 
 
+def _cascade(plant: CascadeModel, path: str, folder: Path, variable: str) -> Network:
+    """Report 001's Figure 2 as a block diagram with blocks G1, G2, Ga, H1, H2."""
+    def make(name: str):
+        return _transfer(getattr(plant, name), f"{path}.{name}", folder, variable)
+
+    g1 = make("g1")
+    g2 = make("g2") if plant.g2 is not None else _ratio(make("g1g2"), g1, f"{path}.g1g2", variable)
+    ga = _times(make("ga"), plant.transducer_gain, variable)
+    blocks = [Block("G1", "e", "x2", g1), Block("G2", "x2", "x1", g2), Block("Ga", "c", "u", ga)]
+    terms = []
+    for name, source in (("h1", "x1"), ("h2", "x2")):
+        if getattr(plant, name) is not None:
+            blocks.append(Block(name.upper(), source, f"c{name[1]}", make(name)))
+            terms.append((1.0, f"c{name[1]}"))
+    junctions = [Junction("controllers", "c", tuple(terms)), Junction("error", "e", ((1.0, "d"), (-1.0, "u")))]
+    return block_diagram(blocks, junctions, ["d"], variable)
+
+
+def _ratio(g1g2, g1, path: str, variable: str):
+    """G2 = G1G2 / G1: of two tables on the same frequencies, or of two expressions."""
+    if isinstance(g1g2, TabulatedTransfer) and isinstance(g1, TabulatedTransfer):
+        a, b = g1g2.table, g1.table
+        if a.omega.shape != b.omega.shape or not np.allclose(a.omega, b.omega, rtol=1e-12):
+            raise SessionError(f"{path}: G1G2 and G1 tables need the same frequencies to give G2 = G1G2/G1")
+        return TabulatedTransfer(FrequencyTable(a.omega, a.response / b.response, f"{a.source} / {b.source}"))
+    if isinstance(g1g2, ExpressionTransfer) and isinstance(g1, ExpressionTransfer):
+        return ExpressionTransfer(f"({g1g2.text})/({g1.text})", variable)
+    raise SessionError(f"{path}: give g2 when G1 and G1G2 are not both tables or both expressions")
+
+
+def _times(transfer, gain: float, variable: str):
+    """A transfer times a constant gain (the transducer gain K with the actuator)."""
+    if gain == 1.0:
+        return transfer
+    if isinstance(transfer, TabulatedTransfer):
+        t = transfer.table
+        return TabulatedTransfer(FrequencyTable(t.omega, gain * t.response, t.source))
+    if isinstance(transfer, ExpressionTransfer):
+        return ExpressionTransfer(f"{gain!r}*({transfer.text})", variable)
+    raise SessionError("the transducer gain applies to a table or an expression")
+
+
 def _block(b, path: str, folder: Path, variable: str) -> Block:
     return Block(b.name, b.input, b.output, _transfer(b.transfer, f"{path}.transfer", folder, variable))
 
@@ -117,6 +168,9 @@ def _transfer(t, path: str, folder: Path, variable: str):
                                          [Factor(**f.model_dump()) for f in t.poles], variable)
         elif t.kind == "delay":
             transfer = DelayTransfer(t.tau)
+        elif t.kind == "controller":
+            transfer = controller_transfer(t.gain, t.s_power, [ControllerFactor(**f.model_dump()) for f in t.factors],
+                                           variable)
         else:
             transfer = TabulatedTransfer(_table(t.table, f"{path}.table", folder))
     except SessionError:
@@ -131,14 +185,16 @@ def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
         f, first, second = _read_csv(folder / t.csv, t.columns, path)
     else:
         f, first, second = t.frequency, t.first, t.second
-    make = FrequencyTable.from_polar if t.form == "polar" else FrequencyTable.from_cartesian
+    if t.form == "magnitude":
+        second = [0.0] * len(first)
+    make = FrequencyTable.from_cartesian if t.form == "cartesian" else FrequencyTable.from_polar
     try:
         return make(f, first, second, unit=t.unit, gain=t.gain, source=path)
     except EngineError as exc:
         raise SessionError(str(exc)) from None
 
 
-def _read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], list[float], list[float]]:
+def _read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
     try:
         with file.open(newline="") as fh:
             numbered = [(n, line) for n, line in enumerate(fh, start=1) if not line.startswith("#")]
@@ -149,14 +205,14 @@ def _read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], l
     missing = [c for c in columns if c not in header]
     if missing:
         raise SessionError(f"{path}.columns: {file.name} has no column(s) {', '.join(missing)}")
-    out: list[list[float]] = [[], [], []]
+    out: list[list[float]] = [[] for _ in columns]
     for (n, _), row in zip(numbered[1:], rows):
         for k, name in enumerate(columns):
             try:
                 out[k].append(float(row[name]))
             except (TypeError, ValueError):
                 raise SessionError(f"{file.name}: line {n}, column {name!r}: not a number: {row[name]!r}") from None
-    return out[0], out[1], out[2]
+    return tuple(out) if len(out) == 3 else (out[0], out[1], [])
 
 
 def _parameter(p: ParameterModel, path: str, conditions: int) -> Parameter:

@@ -24,13 +24,24 @@ class GridModel(Strict):
     """Frequency grid: ``points`` values from ``start`` to ``stop`` in ``unit``."""
 
     unit: Literal["rad/s", "hz"] = "rad/s"
-    start: Annotated[float, Field(gt=0)]
-    stop: Annotated[float, Field(gt=0)]
+    start: Annotated[float, Field(gt=0)] | None = None
+    stop: Annotated[float, Field(gt=0)] | None = None
     points: Annotated[int, Field(ge=2, le=100_000)] = 200
     spacing: Literal["log", "linear"] = "log"
+    values: list[float] | None = Field(default=None, description="explicit frequencies (e.g. a table's), instead "
+                                                                 "of start/stop/points")
 
     @model_validator(mode="after")
     def _increasing(self) -> GridModel:
+        if self.values is not None:
+            if self.start is not None or self.stop is not None:
+                raise ValueError("give either values or start/stop, not both")
+            if len(self.values) < 2 or any(b <= a for a, b in zip(self.values, self.values[1:])) \
+                    or self.values[0] < 0:
+                raise ValueError("values must be at least two increasing frequencies >= 0")
+            return self
+        if self.start is None or self.stop is None:
+            raise ValueError("give start and stop (or values)")
         if self.stop <= self.start:
             raise ValueError("stop must be greater than start")
         return self
@@ -58,7 +69,8 @@ class TableModel(Strict):
     next to the session (``csv`` with column names)."""
 
     unit: Literal["rad/s", "hz"] = "rad/s"
-    form: Literal["polar", "cartesian"] = "polar"
+    form: Literal["polar", "cartesian", "magnitude"] = Field(
+        default="polar", description="magnitude: one value column (a PSD), phase 0")
     gain: float = 1.0
     frequency: list[float] | None = None
     first: list[float] | None = Field(default=None, description="magnitude, or real part")
@@ -71,10 +83,12 @@ class TableModel(Strict):
         inline = self.frequency is not None
         if inline == (self.csv is not None):
             raise ValueError("give either frequency/first/second inline or csv with columns")
-        if inline and (self.first is None or self.second is None):
+        two = self.form == "magnitude"
+        if inline and (self.first is None or (self.second is None and not two)):
             raise ValueError("inline tables need frequency, first and second")
-        if self.csv is not None and (self.columns is None or len(self.columns) != 3):
-            raise ValueError("csv tables need three column names: frequency, first, second")
+        if self.csv is not None and (self.columns is None or len(self.columns) != (2 if two else 3)):
+            raise ValueError("csv tables need three column names: frequency, first, second "
+                             "(two for form 'magnitude')")
         return self
 
 
@@ -98,6 +112,22 @@ class FactoredBlock(Strict):
     poles: list[FactorModel] = []
 
 
+class ControllerFactorModel(Strict):
+    """Report 001, eq. (27): zero/pole (s/b + 1)^(+-1); complex (s^2/w^2 + 2 zeta s/w + 1)^(+-1)."""
+
+    kind: Literal["zero", "pole", "complex_zero", "complex_pole"]
+    b: Coefficient = 1.0
+    damping: Coefficient = 0.5
+    frequency: Coefficient = 1.0
+
+
+class ControllerBlock(Strict):
+    kind: Literal["controller"]
+    gain: Coefficient
+    s_power: int = 0
+    factors: list[ControllerFactorModel] = []
+
+
 class TableBlock(Strict):
     kind: Literal["table"]
     table: TableModel
@@ -108,7 +138,7 @@ class DelayBlock(Strict):
     tau: Coefficient
 
 
-Transfer = Annotated[Union[ExpressionBlock, PolynomialBlock, FactoredBlock, TableBlock, DelayBlock],
+Transfer = Annotated[Union[ExpressionBlock, PolynomialBlock, FactoredBlock, TableBlock, DelayBlock, ControllerBlock],
                      Field(discriminator="kind")]
 
 
@@ -176,11 +206,34 @@ class ChannelsModel(Strict):
     channels: Annotated[list[ChannelModel], Field(min_length=1)]
 
 
+class CascadeModel(Strict):
+    """Report 001's Figure 2: x2 = G1 (d - u), x1 = G2 x2, u = K Ga (H1 x1 + H2 x2).
+    Give g2, or g1g2 (then G2 = G1G2/G1; two tables need the same frequencies).
+    Signals: d (disturbance), e, x1, x2, u; break the loop at e."""
+
+    format: Literal["cascade"]
+    g1: Transfer
+    g2: Transfer | None = None
+    g1g2: Transfer | None = None
+    ga: Transfer
+    transducer_gain: float = 1.0
+    h1: Transfer | None = None
+    h2: Transfer | None = None
+
+    @model_validator(mode="after")
+    def _one_g2(self) -> CascadeModel:
+        if (self.g2 is None) == (self.g1g2 is None):
+            raise ValueError("give either g2 or g1g2")
+        if self.h1 is None and self.h2 is None:
+            raise ValueError("give h1 and/or h2")
+        return self
+
+
 class ConditionModel(Strict):
     name: str
     variable: Literal["s", "w"] = "s"
     break_at: str
-    plant: Annotated[Union[DiagramModel, MatrixModel, ChannelsModel], Field(discriminator="format")]
+    plant: Annotated[Union[DiagramModel, MatrixModel, ChannelsModel, CascadeModel], Field(discriminator="format")]
 
 
 class ParameterModel(Strict):
@@ -226,6 +279,7 @@ class TargetModel(Strict):
 class ObjectiveModel(Strict):
     kind: str
     options: dict[str, Union[float, str]] = {}
+    tables: dict[str, TableModel] = Field(default={}, description="e.g. noise_psd (form 'magnitude')")
 
 
 class ProblemModel(Strict):

@@ -18,14 +18,14 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from engine.algorithm import State, StepRecord
 from engine.problem import Problem
 
 from .build import build_problem
 from .errors import SessionError
-from .schema import SCHEMA_VERSION, SessionModel
+from .schema import SCHEMA_VERSION, SessionModel, TableModel
 
 # version -> function turning a session dict of that version into the next version's
 MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
@@ -178,13 +178,24 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
 def _rebase_tables(model: SessionModel, old: Path, new: Path) -> None:
     """CSV tables are named relative to the session: saved elsewhere, the
     names are rewritten so they still reach the same files."""
-    for condition in model.problem.conditions:
-        plant = condition.plant
-        transfers = ([b.transfer for b in plant.blocks] if plant.format == "diagram" else
-                     [c.response for c in plant.channels] if plant.format == "channels" else [])
-        for t in transfers:
-            if t.kind == "table" and t.table.csv is not None and not Path(t.table.csv).is_absolute():
-                t.table.csv = Path(os.path.relpath((old / t.table.csv).resolve(), new.resolve())).as_posix()
+    for table in _tables(model.problem):
+        if table.csv is not None and not Path(table.csv).is_absolute():
+            table.csv = Path(os.path.relpath((old / table.csv).resolve(), new.resolve())).as_posix()
+
+
+def _tables(node: Any):
+    """Every `TableModel` inside a model (plants, channels, cascades, objective)."""
+    if isinstance(node, TableModel):
+        yield node
+    elif isinstance(node, BaseModel):
+        for name in type(node).model_fields:
+            yield from _tables(getattr(node, name))
+    elif isinstance(node, (list, tuple)):
+        for item in node:
+            yield from _tables(item)
+    elif isinstance(node, dict):
+        for item in node.values():
+            yield from _tables(item)
 
 
 def autosave_path(path: Path) -> Path:

@@ -17,11 +17,14 @@ from engine.algorithm import MeasureRow, StepRecord, lookup, make_settings
 from engine.analysis import LoopAnalysis, analyze, unity_feedback
 from engine.errors import EngineError
 from engine.measures import tableau
+from engine.qcg.setup import cascade_problem
+from engine.qcg.tradeoff import penalty_sweep
 from sessions.errors import SessionError
 from sessions.runner import replay, run_session
 from sessions.store import Session, autosave_candidate, load_session, save_session
 
 from .cip_report import cip_report_text
+from .qcg_report import qcg_report_text
 
 
 class CliError(Exception):
@@ -199,6 +202,13 @@ def cmd_report(args: argparse.Namespace) -> int:
         writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied"])
         for r in rows:
             writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied])
+    elif session.model.algorithm.name == "qcg" and record is not None:
+        params = {k: float(v[0] if isinstance(v, list) else v) for k, v in record.parameters.items()}
+        try:
+            response = cascade_problem(session.problem).frequency_response(params)
+        except EngineError as exc:
+            raise CliError(f"frequency response: {exc}") from None
+        print(qcg_report_text(record, response))
     elif session.model.algorithm.name == "cip":
         print(cip_report_text(record if record is not None else _cip_initial(session)))
     else:
@@ -214,6 +224,30 @@ def _cip_initial(session: Session) -> StepRecord:
         return algorithm.initial_record(algorithm.init(session.problem, settings))
     except EngineError as exc:
         raise CliError(f"initial tableau: {exc}") from None
+
+
+def cmd_tradeoff(args: argparse.Namespace) -> int:
+    """Report 001's penalty sweep: one optimized design per penalty value."""
+    session = _load(args.file)
+    if session.model.algorithm.name != "qcg":
+        raise CliError(f"tradeoff: {args.file} uses {session.model.algorithm.name!r}; the sweep needs a qcg session")
+    settings = make_settings("qcg", session.model.algorithm.settings)
+    try:
+        points = penalty_sweep(session.problem, settings, args.penalty, args.values)
+    except EngineError as exc:
+        raise CliError(str(exc)) from None
+    if args.json:
+        print(json.dumps([vars(p) for p in points], indent=2, sort_keys=True, default=_number))
+        return 0
+    names = list(points[0].parameters) if points else []
+    print(f"{args.penalty:>10} {'x1^2 (N)':>10} {'x1dot^2 (N)':>12} {'u^2':>12} {'udot^2':>12} {'C':>12}  "
+          + " ".join(f"{n:>10}" for n in names) + "  status")
+    for p in points:
+        a = p.averaged_squares
+        print(f"{p.penalty:>10.4g} {a['x1_normalized']:>10.4f} {a['x1_rate_normalized']:>12.4f} {a['u']:>12.5g} "
+              f"{a['u_rate']:>12.5g} {p.cost:>12.6g}  " + " ".join(f"{p.parameters[n]:>10.5g}" for n in names)
+              + f"  {p.status}")
+    return 0
 
 
 def cmd_examples(args: argparse.Namespace) -> int:
@@ -260,6 +294,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--iteration", type=int)
     p.add_argument("--format", choices=["text", "json", "csv"], default="text")
     p.set_defaults(handler=cmd_report)
+    p = sub.add_parser("tradeoff", help="qcg penalty sweep (report 001, Figure 4)")
+    p.add_argument("file")
+    p.add_argument("--penalty", required=True, choices=["q1", "q2", "r1", "r2"])
+    p.add_argument("--values", required=True, type=float, nargs="+", metavar="V")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(handler=cmd_tradeoff)
     p = sub.add_parser("examples", help="list (or copy) the bundled example sessions")
     p.add_argument("--copy", metavar="DIR")
     p.set_defaults(handler=cmd_examples)

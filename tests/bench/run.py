@@ -101,6 +101,41 @@ def cip_iterations(problem, repeat: int) -> tuple[float, list[int]]:
     return statistics.median(times), trials
 
 
+def qcg_comparison(repeat: int) -> dict:
+    """Report 001's sample: CGFM to convergence, and scipy BFGS with a numerical
+    gradient on the same cost (the listing's F of b), same start, same process."""
+    from pathlib import Path
+
+    from scipy.optimize import minimize
+
+    from engine.algorithm import iterate
+    from engine.qcg import Qcg, QcgSettings
+    from engine.qcg.setup import cascade_problem
+    from sessions.store import load_session
+
+    session = load_session(Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_pi.json")
+    problem, cascade = session.problem, cascade_problem(session.problem)
+    names = [p.name for p in problem.parameters]
+
+    def cgfm(i=0):
+        return list(iterate(Qcg(), problem, QcgSettings(), max_iter=1000))[-1][1]
+
+    def bfgs(i=0):
+        def cost(b):
+            return cascade.cost(dict(zip(names, b)), gradient=False).F
+        return minimize(cost, problem.vector(), method="BFGS", options={"gtol": 1e-9})
+
+    ours, theirs = cgfm(), bfgs()
+    t_ours, t_theirs = median_time(cgfm, max(repeat // 3, 3)), median_time(bfgs, max(repeat // 3, 3))
+    return {"cgfm": {"median_s": t_ours, "evaluations": ours.counters["KNT"], "F": ours.extra["F"],
+                     "b": dict(ours.parameters)},
+            "scipy_bfgs_numerical_gradient": {"median_s": t_theirs, "evaluations": int(theirs.nfev),
+                                              "F": float(theirs.fun), "b": dict(zip(names, theirs.x.tolist())),
+                                              "success": bool(theirs.success)},
+            "ratios": {"time_bfgs_over_cgfm": t_theirs / t_ours,
+                       "evaluations_bfgs_over_cgfm": theirs.nfev / ours.counters["KNT"]}}
+
+
 def median_time(fun, repeat: int) -> float:
     """Median wall time of fun(i) over i = 1..repeat, after one warm-up call."""
     fun(0)
@@ -144,6 +179,7 @@ def main() -> None:
     t_pc = median_time(pc_margins, args.repeat)
     t_pc_freq = median_time(lambda i: system(1j * omega), args.repeat)
     m = all_margins()
+    qcg = qcg_comparison(args.repeat)
     cip_problem_ = cip_problem()
     t_cip, cip_steps = cip_iterations(cip_problem_, args.repeat)
     results = {
@@ -160,6 +196,7 @@ def main() -> None:
                               "channels": 2, "free_coefficients": len(cip_problem_.free_slots()),
                               "iterations_timed": len(cip_steps), "mean_trials": statistics.mean(cip_steps),
                               "report_univac_1106_s": 0.9},
+            "qcg_sample_convergence": qcg,
         },
         "ratios": {"python_control_margins_over_ours": t_pc / t_marg,
                    "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp,

@@ -94,3 +94,25 @@ def test_cip_report_in_the_listing_layout(tmp_path, capsys):
     after = capsys.readouterr().out
     assert "ITERATION NO.    2" in after and "PARTIALS WITH RESPECT TO X" in after
     assert "PARTIALS WITH RESPECT TO Y" in after and "multiplied out" in after
+
+
+def test_tradeoff_command(tmp_path, capsys):
+    assert main(["examples", "--copy", str(tmp_path)]) == 0
+    capsys.readouterr()
+    assert main(["tradeoff", str(tmp_path / "seidel_inlet_pi.json"), "--penalty", "q2", "--values", "1e-4", "1e-3",
+                 "--json"]) == 0
+    points = json.loads(capsys.readouterr().out)
+    assert [p["penalty"] for p in points] == [1e-4, 1e-3]
+    assert points[0]["parameters"]["b1"] == pytest.approx(47.41, rel=0.01)
+    assert main(["tradeoff", str(tmp_path / "cip_launch_vehicle.json"), "--penalty", "q2", "--values", "1"]) == 2
+
+
+def test_qcg_report_prints_both_cost_conventions(tmp_path, capsys):
+    assert main(["examples", "--copy", str(tmp_path)]) == 0
+    session = str(tmp_path / "seidel_inlet_pi.json")
+    assert main(["run", session, "--until-done"]) == 0
+    capsys.readouterr()
+    assert main(["report", session]) == 0
+    out = capsys.readouterr().out
+    assert "F= 3.1228" in out and "= 2 pi C" in out and "C= 4.970" in out
+    assert "IER = 0" in out and "HZ" in out
