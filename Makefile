@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $(STAMP)
 
 run: $(STAMP)
-	$(BIN)/loopcraft $(ARGS)
+	$(BIN)/loopcraft $(if $(ARGS),$(ARGS),--example cip_launch_vehicle)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q $(PYTEST_ARGS)

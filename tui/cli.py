@@ -266,7 +266,9 @@ def cmd_examples(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="loopcraft", description="Classical compensator design workbench.")
+    parser = argparse.ArgumentParser(
+        prog="loopcraft", description="Classical compensator design workbench. Without a command: the app "
+        "(loopcraft [FILE.json] | loopcraft --example NAME).")
     sub = parser.add_subparsers(dest="command")
     p = sub.add_parser("analyze", help="margins and closed-loop poles of a unity-feedback loop")
     p.add_argument("--tf", action="append", required=True, metavar="EXPR",
@@ -306,7 +308,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def run_app(target: str | None = None, example: str | None = None) -> int:
+    """The workbench: on a session file, on a bundled example, or the start screen."""
+    import multiprocessing.resource_tracker
+
+    from .app import LoopcraftApp
+    from .files import example as example_copy
+    path = None
+    if example is not None:
+        try:
+            path = example_copy(example)
+        except FileNotFoundError as exc:
+            print(f"loopcraft: error: {exc}", file=sys.stderr)
+            return 2
+    elif target is not None:
+        path = Path(target)
+        if not path.is_file():
+            print(f"loopcraft: error: {target}: no such file", file=sys.stderr)
+            return 2
+    multiprocessing.resource_tracker.ensure_running()  # worker processes inside a running app (DESIGN.md)
+    result = LoopcraftApp(path).run()
+    return result if isinstance(result, int) else 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0].endswith(".json"):
+        return run_app(argv[0] if argv else None)
+    if argv[0] == "--example":
+        return run_app(example=argv[1] if len(argv) > 1 else "cip_launch_vehicle")
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

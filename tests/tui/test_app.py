@@ -1,0 +1,151 @@
+"""Pilot tests of the workbench's behaviour."""
+
+from __future__ import annotations
+
+import asyncio
+import functools
+import json
+
+from engine.errors import EngineError
+from tui.app import LoopcraftApp
+from tui.screens.main import MainScreen
+
+
+def synchronous(test):
+    """Run an async test on a fresh event loop (no async plugin needed)."""
+    @functools.wraps(test)
+    def run(*args, **kwargs):
+        return asyncio.run(test(*args, **kwargs))
+    return run
+
+
+def status(app) -> str:
+    return str(app.screen.query_one("#status").render())
+
+
+async def settle(app, pilot) -> None:
+    await pilot.pause()
+    await app.workers.wait_for_complete()
+    await pilot.pause()
+
+
+@synchronous
+async def test_stepping_updates_the_tableau_and_the_iteration(workdir):
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert "Iteration 0" in status(app)
+        table = app.screen.query_one("#tableau")
+        before = table.get_row_at(0)[2]
+        for _ in range(3):
+            await pilot.press("s")
+            await settle(app, pilot)
+        assert "Iteration 3" in status(app)
+        assert table.get_row_at(0)[2] != before
+        assert len(app.bench.session.model.records) == 3
+
+
+@synchronous
+async def test_pause_stops_a_run_within_one_iteration(workdir):
+    app = LoopcraftApp(workdir / "cip_dual_channel.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause()
+        await pilot.press("r")
+        await pilot.pause(0.3)
+        await pilot.press("space")
+        await settle(app, pilot)
+        stopped = app.bench.iteration
+        await pilot.pause(0.3)
+        assert app.bench.iteration == stopped and 0 < stopped < 111
+        assert not app.bench.status().finished
+
+
+@synchronous
+async def test_undo_and_start_from_an_earlier_iteration(workdir):
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        for _ in range(3):
+            await pilot.press("s")
+            await settle(app, pilot)
+        await pilot.press("z")
+        await settle(app, pilot)
+        assert app.bench.iteration == 2 and "Iteration 2" in status(app)
+        await pilot.press("4")
+        app.screen.query_one("#history-table").focus()
+        app.screen.query_one("#history-table").move_cursor(row=1)
+        await pilot.press("b")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 2
+
+
+@synchronous
+async def test_save_and_reopen_gives_the_same_session(workdir):
+    path = workdir / "seidel_inlet_pi.json"
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        for _ in range(2):
+            await pilot.press("s")
+            await settle(app, pilot)
+        await pilot.press("ctrl+s")
+        await settle(app, pilot)
+        saved = json.loads(path.read_text())
+        assert not app.bench.dirty
+    again = LoopcraftApp(path)
+    async with again.run_test(size=(120, 40)) as pilot:
+        await settle(again, pilot)
+        assert again.bench.session.model.records == saved["records"]
+        assert "Iteration 2" in status(again)
+
+
+@synchronous
+async def test_an_engine_error_is_a_notification_not_a_crash(workdir, monkeypatch):
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+
+        def broken():
+            raise EngineError("singular matrix at 3.1 rad/s")
+        monkeypatch.setattr(app.bench, "step", broken)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert any("singular matrix" in n.message for n in app._notifications)
+        assert isinstance(app.screen, MainScreen) and app.is_running
+
+
+@synchronous
+async def test_a_typo_in_an_expression_is_shown_and_the_old_value_kept(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("2")
+        blocks = app.screen.query_one("#blocks")
+        blocks.focus()
+        blocks.move_cursor(row=0)
+        await pilot.press("e")
+        await pilot.pause()
+        dialog = app.screen
+        field = dialog.query_one("#value")
+        field.value = "(s+z1)*(s+z2)/((s+p1)*(s+p2"
+        await pilot.pause()
+        assert "column" in str(dialog.query_one("#error").render())
+        await pilot.press("enter")          # refused: still the dialog
+        await pilot.pause()
+        assert app.screen is dialog
+        await pilot.press("escape")
+        await pilot.pause()
+        block = app.bench.session.model.problem.conditions[0].plant.blocks[0]
+        assert block.transfer.expression == "(s+z1)*(s+z2)/((s+p1)*(s+p2))"
+
+
+@synchronous
+async def test_start_screen_opens_an_example(workdir, monkeypatch):
+    app = LoopcraftApp()
+    async with app.run_test(size=(100, 32)) as pilot:
+        await pilot.pause()
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert isinstance(app.screen, MainScreen)
+        assert app.bench.session.path.parent == workdir / "home" / "examples"

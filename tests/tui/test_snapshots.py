@@ -1,0 +1,43 @@
+"""Snapshots of every screen with a bundled example, at 100x32 and 80x24
+(`pytest --snapshot-update` accepts changes after looking at them)."""
+
+from __future__ import annotations
+
+import pytest
+
+from tui.app import LoopcraftApp
+
+SIZES = [(100, 32), (80, 24)]
+
+
+def steps(*keys: str, wait_workers: bool = True):
+    async def run_before(pilot) -> None:
+        await pilot.pause()
+        for key in keys:
+            await pilot.press(key)
+            await pilot.pause()
+            if wait_workers:
+                await pilot.app.workers.wait_for_complete()
+                await pilot.pause()
+    return run_before
+
+
+CASES = {
+    "start": (None, steps()),
+    "run_initial": ("cip_launch_vehicle.json", steps()),
+    "run_after_steps": ("cip_launch_vehicle.json", steps("s", "s")),
+    "bode": ("cip_launch_vehicle.json", steps("s", "right")),
+    "plant": ("cip_launch_vehicle.json", steps("2")),
+    "targets": ("cip_dual_channel.json", steps("3")),
+    "history": ("cip_launch_vehicle.json", steps("s", "s", "s", "4")),
+    "help": ("cip_launch_vehicle.json", steps("question_mark")),
+    "qcg_run": ("seidel_inlet_pi.json", steps("s", "s", "s")),
+}
+
+
+@pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
+@pytest.mark.parametrize("case", list(CASES))
+def test_screen(case, size, workdir, snap_compare):
+    name, run_before = CASES[case]
+    app = LoopcraftApp(workdir / name if name else None)
+    assert snap_compare(app, terminal_size=size, run_before=run_before)

@@ -1,0 +1,300 @@
+"""The Textual app: opens sessions, runs the algorithm in a thread worker,
+and routes keys to the workbench screen.  Numerics never run on the UI
+thread; the worker checks for a pause before every iteration and reports
+through `call_from_thread`."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from textual import work
+from textual.app import App, SystemCommand
+from textual.binding import Binding
+from textual.widgets import DataTable, TabbedContent
+from textual.worker import get_current_worker
+
+from engine.algorithm import load_builtin
+from sessions.errors import SessionError
+from sessions.store import autosave_candidate, load_session, parse_session
+
+from . import editing
+from .files import NEW_SESSION, remember, working_copy
+from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
+from .screens.main import MainScreen
+from .screens.start import StartScreen
+from .workbench import Workbench
+
+REDRAW_INTERVAL = 0.1   # while running, plots are redrawn at most this often (s)
+
+
+class LoopcraftApp(App):
+    """``LoopcraftApp(path)`` opens a session; without a path, the start screen."""
+
+    TITLE = "loopcraft"
+    BINDINGS = [
+        Binding("s", "step", "step"), Binding("n", "run_n", "run N"), Binding("r", "run", "run"),
+        Binding("space,escape", "pause", "pause"), Binding("z", "undo", "undo"),
+        Binding("a", "choose_algorithm", "algorithm"), Binding("e,enter", "edit", "edit", show=False),
+        Binding("f", "toggle_free", "free/fix", show=False), Binding("b", "start_here", "start here", show=False),
+        Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
+        Binding("question_mark", "help", "help"), Binding("q", "quit", "quit"),
+    ]
+
+    def __init__(self, path: str | Path | None = None):
+        super().__init__()
+        self.initial_path = Path(path) if path else None
+        self.bench: Workbench | None = None
+        self._pause = False
+        self._last_redraw = 0.0
+        load_builtin()
+
+    def on_mount(self) -> None:
+        if self.initial_path is not None:
+            self.open_path(self.initial_path)
+        else:
+            self.push_screen(StartScreen())
+
+    # -- opening and saving -------------------------------------------------
+
+    def open_path(self, path: Path) -> None:
+        path = working_copy(Path(path))
+        autosave = autosave_candidate(path)
+        if autosave is not None:
+            def answer(yes: bool) -> None:
+                self._open(autosave if yes else path, keep_path=path)
+            self.push_screen(ConfirmDialog(f"{autosave.name} is newer than {path.name}: recover it?"), answer)
+        else:
+            self._open(path)
+
+    def _open(self, path: Path, keep_path: Path | None = None) -> None:
+        try:
+            if keep_path is not None and path != keep_path:
+                session = parse_session(path.read_text(encoding="utf-8"), str(path), keep_path.parent)
+                session.path = keep_path
+            else:
+                session = load_session(path)
+        except SessionError as exc:
+            self.notify(str(exc), title="cannot open", severity="error", timeout=10)
+            if not self.screen_stack or not isinstance(self.screen, (StartScreen, MainScreen)):
+                self.push_screen(StartScreen())
+            return
+        self.bench = Workbench(session)
+        self.bench.dirty = keep_path is not None and path != keep_path
+        remember(session.path)
+        while len(self.screen_stack) > 1:
+            self.pop_screen()
+        self.push_screen(MainScreen(self.bench))
+
+    def action_open(self) -> None:
+        def chosen(text: str | None) -> None:
+            if text:
+                self.open_path(Path(text).expanduser())
+        self.push_screen(EditDialog("open session (path)", "", _existing_file), chosen)
+
+    def action_new(self) -> None:
+        import json
+        session = parse_session(json.dumps(NEW_SESSION), "new session", Path.cwd())
+        self.bench = Workbench(session)
+        self.push_screen(MainScreen(self.bench))
+
+    def action_save(self) -> None:
+        if self.bench is None:
+            return
+        if self.bench.session.path is None:
+            self.action_save_as()
+            return
+        self._save(None)
+
+    def action_save_as(self) -> None:
+        def chosen(text: str | None) -> None:
+            if text:
+                self._save(Path(text).expanduser())
+        self.push_screen(EditDialog("save as (path)", "", None), chosen)
+
+    def _save(self, path: Path | None) -> None:
+        try:
+            target = self.bench.save(path)
+        except SessionError as exc:
+            self.notify(str(exc), title="not saved", severity="error", timeout=10)
+            return
+        self.notify(f"saved {target}")
+        self._refresh()
+
+    def action_quit(self) -> None:
+        if self.bench is not None and self.bench.dirty:
+            def answer(yes: bool) -> None:
+                if yes:
+                    self.exit(0)
+            self.push_screen(ConfirmDialog("unsaved changes (an autosave is kept): quit anyway?"), answer)
+        else:
+            self.exit(0)
+
+    def action_help(self) -> None:
+        self.push_screen(HelpScreen())
+
+    # -- running --------------------------------------------------------------
+
+    def action_step(self) -> None:
+        self._start(1)
+
+    def action_run(self) -> None:
+        self._start(10 ** 9)
+
+    def action_run_n(self) -> None:
+        def chosen(text: str | None) -> None:
+            if text:
+                self._start(int(float(text)))
+        self.push_screen(EditDialog("run how many iterations?", "10", _positive_integer), chosen)
+
+    def action_pause(self) -> None:
+        self._pause = True
+        for worker in self.workers:
+            if worker.group == "run":
+                worker.cancel()
+
+    def _start(self, count: int) -> None:
+        if self.bench is None or any(w.group == "run" and w.is_running for w in self.workers):
+            return
+        self._pause = False
+        self._run_worker(count)
+
+    @work(thread=True, exclusive=True, exit_on_error=False, group="run")
+    def _run_worker(self, count: int) -> None:
+        worker = get_current_worker()
+        for _ in range(count):
+            if worker.is_cancelled or self._pause:
+                break
+            try:
+                record = self.bench.step()
+            except Exception as exc:  # an engine failure must not close the app
+                self.call_from_thread(self._failed, exc)
+                return
+            if record is None:
+                self.call_from_thread(self.notify, "the algorithm has finished; z undoes, a changes it")
+                break
+            final = record.status.finished
+            self.call_from_thread(self._stepped, final or count == 1)
+            if final:
+                break
+        self.call_from_thread(self._stepped, True)
+
+    def _stepped(self, redraw: bool) -> None:
+        now = time.monotonic()
+        screen = self._main()
+        if screen is None:
+            return
+        plots = redraw or now - self._last_redraw >= REDRAW_INTERVAL
+        screen.refresh_status()
+        screen.refresh_run(plots=plots)
+        if plots:
+            self._last_redraw = now
+            screen.refresh_history()
+
+    def _failed(self, exc: Exception) -> None:
+        self.notify(f"{type(exc).__name__}: {exc}", title="iteration failed", severity="error", timeout=10)
+        self._refresh()
+
+    def action_undo(self) -> None:
+        if self.bench is not None and self.bench.undo():
+            self._refresh()
+
+    def action_choose_algorithm(self) -> None:
+        from engine.algorithm import REGISTRY
+
+        def chosen(name: str | None) -> None:
+            if name and name != self.bench.algorithm_name:
+                self.bench.set_algorithm(name)
+                self._refresh()
+        choices = [(name, reg.summary) for name, reg in sorted(REGISTRY.items()) if name != "gradient"]
+        self.push_screen(ChooseDialog("algorithm", choices), chosen)
+
+    def action_start_here(self) -> None:
+        screen = self._main()
+        if screen is None or screen.query_one("#tabs", TabbedContent).active != "history":
+            return
+        row = screen.query_one("#history-table", DataTable).cursor_row
+        self.bench.start_from(row)
+        self.notify(f"iteration {row} is the current one; later iterations were dropped")
+        self._refresh()
+
+    # -- editing ----------------------------------------------------------------
+
+    def action_edit(self) -> None:
+        screen = self._main()
+        if screen is None or self.bench is None:
+            return
+        edit = self._edit_for(screen)
+        if edit is None:
+            return
+
+        def done(text: str | None) -> None:
+            if text is None:
+                return
+            try:
+                edit.apply(text)
+            except (SessionError, ValueError) as exc:
+                self.notify(str(exc), title="not applied: the old value is kept", severity="error", timeout=10)
+            self._refresh()
+        self.push_screen(EditDialog(edit.title, edit.text, edit.check), done)
+
+    def _edit_for(self, screen: MainScreen):
+        focused = self.focused
+        if not isinstance(focused, DataTable):
+            return None
+        row = focused.cursor_row
+        if focused.id == "blocks":
+            return editing.block_edit(self.bench, row)
+        if focused.id == "parameters":
+            return editing.parameter_edit(self.bench, row)
+        if focused.id == "targets-table":
+            return editing.target_edit(self.bench, row)
+        if focused.id == "objective-table":
+            names = list(self.bench.session.model.algorithm.settings)
+            offset = row - focused.row_count + len(names)
+            return editing.setting_edit(self.bench, names[offset]) if 0 <= offset < len(names) else None
+        return None
+
+    def action_toggle_free(self) -> None:
+        focused = self.focused
+        if isinstance(focused, DataTable) and focused.id == "parameters" and self.bench is not None:
+            try:
+                editing.toggle_free(self.bench, focused.cursor_row)
+            except SessionError as exc:
+                self.notify(str(exc), severity="error")
+            self._refresh()
+
+    # -- helpers ----------------------------------------------------------------
+
+    def _main(self) -> MainScreen | None:
+        return self.screen if isinstance(self.screen, MainScreen) else next(
+            (s for s in reversed(self.screen_stack) if isinstance(s, MainScreen)), None)
+
+    def _refresh(self) -> None:
+        screen = self._main()
+        if screen is not None:
+            screen.refresh_all()
+
+    def get_system_commands(self, screen):
+        yield from super().get_system_commands(screen)
+        for title, help_text, action in [
+            ("Step", "one iteration (s)", self.action_step), ("Run N", "N iterations (n)", self.action_run_n),
+            ("Run", "until the algorithm stops (r)", self.action_run), ("Pause", "stop a run", self.action_pause),
+            ("Undo", "drop the last iteration (z)", self.action_undo),
+            ("Algorithm", "choose the algorithm (a)", self.action_choose_algorithm),
+            ("Save", "save the session (ctrl+s)", self.action_save), ("Save as", "save under a new name",
+                                                                     self.action_save_as),
+            ("Open", "open a session (ctrl+o)", self.action_open), ("New session", "a new session", self.action_new),
+            ("Keys", "every key (?)", self.action_help)]:
+            yield SystemCommand(title, help_text, action)
+
+
+def _existing_file(text: str) -> str | None:
+    return None if Path(text).expanduser().is_file() else "no such file"
+
+
+def _positive_integer(text: str) -> str | None:
+    try:
+        return None if int(float(text)) >= 1 else "at least 1"
+    except ValueError:
+        return "a whole number"

@@ -1,0 +1,81 @@
+"""Where the app keeps things: the bundled examples (never written to), the
+working copies it opens instead, the list of recent sessions, and the
+template of a new session.  ``LOOPCRAFT_HOME`` (default ~/.loopcraft) is the
+app's own folder."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "sessions" / "examples"
+RECENT_LIMIT = 10
+
+
+def home() -> Path:
+    return Path(os.environ.get("LOOPCRAFT_HOME", Path.home() / ".loopcraft"))
+
+
+def working_copy(path: Path) -> Path:
+    """A bundled example is copied (with the tables beside it) before it is opened."""
+    path = path.resolve()
+    if path.parent != EXAMPLES.resolve():
+        return path
+    target = home() / "examples"
+    target.mkdir(parents=True, exist_ok=True)
+    for f in EXAMPLES.iterdir():
+        if f.suffix == ".csv" and not (target / f.name).exists():
+            shutil.copy2(f, target / f.name)
+    if not (target / path.name).exists():
+        shutil.copy2(path, target / path.name)
+    return target / path.name
+
+
+def example(name: str) -> Path:
+    """The working copy of a bundled example by name (with or without .json)."""
+    path = EXAMPLES / (name if name.endswith(".json") else f"{name}.json")
+    if not path.exists():
+        known = ", ".join(sorted(p.stem for p in EXAMPLES.glob("*.json")))
+        raise FileNotFoundError(f"no bundled example {name!r}; examples: {known}")
+    return working_copy(path)
+
+
+def recent_sessions() -> list[Path]:
+    try:
+        items = json.loads((home() / "recent.json").read_text())
+    except (OSError, ValueError):
+        return []
+    return [Path(p) for p in items if isinstance(p, str) and Path(p).exists()][:RECENT_LIMIT]
+
+
+def remember(path: Path) -> None:
+    """Put a session at the top of the recent list (best effort)."""
+    items = [str(path.resolve())] + [str(p) for p in recent_sessions() if p.resolve() != path.resolve()]
+    try:
+        home().mkdir(parents=True, exist_ok=True)
+        (home() / "recent.json").write_text(json.dumps(items[:RECENT_LIMIT], indent=1))
+    except OSError:
+        pass
+
+
+NEW_SESSION = {
+    "schema_version": 1,
+    "provenance": {"loopcraft_version": "0.1.0", "created": "", "modified": ""},
+    "notes": "A new session: a lag-lead compensator on 16000/(s(s+8)(s+20)) (report 003, chapter 1).",
+    "algorithm": {"name": "cip", "settings": {"detection": "refined"}},
+    "records": [], "current_iteration": 0, "state": None,
+    "problem": {
+        "grid": {"unit": "rad/s", "start": 0.01, "stop": 1000.0, "points": 400},
+        "conditions": [{"name": "nominal", "break_at": "e", "plant": {
+            "format": "diagram", "inputs": ["r"],
+            "blocks": [{"name": "compensator", "input": "e", "output": "u",
+                        "transfer": {"kind": "expression", "expression": "K*(s+z)/(s+p)"}},
+                       {"name": "plant", "input": "u", "output": "y",
+                        "transfer": {"kind": "expression", "expression": "16000/(s*(s+8)*(s+20))"}}],
+            "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}]}}],
+        "parameters": [{"name": "K", "value": 0.5, "min": 0.0}, {"name": "z", "value": 2.0, "min": 0.0},
+                       {"name": "p", "value": 20.0, "min": 0.0}],
+        "targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 45.0}]},
+                    {"measure": "gain_margin_db", "bands": [{"desired": 10.0}]}]}}

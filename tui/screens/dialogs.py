@@ -1,0 +1,125 @@
+"""Modal dialogs: edit a value with live validation, confirm, help, choose."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.containers import Vertical
+from textual.screen import ModalScreen
+from textual.widgets import Input, Label, OptionList, Static
+
+Validator = Callable[[str], str | None]  # text -> error message, or None when acceptable
+
+
+class EditDialog(ModalScreen[str | None]):
+    """One line of text, checked as it is typed; enter applies, escape cancels."""
+
+    BINDINGS = [Binding("escape", "cancel", "cancel")]
+    DEFAULT_CSS = """
+    EditDialog { align: center middle; }
+    EditDialog > Vertical { width: 70; height: auto; border: round $accent; padding: 0 1; background: $panel; }
+    EditDialog #error { color: $error; height: auto; }
+    EditDialog Label { width: 100%; }
+    """
+
+    def __init__(self, title: str, value: str, validate: Validator | None = None):
+        super().__init__()
+        self.title_text, self.value, self.validate = title, value, validate
+
+    def compose(self) -> ComposeResult:
+        with Vertical():
+            yield Label(self.title_text)
+            yield Input(self.value, id="value")
+            yield Static("", id="error")
+
+    def on_mount(self) -> None:
+        self.query_one(Input).cursor_blink = False
+
+    def on_input_changed(self, event: Input.Changed) -> None:
+        error = self.validate(event.value) if self.validate else None
+        self.query_one("#error", Static).update(error or "")
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        error = self.validate(event.value) if self.validate else None
+        if error:
+            self.query_one("#error", Static).update(error)
+            return
+        self.dismiss(event.value)
+
+    def action_cancel(self) -> None:
+        self.dismiss(None)
+
+
+class ConfirmDialog(ModalScreen[bool]):
+    """A yes/no question: y or enter answers yes, n or escape no."""
+
+    BINDINGS = [Binding("y,enter", "answer(True)", "yes"), Binding("n,escape", "answer(False)", "no")]
+    DEFAULT_CSS = """
+    ConfirmDialog { align: center middle; }
+    ConfirmDialog > Vertical { width: 64; height: auto; border: round $warning; padding: 0 1; background: $panel; }
+    ConfirmDialog Label { width: 100%; }
+    """
+
+    def __init__(self, question: str):
+        super().__init__()
+        self.question = question
+
+    def compose(self) -> ComposeResult:
+        with Vertical():
+            yield Label(self.question)
+            yield Label("[b]y[/b] yes   [b]n[/b] no")
+
+    def action_answer(self, yes: bool) -> None:
+        self.dismiss(yes)
+
+
+class ChooseDialog(ModalScreen[str | None]):
+    """Pick one of several names."""
+
+    BINDINGS = [Binding("escape", "cancel", "cancel")]
+    DEFAULT_CSS = """
+    ChooseDialog { align: center middle; }
+    ChooseDialog > Vertical { width: 70; height: auto; max-height: 20; border: round $accent; background: $panel; }
+    """
+
+    def __init__(self, title: str, choices: list[tuple[str, str]]):
+        super().__init__()
+        self.title_text, self.choices = title, choices
+
+    def compose(self) -> ComposeResult:
+        with Vertical():
+            yield Label(self.title_text)
+            yield OptionList(*[f"{name}  {summary}" for name, summary in self.choices])
+
+    def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:
+        self.dismiss(self.choices[event.option_index][0])
+
+    def action_cancel(self) -> None:
+        self.dismiss(None)
+
+
+class HelpScreen(ModalScreen[None]):
+    """Every key of the workbench."""
+
+    BINDINGS = [Binding("escape,question_mark,q", "close", "close")]
+    DEFAULT_CSS = """
+    HelpScreen { align: center middle; }
+    HelpScreen > Vertical { width: 76; height: auto; border: round $accent; padding: 0 1; background: $panel; }
+    """
+    KEYS = [("s", "step one iteration"), ("n", "run N iterations (asks N)"), ("r", "run until the algorithm stops"),
+            ("space / escape", "pause a run (within one iteration)"), ("z", "undo the last iteration"),
+            ("a", "choose the algorithm"), ("e / enter", "edit the selected row (plant, targets, settings)"),
+            ("f", "free/fix the selected parameter"), ("b", "history: start again from the selected iteration"),
+            ("1 2 3 4", "run, plant, targets, history tabs"), ("ctrl+s", "save"), ("ctrl+o", "open a session"),
+            ("ctrl+p", "command palette: every action"), ("?", "this help"), ("q", "quit (asks when unsaved)")]
+
+    def compose(self) -> ComposeResult:
+        with Vertical():
+            yield Label("[b]loopcraft keys[/b]")
+            for key, what in self.KEYS:
+                yield Label(f"  [b]{key:<16}[/b] {what}")
+
+    def action_close(self) -> None:
+        self.dismiss(None)

@@ -1,0 +1,273 @@
+"""The workbench screen: Run (plots and tableau), Plant, Targets and History
+tabs over one `Workbench`.  Widgets only read the workbench; edits go
+through `tui.editing`, stepping through the app's worker."""
+
+from __future__ import annotations
+
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, Vertical
+from textual.screen import Screen
+from textual.widgets import DataTable, Footer, Static, TabbedContent, TabPane
+
+from engine.algorithm import MeasureRow, StepRecord
+
+from ..widgets.plots import FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure
+from ..workbench import Workbench
+
+
+SHORT = {"gain_margin": "G", "phase_margin": "P", "stability_margin": "S", "attenuation_margin": "A",
+         "gain_margin_db": "GM dB", "phase_margin_deg": "PM deg", "crossover_frequency": "wc",
+         "averaged_square": "avg sq"}
+
+
+def _fmt(value, digits: int = 6) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    return str(value)
+
+
+class MainScreen(Screen):
+    """Tabs: 1 run, 2 plant, 3 targets, 4 history."""
+
+    BINDINGS = [Binding("1", "tab('run')", "run", show=False), Binding("2", "tab('plant')", "plant", show=False),
+                Binding("3", "tab('targets')", "targets", show=False),
+                Binding("4", "tab('history')", "history", show=False)]
+    DEFAULT_CSS = """
+    MainScreen { overflow: hidden; }
+    #status { height: 1; background: $boost; padding: 0 1; }
+    #tabs { height: 1fr; }
+    #tabs > ContentSwitcher { height: 1fr; }
+    #plots > ContentSwitcher { height: 1fr; }
+    #plots { width: 3fr; }
+    #tableau-side { width: 2fr; }
+    #tableau { height: 1fr; }
+    #step-info { height: auto; max-height: 6; }
+    #bode-mag, #bode-phase { height: 1fr; }
+    #blocks, #parameters, #targets-table, #objective-table, #history-table, #history-tableau { height: 1fr; }
+    """
+
+    def __init__(self, bench: Workbench):
+        super().__init__()
+        self.bench = bench
+
+    def compose(self) -> ComposeResult:
+        yield Static("", id="status")
+        with TabbedContent(id="tabs", initial="run"):
+            with TabPane("Run", id="run"):
+                with Horizontal():
+                    with TabbedContent(id="plots"):
+                        with TabPane("Nyquist", id="p-nyquist"):
+                            yield FigurePlot(id="nyquist")
+                        with TabPane("Bode", id="p-bode"):
+                            with Vertical():
+                                yield FigurePlot(id="bode-mag")
+                                yield FigurePlot(id="bode-phase")
+                        with TabPane("Nichols", id="p-nichols"):
+                            yield FigurePlot(id="nichols")
+                        with TabPane("Convergence", id="p-convergence"):
+                            yield FigurePlot(id="convergence")
+                    with Vertical(id="tableau-side"):
+                        yield DataTable(id="tableau", cursor_type="row", zebra_stripes=True)
+                        yield Static("", id="step-info")
+            with TabPane("Plant", id="plant"):
+                with Vertical():
+                    yield DataTable(id="blocks", cursor_type="row")
+                    yield DataTable(id="parameters", cursor_type="row")
+            with TabPane("Targets", id="targets"):
+                with Vertical():
+                    yield DataTable(id="targets-table", cursor_type="row")
+                    yield DataTable(id="objective-table", cursor_type="row")
+            with TabPane("History", id="history"):
+                with Horizontal():
+                    yield DataTable(id="history-table", cursor_type="row")
+                    yield DataTable(id="history-tableau", cursor_type="row")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.refresh_all()
+
+    def action_tab(self, name: str) -> None:
+        self.query_one("#tabs", TabbedContent).active = name
+
+    # -- refreshing ---------------------------------------------------------
+
+    def refresh_all(self) -> None:
+        self.refresh_status()
+        self.refresh_run()
+        self.refresh_plant()
+        self.refresh_targets()
+        self.refresh_history()
+
+    def refresh_status(self) -> None:
+        b = self.bench
+        name = b.session.path.name if b.session.path else "untitled"
+        mark = " *" if b.dirty else ""
+        self.query_one("#status", Static).update(
+            f"[b]{name}{mark}[/b]  algorithm [b]{b.algorithm_name}[/b]  Iteration {b.iteration}  {b.status_text()}")
+
+    def refresh_run(self, plots: bool = True) -> None:
+        rows, record = self.bench.tableau()
+        previous = self.bench.tableau(self.bench.iteration - 1)[0] if self.bench.iteration > 0 else []
+        self._fill_tableau(self.query_one("#tableau", DataTable), rows, previous)
+        self.query_one("#step-info", Static).update(self._step_info(record))
+        if plots:
+            self.refresh_plots()
+
+    def refresh_plots(self) -> None:
+        b = self.bench
+        curves = [c for c in (b.loop_curve(label="current"), b.loop_curve(0, "initial") if b.iteration else None)
+                  if c is not None]
+        unit = b.session.problem.grid.unit
+        if curves:
+            self.query_one("#nyquist", FigurePlot).show(nyquist_figure(curves, self._points(), self._radius()))
+            magnitude, phase = bode_figures(curves, unit)
+            self.query_one("#bode-mag", FigurePlot).show(magnitude)
+            self.query_one("#bode-phase", FigurePlot).show(phase)
+            self.query_one("#nichols", FigurePlot).show(nichols_figure(curves))
+        label, its, values = b.convergence()
+        self.query_one("#convergence", FigurePlot).show(
+            line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet"))
+
+    def _points(self) -> list[tuple[complex, str]]:
+        return [(p.value, p.mode) for t in self.bench.session.problem.targets for p in t.points]
+
+    def _radius(self) -> float | None:
+        for t in self.bench.session.problem.targets:
+            if t.measure == "stability_margin" and t.bands:
+                return t.bands[0].desired
+        return None
+
+    def _fill_tableau(self, table: DataTable, rows: list[MeasureRow], previous: list[MeasureRow]) -> None:
+        table.clear(columns=True)
+        unit = self.bench.session.problem.grid.unit
+        scale = 1 / (2 * 3.141592653589793) if unit == "hz" else 1.0
+        table.add_columns("no.", "kind", "value", f"freq {unit}", "target", "met")
+        before = {(r.name, r.kind): r.value for r in previous}
+        for r in rows:
+            changed = (r.name, r.kind) in before and before[(r.name, r.kind)] != r.value
+            value = f"[b]{_fmt(r.value, 5)}[/b]" if changed else _fmt(r.value, 5)
+            freq = "" if r.frequency is None else _fmt(r.frequency * scale, 5)
+            met = "yes" if r.satisfied else "[red]NO[/red]"
+            table.add_row(r.name, SHORT.get(r.kind, r.kind), value, freq, _fmt(r.target, 5), met)
+
+    def _step_info(self, record: StepRecord | None) -> str:
+        if record is None:
+            return "no iterations yet: [b]s[/b] steps, [b]r[/b] runs, [b]?[/b] help"
+        parts = [f"step {_fmt(record.step_size, 4)}"] if record.step_size is not None else []
+        if record.objective is not None:
+            parts.append(f"objective {_fmt(record.objective, 7)}")
+        parts += [f"{k} {v}" for k, v in record.counters.items() if k in ("trials", "KNT", "KOUNT", "evaluations")]
+        lines = ["  ".join(parts)]
+        for comp in record.extra.get("compensators", [])[:2]:
+            lines.append(f"{comp['group']}: num {' '.join(f'{c:.4g}' for c in comp['numerator'])}")
+            lines.append(f"{'':{len(comp['group'])}}  den {' '.join(f'{c:.4g}' for c in comp['denominator'])}")
+        params = record.parameters
+        if not record.extra.get("compensators"):
+            lines.append("  ".join(f"{k}={_fmt(v if not isinstance(v, list) else v[0], 5)}"
+                                   for k, v in list(params.items())[:8]))
+        return "\n".join(lines)
+
+    def refresh_plant(self) -> None:
+        model = self.bench.session.model.problem
+        blocks = self.query_one("#blocks", DataTable)
+        blocks.clear(columns=True)
+        blocks.add_columns("condition", "block", "input", "output", "kind", "definition")
+        for condition in model.conditions:
+            for name, inp, out, kind, text in plant_rows(condition):
+                blocks.add_row(condition.name, name, inp, out, kind, text)
+        params = self.query_one("#parameters", DataTable)
+        params.clear(columns=True)
+        params.add_columns("parameter", "value", "min", "max", "free", "per condition")
+        free = {p.name: p.free for p in self.bench.session.problem.parameters}
+        for p in model.parameters:
+            state = "free" if free.get(p.name, p.free) else ("held" if p.free else "fixed")
+            params.add_row(p.name, _fmt(p.value if not isinstance(p.value, list) else p.value[0]),
+                           _fmt(p.min), _fmt(p.max), state, "yes" if isinstance(p.value, list) else "shared")
+
+    def refresh_targets(self) -> None:
+        model = self.bench.session.model.problem
+        table = self.query_one("#targets-table", DataTable)
+        table.clear(columns=True)
+        table.add_columns("measure", "condition", "bands (low..high: desired)", "points", "weight", "detect", "unit")
+        for t in model.targets:
+            bands = "; ".join(f"{b.low:g}..{'inf' if b.high is None else f'{b.high:g}'}: {b.desired:g}" for b in t.bands)
+            points = " ".join(f"{q.mode} {complex(q.real, q.imag)}" for q in t.points) or "default"
+            detect = f"{t.detect_low:g}..{'inf' if t.detect_high is None else f'{t.detect_high:g}'}"
+            table.add_row(t.measure, t.condition or "all", bands, points, _fmt(t.weight), detect, t.unit)
+        objective = self.query_one("#objective-table", DataTable)
+        objective.clear(columns=True)
+        objective.add_columns("objective / setting", "value")
+        if model.objective is not None:
+            objective.add_row("objective kind", model.objective.kind)
+            for k, v in model.objective.options.items():
+                objective.add_row(k, _fmt(v))
+        for k, v in self.bench.session.model.algorithm.settings.items():
+            objective.add_row(f"{self.bench.algorithm_name}.{k}", _fmt(v))
+
+    def refresh_history(self) -> None:
+        table = self.query_one("#history-table", DataTable)
+        table.clear(columns=True)
+        table.add_columns("iteration", "status", "value", "unmet")
+        label, its, values = self.bench.convergence()
+        value_at = dict(zip(its, values))
+        table.add_row("0", "start", "", "")
+        for r in self.bench.records:
+            unmet = sum(not m.satisfied for m in r.measures)
+            table.add_row(str(r.iteration), r.status.value, _fmt(value_at.get(r.iteration), 6), str(unmet))
+
+    def show_history_iteration(self, iteration: int) -> None:
+        rows, _ = self.bench.tableau(iteration)
+        self._fill_tableau(self.query_one("#history-tableau", DataTable), rows, [])
+
+    def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
+        if event.data_table.id in ("blocks", "parameters", "targets-table", "objective-table"):
+            self.app.action_edit()
+
+    def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
+        if event.data_table.id == "history-table" and event.cursor_row is not None:
+            self.show_history_iteration(event.cursor_row)
+
+
+def plant_rows(condition) -> list[tuple[str, str, str, str, str]]:
+    """(block, input, output, kind, definition) rows of a condition's plant model."""
+    plant = condition.plant
+    if plant.format == "diagram":
+        rows = [(b.name, b.input, b.output, b.transfer.kind, describe(b.transfer)) for b in plant.blocks]
+        rows += [(j.name, " ".join([f"+{s}" for s in j.plus] + [f"-{s}" for s in j.minus]), j.output, "junction", "")
+                 for j in plant.junctions]
+        rows.append(("(loop broken at)", condition.break_at, "", "", ""))
+        return rows
+    if plant.format == "channels":
+        rows = []
+        for ch in plant.channels:
+            rows.append((f"{ch.name}.response", "e", f"{ch.name}.theta", ch.response.kind, describe(ch.response)))
+            for k, sub in enumerate(ch.compensators, start=1):
+                rows.append((f"{ch.name}.{k}", "", "", "polynomial",
+                             f"({', '.join(map(str, sub.numerator))}) / ({', '.join(map(str, sub.denominator))})"))
+        return rows
+    if plant.format == "cascade":
+        return [(name.upper(), "", "", t.kind, describe(t)) for name in ("g1", "g2", "g1g2", "ga", "h1", "h2")
+                if (t := getattr(plant, name)) is not None]
+    return [(f"a[{e.row},{e.col}]", "", "", "matrix entry", e.expression) for e in plant.entries]
+
+
+def describe(transfer) -> str:
+    """A one-line definition of a transfer model."""
+    kind = transfer.kind
+    if kind == "expression":
+        return transfer.expression
+    if kind == "table":
+        t = transfer.table
+        return f"table {t.csv or 'inline'} ({t.form}, {t.unit}, gain {t.gain:g})"
+    if kind == "controller":
+        factors = " ".join(f"{f.kind}({f.b if 'complex' not in f.kind else f'{f.damping},{f.frequency}'})"
+                           for f in transfer.factors)
+        return f"{transfer.gain} s^{transfer.s_power} {factors}"
+    if kind == "polynomial":
+        return f"({', '.join(map(str, transfer.numerator))}) / ({', '.join(map(str, transfer.denominator))})"
+    if kind == "delay":
+        return f"exp(-s*{transfer.tau})"
+    return kind

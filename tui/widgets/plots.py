@@ -1,0 +1,141 @@
+"""The text plots (the only module that touches plotext).
+
+Each plot keeps plain lists of its series and redraws from them inside
+`render` (plotext's `build` rewrites stored data, so a redraw from stored
+figure state could lie).  Log-frequency axes are drawn as log10(omega) on a
+linear axis with decade labels, never with plotext's log scale.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from textual_plotext import PlotextPlot
+
+
+@dataclass
+class Series:
+    x: list[float]
+    y: list[float]
+    label: str = ""
+    marker: str = "braille"
+    scatter: bool = False
+    color: str | None = None
+
+
+@dataclass
+class Figure:
+    title: str = ""
+    xlabel: str = ""
+    ylabel: str = ""
+    xlim: tuple[float, float] | None = None
+    ylim: tuple[float, float] | None = None
+    xticks: tuple[list[float], list[str]] | None = None
+    series: list[Series] = field(default_factory=list)
+    empty_message: str = ""
+
+
+class FigurePlot(PlotextPlot):
+    """A plot drawn from a `Figure` (set `figure`, then `refresh()`)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.figure = Figure()
+
+    def show(self, figure: Figure) -> None:
+        self.figure = figure
+        self.refresh()
+
+    def render(self):
+        plt, fig = self.plt, self.figure
+        plt.clear_figure()
+        plt.title(fig.title or fig.empty_message)
+        if fig.xlabel:
+            plt.xlabel(fig.xlabel)
+        if fig.ylabel:
+            plt.ylabel(fig.ylabel)
+        for s in fig.series:
+            if not s.x:
+                continue
+            draw = plt.scatter if s.scatter else plt.plot
+            kwargs = {"marker": s.marker, "label": s.label or None}
+            if s.color:
+                kwargs["color"] = s.color
+            draw(s.x, s.y, **kwargs)
+        if fig.xlim:
+            plt.xlim(*fig.xlim)
+        if fig.ylim:
+            plt.ylim(*fig.ylim)
+        if fig.xticks:
+            plt.xticks(*fig.xticks)
+        try:
+            return super().render()
+        except (IndexError, ValueError, ZeroDivisionError) as exc:   # plotext on a tiny or odd canvas
+            return f"{fig.title}: cannot draw at this size ({type(exc).__name__})"
+
+
+def _finite(x: np.ndarray, y: np.ndarray) -> tuple[list[float], list[float]]:
+    keep = np.isfinite(x) & np.isfinite(y)
+    return x[keep].tolist(), y[keep].tolist()
+
+
+def _decades(log_w: np.ndarray, unit: str) -> tuple[list[float], list[str]]:
+    lo, hi = math.floor(np.nanmin(log_w)), math.ceil(np.nanmax(log_w))
+    ticks = list(range(lo, hi + 1))
+    return [float(t) for t in ticks], [f"{10.0 ** t:g}" for t in ticks]
+
+
+def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None) -> Figure:
+    """GH plane around -1: the curves, -1, push/pull points, the desired stability circle."""
+    fig = Figure(title="Nyquist (GH plane)", xlabel="Re GH", ylabel="Im GH", xlim=(-4.0, 2.0), ylim=(-3.0, 3.0))
+    for curve, color in zip(curves, ("blue", "gray")):
+        gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
+        x, y = _finite(gh.real, gh.imag)
+        fig.series.append(Series(x, y, curve.label, color=color))
+    if radius:
+        t = np.linspace(0, 2 * np.pi, 90)
+        fig.series.append(Series((-1 + radius * np.cos(t)).tolist(), (radius * np.sin(t)).tolist(),
+                                 f"|1+GH| = {radius:g}", marker="dot", color="green"))
+    fig.series.append(Series([-1.0], [0.0], "-1", marker="x", scatter=True, color="red"))
+    if points:
+        fig.series.append(Series([p.real for p, _ in points], [p.imag for p, _ in points], "push/pull points",
+                                 marker="o", scatter=True, color="orange"))
+    return fig
+
+
+def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
+    """Magnitude (dB) and phase (deg) against log frequency."""
+    scale = 2 * np.pi if unit == "hz" else 1.0
+    magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})")
+    phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})")
+    for curve, color in zip(curves, ("blue", "gray")):
+        w = curve.omega / scale
+        positive = w > 0
+        lw = np.log10(w[positive])
+        gh = curve.gh[positive]
+        with np.errstate(divide="ignore"):
+            db = 20 * np.log10(np.abs(gh))
+        magnitude.series.append(Series(*_finite(lw, db), curve.label, color=color))
+        phase.series.append(Series(*_finite(lw, np.degrees(np.unwrap(np.angle(gh)))), curve.label, color=color))
+        magnitude.xticks = phase.xticks = _decades(lw, unit)
+    return magnitude, phase
+
+
+def nichols_figure(curves) -> Figure:
+    """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB)."""
+    fig = Figure(title="Nichols", xlabel="phase (deg)", ylabel="dB")
+    for curve, color in zip(curves, ("blue", "gray")):
+        with np.errstate(divide="ignore"):
+            db = 20 * np.log10(np.abs(curve.gh))
+        fig.series.append(Series(*_finite(np.degrees(np.unwrap(np.angle(curve.gh))), db), curve.label, color=color))
+    fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))
+    return fig
+
+
+def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[float], empty: str) -> Figure:
+    fig = Figure(title=title if x else "", xlabel=xlabel, ylabel=ylabel, empty_message=empty)
+    if x:
+        fig.series.append(Series(list(map(float, x)), list(map(float, y)), ylabel, marker="dot"))
+    return fig

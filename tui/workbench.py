@@ -1,0 +1,208 @@
+"""The workbench's model, free of widgets: a session, its algorithm, stepping,
+undo, choosing an earlier iteration as the new start, and the data the
+plots and tableaux show.  The app drives it from a worker thread and renders
+what it returns; tests drive it directly.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from engine.algorithm import MeasureRow, State, Status, StepRecord, lookup, make_settings
+from engine.errors import EngineError
+from engine.loops import open_loop
+from sessions.build import build_problem
+from sessions.errors import SessionError
+from sessions.store import Session, save_session, write_autosave
+
+
+@dataclass(frozen=True)
+class LoopCurve:
+    """GH(j omega) of the first condition at some parameters (for Nyquist, Bode, Nichols)."""
+
+    omega: np.ndarray
+    gh: np.ndarray
+    label: str
+
+
+class Workbench:
+    """One open session and its algorithm."""
+
+    def __init__(self, session: Session):
+        self.session = session
+        self.dirty = False
+        self._states: dict[int, State] = {}
+        self._algorithm = None
+
+    # -- the algorithm ------------------------------------------------------
+
+    @property
+    def algorithm_name(self) -> str:
+        return self.session.model.algorithm.name
+
+    @property
+    def iteration(self) -> int:
+        return self.session.model.current_iteration
+
+    @property
+    def records(self) -> list[StepRecord]:
+        return self.session.records[:self.iteration]
+
+    def status(self) -> Status:
+        records = self.records
+        return records[-1].status if records else Status.RUNNING
+
+    def status_text(self) -> str:
+        records = self.records
+        if not records:
+            return "not started"
+        last = records[-1]
+        return last.status.value + (f": {last.reason}" if last.reason else "")
+
+    def _algorithm_and_settings(self):
+        try:
+            settings = make_settings(self.algorithm_name, self.session.model.algorithm.settings)
+            return lookup(self.algorithm_name).factory(), settings
+        except (EngineError, TypeError) as exc:
+            raise SessionError(f"algorithm: {exc}") from None
+
+    def _ensure_algorithm(self):
+        """The algorithm bound to the problem, and the state before any iteration."""
+        if self._algorithm is None or 0 not in self._states:
+            algorithm, settings = self._algorithm_and_settings()
+            self._states = {0: algorithm.init(self.session.problem, settings)}
+            self._algorithm = algorithm
+        return self._algorithm
+
+    def _state(self) -> State:
+        """The state after the current iteration (replayed from the nearest known one)."""
+        algorithm = self._ensure_algorithm()
+        k = self.iteration
+        known = max(i for i in self._states if i <= k)
+        state = self._states[known]
+        for i in range(known, k):
+            state, _ = algorithm.step(state)
+            self._states[i + 1] = state
+        return state
+
+    def step(self) -> StepRecord | None:
+        """One iteration (None when the algorithm has finished)."""
+        state = self._state()
+        if state.status.finished:
+            return None
+        state, record = self._algorithm.step(state)
+        model = self.session.model
+        del model.records[self.iteration:]
+        model.records.append(record.to_json())
+        model.state = state.to_json()
+        model.current_iteration = len(model.records)
+        self._states = {i: st for i, st in self._states.items() if i < model.current_iteration}
+        self._states[model.current_iteration] = state
+        self.dirty = True
+        write_autosave(self.session)
+        return record
+
+    def undo(self) -> bool:
+        """Drop the last iteration (False when there is none)."""
+        model = self.session.model
+        if model.current_iteration == 0:
+            return False
+        model.current_iteration -= 1
+        del model.records[model.current_iteration:]
+        previous = self._states.get(model.current_iteration)
+        model.state = previous.to_json() if previous is not None else None
+        self.dirty = True
+        return True
+
+    def start_from(self, iteration: int) -> None:
+        """Make an earlier iteration the current one (later records are dropped)."""
+        if not 0 <= iteration <= self.iteration:
+            raise SessionError(f"iteration {iteration} is outside 0..{self.iteration}")
+        while self.iteration > iteration:
+            self.undo()
+
+    def set_algorithm(self, name: str) -> None:
+        lookup(name)
+        self.session.model.algorithm.name = name
+        self.session.model.algorithm.settings = {}
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every record (the problem or the algorithm changed)."""
+        model = self.session.model
+        model.records.clear()
+        model.current_iteration = 0
+        model.state = None
+        self._states, self._algorithm = {}, None
+        self.dirty = True
+
+    def rebuild(self) -> None:
+        """Rebuild the engine problem after an edit of the model; on error the
+        caller restores the old value (nothing is lost)."""
+        folder = self.session.path.parent if self.session.path else Path.cwd()
+        self.session.problem = build_problem(self.session.model.problem, folder)
+        self.reset()
+
+    def save(self, path: str | Path | None = None) -> Path:
+        target = save_session(self.session, path)
+        self.dirty = False
+        return target
+
+    # -- what the screens show ---------------------------------------------
+
+    def tableau(self, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:
+        k = self.iteration if iteration is None else iteration
+        if k == 0:
+            record = self.initial_record()
+            return (list(record.measures) if record else []), record
+        record = self.records[k - 1]
+        return list(record.measures), record
+
+    def initial_record(self) -> StepRecord | None:
+        """Iteration 0 as a record, where the algorithm offers one (cip's initial tableau)."""
+        try:
+            algorithm = self._ensure_algorithm()
+        except (EngineError, SessionError):
+            return None
+        if not hasattr(algorithm, "initial_record"):
+            return None
+        return algorithm.initial_record(self._states[0])
+
+    def parameters(self, iteration: int | None = None) -> dict[str, float]:
+        """Parameter values (first condition) after an iteration (0: the session's start)."""
+        k = self.iteration if iteration is None else iteration
+        problem = self.session.problem
+        values = problem.values(0)
+        if k > 0:
+            for name, value in self.records[k - 1].parameters.items():
+                values[name] = float(value[0] if isinstance(value, list) else value)
+        return values
+
+    def loop_curve(self, iteration: int | None = None, label: str = "current") -> LoopCurve | None:
+        """GH of the first condition (None when the loop cannot be evaluated)."""
+        problem = self.session.problem
+        condition = problem.conditions[0]
+        try:
+            response = open_loop(condition.network, condition.break_at, problem.grid.omega,
+                                 self.parameters(iteration), sensitivities=False)
+        except EngineError:
+            return None
+        return LoopCurve(problem.grid.omega, response.value, label)
+
+    def convergence(self) -> tuple[str, list[int], list[float]]:
+        """The convergence curve: what it measures, iterations, values."""
+        records = self.records
+        if not records:
+            return "", [], []
+        if "smallest_stability_margin" in records[0].extra:
+            label, values = "smallest stability margin", [r.extra.get("smallest_stability_margin") for r in records]
+        elif records[0].objective is not None:
+            label, values = "cost", [r.objective for r in records]
+        else:
+            label, values = "unmet targets", [sum(not m.satisfied for m in r.measures) for r in records]
+        points = [(r.iteration, float(v)) for r, v in zip(records, values) if v is not None and math.isfinite(v)]
+        return label, [p[0] for p in points], [p[1] for p in points]
