@@ -45,6 +45,11 @@ def test_bad_expression_exits_2_with_one_line(expr):
     assert "Traceback" not in out.stderr
 
 
-def test_help_without_command():
-    out = run()
-    assert out.returncode == 0 and "analyze" in out.stdout
+def test_help_lists_the_commands_and_the_app():
+    out = run("--help")
+    assert out.returncode == 0 and "analyze" in out.stdout and "--example" in out.stdout
+
+
+def test_a_missing_session_file_for_the_app_is_one_line():
+    out = run("nonexistent.json")
+    assert out.returncode == 2 and out.stderr.count("\n") == 1 and "no such file" in out.stderr

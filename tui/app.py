@@ -23,6 +23,7 @@ from .files import NEW_SESSION, remember, working_copy
 from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
 from .screens.main import MainScreen
 from .screens.start import StartScreen
+from .widgets.plots import FigurePlot
 from .workbench import Workbench
 
 REDRAW_INTERVAL = 0.1   # while running, plots are redrawn at most this often (s)
@@ -162,6 +163,7 @@ class LoopcraftApp(App):
     @work(thread=True, exclusive=True, exit_on_error=False, group="run")
     def _run_worker(self, count: int) -> None:
         worker = get_current_worker()
+        drawn = False
         for _ in range(count):
             if worker.is_cancelled or self._pause:
                 break
@@ -174,21 +176,32 @@ class LoopcraftApp(App):
                 self.call_from_thread(self.notify, "the algorithm has finished; z undoes, a changes it")
                 break
             final = record.status.finished
-            self.call_from_thread(self._stepped, final or count == 1)
+            drawn = final or count == 1 or time.monotonic() - self._last_redraw >= REDRAW_INTERVAL
+            self.call_from_thread(self._stepped, *self._drawings(drawn))
             if final:
                 break
-        self.call_from_thread(self._stepped, True)
+        if not drawn:
+            self.call_from_thread(self._stepped, *self._drawings(True))
 
-    def _stepped(self, redraw: bool) -> None:
-        now = time.monotonic()
+    def _drawings(self, redraw: bool) -> tuple:
+        """In the worker: the figures and their text, drawn off the UI thread."""
+        screen = self._main()
+        if not redraw or screen is None:
+            return (False, None, None)
+        figures = screen.figures()
+        canvases = screen.canvases()
+        prebuilt = {name: FigurePlot.prebuild(figures[name], canvas) for name, canvas in canvases.items()
+                    if name in figures}
+        return (True, figures, prebuilt)
+
+    def _stepped(self, redraw: bool, figures: dict | None = None, prebuilt: dict | None = None) -> None:
         screen = self._main()
         if screen is None:
             return
-        plots = redraw or now - self._last_redraw >= REDRAW_INTERVAL
         screen.refresh_status()
-        screen.refresh_run(plots=plots)
-        if plots:
-            self._last_redraw = now
+        screen.refresh_run(plots=redraw, figures=figures, prebuilt=prebuilt)
+        if redraw:
+            self._last_redraw = time.monotonic()
             screen.refresh_history()
 
     def _failed(self, exc: Exception) -> None:

@@ -37,6 +37,7 @@ class Workbench:
         self.dirty = False
         self._states: dict[int, State] = {}
         self._algorithm = None
+        self._records: list[StepRecord] = session.records   # parsed once, kept in step with the model
 
     # -- the algorithm ------------------------------------------------------
 
@@ -50,7 +51,7 @@ class Workbench:
 
     @property
     def records(self) -> list[StepRecord]:
-        return self.session.records[:self.iteration]
+        return self._records[:self.iteration]
 
     def status(self) -> Status:
         records = self.records
@@ -98,6 +99,8 @@ class Workbench:
         model = self.session.model
         del model.records[self.iteration:]
         model.records.append(record.to_json())
+        del self._records[self.iteration:]
+        self._records.append(record)
         model.state = state.to_json()
         model.current_iteration = len(model.records)
         self._states = {i: st for i, st in self._states.items() if i < model.current_iteration}
@@ -113,6 +116,7 @@ class Workbench:
             return False
         model.current_iteration -= 1
         del model.records[model.current_iteration:]
+        del self._records[model.current_iteration:]
         previous = self._states.get(model.current_iteration)
         model.state = previous.to_json() if previous is not None else None
         self.dirty = True
@@ -135,6 +139,7 @@ class Workbench:
         """Forget every record (the problem or the algorithm changed)."""
         model = self.session.model
         model.records.clear()
+        self._records.clear()
         model.current_iteration = 0
         model.state = None
         self._states, self._algorithm = {}, None

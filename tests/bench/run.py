@@ -180,6 +180,8 @@ def main() -> None:
     t_pc_freq = median_time(lambda i: system(1j * omega), args.repeat)
     m = all_margins()
     qcg = qcg_comparison(args.repeat)
+    from tests.bench.tui_latency import measure as tui_measure
+    tui = tui_measure()
     cip_problem_ = cip_problem()
     t_cip, cip_steps = cip_iterations(cip_problem_, args.repeat)
     results = {
@@ -197,6 +199,7 @@ def main() -> None:
                               "iterations_timed": len(cip_steps), "mean_trials": statistics.mean(cip_steps),
                               "report_univac_1106_s": 0.9},
             "qcg_sample_convergence": qcg,
+            "workbench": tui,
         },
         "ratios": {"python_control_margins_over_ours": t_pc / t_marg,
                    "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp,

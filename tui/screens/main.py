@@ -92,6 +92,10 @@ class MainScreen(Screen):
     def action_tab(self, name: str) -> None:
         self.query_one("#tabs", TabbedContent).active = name
 
+    def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
+        if event.tabbed_content.id == "tabs" and getattr(self, "_history_stale", True):
+            self.refresh_history()
+
     # -- refreshing ---------------------------------------------------------
 
     def refresh_all(self) -> None:
@@ -108,28 +112,44 @@ class MainScreen(Screen):
         self.query_one("#status", Static).update(
             f"[b]{name}{mark}[/b]  algorithm [b]{b.algorithm_name}[/b]  Iteration {b.iteration}  {b.status_text()}")
 
-    def refresh_run(self, plots: bool = True) -> None:
+    def refresh_run(self, plots: bool = True, figures: dict | None = None, prebuilt: dict | None = None) -> None:
         rows, record = self.bench.tableau()
         previous = self.bench.tableau(self.bench.iteration - 1)[0] if self.bench.iteration > 0 else []
         self._fill_tableau(self.query_one("#tableau", DataTable), rows, previous)
         self.query_one("#step-info", Static).update(self._step_info(record))
         if plots:
-            self.refresh_plots()
+            self.refresh_plots(figures, prebuilt)
 
-    def refresh_plots(self) -> None:
+    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence")
+
+    def figures(self) -> dict[str, object]:
+        """Every plot's figure from the workbench (safe to call from the worker thread)."""
         b = self.bench
         curves = [c for c in (b.loop_curve(label="current"), b.loop_curve(0, "initial") if b.iteration else None)
                   if c is not None]
-        unit = b.session.problem.grid.unit
+        figures: dict[str, object] = {}
         if curves:
-            self.query_one("#nyquist", FigurePlot).show(nyquist_figure(curves, self._points(), self._radius()))
-            magnitude, phase = bode_figures(curves, unit)
-            self.query_one("#bode-mag", FigurePlot).show(magnitude)
-            self.query_one("#bode-phase", FigurePlot).show(phase)
-            self.query_one("#nichols", FigurePlot).show(nichols_figure(curves))
+            figures["nyquist"] = nyquist_figure(curves, self._points(), self._radius())
+            figures["bode-mag"], figures["bode-phase"] = bode_figures(curves, b.session.problem.grid.unit)
+            figures["nichols"] = nichols_figure(curves)
         label, its, values = b.convergence()
-        self.query_one("#convergence", FigurePlot).show(
-            line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet"))
+        figures["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values,
+                                             "no iterations yet")
+        return figures
+
+    def canvases(self) -> dict[str, tuple[int, int, str]]:
+        """The size and theme of every plot that is on screen now."""
+        out = {}
+        for name in self.PLOTS:
+            plot = self.query_one(f"#{name}", FigurePlot)
+            if plot.display and plot.size.width > 0 and plot.region.width > 0:
+                out[name] = plot.canvas()
+        return out
+
+    def refresh_plots(self, figures: dict | None = None, prebuilt: dict | None = None) -> None:
+        figures = self.figures() if figures is None else figures
+        for name, figure in figures.items():
+            self.query_one(f"#{name}", FigurePlot).show(figure, (prebuilt or {}).get(name))
 
     def _points(self) -> list[tuple[complex, str]]:
         return [(p.value, p.mode) for t in self.bench.session.problem.targets for p in t.points]
@@ -141,17 +161,28 @@ class MainScreen(Screen):
         return None
 
     def _fill_tableau(self, table: DataTable, rows: list[MeasureRow], previous: list[MeasureRow]) -> None:
-        table.clear(columns=True)
+        """The rows of a tableau; values changed since ``previous`` in bold (cells updated in place)."""
         unit = self.bench.session.problem.grid.unit
         scale = 1 / (2 * 3.141592653589793) if unit == "hz" else 1.0
-        table.add_columns("no.", "kind", "value", f"freq {unit}", "target", "met")
+        if not table.columns:
+            table.add_columns("no.", "kind", "value", f"freq {unit}", "target", "met")
         before = {(r.name, r.kind): r.value for r in previous}
+        cells = []
         for r in rows:
             changed = (r.name, r.kind) in before and before[(r.name, r.kind)] != r.value
             value = f"[b]{_fmt(r.value, 5)}[/b]" if changed else _fmt(r.value, 5)
             freq = "" if r.frequency is None else _fmt(r.frequency * scale, 5)
             met = "yes" if r.satisfied else "[red]NO[/red]"
-            table.add_row(r.name, SHORT.get(r.kind, r.kind), value, freq, _fmt(r.target, 5), met)
+            cells.append((r.name, SHORT.get(r.kind, r.kind), value, freq, _fmt(r.target, 5), met))
+        if table.row_count != len(cells):
+            table.clear()
+            for row in cells:
+                table.add_row(*row)
+            return
+        for i, row in enumerate(cells):
+            for j, cell in enumerate(row):
+                if table.get_cell_at((i, j)) != cell:
+                    table.update_cell_at((i, j), cell)
 
     def _step_info(self, record: StepRecord | None) -> str:
         if record is None:
@@ -208,6 +239,11 @@ class MainScreen(Screen):
             objective.add_row(f"{self.bench.algorithm_name}.{k}", _fmt(v))
 
     def refresh_history(self) -> None:
+        """The history table, rebuilt only while its tab is shown (else on the next visit)."""
+        if self.query_one("#tabs", TabbedContent).active != "history":
+            self._history_stale = True
+            return
+        self._history_stale = False
         table = self.query_one("#history-table", DataTable)
         table.clear(columns=True)
         table.add_columns("iteration", "status", "value", "unmet")

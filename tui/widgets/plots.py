@@ -12,7 +12,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from rich.text import Text
 from textual_plotext import PlotextPlot
+from textual_plotext.plot import Plot
 
 
 @dataclass
@@ -38,47 +40,82 @@ class Figure:
 
 
 class FigurePlot(PlotextPlot):
-    """A plot drawn from a `Figure` (set `figure`, then `refresh()`)."""
+    """A plot drawn from a `Figure`.  `show` draws on the next render;
+    `prebuild` (any thread) draws into text that `show` can hand over, so a
+    worker thread can take the drawing off the UI thread."""
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.figure = Figure()
+        self._prebuilt: tuple[tuple[int, int, str], Text] | None = None
 
-    def show(self, figure: Figure) -> None:
-        self.figure = figure
+    def show(self, figure: Figure, prebuilt: tuple[tuple[int, int, str], Text] | None = None) -> None:
+        self.figure, self._prebuilt = figure, prebuilt
         self.refresh()
 
+    def canvas(self) -> tuple[int, int, str]:
+        """(width, height, plotext theme) of the next render."""
+        return self.size.width, self.size.height, self._get_plotext_theme_name(self.app.theme)
+
+    @staticmethod
+    def prebuild(figure: Figure, canvas: tuple[int, int, str]) -> tuple[tuple[int, int, str], Text] | None:
+        width, height, theme = canvas
+        if width < 10 or height < 5:
+            return None
+        plot = Plot()
+        _draw(plot, figure)
+        plot.plotsize(width, height)
+        plot._set_size(width, height)
+        plot.theme(theme)
+        try:
+            return canvas, Text.from_ansi(plot.build())
+        except (IndexError, ValueError, ZeroDivisionError):
+            return None
+
     def render(self):
-        plt, fig = self.plt, self.figure
-        plt.clear_figure()
-        plt.title(fig.title or fig.empty_message)
-        if fig.xlabel:
-            plt.xlabel(fig.xlabel)
-        if fig.ylabel:
-            plt.ylabel(fig.ylabel)
-        for s in fig.series:
-            if not s.x:
-                continue
-            draw = plt.scatter if s.scatter else plt.plot
-            kwargs = {"marker": s.marker, "label": s.label or None}
-            if s.color:
-                kwargs["color"] = s.color
-            draw(s.x, s.y, **kwargs)
-        if fig.xlim:
-            plt.xlim(*fig.xlim)
-        if fig.ylim:
-            plt.ylim(*fig.ylim)
-        if fig.xticks:
-            plt.xticks(*fig.xticks)
+        if self._prebuilt is not None and self._prebuilt[0] == self.canvas():
+            return self._prebuilt[1]
+        _draw(self.plt, self.figure)
         try:
             return super().render()
         except (IndexError, ValueError, ZeroDivisionError) as exc:   # plotext on a tiny or odd canvas
-            return f"{fig.title}: cannot draw at this size ({type(exc).__name__})"
+            return f"{self.figure.title}: cannot draw at this size ({type(exc).__name__})"
+
+
+def _draw(plt, fig: Figure) -> None:
+    """Clear ``plt`` and draw ``fig`` on it."""
+    plt.clear_figure()
+    plt.title(fig.title or fig.empty_message)
+    if fig.xlabel:
+        plt.xlabel(fig.xlabel)
+    if fig.ylabel:
+        plt.ylabel(fig.ylabel)
+    for s in fig.series:
+        if not s.x:
+            continue
+        draw = plt.scatter if s.scatter else plt.plot
+        kwargs = {"marker": s.marker, "label": s.label or None}
+        if s.color:
+            kwargs["color"] = s.color
+        draw(s.x, s.y, **kwargs)
+    if fig.xlim:
+        plt.xlim(*fig.xlim)
+    if fig.ylim:
+        plt.ylim(*fig.ylim)
+    if fig.xticks:
+        plt.xticks(*fig.xticks)
+
+
+MAX_POINTS = 600   # a text canvas resolves fewer; more only slows plotext down
 
 
 def _finite(x: np.ndarray, y: np.ndarray) -> tuple[list[float], list[float]]:
     keep = np.isfinite(x) & np.isfinite(y)
-    return x[keep].tolist(), y[keep].tolist()
+    x, y = x[keep], y[keep]
+    if x.size > MAX_POINTS:
+        step = int(np.ceil(x.size / MAX_POINTS))
+        x, y = np.concatenate([x[::step], x[-1:]]), np.concatenate([y[::step], y[-1:]])
+    return x.tolist(), y.tolist()
 
 
 def _decades(log_w: np.ndarray, unit: str) -> tuple[list[float], list[str]]:

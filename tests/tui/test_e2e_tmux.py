@@ -1,0 +1,56 @@
+"""End to end: the real `loopcraft` in a tmux terminal, driven by keys."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+TMUX = shutil.which("tmux")
+LOOPCRAFT = Path(sys.executable).parent / "loopcraft"
+pytestmark = pytest.mark.skipif(TMUX is None, reason="tmux is not installed (.ci/run installs it): end-to-end "
+                                                      "test skipped")
+
+
+def tmux(*args: str) -> str:
+    return subprocess.run([TMUX, *args], capture_output=True, text=True, check=False).stdout
+
+
+def wait_for(session: str, text: str, timeout: float = 30.0) -> str:
+    deadline = time.monotonic() + timeout
+    screen = ""
+    while time.monotonic() < deadline:
+        screen = tmux("capture-pane", "-t", session, "-p")
+        if text in screen:
+            return screen
+        time.sleep(0.2)
+    raise AssertionError(f"{text!r} never appeared; the screen:\n{screen}")
+
+
+def test_open_step_three_times_save_and_quit(workdir):
+    session = f"loopcraft-e2e-{time.monotonic_ns()}"
+    exit_file = workdir / "exit.txt"
+    command = (f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
+               f"seidel_inlet_pi.json; echo EXIT:$? > {exit_file}")
+    tmux("new-session", "-d", "-s", session, "-x", "120", "-y", "40", command)
+    try:
+        wait_for(session, "Iteration 0")
+        for k in (1, 2, 3):
+            tmux("send-keys", "-t", session, "s")
+            screen = wait_for(session, f"Iteration {k}")
+        assert "objective 0.05" in screen            # the cost C after three line searches
+        tmux("send-keys", "-t", session, "C-s")
+        wait_for(session, "saved")
+        tmux("send-keys", "-t", session, "q")
+        deadline = time.monotonic() + 20
+        while not exit_file.exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert exit_file.read_text().strip() == "EXIT:0"
+        assert len(json.loads((workdir / "seidel_inlet_pi.json").read_text())["records"]) == 3
+    finally:
+        tmux("kill-session", "-t", session)
