@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -114,6 +114,7 @@ class Objective:
     kind: str
     options: Mapping[str, float | str] = field(default_factory=dict)
     tables: Mapping[str, FrequencyTable] = field(default_factory=dict)  # e.g. a noise PSD
+    data: Mapping[str, Any] = field(default_factory=dict)  # structured inputs (e.g. a DAE's matrices)
 
 
 @dataclass(frozen=True)
@@ -125,8 +126,8 @@ class Problem:
     objective: Objective | None = None
 
     def __post_init__(self) -> None:
-        if not self.conditions:
-            raise EngineError("a problem needs at least one condition")
+        if not self.conditions and (self.objective is None or self.objective.kind != "dae"):
+            raise EngineError("a problem needs at least one condition (only a 'dae' objective stands alone)")
         check_grid(self.grid.omega, "problem grid")
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):

@@ -32,7 +32,8 @@ def build_problem(model: ProblemModel, folder: Path) -> Problem:
     targets = tuple(_target(t) for t in model.targets)
     objective = None if model.objective is None else Objective(
         model.objective.kind, dict(model.objective.options),
-        {name: _table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()})
+        {name: _table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()},
+        dict(model.objective.data))
     try:
         return Problem(conditions, parameters, targets, _grid(model.grid), objective)
     except EngineError as exc:

@@ -280,11 +280,13 @@ class ObjectiveModel(Strict):
     kind: str
     options: dict[str, Union[float, str]] = {}
     tables: dict[str, TableModel] = Field(default={}, description="e.g. noise_psd (form 'magnitude')")
+    data: dict[str, Any] = Field(default={}, description="structured inputs: for kind 'dae' the matrices A, B, E, "
+                                                         "F, x0, horizon, steps, bounds, Q, R")
 
 
 class ProblemModel(Strict):
     grid: GridModel
-    conditions: Annotated[list[ConditionModel], Field(min_length=1)]
+    conditions: list[ConditionModel] = Field(default=[], description="at least one, except for a 'dae' objective")
     parameters: list[ParameterModel] = []
     targets: list[TargetModel] = []
     objective: ObjectiveModel | None = None

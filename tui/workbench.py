@@ -190,6 +190,8 @@ class Workbench:
     def loop_curve(self, iteration: int | None = None, label: str = "current") -> LoopCurve | None:
         """GH of the first condition (None when the loop cannot be evaluated)."""
         problem = self.session.problem
+        if not problem.conditions:
+            return None
         condition = problem.conditions[0]
         try:
             response = open_loop(condition.network, condition.break_at, problem.grid.omega,
@@ -198,6 +200,14 @@ class Workbench:
             return None
         return LoopCurve(problem.grid.omega, response.value, label)
 
+    def trajectories(self) -> tuple[list[float], list[list[float]], list[list[float]]] | None:
+        """t, x(t), u(t) of the current iteration (algorithms that produce trajectories)."""
+        records = self.records
+        if not records or "u" not in records[-1].extra:
+            return None
+        e = records[-1].extra
+        return e["t"], e["x"], e["u"]
+
     def convergence(self) -> tuple[str, list[int], list[float]]:
         """The convergence curve: what it measures, iterations, values."""
         records = self.records
@@ -205,6 +215,9 @@ class Workbench:
             return "", [], []
         if "smallest_stability_margin" in records[0].extra:
             label, values = "smallest stability margin", [r.extra.get("smallest_stability_margin") for r in records]
+        elif "distance" in records[0].extra:
+            label, values = "log10 distance between the sets", [math.log10(max(r.extra["distance"], 1e-300))
+                                                                 for r in records]
         elif records[0].objective is not None:
             label, values = "cost", [r.objective for r in records]
         else:

@@ -136,6 +136,23 @@ def qcg_comparison(repeat: int) -> dict:
                        "evaluations_bfgs_over_cgfm": theirs.nfev / ours.counters["KNT"]}}
 
 
+def projection_integrator(repeat: int) -> dict:
+    """Report 004, example (a) to convergence (target 50 ms)."""
+    from pathlib import Path
+
+    from engine.algorithm import iterate
+    from engine.projection import Projection, ProjectionSettings
+    from sessions.store import load_session
+    problem = load_session(Path(__file__).resolve().parents[2] / "sessions" / "examples"
+                           / "projection_integrator.json").problem
+
+    def run(i=0):
+        return list(iterate(Projection(), problem, ProjectionSettings(), max_iter=100))
+    records = run()
+    return {"median_s": median_time(run, repeat), "target_s": 0.050, "iterations": len(records),
+            "status": records[-1][1].status.value}
+
+
 def median_time(fun, repeat: int) -> float:
     """Median wall time of fun(i) over i = 1..repeat, after one warm-up call."""
     fun(0)
@@ -200,6 +217,7 @@ def main() -> None:
                               "report_univac_1106_s": 0.9},
             "qcg_sample_convergence": qcg,
             "workbench": tui,
+            "projection_integrator": projection_integrator(args.repeat),
         },
         "ratios": {"python_control_margins_over_ours": t_pc / t_marg,
                    "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp,

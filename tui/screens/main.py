@@ -12,7 +12,8 @@ from textual.widgets import DataTable, Footer, Static, TabbedContent, TabPane
 
 from engine.algorithm import MeasureRow, StepRecord
 
-from ..widgets.plots import FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure
+from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure,
+                             trajectories_figure)
 from ..workbench import Workbench
 
 
@@ -69,6 +70,8 @@ class MainScreen(Screen):
                             yield FigurePlot(id="nichols")
                         with TabPane("Convergence", id="p-convergence"):
                             yield FigurePlot(id="convergence")
+                        with TabPane("Trajectories", id="p-trajectories"):
+                            yield FigurePlot(id="trajectories")
                     with Vertical(id="tableau-side"):
                         yield DataTable(id="tableau", cursor_type="row", zebra_stripes=True)
                         yield Static("", id="step-info")
@@ -120,7 +123,7 @@ class MainScreen(Screen):
         if plots:
             self.refresh_plots(figures, prebuilt)
 
-    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence")
+    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence", "trajectories")
 
     def figures(self) -> dict[str, object]:
         """Every plot's figure from the workbench (safe to call from the worker thread)."""
@@ -135,6 +138,7 @@ class MainScreen(Screen):
         label, its, values = b.convergence()
         figures["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values,
                                              "no iterations yet")
+        figures["trajectories"] = trajectories_figure(b.trajectories())
         return figures
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:

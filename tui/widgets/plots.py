@@ -176,3 +176,16 @@ def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[fl
     if x:
         fig.series.append(Series(list(map(float, x)), list(map(float, y)), ylabel, marker="dot"))
     return fig
+
+
+def trajectories_figure(data) -> Figure:
+    """Controls u_j(t) of the current iterate (the `projection` algorithm's trajectories)."""
+    fig = Figure(xlabel="t", ylabel="u", empty_message="no trajectories (projection sessions have them)")
+    if data is None:
+        return fig
+    t, _, u = data
+    fig.title = "Controls u(t)"
+    columns = np.array(u, dtype=float)
+    for j in range(columns.shape[1]):
+        fig.series.append(Series(list(map(float, t)), columns[:, j].tolist(), f"u{j + 1}"))
+    return fig

@@ -1,0 +1,10 @@
+"""`projection`: constrained differential-algebraic design by sequential
+projection with extrapolation (report 004)."""
+
+from ..algorithm import register
+from .algorithm import Projection, ProjectionSettings
+
+register("projection", Projection, ProjectionSettings,
+         "alternating projections with extrapolation for constrained DAE systems (report 004)")
+
+__all__ = ["Projection", "ProjectionSettings"]

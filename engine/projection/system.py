@@ -1,0 +1,135 @@
+"""The constrained differential-algebraic system of report 004 in discrete
+time: x(k+1) = Phi x(k) + Delta u(k), E u(k) + F x(k) = 0 (k = 0..N),
+x(0) = x0, with boxes on u and x, and the norm
+||(x, u)||^2 = sum_k x(k)' Q x(k) + u(k)' R u(k).
+
+Phi = expm(A h) and Delta = integral_0^h expm(A s) ds B come from one
+matrix exponential of the augmented matrix [[A, B], [0, 0]] h (the report's
+series, summed exactly).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm
+
+from ..errors import EngineError
+
+
+@dataclass(frozen=True)
+class DaeSystem:
+    A: NDArray
+    B: NDArray
+    E: NDArray
+    F: NDArray
+    x0: NDArray
+    horizon: float
+    steps: int
+    Q: NDArray
+    R: NDArray
+    u_lower: NDArray
+    u_upper: NDArray
+    x_lower: NDArray
+    x_upper: NDArray
+
+    @property
+    def n(self) -> int:
+        return self.A.shape[0]
+
+    @property
+    def m(self) -> int:
+        return self.B.shape[1]
+
+    def discrete(self) -> tuple[NDArray, NDArray]:
+        """(Phi, Delta) for the step h = T/N."""
+        h = self.horizon / self.steps
+        n, m = self.n, self.m
+        augmented = np.zeros((n + m, n + m))
+        augmented[:n, :n], augmented[:n, n:] = self.A, self.B
+        exp = expm(augmented * h)
+        return exp[:n, :n], exp[:n, n:]
+
+    def times(self) -> NDArray:
+        return np.linspace(0.0, self.horizon, self.steps + 1)
+
+
+def _matrix(data: Mapping[str, Any], key: str, shape: tuple[int, int] | None = None) -> NDArray:
+    if key not in data:
+        raise EngineError(f"projection: the system needs {key}")
+    try:
+        value = np.array(data[key], dtype=float)
+    except (TypeError, ValueError):
+        raise EngineError(f"projection: {key} must be a matrix of numbers") from None
+    value = np.atleast_2d(value)
+    if shape is not None and value.shape != shape:
+        raise EngineError(f"projection: {key} must be {shape[0]} x {shape[1]}, not {value.shape[0]} x {value.shape[1]}")
+    if not np.all(np.isfinite(value)):
+        raise EngineError(f"projection: {key} has a non-finite entry")
+    return value
+
+
+def _weights(data: Mapping[str, Any], key: str, size: int) -> NDArray:
+    raw = data.get(key, [1.0] * size)
+    value = np.array(raw, dtype=float)
+    if value.ndim == 1:
+        if value.shape != (size,):
+            raise EngineError(f"projection: {key} needs {size} diagonal entries")
+        value = np.diag(value)
+    if value.shape != (size, size) or not np.allclose(value, value.T):
+        raise EngineError(f"projection: {key} must be a symmetric {size} x {size} matrix")
+    if np.min(np.linalg.eigvalsh(value)) <= 0:
+        raise EngineError(f"projection: {key} must be positive definite")
+    return value
+
+
+def _bounds(data: Mapping[str, Any], key: str, size: int, default: float) -> NDArray:
+    raw = data.get(key)
+    if raw is None:
+        return np.full(size, default)
+    values = [default if v is None else float(v) for v in raw]
+    if len(values) != size:
+        raise EngineError(f"projection: {key} needs {size} entries (null: unbounded)")
+    return np.array(values)
+
+
+def dae_system(data: Mapping[str, Any]) -> DaeSystem:
+    """The system from plain data (an objective's ``data``), with every shape checked."""
+    A = _matrix(data, "A")
+    n = A.shape[0]
+    if A.shape != (n, n):
+        raise EngineError("projection: A must be square")
+    B = _matrix(data, "B")
+    if B.shape[0] != n:
+        raise EngineError(f"projection: B needs {n} rows")
+    m = B.shape[1]
+    E = _matrix(data, "E")
+    p = E.shape[0]
+    if E.shape[1] != m:
+        raise EngineError(f"projection: E must have {m} columns")
+    F = _matrix(data, "F", (p, n))
+    if np.linalg.matrix_rank(E) < p:
+        raise EngineError("projection: E must have full row rank (each algebraic equation must involve u)")
+    x0 = np.array(data.get("x0", [0.0] * n), dtype=float)
+    steps, horizon = int(data.get("steps", 20)), float(data.get("horizon", 1.0))
+    if x0.shape != (n,) or steps < 1 or not horizon > 0:
+        raise EngineError(f"projection: x0 needs {n} entries, steps >= 1, horizon > 0")
+    system = DaeSystem(A, B, E, F, x0, horizon, steps, _weights(data, "Q", n), _weights(data, "R", m),
+                       _bounds(data, "u_min", m, -np.inf), _bounds(data, "u_max", m, np.inf),
+                       _bounds(data, "x_min", n, -np.inf), _bounds(data, "x_max", n, np.inf))
+    for name, lo, hi in (("u", system.u_lower, system.u_upper), ("x", system.x_lower, system.x_upper)):
+        empty = np.flatnonzero(lo > hi)
+        if empty.size:
+            raise EngineError(f"projection: {name}{empty[0] + 1} has min > max: the box is empty")
+    boxed = np.isfinite(np.concatenate([system.u_lower, system.u_upper, system.x_lower, system.x_upper])).any()
+    if boxed and (not _diagonal(system.Q) or not _diagonal(system.R)):
+        raise EngineError("projection: clipping projects onto boxes only in a norm with diagonal Q and R")
+    return system
+
+
+def _diagonal(M: NDArray) -> bool:
+    return bool(np.allclose(M, np.diag(np.diag(M))))

@@ -1,0 +1,91 @@
+"""`projection` (report 004): the discretization and the Riccati projection
+against independent computations, example (a), disjoint sets."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.signal import cont2discrete
+
+from engine.algorithm import Status, iterate
+from engine.errors import EngineError
+from engine.problem import Grid, Objective, Problem
+from engine.projection import Projection, ProjectionSettings
+from engine.projection.lq import Projector, Trajectory, kkt_projection
+from engine.projection.system import dae_system
+from sessions.store import load_session
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+
+
+@pytest.fixture(scope="module")
+def integrator():
+    return load_session(EXAMPLES / "projection_integrator.json").problem
+
+
+def _data(problem: Problem) -> dict:
+    return dict(problem.objective.data)
+
+
+def test_discretization_matches_scipy_zero_order_hold(integrator):
+    system = dae_system(_data(integrator))
+    Phi, Delta = system.discrete()
+    n, m = system.n, system.m
+    Ad, Bd, *_ = cont2discrete((system.A, system.B, np.eye(n), np.zeros((n, m))), 1.0 / system.steps)
+    assert np.allclose(Phi, Ad, atol=1e-14) and np.allclose(Delta, Bd, atol=1e-14)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_riccati_projection_equals_the_direct_kkt_solve(integrator, seed):
+    rng = np.random.default_rng(seed)
+    data = _data(integrator)
+    if seed == 2:   # a random system: 5 states, 4 inputs, 2 algebraic equations, non-diagonal weights
+        M = rng.normal(size=(5, 5))
+        data = {"A": rng.normal(size=(5, 5)).tolist(), "B": rng.normal(size=(5, 4)).tolist(),
+                "E": rng.normal(size=(2, 4)).tolist(), "F": rng.normal(size=(2, 5)).tolist(),
+                "x0": rng.normal(size=5).tolist(), "horizon": 2.0, "steps": 15,
+                "Q": (M @ M.T + np.eye(5)).tolist(), "R": [1.0, 2.0, 0.5, 3.0]}
+    system = dae_system(data)
+    reference = Trajectory(rng.normal(size=(system.steps + 1, system.n)), rng.normal(size=(system.steps + 1, system.m)))
+    riccati, direct = Projector(system)(reference), kkt_projection(system, reference)
+    scale = max(np.abs(direct.x).max(), np.abs(direct.u).max())
+    assert np.abs(riccati.x - direct.x).max() <= 1e-10 * scale
+    assert np.abs(riccati.u - direct.u).max() <= 1e-10 * scale
+
+
+def test_example_a_converges_with_extrapolation_much_faster_than_without(integrator):
+    fast = [r for _, r in iterate(Projection(), integrator, ProjectionSettings(), max_iter=100)]
+    slow = [r for _, r in iterate(Projection(), integrator, ProjectionSettings(extrapolation=False), max_iter=500)]
+    assert fast[-1].status is Status.CONVERGED and slow[-1].status is Status.CONVERGED
+    updates_fast, updates_slow = len(fast) - 1, len(slow) - 1
+    assert updates_fast <= 12 and updates_slow >= 3 * updates_fast
+    assert all(r.extra["lambda"] >= 1.0 for r in fast[:-1])
+    u = np.array(fast[-1].extra["u"])
+    for name, value in fast[-1].extra["violations"].items():
+        assert value <= 1e-8, name
+    assert u[:, 2].min() >= -1e-8
+
+
+def test_disjoint_sets_are_reported_infeasible_with_the_closest_distance(integrator):
+    data = dict(_data(integrator), u_min=[10.0, 10.0, 10.0], x_min=[-1.0] * 4, x_max=[1.0] * 4)
+    problem = replace(integrator, objective=replace(integrator.objective, data=data))
+    plain = [r for _, r in iterate(Projection(), problem, ProjectionSettings(extrapolation=False), max_iter=500)]
+    extrapolated = [r for _, r in iterate(Projection(), problem, ProjectionSettings(), max_iter=500)]
+    for records in (plain, extrapolated):
+        assert records[-1].status is Status.INFEASIBLE and "u1" in records[-1].reason
+    assert extrapolated[-1].extra["distance"] == pytest.approx(plain[-1].extra["distance"], rel=1e-6)
+
+
+def test_bad_systems_are_refused(integrator):
+    data = _data(integrator)
+    for change, message in ((dict(u_max=[None, None, -1.0]), "box is empty"),
+                            (dict(E=[[1, 1, 1], [2, 2, 2]]), "full row rank"),
+                            (dict(Q=[[1, 0.1, 0, 0], [0.1, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "diagonal"),
+                            (dict(B=[[0, 0]]), "rows")):
+        with pytest.raises(EngineError, match=message):
+            dae_system(dict(data, **change))
+    with pytest.raises(EngineError, match="dae"):
+        Problem((), (), (), Grid(np.array([1.0, 2.0])), Objective("quadratic_cost"))
