@@ -33,7 +33,7 @@ def _fmt(value, digits: int = 6) -> str:
 class MainScreen(Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history."""
 
-    BINDINGS = [Binding("1", "tab('run')", "run", show=False), Binding("2", "tab('plant')", "plant", show=False),
+    BINDINGS = [Binding("p", "next_plot", "next plot"), Binding("1", "tab('run')", "run", show=False), Binding("2", "tab('plant')", "plant", show=False),
                 Binding("3", "tab('targets')", "targets", show=False),
                 Binding("4", "tab('history')", "history", show=False)]
     DEFAULT_CSS = """
@@ -90,7 +90,16 @@ class MainScreen(Screen):
         yield Footer()
 
     def on_mount(self) -> None:
+        if not self.bench.session.problem.conditions:     # no loop to draw: show the trajectories
+            self.query_one("#plots", TabbedContent).active = "p-trajectories"
         self.refresh_all()
+
+    PLOT_TABS = ("p-nyquist", "p-bode", "p-nichols", "p-convergence", "p-trajectories")
+
+    def action_next_plot(self) -> None:
+        plots = self.query_one("#plots", TabbedContent)
+        plots.active = self.PLOT_TABS[(self.PLOT_TABS.index(plots.active) + 1) % len(self.PLOT_TABS)]
+        self.refresh_plots()
 
     def action_tab(self, name: str) -> None:
         self.query_one("#tabs", TabbedContent).active = name
