@@ -43,7 +43,8 @@ def test_open_step_three_times_save_and_quit(workdir):
         for k in (1, 2, 3):
             tmux("send-keys", "-t", session, "s")
             screen = wait_for(session, f"Iteration {k}")
-        assert "objective 0.05" in screen            # the cost C after three line searches
+        screen = wait_for(session, "objective 0.05")   # the cost C after three line searches
+        assert "Iteration 3" in screen
         tmux("send-keys", "-t", session, "C-s")
         wait_for(session, "saved")
         tmux("send-keys", "-t", session, "q")
