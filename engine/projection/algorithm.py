@@ -69,7 +69,7 @@ class Projection:
         memory = dict(state.memory)
         history = list(memory["distances"]) + [distance]
         memory["distances"] = history[-STALL_WINDOW - 1:]
-        if distance <= s.tolerance * scale and self.violations(r)["bounds"] <= s.tolerance * max(1.0, _scale(r)):
+        if distance <= s.tolerance * scale and list(self.violations(r).values())[-1] <= s.tolerance * max(1.0, _scale(r)):
             return self._finish(state, memory, r, k, Status.CONVERGED,
                                 f"distance between the sets {distance:.3g} <= {s.tolerance:g} x ||r||, every "
                                 "bound met to the tolerance", i)
@@ -99,7 +99,14 @@ class Projection:
     # -- pieces -----------------------------------------------------------
 
     def _clip(self, t: Trajectory) -> Trajectory:
+        """P_K1: clipping onto the boxes, or the R-norm projection onto the integral hyperplanes."""
         sys = self.system
+        if sys.integral is not None:
+            C, d = sys.integral, sys.integral_values
+            Rinv = np.kron(np.eye(sys.steps + 1), np.linalg.inv(sys.R))
+            u = t.u.ravel()
+            u = u - Rinv @ C.T @ np.linalg.solve(C @ Rinv @ C.T, C @ u - d)
+            return Trajectory(t.x, u.reshape(t.u.shape))
         return Trajectory(np.clip(t.x, sys.x_lower, sys.x_upper), np.clip(t.u, sys.u_lower, sys.u_upper))
 
     def _binding(self, t: Trajectory) -> list[str]:
@@ -117,6 +124,10 @@ class Projection:
         sys, P = self.system, self.project
         dyn = t.x[1:] - t.x[:-1] @ P.Phi.T - t.u[:-1] @ P.Delta.T
         alg = t.u @ sys.E.T + t.x @ sys.F.T
+        if sys.integral is not None:
+            bounds = float(np.abs(sys.integral @ t.u.ravel() - sys.integral_values).max())
+            return {"dynamics": float(np.abs(dyn).max(initial=0)), "algebraic": float(np.abs(alg).max(initial=0)),
+                    "hyperplanes": bounds}
         bounds = max(float(np.max(np.maximum(sys.u_lower - t.u, 0), initial=0)),
                      float(np.max(np.maximum(t.u - sys.u_upper, 0), initial=0)),
                      float(np.max(np.maximum(sys.x_lower - t.x, 0), initial=0)),

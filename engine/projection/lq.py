@@ -44,7 +44,8 @@ def norm(t: Trajectory, Q: NDArray, R: NDArray) -> float:
 
 
 class Projector:
-    """P_K2 for one system: the Riccati gains once, a tracking pass per call."""
+    """P_K2 for one system: the Riccati gains once, a tracking pass per call
+    (with terminal equalities, the direct KKT solve instead)."""
 
     def __init__(self, system: DaeSystem):
         self.system = system
@@ -52,8 +53,11 @@ class Projector:
         self.Phi, self.Delta = Phi, Delta
         E, F, Q, R = system.E, system.F, system.Q, system.R
         Rinv = np.linalg.inv(R)
-        self.G = -Rinv @ E.T @ np.linalg.solve(E @ Rinv @ E.T, F)
-        self.N = null_space(E)
+        if E.shape[0]:
+            self.G = -Rinv @ E.T @ np.linalg.solve(E @ Rinv @ E.T, F)
+            self.N = null_space(E)
+        else:
+            self.G, self.N = np.zeros((system.m, system.n)), np.eye(system.m)
         self.A = Phi + Delta @ self.G
         self.B = Delta @ self.N
         self.Qt = Q + self.G.T @ R @ self.G
@@ -77,6 +81,8 @@ class Projector:
 
     def __call__(self, reference: Trajectory) -> Trajectory:
         """The point of K2 nearest ``reference``."""
+        if self.system.terminal is not None:
+            return kkt_projection(self.system, reference)
         s, R, Q = self.system, self.system.R, self.system.Q
         q_lin = -(reference.x @ Q.T + reference.u @ R.T @ self.G)   # (N+1, n): -(Q xr + G'R ur)
         r_lin = -(reference.u @ R.T @ self.N)                        # (N+1, q): -N'R ur
@@ -128,6 +134,11 @@ def kkt_projection(system: DaeSystem, reference: Trajectory) -> Trajectory:
         block[:, nx + k * m:nx + (k + 1) * m] = system.E
         rows.append(block)
         rhs.append(np.zeros(p))
+    for index, value in (system.terminal if system.terminal is not None else []):
+        row = np.zeros((1, nx + nu))
+        row[0, N * n + int(index)] = 1.0
+        rows.append(row)
+        rhs.append(np.array([value]))
     Aeq, b = np.vstack(rows), np.concatenate(rhs)
     kkt = np.block([[H, Aeq.T], [Aeq, np.zeros((Aeq.shape[0], Aeq.shape[0]))]])
     z = np.linalg.solve(kkt, np.concatenate([h, b]))

@@ -36,6 +36,9 @@ class DaeSystem:
     u_upper: NDArray
     x_lower: NDArray
     x_upper: NDArray
+    integral: NDArray | None = None      # K1 as hyperplanes: rows c with c . vec(u) = integral_values
+    integral_values: NDArray | None = None
+    terminal: NDArray | None = None      # K2 also holds x_i(N) = value: rows (state index, value)
 
     @property
     def n(self) -> int:
@@ -57,6 +60,10 @@ class DaeSystem:
     def times(self) -> NDArray:
         return np.linspace(0.0, self.horizon, self.steps + 1)
 
+    @property
+    def boxed(self) -> bool:
+        return bool(np.isfinite(np.concatenate([self.u_lower, self.u_upper, self.x_lower, self.x_upper])).any())
+
 
 def _matrix(data: Mapping[str, Any], key: str, shape: tuple[int, int] | None = None) -> NDArray:
     if key not in data:
@@ -73,7 +80,35 @@ def _matrix(data: Mapping[str, Any], key: str, shape: tuple[int, int] | None = N
     return value
 
 
-def _weights(data: Mapping[str, Any], key: str, size: int) -> NDArray:
+def _integrals(data: Mapping[str, Any], m: int, steps: int, horizon: float) -> tuple[NDArray | None, NDArray | None]:
+    """integral_0^T t^power u_j(t) dt = value, exact for the held (piecewise constant) control."""
+    items = data.get("integral_constraints") or []
+    if not items:
+        return None, None
+    t = np.linspace(0.0, horizon, steps + 1)
+    rows, values = [], []
+    for item in items:
+        j, power = int(item["input"]) - 1, int(item.get("power", 0))
+        if not 0 <= j < m or power < 0:
+            raise EngineError(f"projection: integral constraint on input {j + 1} with power {power} is not valid")
+        row = np.zeros((steps + 1, m))
+        row[:-1, j] = (t[1:] ** (power + 1) - t[:-1] ** (power + 1)) / (power + 1)
+        rows.append(row.ravel())
+        values.append(float(item["value"]))
+    return np.array(rows), np.array(values)
+
+
+def _terminal(data: Mapping[str, Any], n: int) -> NDArray | None:
+    items = data.get("terminal") or []
+    if not items:
+        return None
+    out = np.array([[int(i["state"]) - 1, float(i["value"])] for i in items])
+    if np.any(out[:, 0] < 0) or np.any(out[:, 0] >= n):
+        raise EngineError(f"projection: terminal constraints name states 1..{n}")
+    return out
+
+
+def _weights(data: Mapping[str, Any], key: str, size: int, semidefinite: bool = False) -> NDArray:
     raw = data.get(key, [1.0] * size)
     value = np.array(raw, dtype=float)
     if value.ndim == 1:
@@ -82,8 +117,9 @@ def _weights(data: Mapping[str, Any], key: str, size: int) -> NDArray:
         value = np.diag(value)
     if value.shape != (size, size) or not np.allclose(value, value.T):
         raise EngineError(f"projection: {key} must be a symmetric {size} x {size} matrix")
-    if np.min(np.linalg.eigvalsh(value)) <= 0:
-        raise EngineError(f"projection: {key} must be positive definite")
+    smallest = np.min(np.linalg.eigvalsh(value))
+    if smallest < 0 or (smallest == 0 and not semidefinite):
+        raise EngineError(f"projection: {key} must be positive {'semi' if semidefinite else ''}definite")
     return value
 
 
@@ -107,26 +143,33 @@ def dae_system(data: Mapping[str, Any]) -> DaeSystem:
     if B.shape[0] != n:
         raise EngineError(f"projection: B needs {n} rows")
     m = B.shape[1]
-    E = _matrix(data, "E")
-    p = E.shape[0]
-    if E.shape[1] != m:
-        raise EngineError(f"projection: E must have {m} columns")
-    F = _matrix(data, "F", (p, n))
-    if np.linalg.matrix_rank(E) < p:
+    if "E" in data or "F" in data:
+        E = _matrix(data, "E")
+        p = E.shape[0]
+        if E.shape[1] != m:
+            raise EngineError(f"projection: E must have {m} columns")
+        F = _matrix(data, "F", (p, n))
+    else:   # no algebraic equation
+        E, F, p = np.zeros((0, m)), np.zeros((0, n)), 0
+    if p and np.linalg.matrix_rank(E) < p:
         raise EngineError("projection: E must have full row rank (each algebraic equation must involve u)")
     x0 = np.array(data.get("x0", [0.0] * n), dtype=float)
     steps, horizon = int(data.get("steps", 20)), float(data.get("horizon", 1.0))
     if x0.shape != (n,) or steps < 1 or not horizon > 0:
         raise EngineError(f"projection: x0 needs {n} entries, steps >= 1, horizon > 0")
-    system = DaeSystem(A, B, E, F, x0, horizon, steps, _weights(data, "Q", n), _weights(data, "R", m),
-                       _bounds(data, "u_min", m, -np.inf), _bounds(data, "u_max", m, np.inf),
-                       _bounds(data, "x_min", n, -np.inf), _bounds(data, "x_max", n, np.inf))
+    integral, values = _integrals(data, m, steps, horizon)
+    system = DaeSystem(A, B, E, F, x0, horizon, steps, _weights(data, "Q", n, semidefinite=True),
+                       _weights(data, "R", m), _bounds(data, "u_min", m, -np.inf), _bounds(data, "u_max", m, np.inf),
+                       _bounds(data, "x_min", n, -np.inf), _bounds(data, "x_max", n, np.inf), integral, values,
+                       _terminal(data, n))
+    if system.integral is not None and system.boxed:
+        raise EngineError("projection: K1 is either boxes or integral hyperplanes, not both (no closed-form "
+                          "projection onto their intersection)")
     for name, lo, hi in (("u", system.u_lower, system.u_upper), ("x", system.x_lower, system.x_upper)):
         empty = np.flatnonzero(lo > hi)
         if empty.size:
             raise EngineError(f"projection: {name}{empty[0] + 1} has min > max: the box is empty")
-    boxed = np.isfinite(np.concatenate([system.u_lower, system.u_upper, system.x_lower, system.x_upper])).any()
-    if boxed and (not _diagonal(system.Q) or not _diagonal(system.R)):
+    if system.boxed and (not _diagonal(system.Q) or not _diagonal(system.R)):
         raise EngineError("projection: clipping projects onto boxes only in a norm with diagonal Q and R")
     return system
 

@@ -89,3 +89,19 @@ def test_bad_systems_are_refused(integrator):
             dae_system(dict(data, **change))
     with pytest.raises(EngineError, match="dae"):
         Problem((), (), (), Grid(np.array([1.0, 2.0])), Objective("quadratic_cost"))
+
+
+def test_theorem_3_converges_in_one_iteration_to_the_minimum_norm_control():
+    """u(t) = -2 + 6t (report 004, Theorem 3's example); the held control's error shrinks as h^2."""
+    session = load_session(EXAMPLES / "projection_hyperplane.json")
+    errors = []
+    for steps in (20, 80):
+        data = dict(session.problem.objective.data, steps=steps)
+        problem = replace(session.problem, objective=replace(session.problem.objective, data=data))
+        records = [r for _, r in iterate(Projection(), problem, ProjectionSettings(), max_iter=20)]
+        assert records[-1].status is Status.CONVERGED and len(records) == 2
+        assert records[0].extra["lambda"] == pytest.approx(4.0, rel=1e-2)
+        t, u = np.array(records[-1].extra["t"]), np.array(records[-1].extra["u"])[:, 0]
+        middle = t[:-1] + 0.5 / steps
+        errors.append(np.abs(u[:-1] - (-2 + 6 * middle)).max())
+    assert errors[1] < errors[0] / 10 and errors[1] < 1e-3
