@@ -34,7 +34,7 @@ class Response:
 def open_loop(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],
               sensitivities: bool = True, check: bool = True) -> Response:
     """GH(j omega) with the loop broken at ``break_at`` (1 + GH = 0 closes it);
-    ``check=False`` skips validating a grid the caller has validated already."""
+    ``check=False`` skips validating a grid and parameters the caller has validated."""
     sol = solve(network, omega, params, break_at, break_at=break_at, output=break_at,
                 sensitivities=sensitivities, check=check)
     k = network.signal(break_at)

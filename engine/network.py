@@ -196,10 +196,12 @@ def solve(network: Network, omega: ArrayLike, params: Mapping[str, float], injec
     With ``break_at``, every use of that signal is fed by the injection
     instead (then ``inject`` must equal ``break_at``).  Derivatives are of
     every signal, or, with ``output``, of that signal only by one adjoint
-    solve (much cheaper with many parameters).
+    solve (much cheaper with many parameters).  ``check=False`` skips
+    validating a grid and parameters the caller has validated already.
     """
     w = check_grid(omega) if check else np.asarray(omega, dtype=float)
-    _check_params(network, params)
+    if check:
+        _check_params(network, params)
     if d_omega and not network.exact:
         raise InterconnectionError("d/domega needs every block in closed form (a table has none)")
     n, k = len(network.signals), network.signal(inject)

@@ -184,11 +184,18 @@ class Problem:
     def values_at(self, x: Sequence[float], condition: int) -> dict[str, float]:
         """Parameter values one condition sees with the free values ``x``
         (what ``with_vector(x).values(condition)`` gives, without copying)."""
-        values = self.values(condition)
-        for (i, c), v in zip(self.free_slots(), x, strict=True):
+        base, slots = self._slot_names
+        values = dict(base[condition] if condition < len(base) else self.values(condition))
+        for (name, c), v in zip(slots, x, strict=True):
             if c is None or c == condition:
-                values[self.parameters[i].name] = float(v)
+                values[name] = float(v)
         return values
+
+    @cached_property
+    def _slot_names(self) -> tuple[tuple[dict[str, float], ...], tuple[tuple[str, int | None], ...]]:
+        """The parameter values per condition, and (name, condition) of each free slot."""
+        base = tuple(self.values(c) for c in range(max(len(self.conditions), 1)))
+        return base, tuple((self.parameters[i].name, c) for i, c in self._free_slots)
 
     def named_values_at(self, x: Sequence[float]) -> dict[str, float | list[float]]:
         """`named_values` with the free values ``x`` (no copy of the problem)."""
