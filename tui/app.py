@@ -26,7 +26,7 @@ from .screens.start import StartScreen
 from .widgets.plots import FigurePlot
 from .workbench import Workbench
 
-REDRAW_INTERVAL = 0.1   # while running, plots are redrawn at most this often (s)
+REDRAW_INTERVAL = 0.25  # while running, plots are redrawn at most this often (s)
 
 
 class LoopcraftApp(App):

@@ -6,14 +6,16 @@ from __future__ import annotations
 
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import Horizontal, Vertical
+from rich.text import Text
+from textual.containers import Horizontal, Vertical, VerticalScroll
 from textual.screen import Screen
-from textual.widgets import DataTable, Footer, Static, TabbedContent, TabPane
+from textual.widgets import DataTable, Footer, TabbedContent, TabPane
 
 from engine.algorithm import MeasureRow, StepRecord
 
 from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure,
                              trajectories_figure)
+from ..widgets.textview import TextView
 from ..workbench import Workbench
 
 
@@ -44,8 +46,9 @@ class MainScreen(Screen):
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
     #tableau-side { width: 2fr; }
-    #tableau { height: 1fr; }
-    #step-info { height: auto; max-height: 6; }
+    #tableau-scroll { height: 1fr; }
+    #tableau { height: auto; }
+    #step-info { height: 6; }
     #bode-mag, #bode-phase { height: 1fr; }
     #blocks, #parameters, #targets-table, #objective-table, #history-table, #history-tableau { height: 1fr; }
     """
@@ -55,7 +58,7 @@ class MainScreen(Screen):
         self.bench = bench
 
     def compose(self) -> ComposeResult:
-        yield Static("", id="status")
+        yield TextView("", id="status")
         with TabbedContent(id="tabs", initial="run"):
             with TabPane("Run", id="run"):
                 with Horizontal():
@@ -73,8 +76,9 @@ class MainScreen(Screen):
                         with TabPane("Trajectories", id="p-trajectories"):
                             yield FigurePlot(id="trajectories")
                     with Vertical(id="tableau-side"):
-                        yield DataTable(id="tableau", cursor_type="row", zebra_stripes=True)
-                        yield Static("", id="step-info")
+                        with VerticalScroll(id="tableau-scroll"):
+                            yield TextView("", id="tableau")
+                        yield TextView("", id="step-info")
             with TabPane("Plant", id="plant"):
                 with Vertical():
                     yield DataTable(id="blocks", cursor_type="row")
@@ -121,14 +125,14 @@ class MainScreen(Screen):
         b = self.bench
         name = b.session.path.name if b.session.path else "untitled"
         mark = " *" if b.dirty else ""
-        self.query_one("#status", Static).update(
+        self.query_one("#status", TextView).set(
             f"[b]{name}{mark}[/b]  algorithm [b]{b.algorithm_name}[/b]  Iteration {b.iteration}  {b.status_text()}")
 
     def refresh_run(self, plots: bool = True, figures: dict | None = None, prebuilt: dict | None = None) -> None:
         rows, record = self.bench.tableau()
         previous = self.bench.tableau(self.bench.iteration - 1)[0] if self.bench.iteration > 0 else []
-        self._fill_tableau(self.query_one("#tableau", DataTable), rows, previous)
-        self.query_one("#step-info", Static).update(self._step_info(record))
+        self.query_one("#tableau", TextView).set(self._tableau_text(rows, previous))
+        self.query_one("#step-info", TextView).set(self._step_info(record))
         if plots:
             self.refresh_plots(figures, prebuilt)
 
@@ -173,12 +177,31 @@ class MainScreen(Screen):
                 return t.bands[0].desired
         return None
 
+    def _tableau_text(self, rows: list[MeasureRow], previous: list[MeasureRow]) -> Text:
+        """The tableau as one text (far cheaper to draw than a table widget while a run goes):
+        values changed since ``previous`` in bold, unmet rows marked NO in red."""
+        unit = self.bench.session.problem.grid.unit
+        scale = 1 / (2 * 3.141592653589793) if unit == "hz" else 1.0
+        before = {(r.name, r.kind): r.value for r in previous}
+        text = Text(f"{'no.':<8} {'kind':<6} {'value':>9} met {'target':>7} {'freq ' + unit:>10}\n", style="bold",
+                    no_wrap=True, overflow="crop")
+        for r in rows:
+            changed = (r.name, r.kind) in before and before[(r.name, r.kind)] != r.value
+            freq = "" if r.frequency is None else _fmt(r.frequency * scale, 5)
+            text.append(f"{r.name[:8]:<8} {SHORT.get(r.kind, r.kind)[:6]:<6} ")
+            text.append(f"{_fmt(r.value, 5):>9}", style="bold" if changed else "")
+            text.append(" yes " if r.satisfied else " NO  ", style="" if r.satisfied else "bold red")
+            text.append(f"{_fmt(r.target, 4):>7} {freq:>10}\n")
+        return text
+
     def _fill_tableau(self, table: DataTable, rows: list[MeasureRow], previous: list[MeasureRow]) -> None:
         """The rows of a tableau; values changed since ``previous`` in bold (cells updated in place)."""
         unit = self.bench.session.problem.grid.unit
         scale = 1 / (2 * 3.141592653589793) if unit == "hz" else 1.0
-        if not table.columns:
-            table.add_columns("no.", "kind", "value", f"freq {unit}", "target", "met")
+        if not table.columns:   # fixed widths: a changed value never re-lays the screen out
+            for label, width in (("no.", 5), ("kind", 6), ("value", 10), (f"freq {unit}", 10), ("target", 8),
+                                 ("met", 3)):
+                table.add_column(label, width=width)
         before = {(r.name, r.kind): r.value for r in previous}
         cells = []
         for r in rows:
