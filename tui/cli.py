@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.algorithm import MeasureRow, StepRecord, lookup, make_settings
+from engine.algorithm import MeasureRow, StepRecord, make_settings
 from engine.analysis import LoopAnalysis, analyze, unity_feedback
 from engine.errors import EngineError
 from engine.measures import tableau
@@ -218,12 +218,16 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def _cip_initial(session: Session) -> StepRecord:
     """Iteration 0 of a cip session: the initial tableau (the report's Table 1)."""
-    settings = make_settings("cip", session.model.algorithm.settings)
-    algorithm = lookup("cip").factory()
+    from .workbench import Workbench
+    bench = Workbench(session)
     try:
-        return algorithm.initial_record(algorithm.init(session.problem, settings))
-    except EngineError as exc:
+        bench.ensure_algorithm()
+    except SessionError as exc:
         raise CliError(f"initial tableau: {exc}") from None
+    record = bench.initial_record()
+    if record is None:
+        raise CliError("initial tableau: the algorithm gives none")
+    return record
 
 
 def cmd_tradeoff(args: argparse.Namespace) -> int:

@@ -71,17 +71,21 @@ class Workbench:
         except (EngineError, TypeError) as exc:
             raise SessionError(f"algorithm: {exc}") from None
 
-    def _ensure_algorithm(self):
-        """The algorithm bound to the problem, and the state before any iteration."""
+    def ensure_algorithm(self):
+        """The algorithm bound to the problem, and the state before any iteration
+        (a `SessionError` says why it cannot be set up)."""
         if self._algorithm is None or 0 not in self._states:
             algorithm, settings = self._algorithm_and_settings()
-            self._states = {0: algorithm.init(self.session.problem, settings)}
+            try:
+                self._states = {0: algorithm.init(self.session.problem, settings)}
+            except EngineError as exc:
+                raise SessionError(f"{self.algorithm_name}: {exc}") from None
             self._algorithm = algorithm
         return self._algorithm
 
     def _state(self) -> State:
         """The state after the current iteration (replayed from the nearest known one)."""
-        algorithm = self._ensure_algorithm()
+        algorithm = self.ensure_algorithm()
         k = self.iteration
         known = max(i for i in self._states if i <= k)
         state = self._states[known]
@@ -170,7 +174,7 @@ class Workbench:
     def initial_record(self) -> StepRecord | None:
         """Iteration 0 as a record, where the algorithm offers one (cip's initial tableau)."""
         try:
-            algorithm = self._ensure_algorithm()
+            algorithm = self.ensure_algorithm()
         except (EngineError, SessionError):
             return None
         if not hasattr(algorithm, "initial_record"):

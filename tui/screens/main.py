@@ -50,7 +50,7 @@ class MainScreen(Screen):
     #tableau { height: auto; }
     #step-info { height: 6; }
     #bode-mag, #bode-phase { height: 1fr; }
-    #blocks, #parameters, #targets-table, #objective-table, #history-table, #history-tableau { height: 1fr; }
+    #blocks, #parameters, #targets-table, #objective-table, #history-table, #history-side { height: 1fr; }
     """
 
     def __init__(self, bench: Workbench):
@@ -90,7 +90,8 @@ class MainScreen(Screen):
             with TabPane("History", id="history"):
                 with Horizontal():
                     yield DataTable(id="history-table", cursor_type="row")
-                    yield DataTable(id="history-tableau", cursor_type="row")
+                    with VerticalScroll(id="history-side"):
+                        yield TextView("", id="history-tableau")
         yield Footer()
 
     def on_mount(self) -> None:
@@ -194,32 +195,6 @@ class MainScreen(Screen):
             text.append(f"{_fmt(r.target, 4):>7} {freq:>10}\n")
         return text
 
-    def _fill_tableau(self, table: DataTable, rows: list[MeasureRow], previous: list[MeasureRow]) -> None:
-        """The rows of a tableau; values changed since ``previous`` in bold (cells updated in place)."""
-        unit = self.bench.session.problem.grid.unit
-        scale = 1 / (2 * 3.141592653589793) if unit == "hz" else 1.0
-        if not table.columns:   # fixed widths: a changed value never re-lays the screen out
-            for label, width in (("no.", 5), ("kind", 6), ("value", 10), (f"freq {unit}", 10), ("target", 8),
-                                 ("met", 3)):
-                table.add_column(label, width=width)
-        before = {(r.name, r.kind): r.value for r in previous}
-        cells = []
-        for r in rows:
-            changed = (r.name, r.kind) in before and before[(r.name, r.kind)] != r.value
-            value = f"[b]{_fmt(r.value, 5)}[/b]" if changed else _fmt(r.value, 5)
-            freq = "" if r.frequency is None else _fmt(r.frequency * scale, 5)
-            met = "yes" if r.satisfied else "[red]NO[/red]"
-            cells.append((r.name, SHORT.get(r.kind, r.kind), value, freq, _fmt(r.target, 5), met))
-        if table.row_count != len(cells):
-            table.clear()
-            for row in cells:
-                table.add_row(*row)
-            return
-        for i, row in enumerate(cells):
-            for j, cell in enumerate(row):
-                if table.get_cell_at((i, j)) != cell:
-                    table.update_cell_at((i, j), cell)
-
     def _step_info(self, record: StepRecord | None) -> str:
         if record is None:
             return "no iterations yet: [b]s[/b] steps, [b]r[/b] runs, [b]?[/b] help"
@@ -292,7 +267,7 @@ class MainScreen(Screen):
 
     def show_history_iteration(self, iteration: int) -> None:
         rows, _ = self.bench.tableau(iteration)
-        self._fill_tableau(self.query_one("#history-tableau", DataTable), rows, [])
+        self.query_one("#history-tableau", TextView).set(self._tableau_text(rows, []))
 
     def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
         if event.data_table.id in ("blocks", "parameters", "targets-table", "objective-table"):
