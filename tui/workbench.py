@@ -15,6 +15,8 @@ import numpy as np
 from engine.algorithm import MeasureRow, State, Status, StepRecord, lookup, make_settings
 from engine.errors import EngineError
 from engine.loops import open_loop
+from engine.realization import realize
+from engine.timeresp import Segment, simulate
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.store import Session, save_session, write_autosave
@@ -203,6 +205,30 @@ class Workbench:
         except EngineError:
             return None
         return LoopCurve(problem.grid.omega, response.value, label)
+
+    def step_response(self, iteration: int | None = None) -> tuple[list[float], list[float], str] | None:
+        """Closed-loop response to a unit step at the first input, of the output signal
+        (y, c or x1 when present), for rational plants; None otherwise."""
+        problem = self.session.problem
+        if not problem.conditions or not problem.conditions[0].network.rational:
+            return None
+        network = problem.conditions[0].network
+        try:
+            ss = realize(network, self.parameters(iteration))
+        except EngineError:
+            return None
+        if not ss.inputs or ss.A.size == 0:
+            return None
+        output = next((name for name in ("y", "c", "x1") if name in ss.outputs), ss.outputs[-1])
+        real = np.linalg.eigvals(ss.A).real
+        slowest = np.abs(real[real < 0]).min(initial=np.inf)
+        horizon = 5.0 / real.max() if real.max() > 0 else min(8.0 / slowest, 1e4) if np.isfinite(slowest) else 10.0
+        t = np.linspace(0.0, horizon, 400)
+        try:
+            y = simulate(ss, ss.inputs[0], t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
+        except EngineError:
+            return None
+        return t.tolist(), y.tolist(), f"{output} (step at {ss.inputs[0]})"
 
     def trajectories(self) -> tuple[list[float], list[list[float]], list[list[float]]] | None:
         """t, x(t), u(t) of the current iteration (algorithms that produce trajectories)."""

@@ -149,3 +149,15 @@ async def test_start_screen_opens_an_example(workdir, monkeypatch):
         await settle(app, pilot)
         assert isinstance(app.screen, MainScreen)
         assert app.bench.session.path.parent == workdir / "home" / "examples"
+
+
+@synchronous
+async def test_a_bad_session_file_is_a_message_and_the_start_screen(workdir):
+    bad = workdir / "broken.json"
+    bad.write_text('{"schema_version": 1, "problem": ')
+    app = LoopcraftApp(bad)
+    async with app.run_test(size=(100, 32)) as pilot:
+        await pilot.pause()
+        assert any("line 1" in n.message for n in app._notifications)
+        assert type(app.screen).__name__ == "StartScreen" and app.is_running
+    assert bad.read_text() == '{"schema_version": 1, "problem": '   # left untouched

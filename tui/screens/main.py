@@ -13,7 +13,7 @@ from textual.widgets import DataTable, Footer, TabbedContent, TabPane
 
 from engine.algorithm import MeasureRow, StepRecord
 
-from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure,
+from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
                              trajectories_figure)
 from ..widgets.textview import TextView
 from ..workbench import Workbench
@@ -73,6 +73,8 @@ class MainScreen(Screen):
                             yield FigurePlot(id="nichols")
                         with TabPane("Convergence", id="p-convergence"):
                             yield FigurePlot(id="convergence")
+                        with TabPane("Step", id="p-step"):
+                            yield FigurePlot(id="step")
                         with TabPane("Trajectories", id="p-trajectories"):
                             yield FigurePlot(id="trajectories")
                     with Vertical(id="tableau-side"):
@@ -99,7 +101,7 @@ class MainScreen(Screen):
             self.query_one("#plots", TabbedContent).active = "p-trajectories"
         self.refresh_all()
 
-    PLOT_TABS = ("p-nyquist", "p-bode", "p-nichols", "p-convergence", "p-trajectories")
+    PLOT_TABS = ("p-nyquist", "p-bode", "p-nichols", "p-convergence", "p-step", "p-trajectories")
 
     def action_next_plot(self) -> None:
         plots = self.query_one("#plots", TabbedContent)
@@ -137,7 +139,7 @@ class MainScreen(Screen):
         if plots:
             self.refresh_plots(figures, prebuilt)
 
-    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence", "trajectories")
+    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence", "step", "trajectories")
 
     def figures(self) -> dict[str, object]:
         """Every plot's figure from the workbench (safe to call from the worker thread)."""
@@ -153,6 +155,7 @@ class MainScreen(Screen):
         figures["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values,
                                              "no iterations yet")
         figures["trajectories"] = trajectories_figure(b.trajectories())
+        figures["step"] = step_figure(b.step_response(), b.step_response(0) if b.iteration else None)
         return figures
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:

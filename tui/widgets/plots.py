@@ -189,3 +189,14 @@ def trajectories_figure(data) -> Figure:
     for j in range(columns.shape[1]):
         fig.series.append(Series(list(map(float, t)), columns[:, j].tolist(), f"u{j + 1}"))
     return fig
+
+
+def step_figure(current, initial) -> Figure:
+    """Closed-loop step response, current and initial (rational plants)."""
+    fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
+    for data, label, color in ((current, "current", "blue"), (initial, "initial", "gray")):
+        if data is not None:
+            t, y, name = data
+            fig.title = f"Step response: {name}"
+            fig.series.append(Series(*_finite(np.array(t), np.array(y)), label, color=color))
+    return fig
