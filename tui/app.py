@@ -237,18 +237,37 @@ class LoopcraftApp(App):
         screen = self._main()
         if screen is None or self.bench is None:
             return
-        edit = self._edit_for(screen)
+        focused = self.focused
+        if isinstance(focused, DataTable) and focused.id == "targets-table":
+            row = focused.cursor_row
+
+            def chosen(field: str | None) -> None:
+                if field:
+                    self._open_edit(editing.target_edit(self.bench, row, field))
+            self.push_screen(ChooseDialog("edit which part of the target?", editing.TARGET_FIELDS), chosen)
+            return
+        self._open_edit(self._edit_for(screen))
+
+    def _open_edit(self, edit) -> None:
         if edit is None:
             return
 
-        def done(text: str | None) -> None:
-            if text is None:
-                return
+        def apply(text: str) -> None:
             try:
                 edit.apply(text)
             except (SessionError, ValueError) as exc:
                 self.notify(str(exc), title="not applied: the old value is kept", severity="error", timeout=10)
             self._refresh()
+
+        def done(text: str | None) -> None:
+            if text is None:
+                return
+            if self.bench.iteration == 0:
+                apply(text)
+                return
+            question = (f"this edit changes the problem: the {self.bench.iteration} recorded iteration(s) will be "
+                        "dropped (save first to keep them). Apply?")
+            self.push_screen(ConfirmDialog(question), lambda yes: apply(text) if yes else None)
         self.push_screen(EditDialog(edit.title, edit.text, edit.check), done)
 
     def _edit_for(self, screen: MainScreen):
@@ -260,8 +279,6 @@ class LoopcraftApp(App):
             return editing.block_edit(self.bench, row)
         if focused.id == "parameters":
             return editing.parameter_edit(self.bench, row)
-        if focused.id == "targets-table":
-            return editing.target_edit(self.bench, row)
         if focused.id == "objective-table":
             names = list(self.bench.session.model.algorithm.settings)
             offset = row - focused.row_count + len(names)

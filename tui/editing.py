@@ -114,21 +114,107 @@ def toggle_free(bench: Workbench, row: int) -> None:
         apply_edit(bench, change)
 
 
-def target_edit(bench: Workbench, row: int) -> Edit | None:
-    """The desired value of a target's first band."""
-    targets = bench.session.model.problem.targets
-    if not 0 <= row < len(targets) or not targets[row].bands:
-        return None
-    band = targets[row].bands[0]
+TARGET_FIELDS = [("bands", "bands: low..high: desired; ... (high inf: no limit)"),
+                 ("points", "push/pull points: push -1+0j; pull -7-3j (empty: the defaults)"),
+                 ("weight", "weight (the c vector component)"),
+                 ("detect", "detection range: low..high (inf: no limit)")]
 
-    def setter(text: str) -> None:
-        value, old = float(text), band.desired
+
+def _bands_text(target) -> str:
+    return "; ".join(f"{b.low:g}..{'inf' if b.high is None else f'{b.high:g}'}: {b.desired:g}" for b in target.bands)
+
+
+def _parse_range(text: str) -> tuple[float, float | None]:
+    low, high = text.split("..")
+    high = high.strip()
+    return float(low), None if high.lower() in ("inf", "") else float(high)
+
+
+def _parse_bands(text: str) -> list[tuple[float, float | None, float]]:
+    bands = []
+    for part in filter(None, (p.strip() for p in text.split(";"))):
+        span, desired = part.split(":")
+        low, high = _parse_range(span)
+        bands.append((low, high, float(desired)))
+    if not bands:
+        raise ValueError("at least one band")
+    return bands
+
+
+def _parse_points(text: str) -> list[tuple[str, complex]]:
+    points = []
+    for part in filter(None, (p.strip() for p in text.split(";"))):
+        mode, value = part.split(None, 1)
+        if mode not in ("push", "pull"):
+            raise ValueError(f"{mode!r}: push or pull")
+        points.append((mode, complex(value.replace(" ", ""))))
+    return points
+
+
+def _checker(parse: Callable[[str], object]) -> Callable[[str], str | None]:
+    def check(text: str) -> str | None:
+        try:
+            parse(text)
+        except (ValueError, TypeError) as exc:
+            return f"cannot read {text!r}: {exc}"
+        return None
+    return check
+
+
+def target_edit(bench: Workbench, row: int, field: str = "bands") -> Edit | None:
+    """A target's bands, points, weight or detection range, as one line of text."""
+    targets = bench.session.model.problem.targets
+    if not 0 <= row < len(targets):
+        return None
+    target = targets[row]
+    from sessions.schema import BandModel, PointModel
+    if field == "bands":
+        text, parse = _bands_text(target), _parse_bands
+
+        def assign(value):
+            target.bands = [BandModel(low=lo, high=hi, desired=d) for lo, hi, d in value]
+        snapshot = list(target.bands)
+
+        def restore():
+            target.bands = snapshot
+    elif field == "points":
+        text = "; ".join(f"{p.mode} {complex(p.real, p.imag)}" for p in target.points)
+        parse = _parse_points
+
+        def assign(value):
+            target.points = [PointModel(real=v.real, imag=v.imag, mode=m) for m, v in value]
+        snapshot = list(target.points)
+
+        def restore():
+            target.points = snapshot
+    elif field == "weight":
+        text, parse = repr(target.weight), float
+        snapshot = target.weight
+
+        def assign(value):
+            target.weight = value
+
+        def restore():
+            target.weight = snapshot
+    else:
+        text = f"{target.detect_low:g}..{'inf' if target.detect_high is None else f'{target.detect_high:g}'}"
+        parse = _parse_range
+        snapshot = (target.detect_low, target.detect_high)
+
+        def assign(value):
+            target.detect_low, target.detect_high = value
+
+        def restore():
+            target.detect_low, target.detect_high = snapshot
+
+    def setter(new_text: str) -> None:
+        value = parse(new_text)
 
         def change():
-            band.desired = value
-            return lambda: setattr(band, "desired", old)
+            assign(value)
+            return restore
         apply_edit(bench, change)
-    return Edit(f"{targets[row].measure}: desired value (first band)", repr(band.desired), number_check, setter)
+    return Edit(f"{target.measure}: {field} ({target.unit})", text, _checker(parse), setter)
 
 
 def setting_edit(bench: Workbench, name: str) -> Edit:

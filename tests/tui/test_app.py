@@ -161,3 +161,28 @@ async def test_a_bad_session_file_is_a_message_and_the_start_screen(workdir):
         assert any("line 1" in n.message for n in app._notifications)
         assert type(app.screen).__name__ == "StartScreen" and app.is_running
     assert bad.read_text() == '{"schema_version": 1, "problem": '   # left untouched
+
+
+@synchronous
+async def test_editing_a_targets_bands(workdir):
+    app = LoopcraftApp(workdir / "cip_dual_channel.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("3")
+        table = app.screen.query_one("#targets-table")
+        table.focus()
+        table.move_cursor(row=2)                      # stability margins, desired 0.49
+        await pilot.press("e")
+        await pilot.pause()
+        await pilot.press("enter")                    # "bands", the first choice
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        assert field.value == "0..inf: 0.49"
+        field.value = "0..1: 0.5; 1..inf 0.4"         # a typo: the missing colon
+        await pilot.pause()
+        assert "cannot read" in str(app.screen.query_one("#error").render())
+        field.value = "0..1: 0.5; 1..inf: 0.4"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        bands = app.bench.session.problem.targets[2].bands
+        assert [(b.low, b.desired) for b in bands] == [(0.0, 0.5), (1.0, 0.4)]
