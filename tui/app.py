@@ -238,13 +238,16 @@ class LoopcraftApp(App):
         if screen is None or self.bench is None:
             return
         focused = self.focused
-        if isinstance(focused, DataTable) and focused.id == "targets-table":
-            row = focused.cursor_row
+        choices = {"targets-table": ("edit which part of the target?", editing.TARGET_FIELDS, editing.target_edit),
+                   "parameters": ("edit which field of the parameter?", editing.PARAMETER_FIELDS,
+                                  editing.parameter_edit)}
+        if isinstance(focused, DataTable) and focused.id in choices:
+            row, (title, fields, make) = focused.cursor_row, choices[focused.id]
 
             def chosen(field: str | None) -> None:
                 if field:
-                    self._open_edit(editing.target_edit(self.bench, row, field))
-            self.push_screen(ChooseDialog("edit which part of the target?", editing.TARGET_FIELDS), chosen)
+                    self._open_edit(make(self.bench, row, field))
+            self.push_screen(ChooseDialog(title, fields), chosen)
             return
         self._open_edit(self._edit_for(screen))
 
@@ -277,8 +280,6 @@ class LoopcraftApp(App):
         row = focused.cursor_row
         if focused.id == "blocks":
             return editing.block_edit(self.bench, row)
-        if focused.id == "parameters":
-            return editing.parameter_edit(self.bench, row)
         if focused.id == "objective-table":
             names = list(self.bench.session.model.algorithm.settings)
             offset = row - focused.row_count + len(names)

@@ -58,31 +58,47 @@ def apply_edit(bench: Workbench, change: Callable[[], Callable[[], None]]) -> No
         raise SessionError(str(exc)) from None
 
 
+def _expression_slots(bench: Workbench) -> list[tuple[str, object, str, str] | None]:
+    """Per row of the plant table: (title, model object, attribute, variable) of an editable
+    expression, or None (tables, junctions, ...).  The rows follow `screens.main.plant_rows`."""
+    from .screens.main import plant_rows
+    slots: list = []
+    for condition in bench.session.model.problem.conditions:
+        plant = condition.plant
+        rows = plant_rows(condition)
+        if plant.format == "diagram":
+            for block in plant.blocks:
+                editable = block.transfer.kind == "expression"
+                slots.append((f"{condition.name}: {block.name}", block.transfer, "expression", condition.variable)
+                             if editable else None)
+            slots += [None] * (len(rows) - len(plant.blocks))
+        elif plant.format == "matrix":
+            slots += [(f"{condition.name}: a[{e.row},{e.col}]", e, "expression", condition.variable)
+                      for e in plant.entries]
+        else:
+            slots += [None] * len(rows)
+    return slots
+
+
 def block_edit(bench: Workbench, row: int) -> Edit | None:
-    """The expression of a diagram block (the only free-text plant field)."""
-    model = bench.session.model.problem
-    k = 0
-    for condition in model.conditions:
-        if condition.plant.format != "diagram":
-            continue
-        for block in condition.plant.blocks:
-            if k == row:
-                if block.transfer.kind != "expression":
-                    return None
-                transfer = block.transfer
+    """The expression of a diagram block or of a matrix-format entry."""
+    slots = _expression_slots(bench)
+    if not 0 <= row < len(slots) or slots[row] is None:
+        return None
+    title, owner, attribute, variable = slots[row]
 
-                def setter(text: str, transfer=transfer) -> None:
-                    old = transfer.expression
+    def setter(text: str) -> None:
+        old = getattr(owner, attribute)
 
-                    def change():
-                        transfer.expression = text
-                        return lambda: setattr(transfer, "expression", old)
-                    apply_edit(bench, change)
-                return Edit(f"{condition.name}: {block.name} = (expression in {condition.variable})",
-                            transfer.expression, expression_check(condition.variable), setter)
-            k += 1
-        k += len(condition.plant.junctions) + 1
-    return None
+        def change():
+            setattr(owner, attribute, text)
+            return lambda: setattr(owner, attribute, old)
+        apply_edit(bench, change)
+    return Edit(f"{title} (expression in {variable})", getattr(owner, attribute), expression_check(variable), setter)
+
+
+PARAMETER_FIELDS = [("value", "value (every condition when per condition)"), ("min", "lower bound (none: unbounded)"),
+                    ("max", "upper bound (none: unbounded)")]
 
 
 def parameter_edit(bench: Workbench, row: int, field: str = "value") -> Edit | None:
@@ -90,17 +106,25 @@ def parameter_edit(bench: Workbench, row: int, field: str = "value") -> Edit | N
     if not 0 <= row < len(params):
         return None
     p = params[row]
-    current = p.value[0] if isinstance(p.value, list) else p.value
+    if field == "value":
+        current = p.value[0] if isinstance(p.value, list) else p.value
+        check = number_check
+    else:
+        current = getattr(p, field)
+        check = optional_number_check
 
     def setter(text: str) -> None:
-        value = float(text)
-        old = p.value
+        old = getattr(p, field)
+        if field == "value":
+            value = [float(text)] * len(old) if isinstance(old, list) else float(text)
+        else:
+            value = None if text.strip().lower() in ("", "none", "inf") else float(text)
 
         def change():
-            p.value = [value] * len(old) if isinstance(old, list) else value
-            return lambda: setattr(p, "value", old)
+            setattr(p, field, value)
+            return lambda: setattr(p, field, old)
         apply_edit(bench, change)
-    return Edit(f"parameter {p.name}: {field}", repr(current), number_check, setter)
+    return Edit(f"parameter {p.name}: {field}", "none" if current is None else repr(current), check, setter)
 
 
 def toggle_free(bench: Workbench, row: int) -> None:

@@ -186,3 +186,24 @@ async def test_editing_a_targets_bands(workdir):
         await settle(app, pilot)
         bands = app.bench.session.problem.targets[2].bands
         assert [(b.low, b.desired) for b in bands] == [(0.0, 0.5), (1.0, 0.4)]
+
+
+@synchronous
+async def test_editing_a_parameter_bound(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("2")
+        table = app.screen.query_one("#parameters")
+        table.focus()
+        table.move_cursor(row=0)                  # z1
+        await pilot.press("e")
+        await pilot.pause()
+        await pilot.press("down", "enter")        # "min"
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        assert field.value == "0.01"
+        field.value = "0.5"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert app.bench.session.problem.parameters[0].minimum == 0.5
