@@ -37,7 +37,7 @@ class LoopcraftApp(App):
         Binding("s", "step", "step"), Binding("n", "run_n", "run N"), Binding("r", "run", "run"),
         Binding("space,escape", "pause", "pause"), Binding("z", "undo", "undo"),
         Binding("a", "choose_algorithm", "algorithm"), Binding("e,enter", "edit", "edit", show=False),
-        Binding("f", "toggle_free", "free/fix", show=False), Binding("b", "start_here", "start here", show=False),
+        Binding("f", "toggle_free", "free/fix", show=False), Binding("i", "import_table", "import CSV", show=False), Binding("b", "start_here", "start here", show=False),
         Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
         Binding("question_mark", "help", "help"), Binding("q", "quit", "quit"),
     ]
@@ -285,6 +285,31 @@ class LoopcraftApp(App):
             offset = row - focused.row_count + len(names)
             return editing.setting_edit(self.bench, names[offset]) if 0 <= offset < len(names) else None
         return None
+
+    def action_import_table(self) -> None:
+        """Plant tab: make the selected block a table read from a CSV file (with a preview)."""
+        focused = self.focused
+        if not (isinstance(focused, DataTable) and focused.id == "blocks" and self.bench is not None):
+            return
+        row = focused.cursor_row
+        folder = self.bench.session.path.parent if self.bench.session.path else Path.cwd()
+
+        def chosen(text: str | None) -> None:
+            if not text:
+                return
+            path = Path(text).expanduser()
+            path = path if path.is_absolute() else folder / path
+            try:
+                edit = editing.table_import(self.bench, row, path)
+            except (OSError, ValueError) as exc:
+                self.notify(str(exc), title="cannot read the table", severity="error")
+                return
+            if edit is None:
+                self.notify("select a block of a block diagram first", severity="warning")
+            self._open_edit(edit)
+        self.push_screen(EditDialog("CSV file (relative to the session's folder)", "",
+                                    lambda t: None if (folder / Path(t).expanduser()).is_file()
+                                    or Path(t).expanduser().is_file() else "no such file"), chosen)
 
     def action_toggle_free(self) -> None:
         focused = self.focused

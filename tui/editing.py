@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 from engine.errors import EngineError
 from engine.expressions import Expression
@@ -259,3 +260,66 @@ def setting_edit(bench: Workbench, name: str) -> Edit:
         bench.reset()
     return Edit(f"{bench.algorithm_name} setting {name}", "" if current is None else str(current),
                 lambda text: None if text.strip() else "empty", setter)
+
+
+def _diagram_block(bench: Workbench, row: int):
+    """The diagram block (and its condition) on a row of the plant table, or None."""
+    from .screens.main import plant_rows
+    k = 0
+    for condition in bench.session.model.problem.conditions:
+        rows = plant_rows(condition)
+        if condition.plant.format == "diagram" and k <= row < k + len(condition.plant.blocks):
+            return condition.plant.blocks[row - k]
+        k += len(rows)
+    return None
+
+
+def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
+    """The header's column names and the first lines of a CSV file (comment lines skipped)."""
+    text = [line.rstrip("\n") for line in path.read_text(encoding="utf-8", errors="replace").splitlines()
+            if not line.startswith("#")]
+    if not text:
+        raise ValueError(f"{path.name} has no rows")
+    return [c.strip() for c in text[0].split(",")], "\n".join(text[:lines])
+
+
+def table_import(bench: Workbench, row: int, path: Path) -> Edit | None:
+    """Make the selected block a table read from a CSV file: the edit line names the
+    columns (frequency, first, second), the form, the unit and the gain."""
+    block = _diagram_block(bench, row)
+    if block is None:
+        return None
+    header, preview = csv_preview(path)
+    folder = bench.session.path.parent if bench.session.path else Path.cwd()
+    try:
+        name = path.resolve().relative_to(folder.resolve()).as_posix()
+    except ValueError:
+        name = str(path.resolve())
+
+    def parse(text: str) -> dict:
+        words = text.split()
+        if len(words) != 4:
+            raise ValueError("write: columns form unit gain, e.g. 'hz,mag,deg polar hz 1'")
+        columns = [c.strip() for c in words[0].split(",")]
+        missing = [c for c in columns if c not in header]
+        if missing:
+            raise ValueError(f"no column {missing[0]!r}; columns are {', '.join(header)}")
+        form, unit = words[1], words[2]
+        if form not in ("polar", "cartesian", "magnitude") or unit not in ("hz", "rad/s"):
+            raise ValueError("form is polar, cartesian or magnitude; unit hz or rad/s")
+        if len(columns) != (2 if form == "magnitude" else 3):
+            raise ValueError("three columns (two for magnitude)")
+        return {"kind": "table", "table": {"csv": name, "columns": columns, "form": form, "unit": unit,
+                                           "gain": float(words[3])}}
+
+    def setter(text: str) -> None:
+        from sessions.schema import TableBlock
+        new, old = TableBlock.model_validate(parse(text)), block.transfer
+
+        def change():
+            block.transfer = new
+            return lambda: setattr(block, "transfer", old)
+        apply_edit(bench, change)
+    guess = f"{','.join(header[:3])} polar hz 1"
+    return Edit(f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
+                guess, _checker(parse), setter)

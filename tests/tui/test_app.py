@@ -207,3 +207,32 @@ async def test_editing_a_parameter_bound(workdir):
         await pilot.press("enter")
         await settle(app, pilot)
         assert app.bench.session.problem.parameters[0].minimum == 0.5
+
+
+@synchronous
+async def test_importing_a_csv_table_into_a_block_with_a_preview(workdir):
+    (workdir / "plant.csv").write_text("# measured\nhz,mag,deg\n0.01,100,-90\n1,1,-120\n100,0.001,-180\n")
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("2")
+        blocks = app.screen.query_one("#blocks")
+        blocks.focus()
+        blocks.move_cursor(row=1)                 # the plant block
+        await pilot.press("i")
+        await pilot.pause()
+        app.screen.query_one("#value").value = "plant.csv"
+        await pilot.press("enter")
+        await pilot.pause()
+        assert "0.01,100,-90" in str(app.screen.query_one("Label").render())     # the preview
+        field = app.screen.query_one("#value")
+        assert field.value == "hz,mag,deg polar hz 1"
+        field.value = "hz,mag,phase polar hz 1"
+        await pilot.pause()
+        assert "no column 'phase'" in str(app.screen.query_one("#error").render())
+        field.value = "hz,mag,deg polar hz 1"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        transfer = app.bench.session.model.problem.conditions[0].plant.blocks[1].transfer
+        assert transfer.kind == "table" and transfer.table.csv == "plant.csv"
+        assert not app.bench.session.problem.conditions[0].network.exact

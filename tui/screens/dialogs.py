@@ -111,7 +111,7 @@ class HelpScreen(ModalScreen[None]):
     KEYS = [("s", "step one iteration"), ("n", "run N iterations (asks N)"), ("r", "run until the algorithm stops"),
             ("space / escape", "pause a run (within one iteration)"), ("z", "undo the last iteration"),
             ("a", "choose the algorithm"), ("e / enter", "edit the selected row (plant, targets, settings)"),
-            ("f", "free/fix the selected parameter"), ("b", "history: start again from the selected iteration"),
+            ("f", "free/fix the selected parameter"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
             ("1 2 3 4", "run, plant, targets, history tabs"), ("p", "next plot"), ("ctrl+s", "save"), ("ctrl+o", "open a session"),
             ("ctrl+p", "command palette: every action"), ("?", "this help"), ("q", "quit (asks when unsaved)")]
 
