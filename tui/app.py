@@ -26,7 +26,7 @@ from .screens.start import StartScreen
 from .widgets.plots import FigurePlot
 from .workbench import Workbench
 
-REDRAW_INTERVAL = 0.25  # while running, plots are redrawn at most this often (s)
+REDRAW_INTERVAL = 0.25  # while running, the screen is updated at most this often (s)
 
 
 class LoopcraftApp(App):
@@ -177,7 +177,9 @@ class LoopcraftApp(App):
                 break
             final = record.status.finished
             drawn = final or count == 1 or time.monotonic() - self._last_redraw >= REDRAW_INTERVAL
-            self.call_from_thread(self._stepped, *self._drawings(drawn))
+            if drawn:   # while a run goes the screen is updated a few times a second, not every iteration
+                self._last_redraw = time.monotonic()
+                self.call_from_thread(self._stepped, *self._drawings(True))
             if final:
                 break
         if not drawn:
@@ -201,7 +203,6 @@ class LoopcraftApp(App):
         screen.refresh_status()
         screen.refresh_run(plots=redraw, figures=figures, prebuilt=prebuilt)
         if redraw:
-            self._last_redraw = time.monotonic()
             screen.refresh_history()
 
     def _failed(self, exc: Exception) -> None:
