@@ -8,6 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from engine.algorithm import make_settings
 from engine.errors import EngineError
 from engine.expressions import Expression
 from sessions.errors import SessionError
@@ -242,24 +243,33 @@ def target_edit(bench: Workbench, row: int, field: str = "bands") -> Edit | None
     return Edit(f"{target.measure}: {field} ({target.unit})", text, _checker(parse), setter)
 
 
+def _setting_value(text: str, current):
+    """A setting from text: true/false, a number (an integer where the setting is one), or the text."""
+    if isinstance(current, bool) or text in ("true", "false"):
+        return text == "true"
+    try:
+        number = float(text)
+    except ValueError:
+        return text
+    return int(number) if isinstance(current, int) and number.is_integer() else number
+
+
 def setting_edit(bench: Workbench, name: str) -> Edit:
-    """An algorithm setting (numbers stay numbers, the rest text)."""
+    """An algorithm setting, checked against the algorithm's own settings as it is typed."""
     settings = bench.session.model.algorithm.settings
     current = settings.get(name)
 
-    def setter(text: str) -> None:
+    def check(text: str) -> str | None:
         try:
-            value = float(text) if number_check(text) is None else text
-        except ValueError:
-            value = text
-        if isinstance(current, bool) or text in ("true", "false"):
-            value = text == "true"
-        elif isinstance(current, int) and isinstance(value, float) and value.is_integer():
-            value = int(value)
-        settings[name] = value
+            make_settings(bench.algorithm_name, dict(settings, **{name: _setting_value(text, current)}))
+        except (EngineError, TypeError) as exc:
+            return str(exc)
+        return None
+
+    def setter(text: str) -> None:
+        settings[name] = _setting_value(text, current)
         bench.reset()
-    return Edit(f"{bench.algorithm_name} setting {name}", "" if current is None else str(current),
-                lambda text: None if text.strip() else "empty", setter)
+    return Edit(f"{bench.algorithm_name} setting {name}", "" if current is None else str(current), check, setter)
 
 
 def _diagram_block(bench: Workbench, row: int):

@@ -236,3 +236,25 @@ async def test_importing_a_csv_table_into_a_block_with_a_preview(workdir):
         transfer = app.bench.session.model.problem.conditions[0].plant.blocks[1].transfer
         assert transfer.kind == "table" and transfer.table.csv == "plant.csv"
         assert not app.bench.session.problem.conditions[0].network.exact
+
+
+@synchronous
+async def test_a_setting_is_checked_against_the_algorithm(workdir):
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("3")
+        table = app.screen.query_one("#objective-table")
+        table.focus()
+        names = list(app.bench.session.model.algorithm.settings)
+        table.move_cursor(row=names.index("mode"))
+        await pilot.press("e")
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        field.value = "fastest"
+        await pilot.pause()
+        assert "tifr" in str(app.screen.query_one("#error").render())
+        field.value = "sifr"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert app.bench.session.model.algorithm.settings["mode"] == "sifr"
