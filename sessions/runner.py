@@ -10,7 +10,7 @@ from engine.algorithm import State, StepRecord, lookup, make_settings
 from engine.errors import EngineError
 
 from .errors import SessionError
-from .store import Session, write_autosave
+from .store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9
 
@@ -46,7 +46,9 @@ def run_session(session: Session, iterations: int | None = None, until_done: boo
             if progress:
                 progress(record)
             if autosave:
-                write_autosave(session)
+                write_autosave(session, at_most_every=AUTOSAVE_INTERVAL)
+        if autosave and new:
+            write_autosave(session)
     except EngineError as exc:
         raise SessionError(f"{model.algorithm.name}: {exc}") from None
     return new

@@ -3,8 +3,9 @@
 Loading never raises anything but `SessionError` and never writes.  Saving is
 atomic: the JSON goes to a temporary file in the same folder, is flushed to
 disk, and replaces the target by a rename; the previous file is kept as
-``NAME.json.bak``.  An autosave ``NAME.json.autosave`` is written after each
-completed iteration and offered back when it is newer than the session.
+``NAME.json.bak``.  An autosave ``NAME.json.autosave`` is written during runs (at most every
+`AUTOSAVE_INTERVAL` seconds, and when a run ends) and offered back when it
+is newer than the session.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -39,6 +41,7 @@ class Session:
     problem: Problem
     path: Path | None = None
     messages: list[str] = field(default_factory=list)
+    last_autosave: float = field(default=0.0, compare=False)   # monotonic time of the last autosave
 
     @property
     def records(self) -> list[StepRecord]:
@@ -202,12 +205,21 @@ def autosave_path(path: Path) -> Path:
     return path.with_name(path.name + ".autosave")
 
 
-def write_autosave(session: Session) -> Path | None:
-    """After an iteration: the whole session beside its file (never over it)."""
+AUTOSAVE_INTERVAL = 2.0   # s: a long run is autosaved this often (and at its end), not every iteration
+
+
+def write_autosave(session: Session, at_most_every: float = 0.0) -> Path | None:
+    """The whole session beside its file (never over it).  With ``at_most_every``,
+    nothing is written when the last autosave is more recent than that (the whole
+    session is written each time, so per-iteration writes would grow as n^2)."""
     if session.path is None:
+        return None
+    now_ = time.monotonic()
+    if at_most_every and session.last_autosave and now_ - session.last_autosave < at_most_every:
         return None
     target = autosave_path(session.path)
     _atomic_write(target, dumps(session.model))
+    session.last_autosave = now_
     return target
 
 

@@ -170,6 +170,7 @@ class LoopcraftApp(App):
             try:
                 record = self.bench.step()
             except Exception as exc:  # an engine failure must not close the app
+                self.bench.autosave()
                 self.call_from_thread(self._failed, exc)
                 return
             if record is None:
@@ -182,6 +183,7 @@ class LoopcraftApp(App):
                 self.call_from_thread(self._stepped, *self._drawings(True))
             if final:
                 break
+        self.bench.autosave()
         if not drawn:
             self.call_from_thread(self._stepped, *self._drawings(True))
 

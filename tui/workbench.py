@@ -19,7 +19,7 @@ from engine.realization import realize
 from engine.timeresp import Segment, simulate
 from sessions.build import build_problem
 from sessions.errors import SessionError
-from sessions.store import Session, save_session, write_autosave
+from sessions.store import AUTOSAVE_INTERVAL, Session, save_session, write_autosave
 
 
 @dataclass(frozen=True)
@@ -112,8 +112,13 @@ class Workbench:
         self._states = {i: st for i, st in self._states.items() if i < model.current_iteration}
         self._states[model.current_iteration] = state
         self.dirty = True
-        write_autosave(self.session)
+        write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL)
         return record
+
+    def autosave(self) -> None:
+        """Write the autosave now (at the end of a run)."""
+        if self.dirty:
+            write_autosave(self.session)
 
     def undo(self) -> bool:
         """Drop the last iteration (False when there is none)."""

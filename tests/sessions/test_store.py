@@ -201,3 +201,11 @@ def test_csv_table_next_to_the_session(matching_dict, tmp_path):
     (tmp_path / "inlet.csv").write_text("".join(lines))
     with pytest.raises(SessionError, match=rf"inlet.csv: line {bad + 1}, column 'g1_phase_deg': not a number: 'oops'"):
         load_session(path)
+
+
+def test_autosave_during_a_run_is_throttled_and_written_at_its_end(matching):
+    session = load_session(matching)
+    assert store.write_autosave(session, at_most_every=60.0) is not None      # the first one is written
+    assert store.write_autosave(session, at_most_every=60.0) is None          # the next within 60 s is not
+    run_session(session, iterations=3)
+    assert json.loads(autosave_path(matching).read_text())["current_iteration"] == 3   # the end of the run is
