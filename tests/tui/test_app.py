@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import functools
 import json
+import time
 
 from engine.errors import EngineError
 from tui.app import LoopcraftApp
@@ -46,10 +47,16 @@ async def test_stepping_updates_the_tableau_and_the_iteration(workdir):
 
 
 @synchronous
-async def test_pause_stops_a_run_within_one_iteration(workdir):
+async def test_pause_stops_a_run_within_one_iteration(workdir, monkeypatch):
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await pilot.pause()
+        step = app.bench.step
+
+        def slow_step():   # an algorithm whose iterations take 20 ms, so the run is still going
+            time.sleep(0.02)
+            return step()
+        monkeypatch.setattr(app.bench, "step", slow_step)
         await pilot.press("r")
         await pilot.pause(0.3)
         await pilot.press("space")
