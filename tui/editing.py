@@ -48,14 +48,17 @@ def expression_check(variable: str) -> Callable[[str], str | None]:
     return check
 
 
-def apply_edit(bench: Workbench, change: Callable[[], Callable[[], None]]) -> None:
-    """Make a change to the model and rebuild; if the problem no longer builds,
-    undo the change and raise the reason (nothing is lost)."""
-    restore = change()
+def set_fields(bench: Workbench, owner: object, **values: object) -> None:
+    """Set fields of a model object and rebuild the problem; if it no longer
+    builds, put the old values back and raise the reason (nothing is lost)."""
+    old = {name: getattr(owner, name) for name in values}
+    for name, value in values.items():
+        setattr(owner, name, value)
     try:
         bench.rebuild()
     except (SessionError, EngineError) as exc:
-        restore()
+        for name, value in old.items():
+            setattr(owner, name, value)
         bench.rebuild()
         raise SessionError(str(exc)) from None
 
@@ -90,12 +93,7 @@ def block_edit(bench: Workbench, row: int) -> Edit | None:
     title, owner, attribute, variable = slots[row]
 
     def setter(text: str) -> None:
-        old = getattr(owner, attribute)
-
-        def change():
-            setattr(owner, attribute, text)
-            return lambda: setattr(owner, attribute, old)
-        apply_edit(bench, change)
+        set_fields(bench, owner, **{attribute: text})
     return Edit(f"{title} (expression in {variable})", getattr(owner, attribute), expression_check(variable), setter)
 
 
@@ -121,23 +119,14 @@ def parameter_edit(bench: Workbench, row: int, field: str = "value") -> Edit | N
             value = [float(text)] * len(old) if isinstance(old, list) else float(text)
         else:
             value = None if text.strip().lower() in ("", "none", "inf") else float(text)
-
-        def change():
-            setattr(p, field, value)
-            return lambda: setattr(p, field, old)
-        apply_edit(bench, change)
+        set_fields(bench, p, **{field: value})
     return Edit(f"parameter {p.name}: {field}", "none" if current is None else repr(current), check, setter)
 
 
 def toggle_free(bench: Workbench, row: int) -> None:
     params = bench.session.model.problem.parameters
     if 0 <= row < len(params):
-        p = params[row]
-
-        def change():
-            p.free = not p.free
-            return lambda: setattr(p, "free", not p.free)
-        apply_edit(bench, change)
+        set_fields(bench, params[row], free=not params[row].free)
 
 
 TARGET_FIELDS = [("bands", "bands: low..high: desired; ... (high inf: no limit)"),
@@ -197,49 +186,28 @@ def target_edit(bench: Workbench, row: int, field: str = "bands") -> Edit | None
     if field == "bands":
         text, parse = _bands_text(target), _parse_bands
 
-        def assign(value):
-            target.bands = [BandModel(low=lo, high=hi, desired=d) for lo, hi, d in value]
-        snapshot = list(target.bands)
-
-        def restore():
-            target.bands = snapshot
+        def fields(value):
+            return {"bands": [BandModel(low=lo, high=hi, desired=d) for lo, hi, d in value]}
     elif field == "points":
         text = "; ".join(f"{p.mode} {complex(p.real, p.imag)}" for p in target.points)
         parse = _parse_points
 
-        def assign(value):
-            target.points = [PointModel(real=v.real, imag=v.imag, mode=m) for m, v in value]
-        snapshot = list(target.points)
-
-        def restore():
-            target.points = snapshot
+        def fields(value):
+            return {"points": [PointModel(real=v.real, imag=v.imag, mode=m) for m, v in value]}
     elif field == "weight":
         text, parse = repr(target.weight), float
-        snapshot = target.weight
 
-        def assign(value):
-            target.weight = value
-
-        def restore():
-            target.weight = snapshot
+        def fields(value):
+            return {"weight": value}
     else:
         text = f"{target.detect_low:g}..{'inf' if target.detect_high is None else f'{target.detect_high:g}'}"
         parse = _parse_range
-        snapshot = (target.detect_low, target.detect_high)
 
-        def assign(value):
-            target.detect_low, target.detect_high = value
-
-        def restore():
-            target.detect_low, target.detect_high = snapshot
+        def fields(value):
+            return {"detect_low": value[0], "detect_high": value[1]}
 
     def setter(new_text: str) -> None:
-        value = parse(new_text)
-
-        def change():
-            assign(value)
-            return restore
-        apply_edit(bench, change)
+        set_fields(bench, target, **fields(parse(new_text)))
     return Edit(f"{target.measure}: {field} ({target.unit})", text, _checker(parse), setter)
 
 
@@ -324,12 +292,7 @@ def table_import(bench: Workbench, row: int, path: Path) -> Edit | None:
 
     def setter(text: str) -> None:
         from sessions.schema import TableBlock
-        new, old = TableBlock.model_validate(parse(text)), block.transfer
-
-        def change():
-            block.transfer = new
-            return lambda: setattr(block, "transfer", old)
-        apply_edit(bench, change)
+        set_fields(bench, block, transfer=TableBlock.model_validate(parse(text)))
     guess = f"{','.join(header[:3])} polar hz 1"
     return Edit(f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
                 guess, _checker(parse), setter)

@@ -24,6 +24,14 @@ def status(app) -> str:
     return str(app.screen.query_one("#status").render())
 
 
+async def select_row(app, pilot, tab: str, table: str, row: int) -> None:
+    """Show a tab (its number key), focus one of its tables and put the cursor on a row."""
+    await pilot.press(tab)
+    widget = app.screen.query_one(f"#{table}")
+    widget.focus()
+    widget.move_cursor(row=row)
+
+
 async def settle(app, pilot) -> None:
     await pilot.pause()
     await app.workers.wait_for_complete()
@@ -77,9 +85,7 @@ async def test_undo_and_start_from_an_earlier_iteration(workdir):
         await pilot.press("z")
         await settle(app, pilot)
         assert app.bench.iteration == 2 and "Iteration 2" in status(app)
-        await pilot.press("4")
-        app.screen.query_one("#history-table").focus()
-        app.screen.query_one("#history-table").move_cursor(row=1)
+        await select_row(app, pilot, "4", "history-table", 1)
         await pilot.press("b")
         await settle(app, pilot)
         assert app.bench.iteration == 1
@@ -127,10 +133,7 @@ async def test_a_typo_in_an_expression_is_shown_and_the_old_value_kept(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await pilot.press("2")
-        blocks = app.screen.query_one("#blocks")
-        blocks.focus()
-        blocks.move_cursor(row=0)
+        await select_row(app, pilot, "2", "blocks", 0)
         await pilot.press("e")
         await pilot.pause()
         dialog = app.screen
@@ -175,10 +178,7 @@ async def test_editing_a_targets_bands(workdir):
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await pilot.press("3")
-        table = app.screen.query_one("#targets-table")
-        table.focus()
-        table.move_cursor(row=2)                      # stability margins, desired 0.49
+        await select_row(app, pilot, "3", "targets-table", 2)   # stability margins, desired 0.49
         await pilot.press("e")
         await pilot.pause()
         await pilot.press("enter")                    # "bands", the first choice
@@ -200,10 +200,7 @@ async def test_editing_a_parameter_bound(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await pilot.press("2")
-        table = app.screen.query_one("#parameters")
-        table.focus()
-        table.move_cursor(row=0)                  # z1
+        await select_row(app, pilot, "2", "parameters", 0)       # z1
         await pilot.press("e")
         await pilot.pause()
         await pilot.press("down", "enter")        # "min"
@@ -222,10 +219,7 @@ async def test_importing_a_csv_table_into_a_block_with_a_preview(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await pilot.press("2")
-        blocks = app.screen.query_one("#blocks")
-        blocks.focus()
-        blocks.move_cursor(row=1)                 # the plant block
+        await select_row(app, pilot, "2", "blocks", 1)           # the plant block
         await pilot.press("i")
         await pilot.pause()
         app.screen.query_one("#value").value = "plant.csv"
@@ -250,11 +244,8 @@ async def test_a_setting_is_checked_against_the_algorithm(workdir):
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await pilot.press("3")
-        table = app.screen.query_one("#objective-table")
-        table.focus()
         names = list(app.bench.session.model.algorithm.settings)
-        table.move_cursor(row=names.index("mode"))
+        await select_row(app, pilot, "3", "objective-table", names.index("mode"))
         await pilot.press("e")
         await pilot.pause()
         field = app.screen.query_one("#value")
