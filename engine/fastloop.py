@@ -35,17 +35,19 @@ class LoopEvaluator:
         self._reduce()
 
     def _prepare_batch(self, params: Mapping[str, float]) -> None:
-        batch, num, den, self.single = [], [], [], {}
+        batch, self.single = [], {}
+        self.num, self.den = np.zeros((len(self.entries), FOLD_WIDTH)), np.zeros((len(self.entries), FOLD_WIDTH))
         for number, e in enumerate(self.entries):
             folded = e.transfer.expression.folded(params) if isinstance(e.transfer, ExpressionTransfer) else None
             if folded is None:
                 self.single[number] = e.transfer.compile(params)
                 continue
+            k = len(batch)
+            self.num[k, FOLD_WIDTH - folded.num.size:] = folded.num
+            self.den[k, FOLD_WIDTH - folded.den.size:] = folded.den
             batch.append(number)
-            num.append(np.pad(folded.num, (FOLD_WIDTH - folded.num.size, 0)))
-            den.append(np.pad(folded.den, (FOLD_WIDTH - folded.den.size, 0)))
         self.batch = np.array(batch, dtype=int)
-        self.num, self.den = np.array(num).reshape(-1, FOLD_WIDTH), np.array(den).reshape(-1, FOLD_WIDTH)
+        self.num, self.den = self.num[:len(batch)], self.den[:len(batch)]
 
     def corners(self, params: Mapping[str, float]) -> tuple[NDArray, NDArray]:
         """Natural frequencies and dampings of every block's poles and zeros."""

@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import EngineError
 from .fastloop import LoopEvaluator
 from .network import Network, check_grid, solve
+from .zpk import zpk_evaluator
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
 
@@ -90,13 +91,15 @@ class LoopModel:
 
 
 def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float]) -> LoopModel:
-    """The open loop at ``break_at`` with everything margins need."""
+    """The open loop at ``break_at`` with everything margins need (rational loops
+    are evaluated in pole-zero form when it matches the network: `engine.zpk`)."""
     w = check_grid(omega)
     if not network.exact:
         return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)
-    evaluate = LoopEvaluator(network, break_at, params)
-    corners, damps = evaluate.corners(params)
-    dc = _dc_value(evaluate) if network.rational else None
+    exact = LoopEvaluator(network, break_at, params)
+    corners, damps = exact.corners(params)
+    evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
+    dc = _dc_value(exact) if network.rational else None
     return LoopModel(w, None, evaluate, corners, damps, network.rational, dc)
 
 

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from scipy import linalg
-from scipy import signal as sps
 
 from .errors import BlockError, InterconnectionError
 from .network import Network
@@ -49,9 +48,8 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
         raise InterconnectionError(f"no state-space realization: the network has {', '.join(kinds)} entries")
     n = len(network.signals)
     blocks, feed, sizes = [], np.zeros((n, n)), []
-    for entry in network.entries:
-        r = entry.transfer.check_proper(params, entry.label)
-        a, b, c, d = cascade(r.num, r.den)
+    for number, entry in enumerate(network.entries):
+        a, b, c, d = _entry_realization(network, number, params)
         blocks.append((entry, a, b, c))
         feed[entry.row, entry.col] += d[0, 0] if d.size else 0.0
         sizes.append(a.shape[0])
@@ -77,6 +75,19 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
                       network.inputs, network.signals)
 
 
+def _entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:
+    """One entry's (A, B, C, D); kept on the network when it has no parameters."""
+    entry = network.entries[number]
+    key = ("entry realization", number)
+    if key in network.schedules:
+        return network.schedules[key]
+    r = entry.transfer.check_proper(params, entry.label)
+    realization = cascade(r.num, r.den)
+    if not entry.transfer.parameters:
+        network.schedules[key] = realization
+    return realization
+
+
 def _sections(roots: NDArray[np.complex128]) -> list[NDArray[np.float64]]:
     """Real polynomials of degree 1 or 2 whose product has the given roots."""
     roots = np.asarray(roots, dtype=complex)
@@ -99,12 +110,26 @@ def cascade(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDAr
         raise BlockError("improper transfer function in cascade realization")
     A, B, C, D = np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])
     for k, p in enumerate(poles):
-        a, b, c, d = sps.tf2ss(zeros[k] if k < len(zeros) else np.ones(1), p)
+        a, b, c, d = _section(zeros[k] if k < len(zeros) else np.ones(1), p)
         A = np.block([[A, np.zeros((A.shape[0], a.shape[0]))], [b @ C, a]])
         B = np.vstack([B, b @ D])
         C = np.hstack([d @ C, c])
         D = d @ D
     return A, B, C, D
+
+
+def _section(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Controllable canonical form of num/den (descending, deg num <= deg den <= 2),
+    as scipy.signal.tf2ss writes it, without its general-purpose overhead."""
+    a = den / den[0]
+    b = np.concatenate([np.zeros(den.size - num.size), num]) / den[0]
+    n = den.size - 1
+    A = np.zeros((n, n))
+    A[0] = -a[1:]
+    A[np.arange(1, n), np.arange(n - 1)] = 1.0
+    B = np.zeros((n, 1))
+    B[0, 0] = 1.0
+    return A, B, (b[1:] - b[0] * a[1:])[None, :], np.array([[b[0]]])
 
 
 def poles(ss: StateSpace) -> list[Pole]:

@@ -60,9 +60,10 @@ def simulate(ss: StateSpace, input_name: str, t: ArrayLike, segments: Sequence[S
     holds: dict[float, tuple[NDArray, NDArray, NDArray]] = {}
     for i in range(grid.size - 1):
         h = grid[i + 1] - grid[i]
-        if h not in holds:
-            holds[h] = _foh(ss.A, B, h)
-        Phi, Gam0, Gam1 = holds[h]
+        key = round(h, 12 - int(np.floor(np.log10(h))))  # equal steps of a linspace differ in the last bits
+        if key not in holds:
+            holds[key] = _foh(ss.A, B, h)
+        Phi, Gam0, Gam1 = holds[key]
         du = (u_left[i + 1] - u[i]) / h
         x[i + 1] = Phi @ x[i] + Gam0 * u[i] + Gam1 * du
     y = x @ ss.C.T + np.outer(u, D)
