@@ -145,7 +145,7 @@ class Registration:
 
 
 REGISTRY: dict[str, Registration] = {}
-BUILTIN = (".cip", ".qcg", ".projection")  # packages that register the report algorithms when imported
+BUILTIN = (".cip", ".qcg", ".slp", ".projection")  # packages that register the report algorithms when imported
 
 
 def load_builtin() -> dict[str, Registration]:

@@ -22,8 +22,15 @@ from .errors import EngineError
 from .network import Network, check_grid
 
 Sign = Literal["any", "positive", "negative"]
-MEASURE_NAMES = ("gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
-                 "gain_margin_db", "phase_margin_deg", "crossover_frequency")
+FREQUENCY_MEASURES = ("gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
+                      "gain_margin_db", "phase_margin_deg", "crossover_frequency",
+                      "modal_peak_db", "modal_peak_phase_deg")
+TIME_MEASURES = ("rise_time", "settling_time", "overshoot_percent", "peak_time", "steady_state_error",
+                 "peak_response", "mean_square")
+MEASURE_NAMES = FREQUENCY_MEASURES + TIME_MEASURES + ("stability_abscissa",)
+# measures whose natural sense is "at most" (smaller is better); the rest are "at least"
+AT_MOST = ("attenuation_margin", "modal_peak_db", "modal_peak_phase_deg", "rise_time", "settling_time",
+           "overshoot_percent", "peak_time", "steady_state_error", "peak_response", "mean_square")
 Value = float | tuple[float, ...]
 
 
@@ -64,11 +71,22 @@ class Condition:
 
 @dataclass(frozen=True)
 class BandValue:
-    """A desired value that holds for frequencies in [low, high] (rad/s)."""
+    """A desired value that holds for frequencies in [low, high] (rad/s).
+
+    ``required``: the least acceptable value (the most, for an at-most
+    measure), where it differs from ``desired``; slp constrains it and
+    rewards improvement only up to ``desired``.  None: the desired value
+    is the requirement.
+    """
 
     low: float
     high: float
     desired: float
+    required: float | None = None
+
+    @property
+    def requirement(self) -> float:
+        return self.desired if self.required is None else self.required
 
 
 @dataclass(frozen=True)
@@ -77,6 +95,33 @@ class Point:
 
     value: complex
     mode: Literal["push", "pull"]
+
+
+@dataclass(frozen=True)
+class TimeResponse:
+    """The response a time-domain measure reads: ``output`` for an input profile
+    (steps and ramps, as `engine.timeresp.Segment`) applied at ``input``, over
+    [0, horizon] at ``points`` samples.  ``psd``: for a mean square, a shaping
+    filter F(s) whose |F(jw)|^2 is the input's power spectral density.
+    ``reference``: the value the output should settle at (steady-state error)."""
+
+    input: str
+    output: str
+    horizon: float = 10.0
+    points: int = 400
+    profile: tuple[tuple[float, float, float], ...] = ((0.0, 1.0, 0.0),)  # (time, step, slope)
+    psd: str | None = None
+    reference: float = 1.0
+    settling_band: float = 0.05
+
+
+@dataclass(frozen=True)
+class LinearEquality:
+    """sum coefficient * parameter = value; a term names a parameter and, for one
+    with a value per condition, the condition index (None: shared)."""
+
+    terms: tuple[tuple[str, int | None, float], ...]
+    value: float
 
 
 @dataclass(frozen=True)
@@ -91,6 +136,16 @@ class Target:
     points: tuple[Point, ...] = ()
     detect_low: float = 0.0
     detect_high: float = np.inf
+    sense: Literal["at_least", "at_most"] | None = None  # None: the measure's natural sense
+    constraint: bool = True  # False: only in the objective (e.g. a peak load to minimize)
+    response: TimeResponse | None = None  # for time-domain measures
+
+    @property
+    def at_least(self) -> bool:
+        """True when larger values are better."""
+        if self.sense is not None:
+            return self.sense == "at_least"
+        return self.measure not in AT_MOST
 
     def desired(self, frequency: float) -> float | None:
         """The desired value at a frequency (the first band containing it), or None."""
@@ -124,6 +179,7 @@ class Problem:
     targets: tuple[Target, ...]
     grid: Grid
     objective: Objective | None = None
+    equalities: tuple[LinearEquality, ...] = ()
 
     def __post_init__(self) -> None:
         if not self.conditions and (self.objective is None or self.objective.kind != "dae"):
@@ -143,6 +199,37 @@ class Problem:
         missing = sorted(needed - set(names))
         if missing:
             raise EngineError(f"no parameter defined for {', '.join(missing)}")
+        for t in self.targets:
+            if t.measure in TIME_MEASURES and t.response is None:
+                raise EngineError(f"measure {t.measure!r} needs a response (input, output, horizon)")
+        for k, eq in enumerate(self.equalities):
+            self._check_equality(eq, f"equalities[{k}]")
+
+    def _check_equality(self, eq: LinearEquality, where: str) -> None:
+        by_name = {p.name: p for p in self.parameters}
+        for name, c, _ in eq.terms:
+            p = by_name.get(name)
+            if p is None:
+                raise EngineError(f"{where}: unknown parameter {name!r}")
+            if p.per_condition != (c is not None) or (c is not None and not 0 <= c < len(self.conditions)):
+                raise EngineError(f"{where}: {name!r} " + ("has one value per condition: name the condition"
+                                                          if p.per_condition else "is shared by all conditions"))
+
+    def equality_system(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(A, b) with A x = b over the free vector (fixed parameters moved to b)."""
+        slots = {(self.parameters[i].name, c): k for k, (i, c) in enumerate(self.free_slots())}
+        values = {p.name: p for p in self.parameters}
+        A = np.zeros((len(self.equalities), len(slots)))
+        b = np.zeros(len(self.equalities))
+        for r, eq in enumerate(self.equalities):
+            b[r] = eq.value
+            for name, c, coefficient in eq.terms:
+                k = slots.get((name, c))
+                if k is None:
+                    b[r] -= coefficient * values[name].at(0 if c is None else c)
+                else:
+                    A[r, k] += coefficient
+        return A, b
 
     def values(self, condition: int) -> dict[str, float]:
         """Parameter values seen by one condition."""
@@ -159,6 +246,15 @@ class Problem:
             if p.free:
                 slots += [(i, c) for c in range(len(self.conditions))] if p.per_condition else [(i, None)]
         return tuple(slots)
+
+    @cached_property
+    def slot_index(self) -> dict[tuple[str, int], int]:
+        """(parameter name, condition) -> position in the free vector."""
+        index = {}
+        for k, (i, c) in enumerate(self._free_slots):
+            for condition in (range(len(self.conditions)) if c is None else (c,)):
+                index[(self.parameters[i].name, condition)] = k
+        return index
 
     def vector(self) -> NDArray[np.float64]:
         return np.array([self.parameters[i].value[c] if c is not None else self.parameters[i].value

@@ -17,10 +17,12 @@ from engine.blocks import (ControllerFactor, DelayTransfer, ExpressionTransfer, 
                            TabulatedTransfer, controller_transfer, factored_transfer, polynomial_transfer)
 from engine.errors import EngineError
 from engine.network import Block, Junction, Network, block_diagram, matrix_format
-from engine.problem import BandValue, Condition, Grid, Objective, Parameter, Point, Problem, Target
+from engine.problem import (BandValue, Condition, Grid, LinearEquality, Objective, Parameter, Point, Problem, Target,
+                            TimeResponse)
 
 from .errors import SessionError
-from .schema import CascadeModel, ChannelsModel, ConditionModel, GridModel, ParameterModel, ProblemModel, TableModel, TargetModel
+from .schema import (CascadeModel, ChannelsModel, ConditionModel, EqualityModel, GridModel, ParameterModel, ProblemModel,
+                     TableModel, TargetModel)
 
 
 def build_problem(model: ProblemModel, folder: Path) -> Problem:
@@ -34,8 +36,10 @@ def build_problem(model: ProblemModel, folder: Path) -> Problem:
         model.objective.kind, dict(model.objective.options),
         {name: _table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()},
         dict(model.objective.data))
+    names = [c.name for c in model.conditions]
+    equalities = tuple(_equality(e, f"problem.equalities[{i}]", names) for i, e in enumerate(model.equalities))
     try:
-        return Problem(conditions, parameters, targets, _grid(model.grid), objective)
+        return Problem(conditions, parameters, targets, _grid(model.grid), objective, equalities)
     except EngineError as exc:
         raise SessionError(f"problem: {exc}") from None
 
@@ -231,6 +235,28 @@ def _target(t: TargetModel) -> Target:
     def upper(x: float | None) -> float:
         return np.inf if x is None else x * scale
 
-    return Target(t.measure, tuple(BandValue(b.low * scale, upper(b.high), b.desired) for b in t.bands), t.condition,
-                  t.weight, t.scale, tuple(Point(complex(q.real, q.imag), q.mode) for q in t.points),
-                  t.detect_low * scale, upper(t.detect_high))
+    response = None if t.response is None else TimeResponse(
+        t.response.input, t.response.output, t.response.horizon, t.response.points,
+        tuple((seg.time, seg.step, seg.slope) for seg in t.response.profile), t.response.psd,
+        t.response.reference, t.response.settling_band)
+    return Target(t.measure, tuple(BandValue(b.low * scale, upper(b.high), b.desired, b.required) for b in t.bands),
+                  t.condition, t.weight, t.scale, tuple(Point(complex(q.real, q.imag), q.mode) for q in t.points),
+                  t.detect_low * scale, upper(t.detect_high), t.sense, t.constraint, response)
+
+
+def _equality(e: EqualityModel, path: str, conditions: list[str]) -> LinearEquality:
+    """Terms 'name' (shared) or 'name[condition]' (a condition's name or its index)."""
+    terms = []
+    for key, coefficient in e.terms.items():
+        name, _, rest = key.partition("[")
+        condition = None
+        if rest:
+            label = rest.rstrip("]")
+            if label in conditions:
+                condition = conditions.index(label)
+            elif label.isdigit() and int(label) < len(conditions):
+                condition = int(label)
+            else:
+                raise SessionError(f"{path}.terms.{key}: no condition {label!r} (conditions: {', '.join(conditions)})")
+        terms.append((name.strip(), condition, coefficient))
+    return LinearEquality(tuple(terms), e.value)

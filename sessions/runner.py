@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 from engine.algorithm import State, StepRecord, lookup, make_settings
 from engine.errors import EngineError
 
+from .build import build_problem
 from .errors import SessionError
 from .store import AUTOSAVE_INTERVAL, Session, write_autosave
 
@@ -52,6 +55,39 @@ def run_session(session: Session, iterations: int | None = None, until_done: boo
     except EngineError as exc:
         raise SessionError(f"{model.algorithm.name}: {exc}") from None
     return new
+
+
+def adopt_design(session: Session) -> None:
+    """Make the current iteration's parameters the session's starting values and
+    forget the records (to continue with other settings, e.g. slp's load-relief
+    phase after its margin phase)."""
+    model = session.model
+    if model.current_iteration == 0:
+        return
+    record = StepRecord.from_json(model.records[model.current_iteration - 1])
+    for parameter in model.problem.parameters:
+        if parameter.name in record.parameters:
+            parameter.value = record.parameters[parameter.name]
+    model.records.clear()
+    model.current_iteration = 0
+    model.state = None
+    folder = session.path.parent if session.path else Path.cwd()
+    session.problem = build_problem(model.problem, folder)
+
+
+def set_setting(session: Session, assignment: str) -> None:
+    """Apply NAME=VALUE to the algorithm's settings (VALUE read as JSON, else as text)."""
+    name, sep, text = assignment.partition("=")
+    if not sep or not name.strip():
+        raise SessionError(f"--set {assignment!r}: write NAME=VALUE")
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError:
+        value = text
+    session.model.algorithm.settings[name.strip()] = value
+    session.model.records.clear()
+    session.model.current_iteration = 0
+    session.model.state = None
 
 
 @dataclass(frozen=True)

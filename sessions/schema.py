@@ -255,6 +255,29 @@ class BandModel(Strict):
     low: Annotated[float, Field(ge=0)] = 0.0
     high: float | None = Field(default=None, description="upper edge (the target's unit); null: no limit")
     desired: float
+    required: float | None = Field(default=None, description="least acceptable value (most, for an at-most "
+                                   "measure) when it differs from desired; slp constrains it and rewards "
+                                   "improvement up to desired")
+
+
+class SegmentModel(Strict):
+    time: Annotated[float, Field(ge=0)] = 0.0
+    step: float = 0.0
+    slope: float = 0.0
+
+
+class ResponseModel(Strict):
+    """The time response a time-domain measure reads."""
+
+    input: str
+    output: str
+    horizon: Annotated[float, Field(gt=0)] = 10.0
+    points: Annotated[int, Field(ge=10, le=100_000)] = 400
+    profile: list[SegmentModel] = Field(default=[SegmentModel(step=1.0)],
+                                        description="steps and ramps at the input (e.g. a wind profile)")
+    psd: str | None = Field(default=None, description="mean_square: shaping filter F(s), PSD = |F(jw)|^2")
+    reference: float = 1.0
+    settling_band: Annotated[float, Field(gt=0, lt=1)] = 0.05
 
 
 class PointModel(Strict):
@@ -265,7 +288,9 @@ class PointModel(Strict):
 
 class TargetModel(Strict):
     measure: Literal["gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
-                     "gain_margin_db", "phase_margin_deg", "crossover_frequency"]
+                     "gain_margin_db", "phase_margin_deg", "crossover_frequency", "modal_peak_db",
+                     "modal_peak_phase_deg", "rise_time", "settling_time", "overshoot_percent", "peak_time",
+                     "steady_state_error", "peak_response", "mean_square", "stability_abscissa"]
     condition: str | None = None
     bands: list[BandModel]
     weight: float = 1.0
@@ -274,6 +299,10 @@ class TargetModel(Strict):
     detect_low: Annotated[float, Field(ge=0)] = 0.0
     detect_high: float | None = Field(default=None, description="null: no upper limit")
     unit: Literal["rad/s", "hz"] = Field(default="rad/s", description="unit of band edges and detect_low/high")
+    sense: Literal["at_least", "at_most"] | None = Field(default=None, description="null: the measure's own "
+                                                         "(at most for peaks, times, errors; at least otherwise)")
+    constraint: bool = Field(default=True, description="false: only in the objective, never a requirement")
+    response: ResponseModel | None = Field(default=None, description="for time-domain measures")
 
 
 class ObjectiveModel(Strict):
@@ -284,12 +313,21 @@ class ObjectiveModel(Strict):
                                                          "F, x0, horizon, steps, bounds, Q, R")
 
 
+class EqualityModel(Strict):
+    """sum of coefficient * parameter = value; a key is a parameter's name, or
+    name[condition] for a parameter with a value per condition."""
+
+    terms: Annotated[dict[str, float], Field(min_length=1)]
+    value: float = 0.0
+
+
 class ProblemModel(Strict):
     grid: GridModel
     conditions: list[ConditionModel] = Field(default=[], description="at least one, except for a 'dae' objective")
     parameters: list[ParameterModel] = []
     targets: list[TargetModel] = []
     objective: ObjectiveModel | None = None
+    equalities: list[EqualityModel] = Field(default=[], description="linear equalities between parameters (slp)")
 
 
 class AlgorithmModel(Strict):

@@ -171,9 +171,9 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
         _atomic_write(target, text)
     except OSError as exc:
         raise SessionError(f"{target}: cannot save: {exc.strerror or exc}") from None
-    autosave = autosave_path(target)
-    if autosave.exists():
-        autosave.unlink()
+    autosave_path(target).unlink(missing_ok=True)
+    if session.path is not None and session.last_autosave:  # ours, and now saved in target
+        autosave_path(session.path).unlink(missing_ok=True)
     session.path = target
     return target
 

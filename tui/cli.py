@@ -20,7 +20,7 @@ from engine.measures import tableau
 from engine.qcg.setup import cascade_problem
 from engine.qcg.tradeoff import penalty_sweep
 from sessions.errors import SessionError
-from sessions.runner import replay, run_session
+from sessions.runner import adopt_design, replay, run_session, set_setting
 from sessions.store import Session, autosave_candidate, load_session, save_session
 
 from .cip_report import cip_report_text
@@ -157,6 +157,10 @@ def _load(file: str) -> Session:
 
 def cmd_run(args: argparse.Namespace) -> int:
     session = _load(args.file)
+    if args.adopt:
+        adopt_design(session)
+    for assignment in args.set or ():
+        set_setting(session, assignment)
     if args.algorithm:
         session.model.algorithm.name = args.algorithm
         session.model.algorithm.settings = {}
@@ -291,6 +295,10 @@ def build_parser() -> argparse.ArgumentParser:
     group.add_argument("--until-done", action="store_true")
     p.add_argument("--out", help="save here instead of in place")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--adopt", action="store_true",
+                   help="start from the current iteration's parameters (records are cleared)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="set an algorithm setting (restarts from iteration 0); repeatable")
     p.set_defaults(handler=cmd_run)
     p = sub.add_parser("replay", help="re-run a session and compare every recorded iteration")
     p.add_argument("file")

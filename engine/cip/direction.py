@@ -53,7 +53,7 @@ class Direction:
 
 def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Rows:
     """Gradients of d(w) for every active constraint and each of its points."""
-    slot_of = _slot_index(problem)
+    slot_of = problem.slot_index
     m = len(problem.free_slots())
     rows, weights, owners, distances = [], [], [], []
     for c, condition in enumerate(problem.conditions):
@@ -80,16 +80,6 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Row
                 owners.append(k)
                 distances.append(abs(gh - point.value) ** 2)
     return Rows(np.array(rows).reshape(len(rows), m), np.array(weights), tuple(owners), np.array(distances))
-
-
-def _slot_index(problem: Problem) -> dict[tuple[str, int], int]:
-    """(parameter name, condition) -> position in the free vector."""
-    index = {}
-    for k, (i, c) in enumerate(problem.free_slots()):
-        name = problem.parameters[i].name
-        for condition in (range(len(problem.conditions)) if c is None else (c,)):
-            index[(name, condition)] = k
-    return index
 
 
 def improvement_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray,

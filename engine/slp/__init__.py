@@ -1,0 +1,10 @@
+"""`slp`: COEBRA's sequential linear programming (Martin Marietta, report 003)."""
+
+from ..algorithm import register
+from .algorithm import Slp, SlpSettings
+
+register("slp", Slp, SlpSettings,
+         "sequential linear programming over margins and time-domain measures, several flight "
+         "conditions, load relief (report 003, COEBRA)")
+
+__all__ = ["Slp", "SlpSettings"]

@@ -1,0 +1,360 @@
+"""`slp`: COEBRA's sequential linear programming (report 003, chapter 2) as a stepper.
+
+A major iteration linearizes every measure at its point x0 (partials.py);
+its minor loop then tries step sizes P with those partials: each trial solves
+the LP of lp.py (the inner loop lowering STEP until it is feasible) and
+evaluates the measures at x0 + dx on the true responses.  A trial is better
+than the best so far when the met-measure counter rises, or, on a tie, when
+the figure of merit rises by at least `improvement_percent`.  P grows by
+`step_growth` while trials are better; after a worse trial it is bisected
+between the best P and the failed one (Figures 2-6 to 2-9) until the bracket
+is within `step_resolution`.  The next major iteration relinearizes at the
+best point; a major iteration that finds nothing better ends the run (self-
+termination, section 2.10).  One `step` is one minor-loop trial.
+
+Objective (section 2.3): Y1 = sum W1 W2 S dM/dx dx over all rows, with W1
+the ratio desired/actual (actual/desired for at-most rows; |phase|/90 for
+the phase at a modal peak, so modes are driven toward 0 deg), W2 the target
+weight and S its scale; or (section 2.4, `objective = "load_relief"`) Y2,
+minimizing the peak responses and mean squares while every margin stays a
+constraint.  Figure of merit: sum W2 S min(M, desired) (capped at the
+desired values), or minus the weighted peaks for load relief.
+
+Readings and departures, each recorded here: W1 is undefined by the report
+for measures of either sign (a gain margin in dB of an unstable loop); there
+W1 = 1 + (desired - actual)/max(|desired|, 1), and every W1 is kept within
+[0, 10].  A closed-loop stability row (-max Re of the closed-loop poles > 0)
+is added to every rational condition unless `require_stable` is off, and a
+trial that loses stability is never better (the counter alone could trade
+stability for two other measures).  The step box is +-P max(|x0|,
+`step_floor` times the variable's range) so that a variable at zero can move
+when the floor is set (the report's box, floor 0, freezes it).  A met requirement is held in the LP
+`backoff` (1 %) of its size above SPEC: the LP's solution is a vertex where
+held rows are exactly active, so without it the linearization's second-order
+error tips them just under SPEC and the trial loses a measure (seen on the
+launch-vehicle example, where every trial near the boundary was rejected).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..algorithm import MeasureRow, State, Status, StepRecord
+from ..errors import EngineError
+from ..problem import Problem
+from .lp import LpResult, solve_step, step_box
+from .measures import Spec, evaluate, measure_specs
+from .partials import jacobian
+
+LOAD_KINDS = ("peak_response", "mean_square")
+
+
+@dataclass(frozen=True)
+class SlpSettings:
+    """The report's inputs and this program's options."""
+
+    objective: Literal["margins", "load_relief"] = "margins"   # Y1 (2-11) or Y2 (2-12)
+    partials: Literal["analytic", "finite_difference"] = "analytic"
+    initial_step: float = 0.2          # P of the first trial
+    step_growth: float = 2.0           # P after a better trial (before the bracket closes)
+    min_step: float = 1e-3             # a minor loop whose P falls below this gives up
+    max_step: float = 10.0
+    step_resolution: float = 0.1       # bracket width (relative) that ends a minor loop
+    step_floor: float = 0.0            # the box is +-P max(|x0|, step_floor * the variable's range)
+    relaxation_step: float = 0.2       # STEP = 1, 1 - this, ..., 0 in the inner loop
+    backoff: float = 0.01              # met rows are held this fraction of |SPEC| above SPEC (0: the report)
+    improvement_percent: float = 0.1   # a tie in the counter needs this much more figure of merit
+    max_minor: int = 12
+    max_major: int = 30
+    time_limit: float | None = None    # seconds of computing, then the best point is reported
+    require_stable: bool = True
+    fd_step: float = 1e-6              # relative forward-difference step
+
+    def __post_init__(self) -> None:
+        if not 0 < self.relaxation_step <= 1:
+            raise EngineError("relaxation_step must lie in (0, 1]")
+        if not (0 < self.min_step <= self.initial_step <= self.max_step):
+            raise EngineError("need 0 < min_step <= initial_step <= max_step")
+        if self.step_growth <= 1 or not 0 < self.step_resolution < 1:
+            raise EngineError("step_growth must exceed 1 and step_resolution lie in (0, 1)")
+
+
+@dataclass(frozen=True)
+class Point:
+    """A design point with its measure values, met-measure counter and figure of merit."""
+
+    x: NDArray[np.float64]
+    values: NDArray[np.float64]
+    frequencies: NDArray[np.float64]
+    counter: int
+    merit: float
+    stable: bool
+
+
+class Slp:
+    """The sequential linear programming stepper (see the module docstring)."""
+
+    name = "slp"
+
+    def init(self, problem: Problem, settings: SlpSettings) -> State:
+        self.problem, self.settings = problem, settings
+        self.specs = measure_specs(problem, settings.require_stable)
+        if not problem.conditions:
+            raise EngineError("slp needs at least one flight condition")
+        if not any(s.target is not None for s in self.specs):
+            raise EngineError("slp needs targets (performance measures)")
+        if settings.objective == "load_relief" and not any(s.kind in LOAD_KINDS for s in self.specs):
+            raise EngineError("the load-relief objective needs peak_response or mean_square targets")
+        self.lower, self.upper = problem.bounds()
+        self.equalities = problem.equality_system()
+        x = self._feasible_start(np.clip(problem.vector(), self.lower, self.upper))
+        start = self._point(x)
+        return State(0, tuple(x), Status.RUNNING, {
+            "major": 1, "minor": 0, "x0": list(x), "base": _point_json(start), "best": _point_json(start),
+            "partials": None, "P": settings.initial_step, "P_best": 0.0, "P_failed": None,
+            "evaluations": 1, "lps": 0, "elapsed": 0.0})
+
+    # -- one minor-loop trial ----------------------------------------------
+
+    def step(self, state: State) -> tuple[State, StepRecord]:
+        began = time.perf_counter()
+        memory = dict(state.memory)
+        x0 = np.array(memory["x0"])
+        base = _point_from(memory["base"])
+        counters = {"partial_evaluations": 0}
+        if memory["partials"] is None:
+            J, how = jacobian(self.problem, x0, self.specs, base.values, base.frequencies,
+                              self.settings.partials, self.settings.fd_step)
+            memory["partials"], memory["partial_methods"] = J.tolist(), list(how)
+            counters["partial_evaluations"] = len(x0) if "finite difference" in how else 1
+        J = np.array(memory["partials"]).reshape(len(self.specs), len(x0))
+        P = float(memory["P"])
+        lp = self._program(x0, base.values, J, P)
+        trial, reason = self._trial(x0, lp)
+        best = _point_from(memory["best"])
+        better = trial is not None and self._better(trial, best)
+        memory["minor"] += 1
+        memory["lps"] += lp.solves
+        memory["evaluations"] += trial is not None
+        if better:
+            memory["best"], memory["P_best"] = _point_json(trial), P
+        else:
+            memory["P_failed"] = P
+        numbers = (memory["major"], memory["minor"])
+        done, why = self._next_step(memory, lp, trial)
+        memory["elapsed"] += time.perf_counter() - began
+        status, shown = Status.RUNNING, trial
+        if done:
+            status, reason, final = self._end_major(memory, why, reason)
+            shown = final or trial
+        shown = shown or base
+        record = self._record(state.iteration + 1, status, shown, memory, numbers, lp, P, trial, better, reason,
+                              counters)
+        x = np.array(memory["best"]["x"]) if status.finished else np.array(memory["x0"])
+        return State(state.iteration + 1, tuple(x), status, memory), record
+
+    def _trial(self, x0: NDArray, lp: LpResult) -> tuple[Point | None, str]:
+        if lp.dx is None:
+            return None, f"no feasible program even with STEP = 0 ({lp.status})"
+        if np.all(np.abs(lp.dx) <= 1e-14 * np.maximum(np.abs(x0), 1.0)):
+            return None, "the linear program does not move"
+        x = np.clip(x0 + lp.dx, self.lower, self.upper)
+        try:
+            return self._point(x), ""
+        except (EngineError, np.linalg.LinAlgError, ValueError) as exc:
+            return None, f"trial point cannot be evaluated: {exc}"
+
+    def _next_step(self, memory: dict, lp: LpResult, trial: Point | None) -> tuple[bool, str]:
+        """Update P (grow, or bisect the bracket); True when the minor loop is over."""
+        s = self.settings
+        P_best, P_failed = memory["P_best"], memory["P_failed"]
+        if trial is None and lp.dx is not None:
+            return True, "the linear program does not move"
+        if self._complete(_point_from(memory["best"])):
+            return True, "nothing left to improve"
+        if memory["minor"] >= s.max_minor:
+            return True, "minor-loop limit"
+        if P_failed is None:
+            if P_best >= s.max_step:
+                return True, "largest step"
+            memory["P"] = min(P_best * s.step_growth, s.max_step)
+            return False, ""
+        if P_best > 0 and P_failed - P_best <= s.step_resolution * P_failed:
+            return True, "step size resolved"
+        memory["P"] = 0.5 * (P_best + P_failed)
+        if memory["P"] < s.min_step:
+            return True, "step below minimum"
+        return False, ""
+
+    def _end_major(self, memory: dict, why: str, reason: str) -> tuple[Status, str, Point | None]:
+        """Start the next major iteration at the best point, or end the run."""
+        best, base = _point_from(memory["best"]), _point_from(memory["base"])
+        s = self.settings
+        improved = not np.array_equal(best.x, base.x)
+        over_time = s.time_limit is not None and memory["elapsed"] >= s.time_limit
+        if improved and self._complete(best):
+            return Status.CONVERGED, "every requirement met and every desired value reached", best
+        if not improved:
+            return Status.NO_IMPROVEMENT, f"major iteration {memory['major']} found no better point ({why})", best
+        if memory["major"] >= s.max_major or over_time:
+            limit = "time limit" if over_time else f"{s.max_major} major iterations"
+            return Status.ITERATION_LIMIT, limit, best
+        memory.update(major=memory["major"] + 1, minor=0, x0=best.x.tolist(), base=memory["best"],
+                      partials=None, P=max(memory["P_best"], s.min_step), P_best=0.0, P_failed=None)
+        return Status.RUNNING, reason or f"relinearize at the best point ({why})", None
+
+    # -- the linear program ------------------------------------------------
+
+    def _program(self, x0: NDArray, values: NDArray, J: NDArray, P: float) -> LpResult:
+        s = self.settings
+        signs = np.array([spec.sign for spec in self.specs])
+        oriented, gradients = signs * values, signs[:, None] * J
+        present = np.isfinite(oriented)
+        rows = [i for i, spec in enumerate(self.specs) if spec.required is not None and present[i]]
+        specs = np.array([self.specs[i].sign * self.specs[i].required for i in rows])
+        steps = np.append(np.arange(1.0, 0.0, -s.relaxation_step), 0.0)
+        box = step_box(x0, self.lower, self.upper, P, s.step_floor)
+        c = self._objective(values, gradients, present)
+        result = solve_step(c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps,
+                            s.backoff)
+        duals = np.zeros(len(self.specs))
+        duals[rows] = result.duals if result.duals.size == len(rows) else 0.0
+        return LpResult(result.dx, result.step, result.solves, result.status, duals)
+
+    def _objective(self, values: NDArray, gradients: NDArray, present: NDArray) -> NDArray:
+        """The LP's objective vector: Y1 (weighted measure gains) or -Y2 (weighted peaks)."""
+        c = np.zeros(gradients.shape[1])
+        for i, spec in enumerate(self.specs):
+            if not present[i] or spec.weight == 0:
+                continue
+            if self.settings.objective == "load_relief":
+                if spec.kind in LOAD_KINDS:
+                    c += spec.weight * spec.scale * gradients[i]
+            elif spec.desired is not None:
+                c += w1(spec, values[i]) * spec.weight * spec.scale * gradients[i]
+        return c
+
+    # -- points, counters, figure of merit ---------------------------------
+
+    def _point(self, x: NDArray) -> Point:
+        values, frequencies = evaluate(self.problem, x, self.specs)
+        counter = sum(spec.met(v) for spec, v in zip(self.specs, values) if spec.required is not None)
+        stable = all(v > 0 for spec, v in zip(self.specs, values) if spec.kind == "stability_abscissa"
+                     and spec.target is None)
+        return Point(np.asarray(x, dtype=float), values, frequencies, int(counter), self._merit(values), stable)
+
+    def _merit(self, values: NDArray) -> float:
+        total = 0.0
+        for spec, v in zip(self.specs, values):
+            if self.settings.objective == "load_relief":
+                if spec.kind in LOAD_KINDS and math.isfinite(v):
+                    total += spec.weight * spec.scale * spec.sign * v
+                continue
+            if spec.desired is None or spec.weight == 0:
+                continue
+            capped = spec.sign * spec.desired if math.isnan(v) else min(spec.sign * v, spec.sign * spec.desired)
+            total += spec.weight * spec.scale * capped
+        return float(total)
+
+    def _complete(self, point: Point) -> bool:
+        """Every requirement met and the figure of merit at its cap (nothing left to reward)."""
+        if self.settings.objective == "load_relief":
+            return False
+        met = all(spec.met(v) for spec, v in zip(self.specs, point.values))
+        at_cap = all(spec.desired is None or spec.weight == 0 or math.isnan(v)
+                     or spec.sign * v >= spec.sign * spec.desired for spec, v in zip(self.specs, point.values))
+        return met and at_cap
+
+    def _better(self, trial: Point, best: Point) -> bool:
+        if best.stable and not trial.stable:
+            return False
+        if np.array_equal(trial.x, best.x):
+            return False
+        if trial.counter != best.counter:
+            return trial.counter > best.counter
+        return trial.merit > best.merit + self.settings.improvement_percent / 100.0 * max(abs(best.merit), 1e-12)
+
+    def _feasible_start(self, x: NDArray) -> NDArray:
+        """The start moved onto the linear equalities (least change), if it is off them."""
+        A, b = self.equalities
+        if not A.size or np.allclose(A @ x, b, rtol=1e-9, atol=1e-12):
+            return x
+        moved = np.clip(x - np.linalg.pinv(A) @ (A @ x - b), self.lower, self.upper)
+        if not np.allclose(A @ moved, b, rtol=1e-6, atol=1e-9):
+            raise EngineError("the linear equalities cannot be met within the parameter bounds")
+        return moved
+
+    # -- records -------------------------------------------------------------
+
+    def rows(self, point: Point) -> tuple[MeasureRow, ...]:
+        """The tableau of a point: every row with its requirement and whether it is met."""
+        out = []
+        for spec, v, f in zip(self.specs, point.values, point.frequencies):
+            out.append(MeasureRow(spec.name, spec.kind, self.problem.conditions[spec.condition].name, float(v),
+                                  spec.required, bool(spec.met(v)), None if math.isnan(f) else float(f)))
+        return tuple(out)
+
+    def initial_record(self, state: State) -> StepRecord:
+        """Iteration 0: the tableau of the starting point."""
+        start = _point_from(state.memory["base"])
+        return StepRecord(0, Status.RUNNING, self.problem.named_values_at(start.x), self.rows(start),
+                          objective=start.merit, extra={"counter": start.counter, "figure_of_merit": start.merit,
+                                                        "desired": self._desired()})
+
+    def _desired(self) -> list[float | None]:
+        return [spec.desired for spec in self.specs]
+
+    def _record(self, iteration: int, status: Status, shown: Point, memory: dict, numbers: tuple[int, int],
+                lp: LpResult, P: float, trial: Point | None, better: bool, reason: str,
+                counters: dict) -> StepRecord:
+        names = [f"{s.name}@{self.problem.conditions[s.condition].name}" for s in self.specs]
+        extra = {
+            "major": numbers[0], "minor": numbers[1],
+            "P": P, "STEP": lp.step, "lp_status": lp.status, "accepted": better,
+            "counter": shown.counter, "figure_of_merit": shown.merit,
+            "trial_counter": None if trial is None else trial.counter,
+            "trial_figure_of_merit": None if trial is None else trial.merit,
+            "best_counter": memory["best"]["counter"], "best_figure_of_merit": memory["best"]["merit"],
+            "duals": dict(zip(names, lp.duals.tolist())),
+            "partials": dict(zip(names, memory.get("partial_methods") or [])),
+            "desired": self._desired(), "stable": shown.stable,
+        }
+        counters = dict(counters, evaluations=memory["evaluations"], lps=memory["lps"])
+        dx = () if lp.dx is None else tuple(float(v) for v in lp.dx)
+        return StepRecord(iteration, status, self.problem.named_values_at(shown.x), self.rows(shown),
+                          objective=shown.merit, step_size=P, direction=dx, counters=counters,
+                          reason=reason, extra=extra)
+
+
+def w1(spec: Spec, value: float) -> float:
+    """The report's weight W1: desired over actual (> 1 when unmet), kept within [0, 10]."""
+    if spec.kind == "modal_peak_phase_deg":
+        return min(value / 90.0, 10.0)
+    desired = spec.desired
+    if desired > 0 and value > 0:
+        ratio = desired / value if spec.at_least else value / desired
+    else:
+        ratio = 1.0 + spec.sign * (desired - value) / max(abs(desired), 1.0)
+    return float(np.clip(ratio, 0.0, 10.0))
+
+
+def _numbers(values: NDArray) -> list:
+    return [v if math.isfinite(v) else repr(v) for v in values.tolist()]
+
+
+def _point_json(point: Point) -> dict:
+    return {"x": point.x.tolist(), "values": _numbers(point.values), "frequencies": _numbers(point.frequencies),
+            "counter": point.counter, "merit": point.merit, "stable": point.stable}
+
+
+def _point_from(data: dict) -> Point:
+    values = np.array([float(v) for v in data["values"]])
+    frequencies = np.array([float(v) for v in data["frequencies"]])
+    return Point(np.array(data["x"], dtype=float), values, frequencies, int(data["counter"]),
+                 float(data["merit"]), bool(data["stable"]))

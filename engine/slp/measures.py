@@ -1,0 +1,229 @@
+"""COEBRA's performance measures (report 003, sections 1.3 and 2.2, Appendix C):
+one row per target, band and flight condition, evaluated on the true responses.
+
+Frequency measures come from the exact margins of `engine.margins`; in each
+band the worst candidate is the row's value (the smallest gain or phase
+margin, the largest modal peak), except the crossover frequency, which is
+the highest gain crossover in the band (the rigid-body crossover when the
+band stops below the bending modes).  Time measures come from the closed-loop
+state space (`engine.realization`) under a profile of steps and ramps, or,
+for a mean square, from a Lyapunov equation (Appendix C: the mean square is
+(1/2 pi) times the integral of |H|^2 times the input's PSD, here |F(jw)|^2
+for a shaping filter F, i.e. the squared H2 norm of H F).
+
+A row whose measure does not occur (no phase crossover in a gain-margin
+band, a mode whose peak left its band) is *absent*: its value is NaN and it
+counts as met, except rise and settling times that never happen (+inf).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import linalg
+
+from ..blocks import ExpressionTransfer
+from ..errors import EngineError
+from ..loops import loop_model
+from ..margins import Margins, margins
+from ..problem import FREQUENCY_MEASURES, TIME_MEASURES, Problem
+from ..realization import StateSpace, cascade
+from ..zpk import closed_loop_realization
+from ..timeresp import Segment, dc_gain, simulate, step_measures
+
+PEAK_KINDS = ("attenuation_margin", "modal_peak_db", "modal_peak_phase_deg")
+MARGIN_ATTRIBUTE = {"gain_margin": ("gain", "value"), "phase_margin": ("phase", "value"),
+                    "stability_margin": ("stability", "value"), "attenuation_margin": ("attenuation", "value"),
+                    "gain_margin_db": ("gain", "gain_db"), "phase_margin_deg": ("phase", "phase_deg")}
+SHORT = {"gain_margin": "G", "phase_margin": "P", "stability_margin": "S", "attenuation_margin": "A",
+         "gain_margin_db": "GM", "phase_margin_deg": "PM", "crossover_frequency": "WC",
+         "modal_peak_db": "PK", "modal_peak_phase_deg": "PKPH", "rise_time": "TR", "settling_time": "TS",
+         "overshoot_percent": "OS", "peak_time": "TP", "steady_state_error": "SSE",
+         "peak_response": "PEAK", "mean_square": "MS", "stability_abscissa": "STAB"}
+
+
+@dataclass(frozen=True)
+class Spec:
+    """One performance measure of one flight condition (a row of COEBRA's list).
+
+    ``required`` is SPEC(i), the least acceptable value (None: the row is
+    only in the objective); ``desired`` caps the figure of merit.  Values are
+    as the user reads them; ``at_least`` says which way is better.
+    """
+
+    name: str
+    kind: str
+    condition: int
+    target: int | None
+    low: float
+    high: float
+    at_least: bool
+    required: float | None
+    desired: float | None
+    weight: float = 1.0
+    scale: float = 1.0
+
+    @property
+    def sign(self) -> float:
+        """+1 for at-least rows, -1 for at-most rows: sign * value is 'larger is better'."""
+        return 1.0 if self.at_least else -1.0
+
+    def met(self, value: float) -> bool:
+        """Whether a value satisfies the requirement (absent rows count as met)."""
+        if self.required is None or math.isnan(value):
+            return True
+        if self.kind == "stability_abscissa":
+            return value > self.required
+        return value >= self.required if self.at_least else value <= self.required
+
+
+def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, ...]:
+    """Every row: each target in each condition it applies to (one per band),
+    plus a closed-loop stability row per rational condition if asked."""
+    specs: list[Spec] = []
+    for c, condition in enumerate(problem.conditions):
+        counts: dict[str, int] = {}
+        for k, target in enumerate(problem.targets):
+            if target.condition not in (None, condition.name):
+                continue
+            needs_time = target.measure in TIME_MEASURES or target.measure == "stability_abscissa"
+            if needs_time and not condition.network.rational:
+                raise EngineError(f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
+                                  "(tables or delays): no time response")
+            for band in target.bands or ():
+                counts[target.measure] = counts.get(target.measure, 0) + 1
+                specs.append(Spec(f"{SHORT[target.measure]}{counts[target.measure]}", target.measure, c, k,
+                                  band.low, band.high, target.at_least,
+                                  band.requirement if target.constraint else None, band.desired,
+                                  target.weight, target.scale))
+        has_stability = any(s.kind == "stability_abscissa" and s.condition == c for s in specs)
+        if require_stable and condition.network.rational and not has_stability:
+            specs.append(Spec("STAB", "stability_abscissa", c, None, 0.0, math.inf, True, 0.0, None, 0.0))
+    return tuple(specs)
+
+
+def evaluate(problem: Problem, x: Sequence[float], specs: Sequence[Spec],
+             conditions: Sequence[int] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(values, frequencies) of the rows, NaN where absent or not evaluated
+    (only the rows of ``conditions`` when given)."""
+    values = np.full(len(specs), np.nan)
+    frequencies = np.full(len(specs), np.nan)
+    wanted = range(len(problem.conditions)) if conditions is None else conditions
+    for c in wanted:
+        rows = [i for i, s in enumerate(specs) if s.condition == c]
+        if rows:
+            v, f = condition_values(problem, x, c, [specs[i] for i in rows])
+            values[rows], frequencies[rows] = v, f
+    return values, frequencies
+
+
+def condition_values(problem: Problem, x: Sequence[float], c: int,
+                     specs: Sequence[Spec]) -> tuple[list[float], list[float]]:
+    """Values and frequencies of one condition's rows at the free values ``x``."""
+    condition = problem.conditions[c]
+    params = problem.values_at(x, c)
+    found: Margins | None = None
+    if any(s.kind in FREQUENCY_MEASURES for s in specs):
+        model = loop_model(condition.network, condition.break_at, problem.grid.omega, params)
+        peaks = any(s.kind in PEAK_KINDS for s in specs)
+        found = margins(model, attenuation_above=0.0 if peaks else None)
+    ss = None
+    if any(s.kind not in FREQUENCY_MEASURES for s in specs):
+        ss = closed_loop_realization(condition.network, condition.break_at, params)
+    values, frequencies = [], []
+    for s in specs:
+        if s.kind in FREQUENCY_MEASURES:
+            value, frequency = frequency_value(s, found)
+        else:
+            value, frequency = time_value(s, problem, ss), math.nan
+        values.append(value)
+        frequencies.append(frequency)
+    return values, frequencies
+
+
+def frequency_value(spec: Spec, found: Margins) -> tuple[float, float]:
+    """The row's value and the frequency it was found at (NaN, NaN when absent)."""
+    inside = lambda ms: [m for m in ms if spec.low <= m.frequency <= spec.high]  # noqa: E731
+    if spec.kind == "crossover_frequency":
+        cross = inside(found.phase)
+        return (max(m.frequency for m in cross),) * 2 if cross else (math.nan, math.nan)
+    if spec.kind in ("modal_peak_db", "modal_peak_phase_deg"):
+        peaks = inside(found.attenuation)
+        if not peaks:
+            return math.nan, math.nan
+        top = max(peaks, key=lambda m: abs(m.gh))
+        if spec.kind == "modal_peak_db":
+            return 20.0 * math.log10(abs(top.gh)), top.frequency
+        return abs(math.degrees(np.angle(top.gh))), top.frequency
+    family, attribute = MARGIN_ATTRIBUTE[spec.kind]
+    candidates = inside(getattr(found, family))
+    if not candidates:
+        return math.nan, math.nan
+    pick = min if spec.at_least else max
+    worst = pick(candidates, key=lambda m: float(getattr(m, attribute)))
+    return float(getattr(worst, attribute)), worst.frequency
+
+
+def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:
+    """A time-domain row's value, or the closed-loop stability abscissa."""
+    if spec.kind == "stability_abscissa":
+        return stability_abscissa(ss)
+    response = problem.targets[spec.target].response
+    if spec.kind == "mean_square":
+        return mean_square(ss, response.input, response.output, response.psd)
+    if response.input not in ss.inputs:
+        raise EngineError(f"target {spec.target}: {response.input!r} is not an input of condition "
+                          f"{problem.conditions[spec.condition].name!r} (inputs: {', '.join(ss.inputs)})")
+    if response.output not in ss.outputs:
+        raise EngineError(f"target {spec.target}: unknown output signal {response.output!r}")
+    t = np.linspace(0.0, response.horizon, response.points)
+    segments = [Segment(*p) for p in response.profile]
+    y = simulate(ss, response.input, t, segments)[:, ss.outputs.index(response.output)]
+    if spec.kind == "peak_response":
+        return float(np.max(np.abs(y)))
+    ramps = any(seg.slope != 0 for seg in segments)
+    final = float(y[-1])
+    if not ramps and stability_abscissa(ss) > 0:
+        final = float(dc_gain(ss, response.input)[ss.outputs.index(response.output)]) * sum(s.step for s in segments)
+    if spec.kind == "steady_state_error":
+        return abs(response.reference - final)
+    if final == 0 or not math.isfinite(final):
+        return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
+    m = step_measures(t, y, final, response.reference, response.settling_band)
+    value = {"rise_time": m.rise_time, "settling_time": m.settling_time, "peak_time": m.peak_time,
+             "overshoot_percent": m.overshoot_percent}[spec.kind]
+    if value is None:
+        return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
+    return float(value)
+
+
+def stability_abscissa(ss: StateSpace) -> float:
+    """-max Re(closed-loop pole): positive when the closed loop is stable (inf with no states)."""
+    if ss.A.size == 0:
+        return math.inf
+    return float(-np.max(np.linalg.eigvals(ss.A).real))
+
+
+def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -> float:
+    """E[y^2] for white noise through the shaping filter F (PSD |F(jw)|^2, two-sided,
+    (1/2 pi) integral over all w) into ``input_name``: C P C' with A P + P A' + B B' = 0."""
+    if psd is None:
+        raise EngineError("a mean square needs the input's PSD as a shaping filter F(s) (response.psd)")
+    k, j = ss.inputs.index(input_name), ss.outputs.index(output)
+    rational = ExpressionTransfer(psd).rational({})
+    af, bf, cf, df = cascade(rational.num, rational.den)
+    n, nf = ss.A.shape[0], af.shape[0]
+    A = np.block([[ss.A, np.outer(ss.B[:, k], cf[0])], [np.zeros((nf, n)), af]])
+    B = np.concatenate([ss.B[:, k] * df[0, 0], bf[:, 0]])
+    C = np.concatenate([ss.C[j], ss.D[j, k] * cf[0]])
+    D = ss.D[j, k] * df[0, 0]
+    if D != 0:
+        return math.inf  # white noise straight to the output
+    if A.size and np.max(np.linalg.eigvals(A).real) >= 0:
+        return math.inf
+    P = linalg.solve_continuous_lyapunov(A, -np.outer(B, B))
+    return float(C @ P @ C)
