@@ -25,6 +25,7 @@ from sessions.store import Session, autosave_candidate, load_session, save_sessi
 
 from .cip_report import cip_report_text
 from .qcg_report import qcg_report_text
+from .slp_report import slp_report_text
 
 
 class CliError(Exception):
@@ -118,8 +119,8 @@ def _rows_now(session: Session, iteration: int | None = None) -> tuple[list[Meas
     if not 0 <= iteration <= len(records):
         raise CliError(f"--iteration: {iteration} is outside 0..{len(records)}")
     if iteration == 0:
-        if session.model.algorithm.name == "cip":
-            return list(_cip_initial(session).measures), None
+        if session.model.algorithm.name in ("cip", "slp"):
+            return list(_initial_record(session).measures), None
         try:
             return tableau(session.problem), None
         except EngineError as exc:
@@ -214,14 +215,16 @@ def cmd_report(args: argparse.Namespace) -> int:
             raise CliError(f"frequency response: {exc}") from None
         print(qcg_report_text(record, response))
     elif session.model.algorithm.name == "cip":
-        print(cip_report_text(record if record is not None else _cip_initial(session)))
+        print(cip_report_text(record if record is not None else _initial_record(session)))
+    elif session.model.algorithm.name == "slp":
+        print(slp_report_text(record if record is not None else _initial_record(session)))
     else:
         print(tableau_text(rows))
     return 0
 
 
-def _cip_initial(session: Session) -> StepRecord:
-    """Iteration 0 of a cip session: the initial tableau (the report's Table 1)."""
+def _initial_record(session: Session) -> StepRecord:
+    """Iteration 0: the initial tableau (for cip, the report's Table 1)."""
     from .workbench import Workbench
     bench = Workbench(session)
     try:

@@ -100,3 +100,16 @@ def test_bad_set_is_one_line(tmp_path, capsys):
     assert "write NAME=VALUE" in capsys.readouterr().err
     assert main(["run", str(source), "--set", "no_such=1"]) == 2
     assert "unknown setting(s) no_such" in capsys.readouterr().err
+
+
+def test_report_shows_the_minor_loop_and_partials(tmp_path, capsys):
+    source = tmp_path / "lag.json"
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", source)
+    assert main(["report", str(source)]) == 0
+    start = capsys.readouterr().out
+    assert "ITERATION 0" in start and "STAB" in start and " NO " in start
+    assert main(["run", str(source), "--iterations", "2"]) == 0
+    capsys.readouterr()
+    assert main(["report", str(source)]) == 0
+    text = capsys.readouterr().out
+    assert "MAJOR 1  MINOR 2" in text and "analytic" in text and "finite difference" in text
