@@ -129,14 +129,16 @@ def toggle_free(bench: Workbench, row: int) -> None:
         set_fields(bench, params[row], free=not params[row].free)
 
 
-TARGET_FIELDS = [("bands", "bands: low..high: desired; ... (high inf: no limit)"),
+TARGET_FIELDS = [("bands", "bands: low..high: desired / required (optional); ... (high inf: no limit)"),
                  ("points", "push/pull points: push -1+0j; pull -7-3j (empty: the defaults)"),
                  ("weight", "weight (the c vector component)"),
                  ("detect", "detection range: low..high (inf: no limit)")]
 
 
-def _bands_text(target) -> str:
-    return "; ".join(f"{b.low:g}..{'inf' if b.high is None else f'{b.high:g}'}: {b.desired:g}" for b in target.bands)
+def bands_text(target) -> str:
+    """'low..high: desired' per band, '/ required' where a requirement differs from it."""
+    return "; ".join(f"{b.low:g}..{'inf' if b.high is None else f'{b.high:g}'}: {b.desired:g}"
+                     + ("" if b.required is None else f" / {b.required:g}") for b in target.bands)
 
 
 def _parse_range(text: str) -> tuple[float, float | None]:
@@ -145,12 +147,13 @@ def _parse_range(text: str) -> tuple[float, float | None]:
     return float(low), None if high.lower() in ("inf", "") else float(high)
 
 
-def _parse_bands(text: str) -> list[tuple[float, float | None, float]]:
+def _parse_bands(text: str) -> list[tuple[float, float | None, float, float | None]]:
     bands = []
     for part in filter(None, (p.strip() for p in text.split(";"))):
-        span, desired = part.split(":")
+        span, values = part.split(":")
+        desired, _, required = values.partition("/")
         low, high = _parse_range(span)
-        bands.append((low, high, float(desired)))
+        bands.append((low, high, float(desired), float(required) if required.strip() else None))
     if not bands:
         raise ValueError("at least one band")
     return bands
@@ -184,10 +187,10 @@ def target_edit(bench: Workbench, row: int, field: str = "bands") -> Edit | None
     target = targets[row]
     from sessions.schema import BandModel, PointModel
     if field == "bands":
-        text, parse = _bands_text(target), _parse_bands
+        text, parse = bands_text(target), _parse_bands
 
         def fields(value):
-            return {"bands": [BandModel(low=lo, high=hi, desired=d) for lo, hi, d in value]}
+            return {"bands": [BandModel(low=lo, high=hi, desired=d, required=r) for lo, hi, d, r in value]}
     elif field == "points":
         text = "; ".join(f"{p.mode} {complex(p.real, p.imag)}" for p in target.points)
         parse = _parse_points

@@ -256,3 +256,34 @@ async def test_a_setting_is_checked_against_the_algorithm(workdir):
         await pilot.press("enter")
         await settle(app, pilot)
         assert app.bench.session.model.algorithm.settings["mode"] == "sifr"
+
+
+@synchronous
+async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
+    """slp on the launch vehicle: a trial per step, the tableau over three
+    conditions, and a band edited with its requirement ('desired / required')."""
+    app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert "Iteration 1" in status(app)
+        tableau = str(app.screen.query_one("#tableau").render())
+        assert "max-q" in tableau and "switch-out" in tableau
+        record = app.bench.records[-1]
+        assert record.extra["major"] == 1 and record.extra["minor"] == 1
+        await select_row(app, pilot, "3", "targets-table", 2)   # phase margin: 0.5..8: 40 / 30
+        await pilot.press("e")
+        await pilot.pause()
+        await pilot.press("enter")
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        assert field.value == "0.5..8: 40 / 30"
+        field.value = "0.5..8: 45 / 35"
+        await pilot.press("enter")
+        await pilot.pause()
+        await pilot.press("y")                        # the recorded iteration will be dropped: yes
+        await settle(app, pilot)
+        band = app.bench.session.problem.targets[2].bands[0]
+        assert (band.desired, band.required) == (45.0, 35.0)
+        assert app.bench.iteration == 0   # the problem changed: the records are gone

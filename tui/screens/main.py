@@ -15,13 +15,16 @@ from engine.algorithm import MeasureRow, StepRecord
 
 from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
                              trajectories_figure)
+from ..editing import bands_text
 from ..widgets.textview import TextView
 from ..workbench import Workbench
 
 
 SHORT = {"gain_margin": "G", "phase_margin": "P", "stability_margin": "S", "attenuation_margin": "A",
          "gain_margin_db": "GM dB", "phase_margin_deg": "PM deg", "crossover_frequency": "wc",
-         "averaged_square": "avg sq"}
+         "averaged_square": "avg sq", "modal_peak_db": "peak", "modal_peak_phase_deg": "pk ph",
+         "stability_abscissa": "stab", "peak_response": "peak t", "mean_square": "msq", "rise_time": "rise",
+         "settling_time": "settle", "overshoot_percent": "OS %", "peak_time": "t peak", "steady_state_error": "ss err"}
 
 
 def _fmt(value, digits: int = 6) -> str:
@@ -186,13 +189,17 @@ class MainScreen(Screen):
         values changed since ``previous`` in bold, unmet rows marked NO in red."""
         unit = self.bench.session.problem.grid.unit
         scale = 1 / (2 * 3.141592653589793) if unit == "hz" else 1.0
-        before = {(r.name, r.kind): r.value for r in previous}
-        text = Text(f"{'no.':<8} {'kind':<6} {'value':>9} met {'target':>7} {'freq ' + unit:>10}\n", style="bold",
+        before = {(r.name, r.kind, r.condition): r.value for r in previous}
+        several = len({r.condition for r in rows}) > 1
+        text = Text(f"{'no.':<8} " + (f"{'condition':<10} " if several else "")
+                    + f"{'kind':<6} {'value':>9} met {'target':>7} {'freq ' + unit:>10}\n", style="bold",
                     no_wrap=True, overflow="crop")
         for r in rows:
-            changed = (r.name, r.kind) in before and before[(r.name, r.kind)] != r.value
+            key = (r.name, r.kind, r.condition)
+            changed = key in before and before[key] != r.value
             freq = "" if r.frequency is None else _fmt(r.frequency * scale, 5)
-            text.append(f"{r.name[:8]:<8} {SHORT.get(r.kind, r.kind)[:6]:<6} ")
+            text.append(f"{r.name[:8]:<8} " + (f"{r.condition[:10]:<10} " if several else "")
+                        + f"{SHORT.get(r.kind, r.kind)[:6]:<6} ")
             text.append(f"{_fmt(r.value, 5):>9}", style="bold" if changed else "")
             text.append(" yes " if r.satisfied else " NO  ", style="" if r.satisfied else "bold red")
             text.append(f"{_fmt(r.target, 4):>7} {freq:>10}\n")
@@ -206,12 +213,16 @@ class MainScreen(Screen):
             parts.append(f"objective {_fmt(record.objective, 7)}")
         parts += [f"{k} {v}" for k, v in record.counters.items() if k in ("trials", "KNT", "KOUNT", "evaluations")]
         lines = ["  ".join(parts)]
+        e = record.extra
+        if "major" in e:  # slp: the minor loop's trial
+            lines.append(f"major {e['major']} minor {e['minor']}  P {_fmt(e['P'], 3)}  STEP {e['STEP']:.1f}  "
+                         f"{'accepted' if e['accepted'] else 'rejected'}  counter {e['counter']}")
         for comp in record.extra.get("compensators", [])[:2]:
             lines.append(f"{comp['group']}: num {' '.join(f'{c:.4g}' for c in comp['numerator'])}")
             lines.append(f"{'':{len(comp['group'])}}  den {' '.join(f'{c:.4g}' for c in comp['denominator'])}")
         params = record.parameters
         if not record.extra.get("compensators"):
-            lines.append("  ".join(f"{k}={_fmt(v if not isinstance(v, list) else v[0], 5)}"
+            lines.append("  ".join(f"{k}={_fmt(v, 5) if not isinstance(v, list) else '/'.join(_fmt(u, 3) for u in v)}"
                                    for k, v in list(params.items())[:8]))
         return "\n".join(lines)
 
@@ -236,9 +247,10 @@ class MainScreen(Screen):
         model = self.bench.session.model.problem
         table = self.query_one("#targets-table", DataTable)
         table.clear(columns=True)
-        table.add_columns("measure", "condition", "bands (low..high: desired)", "points", "weight", "detect", "unit")
+        table.add_columns("measure", "condition", "bands (low..high: desired / required)", "points", "weight",
+                          "detect", "unit")
         for t in model.targets:
-            bands = "; ".join(f"{b.low:g}..{'inf' if b.high is None else f'{b.high:g}'}: {b.desired:g}" for b in t.bands)
+            bands = bands_text(t)
             points = " ".join(f"{q.mode} {complex(q.real, q.imag)}" for q in t.points) or "default"
             detect = f"{t.detect_low:g}..{'inf' if t.detect_high is None else f'{t.detect_high:g}'}"
             table.add_row(t.measure, t.condition or "all", bands, points, _fmt(t.weight), detect, t.unit)
