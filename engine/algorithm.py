@@ -48,6 +48,7 @@ class MeasureRow:
     target: float | None
     satisfied: bool
     frequency: float | None = None
+    at_least: bool = True   # larger values are better (False: peaks, times, errors, attenuation)
 
 
 def _jsonable(value: Any) -> Any:
@@ -142,6 +143,7 @@ class Registration:
     factory: Callable[[], Algorithm]
     settings: type
     summary: str
+    maximize: bool = False  # its record's objective is better larger (sweeps rank runs by it)
 
 
 REGISTRY: dict[str, Registration] = {}
@@ -155,9 +157,10 @@ def load_builtin() -> dict[str, Registration]:
     return REGISTRY
 
 
-def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str) -> None:
+def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str,
+             maximize: bool = False) -> None:
     """Make an algorithm known to the CLI and the app by name."""
-    REGISTRY[name] = Registration(factory, settings, summary)
+    REGISTRY[name] = Registration(factory, settings, summary, maximize)
 
 
 def lookup(name: str) -> Registration:

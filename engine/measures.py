@@ -50,6 +50,7 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         value = float(getattr(m, attribute))
         desired = target.desired(m.frequency)
         ok = desired is None or (value >= desired if at_least else value <= desired)
-        rows.append(MeasureRow(f"{kind}{n}", target.measure, condition, value, desired, bool(ok), m.frequency))
+        rows.append(MeasureRow(f"{kind}{n}", target.measure, condition, value, desired, bool(ok), m.frequency,
+                               at_least))
     return rows
 

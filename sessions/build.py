@@ -187,7 +187,7 @@ def _transfer(t, path: str, folder: Path, variable: str):
 
 def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
     if t.csv is not None:
-        f, first, second = _read_csv(folder / t.csv, t.columns, path)
+        f, first, second = read_csv(folder / t.csv, t.columns, path)
     else:
         f, first, second = t.frequency, t.first, t.second
     if t.form == "magnitude":
@@ -199,7 +199,8 @@ def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
         raise SessionError(str(exc)) from None
 
 
-def _read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
+def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
+    """The named columns of a CSV file (lines starting with # skipped); errors name line and column."""
     try:
         with file.open(newline="") as fh:
             numbered = [(n, line) for n, line in enumerate(fh, start=1) if not line.startswith("#")]

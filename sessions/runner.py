@@ -62,12 +62,17 @@ def adopt_design(session: Session) -> None:
     forget the records (to continue with other settings, e.g. slp's load-relief
     phase after its margin phase)."""
     model = session.model
-    if model.current_iteration == 0:
-        return
-    record = StepRecord.from_json(model.records[model.current_iteration - 1])
+    if model.current_iteration:
+        adopt_parameters(session, StepRecord.from_json(model.records[model.current_iteration - 1]).parameters)
+
+
+def adopt_parameters(session: Session, values: dict) -> None:
+    """Set the session's parameter values (name -> value or list per condition),
+    forget its records and rebuild its problem."""
+    model = session.model
     for parameter in model.problem.parameters:
-        if parameter.name in record.parameters:
-            parameter.value = record.parameters[parameter.name]
+        if parameter.name in values:
+            parameter.value = values[parameter.name]
     model.records.clear()
     model.current_iteration = 0
     model.state = None

@@ -341,6 +341,25 @@ class ProvenanceModel(Strict):
     modified: str
 
 
+class SweepModel(Strict):
+    """A sweep's results (`loopcraft sweep`); `version` is this section's own format version."""
+
+    version: Literal[1]
+    kind: Literal["starts", "vary", "tolerance"]
+    created: str
+    algorithm: str
+    settings: dict[str, Any] = {}
+    workers: int = 0
+    cancelled: bool = False
+    runs: list[dict[str, Any]] = Field(default=[], description="one per run: index, label, start, parameters, "
+                                       "objective, status, reason, measures, meets_requirements, worker, attempts")
+    failed: list[int] = []
+    retried: dict[str, list[str]] = Field(default={}, description="run index -> the workers it was started on")
+    optima: list[dict[str, Any]] = Field(default=[], description="parameters, objective, count, "
+                                         "meets_requirements, best_run, runs")
+    worst_case: list[dict[str, Any]] = Field(default=[], description="tolerance sweeps: per measure row")
+
+
 class SessionModel(Strict):
     """A whole session: the problem, the algorithm, what it did, and notes."""
 
@@ -352,3 +371,4 @@ class SessionModel(Strict):
     records: list[dict[str, Any]] = []
     current_iteration: Annotated[int, Field(ge=0)] = 0
     state: dict[str, Any] | None = Field(default=None, description="the algorithm state after the current iteration")
+    sweeps: list[SweepModel] = Field(default=[], description="results of `loopcraft sweep`, oldest first")

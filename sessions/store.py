@@ -160,7 +160,7 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
     if target is None:
         raise SessionError("no file to save to")
     if session.path is not None and target.parent.resolve() != session.path.parent.resolve():
-        _rebase_tables(session.model, session.path.parent, target.parent)
+        _rebasetables_in(session.model, session.path.parent, target.parent)
     session.model.provenance.modified = now()
     text = dumps(session.model)
     for stale in target.parent.glob(f".{target.name}.*tmp"):  # left by a save that was killed
@@ -178,27 +178,27 @@ def save_session(session: Session, path: str | Path | None = None) -> Path:
     return target
 
 
-def _rebase_tables(model: SessionModel, old: Path, new: Path) -> None:
+def _rebasetables_in(model: SessionModel, old: Path, new: Path) -> None:
     """CSV tables are named relative to the session: saved elsewhere, the
     names are rewritten so they still reach the same files."""
-    for table in _tables(model.problem):
+    for table in tables_in(model.problem):
         if table.csv is not None and not Path(table.csv).is_absolute():
             table.csv = Path(os.path.relpath((old / table.csv).resolve(), new.resolve())).as_posix()
 
 
-def _tables(node: Any):
+def tables_in(node: Any):
     """Every `TableModel` inside a model (plants, channels, cascades, objective)."""
     if isinstance(node, TableModel):
         yield node
     elif isinstance(node, BaseModel):
         for name in type(node).model_fields:
-            yield from _tables(getattr(node, name))
+            yield from tables_in(getattr(node, name))
     elif isinstance(node, (list, tuple)):
         for item in node:
-            yield from _tables(item)
+            yield from tables_in(item)
     elif isinstance(node, dict):
         for item in node.values():
-            yield from _tables(item)
+            yield from tables_in(item)
 
 
 def autosave_path(path: Path) -> Path:

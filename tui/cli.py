@@ -25,6 +25,7 @@ from sessions.store import Session, autosave_candidate, load_session, save_sessi
 
 from .cip_report import cip_report_text
 from .qcg_report import qcg_report_text
+from . import sweep_cli
 from .slp_report import slp_report_text
 
 
@@ -320,6 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("examples", help="list (or copy) the bundled example sessions")
     p.add_argument("--copy", metavar="DIR")
     p.set_defaults(handler=cmd_examples)
+    sweep_cli.add_parser(sub)
     return parser
 
 

@@ -5,6 +5,6 @@ from .algorithm import Slp, SlpSettings
 
 register("slp", Slp, SlpSettings,
          "sequential linear programming over margins and time-domain measures, several flight "
-         "conditions, load relief (report 003, COEBRA)")
+         "conditions, load relief (report 003, COEBRA)", maximize=True)
 
 __all__ = ["Slp", "SlpSettings"]

@@ -297,7 +297,8 @@ class Slp:
         out = []
         for spec, v, f in zip(self.specs, point.values, point.frequencies):
             out.append(MeasureRow(spec.name, spec.kind, self.problem.conditions[spec.condition].name, float(v),
-                                  spec.required, bool(spec.met(v)), None if math.isnan(f) else float(f)))
+                                  spec.required, bool(spec.met(v)), None if math.isnan(f) else float(f),
+                                  spec.at_least))
         return tuple(out)
 
     def initial_record(self, state: State) -> StepRecord:

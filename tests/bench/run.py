@@ -180,6 +180,39 @@ def slp_major_iteration(repeat: int) -> dict:
             "free_variables": len(session.problem.free_slots()), "report_cdc_s": 164.0}
 
 
+def sweep_throughput() -> dict:
+    """32 starts of the launch-vehicle session limited to 2 major iterations (about
+    a second a run): serially in this process, then on a local Dask cluster (one
+    process per core), timed without and with starting the cluster."""
+    import os
+    from pathlib import Path
+
+    from distributed import Client, LocalCluster
+
+    from sessions.store import load_session
+    from sessions.sweeps import execute, execute_serial, start_jobs
+    session = load_session(Path(__file__).resolve().parents[2] / "sessions" / "examples" / "coebra_launch_vehicle.json")
+    session.model.algorithm.settings["max_major"] = 2
+    jobs = start_jobs(session, 32, spread=1.5, seed=11)
+    start = time.perf_counter()
+    serial = execute_serial(jobs)
+    t_serial = time.perf_counter() - start
+    start = time.perf_counter()
+    cluster = LocalCluster(n_workers=os.cpu_count(), threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=40)
+    client = Client(cluster)
+    ready = time.perf_counter()
+    parallel = execute(jobs, client=client)
+    done = time.perf_counter()
+    client.close()
+    cluster.close()
+    same = all(a["parameters"] == b["parameters"] for a, b in zip(serial.runs, parallel.runs))
+    return {"runs": len(jobs), "workers": os.cpu_count(), "serial_s": t_serial, "mean_run_s": t_serial / len(jobs),
+            "cluster_s": done - ready, "cluster_with_startup_s": done - start,
+            "speedup": t_serial / (done - ready), "speedup_with_startup": t_serial / (done - start),
+            "target_speedup": 1.6, "identical_results": same}
+
+
 def median_time(fun, repeat: int) -> float:
     """Median wall time of fun(i) over i = 1..repeat, after one warm-up call."""
     fun(0)
@@ -246,6 +279,7 @@ def main() -> None:
             "workbench": tui,
             "projection_integrator": projection_integrator(args.repeat),
             "slp_major_iteration": slp_major_iteration(args.repeat),
+            "sweep_throughput": sweep_throughput(),
         },
         "ratios": {"python_control_margins_over_ours": t_pc / t_marg,
                    "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp,

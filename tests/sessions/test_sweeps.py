@@ -1,0 +1,173 @@
+"""`loopcraft sweep`: planning (starts, vary, tolerance), a run's failure as data,
+clustering into optima, the report-001 trade-off, and Dask: a local cluster,
+and a real scheduler with two workers of which one is killed midway."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sessions.errors import SessionError
+from sessions.store import load_session
+from sessions.sweeps import Job, optima, run_job, shippable, start_jobs, tolerance_jobs, vary_jobs, worst_case
+from tui.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+
+
+def _copy(tmp_path: Path, name: str) -> Path:
+    shutil.copy(EXAMPLES / f"{name}.json", tmp_path / f"{name}.json")
+    for csv in EXAMPLES.glob("*.csv"):
+        shutil.copy(csv, tmp_path / csv.name)
+    return tmp_path / f"{name}.json"
+
+
+def test_starts_are_log_uniform_within_bounds_and_reproducible(tmp_path):
+    session = load_session(_copy(tmp_path, "coebra_lag_lead"))
+    jobs = start_jobs(session, 400, seed=3)
+    again = start_jobs(session, 400, seed=3)
+    assert [j.start for j in jobs] == [j.start for j in again]
+    t1 = np.array([j.start["T1"] for j in jobs])
+    assert t1.min() >= 1e-3 and t1.max() <= 1e3
+    logs = np.log10(t1)   # uniform on [-3, 3]: mean 0, standard deviation sqrt(3)
+    assert abs(logs.mean()) < 0.3 and abs(logs.std() - math.sqrt(3.0)) < 0.2
+    spread = start_jobs(session, 50, spread=2.0, seed=1)
+    assert all(5.0 <= j.start["T1"] <= 20.0 for j in spread)   # within a factor 2 of 10
+
+
+def test_shipped_sessions_carry_their_tables(tmp_path):
+    """A remote worker has no files: CSV tables travel inline."""
+    data = shippable(load_session(_copy(tmp_path, "seidel_inlet_pi")))
+    text = json.dumps(data)
+    assert ".csv" not in text and data["records"] == []
+    result = run_job(Job(0, "here", data).payload())   # in this process, from any folder
+    assert result["status"] == "converged" and result["parameters"]["b1"] == pytest.approx(47.41, abs=0.01)
+
+
+def test_a_failing_run_is_a_result_not_an_exception(tmp_path):
+    data = shippable(load_session(_copy(tmp_path, "coebra_lag_lead")))
+    data["problem"]["parameters"][0]["value"] = "ten"          # invalid: the worker's validation fails
+    result = run_job(Job(4, "broken", data).payload())
+    assert result["status"] == "failed" and "ValidationError" in result["reason"] and result["index"] == 4
+
+
+def test_optima_cluster_by_parameters_and_objective():
+    def run(i, T, objective, meets=True):
+        return {"index": i, "status": "converged", "parameters": {"T1": T[0], "T2": T[1]}, "objective": objective,
+                "meets_requirements": meets}
+    runs = [run(0, (1.0, 10.0), 29.0), run(1, (1.05, 10.2), 29.0), run(2, (5.0, 10.0), 29.0),
+            run(3, (1.0, 10.0), 20.0, meets=False), {"index": 4, "status": "failed", "parameters": {}}]
+    found = optima(runs, maximize=True)
+    assert [o["count"] for o in found] == [2, 1, 1]
+    assert found[0]["best_run"] == 0 and found[0]["runs"] == [0, 1] and found[-1]["meets_requirements"] is False
+
+
+def test_worst_case_follows_each_measures_sense():
+    def sample(i, pm, peak):
+        return {"index": i, "measures": [
+            {"name": "PM1", "kind": "phase_margin_deg", "condition": "c", "value": pm, "target": 30.0,
+             "satisfied": pm >= 30, "at_least": True},
+            {"name": "PK1", "kind": "modal_peak_db", "condition": "c", "value": peak, "target": -6.0,
+             "satisfied": peak <= -6, "at_least": False}]}
+    rows = worst_case([sample(0, 40.0, -9.0), sample(1, 28.0, -7.0), sample(2, 35.0, -5.0)])
+    assert (rows[0]["worst"], rows[0]["worst_sample"], rows[0]["unmet_samples"]) == (28.0, 1, 1)
+    assert (rows[1]["worst"], rows[1]["worst_sample"], rows[1]["unmet_samples"]) == (-5.0, 2, 1)
+
+
+def test_vary_and_tolerance_name_what_they_change(tmp_path):
+    session = load_session(_copy(tmp_path, "coebra_kuo_digital"))
+    jobs = vary_jobs(session, "targets[1].bands[0].desired=45,55")
+    assert [j.model["problem"]["targets"][1]["bands"][0]["desired"] for j in jobs] == [45.0, 55.0]
+    with pytest.raises(SessionError, match="not an objective option, a parameter, or a path"):
+        vary_jobs(session, "nothing=1,2")
+    samples = tolerance_jobs(session, ["T1=+-10%"], 20, seed=2)
+    t1 = [j.start["T1"] for j in samples]
+    assert all(18.0 <= v <= 22.0 for v in t1) and len(set(t1)) == 20
+    with pytest.raises(SessionError, match="write NAME=\\+-10%"):
+        tolerance_jobs(session, ["T1=ten"], 4)
+
+
+def test_penalty_trade_off_is_monotone(tmp_path, capsys):
+    """Report 001, Figure 4(a): as q2 grows the output rate falls and the output rises."""
+    path = _copy(tmp_path, "seidel_inlet_pi")
+    assert main(["sweep", str(path), "--vary", "q2=0,1e-5,1e-4,1e-3", "--serial", "--json"]) == 0
+    runs = json.loads(capsys.readouterr().out)["runs"]
+    output = [r["averaged_squares"]["x1_normalized"] for r in runs]
+    rate = [r["averaged_squares"]["x1_rate_normalized"] for r in runs]
+    assert all(r["status"] == "converged" for r in runs)
+    assert np.all(np.diff(output) > 0) and np.all(np.diff(rate) < 0)
+    saved = json.loads(path.read_text())["sweeps"]
+    assert len(saved) == 1 and saved[0]["version"] == 1 and saved[0]["kind"] == "vary"
+
+
+def test_thirty_two_starts_on_a_local_cluster(tmp_path, capsys):
+    """Report 003's 'map the hill' on the lag-lead example: some starts meet every
+    requirement, some climb a local optimum that does not (Table B-3)."""
+    path = _copy(tmp_path, "coebra_lag_lead")
+    assert main(["sweep", str(path), "--starts", "32", "--workers", "2", "--json", "--adopt-best"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["workers"] == 2 and len(summary["runs"]) == 32 and not summary["failed"]
+    workers = {r["worker"] for r in summary["runs"]}
+    assert len(workers) == 2 and all(w.startswith("tcp://") for w in workers)   # both worker processes ran
+    best = summary["optima"][0]
+    assert best["meets_requirements"] and best["count"] >= 1
+    assert sum(o["count"] for o in summary["optima"]) == 32
+    saved = json.loads(path.read_text())
+    assert saved["sweeps"][0]["optima"][0]["best_run"] == best["best_run"]
+    adopted = {p["name"]: p["value"] for p in saved["problem"]["parameters"]}
+    assert adopted == summary["runs"][best["best_run"]]["parameters"] and saved["records"] == []
+
+
+@pytest.fixture
+def dask_cluster(tmp_path):
+    """A scheduler and two single-threaded workers on 127.0.0.1 (dask's own
+    processes, no nanny: killing a worker kills it for good)."""
+    file = tmp_path / "scheduler.json"
+    processes = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                   "--port", "0", "--no-dashboard", "--scheduler-file", str(file)],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    deadline = time.monotonic() + 30
+    while not file.exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
+    address = json.loads(file.read_text())["address"]
+    for _ in range(2):
+        processes.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
+                                           "--nthreads", "1", "--no-nanny", "--no-dashboard"],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    from distributed import Client
+    with Client(address, timeout="30s") as client:
+        client.wait_for_workers(2, timeout=30)
+    yield address, processes
+    for p in processes:
+        p.kill()
+        p.wait()
+
+
+def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster, tmp_path, capsys):
+    address, processes = dask_cluster
+    path = _copy(tmp_path, "coebra_launch_vehicle")   # runs of a few seconds each
+    killer = threading.Timer(4.0, lambda: processes[2].send_signal(signal.SIGKILL))
+    killer.start()
+    try:
+        assert main(["sweep", str(path), "--starts", "8", "--spread", "1.5", "--scheduler", address, "--json"]) == 0
+    finally:
+        killer.cancel()
+    summary = json.loads(capsys.readouterr().out)
+    assert processes[2].poll() is not None   # the worker is gone
+    runs = summary["runs"]
+    assert len(runs) == 8
+    assert all(r["status"] != "failed" or r["reason"] for r in runs)
+    assert summary["retried"], "the run that was on the killed worker was restarted elsewhere"
+    for index, workers in summary["retried"].items():
+        assert len(workers) >= 2 and runs[int(index)]["attempts"] >= 2
+    assert summary["workers"] == 1

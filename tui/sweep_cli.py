@@ -1,0 +1,110 @@
+"""`loopcraft sweep`: many runs of a session on Dask, clustered into local
+optima (starts), a trade-off (vary) or a worst case (tolerance)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+from sessions.errors import SessionError
+from sessions.store import load_session, save_session
+from sessions.sweeps import (Outcome, adopt_run, execute, execute_serial, record_sweep, start_jobs, summarize,
+                             tolerance_jobs, vary_jobs)
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("sweep", help="many runs on Dask: multi-start, a parameter sweep, or a tolerance study")
+    p.add_argument("file")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--starts", type=int, metavar="N", help="N runs from random starting points")
+    what.add_argument("--vary", metavar="NAME=V1,V2,...", help="one run per value of a penalty, parameter or path")
+    what.add_argument("--tolerance", action="append", metavar="NAME=+-P%",
+                      help="Monte Carlo over parameter tolerances at the current design (repeatable)")
+    p.add_argument("--spread", type=float, metavar="F", help="starts within a factor F of the session's start")
+    p.add_argument("--samples", type=int, default=32, help="tolerance samples (default 32)")
+    p.add_argument("--seed", type=int, default=0)
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
+    where.add_argument("--serial", action="store_true", help="in this process, one run after the other")
+    p.add_argument("--workers", type=int, help="local cluster size (default: the machine's cores)")
+    p.add_argument("--adopt-best", action="store_true",
+                   help="make the best optimum's best run the session's start (records are cleared)")
+    p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--json", action="store_true", help="print one JSON object: runs and optima")
+    p.set_defaults(handler=cmd_sweep)
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    session = load_session(args.file)
+    if args.starts is not None:
+        kind, jobs = "starts", start_jobs(session, args.starts, args.spread, args.seed)
+        settings = {"starts": args.starts, "spread": args.spread, "seed": args.seed}
+    elif args.vary is not None:
+        kind, jobs = "vary", vary_jobs(session, args.vary)
+        settings = {"vary": args.vary}
+    else:
+        kind, jobs = "tolerance", tolerance_jobs(session, args.tolerance, args.samples, args.seed)
+        settings = {"tolerance": args.tolerance, "samples": args.samples, "seed": args.seed}
+    settings["scheduler"] = args.scheduler or ("serial" if args.serial else "local")
+    progress = _progress_bar if sys.stderr.isatty() and not args.json else None
+    outcome: Outcome = (execute_serial(jobs, progress) if args.serial
+                        else execute(jobs, args.scheduler, args.workers, progress))
+    if progress:
+        print(file=sys.stderr)
+    summary = summarize(session, kind, settings, outcome)
+    record_sweep(session, summary)
+    if args.adopt_best:
+        if not summary["optima"]:
+            raise SessionError("--adopt-best: no run finished")
+        best = summary["optima"][0]["best_run"]
+        adopt_run(session, summary["runs"][best])
+    save_session(session, args.out or args.file)
+    print(json.dumps(summary, indent=2, sort_keys=True) if args.json else sweep_text(summary))
+    return 0
+
+
+def _progress_bar(done: int, total: int) -> None:
+    width = 30
+    filled = round(width * done / total)
+    print(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} runs", end="", file=sys.stderr, flush=True)
+
+
+def _number(value, width: int = 12) -> str:
+    if isinstance(value, (int, float)) and math.isfinite(value):
+        return f"{value:>{width}.6g}"
+    return f"{'-' if value is None else str(value):>{width}}"
+
+
+def _values(parameters: dict) -> str:
+    return "  ".join(f"{k}=" + ("/".join(f"{v:.4g}" for v in value) if isinstance(value, list) else f"{value:.4g}")
+                     for k, value in parameters.items())
+
+
+def sweep_text(summary: dict) -> str:
+    """Runs, then optima (or the worst case of a tolerance study)."""
+    runs = summary["runs"]
+    lines = [f"{summary['kind']} sweep: {len(runs)} runs on {summary['workers']} worker(s), "
+             f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"]
+    lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'objective':>12} {'meets':<6}{'tries':>5}")
+    for r in runs:
+        lines.append(f"{r['index']:>4} {r['label'][:17]:<18}{r['status'][:23]:<24}{_number(r['objective'])} "
+                     f"{'yes' if r['meets_requirements'] else 'no':<6}{r.get('attempts', 1):>5}"
+                     + (f"  {r['reason']}" if r['status'] == 'failed' else ""))
+    if summary["kind"] == "vary" and any("averaged_squares" in r for r in runs):
+        lines += ["", "trade-off (averaged squares, normalized to open loop where named so):"]
+        for r in runs:
+            squares = r.get("averaged_squares") or {}
+            lines.append(f"  {r['label']:<18}" + "  ".join(f"{k}={v:.5g}" for k, v in squares.items()))
+    if summary["kind"] == "tolerance":
+        lines += ["", f"{'measure':<10}{'kind':<22}{'condition':<12}{'worst':>12}{'target':>10}  unmet/samples"]
+        for w in summary["worst_case"]:
+            lines.append(f"{w['name']:<10}{w['kind'][:21]:<22}{w['condition'][:11]:<12}{_number(w['worst'])}"
+                         f"{_number(w['target'], 10)}  {w['unmet_samples']}/{w['samples']}")
+    else:
+        lines += ["", f"{'optimum':>7} {'count':>5} {'meets':<6}{'objective':>12} {'best run':>8}  parameters"]
+        for k, o in enumerate(summary["optima"], start=1):
+            lines.append(f"{k:>7} {o['count']:>5} {'yes' if o['meets_requirements'] else 'no':<6}"
+                         f"{_number(o['objective'])} {o['best_run']:>8}  {_values(o['parameters'])}")
+    return "\n".join(lines)
