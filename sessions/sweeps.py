@@ -220,6 +220,59 @@ def _copy(data: dict) -> dict:
     return copy.deepcopy(data)
 
 
+def plan(session: Session, kind: str, value, spread: float | None = None, seed: int = 0,
+         samples: int = 32) -> tuple[list[Job], dict]:
+    """The jobs of a sweep and the settings it is recorded with: ``kind`` "starts"
+    (value: how many), "vary" (value: NAME=V1,V2,...) or "tolerance" (value: a list
+    of NAME=+-P%)."""
+    if kind == "starts":
+        return start_jobs(session, int(value), spread, seed), {"starts": int(value), "spread": spread, "seed": seed}
+    if kind == "vary":
+        return vary_jobs(session, value), {"vary": value}
+    if kind == "tolerance":
+        return (tolerance_jobs(session, list(value), samples, seed),
+                {"tolerance": list(value), "samples": samples, "seed": seed})
+    raise SessionError(f"unknown sweep {kind!r}: starts, vary or tolerance")
+
+
+def parse_sweep(text: str) -> dict:
+    """'starts 16 [spread 2] [seed 3]', 'vary q2=0,1e-4', 'tolerance T1=+-10% [samples 20]',
+    each optionally ending 'at tcp://HOST:PORT' -> keyword arguments of `plan` and ``scheduler``."""
+    words = text.split()
+    if not words or words[0] not in ("starts", "vary", "tolerance"):
+        raise SessionError("begin with starts, vary or tolerance")
+    out: dict = {"kind": words[0], "scheduler": None}
+    rest = words[1:]
+    if "at" in rest:
+        k = rest.index("at")
+        if k + 1 >= len(rest):
+            raise SessionError("'at' needs a scheduler address (tcp://HOST:PORT)")
+        out["scheduler"], rest = rest[k + 1], rest[:k] + rest[k + 2:]
+    options = {"spread": float, "seed": int, "samples": int}
+    values = []
+    while rest:
+        word = rest.pop(0)
+        if word in options:
+            if not rest:
+                raise SessionError(f"{word!r} needs a value")
+            try:
+                out[word] = options[word](rest.pop(0))
+            except ValueError:
+                raise SessionError(f"{word}: not a number") from None
+        else:
+            values.append(word)
+    if not values:
+        raise SessionError(f"{out['kind']}: say what (e.g. 'starts 16', 'vary q2=0,1e-4', 'tolerance T1=+-10%')")
+    if out["kind"] == "starts":
+        try:
+            out["value"] = int(values[0])
+        except ValueError:
+            raise SessionError(f"starts {values[0]!r}: a number of runs") from None
+    else:
+        out["value"] = values[0] if out["kind"] == "vary" else values
+    return out
+
+
 # -- on a worker -------------------------------------------------------------
 
 def run_job(payload: dict) -> dict:

@@ -5,6 +5,7 @@ through `call_from_thread`."""
 
 from __future__ import annotations
 
+import multiprocessing.resource_tracker
 import time
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from textual.worker import get_current_worker
 from engine.algorithm import load_builtin
 from sessions.errors import SessionError
 from sessions.store import autosave_candidate, load_session, parse_session
+from sessions.sweeps import parse_sweep
 
 from . import editing
 from .files import NEW_SESSION, remember, working_copy
@@ -38,6 +40,7 @@ class LoopcraftApp(App):
         Binding("space,escape", "pause", "pause"), Binding("z", "undo", "undo"),
         Binding("a", "choose_algorithm", "algorithm"), Binding("e,enter", "edit", "edit", show=False),
         Binding("f", "toggle_free", "free/fix", show=False), Binding("i", "import_table", "import CSV", show=False), Binding("b", "start_here", "start here", show=False),
+        Binding("w", "sweep", "sweep", show=False), Binding("u", "use_best", "use best", show=False),
         Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
         Binding("question_mark", "help", "help"), Binding("q", "quit", "quit"),
     ]
@@ -47,7 +50,11 @@ class LoopcraftApp(App):
         self.initial_path = Path(path) if path else None
         self.bench: Workbench | None = None
         self._pause = False
+        self._sweep_cancel = False
         self._last_redraw = 0.0
+        # Dask's worker processes, started from inside the running app, need the
+        # resource tracker up before Textual takes over the terminal (DESIGN.md)
+        multiprocessing.resource_tracker.ensure_running()
         load_builtin()
 
     def on_mount(self) -> None:
@@ -150,6 +157,7 @@ class LoopcraftApp(App):
 
     def action_pause(self) -> None:
         self._pause = True
+        self._sweep_cancel = True
         for worker in self.workers:
             if worker.group == "run":
                 worker.cancel()
@@ -210,6 +218,72 @@ class LoopcraftApp(App):
     def _failed(self, exc: Exception) -> None:
         self.notify(f"{type(exc).__name__}: {exc}", title="iteration failed", severity="error", timeout=10)
         self._refresh()
+
+    # -- sweeps -------------------------------------------------------------------
+
+    def action_sweep(self) -> None:
+        """Ask for a sweep (one line), then run it on Dask in a worker thread."""
+        if self.bench is None or any(w.group == "sweep" and w.is_running for w in self.workers):
+            return
+
+        def check(text: str) -> str | None:
+            try:
+                parse_sweep(text)
+            except SessionError as exc:
+                return str(exc)
+            return None
+
+        def chosen(text: str | None) -> None:
+            if text:
+                self._sweep_cancel = False
+                screen = self._main()
+                if screen is not None:
+                    screen.action_tab("sweep")
+                    screen.refresh_sweep(f"sweep {text}: starting the cluster ...  (space cancels)")
+                self._sweep_worker(text)
+        self.push_screen(EditDialog("sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance "
+                                    "NAME=+-10% [samples N]; end with 'at tcp://HOST:PORT' for a cluster",
+                                    "starts 16", check), chosen)
+
+    @work(thread=True, exclusive=True, exit_on_error=False, group="sweep")
+    def _sweep_worker(self, text: str) -> None:
+        def progress(done: int, total: int) -> None:
+            screen = self._main()
+            if screen is not None:
+                self.call_from_thread(screen.refresh_sweep, f"sweep {text}: {done}/{total} runs  (space cancels)")
+        try:
+            summary = self.bench.run_sweep(text, progress, lambda: self._sweep_cancel)
+        except Exception as exc:  # a cluster that cannot be reached must not close the app
+            self.call_from_thread(self.notify, f"{type(exc).__name__}: {exc}", title="sweep failed",
+                                  severity="error", timeout=10)
+            return
+        self.call_from_thread(self._swept, summary)
+
+    def _swept(self, summary: dict) -> None:
+        self.bench.keep_sweep(summary)
+        self._refresh()
+        self.notify(f"sweep done: {len(summary['runs'])} runs, {len(summary['optima'])} optima")
+
+    def action_use_best(self) -> None:
+        """Adopt the latest sweep's best run as the session's start (asks when iterations would go)."""
+        if self.bench is None or self.bench.latest_sweep() is None:
+            return
+
+        def adopt(yes: bool | None = True) -> None:
+            if not yes:
+                return
+            try:
+                run = self.bench.adopt_best()
+            except SessionError as exc:
+                self.notify(str(exc), severity="error")
+                return
+            self._refresh()
+            self.notify(f"the start is now run {run['index']}'s design")
+        if self.bench.iteration:
+            self.push_screen(ConfirmDialog(f"the {self.bench.iteration} recorded iteration(s) will be dropped. "
+                                           "Use the best optimum?"), adopt)
+        else:
+            adopt()
 
     def action_undo(self) -> None:
         if self.bench is not None and self.bench.undo():
@@ -344,6 +418,8 @@ class LoopcraftApp(App):
             ("Save", "save the session (ctrl+s)", self.action_save), ("Save as", "save under a new name",
                                                                      self.action_save_as),
             ("Open", "open a session (ctrl+o)", self.action_open), ("New session", "a new session", self.action_new),
+            ("Sweep", "many runs on Dask (w)", self.action_sweep),
+            ("Use best", "the latest sweep's best design as the start (u)", self.action_use_best),
             ("Keys", "every key (?)", self.action_help)]:
             yield SystemCommand(title, help_text, action)
 

@@ -327,8 +327,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def run_app(target: str | None = None, example: str | None = None) -> int:
     """The workbench: on a session file, on a bundled example, or the start screen."""
-    import multiprocessing.resource_tracker
-
     from .app import LoopcraftApp
     from .files import example as example_copy
     path = None
@@ -343,7 +341,6 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
         if not path.is_file():
             print(f"loopcraft: error: {target}: no such file", file=sys.stderr)
             return 2
-    multiprocessing.resource_tracker.ensure_running()  # worker processes inside a running app (DESIGN.md)
     result = LoopcraftApp(path).run()
     return result if isinstance(result, int) else 0
 

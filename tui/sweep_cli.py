@@ -10,8 +10,7 @@ import sys
 
 from sessions.errors import SessionError
 from sessions.store import load_session, save_session
-from sessions.sweeps import (Outcome, adopt_run, execute, execute_serial, record_sweep, start_jobs, summarize,
-                             tolerance_jobs, vary_jobs)
+from sessions.sweeps import Outcome, adopt_run, execute, execute_serial, plan, record_sweep, summarize
 
 
 def add_parser(sub) -> None:
@@ -38,15 +37,9 @@ def add_parser(sub) -> None:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     session = load_session(args.file)
-    if args.starts is not None:
-        kind, jobs = "starts", start_jobs(session, args.starts, args.spread, args.seed)
-        settings = {"starts": args.starts, "spread": args.spread, "seed": args.seed}
-    elif args.vary is not None:
-        kind, jobs = "vary", vary_jobs(session, args.vary)
-        settings = {"vary": args.vary}
-    else:
-        kind, jobs = "tolerance", tolerance_jobs(session, args.tolerance, args.samples, args.seed)
-        settings = {"tolerance": args.tolerance, "samples": args.samples, "seed": args.seed}
+    kind, value = (("starts", args.starts) if args.starts is not None else ("vary", args.vary)
+                   if args.vary is not None else ("tolerance", args.tolerance))
+    jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
     settings["scheduler"] = args.scheduler or ("serial" if args.serial else "local")
     progress = _progress_bar if sys.stderr.isatty() and not args.json else None
     outcome: Outcome = (execute_serial(jobs, progress) if args.serial

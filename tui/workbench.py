@@ -20,6 +20,7 @@ from engine.timeresp import Segment, simulate
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.store import AUTOSAVE_INTERVAL, Session, save_session, write_autosave
+from sessions.sweeps import adopt_run, execute, parse_sweep, plan, record_sweep, summarize
 
 
 @dataclass(frozen=True)
@@ -132,6 +133,38 @@ class Workbench:
         model.state = previous.to_json() if previous is not None else None
         self.dirty = True
         return True
+
+    # -- sweeps ----------------------------------------------------------------
+
+    def latest_sweep(self) -> dict | None:
+        """The session's most recent sweep (JSON data), if any."""
+        sweeps = self.session.model.sweeps
+        return sweeps[-1].model_dump() if sweeps else None
+
+    def run_sweep(self, text: str, progress=None, cancelled=lambda: False) -> dict:
+        """Plan and run a sweep described by one line (`sessions.sweeps.parse_sweep`);
+        safe in a worker thread (the session is only read).  The summary is returned,
+        not yet kept: `keep_sweep` does that on the UI thread."""
+        spec = parse_sweep(text)
+        jobs, settings = plan(self.session, spec["kind"], spec["value"], spec.get("spread"), spec.get("seed", 0),
+                              spec.get("samples", 32))
+        settings["scheduler"] = spec["scheduler"] or "local"
+        outcome = execute(jobs, spec["scheduler"], progress=progress, cancelled=cancelled)
+        return summarize(self.session, spec["kind"], settings, outcome)
+
+    def keep_sweep(self, summary: dict) -> None:
+        record_sweep(self.session, summary)
+        self.dirty = True
+
+    def adopt_best(self) -> dict:
+        """Make the latest sweep's best optimum the start (records dropped); its run."""
+        sweep = self.latest_sweep()
+        if not sweep or not sweep["optima"]:
+            raise SessionError("no sweep with a finished run to adopt")
+        run = sweep["runs"][sweep["optima"][0]["best_run"]]
+        adopt_run(self.session, run)
+        self.reset()
+        return run
 
     def start_from(self, iteration: int) -> None:
         """Make an earlier iteration the current one (later records are dropped)."""

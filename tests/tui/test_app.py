@@ -287,3 +287,32 @@ async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
         band = app.bench.session.problem.targets[2].bands[0]
         assert (band.desired, band.required) == (45.0, 35.0)
         assert app.bench.iteration == 0   # the problem changed: the records are gone
+
+
+@synchronous
+async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workdir):
+    """w: a multi-start sweep on Dask from the workbench; the Sweep tab shows its
+    optima; u makes the best one the start."""
+    app = LoopcraftApp(workdir / "coebra_kuo_digital.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("w")
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        field.value = "starts 4 seed 2 at"                   # incomplete: the dialog says why
+        await pilot.pause()
+        assert "needs a scheduler address" in str(app.screen.query_one("#error").render())
+        field.value = "starts 4 seed 2"
+        await pilot.press("enter")
+        deadline = time.monotonic() + 120
+        while app.bench.latest_sweep() is None and time.monotonic() < deadline:
+            await pilot.pause(0.2)
+        sweep = app.bench.latest_sweep()
+        assert sweep is not None and len(sweep["runs"]) == 4 and sweep["workers"] >= 1
+        table = app.screen.query_one("#optima-table")
+        assert table.row_count == len(sweep["optima"]) >= 1
+        assert "starts sweep" in str(app.screen.query_one("#sweep-status").render())
+        await pilot.press("u")
+        await settle(app, pilot)
+        best = sweep["runs"][sweep["optima"][0]["best_run"]]["parameters"]
+        assert app.bench.session.problem.values(0)["T1"] == best["T1"]

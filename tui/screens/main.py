@@ -14,6 +14,7 @@ from textual.widgets import DataTable, Footer, TabbedContent, TabPane
 from engine.algorithm import MeasureRow, StepRecord
 
 from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
+                             sweep_figure,
                              trajectories_figure)
 from ..editing import bands_text
 from ..widgets.textview import TextView
@@ -40,7 +41,8 @@ class MainScreen(Screen):
 
     BINDINGS = [Binding("p", "next_plot", "next plot"), Binding("1", "tab('run')", "run", show=False), Binding("2", "tab('plant')", "plant", show=False),
                 Binding("3", "tab('targets')", "targets", show=False),
-                Binding("4", "tab('history')", "history", show=False)]
+                Binding("4", "tab('history')", "history", show=False),
+                Binding("5", "tab('sweep')", "sweep", show=False)]
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
     #status { height: 1; background: $boost; padding: 0 1; }
@@ -97,6 +99,12 @@ class MainScreen(Screen):
                     yield DataTable(id="history-table", cursor_type="row")
                     with VerticalScroll(id="history-side"):
                         yield TextView("", id="history-tableau")
+            with TabPane("Sweep", id="sweep"):
+                with Horizontal():
+                    yield FigurePlot(id="sweep-plot")
+                    with Vertical(id="sweep-side"):
+                        yield TextView("", id="sweep-status")
+                        yield DataTable(id="optima-table", cursor_type="row")
         yield Footer()
 
     def on_mount(self) -> None:
@@ -126,6 +134,7 @@ class MainScreen(Screen):
         self.refresh_plant()
         self.refresh_targets()
         self.refresh_history()
+        self.refresh_sweep()
 
     def refresh_status(self) -> None:
         b = self.bench
@@ -142,7 +151,7 @@ class MainScreen(Screen):
         if plots:
             self.refresh_plots(figures, prebuilt)
 
-    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence", "step", "trajectories")
+    PLOTS = ("nyquist", "bode-mag", "bode-phase", "nichols", "convergence", "step", "trajectories", "sweep-plot")
 
     def figures(self) -> dict[str, object]:
         """Every plot's figure from the workbench (safe to call from the worker thread)."""
@@ -159,6 +168,7 @@ class MainScreen(Screen):
                                              "no iterations yet")
         figures["trajectories"] = trajectories_figure(b.trajectories())
         figures["step"] = step_figure(b.step_response(), b.step_response(0) if b.iteration else None)
+        figures["sweep-plot"] = sweep_figure(b.latest_sweep())
         return figures
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
@@ -279,6 +289,34 @@ class MainScreen(Screen):
         for r in self.bench.records:
             unmet = sum(not m.satisfied for m in r.measures)
             table.add_row(str(r.iteration), r.status.value, _fmt(value_at.get(r.iteration), 6), str(unmet))
+
+    def refresh_sweep(self, progress: str | None = None) -> None:
+        """The latest sweep: status line, its optima (or worst case) and its plot."""
+        sweep = self.bench.latest_sweep()
+        if progress is not None:
+            self.query_one("#sweep-status", TextView).set(progress)
+            return
+        status = "no sweep yet.  [b]w[/b] starts one (starts 16 | vary NAME=V1,V2 | tolerance NAME=+-10%)"
+        table = self.query_one("#optima-table", DataTable)
+        table.clear(columns=True)
+        if sweep:
+            status = (f"{sweep['kind']} sweep of {sweep['created']}: {len(sweep['runs'])} runs on {sweep['workers']} "
+                      f"worker(s), {len(sweep['failed'])} failed, {len(sweep['retried'])} retried"
+                      + (", cancelled" if sweep["cancelled"] else "") + ".  [b]u[/b] uses the best optimum")
+            if sweep["kind"] == "tolerance":
+                table.add_columns("measure", "condition", "worst", "target", "unmet/samples")
+                for w in sweep["worst_case"]:
+                    table.add_row(w["name"], w["condition"], _fmt(w["worst"], 5), _fmt(w["target"], 4),
+                                  f"{w['unmet_samples']}/{w['samples']}")
+            else:
+                table.add_columns("optimum", "count", "meets", "objective", "best run", "parameters")
+                for k, o in enumerate(sweep["optima"], start=1):
+                    params = "  ".join(f"{n}={_fmt(v if not isinstance(v, list) else v[0], 4)}"
+                                       for n, v in o["parameters"].items())
+                    table.add_row(str(k), str(o["count"]), "yes" if o["meets_requirements"] else "no",
+                                  _fmt(o["objective"], 6), str(o["best_run"]), params)
+        self.query_one("#sweep-status", TextView).set(status)
+        self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep))
 
     def show_history_iteration(self, iteration: int) -> None:
         rows, _ = self.bench.tableau(iteration)

@@ -200,3 +200,40 @@ def step_figure(current, initial) -> Figure:
             fig.title = f"Step response: {name}"
             fig.series.append(Series(*_finite(np.array(t), np.array(y)), label, color=color))
     return fig
+
+
+def sweep_figure(sweep: dict | None) -> Figure:
+    """A sweep: final objective against the start (starts), the trade-off (vary),
+    or, for a tolerance study, the samples' smallest relative slack."""
+    fig = Figure(empty_message="no sweep yet: w starts one")
+    if not sweep:
+        return fig
+    runs = [r for r in sweep["runs"] if r["status"] != "failed"]
+    if sweep["kind"] == "vary" and runs and all("averaged_squares" in r for r in runs):
+        squares = [r["averaged_squares"] for r in runs]
+        fig.title, fig.xlabel, fig.ylabel = "Trade-off", "output (normalized)", "output rate (normalized)"
+        fig.series.append(Series([q["x1_normalized"] for q in squares], [q["x1_rate_normalized"] for q in squares],
+                                 "runs", marker="dot"))
+        return fig
+    if sweep["kind"] == "tolerance":
+        fig.title, fig.xlabel, fig.ylabel = "Tolerance samples", "sample", "unmet measures"
+        fig.series.append(Series([float(r["index"]) for r in runs],
+                                 [float(sum(not m["satisfied"] for m in r["measures"])) for r in runs], marker="dot",
+                                 scatter=True))
+        return fig
+    fig.title, fig.ylabel = "Final objective by start", "objective"
+    name = next((k for r in runs for k in r["start"]), None)
+    fig.xlabel = f"start {name} (log10)" if sweep["kind"] == "starts" and name else "run"
+    for meets, color in ((True, "green"), (False, "red")):
+        chosen = [r for r in runs if r["meets_requirements"] == meets and isinstance(r["objective"], (int, float))]
+        x = [_start_value(r, name) if fig.xlabel != "run" else float(r["index"]) for r in chosen]
+        fig.series.append(Series(x, [float(r["objective"]) for r in chosen],
+                                 "meets every requirement" if meets else "does not", marker="dot", scatter=True,
+                                 color=color))
+    return fig
+
+
+def _start_value(run: dict, name: str) -> float:
+    value = run["start"][name]
+    value = value[0] if isinstance(value, list) else value
+    return float(np.log10(value)) if value > 0 else float(value)
