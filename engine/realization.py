@@ -16,7 +16,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import linalg
 
+from .blocks import ExpressionTransfer
 from .errors import BlockError, InterconnectionError
+from .polynomials import degree, trim
 from .network import Network
 
 
@@ -81,8 +83,13 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
     key = ("entry realization", number)
     if key in network.schedules:
         return network.schedules[key]
-    r = entry.transfer.check_proper(params, entry.label)
-    realization = cascade(r.num, r.den)
+    folded = entry.transfer.expression.folded(params) if isinstance(entry.transfer, ExpressionTransfer) else None
+    if folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
+        num, den = trim(folded.num), trim(folded.den)   # a small ratio: no symbolic expansion needed
+    else:
+        r = entry.transfer.check_proper(params, entry.label)
+        num, den = r.num, r.den
+    realization = cascade(num, den)
     if not entry.transfer.parameters:
         network.schedules[key] = realization
     return realization
@@ -103,6 +110,12 @@ def cascade(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDAr
     second-order sections built from its roots (high-order companion forms lose
     digits).  Sections sorted by degree pair up properly because each
     polynomial has at most one first-order section."""
+    if den.size == 1:
+        if num.size > 1:
+            raise BlockError("improper transfer function in cascade realization")
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[0] / den[0]]])
+    if den.size <= 3 and num.size <= den.size:
+        return _section(num, den)   # one section already: no roots needed
     gain = num[0] / den[0]
     zeros = sorted(_sections(np.roots(num)) if num.size > 1 else [], key=len, reverse=True)
     poles = sorted(_sections(np.roots(den)) if den.size > 1 else [], key=len, reverse=True)
