@@ -40,6 +40,7 @@ class LoopcraftApp(App):
         Binding("space,escape", "pause", "pause"), Binding("z", "undo", "undo"),
         Binding("a", "choose_algorithm", "algorithm"), Binding("e,enter", "edit", "edit", show=False),
         Binding("f", "toggle_free", "free/fix", show=False), Binding("i", "import_table", "import CSV", show=False), Binding("b", "start_here", "start here", show=False),
+        Binding("plus", "add", "add", show=False), Binding("minus,delete", "delete", "delete", show=False),
         Binding("w", "sweep", "sweep", show=False), Binding("u", "use_best", "use best", show=False),
         Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
         Binding("question_mark", "help", "help"), Binding("q", "quit", "quit"),
@@ -328,6 +329,51 @@ class LoopcraftApp(App):
             return
         self._open_edit(self._edit_for(screen))
 
+    def action_add(self) -> None:
+        """+: a new target (choose its measure), parameter or block, on the focused table."""
+        focused = self.focused
+        if self.bench is None or not isinstance(focused, DataTable):
+            return
+        row = focused.cursor_row
+        if focused.id == "targets-table":
+            from engine.problem import MEASURE_NAMES
+            choices = [(m, f"default desired {editing.DEFAULT_DESIRED.get(m, 1.0):g}") for m in MEASURE_NAMES]
+            self.push_screen(ChooseDialog("add a target: which measure?", choices),
+                             lambda m: m and self._change(lambda: editing.add_target(self.bench, m), f"add {m}"))
+        elif focused.id in ("parameters", "blocks"):
+            title = ("new parameter: NAME VALUE [MIN MAX]" if focused.id == "parameters"
+                     else "new block: NAME INPUT OUTPUT EXPRESSION (in the selected row's condition)")
+            add = ((lambda text: editing.add_parameter(self.bench, text)) if focused.id == "parameters"
+                   else (lambda text: editing.add_block(self.bench, row, text)))
+            self.push_screen(EditDialog(title, "", editing.ADD_CHECKS[focused.id]),
+                             lambda text: text and self._change(lambda: add(text), "add it"))
+
+    def action_delete(self) -> None:
+        """-/delete: remove the selected target, parameter or diagram block (asks first)."""
+        focused = self.focused
+        if self.bench is None or not isinstance(focused, DataTable) or focused.row_count == 0:
+            return
+        table, row = focused.id, focused.cursor_row
+        self._change(lambda: self.notify(f"deleted {editing.delete_row(self.bench, table, row) or 'nothing'}"),
+                     "delete the selected row", always_ask=True)
+
+    def _change(self, change, what: str, always_ask: bool = False) -> None:
+        """Apply a change of the problem (asking first when iterations would be dropped)."""
+        def apply(yes: bool | None = True) -> None:
+            if not yes:
+                return
+            try:
+                change()
+            except (SessionError, ValueError) as exc:
+                self.notify(str(exc), title="not applied: nothing changed", severity="error", timeout=10)
+            self._refresh()
+        if self.bench.iteration or always_ask:
+            dropped = (f"; the {self.bench.iteration} recorded iteration(s) will be dropped"
+                       if self.bench.iteration else "")
+            self.push_screen(ConfirmDialog(f"{what}{dropped}?"), apply)
+        else:
+            apply()
+
     def _open_edit(self, edit) -> None:
         if edit is None:
             return
@@ -358,9 +404,8 @@ class LoopcraftApp(App):
         if focused.id == "blocks":
             return editing.block_edit(self.bench, row)
         if focused.id == "objective-table":
-            names = list(self.bench.session.model.algorithm.settings)
-            offset = row - focused.row_count + len(names)
-            return editing.setting_edit(self.bench, names[offset]) if 0 <= offset < len(names) else None
+            rows = editing.objective_rows(self.bench)
+            return rows[row][2]() if 0 <= row < len(rows) and rows[row][2] is not None else None
         return None
 
     def action_import_table(self) -> None:

@@ -4,12 +4,14 @@ applied (the problem is rebuilt; on error the old value comes back)."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from engine.algorithm import make_settings
+from engine.algorithm import lookup, make_settings
 from engine.errors import EngineError
+from engine.problem import TIME_MEASURES as _TIME_MEASURES
 from engine.expressions import Expression
 from sessions.errors import SessionError
 
@@ -131,7 +133,10 @@ def toggle_free(bench: Workbench, row: int) -> None:
 
 TARGET_FIELDS = [("bands", "bands: low..high: desired / required (optional); ... (high inf: no limit)"),
                  ("points", "push/pull points: push -1+0j; pull -7-3j (empty: the defaults)"),
-                 ("weight", "weight (the c vector component)"),
+                 ("weight", "weight (the c vector component; slp: W2)"),
+                 ("scale", "scale factor (slp: S, e.g. 0.2 so 5 deg count as 1 dB)"),
+                 ("sense", "sense: at_least, at_most or auto (the measure's own)"),
+                 ("constraint", "requirement (true) or objective only (false)"),
                  ("detect", "detection range: low..high (inf: no limit)")]
 
 
@@ -169,6 +174,19 @@ def _parse_points(text: str) -> list[tuple[str, complex]]:
     return points
 
 
+def _parse_sense(text: str) -> str | None:
+    text = text.strip()
+    if text not in ("at_least", "at_most", "auto"):
+        raise ValueError("at_least, at_most or auto")
+    return None if text == "auto" else text
+
+
+def _parse_bool(text: str) -> bool:
+    if text.strip().lower() not in ("true", "false"):
+        raise ValueError("true or false")
+    return text.strip().lower() == "true"
+
+
 def _checker(parse: Callable[[str], object]) -> Callable[[str], str | None]:
     def check(text: str) -> str | None:
         try:
@@ -197,11 +215,21 @@ def target_edit(bench: Workbench, row: int, field: str = "bands") -> Edit | None
 
         def fields(value):
             return {"points": [PointModel(real=v.real, imag=v.imag, mode=m) for m, v in value]}
-    elif field == "weight":
-        text, parse = repr(target.weight), float
+    elif field in ("weight", "scale"):
+        text, parse = repr(getattr(target, field)), float
 
         def fields(value):
-            return {"weight": value}
+            return {field: value}
+    elif field == "sense":
+        text, parse = target.sense or "auto", _parse_sense
+
+        def fields(value):
+            return {"sense": value}
+    elif field == "constraint":
+        text, parse = str(target.constraint).lower(), _parse_bool
+
+        def fields(value):
+            return {"constraint": value}
     else:
         text = f"{target.detect_low:g}..{'inf' if target.detect_high is None else f'{target.detect_high:g}'}"
         parse = _parse_range
@@ -225,10 +253,46 @@ def _setting_value(text: str, current):
     return int(number) if isinstance(current, int) and number.is_integer() else number
 
 
+def setting_rows(bench: Workbench) -> list[tuple[str, object, bool]]:
+    """Every setting of the session's algorithm: (name, value, set in the session)."""
+    try:
+        defaults = {f.name: f.default for f in dataclasses.fields(lookup(bench.algorithm_name).settings)}
+    except EngineError:
+        defaults = {}
+    settings = bench.session.model.algorithm.settings
+    names = list(defaults) + [n for n in settings if n not in defaults]
+    return [(n, settings.get(n, defaults.get(n)), n in settings) for n in names]
+
+
+def objective_rows(bench: Workbench) -> list[tuple[str, str, Callable[[], Edit] | None]]:
+    """The rows of the objective/settings table: label, value, and how to edit it."""
+    objective = bench.session.model.problem.objective
+    rows: list = []
+    if objective is not None:
+        rows.append(("objective kind", objective.kind, None))
+        rows += [(name, str(value), (lambda n=name: objective_option_edit(bench, n)))
+                 for name, value in objective.options.items()]
+    rows += [(f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), str(value),
+              (lambda n=name: setting_edit(bench, n))) for name, value, given in setting_rows(bench)]
+    return rows
+
+
+def objective_option_edit(bench: Workbench, name: str) -> Edit:
+    """An objective option (a penalty such as q2, or a text option): a number where it was one."""
+    objective = bench.session.model.problem.objective
+    current = objective.options[name]
+
+    def setter(text: str) -> None:
+        value = float(text) if isinstance(current, float) else text
+        set_fields(bench, objective, options=dict(objective.options, **{name: value}))
+    check = number_check if isinstance(current, float) else (lambda text: None if text.strip() else "empty")
+    return Edit(f"objective option {name}", str(current), check, setter)
+
+
 def setting_edit(bench: Workbench, name: str) -> Edit:
     """An algorithm setting, checked against the algorithm's own settings as it is typed."""
     settings = bench.session.model.algorithm.settings
-    current = settings.get(name)
+    current = settings.get(name, dict((n, v) for n, v, _ in setting_rows(bench)).get(name))
 
     def check(text: str) -> str | None:
         try:
@@ -244,15 +308,9 @@ def setting_edit(bench: Workbench, name: str) -> Edit:
 
 
 def _diagram_block(bench: Workbench, row: int):
-    """The diagram block (and its condition) on a row of the plant table, or None."""
-    from .screens.main import plant_rows
-    k = 0
-    for condition in bench.session.model.problem.conditions:
-        rows = plant_rows(condition)
-        if condition.plant.format == "diagram" and k <= row < k + len(condition.plant.blocks):
-            return condition.plant.blocks[row - k]
-        k += len(rows)
-    return None
+    """The diagram block on a row of the plant table, or None."""
+    found = _block_position(bench, row)
+    return None if found is None else found[0][found[1]]
 
 
 def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
@@ -299,3 +357,118 @@ def table_import(bench: Workbench, row: int, path: Path) -> Edit | None:
     guess = f"{','.join(header[:3])} polar hz 1"
     return Edit(f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
                 guess, _checker(parse), setter)
+
+
+# -- adding and deleting rows ------------------------------------------------
+
+DEFAULT_DESIRED = {"gain_margin": 0.5, "phase_margin": 0.5, "stability_margin": 0.5, "attenuation_margin": 0.25,
+                   "gain_margin_db": 6.0, "phase_margin_deg": 30.0, "crossover_frequency": 1.0,
+                   "modal_peak_db": -10.0, "modal_peak_phase_deg": 90.0, "stability_abscissa": 0.0,
+                   "rise_time": 1.0, "settling_time": 5.0, "overshoot_percent": 20.0, "peak_time": 2.0,
+                   "steady_state_error": 0.01, "peak_response": 1.0, "mean_square": 1.0}
+
+
+def change_list(bench: Workbench, items: list, change: Callable[[list], None]) -> None:
+    """Change a list of the model in place and rebuild; on failure restore it (nothing is lost)."""
+    old = list(items)
+    change(items)
+    try:
+        bench.rebuild()
+    except (SessionError, EngineError) as exc:
+        items[:] = old
+        bench.rebuild()
+        raise SessionError(str(exc)) from None
+
+
+def add_target(bench: Workbench, measure: str) -> None:
+    """A new target of one measure kind with one band (time measures read the first
+    input's step response of the last signal; edit them after)."""
+    from sessions.schema import BandModel, ResponseModel, TargetModel
+    response = None
+    if measure in DEFAULT_DESIRED and measure in _TIME_MEASURES:
+        network = bench.session.problem.conditions[0].network
+        output = next((n for n in ("y", "c", "theta") if n in network.signals), network.signals[-1])
+        response = ResponseModel(input=network.inputs[0] if network.inputs else "r", output=output)
+    target = TargetModel(measure=measure, bands=[BandModel(desired=DEFAULT_DESIRED.get(measure, 1.0))],
+                         response=response)
+    change_list(bench, bench.session.model.problem.targets, lambda items: items.append(target))
+
+
+def delete_row(bench: Workbench, table: str, row: int) -> str | None:
+    """Delete a target, a parameter or a diagram block; what was deleted (None: nothing there)."""
+    problem = bench.session.model.problem
+    if table == "targets-table" and 0 <= row < len(problem.targets):
+        name = problem.targets[row].measure
+        change_list(bench, problem.targets, lambda items: items.pop(row))
+        return f"target {name}"
+    if table == "parameters" and 0 <= row < len(problem.parameters):
+        name = problem.parameters[row].name
+        change_list(bench, problem.parameters, lambda items: items.pop(row))
+        return f"parameter {name}"
+    if table == "blocks":
+        found = _block_position(bench, row)
+        if found is not None:
+            blocks, k = found
+            name = blocks[k].name
+            change_list(bench, blocks, lambda items: items.pop(k))
+            return f"block {name}"
+    return None
+
+
+def add_parameter(bench: Workbench, text: str) -> None:
+    """'NAME VALUE [MIN MAX]': a new shared parameter."""
+    from sessions.schema import ParameterModel
+    name, value, low, high = _parameter_words(text)
+    parameter = ParameterModel(name=name, value=value, min=low, max=high)
+    change_list(bench, bench.session.model.problem.parameters, lambda items: items.append(parameter))
+
+
+def _parameter_words(text: str) -> tuple[str, float, float | None, float | None]:
+    words = text.split()
+    if len(words) not in (2, 4) or not words[0].isidentifier():
+        raise ValueError("write NAME VALUE, or NAME VALUE MIN MAX")
+    bounds = [None if w.lower() in ("none", "inf", "-inf") else float(w) for w in words[2:]] or [None, None]
+    return words[0], float(words[1]), bounds[0], bounds[1]
+
+
+def add_block(bench: Workbench, row: int, text: str) -> None:
+    """'NAME INPUT OUTPUT EXPRESSION': a new block in the diagram of the selected row's condition."""
+    from sessions.schema import BlockModel, ExpressionBlock
+    name, source, target, expression = _block_words(text)
+    condition = _condition_at(bench, row)
+    if condition is None or condition.plant.format != "diagram":
+        raise SessionError("blocks are added to block-diagram plants (select a row of one)")
+    block = BlockModel(name=name, input=source, output=target,
+                       transfer=ExpressionBlock(kind="expression", expression=expression))
+    change_list(bench, condition.plant.blocks, lambda items: items.append(block))
+
+
+def _block_words(text: str) -> tuple[str, str, str, str]:
+    words = text.split(None, 3)
+    if len(words) != 4:
+        raise ValueError("write NAME INPUT OUTPUT EXPRESSION")
+    return words[0], words[1], words[2], words[3]
+
+
+def _condition_at(bench: Workbench, row: int):
+    from .screens.main import plant_rows
+    k = 0
+    conditions = bench.session.model.problem.conditions
+    for condition in conditions:
+        k += len(plant_rows(condition))
+        if row < k:
+            return condition
+    return conditions[-1] if conditions else None
+
+
+def _block_position(bench: Workbench, row: int):
+    from .screens.main import plant_rows
+    k = 0
+    for condition in bench.session.model.problem.conditions:
+        if condition.plant.format == "diagram" and k <= row < k + len(condition.plant.blocks):
+            return condition.plant.blocks, row - k
+        k += len(plant_rows(condition))
+    return None
+
+
+ADD_CHECKS = {"parameters": _checker(_parameter_words), "blocks": _checker(_block_words)}

@@ -9,6 +9,7 @@ import time
 
 from engine.errors import EngineError
 from tui.app import LoopcraftApp
+from tui.editing import objective_rows
 from tui.screens.main import MainScreen
 
 
@@ -244,8 +245,8 @@ async def test_a_setting_is_checked_against_the_algorithm(workdir):
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        names = list(app.bench.session.model.algorithm.settings)
-        await select_row(app, pilot, "3", "objective-table", names.index("mode"))
+        labels = [label for label, _, _ in objective_rows(app.bench)]
+        await select_row(app, pilot, "3", "objective-table", labels.index("cip.mode"))
         await pilot.press("e")
         await pilot.pause()
         field = app.screen.query_one("#value")
@@ -316,3 +317,69 @@ async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workd
         await settle(app, pilot)
         best = sweep["runs"][sweep["optima"][0]["best_run"]]["parameters"]
         assert app.bench.session.problem.values(0)["T1"] == best["T1"]
+
+
+@synchronous
+async def test_targets_parameters_blocks_and_options_are_added_deleted_and_edited(workdir):
+    """Nothing requires editing JSON: + adds a target (by measure), a parameter or a
+    block, - deletes the selected one, an objective option (a penalty) is edited."""
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        problem = lambda: app.bench.session.model.problem   # noqa: E731
+        count = len(problem().targets)
+        await select_row(app, pilot, "3", "targets-table", 0)
+        await pilot.press("plus")
+        await pilot.pause()
+        for _ in range(6):                                   # crossover_frequency, the 7th measure
+            await pilot.press("down")
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert [t.measure for t in problem().targets][-1] == "crossover_frequency"
+        assert app.screen.query_one("#targets-table").row_count == count + 1
+        await select_row(app, pilot, "3", "targets-table", count)
+        await pilot.press("minus")
+        await pilot.pause()
+        await pilot.press("y")
+        await settle(app, pilot)
+        assert len(problem().targets) == count
+        await select_row(app, pilot, "2", "parameters", 0)
+        await pilot.press("plus")
+        await pilot.pause()
+        app.screen.query_one("#value").value = "Kf 2 0 10"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        await select_row(app, pilot, "2", "blocks", 0)
+        await pilot.press("plus")
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        field.value = "filter y ym"                          # too few words: the dialog says so
+        await pilot.pause()
+        assert "NAME INPUT OUTPUT EXPRESSION" in str(app.screen.query_one("#error").render())
+        field.value = "filter y ym Kf/(1+0.01*s)"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert problem().parameters[-1].name == "Kf" and problem().conditions[0].plant.blocks[-1].name == "filter"
+        assert "Kf" in app.bench.session.problem.conditions[0].network.parameters
+
+
+@synchronous
+async def test_an_objective_penalty_and_an_unset_setting_are_edited(workdir):
+    app = LoopcraftApp(workdir / "seidel_inlet_pi.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        labels = [label for label, _, _ in objective_rows(app.bench)]
+        q2 = labels.index("q2")
+        await select_row(app, pilot, "3", "objective-table", q2)
+        await pilot.press("e")
+        await pilot.pause()
+        app.screen.query_one("#value").value = "0.001"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert app.bench.session.model.problem.objective.options["q2"] == 0.001
+        assert app.bench.session.problem.objective.options["q2"] == 0.001
+        row = next(k for k, label in enumerate(labels) if label.startswith("qcg.") and "(default)" in label)
+        await select_row(app, pilot, "3", "objective-table", row)
+        await pilot.press("e")
+        await pilot.pause()
+        assert app.screen.query_one("#value").value != ""    # the default is shown

@@ -111,8 +111,8 @@ class HelpScreen(ModalScreen[None]):
     KEYS = [("s", "step one iteration"), ("n", "run N iterations (asks N)"), ("r", "run until the algorithm stops"),
             ("space / escape", "pause a run (within one iteration)"), ("z", "undo the last iteration"),
             ("a", "choose the algorithm"), ("e / enter", "edit the selected row (plant, targets, settings)"),
-            ("f", "free/fix the selected parameter"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
-            ("w", "sweep on Dask: starts N, vary N=V1,V2, tolerance N=+-10%"),
+            ("f", "free/fix the selected parameter"), ("+ / -", "add / delete a target, parameter or block"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
+            ("w", "sweep on Dask: multi-start, vary a value, or tolerances"),
             ("u", "sweep: use the best optimum's design as the start"),
             ("1 2 3 4 5", "run, plant, targets, history, sweep tabs"), ("p", "next plot"), ("ctrl+s", "save"), ("ctrl+o", "open a session"),
             ("ctrl+p", "command palette: every action"), ("?", "this help"), ("q", "quit (asks when unsaved)")]

@@ -16,7 +16,7 @@ from engine.algorithm import MeasureRow, StepRecord
 from ..widgets.plots import (FigurePlot, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
                              sweep_figure,
                              trajectories_figure)
-from ..editing import bands_text
+from ..editing import bands_text, objective_rows
 from ..widgets.textview import TextView
 from ..workbench import Workbench
 
@@ -267,12 +267,8 @@ class MainScreen(Screen):
         objective = self.query_one("#objective-table", DataTable)
         objective.clear(columns=True)
         objective.add_columns("objective / setting", "value")
-        if model.objective is not None:
-            objective.add_row("objective kind", model.objective.kind)
-            for k, v in model.objective.options.items():
-                objective.add_row(k, _fmt(v))
-        for k, v in self.bench.session.model.algorithm.settings.items():
-            objective.add_row(f"{self.bench.algorithm_name}.{k}", _fmt(v))
+        for label, value, _ in objective_rows(self.bench):
+            objective.add_row(label, value)
 
     def refresh_history(self) -> None:
         """The history table, rebuilt only while its tab is shown (else on the next visit)."""
