@@ -41,6 +41,8 @@ class LoopcraftApp(App):
         Binding("a", "choose_algorithm", "algorithm"), Binding("e,enter", "edit", "edit", show=False),
         Binding("f", "toggle_free", "free/fix", show=False), Binding("i", "import_table", "import CSV", show=False), Binding("b", "start_here", "start here", show=False),
         Binding("plus", "add", "add", show=False), Binding("minus,delete", "delete", "delete", show=False),
+        Binding("c", "copy_condition", "copy condition", show=False),
+        Binding("x", "delete_condition", "delete condition", show=False),
         Binding("w", "sweep", "sweep", show=False), Binding("u", "use_best", "use best", show=False),
         Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
         Binding("question_mark", "help", "help"), Binding("q", "quit", "quit"),
@@ -356,6 +358,26 @@ class LoopcraftApp(App):
         table, row = focused.id, focused.cursor_row
         self._change(lambda: self.notify(f"deleted {editing.delete_row(self.bench, table, row) or 'nothing'}"),
                      "delete the selected row", always_ask=True)
+
+    def action_copy_condition(self) -> None:
+        """c on the plant table: a new flight condition copied from the selected row's."""
+        focused = self.focused
+        if self.bench is None or not isinstance(focused, DataTable) or focused.id != "blocks":
+            return
+        row = focused.cursor_row
+        self.push_screen(EditDialog("copy this condition as (a new name):", "", lambda t: None if t.strip() else
+                                    "a name"),
+                         lambda name: name and self._change(lambda: editing.copy_condition(self.bench, row, name.strip()),
+                                                            f"add condition {name}"))
+
+    def action_delete_condition(self) -> None:
+        """x on the plant table: delete the selected row's flight condition (asks first)."""
+        focused = self.focused
+        if self.bench is None or not isinstance(focused, DataTable) or focused.id != "blocks":
+            return
+        row = focused.cursor_row
+        self._change(lambda: self.notify(f"deleted condition {editing.delete_condition(self.bench, row)}"),
+                     "delete the selected row's condition", always_ask=True)
 
     def _change(self, change, what: str, always_ask: bool = False) -> None:
         """Apply a change of the problem (asking first when iterations would be dropped)."""

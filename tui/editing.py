@@ -88,10 +88,13 @@ def _expression_slots(bench: Workbench) -> list[tuple[str, object, str, str] | N
 
 
 def block_edit(bench: Workbench, row: int) -> Edit | None:
-    """The expression of a diagram block or of a matrix-format entry."""
+    """The expression of a diagram block or of a matrix-format entry, a junction's
+    signed inputs, or where the loop is broken."""
     slots = _expression_slots(bench)
-    if not 0 <= row < len(slots) or slots[row] is None:
+    if not 0 <= row < len(slots):
         return None
+    if slots[row] is None:
+        return _wiring_edit(bench, row)
     title, owner, attribute, variable = slots[row]
 
     def setter(text: str) -> None:
@@ -99,7 +102,44 @@ def block_edit(bench: Workbench, row: int) -> Edit | None:
     return Edit(f"{title} (expression in {variable})", getattr(owner, attribute), expression_check(variable), setter)
 
 
-PARAMETER_FIELDS = [("value", "value (every condition when per condition)"), ("min", "lower bound (none: unbounded)"),
+def _wiring_edit(bench: Workbench, row: int) -> Edit | None:
+    """A junction's inputs ('+r -y') or a condition's break point, on a plant-table row."""
+    from .screens.main import plant_rows
+    k = 0
+    for condition in bench.session.model.problem.conditions:
+        rows = plant_rows(condition)
+        if condition.plant.format == "diagram" and k <= row < k + len(rows):
+            offset = row - k - len(condition.plant.blocks)
+            junctions = condition.plant.junctions
+            if 0 <= offset < len(junctions):
+                junction = junctions[offset]
+
+                def setter(text: str) -> None:
+                    plus, minus = _parse_signed(text)
+                    set_fields(bench, junction, plus=plus, minus=minus)
+                text = " ".join([f"+{x}" for x in junction.plus] + [f"-{x}" for x in junction.minus])
+                return Edit(f"{condition.name}: junction {junction.name} -> {junction.output} (+a -b ...)", text,
+                            _checker(_parse_signed), setter)
+            if offset == len(junctions):
+                return Edit(f"{condition.name}: break the loop at signal", condition.break_at,
+                            lambda text: None if text.strip() else "a signal name",
+                            lambda text: set_fields(bench, condition, break_at=text.strip()))
+        k += len(rows)
+    return None
+
+
+def _parse_signed(text: str) -> tuple[list[str], list[str]]:
+    plus, minus = [], []
+    for word in text.split():
+        if word[0] not in "+-" or len(word) < 2:
+            raise ValueError(f"{word!r}: write +signal or -signal")
+        (plus if word[0] == "+" else minus).append(word[1:])
+    if not plus and not minus:
+        raise ValueError("at least one signal")
+    return plus, minus
+
+
+PARAMETER_FIELDS = [("value", "value (per condition: one for all, or one each: 1, 2, 3)"), ("min", "lower bound (none: unbounded)"),
                     ("max", "upper bound (none: unbounded)")]
 
 
@@ -109,8 +149,8 @@ def parameter_edit(bench: Workbench, row: int, field: str = "value") -> Edit | N
         return None
     p = params[row]
     if field == "value":
-        current = p.value[0] if isinstance(p.value, list) else p.value
-        check = number_check
+        current = ", ".join(repr(v) for v in p.value) if isinstance(p.value, list) else p.value
+        check = _checker(lambda text: _parse_values(text, p.value))
     else:
         current = getattr(p, field)
         check = optional_number_check
@@ -118,11 +158,70 @@ def parameter_edit(bench: Workbench, row: int, field: str = "value") -> Edit | N
     def setter(text: str) -> None:
         old = getattr(p, field)
         if field == "value":
-            value = [float(text)] * len(old) if isinstance(old, list) else float(text)
+            value = _parse_values(text, old)
         else:
             value = None if text.strip().lower() in ("", "none", "inf") else float(text)
         set_fields(bench, p, **{field: value})
     return Edit(f"parameter {p.name}: {field}", "none" if current is None else repr(current), check, setter)
+
+
+def _parse_values(text: str, old):
+    """One number, or for a per-condition parameter one per condition (one number: all)."""
+    values = [float(v) for v in text.replace(",", " ").split()]
+    if not isinstance(old, list):
+        if len(values) != 1:
+            raise ValueError("one number")
+        return values[0]
+    if len(values) == 1:
+        return values * len(old)
+    if len(values) != len(old):
+        raise ValueError(f"one number, or {len(old)} (one per condition)")
+    return values
+
+
+def copy_condition(bench: Workbench, row: int, name: str) -> None:
+    """A new flight condition copied from the one on a plant-table row; parameters
+    with a value per condition get the copied condition's value."""
+    conditions = bench.session.model.problem.conditions
+    source = _condition_at(bench, row)
+    if source is None:
+        raise SessionError("no condition to copy")
+    if not name.strip() or name in [c.name for c in conditions]:
+        raise SessionError(f"{name!r}: give a new condition name")
+    k = conditions.index(source)
+    params = bench.session.model.problem.parameters
+    old_values = [p.value for p in params]
+    for p in params:
+        if isinstance(p.value, list):
+            p.value = p.value + [p.value[k]]
+    try:
+        change_list(bench, conditions, lambda items: items.append(source.model_copy(deep=True,
+                                                                                     update={"name": name})))
+    except SessionError:
+        for p, v in zip(params, old_values):
+            p.value = v
+        raise
+
+
+def delete_condition(bench: Workbench, row: int) -> str:
+    """Remove the condition on a plant-table row (and its per-condition values)."""
+    conditions = bench.session.model.problem.conditions
+    source = _condition_at(bench, row)
+    if source is None or len(conditions) < 2:
+        raise SessionError("a session keeps at least one condition")
+    k = conditions.index(source)
+    params = bench.session.model.problem.parameters
+    old_values = [p.value for p in params]
+    for p in params:
+        if isinstance(p.value, list):
+            p.value = p.value[:k] + p.value[k + 1:]
+    try:
+        change_list(bench, conditions, lambda items: items.pop(k))
+    except SessionError:
+        for p, v in zip(params, old_values):
+            p.value = v
+        raise
+    return source.name
 
 
 def toggle_free(bench: Workbench, row: int) -> None:
@@ -137,6 +236,7 @@ TARGET_FIELDS = [("bands", "bands: low..high: desired / required (optional); ...
                  ("scale", "scale factor (slp: S, e.g. 0.2 so 5 deg count as 1 dB)"),
                  ("sense", "sense: at_least, at_most or auto (the measure's own)"),
                  ("constraint", "requirement (true) or objective only (false)"),
+                 ("response", "time response: INPUT OUTPUT HORIZON [POINTS]; step T A; ramp T S; psd F(s); ..."),
                  ("detect", "detection range: low..high (inf: no limit)")]
 
 
@@ -174,6 +274,51 @@ def _parse_points(text: str) -> list[tuple[str, complex]]:
     return points
 
 
+def response_text(response) -> str:
+    """A time response as one line (see `_parse_response`)."""
+    if response is None:
+        return ""
+    parts = [f"{response.input} {response.output} {response.horizon:g} {response.points}"]
+    for seg in response.profile:
+        if seg.step:
+            parts.append(f"step {seg.time:g} {seg.step:g}")
+        if seg.slope:
+            parts.append(f"ramp {seg.time:g} {seg.slope:g}")
+    if response.psd:
+        parts.append(f"psd {response.psd}")
+    if response.reference != 1.0:
+        parts.append(f"reference {response.reference:g}")
+    return "; ".join(parts)
+
+
+def _parse_response(text: str):
+    """'INPUT OUTPUT HORIZON [POINTS]; step T A; ramp T S; psd F(s); reference R' (empty: none)."""
+    from sessions.schema import ResponseModel, SegmentModel
+    parts = [p.strip() for p in text.split(";") if p.strip()]
+    if not parts:
+        return None
+    head = parts[0].split()
+    if len(head) not in (3, 4):
+        raise ValueError("begin with INPUT OUTPUT HORIZON [POINTS]")
+    values: dict = {"input": head[0], "output": head[1], "horizon": float(head[2]), "profile": []}
+    if len(head) == 4:
+        values["points"] = int(head[3])
+    for part in parts[1:]:
+        word, _, rest = part.partition(" ")
+        if word in ("step", "ramp"):
+            t, amount = (float(v) for v in rest.split())
+            values["profile"].append(SegmentModel(time=t, **{"step" if word == "step" else "slope": amount}))
+        elif word == "psd":
+            Expression(rest, "s")
+            values["psd"] = rest.strip()
+        elif word == "reference":
+            values["reference"] = float(rest)
+        else:
+            raise ValueError(f"{word!r}: step, ramp, psd or reference")
+    values["profile"] = values["profile"] or [SegmentModel(step=1.0)]
+    return ResponseModel(**values)
+
+
 def _parse_sense(text: str) -> str | None:
     text = text.strip()
     if text not in ("at_least", "at_most", "auto"):
@@ -191,7 +336,7 @@ def _checker(parse: Callable[[str], object]) -> Callable[[str], str | None]:
     def check(text: str) -> str | None:
         try:
             parse(text)
-        except (ValueError, TypeError) as exc:
+        except (ValueError, TypeError, EngineError) as exc:
             return f"cannot read {text!r}: {exc}"
         return None
     return check
@@ -225,6 +370,11 @@ def target_edit(bench: Workbench, row: int, field: str = "bands") -> Edit | None
 
         def fields(value):
             return {"sense": value}
+    elif field == "response":
+        text, parse = response_text(target.response), _parse_response
+
+        def fields(value):
+            return {"response": value}
     elif field == "constraint":
         text, parse = str(target.constraint).lower(), _parse_bool
 

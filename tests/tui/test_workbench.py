@@ -30,3 +30,52 @@ def test_loop_curve_is_the_open_loop_and_undo_restores_parameters(workdir):
     assert bench2.parameters() != start
     bench2.undo()
     assert bench2.parameters() == start and bench2.iteration == 0
+
+
+def test_a_time_response_is_edited_as_one_line(workdir):
+    """The wind profile of the launch vehicle's peak angle of attack, read and rewritten."""
+    from tui.editing import target_edit
+    bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
+    edit = target_edit(bench, 5, "response")
+    assert edit.text == "alpha_w alpha 10 201; ramp 0 0.05; ramp 2 -0.05; reference 0"
+    assert "HORIZON" in edit.check("alpha_w")
+    assert "step, ramp, psd or reference" in edit.check("alpha_w alpha 10; gust 1 2")
+    edit.apply("alpha_w alpha 12 241; ramp 0 0.1; ramp 1 -0.1; reference 0")
+    response = bench.session.problem.targets[5].response
+    assert (response.horizon, response.points, response.profile) == (12.0, 241, ((0.0, 0.0, 0.1), (1.0, 0.0, -0.1)))
+
+
+def test_junction_signs_and_the_break_point_are_edited(workdir):
+    from tui.editing import block_edit
+    bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
+    junction = block_edit(bench, 2)          # rows: compensator, plant, the junction, the break point
+    assert junction.text == "+r -y" and "write +signal" in junction.check("r y")
+    junction.apply("+r +y")                  # positive feedback: the problem changes, still builds
+    assert bench.session.model.problem.conditions[0].plant.junctions[0].plus == ["r", "y"]
+    junction.apply("+r -y")
+    brk = block_edit(bench, 3)
+    assert brk.text == "e"
+    brk.apply("u")
+    assert bench.session.problem.conditions[0].break_at == "u"
+    try:
+        brk.apply("nowhere")
+    except Exception as exc:               # an unknown signal is refused and the old value kept
+        assert "nowhere" in str(exc)
+    assert bench.session.model.problem.conditions[0].break_at == "u"
+
+
+def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workdir):
+    from tui.editing import copy_condition, delete_condition, parameter_edit
+    bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
+    rows_per_condition = len(bench.session.model.problem.conditions[0].plant.blocks) + 7 + 1
+    copy_condition(bench, rows_per_condition + 1, "max-q hot")          # a row of the max-q condition
+    problem = bench.session.problem
+    assert [c.name for c in problem.conditions][-1] == "max-q hot"
+    kd = next(p for p in problem.parameters if p.name == "KD")
+    assert len(kd.value) == 4 and kd.value[3] == kd.value[1]
+    edit = parameter_edit(bench, 0, "value")                            # KD: one per condition
+    assert "one per condition" in edit.check("1, 2")
+    edit.apply("0.5, 0.6, 0.7, 0.8")
+    assert bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7, 0.8)
+    assert delete_condition(bench, rows_per_condition * 3 + 1) == "max-q hot"
+    assert len(bench.session.problem.conditions) == 3 and bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7)
