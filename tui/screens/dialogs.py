@@ -112,10 +112,10 @@ class HelpScreen(ModalScreen[None]):
             ("space / escape", "pause a run (within one iteration)"), ("z", "undo the last iteration"),
             ("a", "choose the algorithm"), ("e / enter", "edit the selected row (plant, targets, settings)"),
             ("f", "free/fix the selected parameter"), ("+ / -", "add / delete a target, parameter or block"),
-            ("c / x", "plant: copy / delete the selected row's flight condition"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
-            ("w", "sweep on Dask: multi-start, vary a value, or tolerances"),
+            ("c / x", "plant: copy / delete a flight condition"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
+            ("w", "sweep on Dask (starts, vary, tolerance)"),
             ("u", "sweep: use the best optimum's design as the start"),
-            ("1 2 3 4 5", "run, plant, targets, history, sweep tabs"), ("p", "next plot"), ("ctrl+s", "save"), ("ctrl+o", "open a session"),
+            ("1 2 3 4 5", "run, plant, targets, history, sweep tabs"), ("p", "next plot"), ("ctrl+s / ctrl+o", "save / open a session"),
             ("ctrl+p", "command palette: every action"), ("?", "this help"), ("q", "quit (asks when unsaved)")]
 
     def compose(self) -> ComposeResult:
