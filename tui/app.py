@@ -42,6 +42,7 @@ class LoopcraftApp(App):
         Binding("f", "toggle_free", "free/fix", show=False), Binding("i", "import_table", "import CSV", show=False), Binding("b", "start_here", "start here", show=False),
         Binding("plus", "add", "add", show=False), Binding("minus,delete", "delete", "delete", show=False),
         Binding("c", "copy_condition", "copy condition", show=False),
+        Binding("g", "toggle_per_condition", "shared/per condition", show=False),
         Binding("x", "delete_condition", "delete condition", show=False),
         Binding("w", "sweep", "sweep", show=False), Binding("u", "use_best", "use best", show=False),
         Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
@@ -344,7 +345,7 @@ class LoopcraftApp(App):
                              lambda m: m and self._change(lambda: editing.add_target(self.bench, m), f"add {m}"))
         elif focused.id in ("parameters", "blocks"):
             title = ("new parameter: NAME VALUE [MIN MAX]" if focused.id == "parameters"
-                     else "new block: NAME INPUT OUTPUT EXPRESSION (in the selected row's condition)")
+                     else "new block: NAME INPUT OUTPUT EXPRESSION, or matrix entry: ROW COL EXPRESSION")
             add = ((lambda text: editing.add_parameter(self.bench, text)) if focused.id == "parameters"
                    else (lambda text: editing.add_block(self.bench, row, text)))
             self.push_screen(EditDialog(title, "", editing.ADD_CHECKS[focused.id]),
@@ -358,6 +359,14 @@ class LoopcraftApp(App):
         table, row = focused.id, focused.cursor_row
         self._change(lambda: self.notify(f"deleted {editing.delete_row(self.bench, table, row) or 'nothing'}"),
                      "delete the selected row", always_ask=True)
+
+    def action_toggle_per_condition(self) -> None:
+        """g on the parameters table: shared <-> one value per condition."""
+        focused = self.focused
+        if self.bench is None or not isinstance(focused, DataTable) or focused.id != "parameters":
+            return
+        row = focused.cursor_row
+        self._change(lambda: editing.toggle_per_condition(self.bench, row), "switch shared/per condition")
 
     def action_copy_condition(self) -> None:
         """c on the plant table: a new flight condition copied from the selected row's."""

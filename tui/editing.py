@@ -224,6 +224,17 @@ def delete_condition(bench: Workbench, row: int) -> str:
     return source.name
 
 
+def toggle_per_condition(bench: Workbench, row: int) -> None:
+    """A shared parameter gets one value per condition (all equal), or a per-condition
+    one becomes shared with its first condition's value."""
+    params = bench.session.model.problem.parameters
+    if not 0 <= row < len(params):
+        return
+    p = params[row]
+    n = len(bench.session.model.problem.conditions)
+    set_fields(bench, p, value=p.value[0] if isinstance(p.value, list) else [p.value] * n)
+
+
 def toggle_free(bench: Workbench, row: int) -> None:
     params = bench.session.model.problem.parameters
     if 0 <= row < len(params):
@@ -556,6 +567,12 @@ def delete_row(bench: Workbench, table: str, row: int) -> str | None:
         change_list(bench, problem.parameters, lambda items: items.pop(row))
         return f"parameter {name}"
     if table == "blocks":
+        entry = _matrix_entry(bench, row)
+        if entry is not None:
+            entries, k = entry
+            name = f"a[{entries[k].row},{entries[k].col}]"
+            change_list(bench, entries, lambda items: items.pop(k))
+            return f"matrix entry {name}"
         found = _block_position(bench, row)
         if found is not None:
             blocks, k = found
@@ -584,13 +601,37 @@ def _parameter_words(text: str) -> tuple[str, float, float | None, float | None]
 def add_block(bench: Workbench, row: int, text: str) -> None:
     """'NAME INPUT OUTPUT EXPRESSION': a new block in the diagram of the selected row's condition."""
     from sessions.schema import BlockModel, ExpressionBlock
-    name, source, target, expression = _block_words(text)
     condition = _condition_at(bench, row)
+    if condition is not None and condition.plant.format == "matrix":
+        _add_matrix_entry(bench, condition, text)
+        return
+    name, source, target, expression = _block_words(text)
     if condition is None or condition.plant.format != "diagram":
-        raise SessionError("blocks are added to block-diagram plants (select a row of one)")
+        raise SessionError("blocks are added to block-diagram plants, entries to matrix plants")
     block = BlockModel(name=name, input=source, output=target,
                        transfer=ExpressionBlock(kind="expression", expression=expression))
     change_list(bench, condition.plant.blocks, lambda items: items.append(block))
+
+
+def _add_matrix_entry(bench: Workbench, condition, text: str) -> None:
+    """'ROW COL EXPRESSION' (from 1): a new entry of a matrix-format plant."""
+    from sessions.schema import MatrixEntry
+    words = text.split(None, 2)
+    if len(words) != 3 or not words[0].isdigit() or not words[1].isdigit():
+        raise SessionError("a matrix entry: ROW COL EXPRESSION (rows and columns from 1)")
+    entry = MatrixEntry(row=int(words[0]), col=int(words[1]), expression=words[2])
+    change_list(bench, condition.plant.entries, lambda items: items.append(entry))
+
+
+def _matrix_entry(bench: Workbench, row: int):
+    from .screens.main import plant_rows
+    k = 0
+    for condition in bench.session.model.problem.conditions:
+        n = len(plant_rows(condition))
+        if condition.plant.format == "matrix" and k <= row < k + n:
+            return condition.plant.entries, row - k
+        k += n
+    return None
 
 
 def _block_words(text: str) -> tuple[str, str, str, str]:
@@ -621,4 +662,6 @@ def _block_position(bench: Workbench, row: int):
     return None
 
 
-ADD_CHECKS = {"parameters": _checker(_parameter_words), "blocks": _checker(_block_words)}
+ADD_CHECKS = {"parameters": _checker(_parameter_words),
+              "blocks": lambda text: None if len(text.split(None, 2)) == 3 and text.split()[0].isdigit()
+              else _checker(_block_words)(text)}

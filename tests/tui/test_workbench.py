@@ -79,3 +79,34 @@ def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workd
     assert bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7, 0.8)
     assert delete_condition(bench, rows_per_condition * 3 + 1) == "max-q hot"
     assert len(bench.session.problem.conditions) == 3 and bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7)
+
+
+def test_shared_and_per_condition_toggle(workdir):
+    from tui.editing import toggle_per_condition
+    bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
+    names = [p.name for p in bench.session.model.problem.parameters]
+    toggle_per_condition(bench, names.index("TA"))
+    assert bench.session.problem.parameters[names.index("TA")].value == (0.05, 0.05, 0.05)
+    assert len(bench.session.problem.free_slots()) == 16
+    toggle_per_condition(bench, names.index("TA"))
+    assert bench.session.problem.parameters[names.index("TA")].value == 0.05
+
+
+def test_matrix_entries_are_deleted_and_added(workdir):
+    """Report 003's matrix format: e + y = theta, u = C e, y = G u."""
+    import json
+    from tui.editing import add_block, delete_row
+    doc = json.loads((workdir / "report003_lag_lead.json").read_text())
+    doc["problem"]["conditions"][0]["plant"] = {
+        "format": "matrix", "signals": ["e", "u", "y"], "forcing_row": 1, "forcing": "1", "input_name": "r",
+        "entries": [{"row": 1, "col": 1, "expression": "1"}, {"row": 1, "col": 3, "expression": "1"},
+                    {"row": 2, "col": 2, "expression": "1"},
+                    {"row": 2, "col": 1, "expression": "-(s+z1)*(s+z2)/((s+p1)*(s+p2))"},
+                    {"row": 3, "col": 3, "expression": "1"}, {"row": 3, "col": 2, "expression": "-16000/(s*(s+8)*(s+20))"}]}
+    path = workdir / "matrix.json"
+    path.write_text(json.dumps(doc))
+    bench = Workbench(load_session(path))
+    before = bench.loop_curve().gh
+    assert delete_row(bench, "blocks", 5) == "matrix entry a[3,2]"
+    add_block(bench, 0, "3 2 -16000/(s*(s+8)*(s+20))")
+    assert np.allclose(bench.loop_curve().gh, before, rtol=1e-12)

@@ -111,7 +111,7 @@ class HelpScreen(ModalScreen[None]):
     KEYS = [("s", "step one iteration"), ("n", "run N iterations (asks N)"), ("r", "run until the algorithm stops"),
             ("space / escape", "pause a run (within one iteration)"), ("z", "undo the last iteration"),
             ("a", "choose the algorithm"), ("e / enter", "edit the selected row (plant, targets, settings)"),
-            ("f", "free/fix the selected parameter"), ("+ / -", "add / delete a target, parameter or block"),
+            ("f / g", "parameter: free/fix; shared/per condition"), ("+ / -", "add / delete a target, parameter or block"),
             ("c / x", "plant: copy / delete a flight condition"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
             ("w", "sweep on Dask (starts, vary, tolerance)"),
             ("u", "sweep: use the best optimum's design as the start"),
