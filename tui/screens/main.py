@@ -24,7 +24,7 @@ from ..workbench import Workbench
 SHORT = {"gain_margin": "G", "phase_margin": "P", "stability_margin": "S", "attenuation_margin": "A",
          "gain_margin_db": "GM dB", "phase_margin_deg": "PM deg", "crossover_frequency": "wc",
          "averaged_square": "avg sq", "modal_peak_db": "peak", "modal_peak_phase_deg": "pk ph",
-         "stability_abscissa": "stab", "peak_response": "peak t", "mean_square": "msq", "rise_time": "rise",
+         "stability_abscissa": "stab", "peak_response": "resp pk", "mean_square": "msq", "rise_time": "rise",
          "settling_time": "settle", "overshoot_percent": "OS %", "peak_time": "t peak", "steady_state_error": "ss err"}
 
 
