@@ -203,7 +203,7 @@ class Slp:
         if not improved:
             return Status.NO_IMPROVEMENT, f"major iteration {memory['major']} found no better point ({why})", best
         if memory["major"] >= s.max_major or over_time:
-            limit = "time limit" if over_time else f"{s.max_major} major iterations"
+            limit = "time limit" if over_time else f"major-iteration limit ({s.max_major})"
             return Status.ITERATION_LIMIT, limit, best
         memory.update(major=memory["major"] + 1, minor=0, x0=best.x.tolist(), base=memory["best"],
                       partials=None, P=max(memory["P_best"], s.min_step), P_best=0.0, P_failed=None)

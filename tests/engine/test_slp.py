@@ -261,3 +261,13 @@ def _vector(session, record) -> np.ndarray:
         value = record.parameters[problem.parameters[i].name]
         out.append(value[c] if c is not None else value)
     return np.array(out)
+
+
+def test_time_and_major_limits_end_on_the_best_point():
+    session = load_session(EXAMPLES / "coebra_lag_lead.json")
+    for settings in (SlpSettings(time_limit=0.0), SlpSettings(max_major=1)):
+        records = [r for _, r in iterate(Slp(), session.problem, settings, max_iter=100)]
+        final = records[-1]
+        assert final.status.value == "iteration limit" and {r.extra["major"] for r in records} == {1}
+        assert final.extra["counter"] == final.extra["best_counter"]
+        assert final.reason in ("time limit", "major-iteration limit (1)")
