@@ -53,6 +53,7 @@ from .measures import Spec, evaluate, measure_specs
 from .partials import jacobian
 
 LOAD_KINDS = ("peak_response", "mean_square")
+STILL = "the linear program does not move"
 
 
 @dataclass(frozen=True)
@@ -147,7 +148,7 @@ class Slp:
         else:
             memory["P_failed"] = P
         numbers = (memory["major"], memory["minor"])
-        done, why = self._next_step(memory, lp, trial)
+        done, why = self._next_step(memory, reason == STILL)
         memory["elapsed"] += time.perf_counter() - began
         status, shown = Status.RUNNING, trial
         if done:
@@ -163,19 +164,20 @@ class Slp:
         if lp.dx is None:
             return None, f"no feasible program even with STEP = 0 ({lp.status})"
         if np.all(np.abs(lp.dx) <= 1e-14 * np.maximum(np.abs(x0), 1.0)):
-            return None, "the linear program does not move"
+            return None, STILL
         x = np.clip(x0 + lp.dx, self.lower, self.upper)
         try:
             return self._point(x), ""
         except (EngineError, np.linalg.LinAlgError, ValueError) as exc:
             return None, f"trial point cannot be evaluated: {exc}"
 
-    def _next_step(self, memory: dict, lp: LpResult, trial: Point | None) -> tuple[bool, str]:
-        """Update P (grow, or bisect the bracket); True when the minor loop is over."""
+    def _next_step(self, memory: dict, still: bool) -> tuple[bool, str]:
+        """Update P (grow, or bisect the bracket); True when the minor loop is over
+        (a program that does not move will not move with another P either)."""
         s = self.settings
         P_best, P_failed = memory["P_best"], memory["P_failed"]
-        if trial is None and lp.dx is not None:
-            return True, "the linear program does not move"
+        if still:
+            return True, STILL
         if self._complete(_point_from(memory["best"])):
             return True, "nothing left to improve"
         if memory["minor"] >= s.max_minor:
