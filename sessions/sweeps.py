@@ -313,20 +313,11 @@ def _summary(record: StepRecord) -> dict:
     objective = record.objective if record.objective is not None else record.extra.get("smallest_stability_margin")
     out = {"status": record.status.value, "reason": record.reason, "iterations": record.iteration,
            "parameters": dict(record.parameters), "objective": objective,
-           "measures": [_measure(m) for m in record.measures],
+           "measures": record.to_json()["measures"],
            "meets_requirements": all(m.satisfied for m in record.measures)}
     if "averaged_squares" in record.extra:
         out["averaged_squares"] = dict(record.extra["averaged_squares"])
     return out
-
-
-def _measure(m) -> dict:
-    return {"name": m.name, "kind": m.kind, "condition": m.condition, "value": _finite(m.value),
-            "target": m.target, "satisfied": m.satisfied, "frequency": m.frequency, "at_least": m.at_least}
-
-
-def _finite(value: float) -> float | str:
-    return value if math.isfinite(value) else repr(value)
 
 
 def _announce(index: int) -> str:

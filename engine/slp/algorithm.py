@@ -347,16 +347,13 @@ def w1(spec: Spec, value: float) -> float:
     return float(np.clip(ratio, 0.0, 10.0))
 
 
-def _numbers(values: NDArray) -> list:
-    return [v if math.isfinite(v) else repr(v) for v in values.tolist()]
-
-
 def _point_json(point: Point) -> dict:
-    return {"x": point.x.tolist(), "values": _numbers(point.values), "frequencies": _numbers(point.frequencies),
+    return {"x": point.x.tolist(), "values": point.values.tolist(), "frequencies": point.frequencies.tolist(),
             "counter": point.counter, "merit": point.merit, "stable": point.stable}
 
 
 def _point_from(data: dict) -> Point:
+    """A point from memory (after a JSON round trip, non-finite numbers are strings)."""
     values = np.array([float(v) for v in data["values"]])
     frequencies = np.array([float(v) for v in data["frequencies"]])
     return Point(np.array(data["x"], dtype=float), values, frequencies, int(data["counter"]),
