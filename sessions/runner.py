@@ -73,9 +73,7 @@ def adopt_parameters(session: Session, values: dict) -> None:
     for parameter in model.problem.parameters:
         if parameter.name in values:
             parameter.value = values[parameter.name]
-    model.records.clear()
-    model.current_iteration = 0
-    model.state = None
+    _forget_records(model)
     folder = session.path.parent if session.path else Path.cwd()
     session.problem = build_problem(model.problem, folder)
 
@@ -90,9 +88,14 @@ def set_setting(session: Session, assignment: str) -> None:
     except json.JSONDecodeError:
         value = text
     session.model.algorithm.settings[name.strip()] = value
-    session.model.records.clear()
-    session.model.current_iteration = 0
-    session.model.state = None
+    _forget_records(session.model)
+
+
+def _forget_records(model) -> None:
+    """No iterations any more: the problem or the settings changed."""
+    model.records.clear()
+    model.current_iteration = 0
+    model.state = None
 
 
 @dataclass(frozen=True)

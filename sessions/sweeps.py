@@ -87,7 +87,7 @@ def start_jobs(session: Session, starts: int, spread: float | None = None, seed:
     problem = session.problem
     jobs = []
     for k in range(starts):
-        model = _copy(base)
+        model = copy.deepcopy(base)
         start: dict[str, Any] = {}
         for entry, parameter in zip(model["problem"]["parameters"], problem.parameters):
             if not parameter.free:
@@ -125,16 +125,17 @@ def vary_jobs(session: Session, assignment: str) -> list[Job]:
         raise SessionError(f"--vary {assignment!r}: values must be numbers, V1,V2,...") from None
     if not sep or not values:
         raise SessionError(f"--vary {assignment!r}: write NAME=V1,V2,...")
+    shipped = shippable(session)
     design = _current_design(session)
     if not design:
-        first = run_job(Job(-1, "design", shippable(session)).payload())
+        first = run_job(Job(-1, "design", shipped).payload())
         if first["status"] == "failed":
             raise SessionError(f"--vary: the session's own run failed: {first['reason']}")
         design = first["parameters"]
-    base = _with_design(shippable(session), design)
+    base = _with_design(shipped, design)
     jobs = []
     for k, value in enumerate(values):
-        model = _copy(base)
+        model = copy.deepcopy(base)
         _assign(model["problem"], name.strip(), value)
         jobs.append(Job(k, f"{name.strip()}={value:g}", model, start={name.strip(): value}))
     return jobs
@@ -180,8 +181,7 @@ def tolerance_jobs(session: Session, tolerances: Sequence[str], samples: int, se
         if not sep or fraction < 0:
             raise SessionError(f"--tolerance {text!r}: write NAME=+-10%")
         spreads[name.strip()] = fraction
-    design = _current_design(session)
-    base = shippable(session)
+    base = _with_design(shippable(session), _current_design(session))
     known = {p["name"] for p in base["problem"]["parameters"]}
     unknown = sorted(set(spreads) - known)
     if unknown:
@@ -189,16 +189,14 @@ def tolerance_jobs(session: Session, tolerances: Sequence[str], samples: int, se
     rng = np.random.default_rng(seed)
     jobs = []
     for k in range(samples):
-        model = _copy(base)
+        model = copy.deepcopy(base)
         drawn = {}
         for entry in model["problem"]["parameters"]:
-            value = design.get(entry["name"], entry["value"])
             if entry["name"] in spreads:
-                f = spreads[entry["name"]]
+                f, value = spreads[entry["name"]], entry["value"]
                 scale = (1 + rng.uniform(-f, f, len(value))) if isinstance(value, list) else 1 + rng.uniform(-f, f)
                 value = (np.asarray(value) * scale).tolist() if isinstance(value, list) else float(value * scale)
-                drawn[entry["name"]] = value
-            entry["value"] = value
+                entry["value"] = drawn[entry["name"]] = value
         jobs.append(Job(k, f"sample {k}", model, mode="evaluate", start=drawn))
     return jobs
 
@@ -214,10 +212,6 @@ def _with_design(model: dict, design: dict) -> dict:
 def _current_design(session: Session) -> dict:
     k = session.model.current_iteration
     return dict(session.records[k - 1].parameters) if k else {}
-
-
-def _copy(data: dict) -> dict:
-    return copy.deepcopy(data)
 
 
 def plan(session: Session, kind: str, value, spread: float | None = None, seed: int = 0,

@@ -104,27 +104,24 @@ def block_edit(bench: Workbench, row: int) -> Edit | None:
 
 def _wiring_edit(bench: Workbench, row: int) -> Edit | None:
     """A junction's inputs ('+r -y') or a condition's break point, on a plant-table row."""
-    from .screens.main import plant_rows
-    k = 0
-    for condition in bench.session.model.problem.conditions:
-        rows = plant_rows(condition)
-        if condition.plant.format == "diagram" and k <= row < k + len(rows):
-            offset = row - k - len(condition.plant.blocks)
-            junctions = condition.plant.junctions
-            if 0 <= offset < len(junctions):
-                junction = junctions[offset]
+    condition, offset = _row_owner(bench, row)
+    if condition is None or condition.plant.format != "diagram":
+        return None
+    offset -= len(condition.plant.blocks)
+    junctions = condition.plant.junctions
+    if 0 <= offset < len(junctions):
+        junction = junctions[offset]
 
-                def setter(text: str) -> None:
-                    plus, minus = _parse_signed(text)
-                    set_fields(bench, junction, plus=plus, minus=minus)
-                text = " ".join([f"+{x}" for x in junction.plus] + [f"-{x}" for x in junction.minus])
-                return Edit(f"{condition.name}: junction {junction.name} -> {junction.output} (+a -b ...)", text,
-                            _checker(_parse_signed), setter)
-            if offset == len(junctions):
-                return Edit(f"{condition.name}: break the loop at signal", condition.break_at,
-                            lambda text: None if text.strip() else "a signal name",
-                            lambda text: set_fields(bench, condition, break_at=text.strip()))
-        k += len(rows)
+        def setter(text: str) -> None:
+            plus, minus = _parse_signed(text)
+            set_fields(bench, junction, plus=plus, minus=minus)
+        text = " ".join([f"+{x}" for x in junction.plus] + [f"-{x}" for x in junction.minus])
+        return Edit(f"{condition.name}: junction {junction.name} -> {junction.output} (+a -b ...)", text,
+                    _checker(_parse_signed), setter)
+    if offset == len(junctions):
+        return Edit(f"{condition.name}: break the loop at signal", condition.break_at,
+                    lambda text: None if text.strip() else "a signal name",
+                    lambda text: set_fields(bench, condition, break_at=text.strip()))
     return None
 
 
@@ -189,18 +186,8 @@ def copy_condition(bench: Workbench, row: int, name: str) -> None:
     if not name.strip() or name in [c.name for c in conditions]:
         raise SessionError(f"{name!r}: give a new condition name")
     k = conditions.index(source)
-    params = bench.session.model.problem.parameters
-    old_values = [p.value for p in params]
-    for p in params:
-        if isinstance(p.value, list):
-            p.value = p.value + [p.value[k]]
-    try:
-        change_list(bench, conditions, lambda items: items.append(source.model_copy(deep=True,
-                                                                                     update={"name": name})))
-    except SessionError:
-        for p, v in zip(params, old_values):
-            p.value = v
-        raise
+    _change_conditions(bench, lambda values: values + [values[k]],
+                       lambda items: items.append(source.model_copy(deep=True, update={"name": name})))
 
 
 def delete_condition(bench: Workbench, row: int) -> str:
@@ -210,18 +197,24 @@ def delete_condition(bench: Workbench, row: int) -> str:
     if source is None or len(conditions) < 2:
         raise SessionError("a session keeps at least one condition")
     k = conditions.index(source)
+    _change_conditions(bench, lambda values: values[:k] + values[k + 1:], lambda items: items.pop(k))
+    return source.name
+
+
+def _change_conditions(bench: Workbench, reshape: Callable[[list], list], change: Callable[[list], None]) -> None:
+    """Change the list of conditions and every per-condition value list with it;
+    on failure both are restored."""
     params = bench.session.model.problem.parameters
     old_values = [p.value for p in params]
     for p in params:
         if isinstance(p.value, list):
-            p.value = p.value[:k] + p.value[k + 1:]
+            p.value = reshape(p.value)
     try:
-        change_list(bench, conditions, lambda items: items.pop(k))
+        change_list(bench, bench.session.model.problem.conditions, change)
     except SessionError:
         for p, v in zip(params, old_values):
             p.value = v
         raise
-    return source.name
 
 
 def toggle_per_condition(bench: Workbench, row: int) -> None:
@@ -624,14 +617,11 @@ def _add_matrix_entry(bench: Workbench, condition, text: str) -> None:
 
 
 def _matrix_entry(bench: Workbench, row: int):
-    from .screens.main import plant_rows
-    k = 0
-    for condition in bench.session.model.problem.conditions:
-        n = len(plant_rows(condition))
-        if condition.plant.format == "matrix" and k <= row < k + n:
-            return condition.plant.entries, row - k
-        k += n
-    return None
+    """(the matrix plant's entries, index) of an entry row, or None."""
+    condition, offset = _row_owner(bench, row)
+    if condition is None or condition.plant.format != "matrix":
+        return None
+    return condition.plant.entries, offset
 
 
 def _block_words(text: str) -> tuple[str, str, str, str]:
@@ -641,25 +631,32 @@ def _block_words(text: str) -> tuple[str, str, str, str]:
     return words[0], words[1], words[2], words[3]
 
 
-def _condition_at(bench: Workbench, row: int):
-    from .screens.main import plant_rows
-    k = 0
-    conditions = bench.session.model.problem.conditions
-    for condition in conditions:
-        k += len(plant_rows(condition))
-        if row < k:
-            return condition
-    return conditions[-1] if conditions else None
-
-
-def _block_position(bench: Workbench, row: int):
+def _row_owner(bench: Workbench, row: int):
+    """(condition, offset of the row within that condition's rows of the plant table),
+    or (None, 0) past the last row (`screens.main.plant_rows` gives the rows)."""
     from .screens.main import plant_rows
     k = 0
     for condition in bench.session.model.problem.conditions:
-        if condition.plant.format == "diagram" and k <= row < k + len(condition.plant.blocks):
-            return condition.plant.blocks, row - k
-        k += len(plant_rows(condition))
-    return None
+        n = len(plant_rows(condition))
+        if k <= row < k + n:
+            return condition, row - k
+        k += n
+    return None, 0
+
+
+def _condition_at(bench: Workbench, row: int):
+    """The condition of a plant-table row (the last one past the end)."""
+    conditions = bench.session.model.problem.conditions
+    condition, _ = _row_owner(bench, row)
+    return condition if condition is not None else (conditions[-1] if conditions else None)
+
+
+def _block_position(bench: Workbench, row: int):
+    """(the diagram's blocks, index) of a block row, or None."""
+    condition, offset = _row_owner(bench, row)
+    if condition is None or condition.plant.format != "diagram" or offset >= len(condition.plant.blocks):
+        return None
+    return condition.plant.blocks, offset
 
 
 ADD_CHECKS = {"parameters": _checker(_parameter_words),
