@@ -33,6 +33,17 @@ async def select_row(app, pilot, tab: str, table: str, row: int) -> None:
     widget.move_cursor(row=row)
 
 
+async def typo_then_enter(app, pilot, typo: str, message: str, good: str) -> None:
+    """In the open edit dialog: type a typo, see the dialog name the problem, type
+    the good value and press enter (the dialog stays open until the value is good)."""
+    field = app.screen.query_one("#value")
+    field.value = typo
+    await pilot.pause()
+    assert message in str(app.screen.query_one("#error").render())
+    field.value = good
+    await pilot.press("enter")
+
+
 async def settle(app, pilot) -> None:
     await pilot.pause()
     await app.workers.wait_for_complete()
@@ -186,11 +197,8 @@ async def test_editing_a_targets_bands(workdir):
         await pilot.pause()
         field = app.screen.query_one("#value")
         assert field.value == "0..inf: 0.49"
-        field.value = "0..1: 0.5; 1..inf 0.4"         # a typo: the missing colon
-        await pilot.pause()
-        assert "cannot read" in str(app.screen.query_one("#error").render())
-        field.value = "0..1: 0.5; 1..inf: 0.4"
-        await pilot.press("enter")
+        await typo_then_enter(app, pilot, "0..1: 0.5; 1..inf 0.4", "cannot read",   # the missing colon
+                              "0..1: 0.5; 1..inf: 0.4")
         await settle(app, pilot)
         bands = app.bench.session.problem.targets[2].bands
         assert [(b.low, b.desired) for b in bands] == [(0.0, 0.5), (1.0, 0.4)]
@@ -229,11 +237,7 @@ async def test_importing_a_csv_table_into_a_block_with_a_preview(workdir):
         assert "0.01,100,-90" in str(app.screen.query_one("Label").render())     # the preview
         field = app.screen.query_one("#value")
         assert field.value == "hz,mag,deg polar hz 1"
-        field.value = "hz,mag,phase polar hz 1"
-        await pilot.pause()
-        assert "no column 'phase'" in str(app.screen.query_one("#error").render())
-        field.value = "hz,mag,deg polar hz 1"
-        await pilot.press("enter")
+        await typo_then_enter(app, pilot, "hz,mag,phase polar hz 1", "no column 'phase'", "hz,mag,deg polar hz 1")
         await settle(app, pilot)
         transfer = app.bench.session.model.problem.conditions[0].plant.blocks[1].transfer
         assert transfer.kind == "table" and transfer.table.csv == "plant.csv"
@@ -249,12 +253,7 @@ async def test_a_setting_is_checked_against_the_algorithm(workdir):
         await select_row(app, pilot, "3", "objective-table", labels.index("cip.mode"))
         await pilot.press("e")
         await pilot.pause()
-        field = app.screen.query_one("#value")
-        field.value = "fastest"
-        await pilot.pause()
-        assert "tifr" in str(app.screen.query_one("#error").render())
-        field.value = "sifr"
-        await pilot.press("enter")
+        await typo_then_enter(app, pilot, "fastest", "tifr", "sifr")
         await settle(app, pilot)
         assert app.bench.session.model.algorithm.settings["mode"] == "sifr"
 
@@ -299,12 +298,7 @@ async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workd
         await settle(app, pilot)
         await pilot.press("w")
         await pilot.pause()
-        field = app.screen.query_one("#value")
-        field.value = "starts 4 seed 2 at"                   # incomplete: the dialog says why
-        await pilot.pause()
-        assert "needs a scheduler address" in str(app.screen.query_one("#error").render())
-        field.value = "starts 4 seed 2"
-        await pilot.press("enter")
+        await typo_then_enter(app, pilot, "starts 4 seed 2 at", "needs a scheduler address", "starts 4 seed 2")
         deadline = time.monotonic() + 120
         while app.bench.latest_sweep() is None and time.monotonic() < deadline:
             await pilot.pause(0.2)
@@ -352,12 +346,7 @@ async def test_targets_parameters_blocks_and_options_are_added_deleted_and_edite
         await select_row(app, pilot, "2", "blocks", 0)
         await pilot.press("plus")
         await pilot.pause()
-        field = app.screen.query_one("#value")
-        field.value = "filter y ym"                          # too few words: the dialog says so
-        await pilot.pause()
-        assert "NAME INPUT OUTPUT EXPRESSION" in str(app.screen.query_one("#error").render())
-        field.value = "filter y ym Kf/(1+0.01*s)"
-        await pilot.press("enter")
+        await typo_then_enter(app, pilot, "filter y ym", "NAME INPUT OUTPUT EXPRESSION", "filter y ym Kf/(1+0.01*s)")
         await settle(app, pilot)
         assert problem().parameters[-1].name == "Kf" and problem().conditions[0].plant.blocks[-1].name == "filter"
         assert "Kf" in app.bench.session.problem.conditions[0].network.parameters
