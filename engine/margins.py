@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .loops import LoopModel
-from .rootfind import refine_roots, sign_changes
+from .rootfind import refine, sign_changes
 
 POINTS_PER_DECADE = 10
 CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
@@ -121,60 +121,78 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     and arg GH are monotone, so inserting the extrema into the grid leaves at
     most one gain or phase crossover per interval: the second pass finds them.
     """
-    extrema = {"S": (_slope_distance, 1), "A": (_slope_magnitude, -1), "Amin": (_slope_magnitude, 1),
-               "phase": (_slope_phase, 0)}
+    im, mag = np.sign(gh.imag), np.abs(gh)
     # an extremum can hide two crossings only where the level function has the
     # same sign at both ends: a minimum of |GH| above 1, a phase extremum short of
     # the negative real axis (|GH| maxima are margins of their own: all kept)
-    im, mag = np.sign(gh.imag), np.abs(gh)
     relevant = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1),
                 "phase": (im[:-1] == im[1:]) & ((gh.real[:-1] < 0) | (gh.real[1:] < 0))}
-    found_extrema = _refine_sign_changes(loop, w, gh, dgh, extrema, relevant)
-    points = np.concatenate([found_extrema[k] for k in ("A", "Amin", "phase")])
+    found = _refine_brackets(loop, w, gh, dgh, EXTREMA, _brackets(w, gh, dgh, EXTREMA, relevant))
+    points = np.concatenate([found[name] for name in ("A", "Amin", "phase")])
     if points.size:
         g, dg = loop.evaluate(points)
         order = np.argsort(np.concatenate([w, points]), kind="stable")
         w, gh, dgh = (np.concatenate(p)[order] for p in ((w, points), (gh, g), (dgh, dg)))
-    crossings = _refine_sign_changes(loop, w, gh, dgh, {"G": (_imag_sign, 0), "P": (_log_magnitude, 0)})
-    every = {"G": crossings["G"], "P": crossings["P"], "S": found_extrema["S"], "A": found_extrema["A"]}
+    found |= _refine_brackets(loop, w, gh, dgh, CROSSINGS, _brackets(w, gh, dgh, CROSSINGS))
+    every = {name: found[name] for name in ("G", "P", "S", "A")}
     frequencies = np.concatenate(list(every.values()))
     values = loop.evaluate(frequencies)[0] if frequencies.size else np.zeros(0)
-    found: dict[str, list[Margin]] = {}
+    margins: dict[str, list[Margin]] = {}
     start = 0
     for name, r in every.items():
-        found[name] = [_margin(name, f, v) for f, v in zip(r, values[start:start + r.size])]
+        margins[name] = [_margin(name, f, v) for f, v in zip(r, values[start:start + r.size])]
         start += r.size
-    return found
+    return margins
 
 
-def _refine_sign_changes(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, functions: dict,
-                         relevant: dict[str, NDArray] | None = None) -> dict[str, NDArray]:
-    """Sorted roots of each function (direction +1 rising, -1 falling, 0 both), refined
-    together; ``relevant[name]`` (per interval) limits which intervals are searched."""
-    starts, kinds, exact = [], [], {}
-    values = {name: f(gh, dgh) for name, (f, _) in functions.items()}
-    for name, (_, direction) in functions.items():
-        idx = sign_changes(values[name], rising_only=direction > 0, falling_only=direction < 0)
+def _brackets(w: NDArray, gh: NDArray, dgh: NDArray, levels: dict,
+              relevant: dict[str, NDArray] | None = None) -> dict[str, tuple[NDArray, NDArray]]:
+    """Per level: the grid intervals over which its target (h, or h' for an
+    extremum) changes sign in its direction (+1 rising, -1 falling, 0 both),
+    limited to ``relevant[name]`` (per interval); and the grid points where
+    the target is exactly 0 (direction 0 only)."""
+    out = {}
+    for name, (level, direction, stationary) in levels.items():
+        value = level(gh, dgh, np.ones_like(gh))[1 if stationary else 0]
+        idx = sign_changes(value, rising_only=direction > 0, falling_only=direction < 0)
         if relevant and name in relevant:
             idx = idx[relevant[name][idx]]
-        starts.append(idx)
-        kinds.append(np.full(idx.size, name))
-        exact[name] = w[np.flatnonzero(values[name] == 0)] if direction == 0 else np.zeros(0)
-    idx, kind = np.concatenate(starts), np.concatenate(kinds)
+        out[name] = (idx, w[np.flatnonzero(value == 0)] if direction == 0 else np.zeros(0))
+    return out
 
-    def fun(points: NDArray, which: NDArray) -> NDArray:
-        g, dg = loop.evaluate(points)
-        out = np.empty(points.size)
-        for name, (f, _) in functions.items():
-            sel = kind[which] == name
-            if sel.any():
-                out[sel] = f(g[sel], dg[sel])
-        return out
 
-    fa = np.array([values[k][i] for k, i in zip(kind, idx)])
-    fb = np.array([values[k][i + 1] for k, i in zip(kind, idx)])
-    roots = refine_roots(fun, w[idx], w[idx + 1], fa, fb) if idx.size else np.zeros(0)
-    return {name: np.unique(np.concatenate([roots[kind == name], exact[name]])) for name in functions}
+def _refine_brackets(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, levels: dict,
+                     brackets: dict[str, tuple[NDArray, NDArray]]) -> dict[str, NDArray]:
+    """The sorted roots or extrema of every level in its brackets, refined together."""
+    functions = list(dict.fromkeys(level for level, _, _ in levels.values()))
+    names = list(brackets)
+    idx = np.concatenate([brackets[name][0] for name in names])
+    code = np.concatenate([np.full(brackets[name][0].size, functions.index(levels[name][0])) for name in names])
+    stationary = np.concatenate([np.full(brackets[name][0].size, levels[name][2]) for name in names])
+    ref = gh[idx]  # each bracket's left-end value: the phase is measured from it
+
+    def level_at(g: NDArray, dg: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
+        """(h, h') of each bracket's own level function (all are computed: fewer, larger operations)."""
+        values = [f(g, dg, ref[which]) for f in functions]
+        if len(values) == 1:
+            return values[0]
+        return tuple(np.choose(code[which], [v[part] for v in values]) for part in (0, 1))
+
+    def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
+        return level_at(*loop.evaluate(points), which)
+
+    roots = np.zeros(0)
+    if idx.size:
+        every = np.arange(idx.size)
+        with np.errstate(all="ignore"):
+            (ha, da), (hb, db) = level_at(gh[idx], dgh[idx], every), level_at(gh[idx + 1], dgh[idx + 1], every)
+            roots = refine(fun, w[idx], w[idx + 1], ha, hb, da, db, stationary)
+    found, start = {}, 0
+    for name in names:
+        size = brackets[name][0].size
+        found[name] = np.unique(np.concatenate([roots[start:start + size], brackets[name][1]]))
+        start += size
+    return found
 
 
 def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:
@@ -183,61 +201,72 @@ def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:
     Starts from a log-spaced background and a few points around every
     lightly damped corner, then halves every interval that could hide a
     minimum-maximum pair of |GH|, of |1 + GH| or of arg GH, or that steps
-    more than 20 deg in phase.  Single extrema are found by their slope's
-    sign change and inserted before crossings are sought (`_refined`).
+    more than 20 deg in phase (each round tests only the new halves).
+    Single extrema are found by their slope's sign change and inserted
+    before crossings are sought (`_refined`).
     """
     w = _initial_grid(loop)
     gh, dgh = loop.evaluate(w)
+    found = [(w, gh, dgh)]
+    split = _needs_split((w[:-1], gh[:-1], dgh[:-1]), (w[1:], gh[1:], dgh[1:]))
+    starts, stops = ([v[:-1][split] for v in found[0]], [v[1:][split] for v in found[0]])
     for _ in range(MAX_ROUNDS):
-        split = _needs_split(w, gh, dgh)
-        if not split.any():
+        if starts[0].size == 0:
             break
-        i = np.flatnonzero(split)
-        mid = np.where(w[i] > 0, np.sqrt(w[i] * w[i + 1]), 0.5 * w[i + 1])
-        gm, dgm = loop.evaluate(mid)
-        order = np.argsort(np.concatenate([w, mid]), kind="stable")
-        w = np.concatenate([w, mid])[order]
-        gh, dgh = np.concatenate([gh, gm])[order], np.concatenate([dgh, dgm])[order]
-    return w, gh, dgh
+        mid = np.where(starts[0] > 0, np.sqrt(starts[0] * stops[0]), 0.5 * stops[0])
+        middle = (mid, *loop.evaluate(mid))
+        found.append(middle)
+        starts = [np.concatenate(p) for p in zip(starts, middle)]  # left halves, then right halves
+        stops = [np.concatenate(p) for p in zip(middle, stops)]
+        split = _needs_split(starts, stops)
+        starts, stops = [v[split] for v in starts], [v[split] for v in stops]
+    w, gh, dgh = (np.concatenate(v) for v in zip(*found))
+    order = np.argsort(w, kind="stable")
+    return w[order], gh[order], dgh[order]
 
 
-def _needs_split(w: NDArray, gh: NDArray, dgh: NDArray) -> NDArray[np.bool_]:
-    """Intervals that could hide a crossing or extremum pair, or step too far in phase."""
+def _needs_split(start, stop) -> NDArray[np.bool_]:
+    """Intervals (each end a (omega, GH, dGH) triple of arrays) that could hide
+    a crossing or extremum pair, or step too far in phase."""
+    (w0, g0, d0), (w1, g1, d1) = start, stop
     with np.errstate(all="ignore"):
-        phase_step = np.abs(np.angle(gh[1:] / gh[:-1]))
-        coarse = (phase_step > MAX_PHASE_STEP) | _may_hide_pair(gh + 1.0, dgh) | _may_hide_pair(gh, dgh) \
-            | _may_hide_phase_pair(gh, dgh)
-    resolvable = (w[1:] - w[:-1]) > 1e-12 * w[1:]
-    return coarse & resolvable & np.isfinite(gh[1:]) & np.isfinite(gh[:-1])
+        tangent_turn = np.abs(np.angle(d1 / d0))
+        turn, distance_turn = np.abs(np.angle(g1 / g0)), np.abs(np.angle((1.0 + g1) / (1.0 + g0)))
+        theta0, theta1 = np.angle(d0 / g0), np.angle(d1 / g1)  # tangent against GH
+        phi0, phi1 = np.abs(np.angle(d0 / (1.0 + g0))), np.abs(np.angle(d1 / (1.0 + g1)))  # against 1 + GH
+        coarse = (turn > MAX_PHASE_STEP) \
+            | _may_hide_pair(np.abs(theta0), np.abs(theta1), tangent_turn + turn) \
+            | _may_hide_pair(phi0, phi1, tangent_turn + distance_turn) \
+            | _may_hide_phase_pair(theta0, theta1, tangent_turn + turn)
+    resolvable = (w1 - w0) > 1e-12 * w1
+    return coarse & resolvable & np.isfinite(g0) & np.isfinite(g1)
 
 
-def _may_hide_pair(r: NDArray, dr: NDArray) -> NDArray[np.bool_]:
-    """Could the distance |r| have a minimum and a maximum inside an interval?
+def _may_hide_pair(phi0: NDArray, phi1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
+    """Could a distance |r| have a minimum and a maximum inside an interval?
 
     d|r|/domega changes sign where the tangent dr is perpendicular to r, i.e.
-    where the angle phi between them crosses 90 deg.  With both ends on the same
-    side, two crossings need phi to vary by the sum of the ends' distances to
-    90 deg; phi varies by at most the turn of the tangent plus the turn of r.
+    where the angle phi between them (0..180 deg, given at both ends) crosses
+    90 deg.  With both ends on the same side, two crossings need phi to vary
+    by the sum of the ends' distances to 90 deg; phi varies by at most
+    ``variation``: the turn of the tangent plus the turn of r.
     """
-    phi = np.abs(np.angle(dr / r))
-    to_right_angle = np.abs(np.pi / 2 - phi)
-    variation = np.abs(np.angle(dr[1:] / dr[:-1])) + np.abs(np.angle(r[1:] / r[:-1]))
-    same_side = (phi[1:] < np.pi / 2) == (phi[:-1] < np.pi / 2)
-    return same_side & (PAIR_SAFETY * variation > to_right_angle[1:] + to_right_angle[:-1])
+    to_right_angle0, to_right_angle1 = np.abs(np.pi / 2 - phi0), np.abs(np.pi / 2 - phi1)
+    same_side = (phi1 < np.pi / 2) == (phi0 < np.pi / 2)
+    return same_side & (PAIR_SAFETY * variation > to_right_angle0 + to_right_angle1)
 
 
-def _may_hide_phase_pair(r: NDArray, dr: NDArray) -> NDArray[np.bool_]:
+def _may_hide_phase_pair(theta0: NDArray, theta1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
     """Could the phase of r have a maximum and a minimum inside an interval?
 
     d(arg r)/domega changes sign where the tangent dr is parallel to r: the
     signed angle theta between them crosses 0 or 180 deg.  Same test as
     `_may_hide_pair`, with the distance to the nearer of 0 and 180 deg.
     """
-    theta = np.angle(dr / r)
-    to_radial = np.minimum(np.abs(theta), np.pi - np.abs(theta))
-    variation = np.abs(np.angle(dr[1:] / dr[:-1])) + np.abs(np.angle(r[1:] / r[:-1]))
-    same_side = (theta[1:] > 0) == (theta[:-1] > 0)
-    return same_side & (PAIR_SAFETY * variation > to_radial[1:] + to_radial[:-1])
+    to_radial0 = np.minimum(np.abs(theta0), np.pi - np.abs(theta0))
+    to_radial1 = np.minimum(np.abs(theta1), np.pi - np.abs(theta1))
+    same_side = (theta1 > 0) == (theta0 > 0)
+    return same_side & (PAIR_SAFETY * variation > to_radial0 + to_radial1)
 
 
 def _initial_grid(loop: LoopModel) -> NDArray[np.float64]:
@@ -252,9 +281,9 @@ def _initial_grid(loop: LoopModel) -> NDArray[np.float64]:
     n = max(int(np.ceil(np.log10(hi / lo) * POINTS_PER_DECADE)), 2)
     parts = [np.geomspace(lo, hi, n)]
     light = loop.dampings < LIGHT_DAMPING
-    for wn, zeta in zip(corners[light], loop.dampings[light]):
-        offsets = CLUSTER if zeta > 0 else CLUSTER[CLUSTER != 0]
-        parts.append(wn * (1.0 + max(zeta, 1e-9) * offsets))
+    wn, zeta = corners[light, None], loop.dampings[light, None]
+    cluster = wn * (1.0 + np.maximum(zeta, 1e-9) * CLUSTER)
+    parts.append(cluster[(zeta > 0) | (CLUSTER != 0)])  # not on an undamped corner itself
     if not loop.rational:
         parts.append(loop.omega[loop.omega > 0])
     w = np.unique(np.concatenate(parts))
@@ -297,27 +326,34 @@ def _margin(kind: str, w: float, gh: complex) -> Margin:
     return Margin(kind, w, distance if kind == "S" else abs(gh), gh)
 
 
-def _imag_sign(gh: NDArray, dgh: NDArray | None = None) -> NDArray:
-    return gh.imag / np.abs(gh)
+# Level functions: (h, dh/domega) from GH, dGH/domega and a reference value of
+# GH (the bracket's left end, from which the phase is measured).
+
+def _imag_sign(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
+    """sin(arg GH): zero where GH crosses the real axis."""
+    magnitude = np.abs(gh)
+    return gh.imag / magnitude, gh.real / magnitude * np.imag(dgh / gh)
 
 
-def _log_magnitude(gh: NDArray, dgh: NDArray | None = None) -> NDArray:
-    return np.log(np.abs(gh))
+def _log_magnitude(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
+    """log |GH|: zero at a gain crossover, stationary at an extremum of |GH|."""
+    return np.log(np.abs(gh)), np.real(dgh / gh)
 
 
-def _slope_distance(gh: NDArray, dgh: NDArray) -> NDArray:
-    """Sign of d|1 + GH|/domega, scaled to be O(1)."""
-    return np.real(np.conj(1.0 + gh) * dgh) / (np.abs(1.0 + gh) * np.abs(dgh) + 1e-300)
+def _log_distance(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
+    """log |1 + GH|: stationary at an extremum of the distance to -1."""
+    return np.log(np.abs(1.0 + gh)), np.real(dgh / (1.0 + gh))
 
 
-def _slope_phase(gh: NDArray, dgh: NDArray) -> NDArray:
-    """Sign of d(arg GH)/domega, scaled to be O(1)."""
-    return np.imag(dgh / gh) / (np.abs(dgh / gh) + 1e-300)
+def _relative_phase(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
+    """arg(GH / reference): stationary at an extremum of the phase."""
+    return np.angle(gh / reference), np.imag(dgh / gh)
 
 
-def _slope_magnitude(gh: NDArray, dgh: NDArray) -> NDArray:
-    """Sign of d|GH|/domega, scaled to be O(1)."""
-    return np.real(np.conj(gh) * dgh) / (np.abs(gh) * np.abs(dgh) + 1e-300)
+# name: (level function, direction of its target's sign change, stationary: an extremum)
+EXTREMA = {"S": (_log_distance, 1, True), "A": (_log_magnitude, -1, True), "Amin": (_log_magnitude, 1, True),
+           "phase": (_relative_phase, 0, True)}
+CROSSINGS = {"G": (_imag_sign, 0, False), "P": (_log_magnitude, 0, False)}
 
 
 def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,

@@ -24,6 +24,7 @@ from .network import Network
 from .realization import StateSpace, realize
 
 AGREEMENT = 1e-9
+BATCH_ELEMENTS = 1 << 14  # root-frequency pairs per batch (256 kB of complex work array)
 LOOP_INPUT = "__loop_input__"
 
 
@@ -34,21 +35,41 @@ class ZpkEvaluator:
         self.gain = gain
         self.zeros = np.sort_complex(zeros)
         self.poles = np.sort_complex(poles)
+        # rows: m zeros, m poles (paired in order), then the unpaired roots of either kind
+        self.paired = min(self.zeros.size, self.poles.size)
+        self.extra_zeros = self.zeros.size > self.poles.size
+        m = self.paired
+        self.roots = np.concatenate([self.zeros[:m], self.poles[:m], self.zeros[m:], self.poles[m:]])[:, None]
+        self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m,
+                                                                      1.0 if self.extra_zeros else -1.0)])
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        s = 1j * np.asarray(omega, dtype=float)[:, None]
-        with np.errstate(all="ignore"):
-            dz, dp = s - self.zeros[None, :], s - self.poles[None, :]
-            gh = self.gain * _ratio_product(dz, dp)
-            dgh = 1j * gh * (np.sum(1.0 / dz, axis=1) - np.sum(1.0 / dp, axis=1))
+        omega = np.asarray(omega, dtype=float).ravel()
+        step = max(16, BATCH_ELEMENTS // max(1, self.roots.size))
+        if omega.size <= step:
+            return self._batch(omega)
+        gh, dgh = np.empty(omega.size, dtype=complex), np.empty(omega.size, dtype=complex)
+        for start in range(0, omega.size, step):  # a few batches that stay in cache
+            part = slice(start, start + step)
+            gh[part], dgh[part] = self._batch(omega[part])
         return gh, dgh
 
+    def _batch(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """Roots along the first axis, frequencies along the second (fast reductions).
 
-def _ratio_product(dz: NDArray, dp: NDArray) -> NDArray:
-    """prod(dz)/prod(dp) by pairs (sorted roots), so no partial product over- or underflows."""
-    m = min(dz.shape[1], dp.shape[1])
-    out = np.prod(dz[:, :m] / dp[:, :m], axis=1)
-    return out * np.prod(dz[:, m:], axis=1) / np.prod(dp[:, m:], axis=1)
+        With r = 1/(s - root): GH = k prod (r_pole / r_zero) over the pairs (no
+        partial product over- or underflows) times the unpaired factors, and
+        dGH/domega = j GH sum(+-r) (+ for zeros, - for poles).
+        """
+        m = self.paired
+        with np.errstate(all="ignore"):
+            r = 1.0 / (1j * omega - self.roots)
+            gh = self.gain * np.prod(r[m:2 * m] / r[:m], axis=0)
+            if self.roots.size > 2 * m:
+                unpaired = np.prod(r[2 * m:], axis=0)
+                gh = gh / unpaired if self.extra_zeros else gh * unpaired
+            dgh = 1j * gh * (self.signs @ r)
+        return gh, dgh
 
 
 def broken_network(network: Network, break_at: str) -> Network:
