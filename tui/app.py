@@ -45,6 +45,7 @@ class LoopcraftApp(App):
         Binding("c", "copy_condition", "copy condition", show=False),
         Binding("g", "toggle_per_condition", "shared/per condition", show=False),
         Binding("x", "delete_condition", "delete condition", show=False),
+        Binding("v", "next_condition", "conditions", show=False),
         Binding("w", "sweep", "sweep", show=False), Binding("u", "use_best", "use best", show=False),
         Binding("ctrl+s", "save", "save"), Binding("ctrl+o", "open", "open"),
         Binding("question_mark", "help", "help"), Binding("q", "quit", "quit"),
@@ -234,6 +235,14 @@ class LoopcraftApp(App):
     def _failed(self, exc: Exception) -> None:
         self.notify(f"{type(exc).__name__}: {exc}", title="iteration failed", severity="error", timeout=10)
         self._refresh()
+
+    def action_next_condition(self) -> None:
+        """Plots: every flight condition together, then each alone with its initial design."""
+        screen = self._main()
+        if self.bench is None or screen is None:
+            return
+        self.notify(self.bench.next_plotted_condition(), timeout=3)
+        screen.refresh_plots()
 
     # -- sweeps -------------------------------------------------------------------
 
@@ -506,6 +515,7 @@ class LoopcraftApp(App):
             ("Save", "save the session (ctrl+s)", self.action_save), ("Save as", "save under a new name",
                                                                      self.action_save_as),
             ("Open", "open a session (ctrl+o)", self.action_open), ("New session", "a new session", self.action_new),
+            ("Conditions", "plots: every flight condition or one (v)", self.action_next_condition),
             ("Sweep", "many runs on Dask (w)", self.action_sweep),
             ("Use best", "the latest sweep's best design as the start (u)", self.action_use_best),
             ("Keys", "every key (?)", self.action_help)]:

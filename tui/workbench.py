@@ -25,11 +25,16 @@ from sessions.sweeps import adopt_run, execute, parse_sweep, plan, record_sweep,
 
 @dataclass(frozen=True)
 class LoopCurve:
-    """GH(j omega) of the first condition at some parameters (for Nyquist, Bode, Nichols)."""
+    """GH(j omega) of one condition at some parameters (for Nyquist, Bode, Nichols)."""
 
     omega: np.ndarray
     gh: np.ndarray
     label: str
+    color: str = "blue"
+
+
+CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
+INITIAL_COLOR = "gray"
 
 
 class Workbench:
@@ -41,6 +46,7 @@ class Workbench:
         self._states: dict[int, State] = {}
         self._algorithm = None
         self._records: list[StepRecord] = session.records   # parsed once, kept in step with the model
+        self.plotted_condition: int | None = None   # the flight condition the plots show; None: all
 
     # -- the algorithm ------------------------------------------------------
 
@@ -221,38 +227,76 @@ class Workbench:
             return None
         return algorithm.initial_record(self._states[0])
 
-    def parameters(self, iteration: int | None = None) -> dict[str, float]:
-        """Parameter values (first condition) after an iteration (0: the session's start)."""
+    def parameters(self, iteration: int | None = None, condition: int = 0) -> dict[str, float]:
+        """Parameter values one condition sees after an iteration (0: the session's start)."""
         k = self.iteration if iteration is None else iteration
         problem = self.session.problem
-        values = problem.values(0)
+        values = problem.values(condition)
         if k > 0:
             for name, value in self.records[k - 1].parameters.items():
-                values[name] = float(value[0] if isinstance(value, list) else value)
+                values[name] = float(value[condition] if isinstance(value, list) else value)
         return values
 
-    def loop_curve(self, iteration: int | None = None, label: str = "current") -> LoopCurve | None:
-        """GH of the first condition (None when the loop cannot be evaluated)."""
+    def loop_curve(self, iteration: int | None = None, label: str = "current", condition: int = 0,
+                   color: str = "blue") -> LoopCurve | None:
+        """GH of one condition (None when the loop cannot be evaluated)."""
         problem = self.session.problem
-        if not problem.conditions:
+        if condition >= len(problem.conditions):
             return None
-        condition = problem.conditions[0]
+        c = problem.conditions[condition]
         try:
-            response = open_loop(condition.network, condition.break_at, problem.grid.omega,
-                                 self.parameters(iteration), sensitivities=False)
+            response = open_loop(c.network, c.break_at, problem.grid.omega, self.parameters(iteration, condition),
+                                 sensitivities=False)
         except EngineError:
             return None
-        return LoopCurve(problem.grid.omega, response.value, label)
+        return LoopCurve(problem.grid.omega, response.value, label, color)
 
-    def step_response(self, iteration: int | None = None) -> tuple[list[float], list[float], str] | None:
+    def plotted(self) -> list[int]:
+        """The conditions the plots show (`plotted_condition`; every one when None)."""
+        count = len(self.session.problem.conditions)
+        if self.plotted_condition is not None and self.plotted_condition < count:
+            return [self.plotted_condition]
+        return list(range(count))
+
+    def next_plotted_condition(self) -> str:
+        """Cycle the plots through every condition together and each alone; says what they show now."""
+        names = [c.name for c in self.session.problem.conditions]
+        if len(names) < 2:
+            self.plotted_condition = None
+            return "the session has one flight condition"
+        k = self.plotted_condition
+        self.plotted_condition = 0 if k is None else None if k + 1 >= len(names) else k + 1
+        return "plots: every flight condition" if self.plotted_condition is None else \
+            f"plots: {names[self.plotted_condition]} (current and initial)"
+
+    def loop_curves(self) -> list[LoopCurve]:
+        """The current design's loop in each plotted condition, labelled by condition
+        when there are several; one condition alone also shows the initial design."""
+        conditions = self.session.problem.conditions
+        shown = self.plotted()
+        if len(shown) > 1:
+            curves = [self.loop_curve(condition=k, label=conditions[k].name,
+                                      color=CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in shown]
+            return [c for c in curves if c is not None]
+        if not shown:
+            return []
+        k = shown[0]
+        many = len(conditions) > 1
+        curves = [self.loop_curve(label=f"{conditions[k].name}: current" if many else "current", condition=k),
+                  self.loop_curve(0, f"{conditions[k].name}: initial" if many else "initial", k, INITIAL_COLOR)
+                  if self.iteration else None]
+        return [c for c in curves if c is not None]
+
+    def step_response(self, iteration: int | None = None,
+                      condition: int = 0) -> tuple[list[float], list[float], str] | None:
         """Closed-loop response to a unit step at the first input, of the output signal
         (y, c or x1 when present), for rational plants; None otherwise."""
         problem = self.session.problem
-        if not problem.conditions or not problem.conditions[0].network.rational:
+        if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
             return None
-        network = problem.conditions[0].network
+        network = problem.conditions[condition].network
         try:
-            ss = realize(network, self.parameters(iteration))
+            ss = realize(network, self.parameters(iteration, condition))
         except EngineError:
             return None
         if not ss.inputs or ss.A.size == 0:
@@ -267,6 +311,29 @@ class Workbench:
         except EngineError:
             return None
         return t.tolist(), y.tolist(), f"{output} (step at {ss.inputs[0]})"
+
+    def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
+        """The step responses the plot shows, as for `loop_curves`: what is plotted,
+        and (t, y, label, color) per trace."""
+        conditions = self.session.problem.conditions
+        shown = self.plotted()
+        if len(shown) > 1:
+            wanted = [(None, k, conditions[k].name, CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in shown]
+        elif shown:
+            k = shown[0]
+            prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
+            wanted = [(None, k, prefix + "current", "blue")]
+            if self.iteration:
+                wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
+        else:
+            wanted = []
+        name, traces = "", []
+        for iteration, k, label, color in wanted:
+            response = self.step_response(iteration, k)
+            if response is not None:
+                t, y, name = response
+                traces.append((t, y, label, color))
+        return name, traces
 
     def trajectories(self) -> tuple[list[float], list[list[float]], list[list[float]]] | None:
         """t, x(t), u(t) of the current iteration (algorithms that produce trajectories)."""

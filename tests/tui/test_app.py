@@ -372,3 +372,21 @@ async def test_an_objective_penalty_and_an_unset_setting_are_edited(workdir):
         await pilot.press("e")
         await pilot.pause()
         assert app.screen.query_one("#value").value != ""    # the default is shown
+
+
+@synchronous
+async def test_v_cycles_the_plots_through_the_flight_conditions(workdir):
+    app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        nyquist = app.screen.query_one("#nyquist")
+        names = [c.name for c in app.bench.session.problem.conditions]
+        assert [s.label for s in nyquist.figure.series[:3]] == names
+        await pilot.press("v")
+        await pilot.pause()
+        assert any(f"plots: {names[0]}" in str(n.message) for n in app._notifications)
+        assert nyquist.figure.series[0].label == f"{names[0]}: current"
+        for _ in names:
+            await pilot.press("v")
+        await pilot.pause()
+        assert [s.label for s in nyquist.figure.series[:3]] == names

@@ -12,6 +12,8 @@ from tui.workbench import Workbench
 def test_step_response_matches_python_control(workdir):
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     t, y, label = bench.step_response()
+    name, traces = bench.step_traces()
+    assert name == label and len(traces) == 1 and traces[0][1] == y and traces[0][2] == "current"
     s = ct.tf("s")
     loop = (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
     _, expected = ct.step_response(ct.feedback(loop, 1), T=np.array(t))
@@ -110,3 +112,30 @@ def test_matrix_entries_are_deleted_and_added(workdir):
     assert delete_row(bench, "blocks", 5) == "matrix entry a[3,2]"
     add_block(bench, 0, "3 2 -16000/(s*(s+8)*(s+20))")
     assert np.allclose(bench.loop_curve().gh, before, rtol=1e-12)
+
+
+def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdir):
+    """Per-condition gains (KD, KR, KL differ by flight condition after a step) must
+    reach each condition's curve; `v` cycles all -> each alone -> all."""
+    from engine.loops import open_loop
+    bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
+    bench.step()
+    problem, record = bench.session.problem, bench.records[-1]
+    names = [c.name for c in problem.conditions]
+    curves = bench.loop_curves()
+    assert [c.label for c in curves] == names and len({c.color for c in curves}) == len(names)
+    for k, (curve, condition) in enumerate(zip(curves, problem.conditions)):
+        values = problem.values(k)
+        values.update({n: v[k] if isinstance(v, list) else v for n, v in record.parameters.items()})
+        expected = open_loop(condition.network, condition.break_at, problem.grid.omega, values,
+                             sensitivities=False).value
+        np.testing.assert_allclose(curve.gh, expected, rtol=1e-12)
+    assert not np.allclose(curves[0].gh, curves[1].gh)
+    messages = [bench.next_plotted_condition() for _ in names] + [bench.next_plotted_condition()]
+    assert messages[0] == f"plots: {names[0]} (current and initial)" and messages[-1] == "plots: every flight condition"
+    bench.plotted_condition = 1
+    alone = bench.loop_curves()
+    assert [c.label for c in alone] == [f"{names[1]}: current", f"{names[1]}: initial"]
+    np.testing.assert_allclose(alone[0].gh, curves[1].gh, rtol=1e-12)
+    name, traces = bench.step_traces()
+    assert [t[2] for t in traces] == [f"{names[1]}: current", f"{names[1]}: initial"]

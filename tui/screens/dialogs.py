@@ -115,7 +115,8 @@ class HelpScreen(ModalScreen[None]):
             ("c / x", "plant: copy / delete a flight condition"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
             ("w", "sweep on Dask (starts, vary, tolerance)"),
             ("u", "sweep: use the best optimum's design as the start"),
-            ("1 2 3 4 5", "run, plant, targets, history, sweep tabs"), ("p", "next plot"), ("ctrl+s / ctrl+o", "save / open a session"),
+            ("1 2 3 4 5", "run, plant, targets, history, sweep tabs"), ("p", "next plot"),
+            ("v", "plots: all flight conditions / one with its initial"), ("ctrl+s / ctrl+o", "save / open a session"),
             ("ctrl+p", "command palette: every action"), ("?", "this help"), ("q", "quit (asks when unsaved)")]
 
     def compose(self) -> ComposeResult:

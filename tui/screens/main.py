@@ -156,8 +156,7 @@ class MainScreen(Screen):
     def figures(self) -> dict[str, object]:
         """Every plot's figure from the workbench (safe to call from the worker thread)."""
         b = self.bench
-        curves = [c for c in (b.loop_curve(label="current"), b.loop_curve(0, "initial") if b.iteration else None)
-                  if c is not None]
+        curves = b.loop_curves()
         figures: dict[str, object] = {}
         if curves:
             figures["nyquist"] = nyquist_figure(curves, self._points(), self._radius())
@@ -167,7 +166,7 @@ class MainScreen(Screen):
         figures["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values,
                                              "no iterations yet")
         figures["trajectories"] = trajectories_figure(b.trajectories())
-        figures["step"] = step_figure(b.step_response(), b.step_response(0) if b.iteration else None)
+        figures["step"] = step_figure(*b.step_traces())
         figures["sweep-plot"] = sweep_figure(b.latest_sweep())
         return figures
 

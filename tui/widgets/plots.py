@@ -127,10 +127,10 @@ def _decades(log_w: np.ndarray, unit: str) -> tuple[list[float], list[str]]:
 def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None) -> Figure:
     """GH plane around -1: the curves, -1, push/pull points, the desired stability circle."""
     fig = Figure(title="Nyquist (GH plane)", xlabel="Re GH", ylabel="Im GH", xlim=(-4.0, 2.0), ylim=(-3.0, 3.0))
-    for curve, color in zip(curves, ("blue", "gray")):
+    for curve in curves:
         gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
         x, y = _finite(gh.real, gh.imag)
-        fig.series.append(Series(x, y, curve.label, color=color))
+        fig.series.append(Series(x, y, curve.label, color=curve.color))
     if radius:
         t = np.linspace(0, 2 * np.pi, 90)
         fig.series.append(Series((-1 + radius * np.cos(t)).tolist(), (radius * np.sin(t)).tolist(),
@@ -147,7 +147,8 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
     scale = 2 * np.pi if unit == "hz" else 1.0
     magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})")
     phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})")
-    for curve, color in zip(curves, ("blue", "gray")):
+    for curve in curves:
+        color = curve.color
         w = curve.omega / scale
         positive = w > 0
         lw = np.log10(w[positive])
@@ -163,10 +164,11 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
 def nichols_figure(curves) -> Figure:
     """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB)."""
     fig = Figure(title="Nichols", xlabel="phase (deg)", ylabel="dB")
-    for curve, color in zip(curves, ("blue", "gray")):
+    for curve in curves:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(curve.gh))
-        fig.series.append(Series(*_finite(np.degrees(np.unwrap(np.angle(curve.gh))), db), curve.label, color=color))
+        fig.series.append(Series(*_finite(np.degrees(np.unwrap(np.angle(curve.gh))), db), curve.label,
+                                 color=curve.color))
     fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))
     return fig
 
@@ -191,14 +193,12 @@ def trajectories_figure(data) -> Figure:
     return fig
 
 
-def step_figure(current, initial) -> Figure:
-    """Closed-loop step response, current and initial (rational plants)."""
+def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]]) -> Figure:
+    """Closed-loop step responses of ``name``: (t, y, label, color) per trace (rational plants)."""
     fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
-    for data, label, color in ((current, "current", "blue"), (initial, "initial", "gray")):
-        if data is not None:
-            t, y, name = data
-            fig.title = f"Step response: {name}"
-            fig.series.append(Series(*_finite(np.array(t), np.array(y)), label, color=color))
+    for t, y, label, color in traces:
+        fig.title = f"Step response: {name}"
+        fig.series.append(Series(*_finite(np.array(t), np.array(y)), label, color=color))
     return fig
 
 
