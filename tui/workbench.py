@@ -14,7 +14,8 @@ import numpy as np
 
 from engine.algorithm import MeasureRow, State, Status, StepRecord, lookup, make_settings
 from engine.errors import EngineError
-from engine.loops import open_loop
+from engine.loops import loop_model, open_loop
+from engine.margins import Margins, margins
 from engine.realization import realize
 from engine.timeresp import Segment, simulate
 from sessions.build import build_problem
@@ -31,6 +32,7 @@ class LoopCurve:
     gh: np.ndarray
     label: str
     color: str = "blue"
+    margins: Margins | None = None   # marked on the Bode plots (the current design's curves)
 
 
 CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
@@ -244,12 +246,18 @@ class Workbench:
         if condition >= len(problem.conditions):
             return None
         c = problem.conditions[condition]
+        values = self.parameters(iteration, condition)
         try:
-            response = open_loop(c.network, c.break_at, problem.grid.omega, self.parameters(iteration, condition),
-                                 sensitivities=False)
+            response = open_loop(c.network, c.break_at, problem.grid.omega, values, sensitivities=False)
         except EngineError:
             return None
-        return LoopCurve(problem.grid.omega, response.value, label, color)
+        found = None
+        if iteration is None:
+            try:
+                found = margins(loop_model(c.network, c.break_at, problem.grid.omega, values))
+            except EngineError:
+                pass
+        return LoopCurve(problem.grid.omega, response.value, label, color, found)
 
     def plotted(self) -> list[int]:
         """The conditions the plots show (`plotted_condition`; every one when None)."""

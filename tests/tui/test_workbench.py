@@ -139,3 +139,18 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     np.testing.assert_allclose(alone[0].gh, curves[1].gh, rtol=1e-12)
     name, traces = bench.step_traces()
     assert [t[2] for t in traces] == [f"{names[1]}: current", f"{names[1]}: initial"]
+
+
+def test_bode_plots_mark_the_margins_of_report_003(workdir):
+    """Report 003 chapter 1, lag-lead compensated: PM 52.13 deg at 12.06 rad/s, GM 14.11 dB."""
+    from tui.widgets.plots import bode_figures
+    bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
+    magnitude, phase = bode_figures(bench.loop_curves(), "rad/s")
+    marks = {s.label: s for s in magnitude.series if s.scatter}
+    assert set(marks) == {"PM 52.1 deg", "GM 14.1 dB"}
+    pm, gm = marks["PM 52.1 deg"], marks["GM 14.1 dB"]
+    assert pm.y == [0.0] and abs(10 ** pm.x[0] - 12.06) < 0.005
+    assert abs(gm.y[0] + 14.11) < 0.005
+    phase_marks = {s.label: s for s in phase.series if s.scatter}
+    assert abs(phase_marks["PM 52.1 deg"].y[0] % 360 - (52.13 + 180) % 360) < 0.5
+    assert abs(phase_marks["GM 14.1 dB"].y[0] % 360 - 180) < 0.5

@@ -143,22 +143,46 @@ def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | No
 
 
 def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
-    """Magnitude (dB) and phase (deg) against log frequency."""
+    """Magnitude (dB) and phase (deg) against log frequency; the current
+    design's gain and phase margins marked at their frequencies."""
     scale = 2 * np.pi if unit == "hz" else 1.0
     magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})")
     phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})")
     for curve in curves:
-        color = curve.color
         w = curve.omega / scale
         positive = w > 0
         lw = np.log10(w[positive])
         gh = curve.gh[positive]
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(gh))
-        magnitude.series.append(Series(*_finite(lw, db), curve.label, color=color))
-        phase.series.append(Series(*_finite(lw, np.degrees(np.unwrap(np.angle(gh)))), curve.label, color=color))
+        degrees = np.degrees(np.unwrap(np.angle(gh)))
+        magnitude.series.append(Series(*_finite(lw, db), curve.label, color=curve.color))
+        phase.series.append(Series(*_finite(lw, degrees), curve.label, color=curve.color))
         magnitude.xticks = phase.xticks = _decades(lw, unit)
+        if curve.margins is not None:
+            _mark_margins(magnitude, phase, curve, lw, degrees, scale)
     return magnitude, phase
+
+
+def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray,
+                  scale: float) -> None:
+    """Phase margins at the gain crossovers (0 dB) and gain margins at the phase
+    crossovers, on both plots; the legend gives the smallest of each."""
+    prefix = "" if curve.label == "current" else f"{curve.label.split(':')[0]} "
+    for kind, found in (("PM", curve.margins.phase), ("GM", curve.margins.gain)):
+        marks = [m for m in found if m.frequency > 0 and lw[0] <= math.log10(m.frequency / scale) <= lw[-1]]
+        if not marks or not np.all(np.isfinite(degrees)):
+            continue
+        x = [math.log10(m.frequency / scale) for m in marks]
+        if kind == "PM":
+            level, worst = [0.0] * len(marks), f"{min(m.phase_deg for m in marks):.1f} deg"
+        else:
+            level, worst = [-m.gain_db for m in marks], f"{min(m.gain_db for m in marks):.1f} dB"
+        label = f"{prefix}{kind} {worst}" + (f" ({len(marks)})" if len(marks) > 1 else "")
+        marker = "x" if kind == "PM" else "o"
+        magnitude.series.append(Series(x, level, label, marker=marker, scatter=True, color=curve.color))
+        phase.series.append(Series(x, np.interp(x, lw, degrees).tolist(), label, marker=marker, scatter=True,
+                                   color=curve.color))
 
 
 def nichols_figure(curves) -> Figure:
