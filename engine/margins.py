@@ -34,6 +34,7 @@ POINTS_PER_DECADE = 10
 CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
 LIGHT_DAMPING = 0.3
 DECADES_BEYOND = 2.0
+DECADES_PER_LOOK = 8
 MAX_ROUNDS = 60
 MAX_PHASE_STEP = np.radians(20.0)
 PAIR_SAFETY = 1.5
@@ -279,7 +280,9 @@ def _initial_grid(loop: LoopModel) -> NDArray[np.float64]:
         lo, hi = loop.omega[0], loop.omega[-1]
         lo = lo if lo > 0 else min(loop.omega[1] * 1e-3, 1e-6)
     n = max(int(np.ceil(np.log10(hi / lo) * POINTS_PER_DECADE)), 2)
-    parts = [np.geomspace(lo, hi, n)]
+    background = np.exp(np.linspace(math.log(lo), math.log(hi), n))
+    background[0], background[-1] = lo, hi
+    parts = [background]
     light = loop.dampings < LIGHT_DAMPING
     wn, zeta = corners[light, None], loop.dampings[light, None]
     cluster = wn * (1.0 + np.maximum(zeta, 1e-9) * CLUSTER)
@@ -291,24 +294,26 @@ def _initial_grid(loop: LoopModel) -> NDArray[np.float64]:
 
 
 def _extend_to_crossovers(loop: LoopModel, lo: float, hi: float) -> tuple[float, float]:
-    """Move each end out by decades while |GH| still moves towards (or across) 1 beyond it."""
-
-    def keeps_going(end: float, beyond: float) -> bool:
+    """Move each end out by decades while |GH| still moves towards (or across) 1
+    beyond it (up to 40 decades; eight at a time, both ends in one evaluation)."""
+    steps = 10.0 ** np.arange(DECADES_PER_LOOK + 1)
+    for _ in range(40 // DECADES_PER_LOOK):
         with np.errstate(all="ignore"):
-            f0, f1 = np.log(np.abs(loop.evaluate(np.array([end, beyond]))[0]))
-        if not (np.isfinite(f0) and np.isfinite(f1)):
-            return False
-        return f0 * f1 <= 0 or abs(f1) < abs(f0) - 1e-6
-
-    for _ in range(40):
-        if not keeps_going(hi, hi * 10.0):
+            level = np.log(np.abs(loop.evaluate(np.concatenate([hi * steps, lo / steps]))[0]))
+        up, down = _decades_moving(level[:steps.size]), _decades_moving(level[steps.size:])
+        hi, lo = hi * 10.0 ** up, lo / 10.0 ** down
+        if up < DECADES_PER_LOOK and down < DECADES_PER_LOOK:
             break
-        hi *= 10.0
-    for _ in range(40):
-        if not keeps_going(lo, lo / 10.0):
-            break
-        lo /= 10.0
     return lo, hi
+
+
+def _decades_moving(level: NDArray) -> int:
+    """How many steps in a row log |GH| keeps moving towards (or across) 0."""
+    for k in range(level.size - 1):
+        f0, f1 = level[k], level[k + 1]
+        if not (np.isfinite(f0) and np.isfinite(f1) and (f0 * f1 <= 0 or abs(f1) < abs(f0) - 1e-6)):
+            return k
+    return level.size - 1
 
 
 def _margin(kind: str, w: float, gh: complex) -> Margin:
