@@ -244,6 +244,12 @@ def main() -> None:
     def all_margins(i=0):
         return margins(loop_model(net, "e", omega, perturbed(params, i)), attenuation_above=0.0)
 
+    built = [loop_model(net, "e", omega, perturbed(params, i)) for i in range(args.repeat + 1)]
+
+    def margins_of_built_loop(i=0):
+        """As python-control is timed: the loop exists, the margins are asked."""
+        return margins(built[i], attenuation_above=0.0)
+
     def pc_margins(i=0):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -253,6 +259,7 @@ def main() -> None:
     assert r.sensitivity.shape == (1000, 30)
     t_resp = median_time(response, args.repeat)
     t_marg = median_time(all_margins, args.repeat)
+    t_marg_built = median_time(margins_of_built_loop, args.repeat)
     t_pc = median_time(pc_margins, args.repeat)
     t_pc_freq = median_time(lambda i: system(1j * omega), args.repeat)
     m = all_margins()
@@ -267,8 +274,10 @@ def main() -> None:
         "loop": {"order": 2 * SECTIONS, "parameters": len(params), "frequencies": omega.size},
         "benchmarks": {
             "response_and_sensitivities": {"median_s": t_resp, "target_s": 0.005},
-            "all_margins": {"median_s": t_marg, "found": {"G": len(m.gain), "P": len(m.phase),
-                                                          "S": len(m.stability), "A": len(m.attenuation)}},
+            "all_margins": {"median_s": t_marg, "includes": "building the loop at new parameter values",
+                            "found": {"G": len(m.gain), "P": len(m.phase), "S": len(m.stability),
+                                      "A": len(m.attenuation)}},
+            "all_margins_of_built_loop": {"median_s": t_marg_built},
             "python_control_stability_margins": {"median_s": t_pc},
             "python_control_tf_response_no_sensitivities": {"median_s": t_pc_freq},
             "cip_iteration": {"median_s": t_cip, "target_s": 0.002, "frequencies": cip_problem_.grid.omega.size,
@@ -281,7 +290,8 @@ def main() -> None:
             "slp_major_iteration": slp_major_iteration(args.repeat),
             "sweep_throughput": sweep_throughput(),
         },
-        "ratios": {"python_control_margins_over_ours": t_pc / t_marg,
+        "ratios": {"python_control_margins_over_ours": t_pc / t_marg_built,
+                   "python_control_margins_over_ours_with_building": t_pc / t_marg,
                    "python_control_tf_response_over_ours_with_sensitivities": t_pc_freq / t_resp,
                    "cip_target_over_ours": 0.002 / t_cip},
         "repeat": args.repeat,
