@@ -277,22 +277,29 @@ class Workbench:
         return "plots: every flight condition" if self.plotted_condition is None else \
             f"plots: {names[self.plotted_condition]} (current and initial)"
 
-    def loop_curves(self) -> list[LoopCurve]:
-        """The current design's loop in each plotted condition, labelled by condition
-        when there are several; one condition alone also shows the initial design."""
+    def loop_curves(self, iteration: int | None = None) -> list[LoopCurve]:
+        """The loop after an iteration (None: the current one) in each plotted
+        condition, labelled by condition when there are several; one condition
+        alone also shows a reference: the initial design beside the current
+        one, the current design beside an earlier iteration."""
         conditions = self.session.problem.conditions
         shown = self.plotted()
+        k_it = self.iteration if iteration is None else iteration
+        at = None if k_it == self.iteration else k_it
         if len(shown) > 1:
-            curves = [self.loop_curve(condition=k, label=conditions[k].name,
-                                      color=CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in shown]
+            curves = [self.loop_curve(at, conditions[k].name, k, CONDITION_COLORS[k % len(CONDITION_COLORS)])
+                      for k in shown]
             return [c for c in curves if c is not None]
         if not shown:
             return []
         k = shown[0]
-        many = len(conditions) > 1
-        curves = [self.loop_curve(label=f"{conditions[k].name}: current" if many else "current", condition=k),
-                  self.loop_curve(0, f"{conditions[k].name}: initial" if many else "initial", k, INITIAL_COLOR)
-                  if self.iteration else None]
+        prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
+        label = "current" if at is None else f"iteration {k_it}" if k_it else "start"
+        curves = [self.loop_curve(at, prefix + label, k)]
+        if at is not None:
+            curves.append(self.loop_curve(None, prefix + "current", k, INITIAL_COLOR))
+        elif self.iteration:
+            curves.append(self.loop_curve(0, prefix + "initial", k, INITIAL_COLOR))
         return [c for c in curves if c is not None]
 
     def step_response(self, iteration: int | None = None,

@@ -98,6 +98,11 @@ async def test_undo_and_start_from_an_earlier_iteration(workdir):
         await settle(app, pilot)
         assert app.bench.iteration == 2 and "Iteration 2" in status(app)
         await select_row(app, pilot, "4", "history-table", 1)
+        await pilot.pause()
+        history_plot = app.screen.query_one("#history-plot").figure
+        assert history_plot.title == "Nyquist: iteration 1"
+        assert [s.label for s in history_plot.series[:2]] == ["iteration 1", "current"]
+        assert history_plot.series[0].y != history_plot.series[1].y
         await pilot.press("b")
         await settle(app, pilot)
         assert app.bench.iteration == 1

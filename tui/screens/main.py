@@ -56,6 +56,7 @@ class MainScreen(Screen):
     #step-info { height: 6; }
     #bode-mag, #bode-phase { height: 1fr; }
     #blocks, #parameters, #targets-table, #objective-table, #history-table, #history-side { height: 1fr; }
+    #history-plot, #history-scroll { height: 1fr; }
     """
 
     def __init__(self, bench: Workbench):
@@ -97,8 +98,10 @@ class MainScreen(Screen):
             with TabPane("History", id="history"):
                 with Horizontal():
                     yield DataTable(id="history-table", cursor_type="row")
-                    with VerticalScroll(id="history-side"):
-                        yield TextView("", id="history-tableau")
+                    with Vertical(id="history-side"):
+                        yield FigurePlot(id="history-plot")
+                        with VerticalScroll(id="history-scroll"):
+                            yield TextView("", id="history-tableau")
             with TabPane("Sweep", id="sweep"):
                 with Horizontal():
                     yield FigurePlot(id="sweep-plot")
@@ -314,8 +317,12 @@ class MainScreen(Screen):
         self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep))
 
     def show_history_iteration(self, iteration: int) -> None:
+        """The selected iteration's loop (beside the current design) and its tableau."""
         rows, _ = self.bench.tableau(iteration)
         self.query_one("#history-tableau", TextView).set(self._tableau_text(rows, []))
+        figure = nyquist_figure(self.bench.loop_curves(iteration), self._points(), self._radius(),
+                                f"Nyquist: iteration {iteration}" if iteration else "Nyquist: start")
+        self.query_one("#history-plot", FigurePlot).show(figure)
 
     def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
         if event.data_table.id in ("blocks", "parameters", "targets-table", "objective-table"):

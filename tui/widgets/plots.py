@@ -124,9 +124,10 @@ def _decades(log_w: np.ndarray, unit: str) -> tuple[list[float], list[str]]:
     return [float(t) for t in ticks], [f"{10.0 ** t:g}" for t in ticks]
 
 
-def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None) -> Figure:
+def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None,
+                   title: str = "Nyquist (GH plane)") -> Figure:
     """GH plane around -1: the curves, -1, push/pull points, the desired stability circle."""
-    fig = Figure(title="Nyquist (GH plane)", xlabel="Re GH", ylabel="Im GH", xlim=(-4.0, 2.0), ylim=(-3.0, 3.0))
+    fig = Figure(title=title, xlabel="Re GH", ylabel="Im GH", xlim=(-4.0, 2.0), ylim=(-3.0, 3.0))
     for curve in curves:
         gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
         x, y = _finite(gh.real, gh.imag)
