@@ -168,17 +168,17 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
 def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray,
                   scale: float) -> None:
     """Phase margins at the gain crossovers (0 dB) and gain margins at the phase
-    crossovers, on both plots; the legend gives the smallest of each."""
+    crossovers, on both plots; the legend gives the one nearest 0 of each kind."""
     prefix = "" if curve.label == "current" else f"{curve.label.split(':')[0]} "
     for kind, found in (("PM", curve.margins.phase), ("GM", curve.margins.gain)):
         marks = [m for m in found if m.frequency > 0 and lw[0] <= math.log10(m.frequency / scale) <= lw[-1]]
         if not marks or not np.all(np.isfinite(degrees)):
             continue
         x = [math.log10(m.frequency / scale) for m in marks]
-        if kind == "PM":
-            level, worst = [0.0] * len(marks), f"{min(m.phase_deg for m in marks):.1f} deg"
+        if kind == "PM":  # the critical margin is the one nearest 0 (a lower gain margin is negative)
+            level, worst = [0.0] * len(marks), f"{min((m.phase_deg for m in marks), key=abs):.1f} deg"
         else:
-            level, worst = [-m.gain_db for m in marks], f"{min(m.gain_db for m in marks):.1f} dB"
+            level, worst = [-m.gain_db for m in marks], f"{min((m.gain_db for m in marks), key=abs):.1f} dB"
         label = f"{prefix}{kind} {worst}" + (f" ({len(marks)})" if len(marks) > 1 else "")
         marker = "x" if kind == "PM" else "o"
         magnitude.series.append(Series(x, level, label, marker=marker, scatter=True, color=curve.color))
