@@ -4,6 +4,8 @@ through `tui.editing`, stepping through the app's worker."""
 
 from __future__ import annotations
 
+import math
+
 from textual.app import ComposeResult
 from textual.binding import Binding
 from rich.text import Text
@@ -31,6 +33,8 @@ SHORT = {"gain_margin": "G", "phase_margin": "P", "stability_margin": "S", "atte
 def _fmt(value, digits: int = 6) -> str:
     if value is None:
         return ""
+    if isinstance(value, float) and math.isnan(value):
+        return "-"  # no such crossing in the band (as `loopcraft report` prints it)
     if isinstance(value, float):
         return f"{value:.{digits}g}"
     return str(value)
