@@ -128,13 +128,13 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     # the negative real axis (|GH| maxima are margins of their own: all kept)
     relevant = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1),
                 "phase": (im[:-1] == im[1:]) & ((gh.real[:-1] < 0) | (gh.real[1:] < 0))}
-    found = _refine_brackets(loop, w, gh, dgh, EXTREMA, _brackets(w, gh, dgh, EXTREMA, relevant))
+    found = _refine_brackets(loop, w, gh, dgh, EXTREMA, True, _brackets(w, gh, dgh, EXTREMA, True, relevant))
     points = np.concatenate([found[name] for name in ("A", "Amin", "phase")])
     if points.size:
         g, dg = loop.evaluate(points)
         order = np.argsort(np.concatenate([w, points]), kind="stable")
         w, gh, dgh = (np.concatenate(p)[order] for p in ((w, points), (gh, g), (dgh, dg)))
-    found |= _refine_brackets(loop, w, gh, dgh, CROSSINGS, _brackets(w, gh, dgh, CROSSINGS))
+    found |= _refine_brackets(loop, w, gh, dgh, CROSSINGS, False, _brackets(w, gh, dgh, CROSSINGS, False))
     every = {name: found[name] for name in ("G", "P", "S", "A")}
     frequencies = np.concatenate(list(every.values()))
     values = loop.evaluate(frequencies)[0] if frequencies.size else np.zeros(0)
@@ -146,14 +146,14 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     return margins
 
 
-def _brackets(w: NDArray, gh: NDArray, dgh: NDArray, levels: dict,
+def _brackets(w: NDArray, gh: NDArray, dgh: NDArray, levels: dict, stationary: bool,
               relevant: dict[str, NDArray] | None = None) -> dict[str, tuple[NDArray, NDArray]]:
-    """Per level: the grid intervals over which its target (h, or h' for an
-    extremum) changes sign in its direction (+1 rising, -1 falling, 0 both),
-    limited to ``relevant[name]`` (per interval); and the grid points where
-    the target is exactly 0 (direction 0 only)."""
+    """Per level: the grid intervals over which its target (h, or h' for
+    extrema) changes sign in its direction, limited to ``relevant[name]``
+    (per interval); and the grid points where the target is exactly 0
+    (direction 0 only)."""
     out = {}
-    for name, (level, direction, stationary) in levels.items():
+    for name, (level, direction) in levels.items():
         value = level(gh, dgh, np.ones_like(gh))[1 if stationary else 0]
         idx = sign_changes(value, rising_only=direction > 0, falling_only=direction < 0)
         if relevant and name in relevant:
@@ -162,14 +162,14 @@ def _brackets(w: NDArray, gh: NDArray, dgh: NDArray, levels: dict,
     return out
 
 
-def _refine_brackets(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, levels: dict,
+def _refine_brackets(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, levels: dict, stationary: bool,
                      brackets: dict[str, tuple[NDArray, NDArray]]) -> dict[str, NDArray]:
-    """The sorted roots or extrema of every level in its brackets, refined together."""
-    functions = list(dict.fromkeys(level for level, _, _ in levels.values()))
+    """The sorted crossings or (``stationary``) extrema of every level in its
+    brackets, refined together."""
+    functions = list(dict.fromkeys(level for level, _ in levels.values()))
     names = list(brackets)
     idx = np.concatenate([brackets[name][0] for name in names])
     code = np.concatenate([np.full(brackets[name][0].size, functions.index(levels[name][0])) for name in names])
-    stationary = np.concatenate([np.full(brackets[name][0].size, levels[name][2]) for name in names])
     ref = gh[idx]  # each bracket's left-end value: the phase is measured from it
 
     def level_at(g: NDArray, dg: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
@@ -355,10 +355,11 @@ def _relative_phase(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDAr
     return np.angle(gh / reference), np.imag(dgh / gh)
 
 
-# name: (level function, direction of its target's sign change, stationary: an extremum)
-EXTREMA = {"S": (_log_distance, 1, True), "A": (_log_magnitude, -1, True), "Amin": (_log_magnitude, 1, True),
-           "phase": (_relative_phase, 0, True)}
-CROSSINGS = {"G": (_imag_sign, 0, False), "P": (_log_magnitude, 0, False)}
+# name: (level function, direction of the sign change: +1 rising, -1 falling, 0 both);
+# extrema are roots of the level's slope, crossings roots of the level
+EXTREMA = {"S": (_log_distance, 1), "A": (_log_magnitude, -1), "Amin": (_log_magnitude, 1),
+           "phase": (_relative_phase, 0)}
+CROSSINGS = {"G": (_imag_sign, 0), "P": (_log_magnitude, 0)}
 
 
 def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,

@@ -36,71 +36,61 @@ LevelFunction = Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]
 
 
 def refine(fun: LevelFunction, a: NDArray, b: NDArray, ha: NDArray, hb: NDArray, da: NDArray, db: NDArray,
-           stationary: NDArray[np.bool_], max_iter: int = 200) -> NDArray[np.float64]:
-    """Roots of h (where ``stationary`` is False) or of h' (True) in brackets
-    [a, b] (a < b) over which that function changes sign, given h and h' at
-    both ends.
+           stationary: bool, max_iter: int = 200) -> NDArray[np.float64]:
+    """Roots of h (``stationary`` False) or of h' (True) in brackets [a, b]
+    (a < b) over which that function changes sign, given h and h' at both ends.
 
     ``fun(points, which)`` gives (h, h') at ``points`` for the brackets
     numbered ``which`` (one call can serve different level functions).
     """
-    stationary = np.asarray(stationary, dtype=bool)
-    # rows: omega, h, h', and the target (h' or h) whose sign changes across the bracket
-    lo = np.array([a, ha, da, np.where(stationary, da, ha)], dtype=float)
-    hi = np.array([b, hb, db, np.where(stationary, db, hb)], dtype=float)
-    root = np.where(lo[3] == 0, lo[0], np.where(hi[3] == 0, hi[0], np.nan))
+    row = 2 if stationary else 1  # of omega, h, h': the one whose sign changes across the bracket
+    step = _stationary_step if stationary else _crossing_step
+    lo, hi = np.array([a, ha, da], dtype=float), np.array([b, hb, db], dtype=float)
+    root = np.where(lo[row] == 0, lo[0], np.where(hi[row] == 0, hi[0], np.nan))
     idx = np.flatnonzero(np.isnan(root))
-    lo, hi, stationary = lo[:, idx], hi[:, idx], stationary[idx]
+    lo, hi = lo[:, idx], hi[:, idx]
     reference_width, stalled = hi[0] - lo[0], np.zeros(idx.size, dtype=int)
-    for _ in range(max_iter):
-        if idx.size == 0:
-            break
-        with np.errstate(all="ignore"):
-            x = _step(lo, hi, stationary)
-        best = np.where(np.abs(lo[3]) <= np.abs(hi[3]), lo[0], hi[0])
-        settled = np.abs(x - best) <= 4 * EPS * np.abs(best)  # the next correction is below 4 ulp
-        done = settled | (hi[0] - lo[0] <= 4 * EPS * np.abs(best))
-        root[idx[done]] = np.where(settled, x, best)[done]
-        going = ~done
-        idx, lo, hi, x, best = idx[going], lo[:, going], hi[:, going], x[going], best[going]
-        stationary, reference_width, stalled = stationary[going], reference_width[going], stalled[going]
-        if idx.size == 0:
-            break
-        bisect = ~np.isfinite(x) | (x <= lo[0]) | (x >= hi[0]) | (stalled >= STALL_STEPS)
-        guard = np.clip(x + GUARD * (x - best), lo[0], hi[0])
-        third = (hi[0] - lo[0]) / 3.0
-        p = np.where(bisect, lo[0] + third, np.minimum(x, guard))
-        q = np.where(bisect, hi[0] - third, np.maximum(x, guard))
-        h, d = fun(np.concatenate([p, q]), np.concatenate([idx, idx]))
-        n = idx.size
-        at_p = np.array([p, h[:n], d[:n], np.where(stationary, d[:n], h[:n])])
-        at_q = np.array([q, h[n:], d[n:], np.where(stationary, d[n:], h[n:])])
-        # the first sign change from the left; an exact zero counts as a change
-        in_first = np.sign(at_p[3]) != np.sign(lo[3])  # [lo, p]
-        in_middle = ~in_first & (np.sign(at_q[3]) != np.sign(at_p[3]))  # [p, q], else [q, hi]
-        lo, hi = (np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
-                  np.where(in_first, at_p, np.where(in_middle, at_q, hi)))
-        width = hi[0] - lo[0]
-        halved = width <= 0.5 * reference_width
-        reference_width = np.where(halved, width, reference_width)
-        stalled = np.where(halved | bisect, 0, stalled + 1)
+    with np.errstate(all="ignore"):
+        for _ in range(max_iter):
+            if idx.size == 0:
+                break
+            x = step(lo, hi)
+            best = np.where(np.abs(lo[row]) <= np.abs(hi[row]), lo[0], hi[0])
+            tolerance = 4 * EPS * np.abs(best)
+            settled = np.abs(x - best) <= tolerance  # the next correction is below 4 ulp
+            done = settled | (hi[0] - lo[0] <= tolerance)
+            if done.any():
+                root[idx[done]] = np.where(settled, x, best)[done]
+                going = ~done
+                idx, lo, hi, x, best = idx[going], lo[:, going], hi[:, going], x[going], best[going]
+                reference_width, stalled = reference_width[going], stalled[going]
+                if idx.size == 0:
+                    break
+            bisect = ~((x > lo[0]) & (x < hi[0])) | (stalled >= STALL_STEPS)  # also where x is not finite
+            guard = np.clip(x + GUARD * (x - best), lo[0], hi[0])
+            third = (hi[0] - lo[0]) / 3.0
+            p = np.where(bisect, lo[0] + third, np.minimum(x, guard))
+            q = np.where(bisect, hi[0] - third, np.maximum(x, guard))
+            h, d = fun(np.concatenate([p, q]), np.concatenate([idx, idx]))
+            n = idx.size
+            at_p, at_q = np.array([p, h[:n], d[:n]]), np.array([q, h[n:], d[n:]])
+            # the first sign change from the left; an exact zero counts as a change
+            in_first = np.sign(at_p[row]) != np.sign(lo[row])  # [lo, p]
+            in_middle = ~in_first & (np.sign(at_q[row]) != np.sign(at_p[row]))  # [p, q], else [q, hi]
+            lo, hi = (np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
+                      np.where(in_first, at_p, np.where(in_middle, at_q, hi)))
+            width = hi[0] - lo[0]
+            halved = width <= 0.5 * reference_width
+            reference_width = np.where(halved, width, reference_width)
+            stalled = np.where(halved | bisect, 0, stalled + 1)
     if idx.size:
         root[idx] = 0.5 * (lo[0] + hi[0])
     return root
 
 
-def _step(lo: NDArray, hi: NDArray, stationary: NDArray[np.bool_]) -> NDArray:
-    """Each bracket's next estimate (rows of lo and hi: omega, h, h', target)."""
-    if stationary.all():
-        return _stationary_step(lo, hi)
-    if not stationary.any():
-        return _crossing_step(lo, hi)
-    return np.where(stationary, _stationary_step(lo, hi), _crossing_step(lo, hi))
-
-
 def _crossing_step(lo: NDArray, hi: NDArray) -> NDArray:
     """The root of h from the cubic Hermite interpolant of the inverse
-    function omega(h) (rows: omega, h, h'; fourth order while h is monotone),
+    function omega(h) (rows of lo, hi: omega, h, h'; fourth order while h is monotone),
     or Newton's step from the end with the smaller |h| when that falls outside
     the bracket."""
     rise = hi[1] - lo[1]
