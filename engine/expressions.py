@@ -96,6 +96,7 @@ class Expression:
         self.root = _Parser(text, variable).parse()
         self.parameters: tuple[str, ...] = tuple(sorted(_collect_parameters(self.root)))
         self._cache: dict[tuple, object] = {}
+        self._constants = _constant_subtrees(self.root)
 
     def _cached(self, what: str, params: Mapping[str, float], make):
         """Results for the last few parameter values (rational forms are reused a lot)."""
@@ -127,11 +128,11 @@ class Expression:
         (evaluated by Horner's rule); larger products stay products, so the
         accuracy of a factored form is kept.
         """
-        return _as_callable(self._cached("compiled", params, lambda: _compile(self.root, params)))
+        return _as_callable(self._cached("compiled", params, lambda: _compile(self.root, params, self._constants)))
 
     def folded(self, params: Mapping[str, float]) -> Rational | None:
         """The expression as a polynomial ratio of degree <= FOLD_DEGREE, else None."""
-        compiled = self._cached("compiled", params, lambda: _compile(self.root, params))
+        compiled = self._cached("compiled", params, lambda: _compile(self.root, params, self._constants))
         return compiled.rational() if isinstance(compiled, _Folded) else None
 
     def rational(self, params: Mapping[str, float]) -> Rational:
@@ -392,8 +393,31 @@ def _as_callable(c: "_Folded | Evaluator") -> Evaluator:
     return _rational_evaluator(c.rational()) if isinstance(c, _Folded) else c
 
 
-def _compile(node: Node, params: Mapping[str, float]) -> "_Folded | Evaluator":
-    """Fold subtrees of degree <= FOLD_DEGREE into polynomial ratios; keep the rest as closures."""
+def _constant_subtrees(root: Node) -> dict[int, "_Folded | Evaluator"]:
+    """The compiled form of every largest subtree without parameters (by node
+    id): compiled once, reused whenever the parameters change."""
+    constants: dict[int, _Folded | Evaluator] = {}
+
+    def visit(node: Node) -> bool:  # True when the subtree has no parameter
+        free = [visit(a) for a in node.args]
+        if node.op != "param" and all(free):
+            return True
+        for arg, is_free in zip(node.args, free):
+            if is_free and arg.op not in ("num", "var"):
+                constants[id(arg)] = _compile(arg, {}, {})
+        return False
+
+    if visit(root) and root.op not in ("num", "var"):
+        constants[id(root)] = _compile(root, {}, {})
+    return constants
+
+
+def _compile(node: Node, params: Mapping[str, float],
+             constants: dict[int, "_Folded | Evaluator"]) -> "_Folded | Evaluator":
+    """Fold subtrees of degree <= FOLD_DEGREE into polynomial ratios; keep the
+    rest as closures (``constants``: parameter-free subtrees already compiled)."""
+    if id(node) in constants:
+        return constants[id(node)]
     op = node.op
     if op == "num":
         return _Folded((node.value,), (1.0,))
@@ -401,7 +425,7 @@ def _compile(node: Node, params: Mapping[str, float]) -> "_Folded | Evaluator":
         return _Folded((1.0, 0.0), (1.0,))
     if op == "param":
         return _Folded((float(params[node.name]),), (1.0,))
-    args = [_compile(a, params) for a in node.args]
+    args = [_compile(a, params, constants) for a in node.args]
     if all(isinstance(a, _Folded) for a in args):
         folded = args[0].combine(op, args[1] if len(args) > 1 else None, node.exponent)
         if folded.degree <= FOLD_DEGREE:
