@@ -1,0 +1,62 @@
+"""The bracketed refinement behind the margins, on functions with known roots."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from engine.rootfind import refine
+
+
+def _levels(functions):
+    """fun(points, which) for one (h, h') pair per bracket."""
+    def fun(points, which):
+        h, d = np.empty(points.size), np.empty(points.size)
+        for i, (x, k) in enumerate(zip(points, which)):
+            h[i], d[i] = functions[k](x)
+        return h, d
+    return fun
+
+
+def _ends(functions, a, b):
+    ha, da = zip(*(f(x) for f, x in zip(functions, a)))
+    hb, db = zip(*(f(x) for f, x in zip(functions, b)))
+    return np.array(ha), np.array(hb), np.array(da), np.array(db)
+
+
+def test_crossings_and_extrema_to_a_few_ulp():
+    """Roots of x^3 - 2 and of cos x (sign change at pi/2), the minimum of
+    (x - e)^2 + 1 and the maximum of sin x at pi/2: closed-form answers."""
+    crossings = [lambda x: (x**3 - 2.0, 3 * x**2), lambda x: (math.cos(x), -math.sin(x))]
+    a, b = np.array([1.0, 1.0]), np.array([2.0, 3.0])
+    roots = refine(_levels(crossings), a, b, *_ends(crossings, a, b), stationary=False)
+    np.testing.assert_allclose(roots, [2.0 ** (1 / 3), math.pi / 2], rtol=8 * np.finfo(float).eps)
+    extrema = [lambda x: ((x - math.e) ** 2 + 1.0, 2 * (x - math.e)), lambda x: (math.sin(x), math.cos(x))]
+    a, b = np.array([2.0, 1.0]), np.array([3.0, 3.0])
+    roots = refine(_levels(extrema), a, b, *_ends(extrema, a, b), stationary=True)
+    np.testing.assert_allclose(roots, [math.e, math.pi / 2], rtol=8 * np.finfo(float).eps)
+
+
+def test_an_exact_zero_at_an_end_or_on_the_way_is_the_root():
+    f = [lambda x: (x - 1.0, 1.0), lambda x: (x - 1.5, 1.0)]
+    a, b = np.array([1.0, 1.0]), np.array([2.0, 2.0])
+    assert list(refine(_levels(f), a, b, *_ends(f, a, b), stationary=False)) == [1.0, 1.5]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3, unique=True))
+def test_a_cubic_root_between_its_neighbours(roots):
+    """h = (x - r1)(x - r2)(x - r3): bracket each root by the midpoints to its
+    neighbours; every root is found to 1e-12 whatever the curvature."""
+    r = np.sort(roots)
+    if np.min(np.diff(r)) < 0.05:
+        return
+    poly = np.poly(r)
+    f = lambda x: (np.polyval(poly, x), np.polyval(np.polyder(poly), x))  # noqa: E731
+    edges = np.concatenate([[r[0] - 1.0], 0.5 * (r[1:] + r[:-1]), [r[-1] + 1.0]])
+    a, b = edges[:-1], edges[1:]
+    found = refine(_levels([f] * 3), a, b, *_ends([f] * 3, a, b), stationary=False)
+    np.testing.assert_allclose(found, r, atol=1e-12)
