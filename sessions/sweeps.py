@@ -29,7 +29,10 @@ from typing import Any
 import numpy as np
 
 from engine.algorithm import Status, StepRecord, iterate, lookup, make_settings
+from engine.errors import EngineError
+from engine.loops import open_loop
 from engine.measures import tableau
+from engine.problem import Problem
 
 from .build import build_problem, read_csv
 from .errors import SessionError
@@ -41,6 +44,8 @@ SWEEP_VERSION = 1
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"
 SAME_PARAMETERS = 0.05     # decades (about 12 %): runs closer than this in every parameter share an optimum
+SAME_LOOP = 0.01           # runs whose open loops agree within 1 % at every signature point share an optimum
+SIGNATURE_POINTS = 24      # frequencies (grid points spread over the grid) of a run's loop signature
 SAME_OBJECTIVE = 0.01      # relative
 
 
@@ -289,6 +294,8 @@ def run_job(payload: dict) -> dict:
             if record is None:
                 raise SessionError("the algorithm made no iteration")
         result.update(_summary(record))
+        if payload["mode"] != "evaluate":
+            result["signature"] = loop_signature(problem, record.parameters)
     except Exception as exc:  # noqa: BLE001 - a run's failure is data, never the sweep's end
         result.update(status="failed", reason=f"{type(exc).__name__}: {exc}", parameters={}, objective=None,
                       measures=[], meets_requirements=False, iterations=0)
@@ -312,6 +319,26 @@ def _summary(record: StepRecord) -> dict:
     if "averaged_squares" in record.extra:
         out["averaged_squares"] = dict(record.extra["averaged_squares"])
     return out
+
+
+def loop_signature(problem: Problem, parameters: dict) -> list[list[float]] | None:
+    """The open loop GH of every condition at SIGNATURE_POINTS grid frequencies,
+    as (re, im) pairs, at a run's final parameters: two runs with the same
+    loop are the same optimum whatever their parameters (a lead-lag pair
+    with its time constants swapped is one design).  None when a loop
+    cannot be evaluated."""
+    grid = problem.grid.omega[problem.grid.omega > 0]
+    omega = grid[np.unique(np.linspace(0, grid.size - 1, SIGNATURE_POINTS).astype(int))]
+    signature = []
+    for k, condition in enumerate(problem.conditions):
+        values = problem.values(k)
+        values.update({n: float(v[k] if isinstance(v, list) else v) for n, v in parameters.items()})
+        try:
+            gh = open_loop(condition.network, condition.break_at, omega, values, sensitivities=False).value
+        except EngineError:
+            return None
+        signature += [[float(g.real), float(g.imag)] for g in gh]
+    return signature
 
 
 def _announce(index: int) -> str:
@@ -414,9 +441,11 @@ def execute_serial(jobs: Sequence[Job], progress: Callable[[int, int], None] | N
 # -- results -----------------------------------------------------------------
 
 def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
-    """Distinct local optima: runs whose final parameters agree within about 12 %
-    in every parameter (log scale; linear for values near zero) and whose
-    objectives agree within 1 %; each with its count and best run."""
+    """Distinct local optima: runs whose open loops agree within 1 % at every
+    signature point (`loop_signature`; without signatures, whose final
+    parameters agree within about 12 % in every parameter, log scale, linear
+    near zero) and whose objectives agree within 1 %; each with its count
+    and best run."""
     done = [r for r in runs if r["status"] != "failed" and r["parameters"]]
     sign = -1.0 if maximize else 1.0
 
@@ -425,18 +454,30 @@ def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
         return (not r["meets_requirements"], sign * objective if math.isfinite(objective) else math.inf)
     clusters: list[dict] = []
     for run in sorted(done, key=rank):
-        vector = _vector(run["parameters"])
+        vector, signature = _vector(run["parameters"]), _signature(run)
         for cluster in clusters:
-            if _near(vector, cluster["vector"]) and _close(run["objective"], cluster["objective"]):
+            same = _same_loop(signature, cluster["signature"]) if signature is not None and \
+                cluster["signature"] is not None else _near(vector, cluster["vector"])
+            if same and _close(run["objective"], cluster["objective"]):
                 cluster["runs"].append(run["index"])
                 break
         else:
-            clusters.append({"vector": vector, "objective": run["objective"], "parameters": run["parameters"],
+            clusters.append({"vector": vector, "signature": signature, "objective": run["objective"],
+                             "parameters": run["parameters"],
                              "meets_requirements": run["meets_requirements"], "best_run": run["index"],
                              "runs": [run["index"]]})
     return [{"parameters": c["parameters"], "objective": c["objective"], "count": len(c["runs"]),
              "meets_requirements": c["meets_requirements"], "best_run": c["best_run"], "runs": c["runs"]}
             for c in clusters]
+
+
+def _signature(run: dict) -> np.ndarray | None:
+    pairs = run.get("signature")
+    return None if not pairs else np.array([complex(re, im) for re, im in pairs])
+
+
+def _same_loop(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and bool(np.all(np.abs(a - b) <= SAME_LOOP * np.maximum(np.abs(a), np.abs(b))))
 
 
 def _vector(parameters: dict) -> np.ndarray:
@@ -493,6 +534,8 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         data["optima"] = []
     else:
         data["optima"] = optima(outcome.runs, maximize)
+    for run in outcome.runs:
+        run.pop("signature", None)  # only for clustering: not kept in the session
     return data
 
 

@@ -19,7 +19,8 @@ import pytest
 
 from sessions.errors import SessionError
 from sessions.store import load_session
-from sessions.sweeps import Job, optima, run_job, shippable, start_jobs, tolerance_jobs, vary_jobs, worst_case
+from sessions.sweeps import (Job, loop_signature, optima, run_job, shippable, start_jobs, tolerance_jobs, vary_jobs,
+                             worst_case)
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -70,6 +71,22 @@ def test_optima_cluster_by_parameters_and_objective():
     found = optima(runs, maximize=True)
     assert [o["count"] for o in found] == [2, 1, 1]
     assert found[0]["best_run"] == 0 and found[0]["runs"] == [0, 1] and found[-1]["meets_requirements"] is False
+
+
+def test_runs_with_the_same_loop_are_one_optimum_whatever_their_parameters(tmp_path):
+    """(1+T1 s)(1+T2 s)/((1+T3 s)(1+T4 s)): swapping T1 and T2 is the same
+    compensator, so the same loop and one optimum; moving a pole is not."""
+    session = load_session(_copy(tmp_path, "coebra_lag_lead"))
+    designs = [{"T1": 1.2, "T2": 0.7, "T3": 36.0, "T4": 0.03}, {"T1": 0.7, "T2": 1.2, "T3": 36.0, "T4": 0.03},
+               {"T1": 1.2, "T2": 0.7, "T3": 18.0, "T4": 0.03}]
+    runs = [{"index": i, "status": "converged", "parameters": d, "objective": 29.0, "meets_requirements": True,
+             "signature": loop_signature(session.problem, d)} for i, d in enumerate(designs)]
+    first, swapped = (np.array([complex(*p) for p in r["signature"]]) for r in runs[:2])
+    np.testing.assert_allclose(first, swapped, rtol=1e-12)
+    found = optima(runs, maximize=True)
+    assert [o["runs"] for o in found] == [[0, 1], [2]]
+    without = [{k: v for k, v in r.items() if k != "signature"} for r in runs]
+    assert [o["count"] for o in optima(without, maximize=True)] == [1, 1, 1]   # by parameters: three
 
 
 def test_worst_case_follows_each_measures_sense():
