@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 EPS = np.finfo(float).eps
 CUBIC_NARROWEST = 1e-7  # relative bracket width below which the cubic's difference of h is noise
 GUARD = 0.1  # a second point this fraction of the step beyond the estimate, to bracket the root closely
-STALL_STEPS = 3  # steps without halving the bracket before bisection takes over
+STALL_STEPS = 3  # steps without halving the bracket before trisection takes over
 
 LevelFunction = Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]
 
