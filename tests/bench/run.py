@@ -224,6 +224,21 @@ def median_time(fun, repeat: int) -> float:
     return statistics.median(samples)
 
 
+def interleaved_median_times(funs: list, repeat: int) -> list[float]:
+    """Median wall time of each fun(i), the functions called in turn at every
+    i = 1..repeat (after one warm-up call each), so a change in the machine's
+    speed during the run affects all of them alike and their ratios hold."""
+    for fun in funs:
+        fun(0)
+    samples: list[list[float]] = [[] for _ in funs]
+    for i in range(1, repeat + 1):
+        for fun, times in zip(funs, samples):
+            start = time.perf_counter()
+            fun(i)
+            times.append(time.perf_counter() - start)
+    return [statistics.median(times) for times in samples]
+
+
 def perturbed(params: dict, i: int) -> dict:
     """New parameter values each call (1e-12 relative), so no cache can answer."""
     return {k: v * (1.0 + 1e-12 * i) for k, v in params.items()}
@@ -244,7 +259,7 @@ def main() -> None:
     def all_margins(i=0):
         return margins(loop_model(net, "e", omega, perturbed(params, i)), attenuation_above=0.0)
 
-    built = [loop_model(net, "e", omega, perturbed(params, i)) for i in range(args.repeat + 1)]
+    built = [loop_model(net, "e", omega, perturbed(params, i)) for i in range(3 * args.repeat + 1)]
 
     def margins_of_built_loop(i=0):
         """As python-control is timed: the loop exists, the margins are asked."""
@@ -258,9 +273,8 @@ def main() -> None:
     r = response()
     assert r.sensitivity.shape == (1000, 30)
     t_resp = median_time(response, args.repeat)
-    t_marg = median_time(all_margins, args.repeat)
-    t_marg_built = median_time(margins_of_built_loop, args.repeat)
-    t_pc = median_time(pc_margins, args.repeat)
+    t_marg, t_marg_built, t_pc = interleaved_median_times([all_margins, margins_of_built_loop, pc_margins],
+                                                          3 * args.repeat)
     t_pc_freq = median_time(lambda i: system(1j * omega), args.repeat)
     m = all_margins()
     qcg = qcg_comparison(args.repeat)
