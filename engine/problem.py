@@ -304,6 +304,15 @@ class Problem:
                 named[name][c] = float(v)
         return named
 
+    def values_with(self, named: Mapping[str, float | Sequence[float]], condition: int) -> dict[str, float]:
+        """Parameter values one condition sees when ``named`` (as `named_values`
+        gives them: a list per condition for a per-condition parameter)
+        replaces the values it names."""
+        values = self.values(condition)
+        for name, value in named.items():
+            values[name] = float(value[condition] if isinstance(value, (list, tuple)) else value)
+        return values
+
     def named_values(self) -> dict[str, float | list[float]]:
         """name -> value, or name -> list per condition (JSON-ready)."""
         return {p.name: list(p.value) if p.per_condition else p.value for p in self.parameters}

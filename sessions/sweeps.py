@@ -331,10 +331,9 @@ def loop_signature(problem: Problem, parameters: dict) -> list[list[float]] | No
     omega = grid[np.unique(np.linspace(0, grid.size - 1, SIGNATURE_POINTS).astype(int))]
     signature = []
     for k, condition in enumerate(problem.conditions):
-        values = problem.values(k)
-        values.update({n: float(v[k] if isinstance(v, list) else v) for n, v in parameters.items()})
         try:
-            gh = open_loop(condition.network, condition.break_at, omega, values, sensitivities=False).value
+            gh = open_loop(condition.network, condition.break_at, omega, problem.values_with(parameters, k),
+                           sensitivities=False).value
         except EngineError:
             return None
         signature += [[float(g.real), float(g.imag)] for g in gh]
