@@ -233,11 +233,7 @@ class Workbench:
         """Parameter values one condition sees after an iteration (0: the session's start)."""
         k = self.iteration if iteration is None else iteration
         problem = self.session.problem
-        values = problem.values(condition)
-        if k > 0:
-            for name, value in self.records[k - 1].parameters.items():
-                values[name] = float(value[condition] if isinstance(value, list) else value)
-        return values
+        return problem.values_with(self.records[k - 1].parameters, condition) if k > 0 else problem.values(condition)
 
     def loop_curve(self, iteration: int | None = None, label: str = "current", condition: int = 0,
                    color: str = "blue") -> LoopCurve | None:
@@ -277,29 +273,32 @@ class Workbench:
         return "plots: every flight condition" if self.plotted_condition is None else \
             f"plots: {names[self.plotted_condition]} (current and initial)"
 
-    def loop_curves(self, iteration: int | None = None) -> list[LoopCurve]:
-        """The loop after an iteration (None: the current one) in each plotted
-        condition, labelled by condition when there are several; one condition
-        alone also shows a reference: the initial design beside the current
-        one, the current design beside an earlier iteration."""
+    def shown(self, iteration: int | None = None) -> list[tuple[int | None, int, str, str]]:
+        """What the plots draw for an iteration (None: the current one), as
+        (iteration or None for the current, condition, label, colour): each
+        plotted condition, labelled by name, when there are several; one
+        condition alone also with a reference: the initial design beside the
+        current one, the current design beside an earlier iteration."""
         conditions = self.session.problem.conditions
-        shown = self.plotted()
+        plotted = self.plotted()
         k_it = self.iteration if iteration is None else iteration
         at = None if k_it == self.iteration else k_it
-        if len(shown) > 1:
-            curves = [self.loop_curve(at, conditions[k].name, k, CONDITION_COLORS[k % len(CONDITION_COLORS)])
-                      for k in shown]
-            return [c for c in curves if c is not None]
-        if not shown:
+        if len(plotted) > 1:
+            return [(at, k, conditions[k].name, CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in plotted]
+        if not plotted:
             return []
-        k = shown[0]
+        k = plotted[0]
         prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
-        label = "current" if at is None else f"iteration {k_it}" if k_it else "start"
-        curves = [self.loop_curve(at, prefix + label, k)]
+        wanted = [(at, k, prefix + ("current" if at is None else f"iteration {k_it}" if k_it else "start"), "blue")]
         if at is not None:
-            curves.append(self.loop_curve(None, prefix + "current", k, INITIAL_COLOR))
+            wanted.append((None, k, prefix + "current", INITIAL_COLOR))
         elif self.iteration:
-            curves.append(self.loop_curve(0, prefix + "initial", k, INITIAL_COLOR))
+            wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
+        return wanted
+
+    def loop_curves(self, iteration: int | None = None) -> list[LoopCurve]:
+        """The open loops the plots draw (`shown`)."""
+        curves = [self.loop_curve(at, label, k, color) for at, k, label, color in self.shown(iteration)]
         return [c for c in curves if c is not None]
 
     def step_response(self, iteration: int | None = None,
@@ -328,23 +327,11 @@ class Workbench:
         return t.tolist(), y.tolist(), f"{output} (step at {ss.inputs[0]})"
 
     def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
-        """The step responses the plot shows, as for `loop_curves`: what is plotted,
-        and (t, y, label, color) per trace."""
-        conditions = self.session.problem.conditions
-        shown = self.plotted()
-        if len(shown) > 1:
-            wanted = [(None, k, conditions[k].name, CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in shown]
-        elif shown:
-            k = shown[0]
-            prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
-            wanted = [(None, k, prefix + "current", "blue")]
-            if self.iteration:
-                wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
-        else:
-            wanted = []
+        """The step responses the plot draws (`shown`): what is plotted, and
+        (t, y, label, colour) per trace."""
         name, traces = "", []
-        for iteration, k, label, color in wanted:
-            response = self.step_response(iteration, k)
+        for at, k, label, color in self.shown():
+            response = self.step_response(at, k)
             if response is not None:
                 t, y, name = response
                 traces.append((t, y, label, color))
