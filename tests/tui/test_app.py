@@ -33,6 +33,13 @@ async def select_row(app, pilot, tab: str, table: str, row: int) -> None:
     widget.move_cursor(row=row)
 
 
+async def edit_row(app, pilot, tab: str, table: str, row: int) -> None:
+    """Select a row (`select_row`) and open its edit dialog (e)."""
+    await select_row(app, pilot, tab, table, row)
+    await pilot.press("e")
+    await pilot.pause()
+
+
 async def typo_then_enter(app, pilot, typo: str, message: str, good: str) -> None:
     """In the open edit dialog: type a typo, see the dialog name the problem, type
     the good value and press enter (the dialog stays open until the value is good)."""
@@ -150,9 +157,7 @@ async def test_a_typo_in_an_expression_is_shown_and_the_old_value_kept(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await select_row(app, pilot, "2", "blocks", 0)
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "2", "blocks", 0)
         dialog = app.screen
         field = dialog.query_one("#value")
         field.value = "(s+z1)*(s+z2)/((s+p1)*(s+p2"
@@ -195,9 +200,7 @@ async def test_editing_a_targets_bands(workdir):
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await select_row(app, pilot, "3", "targets-table", 2)   # stability margins, desired 0.49
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "3", "targets-table", 2)   # stability margins, desired 0.49
         await pilot.press("enter")                    # "bands", the first choice
         await pilot.pause()
         field = app.screen.query_one("#value")
@@ -214,9 +217,7 @@ async def test_editing_a_parameter_bound(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await select_row(app, pilot, "2", "parameters", 0)       # z1
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "2", "parameters", 0)       # z1
         await pilot.press("down", "enter")        # "min"
         await pilot.pause()
         field = app.screen.query_one("#value")
@@ -255,9 +256,7 @@ async def test_a_setting_is_checked_against_the_algorithm(workdir):
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         labels = [label for label, _, _ in objective_rows(app.bench)]
-        await select_row(app, pilot, "3", "objective-table", labels.index("cip.mode"))
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "3", "objective-table", labels.index("cip.mode"))
         await typo_then_enter(app, pilot, "fastest", "tifr", "sifr")
         await settle(app, pilot)
         assert app.bench.session.model.algorithm.settings["mode"] == "sifr"
@@ -277,9 +276,7 @@ async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
         assert "max-q" in tableau and "switch-out" in tableau
         record = app.bench.records[-1]
         assert record.extra["major"] == 1 and record.extra["minor"] == 1
-        await select_row(app, pilot, "3", "targets-table", 2)   # phase margin: 0.5..8: 40 / 30
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "3", "targets-table", 2)   # phase margin: 0.5..8: 40 / 30
         await pilot.press("enter")
         await pilot.pause()
         field = app.screen.query_one("#value")
@@ -364,18 +361,14 @@ async def test_an_objective_penalty_and_an_unset_setting_are_edited(workdir):
         await settle(app, pilot)
         labels = [label for label, _, _ in objective_rows(app.bench)]
         q2 = labels.index("q2")
-        await select_row(app, pilot, "3", "objective-table", q2)
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "3", "objective-table", q2)
         app.screen.query_one("#value").value = "0.001"
         await pilot.press("enter")
         await settle(app, pilot)
         assert app.bench.session.model.problem.objective.options["q2"] == 0.001
         assert app.bench.session.problem.objective.options["q2"] == 0.001
         row = next(k for k, label in enumerate(labels) if label.startswith("qcg.") and "(default)" in label)
-        await select_row(app, pilot, "3", "objective-table", row)
-        await pilot.press("e")
-        await pilot.pause()
+        await edit_row(app, pilot, "3", "objective-table", row)
         assert app.screen.query_one("#value").value != ""    # the default is shown
 
 
