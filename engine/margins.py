@@ -115,85 +115,130 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
 
 
 def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str, list[Margin]]:
-    """Every crossing and extremum, refined in two passes.
+    """Every crossing and extremum, refined together in one vectorized loop.
 
-    First the extrema: of |1 + GH| (S), of |GH| (A, and the minima too) and
-    of the phase.  Between consecutive extrema of |GH| and of the phase, |GH|
-    and arg GH are monotone, so inserting the extrema into the grid leaves at
-    most one gain or phase crossover per interval: the second pass finds them.
+    The detection grid leaves at most one extremum of |GH|, of |1 + GH| and
+    of arg GH in an interval, so an interval whose ends differ in sign holds
+    exactly one crossing, and one whose ends agree holds two or none: two
+    when the extremum inside lies across the level.  Those extrema are
+    watched while they are refined (`refine`'s ``hiding``): extrema of |GH|
+    for gain crossovers, extrema of the phase for phase crossovers.
     """
-    im, mag = np.sign(gh.imag), np.abs(gh)
-    # an extremum can hide two crossings only where the level function has the
-    # same sign at both ends: a minimum of |GH| above 1, a phase extremum short of
-    # the negative real axis (|GH| maxima are margins of their own: all kept)
-    relevant = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1),
-                "phase": (im[:-1] == im[1:]) & ((gh.real[:-1] < 0) | (gh.real[1:] < 0))}
-    found = _refine_brackets(loop, w, gh, dgh, EXTREMA, True, _brackets(w, gh, dgh, EXTREMA, True, relevant))
-    points = np.concatenate([found[name] for name in ("A", "Amin", "phase")])
-    if points.size:
-        g, dg = loop.evaluate(points)
-        order = np.argsort(np.concatenate([w, points]), kind="stable")
-        w, gh, dgh = (np.concatenate(p)[order] for p in ((w, points), (gh, g), (dgh, dg)))
-    found |= _refine_brackets(loop, w, gh, dgh, CROSSINGS, False, _brackets(w, gh, dgh, CROSSINGS, False))
-    every = {name: found[name] for name in ("G", "P", "S", "A")}
-    frequencies = np.concatenate(list(every.values()))
-    values = loop.evaluate(frequencies)[0] if frequencies.size else np.zeros(0)
+    brackets = _grid_brackets(w, gh, dgh)
+    names = list(brackets)
+    index = np.concatenate([brackets[name].index for name in names])
+    levels = [LEVELS[name] for name in names for _ in range(brackets[name].index.size)]
+    roots = _refine(loop, (w[index], gh[index], dgh[index]), (w[index + 1], gh[index + 1], dgh[index + 1]), levels)
+    bounds = np.cumsum([0] + [brackets[name].index.size for name in names])
+    frequencies = {name: roots.at[start:stop] for name, start, stop in zip(names, bounds[:-1], bounds[1:])}
+    for name, start, stop in zip(names, bounds[:-1], bounds[1:]):
+        hidden = roots.hidden[start:stop].ravel()
+        if LEVELS[name].reveals:
+            crossing = LEVELS[name].reveals
+            frequencies[crossing] = np.concatenate([frequencies[crossing], hidden[~np.isnan(hidden)]])
+    values = _evaluated(loop, {name: frequencies[name] for name in ("G", "P", "S", "A")})
     margins: dict[str, list[Margin]] = {}
-    start = 0
-    for name, r in every.items():
-        margins[name] = [_margin(name, f, v) for f, v in zip(r, values[start:start + r.size])]
-        start += r.size
+    for name in ("G", "P", "S", "A"):
+        points = np.concatenate([frequencies[name], w[brackets[name].exact]])
+        at = np.concatenate([values[name], gh[brackets[name].exact]])
+        unique, first = np.unique(points, return_index=True)
+        margins[name] = [_margin(name, f, v) for f, v in zip(unique.tolist(), at[first].tolist())]
     return margins
 
 
-def _brackets(w: NDArray, gh: NDArray, dgh: NDArray, levels: dict, stationary: bool,
-              relevant: dict[str, NDArray] | None = None) -> dict[str, tuple[NDArray, NDArray]]:
-    """Per level: the grid intervals over which its target (h, or h' for
-    extrema) changes sign in its direction, limited to ``relevant[name]``
-    (per interval); and the grid points where the target is exactly 0
-    (direction 0 only)."""
+@dataclass(frozen=True)
+class Level:
+    """A level function of GH and its slope h' (from dGH/domega).
+
+    Magnitudes: h = log |GH + shift| (shift 0: |GH|, 1: the distance to -1),
+    h' = Re(dGH / (GH + shift)).  Angles: h = the angle of GH from the
+    negative real axis, continued from the bracket's left end (so it is
+    continuous across the axis and 0 on it), h' = Im(dGH / GH).
+    """
+
+    shift: float
+    angle: bool
+    stationary: bool  # an extremum (a root of h') rather than a crossing (a root of h)
+    direction: int  # of the target's sign change: +1 rising, -1 falling, 0 either
+    reveals: str = ""  # extrema: the crossing of h that may hide on either side (see `_refined`)
+
+
+LEVELS = {"S": Level(1.0, False, True, 1), "A": Level(0.0, False, True, -1, "P"),
+          "Amin": Level(0.0, False, True, 1, "P"), "phase": Level(0.0, True, True, 0, "G"),
+          "G": Level(0.0, True, False, 0), "P": Level(0.0, False, False, 0)}
+
+
+@dataclass(frozen=True)
+class Brackets:
+    """Grid intervals [w[index], w[index + 1]] holding a root of one level,
+    and grid points where its target is exactly 0 (``exact``)."""
+
+    index: NDArray[np.intp]
+    exact: NDArray[np.intp]
+
+
+def _grid_brackets(w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str, Brackets]:
+    """Per level, the intervals where its target (h' for extrema, h for
+    crossings) changes sign in its direction.  Kept only where they matter:
+    minima of |GH| and extrema of the phase that may hide two crossings
+    (minima above 1; phase extrema short of the negative real axis), gain
+    crossings on the negative real axis."""
+    with np.errstate(all="ignore"):
+        relative, distance = dgh / gh, dgh / (1.0 + gh)
+    im, mag = np.sign(gh.imag), np.abs(gh)
+    negative = (gh.real[:-1] < 0) | (gh.real[1:] < 0)
+    targets = {"S": distance.real, "A": relative.real, "Amin": relative.real, "phase": relative.imag,
+               "G": gh.imag, "P": mag - 1.0}
+    keep = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1), "phase": (im[:-1] == im[1:]) & negative, "G": negative}
     out = {}
-    for name, (level, direction) in levels.items():
-        value = level(gh, dgh, np.ones_like(gh))[1 if stationary else 0]
-        idx = sign_changes(value, rising_only=direction > 0, falling_only=direction < 0)
-        if relevant and name in relevant:
-            idx = idx[relevant[name][idx]]
-        out[name] = (idx, w[np.flatnonzero(value == 0)] if direction == 0 else np.zeros(0))
+    for name, level in LEVELS.items():
+        target = targets[name]
+        index = sign_changes(target, rising_only=level.direction > 0, falling_only=level.direction < 0)
+        if name in keep:
+            index = index[keep[name][index]]
+        exact = np.flatnonzero(target == 0) if level.direction == 0 else np.zeros(0, dtype=np.intp)
+        if name == "G":
+            exact = exact[gh.real[exact] < 0]
+        out[name] = Brackets(index, exact)
     return out
 
 
-def _refine_brackets(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, levels: dict, stationary: bool,
-                     brackets: dict[str, tuple[NDArray, NDArray]]) -> dict[str, NDArray]:
-    """The sorted crossings or (``stationary``) extrema of every level in its
-    brackets, refined together."""
-    functions = list(dict.fromkeys(level for level, _ in levels.values()))
-    names = list(brackets)
-    idx = np.concatenate([brackets[name][0] for name in names])
-    code = np.concatenate([np.full(brackets[name][0].size, functions.index(levels[name][0])) for name in names])
-    ref = gh[idx]  # each bracket's left-end value: the phase is measured from it
+def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset: NDArray,
+                  angle: NDArray) -> tuple[NDArray, NDArray]:
+    """(h, h') of each point's own level (see `Level`): ``left`` is the
+    bracket's left-end GH for angles (1 for magnitudes), ``offset`` the
+    angle of that end from the negative real axis (0 for magnitudes)."""
+    with np.errstate(all="ignore"):
+        base = g + shift
+        log, ratio = np.log(base / left), dg / base
+    return np.where(angle, log.imag + offset, log.real), np.where(angle, ratio.imag, ratio.real)
 
-    def level_at(g: NDArray, dg: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
-        """(h, h') of each bracket's own level function (all are computed: fewer, larger operations)."""
-        values = [f(g, dg, ref[which]) for f in functions]
-        if len(values) == 1:
-            return values[0]
-        return tuple(np.choose(code[which], [v[part] for v in values]) for part in (0, 1))
+
+def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level]):
+    """`refine` on brackets given by their ends' (omega, GH, dGH) and their levels."""
+    shift = np.array([level.shift for level in levels])
+    angle = np.array([level.angle for level in levels], dtype=bool)
+    left = np.where(angle, lo[1], 1.0)
+    offset = np.where(angle, np.angle(-lo[1]), 0.0)
 
     def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
-        return level_at(*loop.evaluate(points), which)
+        return _level_values(*loop.evaluate(points), shift[which], left[which], offset[which], angle[which])
 
-    roots = np.zeros(0)
-    if idx.size:
-        every = np.arange(idx.size)
-        with np.errstate(all="ignore"):
-            (ha, da), (hb, db) = level_at(gh[idx], dgh[idx], every), level_at(gh[idx + 1], dgh[idx + 1], every)
-            roots = refine(fun, w[idx], w[idx + 1], ha, hb, da, db, stationary)
-    found, start = {}, 0
-    for name in names:
-        size = brackets[name][0].size
-        found[name] = np.unique(np.concatenate([roots[start:start + size], brackets[name][1]]))
-        start += size
-    return found
+    ha, da = _level_values(lo[1], lo[2], shift, left, offset, angle)
+    hb, db = _level_values(hi[1], hi[2], shift, left, offset, angle)
+    stationary = np.array([level.stationary for level in levels], dtype=bool)
+    hiding = np.array([bool(level.reveals) for level in levels], dtype=bool)
+    return refine(fun, lo[0], hi[0], ha, hb, da, db, stationary, hiding)
+
+
+def _evaluated(loop: LoopModel, frequencies: dict[str, NDArray]) -> dict[str, NDArray]:
+    """GH at every level's frequencies, in one evaluation."""
+    every = np.concatenate(list(frequencies.values()))
+    values = loop.evaluate(every)[0] if every.size else np.zeros(0, dtype=complex)
+    out, start = {}, 0
+    for name, points in frequencies.items():
+        out[name], start = values[start:start + points.size], start + points.size
+    return out
 
 
 def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:

@@ -23,6 +23,7 @@ converging Newton or cubic step) or its width reaches 4 ulp."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,72 +36,155 @@ STALL_STEPS = 3  # steps without halving the bracket before trisection takes ove
 LevelFunction = Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]
 
 
+class Roots(NamedTuple):
+    """What `refine` found: the root in each bracket, and for each bracket
+    watched for hidden crossings the two it revealed (NaN where none)."""
+
+    at: NDArray[np.float64]
+    hidden: NDArray[np.float64]  # (brackets, 2): left and right crossing
+
+
 def refine(fun: LevelFunction, a: NDArray, b: NDArray, ha: NDArray, hb: NDArray, da: NDArray, db: NDArray,
-           stationary: bool, max_iter: int = 200) -> NDArray[np.float64]:
-    """Roots of h (``stationary`` False) or of h' (True) in brackets [a, b]
-    (a < b) over which that function changes sign, given h and h' at both ends.
+           stationary: bool | NDArray[np.bool_], hiding: NDArray[np.bool_] | None = None,
+           max_iter: int = 200) -> Roots:
+    """Roots of h (where ``stationary`` is False) or of h' (True; a bool or
+    one per bracket) in brackets [a, b] (a < b) over which that function
+    changes sign, given h and h' at both ends.
 
     ``fun(points, which)`` gives (h, h') at ``points`` for the brackets
     numbered ``which`` (one call can serve different level functions).
+
+    Brackets of extrema flagged ``hiding`` have h of one sign at both ends:
+    the extremum inside may lie across h = 0, with a crossing of h on either
+    side.  As soon as a step lands across, the two crossings get brackets of
+    their own (between that point and its nearest neighbours on the ends'
+    side) and are refined in the same loop, as bracket ``which`` of their
+    extremum.
     """
-    row = 2 if stationary else 1  # of omega, h, h': the one whose sign changes across the bracket
-    step = _stationary_step if stationary else _crossing_step
-    lo, hi = np.array([a, ha, da], dtype=float), np.array([b, hb, db], dtype=float)
-    root = np.where(lo[row] == 0, lo[0], np.where(hi[row] == 0, hi[0], np.nan))
-    idx = np.flatnonzero(np.isnan(root))
-    lo, hi = lo[:, idx], hi[:, idx]
-    reference_width, stalled = hi[0] - lo[0], np.zeros(idx.size, dtype=int)
+    n = np.size(a)
+    stationary = np.broadcast_to(np.asarray(stationary, dtype=bool), (n,))
+    # rows of a bracket end: omega, h, h', and the target whose sign changes (h' or h)
+    lo = np.array([a, ha, da, np.where(stationary, da, ha)], dtype=float).reshape(4, n)
+    hi = np.array([b, hb, db, np.where(stationary, db, hb)], dtype=float).reshape(4, n)
+    watch = np.zeros(n, dtype=bool) if hiding is None else (
+        np.asarray(hiding, dtype=bool) & stationary & (np.sign(lo[1]) == np.sign(hi[1])) & (lo[1] != 0))
+    out = np.full(3 * n, np.nan)  # the roots, then two hidden crossings per bracket
+    out[:n] = np.where(lo[3] == 0, lo[0], np.where(hi[3] == 0, hi[0], np.nan))
+    start = np.flatnonzero(np.isnan(out[:n]))
+    start = start[np.argsort(~stationary[start], kind="stable")]  # extrema first: each step on a slice
+    state = {"slot": start, "which": start, "lo": lo[:, start], "hi": hi[:, start],
+             "stationary": stationary[start], "watch": watch[start], "side": np.sign(lo[1, start]),
+             "reference_width": hi[0, start] - lo[0, start], "stalled": np.zeros(start.size, dtype=int)}
     with np.errstate(all="ignore"):
         for _ in range(max_iter):
-            if idx.size == 0:
+            if state["slot"].size == 0:
                 break
-            x = step(lo, hi)
-            best = np.where(np.abs(lo[row]) <= np.abs(hi[row]), lo[0], hi[0])
-            tolerance = 4 * EPS * np.abs(best)
-            settled = np.abs(x - best) <= tolerance  # the next correction is below 4 ulp
-            done = settled | (hi[0] - lo[0] <= tolerance)
+            x, best, done, root = _estimates(state)
             if done.any():
-                root[idx[done]] = np.where(settled, x, best)[done]
-                going = ~done
-                idx, lo, hi, x, best = idx[going], lo[:, going], hi[:, going], x[going], best[going]
-                reference_width, stalled = reference_width[going], stalled[going]
-                if idx.size == 0:
+                out[state["slot"][done]] = root[done]
+                state, x, best = _kept(state, ~done), x[~done], best[~done]
+                if state["slot"].size == 0:
                     break
-            bisect = ~((x > lo[0]) & (x < hi[0])) | (stalled >= STALL_STEPS)  # also where x is not finite
-            guard = np.clip(x + GUARD * (x - best), lo[0], hi[0])
-            third = (hi[0] - lo[0]) / 3.0
-            p = np.where(bisect, lo[0] + third, np.minimum(x, guard))
-            q = np.where(bisect, hi[0] - third, np.maximum(x, guard))
-            h, d = fun(np.concatenate([p, q]), np.concatenate([idx, idx]))
-            n = idx.size
-            at_p, at_q = np.array([p, h[:n], d[:n]]), np.array([q, h[n:], d[n:]])
-            # the first sign change from the left; an exact zero counts as a change
-            in_first = np.sign(at_p[row]) != np.sign(lo[row])  # [lo, p]
-            in_middle = ~in_first & (np.sign(at_q[row]) != np.sign(at_p[row]))  # [p, q], else [q, hi]
-            lo, hi = (np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
-                      np.where(in_first, at_p, np.where(in_middle, at_q, hi)))
-            width = hi[0] - lo[0]
-            halved = width <= 0.5 * reference_width
-            reference_width = np.where(halved, width, reference_width)
-            stalled = np.where(halved | bisect, 0, stalled + 1)
-    if idx.size:
-        root[idx] = 0.5 * (lo[0] + hi[0])
-    return root
+            p, q, bisect = _next_points(state, x, best)
+            h, d = fun(np.concatenate([p, q]), np.concatenate([state["which"], state["which"]]))
+            m, kind = p.size, state["stationary"]
+            at_p = np.array([p, h[:m], d[:m], np.where(kind, d[:m], h[:m])])
+            at_q = np.array([q, h[m:], d[m:], np.where(kind, d[m:], h[m:])])
+            revealed = _revealed(state, at_p, at_q, n)
+            state = _narrowed(state, at_p, at_q, bisect)
+            if revealed is not None:
+                state = {key: np.concatenate([state[key], revealed[key]], axis=-1) for key in state}
+    if state["slot"].size:
+        out[state["slot"]] = 0.5 * (state["lo"][0] + state["hi"][0])
+    return Roots(out[:n], out[n:].reshape(n, 2))
+
+
+def _kept(state: dict, keep: NDArray[np.bool_]) -> dict:
+    return {key: value[..., keep] for key, value in state.items()}
+
+
+def _estimates(state: dict) -> tuple[NDArray, NDArray, NDArray[np.bool_], NDArray]:
+    """Each bracket's next estimate, its better end, whether it is done, and
+    its root if so (the estimate where it settled, else the better end)."""
+    lo, hi, k = state["lo"], state["hi"], np.count_nonzero(state["stationary"])
+    x = np.concatenate([_stationary_step(lo[:, :k], hi[:, :k]), _crossing_step(lo[:, k:], hi[:, k:])])
+    best = np.where(np.abs(lo[3]) <= np.abs(hi[3]), lo[0], hi[0])
+    tolerance = 4 * EPS * np.abs(best)
+    settled = np.abs(x - best) <= tolerance  # the next correction is below 4 ulp
+    done = settled | (hi[0] - lo[0] <= tolerance)
+    return x, best, done, np.where(settled, x, best)
+
+
+def _next_points(state: dict, x: NDArray, best: NDArray) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """The two points to evaluate in each bracket: the estimate and its guard,
+    or the thirds where the estimate is unusable or progress stalled."""
+    lo, hi = state["lo"][0], state["hi"][0]
+    bisect = ~((x > lo) & (x < hi)) | (state["stalled"] >= STALL_STEPS)  # also where x is not finite
+    guard = np.clip(x + GUARD * (x - best), lo, hi)
+    third = (hi - lo) / 3.0
+    return (np.where(bisect, lo + third, np.minimum(x, guard)),
+            np.where(bisect, hi - third, np.maximum(x, guard)), bisect)
+
+
+def _narrowed(state: dict, at_p: NDArray, at_q: NDArray, bisect: NDArray[np.bool_]) -> dict:
+    """Each bracket cut to the first of [lo, p], [p, q], [q, hi] over which
+    its target changes sign (an exact zero counts as a change)."""
+    lo, hi = state["lo"], state["hi"]
+    in_first = np.sign(at_p[3]) != np.sign(lo[3])
+    in_middle = ~in_first & (np.sign(at_q[3]) != np.sign(at_p[3]))
+    lo, hi = (np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
+              np.where(in_first, at_p, np.where(in_middle, at_q, hi)))
+    width = hi[0] - lo[0]
+    halved = width <= 0.5 * state["reference_width"]
+    return state | {"lo": lo, "hi": hi, "reference_width": np.where(halved, width, state["reference_width"]),
+                    "stalled": np.where(halved | bisect, 0, state["stalled"] + 1)}
+
+
+def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> dict | None:
+    """Brackets for the two crossings of h that a watched extremum's new
+    points reveal (p or q across h = 0 from the ends' side); those extrema
+    stop watching.  None when nothing was revealed."""
+    watch, side = state["watch"], state["side"]
+    p_across = watch & (np.sign(at_p[1]) != side)
+    q_across = watch & (np.sign(at_q[1]) != side)
+    found = p_across | q_across
+    if not found.any():
+        return None
+    state["watch"] = watch & ~found
+    lo, hi = state["lo"][:, found], state["hi"][:, found]
+    at_p, at_q, p_across, q_across = at_p[:, found], at_q[:, found], p_across[found], q_across[found]
+    # left crossing: [lo, p] when p is across, else [p, q]; right: [q, hi] when q is across, else [p, q]
+    left = (np.where(p_across, lo, at_p), np.where(p_across, at_p, at_q))
+    right = (np.where(q_across, at_q, at_p), np.where(q_across, hi, at_q))
+    slot = n + 2 * state["slot"][found]
+    brackets = [np.concatenate(pair, axis=-1) for pair in zip(left, right)]
+    for end in brackets:
+        end[3] = end[1]  # crossings: the target is h
+    size = 2 * slot.size
+    return {"slot": np.concatenate([slot, slot + 1]), "which": np.tile(state["which"][found], 2),
+            "lo": brackets[0], "hi": brackets[1], "stationary": np.zeros(size, dtype=bool),
+            "watch": np.zeros(size, dtype=bool), "side": np.zeros(size),
+            "reference_width": brackets[1][0] - brackets[0][0], "stalled": np.zeros(size, dtype=int)}
 
 
 def _crossing_step(lo: NDArray, hi: NDArray) -> NDArray:
     """The root of h from the cubic Hermite interpolant of the inverse
-    function omega(h) (rows of lo, hi: omega, h, h'; fourth order while h is monotone),
-    or Newton's step from the end with the smaller |h| when that falls outside
-    the bracket."""
-    rise = hi[1] - lo[1]
+    function omega(h) (rows of lo, hi: omega, h, h'; fourth order while h is
+    monotone), where that cubic is monotone by the Fritsch-Carlson test (end
+    slopes over the secant slope alpha, beta > 0 with alpha^2 + beta^2 <= 9)
+    and its root lies in the bracket; otherwise Newton's step from the end
+    with the smaller |h| (the ends' slopes then differ too much for the
+    cubic: one end is far from the root)."""
+    width, rise = hi[0] - lo[0], hi[1] - lo[1]
     u = -lo[1] / rise
     slope_lo, slope_hi = rise / lo[2], rise / hi[2]  # d omega / du at the ends
+    alpha, beta = slope_lo / width, slope_hi / width
     u2, u3 = u * u, u * u * u
     inverse = ((2 * u3 - 3 * u2 + 1) * lo[0] + (u3 - 2 * u2 + u) * slope_lo
                + (3 * u2 - 2 * u3) * hi[0] + (u3 - u2) * slope_hi)
     newton = np.where(np.abs(lo[1]) < np.abs(hi[1]), lo[0] - lo[1] / lo[2], hi[0] - hi[1] / hi[2])
-    return np.where((inverse > lo[0]) & (inverse < hi[0]), inverse, newton)
+    usable = (inverse > lo[0]) & (inverse < hi[0]) & (alpha > 0) & (beta > 0) & (alpha * alpha + beta * beta <= 9.0)
+    return np.where(usable, inverse, newton)
 
 
 def _stationary_step(lo: NDArray, hi: NDArray) -> NDArray:

@@ -134,3 +134,30 @@ def test_modal_peaks_with_their_phase():
 
 
 GRID = np.geomspace(1e-2, 1e2, 50)
+
+
+@pytest.mark.parametrize("name", ["resonance above 1", "phase dipole past -180"])
+def test_two_crossings_hidden_in_one_grid_interval_are_both_found(name):
+    """On a deliberately coarse grid one interval holds both gain crossovers
+    around a resonance poking above |GH| = 1 (ends below 1), or both phase
+    crossovers of a pole-zero dipole that swings the phase past -180 deg
+    (ends short of it).  The extremum inside is refined first and splits the
+    interval; both crossings must match python-control's."""
+    from tests.engine.loopfactory import loop_network
+    from engine.margins import _refined
+
+    s = ct.tf("s")
+    system = {"resonance above 1": 0.1 / (s**2 + 0.02 * s + 1),
+              "phase dipole past -180": 30 / (s * (s + 1)) * (s**2 + 1.05 * s + 110.25) / (s**2 + s + 100) * (100 / 110.25),
+              }[name]
+    grid = np.array([0.1, 0.5, 0.8, 1.3, 2.0, 5.0, 8.5, 12.5, 30.0, 100.0])
+    loop = loop_model(loop_network(system.num[0][0], system.den[0][0]), "e", grid, {})
+    gh, dgh = loop.evaluate(grid)
+    kind, hiding = ("P", 2) if name == "resonance above 1" else ("G", 6)
+    level = np.abs(gh) - 1 if kind == "P" else gh.imag
+    assert np.sign(level[hiding]) == np.sign(level[hiding + 1])  # nothing to see at the interval's ends
+    found = [m.frequency for m in _refined(loop, grid, gh, dgh)[kind]]
+    _, _, _, wg, wp, _ = ct.stability_margins(system, returnall=True)
+    expected = np.sort(wp if kind == "P" else wg)
+    assert len(expected) == 2 and grid[hiding] < expected[0] < expected[1] < grid[hiding + 1]
+    np.testing.assert_allclose(found, expected, rtol=1e-9)

@@ -32,18 +32,18 @@ def test_crossings_and_extrema_to_a_few_ulp():
     (x - e)^2 + 1 and the maximum of sin x at pi/2: closed-form answers."""
     crossings = [lambda x: (x**3 - 2.0, 3 * x**2), lambda x: (math.cos(x), -math.sin(x))]
     a, b = np.array([1.0, 1.0]), np.array([2.0, 3.0])
-    roots = refine(_levels(crossings), a, b, *_ends(crossings, a, b), stationary=False)
+    roots = refine(_levels(crossings), a, b, *_ends(crossings, a, b), stationary=False).at
     np.testing.assert_allclose(roots, [2.0 ** (1 / 3), math.pi / 2], rtol=8 * np.finfo(float).eps)
     extrema = [lambda x: ((x - math.e) ** 2 + 1.0, 2 * (x - math.e)), lambda x: (math.sin(x), math.cos(x))]
     a, b = np.array([2.0, 1.0]), np.array([3.0, 3.0])
-    roots = refine(_levels(extrema), a, b, *_ends(extrema, a, b), stationary=True)
+    roots = refine(_levels(extrema), a, b, *_ends(extrema, a, b), stationary=True).at
     np.testing.assert_allclose(roots, [math.e, math.pi / 2], rtol=8 * np.finfo(float).eps)
 
 
 def test_an_exact_zero_at_an_end_or_on_the_way_is_the_root():
     f = [lambda x: (x - 1.0, 1.0), lambda x: (x - 1.5, 1.0)]
     a, b = np.array([1.0, 1.0]), np.array([2.0, 2.0])
-    assert list(refine(_levels(f), a, b, *_ends(f, a, b), stationary=False)) == [1.0, 1.5]
+    assert list(refine(_levels(f), a, b, *_ends(f, a, b), stationary=False).at) == [1.0, 1.5]
 
 
 @settings(max_examples=60, deadline=None)
@@ -58,5 +58,5 @@ def test_a_cubic_root_between_its_neighbours(roots):
     f = lambda x: (np.polyval(poly, x), np.polyval(np.polyder(poly), x))  # noqa: E731
     edges = np.concatenate([[r[0] - 1.0], 0.5 * (r[1:] + r[:-1]), [r[-1] + 1.0]])
     a, b = edges[:-1], edges[1:]
-    found = refine(_levels([f] * 3), a, b, *_ends([f] * 3, a, b), stationary=False)
+    found = refine(_levels([f] * 3), a, b, *_ends([f] * 3, a, b), stationary=False).at
     np.testing.assert_allclose(found, r, atol=1e-12)
