@@ -248,58 +248,65 @@ def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:
     lightly damped corner, then halves every interval that could hide a
     minimum-maximum pair of |GH|, of |1 + GH| or of arg GH, or that steps
     more than 20 deg in phase (each round tests only the new halves).
-    Single extrema are found by their slope's sign change and inserted
-    before crossings are sought (`_refined`).
+    Single extrema are found by their slope's sign change and refined with
+    the crossings (`_refined`).
     """
     w = _initial_grid(loop)
-    gh, dgh = loop.evaluate(w)
-    found = [(w, gh, dgh)]
-    split = _needs_split((w[:-1], gh[:-1], dgh[:-1]), (w[1:], gh[1:], dgh[1:]))
-    starts, stops = ([v[:-1][split] for v in found[0]], [v[1:][split] for v in found[0]])
+    points = _with_curve(w, *loop.evaluate(w))
+    found = [points]
+    split = _needs_split(points[:, :-1], points[:, 1:])
+    starts, stops = points[:, :-1][:, split], points[:, 1:][:, split]
     for _ in range(MAX_ROUNDS):
-        if starts[0].size == 0:
+        if starts.shape[1] == 0:
             break
-        mid = np.where(starts[0] > 0, np.sqrt(starts[0] * stops[0]), 0.5 * stops[0])
-        middle = (mid, *loop.evaluate(mid))
+        a, b = starts[0].real, stops[0].real
+        mid = np.where(a > 0, np.sqrt(a * b), 0.5 * b)
+        middle = _with_curve(mid, *loop.evaluate(mid))
         found.append(middle)
-        starts = [np.concatenate(p) for p in zip(starts, middle)]  # left halves, then right halves
-        stops = [np.concatenate(p) for p in zip(middle, stops)]
+        starts = np.concatenate([starts, middle], axis=1)  # left halves, then right halves
+        stops = np.concatenate([middle, stops], axis=1)
         split = _needs_split(starts, stops)
-        starts, stops = [v[split] for v in starts], [v[split] for v in stops]
-    w, gh, dgh = (np.concatenate(v) for v in zip(*found))
-    order = np.argsort(w, kind="stable")
-    return w[order], gh[order], dgh[order]
+        starts, stops = starts[:, split], stops[:, split]
+    points = np.concatenate(found, axis=1)
+    points = points[:, np.argsort(points[0].real, kind="stable")]
+    return points[0].real, points[1], points[3]
 
 
-def _needs_split(start, stop) -> NDArray[np.bool_]:
-    """Intervals (each end a (omega, GH, dGH) triple of arrays) that could hide
-    a crossing or extremum pair, or step too far in phase."""
-    (w0, g0, d0), (w1, g1, d1) = start, stop
+def _with_curve(w: NDArray, gh: NDArray, dgh: NDArray) -> NDArray[np.complex128]:
+    """Rows omega, GH, 1 + GH, dGH/domega: the points of the detection grid."""
+    return np.array([w, gh, 1.0 + gh, dgh])
+
+
+def _needs_split(start: NDArray, stop: NDArray) -> NDArray[np.bool_]:
+    """Intervals (ends: columns of `_with_curve` rows) that could hide a
+    crossing or extremum pair, or step too far in phase.
+
+    Row by row: the turns of GH, 1 + GH and the tangent dGH over each
+    interval, and at each end the angles theta of the tangent against GH
+    and phi against 1 + GH (see `_may_hide_pair`)."""
     with np.errstate(all="ignore"):
-        tangent_turn = np.abs(np.angle(d1 / d0))
-        turn, distance_turn = np.abs(np.angle(g1 / g0)), np.abs(np.angle((1.0 + g1) / (1.0 + g0)))
-        theta0, theta1 = np.angle(d0 / g0), np.angle(d1 / g1)  # tangent against GH
-        phi0, phi1 = np.abs(np.angle(d0 / (1.0 + g0))), np.abs(np.angle(d1 / (1.0 + g1)))  # against 1 + GH
-        coarse = (turn > MAX_PHASE_STEP) \
-            | _may_hide_pair(np.abs(theta0), np.abs(theta1), tangent_turn + turn) \
-            | _may_hide_pair(phi0, phi1, tangent_turn + distance_turn) \
-            | _may_hide_phase_pair(theta0, theta1, tangent_turn + turn)
+        turns = np.abs(np.angle(stop[1:] / start[1:]))  # GH, 1 + GH, tangent
+        angles0, angles1 = np.angle(start[3] / start[1:3]), np.angle(stop[3] / stop[1:3])  # theta, phi
+        variation = turns[2] + turns[:2]
+        coarse = (turns[0] > MAX_PHASE_STEP) | np.any(_may_hide_pair(angles0, angles1, variation), axis=0) \
+            | _may_hide_phase_pair(angles0[0], angles1[0], variation[0])
+    w0, w1 = start[0].real, stop[0].real
     resolvable = (w1 - w0) > 1e-12 * w1
-    return coarse & resolvable & np.isfinite(g0) & np.isfinite(g1)
+    return coarse & resolvable & np.isfinite(start[1]) & np.isfinite(stop[1])
 
 
-def _may_hide_pair(phi0: NDArray, phi1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
+def _may_hide_pair(angle0: NDArray, angle1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
     """Could a distance |r| have a minimum and a maximum inside an interval?
 
     d|r|/domega changes sign where the tangent dr is perpendicular to r, i.e.
-    where the angle phi between them (0..180 deg, given at both ends) crosses
-    90 deg.  With both ends on the same side, two crossings need phi to vary
-    by the sum of the ends' distances to 90 deg; phi varies by at most
+    where the angle between them (given signed at both ends) crosses +-90
+    deg.  With both ends on the same side, two crossings need its size to
+    vary by the sum of the ends' distances to 90 deg; it varies by at most
     ``variation``: the turn of the tangent plus the turn of r.
     """
-    to_right_angle0, to_right_angle1 = np.abs(np.pi / 2 - phi0), np.abs(np.pi / 2 - phi1)
-    same_side = (phi1 < np.pi / 2) == (phi0 < np.pi / 2)
-    return same_side & (PAIR_SAFETY * variation > to_right_angle0 + to_right_angle1)
+    size0, size1 = np.abs(angle0), np.abs(angle1)
+    same_side = (size1 < np.pi / 2) == (size0 < np.pi / 2)
+    return same_side & (PAIR_SAFETY * variation > np.abs(np.pi / 2 - size0) + np.abs(np.pi / 2 - size1))
 
 
 def _may_hide_phase_pair(theta0: NDArray, theta1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
