@@ -210,8 +210,9 @@ def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset
     angle of that end from the negative real axis (0 for magnitudes)."""
     with np.errstate(all="ignore"):
         base = g + shift
-        log, ratio = np.log(base / left), dg / base
-    return np.where(angle, log.imag + offset, log.real), np.where(angle, ratio.imag, ratio.real)
+        turned, ratio = base / left, dg / base
+        h = np.where(angle, np.arctan2(turned.imag, turned.real) + offset, np.log(np.abs(base)))
+    return h, np.where(angle, ratio.imag, ratio.real)
 
 
 def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level]):
@@ -285,14 +286,19 @@ def _needs_split(start: NDArray, stop: NDArray) -> NDArray[np.bool_]:
     interval, and at each end the angles theta of the tangent against GH
     and phi against 1 + GH (see `_may_hide_pair`)."""
     with np.errstate(all="ignore"):
-        turns = np.abs(np.angle(stop[1:] / start[1:]))  # GH, 1 + GH, tangent
-        angles0, angles1 = np.angle(start[3] / start[1:3]), np.angle(stop[3] / stop[1:3])  # theta, phi
+        turns = np.abs(_angle(stop[1:] / start[1:]))  # GH, 1 + GH, tangent
+        angles0, angles1 = _angle(start[3] / start[1:3]), _angle(stop[3] / stop[1:3])  # theta, phi
         variation = turns[2] + turns[:2]
         coarse = (turns[0] > MAX_PHASE_STEP) | np.any(_may_hide_pair(angles0, angles1, variation), axis=0) \
             | _may_hide_phase_pair(angles0[0], angles1[0], variation[0])
     w0, w1 = start[0].real, stop[0].real
     resolvable = (w1 - w0) > 1e-12 * w1
     return coarse & resolvable & np.isfinite(start[1]) & np.isfinite(stop[1])
+
+
+def _angle(z: NDArray) -> NDArray:
+    """np.angle without its Python wrapper (this is a hot path)."""
+    return np.arctan2(z.imag, z.real)
 
 
 def _may_hide_pair(angle0: NDArray, angle1: NDArray, variation: NDArray) -> NDArray[np.bool_]:

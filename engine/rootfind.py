@@ -80,7 +80,7 @@ def refine(fun: LevelFunction, a: NDArray, b: NDArray, ha: NDArray, hb: NDArray,
             if state["slot"].size == 0:
                 break
             x, best, done, root = _estimates(state)
-            if done.any():
+            if np.count_nonzero(done):
                 out[state["slot"][done]] = root[done]
                 state, x, best = _kept(state, ~done), x[~done], best[~done]
                 if state["slot"].size == 0:
@@ -107,7 +107,12 @@ def _estimates(state: dict) -> tuple[NDArray, NDArray, NDArray[np.bool_], NDArra
     """Each bracket's next estimate, its better end, whether it is done, and
     its root if so (the estimate where it settled, else the better end)."""
     lo, hi, k = state["lo"], state["hi"], np.count_nonzero(state["stationary"])
-    x = np.concatenate([_stationary_step(lo[:, :k], hi[:, :k]), _crossing_step(lo[:, k:], hi[:, k:])])
+    if k == lo.shape[1]:
+        x = _stationary_step(lo, hi)
+    elif k == 0:
+        x = _crossing_step(lo, hi)
+    else:
+        x = np.concatenate([_stationary_step(lo[:, :k], hi[:, :k]), _crossing_step(lo[:, k:], hi[:, k:])])
     best = np.where(np.abs(lo[3]) <= np.abs(hi[3]), lo[0], hi[0])
     tolerance = 4 * EPS * np.abs(best)
     settled = np.abs(x - best) <= tolerance  # the next correction is below 4 ulp
@@ -120,7 +125,7 @@ def _next_points(state: dict, x: NDArray, best: NDArray) -> tuple[NDArray, NDArr
     or the thirds where the estimate is unusable or progress stalled."""
     lo, hi = state["lo"][0], state["hi"][0]
     bisect = ~((x > lo) & (x < hi)) | (state["stalled"] >= STALL_STEPS)  # also where x is not finite
-    guard = np.clip(x + GUARD * (x - best), lo, hi)
+    guard = np.minimum(np.maximum(x + GUARD * (x - best), lo), hi)
     third = (hi - lo) / 3.0
     return (np.where(bisect, lo + third, np.minimum(x, guard)),
             np.where(bisect, hi - third, np.maximum(x, guard)), bisect)
@@ -148,7 +153,7 @@ def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> dict | None:
     p_across = watch & (np.sign(at_p[1]) != side)
     q_across = watch & (np.sign(at_q[1]) != side)
     found = p_across | q_across
-    if not found.any():
+    if not np.count_nonzero(found):
         return None
     state["watch"] = watch & ~found
     lo, hi = state["lo"][:, found], state["hi"][:, found]
