@@ -289,8 +289,8 @@ def _needs_split(start: NDArray, stop: NDArray) -> NDArray[np.bool_]:
         turns = np.abs(_angle(stop[1:] / start[1:]))  # GH, 1 + GH, tangent
         angles0, angles1 = _angle(start[3] / start[1:3]), _angle(stop[3] / stop[1:3])  # theta, phi
         variation = turns[2] + turns[:2]
-        coarse = (turns[0] > MAX_PHASE_STEP) | np.any(_may_hide_pair(angles0, angles1, variation), axis=0) \
-            | _may_hide_phase_pair(angles0[0], angles1[0], variation[0])
+        pair = _may_hide_pair(angles0, angles1, variation)  # of |GH|, of |1 + GH|
+        coarse = (turns[0] > MAX_PHASE_STEP) | pair[0] | pair[1] | _may_hide_phase_pair(angles0[0], angles1[0], variation[0])
     w0, w1 = start[0].real, stop[0].real
     resolvable = (w1 - w0) > 1e-12 * w1
     return coarse & resolvable & np.isfinite(start[1]) & np.isfinite(stop[1])

@@ -150,6 +150,8 @@ def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> dict | None:
     points reveal (p or q across h = 0 from the ends' side); those extrema
     stop watching.  None when nothing was revealed."""
     watch, side = state["watch"], state["side"]
+    if not np.count_nonzero(watch):
+        return None
     p_across = watch & (np.sign(at_p[1]) != side)
     q_across = watch & (np.sign(at_q[1]) != side)
     found = p_across | q_across

@@ -41,7 +41,7 @@ class ZpkEvaluator:
         m = self.paired
         self.roots = np.concatenate([self.zeros[:m], self.poles[:m], self.zeros[m:], self.poles[m:]])[:, None]
         self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m,
-                                                                      1.0 if self.extra_zeros else -1.0)])
+                                                                      1.0 if self.extra_zeros else -1.0)]).astype(complex)
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         omega = np.asarray(omega, dtype=float).ravel()
@@ -57,17 +57,18 @@ class ZpkEvaluator:
     def _batch(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         """Roots along the first axis, frequencies along the second (fast reductions).
 
-        With r = 1/(s - root): GH = k prod (r_pole / r_zero) over the pairs (no
-        partial product over- or underflows) times the unpaired factors, and
-        dGH/domega = j GH sum(+-r) (+ for zeros, - for poles).
+        With q = s - root and r = 1/q: GH = k prod (q_zero r_pole) over the
+        pairs (no partial product over- or underflows; a product, as complex
+        division is slow) times the unpaired factors, and dGH/domega =
+        j GH sum(+-r) (+ for zeros, - for poles).
         """
         m = self.paired
         with np.errstate(all="ignore"):
-            r = 1.0 / (1j * omega - self.roots)
-            gh = self.gain * np.prod(r[m:2 * m] / r[:m], axis=0)
+            q = 1j * omega - self.roots
+            r = 1.0 / q
+            gh = self.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)
             if self.roots.size > 2 * m:
-                unpaired = np.prod(r[2 * m:], axis=0)
-                gh = gh / unpaired if self.extra_zeros else gh * unpaired
+                gh = gh * np.multiply.reduce(q[2 * m:] if self.extra_zeros else r[2 * m:], axis=0)
             dgh = 1j * gh * (self.signs @ r)
         return gh, dgh
 
