@@ -60,3 +60,41 @@ def test_a_cubic_root_between_its_neighbours(roots):
     a, b = edges[:-1], edges[1:]
     found = refine(_levels([f] * 3), a, b, *_ends([f] * 3, a, b), stationary=False).at
     np.testing.assert_allclose(found, r, atol=1e-12)
+
+
+def test_a_watched_extremum_reveals_the_two_crossings_beside_it():
+    """h = 1 - (x - 2)^2 on [0.5, 3.5]: h = -1.25 at both ends, so no
+    crossing shows there; the maximum at 2 lies across h = 0 and reveals the
+    crossings at 1 and 3, refined in the same loop.  A bracket beside it
+    (a plain crossing of x^2 - 2) is refined alongside, and
+    h = (x - 2)^2 + 1 (its minimum does not reach 0) reveals nothing."""
+    f = [lambda x: (1.0 - (x - 2.0) ** 2, -2.0 * (x - 2.0)),
+         lambda x: ((x - 2.0) ** 2 + 1.0, 2.0 * (x - 2.0)),
+         lambda x: (x * x - 2.0, 2.0 * x)]
+    a, b = np.array([0.5, 0.5, 1.0]), np.array([3.5, 3.5, 2.0])
+    found = refine(_levels(f), a, b, *_ends(f, a, b), stationary=np.array([True, True, False]),
+                   hiding=np.array([True, True, False]))
+    eps = np.finfo(float).eps
+    np.testing.assert_allclose(found.at, [2.0, 2.0, math.sqrt(2.0)], rtol=8 * eps)
+    np.testing.assert_allclose(found.hidden[0], [1.0, 3.0], rtol=8 * eps)
+    assert np.all(np.isnan(found.hidden[1:]))
+
+
+def test_newton_takes_over_when_the_inverse_cubic_is_not_monotone():
+    """h = atan(50 (x - 0.1)) on [0, 1]: steep at the root, flat at the far
+    end (end slopes 10 and 0.02), so the inverse cubic through both ends
+    bends far away (Fritsch-Carlson fails) and Newton from the better end
+    steps instead.  The root 0.1 is found to a few ulp in at most 8
+    evaluations (10 with the cubic taken blindly)."""
+    calls = []
+
+    def fun(points, which):
+        calls.append(points.size)
+        return np.arctan(50.0 * (points - 0.1)), 50.0 / (1.0 + (50.0 * (points - 0.1)) ** 2)
+
+    a, b = np.array([0.0]), np.array([1.0])
+    h, d = fun(np.concatenate([a, b]), None)
+    calls.clear()
+    found = refine(fun, a, b, h[:1], h[1:], d[:1], d[1:], stationary=False).at
+    np.testing.assert_allclose(found, [0.1], rtol=8 * np.finfo(float).eps)
+    assert len(calls) <= 8
