@@ -20,7 +20,6 @@ or the grid extremum; results then say ``method = "grid"``.
 
 from __future__ import annotations
 
-import cmath
 import math
 from dataclasses import dataclass, field
 
@@ -127,9 +126,10 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     brackets = _grid_brackets(w, gh, dgh)
     names = list(brackets)
     index = np.concatenate([brackets[name].index for name in names])
-    levels = [LEVELS[name] for name in names for _ in range(brackets[name].index.size)]
-    roots = _refine(loop, (w[index], gh[index], dgh[index]), (w[index + 1], gh[index + 1], dgh[index + 1]), levels)
-    bounds = np.cumsum([0] + [brackets[name].index.size for name in names])
+    counts = [brackets[name].index.size for name in names]
+    roots = _refine(loop, (w[index], gh[index], dgh[index]), (w[index + 1], gh[index + 1], dgh[index + 1]),
+                    [LEVELS[name] for name in names], counts)
+    bounds = np.cumsum([0] + counts)
     frequencies = {name: roots.at[start:stop] for name, start, stop in zip(names, bounds[:-1], bounds[1:])}
     for name, start, stop in zip(names, bounds[:-1], bounds[1:]):
         hidden = roots.hidden[start:stop].ravel()
@@ -142,7 +142,7 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
         points = np.concatenate([frequencies[name], w[brackets[name].exact]])
         at = np.concatenate([values[name], gh[brackets[name].exact]])
         unique, first = np.unique(points, return_index=True)
-        margins[name] = [_margin(name, f, v) for f, v in zip(unique.tolist(), at[first].tolist())]
+        margins[name] = _margins_of(name, unique, at[first])
     return margins
 
 
@@ -161,6 +161,10 @@ class Level:
     stationary: bool  # an extremum (a root of h') rather than a crossing (a root of h)
     direction: int  # of the target's sign change: +1 rising, -1 falling, 0 either
     reveals: str = ""  # extrema: the crossing of h that may hide on either side (see `_refined`)
+
+    @property
+    def watched(self) -> bool:
+        return bool(self.reveals)
 
 
 LEVELS = {"S": Level(1.0, False, True, 1), "A": Level(0.0, False, True, -1, "P"),
@@ -215,10 +219,14 @@ def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset
     return h, np.where(angle, ratio.imag, ratio.real)
 
 
-def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level]):
-    """`refine` on brackets given by their ends' (omega, GH, dGH) and their levels."""
-    shift = np.array([level.shift for level in levels])
-    angle = np.array([level.angle for level in levels], dtype=bool)
+def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: list[int]):
+    """`refine` on brackets given by their ends' (omega, GH, dGH), ``counts[k]``
+    of them on ``levels[k]``."""
+
+    def each(field: str, dtype: type) -> NDArray:
+        return np.repeat(np.array([getattr(level, field) for level in levels], dtype=dtype), counts)
+
+    shift, angle = each("shift", float), each("angle", bool)
     left = np.where(angle, lo[1], 1.0)
     offset = np.where(angle, np.angle(-lo[1]), 0.0)
 
@@ -227,9 +235,7 @@ def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level]):
 
     ha, da = _level_values(lo[1], lo[2], shift, left, offset, angle)
     hb, db = _level_values(hi[1], hi[2], shift, left, offset, angle)
-    stationary = np.array([level.stationary for level in levels], dtype=bool)
-    hiding = np.array([bool(level.reveals) for level in levels], dtype=bool)
-    return refine(fun, lo[0], hi[0], ha, hb, da, db, stationary, hiding)
+    return refine(fun, lo[0], hi[0], ha, hb, da, db, each("stationary", bool), each("watched", bool))
 
 
 def _evaluated(loop: LoopModel, frequencies: dict[str, NDArray]) -> dict[str, NDArray]:
@@ -367,57 +373,37 @@ def _extend_to_crossovers(loop: LoopModel, lo: float, hi: float) -> tuple[float,
 
 def _decades_moving(level: NDArray) -> int:
     """How many steps in a row log |GH| keeps moving towards (or across) 0."""
-    for k in range(level.size - 1):
-        f0, f1 = level[k], level[k + 1]
-        if not (np.isfinite(f0) and np.isfinite(f1) and (f0 * f1 <= 0 or abs(f1) < abs(f0) - 1e-6)):
+    values = level.tolist()  # plain floats: numpy scalars are slow in a Python loop
+    for k in range(len(values) - 1):
+        f0, f1 = values[k], values[k + 1]
+        if not (math.isfinite(f0) and math.isfinite(f1) and (f0 * f1 <= 0 or abs(f1) < abs(f0) - 1e-6)):
             return k
-    return level.size - 1
+    return len(values) - 1
 
 
 def _margin(kind: str, w: float, gh: complex) -> Margin:
     """A margin with its distance value and, for G and P, the classical forms."""
-    gh, w = complex(gh), float(w)
-    distance = abs(1.0 + gh)
-    if kind == "G":
-        db = -20.0 * math.log10(abs(gh)) if gh != 0 else math.inf
-        return Margin("G", w, distance, gh, gain_db=db)
-    if kind == "P":
-        phase = 180.0 + math.degrees(cmath.phase(gh))
-        phase = phase - 360.0 if phase > 180.0 else phase
-        lag = math.radians(phase) % (2 * math.pi)
-        return Margin("P", w, distance, gh, phase_deg=phase, delay=lag / w if w > 0 else None)
-    return Margin(kind, w, distance if kind == "S" else abs(gh), gh)
+    return _margins_of(kind, np.array([w], dtype=float), np.array([gh], dtype=complex))[0]
 
 
-# Level functions: (h, dh/domega) from GH, dGH/domega and a reference value of
-# GH (the bracket's left end, from which the phase is measured).
-
-def _imag_sign(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
-    """sin(arg GH): zero where GH crosses the real axis."""
-    magnitude = np.abs(gh)
-    return gh.imag / magnitude, gh.real / magnitude * np.imag(dgh / gh)
-
-
-def _log_magnitude(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
-    """log |GH|: zero at a gain crossover, stationary at an extremum of |GH|."""
-    return np.log(np.abs(gh)), np.real(dgh / gh)
-
-
-def _log_distance(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
-    """log |1 + GH|: stationary at an extremum of the distance to -1."""
-    return np.log(np.abs(1.0 + gh)), np.real(dgh / (1.0 + gh))
-
-
-def _relative_phase(gh: NDArray, dgh: NDArray, reference: NDArray) -> tuple[NDArray, NDArray]:
-    """arg(GH / reference): stationary at an extremum of the phase."""
-    return np.angle(gh / reference), np.imag(dgh / gh)
-
-
-# name: (level function, direction of the sign change: +1 rising, -1 falling, 0 both);
-# extrema are roots of the level's slope, crossings roots of the level
-EXTREMA = {"S": (_log_distance, 1), "A": (_log_magnitude, -1), "Amin": (_log_magnitude, 1),
-           "phase": (_relative_phase, 0)}
-CROSSINGS = {"G": (_imag_sign, 0), "P": (_log_magnitude, 0)}
+def _margins_of(kind: str, w: NDArray, gh: NDArray) -> list[Margin]:
+    """Margins of one kind at frequencies ``w`` where the loop is ``gh``:
+    distance values and, for G and P, the classical forms (dB; degrees
+    wrapped to (-180, 180] and the delay margin)."""
+    with np.errstate(all="ignore"):
+        magnitude, distance = np.abs(gh), np.abs(1.0 + gh)
+        if kind == "G":
+            db = np.where(magnitude > 0, -20.0 * np.log10(magnitude), np.inf)
+            return [Margin("G", f, d, g, gain_db=x) for f, d, g, x in zip(w.tolist(), distance.tolist(), gh.tolist(),
+                                                                           db.tolist())]
+        if kind == "P":
+            phase = 180.0 + np.degrees(np.arctan2(gh.imag, gh.real))
+            phase = np.where(phase > 180.0, phase - 360.0, phase)
+            delay = np.radians(phase) % (2 * np.pi) / w
+            return [Margin("P", f, d, g, phase_deg=x, delay=t if f > 0 else None)
+                    for f, d, g, x, t in zip(w.tolist(), distance.tolist(), gh.tolist(), phase.tolist(), delay.tolist())]
+    values = distance if kind == "S" else magnitude
+    return [Margin(kind, f, v, g) for f, v, g in zip(w.tolist(), values.tolist(), gh.tolist())]
 
 
 def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,
@@ -435,11 +421,11 @@ def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,
     dist2 = np.abs(1.0 + gh) ** 2
     si = sign_changes(np.diff(dist2), rising_only=True) + 1
     ai = sign_changes(np.diff(mag2), falling_only=True) + 1
+    gi = gi[np.array([gain_band.contains(w[i]) for i in gi], dtype=bool)]
+    pi = pi[np.array([phase_band.contains(w[i]) for i in pi], dtype=bool)]
+    ai = ai[w[ai] > attenuation_above] if attenuation_above is not None else ai[:0]
     return Margins(
-        gain=tuple(_margin("G", w[i], gh[i]) for i in gi if gain_band.contains(w[i])),
-        phase=tuple(_margin("P", w[i], gh[i]) for i in pi if phase_band.contains(w[i])),
-        stability=tuple(_margin("S", w[i], gh[i]) for i in si),
-        attenuation=tuple(_margin("A", w[i], gh[i]) for i in ai
-                          if attenuation_above is not None and w[i] > attenuation_above),
+        gain=tuple(_margins_of("G", w[gi], gh[gi])), phase=tuple(_margins_of("P", w[pi], gh[pi])),
+        stability=tuple(_margins_of("S", w[si], gh[si])), attenuation=tuple(_margins_of("A", w[ai], gh[ai])),
         method="grid",
         notes=("tabulated loop: margins at grid points (report 000 grid rule), not refined",))
