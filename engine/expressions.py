@@ -72,8 +72,9 @@ class Dual:
         return Dual(self.value * other.value, grad, dvar)
 
     def div(self, other: Dual) -> Dual:
-        quotient = self.value / other.value
-        grad, dvar = self._combine(other, 1.0 / other.value, -quotient / other.value)
+        reciprocal = 1.0 / other.value  # one complex division; products are much cheaper
+        quotient = self.value * reciprocal
+        grad, dvar = self._combine(other, reciprocal, -quotient * reciprocal)
         return Dual(quotient, grad, dvar)
 
     def power(self, k: int) -> Dual:
