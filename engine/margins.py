@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .loops import LoopModel
-from .rootfind import refine, sign_changes
+from .rootfind import Roots, refine, sign_changes
 
 POINTS_PER_DECADE = 10
 CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
@@ -132,9 +132,9 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     bounds = np.cumsum([0] + counts)
     frequencies = {name: roots.at[start:stop] for name, start, stop in zip(names, bounds[:-1], bounds[1:])}
     for name, start, stop in zip(names, bounds[:-1], bounds[1:]):
-        hidden = roots.hidden[start:stop].ravel()
-        if LEVELS[name].reveals:
-            crossing = LEVELS[name].reveals
+        crossing = LEVELS[name].reveals
+        if crossing:
+            hidden = roots.hidden[start:stop].ravel()
             frequencies[crossing] = np.concatenate([frequencies[crossing], hidden[~np.isnan(hidden)]])
     values = _evaluated(loop, {name: frequencies[name] for name in ("G", "P", "S", "A")})
     margins: dict[str, list[Margin]] = {}
@@ -219,7 +219,7 @@ def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset
     return h, np.where(angle, ratio.imag, ratio.real)
 
 
-def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: list[int]):
+def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: list[int]) -> Roots:
     """`refine` on brackets given by their ends' (omega, GH, dGH), ``counts[k]``
     of them on ``levels[k]``."""
 

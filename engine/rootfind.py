@@ -5,7 +5,8 @@ Python loop runs per frequency.
 Every evaluation gives a level h and its slope h' (margins have both from
 GH and dGH/domega), so the steps are of high order:
 * crossings (roots of h): the cubic Hermite interpolant of the inverse
-  function, which is of fourth order (Newton's step when it leaves the bracket);
+  function, which is of fourth order (Newton's step when it leaves the
+  bracket or is not monotone);
 * extrema (roots of h'): the stationary point of the cubic that matches h and
   h' at both ends (the cubic line-search step), which converges about
   quadratically; once the bracket is too narrow for the difference of h to
@@ -90,8 +91,8 @@ def refine(fun: LevelFunction, a: NDArray, b: NDArray, ha: NDArray, hb: NDArray,
             m, kind = p.size, state["stationary"]
             at_p = np.array([p, h[:m], d[:m], np.where(kind, d[:m], h[:m])])
             at_q = np.array([q, h[m:], d[m:], np.where(kind, d[m:], h[m:])])
-            revealed = _revealed(state, at_p, at_q, n)
-            state = _narrowed(state, at_p, at_q, bisect)
+            watch, revealed = _revealed(state, at_p, at_q, n)
+            state = _narrowed(state | {"watch": watch}, at_p, at_q, bisect)
             if revealed is not None:
                 state = {key: np.concatenate([state[key], revealed[key]], axis=-1) for key in state}
     if state["slot"].size:
@@ -145,19 +146,18 @@ def _narrowed(state: dict, at_p: NDArray, at_q: NDArray, bisect: NDArray[np.bool
                     "stalled": np.where(halved | bisect, 0, state["stalled"] + 1)}
 
 
-def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> dict | None:
-    """Brackets for the two crossings of h that a watched extremum's new
-    points reveal (p or q across h = 0 from the ends' side); those extrema
-    stop watching.  None when nothing was revealed."""
+def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> tuple[NDArray[np.bool_], dict | None]:
+    """Which extrema still watch, and brackets for the two crossings of h
+    that a watched extremum's new points reveal (p or q across h = 0 from
+    the ends' side; None when nothing was revealed)."""
     watch, side = state["watch"], state["side"]
     if not np.count_nonzero(watch):
-        return None
+        return watch, None
     p_across = watch & (np.sign(at_p[1]) != side)
     q_across = watch & (np.sign(at_q[1]) != side)
     found = p_across | q_across
     if not np.count_nonzero(found):
-        return None
-    state["watch"] = watch & ~found
+        return watch, None
     lo, hi = state["lo"][:, found], state["hi"][:, found]
     at_p, at_q, p_across, q_across = at_p[:, found], at_q[:, found], p_across[found], q_across[found]
     # left crossing: [lo, p] when p is across, else [p, q]; right: [q, hi] when q is across, else [p, q]
@@ -168,10 +168,11 @@ def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> dict | None:
     for end in brackets:
         end[3] = end[1]  # crossings: the target is h
     size = 2 * slot.size
-    return {"slot": np.concatenate([slot, slot + 1]), "which": np.tile(state["which"][found], 2),
-            "lo": brackets[0], "hi": brackets[1], "stationary": np.zeros(size, dtype=bool),
-            "watch": np.zeros(size, dtype=bool), "side": np.zeros(size),
-            "reference_width": brackets[1][0] - brackets[0][0], "stalled": np.zeros(size, dtype=int)}
+    return watch & ~found, {
+        "slot": np.concatenate([slot, slot + 1]), "which": np.tile(state["which"][found], 2),
+        "lo": brackets[0], "hi": brackets[1], "stationary": np.zeros(size, dtype=bool),
+        "watch": np.zeros(size, dtype=bool), "side": np.zeros(size),
+        "reference_width": brackets[1][0] - brackets[0][0], "stalled": np.zeros(size, dtype=int)}
 
 
 def _crossing_step(lo: NDArray, hi: NDArray) -> NDArray:
