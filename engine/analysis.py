@@ -3,13 +3,15 @@ delay margin, modal peaks, closed-loop poles and the stability verdict."""
 
 from __future__ import annotations
 
+import math
+import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .blocks import ExpressionTransfer
+from .blocks import DelayTransfer, ExpressionTransfer
 from .errors import EngineError
 from .loops import LoopModel, loop_model
 from .margins import Band, Margins, margins
@@ -35,21 +37,57 @@ class LoopAnalysis:
     notes: tuple[str, ...]
 
 
-def unity_feedback(expressions: Sequence[str], variable: str = "s") -> Network:
-    """r -> (+) -> e -> product of the expressions -> y, with e = r - y; break at 'e'."""
+DELAY_FACTOR = re.compile(r"exp\(\s*-\s*(?:(?P<a>[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*\*\s*s|s\s*\*\s*"
+                          r"(?P<b>[0-9.]+(?:[eE][-+]?[0-9]+)?)|(?P<c>s))\s*\)")
+
+
+def split_delays(text: str) -> tuple[str, float]:
+    """The expression without its delay factors ``exp(-T*s)`` (``exp(-s*T)``,
+    ``exp(-s)``), and the sum of their T.  A factor only: it must multiply
+    the rest at the top level (``2*exp(-0.5*s)/(s+1)``), nothing else
+    (no other function is read)."""
+    total, pieces, last = 0.0, [], 0
+    for match in DELAY_FACTOR.finditer(text):
+        before, after = text[:match.start()].rstrip(), text[match.end():].lstrip()
+        depth = before.count("(") - before.count(")")
+        if depth != 0 or (before and not before.endswith("*")) or (after and after[0] not in "*/"):
+            raise EngineError(f"{text!r}: a delay exp(-T*s) must be a factor of the whole expression "
+                              f"(column {match.start() + 1})")
+        total += float(match.group("a") or match.group("b") or 1.0)
+        pieces += [text[last:match.start()], "1"]  # the factor becomes 1: the rest reads as before
+        last = match.end()
+    return "".join(pieces + [text[last:]]), total
+
+
+def unity_feedback(expressions: Sequence[str], variable: str = "s", delay: float = 0.0) -> Network:
+    """r -> (+) -> e -> product of the expressions (and a delay) -> y, with
+    e = r - y; break at 'e'.  Delay factors exp(-T*s) in the expressions
+    are read by `split_delays`."""
     if not expressions:
         raise EngineError("give at least one transfer function")
+    texts = []
+    for text in expressions:
+        rest, tau = split_delays(text) if "exp" in text else (text, 0.0)
+        texts.append(rest)
+        delay += tau
+    if delay and variable != "s":
+        raise EngineError("a delay needs the variable s (not the w-plane)")
+    if not (math.isfinite(delay) and delay >= 0):
+        raise EngineError(f"a delay must be finite and >= 0, not {delay!r}")
     blocks, previous = [], "e"
-    for k, text in enumerate(expressions):
-        out = "y" if k == len(expressions) - 1 else f"x{k + 1}"
+    for k, text in enumerate(texts):
+        out = "y" if k == len(texts) - 1 and not delay else f"x{k + 1}"
         blocks.append(Block(f"L{k + 1}", previous, out, ExpressionTransfer(text, variable)))
         previous = out
+    if delay:
+        blocks.append(Block("delay", previous, "y", DelayTransfer(delay)))
     return block_diagram(blocks, [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"], variable)
 
 
-def modal_peaks(model: LoopModel, bands: Sequence[Band]) -> tuple[ModalPeak, ...]:
-    """Local maxima of |GH| inside each band, with the phase there."""
-    found = margins(model, attenuation_above=0.0).attenuation
+def modal_peaks(model: LoopModel | Margins, bands: Sequence[Band]) -> tuple[ModalPeak, ...]:
+    """Local maxima of |GH| inside each band, with the phase there (from the
+    margins when they were found with every attenuation maximum)."""
+    found = (model if isinstance(model, Margins) else margins(model, attenuation_above=0.0)).attenuation
     out = []
     for m in found:
         if any(b.contains(m.frequency) for b in bands):
@@ -59,16 +97,18 @@ def modal_peaks(model: LoopModel, bands: Sequence[Band]) -> tuple[ModalPeak, ...
 
 def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],
             peak_bands: Sequence[Band] = ()) -> LoopAnalysis:
-    """Margins of the loop broken at ``break_at``, and the closed-loop poles when rational."""
-    model = loop_model(network, break_at, omega, params)
-    result = margins(model)
-    notes = list(result.notes)
+    """Margins of the loop broken at ``break_at``, and the closed-loop poles
+    when rational (first: an improper loop is an error before any search)."""
     pole_list: tuple[Pole, ...] | None = None
     verdict = "unknown"
     if network.rational:
         pole_list = tuple(poles(realize(network, params)))
         verdict = stability(list(pole_list))
-    else:
+    model = loop_model(network, break_at, omega, params)
+    every = margins(model, attenuation_above=0.0)
+    result = replace(every, attenuation=())
+    notes = list(result.notes)
+    if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
-    return LoopAnalysis(result, pole_list, verdict, modal_peaks(model, peak_bands), tuple(notes))
+    return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes))
 

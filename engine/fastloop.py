@@ -49,17 +49,23 @@ class LoopEvaluator:
         self.batch = np.array(batch, dtype=int)
         self.num, self.den = self.num[:len(batch)], self.den[:len(batch)]
 
-    def corners(self, params: Mapping[str, float]) -> tuple[NDArray, NDArray]:
-        """Natural frequencies and dampings of every block's poles and zeros."""
-        roots = [_quadratic_roots(self.num), _quadratic_roots(self.den)]
+    def corners(self, params: Mapping[str, float]) -> tuple[NDArray, NDArray, NDArray]:
+        """Natural frequencies and dampings of every block's poles and zeros,
+        and which of them are poles."""
+        zeros, poles = [_quadratic_roots(self.num)], [_quadratic_roots(self.den)]
         for number in self.single:
             transfer = self.entries[number].transfer
             if transfer.rational_form:
                 r = transfer.rational(params)
-                roots += [np.roots(r.num) if r.num.size > 1 else [], np.roots(r.den) if r.den.size > 1 else []]
-        roots = np.concatenate([np.asarray(r, dtype=complex).ravel() for r in roots])
-        roots = roots[np.isfinite(roots) & (np.abs(roots) > 0)]
-        return np.abs(roots), np.abs(roots.real) / np.abs(roots)
+                zeros.append(_roots(r.num, self.entries[number].label))
+                poles.append(_roots(r.den, self.entries[number].label))
+        zeros = np.concatenate([np.asarray(r, dtype=complex).ravel() for r in zeros])
+        poles = np.concatenate([np.asarray(r, dtype=complex).ravel() for r in poles])
+        roots = np.concatenate([zeros, poles])
+        is_pole = np.concatenate([np.zeros(zeros.size, dtype=bool), np.ones(poles.size, dtype=bool)])
+        keep = np.isfinite(roots) & (np.abs(roots) > 0)
+        roots, is_pole = roots[keep], is_pole[keep]
+        return np.abs(roots), np.abs(roots.real) / np.abs(roots), is_pole
 
     def _reduce(self) -> None:
         """Collapse single-in, single-out signals (not the break point) into chains."""
@@ -126,6 +132,16 @@ class LoopEvaluator:
                 R[target, 0] += 1j * dgains[c] * sol[src]
         dsol = sparse_solve(self.schedule, gains, R, omega)[:, 0, :]
         return -sol[self.out], -dsol[self.out]
+
+
+def _roots(coefficients: NDArray, label: str) -> NDArray[np.complex128]:
+    """Roots of a block's polynomial; an error naming the block when its
+    coefficients are not finite (an overflowing expansion)."""
+    if coefficients.size <= 1:
+        return np.zeros(0, dtype=complex)
+    if not np.all(np.isfinite(coefficients)):
+        raise InterconnectionError(f"{label}: its polynomial coefficients overflow (degree {coefficients.size - 1})")
+    return np.roots(coefficients)
 
 
 def _quadratic_ratios(num: NDArray, den: NDArray, omega: NDArray) -> tuple[NDArray, NDArray]:

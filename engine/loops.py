@@ -61,12 +61,16 @@ class LoopModel:
     detection points (empty when unknown).
     ``rational``: True when GH is a ratio of polynomials (no delay, no table):
     then crossings are sought over all frequencies, not just the grid's range.
-    ``dc_value``: GH(0) when finite and the loop is rational.
+    ``dc_value``: GH(0) when finite and the loop can be evaluated exactly.
+    ``delay``: the sum of the loop's delays (s; an upper bound of the phase
+    rate a delay adds), ``axis_poles``: frequencies of block poles on the
+    imaginary axis (GH may be infinite there).
     """
 
     def __init__(self, omega: NDArray[np.float64], gh: NDArray[np.complex128] | None = None,
                  evaluate: Evaluator | None = None, corner_frequencies: NDArray | None = None,
-                 dampings: NDArray | None = None, rational: bool = False, dc_value: complex | None = None):
+                 dampings: NDArray | None = None, rational: bool = False, dc_value: complex | None = None,
+                 delay: float = 0.0, axis_poles: NDArray | None = None):
         if gh is None and evaluate is None:
             raise EngineError("a loop needs its response or an evaluator")
         self.omega = omega
@@ -76,6 +80,8 @@ class LoopModel:
         self.dampings = np.zeros(0) if dampings is None else dampings
         self.rational = rational
         self.dc_value = dc_value
+        self.delay = delay
+        self.axis_poles = np.zeros(0) if axis_poles is None else axis_poles
 
     @property
     def gh(self) -> NDArray[np.complex128]:
@@ -97,10 +103,20 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     if not network.exact:
         return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)
     exact = LoopEvaluator(network, break_at, params)
-    corners, damps = exact.corners(params)
+    corners, damps, is_pole = exact.corners(params)
     evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
-    dc = _dc_value(exact) if network.rational else None
-    return LoopModel(w, None, evaluate, corners, damps, network.rational, dc)
+    return LoopModel(w, None, evaluate, corners, damps, network.rational, _dc_value(exact),
+                     delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 0)])
+
+
+def network_delay(network: Network, params: Mapping[str, float]) -> float:
+    """The sum of the network's delays (s)."""
+    total = 0.0
+    for e in network.entries:
+        tau = getattr(e.transfer, "tau", None)
+        if tau is not None:
+            total += float(params[tau]) if isinstance(tau, str) else float(tau)
+    return total
 
 
 def _dc_value(evaluate: Evaluator) -> complex | None:

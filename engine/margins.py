@@ -26,17 +26,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from .detection import Detection, detection_grid
 from .loops import LoopModel
 from .rootfind import Roots, refine, sign_changes
 
-POINTS_PER_DECADE = 10
-CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
-LIGHT_DAMPING = 0.3
-DECADES_BEYOND = 2.0
-DECADES_PER_LOOK = 8
-MAX_ROUNDS = 60
-MAX_PHASE_STEP = np.radians(20.0)
-PAIR_SAFETY = 1.5
+NOISE = 1e-11  # a level's value or slope below this (relative) is rounding noise
 
 
 @dataclass(frozen=True)
@@ -96,24 +90,54 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
     """All four margin kinds of ``loop`` (attenuation only when a frequency is given)."""
     if loop.evaluate is None:
         return _grid_margins(loop, gain_band, phase_band, attenuation_above)
-    w, gh, dgh = detection_grid(loop)
-    found = _refined(loop, w, gh, dgh)
+    grid = detection_grid(loop)
+    found = _refined(loop, grid)
     gain = [m for m in found["G"] if m.gh.real < 0]
     dc = loop.dc_value
-    if loop.rational and dc is not None and dc.real < 0:
-        gain = [_margin("G", 0.0, dc)] + gain
-    notes = () if loop.rational else (
-        f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s",)
+    if dc is not None and dc.real < 0:
+        gain = [_margin("G", 0.0, dc)] + [m for m in gain if m.frequency > 0]
+    notes = list(grid.notes) + _shape_notes(loop, grid)
+    if not loop.rational:
+        notes.insert(0, f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
     above = float("inf") if attenuation_above is None else attenuation_above
     return Margins(
         gain=tuple(m for m in gain if gain_band.contains(m.frequency)),
         phase=tuple(m for m in found["P"] if phase_band.contains(m.frequency)),
         stability=tuple(found["S"]),
         attenuation=tuple(m for m in found["A"] if m.frequency >= above),
-        method="refined", notes=notes)
+        method="refined", notes=tuple(notes))
 
 
-def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str, list[Margin]]:
+def _shape_notes(loop: LoopModel, grid: Detection) -> list[str]:
+    """What the loop's shape means for its margins: constant levels, a Nyquist
+    curve on the real axis, poles on the imaginary axis."""
+    notes = []
+    if "1+GH" in grid.flat:
+        notes.append(f"|1+GH| is constant ({abs(1 + grid.gh[0]):.6g}) at every frequency: "
+                     "no interior minimum (no stability margin)")
+    if "GH" in grid.flat:
+        level = abs(grid.gh[0])
+        notes.append(f"|GH| is constant ({level:.6g}) at every frequency"
+                     + (": its crossing of 1 is not isolated (no phase margin)" if abs(level - 1) < 1e-9 else ""))
+    if "phase" in grid.flat:
+        notes.append(f"the phase of GH is constant ({math.degrees(np.angle(grid.gh[0])):.6g} deg)"
+                     + (": on the negative real axis everywhere (gain crossings not isolated)"
+                        if abs(abs(np.angle(grid.gh[0])) - math.pi) < 1e-9 else ""))
+    elif _on_real_axis(grid):
+        notes.append("GH is real at every frequency (the Nyquist curve lies on the real axis): its crossings "
+                     "of the negative real axis are not isolated, so no gain margin is listed")
+    if loop.axis_poles.size:
+        listed = ", ".join(f"{w:.6g}" for w in np.unique(loop.axis_poles)[:6])
+        notes.append(f"GH has poles on the imaginary axis at {listed} rad/s (|GH| is infinite there)")
+    return notes
+
+
+def _on_real_axis(grid: Detection) -> bool:
+    finite = np.isfinite(grid.gh)
+    return bool(np.all(np.abs(grid.gh.imag[finite]) <= NOISE * np.abs(grid.gh[finite])))
+
+
+def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
     """Every crossing and extremum, refined together in one vectorized loop.
 
     The detection grid leaves at most one extremum of |GH|, of |1 + GH| and
@@ -123,7 +147,8 @@ def _refined(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str
     watched while they are refined (`refine`'s ``hiding``): extrema of |GH|
     for gain crossovers, extrema of the phase for phase crossovers.
     """
-    brackets = _grid_brackets(w, gh, dgh)
+    w, gh, dgh = grid.omega, grid.gh, grid.dgh
+    brackets = _grid_brackets(w, gh, dgh, grid.flat)
     names = list(brackets)
     index = np.concatenate([brackets[name].index for name in names])
     counts = [brackets[name].index.size for name in names]
@@ -181,26 +206,44 @@ class Brackets:
     exact: NDArray[np.intp]
 
 
-def _grid_brackets(w: NDArray, gh: NDArray, dgh: NDArray) -> dict[str, Brackets]:
+# which constant level (see `Detection.flat`) makes a bracket kind meaningless
+FLAT_LEVEL = {"S": "1+GH", "A": "GH", "Amin": "GH", "P": "GH", "phase": "phase", "G": "phase"}
+
+
+def _grid_brackets(w: NDArray, gh: NDArray, dgh: NDArray, flat: frozenset[str] = frozenset()) -> dict[str, Brackets]:
     """Per level, the intervals where its target (h' for extrema, h for
     crossings) changes sign in its direction.  Kept only where they matter:
     minima of |GH| and extrema of the phase that may hide two crossings
     (minima above 1; phase extrema short of the negative real axis), gain
-    crossings on the negative real axis."""
+    crossings on the negative real axis.  A sign change between two values
+    of rounding-noise size (relative `NOISE`), an exact zero where the
+    level does not move, and any root of a constant level are not roots."""
     with np.errstate(all="ignore"):
         relative, distance = dgh / gh, dgh / (1.0 + gh)
-    im, mag = np.sign(gh.imag), np.abs(gh)
+        mag = np.abs(gh)
+        scale = {"S": np.abs(distance), "A": np.abs(relative), "Amin": np.abs(relative),
+                 "phase": np.abs(relative), "G": mag, "P": np.maximum(mag, 1.0)}
+    im = np.sign(gh.imag)
     negative = (gh.real[:-1] < 0) | (gh.real[1:] < 0)
     targets = {"S": distance.real, "A": relative.real, "Amin": relative.real, "phase": relative.imag,
                "G": gh.imag, "P": mag - 1.0}
+    moving = {"G": np.abs(relative.imag) * w > NOISE, "P": np.abs(relative.real) * w > NOISE}
     keep = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1), "phase": (im[:-1] == im[1:]) & negative, "G": negative}
     out = {}
     for name, level in LEVELS.items():
+        if FLAT_LEVEL[name] in flat:
+            out[name] = Brackets(np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp))
+            continue
         target = targets[name]
         index = sign_changes(target, rising_only=level.direction > 0, falling_only=level.direction < 0)
+        with np.errstate(all="ignore"):
+            loud = np.abs(target) > NOISE * scale[name]
+        index = index[loud[index] | loud[index + 1]]
         if name in keep:
             index = index[keep[name][index]]
         exact = np.flatnonzero(target == 0) if level.direction == 0 else np.zeros(0, dtype=np.intp)
+        if name in moving:
+            exact = exact[moving[name][exact]]
         if name == "G":
             exact = exact[gh.real[exact] < 0]
         out[name] = Brackets(index, exact)
@@ -246,139 +289,6 @@ def _evaluated(loop: LoopModel, frequencies: dict[str, NDArray]) -> dict[str, ND
     for name, points in frequencies.items():
         out[name], start = values[start:start + points.size], start + points.size
     return out
-
-
-def detection_grid(loop: LoopModel) -> tuple[NDArray, NDArray, NDArray]:
-    """Frequencies that resolve every feature of GH, with GH and dGH/domega there.
-
-    Starts from a log-spaced background and a few points around every
-    lightly damped corner, then halves every interval that could hide a
-    minimum-maximum pair of |GH|, of |1 + GH| or of arg GH, or that steps
-    more than 20 deg in phase (each round tests only the new halves).
-    Single extrema are found by their slope's sign change and refined with
-    the crossings (`_refined`).
-    """
-    w = _initial_grid(loop)
-    points = _with_curve(w, *loop.evaluate(w))
-    found = [points]
-    split = _needs_split(points[:, :-1], points[:, 1:])
-    starts, stops = points[:, :-1][:, split], points[:, 1:][:, split]
-    for _ in range(MAX_ROUNDS):
-        if starts.shape[1] == 0:
-            break
-        a, b = starts[0].real, stops[0].real
-        mid = np.where(a > 0, np.sqrt(a * b), 0.5 * b)
-        middle = _with_curve(mid, *loop.evaluate(mid))
-        found.append(middle)
-        starts = np.concatenate([starts, middle], axis=1)  # left halves, then right halves
-        stops = np.concatenate([middle, stops], axis=1)
-        split = _needs_split(starts, stops)
-        starts, stops = starts[:, split], stops[:, split]
-    points = np.concatenate(found, axis=1)
-    points = points[:, np.argsort(points[0].real, kind="stable")]
-    return points[0].real, points[1], points[3]
-
-
-def _with_curve(w: NDArray, gh: NDArray, dgh: NDArray) -> NDArray[np.complex128]:
-    """Rows omega, GH, 1 + GH, dGH/domega: the points of the detection grid."""
-    return np.array([w, gh, 1.0 + gh, dgh])
-
-
-def _needs_split(start: NDArray, stop: NDArray) -> NDArray[np.bool_]:
-    """Intervals (ends: columns of `_with_curve` rows) that could hide a
-    crossing or extremum pair, or step too far in phase.
-
-    Row by row: the turns of GH, 1 + GH and the tangent dGH over each
-    interval, and at each end the angles theta of the tangent against GH
-    and phi against 1 + GH (see `_may_hide_pair`)."""
-    with np.errstate(all="ignore"):
-        turns = np.abs(_angle(stop[1:] / start[1:]))  # GH, 1 + GH, tangent
-        angles0, angles1 = _angle(start[3] / start[1:3]), _angle(stop[3] / stop[1:3])  # theta, phi
-        variation = turns[2] + turns[:2]
-        pair = _may_hide_pair(angles0, angles1, variation)  # of |GH|, of |1 + GH|
-        coarse = (turns[0] > MAX_PHASE_STEP) | pair[0] | pair[1] | _may_hide_phase_pair(angles0[0], angles1[0], variation[0])
-    w0, w1 = start[0].real, stop[0].real
-    resolvable = (w1 - w0) > 1e-12 * w1
-    return coarse & resolvable & np.isfinite(start[1]) & np.isfinite(stop[1])
-
-
-def _angle(z: NDArray) -> NDArray:
-    """np.angle without its Python wrapper (this is a hot path)."""
-    return np.arctan2(z.imag, z.real)
-
-
-def _may_hide_pair(angle0: NDArray, angle1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
-    """Could a distance |r| have a minimum and a maximum inside an interval?
-
-    d|r|/domega changes sign where the tangent dr is perpendicular to r, i.e.
-    where the angle between them (given signed at both ends) crosses +-90
-    deg.  With both ends on the same side, two crossings need its size to
-    vary by the sum of the ends' distances to 90 deg; it varies by at most
-    ``variation``: the turn of the tangent plus the turn of r.
-    """
-    size0, size1 = np.abs(angle0), np.abs(angle1)
-    same_side = (size1 < np.pi / 2) == (size0 < np.pi / 2)
-    return same_side & (PAIR_SAFETY * variation > np.abs(np.pi / 2 - size0) + np.abs(np.pi / 2 - size1))
-
-
-def _may_hide_phase_pair(theta0: NDArray, theta1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
-    """Could the phase of r have a maximum and a minimum inside an interval?
-
-    d(arg r)/domega changes sign where the tangent dr is parallel to r: the
-    signed angle theta between them crosses 0 or 180 deg.  Same test as
-    `_may_hide_pair`, with the distance to the nearer of 0 and 180 deg.
-    """
-    to_radial0 = np.minimum(np.abs(theta0), np.pi - np.abs(theta0))
-    to_radial1 = np.minimum(np.abs(theta1), np.pi - np.abs(theta1))
-    same_side = (theta1 > 0) == (theta0 > 0)
-    return same_side & (PAIR_SAFETY * variation > to_radial0 + to_radial1)
-
-
-def _initial_grid(loop: LoopModel) -> NDArray[np.float64]:
-    corners = loop.corner_frequencies
-    if loop.rational:
-        lo = corners.min() if corners.size else 1.0
-        hi = corners.max() if corners.size else 1.0
-        lo, hi = _extend_to_crossovers(loop, lo * 10.0 ** -DECADES_BEYOND, hi * 10.0 ** DECADES_BEYOND)
-    else:
-        lo, hi = loop.omega[0], loop.omega[-1]
-        lo = lo if lo > 0 else min(loop.omega[1] * 1e-3, 1e-6)
-    n = max(int(np.ceil(np.log10(hi / lo) * POINTS_PER_DECADE)), 2)
-    background = np.exp(np.linspace(math.log(lo), math.log(hi), n))
-    background[0], background[-1] = lo, hi
-    parts = [background]
-    light = loop.dampings < LIGHT_DAMPING
-    wn, zeta = corners[light, None], loop.dampings[light, None]
-    cluster = wn * (1.0 + np.maximum(zeta, 1e-9) * CLUSTER)
-    parts.append(cluster[(zeta > 0) | (CLUSTER != 0)])  # not on an undamped corner itself
-    if not loop.rational:
-        parts.append(loop.omega[loop.omega > 0])
-    w = np.unique(np.concatenate(parts))
-    return w[(w >= lo) & (w <= hi)]
-
-
-def _extend_to_crossovers(loop: LoopModel, lo: float, hi: float) -> tuple[float, float]:
-    """Move each end out by decades while |GH| still moves towards (or across) 1
-    beyond it (up to 40 decades; eight at a time, both ends in one evaluation)."""
-    steps = 10.0 ** np.arange(DECADES_PER_LOOK + 1)
-    for _ in range(40 // DECADES_PER_LOOK):
-        with np.errstate(all="ignore"):
-            level = np.log(np.abs(loop.evaluate(np.concatenate([hi * steps, lo / steps]))[0]))
-        up, down = _decades_moving(level[:steps.size]), _decades_moving(level[steps.size:])
-        hi, lo = hi * 10.0 ** up, lo / 10.0 ** down
-        if up < DECADES_PER_LOOK and down < DECADES_PER_LOOK:
-            break
-    return lo, hi
-
-
-def _decades_moving(level: NDArray) -> int:
-    """How many steps in a row log |GH| keeps moving towards (or across) 0."""
-    values = level.tolist()  # plain floats: numpy scalars are slow in a Python loop
-    for k in range(len(values) - 1):
-        f0, f1 = values[k], values[k + 1]
-        if not (math.isfinite(f0) and math.isfinite(f1) and (f0 * f1 <= 0 or abs(f1) < abs(f0) - 1e-6)):
-            return k
-    return len(values) - 1
 
 
 def _margin(kind: str, w: float, gh: complex) -> Margin:

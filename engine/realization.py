@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from scipy import linalg
 
 from .blocks import ExpressionTransfer
+from .factored import pole_zero
 from .errors import BlockError, InterconnectionError
 from .polynomials import degree, trim
 from .network import Network
@@ -65,16 +66,41 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
     E = np.zeros((n, len(network.inputs)))
     for k, name in enumerate(network.inputs):
         E[network.signal(name), k] = 1.0
-    try:
-        lu = linalg.lu_factor(np.eye(n) - feed, check_finite=True)
-        if np.any(np.abs(np.diag(lu[0])) < 1e-14):
-            raise linalg.LinAlgError
-    except (linalg.LinAlgError, ValueError):
-        raise InterconnectionError("algebraic loop is singular: I - D (direct feedthrough) "
-                                   "has no inverse") from None
-    P_state, P_input = linalg.lu_solve(lu, C_sig), linalg.lu_solve(lu, E)
+    lu = _factor_feedthrough(np.eye(n) - feed)
+    P_state, P_input = lu.solve(C_sig), lu.solve(E)
     return StateSpace(A_blk + B_blk @ P_state, B_blk @ P_input, P_state, P_input,
                       network.inputs, network.signals)
+
+
+def _factor_feedthrough(matrix: NDArray) -> tuple:
+    """LU factors of I - D, or a clear error when it is singular: judged on
+    the matrix equilibrated by powers of two (rows and columns, so a chain
+    of gains from 3e-20 to 1e11 is not mistaken for a singular loop), its
+    pivots against 1e-13 of the largest entry."""
+    if not np.all(np.isfinite(matrix)):
+        raise InterconnectionError("a direct feedthrough is not finite")
+    rows, cols = np.ones(matrix.shape[0]), np.ones(matrix.shape[1])
+    scaled = matrix
+    for _ in range(8):  # Ruiz's equilibration
+        r = np.sqrt(np.max(np.abs(scaled), axis=1))
+        c = np.sqrt(np.max(np.abs(scaled), axis=0))
+        r, c = np.exp2(np.round(np.log2(np.where(r > 0, r, 1.0)))), np.exp2(np.round(np.log2(np.where(c > 0, c, 1.0))))
+        rows, cols = rows / r, cols / c
+        scaled = matrix * rows[:, None] * cols[None, :]
+    lu = linalg.lu_factor(scaled, check_finite=False)
+    if np.any(np.abs(np.diag(lu[0])) <= 1e-13 * max(1e-300, np.max(np.abs(scaled)))):
+        raise InterconnectionError("algebraic loop is singular: I - D (direct feedthrough) has no inverse")
+    return _Unscaled(lu, rows, cols)
+
+
+class _Unscaled:
+    """Solves (I - D) X = Y from the factors of diag(rows) (I - D) diag(cols)."""
+
+    def __init__(self, lu: tuple, rows: NDArray, cols: NDArray):
+        self.lu, self.rows, self.cols = lu, rows, cols
+
+    def solve(self, rhs: NDArray) -> NDArray:
+        return self.cols[:, None] * linalg.lu_solve(self.lu, self.rows[:, None] * rhs)
 
 
 def _entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:
@@ -83,13 +109,19 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
     key = ("entry realization", number)
     if key in network.schedules:
         return network.schedules[key]
-    folded = entry.transfer.expression.folded(params) if isinstance(entry.transfer, ExpressionTransfer) else None
+    expression = entry.transfer.expression if isinstance(entry.transfer, ExpressionTransfer) else None
+    folded = expression.folded(params) if expression is not None else None
     if folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
-        num, den = trim(folded.num), trim(folded.den)   # a small ratio: no symbolic expansion needed
+        realization = cascade(trim(folded.num), trim(folded.den))  # a small ratio: no roots needed
+    elif expression is not None:
+        form = pole_zero(expression, params)  # factor by factor: no expansion loses the roots' digits
+        if form.zeros.size > form.poles.size:
+            entry.transfer.check_proper(params, entry.label)  # names the degrees
+            raise BlockError(f"{entry.label}: improper transfer function")
+        realization = cascade_roots(form.gain, form.zeros, form.poles)
     else:
         r = entry.transfer.check_proper(params, entry.label)
-        num, den = r.num, r.den
-    realization = cascade(num, den)
+        realization = cascade(r.num, r.den)
     if not entry.transfer.parameters:
         network.schedules[key] = realization
     return realization
@@ -116,9 +148,20 @@ def cascade(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDAr
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[0] / den[0]]])
     if den.size <= 3 and num.size <= den.size:
         return _section(num, den)   # one section already: no roots needed
-    gain = num[0] / den[0]
-    zeros = sorted(_sections(np.roots(num)) if num.size > 1 else [], key=len, reverse=True)
-    poles = sorted(_sections(np.roots(den)) if den.size > 1 else [], key=len, reverse=True)
+    if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
+        raise BlockError(f"polynomial coefficients overflow (degree {den.size - 1})")
+    return cascade_roots(num[0] / den[0], np.roots(num) if num.size > 1 else np.zeros(0),
+                         np.roots(den) if den.size > 1 else np.zeros(0))
+
+
+def cascade_roots(gain: float, zero_roots: NDArray, pole_roots: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """`cascade` of gain * prod(s - zeros)/prod(s - poles), from the roots."""
+    zeros = sorted(_sections(zero_roots), key=len, reverse=True)
+    poles = sorted(_sections(pole_roots), key=len, reverse=True)
+    if not poles:
+        if zeros:
+            raise BlockError("improper transfer function in cascade realization")
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])
     if len(zeros) > len(poles):
         raise BlockError("improper transfer function in cascade realization")
     A, B, C, D = np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])

@@ -37,7 +37,7 @@ def _number(x: float | None) -> float | None:
     return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
 
 
-def analysis_to_json(a: LoopAnalysis) -> dict:
+def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
     """The documented JSON object of `loopcraft analyze --json`."""
     m = a.margins
     return {
@@ -48,6 +48,7 @@ def analysis_to_json(a: LoopAnalysis) -> dict:
         "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.stability],
         "crossover_frequency": _number(m.crossover_frequency),
         "delay_margin": _number(m.delay_margin),
+        "delay_margin_samples": _number(delay_margin_samples(m)) if variable == "w" else None,
         "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
         "verdict": a.verdict,
         "closed_loop_poles": None if a.closed_loop_poles is None else [
@@ -58,43 +59,71 @@ def analysis_to_json(a: LoopAnalysis) -> dict:
     }
 
 
-def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str]) -> str:
-    """A readable table of the margins and poles."""
+def delay_margin_samples(m) -> float | None:
+    """A w-plane loop's delay margin in samples: at a gain crossover of
+    w-plane frequency nu (w = (z - 1)/(z + 1)), the sampled frequency is
+    omega T = 2 atan(nu), and d samples of delay turn the phase by d omega T."""
+    values = [math.radians(p.phase_deg) % (2 * math.pi) / (2 * math.atan(p.frequency))
+              for p in m.phase if p.frequency > 0]
+    return min(values) if values else None
+
+
+def _cells(*cells: str) -> str:
+    """One table line: cells right-aligned in their columns, always two spaces apart."""
+    widths = (6, 20, 22, 14)
+    return "  ".join(c.rjust(w) if k else c.ljust(w) for k, (c, w) in enumerate(zip(cells, widths))).rstrip()
+
+
+def _num(x: float | None, unit: str = "", spec: str = ".6g") -> str:
+    if x is None or not math.isfinite(x):
+        return "inf" if x is not None and x > 0 else ("-inf" if x is not None and x < 0 else "-")
+    return f"{x:{spec}}{(' ' + unit) if unit else ''}"
+
+
+def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str = "s", delay: float = 0.0) -> str:
+    """A readable table of the margins and poles (w-plane frequencies labelled as such)."""
     m = a.margins
-    lines = [f"Open loop GH = {' * '.join(f'({e})' for e in expressions)}  (unity negative feedback)", ""]
-    lines.append(f"{'kind':<6}{'frequency rad/s':>18}{'classical':>16}{'|1+GH|':>12}")
+    unit = "rad/s" if variable == "s" else "w-plane rad/s"
+    loop = " * ".join(f"({e})" for e in expressions) + (f" * exp(-{delay:g} s)" if delay else "")
+    lines = [f"Open loop GH = {loop}  (unity negative feedback)", ""]
+    lines.append(_cells("kind", f"frequency {unit}", "classical", "|1+GH|"))
     for g in m.gain:
-        lines.append(f"{'G':<6}{g.frequency:>18.6g}{g.gain_db:>12.4f} dB{g.value:>12.5f}")
+        lines.append(_cells("G", _num(g.frequency), _num(g.gain_db, "dB", ".4f"), _num(g.value, spec=".6g")))
     for p in m.phase:
-        lines.append(f"{'P':<6}{p.frequency:>18.6g}{p.phase_deg:>11.4f} deg{p.value:>12.5f}")
-    for s in m.stability:
-        lines.append(f"{'S':<6}{s.frequency:>18.6g}{'':>16}{s.value:>12.5f}")
+        lines.append(_cells("P", _num(p.frequency), _num(p.phase_deg, "deg", ".4f"), _num(p.value, spec=".6g")))
+    for st in m.stability:
+        lines.append(_cells("S", _num(st.frequency), "", _num(st.value, spec=".6g")))
     if not m.all():
         lines.append("(no crossings)")
     lines.append("")
     wc, dm = m.crossover_frequency, m.delay_margin
-    lines.append(f"crossover frequency: {'none' if wc is None else f'{wc:.6g} rad/s'}")
-    lines.append(f"delay margin: {'none' if dm is None else f'{dm:.6g} s'}")
+    lines.append(f"crossover frequency: {'none' if wc is None else f'{wc:.6g} {unit}'}")
+    if variable == "s":
+        lines.append(f"delay margin: {'none' if dm is None else f'{dm:.6g} s'}")
+    else:
+        samples = delay_margin_samples(m)
+        lines.append(f"delay margin: {'none' if samples is None else f'{samples:.6g} samples'}")
     lines.append(f"closed loop: {a.verdict}")
     for p in a.closed_loop_poles or ():
-        lines.append(f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {p.damping:.4f}"
-                     f"   wn {p.natural_frequency:.6g} rad/s")
+        zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
+        lines.append(f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {zeta:.4f}"
+                     f"   wn {p.natural_frequency:.6g} {unit}")
     lines.extend(f"note: {n}" for n in a.notes)
     return "\n".join(lines)
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
-    network = unity_feedback(args.tf, args.variable)
+    network = unity_feedback(args.tf, args.variable, args.delay)
     omega = np.geomspace(args.wmin, args.wmax, args.points)
     missing = network.parameters
     if missing:
         raise CliError(f"--tf: unknown name(s) {', '.join(missing)} (expressions for analyze "
-                       f"take numbers and the variable {args.variable!r} only)")
+                       f"take numbers, the variable {args.variable!r} and delay factors exp(-T*s) only)")
     result = analyze(network, "e", omega, {})
     if args.json:
-        print(json.dumps(analysis_to_json(result), indent=2, sort_keys=True))
+        print(json.dumps(analysis_to_json(result, args.variable), indent=2, sort_keys=True))
     else:
-        print(analysis_to_text(result, args.tf))
+        print(analysis_to_text(result, args.tf, args.variable, args.delay))
     return 0
 
 
@@ -287,6 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a transfer function, e.g. '16000/(s*(s+8)*(s+20))'; repeat to multiply")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--variable", default="s", choices=["s", "w"], help="frequency variable (w: w-plane)")
+    p.add_argument("--delay", type=float, default=0.0, metavar="T",
+                   help="a loop delay exp(-T s) in seconds (also written as a factor exp(-T*s) in --tf)")
     p.add_argument("--wmin", type=float, default=1e-3, help="plot grid start, rad/s (margins do not depend on it)")
     p.add_argument("--wmax", type=float, default=1e3, help="plot grid end, rad/s")
     p.add_argument("--points", type=int, default=400, help="plot grid points")
@@ -345,6 +376,20 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
     return result if isinstance(result, int) else 0
 
 
+def _attached_values(argv: list[str]) -> list[str]:
+    """``--tf -2/(s+1)`` as ``--tf=-2/(s+1)``: argparse takes a value that
+    starts with '-' for an option otherwise."""
+    out, k = [], 0
+    while k < len(argv):
+        if argv[k] in ("--tf", "--delay") and k + 1 < len(argv) and argv[k + 1].startswith("-"):
+            out.append(f"{argv[k]}={argv[k + 1]}")
+            k += 2
+        else:
+            out.append(argv[k])
+            k += 1
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0].endswith(".json"):
@@ -352,7 +397,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv[0] == "--example":
         return run_app(example=argv[1] if len(argv) > 1 else "cip_launch_vehicle")
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_attached_values(argv))
     if args.command is None:
         parser.print_help()
         return 0

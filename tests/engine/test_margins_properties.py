@@ -144,6 +144,7 @@ def test_two_crossings_hidden_in_one_grid_interval_are_both_found(name):
     (ends short of it).  The extremum inside is refined first and splits the
     interval; both crossings must match python-control's."""
     from tests.engine.loopfactory import loop_network
+    from engine.detection import Detection
     from engine.margins import _refined
 
     s = ct.tf("s")
@@ -156,7 +157,7 @@ def test_two_crossings_hidden_in_one_grid_interval_are_both_found(name):
     kind, hiding = ("P", 2) if name == "resonance above 1" else ("G", 6)
     level = np.abs(gh) - 1 if kind == "P" else gh.imag
     assert np.sign(level[hiding]) == np.sign(level[hiding + 1])  # nothing to see at the interval's ends
-    found = [m.frequency for m in _refined(loop, grid, gh, dgh)[kind]]
+    found = [m.frequency for m in _refined(loop, Detection(grid, gh, dgh))[kind]]
     _, _, _, wg, wp, _ = ct.stability_margins(system, returnall=True)
     expected = np.sort(wp if kind == "P" else wg)
     assert len(expected) == 2 and grid[hiding] < expected[0] < expected[1] < grid[hiding + 1]

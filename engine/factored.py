@@ -1,0 +1,93 @@
+"""An expression's pole-zero form, read factor by factor from its tree.
+
+Expanding a product such as (s + 0.001)(s + 0.002)...(s^2 + ...) into one
+polynomial and asking for its roots loses digits: the roots of a polynomial
+of degree 16 given by its coefficients can be wrong in the third digit when
+they cluster.  The tree of a typed expression usually keeps the factors, so
+the roots are taken where they are: products, quotients and integer powers
+combine root lists; a sum (or a number, a name, the variable) is folded to
+its own, small polynomial ratio and only its roots are computed.  Equal
+roots of the numerator and the denominator cancel (H((1 + w)/(1 - w)) has
+(1 - w) factors that cancel exactly), within `CANCEL` relative.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import ExpressionError
+from .expressions import Expression, Node, _to_rational
+from .polynomials import trim
+
+CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
+
+
+@dataclass(frozen=True)
+class PoleZero:
+    """gain * prod(x - zeros) / prod(x - poles)."""
+
+    gain: float
+    zeros: NDArray[np.complex128]
+    poles: NDArray[np.complex128]
+
+    def __mul__(self, other: PoleZero) -> PoleZero:
+        return PoleZero(self.gain * other.gain, np.concatenate([self.zeros, other.zeros]),
+                        np.concatenate([self.poles, other.poles]))
+
+    def reciprocal(self) -> PoleZero:
+        if self.gain == 0:
+            raise ExpressionError("division by zero")
+        return PoleZero(1.0 / self.gain, self.poles, self.zeros)
+
+    def power(self, k: int) -> PoleZero:
+        base = self if k >= 0 else self.reciprocal()
+        k = abs(k)
+        return PoleZero(base.gain ** k, np.tile(base.zeros, k), np.tile(base.poles, k))
+
+    def cancelled(self) -> PoleZero:
+        """Without the zero-pole pairs that are the same root."""
+        zeros, poles = list(self.zeros), list(self.poles)
+        kept_zeros = []
+        for z in zeros:
+            match = next((k for k, p in enumerate(poles) if abs(z - p) <= CANCEL * max(1.0, abs(p))), None)
+            if match is None:
+                kept_zeros.append(z)
+            else:
+                poles.pop(match)
+        return PoleZero(self.gain, np.array(kept_zeros, dtype=complex), np.array(poles, dtype=complex))
+
+
+def pole_zero(expression: Expression, params: Mapping[str, float]) -> PoleZero:
+    """The expression's gain, zeros and poles, factor by factor, cancelled."""
+    return _node(expression.root, params).cancelled()
+
+
+def _node(node: Node, params: Mapping[str, float]) -> PoleZero:
+    if node.op == "mul":
+        return _node(node.args[0], params) * _node(node.args[1], params)
+    if node.op == "div":
+        return _node(node.args[0], params) * _node(node.args[1], params).reciprocal()
+    if node.op == "pow":
+        return _node(node.args[0], params).power(node.exponent)
+    if node.op == "neg":
+        inner = _node(node.args[0], params)
+        return PoleZero(-inner.gain, inner.zeros, inner.poles)
+    return _folded(node, params)
+
+
+def _folded(node: Node, params: Mapping[str, float]) -> PoleZero:
+    """A sum or a leaf: its own polynomial ratio, then its roots."""
+    r = _to_rational(node, params)
+    num, den = trim(r.num), trim(r.den)
+    if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
+        raise ExpressionError("polynomial coefficients overflow")
+    if den[0] == 0:
+        raise ExpressionError("division by zero")
+    gain = float(num[0] / den[0])
+    zeros = np.roots(num) if num.size > 1 and num[0] != 0 else np.zeros(0, dtype=complex)
+    poles = np.roots(den) if den.size > 1 else np.zeros(0, dtype=complex)
+    return PoleZero(gain, zeros.astype(complex), poles.astype(complex))
