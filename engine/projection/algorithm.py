@@ -3,18 +3,26 @@
 K1 = the boxes on u and x, K2 = the dynamics with the algebraic equations.
 r_1 = P_K2(0) (the LQ solution with zero reference); one `step`:
     k_i = P_K1(r_i)  (clipping: exact for diagonal Q, R),
-    s_i = P_K2(k_i)  (Riccati tracking, `lq.py`),
+    s_i = P_K2(k_i)  (the banded KKT solve, `banded.py`),
     lambda_i = ||k_i - r_i||^2 / ||s_i - r_i||^2   (>= 1),
     r_{i+1} = r_i + lambda_i (s_i - r_i).
-Reset rule (the reactor example): lambda = 1 whenever the product of the
-lambdas since the last reset exceeds `reset_product`.  The report also sets
-lambda = 1 on its final iteration "for accuracy"; here the answer is the
-last r (in K2 exactly) and convergence asks the bounds to hold to the
-tolerance as well, which serves the same end.
-`extrapolation = False` gives lambda = 1 always (Theorem 1).  Converged
-when ||k_i - r_i|| <= tolerance ||r_i||; when the distance stops falling
-(the sets are disjoint) the status is infeasible, with the distance and the
-bounds that bind.
+Reset rule (the reactor example): "lambda_k = 1 whenever prod_{i=l}^{k}
+lambda_i > 1e3, where l was the previous iteration at which lambda was set
+to unity".  Read here as: the product of the lambdas *applied* since the
+last reset (lambda_l .. lambda_{k-1}) is tested before step k, so the step
+that takes the product over the limit is still made and the next one has
+lambda = 1 (which starts the product anew).  This is the reading that gives
+the report's Table 2 (lambda = 34.6, 59.6, 1, 1); testing the product with
+the candidate lambda_k included would set lambda_2 = 1.
+`final_unit_step` (the reactor example: "lambda was also set to unity on
+the final (converged) iteration"): when r_i passes the test, the iteration
+still projects, r_{i+1} = s_i = P_K2(P_K1(r_i)), and that is the answer.
+Without it the answer is r_i (in K2 exactly; the test asks the bounds to
+hold to the tolerance as well).  `extrapolation = False` gives lambda = 1
+always (Theorem 1).  Converged when ||k_i - r_i|| <= tolerance ||r_i|| and
+every bound holds to tolerance; when the distance stops falling (the sets
+are disjoint) the status is infeasible, with the distance and the bounds
+that bind.
 """
 
 from __future__ import annotations
@@ -26,7 +34,9 @@ import numpy as np
 from ..algorithm import MeasureRow, State, Status, StepRecord
 from ..errors import EngineError
 from ..problem import Problem
-from .lq import Projector, Trajectory, norm
+from .banded import Projector
+from .lq import Trajectory, norm
+from .openloop import open_loop, peak_rows, peaks
 from .system import DaeSystem, dae_system
 
 STALL_WINDOW = 6
@@ -36,6 +46,7 @@ STALL_WINDOW = 6
 class ProjectionSettings:
     extrapolation: bool = True
     reset_product: float = 1e3
+    final_unit_step: bool = False   # lambda = 1 on the converged iteration, its s the answer (report 004's reactor)
     tolerance: float = 1e-8
     max_iterations: int = 500
     stall: float = 1e-9          # relative fall of the distance over STALL_WINDOW iterations below this: disjoint
@@ -54,58 +65,96 @@ class Projection:
         self.system: DaeSystem = dae_system(problem.objective.data)
         self.settings, self.problem = settings, problem
         self.project = Projector(self.system)
+        self.open_loop = None if self.system.open_loop is None else open_loop(self.system, self.project.Phi,
+                                                                              self.project.Delta)
+        self._hyperplanes()
         zero = Trajectory(np.zeros((self.system.steps + 1, self.system.n)),
                           np.zeros((self.system.steps + 1, self.system.m)))
-        r = self.project(zero)
-        return State(0, (), Status.RUNNING, {"r": _pack(r), "product": 1.0, "distances": []})
+        self._times = self.system.times().tolist()
+        self._last: tuple[dict, Trajectory] | None = None
+        return State(0, (), Status.RUNNING, {"r": self._pack(self.project(zero)), "product": 1.0, "distances": []})
+
+    def initial_record(self, state: State) -> StepRecord:
+        """Iteration 0: the first iterate r_1 = P_K2(0), with the open loop where the system defines one."""
+        r = self._unpack(state.memory["r"])
+        return self._record(0, Status.RUNNING, "", r, None, norm(self._clip(r) - r, self.system.Q, self.system.R),
+                            None)
 
     def step(self, state: State) -> tuple[State, StepRecord]:
         s, sys = self.settings, self.system
-        r = _unpack(state.memory["r"], sys)
+        r = self._unpack(state.memory["r"])
         k = self._clip(r)
         distance = norm(k - r, sys.Q, sys.R)
-        scale = max(norm(r, sys.Q, sys.R), 1e-300)
         i = state.iteration + 1
         memory = dict(state.memory)
         history = list(memory["distances"]) + [distance]
         memory["distances"] = history[-STALL_WINDOW - 1:]
-        if distance <= s.tolerance * scale and list(self.violations(r).values())[-1] <= s.tolerance * max(1.0, _scale(r)):
-            return self._finish(state, memory, r, k, Status.CONVERGED,
-                                f"distance between the sets {distance:.3g} <= {s.tolerance:g} x ||r||, every "
-                                "bound met to the tolerance", i)
+        if self._converged(r, distance):
+            return self._converge(memory, r, k, distance, i)
         stalled = len(history) > STALL_WINDOW and history[-STALL_WINDOW - 1] - distance <= s.stall * distance
         if stalled and s.extrapolation and not memory.get("plain"):
             memory.update(plain=True, distances=[distance])   # disjoint sets: lambda = 1 finds the closest pair
             stalled = False
         if stalled:
-            return self._finish(state, memory, r, k, Status.INFEASIBLE,
-                                f"the sets do not meet: the distance stays at {distance:.6g}; "
-                                f"binding: {', '.join(self._binding(r)) or 'none'}", i)
+            return self._finish(memory, r, Status.INFEASIBLE, f"the sets do not meet: the distance stays at "
+                                f"{distance:.6g}; binding: {', '.join(self._binding(r)) or 'none'}", i, distance)
         if i > s.max_iterations:
-            return self._finish(state, memory, r, k, Status.ITERATION_LIMIT, f"{s.max_iterations} iterations", i)
+            return self._finish(memory, r, Status.ITERATION_LIMIT, f"{s.max_iterations} iterations", i, distance)
         proj = self.project(k)
-        denominator = norm(proj - r, sys.Q, sys.R) ** 2
-        extrapolate = s.extrapolation and not memory.get("plain") and denominator > 0
-        lam = distance ** 2 / denominator if extrapolate else 1.0
-        product = memory["product"] * lam
-        if product > s.reset_product:
-            lam, product = 1.0, 1.0
-        memory["product"] = product
+        lam = self._lambda(memory, distance, norm(proj - r, sys.Q, sys.R) ** 2)
         new = r + (proj - r).scaled(lam)
-        memory["r"] = _pack(new)
-        new_state = State(i, (), Status.RUNNING, memory)
-        return new_state, self._record(i, Status.RUNNING, "", new, lam, distance, norm(k - proj, sys.Q, sys.R))
+        memory["r"] = self._pack(new)
+        return State(i, (), Status.RUNNING, memory), self._record(i, Status.RUNNING, "", new, lam, distance,
+                                                                  norm(k - proj, sys.Q, sys.R))
 
     # -- pieces -----------------------------------------------------------
+
+    def _lambda(self, memory: dict, distance: float, denominator: float) -> float:
+        """lambda_i = ||k - r||^2 / ||s - r||^2, or 1 (no extrapolation, disjoint sets, or the reset; the
+        reading of the reset rule is in the module docstring).  Updates memory['product']."""
+        s = self.settings
+        if memory["product"] > s.reset_product:
+            memory["product"] = 1.0
+            return 1.0
+        extrapolate = s.extrapolation and not memory.get("plain") and denominator > 0
+        lam = distance ** 2 / denominator if extrapolate else 1.0
+        memory["product"] = memory["product"] * lam
+        return lam
+
+    def _converged(self, r: Trajectory, distance: float) -> bool:
+        s = self.settings
+        scale = max(norm(r, self.system.Q, self.system.R), 1e-300)
+        return distance <= s.tolerance * scale and \
+            list(self.violations(r).values())[-1] <= s.tolerance * max(1.0, _scale(r))
+
+    def _converge(self, memory: dict, r: Trajectory, k: Trajectory, distance: float,
+                  i: int) -> tuple[State, StepRecord]:
+        reason = f"distance between the sets {distance:.3g} <= {self.settings.tolerance:g} x ||r||, every bound " \
+                 "met to the tolerance"
+        if not self.settings.final_unit_step:
+            return self._finish(memory, r, Status.CONVERGED, reason, i, distance)
+        sys = self.system
+        answer = self.project(k)                     # lambda = 1 on the final iteration: r_{i+1} = s_i
+        memory["r"] = self._pack(answer)
+        record = self._record(i, Status.CONVERGED, reason + "; lambda = 1 on this final iteration", answer, 1.0,
+                              distance, norm(k - answer, sys.Q, sys.R))
+        return State(i, (), Status.CONVERGED, memory), record
+
+    def _hyperplanes(self) -> None:
+        """For P_K1 onto c . vec(u) = d in the R norm: C R^-1 (block diagonal, never formed) and C R^-1 C'."""
+        sys = self.system
+        if sys.integral is None:
+            return
+        C = sys.integral
+        self._CRinv = (C.reshape(C.shape[0], sys.steps + 1, sys.m) @ np.linalg.inv(sys.R)).reshape(C.shape)
+        self._gram = self._CRinv @ C.T
 
     def _clip(self, t: Trajectory) -> Trajectory:
         """P_K1: clipping onto the boxes, or the R-norm projection onto the integral hyperplanes."""
         sys = self.system
         if sys.integral is not None:
-            C, d = sys.integral, sys.integral_values
-            Rinv = np.kron(np.eye(sys.steps + 1), np.linalg.inv(sys.R))
             u = t.u.ravel()
-            u = u - Rinv @ C.T @ np.linalg.solve(C @ Rinv @ C.T, C @ u - d)
+            u = u - self._CRinv.T @ np.linalg.solve(self._gram, sys.integral @ u - sys.integral_values)
             return Trajectory(t.x, u.reshape(t.u.shape))
         return Trajectory(np.clip(t.x, sys.x_lower, sys.x_upper), np.clip(t.u, sys.u_lower, sys.u_upper))
 
@@ -135,31 +184,46 @@ class Projection:
         return {"dynamics": float(np.abs(dyn).max(initial=0)), "algebraic": float(np.abs(alg).max(initial=0)),
                 "bounds": bounds}
 
-    def _finish(self, state: State, memory: dict, r: Trajectory, k: Trajectory, status: Status, reason: str,
-                i: int) -> tuple[State, StepRecord]:
-        sys = self.system
-        record = self._record(i, status, reason, r, None, norm(k - r, sys.Q, sys.R), None)
-        return State(i, (), status, memory), record
+    def _finish(self, memory: dict, r: Trajectory, status: Status, reason: str, i: int,
+                distance: float) -> tuple[State, StepRecord]:
+        return State(i, (), status, memory), self._record(i, status, reason, r, None, distance, None)
 
     def _record(self, i: int, status: Status, reason: str, r: Trajectory, lam: float | None, distance: float,
                 k_to_s: float | None) -> StepRecord:
-        v = self.violations(r)
-        rows = tuple(MeasureRow(name, "violation", "dae", value, 0.0, value <= 1e-8 * max(1.0, _scale(r)))
-                     for name, value in v.items())
-        extra = {"lambda": lam, "distance": distance, "k_minus_s": k_to_s, "violations": v,
-                 "t": self.system.times().tolist(), "x": r.x.tolist(), "u": r.u.tolist()}
-        return StepRecord(i, status, {}, rows, objective=distance, step_size=lam,
-                          counters={"projections": 1 if lam is not None else 0}, reason=reason, extra=extra)
+        """The tableau (violations, then the peaks of symmetrically bounded inputs, now and in the open
+        loop) and, in extra, the trajectories; the open loop's in the first record (and iteration 0's)."""
+        sys, v, slack = self.system, self.violations(r), 1e-8 * max(1.0, _scale(r))
+        found = peaks(sys, r)
+        rows = [MeasureRow(name, "violation", "dae", value, 0.0, value <= slack, at_least=False)
+                for name, value in v.items()]
+        rows += peak_rows(sys, found, "peak", slack)
+        packed = self._pack(r)
+        extra = {"lambda": lam, "distance": distance, "k_minus_s": k_to_s, "violations": v, "peaks": found,
+                 "t": self._times, "x": packed["x"], "u": packed["u"]}
+        if self.open_loop is not None:
+            initial = peaks(sys, self.open_loop)
+            rows += peak_rows(sys, initial, "open-loop peak", slack)
+            if i <= 1:
+                extra["open_loop"] = {"zero_inputs": list(sys.open_loop), "peaks": initial,
+                                      "x": self.open_loop.x.tolist(), "u": self.open_loop.u.tolist()}
+        return StepRecord(i, status, {}, tuple(rows), objective=distance, step_size=lam,
+                          counters={"projections": 0 if k_to_s is None else 1}, reason=reason, extra=extra)
+
+
+    def _pack(self, t: Trajectory) -> dict:
+        """The iterate as JSON lists, made once: the state's memory and the record share them (neither
+        is changed in place), and the next step takes the arrays back without converting."""
+        if self._last is None or self._last[1] is not t:
+            self._last = ({"x": t.x.tolist(), "u": t.u.tolist()}, t)
+        return self._last[0]
+
+    def _unpack(self, data: dict) -> Trajectory:
+        if self._last is not None and self._last[0] is data:
+            return self._last[1]
+        sys = self.system
+        return Trajectory(np.array(data["x"], dtype=float).reshape(sys.steps + 1, sys.n),
+                          np.array(data["u"], dtype=float).reshape(sys.steps + 1, sys.m))
 
 
 def _scale(t: Trajectory) -> float:
     return float(max(np.abs(t.x).max(initial=0), np.abs(t.u).max(initial=0)))
-
-
-def _pack(t: Trajectory) -> dict:
-    return {"x": t.x.tolist(), "u": t.u.tolist()}
-
-
-def _unpack(data: dict, sys: DaeSystem) -> Trajectory:
-    return Trajectory(np.array(data["x"], dtype=float).reshape(sys.steps + 1, sys.n),
-                      np.array(data["u"], dtype=float).reshape(sys.steps + 1, sys.m))

@@ -1,13 +1,13 @@
 """Projection onto K2 (the dynamics and the algebraic equations) in the
-(Q, R) norm: LQ tracking with the constraint E u + F x = 0, by a Riccati
-recursion whose matrices are computed once; only the tracking vector
-changes with the reference (report 004, section 3 and Appendix A2).
+(Q, R) norm, by the two reference methods: the report's Riccati recursion
+(section 3 and Appendix A2: gains once, a tracking pass per reference) and
+one dense solve of the equality-constrained least squares.  The algorithm
+uses the banded KKT factorization of `banded.py`; these two check it.
 
 The algebraic equation is eliminated as the appendix does: u = G x + N v
 with G = -R^-1 E'(E R^-1 E')^-1 F (the appendix's K(0) for the last step)
 and N a basis of the null space of E, so v is free; then a standard
-finite-horizon recursion with cross terms.  `kkt_projection` solves the
-same least-squares problem directly (the test's independent check).
+finite-horizon problem in (x, v) with a cross term.
 """
 
 from __future__ import annotations
@@ -40,66 +40,76 @@ class Trajectory:
 
 def norm(t: Trajectory, Q: NDArray, R: NDArray) -> float:
     """sqrt(sum x'Qx + u'Ru)."""
-    return float(np.sqrt(np.einsum("ki,ij,kj->", t.x, Q, t.x) + np.einsum("ki,ij,kj->", t.u, R, t.u)))
+    return float(np.sqrt(np.vdot(t.x @ Q, t.x) + np.vdot(t.u @ R, t.u)))
 
 
-class Projector:
-    """P_K2 for one system: the Riccati gains once, a tracking pass per call
-    (with terminal equalities, the direct KKT solve instead)."""
+@dataclass(frozen=True)
+class Reduction:
+    """u = G x + N v; x(k+1) = A x(k) + B v(k); cost x'Qt x + 2 x'S v + v'Rt v."""
+
+    G: NDArray
+    N: NDArray
+    A: NDArray
+    B: NDArray
+    Qt: NDArray
+    S: NDArray
+    Rt: NDArray
+
+    def linear_terms(self, system: DaeSystem, reference: Trajectory) -> tuple[NDArray, NDArray]:
+        """(Q xr + G'R ur, N'R ur) per step: the reference's linear terms in x and v."""
+        R = system.R
+        return reference.x @ system.Q + reference.u @ (R @ self.G), reference.u @ (R @ self.N)
+
+
+def reduction(system: DaeSystem, Phi: NDArray, Delta: NDArray) -> Reduction:
+    """The algebraic equation eliminated (see the module docstring)."""
+    E, F, Q, R = system.E, system.F, system.Q, system.R
+    if E.shape[0]:
+        Rinv = np.linalg.inv(R)
+        G = -Rinv @ E.T @ np.linalg.solve(E @ Rinv @ E.T, F)
+        N = null_space(E)
+    else:
+        G, N = np.zeros((system.m, system.n)), np.eye(system.m)
+    return Reduction(G, N, Phi + Delta @ G, Delta @ N, Q + G.T @ R @ G, G.T @ R @ N, N.T @ R @ N)
+
+
+class RiccatiProjector:
+    """P_K2 as the report computes it: the Riccati gains once, then a backward
+    tracking pass and a forward run per reference (a Python loop per step;
+    no terminal equalities)."""
 
     def __init__(self, system: DaeSystem):
         self.system = system
-        Phi, Delta = system.discrete()
-        self.Phi, self.Delta = Phi, Delta
-        E, F, Q, R = system.E, system.F, system.Q, system.R
-        Rinv = np.linalg.inv(R)
-        if E.shape[0]:
-            self.G = -Rinv @ E.T @ np.linalg.solve(E @ Rinv @ E.T, F)
-            self.N = null_space(E)
-        else:
-            self.G, self.N = np.zeros((system.m, system.n)), np.eye(system.m)
-        self.A = Phi + Delta @ self.G
-        self.B = Delta @ self.N
-        self.Qt = Q + self.G.T @ R @ self.G
-        self.S = self.G.T @ R @ self.N
-        self.Rt = self.N.T @ R @ self.N
-        self._gains()
-
-    def _gains(self) -> None:
-        steps = self.system.steps
-        n, q = self.system.n, self.N.shape[1]
+        self.red = reduction(system, *system.discrete())
+        red, n, q = self.red, system.n, self.red.N.shape[1]
         P = np.zeros((n, n))
-        self.K, self.Hinv, self.C = [None] * (steps + 1), [None] * (steps + 1), [None] * (steps + 1)
-        for k in range(steps, -1, -1):
-            H = self.Rt + self.B.T @ P @ self.B
-            C = self.S + self.A.T @ P @ self.B
+        self.K, self.Hinv, self.C = ([None] * (system.steps + 1) for _ in range(3))
+        for k in range(system.steps, -1, -1):
+            H = red.Rt + red.B.T @ P @ red.B
+            C = red.S + red.A.T @ P @ red.B
             Hinv = np.linalg.inv(H) if q else np.zeros((0, 0))
-            K = Hinv @ C.T
-            self.K[k], self.Hinv[k], self.C[k] = K, Hinv, C
-            P = self.Qt + self.A.T @ P @ self.A - C @ K
+            self.K[k], self.Hinv[k], self.C[k] = Hinv @ C.T, Hinv, C
+            P = red.Qt + red.A.T @ P @ red.A - C @ self.K[k]
             P = 0.5 * (P + P.T)
 
     def __call__(self, reference: Trajectory) -> Trajectory:
         """The point of K2 nearest ``reference``."""
-        if self.system.terminal is not None:
-            return kkt_projection(self.system, reference)
-        s, R, Q = self.system, self.system.R, self.system.Q
-        q_lin = -(reference.x @ Q.T + reference.u @ R.T @ self.G)   # (N+1, n): -(Q xr + G'R ur)
-        r_lin = -(reference.u @ R.T @ self.N)                        # (N+1, q): -N'R ur
+        s, red = self.system, self.red
+        hx, hv = red.linear_terms(s, reference)
         p = np.zeros(s.n)
         g = [None] * (s.steps + 1)
         for k in range(s.steps, -1, -1):
-            d = r_lin[k] + self.B.T @ p
+            d = -hv[k] + red.B.T @ p
             g[k] = -self.Hinv[k] @ d
-            p = q_lin[k] + self.A.T @ p - self.C[k] @ (self.Hinv[k] @ d)
+            p = -hx[k] + red.A.T @ p - self.C[k] @ (self.Hinv[k] @ d)
         x = np.zeros((s.steps + 1, s.n))
         u = np.zeros((s.steps + 1, s.m))
         x[0] = s.x0
         for k in range(s.steps + 1):
             v = -self.K[k] @ x[k] + g[k]
-            u[k] = self.G @ x[k] + self.N @ v
+            u[k] = red.G @ x[k] + red.N @ v
             if k < s.steps:
-                x[k + 1] = self.A @ x[k] + self.B @ v
+                x[k + 1] = red.A @ x[k] + red.B @ v
         return Trajectory(x, u)
 
 

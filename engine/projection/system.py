@@ -39,6 +39,8 @@ class DaeSystem:
     integral: NDArray | None = None      # K1 as hyperplanes: rows c with c . vec(u) = integral_values
     integral_values: NDArray | None = None
     terminal: NDArray | None = None      # K2 also holds x_i(N) = value: rows (state index, value)
+    open_loop: tuple[int, ...] | None = None   # inputs (from 1) held at 0 in the untrimmed open loop
+    time_unit: tuple[str, float] = ("s", 1.0)  # how times are shown: name, seconds per unit
 
     @property
     def n(self) -> int:
@@ -108,6 +110,27 @@ def _terminal(data: Mapping[str, Any], n: int) -> NDArray | None:
     return out
 
 
+def _open_loop(data: Mapping[str, Any], m: int) -> tuple[int, ...] | None:
+    spec = data.get("open_loop")
+    if spec is None:
+        return None
+    zero = tuple(int(j) for j in spec.get("zero_inputs", []))
+    if any(not 1 <= j <= m for j in zero):
+        raise EngineError(f"projection: open_loop.zero_inputs name inputs 1..{m}")
+    return zero
+
+
+def _time_unit(data: Mapping[str, Any]) -> tuple[str, float]:
+    raw = data.get("time_unit", ["s", 1.0])
+    try:
+        unit = (str(raw[0]), float(raw[1]))
+    except (TypeError, ValueError, IndexError):
+        raise EngineError("projection: time_unit is [name, seconds per unit], e.g. [\"h\", 3600]") from None
+    if not unit[1] > 0:
+        raise EngineError("projection: time_unit needs a positive number of seconds")
+    return unit
+
+
 def _weights(data: Mapping[str, Any], key: str, size: int, semidefinite: bool = False) -> NDArray:
     raw = data.get(key, [1.0] * size)
     value = np.array(raw, dtype=float)
@@ -161,7 +184,7 @@ def dae_system(data: Mapping[str, Any]) -> DaeSystem:
     system = DaeSystem(A, B, E, F, x0, horizon, steps, _weights(data, "Q", n, semidefinite=True),
                        _weights(data, "R", m), _bounds(data, "u_min", m, -np.inf), _bounds(data, "u_max", m, np.inf),
                        _bounds(data, "x_min", n, -np.inf), _bounds(data, "x_max", n, np.inf), integral, values,
-                       _terminal(data, n))
+                       _terminal(data, n), _open_loop(data, m), _time_unit(data))
     if system.integral is not None and system.boxed:
         raise EngineError("projection: K1 is either boxes or integral hyperplanes, not both (no closed-form "
                           "projection onto their intersection)")

@@ -136,21 +136,38 @@ def qcg_comparison(repeat: int) -> dict:
                        "evaluations_bfgs_over_cgfm": theirs.nfev / ours.counters["KNT"]}}
 
 
-def projection_integrator(repeat: int) -> dict:
-    """Report 004, example (a) to convergence (target 50 ms)."""
+PROJECTION_CASES = {   # name: (bundled session, time steps N, target s)
+    "projection_integrator": ("projection_integrator.json", 20, 0.050),
+    "projection_integrator_2000": ("projection_integrator.json", 2000, 0.100),
+    "projection_reactor": ("projection_reactor.json", 20, 0.050),
+    "projection_reactor_2000": ("projection_reactor.json", 2000, 0.300),
+}
+
+
+def projection_runs(repeat: int) -> dict:
+    """Report 004's examples (a) and (b) to convergence with their sessions' settings, at the report's
+    N = 20 and at N = 2000, timed interleaved (issue 22's targets: 100 ms and 300 ms at N = 2000)."""
+    from dataclasses import replace
     from pathlib import Path
 
-    from engine.algorithm import iterate
-    from engine.projection import Projection, ProjectionSettings
+    from engine.algorithm import iterate, make_settings
+    from engine.projection import Projection
     from sessions.store import load_session
-    problem = load_session(Path(__file__).resolve().parents[2] / "sessions" / "examples"
-                           / "projection_integrator.json").problem
-
-    def run(i=0):
-        return list(iterate(Projection(), problem, ProjectionSettings(), max_iter=100))
-    records = run()
-    return {"median_s": median_time(run, repeat), "target_s": 0.050, "iterations": len(records),
-            "status": records[-1][1].status.value}
+    folder = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+    runs = []
+    for file, steps, _ in PROJECTION_CASES.values():
+        session = load_session(folder / file)
+        objective = replace(session.problem.objective, data=dict(session.problem.objective.data, steps=steps))
+        problem = replace(session.problem, objective=objective)
+        settings = make_settings("projection", session.model.algorithm.settings)
+        runs.append(lambda i=0, p=problem, s=settings: list(iterate(Projection(), p, s, max_iter=s.max_iterations + 1)))
+    times = interleaved_median_times(runs, repeat)
+    out = {}
+    for (name, (_, steps, target)), run, median in zip(PROJECTION_CASES.items(), runs, times):
+        records = [r for _, r in run()]
+        out[name] = {"median_s": median, "target_s": target, "met": median <= target, "steps": steps,
+                     "iterations": len(records), "status": records[-1].status.value}
+    return out
 
 
 def slp_major_iteration(repeat: int) -> dict:
@@ -300,7 +317,7 @@ def main() -> None:
                               "report_univac_1106_s": 0.9},
             "qcg_sample_convergence": qcg,
             "workbench": tui,
-            "projection_integrator": projection_integrator(args.repeat),
+            **projection_runs(args.repeat),
             "slp_major_iteration": slp_major_iteration(args.repeat),
             "sweep_throughput": sweep_throughput(),
         },

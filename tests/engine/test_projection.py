@@ -1,5 +1,7 @@
-"""`projection` (report 004): the discretization and the Riccati projection
-against independent computations, example (a), disjoint sets."""
+"""`projection` (report 004): the discretization, the banded KKT projection
+against the report's Riccati recursion and a dense solve, example (a),
+disjoint sets, Theorem 3's example.  The reactor (example (b)) is in
+test_projection_reactor.py."""
 
 from __future__ import annotations
 
@@ -14,7 +16,8 @@ from engine.algorithm import Status, iterate
 from engine.errors import EngineError
 from engine.problem import Grid, Objective, Problem
 from engine.projection import Projection, ProjectionSettings
-from engine.projection.lq import Projector, Trajectory, kkt_projection
+from engine.projection.banded import Projector
+from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection
 from engine.projection.system import dae_system
 from sessions.store import load_session
 
@@ -39,7 +42,7 @@ def test_discretization_matches_scipy_zero_order_hold(integrator):
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_riccati_projection_equals_the_direct_kkt_solve(integrator, seed):
+def test_banded_and_riccati_projections_equal_the_direct_kkt_solve(integrator, seed):
     rng = np.random.default_rng(seed)
     data = _data(integrator)
     if seed == 2:   # a random system: 5 states, 4 inputs, 2 algebraic equations, non-diagonal weights
@@ -50,10 +53,11 @@ def test_riccati_projection_equals_the_direct_kkt_solve(integrator, seed):
                 "Q": (M @ M.T + np.eye(5)).tolist(), "R": [1.0, 2.0, 0.5, 3.0]}
     system = dae_system(data)
     reference = Trajectory(rng.normal(size=(system.steps + 1, system.n)), rng.normal(size=(system.steps + 1, system.m)))
-    riccati, direct = Projector(system)(reference), kkt_projection(system, reference)
+    direct = kkt_projection(system, reference)
     scale = max(np.abs(direct.x).max(), np.abs(direct.u).max())
-    assert np.abs(riccati.x - direct.x).max() <= 1e-10 * scale
-    assert np.abs(riccati.u - direct.u).max() <= 1e-10 * scale
+    for projected in (Projector(system)(reference), RiccatiProjector(system)(reference)):
+        assert np.abs(projected.x - direct.x).max() <= 1e-10 * scale
+        assert np.abs(projected.u - direct.u).max() <= 1e-10 * scale
 
 
 def test_example_a_converges_with_extrapolation_much_faster_than_without(integrator):
@@ -105,3 +109,11 @@ def test_theorem_3_converges_in_one_iteration_to_the_minimum_norm_control():
         middle = t[:-1] + 0.5 / steps
         errors.append(np.abs(u[:-1] - (-2 + 6 * middle)).max())
     assert errors[1] < errors[0] / 10 and errors[1] < 1e-3
+
+
+def test_an_unreachable_terminal_state_is_an_error():
+    """x' = 0 u cannot reach x(1) = 1: the KKT system is singular, and the factorization says so."""
+    data = {"A": [[0.0]], "B": [[0.0]], "Q": [0.0], "R": [1.0], "x0": [0.0], "steps": 5,
+            "terminal": [{"state": 1, "value": 1.0}]}
+    with pytest.raises(EngineError, match="singular"):
+        Projector(dae_system(data))
