@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike
 
 from .blocks import DelayTransfer, ExpressionTransfer
 from .errors import EngineError
+from .polish import polish
 from .loops import LoopModel, loop_model
 from .margins import Band, Margins, margins
 from .network import Block, Junction, Network, block_diagram
@@ -102,7 +103,7 @@ def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[s
     pole_list: tuple[Pole, ...] | None = None
     verdict = "unknown"
     if network.rational:
-        pole_list = tuple(poles(realize(network, params)))
+        pole_list = tuple(poles(realize(network, params), lambda eig: polish(network, params, eig)))
         verdict = stability(list(pole_list))
     model = loop_model(network, break_at, omega, params)
     every = margins(model, attenuation_above=0.0)
