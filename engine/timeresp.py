@@ -5,12 +5,35 @@ overshoot, settling time (band, default 5 %), steady-state error, peak |x|.
 Inputs are piecewise linear (steps, ramps and sequences of them, e.g. a wind
 profile); the state equation is integrated exactly for such inputs with the
 first-order-hold discretization exp([[A, B, 0], [0, 0, I], [0, 0, 0]] h).
+Runs of equal steps are propagated in blocks (`_scan`: a few matrix
+products per block instead of one per step).
+
+The measures read the response against its final value, which the caller
+gives: the closed loop's DC gain times the final input when the loop is
+stable and the input settles (`final_value`), else y at the horizon, and
+`StepMeasures.final_from` says which.  Definitions (``r = y / final``), and
+how python-control's step_info (0.10) differs:
+
+- rise time: from r = 0.1 to r = 0.9, delay time: to r = 0.5, each the first
+  crossing, interpolated linearly between samples (step_info: the first
+  sample at or above each level; within one time step);
+- peak, peak time, overshoot: by ``peak_rule`` -- ``"global"`` (default) the
+  largest r over the horizon, ``"first_half_cycle"`` report 003's rule, the
+  first local maximum above the final value; no peak time and 0 % when the
+  rule finds no sample above the final value (step_info: overshoot from the
+  largest r, peak and peak time those of the largest |y|, also without
+  overshoot, so they differ when an undershoot exceeds the overshoot);
+- settling time: the last time |r - 1| > band, interpolated linearly between
+  the last sample outside and the first inside (step_info: that first sample
+  inside; within one time step); None when still outside at the horizon.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -18,6 +41,11 @@ from scipy.linalg import expm
 
 from .errors import EngineError
 from .realization import StateSpace
+
+PeakRule = Literal["global", "first_half_cycle"]
+FinalFrom = Literal["dc_gain", "horizon"]
+PEAK_RULES: tuple[PeakRule, ...] = ("global", "first_half_cycle")
+BLOCK = 64  # steps propagated together by `_scan`
 
 
 @dataclass(frozen=True)
@@ -54,21 +82,81 @@ def simulate(ss: StateSpace, input_name: str, t: ArrayLike, segments: Sequence[S
     u = input_profile(grid, segments)
     # the value just before a breakpoint is the left limit of the input
     u_left = np.where(np.isin(grid, breaks), input_profile(np.nextafter(grid, -np.inf), segments), u)
-    B, D = ss.B[:, k], ss.D[:, k]
-    n = ss.A.shape[0]
+    x = _propagate(ss.A, ss.B[:, k], grid, u, u_left)
+    y = x @ ss.C.T + np.outer(u, ss.D[:, k])
+    return y[np.isin(grid, t)]
+
+
+def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArray) -> NDArray:
+    """States on ``grid`` (rows) under the piecewise linear input, zero initial state."""
+    n = A.shape[0]
     x = np.zeros((grid.size, n))
+    if n == 0:
+        return x
+    h = np.diff(grid)
+    du = (u_left[1:] - u[:-1]) / h
     holds: dict[float, tuple[NDArray, NDArray, NDArray]] = {}
-    for i in range(grid.size - 1):
-        h = grid[i + 1] - grid[i]
-        key = round(h, 12 - int(np.floor(np.log10(h))))  # equal steps of a linspace differ in the last bits
-        if key not in holds:
-            holds[key] = _foh(ss.A, B, h)
-        Phi, Gam0, Gam1 = holds[key]
-        du = (u_left[i + 1] - u[i]) / h
-        x[i + 1] = Phi @ x[i] + Gam0 * u[i] + Gam1 * du
-    y = x @ ss.C.T + np.outer(u, D)
-    keep = np.isin(grid, t)
-    return y[keep]
+    for a, b in _equal_step_runs(grid):
+        step = (grid[b] - grid[a]) / (b - a)
+        if step not in holds:
+            holds[step] = _foh(A, B, step)
+        Phi, Gam0, Gam1 = holds[step]
+        forced = np.outer(u[a:b], Gam0) + np.outer(du[a:b], Gam1)
+        x[a + 1:b + 1] = _scan(Phi, x[a], forced)
+    return x
+
+
+def _equal_step_runs(grid: NDArray) -> list[tuple[int, int]]:
+    """Maximal ranges [a, b) of steps grid[i+1] - grid[i] equal to the rounding of the
+    grid's times (4 eps |t|: the jitter of a linspace), the others one step each."""
+    h = np.diff(grid)
+    tol = 4 * np.finfo(float).eps * np.abs(grid[1:])
+    cut = np.flatnonzero(np.abs(np.diff(h)) > tol[1:]) + 1
+    bounds = np.concatenate([[0], cut, [h.size]]).astype(int)
+    runs: list[tuple[int, int]] = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if np.ptp(h[a:b]) <= tol[b - 1]:
+            runs.append((int(a), int(b)))
+        else:  # a slow drift of the step: no common step
+            runs.extend((i, i + 1) for i in range(a, b))
+    return runs
+
+
+def _scan(Phi: NDArray, x0: NDArray, forced: NDArray) -> NDArray:
+    """x[k+1] = Phi x[k] + forced[k] from x[0] = x0: the states x[1:].
+
+    In blocks of BLOCK steps: the powers Phi^1..Phi^BLOCK by doubling, the
+    zero-state part of every block by one doubling scan over all blocks at once,
+    the block starts by the exact recursion with Phi^BLOCK, the free part by one
+    product with the stacked powers.
+    """
+    L, n = forced.shape
+    if L == 1:
+        return x0 @ Phi.T + forced
+    m = min(BLOCK, L)
+    nb = -(-L // m)
+    powers = Phi.T[None]  # powers[k] = (Phi^(k+1))^T
+    while powers.shape[0] < m:
+        powers = np.concatenate([powers, _flush(powers @ powers[-1])])
+    z = np.zeros((nb * m, n))
+    z[:L] = forced
+    z = z.reshape(nb, m, n)
+    d = 1
+    while d < m:
+        z[:, d:] = z[:, d:] + z[:, :-d] @ powers[d - 1]
+        d *= 2
+    starts = np.empty((nb, n))
+    starts[0] = x0
+    for b in range(1, nb):
+        starts[b] = starts[b - 1] @ powers[m - 1] + z[b - 1, -1]
+    free = (starts @ powers[:m].transpose(1, 0, 2).reshape(n, m * n)).reshape(nb, m, n)
+    return (free + z).reshape(nb * m, n)[:L]
+
+
+def _flush(P: NDArray) -> NDArray:
+    """P with the entries below 1e-250 set to 0 (no subnormal products: they are slow)."""
+    P[np.abs(P) < 1e-250] = 0.0
+    return P
 
 
 def _foh(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
@@ -80,9 +168,24 @@ def _foh(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
     return E[:n, :n], E[:n, n], E[:n, n + 1] * h
 
 
+def final_value(ss: StateSpace, input_name: str, output: str, segments: Sequence[Segment],
+                y: NDArray) -> tuple[float, FinalFrom]:
+    """The final value of ``output`` (response ``y``) and where it comes from: the DC
+    gain times the final input when the closed loop is stable and the input
+    settles (slopes summing to 0), else the last sample ``y[-1]``."""
+    slopes = [s.slope for s in segments]
+    settles = abs(sum(slopes)) <= 1e-12 * sum(abs(v) for v in slopes)
+    stable = ss.A.size == 0 or bool(np.max(np.linalg.eigvals(ss.A).real) < 0)
+    if not (stable and settles):
+        return float(y[-1]), "horizon"
+    level = sum(s.step - s.slope * s.time for s in segments)
+    return float(dc_gain(ss, input_name)[ss.outputs.index(output)]) * level, "dc_gain"
+
+
 @dataclass(frozen=True)
 class StepMeasures:
-    """Classical measures of a response to a step toward ``final``."""
+    """Classical measures of a response to a step toward ``final`` (see the module's
+    definitions); ``final_from``: "dc_gain" or "horizon" (y at the last sample)."""
 
     final: float
     rise_time: float | None
@@ -92,43 +195,67 @@ class StepMeasures:
     overshoot_percent: float
     settling_time: float | None
     steady_state_error: float
+    final_from: FinalFrom = "dc_gain"
+    peak_rule: PeakRule = "global"
 
 
-def step_measures(t: NDArray, y: NDArray, final: float, desired: float = 1.0,
-                  band: float = 0.05) -> StepMeasures:
-    """Rise (10-90 %), delay (50 %), first peak, overshoot, settling within ``band``."""
-    if final == 0 or not np.isfinite(final):
+def step_measures(t: NDArray, y: NDArray, final: float, desired: float = 1.0, band: float = 0.05, *,
+                  final_from: FinalFrom = "dc_gain", peak_rule: PeakRule = "global") -> StepMeasures:
+    """Rise (10-90 %), delay (50 %), peak by ``peak_rule``, overshoot, settling within
+    ``band`` of ``final`` (the caller's final value, see `final_value`)."""
+    if final == 0 or not math.isfinite(final):
         raise EngineError("step measures need a finite, non-zero final value")
-    r = y / final
-
-    def first_crossing(level: float) -> float | None:
-        idx = np.flatnonzero(r >= level)
-        if idx.size == 0:
-            return None
-        i = idx[0]
-        if i == 0:
-            return float(t[0])
-        return float(t[i - 1] + (level - r[i - 1]) * (t[i] - t[i - 1]) / (r[i] - r[i - 1]))
-
-    t10, t90 = first_crossing(0.1), first_crossing(0.9)
-    peaks = np.flatnonzero((r[1:-1] >= r[:-2]) & (r[1:-1] > r[2:]) & (r[1:-1] > 1.0)) + 1
-    ipk = int(peaks[0]) if peaks.size else int(np.argmax(r))
-    outside = np.flatnonzero(np.abs(r - 1.0) > band)
-    settle = None
-    if outside.size == 0:
-        settle = float(t[0])
-    elif outside[-1] < t.size - 1:
-        settle = float(t[outside[-1] + 1])
+    if peak_rule not in PEAK_RULES:
+        raise EngineError(f"unknown peak rule {peak_rule!r}; rules are {', '.join(PEAK_RULES)}")
+    r = np.asarray(y, dtype=float) / final
+    t10, t90 = _first_crossing(t, r, 0.1), _first_crossing(t, r, 0.9)
+    ipk = _peak_index(r, peak_rule)
+    top = int(np.argmax(r)) if ipk is None else ipk
     return StepMeasures(
         final=float(final),
         rise_time=None if t10 is None or t90 is None else t90 - t10,
-        delay_time=first_crossing(0.5),
-        peak_time=float(t[ipk]) if peaks.size else None,
-        peak=float(y[ipk]),
-        overshoot_percent=float(max(0.0, (r[ipk] - 1.0) * 100.0)) if peaks.size else 0.0,
-        settling_time=settle,
+        delay_time=_first_crossing(t, r, 0.5),
+        peak_time=None if ipk is None else float(t[ipk]),
+        peak=float(y[top]),
+        overshoot_percent=0.0 if ipk is None else float((r[ipk] - 1.0) * 100.0),
+        settling_time=_settling_time(t, r, band),
         steady_state_error=float(desired - final),
+        final_from=final_from,
+        peak_rule=peak_rule,
     )
+
+
+def _first_crossing(t: NDArray, r: NDArray, level: float) -> float | None:
+    """First time r reaches ``level``, interpolated between samples (None: never)."""
+    idx = np.flatnonzero(r >= level)
+    if idx.size == 0:
+        return None
+    i = idx[0]
+    if i == 0:
+        return float(t[0])
+    return float(t[i - 1] + (level - r[i - 1]) * (t[i] - t[i - 1]) / (r[i] - r[i - 1]))
+
+
+def _peak_index(r: NDArray, rule: PeakRule) -> int | None:
+    """The peak's sample by ``rule``, None when it finds none above the final value."""
+    if rule == "first_half_cycle":
+        peaks = np.flatnonzero((r[1:-1] >= r[:-2]) & (r[1:-1] > r[2:]) & (r[1:-1] > 1.0)) + 1
+        return int(peaks[0]) if peaks.size else None
+    i = int(np.argmax(r))
+    return i if r[i] > 1.0 else None
+
+
+def _settling_time(t: NDArray, r: NDArray, band: float) -> float | None:
+    """Last time |r - 1| > band, interpolated between the last sample outside and the
+    next (inside); t[0] when never outside, None when outside at the horizon."""
+    outside = np.flatnonzero(np.abs(r - 1.0) > band)
+    if outside.size == 0:
+        return float(t[0])
+    i = int(outside[-1])
+    if i == r.size - 1:
+        return None
+    level = 1.0 + band if r[i] > 1.0 else 1.0 - band
+    return float(t[i] + (level - r[i]) * (t[i + 1] - t[i]) / (r[i + 1] - r[i]))
 
 
 def dc_gain(ss: StateSpace, input_name: str) -> NDArray:

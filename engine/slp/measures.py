@@ -9,7 +9,11 @@ band stops below the bending modes).  Time measures come from the closed-loop
 state space (`engine.realization`) under a profile of steps and ramps, or,
 for a mean square, from a Lyapunov equation (Appendix C: the mean square is
 (1/2 pi) times the integral of |H|^2 times the input's PSD, here |F(jw)|^2
-for a shaping filter F, i.e. the squared H2 norm of H F).
+for a shaping filter F, i.e. the squared H2 norm of H F).  Step measures read
+the response against the closed loop's DC gain times the final input when the
+loop is stable (y at the horizon otherwise, `engine.timeresp.final_value`);
+overshoot and peak time are report 003's, the first half cycle's
+(``peak_rule="first_half_cycle"``, not the global maximum).
 
 A row whose measure does not occur (no phase crossover in a gain-margin
 band, a mode whose peak left its band) is *absent*: its value is NaN and it
@@ -33,8 +37,9 @@ from ..margins import Margins, margins
 from ..problem import FREQUENCY_MEASURES, TIME_MEASURES, Problem
 from ..realization import StateSpace, cascade
 from ..zpk import closed_loop_realization
-from ..timeresp import Segment, dc_gain, simulate, step_measures
+from ..timeresp import PeakRule, Segment, final_value, simulate, step_measures
 
+SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
 PEAK_KINDS = ("attenuation_margin", "modal_peak_db", "modal_peak_phase_deg")
 MARGIN_ATTRIBUTE = {"gain_margin": ("gain", "value"), "phase_margin": ("phase", "value"),
                     "stability_margin": ("stability", "value"), "attenuation_margin": ("attenuation", "value"),
@@ -185,15 +190,13 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:
     y = simulate(ss, response.input, t, segments)[:, ss.outputs.index(response.output)]
     if spec.kind == "peak_response":
         return float(np.max(np.abs(y)))
-    ramps = any(seg.slope != 0 for seg in segments)
-    final = float(y[-1])
-    if not ramps and stability_abscissa(ss) > 0:
-        final = float(dc_gain(ss, response.input)[ss.outputs.index(response.output)]) * sum(s.step for s in segments)
+    final, source = final_value(ss, response.input, response.output, segments, y)
     if spec.kind == "steady_state_error":
         return abs(response.reference - final)
     if final == 0 or not math.isfinite(final):
         return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
-    m = step_measures(t, y, final, response.reference, response.settling_band)
+    m = step_measures(t, y, final, response.reference, response.settling_band, final_from=source,
+                      peak_rule=SLP_PEAK_RULE)
     value = {"rise_time": m.rise_time, "settling_time": m.settling_time, "peak_time": m.peak_time,
              "overshoot_percent": m.overshoot_percent}[spec.kind]
     if value is None:
