@@ -4,8 +4,12 @@
 from __future__ import annotations
 
 import pytest
+from textual.app import App, ComposeResult
 
+from sessions.store import load_session
 from tui.app import LoopcraftApp
+from tui.widgets.plots import FigurePlot, trajectories_figure
+from tui.workbench import Workbench
 
 SIZES = [(100, 32), (80, 24)]
 
@@ -41,3 +45,29 @@ def test_screen(case, size, workdir, snap_compare):
     name, run_before = CASES[case]
     app = LoopcraftApp(workdir / name if name else None)
     assert snap_compare(app, terminal_size=size, run_before=run_before)
+
+
+class PlotApp(App):
+    """One plot filling the screen (the Trajectories pane's size), showing a figure."""
+
+    def __init__(self, figure):
+        super().__init__()
+        self.figure = figure
+
+    def compose(self) -> ComposeResult:
+        yield FigurePlot(id="trajectories")
+
+    def on_mount(self) -> None:
+        self.query_one(FigurePlot).show(self.figure)
+
+
+@pytest.mark.parametrize("size", [(72, 34), (48, 18)], ids=lambda s: f"{s[0]}x{s[1]}")
+def test_reactor_trajectories(size, workdir, snap_compare):
+    """Report 004's reactor after 3 iterations (converged), at the Trajectories pane's size in a
+    120x40 and an 80x24 terminal: u2, its bound and the open loop over the trims u6, u7.  The
+    workbench draws it once MainScreen.figures passes the records and the system's data."""
+    bench = Workbench(load_session(workdir / "projection_reactor.json"))
+    for _ in range(3):
+        bench.step()
+    figure = trajectories_figure(bench.trajectories(), bench.records, bench.session.problem.objective.data)
+    assert snap_compare(PlotApp(figure), terminal_size=size, run_before=steps())

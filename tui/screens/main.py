@@ -172,7 +172,9 @@ class MainScreen(Screen):
         label, its, values = b.convergence()
         figures["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values,
                                              "no iterations yet")
-        figures["trajectories"] = trajectories_figure(b.trajectories())
+        records = b.records or [r for r in [b.initial_record()] if r]  # iteration 0: the initial record
+        objective = b.session.problem.objective
+        figures["trajectories"] = trajectories_figure(b.trajectories(), records, objective.data if objective else None)
         figures["step"] = step_figure(*b.step_traces())
         figures["sweep-plot"] = sweep_figure(b.latest_sweep())
         return figures

@@ -9,6 +9,7 @@ linear axis with decade labels, never with plotext's log scale.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,8 +36,14 @@ class Figure:
     xlim: tuple[float, float] | None = None
     ylim: tuple[float, float] | None = None
     xticks: tuple[list[float], list[str]] | None = None
+    yticks: tuple[list[float], list[str]] | None = None
     series: list[Series] = field(default_factory=list)
     empty_message: str = ""
+    panels: list[Figure] = field(default_factory=list)   # drawn one above the other instead of `series`
+    compact: Figure | None = None   # drawn instead on a canvas of fewer than COMPACT_ROWS rows
+
+
+COMPACT_ROWS = 24
 
 
 class FigurePlot(PlotextPlot):
@@ -63,7 +70,7 @@ class FigurePlot(PlotextPlot):
         if width < 10 or height < 5:
             return None
         plot = Plot()
-        _draw(plot, figure)
+        _draw(plot, figure, height)
         plot.plotsize(width, height)
         plot._set_size(width, height)
         plot.theme(theme)
@@ -75,16 +82,30 @@ class FigurePlot(PlotextPlot):
     def render(self):
         if self._prebuilt is not None and self._prebuilt[0] == self.canvas():
             return self._prebuilt[1]
-        _draw(self.plt, self.figure)
+        _draw(self.plt, self.figure, self.size.height)
         try:
             return super().render()
         except (IndexError, ValueError, ZeroDivisionError) as exc:   # plotext on a tiny or odd canvas
             return f"{self.figure.title}: cannot draw at this size ({type(exc).__name__})"
 
 
-def _draw(plt, fig: Figure) -> None:
-    """Clear ``plt`` and draw ``fig`` on it."""
+def _draw(plt, fig: Figure, height: int | None = None) -> None:
+    """Clear ``plt`` and draw ``fig`` on it (its panels as subplots in one column; its compact
+    variant when the canvas is shorter than COMPACT_ROWS)."""
+    if fig.compact is not None and height is not None and height < COMPACT_ROWS:
+        fig = fig.compact
     plt.clear_figure()
+    if fig.panels:
+        plt.subplots(len(fig.panels), 1)
+        for row, panel in enumerate(fig.panels, start=1):
+            _draw_one(plt.subplot(row, 1), panel)
+        plt.main()
+        return
+    _draw_one(plt, fig)
+
+
+def _draw_one(plt, fig: Figure) -> None:
+    """Draw ``fig`` on a cleared plot or subplot."""
     plt.title(fig.title or fig.empty_message)
     if fig.xlabel:
         plt.xlabel(fig.xlabel)
@@ -102,8 +123,10 @@ def _draw(plt, fig: Figure) -> None:
         plt.xlim(*fig.xlim)
     if fig.ylim:
         plt.ylim(*fig.ylim)
-    if fig.xticks:
+    if fig.xticks is not None:    # ([], []): no time ticks (a panel above another)
         plt.xticks(*fig.xticks)
+    if fig.yticks:
+        plt.yticks(*fig.yticks)
 
 
 MAX_POINTS = 600   # a text canvas resolves fewer; more only slows plotext down
@@ -205,8 +228,16 @@ def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[fl
     return fig
 
 
-def trajectories_figure(data) -> Figure:
-    """Controls u_j(t) of the current iterate (the `projection` algorithm's trajectories)."""
+def trajectories_figure(data, records: Sequence = (), system: Mapping | None = None) -> Figure:
+    """Controls u_j(t) of the current iterate (the `projection` algorithm's trajectories).  Given the
+    records (iteration 0's record will do) and the system's data, a session whose first record has the
+    open loop (report 004's reactor) gets `projection_figure` instead."""
+    initial = records[0].extra.get("open_loop") if records else None
+    if initial is not None and "u" in records[-1].extra:
+        from .trajectories import projection_figure   # here: that module builds on this one's Figure
+        figure = projection_figure(records[-1].extra, initial, system or {})
+        if figure.panels:
+            return figure
     fig = Figure(xlabel="t", ylabel="u", empty_message="no trajectories (projection sessions have them)")
     if data is None:
         return fig
