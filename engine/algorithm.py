@@ -49,6 +49,7 @@ class MeasureRow:
     satisfied: bool
     frequency: float | None = None
     at_least: bool = True   # larger values are better (False: peaks, times, errors, attenuation)
+    method: str | None = None  # margins: "refined", "fitted (residual ...)" or "grid"
 
 
 def _jsonable(value: Any) -> Any:

@@ -21,12 +21,14 @@ or the grid extremum; results then say ``method = "grid"``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .detection import Detection, detection_grid
+from .errors import EngineError
+from .fitting import fit_response
 from .loops import LoopModel
 from .rootfind import Roots, refine, sign_changes
 
@@ -54,8 +56,14 @@ class Margins:
     phase: tuple[Margin, ...]
     stability: tuple[Margin, ...]
     attenuation: tuple[Margin, ...]
-    method: str  # "refined" or "grid"
+    method: str  # "refined", "fitted" or "grid"
     notes: tuple[str, ...] = field(default=())
+    residual: float | None = None  # "fitted": the fit's relative residual on the table
+
+    @property
+    def label(self) -> str:
+        """How the margins were obtained: 'refined', 'fitted (residual 2.1e-04)' or 'grid'."""
+        return f"fitted (residual {self.residual:.1e})" if self.method == "fitted" else self.method
 
     @property
     def crossover_frequency(self) -> float | None:
@@ -86,10 +94,26 @@ class Band:
 
 
 def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),
-            attenuation_above: float | None = None) -> Margins:
-    """All four margin kinds of ``loop`` (attenuation only when a frequency is given)."""
+            attenuation_above: float | None = None, method: str = "auto") -> Margins:
+    """All four margin kinds of ``loop`` (attenuation only when a frequency is given).
+
+    Loops with an evaluator are refined on it.  A tabulated loop is, by
+    default (``"auto"`` or ``"fitted"``), refined on a rational fit of its
+    table (`engine.fitting`), its residual stated; ``method="grid"`` (or a
+    fit worse than `FIT_LIMIT`) takes report 000's grid rule instead."""
+    if method not in ("auto", "fitted", "grid"):
+        raise ValueError(f"margin method must be auto, fitted or grid, not {method!r}")
     if loop.evaluate is None:
-        return _grid_margins(loop, gain_band, phase_band, attenuation_above)
+        fitted = None if method == "grid" else _fitted_loop(loop)
+        if fitted is None:
+            result = _grid_margins(loop, gain_band, phase_band, attenuation_above)
+            return result if method == "grid" else replace(result, notes=result.notes + (
+                f"the table could not be fitted within {FIT_LIMIT:g} relative: grid rule used",))
+        found = margins(fitted[0], gain_band, phase_band, attenuation_above)
+        notes = tuple(n for n in found.notes if not n.startswith("searched within"))
+        return replace(found, method="fitted", residual=fitted[1], notes=(
+            f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
+            f"(relative residual {fitted[1]:.1e} on the table, the margins' stated uncertainty)",) + notes)
     grid = detection_grid(loop)
     found = _refined(loop, grid)
     gain = [m for m in found["G"] if m.gh.real < 0]
@@ -106,6 +130,25 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         stability=tuple(found["S"]),
         attenuation=tuple(m for m in found["A"] if m.frequency >= above),
         method="refined", notes=tuple(notes))
+
+
+FIT_LIMIT = 0.05  # a fit off by more than this (relative) is no better than the grid
+
+
+def _fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
+    """A rational fit of a tabulated loop as a loop model (searched within
+    the table's range), its residual and degree; None when it fits badly."""
+    keep = loop.omega > 0
+    try:
+        fit = fit_response(loop.omega[keep], loop.gh[keep])
+    except EngineError:
+        return None
+    if not fit.residual <= FIT_LIMIT:
+        return None
+    poles = fit.poles[np.isfinite(fit.poles) & (np.abs(fit.poles) > 0)]
+    model = LoopModel(loop.omega[keep], loop.gh[keep], fit.evaluate, np.abs(poles),
+                      np.abs(poles.real) / np.abs(poles))
+    return model, float(fit.residual), int(fit.degree)
 
 
 def _shape_notes(loop: LoopModel, grid: Detection) -> list[str]:

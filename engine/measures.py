@@ -41,7 +41,7 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         desired = target.bands[0].desired if target.bands else None
         value = float("nan") if wc is None else wc
         return [MeasureRow("wc", "crossover_frequency", condition, value, desired,
-                           desired is None or (wc is not None and wc >= desired), wc)]
+                           desired is None or (wc is not None and wc >= desired), wc, method=found.label)]
     kind, attribute, at_least = MEASURES[target.measure]
     band = Band(target.detect_low, target.detect_high)
     chosen: list[Margin] = [m for m in found.all() if m.kind == kind and band.contains(m.frequency)]
@@ -51,6 +51,6 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         desired = target.desired(m.frequency)
         ok = desired is None or (value >= desired if at_least else value <= desired)
         rows.append(MeasureRow(f"{kind}{n}", target.measure, condition, value, desired, bool(ok), m.frequency,
-                               at_least))
+                               at_least, found.label))
     return rows
 

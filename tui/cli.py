@@ -54,7 +54,7 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
         "closed_loop_poles": None if a.closed_loop_poles is None else [
             {"real": p.value.real, "imag": p.value.imag, "damping": p.damping,
              "natural_frequency": p.natural_frequency} for p in a.closed_loop_poles],
-        "method": m.method,
+        "method": m.label,
         "notes": list(a.notes),
     }
 
@@ -133,12 +133,12 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "sessions" / "examples"
 def tableau_text(rows: Sequence[MeasureRow]) -> str:
     """The report-000 style table: number, kind, value, frequency, desired value."""
     lines = [f"{'no.':>4} {'name':<5} {'kind':<20} {'condition':<12} {'value':>12} {'frequency':>12} "
-             f"{'desired':>10}  met"]
+             f"{'desired':>10}  met  method"]
     for n, r in enumerate(rows, start=1):
         freq = "" if r.frequency is None else f"{r.frequency:.6g}"
         desired = "" if r.target is None else f"{r.target:.6g}"
         lines.append(f"{n:>4} {r.name:<5} {r.kind:<20} {r.condition:<12} {r.value:>12.6g} {freq:>12} "
-                     f"{desired:>10}  {'yes' if r.satisfied else 'NO'}")
+                     f"{desired:>10}  {'yes' if r.satisfied else 'NO ':<3}  {r.method or ''}".rstrip())
     return "\n".join(lines)
 
 
@@ -234,9 +234,10 @@ def cmd_report(args: argparse.Namespace) -> int:
         print(json.dumps(data, indent=2, sort_keys=True, default=_number))
     elif args.format == "csv":
         writer = csv.writer(sys.stdout)
-        writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied"])
+        writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied", "method"])
         for r in rows:
-            writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied])
+            writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied,
+                             r.method or ""])
     elif session.model.algorithm.name == "qcg" and record is not None:
         params = {k: float(v[0] if isinstance(v, list) else v) for k, v in record.parameters.items()}
         try:

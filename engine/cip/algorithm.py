@@ -55,7 +55,7 @@ class CipSettings:
     initial_step: float | None = None               # default: the maximum step, as the listing
     growth: float = 1.41416                         # step factor after an accepted move
     max_iterations: int = 200                       # KQUIT
-    detection: Literal["grid", "refined"] = "grid"  # refined: exact margins of rational loops
+    detection: Literal["auto", "grid", "refined"] = "auto"  # auto: refined on exact loops, grid on tables
     gain_as_stability: bool = False                 # INCGMS
     phase_as_stability: bool = False                # INCPMS
     tolerance: float = 0.0                          # TIFR slack (the listing: 1e-5, single precision)
@@ -67,8 +67,8 @@ class CipSettings:
     def __post_init__(self) -> None:
         if self.mode not in ("tifr", "sifr"):
             raise EngineError(f"cip: mode must be 'tifr' or 'sifr', not {self.mode!r}")
-        if self.detection not in ("grid", "refined"):
-            raise EngineError(f"cip: detection must be 'grid' or 'refined', not {self.detection!r}")
+        if self.detection not in ("auto", "grid", "refined"):
+            raise EngineError(f"cip: detection must be 'auto', 'grid' or 'refined', not {self.detection!r}")
         if not (0 < self.min_step <= self.max_step):
             raise EngineError("cip: need 0 < min_step <= max_step")
         if self.initial_step is not None and not self.initial_step > 0:
@@ -170,7 +170,7 @@ class Cip:
 
     def _detect(self, x: NDArray) -> tuple[list[Constraint], list[float]]:
         s = self.settings
-        return detect(self.problem, x, s.detection == "refined", s.gain_as_stability, s.phase_as_stability)
+        return detect(self.problem, x, s.detection, s.gain_as_stability, s.phase_as_stability)
 
     def _trial(self, trial: NDArray, old: list[Constraint], active: list[Constraint],
                windings: list[float]) -> tuple[list[Constraint], list[float], list] | str:
@@ -322,5 +322,5 @@ def _label(c: Constraint, number: int) -> str:
 
 def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, ...]:
     return tuple(MeasureRow(str(n), c.measure, problem.conditions[c.condition].name, c.shown, c.shown_desired,
-                            not c.active, c.frequency, c.measure != "attenuation_margin")
+                            not c.active, c.frequency, c.measure != "attenuation_margin", c.method)
                  for n, c in enumerate(constraints, start=1))

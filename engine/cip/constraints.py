@@ -16,7 +16,7 @@ listing's loop 220 would keep the gain-margin radius).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,6 +55,7 @@ class Constraint:
     weight: float
     points: tuple[Point, ...]
     gh: complex
+    method: str = "grid"  # how the margin was detected (`Margins.label`)
 
     @property
     def at_least(self) -> bool:
@@ -72,7 +73,7 @@ class Constraint:
 
     def to_json(self) -> dict:
         data = {k: getattr(self, k) for k in ("family", "kind", "measure", "condition", "frequency", "value",
-                                               "desired", "shown", "shown_desired", "weight")}
+                                               "desired", "shown", "shown_desired", "weight", "method")}
         data["points"] = [[p.value.real, p.value.imag, p.mode] for p in self.points]
         data["gh"] = [self.gh.real, self.gh.imag]
         return data
@@ -94,10 +95,15 @@ def check_targets(problem: Problem) -> None:
         raise EngineError("cip: the problem has no targets to improve")
 
 
-def detect(problem: Problem, x: NDArray, refined: bool, gain_as_stability: bool = False,
+def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool = False,
            phase_as_stability: bool = False) -> tuple[list[Constraint], list[float]]:
     """Every constraint at the free vector ``x``, in tableau order, and the
-    winding of 1 + GH along the grid per condition (turns; a stability guard)."""
+    winding of 1 + GH along the grid per condition (turns; a stability guard).
+
+    ``detection``: ``grid`` (report 000's grid rules on the user's grid),
+    ``refined`` (exact loops refined on the network, tables on a rational
+    fit), ``auto`` (exact loops refined, tables by the grid rule, so the
+    report's tabulated examples are reproduced)."""
     found: list[Constraint] = []
     windings = []
     for c, condition in enumerate(problem.conditions):
@@ -105,10 +111,11 @@ def detect(problem: Problem, x: NDArray, refined: bool, gain_as_stability: bool 
         if not targets:
             windings.append(0.0)
             continue
-        loop = _loop(problem, c, problem.values_at(x, c), refined)
+        loop = _loop(problem, c, problem.values_at(x, c), detection != "grid")
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
-        found_margins = margins(loop, attenuation_above=above)
-        found += _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability)
+        found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
+        found += [replace(made, method=found_margins.label)
+                  for made in _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability)]
         windings.append(winding(loop.gh))
     return sorted(found, key=_tableau_order), windings
 

@@ -221,6 +221,9 @@ class MainScreen(Screen):
             text.append(f"{_fmt(r.value, 5):>9}", style="bold" if changed else "")
             text.append(" yes " if r.satisfied else " NO  ", style="" if r.satisfied else "bold red")
             text.append(f"{_fmt(r.target, 4):>7} {freq:>10}\n")
+        methods = sorted({r.method for r in rows if r.method})
+        if methods:
+            text.append(f"margins: {', '.join(methods)}\n", style="dim")
         return text
 
     def _step_info(self, record: StepRecord | None) -> str:
