@@ -24,6 +24,7 @@ from .expressions import Expression, Node, _to_rational
 from .polynomials import trim
 
 CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
+MAX_ORDER = 400  # roots of one block: beyond, its realization alone would take minutes
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,9 @@ class PoleZero:
     def power(self, k: int) -> PoleZero:
         base = self if k >= 0 else self.reciprocal()
         k = abs(k)
+        if max(base.zeros.size, base.poles.size) * k > MAX_ORDER:
+            raise ExpressionError(f"order {max(base.zeros.size, base.poles.size) * k} is beyond the limit of "
+                                  f"{MAX_ORDER} for one block")
         return PoleZero(base.gain ** k, np.tile(base.zeros, k), np.tile(base.poles, k))
 
     def cancelled(self) -> PoleZero:
@@ -63,7 +67,11 @@ class PoleZero:
 
 def pole_zero(expression: Expression, params: Mapping[str, float]) -> PoleZero:
     """The expression's gain, zeros and poles, factor by factor, cancelled."""
-    return _node(expression.root, params).cancelled()
+    form = _node(expression.root, params)
+    order = max(form.zeros.size, form.poles.size)
+    if order > MAX_ORDER:
+        raise ExpressionError(f"order {order} is beyond the limit of {MAX_ORDER} for one block", expression.text)
+    return form.cancelled()
 
 
 def _node(node: Node, params: Mapping[str, float]) -> PoleZero:

@@ -107,8 +107,9 @@ class LoopEvaluator:
         slopes = np.empty_like(values)
         if self.batch.size:
             values[self.batch], slopes[self.batch] = _quadratic_ratios(self.num, self.den, omega)
-        for number, fun in self.single.items():
-            values[number], slopes[number] = fun(x)
+        with np.errstate(all="ignore"):  # a value out of range is reported below, not warned about
+            for number, fun in self.single.items():
+                values[number], slopes[number] = fun(x)
         bad = ~np.isfinite(values)
         if bad.any():
             row, col = np.argwhere(bad)[0]

@@ -64,13 +64,14 @@ class LoopModel:
     ``dc_value``: GH(0) when finite and the loop can be evaluated exactly.
     ``delay``: the sum of the loop's delays (s; an upper bound of the phase
     rate a delay adds), ``axis_poles``: frequencies of block poles on the
-    imaginary axis (GH may be infinite there).
+    imaginary axis (GH may be infinite there), ``exact``: the network's own
+    evaluator when ``evaluate`` is a faster form of it (`engine.zpk`).
     """
 
     def __init__(self, omega: NDArray[np.float64], gh: NDArray[np.complex128] | None = None,
                  evaluate: Evaluator | None = None, corner_frequencies: NDArray | None = None,
                  dampings: NDArray | None = None, rational: bool = False, dc_value: complex | None = None,
-                 delay: float = 0.0, axis_poles: NDArray | None = None):
+                 delay: float = 0.0, axis_poles: NDArray | None = None, exact: Evaluator | None = None):
         if gh is None and evaluate is None:
             raise EngineError("a loop needs its response or an evaluator")
         self.omega = omega
@@ -82,6 +83,12 @@ class LoopModel:
         self.dc_value = dc_value
         self.delay = delay
         self.axis_poles = np.zeros(0) if axis_poles is None else axis_poles
+        self.exact = exact if exact is not None else evaluate
+
+    def on_exact(self) -> LoopModel:
+        """The same loop evaluated on the exact network (not the pole-zero form)."""
+        return LoopModel(self.omega, self._gh, self.exact, self.corner_frequencies, self.dampings, self.rational,
+                         self.dc_value, self.delay, self.axis_poles, self.exact)
 
     @property
     def gh(self) -> NDArray[np.complex128]:
@@ -106,7 +113,7 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     corners, damps, is_pole = exact.corners(params)
     evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
     return LoopModel(w, None, evaluate, corners, damps, network.rational, _dc_value(exact),
-                     delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 0)])
+                     delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 0)], exact=exact)
 
 
 def network_delay(network: Network, params: Mapping[str, float]) -> float:

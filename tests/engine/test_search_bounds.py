@@ -105,9 +105,9 @@ def test_undamped_loop_lists_no_spurious_gain_margins():
 
 
 def test_overflowing_expansion_is_a_clear_error():
-    with pytest.raises(EngineError, match="overflow"):
+    with pytest.raises(EngineError, match="order 4096 is beyond the limit"):
         _analysis("1/((s+1)**64)**64")
-    with pytest.raises(EngineError, match="improper"):
+    with pytest.raises(EngineError, match="improper|beyond the limit"):
         _analysis("((s+1)**64)**64")
 
 
