@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .blocks import DelayTransfer, ExpressionTransfer
+from .blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
 from .errors import EngineError
 from .polish import polish
 from .loops import LoopModel, loop_model
@@ -60,9 +60,10 @@ def split_delays(text: str) -> tuple[str, float]:
     return "".join(pieces + [text[last:]]), total
 
 
-def unity_feedback(expressions: Sequence[str], variable: str = "s", delay: float = 0.0) -> Network:
-    """r -> (+) -> e -> product of the expressions (and a delay) -> y, with
-    e = r - y; break at 'e'.  Delay factors exp(-T*s) in the expressions
+def unity_feedback(expressions: Sequence[str], variable: str = "s", delay: float = 0.0,
+                   table: FrequencyTable | None = None) -> Network:
+    """r -> (+) -> e -> product of the expressions (a delay, a table) -> y,
+    with e = r - y; break at 'e'.  Delay factors exp(-T*s) in the expressions
     are read by `split_delays`."""
     if not expressions:
         raise EngineError("give at least one transfer function")
@@ -75,13 +76,14 @@ def unity_feedback(expressions: Sequence[str], variable: str = "s", delay: float
         raise EngineError("a delay needs the variable s (not the w-plane)")
     if not (math.isfinite(delay) and delay >= 0):
         raise EngineError(f"a delay must be finite and >= 0, not {delay!r}")
+    chain = [(f"L{k + 1}", ExpressionTransfer(text, variable)) for k, text in enumerate(texts)]
+    chain += [("delay", DelayTransfer(delay))] if delay else []
+    chain += [("table", TabulatedTransfer(table))] if table is not None else []
     blocks, previous = [], "e"
-    for k, text in enumerate(texts):
-        out = "y" if k == len(texts) - 1 and not delay else f"x{k + 1}"
-        blocks.append(Block(f"L{k + 1}", previous, out, ExpressionTransfer(text, variable)))
+    for k, (name, transfer) in enumerate(chain):
+        out = "y" if k == len(chain) - 1 else f"x{k + 1}"
+        blocks.append(Block(name, previous, out, transfer))
         previous = out
-    if delay:
-        blocks.append(Block("delay", previous, "y", DelayTransfer(delay)))
     return block_diagram(blocks, [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"], variable)
 
 

@@ -103,6 +103,7 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     else:
         samples = delay_margin_samples(m)
         lines.append(f"delay margin: {'none' if samples is None else f'{samples:.6g} samples'}")
+    lines.append(f"margins: {m.label}")
     lines.append(f"closed loop: {a.verdict}")
     for p in a.closed_loop_poles or ():
         zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
@@ -112,9 +113,31 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     return "\n".join(lines)
 
 
+def _table_loop(args: argparse.Namespace):
+    """The network and grid of `analyze --table`: the table (times any --tf
+    expressions) with unity negative feedback, on the table's own frequencies."""
+    from pydantic import ValidationError
+
+    from sessions.build import _table
+    from sessions.schema import TableModel
+    path = Path(args.table)
+    try:
+        model = TableModel(unit=args.unit, form=args.form, gain=args.gain, csv=path.name, columns=args.columns)
+    except ValidationError as exc:
+        raise CliError(f"--table: {exc.errors()[0]['msg']}") from None
+    table = _table(model, "table", path.parent)
+    network = unity_feedback(args.tf or ["1"], args.variable, args.delay, table=table)
+    return network, table.omega
+
+
 def cmd_analyze(args: argparse.Namespace) -> int:
-    network = unity_feedback(args.tf, args.variable, args.delay)
-    omega = np.geomspace(args.wmin, args.wmax, args.points)
+    if args.table is not None:
+        network, omega = _table_loop(args)
+    elif not args.tf:
+        raise CliError("give --tf EXPR (repeatable) or --table FILE.csv")
+    else:
+        network = unity_feedback(args.tf, args.variable, args.delay)
+        omega = np.geomspace(args.wmin, args.wmax, args.points)
     missing = network.parameters
     if missing:
         raise CliError(f"--tf: unknown name(s) {', '.join(missing)} (expressions for analyze "
@@ -123,7 +146,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(analysis_to_json(result, args.variable), indent=2, sort_keys=True))
     else:
-        print(analysis_to_text(result, args.tf, args.variable, args.delay))
+        shown = ([f"table {args.table}"] if args.table else []) + list(args.tf or [])
+        print(analysis_to_text(result, shown, args.variable, args.delay))
     return 0
 
 
@@ -313,8 +337,16 @@ def build_parser() -> argparse.ArgumentParser:
         "(loopcraft [FILE.json] | loopcraft --example NAME).")
     sub = parser.add_subparsers(dest="command")
     p = sub.add_parser("analyze", help="margins and closed-loop poles of a unity-feedback loop")
-    p.add_argument("--tf", action="append", required=True, metavar="EXPR",
+    p.add_argument("--tf", action="append", metavar="EXPR",
                    help="a transfer function, e.g. '16000/(s*(s+8)*(s+20))'; repeat to multiply")
+    p.add_argument("--table", metavar="FILE.csv", help="a tabulated open loop (times any --tf): margins "
+                   "refined on a rational fit, its residual stated")
+    p.add_argument("--columns", nargs="+", metavar="NAME", help="--table: frequency and value column names "
+                   "(three, two for --form magnitude)")
+    p.add_argument("--form", default="polar", choices=["polar", "cartesian", "magnitude"],
+                   help="--table: magnitude and phase (deg), real and imaginary, or magnitude only")
+    p.add_argument("--unit", default="rad/s", choices=["rad/s", "hz"], help="--table: unit of its frequencies")
+    p.add_argument("--gain", type=float, default=1.0, help="--table: a gain its values are multiplied by")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--variable", default="s", choices=["s", "w"], help="frequency variable (w: w-plane)")
     p.add_argument("--delay", type=float, default=0.0, metavar="T",

@@ -1,0 +1,72 @@
+"""`loopcraft analyze` on what engineers type: negative leading signs, delays,
+tables, w-plane loops; output that never runs columns together."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from tui.cli import main
+
+
+def _run(capsys, *args) -> tuple[int, str, str]:
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_a_leading_minus_sign_is_an_expression_not_an_option(capsys):
+    code, out, err = _run(capsys, "analyze", "--tf", "-2/(s+1)", "--json")
+    assert code == 0, err
+    assert json.loads(out)["gain_margins"][0]["gain_db"] == pytest.approx(-20 * math.log10(2), abs=1e-12)
+
+
+def test_delay_option_and_factor_give_the_delay_margin_of_the_delayed_loop(capsys):
+    _, a, _ = _run(capsys, "analyze", "--tf", "2/(s*(s+1))", "--delay", "0.1", "--json")
+    _, b, _ = _run(capsys, "analyze", "--tf", "2/(s*(s+1))*exp(-0.1*s)", "--json")
+    a, b = json.loads(a), json.loads(b)
+    assert a["delay_margin"] == b["delay_margin"]
+    # the delay margin of the undelayed loop less the added 0.1 s
+    _, plain, _ = _run(capsys, "analyze", "--tf", "2/(s*(s+1))", "--json")
+    assert a["delay_margin"] == pytest.approx(json.loads(plain)["delay_margin"] - 0.1, rel=1e-9)
+
+
+def test_a_delay_that_is_not_a_factor_is_refused(capsys):
+    code, _, err = _run(capsys, "analyze", "--tf", "1/(s+1)+exp(-s)")
+    assert code == 2 and "factor" in err
+
+
+def test_table_analysis_is_refined_on_a_fit_and_says_so(capsys, tmp_path):
+    w = np.geomspace(0.01, 100, 400)
+    gh = 10 / (1j * w * (1j * w + 1) * (1j * w + 5))
+    rows = "".join(f"{float(a)!r},{float(abs(g))!r},{float(np.degrees(np.angle(g)))!r}\n" for a, g in zip(w, gh))
+    (tmp_path / "plant.csv").write_text("w,mag,phase\n" + rows)
+    code, out, err = _run(capsys, "analyze", "--table", str(tmp_path / "plant.csv"), "--columns", "w", "mag",
+                          "phase", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["method"].startswith("fitted (residual")
+    # 10/(s(s+1)(s+5)): phase crossover at sqrt 5, GM = 20 log10(3) dB
+    (gm,) = data["gain_margins"]
+    assert gm["frequency"] == pytest.approx(math.sqrt(5), rel=1e-8)
+    assert gm["gain_db"] == pytest.approx(20 * math.log10(3), rel=1e-8)
+    code, _, err = _run(capsys, "analyze", "--table", str(tmp_path / "missing.csv"), "--columns", "w", "a", "b")
+    assert code == 2 and "missing.csv" in err
+
+
+def test_w_plane_output_says_w_plane_and_samples(capsys):
+    z = "((1+w)/(1-w))"
+    code, out, _ = _run(capsys, "analyze", "--variable", "w", "--tf", f"0.2*({z}+0.5)/(({z}-1)*({z}-0.5))")
+    assert code == 0 and "w-plane rad/s" in out and "samples" in out and "closed loop: stable" in out
+
+
+def test_columns_never_run_together(capsys):
+    _, out, _ = _run(capsys, "analyze", "--tf", "1e9/((s+1e-6)*(s+1e6))")
+    for line in out.splitlines():
+        if re.match(r"^[GPS] ", line):
+            cells = line.split()
+            assert all(re.fullmatch(r"[-+0-9.e]+|inf|-inf|-|dB|deg", c) for c in cells[1:]), line
