@@ -20,7 +20,6 @@ or the grid extremum; results then say ``method = "grid"``.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -31,6 +30,7 @@ from .errors import EngineError
 from .fitting import fit_response
 from .loops import LoopModel
 from .rootfind import Roots, refine, sign_changes
+from .shapes import shape_notes
 
 NOISE = 1e-11  # a level's value or slope below this (relative) is rounding noise
 
@@ -124,7 +124,7 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
     dc = loop.dc_value
     if dc is not None and dc.real < 0:
         gain = [_margin("G", 0.0, dc)] + [m for m in gain if m.frequency > 0]
-    notes = list(grid.notes) + _shape_notes(loop, grid)
+    notes = list(grid.notes) + shape_notes(loop, grid)
     if not loop.rational:
         notes.insert(0, f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
     above = float("inf") if attenuation_above is None else attenuation_above
@@ -173,35 +173,6 @@ def _fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
     model = LoopModel(loop.omega[keep], loop.gh[keep], fit.evaluate, np.abs(poles),
                       np.abs(poles.real) / np.abs(poles))
     return model, float(fit.residual), int(fit.degree)
-
-
-def _shape_notes(loop: LoopModel, grid: Detection) -> list[str]:
-    """What the loop's shape means for its margins: constant levels, a Nyquist
-    curve on the real axis, poles on the imaginary axis."""
-    notes = []
-    if "1+GH" in grid.flat:
-        notes.append(f"|1+GH| is constant ({abs(1 + grid.gh[0]):.6g}) at every frequency: "
-                     "no interior minimum (no stability margin)")
-    if "GH" in grid.flat:
-        level = abs(grid.gh[0])
-        notes.append(f"|GH| is constant ({level:.6g}) at every frequency"
-                     + (": its crossing of 1 is not isolated (no phase margin)" if abs(level - 1) < 1e-9 else ""))
-    if "phase" in grid.flat:
-        notes.append(f"the phase of GH is constant ({math.degrees(np.angle(grid.gh[0])):.6g} deg)"
-                     + (": on the negative real axis everywhere (gain crossings not isolated)"
-                        if abs(abs(np.angle(grid.gh[0])) - math.pi) < 1e-9 else ""))
-    elif _on_real_axis(grid):
-        notes.append("GH is real at every frequency (the Nyquist curve lies on the real axis): its crossings "
-                     "of the negative real axis are not isolated, so no gain margin is listed")
-    if loop.axis_poles.size:
-        listed = ", ".join(f"{w:.6g}" for w in np.unique(loop.axis_poles)[:6])
-        notes.append(f"GH has poles on the imaginary axis at {listed} rad/s (|GH| is infinite there)")
-    return notes
-
-
-def _on_real_axis(grid: Detection) -> bool:
-    finite = np.isfinite(grid.gh)
-    return bool(np.all(np.abs(grid.gh.imag[finite]) <= NOISE * np.abs(grid.gh[finite])))
 
 
 def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:

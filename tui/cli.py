@@ -11,10 +11,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from engine.algorithm import MeasureRow, StepRecord, make_settings
-from engine.analysis import LoopAnalysis, analyze, unity_feedback
 from engine.errors import EngineError
 from engine.measures import tableau
 from engine.qcg.setup import cascade_problem
@@ -25,130 +22,13 @@ from sessions.store import Session, autosave_candidate, load_session, save_sessi
 
 from .cip_report import cip_report_text
 from .qcg_report import qcg_report_text
-from . import sweep_cli
+from . import analyze_cli, sweep_cli
+from .errors import CliError
 from .slp_report import slp_report_text
-
-
-class CliError(Exception):
-    """Bad input on the command line: printed as one line, exit status 2."""
 
 
 def _number(x: float | None) -> float | None:
     return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
-
-
-def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
-    """The documented JSON object of `loopcraft analyze --json`."""
-    m = a.margins
-    return {
-        "gain_margins": [{"frequency": g.frequency, "gain_db": _number(g.gain_db), "distance": g.value}
-                         for g in m.gain],
-        "phase_margins": [{"frequency": p.frequency, "phase_deg": p.phase_deg, "distance": p.value,
-                           "delay": _number(p.delay)} for p in m.phase],
-        "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.stability],
-        "crossover_frequency": _number(m.crossover_frequency),
-        "delay_margin": _number(m.delay_margin),
-        "delay_margin_samples": _number(delay_margin_samples(m)) if variable == "w" else None,
-        "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
-        "verdict": a.verdict,
-        "closed_loop_poles": None if a.closed_loop_poles is None else [
-            {"real": p.value.real, "imag": p.value.imag, "damping": p.damping,
-             "natural_frequency": p.natural_frequency} for p in a.closed_loop_poles],
-        "method": m.label,
-        "notes": list(a.notes),
-    }
-
-
-def delay_margin_samples(m) -> float | None:
-    """A w-plane loop's delay margin in samples: at a gain crossover of
-    w-plane frequency nu (w = (z - 1)/(z + 1)), the sampled frequency is
-    omega T = 2 atan(nu), and d samples of delay turn the phase by d omega T."""
-    values = [math.radians(p.phase_deg) % (2 * math.pi) / (2 * math.atan(p.frequency))
-              for p in m.phase if p.frequency > 0]
-    return min(values) if values else None
-
-
-def _cells(*cells: str) -> str:
-    """One table line: cells right-aligned in their columns, always two spaces apart."""
-    widths = (6, 20, 22, 14)
-    return "  ".join(c.rjust(w) if k else c.ljust(w) for k, (c, w) in enumerate(zip(cells, widths))).rstrip()
-
-
-def _num(x: float | None, unit: str = "", spec: str = ".6g") -> str:
-    if x is None or not math.isfinite(x):
-        return "inf" if x is not None and x > 0 else ("-inf" if x is not None and x < 0 else "-")
-    return f"{x:{spec}}{(' ' + unit) if unit else ''}"
-
-
-def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str = "s", delay: float = 0.0) -> str:
-    """A readable table of the margins and poles (w-plane frequencies labelled as such)."""
-    m = a.margins
-    unit = "rad/s" if variable == "s" else "w-plane rad/s"
-    loop = " * ".join(f"({e})" for e in expressions) + (f" * exp(-{delay:g} s)" if delay else "")
-    lines = [f"Open loop GH = {loop}  (unity negative feedback)", ""]
-    lines.append(_cells("kind", f"frequency {unit}", "classical", "|1+GH|"))
-    for g in m.gain:
-        lines.append(_cells("G", _num(g.frequency), _num(g.gain_db, "dB", ".4f"), _num(g.value, spec=".6g")))
-    for p in m.phase:
-        lines.append(_cells("P", _num(p.frequency), _num(p.phase_deg, "deg", ".4f"), _num(p.value, spec=".6g")))
-    for st in m.stability:
-        lines.append(_cells("S", _num(st.frequency), "", _num(st.value, spec=".6g")))
-    if not m.all():
-        lines.append("(no crossings)")
-    lines.append("")
-    wc, dm = m.crossover_frequency, m.delay_margin
-    lines.append(f"crossover frequency: {'none' if wc is None else f'{wc:.6g} {unit}'}")
-    if variable == "s":
-        lines.append(f"delay margin: {'none' if dm is None else f'{dm:.6g} s'}")
-    else:
-        samples = delay_margin_samples(m)
-        lines.append(f"delay margin: {'none' if samples is None else f'{samples:.6g} samples'}")
-    lines.append(f"margins: {m.label}")
-    lines.append(f"closed loop: {a.verdict}")
-    for p in a.closed_loop_poles or ():
-        zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
-        lines.append(f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {zeta:.4f}"
-                     f"   wn {p.natural_frequency:.6g} {unit}")
-    lines.extend(f"note: {n}" for n in a.notes)
-    return "\n".join(lines)
-
-
-def _table_loop(args: argparse.Namespace):
-    """The network and grid of `analyze --table`: the table (times any --tf
-    expressions) with unity negative feedback, on the table's own frequencies."""
-    from pydantic import ValidationError
-
-    from sessions.build import _table
-    from sessions.schema import TableModel
-    path = Path(args.table)
-    try:
-        model = TableModel(unit=args.unit, form=args.form, gain=args.gain, csv=path.name, columns=args.columns)
-    except ValidationError as exc:
-        raise CliError(f"--table: {exc.errors()[0]['msg']}") from None
-    table = _table(model, "table", path.parent)
-    network = unity_feedback(args.tf or ["1"], args.variable, args.delay, table=table)
-    return network, table.omega
-
-
-def cmd_analyze(args: argparse.Namespace) -> int:
-    if args.table is not None:
-        network, omega = _table_loop(args)
-    elif not args.tf:
-        raise CliError("give --tf EXPR (repeatable) or --table FILE.csv")
-    else:
-        network = unity_feedback(args.tf, args.variable, args.delay)
-        omega = np.geomspace(args.wmin, args.wmax, args.points)
-    missing = network.parameters
-    if missing:
-        raise CliError(f"--tf: unknown name(s) {', '.join(missing)} (expressions for analyze "
-                       f"take numbers, the variable {args.variable!r} and delay factors exp(-T*s) only)")
-    result = analyze(network, "e", omega, {})
-    if args.json:
-        print(json.dumps(analysis_to_json(result, args.variable), indent=2, sort_keys=True))
-    else:
-        shown = ([f"table {args.table}"] if args.table else []) + list(args.tf or [])
-        print(analysis_to_text(result, shown, args.variable, args.delay))
-    return 0
 
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "sessions" / "examples"
@@ -336,25 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="loopcraft", description="Classical compensator design workbench. Without a command: the app "
         "(loopcraft [FILE.json] | loopcraft --example NAME).")
     sub = parser.add_subparsers(dest="command")
-    p = sub.add_parser("analyze", help="margins and closed-loop poles of a unity-feedback loop")
-    p.add_argument("--tf", action="append", metavar="EXPR",
-                   help="a transfer function, e.g. '16000/(s*(s+8)*(s+20))'; repeat to multiply")
-    p.add_argument("--table", metavar="FILE.csv", help="a tabulated open loop (times any --tf): margins "
-                   "refined on a rational fit, its residual stated")
-    p.add_argument("--columns", nargs="+", metavar="NAME", help="--table: frequency and value column names "
-                   "(three, two for --form magnitude)")
-    p.add_argument("--form", default="polar", choices=["polar", "cartesian", "magnitude"],
-                   help="--table: magnitude and phase (deg), real and imaginary, or magnitude only")
-    p.add_argument("--unit", default="rad/s", choices=["rad/s", "hz"], help="--table: unit of its frequencies")
-    p.add_argument("--gain", type=float, default=1.0, help="--table: a gain its values are multiplied by")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--variable", default="s", choices=["s", "w"], help="frequency variable (w: w-plane)")
-    p.add_argument("--delay", type=float, default=0.0, metavar="T",
-                   help="a loop delay exp(-T s) in seconds (also written as a factor exp(-T*s) in --tf)")
-    p.add_argument("--wmin", type=float, default=1e-3, help="plot grid start, rad/s (margins do not depend on it)")
-    p.add_argument("--wmax", type=float, default=1e3, help="plot grid end, rad/s")
-    p.add_argument("--points", type=int, default=400, help="plot grid points")
-    p.set_defaults(handler=cmd_analyze)
+    analyze_cli.add_parser(sub)
     p = sub.add_parser("run", help="run a session's algorithm and save its records")
     p.add_argument("file")
     p.add_argument("--algorithm", help="switch to this algorithm (restarts from iteration 0)")
