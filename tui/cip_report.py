@@ -25,6 +25,9 @@ def cip_report_text(record: StepRecord) -> str:
         if rows:
             lines += ["", f"{title:>58}", ""]
             lines += [_margin_line(n, r) for n, r in rows]
+    methods = sorted({r.method for r in record.measures if getattr(r, "method", None)})
+    if methods:
+        lines += ["", f"  MARGINS DETECTED: {', '.join(methods)}"]
     lines += _partials(record.extra.get("partials"))
     for comp in record.extra.get("compensators", []):
         lines += _compensator(comp)
