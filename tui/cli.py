@@ -53,8 +53,9 @@ def _rows_now(session: Session, iteration: int | None = None) -> tuple[list[Meas
     if not 0 <= iteration <= len(records):
         raise CliError(f"--iteration: {iteration} is outside 0..{len(records)}")
     if iteration == 0:
-        if session.model.algorithm.name in ("cip", "slp"):
-            return list(_initial_record(session).measures), None
+        initial = _initial_record(session, required=False)  # the algorithm's own iteration 0, if it has one
+        if initial is not None:
+            return list(initial.measures), None
         try:
             return tableau(session.problem), None
         except EngineError as exc:
@@ -158,8 +159,10 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-def _initial_record(session: Session) -> StepRecord:
-    """Iteration 0: the initial tableau (for cip, the report's Table 1)."""
+def _initial_record(session: Session, required: bool = True) -> StepRecord | None:
+    """Iteration 0: the initial tableau (for cip, the report's Table 1; for
+    projection, the untrimmed open loop); None when not ``required`` and the
+    algorithm gives none."""
     from .workbench import Workbench
     bench = Workbench(session)
     try:
@@ -167,7 +170,7 @@ def _initial_record(session: Session) -> StepRecord:
     except SessionError as exc:
         raise CliError(f"initial tableau: {exc}") from None
     record = bench.initial_record()
-    if record is None:
+    if record is None and required:
         raise CliError("initial tableau: the algorithm gives none")
     return record
 
