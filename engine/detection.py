@@ -44,6 +44,7 @@ DELAY_BUDGET = MAX_BUDGET // 2  # of them for a delay's linear grid (5000 half-t
 FLAT = 1e-9  # a level whose log varies less than this over the grid is constant
 SHALLOW = 1e-4  # ... less than this: too shallow to hide a pair worth splitting for
 STATIONARY = 1e-3  # rad from 90 deg at both ends: |r| is stationary there (an arc about the origin)
+UNDAMPED = 1e-9  # a corner this lightly damped is on the imaginary axis (roots of an expanded polynomial)
 TURN_NOISE = 1e-10  # rad: a curve that turns less than this over an interval is straight
 
 
@@ -235,13 +236,13 @@ def _initial_grid(loop: LoopModel, budget: int, notes: list[str]) -> NDArray[np.
     light = loop.dampings < LIGHT_DAMPING
     wn, zeta = corners[light, None], loop.dampings[light, None]
     cluster = wn * (1.0 + np.maximum(zeta, 1e-9) * CLUSTER)
-    parts.append(cluster[(zeta > 0) | (CLUSTER != 0)])
+    parts.append(cluster[(zeta > UNDAMPED) | (CLUSTER != 0)])
     parts.append(delayed)
     if not loop.rational:
         parts.append(loop.omega[loop.omega > 0])
     w = np.unique(np.concatenate(parts))
     w = w[(w >= lo) & (w <= hi)]
-    undamped = corners[loop.dampings <= 0]
+    undamped = corners[loop.dampings <= UNDAMPED]
     if undamped.size:
         near = np.min(np.abs(w[:, None] / undamped[None, :] - 1.0), axis=1) < 1e-9
         w = w[~near]

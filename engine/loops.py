@@ -113,7 +113,7 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     corners, damps, is_pole = exact.corners(params)
     evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
     return LoopModel(w, None, evaluate, corners, damps, network.rational, _dc_value(exact),
-                     delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 0)], exact=exact)
+                     delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 1e-9)], exact=exact)
 
 
 def network_delay(network: Network, params: Mapping[str, float]) -> float:

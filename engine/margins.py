@@ -187,6 +187,8 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
     """
     w, gh, dgh = grid.omega, grid.gh, grid.dgh
     brackets = _grid_brackets(w, gh, dgh, grid.flat)
+    if loop.axis_poles.size:
+        brackets = {name: _off_poles(b, w, loop.axis_poles) for name, b in brackets.items()}
     names = list(brackets)
     index = np.concatenate([brackets[name].index for name in names])
     counts = [brackets[name].index.size for name in names]
@@ -205,6 +207,9 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
         points = np.concatenate([frequencies[name], w[brackets[name].exact]])
         at = np.concatenate([values[name], gh[brackets[name].exact]])
         unique, first = np.unique(points, return_index=True)
+        if loop.axis_poles.size:  # refined onto a pole of GH: not a margin
+            near = np.min(np.abs(unique[:, None] / loop.axis_poles[None, :] - 1.0), axis=1) < 1e-12
+            unique, first = unique[~near], first[~near]
         margins[name] = _margins_of(name, unique, at[first])
     return margins
 
@@ -246,6 +251,15 @@ class Brackets:
 
 # which constant level (see `Detection.flat`) makes a bracket kind meaningless
 FLAT_LEVEL = {"S": "1+GH", "A": "GH", "Amin": "GH", "P": "GH", "phase": "phase", "G": "phase"}
+
+
+def _off_poles(brackets: Brackets, w: NDArray, poles: NDArray) -> Brackets:
+    """Without the intervals that hold a pole of GH on the imaginary axis: a
+    sign change across a pole (Im GH or |GH| - 1 jumping through infinity) is
+    not a crossing."""
+    lo, hi = w[brackets.index], w[brackets.index + 1]
+    spans = np.any((lo[:, None] <= poles[None, :]) & (poles[None, :] <= hi[:, None]), axis=1)
+    return Brackets(brackets.index[~spans], brackets.exact)
 
 
 def _grid_brackets(w: NDArray, gh: NDArray, dgh: NDArray, flat: frozenset[str] = frozenset()) -> dict[str, Brackets]:

@@ -187,7 +187,7 @@ def poles(ss: StateSpace, refine: Callable[[NDArray], NDArray] | None = None) ->
     return out
 
 
-def stability(pole_list: list[Pole], tolerance: float = 1e-9) -> str:
+def stability(pole_list: list[Pole], tolerance: float = 1e-11) -> str:
     """'stable', 'unstable' or 'marginally stable' (a pole within tolerance of the axis)."""
     if not pole_list:
         return "stable"

@@ -40,6 +40,7 @@ class ZpkEvaluator:
         self.extra_zeros = self.zeros.size > self.poles.size
         m = self.paired
         self.roots = np.concatenate([self.zeros[:m], self.poles[:m], self.zeros[m:], self.poles[m:]])[:, None]
+        self.gaps = self.zeros[:m] - self.poles[:m]
         self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m,
                                                                       1.0 if self.extra_zeros else -1.0)]).astype(complex)
 
@@ -69,7 +70,10 @@ class ZpkEvaluator:
             gh = self.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)
             if self.roots.size > 2 * m:
                 gh = gh * np.multiply.reduce(q[2 * m:] if self.extra_zeros else r[2 * m:], axis=0)
-            dgh = 1j * gh * (self.signs @ r)
+            # a pair's 1/(s - z) - 1/(s - p) as (z - p) r_z r_p: no cancellation far above both
+            paired = self.gaps @ (r[:m] * r[m:2 * m]) if m else 0.0
+            rest = self.signs[2 * m:] @ r[2 * m:] if self.roots.size > 2 * m else 0.0
+            dgh = 1j * gh * (paired + rest)
         return gh, dgh
 
 

@@ -143,3 +143,32 @@ def test_delay_loops_find_every_phase_crossover(k, a, tau):
     expected = _brute_force_phase_crossovers(k, a, tau, grid[0], grid[-1])
     assert found.size == expected.size
     np.testing.assert_allclose(found, expected, rtol=1e-10)
+
+
+def test_imaginary_axis_poles_of_an_expanded_denominator_are_found_and_avoided():
+    """132/(s^3 + 11 s^2 + 9 s + 99) = 132/((s + 11)(s^2 + 9)): the expanded
+    roots carry rounding in their real parts; GH is infinite at 3 rad/s."""
+    for text in ("132/(s^3+11*s^2+9*s+99)", "(4*s^2-32*s-16)/((s+1)*(s^2+36))"):
+        a = _analysis(text)
+        assert any("imaginary axis" in n for n in a.notes), text
+
+
+def test_no_gain_margin_is_listed_at_a_pole_on_the_imaginary_axis():
+    # Im GH jumps through infinity at 2 rad/s: not a crossing; GH(0) = -220/252 and GH(j1) = -1 are
+    a = _analysis("(-4*s^3-34*s^2-52*s-220)/((s^2+4)*(s+7)*(s+9))")
+    assert [round(m.frequency, 9) for m in a.margins.gain] == [0.0, 1.0]
+    assert a.verdict == "marginally stable"
+
+
+def test_a_pole_just_right_of_the_axis_is_unstable():
+    """9/(s(s+2)(s+5)(s+30)(s^2+41)(s^2+225)): a closed-loop pair at
+    +1.354e-8 +- 15j (mpmath agrees to 1e-17): unstable, not marginal."""
+    a = _analysis("9/(s*(s+2)*(s+5)*(s+30)*(s^2+41)*(s^2+225))")
+    assert a.verdict == "unstable"
+    assert max(p.value.real for p in a.closed_loop_poles) == pytest.approx(1.354e-8, rel=1e-3)
+
+
+def test_an_all_pass_loop_has_no_flood_of_noise_minima_at_high_frequency():
+    # |1 + GH| -> 2 from above as w -> inf; the derivative once cancelled to noise there
+    a = _analysis("(s^2-1.02921*s+2.93191)/(s^2+1.02921*s+2.93191)")
+    assert len(a.margins.stability) == 1
