@@ -76,3 +76,13 @@ def test_clustered_light_modes_are_refined_to_1e_10(seed):
     np.testing.assert_allclose([m.frequency for m in found.stability], minima, rtol=1e-10)
     exact = np.abs(1 + _gh(k, zeros, poles, minima)[0])
     np.testing.assert_allclose([m.value for m in found.stability], exact, rtol=1e-10)
+
+
+def test_a_shallow_interior_minimum_is_not_missed():
+    """An order-16 loop whose minimum of |1 + GH| at 0.2805 rad/s (14.0903)
+    shares a 10-per-decade background interval with a maximum; reference:
+    dense sampling refined by brentq (an independent verification's case)."""
+    text = "(13.7095848676)*(s^2+0.00597334596631675*s+0.15413013837234654)*(s^2+0.0008951019974904104*s+0.031571386571814596)*(s+0.6561795600543657)*(s^2+0.29535469688180077*s+38.778934726382616)/(s*(s+0.14731870353512647)*(s^2+0.12879372283611254*s+37.01768700925886)*(s+0.06805081897963053)*(s^2+0.004527490070754686*s+0.017215715759615616)*(s^2+0.006004857746937383*s+0.11937012479053692)*(s^2+0.5408627625397829*s+37.94885711225082))"
+    found = margins(loop_model(unity_feedback([text]), "e", np.geomspace(1e-3, 1e3, 50), {}))
+    near = [m for m in found.stability if abs(m.frequency / 0.280506385 - 1) < 1e-6]
+    assert len(near) == 1 and near[0].value == pytest.approx(14.0903162, rel=1e-7)
