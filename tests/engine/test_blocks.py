@@ -12,7 +12,7 @@ from engine.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyT
                            polynomial_transfer)
 from engine.errors import BlockError, ExtrapolationError
 
-SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "seidel_inlet_table1.csv"
+SHARED = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"  # the bundled copy of the clean Table I
 X = 1j * np.geomspace(0.1, 100, 40)
 
 

@@ -185,7 +185,7 @@ def test_grid_units_are_kept(matching_dict, tmp_path):
 
 def test_csv_table_next_to_the_session(matching_dict, tmp_path):
     """The inlet data of report 001 as a CSV block; a bad cell names its line and column."""
-    shared = Path(__file__).resolve().parents[3] / "shared" / "data" / "seidel_inlet_table1.csv"
+    shared = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"
     (tmp_path / "inlet.csv").write_text(shared.read_text())
     plant = matching_dict["problem"]["conditions"][0]["plant"]
     plant["blocks"][1]["transfer"] = {"kind": "table", "table": {
