@@ -43,6 +43,7 @@ MAX_BUDGET = 100_000  # 4 complex rows: 6.4 MB, whatever the loop
 DELAY_BUDGET = MAX_BUDGET // 2  # of them for a delay's linear grid (5000 half-turns of its phase)
 FLAT = 1e-9  # a level whose log varies less than this over the grid is constant
 SHALLOW = 1e-4  # ... less than this: too shallow to hide a pair worth splitting for
+NOISE = 1e-11  # relative size below which a level's value or slope is rounding noise
 STATIONARY = 1e-3  # rad from 90 deg at both ends: |r| is stationary there (an arc about the origin)
 UNDAMPED = 1e-9  # a corner this lightly damped is on the imaginary axis (roots of an expanded polynomial)
 TURN_NOISE = 1e-10  # rad: a curve that turns less than this over an interval is straight

@@ -66,7 +66,13 @@ class PoleZero:
 
 
 def pole_zero(expression: Expression, params: Mapping[str, float]) -> PoleZero:
-    """The expression's gain, zeros and poles, factor by factor, cancelled."""
+    """The expression's gain, zeros and poles, factor by factor, cancelled
+    (kept on the expression for its last parameter values: the realization
+    and the pole polishing both ask)."""
+    return expression._cached("pole zero", params, lambda: _checked(expression, params))
+
+
+def _checked(expression: Expression, params: Mapping[str, float]) -> PoleZero:
     form = _node(expression.root, params)
     order = max(form.zeros.size, form.poles.size)
     if order > MAX_ORDER:

@@ -122,39 +122,16 @@ class LoopEvaluator:
         """GH(j omega) and dGH/domega."""
         omega = np.asarray(omega, dtype=float)
         values, slopes = self._blocks(omega)
-        return self._solve(values, slopes, omega, 1j)
-
-    def at(self, x: NDArray[np.complex128]) -> tuple[NDArray, NDArray]:
-        """GH and dGH/dx at complex values of the variable itself (e.g. to
-        polish closed-loop poles on 1 + GH(s) = 0)."""
-        x = np.asarray(x, dtype=complex).ravel()
-        values = np.empty((len(self.entries), x.size), dtype=complex)
-        slopes = np.empty_like(values)
-        if self.batch.size:
-            xs = x[None, :]
-            n = (self.num[:, 0:1] * xs + self.num[:, 1:2]) * xs + self.num[:, 2:3]
-            d = (self.den[:, 0:1] * xs + self.den[:, 1:2]) * xs + self.den[:, 2:3]
-            dn, dd = 2 * self.num[:, 0:1] * xs + self.num[:, 1:2], 2 * self.den[:, 0:1] * xs + self.den[:, 1:2]
-            with np.errstate(all="ignore"):
-                values[self.batch] = n / d
-                slopes[self.batch] = (dn - values[self.batch] * dd) / d
-        for number, fun in self.single.items():
-            values[number], slopes[number] = fun(x)
-        return self._solve(values, slopes, x, 1.0)
-
-    def _solve(self, values: NDArray, slopes: NDArray, at: NDArray, unit: complex) -> tuple[NDArray, NDArray]:
-        """GH and its derivative from every block's value and slope (``unit``:
-        d/domega = j d/dx, or 1 for d/dx)."""
         gains, dgains = zip(*(_chain_product(values[chain], slopes[chain]) for chain in self.chains))
-        F = at.size
+        F = omega.size
         rhs = np.zeros((self.size, 1, F), dtype=complex)
         rhs[self.source, 0] = 1.0
-        sol = sparse_solve(self.schedule, gains, rhs, at)[:, 0, :]
+        sol = sparse_solve(self.schedule, gains, rhs, omega)[:, 0, :]
         R = np.zeros((self.size, 1, F), dtype=complex)
         for (target, pairs) in enumerate(self.schedule.feeds):
             for src, c in pairs:
-                R[target, 0] += unit * dgains[c] * sol[src]
-        dsol = sparse_solve(self.schedule, gains, R, at)[:, 0, :]
+                R[target, 0] += 1j * dgains[c] * sol[src]
+        dsol = sparse_solve(self.schedule, gains, R, omega)[:, 0, :]
         return -sol[self.out], -dsol[self.out]
 
 

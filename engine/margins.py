@@ -13,9 +13,11 @@ detection grid built from the blocks' corner frequencies (dense around lightly
 damped poles and zeros), and every crossing or extremum is refined between
 grid points to machine precision on the exact response, so no result depends
 on the user's grid.  Loops with a delay are refined the same way within the
-user's grid range.  Tabulated loops use the grid rule of the CIP listing
-(subroutines GAINMG, PHASEM, SRMINS): the grid point nearest the sign change,
-or the grid extremum; results then say ``method = "grid"``.
+user's grid range.  Tabulated loops are refined the same way on a rational
+fit of the table (``method = "fitted"``, with its residual); the grid rule of
+the CIP listing (subroutines GAINMG, PHASEM, SRMINS: the grid point nearest
+the sign change, or the grid extremum) is ``method = "grid"``.  The whole
+method, with its bounds: docs/margins.md.
 """
 
 from __future__ import annotations
@@ -25,14 +27,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from .detection import Detection, detection_grid
+from .detection import NOISE, Detection, detection_grid
 from .errors import EngineError
 from .fitting import fit_response
 from .loops import LoopModel
 from .rootfind import Roots, refine, sign_changes
 from .shapes import shape_notes
 
-NOISE = 1e-11  # a level's value or slope below this (relative) is rounding noise
 
 
 @dataclass(frozen=True)

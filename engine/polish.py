@@ -21,12 +21,13 @@ are kept as they are.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .blocks import ExpressionTransfer
+from .errors import EngineError
 from .factored import pole_zero
 from .network import Network
 
@@ -47,7 +48,8 @@ def block_poles(network: Network, params: Mapping[str, float]) -> NDArray[np.com
     return np.concatenate([np.asarray(p, dtype=complex) for p in out])
 
 
-def log_derivative(network: Network, params: Mapping[str, float], poles: NDArray) -> callable:
+def log_derivative(network: Network, params: Mapping[str, float],
+                   poles: NDArray) -> Callable[[NDArray], NDArray]:
     """s -> F'(s)/F(s) for the characteristic polynomial F of the module docstring."""
     n = len(network.signals)
     compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
@@ -91,7 +93,7 @@ def polish(network: Network, params: Mapping[str, float], eigenvalues: NDArray[n
     start = np.asarray(eigenvalues, dtype=complex)
     try:
         poles = block_poles(network, params)
-    except Exception:  # a block without a rational form: nothing to polish against
+    except EngineError:  # a block without a usable rational form: nothing to polish against
         return start
     if start.size == 0 or poles.size != start.size:
         return start

@@ -9,6 +9,7 @@ inputs to every signal, with all loops closed.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -80,12 +81,14 @@ def _factor_feedthrough(matrix: NDArray) -> tuple:
     mistaken for a singular one, while a loop gain of exactly -1 is."""
     if not np.all(np.isfinite(matrix)):
         raise InterconnectionError("a direct feedthrough is not finite")
-    _, lower, upper = linalg.lu(matrix)
-    pivots = np.abs(np.diag(upper))
+    with warnings.catch_warnings():  # an exactly zero pivot is the error below, not a warning
+        warnings.simplefilter("ignore", linalg.LinAlgWarning)
+        lu = linalg.lu_factor(matrix, check_finite=False)
+    lower, upper = np.tril(lu[0], -1) + np.eye(matrix.shape[0]), np.triu(lu[0])
     terms = np.diag(np.abs(lower) @ np.abs(upper))
-    if np.any(pivots <= 1e-12 * terms):
+    if np.any(np.abs(np.diag(upper)) <= 1e-12 * terms):
         raise InterconnectionError("algebraic loop is singular: I - D (direct feedthrough) has no inverse")
-    return linalg.lu_factor(matrix, check_finite=False)
+    return lu
 
 
 def _entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:

@@ -7,10 +7,8 @@ import math
 
 import numpy as np
 
-from .detection import Detection
+from .detection import NOISE, Detection
 from .loops import LoopModel
-
-NOISE = 1e-11  # relative: an imaginary part this small is rounding noise
 
 
 def shape_notes(loop: LoopModel, grid: Detection) -> list[str]:

@@ -13,25 +13,21 @@ import numpy as np
 
 from engine.analysis import LoopAnalysis, analyze, unity_feedback
 
-from .errors import CliError
-
-
-def _number(x: float | None) -> float | None:
-    return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
+from .cli_common import CliError, finite_or_none
 
 
 def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
     """The documented JSON object of `loopcraft analyze --json`."""
     m = a.margins
     return {
-        "gain_margins": [{"frequency": g.frequency, "gain_db": _number(g.gain_db), "distance": g.value}
+        "gain_margins": [{"frequency": g.frequency, "gain_db": finite_or_none(g.gain_db), "distance": g.value}
                          for g in m.gain],
         "phase_margins": [{"frequency": p.frequency, "phase_deg": p.phase_deg, "distance": p.value,
-                           "delay": _number(p.delay)} for p in m.phase],
+                           "delay": finite_or_none(p.delay)} for p in m.phase],
         "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.stability],
-        "crossover_frequency": _number(m.crossover_frequency),
-        "delay_margin": _number(m.delay_margin),
-        "delay_margin_samples": _number(delay_margin_samples(m)) if variable == "w" else None,
+        "crossover_frequency": finite_or_none(m.crossover_frequency),
+        "delay_margin": finite_or_none(m.delay_margin),
+        "delay_margin_samples": finite_or_none(delay_margin_samples(m)) if variable == "w" else None,
         "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
         "verdict": a.verdict,
         "closed_loop_poles": None if a.closed_loop_poles is None else [

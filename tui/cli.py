@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import shutil
 import sys
 from collections.abc import Sequence
@@ -23,12 +22,8 @@ from sessions.store import Session, autosave_candidate, load_session, save_sessi
 from .cip_report import cip_report_text
 from .qcg_report import qcg_report_text
 from . import analyze_cli, sweep_cli
-from .errors import CliError
+from .cli_common import CliError, finite_or_none
 from .slp_report import slp_report_text
-
-
-def _number(x: float | None) -> float | None:
-    return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
 
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "sessions" / "examples"
@@ -72,8 +67,8 @@ def _summary_json(session: Session) -> dict:
         "iterations": session.model.current_iteration,
         "parameters": session.problem.named_values() if record is None else dict(record.parameters),
         "objective": None if record is None else record.objective,
-        "measures": [{"name": r.name, "kind": r.kind, "condition": r.condition, "value": _number(r.value),
-                      "target": r.target, "satisfied": r.satisfied, "frequency": _number(r.frequency)}
+        "measures": [{"name": r.name, "kind": r.kind, "condition": r.condition, "value": finite_or_none(r.value),
+                      "target": r.target, "satisfied": r.satisfied, "frequency": finite_or_none(r.frequency)}
                      for r in rows],
         "counters": {} if record is None else dict(record.counters),
     }
@@ -136,7 +131,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     if args.format == "json":
         data = _summary_json(session) if args.iteration is None else {
             "iteration": args.iteration, "measures": [dict(vars(r)) for r in rows]}
-        print(json.dumps(data, indent=2, sort_keys=True, default=_number))
+        print(json.dumps(data, indent=2, sort_keys=True, default=finite_or_none))
     elif args.format == "csv":
         writer = csv.writer(sys.stdout)
         writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied", "method"])
@@ -186,7 +181,7 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
     except EngineError as exc:
         raise CliError(str(exc)) from None
     if args.json:
-        print(json.dumps([vars(p) for p in points], indent=2, sort_keys=True, default=_number))
+        print(json.dumps([vars(p) for p in points], indent=2, sort_keys=True, default=finite_or_none))
         return 0
     names = list(points[0].parameters) if points else []
     print(f"{args.penalty:>10} {'x1^2 (N)':>10} {'x1dot^2 (N)':>12} {'u^2':>12} {'udot^2':>12} {'C':>12}  "

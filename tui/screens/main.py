@@ -172,7 +172,9 @@ class MainScreen(Screen):
         label, its, values = b.convergence()
         figures["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values,
                                              "no iterations yet")
-        records = b.records or [r for r in [b.initial_record()] if r]  # iteration 0: the initial record
+        records = b.records
+        if not records and not b.session.problem.conditions:  # no loop, trajectories only: iteration 0's record
+            records = [r for r in [b.initial_record()] if r]
         objective = b.session.problem.objective
         figures["trajectories"] = trajectories_figure(b.trajectories(), records, objective.data if objective else None)
         figures["step"] = step_figure(*b.step_traces())
