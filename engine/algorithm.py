@@ -128,7 +128,7 @@ class State:
 
 
 class Algorithm(Protocol):
-    """The protocol of ../shared/DESIGN.md: `init` binds the problem and settings."""
+    """The stepper protocol (docs/architecture.md): `init` binds the problem and settings."""
 
     name: str
 

@@ -59,7 +59,7 @@ class LoopcraftApp(App):
         self._sweep_cancel = False
         self._last_redraw = 0.0
         # Dask's worker processes, started from inside the running app, need the
-        # resource tracker up before Textual takes over the terminal (DESIGN.md)
+        # resource tracker up before Textual takes over the terminal (docs/architecture.md)
         multiprocessing.resource_tracker.ensure_running()
         load_builtin()
 

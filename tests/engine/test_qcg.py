@@ -25,7 +25,7 @@ def sample():
 
 
 def test_cost_at_the_reports_optimum(sample):
-    """DESIGN.md (checked): with the clean table, F = 0.3123, FDQ = 0.2886, FVQ = 0.02367 at the report's b;
+    """Checked by hand against the clean table of report 001: with it, F = 0.3123, FDQ = 0.2886, FVQ = 0.02367 at the report's b;
     the listing printed F = 0.3119, FDQ = 0.2884, FVQ = 0.02352 (its data had OCR-free values we reconciled)."""
     result = cascade_problem(sample.problem).cost(REPORT_B, gradient=False)
     assert result.F == pytest.approx(0.3123, abs=5e-5)
