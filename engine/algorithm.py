@@ -1,23 +1,27 @@
 """The stepper protocol every design algorithm follows, and its registry.
 
 An algorithm is set up with `init(problem, settings)`, which returns the first
-`State`; `step(state)` returns the next state and a `StepRecord` and never
-changes its input.  States and records are frozen and convert to and from
-JSON (`to_json`/`from_json`), so a session can store them and replay them.
+`State`; `step(state)` returns the next state and a `StepRecord`, never
+changes its input, and depends on nothing but the problem, the settings and
+the state (no clock: a wall-clock bound is the driver's, `iterate`'s
+``time_limit``).  States and records are frozen and convert to and from JSON
+(`to_json`/`from_json`), so a session can store them and replay them; an
+algorithm's memory is its own frozen class (`Memory`, the algorithm's
+``memory_type``), whose ``from_json`` rejects malformed data.
 """
 
 from __future__ import annotations
 
-import copy
 import importlib
 import dataclasses
-import math
+import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol, Self
 
 from .errors import EngineError
+from .memory import Fields, jsonable as _jsonable
 from .problem import Problem
 
 
@@ -50,21 +54,6 @@ class MeasureRow:
     frequency: float | None = None
     at_least: bool = True   # larger values are better (False: peaks, times, errors, attenuation)
     method: str | None = None  # margins: "refined", "fitted (residual ...)" or "grid"
-
-
-def _jsonable(value: Any) -> Any:
-    """Plain JSON types; non-finite floats become the strings 'inf', '-inf', 'nan'."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else repr(value)
-    if isinstance(value, Enum):
-        return value.value
-    if isinstance(value, Mapping):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    if hasattr(value, "tolist"):
-        return _jsonable(value.tolist())
-    return value
 
 
 def _number(value: Any) -> Any:
@@ -107,30 +96,49 @@ class StepRecord:
             extra=dict(data.get("extra", {})))
 
 
+class Memory(Protocol):
+    """An algorithm's memory between iterations: a frozen dataclass (tuples, never
+    lists, inside) that converts to JSON and back; ``from_json`` raises `EngineError`
+    naming the field when the data is malformed."""
+
+    def to_json(self) -> dict: ...
+
+    @classmethod
+    def from_json(cls, data: Any) -> Self: ...
+
+
 @dataclass(frozen=True)
 class State:
     """An algorithm's state between iterations: the free vector, its status,
-    and algorithm-specific memory (JSON types only)."""
+    and the algorithm's memory (its ``memory_type``)."""
 
     iteration: int
     x: tuple[float, ...]
-    status: Status = Status.RUNNING
-    memory: Mapping[str, Any] = field(default_factory=dict)
+    status: Status
+    memory: Memory
 
     def to_json(self) -> dict:
         return _jsonable({"iteration": self.iteration, "x": self.x, "status": self.status,
-                          "memory": self.memory})
+                          "memory": self.memory.to_json()})
 
     @staticmethod
-    def from_json(data: Mapping[str, Any]) -> State:
-        return State(int(data["iteration"]), tuple(float(_number(v)) for v in data["x"]),
-                     Status(data["status"]), copy.deepcopy(dict(data.get("memory", {}))))
+    def from_json(data: Any, memory_type: type[Memory]) -> State:
+        """A state from JSON; malformed data (memory included) raises `EngineError`."""
+        fields = Fields(data, "state")
+        status = fields.text("status")
+        if status not in {s.value for s in Status}:
+            raise EngineError(f"state.status: expected one of {', '.join(s.value for s in Status)}, "
+                              f"got {status!r}")
+        return State(fields.integer("iteration"), fields.numbers("x"), Status(status),
+                     memory_type.from_json(fields.get("memory")))
 
 
 class Algorithm(Protocol):
-    """The stepper protocol (docs/architecture.md): `init` binds the problem and settings."""
+    """The stepper protocol (docs/architecture.md): `init` binds the problem and settings;
+    ``memory_type`` reads a stored state's memory back (`State.from_json`)."""
 
     name: str
+    memory_type: ClassVar[type[Memory]]
 
     def init(self, problem: Problem, settings: Any) -> State: ...
 
@@ -139,37 +147,51 @@ class Algorithm(Protocol):
 
 @dataclass(frozen=True)
 class Registration:
-    """An algorithm's factory, its settings class (a dataclass with defaults) and a summary."""
+    """An algorithm's factory, its settings class (a dataclass with defaults), a
+    summary, and its presenter (`engine.present.Presenter`: how its records are shown)."""
 
     factory: Callable[[], Algorithm]
     settings: type
     summary: str
-    maximize: bool = False  # its record's objective is better larger (sweeps rank runs by it)
+    presenter: Any
 
 
 REGISTRY: dict[str, Registration] = {}
-BUILTIN = (".cip", ".qcg", ".slp", ".projection")  # packages that register the report algorithms when imported
+# the report algorithms: name -> the package that registers it when imported (one at a time, on demand)
+BUILTIN = {"cip": ".cip", "qcg": ".qcg", "slp": ".slp", "projection": ".projection"}
 
 
 def load_builtin() -> dict[str, Registration]:
-    """Import the bundled algorithms (they register themselves); the registry."""
-    for module in BUILTIN:
+    """Import every bundled algorithm (they register themselves); the registry."""
+    for module in BUILTIN.values():
         importlib.import_module(module, __package__)
     return REGISTRY
 
 
 def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str,
-             maximize: bool = False) -> None:
-    """Make an algorithm known to the CLI and the app by name."""
-    REGISTRY[name] = Registration(factory, settings, summary, maximize)
+             presenter: Any = None) -> None:
+    """Make an algorithm known to the CLI, the app and sweeps by name (without a
+    presenter, its records are shown the generic way)."""
+    if presenter is None:
+        from .present import Presenter
+        presenter = Presenter()
+    REGISTRY[name] = Registration(factory, settings, summary, presenter)
 
 
 def lookup(name: str) -> Registration:
-    load_builtin()
+    """The registration of an algorithm (a bundled one is imported on first use)."""
+    if name not in REGISTRY and name in BUILTIN:
+        importlib.import_module(BUILTIN[name], __package__)
     if name not in REGISTRY:
-        known = ", ".join(sorted(REGISTRY)) or "none yet"
+        known = ", ".join(sorted(set(REGISTRY) | set(BUILTIN)))
         raise EngineError(f"unknown algorithm {name!r} (known: {known})")
     return REGISTRY[name]
+
+
+def memory_type(name: str) -> type[Memory]:
+    """The memory class of a registered algorithm (what `State.from_json` reads its memory with)."""
+    factory = lookup(name).factory
+    return getattr(factory, "memory_type", None) or factory().memory_type
 
 
 def make_settings(name: str, values: Mapping[str, Any]) -> Any:
@@ -177,18 +199,54 @@ def make_settings(name: str, values: Mapping[str, Any]) -> Any:
     cls = lookup(name).settings
     names = {f.name for f in dataclasses.fields(cls)}
     unknown = sorted(set(values) - names)
+    retired = getattr(cls, "RETIRED", {})
+    for setting in unknown:
+        if setting in retired:
+            raise EngineError(f"{name}: {setting!r} is no longer a setting: {retired[setting]}")
     if unknown:
         raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; "
                           f"settings are {', '.join(sorted(names))}")
     return cls(**values)
 
 
+TIME_LIMIT = "time limit"
+
+
+class Iteration(Iterator[tuple[State, StepRecord]]):
+    """The (state, record) of each step, made as they are asked for.  ``stopped`` is
+    `TIME_LIMIT` once the wall-clock bound ended the iteration, else None (the
+    algorithm finished, or ``max_iter`` steps were made: ``steps`` counts them).
+    The clock starts at the first request and is read between steps, so at least
+    one step is made; a step is never cut short, and the records made are exactly
+    a prefix of the run without the limit (the state stays resumable)."""
+
+    def __init__(self, algorithm: Algorithm, problem: Problem, settings: Any, max_iter: int,
+                 state: State | None, time_limit: float | None):
+        self.algorithm, self.problem, self.settings = algorithm, problem, settings
+        self.max_iter, self.state, self.time_limit = max_iter, state, time_limit
+        self.steps, self.stopped = 0, None
+        self._began: float | None = None
+
+    def __next__(self) -> tuple[State, StepRecord]:
+        if self._began is None:
+            self._began = time.perf_counter()
+            if self.state is None:
+                self.state = self.algorithm.init(self.problem, self.settings)
+        if self.stopped is not None or self.state.status.finished or self.steps >= self.max_iter:
+            raise StopIteration
+        if self.steps and self.time_limit is not None and time.perf_counter() - self._began >= self.time_limit:
+            self.stopped = TIME_LIMIT
+            raise StopIteration
+        self.state, record = self.algorithm.step(self.state)
+        self.steps += 1
+        return self.state, record
+
+
 def iterate(algorithm: Algorithm, problem: Problem, settings: Any, *, max_iter: int,
-            state: State | None = None) -> Iterator[tuple[State, StepRecord]]:
-    """Step until the algorithm finishes or ``max_iter`` iterations were made."""
-    state = algorithm.init(problem, settings) if state is None else state
-    for _ in range(max_iter):
-        if state.status.finished:
-            return
-        state, record = algorithm.step(state)
-        yield state, record
+            state: State | None = None, time_limit: float | None = None) -> Iteration:
+    """Step (from ``state``, else from ``init``) until the algorithm finishes, ``max_iter``
+    steps were made, or ``time_limit`` seconds of wall clock have passed (checked
+    between steps; the `Iteration`'s ``stopped`` is then `TIME_LIMIT`)."""
+    if time_limit is not None and not time_limit >= 0:
+        raise EngineError(f"time limit must be a number of seconds >= 0, not {time_limit!r}")
+    return Iteration(algorithm, problem, settings, max_iter, state, time_limit)

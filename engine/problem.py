@@ -2,9 +2,9 @@
 parameters, targets, an objective, and the frequency grid.
 
 Parameters are shared by all conditions or have one value per condition.
-The algorithms move the *free* ones; `Problem.vector` and
-`Problem.with_vector` translate between named values and the flat vector of
-free values (per-condition parameters contribute one entry per condition).
+The algorithms move the *free* ones, as a flat vector of free values
+(per-condition parameters contribute one entry per condition); `Problem`'s
+docstring lists the few methods that translate between it and named values.
 """
 
 from __future__ import annotations
@@ -19,18 +19,16 @@ from numpy.typing import NDArray
 
 from .blocks import FrequencyTable
 from .errors import EngineError
+from .measure_kinds import MEASURE_KINDS, names as measure_names
 from .network import Network, check_grid
 
 Sign = Literal["any", "positive", "negative"]
-FREQUENCY_MEASURES = ("gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
-                      "gain_margin_db", "phase_margin_deg", "crossover_frequency",
-                      "modal_peak_db", "modal_peak_phase_deg")
-TIME_MEASURES = ("rise_time", "settling_time", "overshoot_percent", "peak_time", "steady_state_error",
-                 "peak_response", "mean_square")
-MEASURE_NAMES = FREQUENCY_MEASURES + TIME_MEASURES + ("stability_abscissa",)
+# read from the table of measure kinds (`engine.measure_kinds`), kept here for their importers
+FREQUENCY_MEASURES = measure_names("frequency")
+TIME_MEASURES = measure_names("time")
+MEASURE_NAMES = measure_names()
 # measures whose natural sense is "at most" (smaller is better); the rest are "at least"
-AT_MOST = ("attenuation_margin", "modal_peak_db", "modal_peak_phase_deg", "rise_time", "settling_time",
-           "overshoot_percent", "peak_time", "steady_state_error", "peak_response", "mean_square")
+AT_MOST = tuple(name for name, k in MEASURE_KINDS.items() if not k.at_least)
 Value = float | tuple[float, ...]
 
 
@@ -174,6 +172,21 @@ class Objective:
 
 @dataclass(frozen=True)
 class Problem:
+    """Conditions, parameters, targets, grid, objective and linear equalities.
+
+    Parameter values, at the start (the parameters' own values) or at a free vector ``x``:
+
+    - ``vector()``: the free vector at the start (per-condition parameters contribute
+      one entry per condition, in `free_slots` order);
+    - ``with_vector(x)``: a copy of the problem with the free values replaced by ``x``;
+    - ``condition_values(c, x=None, named=None)``: name -> float, what condition ``c``
+      sees at the start, with ``x`` (no copy), or with a ``named`` mapping replacing
+      the values it names;
+    - ``named(x=None)``: name -> float, or list per condition (JSON-ready);
+    - ``vector_from(named)``: the inverse of ``named``: the free vector of a mapping
+      (names it leaves out keep their start values).
+    """
+
     conditions: tuple[Condition, ...]
     parameters: tuple[Parameter, ...]
     targets: tuple[Target, ...]
@@ -231,10 +244,6 @@ class Problem:
                     A[r, k] += coefficient
         return A, b
 
-    def values(self, condition: int) -> dict[str, float]:
-        """Parameter values seen by one condition."""
-        return {p.name: p.at(condition) for p in self.parameters}
-
     def free_slots(self) -> list[tuple[int, int | None]]:
         """(parameter index, condition or None) for every entry of the free vector."""
         return list(self._free_slots)
@@ -277,42 +286,58 @@ class Problem:
                 values[i] = tuple(per)
         return replace(self, parameters=tuple(replace(p, value=values[i]) for i, p in enumerate(self.parameters)))
 
-    def values_at(self, x: Sequence[float], condition: int) -> dict[str, float]:
-        """Parameter values one condition sees with the free values ``x``
-        (what ``with_vector(x).values(condition)`` gives, without copying)."""
+    def condition_values(self, condition: int, x: Sequence[float] | None = None,
+                         named: Mapping[str, float | Sequence[float]] | None = None) -> dict[str, float]:
+        """Parameter values one condition sees: at the start, with the free vector ``x``, or with
+        ``named`` (as `named` gives it) replacing the values it names; ``x`` does not copy the problem."""
+        if x is not None and named is not None:
+            raise EngineError("condition_values takes a free vector or a named mapping, not both")
         base, slots = self._slot_names
-        values = dict(base[condition] if condition < len(base) else self.values(condition))
-        for (name, c), v in zip(slots, x, strict=True):
-            if c is None or c == condition:
-                values[name] = float(v)
+        values = dict(base[condition]) if condition < len(base) else self._start_values(condition)
+        if x is not None:
+            for (name, c), v in zip(slots, x, strict=True):
+                if c is None or c == condition:
+                    values[name] = float(v)
+        for name, value in (named or {}).items():
+            values[name] = float(value[condition] if isinstance(value, (list, tuple)) else value)
         return values
+
+    def _start_values(self, condition: int) -> dict[str, float]:
+        return {p.name: p.at(condition) for p in self.parameters}
 
     @cached_property
     def _slot_names(self) -> tuple[tuple[dict[str, float], ...], tuple[tuple[str, int | None], ...]]:
         """The parameter values per condition, and (name, condition) of each free slot."""
-        base = tuple(self.values(c) for c in range(max(len(self.conditions), 1)))
+        base = tuple(self._start_values(c) for c in range(max(len(self.conditions), 1)))
         return base, tuple((self.parameters[i].name, c) for i, c in self._free_slots)
 
-    def named_values_at(self, x: Sequence[float]) -> dict[str, float | list[float]]:
-        """`named_values` with the free values ``x`` (no copy of the problem)."""
-        named = self.named_values()
-        for (i, c), v in zip(self.free_slots(), x, strict=True):
-            name = self.parameters[i].name
-            if c is None:
-                named[name] = float(v)
-            else:
-                named[name][c] = float(v)
+    def named(self, x: Sequence[float] | None = None) -> dict[str, float | list[float]]:
+        """name -> value, or name -> list per condition (JSON-ready), at the start or with ``x``."""
+        named = {p.name: list(p.value) if p.per_condition else p.value for p in self.parameters}
+        if x is not None:
+            for (i, c), v in zip(self.free_slots(), x, strict=True):
+                name = self.parameters[i].name
+                if c is None:
+                    named[name] = float(v)
+                else:
+                    named[name][c] = float(v)
         return named
 
-    def values_with(self, named: Mapping[str, float | Sequence[float]], condition: int) -> dict[str, float]:
-        """Parameter values one condition sees when ``named`` (as `named_values`
-        gives them: a list per condition for a per-condition parameter)
-        replaces the values it names."""
-        values = self.values(condition)
+    def vector_from(self, named: Mapping[str, float | Sequence[float]]) -> NDArray[np.float64]:
+        """The free vector of a named mapping (as `named` gives it); missing names keep the start values."""
+        by_name = {p.name: p for p in self.parameters}
+        unknown = sorted(set(named) - set(by_name))
+        if unknown:
+            raise EngineError(f"unknown parameter {unknown[0]!r}")
         for name, value in named.items():
-            values[name] = float(value[condition] if isinstance(value, (list, tuple)) else value)
-        return values
-
-    def named_values(self) -> dict[str, float | list[float]]:
-        """name -> value, or name -> list per condition (JSON-ready)."""
-        return {p.name: list(p.value) if p.per_condition else p.value for p in self.parameters}
+            if isinstance(value, (list, tuple)) and (not by_name[name].per_condition
+                                                     or len(value) != len(self.conditions)):
+                raise EngineError(f"parameter {name!r}: expected "
+                                  + (f"{len(self.conditions)} values" if by_name[name].per_condition
+                                     else "one value"))
+        x = self.vector()
+        for k, (i, c) in enumerate(self._free_slots):
+            value = named.get(self.parameters[i].name)
+            if value is not None:
+                x[k] = float(value[c] if isinstance(value, (list, tuple)) else value)
+        return x

@@ -6,42 +6,41 @@ import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 
-from engine.algorithm import State, StepRecord, lookup, make_settings
+from engine.algorithm import State, StepRecord, iterate
 from engine.errors import EngineError
 
-from .build import build_problem
 from .errors import SessionError
+from .lifecycle import bound_algorithm, forget_records
 from .store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9
 
 
-def _algorithm(session: Session):
-    name = session.model.algorithm.name
-    try:
-        registration = lookup(name)
-        settings = make_settings(name, session.model.algorithm.settings)
-    except (EngineError, TypeError) as exc:
-        raise SessionError(f"algorithm: {exc}") from None
-    return registration.factory(), settings
+class Run(list):
+    """The records a run made (a list of `StepRecord`); ``stopped`` is "time limit" when
+    the wall-clock bound ended it early (`engine.algorithm.Iteration.stopped`), else None."""
+
+    stopped: str | None = None
 
 
 def run_session(session: Session, iterations: int | None = None, until_done: bool = False,
-                progress: Callable[[StepRecord], None] | None = None, autosave: bool = True) -> list[StepRecord]:
-    """Step from the current iteration; records after it (an undone tail) are dropped."""
-    algorithm, settings = _algorithm(session)
+                progress: Callable[[StepRecord], None] | None = None, autosave: bool = True,
+                time_limit: float | None = None) -> Run:
+    """Step from the current iteration; records after it (an undone tail) are dropped.
+    ``time_limit``: seconds of wall clock, checked between iterations (the run stops
+    there, resumable, its records a prefix of the unlimited run's: it replays)."""
+    algorithm, settings = bound_algorithm(session)
     model = session.model
     del model.records[model.current_iteration:]
+    new = Run()
     try:
         state = algorithm.init(session.problem, settings)
         if model.current_iteration and model.state is not None:
-            state = State.from_json(model.state)
+            state = State.from_json(model.state, algorithm.memory_type)
         limit = iterations if iterations is not None else (10**9 if until_done else 1)
-        new: list[StepRecord] = []
-        while len(new) < limit and not state.status.finished:
-            state, record = algorithm.step(state)
+        steps = iterate(algorithm, session.problem, settings, max_iter=limit, state=state, time_limit=time_limit)
+        for state, record in steps:
             model.records.append(record.to_json())
             model.state = state.to_json()
             model.current_iteration = len(model.records)
@@ -50,32 +49,12 @@ def run_session(session: Session, iterations: int | None = None, until_done: boo
                 progress(record)
             if autosave:
                 write_autosave(session, at_most_every=AUTOSAVE_INTERVAL)
+        new.stopped = steps.stopped
         if autosave and new:
             write_autosave(session)
     except EngineError as exc:
         raise SessionError(f"{model.algorithm.name}: {exc}") from None
     return new
-
-
-def adopt_design(session: Session) -> None:
-    """Make the current iteration's parameters the session's starting values and
-    forget the records (to continue with other settings, e.g. slp's load-relief
-    phase after its margin phase)."""
-    model = session.model
-    if model.current_iteration:
-        adopt_parameters(session, StepRecord.from_json(model.records[model.current_iteration - 1]).parameters)
-
-
-def adopt_parameters(session: Session, values: dict) -> None:
-    """Set the session's parameter values (name -> value or list per condition),
-    forget its records and rebuild its problem."""
-    model = session.model
-    for parameter in model.problem.parameters:
-        if parameter.name in values:
-            parameter.value = values[parameter.name]
-    _forget_records(model)
-    folder = session.path.parent if session.path else Path.cwd()
-    session.problem = build_problem(model.problem, folder)
 
 
 def set_setting(session: Session, assignment: str) -> None:
@@ -88,14 +67,7 @@ def set_setting(session: Session, assignment: str) -> None:
     except json.JSONDecodeError:
         value = text
     session.model.algorithm.settings[name.strip()] = value
-    _forget_records(session.model)
-
-
-def _forget_records(model) -> None:
-    """No iterations any more: the problem or the settings changed."""
-    model.records.clear()
-    model.current_iteration = 0
-    model.state = None
+    forget_records(session)
 
 
 @dataclass(frozen=True)
@@ -133,7 +105,7 @@ def _first_difference(old: StepRecord, new: StepRecord) -> str | None:
 
 def replay(session: Session) -> ReplayResult:
     """Re-run from the initial state; compare every record to 1e-9 relative."""
-    algorithm, settings = _algorithm(session)
+    algorithm, settings = bound_algorithm(session)
     recorded = session.records
     try:
         state = algorithm.init(session.problem, settings)

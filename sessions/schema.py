@@ -11,6 +11,8 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from engine.measure_kinds import MEASURE_KINDS
+
 SCHEMA_VERSION = 1
 Number = float
 Coefficient = Union[float, str]  # a number or a parameter name
@@ -286,11 +288,11 @@ class PointModel(Strict):
     mode: Literal["push", "pull"] = "push"
 
 
+MeasureName = Literal[tuple(MEASURE_KINDS)]   # the measure kinds, from their one table
+
+
 class TargetModel(Strict):
-    measure: Literal["gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
-                     "gain_margin_db", "phase_margin_deg", "crossover_frequency", "modal_peak_db",
-                     "modal_peak_phase_deg", "rise_time", "settling_time", "overshoot_percent", "peak_time",
-                     "steady_state_error", "peak_response", "mean_square", "stability_abscissa"]
+    measure: MeasureName
     condition: str | None = None
     bands: list[BandModel]
     weight: float = 1.0

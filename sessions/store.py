@@ -22,7 +22,8 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from engine.algorithm import State, StepRecord
+from engine.algorithm import State, StepRecord, memory_type
+from engine.errors import EngineError
 from engine.problem import Problem
 
 from .build import build_problem
@@ -49,7 +50,10 @@ class Session:
 
     @property
     def state(self) -> State | None:
-        return None if self.model.state is None else State.from_json(self.model.state)
+        """The stored state, read with the algorithm's memory class (None: none stored)."""
+        if self.model.state is None:
+            return None
+        return State.from_json(self.model.state, memory_type(self.model.algorithm.name))
 
 
 def now() -> str:
@@ -87,11 +91,27 @@ def parse_session(text: str, source: str, folder: Path) -> Session:
     if model.current_iteration > len(model.records):
         raise SessionError(f"{source}: current_iteration {model.current_iteration} exceeds "
                            f"the {len(model.records)} records")
+    _check_state(model, source)
     try:
         problem = build_problem(model.problem, folder)
     except SessionError as exc:
         raise SessionError(f"{source}: {exc}") from None
     return Session(model, problem, None, messages)
+
+
+def _check_state(model: SessionModel, source: str) -> None:
+    """A stored state must read back with its algorithm's memory class (an unknown
+    algorithm is reported when the session is run, not here)."""
+    if model.state is None:
+        return
+    try:
+        kind = memory_type(model.algorithm.name)
+    except EngineError:
+        return
+    try:
+        State.from_json(model.state, kind)
+    except EngineError as exc:
+        raise SessionError(f"{source}: state: {exc}") from None
 
 
 def _migrate(data: Any, source: str) -> tuple[Any, list[str]]:

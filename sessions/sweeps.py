@@ -1,52 +1,25 @@
-"""Sweeps: many runs of one session on Dask (issue: "map the hill", penalty
-trade-offs, toleranced plants).
-
-What is shipped to a worker is data only: the session's JSON document (its
-CSV tables inlined, so a remote worker needs no files) and a job number; the
-worker runs `run_job`, a function of this module that workers import (they
-need loopcraft installed), and sends back plain JSON (the final StepRecord's
-content).  Without an address a local cluster is started with one process
-per core, one thread each; with ``tcp://HOST:PORT`` that cluster is used.
-
-A job that fails (a singular matrix, a worker that dies twice) is recorded
-as failed with its reason; the sweep goes on.  Each job logs a "started"
-event on the scheduler, so a job that had to be restarted on another worker
-is reported with its attempts.
+"""Sweeps: many runs of one session on Dask (multi-start "map the hill",
+penalty trade-offs, toleranced plants).  This module plans them: the jobs
+(`Job`: data only, the session's JSON with its tables inlined) and the
+one-line form the app asks for.  `sessions.sweep_jobs` runs them,
+`sessions.sweep_results` makes the summary kept in the session.
 """
 
 from __future__ import annotations
 
 import copy
 import math
-import os
-import time
-import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from engine.algorithm import Status, StepRecord, iterate, lookup, make_settings
-from engine.errors import EngineError
-from engine.loops import open_loop
-from engine.measures import tableau
-from engine.problem import Problem
-
-from .build import build_problem, read_csv
+from .build import read_csv
 from .errors import SessionError
-from .schema import SessionModel, SweepModel
-from .runner import adopt_parameters
-from .store import Session, now, tables_in
-
-SWEEP_VERSION = 1
-MAX_ITERATIONS = 1000
-EVENT_TOPIC = "loopcraft-sweep"
-SAME_PARAMETERS = 0.05     # decades (about 12 %): runs closer than this in every parameter share an optimum
-SAME_LOOP = 0.01           # runs whose open loops agree within 1 % at every signature point share an optimum
-SIGNATURE_POINTS = 24      # frequencies (grid points spread over the grid) of a run's loop signature
-SAME_OBJECTIVE = 0.01      # relative
+from .lifecycle import folder
+from .store import Session, tables_in
+from .sweep_jobs import run_job
 
 
 @dataclass(frozen=True)
@@ -64,15 +37,13 @@ class Job:
                 "start": self.start}
 
 
-# -- planning ------------------------------------------------------------------
-
 def shippable(session: Session) -> dict:
     """The session as JSON data with CSV tables inlined and no records."""
     model = session.model.model_copy(deep=True)
-    folder = session.path.parent if session.path else Path.cwd()
+    base = folder(session)
     for table in tables_in(model):
         if table.csv is not None:
-            f, first, second = read_csv(folder / table.csv, table.columns, "table")
+            f, first, second = read_csv(base / table.csv, table.columns, "table")
             table.frequency, table.first, table.second = f, first, second or None
             table.csv, table.columns = None, None
     model.records, model.current_iteration, model.state, model.sweeps = [], 0, None, []
@@ -270,281 +241,3 @@ def parse_sweep(text: str) -> dict:
     else:
         out["value"] = values[0] if out["kind"] == "vary" else values
     return out
-
-
-# -- on a worker -------------------------------------------------------------
-
-def run_job(payload: dict) -> dict:
-    """Run (or evaluate) one job; never raises: a failure is a result."""
-    began = time.perf_counter()
-    worker = _announce(payload["index"])
-    result = {"index": payload["index"], "label": payload["label"], "start": payload["start"], "worker": worker}
-    try:
-        model = SessionModel.model_validate(payload["model"])
-        problem = build_problem(model.problem, Path.cwd())
-        registration = lookup(model.algorithm.name)
-        algorithm = registration.factory()
-        settings = make_settings(model.algorithm.name, model.algorithm.settings)
-        if payload["mode"] == "evaluate":
-            record = _evaluate(algorithm, problem, settings)
-        else:
-            record = None
-            for _, record in iterate(algorithm, problem, settings, max_iter=MAX_ITERATIONS):
-                pass
-            if record is None:
-                raise SessionError("the algorithm made no iteration")
-        result.update(_summary(record))
-        if payload["mode"] != "evaluate":
-            result["signature"] = loop_signature(problem, record.parameters)
-    except Exception as exc:  # noqa: BLE001 - a run's failure is data, never the sweep's end
-        result.update(status="failed", reason=f"{type(exc).__name__}: {exc}", parameters={}, objective=None,
-                      measures=[], meets_requirements=False, iterations=0)
-    result["seconds"] = time.perf_counter() - began
-    return result
-
-
-def _evaluate(algorithm, problem, settings) -> StepRecord:
-    state = algorithm.init(problem, settings)
-    if hasattr(algorithm, "initial_record"):
-        return algorithm.initial_record(state)
-    return StepRecord(0, Status.RUNNING, problem.named_values(), tuple(tableau(problem)))
-
-
-def _summary(record: StepRecord) -> dict:
-    objective = record.objective if record.objective is not None else record.extra.get("smallest_stability_margin")
-    out = {"status": record.status.value, "reason": record.reason, "iterations": record.iteration,
-           "parameters": dict(record.parameters), "objective": objective,
-           "measures": record.to_json()["measures"],
-           "meets_requirements": all(m.satisfied for m in record.measures)}
-    if "averaged_squares" in record.extra:
-        out["averaged_squares"] = dict(record.extra["averaged_squares"])
-    return out
-
-
-def loop_signature(problem: Problem, parameters: dict) -> list[list[float]] | None:
-    """The open loop GH of every condition at SIGNATURE_POINTS grid frequencies,
-    as (re, im) pairs, at a run's final parameters: two runs with the same
-    loop are the same optimum whatever their parameters (a lead-lag pair
-    with its time constants swapped is one design).  None when a loop
-    cannot be evaluated."""
-    grid = problem.grid.omega[problem.grid.omega > 0]
-    omega = grid[np.unique(np.linspace(0, grid.size - 1, SIGNATURE_POINTS).astype(int))]
-    signature = []
-    for k, condition in enumerate(problem.conditions):
-        try:
-            gh = open_loop(condition.network, condition.break_at, omega, problem.values_with(parameters, k),
-                           sensitivities=False).value
-        except EngineError:
-            return None
-        signature += [[float(g.real), float(g.imag)] for g in gh]
-    return signature
-
-
-def _announce(index: int) -> str:
-    """Log 'job started' on the scheduler (to count retries); the worker's address."""
-    try:
-        from distributed import get_worker
-        worker = get_worker()
-    except (ImportError, ValueError):
-        return "local"
-    worker.log_event(EVENT_TOPIC, {"index": index, "worker": worker.address})
-    return worker.address
-
-
-# -- execution ---------------------------------------------------------------
-
-@dataclass
-class Outcome:
-    """Every run's result, in job order, and what happened to the workers."""
-
-    runs: list[dict]
-    workers: int
-    attempts: dict[int, list[str]] = field(default_factory=dict)
-    cancelled: bool = False
-
-
-def execute(jobs: Sequence[Job], scheduler: str | None = None, workers: int | None = None,
-            progress: Callable[[int, int], None] | None = None,
-            cancelled: Callable[[], bool] = lambda: False, client=None) -> Outcome:
-    """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
-    per core, one thread each) or the cluster at ``scheduler``."""
-    if client is not None:
-        return _gather(client, jobs, progress, cancelled)
-    from distributed import Client, LocalCluster
-    cluster = None
-    try:
-        if scheduler:
-            client = Client(scheduler, timeout="20s")
-        else:
-            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=40)
-            client = Client(cluster)
-    except (OSError, TimeoutError) as exc:
-        raise SessionError(f"cannot reach the Dask scheduler {scheduler or '(local)'}: {exc}") from None
-    try:
-        return _gather(client, jobs, progress, cancelled)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
-def _gather(client, jobs, progress, cancelled) -> Outcome:
-    from distributed import as_completed
-    tag = uuid.uuid4().hex[:8]
-    futures = client.map(run_job, [job.payload() for job in jobs], key=[f"loopcraft-{tag}-{j.index}" for j in jobs],
-                         pure=False, retries=1)
-    index_of = {f.key: j.index for f, j in zip(futures, jobs)}
-    runs: dict[int, dict] = {}
-    stopped = False
-    for future in as_completed(futures):
-        k = index_of[future.key]
-        try:
-            runs[k] = future.result()
-        except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled job is recorded, not raised
-            runs[k] = _lost(jobs[k], exc)
-        if progress:
-            progress(len(runs), len(jobs))
-        if not stopped and cancelled():
-            stopped = True
-            client.cancel([f for f in futures if not f.done()])
-    workers = len(client.scheduler_info().get("workers", {}))
-    attempts: dict[int, list[str]] = {}
-    for _, event in client.get_events(EVENT_TOPIC):
-        if isinstance(event, dict) and event.get("index") in runs:
-            attempts.setdefault(event["index"], []).append(event["worker"])
-    for k, run in runs.items():
-        run["attempts"] = len(attempts.get(k, [])) or (0 if run["status"] == "failed" else 1)
-    return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped)
-
-
-def _lost(job: Job, exc: BaseException) -> dict:
-    kind = type(exc).__name__
-    reason = "cancelled" if kind == "CancelledError" else f"{kind}: {exc}"
-    return {"index": job.index, "label": job.label, "start": job.start, "worker": None, "status": "failed",
-            "reason": reason, "parameters": {}, "objective": None, "measures": [], "meets_requirements": False,
-            "iterations": 0, "seconds": None}
-
-
-def execute_serial(jobs: Sequence[Job], progress: Callable[[int, int], None] | None = None) -> Outcome:
-    """The same jobs in this process, one after the other (the throughput baseline)."""
-    runs = []
-    for job in jobs:
-        runs.append(run_job(job.payload()))
-        runs[-1]["attempts"] = 1
-        if progress:
-            progress(len(runs), len(jobs))
-    return Outcome(runs, 1, {})
-
-
-# -- results -----------------------------------------------------------------
-
-def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
-    """Distinct local optima: runs whose open loops agree within 1 % at every
-    signature point (`loop_signature`; without signatures, whose final
-    parameters agree within about 12 % in every parameter, log scale, linear
-    near zero) and whose objectives agree within 1 %; each with its count
-    and best run."""
-    done = [r for r in runs if r["status"] != "failed" and r["parameters"]]
-    sign = -1.0 if maximize else 1.0
-
-    def rank(r: dict) -> tuple:
-        objective = r["objective"] if isinstance(r["objective"], (int, float)) else math.inf
-        return (not r["meets_requirements"], sign * objective if math.isfinite(objective) else math.inf)
-    clusters: list[dict] = []
-    for run in sorted(done, key=rank):
-        vector, signature = _vector(run["parameters"]), _signature(run)
-        for cluster in clusters:
-            same = _same_loop(signature, cluster["signature"]) if signature is not None and \
-                cluster["signature"] is not None else _near(vector, cluster["vector"])
-            if same and _close(run["objective"], cluster["objective"]):
-                cluster["runs"].append(run["index"])
-                break
-        else:
-            clusters.append({"vector": vector, "signature": signature, "objective": run["objective"],
-                             "parameters": run["parameters"],
-                             "meets_requirements": run["meets_requirements"], "best_run": run["index"],
-                             "runs": [run["index"]]})
-    return [{"parameters": c["parameters"], "objective": c["objective"], "count": len(c["runs"]),
-             "meets_requirements": c["meets_requirements"], "best_run": c["best_run"], "runs": c["runs"]}
-            for c in clusters]
-
-
-def _signature(run: dict) -> np.ndarray | None:
-    pairs = run.get("signature")
-    return None if not pairs else np.array([complex(re, im) for re, im in pairs])
-
-
-def _same_loop(a: np.ndarray, b: np.ndarray) -> bool:
-    return a.shape == b.shape and bool(np.all(np.abs(a - b) <= SAME_LOOP * np.maximum(np.abs(a), np.abs(b))))
-
-
-def _vector(parameters: dict) -> np.ndarray:
-    values = []
-    for name in sorted(parameters):
-        v = parameters[name]
-        values += v if isinstance(v, list) else [v]
-    return np.array(values, dtype=float)
-
-
-def _near(a: np.ndarray, b: np.ndarray) -> bool:
-    if a.shape != b.shape:
-        return False
-    positive = (a > 0) & (b > 0)
-    logs = np.abs(np.log10(a[positive]) - np.log10(b[positive])) <= SAME_PARAMETERS
-    scale = np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-12)
-    linear = np.abs(a - b)[~positive] <= 0.12 * scale[~positive]
-    return bool(np.all(logs) and np.all(linear))
-
-
-def _close(a, b) -> bool:
-    if not isinstance(a, (int, float)) or not isinstance(b, (int, float)):
-        return a == b
-    return abs(a - b) <= SAME_OBJECTIVE * max(abs(a), abs(b)) + 1e-12
-
-
-def worst_case(runs: Sequence[dict]) -> list[dict]:
-    """Per measure row (name, kind, condition): the worst value over the samples."""
-    table: dict[tuple, dict] = {}
-    for run in runs:
-        for m in run["measures"]:
-            value = m["value"] if isinstance(m["value"], (int, float)) else float(m["value"])
-            key = (m["name"], m["kind"], m["condition"])
-            row = table.setdefault(key, {"name": m["name"], "kind": m["kind"], "condition": m["condition"],
-                                         "target": m["target"], "worst": value, "worst_sample": run["index"],
-                                         "unmet_samples": 0, "samples": 0})
-            row["samples"] += 1
-            row["unmet_samples"] += not m["satisfied"]
-            worse = value < row["worst"] if m["at_least"] else value > row["worst"]
-            if math.isnan(row["worst"]) or worse:
-                row["worst"], row["worst_sample"] = value, run["index"]
-    return list(table.values())
-
-
-def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> dict:
-    """The sweep as saved in the session and printed by --json."""
-    maximize = lookup(session.model.algorithm.name).maximize
-    data = {"version": SWEEP_VERSION, "kind": kind, "created": now(), "algorithm": session.model.algorithm.name,
-            "settings": settings, "workers": outcome.workers, "cancelled": outcome.cancelled,
-            "runs": outcome.runs, "failed": [r["index"] for r in outcome.runs if r["status"] == "failed"],
-            "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1}}
-    if kind == "tolerance":
-        data["worst_case"] = worst_case([r for r in outcome.runs if r["status"] != "failed"])
-        data["optima"] = []
-    else:
-        data["optima"] = optima(outcome.runs, maximize)
-    for run in outcome.runs:
-        run.pop("signature", None)  # only for clustering: not kept in the session
-    return data
-
-
-def record_sweep(session: Session, summary: dict) -> None:
-    """Keep the sweep in the session's `sweeps` section."""
-    session.model.sweeps.append(SweepModel.model_validate(summary))
-
-
-def adopt_run(session: Session, run: dict) -> None:
-    """Make a run's final parameters the session's start (records are cleared)."""
-    if not run.get("parameters"):
-        raise SessionError(f"run {run['index']} has no parameters to adopt ({run['status']})")
-    adopt_parameters(session, run["parameters"])

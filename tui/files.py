@@ -60,22 +60,9 @@ def remember(path: Path) -> None:
         pass
 
 
-NEW_SESSION = {
-    "schema_version": 1,
-    "provenance": {"loopcraft_version": "0.1.0", "created": "", "modified": ""},
-    "notes": "A new session: a lag-lead compensator on 16000/(s(s+8)(s+20)) (report 003, chapter 1).",
-    "algorithm": {"name": "cip", "settings": {"detection": "refined"}},
-    "records": [], "current_iteration": 0, "state": None,
-    "problem": {
-        "grid": {"unit": "rad/s", "start": 0.01, "stop": 1000.0, "points": 400},
-        "conditions": [{"name": "nominal", "break_at": "e", "plant": {
-            "format": "diagram", "inputs": ["r"],
-            "blocks": [{"name": "compensator", "input": "e", "output": "u",
-                        "transfer": {"kind": "expression", "expression": "K*(s+z)/(s+p)"}},
-                       {"name": "plant", "input": "u", "output": "y",
-                        "transfer": {"kind": "expression", "expression": "16000/(s*(s+8)*(s+20))"}}],
-            "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}]}}],
-        "parameters": [{"name": "K", "value": 0.5, "min": 0.0}, {"name": "z", "value": 2.0, "min": 0.0},
-                       {"name": "p", "value": 20.0, "min": 0.0}],
-        "targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 45.0}]},
-                    {"measure": "gain_margin_db", "bands": [{"desired": 10.0}]}]}}
+NEW_SESSION = Path(__file__).resolve().parent.parent / "sessions" / "new_session.json"
+
+
+def new_session_text() -> str:
+    """The JSON of a new session (a lag-lead design on report 003's chapter-1 plant)."""
+    return NEW_SESSION.read_text(encoding="utf-8")

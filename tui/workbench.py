@@ -1,42 +1,28 @@
-"""The workbench's model, free of widgets: a session, its algorithm, stepping,
-undo, choosing an earlier iteration as the new start, and the data the
-plots and tableaux show.  The app drives it from a worker thread and renders
-what it returns; tests drive it directly.
+"""The workbench's model, free of widgets: one open session, its algorithm,
+stepping, undo, choosing an earlier iteration as the new start, sweeps.
+
+Only the UI thread calls the methods that change the session (`commit`,
+`undo`, `reset`, edits).  A run's worker gets what it needs from
+`begin_run` (the algorithm and the current state) and computes; the app
+commits each record it posts back.  What the screens show comes from
+`view()`, a read-only snapshot (`tui.views`).
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-import numpy as np
-
-from engine.algorithm import MeasureRow, State, Status, StepRecord, lookup, make_settings
+from engine.algorithm import State, Status, StepRecord
 from engine.errors import EngineError
-from engine.loops import loop_model, open_loop
-from engine.margins import Margins, margins
-from engine.realization import realize
-from engine.timeresp import Segment, simulate
-from sessions.build import build_problem
+from sessions import lifecycle
 from sessions.errors import SessionError
 from sessions.store import AUTOSAVE_INTERVAL, Session, save_session, write_autosave
-from sessions.sweeps import adopt_run, execute, parse_sweep, plan, record_sweep, summarize
+from sessions.sweep_jobs import execute
+from sessions.sweep_results import adopt_run, record_sweep, summarize
+from sessions.sweeps import parse_sweep, plan
 
-
-@dataclass(frozen=True)
-class LoopCurve:
-    """GH(j omega) of one condition at some parameters (for Nyquist, Bode, Nichols)."""
-
-    omega: np.ndarray
-    gh: np.ndarray
-    label: str
-    color: str = "blue"
-    margins: Margins | None = None   # marked on the Bode plots (the current design's curves)
-
-
-CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
-INITIAL_COLOR = "gray"
+from .views import View
 
 
 class Workbench:
@@ -46,7 +32,8 @@ class Workbench:
         self.session = session
         self.dirty = False
         self._states: dict[int, State] = {}
-        self._algorithm = None
+        self._algorithm: Any = None
+        self._initial: StepRecord | None = None
         self._records: list[StepRecord] = session.records   # parsed once, kept in step with the model
         self.plotted_condition: int | None = None   # the flight condition the plots show; None: all
 
@@ -55,6 +42,15 @@ class Workbench:
     @property
     def algorithm_name(self) -> str:
         return self.session.model.algorithm.name
+
+    @property
+    def presenter(self) -> Any:
+        """How the session's algorithm shows its records (the generic way when it is unknown)."""
+        try:
+            return lifecycle.registration(self.session).presenter
+        except SessionError:
+            from engine.present import Presenter
+            return Presenter()
 
     @property
     def iteration(self) -> int:
@@ -75,23 +71,19 @@ class Workbench:
         last = records[-1]
         return last.status.value + (f": {last.reason}" if last.reason else "")
 
-    def _algorithm_and_settings(self):
-        try:
-            settings = make_settings(self.algorithm_name, self.session.model.algorithm.settings)
-            return lookup(self.algorithm_name).factory(), settings
-        except (EngineError, TypeError) as exc:
-            raise SessionError(f"algorithm: {exc}") from None
-
-    def ensure_algorithm(self):
+    def ensure_algorithm(self) -> Any:
         """The algorithm bound to the problem, and the state before any iteration
         (a `SessionError` says why it cannot be set up)."""
         if self._algorithm is None or 0 not in self._states:
-            algorithm, settings = self._algorithm_and_settings()
+            algorithm, settings = lifecycle.bound_algorithm(self.session)
             try:
                 self._states = {0: algorithm.init(self.session.problem, settings)}
+                saved = self.session.model.state
+                if self.iteration and saved is not None:   # the saved state: no replay to go on
+                    self._states[self.iteration] = State.from_json(saved, algorithm.memory_type)
             except EngineError as exc:
                 raise SessionError(f"{self.algorithm_name}: {exc}") from None
-            self._algorithm = algorithm
+            self._algorithm, self._initial = algorithm, None
         return self._algorithm
 
     def _state(self) -> State:
@@ -105,16 +97,19 @@ class Workbench:
             self._states[i + 1] = state
         return state
 
-    def step(self) -> StepRecord | None:
-        """One iteration (None when the algorithm has finished)."""
+    def begin_run(self) -> tuple[Any, State]:
+        """What a run's worker steps: the bound algorithm and the current state."""
         state = self._state()
-        if state.status.finished:
-            return None
-        state, record = self._algorithm.step(state)
+        return self._algorithm, state
+
+    def commit(self, state: State, record: StepRecord) -> None:
+        """Keep an iteration computed from the current state (UI thread only)."""
+        if record.iteration != self.iteration + 1:
+            raise SessionError(f"iteration {record.iteration} does not follow iteration {self.iteration}")
         model = self.session.model
         del model.records[self.iteration:]
-        model.records.append(record.to_json())
         del self._records[self.iteration:]
+        model.records.append(record.to_json())
         self._records.append(record)
         model.state = state.to_json()
         model.current_iteration = len(model.records)
@@ -122,6 +117,14 @@ class Workbench:
         self._states[model.current_iteration] = state
         self.dirty = True
         write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL)
+
+    def step(self) -> StepRecord | None:
+        """One iteration, computed and kept (None when the algorithm has finished)."""
+        algorithm, state = self.begin_run()
+        if state.status.finished:
+            return None
+        state, record = algorithm.step(state)
+        self.commit(state, record)
         return record
 
     def autosave(self) -> None:
@@ -151,8 +154,9 @@ class Workbench:
 
     def run_sweep(self, text: str, progress=None, cancelled=lambda: False) -> dict:
         """Plan and run a sweep described by one line (`sessions.sweeps.parse_sweep`);
-        safe in a worker thread (the session is only read).  The summary is returned,
-        not yet kept: `keep_sweep` does that on the UI thread."""
+        safe in a worker thread while the session is not changed (the app disables
+        every change during a sweep).  The summary is returned, not yet kept:
+        `keep_sweep` does that on the UI thread."""
         spec = parse_sweep(text)
         jobs, settings = plan(self.session, spec["kind"], spec["value"], spec.get("spread"), spec.get("seed", 0),
                               spec.get("samples", 32))
@@ -174,6 +178,8 @@ class Workbench:
         self.reset()
         return run
 
+    # -- changing the problem ------------------------------------------------------
+
     def start_from(self, iteration: int) -> None:
         """Make an earlier iteration the current one (later records are dropped)."""
         if not 0 <= iteration <= self.iteration:
@@ -182,26 +188,20 @@ class Workbench:
             self.undo()
 
     def set_algorithm(self, name: str) -> None:
-        lookup(name)
-        self.session.model.algorithm.name = name
-        self.session.model.algorithm.settings = {}
+        lifecycle.switch_algorithm(self.session, name)
         self.reset()
 
     def reset(self) -> None:
         """Forget every record (the problem or the algorithm changed)."""
-        model = self.session.model
-        model.records.clear()
+        lifecycle.forget_records(self.session)
         self._records.clear()
-        model.current_iteration = 0
-        model.state = None
-        self._states, self._algorithm = {}, None
+        self._states, self._algorithm, self._initial = {}, None, None
         self.dirty = True
 
     def rebuild(self) -> None:
-        """Rebuild the engine problem after an edit of the model; on error the
-        caller restores the old value (nothing is lost)."""
-        folder = self.session.path.parent if self.session.path else Path.cwd()
-        self.session.problem = build_problem(self.session.model.problem, folder)
+        """Rebuild the engine problem after an edit of the model (a `SessionError` when it
+        does not build: the caller keeps the old model, see `tui.editing.transaction`)."""
+        lifecycle.rebuild(self.session)
         self.reset()
 
     def save(self, path: str | Path | None = None) -> Path:
@@ -211,56 +211,20 @@ class Workbench:
 
     # -- what the screens show ---------------------------------------------
 
-    def tableau(self, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:
-        k = self.iteration if iteration is None else iteration
-        if k == 0:
-            record = self.initial_record()
-            return (list(record.measures) if record else []), record
-        record = self.records[k - 1]
-        return list(record.measures), record
-
     def initial_record(self) -> StepRecord | None:
-        """Iteration 0 as a record, where the algorithm offers one (cip's initial tableau)."""
+        """Iteration 0 as the presenter gives it (None when the algorithm cannot be set up)."""
         try:
             algorithm = self.ensure_algorithm()
         except (EngineError, SessionError):
             return None
-        if not hasattr(algorithm, "initial_record"):
-            return None
-        return algorithm.initial_record(self._states[0])
+        if self._initial is None:
+            self._initial = self.presenter.initial_record(algorithm, self._states[0], self.session.problem)
+        return self._initial
 
-    def parameters(self, iteration: int | None = None, condition: int = 0) -> dict[str, float]:
-        """Parameter values one condition sees after an iteration (0: the session's start)."""
-        k = self.iteration if iteration is None else iteration
-        problem = self.session.problem
-        return problem.values_with(self.records[k - 1].parameters, condition) if k > 0 else problem.values(condition)
-
-    def loop_curve(self, iteration: int | None = None, label: str = "current", condition: int = 0,
-                   color: str = "blue") -> LoopCurve | None:
-        """GH of one condition (None when the loop cannot be evaluated)."""
-        problem = self.session.problem
-        if condition >= len(problem.conditions):
-            return None
-        c = problem.conditions[condition]
-        values = self.parameters(iteration, condition)
-        try:
-            response = open_loop(c.network, c.break_at, problem.grid.omega, values, sensitivities=False)
-        except EngineError:
-            return None
-        found = None
-        if iteration is None:
-            try:
-                found = margins(loop_model(c.network, c.break_at, problem.grid.omega, values))
-            except EngineError:
-                pass
-        return LoopCurve(problem.grid.omega, response.value, label, color, found)
-
-    def plotted(self) -> list[int]:
-        """The conditions the plots show (`plotted_condition`; every one when None)."""
-        count = len(self.session.problem.conditions)
-        if self.plotted_condition is not None and self.plotted_condition < count:
-            return [self.plotted_condition]
-        return list(range(count))
+    def view(self) -> View:
+        """A read-only snapshot of what the screens show now."""
+        return View(self.session.problem, tuple(self.records), self.presenter, self.initial_record(),
+                    self.plotted_condition, self.latest_sweep())
 
     def next_plotted_condition(self) -> str:
         """Cycle the plots through every condition together and each alone; says what they show now."""
@@ -272,92 +236,3 @@ class Workbench:
         self.plotted_condition = 0 if k is None else None if k + 1 >= len(names) else k + 1
         return "plots: every flight condition" if self.plotted_condition is None else \
             f"plots: {names[self.plotted_condition]} (current and initial)"
-
-    def shown(self, iteration: int | None = None) -> list[tuple[int | None, int, str, str]]:
-        """What the plots draw for an iteration (None: the current one), as
-        (iteration or None for the current, condition, label, colour): each
-        plotted condition, labelled by name, when there are several; one
-        condition alone also with a reference: the initial design beside the
-        current one, the current design beside an earlier iteration."""
-        conditions = self.session.problem.conditions
-        plotted = self.plotted()
-        k_it = self.iteration if iteration is None else iteration
-        at = None if k_it == self.iteration else k_it
-        if len(plotted) > 1:
-            return [(at, k, conditions[k].name, CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in plotted]
-        if not plotted:
-            return []
-        k = plotted[0]
-        prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
-        wanted = [(at, k, prefix + ("current" if at is None else f"iteration {k_it}" if k_it else "start"), "blue")]
-        if at is not None:
-            wanted.append((None, k, prefix + "current", INITIAL_COLOR))
-        elif self.iteration:
-            wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
-        return wanted
-
-    def loop_curves(self, iteration: int | None = None) -> list[LoopCurve]:
-        """The open loops the plots draw (`shown`)."""
-        curves = [self.loop_curve(at, label, k, color) for at, k, label, color in self.shown(iteration)]
-        return [c for c in curves if c is not None]
-
-    def step_response(self, iteration: int | None = None,
-                      condition: int = 0) -> tuple[list[float], list[float], str] | None:
-        """Closed-loop response to a unit step at the first input, of the output signal
-        (y, c or x1 when present), for rational plants; None otherwise."""
-        problem = self.session.problem
-        if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
-            return None
-        network = problem.conditions[condition].network
-        try:
-            ss = realize(network, self.parameters(iteration, condition))
-        except EngineError:
-            return None
-        if not ss.inputs or ss.A.size == 0:
-            return None
-        output = next((name for name in ("y", "c", "x1") if name in ss.outputs), ss.outputs[-1])
-        real = np.linalg.eigvals(ss.A).real
-        slowest = np.abs(real[real < 0]).min(initial=np.inf)
-        horizon = 5.0 / real.max() if real.max() > 0 else min(8.0 / slowest, 1e4) if np.isfinite(slowest) else 10.0
-        t = np.linspace(0.0, horizon, 400)
-        try:
-            y = simulate(ss, ss.inputs[0], t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
-        except EngineError:
-            return None
-        return t.tolist(), y.tolist(), f"{output} (step at {ss.inputs[0]})"
-
-    def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
-        """The step responses the plot draws (`shown`): what is plotted, and
-        (t, y, label, colour) per trace."""
-        name, traces = "", []
-        for at, k, label, color in self.shown():
-            response = self.step_response(at, k)
-            if response is not None:
-                t, y, name = response
-                traces.append((t, y, label, color))
-        return name, traces
-
-    def trajectories(self) -> tuple[list[float], list[list[float]], list[list[float]]] | None:
-        """t, x(t), u(t) of the current iteration (algorithms that produce trajectories)."""
-        records = self.records
-        if not records or "u" not in records[-1].extra:
-            return None
-        e = records[-1].extra
-        return e["t"], e["x"], e["u"]
-
-    def convergence(self) -> tuple[str, list[int], list[float]]:
-        """The convergence curve: what it measures, iterations, values."""
-        records = self.records
-        if not records:
-            return "", [], []
-        if "smallest_stability_margin" in records[0].extra:
-            label, values = "smallest stability margin", [r.extra.get("smallest_stability_margin") for r in records]
-        elif "distance" in records[0].extra:
-            label, values = "log10 distance between the sets", [math.log10(max(r.extra["distance"], 1e-300))
-                                                                 for r in records]
-        elif records[0].objective is not None:
-            label, values = "cost", [r.objective for r in records]
-        else:
-            label, values = "unmet targets", [sum(not m.satisfied for m in r.measures) for r in records]
-        points = [(r.iteration, float(v)) for r, v in zip(records, values) if v is not None and math.isfinite(v)]
-        return label, [p[0] for p in points], [p[1] for p in points]

@@ -2,9 +2,10 @@
 
 from ..algorithm import register
 from .algorithm import Cip, CipSettings
+from .present import CipPresenter
 
 register("cip", Cip, CipSettings,
          "constraint improvement on gain/phase/stability/attenuation margins (report 000, CIP)",
-         maximize=True)  # sweeps rank cip runs by their smallest stability margin
+         CipPresenter())
 
 __all__ = ["Cip", "CipSettings"]

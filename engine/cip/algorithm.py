@@ -28,7 +28,7 @@ original are both active.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -40,6 +40,7 @@ from ..errors import EngineError
 from ..problem import Problem
 from .constraints import Constraint, check_targets, detect
 from .direction import Direction, Rows, gradient_rows, improvement_direction
+from .memory import CipBest, CipMemory
 
 TERMINATION_STATUS = {"theorem2": Status.INFEASIBLE, "dependent": Status.NO_IMPROVEMENT,
                       "zero_gradient": Status.NO_IMPROVEMENT}
@@ -85,6 +86,7 @@ class Cip:
     """The stepper (see the module docstring)."""
 
     name = "cip"
+    memory_type = CipMemory
 
     def init(self, problem: Problem, settings: CipSettings) -> State:
         check_targets(problem)
@@ -99,17 +101,14 @@ class Cip:
             raise EngineError(f"cip: {self._slot_names()[outside[0]]} = {x[outside[0]]:.6g} is outside its bounds")
         constraints, windings = self._detect(x)
         step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
-        smallest = smallest_stability_margin(constraints)
-        self._last = None
-        memory = {"constraints": self._remember(constraints), "windings": windings, "step": step,
-                  "unmet_start": sum(c.active for c in constraints),
-                  "best": {"iteration": 0, "x": x.tolist(), "smallest": smallest}}
+        memory = CipMemory(tuple(constraints), tuple(windings), step, sum(c.active for c in constraints),
+                           CipBest(0, tuple(x.tolist()), smallest_stability_margin(constraints)))
         return State(0, tuple(x.tolist()), Status.RUNNING, memory)
 
     def step(self, state: State) -> tuple[State, StepRecord]:
         x = np.array(state.x, dtype=float)
-        memory = state.memory
-        constraints = self._parsed(memory["constraints"])
+        memory: CipMemory = state.memory
+        constraints = list(memory.constraints)
         active = [c for c in constraints if c.active]
         k = state.iteration + 1
         if not active:
@@ -124,10 +123,10 @@ class Cip:
         if direction.vector is None:
             return self._stop(state, TERMINATION_STATUS[direction.termination], direction.reason, constraints,
                               termination=direction.termination)
-        h, rejected = memory["step"], {}
+        h, rejected = memory.step, {}
         while True:
             trial = np.clip(x + h * direction.vector, self.lower, self.upper)
-            outcome = self._trial(trial, constraints, active, memory["windings"])
+            outcome = self._trial(trial, constraints, active, memory.windings)
             if not isinstance(outcome, str):
                 break
             rejected[outcome] = rejected.get(outcome, 0) + 1
@@ -143,24 +142,13 @@ class Cip:
     def initial_record(self, state: State) -> StepRecord:
         """The tableau before any iteration (the report's Table 1), as iteration 0."""
         x = np.array(state.x)
-        constraints = _from(state.memory)
-        return StepRecord(0, state.status, self.problem.named_values_at(x),
-                          _rows(self.problem, constraints), step_size=state.memory["step"],
-                          extra=self._extra(x, constraints, state.memory["best"], state.memory,
-                                            sum(c.active for c in constraints)))
+        memory: CipMemory = state.memory
+        constraints = list(memory.constraints)
+        return StepRecord(0, state.status, self.problem.named(x),
+                          _rows(self.problem, constraints), step_size=memory.step,
+                          extra=self._extra(x, constraints, memory, sum(c.active for c in constraints)))
 
     # -- pieces of a step --------------------------------------------------
-
-    def _parsed(self, stored: list) -> list[Constraint]:
-        """The constraints of a state; those this stepper just wrote are reused, not re-read."""
-        if self._last is not None and self._last[0] is stored:
-            return self._last[1]
-        return [Constraint.from_json(d) for d in stored]
-
-    def _remember(self, constraints: list[Constraint]) -> list:
-        stored = [c.to_json() for c in constraints]
-        self._last = (stored, constraints)
-        return stored
 
     def _near(self, constraints: list[Constraint]) -> list[Constraint]:
         """Met margins within the guard band of their desired value."""
@@ -173,7 +161,7 @@ class Cip:
         return detect(self.problem, x, s.detection, s.gain_as_stability, s.phase_as_stability)
 
     def _trial(self, trial: NDArray, old: list[Constraint], active: list[Constraint],
-               windings: list[float]) -> tuple[list[Constraint], list[float], list] | str:
+               windings: tuple[float, ...]) -> tuple[list[Constraint], list[float], list] | str:
         """The constraints at an accepted trial point, or why it was rejected."""
         try:
             new, new_windings = self._detect(trial)
@@ -192,25 +180,25 @@ class Cip:
                   matched: list, h: float, direction: Direction, rejected: dict[str, int],
                   before: int) -> tuple[State, StepRecord]:
         s = self.settings
-        best = dict(state.memory["best"])
+        best = state.memory.best
         smallest = smallest_stability_margin(constraints)
-        if smallest is not None and (best["smallest"] is None or smallest > best["smallest"]):
-            best = {"iteration": k, "x": x.tolist(), "smallest": smallest}
+        if smallest is not None and (best.smallest is None or smallest > best.smallest):
+            best = CipBest(k, tuple(x.tolist()), smallest)
         status, reason = Status.RUNNING, ""
         if not any(c.active for c in constraints):
             status, reason = Status.CONVERGED, "all system requirements have been met"
         elif k >= s.max_iterations:
             status, reason = Status.ITERATION_LIMIT, f"maximum iterations ({s.max_iterations})"
-        memory = dict(state.memory, constraints=self._remember(constraints), windings=windings,
-                      step=min(h * s.growth, s.max_step), best=best)
+        memory = replace(state.memory, constraints=tuple(constraints), windings=tuple(windings),
+                         step=min(h * s.growth, s.max_step), best=best)
         new_state = State(k, tuple(x.tolist()), status, memory)
         names = self._slot_names()
-        extra = self._extra(x, constraints, best, state.memory, before) | {
+        extra = self._extra(x, constraints, memory, before) | {
             "matched": [{"kind": o.kind, "frequency": o.frequency, "before": o.value, "after": n.value,
                          "active_after": n.active} for o, n in matched],
             "held": [names[i] for i in np.flatnonzero(direction.held)],
             "partials": self._split(dict(zip(names, direction.vector.tolist())))}
-        record = StepRecord(k, status, self.problem.named_values_at(x), _rows(self.problem, constraints),
+        record = StepRecord(k, status, self.problem.named(x), _rows(self.problem, constraints),
                             step_size=h, direction=tuple(direction.vector.tolist()),
                             counters=_counters(rejected, accepted=True), reason=reason, extra=extra)
         return new_state, record
@@ -222,25 +210,26 @@ class Cip:
         x = np.array(state.x)
         k = state.iteration + 1
         before = sum(c.active for c in constraints)
-        extra = self._extra(x, constraints, state.memory["best"], state.memory, before) | {"termination": termination}
+        extra = self._extra(x, constraints, state.memory, before) | {"termination": termination}
         if direction is not None:
             extra["partials"] = self._split(dict(zip(self._slot_names(), direction.tolist())))
-        record = StepRecord(k, status, self.problem.named_values_at(x), _rows(self.problem, constraints),
-                            step_size=state.memory["step"], direction=() if direction is None else
+        record = StepRecord(k, status, self.problem.named(x), _rows(self.problem, constraints),
+                            step_size=state.memory.step, direction=() if direction is None else
                             tuple(direction.tolist()), counters=_counters(rejected or {}, accepted=False),
                             reason=reason, extra=extra)
-        return State(k, state.x, status, dict(state.memory)), record
+        return State(k, state.x, status, state.memory), record
 
-    def _extra(self, x: NDArray, constraints: list[Constraint], best: dict, memory, before: int) -> dict:
-        return {"unmet": sum(c.active for c in constraints), "unmet_start": memory["unmet_start"],
+    def _extra(self, x: NDArray, constraints: list[Constraint], memory: CipMemory, before: int) -> dict:
+        best = memory.best
+        return {"unmet": sum(c.active for c in constraints), "unmet_start": memory.unmet_start,
                 "unmet_before": before,
                 "smallest_stability_margin": smallest_stability_margin(constraints),
-                "best": {"iteration": best["iteration"], "smallest_stability_margin": best["smallest"],
-                         "parameters": self.problem.named_values_at(best["x"])},
+                "best": {"iteration": best.iteration, "smallest_stability_margin": best.smallest,
+                         "parameters": self.problem.named(best.x)},
                 "compensators": [c.to_json() for c in self._compensators(x)]}
 
     def _compensators(self, x: NDArray):
-        return compensators(self.problem.conditions[0].network, self.problem.values_at(x, 0))
+        return compensators(self.problem.conditions[0].network, self.problem.condition_values(0, x))
 
     def _split(self, values: dict[str, float]) -> dict[str, dict[str, float]]:
         return split_by_role(self._roles, values)
@@ -249,10 +238,6 @@ class Cip:
         p = self.problem
         return [p.parameters[i].name if c is None else f"{p.parameters[i].name}[{p.conditions[c].name}]"
                 for i, c in p.free_slots()]
-
-
-def _from(memory) -> list[Constraint]:
-    return [Constraint.from_json(d) for d in memory["constraints"]]
 
 
 def _counters(rejected: dict[str, int], accepted: bool) -> dict[str, int]:

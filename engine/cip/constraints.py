@@ -24,10 +24,11 @@ from numpy.typing import NDArray
 from ..errors import EngineError
 from ..loops import LoopModel, loop_model, open_loop
 from ..margins import Margin, margins
+from ..measure_kinds import check_accepted, kind, names
 from ..problem import Point, Problem, Target
 
-KIND = {"gain_margin": "G", "gain_margin_db": "G", "phase_margin": "P", "phase_margin_deg": "P",
-        "stability_margin": "S", "attenuation_margin": "A"}
+# measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.measure_kinds`)
+KIND = {name: kind(name).margin for name in names(algorithm="cip")}
 DEFAULT_POINTS = {"G": (Point(-1.0, "push"),), "P": (Point(-1.0, "push"),), "S": (Point(-1.0, "push"),),
                   "A": (Point(0.0, "pull"),)}
 
@@ -59,7 +60,8 @@ class Constraint:
 
     @property
     def at_least(self) -> bool:
-        return self.kind != "A"
+        """The measure's natural sense (only the attenuation margin is at most)."""
+        return kind(self.measure).at_least
 
     @property
     def active(self) -> bool:
@@ -87,10 +89,7 @@ class Constraint:
 
 def check_targets(problem: Problem) -> None:
     """CIP works on the four margin kinds (and their classical forms) only."""
-    for target in problem.targets:
-        if target.measure not in KIND:
-            raise EngineError(f"cip: target {target.measure!r} is not a margin; cip improves gain, phase, "
-                              "stability and attenuation margins")
+    check_accepted("cip", (target.measure for target in problem.targets))
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
 
@@ -111,7 +110,7 @@ def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool
         if not targets:
             windings.append(0.0)
             continue
-        loop = _loop(problem, c, problem.values_at(x, c), detection != "grid")
+        loop = _loop(problem, c, problem.condition_values(c, x), detection != "grid")
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
         found += [replace(made, method=found_margins.label)

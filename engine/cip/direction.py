@@ -61,7 +61,7 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Row
         if not mine:
             continue
         freqs = np.unique([con.frequency for _, con in mine])
-        response = open_loop(condition.network, condition.break_at, freqs, problem.values_at(x, c), check=False)
+        response = open_loop(condition.network, condition.break_at, freqs, problem.condition_values(c, x), check=False)
         columns = [slot_of.get((name, c)) for name in response.parameters]
         used = np.array([j for j, slot in enumerate(columns) if slot is not None], dtype=int)
         slots = np.array([columns[j] for j in used], dtype=int)

@@ -3,8 +3,10 @@ projection with extrapolation (report 004)."""
 
 from ..algorithm import register
 from .algorithm import Projection, ProjectionSettings
+from .present import ProjectionPresenter
 
 register("projection", Projection, ProjectionSettings,
-         "alternating projections with extrapolation for constrained DAE systems (report 004)")
+         "alternating projections with extrapolation for constrained DAE systems (report 004)",
+         ProjectionPresenter())
 
 __all__ = ["Projection", "ProjectionSettings"]

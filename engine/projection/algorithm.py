@@ -27,7 +27,7 @@ that bind.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -36,6 +36,7 @@ from ..errors import EngineError
 from ..problem import Problem
 from .banded import Projector
 from .lq import Trajectory, norm
+from .memory import Iterate, ProjectionMemory
 from .openloop import open_loop, peak_rows, peaks
 from .system import DaeSystem, dae_system
 
@@ -58,6 +59,7 @@ class ProjectionSettings:
 
 class Projection:
     name = "projection"
+    memory_type = ProjectionMemory
 
     def init(self, problem: Problem, settings: ProjectionSettings) -> State:
         if problem.objective is None or problem.objective.kind != "dae":
@@ -71,29 +73,30 @@ class Projection:
         zero = Trajectory(np.zeros((self.system.steps + 1, self.system.n)),
                           np.zeros((self.system.steps + 1, self.system.m)))
         self._times = self.system.times().tolist()
-        self._last: tuple[dict, Trajectory] | None = None
-        return State(0, (), Status.RUNNING, {"r": self._pack(self.project(zero)), "product": 1.0, "distances": []})
+        self._last: tuple[Iterate, Trajectory] | None = None
+        return State(0, (), Status.RUNNING, ProjectionMemory(self._pack(self.project(zero)), 1.0, ()))
 
     def initial_record(self, state: State) -> StepRecord:
         """Iteration 0: the first iterate r_1 = P_K2(0), with the open loop where the system defines one."""
-        r = self._unpack(state.memory["r"])
+        r = self._unpack(state.memory.r)
         return self._record(0, Status.RUNNING, "", r, None, norm(self._clip(r) - r, self.system.Q, self.system.R),
                             None)
 
     def step(self, state: State) -> tuple[State, StepRecord]:
         s, sys = self.settings, self.system
-        r = self._unpack(state.memory["r"])
+        memory: ProjectionMemory = state.memory
+        r = self._unpack(memory.r)
         k = self._clip(r)
         distance = norm(k - r, sys.Q, sys.R)
         i = state.iteration + 1
-        memory = dict(state.memory)
-        history = list(memory["distances"]) + [distance]
-        memory["distances"] = history[-STALL_WINDOW - 1:]
+        history = memory.distances + (distance,)
+        memory = replace(memory, distances=history[-STALL_WINDOW - 1:])
         if self._converged(r, distance):
             return self._converge(memory, r, k, distance, i)
         stalled = len(history) > STALL_WINDOW and history[-STALL_WINDOW - 1] - distance <= s.stall * distance
-        if stalled and s.extrapolation and not memory.get("plain"):
-            memory.update(plain=True, distances=[distance])   # disjoint sets: lambda = 1 finds the closest pair
+        if stalled and s.extrapolation and not memory.plain:
+            # disjoint sets: lambda = 1 finds the closest pair
+            memory = replace(memory, plain=True, distances=(distance,))
             stalled = False
         if stalled:
             return self._finish(memory, r, Status.INFEASIBLE, f"the sets do not meet: the distance stays at "
@@ -101,25 +104,23 @@ class Projection:
         if i > s.max_iterations:
             return self._finish(memory, r, Status.ITERATION_LIMIT, f"{s.max_iterations} iterations", i, distance)
         proj = self.project(k)
-        lam = self._lambda(memory, distance, norm(proj - r, sys.Q, sys.R) ** 2)
+        lam, product = self._lambda(memory, distance, norm(proj - r, sys.Q, sys.R) ** 2)
         new = r + (proj - r).scaled(lam)
-        memory["r"] = self._pack(new)
+        memory = replace(memory, r=self._pack(new), product=product)
         return State(i, (), Status.RUNNING, memory), self._record(i, Status.RUNNING, "", new, lam, distance,
                                                                   norm(k - proj, sys.Q, sys.R))
 
     # -- pieces -----------------------------------------------------------
 
-    def _lambda(self, memory: dict, distance: float, denominator: float) -> float:
-        """lambda_i = ||k - r||^2 / ||s - r||^2, or 1 (no extrapolation, disjoint sets, or the reset; the
-        reading of the reset rule is in the module docstring).  Updates memory['product']."""
+    def _lambda(self, memory: ProjectionMemory, distance: float, denominator: float) -> tuple[float, float]:
+        """(lambda_i, the new product): lambda_i = ||k - r||^2 / ||s - r||^2, or 1 (no extrapolation,
+        disjoint sets, or the reset; the reading of the reset rule is in the module docstring)."""
         s = self.settings
-        if memory["product"] > s.reset_product:
-            memory["product"] = 1.0
-            return 1.0
-        extrapolate = s.extrapolation and not memory.get("plain") and denominator > 0
+        if memory.product > s.reset_product:
+            return 1.0, 1.0
+        extrapolate = s.extrapolation and not memory.plain and denominator > 0
         lam = distance ** 2 / denominator if extrapolate else 1.0
-        memory["product"] = memory["product"] * lam
-        return lam
+        return lam, memory.product * lam
 
     def _converged(self, r: Trajectory, distance: float) -> bool:
         s = self.settings
@@ -127,7 +128,7 @@ class Projection:
         return distance <= s.tolerance * scale and \
             list(self.violations(r).values())[-1] <= s.tolerance * max(1.0, _scale(r))
 
-    def _converge(self, memory: dict, r: Trajectory, k: Trajectory, distance: float,
+    def _converge(self, memory: ProjectionMemory, r: Trajectory, k: Trajectory, distance: float,
                   i: int) -> tuple[State, StepRecord]:
         reason = f"distance between the sets {distance:.3g} <= {self.settings.tolerance:g} x ||r||, every bound " \
                  "met to the tolerance"
@@ -135,7 +136,7 @@ class Projection:
             return self._finish(memory, r, Status.CONVERGED, reason, i, distance)
         sys = self.system
         answer = self.project(k)                     # lambda = 1 on the final iteration: r_{i+1} = s_i
-        memory["r"] = self._pack(answer)
+        memory = replace(memory, r=self._pack(answer))
         record = self._record(i, Status.CONVERGED, reason + "; lambda = 1 on this final iteration", answer, 1.0,
                               distance, norm(k - answer, sys.Q, sys.R))
         return State(i, (), Status.CONVERGED, memory), record
@@ -184,7 +185,7 @@ class Projection:
         return {"dynamics": float(np.abs(dyn).max(initial=0)), "algebraic": float(np.abs(alg).max(initial=0)),
                 "bounds": bounds}
 
-    def _finish(self, memory: dict, r: Trajectory, status: Status, reason: str, i: int,
+    def _finish(self, memory: ProjectionMemory, r: Trajectory, status: Status, reason: str, i: int,
                 distance: float) -> tuple[State, StepRecord]:
         return State(i, (), status, memory), self._record(i, status, reason, r, None, distance, None)
 
@@ -197,9 +198,8 @@ class Projection:
         rows = [MeasureRow(name, "violation", "dae", value, 0.0, value <= slack, at_least=False)
                 for name, value in v.items()]
         rows += peak_rows(sys, found, "peak", slack)
-        packed = self._pack(r)
         extra = {"lambda": lam, "distance": distance, "k_minus_s": k_to_s, "violations": v, "peaks": found,
-                 "t": self._times, "x": packed["x"], "u": packed["u"]}
+                 "t": self._times, "x": r.x.tolist(), "u": r.u.tolist()}
         if self.open_loop is not None:
             initial = peaks(sys, self.open_loop)
             rows += peak_rows(sys, initial, "open-loop peak", slack)
@@ -210,19 +210,22 @@ class Projection:
                           counters={"projections": 0 if k_to_s is None else 1}, reason=reason, extra=extra)
 
 
-    def _pack(self, t: Trajectory) -> dict:
-        """The iterate as JSON lists, made once: the state's memory and the record share them (neither
-        is changed in place), and the next step takes the arrays back without converting."""
+    def _pack(self, t: Trajectory) -> Iterate:
+        """The iterate as the memory keeps it (tuples), made once per trajectory; the next step
+        takes the arrays back without converting."""
         if self._last is None or self._last[1] is not t:
-            self._last = ({"x": t.x.tolist(), "u": t.u.tolist()}, t)
+            self._last = (Iterate(tuple(map(tuple, t.x.tolist())), tuple(map(tuple, t.u.tolist()))), t)
         return self._last[0]
 
-    def _unpack(self, data: dict) -> Trajectory:
-        if self._last is not None and self._last[0] is data:
+    def _unpack(self, r: Iterate) -> Trajectory:
+        if self._last is not None and self._last[0] is r:
             return self._last[1]
         sys = self.system
-        return Trajectory(np.array(data["x"], dtype=float).reshape(sys.steps + 1, sys.n),
-                          np.array(data["u"], dtype=float).reshape(sys.steps + 1, sys.m))
+        x, u = np.array(r.x, dtype=float), np.array(r.u, dtype=float)
+        if x.shape != (sys.steps + 1, sys.n) or u.shape != (sys.steps + 1, sys.m):
+            raise EngineError(f"projection memory.r: expected {sys.steps + 1} rows of {sys.n} states and of "
+                              f"{sys.m} inputs, got x {x.shape} and u {u.shape}")
+        return Trajectory(x, u)
 
 
 def _scale(t: Trajectory) -> float:

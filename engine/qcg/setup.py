@@ -19,6 +19,7 @@ import numpy as np
 
 from ..blocks import Transfer
 from ..errors import EngineError
+from ..measure_kinds import check_accepted
 from ..problem import Problem
 from .cost import (Cascade, CostResult, Weights, averaged_squares, exponential_disturbance, frequency_response,
                    open_loop_squares, quadratic_cost)
@@ -57,6 +58,7 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     objective = problem.objective
     if objective is None or objective.kind != "quadratic_cost":
         raise EngineError("qcg: the problem needs an objective of kind 'quadratic_cost'")
+    check_accepted("qcg", (target.measure for target in problem.targets))
     unknown = sorted(set(objective.options) - set(OPTIONS))
     if unknown:
         raise EngineError(f"qcg: unknown objective option(s) {', '.join(unknown)}; options are {', '.join(OPTIONS)}")

@@ -2,9 +2,10 @@
 
 from ..algorithm import register
 from .algorithm import Slp, SlpSettings
+from .present import SlpPresenter
 
 register("slp", Slp, SlpSettings,
          "sequential linear programming over margins and time-domain measures, several flight "
-         "conditions, load relief (report 003, COEBRA)", maximize=True)
+         "conditions, load relief (report 003, COEBRA)", SlpPresenter())
 
 __all__ = ["Slp", "SlpSettings"]

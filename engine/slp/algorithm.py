@@ -38,9 +38,8 @@ launch-vehicle example, where every trial near the boundary was rejected).
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, replace
+from typing import ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -50,6 +49,7 @@ from ..errors import EngineError
 from ..problem import Problem
 from .lp import LpResult, solve_step, step_box
 from .measures import Spec, evaluate, measure_specs
+from .memory import SlpMemory, SlpPoint
 from .partials import jacobian
 
 LOAD_KINDS = ("peak_response", "mean_square")
@@ -73,9 +73,12 @@ class SlpSettings:
     improvement_percent: float = 0.1   # a tie in the counter needs this much more figure of merit
     max_minor: int = 12
     max_major: int = 30
-    time_limit: float | None = None    # seconds of computing, then the best point is reported
     require_stable: bool = True
     fd_step: float = 1e-6              # relative forward-difference step
+
+    RETIRED: ClassVar[dict[str, str]] = {
+        "time_limit": "a wall-clock limit made a run impossible to replay; give it to the run instead "
+                      "(loopcraft run --time-limit SECONDS, or run_session(..., time_limit=SECONDS))"}
 
     def __post_init__(self) -> None:
         if not 0 < self.relaxation_step <= 1:
@@ -102,6 +105,7 @@ class Slp:
     """The sequential linear programming stepper (see the module docstring)."""
 
     name = "slp"
+    memory_type = SlpMemory
 
     def init(self, problem: Problem, settings: SlpSettings) -> State:
         self.problem, self.settings = problem, settings
@@ -115,50 +119,42 @@ class Slp:
         self.lower, self.upper = problem.bounds()
         self.equalities = problem.equality_system()
         x = self._feasible_start(np.clip(problem.vector(), self.lower, self.upper))
-        start = self._point(x)
-        return State(0, tuple(x), Status.RUNNING, {
-            "major": 1, "minor": 0, "x0": list(x), "base": _point_json(start), "best": _point_json(start),
-            "partials": None, "P": settings.initial_step, "P_best": 0.0, "P_failed": None,
-            "evaluations": 1, "lps": 0, "elapsed": 0.0})
+        start = _stored(self._point(x))
+        return State(0, tuple(x.tolist()), Status.RUNNING, SlpMemory(
+            major=1, minor=0, x0=tuple(x.tolist()), base=start, best=start, partials=None, partial_methods=(),
+            P=settings.initial_step, P_best=0.0, P_failed=None, evaluations=1, lps=0))
 
     # -- one minor-loop trial ----------------------------------------------
 
     def step(self, state: State) -> tuple[State, StepRecord]:
-        began = time.perf_counter()
-        memory = dict(state.memory)
-        x0 = np.array(memory["x0"])
-        base = _point_from(memory["base"])
+        memory: SlpMemory = state.memory
+        x0 = np.array(memory.x0)
+        base = _point_from(memory.base)
         counters = {"partial_evaluations": 0}
-        if memory["partials"] is None:
+        if memory.partials is None:
             J, how = jacobian(self.problem, x0, self.specs, base.values, base.frequencies,
                               self.settings.partials, self.settings.fd_step)
-            memory["partials"], memory["partial_methods"] = J.tolist(), list(how)
+            memory = replace(memory, partials=tuple(map(tuple, J.tolist())), partial_methods=tuple(how))
             counters["partial_evaluations"] = len(x0) if "finite difference" in how else 1
-        J = np.array(memory["partials"]).reshape(len(self.specs), len(x0))
-        P = float(memory["P"])
+        J = np.array(memory.partials, dtype=float).reshape(len(self.specs), len(x0))
+        P = float(memory.P)
         lp = self._program(x0, base.values, J, P)
         trial, reason = self._trial(x0, lp)
-        best = _point_from(memory["best"])
-        better = trial is not None and self._better(trial, best)
-        memory["minor"] += 1
-        memory["lps"] += lp.solves
-        memory["evaluations"] += trial is not None
-        if better:
-            memory["best"], memory["P_best"] = _point_json(trial), P
-        else:
-            memory["P_failed"] = P
-        numbers = (memory["major"], memory["minor"])
-        done, why = self._next_step(memory, reason == STILL)
-        memory["elapsed"] += time.perf_counter() - began
+        better = trial is not None and self._better(trial, _point_from(memory.best))
+        memory = replace(memory, minor=memory.minor + 1, lps=memory.lps + lp.solves,
+                         evaluations=memory.evaluations + (trial is not None))
+        memory = replace(memory, best=_stored(trial), P_best=P) if better else replace(memory, P_failed=P)
+        numbers = (memory.major, memory.minor)
+        done, why, memory = self._next_step(memory, reason == STILL)
         status, shown = Status.RUNNING, trial
         if done:
-            status, reason, final = self._end_major(memory, why, reason)
+            status, reason, final, memory = self._end_major(memory, why, reason)
             shown = final or trial
         shown = shown or base
         record = self._record(state.iteration + 1, status, shown, memory, numbers, lp, P, trial, better, reason,
                               counters)
-        x = np.array(memory["best"]["x"]) if status.finished else np.array(memory["x0"])
-        return State(state.iteration + 1, tuple(x), status, memory), record
+        x = memory.best.x if status.finished else memory.x0
+        return State(state.iteration + 1, x, status, memory), record
 
     def _trial(self, x0: NDArray, lp: LpResult) -> tuple[Point | None, str]:
         if lp.dx is None:
@@ -171,45 +167,44 @@ class Slp:
         except (EngineError, np.linalg.LinAlgError, ValueError) as exc:
             return None, f"trial point cannot be evaluated: {exc}"
 
-    def _next_step(self, memory: dict, still: bool) -> tuple[bool, str]:
+    def _next_step(self, memory: SlpMemory, still: bool) -> tuple[bool, str, SlpMemory]:
         """Update P (grow, or bisect the bracket); True when the minor loop is over
         (a program that does not move will not move with another P either)."""
         s = self.settings
-        P_best, P_failed = memory["P_best"], memory["P_failed"]
+        P_best, P_failed = memory.P_best, memory.P_failed
         if still:
-            return True, STILL
-        if self._complete(_point_from(memory["best"])):
-            return True, "nothing left to improve"
-        if memory["minor"] >= s.max_minor:
-            return True, "minor-loop limit"
+            return True, STILL, memory
+        if self._complete(_point_from(memory.best)):
+            return True, "nothing left to improve", memory
+        if memory.minor >= s.max_minor:
+            return True, "minor-loop limit", memory
         if P_failed is None:
             if P_best >= s.max_step:
-                return True, "largest step"
-            memory["P"] = min(P_best * s.step_growth, s.max_step)
-            return False, ""
+                return True, "largest step", memory
+            return False, "", replace(memory, P=min(P_best * s.step_growth, s.max_step))
         if P_best > 0 and P_failed - P_best <= s.step_resolution * P_failed:
-            return True, "step size resolved"
-        memory["P"] = 0.5 * (P_best + P_failed)
-        if memory["P"] < s.min_step:
-            return True, "step below minimum"
-        return False, ""
+            return True, "step size resolved", memory
+        memory = replace(memory, P=0.5 * (P_best + P_failed))
+        if memory.P < s.min_step:
+            return True, "step below minimum", memory
+        return False, "", memory
 
-    def _end_major(self, memory: dict, why: str, reason: str) -> tuple[Status, str, Point | None]:
+    def _end_major(self, memory: SlpMemory, why: str,
+                   reason: str) -> tuple[Status, str, Point | None, SlpMemory]:
         """Start the next major iteration at the best point, or end the run."""
-        best, base = _point_from(memory["best"]), _point_from(memory["base"])
+        best, base = _point_from(memory.best), _point_from(memory.base)
         s = self.settings
         improved = not np.array_equal(best.x, base.x)
-        over_time = s.time_limit is not None and memory["elapsed"] >= s.time_limit
         if improved and self._complete(best):
-            return Status.CONVERGED, "every requirement met and every desired value reached", best
+            return Status.CONVERGED, "every requirement met and every desired value reached", best, memory
         if not improved:
-            return Status.NO_IMPROVEMENT, f"major iteration {memory['major']} found no better point ({why})", best
-        if memory["major"] >= s.max_major or over_time:
-            limit = "time limit" if over_time else f"major-iteration limit ({s.max_major})"
-            return Status.ITERATION_LIMIT, limit, best
-        memory.update(major=memory["major"] + 1, minor=0, x0=best.x.tolist(), base=memory["best"],
-                      partials=None, P=max(memory["P_best"], s.min_step), P_best=0.0, P_failed=None)
-        return Status.RUNNING, reason or f"relinearize at the best point ({why})", None
+            return (Status.NO_IMPROVEMENT, f"major iteration {memory.major} found no better point ({why})", best,
+                    memory)
+        if memory.major >= s.max_major:
+            return Status.ITERATION_LIMIT, f"major-iteration limit ({s.max_major})", best, memory
+        memory = replace(memory, major=memory.major + 1, minor=0, x0=memory.best.x, base=memory.best,
+                         partials=None, P=max(memory.P_best, s.min_step), P_best=0.0, P_failed=None)
+        return Status.RUNNING, reason or f"relinearize at the best point ({why})", None, memory
 
     # -- the linear program ------------------------------------------------
 
@@ -305,15 +300,15 @@ class Slp:
 
     def initial_record(self, state: State) -> StepRecord:
         """Iteration 0: the tableau of the starting point."""
-        start = _point_from(state.memory["base"])
-        return StepRecord(0, Status.RUNNING, self.problem.named_values_at(start.x), self.rows(start),
+        start = _point_from(state.memory.base)
+        return StepRecord(0, Status.RUNNING, self.problem.named(start.x), self.rows(start),
                           objective=start.merit, extra={"counter": start.counter, "figure_of_merit": start.merit,
                                                         "desired": self._desired()})
 
     def _desired(self) -> list[float | None]:
         return [spec.desired for spec in self.specs]
 
-    def _record(self, iteration: int, status: Status, shown: Point, memory: dict, numbers: tuple[int, int],
+    def _record(self, iteration: int, status: Status, shown: Point, memory: SlpMemory, numbers: tuple[int, int],
                 lp: LpResult, P: float, trial: Point | None, better: bool, reason: str,
                 counters: dict) -> StepRecord:
         names = [f"{s.name}@{self.problem.conditions[s.condition].name}" for s in self.specs]
@@ -323,14 +318,14 @@ class Slp:
             "counter": shown.counter, "figure_of_merit": shown.merit,
             "trial_counter": None if trial is None else trial.counter,
             "trial_figure_of_merit": None if trial is None else trial.merit,
-            "best_counter": memory["best"]["counter"], "best_figure_of_merit": memory["best"]["merit"],
+            "best_counter": memory.best.counter, "best_figure_of_merit": memory.best.merit,
             "duals": dict(zip(names, lp.duals.tolist())),
-            "partials": dict(zip(names, memory.get("partial_methods") or [])),
+            "partials": dict(zip(names, memory.partial_methods)),
             "desired": self._desired(), "stable": shown.stable,
         }
-        counters = dict(counters, evaluations=memory["evaluations"], lps=memory["lps"])
+        counters = dict(counters, evaluations=memory.evaluations, lps=memory.lps)
         dx = () if lp.dx is None else tuple(float(v) for v in lp.dx)
-        return StepRecord(iteration, status, self.problem.named_values_at(shown.x), self.rows(shown),
+        return StepRecord(iteration, status, self.problem.named(shown.x), self.rows(shown),
                           objective=shown.merit, step_size=P, direction=dx, counters=counters,
                           reason=reason, extra=extra)
 
@@ -347,14 +342,13 @@ def w1(spec: Spec, value: float) -> float:
     return float(np.clip(ratio, 0.0, 10.0))
 
 
-def _point_json(point: Point) -> dict:
-    return {"x": point.x.tolist(), "values": point.values.tolist(), "frequencies": point.frequencies.tolist(),
-            "counter": point.counter, "merit": point.merit, "stable": point.stable}
+def _stored(point: Point) -> SlpPoint:
+    """A point as the memory keeps it (tuples)."""
+    return SlpPoint(tuple(point.x.tolist()), tuple(point.values.tolist()), tuple(point.frequencies.tolist()),
+                    point.counter, point.merit, point.stable)
 
 
-def _point_from(data: dict) -> Point:
-    """A point from memory (after a JSON round trip, non-finite numbers are strings)."""
-    values = np.array([float(v) for v in data["values"]])
-    frequencies = np.array([float(v) for v in data["frequencies"]])
-    return Point(np.array(data["x"], dtype=float), values, frequencies, int(data["counter"]),
-                 float(data["merit"]), bool(data["stable"]))
+def _point_from(stored: SlpPoint) -> Point:
+    """A point from memory, as arrays."""
+    return Point(np.array(stored.x, dtype=float), np.array(stored.values, dtype=float),
+                 np.array(stored.frequencies, dtype=float), stored.counter, stored.merit, stored.stable)

@@ -34,21 +34,20 @@ from ..blocks import ExpressionTransfer
 from ..errors import EngineError
 from ..loops import loop_model
 from ..margins import Margins, margins
-from ..problem import FREQUENCY_MEASURES, TIME_MEASURES, Problem
+from ..measure_kinds import MEASURE_KINDS, check_accepted, kind
+from ..problem import FREQUENCY_MEASURES, Problem
 from ..realization import StateSpace, cascade
 from ..zpk import closed_loop_realization
 from ..timeresp import PeakRule, Segment, final_value, simulate, step_measures
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
-PEAK_KINDS = ("attenuation_margin", "modal_peak_db", "modal_peak_phase_deg")
+# the measures read from the attenuation minima (`engine.measure_kinds`: margin family A)
+PEAK_KINDS = tuple(name for name, k in MEASURE_KINDS.items() if k.margin == "A")
 MARGIN_ATTRIBUTE = {"gain_margin": ("gain", "value"), "phase_margin": ("phase", "value"),
                     "stability_margin": ("stability", "value"), "attenuation_margin": ("attenuation", "value"),
                     "gain_margin_db": ("gain", "gain_db"), "phase_margin_deg": ("phase", "phase_deg")}
-SHORT = {"gain_margin": "G", "phase_margin": "P", "stability_margin": "S", "attenuation_margin": "A",
-         "gain_margin_db": "GM", "phase_margin_deg": "PM", "crossover_frequency": "WC",
-         "modal_peak_db": "PK", "modal_peak_phase_deg": "PKPH", "rise_time": "TR", "settling_time": "TS",
-         "overshoot_percent": "OS", "peak_time": "TP", "steady_state_error": "SSE",
-         "peak_response": "PEAK", "mean_square": "MS", "stability_abscissa": "STAB"}
+# a row's name: the measure's tag (COEBRA's listing: GM, PM, WC, ...) and its count in the condition
+SHORT = {name: k.tag for name, k in MEASURE_KINDS.items()}
 
 
 @dataclass(frozen=True)
@@ -89,13 +88,14 @@ class Spec:
 def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, ...]:
     """Every row: each target in each condition it applies to (one per band),
     plus a closed-loop stability row per rational condition if asked."""
+    check_accepted("slp", (target.measure for target in problem.targets))
     specs: list[Spec] = []
     for c, condition in enumerate(problem.conditions):
         counts: dict[str, int] = {}
         for k, target in enumerate(problem.targets):
             if target.condition not in (None, condition.name):
                 continue
-            needs_time = target.measure in TIME_MEASURES or target.measure == "stability_abscissa"
+            needs_time = kind(target.measure).domain in ("time", "poles")
             if needs_time and not condition.network.rational:
                 raise EngineError(f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
                                   "(tables or delays): no time response")
@@ -107,7 +107,8 @@ def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, 
                                   target.weight, target.scale))
         has_stability = any(s.kind == "stability_abscissa" and s.condition == c for s in specs)
         if require_stable and condition.network.rational and not has_stability:
-            specs.append(Spec("STAB", "stability_abscissa", c, None, 0.0, math.inf, True, 0.0, None, 0.0))
+            specs.append(Spec(SHORT["stability_abscissa"], "stability_abscissa", c, None, 0.0, math.inf,
+                              kind("stability_abscissa").at_least, 0.0, None, 0.0))
     return tuple(specs)
 
 
@@ -130,7 +131,7 @@ def condition_values(problem: Problem, x: Sequence[float], c: int,
                      specs: Sequence[Spec]) -> tuple[list[float], list[float]]:
     """Values and frequencies of one condition's rows at the free values ``x``."""
     condition = problem.conditions[c]
-    params = problem.values_at(x, c)
+    params = problem.condition_values(c, x)
     found: Margins | None = None
     if any(s.kind in FREQUENCY_MEASURES for s in specs):
         model = loop_model(condition.network, condition.break_at, problem.grid.omega, params)

@@ -58,7 +58,7 @@ def _analytic_rows(problem: Problem, x: NDArray, specs: Sequence[Spec], values: 
                 and np.isfinite(values[i]) and np.isfinite(frequencies[i])]
         if not rows or not condition.network.exact:
             continue
-        params = problem.values_at(x, c)
+        params = problem.condition_values(c, x)
         w = np.array([frequencies[i] for i in rows])
         positive = w > 0
         response = open_loop(condition.network, condition.break_at, w, params, check=False)

@@ -3,8 +3,8 @@ Examples 5 and 6 in spirit), and the script that writes its session
 (run: python -m sessions.examples.coebra_launch_vehicle).
 
 Report 003 prints no airframe data, so this model is built here from the
-textbook pitch-plane equations (Greensite; Harris) and documented in the
-README.  Per flight condition (load-relief switch-in, max-q, switch-out):
+textbook pitch-plane equations (Greensite; Harris) and documented in
+docs/algorithms/slp.md.  Per flight condition (load-relief switch-in, max-q, switch-out):
 
   rigid body   theta'' = mu_a alpha + mu_c delta       (mu_a > 0: aerodynamically unstable)
                gamma'  = Z_a alpha + Z_d delta          (drift: flight-path angle)

@@ -2,7 +2,7 @@
 that writes their tables and sessions (run: python -m sessions.examples.launch_vehicles).
 
 Report 000 tabulates the Saturn V / S1-C responses only as plots, so these
-models are built here in their spirit and documented (README, "Examples").
+models are built here in their spirit and documented (docs/algorithms/cip.md).
 theta/R (the uncompensated open loop, loop broken at the error) is
 
     (a0 + a1 s) / ((1 + s/w_act)(1 + s/w_filt)) x [ mu_c/(s^2 - mu_alpha)

@@ -189,7 +189,7 @@ def slp_major_iteration(repeat: int) -> dict:
         algorithm = Slp()
         state = algorithm.init(session.problem, settings)
         trials = 0
-        while state.memory["major"] == 1 and not state.status.finished:
+        while state.memory.major == 1 and not state.status.finished:
             state, _ = algorithm.step(state)
             trials += 1
         samples.append(time.perf_counter() - start)
@@ -207,7 +207,8 @@ def sweep_throughput() -> dict:
     from distributed import Client, LocalCluster
 
     from sessions.store import load_session
-    from sessions.sweeps import execute, execute_serial, start_jobs
+    from sessions.sweep_jobs import execute, execute_serial
+    from sessions.sweeps import start_jobs
     session = load_session(Path(__file__).resolve().parents[2] / "sessions" / "examples" / "coebra_launch_vehicle.json")
     session.model.algorithm.settings["max_major"] = 2
     jobs = start_jobs(session, 32, spread=1.5, seed=11)

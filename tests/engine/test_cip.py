@@ -188,17 +188,17 @@ def test_examples_ratchet_and_end_with_fewer_unmet_targets(example_runs, name):
     assert end < start
     initial = Cip()
     first = initial.init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
-    assert records[-1].extra["best"]["smallest_stability_margin"] >= first.memory["best"]["smallest"]
+    assert records[-1].extra["best"]["smallest_stability_margin"] >= first.memory.best.smallest
     assert records[-1].status is (Status.CONVERGED if name == "cip_launch_vehicle" else Status.STEP_BELOW_MINIMUM)
 
 
 def test_launch_vehicle_tableau_starts_like_table_1(example_runs):
     session, _ = example_runs["cip_launch_vehicle"]
     state = Cip().init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
-    rows = state.memory["constraints"]
-    assert [r["kind"] for r in rows[:4]] == ["G", "P", "P", "S"]
-    assert rows[3]["value"] == rows[0]["value"] and rows[3]["desired"] == 0.505   # INCGMS copy (Table 1, no. 4)
-    assert rows[0]["frequency"] / (2 * np.pi) < 0.1 and 1.0 < rows[1]["frequency"] / (2 * np.pi) < 1.4
+    rows = state.memory.constraints
+    assert [r.kind for r in rows[:4]] == ["G", "P", "P", "S"]
+    assert rows[3].value == rows[0].value and rows[3].desired == 0.505   # INCGMS copy (Table 1, no. 4)
+    assert rows[0].frequency / (2 * np.pi) < 0.1 and 1.0 < rows[1].frequency / (2 * np.pi) < 1.4
 
 
 def test_example_replays(example_runs, tmp_path):
@@ -206,11 +206,20 @@ def test_example_replays(example_runs, tmp_path):
     assert replay(session).ok
 
 
+def _numbers(text: str) -> np.ndarray:
+    return np.array([[float(v) for v in line.split(",")] for line in text.splitlines()
+                     if line and (line[0].isdigit() or line[0] in "+-.")], dtype=float)
+
+
 def test_examples_are_generated_by_their_script(tmp_path):
     from sessions.examples.launch_vehicles import write_examples
     write_examples(tmp_path)
     for name in ("cip_launch_vehicle.csv", "cip_dual_channel.csv"):
-        assert (tmp_path / name).read_text() == (EXAMPLES / name).read_text()
+        # the same table to the last digits printed (the last of 13 may differ with the BLAS build)
+        made, bundled = ((tmp_path / name).read_text(), (EXAMPLES / name).read_text())
+        assert [line for line in made.splitlines() if line.startswith("#") or not line[0].isdigit()] == \
+            [line for line in bundled.splitlines() if line.startswith("#") or not line[0].isdigit()]
+        np.testing.assert_allclose(_numbers(made), _numbers(bundled), rtol=1e-11, atol=1e-14)
     for name in ("cip_launch_vehicle.json", "cip_dual_channel.json"):
         assert json.loads((tmp_path / name).read_text()) == json.loads((EXAMPLES / name).read_text())
 

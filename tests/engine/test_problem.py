@@ -23,9 +23,36 @@ def test_vector_round_trip_and_values_per_condition():
     assert p.free_slots() == [(0, 0), (0, 1), (1, None)]
     np.testing.assert_array_equal(p.vector(), [1.0, 2.0, 0.1])
     q = p.with_vector([3.0, 4.0, 0.2])
-    assert q.values(1) == {"K": 4.0, "T": 0.2, "unused": 3.0}
-    assert q.named_values() == {"K": [3.0, 4.0], "T": 0.2, "unused": 3.0}
+    assert q.condition_values(1) == {"K": 4.0, "T": 0.2, "unused": 3.0}
+    assert q.named() == {"K": [3.0, 4.0], "T": 0.2, "unused": 3.0}
     assert p.vector().tolist() == [1.0, 2.0, 0.1]  # the original is unchanged
+
+
+def test_named_and_vector_from_round_trip():
+    p = problem()
+    x = [3.0, 4.0, 0.2]
+    named = p.named(x)
+    assert named == {"K": [3.0, 4.0], "T": 0.2, "unused": 3.0}
+    np.testing.assert_array_equal(p.vector_from(named), x)
+    assert p.named(p.vector_from(named)) == named
+    np.testing.assert_array_equal(p.vector_from({"T": 0.5}), [1.0, 2.0, 0.5])  # the rest: start values
+    with pytest.raises(EngineError, match="unknown parameter 'nope'"):
+        p.vector_from({"nope": 1.0})
+    with pytest.raises(EngineError, match="'K': expected 2 values"):
+        p.vector_from({"K": [1.0]})
+
+
+def test_condition_values_with_x_or_named_match_a_copy():
+    p = problem()
+    x = [3.0, 4.0, 0.2]
+    for c in range(2):
+        assert p.condition_values(c, x) == p.with_vector(x).condition_values(c)
+        assert p.condition_values(c, named=p.named(x)) == p.with_vector(x).condition_values(c)
+    assert p.condition_values(0) == {"K": 1.0, "T": 0.1, "unused": 3.0}
+    assert p.condition_values(1, named={"T": 0.7}) == {"K": 2.0, "T": 0.7, "unused": 3.0}
+    assert p.condition_values(0, x) is not p.condition_values(0, x)  # a fresh dict each call
+    with pytest.raises(EngineError, match="not both"):
+        p.condition_values(0, x, named={"T": 0.7})
 
 
 def test_bounds_include_the_sign_constraint():

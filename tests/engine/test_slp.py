@@ -5,6 +5,7 @@ acceptance runs of the three bundled COEBRA sessions."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -14,7 +15,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from engine.algorithm import iterate, make_settings
+from engine.algorithm import TIME_LIMIT, State, Status, iterate, make_settings
 from engine.blocks import ExpressionTransfer
 from engine.errors import EngineError
 from engine.fastloop import LoopEvaluator
@@ -170,7 +171,7 @@ def test_step_measures_match_python_control():
 def test_zpk_and_closed_loop_realizations_match_the_network():
     problem = load_session(EXAMPLES / "coebra_launch_vehicle.json").problem
     condition = problem.conditions[1]
-    params = problem.values(1)
+    params = problem.condition_values(1)
     exact = LoopEvaluator(condition.network, condition.break_at, params)
     fast = zpk_evaluator(condition.network, condition.break_at, params, exact)
     assert fast is not None
@@ -246,7 +247,7 @@ def test_launch_vehicle_phases():
     assert first[-1].status.value in ("no further improvement", "converged")
     assert all(m.satisfied for m in first[-1].measures)
     peak = {m.condition: m.value for m in first[-1].measures if m.kind == "peak_response"}
-    adopted = session.problem.with_vector(_vector(session, first[-1]))
+    adopted = session.problem.with_vector(session.problem.vector_from(first[-1].parameters))
     second = [r for _, r in iterate(Slp(), adopted, replace(settings, objective="load_relief"), max_iter=200)]
     assert all(m.satisfied for m in second[-1].measures)
     relieved = {m.condition: m.value for m in second[-1].measures if m.kind == "peak_response"}
@@ -254,20 +255,33 @@ def test_launch_vehicle_phases():
     assert all(relieved[c] < peak[c] for c in peak)
 
 
-def _vector(session, record) -> np.ndarray:
-    problem = session.problem
-    out = []
-    for i, c in problem.free_slots():
-        value = record.parameters[problem.parameters[i].name]
-        out.append(value[c] if c is not None else value)
-    return np.array(out)
-
-
-def test_time_and_major_limits_end_on_the_best_point():
+def test_major_limit_ends_on_the_best_point():
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
-    for settings in (SlpSettings(time_limit=0.0), SlpSettings(max_major=1)):
-        records = [r for _, r in iterate(Slp(), session.problem, settings, max_iter=100)]
-        final = records[-1]
-        assert final.status.value == "iteration limit" and {r.extra["major"] for r in records} == {1}
-        assert final.extra["counter"] == final.extra["best_counter"]
-        assert final.reason in ("time limit", "major-iteration limit (1)")
+    records = [r for _, r in iterate(Slp(), session.problem, SlpSettings(max_major=1), max_iter=100)]
+    final = records[-1]
+    assert final.status.value == "iteration limit" and {r.extra["major"] for r in records} == {1}
+    assert final.extra["counter"] == final.extra["best_counter"]
+    assert final.reason == "major-iteration limit (1)"
+
+
+def test_a_time_limited_run_is_a_prefix_of_the_full_run():
+    """The wall clock is the driver's: it stops between steps, and what was made replays."""
+    session = load_session(EXAMPLES / "coebra_lag_lead.json")
+    limited = iterate(Slp(), session.problem, SlpSettings(), max_iter=100, time_limit=0.0)
+    records = [r for _, r in limited]
+    assert limited.stopped == TIME_LIMIT and len(records) == 1   # at least one step, then the clock
+    assert records[0].status is Status.RUNNING
+    full = iterate(Slp(), session.problem, SlpSettings(), max_iter=100)
+    again = [r for _, r in full]
+    assert full.stopped is None and again[0].to_json() == records[0].to_json()
+    fresh = Slp()
+    fresh.init(session.problem, SlpSettings())   # as a session resumes: a new stepper, the stored state
+    stored = State.from_json(json.loads(json.dumps(limited.state.to_json())), Slp.memory_type)
+    assert stored.to_json() == limited.state.to_json()   # (NaN rows: == on the states would not hold)
+    resumed = [r for _, r in iterate(fresh, session.problem, SlpSettings(), max_iter=100, state=stored)]
+    assert [r.to_json() for r in records + resumed] == [r.to_json() for r in again]
+
+
+def test_time_limit_is_no_longer_a_setting():
+    with pytest.raises(EngineError, match="'time_limit' is no longer a setting.*--time-limit"):
+        make_settings("slp", {"time_limit": 5.0})

@@ -11,10 +11,13 @@ residuals comes from the engine's analytic sensitivities.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from engine.algorithm import State, Status, StepRecord, register
+from engine.errors import EngineError
+from engine.memory import Fields
 from engine.expressions import Expression
 from engine.loops import open_loop
 from engine.measures import tableau
@@ -28,13 +31,31 @@ class GradientSettings:
     max_halvings: int = 30
 
 
+@dataclass(frozen=True)
+class GradientMemory:
+    """The step to try first."""
+
+    step: float
+
+    def to_json(self) -> dict:
+        return {"step": self.step}
+
+    @classmethod
+    def from_json(cls, data: Any) -> GradientMemory:
+        step = Fields(data, "gradient memory").number("step")
+        if not step > 0:
+            raise EngineError(f"gradient memory.step: expected a number > 0, got {step!r}")
+        return cls(step)
+
+
 class GradientDescent:
     name = "gradient"
+    memory_type = GradientMemory
 
     def init(self, problem: Problem, settings: GradientSettings) -> State:
         self.problem, self.settings = problem, settings
         self.reference = Expression(str(problem.objective.options["reference"]))
-        return State(0, tuple(problem.vector()), Status.RUNNING, {"step": settings.step})
+        return State(0, tuple(problem.vector()), Status.RUNNING, GradientMemory(settings.step))
 
     def residuals(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Scaled residuals (real and imaginary parts) and their Jacobian."""
@@ -45,7 +66,7 @@ class GradientDescent:
         scale = 1.0 / (np.abs(ref) * np.sqrt(w.size * len(p.conditions)))
         res, jac = [], []
         for c, cond in enumerate(p.conditions):
-            r = open_loop(cond.network, cond.break_at, w, p.values(c))
+            r = open_loop(cond.network, cond.break_at, w, p.condition_values(c))
             J = np.zeros((w.size, len(slots)), dtype=complex)
             for k, (i, slot_c) in enumerate(slots):
                 name = p.parameters[i].name
@@ -64,7 +85,7 @@ class GradientDescent:
         r, J = self.residuals(x)
         j0 = float(np.sum(r**2))
         g = np.linalg.lstsq(J, -r, rcond=None)[0]  # the Gauss-Newton direction
-        step, evaluations = float(state.memory["step"]), 1
+        step, evaluations = float(state.memory.step), 1
         status = Status.RUNNING
         for _ in range(0 if j0 < 1e-24 else self.settings.max_halvings):  # nothing left to match
             trial = x + step * g
@@ -79,11 +100,11 @@ class GradientDescent:
         if status is Status.RUNNING and j0 - j1 <= self.settings.tolerance * max(j0, 1e-300):
             status = Status.CONVERGED
         problem = self.problem.with_vector(trial)
-        record = StepRecord(iteration=state.iteration + 1, status=status, parameters=problem.named_values(),
+        record = StepRecord(iteration=state.iteration + 1, status=status, parameters=problem.named(),
                             measures=tuple(tableau(problem)), objective=j1, step_size=step,
                             direction=tuple(g / (np.linalg.norm(g) or 1.0)),
                             counters={"evaluations": evaluations})
-        return State(state.iteration + 1, tuple(trial), status, {"step": min(step * 2, 1.0)}), record
+        return State(state.iteration + 1, tuple(trial), status, GradientMemory(min(step * 2, 1.0))), record
 
 
 register("gradient", GradientDescent, GradientSettings, "Gauss-Newton on a model-matching cost (tests only)")

@@ -9,7 +9,7 @@ import time
 
 from engine.errors import EngineError
 from tui.app import LoopcraftApp
-from tui.editing import objective_rows
+from tui.edits_fields import objective_rows
 from tui.screens.main import MainScreen
 
 
@@ -78,12 +78,13 @@ async def test_pause_stops_a_run_within_one_iteration(workdir, monkeypatch):
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await pilot.pause()
-        step = app.bench.step
+        algorithm = app.bench.ensure_algorithm()
+        step = algorithm.step
 
-        def slow_step():   # an algorithm whose iterations take 20 ms, so the run is still going
+        def slow_step(state):   # an algorithm whose iterations take 20 ms, so the run is still going
             time.sleep(0.02)
-            return step()
-        monkeypatch.setattr(app.bench, "step", slow_step)
+            return step(state)
+        monkeypatch.setattr(algorithm, "step", slow_step)
         await pilot.press("r")
         await pilot.pause(0.3)
         await pilot.press("space")
@@ -111,6 +112,8 @@ async def test_undo_and_start_from_an_earlier_iteration(workdir):
         assert [s.label for s in history_plot.series[:2]] == ["iteration 1", "current"]
         assert history_plot.series[0].y != history_plot.series[1].y
         await pilot.press("b")
+        await pilot.pause()
+        await pilot.press("y")                # later iterations will be dropped: yes
         await settle(app, pilot)
         assert app.bench.iteration == 1
         await pilot.press("s")
@@ -143,9 +146,9 @@ async def test_an_engine_error_is_a_notification_not_a_crash(workdir, monkeypatc
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
 
-        def broken():
+        def broken(state):
             raise EngineError("singular matrix at 3.1 rad/s")
-        monkeypatch.setattr(app.bench, "step", broken)
+        monkeypatch.setattr(app.bench.ensure_algorithm(), "step", broken)
         await pilot.press("s")
         await settle(app, pilot)
         assert any("singular matrix" in n.message for n in app._notifications)
@@ -205,7 +208,7 @@ async def test_editing_a_targets_bands(workdir):
         await pilot.pause()
         field = app.screen.query_one("#value")
         assert field.value == "0..inf: 0.49"
-        await typo_then_enter(app, pilot, "0..1: 0.5; 1..inf 0.4", "cannot read",   # the missing colon
+        await typo_then_enter(app, pilot, "0..1: 0.5; 1..inf 0.4", "write LOW..HIGH: DESIRED",   # the missing colon
                               "0..1: 0.5; 1..inf: 0.4")
         await settle(app, pilot)
         bands = app.bench.session.problem.targets[2].bands
@@ -312,7 +315,7 @@ async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workd
         await pilot.press("u")
         await settle(app, pilot)
         best = sweep["runs"][sweep["optima"][0]["best_run"]]["parameters"]
-        assert app.bench.session.problem.values(0)["T1"] == best["T1"]
+        assert app.bench.session.problem.condition_values(0)["T1"] == best["T1"]
 
 
 @synchronous

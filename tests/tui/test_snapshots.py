@@ -65,9 +65,9 @@ class PlotApp(App):
 def test_reactor_trajectories(size, workdir, snap_compare):
     """Report 004's reactor after 3 iterations (converged), at the Trajectories pane's size in a
     120x40 and an 80x24 terminal: u2, its bound and the open loop over the trims u6, u7.  The
-    workbench draws it once MainScreen.figures passes the records and the system's data."""
+    workbench draws it from the presenter's trajectories and the system's data."""
     bench = Workbench(load_session(workdir / "projection_reactor.json"))
     for _ in range(3):
         bench.step()
-    figure = trajectories_figure(bench.trajectories(), bench.records, bench.session.problem.objective.data)
+    figure = trajectories_figure(bench.view().trajectories(), bench.session.problem.objective.data)
     assert snap_compare(PlotApp(figure), terminal_size=size, run_before=steps())

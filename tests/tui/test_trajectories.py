@@ -22,9 +22,8 @@ def stepped(workdir, name: str, steps: int) -> Workbench:
     return bench
 
 
-def figure_of(bench: Workbench, records=None):
-    records = bench.records if records is None else records
-    return trajectories_figure(bench.trajectories(), records, bench.session.problem.objective.data)
+def figure_of(bench: Workbench):
+    return trajectories_figure(bench.view().trajectories(), bench.session.problem.objective.data)
 
 
 def by_label(panel) -> dict:
@@ -63,7 +62,7 @@ def test_the_compact_variant_keeps_the_open_loop_label_and_puts_the_unit_on_a_ti
 
 def test_iteration_0_has_the_open_loop_in_the_initial_record(workdir):
     bench = stepped(workdir, "projection_reactor.json", 0)
-    fig = figure_of(bench, [bench.initial_record()])
+    fig = figure_of(bench)                         # no records yet: iteration 0's
     assert len(fig.panels) == 2 and "initial (untrimmed)" in by_label(fig.panels[0])
 
 
@@ -72,7 +71,8 @@ def test_seconds_without_time_unit_and_inputs_by_name(workdir):
     record = bench.records[0]
     data = {k: v for k, v in bench.session.problem.objective.data.items() if k != "time_unit"}
     named = dict(record.extra, open_loop=dict(record.extra["open_loop"], zero_inputs=["u6", "u7"]))
-    fig = trajectories_figure(bench.trajectories(), [dataclasses.replace(record, extra=named)], data)
+    view = dataclasses.replace(bench.view(), records=(dataclasses.replace(record, extra=named),))
+    fig = trajectories_figure(view.trajectories(), data)
     assert fig.panels[-1].xlabel == "t (s)" and fig.panels[0].series[-1].x[-1] == pytest.approx(144000.0)
     assert list(by_label(fig.panels[1])) == ["u6", "u7"]
     assert fig.panels[0].title.endswith("at 1.3e5 s")
@@ -82,9 +82,9 @@ def test_seconds_without_time_unit_and_inputs_by_name(workdir):
 def test_sessions_without_an_open_loop_keep_the_plot_of_every_control(workdir, name):
     bench = stepped(workdir, name, 1)
     fig = figure_of(bench)
-    assert fig == trajectories_figure(bench.trajectories())
+    assert fig == trajectories_figure(bench.view().trajectories())
     assert not fig.panels and fig.title == "Controls u(t)"
-    assert [s.label for s in fig.series] == [f"u{j + 1}" for j in range(len(bench.trajectories()[2][0]))]
+    assert [s.label for s in fig.series] == [f"u{j + 1}" for j in range(len(bench.view().trajectories()["u"][0]))]
 
 
 def test_both_panels_are_drawn_at_the_workbench_sizes(workdir):

@@ -11,8 +11,8 @@ from tui.workbench import Workbench
 
 def test_step_response_matches_python_control(workdir):
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
-    t, y, label = bench.step_response()
-    name, traces = bench.step_traces()
+    t, y, label = bench.view().step_response()
+    name, traces = bench.view().step_traces()
     assert name == label and len(traces) == 1 and traces[0][1] == y and traces[0][2] == "current"
     s = ct.tf("s")
     loop = (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
@@ -22,40 +22,42 @@ def test_step_response_matches_python_control(workdir):
 
 def test_loop_curve_is_the_open_loop_and_undo_restores_parameters(workdir):
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
-    curve = bench.loop_curve()
+    curve = bench.view().loop_curve()
     s = 1j * curve.omega
     expected = (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
     assert np.allclose(curve.gh, expected, rtol=1e-12)
     bench2 = Workbench(load_session(workdir / "cip_launch_vehicle.json"))
-    start = bench2.parameters()
+    start = bench2.view().parameters()
     bench2.step()
-    assert bench2.parameters() != start
+    assert bench2.view().parameters() != start
     bench2.undo()
-    assert bench2.parameters() == start and bench2.iteration == 0
+    assert bench2.view().parameters() == start and bench2.iteration == 0
 
 
 def test_a_time_response_is_edited_as_one_line(workdir):
     """The wind profile of the launch vehicle's peak angle of attack, read and rewritten."""
-    from tui.editing import target_edit
+    from tui.edits_fields import target_edit
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
-    edit = target_edit(bench, 5, "response")
+    edit = target_edit(bench, ("targets", 5), "response")
     assert edit.text == "alpha_w alpha 10 201; ramp 0 0.05; ramp 2 -0.05; reference 0"
     assert "HORIZON" in edit.check("alpha_w")
-    assert "step, ramp, psd or reference" in edit.check("alpha_w alpha 10; gust 1 2")
+    assert "step T A; ramp T S; psd F(s); reference R" in edit.check("alpha_w alpha 10; gust 1 2")
     edit.apply("alpha_w alpha 12 241; ramp 0 0.1; ramp 1 -0.1; reference 0")
     response = bench.session.problem.targets[5].response
     assert (response.horizon, response.points, response.profile) == (12.0, 241, ((0.0, 0.0, 0.1), (1.0, 0.0, -0.1)))
 
 
 def test_junction_signs_and_the_break_point_are_edited(workdir):
-    from tui.editing import block_edit
+    from tui.edits import plant_edit
+    from tui.plant_rows import plant_rows
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
-    junction = block_edit(bench, 2)          # rows: compensator, plant, the junction, the break point
-    assert junction.text == "+r -y" and "write +signal" in junction.check("r y")
+    refs = [ref for _, ref in plant_rows(bench.session.model.problem)]
+    junction = plant_edit(bench, refs[2])    # rows: compensator, plant, the junction, the break point
+    assert junction.text == "+r -y" and "write +SIGNAL" in junction.check("r y")
     junction.apply("+r +y")                  # positive feedback: the problem changes, still builds
     assert bench.session.model.problem.conditions[0].plant.junctions[0].plus == ["r", "y"]
     junction.apply("+r -y")
-    brk = block_edit(bench, 3)
+    brk = plant_edit(bench, refs[3])
     assert brk.text == "e"
     brk.apply("u")
     assert bench.session.problem.conditions[0].break_at == "u"
@@ -67,37 +69,36 @@ def test_junction_signs_and_the_break_point_are_edited(workdir):
 
 
 def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workdir):
-    from tui.editing import copy_condition, delete_condition, parameter_edit
+    from tui.edits import copy_condition, delete_condition
+    from tui.edits_fields import parameter_edit
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
-    rows_per_condition = len(bench.session.model.problem.conditions[0].plant.blocks) + 7 + 1
-    copy_condition(bench, rows_per_condition + 1, "max-q hot")          # a row of the max-q condition
+    copy_condition(bench, ("conditions", 1, "break_at"), "max-q hot")   # a row of the max-q condition
     problem = bench.session.problem
     assert [c.name for c in problem.conditions][-1] == "max-q hot"
     kd = next(p for p in problem.parameters if p.name == "KD")
     assert len(kd.value) == 4 and kd.value[3] == kd.value[1]
-    edit = parameter_edit(bench, 0, "value")                            # KD: one per condition
+    edit = parameter_edit(bench, ("parameters", 0), "value")            # KD: one per condition
     assert "one per condition" in edit.check("1, 2")
     edit.apply("0.5, 0.6, 0.7, 0.8")
     assert bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7, 0.8)
-    assert delete_condition(bench, rows_per_condition * 3 + 1) == "max-q hot"
+    assert delete_condition(bench, ("conditions", 3, "plant", "blocks", 0)) == "max-q hot"
     assert len(bench.session.problem.conditions) == 3 and bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7)
 
 
 def test_shared_and_per_condition_toggle(workdir):
-    from tui.editing import toggle_per_condition
+    from tui.edits_fields import toggle_per_condition
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     names = [p.name for p in bench.session.model.problem.parameters]
-    toggle_per_condition(bench, names.index("TA"))
+    toggle_per_condition(bench, ("parameters", names.index("TA")))
     assert bench.session.problem.parameters[names.index("TA")].value == (0.05, 0.05, 0.05)
     assert len(bench.session.problem.free_slots()) == 16
-    toggle_per_condition(bench, names.index("TA"))
+    toggle_per_condition(bench, ("parameters", names.index("TA")))
     assert bench.session.problem.parameters[names.index("TA")].value == 0.05
 
 
 def test_matrix_entries_are_deleted_and_added(workdir):
     """Report 003's matrix format: e + y = theta, u = C e, y = G u."""
     import json
-    from tui.editing import add_block, delete_row
     doc = json.loads((workdir / "report003_lag_lead.json").read_text())
     doc["problem"]["conditions"][0]["plant"] = {
         "format": "matrix", "signals": ["e", "u", "y"], "forcing_row": 1, "forcing": "1", "input_name": "r",
@@ -108,10 +109,13 @@ def test_matrix_entries_are_deleted_and_added(workdir):
     path = workdir / "matrix.json"
     path.write_text(json.dumps(doc))
     bench = Workbench(load_session(path))
-    before = bench.loop_curve().gh
-    assert delete_row(bench, "blocks", 5) == "matrix entry a[3,2]"
-    add_block(bench, 0, "3 2 -16000/(s*(s+8)*(s+20))")
-    assert np.allclose(bench.loop_curve().gh, before, rtol=1e-12)
+    before = bench.view().loop_curve().gh
+    from tui.edits import add_to_plant, delete_item
+    from tui.plant_rows import plant_rows
+    refs = [ref for _, ref in plant_rows(bench.session.model.problem)]
+    assert delete_item(bench, refs[5]) == "matrix entry a[3,2]"
+    add_to_plant(bench, refs[0], "3 2 -16000/(s*(s+8)*(s+20))")
+    assert np.allclose(bench.view().loop_curve().gh, before, rtol=1e-12)
 
 
 def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdir):
@@ -122,10 +126,10 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     bench.step()
     problem, record = bench.session.problem, bench.records[-1]
     names = [c.name for c in problem.conditions]
-    curves = bench.loop_curves()
+    curves = bench.view().loop_curves()
     assert [c.label for c in curves] == names and len({c.color for c in curves}) == len(names)
     for k, (curve, condition) in enumerate(zip(curves, problem.conditions)):
-        values = problem.values(k)
+        values = problem.condition_values(k)
         values.update({n: v[k] if isinstance(v, list) else v for n, v in record.parameters.items()})
         expected = open_loop(condition.network, condition.break_at, problem.grid.omega, values,
                              sensitivities=False).value
@@ -134,10 +138,10 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     messages = [bench.next_plotted_condition() for _ in names] + [bench.next_plotted_condition()]
     assert messages[0] == f"plots: {names[0]} (current and initial)" and messages[-1] == "plots: every flight condition"
     bench.plotted_condition = 1
-    alone = bench.loop_curves()
+    alone = bench.view().loop_curves()
     assert [c.label for c in alone] == [f"{names[1]}: current", f"{names[1]}: initial"]
     np.testing.assert_allclose(alone[0].gh, curves[1].gh, rtol=1e-12)
-    name, traces = bench.step_traces()
+    name, traces = bench.view().step_traces()
     assert [t[2] for t in traces] == [f"{names[1]}: current", f"{names[1]}: initial"]
 
 
@@ -145,7 +149,7 @@ def test_bode_plots_mark_the_margins_of_report_003(workdir):
     """Report 003 chapter 1, lag-lead compensated: PM 52.13 deg at 12.06 rad/s, GM 14.11 dB."""
     from tui.widgets.plots import bode_figures
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
-    magnitude, phase = bode_figures(bench.loop_curves(), "rad/s")
+    magnitude, phase = bode_figures(bench.view().loop_curves(), "rad/s")
     marks = {s.label: s for s in magnitude.series if s.scatter}
     assert set(marks) == {"PM 52.1 deg", "GM 14.1 dB"}
     pm, gm = marks["PM 52.1 deg"], marks["GM 14.1 dB"]

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import Vertical
+from textual.containers import Vertical, VerticalScroll
 from textual.screen import ModalScreen
 from textual.widgets import Input, Label, OptionList, Static
 
@@ -30,9 +31,9 @@ class EditDialog(ModalScreen[str | None]):
 
     def compose(self) -> ComposeResult:
         with Vertical():
-            yield Label(self.title_text)
+            yield Label(self.title_text, markup=False)
             yield Input(self.value, id="value")
-            yield Static("", id="error")
+            yield Static("", id="error", markup=False)
 
     def on_mount(self) -> None:
         self.query_one(Input).cursor_blink = False
@@ -68,7 +69,7 @@ class ConfirmDialog(ModalScreen[bool]):
 
     def compose(self) -> ComposeResult:
         with Vertical():
-            yield Label(self.question)
+            yield Label(self.question, markup=False)
             yield Label("[b]y[/b] yes   [b]n[/b] no")
 
     def action_answer(self, yes: bool) -> None:
@@ -90,8 +91,8 @@ class ChooseDialog(ModalScreen[str | None]):
 
     def compose(self) -> ComposeResult:
         with Vertical():
-            yield Label(self.title_text)
-            yield OptionList(*[f"{name}  {summary}" for name, summary in self.choices])
+            yield Label(self.title_text, markup=False)
+            yield OptionList(*[Text(f"{name}  {summary}") for name, summary in self.choices])
 
     def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:
         self.dismiss(self.choices[event.option_index][0])
@@ -101,29 +102,26 @@ class ChooseDialog(ModalScreen[str | None]):
 
 
 class HelpScreen(ModalScreen[None]):
-    """Every key of the workbench."""
+    """Every key of the workbench, by where it acts (made from the bindings)."""
 
     BINDINGS = [Binding("escape,question_mark,q", "close", "close")]
     DEFAULT_CSS = """
     HelpScreen { align: center middle; }
-    HelpScreen > Vertical { width: 76; height: auto; border: round $accent; padding: 0 1; background: $panel; }
+    HelpScreen > VerticalScroll { width: 84; height: auto; max-height: 90%; border: round $accent; padding: 0 1;
+                                  background: $panel; }
     """
-    KEYS = [("s", "step one iteration"), ("n", "run N iterations (asks N)"), ("r", "run until the algorithm stops"),
-            ("space / escape", "pause a run (within one iteration)"), ("z", "undo the last iteration"),
-            ("a", "choose the algorithm"), ("e / enter", "edit the selected row (plant, targets, settings)"),
-            ("f / g", "parameter: free/fix; shared/per condition"), ("+ / -", "add / delete a target, parameter or block"),
-            ("c / x", "plant: copy / delete a flight condition"), ("i", "plant: make the selected block a CSV table (preview)"), ("b", "history: start again from the selected iteration"),
-            ("w", "sweep on Dask (starts, vary, tolerance)"),
-            ("u", "sweep: use the best optimum's design as the start"),
-            ("1 2 3 4 5", "run, plant, targets, history, sweep tabs"), ("p", "next plot"),
-            ("v", "plots: all flight conditions / one with its initial"), ("ctrl+s / ctrl+o", "save / open a session"),
-            ("ctrl+p", "command palette: every action"), ("?", "this help"), ("q", "quit (asks when unsaved)")]
+
+    def __init__(self, groups: list[tuple[str, list[tuple[str, str]]]]):
+        super().__init__()
+        self.groups = groups
 
     def compose(self) -> ComposeResult:
-        with Vertical():
-            yield Label("[b]loopcraft keys[/b]")
-            for key, what in self.KEYS:
-                yield Label(f"  [b]{key:<16}[/b] {what}")
+        with VerticalScroll():
+            yield Label("[b]loopcraft keys[/b]  (ctrl+p: the command palette)")
+            for title, keys in self.groups:
+                yield Label(f"[b]{title}[/b]")
+                for key, what in keys:
+                    yield Label(Text.assemble(("  " + f"{key:<16}", "bold"), " ", what))
 
     def action_close(self) -> None:
         self.dismiss(None)

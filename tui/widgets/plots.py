@@ -9,7 +9,7 @@ linear axis with decade labels, never with plotext's log scale.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -228,24 +228,22 @@ def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[fl
     return fig
 
 
-def trajectories_figure(data, records: Sequence = (), system: Mapping | None = None) -> Figure:
-    """Controls u_j(t) of the current iterate (the `projection` algorithm's trajectories).  Given the
-    records (iteration 0's record will do) and the system's data, a session whose first record has the
-    open loop (report 004's reactor) gets `projection_figure` instead."""
-    initial = records[0].extra.get("open_loop") if records else None
-    if initial is not None and "u" in records[-1].extra:
+def trajectories_figure(data: Mapping | None, system: Mapping | None = None) -> Figure:
+    """Controls u_j(t) of the current iterate, from a presenter's trajectories
+    ({"t", "x", "u", "current"} and maybe "open_loop"); with the untrimmed open
+    loop (report 004's reactor), `projection_figure`'s two panels instead."""
+    if data is not None and data.get("open_loop") is not None:
         from .trajectories import projection_figure   # here: that module builds on this one's Figure
-        figure = projection_figure(records[-1].extra, initial, system or {})
+        figure = projection_figure(data["current"], data["open_loop"], system or {})
         if figure.panels:
             return figure
     fig = Figure(xlabel="t", ylabel="u", empty_message="no trajectories (projection sessions have them)")
     if data is None:
         return fig
-    t, _, u = data
     fig.title = "Controls u(t)"
-    columns = np.array(u, dtype=float)
+    columns = np.array(data["u"], dtype=float)
     for j in range(columns.shape[1]):
-        fig.series.append(Series(list(map(float, t)), columns[:, j].tolist(), f"u{j + 1}"))
+        fig.series.append(Series(list(map(float, data["t"])), columns[:, j].tolist(), f"u{j + 1}"))
     return fig
 
 

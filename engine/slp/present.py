@@ -1,4 +1,4 @@
-"""The tableau of an `slp` record as COEBRA's engineer reads it (report 003,
+"""How `slp` records are shown.  The tableau of a record as COEBRA's engineer reads it (report 003,
 chapter 2): major and minor iteration, step size P, relaxation STEP, the
 met-measure counter and figure of merit, then every measure with its
 requirement, desired value, how its partials were computed, and its dual."""
@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import math
 
-from engine.algorithm import StepRecord
+from ..algorithm import State, StepRecord
+from ..present import Presenter, number
+from ..problem import Problem
 
 
 def _number(value: float | None, width: int, digits: int = 6) -> str:
@@ -43,3 +45,23 @@ def _values(value) -> str:
     if isinstance(value, list):
         return "[" + ", ".join(f"{v:.5g}" for v in value) + "]"
     return f"{value:.5g}"
+
+
+class SlpPresenter(Presenter):
+    """COEBRA's tableau; the minor loop's trial under the workbench's tableau."""
+
+    maximize = True
+
+    def initial_record(self, algorithm, state: State, problem: Problem) -> StepRecord:
+        return algorithm.initial_record(state)
+
+    def status_lines(self, record: StepRecord) -> list[str]:
+        e = record.extra
+        lines = [self.headline(record)]
+        if "major" in e:
+            lines.append(f"major {e['major']} minor {e['minor']}  P {number(e['P'], 3)}  STEP {e['STEP']:.1f}  "
+                         f"{'accepted' if e['accepted'] else 'rejected'}  counter {e['counter']}")
+        return lines + super().status_lines(record)[1:]
+
+    def report(self, record: StepRecord, problem: Problem) -> str:
+        return slp_report_text(record)

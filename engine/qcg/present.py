@@ -1,9 +1,13 @@
-"""Report 001's printout of a `qcg` record (Appendix C): the listing's F and
+"""How `qcg` records are shown: report 001's printout of a record (Appendix C): the listing's F and
 its parts, the counters, the parameters, and the INST = 4 frequency response."""
 
 from __future__ import annotations
 
-from engine.algorithm import StepRecord
+from ..algorithm import StepRecord
+from ..errors import EngineError
+from ..present import Presenter, tableau_text
+from ..problem import Problem
+from .setup import cascade_problem
 
 
 def qcg_report_text(record: StepRecord, response: list[dict] | None = None) -> str:
@@ -26,3 +30,21 @@ def qcg_report_text(record: StepRecord, response: list[dict] | None = None) -> s
         lines += [f"{r['hz']:>10.4g} {r['magnitude']:>10.4g} {r['phase_deg']:>10.2f} {r['open_real']:>11.4g} "
                   f"{r['open_imag']:>11.4g}" for r in response]
     return "\n".join(lines)
+
+
+class QcgPresenter(Presenter):
+    """The listing's printout with the frequency response (INST = 4); sweeps keep the averaged squares."""
+
+    def summary(self, record: StepRecord) -> dict:
+        squares = record.extra.get("averaged_squares")
+        return {"averaged_squares": dict(squares)} if squares else {}
+
+    def report(self, record: StepRecord, problem: Problem) -> str:
+        if record.iteration == 0:
+            return tableau_text(record.measures)
+        params = {k: float(v[0] if isinstance(v, list) else v) for k, v in record.parameters.items()}
+        try:
+            response = cascade_problem(problem).frequency_response(params)
+        except EngineError as exc:
+            raise EngineError(f"frequency response: {exc}") from None
+        return qcg_report_text(record, response)

@@ -8,9 +8,6 @@ import json
 import math
 import sys
 
-from sessions.errors import SessionError
-from sessions.store import load_session, save_session
-from sessions.sweeps import Outcome, adopt_run, execute, execute_serial, plan, record_sweep, summarize
 
 
 def add_parser(sub) -> None:
@@ -36,14 +33,20 @@ def add_parser(sub) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    """Plan, run and keep a sweep; print its summary."""
+    from sessions.errors import SessionError
+    from sessions.store import load_session, save_session
+    from sessions.sweep_jobs import execute, execute_serial
+    from sessions.sweep_results import adopt_run, record_sweep, summarize
+    from sessions.sweeps import plan
     session = load_session(args.file)
     kind, value = (("starts", args.starts) if args.starts is not None else ("vary", args.vary)
                    if args.vary is not None else ("tolerance", args.tolerance))
     jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
     settings["scheduler"] = args.scheduler or ("serial" if args.serial else "local")
     progress = _progress_bar if sys.stderr.isatty() and not args.json else None
-    outcome: Outcome = (execute_serial(jobs, progress) if args.serial
-                        else execute(jobs, args.scheduler, args.workers, progress))
+    outcome = (execute_serial(jobs, progress) if args.serial
+              else execute(jobs, args.scheduler, args.workers, progress))
     if progress:
         print(file=sys.stderr)
     summary = summarize(session, kind, settings, outcome)

@@ -8,12 +8,12 @@ import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from .common import CliError, finite_or_none
 
-from engine.analysis import LoopAnalysis, analyze, unity_feedback
-
-from .cli_common import CliError, finite_or_none
+if TYPE_CHECKING:
+    from engine.analysis import LoopAnalysis
 
 
 def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
@@ -97,6 +97,7 @@ def _table_loop(args: argparse.Namespace):
     expressions) with unity negative feedback, on the table's own frequencies."""
     from pydantic import ValidationError
 
+    from engine.analysis import unity_feedback
     from sessions.build import _table
     from sessions.schema import TableModel
     path = Path(args.table)
@@ -110,6 +111,10 @@ def _table_loop(args: argparse.Namespace):
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
+    """Analyze the loop the options describe; print text or JSON."""
+    import numpy as np
+
+    from engine.analysis import analyze, unity_feedback
     if args.table is not None:
         network, omega = _table_loop(args)
     elif not args.tf:

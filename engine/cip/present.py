@@ -1,14 +1,18 @@
-"""Report 000's printout (listing OTPT1 and MULOUT) of one `cip` record:
-the relative-stability and attenuated-frequency sections, the direction
-split into numerator (X) and denominator (Y) partials, every compensator
-factored and multiplied out, and the best compensator so far."""
+"""How `cip` records are shown: report 000's printout (listing OTPT1 and
+MULOUT) of one record (the relative-stability and attenuated-frequency
+sections, the direction split into numerator (X) and denominator (Y)
+partials, every compensator factored and multiplied out, and the best
+compensator so far), the workbench's lines under the tableau, and the
+smallest stability margin as the convergence and ranking value."""
 
 from __future__ import annotations
 
 import math
 
-from engine.algorithm import StepRecord
-from engine.cip.constraints import KIND
+from ..algorithm import State, StepRecord
+from ..present import Presenter
+from ..problem import Problem
+from .constraints import KIND
 
 HZ = 2 * math.pi
 
@@ -79,3 +83,33 @@ def _coefficients(values: list, style: str = "f") -> str:
 
 def _fmt(value) -> str:
     return "n/a" if value is None else f"{value:.5f}"
+
+
+def compensator_lines(record: StepRecord, count: int = 2) -> list[str]:
+    """The first compensators' multiplied-out numerator and denominator, two lines each."""
+    lines = []
+    for comp in record.extra.get("compensators", [])[:count]:
+        lines.append(f"{comp['group']}: num {' '.join(f'{c:.4g}' for c in comp['numerator'])}")
+        lines.append(f"{'':{len(comp['group'])}}  den {' '.join(f'{c:.4g}' for c in comp['denominator'])}")
+    return lines
+
+
+class CipPresenter(Presenter):
+    """Report 000's listing; runs converge on (and are ranked by) the smallest stability margin."""
+
+    maximize = True
+
+    def initial_record(self, algorithm, state: State, problem: Problem) -> StepRecord:
+        return algorithm.initial_record(state)
+
+    def convergence(self, record: StepRecord) -> tuple[str, float | None]:
+        return "smallest stability margin", record.extra.get("smallest_stability_margin")
+
+    def ranking(self, record: StepRecord) -> float | None:
+        return record.extra.get("smallest_stability_margin")
+
+    def status_lines(self, record: StepRecord) -> list[str]:
+        return [self.headline(record)] + (compensator_lines(record) or super().status_lines(record)[1:])
+
+    def report(self, record: StepRecord, problem: Problem) -> str:
+        return cip_report_text(record)

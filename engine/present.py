@@ -1,0 +1,106 @@
+"""How an algorithm's records are shown: the one place that reads a record's
+algorithm-specific `extra` (docs/architecture.md, "Presenters").
+
+A `Presenter` is plain text and data, no widgets: the workbench, the CLI's
+`report` and the sweeps all ask the algorithm's presenter (it travels with
+the registration) and never branch on the algorithm's name.  The base class
+is what an algorithm without its own presenter gets: the generic tableau,
+the cost (or the count of unmet targets) as its convergence value, the
+loop plots.  The presenters live next to their algorithms
+(`engine/<name>/present.py`): they know the record layouts their algorithm
+writes, and the engine stays free of any UI.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from .algorithm import MeasureRow, State, Status, StepRecord
+from .errors import EngineError
+from .measures import tableau
+from .problem import Problem
+
+LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step"})
+HEADLINE_COUNTERS = ("trials", "KNT", "KOUNT", "evaluations")
+
+
+def number(value: Any, digits: int = 6) -> str:
+    """A number as the tableaux print it ('-' for a missing crossing, '' for none)."""
+    if value is None:
+        return ""
+    if isinstance(value, float) and math.isnan(value):
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}"
+    return str(value)
+
+
+def tableau_text(rows: Sequence[MeasureRow]) -> str:
+    """The report-000 style table: number, kind, value, frequency, desired value, method."""
+    lines = [f"{'no.':>4} {'name':<5} {'kind':<20} {'condition':<12} {'value':>12} {'frequency':>12} "
+             f"{'desired':>10}  met  method"]
+    for n, r in enumerate(rows, start=1):
+        freq = "" if r.frequency is None else f"{r.frequency:.6g}"
+        desired = "" if r.target is None else f"{r.target:.6g}"
+        lines.append(f"{n:>4} {r.name:<5} {r.kind:<20} {r.condition:<12} {r.value:>12.6g} {freq:>12} "
+                     f"{desired:>10}  {'yes' if r.satisfied else 'NO ':<3}  {r.method or ''}".rstrip())
+    return "\n".join(lines)
+
+
+def parameters_line(record: StepRecord, count: int = 8) -> str:
+    """The first parameters of a record on one line (a list per condition as a/b/c)."""
+    def text(value: Any) -> str:
+        return "/".join(number(v, 3) for v in value) if isinstance(value, list) else number(value, 5)
+    return "  ".join(f"{k}={text(v)}" for k, v in list(record.parameters.items())[:count])
+
+
+class Presenter:
+    """The generic presentation; an algorithm subclasses what it shows differently."""
+
+    plots: frozenset[str] = LOOP_PLOTS   # which of the workbench's plots apply
+    maximize: bool = False               # sweeps rank runs by `ranking`, larger better when True
+
+    def initial_record(self, algorithm: Any, state: State, problem: Problem) -> StepRecord | None:
+        """Iteration 0 as a record: the tableau at the start (None when it cannot be computed)."""
+        try:
+            rows = tuple(tableau(problem))
+        except EngineError:
+            return None
+        return StepRecord(0, Status.RUNNING, problem.named(), rows)
+
+    def convergence(self, record: StepRecord) -> tuple[str, float | None]:
+        """What the convergence plot shows of a record: (label, value)."""
+        if record.objective is not None:
+            return "cost", record.objective
+        return "unmet targets", float(sum(not m.satisfied for m in record.measures))
+
+    def ranking(self, record: StepRecord) -> float | None:
+        """The value sweeps rank a finished run by (see `maximize`)."""
+        return record.objective
+
+    def summary(self, record: StepRecord) -> dict:
+        """Algorithm-specific fields of a sweep run's summary (JSON data)."""
+        return {}
+
+    def status_lines(self, record: StepRecord) -> list[str]:
+        """The lines under the workbench's tableau for a record."""
+        return [self.headline(record), parameters_line(record)]
+
+    def headline(self, record: StepRecord) -> str:
+        """Step size, objective and the iteration's counters, on one line."""
+        parts = [f"step {number(record.step_size, 4)}"] if record.step_size is not None else []
+        if record.objective is not None:
+            parts.append(f"objective {number(record.objective, 7)}")
+        parts += [f"{k} {v}" for k, v in record.counters.items() if k in HEADLINE_COUNTERS]
+        return "  ".join(parts)
+
+    def report(self, record: StepRecord, problem: Problem) -> str:
+        """`loopcraft report`'s text for a record (iteration 0 included)."""
+        return tableau_text(record.measures)
+
+    def trajectories(self, records: Sequence[StepRecord]) -> dict | None:
+        """Time trajectories of the latest record, for algorithms that produce them:
+        {"t", "x", "u"} and, when the first record has it, "open_loop"; else None."""
+        return None

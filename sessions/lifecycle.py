@@ -1,0 +1,85 @@
+"""A session's lifecycle in one place: where it lives, its algorithm bound
+to its settings, forgetting its records when the problem or the algorithm
+changes, rebuilding its problem after an edit, adopting a design.
+
+The workbench, the CLI and the sweeps all go through these, so "the records
+are dropped" means the same everywhere (records, current iteration and the
+saved state together)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from engine.algorithm import Registration, StepRecord, lookup, make_settings
+from engine.errors import EngineError
+
+from .build import build_problem
+from .errors import SessionError
+from .store import Session
+
+
+def folder(session: Session) -> Path:
+    """The folder a session's relative paths (CSV tables) are read from."""
+    return session.path.parent if session.path is not None else Path.cwd()
+
+
+def registration(session: Session) -> Registration:
+    """The session's algorithm as registered (a `SessionError` when unknown)."""
+    try:
+        return lookup(session.model.algorithm.name)
+    except EngineError as exc:
+        raise SessionError(f"algorithm: {exc}") from None
+
+
+def bound_algorithm(session: Session) -> tuple[Any, Any]:
+    """A new instance of the session's algorithm and its settings (not yet `init`)."""
+    found = registration(session)
+    try:
+        settings = make_settings(session.model.algorithm.name, session.model.algorithm.settings)
+    except (EngineError, TypeError) as exc:
+        raise SessionError(f"algorithm: {exc}") from None
+    return found.factory(), settings
+
+
+def forget_records(session: Session) -> None:
+    """No iterations any more: the problem, the settings or the algorithm changed."""
+    model = session.model
+    model.records.clear()
+    model.current_iteration = 0
+    model.state = None
+
+
+def switch_algorithm(session: Session, name: str) -> None:
+    """Another algorithm with its default settings; the records are dropped."""
+    try:
+        lookup(name)
+    except EngineError as exc:
+        raise SessionError(str(exc)) from None
+    session.model.algorithm.name = name
+    session.model.algorithm.settings = {}
+    forget_records(session)
+
+
+def rebuild(session: Session) -> None:
+    """Build the engine problem again from the edited model; the records are dropped.
+    A `SessionError` says why it does not build (the session is unchanged then)."""
+    session.problem = build_problem(session.model.problem, folder(session))
+    forget_records(session)
+
+
+def adopt_parameters(session: Session, values: Mapping[str, Any]) -> None:
+    """Make a design (name -> value, or a list per condition) the session's start."""
+    for parameter in session.model.problem.parameters:
+        if parameter.name in values:
+            parameter.value = values[parameter.name]
+    rebuild(session)
+
+
+def adopt_current(session: Session) -> None:
+    """Start from the current iteration's parameters (to continue with other
+    settings, e.g. slp's load-relief phase after its margin phase)."""
+    k = session.model.current_iteration
+    if k:
+        adopt_parameters(session, StepRecord.from_json(session.model.records[k - 1]).parameters)

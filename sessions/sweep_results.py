@@ -1,0 +1,133 @@
+"""A sweep's results: distinct local optima, the worst case of a tolerance
+study, the summary kept in the session, and adopting a run's design."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from engine.algorithm import lookup
+
+from .errors import SessionError
+from .lifecycle import adopt_parameters
+from .schema import SweepModel
+from .store import Session, now
+from .sweep_jobs import Outcome
+
+SWEEP_VERSION = 1
+SAME_PARAMETERS = 0.05     # decades (about 12 %): runs closer than this in every parameter share an optimum
+SAME_LOOP = 0.01           # runs whose open loops agree within 1 % at every signature point share an optimum
+SAME_OBJECTIVE = 0.01      # relative
+
+
+def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
+    """Distinct local optima: runs whose open loops agree within 1 % at every
+    signature point (`loop_signature`; without signatures, whose final
+    parameters agree within about 12 % in every parameter, log scale, linear
+    near zero) and whose objectives agree within 1 %; each with its count
+    and best run."""
+    done = [r for r in runs if r["status"] != "failed" and r["parameters"]]
+    sign = -1.0 if maximize else 1.0
+
+    def rank(r: dict) -> tuple:
+        objective = r["objective"] if isinstance(r["objective"], (int, float)) else math.inf
+        return (not r["meets_requirements"], sign * objective if math.isfinite(objective) else math.inf)
+    clusters: list[dict] = []
+    for run in sorted(done, key=rank):
+        vector, signature = _vector(run["parameters"]), _signature(run)
+        for cluster in clusters:
+            same = _same_loop(signature, cluster["signature"]) if signature is not None and \
+                cluster["signature"] is not None else _near(vector, cluster["vector"])
+            if same and _close(run["objective"], cluster["objective"]):
+                cluster["runs"].append(run["index"])
+                break
+        else:
+            clusters.append({"vector": vector, "signature": signature, "objective": run["objective"],
+                             "parameters": run["parameters"],
+                             "meets_requirements": run["meets_requirements"], "best_run": run["index"],
+                             "runs": [run["index"]]})
+    return [{"parameters": c["parameters"], "objective": c["objective"], "count": len(c["runs"]),
+             "meets_requirements": c["meets_requirements"], "best_run": c["best_run"], "runs": c["runs"]}
+            for c in clusters]
+
+
+def _signature(run: dict) -> np.ndarray | None:
+    pairs = run.get("signature")
+    return None if not pairs else np.array([complex(re, im) for re, im in pairs])
+
+
+def _same_loop(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and bool(np.all(np.abs(a - b) <= SAME_LOOP * np.maximum(np.abs(a), np.abs(b))))
+
+
+def _vector(parameters: dict) -> np.ndarray:
+    values = []
+    for name in sorted(parameters):
+        v = parameters[name]
+        values += v if isinstance(v, list) else [v]
+    return np.array(values, dtype=float)
+
+
+def _near(a: np.ndarray, b: np.ndarray) -> bool:
+    if a.shape != b.shape:
+        return False
+    positive = (a > 0) & (b > 0)
+    logs = np.abs(np.log10(a[positive]) - np.log10(b[positive])) <= SAME_PARAMETERS
+    scale = np.maximum(np.maximum(np.abs(a), np.abs(b)), 1e-12)
+    linear = np.abs(a - b)[~positive] <= 0.12 * scale[~positive]
+    return bool(np.all(logs) and np.all(linear))
+
+
+def _close(a, b) -> bool:
+    if not isinstance(a, (int, float)) or not isinstance(b, (int, float)):
+        return a == b
+    return abs(a - b) <= SAME_OBJECTIVE * max(abs(a), abs(b)) + 1e-12
+
+
+def worst_case(runs: Sequence[dict]) -> list[dict]:
+    """Per measure row (name, kind, condition): the worst value over the samples."""
+    table: dict[tuple, dict] = {}
+    for run in runs:
+        for m in run["measures"]:
+            value = m["value"] if isinstance(m["value"], (int, float)) else float(m["value"])
+            key = (m["name"], m["kind"], m["condition"])
+            row = table.setdefault(key, {"name": m["name"], "kind": m["kind"], "condition": m["condition"],
+                                         "target": m["target"], "worst": value, "worst_sample": run["index"],
+                                         "unmet_samples": 0, "samples": 0})
+            row["samples"] += 1
+            row["unmet_samples"] += not m["satisfied"]
+            worse = value < row["worst"] if m["at_least"] else value > row["worst"]
+            if math.isnan(row["worst"]) or worse:
+                row["worst"], row["worst_sample"] = value, run["index"]
+    return list(table.values())
+
+
+def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> dict:
+    """The sweep as saved in the session and printed by --json."""
+    maximize = lookup(session.model.algorithm.name).presenter.maximize
+    data = {"version": SWEEP_VERSION, "kind": kind, "created": now(), "algorithm": session.model.algorithm.name,
+            "settings": settings, "workers": outcome.workers, "cancelled": outcome.cancelled,
+            "runs": outcome.runs, "failed": [r["index"] for r in outcome.runs if r["status"] == "failed"],
+            "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1}}
+    if kind == "tolerance":
+        data["worst_case"] = worst_case([r for r in outcome.runs if r["status"] != "failed"])
+        data["optima"] = []
+    else:
+        data["optima"] = optima(outcome.runs, maximize)
+    for run in outcome.runs:
+        run.pop("signature", None)  # only for clustering: not kept in the session
+    return data
+
+
+def record_sweep(session: Session, summary: dict) -> None:
+    """Keep the sweep in the session's `sweeps` section."""
+    session.model.sweeps.append(SweepModel.model_validate(summary))
+
+
+def adopt_run(session: Session, run: dict) -> None:
+    """Make a run's final parameters the session's start (records are cleared)."""
+    if not run.get("parameters"):
+        raise SessionError(f"run {run['index']} has no parameters to adopt ({run['status']})")
+    adopt_parameters(session, run["parameters"])

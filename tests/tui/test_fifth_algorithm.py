@@ -1,0 +1,56 @@
+"""A fifth algorithm, registered in the tests only (tests/compass_algorithm.py),
+driven through the CLI, the workbench and a sweep without touching any other
+file: everything algorithm-specific reaches the screens through its presenter."""
+
+from __future__ import annotations
+
+import json
+
+import tests.compass_algorithm  # noqa: F401  (registers "compass")
+from tests.tui.test_app import settle, status, synchronous
+from tui.app import LoopcraftApp
+from tui.cli import main
+
+
+def _compass_session(workdir):
+    path = workdir / "report003_lag_lead.json"
+    doc = json.loads(path.read_text())
+    doc["algorithm"] = {"name": "compass", "settings": {"step": 0.4}}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_the_cli_runs_reports_and_replays_it(workdir, capsys):
+    path = _compass_session(workdir)
+    assert main(["run", str(path), "--iterations", "3"]) == 0
+    assert "compass: iteration 3" in capsys.readouterr().out
+    assert main(["report", str(path)]) == 0
+    report = capsys.readouterr().out
+    assert report.startswith("COMPASS SEARCH ITERATION 3  MERIT")
+    assert main(["replay", str(path)]) == 0
+    assert "all 3 recorded iterations reproduce" in capsys.readouterr().out
+
+
+def test_a_sweep_ranks_its_runs_by_the_presenters_value(workdir, capsys):
+    path = _compass_session(workdir)
+    assert main(["sweep", str(path), "--starts", "3", "--serial", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    runs = summary["runs"]
+    assert len(runs) == 3 and all(r["status"] != "failed" for r in runs)
+    assert all(isinstance(r["objective"], float) for r in runs)         # the presenter's ranking: the merit
+    best = [o["objective"] for o in summary["optima"]]
+    assert best == sorted(best)                                         # smaller merit first (maximize False)
+
+
+@synchronous
+async def test_the_workbench_steps_it_and_shows_its_own_lines(workdir):
+    app = LoopcraftApp(_compass_session(workdir))
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert "Iteration 1" in status(app) and "compass" in status(app)
+        info = str(app.screen.query_one("#step-info").render())
+        assert "compass step" in info and "probes" in info
+        convergence = app.screen.query_one("#convergence").figure
+        assert convergence.ylabel == "compass merit" and len(convergence.series[0].x) == 1

@@ -1,0 +1,88 @@
+"""The `loopcraft` command line: headless analysis, runs, reports and sweeps,
+and the app when no command is given.
+
+Nothing here imports Textual or an algorithm at module level: `--help` and
+`analyze` start as fast as numpy and pydantic allow, and a command imports
+only what it uses (a cip session loads the cip package alone)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from engine.errors import EngineError
+from sessions.errors import SessionError
+
+from . import analyze, session_commands, sweep
+from .common import CliError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Every subcommand and its options."""
+    parser = argparse.ArgumentParser(
+        prog="loopcraft", description="Classical compensator design workbench. Without a command: the app "
+        "(loopcraft [FILE.json] | loopcraft --example NAME).")
+    sub = parser.add_subparsers(dest="command")
+    analyze.add_parser(sub)
+    session_commands.add_parsers(sub)
+    sweep.add_parser(sub)
+    return parser
+
+
+def run_app(target: str | None = None, example: str | None = None) -> int:
+    """The workbench: on a session file, on a bundled example, or the start screen."""
+    from ..app import LoopcraftApp
+    from ..files import example as example_copy
+    path = None
+    if example is not None:
+        try:
+            path = example_copy(example)
+        except FileNotFoundError as exc:
+            print(f"loopcraft: error: {exc}", file=sys.stderr)
+            return 2
+    elif target is not None:
+        path = Path(target)
+        if not path.is_file():
+            print(f"loopcraft: error: {target}: no such file", file=sys.stderr)
+            return 2
+    result = LoopcraftApp(path).run()
+    return result if isinstance(result, int) else 0
+
+
+def _attached_values(argv: list[str]) -> list[str]:
+    """``--tf -2/(s+1)`` as ``--tf=-2/(s+1)``: argparse takes a value that
+    starts with '-' for an option otherwise."""
+    out, k = [], 0
+    while k < len(argv):
+        if argv[k] in ("--tf", "--delay") and k + 1 < len(argv) and argv[k + 1].startswith("-"):
+            out.append(f"{argv[k]}={argv[k + 1]}")
+            k += 2
+        else:
+            out.append(argv[k])
+            k += 1
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The console script: a command, or the app (on a FILE.json or --example NAME)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0].endswith(".json"):
+        return run_app(argv[0] if argv else None)
+    if argv[0] == "--example":
+        return run_app(example=argv[1] if len(argv) > 1 else "cip_launch_vehicle")
+    parser = build_parser()
+    args = parser.parse_args(_attached_values(argv))
+    if args.command is None:
+        parser.print_help()
+        return 0
+    try:
+        return args.handler(args)
+    except (EngineError, CliError, SessionError) as exc:
+        print(f"loopcraft {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,79 @@
+"""What the command line's modules share: their error, JSON numbers, loading
+a session, and the tableau of an iteration (iteration 0 from the
+algorithm's presenter)."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from engine.algorithm import MeasureRow, StepRecord
+    from sessions.store import Session
+
+
+class CliError(Exception):
+    """Bad input on the command line: printed as one line, exit status 2."""
+
+
+def finite_or_none(x: float | None) -> float | None:
+    """A finite float, else None (JSON has no infinities)."""
+    return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
+
+
+def load(file: str) -> Session:
+    """Load a session; say so when a newer autosave sits beside it."""
+    from sessions.store import autosave_candidate, load_session
+    session = load_session(file)
+    for message in session.messages:
+        print(f"note: {message}", file=sys.stderr)
+    autosave = autosave_candidate(file)
+    if autosave is not None:
+        print(f"note: {autosave.name} is newer than {Path(file).name}; open it to recover unsaved work",
+              file=sys.stderr)
+    return session
+
+
+def initial_record(session: Session) -> StepRecord | None:
+    """Iteration 0 as the algorithm's presenter gives it (cip: the report's Table 1;
+    projection: the untrimmed open loop; others: the tableau at the start)."""
+    from engine.errors import EngineError
+    from sessions.lifecycle import bound_algorithm, registration
+    algorithm, settings = bound_algorithm(session)
+    try:
+        state = algorithm.init(session.problem, settings)
+    except EngineError as exc:
+        raise CliError(f"initial tableau: {exc}") from None
+    return registration(session).presenter.initial_record(algorithm, state, session.problem)
+
+
+def rows_now(session: Session, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:
+    """The tableau at an iteration (the current one by default) and its record
+    (iteration 0's record, when the algorithm gives one)."""
+    records = session.records[:session.model.current_iteration]
+    iteration = len(records) if iteration is None else iteration
+    if not 0 <= iteration <= len(records):
+        raise CliError(f"--iteration: {iteration} is outside 0..{len(records)}")
+    record = records[iteration - 1] if iteration else initial_record(session)
+    if record is None:
+        raise CliError("initial tableau: the loop cannot be evaluated at the start")
+    return list(record.measures), record
+
+
+def summary_json(session: Session) -> dict:
+    """`run --json` and `report --format json`: status, parameters, objective, measures, counters."""
+    rows, record = rows_now(session)
+    started = record.iteration > 0
+    return {
+        "algorithm": session.model.algorithm.name,
+        "status": record.status.value if started else "not started",
+        "iterations": session.model.current_iteration,
+        "parameters": dict(record.parameters) if started else session.problem.named(),
+        "objective": record.objective if started else None,
+        "measures": [{"name": r.name, "kind": r.kind, "condition": r.condition, "value": finite_or_none(r.value),
+                      "target": r.target, "satisfied": r.satisfied, "frequency": finite_or_none(r.frequency)}
+                     for r in rows],
+        "counters": dict(record.counters) if started else {},
+    }

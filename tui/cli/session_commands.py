@@ -1,0 +1,169 @@
+"""The CLI's commands on a session file: run, replay, report, tradeoff,
+examples.  They use sessions and engine only (never the Textual app); the
+algorithm-specific layout of a report comes from the algorithm's presenter."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import shutil
+import sys
+from pathlib import Path
+
+from .common import CliError, finite_or_none, load, rows_now, summary_json
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Step the session's algorithm and save the records."""
+    from engine.algorithm import StepRecord
+    from engine.present import tableau_text
+    from sessions.lifecycle import adopt_current, switch_algorithm
+    from sessions.runner import run_session, set_setting
+    from sessions.store import save_session
+    session = load(args.file)
+    if args.adopt:
+        adopt_current(session)
+    for assignment in args.set or ():
+        set_setting(session, assignment)
+    if args.algorithm:
+        switch_algorithm(session, args.algorithm)
+    show = sys.stderr.isatty() and not args.json
+
+    def progress(record: StepRecord) -> None:
+        if show:
+            print(f"\riteration {record.iteration}: {record.status.value}"
+                  + ("" if record.objective is None else f", objective {record.objective:.6g}"),
+                  end="", file=sys.stderr, flush=True)
+
+    outcome = run_session(session, None if args.until_done else args.iterations, args.until_done, progress,
+                          time_limit=args.time_limit)
+    if show:
+        print(file=sys.stderr)
+    save_session(session, args.out or args.file)
+    if outcome.stopped:
+        print(f"note: stopped: {outcome.stopped}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(summary_json(session), indent=2, sort_keys=True))
+    else:
+        rows, record = rows_now(session)
+        status = "not started" if record is None else record.status.value
+        print(f"{session.model.algorithm.name}: iteration {session.model.current_iteration}, {status}")
+        print(tableau_text(rows))
+    return 0
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    """Re-run the session and compare every recorded iteration."""
+    from sessions.runner import replay
+    result = replay(load(args.file))
+    print(result.message, file=sys.stdout if result.ok else sys.stderr)
+    return 0 if result.ok else 1
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """The tableau of an iteration as text (the algorithm's own layout), JSON or CSV."""
+    session = load(args.file)
+    rows, record = rows_now(session, args.iteration)
+    if args.format == "json":
+        data = summary_json(session) if args.iteration is None else {
+            "iteration": args.iteration, "measures": [dict(vars(r)) for r in rows]}
+        print(json.dumps(data, indent=2, sort_keys=True, default=finite_or_none))
+    elif args.format == "csv":
+        writer = csv.writer(sys.stdout)
+        writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied", "method"])
+        for r in rows:
+            writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied,
+                             r.method or ""])
+    else:
+        from engine.present import tableau_text
+        from sessions.lifecycle import registration
+        if record is None:
+            print(tableau_text(rows))
+        else:
+            print(registration(session).presenter.report(record, session.problem))
+    return 0
+
+
+def cmd_tradeoff(args: argparse.Namespace) -> int:
+    """Report 001's penalty sweep: one optimized design per penalty value."""
+    from engine.algorithm import make_settings
+    from engine.errors import EngineError
+    from engine.qcg import Qcg
+    from engine.qcg.tradeoff import penalty_sweep
+    from sessions.lifecycle import registration
+    session = load(args.file)
+    if registration(session).factory is not Qcg:
+        raise CliError(f"tradeoff: {args.file} uses {session.model.algorithm.name!r}; "
+                       f"the sweep needs a {Qcg.name} session")
+    settings = make_settings(session.model.algorithm.name, session.model.algorithm.settings)
+    try:
+        points = penalty_sweep(session.problem, settings, args.penalty, args.values)
+    except EngineError as exc:
+        raise CliError(str(exc)) from None
+    if args.json:
+        print(json.dumps([vars(p) for p in points], indent=2, sort_keys=True, default=finite_or_none))
+        return 0
+    names = list(points[0].parameters) if points else []
+    print(f"{args.penalty:>10} {'x1^2 (N)':>10} {'x1dot^2 (N)':>12} {'u^2':>12} {'udot^2':>12} {'C':>12}  "
+          + " ".join(f"{n:>10}" for n in names) + "  status")
+    for p in points:
+        a = p.averaged_squares
+        print(f"{p.penalty:>10.4g} {a['x1_normalized']:>10.4f} {a['x1_rate_normalized']:>12.4f} {a['u']:>12.5g} "
+              f"{a['u_rate']:>12.5g} {p.cost:>12.6g}  " + " ".join(f"{p.parameters[n]:>10.5g}" for n in names)
+              + f"  {p.status}")
+    return 0
+
+
+def cmd_examples(args: argparse.Namespace) -> int:
+    """List the bundled example sessions (and copy them with --copy DIR)."""
+    files = sorted(EXAMPLES.glob("*.json"))
+    for f in files:
+        notes = json.loads(f.read_text()).get("notes", "")
+        print(f"{f.name}: {notes.split('. ')[0]}")
+    if args.copy:
+        target = Path(args.copy)
+        target.mkdir(parents=True, exist_ok=True)
+        for f in EXAMPLES.iterdir():
+            if f.suffix in (".json", ".csv"):
+                shutil.copy2(f, target / f.name)
+        print(f"copied {len(files)} example(s) to {target}")
+    return 0
+
+
+def add_parsers(sub) -> None:
+    """The session subcommands and their options."""
+    p = sub.add_parser("run", help="run a session's algorithm and save its records")
+    p.add_argument("file")
+    p.add_argument("--algorithm", help="switch to this algorithm (restarts from iteration 0)")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--iterations", type=int, default=1, metavar="N")
+    group.add_argument("--until-done", action="store_true")
+    p.add_argument("--time-limit", type=float, metavar="SECONDS",
+                   help="stop stepping after this much wall-clock time (the records replay)")
+    p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--adopt", action="store_true",
+                   help="start from the current iteration's parameters (records are cleared)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="set an algorithm setting (restarts from iteration 0); repeatable")
+    p.set_defaults(handler=cmd_run)
+    p = sub.add_parser("replay", help="re-run a session and compare every recorded iteration")
+    p.add_argument("file")
+    p.set_defaults(handler=cmd_replay)
+    p = sub.add_parser("report", help="the tableau of a session")
+    p.add_argument("file")
+    p.add_argument("--iteration", type=int)
+    p.add_argument("--format", choices=["text", "json", "csv"], default="text")
+    p.set_defaults(handler=cmd_report)
+    p = sub.add_parser("tradeoff", help="qcg penalty sweep (report 001, Figure 4)")
+    p.add_argument("file")
+    p.add_argument("--penalty", required=True, choices=["q1", "q2", "r1", "r2"])
+    p.add_argument("--values", required=True, type=float, nargs="+", metavar="V")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(handler=cmd_tradeoff)
+    p = sub.add_parser("examples", help="list (or copy) the bundled example sessions")
+    p.add_argument("--copy", metavar="DIR")
+    p.set_defaults(handler=cmd_examples)

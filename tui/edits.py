@@ -1,0 +1,200 @@
+"""Edits of the session's problem, as transactions on model paths.
+
+A table row carries a `Ref`: the path of the model object it shows, from
+the problem model (``("targets", 2)``, ``("conditions", 0, "plant",
+"blocks", 1)``), never a row index.  An edit copies the problem model,
+changes the copy, builds the engine problem from it and, only when that
+builds, puts the copy in place and drops the records (`transaction`): a
+failed edit leaves the session exactly as it was, with no restore by hand.
+The text of every value goes through `sessions.forms` (parse/format pairs).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from engine.errors import EngineError
+from sessions import forms
+from sessions.build import build_problem
+from sessions.errors import SessionError
+from sessions.lifecycle import folder
+from sessions.schema import ProblemModel
+
+from .workbench import Workbench
+
+Ref = tuple[Any, ...]   # a path into the problem model: attribute names and list indices
+Check = Callable[[str], str | None]
+
+
+@dataclass(frozen=True)
+class Edit:
+    """One editable value: its title, current text, checker and setter."""
+
+    title: str
+    text: str
+    check: Check
+    apply: Callable[[str], None]
+
+
+def resolve(root: Any, path: Ref) -> Any:
+    """The object at a path (attributes and list indices)."""
+    node = root
+    for step in path:
+        node = node[step] if isinstance(step, int) else getattr(node, step)
+    return node
+
+
+def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> None:
+    """Apply ``change`` to a copy of the problem model; commit it when the problem
+    builds (the records are dropped), else raise `SessionError` and keep the old one."""
+    draft = bench.session.model.problem.model_copy(deep=True)
+    try:
+        change(draft)
+        draft = ProblemModel.model_validate(draft.model_dump())
+        problem = build_problem(draft, folder(bench.session))
+    except (ValueError, EngineError) as exc:
+        raise SessionError(str(exc)) from None
+    bench.session.model.problem, bench.session.problem = draft, problem
+    bench.reset()
+
+
+def set_fields(bench: Workbench, path: Ref, **values: Any) -> None:
+    """Set fields of the model object at ``path``, as one transaction."""
+    def change(draft: ProblemModel) -> None:
+        owner = resolve(draft, path)
+        for name, value in values.items():
+            setattr(owner, name, value)
+    transaction(bench, change)
+
+
+def change_list(bench: Workbench, path: Ref, change: Callable[[list], None]) -> None:
+    """Change the model list at ``path`` in place, as one transaction."""
+    transaction(bench, lambda draft: change(resolve(draft, path)))
+
+
+def checker(parse: Callable[[str], object]) -> Check:
+    """A live check from a parser: None when the text reads, else why not."""
+    def check(text: str) -> str | None:
+        try:
+            parse(text)
+        except (ValueError, TypeError, EngineError) as exc:
+            return str(exc)
+        return None
+    return check
+
+
+def field_edit(bench: Workbench, path: Ref, name: str, title: str, parse: Callable[[str], Any],
+               format_: Callable[[Any], str]) -> Edit:
+    """An edit of one field of the object at ``path`` through a parse/format pair."""
+    current = getattr(resolve(bench.session.model.problem, path), name)
+    return Edit(title, format_(current), checker(parse),
+                lambda text: set_fields(bench, path, **{name: parse(text)}))
+
+
+# -- the plant table ----------------------------------------------------------
+
+def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
+    """The edit of a plant-table row: a block's or matrix entry's expression, a
+    junction's signed inputs, or where the loop is broken (None: not editable here)."""
+    model = bench.session.model.problem
+    condition = model.conditions[ref[1]]
+    if ref[-1] == "break_at":
+        return Edit(f"{condition.name}: break the loop at signal", condition.break_at,
+                    lambda t: None if t.strip() else "a signal name",
+                    lambda t: set_fields(bench, ref[:-1], break_at=t.strip()))
+    owner = resolve(model, ref)
+    kind = ref[-2] if len(ref) >= 2 else ""
+    if kind == "junctions":
+        return Edit(f"{condition.name}: junction {owner.name} -> {owner.output} (+a -b ...)",
+                    forms.format_signed((owner.plus, owner.minus)), checker(forms.parse_signed),
+                    lambda t: _set_signed(bench, ref, t))
+    variable = condition.variable
+    if kind == "entries":
+        return _expression_edit(bench, ref, f"{condition.name}: a[{owner.row},{owner.col}]", variable)
+    if kind == "blocks" and owner.transfer.kind == "expression":
+        return _expression_edit(bench, ref + ("transfer",), f"{condition.name}: {owner.name}", variable)
+    return None
+
+
+def _set_signed(bench: Workbench, ref: Ref, text: str) -> None:
+    plus, minus = forms.parse_signed(text)
+    set_fields(bench, ref, plus=plus, minus=minus)
+
+
+def _expression_edit(bench: Workbench, path: Ref, title: str, variable: str) -> Edit:
+    def parse(text: str) -> str:
+        return forms.parse_expression(text, variable)
+    return field_edit(bench, path, "expression", f"{title} (expression in {variable})", parse, str)
+
+
+def copy_condition(bench: Workbench, ref: Ref, name: str) -> None:
+    """A new flight condition copied from the row's; per-condition values get the copied one's."""
+    k, name = ref[1], name.strip()
+    model = bench.session.model.problem
+    if not name or name in [c.name for c in model.conditions]:
+        raise SessionError(f"{name!r}: give a new condition name")
+
+    def change(draft: ProblemModel) -> None:
+        draft.conditions.append(draft.conditions[k].model_copy(deep=True, update={"name": name}))
+        for p in draft.parameters:
+            if isinstance(p.value, list):
+                p.value = p.value + [p.value[k]]
+    transaction(bench, change)
+
+
+def delete_condition(bench: Workbench, ref: Ref) -> str:
+    """Remove the row's flight condition (and its per-condition values); its name."""
+    k = ref[1]
+    model = bench.session.model.problem
+    if len(model.conditions) < 2:
+        raise SessionError("a session keeps at least one condition")
+    name = model.conditions[k].name
+
+    def change(draft: ProblemModel) -> None:
+        draft.conditions.pop(k)
+        for p in draft.parameters:
+            if isinstance(p.value, list):
+                p.value = p.value[:k] + p.value[k + 1:]
+    transaction(bench, change)
+    return name
+
+
+def add_to_plant(bench: Workbench, ref: Ref, text: str) -> None:
+    """A new block ('NAME INPUT OUTPUT EXPRESSION') in a diagram, or a new entry
+    ('ROW COL EXPRESSION') of a matrix plant, in the row's condition."""
+    from sessions.schema import BlockModel, ExpressionBlock, MatrixEntry
+    condition = bench.session.model.problem.conditions[ref[1]]
+    plant = ("conditions", ref[1], "plant")
+    if condition.plant.format == "matrix":
+        row, col, expression = forms.parse_matrix_entry(text, condition.variable)
+        entry = MatrixEntry(row=row, col=col, expression=expression)
+        change_list(bench, plant + ("entries",), lambda items: items.append(entry))
+    elif condition.plant.format == "diagram":
+        name, source, target, expression = forms.parse_block(text, condition.variable)
+        block = BlockModel(name=name, input=source, output=target,
+                           transfer=ExpressionBlock(kind="expression", expression=expression))
+        change_list(bench, plant + ("blocks",), lambda items: items.append(block))
+    else:
+        raise SessionError("blocks are added to block-diagram plants, entries to matrix plants")
+
+
+def add_check(bench: Workbench, ref: Ref) -> Check:
+    """The live check of the plant table's add line for the row's condition."""
+    condition = bench.session.model.problem.conditions[ref[1]]
+    if condition.plant.format == "matrix":
+        return checker(lambda t: forms.parse_matrix_entry(t, condition.variable))
+    return checker(lambda t: forms.parse_block(t, condition.variable))
+
+
+def delete_item(bench: Workbench, ref: Ref) -> str:
+    """Delete the list item at ``ref`` (a target, parameter, block or matrix entry); what it was."""
+    *owner, index = ref
+    if not isinstance(index, int) or owner[-1] not in ("targets", "parameters", "blocks", "entries"):
+        raise SessionError("this row cannot be deleted (blocks, matrix entries, targets and parameters can)")
+    item = resolve(bench.session.model.problem, ref)
+    label = {"targets": "target", "parameters": "parameter", "blocks": "block", "entries": "matrix entry"}
+    name = getattr(item, "measure", None) or getattr(item, "name", None) or f"a[{item.row},{item.col}]"
+    change_list(bench, tuple(owner), lambda items: items.pop(index))
+    return f"{label[owner[-1]]} {name}"

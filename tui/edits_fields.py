@@ -1,0 +1,209 @@
+"""Edits of parameters, targets, the objective's options, the algorithm's
+settings, and a block made a CSV table (with a preview); every one a
+transaction on a model path (`tui.edits`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from engine.algorithm import make_settings
+from engine.errors import EngineError
+from engine.measure_kinds import MEASURE_KINDS
+from sessions import forms
+from sessions.errors import SessionError
+from sessions.lifecycle import folder, registration
+
+from .edits import Edit, Ref, change_list, checker, field_edit, resolve, set_fields
+from .workbench import Workbench
+
+PARAMETER_FIELDS = [("value", "value (per condition: one for all, or one each: 1, 2, 3)"),
+                    ("min", "lower bound (none: unbounded)"), ("max", "upper bound (none: unbounded)")]
+TARGET_FIELDS = [("bands", "bands: low..high: desired / required (optional); ... (high inf: no limit)"),
+                 ("points", "push/pull points: push -1+0j; pull -7-3j (empty: the defaults)"),
+                 ("weight", "weight (the c vector component; slp: W2)"),
+                 ("scale", "scale factor (slp: S, e.g. 0.2 so 5 deg count as 1 dB)"),
+                 ("sense", "sense: at_least, at_most or auto (the measure's own)"),
+                 ("constraint", "requirement (true) or objective only (false)"),
+                 ("response", "time response: INPUT OUTPUT HORIZON [POINTS]; step T A; ramp T S; psd F(s); ..."),
+                 ("detect", "detection range: low..high (inf: no limit)")]
+
+
+# -- parameters ------------------------------------------------------------------
+
+def parameter_edit(bench: Workbench, ref: Ref, field: str = "value") -> Edit:
+    """A parameter's value (one per condition where it has several), min or max."""
+    p = resolve(bench.session.model.problem, ref)
+    title = f"parameter {p.name}: {field}"
+    if field == "value":
+        return field_edit(bench, ref, "value", title, lambda t: forms.parse_values(t, p.value), forms.format_values)
+    return field_edit(bench, ref, field, title, forms.parse_optional, forms.format_optional)
+
+
+def toggle_free(bench: Workbench, ref: Ref) -> None:
+    """A free parameter is fixed, a fixed one freed."""
+    set_fields(bench, ref, free=not resolve(bench.session.model.problem, ref).free)
+
+
+def toggle_per_condition(bench: Workbench, ref: Ref) -> None:
+    """Shared -> one value per condition (all equal); per condition -> shared (the first's)."""
+    p = resolve(bench.session.model.problem, ref)
+    n = len(bench.session.model.problem.conditions)
+    set_fields(bench, ref, value=p.value[0] if isinstance(p.value, list) else [p.value] * n)
+
+
+def add_parameter(bench: Workbench, text: str) -> None:
+    """'NAME VALUE [MIN MAX]': a new shared parameter."""
+    from sessions.schema import ParameterModel
+    name, value, low, high = forms.parse_parameter(text)
+    parameter = ParameterModel(name=name, value=value, min=low, max=high)
+    change_list(bench, ("parameters",), lambda items: items.append(parameter))
+
+
+ADD_PARAMETER_CHECK = checker(forms.parse_parameter)
+
+
+# -- targets ------------------------------------------------------------------------
+
+def target_edit(bench: Workbench, ref: Ref, field: str = "bands") -> Edit:
+    """One field of a target as one line of text."""
+    target = resolve(bench.session.model.problem, ref)
+    title = f"{target.measure}: {field} ({target.unit})"
+    pairs = {"bands": (forms.parse_bands, forms.format_bands), "points": (forms.parse_points, forms.format_points),
+             "weight": (forms.parse_number, forms.format_number), "scale": (forms.parse_number, forms.format_number),
+             "sense": (forms.parse_sense, forms.format_sense), "constraint": (forms.parse_bool, forms.format_bool),
+             "response": (forms.parse_response, forms.format_response)}
+    if field in pairs:
+        parse, format_ = pairs[field]
+        return field_edit(bench, ref, field, title, parse, format_)
+    text = forms.format_range((target.detect_low, target.detect_high))
+
+    def apply(new: str) -> None:
+        low, high = forms.parse_range(new)
+        set_fields(bench, ref, detect_low=low, detect_high=high)
+    return Edit(title, text, checker(forms.parse_range), apply)
+
+
+def add_target(bench: Workbench, measure: str) -> None:
+    """A new target of one measure kind with one band at its default desired value
+    (time measures read the first input's step response of the last signal)."""
+    from sessions.schema import BandModel, ResponseModel, TargetModel
+    kind = MEASURE_KINDS[measure]
+    response = None
+    if kind.domain == "time":
+        network = bench.session.problem.conditions[0].network
+        output = next((n for n in ("y", "c", "theta") if n in network.signals), network.signals[-1])
+        response = ResponseModel(input=network.inputs[0] if network.inputs else "r", output=output)
+    target = TargetModel(measure=measure, bands=[BandModel(desired=kind.default_desired)], response=response)
+    change_list(bench, ("targets",), lambda items: items.append(target))
+
+
+# -- the objective and the algorithm's settings ---------------------------------------
+
+def setting_rows(bench: Workbench) -> list[tuple[str, object, bool]]:
+    """Every setting of the session's algorithm: (name, value, set in the session)."""
+    try:
+        defaults = {f.name: f.default for f in dataclasses.fields(registration(bench.session).settings)}
+    except SessionError:
+        defaults = {}
+    settings = bench.session.model.algorithm.settings
+    names = list(defaults) + [n for n in settings if n not in defaults]
+    return [(n, settings.get(n, defaults.get(n)), n in settings) for n in names]
+
+
+def objective_rows(bench: Workbench) -> list[tuple[str, str, Ref | None]]:
+    """The rows of the objective/settings table: label, value, and what editing it changes."""
+    objective = bench.session.model.problem.objective
+    rows: list[tuple[str, str, Ref | None]] = []
+    if objective is not None:
+        rows.append(("objective kind", objective.kind, None))
+        rows += [(name, str(value), ("objective", name)) for name, value in objective.options.items()]
+    rows += [(f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), str(value), ("setting", name))
+             for name, value, given in setting_rows(bench)]
+    return rows
+
+
+def objective_edit(bench: Workbench, ref: Ref) -> Edit:
+    """An objective option (`("objective", NAME)`) or an algorithm setting (`("setting", NAME)`)."""
+    return objective_option_edit(bench, ref[1]) if ref[0] == "objective" else setting_edit(bench, ref[1])
+
+
+def objective_option_edit(bench: Workbench, name: str) -> Edit:
+    """An objective option (a penalty such as q2, or a text option): a number where it was one."""
+    current = bench.session.model.problem.objective.options[name]
+    number = isinstance(current, float)
+
+    def parse(text: str) -> float | str:
+        if number:
+            return forms.parse_number(text)
+        if not text.strip():
+            raise forms.FormError("expected a value")
+        return text
+
+    def apply(text: str) -> None:
+        options = dict(bench.session.model.problem.objective.options, **{name: parse(text)})
+        set_fields(bench, ("objective",), options=options)
+    return Edit(f"objective option {name}", str(current), checker(parse), apply)
+
+
+def setting_edit(bench: Workbench, name: str) -> Edit:
+    """An algorithm setting, checked against the algorithm's own settings as it is typed."""
+    settings = bench.session.model.algorithm.settings
+    current = settings.get(name, {n: v for n, v, _ in setting_rows(bench)}.get(name))
+
+    def check(text: str) -> str | None:
+        try:
+            make_settings(bench.algorithm_name, dict(settings, **{name: forms.parse_setting(text, current)}))
+        except (EngineError, TypeError, ValueError) as exc:
+            return str(exc)
+        return None
+
+    def apply(text: str) -> None:
+        settings[name] = forms.parse_setting(text, current)
+        bench.reset()
+    return Edit(f"{bench.algorithm_name} setting {name}", forms.format_setting(current), check, apply)
+
+
+# -- a block from a CSV table -------------------------------------------------------
+
+def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
+    """The header's column names and the first lines of a CSV file (comment lines skipped)."""
+    text = [line.rstrip("\n") for line in path.read_text(encoding="utf-8", errors="replace").splitlines()
+            if not line.startswith("#")]
+    if not text:
+        raise ValueError(f"{path.name} has no rows")
+    return [c.strip() for c in text[0].split(",")], "\n".join(text[:lines])
+
+
+def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
+    """Make the block at ``ref`` a table read from a CSV file: the edit line names the
+    columns (frequency, first, second), the form, the unit and the gain."""
+    block = resolve(bench.session.model.problem, ref)
+    header, preview = csv_preview(path)
+    try:
+        name = path.resolve().relative_to(folder(bench.session).resolve()).as_posix()
+    except ValueError:
+        name = str(path.resolve())
+
+    def parse(text: str) -> dict:
+        words = text.split()
+        if len(words) != 4:
+            raise forms.FormError("write: columns form unit gain, e.g. 'hz,mag,deg polar hz 1'")
+        columns = [c.strip() for c in words[0].split(",")]
+        missing = [c for c in columns if c not in header]
+        if missing:
+            raise forms.FormError(f"no column {missing[0]!r}; columns are {', '.join(header)}")
+        form, unit = words[1], words[2]
+        if form not in ("polar", "cartesian", "magnitude") or unit not in ("hz", "rad/s"):
+            raise forms.FormError("form is polar, cartesian or magnitude; unit hz or rad/s")
+        if len(columns) != (2 if form == "magnitude" else 3):
+            raise forms.FormError("three columns (two for magnitude)")
+        return {"kind": "table", "table": {"csv": name, "columns": columns, "form": form, "unit": unit,
+                                           "gain": forms.parse_number(words[3], "a gain")}}
+
+    def apply(text: str) -> None:
+        from sessions.schema import TableBlock
+        set_fields(bench, ref, transfer=TableBlock.model_validate(parse(text)))
+    guess = f"{','.join(header[:3])} polar hz 1"
+    return Edit(f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
+                guess, checker(parse), apply)

@@ -1,0 +1,47 @@
+"""Every plot's figure from a `View`: pure data, safe off the UI thread (a
+run's worker builds them from its own view; the screen shows them)."""
+
+from __future__ import annotations
+
+from .views import View
+from .widgets.plots import (Figure, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
+                            sweep_figure, trajectories_figure)
+
+
+def points(view: View) -> list[tuple[complex, str]]:
+    """The targets' push/pull points (drawn on the Nyquist plot)."""
+    return [(p.value, p.mode) for t in view.problem.targets for p in t.points]
+
+
+def radius(view: View) -> float | None:
+    """The first stability-margin target's desired radius (a circle about -1)."""
+    for t in view.problem.targets:
+        if t.measure == "stability_margin" and t.bands:
+            return t.bands[0].desired
+    return None
+
+
+def figures(view: View) -> dict[str, Figure]:
+    """The figures of the plots the algorithm's presenter says apply, by plot id."""
+    wanted = view.presenter.plots
+    out: dict[str, Figure] = {}
+    curves = view.loop_curves() if wanted & {"nyquist", "bode", "nichols"} else []
+    if curves:
+        out["nyquist"] = nyquist_figure(curves, points(view), radius(view))
+        out["bode-mag"], out["bode-phase"] = bode_figures(curves, view.problem.grid.unit)
+        out["nichols"] = nichols_figure(curves)
+    label, its, values = view.convergence()
+    out["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet")
+    if "trajectories" in wanted:
+        objective = view.problem.objective
+        out["trajectories"] = trajectories_figure(view.trajectories(), objective.data if objective else None)
+    if "step" in wanted:
+        out["step"] = step_figure(*view.step_traces())
+    out["sweep-plot"] = sweep_figure(view.sweep)
+    return out
+
+
+def history_figure(view: View, iteration: int) -> Figure:
+    """The Nyquist plot of an earlier iteration beside the current design."""
+    return nyquist_figure(view.loop_curves(iteration), points(view), radius(view),
+                          f"Nyquist: iteration {iteration}" if iteration else "Nyquist: start")

@@ -1,0 +1,202 @@
+"""The run loop: a thread worker computes, the UI thread commits.
+
+`s`, `n` and `r` take the bound algorithm and the current state from the
+workbench on the UI thread, then a thread worker steps: each iteration it
+computes the next (State, StepRecord) from its own state and view, draws
+the figures a few times a second from that view (sizes taken when the run
+began), and posts a `Stepped` message.  The UI thread alone appends the
+record (`Workbench.commit`), autosaves and refreshes.  `RunEnded` or
+`RunFailed` comes last (messages keep their order), and only then are the
+keys that change the session enabled again, so an undo can never meet a
+record still on its way.
+"""
+
+from __future__ import annotations
+
+import gc
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from textual import work
+from textual.message import Message
+
+from engine.algorithm import State, StepRecord
+from sessions.errors import SessionError
+
+from .figures import figures
+from .views import View
+from .widgets.plots import FigurePlot
+
+REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)
+
+
+class Stepped(Message):
+    """One iteration computed by the worker, with the figures when it drew them."""
+
+    def __init__(self, state: State, record: StepRecord, drawn: dict | None, prebuilt: dict | None):
+        super().__init__()
+        self.state, self.record, self.drawn, self.prebuilt = state, record, drawn, prebuilt
+
+
+class RunEnded(Message):
+    """The worker stopped: finished, paused or the count reached (``note`` says which when it
+    matters), with the last iteration's figures when its `Stepped` carried none."""
+
+    def __init__(self, note: str | None = None, drawn: dict | None = None, prebuilt: dict | None = None):
+        super().__init__()
+        self.note, self.drawn, self.prebuilt = note, drawn, prebuilt
+
+
+class RunFailed(Message):
+    """An iteration raised: the run stops, the records so far are kept."""
+
+    def __init__(self, error: str):
+        super().__init__()
+        self.error = error
+
+
+@dataclass
+class RunRequest:
+    """What the worker steps: the algorithm, the state to step from, the view, how far."""
+
+    algorithm: Any
+    state: State
+    view: View
+    count: int
+    canvases: dict
+
+
+class RunLoop:
+    """The app's run actions and the handlers of the worker's messages (a mixin of the app)."""
+
+    running = False
+
+    def _run_setup(self) -> None:
+        self._pause = threading.Event()
+
+    def action_step(self) -> None:
+        self._start(1)
+
+    def action_run(self) -> None:
+        self._start(10 ** 9)
+
+    def action_run_n(self) -> None:
+        from .screens.dialogs import EditDialog
+
+        def chosen(text: str | None) -> None:
+            if text:
+                self._start(int(float(text)))
+        self.push_screen(EditDialog("run how many iterations?", "10", _positive_integer), chosen)
+
+    def action_pause(self) -> None:
+        self._pause.set()
+        self._sweep_cancel = True
+
+    def _start(self, count: int) -> None:
+        if self.bench is None or self.busy:
+            return
+        try:
+            algorithm, state = self.bench.begin_run()
+        except SessionError as exc:
+            self.notify(str(exc), title="cannot run", severity="error", timeout=10)
+            return
+        if state.status.finished:
+            self.notify("the algorithm has finished; z undoes, a changes it")
+            return
+        screen = self._main()
+        request = RunRequest(algorithm, state, self.bench.view(), count, screen.canvases() if screen else {})
+        self._pause.clear()
+        self._set_running(True)
+        self._run_worker(request)
+
+    def _set_running(self, running: bool) -> None:
+        """Enable or disable the keys that change the session (the footer dims them)."""
+        self.running = running
+        self.screen.refresh_bindings()
+        main = self._main()
+        if main is not None:
+            main.refresh_status()
+
+    @work(thread=True, exclusive=True, exit_on_error=False, group="run")
+    def _run_worker(self, request: RunRequest) -> None:
+        gc.freeze()   # a full collection then scans only what is new, not a long session's records
+        try:
+            note, view = self._steps(request)
+        except Exception as exc:  # noqa: BLE001 - an engine failure ends the run, never the app
+            self.post_message(RunFailed(f"{type(exc).__name__}: {exc}"))
+            return
+        finally:
+            gc.unfreeze()
+        self.post_message(RunEnded(note, *(_drawings(view, request.canvases) if view is not None else (None, None))))
+
+    def _steps(self, request: RunRequest) -> tuple[str | None, View | None]:
+        """In the worker: step, draw now and then, post every record; why it stopped,
+        and the view still to draw (None when the last record went with its figures)."""
+        state, view, last, undrawn = request.state, request.view, 0.0, None
+        for n in range(request.count):
+            if self._pause.is_set():
+                return "paused", undrawn
+            state, record = request.algorithm.step(state)
+            view = view.extended(record)
+            final = record.status.finished or n == request.count - 1
+            drawn = prebuilt = None
+            if final or time.monotonic() - last >= REDRAW_INTERVAL:
+                last = time.monotonic()
+                drawn, prebuilt = _drawings(view, request.canvases)
+            undrawn = None if drawn is not None else view
+            self.post_message(Stepped(state, record, drawn, prebuilt))
+            if record.status.finished:
+                break
+        return None, undrawn
+
+    def on_stepped(self, message: Stepped) -> None:
+        """UI thread: keep the record, then show it (the plots when the worker drew them)."""
+        try:
+            self.bench.commit(message.state, message.record)
+        except SessionError as exc:   # cannot happen while changes are disabled; said, never silent
+            self.notify(str(exc), title="record not kept", severity="error", timeout=10)
+            self._pause.set()
+            return
+        screen = self._main()
+        if screen is None:
+            return
+        screen.refresh_status()
+        if message.drawn is not None:
+            view = self.bench.view()
+            screen.refresh_run(view, drawn=message.drawn, prebuilt=message.prebuilt)
+            screen.refresh_history(view)
+            gc.freeze()
+
+    def on_run_ended(self, message: RunEnded) -> None:
+        self._run_done()
+        screen = self._main()
+        if message.drawn is not None and screen is not None:
+            screen.refresh_plots(message.drawn, message.prebuilt)
+        if message.note == "paused":
+            self.notify(f"paused at iteration {self.bench.iteration}", timeout=3)
+
+    def on_run_failed(self, message: RunFailed) -> None:
+        self._run_done()
+        self.notify(message.error, title="iteration failed", severity="error", timeout=10)
+
+    def _run_done(self) -> None:
+        """The keys are enabled again; everything but the plots (drawn by the worker) is refreshed."""
+        self.bench.autosave()
+        self._set_running(False)
+        self.refresh_workbench(plots=False)
+
+
+def _drawings(view: View, canvases: dict) -> tuple[dict, dict]:
+    """The figures of a view, and their text at the canvases' sizes (off the UI thread)."""
+    drawn = figures(view)
+    return drawn, {name: FigurePlot.prebuild(drawn[name], canvas) for name, canvas in canvases.items()
+                   if name in drawn}
+
+
+def _positive_integer(text: str) -> str | None:
+    try:
+        return None if int(float(text)) >= 1 else "at least 1"
+    except (ValueError, OverflowError):
+        return "a whole number"

@@ -1,0 +1,70 @@
+"""The dialogs around a change of the problem: choose a field, type the value
+(checked as it is typed), confirm when recorded iterations would be dropped,
+apply it as a transaction, say what happened, refresh the screen."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from sessions.errors import SessionError
+
+from ..edits import Check, Edit
+from .dialogs import ChooseDialog, ConfirmDialog, EditDialog
+
+
+class EditFlow:
+    """Runs edits for the table widgets; one per app."""
+
+    def __init__(self, app: Any):
+        self.app = app
+
+    @property
+    def bench(self):
+        return self.app.bench
+
+    def choose(self, title: str, choices: list[tuple[str, str]], then: Callable[[str], None]) -> None:
+        """Pick one of several names, then go on with it."""
+        self.app.push_screen(ChooseDialog(title, choices), lambda name: name and then(name))
+
+    def open(self, edit: Edit | None) -> None:
+        """Ask for the new text of a value (asking first when iterations would go), then apply it."""
+        if edit is None:
+            self.app.notify("this row has nothing to edit here", severity="warning")
+            return
+
+        def typed(text: str | None) -> None:
+            if text is not None:
+                self.change(lambda: edit.apply(text), "this edit changes the problem", failed="the old value is kept")
+        self.app.push_screen(EditDialog(edit.title, edit.text, edit.check), typed)
+
+    def line(self, title: str, check: Check | None, apply: Callable[[str], Any], what: str) -> None:
+        """Ask for one line (e.g. a new parameter) and apply it."""
+        def typed(text: str | None) -> None:
+            if text:
+                self.change(lambda: apply(text), what)
+        self.app.push_screen(EditDialog(title, "", check), typed)
+
+    def change(self, change: Callable[[], Any], what: str, always_ask: bool = False,
+               failed: str = "nothing changed", done: Callable[[Any], None] | None = None) -> None:
+        """Apply a change of the problem; ask first when iterations would be dropped
+        (or always, for deletions).  A failure is reported and changes nothing."""
+        iterations = self.bench.iteration
+
+        def apply(yes: bool | None = True) -> None:
+            if not yes:
+                return
+            try:
+                result = change()
+            except (SessionError, ValueError) as exc:
+                self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
+            else:
+                if done is not None:
+                    done(result)
+            self.app.refresh_workbench()
+        if iterations or always_ask:
+            dropped = f"; the {iterations} recorded iteration(s) will be dropped (save first to keep them)" \
+                if iterations else ""
+            self.app.push_screen(ConfirmDialog(f"{what}{dropped}?"), apply)
+        else:
+            apply()

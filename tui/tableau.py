@@ -1,0 +1,38 @@
+"""The Run tab's tableau as one rich text: far cheaper to draw than a table
+widget while a run goes.  Values changed since the previous iteration are
+bold, unmet rows are marked NO in red, the margins' method closes it."""
+
+from __future__ import annotations
+
+import math
+
+from rich.text import Text
+
+from engine.algorithm import MeasureRow
+from engine.measure_kinds import shorts
+from engine.present import number
+
+SHORT = shorts()
+
+
+def tableau_text(rows: list[MeasureRow], previous: list[MeasureRow], unit: str) -> Text:
+    """The rows (frequencies in ``unit``), bold where they differ from ``previous``."""
+    scale = 1 / (2 * math.pi) if unit == "hz" else 1.0
+    before = {(r.name, r.kind, r.condition): r.value for r in previous}
+    several = len({r.condition for r in rows}) > 1
+    text = Text(f"{'no.':<8} " + (f"{'condition':<10} " if several else "")
+                + f"{'kind':<6} {'value':>9} met {'target':>7} {'freq ' + unit:>10}\n", style="bold",
+                no_wrap=True, overflow="crop")
+    for r in rows:
+        key = (r.name, r.kind, r.condition)
+        changed = key in before and before[key] != r.value
+        freq = "" if r.frequency is None else number(r.frequency * scale, 5)
+        text.append(f"{r.name[:8]:<8} " + (f"{r.condition[:10]:<10} " if several else "")
+                    + f"{SHORT.get(r.kind, r.kind)[:6]:<6} ")
+        text.append(f"{number(r.value, 5):>9}", style="bold" if changed else "")
+        text.append(" yes " if r.satisfied else " NO  ", style="" if r.satisfied else "bold red")
+        text.append(f"{number(r.target, 4):>7} {freq:>10}\n")
+    methods = sorted({r.method for r in rows if r.method})
+    if methods:
+        text.append(f"margins: {', '.join(methods)}\n", style="dim")
+    return text

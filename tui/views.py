@@ -1,0 +1,184 @@
+"""What the workbench's plots and tableaux show, as a read-only snapshot.
+
+A `View` holds the problem, the records up to the current iteration, the
+algorithm's presenter and iteration 0's record; it never changes.  The UI
+thread takes one from the `Workbench` (`Workbench.view()`), and a run's
+worker extends its own copy with each record it computes (`View.extended`)
+to draw the figures off the UI thread while the UI thread alone changes the
+session (docs/architecture.md, "The run loop").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from engine.algorithm import MeasureRow, StepRecord
+from engine.errors import EngineError
+from engine.loops import loop_model, open_loop
+from engine.margins import Margins, margins
+from engine.problem import Problem
+from engine.realization import realize
+from engine.timeresp import Segment, simulate
+
+CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
+INITIAL_COLOR = "gray"
+
+
+@dataclass(frozen=True)
+class LoopCurve:
+    """GH(j omega) of one condition at some parameters (for Nyquist, Bode, Nichols)."""
+
+    omega: np.ndarray
+    gh: np.ndarray
+    label: str
+    color: str = "blue"
+    margins: Margins | None = None   # marked on the Bode plots (the current design's curves)
+
+
+@dataclass(frozen=True)
+class View:
+    """The session as the screens show it at one moment."""
+
+    problem: Problem
+    records: tuple[StepRecord, ...]
+    presenter: Any
+    initial: StepRecord | None = None        # iteration 0's record (the presenter's)
+    plotted_condition: int | None = None     # the flight condition the plots show; None: all
+    sweep: dict | None = None                # the latest sweep (JSON data)
+
+    @property
+    def iteration(self) -> int:
+        return len(self.records)
+
+    def extended(self, record: StepRecord) -> View:
+        """The view after one more iteration."""
+        return replace(self, records=self.records + (record,))
+
+    def record(self, iteration: int | None = None) -> StepRecord | None:
+        """The record of an iteration (None: the current one; 0: iteration 0's)."""
+        k = self.iteration if iteration is None else iteration
+        return self.records[k - 1] if k > 0 else self.initial
+
+    def tableau(self, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:
+        """The rows of an iteration's tableau and its record."""
+        record = self.record(iteration)
+        return (list(record.measures) if record else []), record
+
+    def parameters(self, iteration: int | None = None, condition: int = 0) -> dict[str, float]:
+        """Parameter values one condition sees after an iteration (0: the session's start)."""
+        k = self.iteration if iteration is None else iteration
+        named = self.records[k - 1].parameters if k > 0 else None
+        return self.problem.condition_values(condition, named=named)
+
+    def loop_curve(self, iteration: int | None = None, label: str = "current", condition: int = 0,
+                   color: str = "blue") -> LoopCurve | None:
+        """GH of one condition (None when the loop cannot be evaluated); the current one with its margins."""
+        problem = self.problem
+        if condition >= len(problem.conditions):
+            return None
+        c = problem.conditions[condition]
+        values = self.parameters(iteration, condition)
+        try:
+            response = open_loop(c.network, c.break_at, problem.grid.omega, values, sensitivities=False)
+        except EngineError:
+            return None
+        found = None
+        if iteration is None:
+            try:
+                found = margins(loop_model(c.network, c.break_at, problem.grid.omega, values))
+            except EngineError:
+                pass
+        return LoopCurve(problem.grid.omega, response.value, label, color, found)
+
+    def plotted(self) -> list[int]:
+        """The conditions the plots show (`plotted_condition`; every one when None)."""
+        count = len(self.problem.conditions)
+        if self.plotted_condition is not None and self.plotted_condition < count:
+            return [self.plotted_condition]
+        return list(range(count))
+
+    def shown(self, iteration: int | None = None) -> list[tuple[int | None, int, str, str]]:
+        """What the plots draw for an iteration (None: the current one), as
+        (iteration or None for the current, condition, label, colour): each
+        plotted condition, labelled by name, when there are several; one
+        condition alone also with a reference: the initial design beside the
+        current one, the current design beside an earlier iteration."""
+        conditions = self.problem.conditions
+        plotted = self.plotted()
+        k_it = self.iteration if iteration is None else iteration
+        at = None if k_it == self.iteration else k_it
+        if len(plotted) > 1:
+            return [(at, k, conditions[k].name, CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in plotted]
+        if not plotted:
+            return []
+        k = plotted[0]
+        prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
+        wanted = [(at, k, prefix + ("current" if at is None else f"iteration {k_it}" if k_it else "start"), "blue")]
+        if at is not None:
+            wanted.append((None, k, prefix + "current", INITIAL_COLOR))
+        elif self.iteration:
+            wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
+        return wanted
+
+    def loop_curves(self, iteration: int | None = None) -> list[LoopCurve]:
+        """The open loops the plots draw (`shown`)."""
+        curves = [self.loop_curve(at, label, k, color) for at, k, label, color in self.shown(iteration)]
+        return [c for c in curves if c is not None]
+
+    def step_response(self, iteration: int | None = None,
+                      condition: int = 0) -> tuple[list[float], list[float], str] | None:
+        """Closed-loop response to a unit step at the first input, of the output signal
+        (y, c or x1 when present), for rational plants; None otherwise."""
+        problem = self.problem
+        if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
+            return None
+        try:
+            ss = realize(problem.conditions[condition].network, self.parameters(iteration, condition))
+        except EngineError:
+            return None
+        if not ss.inputs or ss.A.size == 0:
+            return None
+        output = next((name for name in ("y", "c", "x1") if name in ss.outputs), ss.outputs[-1])
+        t = np.linspace(0.0, _horizon(np.linalg.eigvals(ss.A).real), 400)
+        try:
+            y = simulate(ss, ss.inputs[0], t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
+        except EngineError:
+            return None
+        return t.tolist(), y.tolist(), f"{output} (step at {ss.inputs[0]})"
+
+    def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
+        """The step responses the plot draws (`shown`): what is plotted, and
+        (t, y, label, colour) per trace."""
+        name, traces = "", []
+        for at, k, label, color in self.shown():
+            response = self.step_response(at, k)
+            if response is not None:
+                t, y, name = response
+                traces.append((t, y, label, color))
+        return name, traces
+
+    def trajectories(self) -> dict | None:
+        """The presenter's trajectories of the current iteration (iteration 0's before any)."""
+        records = self.records or tuple(r for r in [self.initial] if r is not None)
+        return self.presenter.trajectories(records)
+
+    def convergence(self) -> tuple[str, list[int], list[float]]:
+        """The convergence curve as the presenter measures it: label, iterations, values."""
+        label, points = "", []
+        for r in self.records:
+            label, value = self.presenter.convergence(r)
+            if value is not None and math.isfinite(value):
+                points.append((r.iteration, float(value)))
+        return label, [p[0] for p in points], [p[1] for p in points]
+
+
+def _horizon(real: np.ndarray) -> float:
+    """A step response's duration from the closed-loop poles' real parts."""
+    if real.max() > 0:
+        return 5.0 / real.max()
+    slowest = np.abs(real[real < 0]).min(initial=np.inf)
+    return min(8.0 / slowest, 1e4) if np.isfinite(slowest) else 10.0
