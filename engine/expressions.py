@@ -15,13 +15,14 @@ is a parameter.  An expression evaluates to
 from __future__ import annotations
 
 import ast
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .errors import ExpressionError, ParameterError
+from .folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
 from .polynomials import Rational
 
 VARIABLES = ("s", "w", "z")
@@ -97,7 +98,7 @@ class Expression:
         self.root = _Parser(text, variable).parse()
         self.parameters: tuple[str, ...] = tuple(sorted(_collect_parameters(self.root)))
         self._cache: dict[tuple, object] = {}
-        self._constants = _constant_subtrees(self.root)
+        self._constants = constant_subtrees(self.root)
 
     def _cached(self, what: str, params: Mapping[str, float], make):
         """Results for the last few parameter values (rational forms are reused a lot)."""
@@ -129,16 +130,16 @@ class Expression:
         (evaluated by Horner's rule); larger products stay products, so the
         accuracy of a factored form is kept.
         """
-        return _as_callable(self._cached("compiled", params, lambda: _compile(self.root, params, self._constants)))
+        return as_callable(self._cached("compiled", params, lambda: compile_tree(self.root, params, self._constants)))
 
     def folded(self, params: Mapping[str, float]) -> Rational | None:
         """The expression as a polynomial ratio of degree <= FOLD_DEGREE, else None."""
-        compiled = self._cached("compiled", params, lambda: _compile(self.root, params, self._constants))
-        return compiled.rational() if isinstance(compiled, _Folded) else None
+        compiled = self._cached("compiled", params, lambda: compile_tree(self.root, params, self._constants))
+        return compiled.rational() if isinstance(compiled, Folded) else None
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """The expression as a ratio of polynomials in the variable."""
-        return self._cached("rational", params, lambda: _to_rational(self.root, params))
+        return self._cached("rational", params, lambda: to_rational(self.root, params))
 
     def value(self, params: Mapping[str, float]) -> float:
         """Evaluate a parameter expression that does not contain the variable."""
@@ -283,176 +284,3 @@ def _evaluate(node: Node, x: NDArray, params: Mapping[str, float], with_dvar: bo
     if op == "mul":
         return args[0].mul(args[1])
     return args[0].div(args[1])
-
-
-def _to_rational(node: Node, params: Mapping[str, float]) -> Rational:
-    op = node.op
-    if op == "num":
-        return Rational.constant(node.value)
-    if op == "var":
-        return Rational.variable()
-    if op == "param":
-        return Rational.constant(float(params[node.name]))
-    return _combine_rationals(op, [_to_rational(a, params) for a in node.args], node.exponent)
-
-
-def _combine_rationals(op: str, args: list[Rational], exponent: int) -> Rational:
-    if op == "neg":
-        return -args[0]
-    if op == "pow":
-        return args[0] ** exponent
-    if op == "add":
-        return args[0] + args[1]
-    if op == "sub":
-        return args[0] - args[1]
-    if op == "mul":
-        return args[0] * args[1]
-    return args[0] / args[1]
-
-
-FOLD_DEGREE = 2
-Evaluator = Callable[[NDArray], tuple[NDArray, NDArray]]
-Poly = tuple[float, ...]  # descending coefficients, plain floats: fast for tiny polynomials
-
-
-def _ptrim(a: Poly) -> Poly:
-    i = 0
-    while i < len(a) - 1 and a[i] == 0.0:
-        i += 1
-    return a[i:]
-
-
-def _pmul(a: Poly, b: Poly) -> Poly:
-    out = [0.0] * (len(a) + len(b) - 1)
-    for i, x in enumerate(a):
-        for j, y in enumerate(b):
-            out[i + j] += x * y
-    return _ptrim(tuple(out))
-
-
-def _padd(a: Poly, b: Poly) -> Poly:
-    if len(a) < len(b):
-        a, b = b, a
-    shift = len(a) - len(b)
-    return _ptrim(tuple(x + (b[i - shift] if i >= shift else 0.0) for i, x in enumerate(a)))
-
-
-class _Folded:
-    """A small polynomial ratio met while compiling; becomes a Rational at the end."""
-
-    __slots__ = ("num", "den")
-
-    def __init__(self, num: Poly, den: Poly):
-        self.num, self.den = num, den
-
-    @property
-    def degree(self) -> int:
-        return max(len(self.num), len(self.den)) - 1
-
-    def combine(self, op: str, other: "_Folded | None", exponent: int) -> "_Folded":
-        if op == "neg":
-            return _Folded(tuple(-c for c in self.num), self.den)
-        if op == "pow":
-            base = self if exponent >= 0 else _Folded(self.den, self.num)
-            out = _Folded((1.0,), (1.0,))
-            for _ in range(abs(exponent)):
-                out = _Folded(_pmul(out.num, base.num), _pmul(out.den, base.den))
-            return out
-        if op in ("add", "sub"):
-            num = other.num if op == "add" else tuple(-c for c in other.num)
-            if self.den == other.den:
-                return _Folded(_padd(self.num, num), self.den)
-            return _Folded(_padd(_pmul(self.num, other.den), _pmul(num, self.den)), _pmul(self.den, other.den))
-        if op == "mul":
-            return _Folded(_pmul(self.num, other.num), _pmul(self.den, other.den))
-        return _Folded(_pmul(self.num, other.den), _pmul(self.den, other.num))
-
-    def rational(self) -> Rational:
-        return Rational(np.array(self.num, dtype=float), np.array(self.den, dtype=float))
-
-
-def _rational_evaluator(r: Rational) -> Evaluator:
-    num, den = r.num, r.den
-    dnum, dden = np.polyder(num) if num.size > 1 else np.zeros(1), np.polyder(den) if den.size > 1 else np.zeros(1)
-
-    def evaluate(x: NDArray) -> tuple[NDArray, NDArray]:
-        n, d = _horner(num, x), _horner(den, x)
-        value = n / d
-        return value, (_horner(dnum, x) - value * _horner(dden, x)) / d
-
-    return evaluate
-
-
-def _horner(c: NDArray, x: NDArray) -> NDArray:
-    value = np.full(x.shape, c[0], dtype=complex)
-    for coefficient in c[1:]:
-        value = value * x + coefficient
-    return value
-
-
-def _as_callable(c: "_Folded | Evaluator") -> Evaluator:
-    return _rational_evaluator(c.rational()) if isinstance(c, _Folded) else c
-
-
-def _constant_subtrees(root: Node) -> dict[int, "_Folded | Evaluator"]:
-    """The compiled form of every largest subtree without parameters (by node
-    id): compiled once, reused whenever the parameters change."""
-    constants: dict[int, _Folded | Evaluator] = {}
-
-    def visit(node: Node) -> bool:  # True when the subtree has no parameter
-        free = [visit(a) for a in node.args]
-        if node.op != "param" and all(free):
-            return True
-        for arg, is_free in zip(node.args, free):
-            if is_free and arg.op not in ("num", "var"):
-                constants[id(arg)] = _compile(arg, {}, {})
-        return False
-
-    if visit(root) and root.op not in ("num", "var"):
-        constants[id(root)] = _compile(root, {}, {})
-    return constants
-
-
-def _compile(node: Node, params: Mapping[str, float],
-             constants: dict[int, "_Folded | Evaluator"]) -> "_Folded | Evaluator":
-    """Fold subtrees of degree <= FOLD_DEGREE into polynomial ratios; keep the
-    rest as closures (``constants``: parameter-free subtrees already compiled)."""
-    if id(node) in constants:
-        return constants[id(node)]
-    op = node.op
-    if op == "num":
-        return _Folded((node.value,), (1.0,))
-    if op == "var":
-        return _Folded((1.0, 0.0), (1.0,))
-    if op == "param":
-        return _Folded((float(params[node.name]),), (1.0,))
-    args = [_compile(a, params, constants) for a in node.args]
-    if all(isinstance(a, _Folded) for a in args):
-        folded = args[0].combine(op, args[1] if len(args) > 1 else None, node.exponent)
-        if folded.degree <= FOLD_DEGREE:
-            return folded
-    f = [_as_callable(a) for a in args]
-    if op == "neg":
-        return lambda x: tuple(-v for v in f[0](x))
-    if op == "pow":
-        k = node.exponent
-
-        def power(x):
-            v, dv = f[0](x)
-            return v**k, k * v ** (k - 1) * dv if k != 0 else 0 * dv
-        return power
-    return _binary(op, f[0], f[1])
-
-
-def _binary(op: str, f, g) -> Evaluator:
-    def evaluate(x):
-        (a, da), (b, db) = f(x), g(x)
-        if op == "add":
-            return a + b, da + db
-        if op == "sub":
-            return a - b, da - db
-        if op == "mul":
-            return a * b, da * b + a * db
-        q = a / b
-        return q, (da - q * db) / b
-    return evaluate

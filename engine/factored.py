@@ -20,7 +20,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import ExpressionError
-from .expressions import Expression, Node, _to_rational
+from .expressions import Expression, Node
+from .folding import to_rational
 from .polynomials import trim
 
 CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
@@ -95,7 +96,7 @@ def _node(node: Node, params: Mapping[str, float]) -> PoleZero:
 
 def _folded(node: Node, params: Mapping[str, float]) -> PoleZero:
     """A sum or a leaf: its own polynomial ratio, then its roots."""
-    r = _to_rational(node, params)
+    r = to_rational(node, params)
     num, den = trim(r.num), trim(r.den)
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
         raise ExpressionError("polynomial coefficients overflow")
