@@ -17,6 +17,7 @@ from engine.errors import EngineError
 
 from .build import build_problem
 from .errors import SessionError
+from .schema import AlgorithmModel
 from .store import Session
 
 
@@ -35,12 +36,19 @@ def registration(session: Session) -> Registration:
 
 def bound_algorithm(session: Session) -> tuple[Any, Any]:
     """A new instance of the session's algorithm and its settings (not yet `init`)."""
-    found = registration(session)
+    _, algorithm, settings = bind(session.model.algorithm)
+    return algorithm, settings
+
+
+def bind(model: AlgorithmModel) -> tuple[Registration, Any, Any]:
+    """An algorithm section's registration, a new instance and its settings
+    (a `SessionError` says why they cannot be made)."""
     try:
-        settings = make_settings(session.model.algorithm.name, session.model.algorithm.settings)
+        found = lookup(model.name)
+        settings = make_settings(model.name, model.settings)
     except (EngineError, TypeError) as exc:
         raise SessionError(f"algorithm: {exc}") from None
-    return found.factory(), settings
+    return found, found.factory(), settings
 
 
 def forget_records(session: Session) -> None:

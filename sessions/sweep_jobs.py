@@ -25,13 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.algorithm import StepRecord, iterate, lookup, make_settings
+from engine.algorithm import StepRecord, iterate
 from engine.errors import EngineError
 from engine.loops import open_loop
 from engine.problem import Problem
 
 from .build import build_problem
 from .errors import SessionError
+from .lifecycle import bind
 from .schema import SessionModel
 
 MAX_ITERATIONS = 1000
@@ -47,9 +48,7 @@ def run_job(payload: dict) -> dict:
     try:
         model = SessionModel.model_validate(payload["model"])
         problem = build_problem(model.problem, Path.cwd())
-        registration = lookup(model.algorithm.name)
-        algorithm = registration.factory()
-        settings = make_settings(model.algorithm.name, model.algorithm.settings)
+        registration, algorithm, settings = bind(model.algorithm)
         if payload["mode"] == "evaluate":
             record = _evaluate(registration.presenter, algorithm, problem, settings)
         else:

@@ -53,3 +53,26 @@ def test_help_lists_the_commands_and_the_app():
 def test_a_missing_session_file_for_the_app_is_one_line():
     out = run("nonexistent.json")
     assert out.returncode == 2 and out.stderr.count("\n") == 1 and "no such file" in out.stderr
+
+
+def _modules_after(code: str) -> set[str]:
+    """The top-level modules a fresh interpreter has imported after ``code``."""
+    script = f"import sys\n{code}\nprint('MODULES:', ' '.join(sorted(sys.modules)))"
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=True)
+    return set(out.stdout.split("MODULES:")[-1].split())
+
+
+def test_the_command_line_does_not_build_the_app():
+    """Importing the CLI, `--help` and `analyze` load neither Textual nor an algorithm;
+    a cip run loads the cip package alone."""
+    bundled = ("engine.cip", "engine.qcg", "engine.slp", "engine.projection")
+    imported = _modules_after("import tui.cli")
+    assert not {m for m in imported if m.split(".")[0] in ("textual", "textual_plotext", "plotext")}
+    assert not imported & set(bundled)
+    analyzed = _modules_after("from tui.cli import main\nmain(['analyze', '--tf', '1/(s+1)**2'])")
+    assert not {m for m in analyzed if m.startswith(("textual", "scipy.optimize", "distributed"))}
+    assert not analyzed & set(bundled)
+    examples = __import__("pathlib").Path(__file__).resolve().parents[1] / "sessions" / "examples"
+    ran = _modules_after(f"from tui.cli import main\nmain(['report', {str(examples / 'report003_lag_lead.json')!r}])")
+    assert "engine.cip" in ran and not ran & {"engine.qcg", "engine.slp", "engine.projection"}
+    assert not {m for m in ran if m.startswith("textual")}

@@ -257,6 +257,20 @@ def interleaved_median_times(funs: list, repeat: int) -> list[float]:
     return [statistics.median(times) for times in samples]
 
 
+def cli_startup(repeat: int) -> dict:
+    """`loopcraft --help` against `python -c "import numpy, pydantic"`, each a fresh
+    interpreter, timed interleaved (issue 18's target: at most 2x)."""
+    import subprocess
+    import sys
+
+    def run(args: list[str]):
+        return lambda i: subprocess.run([sys.executable, *args], check=True, capture_output=True)
+    ours, baseline = interleaved_median_times([run(["-m", "tui.cli", "--help"]),
+                                               run(["-c", "import numpy, pydantic"])], repeat)
+    return {"median_s": ours, "baseline_numpy_pydantic_s": baseline, "ratio": ours / baseline,
+            "target_ratio": 2.0, "met": ours / baseline <= 2.0}
+
+
 def perturbed(params: dict, i: int) -> dict:
     """New parameter values each call (1e-12 relative), so no cache can answer."""
     return {k: v * (1.0 + 1e-12 * i) for k, v in params.items()}
@@ -321,6 +335,7 @@ def main() -> None:
             **projection_runs(args.repeat),
             "slp_major_iteration": slp_major_iteration(args.repeat),
             "sweep_throughput": sweep_throughput(),
+            "cli_startup": cli_startup(min(args.repeat, 15)),
         },
         "ratios": {"python_control_margins_over_ours": t_pc / t_marg_built,
                    "python_control_margins_over_ours_with_building": t_pc / t_marg,
