@@ -250,6 +250,10 @@ class ParameterModel(Strict):
     def _bounds(self) -> ParameterModel:
         if self.min is not None and self.max is not None and self.min > self.max:
             raise ValueError("min must not exceed max")
+        for v in self.value if isinstance(self.value, list) else [self.value]:
+            if (self.min is not None and v < self.min) or (self.max is not None and v > self.max):
+                raise ValueError(f"value {v!r} is outside [min, max] = [{self.min}, {self.max}] (the design "
+                                 "would be computed at the bound, not at this value)")
         return self
 
 

@@ -10,6 +10,7 @@ their own keys."""
 from __future__ import annotations
 
 import multiprocessing.resource_tracker
+import time
 from pathlib import Path
 
 from textual.app import App, SystemCommand
@@ -18,7 +19,7 @@ from textual.binding import Binding
 from sessions.errors import SessionError
 from sessions.store import autosave_candidate, load_session, parse_session
 
-from .files import new_session_text, remember, working_copy
+from .files import new_session_text, remember, untitled_path, working_copy
 from .run_loop import RunLoop
 from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
 from .screens.edit_flow import EditFlow
@@ -59,6 +60,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         self.bench: Workbench | None = None
         self.edit_flow = EditFlow(self)
         self._sweep_cancel = False
+        self._refused_at = 0.0
         self._run_setup()
         # Dask's worker processes, started from inside the running app, need the
         # resource tracker up before Textual takes over the terminal (docs/architecture.md)
@@ -83,6 +85,20 @@ class LoopcraftApp(RunLoop, SweepActions, App):
                       "next_condition") and self.bench is None:
             return None
         return True
+
+    async def run_action(self, action, default_namespace=None, namespaces=None) -> bool:
+        """Run an action; a key refused because a run or a sweep goes says so."""
+        handled = await super().run_action(action, default_namespace, namespaces)
+        if not handled and self.busy:
+            target, name, params = self._parse_action(action, self if default_namespace is None else default_namespace,
+                                                      namespaces)
+            if target.check_action(name, params) is None and name != "pause":
+                now = time.monotonic()
+                if now - self._refused_at > 1.0:
+                    self._refused_at = now
+                    what = "a sweep" if self.sweeping else "a run"
+                    self.notify(f"{name.replace('_', ' ')}: not while {what} goes (space pauses it)", timeout=3)
+        return handled
 
     def on_mount(self) -> None:
         if self.initial_path is not None:
@@ -127,18 +143,27 @@ class LoopcraftApp(RunLoop, SweepActions, App):
 
     def action_open(self) -> None:
         self._ask_to_drop(lambda: self.push_screen(EditDialog("open session (path)", "", _existing_file),
-                                                   lambda text: text and self.open_path(Path(text).expanduser())))
+                                                   lambda text: text and self.open_path(Path(text).expanduser())),
+                          "open another session")
 
     def action_new(self) -> None:
         def new() -> None:
-            session = parse_session(new_session_text(), "new session", Path.cwd())
+            path = untitled_path()
+            try:
+                session = parse_session(new_session_text(), str(path), path.parent)
+            except SessionError as exc:   # never closes the app: the current session is kept
+                self.notify(str(exc), title="no new session", severity="error", timeout=10)
+                return
+            session.path = path
             self._show(Workbench(session), dirty=True)
-        self._ask_to_drop(new)
+            self.notify(f"a new session: ctrl+s saves it as {path}", timeout=6)
+        self._ask_to_drop(new, "start a new session")
 
-    def _ask_to_drop(self, then) -> None:
-        """Go on when nothing unsaved would be dropped, else ask first."""
+    def _ask_to_drop(self, then, what: str = "close this session") -> None:
+        """Go on when nothing unsaved would be dropped, else autosave and ask first."""
         if self.bench is not None and self.bench.dirty:
-            self.push_screen(ConfirmDialog("unsaved changes (an autosave is kept): drop them?"),
+            where = self.bench.autosave()
+            self.push_screen(ConfirmDialog(f"unsaved changes ({where}): {what} anyway?"),
                              lambda yes: yes and then())
         else:
             then()
@@ -166,11 +191,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
 
     def action_quit(self) -> None:
         self._pause.set()
-        if self.bench is not None and self.bench.dirty:
-            self.push_screen(ConfirmDialog("unsaved changes (an autosave is kept): quit anyway?"),
-                             lambda yes: yes and self.exit(0))
-        else:
-            self.exit(0)
+        self._ask_to_drop(lambda: self.exit(0), "quit")
 
     def action_help(self) -> None:
         self.push_screen(HelpScreen(key_help()))

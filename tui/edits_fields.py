@@ -32,12 +32,34 @@ TARGET_FIELDS = [("bands", "bands: low..high: desired / required (optional); ...
 # -- parameters ------------------------------------------------------------------
 
 def parameter_edit(bench: Workbench, ref: Ref, field: str = "value") -> Edit:
-    """A parameter's value (one per condition where it has several), min or max."""
+    """A parameter's value (one per condition where it has several), min or max; a value
+    outside the bounds is refused as it is typed (the bounds are changed on their own)."""
     p = resolve(bench.session.model.problem, ref)
     title = f"parameter {p.name}: {field}"
     if field == "value":
-        return field_edit(bench, ref, "value", title, lambda t: forms.parse_values(t, p.value), forms.format_values)
-    return field_edit(bench, ref, field, title, forms.parse_optional, forms.format_optional)
+        def parse(text: str):
+            return within_bounds(p.name, forms.parse_values(text, p.value), p.min, p.max)
+        return field_edit(bench, ref, "value", title, parse, forms.format_values)
+
+    def parse_bound(text: str) -> float | None:
+        bound = forms.parse_optional(text)
+        low, high = (bound, p.max) if field == "min" else (p.min, bound)
+        if low is not None and high is not None and low > high:
+            raise forms.FormError(f"min {forms.format_number(low)} would exceed max {forms.format_number(high)}")
+        within_bounds(p.name, p.value, low, high, "the value of")
+        return bound
+    return field_edit(bench, ref, field, title, parse_bound, forms.format_optional)
+
+
+def within_bounds(name: str, value, low: float | None, high: float | None, what: str = "") -> float | list[float]:
+    """``value`` (or each per-condition value) when inside [low, high], else a FormError naming the bounds."""
+    for v in value if isinstance(value, list) else [value]:
+        if (low is not None and v < low) or (high is not None and v > high):
+            span = (f"[{'-inf' if low is None else forms.format_number(low)}, "
+                    f"{'inf' if high is None else forms.format_number(high)}]")
+            raise forms.FormError(f"{what + ' ' if what else ''}{name} = {forms.format_number(v)} is outside its "
+                                  f"bounds {span}: change the bounds first")
+    return value
 
 
 def toggle_free(bench: Workbench, ref: Ref) -> None:
@@ -56,11 +78,12 @@ def add_parameter(bench: Workbench, text: str) -> None:
     """'NAME VALUE [MIN MAX]': a new shared parameter."""
     from sessions.schema import ParameterModel
     name, value, low, high = forms.parse_parameter(text)
+    within_bounds(name, value, low, high)
     parameter = ParameterModel(name=name, value=value, min=low, max=high)
     change_list(bench, ("parameters",), lambda items: items.append(parameter))
 
 
-ADD_PARAMETER_CHECK = checker(forms.parse_parameter)
+ADD_PARAMETER_CHECK = checker(lambda text: within_bounds(*forms.parse_parameter(text)))
 
 
 # -- targets ------------------------------------------------------------------------

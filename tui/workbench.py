@@ -17,7 +17,7 @@ from engine.algorithm import State, Status, StepRecord
 from engine.errors import EngineError
 from sessions import lifecycle
 from sessions.errors import SessionError
-from sessions.store import AUTOSAVE_INTERVAL, Session, save_session, write_autosave
+from sessions.store import AUTOSAVE_INTERVAL, Session, autosave_path, save_session, write_autosave
 from sessions.sweep_jobs import execute
 from sessions.sweep_results import adopt_run, record_sweep, summarize
 from sessions.sweeps import parse_sweep, plan
@@ -127,10 +127,18 @@ class Workbench:
         self.commit(state, record)
         return record
 
-    def autosave(self) -> None:
-        """Write the autosave now (at the end of a run)."""
-        if self.dirty:
-            write_autosave(self.session)
+    def autosave(self, throttled: bool = False) -> str:
+        """Write the autosave of unsaved changes (``throttled``: at most every
+        AUTOSAVE_INTERVAL, as runs do); says where, or why it could not."""
+        if not self.dirty:
+            return "nothing unsaved"
+        try:
+            target = write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL if throttled else 0.0)
+        except (OSError, SessionError) as exc:
+            return f"the autosave failed: {exc}"
+        if target is None and self.session.path is None:
+            return "no autosave (the session has no file yet)"
+        return f"autosaved to {autosave_path(self.session.path).name}"
 
     def undo(self) -> bool:
         """Drop the last iteration (False when there is none)."""

@@ -24,7 +24,7 @@ from tui.app import LoopcraftApp
 
 TRIALS = 24
 STEP_SECONDS = 0.004   # each iteration made this much slower, so a run outlasts the keys
-MUTATING_KEYS = ("z", "s", "r", "a", "w", "u", "n", "b", "e", "f", "g", "plus", "minus", "x", "c")
+MUTATING_KEYS = ("z", "s", "r", "a", "w", "u", "n", "b", "e", "f", "g", "plus", "minus", "x", "c", "i", "ctrl+o")
 CHARACTERS = {"plus": "+", "minus": "-", "space": " "}
 
 

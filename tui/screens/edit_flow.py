@@ -59,6 +59,7 @@ class EditFlow:
             except (SessionError, ValueError) as exc:
                 self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
             else:
+                self.bench.autosave(throttled=True)     # an accepted edit is never only in memory
                 if done is not None:
                     done(result)
             self.app.refresh_workbench()

@@ -1,0 +1,128 @@
+"""The workbench's data-loss paths: a new session, opening another file,
+quitting, switching the algorithm and out-of-range values never lose work
+or close the app; keys that would change the session during a run say why
+they do nothing."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+from engine.cip import Cip
+from tests.tui.test_app import edit_row, settle, status, synchronous
+from tests.tui.test_run_race import send_keys
+from tui.app import LoopcraftApp
+from tui.screens.dialogs import ConfirmDialog
+from tui.screens.main import MainScreen
+
+
+def messages(app) -> list[str]:
+    return [str(n.message) for n in app._notifications]
+
+
+@synchronous
+async def test_a_new_session_opens_from_the_start_screen_and_from_a_session(workdir):
+    app = LoopcraftApp()
+    async with app.run_test(size=(100, 32)) as pilot:
+        await pilot.pause()
+        await pilot.press("n")
+        await settle(app, pilot)
+        assert isinstance(app.screen, MainScreen) and app.is_running
+        path = app.bench.session.path
+        assert path.parent == workdir / "home" / "new" and "untitled" in status(app)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1                  # the template steps
+        app.action_new()                                 # the palette's "New session" inside a session
+        await pilot.pause()
+        assert isinstance(app.screen, ConfirmDialog)     # unsaved work: asked first, autosaved meanwhile
+        assert (path.parent / (path.name + ".autosave")).exists()
+        await pilot.press("y")
+        await settle(app, pilot)
+        assert app.bench.session.path != path and app.bench.iteration == 0
+
+
+@synchronous
+async def test_opening_another_file_and_quitting_ask_and_autosave_first(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await edit_row(app, pilot, "2", "blocks", 0)
+        app.screen.query_one("#value").value = "(s+z1)*(s+z2)/((s+p1)*(s+p2))*1.5"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert app.bench.dirty
+        autosave = workdir / "report003_lag_lead.json.autosave"
+        assert autosave.exists() and "*1.5" in autosave.read_text()    # the accepted edit is on disk
+        await pilot.press("ctrl+o")
+        await pilot.pause()
+        assert isinstance(app.screen, ConfirmDialog)
+        await pilot.press("n")
+        await pilot.pause()
+        await pilot.press("q")
+        await pilot.pause()
+        assert isinstance(app.screen, ConfirmDialog)
+        assert "autosaved to report003_lag_lead.json.autosave" in str(app.screen.query("Label").first().render())
+        await pilot.press("n")
+        await pilot.pause()
+        assert app.is_running
+
+
+@synchronous
+async def test_switching_the_algorithm_asks_before_dropping_iterations(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1
+        await pilot.press("a")
+        await pilot.pause()
+        await pilot.press("down", "enter")               # another algorithm than cip
+        await pilot.pause()
+        assert isinstance(app.screen, ConfirmDialog)
+        await pilot.press("n")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1 and app.bench.algorithm_name == "cip"
+
+
+@synchronous
+async def test_a_value_outside_its_bounds_is_refused_as_it_is_typed(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await edit_row(app, pilot, "2", "parameters", 0)     # z1, min 0.01
+        await pilot.press("enter")                           # "value"
+        await pilot.pause()
+        field = app.screen.query_one("#value")
+        field.value = "-5"
+        await pilot.pause()
+        assert "outside its bounds [0.01," in str(app.screen.query_one("#error").render())
+        await pilot.press("enter")
+        await pilot.pause()
+        assert app.screen.query_one("#value") is field       # refused: the dialog stays
+        await pilot.press("escape")
+        await settle(app, pilot)
+        assert app.bench.session.model.problem.parameters[0].value == 1.0
+
+
+@synchronous
+async def test_keys_that_change_the_session_say_why_they_wait_during_a_run(workdir, monkeypatch):
+    step = Cip.step
+
+    def slow_step(self, state):
+        time.sleep(0.01)
+        return step(self, state)
+    monkeypatch.setattr(Cip, "step", slow_step)
+    app = LoopcraftApp(workdir / "cip_dual_channel.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await send_keys(app, "r")
+        await asyncio.sleep(0.1)
+        assert app.busy
+        await send_keys(app, "a")
+        await asyncio.sleep(0.05)
+        await send_keys(app, "space")
+        await settle(app, pilot)
+        assert any("choose algorithm: not while a run goes" in m for m in messages(app))
+        assert isinstance(app.screen, MainScreen)            # no dialog was opened
