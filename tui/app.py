@@ -231,8 +231,13 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         """Redraw the workbench screen from the session (after any change); ``plots``
         False keeps the plots (a run's worker drew them)."""
         screen = self._main()
-        if screen is not None:
+        if screen is None:
+            return
+        try:
             screen.refresh_all(plots)
+        except Exception as exc:  # noqa: BLE001 - a view that cannot be drawn must not close the app
+            self.notify(f"{type(exc).__name__}: {exc}", title="the view could not be drawn (the session is kept)",
+                        severity="error", timeout=10)
 
     def get_system_commands(self, screen):
         yield from super().get_system_commands(screen)

@@ -307,5 +307,5 @@ def _label(c: Constraint, number: int) -> str:
 
 def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, ...]:
     return tuple(MeasureRow(str(n), c.measure, problem.conditions[c.condition].name, c.shown, c.shown_desired,
-                            not c.active, c.frequency, c.measure != "attenuation_margin", c.method)
+                            not c.active, c.frequency, c.at_least, c.method)
                  for n, c in enumerate(constraints, start=1))

@@ -115,7 +115,7 @@ class MainScreen(Screen):
                         yield FigurePlot(id=PLOT_TABS[tab][0])
 
     def on_mount(self) -> None:
-        self.refresh_all()
+        self.app.refresh_workbench()
 
     def action_next_plot(self) -> None:
         plots = self.query_one("#plots", TabbedContent)
