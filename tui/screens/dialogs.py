@@ -107,7 +107,8 @@ class HelpScreen(ModalScreen[None]):
     BINDINGS = [Binding("escape,question_mark,q", "close", "close")]
     DEFAULT_CSS = """
     HelpScreen { align: center middle; }
-    HelpScreen > VerticalScroll { width: 84; height: auto; max-height: 90%; border: round $accent; padding: 0 1;
+    HelpScreen > VerticalScroll { width: 84; max-width: 100%; height: auto; max-height: 90%; border: round $accent;
+                                  padding: 0 1;
                                   background: $panel; }
     """
 
