@@ -1,12 +1,13 @@
 # make run   : set up .venv if needed, install loopcraft, open the app on an example
 # make test  : set up .venv with the test extras and run the whole test suite
 # make bench : run the benchmarks, write bench-results.json
+# make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: run test bench clean
+.PHONY: run test bench fuzz clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +23,9 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q $(PYTEST_ARGS)
+
+fuzz: $(STAMP)
+	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} $(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
 
 bench: $(STAMP)
 	$(BIN)/python -m tests.bench.run --out bench-results.json

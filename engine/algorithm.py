@@ -12,8 +12,9 @@ algorithm's memory is its own frozen class (`Memory`, the algorithm's
 
 from __future__ import annotations
 
-import importlib
 import dataclasses
+import functools
+import importlib
 import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -55,11 +56,47 @@ class MeasureRow:
     at_least: bool = True   # larger values are better (False: peaks, times, errors, attenuation)
     method: str | None = None  # margins: "refined", "fitted (residual ...)" or "grid"
 
+    @staticmethod
+    def from_json(data: Any, where: str = "measure") -> MeasureRow:
+        """A row from JSON (non-finite numbers as 'inf', '-inf', 'nan'); malformed data
+        raises `EngineError` naming the field."""
+        fields = Fields(data, where)
+        _known_only(fields, {f.name for f in dataclasses.fields(MeasureRow)}, "a measure")
+        return MeasureRow(
+            fields.text("name"), fields.text("kind"), fields.text("condition"),
+            fields.number("value", finite=False), fields.optional_number("target", finite=False),
+            fields.boolean("satisfied"), _or_default(fields, "frequency", None, fields.optional_number, finite=False),
+            _or_default(fields, "at_least", True, fields.boolean),
+            _or_default(fields, "method", None, lambda name: None if fields.get(name) is None else fields.text(name)))
 
-def _number(value: Any) -> Any:
-    if isinstance(value, str) and value in ("inf", "-inf", "nan"):
-        return float(value)
-    return value
+
+def _known_only(fields: Fields, known: set[str], what: str) -> None:
+    for name in fields.data:
+        if name not in known:
+            raise EngineError(f"{fields.where}.{name}: not a field of {what}")
+
+
+def _or_default(fields: Fields, name: str, default: Any, read: Callable[..., Any], **options: Any) -> Any:
+    """``read(name, **options)`` when the field is present, else ``default``."""
+    return read(name, **options) if name in fields.data else default
+
+
+def _status(fields: Fields) -> Status:
+    status = fields.text("status")
+    if status not in {s.value for s in Status}:
+        raise EngineError(f"{fields.where}.status: expected one of {', '.join(s.value for s in Status)}, "
+                          f"got {status!r}")
+    return Status(status)
+
+
+def _parameters(fields: Fields) -> dict[str, float | list[float]]:
+    """name -> a finite number, or a list of them (one per condition)."""
+    return {name: list(fields.numbers(name)) if isinstance(value, list) else fields.number(name)
+            for name, value in fields.data.items()}
+
+
+def _counters(fields: Fields) -> dict[str, int]:
+    return {name: fields.integer(name, minimum=None) for name in fields.data}
 
 
 @dataclass(frozen=True)
@@ -83,17 +120,22 @@ class StepRecord:
         return _jsonable(data)
 
     @staticmethod
-    def from_json(data: Mapping[str, Any]) -> StepRecord:
-        measures = tuple(MeasureRow(**{k: _number(v) for k, v in m.items()}) for m in data["measures"])
+    def from_json(data: Any, where: str = "record") -> StepRecord:
+        """A record from JSON; malformed data raises `EngineError` naming the field
+        (``where`` names the record).  Keys other than a record's fields are the caller's;
+        ``extra`` stays free-form (presenters read it with ``.get``)."""
+        fields = Fields(data, where)
+        opt = functools.partial(_or_default, fields)
         return StepRecord(
-            iteration=int(data["iteration"]), status=Status(data["status"]),
-            parameters={k: (list(map(_number, v)) if isinstance(v, list) else _number(v))
-                        for k, v in data["parameters"].items()},
-            measures=measures, objective=_number(data.get("objective")),
-            step_size=_number(data.get("step_size")),
-            direction=tuple(_number(v) for v in data.get("direction", ())),
-            counters=dict(data.get("counters", {})), reason=data.get("reason", ""),
-            extra=dict(data.get("extra", {})))
+            iteration=fields.integer("iteration"), status=_status(fields),
+            parameters=_parameters(fields.object("parameters")),
+            measures=tuple(MeasureRow.from_json(m.data, m.where) for m in fields.objects("measures")),
+            objective=opt("objective", None, fields.optional_number, finite=False),
+            step_size=opt("step_size", None, fields.optional_number, finite=False),
+            direction=opt("direction", (), fields.numbers, finite=False),
+            counters=_counters(fields.object("counters")) if "counters" in fields.data else {},
+            reason=opt("reason", "", fields.text),
+            extra=dict(fields.object("extra").data) if "extra" in fields.data else {})
 
 
 class Memory(Protocol):
@@ -125,11 +167,8 @@ class State:
     def from_json(data: Any, memory_type: type[Memory]) -> State:
         """A state from JSON; malformed data (memory included) raises `EngineError`."""
         fields = Fields(data, "state")
-        status = fields.text("status")
-        if status not in {s.value for s in Status}:
-            raise EngineError(f"state.status: expected one of {', '.join(s.value for s in Status)}, "
-                              f"got {status!r}")
-        return State(fields.integer("iteration"), fields.numbers("x"), Status(status),
+        status = _status(fields)
+        return State(fields.integer("iteration"), fields.numbers("x"), status,
                      memory_type.from_json(fields.get("memory")))
 
 
@@ -206,7 +245,16 @@ def make_settings(name: str, values: Mapping[str, Any]) -> Any:
     if unknown:
         raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; "
                           f"settings are {', '.join(sorted(names))}")
-    return cls(**values)
+    from .guard import setting_value, settings_types   # the settings' declared types, checked here once
+    kinds = settings_types(cls)
+    values = {key: setting_value(name, key, kinds[key], value) if key in kinds else value
+              for key, value in values.items()}
+    try:
+        return cls(**values)
+    except (TypeError, ValueError, OverflowError) as exc:
+        if isinstance(exc, EngineError):
+            raise
+        raise EngineError(f"{name}: settings: {exc}") from None
 
 
 TIME_LIMIT = "time limit"

@@ -17,12 +17,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import BlockError, ExtrapolationError
-from .expressions import Dual, Expression
+from .expressions import VARIABLES, Dual, Expression
 from .polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
 Compiled = Callable[[NDArray], tuple[NDArray, NDArray | None]]
 TWO_PI = 2.0 * np.pi
+MAX_TABLE_ROWS = 10_000   # rows of one frequency table (inline or CSV)
 
 
 def _term(c: Coefficient) -> str:
@@ -79,8 +80,8 @@ class PolynomialTransfer(ExpressionTransfer):
     powers), so a compensator can be shown factored and multiplied out."""
 
     def __init__(self, numerator: Sequence[Coefficient], denominator: Sequence[Coefficient], variable: str = "s"):
-        self.numerator = tuple(numerator)
-        self.denominator = tuple(denominator)
+        self.numerator = tuple(_coefficient(c, variable) for c in numerator)
+        self.denominator = tuple(_coefficient(c, variable) for c in denominator)
 
         def poly(coefficients: tuple[Coefficient, ...], what: str) -> str:
             if len(coefficients) == 0:
@@ -116,6 +117,18 @@ class PolynomialTransfer(ExpressionTransfer):
         """Numerator and denominator coefficients (ascending) for parameter values."""
         return ([params[c] if type(c) is str else c for c in self.numerator],
                 [params[c] if type(c) is str else c for c in self.denominator])
+
+
+def _coefficient(c: Coefficient, variable: str) -> Coefficient:
+    """A polynomial coefficient: a finite number or a parameter's name (never an expression)."""
+    if isinstance(c, str):
+        if not c.isidentifier() or c in VARIABLES:
+            raise BlockError(f"coefficient {c[:40]!r} is neither a number nor a parameter name "
+                             "(write an expression block for a coefficient that is an expression)")
+        return c
+    if isinstance(c, bool) or not isinstance(c, (int, float)) or not np.isfinite(c):
+        raise BlockError(f"coefficient {c!r} is not a finite number")
+    return float(c)
 
 
 def _horner(ascending: Sequence[float], x: NDArray) -> NDArray:
@@ -261,17 +274,20 @@ class FrequencyTable:
                    unit: Literal["hz", "rad/s"] = "rad/s", gain: float = 1.0,
                    source: str = "table") -> FrequencyTable:
         """Magnitude (normalized, multiplied by ``gain``) and phase in degrees."""
-        mag = np.asarray(magnitude, dtype=float)
-        phase = np.deg2rad(np.asarray(phase_deg, dtype=float))
-        return FrequencyTable._make(frequencies, gain * mag * np.exp(1j * phase), unit, source)
+        f, mag, phase = _columns(source, frequencies, magnitude, phase_deg)
+        with np.errstate(over="ignore", invalid="ignore"):   # an overflow is reported as a non-finite row
+            response = gain * mag * np.exp(1j * np.deg2rad(phase))
+        return FrequencyTable._make(f, response, unit, source)
 
     @staticmethod
     def from_cartesian(frequencies: ArrayLike, real: ArrayLike, imag: ArrayLike, *,
                        unit: Literal["hz", "rad/s"] = "rad/s", gain: float = 1.0,
                        source: str = "table") -> FrequencyTable:
         """Real and imaginary parts, multiplied by ``gain``."""
-        response = gain * (np.asarray(real, dtype=float) + 1j * np.asarray(imag, dtype=float))
-        return FrequencyTable._make(frequencies, response, unit, source)
+        f, re, im = _columns(source, frequencies, real, imag)
+        with np.errstate(over="ignore", invalid="ignore"):
+            response = gain * (re + 1j * im)
+        return FrequencyTable._make(f, response, unit, source)
 
     @staticmethod
     def _make(frequencies: ArrayLike, response: NDArray, unit: str, source: str) -> FrequencyTable:
@@ -280,7 +296,9 @@ class FrequencyTable:
             raise BlockError(f"{source}: frequency unit must be 'hz' or 'rad/s', not {unit!r}")
         if f.ndim != 1 or f.shape != np.shape(response) or f.size < 2:
             raise BlockError(f"{source}: needs at least two rows of equal length")
-        bad = np.flatnonzero(~np.isfinite(f) | ~np.isfinite(response))
+        with np.errstate(over="ignore"):
+            omega = f * TWO_PI if unit == "hz" else f
+        bad = np.flatnonzero(~np.isfinite(omega) | ~np.isfinite(response))
         if bad.size:
             raise BlockError(f"{source}: non-finite value in row {bad[0] + 1}")
         if np.any(f <= 0):
@@ -291,7 +309,6 @@ class FrequencyTable:
         if np.any(response == 0):
             raise BlockError(f"{source}: zero magnitude in row {np.flatnonzero(response == 0)[0] + 1} "
                              "(log-magnitude interpolation needs |G| > 0)")
-        omega = f * TWO_PI if unit == "hz" else f
         return FrequencyTable(omega, np.asarray(response, dtype=complex), source)
 
     def interpolate(self, omega: ArrayLike) -> NDArray[np.complex128]:
@@ -312,6 +329,24 @@ class FrequencyTable:
     def _log_data(self) -> tuple[NDArray, NDArray, NDArray]:
         """log frequency, log magnitude and unwrapped phase of the data, computed once."""
         return np.log(self.omega), np.log(np.abs(self.response)), np.unwrap(np.angle(self.response))
+
+
+def _columns(source: str, *columns: ArrayLike) -> list[NDArray[np.float64]]:
+    """A table's columns as float arrays of one length (2 to `MAX_TABLE_ROWS` rows, finite)."""
+    try:
+        arrays = [np.asarray(c, dtype=float) for c in columns]
+    except (TypeError, ValueError, OverflowError):
+        raise BlockError(f"{source}: every column must be a list of numbers") from None
+    lengths = sorted({a.size for a in arrays})
+    if any(a.ndim != 1 for a in arrays) or len(lengths) > 1:
+        raise BlockError(f"{source}: the columns must have one length, not {', '.join(map(str, lengths))}")
+    if not 2 <= lengths[0] <= MAX_TABLE_ROWS:
+        raise BlockError(f"{source}: a table has 2 to {MAX_TABLE_ROWS} rows, not {lengths[0]}")
+    for a in arrays:
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise BlockError(f"{source}: non-finite value in row {bad[0] + 1}")
+    return arrays
 
 
 class TabulatedTransfer:

@@ -28,6 +28,8 @@ from .polynomials import Rational
 VARIABLES = ("s", "w", "z")
 MAX_POWER = 64
 MAX_LENGTH = 10_000
+MAX_DEPTH = 100    # levels of nesting after long chains are balanced: every walk of a tree recurses
+CHAIN = 64         # a longer run of + - (or * /) is balanced, a shorter one kept as Python reads it
 
 
 @dataclass(frozen=True)
@@ -156,8 +158,58 @@ class Expression:
             raise ParameterError(f"no value for parameter(s) {', '.join(missing)} in {self.text!r}")
 
 
+class _Chain:
+    """A run of one precedence level met while converting (a + b - c ..., a * b / c ...):
+    long runs become balanced trees, so a long sum is not a deep one."""
+
+    __slots__ = ("kind", "terms")
+
+    def __init__(self, kind: str, terms: list[tuple[str, Node]]):
+        self.kind, self.terms = kind, terms
+
+
+OPS = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div"}
+INVERSE = {"add": "sub", "sub": "add", "mul": "div", "div": "mul"}
+
+
+def _finish(item: Node | _Chain) -> Node:
+    """A node; a chain as the left-deep tree Python reads, or balanced when it is long."""
+    if isinstance(item, Node):
+        return item
+    terms = item.terms
+    if len(terms) > CHAIN:
+        return _balanced(terms)
+    acc = terms[0][1]
+    for op, term in terms[1:]:
+        acc = Node(op, (acc, term))
+    return acc
+
+
+def _balanced(terms: list[tuple[str, Node]]) -> Node:
+    """t0 op1 t1 op2 t2 ... as a tree of depth log2(n): L + (-a + b) is L - (a - b)."""
+    if len(terms) == 1:
+        return terms[0][1]
+    half = len(terms) // 2
+    left, right = _balanced(terms[:half]), terms[half:]
+    op = right[0][0]
+    if op in ("sub", "div"):
+        right = [(INVERSE[o], t) for o, t in right]
+    return Node(op, (left, _balanced(right)))
+
+
+def _depth(root: Node) -> int:
+    """The depth of a tree, without recursion."""
+    deepest, stack = 0, [(root, 1)]
+    while stack:
+        node, depth = stack.pop()
+        deepest = max(deepest, depth)
+        stack.extend((arg, depth + 1) for arg in node.args)
+    return deepest
+
+
 class _Parser:
-    """Translate Python's ast into `Node`s, refusing everything else."""
+    """Translate Python's ast into `Node`s, refusing everything else (without
+    recursion: a long chain of operators makes a deep ast)."""
 
     def __init__(self, text: str, variable: str):
         self.text = text
@@ -180,9 +232,14 @@ class _Parser:
             if "forgot a comma" in reason:
                 reason = "a missing operator (write '*' for products)"
             raise ExpressionError(f"{reason} near {token!r}", self.text, col) from None
-        except (ValueError, RecursionError, MemoryError):
-            raise ExpressionError("expression cannot be read", self.text) from None
-        return self._node(tree.body)
+        except (RecursionError, MemoryError):
+            raise ExpressionError("expression nested too deeply to read", self.text) from None
+        except ValueError:
+            raise ExpressionError("expression cannot be read (a null character?)", self.text) from None
+        root = self._convert(tree.body)
+        if _depth(root) > MAX_DEPTH:
+            raise ExpressionError(f"expression nested more than {MAX_DEPTH} levels deep", self.text)
+        return root
 
     def _original_column(self, source: str, col: int) -> int:
         """Map a column of the '^'-rewritten source back to the user's text."""
@@ -194,28 +251,32 @@ class _Parser:
         col = None if col is None else self._original_column(self.text.replace("^", "**"), col)
         return ExpressionError(message, self.text, col)
 
-    def _node(self, node: ast.AST) -> Node:
-        if isinstance(node, ast.Constant):
-            if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-                raise self._fail(f"unsupported constant {node.value!r}", node)
-            try:
-                value = float(node.value)
-            except OverflowError:
-                value = float("inf")
-            if not np.isfinite(value):
-                raise self._fail("non-finite number", node)
-            return Node("num", value=value)
-        if isinstance(node, ast.Name):
-            if node.id == self.variable:
-                return Node("var")
-            if node.id in VARIABLES:
-                raise self._fail(f"variable {node.id!r} in an expression in {self.variable!r}", node)
-            return Node("param", name=node.id)
+    def _convert(self, root: ast.AST) -> Node:
+        """The ast in post-order with an explicit stack."""
+        built: dict[int, Node | _Chain] = {}
+        stack = [(root, False)]
+        while stack:
+            node, ready = stack.pop()
+            children = self._children(node)
+            if not ready:
+                stack.append((node, True))
+                stack.extend((child, False) for child in children)
+                continue
+            built[id(node)] = self._build(node, [built.pop(id(child)) for child in children])
+        return _finish(built[id(root)])
+
+    def _children(self, node: ast.AST) -> list[ast.AST]:
+        """The operands to convert first; anything outside the grammar is refused here."""
+        if isinstance(node, (ast.Constant, ast.Name)):
+            return []
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
-            operand = self._node(node.operand)
-            return Node("neg", (operand,)) if isinstance(node.op, ast.USub) else operand
+            return [node.operand]
         if isinstance(node, ast.BinOp):
-            return self._binop(node)
+            if isinstance(node.op, (ast.Pow, ast.BitXor)):
+                return [node.left]
+            if type(node.op) in OPS:
+                return [node.left, node.right]
+            raise self._fail(f"unsupported operator {type(node.op).__name__!r}", node)
         if isinstance(node, ast.Call):
             source = self.text.replace("^", "**")
             col = source.find("(", getattr(node.func, "end_col_offset", node.col_offset))
@@ -224,25 +285,55 @@ class _Parser:
         token = type(node).__name__
         raise self._fail(f"unsupported element {token!r} (only numbers, names, + - * / ** and parentheses)", node)
 
-    def _binop(self, node: ast.BinOp) -> Node:
-        ops = {ast.Add: "add", ast.Sub: "sub", ast.Mult: "mul", ast.Div: "div"}
-        if isinstance(node.op, (ast.Pow, ast.BitXor)):
-            return Node("pow", (self._node(node.left),), exponent=self._integer_exponent(node.right))
-        if type(node.op) not in ops:
-            raise self._fail(f"unsupported operator {type(node.op).__name__!r}", node)
-        return Node(ops[type(node.op)], (self._node(node.left), self._node(node.right)))
+    def _build(self, node: ast.AST, args: list[Node | _Chain]) -> Node | _Chain:
+        """One node from its converted operands."""
+        if isinstance(node, ast.Constant):
+            return self._number(node)
+        if isinstance(node, ast.Name):
+            if node.id == self.variable:
+                return Node("var")
+            if node.id in VARIABLES:
+                raise self._fail(f"variable {node.id!r} in an expression in {self.variable!r}", node)
+            return Node("param", name=node.id)
+        if isinstance(node, ast.UnaryOp):
+            operand = _finish(args[0])
+            if isinstance(node.op, ast.UAdd):
+                return operand
+            return operand.args[0] if operand.op == "neg" else Node("neg", (operand,))  # --x is x
+        if len(args) == 1:
+            return Node("pow", (_finish(args[0]),), exponent=self._integer_exponent(node.right))
+        op = OPS[type(node.op)]
+        kind = "sum" if op in ("add", "sub") else "product"
+        left, right = args[0], _finish(args[1])
+        if isinstance(left, _Chain) and left.kind == kind:
+            left.terms.append((op, right))
+            return left
+        return _Chain(kind, [("add" if kind == "sum" else "mul", _finish(left)), (op, right)])
+
+    def _number(self, node: ast.Constant) -> Node:
+        if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+            raise self._fail(f"unsupported constant {node.value!r}", node)
+        try:
+            value = float(node.value)
+        except OverflowError:
+            value = float("inf")
+        if not np.isfinite(value):
+            raise self._fail("non-finite number", node)
+        return Node("num", value=value)
 
     def _integer_exponent(self, node: ast.AST) -> int:
         sign = 1
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
             sign = -1 if isinstance(node.op, ast.USub) else 1
             node = node.operand
-        if not (isinstance(node, ast.Constant) and isinstance(node.value, (int, float))
-                and not isinstance(node.value, bool) and float(node.value).is_integer()):
+        value = getattr(node, "value", None) if isinstance(node, ast.Constant) else None
+        integral = isinstance(value, int) or (isinstance(value, float) and value.is_integer())
+        if isinstance(value, bool) or not integral:
             raise self._fail("exponent must be an integer constant", node)
-        exponent = sign * int(node.value)
+        exponent = sign * int(value)
         if abs(exponent) > MAX_POWER:
-            raise self._fail(f"exponent {exponent} exceeds {MAX_POWER}", node)
+            shown = exponent if abs(exponent) < 10**12 else f"{'-' if exponent < 0 else ''}{str(abs(exponent))[:6]}..."
+            raise self._fail(f"exponent {shown} exceeds {MAX_POWER}", node)
         return exponent
 
 

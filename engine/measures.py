@@ -3,9 +3,9 @@ values and whether they are met (report 000's table, generalized)."""
 
 from __future__ import annotations
 
-
 from .algorithm import MeasureRow
 from .errors import EngineError
+from .guard import numerical
 from .loops import loop_model
 from .margins import Band, Margin, margins
 from .measure_kinds import kind
@@ -19,7 +19,13 @@ TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency")
 
 
 def tableau(problem: Problem) -> list[MeasureRow]:
-    """Rows for every target in every condition it applies to, sorted as declared."""
+    """Rows for every target in every condition it applies to, sorted as declared (numerical
+    trouble on extreme values is an `EngineError`, never a warning)."""
+    with numerical("tableau"):
+        return _tableau(problem)
+
+
+def _tableau(problem: Problem) -> list[MeasureRow]:
     unknown = [t.measure for t in problem.targets if t.measure not in TABLEAU_MEASURES]
     if unknown:
         raise EngineError(f"the tableau evaluates {', '.join(TABLEAU_MEASURES)}, not {unknown[0]!r} "

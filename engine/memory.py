@@ -43,9 +43,14 @@ def to_float(value: Any, where: str, finite: bool = True) -> float:
         value = float(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise EngineError(f"{where}: expected a {'finite ' if finite else ''}number, got {_shown(value)}")
-    if finite and not math.isfinite(value):
-        raise EngineError(f"{where}: expected a finite number, got {value!r}")
-    return float(value)
+    try:
+        number = float(value)
+    except OverflowError:   # a JSON integer beyond a float's range
+        raise EngineError(f"{where}: expected a number within a float's range, got an integer of "
+                          f"{len(str(abs(value)))} digits") from None
+    if finite and not math.isfinite(number):
+        raise EngineError(f"{where}: expected a finite number, got {number!r}")
+    return number
 
 
 class Fields:

@@ -14,8 +14,8 @@ writes, and the engine stays free of any UI.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 from .algorithm import MeasureRow, State, Status, StepRecord
 from .errors import EngineError
@@ -23,7 +23,19 @@ from .measures import tableau
 from .problem import Problem
 
 LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step"})
+# what reading a record's free-form `extra` raises when a session file was edited by hand
+MALFORMED_EXTRA = (KeyError, TypeError, ValueError, IndexError, AttributeError)
 HEADLINE_COUNTERS = ("trials", "KNT", "KOUNT", "evaluations")
+T = TypeVar("T")
+
+
+def tolerant(call: Callable[[], T], fallback: Callable[[], T]) -> T:
+    """``call()``, or ``fallback()`` when a record's `extra` is not what its presenter
+    wrote (a session edited by hand): the generic presentation, never a traceback."""
+    try:
+        return call()
+    except MALFORMED_EXTRA:
+        return fallback()
 
 
 def number(value: Any, digits: int = 6) -> str:

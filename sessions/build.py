@@ -2,12 +2,22 @@
 
 Engine errors (an expression that does not parse, an unknown signal) are
 re-raised as `SessionError` prefixed with the JSON path of what caused them.
-CSV tables are read here, relative to the session's folder.
+CSV tables are read here, relative to the session's folder: a table outside
+it (an absolute path, ``..``, a symlink leading out) is refused unless allowed
+(``allow_outside_tables``); only regular files, at most MAX_TABLE_BYTES and
+MAX_TABLE_ROWS, read with a bounded read; messages quote no more of a file
+than the offending cell.
 """
 
 from __future__ import annotations
 
 import csv
+import io
+import os
+import stat
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import replace
 from pathlib import Path
 
@@ -21,12 +31,48 @@ from engine.problem import (BandValue, Condition, Grid, LinearEquality, Objectiv
                             TimeResponse)
 
 from .errors import SessionError
+from .limits import MAX_TABLE_ROWS
 from .schema import (CascadeModel, ChannelsModel, ConditionModel, EqualityModel, GridModel, ParameterModel, ProblemModel,
                      TableModel, TargetModel)
 
 
-def build_problem(model: ProblemModel, folder: Path) -> Problem:
-    """The engine problem of a session; errors name their JSON path."""
+MAX_TABLE_BYTES = 20 * 2**20   # a CSV table's size (its rows: MAX_TABLE_ROWS, sessions.limits)
+SHOWN_CELL = 40            # characters of an offending cell quoted in a message
+
+class OutsideTable(SessionError):
+    """A table outside the session's folder was refused; ``name`` is what its ``csv`` says
+    (the app asks the user, then loads again with the tables allowed)."""
+
+    def __init__(self, message: str, name: str):
+        super().__init__(message)
+        self.name = name
+
+
+_OUTSIDE_ALLOWED: ContextVar[bool] = ContextVar("loopcraft_outside_tables_allowed", default=False)
+
+
+@contextmanager
+def outside_tables_allowed(allowed: bool = True) -> Iterator[None]:
+    """Within it, tables outside a session's folder are read (``allowed``) or refused
+    (the command line's --allow-outside-tables; `build_problem`'s keyword sets it too)."""
+    token = _OUTSIDE_ALLOWED.set(allowed)
+    try:
+        yield
+    finally:
+        _OUTSIDE_ALLOWED.reset(token)
+
+
+def build_problem(model: ProblemModel, folder: Path, *, allow_outside_tables: bool | None = None) -> Problem:
+    """The engine problem of a session; errors name their JSON path.  Tables outside
+    ``folder`` are refused unless ``allow_outside_tables`` (None: as the enclosing
+    `outside_tables_allowed` says; refused by default)."""
+    if allow_outside_tables is None:
+        return _build_problem(model, folder)
+    with outside_tables_allowed(allow_outside_tables):
+        return _build_problem(model, folder)
+
+
+def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     conditions = tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
     parameters = tuple(_parameter(p, f"problem.parameters[{i}]", len(conditions))
                        for i, p in enumerate(model.parameters))
@@ -55,13 +101,17 @@ def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tu
 
 
 def _grid(g: GridModel) -> Grid:
-    if g.values is not None:
-        values = np.array(g.values, dtype=float)
-    elif g.spacing == "log":
-        values = np.geomspace(g.start, g.stop, g.points)
-    else:
-        values = np.linspace(g.start, g.stop, g.points)
-    return Grid(values * (2 * np.pi) if g.unit == "hz" else values, g.unit)
+    with np.errstate(all="ignore"):   # frequencies out of range are refused below, not warned about
+        if g.values is not None:
+            values = np.array(g.values, dtype=float)
+        elif g.spacing == "log":
+            values = np.geomspace(g.start, g.stop, g.points)
+        else:
+            values = np.linspace(g.start, g.stop, g.points)
+        values = values * (2 * np.pi) if g.unit == "hz" else values
+    if not np.all(np.isfinite(values)):
+        raise SessionError("problem.grid: the frequencies overflow (a stop below 1e300 rad/s, please)")
+    return Grid(values, g.unit)
 
 
 def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
@@ -152,7 +202,11 @@ def _times(transfer, gain: float, variable: str):
         return transfer
     if isinstance(transfer, TabulatedTransfer):
         t = transfer.table
-        return TabulatedTransfer(FrequencyTable(t.omega, gain * t.response, t.source))
+        with np.errstate(all="ignore"):
+            response = gain * t.response
+        if not np.all(np.isfinite(response)) or not np.all(response != 0):
+            raise SessionError(f"{t.source}: times the transducer gain {gain:g}, the table is not finite and nonzero")
+        return TabulatedTransfer(FrequencyTable(t.omega, response, t.source))
     if isinstance(transfer, ExpressionTransfer):
         return ExpressionTransfer(f"{gain!r}*({transfer.text})", variable)
     raise SessionError("the transducer gain applies to a table or an expression")
@@ -187,7 +241,7 @@ def _transfer(t, path: str, folder: Path, variable: str):
 
 def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
     if t.csv is not None:
-        f, first, second = read_csv(folder / t.csv, t.columns, path)
+        f, first, second = read_csv(table_path(folder, t.csv, path), t.columns, path)
     else:
         f, first, second = t.frequency, t.first, t.second
     if t.form == "magnitude":
@@ -199,26 +253,90 @@ def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
         raise SessionError(str(exc)) from None
 
 
+def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = None) -> Path:
+    """The file a table's ``csv`` names, relative to the session's ``folder``; one outside
+    it (absolute, or leaving it by .. or a symlink) is refused unless ``allow_outside``
+    (None: as the enclosing `outside_tables_allowed` says)."""
+    allowed = _OUTSIDE_ALLOWED.get() if allow_outside is None else allow_outside
+    file = Path(folder) / name
+    if allowed:
+        return file
+    base, resolved = Path(folder).resolve(), file.resolve()
+    if Path(name).is_absolute() or not resolved.is_relative_to(base):
+        raise OutsideTable(f"{path}.csv: {name!r} is outside the session's folder {base}: tables are read from "
+                           "the session's folder or below (--allow-outside-tables allows others)", name)
+    return resolved   # what was checked is what is opened
+
+
 def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
-    """The named columns of a CSV file (lines starting with # skipped); errors name line and column."""
-    try:
-        with file.open(newline="") as fh:
-            numbered = [(n, line) for n, line in enumerate(fh, start=1) if not line.startswith("#")]
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SessionError(f"{path}.csv: cannot read {file}: {getattr(exc, 'strerror', None) or exc}") from None
+    """The named columns of a CSV file (lines starting with # skipped); errors name line
+    and column.  Only a regular file of at most MAX_TABLE_BYTES and MAX_TABLE_ROWS rows."""
+    numbered = [(n, line) for n, line in enumerate(io.StringIO(_bounded_text(file, path), newline=""), start=1)
+                if not line.startswith("#")]
+    if len(numbered) - 1 > MAX_TABLE_ROWS:
+        raise SessionError(f"{path}.csv: {file.name} has {len(numbered) - 1} rows; a table has at most "
+                           f"{MAX_TABLE_ROWS}")
     reader = csv.DictReader(line for _, line in numbered)
-    rows, header = list(reader), reader.fieldnames or []
+    try:
+        rows, header = list(reader), reader.fieldnames or []
+    except csv.Error as exc:
+        line = numbered[min(max(reader.reader.line_num, 1), len(numbered)) - 1][0]
+        raise SessionError(f"{file.name}: line {line}: not CSV ({exc})") from None
     missing = [c for c in columns if c not in header]
     if missing:
         raise SessionError(f"{path}.columns: {file.name} has no column(s) {', '.join(missing)}")
+    return _columns(file, columns, numbered, rows)
+
+
+def _bounded_text(file: Path, path: str) -> str:
+    """The text of a regular file of at most MAX_TABLE_BYTES (never more is read)."""
+    try:
+        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))   # a FIFO must not block the open
+    except OSError as exc:
+        raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror or exc}") from None
+    _check_regular(fd, file, path)
+    with open(fd, "rb") as fh:
+        try:
+            data = fh.read(MAX_TABLE_BYTES + 1)
+        except OSError as exc:
+            raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror or exc}") from None
+    if len(data) > MAX_TABLE_BYTES:
+        raise SessionError(f"{path}.csv: {file.name} has more than {MAX_TABLE_BYTES} bytes")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SessionError(f"{path}.csv: {file.name}: not UTF-8 text (byte {exc.start})") from None
+
+
+def _check_regular(fd: int, file: Path, path: str) -> None:
+    """An open file must be a regular file within MAX_TABLE_BYTES; else the descriptor
+    is closed and a `SessionError` says why (a device, a FIFO, a folder, too large)."""
+    info = os.fstat(fd)
+    problem = None if stat.S_ISREG(info.st_mode) else f"{file} is not a regular file"
+    if problem is None and info.st_size > MAX_TABLE_BYTES:
+        problem = f"{file.name} has {info.st_size} bytes; a table has at most {MAX_TABLE_BYTES}"
+    if problem is not None:
+        os.close(fd)
+        raise SessionError(f"{path}.csv: {problem}")
+
+
+def _columns(file: Path, columns: list[str], numbered: list, rows: list[dict]) -> tuple[list[float], ...]:
     out: list[list[float]] = [[] for _ in columns]
     for (n, _), row in zip(numbered[1:], rows):
         for k, name in enumerate(columns):
             try:
                 out[k].append(float(row[name]))
             except (TypeError, ValueError):
-                raise SessionError(f"{file.name}: line {n}, column {name!r}: not a number: {row[name]!r}") from None
+                raise SessionError(f"{file.name}: line {n}, column {name!r}: not a number: "
+                                   f"{_shown(row[name])}") from None
     return tuple(out) if len(out) == 3 else (out[0], out[1], [])
+
+
+def _shown(cell: str | None) -> str:
+    """An offending cell as quoted in a message: at most SHOWN_CELL characters of it."""
+    if cell is None:
+        return "(missing)"
+    return repr(cell if len(cell) <= SHOWN_CELL else cell[:SHOWN_CELL] + "...")
 
 
 def _parameter(p: ParameterModel, path: str, conditions: int) -> Parameter:

@@ -17,13 +17,15 @@ from engine.errors import EngineError
 
 from .build import build_problem
 from .errors import SessionError
+from .savefile import real_path
 from .schema import AlgorithmModel
 from .store import Session
 
 
 def folder(session: Session) -> Path:
-    """The folder a session's relative paths (CSV tables) are read from."""
-    return session.path.parent if session.path is not None else Path.cwd()
+    """The folder a session's relative paths (CSV tables) are read from: the real
+    file's (through a symlink), or the working folder for a session not yet saved."""
+    return real_path(session.path).parent if session.path is not None else Path.cwd()
 
 
 def registration(session: Session) -> Registration:
@@ -73,7 +75,8 @@ def switch_algorithm(session: Session, name: str) -> None:
 def rebuild(session: Session) -> None:
     """Build the engine problem again from the edited model; the records are dropped.
     A `SessionError` says why it does not build (the session is unchanged then)."""
-    session.problem = build_problem(session.model.problem, folder(session))
+    session.problem = build_problem(session.model.problem, folder(session),
+                                    allow_outside_tables=session.allow_outside_tables or None)
     forget_records(session)
 
 

@@ -2,19 +2,25 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from engine.algorithm import State, StepRecord, iterate
 from engine.errors import EngineError
+from engine.memory import jsonable
 
 from .errors import SessionError
 from .lifecycle import bound_algorithm, forget_records
+from .schema import SessionModel
 from .store import AUTOSAVE_INTERVAL, Session, write_autosave
 
-REPLAY_TOLERANCE = 1e-9
+REPLAY_TOLERANCE = 1e-9    # relative
+REPLAY_FLOOR = 1e-12       # absolute: a recorded 0.0 against 1e-13 is numerical noise, not a divergence
+NON_FINITE = ("inf", "-inf", "nan")
 
 
 class Run(list):
@@ -31,6 +37,7 @@ def run_session(session: Session, iterations: int | None = None, until_done: boo
     ``time_limit``: seconds of wall clock, checked between iterations (the run stops
     there, resumable, its records a prefix of the unlimited run's: it replays)."""
     algorithm, settings = bound_algorithm(session)
+    snapshot = settings_snapshot(settings)
     model = session.model
     del model.records[model.current_iteration:]
     new = Run()
@@ -38,10 +45,13 @@ def run_session(session: Session, iterations: int | None = None, until_done: boo
         state = algorithm.init(session.problem, settings)
         if model.current_iteration and model.state is not None:
             state = State.from_json(model.state, algorithm.memory_type)
+        elif model.current_iteration:   # no saved state: rebuilt by stepping to the current iteration
+            for _ in range(model.current_iteration):
+                state, _ = algorithm.step(state)
         limit = iterations if iterations is not None else (10**9 if until_done else 1)
         steps = iterate(algorithm, session.problem, settings, max_iter=limit, state=state, time_limit=time_limit)
         for state, record in steps:
-            model.records.append(record.to_json())
+            model.records.append(record_json(record, snapshot))
             model.state = state.to_json()
             model.current_iteration = len(model.records)
             new.append(record)
@@ -70,50 +80,151 @@ def set_setting(session: Session, assignment: str) -> None:
     forget_records(session)
 
 
+def settings_snapshot(settings: Any) -> dict:
+    """The algorithm's settings in full (defaults included) as JSON data, as a record keeps them."""
+    values = dataclasses.asdict(settings) if dataclasses.is_dataclass(settings) else dict(vars(settings))
+    return jsonable(values)
+
+
+def record_json(record: StepRecord, settings: dict | None = None) -> dict:
+    """A record as the session keeps it: its JSON, with the settings that made it
+    (``settings``: a `settings_snapshot`) under the key "settings"."""
+    data = record.to_json()
+    if settings is not None:
+        data["settings"] = settings
+    return data
+
+
+def difference(old: Any, new: Any, where: str = "") -> str | None:
+    """Where two JSON values first differ, as "PATH: OLD recorded, NEW now" (None: they agree).
+    Numbers agree within REPLAY_TOLERANCE relative or REPLAY_FLOOR absolute, NaN equals
+    NaN; objects agree key by key, lists by length and then element by element."""
+    old, new = _number(old), _number(new)
+    if isinstance(old, dict) and isinstance(new, dict):
+        return _dict_difference(old, new, where)
+    if isinstance(old, list) and isinstance(new, list):
+        if len(old) != len(new):
+            return f"{where or '(top)'}: {len(old)} entries recorded, {len(new)} now"
+        return next((d for k, (a, b) in enumerate(zip(old, new))
+                     if (d := difference(a, b, f"{where}[{k}]")) is not None), None)
+    same = _close(old, new) if _is_number(old) and _is_number(new) else type(old) is type(new) and old == new
+    return None if same else f"{where or '(top)'}: {old!r} recorded, {new!r} now"
+
+
+def _dict_difference(old: dict, new: dict, where: str) -> str | None:
+    for key in list(old) + [k for k in new if k not in old]:
+        path = f"{where}.{key}" if where else str(key)
+        if key not in new:
+            return f"{path}: {old[key]!r} recorded, missing now"
+        if key not in old:
+            return f"{path}: missing in the record, {new[key]!r} now"
+        found = difference(old[key], new[key], path)
+        if found is not None:
+            return found
+    return None
+
+
+def _number(value: Any) -> Any:
+    return float(value) if isinstance(value, str) and value in NON_FINITE else value
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _close(a: float, b: float) -> bool:
+    if isinstance(a, int) and isinstance(b, int):
+        return a == b
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    if math.isinf(a) or math.isinf(b):
+        return a == b
+    return abs(a - b) <= max(REPLAY_TOLERANCE * max(abs(a), abs(b)), REPLAY_FLOOR)
+
+
 @dataclass(frozen=True)
 class ReplayResult:
+    """What `replay` found: ``ok`` (every record, the settings and the saved state
+    reproduce), how many iterations were checked, and the message to print."""
+
     ok: bool
     iterations: int
     message: str
 
 
-def _close(a: float | None, b: float | None) -> bool:
-    if a is None or b is None:
-        return a is b
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
-    return abs(a - b) <= REPLAY_TOLERANCE * max(abs(a), abs(b), 1e-300) or a == b
-
-
-def _first_difference(old: StepRecord, new: StepRecord) -> str | None:
-    if old.status != new.status:
-        return f"status {old.status.value!r} recorded, {new.status.value!r} now"
-    for name, value in old.parameters.items():
-        again = new.parameters.get(name)
-        pairs = zip(value, again) if isinstance(value, list) and isinstance(again, list) else [(value, again)]
-        if again is None or not all(_close(a, b) for a, b in pairs):
-            return f"parameter {name}: {value!r} recorded, {again!r} now"
-    if len(old.measures) != len(new.measures):
-        return f"{len(old.measures)} measures recorded, {len(new.measures)} now"
-    for m, n in zip(old.measures, new.measures):
-        if not (_close(m.value, n.value) and _close(m.frequency, n.frequency)):
-            return f"measure {m.name} ({m.kind}, {m.condition}): {m.value!r} recorded, {n.value!r} now"
-    if not _close(old.objective, new.objective):
-        return f"objective: {old.objective!r} recorded, {new.objective!r} now"
-    return None
-
-
 def replay(session: Session) -> ReplayResult:
-    """Re-run from the initial state; compare every record to 1e-9 relative."""
+    """Re-run from the initial state; compare every field of every record, the
+    settings the records were made with, and the saved state (by `difference`)."""
     algorithm, settings = bound_algorithm(session)
-    recorded = session.records
+    snapshot = settings_snapshot(settings)
+    model = session.model
     try:
         state = algorithm.init(session.problem, settings)
-        for old in recorded:
+        if model.current_iteration == 0 and (found := _state_difference(model.state, state, 0)):
+            return ReplayResult(False, 0, found)
+        for k, old in enumerate(model.records, start=1):
+            found = _settings_difference(k, old, snapshot) or _finished_early(k, state)
+            if found:
+                return ReplayResult(False, k, found)
             state, new = algorithm.step(state)
-            difference = _first_difference(old, new)
-            if difference:
-                return ReplayResult(False, old.iteration, f"iteration {old.iteration} diverges: {difference}")
+            found = _record_difference(k, old, record_json(new, snapshot if "settings" in old else None))
+            if not found and k == model.current_iteration:
+                found = _state_difference(model.state, state, k)
+            if found:
+                return ReplayResult(False, k, found)
+    except SessionError:
+        raise
     except EngineError as exc:
         raise SessionError(f"replay: {exc}") from None
-    return ReplayResult(True, len(recorded), f"all {len(recorded)} recorded iterations reproduce")
+    except Exception as exc:  # noqa: BLE001 - any failure of a step is an error of the replay (exit 2)
+        raise SessionError(f"replay: {type(exc).__name__}: {exc}") from None
+    return ReplayResult(True, len(model.records), _success(model))
+
+
+def _settings_difference(k: int, old: dict, snapshot: dict) -> str | None:
+    if "settings" not in old:
+        return None
+    found = difference(old["settings"], snapshot, "settings")
+    return None if found is None else (f"settings mismatch: iteration {k} was recorded with other settings "
+                                       f"than the session's: {found}")
+
+
+def _finished_early(k: int, state: State) -> str | None:
+    if not state.status.finished:
+        return None
+    return f"iteration {k} diverges: recorded, but the replayed run ended at iteration {k - 1} ({state.status.value})"
+
+
+def _record_difference(k: int, old: dict, new: dict) -> str | None:
+    if old.get("iteration") != new["iteration"]:
+        return (f"iteration {k} diverges: iteration: {old.get('iteration')!r} recorded, {new['iteration']!r} now "
+                "(the records are out of order)")
+    found = difference(old, new)
+    if found is None:
+        return None
+    if found.startswith("measures["):
+        index = int(found[len("measures["):found.index("]")])
+        m = old["measures"][index] if index < len(old.get("measures", [])) else {}
+        found = f"measure {m.get('name')} ({m.get('kind')}, {m.get('condition')}), {found}"
+    elif found.startswith("parameters."):
+        found = "parameter " + found.removeprefix("parameters.")
+    return f"iteration {k} diverges: {found}"
+
+
+def _state_difference(saved: dict | None, state: State, k: int) -> str | None:
+    if saved is None:
+        return None
+    found = difference(saved, state.to_json(), "state")
+    return None if found is None else f"the saved state diverges from the replayed one after iteration {k}: {found}"
+
+
+def _success(model: SessionModel) -> str:
+    n = len(model.records)
+    text = f"all {n} recorded iterations reproduce"
+    if model.state is not None:
+        text += ", and the saved state"
+    missing = sum("settings" not in r for r in model.records)
+    if missing:
+        text += (f"\nnote: {missing} of the {n} records do not say which settings made them "
+                 "(made before records kept their settings): those settings are not checked")
+    return text

@@ -14,8 +14,11 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from engine.measure_kinds import MEASURE_KINDS
 
 SCHEMA_VERSION = 1
-Number = float
-Coefficient = Union[float, str]  # a number or a parameter name
+
+from .limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS, MAX_EQUALITIES,  # noqa: F401
+                     MAX_FACTORS, MAX_GRID_POINTS, MAX_JUNCTION_INPUTS, MAX_OPTIONS, MAX_PARAMETERS,
+                     MAX_RESPONSE_POINTS, MAX_SIGNALS, MAX_TABLE_ROWS, MAX_TARGETS, Coefficient, Lower, Number,
+                     Upper, bounded as _bounded)
 
 
 class Strict(BaseModel):
@@ -26,12 +29,12 @@ class GridModel(Strict):
     """Frequency grid: ``points`` values from ``start`` to ``stop`` in ``unit``."""
 
     unit: Literal["rad/s", "hz"] = "rad/s"
-    start: Annotated[float, Field(gt=0)] | None = None
-    stop: Annotated[float, Field(gt=0)] | None = None
-    points: Annotated[int, Field(ge=2, le=100_000)] = 200
+    start: Annotated[Number, Field(gt=0)] | None = None
+    stop: Annotated[Number, Field(gt=0)] | None = None
+    points: Annotated[int, Field(ge=2, le=MAX_GRID_POINTS)] = 200
     spacing: Literal["log", "linear"] = "log"
-    values: list[float] | None = Field(default=None, description="explicit frequencies (e.g. a table's), instead "
-                                                                 "of start/stop/points")
+    values: _bounded(list[Number], MAX_GRID_POINTS) | None = Field(
+        default=None, description="explicit frequencies (e.g. a table's), instead of start/stop/points")
 
     @model_validator(mode="after")
     def _increasing(self) -> GridModel:
@@ -73,12 +76,13 @@ class TableModel(Strict):
     unit: Literal["rad/s", "hz"] = "rad/s"
     form: Literal["polar", "cartesian", "magnitude"] = Field(
         default="polar", description="magnitude: one value column (a PSD), phase 0")
-    gain: float = 1.0
-    frequency: list[float] | None = None
-    first: list[float] | None = Field(default=None, description="magnitude, or real part")
-    second: list[float] | None = Field(default=None, description="phase in degrees, or imaginary part")
+    gain: Number = 1.0
+    frequency: _bounded(list[Number], MAX_TABLE_ROWS) | None = None
+    first: _bounded(list[Number], MAX_TABLE_ROWS) | None = Field(default=None, description="magnitude, or real part")
+    second: _bounded(list[Number], MAX_TABLE_ROWS) | None = Field(default=None,
+                                                                  description="phase in degrees, or imaginary part")
     csv: str | None = None
-    columns: list[str] | None = Field(default=None, description="CSV columns: frequency, first, second")
+    columns: _bounded(list[str], 3) | None = Field(default=None, description="CSV columns: frequency, first, second")
 
     @model_validator(mode="after")
     def _one_source(self) -> TableModel:
@@ -88,6 +92,10 @@ class TableModel(Strict):
         two = self.form == "magnitude"
         if inline and (self.first is None or (self.second is None and not two)):
             raise ValueError("inline tables need frequency, first and second")
+        lengths = [len(c) for c in (self.frequency, self.first, None if two else self.second) if c is not None]
+        if inline and len(set(lengths)) > 1:
+            raise ValueError(f"inline columns frequency, first{'' if two else ', second'} must have one length, "
+                             f"not {', '.join(map(str, lengths))}")
         if self.csv is not None and (self.columns is None or len(self.columns) != (2 if two else 3)):
             raise ValueError("csv tables need three column names: frequency, first, second "
                              "(two for form 'magnitude')")
@@ -101,17 +109,17 @@ class ExpressionBlock(Strict):
 
 class PolynomialBlock(Strict):
     kind: Literal["polynomial"]
-    numerator: list[Coefficient]
-    denominator: list[Coefficient]
+    numerator: _bounded(list[Coefficient], MAX_COEFFICIENTS)
+    denominator: _bounded(list[Coefficient], MAX_COEFFICIENTS)
     order: Literal["ascending", "descending"]
 
 
 class FactoredBlock(Strict):
     kind: Literal["factored"]
     gain: Coefficient = 1.0
-    s_power: int = 0
-    zeros: list[FactorModel] = []
-    poles: list[FactorModel] = []
+    s_power: Annotated[int, Field(ge=-64, le=64)] = 0
+    zeros: _bounded(list[FactorModel], MAX_FACTORS) = []
+    poles: _bounded(list[FactorModel], MAX_FACTORS) = []
 
 
 class ControllerFactorModel(Strict):
@@ -126,8 +134,8 @@ class ControllerFactorModel(Strict):
 class ControllerBlock(Strict):
     kind: Literal["controller"]
     gain: Coefficient
-    s_power: int = 0
-    factors: list[ControllerFactorModel] = []
+    s_power: Annotated[int, Field(ge=-64, le=64)] = 0
+    factors: _bounded(list[ControllerFactorModel], MAX_FACTORS) = []
 
 
 class TableBlock(Strict):
@@ -154,15 +162,15 @@ class BlockModel(Strict):
 class JunctionModel(Strict):
     name: str
     output: str
-    plus: list[str] = []
-    minus: list[str] = []
+    plus: _bounded(list[str], MAX_JUNCTION_INPUTS) = []
+    minus: _bounded(list[str], MAX_JUNCTION_INPUTS) = []
 
 
 class DiagramModel(Strict):
     format: Literal["diagram"]
-    inputs: list[str] = []
-    blocks: list[BlockModel]
-    junctions: list[JunctionModel] = []
+    inputs: _bounded(list[str], MAX_SIGNALS) = []
+    blocks: _bounded(list[BlockModel], MAX_BLOCKS)
+    junctions: _bounded(list[JunctionModel], MAX_SIGNALS) = []
 
 
 class MatrixEntry(Strict):
@@ -173,8 +181,8 @@ class MatrixEntry(Strict):
 
 class MatrixModel(Strict):
     format: Literal["matrix"]
-    signals: list[str]
-    entries: list[MatrixEntry]
+    signals: _bounded(list[str], MAX_SIGNALS)
+    entries: _bounded(list[MatrixEntry], MAX_BLOCKS)
     forcing_row: Annotated[int, Field(ge=1)]
     forcing: str = "1"
     input_name: str = "theta"
@@ -184,8 +192,8 @@ class SubCompensatorModel(Strict):
     """One factor of a channel's compensator, coefficients in ascending powers
     (x_0, x_1, ... over y_0, y_1, ...) as the CIP listing reads them."""
 
-    numerator: Annotated[list[Coefficient], Field(min_length=1)]
-    denominator: Annotated[list[Coefficient], Field(min_length=1)]
+    numerator: _bounded(list[Coefficient], MAX_COEFFICIENTS, 1)
+    denominator: _bounded(list[Coefficient], MAX_COEFFICIENTS, 1)
 
 
 class ChannelModel(Strict):
@@ -194,8 +202,8 @@ class ChannelModel(Strict):
 
     name: str
     response: Transfer
-    gain: float = 1.0
-    compensators: list[SubCompensatorModel] = []
+    gain: Number = 1.0
+    compensators: _bounded(list[SubCompensatorModel], MAX_BLOCKS) = []
     hold_dc_gain: bool = Field(default=False, description="fix every constant term (the listing's KONT = 2)")
 
 
@@ -205,7 +213,7 @@ class ChannelsModel(Strict):
     ``NAME.theta`` and ``NAME.u``."""
 
     format: Literal["channels"]
-    channels: Annotated[list[ChannelModel], Field(min_length=1)]
+    channels: _bounded(list[ChannelModel], MAX_CHANNELS, 1)
 
 
 class CascadeModel(Strict):
@@ -218,7 +226,7 @@ class CascadeModel(Strict):
     g2: Transfer | None = None
     g1g2: Transfer | None = None
     ga: Transfer
-    transducer_gain: float = 1.0
+    transducer_gain: Number = 1.0
     h1: Transfer | None = None
     h2: Transfer | None = None
 
@@ -240,9 +248,9 @@ class ConditionModel(Strict):
 
 class ParameterModel(Strict):
     name: str
-    value: Union[float, list[float]]
-    min: float | None = None
-    max: float | None = None
+    value: Union[Number, _bounded(list[Number], MAX_CONDITIONS)]
+    min: Lower | None = Field(default=None, description="null (or -inf): unbounded")
+    max: Upper | None = Field(default=None, description="null (or inf): unbounded")
     free: bool = True
     sign: Literal["any", "positive", "negative"] = "any"
 
@@ -258,18 +266,18 @@ class ParameterModel(Strict):
 
 
 class BandModel(Strict):
-    low: Annotated[float, Field(ge=0)] = 0.0
-    high: float | None = Field(default=None, description="upper edge (the target's unit); null: no limit")
-    desired: float
-    required: float | None = Field(default=None, description="least acceptable value (most, for an at-most "
+    low: Annotated[Number, Field(ge=0)] = 0.0
+    high: Upper | None = Field(default=None, description="upper edge (the target's unit); null: no limit")
+    desired: Number
+    required: Number | None = Field(default=None, description="least acceptable value (most, for an at-most "
                                    "measure) when it differs from desired; slp constrains it and rewards "
                                    "improvement up to desired")
 
 
 class SegmentModel(Strict):
-    time: Annotated[float, Field(ge=0)] = 0.0
-    step: float = 0.0
-    slope: float = 0.0
+    time: Annotated[Number, Field(ge=0)] = 0.0
+    step: Number = 0.0
+    slope: Number = 0.0
 
 
 class ResponseModel(Strict):
@@ -277,18 +285,18 @@ class ResponseModel(Strict):
 
     input: str
     output: str
-    horizon: Annotated[float, Field(gt=0)] = 10.0
-    points: Annotated[int, Field(ge=10, le=100_000)] = 400
-    profile: list[SegmentModel] = Field(default=[SegmentModel(step=1.0)],
+    horizon: Annotated[Number, Field(gt=0)] = 10.0
+    points: Annotated[int, Field(ge=10, le=MAX_RESPONSE_POINTS)] = 400
+    profile: _bounded(list[SegmentModel], MAX_BANDS) = Field(default=[SegmentModel(step=1.0)],
                                         description="steps and ramps at the input (e.g. a wind profile)")
     psd: str | None = Field(default=None, description="mean_square: shaping filter F(s), PSD = |F(jw)|^2")
-    reference: float = 1.0
+    reference: Number = 1.0
     settling_band: Annotated[float, Field(gt=0, lt=1)] = 0.05
 
 
 class PointModel(Strict):
-    real: float
-    imag: float = 0.0
+    real: Number
+    imag: Number = 0.0
     mode: Literal["push", "pull"] = "push"
 
 
@@ -298,12 +306,12 @@ MeasureName = Literal[tuple(MEASURE_KINDS)]   # the measure kinds, from their on
 class TargetModel(Strict):
     measure: MeasureName
     condition: str | None = None
-    bands: list[BandModel]
-    weight: float = 1.0
-    scale: float = 1.0
-    points: list[PointModel] = []
-    detect_low: Annotated[float, Field(ge=0)] = 0.0
-    detect_high: float | None = Field(default=None, description="null: no upper limit")
+    bands: _bounded(list[BandModel], MAX_BANDS)
+    weight: Number = 1.0
+    scale: Number = 1.0
+    points: _bounded(list[PointModel], MAX_BANDS) = []
+    detect_low: Annotated[Number, Field(ge=0)] = 0.0
+    detect_high: Upper | None = Field(default=None, description="null: no upper limit")
     unit: Literal["rad/s", "hz"] = Field(default="rad/s", description="unit of band edges and detect_low/high")
     sense: Literal["at_least", "at_most"] | None = Field(default=None, description="null: the measure's own "
                                                          "(at most for peaks, times, errors; at least otherwise)")
@@ -313,8 +321,8 @@ class TargetModel(Strict):
 
 class ObjectiveModel(Strict):
     kind: str
-    options: dict[str, Union[float, str]] = {}
-    tables: dict[str, TableModel] = Field(default={}, description="e.g. noise_psd (form 'magnitude')")
+    options: Annotated[dict[str, Union[Number, str]], Field(max_length=MAX_OPTIONS)] = {}
+    tables: Annotated[dict[str, TableModel], Field(max_length=MAX_OPTIONS)] = Field(default={}, description="e.g. noise_psd (form 'magnitude')")
     data: dict[str, Any] = Field(default={}, description="structured inputs: for kind 'dae' the matrices A, B, E, "
                                                          "F, x0, horizon, steps, bounds, Q, R")
 
@@ -323,17 +331,18 @@ class EqualityModel(Strict):
     """sum of coefficient * parameter = value; a key is a parameter's name, or
     name[condition] for a parameter with a value per condition."""
 
-    terms: Annotated[dict[str, float], Field(min_length=1)]
-    value: float = 0.0
+    terms: Annotated[dict[str, Number], Field(min_length=1, max_length=MAX_PARAMETERS)]
+    value: Number = 0.0
 
 
 class ProblemModel(Strict):
     grid: GridModel
-    conditions: list[ConditionModel] = Field(default=[], description="at least one, except for a 'dae' objective")
-    parameters: list[ParameterModel] = []
-    targets: list[TargetModel] = []
+    conditions: _bounded(list[ConditionModel], MAX_CONDITIONS) = Field(
+        default=[], description="at least one, except for a 'dae' objective")
+    parameters: _bounded(list[ParameterModel], MAX_PARAMETERS) = []
+    targets: _bounded(list[TargetModel], MAX_TARGETS) = []
     objective: ObjectiveModel | None = None
-    equalities: list[EqualityModel] = Field(default=[], description="linear equalities between parameters (slp)")
+    equalities: _bounded(list[EqualityModel], MAX_EQUALITIES) = Field(default=[], description="linear equalities between parameters (slp)")
 
 
 class AlgorithmModel(Strict):

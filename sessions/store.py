@@ -1,18 +1,29 @@
 """Load, save and autosave sessions.
 
-Loading never raises anything but `SessionError` and never writes.  Saving is
-atomic: the JSON goes to a temporary file in the same folder, is flushed to
-disk, and replaces the target by a rename; the previous file is kept as
-``NAME.json.bak``.  An autosave ``NAME.json.autosave`` is written during runs (at most every
-`AUTOSAVE_INTERVAL` seconds, and when a run ends) and offered back when it
-is newer than the session.
+Loading never raises anything but `SessionError` and never writes.  It checks
+the records and the state as it checks the problem (types, finite parameter
+values of the problem's shape, iterations numbered 1..n, the state after the
+current iteration), and refuses JSON nested more than `MAX_DEPTH` levels.
+
+Saving is atomic (`savefile.write_atomic`: a flushed temporary file renamed
+over the target, so even kill -9 leaves the old file or the new one); the
+previous file is kept as ``NAME.json.bak``; a symlink is saved through and the
+file's mode is kept.  A file changed on disk since it was loaded, or a
+read-only one, is not overwritten unless ``force`` (`OverwriteRefused`).  Any
+failure is a `SessionError` and leaves the old file intact.  Non-finite
+numbers are written so that loading reads them back: inf as 1e999, nan as
+"nan".  An autosave ``NAME.json.autosave`` is written beside the file the
+session will be saved to during runs (at most every `AUTOSAVE_INTERVAL`
+seconds, and when a run ends) and offered back when it is newer than the
+session; one that cannot be written is a warning (`Session.autosave_warning`).
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
-import tempfile
+import secrets
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -23,12 +34,18 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from engine.algorithm import State, StepRecord, memory_type
-from engine.errors import EngineError
 from engine.problem import Problem
 
-from .build import build_problem
+from .build import OutsideTable, build_problem
+from .checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
 from .errors import SessionError
+from .savefile import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
+                       real_path, refuse_overwrite, remove_quietly, sweep_stale, write_atomic)
 from .schema import SCHEMA_VERSION, SessionModel, TableModel
+
+__all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
+           "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",
+           "prepare_save", "save_session", "tables_in", "write_autosave"]
 
 # version -> function turning a session dict of that version into the next version's
 MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
@@ -36,13 +53,22 @@ MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
 
 @dataclass
 class Session:
-    """A loaded session: the validated model, the engine problem, where it lives."""
+    """A loaded session: the validated model, the engine problem, where it lives.
+
+    ``disk``: the file as loaded or last saved (a change on disk since is not
+    overwritten without force); ``save_to``: where it will be saved when that is
+    not ``path`` (``run --out``), autosaves go beside it; ``autosave_warning``: why
+    the last autosave could not be written (None: it was)."""
 
     model: SessionModel
     problem: Problem
     path: Path | None = None
     messages: list[str] = field(default_factory=list)
     last_autosave: float = field(default=0.0, compare=False)   # monotonic time of the last autosave
+    disk: DiskStamp | None = field(default=None, compare=False)
+    save_to: Path | None = field(default=None, compare=False)
+    autosave_warning: str | None = field(default=None, compare=False)
+    allow_outside_tables: bool = field(default=False, compare=False)   # the user allowed tables outside its folder
 
     @property
     def records(self) -> list[StepRecord]:
@@ -60,73 +86,62 @@ def now() -> str:
     return datetime.now(timezone.utc).replace(microsecond=0).isoformat()
 
 
-def _location(loc: tuple) -> str:
-    out = ""
-    for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-    return out or "(top)"
+def parse_session(text: str, source: str, folder: Path, allow_outside_tables: bool = False) -> Session:
+    """A session from JSON text; ``source`` names it in messages, tables are read from ``folder``
+    (one outside it only with ``allow_outside_tables``: `OutsideTable` otherwise)."""
+    try:
+        data, messages = _migrate(_json(text))
+        model = _validated(data)
+        check_records(model)
+        check_state(model)
+        problem = build_problem(model.problem, folder, allow_outside_tables=allow_outside_tables or None)
+        check_record_parameters(model, problem)
+    except OutsideTable as exc:
+        raise OutsideTable(f"{source}: {exc}", exc.name) from None
+    except SessionError as exc:
+        raise SessionError(f"{source}: {exc}") from None
+    session = Session(model, problem, None, messages)
+    session.allow_outside_tables = allow_outside_tables
+    return session
 
 
-def parse_session(text: str, source: str, folder: Path) -> Session:
-    """A session from JSON text; ``source`` names it in messages."""
+def _json(text: str) -> Any:
+    """The JSON data of a session, nested at most `MAX_DEPTH` levels."""
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise SessionError(f"{source}: line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+        raise SessionError(f"line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
+    except ValueError as exc:   # e.g. an integer of more than 4300 digits
+        raise SessionError(f"not readable as JSON: {exc}") from None
     except RecursionError:
-        raise SessionError(f"{source}: nested too deeply") from None
-    data, messages = _migrate(data, source)
+        raise SessionError(f"nested more than {MAX_DEPTH} levels deep") from None
+    check_depth(data)
+    return data
+
+
+def _validated(data: Any) -> SessionModel:
     try:
-        model = SessionModel.model_validate(data)
+        return SessionModel.model_validate(data)
     except ValidationError as exc:
         first = exc.errors()[0]
         more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
         msg = first["msg"].removeprefix("Value error, ")
-        raise SessionError(f"{source}: {_location(first['loc'])}: {msg}{more}") from None
-    for i, record in enumerate(model.records):
-        try:
-            StepRecord.from_json(record)
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise SessionError(f"{source}: records[{i}]: malformed record ({exc})") from None
-    if model.current_iteration > len(model.records):
-        raise SessionError(f"{source}: current_iteration {model.current_iteration} exceeds "
-                           f"the {len(model.records)} records")
-    _check_state(model, source)
-    try:
-        problem = build_problem(model.problem, folder)
-    except SessionError as exc:
-        raise SessionError(f"{source}: {exc}") from None
-    return Session(model, problem, None, messages)
+        raise SessionError(f"{location(first['loc'])}: {msg}{more}") from None
 
 
-def _check_state(model: SessionModel, source: str) -> None:
-    """A stored state must read back with its algorithm's memory class (an unknown
-    algorithm is reported when the session is run, not here)."""
-    if model.state is None:
-        return
-    try:
-        kind = memory_type(model.algorithm.name)
-    except EngineError:
-        return
-    try:
-        State.from_json(model.state, kind)
-    except EngineError as exc:
-        raise SessionError(f"{source}: state: {exc}") from None
-
-
-def _migrate(data: Any, source: str) -> tuple[Any, list[str]]:
+def _migrate(data: Any) -> tuple[Any, list[str]]:
     if not isinstance(data, dict):
-        raise SessionError(f"{source}: a session is a JSON object, not {type(data).__name__}")
+        raise SessionError(f"a session is a JSON object, not {type(data).__name__}")
     version = data.get("schema_version")
     if not isinstance(version, int) or isinstance(version, bool):
-        raise SessionError(f"{source}: schema_version: missing or not an integer")
+        raise SessionError("schema_version: missing or not an integer")
     if version > SCHEMA_VERSION:
-        raise SessionError(f"{source}: schema_version {version} is newer than this loopcraft reads "
+        raise SessionError(f"schema_version {version} is newer than this loopcraft reads "
                            f"({SCHEMA_VERSION}); update loopcraft to open it")
     messages = []
     while version < SCHEMA_VERSION:
         if version not in MIGRATIONS:
-            raise SessionError(f"{source}: schema_version {version} cannot be migrated")
+            raise SessionError(f"schema_version {version} cannot be migrated")
         data = MIGRATIONS[version](dict(data))
         messages.append(f"migrated from schema version {version} to {version + 1}")
         version += 1
@@ -134,76 +149,146 @@ def _migrate(data: Any, source: str) -> tuple[Any, list[str]]:
     return data, messages
 
 
-def load_session(path: str | Path) -> Session:
-    """Read and validate a session file; never modifies it."""
+def load_session(path: str | Path, allow_outside_tables: bool = False) -> Session:
+    """Read and validate a session file; never modifies it.  Tables are read beside
+    the real file (through a symlink); outside its folder only with ``allow_outside_tables``."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SessionError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
-    session = parse_session(text, str(path), path.parent)
-    session.path = path
+    text, stamp = _read(path)
+    session = parse_session(text, str(path), real_path(path).parent, allow_outside_tables)
+    session.path, session.disk = path, stamp
     return session
 
 
-def dumps(model: SessionModel) -> str:
-    """Stable JSON: sorted keys, shortest float repr, two-space indent."""
-    data = model.model_dump(mode="json", exclude_none=False)
-    return json.dumps(data, indent=2, sort_keys=True, allow_nan=False) + "\n"
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+def load_autosave(path: str | Path, allow_outside_tables: bool = False) -> Session:
+    """The autosave of ``path`` (`autosave_candidate`) as the session at ``path``: saving
+    it replaces ``path``, unless that changes on disk after this; tables beside its real file."""
+    path, auto = Path(path), autosave_path(Path(path))
+    session = parse_session(_read(auto)[0], str(auto), real_path(path).parent, allow_outside_tables)
+    session.path = path
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    try:
-        dir_fd = os.open(path.parent, os.O_RDONLY)
-        try:
-            os.fsync(dir_fd)
-        finally:
-            os.close(dir_fd)
+        session.disk = read_stamped(path)[1]
     except OSError:
-        pass
+        session.disk = None
+    return session
 
 
-def save_session(session: Session, path: str | Path | None = None) -> Path:
-    """Write atomically; the file it replaces is kept as NAME.json.bak."""
+def _read(path: Path) -> tuple[str, DiskStamp]:
+    try:
+        data, stamp = read_stamped(path)
+        return data.decode("utf-8"), stamp
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SessionError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+def dumps(model: SessionModel) -> str:
+    """Stable JSON: sorted keys, shortest float repr, two-space indent; inf and -inf as
+    1e999 and -1e999 (standard JSON that reads back as infinities), nan as "nan"."""
+    marker = "\0" + secrets.token_hex(8)
+    data = _plain(model.model_dump(mode="python", exclude_none=False), marker)
+    text = json.dumps(data, indent=2, sort_keys=True, allow_nan=False)
+    return text.replace(json.dumps(marker + "+"), "1e999").replace(json.dumps(marker + "-"), "-1e999") + "\n"
+
+
+def _plain(value: Any, marker: str) -> Any:
+    """Plain JSON data; an infinity becomes ``marker`` and its sign (`dumps` writes it as 1e999)."""
+    if isinstance(value, float):
+        if math.isfinite(value):
+            return value
+        return "nan" if math.isnan(value) else marker + ("+" if value > 0 else "-")
+    if isinstance(value, dict):
+        return {str(k): _plain(v, marker) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v, marker) for v in value]
+    if hasattr(value, "tolist"):
+        return _plain(value.tolist(), marker)
+    return value
+
+
+def save_session(session: Session, path: str | Path | None = None, *, force: bool = False) -> Path:
+    """Write atomically (through a symlink, keeping the file's mode); the file it replaces
+    is kept as NAME.json.bak.  Unless ``force``, a file changed on disk since it was loaded
+    or a read-only one is not overwritten (`OverwriteRefused`).  Any failure is a
+    `SessionError` and leaves the old file as it was."""
     target = Path(path) if path is not None else session.path
     if target is None:
         raise SessionError("no file to save to")
-    if session.path is not None and target.parent.resolve() != session.path.parent.resolve():
-        _rebasetables_in(session.model, session.path.parent, target.parent)
-    session.model.provenance.modified = now()
-    text = dumps(session.model)
-    for stale in target.parent.glob(f".{target.name}.*tmp"):  # left by a save that was killed
-        stale.unlink(missing_ok=True)
+    real = real_path(target)
+    refuse_overwrite(target, session.disk, force)
+    moved = _moved_tables(session, real.parent)
+    modified = now()
+    text = _saved_text(session.model, moved, modified, target)
     try:
-        if target.exists():
-            _atomic_write(target.with_name(target.name + ".bak"), target.read_text(encoding="utf-8"))
-        _atomic_write(target, text)
+        sweep_stale(real)
+        back_up(real, real.with_name(real.name + ".bak"))
+        session.disk = write_atomic(real, text.encode("utf-8"), mode_of(real))
     except OSError as exc:
-        raise SessionError(f"{target}: cannot save: {exc.strerror or exc}") from None
-    autosave_path(target).unlink(missing_ok=True)
-    if session.path is not None and session.last_autosave:  # ours, and now saved in target
-        autosave_path(session.path).unlink(missing_ok=True)
-    session.path = target
+        raise SessionError(f"{target}: cannot save: {describe(exc)}") from None
+    for table, name in moved:
+        table.csv = name
+    session.model.provenance.modified = modified
+    remove_quietly(autosave_path(target))
+    if session.last_autosave and (session.save_to or session.path) is not None:   # ours, now saved in target
+        remove_quietly(autosave_path(session.save_to or session.path))
+    session.path, session.save_to, session.autosave_warning = target, None, None
     return target
 
 
-def _rebasetables_in(model: SessionModel, old: Path, new: Path) -> None:
-    """CSV tables are named relative to the session: saved elsewhere, the
-    names are rewritten so they still reach the same files."""
-    for table in tables_in(model.problem):
-        if table.csv is not None and not Path(table.csv).is_absolute():
-            table.csv = Path(os.path.relpath((old / table.csv).resolve(), new.resolve())).as_posix()
+def _saved_text(model: SessionModel, moved: list[tuple[TableModel, str]], modified: str, target: Path) -> str:
+    """The JSON ``model`` is saved as: with the table names and the time it is saved
+    with (the model itself is left as it is until the save succeeds)."""
+    before = [(table, table.csv) for table, _ in moved], model.provenance.modified
+    try:
+        for table, name in moved:
+            table.csv = name
+        model.provenance.modified = modified
+        return dumps(model)
+    except (ValueError, TypeError, RecursionError) as exc:
+        raise SessionError(f"{target}: cannot save: the session is not JSON data ({exc})") from None
+    finally:
+        for table, name in before[0]:
+            table.csv = name
+        model.provenance.modified = before[1]
+
+
+def _moved_tables(session: Session, new: Path) -> list[tuple[TableModel, str]]:
+    """CSV tables are named relative to the session's real folder: saved in another,
+    each relative name is rewritten so that it still reaches the same file."""
+    if session.path is None:
+        return []
+    old = real_path(session.path).parent
+    if old == new:
+        return []
+    moved = []
+    for table in tables_in(session.model.problem):
+        if table.csv is None or Path(table.csv).is_absolute():
+            continue
+        source = (old / table.csv).resolve()
+        name = Path(os.path.relpath(source, new.resolve())).as_posix()
+        if name.startswith("../") and not session.allow_outside_tables:
+            name = _copy_beside(source, new)     # a table outside the new folder would be refused
+        moved.append((table, name))
+    return moved
+
+
+def _copy_beside(source: Path, folder: Path) -> str:
+    """Copy a table into ``folder`` under its own name (a suffix when another file has it)."""
+    data = source.read_bytes()
+    stem, k = source.stem, 1
+    target = folder / source.name
+    while target.exists() and target.read_bytes() != data:
+        k += 1
+        target = folder / f"{stem}-{k}{source.suffix}"
+    if not target.exists():
+        target.write_bytes(data)
+    return target.name
+
+
+def prepare_save(session: Session, target: str | Path, force: bool = False) -> None:
+    """Before the work: a `SessionError` now when ``target`` cannot be saved to (its
+    folder missing or not writable, a read-only file unless ``force``); autosaves
+    go beside it from now on."""
+    check_writable(Path(target), force)
+    session.save_to = Path(target)
 
 
 def tables_in(node: Any):
@@ -222,24 +307,35 @@ def tables_in(node: Any):
 
 
 def autosave_path(path: Path) -> Path:
-    return path.with_name(path.name + ".autosave")
+    """Where the autosave of a session file goes: beside its real file."""
+    real = real_path(Path(path))
+    return real.with_name(real.name + ".autosave")
 
 
 AUTOSAVE_INTERVAL = 2.0   # s: a long run is autosaved this often (and at its end), not every iteration
 
 
 def write_autosave(session: Session, at_most_every: float = 0.0) -> Path | None:
-    """The whole session beside its file (never over it).  With ``at_most_every``,
-    nothing is written when the last autosave is more recent than that (the whole
-    session is written each time, so per-iteration writes would grow as n^2)."""
-    if session.path is None:
+    """The whole session beside the file it will be saved to (never over it).  With
+    ``at_most_every``, nothing is written when the last autosave is more recent than
+    that (the whole session is written each time, so per-iteration writes would grow
+    as n^2).  Never raises: one that cannot be written gives None, and
+    ``session.autosave_warning`` says why (None again after one that succeeds)."""
+    base = session.save_to or session.path
+    if base is None:
         return None
     now_ = time.monotonic()
     if at_most_every and session.last_autosave and now_ - session.last_autosave < at_most_every:
         return None
-    target = autosave_path(session.path)
-    _atomic_write(target, dumps(session.model))
-    session.last_autosave = now_
+    target = autosave_path(base)
+    session.last_autosave = now_    # a failed one too: a full disk is not tried again every iteration
+    try:
+        write_atomic(target, dumps(session.model).encode("utf-8"), mode_of(real_path(base)))
+    except (OSError, ValueError, TypeError, RecursionError) as exc:
+        reason = describe(exc) if isinstance(exc, OSError) else f"the session is not JSON data ({exc})"
+        session.autosave_warning = f"{target}: cannot autosave: {reason}"
+        return None
+    session.autosave_warning = None
     return target
 
 
@@ -247,8 +343,11 @@ def autosave_candidate(path: str | Path) -> Path | None:
     """The autosave of ``path`` when it is newer than the file itself."""
     path = Path(path)
     auto = autosave_path(path)
-    if not auto.exists():
+    try:
+        if not auto.exists():
+            return None
+        if not path.exists() or auto.stat().st_mtime > path.stat().st_mtime:
+            return auto
+    except OSError:
         return None
-    if not path.exists() or auto.stat().st_mtime > path.stat().st_mtime:
-        return auto
     return None

@@ -6,7 +6,11 @@ worker runs `run_job`, a function of this module that workers import (they
 need loopcraft installed), and sends back plain JSON (the final StepRecord's
 content, summarized by the algorithm's presenter).  Without an address a
 local cluster is started with one process per core, one thread each; with
-``tcp://HOST:PORT`` that cluster is used.
+``tcp://HOST:PORT`` (checked before anything starts) that cluster is used,
+reached within a connect timeout.  Every failure to start or reach a cluster
+is a `SessionError`.  Ctrl-C stops a sweep: the runs not finished are
+cancelled and the finished ones kept (the local workers ignore it, started
+with SIGINT ignored, so that only this process sees it).
 
 A job that fails (a singular matrix, a worker that dies twice) is recorded
 as failed with its reason; the sweep goes on.  Each job logs a "started"
@@ -16,16 +20,23 @@ is reported with its attempts.
 
 from __future__ import annotations
 
+import math
 import os
+import re
+import signal
+import threading
 import time
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import numpy as np
 
 from engine.algorithm import StepRecord, iterate
+from engine.present import tolerant
 from engine.errors import EngineError
 from engine.loops import open_loop
 from engine.problem import Problem
@@ -78,10 +89,11 @@ def _evaluate(presenter, algorithm, problem, settings) -> StepRecord:
 def _summary(presenter, record: StepRecord) -> dict:
     """A finished run as plain JSON: status, parameters, the presenter's ranking value, measures."""
     out = {"status": record.status.value, "reason": record.reason, "iterations": record.iteration,
-           "parameters": dict(record.parameters), "objective": presenter.ranking(record),
+           "parameters": dict(record.parameters),
+           "objective": tolerant(lambda: presenter.ranking(record), lambda: record.objective),
            "measures": record.to_json()["measures"],
            "meets_requirements": all(m.satisfied for m in record.measures)}
-    out.update(presenter.summary(record))
+    out.update(tolerant(lambda: presenter.summary(record), dict))
     return out
 
 
@@ -117,40 +129,130 @@ def _announce(index: int) -> str:
 
 # -- execution ---------------------------------------------------------------
 
+DEFAULT_CONNECT_TIMEOUT = 5.0    # s: how long to wait for a scheduler, or for a local cluster's workers
+RESULT_WAIT = 5.0                # s: for a finished run's result after an interrupt
+
+
+def scheduler_address(text: str | None, label: str = "--scheduler") -> str | None:
+    """A scheduler address checked before anything starts: None (a local cluster) or
+    tcp://HOST:PORT, HOST a name, an IPv4 address or [IPv6], PORT 1-65535."""
+    if text is None:
+        return None
+    form = f"{label} {text!r}: write tcp://HOST:PORT (PORT 1-65535)"
+    if not text.strip():
+        raise SessionError(form + f"; leave {label} out for a local cluster")
+    parts = urlsplit(text.strip())
+    if parts.scheme != "tcp":
+        raise SessionError(form + (f"; {parts.scheme}:// is not supported" if parts.scheme else ""))
+    try:
+        port = parts.port
+    except ValueError:
+        raise SessionError(form) from None
+    host = parts.hostname or ""
+    if (not port or not _HOST.fullmatch(host) or parts.username is not None
+            or parts.path or parts.query or parts.fragment):
+        raise SessionError(form)
+    return f"tcp://{'[' + host + ']' if ':' in host else host}:{port}"
+
+
+_HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9.-]*[A-Za-z0-9])?|[0-9A-Fa-f:.]*:[0-9A-Fa-f:.]*")
+
+
+def connect_timeout(seconds: float | None) -> float:
+    """The connect timeout in seconds (DEFAULT_CONNECT_TIMEOUT for None); positive and finite."""
+    value = DEFAULT_CONNECT_TIMEOUT if seconds is None else seconds
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise SessionError(f"--connect-timeout {seconds!r}: a positive number of seconds")
+    return float(value)
+
+
+@contextmanager
+def sigint_ignored() -> Iterator[None]:
+    """Ctrl-C ignored inside (in the main thread only: elsewhere nothing changes);
+    processes started inside inherit it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 @dataclass
 class Outcome:
-    """Every run's result, in job order, and what happened to the workers."""
+    """Every run's result, in job order, and what happened to the workers;
+    ``interrupted``: Ctrl-C stopped it (the runs not finished are cancelled)."""
 
     runs: list[dict]
     workers: int
     attempts: dict[int, list[str]] = field(default_factory=dict)
     cancelled: bool = False
+    interrupted: bool = False
+
+    @property
+    def finished(self) -> int:
+        """How many runs ran to their end (not cancelled)."""
+        return sum(r["reason"] != CANCELLED for r in self.runs)
+
+
+CANCELLED = "cancelled"
 
 
 def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = None,
             progress: Callable[[int, int], None] | None = None,
-            cancelled: Callable[[], bool] = lambda: False, client=None) -> Outcome:
+            cancelled: Callable[[], bool] = lambda: False, client=None,
+            timeout: float = DEFAULT_CONNECT_TIMEOUT) -> Outcome:
     """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
-    per core, one thread each) or the cluster at ``scheduler``."""
+    per core, one thread each) or the cluster at ``scheduler`` (tcp://HOST:PORT,
+    reached within ``timeout`` seconds).  Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
-    from distributed import Client, LocalCluster
-    cluster = None
-    try:
-        if scheduler:
-            client = Client(scheduler, timeout="20s")
-        else:
-            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=40)
-            client = Client(cluster)
-    except (OSError, TimeoutError) as exc:
-        raise SessionError(f"cannot reach the Dask scheduler {scheduler or '(local)'}: {exc}") from None
+    client, cluster = _connect(scheduler_address(scheduler), workers, connect_timeout(timeout))
     try:
         return _gather(client, jobs, progress, cancelled)
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        with sigint_ignored():
+            _close(client, cluster)
+
+
+def _connect(address: str | None, workers: int | None, timeout: float):
+    """A client of the scheduler at ``address``, or of a new local cluster; every failure a `SessionError`."""
+    from distributed import Client, LocalCluster
+    if address is not None:
+        try:
+            return Client(address, timeout=timeout), None
+        except Exception as exc:  # noqa: BLE001 - whatever answers (or not) there, one clean error
+            raise SessionError(f"cannot reach the Dask scheduler {address} within {timeout:g} s: "
+                               f"{_reason(exc)}") from None
+    n = workers or os.cpu_count() or 1
+    try:
+        with sigint_ignored():   # the worker processes inherit it: Ctrl-C is for this process alone
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=40)
+    except Exception as exc:  # noqa: BLE001 - e.g. "Nanny failed to start": one clean error
+        raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {_reason(exc)}") from None
+    try:
+        return Client(cluster, timeout=timeout), cluster
+    except Exception as exc:  # noqa: BLE001
+        _close(None, cluster)
+        raise SessionError(f"cannot connect to the local Dask cluster: {_reason(exc)}") from None
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _close(client, cluster) -> None:
+    """Close what was opened; a failure to close never loses the results."""
+    for thing in (client, cluster):
+        if thing is not None:
+            try:
+                thing.close()
+            except Exception:  # noqa: BLE001, S110 - closing is best effort
+                pass
 
 
 def _gather(client, jobs, progress, cancelled) -> Outcome:
@@ -159,43 +261,89 @@ def _gather(client, jobs, progress, cancelled) -> Outcome:
     futures = client.map(run_job, [job.payload() for job in jobs], key=[f"loopcraft-{tag}-{j.index}" for j in jobs],
                          pure=False, retries=1)
     index_of = {f.key: j.index for f, j in zip(futures, jobs)}
+    position = {j.index: k for k, j in enumerate(jobs)}
     runs: dict[int, dict] = {}
-    stopped = False
-    for future in as_completed(futures):
-        k = index_of[future.key]
-        try:
-            runs[k] = future.result()
-        except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled job is recorded, not raised
-            runs[k] = _lost(jobs[k], exc)
-        if progress:
-            progress(len(runs), len(jobs))
-        if not stopped and cancelled():
-            stopped = True
-            client.cancel([f for f in futures if not f.done()])
-    workers = len(client.scheduler_info().get("workers", {}))
+    stopped = interrupted = False
+    try:
+        for future in as_completed(futures):
+            k = index_of[future.key]
+            runs[k] = _result(future, jobs[position[k]])
+            if progress:
+                progress(len(runs), len(jobs))
+            if not stopped and cancelled():
+                stopped = True
+                client.cancel([f for f in futures if not f.done()])
+    except KeyboardInterrupt:
+        with sigint_ignored():
+            stopped = interrupted = True
+            _interrupted(client, futures, jobs, runs)
+    with sigint_ignored() if interrupted else nullcontext():
+        workers, attempts = _workers_and_attempts(client, runs)
+    return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted)
+
+
+def _result(future, job) -> dict:
+    try:
+        return future.result()
+    except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled job is recorded, not raised
+        return _lost(job, exc)
+
+
+def _interrupted(client, futures, jobs, runs: dict[int, dict]) -> None:
+    """After Ctrl-C: cancel what has not finished, keep what has."""
+    try:
+        client.cancel([f for f in futures if not f.done()])
+    except Exception:  # noqa: BLE001, S110 - the runs are kept whatever the scheduler says
+        pass
+    for future, job in zip(futures, jobs):
+        if job.index in runs:
+            continue
+        if future.status == "finished":
+            try:
+                runs[job.index] = future.result(timeout=RESULT_WAIT)
+                continue
+            except Exception:  # noqa: BLE001, S110 - not fetched in time: cancelled like the rest
+                pass
+        runs[job.index] = _lost(job, None)
+
+
+def _workers_and_attempts(client, runs: dict[int, dict]) -> tuple[int, dict[int, list[str]]]:
+    """How many workers the scheduler has, and where each run was started (from its events)."""
+    try:
+        workers = len(client.scheduler_info().get("workers", {}))
+        events = client.get_events(EVENT_TOPIC)
+    except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
+        workers, events = 0, ()
     attempts: dict[int, list[str]] = {}
-    for _, event in client.get_events(EVENT_TOPIC):
+    for _, event in events:
         if isinstance(event, dict) and event.get("index") in runs:
             attempts.setdefault(event["index"], []).append(event["worker"])
     for k, run in runs.items():
         run["attempts"] = len(attempts.get(k, [])) or (0 if run["status"] == "failed" else 1)
-    return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped)
+    return workers, attempts
 
 
-def _lost(job, exc: BaseException) -> dict:
+def _lost(job, exc: BaseException | None) -> dict:
+    """A run that did not finish: ``exc`` None or a CancelledError for a cancelled one."""
     kind = type(exc).__name__
-    reason = "cancelled" if kind == "CancelledError" else f"{kind}: {exc}"
+    reason = CANCELLED if exc is None or kind == "CancelledError" else f"{kind}: {exc}"
     return {"index": job.index, "label": job.label, "start": job.start, "worker": None, "status": "failed",
             "reason": reason, "parameters": {}, "objective": None, "measures": [], "meets_requirements": False,
             "iterations": 0, "seconds": None}
 
 
 def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome:
-    """The same jobs in this process, one after the other (the throughput baseline)."""
-    runs = []
-    for job in jobs:
-        runs.append(run_job(job.payload()))
-        runs[-1]["attempts"] = 1
-        if progress:
-            progress(len(runs), len(jobs))
+    """The same jobs in this process, one after the other (the throughput baseline);
+    Ctrl-C stops it: the finished runs are kept, the rest cancelled."""
+    runs: list[dict] = []
+    try:
+        for job in jobs:
+            run = run_job(job.payload())
+            run["attempts"] = 1
+            runs.append(run)
+            if progress:
+                progress(len(runs), len(jobs))
+    except KeyboardInterrupt:
+        rest = [_lost(job, None) for job in jobs[len(runs):]]
+        return Outcome(runs + rest, 1, {}, cancelled=True, interrupted=True)
     return Outcome(runs, 1, {})

@@ -3,12 +3,17 @@ study, the summary kept in the session, and adopting a run's design."""
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
 from engine.algorithm import lookup
+from engine.memory import jsonable
 
 from .errors import SessionError
 from .lifecycle import adopt_parameters
@@ -118,7 +123,40 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         data["optima"] = optima(outcome.runs, maximize)
     for run in outcome.runs:
         run.pop("signature", None)  # only for clustering: not kept in the session
-    return data
+    return jsonable(data)   # infinities and NaN as "inf", "nan": the session's JSON has no others
+
+
+def recovery_path(target: Path) -> Path:
+    """Where a sweep's summary goes when its session cannot be saved: NAME.sweep-recovery.json beside it."""
+    return target.with_name(f"{target.stem}.sweep-recovery.json")
+
+
+def write_recovery(summary: dict, target: Path) -> Path:
+    """Write a sweep's summary beside ``target`` (or, failing that, in the temporary
+    folder) so that no result is lost; the file written, or a `SessionError`."""
+    text = json.dumps({"session": str(target), "sweep": summary}, indent=2, sort_keys=True, allow_nan=False) + "\n"
+    tried = []
+    for place in (recovery_path(target), Path(tempfile.gettempdir()) / recovery_path(target).name):
+        try:
+            _write_new(place, text)
+            return place
+        except OSError as exc:
+            tried.append(f"{place}: {exc.strerror or exc}")
+    raise SessionError("cannot write the sweep's recovery file (" + "; ".join(tried) + ")")
+
+
+def _write_new(place: Path, text: str) -> None:
+    """Write ``text`` to a temporary file beside ``place`` and rename it there."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{place.name}.", suffix=".tmp", dir=place.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, place)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def record_sweep(session: Session, summary: dict) -> None:

@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from .build import read_csv
+from .build import read_csv, table_path
 from .errors import SessionError
 from .lifecycle import folder
 from .store import Session, tables_in
-from .sweep_jobs import run_job
+from .sweep_jobs import run_job, scheduler_address
 
 
 @dataclass(frozen=True)
@@ -37,13 +37,16 @@ class Job:
                 "start": self.start}
 
 
-def shippable(session: Session) -> dict:
-    """The session as JSON data with CSV tables inlined and no records."""
+def shippable(session: Session, allow_outside_tables: bool | None = None) -> dict:
+    """The session as JSON data with CSV tables inlined (read as `build_problem` reads
+    them: none outside the session's folder unless allowed) and no records."""
     model = session.model.model_copy(deep=True)
     base = folder(session)
     for table in tables_in(model):
         if table.csv is not None:
-            f, first, second = read_csv(base / table.csv, table.columns, "table")
+            allowed = allow_outside_tables if allow_outside_tables is not None else session.allow_outside_tables or None
+            file = table_path(base, table.csv, "table", allowed)
+            f, first, second = read_csv(file, table.columns, "table")
             table.frequency, table.first, table.second = f, first, second or None
             table.csv, table.columns = None, None
     model.records, model.current_iteration, model.state, model.sweeps = [], 0, None, []
@@ -217,7 +220,7 @@ def parse_sweep(text: str) -> dict:
         k = rest.index("at")
         if k + 1 >= len(rest):
             raise SessionError("'at' needs a scheduler address (tcp://HOST:PORT)")
-        out["scheduler"], rest = rest[k + 1], rest[:k] + rest[k + 2:]
+        out["scheduler"], rest = scheduler_address(rest[k + 1], "at"), rest[:k] + rest[k + 2:]
     options = {"spread": float, "seed": int, "samples": int}
     values = []
     while rest:

@@ -17,7 +17,9 @@ from textual.app import App, SystemCommand
 from textual.binding import Binding
 
 from sessions.errors import SessionError
-from sessions.store import autosave_candidate, load_session, parse_session
+from sessions.build import OutsideTable
+from sessions.savefile import OverwriteRefused
+from sessions.store import autosave_candidate, load_autosave, load_session, parse_session
 
 from .files import new_session_text, remember, untitled_path, working_copy
 from .run_loop import RunLoop
@@ -118,19 +120,22 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         else:
             self._open(path)
 
-    def _open(self, path: Path, keep_path: Path | None = None) -> None:
+    def _open(self, path: Path, keep_path: Path | None = None, allow_outside_tables: bool = False) -> None:
+        recovering = keep_path is not None and path != keep_path
         try:
-            if keep_path is not None and path != keep_path:
-                session = parse_session(path.read_text(encoding="utf-8"), str(path), keep_path.parent)
-                session.path = keep_path
-            else:
-                session = load_session(path)
+            session = (load_autosave(keep_path, allow_outside_tables) if recovering
+                       else load_session(path, allow_outside_tables))
+        except OutsideTable as exc:
+            question = f"this session reads a table outside its folder: {exc.name}. Read it?"
+            self.push_screen(ConfirmDialog(question),
+                             lambda yes: yes and self._open(path, keep_path, allow_outside_tables=True))
+            return
         except (SessionError, OSError) as exc:
             self.notify(str(exc), title="cannot open", severity="error", timeout=10)
             if not self.screen_stack or not isinstance(self.screen, (StartScreen, MainScreen)):
                 self.push_screen(StartScreen())
             return
-        self._show(Workbench(session), dirty=keep_path is not None and path != keep_path)
+        self._show(Workbench(session), dirty=recovering)
         remember(session.path)
 
     def _show(self, bench: Workbench, dirty: bool = False) -> None:
@@ -180,11 +185,14 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         self.push_screen(EditDialog("save as (path)", "", None),
                          lambda text: text and self._save(Path(text).expanduser()))
 
-    def _save(self, path: Path | None) -> None:
+    def _save(self, path: Path | None, force: bool = False) -> None:
         try:
-            target = self.bench.save(path)
+            target = self.bench.save(path, force=force)
+        except OverwriteRefused as exc:
+            self.push_screen(ConfirmDialog(f"{exc}. Overwrite it?"), lambda yes: yes and self._save(path, True))
+            return
         except SessionError as exc:
-            self.notify(str(exc), title="not saved", severity="error", timeout=10)
+            self.notify(str(exc), title="not saved (the session is kept in memory)", severity="error", timeout=10)
             return
         self.notify(f"saved {target}")
         self.refresh_workbench()

@@ -53,7 +53,8 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
     try:
         change(draft)
         draft = ProblemModel.model_validate(draft.model_dump())
-        problem = build_problem(draft, folder(bench.session))
+        problem = build_problem(draft, folder(bench.session),
+                                allow_outside_tables=bench.session.allow_outside_tables or None)
     except (ValueError, EngineError) as exc:
         raise SessionError(str(exc)) from None
     bench.session.model.problem, bench.session.problem = draft, problem

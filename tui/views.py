@@ -20,6 +20,7 @@ from engine.algorithm import MeasureRow, StepRecord
 from engine.errors import EngineError
 from engine.loops import loop_model, open_loop
 from engine.margins import Margins, margins
+from engine.present import tolerant
 from engine.problem import Problem
 from engine.realization import realize
 from engine.timeresp import Segment, simulate
@@ -164,13 +165,13 @@ class View:
     def trajectories(self) -> dict | None:
         """The presenter's trajectories of the current iteration (iteration 0's before any)."""
         records = self.records or tuple(r for r in [self.initial] if r is not None)
-        return self.presenter.trajectories(records)
+        return tolerant(lambda: self.presenter.trajectories(records), lambda: None)
 
     def convergence(self) -> tuple[str, list[int], list[float]]:
         """The convergence curve as the presenter measures it: label, iterations, values."""
         label, points = "", []
         for r in self.records:
-            label, value = self.presenter.convergence(r)
+            label, value = tolerant(lambda: self.presenter.convergence(r), lambda: (label, None))
             if value is not None and math.isfinite(value):
                 points.append((r.iteration, float(value)))
         return label, [p[0] for p in points], [p[1] for p in points]

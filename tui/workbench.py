@@ -17,6 +17,7 @@ from engine.algorithm import State, Status, StepRecord
 from engine.errors import EngineError
 from sessions import lifecycle
 from sessions.errors import SessionError
+from sessions.runner import record_json, settings_snapshot
 from sessions.store import AUTOSAVE_INTERVAL, Session, autosave_path, save_session, write_autosave
 from sessions.sweep_jobs import execute
 from sessions.sweep_results import adopt_run, record_sweep, summarize
@@ -34,6 +35,7 @@ class Workbench:
         self._states: dict[int, State] = {}
         self._algorithm: Any = None
         self._initial: StepRecord | None = None
+        self._settings: dict | None = None
         self._records: list[StepRecord] = session.records   # parsed once, kept in step with the model
         self.plotted_condition: int | None = None   # the flight condition the plots show; None: all
 
@@ -76,6 +78,7 @@ class Workbench:
         (a `SessionError` says why it cannot be set up)."""
         if self._algorithm is None or 0 not in self._states:
             algorithm, settings = lifecycle.bound_algorithm(self.session)
+            self._settings = settings_snapshot(settings)   # kept with every record (replay checks them)
             try:
                 self._states = {0: algorithm.init(self.session.problem, settings)}
                 saved = self.session.model.state
@@ -109,7 +112,7 @@ class Workbench:
         model = self.session.model
         del model.records[self.iteration:]
         del self._records[self.iteration:]
-        model.records.append(record.to_json())
+        model.records.append(record_json(record, self._settings))
         self._records.append(record)
         model.state = state.to_json()
         model.current_iteration = len(model.records)
@@ -132,12 +135,11 @@ class Workbench:
         AUTOSAVE_INTERVAL, as runs do); says where, or why it could not."""
         if not self.dirty:
             return "nothing unsaved"
-        try:
-            target = write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL if throttled else 0.0)
-        except (OSError, SessionError) as exc:
-            return f"the autosave failed: {exc}"
-        if target is None and self.session.path is None:
+        if self.session.path is None:
             return "no autosave (the session has no file yet)"
+        write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL if throttled else 0.0)
+        if self.session.autosave_warning:
+            return f"the autosave failed: {self.session.autosave_warning}"
         return f"autosaved to {autosave_path(self.session.path).name}"
 
     def undo(self) -> bool:
@@ -212,8 +214,9 @@ class Workbench:
         lifecycle.rebuild(self.session)
         self.reset()
 
-    def save(self, path: str | Path | None = None) -> Path:
-        target = save_session(self.session, path)
+    def save(self, path: str | Path | None = None, force: bool = False) -> Path:
+        """Save (``force``: over a file changed on disk since it was loaded, or a read-only one)."""
+        target = save_session(self.session, path, force=force)
         self.dirty = False
         return target
 

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from ..algorithm import MeasureRow, State, Status, StepRecord
 from ..compensators import coefficient_roles, compensators, split_by_role
 from ..errors import EngineError
+from ..guard import check_vector, guarded
 from ..problem import Problem
 from .constraints import Constraint, check_targets, detect
 from .direction import Direction, Rows, gradient_rows, improvement_direction
@@ -88,6 +89,7 @@ class Cip:
     name = "cip"
     memory_type = CipMemory
 
+    @guarded('cip')
     def init(self, problem: Problem, settings: CipSettings) -> State:
         check_targets(problem)
         if not problem.free_slots():
@@ -105,7 +107,9 @@ class Cip:
                            CipBest(0, tuple(x.tolist()), smallest_stability_margin(constraints)))
         return State(0, tuple(x.tolist()), Status.RUNNING, memory)
 
+    @guarded('cip')
     def step(self, state: State) -> tuple[State, StepRecord]:
+        check_vector("cip", state.x, len(self.lower))
         x = np.array(state.x, dtype=float)
         memory: CipMemory = state.memory
         constraints = list(memory.constraints)
@@ -139,6 +143,7 @@ class Cip:
         new, windings, matched = outcome
         return self._accepted(state, k, trial, new, windings, matched, h, direction, rejected, len(active))
 
+    @guarded('cip')
     def initial_record(self, state: State) -> StepRecord:
         """The tableau before any iteration (the report's Table 1), as iteration 0."""
         x = np.array(state.x)

@@ -111,6 +111,10 @@ def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool
             windings.append(0.0)
             continue
         loop = _loop(problem, c, problem.condition_values(c, x), detection != "grid")
+        if not np.all(np.isfinite(loop.gh)):
+            bad = problem.grid.omega[np.flatnonzero(~np.isfinite(loop.gh))[0]]
+            raise EngineError(f"cip: the open loop of {condition.name} is not finite at {bad:.6g} rad/s "
+                              "(a value out of floating-point range, or a pole on the grid)")
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
         found += [replace(made, method=found_margins.label)

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..algorithm import MeasureRow, State, Status, StepRecord
 from ..errors import EngineError
+from ..guard import guarded
 from ..problem import Problem
 from .banded import Projector
 from .lq import Trajectory, norm
@@ -61,6 +62,7 @@ class Projection:
     name = "projection"
     memory_type = ProjectionMemory
 
+    @guarded('projection')
     def init(self, problem: Problem, settings: ProjectionSettings) -> State:
         if problem.objective is None or problem.objective.kind != "dae":
             raise EngineError("projection: the problem needs an objective of kind 'dae' with the system in its data")
@@ -76,12 +78,14 @@ class Projection:
         self._last: tuple[Iterate, Trajectory] | None = None
         return State(0, (), Status.RUNNING, ProjectionMemory(self._pack(self.project(zero)), 1.0, ()))
 
+    @guarded('projection')
     def initial_record(self, state: State) -> StepRecord:
         """Iteration 0: the first iterate r_1 = P_K2(0), with the open loop where the system defines one."""
         r = self._unpack(state.memory.r)
         return self._record(0, Status.RUNNING, "", r, None, norm(self._clip(r) - r, self.system.Q, self.system.R),
                             None)
 
+    @guarded('projection')
     def step(self, state: State) -> tuple[State, StepRecord]:
         s, sys = self.settings, self.system
         memory: ProjectionMemory = state.memory
@@ -89,6 +93,9 @@ class Projection:
         k = self._clip(r)
         distance = norm(k - r, sys.Q, sys.R)
         i = state.iteration + 1
+        if not np.isfinite(distance):
+            raise EngineError("projection: the distance between the sets overflows (the system's scale is beyond "
+                              "floating point)")
         history = memory.distances + (distance,)
         memory = replace(memory, distances=history[-STALL_WINDOW - 1:])
         if self._converged(r, distance):
@@ -147,6 +154,9 @@ class Projection:
         if sys.integral is None:
             return
         C = sys.integral
+        if np.linalg.matrix_rank(C) < C.shape[0]:
+            raise EngineError("projection: the integral constraints are not independent (a singular Gram matrix): "
+                              "drop the repeated ones")
         self._CRinv = (C.reshape(C.shape[0], sys.steps + 1, sys.m) @ np.linalg.inv(sys.R)).reshape(C.shape)
         self._gram = self._CRinv @ C.T
 
@@ -212,7 +222,9 @@ class Projection:
 
     def _pack(self, t: Trajectory) -> Iterate:
         """The iterate as the memory keeps it (tuples), made once per trajectory; the next step
-        takes the arrays back without converting."""
+        takes the arrays back without converting.  A non-finite iterate is an error (it could not be stored)."""
+        if not (np.all(np.isfinite(t.x)) and np.all(np.isfinite(t.u))):
+            raise EngineError("projection: the iterate overflows (the system's scales are beyond floating point)")
         if self._last is None or self._last[1] is not t:
             self._last = (Iterate(tuple(map(tuple, t.x.tolist())), tuple(map(tuple, t.u.tolist()))), t)
         return self._last[0]

@@ -19,6 +19,8 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 
 from ..errors import EngineError
+from .data import MAX_INPUTS, MAX_POWER, MAX_STATES, MAX_STEPS, fail, integer, items, limits, matrix, number, obj, \
+    sizes, vector, weights
 
 
 @dataclass(frozen=True)
@@ -56,7 +58,11 @@ class DaeSystem:
         n, m = self.n, self.m
         augmented = np.zeros((n + m, n + m))
         augmented[:n, :n], augmented[:n, n:] = self.A, self.B
-        exp = expm(augmented * h)
+        with np.errstate(all="ignore"):
+            scaled = augmented * h
+            exp = expm(scaled) if np.all(np.isfinite(scaled)) else scaled
+        if not np.all(np.isfinite(exp)):
+            raise EngineError(f"projection: exp(A h) overflows (h = T/N = {h:.6g}): a shorter horizon or more steps")
         return exp[:n, :n], exp[:n, n:]
 
     def times(self) -> NDArray:
@@ -67,123 +73,92 @@ class DaeSystem:
         return bool(np.isfinite(np.concatenate([self.u_lower, self.u_upper, self.x_lower, self.x_upper])).any())
 
 
-def _matrix(data: Mapping[str, Any], key: str, shape: tuple[int, int] | None = None) -> NDArray:
-    if key not in data:
-        raise EngineError(f"projection: the system needs {key}")
-    try:
-        value = np.array(data[key], dtype=float)
-    except (TypeError, ValueError):
-        raise EngineError(f"projection: {key} must be a matrix of numbers") from None
-    value = np.atleast_2d(value)
-    if shape is not None and value.shape != shape:
-        raise EngineError(f"projection: {key} must be {shape[0]} x {shape[1]}, not {value.shape[0]} x {value.shape[1]}")
-    if not np.all(np.isfinite(value)):
-        raise EngineError(f"projection: {key} has a non-finite entry")
-    return value
-
-
 def _integrals(data: Mapping[str, Any], m: int, steps: int, horizon: float) -> tuple[NDArray | None, NDArray | None]:
     """integral_0^T t^power u_j(t) dt = value, exact for the held (piecewise constant) control."""
-    items = data.get("integral_constraints") or []
-    if not items:
+    entries = items(data.get("integral_constraints") or [], "integral_constraints")
+    if not entries:
         return None, None
     t = np.linspace(0.0, horizon, steps + 1)
     rows, values = [], []
-    for item in items:
-        j, power = int(item["input"]) - 1, int(item.get("power", 0))
-        if not 0 <= j < m or power < 0:
-            raise EngineError(f"projection: integral constraint on input {j + 1} with power {power} is not valid")
+    for k, entry in enumerate(entries):
+        key = f"integral_constraints[{k}]"
+        entry = obj(entry, key)
+        j = integer(entry.get("input"), f"{key}.input", 1, m) - 1
+        power = integer(entry.get("power", 0), f"{key}.power", 0, MAX_POWER)
         row = np.zeros((steps + 1, m))
-        row[:-1, j] = (t[1:] ** (power + 1) - t[:-1] ** (power + 1)) / (power + 1)
+        with np.errstate(all="ignore"):
+            row[:-1, j] = (t[1:] ** (power + 1) - t[:-1] ** (power + 1)) / (power + 1)
+        if not np.all(np.isfinite(row)):
+            raise fail(key, f"t^{power + 1} overflows over the horizon {horizon:g}")
         rows.append(row.ravel())
-        values.append(float(item["value"]))
+        values.append(number(entry.get("value"), f"{key}.value"))
     return np.array(rows), np.array(values)
 
 
 def _terminal(data: Mapping[str, Any], n: int) -> NDArray | None:
-    items = data.get("terminal") or []
-    if not items:
+    entries = items(data.get("terminal") or [], "terminal")
+    if not entries:
         return None
-    out = np.array([[int(i["state"]) - 1, float(i["value"])] for i in items])
-    if np.any(out[:, 0] < 0) or np.any(out[:, 0] >= n):
-        raise EngineError(f"projection: terminal constraints name states 1..{n}")
-    return out
+    out = []
+    for k, entry in enumerate(entries):
+        entry = obj(entry, f"terminal[{k}]")
+        out.append([integer(entry.get("state"), f"terminal[{k}].state", 1, n) - 1,
+                    number(entry.get("value"), f"terminal[{k}].value")])
+    return np.array(out, dtype=float)
 
 
 def _open_loop(data: Mapping[str, Any], m: int) -> tuple[int, ...] | None:
     spec = data.get("open_loop")
     if spec is None:
         return None
-    zero = tuple(int(j) for j in spec.get("zero_inputs", []))
-    if any(not 1 <= j <= m for j in zero):
-        raise EngineError(f"projection: open_loop.zero_inputs name inputs 1..{m}")
-    return zero
+    zero = items(obj(spec, "open_loop").get("zero_inputs", []), "open_loop.zero_inputs", m)
+    return tuple(integer(j, f"open_loop.zero_inputs[{i}]", 1, m) for i, j in enumerate(zero))
 
 
 def _time_unit(data: Mapping[str, Any]) -> tuple[str, float]:
     raw = data.get("time_unit", ["s", 1.0])
-    try:
-        unit = (str(raw[0]), float(raw[1]))
-    except (TypeError, ValueError, IndexError):
-        raise EngineError("projection: time_unit is [name, seconds per unit], e.g. [\"h\", 3600]") from None
-    if not unit[1] > 0:
-        raise EngineError("projection: time_unit needs a positive number of seconds")
-    return unit
+    if not (isinstance(raw, list) and len(raw) == 2 and isinstance(raw[0], str)):
+        raise EngineError("projection: time_unit is [name, seconds per unit], e.g. [\"h\", 3600]")
+    return raw[0][:20], number(raw[1], "time_unit[1]", positive=True)
 
 
-def _weights(data: Mapping[str, Any], key: str, size: int, semidefinite: bool = False) -> NDArray:
-    raw = data.get(key, [1.0] * size)
-    value = np.array(raw, dtype=float)
-    if value.ndim == 1:
-        if value.shape != (size,):
-            raise EngineError(f"projection: {key} needs {size} diagonal entries")
-        value = np.diag(value)
-    if value.shape != (size, size) or not np.allclose(value, value.T):
-        raise EngineError(f"projection: {key} must be a symmetric {size} x {size} matrix")
-    smallest = np.min(np.linalg.eigvalsh(value))
-    if smallest < 0 or (smallest == 0 and not semidefinite):
-        raise EngineError(f"projection: {key} must be positive {'semi' if semidefinite else ''}definite")
-    return value
-
-
-def _bounds(data: Mapping[str, Any], key: str, size: int, default: float) -> NDArray:
-    raw = data.get(key)
-    if raw is None:
-        return np.full(size, default)
-    values = [default if v is None else float(v) for v in raw]
-    if len(values) != size:
-        raise EngineError(f"projection: {key} needs {size} entries (null: unbounded)")
-    return np.array(values)
+def _algebraic(data: Mapping[str, Any], n: int, m: int) -> tuple[NDArray, NDArray]:
+    """E and F of E u + F x = 0 (none: no algebraic equation)."""
+    if "E" not in data and "F" not in data:
+        return np.zeros((0, m)), np.zeros((0, n))
+    if "E" not in data or "F" not in data:
+        raise EngineError("projection: give both E and F (E u + F x = 0), or neither")
+    E = matrix(data["E"], "E", columns=m, most=MAX_INPUTS)
+    F = matrix(data["F"], "F", E.shape[0], n, most=MAX_INPUTS)
+    if np.linalg.matrix_rank(E) < E.shape[0]:
+        raise EngineError("projection: E must have full row rank (each algebraic equation must involve u)")
+    return E, F
 
 
 def dae_system(data: Mapping[str, Any]) -> DaeSystem:
-    """The system from plain data (an objective's ``data``), with every shape checked."""
-    A = _matrix(data, "A")
+    """The system from plain data (an objective's ``data``), with every type, shape and size checked."""
+    data = obj(data, "(top)")
+    for key in ("A", "B"):
+        if key not in data:
+            raise EngineError(f"projection: the system needs {key}")
+    A = matrix(data["A"], "A")
     n = A.shape[0]
     if A.shape != (n, n):
         raise EngineError("projection: A must be square")
-    B = _matrix(data, "B")
-    if B.shape[0] != n:
-        raise EngineError(f"projection: B needs {n} rows")
+    B = matrix(data["B"], "B", n, most=MAX_STATES)
     m = B.shape[1]
-    if "E" in data or "F" in data:
-        E = _matrix(data, "E")
-        p = E.shape[0]
-        if E.shape[1] != m:
-            raise EngineError(f"projection: E must have {m} columns")
-        F = _matrix(data, "F", (p, n))
-    else:   # no algebraic equation
-        E, F, p = np.zeros((0, m)), np.zeros((0, n)), 0
-    if p and np.linalg.matrix_rank(E) < p:
-        raise EngineError("projection: E must have full row rank (each algebraic equation must involve u)")
-    x0 = np.array(data.get("x0", [0.0] * n), dtype=float)
-    steps, horizon = int(data.get("steps", 20)), float(data.get("horizon", 1.0))
-    if x0.shape != (n,) or steps < 1 or not horizon > 0:
-        raise EngineError(f"projection: x0 needs {n} entries, steps >= 1, horizon > 0")
+    if m > MAX_INPUTS:
+        raise fail("B", f"at most {MAX_INPUTS} inputs, not {m}")
+    E, F = _algebraic(data, n, m)
+    x0 = vector(data.get("x0", [0.0] * n), "x0", n)
+    steps = integer(data.get("steps", 20), "steps", 1, MAX_STEPS)
+    horizon = number(data.get("horizon", 1.0), "horizon", positive=True)
+    sizes(n, m, steps)
     integral, values = _integrals(data, m, steps, horizon)
-    system = DaeSystem(A, B, E, F, x0, horizon, steps, _weights(data, "Q", n, semidefinite=True),
-                       _weights(data, "R", m), _bounds(data, "u_min", m, -np.inf), _bounds(data, "u_max", m, np.inf),
-                       _bounds(data, "x_min", n, -np.inf), _bounds(data, "x_max", n, np.inf), integral, values,
+    system = DaeSystem(A, B, E, F, x0, horizon, steps, weights(data, "Q", n, semidefinite=True),
+                       weights(data, "R", m), limits(data.get("u_min"), "u_min", m, -np.inf),
+                       limits(data.get("u_max"), "u_max", m, np.inf), limits(data.get("x_min"), "x_min", n, -np.inf),
+                       limits(data.get("x_max"), "x_max", n, np.inf), integral, values,
                        _terminal(data, n), _open_loop(data, m), _time_unit(data))
     if system.integral is not None and system.boxed:
         raise EngineError("projection: K1 is either boxes or integral hyperplanes, not both (no closed-form "

@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from ..algorithm import MeasureRow, State, Status, StepRecord
 from ..errors import EngineError
+from ..guard import check_vector, guarded
 from ..problem import Problem
 from .memory import QcgMemory
 from .setup import CascadeProblem, cascade_problem
@@ -70,6 +71,7 @@ class Qcg:
     name = "qcg"
     memory_type = QcgMemory
 
+    @guarded('qcg')
     def init(self, problem: Problem, settings: QcgSettings) -> State:
         self.problem, self.settings = problem, settings
         self.cascade: CascadeProblem = cascade_problem(problem)
@@ -84,8 +86,10 @@ class Qcg:
 
     # -- one line search --------------------------------------------------
 
+    @guarded('qcg')
     def step(self, state: State) -> tuple[State, StepRecord]:
         s = self.settings
+        check_vector("qcg", state.x, len(self._names()))
         b0 = np.array(state.x)
         f, g = self._cost(b0, gradient=True)
         memory: QcgMemory = replace(state.memory, knt=state.memory.knt + 1)
@@ -96,6 +100,8 @@ class Qcg:
         lam = self._scale(b0, memory)
         g = g * lam
         tsqr = float(g @ g)
+        if not np.isfinite(tsqr):
+            raise EngineError("qcg: the scaled gradient overflows (the cost's scale is beyond floating point)")
         beta = tsqr / memory.tsave if memory.ncyc else 0.0
         h = -g + beta * np.array(memory.direction)
         total = float(np.abs(h).sum())
@@ -161,6 +167,10 @@ class Qcg:
         """F at b (and its gradient); the caller counts the evaluation (KNT)."""
         result = self.cascade.cost(self.problem.condition_values(0, b), gradient)
         g = np.array([result.gradient[n] for n in self._names()]) if gradient else np.zeros(0)
+        if not (np.isfinite(result.F) and np.all(np.isfinite(g))):
+            if not gradient:
+                return np.inf, g     # a trial where the cost overflows is no improvement
+            raise EngineError(f"qcg: the cost or its gradient is not finite at {self.problem.named(b)}")
         return result.F, g
 
     def _names(self) -> list[str]:

@@ -66,7 +66,12 @@ class Cascade:
 
 def exponential_disturbance(omega: NDArray, amplitude: float, pole: float, averaging_time: float) -> NDArray:
     """|d(jw)|^2 / T for d(t) = A exp(-a t): A^2 / (T (w^2 + a^2))."""
-    return amplitude ** 2 / (averaging_time * (omega ** 2 + pole ** 2))
+    with np.errstate(all="ignore"):
+        value = np.float64(amplitude) ** 2 / (averaging_time * (omega ** 2 + np.float64(pole) ** 2))
+    if not np.all(np.isfinite(value)):
+        raise EngineError("qcg: the disturbance term A^2 / (T (w^2 + a^2)) is not finite on the grid "
+                          "(disturbance_amplitude, disturbance_pole, averaging_time)")
+    return value
 
 
 @dataclass(frozen=True)

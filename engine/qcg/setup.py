@@ -50,11 +50,21 @@ class CascadeProblem:
         return open_loop_squares(self.cascade)
 
     def frequency_response(self, params: Mapping[str, float]) -> list[dict[str, float]]:
-        return frequency_response(self.cascade, self.h1, self.h2, params, self.normalizing_gain)
+        with np.errstate(all="ignore"):
+            return frequency_response(self.cascade, self.h1, self.h2, params, self.normalizing_gain)
 
 
 def cascade_problem(problem: Problem) -> CascadeProblem:
     """The cascade of the problem's first condition, or an `EngineError` saying what is missing."""
+    with np.errstate(all="ignore"):
+        made = _cascade_problem(problem)
+    data = made.cascade
+    if not all(np.all(np.isfinite(a)) for a in (data.g1, data.g1g2, data.ga, data.noise_psd, data.disturbance)):
+        raise EngineError("qcg: the plant or the noise and disturbance weights are not finite on the grid")
+    return made
+
+
+def _cascade_problem(problem: Problem) -> CascadeProblem:
     objective = problem.objective
     if objective is None or objective.kind != "quadratic_cost":
         raise EngineError("qcg: the problem needs an objective of kind 'quadratic_cost'")
@@ -62,6 +72,8 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     unknown = sorted(set(objective.options) - set(OPTIONS))
     if unknown:
         raise EngineError(f"qcg: unknown objective option(s) {', '.join(unknown)}; options are {', '.join(OPTIONS)}")
+    if not problem.conditions:
+        raise EngineError("qcg: the problem needs a flight condition (the cascade of report 001, Figure 2)")
     network = problem.conditions[0].network
     blocks = {e.label: e.transfer for e in network.entries}
     missing = [name for name in ("G1", "G2", "Ga") if name not in blocks]
@@ -74,7 +86,7 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
         if blocks[name].parameters:
             raise EngineError(f"qcg: block {name} depends on parameters; only H1 and H2 are tuned")
         fixed[name] = np.broadcast_to(blocks[name].evaluate(1j * w, {}).value, w.shape).astype(complex)
-    option = {k: float(v) for k, v in objective.options.items()}
+    option = _options(objective.options)
     tables = objective.tables
     if "noise_psd" in tables:
         noise = np.abs(tables["noise_psd"].interpolate(w))
@@ -92,6 +104,27 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     names = tuple(problem.parameters[i].name for i, _ in problem.free_slots())
     return CascadeProblem(cascade, blocks.get("H1"), blocks.get("H2"), weights, names,
                           option.get("normalizing_gain", 1.0))
+
+
+# option -> (least, greatest, whether the least is excluded)
+RANGES = {"averaging_time": (0.0, 1e300, True), "rsnat": (0.0, 1e300, False), "subdivisions": (1, 100, False),
+          "q1": (0.0, 1e300, False), "q2": (0.0, 1e300, False), "r1": (0.0, 1e300, False), "r2": (0.0, 1e300, False)}
+
+
+def _options(options: Mapping[str, object]) -> dict[str, float]:
+    """The objective's options as numbers in their ranges, or an `EngineError` naming the option."""
+    out = {}
+    for name, value in options.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            raise EngineError(f"qcg: objective option {name} must be a finite number, not {str(value)[:40]!r}")
+        low, high, strict = RANGES.get(name, (-np.inf, np.inf, False))
+        if not (low < value if strict else low <= value) or value > high:
+            raise EngineError(f"qcg: objective option {name} = {value!r} is outside "
+                              f"{'(' if strict else '['}{low:g}, {high:g}]")
+        out[name] = float(value)
+    if out.get("normalizing_gain", 1.0) == 0:
+        raise EngineError("qcg: objective option normalizing_gain must not be 0")
+    return out
 
 
 def _exact_plant(blocks: Mapping[str, Transfer]):

@@ -46,6 +46,7 @@ from numpy.typing import NDArray
 
 from ..algorithm import MeasureRow, State, Status, StepRecord
 from ..errors import EngineError
+from ..guard import check_vector, guarded
 from ..problem import Problem
 from .lp import LpResult, solve_step, step_box
 from .measures import Spec, evaluate, measure_specs
@@ -107,6 +108,7 @@ class Slp:
     name = "slp"
     memory_type = SlpMemory
 
+    @guarded('slp')
     def init(self, problem: Problem, settings: SlpSettings) -> State:
         self.problem, self.settings = problem, settings
         self.specs = measure_specs(problem, settings.require_stable)
@@ -126,8 +128,11 @@ class Slp:
 
     # -- one minor-loop trial ----------------------------------------------
 
+    @guarded('slp')
     def step(self, state: State) -> tuple[State, StepRecord]:
         memory: SlpMemory = state.memory
+        check_vector("slp", state.x, len(self.lower))
+        check_vector("slp", memory.x0, len(self.lower))
         x0 = np.array(memory.x0)
         base = _point_from(memory.base)
         counters = {"partial_evaluations": 0}
@@ -136,7 +141,10 @@ class Slp:
                               self.settings.partials, self.settings.fd_step)
             memory = replace(memory, partials=tuple(map(tuple, J.tolist())), partial_methods=tuple(how))
             counters["partial_evaluations"] = len(x0) if "finite difference" in how else 1
-        J = np.array(memory.partials, dtype=float).reshape(len(self.specs), len(x0))
+        J = np.array(memory.partials, dtype=float)
+        if J.shape != (len(self.specs), len(x0)):
+            raise EngineError(f"slp: the state's partials are {' x '.join(map(str, J.shape))}, the problem needs "
+                              f"{len(self.specs)} x {len(x0)} (the stored state belongs to another problem)")
         P = float(memory.P)
         lp = self._program(x0, base.values, J, P)
         trial, reason = self._trial(x0, lp)
@@ -298,6 +306,7 @@ class Slp:
                                   spec.at_least))
         return tuple(out)
 
+    @guarded('slp')
     def initial_record(self, state: State) -> StepRecord:
         """Iteration 0: the tableau of the starting point."""
         start = _point_from(state.memory.base)

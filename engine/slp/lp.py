@@ -51,6 +51,9 @@ def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, 
     row is held at SPEC + ``backoff`` |SPEC| (or where it is, if lower), so the
     linearization's error at the vertex does not tip it over SPEC.
     """
+    trouble = _unsolvable(c, gradients, values, specs, box, equalities)
+    if trouble:
+        return LpResult(None, float(steps[-1]), 0, trouble, np.zeros(len(values)))
     met = values >= specs
     held = np.minimum(values, specs + backoff * np.maximum(np.abs(specs), 1e-2))
     A_ub = -gradients
@@ -68,3 +71,16 @@ def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, 
             duals = -result.ineqlin.marginals if A_ub.size else np.zeros(0)
             return LpResult(np.asarray(result.x), float(step), solves, status, duals)
     return LpResult(None, float(steps[-1]), solves, status, np.zeros(len(values)))
+
+
+def _unsolvable(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, box: tuple[NDArray, NDArray],
+                equalities: tuple[NDArray, NDArray]) -> str:
+    """Why no program can be posed ('' when one can): non-finite data, or an empty box."""
+    for name, data in (("objective", c), ("partials", gradients), ("measures", values), ("requirements", specs),
+                       ("equalities", equalities[0]), ("equality values", equalities[1])):
+        if not np.all(np.isfinite(data)):
+            return f"not posed: the {name} are not finite"
+    lower, upper = box
+    if np.any(np.isnan(lower) | np.isnan(upper)) or np.any(lower > upper):
+        return "not posed: the step box is empty (a parameter outside its bounds)"
+    return ""

@@ -126,3 +126,46 @@ async def test_keys_that_change_the_session_say_why_they_wait_during_a_run(workd
         await settle(app, pilot)
         assert any("choose algorithm: not while a run goes" in m for m in messages(app))
         assert isinstance(app.screen, MainScreen)            # no dialog was opened
+
+
+@synchronous
+async def test_a_file_changed_on_disk_is_not_overwritten_without_asking(workdir):
+    path = workdir / "report003_lag_lead.json"
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        other = path.read_text().replace('"notes": "', '"notes": "edited elsewhere. ', 1)
+        path.write_text(other)
+        await pilot.press("ctrl+s")
+        await pilot.pause()
+        assert isinstance(app.screen, ConfirmDialog) and path.read_text() == other   # asked; nothing written
+        await pilot.press("n")
+        await pilot.pause()
+        await pilot.press("ctrl+s")
+        await pilot.pause()
+        await pilot.press("y")
+        await settle(app, pilot)
+        assert "edited elsewhere" not in path.read_text() and not app.bench.dirty
+
+
+@synchronous
+async def test_a_table_outside_the_sessions_folder_is_read_only_when_allowed(workdir):
+    import json
+    (workdir / "elsewhere").mkdir()
+    (workdir / "report003_lag_lead.json").rename(workdir / "elsewhere" / "s.json")
+    doc = json.loads((workdir / "elsewhere" / "s.json").read_text())
+    block = doc["problem"]["conditions"][0]["plant"]["blocks"][1]
+    (workdir / "plant.csv").write_text("hz,mag,deg\n0.01,100,-90\n1,1,-120\n100,0.001,-180\n")
+    block["transfer"] = {"kind": "table", "table": {"csv": "../plant.csv", "columns": ["hz", "mag", "deg"],
+                                                     "form": "polar", "unit": "hz"}}
+    (workdir / "elsewhere" / "s.json").write_text(json.dumps(doc))
+    app = LoopcraftApp(workdir / "elsewhere" / "s.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause()
+        assert isinstance(app.screen, ConfirmDialog)
+        assert "../plant.csv" in str(app.screen.query("Label").first().render())
+        await pilot.press("y")
+        await settle(app, pilot)
+        assert isinstance(app.screen, MainScreen) and app.bench.session.allow_outside_tables

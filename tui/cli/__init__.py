@@ -28,7 +28,23 @@ def build_parser() -> argparse.ArgumentParser:
     analyze.add_parser(sub)
     session_commands.add_parsers(sub)
     sweep.add_parser(sub)
+    for name in TABLE_COMMANDS:
+        sub.choices[name].add_argument(
+            "--allow-outside-tables", action="store_true",
+            help="read CSV tables outside the session's folder (absolute paths, .., symlinks leading out)")
     return parser
+
+
+TABLE_COMMANDS = ("run", "replay", "report", "tradeoff", "sweep", "analyze")   # those that read tables
+
+
+def _handle(args: argparse.Namespace) -> int:
+    """The command's handler; with --allow-outside-tables, inside `outside_tables_allowed`."""
+    if not getattr(args, "allow_outside_tables", False):
+        return args.handler(args)
+    from sessions.build import outside_tables_allowed
+    with outside_tables_allowed():
+        return args.handler(args)
 
 
 def run_app(target: str | None = None, example: str | None = None) -> int:
@@ -78,7 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        return args.handler(args)
+        return _handle(args)
     except (EngineError, CliError, SessionError) as exc:
         print(f"loopcraft {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -22,8 +22,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from engine.present import tableau_text
     from sessions.lifecycle import adopt_current, switch_algorithm
     from sessions.runner import run_session, set_setting
-    from sessions.store import save_session
+    from sessions.store import prepare_save, save_session
     session = load(args.file)
+    prepare_save(session, args.out or args.file)   # before any work: the output is writable; autosaves go there
     if args.adopt:
         adopt_current(session)
     for assignment in args.set or ():
@@ -78,12 +79,14 @@ def cmd_report(args: argparse.Namespace) -> int:
             writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied,
                              r.method or ""])
     else:
-        from engine.present import tableau_text
+        from engine.present import tableau_text, tolerant
         from sessions.lifecycle import registration
-        if record is None:
-            print(tableau_text(rows))
-        else:
-            print(registration(session).presenter.report(record, session.problem))
+        presenter = registration(session).presenter
+
+        def generic() -> str:
+            return tableau_text(rows) + "\nnote: the record's algorithm data is malformed: the generic tableau"
+        print(tableau_text(rows) if record is None else
+              tolerant(lambda: presenter.report(record, session.problem), generic))
     return 0
 
 

@@ -7,10 +7,14 @@ import argparse
 import json
 import math
 import sys
+from pathlib import Path
 
+
+INTERRUPTED = 130    # the exit status of a sweep stopped by Ctrl-C (128 + SIGINT), its finished runs kept
 
 
 def add_parser(sub) -> None:
+    """The `sweep` subcommand and its options (--allow-outside-tables: `tui.cli.build_parser`)."""
     p = sub.add_parser("sweep", help="many runs on Dask: multi-start, a parameter sweep, or a tolerance study")
     p.add_argument("file")
     what = p.add_mutually_exclusive_group(required=True)
@@ -24,6 +28,8 @@ def add_parser(sub) -> None:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
     where.add_argument("--serial", action="store_true", help="in this process, one run after the other")
+    p.add_argument("--connect-timeout", type=float, metavar="SECONDS",
+                   help="how long to wait for the scheduler (default 5)")
     p.add_argument("--workers", type=int, help="local cluster size (default: the machine's cores)")
     p.add_argument("--adopt-best", action="store_true",
                    help="make the best optimum's best run the session's start (records are cleared)")
@@ -33,32 +39,89 @@ def add_parser(sub) -> None:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    """Plan, run and keep a sweep; print its summary."""
-    from sessions.errors import SessionError
-    from sessions.store import load_session, save_session
-    from sessions.sweep_jobs import execute, execute_serial
-    from sessions.sweep_results import adopt_run, record_sweep, summarize
-    from sessions.sweeps import plan
+    """Plan, run and keep a sweep; print its summary.  Ctrl-C stops it and keeps the
+    finished runs (exit status 130); a session that cannot be saved leaves the summary
+    in NAME.sweep-recovery.json."""
+    from sessions.store import load_session, prepare_save
+    from sessions.sweep_jobs import connect_timeout, scheduler_address, sigint_ignored
+    address = scheduler_address(args.scheduler)
+    timeout = connect_timeout(args.connect_timeout)
+    target = Path(args.out or args.file)
     session = load_session(args.file)
+    prepare_save(session, target)   # before any run: the output can be written
+    try:
+        kind, settings, outcome = _run(args, session, address, timeout)
+    except KeyboardInterrupt:
+        print("loopcraft sweep: interrupted before any run finished; nothing saved", file=sys.stderr)
+        return INTERRUPTED
+    with sigint_ignored():
+        return _keep(args, session, kind, settings, outcome, target)
+
+
+def _run(args: argparse.Namespace, session, address: str | None, timeout: float):
+    """Plan the sweep and run its jobs: (kind, settings, outcome)."""
+    from sessions.sweep_jobs import execute, execute_serial
+    from sessions.sweeps import plan
     kind, value = (("starts", args.starts) if args.starts is not None else ("vary", args.vary)
                    if args.vary is not None else ("tolerance", args.tolerance))
     jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
-    settings["scheduler"] = args.scheduler or ("serial" if args.serial else "local")
+    settings["scheduler"] = address or ("serial" if args.serial else "local")
     progress = _progress_bar if sys.stderr.isatty() and not args.json else None
     outcome = (execute_serial(jobs, progress) if args.serial
-              else execute(jobs, args.scheduler, args.workers, progress))
+               else execute(jobs, address, args.workers, progress, timeout=timeout))
     if progress:
         print(file=sys.stderr)
+    return kind, settings, outcome
+
+
+def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome, target: Path) -> int:
+    """Keep the sweep in the session (or in a recovery file), print it; the exit status."""
+    from sessions.sweep_results import record_sweep, summarize
     summary = summarize(session, kind, settings, outcome)
     record_sweep(session, summary)
-    if args.adopt_best:
-        if not summary["optima"]:
-            raise SessionError("--adopt-best: no run finished")
-        best = summary["optima"][0]["best_run"]
-        adopt_run(session, summary["runs"][best])
-    save_session(session, args.out or args.file)
+    adopt_error = _adopt_best(session, summary) if args.adopt_best and not outcome.interrupted else None
+    kept, in_session = _save(session, summary, target)
     print(json.dumps(summary, indent=2, sort_keys=True) if args.json else sweep_text(summary))
-    return 0
+    if outcome.interrupted:
+        print(f"loopcraft sweep: interrupted: {outcome.finished} of {len(outcome.runs)} runs finished; "
+              f"kept {'in ' + str(kept) if kept else 'above'} as a cancelled sweep"
+              + (" (--adopt-best not applied)" if args.adopt_best else ""), file=sys.stderr)
+        return INTERRUPTED
+    if adopt_error:
+        print(f"loopcraft sweep: error: {adopt_error} (the sweep is kept)", file=sys.stderr)
+    return 0 if in_session and not adopt_error else 2
+
+
+def _adopt_best(session, summary: dict) -> str | None:
+    """--adopt-best: the best optimum's best run becomes the start; why not, if it cannot."""
+    from sessions.errors import SessionError
+    from sessions.sweep_results import adopt_run
+    if not summary["optima"]:
+        return "--adopt-best: no run finished"
+    try:
+        adopt_run(session, summary["runs"][summary["optima"][0]["best_run"]])
+    except SessionError as exc:
+        return f"--adopt-best: {exc}"
+    return None
+
+
+def _save(session, summary: dict, target: Path) -> tuple[Path | None, bool]:
+    """Save the session; failing that, the summary in a recovery file (said on stderr).
+    Where the sweep is kept (None: only in the output printed), and whether in the session."""
+    from sessions.errors import SessionError
+    from sessions.store import save_session
+    from sessions.sweep_results import write_recovery
+    try:
+        return save_session(session, target), True
+    except (SessionError, OSError, ValueError) as exc:
+        failure = f"loopcraft sweep: error: the session cannot be saved: {exc}"
+    try:
+        recovery = write_recovery(summary, target)
+    except SessionError as exc:
+        print(f"{failure}; {exc}: the sweep is only in the output", file=sys.stderr)
+        return None, False
+    print(f"{failure}; the sweep's results are in {recovery}", file=sys.stderr)
+    return recovery, False
 
 
 def _progress_bar(done: int, total: int) -> None:

@@ -14,7 +14,7 @@ from textual.screen import Screen
 from textual.widgets import DataTable, Footer, TabbedContent, TabPane
 
 from engine.algorithm import StepRecord
-from engine.present import number
+from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
 from ..figures import figures, history_figure
@@ -181,7 +181,8 @@ class MainScreen(Screen):
     def _step_info(self, view: View, record: StepRecord | None) -> str | Text:
         if record is None or record.iteration == 0:
             return "no iterations yet: [b]s[/b] steps, [b]r[/b] runs, [b]?[/b] help"
-        return Text("\n".join(view.presenter.status_lines(record)))
+        lines = tolerant(lambda: view.presenter.status_lines(record), lambda: Presenter.status_lines(view.presenter, record))
+        return Text("\n".join(lines))
 
     def refresh_plant(self) -> None:
         model = self.bench.session.model.problem

@@ -1,0 +1,112 @@
+"""The checks of a session beyond its schema, made when it loads: how deeply its
+JSON nests, and that its records and state read back and agree with each other
+and with the problem.  Each raises `SessionError` naming the JSON path (the
+caller prefixes the file)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from engine.algorithm import State, StepRecord, memory_type
+from engine.errors import EngineError
+from engine.memory import Fields
+from engine.problem import Problem
+
+from .errors import SessionError
+from .schema import SessionModel
+
+MAX_DEPTH = 64   # levels of JSON nesting a session may have (a real one has about 8)
+
+
+def location(loc: tuple) -> str:
+    """A JSON path as text: ``problem.conditions[0].plant``."""
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(top)"
+
+
+def check_depth(data: Any) -> None:
+    """Refuse JSON nested more than `MAX_DEPTH` levels (checked without recursion,
+    before pydantic or a save would recurse into it)."""
+    stack: list[tuple[Any, int, tuple | None]] = [(data, 1, None)]
+    while stack:
+        node, depth, trail = stack.pop()
+        if isinstance(node, dict):
+            items: Any = node.items()
+        elif isinstance(node, list):
+            items = enumerate(node)
+        else:
+            continue
+        if depth > MAX_DEPTH:
+            keys = []
+            while trail is not None:
+                key, trail = trail
+                keys.append(key)
+            keys.reverse()
+            shown = location(tuple(keys[:6])) + ("..." if len(keys) > 6 else "")
+            raise SessionError(f"{shown}: nested more than {MAX_DEPTH} levels deep")
+        stack.extend((value, depth + 1, (key, trail)) for key, value in items)
+
+
+# a record's keys: its fields, and the settings that made it (sessions.runner.record_json)
+RECORD_KEYS = frozenset(f.name for f in dataclasses.fields(StepRecord)) | {"settings"}
+
+
+def check_records(model: SessionModel) -> None:
+    """Every record reads back (`StepRecord.from_json`) and they are numbered 1..n."""
+    for i, data in enumerate(model.records):
+        where = f"records[{i}]"
+        try:
+            record = StepRecord.from_json(data, where)
+        except EngineError as exc:
+            raise SessionError(str(exc)) from None
+        unknown = next((key for key in data if key not in RECORD_KEYS), None)
+        if unknown is not None:
+            raise SessionError(f"{where}.{unknown}: not a field of a record")
+        if record.iteration != i + 1:
+            raise SessionError(f"{where}.iteration: expected {i + 1} (records are numbered 1..n in order), "
+                               f"got {record.iteration}")
+    if model.current_iteration > len(model.records):
+        raise SessionError(f"current_iteration {model.current_iteration} exceeds the {len(model.records)} records")
+
+
+def check_state(model: SessionModel) -> None:
+    """A stored state is the one after the current iteration, and reads back with its
+    algorithm's memory class (an unknown algorithm is reported when the session is run)."""
+    if model.state is None:
+        return
+    try:
+        iteration = Fields(model.state, "state").integer("iteration")
+    except EngineError as exc:
+        raise SessionError(str(exc)) from None
+    if iteration != model.current_iteration:
+        raise SessionError(f"state.iteration: {iteration}, but current_iteration is {model.current_iteration} "
+                           "(the state is the one after the current iteration)")
+    try:
+        kind = memory_type(model.algorithm.name)
+    except EngineError:
+        return
+    try:
+        State.from_json(model.state, kind)
+    except EngineError as exc:
+        raise SessionError(f"state: {exc}") from None
+
+
+def check_record_parameters(model: SessionModel, problem: Problem) -> None:
+    """A record's parameters are the problem's: a number each, a list of one per condition
+    for a parameter with a value per condition."""
+    lengths = {p.name: len(p.value) if p.per_condition else None for p in problem.parameters}
+    for i, data in enumerate(model.records):
+        for name, value in data["parameters"].items():
+            where = f"records[{i}].parameters.{name}"
+            if name not in lengths:
+                raise SessionError(f"{where}: not a parameter of the problem")
+            n = lengths[name]
+            if n is None and isinstance(value, list):
+                raise SessionError(f"{where}: expected a number ({name} has one value for all conditions), "
+                                   f"got a list of {len(value)}")
+            if n is not None and not (isinstance(value, list) and len(value) == n):
+                got = f"a list of {len(value)}" if isinstance(value, list) else f"{type(value).__name__} {value!r}"
+                raise SessionError(f"{where}: expected a list of {n} numbers (one per condition), got {got}")
