@@ -94,3 +94,9 @@ def adopt_current(session: Session) -> None:
     k = session.model.current_iteration
     if k:
         adopt_parameters(session, StepRecord.from_json(session.model.records[k - 1]).parameters)
+
+
+def named_error(name: str, exc: Exception) -> SessionError:
+    """An engine failure as a `SessionError` that names the algorithm once."""
+    text = str(exc)
+    return SessionError(text if text.startswith(f"{name}: ") else f"{name}: {text}")

@@ -14,7 +14,7 @@ from engine.errors import EngineError
 from engine.memory import jsonable
 
 from .errors import SessionError
-from .lifecycle import bound_algorithm, forget_records
+from .lifecycle import bound_algorithm, forget_records, named_error
 from .schema import SessionModel
 from .store import AUTOSAVE_INTERVAL, Session, write_autosave
 
@@ -63,7 +63,7 @@ def run_session(session: Session, iterations: int | None = None, until_done: boo
         if autosave and new:
             write_autosave(session)
     except EngineError as exc:
-        raise SessionError(f"{model.algorithm.name}: {exc}") from None
+        raise named_error(model.algorithm.name, exc) from None
     return new
 
 

@@ -85,7 +85,7 @@ class Workbench:
                 if self.iteration and saved is not None:   # the saved state: no replay to go on
                     self._states[self.iteration] = State.from_json(saved, algorithm.memory_type)
             except EngineError as exc:
-                raise SessionError(f"{self.algorithm_name}: {exc}") from None
+                raise lifecycle.named_error(self.algorithm_name, exc) from None
             self._algorithm, self._initial = algorithm, None
         return self._algorithm
 
