@@ -94,10 +94,11 @@ def _parts(text: str) -> list[str]:
 
 
 def parse_optional(text: str) -> float | None:
-    """A number, or None for '', 'none' or 'inf' (no bound)."""
+    """A number, or None for '', 'none' or any infinity ('inf', '1e999': no bound)."""
     if text.strip().lower() in ("", "none", "inf"):
         return None
-    return parse_number(text, "a number, or none")
+    value = parse_number(text, "a number, or none")
+    return None if math.isinf(value) else value
 
 
 def format_optional(value: float | None) -> str:
