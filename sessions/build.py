@@ -190,7 +190,12 @@ def _ratio(g1g2, g1, path: str, variable: str):
         a, b = g1g2.table, g1.table
         if a.omega.shape != b.omega.shape or not np.allclose(a.omega, b.omega, rtol=1e-12):
             raise SessionError(f"{path}: G1G2 and G1 tables need the same frequencies to give G2 = G1G2/G1")
-        return TabulatedTransfer(FrequencyTable(a.omega, a.response / b.response, f"{a.source} / {b.source}"))
+        with np.errstate(all="ignore"):
+            ratio = a.response / b.response
+        if not np.all(np.isfinite(ratio)):
+            raise SessionError(f"{path}: G2 = G1G2/G1 is not finite at every frequency (G1 is zero, or the "
+                               "quotient overflows, somewhere)")
+        return TabulatedTransfer(FrequencyTable(a.omega, ratio, f"{a.source} / {b.source}"))
     if isinstance(g1g2, ExpressionTransfer) and isinstance(g1, ExpressionTransfer):
         return ExpressionTransfer(f"({g1g2.text})/({g1.text})", variable)
     raise SessionError(f"{path}: give g2 when G1 and G1G2 are not both tables or both expressions")

@@ -66,3 +66,27 @@ def test_malformed_sessions_raise_only_session_error_and_leave_the_file(tmp_path
     except SessionError as exc:
         assert str(exc)
     assert path.read_bytes() == before
+
+
+def test_a_g2_quotient_that_overflows_is_a_clean_error_without_warnings(tmp_path):
+    """G2 = G1G2/G1 of tables: a quotient that overflows (an edited CSV) is named, no numpy warning."""
+    import shutil
+    import warnings
+    from pathlib import Path
+
+    import pytest
+
+    from sessions.store import load_session
+    examples = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+    shutil.copy(examples / "seidel_inlet_inner_pi.json", tmp_path / "s.json")
+    lines = (examples / "seidel_inlet_table1.csv").read_text().splitlines()
+    k = next(i for i, line in enumerate(lines) if not line.startswith("#"))   # the header
+    header = [c.strip() for c in lines[k].split(",")]
+    cells = lines[k + 1].split(",")
+    cells[header.index("g1_mag")], cells[header.index("g1g2_mag")] = "1e-300", "1e300"
+    lines[k + 1] = ",".join(cells)
+    (tmp_path / "seidel_inlet_table1.csv").write_text("\n".join(lines) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(SessionError, match="G1G2/G1 is not finite"):
+            load_session(tmp_path / "s.json")
