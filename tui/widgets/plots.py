@@ -118,7 +118,7 @@ def _draw_one(plt, fig: Figure) -> None:
         kwargs = {"marker": s.marker, "label": s.label or None}
         if s.color:
             kwargs["color"] = s.color
-        draw(s.x, s.y, **kwargs)
+        draw(_near(s.x, fig.xlim), _near(s.y, fig.ylim), **kwargs)
     if fig.xlim:
         plt.xlim(*fig.xlim)
     if fig.ylim:
@@ -127,6 +127,15 @@ def _draw_one(plt, fig: Figure) -> None:
         plt.xticks(*fig.xticks)
     if fig.yticks:
         plt.yticks(*fig.yticks)
+
+
+def _near(values: list[float], limits: tuple[float, float] | None) -> list[float]:
+    """Values clipped to a few spans about the axis limits: plotext draws a line point by
+    point across the canvas, so a point 1e23 spans off the axis would exhaust memory."""
+    if not limits:
+        return values
+    span = max(abs(limits[1] - limits[0]), 1e-300)
+    return np.clip(np.asarray(values, dtype=float), limits[0] - 2 * span, limits[1] + 2 * span).tolist()
 
 
 MAX_POINTS = 600   # a text canvas resolves fewer; more only slows plotext down

@@ -1,0 +1,20 @@
+"""A point far outside a figure's axis limits (an iterate at 1e36 against a 4e13
+bound) is drawn clipped: plotext draws lines point by point across the canvas,
+and one such point exhausted memory in the workbench."""
+
+from __future__ import annotations
+
+from tui.widgets.plots import Figure, FigurePlot, Series, _near
+
+
+def test_values_are_clipped_a_few_spans_about_the_limits():
+    assert _near([0.0, 1e36, -1e36, 0.5], (-1.0, 1.0)) == [0.0, 5.0, -5.0, 0.5]
+    assert _near([1e36], None) == [1e36]                       # no limits: plotext scales to the data
+
+
+def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
+    fig = Figure(title="bounded", ylim=(-1.0, 1.0))
+    fig.series.append(Series([0.0, 1.0, 2.0], [0.0, 1e36, 0.0], "u"))
+    canvas = (60, 20, "textual-dark")
+    built = FigurePlot.prebuild(fig, canvas)
+    assert built is not None and built[0] == canvas and "bounded" in built[1].plain
