@@ -371,16 +371,23 @@ def fit_response(omega: ArrayLike, gh: ArrayLike, tolerance: float = 1e-12,
     empty = np.empty(0, dtype=complex)
     if peak == 0.0:
         return RationalFit(empty, empty.copy(), empty.copy(), 0.0, 1.0, empty.copy(), 0.0, 0.0, 0)
+    if peak < np.finfo(float).tiny:
+        raise EngineError(f"the tabulated response peaks at {peak:.3g}, below the smallest normal float: "
+                          "it cannot be fitted (check the table's gain)")
     w_ref = float(np.sqrt(w[0]) * np.sqrt(w[-1]))  # fit in s / w_ref and f / peak
     z, fn = 1j * (w / w_ref), f / peak
     scale = np.maximum(np.abs(fn), FLOOR)
     steps = _iterate(z, fn, scale, tolerance, cap)
     if not steps:  # the SVD failed at once: fall back on the mean real value
-        mean = float(np.mean(fn.real))
-        steps = [_Step(np.empty(0, int), True, empty, empty, empty, mean, 1.0, abs(mean - fn) / scale)]
+        with np.errstate(all="ignore"):   # an overflowing table: its residuals are not finite (refused below)
+            mean = float(np.mean(fn.real))
+            steps = [_Step(np.empty(0, int), True, empty, empty, empty, mean, 1.0, abs(mean - fn) / scale)]
+    steps = [s for s in steps if np.isfinite(s.rms)]
+    if not steps:   # a table with overflowing or non-finite values
+        raise EngineError("the tabulated response cannot be fitted: its residuals are not finite")
     best = min(s.rms for s in steps)
     enough = SELECT_SLACK * best + CONVERGED * tolerance
-    step = next(s for s in steps if s.residual <= tolerance or s.rms <= enough)
+    step = next((s for s in steps if s.residual <= tolerance or s.rms <= enough), min(steps, key=lambda s: s.rms))
     step = _cleanup(z, fn, scale, steps, step, tolerance)
     values = np.concatenate([f[step.idx], f[step.idx].conj()])  # exact data at support
     support, weights = 1j * np.concatenate([w[step.idx], -w[step.idx]]), step.w * w_ref

@@ -254,3 +254,17 @@ GOOD_GH = 1 / (1j * GOOD_W + 1)
 def test_bad_input_raises_engine_error(omega, gh, kwargs):
     with pytest.raises(EngineError, match="fit_response"):
         fit_response(omega, gh, **kwargs)
+
+
+def test_a_denormal_table_is_refused_and_a_tiny_normal_one_fits():
+    """Magnitudes below the smallest normal float overflowed inside the fit (a table
+    times a gain of 1e-320); they are refused, with no numpy warning; 1e-300 fits."""
+    import warnings
+
+    from engine.errors import EngineError
+    w = np.geomspace(0.1, 100, 200)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(EngineError, match="below the smallest normal float"):
+            fit_response(w, 1e-320 / (1j * w + 1))
+        assert fit_response(w, 1e-300 / (1j * w + 1)).residual < 1e-10

@@ -10,6 +10,7 @@ from tui.widgets.plots import Figure, FigurePlot, Series, _near
 def test_values_are_clipped_a_few_spans_about_the_limits():
     assert _near([0.0, 1e36, -1e36, 0.5], (-1.0, 1.0)) == [0.0, 5.0, -5.0, 0.5]
     assert _near([1e36], None) == [1e36]                       # no limits: plotext scales to the data
+    assert _near([1e300, -1e300], None) == [1e150, -1e150]     # but never near the float limits
 
 
 def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
@@ -18,3 +19,14 @@ def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
     canvas = (60, 20, "textual-dark")
     built = FigurePlot.prebuild(fig, canvas)
     assert built is not None and built[0] == canvas and "bounded" in built[1].plain
+
+
+def test_values_near_the_float_limits_draw():
+    fig = Figure(title="huge")
+    fig.series.append(Series([0.0, 1.0, 2.0], [0.0, 1.7e308, -1.7e308], "u"))
+    assert FigurePlot.prebuild(fig, (60, 20, "textual-dark")) is not None   # drawn, no OverflowError
+
+
+def test_a_time_axis_over_an_overflowing_span_still_has_a_step():
+    from tui.widgets.trajectories import _step
+    assert _step(float("inf"), 5) == 1.0 and _step(10.0, 5) == 2.0

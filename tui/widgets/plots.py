@@ -76,7 +76,7 @@ class FigurePlot(PlotextPlot):
         plot.theme(theme)
         try:
             return canvas, Text.from_ansi(plot.build())
-        except (IndexError, ValueError, ZeroDivisionError):
+        except (IndexError, ValueError, ZeroDivisionError, OverflowError):
             return None
 
     def render(self):
@@ -85,7 +85,7 @@ class FigurePlot(PlotextPlot):
         _draw(self.plt, self.figure, self.size.height)
         try:
             return super().render()
-        except (IndexError, ValueError, ZeroDivisionError) as exc:   # plotext on a tiny or odd canvas
+        except (IndexError, ValueError, ZeroDivisionError, OverflowError) as exc:   # a tiny canvas, odd values
             return f"{self.figure.title}: cannot draw at this size ({type(exc).__name__})"
 
 
@@ -129,13 +129,18 @@ def _draw_one(plt, fig: Figure) -> None:
         plt.yticks(*fig.yticks)
 
 
+PLOTTABLE = 1e150   # plotext's arithmetic on the canvas overflows near the float limits
+
+
 def _near(values: list[float], limits: tuple[float, float] | None) -> list[float]:
-    """Values clipped to a few spans about the axis limits: plotext draws a line point by
-    point across the canvas, so a point 1e23 spans off the axis would exhaust memory."""
-    if not limits:
-        return values
-    span = max(abs(limits[1] - limits[0]), 1e-300)
-    return np.clip(np.asarray(values, dtype=float), limits[0] - 2 * span, limits[1] + 2 * span).tolist()
+    """Values clipped to a few spans about the axis limits (plotext draws a line point by
+    point across the canvas, so a point 1e23 spans off the axis would exhaust memory),
+    and always to +-PLOTTABLE."""
+    low, high = -PLOTTABLE, PLOTTABLE
+    if limits and all(math.isfinite(v) for v in limits):
+        span = max(abs(limits[1] - limits[0]), 1e-300)
+        low, high = max(low, limits[0] - 2 * span), min(high, limits[1] + 2 * span)
+    return np.clip(np.asarray(values, dtype=float), low, high).tolist()
 
 
 MAX_POINTS = 600   # a text canvas resolves fewer; more only slows plotext down

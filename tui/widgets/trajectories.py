@@ -138,8 +138,10 @@ def bound_label(levels: list[float]) -> str:
 def _step(span: float, count: int) -> float:
     """A round step (1, 2, 2.5 or 5 times a power of 10) giving about `count` ticks over `span`."""
     raw = span / count
+    if not math.isfinite(raw) or raw <= 0:   # a degenerate or overflowing span: one step over it
+        return 1.0
     power = 10.0 ** math.floor(math.log10(raw))
-    return next(m * power for m in (1, 2, 2.5, 5, 10) if m * power >= raw)
+    return next((m * power for m in (1, 2, 2.5, 5, 10) if m * power >= raw), 10 * power)
 
 
 def axis(lo: float, hi: float, count: int = 4,
