@@ -25,6 +25,7 @@ class RefTable(DataTable):
     """A DataTable whose rows carry model references."""
 
     MUTATING: frozenset[str] = frozenset()
+    DELETES = "row"   # what `-` deletes, in its question
 
     def __init__(self, **kwargs):
         super().__init__(cursor_type="row", **kwargs)
@@ -75,6 +76,12 @@ class RefTable(DataTable):
         if "edit" in self.MUTATING and not self.app.busy and self.applies("edit"):
             self.action_edit()
 
+    def action_delete(self) -> None:
+        """Delete the selected model object (always asks first)."""
+        ref = self.ref
+        self.flow.change(lambda: edits.delete_item(self.bench, ref), f"delete the selected {self.DELETES}",
+                         always_ask=True, done=lambda what: self.app.notify(f"deleted {what}"))
+
 
 class PlantTable(RefTable):
     """Blocks, junctions, matrix entries and break points of every condition."""
@@ -106,11 +113,6 @@ class PlantTable(RefTable):
         self.flow.line("new block: NAME INPUT OUTPUT EXPRESSION, or matrix entry: ROW COL EXPRESSION",
                        edits.add_check(self.bench, ref), lambda text: edits.add_to_plant(self.bench, ref, text),
                        "add it")
-
-    def action_delete(self) -> None:
-        ref = self.ref
-        self.flow.change(lambda: edits.delete_item(self.bench, ref), "delete the selected row", always_ask=True,
-                         done=lambda what: self.app.notify(f"deleted {what}"))
 
     def action_copy_condition(self) -> None:
         ref = self.ref
@@ -147,6 +149,7 @@ class ParametersTable(RefTable):
                 Binding("g", "toggle_per_condition", "shared/per condition"), Binding("plus", "add", "add"),
                 Binding("minus,delete", "delete", "delete")]
     MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete"})
+    DELETES = "parameter"
 
     def applies(self, action: str) -> bool:
         return action == "add" or self.ref is not None
@@ -168,11 +171,6 @@ class ParametersTable(RefTable):
         self.flow.line("new parameter: NAME VALUE [MIN MAX]", edits_fields.ADD_PARAMETER_CHECK,
                        lambda text: edits_fields.add_parameter(self.bench, text), "add it")
 
-    def action_delete(self) -> None:
-        ref = self.ref
-        self.flow.change(lambda: edits.delete_item(self.bench, ref), "delete the selected parameter",
-                         always_ask=True, done=lambda what: self.app.notify(f"deleted {what}"))
-
 
 class TargetsTable(RefTable):
     """The targets: bands, points, weights, detection ranges, time responses."""
@@ -180,6 +178,7 @@ class TargetsTable(RefTable):
     BINDINGS = [Binding("e", "edit", "edit"), Binding("plus", "add", "add"),
                 Binding("minus,delete", "delete", "delete")]
     MUTATING = frozenset({"edit", "add", "delete"})
+    DELETES = "target"
 
     def applies(self, action: str) -> bool:
         return action == "add" or self.ref is not None
@@ -193,11 +192,6 @@ class TargetsTable(RefTable):
         choices = [(name, f"default desired {kind.default_desired:g}") for name, kind in MEASURE_KINDS.items()]
         self.flow.choose("add a target: which measure?", choices,
                          lambda m: self.flow.change(lambda: edits_fields.add_target(self.bench, m), f"add {m}"))
-
-    def action_delete(self) -> None:
-        ref = self.ref
-        self.flow.change(lambda: edits.delete_item(self.bench, ref), "delete the selected target",
-                         always_ask=True, done=lambda what: self.app.notify(f"deleted {what}"))
 
 
 class SettingsTable(RefTable):
