@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.errors import EngineError
-from sessions import forms
+from sessions import forms, transfer_forms
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import folder
@@ -97,26 +97,69 @@ def field_edit(bench: Workbench, path: Ref, name: str, title: str, parse: Callab
 # -- the plant table ----------------------------------------------------------
 
 def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
-    """The edit of a plant-table row: a block's or matrix entry's expression, a
-    junction's signed inputs, or where the loop is broken (None: not editable here)."""
+    """The edit of a plant-table row: a block (name, wiring and definition in one
+    line), a matrix entry, a junction's signed inputs, a cascade's or a channel's
+    transfer, a channel's sub-compensator, or where the loop is broken."""
     model = bench.session.model.problem
     condition = model.conditions[ref[1]]
     if ref[-1] == "break_at":
         return Edit(f"{condition.name}: break the loop at signal", condition.break_at,
                     lambda t: None if t.strip() else "a signal name",
                     lambda t: set_fields(bench, ref[:-1], break_at=t.strip()))
-    owner = resolve(model, ref)
-    kind = ref[-2] if len(ref) >= 2 else ""
+    owner, kind, variable = resolve(model, ref), (ref[-2] if len(ref) >= 2 else ""), condition.variable
     if kind == "junctions":
         return Edit(f"{condition.name}: junction {owner.name} -> {owner.output} (+a -b ...)",
                     forms.format_signed((owner.plus, owner.minus)), checker(forms.parse_signed),
                     lambda t: _set_signed(bench, ref, t))
-    variable = condition.variable
     if kind == "entries":
         return _expression_edit(bench, ref, f"{condition.name}: a[{owner.row},{owner.col}]", variable)
-    if kind == "blocks" and owner.transfer.kind == "expression":
-        return _expression_edit(bench, ref + ("transfer",), f"{condition.name}: {owner.name}", variable)
+    if kind == "blocks":
+        return _block_edit(bench, ref, f"{condition.name}: block {owner.name}", variable)
+    if kind == "compensators":
+        return field_edit_whole(bench, ref, f"{condition.name}: sub-compensator (ascending powers)",
+                                transfer_forms.parse_sub_compensator, transfer_forms.format_sub_compensator)
+    if isinstance(ref[-1], str) and hasattr(owner, "kind"):
+        return field_edit_whole(bench, ref, f"{condition.name}: {ref[-1]} ({TRANSFER_HELP})",
+                                lambda t: transfer_forms.parse_transfer(t, variable, owner),
+                                lambda t: transfer_forms.format_transfer(t, variable))
     return None
+
+
+TRANSFER_HELP = "an expression, or factored: / controller: / polynomial: / delay: / table: ..."
+
+
+def field_edit_whole(bench: Workbench, path: Ref, title: str, parse: Callable[[str], Any],
+                     format_: Callable[[Any], str]) -> Edit:
+    """An edit that replaces the model object at ``path`` (an attribute or a list item of its owner)."""
+    current = resolve(bench.session.model.problem, path)
+    return Edit(title, format_(current), checker(parse), lambda text: replace_at(bench, path, parse(text)))
+
+
+def replace_at(bench: Workbench, path: Ref, value: Any) -> None:
+    """Put ``value`` at ``path`` (an attribute or a list item), as one transaction."""
+    def change(draft: ProblemModel) -> None:
+        owner = resolve(draft, path[:-1])
+        if isinstance(path[-1], int):
+            owner[path[-1]] = value
+        else:
+            setattr(owner, path[-1], value)
+    transaction(bench, change)
+
+
+def _block_edit(bench: Workbench, ref: Ref, title: str, variable: str) -> Edit:
+    """'NAME INPUT OUTPUT DEFINITION': rename, re-wire and redefine a block in one edit."""
+    block = resolve(bench.session.model.problem, ref)
+
+    def parse(text: str) -> dict:
+        names, definition = transfer_forms.split_names(text, 3)
+        if len(names) != 3 or not definition:
+            raise forms.FormError('write NAME INPUT OUTPUT DEFINITION ("quote names" with spaces)')
+        transfer = transfer_forms.parse_transfer(definition, variable, block.transfer)
+        return dict(name=names[0], input=names[1], output=names[2], transfer=transfer)
+    quoted = " ".join(transfer_forms.quote_name(n) for n in (block.name, block.input, block.output))
+    text = f"{quoted} {transfer_forms.format_transfer(block.transfer, variable)}"
+    return Edit(f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, checker(parse),
+                lambda t: set_fields(bench, ref, **parse(t)))
 
 
 def _set_signed(bench: Workbench, ref: Ref, text: str) -> None:

@@ -3,6 +3,8 @@ or break point of every condition, each with the model path it shows."""
 
 from __future__ import annotations
 
+from sessions.transfer_forms import describe_transfer, format_sub_compensator
+
 from .edits import Ref
 
 Cells = tuple[str, str, str, str, str, str]
@@ -17,7 +19,10 @@ def plant_rows(model) -> list[tuple[Cells, Ref | None]]:
 
 
 def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None]]:
-    plant, base = condition.plant, ("conditions", k, "plant")
+    plant, base, x = condition.plant, ("conditions", k, "plant"), condition.variable
+
+    def describe(transfer) -> str:
+        return describe_transfer(transfer, x)
     if plant.format == "diagram":
         rows = [((b.name, b.input, b.output, b.transfer.kind, describe(b.transfer)), base + ("blocks", i))
                 for i, b in enumerate(plant.blocks)]
@@ -29,35 +34,13 @@ def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None
         rows = []
         for i, ch in enumerate(plant.channels):
             rows.append(((f"{ch.name}.response", "e", f"{ch.name}.theta", ch.response.kind, describe(ch.response)),
-                         base + ("channels", i)))
-            for n, sub in enumerate(ch.compensators, start=1):
-                rows.append(((f"{ch.name}.{n}", "", "", "polynomial", _polynomial(sub)), base + ("channels", i)))
+                         base + ("channels", i, "response")))
+            for n, sub in enumerate(ch.compensators):
+                rows.append(((f"{ch.name}.{n + 1}", "", "", "compensator", format_sub_compensator(sub)),
+                             base + ("channels", i, "compensators", n)))
         return rows
     if plant.format == "cascade":
         return [((name.upper(), "", "", t.kind, describe(t)), base + (name,))
                 for name in ("g1", "g2", "g1g2", "ga", "h1", "h2") if (t := getattr(plant, name)) is not None]
     return [((f"a[{e.row},{e.col}]", "", "", "matrix entry", e.expression), base + ("entries", i))
             for i, e in enumerate(plant.entries)]
-
-
-def _polynomial(transfer) -> str:
-    return f"({', '.join(map(str, transfer.numerator))}) / ({', '.join(map(str, transfer.denominator))})"
-
-
-def describe(transfer) -> str:
-    """A one-line definition of a transfer model."""
-    kind = transfer.kind
-    if kind == "expression":
-        return transfer.expression
-    if kind == "table":
-        t = transfer.table
-        return f"table {t.csv or 'inline'} ({t.form}, {t.unit}, gain {t.gain:g})"
-    if kind == "controller":
-        factors = " ".join(f"{f.kind}({f.b if 'complex' not in f.kind else f'{f.damping},{f.frequency}'})"
-                           for f in transfer.factors)
-        return f"{transfer.gain} s^{transfer.s_power} {factors}"
-    if kind == "polynomial":
-        return _polynomial(transfer)
-    if kind == "delay":
-        return f"exp(-s*{transfer.tau})"
-    return kind
