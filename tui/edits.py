@@ -147,15 +147,26 @@ def replace_at(bench: Workbench, path: Ref, value: Any) -> None:
 
 
 def _block_edit(bench: Workbench, ref: Ref, title: str, variable: str) -> Edit:
-    """'NAME INPUT OUTPUT DEFINITION': rename, re-wire and redefine a block in one edit."""
+    """'NAME INPUT OUTPUT DEFINITION': rename, re-wire and redefine a block in one
+    edit; a definition alone keeps the name and the wiring."""
     block = resolve(bench.session.model.problem, ref)
 
     def parse(text: str) -> dict:
         names, definition = transfer_forms.split_names(text, 3)
-        if len(names) != 3 or not definition:
-            raise forms.FormError('write NAME INPUT OUTPUT DEFINITION ("quote names" with spaces)')
-        transfer = transfer_forms.parse_transfer(definition, variable, block.transfer)
-        return dict(name=names[0], input=names[1], output=names[2], transfer=transfer)
+        kept = dict(name=block.name, input=block.input, output=block.output)
+        wired = None
+        if len(names) == 3 and definition:
+            try:
+                return dict(zip(kept, names), transfer=transfer_forms.parse_transfer(definition, variable, block.transfer))
+            except forms.FormError as exc:
+                wired = exc   # perhaps a definition with spaces: read the whole line as one below
+        try:
+            return dict(kept, transfer=transfer_forms.parse_transfer(text, variable, block.transfer))
+        except forms.FormError:
+            if wired is not None:
+                raise forms.FormError(f"{wired} (the line is NAME INPUT OUTPUT DEFINITION, or a definition alone)") \
+                    from None
+            raise
     quoted = " ".join(transfer_forms.quote_name(n) for n in (block.name, block.input, block.output))
     text = f"{quoted} {transfer_forms.format_transfer(block.transfer, variable)}"
     return Edit(f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, checker(parse),

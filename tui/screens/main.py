@@ -34,6 +34,10 @@ PRESENTER_PLOTS = {"p-nyquist": "nyquist", "p-bode": "bode", "p-nichols": "nicho
                    "p-convergence": "convergence", "p-step": "step", "p-trajectories": "trajectories"}
 
 
+MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targets-table",
+                "history": "#history-table", "sweep": "#optima-table"}
+
+
 class MainScreen(Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
@@ -124,11 +128,24 @@ class MainScreen(Screen):
         self.refresh_plots()
 
     def action_tab(self, name: str) -> None:
+        """Show a tab and focus its main widget (focus left in a hidden pane would
+        make the tabs switch back to it)."""
         self.query_one("#tabs", TabbedContent).active = name
+        self.focus_main(name)
+
+    def focus_main(self, name: str) -> None:
+        """Focus the main widget of a tab: its first table, or the tableau."""
+        self.set_focus(self.query_one(MAIN_WIDGETS[name]))
 
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
-        if event.tabbed_content.id == "tabs" and self._history_stale:
+        if event.tabbed_content.id != "tabs":
+            return
+        if self._history_stale:
             self.refresh_history()
+        pane = event.tabbed_content.active
+        focused = self.focused
+        if focused is None or pane not in [a.id for a in focused.ancestors_with_self]:
+            self.focus_main(pane)
 
     # -- refreshing ---------------------------------------------------------
 
