@@ -20,6 +20,7 @@ from sessions.errors import SessionError
 from sessions.build import OutsideTable
 from sessions.savefile import OverwriteRefused
 from sessions.store import autosave_candidate, load_autosave, load_session, parse_session
+from sessions.target_use import unusable_targets
 
 from .files import new_session_text, remember, untitled_path, working_copy
 from .run_loop import RunLoop
@@ -213,10 +214,20 @@ class LoopcraftApp(RunLoop, SweepActions, App):
     def action_choose_algorithm(self) -> None:
         from engine.algorithm import load_builtin, lookup
 
+        measures = [t.measure for t in self.bench.session.model.problem.targets]
+
         def chosen(name: str | None) -> None:
             if name and name != self.bench.algorithm_name:
-                self.edit_flow.change(lambda: self.bench.set_algorithm(name), f"switch to {name}")
-        choices = [(name, registration.summary) for name, registration in sorted(load_builtin().items())]
+                unusable = unusable_targets(measures, name)
+                self.edit_flow.change(lambda: self.bench.set_algorithm(name), f"switch to {name}",
+                                      done=lambda _: unusable and self.notify(
+                                          "\n".join(unusable), title=f"{name} and the targets", severity="warning",
+                                          timeout=12))
+
+        def summary(name: str, text: str) -> str:
+            count = len(unusable_targets(measures, name)) if name not in ("qcg", "projection") else 0
+            return f"{text} [refuses {count} of the targets]" if count else text
+        choices = [(name, summary(name, registration.summary)) for name, registration in sorted(load_builtin().items())]
         if self.bench.algorithm_name not in dict(choices):
             choices.append((self.bench.algorithm_name, lookup(self.bench.algorithm_name).summary))
         self.push_screen(ChooseDialog("algorithm", choices), chosen)

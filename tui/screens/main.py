@@ -26,6 +26,7 @@ from ..widgets.tables import HistoryTable, ParametersTable, PlantTable, Settings
 from ..widgets.textview import TextView
 from ..workbench import Workbench
 from sessions import forms
+from sessions.target_use import target_note
 
 # the plot tabs, and the plots (figure ids) each shows
 PLOT_TABS = {"p-nyquist": ("nyquist",), "p-bode": ("bode-mag", "bode-phase"), "p-nichols": ("nichols",),
@@ -221,11 +222,12 @@ class MainScreen(Screen):
         for k, t in enumerate(model.targets):
             points = forms.format_points(t.points) or "default"
             detect = forms.format_range((t.detect_low, t.detect_high))
-            rows.append(((t.measure, t.condition or "all", forms.format_bands(t.bands), points, number(t.weight),
+            use = target_note(t.measure, self.bench.algorithm_name) or "yes"
+            rows.append(((t.measure, use, t.condition or "all", forms.format_bands(t.bands), points, number(t.weight),
                           detect, t.unit), ("targets", k)))
         self.query_one("#targets-table", TargetsTable).fill(
-            ("measure", "condition", "bands (low..high: desired / required)", "points", "weight", "detect", "unit"),
-            rows)
+            ("measure", "used", "condition", "bands (low..high: desired / required)", "points", "weight", "detect",
+             "unit"), rows)
         self.query_one("#objective-table", SettingsTable).fill(
             ("objective / setting", "value"), [((label, value), ref) for label, value, ref in objective_rows(self.bench)])
 

@@ -1,0 +1,45 @@
+"""A target the chosen algorithm cannot use is flagged where it is edited, and
+choosing an algorithm says what it will refuse or ignore."""
+
+from __future__ import annotations
+
+from engine.measure_kinds import MEASURE_KINDS
+from sessions.target_use import target_note, unusable_targets
+from tui.app import LoopcraftApp
+from tui.screens.dialogs import ChooseDialog
+
+from .test_app import settle, synchronous
+
+
+def test_every_measure_is_flagged_exactly_for_the_algorithms_that_refuse_it():
+    for name, kind in MEASURE_KINDS.items():
+        for algorithm in ("cip", "slp"):
+            note = target_note(name, algorithm)
+            assert (note == "") == (algorithm in kind.algorithms), (name, algorithm, note)
+            assert bool(unusable_targets([name], algorithm)) == (algorithm not in kind.algorithms)
+        assert target_note(name, "qcg") == "ignored by qcg"
+    assert unusable_targets([], "qcg") == [] and target_note("gain_margin", "compass") == ""
+
+
+@synchronous
+async def test_a_crossover_target_is_marked_for_cip_and_listed_when_cip_is_chosen(workdir):
+    app = LoopcraftApp(workdir / "coebra_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert app.bench.algorithm_name == "slp"
+        measures = [t.measure for t in app.bench.session.model.problem.targets]
+        assert "crossover_frequency" in measures
+        table = app.screen.query_one("#targets-table")
+        row = measures.index("crossover_frequency")
+        assert str(table.get_row_at(row)[1]) == "yes"
+        await pilot.press("a")
+        await pilot.pause()
+        dialog = app.screen
+        assert isinstance(dialog, ChooseDialog)
+        assert dict(dialog.choices)["cip"].endswith("[refuses 1 of the targets]")
+        assert "refuses" not in dict(dialog.choices)["slp"]
+        dialog.dismiss("cip")
+        await settle(app, pilot)
+        assert app.bench.algorithm_name == "cip"
+        assert str(table.get_row_at(row)[1]) == "not cip (slp)"
+        assert any("crossover_frequency: refused by cip" in n.message for n in app._notifications)
