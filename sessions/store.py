@@ -339,6 +339,19 @@ def write_autosave(session: Session, at_most_every: float = 0.0) -> Path | None:
     return target
 
 
+def set_aside_autosave(path: str | Path) -> Path:
+    """Rename the autosave of ``path`` (declined at recovery) to
+    ``NAME.autosave.declined-YYYYMMDD-HHMMSS`` beside it, so it is not offered again
+    and not lost; the new path."""
+    auto = autosave_path(Path(path))
+    target = auto.with_name(f"{auto.name}.declined-{time.strftime('%Y%m%d-%H%M%S')}")
+    try:
+        auto.rename(target)
+    except OSError as exc:
+        raise SessionError(f"{auto}: cannot set the autosave aside: {describe(exc)}") from None
+    return target
+
+
 def autosave_candidate(path: str | Path) -> Path | None:
     """The autosave of ``path`` when it is newer than the file itself."""
     path = Path(path)

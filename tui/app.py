@@ -19,7 +19,7 @@ from textual.binding import Binding
 from sessions.errors import SessionError
 from sessions.build import OutsideTable
 from sessions.savefile import OverwriteRefused
-from sessions.store import autosave_candidate, load_autosave, load_session, parse_session
+from sessions.store import autosave_candidate, load_autosave, load_session, parse_session, set_aside_autosave
 from sessions.target_use import unusable_targets
 
 from .files import new_session_text, remember, untitled_path, working_copy
@@ -32,8 +32,8 @@ from .sweep_actions import SweepActions
 from .workbench import Workbench
 
 # actions that change the session or replace it: disabled while a run or a sweep goes
-CHANGES = frozenset({"step", "run_n", "run", "undo", "choose_algorithm", "sweep", "use_best", "open", "new",
-                     "save_as"})
+CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
+                     "use_best", "open", "new", "save_as"})
 
 
 class LoopcraftApp(RunLoop, SweepActions, App):
@@ -46,6 +46,9 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         Binding("r", "run", "run", tooltip="until the algorithm stops"),
         Binding("space,escape", "pause", "pause", tooltip="stop a run or a sweep (within one iteration)"),
         Binding("z", "undo", "undo", tooltip="drop the last iteration"),
+        Binding("Z", "redo", "redo", show=False, tooltip="bring back the last iteration dropped"),
+        Binding("ctrl+z", "undo_edit", "undo edit", show=False, tooltip="undo the last edit of the problem"),
+        Binding("ctrl+y", "redo_edit", "redo edit", show=False, tooltip="redo the last edit undone"),
         Binding("a", "choose_algorithm", "algorithm", tooltip="choose the algorithm (the records are dropped)"),
         Binding("v", "next_condition", "conditions", show=False,
                 tooltip="plots: every flight condition, or one with its initial design"),
@@ -84,10 +87,17 @@ class LoopcraftApp(RunLoop, SweepActions, App):
             return None
         if action == "pause" and not self.busy:
             return None
-        if action in ("step", "run", "run_n", "undo", "choose_algorithm", "sweep", "use_best",
-                      "next_condition") and self.bench is None:
+        if action in ("step", "run", "run_n", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
+                      "use_best", "next_condition") and self.bench is None:
             return None
-        return True
+        return None if self.bench is not None and not self._can(action) else True
+
+    def _can(self, action: str) -> bool:
+        """Whether an undo or redo has something to act on."""
+        bench = self.bench
+        return {"undo": lambda: bench.iteration > 0, "redo": lambda: bench.can_redo,
+                "undo_edit": lambda: bool(bench.edits.undo_stack),
+                "redo_edit": lambda: bool(bench.edits.redo_stack)}.get(action, lambda: True)()
 
     async def run_action(self, action, default_namespace=None, namespaces=None) -> bool:
         """Run an action; a key refused because a run or a sweep goes says so."""
@@ -116,6 +126,13 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         autosave = autosave_candidate(path)
         if autosave is not None:
             def answer(yes: bool) -> None:
+                if not yes:
+                    try:
+                        kept = set_aside_autosave(path)
+                    except SessionError as exc:
+                        self.notify(str(exc), severity="warning", timeout=8)
+                    else:
+                        self.notify(f"the autosave is kept as {kept.name} (not offered again)", timeout=6)
                 self._open(autosave if yes else path, keep_path=path)
             self.push_screen(ConfirmDialog(f"{autosave.name} is newer than {path.name}: recover it?"), answer)
         else:
@@ -210,6 +227,24 @@ class LoopcraftApp(RunLoop, SweepActions, App):
     def action_undo(self) -> None:
         if self.bench is not None and self.bench.undo():
             self.refresh_workbench()
+
+    def action_redo(self) -> None:
+        if self.bench is not None and self.bench.redo():
+            self.refresh_workbench()
+
+    def action_undo_edit(self) -> None:
+        self._edit_step(self.bench.edits.undo, "nothing to undo")
+
+    def action_redo_edit(self) -> None:
+        self._edit_step(self.bench.edits.redo, "nothing to redo")
+
+    def _edit_step(self, move, nothing: str) -> None:
+        if move(self.bench) is None:
+            self.notify(nothing, timeout=3)
+            return
+        self.bench.autosave(throttled=True)
+        self.notify(self.bench.edits.last, timeout=4)
+        self.refresh_workbench()
 
     def action_choose_algorithm(self) -> None:
         from engine.algorithm import load_builtin, lookup

@@ -170,6 +170,8 @@ class RunLoop:
             gc.freeze()
 
     def on_run_ended(self, message: RunEnded) -> None:
+        if message.note == "paused":
+            self.bench.paused_at = self.bench.iteration
         self._run_done()
         screen = self._main()
         if message.drawn is not None and screen is not None:

@@ -23,6 +23,7 @@ from sessions.sweep_jobs import execute
 from sessions.sweep_results import adopt_run, record_sweep, summarize
 from sessions.sweeps import parse_sweep, plan
 
+from .edit_history import EditHistory
 from .views import View
 
 
@@ -38,6 +39,9 @@ class Workbench:
         self._settings: dict | None = None
         self._records: list[StepRecord] = session.records   # parsed once, kept in step with the model
         self.plotted_condition: int | None = None   # the flight condition the plots show; None: all
+        self.edits = EditHistory()
+        self.paused_at: int | None = None   # the iteration a run was paused at
+        self._redo: list[tuple[dict, StepRecord, State | None]] = []   # undone iterations, latest last
 
     # -- the algorithm ------------------------------------------------------
 
@@ -71,6 +75,8 @@ class Workbench:
         if not records:
             return "not started"
         last = records[-1]
+        if self.paused_at == self.iteration and not last.status.finished:
+            return "paused (s steps on, r runs on)"
         return last.status.value + (f": {last.reason}" if last.reason else "")
 
     def ensure_algorithm(self) -> Any:
@@ -112,7 +118,12 @@ class Workbench:
         model = self.session.model
         del model.records[self.iteration:]
         del self._records[self.iteration:]
-        model.records.append(record_json(record, self._settings))
+        self._redo.clear()
+        self._keep(record_json(record, self._settings), record, state)
+
+    def _keep(self, record_data: dict, record: StepRecord, state: State) -> None:
+        model = self.session.model
+        model.records.append(record_data)
         self._records.append(record)
         model.state = state.to_json()
         model.current_iteration = len(model.records)
@@ -143,15 +154,34 @@ class Workbench:
         return f"autosaved to {autosave_path(self.session.path).name}"
 
     def undo(self) -> bool:
-        """Drop the last iteration (False when there is none)."""
+        """Drop the last iteration (False when there is none); `redo` brings it back."""
         model = self.session.model
         if model.current_iteration == 0:
             return False
+        k = model.current_iteration
+        self._redo.append((model.records[k - 1], self._records[k - 1], self._states.get(k)))
         model.current_iteration -= 1
         del model.records[model.current_iteration:]
         del self._records[model.current_iteration:]
         previous = self._states.get(model.current_iteration)
         model.state = previous.to_json() if previous is not None else None
+        self.dirty = True
+        return True
+
+    @property
+    def can_redo(self) -> bool:
+        """Whether an undone iteration can come back."""
+        return bool(self._redo)
+
+    def redo(self) -> bool:
+        """Bring back the latest undone iteration (False when there is none)."""
+        if not self._redo:
+            return False
+        data, record, state = self._redo.pop()
+        if state is None:
+            self.ensure_algorithm()
+            state, _ = self._algorithm.step(self._state())
+        self._keep(data, record, state)
         self.dirty = True
         return True
 
@@ -205,8 +235,13 @@ class Workbench:
         """Forget every record (the problem or the algorithm changed)."""
         lifecycle.forget_records(self.session)
         self._records.clear()
-        self._states, self._algorithm, self._initial = {}, None, None
+        self._redo.clear()
+        self.forget_algorithm()
         self.dirty = True
+
+    def forget_algorithm(self) -> None:
+        """Set the algorithm up again on next use (the problem or its settings changed)."""
+        self._states, self._algorithm, self._initial = {}, None, None
 
     def rebuild(self) -> None:
         """Rebuild the engine problem after an edit of the model (a `SessionError` when it

@@ -169,3 +169,25 @@ async def test_a_table_outside_the_sessions_folder_is_read_only_when_allowed(wor
         await pilot.press("y")
         await settle(app, pilot)
         assert isinstance(app.screen, MainScreen) and app.bench.session.allow_outside_tables
+
+
+@synchronous
+async def test_a_declined_autosave_is_set_aside_and_not_offered_again(workdir):
+    import os
+    path = workdir / "report003_lag_lead.json"
+    autosave = workdir / "report003_lag_lead.json.autosave"
+    autosave.write_text(path.read_text())
+    os.utime(autosave, (path.stat().st_mtime + 10, path.stat().st_mtime + 10))
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert isinstance(app.screen, ConfirmDialog)
+        await pilot.press("n")
+        await settle(app, pilot)
+        assert not autosave.exists()
+        aside = list(workdir.glob("report003_lag_lead.json.autosave.declined-*"))
+        assert len(aside) == 1 and aside[0].read_text() == path.read_text()    # kept, not lost
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert not isinstance(app.screen, ConfirmDialog)

@@ -9,6 +9,7 @@ from typing import Any
 
 from sessions.errors import SessionError
 
+from ..edit_history import Snapshot
 from ..edits import Check, Edit
 from .dialogs import ChooseDialog, ConfirmDialog, EditDialog
 
@@ -54,11 +55,13 @@ class EditFlow:
         def apply(yes: bool | None = True) -> None:
             if not yes:
                 return
+            before = Snapshot.of(self.bench)
             try:
                 result = change()
             except (SessionError, ValueError) as exc:
                 self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
             else:
+                self.bench.edits.push(before, self.bench)
                 self.bench.autosave(throttled=True)     # an accepted edit is never only in memory
                 if done is not None:
                     done(result)

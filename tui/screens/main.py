@@ -165,9 +165,10 @@ class MainScreen(Screen):
         name = b.session.path.name if b.session.path else "untitled"
         mark = " *" if b.dirty else ""
         busy = "  [b]stepping[/b] (space pauses)" if self.app.busy else ""
+        edit = f"  [dim]{escape(b.edits.last)}[/dim]" if b.edits.last else ""
         self.query_one("#status", TextView).set(
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
-            f"{escape(b.status_text())}{busy}")
+            f"{escape(b.status_text())}{busy}{edit}")
 
     def refresh_run(self, view: View | None = None, plots: bool = True, drawn: dict | None = None,
                     prebuilt: dict | None = None) -> None:

@@ -1,0 +1,87 @@
+"""Undo and redo of edits (ctrl+z / ctrl+y) apart from iterations (z / Z), each saying what it did."""
+
+from __future__ import annotations
+
+from sessions.store import load_session
+from tui.app import LoopcraftApp
+from tui.edit_history import describe_change
+from tui.workbench import Workbench
+
+from .test_app import edit_row, settle, status, synchronous
+
+
+def test_a_change_is_described_by_name_and_value():
+    before = {"parameters": [{"name": "K", "value": 1.0, "min": 0.0}], "targets": [{"measure": "gain_margin"}]}
+    after = {"parameters": [{"name": "K", "value": 2.0, "min": 0.0}], "targets": [{"measure": "gain_margin"}]}
+    assert describe_change(before, after) == "K value: 1 -> 2"
+    assert describe_change(before, before) is None
+    grown = {"parameters": before["parameters"] * 2, "targets": before["targets"]}
+    assert describe_change(before, grown).startswith("parameters: ")
+
+
+@synchronous
+async def test_edits_undo_and_redo_with_their_descriptions_and_the_records_they_dropped(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1
+        before = app.bench.session.model.problem.model_dump()
+        await edit_row(app, pilot, "2", "blocks", 0)
+        app.screen.query_one("#value").value = "(s+z1)*(s+z2)/((s+p1)*(s+p2))*2"
+        await pilot.press("enter")
+        await pilot.pause()
+        await pilot.press("y")                     # the recorded iteration will be dropped: yes
+        await settle(app, pilot)
+        assert app.bench.iteration == 0
+        assert "*2" in status(app) and "edit:" in status(app)
+        await pilot.press("ctrl+z")
+        await settle(app, pilot)
+        assert app.bench.session.model.problem.model_dump() == before
+        assert app.bench.iteration == 1 and "undid:" in status(app)          # the dropped iteration is back
+        assert app.bench.view().loop_curve().gh is not None
+        await pilot.press("ctrl+y")
+        await settle(app, pilot)
+        assert "*2" in app.bench.session.model.problem.conditions[0].plant.blocks[0].transfer.expression
+        assert app.bench.iteration == 0 and "redid:" in status(app)
+        await pilot.press("ctrl+y")                # nothing left to redo: the key is disabled
+        await settle(app, pilot)
+        assert app.check_action("redo_edit", ()) is None
+
+
+def test_an_undone_iteration_comes_back_with_redo_and_a_new_step_forgets_it(workdir):
+    bench = Workbench(load_session(workdir / "coebra_lag_lead.json"))
+    records = [bench.step() for _ in range(3)]
+    bench.undo()
+    bench.undo()
+    assert bench.iteration == 1 and bench.can_redo
+    assert bench.redo() and bench.redo() and not bench.redo()
+    assert [r.to_json() for r in bench.records] == [r.to_json() for r in records]
+    fresh = Workbench(load_session(workdir / "coebra_lag_lead.json"))
+    for _ in range(3):
+        fresh.step()
+    assert fresh.session.model.state == bench.session.model.state
+    bench.undo()
+    bench.step()
+    assert not bench.can_redo
+
+
+@synchronous
+async def test_a_paused_run_says_paused(workdir):
+    import asyncio
+    import time
+    app = LoopcraftApp(workdir / "cip_dual_channel.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        algorithm = app.bench.ensure_algorithm()
+        step = algorithm.step
+        algorithm.step = lambda state: (time.sleep(0.05), step(state))[1]    # slow enough to pause
+        await pilot.press("r")
+        await asyncio.sleep(0.3)
+        await pilot.press("space")
+        await settle(app, pilot)
+        assert 0 < app.bench.iteration and "paused" in status(app)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert "paused" not in status(app)

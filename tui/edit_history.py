@@ -1,0 +1,139 @@
+"""Undo and redo of edits of the problem, apart from undoing iterations.
+
+Before an edit the workbench's changeable content is kept as a `Snapshot`:
+the problem model, the algorithm and its settings, the records and the
+current iteration, and the engine problem built from that model (so an undo
+needs no rebuild).  An accepted edit pushes the snapshot with a description
+of what changed, read off the two models ("parameter K value: 1 -> 2");
+undoing it puts the snapshot back, records included: iterations an edit
+dropped come back with the edit's undo.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+MAX_EDITS = 100   # undo depth: the oldest edit is forgotten beyond it
+
+
+@dataclass
+class Snapshot:
+    """What an edit can change in a workbench."""
+
+    problem_model: Any
+    algorithm: Any
+    records: list
+    current_iteration: int
+    state: Any
+    problem: Any
+    parsed_records: list
+
+    @classmethod
+    def of(cls, bench) -> Snapshot:
+        model = bench.session.model
+        return cls(model.problem.model_copy(deep=True), model.algorithm.model_copy(deep=True),
+                   list(model.records), model.current_iteration, model.state, bench.session.problem,
+                   list(bench._records))
+
+    def restore(self, bench) -> None:
+        model = bench.session.model
+        model.problem, model.algorithm = self.problem_model.model_copy(deep=True), self.algorithm.model_copy(deep=True)
+        model.records[:] = self.records
+        model.current_iteration, model.state = self.current_iteration, self.state
+        bench.session.problem = self.problem
+        bench.forget_algorithm()
+        bench._records[:] = self.parsed_records
+        bench._redo.clear()   # undone iterations belonged to the state left
+        bench.dirty = True
+
+
+class EditHistory:
+    """The undo and redo stacks of one workbench's edits."""
+
+    def __init__(self) -> None:
+        self.undo_stack: list[tuple[str, Snapshot]] = []
+        self.redo_stack: list[tuple[str, Snapshot]] = []
+        self.last = ""   # what the latest edit, undo or redo did (the status line shows it)
+
+    def push(self, before: Snapshot, after_bench) -> str | None:
+        """Keep ``before`` as the undo of an edit that led to ``after_bench``'s state;
+        its description (None when nothing changed)."""
+        text = describe_change(_dump(before), _dump(Snapshot.of(after_bench)))
+        if text is None:
+            return None
+        self.undo_stack = (self.undo_stack + [(text, before)])[-MAX_EDITS:]
+        self.redo_stack.clear()
+        self.last = f"edit: {text}"
+        return text
+
+    def undo(self, bench) -> str | None:
+        """Put back the state before the latest edit; what was undone (None: nothing to undo)."""
+        return self._move(bench, self.undo_stack, self.redo_stack, "undid")
+
+    def redo(self, bench) -> str | None:
+        """Apply again the latest undone edit; what was redone (None: nothing to redo)."""
+        return self._move(bench, self.redo_stack, self.undo_stack, "redid")
+
+    def _move(self, bench, source: list, target: list, verb: str) -> str | None:
+        if not source:
+            return None
+        text, snapshot = source.pop()
+        target.append((text, Snapshot.of(bench)))
+        snapshot.restore(bench)
+        self.last = f"{verb}: {text}"
+        return text
+
+
+def _dump(snapshot: Snapshot) -> dict:
+    return {"problem": snapshot.problem_model.model_dump(), "algorithm": snapshot.algorithm.model_dump()}
+
+
+def describe_change(before: Any, after: Any, limit: int = 2) -> str | None:
+    """The changed values between two JSON-like trees, as 'where: old -> new' (at most
+    ``limit`` of them, then how many more); None when they are equal."""
+    changes: list[str] = []
+    _walk(before, after, [], changes)
+    if not changes:
+        return None
+    more = f" (+{len(changes) - limit} more)" if len(changes) > limit else ""
+    return "; ".join(changes[:limit]) + more
+
+
+def _walk(a: Any, b: Any, path: list[str], out: list[str]) -> None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in list(a) + [k for k in b if k not in a]:
+            _walk(a.get(key), b.get(key), path + [str(key)], out)
+    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b) and not _leafy(a):
+        for k, (x, y) in enumerate(zip(a, b)):
+            _walk(x, y, path + [_item_name(x, k)], out)
+    elif a != b:
+        out.append(f"{_where(path)}: {_short(a)} -> {_short(b)}")
+
+
+def _leafy(items: list) -> bool:
+    """A list of plain values (a per-condition value, coefficients) is shown whole."""
+    return all(not isinstance(x, (dict, list)) for x in items)
+
+
+def _item_name(item: Any, k: int) -> str:
+    if isinstance(item, dict):
+        for key in ("name", "measure"):
+            if isinstance(item.get(key), str):
+                return item[key]
+    return f"#{k + 1}"
+
+
+def _where(path: list[str]) -> str:
+    skip = {"problem", "parameters", "targets", "conditions", "plant", "blocks", "transfer", "algorithm"}
+    shown = [p for p in path if p not in skip] or path[-1:]
+    return " ".join(shown)
+
+
+def _short(value: Any) -> str:
+    if value is None:
+        return "none"
+    if isinstance(value, list) and len(value) > 4 and not _leafy(value):
+        return f"{len(value)} items"
+    text = str(value) if not isinstance(value, float) else f"{value:g}"
+    return text if len(text) <= 40 else text[:37] + "..."
