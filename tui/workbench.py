@@ -227,6 +227,11 @@ class Workbench:
         while self.iteration > iteration:
             self.undo()
 
+    def adopt_current(self) -> None:
+        """The current iteration's design becomes the start (the records are dropped)."""
+        lifecycle.adopt_current(self.session)
+        self.reset()
+
     def set_algorithm(self, name: str) -> None:
         lifecycle.switch_algorithm(self.session, name)
         self.reset()

@@ -35,6 +35,11 @@ PRESENTER_PLOTS = {"p-nyquist": "nyquist", "p-bode": "bode", "p-nichols": "nicho
                    "p-convergence": "convergence", "p-step": "step", "p-trajectories": "trajectories"}
 
 
+def _values(value) -> str:
+    """A parameter's value, or its values per condition."""
+    return ", ".join(number(v) for v in value) if isinstance(value, list) else number(value)
+
+
 MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targets-table",
                 "history": "#history-table", "sweep": "#optima-table"}
 
@@ -208,14 +213,17 @@ class MainScreen(Screen):
         self.query_one("#blocks", PlantTable).fill(("condition", "block", "input", "output", "kind", "definition"),
                                                    plant_rows(model))
         free = {p.name: p.free for p in self.bench.session.problem.parameters}
+        records = self.bench.records
+        current = records[-1].parameters if records else {}
         rows = []
         for k, p in enumerate(model.parameters):
             state = "free" if free.get(p.name, p.free) else ("held" if p.free else "fixed")
-            rows.append(((p.name, number(p.value if not isinstance(p.value, list) else p.value[0]),
-                          number(p.min), number(p.max), state, "yes" if isinstance(p.value, list) else "shared"),
-                         ("parameters", k)))
+            now = current.get(p.name, p.value)
+            rows.append(((p.name, _values(now), _values(p.value) if records else "", number(p.min), number(p.max),
+                          state, "yes" if isinstance(p.value, list) else "shared"), ("parameters", k)))
         self.query_one("#parameters", ParametersTable).fill(
-            ("parameter", "value", "min", "max", "free", "per condition"), rows)
+            ("parameter", f"value (iteration {len(records)})" if records else "value", "start" if records else "",
+             "min", "max", "free", "per condition"), rows)
 
     def refresh_targets(self) -> None:
         model = self.bench.session.model.problem

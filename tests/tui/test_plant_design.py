@@ -1,0 +1,34 @@
+"""The Plant tab shows the current design beside the start, and one key adopts it."""
+
+from __future__ import annotations
+
+from engine.present import number
+from tui.app import LoopcraftApp
+
+from .test_app import select_row, settle, synchronous
+
+
+@synchronous
+async def test_the_parameters_show_the_current_design_and_d_makes_it_the_start(workdir):
+    app = LoopcraftApp(workdir / "seidel_inlet_pi.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        start = {p.name: p.value for p in app.bench.session.model.problem.parameters}
+        for _ in range(3):
+            await pilot.press("s")
+            await settle(app, pilot)
+        current = app.bench.records[-1].parameters
+        await select_row(app, pilot, "2", "parameters", 0)
+        table = app.screen.query_one("#parameters")
+        name = str(table.get_row_at(0)[0])
+        assert str(table.get_row_at(0)[1]) == number(current[name]) != number(start[name])
+        assert str(table.get_row_at(0)[2]) == number(start[name])
+        await pilot.press("d")
+        await pilot.pause()
+        await pilot.press("y")                       # the three iterations will be dropped: yes
+        await settle(app, pilot)
+        assert app.bench.iteration == 0
+        assert app.bench.session.model.problem.parameters[0].value == current[name]
+        assert str(table.get_row_at(0)[1]) == number(current[name])
+        assert app.check_action("adopt_design", ()) is not False
+        assert table.check_action("adopt_design", ()) is None         # nothing to adopt at iteration 0
