@@ -260,3 +260,26 @@ def split_names(text: str, count: int) -> tuple[list[str], str]:
         names.append(match.group(1) if match.group(1) is not None else match.group(2))
         rest = rest[match.end():]
     return names, rest.strip()
+
+
+def transfer_names(t, variable: str) -> set[str]:
+    """The parameter names a transfer model reads."""
+    if t.kind == "expression":
+        from engine.expressions import Expression
+        return set(Expression(t.expression, variable).parameters)
+    if t.kind == "table":
+        return set()
+    names: set[str] = set()
+
+    def collect(node) -> None:
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key not in ("kind", "order"):
+                    collect(value)
+        elif isinstance(node, list):
+            for item in node:
+                collect(item)
+        elif isinstance(node, str):
+            names.add(node)
+    collect(t.model_dump())
+    return names

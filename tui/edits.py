@@ -119,9 +119,12 @@ def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
         return field_edit_whole(bench, ref, f"{condition.name}: sub-compensator (ascending powers)",
                                 transfer_forms.parse_sub_compensator, transfer_forms.format_sub_compensator)
     if isinstance(ref[-1], str) and hasattr(owner, "kind"):
-        return field_edit_whole(bench, ref, f"{condition.name}: {ref[-1]} ({TRANSFER_HELP})",
-                                lambda t: transfer_forms.parse_transfer(t, variable, owner),
+        def parse(text: str):
+            return transfer_forms.parse_transfer(text, variable, owner)
+        edit = field_edit_whole(bench, ref, f"{condition.name}: {ref[-1]} ({TRANSFER_HELP})", parse,
                                 lambda t: transfer_forms.format_transfer(t, variable))
+        return Edit(edit.title, edit.text,
+                    known_names(bench, parse, lambda t: transfer_forms.transfer_names(t, variable)), edit.apply)
     return None
 
 
@@ -169,8 +172,25 @@ def _block_edit(bench: Workbench, ref: Ref, title: str, variable: str) -> Edit:
             raise
     quoted = " ".join(transfer_forms.quote_name(n) for n in (block.name, block.input, block.output))
     text = f"{quoted} {transfer_forms.format_transfer(block.transfer, variable)}"
-    return Edit(f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, checker(parse),
+    check = known_names(bench, parse, lambda found: transfer_forms.transfer_names(found["transfer"], variable))
+    return Edit(f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, check,
                 lambda t: set_fields(bench, ref, **parse(t)))
+
+
+def known_names(bench: Workbench, parse: Callable[[str], Any], names_of: Callable[[Any], set[str]]) -> Check:
+    """A live check that also flags names that are not parameters of the session."""
+    def check(text: str) -> str | None:
+        try:
+            found = parse(text)
+        except (ValueError, TypeError, EngineError) as exc:
+            return str(exc)
+        parameters = {p.name for p in bench.session.model.problem.parameters}
+        unknown = sorted(names_of(found) - parameters)
+        if unknown:
+            listed = ", ".join(sorted(parameters)[:12]) or "none yet"
+            return f"unknown name {unknown[0]!r}: not a parameter (parameters: {listed}; + adds one in Plant)"
+        return None
+    return check
 
 
 def _set_signed(bench: Workbench, ref: Ref, text: str) -> None:
@@ -181,7 +201,10 @@ def _set_signed(bench: Workbench, ref: Ref, text: str) -> None:
 def _expression_edit(bench: Workbench, path: Ref, title: str, variable: str) -> Edit:
     def parse(text: str) -> str:
         return forms.parse_expression(text, variable)
-    return field_edit(bench, path, "expression", f"{title} (expression in {variable})", parse, str)
+    from engine.expressions import Expression
+    edit = field_edit(bench, path, "expression", f"{title} (expression in {variable})", parse, str)
+    return Edit(edit.title, edit.text, known_names(bench, parse, lambda text: set(Expression(text, variable).parameters)),
+                edit.apply)
 
 
 def copy_condition(bench: Workbench, ref: Ref, name: str) -> None:

@@ -92,3 +92,28 @@ async def test_the_factored_plant_opens_its_dialog_from_the_plant_tab(workdir):
         await pilot.pause()
         await pilot.pause()
         assert app.bench.session.model.problem.conditions[0].plant.blocks[index].transfer.gain == 1000
+
+
+@synchronous
+async def test_a_refused_edit_keeps_the_typed_text_and_an_unknown_name_is_flagged_while_typing(workdir):
+    from tui.app import LoopcraftApp
+    from tui.screens.dialogs import EditDialog
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.pause()
+        await edit_row(app, pilot, "2", "blocks", 1)
+        field = app.screen.query_one("#value")
+        field.value = "plant u y 16000/(s*(s+p9)*(s+20))"
+        await pilot.pause()
+        assert "unknown name 'p9'" in str(app.screen.query_one("#error").render())
+        field.value = "plant u nowhere 16000/(s*(s+8)*(s+20))"     # reads, but the diagram does not build
+        await pilot.press("enter")
+        await pilot.pause()
+        await pilot.pause()
+        assert isinstance(app.screen, EditDialog)
+        assert app.screen.query_one("#value").value == "plant u nowhere 16000/(s*(s+8)*(s+20))"
+        assert "not applied" in str(app.screen.query_one("#error").render())
+        await pilot.press("escape")
+        await pilot.pause()
+        assert app.bench.session.model.problem.conditions[0].plant.blocks[1].output == "y"
+        assert app.screen.query_one("#blocks").cursor_row == 1           # the cursor stays on the edited row

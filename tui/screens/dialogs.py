@@ -25,20 +25,22 @@ class EditDialog(ModalScreen[str | None]):
     EditDialog Label { width: 100%; }
     """
 
-    def __init__(self, title: str, value: str, validate: Validator | None = None):
+    def __init__(self, title: str, value: str, validate: Validator | None = None, error: str = ""):
         super().__init__()
-        self.title_text, self.value, self.validate = title, value, validate
+        self.title_text, self.value, self.validate, self.error = title, value, validate, error
 
     def compose(self) -> ComposeResult:
         with Vertical():
             yield Label(self.title_text, markup=False)
             yield Input(self.value, id="value")
-            yield Static("", id="error", markup=False)
+            yield Static(self.error, id="error", markup=False)
 
     def on_mount(self) -> None:
         self.query_one(Input).cursor_blink = False
 
     def on_input_changed(self, event: Input.Changed) -> None:
+        if event.value == self.value and self.error:
+            return   # the text it was opened with keeps the reason it was refused
         error = self.validate(event.value) if self.validate else None
         self.query_one("#error", Static).update(error or "")
 
