@@ -22,8 +22,8 @@ from engine.loops import loop_model, open_loop
 from engine.margins import Margins, margins
 from engine.present import tolerant
 from engine.problem import Problem
-from engine.realization import realize
-from engine.timeresp import Segment, simulate
+
+from .step_view import StepSetup, horizon, realized, step_response
 
 CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
 INITIAL_COLOR = "gray"
@@ -50,6 +50,7 @@ class View:
     initial: StepRecord | None = None        # iteration 0's record (the presenter's)
     plotted_condition: int | None = None     # the flight condition the plots show; None: all
     sweep: dict | None = None                # the latest sweep (JSON data)
+    step_setup: StepSetup = StepSetup()      # the step plot's input, output and horizon
 
     @property
     def iteration(self) -> int:
@@ -130,37 +131,47 @@ class View:
         curves = [self.loop_curve(at, label, k, color) for at, k, label, color in self.shown(iteration)]
         return [c for c in curves if c is not None]
 
-    def step_response(self, iteration: int | None = None,
-                      condition: int = 0) -> tuple[list[float], list[float], str] | None:
-        """Closed-loop response to a unit step at the first input, of the output signal
-        (y, c or x1 when present), for rational plants; None otherwise."""
+    def step_response(self, iteration: int | None = None, condition: int = 0,
+                      span: float | None = None) -> tuple[list[float], list[float], str] | None:
+        """Closed-loop response to a unit step (`step_setup`) of one condition, for
+        rational plants; None otherwise."""
+        found = self.step(iteration, condition, span)
+        return None if found is None else (found.t, found.y, found.name)
+
+    def step(self, iteration: int | None = None, condition: int = 0, span: float | None = None):
+        """The `StepResponse` of one condition at an iteration (None: not a rational loop)."""
         problem = self.problem
         if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
             return None
-        try:
-            ss = realize(problem.conditions[condition].network, self.parameters(iteration, condition))
-        except EngineError:
+        ss = realized(problem.conditions[condition].network, self.parameters(iteration, condition))
+        return None if ss is None else step_response(ss, self.step_setup, span)
+
+    def step_loop(self, condition: int = 0):
+        """The current design's closed loop (state space) of one condition, or None."""
+        problem = self.problem
+        if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
             return None
-        if not ss.inputs or ss.A.size == 0:
-            return None
-        output = next((name for name in ("y", "c", "x1") if name in ss.outputs), ss.outputs[-1])
-        t = np.linspace(0.0, _horizon(np.linalg.eigvals(ss.A).real), 400)
-        try:
-            y = simulate(ss, ss.inputs[0], t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
-        except EngineError:
-            return None
-        return t.tolist(), y.tolist(), f"{output} (step at {ss.inputs[0]})"
+        return realized(problem.conditions[condition].network, self.parameters(None, condition))
 
     def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
         """The step responses the plot draws (`shown`): what is plotted, and
-        (t, y, label, colour) per trace."""
+        (t, y, label, colour) per trace, all over the current design's horizon."""
         name, traces = "", []
         for at, k, label, color in self.shown():
-            response = self.step_response(at, k)
+            ss = self.step_loop(k)
+            response = self.step(at, k, horizon(ss) if ss is not None else None)
             if response is not None:
-                t, y, name = response
-                traces.append((t, y, label, color))
+                name = response.name
+                traces.append((response.t, response.y, label, color))
         return name, traces
+
+    def step_marks(self):
+        """The current design's step measures (first plotted condition), or None."""
+        plotted = self.plotted()
+        if not plotted:
+            return None
+        found = self.step(None, plotted[0])
+        return None if found is None else found.measures
 
     def trajectories(self) -> dict | None:
         """The presenter's trajectories of the current iteration (iteration 0's before any)."""
@@ -175,11 +186,3 @@ class View:
             if value is not None and math.isfinite(value):
                 points.append((r.iteration, float(value)))
         return label, [p[0] for p in points], [p[1] for p in points]
-
-
-def _horizon(real: np.ndarray) -> float:
-    """A step response's duration from the closed-loop poles' real parts."""
-    if real.max() > 0:
-        return 5.0 / real.max()
-    slowest = np.abs(real[real < 0]).min(initial=np.inf)
-    return min(8.0 / slowest, 1e4) if np.isfinite(slowest) else 10.0

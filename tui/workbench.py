@@ -24,6 +24,7 @@ from sessions.sweep_results import adopt_run, record_sweep, summarize
 from sessions.sweeps import parse_sweep, plan
 
 from .edit_history import EditHistory
+from .step_view import StepSetup
 from .views import View
 
 
@@ -41,6 +42,7 @@ class Workbench:
         self.plotted_condition: int | None = None   # the flight condition the plots show; None: all
         self.edits = EditHistory()
         self.paused_at: int | None = None   # the iteration a run was paused at
+        self.step_setup = StepSetup()       # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []   # undone iterations, latest last
 
     # -- the algorithm ------------------------------------------------------
@@ -275,7 +277,7 @@ class Workbench:
     def view(self) -> View:
         """A read-only snapshot of what the screens show now."""
         return View(self.session.problem, tuple(self.records), self.presenter, self.initial_record(),
-                    self.plotted_condition, self.latest_sweep())
+                    self.plotted_condition, self.latest_sweep(), self.step_setup)
 
     def next_plotted_condition(self) -> str:
         """Cycle the plots through every condition together and each alone; says what they show now."""

@@ -19,12 +19,14 @@ from engine.present import Presenter, number, tolerant
 from ..edits_fields import objective_rows
 from ..figures import figures, history_figure
 from ..plant_rows import plant_rows
+from ..step_view import format_step_setup, horizon, parse_step_setup
 from ..tableau import tableau_text
 from ..views import View
 from ..widgets.plots import FigurePlot, sweep_figure
 from ..widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
 from ..widgets.textview import TextView
 from ..workbench import Workbench
+from .dialogs import EditDialog
 from sessions import forms
 from sessions.target_use import target_note
 
@@ -51,7 +53,9 @@ class MainScreen(Screen):
                 Binding("2", "tab('plant')", "plant", show=False),
                 Binding("3", "tab('targets')", "targets", show=False),
                 Binding("4", "tab('history')", "history", show=False),
-                Binding("5", "tab('sweep')", "sweep", show=False)]
+                Binding("5", "tab('sweep')", "sweep", show=False),
+                Binding("t", "step_setup", "step signals", show=False,
+                        tooltip="the step plot's input, output and horizon")]
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
     #status { height: 1; background: $boost; padding: 0 1; }
@@ -132,6 +136,29 @@ class MainScreen(Screen):
         tabs = self.plot_tabs
         plots.active = tabs[(tabs.index(plots.active) + 1) % len(tabs)] if plots.active in tabs else tabs[0]
         self.refresh_plots()
+
+    def action_step_setup(self) -> None:
+        """Ask which input is stepped, which output is plotted and for how long."""
+        view = self.bench.view()
+        ss = view.step_loop(view.plotted()[0] if view.plotted() else 0)
+        if ss is None:
+            self.app.notify("no step response here (it needs a rational plant)", severity="warning")
+            return
+
+        def check(text: str) -> str | None:
+            try:
+                parse_step_setup(text, ss.inputs, ss.outputs)
+            except ValueError as exc:
+                return str(exc)
+            return None
+
+        def typed(text: str | None) -> None:
+            if text is not None:
+                self.bench.step_setup = parse_step_setup(text, ss.inputs, ss.outputs)
+                self.refresh_plots()
+        title = (f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, horizon {horizon(ss):.3g} s from the "
+                 f"slowest pole)\ninputs: {', '.join(ss.inputs)}\nsignals: {', '.join(ss.outputs)}")
+        self.app.push_screen(EditDialog(title, format_step_setup(self.bench.step_setup, ss), check), typed)
 
     def action_tab(self, name: str) -> None:
         """Show a tab and focus its main widget (focus left in a hidden pane would

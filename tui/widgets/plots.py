@@ -261,13 +261,46 @@ def trajectories_figure(data: Mapping | None, system: Mapping | None = None) -> 
     return fig
 
 
-def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]]) -> Figure:
-    """Closed-loop step responses of ``name``: (t, y, label, color) per trace (rational plants)."""
+def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None,
+                reference_color: str = "gray") -> Figure:
+    """Closed-loop step responses of ``name``: (t, y, label, color) per trace, scaled to
+    the current design's traces (not the ``reference_color`` one); ``marks`` (the
+    current design's `StepMeasures`) adds the settling band, the peak and the
+    settling and rise times."""
     fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
     for t, y, label, color in traces:
         fig.title = f"Step response: {name}"
         fig.series.append(Series(*_finite(np.array(t), np.array(y)), label, color=color))
+    current = [s for s, trace in zip(fig.series, traces) if trace[3] != reference_color and s.y] or \
+        [s for s in fig.series if s.y]
+    if not current:
+        return fig
+    low, high = min(min(s.y) for s in current), max(max(s.y) for s in current)
+    t_end = max(s.x[-1] for s in fig.series if s.x)
+    if marks is not None:
+        _step_marks(fig, marks, t_end)
+        low, high = min(low, marks.final * 0.95), max(high, marks.final * 1.05)
+    pad = 0.08 * (high - low) or 0.1 * max(abs(high), 1.0)
+    fig.ylim = (low - pad, high + pad)
     return fig
+
+
+def _step_marks(fig: Figure, m, t_end: float) -> None:
+    """The +-5 % band about the final value, the peak, the rise and settling times."""
+    band = [m.final * 0.95, m.final * 1.05]
+    for level in band:
+        fig.series.append(Series([0.0, t_end], [level, level], color="gray", marker="dot"))
+    parts = []
+    if m.rise_time is not None:
+        parts.append(f"rise {m.rise_time:.3g} s")
+    if m.peak_time is not None:
+        fig.series.append(Series([m.peak_time], [m.peak], "peak", marker="x", scatter=True, color="red"))
+        parts.append(f"overshoot {m.overshoot_percent:.3g} %")
+    if m.settling_time is not None:
+        fig.series.append(Series([m.settling_time] * 2, band, "settled (5 %)", marker="|", color="green"))
+        parts.append(f"settles {m.settling_time:.3g} s")
+    if parts:
+        fig.title += "  " + ", ".join(parts)
 
 
 def sweep_figure(sweep: dict | None) -> Figure:

@@ -1,0 +1,79 @@
+"""The step plot: chosen signals, the current design's horizon and scale, and its marks."""
+
+from __future__ import annotations
+
+import control as ct
+import numpy as np
+
+from sessions.store import load_session
+from tui.step_view import StepSetup, parse_step_setup
+from tui.widgets.plots import step_figure
+from tui.workbench import Workbench
+
+from .test_app import settle, synchronous
+
+
+def test_the_marks_agree_with_python_control_step_info(workdir):
+    """report 003's lag-lead loop: rise time, overshoot and settling time against control.step_info
+    (same 10-90 % rise and 5 % settling definitions) on the same closed loop."""
+    bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
+    view = bench.view()
+    marks = view.step_marks()
+    s = ct.tf("s")
+    loop = (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
+    t = np.linspace(0, 60, 200001)
+    info = ct.step_info(ct.feedback(loop, 1), T=t, SettlingTimeThreshold=0.05, RiseTimeLimits=(0.1, 0.9))
+    assert abs(marks.overshoot_percent - info["Overshoot"]) < 0.05 * info["Overshoot"]
+    assert abs(marks.rise_time - info["RiseTime"]) < 0.03 * info["RiseTime"]
+    assert abs(marks.settling_time - info["SettlingTime"]) < 0.03 * info["SettlingTime"]
+    fig = step_figure(*view.step_traces(), marks)
+    assert "overshoot" in fig.title and "settles" in fig.title and any(s.label == "peak" for s in fig.series)
+
+
+def test_signals_and_horizon_are_chosen_and_checked(workdir):
+    bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
+    ss = bench.view().step_loop()
+    assert "unknown" not in str(parse_step_setup("", ss.inputs, ss.outputs))
+    bench.step_setup = parse_step_setup("r u 3", ss.inputs, ss.outputs)
+    t, y, name = bench.view().step_response()
+    assert name == "u (step at r)" and t[-1] == 3.0
+    for text, message in [("r nowhere", "not a signal"), ("q y", "not an input"), ("r y -1", "horizon")]:
+        try:
+            parse_step_setup(text, ss.inputs, ss.outputs)
+        except ValueError as exc:
+            assert message in str(exc)
+        else:
+            raise AssertionError(text)
+    bench.step_setup = StepSetup()
+    assert bench.view().step_response()[2] == "y (step at r)"
+
+
+def test_the_axis_is_scaled_to_the_current_design_not_an_unstable_start(workdir):
+    bench = Workbench(load_session(workdir / "coebra_lag_lead.json"))    # the start is unstable (PM -28.6 deg)
+    for _ in range(8):
+        bench.step()
+    view = bench.view()
+    name, traces = view.step_traces()
+    assert len(traces) == 2 and traces[1][3] == "gray"
+    fig = step_figure(name, traces, view.step_marks())
+    current = np.array(traces[0][1])
+    low, high = fig.ylim
+    assert low <= current.min() and current.max() <= high and high - low < 3 * (current.max() - current.min() + 0.1)
+    assert traces[0][0][-1] == traces[1][0][-1]      # one horizon: the current design's
+
+
+@synchronous
+async def test_t_opens_the_step_setup_and_the_plot_follows(workdir):
+    from tui.app import LoopcraftApp
+    from tui.screens.dialogs import EditDialog
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("t")
+        await pilot.pause()
+        assert isinstance(app.screen, EditDialog) and app.screen.query_one("#value").value == "r y"
+        app.screen.query_one("#value").value = "r e 2"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert app.bench.step_setup == StepSetup("r", "e", 2.0)
+        assert app.bench.view().step_response()[2] == "e (step at r)"

@@ -1,0 +1,118 @@
+"""The step plot's data: which signals, how long, and the classical marks.
+
+The engineer chooses the input stepped and the output plotted (`StepSetup`,
+one line: ``INPUT OUTPUT [HORIZON]``); by default the first input and the
+output named y, c or x1.  The horizon, unless given, comes from the current
+design's closed-loop poles (8 time constants of the slowest, 5 of the fastest
+unstable), and every trace uses it.  The current trace's rise time (10-90 %),
+overshoot, settling band (+-5 %) and settling time are `engine.timeresp`'s
+`step_measures`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from engine.errors import EngineError
+from engine.realization import StateSpace, realize
+from engine.timeresp import Segment, StepMeasures, final_value, simulate, step_measures
+
+SAMPLES = 400
+SETTLING_BAND = 0.05
+MAX_HORIZON = 1e4
+
+
+@dataclass(frozen=True)
+class StepSetup:
+    """What the step plot shows: None picks the default."""
+
+    input: str | None = None
+    output: str | None = None
+    horizon: float | None = None
+
+
+@dataclass(frozen=True)
+class StepResponse:
+    t: list[float]
+    y: list[float]
+    name: str                       # 'y (step at r)'
+    measures: StepMeasures | None   # None when the response has no settled final value to measure from
+
+
+def default_output(ss: StateSpace) -> str:
+    """y, c or x1 when the network has one, else its last signal."""
+    return next((name for name in ("y", "c", "x1") if name in ss.outputs), ss.outputs[-1])
+
+
+def horizon(ss: StateSpace) -> float:
+    """A step response's duration from the closed-loop poles' real parts."""
+    real = np.linalg.eigvals(ss.A).real
+    if real.max() > 0:
+        return min(5.0 / real.max(), MAX_HORIZON)
+    slowest = np.abs(real[real < 0]).min(initial=np.inf)
+    return min(8.0 / slowest, MAX_HORIZON) if np.isfinite(slowest) else 10.0
+
+
+def realized(network, params: Mapping[str, float]) -> StateSpace | None:
+    """The closed loop's state space (None when it has no state or cannot be realized)."""
+    try:
+        ss = realize(network, params)
+    except EngineError:
+        return None
+    return ss if ss.inputs and ss.A.size else None
+
+
+def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -> StepResponse | None:
+    """The response of the chosen output to a unit step at the chosen input, over
+    ``span`` (the setup's horizon, else this loop's own)."""
+    source = setup.input if setup.input in ss.inputs else ss.inputs[0]
+    output = setup.output if setup.output in ss.outputs else default_output(ss)
+    t = np.linspace(0.0, setup.horizon or span or horizon(ss), SAMPLES)
+    segments = [Segment(0.0, step=1.0)]
+    try:
+        y = simulate(ss, source, t, segments)[:, ss.outputs.index(output)]
+    except EngineError:
+        return None
+    return StepResponse(t.tolist(), y.tolist(), f"{output} (step at {source})", _measures(ss, source, output, t, y))
+
+
+def _measures(ss: StateSpace, source: str, output: str, t: np.ndarray, y: np.ndarray) -> StepMeasures | None:
+    if not np.all(np.isfinite(y)):
+        return None
+    final, origin = final_value(ss, source, output, [Segment(0.0, step=1.0)], y)
+    if origin != "dc_gain" or final == 0 or not math.isfinite(final):
+        return None
+    return step_measures(t, y, final, band=SETTLING_BAND)
+
+
+def parse_step_setup(text: str, inputs: tuple[str, ...], outputs: tuple[str, ...]) -> StepSetup:
+    """'INPUT OUTPUT [HORIZON]' ('' : the defaults); names checked against the loop's signals."""
+    words = text.split()
+    if not words:
+        return StepSetup()
+    if len(words) not in (2, 3):
+        raise ValueError("write INPUT OUTPUT [HORIZON in s], or nothing for the defaults")
+    if words[0] not in inputs:
+        raise ValueError(f"{words[0]!r} is not an input; inputs: {', '.join(inputs)}")
+    if words[1] not in outputs:
+        raise ValueError(f"{words[1]!r} is not a signal; signals: {', '.join(outputs)}")
+    span = None
+    if len(words) == 3:
+        try:
+            span = float(words[2])
+        except ValueError:
+            raise ValueError(f"horizon: expected seconds, got {words[2]!r}") from None
+        if not 0 < span <= MAX_HORIZON:
+            raise ValueError(f"horizon: between 0 and {MAX_HORIZON:g} s")
+    return StepSetup(words[0], words[1], span)
+
+
+def format_step_setup(setup: StepSetup, ss: StateSpace | None) -> str:
+    """The setup as its line, the defaults written out when the loop is known."""
+    source = setup.input or (ss.inputs[0] if ss is not None else "")
+    output = setup.output or (default_output(ss) if ss is not None else "")
+    return " ".join(w for w in (source, output, f"{setup.horizon:g}" if setup.horizon else "") if w)
