@@ -15,7 +15,7 @@ from pathlib import Path
 from engine.errors import EngineError
 from sessions.errors import SessionError
 
-from . import analyze, session_commands, sweep
+from . import analyze, compare, export, new, session_commands, sweep
 from .common import CliError
 
 
@@ -28,6 +28,9 @@ def build_parser() -> argparse.ArgumentParser:
     analyze.add_parser(sub)
     session_commands.add_parsers(sub)
     sweep.add_parser(sub)
+    export.add_parser(sub)
+    new.add_parser(sub)
+    compare.add_parser(sub)
     for name in TABLE_COMMANDS:
         sub.choices[name].add_argument(
             "--allow-outside-tables", action="store_true",
@@ -35,7 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-TABLE_COMMANDS = ("run", "replay", "report", "tradeoff", "sweep", "analyze")   # those that read tables
+TABLE_COMMANDS = ("run", "replay", "report", "tradeoff", "sweep", "analyze", "export",
+                  "compare")   # those that read tables
 
 
 def _handle(args: argparse.Namespace) -> int:

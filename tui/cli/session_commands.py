@@ -65,7 +65,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    """The tableau of an iteration as text (the algorithm's own layout), JSON or CSV."""
+    """The tableau of an iteration as text (the algorithm's own layout), JSON or CSV;
+    html and md: the design report (tui/cli/design_report.py)."""
+    if args.format in ("html", "md"):
+        from .design_report import cmd_design_report
+        return cmd_design_report(args)
+    if args.out is not None:
+        raise CliError("--out: only with --format html or md (text, json and csv are printed)")
     session = load(args.file)
     rows, record = rows_now(session, args.iteration)
     if args.format == "json":
@@ -159,7 +165,9 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("report", help="the tableau of a session")
     p.add_argument("file")
     p.add_argument("--iteration", type=int)
-    p.add_argument("--format", choices=["text", "json", "csv"], default="text")
+    p.add_argument("--format", choices=["text", "json", "csv", "html", "md"], default="text")
+    p.add_argument("--out", metavar="DIR", help="html, md: the folder to write the design report in "
+                   "(default: the session's)")
     p.set_defaults(handler=cmd_report)
     p = sub.add_parser("tradeoff", help="qcg penalty sweep (report 001, Figure 4)")
     p.add_argument("file")

@@ -1,0 +1,119 @@
+"""`loopcraft export --to matlab`: an .m script (Control System Toolbox) of a design.
+
+The same construction as the python export (`sessions.export_python`): each
+entry a ``tf`` with named input and output (a table's AAA fit a ``zpk``, a
+delay an exact ``InputDelay``), junctions ``sumblk``, joined by ``connect``;
+the uses of the break signal read an injected loop signal, so the open loop
+is ``L = -connect(..., loop, break)`` and ``allmargin(L)`` gives every
+margin.  Numbers are written with Python's ``repr`` (shortest round trip;
+MATLAB reads the same double).
+"""
+
+from __future__ import annotations
+
+from .export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
+                           loop_input, rows, w_to_z)
+
+
+def matlab_script(d: Design, sample_time: float | None = None) -> str:
+    """The whole .m script (text) of design ``d``; ``sample_time`` is the z-domain forms' Ts (-1: unstated)."""
+    names = identifiers(tuple(c.name for c in d.conditions))
+    lines = [f"% Design exported by loopcraft from {d.source}, iteration {d.iteration}"
+             f"{' (the start)' if d.iteration == 0 else ''}.",
+             "% Needs the Control System Toolbox (tf, zpk, sumblk, connect, allmargin).",
+             "% Each condition's loop is broken where the session breaks it: L = GH, 1 + L = 0 closes it."]
+    for e in fitted_entries(d):
+        lines.append(f"% {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/fitting.py) of "
+                     f"degree {e.degree}, relative residual {e.residual:.3e} on the table")
+    lines += ["", f"% the parameters of iteration {d.iteration} (a vector: one value per condition)"]
+    for name, value in d.parameters.items():
+        lines.append(f"parameters.{_field(name)} = {_number_or_vector(value)};  % {name}")
+    for c in d.conditions:
+        lines += [""] + _condition(c, names[c.name], sample_time)
+    return "\n".join(lines) + "\n"
+
+
+def _field(name: str) -> str:
+    return identifiers((name,))[name]
+
+
+def _number_or_vector(value) -> str:
+    if isinstance(value, list):
+        return "[" + " ".join(repr(float(v)) for v in value) + "]"
+    return repr(float(value))
+
+
+def _vector(values) -> str:
+    return "[" + " ".join(_complex(v) for v in values) + "]"
+
+
+def _complex(z) -> str:
+    z = complex(z)
+    if z.imag == 0:
+        return repr(z.real)
+    return f"{z.real!r}{'+' if z.imag >= 0 else '-'}{abs(z.imag)!r}i"
+
+
+def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list[str]:
+    cut = loop_input(c)
+    ident = identifiers(c.signals)
+    produced = [ident[s] for s, _ in rows(c)]
+    inputs = [ident[s] for s in c.inputs]
+    lines = [f"%% condition '{c.name}' (variable {c.variable}"
+             f"{'; the w-plane, w = (z - 1)/(z + 1), written as s' if c.variable == 'w' else ''})",
+             f"blocks_{name} = {{}};"]
+    for signal, entries in rows(c):
+        lines += _row(c, name, signal, entries, cut)
+    cells = f"blocks_{name}{{:}}"
+    lines += [f"L_{name} = -connect({cells}, '{cut}', '{ident[c.break_at]}');  % open loop at '{c.break_at}'",
+              f"margins_{name} = allmargin(L_{name})",
+              f"[Gm_{name}, Pm_{name}, Wcg_{name}, Wcp_{name}] = margin(L_{name})",
+              f"closed_{name} = connect({cells}, sumblk('{cut} = {ident[c.break_at]}'), "
+              f"{_cell(inputs)}, {_cell(produced)});  % all loops closed",
+              f"poles_{name} = pole(closed_{name})"]
+    if c.variable == "w":
+        ts = "-1" if sample_time is None else repr(float(sample_time))
+        for e in c.entries:
+            if e.compensator and e.kind == "rational":
+                numz, denz = w_to_z(e.num, e.den)
+                lines.append(f"Cz_{name}_{_field(e.label)} = tf({_vector(numz)}, {_vector(denz)}, {ts})  "
+                             f"% {e.label} in z (Ts {ts}{': unstated' if sample_time is None else ''})")
+    return lines
+
+
+def _cell(names: list[str]) -> str:
+    return "{" + ", ".join(f"'{n}'" for n in names) + "}"
+
+
+def _row(c: ExportCondition, name: str, signal: str, entries: list[ExportEntry], cut: str) -> list[str]:
+    """The systems defining one signal: a block, a sumblk, or blocks summed by a sumblk."""
+    out = c.ident(signal)
+
+    def reads(e: ExportEntry) -> str:
+        return cut if e.input == c.break_at else c.ident(e.input)
+
+    if len(entries) == 1:
+        return _system(entries[0], reads(entries[0]), out, name)
+    if is_junction(entries):
+        terms = " ".join(("- " if e.constant < 0 else "+ ") + reads(e) for e in entries).removeprefix("+ ")
+        return [f"blocks_{name}{{end+1}} = sumblk('{out} = {terms}');  % {entries[0].label}"]
+    lines = []
+    for k, e in enumerate(entries, start=1):
+        lines += _system(e, reads(e), f"{out}__{k}", name)
+    terms = " + ".join(f"{out}__{k}" for k in range(1, len(entries) + 1))
+    return lines + [f"blocks_{name}{{end+1}} = sumblk('{out} = {terms}');"]
+
+
+def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
+    role = "compensator" if e.compensator else "plant"
+    names = f"'InputName', '{source}', 'OutputName', '{out}'"
+    if e.kind == "delay":
+        make = f"tf(1, 1, 'InputDelay', {e.delay!r}, {names})"
+        comment = f"{e.label} ({role}): {e.text}"
+    elif e.kind == "fitted":
+        make = f"zpk({_vector(e.zeros)}, {_vector(e.poles)}, {e.gain!r}, {names})"
+        comment = f"{e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}"
+    else:
+        make = f"tf({_vector(e.num)}, {_vector(e.den)}, {names})"
+        comment = f"{e.label} ({role}): {e.text}"
+    return [f"% {comment}", f"blocks_{name}{{end+1}} = {make};"]

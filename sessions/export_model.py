@@ -1,0 +1,233 @@
+"""What every export reads: one design (an iteration's parameter values) as plain
+numbers per flight condition, entry by entry of the compiled interconnection.
+
+Each entry of a condition's network (``x_row += G x_col``: a block, one signal
+of a junction, a matrix entry) becomes an `ExportEntry`: its rational form
+(descending coefficients, and gain/zeros/poles taken factor by factor), a pure
+delay, or, for a tabulated block, an AAA fit of its table (engine/fitting.py)
+with the fit's residual.  Entries that depend on a parameter are the
+compensators.  Signal names are also given as identifiers (``ident``) for
+tools whose signal names are parsed (python-control's ``sys.signal``).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import NDArray
+
+from engine.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
+from engine.errors import EngineError
+from engine.factored import pole_zero
+from engine.fitting import FAR_POLE, RationalFit, fit_response
+from engine.network import Network
+
+from .errors import SessionError
+from .store import Session
+
+FIT_TOLERANCE = 1e-10   # relative residual asked of a table's fit (the residual reached is stated)
+
+
+@dataclass(frozen=True)
+class ExportEntry:
+    """One entry: ``output += transfer * input``.  ``kind``: "rational", "delay" or
+    "fitted" (a table's AAA fit: ``residual``, ``degree``); ``num``/``den`` descending."""
+
+    label: str
+    input: str
+    output: str
+    kind: str
+    text: str
+    compensator: bool
+    num: tuple[float, ...] = ()
+    den: tuple[float, ...] = ()
+    gain: float = 1.0
+    zeros: tuple[complex, ...] = ()
+    poles: tuple[complex, ...] = ()
+    delay: float = 0.0
+    residual: float | None = None
+    degree: int = 0
+
+    @property
+    def constant(self) -> float | None:
+        """The value of a constant gain (a junction's sign), else None."""
+        if self.kind == "rational" and len(self.num) == 1 and len(self.den) == 1:
+            return self.num[0] / self.den[0]
+        return None
+
+
+@dataclass(frozen=True)
+class ExportCondition:
+    """One flight condition of the design: its network's signals and entries."""
+
+    name: str
+    variable: str
+    break_at: str
+    signals: tuple[str, ...]
+    inputs: tuple[str, ...]
+    entries: tuple[ExportEntry, ...]
+    values: dict[str, float]
+    network: Network
+
+    def ident(self, signal: str) -> str:
+        """The signal's name as an identifier, unique within the condition."""
+        return identifiers(self.signals)[signal]
+
+
+@dataclass(frozen=True)
+class Design:
+    """The design of one iteration: every condition, the parameters as the session names them."""
+
+    source: str
+    iteration: int
+    parameters: dict[str, float | list[float]]
+    conditions: tuple[ExportCondition, ...]
+
+
+def iteration_parameters(session: Session, iteration: int | None) -> tuple[int, dict | None]:
+    """(K, the named parameters of iteration K) -- None for K = 0 (the session's start);
+    K defaults to the current iteration; outside 0..current a `SessionError` naming --iteration."""
+    current = session.model.current_iteration
+    k = current if iteration is None else iteration
+    if not 0 <= k <= current:
+        raise SessionError(f"--iteration: {k} is outside 0..{current}")
+    return k, (session.model.records[k - 1].get("parameters") if k else None)
+
+
+def design(session: Session, iteration: int | None = None) -> Design:
+    """The design of an iteration (default: the last) as exportable numbers."""
+    k, named = iteration_parameters(session, iteration)
+    problem = session.problem
+    if not problem.conditions:
+        raise SessionError(f"{session.path or 'session'}: it has no flight conditions (a 'dae' problem): "
+                           "there is no loop to export")
+    conditions = []
+    for c, condition in enumerate(problem.conditions):
+        values = problem.condition_values(c, named=named)
+        network = condition.network
+        entries = tuple(_entry(network, e, values) for e in network.entries)
+        conditions.append(ExportCondition(condition.name, network.variable, condition.break_at, network.signals,
+                                          network.inputs, entries, values, network))
+    return Design(str(session.path or "session"), k, problem.named() if named is None else dict(named),
+                  tuple(conditions))
+
+
+def _entry(network: Network, e, values: dict[str, float]) -> ExportEntry:
+    common = dict(label=e.label, input=network.signals[e.col], output=network.signals[e.row],
+                  compensator=bool(e.transfer.parameters))
+    transfer = e.transfer
+    try:
+        if isinstance(transfer, ExpressionTransfer):
+            r = transfer.rational(values)
+            form = pole_zero(transfer.expression, values)
+            return ExportEntry(kind="rational", text=transfer.text, num=tuple(r.num.tolist()),
+                               den=tuple(r.den.tolist()), gain=float(form.gain), zeros=tuple(form.zeros.tolist()),
+                               poles=tuple(form.poles.tolist()), **common)
+        if isinstance(transfer, DelayTransfer):
+            tau = values[transfer.tau] if isinstance(transfer.tau, str) else float(transfer.tau)
+            return ExportEntry(kind="delay", text=transfer.text, delay=float(tau), **common)
+        if isinstance(transfer, TabulatedTransfer):
+            return _fitted(transfer, common)
+    except EngineError as exc:
+        raise SessionError(f"{e.label}: {exc}") from None
+    raise SessionError(f"{e.label}: a {type(transfer).__name__} entry cannot be exported")
+
+
+def _fitted(transfer: TabulatedTransfer, common: dict) -> ExportEntry:
+    """A table's AAA fit as gain, zeros, poles (and coefficients)."""
+    table = transfer.table
+    keep = table.omega > 0
+    fit = fit_response(table.omega[keep], table.response[keep], tolerance=FIT_TOLERANCE)
+    zeros, poles = fit_zeros(fit), np.asarray(fit.poles)
+    w0 = float(np.sqrt(table.omega[keep][0] * table.omega[keep][-1]))
+    shape = np.prod(1j * w0 - zeros) / np.prod(1j * w0 - poles)
+    gain = float((fit(np.array([w0]))[0] / shape).real)
+    num = np.real(gain * np.poly(zeros)) if zeros.size else np.array([gain])
+    den = np.real(np.poly(poles)) if poles.size else np.array([1.0])
+    return ExportEntry(kind="fitted", text=transfer.text, num=tuple(num.tolist()), den=tuple(den.tolist()),
+                       gain=gain, zeros=tuple(_conjugate_clean(zeros).tolist()),
+                       poles=tuple(_conjugate_clean(poles).tolist()), residual=float(fit.residual),
+                       degree=int(fit.degree), **common)
+
+
+def fit_zeros(fit: RationalFit) -> NDArray[np.complex128]:
+    """Zeros of the barycentric numerator (the arrowhead eigenproblem the fit's poles use)."""
+    nodes, w = fit.support, fit.weights * fit.values
+    n = nodes.size
+    if n == 0:
+        return np.empty(0, dtype=complex)
+    e = np.zeros((n + 1, n + 1), dtype=complex)
+    e[0, 0], e[0, 1:], e[1:, 0] = fit.n_inf, w, 1.0
+    e[1:, 1:] = np.diag(nodes)
+    lam = scipy.linalg.eigvals(e, np.diag(np.r_[0.0, np.ones(n)]))
+    keep = np.isfinite(lam) & (np.abs(lam) <= FAR_POLE * np.max(np.abs(nodes)))
+    return np.sort_complex(lam[keep])
+
+
+def _conjugate_clean(roots: NDArray) -> NDArray:
+    """Roots with rounding-level imaginary parts made real."""
+    roots = np.asarray(roots, dtype=complex).copy()
+    small = np.abs(roots.imag) <= 1e-12 * np.maximum(1.0, np.abs(roots))
+    roots[small] = roots[small].real
+    return roots
+
+
+def identifiers(names: tuple[str, ...]) -> dict[str, str]:
+    """Each name as a Python/MATLAB identifier (non-word characters as _), unique."""
+    out: dict[str, str] = {}
+    used: set[str] = set()
+    for name in names:
+        base = re.sub(r"\W", "_", name) or "signal"
+        base = base if base[0].isalpha() else "s_" + base
+        candidate, k = base, 2
+        while candidate in used:
+            candidate, k = f"{base}_{k}", k + 1
+        used.add(candidate)
+        out[name] = candidate
+    return out
+
+
+def loop_input(condition: ExportCondition) -> str:
+    """The identifier of the injected loop signal (replacing the uses of ``break_at``)."""
+    taken = set(identifiers(condition.signals).values())
+    name = condition.ident(condition.break_at) + "_loop"
+    while name in taken:
+        name += "_"
+    return name
+
+
+def rows(condition: ExportCondition) -> list[tuple[str, list[ExportEntry]]]:
+    """The entries grouped by the signal they define, in the network's order."""
+    grouped: dict[str, list[ExportEntry]] = {}
+    for entry in condition.entries:
+        grouped.setdefault(entry.output, []).append(entry)
+    return list(grouped.items())
+
+
+def is_junction(entries: list[ExportEntry]) -> bool:
+    """Several entries of +-1 into one signal: a summing junction."""
+    return len(entries) > 1 and all(e.constant in (1.0, -1.0) for e in entries)
+
+
+def w_to_z(num: tuple[float, ...], den: tuple[float, ...]) -> tuple[list[float], list[float]]:
+    """H(w) -> H(z) by w = (z - 1)/(z + 1) (the session's unscaled w-plane), descending,
+    normalized to a monic denominator."""
+    n = max(len(num), len(den)) - 1
+
+    def substitute(coefficients: tuple[float, ...]) -> NDArray:
+        total = np.zeros(1)
+        for k, c in enumerate(coefficients[::-1]):   # c multiplies w^k
+            term = np.poly1d([1.0, -1.0]) ** k * np.poly1d([1.0, 1.0]) ** (n - k)
+            total = np.polyadd(total, c * term.coeffs)
+        return np.trim_zeros(np.atleast_1d(total), "f") if np.any(total) else np.zeros(1)
+
+    zn, zd = substitute(num), substitute(den)
+    return (zn / zd[0]).tolist(), (zd / zd[0]).tolist()
+
+
+def fitted_entries(design_: Design) -> list[ExportEntry]:
+    """The entries that are fits of tables (their residuals go in the exports' comments)."""
+    return [e for c in design_.conditions for e in c.entries if e.kind == "fitted"]

@@ -1,0 +1,129 @@
+"""`loopcraft export --to matlab|json|csv`, and the exports of tabulated plants.
+
+Numbers are checked against python-control built independently from the
+examples' own formulas (numpy.polymul of the factors), never against the
+export's own arithmetic."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+
+from tui.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+LAG_LEAD = EXAMPLES / "coebra_lag_lead.json"     # (1+10s)(1+0.2s)/((1+10s)(1+0.2s)) x 16000/(s(s+8)(s+20))
+PLANT = control.tf([16000.0], np.polymul([1.0, 0.0], np.polymul([1.0, 8.0], [1.0, 20.0])))
+
+
+def _export(capsys, path: Path, to: str, *extra: str) -> str:
+    assert main(["export", str(path), "--to", to, *extra]) == 0
+    return capsys.readouterr().out
+
+
+def test_matlab_script_has_every_block_and_full_precision_numbers(capsys):
+    text = _export(capsys, EXAMPLES / "coebra_launch_vehicle.json", "matlab")
+    session = json.loads((EXAMPLES / "coebra_launch_vehicle.json").read_text())
+    for condition in session["problem"]["conditions"]:
+        assert f"%% condition '{condition['name']}'" in text
+        for block in condition["plant"]["blocks"]:
+            assert f"% {block['name']} (" in text
+        for junction in condition["plant"]["junctions"]:
+            assert f"% {junction['name']}" in text
+    for p in session["problem"]["parameters"]:
+        values = p["value"] if isinstance(p["value"], list) else [p["value"]]
+        assert f"parameters.{p['name']} = " + (" ".join(repr(float(v)) for v in values) if len(values) == 1
+                                               else "[" + " ".join(repr(float(v)) for v in values) + "]") in text
+    assert text.count("= -connect(") == 3 and text.count("allmargin(") == 3
+    assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc', 'OutputName', 'delta')" not in text  # broken at dc
+    assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc_loop', 'OutputName', 'delta')" in text
+    assert "sumblk('dc_loop = dc')" in text
+
+
+def test_matlab_numbers_read_back_exactly(capsys):
+    """Coefficients as repr writes them: the shortest text that reads back the same double."""
+    text = _export(capsys, EXAMPLES / "report003_lag_lead.json", "matlab")
+    assert "tf([16000.0], [1.0 28.0 160.0 0.0]" in text
+    assert "parameters.z1 = 1.0;" in text and "parameters.p2 = 50.0;" in text
+
+
+def test_json_compensators_and_state_spaces(capsys):
+    data = json.loads(_export(capsys, LAG_LEAD, "json"))
+    (condition,) = data["conditions"]
+    (comp,) = condition["compensators"]
+    num = np.polymul([10.0, 1.0], [0.2, 1.0])
+    assert comp["numerator"] == pytest.approx(list(num), rel=1e-15)
+    assert comp["denominator"] == pytest.approx(list(num), rel=1e-15)
+    assert comp["zeros"] == [] and comp["poles"] == []   # equal roots cancel (T1 = T3, T2 = T4 at the start)
+    loop = condition["open_loop"]
+    ss = control.ss(loop["A"], loop["B"], loop["C"], loop["D"])
+    compensator = control.tf(num, num)
+    w = np.array([0.3, 3.0, 12.649, 30.0])
+    expected = (compensator * PLANT)(1j * w)
+    assert np.all(np.abs(ss(1j * w) - expected) <= 1e-10 * np.abs(expected))
+    closed = condition["closed_loop"]
+    poles = np.sort_complex(np.linalg.eigvals(np.array(closed["A"])))
+    reference = np.sort_complex(control.poles(control.feedback(compensator * PLANT, 1)))
+    assert np.abs(poles[np.abs(poles) > 1e-6] - reference[np.abs(reference) > 1e-6]).max() <= 1e-6 * 30
+    assert closed["inputs"] == ["r"] and set(closed["outputs"]) == {"r", "u", "y", "e"}
+
+
+def test_json_zeros_poles_and_gain(capsys):
+    data = json.loads(_export(capsys, EXAMPLES / "report003_lag_lead.json", "json"))
+    comp, plant = data["conditions"][0]["entries"][:2]
+    assert comp["compensator"] and not plant["compensator"]
+    assert sorted(z[0] for z in comp["zeros"]) == pytest.approx([-5.0, -1.0], rel=1e-14)
+    assert sorted(p[0] for p in comp["poles"]) == pytest.approx([-50.0, -0.1], rel=1e-14)
+    assert comp["gain"] == 1.0 and plant["gain"] == 16000.0
+    assert sorted(p[0] for p in plant["poles"]) == pytest.approx([-20.0, -8.0, 0.0], abs=1e-14)
+
+
+def test_json_w_plane_gives_the_z_domain_form(capsys):
+    """Kuo's digital compensator (1 + 20 w)/(1 + 20 w): in z by w = (z - 1)/(z + 1),
+    checked by evaluating both at z = exp(j 0.4), w = (z - 1)/(z + 1)."""
+    data = json.loads(_export(capsys, EXAMPLES / "coebra_kuo_digital.json", "json", "--sample-time", "0.5"))
+    (comp,) = data["conditions"][0]["compensators"]
+    z_form = comp["z_domain"]
+    assert z_form["sample_time"] == 0.5
+    z = np.exp(0.4j)
+    w = (z - 1) / (z + 1)
+    hz = np.polyval(z_form["numerator"], z) / np.polyval(z_form["denominator"], z)
+    hw = np.polyval(comp["numerator"], w) / np.polyval(comp["denominator"], w)
+    assert hz == pytest.approx(hw, rel=1e-12)
+    assert data["conditions"][0]["variable"] == "w"
+
+
+def test_csv_is_the_loop_on_the_session_s_grid(capsys):
+    text = _export(capsys, EXAMPLES / "report003_lag_lead.json", "csv")
+    rows = list(csv.DictReader(io.StringIO(text)))
+    assert len(rows) == 300 and rows[0]["condition"] == "nominal"
+    loop = control.tf(np.polymul([1.0, 1.0], [1.0, 5.0]), np.polymul([1.0, 0.1], [1.0, 50.0])) * PLANT
+    for row in rows[::37]:
+        w = float(row["frequency_rad_per_s"])
+        expected = loop(1j * w)
+        assert complex(float(row["open_real"]), float(row["open_imag"])) == pytest.approx(expected, rel=1e-12)
+        assert float(row["open_mag_db"]) == pytest.approx(20 * np.log10(abs(expected)), rel=1e-12)
+        t = expected / (1 + expected)
+        assert complex(float(row["closed_real"]), float(row["closed_imag"])) == pytest.approx(t, rel=1e-12)
+    assert float(rows[0]["frequency_rad_per_s"]) == pytest.approx(0.01)
+
+
+def test_tabulated_plants_export_their_fit_with_its_residual(capsys, tmp_path):
+    """cip_launch_vehicle's table becomes an AAA fit; the script says its residual and
+    compiles; the MATLAB script carries the same comment and a zpk."""
+    text = _export(capsys, EXAMPLES / "cip_launch_vehicle.json", "python")
+    assert "is tabulated; here its AAA rational fit" in text and "relative residual" in text
+    assert "zpk([" in text
+    compile(text, "exported.py", "exec")
+    matlab = _export(capsys, EXAMPLES / "cip_launch_vehicle.json", "matlab")
+    assert "AAA fit of table(" in matlab and "zpk([" in matlab
+    data = json.loads(_export(capsys, EXAMPLES / "seidel_inlet_pi.json", "json"))
+    fitted = [e for e in data["conditions"][0]["entries"] if e["kind"] == "fitted"]
+    assert {e["block"] for e in fitted} == {"G1", "G2", "Ga"} and all(e["fit_residual"] > 0 for e in fitted)
+    assert data["conditions"][0]["open_loop"] is None and "state_space_note" in data["conditions"][0]

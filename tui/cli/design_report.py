@@ -1,0 +1,31 @@
+"""`loopcraft report FILE --format html|md --out DIR`: the design report
+(sessions.report_content, report_render); the text, JSON and CSV formats
+stay in session_commands."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .common import CliError, load
+
+FORMATS = ("html", "md")
+
+
+def cmd_design_report(args: argparse.Namespace) -> int:
+    """Write DIR/NAME.html (self-contained) or DIR/NAME.md with its PNGs."""
+    from sessions.report_content import report_blocks
+    from sessions.report_render import write_report
+    folder = Path(args.out) if args.out else Path(args.file).resolve().parent
+    if folder.exists() and not folder.is_dir():
+        raise CliError(f"--out {args.out}: not a folder")
+    session = load(args.file)
+    try:
+        blocks = report_blocks(session, args.iteration)
+    except ImportError as exc:
+        raise CliError(f"--format {args.format}: the figures need matplotlib ({exc})") from None
+    written = write_report(blocks, args.format, folder, Path(args.file).stem)
+    print(f"wrote {written[0]}" + (f" and {len(written) - 1} figure(s)" if len(written) > 1 else ""),
+          file=sys.stderr)
+    return 0
