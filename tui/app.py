@@ -22,6 +22,8 @@ from sessions.savefile import OverwriteRefused
 from sessions.store import autosave_candidate, load_autosave, load_session, parse_session, set_aside_autosave
 from sessions.target_use import unusable_targets
 
+from .config import Config
+from .keys import identified
 from .files import new_session_text, remember, untitled_path, working_copy
 from .run_loop import RunLoop
 from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
@@ -40,7 +42,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
     """``LoopcraftApp(path)`` opens a session; without a path, the start screen."""
 
     TITLE = "loopcraft"
-    BINDINGS = [
+    BINDINGS = identified("app", [
         Binding("s", "step", "step", tooltip="one iteration"),
         Binding("n", "run_n", "run N", tooltip="N iterations (asks N)"),
         Binding("r", "run", "run", tooltip="until the algorithm stops"),
@@ -58,7 +60,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         Binding("ctrl+o", "open", "open", tooltip="open a session file"),
         Binding("question_mark", "help", "help", tooltip="every key"),
         Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
-    ]
+    ])
 
     def __init__(self, path: str | Path | None = None):
         super().__init__()
@@ -67,6 +69,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         self.edit_flow = EditFlow(self)
         self._sweep_cancel = False
         self._refused_at = 0.0
+        self.config = Config()
         self._run_setup()
         # Dask's worker processes, started from inside the running app, need the
         # resource tracker up before Textual takes over the terminal (docs/architecture.md)
@@ -114,10 +117,28 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         return handled
 
     def on_mount(self) -> None:
+        self.apply_config()
         if self.initial_path is not None:
             self.open_path(self.initial_path)
         else:
             self.push_screen(StartScreen())
+
+    def apply_config(self) -> None:
+        """The user's theme and keys (`tui.config`); a config that does not read is
+        reported and the defaults are kept."""
+        from .config import ConfigError, load_config, unknown_binding_ids
+        from .keys import binding_table
+        try:
+            self.config = load_config(themes=set(self.available_themes))
+        except ConfigError as exc:
+            self.notify(f"{exc} (the defaults are used)", title="config", severity="warning", timeout=12)
+            return
+        self.theme = self.config.theme
+        unknown = unknown_binding_ids(self.config, {row[0] for row in binding_table()})
+        if unknown:
+            self.notify(f"[keys]: no binding {', '.join(unknown)} (loopcraft config lists them)", title="config",
+                        severity="warning", timeout=12)
+        self.set_keymap(self.config.keys)
 
     # -- opening and saving -------------------------------------------------
 

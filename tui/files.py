@@ -42,12 +42,21 @@ def example(name: str) -> Path:
     return working_copy(path)
 
 
+def recent_limit() -> int:
+    """How many recent sessions are kept (the config's recent_limit; a config that does not read: the default)."""
+    from .config import ConfigError, load_config
+    try:
+        return load_config().recent_limit
+    except ConfigError:
+        return RECENT_LIMIT
+
+
 def recent_sessions() -> list[Path]:
     try:
         items = json.loads((home() / "recent.json").read_text())
     except (OSError, ValueError):
         return []
-    return [Path(p) for p in items if isinstance(p, str) and Path(p).exists()][:RECENT_LIMIT]
+    return [Path(p) for p in items if isinstance(p, str) and Path(p).exists()][:recent_limit()]
 
 
 def remember(path: Path) -> None:
@@ -55,7 +64,7 @@ def remember(path: Path) -> None:
     items = [str(path.resolve())] + [str(p) for p in recent_sessions() if p.resolve() != path.resolve()]
     try:
         home().mkdir(parents=True, exist_ok=True)
-        (home() / "recent.json").write_text(json.dumps(items[:RECENT_LIMIT], indent=1))
+        (home() / "recent.json").write_text(json.dumps(items[:recent_limit()], indent=1))
     except OSError:
         pass
 

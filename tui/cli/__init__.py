@@ -8,6 +8,7 @@ only what it uses (a cip session loads the cip package alone)."""
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -15,15 +16,18 @@ from pathlib import Path
 from engine.errors import EngineError
 from sessions.errors import SessionError
 
-from . import analyze, compare, export, new, session_commands, sweep
+from . import analyze, compare, config_command, export, new, session_commands, sweep
 from .common import CliError
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Every subcommand and its options."""
     parser = argparse.ArgumentParser(
-        prog="loopcraft", description="Classical compensator design workbench. Without a command: the app "
-        "(loopcraft [FILE.json] | loopcraft --example NAME).")
+        prog="loopcraft", usage="loopcraft [FILE.json | --example NAME] | loopcraft COMMAND ...",
+        description="Classical compensator design workbench. Without a command: the app, on FILE.json, on a "
+        "bundled example (--example NAME), or on its start screen.")
+    parser.add_argument("--example", metavar="NAME", help="open the app on a bundled example (a working copy): "
+                        + ", ".join(_example_names()))
     sub = parser.add_subparsers(dest="command")
     analyze.add_parser(sub)
     session_commands.add_parsers(sub)
@@ -31,6 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_parser(sub)
     new.add_parser(sub)
     compare.add_parser(sub)
+    config_command.add_parser(sub)
     for name in TABLE_COMMANDS:
         sub.choices[name].add_argument(
             "--allow-outside-tables", action="store_true",
@@ -71,6 +76,11 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
     return result if isinstance(result, int) else 0
 
 
+def _example_names() -> list[str]:
+    from ..files import EXAMPLES
+    return sorted(p.stem for p in EXAMPLES.glob("*.json"))
+
+
 def _attached_values(argv: list[str]) -> list[str]:
     """``--tf -2/(s+1)`` as ``--tf=-2/(s+1)``: argparse takes a value that
     starts with '-' for an option otherwise."""
@@ -88,10 +98,19 @@ def _attached_values(argv: list[str]) -> list[str]:
 def main(argv: Sequence[str] | None = None) -> int:
     """The console script: a command, or the app (on a FILE.json or --example NAME)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0].endswith(".json"):
+    wants_help = any(a in ("-h", "--help") for a in argv)
+    if not wants_help and (not argv or argv[0].endswith(".json")):
+        if len(argv) > 1:
+            print(f"loopcraft: error: unexpected {' '.join(argv[1:])!r} after the session file", file=sys.stderr)
+            return 2
         return run_app(argv[0] if argv else None)
-    if argv[0] == "--example":
-        return run_app(example=argv[1] if len(argv) > 1 else "cip_launch_vehicle")
+    if not wants_help and argv[0] == "--example":
+        if len(argv) != 2:
+            print("loopcraft: error: --example takes one NAME: " + ", ".join(_example_names()), file=sys.stderr)
+            return 2
+        return run_app(example=argv[1])
+    if argv and (argv[0].endswith(".json") or argv[0] == "--example"):
+        argv = ["--help"]
     parser = build_parser()
     args = parser.parse_args(_attached_values(argv))
     if args.command is None:
@@ -102,6 +121,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (EngineError, CliError, SessionError) as exc:
         print(f"loopcraft {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:   # the output's reader stopped early (| head): not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
 from ..figures import figures, history_figure
+from ..keys import identified
 from ..plant_rows import plant_rows
 from ..step_view import format_step_setup, horizon, parse_step_setup
 from ..tableau import tableau_text
@@ -49,13 +50,13 @@ MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targe
 class MainScreen(Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
-    BINDINGS = [Binding("p", "next_plot", "next plot"), Binding("1", "tab('run')", "run", show=False),
+    BINDINGS = identified("main", [Binding("p", "next_plot", "next plot"), Binding("1", "tab('run')", "run", show=False),
                 Binding("2", "tab('plant')", "plant", show=False),
                 Binding("3", "tab('targets')", "targets", show=False),
                 Binding("4", "tab('history')", "history", show=False),
                 Binding("5", "tab('sweep')", "sweep", show=False),
                 Binding("t", "step_setup", "step signals", show=False,
-                        tooltip="the step plot's input, output and horizon")]
+                        tooltip="the step plot's input, output and horizon")])
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
     #status { height: 1; background: $boost; padding: 0 1; }

@@ -19,6 +19,7 @@ from sessions.lifecycle import folder
 
 from .. import edits, edits_fields
 from ..edits import Ref
+from ..keys import identified
 
 
 class RefTable(DataTable):
@@ -86,9 +87,9 @@ class RefTable(DataTable):
 class PlantTable(RefTable):
     """Blocks, junctions, matrix entries and break points of every condition."""
 
-    BINDINGS = [Binding("e", "edit", "edit"), Binding("plus", "add", "add block"),
+    BINDINGS = identified("plant", [Binding("e", "edit", "edit"), Binding("plus", "add", "add block"),
                 Binding("minus,delete", "delete", "delete"), Binding("c", "copy_condition", "copy condition"),
-                Binding("x", "delete_condition", "delete condition"), Binding("i", "import_table", "import CSV")]
+                Binding("x", "delete_condition", "delete condition"), Binding("i", "import_table", "import CSV")])
     MUTATING = frozenset({"edit", "add", "delete", "copy_condition", "delete_condition", "import_table"})
 
     def applies(self, action: str) -> bool:
@@ -145,10 +146,10 @@ class PlantTable(RefTable):
 class ParametersTable(RefTable):
     """The parameters: value, bounds, free or fixed, shared or per condition."""
 
-    BINDINGS = [Binding("e", "edit", "edit"), Binding("f", "toggle_free", "free/fix"),
+    BINDINGS = identified("parameters", [Binding("e", "edit", "edit"), Binding("f", "toggle_free", "free/fix"),
                 Binding("g", "toggle_per_condition", "shared/per condition"), Binding("plus", "add", "add"),
                 Binding("minus,delete", "delete", "delete"),
-                Binding("d", "adopt_design", "adopt design", tooltip="the current design becomes the start")]
+                Binding("d", "adopt_design", "adopt design", tooltip="the current design becomes the start")])
     MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete", "adopt_design"})
     DELETES = "parameter"
 
@@ -184,8 +185,8 @@ class ParametersTable(RefTable):
 class TargetsTable(RefTable):
     """The targets: bands, points, weights, detection ranges, time responses."""
 
-    BINDINGS = [Binding("e", "edit", "edit"), Binding("plus", "add", "add"),
-                Binding("minus,delete", "delete", "delete")]
+    BINDINGS = identified("targets", [Binding("e", "edit", "edit"), Binding("plus", "add", "add"),
+                Binding("minus,delete", "delete", "delete")])
     MUTATING = frozenset({"edit", "add", "delete"})
     DELETES = "target"
 
@@ -206,7 +207,7 @@ class TargetsTable(RefTable):
 class SettingsTable(RefTable):
     """The objective's options and the algorithm's settings."""
 
-    BINDINGS = [Binding("e", "edit", "edit")]
+    BINDINGS = identified("settings", [Binding("e", "edit", "edit")])
     MUTATING = frozenset({"edit"})
 
     def action_edit(self) -> None:
@@ -216,7 +217,7 @@ class SettingsTable(RefTable):
 class HistoryTable(RefTable):
     """One row per iteration; b makes the selected one the current iteration."""
 
-    BINDINGS = [Binding("b", "start_here", "start here")]
+    BINDINGS = identified("history", [Binding("b", "start_here", "start here")])
     MUTATING = frozenset({"start_here"})
 
     def applies(self, action: str) -> bool:
