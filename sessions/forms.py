@@ -215,17 +215,18 @@ def format_range(value: tuple[float, float | None]) -> str:
 
 
 def _parse_band(part: str) -> BandModel:
-    """One 'LOW..HIGH: DESIRED [/ REQUIRED]'."""
+    """One 'LOW..HIGH: DESIRED [/ REQUIRED]'; 'DESIRED [/ REQUIRED]' alone: every frequency."""
     span, colon, values = part.partition(":")
     if not colon:
-        raise FormError(f"{part!r}: write {BAND_FORM}")
+        span, values = "0..inf", part
     desired, _, required = values.partition("/")
     try:
         low, high = parse_range(span)
         return _model(BandModel, low=low, high=high, desired=parse_number(desired, "a number for DESIRED"),
                       required=parse_number(required, "a number for REQUIRED") if required.strip() else None)
     except FormError as exc:
-        raise FormError(f"band {part!r}: {exc}") from None
+        hint = "" if colon else f" (write {BAND_FORM}, or DESIRED alone for every frequency)"
+        raise FormError(f"band {part!r}: {exc}{hint}") from None
 
 
 def parse_bands(text: str) -> list[BandModel]:

@@ -82,6 +82,16 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
     }
 
 
+def read_plant(plant: str) -> tuple[str, float, str]:
+    """A plant expression's rational part, its delay and its variable (a `SessionError` says what is wrong)."""
+    return _plant(plant)
+
+
+def read_compensator(compensator: str, variable: str = "s") -> tuple[str, dict[str, float]]:
+    """A structure's or expression's compensator and its parameters' starting values."""
+    return _compensator(compensator, variable)
+
+
 def _block(name: str, source: str, output: str, expression: str) -> dict:
     return {"name": name, "input": source, "output": output,
             "transfer": {"kind": "expression", "expression": expression}}

@@ -9,6 +9,7 @@ their own keys."""
 
 from __future__ import annotations
 
+import json
 import multiprocessing.resource_tracker
 import time
 from pathlib import Path
@@ -24,11 +25,12 @@ from sessions.target_use import unusable_targets
 
 from .config import Config
 from .keys import identified
-from .files import new_session_text, remember, untitled_path, working_copy
+from .files import remember, untitled_path, working_copy
 from .run_loop import RunLoop
 from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
 from .screens.edit_flow import EditFlow
 from .screens.main import MainScreen
+from .screens.new_flow import NewSessionFlow, copy_tables
 from .screens.start import StartScreen
 from .sweep_actions import SweepActions
 from .workbench import Workbench
@@ -58,6 +60,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
         Binding("ctrl+s", "save", "save", tooltip="save the session"),
         Binding("ctrl+o", "open", "open", tooltip="open a session file"),
+        Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"),
         Binding("question_mark", "help", "help", tooltip="every key"),
         Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
     ])
@@ -191,17 +194,21 @@ class LoopcraftApp(RunLoop, SweepActions, App):
                           "open another session")
 
     def action_new(self) -> None:
-        def new() -> None:
-            path = untitled_path()
-            try:
-                session = parse_session(new_session_text(), str(path), path.parent)
-            except SessionError as exc:   # never closes the app: the current session is kept
-                self.notify(str(exc), title="no new session", severity="error", timeout=10)
-                return
-            session.path = path
-            self._show(Workbench(session), dirty=True)
-            self.notify(f"a new session: ctrl+s saves it as {path}", timeout=6)
-        self._ask_to_drop(new, "start a new session")
+        """A new session from a template (asks before dropping unsaved work)."""
+        self._ask_to_drop(lambda: NewSessionFlow(self, self._create).start(), "start a new session")
+
+    def _create(self, data: dict, tables: list[Path]) -> None:
+        """Open new session data as an untitled session (its tables copied beside it)."""
+        path = untitled_path()
+        try:
+            copy_tables(tables, path.parent)
+            session = parse_session(json.dumps(data), str(path), path.parent)
+        except (SessionError, OSError) as exc:   # never closes the app: the current session is kept
+            self.notify(str(exc), title="no new session", severity="error", timeout=10)
+            return
+        session.path = path
+        self._show(Workbench(session), dirty=True)
+        self.notify(f"a new session: ctrl+s saves it as {path}", timeout=6)
 
     def _ask_to_drop(self, then, what: str = "close this session") -> None:
         """Go on when nothing unsaved would be dropped, else autosave and ask first."""

@@ -198,6 +198,25 @@ def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
     return [c.strip() for c in text[0].split(",")], "\n".join(text[:lines])
 
 
+def table_transfer(text: str, header: list[str], csv_name: str) -> dict:
+    """A table block's transfer from 'columns form unit gain' ('hz,mag,deg polar hz 1')
+    naming columns of a CSV file with ``header``."""
+    words = text.split()
+    if len(words) != 4:
+        raise forms.FormError("write: columns form unit gain, e.g. 'hz,mag,deg polar hz 1'")
+    columns = [c.strip() for c in words[0].split(",")]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise forms.FormError(f"no column {missing[0]!r}; columns are {', '.join(header)}")
+    form, unit = words[1], words[2]
+    if form not in ("polar", "cartesian", "magnitude") or unit not in ("hz", "rad/s"):
+        raise forms.FormError("form is polar, cartesian or magnitude; unit hz or rad/s")
+    if len(columns) != (2 if form == "magnitude" else 3):
+        raise forms.FormError("three columns (two for magnitude)")
+    return {"kind": "table", "table": {"csv": csv_name, "columns": columns, "form": form, "unit": unit,
+                                       "gain": forms.parse_number(words[3], "a gain")}}
+
+
 def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
     """Make the block at ``ref`` a table read from a CSV file: the edit line names the
     columns (frequency, first, second), the form, the unit and the gain."""
@@ -209,20 +228,7 @@ def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
         name = str(path.resolve())
 
     def parse(text: str) -> dict:
-        words = text.split()
-        if len(words) != 4:
-            raise forms.FormError("write: columns form unit gain, e.g. 'hz,mag,deg polar hz 1'")
-        columns = [c.strip() for c in words[0].split(",")]
-        missing = [c for c in columns if c not in header]
-        if missing:
-            raise forms.FormError(f"no column {missing[0]!r}; columns are {', '.join(header)}")
-        form, unit = words[1], words[2]
-        if form not in ("polar", "cartesian", "magnitude") or unit not in ("hz", "rad/s"):
-            raise forms.FormError("form is polar, cartesian or magnitude; unit hz or rad/s")
-        if len(columns) != (2 if form == "magnitude" else 3):
-            raise forms.FormError("three columns (two for magnitude)")
-        return {"kind": "table", "table": {"csv": name, "columns": columns, "form": form, "unit": unit,
-                                           "gain": forms.parse_number(words[3], "a gain")}}
+        return table_transfer(text, header, name)
 
     def apply(text: str) -> None:
         from sessions.schema import TableBlock

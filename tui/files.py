@@ -69,14 +69,6 @@ def remember(path: Path) -> None:
         pass
 
 
-NEW_SESSION = Path(__file__).resolve().parent.parent / "sessions" / "new_session.json"
-
-
-def new_session_text() -> str:
-    """The JSON of a new session (a lag-lead design on report 003's chapter-1 plant)."""
-    return NEW_SESSION.read_text(encoding="utf-8")
-
-
 def untitled_path() -> Path:
     """Where a new session lives until it is saved elsewhere (its autosave goes beside it)."""
     folder = home() / "new"

@@ -59,7 +59,7 @@ class MainScreen(Screen):
                         tooltip="the step plot's input, output and horizon")])
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
-    #status { height: 1; background: $boost; padding: 0 1; }
+    #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
     #tabs { height: 1fr; }
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }

@@ -1,0 +1,113 @@
+"""The kinds of new session the app offers, beside `sessions.templates`'s unity
+feedback loop: two nested loops, a tabulated plant from a CSV file, the same
+loop in COEBRA's matrix format, and a projection problem.  Each returns
+session JSON data that `sessions.store.parse_session` accepts."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import re
+from pathlib import Path
+
+from .errors import SessionError
+from .templates import _grid, _parameter, new_session, read_compensator as _compensator, read_plant as _plant
+
+KINDS: dict[str, str] = {
+    "unity": "unity feedback: a plant and a compensator (PM >= 45 deg, GM >= 6 dB)",
+    "two-loops": "two loops: an inner plant and compensator inside an outer loop (margins at both)",
+    "table": "a tabulated plant: a frequency response from a CSV file",
+    "matrix": "a matrix-format plant: the unity loop as COEBRA's A(s) x = B r",
+    "projection": "a projection problem: report 004's constrained DAE (the integrator example)",
+}
+EXAMPLES = Path(__file__).resolve().parent / "examples"
+
+
+def in_unit(data: dict, unit: str) -> dict:
+    """The session with its grid in ``unit`` ('hz' or 'rad/s'), the same frequencies."""
+    grid = data["problem"]["grid"]
+    if grid.get("unit", "rad/s") == unit or "start" not in grid:
+        return data
+    factor = 1 / (2 * math.pi) if unit == "hz" else 2 * math.pi
+    grid.update(unit=unit, start=grid["start"] * factor, stop=grid["stop"] * factor)
+    return data
+
+
+def _renamed(expression: str, starts: dict[str, float], suffix: str) -> tuple[str, dict[str, float]]:
+    """The compensator's parameters with a suffix (K -> K_o), so two compensators do not share them."""
+    for name in sorted(starts, key=len, reverse=True):
+        expression = re.sub(rf"\b{re.escape(name)}\b", name + suffix, expression)
+    return expression, {name + suffix: value for name, value in starts.items()}
+
+
+def two_loop_session(inner_plant: str, outer_plant: str, inner: str = "pi", outer: str = "lead",
+                     algorithm: str = "slp") -> dict:
+    """r -> e1 -> outer compensator -> x_ref -> e2 -> inner compensator -> u -> inner plant -> x
+    -> outer plant -> y, e1 = r - y, e2 = x_ref - x; one condition broken at e1 (the outer
+    loop, the inner one closed) and one at e2 (the inner loop), the same targets at both."""
+    data = new_session(inner_plant, inner, algorithm)
+    inner_text, _, variable = _plant(inner_plant)
+    outer_text, _, outer_variable = _plant(outer_plant)
+    if outer_variable != variable:
+        raise SessionError("the two plants must be in the same variable (s or w)")
+    c_in, p_in = _renamed(*_compensator(inner, variable), "_i")
+    c_out, p_out = _renamed(*_compensator(outer, variable), "_o")
+
+    def block(name: str, source: str, output: str, expression: str) -> dict:
+        return {"name": name, "input": source, "output": output,
+                "transfer": {"kind": "expression", "expression": expression}}
+    plant = {"format": "diagram", "inputs": ["r"],
+             "blocks": [block("outer compensator", "e1", "x_ref", c_out), block("inner compensator", "e2", "u", c_in),
+                        block("inner plant", "u", "x", inner_text), block("outer plant", "x", "y", outer_text)],
+             "junctions": [{"name": "outer sum", "output": "e1", "plus": ["r"], "minus": ["y"]},
+                           {"name": "inner sum", "output": "e2", "plus": ["x_ref"], "minus": ["x"]}]}
+    problem = data["problem"]
+    problem["conditions"] = [{"name": f"{loop} loop", "variable": variable, "break_at": point, "plant": plant}
+                             for loop, point in (("outer", "e1"), ("inner", "e2"))]
+    problem["parameters"] = [_parameter(n, v) for n, v in {**p_out, **p_in}.items()]
+    problem["grid"] = _grid(f"({inner_text})*({outer_text})", variable)
+    data["notes"] = (f"Two loops: the inner compensator {c_in} around {inner_text}, the outer {c_out} around "
+                     f"{outer_text}; margins at both break points (conditions 'outer loop' at e1, 'inner loop' at e2).")
+    return data
+
+
+def matrix_session(plant: str, compensator: str = "lead", algorithm: str = "slp") -> dict:
+    """The unity-feedback loop of `new_session` written in the matrix format: signals
+    e, u, y with e + y = r, u - C e = 0, y - P u = 0 (forcing r in the first row)."""
+    data = new_session(plant, compensator, algorithm)
+    condition = data["problem"]["conditions"][0]
+    blocks = {b["name"]: b for b in condition["plant"]["blocks"]}
+    if "delay" in blocks:
+        raise SessionError("a matrix-format plant is rational: write the delay in a diagram (unity feedback)")
+    c = blocks["compensator"]["transfer"]["expression"]
+    p = blocks["plant"]["transfer"]["expression"]
+    entries = [(1, 1, "1"), (1, 3, "1"), (2, 2, "1"), (2, 1, f"-({c})"), (3, 3, "1"), (3, 2, f"-({p})")]
+    condition["plant"] = {"format": "matrix", "signals": ["e", "u", "y"], "forcing_row": 1, "forcing": "1",
+                          "input_name": "r",
+                          "entries": [{"row": r, "col": k, "expression": x} for r, k, x in entries]}
+    data["notes"] = (f"The compensator {c} on {p} in COEBRA's matrix format: row 1 e + y = r, row 2 u = C e, "
+                     "row 3 y = P u; the loop is broken at e.")
+    return data
+
+
+def table_session(table: dict, frequencies: list[float], compensator: str = "lead", algorithm: str = "slp") -> dict:
+    """A tabulated plant (a table transfer, e.g. from a CSV file beside the session) with a
+    compensator; the grid spans the table's frequencies (in the table's unit)."""
+    positive = sorted(f for f in frequencies if f > 0)
+    if len(positive) < 2:
+        raise SessionError("the table needs at least two positive frequencies")
+    grid = {"unit": table["table"]["unit"], "start": positive[0], "stop": positive[-1], "points": 400,
+            "spacing": "log"}
+    return new_session(table, compensator, algorithm, grid=grid,
+                       notes=f"A tabulated plant ({table['table'].get('csv', 'inline')}) with a {compensator} "
+                             "compensator; targets PM >= 45 deg, GM >= 6 dB.")
+
+
+def projection_session() -> dict:
+    """A copy of the bundled projection_integrator example, without its records."""
+    data = json.loads((EXAMPLES / "projection_integrator.json").read_text(encoding="utf-8"))
+    data = copy.deepcopy(data)
+    data.update(records=[], current_iteration=0, state=None)
+    data.pop("sweeps", None)
+    return data

@@ -1,0 +1,51 @@
+"""ctrl+n offers every kind of new session and each opens as an untitled session."""
+
+from __future__ import annotations
+
+from tui.app import LoopcraftApp
+
+from .test_app import settle, synchronous
+
+
+async def _type(pilot, text: str) -> None:
+    for ch in text:
+        await pilot.press(ch)
+    await pilot.press("enter")
+    await pilot.pause()
+
+
+@synchronous
+async def test_every_kind_of_new_session_opens(workdir):
+    (workdir / "plant.csv").write_text("hz,mag,deg\n0.1,10,-90\n1,1,-120\n10,0.1,-170\n")
+    app = LoopcraftApp(workdir / "coebra_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        kinds = {"unity": ["10/(s+1)", None], "two-loops": ["10/(s+1)", None, "1/s", None],
+                 "table": [str(workdir / "plant.csv"), "hz,mag,deg polar hz 1", None], "matrix": ["1/(s*(s+2))", None],
+                 "projection": []}
+        for index, (kind, answers) in enumerate(kinds.items()):
+            await pilot.press("ctrl+n")
+            await pilot.pause()
+            if app.screen.__class__.__name__ == "ConfirmDialog":   # unsaved: asked first
+                await pilot.press("y")
+                await pilot.pause()
+            for _ in range(index):
+                await pilot.press("down")
+            await pilot.press("enter")
+            await pilot.pause()
+            for answer in answers:
+                if answer is None:
+                    await pilot.press("enter")       # the first structure: lead
+                    await pilot.pause()
+                else:
+                    await _type(pilot, answer)
+            await settle(app, pilot)
+            session = app.bench.session
+            assert session.path.name.startswith("untitled-"), kind
+            assert app.bench.iteration == 0 and app.bench.dirty, kind
+            formats = {c.plant.format for c in session.model.problem.conditions}
+            expected = {"unity": {"diagram"}, "two-loops": {"diagram"}, "table": {"diagram"},
+                        "matrix": {"matrix"}, "projection": set()}[kind]
+            assert formats == expected, (kind, formats)
+            if kind == "table":
+                assert (session.path.parent / "plant.csv").exists()
