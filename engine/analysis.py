@@ -12,12 +12,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from .disk_margins import DiskMargin, check_skew, disk_transform, from_peak
 from .errors import EngineError
 from .polish import polish
 from .loops import LoopModel, loop_model
 from .margins import Band, Margins, margins
 from .network import Block, Junction, Network, block_diagram
 from .realization import Pole, poles, realize, stability
+from .sensitivity import Peak, complementary, refined_peaks, sensitivity
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,9 @@ class LoopAnalysis:
     verdict: str  # "stable", "unstable", "marginally stable" or "unknown"
     modal_peaks: tuple[ModalPeak, ...]
     notes: tuple[str, ...]
+    disk_margin: DiskMargin | None = None
+    sensitivity_peak: Peak | None = None  # Ms = max |S|
+    complementary_peak: Peak | None = None  # Mt = max |T|
 
 
 DELAY_FACTOR = re.compile(r"exp\(\s*-\s*(?:(?P<a>[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*\*\s*s|s\s*\*\s*"
@@ -98,8 +103,21 @@ def modal_peaks(model: LoopModel | Margins, bands: Sequence[Band]) -> tuple[Moda
     return tuple(out)
 
 
+def closed_loop_peaks(model: LoopModel, verdict: str, skew: float = 0.0
+                      ) -> tuple[DiskMargin | None, Peak | None, Peak | None, tuple[str, ...]]:
+    """The disk margin, Ms and Mt of a loop, refined in one search
+    (`engine.sensitivity.refined_peaks`); None each with a note when it fails."""
+    skew = check_skew(skew)
+    try:
+        disk, ms, mt = refined_peaks(model, [disk_transform(skew), sensitivity, complementary])
+    except EngineError as exc:
+        return None, None, None, (f"no disk margin or sensitivity peaks: {exc}",)
+    stable = None if verdict == "unknown" else verdict == "stable"
+    return from_peak(disk, skew, stable), ms, mt, ()
+
+
 def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],
-            peak_bands: Sequence[Band] = ()) -> LoopAnalysis:
+            peak_bands: Sequence[Band] = (), skew: float = 0.0) -> LoopAnalysis:
     """Margins of the loop broken at ``break_at``, and the closed-loop poles
     when rational (first: an improper loop is an error before any search)."""
     pole_list: tuple[Pole, ...] | None = None
@@ -113,5 +131,7 @@ def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[s
     notes = list(result.notes)
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
-    return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes))
+    disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)
+    return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes) + failed,
+                        disk, ms, mt)
 

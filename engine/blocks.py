@@ -54,7 +54,7 @@ class ExpressionTransfer:
         if self._constant is not None:
             value = np.full(np.shape(x), self._constant)
             return Dual(value, {}, np.zeros_like(value) if with_dvar else None)
-        return self.expression.evaluate(x, params, with_dvar)
+        return self.expression.evaluate(x, params, with_dvar, with_grad)
 
     def compile(self, params: Mapping[str, float]) -> Compiled:
         """Fast (value, d/dx) evaluator for fixed parameters."""
@@ -99,13 +99,15 @@ class PolynomialTransfer(ExpressionTransfer):
         n, d = _horner(num, x), _horner(den, x)
         value = n / d
         grad: dict[str, NDArray] = {}
-        power = np.ones_like(x)
-        for i in range(max(len(num), len(den)) if with_grad else 0):
-            for coefficients, factor in ((self.numerator, 1.0 / d), (self.denominator, -value / d)):
-                if i < len(coefficients) and isinstance(coefficients[i], str):
-                    name = coefficients[i]
-                    grad[name] = grad[name] + power * factor if name in grad else power * factor
-            power = power * x
+        if with_grad:
+            sides = ((self.numerator, 1.0 / d), (self.denominator, -value / d))
+            power = np.ones_like(x)
+            for i in range(max(len(num), len(den))):
+                for coefficients, factor in sides:
+                    if i < len(coefficients) and isinstance(coefficients[i], str):
+                        name = coefficients[i]
+                        grad[name] = grad[name] + power * factor if name in grad else power * factor
+                power = power * x
         dvar = None
         if with_dvar:
             dn = _horner([i * c for i, c in enumerate(num)][1:] or [0.0], x)

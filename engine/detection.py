@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy.typing import NDArray
@@ -70,8 +71,19 @@ def point_budget(loop: LoopModel) -> int:
     return min(MAX_BUDGET, budget + delay)
 
 
+_GRIDS: WeakKeyDictionary[LoopModel, Detection] = WeakKeyDictionary()
+
+
 def detection_grid(loop: LoopModel) -> Detection:
-    """Frequencies that resolve every feature of GH (see the module docstring)."""
+    """Frequencies that resolve every feature of GH (see the module docstring);
+    kept for the loop's lifetime (margins and closed-loop peaks share it)."""
+    found = _GRIDS.get(loop)
+    if found is None:
+        found = _GRIDS[loop] = _detection_grid(loop)
+    return found
+
+
+def _detection_grid(loop: LoopModel) -> Detection:
     budget = point_budget(loop)
     notes: list[str] = []
     w = _initial_grid(loop, budget, notes)

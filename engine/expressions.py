@@ -17,6 +17,7 @@ from __future__ import annotations
 import ast
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import NDArray
@@ -97,32 +98,34 @@ class Expression:
             raise ExpressionError(f"variable must be one of {VARIABLES}, not {variable!r}")
         self.text = text
         self.variable = variable
-        self.root = _Parser(text, variable).parse()
-        self.parameters: tuple[str, ...] = tuple(sorted(_collect_parameters(self.root)))
+        read = _read if isinstance(text, str) else _read.__wrapped__  # the parser names a non-text
+        self.root, self.parameters, self._constants = read(text, variable)
         self._cache: dict[tuple, object] = {}
-        self._constants = constant_subtrees(self.root)
 
     def _cached(self, what: str, params: Mapping[str, float], make):
         """Results for the last few parameter values (rational forms are reused a lot)."""
         self._check_params(params)
         key = (what,) + tuple(float(params[p]) for p in self.parameters)
-        if key not in self._cache:
+        found = self._cache.get(key)
+        if found is None:
             if len(self._cache) > 32:
                 self._cache.clear()
-            self._cache[key] = make()
-        return self._cache[key]
+            found = self._cache[key] = make()
+        return found
 
     def __repr__(self) -> str:
         return f"Expression({self.text!r}, variable={self.variable!r})"
 
     def evaluate(
-        self, x: NDArray[np.complex128], params: Mapping[str, float], with_dvar: bool = False
+        self, x: NDArray[np.complex128], params: Mapping[str, float], with_dvar: bool = False,
+        with_grad: bool = True
     ) -> Dual:
-        """Value at every point of ``x`` with derivatives w.r.t. every parameter."""
+        """Value at every point of ``x`` with derivatives w.r.t. every parameter
+        (none formed when not ``with_grad``)."""
         self._check_params(params)
         x = np.asarray(x, dtype=complex)
         with np.errstate(divide="ignore", invalid="ignore"):
-            dual = _evaluate(self.root, x, params, with_dvar)
+            dual = _evaluate(self.root, x, params, with_dvar, with_grad)
         return _broadcast(dual, x.shape, with_dvar)
 
     def compile(self, params: Mapping[str, float]) -> Evaluator:
@@ -156,6 +159,14 @@ class Expression:
         missing = [p for p in self.parameters if p not in params]
         if missing:
             raise ParameterError(f"no value for parameter(s) {', '.join(missing)} in {self.text!r}")
+
+
+@lru_cache(maxsize=256)
+def _read(text: str, variable: str) -> tuple[Node, tuple[str, ...], dict]:
+    """A text's tree, its parameters and its compiled parameter-free subtrees
+    (immutable once made, so expressions of the same text share them)."""
+    root = _Parser(text, variable).parse()
+    return root, tuple(sorted(_collect_parameters(root))), constant_subtrees(root)
 
 
 class _Chain:
@@ -354,7 +365,7 @@ def _broadcast(dual: Dual, shape: tuple[int, ...], with_dvar: bool) -> Dual:
     return Dual(full(dual.value), {k: full(g) for k, g in dual.grad.items()}, dvar)
 
 
-def _evaluate(node: Node, x: NDArray, params: Mapping[str, float], with_dvar: bool) -> Dual:
+def _evaluate(node: Node, x: NDArray, params: Mapping[str, float], with_dvar: bool, with_grad: bool = True) -> Dual:
     """Forward-mode evaluation; subtrees free of the variable stay scalars."""
     op = node.op
     if op == "num":
@@ -362,8 +373,8 @@ def _evaluate(node: Node, x: NDArray, params: Mapping[str, float], with_dvar: bo
     if op == "var":
         return Dual(x, {}, 1.0 if with_dvar else None)
     if op == "param":
-        return Dual(np.complex128(float(params[node.name])), {node.name: 1.0})
-    args = [_evaluate(a, x, params, with_dvar) for a in node.args]
+        return Dual(np.complex128(float(params[node.name])), {node.name: 1.0} if with_grad else {})
+    args = [_evaluate(a, x, params, with_dvar, with_grad) for a in node.args]
     if op == "neg":
         return args[0].mul(Dual(np.complex128(-1.0)))
     if op == "pow":

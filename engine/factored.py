@@ -103,6 +103,14 @@ def _folded(node: Node, params: Mapping[str, float]) -> PoleZero:
     if den[0] == 0:
         raise ExpressionError("division by zero")
     gain = float(num[0] / den[0])
-    zeros = np.roots(num) if num.size > 1 and num[0] != 0 else np.zeros(0, dtype=complex)
-    poles = np.roots(den) if den.size > 1 else np.zeros(0, dtype=complex)
+    zeros = _roots(num) if num.size > 1 and num[0] != 0 else np.zeros(0, dtype=complex)
+    poles = _roots(den) if den.size > 1 else np.zeros(0, dtype=complex)
     return PoleZero(gain, zeros.astype(complex), poles.astype(complex))
+
+
+def _roots(c: NDArray) -> NDArray:
+    """np.roots, without its eigenvalue problem for a first-order factor a x + b
+    (b != 0): its companion matrix is the number -b/a, which is the root."""
+    if c.size == 2 and c[1] != 0:
+        return -c[1:] / c[0]
+    return np.roots(c)

@@ -96,6 +96,7 @@ class LoopEvaluator:
         live = sorted({k, source} | {ed[0] for ed in kept} | {ed[1] for ed in kept})
         compact = {signal: i for i, signal in enumerate(live)}
         self.chains = [ed[2] for ed in kept]
+        self.groups = _chain_groups(self.chains)
         self.schedule = schedule_edges(len(live), [(compact[ed[0]], compact[ed[1]], c)
                                                    for c, ed in enumerate(kept)])
         self.size, self.out, self.source = len(live), compact[k], compact[source]
@@ -122,7 +123,7 @@ class LoopEvaluator:
         """GH(j omega) and dGH/domega."""
         omega = np.asarray(omega, dtype=float)
         values, slopes = self._blocks(omega)
-        gains, dgains = zip(*(_chain_product(values[chain], slopes[chain]) for chain in self.chains))
+        gains, dgains = self._chain_gains(values, slopes)
         F = omega.size
         rhs = np.zeros((self.size, 1, F), dtype=complex)
         rhs[self.source, 0] = 1.0
@@ -133,6 +134,30 @@ class LoopEvaluator:
                 R[target, 0] += 1j * dgains[c] * sol[src]
         dsol = sparse_solve(self.schedule, gains, R, omega)[:, 0, :]
         return -sol[self.out], -dsol[self.out]
+
+    def _chain_gains(self, values: NDArray, slopes: NDArray) -> tuple[NDArray, NDArray]:
+        """Every chain's gain and d/dx (rows in chain order), equally long chains together."""
+        gains = np.empty((len(self.chains), values.shape[1]), dtype=complex)
+        dgains = np.empty_like(gains)
+        for rows, members in self.groups:
+            if members.shape[1] == 1:
+                gains[rows], dgains[rows] = values[members[:, 0]], slopes[members[:, 0]]
+                continue
+            v, d = values[members], slopes[members]
+            nonzero = np.all(v != 0, axis=(1, 2))
+            g = np.prod(v[nonzero], axis=1)
+            gains[rows[nonzero]], dgains[rows[nonzero]] = g, g * np.sum(d[nonzero] / v[nonzero], axis=1)
+            for row in np.flatnonzero(~nonzero).tolist():  # a zero on the grid: no division
+                chain = members[row]
+                gains[rows[row]], dgains[rows[row]] = _chain_product(values[chain], slopes[chain])
+        return gains, dgains
+
+
+def _chain_groups(chains: list[list[int]]) -> list[tuple[NDArray, NDArray]]:
+    """(chain numbers, their members as rows) per chain length."""
+    lengths = sorted({len(c) for c in chains})
+    return [(np.array([k for k, c in enumerate(chains) if len(c) == n], dtype=int),
+             np.array([c for c in chains if len(c) == n], dtype=int)) for n in lengths]
 
 
 def _roots(coefficients: NDArray, label: str) -> NDArray[np.complex128]:

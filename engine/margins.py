@@ -311,7 +311,10 @@ def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset
     with np.errstate(all="ignore"):
         base = g + shift
         turned, ratio = base / left, dg / base
-        h = np.where(angle, np.arctan2(turned.imag, turned.real) + offset, np.log(np.abs(base)))
+        # log |1 + GH| from GH itself where |GH| is small: 1 + GH rounds its variation away
+        small = (shift != 0) & (np.abs(g) < 0.5)
+        magnitude = np.where(small, 0.5 * np.log1p(2.0 * g.real + (g * g.conjugate()).real), np.log(np.abs(base)))
+        h = np.where(angle, np.arctan2(turned.imag, turned.real) + offset, magnitude)
     return h, np.where(angle, ratio.imag, ratio.real)
 
 

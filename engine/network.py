@@ -341,33 +341,36 @@ def schedule_edges(n: int, edges: list[tuple[int, int, int]]) -> _Schedule:
 
 
 def sparse_solve(schedule: _Schedule, gains: Sequence[NDArray], B: NDArray, w: NDArray) -> NDArray:
-    """X with (I - G) X = B; B and X of shape (n, m, F); ``gains[number]`` of shape (F,)."""
+    """X with (I - G) X = B; B and X of shape (n, m, F); ``gains[number]`` of shape (F,).
+
+    Each signal is affine in the tears' values: x_i = a_i + c_i tau, kept as
+    one row [a_i | c_i] of shape (m + t, F), so a feed costs one product."""
     n, m, F = B.shape
     t = len(schedule.tears)
-    A = np.empty((n, m, F), dtype=complex)
-    C = np.zeros((n, t, F), dtype=complex)
+    start = np.concatenate([B, np.zeros((n, t, F), dtype=complex)], axis=1) if t else B
+    AC = np.empty((n, m + t, F), dtype=complex)
     for q, k in enumerate(schedule.tears):
-        A[k] = 0.0
-        C[k, q] = 1.0
+        AC[k] = 0.0
+        AC[k, m + q] = 1.0
 
-    def affine(i: int) -> tuple[NDArray, NDArray]:
-        if not schedule.feeds[i]:
-            return B[i], 0.0
-        a, c = B[i].copy(), np.zeros((t, F), dtype=complex)
-        for j, number in schedule.feeds[i]:
-            g = gains[number]
-            a += g * A[j]
-            if t:
-                c += g * C[j]
-        return a, c
+    def affine(i: int) -> NDArray:
+        feeds = schedule.feeds[i]
+        if not feeds:
+            return start[i]
+        j, number = feeds[0]
+        row = start[i] + gains[number] * AC[j]
+        for j, number in feeds[1:]:
+            row += gains[number] * AC[j]
+        return row
 
     for i in schedule.order:
-        A[i], C[i] = affine(i)
+        AC[i] = affine(i)
     if t == 0:
-        return A
-    closing = [affine(k) for k in schedule.tears]
-    lhs = np.eye(t)[None, :, :] - np.stack([c for _, c in closing]).transpose(2, 0, 1)
-    rhs = np.stack([a for a, _ in closing]).transpose(2, 0, 1)
+        return AC
+    closing = np.stack([affine(k) for k in schedule.tears])  # (t, m + t, F)
+    lhs = np.eye(t)[None, :, :] - closing[:, m:].transpose(2, 0, 1)
+    rhs = closing[:, :m].transpose(2, 0, 1)
+    A, C = AC[:, :m], np.ascontiguousarray(AC[:, m:])
     with np.errstate(all="ignore"):
         try:
             tau = np.linalg.solve(lhs, rhs)

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .blocks import FrequencyTable
+from .constraints import LinearInequality, check_inequalities, inequality_rows
 from .errors import EngineError
 from .measure_kinds import MEASURE_KINDS, names as measure_names
 from .network import Network, check_grid
@@ -193,6 +194,7 @@ class Problem:
     grid: Grid
     objective: Objective | None = None
     equalities: tuple[LinearEquality, ...] = ()
+    inequalities: tuple[LinearInequality, ...] = ()   # A x <= b: `linear_constraints`
 
     def __post_init__(self) -> None:
         if not self.conditions and (self.objective is None or self.objective.kind != "dae"):
@@ -217,6 +219,7 @@ class Problem:
                 raise EngineError(f"measure {t.measure!r} needs a response (input, output, horizon)")
         for k, eq in enumerate(self.equalities):
             self._check_equality(eq, f"equalities[{k}]")
+        check_inequalities(self)
 
     def _check_equality(self, eq: LinearEquality, where: str) -> None:
         by_name = {p.name: p for p in self.parameters}
@@ -227,6 +230,15 @@ class Problem:
             if p.per_condition != (c is not None) or (c is not None and not 0 <= c < len(self.conditions)):
                 raise EngineError(f"{where}: {name!r} " + ("has one value per condition: name the condition"
                                                           if p.per_condition else "is shared by all conditions"))
+
+    @cached_property
+    def linear_constraints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(A, b) with A x <= b over the free vector: the rows of `inequalities` that hold a free
+        parameter (fixed ones moved to b; `engine.constraints`).  Read-only arrays."""
+        rows = inequality_rows(self)
+        A, b = rows.A[rows.free], rows.b[rows.free]
+        A.flags.writeable = b.flags.writeable = False
+        return A, b
 
     def equality_system(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(A, b) with A x = b over the free vector (fixed parameters moved to b)."""

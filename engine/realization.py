@@ -12,6 +12,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,6 +44,16 @@ class Pole:
     value: complex
     damping: float
     natural_frequency: float
+
+    @property
+    def zeta(self) -> float:
+        """The damping ratio -Re p/|p| (1 at the origin, negative in the right half-plane)."""
+        return self.damping
+
+    @property
+    def wn(self) -> float:
+        """The natural frequency |p| (rad/s)."""
+        return self.natural_frequency
 
 
 def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
@@ -91,12 +102,16 @@ def _factor_feedthrough(matrix: NDArray) -> tuple:
     return lu
 
 
+_REALIZED: WeakKeyDictionary = WeakKeyDictionary()  # transfer without parameters -> its (A, B, C, D)
+
+
 def _entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:
-    """One entry's (A, B, C, D); kept on the network when it has no parameters."""
+    """One entry's (A, B, C, D); kept on its transfer when that has no parameters
+    (a network and its broken copy, `engine.zpk`, share it)."""
     entry = network.entries[number]
-    key = ("entry realization", number)
-    if key in network.schedules:
-        return network.schedules[key]
+    fixed = not entry.transfer.parameters
+    if fixed and entry.transfer in _REALIZED:
+        return _REALIZED[entry.transfer]
     expression = entry.transfer.expression if isinstance(entry.transfer, ExpressionTransfer) else None
     folded = expression.folded(params) if expression is not None else None
     if folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
@@ -110,8 +125,8 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
     else:
         r = entry.transfer.check_proper(params, entry.label)
         realization = cascade(r.num, r.den)
-    if not entry.transfer.parameters:
-        network.schedules[key] = realization
+    if fixed:
+        _REALIZED[entry.transfer] = realization
     return realization
 
 
@@ -152,13 +167,17 @@ def cascade_roots(gain: float, zero_roots: NDArray, pole_roots: NDArray) -> tupl
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])
     if len(zeros) > len(poles):
         raise BlockError("improper transfer function in cascade realization")
-    A, B, C, D = np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[gain]])
-    for k, p in enumerate(poles):
-        a, b, c, d = _section(zeros[k] if k < len(zeros) else np.ones(1), p)
-        A = np.block([[A, np.zeros((A.shape[0], a.shape[0]))], [b @ C, a]])
-        B = np.vstack([B, b @ D])
-        C = np.hstack([d @ C, c])
+    sections = [_section(zeros[k] if k < len(zeros) else np.ones(1), p) for k, p in enumerate(poles)]
+    size = sum(a.shape[0] for a, _, _, _ in sections)
+    A, B, C, D = np.zeros((size, size)), np.zeros((size, 1)), np.zeros((1, size)), np.array([[gain]])
+    top = 0  # the series so far has states :top; each section feeds on its output C x + D u
+    for a, b, c, d in sections:
+        n = a.shape[0]
+        A[top:top + n, :top], A[top:top + n, top:top + n] = b @ C[:, :top], a
+        B[top:top + n] = b @ D
+        C[:, :top], C[:, top:top + n] = d @ C[:, :top], c
         D = d @ D
+        top += n
     return A, B, C, D
 
 

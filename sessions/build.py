@@ -30,6 +30,7 @@ from engine.network import Block, Junction, Network, block_diagram, matrix_forma
 from engine.problem import (BandValue, Condition, Grid, LinearEquality, Objective, Parameter, Point, Problem, Target,
                             TimeResponse)
 
+from .constraints import build_inequalities, check_start, engine_error
 from .errors import SessionError
 from .limits import MAX_TABLE_ROWS
 from .schema import (CascadeModel, ChannelsModel, ConditionModel, EqualityModel, GridModel, ParameterModel, ProblemModel,
@@ -84,10 +85,13 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
         dict(model.objective.data))
     names = [c.name for c in model.conditions]
     equalities = tuple(_equality(e, f"problem.equalities[{i}]", names) for i, e in enumerate(model.equalities))
+    inequalities = build_inequalities(model)
     try:
-        return Problem(conditions, parameters, targets, _grid(model.grid), objective, equalities)
+        problem = Problem(conditions, parameters, targets, _grid(model.grid), objective, equalities, inequalities)
     except EngineError as exc:
-        raise SessionError(f"problem: {exc}") from None
+        raise engine_error(exc) from None
+    check_start(problem)
+    return problem
 
 
 def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tuple[Parameter, ...]:

@@ -28,6 +28,7 @@ MAX_TABLE_ROWS = 100_000     # rows of an inline table (a CSV table's rows: sess
 MAX_GRID_POINTS = 100_000    # a grid's points or explicit values
 MAX_RESPONSE_POINTS = 100_000  # time points of a time response
 MAX_EQUALITIES = 1000
+MAX_CONSTRAINTS = 1000       # linear inequalities between parameters (1000 characters each)
 MAX_OPTIONS = 100            # options, tables of an objective
 
 Number = Annotated[float, Field(allow_inf_nan=False)]

@@ -15,8 +15,9 @@ from engine.measure_kinds import MEASURE_KINDS
 
 SCHEMA_VERSION = 1
 
-from .limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS, MAX_EQUALITIES,  # noqa: F401
-                     MAX_FACTORS, MAX_GRID_POINTS, MAX_JUNCTION_INPUTS, MAX_OPTIONS, MAX_PARAMETERS,
+from .constraints import ConstraintText
+from .limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS,  # noqa: F401
+                     MAX_CONSTRAINTS, MAX_EQUALITIES, MAX_FACTORS, MAX_GRID_POINTS, MAX_JUNCTION_INPUTS, MAX_OPTIONS, MAX_PARAMETERS,
                      MAX_RESPONSE_POINTS, MAX_SIGNALS, MAX_TABLE_ROWS, MAX_TARGETS, Coefficient, Lower, Number,
                      Upper, bounded as _bounded)
 
@@ -343,6 +344,9 @@ class ProblemModel(Strict):
     targets: _bounded(list[TargetModel], MAX_TARGETS) = []
     objective: ObjectiveModel | None = None
     equalities: _bounded(list[EqualityModel], MAX_EQUALITIES) = Field(default=[], description="linear equalities between parameters (slp)")
+    constraints: _bounded(list[ConstraintText], MAX_CONSTRAINTS) = Field(
+        default=[], description="linear inequalities between parameters, one a line: 'T1 >= 4*T2', "
+                                "'K + 2*T1[cruise] <= 10' (docs/session-format.md)")
 
 
 class AlgorithmModel(Strict):

@@ -22,7 +22,9 @@ counts its gain in the SIFR sum; a move that changes the number of turns of
 1 + GH about the origin along the grid (closed-loop stability changes) is
 rejected (`stability_guard`); the run never ends on a rejected trial point;
 identical gradient rows are not duplicated when a copied margin and its
-original are both active.
+original are both active.  Beyond the report: the problem's linear
+constraints are held like bounds and a trial is projected onto them
+(linear.py); without them every step is the report's.
 """
 
 from __future__ import annotations
@@ -36,11 +38,13 @@ from numpy.typing import NDArray
 
 from ..algorithm import MeasureRow, State, Status, StepRecord
 from ..compensators import coefficient_roles, compensators, split_by_role
+from ..constraints import check_start
 from ..errors import EngineError
 from ..guard import check_vector, guarded
 from ..problem import Problem
 from .constraints import Constraint, check_targets, detect
-from .direction import Direction, Rows, gradient_rows, improvement_direction
+from .direction import Direction, Rows, gradient_rows
+from .linear import held_direction, held_labels, trial_point
 from .memory import CipBest, CipMemory
 
 TERMINATION_STATUS = {"theorem2": Status.INFEASIBLE, "dependent": Status.NO_IMPROVEMENT,
@@ -101,6 +105,7 @@ class Cip:
         outside = np.flatnonzero((x < self.lower) | (x > self.upper))
         if outside.size:
             raise EngineError(f"cip: {self._slot_names()[outside[0]]} = {x[outside[0]]:.6g} is outside its bounds")
+        check_start(problem, x, "cip")
         constraints, windings = self._detect(x)
         step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
         memory = CipMemory(tuple(constraints), tuple(windings), step, sum(c.active for c in constraints),
@@ -123,13 +128,14 @@ class Cip:
         rows = _distinct(gradient_rows(self.problem, x, steering))
         if rows.gradients.shape[0] > x.size and len(steering) > len(active):
             rows = _distinct(gradient_rows(self.problem, x, active))  # guard rows are optional
-        direction = improvement_direction(rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels)
+        direction = held_direction(rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels,
+                                   *self.problem.linear_constraints)   # the report's D when no constraint is held
         if direction.vector is None:
             return self._stop(state, TERMINATION_STATUS[direction.termination], direction.reason, constraints,
                               termination=direction.termination)
         h, rejected = memory.step, {}
         while True:
-            trial = np.clip(x + h * direction.vector, self.lower, self.upper)
+            trial = trial_point(x, h, direction.vector, *self.problem.linear_constraints, self.lower, self.upper)
             outcome = self._trial(trial, constraints, active, memory.windings)
             if not isinstance(outcome, str):
                 break
@@ -201,7 +207,8 @@ class Cip:
         extra = self._extra(x, constraints, memory, before) | {
             "matched": [{"kind": o.kind, "frequency": o.frequency, "before": o.value, "after": n.value,
                          "active_after": n.active} for o, n in matched],
-            "held": [names[i] for i in np.flatnonzero(direction.held)],
+            "held": [names[i] for i in np.flatnonzero(direction.held)]
+            + held_labels(self.problem, direction),
             "partials": self._split(dict(zip(names, direction.vector.tolist())))}
         record = StepRecord(k, status, self.problem.named(x), _rows(self.problem, constraints),
                             step_size=h, direction=tuple(direction.vector.tolist()),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Self
 
@@ -34,11 +35,12 @@ class CipMemory:
     best: CipBest
 
     def to_json(self) -> dict:
-        """Plain JSON types."""
-        return jsonable({"constraints": [c.to_json() for c in self.constraints], "windings": self.windings,
-                         "step": self.step, "unmet_start": self.unmet_start,
-                         "best": {"iteration": self.best.iteration, "x": self.best.x,
-                                  "smallest": self.best.smallest}})
+        """Plain JSON types (`jsonable`'s, built directly: every step stores its memory)."""
+        return {"constraints": [_constraint_json(c.to_json()) for c in self.constraints],
+                "windings": [_plain(w) for w in self.windings], "step": _plain(self.step),
+                "unmet_start": _plain(self.unmet_start),
+                "best": {"iteration": _plain(self.best.iteration), "x": [_plain(v) for v in self.best.x],
+                         "smallest": _plain(self.best.smallest)}}
 
     @classmethod
     def from_json(cls, data: Any) -> Self:
@@ -48,9 +50,53 @@ class CipMemory:
         step = fields.number("step")
         if not step > 0:
             raise EngineError(f"cip memory.step: expected a step size > 0, got {step!r}")
-        return cls(tuple(constraint_from(c) for c in fields.objects("constraints")), fields.numbers("windings"),
+        return cls(tuple(_quick_constraint(c.data) or constraint_from(c) for c in fields.objects("constraints")),
+                   fields.numbers("windings"),
                    step, fields.integer("unmet_start"),
                    CipBest(best.integer("iteration"), best.numbers("x"), best.optional_number("smallest", False)))
+
+
+def _plain(value: Any) -> Any:
+    """`jsonable` of one value, without its dispatch for the common finite float, int and text."""
+    kind = type(value)
+    if kind is float:
+        return value if math.isfinite(value) else repr(value)
+    return value if kind is int or kind is str else jsonable(value)
+
+
+def _constraint_json(data: dict) -> dict:
+    """`jsonable` of `Constraint.to_json`'s dict (its lists: the points and gh)."""
+    return {k: [[_plain(v) for v in p] for p in value] if k == "points" else
+            [_plain(v) for v in value] if k == "gh" else _plain(value) for k, value in data.items()}
+
+
+TEXTS = ("family", "kind", "measure", "method")
+NUMBERS = {"frequency": False, "value": False, "desired": True, "shown": False, "shown_desired": False,
+           "weight": True}  # field: must be finite
+
+
+def _quick_constraint(data: Any) -> Constraint | None:
+    """The constraint when every field is of its plain type (texts, a condition
+    number, floats finite where required, points of finite floats); None
+    otherwise, for `constraint_from` to read or to name what is wrong."""
+    try:
+        texts = [data[k] for k in TEXTS]
+        numbers = [data[k] for k in NUMBERS]
+        condition, gh, points = data["condition"], data["gh"], data["points"]
+        if not (all(type(t) is str for t in texts) and texts[1] in KINDS and type(condition) is int
+                and condition >= 0 and type(gh) is list and len(gh) == 2 and type(points) is list
+                and all(type(v) is float and (math.isfinite(v) or not finite)
+                        for v, finite in zip(numbers + gh, list(NUMBERS.values()) + [False, False]))
+                and all(type(p) is list and len(p) == 3 and p[2] in ("push", "pull") and type(p[0]) is float
+                        and type(p[1]) is float and math.isfinite(p[0]) and math.isfinite(p[1]) for p in points)):
+            return None
+    except (KeyError, TypeError):
+        return None
+    family, kind, measure, method = texts
+    frequency, value, desired, shown, shown_desired, weight = numbers
+    return Constraint(family=family, kind=kind, measure=measure, condition=condition, frequency=frequency,
+                      value=value, desired=desired, shown=shown, shown_desired=shown_desired, weight=weight,
+                      method=method, gh=complex(*gh), points=tuple(Point(complex(p[0], p[1]), p[2]) for p in points))
 
 
 def constraint_from(fields: Fields) -> Constraint:

@@ -66,6 +66,10 @@ class Projection:
     def init(self, problem: Problem, settings: ProjectionSettings) -> State:
         if problem.objective is None or problem.objective.kind != "dae":
             raise EngineError("projection: the problem needs an objective of kind 'dae' with the system in its data")
+        if problem.inequalities:
+            raise EngineError("projection: linear constraints between parameters (problem.constraints) do not "
+                              "apply: its unknowns are the trajectories and controls of the DAE, whose bounds are "
+                              "in the objective's data; remove the constraints")
         self.system: DaeSystem = dae_system(problem.objective.data)
         self.settings, self.problem = settings, problem
         self.project = Projector(self.system)

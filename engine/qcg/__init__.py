@@ -6,7 +6,7 @@ from .algorithm import Qcg, QcgSettings
 from .present import QcgPresenter
 
 register("qcg", Qcg, QcgSettings,
-         "frequency-domain quadratic cost, scaled sign-constrained conjugate gradient (report 001, CGFM)",
+         "frequency-domain quadratic cost, scaled sign-constrained conjugate gradient (report 001, CGFM) or L-BFGS-B",
          QcgPresenter())
 
 __all__ = ["Qcg", "QcgSettings"]

@@ -13,6 +13,14 @@ of an interval, the interval is split into IN parts; tabulated plant data,
 noise and disturbance weights are interpolated linearly there (as the
 listing does), rational plants and the controllers are evaluated exactly.
 
+Continuity (beyond the listing): the listing's split is all or nothing, so F
+jumps where an interval's smaller |1 + OPEN|^2 crosses RSNAT (on the inlet
+with q2 = 0, 0.14398 -> 0.14327 between b1 = 143.063 and 143.065).  Here an
+interval counts (1 - w) of its plain trapezoid and w of its refined sum,
+w = 1 below RSNAT (the listing), 0 from RSNAT (1 + BLEND) on, a smoothstep
+between: F is continuous with its gradient (the analytic gradient includes
+dw/db), and equals the listing's wherever no interval lies in that band.
+
 Reading of the scan: CALFG's integration logic (labels 90-140) is garbled;
 the rule above is its evident intent (and reproduces the printed sample).
 """
@@ -21,12 +29,16 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..blocks import Transfer
 from ..errors import EngineError
+
+BLEND = 0.05  # intervals with RSNAT <= min |1 + OPEN|^2 < RSNAT (1 + BLEND) are partly refined
 
 
 @dataclass(frozen=True)
@@ -63,6 +75,23 @@ class Cascade:
         if np.any(self.g1 == 0) or np.any(self.g1g2 == 0):
             raise EngineError("qcg: G1 and G1G2 must not vanish on the grid (Vr and H2/G2 divide by them)")
 
+    @cached_property
+    def spectra(self) -> dict[str, NDArray]:
+        """The weights of eq. (24) per unit penalty on the grid: disturbance (d, with |Ga|^2: dg)
+        and noise (nq, over |G1G2|^2: nr) terms, each also times w^2 (suffix 2) for the rates."""
+        gasq = np.abs(self.ga) ** 2
+        base = {"d": self.disturbance, "dg": self.disturbance * gasq, "nq": self.noise_psd * gasq,
+                "nr": self.noise_psd * gasq / np.abs(self.g1g2) ** 2}
+        return {name + suffix: value * factor for name, value in base.items()
+                for suffix, factor in (("", 1.0), ("2", self.omega ** 2))}
+
+    @cached_property
+    def plain(self) -> Points:
+        """The points of the sum with no interval refined: the grid, w_{i+1} - w_{i-1} each."""
+        padded = np.concatenate([self.omega[:1], self.omega, self.omega[-1:]])
+        none, empty = np.zeros(0, dtype=int), np.zeros(0)
+        return Points(self.omega, none, empty, padded[2:] - padded[:-2], none, empty, empty)
+
 
 def exponential_disturbance(omega: NDArray, amplitude: float, pole: float, averaging_time: float) -> NDArray:
     """|d(jw)|^2 / T for d(t) = A exp(-a t): A^2 / (T (w^2 + a^2))."""
@@ -76,116 +105,179 @@ def exponential_disturbance(omega: NDArray, amplitude: float, pole: float, avera
 
 @dataclass(frozen=True)
 class CostResult:
-    """The listing's F and its parts (FDQ, FDR, FVQ, FVR), C = F/(2 pi),
-    and the gradient dF/dp by parameter name (when asked)."""
+    """The listing's F and its parts (FDQ, FDR, FVQ, FVR), C = F/(2 pi), the gradient
+    dF/dp by parameter name (when asked), the number of (partly) refined intervals, and
+    the unit-weight integrals ``squares`` (x1, x1_rate, u, u_rate: F with q1, q2, r1 or
+    r2 alone equal to 1, the averaged squares of eq. 34-38) from the same evaluation."""
 
     F: float
     parts: dict[str, float]
     gradient: dict[str, float] | None
     refined_intervals: int
+    squares: dict[str, float]
 
     @property
     def C(self) -> float:
         return self.F / (2 * np.pi)
 
 
-def _points(cascade: Cascade, open_at_grid: NDArray, weights: Weights):
-    """The integration points: the grid, plus IN - 1 interior points in resonant intervals.
-    Returns (omega, interval index i (point lies in (w_{i-1}, w_i]) or -1 for grid points, fraction)."""
-    resonant = np.abs(1.0 + open_at_grid) ** 2 < weights.rsnat
-    split = np.flatnonzero(resonant[1:] | resonant[:-1]) + 1   # interval (i-1, i) by its right end i
-    n_in = weights.subdivisions
-    if split.size == 0 or n_in < 2:
-        return cascade.omega, np.arange(cascade.omega.size), np.ones(cascade.omega.size), 0
-    fractions = np.arange(1, n_in) / n_in
+class Points(NamedTuple):
+    """The integration points: the grid, then IN - 1 points inside each refined interval
+    (unsorted: the sum needs no order).  ``right``/``fraction`` place an inserted point
+    between grid points right - 1 and right; ``coefficient`` is each point's weight in the
+    sum; ``split`` (right ends), ``blend`` and ``slope`` (d blend / d m) describe the
+    refined intervals."""
+
+    omega: NDArray
+    right: NDArray
+    fraction: NDArray
+    coefficient: NDArray
+    split: NDArray
+    blend: NDArray
+    slope: NDArray
+
+
+def blend_weight(m: NDArray, rsnat: float) -> tuple[NDArray, NDArray]:
+    """How much of an interval's refined sum counts, given m, the smaller |1 + OPEN|^2 at
+    its ends: 1 for m < RSNAT (the listing's split), 0 from RSNAT (1 + BLEND) on, a
+    smoothstep between (continuous with its first derivative); and d weight / d m."""
+    t = np.clip((m / rsnat - 1.0) / BLEND, 0.0, 1.0)
+    return 1.0 - t * t * (3.0 - 2.0 * t), -6.0 * t * (1.0 - t) / (BLEND * rsnat)
+
+
+def _points(cascade: Cascade, r: NDArray, weights: Weights) -> Points:
+    """The points and weights of the sum for |1 + OPEN|^2 = r on the grid."""
+    n_in, omega = weights.subdivisions, cascade.omega
+    if n_in < 2 or weights.rsnat <= 0:
+        return cascade.plain
+    blend, slope = blend_weight(np.minimum(r[1:], r[:-1]), weights.rsnat)
+    chosen = np.flatnonzero(blend > 0)
+    if chosen.size == 0:
+        return cascade.plain
+    length = np.diff(omega)
+    split, blend, slope = chosen + 1, blend[chosen], slope[chosen]
+    shares = np.ones(length.size)
+    shares[chosen] -= blend * (1 - 1 / n_in)
+    grid = np.zeros(omega.size)
+    grid[:-1] += length * shares
+    grid[1:] += length * shares
+    frac = np.tile(np.arange(1, n_in) / n_in, split.size)
     right = np.repeat(split, n_in - 1)
-    frac = np.tile(fractions, split.size)
-    w = cascade.omega
-    inserted = w[right - 1] * (1 - frac) + w[right] * frac
-    omega = np.concatenate([w, inserted])
-    index = np.concatenate([np.arange(w.size), right])
-    fraction = np.concatenate([np.ones(w.size), frac])
-    order = np.argsort(omega, kind="stable")
-    return omega[order], index[order], fraction[order], split.size
+    inserted = omega[right - 1] * (1 - frac) + omega[right] * frac
+    inner = np.repeat(2 * length[chosen] * blend / n_in, n_in - 1)
+    return Points(np.concatenate([omega, inserted]), right, frac, np.concatenate([grid, inner]), split, blend, slope)
 
 
-def _interpolated(values: NDArray, index: NDArray, fraction: NDArray) -> NDArray:
-    """Linear interpolation between point index-1 and index (fraction 1 is the point itself)."""
-    previous = values[np.maximum(index - 1, 0)]
-    return previous * (1 - fraction) + values[index] * fraction
+def _at_points(values: NDArray, points: Points) -> NDArray:
+    """Grid values, then linear interpolation at the inserted points (as the listing does)."""
+    if points.right.size == 0:
+        return values
+    inserted = values[points.right - 1] * (1 - points.fraction) + values[points.right] * points.fraction
+    return np.concatenate([values, inserted])
+
+
+def _response(h: Transfer | None, w: NDArray, params: Mapping[str, float],
+              gradient: bool) -> tuple[NDArray, dict[str, NDArray]]:
+    """A controller's value at jw and its parameter derivatives (zero without a controller)."""
+    if h is None or w.size == 0:
+        return np.zeros(w.size, dtype=complex), {}
+    dual = h.evaluate(1j * w, params, with_grad=gradient)
+    grad = {name: np.broadcast_to(g, w.shape) for name, g in dual.grad.items()} if gradient else {}
+    return np.broadcast_to(dual.value, w.shape).astype(complex), grad
+
+
+def _joined(grid: tuple[NDArray, dict], inserted: tuple[NDArray, dict]) -> tuple[NDArray, dict[str, NDArray]]:
+    names = set(grid[1]) | set(inserted[1])
+    zeros = (np.zeros(grid[0].size), np.zeros(inserted[0].size))
+    return np.concatenate([grid[0], inserted[0]]), {
+        n: np.concatenate([grid[1].get(n, zeros[0]), inserted[1].get(n, zeros[1])]) for n in names}
+
+
+def _plant(cascade: Cascade, points: Points) -> tuple[NDArray, NDArray, NDArray]:
+    """G1, G1G2, Ga at every point: exact for a rational plant, else interpolated."""
+    arrays = (cascade.g1, cascade.g1g2, cascade.ga)
+    inserted = points.omega[cascade.omega.size:]
+    if cascade.exact is None or inserted.size == 0:
+        return tuple(_at_points(a, points) for a in arrays)
+    return tuple(np.concatenate([a, e]) for a, e in zip(arrays, cascade.exact(inserted)))
 
 
 def quadratic_cost(cascade: Cascade, h1: Transfer | None, h2: Transfer | None, params: Mapping[str, float],
                    weights: Weights, gradient: bool = True, names: tuple[str, ...] = ()) -> CostResult:
-    """F(b), its parts and (optionally) dF/dp for the parameters ``names``."""
-    def evaluate(h: Transfer | None, w: NDArray):
-        if h is None:
-            return np.zeros(w.size, dtype=complex), {}
-        dual = h.evaluate(1j * w, params)
-        return np.broadcast_to(dual.value, w.shape).astype(complex), dual.grad
-
-    H1g, _ = evaluate(h1, cascade.omega)
-    H2g, _ = evaluate(h2, cascade.omega)
-    open_grid = cascade.ga * (cascade.g1 * H2g + cascade.g1g2 * H1g)
-    w, index, fraction, refined = _points(cascade, open_grid, weights)
-    if cascade.exact is not None and refined:
-        g1, g1g2, ga = cascade.exact(w)   # rational plant: exact values at the inserted points (beyond the listing)
-    else:
-        g1, g1g2, ga = (_interpolated(a, index, fraction) for a in (cascade.g1, cascade.g1g2, cascade.ga))
-    gasq_grid = np.abs(cascade.ga) ** 2
-    wg2 = cascade.omega ** 2
-    # eq. (24) on the grid, interpolated linearly like the listing's DQ, VQ, VR, DR
-    vq = _interpolated(cascade.noise_psd * (weights.q1 + wg2 * weights.q2) * gasq_grid, index, fraction)
-    vr = _interpolated(cascade.noise_psd * (weights.r1 + wg2 * weights.r2) * gasq_grid / np.abs(cascade.g1g2) ** 2,
-                       index, fraction)
-    dq = _interpolated(cascade.disturbance * (weights.q1 + wg2 * weights.q2), index, fraction)
-    dr = _interpolated(cascade.disturbance * (weights.r1 + wg2 * weights.r2) * gasq_grid, index, fraction)
-    H1, grad1 = evaluate(h1, w)
-    H2, grad2 = evaluate(h2, w)
+    """F(b), its parts, the unit-weight integrals and (optionally) dF/dp for the parameters ``names``."""
+    w = cascade.omega
+    grid1, grid2 = _response(h1, w, params, gradient), _response(h2, w, params, gradient)
+    open_grid = cascade.ga * (cascade.g1 * grid2[0] + cascade.g1g2 * grid1[0])
+    points = _points(cascade, np.abs(1.0 + open_grid) ** 2, weights)
+    inserted = points.omega[w.size:]
+    H1, dH1 = _joined(grid1, _response(h1, inserted, params, gradient))
+    H2, dH2 = _joined(grid2, _response(h2, inserted, params, gradient))
+    g1, g1g2, ga = _plant(cascade, points)
+    s = {name: _at_points(value, points) for name, value in cascade.spectra.items()}
     one_plus_open = 1.0 + ga * (g1 * H2 + g1g2 * H1)
     Y = g1g2 / one_plus_open
     M = g1 * H2 / g1g2 + H1                      # H2/G2 + H1
-    hmag = np.abs(H1) ** 2 + np.abs(H2) ** 2
-    y2 = np.abs(Y) ** 2
-    padded = np.concatenate([w[:1], w, w[-1:]])
-    dw = padded[2:] - padded[:-2]                # w_{i+1} - w_{i-1}
-    parts = {"FDQ": float(np.sum(y2 * dq * dw)), "FDR": float(np.sum(y2 * dr * np.abs(M) ** 2 * dw)),
-             "FVQ": float(np.sum(y2 * vq * hmag * dw)), "FVR": float(np.sum(y2 * vr * hmag * dw))}
-    total = sum(parts.values())
+    hmag, m2, y2, c = np.abs(H1) ** 2 + np.abs(H2) ** 2, np.abs(M) ** 2, np.abs(Y) ** 2, points.coefficient
+    squares = {"x1": y2 * (s["d"] + s["nq"] * hmag), "x1_rate": y2 * (s["d2"] + s["nq2"] * hmag),
+               "u": y2 * (s["dg"] * m2 + s["nr"] * hmag), "u_rate": y2 * (s["dg2"] * m2 + s["nr2"] * hmag)}
+    q = weights
+    dq, dr = q.q1 * s["d"] + q.q2 * s["d2"], q.r1 * s["dg"] + q.r2 * s["dg2"]
+    vq, vr = q.q1 * s["nq"] + q.q2 * s["nq2"], q.r1 * s["nr"] + q.r2 * s["nr2"]
+    parts = {"FDQ": float(y2 * dq @ c), "FDR": float(y2 * dr * m2 @ c), "FVQ": float(y2 * vq * hmag @ c),
+             "FVR": float(y2 * vr * hmag @ c)}
     grad = None
     if gradient:
-        Q = dq + dr * np.abs(M) ** 2 + (vq + vr) * hmag
+        Q = dq + dr * m2 + (vq + vr) * hmag
+        blend = _blend_sensitivity(y2 * Q, points, np.abs(1.0 + open_grid) ** 2, weights.subdivisions)
+        zero = np.zeros(w.size + inserted.size)
         grad = {}
         for name in names:
-            dH1 = np.broadcast_to(grad1.get(name, 0.0), w.shape)
-            dH2 = np.broadcast_to(grad2.get(name, 0.0), w.shape)
-            dY = -Y / one_plus_open * ga * (g1 * dH2 + g1g2 * dH1)
-            dM = g1 * dH2 / g1g2 + dH1
-            dQ = 2 * dr * np.real(np.conj(M) * dM) + 2 * (vq + vr) * np.real(np.conj(H1) * dH1 + np.conj(H2) * dH2)
+            d1, d2 = dH1.get(name, zero), dH2.get(name, zero)
+            d_open = ga * (g1 * d2 + g1g2 * d1)
+            dY = -Y / one_plus_open * d_open
+            dM = g1 * d2 / g1g2 + d1
+            dQ = 2 * dr * np.real(np.conj(M) * dM) + 2 * (vq + vr) * np.real(np.conj(H1) * d1 + np.conj(H2) * d2)
             dF = 2 * np.real(np.conj(Y) * dY) * Q + y2 * dQ
-            grad[name] = float(np.sum(dF * dw))
-    return CostResult(total, parts, grad, refined)
+            d_r = 2 * np.real(np.conj(one_plus_open[:w.size]) * d_open[:w.size])   # d|1 + OPEN|^2 on the grid
+            grad[name] = float(dF @ c + blend.weight @ d_r[blend.at])
+    return CostResult(sum(parts.values()), parts, grad, int(points.split.size),
+                      {k: float(v @ c) for k, v in squares.items()})
 
 
-def averaged_squares(cascade: Cascade, h1: Transfer | None, h2: Transfer | None, params: Mapping[str, float],
-                     open_loop: Mapping[str, float] | None = None) -> dict[str, float]:
-    """Averaged-square output, output rate, control, control rate (eq. 34-38),
-    in the listing's convention (times 2 pi, as F) and normalized to the open loop
-    for the output and its rate (the control is zero in open loop)."""
-    out = {}
-    for name, weights in (("x1", Weights(q1=1)), ("x1_rate", Weights(q1=0, q2=1)),
-                          ("u", Weights(q1=0, r1=1)), ("u_rate", Weights(q1=0, r2=1))):
-        out[name] = quadratic_cost(cascade, h1, h2, params, weights, gradient=False).F
-    reference = open_loop if open_loop is not None else open_loop_squares(cascade)
+class BlendSensitivity(NamedTuple):
+    """dF = weight @ d|1 + OPEN|^2[at]: how F moves through the blend weights."""
+
+    weight: NDArray
+    at: NDArray
+
+
+def _blend_sensitivity(integrand: NDArray, points: Points, r: NDArray, n_in: int) -> BlendSensitivity:
+    """F = plain sum + sum_i blend_i (refined_i - plain_i); blend_i depends on m_i = min(r_i-1, r_i)."""
+    n = r.size
+    right = points.split
+    if right.size == 0:
+        return BlendSensitivity(np.zeros(0), np.zeros(0, dtype=int))
+    inner = integrand[n:].reshape(right.size, n_in - 1).sum(axis=1)
+    length = points.omega[right] - points.omega[right - 1]
+    gain = length * ((1 / n_in - 1) * (integrand[right - 1] + integrand[right]) + 2 / n_in * inner)
+    at = np.where(r[right - 1] <= r[right], right - 1, right)
+    return BlendSensitivity(points.slope * gain, at)
+
+
+def normalized_squares(squares: Mapping[str, float], open_loop: Mapping[str, float]) -> dict[str, float]:
+    """Averaged-square output, output rate, control, control rate (eq. 34-38) in the listing's
+    convention (times 2 pi, as F), and the output and its rate over their open-loop values
+    (the control is zero in open loop)."""
+    out = dict(squares)
     for name in ("x1", "x1_rate"):
-        out[f"{name}_normalized"] = out[name] / reference[name] if reference[name] > 0 else float("nan")
+        out[f"{name}_normalized"] = out[name] / open_loop[name] if open_loop[name] > 0 else float("nan")
     return out
 
 
 def open_loop_squares(cascade: Cascade) -> dict[str, float]:
-    """Averaged-square output and output rate with no controller."""
-    return {name: quadratic_cost(cascade, None, None, {}, weights, gradient=False).F
-            for name, weights in (("x1", Weights(q1=1)), ("x1_rate", Weights(q1=0, q2=1)))}
+    """Averaged-square output and output rate with no controller (one evaluation)."""
+    squares = quadratic_cost(cascade, None, None, {}, Weights(), gradient=False).squares
+    return {name: squares[name] for name in ("x1", "x1_rate")}
 
 
 def frequency_response(cascade: Cascade, h1: Transfer | None, h2: Transfer | None, params: Mapping[str, float],

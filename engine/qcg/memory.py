@@ -1,4 +1,4 @@
-"""What `qcg` keeps between line searches (`QcgMemory`), and its JSON."""
+"""What `qcg` keeps between steps (`QcgMemory`), and its JSON."""
 
 from __future__ import annotations
 
@@ -7,13 +7,21 @@ from typing import Any, Self
 
 from ..errors import EngineError
 from ..memory import Fields, jsonable
+from .evaluate import Evaluation
 
 
 @dataclass(frozen=True)
 class QcgMemory:
-    """The listing's SIZE, NCYC (iterations since the last restart), TSAVE (|g|^2 of the
-    last direction), the last direction h, KNT (cost evaluations), KOUNT (line searches),
-    and |b| at the start (the `initial` scaling)."""
+    """Both optimizers' memory.
+
+    CGFM: the listing's SIZE, NCYC (iterations since the last restart), TSAVE (|g|^2 of
+    the last direction), the last direction h.  L-BFGS-B: the last pairs s, y of the
+    scaled parameters p = b/|b0| and their gradients (oldest first).  Both: KNT (the
+    search's cost evaluations), KOUNT (line searches, iterations), ``evaluations`` (every
+    cost evaluation, the open-loop reference included) and ``gradients`` (those that
+    included the gradient), |b| at the start (``initial_scale``: CGFM's `initial`
+    scaling, L-BFGS-B's b0), and the cost at the current point (``last``: the next
+    step starts from it, a record is made from it)."""
 
     size: float
     ncyc: int
@@ -22,11 +30,19 @@ class QcgMemory:
     knt: int
     kount: int
     initial_scale: tuple[float, ...]
+    evaluations: int
+    gradients: int
+    last: Evaluation | None = None
+    pairs_s: tuple[tuple[float, ...], ...] = ()
+    pairs_y: tuple[tuple[float, ...], ...] = ()
 
     def to_json(self) -> dict:
         """Plain JSON types."""
         return jsonable({"size": self.size, "ncyc": self.ncyc, "tsave": self.tsave, "direction": self.direction,
-                         "knt": self.knt, "kount": self.kount, "initial_scale": self.initial_scale})
+                         "knt": self.knt, "kount": self.kount, "initial_scale": self.initial_scale,
+                         "evaluations": self.evaluations, "gradients": self.gradients,
+                         "last": None if self.last is None else self.last.to_json(), "pairs_s": self.pairs_s,
+                         "pairs_y": self.pairs_y})
 
     @classmethod
     def from_json(cls, data: Any) -> Self:
@@ -36,5 +52,9 @@ class QcgMemory:
         if not size > 0:
             raise EngineError(f"qcg memory.size: expected a number > 0, got {size!r}")
         direction = fields.numbers("direction")
+        n = len(direction)
+        last = None if fields.get("last") is None else Evaluation.from_json(fields.object("last"), n)
+        pairs_s = fields.matrix("pairs_s", columns=n)
         return cls(size, fields.integer("ncyc"), fields.number("tsave"), direction, fields.integer("knt"),
-                   fields.integer("kount"), fields.numbers("initial_scale", len(direction)))
+                   fields.integer("kount"), fields.numbers("initial_scale", n), fields.integer("evaluations"),
+                   fields.integer("gradients"), last, pairs_s, fields.matrix("pairs_y", len(pairs_s), n))

@@ -19,7 +19,8 @@ def qcg_report_text(record: StepRecord, response: list[dict] | None = None) -> s
              f"F= {e.get('F', float('nan')):.9e}   (the listing's F = sum F(w_i)(w_i+1 - w_i-1) = 2 pi C)",
              f"C= {e.get('C', float('nan')):.9e}   (eq. 22: C = (1/pi) integral of F(w) dw)",
              f"KNT, KOUNT, SIZE= {record.counters.get('KNT', 0)} {record.counters.get('KOUNT', 0)} "
-             f"{e.get('size', float('nan')):.3e}",
+             f"{e.get('size', float('nan')):.3e}   (evaluations {record.counters.get('evaluations', 0)}, "
+             f"{record.counters.get('gradients', 0)} with the gradient; optimizer {e.get('optimizer', 'cgfm')})",
              "FDQ, FDR, FVQ, FVR= " + " ".join(f"{parts.get(k, 0.0):.3e}" for k in ("FDQ", "FDR", "FVQ", "FVR")),
              "B= " + "  ".join(f"{name}={value:.6g}" for name, value in record.parameters.items())]
     squares = e.get("averaged_squares")

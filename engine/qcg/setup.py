@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
@@ -21,8 +20,7 @@ from ..blocks import Transfer
 from ..errors import EngineError
 from ..measure_kinds import check_accepted
 from ..problem import Problem
-from .cost import (Cascade, CostResult, Weights, averaged_squares, exponential_disturbance, frequency_response,
-                   open_loop_squares, quadratic_cost)
+from .cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
 
 OPTIONS = ("q1", "q2", "r1", "r2", "averaging_time", "disturbance_amplitude", "disturbance_pole", "rsnat",
            "subdivisions", "normalizing_gain")
@@ -40,14 +38,8 @@ class CascadeProblem:
     normalizing_gain: float
 
     def cost(self, params: Mapping[str, float], gradient: bool = True) -> CostResult:
+        """One evaluation of the cost (and its gradient) at the controller parameters."""
         return quadratic_cost(self.cascade, self.h1, self.h2, params, self.weights, gradient, self.names)
-
-    def averaged_squares(self, params: Mapping[str, float]) -> dict[str, float]:
-        return averaged_squares(self.cascade, self.h1, self.h2, params, self._open_loop)
-
-    @cached_property
-    def _open_loop(self) -> dict[str, float]:
-        return open_loop_squares(self.cascade)
 
     def frequency_response(self, params: Mapping[str, float]) -> list[dict[str, float]]:
         with np.errstate(all="ignore"):
@@ -61,7 +53,8 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     data = made.cascade
     if not all(np.all(np.isfinite(a)) for a in (data.g1, data.g1g2, data.ga, data.noise_psd, data.disturbance)):
         raise EngineError("qcg: the plant or the noise and disturbance weights are not finite on the grid")
-    return made
+    from .penalty import penalized   # the linear constraints' penalty (penalty.py builds on this module)
+    return penalized(made, problem)
 
 
 def _cascade_problem(problem: Problem) -> CascadeProblem:

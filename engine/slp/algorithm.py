@@ -33,6 +33,9 @@ when the floor is set (the report's box, floor 0, freezes it).  A met requiremen
 held rows are exactly active, so without it the linearization's second-order
 error tips them just under SPEC and the trial loses a measure (seen on the
 launch-vehicle example, where every trial near the boundary was rejected).
+Beyond the report: the problem's linear constraints A x <= b are rows of every
+LP (lp.py) and a trial is x0 + dx projected onto them and the bounds
+(`engine.constraints.project`: the clip, unless HiGHS's rounding left a row off).
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..algorithm import MeasureRow, State, Status, StepRecord
+from ..constraints import check_start, project
 from ..errors import EngineError
 from ..guard import check_vector, guarded
 from ..problem import Problem
@@ -120,7 +124,9 @@ class Slp:
             raise EngineError("the load-relief objective needs peak_response or mean_square targets")
         self.lower, self.upper = problem.bounds()
         self.equalities = problem.equality_system()
+        self.inequalities = problem.linear_constraints
         x = self._feasible_start(np.clip(problem.vector(), self.lower, self.upper))
+        check_start(problem, x, "slp")
         start = _stored(self._point(x))
         return State(0, tuple(x.tolist()), Status.RUNNING, SlpMemory(
             major=1, minor=0, x0=tuple(x.tolist()), base=start, best=start, partials=None, partial_methods=(),
@@ -169,8 +175,8 @@ class Slp:
             return None, f"no feasible program even with STEP = 0 ({lp.status})"
         if np.all(np.abs(lp.dx) <= 1e-14 * np.maximum(np.abs(x0), 1.0)):
             return None, STILL
-        x = np.clip(x0 + lp.dx, self.lower, self.upper)
         try:
+            x = project(x0 + lp.dx, *self.inequalities, self.lower, self.upper)   # the clip, or the LP's rounding off
             return self._point(x), ""
         except (EngineError, np.linalg.LinAlgError, ValueError) as exc:
             return None, f"trial point cannot be evaluated: {exc}"
@@ -227,7 +233,7 @@ class Slp:
         box = step_box(x0, self.lower, self.upper, P, s.step_floor)
         c = self._objective(values, gradients, present)
         result = solve_step(c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps,
-                            s.backoff)
+                            s.backoff, self.inequalities)
         duals = np.zeros(len(self.specs))
         duals[rows] = result.duals if result.duals.size == len(rows) else 0.0
         return LpResult(result.dx, result.step, result.solves, result.status, duals)

@@ -7,6 +7,7 @@ Over the step dx from the major iteration's point x0:
               (optionally SPEC_i plus a small back-off for met rows, see solve_step)
               max(lo - x0, -P r) <= dx <= min(hi - x0, P r),  r = max(|x0|, floor)
               A_eq (x0 + dx) = b_eq
+              A_in dx <= b_in - A_in x0    (the problem's linear constraints, A_in x <= b_in)
 All rows are in the "larger is better" orientation (at-most rows negated).
 The inner loop lowers STEP (1, 0.8, ..., 0) until the program is feasible.
 """
@@ -44,31 +45,34 @@ def step_box(x0: NDArray, lower: NDArray, upper: NDArray, P: float, floor: float
 
 
 def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, box: tuple[NDArray, NDArray],
-               equalities: tuple[NDArray, NDArray], x0: NDArray, steps: NDArray, backoff: float = 0.0) -> LpResult:
+               equalities: tuple[NDArray, NDArray], x0: NDArray, steps: NDArray, backoff: float = 0.0,
+               inequalities: tuple[NDArray, NDArray] | None = None) -> LpResult:
     """The inner loop: the first STEP in ``steps`` whose program HiGHS solves.
 
     ``gradients``/``values``/``specs``: the requirement rows (oriented).  A met
     row is held at SPEC + ``backoff`` |SPEC| (or where it is, if lower), so the
-    linearization's error at the vertex does not tip it over SPEC.
+    linearization's error at the vertex does not tip it over SPEC.  ``inequalities``:
+    (A_in, b_in) of the problem's linear constraints, rows after the requirements'.
     """
     trouble = _unsolvable(c, gradients, values, specs, box, equalities)
     if trouble:
         return LpResult(None, float(steps[-1]), 0, trouble, np.zeros(len(values)))
     met = values >= specs
     held = np.minimum(values, specs + backoff * np.maximum(np.abs(specs), 1e-2))
-    A_ub = -gradients
+    A_in, b_in = inequalities if inequalities is not None else (np.zeros((0, x0.size)), np.zeros(0))
+    A_ub = np.vstack([-gradients.reshape(len(values), x0.size), A_in])
     A_eq, b_eq = equalities
     eq = dict(A_eq=A_eq, b_eq=b_eq - A_eq @ x0) if A_eq.size else {}
     status, solves = "not solved", 0
     for step in steps:
         wanted = np.where(met, held, values + step * (specs - values))
-        b_ub = values - wanted
+        b_ub = np.concatenate([values - wanted, b_in - A_in @ x0])
         result = linprog(-c, A_ub=A_ub if A_ub.size else None, b_ub=b_ub if A_ub.size else None,
                          bounds=np.column_stack(box), method="highs", **eq)
         solves += 1
         status = STATUS_TEXT.get(result.status, f"status {result.status}")
         if result.status == 0:
-            duals = -result.ineqlin.marginals if A_ub.size else np.zeros(0)
+            duals = -result.ineqlin.marginals[:len(values)] if A_ub.size else np.zeros(0)
             return LpResult(np.asarray(result.x), float(step), solves, status, duals)
     return LpResult(None, float(steps[-1]), solves, status, np.zeros(len(values)))
 

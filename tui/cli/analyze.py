@@ -14,9 +14,44 @@ from .common import CliError, finite_or_none
 
 if TYPE_CHECKING:
     from engine.analysis import LoopAnalysis
+    from engine.root_locus import RootLocus
 
 
-def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
+def _pair(z: complex) -> list[float]:
+    return [float(z.real), float(z.imag)]
+
+
+def _peak_json(p) -> dict | None:
+    return None if p is None else {"value": p.value, "db": finite_or_none(p.db),
+                                   "frequency": p.frequency if math.isfinite(p.frequency) else None,
+                                   "at_infinity": p.frequency == math.inf, "method": p.method}
+
+
+def disk_to_json(d) -> dict | None:
+    """The `disk_margin` object of `analyze --json` (None when not computed)."""
+    if d is None:
+        return None
+    return {"alpha": d.alpha, "skew": d.skew, "gain_margin_low": d.gain_low,
+            "gain_margin_high": finite_or_none(d.gain_high), "gain_margin_low_db": finite_or_none(d.gain_low_db),
+            "gain_margin_high_db": finite_or_none(d.gain_high_db), "gain_margin_db": finite_or_none(d.gain_db),
+            "phase_margin_deg": finite_or_none(d.phase_deg), "frequency": finite_or_none(d.frequency),
+            "at_infinity": d.frequency == math.inf, "method": d.method, "notes": list(d.notes)}
+
+
+def locus_to_json(r: RootLocus) -> dict:
+    """The `root_locus` object of `analyze --json --locus PARAM`."""
+    return {
+        "parameter": r.parameter, "values": r.values.tolist(), "status": r.status,
+        "branches": [[_pair(z) for z in r.branches[:, j]] for j in range(r.branches.shape[1])],
+        "current_value": r.current_value, "current_poles": [_pair(z) for z in r.current],
+        "crossings": [{"value": c.value, "frequency": c.frequency, "direction": c.direction} for c in r.crossings],
+        "asymptotes": None if r.centroid is None else {"centroid": r.centroid, "angles_deg": list(r.angles_deg)},
+        "breakaways": [{"point": _pair(z), "gain": k} for z, k in r.breakaways],
+        "notes": list(r.notes),
+    }
+
+
+def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | None = None) -> dict:
     """The documented JSON object of `loopcraft analyze --json`."""
     m = a.margins
     return {
@@ -32,7 +67,11 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s") -> dict:
         "verdict": a.verdict,
         "closed_loop_poles": None if a.closed_loop_poles is None else [
             {"real": p.value.real, "imag": p.value.imag, "damping": p.damping,
-             "natural_frequency": p.natural_frequency} for p in a.closed_loop_poles],
+             "natural_frequency": p.natural_frequency, "zeta": p.zeta, "wn": p.wn} for p in a.closed_loop_poles],
+        "disk_margin": disk_to_json(a.disk_margin),
+        "sensitivity_peak": _peak_json(a.sensitivity_peak),
+        "complementary_sensitivity_peak": _peak_json(a.complementary_peak),
+        **({"root_locus": locus_to_json(locus)} if locus is not None else {}),
         "method": m.label,
         "notes": list(a.notes),
     }
@@ -88,7 +127,41 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
         zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
         lines.append(f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {zeta:.4f}"
                      f"   wn {p.natural_frequency:.6g} {unit}")
+    lines.extend(_measure_lines(a, unit))
     lines.extend(f"note: {n}" for n in a.notes)
+    return "\n".join(lines)
+
+
+def _at(w: float, unit: str) -> str:
+    return "at inf" if w == math.inf else ("" if not math.isfinite(w) else f"at {w:.6g} {unit}")
+
+
+def _measure_lines(a: LoopAnalysis, unit: str) -> list[str]:
+    """The disk margin and sensitivity peaks, one line each."""
+    lines = []
+    d = a.disk_margin
+    if d is not None:
+        lines.append(f"disk margin (skew {d.skew:g}): alpha {d.alpha:.6g}, gain {_num(d.gain_low_db, 'dB', '.4f')}"
+                     f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')}"
+                     f" {_at(d.frequency, unit)}".rstrip())
+    for name, p in (("sensitivity peak Ms", a.sensitivity_peak), ("complementary peak Mt", a.complementary_peak)):
+        if p is not None:
+            lines.append(f"{name}: {p.value:.6g} ({_num(p.db, 'dB', '.4f')}) {_at(p.frequency, unit)}".rstrip())
+    return lines
+
+
+def locus_to_text(r: RootLocus) -> str:
+    """A short text summary of a root locus: range, status, crossings, asymptotes, breakaways."""
+    lines = [f"root locus in {r.parameter}: {r.values[0]:.6g} .. {r.values[-1]:.6g}, {r.values.size} points, "
+             f"{r.branches.shape[1]} branches ({r.status})"]
+    for c in r.crossings:
+        lines.append(f"  imaginary-axis crossing: {r.parameter} = {c.value:.10g} at {c.frequency:.6g} rad/s "
+                     f"({'into' if c.direction > 0 else 'out of'} the right half-plane)")
+    if r.centroid is not None:
+        lines.append(f"  asymptotes: centroid {r.centroid:.6g}, angles {', '.join(f'{x:g}' for x in r.angles_deg)} deg")
+    for z, k in r.breakaways:
+        lines.append(f"  breakaway: {z.real:+.6g} {z.imag:+.6g}j at gain {k:.6g}")
+    lines.extend(f"  note: {n}" for n in r.notes)
     return "\n".join(lines)
 
 
@@ -122,17 +195,46 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     else:
         network = unity_feedback(args.tf, args.variable, args.delay)
         omega = np.geomspace(args.wmin, args.wmax, args.points)
-    missing = network.parameters
+    params = _params(args.param or [])
+    missing = [name for name in network.parameters if name not in params]
     if missing:
         raise CliError(f"--tf: unknown name(s) {', '.join(missing)} (expressions for analyze "
-                       f"take numbers, the variable {args.variable!r} and delay factors exp(-T*s) only)")
-    result = analyze(network, "e", omega, {})
+                       f"take numbers, the variable {args.variable!r}, delay factors exp(-T*s) "
+                       "and names given by --param NAME=VALUE)")
+    result = analyze(network, "e", omega, params, skew=args.skew)
+    locus = _locus(args, network, params)
     if args.json:
-        print(json.dumps(analysis_to_json(result, args.variable), indent=2, sort_keys=True))
+        print(json.dumps(analysis_to_json(result, args.variable, locus), indent=2, sort_keys=True))
     else:
         shown = ([f"table {args.table}"] if args.table else []) + list(args.tf or [])
         print(analysis_to_text(result, shown, args.variable, args.delay))
+        if locus is not None:
+            print(locus_to_text(locus))
     return 0
+
+
+def _params(items: Sequence[str]) -> dict[str, float]:
+    """--param NAME=VALUE options as a mapping."""
+    out = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not sep or not name.strip().isidentifier() or not math.isfinite(value):
+            raise CliError(f"--param: expected NAME=VALUE with a finite number, not {item!r}")
+        out[name.strip()] = value
+    return out
+
+
+def _locus(args: argparse.Namespace, network, params: dict[str, float]):
+    """The root locus --locus asks for (None without it)."""
+    if args.locus is None:
+        return None
+    from engine.root_locus import root_locus
+    return root_locus(network, "e", params, args.locus, None if args.locus_range is None else tuple(args.locus_range),
+                      args.locus_points)
 
 
 def add_parser(sub) -> None:
@@ -155,4 +257,11 @@ def add_parser(sub) -> None:
     p.add_argument("--wmin", type=float, default=1e-3, help="plot grid start, rad/s (margins do not depend on it)")
     p.add_argument("--wmax", type=float, default=1e3, help="plot grid end, rad/s")
     p.add_argument("--points", type=int, default=400, help="plot grid points")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="a value for a name in the expressions (repeatable), e.g. for --locus NAME")
+    p.add_argument("--skew", type=float, default=0.0, help="disk margin skew (0 balanced, 1: S, -1: T)")
+    p.add_argument("--locus", metavar="PARAM", help="add the root locus in the loop gain ('gain') or a --param name")
+    p.add_argument("--locus-range", type=float, nargs=2, metavar=("LO", "HI"),
+                   help="--locus: the range of the gain or parameter (default: decades around it)")
+    p.add_argument("--locus-points", type=int, default=2000, help="--locus: most points of the locus")
     p.set_defaults(handler=cmd_analyze)

@@ -1,0 +1,391 @@
+"""Root loci: the closed-loop poles as a function of the loop gain k
+(1 + k L(s) = 0) or of any named parameter of the network.
+
+Branches are followed by adaptive continuation: a step is accepted when no
+pole moved by more than `MOVE` of its size nor more than `SEPARATE` of its
+distance to the nearest other pole, else it is halved (down to a floor
+where poles collide, at breakaway points); the poles of consecutive points
+are matched by nearest assignment (`linear_sum_assignment`).  The points are
+bounded (``max_points``; status ``"point budget reached"``).  Gain loci
+take their poles from the loop's realization (eigenvalues of A - k B (1 +
+k D)^-1 C) polished by Aberth's iteration on P(s) + k g Z(s) in factored
+form; parameter loci from the closed-loop realization, polished as
+`engine.polish` does.  Imaginary-axis crossings are refined by brentq on
+the parameter; gain loci also carry the asymptotes and breakaway points.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import linalg
+from scipy.optimize import brentq, linear_sum_assignment
+
+from .errors import EngineError
+from .fastloop import LoopEvaluator
+from .loops import loop_model
+from .margins import margins
+from .network import Network
+from .polish import _traces, block_poles, polish
+from .realization import realize
+from .zpk import ZpkEvaluator, loop_realization, zpk_evaluator
+
+MOVE = 0.05  # a step may move a pole by this fraction of max(|pole|, the floor)
+SEPARATE = 0.25  # ... and by this fraction of its distance to the nearest other pole
+FLOOR = 1e-3  # of the largest pole: the size below which poles count as this size
+FIRST_STEPS = 50  # the first step: this fraction of the range
+NOISE_MOVE = 1e-8  # a move this small (relative) is always allowed: the roots' own noise
+MIN_STEP = 1e-10  # of the range: a step this small is accepted whatever moved (poles collide)
+MAX_POINTS = 2000
+EVALUATIONS_PER_POINT = 4  # rejected steps count too: at most this many evaluations per point
+ABERTH_ITERATIONS = 50
+GAIN_DECADES = 3.0  # the default gain range: 1e-3..1e3 times the crossings' span
+
+
+@dataclass(frozen=True)
+class Crossing:
+    """A branch crossing the imaginary axis: the parameter value there, the
+    frequency |Im s| (rad/s), the pole, and +1 into the right half-plane, -1 out."""
+
+    value: float
+    frequency: float
+    pole: complex
+    direction: int
+
+
+@dataclass(frozen=True)
+class RootLocus:
+    """Branches (``branches[i, j]``: pole j at ``values[i]``) of the parameter
+    ``parameter`` ("gain" for k in 1 + k L = 0), the current value and its poles."""
+
+    parameter: str
+    values: NDArray[np.float64]
+    branches: NDArray[np.complex128]
+    current_value: float
+    current: tuple[complex, ...]
+    crossings: tuple[Crossing, ...]
+    status: str  # "complete", "point budget reached" or what stopped it
+    centroid: float | None = None  # gain loci: the asymptotes' centre and angles (deg)
+    angles_deg: tuple[float, ...] = ()
+    breakaways: tuple[tuple[complex, float], ...] = ()  # gain loci: (point, gain)
+    notes: tuple[str, ...] = field(default=())
+
+
+@dataclass(frozen=True)
+class PoleZeroMap:
+    """The open loop's poles, zeros and gain (L = gain prod(s - z)/prod(s - p)) and the closed-loop poles."""
+
+    poles: NDArray[np.complex128]
+    zeros: NDArray[np.complex128]
+    gain: float
+    closed_loop: NDArray[np.complex128]
+
+
+def pole_zero_map(network: Network, break_at: str, params: Mapping[str, float]) -> PoleZeroMap:
+    """The pole-zero map of the loop broken at ``break_at`` (rational loops)."""
+    form, _ = _loop_form(network, break_at, params)
+    roots = _gain_roots(network, break_at, params)
+    return PoleZeroMap(roots(0.0), form.zeros, float(form.gain.real), roots(1.0))
+
+
+def root_locus(network: Network, break_at: str, params: Mapping[str, float], parameter: str = "gain",
+               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS) -> RootLocus:
+    """The locus in the loop gain (``parameter="gain"``) or in a named parameter of the network."""
+    if not network.rational:
+        raise EngineError("a root locus needs a rational loop (no delays, no tables)")
+    if not (isinstance(max_points, int) and 2 <= max_points <= 100_000):
+        raise EngineError(f"a root locus has 2..100000 points, not {max_points!r}")
+    if value_range is not None:
+        lo, hi = (float(v) for v in value_range)
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+            raise EngineError(f"a locus range must be finite with low < high, not {value_range!r}")
+    if parameter == "gain":
+        return gain_locus(network, break_at, params, value_range, max_points)
+    if parameter not in network.parameters:
+        known = ", ".join(network.parameters) or "none"
+        raise EngineError(f"no parameter {parameter!r} to draw a locus in (parameters: {known}; or 'gain')")
+    return parameter_locus(network, params, parameter, value_range, max_points)
+
+
+def gain_locus(network: Network, break_at: str, params: Mapping[str, float],
+               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS) -> RootLocus:
+    """Closed-loop poles of 1 + k L(s) = 0 for k from 0 over ``value_range``
+    (default: 1e-3..1e3 around 1 and every imaginary-axis crossing)."""
+    form, notes = _loop_form(network, break_at, params)
+    roots_at = _gain_roots(network, break_at, params)
+    lo, hi = value_range if value_range is not None else _gain_range(network, break_at, params)
+    if lo <= 0:
+        raise EngineError(f"a gain locus runs over positive gains (it starts at k = 0), not from {lo!r}")
+    ts, rows, status = continuation(lambda t: roots_at(math.exp(t)), math.log(lo), math.log(hi),
+                                    [0.0] if lo < 1.0 < hi else [], max_points)
+    values = np.concatenate([[0.0], np.exp(ts)])
+    branches = np.vstack([_matched(rows[0], roots_at(0.0))[None, :], rows])
+    crossings = _crossings(roots_at, values[1:], branches[1:])
+    centroid, angles = _asymptotes(form)
+    return RootLocus("gain", values, branches, 1.0, tuple(roots_at(1.0).tolist()), crossings, status,
+                     centroid, angles, _breakaways(form), tuple(notes))
+
+
+def parameter_locus(network: Network, params: Mapping[str, float], name: str,
+                    value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS) -> RootLocus:
+    """Closed-loop poles as ``name`` runs over ``value_range`` (default: a
+    decade either side of its value; -1..1 about 0), from the realization."""
+    current = float(params[name])
+    lo, hi = value_range if value_range is not None else (
+        (current / 10, current * 10) if current > 0 else (current * 10, current / 10) if current < 0 else (-1.0, 1.0))
+
+    def roots_at(v: float) -> NDArray:
+        values = dict(params) | {name: v}
+        ss = realize(network, values)
+        eig = np.linalg.eigvals(ss.A) if ss.A.size else np.zeros(0, dtype=complex)
+        return polish(network, values, eig) if eig.size else eig
+
+    logarithmic = lo > 0
+    to_t, from_t = (math.log, math.exp) if logarithmic else (float, float)
+    nodes = [to_t(current)] if lo < current < hi else []
+    ts, rows, status = continuation(lambda t: roots_at(from_t(t)), to_t(lo), to_t(hi), nodes, max_points)
+    values = np.exp(ts) if logarithmic else ts
+    return RootLocus(name, values, rows, current, tuple(roots_at(current).tolist()),
+                     _crossings(roots_at, values, rows), status)
+
+
+def continuation(roots_at: Callable[[float], NDArray], t0: float, t1: float, nodes: Sequence[float] = (),
+                 max_points: int = MAX_POINTS) -> tuple[NDArray, NDArray, str]:
+    """Roots of ``roots_at(t)`` followed from t0 to t1 by adaptive steps
+    (module docstring), passing through every node; (t, rows, status)."""
+    span = t1 - t0
+    first = np.asarray(roots_at(t0), dtype=complex)
+    ts, rows = [t0], [first]
+    t, roots, step, status = t0, first, span / FIRST_STEPS, "complete"
+    stops = sorted(n for n in nodes if t0 < n < t1) + [t1]
+    for _ in range(EVALUATIONS_PER_POINT * max_points):
+        if t >= t1:
+            break
+        if len(ts) >= max_points:
+            status = "point budget reached"
+            break
+        forced = step <= MIN_STEP * span
+        target = min(t + step, next(s for s in stops if s > t))
+        try:
+            new = _matched(roots, np.asarray(roots_at(target), dtype=complex))
+        except EngineError as exc:
+            status = f"stopped at {target:.6g}: {exc}"
+            break
+        ratio = _move_ratio(roots, new)
+        grow = min(1.5, 0.7 / ratio) if ratio > 0 else 1.5  # NaN: shrink
+        if ratio <= 1.0 or forced:
+            t, roots = target, new
+            ts.append(t)
+            rows.append(new)
+            step = min(max(step * grow, MIN_STEP * span), span / 20)
+        else:
+            step = max((target - t) * max(0.2, grow if grow == grow else 0.2), MIN_STEP * span)
+    else:
+        status = "step budget reached"
+    return np.array(ts), np.array(rows).reshape(len(rows), first.size), status
+
+
+def _matched(old: NDArray, new: NDArray) -> NDArray:
+    """``new`` ordered so that new[i] is the pole nearest old[i] (an assignment)."""
+    if old.size != new.size:
+        raise EngineError(f"the number of closed-loop poles changes ({old.size} -> {new.size})")
+    if old.size == 0:
+        return new
+    cost = np.abs(old[:, None] - new[None, :])
+    rows, cols = linear_sum_assignment(cost)
+    out = np.empty_like(new)
+    out[rows] = new[cols]
+    return out
+
+
+def _move_ratio(old: NDArray, new: NDArray) -> float:
+    """The largest move as a fraction of what a step allows (<= 1: accepted)."""
+    if old.size == 0:
+        return 0.0
+    size = np.abs(old)
+    floor = FLOOR * max(float(np.max(size)), 1e-300)
+    allowed = MOVE * np.maximum(size, floor)
+    if old.size > 1:
+        gaps = np.abs(old[:, None] - old[None, :])
+        np.fill_diagonal(gaps, np.inf)
+        nearest = np.min(gaps, axis=1)
+        allowed = np.where(nearest > 0, np.minimum(allowed, SEPARATE * nearest), allowed)
+    allowed = np.maximum(allowed, NOISE_MOVE * np.maximum(size, floor))  # near-coincident roots that stay so
+    with np.errstate(all="ignore"):
+        ratio = np.abs(new - old) / allowed
+    return float(np.max(np.where(np.isfinite(ratio), ratio, np.inf)))
+
+
+def _crossings(roots_at: Callable[[float], NDArray], values: NDArray, rows: NDArray) -> tuple[Crossing, ...]:
+    """Every strict sign change of Re along a branch, refined by brentq on the
+    parameter (the pole followed: the root nearest the branch's chord)."""
+    out = []
+    re = rows.real
+    for i, j in zip(*np.nonzero(np.sign(re[:-1]) * np.sign(re[1:]) < 0)):
+        a, b, pa, pb = float(values[i]), float(values[i + 1]), rows[i, j], rows[i + 1, j]
+        if pa.imag < 0 and pb.imag < 0:
+            continue  # the conjugate of a crossing listed with its upper-half-plane twin
+
+        def pole(v: float, a=a, b=b, pa=pa, pb=pb) -> complex:
+            guess = pa + (pb - pa) * (v - a) / (b - a)
+            roots = roots_at(v)
+            return complex(roots[np.argmin(np.abs(roots - guess))])
+
+        try:
+            v = brentq(lambda x: pole(x).real, a, b, xtol=1e-300, maxiter=200)
+        except (ValueError, RuntimeError, EngineError):
+            continue  # the followed pole jumped (another one came closer): not a clean crossing
+        s = pole(v)
+        out.append(Crossing(float(v), abs(s.imag), complex(0.0, s.imag), 1 if pb.real > 0 else -1))
+    return tuple(sorted(out, key=lambda c: (c.value, c.frequency)))
+
+
+def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> tuple[ZpkEvaluator, list[str]]:
+    """The loop's pole-zero form (for asymptotes, breakaways and the map):
+    `engine.zpk`'s when it matches the network, else the same form unchecked, with a note."""
+    if not network.rational:
+        raise EngineError("a pole-zero map needs a rational loop (no delays, no tables)")
+    exact = LoopEvaluator(network, break_at, params)
+    form = zpk_evaluator(network, break_at, params, exact)
+    if form is not None:
+        return form, []
+    ss = loop_realization(network, break_at, params)
+    k = network.signal(break_at)
+    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k:k + 1], -ss.D[k:k + 1, -1:]
+    if A.shape[0] == 0:
+        raise EngineError(f"the loop broken at {break_at!r} has no dynamics: no locus")
+    pencil, mass = np.block([[A, B], [C, D]]), np.zeros((A.shape[0] + 1,) * 2)
+    mass[:-1, :-1] = np.eye(A.shape[0])
+    with np.errstate(all="ignore"):
+        zeros = linalg.eigvals(pencil, mass)
+    unit = ZpkEvaluator(1.0, zeros[np.isfinite(zeros)], linalg.eigvals(A))
+    at = np.array([_scale(unit)])
+    gain = complex(exact(at)[0][0] / unit(at)[0][0])
+    return ZpkEvaluator(complex(gain.real, 0.0), unit.zeros, unit.poles), [
+        "the loop's pole-zero form differs from the network beyond 1e-9: asymptotes and breakaway points "
+        "are approximate (the locus itself is polished on the network)"]
+
+
+def _gain_roots(network: Network, break_at: str, params: Mapping[str, float]) -> Callable[[float], NDArray]:
+    """k -> the closed-loop poles with the loop gain multiplied by k: the
+    eigenvalues of A - k B (1 + k D)^-1 C, polished by Aberth's iteration
+    on the network's characteristic polynomial with every use of the break
+    signal scaled by k (`engine.polish`'s F(s) = prod d_i det(I - G_k(s)))."""
+    ss = loop_realization(network, break_at, params)
+    b = network.signal(break_at)
+    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[b:b + 1], -ss.D[b:b + 1, -1:]
+    try:
+        block = block_poles(network, params)
+    except EngineError:
+        block = None
+    compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
+    n = len(network.signals)
+
+    def ratio(s: NDArray, k: float) -> NDArray:
+        G = np.zeros((s.size, n, n), dtype=complex)
+        dG = np.zeros_like(G)
+        for row, col, fun in compiled:
+            value, slope = fun(s)
+            scale = k if col == b else 1.0
+            G[:, row, col] += scale * value
+            dG[:, row, col] += scale * slope
+        return np.sum(1.0 / (s[:, None] - block[None, :]), axis=1) - _traces(np.eye(n)[None] - G, dG)
+
+    def roots(k: float) -> NDArray:
+        through = 1.0 + k * D[0, 0]
+        if abs(through) <= 1e-14 * max(1.0, abs(k * D[0, 0])):
+            raise EngineError(f"the loop is algebraically singular at k = {k:.6g} (1 + k L(inf) = 0)")
+        eig = np.linalg.eigvals(A - (k / through) * (B @ C))
+        if block is None or block.size != eig.size:
+            return eig
+        return _aberth(lambda z: ratio(z, k), eig)
+
+    return roots
+
+
+def _aberth(ratio: Callable[[NDArray], NDArray], z: NDArray) -> NDArray:
+    """Roots refined together by Aberth's iteration given s -> F'(s)/F(s); the start where it fails."""
+    start, z, active = z, z.copy(), np.ones(z.size, dtype=bool)
+    with np.errstate(all="ignore"):
+        for _ in range(ABERTH_ITERATIONS):
+            newton = 1.0 / ratio(z)
+            others = 1.0 / (z[:, None] - z[None, :])
+            np.fill_diagonal(others, 0.0)
+            step = newton / (1.0 - newton * np.sum(others, axis=1))
+            finite = np.isfinite(step)
+            step = np.where(finite & active, step, 0.0)
+            z = z - step
+            relative = np.abs(step) / np.maximum(np.abs(z), 1e-300)
+            active &= finite & (relative > 1e-14)
+            if not active.any():
+                break
+    if not np.all(np.isfinite(z)):
+        return start
+    # near a breakaway point (a double root) the iteration converges slowly: what it reached is kept,
+    # whose backward error is still at rounding level (the root itself is only ~sqrt(eps) determined)
+    return np.where(np.abs(z.imag) <= 1e-14 * np.abs(z), z.real + 0j, z)
+
+
+def _loop_terms(form: ZpkEvaluator, k: float, s: NDArray) -> NDArray:
+    """k L(s) at complex s from the pole-zero form (zeros and poles paired: no partial product overflows)."""
+    zq = s[:, None] - form.zeros[None, :]
+    pq = s[:, None] - form.poles[None, :]
+    m = min(form.zeros.size, form.poles.size)
+    value = np.prod(zq[:, :m] / pq[:, :m], axis=1) * np.prod(zq[:, m:], axis=1) / np.prod(pq[:, m:], axis=1)
+    return k * form.gain.real * value
+
+
+def _gain_range(network: Network, break_at: str, params: Mapping[str, float]) -> tuple[float, float]:
+    """1e-3..1e3 times the span of 1 and the gain margins' factors (where the locus crosses)."""
+    found = margins(loop_model(network, break_at, np.geomspace(1e-3, 1e3, 8), params))
+    gains = [1.0] + [10 ** (m.gain_db / 20) for m in found.gain if m.gain_db is not None and math.isfinite(m.gain_db)]
+    return min(gains) * 10 ** -GAIN_DECADES, max(gains) * 10 ** GAIN_DECADES
+
+
+def _scale(form: ZpkEvaluator) -> float:
+    roots = np.abs(np.concatenate([form.zeros, form.poles]))
+    roots = roots[roots > 0]
+    return float(np.exp(np.mean(np.log(roots)))) if roots.size else 1.0
+
+
+def _asymptotes(form: ZpkEvaluator) -> tuple[float | None, tuple[float, ...]]:
+    """Centroid (sum p - sum z)/(n - m) and angles of the n - m asymptotes
+    ((2q + 1) 180/(n - m) deg for a positive loop gain, 2q 180/(n - m) for a negative one)."""
+    excess = form.poles.size - form.zeros.size
+    if excess <= 0:
+        return None, ()
+    centroid = float((np.sum(form.poles) - np.sum(form.zeros)).real / excess)
+    odd = 1 if form.gain.real > 0 else 0
+    return centroid, tuple(float((2 * q + odd) * 180.0 / excess) for q in range(excess))
+
+
+def _breakaways(form: ZpkEvaluator) -> tuple[tuple[complex, float], ...]:
+    """Points where dk/ds = 0 (roots of N'D - N D', Newton-polished on L'/L)
+    with k = -1/L(s) real and positive: (point, gain)."""
+    num, den = np.poly(form.zeros) if form.zeros.size else np.ones(1), np.poly(form.poles)
+    q = np.polysub(np.polymul(np.polyder(num), den) if num.size > 1 else np.zeros(1),
+                   np.polymul(num, np.polyder(den)))
+    q = np.trim_zeros(np.real_if_close(q), "f")
+    if q.size <= 1:
+        return ()
+    s = np.roots(q).astype(complex)
+    with np.errstate(all="ignore"):
+        for _ in range(8):
+            zq, pq = s[:, None] - form.zeros[None, :], s[:, None] - form.poles[None, :]
+            phi = np.sum(1.0 / zq, axis=1) - np.sum(1.0 / pq, axis=1)
+            dphi = -np.sum(1.0 / zq ** 2, axis=1) + np.sum(1.0 / pq ** 2, axis=1)
+            step = np.where(np.isfinite(phi / dphi), phi / dphi, 0.0)
+            s = s - step
+        kl = _loop_terms(form, 1.0, s)
+        k = -1.0 / kl
+    out = []
+    for point, gain in zip(s.tolist(), k.tolist()):
+        if np.isfinite(gain) and gain.real > 0 and abs(gain.imag) <= 1e-8 * abs(gain):
+            point = complex(point.real, 0.0) if abs(point.imag) <= 1e-12 * abs(point) else point
+            if point.imag >= 0:
+                out.append((point, float(gain.real)))
+    return tuple(sorted(out, key=lambda p: p[1]))

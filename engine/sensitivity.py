@@ -1,0 +1,332 @@
+"""Peaks of closed-loop magnitudes over frequency, refined to exact extrema.
+
+Ms = max |S| (S = 1/(1 + GH)), Mt = max |T| (T = GH/(1 + GH)) and the peak
+of |K S| in a band for a given compensator K.  `refined_peaks` is the one
+refinement helper, shared with `engine.disk_margins`: a magnitude |f| of the
+loop (``f`` a `Transform` of GH and dGH/domega) is searched on the margins'
+detection grid (`engine.detection`), every interval that could hide a
+maximum-minimum pair of |f| is halved (bounded: `MAX_ROUNDS`, a point
+budget), every sign change of d log|f|/domega from + to - is refined to
+4 ulp (`engine.rootfind.refine`, all at once, vectorized) and the largest
+of those maxima and the ends (w = 0, w -> inf: limits) is the peak.
+Tabulated loops are searched on a rational fit of the table, as margins
+are.  Method and bounds: docs/analysis.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .detection import _may_hide_pair, detection_grid
+from .errors import EngineError
+from .loops import Evaluator, LoopModel
+from .margins import FIT_LIMIT, Band, _fitted_loop
+from .rootfind import refine, sign_changes
+
+# (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
+Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]
+
+MAX_ROUNDS = 40  # of halving intervals that could hide a pair of extrema of |f|
+EXTRA_POINTS = 20_000  # the halving may add at most this many points to the detection grid
+END_LOOKS = 8  # limits at w -> 0 and w -> inf: at most this many decades-doubling steps
+AGREEMENT = 1e-11  # relative: the pole-zero form must match the network at every peak
+
+
+@dataclass(frozen=True)
+class Peak:
+    """The largest |f| over a band, where it is (0 or inf: a limit at an end) and how it was found."""
+
+    value: float
+    frequency: float
+    method: str = "refined"  # "refined", "fitted (residual ...)" or "grid"
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def db(self) -> float:
+        """The peak in dB (20 log10)."""
+        return float(20.0 * np.log10(self.value)) if self.value > 0 else float("-inf")
+
+
+def sensitivity(w: NDArray, gh: NDArray, dgh: NDArray) -> tuple[NDArray, NDArray]:
+    """S = 1/(1 + GH) and dS/domega."""
+    with np.errstate(all="ignore"):
+        s = 1.0 / (1.0 + gh)
+        return s, -dgh * s * s
+
+
+def complementary(w: NDArray, gh: NDArray, dgh: NDArray) -> tuple[NDArray, NDArray]:
+    """T = GH/(1 + GH) and dT/domega."""
+    with np.errstate(all="ignore"):
+        s = 1.0 / (1.0 + gh)
+        return np.where(np.abs(gh) > 1.0, 1.0 / (1.0 + 1.0 / gh), gh * s), dgh * s * s
+
+
+def compensator_sensitivity(compensator: Evaluator) -> Transform:
+    """The transform K S, K and dK/domega given by ``compensator(omega)``."""
+
+    def ks(w: NDArray, gh: NDArray, dgh: NDArray) -> tuple[NDArray, NDArray]:
+        k, dk = compensator(w)
+        s, ds = sensitivity(w, gh, dgh)
+        return k * s, dk * s + k * ds
+
+    return ks
+
+
+def transfer_evaluator(transfer, params: dict[str, float]) -> Evaluator:
+    """omega -> (K(j omega), dK/domega) of one block's transfer (e.g. the compensator)."""
+    fun = transfer.compile(params)
+
+    def evaluate(w: NDArray) -> tuple[NDArray, NDArray]:
+        value, slope = fun(1j * np.asarray(w, dtype=float))
+        return value, 1j * slope
+
+    return evaluate
+
+
+def sensitivity_peak(loop: LoopModel, band: Band = Band()) -> Peak:
+    """Ms = max |S| over ``band``, refined."""
+    return refined_peaks(loop, [sensitivity], band)[0]
+
+
+def complementary_peak(loop: LoopModel, band: Band = Band()) -> Peak:
+    """Mt = max |T| over ``band``, refined."""
+    return refined_peaks(loop, [complementary], band)[0]
+
+
+def compensator_peak(loop: LoopModel, compensator: Evaluator, band: Band = Band()) -> Peak:
+    """max |K S| over ``band`` (K from ``compensator``: omega -> (K, dK/domega)), refined."""
+    return refined_peaks(loop, [compensator_sensitivity(compensator)], band)[0]
+
+
+def magnitude_curves(loop: LoopModel, omega: NDArray | None = None) -> tuple[NDArray, NDArray, NDArray]:
+    """(omega, |S|, |T|) on ``omega`` (default: the loop's grid), for plots."""
+    w = loop.omega if omega is None else np.asarray(omega, dtype=float)
+    gh = loop.gh if omega is None else (loop.evaluate(w)[0] if loop.evaluate is not None else None)
+    if gh is None:
+        raise EngineError("a tabulated loop's |S| and |T| are known on its own frequencies only")
+    with np.errstate(all="ignore"):
+        return w, np.abs(1.0 / (1.0 + gh)), np.abs(gh / (1.0 + gh))
+
+
+def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band = Band()) -> tuple[Peak, ...]:
+    """The peak of |f| over ``band`` for every transform f, refined together (module docstring)."""
+    if not band.low <= band.high or band.low < 0:
+        raise EngineError(f"a peak's band must be 0 <= low <= high, not {band.low!r}..{band.high!r}")
+    if not transforms:
+        return ()
+    if loop.evaluate is None:
+        return _table_peaks(loop, transforms, band)
+    peaks = _peaks_on(loop, transforms, band)
+    if loop.exact is not loop.evaluate and not _agrees(loop, transforms, peaks):
+        peaks = _peaks_on(loop.on_exact(), transforms, band)
+    return peaks
+
+
+def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...]:
+    grid = detection_grid(loop)
+    notes = list(grid.notes)
+    if not loop.rational:
+        notes.append(f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
+    w, gh, dgh = _within(loop, grid.omega, grid.gh, grid.dgh, band)
+    w, gh, dgh = _resolved(loop, transforms, w, gh, dgh, notes)
+    levels = [_level(*t(w, gh, dgh)) for t in transforms]
+    at, group = _refined_maxima(loop, transforms, w, levels)
+    found = [_candidates(w, levels[k][0], at[group == k], _values(loop, transforms[k], at[group == k]))
+             for k in range(len(transforms))]
+    ends = _ends(loop, transforms, w, band, notes) if loop.rational else [([], [])] * len(transforms)
+    out = []
+    for (points, values), (end_w, end_v) in zip(found, ends):
+        points, values = np.concatenate([points, end_w]), np.concatenate([values, end_v])
+        values = np.where(np.isfinite(values), values, -np.inf)
+        best = int(np.argmax(values))
+        out.append(Peak(float(np.exp(values[best])), float(points[best]), "refined", tuple(notes)))
+    return tuple(out)
+
+
+def _level(f: NDArray, df: NDArray) -> tuple[NDArray, NDArray]:
+    """h = log |f| and h' = d h/domega = Re(f'/f)."""
+    with np.errstate(all="ignore"):
+        return np.log(np.abs(f)), (df / f).real
+
+
+def _within(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, band: Band) -> tuple[NDArray, ...]:
+    """The grid cut to the band, with the band's finite inner ends added (evaluated exactly)."""
+    keep = (w >= band.low) & (w <= band.high)
+    ends = np.array([x for x in (band.low, band.high) if 0 < x < np.inf and w[0] <= x <= w[-1]])
+    w, gh, dgh = w[keep], gh[keep], dgh[keep]
+    if ends.size:
+        eg, edg = loop.evaluate(ends)
+        w, gh, dgh = np.concatenate([w, ends]), np.concatenate([gh, eg]), np.concatenate([dgh, edg])
+        w, first = np.unique(w, return_index=True)
+        gh, dgh = gh[first], dgh[first]
+    if w.size < 2:
+        raise EngineError(f"the band {band.low:g}..{band.high:g} rad/s holds no searched frequencies")
+    return w, gh, dgh
+
+
+def _resolved(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray,
+              notes: list[str]) -> tuple[NDArray, ...]:
+    """The grid with every interval halved that could hide a pair of extrema of
+    some |f| (the detection grid's own test, `_may_hide_pair`, on f), bounded."""
+    budget = w.size + EXTRA_POINTS
+    for _ in range(MAX_ROUNDS):
+        split = np.zeros(w.size - 1, dtype=bool)
+        for t in transforms:
+            split |= _may_hide(*t(w, gh, dgh))
+        split &= (w[1:] - w[:-1]) > 1e-12 * w[1:]
+        if not split.any():
+            return w, gh, dgh
+        if w.size + np.count_nonzero(split) > budget:
+            notes.append(f"the peak search reached its budget of {budget} points: narrow peaks near "
+                         f"{float(np.median(w[:-1][split])):.6g} rad/s may be missed")
+            return w, gh, dgh
+        a, b = w[:-1][split], w[1:][split]
+        mid = np.where(a > 0, np.sqrt(a * b), 0.5 * b)
+        mg, mdg = loop.evaluate(mid)
+        w, gh, dgh = np.concatenate([w, mid]), np.concatenate([gh, mg]), np.concatenate([dgh, mdg])
+        order = np.argsort(w, kind="stable")
+        w, gh, dgh = w[order], gh[order], dgh[order]
+    notes.append(f"the peak search stopped after {MAX_ROUNDS} rounds of halving")
+    return w, gh, dgh
+
+
+def _may_hide(f: NDArray, df: NDArray) -> NDArray[np.bool_]:
+    """Intervals over which |f| could have a maximum and a minimum inside."""
+    with np.errstate(all="ignore"):
+        theta = np.arctan2((df / f).imag, (df / f).real)
+        turn = np.abs(np.angle(f[1:] / f[:-1])) + np.abs(np.angle(df[1:] / df[:-1]))
+        hide = _may_hide_pair(theta[:-1], theta[1:], turn)
+    return hide & np.isfinite(turn)
+
+
+def _refined_maxima(loop: LoopModel, transforms: Sequence[Transform], w: NDArray,
+                    levels: list[tuple[NDArray, NDArray]]) -> tuple[NDArray, NDArray]:
+    """Every interior maximum of every |f| (h' from + to -), refined in one
+    vectorized `refine`; their frequencies and which transform each is of."""
+    index = [sign_changes(d, falling_only=True) for _, d in levels]
+    group = np.concatenate([np.full(i.size, k) for k, i in enumerate(index)]).astype(int)
+    if group.size == 0:
+        return np.zeros(0), group
+    i = np.concatenate(index)
+    h = np.concatenate([levels[k][0][j] for k, j in enumerate(index)])
+    h1 = np.concatenate([levels[k][0][j + 1] for k, j in enumerate(index)])
+    d = np.concatenate([levels[k][1][j] for k, j in enumerate(index)])
+    d1 = np.concatenate([levels[k][1][j + 1] for k, j in enumerate(index)])
+
+    def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
+        g, dg = loop.evaluate(points)
+        h_out, d_out = np.empty(points.size), np.empty(points.size)
+        owner = group[which]
+        for k, t in enumerate(transforms):
+            sel = owner == k
+            if sel.any():
+                h_out[sel], d_out[sel] = _level(*t(points[sel], g[sel], dg[sel]))
+        return h_out, d_out
+
+    roots = refine(fun, w[i], w[i + 1], h, h1, d, d1, True)
+    return roots.at, group
+
+
+def _values(loop: LoopModel, transform: Transform, at: NDArray) -> NDArray:
+    if at.size == 0:
+        return np.zeros(0)
+    g, dg = loop.evaluate(at)
+    return _level(*transform(at, g, dg))[0]
+
+
+def _candidates(w: NDArray, h: NDArray, at: NDArray, values: NDArray) -> tuple[NDArray, NDArray]:
+    """Refined maxima and every grid point (a maximum at a band end is a grid point)."""
+    return np.concatenate([at, w]), np.concatenate([values, h])
+
+
+def _ends(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, band: Band,
+          notes: list[str]) -> list[tuple[list, list]]:
+    """Per transform, the limits of log |f| at w -> 0 and w -> inf when the
+    band reaches there (reported at frequencies 0 and inf)."""
+    out: list[tuple[list, list]] = [([], []) for _ in transforms]
+    for reach, start, factor, at in ((band.low == 0, w[0], 0.1, 0.0), (band.high == np.inf, w[-1], 10.0, np.inf)):
+        if not reach:
+            continue
+        for k, (value, settled) in enumerate(_limit(loop, transforms, start, factor)):
+            if not settled:
+                notes.append(f"|f| still grows towards {at:g} rad/s: its last value is used")
+            out[k][0].append(at)
+            out[k][1].append(value)
+    return out
+
+
+def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float,
+           factor: float) -> list[tuple[float, bool]]:
+    """Per transform, log |f| as omega -> 0 (factor < 1) or inf, by steps of
+    factor**(2**j) (at most `END_LOOKS`), and whether it settled (changed by
+    at most 4 ulp).  A level still falling there is -inf (never the peak)."""
+    rows = []
+    for j in range(END_LOOKS):
+        x = np.array([start * factor ** (2 ** (j + 1))])
+        if not (0 < x[0] < np.inf):
+            break
+        try:
+            with np.errstate(all="ignore"):
+                g, dg = loop.evaluate(x)
+        except EngineError:  # the response overflows out there: the looks so far are the limit
+            break
+        with np.errstate(all="ignore"):
+            rows.append([_level(*t(x, g, dg))[0][0] for t in transforms])
+        if len(rows) >= 2 and np.all(_settled(np.array(rows[-2]), np.array(rows[-1]))):
+            break
+    out = []
+    for k in range(len(transforms)):
+        values = np.array([row[k] for row in rows])
+        values = values[~np.isnan(values)]
+        if values.size < 2:
+            out.append((-np.inf, True))
+        elif _settled(values[-2], values[-1]):
+            out.append((float(values[-1]), True))
+        else:
+            out.append((-np.inf, True) if values[-1] < values[-2] else (float(values[-1]), False))
+    return out
+
+
+def _settled(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
+    with np.errstate(all="ignore"):
+        return (a == b) | (np.abs(b - a) <= 4e-16 * np.maximum(1.0, np.abs(b)))
+
+
+def _agrees(loop: LoopModel, transforms: Sequence[Transform], peaks: Sequence[Peak]) -> bool:
+    """Does the fast form of GH agree with the network at every finite interior peak?"""
+    w = np.array([p.frequency for p in peaks if 0 < p.frequency < np.inf])
+    if w.size == 0:
+        return True
+    try:
+        exact, fast = loop.exact(w)[0], loop.evaluate(w)[0]
+    except EngineError:
+        return False
+    with np.errstate(all="ignore"):
+        return bool(np.all(np.abs(exact - fast) <= AGREEMENT * np.abs(exact)))
+
+
+def _table_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...]:
+    """Peaks of a tabulated loop: refined on its rational fit (the margins' fit), else grid maxima."""
+    fitted = _fitted_loop(loop)
+    if fitted is not None:
+        model, residual, degree = fitted
+        note = (f"tabulated loop: peaks refined on a rational fit of degree {degree} "
+                f"(relative residual {residual:.1e} on the table)")
+        found = _peaks_on(model, transforms, band)
+        return tuple(Peak(p.value, p.frequency, f"fitted (residual {residual:.1e})", (note,) + p.notes)
+                     for p in found)
+    keep = (loop.omega >= band.low) & (loop.omega <= band.high)
+    if not keep.any():
+        raise EngineError(f"the band {band.low:g}..{band.high:g} rad/s holds no table frequencies")
+    w, gh = loop.omega[keep], loop.gh[keep]
+    note = f"the table could not be fitted within {FIT_LIMIT:g} relative: peaks at grid points"
+    out = []
+    for t in transforms:
+        value = np.abs(t(w, gh, np.zeros_like(gh))[0])
+        best = int(np.nanargmax(value))
+        out.append(Peak(float(value[best]), float(w[best]), "grid", (note,)))
+    return tuple(out)
