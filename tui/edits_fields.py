@@ -140,10 +140,21 @@ def objective_rows(bench: Workbench) -> list[tuple[str, str, Ref | None]]:
     rows: list[tuple[str, str, Ref | None]] = []
     if objective is not None:
         rows.append(("objective kind", objective.kind, None))
-        rows += [(name, str(value), ("objective", name)) for name, value in objective.options.items()]
-    rows += [(f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), str(value), ("setting", name))
+        rows += [(name, shown(value), ("objective", name)) for name, value in objective.options.items()]
+    rows += [(f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), shown(value), ("setting", name))
              for name, value, given in setting_rows(bench)]
     return rows
+
+
+def shown(value: object) -> str:
+    """A setting as the table shows it: 'default' for None, yes/no, numbers exactly."""
+    if value is None:
+        return "default"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return forms.format_number(value)
+    return str(value)
 
 
 def objective_edit(bench: Workbench, ref: Ref) -> Edit:

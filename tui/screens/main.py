@@ -16,6 +16,7 @@ from textual.widgets import DataTable, Footer, TabbedContent, TabPane
 from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
+from ..copying import design_text, row_text
 from ..edits_fields import objective_rows
 from ..figures import figures, history_figure
 from ..keys import identified
@@ -56,7 +57,11 @@ class MainScreen(Screen):
                 Binding("4", "tab('history')", "history", show=False),
                 Binding("5", "tab('sweep')", "sweep", show=False),
                 Binding("t", "step_setup", "step signals", show=False,
-                        tooltip="the step plot's input, output and horizon")])
+                        tooltip="the step plot's input, output and horizon"),
+                Binding("y", "copy", "copy", show=False,
+                        tooltip="copy the selected table row, or the tableau (OSC 52: works over SSH)"),
+                Binding("Y", "copy_design", "copy design", show=False,
+                        tooltip="copy the current compensator(s) as expressions with the values in place")])
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
@@ -160,6 +165,27 @@ class MainScreen(Screen):
         title = (f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, horizon {horizon(ss):.3g} s from the "
                  f"slowest pole)\ninputs: {', '.join(ss.inputs)}\nsignals: {', '.join(ss.outputs)}")
         self.app.push_screen(EditDialog(title, format_step_setup(self.bench.step_setup, ss), check), typed)
+
+    def action_copy(self) -> None:
+        """The focused table's selected row, else the tableau, to the clipboard."""
+        focused = self.focused
+        if isinstance(focused, DataTable) and focused.row_count:
+            text, what = row_text(focused.get_row_at(focused.cursor_row)), "the row"
+        else:
+            text, what = self.query_one("#tableau", TextView).text.plain, "the tableau"
+        self.app.copy_to_clipboard(text)
+        self.app.notify(f"copied {what} ({len(text)} characters)", timeout=3)
+
+    def action_copy_design(self) -> None:
+        view = self.bench.view()
+        condition = view.plotted()[0] if view.plotted() else 0
+        text = design_text(self.bench.session.model.problem, view.parameters(None, condition), condition) \
+            if self.bench.session.model.problem.conditions else ""
+        if not text:
+            self.app.notify("no block of this session reads a parameter", severity="warning")
+            return
+        self.app.copy_to_clipboard(text)
+        self.app.notify(f"copied the design:\n{text}", timeout=6)
 
     def action_tab(self, name: str) -> None:
         """Show a tab and focus its main widget (focus left in a hidden pane would

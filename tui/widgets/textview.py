@@ -22,5 +22,10 @@ class TextView(Widget):
         self.refresh(layout=lines != self._lines)
         self._lines = lines
 
+    @property
+    def text(self) -> Text:
+        """What it shows."""
+        return self._text
+
     def render(self) -> Text:
         return self._text
