@@ -22,7 +22,7 @@ from .errors import EngineError
 from .measures import tableau
 from .problem import Problem
 
-LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step"})
+LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step", "closed_loop", "poles", "locus"})
 # what reading a record's free-form `extra` raises when a session file was edited by hand
 MALFORMED_EXTRA = (KeyError, TypeError, ValueError, IndexError, AttributeError)
 HEADLINE_COUNTERS = ("trials", "KNT", "KOUNT", "evaluations")

@@ -93,8 +93,11 @@ def pole_zero_map(network: Network, break_at: str, params: Mapping[str, float]) 
 
 
 def root_locus(network: Network, break_at: str, params: Mapping[str, float], parameter: str = "gain",
-               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS) -> RootLocus:
-    """The locus in the loop gain (``parameter="gain"``) or in a named parameter of the network."""
+               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS,
+               polished: bool = True) -> RootLocus:
+    """The locus in the loop gain (``parameter="gain"``) or in a named parameter of the
+    network; ``polished`` False: a gain locus of the realization's eigenvalues alone
+    (for drawing: far faster, not the characteristic equation's full precision)."""
     if not network.rational:
         raise EngineError("a root locus needs a rational loop (no delays, no tables)")
     if not (isinstance(max_points, int) and 2 <= max_points <= 100_000):
@@ -104,7 +107,7 @@ def root_locus(network: Network, break_at: str, params: Mapping[str, float], par
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise EngineError(f"a locus range must be finite with low < high, not {value_range!r}")
     if parameter == "gain":
-        return gain_locus(network, break_at, params, value_range, max_points)
+        return gain_locus(network, break_at, params, value_range, max_points, polished)
     if parameter not in network.parameters:
         known = ", ".join(network.parameters) or "none"
         raise EngineError(f"no parameter {parameter!r} to draw a locus in (parameters: {known}; or 'gain')")
@@ -112,11 +115,12 @@ def root_locus(network: Network, break_at: str, params: Mapping[str, float], par
 
 
 def gain_locus(network: Network, break_at: str, params: Mapping[str, float],
-               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS) -> RootLocus:
+               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS,
+               polished: bool = True) -> RootLocus:
     """Closed-loop poles of 1 + k L(s) = 0 for k from 0 over ``value_range``
     (default: 1e-3..1e3 around 1 and every imaginary-axis crossing)."""
     form, notes = _loop_form(network, break_at, params)
-    roots_at = _gain_roots(network, break_at, params)
+    roots_at = _gain_roots(network, break_at, params, polished)
     lo, hi = value_range if value_range is not None else _gain_range(network, break_at, params)
     if lo <= 0:
         raise EngineError(f"a gain locus runs over positive gains (it starts at k = 0), not from {lo!r}")
@@ -270,7 +274,8 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
         "are approximate (the locus itself is polished on the network)"]
 
 
-def _gain_roots(network: Network, break_at: str, params: Mapping[str, float]) -> Callable[[float], NDArray]:
+def _gain_roots(network: Network, break_at: str, params: Mapping[str, float],
+                polished: bool = True) -> Callable[[float], NDArray]:
     """k -> the closed-loop poles with the loop gain multiplied by k: the
     eigenvalues of A - k B (1 + k D)^-1 C, polished by Aberth's iteration
     on the network's characteristic polynomial with every use of the break
@@ -300,7 +305,7 @@ def _gain_roots(network: Network, break_at: str, params: Mapping[str, float]) ->
         if abs(through) <= 1e-14 * max(1.0, abs(k * D[0, 0])):
             raise EngineError(f"the loop is algebraically singular at k = {k:.6g} (1 + k L(inf) = 0)")
         eig = np.linalg.eigvals(A - (k / through) * (B @ C))
-        if block is None or block.size != eig.size:
+        if not polished or block is None or block.size != eig.size:
             return eig
         return _aberth(lambda z: ratio(z, k), eig)
 

@@ -4,6 +4,7 @@ run's worker builds them from its own view; the screen shows them)."""
 from __future__ import annotations
 
 from .views import View
+from .analysis_views import poles_figure, sensitivity_figure
 from .widgets.plots import (Figure, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
                             sweep_figure, trajectories_figure)
 
@@ -30,6 +31,10 @@ def figures(view: View) -> dict[str, Figure]:
         out["nyquist"] = nyquist_figure(curves, points(view), radius(view))
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, view.problem.grid.unit)
         out["nichols"] = nichols_figure(curves)
+    if "closed_loop" in wanted and view.problem.conditions:
+        out["closed-loop"] = sensitivity_figure(view)
+    if "poles" in wanted and view.problem.conditions:
+        out["poles"] = poles_figure(view)
     label, its, values = view.convergence()
     out["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet")
     if "trajectories" in wanted:

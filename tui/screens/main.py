@@ -16,27 +16,27 @@ from textual.widgets import DataTable, Footer, TabbedContent, TabPane
 from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
-from ..copying import design_text, row_text
 from ..edits_fields import objective_rows
 from ..figures import figures, history_figure
 from ..keys import identified
 from ..plant_rows import plant_rows
-from ..step_view import format_step_setup, horizon, parse_step_setup
 from ..tableau import tableau_text
 from ..views import View
 from ..widgets.plots import FigurePlot, sweep_figure
 from ..widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
 from ..widgets.textview import TextView
 from ..workbench import Workbench
-from .dialogs import EditDialog
+from .view_actions import ViewActions
 from sessions import forms
 from sessions.target_use import target_note
 
 # the plot tabs, and the plots (figure ids) each shows
 PLOT_TABS = {"p-nyquist": ("nyquist",), "p-bode": ("bode-mag", "bode-phase"), "p-nichols": ("nichols",),
+             "p-closed": ("closed-loop",), "p-poles": ("poles",), "p-locus": ("locus",),
              "p-convergence": ("convergence",), "p-step": ("step",), "p-trajectories": ("trajectories",)}
-PRESENTER_PLOTS = {"p-nyquist": "nyquist", "p-bode": "bode", "p-nichols": "nichols",
-                   "p-convergence": "convergence", "p-step": "step", "p-trajectories": "trajectories"}
+PRESENTER_PLOTS = {"p-nyquist": "nyquist", "p-bode": "bode", "p-nichols": "nichols", "p-closed": "closed_loop",
+                   "p-poles": "poles", "p-locus": "locus", "p-convergence": "convergence", "p-step": "step",
+                   "p-trajectories": "trajectories"}
 
 
 def _values(value) -> str:
@@ -48,7 +48,7 @@ MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targe
                 "history": "#history-table", "sweep": "#optima-table"}
 
 
-class MainScreen(Screen):
+class MainScreen(ViewActions, Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
     BINDINGS = identified("main", [Binding("p", "next_plot", "next plot"), Binding("1", "tab('run')", "run", show=False),
@@ -82,6 +82,7 @@ class MainScreen(Screen):
         super().__init__()
         self.bench = bench
         self._history_stale = True
+        self._locus_key = None   # what the root locus shown was computed for
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -119,10 +120,14 @@ class MainScreen(Screen):
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
         wanted = self.bench.presenter.plots
-        titles = {"p-nyquist": "Nyquist", "p-bode": "Bode", "p-nichols": "Nichols", "p-convergence": "Convergence",
-                  "p-step": "Step", "p-trajectories": "Trajectories"}
-        if not self.bench.session.problem.conditions:
-            wanted = wanted - {"nyquist", "bode", "nichols", "step"}
+        titles = {"p-nyquist": "Nyquist", "p-bode": "Bode", "p-nichols": "Nichols", "p-closed": "S/T",
+                  "p-poles": "Poles", "p-locus": "Locus", "p-convergence": "Convergence", "p-step": "Step",
+                  "p-trajectories": "Trajectories"}
+        conditions = self.bench.session.problem.conditions
+        if not conditions:
+            wanted = wanted - {"nyquist", "bode", "nichols", "step", "closed_loop", "poles", "locus"}
+        elif not any(c.network.rational for c in conditions):
+            wanted = wanted - {"poles", "locus"}   # a tabulated loop has no poles to show
         self.plot_tabs = [tab for tab in PLOT_TABS if PRESENTER_PLOTS[tab] in wanted]
         with TabbedContent(id="plots"):
             for tab in self.plot_tabs:
@@ -143,50 +148,6 @@ class MainScreen(Screen):
         plots.active = tabs[(tabs.index(plots.active) + 1) % len(tabs)] if plots.active in tabs else tabs[0]
         self.refresh_plots()
 
-    def action_step_setup(self) -> None:
-        """Ask which input is stepped, which output is plotted and for how long."""
-        view = self.bench.view()
-        ss = view.step_loop(view.plotted()[0] if view.plotted() else 0)
-        if ss is None:
-            self.app.notify("no step response here (it needs a rational plant)", severity="warning")
-            return
-
-        def check(text: str) -> str | None:
-            try:
-                parse_step_setup(text, ss.inputs, ss.outputs)
-            except ValueError as exc:
-                return str(exc)
-            return None
-
-        def typed(text: str | None) -> None:
-            if text is not None:
-                self.bench.step_setup = parse_step_setup(text, ss.inputs, ss.outputs)
-                self.refresh_plots()
-        title = (f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, horizon {horizon(ss):.3g} s from the "
-                 f"slowest pole)\ninputs: {', '.join(ss.inputs)}\nsignals: {', '.join(ss.outputs)}")
-        self.app.push_screen(EditDialog(title, format_step_setup(self.bench.step_setup, ss), check), typed)
-
-    def action_copy(self) -> None:
-        """The focused table's selected row, else the tableau, to the clipboard."""
-        focused = self.focused
-        if isinstance(focused, DataTable) and focused.row_count:
-            text, what = row_text(focused.get_row_at(focused.cursor_row)), "the row"
-        else:
-            text, what = self.query_one("#tableau", TextView).text.plain, "the tableau"
-        self.app.copy_to_clipboard(text)
-        self.app.notify(f"copied {what} ({len(text)} characters)", timeout=3)
-
-    def action_copy_design(self) -> None:
-        view = self.bench.view()
-        condition = view.plotted()[0] if view.plotted() else 0
-        text = design_text(self.bench.session.model.problem, view.parameters(None, condition), condition) \
-            if self.bench.session.model.problem.conditions else ""
-        if not text:
-            self.app.notify("no block of this session reads a parameter", severity="warning")
-            return
-        self.app.copy_to_clipboard(text)
-        self.app.notify(f"copied the design:\n{text}", timeout=6)
-
     def action_tab(self, name: str) -> None:
         """Show a tab and focus its main widget (focus left in a hidden pane would
         make the tabs switch back to it)."""
@@ -198,6 +159,8 @@ class MainScreen(Screen):
         self.set_focus(self.query_one(MAIN_WIDGETS[name]))
 
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
+        if event.tabbed_content.id == "plots":
+            self.refresh_locus()
         if event.tabbed_content.id != "tabs":
             return
         if self._history_stale:
@@ -251,10 +214,13 @@ class MainScreen(Screen):
         return out
 
     def refresh_plots(self, drawn: dict | None = None, prebuilt: dict | None = None) -> None:
-        drawn = figures(self.bench.view()) if drawn is None else drawn
+        view = self.bench.view()
+        drawn = figures(view) if drawn is None else drawn
         for name, figure in drawn.items():
             for plot in self.query(f"#{name}").results(FigurePlot):
                 plot.show(figure, (prebuilt or {}).get(name))
+        self._locus_key = None
+        self.refresh_locus(view)
 
     def _step_info(self, view: View, record: StepRecord | None) -> str | Text:
         if record is None or record.iteration == 0:

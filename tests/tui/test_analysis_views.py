@@ -1,0 +1,54 @@
+"""The S/T, pole-zero and root-locus views against independent computations."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sessions.store import load_session
+from tui.analysis_views import locus_figure, poles_figure, sensitivity_figure
+from tui.app import LoopcraftApp
+from tui.workbench import Workbench
+
+from .test_app import settle, synchronous
+
+
+
+def _loop(s):
+    return (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
+
+
+def test_the_marked_peaks_are_the_dense_maxima_and_the_poles_the_closed_loop_roots(workdir):
+    view = Workbench(load_session(workdir / "report003_lag_lead.json")).view()
+    fig = sensitivity_figure(view)
+    w = np.logspace(-3, 4, 400001)
+    L = _loop(1j * w)
+    ms, mt = np.abs(1 / (1 + L)).max(), np.abs(L / (1 + L)).max()
+    marked = {s.label.split()[0]: s.y[0] for s in fig.series if s.scatter}
+    assert abs(marked["Ms"] - 20 * np.log10(ms)) < 1e-6 and abs(marked["Mt"] - 20 * np.log10(mt)) < 1e-6
+    den = np.polymul(np.polymul([1, 0.1], [1, 50]), np.polymul([1, 0], np.polymul([1, 8], [1, 20])))
+    num = 16000 * np.polymul([1, 1], [1, 5])
+    expected = np.sort_complex(np.roots(np.polyadd(den, num)))
+    closed = next(s for s in poles_figure(view).series if s.label == "closed-loop poles")
+    assert np.allclose(np.sort_complex(np.array(closed.x) + 1j * np.array(closed.y)), expected, rtol=1e-9)
+    locus = locus_figure(view)
+    current = next(s for s in locus.series if s.label.startswith("k = 1"))
+    assert np.allclose(np.sort_complex(np.array(current.x) + 1j * np.array(current.y)), expected, rtol=1e-9)
+
+
+@synchronous
+async def test_the_views_are_plot_tabs_and_the_locus_is_computed_when_shown(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plots = app.screen.query_one("#plots")
+        assert {"p-closed", "p-poles", "p-locus"} <= set(app.screen.plot_tabs)
+        plots.active = "p-locus"
+        await settle(app, pilot)
+        await app.workers.wait_for_complete()
+        await settle(app, pilot)
+        figure = app.screen.query_one("#locus").figure
+        assert figure.title.startswith("Root locus") and figure.series
+    app = LoopcraftApp(workdir / "seidel_inlet_pi.json")     # tabulated: no poles to show
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert "p-closed" in app.screen.plot_tabs and "p-locus" not in app.screen.plot_tabs
