@@ -3,15 +3,23 @@ run's worker builds them from its own view; the screen shows them)."""
 
 from __future__ import annotations
 
-from .views import View
 from .analysis_views import poles_figure, sensitivity_figure
-from .widgets.plots import (Figure, bode_figures, line_figure, nichols_figure, nyquist_figure, step_figure,
-                            sweep_figure, trajectories_figure)
+from .views import View
+from .widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
+from .widgets.plots import Figure, line_figure, step_figure, sweep_figure, trajectories_figure
 
 
 def points(view: View) -> list[tuple[complex, str]]:
     """The targets' push/pull points (drawn on the Nyquist plot)."""
     return [(p.value, p.mode) for t in view.problem.targets for p in t.points]
+
+
+def disk(view: View) -> float | None:
+    """The first disk-margin target's desired alpha (its exclusion disk on the Nyquist plot)."""
+    for t in view.problem.targets:
+        if t.measure == "disk_margin" and t.bands:
+            return t.bands[0].desired
+    return None
 
 
 def radius(view: View) -> float | None:
@@ -28,7 +36,7 @@ def figures(view: View) -> dict[str, Figure]:
     out: dict[str, Figure] = {}
     curves = view.loop_curves() if wanted & {"nyquist", "bode", "nichols"} else []
     if curves:
-        out["nyquist"] = nyquist_figure(curves, points(view), radius(view))
+        out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view))
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, view.problem.grid.unit)
         out["nichols"] = nichols_figure(curves)
     if "closed_loop" in wanted and view.problem.conditions:

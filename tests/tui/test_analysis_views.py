@@ -52,3 +52,15 @@ async def test_the_views_are_plot_tabs_and_the_locus_is_computed_when_shown(work
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         assert "p-closed" in app.screen.plot_tabs and "p-locus" not in app.screen.plot_tabs
+
+
+def test_m_circles_and_the_exclusion_disk_are_what_they_say():
+    from tui.widgets.loop_figures import m_circle, nyquist_figure
+    for m_db in (0.5, 3.0, 6.0):
+        phase, db = m_circle(m_db)
+        L = 10 ** (db / 20) * np.exp(1j * np.radians(phase))
+        assert np.allclose(20 * np.log10(np.abs(L / (1 + L))), m_db, atol=1e-9)
+    fig = nyquist_figure([], [], None, disk=0.8)
+    edge = next(s for s in fig.series if s.label.startswith("disk margin"))
+    L = np.array(edge.x) + 1j * np.array(edge.y)
+    assert np.allclose(np.abs(1 / (1 + L) - 0.5), 1 / 0.8, rtol=1e-9)      # |S - 1/2| = 1/alpha on its edge

@@ -147,7 +147,7 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
 
 def test_bode_plots_mark_the_margins_of_report_003(workdir):
     """Report 003 chapter 1, lag-lead compensated: PM 52.13 deg at 12.06 rad/s, GM 14.11 dB."""
-    from tui.widgets.plots import bode_figures
+    from tui.widgets.loop_figures import bode_figures
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     magnitude, phase = bode_figures(bench.view().loop_curves(), "rad/s")
     marks = {s.label: s for s in magnitude.series if s.scatter}

@@ -1,0 +1,118 @@
+"""The open loop's figures: Nyquist (with the mirror image at negative
+frequencies, the unit circle, the stability circle and the disk-margin
+exclusion disk), Bode with the margins marked, Nichols with M-circles."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .plots import Figure, Series, _decades, _finite
+
+M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)   # |T| contours on the Nichols chart
+
+
+def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None,
+                   title: str = "Nyquist (GH plane)", disk: float | None = None) -> Figure:
+    """GH plane around -1: the curves (their mirror images at negative frequencies
+    dotted), the unit circle, -1, push/pull points, the desired stability circle and
+    the exclusion disk of a disk-margin target (balanced: |S - 1/2| >= 1/alpha)."""
+    fig = Figure(title=title, xlabel="Re GH", ylabel="Im GH", xlim=(-4.0, 2.0), ylim=(-3.0, 3.0))
+    t = np.linspace(0, 2 * np.pi, 120)
+    fig.series.append(Series(np.cos(t).tolist(), np.sin(t).tolist(), "", color="gray"))
+    for curve in curves:
+        gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
+        x, y = _finite(gh.real, gh.imag)
+        fig.series.append(Series(x, [-v for v in y], "", color="gray"))   # negative frequencies
+        fig.series.append(Series(x, y, curve.label, color=curve.color))
+    if disk:
+        s = 0.5 + np.exp(1j * t) / disk          # the S values on the disk's edge
+        with np.errstate(divide="ignore", invalid="ignore"):
+            edge = 1.0 / s - 1.0
+        keep = np.isfinite(edge) & (np.abs(edge) < 1e3)
+        fig.series.append(Series(edge.real[keep].tolist(), edge.imag[keep].tolist(),
+                                 f"disk margin {disk:g} (excluded)", marker="dot", color="red"))
+    if radius:
+        t = np.linspace(0, 2 * np.pi, 90)
+        fig.series.append(Series((-1 + radius * np.cos(t)).tolist(), (radius * np.sin(t)).tolist(),
+                                 f"|1+GH| = {radius:g}", marker="dot", color="green"))
+    fig.series.append(Series([-1.0], [0.0], "-1", marker="x", scatter=True, color="red"))
+    if points:
+        fig.series.append(Series([p.real for p, _ in points], [p.imag for p, _ in points], "push/pull points",
+                                 marker="o", scatter=True, color="orange"))
+    return fig
+
+
+def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
+    """Magnitude (dB) and phase (deg) against log frequency; the current
+    design's gain and phase margins marked at their frequencies."""
+    scale = 2 * np.pi if unit == "hz" else 1.0
+    magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})")
+    phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})")
+    for curve in curves:
+        w = curve.omega / scale
+        positive = w > 0
+        lw = np.log10(w[positive])
+        gh = curve.gh[positive]
+        with np.errstate(divide="ignore"):
+            db = 20 * np.log10(np.abs(gh))
+        degrees = np.degrees(np.unwrap(np.angle(gh)))
+        magnitude.series.append(Series(*_finite(lw, db), curve.label, color=curve.color))
+        phase.series.append(Series(*_finite(lw, degrees), curve.label, color=curve.color))
+        magnitude.xticks = phase.xticks = _decades(lw, unit)
+        if curve.margins is not None:
+            _mark_margins(magnitude, phase, curve, lw, degrees, scale)
+    return magnitude, phase
+
+
+def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray,
+                  scale: float) -> None:
+    """Phase margins at the gain crossovers (0 dB) and gain margins at the phase
+    crossovers, on both plots; the legend gives the one nearest 0 of each kind."""
+    prefix = "" if curve.label == "current" else f"{curve.label.split(':')[0]} "
+    for kind, found in (("PM", curve.margins.phase), ("GM", curve.margins.gain)):
+        marks = [m for m in found if m.frequency > 0 and lw[0] <= math.log10(m.frequency / scale) <= lw[-1]]
+        if not marks or not np.all(np.isfinite(degrees)):
+            continue
+        x = [math.log10(m.frequency / scale) for m in marks]
+        if kind == "PM":  # the critical margin is the one nearest 0 (a lower gain margin is negative)
+            level, worst = [0.0] * len(marks), f"{min((m.phase_deg for m in marks), key=abs):.1f} deg"
+        else:
+            level, worst = [-m.gain_db for m in marks], f"{min((m.gain_db for m in marks), key=abs):.1f} dB"
+        label = f"{prefix}{kind} {worst}" + (f" ({len(marks)})" if len(marks) > 1 else "")
+        marker = "x" if kind == "PM" else "o"
+        magnitude.series.append(Series(x, level, label, marker=marker, scatter=True, color=curve.color))
+        phase.series.append(Series(x, np.interp(x, lw, degrees).tolist(), label, marker=marker, scatter=True,
+                                   color=curve.color))
+
+
+def nichols_figure(curves) -> Figure:
+    """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB) and
+    the M-circles |T| = M dB (`M_CIRCLES_DB`) about it."""
+    fig = Figure(title="Nichols", xlabel="phase (deg)", ylabel="dB")
+    for k, m_db in enumerate(M_CIRCLES_DB):
+        phase, db = m_circle(m_db)
+        fig.series.append(Series(phase.tolist(), db.tolist(), "M " + ", ".join(f"{m:g}" for m in M_CIRCLES_DB) + " dB"
+                                 if k == 0 else "", color="gray"))
+    for curve in curves:
+        with np.errstate(divide="ignore"):
+            db = 20 * np.log10(np.abs(curve.gh))
+        fig.series.append(Series(*_finite(np.degrees(np.unwrap(np.angle(curve.gh))), db), curve.label,
+                                 color=curve.color))
+    fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))
+    return fig
+
+
+def m_circle(m_db: float, points: int = 181) -> tuple[np.ndarray, np.ndarray]:
+    """The Nichols contour |T| = |L/(1+L)| = M (dB): L = T/(1 - T) for T = M e^(j theta),
+    as (phase in -360..0 deg, |L| in dB) in order along the contour, within +-40 dB."""
+    m = 10 ** (m_db / 20)
+    theta = np.linspace(-np.pi, np.pi, points)[1:-1]
+    T = m * np.exp(1j * theta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        L = T / (1 - T)
+        db = 20 * np.log10(np.abs(L))
+    phase = np.degrees(np.angle(L)) % -360.0
+    keep = np.isfinite(db) & (db > -40) & (db < 40)
+    return phase[keep], db[keep]
