@@ -28,7 +28,7 @@ def sensitivity_figure(view) -> Figure:
     unit = problem.grid.unit
     scale = 2 * np.pi if unit == "hz" else 1.0
     fig = Figure(title="Closed loop: |S|, |T|", xlabel=f"frequency ({unit})", ylabel="dB",
-                 empty_message="no closed loop to show")
+                 empty_message="no closed loop to show", log_x=True)
     notes = []
     for k in view.plotted():
         c = problem.conditions[k]

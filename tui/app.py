@@ -340,8 +340,9 @@ def key_help() -> list[tuple[str, list[tuple[str, str]]]]:
         return [(b.key.replace("question_mark", "?").replace(",", " / "), b.tooltip or b.description)
                 for b in bindings]
     groups = [("anywhere", rows(LoopcraftApp.BINDINGS)), ("workbench", rows(MainScreen.BINDINGS))]
+    from .widgets.plots import FigurePlot
     for name, table in (("plant table", PlantTable), ("parameters", ParametersTable), ("targets", TargetsTable),
-                        ("settings", SettingsTable), ("history", HistoryTable)):
+                        ("settings", SettingsTable), ("history", HistoryTable), ("a plot (focused)", FigurePlot)):
         groups.append((name, rows(table.BINDINGS)))
     return groups
 

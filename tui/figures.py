@@ -36,9 +36,9 @@ def figures(view: View) -> dict[str, Figure]:
     out: dict[str, Figure] = {}
     curves = view.loop_curves() if wanted & {"nyquist", "bode", "nichols"} else []
     if curves:
-        out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view))
+        out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view), unit=view.problem.grid.unit)
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, view.problem.grid.unit)
-        out["nichols"] = nichols_figure(curves)
+        out["nichols"] = nichols_figure(curves, view.problem.grid.unit)
     if "closed_loop" in wanted and view.problem.conditions:
         out["closed-loop"] = sensitivity_figure(view)
     if "poles" in wanted and view.problem.conditions:

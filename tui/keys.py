@@ -15,15 +15,17 @@ def identified(prefix: str, bindings: list[Binding]) -> list[Binding]:
 
 
 def _name(action: str) -> str:
-    return re.sub(r"\W+", "_", action).strip("_")
+    return re.sub(r"\W+", "_", action.replace("-", "minus ")).strip("_")
 
 
 def binding_table() -> list[tuple[str, str, str]]:
     """(id, keys, what it does) of every binding of the app, the workbench and its tables."""
     from .app import LoopcraftApp
     from .screens.main import MainScreen
+    from .widgets.plots import FigurePlot
     from .widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
     rows = []
-    for owner in (LoopcraftApp, MainScreen, PlantTable, ParametersTable, TargetsTable, SettingsTable, HistoryTable):
+    for owner in (LoopcraftApp, MainScreen, PlantTable, ParametersTable, TargetsTable, SettingsTable, HistoryTable,
+                  FigurePlot):
         rows += [(b.id, b.key, b.tooltip or b.description) for b in owner.BINDINGS]
     return rows

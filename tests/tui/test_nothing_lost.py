@@ -26,6 +26,13 @@ async def test_a_new_session_opens_from_the_start_screen_and_from_a_session(work
     async with app.run_test(size=(100, 32)) as pilot:
         await pilot.pause()
         await pilot.press("n")
+        await pilot.pause()
+        await pilot.press("enter")                       # unity feedback
+        await pilot.pause()
+        app.screen.query_one("#value").value = "16000/(s*(s+8)*(s+20))"
+        await pilot.press("enter")
+        await pilot.pause()
+        await pilot.press("enter")                       # a lead
         await settle(app, pilot)
         assert isinstance(app.screen, MainScreen) and app.is_running
         path = app.bench.session.path
@@ -33,11 +40,13 @@ async def test_a_new_session_opens_from_the_start_screen_and_from_a_session(work
         await pilot.press("s")
         await settle(app, pilot)
         assert app.bench.iteration == 1                  # the template steps
-        app.action_new()                                 # the palette's "New session" inside a session
+        await pilot.press("ctrl+n")                      # a new session inside a session
         await pilot.pause()
         assert isinstance(app.screen, ConfirmDialog)     # unsaved work: asked first, autosaved meanwhile
         assert (path.parent / (path.name + ".autosave")).exists()
         await pilot.press("y")
+        await pilot.pause()
+        await pilot.press("down", "down", "down", "down", "enter")     # a projection problem
         await settle(app, pilot)
         assert app.bench.session.path != path and app.bench.iteration == 0
 

@@ -8,13 +8,14 @@ import math
 
 import numpy as np
 
+from .navigation import loop_probe
 from .plots import Figure, Series, _decades, _finite
 
 M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)   # |T| contours on the Nichols chart
 
 
 def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None,
-                   title: str = "Nyquist (GH plane)", disk: float | None = None) -> Figure:
+                   title: str = "Nyquist (GH plane)", disk: float | None = None, unit: str = "rad/s") -> Figure:
     """GH plane around -1: the curves (their mirror images at negative frequencies
     dotted), the unit circle, -1, push/pull points, the desired stability circle and
     the exclusion disk of a disk-margin target (balanced: |S - 1/2| >= 1/alpha)."""
@@ -26,6 +27,8 @@ def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | No
         x, y = _finite(gh.real, gh.imag)
         fig.series.append(Series(x, [-v for v in y], "", color="gray"))   # negative frequencies
         fig.series.append(Series(x, y, curve.label, color=curve.color))
+        if fig.probe is None:
+            fig.probe = loop_probe(gh.real, gh.imag, curve.omega, curve.gh, unit)
     if disk:
         s = 0.5 + np.exp(1j * t) / disk          # the S values on the disk's edge
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -48,8 +51,8 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
     """Magnitude (dB) and phase (deg) against log frequency; the current
     design's gain and phase margins marked at their frequencies."""
     scale = 2 * np.pi if unit == "hz" else 1.0
-    magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})")
-    phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})")
+    magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})", log_x=True)
+    phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})", log_x=True)
     for curve in curves:
         w = curve.omega / scale
         positive = w > 0
@@ -60,6 +63,9 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
         degrees = np.degrees(np.unwrap(np.angle(gh)))
         magnitude.series.append(Series(*_finite(lw, db), curve.label, color=curve.color))
         phase.series.append(Series(*_finite(lw, degrees), curve.label, color=curve.color))
+        if magnitude.probe is None:
+            magnitude.probe = loop_probe(lw, db, curve.omega[positive], gh, unit)
+            phase.probe = loop_probe(lw, degrees, curve.omega[positive], gh, unit)
         magnitude.xticks = phase.xticks = _decades(lw, unit)
         if curve.margins is not None:
             _mark_margins(magnitude, phase, curve, lw, degrees, scale)
@@ -87,7 +93,7 @@ def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degre
                                    color=curve.color))
 
 
-def nichols_figure(curves) -> Figure:
+def nichols_figure(curves, unit: str = "rad/s") -> Figure:
     """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB) and
     the M-circles |T| = M dB (`M_CIRCLES_DB`) about it."""
     fig = Figure(title="Nichols", xlabel="phase (deg)", ylabel="dB")
@@ -98,8 +104,10 @@ def nichols_figure(curves) -> Figure:
     for curve in curves:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(curve.gh))
-        fig.series.append(Series(*_finite(np.degrees(np.unwrap(np.angle(curve.gh))), db), curve.label,
-                                 color=curve.color))
+        degrees = np.degrees(np.unwrap(np.angle(curve.gh)))
+        fig.series.append(Series(*_finite(degrees, db), curve.label, color=curve.color))
+        if fig.probe is None:
+            fig.probe = loop_probe(degrees, db, curve.omega, curve.gh, unit)
     fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))
     return fig
 

@@ -10,38 +10,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 
 import numpy as np
 from rich.text import Text
+from textual.binding import Binding
 from textual_plotext import PlotextPlot
 from textual_plotext.plot import Plot
 
-
-@dataclass
-class Series:
-    x: list[float]
-    y: list[float]
-    label: str = ""
-    marker: str = "braille"
-    scatter: bool = False
-    color: str | None = None
-
-
-@dataclass
-class Figure:
-    title: str = ""
-    xlabel: str = ""
-    ylabel: str = ""
-    xlim: tuple[float, float] | None = None
-    ylim: tuple[float, float] | None = None
-    xticks: tuple[list[float], list[str]] | None = None
-    yticks: tuple[list[float], list[str]] | None = None
-    series: list[Series] = field(default_factory=list)
-    empty_message: str = ""
-    panels: list[Figure] = field(default_factory=list)   # drawn one above the other instead of `series`
-    compact: Figure | None = None   # drawn instead on a canvas of fewer than COMPACT_ROWS rows
-
+from ..keys import identified
+from .figure import Figure, Series  # noqa: F401 - the figures' data, re-exported for the figure modules
+from .navigation import Navigation, xy_probe
 
 COMPACT_ROWS = 24
 
@@ -49,14 +27,61 @@ COMPACT_ROWS = 24
 class FigurePlot(PlotextPlot):
     """A plot drawn from a `Figure`.  `show` draws on the next render;
     `prebuild` (any thread) draws into text that `show` can hand over, so a
-    worker thread can take the drawing off the UI thread."""
+    worker thread can take the drawing off the UI thread.  Focused, it zooms,
+    pans and moves a cursor along the current curve (`navigation`)."""
+
+    can_focus = True
+    BINDINGS = identified("plot", [
+        Binding("plus,equals_sign", "zoom(1.5)", "zoom in", tooltip="zoom in (about the cursor)", id="plot.zoom_in"),
+        Binding("minus", "zoom(0.6666666666666666)", "zoom out", id="plot.zoom_out"),
+        Binding("left", "cursor(-1)", "cursor", tooltip="move the cursor along the curve", id="plot.cursor_left"),
+        Binding("right", "cursor(1)", "cursor", show=False, id="plot.cursor_right"),
+        Binding("shift+left", "cursor(-10)", "", show=False, id="plot.cursor_left_10"),
+        Binding("shift+right", "cursor(10)", "", show=False, id="plot.cursor_right_10"),
+        Binding("h", "pan(-0.25, 0)", "pan", tooltip="pan: h j k l", id="plot.pan_left"),
+        Binding("l", "pan(0.25, 0)", "", show=False, id="plot.pan_right"),
+        Binding("k", "pan(0, 0.25)", "", show=False, id="plot.pan_up"),
+        Binding("j", "pan(0, -0.25)", "", show=False, id="plot.pan_down"),
+        Binding("0", "reset_view", "reset", tooltip="the whole plot, no cursor")])
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.figure = Figure()
+        self.navigation = Navigation()
         self._prebuilt: tuple[tuple[int, int, str], Text] | None = None
 
+    def action_zoom(self, factor: float) -> None:
+        self.navigation.zoom(self.figure, factor)
+        self.refresh()
+
+    def action_pan(self, dx: float, dy: float) -> None:
+        self.navigation.pan(self.figure, dx, dy)
+        self.refresh()
+
+    def action_cursor(self, step: int) -> None:
+        self.navigation.move(self.figure, step)
+        self.refresh()
+
+    def action_reset_view(self) -> None:
+        self.navigation.reset()
+        self.refresh()
+
+    def on_mouse_scroll_up(self, event) -> None:
+        self.action_zoom(1.25)
+
+    def on_mouse_scroll_down(self, event) -> None:
+        self.action_zoom(0.8)
+
+    @property
+    def shown(self) -> Figure:
+        """The figure as drawn: zoomed, with the cursor (`navigation`)."""
+        return self.navigation.applied(self.figure)
+
     def show(self, figure: Figure, prebuilt: tuple[tuple[int, int, str], Text] | None = None) -> None:
+        if figure.probe is None:   # a cursor on any plot: along its first curve
+            first = next((s for s in figure.series if s.x and not s.scatter), None)
+            if first is not None:
+                figure.probe = xy_probe(first, figure.xlabel or "x", figure.ylabel or "y")
         self.figure, self._prebuilt = figure, prebuilt
         self.refresh()
 
@@ -80,9 +105,10 @@ class FigurePlot(PlotextPlot):
             return None
 
     def render(self):
-        if self._prebuilt is not None and self._prebuilt[0] == self.canvas():
+        figure = self.shown
+        if self._prebuilt is not None and self._prebuilt[0] == self.canvas() and figure is self.figure:
             return self._prebuilt[1]
-        _draw(self.plt, self.figure, self.size.height)
+        _draw(self.plt, figure, self.size.height)
         try:
             return super().render()
         except (IndexError, ValueError, ZeroDivisionError, OverflowError) as exc:   # a tiny canvas, odd values

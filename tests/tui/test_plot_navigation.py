@@ -1,0 +1,63 @@
+"""Zoom, pan and the cursor on the plots; the readout is the engine's response there."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tui.app import LoopcraftApp
+from tui.widgets.navigation import log_ticks
+
+from .test_app import settle, synchronous
+
+
+def _loop(s):
+    return (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
+
+
+@synchronous
+async def test_zoom_pan_cursor_and_reset_on_the_bode_plot(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        app.screen.query_one("#plots").active = "p-bode"
+        await settle(app, pilot)
+        plot = app.screen.query_one("#bode-mag")
+        plot.focus()
+        await pilot.press("right")                      # the cursor appears mid-curve
+        await pilot.press(*["right"] * 5)
+        await pilot.pause()
+        shown = plot.shown
+        i = plot.navigation.cursor
+        probe = plot.figure.probe
+        w = 10 ** probe.x[i]
+        expected = _loop(1j * w)
+        words = shown.title.split()
+        assert float(words[2]) == float(f"{w:.6g}")
+        assert abs(float(words[6]) - 20 * math.log10(abs(expected))) < 1e-4
+        assert abs(float(words[10]) - math.degrees(np.angle(expected))) < 1e-3
+        whole = plot.figure.xlim, plot.figure.ylim
+        await pilot.press("plus")
+        await pilot.pause()
+        x0, x1, y0, y1 = plot.navigation.box
+        assert x0 < probe.x[i] < x1 and y0 < probe.y[i] < y1 and shown.xticks is not None
+        width = x1 - x0
+        await pilot.press("l")
+        await pilot.pause()
+        assert math.isclose(plot.navigation.box[0], x0 + 0.25 * width) and plot.shown.xticks[1]
+        await pilot.press("minus")
+        await pilot.press("0")
+        await pilot.pause()
+        assert plot.navigation.box is None and plot.navigation.cursor is None
+        assert (plot.shown.xlim, plot.shown.ylim) == whole
+        await pilot.press("1")                           # the tab keys still work from a plot
+        await pilot.pause()
+        assert app.screen.query_one("#tabs").active == "run"
+
+
+def test_zoomed_log_ticks_are_frequencies_inside_the_box():
+    ticks, labels = log_ticks(math.log10(3), math.log10(70))
+    assert labels == ["5", "10", "20", "50"] and all(math.log10(3) <= t <= math.log10(70) for t in ticks)
+    ticks, labels = log_ticks(0.301, 0.302)
+    assert len(ticks) == 3 and all(0.301 <= t <= 0.302 for t in ticks)

@@ -1,0 +1,124 @@
+"""Zoom, pan and a cursor on a plot, as plain state (no drawing here).
+
+A plot's `Navigation` holds the shown box (None: the figure's own limits or
+its data's), the cursor's index along the figure's `Probe` and makes the
+figure to draw: the box as its limits, the cursor as a marked point, the
+point's readout as the title.  Axes are linear in what is drawn (a log
+frequency axis is drawn as log10 of the frequency), so zooming keeps a
+log axis correct."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .figure import Figure, Series
+
+Box = tuple[float, float, float, float]   # x0, x1, y0, y1
+ZOOM = 1.5
+PAN = 0.25
+
+
+@dataclass(frozen=True)
+class Probe:
+    """The points a cursor moves along (the current design's curve) and what it says at each."""
+
+    x: list[float]
+    y: list[float]
+    readout: Callable[[int], str]
+
+
+def loop_probe(x, y, omega, gh, unit: str) -> Probe:
+    """A probe on an open-loop curve: frequency (in ``unit``), gain (dB), phase (deg) and the point."""
+    scale = 2 * math.pi if unit == "hz" else 1.0
+    omega, gh = np.asarray(omega, dtype=float), np.asarray(gh, dtype=complex)
+
+    def readout(i: int) -> str:
+        g = gh[i]
+        db = 20 * math.log10(abs(g)) if g != 0 else -math.inf
+        return (f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {math.degrees(np.angle(g)):.3f} deg"
+                f"  GH = {g.real:.5g}{g.imag:+.5g}j")
+    return Probe(list(map(float, x)), list(map(float, y)), readout)
+
+
+def xy_probe(series: Series, xname: str = "x", yname: str = "y") -> Probe:
+    """A probe on any series: its coordinates."""
+    return Probe(series.x, series.y, lambda i: f"{xname} = {series.x[i]:.6g}  {yname} = {series.y[i]:.6g}")
+
+
+@dataclass
+class Navigation:
+    box: Box | None = None
+    cursor: int | None = None
+
+    def reset(self) -> None:
+        self.box, self.cursor = None, None
+
+    def zoom(self, figure: Figure, factor: float) -> None:
+        """Zoom about the cursor (else the box's centre): factor > 1 zooms in."""
+        x0, x1, y0, y1 = self.box or data_box(figure)
+        cx, cy = ((x0 + x1) / 2, (y0 + y1) / 2) if self._point(figure) is None else self._point(figure)
+        hx, hy = (x1 - x0) / 2 / factor, (y1 - y0) / 2 / factor
+        if hx > 0 and hy > 0 and math.isfinite(hx * hy):
+            self.box = (cx - hx, cx + hx, cy - hy, cy + hy)
+
+    def pan(self, figure: Figure, dx: float, dy: float) -> None:
+        """Move the box by fractions of its size."""
+        x0, x1, y0, y1 = self.box or data_box(figure)
+        sx, sy = (x1 - x0) * dx, (y1 - y0) * dy
+        self.box = (x0 + sx, x1 + sx, y0 + sy, y1 + sy)
+
+    def move(self, figure: Figure, step: int) -> None:
+        """Move the cursor along the probe (it appears at the middle point first)."""
+        probe = figure.probe
+        if probe is None or not probe.x:
+            return
+        n = len(probe.x)
+        self.cursor = n // 2 if self.cursor is None else min(max(self.cursor + step, 0), n - 1)
+
+    def _point(self, figure: Figure) -> tuple[float, float] | None:
+        probe = figure.probe
+        if self.cursor is None or probe is None or self.cursor >= len(probe.x):
+            return None
+        return probe.x[self.cursor], probe.y[self.cursor]
+
+    def applied(self, figure: Figure) -> Figure:
+        """The figure as shown: the box as its limits, the cursor marked and read out."""
+        if self.box is None and self.cursor is None:
+            return figure
+        out = figure if self.box is None else replace(
+            figure, xlim=self.box[:2], ylim=self.box[2:], xticks=log_ticks(*self.box[:2]) if figure.log_x else None)
+        point = self._point(figure)
+        if point is not None:
+            out = replace(out, title=figure.probe.readout(self.cursor),
+                          series=out.series + [Series([point[0]], [point[1]], "cursor", marker="+", scatter=True,
+                                                      color="red")])
+        return out
+
+
+def data_box(figure: Figure) -> Box:
+    """The figure's limits, else its data's extent (with a little room)."""
+    xs = [v for s in figure.series for v in s.x if math.isfinite(v)]
+    ys = [v for s in figure.series for v in s.y if math.isfinite(v)]
+    x0, x1 = figure.xlim or ((min(xs), max(xs)) if xs else (0.0, 1.0))
+    y0, y1 = figure.ylim or ((min(ys), max(ys)) if ys else (0.0, 1.0))
+    if x1 <= x0:
+        x0, x1 = x0 - 0.5, x0 + 0.5
+    if y1 <= y0:
+        y0, y1 = y0 - 0.5, y0 + 0.5
+    return float(x0), float(x1), float(y0), float(y1)
+
+
+def log_ticks(x0: float, x1: float) -> tuple[list[float], list[str]]:
+    """Ticks of a log10 axis between x0 and x1 at 1, 2, 5 times powers of ten
+    (thirds of the span, labelled as frequencies, when fewer than two fall inside)."""
+    ticks = [math.log10(m * 10.0 ** k) for k in range(math.floor(x0) - 1, math.ceil(x1) + 1) for m in (1, 2, 5)]
+    inside = [t for t in ticks if x0 <= t <= x1]
+    if len(inside) > 6:
+        inside = [t for t in inside if abs(t - round(t)) < 1e-9] or inside[::3]
+    if len(inside) < 2:
+        inside = [x0 + (x1 - x0) * f for f in (0.1, 0.5, 0.9)]
+    return inside, [f"{10.0 ** t:.3g}" for t in inside]
