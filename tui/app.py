@@ -25,6 +25,7 @@ from sessions.target_use import unusable_targets
 
 from .config import Config
 from .keys import identified
+from .export_actions import ExportActions
 from .files import remember, untitled_path, working_copy
 from .run_loop import RunLoop
 from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
@@ -40,7 +41,7 @@ CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_
                      "use_best", "open", "new", "save_as"})
 
 
-class LoopcraftApp(RunLoop, SweepActions, App):
+class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     """``LoopcraftApp(path)`` opens a session; without a path, the start screen."""
 
     TITLE = "loopcraft"
@@ -61,6 +62,9 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         Binding("ctrl+s", "save", "save", tooltip="save the session"),
         Binding("ctrl+o", "open", "open", tooltip="open a session file"),
         Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"),
+        Binding("ctrl+e", "export", "export", show=False,
+                tooltip="the current design as a python-control or MATLAB script, JSON or CSV, beside the session"),
+        Binding("S", "save_screenshot", "screenshot", show=False, tooltip="an SVG screenshot beside the session"),
         Binding("question_mark", "help", "help", tooltip="every key"),
         Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
     ])
@@ -94,7 +98,7 @@ class LoopcraftApp(RunLoop, SweepActions, App):
         if action == "pause" and not self.busy:
             return None
         if action in ("step", "run", "run_n", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
-                      "use_best", "next_condition") and self.bench is None:
+                      "use_best", "next_condition", "export", "save_screenshot") and self.bench is None:
             return None
         return None if self.bench is not None and not self._can(action) else True
 

@@ -4,32 +4,18 @@ JSON data or a CSV frequency response (sessions.export_*)."""
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
 
+from sessions.exports import SUFFIX
+
 from .common import CliError, load
-
-SUFFIX = {"python": ".py", "matlab": ".m", "json": ".export.json", "csv": ".csv"}
-
 
 def export_text(file: str, iteration: int | None, to: str, sample_time: float | None) -> str:
     """The exported text of a session's design at an iteration (default: its last)."""
-    from sessions.export_model import design
-    session = load(file)
-    d = design(session, iteration)
-    if to == "python":
-        from sessions.export_python import python_script
-        return python_script(d, sample_time)
-    if to == "matlab":
-        from sessions.export_matlab import matlab_script
-        return matlab_script(d, sample_time)
-    if to == "json":
-        from sessions.export_data import design_json
-        return json.dumps(design_json(d, sample_time), indent=2, allow_nan=False) + "\n"
-    from sessions.export_data import response_csv
-    return response_csv(session, d)
+    from sessions.exports import export_text as text_of
+    return text_of(load(file), iteration, to, sample_time)
 
 
 def target_path(file: str, out: str | None, to: str, iteration: int | None) -> Path | None:
