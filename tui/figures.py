@@ -54,7 +54,32 @@ def figures(view: View) -> dict[str, Figure]:
     return out
 
 
-def history_figure(view: View, iteration: int) -> Figure:
-    """The Nyquist plot of an earlier iteration beside the current design."""
-    return nyquist_figure(view.loop_curves(iteration), points(view), radius(view),
-                          f"Nyquist: iteration {iteration}" if iteration else "Nyquist: start")
+OVERLAYS = ("nyquist", "bode", "step")
+
+
+def history_figure(view: View, iteration: int, marked: int | None = None, kind: str = "nyquist") -> Figure:
+    """An earlier iteration beside the current design, or beside the ``marked`` one:
+    their Nyquist, Bode magnitude or step curves overlaid."""
+    name = lambda k: f"iteration {k}" if k else "start"   # noqa: E731
+    if marked is None or marked == iteration:
+        curves, title = view.loop_curves(iteration), name(iteration)
+    else:
+        k = view.plotted()[0] if view.plotted() else 0
+        curves = [c for c in (view.loop_curve(iteration, name(iteration), k, "blue"),
+                              view.loop_curve(marked, f"{name(marked)} (marked)", k, "gray")) if c is not None]
+        title = f"{name(iteration)} against {name(marked)}"
+    if kind == "bode":
+        magnitude, _ = bode_figures(curves, view.problem.grid.unit)
+        magnitude.title = f"Bode magnitude: {title}"
+        return magnitude
+    if kind == "step" and marked is not None and marked != iteration:
+        k = view.plotted()[0] if view.plotted() else 0
+        traces = [(r.t, r.y, label, color) for at, label, color in ((iteration, name(iteration), "blue"),
+                                                                   (marked, f"{name(marked)} (marked)", "gray"))
+                  if (r := view.step(at, k)) is not None]
+        fig = step_figure(traces[0][2] if traces else "", traces)
+        fig.title = f"Step: {title}"
+        return fig
+    if kind == "step":
+        return step_figure(*view.step_traces())
+    return nyquist_figure(curves, points(view), radius(view), f"Nyquist: {title}")

@@ -17,7 +17,7 @@ from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
-from ..figures import figures, history_figure
+from ..figures import OVERLAYS, figures, history_figure
 from ..keys import identified
 from ..plant_rows import plant_rows
 from ..tableau import tableau_text
@@ -28,6 +28,7 @@ from ..widgets.textview import TextView
 from ..workbench import Workbench
 from .view_actions import ViewActions
 from sessions import forms
+from sessions.compare import compare, comparison_text, side
 from sessions.target_use import target_note
 
 # the plot tabs, and the plots (figure ids) each shows
@@ -83,6 +84,8 @@ class MainScreen(ViewActions, Screen):
         self.bench = bench
         self._history_stale = True
         self._locus_key = None   # what the root locus shown was computed for
+        self.compare_mark: int | None = None   # History: the iteration the others are compared with
+        self.overlay = "nyquist"               # History: how the compared designs are drawn
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -292,11 +295,32 @@ class MainScreen(ViewActions, Screen):
         self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep))
 
     def show_history_iteration(self, iteration: int) -> None:
-        """The selected iteration's loop (beside the current design) and its tableau."""
+        """The selected iteration's loop (beside the current design, or the marked
+        iteration) and its tableau (or its measures against the marked one's)."""
         view = self.bench.view()
-        rows, _ = view.tableau(iteration)
-        self.query_one("#history-tableau", TextView).set(tableau_text(rows, [], view.problem.grid.unit))
-        self.query_one("#history-plot", FigurePlot).show(history_figure(view, iteration))
+        marked = self.compare_mark if self.compare_mark is not None and self.compare_mark <= view.iteration else None
+        text = None
+        if marked is not None and marked != iteration:
+            text = tolerant(lambda: comparison_text(compare(side(self.bench.session, marked, f"iteration {marked}"),
+                                                            side(self.bench.session, iteration,
+                                                                 f"iteration {iteration}"))), lambda: None)
+        if text is None:
+            rows, _ = view.tableau(iteration)
+            self.query_one("#history-tableau", TextView).set(tableau_text(rows, [], view.problem.grid.unit))
+        else:
+            self.query_one("#history-tableau", TextView).set(Text(text))
+        self.query_one("#history-plot", FigurePlot).show(history_figure(view, iteration, marked, self.overlay))
+
+    def toggle_mark(self, iteration: int) -> None:
+        self.compare_mark = None if self.compare_mark == iteration else iteration
+        self.app.notify("no iteration marked" if self.compare_mark is None else
+                        f"iteration {iteration} marked: the others are compared with it", timeout=4)
+        self.show_history_iteration(iteration)
+
+    def next_overlay(self) -> None:
+        self.overlay = OVERLAYS[(OVERLAYS.index(self.overlay) + 1) % len(OVERLAYS)]
+        table = self.query_one("#history-table", HistoryTable)
+        self.show_history_iteration(max(table.cursor_row, 0))
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
         if event.data_table.id == "history-table" and event.cursor_row is not None:
