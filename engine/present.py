@@ -49,16 +49,20 @@ def number(value: Any, digits: int = 6) -> str:
     return str(value)
 
 
-def tableau_text(rows: Sequence[MeasureRow]) -> str:
-    """The report-000 style table: number, kind, value, frequency, desired value, method."""
-    lines = [f"{'no.':>4} {'name':<5} {'kind':<20} {'condition':<12} {'value':>12} {'frequency':>12} "
-             f"{'desired':>10}  met  method"]
-    for n, r in enumerate(rows, start=1):
-        freq = "" if r.frequency is None else f"{r.frequency:.6g}"
-        desired = "" if r.target is None else f"{r.target:.6g}"
-        lines.append(f"{n:>4} {r.name:<5} {r.kind:<20} {r.condition:<12} {r.value:>12.6g} {freq:>12} "
-                     f"{desired:>10}  {'yes' if r.satisfied else 'NO ':<3}  {r.method or ''}".rstrip())
-    return "\n".join(lines)
+def tableau_text(rows: Sequence[MeasureRow], unit: str = "rad/s") -> str:
+    """The report-000 style table: number, name, kind, condition, value, frequency (in
+    ``unit``, 'hz' or 'rad/s'; the rows hold rad/s), desired value, met, method; the
+    columns as wide as their widest entry."""
+    scale = 1 / (2 * math.pi) if unit == "hz" else 1.0
+    head = ("no.", "name", "kind", "condition", "value", f"freq {unit}", "desired", "met", "method")
+    body = [(str(n), r.name, r.kind, r.condition, f"{r.value:.6g}",
+             "" if r.frequency is None else f"{r.frequency * scale:.6g}",
+             "" if r.target is None else f"{r.target:.6g}", "yes" if r.satisfied else "NO", r.method or "")
+            for n, r in enumerate(rows, start=1)]
+    widths = [max(len(line[k]) for line in [head, *body]) for k in range(len(head))]
+    right = {0, 4, 5, 6}
+    return "\n".join("  ".join(cell.rjust(w) if k in right else cell.ljust(w)
+                               for k, (cell, w) in enumerate(zip(line, widths))).rstrip() for line in [head, *body])
 
 
 def parameters_line(record: StepRecord, count: int = 8) -> str:
@@ -110,7 +114,7 @@ class Presenter:
 
     def report(self, record: StepRecord, problem: Problem) -> str:
         """`loopcraft report`'s text for a record (iteration 0 included)."""
-        return tableau_text(record.measures)
+        return tableau_text(record.measures, problem.grid.unit)
 
     def trajectories(self, records: Sequence[StepRecord]) -> dict | None:
         """Time trajectories of the latest record, for algorithms that produce them:

@@ -21,3 +21,19 @@ def test_a_bare_example_option_names_the_examples(capsys):
     assert main(["--example"]) == 2
     assert "report003_lag_lead" in capsys.readouterr().err
     assert main(["x.json", "extra"]) == 2
+
+
+def test_run_prints_frequencies_in_the_sessions_unit_and_cip_says_db_and_deg(tmp_path, capsys):
+    import shutil
+    from pathlib import Path
+    examples = Path(__file__).resolve().parent.parent / "sessions" / "examples"
+    for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv", "report003_lag_lead.json"):
+        shutil.copy2(examples / name, tmp_path / name)
+    assert main(["run", str(tmp_path / "cip_launch_vehicle.json"), "--iterations", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "freq hz" in out.splitlines()[1]
+    assert main(["run", str(tmp_path / "report003_lag_lead.json"), "--iterations", "1"]) == 0
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "report003_lag_lead.json")]) == 0
+    report = capsys.readouterr().out
+    assert "GAIN MARGIN NO.   1 =" in report and " DB " in report and "PHASE MARGIN NO." in report and " DEG " in report

@@ -47,10 +47,16 @@ def cip_report_text(record: StepRecord) -> str:
     return "\n".join(lines)
 
 
+CLASSICAL = {"gain_margin_db": ("GAIN MARGIN", "DB"), "phase_margin_deg": ("PHASE MARGIN", "DEG")}
+
+
 def _margin_line(n: int, r) -> str:
+    """The listing's line; a classical margin (dB, deg) says so instead of MARGIN RADIUS."""
     flag = "" if r.satisfied else "  ACTIVE"
-    return (f"  MARGIN RADIUS NO. {n:3d} = {r.value:10.5f}   FREQUENCY = {r.frequency / HZ:10.5f} HZ   "
-            f"DESIRED MARGIN = {r.target:10.5f}   MARGIN TYPE = {KIND.get(r.kind, '?')}{flag}")
+    label, unit = CLASSICAL.get(r.kind, ("MARGIN RADIUS", ""))
+    unit = f" {unit}" if unit else ""
+    return (f"  {label} NO. {n:3d} = {r.value:10.5f}{unit}   FREQUENCY = {r.frequency / HZ:10.5f} HZ   "
+            f"DESIRED MARGIN = {r.target:10.5f}{unit}   MARGIN TYPE = {KIND.get(r.kind, '?')}{flag}")
 
 
 def _partials(split: dict | None) -> list[str]:

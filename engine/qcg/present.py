@@ -42,7 +42,7 @@ class QcgPresenter(Presenter):
 
     def report(self, record: StepRecord, problem: Problem) -> str:
         if record.iteration == 0:
-            return tableau_text(record.measures)
+            return tableau_text(record.measures, problem.grid.unit)
         params = {k: float(v[0] if isinstance(v, list) else v) for k, v in record.parameters.items()}
         try:
             response = cascade_problem(problem).frequency_response(params)

@@ -52,7 +52,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         rows, record = rows_now(session)
         status = "not started" if record is None else record.status.value
         print(f"{session.model.algorithm.name}: iteration {session.model.current_iteration}, {status}")
-        print(tableau_text(rows))
+        print(tableau_text(rows, session.problem.grid.unit))
     return 0
 
 
@@ -90,8 +90,9 @@ def cmd_report(args: argparse.Namespace) -> int:
         presenter = registration(session).presenter
 
         def generic() -> str:
-            return tableau_text(rows) + "\nnote: the record's algorithm data is malformed: the generic tableau"
-        print(tableau_text(rows) if record is None else
+            return tableau_text(rows, unit) + "\nnote: the record's algorithm data is malformed: the generic tableau"
+        unit = session.problem.grid.unit
+        print(tableau_text(rows, unit) if record is None else
               tolerant(lambda: presenter.report(record, session.problem), generic))
     return 0
 
