@@ -14,7 +14,7 @@ from sessions import forms
 from sessions.errors import SessionError
 from sessions.lifecycle import folder, registration
 
-from .edits import Edit, Ref, change_list, checker, field_edit, resolve, set_fields
+from .edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
 from .workbench import Workbench
 
 PARAMETER_FIELDS = [("value", "value (per condition: one for all, or one each: 1, 2, 3)"),
@@ -141,6 +141,8 @@ def objective_rows(bench: Workbench) -> list[tuple[str, str, Ref | None]]:
     if objective is not None:
         rows.append(("objective kind", objective.kind, None))
         rows += [(name, shown(value), ("objective", name)) for name, value in objective.options.items()]
+    rows += [(f"constraint {k + 1}", line, ("constraint", k))
+             for k, line in enumerate(bench.session.model.problem.constraints)]
     rows += [(f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), shown(value), ("setting", name))
              for name, value, given in setting_rows(bench)]
     return rows
@@ -158,8 +160,38 @@ def shown(value: object) -> str:
 
 
 def objective_edit(bench: Workbench, ref: Ref) -> Edit:
-    """An objective option (`("objective", NAME)`) or an algorithm setting (`("setting", NAME)`)."""
+    """An objective option (`("objective", NAME)`), a linear constraint (`("constraint", K)`)
+    or an algorithm setting (`("setting", NAME)`)."""
+    if ref[0] == "constraint":
+        return constraint_edit(bench, ref[1])
     return objective_option_edit(bench, ref[1]) if ref[0] == "objective" else setting_edit(bench, ref[1])
+
+
+def constraint_check(bench: Workbench, index: int | None) -> Check:
+    """The live check of a constraint line (linear in the parameters, met at their values)."""
+    from sessions.constraints import check_constraint_line
+    from sessions.errors import SessionError as Refused
+
+    def check(text: str) -> str | None:
+        try:
+            check_constraint_line(text.strip(), bench.session.model.problem, index)
+        except (Refused, ValueError, EngineError) as exc:
+            return str(exc)
+        return None
+    return check
+
+
+def constraint_edit(bench: Workbench, index: int) -> Edit:
+    """A linear inequality between parameters, e.g. T1 >= 4*T2."""
+    from .edits import replace_at
+    current = bench.session.model.problem.constraints[index]
+    return Edit(f"constraint {index + 1}: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2", current,
+                constraint_check(bench, index), lambda text: replace_at(bench, ("constraints", index), text.strip()))
+
+
+def add_constraint(bench: Workbench, text: str) -> None:
+    """A new linear constraint at the end of the list."""
+    change_list(bench, ("constraints",), lambda items: items.append(text.strip()))
 
 
 def objective_option_edit(bench: Workbench, name: str) -> Edit:

@@ -207,8 +207,30 @@ class TargetsTable(RefTable):
 class SettingsTable(RefTable):
     """The objective's options and the algorithm's settings."""
 
-    BINDINGS = identified("settings", [Binding("e", "edit", "edit")])
-    MUTATING = frozenset({"edit"})
+    BINDINGS = identified("settings", [Binding("e", "edit", "edit"),
+                                       Binding("plus", "add", "add constraint",
+                                               tooltip="a linear constraint between parameters, e.g. T1 >= 4*T2"),
+                                       Binding("minus,delete", "delete", "delete constraint")])
+    MUTATING = frozenset({"edit", "add", "delete"})
+    DELETES = "constraint"
+
+    def applies(self, action: str) -> bool:
+        if action == "add":
+            return True
+        if action == "delete":
+            return self.ref is not None and self.ref[0] == "constraint"
+        return self.ref is not None
+
+    def action_add(self) -> None:
+        self.flow.line("new constraint: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2",
+                       edits_fields.constraint_check(self.bench, None),
+                       lambda text: edits_fields.add_constraint(self.bench, text), "add the constraint")
+
+    def action_delete(self) -> None:
+        index = self.ref[1]
+        self.flow.change(lambda: edits.change_list(self.bench, ("constraints",), lambda items: items.pop(index)),
+                         "delete the selected constraint", always_ask=True,
+                         done=lambda _: self.app.notify(f"deleted constraint {index + 1}"))
 
     def action_edit(self) -> None:
         self.flow.open(edits_fields.objective_edit(self.bench, self.ref))
