@@ -59,3 +59,38 @@ def test_the_launch_vehicle_shows_every_entry_once():
 def test_the_module_imports_no_textual():
     code = "import sys, tui.matrix_grid; sys.exit('textual' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], cwd=EXAMPLES.parents[1], timeout=60).returncode == 0
+
+
+def test_the_plant_tab_edits_the_matrix_grid_in_place(workdir):
+    import asyncio
+
+    from tui.app import LoopcraftApp
+
+    async def run() -> None:
+        app = LoopcraftApp(workdir / "coebra_launch_vehicle_matrix.json")
+        async with app.run_test(size=(120, 40)) as pilot:
+            await pilot.pause()
+            await app.workers.wait_for_complete()
+            await pilot.press("2")
+            grid = app.screen.query_one("#matrix-grid")
+            assert grid.display and grid.row_count == len(app.bench.session.model.problem.conditions[0].plant.signals)
+            grid.focus()
+            grid.move_cursor(row=0, column=1)                       # a[1,1]
+            await pilot.press("e")
+            await pilot.pause()
+            entries = app.bench.session.model.problem.conditions[0].plant.entries
+            k = next(i for i, e in enumerate(entries) if (e.row, e.col) == (1, 1))
+            assert app.screen.query_one("#value").value == entries[k].expression
+            await pilot.press("escape")
+            empty = next(j for j, index in enumerate(grid.cells[0][:-1]) if index is None)
+            grid.move_cursor(row=0, column=empty + 1)
+            await pilot.press("e")
+            await pilot.pause()
+            app.screen.query_one("#value").value = "0"
+            await pilot.press("enter")
+            await pilot.pause()
+            await pilot.pause()
+            entries = app.bench.session.model.problem.conditions[0].plant.entries
+            assert any((e.row, e.col, e.expression) == (1, empty + 1, "0") for e in entries)
+            assert str(grid.get_cell_at(grid.cursor_coordinate)) == "0"
+    asyncio.run(run())

@@ -22,6 +22,7 @@ from ..keys import identified
 from ..plant_rows import plant_rows
 from ..tableau import tableau_text
 from ..views import View
+from ..widgets.matrix_table import MatrixTable
 from ..widgets.plots import FigurePlot, sweep_figure
 from ..widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
 from ..widgets.textview import TextView
@@ -75,7 +76,7 @@ class MainScreen(ViewActions, Screen):
     #tableau { height: auto; }
     #step-info { height: 6; }
     #bode-mag, #bode-phase { height: 1fr; }
-    #blocks, #parameters, #targets-table, #objective-table, #history-table, #history-side { height: 1fr; }
+    #blocks, #matrix-grid, #parameters, #targets-table, #objective-table, #history-table, #history-side { height: 1fr; }
     #history-plot, #history-scroll { height: 1fr; }
     """
 
@@ -100,6 +101,7 @@ class MainScreen(ViewActions, Screen):
             with TabPane("Plant", id="plant"):
                 with Vertical():
                     yield PlantTable(id="blocks")
+                    yield MatrixTable(id="matrix-grid")
                     yield ParametersTable(id="parameters")
             with TabPane("Targets", id="targets"):
                 with Vertical():
@@ -235,6 +237,7 @@ class MainScreen(ViewActions, Screen):
         model = self.bench.session.model.problem
         self.query_one("#blocks", PlantTable).fill(("condition", "block", "input", "output", "kind", "definition"),
                                                    plant_rows(model))
+        self.query_one("#matrix-grid", MatrixTable).fill(model, self.bench.plotted_condition)
         free = {p.name: p.free for p in self.bench.session.problem.parameters}
         records = self.bench.records
         current = records[-1].parameters if records else {}
