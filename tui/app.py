@@ -59,13 +59,13 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
                 tooltip="plots: every flight condition, or one with its initial design"),
         Binding("w", "sweep", "sweep", show=False, tooltip="many runs on Dask: starts, vary, tolerance"),
         Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
-        Binding("ctrl+s", "save", "save", tooltip="save the session"),
+        Binding("ctrl+s", "save", "save", show=False, tooltip="save the session"),
         Binding("ctrl+o", "open", "open", tooltip="open a session file"),
         Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"),
         Binding("ctrl+e", "export", "export", show=False,
                 tooltip="the current design as a python-control or MATLAB script, JSON or CSV, beside the session"),
         Binding("S", "save_screenshot", "screenshot", show=False, tooltip="an SVG screenshot beside the session"),
-        Binding("question_mark", "help", "help", tooltip="every key"),
+        Binding("question_mark", "help", "help", show=False, tooltip="every key"),
         Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
     ])
 

@@ -15,19 +15,29 @@ from engine.present import number
 SHORT = shorts()
 
 
-def tableau_text(rows: list[MeasureRow], previous: list[MeasureRow], unit: str) -> Text:
-    """The rows (frequencies in ``unit``), bold where they differ from ``previous``."""
+COMPACT_WIDTH = 58   # narrower: no name column, the conditions as headings (80x24 terminals)
+
+
+def tableau_text(rows: list[MeasureRow], previous: list[MeasureRow], unit: str, width: int | None = None) -> Text:
+    """The rows (frequencies in ``unit``), bold where they differ from ``previous``;
+    narrower than COMPACT_WIDTH, without names and with each condition as a heading."""
     scale = 1 / (2 * math.pi) if unit == "hz" else 1.0
     before = {(r.name, r.kind, r.condition): r.value for r in previous}
     several = len({r.condition for r in rows}) > 1
-    text = Text(f"{'no.':<8} " + (f"{'condition':<10} " if several else "")
+    compact = width is not None and width < COMPACT_WIDTH
+    column = several and not compact
+    text = Text(("" if compact else f"{'no.':<8} ") + (f"{'condition':<10} " if column else "")
                 + f"{'kind':<6} {'value':>9} met {'target':>7} {'freq ' + unit:>10}\n", style="bold",
                 no_wrap=True, overflow="crop")
+    heading = None
     for r in rows:
+        if compact and several and r.condition != heading:
+            heading = r.condition
+            text.append(f"{r.condition}\n", style="underline")
         key = (r.name, r.kind, r.condition)
         changed = key in before and before[key] != r.value
         freq = "" if r.frequency is None else number(r.frequency * scale, 5)
-        text.append(f"{r.name[:8]:<8} " + (f"{r.condition[:10]:<10} " if several else "")
+        text.append(("" if compact else f"{r.name[:8]:<8} ") + (f"{r.condition[:10]:<10} " if column else "")
                     + f"{SHORT.get(r.kind, r.kind)[:6]:<6} ")
         text.append(f"{number(r.value, 5):>9}", style="bold" if changed else "")
         text.append(" yes " if r.satisfied else " NO  ", style="" if r.satisfied else "bold red")

@@ -53,7 +53,9 @@ MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targe
 class MainScreen(ViewActions, Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
-    BINDINGS = identified("main", [Binding("p", "next_plot", "next plot"), Binding("1", "tab('run')", "run", show=False),
+    BINDINGS = identified("main", [Binding("question_mark", "app.help", "help", id="main.help"),
+                Binding("ctrl+s", "app.save", "save", id="main.save"), Binding("p", "next_plot", "next plot"),
+                Binding("1", "tab('run')", "run", show=False),
                 Binding("2", "tab('plant')", "plant", show=False),
                 Binding("3", "tab('targets')", "targets", show=False),
                 Binding("4", "tab('history')", "history", show=False),
@@ -66,12 +68,13 @@ class MainScreen(ViewActions, Screen):
                         tooltip="copy the current compensator(s) as expressions with the values in place")])
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
+    #plots { min-width: 38; }
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
     #tabs { height: 1fr; }
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
-    #tableau-side { width: 2fr; }
+    #tableau-side { width: 2fr; min-width: 41; }
     #tableau-scroll { height: 1fr; }
     #tableau { height: auto; }
     #step-info { height: 6; }
@@ -147,6 +150,10 @@ class MainScreen(ViewActions, Screen):
     def on_mount(self) -> None:
         self.app.refresh_workbench()
 
+    def on_resize(self, event) -> None:
+        """The tableau's layout follows its width (compact below 58 columns)."""
+        self.call_after_refresh(lambda: self.refresh_run(plots=False))
+
     def action_next_plot(self) -> None:
         plots = self.query_one("#plots", TabbedContent)
         tabs = self.plot_tabs
@@ -205,7 +212,8 @@ class MainScreen(ViewActions, Screen):
         rows, record = view.tableau()
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
         unit = view.problem.grid.unit
-        self.query_one("#tableau", TextView).set(tableau_text(rows, previous, unit))
+        width = self.query_one("#tableau-scroll").size.width or None
+        self.query_one("#tableau", TextView).set(tableau_text(rows, previous, unit, width))
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         if plots:
             self.refresh_plots(drawn if drawn is not None else figures(view), prebuilt)

@@ -88,8 +88,9 @@ class PlantTable(RefTable):
     """Blocks, junctions, matrix entries and break points of every condition."""
 
     BINDINGS = identified("plant", [Binding("e", "edit", "edit"), Binding("plus", "add", "add block"),
-                Binding("minus,delete", "delete", "delete"), Binding("c", "copy_condition", "copy condition"),
-                Binding("x", "delete_condition", "delete condition"), Binding("i", "import_table", "import CSV")])
+                Binding("minus,delete", "delete", "delete"), Binding("c", "copy_condition", "copy condition", show=False),
+                Binding("x", "delete_condition", "delete condition", show=False),
+                Binding("i", "import_table", "import CSV", show=False)])
     MUTATING = frozenset({"edit", "add", "delete", "copy_condition", "delete_condition", "import_table"})
 
     def applies(self, action: str) -> bool:
@@ -146,8 +147,9 @@ class PlantTable(RefTable):
 class ParametersTable(RefTable):
     """The parameters: value, bounds, free or fixed, shared or per condition."""
 
-    BINDINGS = identified("parameters", [Binding("e", "edit", "edit"), Binding("f", "toggle_free", "free/fix"),
-                Binding("g", "toggle_per_condition", "shared/per condition"), Binding("plus", "add", "add"),
+    BINDINGS = identified("parameters", [Binding("e", "edit", "edit"),
+                Binding("f", "toggle_free", "free", tooltip="free or fix the parameter"),
+                Binding("g", "toggle_per_condition", "shared/per condition", show=False), Binding("plus", "add", "add"),
                 Binding("minus,delete", "delete", "delete"),
                 Binding("d", "adopt_design", "adopt design", tooltip="the current design becomes the start")])
     MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete", "adopt_design"})
@@ -240,9 +242,9 @@ class HistoryTable(RefTable):
     """One row per iteration; b makes the selected one the current iteration."""
 
     BINDINGS = identified("history", [Binding("b", "start_here", "start here"),
-                                      Binding("m", "mark", "mark to compare",
+                                      Binding("m", "mark", "mark",
                                               tooltip="mark the iteration: others are compared with it"),
-                                      Binding("o", "next_overlay", "Nyquist/Bode/step",
+                                      Binding("o", "next_overlay", "overlay",
                                               tooltip="the compared curves as Nyquist, Bode magnitude or step")])
     MUTATING = frozenset({"start_here"})
 
