@@ -15,9 +15,13 @@ Columns:
     or ``poles`` (the closed-loop poles);
   * ``margin``: the family of `engine.margins` a frequency measure is read
     from (G gain, P phase (gain crossovers), S stability, A attenuation and
-    modal peaks; None outside the frequency domain);
+    modal peaks; None outside the frequency domain), or D: a closed-loop
+    peak (`engine.peak_measures`: the disk margin and Mt, each the stability
+    margin of a transform of the loop; Ms is family S, 1/Ms being the
+    stability margin itself);
   * ``algorithms``: the algorithms whose targets may name the measure (cip:
-    margins only; slp: every measure; qcg and projection read no targets).
+    distances at one frequency; slp: every measure; qcg and projection read
+    no targets); `refusal` says why an algorithm refuses one.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ DOMAINS: tuple[Domain, ...] = ("frequency", "time", "poles")
 
 # every algorithm the table speaks of, with why it refuses a measure (for messages)
 ALGORITHMS: dict[str, str] = {
-    "cip": "is not a margin (cip improves gain, phase, stability and attenuation margins)",
+    "cip": "is not a margin (cip improves gain, phase, stability, attenuation and disk margins, Ms and Mt)",
     "slp": "is not an slp measure",
     "qcg": "is not read by qcg (it minimizes its quadratic cost and reads no targets)",
     "projection": "is not read by projection (it meets its DAE system's constraints and reads no targets)",
@@ -53,7 +57,7 @@ class MeasureKind:
     domain: Domain
     algorithms: frozenset[str]
     tag: str = ""
-    margin: Literal["G", "P", "S", "A"] | None = None
+    margin: Literal["G", "P", "S", "A", "D"] | None = None
 
 
 _CIP_SLP = frozenset({"cip", "slp"})
@@ -78,6 +82,12 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
     ("modal_peak_db", "modal peak of |GH|", "peak", "dB", False, -10.0, "frequency", _SLP, "PK", "A"),
     ("modal_peak_phase_deg", "phase of the modal peak (|angle GH|)", "pk ph", "deg", False, 90.0, "frequency",
      _SLP, "PKPH", "A"),
+    ("disk_margin", "disk margin alpha (balanced, skew 0)", "disk", "", True, 0.5, "frequency", _CIP_SLP, "DM",
+     "D"),
+    ("sensitivity_peak", "sensitivity peak Ms = max |S|", "Ms", "", False, 2.0, "frequency", _CIP_SLP, "SPK", "S"),
+    ("complementary_sensitivity_peak", "complementary sensitivity peak Mt = max |T|", "Mt", "", False, 1.5,
+     "frequency", _CIP_SLP, "TPK", "D"),
+    ("delay_margin", "delay margin", "delay", "s", True, 0.1, "frequency", _SLP, "DLY", "P"),
     ("rise_time", "rise time", "rise", "s", False, 1.0, "time", _SLP, "TR"),
     ("settling_time", "settling time", "settle", "s", False, 5.0, "time", _SLP, "TS"),
     ("overshoot_percent", "overshoot", "OS %", "%", False, 20.0, "time", _SLP, "OS"),
@@ -88,6 +98,18 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
     ("stability_abscissa", "stability abscissa (-max Re of the closed-loop poles)", "stab", "1/s", True, 0.0,
      "poles", _SLP, "STAB"),
 )
+
+
+# why an algorithm refuses one measure in particular (else ALGORITHMS' general reason)
+REFUSALS: dict[tuple[str, str], str] = {
+    ("cip", "delay_margin"): "is not a distance cip can push at one frequency (a delay margin is the phase "
+                             "margin over a crossover frequency that moves with the design); use slp",
+}
+
+
+def refusal(algorithm: str, name: str) -> str:
+    """Why ``algorithm`` refuses the measure ``name`` (a phrase after the measure's name)."""
+    return REFUSALS.get((algorithm, name), ALGORITHMS[algorithm])
 
 
 def kind(name: str) -> MeasureKind:
@@ -131,4 +153,4 @@ def check_accepted(algorithm: str, measures: Iterable[str]) -> None:
         if not accepts(algorithm, name):
             accepted = names(algorithm=algorithm)
             listed = f"it accepts {', '.join(accepted)}" if accepted else "it accepts no target measures"
-            raise EngineError(f"{algorithm}: target measure {name!r} {ALGORITHMS[algorithm]}; {listed}")
+            raise EngineError(f"{algorithm}: target measure {name!r} {refusal(algorithm, name)}; {listed}")

@@ -3,19 +3,23 @@ values and whether they are met (report 000's table, generalized)."""
 
 from __future__ import annotations
 
+import numpy as np
+
 from .algorithm import MeasureRow
 from .errors import EngineError
 from .guard import numerical
 from .loops import loop_model
 from .margins import Band, Margin, margins
 from .measure_kinds import kind
+from .peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
 from .problem import Problem, Target
+from .zpk import closed_loop_realization
 
 # margin measure -> the attribute of its `Margin` the tableau shows (the margin family and the
 # natural sense are the table's, `engine.measure_kinds`)
 ATTRIBUTE = {"gain_margin": "value", "phase_margin": "value", "stability_margin": "value",
              "attenuation_margin": "value", "gain_margin_db": "gain_db", "phase_margin_deg": "phase_deg"}
-TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency")
+TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency", *CLOSED_LOOP_MEASURES)
 
 
 def tableau(problem: Problem) -> list[MeasureRow]:
@@ -38,8 +42,37 @@ def _tableau(problem: Problem) -> list[MeasureRow]:
         model = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(c))
         attenuation_from = min((t.detect_low for t in targets if t.measure == "attenuation_margin"), default=None)
         found = margins(model, attenuation_above=attenuation_from)
+        stable = _stable(problem, c) if any(t.measure in PEAK_MEASURES for t in targets) else None
         for target in targets:
-            rows += _rows(target, found, condition.name)
+            if target.measure in CLOSED_LOOP_MEASURES:
+                rows += _closed_loop_rows(target, model, found, condition.name, stable)
+            else:
+                rows += _rows(target, found, condition.name)
+    return rows
+
+
+def _stable(problem: Problem, c: int) -> bool | None:
+    """Closed-loop stability of a rational condition from its poles (None: not rational)."""
+    condition = problem.conditions[c]
+    if not condition.network.rational:
+        return None
+    ss = closed_loop_realization(condition.network, condition.break_at, problem.condition_values(c))
+    return stable_realization(ss.A)
+
+
+def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool | None) -> list[MeasureRow]:
+    """One row per band: the disk margin, Ms or Mt refined over it (`engine.peak_measures`), or the
+    smallest delay margin of its gain crossovers (inf with none)."""
+    rows, short, at_least = [], kind(target.measure).short, target.at_least
+    for n, band in enumerate(target.bands, start=1):
+        if target.measure in PEAK_MEASURES:
+            value, frequency, peak = band_peak(model, target.measure, Band(band.low, band.high), stable)
+            method = peak.method
+        else:
+            (value, frequency), method = band_delay(found, Band(band.low, band.high)), found.label
+        rows.append(MeasureRow(f"{short}{n}", target.measure, condition, value, band.desired,
+                               bool(_met(value, band.desired, at_least)),
+                               None if np.isnan(frequency) else frequency, at_least, method))
     return rows
 
 

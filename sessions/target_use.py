@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from engine.measure_kinds import ALGORITHMS, MEASURE_KINDS
+from engine.measure_kinds import ALGORITHMS, MEASURE_KINDS, refusal
 
 READS_NO_TARGETS = ("qcg", "projection")   # they minimize their own cost / meet their own constraints
 
@@ -36,5 +36,5 @@ def unusable_targets(measures: Sequence[str], algorithm: str) -> list[str]:
     if algorithm in READS_NO_TARGETS:
         return [f"{algorithm} {ALGORITHMS[algorithm].removeprefix('is not read by ' + algorithm + ' ')}: "
                 f"the {len(measures)} target(s) are kept but not used"]
-    return [f"{m}: refused by {algorithm}, it {ALGORITHMS[algorithm]}; used by {used_by(m)}"
+    return [f"{m}: refused by {algorithm}, it {refusal(algorithm, m)}; used by {used_by(m)}"
             for m in measures if m in MEASURE_KINDS and algorithm not in MEASURE_KINDS[m].algorithms]

@@ -17,8 +17,6 @@ from __future__ import annotations
 import math
 from datetime import datetime, timezone
 
-import numpy as np
-
 from engine.errors import EngineError
 
 from .errors import SessionError
@@ -145,6 +143,7 @@ def _parameter(name: str, value: float) -> dict:
 
 def _grid(plant: str, variable: str) -> dict:
     """Log grid two decades beyond the plant's nonzero corner frequencies (0.01..1000 without any)."""
+    import numpy as np
     from engine.expressions import Expression
     from engine.factored import pole_zero
     try:

@@ -260,7 +260,7 @@ def _counters(rejected: dict[str, int], accepted: bool) -> dict[str, int]:
 
 def smallest_stability_margin(constraints: list[Constraint]) -> float | None:
     """The smallest relative-stability margin (G, P or S distance from -1)."""
-    values = [c.value for c in constraints if c.kind != "A"]
+    values = [c.value for c in constraints if c.kind in ("G", "P", "S")]
     return min(values) if values else None
 
 
@@ -319,5 +319,5 @@ def _label(c: Constraint, number: int) -> str:
 
 def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, ...]:
     return tuple(MeasureRow(str(n), c.measure, problem.conditions[c.condition].name, c.shown, c.shown_desired,
-                            not c.active, c.frequency, c.at_least, c.method)
+                            not c.active, c.frequency, c.shown_at_least, c.method)
                  for n, c in enumerate(constraints, start=1))

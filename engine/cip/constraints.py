@@ -30,7 +30,7 @@ from ..problem import Point, Problem, Target
 # measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.measure_kinds`)
 KIND = {name: kind(name).margin for name in names(algorithm="cip")}
 DEFAULT_POINTS = {"G": (Point(-1.0, "push"),), "P": (Point(-1.0, "push"),), "S": (Point(-1.0, "push"),),
-                  "A": (Point(0.0, "pull"),)}
+                  "A": (Point(0.0, "pull"),), "D": ()}  # D: each its own point (peaks.py)
 
 
 @dataclass(frozen=True)
@@ -60,7 +60,13 @@ class Constraint:
 
     @property
     def at_least(self) -> bool:
-        """The measure's natural sense (only the attenuation margin is at most)."""
+        """The distance's sense: at most for an attenuation margin, at least for every
+        other (1/Ms, 1/Mt and the disk margin's |1 + F| included)."""
+        return self.kind != "A"
+
+    @property
+    def shown_at_least(self) -> bool:
+        """The sense of ``shown``, the measure's own (at most for Ms and Mt)."""
         return kind(self.measure).at_least
 
     @property
@@ -92,6 +98,8 @@ def check_targets(problem: Problem) -> None:
     check_accepted("cip", (target.measure for target in problem.targets))
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
+    from .peaks import check_peak_targets  # peaks.py builds on this module's Constraint
+    check_peak_targets(problem.targets)
 
 
 def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool = False,
@@ -119,6 +127,8 @@ def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
         found += [replace(made, method=found_margins.label)
                   for made in _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability)]
+        from .peaks import peak_constraints  # Mt and disk margins (family D); peaks.py imports Constraint
+        found += peak_constraints(loop, targets, c)
         windings.append(winding(loop.gh))
     return sorted(found, key=_tableau_order), windings
 
@@ -138,7 +148,7 @@ def winding(gh: NDArray) -> float:
     return float((phase[-1] - phase[0]) / (2 * math.pi))
 
 
-SECTION_ORDER = {"G": 0, "P": 1, "copy": 2, "S": 3, "A": 4}
+SECTION_ORDER = {"G": 0, "P": 1, "copy": 2, "S": 3, "D": 4, "A": 5}
 
 
 def _tableau_order(c: Constraint) -> tuple:
@@ -180,6 +190,8 @@ def _constraint(m: Margin, target: Target, family: str, c: int) -> Constraint | 
         shown, goal = math.degrees(2 * math.asin(min(m.value, 2.0) / 2)), 2 * math.sin(math.radians(desired) / 2)
     elif target.measure == "gain_margin_db":
         shown, goal = m.gain_db, 1.0 - 10.0 ** (-desired / 20.0)
+    elif target.measure == "sensitivity_peak":  # Ms <= M: the stability margin |1 + GH| >= 1/M
+        shown, goal = (1.0 / m.value if m.value > 0 else math.inf), (1.0 / desired if desired > 0 else math.inf)
     points = target.points or DEFAULT_POINTS[KIND[target.measure]]
     return Constraint(family, KIND[target.measure], target.measure, c, m.frequency, value, goal, shown,
                       shown_desired, target.weight, points, m.gh)

@@ -289,6 +289,8 @@ class Slp:
             return False
         if trial.counter != best.counter:
             return trial.counter > best.counter
+        if not math.isfinite(best.merit):   # -inf (an unstable loop's peak): any finite merit is better
+            return trial.merit > best.merit
         return trial.merit > best.merit + self.settings.improvement_percent / 100.0 * max(abs(best.merit), 1e-12)
 
     def _feasible_start(self, x: NDArray) -> NDArray:

@@ -39,6 +39,7 @@ from ..problem import FREQUENCY_MEASURES, Problem
 from ..realization import StateSpace, cascade
 from ..zpk import closed_loop_realization
 from ..timeresp import PeakRule, Segment, final_value, simulate, step_measures
+from .peaks import closed_loop_values
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
 # the measures read from the attenuation minima (`engine.measure_kinds`: margin family A)
@@ -140,9 +141,12 @@ def condition_values(problem: Problem, x: Sequence[float], c: int,
     ss = None
     if any(s.kind not in FREQUENCY_MEASURES for s in specs):
         ss = closed_loop_realization(condition.network, condition.break_at, params)
+    closed = closed_loop_values(condition, params, model, found, specs, ss) if found is not None else {}
     values, frequencies = [], []
-    for s in specs:
-        if s.kind in FREQUENCY_MEASURES:
+    for i, s in enumerate(specs):
+        if i in closed:
+            value, frequency = closed[i]
+        elif s.kind in FREQUENCY_MEASURES:
             value, frequency = frequency_value(s, found)
         else:
             value, frequency = time_value(s, problem, ss), math.nan

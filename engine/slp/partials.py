@@ -12,6 +12,7 @@ Two methods, named per row in the tableau:
         attenuation (|GH| at a maximum):        |GH| a_x
         stability margin (a minimum of |1+GH|): Re(conj(1+GH) GH_x) / |1+GH|
         G/P distances |1+GH| at a crossing:     Re(conj(1+GH) (GH_x + GH_w w_x)) / |1+GH|
+      The disk margin, Ms, Mt and the delay margin: slp/peaks.py.
   "finite difference": forward differences as the report does, for the
       other rows (time responses, the phase at a modal peak, stability
       abscissa, tabulated loops), re-evaluating only the conditions a
@@ -30,6 +31,7 @@ from ..fastloop import LoopEvaluator
 from ..loops import open_loop
 from ..problem import Problem
 from .measures import Spec, evaluate
+from .peaks import closed_loop_partials
 
 ANALYTIC = ("gain_margin_db", "phase_margin_deg", "crossover_frequency", "modal_peak_db",
             "attenuation_margin", "stability_margin", "gain_margin", "phase_margin")
@@ -43,6 +45,8 @@ def jacobian(problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArra
     how = ["" if math.isnan(v) or math.isinf(v) else "finite difference" for v in values]
     if method == "analytic":
         for i in _analytic_rows(problem, x, specs, values, frequencies, J):
+            how[i] = "analytic"
+        for i in closed_loop_partials(problem, x, specs, values, frequencies, J):  # slp/peaks.py
             how[i] = "analytic"
     numeric = [i for i, h in enumerate(how) if h == "finite difference"]
     if numeric:

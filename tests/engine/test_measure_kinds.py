@@ -24,7 +24,8 @@ LOOP = "K/(s*(s+1)*(s+2)) * 100/(s**2 + 0.4*s + 100)"
 ROBUST, AGGRESSIVE = 1.0, 4.0
 STEP = TimeResponse("r", "y", horizon=60.0, points=1200)
 MARGIN_MEASURES = ("gain_margin", "phase_margin", "stability_margin", "gain_margin_db", "phase_margin_deg",
-                   "attenuation_margin", "crossover_frequency")
+                   "attenuation_margin", "crossover_frequency", "disk_margin", "sensitivity_peak",
+                   "complementary_sensitivity_peak", "delay_margin")
 
 
 def loop_problem(K: float, targets) -> Problem:
@@ -103,7 +104,8 @@ def test_the_tableau_judges_a_real_margin_by_the_tables_sense(measure):
 
 @pytest.mark.parametrize("measure", ["gain_margin", "phase_margin", "stability_margin", "gain_margin_db",
                                      "phase_margin_deg", "attenuation_margin", "overshoot_percent",
-                                     "settling_time", "peak_response", "stability_abscissa"])
+                                     "settling_time", "peak_response", "stability_abscissa", "disk_margin",
+                                     "sensitivity_peak", "complementary_sensitivity_peak", "delay_margin"])
 def test_the_better_loop_is_better_by_the_tables_sense(measure):
     """Not a tautology: the gentler gain (K = 1, far from the K = 6 limit) is the better loop by every
     robustness measure, the modal peak and the step response's overshoot, settling and peak."""
@@ -126,7 +128,8 @@ def test_slp_rows_follow_the_table_and_an_explicit_sense():
 def test_acceptance_column():
     assert names(algorithm="slp") == names()
     assert set(names(algorithm="cip")) == {"gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
-                                           "gain_margin_db", "phase_margin_deg"}
+                                           "gain_margin_db", "phase_margin_deg", "disk_margin", "sensitivity_peak",
+                                           "complementary_sensitivity_peak"}
     assert names(algorithm="qcg") == names(algorithm="projection") == ()
     assert accepts("cip", "gain_margin") and not accepts("cip", "rise_time")
     with pytest.raises(EngineError, match="unknown algorithm"):

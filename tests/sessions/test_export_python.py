@@ -28,7 +28,8 @@ from sessions.store import load_session, save_session
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-RATIONAL = ["coebra_lag_lead", "coebra_kuo_digital", "report003_lag_lead"]
+RATIONAL = ["coebra_lag_lead", "coebra_kuo_digital", "report003_lag_lead", "report003_disk_margin",
+            "lead_sensitivity_peak"]
 HIGH_ORDER = ["coebra_launch_vehicle"]   # bending modes: see test_high_order_loops_respond_as_loopcraft_s
 REL = 1e-9
 

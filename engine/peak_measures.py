@@ -1,0 +1,158 @@
+"""The closed-loop measures a target can name beside the margins: the
+balanced disk margin alpha (skew 0), Ms = max |S|, Mt = max |T|, and the
+delay margin.  One module for their values over a band (the tableau and
+slp), every local extremum (cip's rows) and their partials at a fixed
+frequency (slp's LP rows, cip's direction).
+
+Each peak measure is the peak of |f| for a transform f of the open loop L
+(`engine.sensitivity`): f = S = 1/(1 + L) for Ms, f = T = L S for Mt,
+f = S - 1/2 for the disk margin, alpha = 1/max |f| (skew 0: a target has
+no options to carry another skew).  With 1 + F = 1/f, each is a stability
+margin min |1 + F| of a transformed loop F (F = L for Ms: 1/Ms is the
+stability margin itself; F = 1/L for Mt; F = (1 + 3L)/(1 - L) for alpha),
+so cip can push it as it pushes stability margins (`newton_point`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .detection import detection_grid
+from .disk_margins import disk_transform, from_peak
+from .loops import LoopModel
+from .margins import Band, Margins
+from .rootfind import sign_changes
+# the peak search's own steps, reused to keep every local maximum, not only the largest
+from .sensitivity import (Peak, Transform, _agrees, _level, _refined_maxima, _resolved, _within,
+                          complementary, refined_peaks, sensitivity)
+
+PEAK_MEASURES = ("disk_margin", "sensitivity_peak", "complementary_sensitivity_peak")
+CLOSED_LOOP_MEASURES = PEAK_MEASURES + ("delay_margin",)
+DISK_SKEW = 0.0  # the balanced disk margin: a target carries no skew
+
+
+def transform(measure: str) -> Transform:
+    """The f whose peak |f| a peak measure reads."""
+    return {"disk_margin": disk_transform(DISK_SKEW), "sensitivity_peak": sensitivity,
+            "complementary_sensitivity_peak": complementary}[measure]
+
+
+def loop_derivative(measure: str, gh: NDArray | complex) -> tuple[NDArray, NDArray]:
+    """(f, df/dL) of a peak measure's transform at open-loop values ``gh``."""
+    gh = np.asarray(gh, dtype=complex)
+    with np.errstate(all="ignore"):
+        s = 1.0 / (1.0 + gh)
+        if measure == "complementary_sensitivity_peak":
+            return gh * s, s * s
+        shift = -0.5 if measure == "disk_margin" else 0.0
+        return s + shift, -s * s
+
+
+def from_magnitude(measure: str, magnitude: float) -> float:
+    """The measure's value given |f| at a frequency: alpha = 1/|f|, else |f|."""
+    if measure == "disk_margin":
+        return 1.0 / magnitude if magnitude > 0 else math.inf
+    return magnitude
+
+
+def band_peaks(loop: LoopModel, measures: Sequence[str], band: Band,
+               stable: bool | None = None) -> list[tuple[float, float, Peak]]:
+    """(value, frequency, the refined peak) of each peak measure over ``band``, refined in one
+    search.  An unstable closed loop (``stable`` False) has no disk margin (0) and no finite
+    Ms or Mt (inf: S and T have poles in the right half-plane), at frequency NaN."""
+    found = refined_peaks(loop, [transform(m) for m in measures], band)
+    out = []
+    for measure, peak in zip(measures, found):
+        if stable is False:
+            out.append((0.0 if measure == "disk_margin" else math.inf, math.nan, peak))
+        elif measure == "disk_margin":
+            out.append((from_peak(peak, DISK_SKEW, stable).alpha, peak.frequency, peak))
+        else:
+            out.append((peak.value, peak.frequency, peak))
+    return out
+
+
+def band_peak(loop: LoopModel, measure: str, band: Band, stable: bool | None = None) -> tuple[float, float, Peak]:
+    """(value, frequency, the refined peak) of one peak measure over ``band`` (`band_peaks`)."""
+    return band_peaks(loop, [measure], band, stable)[0]
+
+
+def band_delay(found: Margins, band: Band) -> tuple[float, float]:
+    """(the smallest delay margin of the gain crossovers in ``band``, its frequency);
+    (inf, nan) with none there (any delay is tolerated, as python-control says)."""
+    delays = [m for m in found.phase if m.delay is not None and band.contains(m.frequency)]
+    if not delays:
+        return math.inf, math.nan
+    worst = min(delays, key=lambda m: m.delay)
+    return float(worst.delay), worst.frequency
+
+
+def local_peaks(loop: LoopModel, measure: str, band: Band) -> tuple[tuple[float, float, complex], ...]:
+    """(frequency, |f|, GH) of every interior local maximum of |f| inside ``band``:
+    refined to 4 ulp as `engine.sensitivity` refines the peak; on a tabulated
+    loop (no evaluator) the grid's local maxima (report 000's SRMINS rule)."""
+    f = transform(measure)
+    if loop.evaluate is None:
+        return _grid_peaks(loop.omega, loop.gh, f, band)
+    found = _local_on(loop, f, band)
+    check = [Peak(v, w) for w, v, _ in found]
+    if loop.exact is not loop.evaluate and check and not _agrees(loop, [f], check):
+        found = _local_on(loop.on_exact(), f, band)
+    return found
+
+
+def _local_on(loop: LoopModel, f: Transform, band: Band) -> tuple[tuple[float, float, complex], ...]:
+    grid = detection_grid(loop)
+    w, gh, dgh = _within(loop, grid.omega, grid.gh, grid.dgh, band)
+    w, gh, dgh = _resolved(loop, [f], w, gh, dgh, [])
+    at, _ = _refined_maxima(loop, [f], w, [_level(*f(w, gh, dgh))])
+    at = np.sort(at[(at > band.low) & (at < band.high)])
+    if at.size == 0:
+        return ()
+    g, dg = loop.evaluate(at)
+    magnitude = np.abs(f(at, g, dg)[0])
+    return tuple((float(a), float(v), complex(x)) for a, v, x in zip(at, magnitude, g) if math.isfinite(v))
+
+
+def _grid_peaks(w: NDArray, gh: NDArray, f: Transform, band: Band) -> tuple[tuple[float, float, complex], ...]:
+    magnitude = np.abs(f(w, gh, np.zeros_like(gh))[0])
+    i = sign_changes(np.diff(magnitude ** 2), falling_only=True) + 1
+    i = i[(w[i] >= band.low) & (w[i] <= band.high)]
+    return tuple((float(w[k]), float(magnitude[k]), complex(gh[k])) for k in i)
+
+
+def newton_point(measure: str, gh: complex) -> complex:
+    """The point q = L + f/(df/dL) to push L from: 2 Re(conj(L - q) dL/dx) is a
+    positive multiple of d|1 + F|^2/dx, the gradient of the measure's stability
+    margin |1 + F| = 1/|f| at a fixed frequency (q = -1 for Ms)."""
+    f, f_l = loop_derivative(measure, gh)
+    return complex(gh + f / f_l)
+
+
+def peak_partial(measure: str, gh: complex, gh_x: NDArray) -> NDArray:
+    """d(value)/dx at a fixed frequency: d|f|/dx = Re(conj(f) df/dx)/|f| (at a
+    stationary frequency the frequency's own move adds nothing), and for the
+    disk margin alpha = 1/|f|: -d|f|/dx / |f|^2."""
+    f, f_l = loop_derivative(measure, gh)
+    f, f_l = complex(f), complex(f_l)
+    magnitude = abs(f)
+    d = np.real(np.conj(f) * f_l * np.asarray(gh_x)) / magnitude
+    return -d / magnitude ** 2 if measure == "disk_margin" else d
+
+
+def delay_partial(gh: complex, gh_x: NDArray, gh_w: complex, w: float, delay: float) -> NDArray:
+    """d(delay margin)/dx at a gain crossover w moving with x: with L_x/L = a_x + j phi_x,
+    w_x = -a_x/a_w, the phase margin's change phi_x + phi_w w_x, and delay = phase/w:
+    d delay = (phi_x + phi_w w_x)/w - delay w_x / w."""
+    l_x, l_w = np.asarray(gh_x) / gh, gh_w / gh
+    w_x = -l_x.real / l_w.real
+    return (l_x.imag + l_w.imag * w_x) / w - delay * w_x / w
+
+
+def stable_realization(A: NDArray) -> bool:
+    """Whether a closed loop's state matrix has every eigenvalue in the open left half-plane."""
+    return True if A.size == 0 else bool(np.max(np.linalg.eigvals(A).real) < 0)

@@ -1,0 +1,93 @@
+"""slp's rows of the closed-loop measures (`engine.peak_measures`): the
+balanced disk margin, Ms, Mt and the delay margin, one row per band, and
+their analytic partials.
+
+Values: the refined peak over the row's band (every peak row of a band in
+one search); a rational condition whose closed loop is unstable has a disk
+margin of 0 and Ms = Mt = inf (absent from the LP, unmet); the delay margin is the smallest of the gain crossovers in
+the band (inf with none: any delay is tolerated).
+
+Partials ("analytic"), from the engine's sensitivities dGH/dx at the row's
+frequency w*:
+  Ms, Mt: d|f|/dx = Re(conj(f) df/dL dGH/dx)/|f| at fixed w* (f = S or T; at
+      an interior maximum the frequency's move adds nothing, at a band edge
+      the frequency is fixed);
+  disk margin alpha = 1/|S - 1/2|: -d|f|/dx / |f|^2;
+  delay margin phase/w at a crossover moving with x (`delay_partial`).
+A peak at w = 0 or at infinity (a limit), a disk margin of 0 (unstable) or a
+tabulated loop fall back to slp's forward differences.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..fastloop import LoopEvaluator
+from ..loops import LoopModel, open_loop
+from ..margins import Band, Margins
+from ..peak_measures import (CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peaks, delay_partial,
+                             peak_partial, stable_realization)
+from ..problem import Condition, Problem
+from ..realization import StateSpace
+from ..zpk import closed_loop_realization
+
+
+def closed_loop_values(condition: Condition, params: dict[str, float], model: LoopModel, found: Margins,
+                       specs: Sequence, ss: StateSpace | None) -> dict[int, tuple[float, float]]:
+    """index -> (value, frequency) of every closed-loop row among ``specs`` (one condition's)."""
+    out: dict[int, tuple[float, float]] = {}
+    mine = [i for i, s in enumerate(specs) if s.kind in CLOSED_LOOP_MEASURES]
+    stable = None
+    if condition.network.rational and any(specs[i].kind in PEAK_MEASURES for i in mine):
+        ss = ss if ss is not None else closed_loop_realization(condition.network, condition.break_at, params)
+        stable = stable_realization(ss.A)
+    bands: dict[tuple[float, float], list[int]] = {}
+    for i in mine:
+        if specs[i].kind == "delay_margin":
+            out[i] = band_delay(found, Band(specs[i].low, specs[i].high))
+        else:
+            bands.setdefault((specs[i].low, specs[i].high), []).append(i)
+    for (low, high), rows in bands.items():
+        peaks = band_peaks(model, [specs[i].kind for i in rows], Band(low, high), stable)
+        for i, (value, frequency, _) in zip(rows, peaks):
+            out[i] = (value, frequency)
+    return out
+
+
+def closed_loop_partials(problem: Problem, x: NDArray, specs: Sequence, values: NDArray, frequencies: NDArray,
+                         J: NDArray) -> list[int]:
+    """Fill the analytic rows of the closed-loop measures into J; the rows done."""
+    done: list[int] = []
+    for c, condition in enumerate(problem.conditions):
+        rows = [i for i, s in enumerate(specs) if s.condition == c and _analytic(s.kind, values[i], frequencies[i])]
+        if not rows or not condition.network.exact:
+            continue
+        params = problem.condition_values(c, x)
+        w = np.array([frequencies[i] for i in rows])
+        response = open_loop(condition.network, condition.break_at, w, params, check=False)
+        slope = LoopEvaluator(condition.network, condition.break_at, params)(w)[1]
+        columns = [problem.slot_index.get((name, c)) for name in response.parameters]
+        for r, i in enumerate(rows):
+            gh = complex(response.value[r])
+            gh_x = response.sensitivity[r] if response.sensitivity is not None else np.zeros(0)
+            if specs[i].kind == "delay_margin":
+                row = delay_partial(gh, gh_x, complex(slope[r]), float(w[r]), float(values[i]))
+            else:
+                row = peak_partial(specs[i].kind, gh, gh_x)
+            for k, slot in enumerate(columns):
+                if slot is not None:
+                    J[i, slot] += row[k]
+            done.append(i)
+    return done
+
+
+def _analytic(kind: str, value: float, frequency: float) -> bool:
+    """A row with analytic partials: a closed-loop measure at a finite positive frequency
+    (a disk margin of 0, an unstable loop's, is not differentiable)."""
+    if kind not in CLOSED_LOOP_MEASURES or not (math.isfinite(value) and math.isfinite(frequency)):
+        return False
+    return frequency > 0 and (kind not in PEAK_MEASURES or value > 0)
