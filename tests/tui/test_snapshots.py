@@ -36,6 +36,10 @@ CASES = {
     "history": ("cip_launch_vehicle.json", steps("s", "s", "s", "4")),
     "help": ("cip_launch_vehicle.json", steps("question_mark")),
     "qcg_run": ("seidel_inlet_pi.json", steps("s", "s", "s")),
+    "closed_loop": ("report003_lag_lead.json", steps("p", "p", "p")),
+    "poles": ("report003_lag_lead.json", steps("p", "p", "p", "p")),
+    "locus": ("report003_lag_lead.json", steps("p", "p", "p", "p", "p")),
+    "matrix_grid": ("coebra_launch_vehicle_matrix.json", steps("2")),
 }
 
 
