@@ -7,12 +7,10 @@ distance to the nearest other pole, else it is halved (down to a floor
 where poles collide, at breakaway points); the poles of consecutive points
 are matched by nearest assignment (`linear_sum_assignment`).  The points are
 bounded (``max_points``; status ``"point budget reached"``).  Gain loci
-take their poles from the loop's realization (eigenvalues of A - k B (1 +
-k D)^-1 C) polished by Aberth's iteration on P(s) + k g Z(s) in factored
-form; parameter loci from the closed-loop realization, polished as
-`engine.polish` does.  Imaginary-axis crossings are refined by brentq on
-the parameter; gain loci also carry the asymptotes and breakaway points.
-"""
+step on the eigenvalues of A - k B (1 + k D)^-1 C and polish each point kept
+by Aberth's iteration on the network's characteristic equation; parameter
+loci polish as `engine.polish` does.  Crossings of the imaginary axis are
+refined by brentq; gain loci also carry asymptotes and breakaway points."""
 
 from __future__ import annotations
 
@@ -87,8 +85,7 @@ class PoleZeroMap:
 
 def pole_zero_map(network: Network, break_at: str, params: Mapping[str, float]) -> PoleZeroMap:
     """The pole-zero map of the loop broken at ``break_at`` (rational loops)."""
-    form, _ = _loop_form(network, break_at, params)
-    roots = _gain_roots(network, break_at, params)
+    (form, _), roots = _loop_form(network, break_at, params), _gain_roots(network, break_at, params)
     return PoleZeroMap(roots(0.0), form.zeros, float(form.gain.real), roots(1.0))
 
 
@@ -121,11 +118,15 @@ def gain_locus(network: Network, break_at: str, params: Mapping[str, float],
     (default: 1e-3..1e3 around 1 and every imaginary-axis crossing)."""
     form, notes = _loop_form(network, break_at, params)
     roots_at = _gain_roots(network, break_at, params, polished)
+    eigenvalues = _gain_roots(network, break_at, params, False)
     lo, hi = value_range if value_range is not None else _gain_range(network, break_at, params)
     if lo <= 0:
         raise EngineError(f"a gain locus runs over positive gains (it starts at k = 0), not from {lo!r}")
-    ts, rows, status = continuation(lambda t: roots_at(math.exp(t)), math.log(lo), math.log(hi),
+    # the steps are chosen on the eigenvalues; only the points kept are polished (once each)
+    ts, rows, status = continuation(lambda t: eigenvalues(math.exp(t)), math.log(lo), math.log(hi),
                                     [0.0] if lo < 1.0 < hi else [], max_points)
+    if polished:
+        rows = np.array([roots_at.polish(math.exp(t), row) for t, row in zip(ts, rows)]).reshape(rows.shape)
     values = np.concatenate([[0.0], np.exp(ts)])
     branches = np.vstack([_matched(rows[0], roots_at(0.0))[None, :], rows])
     crossings = _crossings(roots_at, values[1:], branches[1:])
@@ -300,15 +301,17 @@ def _gain_roots(network: Network, break_at: str, params: Mapping[str, float],
             dG[:, row, col] += scale * slope
         return np.sum(1.0 / (s[:, None] - block[None, :]), axis=1) - _traces(np.eye(n)[None] - G, dG)
 
+    def polish(k: float, eig: NDArray) -> NDArray:   # the roots near eig at gain k, in their order
+        return eig if block is None or block.size != eig.size else _aberth(lambda z: ratio(z, k), eig)
+
     def roots(k: float) -> NDArray:
         through = 1.0 + k * D[0, 0]
         if abs(through) <= 1e-14 * max(1.0, abs(k * D[0, 0])):
             raise EngineError(f"the loop is algebraically singular at k = {k:.6g} (1 + k L(inf) = 0)")
         eig = np.linalg.eigvals(A - (k / through) * (B @ C))
-        if not polished or block is None or block.size != eig.size:
-            return eig
-        return _aberth(lambda z: ratio(z, k), eig)
+        return polish(k, eig) if polished else eig
 
+    roots.polish = polish
     return roots
 
 

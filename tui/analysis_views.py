@@ -12,7 +12,6 @@ import numpy as np
 
 from engine.errors import EngineError
 from engine.loops import loop_model
-from engine.root_locus import pole_zero_map, root_locus
 from engine.sensitivity import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
                                 transfer_evaluator)
 
@@ -86,6 +85,7 @@ def poles_figure(view) -> Figure:
     c = _rational(view, k)
     if c is None:
         return fig
+    from engine.root_locus import pole_zero_map   # scipy.optimize, on first use
     try:
         pz = pole_zero_map(c.network, c.break_at, view.parameters(None, k))
     except EngineError as exc:
@@ -114,6 +114,7 @@ def locus_figure(view) -> Figure:
     c = _rational(view, k)
     if c is None:
         return fig
+    from engine.root_locus import root_locus
     try:
         locus = root_locus(c.network, c.break_at, view.parameters(None, k), max_points=LOCUS_POINTS, polished=False)
     except EngineError as exc:
