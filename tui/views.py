@@ -179,9 +179,10 @@ class View:
         return tolerant(lambda: self.presenter.trajectories(records), lambda: None)
 
     def convergence(self) -> tuple[str, list[int], list[float]]:
-        """The convergence curve as the presenter measures it: label, iterations, values."""
+        """The convergence curve as the presenter measures it, from iteration 0 (the
+        presenter's record of the start) on: label, iterations, values."""
         label, points = "", []
-        for r in self.records:
+        for r in ((self.initial,) if self.initial is not None else ()) + self.records:
             label, value = tolerant(lambda: self.presenter.convergence(r), lambda: (label, None))
             if value is not None and math.isfinite(value):
                 points.append((r.iteration, float(value)))

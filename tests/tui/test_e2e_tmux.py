@@ -57,3 +57,28 @@ def test_open_step_three_times_save_and_quit(workdir):
         assert len(json.loads((workdir / "seidel_inlet_pi.json").read_text())["records"]) == 3
     finally:
         tmux("kill-session", "-t", session)
+
+
+def test_every_tab_is_readable_at_80x24(workdir):
+    """At 80x24: the tableau's target and frequency columns, each tab's key columns and the
+    footer's ? and save are on the screen."""
+    session = f"loopcraft-e2e-{time.monotonic_ns()}"
+    command = (f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
+               f"coebra_launch_vehicle.json")
+    tmux("new-session", "-d", "-s", session, "-x", "80", "-y", "24", command)
+    tmux("set-option", "-t", session, "window-size", "manual")
+    tmux("resize-window", "-t", session, "-x", "80", "-y", "24")
+    expected = {"1": ["target", "freq rad/s", "PM deg"], "2": ["condition", "block", "parameter", "min"],
+                "3": ["measure", "used", "bands", "objective / setting"], "4": ["iteration", "status", "unmet"],
+                "5": ["no sweep yet"]}
+    try:
+        wait_for(session, "Iteration 0")
+        for key, words in expected.items():
+            tmux("send-keys", "-t", session, key)
+            screen = wait_for(session, words[0])
+            for word in words:
+                assert word in screen, (key, word, screen)
+            footer = screen.rstrip().splitlines()[-1]
+            assert "? help" in footer and "^s save" in footer, (key, footer)
+    finally:
+        tmux("kill-session", "-t", session)

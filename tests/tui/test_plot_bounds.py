@@ -4,6 +4,10 @@ and one such point exhausted memory in the workbench."""
 
 from __future__ import annotations
 
+import math
+
+import pytest
+
 from tui.widgets.plots import Figure, FigurePlot, Series, _near
 
 
@@ -30,3 +34,15 @@ def test_values_near_the_float_limits_draw():
 def test_a_time_axis_over_an_overflowing_span_still_has_a_step():
     from tui.widgets.trajectories import _step
     assert _step(float("inf"), 5) == 1.0 and _step(10.0, 5) == 2.0
+
+
+def test_axis_ticks_are_round_numbers_inside_the_axis():
+    from tui.widgets.plots import nice_ticks
+    for low, high in [(-107.0, 60.0), (-95.9, 4.4), (23.7, 40.9), (0.0013, 0.0041), (-3e-9, 7e-9), (1e5, 3.3e7)]:
+        ticks, labels = nice_ticks(low, high)
+        assert 2 <= len(ticks) <= 6 and all(low - 1e-12 * abs(high) <= t <= high + 1e-12 * abs(high) for t in ticks)
+        steps = {round(b - a, 12) for a, b in zip(ticks, ticks[1:])}
+        step = steps.pop()
+        mantissa = step / 10 ** math.floor(math.log10(step))
+        assert not steps and round(mantissa, 9) in (1.0, 2.0, 5.0), (low, high, ticks)
+        assert all(float(label) == pytest.approx(t, rel=1e-9, abs=1e-15) for label, t in zip(labels, ticks))

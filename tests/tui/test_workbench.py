@@ -158,3 +158,14 @@ def test_bode_plots_mark_the_margins_of_report_003(workdir):
     phase_marks = {s.label: s for s in phase.series if s.scatter}
     assert abs(phase_marks["PM 52.1 deg"].y[0] % 360 - (52.13 + 180) % 360) < 0.5
     assert abs(phase_marks["GM 14.1 dB"].y[0] % 360 - 180) < 0.5
+
+
+def test_the_convergence_starts_at_iteration_0_and_names_are_whole(workdir):
+    from tui.tableau import tableau_text
+    bench = Workbench(load_session(workdir / "seidel_inlet_pi.json"))
+    bench.step()
+    label, iterations, values = bench.view().convergence()
+    assert iterations[:2] == [0, 1] and len(values) == 2
+    rows, _ = bench.view().tableau()
+    text = tableau_text(rows, [], "hz").plain
+    assert "x1_normalized" in text and "x1_rate_normalized" in text

@@ -151,8 +151,33 @@ def _draw_one(plt, fig: Figure) -> None:
         plt.ylim(*fig.ylim)
     if fig.xticks is not None:    # ([], []): no time ticks (a panel above another)
         plt.xticks(*fig.xticks)
+    elif (span := _span(fig, "x")) is not None:
+        plt.xticks(*nice_ticks(*span))
     if fig.yticks:
         plt.yticks(*fig.yticks)
+    elif (span := _span(fig, "y")) is not None:
+        plt.yticks(*nice_ticks(*span))
+
+
+def _span(fig: Figure, axis: str) -> tuple[float, float] | None:
+    """The axis's shown range: its limits, else the finite data's extent (None: no data)."""
+    limits = fig.xlim if axis == "x" else fig.ylim
+    if limits:
+        return limits
+    values = [v for s in fig.series for v in (s.x if axis == "x" else s.y)
+              if math.isfinite(v) and abs(v) < PLOTTABLE]
+    return (min(values), max(values)) if values and max(values) > min(values) else None
+
+
+def nice_ticks(low: float, high: float, count: int = 5) -> tuple[list[float], list[str]]:
+    """Round ticks (1, 2 or 5 times a power of ten apart) inside [low, high]."""
+    power = 10.0 ** math.floor(math.log10((high - low) / max(count - 1, 1)))
+    candidates = [m * power * scale for scale in (0.1, 1.0, 10.0) for m in (1, 2, 5)]
+    step = next(c for c in candidates if math.floor(high / c) - math.ceil(low / c) + 1 <= count + 1)
+    first = math.ceil(low / step) * step
+    ticks = [round(first / step + k) * step for k in range(int((high - first) / step + 1e-9) + 1)]
+    digits = max(0, -math.floor(math.log10(step) + 1e-12))
+    return ticks, [f"{t:.{digits}f}" if abs(t) < 1e6 and digits <= 6 else f"{t:.3g}" for t in ticks]
 
 
 PLOTTABLE = 1e150   # plotext's arithmetic on the canvas overflows near the float limits
