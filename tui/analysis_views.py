@@ -15,6 +15,7 @@ from engine.loops import loop_model
 from engine.sensitivity import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
                                 transfer_evaluator)
 
+from .views import CONDITION_COLORS
 from .widgets.plots import Figure, Series, _decades, _finite
 
 LOCUS_POINTS = 2000   # the engine's default bound
@@ -39,13 +40,17 @@ def sensitivity_figure(view) -> Figure:
         except EngineError as exc:
             notes.append(f"{c.name}: {exc}")
             continue
+        several = len(view.plotted()) > 1   # then each condition in its colour, T dotted
         prefix = f"{c.name} " if len(problem.conditions) > 1 else ""
+        s_color, t_color = (CONDITION_COLORS[k % len(CONDITION_COLORS)],) * 2 if several else ("blue", "orange")
         lw = np.log10(w / scale)
         with np.errstate(divide="ignore"):
-            fig.series.append(Series(*_finite(lw, 20 * np.log10(s)), f"{prefix}|S|", color="blue"))
-            fig.series.append(Series(*_finite(lw, 20 * np.log10(t)), f"{prefix}|T|", color="orange"))
-        _compensator_curve(fig, c, params, loop, lw, scale, prefix)
-        for name, peak, color in (("Ms", ms, "blue"), ("Mt", mt, "orange")):
+            fig.series.append(Series(*_finite(lw, 20 * np.log10(s)), f"{prefix}|S|", color=s_color))
+            fig.series.append(Series(*_finite(lw, 20 * np.log10(t)), f"{prefix}|T|", color=t_color,
+                                     marker="dot" if several else "braille"))
+        if not several:
+            _compensator_curve(fig, c, params, loop, lw, scale, prefix)
+        for name, peak, color in (("Ms", ms, s_color), ("Mt", mt, t_color)):
             if 0 < peak.frequency < math.inf and peak.value > 0:
                 fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db],
                                          f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)", marker="x",
@@ -105,9 +110,13 @@ def poles_figure(view) -> Figure:
     return fig
 
 
-def locus_figure(view) -> Figure:
-    """The root locus in the loop gain of the first plotted condition, the current
-    closed-loop poles marked, the imaginary-axis crossings listed in the title."""
+PARAMETER_LOCUS_POINTS = 300   # each point is a realization and its polish (~10 ms)
+
+
+def locus_figure(view, parameter: str = "gain") -> Figure:
+    """The root locus of the first plotted condition in the loop gain k (or in a named
+    parameter, a decade either side of its value), the current closed-loop poles
+    marked, the imaginary-axis crossings below."""
     fig = Figure(title="Root locus (loop gain k)", xlabel="Re", ylabel="Im",
                  empty_message="no root locus (needs a rational loop)")
     k = view.plotted()[0] if view.plotted() else 0
@@ -116,7 +125,9 @@ def locus_figure(view) -> Figure:
         return fig
     from engine.root_locus import root_locus
     try:
-        locus = root_locus(c.network, c.break_at, view.parameters(None, k), max_points=LOCUS_POINTS, polished=False)
+        points = LOCUS_POINTS if parameter == "gain" else PARAMETER_LOCUS_POINTS
+        locus = root_locus(c.network, c.break_at, view.parameters(None, k), parameter, max_points=points,
+                           polished=False)
     except EngineError as exc:
         fig.empty_message = f"no root locus: {exc}"
         return fig
@@ -127,10 +138,12 @@ def locus_figure(view) -> Figure:
         fig.series.append(Series(column.real[keep].tolist(), column.imag[keep].tolist(),
                                  "branches" if j == 0 else "", color="blue"))
     current = np.asarray(locus.current)
-    fig.series.append(Series(current.real.tolist(), current.imag.tolist(), "k = 1 (current)", marker="*",
+    now = "k = 1" if parameter == "gain" else f"{parameter} = {locus.current_value:.5g}"
+    fig.series.append(Series(current.real.tolist(), current.imag.tolist(), f"{now} (current)", marker="*",
                              scatter=True, color="red"))
-    crossings = ", ".join(f"k={x.value:.4g} at {x.frequency:.4g} rad/s" for x in locus.crossings[:3])
-    fig.title = f"Root locus: {c.name}" + ("" if locus.status == "complete" else f" ({locus.status})")
+    name = "k" if parameter == "gain" else parameter
+    crossings = ", ".join(f"{name}={x.value:.4g} at {x.frequency:.4g} rad/s" for x in locus.crossings[:3])
+    fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {c.name}" + ("" if locus.status == "complete" else f" ({locus.status})")
     if crossings:
         fig.xlabel = f"Re   jw-axis crossings: {crossings}"
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
@@ -163,3 +176,32 @@ def _square(fig: Figure, points: np.ndarray, focus: np.ndarray | None = None) ->
     half = 0.75 * max(span, 2 * np.abs(around.imag).max()) + 1e-12
     fig.xlim = (re_mid - 1.3 * half, re_mid + 1.3 * half)
     fig.ylim = (im_mid - half, im_mid + half)
+
+
+MAX_POLES_LISTED = 8
+
+
+def pole_lines(view) -> str:
+    """The current design's closed-loop poles of the first plotted condition (a conjugate pair
+    once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""
+    from engine.polish import polish
+    from engine.realization import poles
+    k = view.plotted()[0] if view.plotted() else 0
+    c = _rational(view, k)
+    ss = view.step_loop(k) if c is not None else None
+    if ss is None:
+        return ""
+    params = view.parameters(None, k)
+    try:
+        found = poles(ss, lambda eig: polish(c.network, params, eig))
+    except EngineError:
+        found = poles(ss)
+    shown = sorted((p for p in found if p.value.imag >= 0), key=lambda p: (p.zeta, p.wn))
+    lines = [f"closed-loop poles ({c.name})" if len(view.problem.conditions) > 1 else "closed-loop poles",
+             f"{'pole':>22} {'zeta':>7} {'wn rad/s' if c.network.variable == 's' else 'wn (w)':>10}"]
+    for p in shown[:MAX_POLES_LISTED]:
+        value = f"{p.value.real:.5g}" + (f" +- {p.value.imag:.5g}j" if p.value.imag > 0 else "")
+        lines.append(f"{value:>22} {p.zeta:>7.3g} {p.wn:>10.5g}")
+    if len(shown) > MAX_POLES_LISTED:
+        lines.append(f"... {len(shown) - MAX_POLES_LISTED} more (the Poles plot shows them all)")
+    return "\n".join(lines)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from sessions.store import load_session
 from tui.analysis_views import locus_figure, poles_figure, sensitivity_figure
@@ -64,3 +65,37 @@ def test_m_circles_and_the_exclusion_disk_are_what_they_say():
     edge = next(s for s in fig.series if s.label.startswith("disk margin"))
     L = np.array(edge.x) + 1j * np.array(edge.y)
     assert np.allclose(np.abs(1 / (1 + L) - 0.5), 1 / 0.8, rtol=1e-9)      # |S - 1/2| = 1/alpha on its edge
+
+
+def test_the_run_tab_lists_the_closed_loop_poles_with_zeta_and_wn(workdir):
+    from tui.analysis_views import pole_lines
+    view = Workbench(load_session(workdir / "report003_lag_lead.json")).view()
+    den = np.polymul(np.polymul([1, 0.1], [1, 50]), np.polymul([1, 0], np.polymul([1, 8], [1, 20])))
+    roots = np.roots(np.polyadd(den, 16000 * np.polymul([1, 1], [1, 5])))
+    pair = next(r for r in roots if r.imag > 0)
+    line = next(l for l in pole_lines(view).splitlines() if "+-" in l).split()
+    assert float(line[0]) == pytest.approx(pair.real, rel=1e-4) and float(line[2][:-1]) == pytest.approx(pair.imag, rel=1e-4)
+    assert float(line[3]) == pytest.approx(-pair.real / abs(pair), rel=1e-2)
+    assert float(line[4]) == pytest.approx(abs(pair), rel=1e-4)
+
+
+@synchronous
+async def test_L_draws_the_locus_in_a_parameter(workdir):
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("L")
+        await pilot.pause()
+        choices = [name for name, _ in app.screen.choices]
+        assert choices[0] == "gain" and "p2" in choices
+        app.screen.dismiss("p2")
+        await settle(app, pilot)
+        await app.workers.wait_for_complete()
+        await settle(app, pilot)
+        figure = app.screen.query_one("#locus").figure
+        assert figure.title.startswith("Root locus in p2") and "p2=" in figure.xlabel
+        # the crossing: 1 + L(jw) = 0 there, L = 16000 (s+1)(s+5) / ((s+0.1)(s+p2) s (s+8)(s+20))
+        p2, w = (float(v) for v in figure.xlabel.split("p2=")[1].split(" rad/s")[0].split(" at "))
+        s = 1j * w
+        residual = abs(1 + 16000 * (s + 1) * (s + 5) / ((s + 0.1) * (s + p2) * s * (s + 8) * (s + 20)))
+        assert residual < 1e-3      # the label's 4 digits

@@ -17,6 +17,7 @@ from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
+from ..analysis_views import pole_lines
 from ..figures import OVERLAYS, figures, history_figure
 from ..keys import identified
 from ..plant_rows import plant_rows
@@ -60,6 +61,8 @@ class MainScreen(ViewActions, Screen):
                 Binding("3", "tab('targets')", "targets", show=False),
                 Binding("4", "tab('history')", "history", show=False),
                 Binding("5", "tab('sweep')", "sweep", show=False),
+                Binding("L", "locus_parameter", "locus in", show=False,
+                        tooltip="the root locus in the loop gain or in a parameter"),
                 Binding("t", "step_setup", "step signals", show=False,
                         tooltip="the step plot's input, output and horizon"),
                 Binding("y", "copy", "copy", show=False,
@@ -213,7 +216,11 @@ class MainScreen(ViewActions, Screen):
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
         unit = view.problem.grid.unit
         width = self.query_one("#tableau-scroll").size.width or None
-        self.query_one("#tableau", TextView).set(tableau_text(rows, previous, unit, width))
+        text = tableau_text(rows, previous, unit, width)
+        poles = tolerant(lambda: pole_lines(view), lambda: "") if "poles" in view.presenter.plots else ""
+        if poles:
+            text.append("\n" + poles + "\n")
+        self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         if plots:
             self.refresh_plots(drawn if drawn is not None else figures(view), prebuilt)

@@ -17,6 +17,8 @@ from .dialogs import EditDialog
 class ViewActions:
     """Mixed into `MainScreen`: needs ``bench``, ``app`` and the screen's widgets."""
 
+    locus_parameter = "gain"   # what the root locus varies
+
     def action_step_setup(self) -> None:
         """Ask which input is stepped, which output is plotted and for how long."""
         view = self.bench.view()
@@ -68,16 +70,32 @@ class ViewActions:
         if not plots or plots.first().active != "p-locus" or not self.query("#locus"):
             return
         view = self.bench.view() if view is None else view
-        key = (id(view.problem), view.iteration, view.plotted_condition)
+        key = (id(view.problem), view.iteration, view.plotted_condition, self.locus_parameter)
         if key == self._locus_key:
             return
         self._locus_key = key
         self.query_one("#locus", FigurePlot).show(Figure(empty_message="computing the root locus ..."))
 
+        parameter = self.locus_parameter
+
         def compute() -> None:
-            figure = locus_figure(view)
+            figure = locus_figure(view, parameter)
             self.app.call_from_thread(self._show_locus, key, figure)
         self.run_worker(compute, thread=True, exclusive=True, group="locus")
+
+    def action_locus_parameter(self) -> None:
+        """Choose what the root locus varies: the loop gain or one parameter."""
+        from .dialogs import ChooseDialog
+        names = [p.name for p in self.bench.session.problem.parameters]
+        choices = [("gain", "the loop gain k (1 + k L = 0)")] + [(n, "this parameter, a decade either side")
+                                                                 for n in names]
+
+        def chosen(name: str | None) -> None:
+            if name:
+                self.locus_parameter = name
+                self.query_one("#plots").active = "p-locus"
+                self.refresh_locus()
+        self.app.push_screen(ChooseDialog("root locus in", choices), chosen)
 
     def _show_locus(self, key, figure: Figure) -> None:
         if key == self._locus_key:
