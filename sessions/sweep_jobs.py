@@ -190,6 +190,7 @@ class Outcome:
     attempts: dict[int, list[str]] = field(default_factory=dict)
     cancelled: bool = False
     interrupted: bool = False
+    note: str = ""   # e.g. why the runs went serially rather than on a local cluster
 
     @property
     def finished(self) -> int:
@@ -206,15 +207,53 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
             timeout: float = DEFAULT_CONNECT_TIMEOUT) -> Outcome:
     """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
     per core, one thread each) or the cluster at ``scheduler`` (tcp://HOST:PORT,
-    reached within ``timeout`` seconds).  Ctrl-C stops it: the finished runs are kept."""
+    reached within ``timeout`` seconds).  With neither ``scheduler`` nor ``workers``
+    given, the first run is timed here and the rest run here too when a local
+    cluster could not pay for its start-up (the outcome's ``note`` says so).
+    Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
-    client, cluster = _connect(scheduler_address(scheduler), workers, connect_timeout(timeout))
+    address, first = scheduler_address(scheduler), None
+    if address is None and workers is None and jobs:   # a local cluster of the default size: maybe not worth it
+        first, serial = _serial_when_faster(jobs, workers, progress)
+        if serial is not None:
+            return serial
+    client, cluster = _connect(address, workers, connect_timeout(timeout))
     try:
-        return _gather(client, jobs, progress, cancelled)
+        if first is None:
+            return _gather(client, jobs, progress, cancelled)
+        rest = _gather(client, jobs[1:], progress, cancelled)
+        return Outcome([first] + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted)
     finally:
         with sigint_ignored():
             _close(client, cluster)
+
+
+LOCAL_CLUSTER_START = 3.0   # s: a local cluster's start-up and first imports, measured on 2 cores
+
+
+def _serial_when_faster(jobs: Sequence, workers: int | None,
+                        progress: Callable[[int, int], None] | None) -> tuple[dict, Outcome | None]:
+    """Run the first job here and time it; when the rest would take less than a local
+    cluster's start-up saves (or there is one core), run them here too: (first run,
+    the serial outcome or None)."""
+    n = workers or os.cpu_count() or 1
+    started = time.perf_counter()
+    first = run_job(jobs[0].payload())
+    first["attempts"] = 1
+    each = time.perf_counter() - started
+    estimate = each * (len(jobs) - 1)
+    if progress:
+        progress(1, len(jobs))
+    if n > 1 and estimate * (1 - 1 / n) <= LOCAL_CLUSTER_START:
+        note = (f"serial: the {len(jobs) - 1} other run(s) take about {estimate:.2g} s here, less than a local "
+                f"cluster's start-up ({LOCAL_CLUSTER_START:g} s) would save")
+    elif n == 1:
+        note = "serial: one core"
+    else:
+        return first, None
+    rest = execute_serial(jobs[1:], None if progress is None else lambda k, _: progress(k + 1, len(jobs)))
+    return first, Outcome([first] + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note)
 
 
 def _connect(address: str | None, workers: int | None, timeout: float):

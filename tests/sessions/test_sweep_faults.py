@@ -154,3 +154,11 @@ def test_non_finite_objectives_are_kept_as_json(tmp_path):
     assert summary["runs"][0]["objective"] == "inf"
     from sessions.store import dumps
     assert json.loads(dumps(session.model))["sweeps"][0]["runs"][0]["objective"] == "inf"
+
+
+def test_a_sweep_too_small_for_a_local_cluster_runs_serially_and_says_so(tmp_path):
+    jobs = start_jobs(load_session(_copy(tmp_path, "coebra_lag_lead")), 4, seed=1)
+    outcome = execute(jobs)
+    assert outcome.workers == 1 and outcome.note.startswith("serial: the 3 other run(s) take about")
+    serial = execute_serial(jobs)
+    assert [r["parameters"] for r in outcome.runs] == [r["parameters"] for r in serial.runs]
