@@ -69,7 +69,21 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
         magnitude.xticks = phase.xticks = _decades(lw, unit)
         if curve.margins is not None:
             _mark_margins(magnitude, phase, curve, lw, degrees, scale)
+    for fig in (magnitude, phase):
+        _legend_room(fig)
     return magnitude, phase
+
+
+def _legend_room(fig: Figure) -> None:
+    """Room above the curves for plotext's legend (top left), which otherwise covers the
+    low-frequency end of a Bode plot: the top of the axis raised by a row per entry."""
+    ys = [v for s in fig.series for v in s.y if math.isfinite(v)]
+    if not ys or fig.ylim is not None:
+        return
+    low, high = min(ys), max(ys)
+    span = (high - low) or 1.0
+    entries = sum(1 for s in fig.series if s.label)
+    fig.ylim = (low - 0.05 * span, high + span * min(0.12 * entries, 0.6))
 
 
 def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray,
