@@ -41,6 +41,11 @@ CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_
                      "use_best", "open", "new", "save_as"})
 
 
+SESSION_ACTIONS = frozenset({"step", "run", "run_n", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm",
+                             "sweep", "use_best", "next_condition", "export", "save_screenshot", "pause", "save",
+                             "save_as"})
+
+
 class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     """``LoopcraftApp(path)`` opens a session; without a path, the start screen."""
 
@@ -95,10 +100,9 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         if action in CHANGES and self.busy:
             return None
+        if action in SESSION_ACTIONS and self.bench is None:
+            return False   # no session (the start screen): not shown at all
         if action == "pause" and not self.busy:
-            return None
-        if action in ("step", "run", "run_n", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
-                      "use_best", "next_condition", "export", "save_screenshot") and self.bench is None:
             return None
         return None if self.bench is not None and not self._can(action) else True
 
