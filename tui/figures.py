@@ -49,7 +49,7 @@ def figures(view: View) -> dict[str, Figure]:
         objective = view.problem.objective
         out["trajectories"] = trajectories_figure(view.trajectories(), objective.data if objective else None)
     if "step" in wanted:
-        out["step"] = step_figure(*view.step_traces(), view.step_marks())
+        out["step"] = step_figure(*view.step_plot())
     out["sweep-plot"] = sweep_figure(view.sweep)
     return out
 

@@ -153,25 +153,29 @@ class View:
             return None
         return realized(problem.conditions[condition].network, self.parameters(None, condition))
 
-    def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
-        """The step responses the plot draws (`shown`): what is plotted, and
-        (t, y, label, colour) per trace, all over the current design's horizon."""
-        name, traces = "", []
+    def step_plot(self) -> tuple[str, list[tuple[list[float], list[float], str, str]], Any]:
+        """What the step plot draws (`shown`), each response simulated once: what is
+        plotted, (t, y, label, colour) per trace over the current design's horizon, and
+        the current design's `StepMeasures` (first plotted condition; None without one)."""
+        name, traces, marks = "", [], None
         for at, k, label, color in self.shown():
             ss = self.step_loop(k)
             response = self.step(at, k, horizon(ss) if ss is not None else None)
             if response is not None:
                 name = response.name
                 traces.append((response.t, response.y, label, color))
+                if at is None and not traces[:-1]:
+                    marks = response.measures
+        return name, traces, marks
+
+    def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
+        """The step plot's traces (`step_plot` without the measures)."""
+        name, traces, _ = self.step_plot()
         return name, traces
 
     def step_marks(self):
-        """The current design's step measures (first plotted condition), or None."""
-        plotted = self.plotted()
-        if not plotted:
-            return None
-        found = self.step(None, plotted[0])
-        return None if found is None else found.measures
+        """The current design's step measures (`step_plot`'s)."""
+        return self.step_plot()[2]
 
     def trajectories(self) -> dict | None:
         """The presenter's trajectories of the current iteration (iteration 0's before any)."""
