@@ -59,7 +59,8 @@ class EditHistory:
     def push(self, before: Snapshot, after_bench) -> str | None:
         """Keep ``before`` as the undo of an edit that led to ``after_bench``'s state;
         its description (None when nothing changed)."""
-        text = describe_change(_dump(before), _dump(Snapshot.of(after_bench)))
+        model = after_bench.session.model   # read as it is: no copy of it is kept
+        text = describe_change(_dump(before.problem_model, before.algorithm), _dump(model.problem, model.algorithm))
         if text is None:
             return None
         self.undo_stack = (self.undo_stack + [(text, before)])[-MAX_EDITS:]
@@ -85,8 +86,8 @@ class EditHistory:
         return text
 
 
-def _dump(snapshot: Snapshot) -> dict:
-    return {"problem": snapshot.problem_model.model_dump(), "algorithm": snapshot.algorithm.model_dump()}
+def _dump(problem_model, algorithm) -> dict:
+    return {"problem": problem_model.model_dump(), "algorithm": algorithm.model_dump()}
 
 
 def describe_change(before: Any, after: Any, limit: int = 2) -> str | None:
