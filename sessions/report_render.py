@@ -9,6 +9,7 @@ import html
 from pathlib import Path
 
 from .errors import SessionError
+from .savefile import write_atomic
 from .report_content import Block
 
 STYLE = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}"
@@ -81,7 +82,7 @@ def write_report(blocks: list[Block], fmt: str, folder: Path, stem: str) -> list
         folder.mkdir(parents=True, exist_ok=True)
         if fmt == "html":
             target = folder / f"{stem}.html"
-            target.write_text(render_html(blocks), encoding="utf-8")
+            write_atomic(target, render_html(blocks).encode("utf-8"))
             return [target]
         text, files = render_markdown(blocks, stem)
         written = []
@@ -89,7 +90,7 @@ def write_report(blocks: list[Block], fmt: str, folder: Path, stem: str) -> list
             (folder / name).write_bytes(data)
             written.append(folder / name)
         target = folder / f"{stem}.md"
-        target.write_text(text, encoding="utf-8")
+        write_atomic(target, text.encode("utf-8"))
         return [target] + written
     except OSError as exc:
         raise SessionError(f"--out {folder}: cannot write the report: {exc.strerror or exc}") from None

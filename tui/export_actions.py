@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from sessions.errors import SessionError
+from sessions.savefile import write_atomic
 from sessions.exports import FORMATS, SUFFIX, export_text
 
 from .files import home
@@ -51,7 +52,7 @@ class ExportActions:
                 return
             try:
                 target.parent.mkdir(parents=True, exist_ok=True)
-                target.write_text(text, encoding="utf-8")
+                write_atomic(target, text.encode("utf-8"))
             except OSError as exc:
                 self.notify(f"{target}: {exc.strerror or exc}", title=f"{what} not written", severity="error",
                             timeout=10)

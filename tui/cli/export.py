@@ -44,7 +44,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
         return 0
     try:
-        target.write_text(text, encoding="utf-8")
+        from sessions.savefile import write_atomic
+        write_atomic(target, text.encode("utf-8"))
     except OSError as exc:
         raise CliError(f"--out {target}: cannot write: {exc.strerror or exc}") from None
     print(f"wrote {target}", file=sys.stderr)

@@ -44,7 +44,8 @@ def cmd_new(args: argparse.Namespace) -> int:
 
 def _write(path: Path, text: str) -> None:
     try:
-        path.write_text(text, encoding="utf-8")
+        from sessions.savefile import write_atomic
+        write_atomic(path, text.encode("utf-8"))
     except OSError as exc:
         raise CliError(f"{path}: cannot write the plant's table: {exc.strerror or exc}") from None
 
