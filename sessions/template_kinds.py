@@ -12,7 +12,7 @@ import re
 from pathlib import Path
 
 from .errors import SessionError
-from .templates import _grid, _parameter, new_session, read_compensator as _compensator, read_plant as _plant
+from .templates import grid_for, new_session, parameter_entry, read_compensator, read_plant
 
 KINDS: dict[str, str] = {
     "unity": "unity feedback: a plant and a compensator (PM >= 45 deg, GM >= 6 dB)",
@@ -47,12 +47,12 @@ def two_loop_session(inner_plant: str, outer_plant: str, inner: str = "pi", oute
     -> outer plant -> y, e1 = r - y, e2 = x_ref - x; one condition broken at e1 (the outer
     loop, the inner one closed) and one at e2 (the inner loop), the same targets at both."""
     data = new_session(inner_plant, inner, algorithm)
-    inner_text, _, variable = _plant(inner_plant)
-    outer_text, _, outer_variable = _plant(outer_plant)
+    inner_text, _, variable = read_plant(inner_plant)
+    outer_text, _, outer_variable = read_plant(outer_plant)
     if outer_variable != variable:
         raise SessionError("the two plants must be in the same variable (s or w)")
-    c_in, p_in = _renamed(*_compensator(inner, variable), "_i")
-    c_out, p_out = _renamed(*_compensator(outer, variable), "_o")
+    c_in, p_in = _renamed(*read_compensator(inner, variable), "_i")
+    c_out, p_out = _renamed(*read_compensator(outer, variable), "_o")
 
     def block(name: str, source: str, output: str, expression: str) -> dict:
         return {"name": name, "input": source, "output": output,
@@ -65,8 +65,8 @@ def two_loop_session(inner_plant: str, outer_plant: str, inner: str = "pi", oute
     problem = data["problem"]
     problem["conditions"] = [{"name": f"{loop} loop", "variable": variable, "break_at": point, "plant": plant}
                              for loop, point in (("outer", "e1"), ("inner", "e2"))]
-    problem["parameters"] = [_parameter(n, v) for n, v in {**p_out, **p_in}.items()]
-    problem["grid"] = _grid(f"({inner_text})*({outer_text})", variable)
+    problem["parameters"] = [parameter_entry(n, v) for n, v in {**p_out, **p_in}.items()]
+    problem["grid"] = grid_for(f"({inner_text})*({outer_text})", variable)
     data["notes"] = (f"Two loops: the inner compensator {c_in} around {inner_text}, the outer {c_out} around "
                      f"{outer_text}; margins at both break points (conditions 'outer loop' at e1, 'inner loop' at e2).")
     return data

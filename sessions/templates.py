@@ -52,8 +52,8 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
     if isinstance(plant, dict):
         plant_text, delay, variable = "", 0.0, "s"
     else:
-        plant_text, delay, variable = _plant(plant)
-    expression, starts = _compensator(compensator, variable)
+        plant_text, delay, variable = read_plant(plant)
+    expression, starts = read_compensator(compensator, variable)
     blocks = [_block("compensator", "e", "u", expression)]
     if isinstance(plant, dict):
         blocks.append({"name": "plant", "input": "u", "output": "y", "transfer": plant})
@@ -71,8 +71,8 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
         "provenance": {"loopcraft_version": LOOPCRAFT_VERSION, "created": stamp, "modified": stamp},
         "notes": notes or f"A new session: the compensator {expression} ({compensator}) on the plant "
                           f"{plant_text or 'table'}, unity feedback; targets PM >= 45 deg, GM >= 6 dB.",
-        "problem": {"grid": grid or _grid(plant_text, variable), "conditions": [condition],
-                    "parameters": [_parameter(p, v) for p, v in starts.items()],
+        "problem": {"grid": grid or grid_for(plant_text, variable), "conditions": [condition],
+                    "parameters": [parameter_entry(p, v) for p, v in starts.items()],
                     "targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 45.0}], "scale": 0.2},
                                 {"measure": "gain_margin_db", "bands": [{"desired": 6.0}]}]},
         "algorithm": {"name": algorithm, "settings": {}},
@@ -80,22 +80,12 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
     }
 
 
-def read_plant(plant: str) -> tuple[str, float, str]:
-    """A plant expression's rational part, its delay and its variable (a `SessionError` says what is wrong)."""
-    return _plant(plant)
-
-
-def read_compensator(compensator: str, variable: str = "s") -> tuple[str, dict[str, float]]:
-    """A structure's or expression's compensator and its parameters' starting values."""
-    return _compensator(compensator, variable)
-
-
 def _block(name: str, source: str, output: str, expression: str) -> dict:
     return {"name": name, "input": source, "output": output,
             "transfer": {"kind": "expression", "expression": expression}}
 
 
-def _plant(plant: str) -> tuple[str, float, str]:
+def read_plant(plant: str) -> tuple[str, float, str]:
     """The plant's rational part, its delay and its variable; numbers only."""
     from engine.analysis import split_delays     # on use: the command line's parser reads STRUCTURES at start
     from engine.expressions import Expression
@@ -114,7 +104,7 @@ def _plant(plant: str) -> tuple[str, float, str]:
     return text, delay, variable
 
 
-def _compensator(compensator: str, variable: str) -> tuple[str, dict[str, float]]:
+def read_compensator(compensator: str, variable: str) -> tuple[str, dict[str, float]]:
     """The compensator's expression (in ``variable``) and its parameters' starting values."""
     from engine.expressions import Expression
     if compensator in STRUCTURES:
@@ -130,7 +120,7 @@ def _compensator(compensator: str, variable: str) -> tuple[str, dict[str, float]
     return compensator, {n: 1.0 for n in sorted(names)}
 
 
-def _parameter(name: str, value: float) -> dict:
+def parameter_entry(name: str, value: float) -> dict:
     """Time constants (T...) and gains (K...) positive and bounded; others within +-1e6."""
     if name[0] in "Tt":
         low, high = TIME_CONSTANT
@@ -141,7 +131,7 @@ def _parameter(name: str, value: float) -> dict:
     return {"name": name, "value": min(max(value, low), high), "min": low, "max": high, "sign": "positive"}
 
 
-def _grid(plant: str, variable: str) -> dict:
+def grid_for(plant: str, variable: str) -> dict:
     """Log grid two decades beyond the plant's nonzero corner frequencies (0.01..1000 without any)."""
     import numpy as np
     from engine.expressions import Expression
