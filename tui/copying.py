@@ -8,6 +8,8 @@ from collections.abc import Mapping, Sequence
 
 from sessions.transfer_forms import format_sub_compensator, format_transfer, transfer_names
 
+from .plant_rows import cascade_transfers
+
 
 def row_text(cells: Sequence[object]) -> str:
     """A table row as tab-separated text (it pastes into a spreadsheet's columns)."""
@@ -42,7 +44,7 @@ def _transfers(plant) -> list[tuple[str, object]]:
     if plant.format == "diagram":
         return [(b.name, b.transfer) for b in plant.blocks]
     if plant.format == "cascade":
-        return [(n.upper(), t) for n in ("g1", "g2", "g1g2", "ga", "h1", "h2") if (t := getattr(plant, n)) is not None]
+        return [(n.upper(), t) for n, t in cascade_transfers(plant)]
     if plant.format == "channels":
         return [(f"{ch.name}.response", ch.response) for ch in plant.channels]
     return []

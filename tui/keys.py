@@ -15,7 +15,7 @@ def identified(prefix: str, bindings: list[Binding]) -> list[Binding]:
 
 
 def _name(action: str) -> str:
-    return re.sub(r"\W+", "_", action.replace("-", "minus ")).strip("_")
+    return re.sub(r"\W+", "_", action).strip("_")
 
 
 def binding_table() -> list[tuple[str, str, str]]:

@@ -40,7 +40,14 @@ def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None
                              base + ("channels", i, "compensators", n)))
         return rows
     if plant.format == "cascade":
-        return [((name.upper(), "", "", t.kind, describe(t)), base + (name,))
-                for name in ("g1", "g2", "g1g2", "ga", "h1", "h2") if (t := getattr(plant, name)) is not None]
+        return [((name.upper(), "", "", t.kind, describe(t)), base + (name,)) for name, t in cascade_transfers(plant)]
     return [((f"a[{e.row},{e.col}]", "", "", "matrix entry", e.expression), base + ("entries", i))
             for i, e in enumerate(plant.entries)]
+
+
+CASCADE = ("g1", "g2", "g1g2", "ga", "h1", "h2")   # report 001's Figure 2, in the order the tab lists them
+
+
+def cascade_transfers(plant) -> list[tuple[str, object]]:
+    """(attribute, transfer) of a cascade plant's blocks that are given."""
+    return [(name, t) for name in CASCADE if (t := getattr(plant, name)) is not None]
