@@ -280,7 +280,7 @@ def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = 
 def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
     """The named columns of a CSV file (lines starting with # skipped); errors name line
     and column.  Only a regular file of at most MAX_TABLE_BYTES and MAX_TABLE_ROWS rows."""
-    numbered = [(n, line) for n, line in enumerate(io.StringIO(_bounded_text(file, path), newline=""), start=1)
+    numbered = [(n, line) for n, line in enumerate(io.StringIO(bounded_text(file, path), newline=""), start=1)
                 if not line.startswith("#")]
     if len(numbered) - 1 > MAX_TABLE_ROWS:
         raise SessionError(f"{path}.csv: {file.name} has {len(numbered) - 1} rows; a table has at most "
@@ -297,7 +297,7 @@ def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ..
     return _columns(file, columns, numbered, rows)
 
 
-def _bounded_text(file: Path, path: str) -> str:
+def bounded_text(file: Path, path: str) -> str:
     """The text of a regular file of at most MAX_TABLE_BYTES (never more is read)."""
     try:
         fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))   # a FIFO must not block the open

@@ -233,9 +233,15 @@ def setting_edit(bench: Workbench, name: str) -> Edit:
 # -- a block from a CSV table -------------------------------------------------------
 
 def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
-    """The header's column names and the first lines of a CSV file (comment lines skipped)."""
-    text = [line.rstrip("\n") for line in path.read_text(encoding="utf-8", errors="replace").splitlines()
-            if not line.startswith("#")]
+    """The header's column names and the first lines of a CSV file (comment lines skipped);
+    only a regular file of a table's size is read (`sessions.build.bounded_text`: a FIFO
+    typed as the path must not hang the app)."""
+    from sessions.build import bounded_text
+    try:
+        whole = bounded_text(path, "table")
+    except SessionError as exc:
+        raise ValueError(str(exc)) from None
+    text = [line.rstrip("\n") for line in whole.splitlines() if not line.startswith("#")]
     if not text:
         raise ValueError(f"{path.name} has no rows")
     return [c.strip() for c in text[0].split(",")], "\n".join(text[:lines])

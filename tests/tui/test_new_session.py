@@ -49,3 +49,18 @@ async def test_every_kind_of_new_session_opens(workdir):
             assert formats == expected, (kind, formats)
             if kind == "table":
                 assert (session.path.parent / "plant.csv").exists()
+
+
+def test_a_csv_preview_of_a_fifo_or_a_huge_file_is_refused_not_waited_on(tmp_path):
+    import os
+
+    import pytest
+
+    from tui.edits_fields import csv_preview
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match="pipe.csv"):
+        csv_preview(fifo)
+    table = tmp_path / "t.csv"
+    table.write_text("# a comment\nhz,mag,deg\n1,2,3\n")
+    assert csv_preview(table) == (["hz", "mag", "deg"], "hz,mag,deg\n1,2,3")

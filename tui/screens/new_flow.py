@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from sessions import template_kinds, templates
+from sessions.build import read_csv
 from sessions.errors import SessionError
 
 from ..edits_fields import csv_preview, table_transfer
@@ -108,20 +109,8 @@ def _table_check(text: str, header: list[str]) -> str | None:
 def _table_data(path: Path, line: str, compensator: str) -> dict:
     header, _ = csv_preview(path)
     transfer = table_transfer(line, header, path.name)
-    frequencies = _column(path, header.index(transfer["table"]["columns"][0]))
+    frequencies = read_csv(path, transfer["table"]["columns"], "table")[0]   # checked as the build reads it
     return template_kinds.table_session(transfer, frequencies, compensator)
-
-
-def _column(path: Path, k: int) -> list[float]:
-    """The numbers of one CSV column (comment and header lines skipped)."""
-    values = []
-    for line in path.read_text(encoding="utf-8", errors="replace").splitlines()[1:]:
-        if line.strip() and not line.startswith("#"):
-            try:
-                values.append(float(line.split(",")[k]))
-            except (ValueError, IndexError):
-                raise SessionError(f"{path.name}: {line[:40]!r} is not a row of numbers") from None
-    return values
 
 
 def copy_tables(tables: list[Path], folder: Path) -> None:
