@@ -5,7 +5,6 @@ session JSON data that `sessions.store.parse_session` accepts."""
 
 from __future__ import annotations
 
-import copy
 import json
 import math
 import re
@@ -107,7 +106,6 @@ def table_session(table: dict, frequencies: list[float], compensator: str = "lea
 def projection_session() -> dict:
     """A copy of the bundled projection_integrator example, without its records."""
     data = json.loads((EXAMPLES / "projection_integrator.json").read_text(encoding="utf-8"))
-    data = copy.deepcopy(data)
     data.update(records=[], current_iteration=0, state=None)
     data.pop("sweeps", None)
     return data
