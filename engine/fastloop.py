@@ -101,6 +101,24 @@ class LoopEvaluator:
                                                    for c, ed in enumerate(kept)])
         self.size, self.out, self.source = len(live), compact[k], compact[source]
 
+    def cascade(self) -> list[int] | None:
+        """The entries of the one chain that carries the injection back to the
+        break when the loop is a single cascade (then GH = -their product);
+        None when other paths or inner loops carry it."""
+        reached, frontier, carrying = {self.source}, [self.source], []
+        while frontier:
+            signal = frontier.pop()
+            for target, feeds in enumerate(self.schedule.feeds):
+                for src, chain in feeds:
+                    if src == signal:
+                        carrying.append((target, chain))
+                        if target not in reached:
+                            reached.add(target)
+                            frontier.append(target)
+        if len(carrying) != 1 or carrying[0][0] != self.out:
+            return None
+        return [int(number) for number in self.chains[carrying[0][1]]]
+
     def _blocks(self, omega: NDArray) -> tuple[NDArray, NDArray]:
         """Every block's value and d/dx at x = j omega."""
         x = 1j * omega

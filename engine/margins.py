@@ -22,7 +22,7 @@ method, with its bounds: docs/margins.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,67 +31,12 @@ from .detection import NOISE, Detection, detection_grid
 from .errors import EngineError
 from .fitting import fit_response
 from .loops import LoopModel
+from .margin_types import Band, Margin, Margins, margins_of, single_margin
 from .rootfind import Roots, refine, sign_changes
 from .shapes import shape_notes
+from .zpk import ZpkEvaluator
+from .zpk_margins import fast_margins
 
-
-
-@dataclass(frozen=True)
-class Margin:
-    """One margin: kind G, P, S or A; its frequency (rad/s) and distance value."""
-
-    kind: str
-    frequency: float
-    value: float
-    gh: complex
-    gain_db: float | None = None
-    phase_deg: float | None = None
-    delay: float | None = None
-
-
-@dataclass(frozen=True)
-class Margins:
-    """Every margin of one loop, sorted by frequency within each kind."""
-
-    gain: tuple[Margin, ...]
-    phase: tuple[Margin, ...]
-    stability: tuple[Margin, ...]
-    attenuation: tuple[Margin, ...]
-    method: str  # "refined", "fitted" or "grid"
-    notes: tuple[str, ...] = field(default=())
-    residual: float | None = None  # "fitted": the fit's relative residual on the table
-
-    @property
-    def label(self) -> str:
-        """How the margins were obtained: 'refined', 'fitted (residual 2.1e-04)' or 'grid'."""
-        return f"fitted (residual {self.residual:.1e})" if self.method == "fitted" else self.method
-
-    @property
-    def crossover_frequency(self) -> float | None:
-        """Gain crossover of the phase margin nearest 0 deg (python-control's wc)."""
-        if not self.phase:
-            return None
-        return min(self.phase, key=lambda m: abs(m.phase_deg)).frequency
-
-    @property
-    def delay_margin(self) -> float | None:
-        """Smallest added delay that puts a gain crossover on -1 (s); None with no crossover."""
-        delays = [m.delay for m in self.phase if m.delay is not None]
-        return min(delays) if delays else None
-
-    def all(self) -> tuple[Margin, ...]:
-        return self.gain + self.phase + self.stability + self.attenuation
-
-
-@dataclass(frozen=True)
-class Band:
-    """A frequency band [low, high] in rad/s (high may be inf)."""
-
-    low: float = 0.0
-    high: float = float("inf")
-
-    def contains(self, w: float) -> bool:
-        return self.low <= w <= self.high
 
 
 def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),
@@ -115,17 +60,19 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         return replace(found, method="fitted", residual=fitted[1], notes=(
             f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
             f"(relative residual {fitted[1]:.1e} on the table, the margins' stated uncertainty)",) + notes)
-    grid = detection_grid(loop)
-    found = _refined(loop, grid)
-    if loop.exact is not loop.evaluate and not _agrees(loop, found):
+    grid, found = None, _without_grid(loop)
+    if found is None:
+        grid = detection_grid(loop)
+        found = _refined(loop, grid)
+    if loop.exact is not loop.evaluate and not getattr(loop.evaluate, "factored", False) and not _agrees(loop, found):
         loop = loop.on_exact()  # the pole-zero form is off where it matters: refine on the network
         grid = detection_grid(loop)
         found = _refined(loop, grid)
     gain = [m for m in found["G"] if m.gh.real < 0]
     dc = loop.dc_value
     if dc is not None and dc.real < 0:
-        gain = [_margin("G", 0.0, dc)] + [m for m in gain if m.frequency > 0]
-    notes = list(grid.notes) + shape_notes(loop, grid)
+        gain = [single_margin("G", 0.0, dc)] + [m for m in gain if m.frequency > 0]
+    notes = list(grid.notes) + shape_notes(loop, grid) if grid is not None else []
     if not loop.rational:
         notes.insert(0, f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
     above = float("inf") if attenuation_above is None else attenuation_above
@@ -135,6 +82,18 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         stability=tuple(found["S"]),
         attenuation=tuple(m for m in found["A"] if m.frequency >= above),
         method="refined", notes=tuple(notes))
+
+
+def _without_grid(loop: LoopModel) -> dict[str, list[Margin]] | None:
+    """The margins of a loop in pole-zero form found without a detection grid
+    (`engine.zpk_margins`); None when that method does not apply."""
+    if not (loop.rational and isinstance(loop.evaluate, ZpkEvaluator)):
+        return None
+    frequencies = fast_margins(loop.evaluate)
+    if frequencies is None:
+        return None
+    values = _evaluated(loop, frequencies)
+    return {name: margins_of(name, frequencies[name], values[name]) for name in ("G", "P", "S", "A")}
 
 
 AGREEMENT = 1e-11  # relative: a fast form of GH must match the network at every margin found
@@ -211,7 +170,7 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
         if loop.axis_poles.size:  # refined onto a pole of GH: not a margin
             near = np.min(np.abs(unique[:, None] / loop.axis_poles[None, :] - 1.0), axis=1) < 1e-12
             unique, first = unique[~near], first[~near]
-        margins[name] = _margins_of(name, unique, at[first])
+        margins[name] = margins_of(name, unique, at[first])
     return margins
 
 
@@ -347,31 +306,6 @@ def _evaluated(loop: LoopModel, frequencies: dict[str, NDArray]) -> dict[str, ND
     return out
 
 
-def _margin(kind: str, w: float, gh: complex) -> Margin:
-    """A margin with its distance value and, for G and P, the classical forms."""
-    return _margins_of(kind, np.array([w], dtype=float), np.array([gh], dtype=complex))[0]
-
-
-def _margins_of(kind: str, w: NDArray, gh: NDArray) -> list[Margin]:
-    """Margins of one kind at frequencies ``w`` where the loop is ``gh``:
-    distance values and, for G and P, the classical forms (dB; degrees
-    wrapped to (-180, 180] and the delay margin)."""
-    with np.errstate(all="ignore"):
-        magnitude, distance = np.abs(gh), np.abs(1.0 + gh)
-        if kind == "G":
-            db = np.where(magnitude > 0, -20.0 * np.log10(magnitude), np.inf)
-            return [Margin("G", f, d, g, gain_db=x) for f, d, g, x in zip(w.tolist(), distance.tolist(), gh.tolist(),
-                                                                           db.tolist())]
-        if kind == "P":
-            phase = 180.0 + np.degrees(np.arctan2(gh.imag, gh.real))
-            phase = np.where(phase > 180.0, phase - 360.0, phase)
-            delay = np.radians(phase) % (2 * np.pi) / w
-            return [Margin("P", f, d, g, phase_deg=x, delay=t if f > 0 else None)
-                    for f, d, g, x, t in zip(w.tolist(), distance.tolist(), gh.tolist(), phase.tolist(), delay.tolist())]
-    values = distance if kind == "S" else magnitude
-    return [Margin(kind, f, v, g) for f, v, g in zip(w.tolist(), values.tolist(), gh.tolist())]
-
-
 def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,
                   attenuation_above: float | None) -> Margins:
     """The CIP listing's grid rules (GAINMG, PHASEM, SRMINS) on the user's grid."""
@@ -391,7 +325,7 @@ def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,
     pi = pi[np.array([phase_band.contains(w[i]) for i in pi], dtype=bool)]
     ai = ai[w[ai] > attenuation_above] if attenuation_above is not None else ai[:0]
     return Margins(
-        gain=tuple(_margins_of("G", w[gi], gh[gi])), phase=tuple(_margins_of("P", w[pi], gh[pi])),
-        stability=tuple(_margins_of("S", w[si], gh[si])), attenuation=tuple(_margins_of("A", w[ai], gh[ai])),
+        gain=tuple(margins_of("G", w[gi], gh[gi])), phase=tuple(margins_of("P", w[pi], gh[pi])),
+        stability=tuple(margins_of("S", w[si], gh[si])), attenuation=tuple(margins_of("A", w[ai], gh[ai])),
         method="grid",
         notes=("tabulated loop: margins at grid points (report 000 grid rule), not refined",))

@@ -2,12 +2,16 @@
 refinement: GH(s) = k prod(s - z_i) / prod(s - p_j) costs a few numpy
 operations per batch of frequencies, however many blocks the diagram has.
 
-The form comes from a state-space realization of the loop broken at the
-given signal (poles: eigenvalues of A; zeros: the finite generalized
-eigenvalues of the pencil ([[A, B], [C, D]], diag(I, 0))), with the gain
-matched to the exact network at one frequency.  It is used only after it
-agrees with the exact evaluator (`engine.fastloop`) to 1e-9 relative at
-spread-out check frequencies; otherwise the exact evaluator is kept.
+A loop that is one cascade of blocks (the injection passes through each
+once, as in a unity-feedback loop) takes its form from the blocks' own
+factored forms (`engine.factored`): exact to rounding.  Any other loop takes
+it from a state-space realization of the loop broken at the given signal
+(poles: eigenvalues of A; zeros: the finite generalized eigenvalues of the
+pencil ([[A, B], [C, D]], diag(I, 0))), with the gain matched to the exact
+network at one frequency; near clustered light roots these eigenvalues can
+be off in the seventh digit.  Either form is used only after it agrees with
+the exact evaluator (`engine.fastloop`) to 1e-9 relative at spread-out check
+frequencies; otherwise the exact evaluator is kept.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from numpy.typing import NDArray
 from scipy import linalg
 
 from .errors import EngineError, InterconnectionError
+from .factored import pole_zero
 from .network import Network
 from .realization import StateSpace, realize
 
@@ -31,8 +36,9 @@ LOOP_INPUT = "__loop_input__"
 class ZpkEvaluator:
     """GH(j omega) and dGH/domega from gain, zeros and poles (see the module docstring)."""
 
-    def __init__(self, gain: complex, zeros: NDArray, poles: NDArray):
+    def __init__(self, gain: complex, zeros: NDArray, poles: NDArray, factored: bool = False):
         self.gain = gain
+        self.factored = factored  # read off the blocks' own factors: exact to rounding, no check needed
         self.zeros = np.sort_complex(zeros)
         self.poles = np.sort_complex(poles)
         # rows: m zeros, m poles (paired in order), then the unpaired roots of either kind
@@ -117,7 +123,14 @@ def closed_loop_realization(network: Network, break_at: str, params: Mapping[str
 
 def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], exact) -> ZpkEvaluator | None:
     """The pole-zero form of the loop, or None when it does not match ``exact``
-    (a callable giving GH and dGH/domega) closely enough."""
+    (a callable giving GH and dGH/domega) closely enough: a cascade's from its
+    blocks' own factored forms (exact to rounding), any other loop's from its
+    realization."""
+    chain = exact.cascade() if hasattr(exact, "cascade") else None
+    if chain is not None:
+        form = _cascade_form(network, chain, params)
+        if form is not None and _matches(form, exact):
+            return form
     try:
         ss = loop_realization(network, break_at, params)
     except (EngineError, linalg.LinAlgError, ValueError):
@@ -134,23 +147,58 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
     with np.errstate(all="ignore"):
         zeros = linalg.eigvals(pencil, mass)
     zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) < 1e12 * max(1.0, np.max(np.abs(poles))))]
-    roots = np.abs(np.concatenate([poles, zeros]))
-    roots = roots[roots > 0]
-    scale = float(np.exp(np.mean(np.log(roots)))) if roots.size else 1.0
-    checks = scale * np.array([0.0137, 0.31, 1.13, 3.7, 41.0])
+    checks = _check_frequencies(zeros, poles)
     try:
-        reference, slope = exact(checks)
+        reference = exact(checks)[0]
     except EngineError:
         return None
-    unit = ZpkEvaluator(1.0, zeros, poles)
-    shape, dshape = unit(checks)
+    shape = ZpkEvaluator(1.0, zeros, poles)(checks)[0]
     if not np.all(np.isfinite(shape)) or np.any(shape == 0):
         return None
     gain = complex(reference[2] / shape[2])
     if abs(gain.imag) <= 1e-9 * abs(gain):
         gain = complex(gain.real, 0.0)
     candidate = ZpkEvaluator(gain, zeros, poles)
-    value, dvalue = candidate(checks)
-    close = np.abs(value - reference) <= AGREEMENT * np.abs(reference)
-    dclose = np.abs(dvalue - slope) <= 1e-7 * np.maximum(np.abs(slope), 1e-300)
-    return candidate if bool(np.all(close) and np.all(dclose)) else None
+    return candidate if _matches(candidate, exact) else None
+
+
+def _check_frequencies(zeros: NDArray, poles: NDArray) -> NDArray[np.float64]:
+    """Five frequencies spread around the roots' geometric mean."""
+    roots = np.abs(np.concatenate([poles, zeros]))
+    roots = roots[roots > 0]
+    scale = float(np.exp(np.mean(np.log(roots)))) if roots.size else 1.0
+    return scale * np.array([0.0137, 0.31, 1.13, 3.7, 41.0])
+
+
+def _matches(form: ZpkEvaluator, exact) -> bool:
+    """Does the form agree with ``exact`` (value to `AGREEMENT`, slope to 1e-7) at five frequencies?"""
+    checks = _check_frequencies(form.zeros, form.poles)
+    try:
+        reference, slope = exact(checks)
+    except EngineError:
+        return False
+    value, dvalue = form(checks)
+    with np.errstate(all="ignore"):
+        close = np.abs(value - reference) <= AGREEMENT * np.abs(reference)
+        dclose = np.abs(dvalue - slope) <= 1e-7 * np.maximum(np.abs(slope), 1e-300)
+    return bool(np.all(close) and np.all(dclose))
+
+
+def _cascade_form(network: Network, chain: list[int], params: Mapping[str, float]) -> ZpkEvaluator | None:
+    """GH = -(the chain's product) from each block's factored form (`engine.factored`)."""
+    gain, zeros, poles = -1.0, [], []
+    for number in chain:
+        expression = getattr(network.entries[number].transfer, "expression", None)
+        if expression is None:
+            return None
+        try:
+            form = pole_zero(expression, params)
+        except EngineError:
+            return None
+        gain *= form.gain
+        zeros.append(form.zeros)
+        poles.append(form.poles)
+    zeros_all, poles_all = np.concatenate(zeros), np.concatenate(poles)
+    if poles_all.size == 0 or not (np.all(np.isfinite(zeros_all)) and np.all(np.isfinite(poles_all))):
+        return None
+    return ZpkEvaluator(complex(gain, 0.0), zeros_all, poles_all, factored=True)
