@@ -10,8 +10,8 @@ pencil ([[L, b], [c^T, 0]], diag(I, 0)), which LAPACK's QZ (dggev) finds
 backward stably whatever f's decay at infinity (a sum whose weights cancel,
 such as sum 1/(x - c_k) - sum 1/(x - p_k), falls off like 1/x^d, d > 1): no
 polynomial is expanded.  Polynomials are small here (at most `MAX_ROOTS` of
-`engine.zpk_margins`): built by products and rooted by their companion
-matrices, without np.poly's and np.roots's wrappers.
+`engine.zpk_margins`): built by products and rooted by their balanced
+companion matrices (dgeev), without np.poly's and np.roots's wrappers.
 """
 
 from __future__ import annotations
@@ -21,48 +21,81 @@ from numpy.typing import NDArray
 from scipy.linalg import lapack
 
 FINITE = 1e-8  # |beta| / |alpha| of a finite eigenvalue: |x| < 1e8 max |t|
-CANCELLED = 1e-13  # a merged weight this small (relative to the largest) cancels
+VANISHING = 1e-13  # weights all this small (relative to their sizes) make f vanish
+
+
+class Fractions:
+    """The pencil of sums over one set of poles t (closed under conjugation),
+    equal poles merged: `zeros` takes the weights."""
+
+    def __init__(self, t: NDArray[np.complex128]):
+        real, upper = t.imag == 0, t.imag > 0
+        self.closed = 2 * int(np.count_nonzero(upper)) + int(np.count_nonzero(real)) == t.size
+        singles, pairs = t[real].real, t[upper]
+        self.merge = len(set(t.tolist())) < t.size  # equal poles: their weights are summed
+        if self.merge:
+            singles, self.single_of = np.unique(singles, return_inverse=True)
+            pairs, self.pair_of = np.unique(pairs, return_inverse=True)
+        self.real, self.upper = real, upper
+        self.scale = float(np.abs(t).max(initial=0.0)) or 1.0
+        self.count, n = (singles.size, pairs.size), singles.size + 2 * pairs.size
+        self.pencil, self.mass = np.zeros((n + 1, n + 1)), np.zeros((n + 1, n + 1))
+        tp = pairs / self.scale
+        self.pencil.flat[:n * (n + 2):n + 2] = np.concatenate([singles / self.scale, np.repeat(tp.real, 2)])
+        self.mass.flat[:n * (n + 2):n + 2] = 1.0
+        first = singles.size + 2 * np.arange(pairs.size)
+        self.pencil[first, first + 1], self.pencil[first + 1, first] = -tp.imag, tp.imag
+        self.pencil[:singles.size, n] = 1.0
+        self.pencil[first, n] = 1.0
+        self.first, self.n = first, n
+
+    def zeros(self, a: NDArray[np.complex128], squared: bool = False) -> NDArray[np.complex128] | None:
+        """The finite zeros of sum a_k / (x - t_k) (``squared``: of sum a_k /
+        (x - t_k)^2, the system cascaded with its own resolvent: c^T (xI - L)^-2 b);
+        None when the sum vanishes identically or its terms are not closed
+        under conjugation."""
+        if not self.closed:
+            return None
+        singles, pairs = self.count
+        if self.merge:
+            weights = np.zeros(singles + pairs, dtype=complex)
+            np.add.at(weights, self.single_of.ravel(), a[self.real])
+            np.add.at(weights, singles + self.pair_of.ravel(), a[self.upper])
+        else:
+            weights = np.concatenate([a[self.real], a[self.upper]])
+        size = float(np.abs(weights).max(initial=0.0))
+        if not size > VANISHING * max(float(np.abs(a).max(initial=0.0)), 1e-300):
+            return None
+        weights /= size
+        pencil, n = self.pencil.copy(), self.n
+        pencil[n, :singles] = weights[:singles].real
+        pencil[n, self.first], pencil[n, self.first + 1] = 2 * weights[singles:].real, -2 * weights[singles:].imag
+        mass = self.mass
+        if squared:
+            pencil, mass = _cascaded(pencil, n, True), _cascaded(mass, n, False)
+        alpha_re, alpha_im, beta, *_, info = lapack.dggev(pencil, mass, compute_vl=0, compute_vr=0)
+        if info != 0:
+            return None
+        finite = np.abs(beta) > FINITE * np.hypot(alpha_re, alpha_im)
+        return (alpha_re[finite] + 1j * alpha_im[finite]) / beta[finite] * self.scale
+
+
+def _cascaded(matrix: NDArray, n: int, system: bool) -> NDArray:
+    """One side of the pencil of (L, b, c) followed by the resolvent of L again:
+    states (x1, x2) with x x1 = L x1 + b u, x x2 = L x2 + x1, y = c^T x2
+    (``system``: the [[A, B], [C, 0]] side; else the diag(I, 0) side)."""
+    out = np.zeros((2 * n + 1, 2 * n + 1))
+    state = matrix[:n, :n]
+    out[:n, :n], out[n:2 * n, n:2 * n] = state, state
+    out[:n, 2 * n], out[2 * n, n:2 * n] = matrix[:n, n], matrix[n, :n]
+    if system:
+        out[n:2 * n, :n] = np.eye(n)
+    return out
 
 
 def fraction_zeros(t: NDArray, a: NDArray) -> NDArray[np.complex128] | None:
-    """The finite zeros of sum a_k / (x - t_k) (module docstring); equal t are
-    merged first.  None when f vanishes identically or the set is not closed
-    under conjugation."""
-    if t.size > 1 and np.count_nonzero(t[:, None] == t[None, :]) > t.size:
-        t, a = merged(t, a)
-    upper, real = t.imag > 0, t.imag == 0
-    pairs, singles = int(np.count_nonzero(upper)), int(np.count_nonzero(real))
-    if t.size == 0 or 2 * pairs + singles != t.size:
-        return None
-    scale, size = float(np.abs(t).max()) or 1.0, float(np.abs(a).max())
-    if size == 0:
-        return None
-    tr, ar, tp, ap = t[real].real / scale, a[real].real / size, t[upper] / scale, a[upper] / size
-    n = t.size
-    pencil, mass = np.zeros((n + 1, n + 1)), np.zeros((n + 1, n + 1))
-    pencil.flat[:n * (n + 2):n + 2] = np.concatenate([tr, np.repeat(tp.real, 2)])
-    mass.flat[:n * (n + 2):n + 2] = 1.0
-    first = singles + 2 * np.arange(pairs)
-    pencil[first, first + 1], pencil[first + 1, first] = -tp.imag, tp.imag
-    pencil[:singles, n] = 1.0
-    pencil[first, n] = 1.0
-    pencil[n, :singles] = ar
-    pencil[n, first], pencil[n, first + 1] = 2 * ap.real, -2 * ap.imag
-    alpha_re, alpha_im, beta, *_, info = lapack.dggev(pencil, mass, compute_vl=0, compute_vr=0)
-    if info != 0:
-        return None
-    finite = np.abs(beta) > FINITE * np.hypot(alpha_re, alpha_im)
-    return (alpha_re[finite] + 1j * alpha_im[finite]) / beta[finite] * scale
-
-
-def merged(t: NDArray, a: NDArray) -> tuple[NDArray, NDArray]:
-    """Equal t merged (their weights summed), terms that cancel dropped."""
-    order = np.argsort(t)
-    t, a = t[order], a[order]
-    starts = np.flatnonzero(np.concatenate([[True], t[1:] != t[:-1]]))
-    t, a = t[starts], np.add.reduceat(a, starts)
-    keep = np.abs(a) > CANCELLED * max(float(np.abs(a).max(initial=0.0)), 1e-300)
-    return t[keep], a[keep]
+    """The finite zeros of sum a_k / (x - t_k) (module docstring)."""
+    return Fractions(np.asarray(t, dtype=complex)).zeros(np.asarray(a, dtype=complex))
 
 
 def poly(roots: NDArray) -> NDArray[np.float64]:
@@ -75,8 +108,8 @@ def poly(roots: NDArray) -> NDArray[np.float64]:
 
 
 def roots(c: NDArray) -> NDArray[np.complex128]:
-    """Roots of a polynomial (descending powers): its companion matrix's
-    eigenvalues (balanced by LAPACK), and 0 for each trailing zero coefficient."""
+    """Roots of a polynomial (descending powers): its balanced companion
+    matrix's eigenvalues, and 0 for each trailing zero coefficient."""
     nonzero = np.flatnonzero(c)
     if nonzero.size == 0 or not np.isfinite(c).all():
         return np.zeros(0, dtype=complex)
@@ -86,4 +119,7 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
         return at_origin
     companion = np.eye(last - first, k=-1)
     companion[0] = -c[first + 1:last + 1] / c[first]
-    return np.concatenate([np.linalg.eigvals(companion), at_origin])
+    real, imag, *_, info = lapack.dgeev(companion, compute_vl=0, compute_vr=0)
+    if info != 0:
+        return np.zeros(0, dtype=complex)
+    return np.concatenate([real + 1j * imag, at_origin])

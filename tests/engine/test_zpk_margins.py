@@ -117,3 +117,29 @@ def test_random_loops_agree_with_the_grid_search():
                 if np.min(np.abs(expected / w - 1.0), initial=np.inf) > 1e-11:
                     assert kind in "SA" and genuine_shallow_extremum(loop, w, kind), (seed, kind, w, expected)
     assert answered >= 280  # the method answers for nearly all of them (measured: 294)
+
+
+HIGH_ORDER = ("*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)*(s+40)"
+              "*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))")
+
+
+@pytest.mark.parametrize("gain", ["3e22", "1e3"])
+def test_repairs_reach_what_the_sums_cannot_resolve(gain):
+    """A 20th-order loop of relative degree 16.  At gain 3e22 (crossover near 3
+    rad/s) |1 + GH| has a maximum at 435.7 rad/s where |GH| ~ 1e-10: the sums
+    of fractions cancel beyond what their eigenvalues resolve, the check points
+    above it contradict the order found and the repair brackets it.  At gain
+    1e3 the loop's gain crossover is at ~1e-17 rad/s, a root no expanded
+    polynomial keeps: found on its monotone piece, decades below the first
+    stationary point.  Both as the grid search finds them."""
+    loop = loop_model(unity_feedback([gain + HIGH_ORDER]), "e", GRID, {})
+    fast = fast_margins(loop.evaluate)
+    assert fast is not None  # without the repairs the method gave up on both (measured)
+    reference = grid_search(loop)
+    for kind in "GPSA":
+        expected = np.sort([m.frequency for m in reference[kind] if kind != "G" or m.gh.real < 0])
+        np.testing.assert_allclose(np.sort(fast[kind]), expected, rtol=1e-11)
+    if gain == "1e3":
+        (crossover,) = fast["P"]
+        assert crossover < 1e-15
+        assert abs(loop.evaluate(np.array([crossover]))[0][0]) == pytest.approx(1.0, rel=1e-13)

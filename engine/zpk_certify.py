@@ -1,0 +1,130 @@
+"""The certificate of the stationary points found by `engine.zpk_margins`,
+with the repair of single misses.
+
+The stationary points of a smooth level alternate between maxima and
+minima, and its slope has the sign their order predicts everywhere else:
+negative past a maximum, positive past a minimum.  The slopes are read at
+check points (between and around the points, at every root's frequency, on
+a ladder two points a decade wide from 1e-3 of the smallest root to 1e3
+times the largest, and at every near-real eigenvalue, where a close pair
+could hide).  Where a check point's sign contradicts its neighbour's, an
+odd number of stationary points was missed between them (far above the
+crossover, where |GH| falls like a high power, the sums of fractions cancel
+beyond what their eigenvalues resolve): one is bracketed there and refined,
+and the check is made again, at most `REPAIR_ROUNDS` times.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .zpk_levels import LoopLevels
+
+# omega -> (rows of each level's slope, rows of their derivatives)
+Slopes = Callable[[NDArray], tuple[NDArray, NDArray]]
+
+CLEARANCE = 1e-6  # relative distance from a stationary point within which a slope's sign is rounding
+REPAIR_ROUNDS = 4
+BRACKET_STEPS = 200
+NOISE_STEP = 1e-9  # relative step below which steps that stop shrinking are rounding noise
+DUPLICATE = 1e-9
+EPS = np.finfo(float).eps
+
+
+def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray,
+              slopes: Slopes | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
+    """Per level (row k of ``slopes``, by default of `LoopLevels.slopes`), its
+    stationary points and which are maxima, checked and repaired (module
+    docstring); None when a check still fails."""
+    slopes = slopes or loop.slopes
+    every = np.concatenate(points)
+    parts = [loop.probes, near]
+    for w in points:
+        if w.size:
+            parts += [np.sqrt(w[1:] * w[:-1]), w[:1] / 4, w[-1:] * 4]
+    probes = np.concatenate(parts)
+    if every.size:
+        probes = probes[np.min(np.abs(probes[:, None] / every[None, :] - 1.0), axis=1) > CLEARANCE]
+    signs = slopes(probes)[0]
+    out_points, out_maxima = [], []
+    for row, (w, top) in enumerate(zip(points, maxima)):
+        for _ in range(REPAIR_ROUNDS + 1):
+            missed = _contradictions(w, top, probes, signs[row])
+            if missed is None:
+                break
+            repaired = _repaired(slopes, row, w, top, *missed)
+            if repaired is None:
+                return None
+            w, top = repaired
+        else:
+            return None
+        out_points.append(w)
+        out_maxima.append(top)
+    return out_points, out_maxima
+
+
+def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray,
+                    slope: NDArray) -> tuple[NDArray, NDArray] | None:
+    """The intervals (lo, hi) between neighbouring stationary and check points
+    whose slope signs contradict each other; None when there are none."""
+    after = np.where(maxima, -1.0, 1.0)
+    at = np.concatenate([w, probes])
+    left = np.concatenate([-after, np.sign(slope)])
+    right = np.concatenate([after, np.sign(slope)])
+    order = np.argsort(at, kind="stable")
+    at, left, right = at[order], left[order], right[order]
+    bad = np.flatnonzero(right[:-1] != left[1:])
+    if bad.size == 0:
+        return None
+    stationary = order < w.size
+    lo = np.where(stationary[bad], at[bad] * (1 + CLEARANCE), at[bad])
+    hi = np.where(stationary[bad + 1], at[bad + 1] * (1 - CLEARANCE), at[bad + 1])
+    return lo, hi
+
+
+def _repaired(slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray,
+              hi: NDArray) -> tuple[NDArray, NDArray] | None:
+    """The stationary points with one more found in each interval; None when an
+    interval holds no sign change of the slope or its search does not settle."""
+    found = _bracketed_roots(slopes, row, lo, hi)
+    if found is None:
+        return None
+    w = np.concatenate([w, found[0]])
+    maxima = np.concatenate([maxima, found[1] < 0])
+    order = np.argsort(w)
+    w, maxima = w[order], maxima[order]
+    keep = np.concatenate([[True], np.diff(w) > DUPLICATE * w[1:]])
+    return w[keep], maxima[keep]
+
+
+def _bracketed_roots(slopes: Slopes, row: int, lo: NDArray, hi: NDArray) -> tuple[NDArray, NDArray] | None:
+    """A root of the level's slope in each [lo, hi] (its ends of opposite
+    signs): Newton steps, a geometric bisection when one leaves the bracket;
+    (roots, second derivatives there) or None."""
+    first, _ = slopes(np.concatenate([lo, hi]))
+    fa, fb = first[row, :lo.size], first[row, lo.size:]
+    if not (np.sign(fa) * np.sign(fb) < 0).all():
+        return None
+    a, b, w = lo.copy(), hi.copy(), np.sqrt(lo * hi)
+    done, previous, bend = np.zeros(lo.size, dtype=bool), np.full(lo.size, np.inf), np.zeros(lo.size)
+    for _ in range(BRACKET_STEPS):
+        first, second = slopes(w)
+        h, slope = first[row], second[row]
+        bend = np.where(done, bend, slope)
+        same = np.sign(h) == np.sign(fa)
+        a, fa, b = np.where(same, w, a), np.where(same, h, fa), np.where(same, b, w)
+        moved = w - h / slope
+        inside = (moved > np.minimum(a, b)) & (moved < np.maximum(a, b))
+        moved = np.where(inside, moved, np.sqrt(a * b))
+        size = np.abs(moved - w)
+        converged = inside & ((size <= 4 * EPS * w) | ((size <= NOISE_STEP * w) & (size >= 0.5 * previous)))
+        finished = converged | (h == 0) | (np.abs(b - a) <= 4 * EPS * w)
+        w = np.where(done | (h == 0), w, moved)
+        done |= finished
+        previous = np.where(inside, size, np.inf)
+        if done.all():
+            return w, bend
+    return None

@@ -1,0 +1,129 @@
+"""The levels a margin search in pole-zero form reads (`engine.zpk_margins`):
+log |GH|, arg GH (continuous) and log |1 + GH| at s = j omega, their slopes
+and second derivatives from the roots (u = d log GH / ds = sum sigma / (s - r),
+du/ds = -sum sigma / (s - r)^2), their limits at 0 and infinity, and the
+sums of fractions whose zeros are the stationary points of log |1 + GH|."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .fractions import Fractions, poly, roots
+from .zpk import ZpkEvaluator
+
+MAX_ROOTS = 48  # zeros + poles; beyond, the detection grid is faster (docs/margins.md)
+UNDAMPED = 1e-9  # |Re r| / |r| at or below which a root is on the imaginary axis
+PROBE_DECADES = 3  # check points from the smallest root / 10**this to the largest * 10**this
+PROBES_PER_DECADE = 2
+
+
+class LoopLevels:
+    """The roots of GH (signs +1 zeros, -1 poles), its gain, closed-loop poles and check points."""
+
+    def __init__(self, form: ZpkEvaluator, closed: NDArray, numerator: NDArray, denominator: NDArray):
+        self.form, self.closed = form, closed
+        self.roots = np.concatenate([form.zeros, form.poles])
+        self.signs = np.concatenate([np.ones(form.zeros.size), -np.ones(form.poles.size)])
+        self.gain = float(form.gain.real)
+        self.numerator, self.denominator = numerator, denominator
+        nonzero = np.abs(self.roots[self.roots != 0])
+        low, high = (float(nonzero.min()), float(nonzero.max())) if nonzero.size else (1.0, 1.0)
+        decades = math.ceil(math.log10(high / low)) + 2 * PROBE_DECADES
+        ladder = low * 10.0 ** (np.arange(PROBES_PER_DECADE * decades + 1) / PROBES_PER_DECADE - PROBE_DECADES)
+        self.probes = np.concatenate([nonzero, ladder])
+        # arg(j w - r) = offset + turn * atan2(w - Im r, |Re r|), continuous in w > 0 (r = 0: pi/2)
+        right = self.roots.real > 0
+        self.phase_offset = (math.pi if self.gain < 0 else 0.0) + math.pi * float(self.signs[right].sum())
+        self.phase_turn = np.where(right, -self.signs, self.signs)
+        self.imag, self.damping = self.roots.imag[:, None], np.abs(self.roots.real)[:, None]
+
+    @staticmethod
+    def of(form: ZpkEvaluator) -> LoopLevels | None:
+        """The loop when the method applies: few roots, none on the imaginary
+        axis but at 0, a real nonzero gain."""
+        roots = np.concatenate([form.zeros, form.poles])
+        if roots.size > MAX_ROOTS or form.poles.size == 0 or form.gain.imag != 0 or form.gain == 0:
+            return None
+        size = np.abs(roots)
+        if not np.isfinite(size).all() or ((size > 0) & (np.abs(roots.real) <= UNDAMPED * size)).any():
+            return None
+        numerator, denominator = poly(form.zeros), poly(form.poles)
+        closed = _closed_loop_poles(form.gain.real * numerator, denominator)
+        return None if closed is None else LoopLevels(form, closed, numerator, denominator)
+
+    def terms(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """GH, u = d log GH / ds and du/ds at s = j w."""
+        form, m = self.form, self.form.paired
+        q = 1j * w - form.roots
+        r = 1.0 / q
+        gh = form.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)  # paired as `ZpkEvaluator` does
+        if form.roots.size > 2 * m:
+            gh = gh * np.multiply.reduce(q[2 * m:] if form.extra_zeros else r[2 * m:], axis=0)
+        return gh, form.signs @ r, -(form.signs @ (r * r))
+
+    def slopes(self, w: NDArray) -> tuple[NDArray, NDArray]:
+        """Rows: each level's derivative in omega and its own derivative, for
+        the stationary points of `KINDS` (log|GH|, arg GH, log|1 + GH|), then
+        the levels log|GH| and Im GH themselves with their derivatives (the
+        crossings): Newton's step on row k is first[k] / second[k]."""
+        gh, u, du = self.terms(w)
+        g = gh * u / (1.0 + gh)  # d log(1 + GH) / ds
+        dg = gh * (u * u + du) / (1.0 + gh) - g * g
+        first = np.array([-u.imag, u.real, -g.imag, np.log(np.abs(gh)), gh.imag])
+        second = np.array([-du.real, -du.imag, -dg.real, -u.imag, (gh * u).real])
+        return first, second
+
+    def phase(self, w: NDArray) -> NDArray:
+        """arg GH(j w), continuous in w > 0 (each root's angle on its own branch)."""
+        return self.phase_offset + self.phase_turn @ np.arctan2(w - self.imag, self.damping)
+
+    def limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """(log|GH|, arg GH) as omega -> 0 and as omega -> infinity."""
+        at_zero = self.roots == 0
+        n0, excess = float(self.signs[at_zero].sum()), float(self.signs.sum())
+        rest = math.log(abs(self.gain)) + float(self.signs[~at_zero] @ np.log(np.abs(self.roots[~at_zero])))
+        mag = (-math.inf * n0 if n0 else rest, math.inf * excess if excess else math.log(abs(self.gain)))
+        top = (math.pi if self.gain < 0 else 0.0) + math.pi / 2 * excess
+        zero = float(self.phase(np.zeros(1))[0]) + math.pi / 2 * n0  # atan2(0, 0) is 0, the limit pi/2
+        return mag, (zero, top)
+
+
+def _closed_loop_poles(numerator: NDArray, denominator: NDArray) -> NDArray | None:
+    """Zeros of 1 + GH: roots of D + k N (candidates only: every point found is polished on GH)."""
+    size = max(denominator.size, numerator.size)
+    char = np.zeros(size)
+    char[size - denominator.size:] += denominator
+    char[size - numerator.size:] += numerator
+    if not np.isfinite(char).all():
+        return None
+    return roots(char)
+
+
+def distance_stationary(loop: LoopLevels) -> NDArray | None:
+    """The stationary points (in x) of log |1 + GH|^2 = log(1 + h), h = 2 Re GH +
+    |GH|^2 = R(x) / P(x), P = prod (x + p^2) over the poles: the zeros of h' =
+    -sum b_j / (x - t_j)^2, t_j = -p_j^2, with residues b_j = R(t_j) / P'(t_j) =
+    k N(p_j) (D + k N)(-p_j) / prod_(i != j) (p_i^2 - p_j^2), all products of
+    root differences.  h is built from GH itself, so a stationary point where
+    |GH| is tiny (|1 + GH| = 1 to 1e-20 far above the crossover) is as sharp as
+    any.  With repeated poles or an improper loop, the sum over the closed-loop
+    poles c: sum 1/(x + c^2) - sum 1/(x + p^2), which cancels where c ~ p.
+    Each form loses digits where the other does not (large residues that
+    cancel, near clustered poles), so the starts are the zeros of both."""
+    p, z, k = loop.form.poles, loop.form.zeros, loop.gain
+    both = np.concatenate([loop.closed, p])
+    weights = np.concatenate([np.ones(loop.closed.size), -np.ones(p.size)]).astype(complex)
+    closed_form = Fractions(-both ** 2).zeros(weights)
+    t = -p ** 2
+    gaps = t[None, :] - t[:, None]
+    np.fill_diagonal(gaps, 1.0)
+    if z.size >= p.size or not np.abs(gaps).min(initial=np.inf) > 1e-8 * (float(np.abs(t).max()) or 1.0):
+        return closed_form
+    numerator = np.prod(p[:, None] - z[None, :], axis=1)
+    closed = np.prod(-p[:, None] - p[None, :], axis=1) + k * np.prod(-p[:, None] - z[None, :], axis=1)
+    residue_form = Fractions(t).zeros(k * numerator * closed / np.prod(gaps, axis=0), squared=True)
+    forms = [x for x in (closed_form, residue_form) if x is not None]
+    return np.concatenate(forms) if forms else None
