@@ -2,7 +2,12 @@
 Nyquist: |S|, |T| and |KS| with their refined peaks, the pole-zero map of
 the open and the closed loop, and the root locus in the loop gain.  Figures
 for `tui.widgets.plots` from the engine's `sensitivity` and `root_locus`
-(rational loops; a tabulated loop shows |S| and |T| on its own grid)."""
+(rational loops; a tabulated loop shows |S| and |T| on its own grid).
+
+Each draws some designs, as `View.shown` lists them: (iteration or None for
+the current one, condition, label, colour); by default the current design of
+each plotted condition.  A gray design is a reference drawn beside the others
+(the History tab's marked iteration, or the current design)."""
 
 from __future__ import annotations
 
@@ -15,59 +20,103 @@ from engine.loops import loop_model
 from engine.sensitivity import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
                                 transfer_evaluator)
 
-from .views import CONDITION_COLORS
+from .views import CONDITION_COLORS, INITIAL_COLOR
+from .widgets.navigation import Probe
 from .widgets.plots import Figure, Series, _decades, _finite
 
 LOCUS_POINTS = 2000   # the engine's default bound
 
+Design = tuple[int | None, int, str, str]   # (iteration or None: the current one, condition, label, colour)
 
-def sensitivity_figure(view) -> Figure:
-    """|S|, |T| (and |KS| where a block is named compensator) in dB against log
-    frequency for each plotted condition at the current design, Ms and Mt marked."""
-    problem = view.problem
-    unit = problem.grid.unit
-    scale = 2 * np.pi if unit == "hz" else 1.0
+
+def current_designs(view) -> list[Design]:
+    """The current design of each plotted condition (named when the session has several)."""
+    plotted, conditions = view.plotted(), view.problem.conditions
+    named = len(conditions) > 1
+    return [(None, k, conditions[k].name if named else "",
+             CONDITION_COLORS[k % len(CONDITION_COLORS)] if len(plotted) > 1 else "blue") for k in plotted]
+
+
+def sensitivity_figure(view, designs: list[Design] | None = None) -> Figure:
+    """|S|, |T| in dB against log frequency for each design (the current design of each
+    plotted condition by default), Ms and Mt marked; |KS| too where one design is drawn
+    in blue.  Beside a gray reference, the blue design's peaks are in the title and the
+    reference has one legend entry.  The cursor reads |S| and |T| of the first design."""
+    designs = current_designs(view) if designs is None else designs
+    unit = view.problem.grid.unit
     fig = Figure(title="Closed loop: |S|, |T|", xlabel=f"frequency ({unit})", ylabel="dB",
                  empty_message="no closed loop to show", log_x=True)
-    notes = []
-    for k in view.plotted():
-        c = problem.conditions[k]
-        params = view.parameters(None, k)
-        try:
-            loop = loop_model(c.network, c.break_at, problem.grid.omega, params)
-            w, s, t = magnitude_curves(loop)
-            ms, mt = sensitivity_peak(loop), complementary_peak(loop)
-        except EngineError as exc:
-            notes.append(f"{c.name}: {exc}")
-            continue
-        several = len(view.plotted()) > 1   # then each condition in its colour, T dotted
-        prefix = f"{c.name} " if len(problem.conditions) > 1 else ""
-        s_color, t_color = (CONDITION_COLORS[k % len(CONDITION_COLORS)],) * 2 if several else ("blue", "orange")
-        lw = np.log10(w / scale)
-        with np.errstate(divide="ignore"):
-            fig.series.append(Series(*_finite(lw, 20 * np.log10(s)), f"{prefix}|S|", color=s_color))
-            fig.series.append(Series(*_finite(lw, 20 * np.log10(t)), f"{prefix}|T|", color=t_color,
-                                     marker="dot" if several else "braille"))
-        if not several:
-            _compensator_curve(fig, c, params, loop, lw, scale, prefix)
-        for name, peak, color in (("Ms", ms, s_color), ("Mt", mt, t_color)):
-            if 0 < peak.frequency < math.inf and peak.value > 0:
-                fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db],
-                                         f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)", marker="x",
-                                         scatter=True, color=color))
-        fig.xticks = _decades(lw, unit)
+    notes: list[str] = []
+    references = any(d[3] == INITIAL_COLOR for d in designs)
+    paired = sum(d[3] != INITIAL_COLOR for d in designs) == 1
+    for design in designs:
+        role = "reference" if design[3] == INITIAL_COLOR else "paired" if paired else "condition"
+        _closed_loop(fig, view, design, role, references, notes)
     if notes and not fig.series:
         fig.empty_message = "; ".join(notes)
     return fig
 
 
-def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, prefix: str) -> None:
+def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, notes: list[str]) -> None:
+    """One design's |S| and |T| and their refined peaks: ``role`` paired: |S| blue, |T|
+    orange, with |KS|; condition: both in its colour, |T| dotted; reference: gray, one
+    legend entry.  ``condensed``: the paired design's peaks in the title, not the legend."""
+    at, k, label, color = design
+    problem = view.problem
+    c = problem.conditions[k]
+    scale = 2 * np.pi if problem.grid.unit == "hz" else 1.0
+    params = view.parameters(at, k)
+    try:
+        loop = loop_model(c.network, c.break_at, problem.grid.omega, params)
+        w, s, t = magnitude_curves(loop)
+        ms, mt = sensitivity_peak(loop), complementary_peak(loop)
+    except EngineError as exc:
+        notes.append(f"{label or c.name}: {exc}")
+        return
+    prefix = f"{label} " if label and not (role == "paired" and condensed) else ""
+    s_color, t_color = ("blue", "orange") if role == "paired" else (color, color)
+    lw = np.log10(w / scale)
+    with np.errstate(divide="ignore"):
+        s_db, t_db = 20 * np.log10(s), 20 * np.log10(t)
+    peaks = f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
+    fig.series.append(Series(*_finite(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|",
+                             color=s_color))
+    fig.series.append(Series(*_finite(lw, t_db), "" if role == "reference" else f"{prefix}|T|", color=t_color,
+                             marker="braille" if role == "paired" else "dot"))
+    if fig.probe is None:
+        fig.probe = _magnitude_probe(lw, s_db, t_db, problem.grid.unit)
+    effort = _compensator_curve(fig, c, params, loop, lw, scale, prefix, condensed) if role == "paired" else ""
+    labelled = role == "condition" or (role == "paired" and not condensed)
+    for name, peak, peak_color in (("Ms", ms, s_color), ("Mt", mt, t_color)):
+        if 0 < peak.frequency < math.inf and peak.value > 0:
+            fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db],
+                                     f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)" if labelled else "",
+                                     marker="x", scatter=True, color=peak_color))
+            if role == "paired" and condensed:
+                fig.title += f"  {name} {peak.value:.4g}"
+    fig.title += f"  {effort}" if effort else ""
+    fig.xticks = _decades(lw, problem.grid.unit)
+
+
+def _magnitude_probe(lw: np.ndarray, s_db: np.ndarray, t_db: np.ndarray, unit: str) -> Probe:
+    """A cursor along |S|: the frequency, |S| and |T| there."""
+    keep = np.isfinite(lw) & np.isfinite(s_db)
+    lw, s_db, t_db = lw[keep], s_db[keep], t_db[keep]
+
+    def readout(i: int) -> str:
+        return f"w = {10.0 ** lw[i]:.6g} {unit}  |S| = {s_db[i]:.4f} dB  |T| = {t_db[i]:.4f} dB"
+    return Probe(lw.tolist(), s_db.tolist(), readout)
+
+
+def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, prefix: str,
+                       condensed: bool = False) -> str:
     """|K S|, K the one block that reads the break signal (the compensator of a
-    unity loop broken at its error): the control effort, with its refined peak."""
+    unity loop broken at its error): the control effort, with its refined peak;
+    ``condensed``: the peak's text is returned for the title, not put in the legend."""
     network = condition.network
     reading = [e for e in network.entries if e.col == network.signal(condition.break_at)]
     if len(reading) != 1 or not network.rational:
-        return
+        return ""
     evaluate = transfer_evaluator(reading[0].transfer, params)
     name = network.signals[reading[0].row]
     with np.errstate(all="ignore"):
@@ -77,46 +126,86 @@ def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, p
     try:
         peak = compensator_peak(loop, evaluate)
     except EngineError:
-        return
-    if 0 < peak.frequency < math.inf:
-        fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db], f"{prefix}max|KS| {peak.db:.2f} dB",
-                                 marker="x", scatter=True, color="magenta"))
+        return ""
+    if not 0 < peak.frequency < math.inf:
+        return ""
+    text = f"max|KS| {peak.db:.2f} dB"
+    fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db], "" if condensed else prefix + text,
+                             marker="x", scatter=True, color="magenta"))
+    return text if condensed else ""
 
 
-def poles_figure(view) -> Figure:
-    """Open-loop poles (x) and zeros (o) and the closed-loop poles (*) of the first plotted condition."""
+def poles_figure(view, designs: list[Design] | None = None) -> Figure:
+    """Open-loop poles (x) and zeros (o) and the closed-loop poles (*) of the first design
+    (the current one of the first plotted condition by default), and of the others on its
+    condition in gray; the cursor steps through its closed-loop poles with zeta and wn."""
     fig = Figure(title="Poles and zeros", xlabel="Re", ylabel="Im", empty_message="no pole-zero map (needs a rational loop)")
-    k = view.plotted()[0] if view.plotted() else 0
-    c = _rational(view, k)
+    designs = current_designs(view) if designs is None else designs
+    designs = [d for d in designs if d[1] == designs[0][1]] if designs else []   # on the first one's condition
+    c = _rational(view, designs[0][1]) if designs else None
     if c is None:
         return fig
     from engine.root_locus import pole_zero_map   # scipy.optimize, on first use
-    try:
-        pz = pole_zero_map(c.network, c.break_at, view.parameters(None, k))
-    except EngineError as exc:
-        fig.empty_message = f"no pole-zero map: {exc}"
-        return fig
-    for points, label, marker, color in ((pz.poles, "open-loop poles", "x", "blue"),
-                                         (pz.zeros, "open-loop zeros", "o", "blue"),
-                                         (pz.closed_loop, "closed-loop poles", "*", "red")):
+    shown = []
+    for n, (at, k, label, _) in enumerate(designs):
+        try:
+            pz = pole_zero_map(c.network, c.break_at, view.parameters(at, k))
+        except EngineError as exc:
+            fig.empty_message = f"no pole-zero map: {exc}"
+            return fig
+        _pole_series(fig, pz, "" if n == 0 else label)
+        shown.append(pz)
+    first = shown[0]
+    fig.title = f"Poles and zeros: {c.name}"
+    if len(first.closed_loop):
+        fig.xlabel = f"Re   slowest closed-loop pole {_pole_text(first.closed_loop)}"
+        fig.probe = _pole_probe(first.closed_loop, c.network.variable)
+    _square(fig, np.concatenate([np.concatenate([pz.poles, pz.zeros, pz.closed_loop]) for pz in shown]))
+    return fig
+
+
+def _pole_series(fig: Figure, pz, reference: str) -> None:
+    """A pole-zero map's points: blue and red, or all gray (one legend entry each for the
+    open and the closed loop) when it is the ``reference`` design's."""
+    rows = ((pz.poles, "open-loop poles", "x", "blue"), (pz.zeros, "open-loop zeros", "o", "blue"),
+            (pz.closed_loop, "closed-loop poles", "*", "red"))
+    if reference:
+        rows = ((pz.poles, f"{reference} open loop", "x", INITIAL_COLOR), (pz.zeros, "", "o", INITIAL_COLOR),
+                (pz.closed_loop, f"{reference} closed loop", "*", INITIAL_COLOR))
+    for points, label, marker, color in rows:
         points = np.asarray(points)[np.isfinite(points)]
         if points.size:
             fig.series.append(Series(points.real.tolist(), points.imag.tolist(), label, marker=marker,
                                      scatter=True, color=color))
-    fig.title = f"Poles and zeros: {c.name}"
-    if len(pz.closed_loop):
-        fig.xlabel = f"Re   slowest closed-loop pole {_pole_text(pz.closed_loop)}"
-    _square(fig, np.concatenate([pz.poles, pz.zeros, pz.closed_loop]))
-    return fig
+
+
+def _pole_probe(poles, variable: str) -> Probe:
+    """A cursor over the closed-loop poles (one of each conjugate pair), the least damped
+    first, reading each one's zeta and wn."""
+    found = sorted((p for p in np.asarray(poles) if np.isfinite(p) and p.imag >= 0), key=lambda p: _damping(p))
+    unit = " rad/s" if variable == "s" else ""
+
+    def readout(i: int) -> str:
+        p = found[i]
+        zeta, wn = _damping(p)
+        return f"pole {p.real:.5g}{p.imag:+.5g}j  zeta {zeta:.4g}  wn {wn:.5g}{unit}"
+    return Probe([float(p.real) for p in found], [float(p.imag) for p in found], readout, start=0)
+
+
+def _damping(p: complex) -> tuple[float, float]:
+    """(zeta, wn) of a pole."""
+    wn = abs(p)
+    return (-p.real / wn if wn > 0 else 1.0), wn
 
 
 PARAMETER_LOCUS_POINTS = 300   # each point is a realization and its polish (~10 ms)
 
 
-def locus_figure(view, parameter: str = "gain") -> Figure:
-    """The root locus of the first plotted condition in the loop gain k (or in a named
-    parameter, a decade either side of its value), the current closed-loop poles
-    marked, the imaginary-axis crossings below."""
+def locus_figure(view, parameter: str = "gain", iteration: int | None = None, subject: str | None = None) -> Figure:
+    """The root locus of the first plotted condition at an iteration's design (None: the
+    current one) in the loop gain k (or in a named parameter, a decade either side of its
+    value), that design's closed-loop poles marked, the imaginary-axis crossings below;
+    the title names ``subject`` (default: the condition)."""
     fig = Figure(title="Root locus (loop gain k)", xlabel="Re", ylabel="Im",
                  empty_message="no root locus (needs a rational loop)")
     k = view.plotted()[0] if view.plotted() else 0
@@ -126,7 +215,7 @@ def locus_figure(view, parameter: str = "gain") -> Figure:
     from engine.root_locus import root_locus
     try:
         points = LOCUS_POINTS if parameter == "gain" else PARAMETER_LOCUS_POINTS
-        locus = root_locus(c.network, c.break_at, view.parameters(None, k), parameter, max_points=points,
+        locus = root_locus(c.network, c.break_at, view.parameters(iteration, k), parameter, max_points=points,
                            polished=False)
     except EngineError as exc:
         fig.empty_message = f"no root locus: {exc}"
@@ -139,11 +228,13 @@ def locus_figure(view, parameter: str = "gain") -> Figure:
                                  "branches" if j == 0 else "", color="blue"))
     current = np.asarray(locus.current)
     now = "k = 1" if parameter == "gain" else f"{parameter} = {locus.current_value:.5g}"
-    fig.series.append(Series(current.real.tolist(), current.imag.tolist(), f"{now} (current)", marker="*",
+    design = "current" if iteration is None else f"iteration {iteration}" if iteration else "start"
+    fig.series.append(Series(current.real.tolist(), current.imag.tolist(), f"{now} ({design})", marker="*",
                              scatter=True, color="red"))
     name = "k" if parameter == "gain" else parameter
     crossings = ", ".join(f"{name}={x.value:.4g} at {x.frequency:.4g} rad/s" for x in locus.crossings[:3])
-    fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {c.name}" + ("" if locus.status == "complete" else f" ({locus.status})")
+    fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {subject or c.name}" + \
+        ("" if locus.status == "complete" else f" ({locus.status})")
     if crossings:
         fig.xlabel = f"Re   jw-axis crossings: {crossings}"
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
@@ -159,8 +250,7 @@ def _rational(view, k: int):
 
 def _pole_text(poles) -> str:
     p = min(np.asarray(poles), key=lambda z: abs(z.real))
-    wn = abs(p)
-    zeta = -p.real / wn if wn > 0 else 1.0
+    zeta, wn = _damping(p)
     return f"{p.real:.4g}{p.imag:+.4g}j, zeta {zeta:.3g}, wn {wn:.4g}"
 
 

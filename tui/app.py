@@ -348,10 +348,13 @@ def key_help() -> list[tuple[str, list[tuple[str, str]]]]:
         return [(b.key.replace("question_mark", "?").replace(",", " / "), b.tooltip or b.description)
                 for b in bindings]
     groups = [("anywhere", rows(LoopcraftApp.BINDINGS)), ("workbench", rows(MainScreen.BINDINGS))]
+    from .screens.history_pane import HistoryPane
     from .widgets.plots import FigurePlot
-    for name, table in (("plant table", PlantTable), ("parameters", ParametersTable), ("targets", TargetsTable),
-                        ("settings", SettingsTable), ("history", HistoryTable), ("a plot (focused)", FigurePlot)):
-        groups.append((name, rows(table.BINDINGS)))
+    for name, bindings in (("plant table", PlantTable.BINDINGS), ("parameters", ParametersTable.BINDINGS),
+                           ("targets", TargetsTable.BINDINGS), ("settings", SettingsTable.BINDINGS),
+                           ("history", HistoryTable.BINDINGS + HistoryPane.BINDINGS),
+                           ("a plot (focused)", FigurePlot.BINDINGS)):
+        groups.append((name, rows(bindings)))
     return groups
 
 

@@ -30,6 +30,17 @@ def radius(view: View) -> float | None:
     return None
 
 
+def applicable(plots: frozenset[str], problem) -> frozenset[str]:
+    """The presenter's ``plots`` that the problem can draw: no loop plots without a
+    loop, no poles or locus without a rational one."""
+    conditions = problem.conditions
+    if not conditions:
+        return plots - {"nyquist", "bode", "nichols", "step", "closed_loop", "poles", "locus"}
+    if not any(c.network.rational for c in conditions):
+        return plots - {"poles", "locus"}   # a tabulated loop has no poles to show
+    return plots
+
+
 def figures(view: View) -> dict[str, Figure]:
     """The figures of the plots the algorithm's presenter says apply, by plot id."""
     wanted = view.presenter.plots
@@ -52,34 +63,3 @@ def figures(view: View) -> dict[str, Figure]:
         out["step"] = step_figure(*view.step_plot())
     out["sweep-plot"] = sweep_figure(view.sweep)
     return out
-
-
-OVERLAYS = ("nyquist", "bode", "step")
-
-
-def history_figure(view: View, iteration: int, marked: int | None = None, kind: str = "nyquist") -> Figure:
-    """An earlier iteration beside the current design, or beside the ``marked`` one:
-    their Nyquist, Bode magnitude or step curves overlaid."""
-    name = lambda k: f"iteration {k}" if k else "start"   # noqa: E731
-    if marked is None or marked == iteration:
-        curves, title = view.loop_curves(iteration), name(iteration)
-    else:
-        k = view.plotted()[0] if view.plotted() else 0
-        curves = [c for c in (view.loop_curve(iteration, name(iteration), k, "blue"),
-                              view.loop_curve(marked, f"{name(marked)} (marked)", k, "gray")) if c is not None]
-        title = f"{name(iteration)} against {name(marked)}"
-    if kind == "bode":
-        magnitude, _ = bode_figures(curves, view.problem.grid.unit)
-        magnitude.title = f"Bode magnitude: {title}"
-        return magnitude
-    if kind == "step" and marked is not None and marked != iteration:
-        k = view.plotted()[0] if view.plotted() else 0
-        traces = [(r.t, r.y, label, color) for at, label, color in ((iteration, name(iteration), "blue"),
-                                                                   (marked, f"{name(marked)} (marked)", "gray"))
-                  if (r := view.step(at, k)) is not None]
-        fig = step_figure(traces[0][2] if traces else "", traces)
-        fig.title = f"Step: {title}"
-        return fig
-    if kind == "step":
-        return step_figure(*view.step_traces())
-    return nyquist_figure(curves, points(view), radius(view), f"Nyquist: {title}")

@@ -106,7 +106,7 @@ async def test_undo_and_start_from_an_earlier_iteration(workdir):
         await settle(app, pilot)
         assert app.bench.iteration == 2 and "Iteration 2" in status(app)
         await select_row(app, pilot, "4", "history-table", 1)
-        await pilot.pause()
+        await settle(app, pilot)          # the History plot is drawn by a worker
         history_plot = app.screen.query_one("#history-plot").figure
         assert history_plot.title == "Nyquist: iteration 1"
         curves = [s for s in history_plot.series if s.label][:2]     # the unlabelled: unit circle, mirror images

@@ -34,6 +34,13 @@ CASES = {
     "plant": ("cip_launch_vehicle.json", steps("2")),
     "targets": ("cip_dual_channel.json", steps("3")),
     "history": ("cip_launch_vehicle.json", steps("s", "s", "s", "4")),
+    # History's views of iteration 1 (beside the current design), or of iteration 3 against the marked 1
+    "history_closed_loop": ("lead_sensitivity_peak.json", steps("s", "s", "s", "4", "down", *"pppp")),
+    "history_nichols_marked": ("lead_sensitivity_peak.json",
+                               steps("s", "s", "s", "4", "down", "m", "down", "down", *"ppp")),
+    "history_poles_marked": ("lead_sensitivity_peak.json",
+                             steps("s", "s", "s", "4", "down", "m", "down", "down", *"ppppp")),
+    "history_locus": ("lead_sensitivity_peak.json", steps("s", "s", "s", "4", "down", *"pppppp")),
     "help": ("cip_launch_vehicle.json", steps("question_mark")),
     "qcg_run": ("seidel_inlet_pi.json", steps("s", "s", "s")),
     "closed_loop": ("report003_lag_lead.json", steps("p", "p", "p")),

@@ -18,19 +18,19 @@ from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
 from ..analysis_views import pole_lines
-from ..figures import OVERLAYS, figures, history_figure
+from ..figures import applicable, figures
 from ..keys import identified
 from ..plant_rows import plant_rows
 from ..tableau import tableau_text
 from ..views import View
 from ..widgets.matrix_table import MatrixTable
 from ..widgets.plots import FigurePlot, sweep_figure
-from ..widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
+from ..widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
 from ..widgets.textview import TextView
 from ..workbench import Workbench
+from .history_pane import HistoryPane
 from .view_actions import ViewActions
 from sessions import forms
-from sessions.compare import compare, comparison_text, side
 from sessions.target_use import target_note
 
 # the plot tabs, and the plots (figure ids) each shows
@@ -55,14 +55,16 @@ class MainScreen(ViewActions, Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
     BINDINGS = identified("main", [Binding("question_mark", "app.help", "help", id="main.help"),
-                Binding("ctrl+s", "app.save", "save", id="main.save"), Binding("p", "next_plot", "next plot"),
+                Binding("ctrl+s", "app.save", "save", id="main.save"),
+                Binding("p", "next_plot", "next plot",
+                        tooltip="the Run tab's next plot, or the History plot's next view"),
                 Binding("1", "tab('run')", "run", show=False),
                 Binding("2", "tab('plant')", "plant", show=False),
                 Binding("3", "tab('targets')", "targets", show=False),
                 Binding("4", "tab('history')", "history", show=False),
                 Binding("5", "tab('sweep')", "sweep", show=False),
                 Binding("L", "locus_parameter", "locus in", show=False,
-                        tooltip="the root locus in the loop gain or in a parameter"),
+                        tooltip="the root locus (Run or History) in the loop gain or a parameter"),
                 Binding("t", "step_setup", "step signals", show=False,
                         tooltip="the step plot's input, output and horizon"),
                 Binding("y", "copy", "copy", show=False,
@@ -82,8 +84,7 @@ class MainScreen(ViewActions, Screen):
     #tableau { height: auto; }
     #step-info { height: 6; }
     #bode-mag, #bode-phase { height: 1fr; }
-    #blocks, #matrix-grid, #parameters, #targets-table, #objective-table, #history-table, #history-side { height: 1fr; }
-    #history-plot, #history-scroll { height: 1fr; }
+    #blocks, #matrix-grid, #parameters, #targets-table, #objective-table { height: 1fr; }
     """
 
     def __init__(self, bench: Workbench):
@@ -91,8 +92,6 @@ class MainScreen(ViewActions, Screen):
         self.bench = bench
         self._history_stale = True
         self._locus_key = None   # what the root locus shown was computed for
-        self.compare_mark: int | None = None   # History: the iteration the others are compared with
-        self.overlay = "nyquist"               # History: how the compared designs are drawn
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -114,12 +113,7 @@ class MainScreen(ViewActions, Screen):
                     yield TargetsTable(id="targets-table")
                     yield SettingsTable(id="objective-table")
             with TabPane("History", id="history"):
-                with Horizontal():
-                    yield HistoryTable(id="history-table")
-                    with Vertical(id="history-side"):
-                        yield FigurePlot(id="history-plot")
-                        with VerticalScroll(id="history-scroll"):
-                            yield TextView("", id="history-tableau")
+                yield HistoryPane(id="history-pane")
             with TabPane("Sweep", id="sweep"):
                 with Horizontal():
                     yield FigurePlot(id="sweep-plot")
@@ -130,15 +124,10 @@ class MainScreen(ViewActions, Screen):
 
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
-        wanted = self.bench.presenter.plots
+        wanted = applicable(self.bench.presenter.plots, self.bench.session.problem)
         titles = {"p-nyquist": "Nyquist", "p-bode": "Bode", "p-nichols": "Nichols", "p-closed": "S/T",
                   "p-poles": "Poles", "p-locus": "Locus", "p-convergence": "Convergence", "p-step": "Step",
                   "p-trajectories": "Trajectories"}
-        conditions = self.bench.session.problem.conditions
-        if not conditions:
-            wanted = wanted - {"nyquist", "bode", "nichols", "step", "closed_loop", "poles", "locus"}
-        elif not any(c.network.rational for c in conditions):
-            wanted = wanted - {"poles", "locus"}   # a tabulated loop has no poles to show
         self.plot_tabs = [tab for tab in PLOT_TABS if PRESENTER_PLOTS[tab] in wanted]
         with TabbedContent(id="plots"):
             for tab in self.plot_tabs:
@@ -158,10 +147,25 @@ class MainScreen(ViewActions, Screen):
         self.call_after_refresh(lambda: self.refresh_run(plots=False))
 
     def action_next_plot(self) -> None:
+        """The next plot of the Run tab, or the History plot's next view."""
+        if self.query_one("#tabs", TabbedContent).active == "history":
+            self.query_one(HistoryPane).action_next_view()
+            return
         plots = self.query_one("#plots", TabbedContent)
         tabs = self.plot_tabs
         plots.active = tabs[(tabs.index(plots.active) + 1) % len(tabs)] if plots.active in tabs else tabs[0]
         self.refresh_plots()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """p and L are disabled where they have nothing to show."""
+        history = self.query("#tabs") and self.query_one("#tabs", TabbedContent).active == "history"
+        if action == "next_plot" and history:
+            return self.query_one(HistoryPane).check_action("next_view", parameters)
+        if action == "locus_parameter":
+            there = "locus" in self.query_one(HistoryPane).views() if history else \
+                "p-locus" in getattr(self, "plot_tabs", [])
+            return True if there else None
+        return True
 
     def action_tab(self, name: str) -> None:
         """Show a tab and focus its main widget (focus left in a hidden pane would
@@ -178,6 +182,7 @@ class MainScreen(ViewActions, Screen):
             self.refresh_locus()
         if event.tabbed_content.id != "tabs":
             return
+        self.refresh_bindings()
         if self._history_stale:
             self.refresh_history()
         pane = event.tabbed_content.active
@@ -241,6 +246,8 @@ class MainScreen(ViewActions, Screen):
                 plot.show(figure, (prebuilt or {}).get(name))
         self._locus_key = None
         self.refresh_locus(view)
+        if self.query_one("#tabs", TabbedContent).active == "history":
+            self.query_one(HistoryPane).show_iteration(self.query_one(HistoryPane).selected, view)
 
     def _step_info(self, view: View, record: StepRecord | None) -> str | Text:
         if record is None or record.iteration == 0:
@@ -287,13 +294,7 @@ class MainScreen(ViewActions, Screen):
             self._history_stale = True
             return
         self._history_stale = False
-        view = self.bench.view() if view is None else view
-        label, its, values = view.convergence()
-        value_at = dict(zip(its, values))
-        rows = [(("0", "start", "", ""), (0,))]
-        rows += [((str(r.iteration), r.status.value, number(value_at.get(r.iteration), 6),
-                   str(sum(not m.satisfied for m in r.measures))), (r.iteration,)) for r in view.records]
-        self.query_one("#history-table", HistoryTable).fill(("iteration", "status", label or "value", "unmet"), rows)
+        self.query_one(HistoryPane).fill(self.bench.view() if view is None else view)
 
     def refresh_sweep(self, progress: str | None = None) -> None:
         """The latest sweep: status line, its optima (or worst case) and its plot."""
@@ -311,38 +312,6 @@ class MainScreen(ViewActions, Screen):
             _fill_sweep(table, sweep)
         self.query_one("#sweep-status", TextView).set(status)
         self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep))
-
-    def show_history_iteration(self, iteration: int) -> None:
-        """The selected iteration's loop (beside the current design, or the marked
-        iteration) and its tableau (or its measures against the marked one's)."""
-        view = self.bench.view()
-        marked = self.compare_mark if self.compare_mark is not None and self.compare_mark <= view.iteration else None
-        text = None
-        if marked is not None and marked != iteration:
-            text = tolerant(lambda: comparison_text(compare(side(self.bench.session, marked, f"iteration {marked}"),
-                                                            side(self.bench.session, iteration,
-                                                                 f"iteration {iteration}"))), lambda: None)
-        if text is None:
-            rows, _ = view.tableau(iteration)
-            self.query_one("#history-tableau", TextView).set(tableau_text(rows, [], view.problem.grid.unit))
-        else:
-            self.query_one("#history-tableau", TextView).set(Text(text))
-        self.query_one("#history-plot", FigurePlot).show(history_figure(view, iteration, marked, self.overlay))
-
-    def toggle_mark(self, iteration: int) -> None:
-        self.compare_mark = None if self.compare_mark == iteration else iteration
-        self.app.notify("no iteration marked" if self.compare_mark is None else
-                        f"iteration {iteration} marked: the others are compared with it", timeout=4)
-        self.show_history_iteration(iteration)
-
-    def next_overlay(self) -> None:
-        self.overlay = OVERLAYS[(OVERLAYS.index(self.overlay) + 1) % len(OVERLAYS)]
-        table = self.query_one("#history-table", HistoryTable)
-        self.show_history_iteration(max(table.cursor_row, 0))
-
-    def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
-        if event.data_table.id == "history-table" and event.cursor_row is not None:
-            self.show_history_iteration(event.cursor_row)
 
 
 def _fill_sweep(table: DataTable, sweep: dict) -> None:

@@ -84,17 +84,22 @@ class ViewActions:
         self.run_worker(compute, thread=True, exclusive=True, group="locus")
 
     def action_locus_parameter(self) -> None:
-        """Choose what the root locus varies: the loop gain or one parameter."""
+        """Choose what the root locus varies, the loop gain or one parameter, and show the
+        locus: History's plot when that tab is shown, else the Run tab's."""
         from .dialogs import ChooseDialog
         names = [p.name for p in self.bench.session.problem.parameters]
         choices = [("gain", "the loop gain k (1 + k L = 0)")] + [(n, "this parameter, a decade either side")
                                                                  for n in names]
 
         def chosen(name: str | None) -> None:
-            if name:
-                self.locus_parameter = name
-                self.query_one("#plots").active = "p-locus"
-                self.refresh_locus()
+            if not name:
+                return
+            self.locus_parameter = name
+            if self.query_one("#tabs").active == "history":
+                self.query_one("#history-pane").show_view("locus")
+                return
+            self.query_one("#plots").active = "p-locus"
+            self.refresh_locus()
         self.app.push_screen(ChooseDialog("root locus in", choices), chosen)
 
     def _show_locus(self, key, figure: Figure) -> None:

@@ -29,6 +29,7 @@ class Probe:
     x: list[float]
     y: list[float]
     readout: Callable[[int], str]
+    start: int | None = None   # where the cursor appears (None: the middle point)
 
 
 def loop_probe(x, y, omega, gh, unit: str) -> Probe:
@@ -72,12 +73,13 @@ class Navigation:
         self.box = (x0 + sx, x1 + sx, y0 + sy, y1 + sy)
 
     def move(self, figure: Figure, step: int) -> None:
-        """Move the cursor along the probe (it appears at the middle point first)."""
+        """Move the cursor along the probe (it appears at its start, else the middle point, first)."""
         probe = figure.probe
         if probe is None or not probe.x:
             return
         n = len(probe.x)
-        self.cursor = n // 2 if self.cursor is None else min(max(self.cursor + step, 0), n - 1)
+        first = n // 2 if probe.start is None else min(probe.start, n - 1)
+        self.cursor = first if self.cursor is None else min(max(self.cursor + step, 0), n - 1)
 
     def _point(self, figure: Figure) -> tuple[float, float] | None:
         probe = figure.probe

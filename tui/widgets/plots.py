@@ -34,7 +34,8 @@ class FigurePlot(PlotextPlot):
     BINDINGS = identified("plot", [
         Binding("plus,equals_sign", "zoom(1.5)", "zoom in", tooltip="zoom in (about the cursor)", id="plot.zoom_in"),
         Binding("minus", "zoom(0.6666666666666666)", "zoom out", id="plot.zoom_out"),
-        Binding("left", "cursor(-1)", "cursor", tooltip="move the cursor along the curve", id="plot.cursor_left"),
+        Binding("left", "cursor(-1)", "cursor", id="plot.cursor_left",
+                tooltip="the cursor along the curve (Poles: pole to pole, zeta, wn)"),
         Binding("right", "cursor(1)", "cursor", show=False, id="plot.cursor_right"),
         Binding("shift+left", "cursor(-10)", "", show=False, id="plot.cursor_left_10"),
         Binding("shift+right", "cursor(10)", "", show=False, id="plot.cursor_right_10"),
@@ -95,7 +96,7 @@ class FigurePlot(PlotextPlot):
         if width < 10 or height < 5:
             return None
         plot = Plot()
-        _draw(plot, figure, height)
+        _draw(plot, figure, height, width)
         plot.plotsize(width, height)
         plot._set_size(width, height)
         plot.theme(theme)
@@ -108,33 +109,37 @@ class FigurePlot(PlotextPlot):
         figure = self.shown
         if self._prebuilt is not None and self._prebuilt[0] == self.canvas() and figure is self.figure:
             return self._prebuilt[1]
-        _draw(self.plt, figure, self.size.height)
+        _draw(self.plt, figure, self.size.height, self.size.width)
         try:
             return super().render()
         except (IndexError, ValueError, ZeroDivisionError, OverflowError) as exc:   # a tiny canvas, odd values
             return f"{self.figure.title}: cannot draw at this size ({type(exc).__name__})"
 
 
-def _draw(plt, fig: Figure, height: int | None = None) -> None:
+def _draw(plt, fig: Figure, height: int | None = None, width: int | None = None) -> None:
     """Clear ``plt`` and draw ``fig`` on it (its panels as subplots in one column; its compact
-    variant when the canvas is shorter than COMPACT_ROWS)."""
+    variant when the canvas is shorter than COMPACT_ROWS; its title and x label cut to the
+    ``width``)."""
     if fig.compact is not None and height is not None and height < COMPACT_ROWS:
         fig = fig.compact
     plt.clear_figure()
     if fig.panels:
         plt.subplots(len(fig.panels), 1)
         for row, panel in enumerate(fig.panels, start=1):
-            _draw_one(plt.subplot(row, 1), panel)
+            _draw_one(plt.subplot(row, 1), panel, width)
         plt.main()
         return
-    _draw_one(plt, fig)
+    _draw_one(plt, fig, width)
 
 
-def _draw_one(plt, fig: Figure) -> None:
-    """Draw ``fig`` on a cleared plot or subplot."""
-    plt.title(fig.title or fig.empty_message)
-    if fig.xlabel:
-        plt.xlabel(fig.xlabel)
+def _draw_one(plt, fig: Figure, width: int | None = None) -> None:
+    """Draw ``fig`` on a cleared plot or subplot (``width`` wide: the labels cut to fit)."""
+    title, xlabel = fig.title or fig.empty_message, fig.xlabel
+    if width is not None:
+        title, xlabel = _fitted(fig, title, xlabel, width)
+    plt.title(title)
+    if xlabel:
+        plt.xlabel(xlabel)
     if fig.ylabel:
         plt.ylabel(fig.ylabel)
     for s in fig.series:
@@ -157,6 +162,22 @@ def _draw_one(plt, fig: Figure) -> None:
         plt.yticks(*fig.yticks)
     elif (span := _span(fig, "y")) is not None:
         plt.yticks(*nice_ticks(*span))
+
+
+def _fitted(fig: Figure, title: str, xlabel: str, width: int) -> tuple[str, str]:
+    """The title and x label cut (with an ellipsis) to the room plotext gives them about the
+    canvas centre (it drops a label that does not fit); the y tick labels' width estimated."""
+    span = _span(fig, "y")
+    labels = fig.yticks[1] if fig.yticks else nice_ticks(*span)[1] if span else []
+    start = max((len(label) for label in labels), default=1) + 1
+    centre = start + (width - start - 1) // 2
+    right = width - centre
+    room_title = 2 * right - 2
+    room_x = min(2 * (centre - len(fig.ylabel) - 1), 2 * right) - 2
+
+    def cut(text: str, room: int) -> str:
+        return text if len(text) <= room else text[:max(room - 1, 0)].rstrip() + "…"
+    return cut(title, room_title), cut(xlabel, room_x) if xlabel else xlabel
 
 
 def _span(fig: Figure, axis: str) -> tuple[float, float] | None:

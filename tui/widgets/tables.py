@@ -239,25 +239,14 @@ class SettingsTable(RefTable):
 
 
 class HistoryTable(RefTable):
-    """One row per iteration; b makes the selected one the current iteration."""
+    """One row per iteration; b makes the selected one the current iteration (the
+    History pane around it marks one and chooses the plot's view)."""
 
-    BINDINGS = identified("history", [Binding("b", "start_here", "start here"),
-                                      Binding("m", "mark", "mark",
-                                              tooltip="mark the iteration: others are compared with it"),
-                                      Binding("o", "next_overlay", "overlay",
-                                              tooltip="the compared curves as Nyquist, Bode magnitude or step")])
+    BINDINGS = identified("history", [Binding("b", "start_here", "start here")])
     MUTATING = frozenset({"start_here"})
 
     def applies(self, action: str) -> bool:
         return self.ref is not None and self.ref[0] < self.bench.iteration
-
-    def action_mark(self) -> None:
-        """Mark the selected iteration (again: unmark it); the History plot and tableau compare with it."""
-        if self.ref is not None:
-            self.screen.toggle_mark(self.ref[0])
-
-    def action_next_overlay(self) -> None:
-        self.screen.next_overlay()
 
     def action_start_here(self) -> None:
         iteration = self.ref[0]
