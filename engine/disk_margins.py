@@ -70,6 +70,7 @@ def disk_transform(skew: float = 0.0) -> Transform:
         s, ds = sensitivity(w, gh, dgh)
         return s + shift, ds
 
+    f.moebius = (0.5 * (1.0 + skew), shift)  # S + (skew - 1)/2 = ((1 + skew)/2 + (skew - 1)/2 GH)/(1 + GH)
     return f
 
 

@@ -26,6 +26,8 @@ from .errors import EngineError
 from .loops import Evaluator, LoopModel
 from .margins import FIT_LIMIT, Band, _fitted_loop
 from .rootfind import refine, sign_changes
+from .zpk import ZpkEvaluator
+from .zpk_peaks import moebius_peaks
 
 # (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
 Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]
@@ -63,6 +65,11 @@ def complementary(w: NDArray, gh: NDArray, dgh: NDArray) -> tuple[NDArray, NDArr
     with np.errstate(all="ignore"):
         s = 1.0 / (1.0 + gh)
         return np.where(np.abs(gh) > 1.0, 1.0 / (1.0 + 1.0 / gh), gh * s), dgh * s * s
+
+
+# (a, b) of a transform (a + b GH)/(1 + GH): its peaks are found without a grid (`engine.zpk_peaks`)
+sensitivity.moebius = (1.0, 0.0)
+complementary.moebius = (0.0, 1.0)
 
 
 def compensator_sensitivity(compensator: Evaluator) -> Transform:
@@ -120,9 +127,28 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
         return ()
     if loop.evaluate is None:
         return _table_peaks(loop, transforms, band)
+    peaks = _without_grid(loop, transforms, band)
+    if peaks is not None:
+        return peaks
     peaks = _peaks_on(loop, transforms, band)
     if loop.exact is not loop.evaluate and not _agrees(loop, transforms, peaks):
         peaks = _peaks_on(loop.on_exact(), transforms, band)
+    return peaks
+
+
+def _without_grid(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...] | None:
+    """The peaks of a rational loop in pole-zero form whose transforms are all
+    Moebius transforms of GH, found without a grid (`engine.zpk_peaks`); None
+    when that method does not apply (or its form disagrees with the network)."""
+    pairs = [getattr(t, "moebius", None) for t in transforms]
+    if not (loop.rational and isinstance(loop.evaluate, ZpkEvaluator)) or any(p is None for p in pairs):
+        return None
+    found = moebius_peaks(loop.evaluate, pairs, band.low, band.high)
+    if found is None:
+        return None
+    peaks = tuple(Peak(value, frequency) for value, frequency in found)
+    if not getattr(loop.evaluate, "factored", False) and not _agrees(loop, transforms, peaks):
+        return None
     return peaks
 
 

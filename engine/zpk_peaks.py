@@ -1,0 +1,138 @@
+"""Peaks of closed-loop magnitudes of a loop in pole-zero form, without a grid.
+
+The closed-loop transfers a designer bounds are Moebius transforms of GH,
+f = (a + b GH)/(1 + GH): S (a = 1, b = 0), T (a = 0, b = 1) and the disk
+margin's S + (sigma - 1)/2 (a = (1 + sigma)/2, b = (sigma - 1)/2).  With
+GH = k N/D, f = (a D + b k N)/(D + k N), so on s = j omega
+
+    d/domega log|f| = omega (sum_c' 1/(x + c'^2) - sum_c 1/(x + c^2)),
+
+c' the roots of a D + b k N and c those of D + k N (x = omega^2): the
+stationary points of |f| are the zeros of a sum of fractions (`engine.fractions`),
+polished by Newton's method on the exact form (slopes from GH, u = d log GH/ds
+and du/ds: `engine.zpk_levels`), certified and repaired as the margins'
+are (`engine.zpk_certify`).  The peak over a band is the largest of the
+maxima inside it and its ends (limits at 0 and infinity).  None whenever the
+method does not apply; `engine.sensitivity` then searches a grid.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .fractions import Fractions, roots
+from .zpk import ZpkEvaluator
+from .zpk_certify import certified
+from .zpk_levels import LoopLevels
+from .zpk_margins import NEAR_REAL, REAL, distinct, newton
+
+Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
+
+
+def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.0,
+                  high: float = math.inf) -> list[tuple[float, float]] | None:
+    """Per transform, (max |f| over [low, high], where: 0 or inf for a limit at an end);
+    None when the method does not apply or a check fails."""
+    loop = LoopLevels.of(form)
+    if loop is None or not all(_proper(loop, ab) for ab in transforms):
+        return None
+    with np.errstate(all="ignore"):
+        starts = _starts(loop, transforms)
+        if starts is None:
+            return None
+        w, kind, near = starts
+
+        def slopes(omega: NDArray) -> tuple[NDArray, NDArray]:
+            return _moebius_slopes(loop, omega, transforms)
+        found = distinct(*newton(slopes, w, kind), kinds=len(transforms))
+        if found is None:
+            return None
+        checked = certified(loop, found[0], found[1], near, slopes)
+        if checked is None:
+            return None
+        return [_peak(loop, ab, points[top], low, high) for ab, points, top in zip(transforms, *checked)]
+
+
+def _proper(loop: LoopLevels, ab: Moebius) -> bool:
+    """a D + b k N has no more roots than D + k N (a proper loop) and is not 0."""
+    return (ab[0] != 0 or ab[1] != 0) and loop.form.zeros.size <= loop.form.poles.size
+
+
+def _numerator_roots(loop: LoopLevels, ab: Moebius) -> NDArray:
+    """The roots of a D + b k N."""
+    a, b = ab
+    num, den = b * loop.gain * loop.numerator, a * loop.denominator
+    size = max(num.size, den.size)
+    char = np.zeros(size)
+    char[size - den.size:] += den
+    char[size - num.size:] += num
+    return roots(char)
+
+
+def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArray, NDArray] | None:
+    """Newton's starts (the positive real zeros of each transform's sum) with the
+    transform's number, and the near-real zeros' frequencies (check points)."""
+    starts, kinds, near = [], [], []
+    for number, ab in enumerate(transforms):
+        top = _numerator_roots(loop, ab)
+        t = -np.concatenate([top, loop.closed]) ** 2
+        x = Fractions(t).zeros(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
+        if x is None:
+            return None  # |f| constant
+        positive = x.real > 0
+        real = positive & (np.abs(x.imag) <= REAL * np.abs(x))
+        starts.append(np.sqrt(x.real[real]))
+        kinds.append(np.full(starts[-1].size, number))
+        near.append(np.sqrt(x.real[positive & ~real & (np.abs(x.imag) <= NEAR_REAL * np.abs(x))]))
+    return np.concatenate(starts), np.concatenate(kinds), np.concatenate(near)
+
+
+def _moebius_slopes(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> tuple[NDArray, NDArray]:
+    """Rows per transform: d log|f| / domega and its derivative, from
+    d/ds log(a + b GH) = b GH u / (a + b GH) and its derivative."""
+    gh, u, du = loop.terms(w)
+    lift = gh * (u * u + du)
+    first, second = [], []
+    for a, b in transforms:
+        g_top = b * gh * u / (a + b * gh)
+        dg_top = b * lift / (a + b * gh) - g_top * g_top
+        g_bottom = gh * u / (1.0 + gh)
+        dg_bottom = lift / (1.0 + gh) - g_bottom * g_bottom
+        first.append(-(g_top - g_bottom).imag)
+        second.append(-(dg_top - dg_bottom).real)
+    return np.array(first), np.array(second)
+
+
+def _peak(loop: LoopLevels, ab: Moebius, maxima: NDArray, low: float, high: float) -> tuple[float, float]:
+    """The largest |f| at the maxima within [low, high] and at its ends."""
+    inside = maxima[(maxima >= low) & (maxima <= high)]
+    ends = [w for w in (low, high) if 0 < w < math.inf]
+    points = np.concatenate([inside, ends])
+    values = np.abs(_moebius(ab, loop.terms(points)[0])) if points.size else np.zeros(0)
+    candidates = list(zip(values.tolist(), points.tolist()))
+    for w, limit in ((0.0, low == 0.0), (math.inf, high == math.inf)):
+        if limit:
+            candidates.append((_limit(loop, ab, w), w))
+    return max(candidates)
+
+
+def _moebius(ab: Moebius, gh: NDArray) -> NDArray:
+    a, b = ab
+    return np.where(np.abs(gh) > 1.0, (a / gh + b) / (1.0 / gh + 1.0), (a + b * gh) / (1.0 + gh))
+
+
+def _limit(loop: LoopLevels, ab: Moebius, w: float) -> float:
+    """|f| as omega -> 0 (w = 0) or -> infinity: GH tends to 0, infinity or a real number."""
+    (zero, top), _ = loop.limits()
+    level = zero if w == 0.0 else top
+    a, b = ab
+    if level == math.inf:
+        return abs(b)
+    if level == -math.inf:
+        return abs(a)
+    at = 0.0 if w == 0.0 else math.inf
+    gh = loop.form.gain.real if at == math.inf else complex(loop.form(np.zeros(1))[0][0])
+    return float(abs(_moebius(ab, np.array([gh]))[0]))
