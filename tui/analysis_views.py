@@ -238,7 +238,24 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     if crossings:
         fig.xlabel = f"Re   jw-axis crossings: {crossings}"
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
+    if parameter == "gain":
+        _asymptotes_and_breakaways(fig, locus)
     return fig
+
+
+def _asymptotes_and_breakaways(fig: Figure, locus) -> None:
+    """A gain locus's asymptotes (gray, from the centroid to beyond the view) and
+    breakaway points (+, with the gain there)."""
+    if locus.centroid is not None and fig.xlim and fig.ylim:
+        reach = 4 * max(abs(fig.xlim[0] - locus.centroid), abs(fig.xlim[1] - locus.centroid), abs(fig.ylim[1]))
+        for n, angle in enumerate(locus.angles_deg):
+            end = locus.centroid + reach * np.exp(1j * np.radians(angle))
+            fig.series.append(Series([locus.centroid, end.real], [0.0, end.imag],
+                                     f"asymptotes from {locus.centroid:.4g}" if n == 0 else "", color="gray",
+                                     marker="dot"))
+    for n, (point, gain) in enumerate(locus.breakaways[:4]):
+        fig.series.append(Series([point.real], [point.imag], f"breakaway k={gain:.4g}" if n == 0 else "",
+                                 marker="+", scatter=True, color="magenta"))
 
 
 def _rational(view, k: int):
