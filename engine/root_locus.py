@@ -8,9 +8,12 @@ where poles collide, at breakaway points); the poles of consecutive points
 are matched by nearest assignment (`linear_sum_assignment`).  The points are
 bounded (``max_points``; status ``"point budget reached"``).  Gain loci
 step on the eigenvalues of A - k B (1 + k D)^-1 C and polish each point kept
-by Aberth's iteration on the network's characteristic equation; parameter
-loci polish as `engine.polish` does.  Crossings of the imaginary axis are
-refined by brentq; gain loci also carry asymptotes and breakaway points."""
+on the network's characteristic equation (`engine.locus_polish`: Aberth's
+iteration, clusters at breakaway points solved as units); where the
+eigenvalues are noisy the steps they reject are judged on polished points.
+Parameter loci polish as `engine.polish` does.  Crossings of the imaginary
+axis are refined by brentq; gain loci also carry asymptotes and breakaway
+points."""
 
 from __future__ import annotations
 
@@ -28,7 +31,8 @@ from .fastloop import LoopEvaluator
 from .loops import loop_model
 from .margins import margins
 from .network import Network
-from .polish import _traces, block_poles, polish
+from .locus_polish import GainCharacteristic
+from .polish import polish
 from .realization import realize
 from .zpk import ZpkEvaluator, loop_realization, zpk_evaluator
 
@@ -38,9 +42,9 @@ FLOOR = 1e-3  # of the largest pole: the size below which poles count as this si
 FIRST_STEPS = 50  # the first step: this fraction of the range
 NOISE_MOVE = 1e-8  # a move this small (relative) is always allowed: the roots' own noise
 MIN_STEP = 1e-10  # of the range: a step this small is accepted whatever moved (poles collide)
+NOISY = 0.1  # raw roots off the refined ones by this fraction of a step's allowed move: judged refined
 MAX_POINTS = 2000
 EVALUATIONS_PER_POINT = 4  # rejected steps count too: at most this many evaluations per point
-ABERTH_ITERATIONS = 50
 GAIN_DECADES = 3.0  # the default gain range: 1e-3..1e3 times the crossings' span
 
 
@@ -122,11 +126,11 @@ def gain_locus(network: Network, break_at: str, params: Mapping[str, float],
     lo, hi = value_range if value_range is not None else _gain_range(network, break_at, params)
     if lo <= 0:
         raise EngineError(f"a gain locus runs over positive gains (it starts at k = 0), not from {lo!r}")
-    # the steps are chosen on the eigenvalues; only the points kept are polished (once each)
+    # the steps are chosen on the eigenvalues, the points kept polished (and the steps the eigenvalues
+    # reject judged again on polished points where the eigenvalues are noisy: see `continuation`)
+    refine = (lambda t, row: roots_at.polish(math.exp(t), row)) if polished else None
     ts, rows, status = continuation(lambda t: eigenvalues(math.exp(t)), math.log(lo), math.log(hi),
-                                    [0.0] if lo < 1.0 < hi else [], max_points)
-    if polished:
-        rows = np.array([roots_at.polish(math.exp(t), row) for t, row in zip(ts, rows)]).reshape(rows.shape)
+                                    [0.0] if lo < 1.0 < hi else [], max_points, refine)
     values = np.concatenate([[0.0], np.exp(ts)])
     branches = np.vstack([_matched(rows[0], roots_at(0.0))[None, :], rows])
     crossings = _crossings(roots_at, values[1:], branches[1:])
@@ -159,13 +163,18 @@ def parameter_locus(network: Network, params: Mapping[str, float], name: str,
 
 
 def continuation(roots_at: Callable[[float], NDArray], t0: float, t1: float, nodes: Sequence[float] = (),
-                 max_points: int = MAX_POINTS) -> tuple[NDArray, NDArray, str]:
+                 max_points: int = MAX_POINTS,
+                 refine: Callable[[float, NDArray], NDArray] | None = None) -> tuple[NDArray, NDArray, str]:
     """Roots of ``roots_at(t)`` followed from t0 to t1 by adaptive steps
-    (module docstring), passing through every node; (t, rows, status)."""
+    (module docstring), passing through every node; (t, rows, status).
+    ``refine(t, roots)`` makes raw roots accurate: every row kept is refined,
+    and where the raw roots were noisy at the last row kept (see `_refined`)
+    a step they reject is judged again on refined roots."""
     span = t1 - t0
     first = np.asarray(roots_at(t0), dtype=complex)
-    ts, rows = [t0], [first]
-    t, roots, step, status = t0, first, span / FIRST_STEPS, "complete"
+    roots, noisy = _refined(refine, t0, first, first)
+    ts, rows = [t0], [roots]
+    t, step, status = t0, span / FIRST_STEPS, "complete"
     stops = sorted(n for n in nodes if t0 < n < t1) + [t1]
     for _ in range(EVALUATIONS_PER_POINT * max_points):
         if t >= t1:
@@ -180,18 +189,35 @@ def continuation(roots_at: Callable[[float], NDArray], t0: float, t1: float, nod
         except EngineError as exc:
             status = f"stopped at {target:.6g}: {exc}"
             break
-        ratio = _move_ratio(roots, new)
+        ratio, judged = _move_ratio(roots, new), None
+        if ratio > 1.0 and not forced and noisy:
+            judged = _refined(refine, target, new, roots)
+            ratio = _move_ratio(roots, judged[0])
         grow = min(1.5, 0.7 / ratio) if ratio > 0 else 1.5  # NaN: shrink
         if ratio <= 1.0 or forced:
-            t, roots = target, new
+            t, (roots, noisy) = target, judged or _refined(refine, target, new, roots)
             ts.append(t)
-            rows.append(new)
+            rows.append(roots)
             step = min(max(step * grow, MIN_STEP * span), span / 20)
         else:
             step = max((target - t) * max(0.2, grow if grow == grow else 0.2), MIN_STEP * span)
     else:
         status = "step budget reached"
     return np.array(ts), np.array(rows).reshape(len(rows), first.size), status
+
+
+def _refined(refine: Callable[[float, NDArray], NDArray] | None, t: float, raw: NDArray,
+             previous: NDArray) -> tuple[NDArray, bool]:
+    """The row kept for ``raw`` at t (refined, matched to the ``previous`` row: raw roots that
+    noisy may be matched wrongly), and whether ``raw`` was too noisy to judge steps by: off the
+    refined roots by more than NOISY of a step's allowed move (the eigenvalues of a gain locus
+    at large gains, where |A - k B C| is huge, or near a breakaway point; judged on them alone
+    the steps shrink to their floor there and the point budget runs out)."""
+    if refine is None:
+        return raw, False
+    refined = np.asarray(refine(t, raw), dtype=complex)
+    beside = _matched(raw, refined)
+    return _matched(previous, refined), bool(np.any(np.abs(beside - raw) > NOISY * _allowed(beside)))
 
 
 def _matched(old: NDArray, new: NDArray) -> NDArray:
@@ -211,6 +237,15 @@ def _move_ratio(old: NDArray, new: NDArray) -> float:
     """The largest move as a fraction of what a step allows (<= 1: accepted)."""
     if old.size == 0:
         return 0.0
+    with np.errstate(all="ignore"):
+        ratio = np.abs(new - old) / _allowed(old)
+    return float(np.max(np.where(np.isfinite(ratio), ratio, np.inf)))
+
+
+def _allowed(old: NDArray) -> NDArray:
+    """How far each pole may move in one step (module docstring)."""
+    if old.size == 0:
+        return np.zeros(0)
     size = np.abs(old)
     floor = FLOOR * max(float(np.max(size)), 1e-300)
     allowed = MOVE * np.maximum(size, floor)
@@ -219,10 +254,7 @@ def _move_ratio(old: NDArray, new: NDArray) -> float:
         np.fill_diagonal(gaps, np.inf)
         nearest = np.min(gaps, axis=1)
         allowed = np.where(nearest > 0, np.minimum(allowed, SEPARATE * nearest), allowed)
-    allowed = np.maximum(allowed, NOISE_MOVE * np.maximum(size, floor))  # near-coincident roots that stay so
-    with np.errstate(all="ignore"):
-        ratio = np.abs(new - old) / allowed
-    return float(np.max(np.where(np.isfinite(ratio), ratio, np.inf)))
+    return np.maximum(allowed, NOISE_MOVE * np.maximum(size, floor))  # near-coincident roots that stay so
 
 
 def _crossings(roots_at: Callable[[float], NDArray], values: NDArray, rows: NDArray) -> tuple[Crossing, ...]:
@@ -278,64 +310,23 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
 def _gain_roots(network: Network, break_at: str, params: Mapping[str, float],
                 polished: bool = True) -> Callable[[float], NDArray]:
     """k -> the closed-loop poles with the loop gain multiplied by k: the
-    eigenvalues of A - k B (1 + k D)^-1 C, polished by Aberth's iteration
-    on the network's characteristic polynomial with every use of the break
-    signal scaled by k (`engine.polish`'s F(s) = prod d_i det(I - G_k(s)))."""
+    eigenvalues of A - k B (1 + k D)^-1 C, polished on the network's
+    characteristic equation (`engine.locus_polish`); ``roots.polish(k, eig)``
+    polishes given eigenvalues."""
     ss = loop_realization(network, break_at, params)
     b = network.signal(break_at)
     A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[b:b + 1], -ss.D[b:b + 1, -1:]
-    try:
-        block = block_poles(network, params)
-    except EngineError:
-        block = None
-    compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
-    n = len(network.signals)
-
-    def ratio(s: NDArray, k: float) -> NDArray:
-        G = np.zeros((s.size, n, n), dtype=complex)
-        dG = np.zeros_like(G)
-        for row, col, fun in compiled:
-            value, slope = fun(s)
-            scale = k if col == b else 1.0
-            G[:, row, col] += scale * value
-            dG[:, row, col] += scale * slope
-        return np.sum(1.0 / (s[:, None] - block[None, :]), axis=1) - _traces(np.eye(n)[None] - G, dG)
-
-    def polish(k: float, eig: NDArray) -> NDArray:   # the roots near eig at gain k, in their order
-        return eig if block is None or block.size != eig.size else _aberth(lambda z: ratio(z, k), eig)
+    characteristic = GainCharacteristic(network, break_at, params)
 
     def roots(k: float) -> NDArray:
         through = 1.0 + k * D[0, 0]
         if abs(through) <= 1e-14 * max(1.0, abs(k * D[0, 0])):
             raise EngineError(f"the loop is algebraically singular at k = {k:.6g} (1 + k L(inf) = 0)")
         eig = np.linalg.eigvals(A - (k / through) * (B @ C))
-        return polish(k, eig) if polished else eig
+        return characteristic.polish(k, eig) if polished else eig
 
-    roots.polish = polish
+    roots.polish = characteristic.polish
     return roots
-
-
-def _aberth(ratio: Callable[[NDArray], NDArray], z: NDArray) -> NDArray:
-    """Roots refined together by Aberth's iteration given s -> F'(s)/F(s); the start where it fails."""
-    start, z, active = z, z.copy(), np.ones(z.size, dtype=bool)
-    with np.errstate(all="ignore"):
-        for _ in range(ABERTH_ITERATIONS):
-            newton = 1.0 / ratio(z)
-            others = 1.0 / (z[:, None] - z[None, :])
-            np.fill_diagonal(others, 0.0)
-            step = newton / (1.0 - newton * np.sum(others, axis=1))
-            finite = np.isfinite(step)
-            step = np.where(finite & active, step, 0.0)
-            z = z - step
-            relative = np.abs(step) / np.maximum(np.abs(z), 1e-300)
-            active &= finite & (relative > 1e-14)
-            if not active.any():
-                break
-    if not np.all(np.isfinite(z)):
-        return start
-    # near a breakaway point (a double root) the iteration converges slowly: what it reached is kept,
-    # whose backward error is still at rounding level (the root itself is only ~sqrt(eps) determined)
-    return np.where(np.abs(z.imag) <= 1e-14 * np.abs(z), z.real + 0j, z)
 
 
 def _loop_terms(form: ZpkEvaluator, k: float, s: NDArray) -> NDArray:

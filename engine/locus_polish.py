@@ -1,0 +1,226 @@
+"""Gain-locus points polished on the network's characteristic equation.
+
+With every use of the break signal scaled by the loop gain k, the closed-loop
+poles are the roots of F_k(s) = prod d_i(s) det(I - G_k(s)) (`engine.polish`),
+whose logarithmic derivative F'/F and size log|F| are evaluated at complex s
+to rounding, block by block.
+
+Aberth's iteration on F'/F refines every eigenvalue at once.  A root is done
+when its correction is below `DONE` of it, or below `FLOOR` and no longer
+halving: a correction that stops shrinking there is F's evaluation noise,
+not progress (waiting for `DONE` then ran all the iterations).
+
+Clusters.  Where branches meet (a breakaway point) two roots nearly
+coincide, and the eigenvalues, accurate to ~sqrt(eps) there, are as often as
+not on the wrong side of the real axis: a real pair where the roots are a
+conjugate pair, or the reverse.  Aberth's iteration cannot cross the axis: F
+is real, so real starts stay real and conjugate starts stay conjugate; it
+stalls about the two roots' midpoint, at a backward error ~ |k - k_b| / k_b.
+So every tight cluster (`CLUSTER`) is solved as a unit from its power sums:
+on a circle about the cluster's centre c that holds it alone, the contour
+integral of (z - c)^p F'/F dz / (2 pi i) is the sum of (root - c)^p over the
+roots inside, which the trapezoid rule on `NODES` points gets to rounding
+(its error falls as (spread / radius)^NODES and (radius / gap)^NODES), and
+Newton's identities turn p = 1..m into the monic factor whose roots they
+are.  F is sampled only where it is not small, so these roots' backward
+error is F's evaluation error (~eps) whatever the start was.
+
+Stalled roots.  The same trap away from any cluster: where the eigenvalues
+are far off (at large gains, where |A - k B C| is huge) a real pair can
+stand for a conjugate pair of roots, and never converges.  Roots still moving
+when the iterations run out are restarted once, moved off the axis by their
+last correction (all the same way: the symmetry broken).
+
+Each root, and each cluster as a unit, finally keeps whichever of the start,
+Aberth's point, the cluster's and the restart's has the smallest |F_k| (the
+same polynomial at the same gain: the same scale), so polishing never makes a
+point worse.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from .errors import EngineError
+from .network import Network
+from .polish import _traces, block_poles
+
+Roots = NDArray[np.complex128]
+Ratio = Callable[[Roots], Roots]  # s -> F'(s)/F(s)
+Size = Callable[[Roots], NDArray[np.float64]]  # s -> log|F(s)| (up to a constant)
+
+ITERATIONS = 50
+DONE = 1e-14  # relative correction at which a root is converged
+FLOOR = 1e-11  # ... below which a correction not halving is the evaluation's noise: done too
+# a cluster: members within CLUSTER of its scale, the distance from their centre to every other
+# root and to the origin; its circle: RADIUS of that scale.  Inside, spread / radius <= 0.1 (0.3
+# if the start was off by 3x); outside, radius / distance <= 0.1; on NODES points the trapezoid
+# errors are 0.3^32 ~ 2e-17 of the sums.  Not beyond 0.1 of the centre's size: F's evaluation
+# error grows with |s| (~ sum |f_i| |s|^i), and the roots' backward error with it.
+CLUSTER = 0.01
+RADIUS = 0.1
+NODES = 32
+MAX_CLUSTER = 4
+COUNT = 1e-3  # the circle's root count (sum p = 0) must be the members' count to this
+
+
+class GainCharacteristic:
+    """F_k'/F_k and log|F_k| for the loop broken at ``break_at`` (module docstring);
+    ``block`` (the blocks' poles) None where a block has no rational form: no polish."""
+
+    def __init__(self, network: Network, break_at: str, params: Mapping[str, float]) -> None:
+        try:
+            self.block: Roots | None = block_poles(network, params)
+        except EngineError:
+            self.block = None
+        self.compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
+        self.n, self.b = len(network.signals), network.signal(break_at)
+
+    def _matrices(self, s: Roots, k: float) -> tuple[NDArray, NDArray]:
+        """I - G_k(s) and G_k'(s) per point."""
+        G = np.zeros((s.size, self.n, self.n), dtype=complex)
+        dG = np.zeros_like(G)
+        for row, col, fun in self.compiled:
+            value, slope = fun(s)
+            scale = k if col == self.b else 1.0
+            G[:, row, col] += scale * value
+            dG[:, row, col] += scale * slope
+        return np.eye(self.n)[None] - G, dG
+
+    def ratio(self, s: Roots, k: float) -> Roots:
+        M, dG = self._matrices(s, k)
+        return np.sum(1.0 / (s[:, None] - self.block[None, :]), axis=1) - _traces(M, dG)
+
+    def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
+        with np.errstate(all="ignore"):  # NaN on a block pole (k = 0): not measurable
+            M, _ = self._matrices(s, k)
+            return np.sum(np.log(np.abs(s[:, None] - self.block[None, :])), axis=1) + np.linalg.slogdet(M)[1]
+
+    def polish(self, k: float, eig: Roots) -> Roots:
+        """The roots near ``eig`` at gain k, in its order (``eig`` itself if unusable)."""
+        if self.block is None or self.block.size != eig.size or eig.size == 0:
+            return eig
+        return refine(lambda z: self.ratio(z, k), lambda z: self.log_size(z, k), eig)
+
+
+def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
+    """The roots near ``start`` (in its order): Aberth's, tight clusters solved as units,
+    stalled roots restarted off the real axis, each root kept from the candidate with
+    the smallest |F| (module docstring)."""
+    start = np.asarray(start, dtype=complex)
+    polished, stalled, steps = aberth(ratio, start)
+    clustered, groups = polished.copy(), clusters(polished)
+    for members in groups:
+        roots = cluster_roots(ratio, polished, members)
+        if roots is not None:
+            clustered[members], stalled[members] = roots, False
+    candidates = [clustered, polished, start]
+    if stalled.any():
+        # the same trap away from a cluster (noisy eigenvalues at large gains: a real pair where
+        # the roots are complex): restarted off the axis by their last correction, the symmetry broken
+        kicked = clustered + np.where(stalled, 1j * np.abs(steps), 0.0)
+        candidates.insert(0, aberth(ratio, kicked)[0])
+    best = _smallest(log_size, candidates, groups)
+    return np.where(np.abs(best.imag) <= 1e-14 * np.abs(best), best.real + 0j, best)
+
+
+def aberth(ratio: Ratio, start: Roots) -> tuple[Roots, NDArray[np.bool_], Roots]:
+    """Roots refined together by Aberth's iteration (the start where it fails), which of
+    them had not stopped when the iterations ran out, and their last corrections."""
+    z, active = start.copy(), np.ones(start.size, dtype=bool)
+    last, step = np.full(start.size, np.inf), np.zeros(start.size, dtype=complex)
+    with np.errstate(all="ignore"):
+        for _ in range(ITERATIONS):
+            newton = 1.0 / ratio(z)
+            others = 1.0 / (z[:, None] - z[None, :])
+            np.fill_diagonal(others, 0.0)
+            step = newton / (1.0 - newton * np.sum(others, axis=1))
+            finite = np.isfinite(step)
+            step = np.where(finite & active, step, 0.0)
+            z = z - step
+            relative = np.abs(step) / np.maximum(np.abs(z), 1e-300)
+            # converged, or at the rounding floor: a small correction that no longer halves is noise
+            active &= finite & (relative > DONE) & ((relative > FLOOR) | (relative < 0.5 * last))
+            last = relative
+            if not active.any():
+                break
+    if not np.all(np.isfinite(z)):
+        return start, np.zeros(start.size, dtype=bool), np.zeros(start.size, dtype=complex)
+    return z, active, step
+
+
+def clusters(z: Roots) -> list[NDArray[np.intp]]:
+    """Disjoint groups of 2..MAX_CLUSTER roots (the smallest about each root) whose spread
+    about their centre is within CLUSTER of its scale (`_extent`)."""
+    used, out = np.zeros(z.size, dtype=bool), []
+    for i in range(z.size):
+        if used[i]:
+            continue
+        order = np.argsort(np.abs(z - z[i]), kind="stable")
+        for m in range(2, min(MAX_CLUSTER, z.size) + 1):
+            centre, spread, gap = _extent(z, order[:m])
+            if spread <= CLUSTER * gap:
+                if not used[order[:m]].any():
+                    out.append(np.sort(order[:m]))
+                    used[order[:m]] = True
+                break
+    return out
+
+
+def _extent(z: Roots, members: NDArray[np.intp]) -> tuple[complex, float, float]:
+    """The members' centre, their largest distance from it and its scale: its distance to
+    the nearest other root and to the origin."""
+    centre = complex(np.mean(z[members]))
+    others = np.delete(z, members)
+    gap = min(float(np.min(np.abs(others - centre))) if others.size else np.inf, abs(centre))
+    return centre, float(np.max(np.abs(z[members] - centre))), gap
+
+
+def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp]) -> Roots | None:
+    """The roots of the cluster z[members] from their power sums on a circle (module docstring),
+    in the members' order; None where the circle does not hold exactly as many roots."""
+    m = members.size
+    centre, spread, gap = _extent(z, members)
+    radius = RADIUS * gap
+    if not (0 < radius < np.inf):
+        return None
+    if abs(centre.imag) <= 1e-3 * radius:  # the circle holds the conjugates too: a real factor
+        centre = complex(centre.real, 0.0)
+    nodes = radius * np.exp(2j * np.pi * (np.arange(NODES) + 0.5) / NODES)  # conjugate-symmetric
+    with np.errstate(all="ignore"):
+        values = ratio(centre + nodes) * nodes  # (z - c) F'/F: dz = i (z - c) dtheta
+        sums = np.array([np.mean(values * nodes ** p) for p in range(m + 1)])
+    if not (np.all(np.isfinite(sums)) and abs(sums[0] - m) <= COUNT):
+        return None
+    if centre.imag == 0.0:
+        sums = sums.real + 0j
+    roots = centre + np.roots(_from_power_sums(sums))
+    rows, cols = linear_sum_assignment(np.abs(z[members][:, None] - roots[None, :]))
+    out = np.empty(m, dtype=complex)
+    out[rows] = roots[cols]
+    return out
+
+
+def _from_power_sums(sums: Roots) -> Roots:
+    """Monic polynomial (descending) whose roots have the power sums sums[1:] (Newton's identities)."""
+    m = sums.size - 1
+    e = [1.0 + 0j]
+    for j in range(1, m + 1):
+        e.append(sum((-1) ** (i - 1) * e[j - i] * sums[i] for i in range(1, j + 1)) / j)
+    return np.array([(-1) ** j * e[j] for j in range(m + 1)])
+
+
+def _smallest(log_size: Size, candidates: list[Roots], groups: list[NDArray[np.intp]]) -> Roots:
+    """Per root (per cluster: all its members) the candidate with the smallest |F|
+    (the largest over a cluster); the first where none can be measured."""
+    n = candidates[0].size
+    size = np.asarray(log_size(np.concatenate(candidates)), dtype=float).reshape(len(candidates), n)
+    size = np.where(np.isnan(size), np.inf, size)
+    choice = np.argmin(size, axis=0)
+    for members in groups:
+        choice[members] = np.argmin(np.max(size[:, members], axis=1))
+    return np.choose(choice, candidates)
