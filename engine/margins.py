@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from .detection import NOISE, Detection, detection_grid
 from .errors import EngineError
-from .fitting import fit_response
+from .fit_cache import cached_fit
 from .loops import LoopModel
 from .margin_types import Band, Margin, Margins, margins_of, single_margin
 from .rootfind import Roots, refine, sign_changes
@@ -124,7 +124,7 @@ def _fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
     the table's range), its residual and degree; None when it fits badly."""
     keep = loop.omega > 0
     try:
-        fit = fit_response(loop.omega[keep], loop.gh[keep])
+        fit = cached_fit(loop.omega[keep], loop.gh[keep])
     except EngineError:
         return None
     if not fit.residual <= FIT_LIMIT:

@@ -3,6 +3,8 @@ run's worker builds them from its own view; the screen shows them)."""
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 from .analysis_views import poles_figure, sensitivity_figure
 from .views import View
 from .widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
@@ -41,25 +43,43 @@ def applicable(plots: frozenset[str], problem) -> frozenset[str]:
     return plots
 
 
-def figures(view: View) -> dict[str, Figure]:
-    """The figures of the plots the algorithm's presenter says apply, by plot id."""
+def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure]:
+    """The figures of the plots the algorithm's presenter says apply, by plot id
+    (``only``: just these plot ids, those shown: each plot costs its own search)."""
     wanted = view.presenter.plots
+
+    def asked(*names: str) -> bool:
+        return only is None or any(name in only for name in names)
     out: dict[str, Figure] = {}
-    curves = view.loop_curves() if wanted & {"nyquist", "bode", "nichols"} else []
-    if curves:
-        out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view), unit=view.problem.grid.unit)
-        out["bode-mag"], out["bode-phase"] = bode_figures(curves, view.problem.grid.unit)
-        out["nichols"] = nichols_figure(curves, view.problem.grid.unit)
-    if "closed_loop" in wanted and view.problem.conditions:
+    curves = view.loop_curves(with_margins=asked("bode-mag", "bode-phase")) if wanted & {
+        "nyquist", "bode", "nichols"} and asked("nyquist", "bode-mag", "bode-phase", "nichols") else []
+    unit = view.problem.grid.unit
+    if curves and asked("nyquist"):
+        out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view), unit=unit)
+    if curves and asked("bode-mag", "bode-phase"):
+        out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
+    if curves and asked("nichols"):
+        out["nichols"] = nichols_figure(curves, unit)
+    if "closed_loop" in wanted and view.problem.conditions and asked("closed-loop"):
         out["closed-loop"] = sensitivity_figure(view)
-    if "poles" in wanted and view.problem.conditions:
+    if "poles" in wanted and view.problem.conditions and asked("poles"):
         out["poles"] = poles_figure(view)
-    label, its, values = view.convergence()
-    out["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet")
-    if "trajectories" in wanted:
+    if asked("convergence"):
+        label, its, values = view.convergence()
+        out["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet")
+    if "trajectories" in wanted and asked("trajectories"):
         objective = view.problem.objective
         out["trajectories"] = trajectories_figure(view.trajectories(), objective.data if objective else None)
-    if "step" in wanted:
+    if "step" in wanted and asked("step"):
         out["step"] = step_figure(*view.step_plot())
-    out["sweep-plot"] = sweep_figure(view.sweep)
+    if asked("sweep-plot"):
+        out["sweep-plot"] = sweep_figure(view.sweep)
     return out
+
+
+def figure_key(view: View) -> tuple:
+    """What a view's figures depend on: the problem, the records (the last one's
+    identity: an undo then a new step has the same count), the condition shown,
+    the step plot's setup and the sweep."""
+    last = view.records[-1] if view.records else None
+    return (id(view.problem), view.iteration, id(last), view.plotted_condition, view.step_setup, id(view.sweep))

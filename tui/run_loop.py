@@ -129,7 +129,7 @@ class RunLoop:
             return
         finally:
             gc.unfreeze()
-        self.post_message(RunEnded(note, *(_drawings(view, request.canvases) if view is not None else (None, None))))
+        self.post_message(RunEnded(note, *(drawings(view, request.canvases) if view is not None else (None, None))))
 
     def _steps(self, request: RunRequest) -> tuple[str | None, View | None]:
         """In the worker: step, draw now and then, post every record; why it stopped,
@@ -144,7 +144,7 @@ class RunLoop:
             drawn = prebuilt = None
             if final or time.monotonic() - last >= REDRAW_INTERVAL:
                 last = time.monotonic()
-                drawn, prebuilt = _drawings(view, request.canvases)
+                drawn, prebuilt = drawings(view, request.canvases)
             undrawn = None if drawn is not None else view
             self.post_message(Stepped(state, record, drawn, prebuilt))
             if record.status.finished:
@@ -190,9 +190,10 @@ class RunLoop:
         self.refresh_workbench(plots=False)
 
 
-def _drawings(view: View, canvases: dict) -> tuple[dict, dict]:
-    """The figures of a view, and their text at the canvases' sizes (off the UI thread)."""
-    drawn = figures(view)
+def drawings(view: View, canvases: dict, only: set[str] | None = None) -> tuple[dict, dict]:
+    """The figures of a view's plots on screen (``canvases``; ``only``: of these), and
+    their text at the canvases' sizes (off the UI thread)."""
+    drawn = figures(view, set(canvases) if only is None else only)
     return drawn, {name: FigurePlot.prebuild(drawn[name], canvas) for name, canvas in canvases.items()
                    if name in drawn}
 

@@ -77,8 +77,9 @@ class View:
         return self.problem.condition_values(condition, named=named)
 
     def loop_curve(self, iteration: int | None = None, label: str = "current", condition: int = 0,
-                   color: str = "blue") -> LoopCurve | None:
-        """GH of one condition (None when the loop cannot be evaluated); the current one with its margins."""
+                   color: str = "blue", with_margins: bool = True) -> LoopCurve | None:
+        """GH of one condition (None when the loop cannot be evaluated); the current one with
+        its margins (``with_margins``: a tabulated loop's margins are a rational fit's)."""
         problem = self.problem
         if condition >= len(problem.conditions):
             return None
@@ -89,7 +90,7 @@ class View:
         except EngineError:
             return None
         found = None
-        if iteration is None:
+        if iteration is None and with_margins:
             try:
                 found = margins(loop_model(c.network, c.break_at, problem.grid.omega, values))
             except EngineError:
@@ -126,9 +127,9 @@ class View:
             wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
         return wanted
 
-    def loop_curves(self, iteration: int | None = None) -> list[LoopCurve]:
-        """The open loops the plots draw (`shown`)."""
-        curves = [self.loop_curve(at, label, k, color) for at, k, label, color in self.shown(iteration)]
+    def loop_curves(self, iteration: int | None = None, with_margins: bool = True) -> list[LoopCurve]:
+        """The open loops the plots draw (`shown`), the current one's with its margins."""
+        curves = [self.loop_curve(at, label, k, color, with_margins) for at, k, label, color in self.shown(iteration)]
         return [c for c in curves if c is not None]
 
     def step_response(self, iteration: int | None = None, condition: int = 0,

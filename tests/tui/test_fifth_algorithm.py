@@ -52,5 +52,7 @@ async def test_the_workbench_steps_it_and_shows_its_own_lines(workdir):
         assert "Iteration 1" in status(app) and "compass" in status(app)
         info = str(app.screen.query_one("#step-info").render())
         assert "compass step" in info and "probes" in info
+        app.screen.query_one("#plots").active = "p-convergence"   # plots are drawn when shown
+        await settle(app, pilot)
         convergence = app.screen.query_one("#convergence").figure
         assert convergence.ylabel == "compass merit" and len(convergence.series[0].x) == 1

@@ -17,6 +17,8 @@ SIZES = [(100, 32), (80, 24)]
 def steps(*keys: str, wait_workers: bool = True):
     async def run_before(pilot) -> None:
         await pilot.pause()
+        await pilot.app.workers.wait_for_complete()   # the plots are drawn in a worker
+        await pilot.pause()
         for key in keys:
             await pilot.press(key)
             await pilot.pause()

@@ -18,12 +18,14 @@ from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
 from ..analysis_views import pole_lines
-from ..figures import applicable, figures
+from ..figures import applicable, figure_key
 from ..keys import identified
 from ..plant_rows import plant_rows
 from ..tableau import tableau_text
 from ..views import View
 from ..widgets.matrix_table import MatrixTable
+from ..run_loop import drawings
+from ..widgets.figure import Figure
 from ..widgets.plots import FigurePlot, sweep_figure
 from ..widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
 from ..widgets.textview import TextView
@@ -92,6 +94,7 @@ class MainScreen(ViewActions, Screen):
         self.bench = bench
         self._history_stale = True
         self._locus_key = None   # what the root locus shown was computed for
+        self._figure_keys: dict[str, tuple] = {}   # plot id -> the `figure_key` of the view it shows
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -180,6 +183,7 @@ class MainScreen(ViewActions, Screen):
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         if event.tabbed_content.id == "plots":
             self.refresh_locus()
+            self.call_after_refresh(self.draw_missing)
         if event.tabbed_content.id != "tabs":
             return
         self.refresh_bindings()
@@ -215,7 +219,7 @@ class MainScreen(ViewActions, Screen):
     def refresh_run(self, view: View | None = None, plots: bool = True, drawn: dict | None = None,
                     prebuilt: dict | None = None) -> None:
         """The tableau, the lines under it and (with ``plots``) the plots: from ``drawn``
-        figures when a worker made them, else drawn here."""
+        figures when a run's worker made them, else drawn in a worker (`draw_missing`)."""
         view = self.bench.view() if view is None else view
         rows, record = view.tableau()
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
@@ -228,7 +232,7 @@ class MainScreen(ViewActions, Screen):
         self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         if plots:
-            self.refresh_plots(drawn if drawn is not None else figures(view), prebuilt)
+            self.refresh_plots(drawn, prebuilt)
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""
@@ -239,15 +243,45 @@ class MainScreen(ViewActions, Screen):
         return out
 
     def refresh_plots(self, drawn: dict | None = None, prebuilt: dict | None = None) -> None:
+        """The plots on screen: ``drawn`` (a run's worker made them for this view), and
+        the others that are not of this view drawn in a worker (`draw_missing`)."""
         view = self.bench.view()
-        drawn = figures(view) if drawn is None else drawn
-        for name, figure in drawn.items():
-            for plot in self.query(f"#{name}").results(FigurePlot):
-                plot.show(figure, (prebuilt or {}).get(name))
+        if drawn:
+            self._show_figures(figure_key(view), drawn, prebuilt)
+        self.draw_missing(view)
         self._locus_key = None
         self.refresh_locus(view)
         if self.query_one("#tabs", TabbedContent).active == "history":
             self.query_one(HistoryPane).show_iteration(self.query_one(HistoryPane).selected, view)
+
+    def draw_missing(self, view: View | None = None) -> None:
+        """The plots on screen whose figures are not of the current view, computed in a
+        thread worker (a tabulated loop's fit takes a second) and shown when done; a
+        newer request supersedes it.  A plot never drawn says it is computing."""
+        view = self.bench.view() if view is None else view
+        key, canvases = figure_key(view), self.canvases()
+        missing = {name for name in canvases if self._figure_keys.get(name) != key}
+        if not missing:
+            return
+        for name in missing:
+            plot = self.query_one(f"#{name}", FigurePlot)
+            if name not in self._figure_keys:
+                plot.show(Figure(empty_message="computing ..."))
+
+        def compute() -> None:
+            drawn, prebuilt = drawings(view, canvases, missing)
+            self.app.call_from_thread(self._figures_drawn, key, drawn, prebuilt)
+        self.run_worker(compute, thread=True, exclusive=True, group="figures")
+
+    def _figures_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
+        if key == figure_key(self.bench.view()):
+            self._show_figures(key, drawn, prebuilt)
+
+    def _show_figures(self, key: tuple, drawn: dict, prebuilt: dict | None) -> None:
+        for name, figure in drawn.items():
+            for plot in self.query(f"#{name}").results(FigurePlot):
+                plot.show(figure, (prebuilt or {}).get(name))
+                self._figure_keys[name] = key
 
     def _step_info(self, view: View, record: StepRecord | None) -> str | Text:
         if record is None or record.iteration == 0:
