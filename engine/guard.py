@@ -80,7 +80,9 @@ def _storable(name: str, state: Any, where: str) -> None:
     try:
         if not np.all(np.isfinite(np.asarray(state.x, dtype=float))):
             raise EngineError("the free vector is not finite")
-        type(state.memory).from_json(jsonable(state.memory.to_json()))
+        data = state.memory.to_json()
+        memory_type = type(state.memory)
+        memory_type.from_json(data if getattr(memory_type, "PLAIN_JSON", False) else jsonable(data))
     except EngineError as exc:
         raise EngineError(f"{name}: the state reached{where} cannot be stored ({exc})") from None
 

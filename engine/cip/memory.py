@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any, ClassVar, Self
 
 from ..errors import EngineError
 from ..memory import Fields, jsonable, to_float
@@ -33,6 +33,7 @@ class CipMemory:
     step: float
     unmet_start: int
     best: CipBest
+    PLAIN_JSON: ClassVar[bool] = True  # `to_json` gives plain JSON (tests/engine/test_memory.py checks it)
 
     def to_json(self) -> dict:
         """Plain JSON types (`jsonable`'s, built directly: every step stores its memory)."""

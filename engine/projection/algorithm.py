@@ -79,6 +79,7 @@ class Projection:
         zero = Trajectory(np.zeros((self.system.steps + 1, self.system.n)),
                           np.zeros((self.system.steps + 1, self.system.m)))
         self._times = self.system.times().tolist()
+        self._open_rows = None if self.open_loop is None else _rows(self.open_loop)
         self._last: tuple[Iterate, Trajectory] | None = None
         return State(0, (), Status.RUNNING, ProjectionMemory(self._pack(self.project(zero)), 1.0, ()))
 
@@ -206,20 +207,21 @@ class Projection:
     def _record(self, i: int, status: Status, reason: str, r: Trajectory, lam: float | None, distance: float,
                 k_to_s: float | None) -> StepRecord:
         """The tableau (violations, then the peaks of symmetrically bounded inputs, now and in the open
-        loop) and, in extra, the trajectories; the open loop's in the first record (and iteration 0's)."""
-        sys, v, slack = self.system, self.violations(r), 1e-8 * max(1.0, _scale(r))
+        loop) and, in extra, the trajectories (the memory's rows, shared: no lists per record); the open
+        loop's in the first record (and iteration 0's)."""
+        sys, v, slack, packed = self.system, self.violations(r), 1e-8 * max(1.0, _scale(r)), self._pack(r)
         found = peaks(sys, r)
         rows = [MeasureRow(name, "violation", "dae", value, 0.0, value <= slack, at_least=False)
                 for name, value in v.items()]
         rows += peak_rows(sys, found, "peak", slack)
         extra = {"lambda": lam, "distance": distance, "k_minus_s": k_to_s, "violations": v, "peaks": found,
-                 "t": self._times, "x": r.x.tolist(), "u": r.u.tolist()}
+                 "t": self._times, "x": packed.x, "u": packed.u}
         if self.open_loop is not None:
             initial = peaks(sys, self.open_loop)
             rows += peak_rows(sys, initial, "open-loop peak", slack)
             if i <= 1:
                 extra["open_loop"] = {"zero_inputs": list(sys.open_loop), "peaks": initial,
-                                      "x": self.open_loop.x.tolist(), "u": self.open_loop.u.tolist()}
+                                      "x": self._open_rows.x, "u": self._open_rows.u}
         return StepRecord(i, status, {}, tuple(rows), objective=distance, step_size=lam,
                           counters={"projections": 0 if k_to_s is None else 1}, reason=reason, extra=extra)
 
@@ -230,7 +232,7 @@ class Projection:
         if not (np.all(np.isfinite(t.x)) and np.all(np.isfinite(t.u))):
             raise EngineError("projection: the iterate overflows (the system's scales are beyond floating point)")
         if self._last is None or self._last[1] is not t:
-            self._last = (Iterate(tuple(map(tuple, t.x.tolist())), tuple(map(tuple, t.u.tolist()))), t)
+            self._last = (_rows(t), t)
         return self._last[0]
 
     def _unpack(self, r: Iterate) -> Trajectory:
@@ -242,6 +244,11 @@ class Projection:
             raise EngineError(f"projection memory.r: expected {sys.steps + 1} rows of {sys.n} states and of "
                               f"{sys.m} inputs, got x {x.shape} and u {u.shape}")
         return Trajectory(x, u)
+
+
+def _rows(t: Trajectory) -> Iterate:
+    """The trajectory as tuples of rows (the memory's and the records' form)."""
+    return Iterate(tuple(map(tuple, t.x.tolist())), tuple(map(tuple, t.u.tolist())))
 
 
 def _scale(t: Trajectory) -> float:
