@@ -21,6 +21,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from .bracketing import bracketed_roots
 from .zpk_levels import LoopLevels
 
 # omega -> (rows of each level's slope, rows of their derivatives)
@@ -28,10 +29,7 @@ Slopes = Callable[[NDArray], tuple[NDArray, NDArray]]
 
 CLEARANCE = 1e-6  # relative distance from a stationary point within which a slope's sign is rounding
 REPAIR_ROUNDS = 4
-BRACKET_STEPS = 200
-NOISE_STEP = 1e-9  # relative step below which steps that stop shrinking are rounding noise
 DUPLICATE = 1e-9
-EPS = np.finfo(float).eps
 
 
 def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray,
@@ -101,30 +99,10 @@ def _repaired(slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray
 
 
 def _bracketed_roots(slopes: Slopes, row: int, lo: NDArray, hi: NDArray) -> tuple[NDArray, NDArray] | None:
-    """A root of the level's slope in each [lo, hi] (its ends of opposite
-    signs): Newton steps, a geometric bisection when one leaves the bracket;
-    (roots, second derivatives there) or None."""
-    first, _ = slopes(np.concatenate([lo, hi]))
-    fa, fb = first[row, :lo.size], first[row, lo.size:]
-    if not (np.sign(fa) * np.sign(fb) < 0).all():
-        return None
-    a, b, w = lo.copy(), hi.copy(), np.sqrt(lo * hi)
-    done, previous, bend = np.zeros(lo.size, dtype=bool), np.full(lo.size, np.inf), np.zeros(lo.size)
-    for _ in range(BRACKET_STEPS):
+    """A root of the level's slope in each [lo, hi] (its ends of opposite signs)
+    and the second derivative there; None when one does not settle."""
+    def fun(w: NDArray) -> tuple[NDArray, NDArray]:
         first, second = slopes(w)
-        h, slope = first[row], second[row]
-        bend = np.where(done, bend, slope)
-        same = np.sign(h) == np.sign(fa)
-        a, fa, b = np.where(same, w, a), np.where(same, h, fa), np.where(same, b, w)
-        moved = w - h / slope
-        inside = (moved > np.minimum(a, b)) & (moved < np.maximum(a, b))
-        moved = np.where(inside, moved, np.sqrt(a * b))
-        size = np.abs(moved - w)
-        converged = inside & ((size <= 4 * EPS * w) | ((size <= NOISE_STEP * w) & (size >= 0.5 * previous)))
-        finished = converged | (h == 0) | (np.abs(b - a) <= 4 * EPS * w)
-        w = np.where(done | (h == 0), w, moved)
-        done |= finished
-        previous = np.where(inside, size, np.inf)
-        if done.all():
-            return w, bend
-    return None
+        return first[row], second[row]
+    found = bracketed_roots(fun, lo, hi)
+    return None if found is None else (found, slopes(found)[1][row])

@@ -12,7 +12,7 @@ a root: a crossover at 1e-17 rad/s of a loop whose gain is tiny), every
 crossing of that level is found piece by piece instead: bracketed between
 the piece's ends (an end at 0 or infinity replaced by the first of the
 points decades beyond the other where the level is past the target) and
-refined by safeguarded Newton steps in log omega to 4 ulp.
+refined to 4 ulp (`engine.bracketing`).
 """
 
 from __future__ import annotations
@@ -22,15 +22,13 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from .bracketing import bracketed_roots
 from .fractions import poly, roots
 from .zpk_levels import LoopLevels
 
 NEAR_REAL = 1e-2  # |Im x| / |x| below which a polynomial's root is a start
 LIMIT_NOISE = 1e-9  # a level this close to its limit at 0 or infinity is at the limit
 FAR_DECADES = 300  # how far beyond a piece's finite end a crossing is looked for
-BRACKET_STEPS = 200
-NOISE_STEP = 1e-9
-EPS = np.finfo(float).eps
 
 
 def crossing_candidates(loop: LoopLevels) -> tuple[NDArray, NDArray]:
@@ -140,30 +138,9 @@ def _level(loop: LoopLevels, w: NDArray, phase: bool) -> NDArray:
 
 
 def _refined(loop: LoopLevels, lo: NDArray, hi: NDArray, target: NDArray, phase: bool) -> NDArray | None:
-    """The root of level - target in each [lo, hi] (the level monotone there):
-    Newton steps in log omega, a geometric bisection when one leaves the
-    bracket; done at 4 ulp, at the rounding noise, or at a bracket 4 ulp wide."""
-    if lo.size == 0:
-        return np.zeros(0)
-    a, b = lo.copy(), hi.copy()
-    fa = _level(loop, a, phase) - target
-    w = np.sqrt(a * b)
-    done, previous = np.zeros(lo.size, dtype=bool), np.full(lo.size, np.inf)
+    """The root of level - target in each [lo, hi] (the level monotone there)."""
     row = 1 if phase else 0
-    for _ in range(BRACKET_STEPS):
-        h = _level(loop, w, phase) - target
-        slope = loop.slopes(w)[0][row] * w  # d level / d log omega
-        same = np.sign(h) == np.sign(fa)
-        a, fa, b = np.where(same, w, a), np.where(same, h, fa), np.where(same, b, w)
-        moved = w * np.exp(-h / slope)
-        inside = (moved > np.minimum(a, b)) & (moved < np.maximum(a, b))
-        moved = np.where(inside, moved, np.sqrt(a * b))
-        size = np.abs(moved - w)
-        converged = inside & ((size <= 4 * EPS * w) | ((size <= NOISE_STEP * w) & (size >= 0.5 * previous)))
-        finished = converged | (h == 0) | (np.abs(b - a) <= 4 * EPS * w)
-        w = np.where(done | (h == 0), w, moved)
-        done |= finished
-        previous = np.where(inside, size, np.inf)
-        if done.all():
-            return w
-    return None
+
+    def fun(w: NDArray) -> tuple[NDArray, NDArray]:
+        return _level(loop, w, phase) - target, loop.slopes(w)[0][row]
+    return bracketed_roots(fun, lo, hi)

@@ -1,0 +1,71 @@
+"""Roots of many functions of frequency at once, each in its own bracket.
+
+Used where the grid-free margin search must find a root it has no good start
+for (`engine.zpk_crossings`, `engine.zpk_certify`): h(lo) and h(hi) have
+opposite signs, h is given with its derivative.  Steps are taken in
+u = log omega (levels of a loop are close to linear in log omega far from its
+corners): Newton's step when it stays inside the bracket, else an Illinois
+secant step (regula falsi with the stale end's value halved), which keeps
+superlinear convergence where Newton overshoots (a power law, a flat
+stretch) and never leaves the bracket.  A root is done when its step is
+within 4 ulp, when its steps, already below `NOISE_STEP`, stop shrinking
+(the rounding noise of a flat root is reached), or when its bracket is 4 ulp
+wide; all are iterated together, vectorized.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+MAX_STEPS = 200
+NOISE_STEP = 1e-9
+EPS = np.finfo(float).eps
+
+# omega -> (h, dh/domega) per point
+Function = Callable[[NDArray], tuple[NDArray, NDArray]]
+
+
+def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
+    """A root of h in each [lo, hi] (0 < lo < hi, h of opposite signs at the ends);
+    None when one does not settle within `MAX_STEPS`."""
+    if lo.size == 0:
+        return np.zeros(0)
+    ends = fun(np.concatenate([lo, hi]))[0]
+    a, b = np.log(lo), np.log(hi)
+    fa, fb = ends[:lo.size], ends[lo.size:]
+    x = _secant(a, b, fa, fb)
+    done, previous = (fa == 0) | (fb == 0), np.full(lo.size, np.inf)
+    x = np.where(fa == 0, a, np.where(fb == 0, b, x))
+    for _ in range(MAX_STEPS):
+        if done.all():
+            return np.exp(x)
+        w = np.exp(x)
+        h, dh = fun(w)
+        low_side = np.sign(h) == np.sign(fa)
+        # Illinois: the end that stays has its value halved, so the secant moves it next time
+        fb = np.where(low_side, fb * 0.5, fb)
+        fa = np.where(low_side, fa, fa * 0.5)
+        a, fa = np.where(low_side, x, a), np.where(low_side, h, fa)
+        b, fb = np.where(low_side, b, x), np.where(low_side, fb, h)
+        newton = x - h / (dh * w)
+        inside = (newton > np.minimum(a, b)) & (newton < np.maximum(a, b)) & np.isfinite(newton)
+        moved = np.where(inside, newton, _secant(a, b, fa, fb))
+        size = np.abs(moved - x)
+        tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
+        settled = (size <= tiny) | ((size <= NOISE_STEP) & (size >= 0.5 * previous) & inside)
+        finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
+        x = np.where(done | (h == 0), x, moved)
+        done |= finished
+        previous = np.where(inside, size, np.inf)
+    return np.exp(x) if done.all() else None
+
+
+def _secant(a: NDArray, b: NDArray, fa: NDArray, fb: NDArray) -> NDArray:
+    """The secant's zero between (a, fa) and (b, fb), kept off the ends (a
+    bisection where the values do not allow one)."""
+    with np.errstate(all="ignore"):
+        t = np.clip(fa / (fa - fb), 0.02, 0.98)
+    return a + np.where(np.isfinite(t), t, 0.5) * (b - a)
