@@ -100,3 +100,16 @@ def test_unknown_stability_says_the_margin_assumes_it_and_bad_skews_are_refused(
     for bad in (math.nan, math.inf, "x"):
         with pytest.raises(EngineError, match="skew"):
             disk_margin(model, bad)
+
+
+def test_the_published_example_of_seiler_packard_gahinet():
+    """Seiler, Packard, Gahinet, "An introduction to disk margins", IEEE Control
+    Systems Magazine 40(5), 2020: L = 25/(s^3 + 10 s^2 + 10 s + 10) has the
+    balanced disk margin alpha = 0.46, guaranteeing gains 0.63..1.59 and phase
+    +-25.8 deg, its worst disk near 1.94 rad/s (the values as printed, to their
+    digits; ControlSystems.jl's test of the example checks them to 0.02)."""
+    d = disk_margin(loop_model(unity_feedback(["25/(s**3+10*s**2+10*s+10)"]), "e", GRID, {}), 0.0, stable=True)
+    assert round(d.alpha, 2) == 0.46
+    assert round(d.gain_low, 2) == 0.63 and round(d.gain_high, 2) == 1.59
+    assert round(d.phase_deg, 1) == 25.8
+    assert abs(d.frequency - 1.94) < 0.02
