@@ -26,6 +26,7 @@ import os
 import secrets
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -45,7 +46,7 @@ from .schema import SCHEMA_VERSION, SessionModel, TableModel
 
 __all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
            "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",
-           "prepare_save", "save_session", "tables_in", "write_autosave"]
+           "flush_autosaves", "prepare_save", "save_session", "tables_in", "write_autosave"]
 
 # version -> function turning a session dict of that version into the next version's
 MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
@@ -315,11 +316,15 @@ def autosave_path(path: Path) -> Path:
 AUTOSAVE_INTERVAL = 2.0   # s: a long run is autosaved this often (and at its end), not every iteration
 
 
-def write_autosave(session: Session, at_most_every: float = 0.0) -> Path | None:
+def write_autosave(session: Session, at_most_every: float = 0.0, wait: bool = True) -> Path | None:
     """The whole session beside the file it will be saved to (never over it).  With
     ``at_most_every``, nothing is written when the last autosave is more recent than
     that (the whole session is written each time, so per-iteration writes would grow
-    as n^2).  Never raises: one that cannot be written gives None, and
+    as n^2).  The session is copied at once (its record list; everything else is
+    replaced, never changed in place) and written by one background thread, in
+    order (``wait``: this call waits for it; else it returns the planned path and
+    the app's UI thread goes on: a long session's JSON takes a fifth of a second).
+    Never raises: one that cannot be written gives None, and
     ``session.autosave_warning`` says why (None again after one that succeeds)."""
     base = session.save_to or session.path
     if base is None:
@@ -329,8 +334,29 @@ def write_autosave(session: Session, at_most_every: float = 0.0) -> Path | None:
         return None
     target = autosave_path(base)
     session.last_autosave = now_    # a failed one too: a full disk is not tried again every iteration
+    snapshot = session.model.model_copy(update={"records": list(session.model.records)})
+    written = _writer().submit(_write_autosave, session, target, snapshot, mode_of(real_path(base)))
+    return written.result() if wait else target
+
+
+def flush_autosaves() -> None:
+    """Wait until every autosave asked for is written (before the app exits, and in tests)."""
+    _writer().submit(lambda: None).result()
+
+
+_WRITER: list[ThreadPoolExecutor] = []
+
+
+def _writer() -> ThreadPoolExecutor:
+    """The one thread that writes autosaves, in the order they were asked for."""
+    if not _WRITER:
+        _WRITER.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="autosave"))
+    return _WRITER[0]
+
+
+def _write_autosave(session: Session, target: Path, snapshot: SessionModel, mode: int | None) -> Path | None:
     try:
-        write_atomic(target, dumps(session.model).encode("utf-8"), mode_of(real_path(base)))
+        write_atomic(target, dumps(snapshot).encode("utf-8"), mode)
     except (OSError, ValueError, TypeError, RecursionError) as exc:
         reason = describe(exc) if isinstance(exc, OSError) else f"the session is not JSON data ({exc})"
         session.autosave_warning = f"{target}: cannot autosave: {reason}"

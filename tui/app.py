@@ -20,7 +20,8 @@ from textual.binding import Binding
 from sessions.errors import SessionError
 from sessions.build import OutsideTable
 from sessions.savefile import OverwriteRefused
-from sessions.store import autosave_candidate, load_autosave, load_session, parse_session, set_aside_autosave
+from sessions.store import (autosave_candidate, flush_autosaves, load_autosave, load_session, parse_session,
+                            set_aside_autosave)
 from sessions.target_use import unusable_targets
 
 from .config import Config
@@ -133,6 +134,9 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
             self.open_path(self.initial_path)
         else:
             self.push_screen(StartScreen())
+
+    def on_unmount(self) -> None:
+        flush_autosaves()   # the autosaves still being written in the background: nothing is lost
 
     def apply_config(self) -> None:
         """The user's theme and keys (`tui.config`); a config that does not read is

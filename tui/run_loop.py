@@ -2,13 +2,16 @@
 
 `s`, `n` and `r` take the bound algorithm and the current state from the
 workbench on the UI thread, then a thread worker steps: each iteration it
-computes the next (State, StepRecord) from its own state and view, draws
-the figures a few times a second from that view (sizes taken when the run
-began), and posts a `Stepped` message.  The UI thread alone appends the
-record (`Workbench.commit`), autosaves and refreshes.  `RunEnded` or
-`RunFailed` comes last (messages keep their order), and only then are the
-keys that change the session enabled again, so an undo can never meet a
-record still on its way.
+computes the next (State, StepRecord) from its own state and view and posts
+a `Stepped` message (marked to be shown a few times a second, and always the
+last).  The UI thread alone appends the record (`Workbench.commit`),
+autosaves and refreshes the tableau.  After a shown iteration, and once more
+after the run, the worker draws the plots on screen from its own view (sizes
+taken when the run began) and posts them (`Drawn`): the tableau never waits
+for a plot.  `RunEnded` or `RunFailed` follows the last `Stepped` (messages
+keep their order), and only then are the keys that change the session
+enabled again, so an undo can never meet a record still on its way; plots
+drawn for a view that is no longer current are dropped.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from textual.message import Message
 from engine.algorithm import State, StepRecord
 from sessions.errors import SessionError
 
-from .figures import figures
+from .figures import figure_key, figures
 from .views import View
 from .widgets.plots import FigurePlot
 
@@ -33,20 +36,27 @@ REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this ofte
 
 
 class Stepped(Message):
-    """One iteration computed by the worker, with the figures when it drew them."""
+    """One iteration computed by the worker (``show``: refresh the tableau for it)."""
 
-    def __init__(self, state: State, record: StepRecord, drawn: dict | None, prebuilt: dict | None):
+    def __init__(self, state: State, record: StepRecord, show: bool):
         super().__init__()
-        self.state, self.record, self.drawn, self.prebuilt = state, record, drawn, prebuilt
+        self.state, self.record, self.show = state, record, show
+
+
+class Drawn(Message):
+    """The plots on screen drawn by the worker for the view of ``key`` (`figure_key`)."""
+
+    def __init__(self, key: tuple, drawn: dict, prebuilt: dict):
+        super().__init__()
+        self.key, self.drawn, self.prebuilt = key, drawn, prebuilt
 
 
 class RunEnded(Message):
-    """The worker stopped: finished, paused or the count reached (``note`` says which when it
-    matters), with the last iteration's figures when its `Stepped` carried none."""
+    """The worker stopped: finished, paused or the count reached (``note`` says which when it matters)."""
 
-    def __init__(self, note: str | None = None, drawn: dict | None = None, prebuilt: dict | None = None):
+    def __init__(self, note: str | None = None):
         super().__init__()
-        self.note, self.drawn, self.prebuilt = note, drawn, prebuilt
+        self.note = note
 
 
 class RunFailed(Message):
@@ -123,36 +133,42 @@ class RunLoop:
     def _run_worker(self, request: RunRequest) -> None:
         gc.freeze()   # a full collection then scans only what is new, not a long session's records
         try:
-            note, view = self._steps(request)
+            note, view, drawn = self._steps(request)
         except Exception as exc:  # noqa: BLE001 - an engine failure ends the run, never the app
             self.post_message(RunFailed(f"{type(exc).__name__}: {exc}"))
             return
         finally:
             gc.unfreeze()
-        self.post_message(RunEnded(note, *(drawings(view, request.canvases) if view is not None else (None, None))))
+        self.post_message(RunEnded(note))
+        if view is not None and not drawn:
+            self._post_drawings(view, request.canvases)
 
-    def _steps(self, request: RunRequest) -> tuple[str | None, View | None]:
-        """In the worker: step, draw now and then, post every record; why it stopped,
-        and the view still to draw (None when the last record went with its figures)."""
-        state, view, last, undrawn = request.state, request.view, 0.0, None
+    def _steps(self, request: RunRequest) -> tuple[str | None, View | None, bool]:
+        """In the worker: step, post every record, draw now and then; why it stopped,
+        the last view and whether its plots were drawn."""
+        state, view, last, drawn = request.state, request.view, 0.0, True
         for n in range(request.count):
             if self._pause.is_set():
-                return "paused", undrawn
+                return "paused", view, drawn
             state, record = request.algorithm.step(state)
             view = view.extended(record)
             final = record.status.finished or n == request.count - 1
-            drawn = prebuilt = None
-            if final or time.monotonic() - last >= REDRAW_INTERVAL:
+            show = final or time.monotonic() - last >= REDRAW_INTERVAL
+            self.post_message(Stepped(state, record, show))
+            drawn = False
+            if show and not final:   # the last view is drawn after RunEnded: the keys need not wait
                 last = time.monotonic()
-                drawn, prebuilt = drawings(view, request.canvases)
-            undrawn = None if drawn is not None else view
-            self.post_message(Stepped(state, record, drawn, prebuilt))
+                self._post_drawings(view, request.canvases)
+                drawn = True
             if record.status.finished:
                 break
-        return None, undrawn
+        return None, view, drawn
+
+    def _post_drawings(self, view: View, canvases: dict) -> None:
+        self.post_message(Drawn(figure_key(view), *drawings(view, canvases)))
 
     def on_stepped(self, message: Stepped) -> None:
-        """UI thread: keep the record, then show it (the plots when the worker drew them)."""
+        """UI thread: keep the record, then show it in the tableau when asked."""
         try:
             self.bench.commit(message.state, message.record)
         except SessionError as exc:   # cannot happen while changes are disabled; said, never silent
@@ -163,19 +179,22 @@ class RunLoop:
         if screen is None:
             return
         screen.refresh_status()
-        if message.drawn is not None:
+        if message.show:
             view = self.bench.view()
-            screen.refresh_run(view, drawn=message.drawn, prebuilt=message.prebuilt)
+            screen.refresh_run(view, plots=False)
             screen.refresh_history(view)
             gc.freeze()
+
+    def on_drawn(self, message: Drawn) -> None:
+        """UI thread: the worker's plots, when they are of the current view."""
+        screen = self._main()
+        if screen is not None:
+            screen.show_drawn(message.key, message.drawn, message.prebuilt)
 
     def on_run_ended(self, message: RunEnded) -> None:
         if message.note == "paused":
             self.bench.paused_at = self.bench.iteration
         self._run_done()
-        screen = self._main()
-        if message.drawn is not None and screen is not None:
-            screen.refresh_plots(message.drawn, message.prebuilt)
         if message.note == "paused":
             self.notify(f"paused at iteration {self.bench.iteration}", timeout=3)
 
@@ -185,7 +204,7 @@ class RunLoop:
 
     def _run_done(self) -> None:
         """The keys are enabled again; everything but the plots (drawn by the worker) is refreshed."""
-        self.bench.autosave()
+        self.bench.autosave(wait=False)   # a long session's JSON: written off the UI thread
         self._set_running(False)
         self.refresh_workbench(plots=False)
 

@@ -132,7 +132,7 @@ class Workbench:
         self._states = {i: st for i, st in self._states.items() if i < model.current_iteration}
         self._states[model.current_iteration] = state
         self.dirty = True
-        write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL)
+        write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL, wait=False)
 
     def step(self) -> StepRecord | None:
         """One iteration, computed and kept (None when the algorithm has finished)."""
@@ -143,14 +143,17 @@ class Workbench:
         self.commit(state, record)
         return record
 
-    def autosave(self, throttled: bool = False) -> str:
+    def autosave(self, throttled: bool = False, wait: bool = True) -> str:
         """Write the autosave of unsaved changes (``throttled``: at most every
-        AUTOSAVE_INTERVAL, as runs do); says where, or why it could not."""
+        AUTOSAVE_INTERVAL, as runs do; ``wait``: for the write, else it goes on in the
+        background, in order); says where, or why it could not."""
         if not self.dirty:
             return "nothing unsaved"
         if self.session.path is None:
             return "no autosave (the session has no file yet)"
-        write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL if throttled else 0.0)
+        write_autosave(self.session, at_most_every=AUTOSAVE_INTERVAL if throttled else 0.0, wait=wait)
+        if not wait:
+            return f"autosaving to {autosave_path(self.session.path).name}"
         if self.session.autosave_warning:
             return f"the autosave failed: {self.session.autosave_warning}"
         return f"autosaved to {autosave_path(self.session.path).name}"

@@ -216,10 +216,9 @@ class MainScreen(ViewActions, Screen):
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
             f"{escape(b.status_text())}{busy}{edit}")
 
-    def refresh_run(self, view: View | None = None, plots: bool = True, drawn: dict | None = None,
-                    prebuilt: dict | None = None) -> None:
-        """The tableau, the lines under it and (with ``plots``) the plots: from ``drawn``
-        figures when a run's worker made them, else drawn in a worker (`draw_missing`)."""
+    def refresh_run(self, view: View | None = None, plots: bool = True) -> None:
+        """The tableau, the lines under it and (with ``plots``) the plots, drawn in a
+        worker (`draw_missing`; a run's worker draws its own: `show_drawn`)."""
         view = self.bench.view() if view is None else view
         rows, record = view.tableau()
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
@@ -232,7 +231,7 @@ class MainScreen(ViewActions, Screen):
         self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         if plots:
-            self.refresh_plots(drawn, prebuilt)
+            self.refresh_plots()
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""
@@ -242,12 +241,10 @@ class MainScreen(ViewActions, Screen):
                 out[plot.id] = plot.canvas()
         return out
 
-    def refresh_plots(self, drawn: dict | None = None, prebuilt: dict | None = None) -> None:
-        """The plots on screen: ``drawn`` (a run's worker made them for this view), and
-        the others that are not of this view drawn in a worker (`draw_missing`)."""
+    def refresh_plots(self) -> None:
+        """The plots on screen that are not of the current view, drawn in a worker
+        (`draw_missing`); the root locus and History's plot as their tabs ask."""
         view = self.bench.view()
-        if drawn:
-            self._show_figures(figure_key(view), drawn, prebuilt)
         self.draw_missing(view)
         self._locus_key = None
         self.refresh_locus(view)
@@ -276,6 +273,13 @@ class MainScreen(ViewActions, Screen):
     def _figures_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
         if key == figure_key(self.bench.view()):
             self._show_figures(key, drawn, prebuilt)
+
+    def show_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
+        """A run's plots, when they are of the current view; then any other plot on screen."""
+        view = self.bench.view()
+        if key == figure_key(view):
+            self._show_figures(key, drawn, prebuilt)
+            self.draw_missing(view)
 
     def _show_figures(self, key: tuple, drawn: dict, prebuilt: dict | None) -> None:
         for name, figure in drawn.items():
