@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import lapack
 
 FINITE = 1e-8  # |beta| / |alpha| of a finite eigenvalue: |x| < 1e8 max |t|
 VANISHING = 1e-13  # weights all this small (relative to their sizes) make f vanish
@@ -73,6 +72,7 @@ class Fractions:
         mass = self.mass
         if squared:
             pencil, mass = _cascaded(pencil, n, True), _cascaded(mass, n, False)
+        from scipy.linalg import lapack   # on first use (start-up)
         alpha_re, alpha_im, beta, *_, info = lapack.dggev(pencil, mass, compute_vl=0, compute_vr=0)
         if info != 0:
             return None
@@ -119,6 +119,7 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
         return at_origin
     companion = np.eye(last - first, k=-1)
     companion[0] = -c[first + 1:last + 1] / c[first]
+    from scipy.linalg import lapack   # on first use (start-up)
     real, imag, *_, info = lapack.dgeev(companion, compute_vl=0, compute_vr=0)
     if info != 0:
         return np.zeros(0, dtype=complex)

@@ -37,7 +37,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.linalg import expm
 
 from .errors import EngineError
 from .realization import StateSpace
@@ -164,6 +163,7 @@ def _foh(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
     n = A.shape[0]
     big = np.zeros((n + 2, n + 2))
     big[:n, :n], big[:n, n], big[n, n + 1] = A * h, B * h, 1.0
+    from scipy.linalg import expm   # on first use (start-up)
     E = expm(big)
     return E[:n, :n], E[:n, n], E[:n, n + 1] * h
 

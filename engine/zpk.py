@@ -21,7 +21,6 @@ from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import linalg
 
 from .errors import EngineError, InterconnectionError
 from .factored import pole_zero
@@ -131,6 +130,7 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
         form = _cascade_form(network, chain, params)
         if form is not None and _matches(form, exact):
             return form
+    from scipy import linalg   # on first use: scipy.linalg costs a fifth of a second of start-up
     try:
         ss = loop_realization(network, break_at, params)
     except (EngineError, linalg.LinAlgError, ValueError):
