@@ -1,9 +1,21 @@
-"""Gain-locus points polished on the network's characteristic equation.
+"""Roots of a network's characteristic equation polished: the closed-loop poles
+of a design (`engine.polish`) and the points of a gain locus (`engine.root_locus`).
 
-With every use of the break signal scaled by the loop gain k, the closed-loop
-poles are the roots of F_k(s) = prod d_i(s) det(I - G_k(s)) (`engine.polish`),
-whose logarithmic derivative F'/F and size log|F| are evaluated at complex s
-to rounding, block by block.
+Eigenvalues are as accurate as their conditioning allows, and digits go where
+roots cluster near the origin or where the state matrix is huge (a gain locus
+at large gains).  With every use of the break signal scaled by the loop gain k
+(none: no break), the closed-loop poles are the roots of
+
+    F_k(s) = prod_i d_i(s) * det(I - G_k(s))
+
+(blocks b_i = n_i/d_i; G_k(s)[row, col]: their transfer functions as
+`Network.entries` place them), whose logarithmic derivative F'/F = sum over
+the blocks' poles 1/(s - p) - trace((I - G_k)^-1 G_k') and size log|F| are
+evaluated at complex s to rounding, block by block (`GainCharacteristic`).
+That costs ~1 ms an evaluation (the blocks' expressions); a locus drawn on
+screen polishes (where its eigenvalues are noisy: `engine.root_locus`) on the
+loop's pole-zero form L instead, F_k = prod(s - p) (1 + k L(s)): a few numpy
+operations (`FormCharacteristic`).
 
 Aberth's iteration on F'/F refines every eigenvalue at once.  A root is done
 when its correction is below `DONE` of it, or below `FLOOR` and no longer
@@ -28,8 +40,10 @@ error is F's evaluation error (~eps) whatever the start was.
 Stalled roots.  The same trap away from any cluster: where the eigenvalues
 are far off (at large gains, where |A - k B C| is huge) a real pair can
 stand for a conjugate pair of roots, and never converges.  Roots still moving
-when the iterations run out are restarted once, moved off the axis by their
-last correction (all the same way: the symmetry broken).
+when the iterations run out are restarted once, moved by their last correction
+diagonally (all the same way: the symmetry broken, and any mirror symmetry
+about a vertical line too: on Re s = -2, (s + 2)^2 + d is real, and a
+conjugate pair -2 +- i y for real roots -2 +- sqrt(-d) stays on it).
 
 Each root, and each cluster as a unit, finally keeps whichever of the start,
 Aberth's point, the cluster's and the restart's has the smallest |F_k| (the
@@ -43,11 +57,12 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import linear_sum_assignment
 
+from .blocks import ExpressionTransfer
 from .errors import EngineError
+from .factored import pole_zero
 from .network import Network
-from .polish import _traces, block_poles
+from .zpk import ZpkEvaluator
 
 Roots = NDArray[np.complex128]
 Ratio = Callable[[Roots], Roots]  # s -> F'(s)/F(s)
@@ -68,17 +83,45 @@ MAX_CLUSTER = 4
 COUNT = 1e-3  # the circle's root count (sum p = 0) must be the members' count to this
 
 
-class GainCharacteristic:
-    """F_k'/F_k and log|F_k| for the loop broken at ``break_at`` (module docstring);
-    ``block`` (the blocks' poles) None where a block has no rational form: no polish."""
+class Characteristic:
+    """F_k'/F_k and log|F_k| (`ratio`, `log_size`: the subclasses) for F_k = prod(s - p) R_k(s)
+    over ``poles`` p (None: unusable, no polish), and the roots polished on them."""
 
-    def __init__(self, network: Network, break_at: str, params: Mapping[str, float]) -> None:
+    poles: Roots | None = None
+
+    def ratio(self, s: Roots, k: float) -> Roots:
+        raise NotImplementedError
+
+    def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
+        raise NotImplementedError
+
+    def polish(self, k: float, eig: Roots, quiet: NDArray[np.float64] | None = None) -> Roots:
+        """The roots near ``eig`` at gain k, in its order (``eig`` itself if unusable: no poles,
+        or as many as ``eig`` has not); ``quiet`` (per root): ``eig`` itself where Aberth's
+        first correction moves no root by more (one evaluation of F'/F: a cheap check)."""
+        if self.poles is None or self.poles.size != eig.size or eig.size == 0:
+            return eig
+        ratio = lambda z: self.ratio(z, k)  # noqa: E731
+        if quiet is not None:
+            with np.errstate(all="ignore"):
+                step = aberth_step(ratio, eig)  # not finite: on a root exactly, it stays (`aberth`)
+                if np.all(np.where(np.isfinite(step), np.abs(step), 0.0) <= quiet):
+                    return eig
+        return refine(ratio, lambda z: self.log_size(z, k), eig)
+
+
+class GainCharacteristic(Characteristic):
+    """The network's F_k with the loop broken at ``break_at`` (None: F itself, no gain), over
+    the blocks' poles (module docstring)."""
+
+    def __init__(self, network: Network, break_at: str | None, params: Mapping[str, float]) -> None:
         try:
-            self.block: Roots | None = block_poles(network, params)
-        except EngineError:
-            self.block = None
-        self.compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
-        self.n, self.b = len(network.signals), network.signal(break_at)
+            self.poles = block_poles(network, params)
+            self.compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
+        except EngineError:  # a block without a usable rational form: nothing to polish against
+            self.poles, self.compiled = None, []
+        self.n = len(network.signals)
+        self.b = network.signal(break_at) if break_at is not None else None
 
     def _matrices(self, s: Roots, k: float) -> tuple[NDArray, NDArray]:
         """I - G_k(s) and G_k'(s) per point."""
@@ -93,18 +136,76 @@ class GainCharacteristic:
 
     def ratio(self, s: Roots, k: float) -> Roots:
         M, dG = self._matrices(s, k)
-        return np.sum(1.0 / (s[:, None] - self.block[None, :]), axis=1) - _traces(M, dG)
+        return _pole_sums(s, self.poles) - _traces(M, dG)
 
     def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
         with np.errstate(all="ignore"):  # NaN on a block pole (k = 0): not measurable
             M, _ = self._matrices(s, k)
-            return np.sum(np.log(np.abs(s[:, None] - self.block[None, :])), axis=1) + np.linalg.slogdet(M)[1]
+            return _pole_logs(s, self.poles) + np.linalg.slogdet(M)[1]
 
-    def polish(self, k: float, eig: Roots) -> Roots:
-        """The roots near ``eig`` at gain k, in its order (``eig`` itself if unusable)."""
-        if self.block is None or self.block.size != eig.size or eig.size == 0:
-            return eig
-        return refine(lambda z: self.ratio(z, k), lambda z: self.log_size(z, k), eig)
+
+class FormCharacteristic(Characteristic):
+    """F_k = prod(s - p) (1 + k L(s)) from the loop's pole-zero form L (module docstring): the
+    network's roots to the form's accuracy (exact to rounding for a cascade of blocks, else
+    to its check, `engine.zpk`); an improper form: no polish."""
+
+    def __init__(self, form: ZpkEvaluator) -> None:
+        self.form = form
+        self.poles = form.poles if form.zeros.size <= form.poles.size else None
+
+    def ratio(self, s: Roots, k: float) -> Roots:
+        with np.errstate(all="ignore"):
+            kl, zeros, poles = loop_terms(self.form, k, s)
+            return poles + kl * (zeros - poles) / (1.0 + kl)  # F'/F = P'/P + k L'/(1 + k L)
+
+    def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
+        with np.errstate(all="ignore"):
+            return _pole_logs(s, self.form.poles) + np.log(np.abs(1.0 + loop_terms(self.form, k, s)[0]))
+
+
+def block_poles(network: Network, params: Mapping[str, float]) -> Roots:
+    """Every block's own poles, from its factored form (exact to rounding)."""
+    out = [np.zeros(0, dtype=complex)]
+    for e in network.entries:
+        if isinstance(e.transfer, ExpressionTransfer):
+            out.append(pole_zero(e.transfer.expression, params).poles)
+        else:
+            den = e.transfer.rational(params).den
+            out.append(np.roots(den) if den.size > 1 else np.zeros(0))
+    return np.concatenate([np.asarray(p, dtype=complex) for p in out])
+
+
+def loop_terms(form: ZpkEvaluator, k: float, s: Roots) -> tuple[Roots, Roots, Roots]:
+    """k L(s) at complex s from the pole-zero form (zeros and poles paired: no partial product
+    overflows), sum 1/(s - zeros) and sum 1/(s - poles)."""
+    zq = s[:, None] - form.zeros[None, :]
+    pq = s[:, None] - form.poles[None, :]
+    m = min(form.zeros.size, form.poles.size)
+    value = np.prod(zq[:, :m] / pq[:, :m], axis=1) * np.prod(zq[:, m:], axis=1) / np.prod(pq[:, m:], axis=1)
+    return k * form.gain.real * value, np.sum(1.0 / zq, axis=1), np.sum(1.0 / pq, axis=1)
+
+
+def _pole_sums(s: Roots, poles: Roots) -> Roots:
+    return np.sum(1.0 / (s[:, None] - poles[None, :]), axis=1)
+
+
+def _pole_logs(s: Roots, poles: Roots) -> NDArray[np.float64]:
+    return np.sum(np.log(np.abs(s[:, None] - poles[None, :])), axis=1)
+
+
+def _traces(M: NDArray, dG: NDArray) -> Roots:
+    """trace(M^-1 dG) per point; infinite where M is singular (the point is a
+    root of det(I - G): its Newton step is 0)."""
+    try:
+        return np.trace(np.linalg.solve(M, dG), axis1=1, axis2=2)
+    except np.linalg.LinAlgError:
+        out = np.empty(M.shape[0], dtype=complex)
+        for k in range(M.shape[0]):
+            try:
+                out[k] = np.trace(np.linalg.solve(M[k], dG[k]))
+            except np.linalg.LinAlgError:
+                out[k] = np.inf
+        return out
 
 
 def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
@@ -121,8 +222,8 @@ def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
     candidates = [clustered, polished, start]
     if stalled.any():
         # the same trap away from a cluster (noisy eigenvalues at large gains: a real pair where
-        # the roots are complex): restarted off the axis by their last correction, the symmetry broken
-        kicked = clustered + np.where(stalled, 1j * np.abs(steps), 0.0)
+        # the roots are complex): restarted diagonally off it by their last correction (module docstring)
+        kicked = clustered + np.where(stalled, (1 + 1j) * np.abs(steps), 0.0)
         candidates.insert(0, aberth(ratio, kicked)[0])
     best = _smallest(log_size, candidates, groups)
     return np.where(np.abs(best.imag) <= 1e-14 * np.abs(best), best.real + 0j, best)
@@ -135,10 +236,7 @@ def aberth(ratio: Ratio, start: Roots) -> tuple[Roots, NDArray[np.bool_], Roots]
     last, step = np.full(start.size, np.inf), np.zeros(start.size, dtype=complex)
     with np.errstate(all="ignore"):
         for _ in range(ITERATIONS):
-            newton = 1.0 / ratio(z)
-            others = 1.0 / (z[:, None] - z[None, :])
-            np.fill_diagonal(others, 0.0)
-            step = newton / (1.0 - newton * np.sum(others, axis=1))
+            step = aberth_step(ratio, z)
             finite = np.isfinite(step)
             step = np.where(finite & active, step, 0.0)
             z = z - step
@@ -153,11 +251,19 @@ def aberth(ratio: Ratio, start: Roots) -> tuple[Roots, NDArray[np.bool_], Roots]
     return z, active, step
 
 
+def aberth_step(ratio: Ratio, z: Roots) -> Roots:
+    """Every root's Newton correction deflated by the others (Aberth's); not finite where F'/F is not."""
+    newton = 1.0 / ratio(z)
+    others = 1.0 / (z[:, None] - z[None, :])
+    np.fill_diagonal(others, 0.0)
+    return newton / (1.0 - newton * np.sum(others, axis=1))
+
+
 def clusters(z: Roots) -> list[NDArray[np.intp]]:
     """Disjoint groups of 2..MAX_CLUSTER roots (the smallest about each root) whose spread
     about their centre is within CLUSTER of its scale (`_extent`)."""
     used, out = np.zeros(z.size, dtype=bool), []
-    for i in range(z.size):
+    for i in _seeds(z):
         if used[i]:
             continue
         order = np.argsort(np.abs(z - z[i]), kind="stable")
@@ -169,6 +275,17 @@ def clusters(z: Roots) -> list[NDArray[np.intp]]:
                     used[order[:m]] = True
                 break
     return out
+
+
+def _seeds(z: Roots) -> NDArray[np.intp]:
+    """The roots a cluster can be found about (the others need no search): those whose nearest
+    other root is within 2.1 CLUSTER of their size, as in a cluster about z_i (holding that root,
+    within twice the spread, <= 2 CLUSTER |centre|, and |centre| <= |z_i| / (1 - CLUSTER))."""
+    if z.size < 2:
+        return np.zeros(0, dtype=np.intp)
+    gaps = np.abs(z[:, None] - z[None, :])
+    np.fill_diagonal(gaps, np.inf)
+    return np.flatnonzero(np.min(gaps, axis=1) <= 2.1 * CLUSTER * np.abs(z))
 
 
 def _extent(z: Roots, members: NDArray[np.intp]) -> tuple[complex, float, float]:
@@ -199,6 +316,7 @@ def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp]) -> Roots | 
     if centre.imag == 0.0:
         sums = sums.real + 0j
     roots = centre + np.roots(_from_power_sums(sums))
+    from scipy.optimize import linear_sum_assignment   # on first use: `analyze` loads no scipy.optimize
     rows, cols = linear_sum_assignment(np.abs(z[members][:, None] - roots[None, :]))
     out = np.empty(m, dtype=complex)
     out[rows] = roots[cols]

@@ -6,6 +6,7 @@ breakaway points."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import mpmath
 import numpy as np
@@ -16,7 +17,9 @@ from engine.errors import EngineError
 from engine.locus_polish import GainCharacteristic
 from engine.loops import loop_model
 from engine.margins import margins
-from engine.root_locus import continuation, pole_zero_map, root_locus
+from engine.polish import polish
+from engine.root_locus import (DRAWN, FLOOR, MIN_STEP, MOVE, NOISY, _allowed, continuation, pole_zero_map,
+                               root_locus)
 from tests.engine.loopfactory import loop_network, random_loop
 from tests.engine.test_sensitivity import mp_poly
 
@@ -76,10 +79,29 @@ def test_polish_finds_a_near_double_root_from_either_side_of_the_axis(d):
     # the wrong side, the exact double root, 10x too far on either side) must reach residual <= 1e-15:
     # ten times the rounding of D + k N in double (~1e-16), below both.
     characteristic = GainCharacteristic(unity_feedback(["1/((s+1)*(s+3))"]), "e", {})
+    _assert_near_double_found(lambda start: characteristic.polish(1.0 + d, start), d)
+
+
+@pytest.mark.parametrize("d", [1e-9, -1e-9, 1e-6, -1e-6])
+def test_a_designs_closed_loop_poles_near_a_double_pole_from_either_side_of_the_axis(d):
+    # `engine.polish` (a design's closed-loop poles): 1/((s+1)(s+3)) with the gain 1 + d, closed, has
+    # F = (s + 2)^2 + d, the near-double pole above.  Its own Aberth iteration returned the start where it
+    # did not converge to 1e-9: from the wrong side residuals |d| / 8 (|F| = 2 |d|, scale 16: 1.3e-10 and
+    # 1.3e-7), from the double root |d| / 16, from 10x too far 101 |d| / 16 (6.3e-9, 6.3e-6).  At d = -1e-6
+    # the conjugate start -2 +- 1e-3 i lies on Re s = -2, where F is real: Aberth's iteration stays on that
+    # line, runs out of the cluster's reach, and only a restart moved off the line as well gets out.
+    # 1e-15 and 1e-2 q: as above.
+    network = unity_feedback([f"{1 + d!r}/((s+1)*(s+3))"])
+    _assert_near_double_found(lambda start: polish(network, {}, start), d)
+
+
+def _assert_near_double_found(polished: Callable[[np.ndarray], np.ndarray], d: float) -> None:
+    """The roots of (s + 2)^2 + d (D + k N of `DOUBLE` at k = 1 + d) polished from either side of the
+    axis, the double root and 10x too far, to residual 1e-15 and on the right side (the tests above)."""
     k, q = 1.0 + d, math.sqrt(abs(d))
     pair, line = np.array([-2 + 1j * q, -2 - 1j * q]), np.array([-2 + q, -2 - q], dtype=complex)
     for start in (pair, line, np.array([-2.0, -2.0], dtype=complex), -2 + 10 * (pair + 2), -2 + 10 * (line + 2)):
-        roots = characteristic.polish(k, start)
+        roots = polished(start)
         assert max(relative_residual(*DOUBLE, k, complex(s)) for s in roots) <= 1e-15, (start, roots)
         # and on the right side: the roots themselves are only as good as eps * 16 / |F'(s)| = 3.6e-15 / (2 q)
         # <= 1.8e-9 = 1.8e-3 q (F' = 2 (s + 2)), so to 1e-2 q
@@ -133,6 +155,34 @@ def test_gain_locus_where_the_eigenvalues_are_wholly_wrong():
     worst = max(relative_residual(num, den, float(k), complex(s))
                 for k, row in zip(locus.values[1::5], locus.branches[1::5]) for s in row)
     assert worst <= 1e-9
+
+
+@pytest.mark.parametrize("seed", [28, 62])
+def test_a_drawn_locus_is_complete_continuous_and_on_the_roots(seed):
+    # the TUI draws with polished=False.  Judged on the eigenvalues alone, at large gains (|A - k B C|
+    # up to 1e12) 10 % off (28: the 2000 points ran out at k ~ 1e5, residuals up to 1e-2) or wholly
+    # wrong (62: residual 1, the small poles jumping between the zeros' branches).  Now eigenvalues
+    # within DRAWN of the polished roots (one Aberth correction on the loop's pole-zero form) are kept,
+    # the others polished: 869 and 428 points here
+    num, den = random_loop(seed)
+    locus = root_locus(loop_network(num, den), "e", {}, polished=False)
+    assert locus.status == "complete" and locus.values.size < 1000
+    # on the roots: within DRAWN of them (to first order), a residual <= n DRAWN (|s F'(s)| <= n sum
+    # |f_i| |s|^i for F of degree n = 8, 6): 1e-5
+    rows = range(1, locus.values.size, 5)
+    assert max(relative_residual(num, den, float(locus.values[i]), complex(s))
+               for i in rows for s in locus.branches[i]) <= 1e-5
+    # continuous: a step moves no pole by more than the continuation allows (`_allowed` of the last row),
+    # up to the NOISY (of that) by which a kept row may differ from the eigenvalues the step was judged
+    # on, at the last row and at the new one; steps forced at the floor (MIN_STEP of the range, to the
+    # rounding of t + step: where poles meet, moving ~ sqrt(step)) by no more than MOVE of the pole's
+    # size (floored as `_allowed` does)
+    t, branches = np.log(locus.values[1:]), locus.branches[1:]
+    forced = np.diff(t) <= MIN_STEP * (t[-1] - t[0]) * 1.01
+    size = np.abs(branches[:-1])
+    by_size = MOVE * np.maximum(size, FLOOR * size.max(axis=1, keepdims=True))
+    bound = np.where(forced[:, None], by_size, (1 + 2 * NOISY) * np.array([_allowed(row) for row in branches[:-1]]))
+    assert np.all(np.abs(np.diff(branches, axis=0)) <= bound)
 
 
 def test_third_order_locus_closed_forms():
