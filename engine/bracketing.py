@@ -24,7 +24,7 @@ MAX_STEPS = 200
 NOISE_STEP = 1e-9
 EPS = np.finfo(float).eps
 
-# omega -> (h, dh/domega) per point
+# omega -> (h, dh/domega), point k of the k-th root's function
 Function = Callable[[NDArray], tuple[NDArray, NDArray]]
 
 
@@ -33,9 +33,8 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
     None when one does not settle within `MAX_STEPS`."""
     if lo.size == 0:
         return np.zeros(0)
-    ends = fun(np.concatenate([lo, hi]))[0]
     a, b = np.log(lo), np.log(hi)
-    fa, fb = ends[:lo.size], ends[lo.size:]
+    fa, fb = fun(lo)[0], fun(hi)[0]   # each root's own function: point k belongs to root k
     x = _secant(a, b, fa, fb)
     done, previous = (fa == 0) | (fb == 0), np.full(lo.size, np.inf)
     x = np.where(fa == 0, a, np.where(fb == 0, b, x))

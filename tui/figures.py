@@ -43,6 +43,11 @@ def applicable(plots: frozenset[str], problem) -> frozenset[str]:
     return plots
 
 
+# the plot ids `figures` draws (the root locus and History's plot are drawn by their own workers)
+FIGURE_IDS = frozenset({"nyquist", "bode-mag", "bode-phase", "nichols", "closed-loop", "poles", "convergence",
+                        "trajectories", "step", "sweep-plot"})
+
+
 def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure]:
     """The figures of the plots the algorithm's presenter says apply, by plot id
     (``only``: just these plot ids, those shown: each plot costs its own search)."""

@@ -18,7 +18,7 @@ from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
 from ..analysis_views import pole_lines
-from ..figures import applicable, figure_key
+from ..figures import FIGURE_IDS, applicable, figure_key
 from ..keys import identified
 from ..plant_rows import plant_rows
 from ..tableau import tableau_text
@@ -257,7 +257,7 @@ class MainScreen(ViewActions, Screen):
         newer request supersedes it.  A plot never drawn says it is computing."""
         view = self.bench.view() if view is None else view
         key, canvases = figure_key(view), self.canvases()
-        missing = {name for name in canvases if self._figure_keys.get(name) != key}
+        missing = {name for name in canvases if name in FIGURE_IDS and self._figure_keys.get(name) != key}
         if not missing:
             return
         for name in missing:
