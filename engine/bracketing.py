@@ -6,8 +6,10 @@ opposite signs, h is given with its derivative.  Steps are taken in
 u = log omega (levels of a loop are close to linear in log omega far from its
 corners): Newton's step when it stays inside the bracket, else an Illinois
 secant step (regula falsi with the stale end's value halved), which keeps
-superlinear convergence where Newton overshoots (a power law, a flat
-stretch) and never leaves the bracket.  A root is done when its step is
+superlinear convergence where Newton overshoots, and a bisection whenever
+neither the bracket nor the steps have halved in three steps (Newton crawls
+along a power law far from its root, the secant along values of very
+different sizes): it never leaves the bracket.  A root is done when its step is
 within 4 ulp, when its steps, already below `NOISE_STEP`, stop shrinking
 (the rounding noise of a flat root is reached), or when its bracket is 4 ulp
 wide; all are iterated together, vectorized.
@@ -22,6 +24,7 @@ from numpy.typing import NDArray
 
 MAX_STEPS = 200
 NOISE_STEP = 1e-9
+STALL_STEPS = 3  # steps in which a bracket must halve, else it is bisected
 EPS = np.finfo(float).eps
 
 # omega -> (h, dh/domega), point k of the k-th root's function
@@ -37,6 +40,7 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
     fa, fb = fun(lo)[0], fun(hi)[0]   # each root's own function: point k belongs to root k
     x = _secant(a, b, fa, fb)
     done, previous = (fa == 0) | (fb == 0), np.full(lo.size, np.inf)
+    widths, before = [np.abs(b - a)] * STALL_STEPS, np.full(lo.size, np.inf)
     x = np.where(fa == 0, a, np.where(fb == 0, b, x))
     for _ in range(MAX_STEPS):
         if done.all():
@@ -51,8 +55,15 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
         b, fb = np.where(low_side, b, x), np.where(low_side, fb, h)
         newton = x - h / (dh * w)
         inside = (newton > np.minimum(a, b)) & (newton < np.maximum(a, b)) & np.isfinite(newton)
-        moved = np.where(inside, newton, _secant(a, b, fa, fb))
+        # a bracket not halved in the last `STALL_STEPS` steps is bisected (Newton crawls along a
+        # power law far from its root, the secant along values of very different sizes)
+        width = np.abs(b - a)
+        stalled = (width > 0.5 * widths[0]) & ~(previous < 0.5 * before)   # steps not shrinking either
+        widths = widths[1:] + [width]
+        moved = np.where(inside & ~stalled, newton, np.where(stalled, 0.5 * (a + b), _secant(a, b, fa, fb)))
+        inside &= ~stalled
         size = np.abs(moved - x)
+        before = previous
         tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
         settled = (size <= tiny) | ((size <= NOISE_STEP) & (size >= 0.5 * previous) & inside)
         finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
@@ -64,7 +75,8 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
 
 def _secant(a: NDArray, b: NDArray, fa: NDArray, fb: NDArray) -> NDArray:
     """The secant's zero between (a, fa) and (b, fb), kept off the ends (a
-    bisection where the values do not allow one)."""
+    bisection where the values do not allow one; a secant that creeps along the
+    bracket is cut short by the stall test)."""
     with np.errstate(all="ignore"):
         t = np.clip(fa / (fa - fb), 0.02, 0.98)
     return a + np.where(np.isfinite(t), t, 0.5) * (b - a)

@@ -1,0 +1,48 @@
+"""Bracketed roots of many functions at once (`engine.bracketing`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from engine.bracketing import bracketed_roots
+
+
+def test_each_root_has_its_own_function():
+    # h_k(w) = log w - c_k: roots e^c_k, three brackets of different widths (a regression: the ends
+    # of all brackets were once evaluated in one call, against the wrong c_k)
+    c = np.array([0.0, 1.0, 2.0])
+
+    def fun(w):
+        return np.log(w) - c, 1.0 / w
+    found = bracketed_roots(fun, np.array([0.5, 1.0, 5.0]), np.array([2.0, 5.0, 10.0]))
+    np.testing.assert_allclose(found, np.exp(c), rtol=4e-16)
+
+
+def test_a_steep_power_law_does_not_crawl():
+    # h(w) = w^-8 - 1e-16 over twelve decades, root 1e2: from the left Newton's step in log w is
+    # 1/8 (it would crawl ~40 steps), the secant's values differ by 64 orders of magnitude; with the
+    # bisection of a stalled bracket it takes 33 evaluations (measured; bisection alone: ~55)
+    calls = []
+
+    def fun(w):
+        calls.append(w.size)
+        return w ** -8.0 - 1e-16, -8.0 * w ** -9.0
+    (root,) = bracketed_roots(fun, np.array([1e-6]), np.array([1e6]))
+    assert root == pytest.approx(100.0, rel=4e-15)
+    assert len(calls) <= 40
+
+
+def test_a_root_at_an_end_and_an_empty_request():
+    (root,) = bracketed_roots(lambda w: (w - 2.0, np.ones_like(w)), np.array([2.0]), np.array([3.0]))
+    assert root == 2.0
+    assert bracketed_roots(lambda w: (w, w), np.zeros(0), np.zeros(0)).size == 0
+
+
+def test_a_flat_root_stops_at_its_rounding_noise():
+    # h(w) = (w - 1)^3: a triple root, which no method resolves beyond ~eps^(1/3); the search
+    # stops (steps that stop shrinking below 1e-9) instead of running out of steps
+    (root,) = bracketed_roots(lambda w: ((w - 1.0) ** 3, 3 * (w - 1.0) ** 2), np.array([0.5]), np.array([3.0]))
+    assert abs(root - 1.0) < 1e-5 and math.isfinite(root)
