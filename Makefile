@@ -1,9 +1,11 @@
 # make run   : set up .venv if needed, install loopcraft, open the app on an example
-# make test  : set up .venv with the test extras and run the whole test suite
+# make test  : set up .venv with the test extras and run the whole test suite (TEST_WORKERS=2 processes)
 # make bench : run the benchmarks, write bench-results.json; fails when a ratio target is missed
 #              (BENCH_ARGS='--only margins,analyze --repeat 10' for a quick subset)
 # make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
 PYTHON ?= python3
+# pytest-xdist processes for make test (the suite mostly waits on apps to settle: two halve its time)
+TEST_WORKERS ?= 2
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
@@ -23,7 +25,7 @@ run: $(STAMP)
 	$(BIN)/loopcraft $(if $(ARGS),$(ARGS),--example cip_launch_vehicle)
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q $(PYTEST_ARGS)
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) $(PYTEST_ARGS)
 
 fuzz: $(STAMP)
 	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} $(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
