@@ -181,12 +181,13 @@ def _read(path: Path) -> tuple[str, DiskStamp]:
         raise SessionError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
 
 
-def dumps(model: SessionModel) -> str:
-    """Stable JSON: sorted keys, shortest float repr, two-space indent; inf and -inf as
-    1e999 and -1e999 (standard JSON that reads back as infinities), nan as "nan"."""
+def dumps(model: SessionModel, compact: bool = False) -> str:
+    """Stable JSON: sorted keys, shortest float repr, two-space indent (``compact``: none,
+    for autosaves: json's C encoder, three times faster); inf and -inf as 1e999 and
+    -1e999 (standard JSON that reads back as infinities), nan as "nan"."""
     marker = "\0" + secrets.token_hex(8)
     data = _plain(model.model_dump(mode="python", exclude_none=False), marker)
-    text = json.dumps(data, indent=2, sort_keys=True, allow_nan=False)
+    text = json.dumps(data, indent=None if compact else 2, sort_keys=True, allow_nan=False)
     return text.replace(json.dumps(marker + "+"), "1e999").replace(json.dumps(marker + "-"), "-1e999") + "\n"
 
 
@@ -356,7 +357,7 @@ def _writer() -> ThreadPoolExecutor:
 
 def _write_autosave(session: Session, target: Path, snapshot: SessionModel, mode: int | None) -> Path | None:
     try:
-        write_atomic(target, dumps(snapshot).encode("utf-8"), mode)
+        write_atomic(target, dumps(snapshot, compact=True).encode("utf-8"), mode)
     except (OSError, ValueError, TypeError, RecursionError) as exc:
         reason = describe(exc) if isinstance(exc, OSError) else f"the session is not JSON data ({exc})"
         session.autosave_warning = f"{target}: cannot autosave: {reason}"
