@@ -66,7 +66,7 @@ class LoopLevels:
 
     def slopes(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """Rows: each level's derivative in omega and its own derivative, for
-        the stationary points of `KINDS` (log|GH|, arg GH, log|1 + GH|), then
+        the stationary points of log|GH|, arg GH and log|1 + GH|, then
         the levels log|GH| and Im GH themselves with their derivatives (the
         crossings): Newton's step on row k is first[k] / second[k]."""
         gh, u, du = self.terms(w)

@@ -68,9 +68,10 @@ def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
 
 
 def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
-    """Newton's starting points and their kinds (0-2: the stationary points of
-    `KINDS`, 3: gain crossovers, 4: phase crossings), and the frequencies of
-    the near-real eigenvalues (check points)."""
+    """Newton's starting points and their kinds (rows of `LoopLevels.slopes`:
+    0-2 the stationary points of log|GH|, arg GH and log|1 + GH|, 3 gain
+    crossovers, 4 phase crossings), and the frequencies of the near-real
+    eigenvalues (check points)."""
     shared = Fractions(-loop.roots ** 2)
     eigenvalues = [shared.zeros(loop.signs.astype(complex)), shared.zeros(-loop.signs * loop.roots),
                    distance_stationary(loop)]
