@@ -16,6 +16,8 @@ companion matrices (dgeev), without np.poly's and np.roots's wrappers.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -109,18 +111,29 @@ def poly(roots: NDArray) -> NDArray[np.float64]:
 
 def roots(c: NDArray) -> NDArray[np.complex128]:
     """Roots of a polynomial (descending powers): its balanced companion
-    matrix's eigenvalues, and 0 for each trailing zero coefficient."""
+    matrix's eigenvalues, and 0 for each trailing zero coefficient.  The
+    variable is scaled first by the roots' geometric mean, |c_n / c_0|^(1/n),
+    so the companion's entries are moderate (dgeev returned the eigenvalues of
+    its own rescaled matrix when they passed ~1e138)."""
     nonzero = np.flatnonzero(c)
     if nonzero.size == 0 or not np.isfinite(c).all():
         return np.zeros(0, dtype=complex)
     first, last = int(nonzero[0]), int(nonzero[-1])
     at_origin = np.zeros(c.size - 1 - last, dtype=complex)
-    if last == first:
+    n = last - first
+    if n == 0:
         return at_origin
-    companion = np.eye(last - first, k=-1)
-    companion[0] = -c[first + 1:last + 1] / c[first]
+    c = c[first:last + 1]
+    log_scale = (math.log(abs(c[-1])) - math.log(abs(c[0]))) / n
+    with np.errstate(all="ignore"):   # c_k scale^(k - n)... as logs: no overflow on the way
+        logs = np.log(np.abs(c[1:])) - np.log(abs(c[0])) - log_scale * np.arange(1, n + 1)
+        scaled = np.where(c[1:] != 0, np.sign(c[1:]) * np.exp(logs), 0.0)
+    if not np.isfinite(scaled).all():
+        return np.zeros(0, dtype=complex)
+    companion = np.eye(n, k=-1)
+    companion[0] = -scaled
     from scipy.linalg import lapack   # on first use (start-up)
     real, imag, *_, info = lapack.dgeev(companion, compute_vl=0, compute_vr=0)
     if info != 0:
         return np.zeros(0, dtype=complex)
-    return np.concatenate([real + 1j * imag, at_origin])
+    return np.concatenate([(real + 1j * imag) * math.exp(log_scale), at_origin])

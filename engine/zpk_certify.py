@@ -16,6 +16,7 @@ and the check is made again, at most `REPAIR_ROUNDS` times.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -26,17 +27,24 @@ from .zpk_levels import LoopLevels
 
 # omega -> (rows of each level's slope, rows of their derivatives)
 Slopes = Callable[[NDArray], tuple[NDArray, NDArray]]
+# (omega -> rows of the levels' values, each level's limits at 0 and at infinity)
+Ends = tuple[Callable[[NDArray], NDArray], list[tuple[float, float]]]
 
 CLEARANCE = 1e-6  # relative distance from a stationary point within which a slope's sign is rounding
 REPAIR_ROUNDS = 4
 DUPLICATE = 1e-9
+LIMIT_SLACK = 1e-12  # a level this close (relative) to its limit is at it
 
 
 def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray,
-              slopes: Slopes | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
+              slopes: Slopes | None = None, ends: Ends | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
     """Per level (row k of ``slopes``, by default of `LoopLevels.slopes`), its
     stationary points and which are maxima, checked and repaired (module
-    docstring); None when a check still fails."""
+    docstring), and with ``ends`` (the levels' values and their limits at 0 and
+    infinity) checked against the limits: a level rises to a maximum and falls
+    from it, so the first maximum is not below the limit at 0, the last not
+    below the limit at infinity (minima alike), and a level with none is not
+    equal at both ends.  None when a check still fails."""
     slopes = slopes or loop.slopes
     every = np.concatenate(points)
     parts = [loop.probes, near]
@@ -61,7 +69,25 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
             return None
         out_points.append(w)
         out_maxima.append(top)
+    if ends is not None and not all(_reaches(ends[0](w)[row] if w.size else w, top, ends[1][row])
+                                    for row, (w, top) in enumerate(zip(out_points, out_maxima))):
+        return None
     return out_points, out_maxima
+
+
+def _reaches(values: NDArray, maxima: NDArray, limits: tuple[float, float]) -> bool:
+    """Are a level's values at its stationary points (maxima flagged) consistent with
+    its limits at 0 and infinity?  (A missed extremum placed far from every check
+    point shows here: a level that cannot rise to its first maximum from its limit.)"""
+    def near(a: float, b: float) -> bool:
+        return math.isfinite(a) and math.isfinite(b) and abs(a - b) <= LIMIT_SLACK * max(1.0, abs(a), abs(b))
+    low, high = limits
+    if values.size == 0:
+        return not near(low, high)
+    for value, top, limit in ((values[0], maxima[0], low), (values[-1], maxima[-1], high)):
+        if not near(value, limit) and (value < limit if top else value > limit):
+            return False
+    return True
 
 
 def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray,

@@ -34,16 +34,23 @@ FAR_DECADES = 300  # how far beyond a piece's finite end a crossing is looked fo
 def crossing_candidates(loop: LoopLevels) -> tuple[NDArray, NDArray]:
     """Starts for the gain crossovers (roots of k^2 N(x) - D(x), N and D the
     products of x + r^2 over zeros and poles) and the phase crossings (roots of
-    Im N(j w) D(-j w) / w as a polynomial in x)."""
-    form = loop.form
-    poles_x, zeros_x = poly(-form.poles ** 2), loop.gain ** 2 * poly(-form.zeros ** 2)
-    gains = poles_x.copy()
-    gains[poles_x.size - zeros_x.size:] -= zeros_x
-    den = loop.denominator
+    Im N(j w) D(-j w) / w as a polynomial in x), in a frequency scaled by the
+    roots' geometric mean (so the coefficients do not overflow); the crossovers'
+    none when the scaled gain's square would."""
+    form, scale = loop.form, loop.scale
+    zeros, poles = form.zeros / scale, form.poles / scale
+    log_gain = math.log(abs(loop.gain)) + (zeros.size - poles.size) * math.log(scale)
+    gains = np.zeros(0)
+    if abs(log_gain) < 300:
+        poles_x, zeros_x = poly(-poles ** 2), math.exp(2 * log_gain) * poly(-zeros ** 2)
+        difference = poles_x.copy()
+        difference[poles_x.size - zeros_x.size:] -= zeros_x
+        gains = _positive_roots(difference) * scale
+    den = poly(poles)
     mirrored = den * (-1.0) ** np.arange(den.size - 1, -1, -1)  # D(-s)
-    product = np.convolve(loop.numerator, mirrored)[::-1]  # ascending powers of s
+    product = np.convolve(poly(zeros), mirrored)[::-1]  # ascending powers of s
     odd = product[1::2] * (-1.0) ** np.arange(product[1::2].size)  # Im at s = j w, over w: a polynomial in x
-    return _positive_roots(gains), _positive_roots(odd[::-1])
+    return gains, _positive_roots(odd[::-1]) * scale
 
 
 def _positive_roots(coefficients: NDArray) -> NDArray:
@@ -84,13 +91,15 @@ def enclosed(values: NDArray, phase: bool) -> int:
 
 def _targets(values: NDArray, k: int, phase: bool) -> list[float]:
     """The target levels strictly between values[k] and values[k + 1] (a limit
-    at the outer ends, within `LIMIT_NOISE` of a target, does not count)."""
+    at the outer ends within `LIMIT_NOISE` of a target does not count: |GH(0)| = 1
+    or GH(0) real negative is not a crossing)."""
     a, b = float(values[k]), float(values[k + 1])
     low, high = min(a, b), max(a, b)
-    if not phase:
-        return [0.0] if low < 0.0 < high else []
-    first = math.floor((low - math.pi) / (2 * math.pi))
-    levels = [math.pi + 2 * math.pi * q for q in range(first, first + int((high - low) / (2 * math.pi)) + 3)]
+    if phase:
+        first = math.floor((low - math.pi) / (2 * math.pi))
+        levels = [math.pi + 2 * math.pi * q for q in range(first, first + int((high - low) / (2 * math.pi)) + 3)]
+    else:
+        levels = [0.0]   # log|GH| = 0
     outer = [v for v, end in ((a, k == 0), (b, k == values.size - 2)) if end]
     return [v for v in levels if low < v < high and all(abs(v - o) > LIMIT_NOISE for o in outer)]
 

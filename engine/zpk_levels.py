@@ -31,6 +31,8 @@ class LoopLevels:
         self.numerator, self.denominator = numerator, denominator
         nonzero = np.abs(self.roots[self.roots != 0])
         low, high = (float(nonzero.min()), float(nonzero.max())) if nonzero.size else (1.0, 1.0)
+        self.scale = math.sqrt(low * high)
+        low, high = min([low] + self._unit_gains()), max([high] + self._unit_gains())
         decades = math.ceil(math.log10(high / low)) + 2 * PROBE_DECADES
         ladder = low * 10.0 ** (np.arange(PROBES_PER_DECADE * decades + 1) / PROBES_PER_DECADE - PROBE_DECADES)
         self.probes = np.concatenate([nonzero, ladder])
@@ -39,6 +41,16 @@ class LoopLevels:
         self.phase_offset = (math.pi if self.gain < 0 else 0.0) + math.pi * float(self.signs[right].sum())
         self.phase_turn = np.where(right, -self.signs, self.signs)
         self.imag, self.damping = self.roots.imag[:, None], np.abs(self.roots.real)[:, None]
+
+    def _unit_gains(self) -> list[float]:
+        """Where the asymptotes of |GH| at 0 and at infinity cross 1 (features a gain
+        places far from every root lie there: the check points reach them)."""
+        at_zero = self.roots == 0
+        n0, excess = float(self.signs[at_zero].sum()), float(self.signs.sum())
+        log_k = math.log(abs(self.gain))
+        low_level = log_k + float(self.signs[~at_zero] @ np.log(np.abs(self.roots[~at_zero])))
+        found = [math.exp(-low_level / n0) if n0 else None, math.exp(-log_k / excess) if excess else None]
+        return [w for w in found if w is not None and 0 < w < math.inf]
 
     @staticmethod
     def of(form: ZpkEvaluator) -> LoopLevels | None:
@@ -55,14 +67,21 @@ class LoopLevels:
         return None if closed is None else LoopLevels(form, closed, numerator, denominator)
 
     def terms(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        """GH, u = d log GH / ds and du/ds at s = j w."""
+        """GH, u = d log GH / ds and du/ds at s = j w, zeros and poles paired as
+        `ZpkEvaluator` pairs them: 1/(s - z) - 1/(s - p) = (z - p) r_z r_p has no
+        cancellation when a zero nearly cancels its pole (nor does its derivative)."""
         form, m = self.form, self.form.paired
         q = 1j * w - form.roots
         r = 1.0 / q
-        gh = form.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)  # paired as `ZpkEvaluator` does
+        gh = form.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)
+        pair = r[:m] * r[m:2 * m]
+        u = form.gaps @ pair
+        du = -(form.gaps @ (pair * (r[:m] + r[m:2 * m])))
         if form.roots.size > 2 * m:
             gh = gh * np.multiply.reduce(q[2 * m:] if form.extra_zeros else r[2 * m:], axis=0)
-        return gh, form.signs @ r, -(form.signs @ (r * r))
+            rest = r[2 * m:]
+            u, du = u + form.signs[2 * m:] @ rest, du - form.signs[2 * m:] @ (rest * rest)
+        return gh, u, du
 
     def slopes(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """Rows: each level's derivative in omega and its own derivative, for
@@ -79,6 +98,29 @@ class LoopLevels:
     def phase(self, w: NDArray) -> NDArray:
         """arg GH(j w), continuous in w > 0 (each root's angle on its own branch)."""
         return self.phase_offset + self.phase_turn @ np.arctan2(w - self.imag, self.damping)
+
+    def values(self, w: NDArray) -> NDArray:
+        """Rows: log|GH|, arg GH (continuous) and log|1 + GH| at ``w`` (the last from
+        GH itself where it is small: 1 + GH would round its variation away)."""
+        gh = self.terms(w)[0]
+        with np.errstate(all="ignore"):
+            distance = np.where(np.abs(gh) < 0.5, 0.5 * np.log1p(2 * gh.real + (gh * gh.conjugate()).real),
+                                np.log(np.abs(1.0 + gh)))
+        return np.array([np.log(np.abs(gh)), self.phase(w), distance])
+
+    def all_limits(self) -> list[tuple[float, float]]:
+        """The limits of `values`' rows at 0 and at infinity."""
+        mag, phase = self.limits()
+        ends = []
+        for level, turn in ((mag[0], phase[0]), (mag[1], phase[1])):
+            if level == math.inf:
+                ends.append(math.inf)
+            elif level == -math.inf:
+                ends.append(0.0)
+            else:   # GH there is real: its magnitude and the sign its phase gives
+                real = math.copysign(math.exp(level), math.cos(turn))
+                ends.append(math.log(abs(1.0 + real)) if real != -1.0 else -math.inf)
+        return [mag, phase, (ends[0], ends[1])]
 
     def limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """(log|GH|, arg GH) as omega -> 0 and as omega -> infinity."""

@@ -50,10 +50,21 @@ def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.
         found = distinct(*newton(slopes, w, kind), kinds=len(transforms))
         if found is None:
             return None
-        checked = certified(loop, found[0], found[1], near, slopes)
+        checked = certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms))
         if checked is None:
             return None
         return [_peak(loop, ab, points[top], low, high) for ab, points, top in zip(transforms, *checked)]
+
+
+def _ends(loop: LoopLevels, transforms: list[Moebius]):
+    """log|f| of each transform at given frequencies, and its limits at 0 and infinity."""
+    def levels(omega: NDArray) -> NDArray:
+        gh = loop.terms(omega)[0]
+        return np.array([np.log(np.abs(_moebius(ab, gh))) for ab in transforms])
+
+    def log(value: float) -> float:
+        return math.log(value) if value > 0 else -math.inf
+    return levels, [(log(_limit(loop, ab, 0.0)), log(_limit(loop, ab, math.inf))) for ab in transforms]
 
 
 def _proper(loop: LoopLevels, ab: Moebius) -> bool:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+import mpmath
 import numpy as np
 import pytest
 
@@ -131,15 +132,38 @@ def test_repairs_reach_what_the_sums_cannot_resolve(gain):
     above it contradict the order found and the repair brackets it.  At gain
     1e3 the loop's gain crossover is at ~1e-17 rad/s, a root no expanded
     polynomial keeps: found on its monotone piece, decades below the first
-    stationary point.  Both as the grid search finds them."""
+    stationary point.  Both as the grid search finds them, and at gain 1e3 one
+    minimum of |1 + GH| more, 1.3e-24 deep at 6.8e-5 rad/s (|1 + GH| = 1 -
+    3.9e-16; the grid does not split for so shallow a level), confirmed here
+    in 50-digit arithmetic."""
     loop = loop_model(unity_feedback([gain + HIGH_ORDER]), "e", GRID, {})
     fast = fast_margins(loop.evaluate)
     assert fast is not None  # without the repairs the method gave up on both (measured)
     reference = grid_search(loop)
     for kind in "GPSA":
         expected = np.sort([m.frequency for m in reference[kind] if kind != "G" or m.gh.real < 0])
-        np.testing.assert_allclose(np.sort(fast[kind]), expected, rtol=1e-11)
+        got = np.sort(fast[kind])
+        if kind == "S" and gain == "1e3":
+            extra = got[np.min(np.abs(got[:, None] / expected[None, :] - 1), axis=1) > 1e-11]
+            assert extra.size == 1 and _is_a_minimum_of_the_distance(loop.evaluate, float(extra[0]))
+            got = np.setdiff1d(got, extra)
+        np.testing.assert_allclose(got, expected, rtol=1e-11)
     if gain == "1e3":
         (crossover,) = fast["P"]
         assert crossover < 1e-15
         assert abs(loop.evaluate(np.array([crossover]))[0][0]) == pytest.approx(1.0, rel=1e-13)
+
+
+def _is_a_minimum_of_the_distance(form: ZpkEvaluator, w: float) -> bool:
+    """|1 + GH| at w is below its values at w/2 and 2w, in 50-digit arithmetic."""
+    mpmath.mp.dps = 50
+
+    def distance(x: float):
+        s = mpmath.mpc(0, x)
+        g = mpmath.mpf(float(form.gain.real))
+        for r in form.zeros:
+            g *= s - mpmath.mpc(float(r.real), float(r.imag))
+        for r in form.poles:
+            g /= s - mpmath.mpc(float(r.real), float(r.imag))
+        return abs(1 + g)
+    return bool(distance(w) < distance(w / 2) and distance(w) < distance(2 * w))
