@@ -127,7 +127,7 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
     log_scale = (math.log(abs(c[-1])) - math.log(abs(c[0]))) / n
     with np.errstate(all="ignore"):   # c_k scale^(k - n)... as logs: no overflow on the way
         logs = np.log(np.abs(c[1:])) - np.log(abs(c[0])) - log_scale * np.arange(1, n + 1)
-        scaled = np.where(c[1:] != 0, np.sign(c[1:]) * np.exp(logs), 0.0)
+        scaled = np.where(c[1:] != 0, np.sign(c[1:]) * np.sign(c[0]) * np.exp(logs), 0.0)
     if not np.isfinite(scaled).all():
         return np.zeros(0, dtype=complex)
     companion = np.eye(n, k=-1)

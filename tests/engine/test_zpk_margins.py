@@ -14,7 +14,7 @@ import pytest
 
 from engine import detection, margins as margin_search
 from engine.analysis import unity_feedback
-from engine.fractions import fraction_zeros
+from engine.fractions import fraction_zeros, poly, roots
 from engine.loops import loop_model
 from engine.zpk import ZpkEvaluator
 from engine.zpk_margins import fast_margins
@@ -42,6 +42,15 @@ def test_fraction_zeros_of_closed_forms():
     # equal poles merge (2/(x - 1) + 1/(x - 3): 3x - 7 = 0), and a sum that cancels entirely vanishes
     np.testing.assert_allclose(fraction_zeros(np.array([1.0, 1.0, 3.0]) + 0j, np.ones(3, dtype=complex)), [7 / 3])
     assert fraction_zeros(np.array([2.0, 2.0]) + 0j, np.array([1.0, -1.0]) + 0j) is None
+
+
+def test_polynomial_roots_in_a_scaled_variable():
+    # (x - 1)(x - 3) with either sign of the leading coefficient, and 24 roots at 1e6 (the
+    # coefficients reach 1e144; scipy's dgeev scaled them wrongly unscaled): np.roots as reference
+    for c in ([1.0, -4.0, 3.0], [-1.0, 4.0, -3.0], [-0.9615, 4.639, -3.7348]):
+        np.testing.assert_allclose(np.sort(roots(np.array(c)).real), np.sort(np.roots(c).real), rtol=1e-13)
+    far = roots(poly(np.full(24, -1e6 + 0j)))
+    assert np.all(np.abs(np.abs(far) / 1e6 - 1) < 0.5)   # a 24-fold root: known to ~eps^(1/24)
 
 
 def test_third_order_integrator_loop_against_closed_forms():
