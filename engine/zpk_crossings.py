@@ -65,7 +65,7 @@ def crossings_of(loop: LoopLevels, points: list[NDArray]) -> tuple[NDArray, NDAr
     (``points[3]``, ``points[4]``) when they are as many as the pieces between
     the stationary points of log|GH| (``points[0]``) and arg GH (``points[1]``)
     hold, else found piece by piece; None when that fails too."""
-    mag_limits, phase_limits = loop.limits()
+    mag_limits, phase_limits = loop.limits
     levels = ((points[0], np.log(np.abs(loop.terms(points[0])[0])), mag_limits, False),
               (points[1], loop.phase(points[1]), phase_limits, True))
     found = [points[3], points[4][loop.terms(points[4])[0].real < 0]]

@@ -7,6 +7,7 @@ sums of fractions whose zeros are the stationary points of log |1 + GH|."""
 from __future__ import annotations
 
 import math
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +19,7 @@ MAX_ROOTS = 48  # zeros + poles; beyond, the detection grid is faster (docs/marg
 UNDAMPED = 1e-9  # |Re r| / |r| at or below which a root is on the imaginary axis
 PROBE_DECADES = 3  # check points from the smallest root / 10**this to the largest * 10**this
 PROBES_PER_DECADE = 2
+UNIT_GAIN_REACH = 1e6  # the check points follow |GH|'s unit-gain asymptotes this far beyond the roots
 
 
 class LoopLevels:
@@ -32,7 +34,8 @@ class LoopLevels:
         nonzero = np.abs(self.roots[self.roots != 0])
         low, high = (float(nonzero.min()), float(nonzero.max())) if nonzero.size else (1.0, 1.0)
         self.scale = math.sqrt(low * high)
-        low, high = min([low] + self._unit_gains()), max([high] + self._unit_gains())
+        reach = [min(max(w, low * UNIT_GAIN_REACH ** -1), high * UNIT_GAIN_REACH) for w in self._unit_gains()]
+        low, high = min([low] + reach), max([high] + reach)
         decades = math.ceil(math.log10(high / low)) + 2 * PROBE_DECADES
         ladder = low * 10.0 ** (np.arange(PROBES_PER_DECADE * decades + 1) / PROBES_PER_DECADE - PROBE_DECADES)
         self.probes = np.concatenate([nonzero, ladder])
@@ -45,12 +48,19 @@ class LoopLevels:
     def _unit_gains(self) -> list[float]:
         """Where the asymptotes of |GH| at 0 and at infinity cross 1 (features a gain
         places far from every root lie there: the check points reach them)."""
+        n0, excess, low_level = self.asymptotes
+        found = [math.exp(-low_level / n0) if n0 else None,
+                 math.exp(-math.log(abs(self.gain)) / excess) if excess else None]
+        return [w for w in found if w is not None and 0 < w < math.inf]
+
+    @cached_property
+    def asymptotes(self) -> tuple[float, float, float]:
+        """|GH| ~ exp(low_level) omega^n0 as omega -> 0 and |k| omega^excess as omega -> inf:
+        (n0, excess, low_level)."""
         at_zero = self.roots == 0
         n0, excess = float(self.signs[at_zero].sum()), float(self.signs.sum())
-        log_k = math.log(abs(self.gain))
-        low_level = log_k + float(self.signs[~at_zero] @ np.log(np.abs(self.roots[~at_zero])))
-        found = [math.exp(-low_level / n0) if n0 else None, math.exp(-log_k / excess) if excess else None]
-        return [w for w in found if w is not None and 0 < w < math.inf]
+        low_level = math.log(abs(self.gain)) + float(self.signs[~at_zero] @ np.log(np.abs(self.roots[~at_zero])))
+        return n0, excess, low_level
 
     @staticmethod
     def of(form: ZpkEvaluator) -> LoopLevels | None:
@@ -108,9 +118,10 @@ class LoopLevels:
                                 np.log(np.abs(1.0 + gh)))
         return np.array([np.log(np.abs(gh)), self.phase(w), distance])
 
+    @cached_property
     def all_limits(self) -> list[tuple[float, float]]:
         """The limits of `values`' rows at 0 and at infinity."""
-        mag, phase = self.limits()
+        mag, phase = self.limits
         ends = []
         for level, turn in ((mag[0], phase[0]), (mag[1], phase[1])):
             if level == math.inf:
@@ -122,11 +133,10 @@ class LoopLevels:
                 ends.append(math.log(abs(1.0 + real)) if real != -1.0 else -math.inf)
         return [mag, phase, (ends[0], ends[1])]
 
+    @cached_property
     def limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """(log|GH|, arg GH) as omega -> 0 and as omega -> infinity."""
-        at_zero = self.roots == 0
-        n0, excess = float(self.signs[at_zero].sum()), float(self.signs.sum())
-        rest = math.log(abs(self.gain)) + float(self.signs[~at_zero] @ np.log(np.abs(self.roots[~at_zero])))
+        n0, excess, rest = self.asymptotes
         mag = (-math.inf * n0 if n0 else rest, math.inf * excess if excess else math.log(abs(self.gain)))
         top = (math.pi if self.gain < 0 else 0.0) + math.pi / 2 * excess
         zero = float(self.phase(np.zeros(1))[0]) + math.pi / 2 * n0  # atan2(0, 0) is 0, the limit pi/2

@@ -57,7 +57,7 @@ def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
         if found is None:
             return None
         points, maxima = found
-        checked = certified(loop, points[:3], maxima[:3], near, ends=(loop.values, loop.all_limits()))
+        checked = certified(loop, points[:3], maxima[:3], near, ends=(loop.values, loop.all_limits))
         if checked is None:
             return None
         points[:3], maxima[:3] = checked

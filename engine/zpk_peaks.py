@@ -138,7 +138,7 @@ def _moebius(ab: Moebius, gh: NDArray) -> NDArray:
 
 def _limit(loop: LoopLevels, ab: Moebius, w: float) -> float:
     """|f| as omega -> 0 (w = 0) or -> infinity: GH tends to 0, infinity or a real number."""
-    (zero, top), _ = loop.limits()
+    (zero, top), _ = loop.limits
     level = zero if w == 0.0 else top
     a, b = ab
     if level == math.inf:
