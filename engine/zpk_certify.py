@@ -7,7 +7,10 @@ negative past a maximum, positive past a minimum.  The slopes are read at
 check points (between and around the points, at every root's frequency, on
 a ladder two points a decade wide from 1e-3 of the smallest root to 1e3
 times the largest, and at every near-real eigenvalue, where a close pair
-could hide).  Where a check point's sign contradicts its neighbour's, an
+could hide).  A slope within its rounding (``noise``) has no sign: its
+check point is skipped for that level (a level flat to rounding, such as
+|S| = 1 to 1e-12 far below a type-1 loop's crossover, has no features a
+peak or a margin could show).  Where a check point's sign contradicts its neighbour's, an
 odd number of stationary points was missed between them (far above the
 crossover, where |GH| falls like a high power, the sums of fractions cancel
 beyond what their eigenvalues resolve): one is bracketed there and refined,
@@ -37,15 +40,17 @@ LIMIT_SLACK = 1e-12  # a level this close (relative) to its limit is at it
 
 
 def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray,
-              slopes: Slopes | None = None, ends: Ends | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
+              slopes: Slopes | None = None, ends: Ends | None = None,
+              noise: Callable[[NDArray], NDArray] | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
     """Per level (row k of ``slopes``, by default of `LoopLevels.slopes`), its
     stationary points and which are maxima, checked and repaired (module
     docstring), and with ``ends`` (the levels' values and their limits at 0 and
     infinity) checked against the limits: a level rises to a maximum and falls
     from it, so the first maximum is not below the limit at 0, the last not
     below the limit at infinity (minima alike), and a level with none is not
-    equal at both ends.  None when a check still fails."""
-    slopes = slopes or loop.slopes
+    equal at both ends.  ``noise``: rows of each slope's rounding (by default
+    `LoopLevels.slope_noise`).  None when a check still fails."""
+    slopes, noise = slopes or loop.slopes, noise or loop.slope_noise
     every = np.concatenate(points)
     parts = [loop.probes, near]
     for w in points:
@@ -54,7 +59,8 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
     probes = np.concatenate(parts)
     if every.size:
         probes = probes[np.min(np.abs(probes[:, None] / every[None, :] - 1.0), axis=1) > CLEARANCE]
-    signs = slopes(probes)[0]
+    first = slopes(probes)[0][:len(points)]
+    signs = np.where(np.abs(first) > noise(probes), np.sign(first), np.where(np.isnan(first), np.nan, 0.0))
     out_points, out_maxima = [], []
     for row, (w, top) in enumerate(zip(points, maxima)):
         for _ in range(REPAIR_ROUNDS + 1):
@@ -93,11 +99,14 @@ def _reaches(values: NDArray, maxima: NDArray, limits: tuple[float, float]) -> b
 def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray,
                     slope: NDArray) -> tuple[NDArray, NDArray] | None:
     """The intervals (lo, hi) between neighbouring stationary and check points
-    whose slope signs contradict each other; None when there are none."""
+    whose slope signs contradict each other (check points without a sign
+    skipped); None when there are none."""
     after = np.where(maxima, -1.0, 1.0)
+    known = slope != 0
+    probes, slope = probes[known], slope[known]
     at = np.concatenate([w, probes])
-    left = np.concatenate([-after, np.sign(slope)])
-    right = np.concatenate([after, np.sign(slope)])
+    left = np.concatenate([-after, slope])
+    right = np.concatenate([after, slope])
     order = np.argsort(at, kind="stable")
     at, left, right = at[order], left[order], right[order]
     bad = np.flatnonzero(right[:-1] != left[1:])

@@ -20,6 +20,7 @@ UNDAMPED = 1e-9  # |Re r| / |r| at or below which a root is on the imaginary axi
 PROBE_DECADES = 3  # check points from the smallest root / 10**this to the largest * 10**this
 PROBES_PER_DECADE = 2
 UNIT_GAIN_REACH = 1e6  # the check points follow |GH|'s unit-gain asymptotes this far beyond the roots
+ROUNDING = 8 * np.finfo(float).eps  # a slope's rounding, relative to the sizes it is formed from
 
 
 class LoopLevels:
@@ -104,6 +105,23 @@ class LoopLevels:
         first = np.array([-u.imag, u.real, -g.imag, np.log(np.abs(gh)), gh.imag])
         second = np.array([-du.real, -du.imag, -dg.real, -u.imag, (gh * u).real])
         return first, second
+
+    def spread(self, w: NDArray) -> NDArray:
+        """The sum of the magnitudes of u's terms at s = j w (u's rounding is a few ulp of it)."""
+        form, m = self.form, self.form.paired
+        r = np.abs(1.0 / (1j * w - form.roots))
+        return np.abs(form.gaps) @ (r[:m] * r[m:2 * m]) + r[2 * m:].sum(axis=0)
+
+    def slope_noise(self, w: NDArray) -> NDArray:
+        """Rows: the rounding of the first three rows of `slopes` at ``w``: below it
+        a slope's sign is not known.  Each is a part of a complex number (u, or
+        g = GH u / (1 + GH)) whose every factor carries a relative error of a few
+        ulp per root: its part's error is that times the number's size."""
+        gh, u, _ = self.terms(w)
+        spread, count = self.spread(w), self.roots.size
+        ratio = np.abs(gh / (1.0 + gh))
+        noise_u = ROUNDING * (spread + count * np.abs(u))
+        return np.array([noise_u, noise_u, ROUNDING * ratio * (spread + count * np.abs(u))])
 
     def phase(self, w: NDArray) -> NDArray:
         """arg GH(j w), continuous in w > 0 (each root's angle on its own branch)."""

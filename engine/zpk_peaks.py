@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from .fractions import Fractions, roots
 from .zpk import ZpkEvaluator
 from .zpk_certify import certified
-from .zpk_levels import LoopLevels
+from .zpk_levels import ROUNDING, LoopLevels, distance_stationary
 from .zpk_margins import NEAR_REAL, REAL, distinct, newton
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
@@ -50,7 +50,8 @@ def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.
         found = distinct(*newton(slopes, w, kind), kinds=len(transforms))
         if found is None:
             return None
-        checked = certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms))
+        checked = certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms),
+                            noise=lambda omega: _moebius_noise(loop, omega, transforms))
         if checked is None:
             return None
         return [_peak(loop, ab, points[top], low, high) for ab, points, top in zip(transforms, *checked)]
@@ -85,7 +86,10 @@ def _numerator_roots(loop: LoopLevels, ab: Moebius) -> NDArray:
 
 def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArray, NDArray] | None:
     """Newton's starts (the positive real zeros of each transform's sum) with the
-    transform's number, and the near-real zeros' frequencies (check points)."""
+    transform's number, and the near-real zeros' frequencies (check points).
+    A multiple of S (b = 0) is stationary where |1 + GH| is: its starts are
+    also `distance_stationary`'s (whose residue form keeps the digits the
+    difference of sums loses where a closed-loop pole is near an open-loop one)."""
     starts, kinds, near = [], [], []
     for number, ab in enumerate(transforms):
         top = _numerator_roots(loop, ab)
@@ -93,6 +97,9 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
         x = Fractions(t).zeros(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
         if x is None:
             return None  # |f| constant
+        extra = distance_stationary(loop) if ab[1] == 0 else None
+        if extra is not None:
+            x = np.concatenate([x, extra])
         positive = x.real > 0
         real = positive & (np.abs(x.imag) <= REAL * np.abs(x))
         starts.append(np.sqrt(x.real[real]))
@@ -116,6 +123,19 @@ def _moebius_slopes(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> 
         first.append(-(base * u).imag)
         second.append(-(base * (square + du - square * gh * (b * bottom + top) / (top * bottom))).real)
     return np.array(first), np.array(second)
+
+
+def _moebius_noise(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> NDArray:
+    """Rows per transform: the rounding of `_moebius_slopes`' first rows (as
+    `LoopLevels.slope_noise`: a part of (b - a) GH u / (A C), each factor a few
+    ulp per root, u's error a few ulp of the sum of its terms' sizes)."""
+    gh, u, _ = loop.terms(w)
+    spread, count = loop.spread(w), loop.roots.size
+    rows = []
+    for a, b in transforms:
+        base = np.abs((b - a) * gh / ((a + b * gh) * (1.0 + gh)))
+        rows.append(ROUNDING * base * (spread + count * np.abs(u)))
+    return np.array(rows)
 
 
 def _peak(loop: LoopLevels, ab: Moebius, maxima: NDArray, low: float, high: float) -> tuple[float, float]:

@@ -65,3 +65,33 @@ def test_random_loops_agree_with_the_grid_search():
                 assert frequency == pytest.approx(grid.frequency, rel=1e-7), seed
             # else a limit at an end, which the grid may equal to the last digit at its last point
     assert answered >= 190  # measured: 199
+
+
+HIGH_GAIN_ORDER_20 = ("*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)"
+                      "*(s+40)*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))")
+
+
+@pytest.mark.parametrize("step", range(8))
+def test_levels_flat_to_rounding_do_not_stop_the_search(step):
+    """A type-1 loop of order 20 with a large gain: far below its crossover |S|
+    is 0 to 1e-10 and the disk's |S - 1/2| is 1/2 to 1e-10, their slopes
+    rounding.  Their signs there are unknown, not contradictions to repair
+    (before, half of these loops, their gains a few ulp apart, exhausted the
+    repairs and fell back to the grid); the peaks equal the grid search's."""
+    loop = loop_model(unity_feedback([f"{1e3 * (1 + 1e-12 * step)!r}{HIGH_GAIN_ORDER_20}"]), "e", GRID, {})
+    fast = moebius_peaks(loop.evaluate, [t.moebius for t in TRANSFORMS])
+    assert fast is not None
+    for transform, grid, (value, frequency) in zip(TRANSFORMS, peaks._peaks_on(loop, TRANSFORMS, Band()), fast):
+        assert value == pytest.approx(grid.value, rel=1e-12)
+        if 0 < frequency < math.inf and 0 < grid.frequency < math.inf and resolved(loop, transform, frequency):
+            assert frequency == pytest.approx(grid.frequency, rel=1e-7)
+
+
+def resolved(loop, transform, frequency: float) -> bool:
+    """Is |f| 1e-3 away from its peak lower by more than rounding (else the peak's
+    place is not determined by |f|'s values, and a grid search cannot find it:
+    |S| of this loop peaks at 1 + 4e-16)?"""
+    a, b = transform.moebius
+    gh = loop.evaluate(np.array([frequency, frequency * 0.999, frequency * 1.001]))[0]
+    level = np.abs((a + b * gh) / (1 + gh))
+    return bool(level[0] - level[1:].max() > 1e-13 * level[0])
