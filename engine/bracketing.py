@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 MAX_STEPS = 200
-NOISE_STEP = 1e-9
+NOISE_STEP = 1e-9  # relative step below which steps that stop shrinking are rounding noise
 STALL_STEPS = 3  # steps in which a bracket must halve, else it is bisected
 EPS = np.finfo(float).eps
 

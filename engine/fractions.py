@@ -95,9 +95,12 @@ def _cascaded(matrix: NDArray, n: int, system: bool) -> NDArray:
     return out
 
 
-def fraction_zeros(t: NDArray, a: NDArray) -> NDArray[np.complex128] | None:
-    """The finite zeros of sum a_k / (x - t_k) (module docstring)."""
-    return Fractions(np.asarray(t, dtype=complex)).zeros(np.asarray(a, dtype=complex))
+def polynomial_sum(p: NDArray, q: NDArray) -> NDArray[np.float64]:
+    """p + q, both in descending powers (the shorter one aligned at the constant term)."""
+    out = np.zeros(max(p.size, q.size))
+    out[out.size - p.size:] += p
+    out[out.size - q.size:] += q
+    return out
 
 
 def poly(roots: NDArray) -> NDArray[np.float64]:

@@ -35,7 +35,7 @@ Ends = tuple[Callable[[NDArray], NDArray], list[tuple[float, float]]]
 
 CLEARANCE = 1e-6  # relative distance from a stationary point within which a slope's sign is rounding
 REPAIR_ROUNDS = 4
-DUPLICATE = 1e-9
+DUPLICATE = 1e-9  # relative distance at which two stationary points are one
 LIMIT_SLACK = 1e-12  # a level this close (relative) to its limit is at it
 
 

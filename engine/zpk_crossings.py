@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .bracketing import bracketed_roots
-from .fractions import poly, roots
+from .fractions import poly, polynomial_sum, roots
 from .zpk_levels import LoopLevels
 
 NEAR_REAL = 1e-2  # |Im x| / |x| below which a polynomial's root is a start
@@ -42,9 +42,7 @@ def crossing_candidates(loop: LoopLevels) -> tuple[NDArray, NDArray]:
     log_gain = math.log(abs(loop.gain)) + (zeros.size - poles.size) * math.log(scale)
     gains = np.zeros(0)
     if abs(log_gain) < 300:
-        poles_x, zeros_x = poly(-poles ** 2), math.exp(2 * log_gain) * poly(-zeros ** 2)
-        difference = poles_x.copy()
-        difference[poles_x.size - zeros_x.size:] -= zeros_x
+        difference = polynomial_sum(poly(-poles ** 2), -math.exp(2 * log_gain) * poly(-zeros ** 2))
         gains = _positive_roots(difference) * scale
     den = poly(poles)
     mirrored = den * (-1.0) ** np.arange(den.size - 1, -1, -1)  # D(-s)

@@ -12,7 +12,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from .fractions import Fractions, poly, roots
+from .fractions import Fractions, poly, polynomial_sum, roots
 from .zpk import ZpkEvaluator
 
 MAX_ROOTS = 48  # zeros + poles; beyond, the detection grid is faster (docs/margins.md)
@@ -106,22 +106,22 @@ class LoopLevels:
         second = np.array([-du.real, -du.imag, -dg.real, -u.imag, (gh * u).real])
         return first, second
 
-    def spread(self, w: NDArray) -> NDArray:
-        """The sum of the magnitudes of u's terms at s = j w (u's rounding is a few ulp of it)."""
+    def u_rounding(self, w: NDArray) -> tuple[NDArray, NDArray]:
+        """GH at s = j w and the rounding of u there: a few ulp of the sum of its
+        terms' sizes, and per root of |u| (each factor's relative error)."""
+        gh, u, _ = self.terms(w)
         form, m = self.form, self.form.paired
         r = np.abs(1.0 / (1j * w - form.roots))
-        return np.abs(form.gaps) @ (r[:m] * r[m:2 * m]) + r[2 * m:].sum(axis=0)
+        spread = np.abs(form.gaps) @ (r[:m] * r[m:2 * m]) + r[2 * m:].sum(axis=0)
+        return gh, ROUNDING * (spread + self.roots.size * np.abs(u))
 
     def slope_noise(self, w: NDArray) -> NDArray:
         """Rows: the rounding of the first three rows of `slopes` at ``w``: below it
         a slope's sign is not known.  Each is a part of a complex number (u, or
         g = GH u / (1 + GH)) whose every factor carries a relative error of a few
         ulp per root: its part's error is that times the number's size."""
-        gh, u, _ = self.terms(w)
-        spread, count = self.spread(w), self.roots.size
-        ratio = np.abs(gh / (1.0 + gh))
-        noise_u = ROUNDING * (spread + count * np.abs(u))
-        return np.array([noise_u, noise_u, ROUNDING * ratio * (spread + count * np.abs(u))])
+        gh, noise = self.u_rounding(w)
+        return np.array([noise, noise, np.abs(gh / (1.0 + gh)) * noise])
 
     def phase(self, w: NDArray) -> NDArray:
         """arg GH(j w), continuous in w > 0 (each root's angle on its own branch)."""
@@ -163,10 +163,7 @@ class LoopLevels:
 
 def _closed_loop_poles(numerator: NDArray, denominator: NDArray) -> NDArray | None:
     """Zeros of 1 + GH: roots of D + k N (candidates only: every point found is polished on GH)."""
-    size = max(denominator.size, numerator.size)
-    char = np.zeros(size)
-    char[size - denominator.size:] += denominator
-    char[size - numerator.size:] += numerator
+    char = polynomial_sum(denominator, numerator)
     if not np.isfinite(char).all():
         return None
     return roots(char)

@@ -27,18 +27,16 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from .bracketing import EPS, NOISE_STEP
 from .fractions import Fractions
 from .zpk import ZpkEvaluator
-from .zpk_certify import Slopes, certified
+from .zpk_certify import DUPLICATE, Slopes, certified
 from .zpk_crossings import crossing_candidates, crossings_of
 from .zpk_levels import LoopLevels, distance_stationary
 
 REAL = 1e-7  # |Im x| / |x| below which an eigenvalue is a real stationary point
 NEAR_REAL = 1e-2  # ... below which a close real pair could hide near it (a check point there)
-DUPLICATE = 1e-9  # relative distance at which two polished points are one
 NEWTON_STEPS = 12
-NOISE_STEP = 1e-9  # relative step below which steps that stop shrinking are rounding noise
-EPS = np.finfo(float).eps
 
 
 def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
@@ -79,13 +77,19 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
         return None
     x = np.concatenate(eigenvalues)
     kind = np.repeat(np.arange(3), [e.size for e in eigenvalues])
-    positive = x.real > 0
-    real = positive & (np.abs(x.imag) <= REAL * np.abs(x))
-    near = np.sqrt(x.real[positive & ~real & (np.abs(x.imag) <= NEAR_REAL * np.abs(x))])
+    real, near = real_eigenvalues(x)
     gains, phases = crossing_candidates(loop)
     w = np.concatenate([np.sqrt(x.real[real]), gains, phases])
     kind = np.concatenate([kind[real], np.full(gains.size, 3), np.full(phases.size, 4)])
     return w, kind, near
+
+
+def real_eigenvalues(x: NDArray) -> tuple[NDArray, NDArray]:
+    """Which eigenvalues x = omega^2 are real and positive (to `REAL`: Newton's
+    starts), and the frequencies of those only near it (to `NEAR_REAL`: check points)."""
+    positive = x.real > 0
+    real = positive & (np.abs(x.imag) <= REAL * np.abs(x))
+    return real, np.sqrt(x.real[positive & ~real & (np.abs(x.imag) <= NEAR_REAL * np.abs(x))])
 
 
 def newton(slopes: Slopes, w: NDArray, kind: NDArray) -> tuple[NDArray, NDArray, NDArray]:

@@ -23,11 +23,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from .fractions import Fractions, roots
+from .fractions import Fractions, polynomial_sum, roots
 from .zpk import ZpkEvaluator
 from .zpk_certify import certified
-from .zpk_levels import ROUNDING, LoopLevels, distance_stationary
-from .zpk_margins import NEAR_REAL, REAL, distinct, newton
+from .zpk_levels import LoopLevels, distance_stationary
+from .zpk_margins import distinct, newton, real_eigenvalues
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
 
@@ -76,12 +76,7 @@ def _proper(loop: LoopLevels, ab: Moebius) -> bool:
 def _numerator_roots(loop: LoopLevels, ab: Moebius) -> NDArray:
     """The roots of a D + b k N."""
     a, b = ab
-    num, den = b * loop.gain * loop.numerator, a * loop.denominator
-    size = max(num.size, den.size)
-    char = np.zeros(size)
-    char[size - den.size:] += den
-    char[size - num.size:] += num
-    return roots(char)
+    return roots(polynomial_sum(a * loop.denominator, b * loop.gain * loop.numerator))
 
 
 def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArray, NDArray] | None:
@@ -100,11 +95,10 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
         extra = distance_stationary(loop) if ab[1] == 0 else None
         if extra is not None:
             x = np.concatenate([x, extra])
-        positive = x.real > 0
-        real = positive & (np.abs(x.imag) <= REAL * np.abs(x))
+        real, close = real_eigenvalues(x)
         starts.append(np.sqrt(x.real[real]))
         kinds.append(np.full(starts[-1].size, number))
-        near.append(np.sqrt(x.real[positive & ~real & (np.abs(x.imag) <= NEAR_REAL * np.abs(x))]))
+        near.append(close)
     return np.concatenate(starts), np.concatenate(kinds), np.concatenate(near)
 
 
@@ -129,13 +123,8 @@ def _moebius_noise(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> N
     """Rows per transform: the rounding of `_moebius_slopes`' first rows (as
     `LoopLevels.slope_noise`: a part of (b - a) GH u / (A C), each factor a few
     ulp per root, u's error a few ulp of the sum of its terms' sizes)."""
-    gh, u, _ = loop.terms(w)
-    spread, count = loop.spread(w), loop.roots.size
-    rows = []
-    for a, b in transforms:
-        base = np.abs((b - a) * gh / ((a + b * gh) * (1.0 + gh)))
-        rows.append(ROUNDING * base * (spread + count * np.abs(u)))
-    return np.array(rows)
+    gh, noise = loop.u_rounding(w)
+    return np.array([np.abs((b - a) * gh / ((a + b * gh) * (1.0 + gh))) * noise for a, b in transforms])
 
 
 def _peak(loop: LoopLevels, ab: Moebius, maxima: NDArray, low: float, high: float) -> tuple[float, float]:

@@ -14,7 +14,7 @@ import pytest
 
 from engine import detection, margins as margin_search
 from engine.analysis import unity_feedback
-from engine.fractions import fraction_zeros, poly, roots
+from engine.fractions import Fractions, poly, polynomial_sum, roots
 from engine.loops import loop_model
 from engine.zpk import ZpkEvaluator
 from engine.zpk_margins import fast_margins
@@ -31,17 +31,17 @@ def form_of(expression: str) -> ZpkEvaluator:
 
 def test_fraction_zeros_of_closed_forms():
     # 1/(x - 1) + 1/(x - 3) = (2x - 4)/(...): x = 2
-    np.testing.assert_allclose(fraction_zeros(np.array([1.0, 3.0]) + 0j, np.array([1.0, 1.0]) + 0j), [2.0])
+    np.testing.assert_allclose(Fractions(np.array([1.0, 3.0]) + 0j).zeros(np.array([1.0, 1.0]) + 0j), [2.0])
     # 1/(x - 1) - 1/(x - 3) = -2/(...): no finite zero (it falls off like 1/x^2)
-    assert fraction_zeros(np.array([1.0, 3.0]) + 0j, np.array([1.0, -1.0]) + 0j).size == 0
+    assert Fractions(np.array([1.0, 3.0]) + 0j).zeros(np.array([1.0, -1.0]) + 0j).size == 0
     # a conjugate pair: 1/(x - j) + 1/(x + j) = 2x/(x^2 + 1): x = 0; with a real term 1/(x - 2):
     # 2x(x - 2) + x^2 + 1 = 3x^2 - 4x + 1: x = 1/3, 1
     t = np.array([1j, -1j, 2.0])
-    got = np.sort(fraction_zeros(t, np.ones(3, dtype=complex)).real)
+    got = np.sort(Fractions(t).zeros(np.ones(3, dtype=complex)).real)
     np.testing.assert_allclose(got, [1 / 3, 1.0], rtol=1e-14)
     # equal poles merge (2/(x - 1) + 1/(x - 3): 3x - 7 = 0), and a sum that cancels entirely vanishes
-    np.testing.assert_allclose(fraction_zeros(np.array([1.0, 1.0, 3.0]) + 0j, np.ones(3, dtype=complex)), [7 / 3])
-    assert fraction_zeros(np.array([2.0, 2.0]) + 0j, np.array([1.0, -1.0]) + 0j) is None
+    np.testing.assert_allclose(Fractions(np.array([1.0, 1.0, 3.0]) + 0j).zeros(np.ones(3, dtype=complex)), [7 / 3])
+    assert Fractions(np.array([2.0, 2.0]) + 0j).zeros(np.array([1.0, -1.0]) + 0j) is None
 
 
 def test_polynomial_roots_in_a_scaled_variable():
@@ -51,6 +51,12 @@ def test_polynomial_roots_in_a_scaled_variable():
         np.testing.assert_allclose(np.sort(roots(np.array(c)).real), np.sort(np.roots(c).real), rtol=1e-13)
     far = roots(poly(np.full(24, -1e6 + 0j)))
     assert np.all((np.abs(far) > 0.4e6) & (np.abs(far) < 2.5e6))   # a 24-fold root: known only to a factor
+
+
+def test_polynomial_sums_align_at_the_constant_term():
+    # (x + 2) + (x^2 + 0x + 3) = x^2 + x + 5, whichever is longer
+    for p, q in (([1.0, 2.0], [1.0, 0.0, 3.0]), ([1.0, 0.0, 3.0], [1.0, 2.0])):
+        np.testing.assert_array_equal(polynomial_sum(np.array(p), np.array(q)), [1.0, 1.0, 5.0])
 
 
 def test_third_order_integrator_loop_against_closed_forms():
