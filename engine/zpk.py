@@ -128,8 +128,11 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
     chain = exact.cascade() if hasattr(exact, "cascade") else None
     if chain is not None:
         form = _cascade_form(network, chain, params)
-        if form is not None and _matches(form, exact):
-            return form
+        if form is not None:
+            checks = _check_frequencies(form.zeros, form.poles)
+            reference = _evaluated(exact, checks)
+            if reference is not None and _matches(form, checks, reference):
+                return form
     from scipy import linalg   # on first use: scipy.linalg costs a fifth of a second of start-up
     try:
         ss = loop_realization(network, break_at, params)
@@ -148,18 +151,17 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
         zeros = linalg.eigvals(pencil, mass)
     zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) < 1e12 * max(1.0, np.max(np.abs(poles))))]
     checks = _check_frequencies(zeros, poles)
-    try:
-        reference = exact(checks)[0]
-    except EngineError:
+    reference = _evaluated(exact, checks)
+    if reference is None:
         return None
     shape = ZpkEvaluator(1.0, zeros, poles)(checks)[0]
     if not np.all(np.isfinite(shape)) or np.any(shape == 0):
         return None
-    gain = complex(reference[2] / shape[2])
+    gain = complex(reference[0][2] / shape[2])
     if abs(gain.imag) <= 1e-9 * abs(gain):
         gain = complex(gain.real, 0.0)
     candidate = ZpkEvaluator(gain, zeros, poles)
-    return candidate if _matches(candidate, exact) else None
+    return candidate if _matches(candidate, checks, reference) else None
 
 
 def _check_frequencies(zeros: NDArray, poles: NDArray) -> NDArray[np.float64]:
@@ -170,16 +172,21 @@ def _check_frequencies(zeros: NDArray, poles: NDArray) -> NDArray[np.float64]:
     return scale * np.array([0.0137, 0.31, 1.13, 3.7, 41.0])
 
 
-def _matches(form: ZpkEvaluator, exact) -> bool:
-    """Does the form agree with ``exact`` (value to `AGREEMENT`, slope to 1e-7) at five frequencies?"""
-    checks = _check_frequencies(form.zeros, form.poles)
+def _evaluated(exact, checks: NDArray) -> tuple[NDArray, NDArray] | None:
+    """``exact``'s GH and dGH/domega at the check frequencies; None when it cannot be evaluated."""
     try:
-        reference, slope = exact(checks)
+        return exact(checks)
     except EngineError:
-        return False
+        return None
+
+
+def _matches(form: ZpkEvaluator, checks: NDArray, reference: tuple[NDArray, NDArray]) -> bool:
+    """Does the form agree with the exact loop's ``reference`` (GH and its slope at
+    ``checks``) to `AGREEMENT` in value and 1e-7 in slope?"""
     value, dvalue = form(checks)
+    exact_value, slope = reference
     with np.errstate(all="ignore"):
-        close = np.abs(value - reference) <= AGREEMENT * np.abs(reference)
+        close = np.abs(value - exact_value) <= AGREEMENT * np.abs(exact_value)
         dclose = np.abs(dvalue - slope) <= 1e-7 * np.maximum(np.abs(slope), 1e-300)
     return bool(np.all(close) and np.all(dclose))
 
