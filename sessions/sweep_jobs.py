@@ -215,7 +215,7 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
         return _gather(client, jobs, progress, cancelled)
     address, first = scheduler_address(scheduler), None
     if address is None and workers is None and jobs:   # a local cluster of the default size: maybe not worth it
-        first, serial = _serial_when_faster(jobs, workers, progress)
+        first, serial = _serial_when_faster(jobs, progress)
         if serial is not None:
             return serial
     client, cluster = _connect(address, workers, connect_timeout(timeout))
@@ -232,12 +232,11 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
 LOCAL_CLUSTER_START = 3.0   # s: a local cluster's start-up and first imports, measured on 2 cores
 
 
-def _serial_when_faster(jobs: Sequence, workers: int | None,
-                        progress: Callable[[int, int], None] | None) -> tuple[dict, Outcome | None]:
+def _serial_when_faster(jobs: Sequence, progress: Callable[[int, int], None] | None) -> tuple[dict, Outcome | None]:
     """Run the first job here and time it; when the rest would take less than a local
-    cluster's start-up saves (or there is one core), run them here too: (first run,
-    the serial outcome or None)."""
-    n = workers or os.cpu_count() or 1
+    cluster of one process per core saves (or there is one core), run them here too:
+    (first run, the serial outcome or None)."""
+    n = os.cpu_count() or 1
     started = time.perf_counter()
     first = run_job(jobs[0].payload())
     first["attempts"] = 1
