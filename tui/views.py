@@ -169,15 +169,6 @@ class View:
                     marks = response.measures
         return name, traces, marks
 
-    def step_traces(self) -> tuple[str, list[tuple[list[float], list[float], str, str]]]:
-        """The step plot's traces (`step_plot` without the measures)."""
-        name, traces, _ = self.step_plot()
-        return name, traces
-
-    def step_marks(self):
-        """The current design's step measures (`step_plot`'s)."""
-        return self.step_plot()[2]
-
     def trajectories(self) -> dict | None:
         """The presenter's trajectories of the current iteration (iteration 0's before any)."""
         records = self.records or tuple(r for r in [self.initial] if r is not None)

@@ -18,7 +18,7 @@ def test_the_marks_agree_with_python_control_step_info(workdir):
     (same 10-90 % rise and 5 % settling definitions) on the same closed loop."""
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     view = bench.view()
-    marks = view.step_marks()
+    name, traces, marks = view.step_plot()
     s = ct.tf("s")
     loop = (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
     t = np.linspace(0, 60, 200001)
@@ -26,7 +26,7 @@ def test_the_marks_agree_with_python_control_step_info(workdir):
     assert abs(marks.overshoot_percent - info["Overshoot"]) < 0.05 * info["Overshoot"]
     assert abs(marks.rise_time - info["RiseTime"]) < 0.03 * info["RiseTime"]
     assert abs(marks.settling_time - info["SettlingTime"]) < 0.03 * info["SettlingTime"]
-    fig = step_figure(*view.step_traces(), marks)
+    fig = step_figure(name, traces, marks)
     assert "overshoot" in fig.title and "settles" in fig.title and any(s.label == "peak" for s in fig.series)
 
 
@@ -53,9 +53,9 @@ def test_the_axis_is_scaled_to_the_current_design_not_an_unstable_start(workdir)
     for _ in range(8):
         bench.step()
     view = bench.view()
-    name, traces = view.step_traces()
+    name, traces, marks = view.step_plot()
     assert len(traces) == 2 and traces[1][3] == "gray"
-    fig = step_figure(name, traces, view.step_marks())
+    fig = step_figure(name, traces, marks)
     current = np.array(traces[0][1])
     low, high = fig.ylim
     assert low <= current.min() and current.max() <= high and high - low < 3 * (current.max() - current.min() + 0.1)

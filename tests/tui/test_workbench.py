@@ -12,7 +12,7 @@ from tui.workbench import Workbench
 def test_step_response_matches_python_control(workdir):
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     t, y, label = bench.view().step_response()
-    name, traces = bench.view().step_traces()
+    name, traces, _ = bench.view().step_plot()
     assert name == label and len(traces) == 1 and traces[0][1] == y and traces[0][2] == "current"
     s = ct.tf("s")
     loop = (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
@@ -141,7 +141,7 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     alone = bench.view().loop_curves()
     assert [c.label for c in alone] == [f"{names[1]}: current", f"{names[1]}: initial"]
     np.testing.assert_allclose(alone[0].gh, curves[1].gh, rtol=1e-12)
-    name, traces = bench.view().step_traces()
+    name, traces, _ = bench.view().step_plot()
     assert [t[2] for t in traces] == [f"{names[1]}: current", f"{names[1]}: initial"]
 
 
