@@ -11,8 +11,12 @@ neither the bracket nor the steps have halved in three steps (Newton crawls
 along a power law far from its root, the secant along values of very
 different sizes): it never leaves the bracket.  A root is done when its step is
 within 4 ulp, when its steps, already below `NOISE_STEP`, stop shrinking
-(the rounding noise of a flat root is reached), or when its bracket is 4 ulp
-wide; all are iterated together, vectorized.
+(the rounding noise of a flat root is reached), when its steps stop shrinking
+at a value within the function's own rounding bound (``noise``, when given: a
+slope flat to rounding, |T| = 1 to 1e-10 far below a crossover, whose root
+double precision places to a few 1e-6 only; bisecting its noise down to 4
+ulp took some 30 steps), or when its bracket is 4 ulp wide; all are iterated
+together, vectorized.
 """
 
 from __future__ import annotations
@@ -29,11 +33,14 @@ EPS = np.finfo(float).eps
 
 # omega -> (h, dh/domega), point k of the k-th root's function
 Function = Callable[[NDArray], tuple[NDArray, NDArray]]
+# omega -> the rounding bound of h there (below it h's sign is not known)
+Noise = Callable[[NDArray], NDArray]
 
 
-def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
+def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None = None) -> NDArray | None:
     """A root of h in each [lo, hi] (0 < lo < hi, h of opposite signs at the ends);
-    None when one does not settle within `MAX_STEPS`."""
+    None when one does not settle within `MAX_STEPS`.  ``noise``: h's rounding
+    bound (module docstring)."""
     if lo.size == 0:
         return np.zeros(0)
     a, b = np.log(lo), np.log(hi)
@@ -60,12 +67,18 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray) -> NDArray | None:
         width = np.abs(b - a)
         stalled = (width > 0.5 * widths[0]) & ~(previous < 0.5 * before)   # steps not shrinking either
         widths = widths[1:] + [width]
-        moved = np.where(inside & ~stalled, newton, np.where(stalled, 0.5 * (a + b), _secant(a, b, fa, fb)))
-        inside &= ~stalled
+        tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
+        # Newton's own step within 4 ulp: the root is reached, even where that step
+        # rounds onto the bracket's end (taken as outside, it fell to a secant step)
+        reached = np.abs(newton - x) <= tiny
+        inside = (inside & ~stalled) | reached
+        moved = np.where(inside, newton, np.where(stalled, 0.5 * (a + b), _secant(a, b, fa, fb)))
         size = np.abs(moved - x)
         before = previous
-        tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
-        settled = (size <= tiny) | ((size <= NOISE_STEP) & (size >= 0.5 * previous) & inside)
+        crawling = (size >= 0.5 * previous) & inside
+        settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
+        if noise is not None and crawling.any():
+            settled |= crawling & (np.abs(h) <= noise(w))
         finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
         x = np.where(done | (h == 0), x, moved)
         done |= finished

@@ -25,7 +25,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from .bracketing import bracketed_roots
+from .bracketing import Noise, bracketed_roots
 from .zpk_levels import LoopLevels
 
 # omega -> (rows of each level's slope, rows of their derivatives)
@@ -67,7 +67,7 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
             missed = _contradictions(w, top, probes, signs[row])
             if missed is None:
                 break
-            repaired = _repaired(slopes, row, w, top, *missed)
+            repaired = _repaired(slopes, row, w, top, *missed, noise=lambda omega: noise(omega)[row])
             if repaired is None:
                 return None
             w, top = repaired
@@ -119,10 +119,11 @@ def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray,
 
 
 def _repaired(slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray,
-              hi: NDArray) -> tuple[NDArray, NDArray] | None:
+              hi: NDArray, noise: Noise) -> tuple[NDArray, NDArray] | None:
     """The stationary points with one more found in each interval; None when an
-    interval holds no sign change of the slope or its search does not settle."""
-    found = _bracketed_roots(slopes, row, lo, hi)
+    interval holds no sign change of the slope or its search does not settle
+    (``noise``: the slope's rounding, where its search may stop)."""
+    found = _bracketed_roots(slopes, row, lo, hi, noise)
     if found is None:
         return None
     w = np.concatenate([w, found[0]])
@@ -133,11 +134,12 @@ def _repaired(slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray
     return w[keep], maxima[keep]
 
 
-def _bracketed_roots(slopes: Slopes, row: int, lo: NDArray, hi: NDArray) -> tuple[NDArray, NDArray] | None:
+def _bracketed_roots(slopes: Slopes, row: int, lo: NDArray, hi: NDArray,
+                     noise: Noise) -> tuple[NDArray, NDArray] | None:
     """A root of the level's slope in each [lo, hi] (its ends of opposite signs)
     and the second derivative there; None when one does not settle."""
     def fun(w: NDArray) -> tuple[NDArray, NDArray]:
         first, second = slopes(w)
         return first[row], second[row]
-    found = bracketed_roots(fun, lo, hi)
+    found = bracketed_roots(fun, lo, hi, noise)
     return None if found is None else (found, slopes(found)[1][row])
