@@ -11,8 +11,9 @@ neither the bracket nor the steps have halved in three steps (Newton crawls
 along a power law far from its root, the secant along values of very
 different sizes): it never leaves the bracket.  A root is done when its step is
 within 4 ulp, when its steps, already below `NOISE_STEP`, stop shrinking
-(the rounding noise of a flat root is reached), when its steps stop shrinking
-at a value within the function's own rounding bound (``noise``, when given: a
+(the rounding noise of a flat root is reached), when Newton's steps (taken or
+not: in the noise they leave the bracket) stop shrinking at a value within
+the function's own rounding bound (``noise``, when given: a
 slope flat to rounding, |T| = 1 to 1e-10 far below a crossover, whose root
 double precision places to a few 1e-6 only; bisecting its noise down to 4
 ulp took some 30 steps), or when its bracket is 4 ulp wide; all are iterated
@@ -48,6 +49,7 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
     x = _secant(a, b, fa, fb)
     done, previous = (fa == 0) | (fb == 0), np.full(lo.size, np.inf)
     widths, before = [np.abs(b - a)] * STALL_STEPS, np.full(lo.size, np.inf)
+    proposed_before = np.full(lo.size, np.inf)
     x = np.where(fa == 0, a, np.where(fb == 0, b, x))
     for _ in range(MAX_STEPS):
         if done.all():
@@ -77,8 +79,10 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
         before = previous
         crawling = (size >= 0.5 * previous) & inside
         settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
-        if noise is not None and crawling.any():
-            settled |= crawling & (np.abs(h) <= noise(w))
+        proposed = np.abs(newton - x)   # Newton's step, taken or not (in the noise it leaves the bracket)
+        if noise is not None:
+            settled |= (proposed >= 0.5 * proposed_before) & (np.abs(h) <= noise(w))
+        proposed_before = np.where(np.isfinite(proposed), proposed, np.inf)
         finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
         x = np.where(done | (h == 0), x, moved)
         done |= finished

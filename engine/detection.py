@@ -74,19 +74,25 @@ def point_budget(loop: LoopModel) -> int:
 _GRIDS: WeakKeyDictionary[LoopModel, Detection] = WeakKeyDictionary()
 
 
-def detection_grid(loop: LoopModel) -> Detection:
+def detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) -> Detection:
     """Frequencies that resolve every feature of GH (see the module docstring);
-    kept for the loop's lifetime (margins and closed-loop peaks share it)."""
+    kept for the loop's lifetime (margins and closed-loop peaks share it).
+    ``seed``: frequencies to start from instead of the background grid (the
+    detection grid of a close form of the same loop: its intervals are tested
+    and halved on this loop as any are, so the grid resolves this loop's
+    features all the same, in fewer rounds)."""
     found = _GRIDS.get(loop)
     if found is None:
-        found = _GRIDS[loop] = _detection_grid(loop)
+        found = _GRIDS[loop] = _detection_grid(loop, seed)
     return found
 
 
-def _detection_grid(loop: LoopModel) -> Detection:
+def _detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) -> Detection:
     budget = point_budget(loop)
     notes: list[str] = []
     w = _initial_grid(loop, budget, notes)
+    if seed is not None:
+        w = np.union1d(w, seed[(seed >= w[0]) & (seed <= w[-1])])
     points = _with_curve(w, *loop.evaluate(w))
     flat, shallow = _flat_levels(points)
     found, total = [points], w.size

@@ -65,8 +65,8 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         grid = detection_grid(loop)
         found = _refined(loop, grid)
     if loop.exact is not loop.evaluate and not getattr(loop.evaluate, "factored", False) and not _agrees(loop, found):
-        loop = loop.on_exact()  # the pole-zero form is off where it matters: refine on the network
-        grid = detection_grid(loop)
+        loop = loop.on_exact()  # the pole-zero form is off where it matters: search the network
+        grid = detection_grid(loop, seed=None if grid is None else grid.omega)
         found = _refined(loop, grid)
     gain = [m for m in found["G"] if m.gh.real < 0]
     dc = loop.dc_value

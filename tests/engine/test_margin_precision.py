@@ -5,13 +5,17 @@ here (dense log sampling, then brentq on the exact, factored GH)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.optimize import brentq
 
 from engine.analysis import unity_feedback
 from engine.loops import loop_model
-from engine.margins import margins
+from engine.detection import detection_grid
+from engine.margins import _agrees, _refined, _without_grid, margins
+from sessions.store import load_session
 
 
 def _loop(rng: np.random.Generator) -> tuple[float, np.ndarray, np.ndarray]:
@@ -86,3 +90,26 @@ def test_a_shallow_interior_minimum_is_not_missed():
     found = margins(loop_model(unity_feedback([text]), "e", np.geomspace(1e-3, 1e3, 50), {}))
     near = [m for m in found.stability if abs(m.frequency / 0.280506385 - 1) < 1e-6]
     assert len(near) == 1 and near[0].value == pytest.approx(14.0903162, rel=1e-7)
+
+
+def test_a_search_moved_to_the_network_keeps_its_margins_when_seeded():
+    """The launch vehicle's conditions (51-52 roots: searched on a grid) have a
+    pole-zero form off in the seventh digit near their clustered bending
+    modes, so the search moves to the network, its detection grid seeded with
+    the pole-zero form's.  The margins are those of a search of the network
+    from the background grid alone (every interval of the seeded grid is
+    tested and halved on the network as any are)."""
+    problem = load_session(Path(__file__).parents[2] / "sessions/examples/coebra_launch_vehicle.json").problem
+    moved = 0
+    for c, condition in enumerate(problem.conditions):
+        loop = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(c))
+        assert _without_grid(loop) is None   # too many roots for the grid-free search
+        moved += not _agrees(loop, _refined(loop, detection_grid(loop)))
+        found = margins(loop, attenuation_above=0.0)
+        alone = margins(loop.on_exact(), attenuation_above=0.0)   # the network from the background grid
+        for kind in ("gain", "phase", "stability", "attenuation"):
+            ours, theirs = getattr(found, kind), getattr(alone, kind)
+            assert len(ours) == len(theirs), kind
+            np.testing.assert_allclose([m.frequency for m in ours], [m.frequency for m in theirs], rtol=1e-12)
+            np.testing.assert_allclose([m.value for m in ours], [m.value for m in theirs], rtol=1e-12)
+    assert moved >= 1   # the seeded path was taken
