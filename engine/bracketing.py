@@ -80,8 +80,9 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
         crawling = (size >= 0.5 * previous) & inside
         settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
         proposed = np.abs(newton - x)   # Newton's step, taken or not (in the noise it leaves the bracket)
-        if noise is not None:
-            settled |= (proposed >= 0.5 * proposed_before) & (np.abs(h) <= noise(w))
+        stuck = (proposed >= 0.5 * proposed_before) & ~settled & ~done
+        if noise is not None and stuck.any():   # the bound costs an evaluation: only where it can decide
+            settled |= stuck & (np.abs(h) <= noise(w))
         proposed_before = np.where(np.isfinite(proposed), proposed, np.inf)
         finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
         x = np.where(done | (h == 0), x, moved)
