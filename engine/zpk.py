@@ -48,6 +48,9 @@ class ZpkEvaluator:
         self.gaps = self.zeros[:m] - self.poles[:m]
         self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m,
                                                                       1.0 if self.extra_zeros else -1.0)]).astype(complex)
+        # what the grid-free searches derive from the form (`engine.zpk_levels`), kept with it:
+        # the margins and the closed-loop peaks of one loop share it
+        self.derived: dict[str, object] = {}
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         omega = np.asarray(omega, dtype=float).ravel()

@@ -66,7 +66,13 @@ class LoopLevels:
     @staticmethod
     def of(form: ZpkEvaluator) -> LoopLevels | None:
         """The loop when the method applies: few roots, none on the imaginary
-        axis but at 0, a real nonzero gain."""
+        axis but at 0, a real nonzero gain (built once per form: kept in its ``derived``)."""
+        if "levels" not in form.derived:
+            form.derived["levels"] = LoopLevels._built(form)
+        return form.derived["levels"]
+
+    @staticmethod
+    def _built(form: ZpkEvaluator) -> LoopLevels | None:
         roots = np.concatenate([form.zeros, form.poles])
         if roots.size > MAX_ROOTS or form.poles.size == 0 or form.gain.imag != 0 or form.gain == 0:
             return None
@@ -135,6 +141,11 @@ class LoopLevels:
             distance = np.where(np.abs(gh) < 0.5, 0.5 * np.log1p(2 * gh.real + (gh * gh.conjugate()).real),
                                 np.log(np.abs(1.0 + gh)))
         return np.array([np.log(np.abs(gh)), self.phase(w), distance])
+
+    @cached_property
+    def distance_starts(self) -> NDArray | None:
+        """`distance_stationary` of this loop (the margins' and the peaks' searches share it)."""
+        return distance_stationary(self)
 
     @cached_property
     def all_limits(self) -> list[tuple[float, float]]:

@@ -32,7 +32,7 @@ from .fractions import Fractions
 from .zpk import ZpkEvaluator
 from .zpk_certify import DUPLICATE, Slopes, certified
 from .zpk_crossings import crossing_candidates, crossings_of
-from .zpk_levels import LoopLevels, distance_stationary
+from .zpk_levels import LoopLevels
 
 REAL = 1e-7  # |Im x| / |x| below which an eigenvalue is a real stationary point
 NEAR_REAL = 1e-2  # ... below which a close real pair could hide near it (a check point there)
@@ -72,7 +72,7 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     eigenvalues (check points)."""
     shared = Fractions(-loop.roots ** 2)
     eigenvalues = [shared.zeros(loop.signs.astype(complex)), shared.zeros(-loop.signs * loop.roots),
-                   distance_stationary(loop)]
+                   loop.distance_starts]
     if any(x is None for x in eigenvalues):
         return None
     x = np.concatenate(eigenvalues)

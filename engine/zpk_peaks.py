@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from .fractions import Fractions, polynomial_sum, roots
 from .zpk import ZpkEvaluator
 from .zpk_certify import certified
-from .zpk_levels import LoopLevels, distance_stationary
+from .zpk_levels import LoopLevels
 from .zpk_margins import distinct, newton, real_eigenvalues
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
@@ -92,7 +92,7 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
         x = Fractions(t).zeros(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
         if x is None:
             return None  # |f| constant
-        extra = distance_stationary(loop) if ab[1] == 0 else None
+        extra = loop.distance_starts if ab[1] == 0 else None
         if extra is not None:
             x = np.concatenate([x, extra])
         real, close = real_eigenvalues(x)
