@@ -4,11 +4,15 @@
 workbench on the UI thread, then a thread worker steps: each iteration it
 computes the next (State, StepRecord) from its own state and view and posts
 a `Stepped` message (marked to be shown a few times a second, and always the
-last).  The UI thread alone appends the record (`Workbench.commit`),
+last).  The UI thread alone appends the record (`Workbench.commit`; its JSON made
+by the worker),
 autosaves and refreshes the tableau.  After a shown iteration, and once more
 after the run, the worker draws the plots on screen from its own view (sizes
 taken when the run began) and posts them (`Drawn`): the tableau never waits
-for a plot.  `RunEnded` or `RunFailed` follows the last `Stepped` (messages
+for a plot.  After posting what the screen shows, the worker waits (at most
+`PAINT_WAIT`) until the UI thread has painted it: a worker stepping on would
+hold the GIL half the time and double every paint (the 50 ms timer waited
+up to 180 ms).  `RunEnded` or `RunFailed` follows the last `Stepped` (messages
 keep their order), and only then are the keys that change the session
 enabled again, so an undo can never meet a record still on its way; plots
 drawn for a view that is no longer current are dropped.
@@ -30,17 +34,20 @@ from sessions.errors import SessionError
 
 from .figures import figure_key, figures
 from .views import View
+from .workbench import stored_json
 from .widgets.plots import FigurePlot
 
 REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)
+PAINT_WAIT = 0.3  # s: after posting what the screen shows, the worker waits at most this for its paint
 
 
 class Stepped(Message):
-    """One iteration computed by the worker (``show``: refresh the tableau for it)."""
+    """One iteration computed by the worker (``show``: refresh the tableau for it;
+    ``stored``: its record's and state's JSON, made in the worker)."""
 
-    def __init__(self, state: State, record: StepRecord, show: bool):
+    def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict] | None = None):
         super().__init__()
-        self.state, self.record, self.show = state, record, show
+        self.state, self.record, self.show, self.stored = state, record, show, stored
 
 
 class Drawn(Message):
@@ -76,6 +83,7 @@ class RunRequest:
     view: View
     count: int
     canvases: dict
+    settings: dict | None = None   # the snapshot the records are kept with
 
 
 class RunLoop:
@@ -85,6 +93,7 @@ class RunLoop:
 
     def _run_setup(self) -> None:
         self._pause = threading.Event()
+        self._painted = threading.Event()   # set by the UI thread once it has painted what was posted
 
     def action_step(self) -> None:
         self._start(1)
@@ -116,7 +125,8 @@ class RunLoop:
             self.notify("the algorithm has finished; z undoes, a changes it")
             return
         screen = self._main()
-        request = RunRequest(algorithm, state, self.bench.view(), count, screen.canvases() if screen else {})
+        request = RunRequest(algorithm, state, self.bench.view(), count, screen.canvases() if screen else {},
+                             self.bench.settings)
         self._pause.clear()
         self._set_running(True)
         self._run_worker(request)
@@ -139,8 +149,10 @@ class RunLoop:
             return
         finally:
             gc.unfreeze()
+        self._painted.clear()
         self.post_message(RunEnded(note))
         if view is not None and not drawn:
+            self._painted.wait(PAINT_WAIT)   # the keys come back and are painted first
             self._post_drawings(view, request.canvases)
 
     def _steps(self, request: RunRequest) -> tuple[str | None, View | None, bool]:
@@ -154,11 +166,15 @@ class RunLoop:
             view = view.extended(record)
             final = record.status.finished or n == request.count - 1
             show = final or time.monotonic() - last >= REDRAW_INTERVAL
-            self.post_message(Stepped(state, record, show))
+            self._painted.clear()
+            self.post_message(Stepped(state, record, show, stored_json(state, record, request.settings)))
             drawn = False
             if show and not final:   # the last view is drawn after RunEnded: the keys need not wait
+                self._painted.wait(PAINT_WAIT)   # the UI paints the tableau without the worker taking the GIL
                 last = time.monotonic()
+                self._painted.clear()
                 self._post_drawings(view, request.canvases)
+                self._painted.wait(PAINT_WAIT)   # ... and the plots
                 drawn = True
             if record.status.finished:
                 break
@@ -168,9 +184,17 @@ class RunLoop:
         self.post_message(Drawn(figure_key(view), *drawings(view, canvases)))
 
     def on_stepped(self, message: Stepped) -> None:
-        """UI thread: keep the record, then show it in the tableau when asked."""
+        """UI thread: keep the record, then show it in the tableau when asked (and
+        tell the worker once it is painted)."""
         try:
-            self.bench.commit(message.state, message.record)
+            self._show_stepped(message)
+        finally:
+            if message.show:
+                self.call_after_refresh(self._painted.set)
+
+    def _show_stepped(self, message: Stepped) -> None:
+        try:
+            self.bench.commit(message.state, message.record, message.stored)
         except SessionError as exc:   # cannot happen while changes are disabled; said, never silent
             self.notify(str(exc), title="record not kept", severity="error", timeout=10)
             self._pause.set()
@@ -186,15 +210,22 @@ class RunLoop:
             gc.freeze()
 
     def on_drawn(self, message: Drawn) -> None:
-        """UI thread: the worker's plots, when they are of the current view."""
+        """UI thread: the worker's plots, when they are of the current view (the worker
+        is told once they are painted)."""
         screen = self._main()
-        if screen is not None:
-            screen.show_drawn(message.key, message.drawn, message.prebuilt)
+        try:
+            if screen is not None:
+                screen.show_drawn(message.key, message.drawn, message.prebuilt)
+        finally:
+            self.call_after_refresh(self._painted.set)
 
     def on_run_ended(self, message: RunEnded) -> None:
         if message.note == "paused":
             self.bench.paused_at = self.bench.iteration
-        self._run_done()
+        try:
+            self._run_done()
+        finally:
+            self.call_after_refresh(self._painted.set)
         if message.note == "paused":
             self.notify(f"paused at iteration {self.bench.iteration}", timeout=3)
 

@@ -113,21 +113,29 @@ class Workbench:
         state = self._state()
         return self._algorithm, state
 
-    def commit(self, state: State, record: StepRecord) -> None:
-        """Keep an iteration computed from the current state (UI thread only)."""
+    @property
+    def settings(self) -> dict | None:
+        """The settings snapshot every record is kept with (`stored` needs it)."""
+        return self._settings
+
+    def commit(self, state: State, record: StepRecord, stored: tuple[dict, dict] | None = None) -> None:
+        """Keep an iteration computed from the current state (UI thread only);
+        ``stored``: its record's and state's JSON (`stored`), made by the worker
+        that computed it, so the UI thread does not convert every iteration."""
         if record.iteration != self.iteration + 1:
             raise SessionError(f"iteration {record.iteration} does not follow iteration {self.iteration}")
         model = self.session.model
         del model.records[self.iteration:]
         del self._records[self.iteration:]
         self._redo.clear()
-        self._keep(record_json(record, self._settings), record, state)
+        record_data, state_data = stored or stored_json(state, record, self._settings)
+        self._keep(record_data, record, state, state_data)
 
-    def _keep(self, record_data: dict, record: StepRecord, state: State) -> None:
+    def _keep(self, record_data: dict, record: StepRecord, state: State, state_data: dict | None = None) -> None:
         model = self.session.model
         model.records.append(record_data)
         self._records.append(record)
-        model.state = state.to_json()
+        model.state = state.to_json() if state_data is None else state_data
         model.current_iteration = len(model.records)
         self._states = {i: st for i, st in self._states.items() if i < model.current_iteration}
         self._states[model.current_iteration] = state
@@ -294,3 +302,8 @@ class Workbench:
         self.plotted_condition = 0 if k is None else None if k + 1 >= len(names) else k + 1
         return "plots: every flight condition" if self.plotted_condition is None else \
             f"plots: {names[self.plotted_condition]} (current and initial)"
+
+
+def stored_json(state: State, record: StepRecord, settings: dict | None) -> tuple[dict, dict]:
+    """A step's record and state as the session keeps them (any thread: both are immutable)."""
+    return record_json(record, settings), state.to_json()

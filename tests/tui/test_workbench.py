@@ -169,3 +169,20 @@ def test_the_convergence_starts_at_iteration_0_and_names_are_whole(workdir):
     rows, _ = bench.view().tableau()
     text = tableau_text(rows, [], "hz").plain
     assert "x1_normalized" in text and "x1_rate_normalized" in text
+
+
+def test_a_run_keeps_the_json_its_worker_made(workdir):
+    """A run's worker converts each record and state (`stored_json`) so the UI
+    thread does not; the session keeps exactly what `commit` would have made."""
+    import json
+
+    from tui.workbench import stored_json
+    own, given = (Workbench(load_session(workdir / "cip_launch_vehicle.json")) for _ in range(2))
+    for _ in range(3):
+        algorithm, state = given.begin_run()
+        state, record = algorithm.step(state)
+        given.commit(state, record, stored_json(state, record, given.settings))
+        own.step()
+    assert json.dumps(given.session.model.records) == json.dumps(own.session.model.records)
+    assert json.dumps(given.session.model.state) == json.dumps(own.session.model.state)
+    assert given.iteration == own.iteration == 3
