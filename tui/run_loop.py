@@ -128,7 +128,9 @@ class RunLoop:
         request = RunRequest(algorithm, state, self.bench.view(), count, screen.canvases() if screen else {},
                              self.bench.settings)
         self._pause.clear()
+        self._painted.clear()
         self._set_running(True)
+        self.call_after_refresh(self._painted.set)
         self._run_worker(request)
 
     def _set_running(self, running: bool) -> None:
@@ -159,6 +161,7 @@ class RunLoop:
         """In the worker: step, post every record, draw now and then; why it stopped,
         the last view and whether its plots were drawn."""
         state, view, last, drawn = request.state, request.view, 0.0, True
+        self._painted.wait(PAINT_WAIT)   # the keys dimmed for the run are painted first
         for n in range(request.count):
             if self._pause.is_set():
                 return "paused", view, drawn
