@@ -20,18 +20,13 @@ is reported with its attempts.
 
 from __future__ import annotations
 
-import math
 import os
-import re
-import signal
-import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager, nullcontext
+from collections.abc import Callable, Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
-from urllib.parse import urlsplit
 
 import numpy as np
 
@@ -45,6 +40,7 @@ from .build import build_problem
 from .errors import SessionError
 from .lifecycle import bind
 from .schema import SessionModel
+from .sweep_cluster import DEFAULT_CONNECT_TIMEOUT, close, connect, connect_timeout, scheduler_address, sigint_ignored
 
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"
@@ -129,55 +125,7 @@ def _announce(index: int) -> str:
 
 # -- execution ---------------------------------------------------------------
 
-DEFAULT_CONNECT_TIMEOUT = 5.0    # s: how long to wait for a scheduler, or for a local cluster's workers
 RESULT_WAIT = 5.0                # s: for a finished run's result after an interrupt
-
-
-def scheduler_address(text: str | None, label: str = "--scheduler") -> str | None:
-    """A scheduler address checked before anything starts: None (a local cluster) or
-    tcp://HOST:PORT, HOST a name, an IPv4 address or [IPv6], PORT 1-65535."""
-    if text is None:
-        return None
-    form = f"{label} {text!r}: write tcp://HOST:PORT (PORT 1-65535)"
-    if not text.strip():
-        raise SessionError(form + f"; leave {label} out for a local cluster")
-    parts = urlsplit(text.strip())
-    if parts.scheme != "tcp":
-        raise SessionError(form + (f"; {parts.scheme}:// is not supported" if parts.scheme else ""))
-    try:
-        port = parts.port
-    except ValueError:
-        raise SessionError(form) from None
-    host = parts.hostname or ""
-    if (not port or not _HOST.fullmatch(host) or parts.username is not None
-            or parts.path or parts.query or parts.fragment):
-        raise SessionError(form)
-    return f"tcp://{'[' + host + ']' if ':' in host else host}:{port}"
-
-
-_HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9.-]*[A-Za-z0-9])?|[0-9A-Fa-f:.]*:[0-9A-Fa-f:.]*")
-
-
-def connect_timeout(seconds: float | None) -> float:
-    """The connect timeout in seconds (DEFAULT_CONNECT_TIMEOUT for None); positive and finite."""
-    value = DEFAULT_CONNECT_TIMEOUT if seconds is None else seconds
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-        raise SessionError(f"--connect-timeout {seconds!r}: a positive number of seconds")
-    return float(value)
-
-
-@contextmanager
-def sigint_ignored() -> Iterator[None]:
-    """Ctrl-C ignored inside (in the main thread only: elsewhere nothing changes);
-    processes started inside inherit it."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 @dataclass
@@ -218,7 +166,7 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
         first, serial = _serial_when_faster(jobs, progress)
         if serial is not None:
             return serial
-    client, cluster = _connect(address, workers, connect_timeout(timeout))
+    client, cluster = connect(address, workers, connect_timeout(timeout))
     try:
         if first is None:
             return _gather(client, jobs, progress, cancelled)
@@ -226,7 +174,7 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
         return Outcome([first] + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted)
     finally:
         with sigint_ignored():
-            _close(client, cluster)
+            close(client, cluster)
 
 
 LOCAL_CLUSTER_START = 3.0   # s: a local cluster's start-up and first imports, measured on 2 cores
@@ -253,44 +201,6 @@ def _serial_when_faster(jobs: Sequence, progress: Callable[[int, int], None] | N
         return first, None
     rest = execute_serial(jobs[1:], None if progress is None else lambda k, _: progress(k + 1, len(jobs)))
     return first, Outcome([first] + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note)
-
-
-def _connect(address: str | None, workers: int | None, timeout: float):
-    """A client of the scheduler at ``address``, or of a new local cluster; every failure a `SessionError`."""
-    from distributed import Client, LocalCluster
-    if address is not None:
-        try:
-            return Client(address, timeout=timeout), None
-        except Exception as exc:  # noqa: BLE001 - whatever answers (or not) there, one clean error
-            raise SessionError(f"cannot reach the Dask scheduler {address} within {timeout:g} s: "
-                               f"{_reason(exc)}") from None
-    n = workers or os.cpu_count() or 1
-    try:
-        with sigint_ignored():   # the worker processes inherit it: Ctrl-C is for this process alone
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   silence_logs=40)
-    except Exception as exc:  # noqa: BLE001 - e.g. "Nanny failed to start": one clean error
-        raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {_reason(exc)}") from None
-    try:
-        return Client(cluster, timeout=timeout), cluster
-    except Exception as exc:  # noqa: BLE001
-        _close(None, cluster)
-        raise SessionError(f"cannot connect to the local Dask cluster: {_reason(exc)}") from None
-
-
-def _reason(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
-
-
-def _close(client, cluster) -> None:
-    """Close what was opened; a failure to close never loses the results."""
-    for thing in (client, cluster):
-        if thing is not None:
-            try:
-                thing.close()
-            except Exception:  # noqa: BLE001, S110 - closing is best effort
-                pass
 
 
 def _gather(client, jobs, progress, cancelled) -> Outcome:

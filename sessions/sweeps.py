@@ -19,7 +19,8 @@ from .build import read_csv, table_path
 from .errors import SessionError
 from .lifecycle import folder
 from .store import Session, tables_in
-from .sweep_jobs import run_job, scheduler_address
+from .sweep_cluster import scheduler_address
+from .sweep_jobs import run_job
 
 
 @dataclass(frozen=True)

@@ -40,9 +40,10 @@ def sweep_throughput() -> dict:
     """32 starts of the launch-vehicle session limited to 2 major iterations (about
     a second a run): serially in this process, then on a local Dask cluster (one
     process per core), timed without and with starting the cluster (target 1.6x)."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     from sessions.store import load_session
+    from sessions.sweep_cluster import local_cluster
     from sessions.sweep_jobs import execute, execute_serial
     from sessions.sweeps import start_jobs
     session = load_session(ROOT / "sessions" / "examples" / "coebra_launch_vehicle.json")
@@ -52,8 +53,7 @@ def sweep_throughput() -> dict:
     serial = execute_serial(jobs)
     t_serial = time.perf_counter() - start
     start = time.perf_counter()
-    cluster = LocalCluster(n_workers=os.cpu_count(), threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=40)
+    cluster = local_cluster(os.cpu_count() or 1)   # as `loopcraft sweep` starts one
     client = Client(cluster)
     ready = time.perf_counter()
     parallel = execute(jobs, client=client)

@@ -43,7 +43,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finished runs (exit status 130); a session that cannot be saved leaves the summary
     in NAME.sweep-recovery.json."""
     from sessions.store import load_session, prepare_save
-    from sessions.sweep_jobs import connect_timeout, scheduler_address, sigint_ignored
+    from sessions.sweep_cluster import connect_timeout, scheduler_address, sigint_ignored
     address = scheduler_address(args.scheduler)
     timeout = connect_timeout(args.connect_timeout)
     target = Path(args.out or args.file)

@@ -1,0 +1,128 @@
+"""Where a sweep's jobs run: a Dask scheduler's address checked before anything
+starts, the connect timeout, a local cluster (one quiet, preloaded process per
+core), and Ctrl-C kept for this process alone.  Every failure to start or
+reach a cluster is a `SessionError`."""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from urllib.parse import urlsplit
+
+from .errors import SessionError
+
+DEFAULT_CONNECT_TIMEOUT = 5.0    # s: how long to wait for a scheduler, or for a local cluster's workers
+
+
+def scheduler_address(text: str | None, label: str = "--scheduler") -> str | None:
+    """A scheduler address checked before anything starts: None (a local cluster) or
+    tcp://HOST:PORT, HOST a name, an IPv4 address or [IPv6], PORT 1-65535."""
+    if text is None:
+        return None
+    form = f"{label} {text!r}: write tcp://HOST:PORT (PORT 1-65535)"
+    if not text.strip():
+        raise SessionError(form + f"; leave {label} out for a local cluster")
+    parts = urlsplit(text.strip())
+    if parts.scheme != "tcp":
+        raise SessionError(form + (f"; {parts.scheme}:// is not supported" if parts.scheme else ""))
+    try:
+        port = parts.port
+    except ValueError:
+        raise SessionError(form) from None
+    host = parts.hostname or ""
+    if (not port or not _HOST.fullmatch(host) or parts.username is not None
+            or parts.path or parts.query or parts.fragment):
+        raise SessionError(form)
+    return f"tcp://{'[' + host + ']' if ':' in host else host}:{port}"
+
+
+_HOST = re.compile(r"[A-Za-z0-9]([A-Za-z0-9.-]*[A-Za-z0-9])?|[0-9A-Fa-f:.]*:[0-9A-Fa-f:.]*")
+
+
+def connect_timeout(seconds: float | None) -> float:
+    """The connect timeout in seconds (DEFAULT_CONNECT_TIMEOUT for None); positive and finite."""
+    value = DEFAULT_CONNECT_TIMEOUT if seconds is None else seconds
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+        raise SessionError(f"--connect-timeout {seconds!r}: a positive number of seconds")
+    return float(value)
+
+
+@contextmanager
+def sigint_ignored() -> Iterator[None]:
+    """Ctrl-C ignored inside (in the main thread only: elsewhere nothing changes);
+    processes started inside inherit it."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def connect(address: str | None, workers: int | None, timeout: float):
+    """A client of the scheduler at ``address``, or of a new local cluster; every failure a `SessionError`."""
+    from distributed import Client
+    if address is not None:
+        try:
+            return Client(address, timeout=timeout), None
+        except Exception as exc:  # noqa: BLE001 - whatever answers (or not) there, one clean error
+            raise SessionError(f"cannot reach the Dask scheduler {address} within {timeout:g} s: "
+                               f"{_reason(exc)}") from None
+    n = workers or os.cpu_count() or 1
+    try:
+        with sigint_ignored():   # the worker processes inherit it: Ctrl-C is for this process alone
+            cluster = local_cluster(n)
+    except Exception as exc:  # noqa: BLE001 - e.g. "Nanny failed to start": one clean error
+        raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {_reason(exc)}") from None
+    try:
+        return Client(cluster, timeout=timeout), cluster
+    except Exception as exc:  # noqa: BLE001
+        close(None, cluster)
+        raise SessionError(f"cannot connect to the local Dask cluster: {_reason(exc)}") from None
+
+
+# A local cluster's workers run long numerical jobs: Dask's own monitors there only take
+# turns at the GIL with them.  Its statistical profiler samples the running job's stack
+# every 10 ms: the launch-vehicle sweep's runs took 1.5 times as long as in this process
+# (measured in tests/bench, sweep_throughput), about 1.1 times without these.
+QUIET_WORKERS = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.gil.enabled": False,
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.worker.memory.monitor-interval": "1s",
+}
+PRELOAD = "sessions.sweep_worker"   # imports done as the workers start, after any configured preload
+
+
+def local_cluster(workers: int):
+    """A local Dask cluster of ``workers`` processes of one thread each, quiet (`QUIET_WORKERS`)
+    and preloaded (`PRELOAD`)."""
+    import dask
+    from distributed import LocalCluster
+    preload = list(dask.config.get("distributed.worker.preload", [])) + [PRELOAD]
+    with dask.config.set({**QUIET_WORKERS, "distributed.worker.preload": preload}):
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                            silence_logs=40)
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def close(client, cluster) -> None:
+    """Close what was opened; a failure to close never loses the results."""
+    for thing in (client, cluster):
+        if thing is not None:
+            try:
+                thing.close()
+            except Exception:  # noqa: BLE001, S110 - closing is best effort
+                pass
