@@ -45,6 +45,8 @@ class LoopLevels:
         self.phase_offset = (math.pi if self.gain < 0 else 0.0) + math.pi * float(self.signs[right].sum())
         self.phase_turn = np.where(right, -self.signs, self.signs)
         self.imag, self.damping = self.roots.imag[:, None], np.abs(self.roots.real)[:, None]
+        # the stationary points of log |1 + GH| and which are maxima, once the margin search has certified them
+        self.certified_distance: tuple[NDArray, NDArray] | None = None
 
     def _unit_gains(self) -> list[float]:
         """Where the asymptotes of |GH| at 0 and at infinity cross 1 (features a gain

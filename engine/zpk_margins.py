@@ -62,6 +62,7 @@ def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
         crossings = crossings_of(loop, points)
     if crossings is None:
         return None
+    loop.certified_distance = (points[2], maxima[2])   # the closed-loop peaks of |S| read them
     return {"G": crossings[1], "P": crossings[0], "S": points[2][~maxima[2]], "A": points[0][maxima[0]]}
 
 

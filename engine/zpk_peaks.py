@@ -12,8 +12,11 @@ stationary points of |f| are the zeros of a sum of fractions (`engine.fractions`
 polished by Newton's method on the exact form (slopes from GH, u = d log GH/ds
 and du/ds: `engine.zpk_levels`), certified and repaired as the margins'
 are (`engine.zpk_certify`).  The peak over a band is the largest of the
-maxima inside it and its ends (limits at 0 and infinity).  None whenever the
-method does not apply; `engine.sensitivity` then searches a grid.
+maxima inside it and its ends (limits at 0 and infinity).  A multiple of S
+(b = 0) is stationary where |1 + GH| is: when the margin search of the same
+form has certified those points (`LoopLevels.certified_distance`), they are
+taken, not searched again.  None whenever the method does not apply;
+`engine.sensitivity` then searches a grid.
 """
 
 from __future__ import annotations
@@ -39,6 +42,23 @@ def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.
     loop = LoopLevels.of(form)
     if loop is None or not all(_proper(loop, ab) for ab in transforms):
         return None
+    known = loop.certified_distance   # the margin search's, when it ran: |a / (1 + GH)| peaks at its minima
+    searched = [ab for ab in transforms if known is None or ab[1] != 0]
+    found = _stationary(loop, searched) if searched else ([], [])
+    if found is None:
+        return None
+    points, tops = iter(found[0]), iter(found[1])
+    out = []
+    for ab in transforms:
+        if known is None or ab[1] != 0:
+            out.append(_peak(loop, ab, next(points)[next(tops)], low, high))
+        else:
+            out.append(_peak(loop, ab, known[0][~known[1]], low, high))
+    return out
+
+
+def _stationary(loop: LoopLevels, transforms: list[Moebius]) -> tuple[list[NDArray], list[NDArray]] | None:
+    """Per transform, the stationary points of |f| and which are maxima, certified; None when a check fails."""
     with np.errstate(all="ignore"):
         starts = _starts(loop, transforms)
         if starts is None:
@@ -50,11 +70,8 @@ def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.
         found = distinct(*newton(slopes, w, kind), kinds=len(transforms))
         if found is None:
             return None
-        checked = certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms),
-                            noise=lambda omega: _moebius_noise(loop, omega, transforms))
-        if checked is None:
-            return None
-        return [_peak(loop, ab, points[top], low, high) for ab, points, top in zip(transforms, *checked)]
+        return certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms),
+                         noise=lambda omega: _moebius_noise(loop, omega, transforms))
 
 
 def _ends(loop: LoopLevels, transforms: list[Moebius]):

@@ -95,3 +95,27 @@ def resolved(loop, transform, frequency: float) -> bool:
     gh = loop.evaluate(np.array([frequency, frequency * 0.999, frequency * 1.001]))[0]
     level = np.abs((a + b * gh) / (1 + gh))
     return bool(level[0] - level[1:].max() > 1e-13 * level[0])
+
+
+def test_the_peak_of_s_after_a_margin_search_is_the_one_searched_alone():
+    """After the margin search of a form, a multiple of S takes its stationary points
+    (those of |1 + GH|, certified there) instead of searching them again: the same
+    peaks as a fresh form's own search, on 200 random loops."""
+    from engine.zpk_levels import LoopLevels
+    from engine.zpk_margins import fast_margins
+    reused = 0
+    ab = [t.moebius for t in TRANSFORMS] + [(2.5, 0.0)]
+    for seed in range(200):
+        num, den = random_loop(seed)
+        fresh, searched = (loop_model(loop_network(num, den), "e", GRID, {}).evaluate for _ in range(2))
+        if not isinstance(fresh, ZpkEvaluator) or fast_margins(searched) is None:
+            continue
+        assert LoopLevels.of(searched).certified_distance is not None and LoopLevels.of(fresh).certified_distance is None
+        alone, after = moebius_peaks(fresh, ab), moebius_peaks(searched, ab)
+        if alone is None:
+            continue
+        reused += 1
+        for (value, frequency), (again, where) in zip(alone, after):
+            assert again == pytest.approx(value, rel=1e-13) and (where == frequency or where == pytest.approx(
+                frequency, rel=1e-9)), seed
+    assert reused >= 180
