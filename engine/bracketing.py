@@ -70,16 +70,16 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
         stalled = (width > 0.5 * widths[0]) & ~(previous < 0.5 * before)   # steps not shrinking either
         widths = widths[1:] + [width]
         tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
-        # Newton's own step within 4 ulp: the root is reached, even where that step
-        # rounds onto the bracket's end (taken as outside, it fell to a secant step)
-        reached = np.abs(newton - x) <= tiny
+        proposed = np.abs(newton - x)   # Newton's step, taken or not (in the noise it leaves the bracket)
+        # within 4 ulp the root is reached, even where the step rounds onto the bracket's end
+        # (taken as outside, it fell to a secant step 2 % of the bracket away)
+        reached = proposed <= tiny
         inside = (inside & ~stalled) | reached
         moved = np.where(inside, newton, np.where(stalled, 0.5 * (a + b), _secant(a, b, fa, fb)))
         size = np.abs(moved - x)
         before = previous
         crawling = (size >= 0.5 * previous) & inside
         settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
-        proposed = np.abs(newton - x)   # Newton's step, taken or not (in the noise it leaves the bracket)
         stuck = (proposed >= 0.5 * proposed_before) & ~settled & ~done
         if noise is not None and stuck.any():   # the bound costs an evaluation: only where it can decide
             settled |= stuck & (np.abs(h) <= noise(w))
