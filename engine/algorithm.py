@@ -160,8 +160,9 @@ class State:
     memory: Memory
 
     def to_json(self) -> dict:
-        return _jsonable({"iteration": self.iteration, "x": self.x, "status": self.status,
-                          "memory": self.memory.to_json()})
+        memory = self.memory.to_json()   # a memory that writes plain JSON is not walked again
+        return {**_jsonable({"iteration": self.iteration, "x": self.x, "status": self.status}),
+                "memory": memory if getattr(type(self.memory), "PLAIN_JSON", False) else _jsonable(memory)}
 
     @staticmethod
     def from_json(data: Any, memory_type: type[Memory]) -> State:
