@@ -43,7 +43,7 @@ def sweep_throughput() -> dict:
     from distributed import Client
 
     from sessions.store import load_session
-    from sessions.sweep_cluster import local_cluster
+    from sessions.sweep_cluster import close, local_cluster
     from sessions.sweep_jobs import execute, execute_serial
     from sessions.sweeps import start_jobs
     session = load_session(ROOT / "sessions" / "examples" / "coebra_launch_vehicle.json")
@@ -58,8 +58,7 @@ def sweep_throughput() -> dict:
     ready = time.perf_counter()
     parallel = execute(jobs, client=client)
     done = time.perf_counter()
-    client.close()
-    cluster.close()
+    close(client, cluster)   # as the sweep closes them
     same = all(a["parameters"] == b["parameters"] for a, b in zip(serial.runs, parallel.runs))
     speedup, with_start = t_serial / (done - ready), t_serial / (done - start)
     return {"runs": len(jobs), "workers": os.cpu_count(), "serial_s": t_serial, "mean_run_s": t_serial / len(jobs),
