@@ -16,7 +16,7 @@ listing's loop 220 would keep the gain-margin radius).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -125,8 +125,8 @@ def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool
                               "(a value out of floating-point range, or a pole on the grid)")
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
-        found += [replace(made, method=found_margins.label)
-                  for made in _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability)]
+        found += _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability,
+                              found_margins.label)
         from .peaks import peak_constraints  # Mt and disk margins (family D); peaks.py imports Constraint
         found += peak_constraints(loop, targets, c)
         windings.append(winding(loop.gh))
@@ -157,14 +157,14 @@ def _tableau_order(c: Constraint) -> tuple:
 
 
 def _constraints(found: tuple[Margin, ...], targets: list[tuple[int, Target]], c: int,
-                 gain_as_stability: bool, phase_as_stability: bool) -> list[Constraint]:
+                 gain_as_stability: bool, phase_as_stability: bool, method: str = "grid") -> list[Constraint]:
     out: list[Constraint] = []
     stability_targets = [(i, t) for i, t in targets if KIND[t.measure] == "S"]
     for i, target in targets:
         kind = KIND[target.measure]
         for m in found:
             if m.kind == kind and target.detect_low <= m.frequency <= target.detect_high:
-                made = _constraint(m, target, f"{target.measure}#{i}@{c}", c)
+                made = _constraint(m, target, f"{target.measure}#{i}@{c}", c, method)
                 if made is not None:
                     out.append(made)
     copies = [k for k, wanted in (("G", gain_as_stability), ("P", phase_as_stability)) if wanted]
@@ -172,7 +172,7 @@ def _constraints(found: tuple[Margin, ...], targets: list[tuple[int, Target]], c
     for made in copied:
         for i, target in stability_targets:
             margin = Margin("S", made.frequency, made.value, made.gh)
-            copy = _constraint(margin, target, f"stability_margin#{i}@{c}<{made.kind}", c)
+            copy = _constraint(margin, target, f"stability_margin#{i}@{c}<{made.kind}", c, method)
             if copy is not None:
                 out.append(copy)
     taken = {(made.frequency, made.family.split("<")[0]) for made in out if "<" in made.family}
@@ -180,7 +180,7 @@ def _constraints(found: tuple[Margin, ...], targets: list[tuple[int, Target]], c
             or (made.frequency, made.family) not in taken]
 
 
-def _constraint(m: Margin, target: Target, family: str, c: int) -> Constraint | None:
+def _constraint(m: Margin, target: Target, family: str, c: int, method: str = "grid") -> Constraint | None:
     desired = target.desired(m.frequency)
     if desired is None:
         return None
@@ -194,4 +194,4 @@ def _constraint(m: Margin, target: Target, family: str, c: int) -> Constraint | 
         shown, goal = (1.0 / m.value if m.value > 0 else math.inf), (1.0 / desired if desired > 0 else math.inf)
     points = target.points or DEFAULT_POINTS[KIND[target.measure]]
     return Constraint(family, KIND[target.measure], target.measure, c, m.frequency, value, goal, shown,
-                      shown_desired, target.weight, points, m.gh)
+                      shown_desired, target.weight, points, m.gh, method)
