@@ -101,7 +101,13 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
     transform's number, and the near-real zeros' frequencies (check points).
     A multiple of S (b = 0) is stationary where |1 + GH| is: its starts are
     also `distance_stationary`'s (whose residue form keeps the digits the
-    difference of sums loses where a closed-loop pole is near an open-loop one)."""
+    difference of sums loses where a closed-loop pole is near an open-loop one).
+    So are any transform's with a != 0: near a lightly damped mode, and where
+    |GH| is small (log|f| ~ log|a| + (b/a - 1) Re GH), its stationary points
+    lie by those of |1 + GH|, where its own sums cancel; the certificate had
+    to bracket each one missed (five for the disk margin of an order-18 loop
+    with six light modes).  The starts are kept per loop (`LoopLevels`): the
+    margin search has made them when analyze gets here."""
     starts, kinds, near = [], [], []
     for number, ab in enumerate(transforms):
         top = _numerator_roots(loop, ab)
@@ -109,7 +115,7 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
         x = Fractions(t).zeros(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
         if x is None:
             return None  # |f| constant
-        extra = loop.distance_starts if ab[1] == 0 else None
+        extra = loop.distance_starts if ab[0] != 0 else None
         if extra is not None:
             x = np.concatenate([x, extra])
         real, close = real_eigenvalues(x)

@@ -119,3 +119,28 @@ def test_the_peak_of_s_after_a_margin_search_is_the_one_searched_alone():
             assert again == pytest.approx(value, rel=1e-13) and (where == frequency or where == pytest.approx(
                 frequency, rel=1e-9)), seed
     assert reused >= 180
+
+
+SIX_LIGHT_MODES = ("1e4*(s+1)/(s*(s+0.1)*(s+10)*(s+100)*(s**2+0.002*s+25)*(s**2+0.004*s+100)*(s**2+0.006*s+400)"
+                   "*(s**2+0.008*s+900)*(s**2+0.01*s+1600)*(s**2+0.01*s+2500)*(s**2+0.01*s+3600))")
+
+
+def test_the_disk_peak_by_light_modes_starts_where_the_distance_is_stationary(monkeypatch):
+    """Near lightly damped modes the disk transform's own sums cancel and its
+    stationary points were missed, each bracketed by the certificate (five on
+    this loop, 25 evaluations); it now starts from |1 + GH|'s as well, and
+    after the margin search needs no repair.  The peaks equal the grid's."""
+    from engine import zpk_certify
+    from engine.zpk_margins import fast_margins
+    repaired = []
+    real = zpk_certify._repaired
+    monkeypatch.setattr(zpk_certify, "_repaired", lambda slopes, row, *rest, **kw: repaired.append(row) or real(
+        slopes, row, *rest, **kw))
+    loop = loop_model(unity_feedback([SIX_LIGHT_MODES]), "e", GRID, {})
+    assert fast_margins(loop.evaluate) is not None
+    repaired.clear()
+    transforms = [disk_transform(0.0), peaks.sensitivity, peaks.complementary]
+    fast = moebius_peaks(loop.evaluate, [t.moebius for t in transforms])
+    assert fast is not None and repaired == []
+    for grid, (value, frequency) in zip(peaks._peaks_on(loop, transforms, Band()), fast):
+        assert value == pytest.approx(grid.value, rel=1e-12)
