@@ -35,6 +35,7 @@ from .margin_types import Band, Margin, Margins, margins_of, single_margin
 from .rootfind import Roots, refine, sign_changes
 from .shapes import shape_notes
 from .zpk import ZpkEvaluator
+from .zpk_levels import log_distance
 from .zpk_margins import fast_margins
 
 
@@ -270,9 +271,7 @@ def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset
     with np.errstate(all="ignore"):
         base = g + shift
         turned, ratio = base / left, dg / base
-        # log |1 + GH| from GH itself where |GH| is small: 1 + GH rounds its variation away
-        small = (shift != 0) & (np.abs(g) < 0.5)
-        magnitude = np.where(small, 0.5 * np.log1p(2.0 * g.real + (g * g.conjugate()).real), np.log(np.abs(base)))
+        magnitude = np.where(shift != 0, log_distance(g), np.log(np.abs(g)))
         h = np.where(angle, np.arctan2(turned.imag, turned.real) + offset, magnitude)
     return h, np.where(angle, ratio.imag, ratio.real)
 

@@ -140,9 +140,7 @@ class LoopLevels:
         GH itself where it is small: 1 + GH would round its variation away)."""
         gh = self.terms(w)[0]
         with np.errstate(all="ignore"):
-            distance = np.where(np.abs(gh) < 0.5, 0.5 * np.log1p(2 * gh.real + (gh * gh.conjugate()).real),
-                                np.log(np.abs(1.0 + gh)))
-        return np.array([np.log(np.abs(gh)), self.phase(w), distance])
+            return np.array([np.log(np.abs(gh)), self.phase(w), log_distance(gh)])
 
     @cached_property
     def distance_starts(self) -> NDArray | None:
@@ -172,6 +170,12 @@ class LoopLevels:
         top = (math.pi if self.gain < 0 else 0.0) + math.pi / 2 * excess
         zero = float(self.phase(np.zeros(1))[0]) + math.pi / 2 * n0  # atan2(0, 0) is 0, the limit pi/2
         return mag, (zero, top)
+
+
+def log_distance(gh: NDArray) -> NDArray:
+    """log |1 + GH|, from GH itself where |GH| is small (1 + GH would round its variation away)."""
+    return np.where(np.abs(gh) < 0.5, 0.5 * np.log1p(2.0 * gh.real + (gh * gh.conjugate()).real),
+                    np.log(np.abs(1.0 + gh)))
 
 
 def _closed_loop_poles(numerator: NDArray, denominator: NDArray) -> NDArray | None:
