@@ -43,18 +43,14 @@ def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.
     if loop is None or not all(_proper(loop, ab) for ab in transforms):
         return None
     known = loop.certified_distance   # the margin search's, when it ran: |a / (1 + GH)| peaks at its minima
-    searched = [ab for ab in transforms if known is None or ab[1] != 0]
+    reused = [known is not None and ab[1] == 0 for ab in transforms]
+    searched = [ab for ab, taken in zip(transforms, reused) if not taken]
     found = _stationary(loop, searched) if searched else ([], [])
     if found is None:
         return None
-    points, tops = iter(found[0]), iter(found[1])
-    out = []
-    for ab in transforms:
-        if known is None or ab[1] != 0:
-            out.append(_peak(loop, ab, next(points)[next(tops)], low, high))
-        else:
-            out.append(_peak(loop, ab, known[0][~known[1]], low, high))
-    return out
+    maxima = iter(points[top] for points, top in zip(*found))
+    return [_peak(loop, ab, known[0][~known[1]] if taken else next(maxima), low, high)
+            for ab, taken in zip(transforms, reused)]
 
 
 def _stationary(loop: LoopLevels, transforms: list[Moebius]) -> tuple[list[NDArray], list[NDArray]] | None:
