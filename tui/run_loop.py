@@ -45,7 +45,7 @@ class Stepped(Message):
     """One iteration computed by the worker (``show``: refresh the tableau for it;
     ``stored``: its record's and state's JSON, made in the worker)."""
 
-    def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict] | None = None):
+    def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict]):
         super().__init__()
         self.state, self.record, self.show, self.stored = state, record, show, stored
 
@@ -83,7 +83,7 @@ class RunRequest:
     view: View
     count: int
     canvases: dict
-    settings: dict | None = None   # the snapshot the records are kept with
+    settings: dict | None   # the snapshot the records are kept with (`Workbench.settings`)
 
 
 class RunLoop:

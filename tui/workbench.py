@@ -115,12 +115,12 @@ class Workbench:
 
     @property
     def settings(self) -> dict | None:
-        """The settings snapshot every record is kept with (`stored` needs it)."""
+        """The settings snapshot every record is kept with (`stored_json` needs it)."""
         return self._settings
 
     def commit(self, state: State, record: StepRecord, stored: tuple[dict, dict] | None = None) -> None:
         """Keep an iteration computed from the current state (UI thread only);
-        ``stored``: its record's and state's JSON (`stored`), made by the worker
+        ``stored``: its record's and state's JSON (`stored_json`), made by the worker
         that computed it, so the UI thread does not convert every iteration."""
         if record.iteration != self.iteration + 1:
             raise SessionError(f"iteration {record.iteration} does not follow iteration {self.iteration}")
