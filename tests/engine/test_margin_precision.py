@@ -113,3 +113,17 @@ def test_a_search_moved_to_the_network_keeps_its_margins_when_seeded():
             np.testing.assert_allclose([m.frequency for m in ours], [m.frequency for m in theirs], rtol=1e-12)
             np.testing.assert_allclose([m.value for m in ours], [m.value for m in theirs], rtol=1e-12)
     assert moved >= 1   # the seeded path was taken
+
+
+def test_a_seeded_detection_grid_holds_its_seed_within_the_background_range():
+    """The network's grid starts from the pole-zero form's points (inside the range the
+    background grid spans) and is then split as any grid is."""
+    from engine import detection
+    problem = load_session(Path(__file__).parents[2] / "sessions/examples/coebra_launch_vehicle.json").problem
+    condition = problem.conditions[0]
+    loop = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(0))
+    seed = detection._detection_grid(loop).omega
+    background = detection._detection_grid(loop.on_exact()).omega
+    seeded = detection._detection_grid(loop.on_exact(), seed).omega
+    inside = seed[(seed >= background[0]) & (seed <= background[-1])]
+    assert np.isin(inside, seeded).all() and seeded[0] == background[0] and seeded[-1] == background[-1]
