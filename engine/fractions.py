@@ -50,13 +50,13 @@ class Fractions:
         self.pencil[first, n] = 1.0
         self.first, self.n = first, n
 
-    def zeros(self, a: NDArray[np.complex128], squared: bool = False) -> NDArray[np.complex128] | None:
-        """The finite zeros of sum a_k / (x - t_k) (``squared``: of sum a_k /
-        (x - t_k)^2, the system cascaded with its own resolvent: c^T (xI - L)^-2 b);
-        None when the sum vanishes identically or its terms are not closed
-        under conjugation."""
-        if not self.closed:
-            return None
+    def vanishes(self, a: NDArray[np.complex128]) -> bool:
+        """Does sum a_k / (x - t_k) vanish identically (its weights, equal poles'
+        summed, all within `VANISHING` of the largest given)?"""
+        return self._weights(a) is None
+
+    def _weights(self, a: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
+        """The weights per distinct pole, scaled to a largest of 1; None when they vanish."""
         singles, pairs = self.count
         if self.merge:
             weights = np.zeros(singles + pairs, dtype=complex)
@@ -67,7 +67,19 @@ class Fractions:
         size = float(np.abs(weights).max(initial=0.0))
         if not size > VANISHING * max(float(np.abs(a).max(initial=0.0)), 1e-300):
             return None
-        weights /= size
+        return weights / size
+
+    def zeros(self, a: NDArray[np.complex128], squared: bool = False) -> NDArray[np.complex128] | None:
+        """The finite zeros of sum a_k / (x - t_k) (``squared``: of sum a_k /
+        (x - t_k)^2, the system cascaded with its own resolvent: c^T (xI - L)^-2 b);
+        None when the sum vanishes identically (`vanishes`) or its terms are not
+        closed under conjugation."""
+        if not self.closed:
+            return None
+        weights = self._weights(a)
+        if weights is None:
+            return None
+        singles = self.count[0]
         pencil, n = self.pencil.copy(), self.n
         pencil[n, :singles] = weights[:singles].real
         pencil[n, self.first], pencil[n, self.first + 1] = 2 * weights[singles:].real, -2 * weights[singles:].imag

@@ -33,9 +33,9 @@ from .fit_cache import cached_fit
 from .loops import LoopModel
 from .margin_types import Band, Margin, Margins, margins_of, single_margin
 from .rootfind import Roots, refine, sign_changes
-from .shapes import shape_notes
+from .shapes import level_notes, shape_notes
 from .zpk import ZpkEvaluator
-from .zpk_levels import log_distance
+from .zpk_levels import LoopLevels, log_distance
 from .zpk_margins import fast_margins
 
 
@@ -61,7 +61,7 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         return replace(found, method="fitted", residual=fitted[1], notes=(
             f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
             f"(relative residual {fitted[1]:.1e} on the table, the margins' stated uncertainty)",) + notes)
-    grid, found = None, _without_grid(loop)
+    grid, (found, notes) = None, _without_grid(loop)
     if found is None:
         grid = detection_grid(loop)
         found = _refined(loop, grid)
@@ -73,7 +73,8 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
     dc = loop.dc_value
     if dc is not None and dc.real < 0:
         gain = [single_margin("G", 0.0, dc)] + [m for m in gain if m.frequency > 0]
-    notes = list(grid.notes) + shape_notes(loop, grid) if grid is not None else []
+    if grid is not None:
+        notes = list(grid.notes) + shape_notes(loop, grid)
     if not loop.rational:
         notes.insert(0, f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
     above = float("inf") if attenuation_above is None else attenuation_above
@@ -85,16 +86,19 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         method="refined", notes=tuple(notes))
 
 
-def _without_grid(loop: LoopModel) -> dict[str, list[Margin]] | None:
+def _without_grid(loop: LoopModel) -> tuple[dict[str, list[Margin]] | None, list[str]]:
     """The margins of a loop in pole-zero form found without a detection grid
-    (`engine.zpk_margins`); None when that method does not apply."""
+    (`engine.zpk_margins`) and what its constant levels mean (`engine.shapes`);
+    (None, []) when that method does not apply."""
     if not (loop.rational and isinstance(loop.evaluate, ZpkEvaluator)):
-        return None
+        return None, []
     frequencies = fast_margins(loop.evaluate)
     if frequencies is None:
-        return None
+        return None, []
     values = _evaluated(loop, frequencies)
-    return {name: margins_of(name, frequencies[name], values[name]) for name in ("G", "P", "S", "A")}
+    levels = LoopLevels.of(loop.evaluate)
+    notes = level_notes(loop, levels.constant, complex(levels.terms(np.array([levels.scale]))[0][0]))
+    return {name: margins_of(name, frequencies[name], values[name]) for name in ("G", "P", "S", "A")}, notes
 
 
 AGREEMENT = 1e-11  # relative: a fast form of GH must match the network at every margin found

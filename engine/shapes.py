@@ -12,21 +12,27 @@ from .loops import LoopModel
 
 
 def shape_notes(loop: LoopModel, grid: Detection) -> list[str]:
-    """What the loop's shape means for its margins: constant levels, a Nyquist
-    curve on the real axis, poles on the imaginary axis."""
+    """What the loop's shape means for its margins, as its detection grid shows it:
+    constant levels, a Nyquist curve on the real axis, poles on the imaginary axis."""
+    return level_notes(loop, grid.flat, complex(grid.gh[0]), _on_real_axis(grid))
+
+
+def level_notes(loop: LoopModel, flat: frozenset[str], gh: complex, on_real_axis: bool = False) -> list[str]:
+    """The notes of `shape_notes` from the constant levels (``flat``: "GH", "1+GH",
+    "phase"), GH at any frequency, and whether GH is real at every frequency."""
     notes = []
-    if "1+GH" in grid.flat:
-        notes.append(f"|1+GH| is constant ({abs(1 + grid.gh[0]):.6g}) at every frequency: "
+    if "1+GH" in flat:
+        notes.append(f"|1+GH| is constant ({abs(1 + gh):.6g}) at every frequency: "
                      "no interior minimum (no stability margin)")
-    if "GH" in grid.flat:
-        level = abs(grid.gh[0])
+    if "GH" in flat:
+        level = abs(gh)
         notes.append(f"|GH| is constant ({level:.6g}) at every frequency"
                      + (": its crossing of 1 is not isolated (no phase margin)" if abs(level - 1) < 1e-9 else ""))
-    if "phase" in grid.flat:
-        notes.append(f"the phase of GH is constant ({math.degrees(np.angle(grid.gh[0])):.6g} deg)"
+    if "phase" in flat:
+        notes.append(f"the phase of GH is constant ({math.degrees(np.angle(gh)):.6g} deg)"
                      + (": on the negative real axis everywhere (gain crossings not isolated)"
-                        if abs(abs(np.angle(grid.gh[0])) - math.pi) < 1e-9 else ""))
-    elif _on_real_axis(grid):
+                        if abs(abs(np.angle(gh)) - math.pi) < 1e-9 else ""))
+    elif on_real_axis:
         notes.append("GH is real at every frequency (the Nyquist curve lies on the real axis): its crossings "
                      "of the negative real axis are not isolated, so no gain margin is listed")
     if loop.axis_poles.size:

@@ -41,14 +41,16 @@ LIMIT_SLACK = 1e-12  # a level this close (relative) to its limit is at it
 
 def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray,
               slopes: Slopes | None = None, ends: Ends | None = None,
-              noise: Callable[[NDArray], NDArray] | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
+              noise: Callable[[NDArray], NDArray] | None = None,
+              constant: list[bool] | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
     """Per level (row k of ``slopes``, by default of `LoopLevels.slopes`), its
     stationary points and which are maxima, checked and repaired (module
     docstring), and with ``ends`` (the levels' values and their limits at 0 and
     infinity) checked against the limits: a level rises to a maximum and falls
     from it, so the first maximum is not below the limit at 0, the last not
     below the limit at infinity (minima alike), and a level with none is not
-    equal at both ends.  ``noise``: rows of each slope's rounding (by default
+    equal at both ends (unless ``constant`` says it is constant: then it has
+    none).  ``noise``: rows of each slope's rounding (by default
     `LoopLevels.slope_noise`).  None when a check still fails."""
     slopes, noise = slopes or loop.slopes, noise or loop.slope_noise
     every = np.concatenate(points)
@@ -75,7 +77,9 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
             return None
         out_points.append(w)
         out_maxima.append(top)
-    if ends is not None and not all(_reaches(ends[0](w)[row] if w.size else w, top, ends[1][row])
+    flat = constant or [False] * len(points)
+    if ends is not None and not all(flat[row] and not w.size or _reaches(ends[0](w)[row] if w.size else w,
+                                                                          top, ends[1][row])
                                     for row, (w, top) in enumerate(zip(out_points, out_maxima))):
         return None
     return out_points, out_maxima

@@ -143,6 +143,19 @@ class LoopLevels:
             return np.array([np.log(np.abs(gh)), self.phase(w), log_distance(gh)])
 
     @cached_property
+    def fractions(self) -> Fractions:
+        """The pencil of sums over t = -r**2, the slopes of log|GH| and arg GH in x = omega**2."""
+        return Fractions(-self.roots ** 2)
+
+    @cached_property
+    def constant(self) -> frozenset[str]:
+        """Levels constant at every frequency: "GH" (|GH|: an all-pass shape) and "phase"
+        (arg GH: every root at 0, or roots mirrored across the imaginary axis), their
+        slopes' sums vanishing identically."""
+        sums = (("GH", self.signs.astype(complex)), ("phase", -self.signs * self.roots))
+        return frozenset(name for name, weights in sums if self.fractions.vanishes(weights))
+
+    @cached_property
     def distance_starts(self) -> NDArray | None:
         """`distance_stationary` of this loop (the margins' and the peaks' searches share it)."""
         return distance_stationary(self)

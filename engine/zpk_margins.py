@@ -18,17 +18,21 @@ the attenuation margins, minima of |1 + GH| the stability margins); the
 stationary points are certified and single misses repaired
 (`engine.zpk_certify`), and the crossings counted piece by piece between
 them (`engine.zpk_crossings`).  Whenever a condition of the method fails
-(roots on the imaginary axis, a constant level, a check, a step limit) the
-answer is None and `engine.margins` takes the detection grid instead.
+(roots on the imaginary axis, a constant |1 + GH|, |GH| = 1 or GH on the
+negative real axis at every frequency, a check, a step limit) the answer is
+None and `engine.margins` takes the detection grid instead.  Another
+constant level (|GH| of an all-pass shape, the phase of K / s**n) simply has
+no stationary points (`LoopLevels.constant`).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .bracketing import EPS, NOISE_STEP
-from .fractions import Fractions
 from .zpk import ZpkEvaluator
 from .zpk_certify import DUPLICATE, Slopes, certified
 from .zpk_crossings import crossing_candidates, crossings_of
@@ -37,6 +41,7 @@ from .zpk_levels import LoopLevels
 REAL = 1e-7  # |Im x| / |x| below which an eigenvalue is a real stationary point
 NEAR_REAL = 1e-2  # ... below which a close real pair could hide near it (a check point there)
 NEWTON_STEPS = 12
+FLAT = 1e-9  # a constant log|GH| within this of 0, or phase within this of 180 deg, is degenerate
 
 
 def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
@@ -49,13 +54,15 @@ def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
     with np.errstate(all="ignore"):
         starts = _starts(loop)
         if starts is None:
-            return None  # a constant level: the detection grid names it
+            return None  # a degenerate level: the detection grid names it
         w, kind, near = starts
         found = distinct(*newton(loop.slopes, w, kind), kinds=5)
         if found is None:
             return None
         points, maxima = found
-        checked = certified(loop, points[:3], maxima[:3], near, ends=(loop.values, loop.all_limits))
+        constant = [name in loop.constant for name in ("GH", "phase")] + [False]
+        checked = certified(loop, points[:3], maxima[:3], near, ends=(loop.values, loop.all_limits),
+                            constant=constant)
         if checked is None:
             return None
         points[:3], maxima[:3] = checked
@@ -71,8 +78,12 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     0-2 the stationary points of log|GH|, arg GH and log|1 + GH|, 3 gain
     crossovers, 4 phase crossings), and the frequencies of the near-real
     eigenvalues (check points)."""
-    shared = Fractions(-loop.roots ** 2)
-    eigenvalues = [shared.zeros(loop.signs.astype(complex)), shared.zeros(-loop.signs * loop.roots),
+    if _degenerate(loop):
+        return None
+    none = np.zeros(0, dtype=complex)
+    shared = loop.fractions
+    eigenvalues = [none if "GH" in loop.constant else shared.zeros(loop.signs.astype(complex)),
+                   none if "phase" in loop.constant else shared.zeros(-loop.signs * loop.roots),
                    loop.distance_starts]
     if any(x is None for x in eigenvalues):
         return None
@@ -83,6 +94,16 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     w = np.concatenate([np.sqrt(x.real[real]), gains, phases])
     kind = np.concatenate([kind[real], np.full(gains.size, 3), np.full(phases.size, 4)])
     return w, kind, near
+
+
+def _degenerate(loop: LoopLevels) -> bool:
+    """Is a constant level one whose crossings are not isolated (|GH| = 1 everywhere,
+    or GH on the negative real axis everywhere)?  The detection grid names it."""
+    if not loop.constant:
+        return False
+    log_gain, phase = loop.values(np.array([loop.scale]))[:2, 0]
+    return (("GH" in loop.constant and abs(log_gain) <= FLAT)
+            or ("phase" in loop.constant and abs(math.remainder(phase - math.pi, 2 * math.pi)) <= FLAT))
 
 
 def real_eigenvalues(x: NDArray) -> tuple[NDArray, NDArray]:

@@ -59,7 +59,7 @@ def _stationary(loop: LoopLevels, transforms: list[Moebius]) -> tuple[list[NDArr
         starts = _starts(loop, transforms)
         if starts is None:
             return None
-        w, kind, near = starts
+        w, kind, near, constant = starts
 
         def slopes(omega: NDArray) -> tuple[NDArray, NDArray]:
             return _moebius_slopes(loop, omega, transforms)
@@ -67,7 +67,7 @@ def _stationary(loop: LoopLevels, transforms: list[Moebius]) -> tuple[list[NDArr
         if found is None:
             return None
         return certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms),
-                         noise=lambda omega: _moebius_noise(loop, omega, transforms))
+                         noise=lambda omega: _moebius_noise(loop, omega, transforms), constant=constant)
 
 
 def _ends(loop: LoopLevels, transforms: list[Moebius]):
@@ -92,9 +92,11 @@ def _numerator_roots(loop: LoopLevels, ab: Moebius) -> NDArray:
     return roots(polynomial_sum(a * loop.denominator, b * loop.gain * loop.numerator))
 
 
-def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArray, NDArray] | None:
+def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArray, NDArray, list[bool]] | None:
     """Newton's starts (the positive real zeros of each transform's sum) with the
-    transform's number, and the near-real zeros' frequencies (check points).
+    transform's number, the near-real zeros' frequencies (check points), and
+    which transforms are constant (their sums vanish: the disk margin's
+    (1 - GH)/(1 + GH) of K/s, all-pass): those have no stationary points.
     A multiple of S (b = 0) is stationary where |1 + GH| is: its starts are
     also `distance_stationary`'s (whose residue form keeps the digits the
     difference of sums loses where a closed-loop pole is near an open-loop one).
@@ -104,21 +106,23 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
     to bracket each one missed (five for the disk margin of an order-18 loop
     with six light modes).  The starts are kept per loop (`LoopLevels`): the
     margin search has made them when analyze gets here."""
-    starts, kinds, near = [], [], []
+    starts, kinds, near, constant = [], [], [], []
     for number, ab in enumerate(transforms):
         top = _numerator_roots(loop, ab)
-        t = -np.concatenate([top, loop.closed]) ** 2
-        x = Fractions(t).zeros(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
+        fractions = Fractions(-np.concatenate([top, loop.closed]) ** 2)
+        weights = np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex)
+        constant.append(fractions.vanishes(weights))
+        x = np.zeros(0, dtype=complex) if constant[-1] else fractions.zeros(weights)
         if x is None:
-            return None  # |f| constant
-        extra = loop.distance_starts if ab[0] != 0 else None
+            return None
+        extra = loop.distance_starts if ab[0] != 0 and not constant[-1] else None
         if extra is not None:
             x = np.concatenate([x, extra])
         real, close = real_eigenvalues(x)
         starts.append(np.sqrt(x.real[real]))
         kinds.append(np.full(starts[-1].size, number))
         near.append(close)
-    return np.concatenate(starts), np.concatenate(kinds), np.concatenate(near)
+    return np.concatenate(starts), np.concatenate(kinds), np.concatenate(near), constant
 
 
 def _moebius_slopes(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> tuple[NDArray, NDArray]:

@@ -82,14 +82,35 @@ def test_resonance_peak_is_the_attenuation_maximum():
 @pytest.mark.parametrize("expression", [
     "1/(s**2 + 1)",               # poles on the imaginary axis: |GH| infinite there
     "2/(s - 1)",                  # |1 + GH| constant (all-pass): no isolated minimum
-    "1/s**9",                     # the phase constant
-    "(s - 1)/(s + 1)",            # |GH| constant
+    "5/s**2",                     # the phase constant on the negative real axis: crossings not isolated
+    "(s - 1)/(s + 1)",            # |GH| constant at 1: crossovers not isolated
 ])
 def test_shapes_left_to_the_detection_grid(expression):
     network = unity_feedback([expression])
     loop = loop_model(network, "e", GRID, {})
     if isinstance(loop.evaluate, ZpkEvaluator):
         assert fast_margins(loop.evaluate) is None
+
+
+@pytest.mark.parametrize("expression, note", [
+    ("79/s", "the phase of GH is constant (-90 deg)"),
+    ("10/s**3", "the phase of GH is constant (90 deg)"),
+    ("1/s**9", "the phase of GH is constant (-90 deg)"),
+    ("2*(s - 1)/(s + 1)", "|GH| is constant (2) at every frequency"),
+    ("0.5*(s - 3)*(s - 7)/((s + 3)*(s + 7))", "|GH| is constant (0.5) at every frequency"),
+    ("(s - 1)*(s + 1)/((s - 2)*(s + 2))", "the phase of GH is constant (0 deg)"),   # roots mirrored: GH real
+])
+def test_a_constant_level_has_no_stationary_points(expression, note):
+    """A constant |GH| or phase that is not degenerate: the grid-free search
+    finds the same margins as the detection grid and says the same."""
+    loop = loop_model(unity_feedback([expression]), "e", GRID, {})
+    assert fast_margins(loop.evaluate) is not None
+    found = margin_search.margins(loop, attenuation_above=0.0)
+    grid = margin_search._refined(loop, detection.detection_grid(loop))
+    for kind, name in (("gain", "G"), ("phase", "P"), ("stability", "S"), ("attenuation", "A")):
+        ours = [m.frequency for m in getattr(found, kind) if m.frequency > 0]
+        np.testing.assert_allclose(ours, [m.frequency for m in grid[name] if m.frequency > 0], rtol=1e-12)
+    assert found.notes == (note,)
 
 
 def grid_search(loop):

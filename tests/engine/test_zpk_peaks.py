@@ -45,6 +45,19 @@ def test_a_peak_at_an_end_is_the_limit_there():
     assert where == 2.0 and value == pytest.approx(abs((1 + 2j) / (1.5 + 2j)), rel=1e-15)
 
 
+def test_a_constant_transform_peaks_at_its_value():
+    """The disk margin's (1 - GH)/(2 (1 + GH)) of K/s is all-pass (|f| = 1/2 at every
+    frequency; its sum of fractions vanishes): no stationary point is searched, the
+    peak is the value (at an end), and S and T of the same loop are still found:
+    |S| = w/|jw + K| rises to 1 at infinity, |T| = K/|jw + K| falls from 1 at 0."""
+    (disk, s_peak, t_peak) = moebius_peaks(form_of("79/s"), [(0.5, -0.5), (1.0, 0.0), (0.0, 1.0)])
+    assert disk[0] == pytest.approx(0.5, rel=1e-15)
+    assert s_peak == (1.0, math.inf) and t_peak == (1.0, 0.0)
+    # a band: the constant's value at its ends
+    ((value, where),) = moebius_peaks(form_of("79/s"), [(0.5, -0.5)], 2.0, 3.0)
+    assert value == pytest.approx(0.5, rel=1e-15) and where in (2.0, 3.0)
+
+
 def test_random_loops_agree_with_the_grid_search():
     """200 random loops of order 1..12: Ms, Mt and two disk peaks equal the
     grid search's to 1e-12 (values) and 1e-7 (frequencies: a peak is flat,
