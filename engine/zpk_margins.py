@@ -78,7 +78,7 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     0-2 the stationary points of log|GH|, arg GH and log|1 + GH|, 3 gain
     crossovers, 4 phase crossings), and the frequencies of the near-real
     eigenvalues (check points)."""
-    if _degenerate(loop):
+    if degenerate(loop):
         return None
     none = np.zeros(0, dtype=complex)
     shared = loop.fractions
@@ -96,7 +96,7 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     return w, kind, near
 
 
-def _degenerate(loop: LoopLevels) -> bool:
+def degenerate(loop: LoopLevels) -> bool:
     """Is a constant level one whose crossings are not isolated (|GH| = 1 everywhere,
     or GH on the negative real axis everywhere)?  The detection grid names it."""
     if not loop.constant:

@@ -30,7 +30,7 @@ from .fractions import Fractions, polynomial_sum, roots
 from .zpk import ZpkEvaluator
 from .zpk_certify import certified
 from .zpk_levels import LoopLevels
-from .zpk_margins import distinct, newton, real_eigenvalues
+from .zpk_margins import degenerate, distinct, newton, real_eigenvalues
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
 
@@ -40,8 +40,8 @@ def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.
     """Per transform, (max |f| over [low, high], where: 0 or inf for a limit at an end);
     None when the method does not apply or a check fails."""
     loop = LoopLevels.of(form)
-    if loop is None or not all(_proper(loop, ab) for ab in transforms):
-        return None
+    if loop is None or not all(_proper(loop, ab) for ab in transforms) or degenerate(loop):
+        return None   # degenerate: GH on the negative real axis everywhere (1/s**2) or |GH| = 1 (the grid names it)
     known = loop.certified_distance   # the margin search's, when it ran: |a / (1 + GH)| peaks at its minima
     reused = [known is not None and ab[1] == 0 for ab in transforms]
     searched = [ab for ab, taken in zip(transforms, reused) if not taken]

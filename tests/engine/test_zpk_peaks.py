@@ -58,6 +58,13 @@ def test_a_constant_transform_peaks_at_its_value():
     assert value == pytest.approx(0.5, rel=1e-15) and where in (2.0, 3.0)
 
 
+def test_a_degenerate_loop_is_left_to_the_grid():
+    """GH = 3/s**2 lies on the negative real axis at every frequency: its closed loop
+    has poles at +-j sqrt(3), where |S| and |T| are infinite.  The grid-free search
+    does not try (it chased that pole through five rounds of repairs, 0.1 s)."""
+    assert moebius_peaks(form_of("3/s**2"), [t.moebius for t in TRANSFORMS]) is None
+
+
 def test_random_loops_agree_with_the_grid_search():
     """200 random loops of order 1..12: Ms, Mt and two disk peaks equal the
     grid search's to 1e-12 (values) and 1e-7 (frequencies: a peak is flat,
