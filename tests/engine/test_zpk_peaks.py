@@ -58,6 +58,19 @@ def test_a_constant_transform_peaks_at_its_value():
     assert value == pytest.approx(0.5, rel=1e-15) and where in (2.0, 3.0)
 
 
+def test_a_shallow_peak_the_detection_grid_misses():
+    """K/s**3 times an all-pass factor (found checking the constant-level loops against the grid).
+    Mt is a shallow maximum (1.0000124 near 0.051 rad/s, which the detection grid
+    missed, reporting 1 at 0): the grid-free peaks equal a dense sampling's."""
+    k, a = 0.01855649930790591, 19.19205673142937
+    ((mt, where),) = moebius_peaks(form_of(f"{k!r}/s**3*(s - {a!r})/(s + {a!r})"), [(0.0, 1.0)])
+    w = np.geomspace(0.03, 0.08, 200_001)
+    gh = k / (1j * w) ** 3 * (1j * w - a) / (1j * w + a)
+    dense = np.abs(gh / (1 + gh))
+    assert mt == pytest.approx(dense.max(), rel=1e-12) and mt > 1.00001
+    assert where == pytest.approx(w[np.argmax(dense)], rel=1e-4)
+
+
 def test_a_degenerate_loop_is_left_to_the_grid():
     """GH = 3/s**2 lies on the negative real axis at every frequency: its closed loop
     has poles at +-j sqrt(3), where |S| and |T| are infinite.  The grid-free search
