@@ -78,10 +78,9 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
         out_points.append(w)
         out_maxima.append(top)
     flat = constant or [False] * len(points)
-    if ends is not None and not all(flat[row] and not w.size or _reaches(ends[0](w)[row] if w.size else w,
-                                                                          top, ends[1][row])
-                                    for row, (w, top) in enumerate(zip(out_points, out_maxima))):
-        return None
+    for row, (w, top) in enumerate(zip(out_points, out_maxima)):
+        if ends is not None and not flat[row] and not _reaches(ends[0](w)[row] if w.size else w, top, ends[1][row]):
+            return None
     return out_points, out_maxima
 
 
