@@ -50,13 +50,10 @@ class Fractions:
         self.pencil[first, n] = 1.0
         self.first, self.n = first, n
 
-    def vanishes(self, a: NDArray[np.complex128]) -> bool:
-        """Does sum a_k / (x - t_k) vanish identically (its weights, equal poles'
-        summed, all within `VANISHING` of the largest given)?"""
-        return self._weights(a) is None
-
-    def _weights(self, a: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
-        """The weights per distinct pole, scaled to a largest of 1; None when they vanish."""
+    def weights(self, a: NDArray[np.complex128]) -> NDArray[np.complex128] | None:
+        """The weights of sum a_k / (x - t_k) per distinct pole (equal poles' summed),
+        scaled to a largest of 1; None when the sum vanishes identically (all within
+        `VANISHING` of the largest given)."""
         singles, pairs = self.count
         if self.merge:
             weights = np.zeros(singles + pairs, dtype=complex)
@@ -72,12 +69,15 @@ class Fractions:
     def zeros(self, a: NDArray[np.complex128], squared: bool = False) -> NDArray[np.complex128] | None:
         """The finite zeros of sum a_k / (x - t_k) (``squared``: of sum a_k /
         (x - t_k)^2, the system cascaded with its own resolvent: c^T (xI - L)^-2 b);
-        None when the sum vanishes identically (`vanishes`) or its terms are not
-        closed under conjugation."""
+        None when the sum vanishes identically or its terms are not closed
+        under conjugation."""
+        weights = self.weights(a)
+        return None if weights is None else self.zeros_of(weights, squared)
+
+    def zeros_of(self, weights: NDArray[np.complex128], squared: bool = False) -> NDArray[np.complex128] | None:
+        """`zeros` from the sum's `weights` (already made: a caller that asked whether
+        the sum vanishes does not merge them again)."""
         if not self.closed:
-            return None
-        weights = self._weights(a)
-        if weights is None:
             return None
         singles = self.count[0]
         pencil, n = self.pencil.copy(), self.n

@@ -97,7 +97,7 @@ def _without_grid(loop: LoopModel) -> tuple[dict[str, list[Margin]] | None, list
         return None, []
     values = _evaluated(loop, frequencies)
     levels = LoopLevels.of(loop.evaluate)
-    notes = level_notes(loop, levels.constant, complex(levels.terms(np.array([levels.scale]))[0][0]))
+    notes = level_notes(loop, levels.constant, levels.sample) if levels.constant else []
     return {name: margins_of(name, frequencies[name], values[name]) for name in ("G", "P", "S", "A")}, notes
 
 

@@ -148,12 +148,22 @@ class LoopLevels:
         return Fractions(-self.roots ** 2)
 
     @cached_property
+    def slope_weights(self) -> dict[str, NDArray | None]:
+        """The `Fractions.weights` of the slopes of log|GH| ("GH") and arg GH ("phase")
+        over `fractions`; None for a level whose slope vanishes identically."""
+        return {"GH": self.fractions.weights(self.signs.astype(complex)),
+                "phase": self.fractions.weights(-self.signs * self.roots)}
+
+    @cached_property
     def constant(self) -> frozenset[str]:
         """Levels constant at every frequency: "GH" (|GH|: an all-pass shape) and "phase"
-        (arg GH: every root at 0, or roots mirrored across the imaginary axis), their
-        slopes' sums vanishing identically."""
-        sums = (("GH", self.signs.astype(complex)), ("phase", -self.signs * self.roots))
-        return frozenset(name for name, weights in sums if self.fractions.vanishes(weights))
+        (arg GH: every root at 0, or roots mirrored across the imaginary axis)."""
+        return frozenset(name for name, weights in self.slope_weights.items() if weights is None)
+
+    @cached_property
+    def sample(self) -> complex:
+        """GH at the loop's scale frequency (the value of a constant level)."""
+        return complex(self.terms(np.array([self.scale]))[0][0])
 
     @cached_property
     def distance_starts(self) -> NDArray | None:

@@ -27,6 +27,7 @@ no stationary points (`LoopLevels.constant`).
 
 from __future__ import annotations
 
+import cmath
 import math
 
 import numpy as np
@@ -80,11 +81,9 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     eigenvalues (check points)."""
     if degenerate(loop):
         return None
-    none = np.zeros(0, dtype=complex)
-    shared = loop.fractions
-    eigenvalues = [none if "GH" in loop.constant else shared.zeros(loop.signs.astype(complex)),
-                   none if "phase" in loop.constant else shared.zeros(-loop.signs * loop.roots),
-                   loop.distance_starts]
+    no_points = np.zeros(0, dtype=complex)
+    eigenvalues = [no_points if weights is None else loop.fractions.zeros_of(weights)
+                   for weights in loop.slope_weights.values()] + [loop.distance_starts]
     if any(x is None for x in eigenvalues):
         return None
     x = np.concatenate(eigenvalues)
@@ -101,9 +100,9 @@ def degenerate(loop: LoopLevels) -> bool:
     or GH on the negative real axis everywhere)?  The detection grid names it."""
     if not loop.constant:
         return False
-    log_gain, phase = loop.values(np.array([loop.scale]))[:2, 0]
-    return (("GH" in loop.constant and abs(log_gain) <= FLAT)
-            or ("phase" in loop.constant and abs(math.remainder(phase - math.pi, 2 * math.pi)) <= FLAT))
+    gh = loop.sample
+    return (("GH" in loop.constant and abs(math.log(abs(gh))) <= FLAT)
+            or ("phase" in loop.constant and abs(math.remainder(cmath.phase(gh) - math.pi, 2 * math.pi)) <= FLAT))
 
 
 def real_eigenvalues(x: NDArray) -> tuple[NDArray, NDArray]:

@@ -110,9 +110,9 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
     for number, ab in enumerate(transforms):
         top = _numerator_roots(loop, ab)
         fractions = Fractions(-np.concatenate([top, loop.closed]) ** 2)
-        weights = np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex)
-        constant.append(fractions.vanishes(weights))
-        x = np.zeros(0, dtype=complex) if constant[-1] else fractions.zeros(weights)
+        weights = fractions.weights(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
+        constant.append(weights is None)
+        x = np.zeros(0, dtype=complex) if constant[-1] else fractions.zeros_of(weights)
         if x is None:
             return None
         extra = loop.distance_starts if ab[0] != 0 and not constant[-1] else None
