@@ -14,7 +14,8 @@ from scipy.optimize import brentq
 from engine.analysis import unity_feedback
 from engine.loops import loop_model
 from engine.detection import detection_grid
-from engine.margins import _agrees, _refined, _without_grid, margins
+from engine.margin_types import single_margin
+from engine.margins import AGREEMENT, POLISH_LIMIT, _disagreement, _polished, _refined, _without_grid, margins
 from sessions.store import load_session
 
 
@@ -92,19 +93,20 @@ def test_a_shallow_interior_minimum_is_not_missed():
     assert len(near) == 1 and near[0].value == pytest.approx(14.0903162, rel=1e-7)
 
 
-def test_a_search_moved_to_the_network_keeps_its_margins_when_seeded():
+def test_margins_polished_on_the_network_are_those_of_a_full_search():
     """The launch vehicle's conditions (51-52 roots: searched on a grid) have a
-    pole-zero form off in the seventh digit near their clustered bending
-    modes, so the search moves to the network, its detection grid seeded with
-    the pole-zero form's.  The margins are those of a search of the network
-    from the background grid alone (every interval of the seeded grid is
-    tested and halved on the network as any are)."""
+    pole-zero form off by a few 1e-11 at their margins near the clustered
+    bending modes, so each margin is refined again on the network in a narrow
+    bracket around the form's.  The margins are those of a search of the
+    network from the background grid alone: as many, at the same frequencies."""
     problem = load_session(Path(__file__).parents[2] / "sessions/examples/coebra_launch_vehicle.json").problem
-    moved = 0
+    polished = 0
     for c, condition in enumerate(problem.conditions):
         loop = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(c))
         assert _without_grid(loop)[0] is None   # too many roots for the grid-free search
-        moved += not _agrees(loop, _refined(loop, detection_grid(loop)))
+        form = _refined(loop, detection_grid(loop))
+        if AGREEMENT < _disagreement(loop, form) <= POLISH_LIMIT:
+            polished += _polished(loop.on_exact(), form) is not None
         found = margins(loop, attenuation_above=0.0)
         alone = margins(loop.on_exact(), attenuation_above=0.0)   # the network from the background grid
         for kind in ("gain", "phase", "stability", "attenuation"):
@@ -112,7 +114,20 @@ def test_a_search_moved_to_the_network_keeps_its_margins_when_seeded():
             assert len(ours) == len(theirs), kind
             np.testing.assert_allclose([m.frequency for m in ours], [m.frequency for m in theirs], rtol=1e-12)
             np.testing.assert_allclose([m.value for m in ours], [m.value for m in theirs], rtol=1e-12)
-    assert moved >= 1   # the seeded path was taken
+    assert polished >= 1   # the polishing path was taken
+
+
+def test_a_margin_the_network_does_not_show_near_the_form_s_is_not_polished():
+    """A form whose margin is not a feature of the network within the widest
+    bracket: polishing refuses, and the network is searched in full."""
+    loop = loop_model(unity_feedback(["4/((s+1)*(s+2))"]), "e", np.geomspace(1e-2, 1e2, 50), {})
+    exact = loop.on_exact()
+    shifted = {"G": [], "P": [], "S": [], "A": [single_margin("A", 3.0, complex(exact.exact(np.array([3.0]))[0][0]))]}
+    assert _polished(exact, shifted) is None   # |GH| of this loop has no maximum at all
+    real = margins(exact)
+    found = _polished(exact, {"G": list(real.gain), "P": list(real.phase), "S": list(real.stability), "A": []})
+    assert found is not None and [m.frequency for m in found["P"]] == pytest.approx([m.frequency for m in real.phase],
+                                                                                      rel=1e-14)
 
 
 def test_a_seeded_detection_grid_holds_its_seed_within_the_background_range():
