@@ -76,3 +76,16 @@ def test_the_command_line_does_not_build_the_app():
     ran = _modules_after(f"from tui.cli import main\nmain(['report', {str(examples / 'report003_lag_lead.json')!r}])")
     assert "engine.cip" in ran and not ran & {"engine.qcg", "engine.slp", "engine.projection"}
     assert not {m for m in ran if m.startswith("textual")}
+
+
+def test_the_app_without_a_terminal_exits_2_at_once(tmp_path):
+    """Output to a pipe (``loopcraft x.json | head``) or input from one: the app
+    would draw for no one and spin; it says why and exits 2 instead."""
+    import shutil
+    from pathlib import Path
+    session = tmp_path / "report003_lag_lead.json"
+    shutil.copy2(Path(__file__).resolve().parent.parent / "sessions" / "examples" / session.name, session)
+    out = subprocess.run(CMD + [str(session)], capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
+    assert out.returncode == 2
+    assert out.stderr.startswith("loopcraft: error: the workbench needs a terminal: standard input and output are not terminals")
+    assert "Traceback" not in out.stderr and out.stdout == ""
