@@ -141,13 +141,17 @@ def _polished(loop: LoopModel, found: dict[str, list[Margin]]) -> dict[str, list
     kind = np.repeat(np.arange(len(names)), counts)
     if not (centre > 0).all():
         return None
-    ends, g, dg = np.full((2, centre.size), np.nan), np.zeros((2, centre.size), complex), np.zeros((2, centre.size), complex)
+    ends = np.full((2, centre.size), np.nan)   # each bracket's ends, and GH and dGH there
+    g, dg = np.zeros((2, centre.size), dtype=complex), np.zeros((2, centre.size), dtype=complex)
     for width in POLISH_WIDTHS:
         todo = np.flatnonzero(np.isnan(ends[0]))
         if todo.size == 0:
             break
         at = np.array([centre[todo] * (1 - width), centre[todo] * (1 + width)])
-        value, slope = (v.reshape(2, todo.size) for v in loop.evaluate(at.ravel()))
+        try:
+            value, slope = (v.reshape(2, todo.size) for v in loop.evaluate(at.ravel()))
+        except EngineError:
+            return None
         across = todo[_changes_sign([levels[k] for k in kind[todo]], value[0], slope[0], value[1], slope[1])]
         ends[:, across], g[:, across], dg[:, across] = (x[:, np.isin(todo, across)] for x in (at, value, slope))
     separate = (ends[0, 1:] > ends[1, :-1]) | (kind[1:] != kind[:-1])

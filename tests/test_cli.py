@@ -87,5 +87,6 @@ def test_the_app_without_a_terminal_exits_2_at_once(tmp_path):
     shutil.copy2(Path(__file__).resolve().parent.parent / "sessions" / "examples" / session.name, session)
     out = subprocess.run(CMD + [str(session)], capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
     assert out.returncode == 2
-    assert out.stderr.startswith("loopcraft: error: the workbench needs a terminal: standard input and output are not terminals")
+    assert out.stderr.startswith("loopcraft: error: the workbench needs a terminal: "
+                                 "standard input and output are not terminals")
     assert "Traceback" not in out.stderr and out.stdout == ""

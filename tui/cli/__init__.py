@@ -75,9 +75,9 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
     streams = [name for name, stream in (("input", sys.stdin), ("output", sys.stdout))
                if stream is None or not stream.isatty()]
     if streams:   # the app would draw for no one (and keep a core busy doing it)
-        print(f"loopcraft: error: the workbench needs a terminal: standard {' and '.join(streams)} "
-              f"{'is not one' if len(streams) == 1 else 'are not terminals'} (for scripts: loopcraft run, analyze, report, "
-              "export; see loopcraft --help)", file=sys.stderr)
+        verb = "is not one" if len(streams) == 1 else "are not terminals"
+        print(f"loopcraft: error: the workbench needs a terminal: standard {' and '.join(streams)} {verb} "
+              "(for scripts: loopcraft run, analyze, report, export; see loopcraft --help)", file=sys.stderr)
         return 2
     result = LoopcraftApp(path).run()
     return result if isinstance(result, int) else 0
