@@ -35,6 +35,7 @@ from .screens.main import MainScreen
 from .screens.new_flow import NewSessionFlow, copy_tables
 from .screens.start import StartScreen
 from .sweep_actions import SweepActions
+from .terminal_watch import HANGUP_EXIT, watch_terminal
 from .workbench import Workbench
 
 # actions that change the session or replace it: disabled while a run or a sweep goes
@@ -129,6 +130,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         return handled
 
     def on_mount(self) -> None:
+        watch_terminal(self, self._terminal_lost)
         self.apply_config()
         if self.initial_path is not None:
             self.open_path(self.initial_path)
@@ -254,6 +256,14 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
             return
         self.notify(f"saved {target}")
         self.refresh_workbench()
+
+    def _terminal_lost(self) -> None:
+        """The terminal hung up: no one can be asked, so a run stops, the unsaved
+        changes go to the autosave (offered back on the next open), and the app ends."""
+        self._pause.set()
+        if self.bench is not None:
+            self.bench.autosave()
+        self.exit(HANGUP_EXIT)
 
     def action_quit(self) -> None:
         self._pause.set()
