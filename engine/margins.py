@@ -168,15 +168,21 @@ def _polished(loop: LoopModel, found: dict[str, list[Margin]]) -> dict[str, list
 
 def _changes_sign(levels: list[Level], g_lo: NDArray, dg_lo: NDArray, g_hi: NDArray, dg_hi: NDArray) -> NDArray:
     """Per bracket, does its level's target (h for a crossing, h' for an extremum)
-    change sign across it, in the level's direction?"""
+    change sign across it, in the level's direction, both ends above the rounding
+    noise (relative `NOISE`, as the detection grid's brackets)?"""
     shift, angle = np.array([lv.shift for lv in levels]), np.array([lv.angle for lv in levels], dtype=bool)
     left, offset = np.where(angle, g_lo, 1.0), np.where(angle, np.angle(-g_lo), 0.0)
     h_lo, d_lo = _level_values(g_lo, dg_lo, shift, left, offset, angle)
     h_hi, d_hi = _level_values(g_hi, dg_hi, shift, left, offset, angle)
     stationary = np.array([lv.stationary for lv in levels], dtype=bool)
     a, b = np.where(stationary, d_lo, h_lo), np.where(stationary, d_hi, h_hi)
+    with np.errstate(all="ignore"):   # the slopes' sizes (h is a log or an angle: its own size is 1)
+        size_a = np.where(stationary, np.abs(dg_lo / (g_lo + shift)), 1.0)
+        size_b = np.where(stationary, np.abs(dg_hi / (g_hi + shift)), 1.0)
+    loud = (np.abs(a) > NOISE * size_a) & (np.abs(b) > NOISE * size_b)
     direction = np.array([lv.direction for lv in levels])
-    return np.where(direction > 0, (a < 0) & (b > 0), np.where(direction < 0, (a > 0) & (b < 0), a * b < 0))
+    turns = np.where(direction > 0, (a < 0) & (b > 0), np.where(direction < 0, (a > 0) & (b < 0), a * b < 0))
+    return turns & loud
 
 
 FIT_LIMIT = 0.05  # a fit off by more than this (relative) is no better than the grid
