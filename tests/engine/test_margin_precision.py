@@ -12,10 +12,12 @@ import pytest
 from scipy.optimize import brentq
 
 from engine.analysis import unity_feedback
+from engine.blocks import ExpressionTransfer
 from engine.loops import loop_model
 from engine.detection import detection_grid
 from engine.margin_types import single_margin
 from engine.margins import AGREEMENT, POLISH_LIMIT, _disagreement, _polished, _refined, _without_grid, margins
+from engine.network import Block, Junction, block_diagram
 from sessions.store import load_session
 
 
@@ -142,3 +144,33 @@ def test_a_seeded_detection_grid_holds_its_seed_within_the_background_range():
     seeded = detection._detection_grid(loop.on_exact(), seed).omega
     inside = seed[(seed >= background[0]) & (seed <= background[-1])]
     assert np.isin(inside, seeded).all() and seeded[0] == background[0] and seeded[-1] == background[-1]
+
+
+def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
+    """Two parallel branches of light modes (a verification campaign's loop): a
+    maximum and a minimum of |1 + GH| 0.3 % apart near 2.66 rad/s.  The form's
+    search finds the minimum (4.5559); the form is off by about 1e-10 at the
+    margins, so the minimum is polished on the network.  Reference: dense
+    sampling of the network itself (the network's own full search misses this
+    pair, as it did before polishing existed)."""
+    texts = [("e", "h0", "1.0097152978283161/s"),
+             ("h0", "x0_0", "0.2736393453429445/(s**2 + 0.003806555885498571*s + 0.2736393453429445)"),
+             ("x0_0", "x0_1", "0.25118627528661425/(s**2 + 0.009046245378668867*s + 0.25118627528661425)"),
+             ("x0_1", "y0", "0.25318775164112256/(s**2 + 0.0020372285376377263*s + 0.25318775164112256)"),
+             ("e", "h1", "8.481548959667355/s"),
+             ("h1", "x1_0", "(0.9751011751633305)*(s**2 + 0.006860065416095117*s + 0.30798930450169115)"
+                            "/(s**2 + 0.02565477322915219*s + 0.3003207327573359)"),
+             ("x1_0", "x1_1", "(1.0009942258165758)*(s**2 + 0.06612782616267188*s + 7.011035158159626)"
+                              "/(s**2 + 0.057860180090717174*s + 7.018005710314789)"),
+             ("x1_1", "y1", "(0.9847515522189946)*(s**2 + 0.015010993174837343*s + 7.586346198382245)"
+                            "/(s**2 + 0.018300113653855473*s + 7.470666194527584)")]
+    blocks = [Block(f"B{k}", a, b, ExpressionTransfer(t)) for k, (a, b, t) in enumerate(texts)]
+    net = block_diagram(blocks, [Junction("sum", "e", ((1.0, "r"), (-1.0, "y0"), (-1.0, "y1")))], ["r"])
+    loop = loop_model(net, "e", np.geomspace(1e-2, 1e3, 400), {})
+    assert AGREEMENT < _disagreement(loop, _refined(loop, detection_grid(loop))) <= POLISH_LIMIT
+    w = np.linspace(2.664, 2.670, 200_001)
+    distance = np.abs(1 + loop.exact(w)[0])
+    k = int(np.argmin(distance))
+    assert 0 < k < w.size - 1   # an interior minimum of the network's |1 + GH|
+    near = [m for m in margins(loop).stability if abs(m.frequency / w[k] - 1) < 1e-7]
+    assert len(near) == 1 and near[0].value == pytest.approx(distance[k], rel=1e-10)
