@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from .errors import EngineError
 from .fastloop import LoopEvaluator
 from .network import Network, check_grid, solve
-from .zpk import zpk_evaluator
+from .zpk import ZpkEvaluator, zpk_evaluator
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
 
@@ -112,8 +112,22 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     exact = LoopEvaluator(network, break_at, params)
     corners, damps, is_pole = exact.corners(params)
     evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
+    if isinstance(evaluate, ZpkEvaluator) and not evaluate.factored:
+        corners, damps, is_pole = _with_loop_zeros(corners, damps, is_pole, evaluate.zeros)
     return LoopModel(w, None, evaluate, corners, damps, network.rational, _dc_value(exact),
                      delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 1e-9)], exact=exact)
+
+
+def _with_loop_zeros(corners: NDArray, damps: NDArray, is_pole: NDArray,
+                     zeros: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """The blocks' corners and the loop's own zeros (from its realized pole-zero form):
+    branches summed (a rate and an attitude channel, a plant's modes in parallel) make
+    zeros no block has, lightly damped between the modes, which the detection grid
+    must cluster around as around any light corner."""
+    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0)]
+    size = np.abs(zeros)
+    return (np.concatenate([corners, size]), np.concatenate([damps, np.abs(zeros.real) / size]),
+            np.concatenate([is_pole, np.zeros(zeros.size, dtype=bool)]))
 
 
 def network_delay(network: Network, params: Mapping[str, float]) -> float:

@@ -174,3 +174,42 @@ def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
     assert 0 < k < w.size - 1   # an interior minimum of the network's |1 + GH|
     near = [m for m in margins(loop).stability if abs(m.frequency / w[k] - 1) < 1e-7]
     assert len(near) == 1 and near[0].value == pytest.approx(distance[k], rel=1e-10)
+
+
+def test_the_network_search_clusters_around_the_loop_s_own_light_zeros():
+    """Three parallel branches summed (a verification campaign's loop): their sum
+    has a zero at 0.990 rad/s of damping 0.0019 that no block has.  The
+    network's detection grid, built from the blocks' corners alone, stepped
+    from 0.989 to 1.087 rad/s over two gain crossovers and two negative-axis
+    crossings; with the loop's zeros among its corners it finds every one.
+    Reference: dense sampling of the network."""
+    texts = [("e", "h0", "2.4934575289486753*(1 + 0.4957570763822468*s)/(s*(1 + 0.0050484385967451695*s))"),
+             ("h0", "x0_0", "52.9598962110403/(s**2 + 0.34777085061084595*s + 52.9598962110403)"),
+             ("x0_0", "x0_1", "52.85424058406001/(s**2 + 0.1832433066598205*s + 52.85424058406001)"),
+             ("x0_1", "y0", "52.85424058406001/(s**2 + 0.0209540456553339*s + 52.85424058406001)"),
+             ("e", "h1", "0.9063421436502311/(1 + 1.5148646880628054*s)"),
+             ("h1", "x1_0", "351.5706530912205/(s**2 + 0.32256090164884993*s + 351.5706530912205)"),
+             ("x1_0", "y1", "53.808939132595306/(s**2 + 0.24862483450986567*s + 53.808939132595306)"),
+             ("e", "h2", "1.602516415201549/(1 + 2.087212029857315*s)"),
+             ("h2", "x2_0", "(1.016208281515215)*(s**2 + 0.6168066994824734*s + 373.4465137778295)"
+                            "/(s**2 + 0.7326691284678574*s + 379.49944000401615)"),
+             ("x2_0", "x2_1", "(0.9643647006700845)*(s**2 + 0.004067696517905475*s + 0.9694531068384069)"
+                              "/(s**2 + 0.0077943471782319*s + 0.9349063551899037)"),
+             ("x2_1", "x2_2", "351.21952137470424/(s**2 + 0.3700968661035373*s + 351.21952137470424)"),
+             ("x2_2", "x2_3", "53.38357369277054/(s**2 + 0.3942639302645859*s + 53.38357369277054)"),
+             ("x2_3", "y2", "0.9311927288486833/(s**2 + 0.01610277038203933*s + 0.9311927288486833)")]
+    blocks = [Block(f"B{k}", a, b, ExpressionTransfer(t)) for k, (a, b, t) in enumerate(texts)]
+    terms = ((1.0, "r"), (-1.0, "y0"), (-1.0, "y1"), (-1.0, "y2"))
+    net = block_diagram(blocks, [Junction("sum", "e", terms)], ["r"])
+    network = loop_model(net, "e", np.geomspace(1e-2, 1e3, 400), {}).on_exact()
+    found = margins(network)
+    w = np.geomspace(0.95, 1.1, 400_001)
+    gh = network.exact(w)[0]
+    level = np.abs(gh) - 1
+    crossovers = w[np.flatnonzero(np.sign(level[1:]) != np.sign(level[:-1]))]
+    negative = w[np.flatnonzero((np.sign(gh.imag[1:]) != np.sign(gh.imag[:-1])) & (gh.real[1:] < 0))]
+    assert crossovers.size == 4 and negative.size == 3
+    ours_p = np.array([m.frequency for m in found.phase if 0.95 < m.frequency < 1.1])
+    ours_g = np.array([m.frequency for m in found.gain if 0.95 < m.frequency < 1.1])
+    np.testing.assert_allclose(ours_p, crossovers, rtol=1e-6)
+    np.testing.assert_allclose(ours_g, negative, rtol=1e-6)
