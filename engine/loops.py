@@ -118,16 +118,27 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
                      delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 1e-9)], exact=exact)
 
 
+SAME_CORNER = 1e-6  # relative frequency plus damping difference within which a loop zero is a block's corner
+
+
 def _with_loop_zeros(corners: NDArray, damps: NDArray, is_pole: NDArray,
                      zeros: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-    """The blocks' corners and the loop's own zeros (from its realized pole-zero form):
+    """The blocks' corners and the loop's own light zeros (from its realized pole-zero form):
     branches summed (a rate and an attitude channel, a plant's modes in parallel) make
     zeros no block has, lightly damped between the modes, which the detection grid
     must cluster around as around any light corner."""
-    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0)]
-    size = np.abs(zeros)
-    return (np.concatenate([corners, size]), np.concatenate([damps, np.abs(zeros.real) / size]),
-            np.concatenate([is_pole, np.zeros(zeros.size, dtype=bool)]))
+    from .detection import LIGHT_DAMPING   # (detection imports this module)
+    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0) & (zeros.imag > 0)]   # one of each complex pair
+    size, damping = np.abs(zeros), np.abs(zeros.real) / np.abs(zeros)
+    light = damping < LIGHT_DAMPING   # the grid clusters around light corners only (a far real zero
+    size, damping = size[light], damping[light]   # would stretch its range by decades for nothing)
+    known = np.zeros(size.size, dtype=bool)
+    if corners.size:   # a block's own zero or pole (a cascade's part of the loop) is a corner already
+        known = np.min(np.abs(size[:, None] / corners[None, :] - 1) + np.abs(damping[:, None] - damps[None, :]),
+                       axis=1) <= SAME_CORNER
+    size, damping = size[~known], damping[~known]
+    return (np.concatenate([corners, size]), np.concatenate([damps, damping]),
+            np.concatenate([is_pole, np.zeros(size.size, dtype=bool)]))
 
 
 def network_delay(network: Network, params: Mapping[str, float]) -> float:
