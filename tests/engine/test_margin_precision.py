@@ -146,6 +146,15 @@ def test_a_seeded_detection_grid_holds_its_seed_within_the_background_range():
     assert np.isin(inside, seeded).all() and seeded[0] == background[0] and seeded[-1] == background[-1]
 
 
+def summed_branches(texts: list[tuple[str, str, str]], outputs: list[str]):
+    """The loop at e of blocks (input, output, expression) whose branch outputs
+    are summed into e = r - sum(outputs)."""
+    blocks = [Block(f"B{k}", a, b, ExpressionTransfer(t)) for k, (a, b, t) in enumerate(texts)]
+    terms = ((1.0, "r"),) + tuple((-1.0, y) for y in outputs)
+    return loop_model(block_diagram(blocks, [Junction("sum", "e", terms)], ["r"]), "e",
+                      np.geomspace(1e-2, 1e3, 400), {})
+
+
 def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
     """Two parallel branches of light modes (a verification campaign's loop): a
     maximum and a minimum of |1 + GH| 0.3 % apart near 2.66 rad/s.  The form's
@@ -164,9 +173,7 @@ def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
                               "/(s**2 + 0.057860180090717174*s + 7.018005710314789)"),
              ("x1_1", "y1", "(0.9847515522189946)*(s**2 + 0.015010993174837343*s + 7.586346198382245)"
                             "/(s**2 + 0.018300113653855473*s + 7.470666194527584)")]
-    blocks = [Block(f"B{k}", a, b, ExpressionTransfer(t)) for k, (a, b, t) in enumerate(texts)]
-    net = block_diagram(blocks, [Junction("sum", "e", ((1.0, "r"), (-1.0, "y0"), (-1.0, "y1")))], ["r"])
-    loop = loop_model(net, "e", np.geomspace(1e-2, 1e3, 400), {})
+    loop = summed_branches(texts, ["y0", "y1"])
     assert AGREEMENT < _disagreement(loop, _refined(loop, detection_grid(loop))) <= POLISH_LIMIT
     w = np.linspace(2.664, 2.670, 200_001)
     distance = np.abs(1 + loop.exact(w)[0])
@@ -198,10 +205,7 @@ def test_the_network_search_clusters_around_the_loop_s_own_light_zeros():
              ("x2_1", "x2_2", "351.21952137470424/(s**2 + 0.3700968661035373*s + 351.21952137470424)"),
              ("x2_2", "x2_3", "53.38357369277054/(s**2 + 0.3942639302645859*s + 53.38357369277054)"),
              ("x2_3", "y2", "0.9311927288486833/(s**2 + 0.01610277038203933*s + 0.9311927288486833)")]
-    blocks = [Block(f"B{k}", a, b, ExpressionTransfer(t)) for k, (a, b, t) in enumerate(texts)]
-    terms = ((1.0, "r"), (-1.0, "y0"), (-1.0, "y1"), (-1.0, "y2"))
-    net = block_diagram(blocks, [Junction("sum", "e", terms)], ["r"])
-    network = loop_model(net, "e", np.geomspace(1e-2, 1e3, 400), {}).on_exact()
+    network = summed_branches(texts, ["y0", "y1", "y2"]).on_exact()
     found = margins(network)
     w = np.geomspace(0.95, 1.1, 400_001)
     gh = network.exact(w)[0]
