@@ -15,8 +15,9 @@ are.  Method and bounds: docs/analysis.md.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -94,19 +95,33 @@ def transfer_evaluator(transfer, params: dict[str, float]) -> Evaluator:
     return evaluate
 
 
+UNBOUNDED = 1e12  # a peak of |S|, |T| or |K S| beyond this: 1 + GH is 0 there to rounding
+
+
+def reported(peak: Peak) -> Peak:
+    """The peak as shown to a reader: beyond `UNBOUNDED`, inf with a note (the closed
+    loop has a pole on the imaginary axis there, to rounding: 1/s^2 gave 3.2e14).  The
+    algorithms' measures keep the finite value: their differences need one."""
+    if not peak.value > UNBOUNDED:
+        return peak
+    return replace(peak, value=math.inf, notes=peak.notes + (
+        f"unbounded: 1 + GH is 0 to rounding at {peak.frequency:.6g} rad/s "
+        "(a closed-loop pole on the imaginary axis)",))
+
+
 def sensitivity_peak(loop: LoopModel, band: Band = Band()) -> Peak:
-    """Ms = max |S| over ``band``, refined."""
-    return refined_peaks(loop, [sensitivity], band)[0]
+    """Ms = max |S| over ``band``, refined (`reported`)."""
+    return reported(refined_peaks(loop, [sensitivity], band)[0])
 
 
 def complementary_peak(loop: LoopModel, band: Band = Band()) -> Peak:
-    """Mt = max |T| over ``band``, refined."""
-    return refined_peaks(loop, [complementary], band)[0]
+    """Mt = max |T| over ``band``, refined (`reported`)."""
+    return reported(refined_peaks(loop, [complementary], band)[0])
 
 
 def compensator_peak(loop: LoopModel, compensator: Evaluator, band: Band = Band()) -> Peak:
-    """max |K S| over ``band`` (K from ``compensator``: omega -> (K, dK/domega)), refined."""
-    return refined_peaks(loop, [compensator_sensitivity(compensator)], band)[0]
+    """max |K S| over ``band`` (K from ``compensator``: omega -> (K, dK/domega)), refined (`reported`)."""
+    return reported(refined_peaks(loop, [compensator_sensitivity(compensator)], band)[0])
 
 
 def magnitude_curves(loop: LoopModel, omega: NDArray | None = None) -> tuple[NDArray, NDArray, NDArray]:

@@ -90,3 +90,18 @@ def test_the_app_without_a_terminal_exits_2_at_once(tmp_path):
     assert out.stderr.startswith("loopcraft: error: the workbench needs a terminal: "
                                  "standard input and output are not terminals")
     assert "Traceback" not in out.stderr and out.stdout == ""
+
+
+def test_unbounded_peaks_are_null_in_json_and_named_in_text():
+    """1/s^2 closes with poles at +-1j: Ms and Mt are infinite; JSON has no
+    infinities, so the value is null with "unbounded": true (strict JSON)."""
+    out = run("analyze", "--tf", "1/s^2", "--json")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout, parse_constant=lambda c: pytest.fail(f"{c} in JSON"))
+    for key in ("sensitivity_peak", "complementary_sensitivity_peak"):
+        assert data[key]["value"] is None and data[key]["unbounded"] is True
+        assert data[key]["frequency"] == pytest.approx(1.0, rel=1e-9)
+    finite = json.loads(run("analyze", "--tf", "16000/(s*(s+8)*(s+20))", "--json").stdout)
+    assert finite["sensitivity_peak"]["unbounded"] is False and finite["sensitivity_peak"]["value"] > 1
+    text = run("analyze", "--tf", "1/s^2").stdout
+    assert "sensitivity peak Ms: inf (unbounded) at 1 rad/s" in text and "note: unbounded: 1 + GH is 0" in text

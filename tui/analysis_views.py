@@ -88,7 +88,7 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     effort = _compensator_curve(fig, c, params, loop, lw, scale, prefix, condensed) if role == "paired" else ""
     labelled = role == "condition" or (role == "paired" and not condensed)
     for name, peak, peak_color in (("Ms", ms, s_color), ("Mt", mt, t_color)):
-        if 0 < peak.frequency < math.inf and peak.value > 0:
+        if 0 < peak.frequency < math.inf and 0 < peak.value < math.inf:
             fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db],
                                      f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)" if labelled else "",
                                      marker="x", scatter=True, color=peak_color))

@@ -158,3 +158,26 @@ def test_bad_bands_and_curves():
     w, s, t = magnitude_curves(model, np.array([1.0, 2.0]))
     assert s == pytest.approx(np.abs((1 + 1j * w) / (2 + 1j * w)), rel=1e-14)
     assert t == pytest.approx(np.abs(1 / (2 + 1j * w)), rel=1e-14)
+
+
+@pytest.mark.parametrize("text, at", [("1/s^2", 1.0), ("4/(s^2*(s^2/100 + 1))", None), ("2/(s*(s+1))", None)])
+def test_a_closed_loop_pole_on_the_axis_makes_the_peaks_unbounded(text, at):
+    """1/s^2 closes to 1/(s^2 + 1): |S| and |T| are infinite at 1 rad/s; the search
+    refined towards the pole reported 3.2e14 (290 dB).  Shown as inf with a note;
+    a loop whose closed loop is stable keeps its finite peak.  Independent check:
+    the closed loop's characteristic polynomial (numpy.roots)."""
+    loop = loop_model(unity_feedback([text]), "e", np.geomspace(1e-2, 1e2, 50), {})
+    num = {"1/s^2": [1.0], "4/(s^2*(s^2/100 + 1))": [4.0], "2/(s*(s+1))": [2.0]}[text]
+    den = {"1/s^2": [1.0, 0, 0], "4/(s^2*(s^2/100 + 1))": [0.01, 0, 1.0, 0, 0],
+           "2/(s*(s+1))": [1.0, 1.0, 0]}[text]
+    char = np.polyadd(den, num)
+    on_axis = np.abs(np.roots(char).real) < 1e-9
+    for peak in (sensitivity_peak(loop), complementary_peak(loop)):
+        if on_axis.any():
+            axis = np.abs(np.roots(char)[on_axis].imag)
+            assert peak.value == math.inf and np.min(np.abs(axis - peak.frequency)) < 1e-6
+            assert any(n.startswith("unbounded: 1 + GH is 0 to rounding") for n in peak.notes)
+        else:
+            assert math.isfinite(peak.value) and not any(n.startswith("unbounded") for n in peak.notes)
+    if at is not None:
+        assert sensitivity_peak(loop).frequency == pytest.approx(at, rel=1e-9)

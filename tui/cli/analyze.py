@@ -22,7 +22,8 @@ def _pair(z: complex) -> list[float]:
 
 
 def _peak_json(p) -> dict | None:
-    return None if p is None else {"value": p.value, "db": finite_or_none(p.db),
+    return None if p is None else {"value": finite_or_none(p.value), "unbounded": p.value == math.inf,
+                                   "db": finite_or_none(p.db),
                                    "frequency": p.frequency if math.isfinite(p.frequency) else None,
                                    "at_infinity": p.frequency == math.inf, "method": p.method}
 
@@ -146,7 +147,8 @@ def _measure_lines(a: LoopAnalysis, unit: str) -> list[str]:
                      f" {_at(d.frequency, unit)}".rstrip())
     for name, p in (("sensitivity peak Ms", a.sensitivity_peak), ("complementary peak Mt", a.complementary_peak)):
         if p is not None:
-            lines.append(f"{name}: {p.value:.6g} ({_num(p.db, 'dB', '.4f')}) {_at(p.frequency, unit)}".rstrip())
+            size = _num(p.db, 'dB', '.4f') if math.isfinite(p.value) else "unbounded"
+            lines.append(f"{name}: {p.value:.6g} ({size}) {_at(p.frequency, unit)}".rstrip())
     return lines
 
 
