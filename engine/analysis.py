@@ -19,7 +19,7 @@ from .loops import LoopModel, loop_model
 from .margins import Band, Margins, margins
 from .network import Block, Junction, Network, block_diagram
 from .realization import Pole, poles, realize, stability
-from .sensitivity import Peak, complementary, refined_peaks, reported, sensitivity
+from .sensitivity import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
 
 
 @dataclass(frozen=True)
@@ -113,9 +113,8 @@ def closed_loop_peaks(model: LoopModel, verdict: str, skew: float = 0.0
     except EngineError as exc:
         return None, None, None, (f"no disk margin or sensitivity peaks: {exc}",)
     stable = None if verdict == "unknown" else verdict == "stable"
-    shown = reported(ms), reported(mt)   # inf beyond rounding, with a note (the same for both)
-    added = dict.fromkeys(n for raw, peak in zip((ms, mt), shown) for n in peak.notes[len(raw.notes):])
-    return from_peak(disk, skew, stable), *shown, tuple(added)
+    unbounded = tuple(dict.fromkeys(n for n in map(unbounded_note, (ms, mt)) if n))   # Ms and Mt: one note
+    return from_peak(disk, skew, stable), reported(ms), reported(mt), unbounded
 
 
 def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],

@@ -39,7 +39,6 @@ from .zpk_levels import LoopLevels, log_distance
 from .zpk_margins import fast_margins
 
 
-
 def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),
             attenuation_above: float | None = None, method: str = "auto") -> Margins:
     """All four margin kinds of ``loop`` (attenuation only when a frequency is given).
@@ -69,10 +68,10 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         off = _disagreement(loop, found)
         if off > AGREEMENT:  # the pole-zero form is off where it matters: refine on the network
             loop = loop.on_exact()
-            polished = _polished(loop, found) if off <= POLISH_LIMIT else None
-            if polished is None:  # or search it, from the form's grid
+            found = _polished(loop, found) if off <= POLISH_LIMIT else None
+            if found is None:  # or search it, from the form's grid
                 grid = detection_grid(loop, seed=None if grid is None else grid.omega)
-            found = polished or _refined(loop, grid)
+                found = _refined(loop, grid)
     gain = [m for m in found["G"] if m.gh.real < 0]
     dc = loop.dc_value
     if dc is not None and dc.real < 0:
@@ -171,9 +170,7 @@ def _changes_sign(levels: list[Level], g_lo: NDArray, dg_lo: NDArray, g_hi: NDAr
     change sign across it, in the level's direction, both ends above the rounding
     noise (relative `NOISE`, as the detection grid's brackets)?"""
     shift, angle = np.array([lv.shift for lv in levels]), np.array([lv.angle for lv in levels], dtype=bool)
-    left, offset = np.where(angle, g_lo, 1.0), np.where(angle, np.angle(-g_lo), 0.0)
-    h_lo, d_lo = _level_values(g_lo, dg_lo, shift, left, offset, angle)
-    h_hi, d_hi = _level_values(g_hi, dg_hi, shift, left, offset, angle)
+    _, _, (h_lo, d_lo), (h_hi, d_hi) = _end_levels(shift, angle, (g_lo, dg_lo), (g_hi, dg_hi))
     stationary = np.array([lv.stationary for lv in levels], dtype=bool)
     a, b = np.where(stationary, d_lo, h_lo), np.where(stationary, d_hi, h_hi)
     with np.errstate(all="ignore"):   # the slopes' sizes (h is a log or an angle: its own size is 1)
@@ -352,15 +349,19 @@ def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: 
         return np.repeat(np.array([getattr(level, field) for level in levels], dtype=dtype), counts)
 
     shift, angle = each("shift", float), each("angle", bool)
-    left = np.where(angle, lo[1], 1.0)
-    offset = np.where(angle, np.angle(-lo[1]), 0.0)
+    left, offset, (ha, da), (hb, db) = _end_levels(shift, angle, lo[1:], hi[1:])
 
     def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
         return _level_values(*loop.evaluate(points), shift[which], left[which], offset[which], angle[which])
 
-    ha, da = _level_values(lo[1], lo[2], shift, left, offset, angle)
-    hb, db = _level_values(hi[1], hi[2], shift, left, offset, angle)
     return refine(fun, lo[0], hi[0], ha, hb, da, db, each("stationary", bool), each("watched", bool))
+
+
+def _end_levels(shift: NDArray, angle: NDArray, lo: tuple, hi: tuple) -> tuple:
+    """From the ends' (GH, dGH): each bracket's angle reference (``left``,
+    ``offset`` of `_level_values`) and (h, h') at both ends."""
+    left, offset = np.where(angle, lo[0], 1.0), np.where(angle, np.angle(-lo[0]), 0.0)
+    return left, offset, _level_values(*lo, shift, left, offset, angle), _level_values(*hi, shift, left, offset, angle)
 
 
 def _evaluated(loop: LoopModel, frequencies: dict[str, NDArray]) -> dict[str, NDArray]:

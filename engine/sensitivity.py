@@ -98,15 +98,20 @@ def transfer_evaluator(transfer, params: dict[str, float]) -> Evaluator:
 UNBOUNDED = 1e12  # a peak of |S|, |T| or |K S| beyond this: 1 + GH is 0 there to rounding
 
 
-def reported(peak: Peak) -> Peak:
-    """The peak as shown to a reader: beyond `UNBOUNDED`, inf with a note (the closed
-    loop has a pole on the imaginary axis there, to rounding: 1/s^2 gave 3.2e14).  The
-    algorithms' measures keep the finite value: their differences need one."""
+def unbounded_note(peak: Peak) -> str | None:
+    """What a peak beyond `UNBOUNDED` means (a closed-loop pole on the imaginary axis
+    there, to rounding: 1/s^2 gave 3.2e14); None for a peak within it."""
     if not peak.value > UNBOUNDED:
-        return peak
-    return replace(peak, value=math.inf, notes=peak.notes + (
-        f"unbounded: 1 + GH is 0 to rounding at {peak.frequency:.6g} rad/s "
-        "(a closed-loop pole on the imaginary axis)",))
+        return None
+    return (f"unbounded: 1 + GH is 0 to rounding at {peak.frequency:.6g} rad/s "
+            "(a closed-loop pole on the imaginary axis)")
+
+
+def reported(peak: Peak) -> Peak:
+    """The peak as shown to a reader: beyond `UNBOUNDED`, inf with its `unbounded_note`.
+    The algorithms' measures keep the finite value: their differences need one."""
+    note = unbounded_note(peak)
+    return peak if note is None else replace(peak, value=math.inf, notes=peak.notes + (note,))
 
 
 def sensitivity_peak(loop: LoopModel, band: Band = Band()) -> Peak:
