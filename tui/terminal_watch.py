@@ -34,16 +34,16 @@ def watch_terminal(app: App, lost: Callable[[], None]) -> None:
     if app.is_headless or not terminal_attached():
         return
     loop = asyncio.get_running_loop()
-    fired = threading.Event()
+    ending = threading.Event()
 
-    def once() -> None:   # on the loop
-        if not fired.is_set():
-            fired.set()
-            lost()
+    def end() -> None:   # on the loop (SIGHUP) or the watching thread, whichever notices first
+        if not ending.is_set():
+            ending.set()
+            _ended(loop, lost)
 
     with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):   # no signals here (not Unix)
-        loop.add_signal_handler(signal.SIGHUP, lambda: _ended(loop, once))
-    threading.Thread(target=_watch, args=(loop, once), name="terminal-watch", daemon=True).start()
+        loop.add_signal_handler(signal.SIGHUP, end)
+    threading.Thread(target=_watch, args=(end,), name="terminal-watch", daemon=True).start()
 
 
 def terminal_attached() -> bool:
@@ -55,21 +55,22 @@ def terminal_attached() -> bool:
         return False
 
 
-def _watch(loop: asyncio.AbstractEventLoop, once: Callable[[], None]) -> None:
+def _watch(end: Callable[[], None]) -> None:
     while terminal_attached():
         time.sleep(CHECK_INTERVAL_S)
-    _ended(loop, once)
+    end()
 
 
-def _ended(loop: asyncio.AbstractEventLoop, once: Callable[[], None]) -> None:
-    """The terminal is gone: writes go nowhere, the app ends on its loop, or the process after `GRACE_S`."""
+def _ended(loop: asyncio.AbstractEventLoop, lost: Callable[[], None]) -> None:
+    """The terminal is gone (once): writes go nowhere, ``lost`` runs on the app's loop,
+    and the process ends outright after `GRACE_S` if the app has not."""
     with contextlib.suppress(OSError):
         null = os.open(os.devnull, os.O_WRONLY)
         os.dup2(null, 1)
         os.dup2(null, 2)
         os.close(null)
     with contextlib.suppress(RuntimeError):   # the loop already closed: the app has ended
-        loop.call_soon_threadsafe(once)
+        loop.call_soon_threadsafe(lost)
     timer = threading.Timer(GRACE_S, os._exit, (HANGUP_EXIT,))
     timer.daemon = True
     timer.start()
