@@ -266,6 +266,8 @@ def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = 
     """The file a table's ``csv`` names, relative to the session's ``folder``; one outside
     it (absolute, or leaving it by .. or a symlink) is refused unless ``allow_outside``
     (None: as the enclosing `outside_tables_allowed` says)."""
+    if "\0" in name:   # no file system takes it (pathlib raised a bare ValueError)
+        raise SessionError(f"{path}.csv: {name!r} is not a file name (it holds a NUL character)")
     allowed = _OUTSIDE_ALLOWED.get() if allow_outside is None else allow_outside
     file = Path(folder) / name
     if allowed:

@@ -143,3 +143,11 @@ def test_the_cli_refuses_and_allows_with_the_option(matching_dict, tmp_path, out
     assert main([command[0], str(path), *command[1:]]) == 2
     assert "is outside the session's folder" in capsys.readouterr().err
     assert main([command[0], str(path), *command[1:], "--allow-outside-tables"]) == 0
+
+
+@pytest.mark.parametrize("allowed", [False, True])
+def test_a_table_name_with_a_nul_character_is_a_session_error(tmp_path, allowed):
+    """A fuzzed session named its table 's\\x00': pathlib raised a bare ValueError
+    (a traceback from `loopcraft report`); now the JSON path and the name say why."""
+    with pytest.raises(SessionError, match=r"problem\.g1\.table\.csv: 's\\x00' is not a file name"):
+        table_path(tmp_path, "s\0", "problem.g1.table", allow_outside=allowed)
