@@ -16,6 +16,7 @@ companion matrices (dgeev), without np.poly's and np.roots's wrappers.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -86,8 +87,7 @@ class Fractions:
         mass = self.mass
         if squared:
             pencil, mass = _cascaded(pencil, n, True), _cascaded(mass, n, False)
-        from scipy.linalg import lapack   # on first use (start-up)
-        alpha_re, alpha_im, beta, *_, info = lapack.dggev(pencil, mass, compute_vl=0, compute_vr=0)
+        alpha_re, alpha_im, beta, *_, info = _lapack().dggev(pencil, mass, compute_vl=0, compute_vr=0)
         if info != 0:
             return None
         finite = np.abs(beta) > FINITE * np.hypot(alpha_re, alpha_im)
@@ -129,26 +129,44 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
     matrix's eigenvalues, and 0 for each trailing zero coefficient.  The
     variable is scaled first by the roots' geometric mean, |c_n / c_0|^(1/n),
     so the companion's entries are moderate (dgeev returned the eigenvalues of
-    its own rescaled matrix when they passed ~1e138)."""
-    nonzero = np.flatnonzero(c)
-    if nonzero.size == 0 or not np.isfinite(c).all():
+    its own rescaled matrix when they passed ~1e138).  The scaling is done on
+    Python floats: these polynomials are small, and numpy's per-call cost was
+    most of this function's time."""
+    coefficients = c.tolist()
+    nonzero = [k for k, value in enumerate(coefficients) if value != 0.0]
+    if not nonzero or not all(map(math.isfinite, coefficients)):
         return np.zeros(0, dtype=complex)
-    first, last = int(nonzero[0]), int(nonzero[-1])
-    at_origin = np.zeros(c.size - 1 - last, dtype=complex)
+    first, last = nonzero[0], nonzero[-1]
+    at_origin = np.zeros(len(coefficients) - 1 - last, dtype=complex)
     n = last - first
     if n == 0:
         return at_origin
-    c = c[first:last + 1]
-    log_scale = (math.log(abs(c[-1])) - math.log(abs(c[0]))) / n
-    with np.errstate(all="ignore"):   # c_k scale^(k - n)... as logs: no overflow on the way
-        logs = np.log(np.abs(c[1:])) - np.log(abs(c[0])) - log_scale * np.arange(1, n + 1)
-        scaled = np.where(c[1:] != 0, np.sign(c[1:]) * np.sign(c[0]) * np.exp(logs), 0.0)
-    if not np.isfinite(scaled).all():
-        return np.zeros(0, dtype=complex)
+    lead = coefficients[first]
+    log_lead = math.log(abs(lead))
+    log_scale = (math.log(abs(coefficients[last])) - log_lead) / n
+    row = []   # -c_k / c_0 * scale^-k, as logs: no overflow on the way
+    for k, value in enumerate(coefficients[first + 1:last + 1], start=1):
+        if value == 0.0:
+            row.append(0.0)
+            continue
+        level = math.log(abs(value)) - log_lead - log_scale * k
+        if level > LARGEST_LOG:
+            return np.zeros(0, dtype=complex)
+        row.append(math.exp(level) if (value > 0) != (lead > 0) else -math.exp(level))
     companion = np.eye(n, k=-1)
-    companion[0] = -scaled
-    from scipy.linalg import lapack   # on first use (start-up)
-    real, imag, *_, info = lapack.dgeev(companion, compute_vl=0, compute_vr=0)
+    companion[0] = row
+    real, imag, *_, info = _lapack().dgeev(companion, compute_vl=0, compute_vr=0)
     if info != 0:
         return np.zeros(0, dtype=complex)
     return np.concatenate([(real + 1j * imag) * math.exp(log_scale), at_origin])
+
+
+LARGEST_LOG = math.log(np.finfo(float).max)
+
+
+@functools.cache
+def _lapack():
+    """scipy's LAPACK wrappers, imported on first use (start-up time; cached:
+    an import statement run per call cost more than dgeev on these sizes)."""
+    from scipy.linalg import lapack
+    return lapack

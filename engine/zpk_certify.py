@@ -52,6 +52,7 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
     equal at both ends (unless ``constant`` says it is constant: then it has
     none).  ``noise``: rows of each slope's rounding (by default
     `LoopLevels.slope_noise`).  None when a check still fails."""
+    probe = loop.slopes_and_noise if slopes is None and noise is None else None
     slopes, noise = slopes or loop.slopes, noise or loop.slope_noise
     every = np.concatenate(points)
     parts = [loop.probes, near]
@@ -61,8 +62,9 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
     probes = np.concatenate(parts)
     if every.size:
         probes = probes[np.min(np.abs(probes[:, None] / every[None, :] - 1.0), axis=1) > CLEARANCE]
-    first = slopes(probes)[0][:len(points)]
-    signs = np.where(np.abs(first) > noise(probes), np.sign(first), np.where(np.isnan(first), np.nan, 0.0))
+    first, rounding = probe(probes) if probe else (slopes(probes)[0], noise(probes))
+    first = first[:len(points)]
+    signs = np.where(np.abs(first) > rounding[:len(points)], np.sign(first), np.where(np.isnan(first), np.nan, 0.0))
     out_points, out_maxima = [], []
     for row, (w, top) in enumerate(zip(points, maxima)):
         for _ in range(REPAIR_ROUNDS + 1):
@@ -77,11 +79,21 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
             return None
         out_points.append(w)
         out_maxima.append(top)
-    flat = constant or [False] * len(points)
-    for row, (w, top) in enumerate(zip(out_points, out_maxima)):
-        if ends is not None and not flat[row] and not _reaches(ends[0](w)[row] if w.size else w, top, ends[1][row]):
-            return None
+    if ends is not None and not _all_reach(out_points, out_maxima, ends, constant or [False] * len(points)):
+        return None
     return out_points, out_maxima
+
+
+def _all_reach(points: list[NDArray], maxima: list[NDArray], ends: Ends, constant: list[bool]) -> bool:
+    """`_reaches` for every level that is not constant (its values read in one evaluation)."""
+    every = np.concatenate(points)
+    values = ends[0](every) if every.size else np.zeros((len(points), 0))
+    start = 0
+    for row, (w, top) in enumerate(zip(points, maxima)):
+        own, start = values[row, start:start + w.size], start + w.size
+        if not constant[row] and not _reaches(own, top, ends[1][row]):
+            return False
+    return True
 
 
 def _reaches(values: NDArray, maxima: NDArray, limits: tuple[float, float]) -> bool:

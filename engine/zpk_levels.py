@@ -114,14 +114,27 @@ class LoopLevels:
         second = np.array([-du.real, -du.imag, -dg.real, -u.imag, (gh * u).real])
         return first, second
 
+    def slopes_and_noise(self, w: NDArray) -> tuple[NDArray, NDArray]:
+        """The first three rows of `slopes` (the stationary points' levels) and of
+        `slope_noise` at ``w``, from one evaluation of the terms (the certificate
+        reads both at its check points)."""
+        gh, u, _ = self.terms(w)
+        closed = gh / (1.0 + gh)
+        noise = self._u_noise(w, u)
+        return np.array([-u.imag, u.real, -(closed * u).imag]), np.array([noise, noise, np.abs(closed) * noise])
+
     def u_rounding(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """GH at s = j w and the rounding of u there: a few ulp of the sum of its
         terms' sizes, and per root of |u| (each factor's relative error)."""
         gh, u, _ = self.terms(w)
+        return gh, self._u_noise(w, u)
+
+    def _u_noise(self, w: NDArray, u: NDArray) -> NDArray:
+        """The rounding of u = d log GH / ds at ``w`` (`u_rounding`)."""
         form, m = self.form, self.form.paired
         r = np.abs(1.0 / (1j * w - form.roots))
         spread = np.abs(form.gaps) @ (r[:m] * r[m:2 * m]) + r[2 * m:].sum(axis=0)
-        return gh, ROUNDING * (spread + self.roots.size * np.abs(u))
+        return ROUNDING * (spread + self.roots.size * np.abs(u))
 
     def slope_noise(self, w: NDArray) -> NDArray:
         """Rows: the rounding of the first three rows of `slopes` at ``w``: below it
