@@ -171,17 +171,21 @@ def _worker_view() -> dict:
     import dask
     return {"profile": dask.config.get("distributed.worker.profile.enabled"),
             "preload": list(dask.config.get("distributed.worker.preload")),
-            "warm": "engine.slp" in sys.modules and "sessions.sweep_jobs" in sys.modules}
+            "warm": "engine.slp" in sys.modules and "sessions.sweep_jobs" in sys.modules,
+            "environ": {name: os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_", "OPENBLAS_NUM_THREADS")}}
 
 
-def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads():
-    """Dask's statistical profiler (a stack sample every 10 ms) made the runs 1.5 times as
-    long as in this process: off on our local workers, which import the engine and the
-    algorithms as they start; a preload the user configured comes first."""
+def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(monkeypatch):
+    """Dask's statistical profiler (a stack sample every 10 ms) is off on our local workers,
+    which import the engine and the algorithms as they start; a preload the user
+    configured comes first.  Dask's MALLOC_TRIM_THRESHOLD_ is not set on them (glibc's
+    fixed thresholds made a launch-vehicle run 1.45 times as long as in this process);
+    its one BLAS thread per worker is kept."""
     import dask
     from distributed import Client
 
     from sessions.sweep_cluster import local_cluster
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with dask.config.set({"distributed.worker.preload": ["json"]}):
         cluster = local_cluster(1)
     try:
@@ -189,4 +193,5 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads():
             (seen,) = client.run(_worker_view).values()
     finally:
         cluster.close()
-    assert seen == {"profile": False, "preload": ["json", "sessions.sweep_worker"], "warm": True}
+    assert seen == {"profile": False, "preload": ["json", "sessions.sweep_worker"], "warm": True,
+                    "environ": {"MALLOC_TRIM_THRESHOLD_": None, "OPENBLAS_NUM_THREADS": "1"}}
