@@ -38,6 +38,7 @@ from .workbench import stored_json
 from .widgets.plots import FigurePlot
 
 REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)
+FOOTER_DIM_DELAY = 0.15  # s: a run still going then has its footer's keys dimmed
 PAINT_WAIT = 0.3  # s: after posting what the screen shows, the worker waits at most this for its paint
 
 
@@ -134,12 +135,21 @@ class RunLoop:
         self._run_worker(request)
 
     def _set_running(self, running: bool) -> None:
-        """Enable or disable the keys that change the session (the footer dims them)."""
+        """Enable or disable the keys that change the session (at once: `check_action`);
+        the footer dims them when a run lasts `FOOTER_DIM_DELAY` (a step that ends
+        before would make it flicker, and rebuild it twice for nothing)."""
         self.running = running
-        self.screen.refresh_bindings()
+        if running:
+            self.set_timer(FOOTER_DIM_DELAY, self._dim_if_running)
+        else:
+            self.screen.refresh_bindings()
         main = self._main()
         if main is not None:
             main.refresh_status()
+
+    def _dim_if_running(self) -> None:
+        if self.running:
+            self.screen.refresh_bindings()
 
     @work(thread=True, exclusive=True, exit_on_error=False, group="run")
     def _run_worker(self, request: RunRequest) -> None:

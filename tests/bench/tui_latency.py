@@ -1,6 +1,6 @@
 """Workbench latency (part of `make bench`): key press to the painted screen
 with the new tableau and plots on the launch-vehicle CIP example at 120x40
-(target 150 ms; a press that painted nothing gives no sample, counted as
+(target 80 ms; a press that painted nothing gives no sample, counted as
 ``unpainted``), the longest wait of a 50 ms timer while a run goes (target
 100 ms), and the first paint of a fresh process (`first_paint`, target 1 s)."""
 
@@ -17,6 +17,7 @@ from pathlib import Path
 from .common import judged
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+STEP_TO_SCREEN_TARGET_S = 0.080   # issue 23: key to painted screen <= 80 ms median at 120x40
 
 
 def _workdir() -> Path:
@@ -130,7 +131,7 @@ def measure(presses: int = 15, run_seconds: float = 2.0) -> dict:
     latency = asyncio.run(_step_latency(folder, presses))
     gaps = asyncio.run(_timer_gaps(_workdir(), run_seconds))
     longest = max(gaps) if gaps else None
-    return {"step_to_screen": _summary(latency, 0.150, presses=presses, terminal="120x40",
+    return {"step_to_screen": _summary(latency, STEP_TO_SCREEN_TARGET_S, presses=presses, terminal="120x40",
                                        session="cip_launch_vehicle"),
             "timer_50ms_during_run": {"max_wait_s": longest, "ticks": len(gaps) + 1, **judged(longest, 0.100, "max_s")}}
 

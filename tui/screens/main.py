@@ -11,7 +11,7 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical, VerticalScroll
 from textual.screen import Screen
-from textual.widgets import DataTable, Footer, TabbedContent, TabPane
+from textual.widgets import DataTable, TabbedContent, TabPane
 
 from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
@@ -26,6 +26,7 @@ from ..views import View
 from ..widgets.matrix_table import MatrixTable
 from ..run_loop import drawings
 from ..widgets.figure import Figure
+from ..widgets.footer import Footer
 from ..widgets.plots import FigurePlot, sweep_figure
 from ..widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
 from ..widgets.textview import TextView
@@ -161,7 +162,8 @@ class MainScreen(ViewActions, Screen):
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """p and L are disabled where they have nothing to show."""
-        history = self.query("#tabs") and self.query_one("#tabs", TabbedContent).active == "history"
+        tabs = self.query_one_optional("#tabs", TabbedContent)   # (query_one is cached; a query's truth walks the DOM)
+        history = tabs is not None and tabs.active == "history"
         if action == "next_plot" and history:
             return self.query_one(HistoryPane).check_action("next_view", parameters)
         if action == "locus_parameter":

@@ -9,9 +9,10 @@ from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Vertical
 from textual.screen import Screen
-from textual.widgets import Footer, Label, OptionList
+from textual.widgets import Label, OptionList
 
 from ..files import EXAMPLES, recent_sessions
+from ..widgets.footer import Footer
 
 
 class StartScreen(Screen):

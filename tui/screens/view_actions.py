@@ -3,7 +3,7 @@ to the clipboard, and the root locus computed off the UI thread."""
 
 from __future__ import annotations
 
-from textual.widgets import DataTable
+from textual.widgets import DataTable, TabbedContent
 
 from ..analysis_views import locus_figure
 from ..copying import design_text, row_text
@@ -66,8 +66,8 @@ class ViewActions:
     def refresh_locus(self, view: View | None = None) -> None:
         """The root locus, computed in a thread worker only while its tab is shown
         (a locus of a dozen bending modes takes seconds); kept until the design changes."""
-        plots = self.query("#plots")
-        if not plots or plots.first().active != "p-locus" or not self.query("#locus"):
+        plots = self.query_one_optional("#plots", TabbedContent)
+        if plots is None or plots.active != "p-locus" or self.query_one_optional("#locus") is None:
             return
         view = self.bench.view() if view is None else view
         key = (id(view.problem), view.iteration, view.plotted_condition, self.locus_parameter)

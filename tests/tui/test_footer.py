@@ -1,0 +1,60 @@
+"""The key footer: rebuilt once for the binding refreshes of a step's end (Textual's
+rebuilt itself once per refresh, three times per step: half the time from the key
+press to the painted iteration), and still dimming the session's keys in a run."""
+
+from __future__ import annotations
+
+import time
+
+from textual.widgets._footer import FooterKey
+
+from tui.app import LoopcraftApp
+from tui.widgets.footer import Footer
+
+from .test_app import settle, synchronous
+
+
+def _disabled(app, action: str) -> bool:
+    """Whether the footer shows the key of ``action`` dimmed."""
+    return next(key for key in app.screen.query(FooterKey) if key.action == action).has_class("-disabled")
+
+
+@synchronous
+async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
+    rebuilds = []
+    recompose = Footer.recompose
+
+    async def counted(self):
+        rebuilds.append(time.perf_counter())
+        await recompose(self)
+    monkeypatch.setattr(Footer, "recompose", counted)
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert _disabled(app, "undo")   # nothing to undo yet
+        rebuilds.clear()
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1 and not _disabled(app, "undo")
+        assert 1 <= len(rebuilds) <= 2   # one, or two when the step outlasts the dimming delay
+
+
+@synchronous
+async def test_a_run_dims_the_session_keys_and_its_end_enables_them(workdir, monkeypatch):
+    app = LoopcraftApp(workdir / "cip_dual_channel.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        algorithm = app.bench.ensure_algorithm()
+        step = algorithm.step
+
+        def slow_step(state):   # 20 ms iterations: the run outlasts the dimming delay
+            time.sleep(0.02)
+            return step(state)
+        monkeypatch.setattr(algorithm, "step", slow_step)
+        assert not _disabled(app, "step")
+        await pilot.press("r")
+        await pilot.pause(0.5)
+        assert app.busy and _disabled(app, "step")
+        await pilot.press("space")
+        await settle(app, pilot)
+        assert not app.busy and not _disabled(app, "step")
