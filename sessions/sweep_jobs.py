@@ -74,6 +74,11 @@ def run_job(payload: dict) -> dict:
     return result
 
 
+def run_batch(payloads: list[dict]) -> list[dict]:
+    """`run_job` of each payload in turn (short runs go to a worker together: `batch_size`)."""
+    return [run_job(payload) for payload in payloads]
+
+
 def _evaluate(presenter, algorithm, problem, settings) -> StepRecord:
     """The tableau of the design as it is: iteration 0's record, as the presenter gives it."""
     record = presenter.initial_record(algorithm, algorithm.init(problem, settings), problem)
@@ -138,7 +143,8 @@ class Outcome:
     attempts: dict[int, list[str]] = field(default_factory=dict)
     cancelled: bool = False
     interrupted: bool = False
-    note: str = ""   # e.g. why the runs went serially rather than on a local cluster
+    note: str = ""   # why the runs went serially rather than on a local cluster, or in batches
+    serial: bool = False   # the runs were made in this process, one after the other
 
     @property
     def finished(self) -> int:
@@ -156,40 +162,61 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
     """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
     per core, one thread each) or the cluster at ``scheduler`` (tcp://HOST:PORT,
     reached within ``timeout`` seconds).  With neither ``scheduler`` nor ``workers``
-    given, the first run is timed here and the rest run here too when a local
-    cluster could not pay for its start-up (the outcome's ``note`` says so).
-    Ctrl-C stops it: the finished runs are kept."""
+    given, the first run is made and timed here: the rest run here too when a
+    local cluster could not pay for its start-up, and runs shorter than
+    `BATCH_SECONDS` go to the workers in batches (`batch_size`); the outcome's
+    ``note`` says which.  Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
     address, first = scheduler_address(scheduler), None
     if address is None and workers is None and jobs:   # a local cluster of the default size: maybe not worth it
-        first, serial = _serial_when_faster(jobs, progress)
+        first, serial = _first_here(jobs, progress)
         if serial is not None:
             return serial
     client, cluster = connect(address, workers, connect_timeout(timeout))
     try:
         if first is None:
             return _gather(client, jobs, progress, cancelled)
-        rest = _gather(client, jobs[1:], progress, cancelled)
-        return Outcome([first] + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted)
+        size = batch_size(first["seconds"], len(jobs) - 1, _worker_count(client))
+        shifted = None if progress is None else lambda k, _: progress(k + 1, len(jobs))
+        rest = _gather(client, jobs[1:], shifted, cancelled, size)
+        note = f"runs of about {first['seconds']:.2g} s sent to the workers {size} at a time" if size > 1 else ""
+        return Outcome([first] + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted, note)
     finally:
         with sigint_ignored():
             close(client, cluster)
 
 
 LOCAL_CLUSTER_START = 3.0   # s: a local cluster's start-up and first imports, measured on 2 cores
+BATCH_SECONDS = 0.25        # s: runs shorter than this go to a worker together, about this much work at a time
+BATCHES_PER_WORKER = 4      # ... but in at least this many batches per worker (none idles long at the end)
 
 
-def _serial_when_faster(jobs: Sequence, progress: Callable[[int, int], None] | None) -> tuple[dict, Outcome | None]:
+def batch_size(each: float, count: int, workers: int) -> int:
+    """How many runs of about ``each`` seconds go to a worker together: about
+    `BATCH_SECONDS` of work (a Dask task costs a few ms of its own: 2 ms runs went
+    no faster on two workers than serially), in at least `BATCHES_PER_WORKER`
+    batches per worker."""
+    by_time = int(BATCH_SECONDS / each) if each > 0 else count
+    by_balance = count // (BATCHES_PER_WORKER * max(workers, 1))
+    return max(1, min(by_time, by_balance))
+
+
+def _worker_count(client) -> int:
+    try:
+        return len(client.scheduler_info().get("workers", {})) or 1
+    except Exception:  # noqa: BLE001 - a scheduler that cannot say: batches sized for one worker
+        return 1
+
+
+def _first_here(jobs: Sequence, progress: Callable[[int, int], None] | None) -> tuple[dict, Outcome | None]:
     """Run the first job here and time it; when the rest would take less than a local
-    cluster of one process per core saves (or there is one core), run them here too:
-    (first run, the serial outcome or None)."""
+    cluster of one process per core saves (or there is one core), run them here
+    too: (first run, the serial outcome or None)."""
     n = os.cpu_count() or 1
-    started = time.perf_counter()
     first = run_job(jobs[0].payload())
     first["attempts"] = 1
-    each = time.perf_counter() - started
-    estimate = each * (len(jobs) - 1)
+    estimate = first["seconds"] * (len(jobs) - 1)
     if progress:
         progress(1, len(jobs))
     if n > 1 and estimate * (1 - 1 / n) <= LOCAL_CLUSTER_START:
@@ -200,22 +227,22 @@ def _serial_when_faster(jobs: Sequence, progress: Callable[[int, int], None] | N
     else:
         return first, None
     rest = execute_serial(jobs[1:], None if progress is None else lambda k, _: progress(k + 1, len(jobs)))
-    return first, Outcome([first] + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note)
+    return first, Outcome([first] + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note, serial=True)
 
 
-def _gather(client, jobs, progress, cancelled) -> Outcome:
+def _gather(client, jobs, progress, cancelled, size: int = 1) -> Outcome:
     from distributed import as_completed
     tag = uuid.uuid4().hex[:8]
-    futures = client.map(run_job, [job.payload() for job in jobs], key=[f"loopcraft-{tag}-{j.index}" for j in jobs],
-                         pure=False, retries=1)
-    index_of = {f.key: j.index for f, j in zip(futures, jobs)}
-    position = {j.index: k for k, j in enumerate(jobs)}
+    batches = [list(jobs[k:k + size]) for k in range(0, len(jobs), size)]
+    futures = client.map(run_batch, [[job.payload() for job in batch] for batch in batches],
+                         key=[f"loopcraft-{tag}-{batch[0].index}" for batch in batches], pure=False, retries=1)
+    batch_of = {f.key: batch for f, batch in zip(futures, batches)}
     runs: dict[int, dict] = {}
     stopped = interrupted = False
     try:
         for future in as_completed(futures):
-            k = index_of[future.key]
-            runs[k] = _result(future, jobs[position[k]])
+            batch = batch_of[future.key]
+            runs.update(zip((job.index for job in batch), _results(future, batch)))
             if progress:
                 progress(len(runs), len(jobs))
             if not stopped and cancelled():
@@ -224,35 +251,36 @@ def _gather(client, jobs, progress, cancelled) -> Outcome:
     except KeyboardInterrupt:
         with sigint_ignored():
             stopped = interrupted = True
-            _interrupted(client, futures, jobs, runs)
+            _interrupted(client, futures, batches, runs)
     with sigint_ignored() if interrupted else nullcontext():
         workers, attempts = _workers_and_attempts(client, runs)
     return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted)
 
 
-def _result(future, job) -> dict:
+def _results(future, batch: list) -> list[dict]:
     try:
         return future.result()
-    except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled job is recorded, not raised
-        return _lost(job, exc)
+    except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled batch is recorded, not raised
+        return [_lost(job, exc) for job in batch]
 
 
-def _interrupted(client, futures, jobs, runs: dict[int, dict]) -> None:
+def _interrupted(client, futures, batches: list[list], runs: dict[int, dict]) -> None:
     """After Ctrl-C: cancel what has not finished, keep what has."""
     try:
         client.cancel([f for f in futures if not f.done()])
     except Exception:  # noqa: BLE001, S110 - the runs are kept whatever the scheduler says
         pass
-    for future, job in zip(futures, jobs):
-        if job.index in runs:
+    for future, batch in zip(futures, batches):
+        if all(job.index in runs for job in batch):
             continue
+        results = None
         if future.status == "finished":
             try:
-                runs[job.index] = future.result(timeout=RESULT_WAIT)
-                continue
+                results = future.result(timeout=RESULT_WAIT)
             except Exception:  # noqa: BLE001, S110 - not fetched in time: cancelled like the rest
                 pass
-        runs[job.index] = _lost(job, None)
+        for k, job in enumerate(batch):
+            runs.setdefault(job.index, results[k] if results else _lost(job, None))
 
 
 def _workers_and_attempts(client, runs: dict[int, dict]) -> tuple[int, dict[int, list[str]]]:
@@ -293,5 +321,5 @@ def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None =
                 progress(len(runs), len(jobs))
     except KeyboardInterrupt:
         rest = [_lost(job, None) for job in jobs[len(runs):]]
-        return Outcome(runs + rest, 1, {}, cancelled=True, interrupted=True)
-    return Outcome(runs, 1, {})
+        return Outcome(runs + rest, 1, {}, cancelled=True, interrupted=True, serial=True)
+    return Outcome(runs, 1, {}, serial=True)
