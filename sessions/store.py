@@ -21,9 +21,7 @@ session; one that cannot be written is a warning (`Session.autosave_warning`).
 from __future__ import annotations
 
 import json
-import math
 import os
-import secrets
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -43,6 +41,7 @@ from .errors import SessionError
 from .savefile import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
                        real_path, refuse_overwrite, remove_quietly, sweep_stale, write_atomic)
 from .schema import SCHEMA_VERSION, SessionModel, TableModel
+from .session_json import dumps
 
 __all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
            "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",
@@ -181,31 +180,6 @@ def _read(path: Path) -> tuple[str, DiskStamp]:
         raise SessionError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
 
 
-def dumps(model: SessionModel, compact: bool = False) -> str:
-    """Stable JSON: sorted keys, shortest float repr, two-space indent (``compact``: none,
-    for autosaves: json's C encoder, three times faster); inf and -inf as 1e999 and
-    -1e999 (standard JSON that reads back as infinities), nan as "nan"."""
-    marker = "\0" + secrets.token_hex(8)
-    data = _plain(model.model_dump(mode="python", exclude_none=False), marker)
-    text = json.dumps(data, indent=None if compact else 2, sort_keys=True, allow_nan=False)
-    return text.replace(json.dumps(marker + "+"), "1e999").replace(json.dumps(marker + "-"), "-1e999") + "\n"
-
-
-def _plain(value: Any, marker: str) -> Any:
-    """Plain JSON data; an infinity becomes ``marker`` and its sign (`dumps` writes it as 1e999)."""
-    if isinstance(value, float):
-        if math.isfinite(value):
-            return value
-        return "nan" if math.isnan(value) else marker + ("+" if value > 0 else "-")
-    if isinstance(value, dict):
-        return {str(k): _plain(v, marker) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v, marker) for v in value]
-    if hasattr(value, "tolist"):
-        return _plain(value.tolist(), marker)
-    return value
-
-
 def save_session(session: Session, path: str | Path | None = None, *, force: bool = False) -> Path:
     """Write atomically (through a symlink, keeping the file's mode); the file it replaces
     is kept as NAME.json.bak.  Unless ``force``, a file changed on disk since it was loaded
@@ -324,7 +298,7 @@ def write_autosave(session: Session, at_most_every: float = 0.0, wait: bool = Tr
     as n^2).  The session is copied at once (its record list; everything else is
     replaced, never changed in place) and written by one background thread, in
     order (``wait``: this call waits for it; else it returns the planned path and
-    the app's UI thread goes on: a long session's JSON takes a fifth of a second).
+    the app's UI thread goes on; each record's text is kept, `sessions.session_json`).
     Never raises: one that cannot be written gives None, and
     ``session.autosave_warning`` says why (None again after one that succeeds)."""
     base = session.save_to or session.path
