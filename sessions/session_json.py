@@ -4,10 +4,11 @@ that reads back as it was (inf and -inf written as 1e999 and -1e999, nan as
 
 An autosave writes the whole session every few seconds of a run; after 1000
 iterations of a two-channel `cip` session that is some 10 MB, and encoding it
-held the GIL for most of a second (the UI thread stalls meanwhile).  A
-record, once made, is never changed in place (`sessions.store.write_autosave`
-copies the list of them, not them): its text is kept with it, and a compact
-text is the rest of the session with the records' texts spliced in."""
+held the GIL for most of a second (the UI thread stalls meanwhile; a save
+runs on it).  A record, once made, is never changed in place
+(`sessions.store.write_autosave` copies the list of them, not them): its
+texts are kept with it, and a session's text is the rest of the session
+with the records' texts spliced in."""
 
 from __future__ import annotations
 
@@ -20,34 +21,40 @@ from typing import Any
 from .schema import SessionModel
 
 _MARKER = "\0" + secrets.token_hex(8)   # stands in for an infinity (and the records) while encoding
-_RECORD_TEXTS: dict[int, tuple[dict, str]] = {}   # id -> (the record, kept alive: its id is not reused; its text)
+_RECORD_TEXTS: dict[int, tuple[dict, dict[bool, str]]] = {}   # id -> (the record, kept alive: its id is
+# not reused; its text by compactness)
 _LOCK = threading.Lock()
 
 
 def dumps(model: SessionModel, compact: bool = False) -> str:
     """Stable JSON: sorted keys, shortest float repr, two-space indent (``compact``: none,
-    for autosaves: json's C encoder, three times faster, and each record's text kept
-    from the last time); inf and -inf as 1e999 and -1e999, nan as "nan"."""
-    if not compact:
-        data = _plain(model.model_dump(mode="python", exclude_none=False), _MARKER)
-        return _standard(json.dumps(data, indent=2, sort_keys=True, allow_nan=False)) + "\n"
+    for autosaves); inf and -inf as 1e999 and -1e999, nan as "nan".  Each record's
+    text is kept from the last time (the module docstring)."""
     data = _plain(model.model_dump(mode="python", exclude_none=False, exclude={"records"}), _MARKER)
     data["records"] = _MARKER + "records"
-    text = _standard(json.dumps(data, sort_keys=True, allow_nan=False))
-    records = "[" + ", ".join(_record_texts(model.records)) + "]"
+    text = _standard(json.dumps(data, indent=None if compact else 2, sort_keys=True, allow_nan=False))
+    texts = _record_texts(model.records, compact)
+    if compact:
+        records = "[" + ", ".join(texts) + "]"
+    else:   # json's layout of a list of objects one level in
+        records = "[\n    " + ",\n    ".join(texts) + "\n  ]" if texts else "[]"
     return text.replace(json.dumps(data["records"]), records, 1) + "\n"
 
 
-def _record_texts(records: list[dict]) -> list[str]:
-    """Each record's compact text, kept from the last call when it is the same record."""
+def _record_texts(records: list[dict], compact: bool) -> list[str]:
+    """Each record's text (compact, or indented as two levels in), kept from the last
+    call when it is the same record."""
     with _LOCK:
         kept, texts = {}, []
         for record in records:
             hit = _RECORD_TEXTS.get(id(record))
-            text = hit[1] if hit is not None and hit[0] is record else \
-                _standard(json.dumps(_plain(record, _MARKER), sort_keys=True, allow_nan=False))
-            kept[id(record)] = (record, text)
-            texts.append(text)
+            forms = hit[1] if hit is not None and hit[0] is record else {}
+            if compact not in forms:
+                encoded = json.dumps(_plain(record, _MARKER), indent=None if compact else 2, sort_keys=True,
+                                     allow_nan=False)
+                forms[compact] = _standard(encoded if compact else encoded.replace("\n", "\n    "))
+            kept[id(record)] = (record, forms)
+            texts.append(forms[compact])
         _RECORD_TEXTS.clear()
         _RECORD_TEXTS.update(kept)
     return texts
