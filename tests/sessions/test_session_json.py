@@ -1,6 +1,6 @@
-"""A session's text (compact for autosaves, indented for saves) keeps each record's text: it is the full
-encoding's text exactly, records that are new or replaced are encoded again,
-and infinities read back as infinities."""
+"""A session's text (compact for autosaves, indented for saves) keeps each
+record's text: it is the whole encoding's text exactly, records that are new
+or replaced are encoded again, and infinities read back as infinities."""
 
 from __future__ import annotations
 
