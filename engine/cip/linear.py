@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.linalg import null_space
 
 from ..constraints import inequality_rows, project, row_scale
 from ..problem import Problem
@@ -58,7 +57,7 @@ def held_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray, hold_
 def _reduced(unit: NDArray, weights: NDArray, held: NDArray, rows: NDArray) -> NDArray | HeldDirection:
     """D in the null space of the held coordinates and rows, or why there is none."""
     H = np.vstack([np.eye(held.size)[held], rows.reshape(-1, held.size)])
-    N = null_space(H) if H.shape[0] else np.eye(held.size)
+    N = _null_space(H) if H.shape[0] else np.eye(held.size)
     G = unit @ N
     if N.shape[1] == 0 or np.any(np.linalg.norm(G, axis=1) <= ZERO):
         return HeldDirection(None, held, "zero_gradient", "a gradient is zero once the coefficients at their "
@@ -102,3 +101,10 @@ def held_labels(problem: Problem, direction: Direction) -> list[str]:
     rows = inequality_rows(problem)
     origin = [o for o, free in zip(rows.origin, rows.free) if free]
     return [problem.inequalities[k].label for k in sorted({origin[r][0] for r in held})]
+
+
+def _null_space(matrix: NDArray) -> NDArray:
+    """scipy's null space, imported on first use (scipy.linalg costs a tenth of a second of the
+    workbench's start on a cip session, whose first paint needs none of it)."""
+    from scipy.linalg import null_space
+    return null_space(matrix)
