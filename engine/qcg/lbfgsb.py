@@ -35,7 +35,6 @@ from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize._dcsrch import DCSRCH   # scipy's own L-BFGS-B line search (no public name)
 
 from ..algorithm import Status
 from .cgfm import Move
@@ -106,6 +105,7 @@ def _search(cost: Counter, scale: NDArray, p: NDArray, d: NDArray, g: NDArray,
     """L-BFGS-B's line search along d (MINPACK's dcsrch, scipy's `DCSRCH`, L-BFGS-B's
     constants), capped at the bounds: the new p and its cost.  When it ends without a
     point meeting its conditions, the best point it tried with sufficient decrease."""
+    from scipy.optimize._dcsrch import DCSRCH   # no public name; on first use (scipy.optimize: 0.25 s of start-up)
     seen: dict[float, Evaluation | None] = {}
 
     def at(alpha: float) -> Evaluation | None:

@@ -28,7 +28,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import linalg
 
 from ..blocks import ExpressionTransfer
 from ..errors import EngineError
@@ -233,5 +232,6 @@ def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -
         return math.inf  # white noise straight to the output
     if A.size and np.max(np.linalg.eigvals(A).real) >= 0:
         return math.inf
-    P = linalg.solve_continuous_lyapunov(A, -np.outer(B, B))
+    from scipy.linalg import solve_continuous_lyapunov   # on first use (start-up)
+    P = solve_continuous_lyapunov(A, -np.outer(B, B))
     return float(C @ P @ C)
