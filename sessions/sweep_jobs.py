@@ -230,18 +230,28 @@ def _first_here(jobs: Sequence, progress: Callable[[int, int], None] | None) -> 
     return first, Outcome([first] + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note, serial=True)
 
 
-def _gather(client, jobs, progress, cancelled, size: int = 1) -> Outcome:
+def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = run_batch) -> Outcome:
+    """The jobs on the cluster, ``size`` to a task (``task``: `run_batch` or a stand-in);
+    a batch whose task fails (its worker died under it) is sent again one run to a
+    task, so that a run that kills its worker does not take the others with it."""
     from distributed import as_completed
     tag = uuid.uuid4().hex[:8]
     batches = [list(jobs[k:k + size]) for k in range(0, len(jobs), size)]
-    futures = client.map(run_batch, [[job.payload() for job in batch] for batch in batches],
-                         key=[f"loopcraft-{tag}-{batch[0].index}" for batch in batches], pure=False, retries=1)
+    futures = _submit(client, task, batches, tag)
     batch_of = {f.key: batch for f, batch in zip(futures, batches)}
     runs: dict[int, dict] = {}
     stopped = interrupted = False
     try:
-        for future in as_completed(futures):
+        waiting = as_completed(futures)
+        for future in waiting:
             batch = batch_of[future.key]
+            if len(batch) > 1 and future.status == "error" and not stopped:
+                alone = _submit(client, task, [[job] for job in batch], tag, "-alone")
+                batch_of.update((f.key, [job]) for f, job in zip(alone, batch))
+                k = futures.index(future)
+                futures[k:k + 1], batches[k:k + 1] = alone, [[job] for job in batch]
+                waiting.update(alone)
+                continue
             runs.update(zip((job.index for job in batch), _results(future, batch)))
             if progress:
                 progress(len(runs), len(jobs))
@@ -255,6 +265,12 @@ def _gather(client, jobs, progress, cancelled, size: int = 1) -> Outcome:
     with sigint_ignored() if interrupted else nullcontext():
         workers, attempts = _workers_and_attempts(client, runs)
     return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted)
+
+
+def _submit(client, task: Callable, batches: list[list], tag: str, suffix: str = "") -> list:
+    """One Dask task per batch (retried once when it raises), keyed by its first job."""
+    return client.map(task, [[job.payload() for job in batch] for batch in batches],
+                      key=[f"loopcraft-{tag}-{batch[0].index}{suffix}" for batch in batches], pure=False, retries=1)
 
 
 def _results(future, batch: list) -> list[dict]:

@@ -58,3 +58,23 @@ def test_a_cancelled_sweep_cancels_every_run_of_a_batch_not_finished(tmp_path, c
     assert outcome.cancelled and len(outcome.runs) == 12
     finished = [r for r in outcome.runs if r["reason"] != "cancelled"]
     assert len(finished) % 4 == 0 and 4 <= len(finished) <= 12   # whole batches, at least the first
+
+
+def test_a_run_that_kills_its_worker_does_not_take_its_batch_with_it(tmp_path):
+    import dask
+    from distributed import Client
+
+    from sessions.sweep_cluster import close, local_cluster
+
+    from .sweep_poison import POISON, poisoned
+    jobs = _jobs(tmp_path, 8)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):   # one death: the task has failed
+        cluster = local_cluster(2)
+    client = Client(cluster)
+    try:
+        outcome = _gather(client, jobs, None, lambda: False, size=4, task=poisoned)
+    finally:
+        close(client, cluster)
+    assert [r["index"] for r in outcome.runs] == [j.index for j in jobs]
+    failed = [r for r in outcome.runs if r["status"] == "failed"]
+    assert [r["index"] for r in failed] == [POISON] and "KilledWorker" in failed[0]["reason"]
