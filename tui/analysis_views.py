@@ -288,6 +288,14 @@ def _square(fig: Figure, points: np.ndarray, focus: np.ndarray | None = None) ->
 MAX_POLES_LISTED = 8
 
 
+def pole_text(view) -> str:
+    """`pole_lines` when the view's presenter shows poles, never raising ('' then)."""
+    if "poles" not in view.presenter.plots:
+        return ""
+    from engine.present import tolerant
+    return tolerant(lambda: pole_lines(view), lambda: "")
+
+
 def pole_lines(view) -> str:
     """The current design's closed-loop poles of the first plotted condition (a conjugate pair
     once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""

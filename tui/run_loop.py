@@ -32,6 +32,7 @@ from textual.message import Message
 from engine.algorithm import State, StepRecord
 from sessions.errors import SessionError
 
+from .analysis_views import pole_text
 from .figures import figure_key, figures
 from .views import View
 from .workbench import stored_json
@@ -46,9 +47,11 @@ class Stepped(Message):
     """One iteration computed by the worker (``show``: refresh the tableau for it;
     ``stored``: its record's and state's JSON, made in the worker)."""
 
-    def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict]):
+    def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict],
+                 poles: tuple[tuple, str] | None = None):
         super().__init__()
         self.state, self.record, self.show, self.stored = state, record, show, stored
+        self.poles = poles   # (figure_key, the pole lines under the tableau), made in the worker when shown
 
 
 class Drawn(Message):
@@ -180,7 +183,8 @@ class RunLoop:
             final = record.status.finished or n == request.count - 1
             show = final or time.monotonic() - last >= REDRAW_INTERVAL
             self._painted.clear()
-            self.post_message(Stepped(state, record, show, stored_json(state, record, request.settings)))
+            poles = (figure_key(view), pole_text(view)) if show else None
+            self.post_message(Stepped(state, record, show, stored_json(state, record, request.settings), poles))
             drawn = False
             if show and not final:   # the last view is drawn after RunEnded: the keys need not wait
                 self._painted.wait(PAINT_WAIT)   # the UI paints the tableau without the worker taking the GIL
@@ -217,6 +221,7 @@ class RunLoop:
             return
         screen.refresh_status()
         if message.show:
+            screen.poles = message.poles or screen.poles
             view = self.bench.view()
             screen.refresh_run(view, plots=False)
             screen.refresh_history(view)

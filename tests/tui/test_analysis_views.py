@@ -80,6 +80,31 @@ def test_the_run_tab_lists_the_closed_loop_poles_with_zeta_and_wn(workdir):
 
 
 @synchronous
+async def test_the_pole_lines_are_made_off_the_ui_thread_and_shown_for_each_step(workdir, monkeypatch):
+    """A launch vehicle's pole lines take 25 ms: the run's worker or a thread worker makes them."""
+    import threading
+
+    import tui.analysis_views as views
+    threads, lines = [], views.pole_lines
+
+    def watched(view):
+        threads.append(threading.current_thread() is threading.main_thread())
+        return lines(view)
+    monkeypatch.setattr(views, "pole_lines", watched)
+    monkeypatch.setattr("tui.screens.main.pole_lines", watched, raising=False)   # where the screen made them
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1
+        tableau = str(app.screen.query_one("#tableau").render())
+        expected = lines(app.bench.view())
+        assert "closed-loop poles" in tableau and expected.splitlines()[2] in tableau and "computing" not in tableau
+    assert len(threads) >= 2 and not any(threads)   # the first view's, and the step's
+
+
+@synchronous
 async def test_L_draws_the_locus_in_a_parameter(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:

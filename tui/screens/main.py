@@ -17,7 +17,7 @@ from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
-from ..analysis_views import pole_lines
+from ..analysis_views import pole_text
 from ..figures import FIGURE_IDS, applicable, figure_key
 from ..keys import identified
 from ..plant_rows import plant_rows
@@ -96,6 +96,7 @@ class MainScreen(ViewActions, Screen):
         self._history_stale = True
         self._locus_key = None   # what the root locus shown was computed for
         self._figure_keys: dict[str, tuple] = {}   # plot id -> the `figure_key` of the view it shows
+        self.poles: tuple[tuple, str] | None = None   # (`figure_key`, the pole lines under the tableau)
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -227,13 +228,34 @@ class MainScreen(ViewActions, Screen):
         unit = view.problem.grid.unit
         width = self.query_one("#tableau-scroll").size.width or None
         text = tableau_text(rows, previous, unit, width)
-        poles = tolerant(lambda: pole_lines(view), lambda: "") if "poles" in view.presenter.plots else ""
+        poles = self._pole_text(view)
         if poles:
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         if plots:
             self.refresh_plots()
+
+    def _pole_text(self, view: View) -> str:
+        """The closed-loop pole lines under the tableau, off the UI thread (a launch
+        vehicle's take 25 ms): from the run's worker or a thread worker, the tableau
+        drawn again when they come."""
+        key = figure_key(view)
+        if "poles" not in view.presenter.plots:
+            return ""
+        if self.poles is not None and self.poles[0] == key:   # one kept: a key holds ids, of the latest only
+            return self.poles[1]
+
+        def compute() -> None:
+            text = pole_text(view)
+            self.app.call_from_thread(self._poles_found, key, text)
+        self.run_worker(compute, thread=True, exclusive=True, group="poles")
+        return "closed-loop poles: computing ..."
+
+    def _poles_found(self, key: tuple, text: str) -> None:
+        if key == figure_key(self.bench.view()):
+            self.poles = (key, text)
+            self.refresh_run(plots=False)
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""
