@@ -144,6 +144,8 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
     lead = coefficients[first]
     log_lead = math.log(abs(lead))
     log_scale = (math.log(abs(coefficients[last])) - log_lead) / n
+    if abs(log_scale) > LARGEST_LOG:   # roots beyond the floats (1e-300 x - 1e300): none to give
+        return np.zeros(0, dtype=complex)
     row = []   # -c_k / c_0 * scale^-k, as logs: no overflow on the way
     for k, value in enumerate(coefficients[first + 1:last + 1], start=1):
         if value == 0.0:

@@ -119,9 +119,9 @@ class LoopLevels:
         `slope_noise` at ``w``, from one evaluation of the terms (the certificate
         reads both at its check points)."""
         gh, u, _ = self.terms(w)
-        closed = gh / (1.0 + gh)
+        g = gh * u / (1.0 + gh)   # as `slopes` forms it: the same bits
         noise = self._u_noise(w, u)
-        return np.array([-u.imag, u.real, -(closed * u).imag]), np.array([noise, noise, np.abs(closed) * noise])
+        return np.array([-u.imag, u.real, -g.imag]), np.array([noise, noise, np.abs(gh / (1.0 + gh)) * noise])
 
     def u_rounding(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """GH at s = j w and the rounding of u there: a few ulp of the sum of its
