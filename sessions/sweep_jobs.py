@@ -162,26 +162,26 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
     """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
     per core, one thread each) or the cluster at ``scheduler`` (tcp://HOST:PORT,
     reached within ``timeout`` seconds).  With neither ``scheduler`` nor ``workers``
-    given, the first run is made and timed here: the rest run here too when a
-    local cluster could not pay for its start-up, and runs shorter than
+    given, the first run (or two) is made and timed here: the rest run here too
+    when a local cluster could not pay for its start-up, and runs shorter than
     `BATCH_SECONDS` go to the workers in batches (`batch_size`); the outcome's
     ``note`` says which.  Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
-    address, first = scheduler_address(scheduler), None
+    address, here = scheduler_address(scheduler), []
     if address is None and workers is None and jobs:   # a local cluster of the default size: maybe not worth it
-        first, serial = _first_here(jobs, progress)
+        here, each, serial = _first_here(jobs, progress)
         if serial is not None:
             return serial
     client, cluster = connect(address, workers, connect_timeout(timeout))
     try:
-        if first is None:
+        if not here:
             return _gather(client, jobs, progress, cancelled)
-        size = batch_size(first["seconds"], len(jobs) - 1, _worker_count(client))
-        shifted = None if progress is None else lambda k, _: progress(k + 1, len(jobs))
-        rest = _gather(client, jobs[1:], shifted, cancelled, size)
-        note = f"runs of about {first['seconds']:.2g} s sent to the workers {size} at a time" if size > 1 else ""
-        return Outcome([first] + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted, note)
+        size = batch_size(each, len(jobs) - len(here), _worker_count(client))
+        shifted = None if progress is None else lambda k, _: progress(k + len(here), len(jobs))
+        rest = _gather(client, jobs[len(here):], shifted, cancelled, size)
+        note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
+        return Outcome(here + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted, note)
     finally:
         with sigint_ignored():
             close(client, cluster)
@@ -190,6 +190,7 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
 LOCAL_CLUSTER_START = 3.0   # s: a local cluster's start-up and first imports, measured on 2 cores
 BATCH_SECONDS = 0.25        # s: runs shorter than this go to a worker together, about this much work at a time
 BATCHES_PER_WORKER = 4      # ... but in at least this many batches per worker (none idles long at the end)
+SECOND_TIMING = 1.0         # s: a first run at most this long is timed again on the second (its imports)
 
 
 def batch_size(each: float, count: int, workers: int) -> int:
@@ -209,25 +210,33 @@ def _worker_count(client) -> int:
         return 1
 
 
-def _first_here(jobs: Sequence, progress: Callable[[int, int], None] | None) -> tuple[dict, Outcome | None]:
-    """Run the first job here and time it; when the rest would take less than a local
-    cluster of one process per core saves (or there is one core), run them here
-    too: (first run, the serial outcome or None)."""
+def _first_here(jobs: Sequence, progress: Callable[[int, int], None] | None) -> tuple[list[dict], float,
+                                                                                      Outcome | None]:
+    """Run the first job here and time it (and the second, when the first took at most
+    `SECOND_TIMING`); when the rest would take less than a local cluster of one process
+    per core saves (or there is one core), run them here too: (the runs made here,
+    the shortest one's time, the serial outcome or None)."""
     n = os.cpu_count() or 1
-    first = run_job(jobs[0].payload())
-    first["attempts"] = 1
-    estimate = first["seconds"] * (len(jobs) - 1)
-    if progress:
-        progress(1, len(jobs))
+    here = []
+    for job in jobs[:2]:   # a second when the first was short: the first pays for imports made on first use
+        if here and here[0]["seconds"] > SECOND_TIMING:
+            break
+        here.append(run_job(job.payload()))
+        here[-1]["attempts"] = 1
+        if progress:
+            progress(len(here), len(jobs))
+    each = min(run["seconds"] for run in here)
+    estimate = each * (len(jobs) - len(here))
     if n > 1 and estimate * (1 - 1 / n) <= LOCAL_CLUSTER_START:
-        note = (f"serial: the {len(jobs) - 1} other run(s) take about {estimate:.2g} s here, less than a local "
-                f"cluster's start-up ({LOCAL_CLUSTER_START:g} s) would save")
+        note = (f"serial: the {len(jobs) - len(here)} other run(s) take about {estimate:.2g} s here, less than "
+                f"a local cluster's start-up ({LOCAL_CLUSTER_START:g} s) would save")
     elif n == 1:
         note = "serial: one core"
     else:
-        return first, None
-    rest = execute_serial(jobs[1:], None if progress is None else lambda k, _: progress(k + 1, len(jobs)))
-    return first, Outcome([first] + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note, serial=True)
+        return here, each, None
+    rest = execute_serial(jobs[len(here):], None if progress is None else
+                          lambda k, _: progress(k + len(here), len(jobs)))
+    return here, each, Outcome(here + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note, serial=True)
 
 
 def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = run_batch) -> Outcome:
@@ -245,7 +254,7 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
         waiting = as_completed(futures)
         for future in waiting:
             batch = batch_of[future.key]
-            if len(batch) > 1 and future.status == "error" and not stopped:
+            if len(batch) > 1 and future.status == "error" and not stopped and not cancelled():
                 alone = _submit(client, task, [[job] for job in batch], tag, "-alone")
                 batch_of.update((f.key, [job]) for f, job in zip(alone, batch))
                 k = futures.index(future)

@@ -160,7 +160,7 @@ def test_non_finite_objectives_are_kept_as_json(tmp_path):
 def test_a_sweep_too_small_for_a_local_cluster_runs_serially_and_says_so(tmp_path):
     jobs = start_jobs(load_session(_copy(tmp_path, "coebra_lag_lead")), 4, seed=1)
     outcome = execute(jobs)
-    assert outcome.workers == 1 and outcome.note.startswith("serial: the 3 other run(s) take about")
+    assert outcome.workers == 1 and outcome.note.startswith("serial: the 2 other run(s) take about")   # 2 timed
     serial = execute_serial(jobs)
     assert [r["parameters"] for r in outcome.runs] == [r["parameters"] for r in serial.runs]
 
@@ -195,3 +195,11 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(mo
         cluster.close()
     assert seen == {"profile": False, "preload": ["json", "sessions.sweep_worker"], "warm": True,
                     "environ": {"MALLOC_TRIM_THRESHOLD_": None, "OPENBLAS_NUM_THREADS": "1"}}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 1 << 20}):
+        cluster = local_cluster(1)   # a threshold configured on purpose is kept
+    try:
+        with Client(cluster) as client:
+            (seen,) = client.run(_worker_view).values()
+    finally:
+        cluster.close()
+    assert seen["environ"]["MALLOC_TRIM_THRESHOLD_"] == str(1 << 20)
