@@ -48,10 +48,10 @@ class Stepped(Message):
     ``stored``: its record's and state's JSON, made in the worker)."""
 
     def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict],
-                 poles: tuple[tuple, str] | None = None):
+                 poles: tuple[tuple, str, View] | None = None):
         super().__init__()
         self.state, self.record, self.show, self.stored = state, record, show, stored
-        self.poles = poles   # (figure_key, the pole lines under the tableau), made in the worker when shown
+        self.poles = poles   # (figure_key, the pole lines under the tableau, the view), made in the worker when shown
 
 
 class Drawn(Message):
@@ -174,7 +174,7 @@ class RunLoop:
         """In the worker: step, post every record, draw now and then; why it stopped,
         the last view and whether its plots were drawn."""
         state, view, last, drawn = request.state, request.view, 0.0, True
-        self._painted.wait(PAINT_WAIT)   # the keys dimmed for the run are painted first
+        self._painted.wait(PAINT_WAIT)   # the screen as the run starts is painted first
         for n in range(request.count):
             if self._pause.is_set():
                 return "paused", view, drawn
@@ -183,7 +183,7 @@ class RunLoop:
             final = record.status.finished or n == request.count - 1
             show = final or time.monotonic() - last >= REDRAW_INTERVAL
             self._painted.clear()
-            poles = (figure_key(view), pole_text(view)) if show else None
+            poles = (figure_key(view), pole_text(view), view) if show else None
             self.post_message(Stepped(state, record, show, stored_json(state, record, request.settings), poles))
             drawn = False
             if show and not final:   # the last view is drawn after RunEnded: the keys need not wait
@@ -221,7 +221,7 @@ class RunLoop:
             return
         screen.refresh_status()
         if message.show:
-            screen.poles = message.poles or screen.poles
+            screen.keep_poles(message.poles)
             view = self.bench.view()
             screen.refresh_run(view, plots=False)
             screen.refresh_history(view)

@@ -44,6 +44,7 @@ class Workbench:
         self.paused_at: int | None = None   # the iteration a run was paused at
         self.step_setup = StepSetup()       # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []   # undone iterations, latest last
+        self._sweep_data: tuple[Any, dict] | None = None   # the latest sweep and its JSON data
 
     # -- the algorithm ------------------------------------------------------
 
@@ -201,9 +202,14 @@ class Workbench:
     # -- sweeps ----------------------------------------------------------------
 
     def latest_sweep(self) -> dict | None:
-        """The session's most recent sweep (JSON data), if any."""
+        """The session's most recent sweep (JSON data), if any: the same dict while it is the
+        same sweep (views are keyed by its identity: `tui.figures.figure_key`)."""
         sweeps = self.session.model.sweeps
-        return sweeps[-1].model_dump() if sweeps else None
+        if not sweeps:
+            return None
+        if self._sweep_data is None or self._sweep_data[0] is not sweeps[-1]:
+            self._sweep_data = (sweeps[-1], sweeps[-1].model_dump())
+        return self._sweep_data[1]
 
     def run_sweep(self, text: str, progress=None, cancelled=lambda: False) -> dict:
         """Plan and run a sweep described by one line (`sessions.sweeps.parse_sweep`);

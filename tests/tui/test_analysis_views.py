@@ -105,6 +105,24 @@ async def test_the_pole_lines_are_made_off_the_ui_thread_and_shown_for_each_step
 
 
 @synchronous
+async def test_the_pole_lines_come_with_a_sweep_kept_in_the_session(workdir):
+    """The views' key holds the latest sweep's identity: the same while it is the same sweep
+    (its JSON data was made anew for every view, and the pole lines never matched)."""
+    from sessions.schema import SweepModel
+    app = LoopcraftApp(workdir / "report003_lag_lead.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        app.bench.session.model.sweeps.append(SweepModel(version=1, kind="starts", created="x",
+                                                         algorithm=app.bench.algorithm_name))
+        assert app.bench.latest_sweep() is app.bench.latest_sweep()
+        await pilot.press("s")
+        await settle(app, pilot)
+        await settle(app, pilot)
+        tableau = str(app.screen.query_one("#tableau").render())
+        assert app.bench.iteration == 1 and "closed-loop poles" in tableau and "computing" not in tableau
+
+
+@synchronous
 async def test_L_draws_the_locus_in_a_parameter(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:

@@ -10,6 +10,7 @@ from textual.widgets._footer import FooterKey
 
 from tui.app import LoopcraftApp
 from tui.widgets.footer import Footer
+from textual.widgets import Footer as TextualFooter
 
 from .test_app import settle, synchronous
 
@@ -22,12 +23,12 @@ def _disabled(app, action: str) -> bool:
 @synchronous
 async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
     rebuilds = []
-    recompose = Footer.recompose
+    recompose = TextualFooter.recompose   # the rebuilds made (ours skips the redundant ones before it)
 
     async def counted(self):
         rebuilds.append(time.perf_counter())
         await recompose(self)
-    monkeypatch.setattr(Footer, "recompose", counted)
+    monkeypatch.setattr(TextualFooter, "recompose", counted)
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
@@ -37,6 +38,29 @@ async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
         await settle(app, pilot)
         assert app.bench.iteration == 1 and not _disabled(app, "undo")
         assert 1 <= len(rebuilds) <= 2   # one, or two when the step outlasts the dimming delay
+        assert isinstance(app.screen.query_one("Footer"), Footer)
+
+
+@synchronous
+async def test_binding_refreshes_before_a_rebuild_make_one_rebuild(workdir, monkeypatch):
+    rebuilds = []
+    recompose = TextualFooter.recompose
+
+    async def counted(self):
+        rebuilds.append(time.perf_counter())
+        await recompose(self)
+    monkeypatch.setattr(TextualFooter, "recompose", counted)
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        rebuilds.clear()
+        for _ in range(3):
+            app.screen.refresh_bindings()
+        await settle(app, pilot)
+        assert len(rebuilds) == 1
+        app.screen.refresh_bindings()   # a later refresh rebuilds again
+        await settle(app, pilot)
+        assert len(rebuilds) == 2
 
 
 @synchronous

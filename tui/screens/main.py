@@ -17,7 +17,6 @@ from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
 from ..edits_fields import objective_rows
-from ..analysis_views import pole_text
 from ..figures import FIGURE_IDS, applicable, figure_key
 from ..keys import identified
 from ..plant_rows import plant_rows
@@ -32,6 +31,7 @@ from ..widgets.tables import ParametersTable, PlantTable, SettingsTable, Targets
 from ..widgets.textview import TextView
 from ..workbench import Workbench
 from .history_pane import HistoryPane
+from .pole_lines import PoleLines
 from .view_actions import ViewActions
 from sessions import forms
 from sessions.target_use import target_note
@@ -54,7 +54,7 @@ MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targe
                 "history": "#history-table", "sweep": "#optima-table"}
 
 
-class MainScreen(ViewActions, Screen):
+class MainScreen(PoleLines, ViewActions, Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
     BINDINGS = identified("main", [Binding("question_mark", "app.help", "help", id="main.help"),
@@ -96,7 +96,8 @@ class MainScreen(ViewActions, Screen):
         self._history_stale = True
         self._locus_key = None   # what the root locus shown was computed for
         self._figure_keys: dict[str, tuple] = {}   # plot id -> the `figure_key` of the view it shows
-        self.poles: tuple[tuple, str] | None = None   # (`figure_key`, the pole lines under the tableau)
+        self.poles: tuple[tuple, str, View] | None = None   # (`figure_key`, pole lines under the tableau, view)
+        self._poles_asked: tuple | None = None   # the `figure_key` a thread worker makes pole lines for
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -235,27 +236,6 @@ class MainScreen(ViewActions, Screen):
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         if plots:
             self.refresh_plots()
-
-    def _pole_text(self, view: View) -> str:
-        """The closed-loop pole lines under the tableau, off the UI thread (a launch
-        vehicle's take 25 ms): from the run's worker or a thread worker, the tableau
-        drawn again when they come."""
-        key = figure_key(view)
-        if "poles" not in view.presenter.plots:
-            return ""
-        if self.poles is not None and self.poles[0] == key:   # one kept: a key holds ids, of the latest only
-            return self.poles[1]
-
-        def compute() -> None:
-            text = pole_text(view)
-            self.app.call_from_thread(self._poles_found, key, text)
-        self.run_worker(compute, thread=True, exclusive=True, group="poles")
-        return "closed-loop poles: computing ..."
-
-    def _poles_found(self, key: tuple, text: str) -> None:
-        if key == figure_key(self.bench.view()):
-            self.poles = (key, text)
-            self.refresh_run(plots=False)
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""

@@ -4,7 +4,10 @@ Textual's `Footer` rebuilds itself (some twenty keys with their styles: 10-20 ms
 at 120x40) after the next screen refresh each time the screen's bindings are
 refreshed; a step's end refreshes them more than once (the run's keys enabled
 again, the workbench redrawn), and each rebuild came after the other, between
-the key press and the painted iteration."""
+the key press and the painted iteration.  Here every refresh still asks for a
+rebuild, as Textual's does (one that is dropped, say with a screen popped
+before it ran, is made up by the next), and a rebuild for bindings the footer
+was already built for does nothing."""
 
 from __future__ import annotations
 
@@ -13,16 +16,17 @@ from textual.widgets import Footer as TextualFooter
 
 
 class Footer(TextualFooter):
-    """`textual.widgets.Footer` with one rebuild pending at most (it reads the bindings as they are then)."""
+    """`textual.widgets.Footer` that skips a rebuild for bindings it already shows."""
 
-    _rebuild_due = False
+    _asked = 0    # binding refreshes seen
+    _built = -1   # the refresh the footer was last built after
 
     def bindings_changed(self, screen: Screen) -> None:
-        if self._rebuild_due:
-            return
+        self._asked += 1
         super().bindings_changed(screen)
-        self._rebuild_due = bool(screen.app.app_focus and self.is_attached and screen is self.screen)
 
     async def recompose(self) -> None:
-        self._rebuild_due = False
+        if self._built == self._asked:
+            return   # built after the latest refresh already (it reads the bindings as they are then)
+        self._built = self._asked
         await super().recompose()
