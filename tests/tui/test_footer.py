@@ -20,15 +20,21 @@ def _disabled(app, action: str) -> bool:
     return next(key for key in app.screen.query(FooterKey) if key.action == action).has_class("-disabled")
 
 
-@synchronous
-async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
+def _counted_rebuilds(monkeypatch) -> list[float]:
+    """The times of the footer's rebuilds from now on (Textual's own: ours skips the redundant ones before it)."""
     rebuilds = []
-    recompose = TextualFooter.recompose   # the rebuilds made (ours skips the redundant ones before it)
+    recompose = TextualFooter.recompose
 
     async def counted(self):
         rebuilds.append(time.perf_counter())
         await recompose(self)
     monkeypatch.setattr(TextualFooter, "recompose", counted)
+    return rebuilds
+
+
+@synchronous
+async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
+    rebuilds = _counted_rebuilds(monkeypatch)
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
@@ -43,13 +49,7 @@ async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
 
 @synchronous
 async def test_binding_refreshes_before_a_rebuild_make_one_rebuild(workdir, monkeypatch):
-    rebuilds = []
-    recompose = TextualFooter.recompose
-
-    async def counted(self):
-        rebuilds.append(time.perf_counter())
-        await recompose(self)
-    monkeypatch.setattr(TextualFooter, "recompose", counted)
+    rebuilds = _counted_rebuilds(monkeypatch)
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
