@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 FINITE = 1e-8  # |beta| / |alpha| of a finite eigenvalue: |x| < 1e8 max |t|
 VANISHING = 1e-13  # weights all this small (relative to their sizes) make f vanish
+LARGEST_LOG = math.log(np.finfo(float).max)  # the largest float's log: a larger scale has no float roots
 
 
 class Fractions:
@@ -161,9 +162,6 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
     if info != 0:
         return np.zeros(0, dtype=complex)
     return np.concatenate([(real + 1j * imag) * math.exp(log_scale), at_origin])
-
-
-LARGEST_LOG = math.log(np.finfo(float).max)
 
 
 @functools.cache

@@ -120,8 +120,7 @@ class LoopLevels:
         reads both at its check points)."""
         gh, u, _ = self.terms(w)
         g = gh * u / (1.0 + gh)   # as `slopes` forms it: the same bits
-        noise = self._u_noise(w, u)
-        return np.array([-u.imag, u.real, -g.imag]), np.array([noise, noise, np.abs(gh / (1.0 + gh)) * noise])
+        return np.array([-u.imag, u.real, -g.imag]), _noise_rows(gh, self._u_noise(w, u))
 
     def u_rounding(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """GH at s = j w and the rounding of u there: a few ulp of the sum of its
@@ -141,8 +140,7 @@ class LoopLevels:
         a slope's sign is not known.  Each is a part of a complex number (u, or
         g = GH u / (1 + GH)) whose every factor carries a relative error of a few
         ulp per root: its part's error is that times the number's size."""
-        gh, noise = self.u_rounding(w)
-        return np.array([noise, noise, np.abs(gh / (1.0 + gh)) * noise])
+        return _noise_rows(*self.u_rounding(w))
 
     def phase(self, w: NDArray) -> NDArray:
         """arg GH(j w), continuous in w > 0 (each root's angle on its own branch)."""
@@ -206,6 +204,11 @@ class LoopLevels:
         top = (math.pi if self.gain < 0 else 0.0) + math.pi / 2 * excess
         zero = float(self.phase(np.zeros(1))[0]) + math.pi / 2 * n0  # atan2(0, 0) is 0, the limit pi/2
         return mag, (zero, top)
+
+
+def _noise_rows(gh: NDArray, u_noise: NDArray) -> NDArray:
+    """`LoopLevels.slope_noise`'s rows from GH and the rounding of u."""
+    return np.array([u_noise, u_noise, np.abs(gh / (1.0 + gh)) * u_noise])
 
 
 def log_distance(gh: NDArray) -> NDArray:
