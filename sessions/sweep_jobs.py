@@ -245,41 +245,40 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
     task, so that a run that kills its worker does not take the others with it."""
     from distributed import as_completed
     tag = uuid.uuid4().hex[:8]
-    batches = [list(jobs[k:k + size]) for k in range(0, len(jobs), size)]
-    futures = _submit(client, task, batches, tag)
-    batch_of = {f.key: batch for f, batch in zip(futures, batches)}
+    tasks = _submit(client, task, [list(jobs[k:k + size]) for k in range(0, len(jobs), size)], tag)
     runs: dict[int, dict] = {}
     stopped = interrupted = False
     try:
-        waiting = as_completed(futures)
+        waiting = as_completed(list(tasks))
         for future in waiting:
-            batch = batch_of[future.key]
+            batch = tasks[future]
             if len(batch) > 1 and future.status == "error" and not stopped and not cancelled():
                 alone = _submit(client, task, [[job] for job in batch], tag, "-alone")
-                batch_of.update((f.key, [job]) for f, job in zip(alone, batch))
-                k = futures.index(future)
-                futures[k:k + 1], batches[k:k + 1] = alone, [[job] for job in batch]
-                waiting.update(alone)
+                del tasks[future]
+                tasks.update(alone)
+                waiting.update(list(alone))
                 continue
             runs.update(zip((job.index for job in batch), _results(future, batch)))
             if progress:
                 progress(len(runs), len(jobs))
             if not stopped and cancelled():
                 stopped = True
-                client.cancel([f for f in futures if not f.done()])
+                client.cancel([f for f in tasks if not f.done()])
     except KeyboardInterrupt:
         with sigint_ignored():
             stopped = interrupted = True
-            _interrupted(client, futures, batches, runs)
+            _interrupted(client, tasks, runs)
     with sigint_ignored() if interrupted else nullcontext():
         workers, attempts = _workers_and_attempts(client, runs)
     return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted)
 
 
-def _submit(client, task: Callable, batches: list[list], tag: str, suffix: str = "") -> list:
-    """One Dask task per batch (retried once when it raises), keyed by its first job."""
-    return client.map(task, [[job.payload() for job in batch] for batch in batches],
-                      key=[f"loopcraft-{tag}-{batch[0].index}{suffix}" for batch in batches], pure=False, retries=1)
+def _submit(client, task: Callable, batches: list[list], tag: str, suffix: str = "") -> dict:
+    """One Dask task per batch (retried once when it raises), keyed by its first job:
+    each task's future -> its batch of jobs."""
+    futures = client.map(task, [[job.payload() for job in batch] for batch in batches],
+                         key=[f"loopcraft-{tag}-{batch[0].index}{suffix}" for batch in batches], pure=False, retries=1)
+    return dict(zip(futures, batches))
 
 
 def _results(future, batch: list) -> list[dict]:
@@ -289,13 +288,13 @@ def _results(future, batch: list) -> list[dict]:
         return [_lost(job, exc) for job in batch]
 
 
-def _interrupted(client, futures, batches: list[list], runs: dict[int, dict]) -> None:
-    """After Ctrl-C: cancel what has not finished, keep what has."""
+def _interrupted(client, tasks: dict, runs: dict[int, dict]) -> None:
+    """After Ctrl-C: cancel what has not finished, keep what has (``tasks``: future -> its batch)."""
     try:
-        client.cancel([f for f in futures if not f.done()])
+        client.cancel([f for f in tasks if not f.done()])
     except Exception:  # noqa: BLE001, S110 - the runs are kept whatever the scheduler says
         pass
-    for future, batch in zip(futures, batches):
+    for future, batch in tasks.items():
         if all(job.index in runs for job in batch):
             continue
         results = None

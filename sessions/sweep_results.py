@@ -110,8 +110,11 @@ def worst_case(runs: Sequence[dict]) -> list[dict]:
 
 
 def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> dict:
-    """The sweep as saved in the session and printed by --json."""
+    """The sweep as saved in the session and printed by --json (its settings with the
+    outcome's: "scheduler" serial when the runs were made here, and its note)."""
     maximize = lookup(session.model.algorithm.name).presenter.maximize
+    settings = {**settings, **({"scheduler": "serial"} if outcome.serial else {}),
+                **({"note": outcome.note} if outcome.note else {})}
     data = {"version": SWEEP_VERSION, "kind": kind, "created": now(), "algorithm": session.model.algorithm.name,
             "settings": settings, "workers": outcome.workers, "cancelled": outcome.cancelled,
             "runs": outcome.runs, "failed": [r["index"] for r in outcome.runs if r["status"] == "failed"],

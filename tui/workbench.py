@@ -221,10 +221,6 @@ class Workbench:
                               spec.get("samples", 32))
         settings["scheduler"] = spec["scheduler"] or "local"
         outcome = execute(jobs, spec["scheduler"], progress=progress, cancelled=cancelled)
-        if outcome.serial:
-            settings["scheduler"] = "serial"
-        if outcome.note:
-            settings["note"] = outcome.note
         return summarize(self.session, spec["kind"], settings, outcome)
 
     def keep_sweep(self, summary: dict) -> None:

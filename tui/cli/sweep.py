@@ -71,10 +71,7 @@ def _run(args: argparse.Namespace, session, address: str | None, timeout: float)
                else execute(jobs, address, args.workers, progress, timeout=timeout))
     if progress:
         print(file=sys.stderr)
-    if outcome.serial:
-        settings["scheduler"] = "serial"
     if outcome.note:
-        settings["note"] = outcome.note
         print(f"loopcraft sweep: {outcome.note}", file=sys.stderr)
     return kind, settings, outcome
 
