@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any, ClassVar, Protocol, Self
 
-from .errors import EngineError
-from .memory import Fields, jsonable as _jsonable
-from .problem import Problem
+from engine.errors import EngineError
+from engine.memory import Fields, jsonable as _jsonable
+from engine.problem import Problem
 
 
 class Status(str, Enum):
@@ -213,7 +213,7 @@ def register(name: str, factory: Callable[[], Algorithm], settings: type, summar
     """Make an algorithm known to the CLI, the app and sweeps by name (without a
     presenter, its records are shown the generic way)."""
     if presenter is None:
-        from .present import Presenter
+        from engine.present import Presenter
         presenter = Presenter()
     REGISTRY[name] = Registration(factory, settings, summary, presenter)
 
@@ -246,7 +246,7 @@ def make_settings(name: str, values: Mapping[str, Any]) -> Any:
     if unknown:
         raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; "
                           f"settings are {', '.join(sorted(names))}")
-    from .guard import setting_value, settings_types   # the settings' declared types, checked here once
+    from engine.guard import setting_value, settings_types   # the settings' declared types, checked here once
     kinds = settings_types(cls)
     values = {key: setting_value(name, key, kinds[key], value) if key in kinds else value
               for key, value in values.items()}

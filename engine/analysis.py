@@ -11,15 +11,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
-from .disk_margins import DiskMargin, check_skew, disk_transform, from_peak
-from .errors import EngineError
-from .polish import polish
-from .loops import LoopModel, loop_model
-from .margins import Band, Margins, margins
-from .network import Block, Junction, Network, block_diagram
-from .realization import Pole, poles, realize, stability
-from .sensitivity import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
+from engine.blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from engine.disk_margins import DiskMargin, check_skew, disk_transform, from_peak
+from engine.errors import EngineError
+from engine.polish import polish
+from engine.loops import LoopModel, loop_model
+from engine.margins import Band, Margins, margins
+from engine.network import Block, Junction, Network, block_diagram
+from engine.realization import Pole, poles, realize, stability
+from engine.sensitivity import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import BlockError, ExtrapolationError
-from .expressions import VARIABLES, Dual, Expression
-from .polynomials import Rational, degree
+from engine.errors import BlockError, ExtrapolationError
+from engine.expressions import VARIABLES, Dual, Expression
+from engine.polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
 Compiled = Callable[[NDArray], tuple[NDArray, NDArray | None]]

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .blocks import ExpressionTransfer, PolynomialTransfer
-from .network import Network
+from engine.blocks import ExpressionTransfer, PolynomialTransfer
+from engine.network import Network
 
 
 @dataclass(frozen=True)

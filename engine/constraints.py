@@ -22,10 +22,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import EngineError
+from engine.errors import EngineError
 
 if TYPE_CHECKING:
-    from .problem import Problem
+    from engine.problem import Problem
 
 TOLERANCE = 1e-9        # a row is met when A x - b <= TOLERANCE * its scale (`row_scale`)
 SLACK = 1e-12           # `project` leaves a point alone whose rows are met within this (relative)

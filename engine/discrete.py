@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import BlockError
-from .polynomials import Rational, trim
+from engine.errors import BlockError
+from engine.polynomials import Rational, trim
 
 
 def _scale(sample_time: float | None) -> float:

@@ -26,10 +26,10 @@ from dataclasses import dataclass, field
 
 from numpy.typing import NDArray
 
-from .errors import EngineError
-from .loops import LoopModel
-from .margins import Band
-from .sensitivity import Peak, Transform, refined_peaks, sensitivity
+from engine.errors import EngineError
+from engine.loops import LoopModel
+from engine.margins import Band
+from engine.sensitivity import Peak, Transform, refined_peaks, sensitivity
 
 
 @dataclass(frozen=True)

@@ -22,9 +22,9 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import ExpressionError, ParameterError
-from .folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
-from .polynomials import Rational
+from engine.errors import ExpressionError, ParameterError
+from engine.folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
+from engine.polynomials import Rational
 
 VARIABLES = ("s", "w", "z")
 MAX_POWER = 64

@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import ExpressionError
-from .expressions import Expression, Node
-from .folding import to_rational
-from .polynomials import trim
+from engine.errors import ExpressionError
+from engine.expressions import Expression, Node
+from engine.folding import to_rational
+from engine.polynomials import trim
 
 CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
 MAX_ORDER = 400  # roots of one block: beyond, its realization alone would take minutes

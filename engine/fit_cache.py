@@ -14,7 +14,7 @@ from collections import OrderedDict
 import numpy as np
 from numpy.typing import NDArray
 
-from .fitting import RationalFit, fit_response
+from engine.fitting import RationalFit, fit_response
 
 KEPT = 16
 

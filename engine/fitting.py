@@ -69,7 +69,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import EngineError, GridError
+from engine.errors import EngineError, GridError
 
 FLOOR = 1e-13  # |GH| below this fraction of max |GH| is measured absolutely
 PATIENCE = 10  # stop after this many degrees without halving the rms ...

@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from .polynomials import Rational
+from engine.polynomials import Rational
 
 if TYPE_CHECKING:
-    from .expressions import Node
+    from engine.expressions import Node
 
 
 def to_rational(node: Node, params: Mapping[str, float]) -> Rational:

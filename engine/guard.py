@@ -19,8 +19,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from .errors import EngineError
-from .memory import jsonable
+from engine.errors import EngineError
+from engine.memory import jsonable
 
 F = TypeVar("F", bound=Callable[..., Any])
 NUMERICAL = (np.linalg.LinAlgError, FloatingPointError, OverflowError, ZeroDivisionError)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from functools import lru_cache
 
-from .errors import ExpressionError
+from engine.errors import ExpressionError
 
 MAX_LENGTH = 1000      # characters of one constraint
 MAX_NESTING = 50       # levels of parentheses (and unary signs)

@@ -58,11 +58,11 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from .blocks import ExpressionTransfer
-from .errors import EngineError
-from .factored import pole_zero
-from .network import Network
-from .zpk import ZpkEvaluator
+from engine.blocks import ExpressionTransfer
+from engine.errors import EngineError
+from engine.factored import pole_zero
+from engine.network import Network
+from engine.zpk import ZpkEvaluator
 
 Roots = NDArray[np.complex128]
 Ratio = Callable[[Roots], Roots]  # s -> F'(s)/F(s)

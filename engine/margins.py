@@ -27,16 +27,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from .detection import NOISE, Detection, detection_grid
-from .errors import EngineError
-from .fit_cache import cached_fit
-from .loops import LoopModel
-from .margin_types import Band, Margin, Margins, margins_of, single_margin
-from .rootfind import Roots, refine, sign_changes
-from .shapes import level_notes, shape_notes
-from .zpk import ZpkEvaluator
-from .zpk_levels import LoopLevels, log_distance
-from .zpk_margins import fast_margins
+from engine.detection import NOISE, Detection, detection_grid
+from engine.errors import EngineError
+from engine.fit_cache import cached_fit
+from engine.loops import LoopModel
+from engine.margin_types import Band, Margin, Margins, margins_of, single_margin
+from engine.rootfind import Roots, refine, sign_changes
+from engine.shapes import level_notes, shape_notes
+from engine.zpk import ZpkEvaluator
+from engine.zpk_levels import LoopLevels, log_distance
+from engine.zpk_margins import fast_margins
 
 
 def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),

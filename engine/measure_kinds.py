@@ -30,7 +30,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
-from .errors import EngineError
+from engine.errors import EngineError
 
 Domain = Literal["frequency", "time", "poles"]
 DOMAINS: tuple[Domain, ...] = ("frequency", "time", "poles")

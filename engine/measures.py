@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .algorithm import MeasureRow
-from .errors import EngineError
-from .guard import numerical
-from .loops import loop_model
-from .margins import Band, Margin, margins
-from .measure_kinds import kind
-from .peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
-from .problem import Problem, Target
-from .zpk import closed_loop_realization
+from engine.algorithm import MeasureRow
+from engine.errors import EngineError
+from engine.guard import numerical
+from engine.loops import loop_model
+from engine.margins import Band, Margin, margins
+from engine.measure_kinds import kind
+from engine.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
+from engine.problem import Problem, Target
+from engine.zpk import closed_loop_realization
 
 # margin measure -> the attribute of its `Margin` the tableau shows (the margin family and the
 # natural sense are the table's, `engine.measure_kinds`)

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from enum import Enum
 from typing import Any
 
-from .errors import EngineError
+from engine.errors import EngineError
 
 NON_FINITE = ("inf", "-inf", "nan")
 

@@ -21,13 +21,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from .detection import detection_grid
-from .disk_margins import disk_transform, from_peak
-from .loops import LoopModel
-from .margins import Band, Margins
-from .rootfind import sign_changes
+from engine.detection import detection_grid
+from engine.disk_margins import disk_transform, from_peak
+from engine.loops import LoopModel
+from engine.margins import Band, Margins
+from engine.rootfind import sign_changes
 # the peak search's own steps, reused to keep every local maximum, not only the largest
-from .sensitivity import (Peak, Transform, _agrees, _level, _refined_maxima, _resolved, _within,
+from engine.sensitivity import (Peak, Transform, _agrees, _level, _refined_maxima, _resolved, _within,
                           complementary, refined_peaks, sensitivity)
 
 PEAK_MEASURES = ("disk_margin", "sensitivity_peak", "complementary_sensitivity_peak")

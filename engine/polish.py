@@ -21,8 +21,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from .locus_polish import GainCharacteristic
-from .network import Network
+from engine.locus_polish import GainCharacteristic
+from engine.network import Network
 
 
 def polish(network: Network, params: Mapping[str, float], eigenvalues: NDArray[np.complex128]) -> NDArray:

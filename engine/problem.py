@@ -17,11 +17,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from .blocks import FrequencyTable
-from .constraints import LinearInequality, check_inequalities, inequality_rows
-from .errors import EngineError
-from .measure_kinds import MEASURE_KINDS, names as measure_names
-from .network import Network, check_grid
+from engine.blocks import FrequencyTable
+from engine.constraints import LinearInequality, check_inequalities, inequality_rows
+from engine.errors import EngineError
+from engine.measure_kinds import MEASURE_KINDS, names as measure_names
+from engine.network import Network, check_grid
 
 Sign = Literal["any", "positive", "negative"]
 # read from the table of measure kinds (`engine.measure_kinds`), kept here for their importers

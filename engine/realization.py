@@ -17,11 +17,11 @@ from weakref import WeakKeyDictionary
 import numpy as np
 from numpy.typing import NDArray
 
-from .blocks import ExpressionTransfer
-from .factored import pole_zero
-from .errors import BlockError, InterconnectionError
-from .polynomials import degree, trim
-from .network import Network
+from engine.blocks import ExpressionTransfer
+from engine.factored import pole_zero
+from engine.errors import BlockError, InterconnectionError
+from engine.polynomials import degree, trim
+from engine.network import Network
 
 
 @dataclass(frozen=True)

@@ -28,15 +28,15 @@ from numpy.typing import NDArray
 from scipy import linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
-from .errors import EngineError
-from .fastloop import LoopEvaluator
-from .loops import loop_model
-from .margins import margins
-from .network import Network
-from .locus_polish import FormCharacteristic, GainCharacteristic, loop_terms
-from .polish import polish
-from .realization import realize
-from .zpk import ZpkEvaluator, loop_realization, zpk_evaluator
+from engine.errors import EngineError
+from engine.fastloop import LoopEvaluator
+from engine.loops import loop_model
+from engine.margins import margins
+from engine.network import Network
+from engine.locus_polish import FormCharacteristic, GainCharacteristic, loop_terms
+from engine.polish import polish
+from engine.realization import realize
+from engine.zpk import ZpkEvaluator, loop_realization, zpk_evaluator
 
 MOVE = 0.05  # a step may move a pole by this fraction of max(|pole|, the floor)
 SEPARATE = 0.25  # ... and by this fraction of its distance to the nearest other pole

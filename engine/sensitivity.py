@@ -22,13 +22,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from .detection import _may_hide_pair, detection_grid
-from .errors import EngineError
-from .loops import Evaluator, LoopModel
-from .margins import FIT_LIMIT, Band, _fitted_loop
-from .rootfind import refine, sign_changes
-from .zpk import ZpkEvaluator
-from .zpk_peaks import moebius_peaks
+from engine.detection import _may_hide_pair, detection_grid
+from engine.errors import EngineError
+from engine.loops import Evaluator, LoopModel
+from engine.margins import FIT_LIMIT, Band, _fitted_loop
+from engine.rootfind import refine, sign_changes
+from engine.zpk import ZpkEvaluator
+from engine.zpk_peaks import moebius_peaks
 
 # (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
 Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from .detection import NOISE, Detection
-from .loops import LoopModel
+from engine.detection import NOISE, Detection
+from engine.loops import LoopModel
 
 
 def shape_notes(loop: LoopModel, grid: Detection) -> list[str]:

@@ -38,8 +38,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import EngineError
-from .realization import StateSpace
+from engine.errors import EngineError
+from engine.realization import StateSpace
 
 PeakRule = Literal["global", "first_half_cycle"]
 FinalFrom = Literal["dc_gain", "horizon"]

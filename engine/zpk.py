@@ -22,10 +22,10 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import EngineError, InterconnectionError
-from .factored import pole_zero
-from .network import Network
-from .realization import StateSpace, realize
+from engine.errors import EngineError, InterconnectionError
+from engine.factored import pole_zero
+from engine.network import Network
+from engine.realization import StateSpace, realize
 
 AGREEMENT = 1e-9
 BATCH_ELEMENTS = 1 << 14  # root-frequency pairs per batch (256 kB of complex work array)

@@ -25,8 +25,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from .bracketing import Noise, bracketed_roots
-from .zpk_levels import LoopLevels
+from engine.bracketing import Noise, bracketed_roots
+from engine.zpk_levels import LoopLevels
 
 # omega -> (rows of each level's slope, rows of their derivatives)
 Slopes = Callable[[NDArray], tuple[NDArray, NDArray]]

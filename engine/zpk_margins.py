@@ -33,11 +33,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from .bracketing import EPS, NOISE_STEP
-from .zpk import ZpkEvaluator
-from .zpk_certify import DUPLICATE, Slopes, certified
-from .zpk_crossings import crossing_candidates, crossings_of
-from .zpk_levels import LoopLevels
+from engine.bracketing import EPS, NOISE_STEP
+from engine.zpk import ZpkEvaluator
+from engine.zpk_certify import DUPLICATE, Slopes, certified
+from engine.zpk_crossings import crossing_candidates, crossings_of
+from engine.zpk_levels import LoopLevels
 
 REAL = 1e-7  # |Im x| / |x| below which an eigenvalue is a real stationary point
 NEAR_REAL = 1e-2  # ... below which a close real pair could hide near it (a check point there)

@@ -26,11 +26,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from .fractions import Fractions, polynomial_sum, roots
-from .zpk import ZpkEvaluator
-from .zpk_certify import certified
-from .zpk_levels import LoopLevels
-from .zpk_margins import degenerate, distinct, newton, real_eigenvalues
+from engine.fractions import Fractions, polynomial_sum, roots
+from engine.zpk import ZpkEvaluator
+from engine.zpk_certify import certified
+from engine.zpk_levels import LoopLevels
+from engine.zpk_margins import degenerate, distinct, newton, real_eigenvalues
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
 

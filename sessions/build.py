@@ -30,10 +30,10 @@ from engine.network import Block, Junction, Network, block_diagram, matrix_forma
 from engine.problem import (BandValue, Condition, Grid, LinearEquality, Objective, Parameter, Point, Problem, Target,
                             TimeResponse)
 
-from .constraints import build_inequalities, check_start, engine_error
-from .errors import SessionError
-from .limits import MAX_TABLE_ROWS
-from .schema import (CascadeModel, ChannelsModel, ConditionModel, EqualityModel, GridModel, ParameterModel, ProblemModel,
+from sessions.constraints import build_inequalities, check_start, engine_error
+from sessions.errors import SessionError
+from sessions.limits import MAX_TABLE_ROWS
+from sessions.schema import (CascadeModel, ChannelsModel, ConditionModel, EqualityModel, GridModel, ParameterModel, ProblemModel,
                      TableModel, TargetModel)
 
 

@@ -13,8 +13,8 @@ from engine.errors import EngineError
 from engine.memory import Fields
 from engine.problem import Problem
 
-from .errors import SessionError
-from .schema import SessionModel
+from sessions.errors import SessionError
+from sessions.schema import SessionModel
 
 MAX_DEPTH = 64   # levels of JSON nesting a session may have (a real one has about 8)
 

@@ -18,10 +18,10 @@ from engine.algorithm import MeasureRow
 from engine.errors import EngineError
 from engine.measures import tableau
 
-from .errors import SessionError
-from .export_model import iteration_parameters
-from .lifecycle import bound_algorithm, registration
-from .store import Session
+from sessions.errors import SessionError
+from sessions.export_model import iteration_parameters
+from sessions.lifecycle import bound_algorithm, registration
+from sessions.store import Session
 
 
 @dataclass(frozen=True)

@@ -22,12 +22,12 @@ from engine.constraints import TOLERANCE, LinearInequality, unmet
 from engine.errors import EngineError
 from engine.linear_forms import MAX_LENGTH, LinearFormError, read_constraint
 
-from .errors import SessionError
+from sessions.errors import SessionError
 
 if TYPE_CHECKING:
     from engine.problem import Problem
 
-    from .schema import ProblemModel
+    from sessions.schema import ProblemModel
 
 
 def _readable(text: str) -> str:

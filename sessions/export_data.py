@@ -23,8 +23,8 @@ from engine.errors import EngineError
 from engine.loops import open_loop
 from engine.zpk import closed_loop_realization, loop_realization
 
-from .export_model import Design, ExportCondition, ExportEntry, w_to_z
-from .store import Session
+from sessions.export_model import Design, ExportCondition, ExportEntry, w_to_z
+from sessions.store import Session
 
 
 def design_json(d: Design, sample_time: float | None = None) -> dict:

@@ -11,7 +11,7 @@ MATLAB reads the same double).
 
 from __future__ import annotations
 
-from .export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
+from sessions.export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
                            loop_input, rows, w_to_z)
 
 

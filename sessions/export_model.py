@@ -24,8 +24,8 @@ from engine.factored import pole_zero
 from engine.fitting import FAR_POLE, RationalFit, fit_response
 from engine.network import Network
 
-from .errors import SessionError
-from .store import Session
+from sessions.errors import SessionError
+from sessions.store import Session
 
 FIT_TOLERANCE = 1e-10   # relative residual asked of a table's fit (the residual reached is stated)
 

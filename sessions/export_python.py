@@ -14,7 +14,7 @@ condition's margins (``control.stability_margins``) and closed-loop poles;
 
 from __future__ import annotations
 
-from .export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
+from sessions.export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
                            loop_input, rows, w_to_z)
 
 PADE_ORDER = 6

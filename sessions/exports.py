@@ -8,7 +8,7 @@ import json
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:   # the command line reads SUFFIX to build its parser: no schema import at start
-    from .store import Session
+    from sessions.store import Session
 
 SUFFIX = {"python": ".py", "matlab": ".m", "json": ".export.json", "csv": ".csv"}
 FORMATS = {"python": "a python-control script that rebuilds the loop and prints its margins",
@@ -19,18 +19,18 @@ FORMATS = {"python": "a python-control script that rebuilds the loop and prints 
 
 def export_text(session: "Session", iteration: int | None, to: str, sample_time: float | None = None) -> str:
     """The exported text of the design at ``iteration`` (None: the session's current one)."""
-    from .export_model import design
+    from sessions.export_model import design
     if to not in SUFFIX:
         raise ValueError(f"unknown export format {to!r}; formats: {', '.join(SUFFIX)}")
     d = design(session, iteration)
     if to == "python":
-        from .export_python import python_script
+        from sessions.export_python import python_script
         return python_script(d, sample_time)
     if to == "matlab":
-        from .export_matlab import matlab_script
+        from sessions.export_matlab import matlab_script
         return matlab_script(d, sample_time)
     if to == "json":
-        from .export_data import design_json
+        from sessions.export_data import design_json
         return json.dumps(design_json(d, sample_time), indent=2, allow_nan=False) + "\n"
-    from .export_data import response_csv
+    from sessions.export_data import response_csv
     return response_csv(session, d)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy import signal
 
-from .errors import SessionError
+from sessions.errors import SessionError
 
 MAX_ORDER = 64   # a coefficient list of a polynomial block holds at most 65 numbers (sessions.limits)
 

@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from .schema import SessionModel
+from sessions.schema import SessionModel
 
 SCHEMA_FILE = Path(__file__).with_name("session.schema.json")
 

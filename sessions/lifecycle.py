@@ -15,11 +15,11 @@ from typing import Any
 from engine.algorithm import Registration, StepRecord, lookup, make_settings
 from engine.errors import EngineError
 
-from .build import build_problem
-from .errors import SessionError
-from .savefile import real_path
-from .schema import AlgorithmModel
-from .store import Session
+from sessions.build import build_problem
+from sessions.errors import SessionError
+from sessions.savefile import real_path
+from sessions.schema import AlgorithmModel
+from sessions.store import Session
 
 
 def folder(session: Session) -> Path:

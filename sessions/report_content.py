@@ -25,10 +25,10 @@ from engine.present import tableau_text, tolerant
 from engine.realization import realize
 from engine.timeresp import Segment, simulate
 
-from . import report_figures as figures
-from .export_model import iteration_parameters
-from .lifecycle import bound_algorithm, registration
-from .store import Session
+from sessions import report_figures as figures
+from sessions.export_model import iteration_parameters
+from sessions.lifecycle import bound_algorithm, registration
+from sessions.store import Session
 
 Block = tuple
 DISTANCE = {"stability_margin": lambda v: v, "gain_margin": lambda v: v, "phase_margin": lambda v: v,

@@ -8,9 +8,9 @@ import base64
 import html
 from pathlib import Path
 
-from .errors import SessionError
-from .savefile import write_atomic
-from .report_content import Block
+from sessions.errors import SessionError
+from sessions.savefile import write_atomic
+from sessions.report_content import Block
 
 STYLE = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}"
          "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;"

@@ -13,10 +13,10 @@ from engine.algorithm import State, StepRecord, iterate
 from engine.errors import EngineError
 from engine.memory import jsonable
 
-from .errors import SessionError
-from .lifecycle import bound_algorithm, forget_records, named_error
-from .schema import SessionModel
-from .store import AUTOSAVE_INTERVAL, Session, write_autosave
+from sessions.errors import SessionError
+from sessions.lifecycle import bound_algorithm, forget_records, named_error
+from sessions.schema import SessionModel
+from sessions.store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9    # relative
 REPLAY_FLOOR = 1e-12       # absolute: a recorded 0.0 against 1e-13 is numerical noise, not a divergence

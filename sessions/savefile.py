@@ -27,7 +27,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import SessionError
+from sessions.errors import SessionError
 
 STALE_AFTER = 3600.0   # s: a temporary file this old is a leftover, whoever made it
 _HOST = re.sub(r"[^A-Za-z0-9_.-]", "_", socket.gethostname()) or "host"

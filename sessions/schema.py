@@ -15,8 +15,8 @@ from engine.measure_kinds import MEASURE_KINDS
 
 SCHEMA_VERSION = 1
 
-from .constraints import ConstraintText
-from .limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS,  # noqa: F401
+from sessions.constraints import ConstraintText
+from sessions.limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS,  # noqa: F401
                      MAX_CONSTRAINTS, MAX_EQUALITIES, MAX_FACTORS, MAX_GRID_POINTS, MAX_JUNCTION_INPUTS, MAX_OPTIONS, MAX_PARAMETERS,
                      MAX_RESPONSE_POINTS, MAX_SIGNALS, MAX_TABLE_ROWS, MAX_TARGETS, Coefficient, Lower, Number,
                      Upper, bounded as _bounded)

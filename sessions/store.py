@@ -35,13 +35,13 @@ from pydantic import BaseModel, ValidationError
 from engine.algorithm import State, StepRecord, memory_type
 from engine.problem import Problem
 
-from .build import OutsideTable, build_problem
-from .checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
-from .errors import SessionError
-from .savefile import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
+from sessions.build import OutsideTable, build_problem
+from sessions.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
+from sessions.errors import SessionError
+from sessions.savefile import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
                        real_path, refuse_overwrite, remove_quietly, sweep_stale, write_atomic)
-from .schema import SCHEMA_VERSION, SessionModel, TableModel
-from .session_json import dumps
+from sessions.schema import SCHEMA_VERSION, SessionModel, TableModel
+from sessions.session_json import dumps
 
 __all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
            "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",

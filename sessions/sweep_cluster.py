@@ -14,7 +14,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from urllib.parse import urlsplit
 
-from .errors import SessionError
+from sessions.errors import SessionError
 
 DEFAULT_CONNECT_TIMEOUT = 5.0    # s: how long to wait for a scheduler, or for a local cluster's workers
 

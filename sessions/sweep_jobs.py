@@ -36,11 +36,11 @@ from engine.errors import EngineError
 from engine.loops import open_loop
 from engine.problem import Problem
 
-from .build import build_problem
-from .errors import SessionError
-from .lifecycle import bind
-from .schema import SessionModel
-from .sweep_cluster import DEFAULT_CONNECT_TIMEOUT, close, connect, connect_timeout, scheduler_address, sigint_ignored
+from sessions.build import build_problem
+from sessions.errors import SessionError
+from sessions.lifecycle import bind
+from sessions.schema import SessionModel
+from sessions.sweep_cluster import DEFAULT_CONNECT_TIMEOUT, close, connect, connect_timeout, scheduler_address, sigint_ignored
 
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"

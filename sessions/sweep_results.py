@@ -15,11 +15,11 @@ import numpy as np
 from engine.algorithm import lookup
 from engine.memory import jsonable
 
-from .errors import SessionError
-from .lifecycle import adopt_parameters
-from .schema import SweepModel
-from .store import Session, now
-from .sweep_jobs import Outcome
+from sessions.errors import SessionError
+from sessions.lifecycle import adopt_parameters
+from sessions.schema import SweepModel
+from sessions.store import Session, now
+from sessions.sweep_jobs import Outcome
 
 SWEEP_VERSION = 1
 SAME_PARAMETERS = 0.05     # decades (about 12 %): runs closer than this in every parameter share an optimum

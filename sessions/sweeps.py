@@ -15,12 +15,12 @@ from typing import Any
 
 import numpy as np
 
-from .build import read_csv, table_path
-from .errors import SessionError
-from .lifecycle import folder
-from .store import Session, tables_in
-from .sweep_cluster import scheduler_address
-from .sweep_jobs import run_job
+from sessions.build import read_csv, table_path
+from sessions.errors import SessionError
+from sessions.lifecycle import folder
+from sessions.store import Session, tables_in
+from sessions.sweep_cluster import scheduler_address
+from sessions.sweep_jobs import run_job
 
 
 @dataclass(frozen=True)

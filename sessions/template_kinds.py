@@ -10,8 +10,8 @@ import math
 import re
 from pathlib import Path
 
-from .errors import SessionError
-from .templates import grid_for, new_session, parameter_entry, read_compensator, read_plant
+from sessions.errors import SessionError
+from sessions.templates import grid_for, new_session, parameter_entry, read_compensator, read_plant
 
 KINDS: dict[str, str] = {
     "unity": "unity feedback: a plant and a compensator (PM >= 45 deg, GM >= 6 dB)",

@@ -19,7 +19,7 @@ from datetime import datetime, timezone
 
 from engine.errors import EngineError
 
-from .errors import SessionError
+from sessions.errors import SessionError
 
 LOOPCRAFT_VERSION = "0.1.0"
 ALGORITHMS = ("slp", "cip")      # those whose targets may be margins in dB and degrees

@@ -20,9 +20,9 @@ from engine.loops import loop_model
 from engine.sensitivity import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
                                 transfer_evaluator)
 
-from .views import CONDITION_COLORS, INITIAL_COLOR
-from .widgets.navigation import Probe
-from .widgets.plots import Figure, Series, _decades, _finite
+from tui.views import CONDITION_COLORS, INITIAL_COLOR
+from tui.widgets.navigation import Probe
+from tui.widgets.plots import Figure, Series, _decades, _finite
 
 LOCUS_POINTS = 2000   # the engine's default bound
 

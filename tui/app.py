@@ -24,19 +24,19 @@ from sessions.store import (autosave_candidate, flush_autosaves, load_autosave, 
                             set_aside_autosave)
 from sessions.target_use import unusable_targets
 
-from .config import Config
-from .keys import identified
-from .export_actions import ExportActions
-from .files import remember, untitled_path, working_copy
-from .run_loop import RunLoop
-from .screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
-from .screens.edit_flow import EditFlow
-from .screens.main import MainScreen
-from .screens.new_flow import NewSessionFlow, copy_tables
-from .screens.start import StartScreen
-from .sweep_actions import SweepActions
-from .terminal_watch import HANGUP_EXIT, watch_terminal
-from .workbench import Workbench
+from tui.config import Config
+from tui.keys import identified
+from tui.export_actions import ExportActions
+from tui.files import remember, untitled_path, working_copy
+from tui.run_loop import RunLoop
+from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
+from tui.screens.edit_flow import EditFlow
+from tui.screens.main import MainScreen
+from tui.screens.new_flow import NewSessionFlow, copy_tables
+from tui.screens.start import StartScreen
+from tui.sweep_actions import SweepActions
+from tui.terminal_watch import HANGUP_EXIT, watch_terminal
+from tui.workbench import Workbench
 
 # actions that change the session or replace it: disabled while a run or a sweep goes
 CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
@@ -143,8 +143,8 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     def apply_config(self) -> None:
         """The user's theme and keys (`tui.config`); a config that does not read is
         reported and the defaults are kept."""
-        from .config import ConfigError, load_config, unknown_binding_ids
-        from .keys import binding_table
+        from tui.config import ConfigError, load_config, unknown_binding_ids
+        from tui.keys import binding_table
         try:
             self.config = load_config(themes=set(self.available_themes))
         except ConfigError as exc:
@@ -356,14 +356,14 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
 
 def key_help() -> list[tuple[str, list[tuple[str, str]]]]:
     """Every key with what it does, by where it acts, from the bindings themselves."""
-    from .widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
+    from tui.widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
 
     def rows(bindings) -> list[tuple[str, str]]:
         return [(b.key.replace("question_mark", "?").replace(",", " / "), b.tooltip or b.description)
                 for b in bindings]
     groups = [("anywhere", rows(LoopcraftApp.BINDINGS)), ("workbench", rows(MainScreen.BINDINGS))]
-    from .screens.history_pane import HistoryPane
-    from .widgets.plots import FigurePlot
+    from tui.screens.history_pane import HistoryPane
+    from tui.widgets.plots import FigurePlot
     for name, bindings in (("plant table", PlantTable.BINDINGS), ("parameters", ParametersTable.BINDINGS),
                            ("targets", TargetsTable.BINDINGS), ("settings", SettingsTable.BINDINGS),
                            ("history", HistoryTable.BINDINGS + HistoryPane.BINDINGS),

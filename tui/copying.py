@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 
 from sessions.transfer_forms import format_sub_compensator, format_transfer, transfer_names
 
-from .plant_rows import cascade_transfers
+from tui.plant_rows import cascade_transfers
 
 
 def row_text(cells: Sequence[object]) -> str:

@@ -22,7 +22,7 @@ from sessions.errors import SessionError
 from sessions.lifecycle import folder
 from sessions.schema import ProblemModel
 
-from .workbench import Workbench
+from tui.workbench import Workbench
 
 Ref = tuple[Any, ...]   # a path into the problem model: attribute names and list indices
 Check = Callable[[str], str | None]

@@ -14,8 +14,8 @@ from sessions import forms
 from sessions.errors import SessionError
 from sessions.lifecycle import folder, registration
 
-from .edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
-from .workbench import Workbench
+from tui.edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
+from tui.workbench import Workbench
 
 PARAMETER_FIELDS = [("value", "value (per condition: one for all, or one each: 1, 2, 3)"),
                     ("min", "lower bound (none: unbounded)"), ("max", "upper bound (none: unbounded)")]
@@ -183,7 +183,7 @@ def constraint_check(bench: Workbench, index: int | None) -> Check:
 
 def constraint_edit(bench: Workbench, index: int) -> Edit:
     """A linear inequality between parameters, e.g. T1 >= 4*T2."""
-    from .edits import replace_at
+    from tui.edits import replace_at
     current = bench.session.model.problem.constraints[index]
     return Edit(f"constraint {index + 1}: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2", current,
                 constraint_check(bench, index), lambda text: replace_at(bench, ("constraints", index), text.strip()))

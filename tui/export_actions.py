@@ -10,7 +10,7 @@ from sessions.errors import SessionError
 from sessions.savefile import write_atomic
 from sessions.exports import FORMATS, SUFFIX, export_text
 
-from .files import home
+from tui.files import home
 
 
 class ExportActions:
@@ -24,7 +24,7 @@ class ExportActions:
 
     def action_export(self) -> None:
         """Choose a format, then write the current iteration's design beside the session."""
-        from .screens.dialogs import ChooseDialog
+        from tui.screens.dialogs import ChooseDialog
         if self.bench is None:
             return
         self.push_screen(ChooseDialog("export the current design as", list(FORMATS.items())),
@@ -45,7 +45,7 @@ class ExportActions:
         self._write_asking(self._beside(".svg"), self.export_screenshot(), "the screenshot")
 
     def _write_asking(self, target: Path, text: str, what: str) -> None:
-        from .screens.dialogs import ConfirmDialog
+        from tui.screens.dialogs import ConfirmDialog
 
         def write(yes: bool | None = True) -> None:
             if not yes:

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Collection
 
-from .analysis_views import poles_figure, sensitivity_figure
-from .views import View
-from .widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
-from .widgets.plots import Figure, line_figure, step_figure, sweep_figure, trajectories_figure
+from tui.analysis_views import poles_figure, sensitivity_figure
+from tui.views import View
+from tui.widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
+from tui.widgets.plots import Figure, line_figure, step_figure, sweep_figure, trajectories_figure
 
 
 def points(view: View) -> list[tuple[complex, str]]:

@@ -44,7 +44,7 @@ def example(name: str) -> Path:
 
 def recent_limit() -> int:
     """How many recent sessions are kept (the config's recent_limit; a config that does not read: the default)."""
-    from .config import ConfigError, load_config
+    from tui.config import ConfigError, load_config
     try:
         return load_config().recent_limit
     except ConfigError:

@@ -13,11 +13,11 @@ from engine.errors import EngineError
 from engine.loops import loop_model
 from engine.margins import margins
 
-from .analysis_views import Design, locus_figure, poles_figure, sensitivity_figure
-from .figures import applicable, disk, points, radius
-from .views import INITIAL_COLOR, LoopCurve, View
-from .widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
-from .widgets.plots import Figure, step_figure
+from tui.analysis_views import Design, locus_figure, poles_figure, sensitivity_figure
+from tui.figures import applicable, disk, points, radius
+from tui.views import INITIAL_COLOR, LoopCurve, View
+from tui.widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
+from tui.widgets.plots import Figure, step_figure
 
 # the views, in the order o (or p) cycles them: title, and the presenter's plot each needs
 VIEWS = {"nyquist": ("Nyquist", "nyquist"), "bode": ("Bode", "bode"), "phase": ("phase", "bode"),

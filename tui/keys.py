@@ -20,11 +20,11 @@ def _name(action: str) -> str:
 
 def binding_table() -> list[tuple[str, str, str]]:
     """(id, keys, what it does) of every binding of the app, the workbench and its tables."""
-    from .app import LoopcraftApp
-    from .screens.history_pane import HistoryPane
-    from .screens.main import MainScreen
-    from .widgets.plots import FigurePlot
-    from .widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
+    from tui.app import LoopcraftApp
+    from tui.screens.history_pane import HistoryPane
+    from tui.screens.main import MainScreen
+    from tui.widgets.plots import FigurePlot
+    from tui.widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
     rows = []
     for owner in (LoopcraftApp, MainScreen, PlantTable, ParametersTable, TargetsTable, SettingsTable, HistoryTable,
                   HistoryPane, FigurePlot):

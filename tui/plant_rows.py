@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from sessions.transfer_forms import describe_transfer, format_sub_compensator
 
-from .edits import Ref
+from tui.edits import Ref
 
 Cells = tuple[str, str, str, str, str, str]
 

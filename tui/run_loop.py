@@ -32,11 +32,11 @@ from textual.message import Message
 from engine.algorithm import State, StepRecord
 from sessions.errors import SessionError
 
-from .analysis_views import pole_text
-from .figures import figure_key, figures
-from .views import View
-from .workbench import stored_json
-from .widgets.plots import FigurePlot
+from tui.analysis_views import pole_text
+from tui.figures import figure_key, figures
+from tui.views import View
+from tui.workbench import stored_json
+from tui.widgets.plots import FigurePlot
 
 REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)
 FOOTER_DIM_DELAY = 0.15  # s: a run still going then has its footer's keys dimmed
@@ -106,7 +106,7 @@ class RunLoop:
         self._start(10 ** 9)
 
     def action_run_n(self) -> None:
-        from .screens.dialogs import EditDialog
+        from tui.screens.dialogs import EditDialog
 
         def chosen(text: str | None) -> None:
             if text:

@@ -20,7 +20,7 @@ class SweepActions:
 
     def action_sweep(self) -> None:
         """Ask for a sweep (one line), then run it on Dask in a worker thread."""
-        from .screens.dialogs import EditDialog
+        from tui.screens.dialogs import EditDialog
         if self.bench is None or self.busy:
             return
 

@@ -23,7 +23,7 @@ from engine.margins import Margins, margins
 from engine.present import tolerant
 from engine.problem import Problem
 
-from .step_view import StepSetup, horizon, realized, step_response
+from tui.step_view import StepSetup, horizon, realized, step_response
 
 CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
 INITIAL_COLOR = "gray"

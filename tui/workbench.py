@@ -23,9 +23,9 @@ from sessions.sweep_jobs import execute
 from sessions.sweep_results import adopt_run, record_sweep, summarize
 from sessions.sweeps import parse_sweep, plan
 
-from .edit_history import EditHistory
-from .step_view import StepSetup
-from .views import View
+from tui.edit_history import EditHistory
+from tui.step_view import StepSetup
+from tui.views import View
 
 
 class Workbench:

@@ -1,8 +1,8 @@
 """`cip`: constraint improvement on margins (Mitchell & McDaniel, report 000)."""
 
-from ..algorithm import register
-from .algorithm import Cip, CipSettings
-from .present import CipPresenter
+from engine.algorithm import register
+from engine.cip.algorithm import Cip, CipSettings
+from engine.cip.present import CipPresenter
 
 register("cip", Cip, CipSettings,
          "constraint improvement on gain/phase/stability/attenuation margins (report 000, CIP)",

@@ -36,16 +36,16 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..algorithm import MeasureRow, State, Status, StepRecord
-from ..compensators import coefficient_roles, compensators, split_by_role
-from ..constraints import check_start
-from ..errors import EngineError
-from ..guard import check_vector, guarded
-from ..problem import Problem
-from .constraints import Constraint, check_targets, detect
-from .direction import Direction, Rows, gradient_rows
-from .linear import held_direction, held_labels, trial_point
-from .memory import CipBest, CipMemory
+from engine.algorithm import MeasureRow, State, Status, StepRecord
+from engine.compensators import coefficient_roles, compensators, split_by_role
+from engine.constraints import check_start
+from engine.errors import EngineError
+from engine.guard import check_vector, guarded
+from engine.problem import Problem
+from engine.cip.constraints import Constraint, check_targets, detect
+from engine.cip.direction import Direction, Rows, gradient_rows
+from engine.cip.linear import held_direction, held_labels, trial_point
+from engine.cip.memory import CipBest, CipMemory
 
 TERMINATION_STATUS = {"theorem2": Status.INFEASIBLE, "dependent": Status.NO_IMPROVEMENT,
                       "zero_gradient": Status.NO_IMPROVEMENT}

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import EngineError
-from ..loops import LoopModel, loop_model, open_loop
-from ..margins import Margin, margins
-from ..measure_kinds import check_accepted, kind, names
-from ..problem import Point, Problem, Target
+from engine.errors import EngineError
+from engine.loops import LoopModel, loop_model, open_loop
+from engine.margins import Margin, margins
+from engine.measure_kinds import check_accepted, kind, names
+from engine.problem import Point, Problem, Target
 
 # measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.measure_kinds`)
 KIND = {name: kind(name).margin for name in names(algorithm="cip")}
@@ -98,7 +98,7 @@ def check_targets(problem: Problem) -> None:
     check_accepted("cip", (target.measure for target in problem.targets))
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
-    from .peaks import check_peak_targets  # peaks.py builds on this module's Constraint
+    from engine.cip.peaks import check_peak_targets  # peaks.py builds on this module's Constraint
     check_peak_targets(problem.targets)
 
 
@@ -127,7 +127,7 @@ def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
         found += _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability,
                               found_margins.label)
-        from .peaks import peak_constraints  # Mt and disk margins (family D); peaks.py imports Constraint
+        from engine.cip.peaks import peak_constraints  # Mt and disk margins (family D); peaks.py imports Constraint
         found += peak_constraints(loop, targets, c)
         windings.append(winding(loop.gh))
     return sorted(found, key=_tableau_order), windings

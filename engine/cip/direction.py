@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..loops import open_loop
-from ..problem import Problem
-from .constraints import Constraint
+from engine.loops import open_loop
+from engine.problem import Problem
+from engine.cip.constraints import Constraint
 
 DEPENDENT = 1e-7   # smallest/largest singular value of G below this: dependent gradients
 ZERO = 1e-12       # relative size of a gradient treated as zero

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..constraints import inequality_rows, project, row_scale
-from ..problem import Problem
-from .direction import DEPENDENT, ZERO, Direction, Rows, _at, improvement_direction
+from engine.constraints import inequality_rows, project, row_scale
+from engine.problem import Problem
+from engine.cip.direction import DEPENDENT, ZERO, Direction, Rows, _at, improvement_direction
 
 
 @dataclass(frozen=True)

@@ -6,10 +6,10 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-from ..errors import EngineError
-from ..memory import Fields, jsonable, to_float
-from ..problem import Point
-from .constraints import KIND, Constraint
+from engine.errors import EngineError
+from engine.memory import Fields, jsonable, to_float
+from engine.problem import Point
+from engine.cip.constraints import KIND, Constraint
 
 KINDS = tuple(sorted(set(KIND.values())))
 

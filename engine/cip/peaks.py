@@ -18,12 +18,12 @@ the direction is exactly the one a stability margin of F would get.
 
 from __future__ import annotations
 
-from ..errors import EngineError
-from ..loops import LoopModel
-from ..margins import Band
-from ..peak_measures import local_peaks, newton_point
-from ..problem import Point, Target
-from .constraints import KIND, Constraint
+from engine.errors import EngineError
+from engine.loops import LoopModel
+from engine.margins import Band
+from engine.peak_measures import local_peaks, newton_point
+from engine.problem import Point, Target
+from engine.cip.constraints import KIND, Constraint
 
 INVERTED = ("sensitivity_peak", "complementary_sensitivity_peak")  # at most M: the distance is 1/value
 

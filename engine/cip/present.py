@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 
-from ..algorithm import State, StepRecord
-from ..present import Presenter
-from ..problem import Problem
-from .constraints import KIND
+from engine.algorithm import State, StepRecord
+from engine.present import Presenter
+from engine.problem import Problem
+from engine.cip.constraints import KIND
 
 HZ = 2 * math.pi
 

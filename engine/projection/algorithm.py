@@ -31,15 +31,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..algorithm import MeasureRow, State, Status, StepRecord
-from ..errors import EngineError
-from ..guard import guarded
-from ..problem import Problem
-from .banded import Projector
-from .lq import Trajectory, norm
-from .memory import Iterate, ProjectionMemory
-from .openloop import open_loop, peak_rows, peaks
-from .system import DaeSystem, dae_system
+from engine.algorithm import MeasureRow, State, Status, StepRecord
+from engine.errors import EngineError
+from engine.guard import guarded
+from engine.problem import Problem
+from engine.projection.banded import Projector
+from engine.projection.lq import Trajectory, norm
+from engine.projection.memory import Iterate, ProjectionMemory
+from engine.projection.openloop import open_loop, peak_rows, peaks
+from engine.projection.system import DaeSystem, dae_system
 
 STALL_WINDOW = 6
 

@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import lapack
 
-from ..errors import EngineError
-from .lq import Trajectory, reduction
-from .system import DaeSystem
+from engine.errors import EngineError
+from engine.projection.lq import Trajectory, reduction
+from engine.projection.system import DaeSystem
 
 
 class Projector:

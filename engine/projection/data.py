@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import EngineError
+from engine.errors import EngineError
 
 MAX_STATES = 200      # n
 MAX_INPUTS = 200      # m (and algebraic equations)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import null_space
 
-from .system import DaeSystem
+from engine.projection.system import DaeSystem
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from itertools import chain
 from typing import Any, ClassVar, Self
 
-from ..errors import EngineError
-from ..memory import Fields, jsonable
+from engine.errors import EngineError
+from engine.memory import Fields, jsonable
 
 
 @dataclass(frozen=True)

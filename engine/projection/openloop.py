@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..algorithm import MeasureRow
-from ..errors import EngineError
-from .lq import Trajectory
-from .system import DaeSystem
+from engine.algorithm import MeasureRow
+from engine.errors import EngineError
+from engine.projection.lq import Trajectory
+from engine.projection.system import DaeSystem
 
 
 def open_loop_gain(system: DaeSystem) -> NDArray:

@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from ..algorithm import State, StepRecord
-from ..present import Presenter
-from ..problem import Problem
+from engine.algorithm import State, StepRecord
+from engine.present import Presenter
+from engine.problem import Problem
 
 
 class ProjectionPresenter(Presenter):

@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
 
-from ..errors import EngineError
-from .data import MAX_INPUTS, MAX_POWER, MAX_STATES, MAX_STEPS, fail, integer, items, limits, matrix, number, obj, \
+from engine.errors import EngineError
+from engine.projection.data import MAX_INPUTS, MAX_POWER, MAX_STATES, MAX_STEPS, fail, integer, items, limits, matrix, number, obj, \
     sizes, vector, weights
 
 

@@ -18,17 +18,17 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..algorithm import MeasureRow, State, Status, StepRecord
-from ..errors import EngineError
-from ..guard import check_vector, guarded
-from ..problem import Problem
-from .cgfm import Move, cgfm_step
-from .cost import CostResult, normalized_squares, open_loop_squares
-from .evaluate import PARTS, SQUARES, Counter, Evaluation, counted
-from .lbfgsb import lbfgsb_step
-from .memory import QcgMemory
-from .settings import QcgSettings
-from .setup import CascadeProblem, cascade_problem
+from engine.algorithm import MeasureRow, State, Status, StepRecord
+from engine.errors import EngineError
+from engine.guard import check_vector, guarded
+from engine.problem import Problem
+from engine.qcg.cgfm import Move, cgfm_step
+from engine.qcg.cost import CostResult, normalized_squares, open_loop_squares
+from engine.qcg.evaluate import PARTS, SQUARES, Counter, Evaluation, counted
+from engine.qcg.lbfgsb import lbfgsb_step
+from engine.qcg.memory import QcgMemory
+from engine.qcg.settings import QcgSettings
+from engine.qcg.setup import CascadeProblem, cascade_problem
 
 __all__ = ["Qcg", "QcgSettings"]
 CONVENTIONS = "F = sum F(w_i)(w_{i+1} - w_{i-1}) as the listing prints; C = F/(2 pi), eq. (22)"

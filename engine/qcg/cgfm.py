@@ -29,11 +29,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..algorithm import Status
-from ..errors import EngineError
-from .evaluate import Counter, Evaluation
-from .memory import QcgMemory
-from .settings import QcgSettings
+from engine.algorithm import Status
+from engine.errors import EngineError
+from engine.qcg.evaluate import Counter, Evaluation
+from engine.qcg.memory import QcgMemory
+from engine.qcg.settings import QcgSettings
 
 
 class Search(NamedTuple):

@@ -35,8 +35,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..blocks import Transfer
-from ..errors import EngineError
+from engine.blocks import Transfer
+from engine.errors import EngineError
 
 BLEND = 0.05  # intervals with RSNAT <= min |1 + OPEN|^2 < RSNAT (1 + BLEND) are partly refined
 

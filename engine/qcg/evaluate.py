@@ -14,11 +14,11 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import EngineError
-from ..memory import Fields, jsonable
-from ..problem import Problem
-from .cost import CostResult
-from .setup import CascadeProblem
+from engine.errors import EngineError
+from engine.memory import Fields, jsonable
+from engine.problem import Problem
+from engine.qcg.cost import CostResult
+from engine.qcg.setup import CascadeProblem
 
 PARTS = ("FDQ", "FDR", "FVQ", "FVR")
 SQUARES = ("x1", "x1_rate", "u", "u_rate")

@@ -36,11 +36,11 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..algorithm import Status
-from .cgfm import Move
-from .evaluate import Counter, Evaluation
-from .memory import QcgMemory
-from .settings import QcgSettings
+from engine.algorithm import Status
+from engine.qcg.cgfm import Move
+from engine.qcg.evaluate import Counter, Evaluation
+from engine.qcg.memory import QcgMemory
+from engine.qcg.settings import QcgSettings
 
 LOWER = 1e-6   # the least p = b/|b0|: a parameter keeps its sign and a millionth of its start
 CURVATURE = np.finfo(float).eps

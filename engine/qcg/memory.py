@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Self
 
-from ..errors import EngineError
-from ..memory import Fields, jsonable
-from .evaluate import Evaluation
+from engine.errors import EngineError
+from engine.memory import Fields, jsonable
+from engine.qcg.evaluate import Evaluation
 
 
 @dataclass(frozen=True)

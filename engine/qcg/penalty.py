@@ -21,10 +21,10 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..constraints import PENALTY_WEIGHT, check_start, penalty, row_scale
-from ..problem import Problem
-from .cost import CostResult
-from .setup import CascadeProblem
+from engine.constraints import PENALTY_WEIGHT, check_start, penalty, row_scale
+from engine.problem import Problem
+from engine.qcg.cost import CostResult
+from engine.qcg.setup import CascadeProblem
 
 
 @dataclass(frozen=True)

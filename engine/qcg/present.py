@@ -3,11 +3,11 @@ its parts, the counters, the parameters, and the INST = 4 frequency response."""
 
 from __future__ import annotations
 
-from ..algorithm import StepRecord
-from ..errors import EngineError
-from ..present import Presenter, tableau_text
-from ..problem import Problem
-from .setup import cascade_problem
+from engine.algorithm import StepRecord
+from engine.errors import EngineError
+from engine.present import Presenter, tableau_text
+from engine.problem import Problem
+from engine.qcg.setup import cascade_problem
 
 
 def qcg_report_text(record: StepRecord, response: list[dict] | None = None) -> str:

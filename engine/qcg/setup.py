@@ -16,11 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..blocks import Transfer
-from ..errors import EngineError
-from ..measure_kinds import check_accepted
-from ..problem import Problem
-from .cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
+from engine.blocks import Transfer
+from engine.errors import EngineError
+from engine.measure_kinds import check_accepted
+from engine.problem import Problem
+from engine.qcg.cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
 
 OPTIONS = ("q1", "q2", "r1", "r2", "averaging_time", "disturbance_amplitude", "disturbance_pole", "rsnat",
            "subdivisions", "normalizing_gain")
@@ -53,7 +53,7 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     data = made.cascade
     if not all(np.all(np.isfinite(a)) for a in (data.g1, data.g1g2, data.ga, data.noise_psd, data.disturbance)):
         raise EngineError("qcg: the plant or the noise and disturbance weights are not finite on the grid")
-    from .penalty import penalized   # the linear constraints' penalty (penalty.py builds on this module)
+    from engine.qcg.penalty import penalized   # the linear constraints' penalty (penalty.py builds on this module)
     return penalized(made, problem)
 
 

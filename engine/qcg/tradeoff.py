@@ -15,10 +15,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from ..algorithm import iterate
-from ..errors import EngineError
-from ..problem import Problem
-from .algorithm import Qcg, QcgSettings
+from engine.algorithm import iterate
+from engine.errors import EngineError
+from engine.problem import Problem
+from engine.qcg.algorithm import Qcg, QcgSettings
 
 PENALTIES = ("q1", "q2", "r1", "r2")
 

@@ -1,8 +1,8 @@
 """`slp`: COEBRA's sequential linear programming (Martin Marietta, report 003)."""
 
-from ..algorithm import register
-from .algorithm import Slp, SlpSettings
-from .present import SlpPresenter
+from engine.algorithm import register
+from engine.slp.algorithm import Slp, SlpSettings
+from engine.slp.present import SlpPresenter
 
 register("slp", Slp, SlpSettings,
          "sequential linear programming over margins and time-domain measures, several flight "

@@ -47,15 +47,15 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from ..algorithm import MeasureRow, State, Status, StepRecord
-from ..constraints import check_start, project
-from ..errors import EngineError
-from ..guard import check_vector, guarded
-from ..problem import Problem
-from .lp import LpResult, solve_step, step_box
-from .measures import Spec, evaluate, measure_specs
-from .memory import SlpMemory, SlpPoint
-from .partials import jacobian
+from engine.algorithm import MeasureRow, State, Status, StepRecord
+from engine.constraints import check_start, project
+from engine.errors import EngineError
+from engine.guard import check_vector, guarded
+from engine.problem import Problem
+from engine.slp.lp import LpResult, solve_step, step_box
+from engine.slp.measures import Spec, evaluate, measure_specs
+from engine.slp.memory import SlpMemory, SlpPoint
+from engine.slp.partials import jacobian
 
 LOAD_KINDS = ("peak_response", "mean_square")
 STILL = "the linear program does not move"

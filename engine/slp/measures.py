@@ -29,16 +29,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..blocks import ExpressionTransfer
-from ..errors import EngineError
-from ..loops import loop_model
-from ..margins import Margins, margins
-from ..measure_kinds import MEASURE_KINDS, check_accepted, kind
-from ..problem import FREQUENCY_MEASURES, Problem
-from ..realization import StateSpace, cascade
-from ..zpk import closed_loop_realization
-from ..timeresp import PeakRule, Segment, final_value, simulate, step_measures
-from .peaks import closed_loop_values
+from engine.blocks import ExpressionTransfer
+from engine.errors import EngineError
+from engine.loops import loop_model
+from engine.margins import Margins, margins
+from engine.measure_kinds import MEASURE_KINDS, check_accepted, kind
+from engine.problem import FREQUENCY_MEASURES, Problem
+from engine.realization import StateSpace, cascade
+from engine.zpk import closed_loop_realization
+from engine.timeresp import PeakRule, Segment, final_value, simulate, step_measures
+from engine.slp.peaks import closed_loop_values
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
 # the measures read from the attenuation minima (`engine.measure_kinds`: margin family A)

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Self
 
-from ..errors import EngineError
-from ..memory import Fields, jsonable
+from engine.errors import EngineError
+from engine.memory import Fields, jsonable
 
 
 @dataclass(frozen=True)

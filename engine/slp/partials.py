@@ -27,11 +27,11 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ..fastloop import LoopEvaluator
-from ..loops import open_loop
-from ..problem import Problem
-from .measures import Spec, evaluate
-from .peaks import closed_loop_partials
+from engine.fastloop import LoopEvaluator
+from engine.loops import open_loop
+from engine.problem import Problem
+from engine.slp.measures import Spec, evaluate
+from engine.slp.peaks import closed_loop_partials
 
 ANALYTIC = ("gain_margin_db", "phase_margin_deg", "crossover_frequency", "modal_peak_db",
             "attenuation_margin", "stability_margin", "gain_margin", "phase_margin")

@@ -26,14 +26,14 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from ..fastloop import LoopEvaluator
-from ..loops import LoopModel, open_loop
-from ..margins import Band, Margins
-from ..peak_measures import (CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peaks, delay_partial,
+from engine.fastloop import LoopEvaluator
+from engine.loops import LoopModel, open_loop
+from engine.margins import Band, Margins
+from engine.peak_measures import (CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peaks, delay_partial,
                              peak_partial, stable_realization)
-from ..problem import Condition, Problem
-from ..realization import StateSpace
-from ..zpk import closed_loop_realization
+from engine.problem import Condition, Problem
+from engine.realization import StateSpace
+from engine.zpk import closed_loop_realization
 
 
 def closed_loop_values(condition: Condition, params: dict[str, float], model: LoopModel, found: Margins,

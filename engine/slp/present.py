@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import math
 
-from ..algorithm import State, StepRecord
-from ..present import Presenter, number
-from ..problem import Problem
+from engine.algorithm import State, StepRecord
+from engine.present import Presenter, number
+from engine.problem import Problem
 
 
 def _number(value: float | None, width: int, digits: int = 6) -> str:

@@ -13,7 +13,7 @@ import numpy as np
 
 from engine.network import Block, Junction, block_diagram
 
-from .common import judged, samples, scaling, timed
+from tests.bench.common import judged, samples, scaling, timed
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 CIP_TARGET_S = 0.001

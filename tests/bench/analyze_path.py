@@ -18,7 +18,7 @@ import warnings
 import control as ct
 import numpy as np
 
-from .common import compared
+from tests.bench.common import compared
 
 EXPRESSIONS = {  # order: (gain, the rest of the typed expression)
     4: (10.0, "*(s+2)/(s*(s+1)*(s+5)*(s+20))"),

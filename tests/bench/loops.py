@@ -17,7 +17,7 @@ from engine.loops import loop_model, open_loop
 from engine.margins import margins
 from engine.network import Block, Junction, block_diagram
 
-from .common import compared, perturbed, samples, scaling, timed
+from tests.bench.common import compared, perturbed, samples, scaling, timed
 
 ORDERS = (2, 4, 10, 20, 40, 80, 160)
 FREE = 15

@@ -19,9 +19,9 @@ from collections.abc import Callable
 import control as ct
 import numpy as np
 
-from . import algorithms, analyze_path, loops, startup
-from .common import missed, targets
-from .loops import benchmark_loop  # tests/engine/test_margins_reference.py imports it from here
+from tests.bench import algorithms, analyze_path, loops, startup
+from tests.bench.common import missed, targets
+from tests.bench.loops import benchmark_loop  # tests/engine/test_margins_reference.py imports it from here
 
 __all__ = ["GROUPS", "benchmark_loop", "main"]
 
@@ -41,7 +41,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
 
 
 def _workbench() -> dict:
-    from .tui_latency import measure
+    from tests.bench.tui_latency import measure
     return measure()
 
 

@@ -10,7 +10,7 @@ import sys
 import time
 from pathlib import Path
 
-from .common import judged, samples, timed
+from tests.bench.common import judged, samples, timed
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -24,7 +24,7 @@ def cli_startup(repeat: int) -> dict:
     (target 400 ms) beside `python -c "import numpy, pydantic"` (issue 18's
     target: --help at most 2x that), interleaved; the first paint of the app
     in a fresh process (target 1 s)."""
-    from .tui_latency import first_paint
+    from tests.bench.tui_latency import first_paint
     help_, analyze, baseline = samples([_command(["-m", "tui.cli", "--help"]),
                                         _command(["-m", "tui.cli", "analyze", "--tf", "1/(s+1)"]),
                                         _command(["-c", "import numpy, pydantic"])], repeat)

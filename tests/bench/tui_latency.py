@@ -14,7 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from .common import judged
+from tests.bench.common import judged
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 STEP_TO_SCREEN_TARGET_S = 0.080   # issue 23: key to painted screen <= 80 ms median at 120x40

@@ -11,9 +11,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-from .campaign import DEFAULT_BUDGET, DEFAULT_CASES, DEFAULT_SEED, run_cases, setting
-from .corpus import build_corpus
-from .harness import draw, execute
+from tests.fuzz.campaign import DEFAULT_BUDGET, DEFAULT_CASES, DEFAULT_SEED, run_cases, setting
+from tests.fuzz.corpus import build_corpus
+from tests.fuzz.harness import draw, execute
 
 
 def _one(seeds, seed: int, index: int, budget: float, keep: Path | None) -> int:

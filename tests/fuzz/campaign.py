@@ -11,8 +11,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .corpus import Seed
-from .harness import Outcome, draw, execute
+from tests.fuzz.corpus import Seed
+from tests.fuzz.harness import Outcome, draw, execute
 
 DEFAULT_SEED = 20261201
 DEFAULT_CASES = 2000

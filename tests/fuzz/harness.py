@@ -23,9 +23,9 @@ from sessions.errors import SessionError
 from sessions.store import load_session
 from tui.cli import main
 
-from .corpus import Seed
-from .mutator import Mutator
-from .tables import garble_csv
+from tests.fuzz.corpus import Seed
+from tests.fuzz.mutator import Mutator
+from tests.fuzz.tables import garble_csv
 
 SESSION = "session.json"
 OUT = "out.json"

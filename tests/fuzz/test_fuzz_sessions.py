@@ -12,8 +12,8 @@ from functools import lru_cache
 
 import pytest
 
-from .campaign import DEFAULT_BUDGET, DEFAULT_CASES, DEFAULT_SEED, run_cases, setting
-from .corpus import EXAMPLES, Seed, build_corpus
+from tests.fuzz.campaign import DEFAULT_BUDGET, DEFAULT_CASES, DEFAULT_SEED, run_cases, setting
+from tests.fuzz.corpus import EXAMPLES, Seed, build_corpus
 
 CASES = int(setting("CASES", DEFAULT_CASES))
 SEED = int(setting("SEED", DEFAULT_SEED))
@@ -40,7 +40,7 @@ def test_mutants_of_an_example_never_crash(example, tmp_path):
 
 def test_the_harness_sees_a_crash(tmp_path, monkeypatch):
     """An exception escaping main() is reported as a traceback, not passed over."""
-    from . import harness
+    from tests.fuzz import harness
 
     def broken(argv):
         raise KeyError("boom")
@@ -54,7 +54,7 @@ def test_the_harness_sees_a_warning_and_a_hang(tmp_path, monkeypatch):
     """A RuntimeWarning fails a case that otherwise succeeds; so does running past the budget."""
     import time
     import warnings
-    from . import harness
+    from tests.fuzz import harness
 
     def warns(argv):
         warnings.warn("overflow encountered in multiply", RuntimeWarning)

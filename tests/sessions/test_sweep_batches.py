@@ -66,7 +66,7 @@ def test_a_run_that_kills_its_worker_does_not_take_its_batch_with_it(tmp_path):
 
     from sessions.sweep_cluster import close, local_cluster
 
-    from .sweep_poison import POISON, poisoned
+    from tests.sessions.sweep_poison import POISON, poisoned
     jobs = _jobs(tmp_path, 8)
     # one death fails the task it ran; a worker holds one task at a time (none queued behind the poison)
     with dask.config.set({"distributed.scheduler.allowed-failures": 0, "distributed.scheduler.worker-saturation": 1.0}):

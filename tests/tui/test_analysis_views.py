@@ -10,7 +10,7 @@ from tui.analysis_views import locus_figure, poles_figure, sensitivity_figure
 from tui.app import LoopcraftApp
 from tui.workbench import Workbench
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 

@@ -11,8 +11,8 @@ from tui.edits import plant_edit
 from tui.plant_rows import plant_rows
 from tui.workbench import Workbench
 
-from .conftest import EXAMPLES
-from .test_app import edit_row, synchronous
+from tests.tui.conftest import EXAMPLES
+from tests.tui.test_app import edit_row, synchronous
 
 ALL = sorted(p.name for p in EXAMPLES.glob("*.json"))
 

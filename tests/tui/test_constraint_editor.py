@@ -5,7 +5,7 @@ from __future__ import annotations
 from tui.app import LoopcraftApp
 from tui.edits_fields import objective_rows
 
-from .test_app import select_row, settle, synchronous
+from tests.tui.test_app import select_row, settle, synchronous
 
 
 @synchronous

@@ -8,7 +8,7 @@ from engine.expressions import Expression
 from tui.app import LoopcraftApp
 from tui.copying import with_values
 
-from .test_app import select_row, settle, synchronous
+from tests.tui.test_app import select_row, settle, synchronous
 
 
 def test_values_are_put_in_place_of_parameter_names():

@@ -8,7 +8,7 @@ import sys
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ConfirmDialog
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 @synchronous

@@ -12,7 +12,7 @@ from tui.app import LoopcraftApp
 from tui.widgets.footer import Footer
 from textual.widgets import Footer as TextualFooter
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 def _disabled(app, action: str) -> bool:

@@ -13,7 +13,7 @@ from engine.loops import loop_model
 from engine.sensitivity import sensitivity_peak
 from tui.app import LoopcraftApp
 
-from .test_app import select_row, settle, synchronous
+from tests.tui.test_app import select_row, settle, synchronous
 
 # lead_sensitivity_peak: L = 10 (1 + T1 s) / ((1 + T2 s) s (s + 1) (s + 5)), unity feedback
 

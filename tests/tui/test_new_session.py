@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from tui.app import LoopcraftApp
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 async def _type(pilot, text: str) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from engine.present import number
 from tui.app import LoopcraftApp
 
-from .test_app import select_row, settle, synchronous
+from tests.tui.test_app import select_row, settle, synchronous
 
 
 @synchronous

@@ -9,7 +9,7 @@ import numpy as np
 from tui.app import LoopcraftApp
 from tui.widgets.navigation import log_ticks
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 def _loop(s):

@@ -10,7 +10,7 @@ from tui.step_view import StepSetup, parse_step_setup
 from tui.widgets.plots import step_figure
 from tui.workbench import Workbench
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 def test_the_marks_agree_with_python_control_step_info(workdir):

@@ -5,7 +5,7 @@ from __future__ import annotations
 from tui.app import LoopcraftApp
 from tui.screens.main import MAIN_WIDGETS
 
-from .test_app import synchronous
+from tests.tui.test_app import synchronous
 
 TABS = {"1": "run", "2": "plant", "3": "targets", "4": "history", "5": "sweep"}
 

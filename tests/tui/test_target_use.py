@@ -8,7 +8,7 @@ from sessions.target_use import target_note, unusable_targets
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ChooseDialog
 
-from .test_app import settle, synchronous
+from tests.tui.test_app import settle, synchronous
 
 
 def test_every_measure_is_flagged_exactly_for_the_algorithms_that_refuse_it():

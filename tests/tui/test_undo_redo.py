@@ -7,7 +7,7 @@ from tui.app import LoopcraftApp
 from tui.edit_history import describe_change
 from tui.workbench import Workbench
 
-from .test_app import edit_row, settle, status, synchronous
+from tests.tui.test_app import edit_row, settle, status, synchronous
 
 
 def test_a_change_is_described_by_name_and_value():

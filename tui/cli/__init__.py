@@ -16,8 +16,8 @@ from pathlib import Path
 from engine.errors import EngineError
 from sessions.errors import SessionError
 
-from . import analyze, compare, config_command, export, new, session_commands, sweep
-from .common import CliError
+from tui.cli import analyze, compare, config_command, export, new, session_commands, sweep
+from tui.cli.common import CliError
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,8 +58,8 @@ def _handle(args: argparse.Namespace) -> int:
 
 def run_app(target: str | None = None, example: str | None = None) -> int:
     """The workbench: on a session file, on a bundled example, or the start screen."""
-    from ..app import LoopcraftApp
-    from ..files import example as example_copy
+    from tui.app import LoopcraftApp
+    from tui.files import example as example_copy
     path = None
     if example is not None:
         try:
@@ -84,7 +84,7 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
 
 
 def _example_names() -> list[str]:
-    from ..files import EXAMPLES
+    from tui.files import EXAMPLES
     return sorted(p.stem for p in EXAMPLES.glob("*.json"))
 
 

@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .common import CliError, finite_or_none
+from tui.cli.common import CliError, finite_or_none
 
 if TYPE_CHECKING:
     from engine.analysis import LoopAnalysis

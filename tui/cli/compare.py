@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .common import CliError, load
+from tui.cli.common import CliError, load
 
 
 def cmd_compare(args: argparse.Namespace) -> int:

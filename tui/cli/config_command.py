@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import argparse
 
-from .common import CliError
+from tui.cli.common import CliError
 
 
 def cmd_config(args: argparse.Namespace) -> int:
     """Print the config's path and settings in effect; --sample: a sample file; --keys: the binding ids."""
-    from ..config import SAMPLE, ConfigError, config_path, load_config
+    from tui.config import SAMPLE, ConfigError, config_path, load_config
     if args.sample:
         print(SAMPLE)
         return 0
@@ -25,7 +25,7 @@ def cmd_config(args: argparse.Namespace) -> int:
     for binding_id, keys in sorted(config.keys.items()):
         print(f"keys.{binding_id} = {keys!r}")
     if args.keys:
-        from ..keys import binding_table
+        from tui.keys import binding_table
         print("\nbinding id                          keys              what it does")
         for binding_id, keys, what in binding_table():
             shown = config.keys.get(binding_id, keys)

@@ -8,7 +8,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import CliError, load
+from tui.cli.common import CliError, load
 
 FORMATS = ("html", "md")
 

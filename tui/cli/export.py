@@ -10,7 +10,7 @@ from pathlib import Path
 
 from sessions.exports import SUFFIX
 
-from .common import CliError, load
+from tui.cli.common import CliError, load
 
 def export_text(file: str, iteration: int | None, to: str, sample_time: float | None) -> str:
     """The exported text of a session's design at an iteration (default: its last)."""

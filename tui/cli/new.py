@@ -8,7 +8,7 @@ import json
 import sys
 from pathlib import Path
 
-from .common import CliError
+from tui.cli.common import CliError
 
 
 def cmd_new(args: argparse.Namespace) -> int:

@@ -11,7 +11,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from .common import CliError, finite_or_none, load, rows_now, summary_json
+from tui.cli.common import CliError, finite_or_none, load, rows_now, summary_json
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
@@ -68,7 +68,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     """The tableau of an iteration as text (the algorithm's own layout), JSON or CSV;
     html and md: the design report (tui/cli/design_report.py)."""
     if args.format in ("html", "md"):
-        from .design_report import cmd_design_report
+        from tui.cli.design_report import cmd_design_report
         return cmd_design_report(args)
     if args.out is not None:
         raise CliError("--out: only with --format html or md (text, json and csv are printed)")

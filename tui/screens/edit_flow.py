@@ -9,9 +9,9 @@ from typing import Any
 
 from sessions.errors import SessionError
 
-from ..edit_history import Snapshot
-from ..edits import Check, Edit
-from .dialogs import ChooseDialog, ConfirmDialog, EditDialog
+from tui.edit_history import Snapshot
+from tui.edits import Check, Edit
+from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog
 
 
 class EditFlow:

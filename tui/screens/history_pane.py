@@ -24,13 +24,13 @@ from textual.widgets import DataTable
 from engine.present import number, tolerant
 from sessions.compare import compare, comparison_text, side
 
-from ..history_figures import TITLES, VIEWS, figure_key, history_figure, history_views, name
-from ..keys import identified
-from ..tableau import tableau_text
-from ..views import View
-from ..widgets.plots import Figure, FigurePlot
-from ..widgets.tables import HistoryTable
-from ..widgets.textview import TextView
+from tui.history_figures import TITLES, VIEWS, figure_key, history_figure, history_views, name
+from tui.keys import identified
+from tui.tableau import tableau_text
+from tui.views import View
+from tui.widgets.plots import Figure, FigurePlot
+from tui.widgets.tables import HistoryTable
+from tui.widgets.textview import TextView
 
 KEPT_FIGURES = 64      # computed figures kept (for going back to a row)
 PLACEHOLDER_AFTER = 0.15   # s: a figure not drawn by then shows 'computing ...'

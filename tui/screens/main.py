@@ -16,23 +16,23 @@ from textual.widgets import DataTable, TabbedContent, TabPane
 from engine.algorithm import StepRecord
 from engine.present import Presenter, number, tolerant
 
-from ..edits_fields import objective_rows
-from ..figures import FIGURE_IDS, applicable, figure_key
-from ..keys import identified
-from ..plant_rows import plant_rows
-from ..tableau import tableau_text
-from ..views import View
-from ..widgets.matrix_table import MatrixTable
-from ..run_loop import drawings
-from ..widgets.figure import Figure
-from ..widgets.footer import Footer
-from ..widgets.plots import FigurePlot, sweep_figure
-from ..widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
-from ..widgets.textview import TextView
-from ..workbench import Workbench
-from .history_pane import HistoryPane
-from .pole_lines import PoleLines
-from .view_actions import ViewActions
+from tui.edits_fields import objective_rows
+from tui.figures import FIGURE_IDS, applicable, figure_key
+from tui.keys import identified
+from tui.plant_rows import plant_rows
+from tui.tableau import tableau_text
+from tui.views import View
+from tui.widgets.matrix_table import MatrixTable
+from tui.run_loop import drawings
+from tui.widgets.figure import Figure
+from tui.widgets.footer import Footer
+from tui.widgets.plots import FigurePlot, sweep_figure
+from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
+from tui.widgets.textview import TextView
+from tui.workbench import Workbench
+from tui.screens.history_pane import HistoryPane
+from tui.screens.pole_lines import PoleLines
+from tui.screens.view_actions import ViewActions
 from sessions import forms
 from sessions.target_use import target_note
 

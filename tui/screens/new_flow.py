@@ -17,8 +17,8 @@ from sessions import template_kinds, templates
 from sessions.build import read_csv
 from sessions.errors import SessionError
 
-from ..edits_fields import csv_preview, table_transfer
-from .dialogs import ChooseDialog, EditDialog
+from tui.edits_fields import csv_preview, table_transfer
+from tui.screens.dialogs import ChooseDialog, EditDialog
 
 PLANT_HINT = "an expression in s (or w), e.g. 10/(s*(s+1)*(s+5)); exp(-T*s) is a delay"
 STRUCTURE_CHOICES = [("lead", "K (1 + T1 s)/(1 + T2 s), T2 < T1"), ("lag", "K (1 + T1 s)/(1 + T2 s), T2 > T1"),

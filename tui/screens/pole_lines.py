@@ -6,9 +6,9 @@ are kept, with the view (the ids in its `figure_key` stay taken)."""
 
 from __future__ import annotations
 
-from ..analysis_views import pole_text
-from ..figures import figure_key
-from ..views import View
+from tui.analysis_views import pole_text
+from tui.figures import figure_key
+from tui.views import View
 
 COMPUTING = "closed-loop poles: computing ..."
 

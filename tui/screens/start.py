@@ -11,8 +11,8 @@ from textual.containers import Vertical
 from textual.screen import Screen
 from textual.widgets import Label, OptionList
 
-from ..files import EXAMPLES, recent_sessions
-from ..widgets.footer import Footer
+from tui.files import EXAMPLES, recent_sessions
+from tui.widgets.footer import Footer
 
 
 class StartScreen(Screen):

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 from textual.widgets import DataTable, TabbedContent
 
-from ..analysis_views import locus_figure
-from ..copying import design_text, row_text
-from ..step_view import format_step_setup, horizon, parse_step_setup
-from ..views import View
-from ..widgets.plots import Figure, FigurePlot
-from ..widgets.textview import TextView
-from .dialogs import EditDialog
+from tui.analysis_views import locus_figure
+from tui.copying import design_text, row_text
+from tui.step_view import format_step_setup, horizon, parse_step_setup
+from tui.views import View
+from tui.widgets.plots import Figure, FigurePlot
+from tui.widgets.textview import TextView
+from tui.screens.dialogs import EditDialog
 
 
 class ViewActions:
@@ -86,7 +86,7 @@ class ViewActions:
     def action_locus_parameter(self) -> None:
         """Choose what the root locus varies, the loop gain or one parameter, and show the
         locus: History's plot when that tab is shown, else the Run tab's."""
-        from .dialogs import ChooseDialog
+        from tui.screens.dialogs import ChooseDialog
         names = [p.name for p in self.bench.session.problem.parameters]
         choices = [("gain", "the loop gain k (1 + k L = 0)")] + [(n, "this parameter, a decade either side")
                                                                  for n in names]

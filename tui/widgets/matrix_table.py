@@ -9,10 +9,10 @@ from textual.widgets import DataTable
 
 from sessions import forms
 
-from .. import edits
-from ..edits import Edit
-from ..keys import identified
-from ..matrix_grid import matrix_grid
+from tui import edits
+from tui.edits import Edit
+from tui.keys import identified
+from tui.matrix_grid import matrix_grid
 
 
 class MatrixTable(DataTable):

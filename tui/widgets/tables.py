@@ -17,9 +17,9 @@ from textual.widgets import DataTable
 from engine.measure_kinds import MEASURE_KINDS
 from sessions.lifecycle import folder
 
-from .. import edits, edits_fields
-from ..edits import Ref
-from ..keys import identified
+from tui import edits, edits_fields
+from tui.edits import Ref
+from tui.keys import identified
 
 
 class RefTable(DataTable):
@@ -138,7 +138,7 @@ class PlantTable(RefTable):
                 self.app.notify(str(exc), title="cannot read the table", severity="error")
                 return
             self.flow.open(edit)
-        from ..screens.dialogs import EditDialog
+        from tui.screens.dialogs import EditDialog
         self.app.push_screen(EditDialog("CSV file (relative to the session's folder)", "",
                                         lambda t: None if (base / Path(t).expanduser()).is_file() else "no such file"),
                              lambda text: text and chosen(text))

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .plots import Figure, Series, _finite
+from tui.widgets.plots import Figure, Series, _finite
 
 COLORS = ("blue", "orange", "magenta", "cyan", "green")
 INITIAL_COLOR = "gray"
