@@ -11,15 +11,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from engine.blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
-from engine.disk_margins import DiskMargin, check_skew, disk_transform, from_peak
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.errors import EngineError
-from engine.polish import polish
-from engine.loops import LoopModel, loop_model
-from engine.margins import Band, Margins, margins
-from engine.network import Block, Junction, Network, block_diagram
-from engine.realization import Pole, poles, realize, stability
-from engine.sensitivity import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
+from engine.closed_loop.poles import polish
+from engine.loop.responses import LoopModel, loop_model
+from engine.margins.search import Band, Margins, margins
+from engine.model.network import Block, Junction, Network, block_diagram
+from engine.loop.realization import Pole, poles, realize, stability
+from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
 
 
 @dataclass(frozen=True)
@@ -106,7 +106,7 @@ def modal_peaks(model: LoopModel | Margins, bands: Sequence[Band]) -> tuple[Moda
 def closed_loop_peaks(model: LoopModel, verdict: str, skew: float = 0.0
                       ) -> tuple[DiskMargin | None, Peak | None, Peak | None, tuple[str, ...]]:
     """The disk margin, Ms and Mt of a loop, refined in one search
-    (`engine.sensitivity.refined_peaks`); None each with a note when it fails."""
+    (`engine.margins.peaks.refined_peaks`); None each with a note when it fails."""
     skew = check_skew(skew)
     try:
         disk, ms, mt = refined_peaks(model, [disk_transform(skew), sensitivity, complementary])

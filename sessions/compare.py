@@ -1,7 +1,7 @@
 """`loopcraft compare`: two designs' measures side by side.
 
 A design is a session at an iteration.  Its measures are the generic tableau
-of `engine.measures` at that iteration's parameters (every target in every
+of `engine.design.tableau` at that iteration's parameters (every target in every
 condition, with desired values and met/unmet); a session whose targets the
 tableau cannot evaluate (slp's modal peaks, time responses) is compared on
 its records' own measures instead (iteration 0: the algorithm's initial
@@ -14,12 +14,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from engine.algorithm import MeasureRow
+from engine.stepping.protocol import MeasureRow
 from engine.errors import EngineError
-from engine.measures import tableau
+from engine.design.tableau import tableau
 
 from sessions.errors import SessionError
-from sessions.export_model import iteration_parameters
+from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import bound_algorithm, registration
 from sessions.store import Session
 

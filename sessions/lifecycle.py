@@ -12,13 +12,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from engine.algorithm import Registration, StepRecord, lookup, make_settings
+from engine.stepping.protocol import Registration, StepRecord, lookup, make_settings
 from engine.errors import EngineError
 
 from sessions.build import build_problem
 from sessions.errors import SessionError
-from sessions.savefile import real_path
-from sessions.schema import AlgorithmModel
+from sessions.format.save_file import real_path
+from sessions.format.schema import AlgorithmModel
 from sessions.store import Session
 
 

@@ -9,13 +9,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from engine.algorithm import State, StepRecord, iterate
+from engine.stepping.protocol import State, StepRecord, iterate
 from engine.errors import EngineError
-from engine.memory import jsonable
+from engine.stepping.memory_fields import jsonable
 
 from sessions.errors import SessionError
 from sessions.lifecycle import bound_algorithm, forget_records, named_error
-from sessions.schema import SessionModel
+from sessions.format.schema import SessionModel
 from sessions.store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9    # relative
@@ -25,7 +25,7 @@ NON_FINITE = ("inf", "-inf", "nan")
 
 class Run(list):
     """The records a run made (a list of `StepRecord`); ``stopped`` is "time limit" when
-    the wall-clock bound ended it early (`engine.algorithm.Iteration.stopped`), else None."""
+    the wall-clock bound ended it early (`engine.stepping.protocol.Iteration.stopped`), else None."""
 
     stopped: str | None = None
 

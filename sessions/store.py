@@ -32,16 +32,16 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from engine.algorithm import State, StepRecord, memory_type
-from engine.problem import Problem
+from engine.stepping.protocol import State, StepRecord, memory_type
+from engine.design.problem import Problem
 
 from sessions.build import OutsideTable, build_problem
-from sessions.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
+from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
 from sessions.errors import SessionError
-from sessions.savefile import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
+from sessions.format.save_file import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
                        real_path, refuse_overwrite, remove_quietly, sweep_stale, write_atomic)
-from sessions.schema import SCHEMA_VERSION, SessionModel, TableModel
-from sessions.session_json import dumps
+from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
+from sessions.format.json_text import dumps
 
 __all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
            "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",
@@ -298,7 +298,7 @@ def write_autosave(session: Session, at_most_every: float = 0.0, wait: bool = Tr
     as n^2).  The session is copied at once (its record list; everything else is
     replaced, never changed in place) and written by one background thread, in
     order (``wait``: this call waits for it; else it returns the planned path and
-    the app's UI thread goes on; each record's text is kept, `sessions.session_json`).
+    the app's UI thread goes on; each record's text is kept, `sessions.format.json_text`).
     Never raises: one that cannot be written gives None, and
     ``session.autosave_warning`` says why (None again after one that succeeds)."""
     base = session.save_to or session.path

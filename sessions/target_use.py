@@ -1,12 +1,12 @@
 """Which algorithm uses which target: the Targets tab's 'used by' column and
 the list shown when another algorithm is chosen, read from the one table of
-measure kinds (`engine.measure_kinds`)."""
+measure kinds (`engine.design.measure_kinds`)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from engine.measure_kinds import ALGORITHMS, MEASURE_KINDS, refusal
+from engine.design.measure_kinds import ALGORITHMS, MEASURE_KINDS, refusal
 
 READS_NO_TARGETS = ("qcg", "projection")   # they minimize their own cost / meet their own constraints
 

@@ -19,24 +19,24 @@ from textual.binding import Binding
 
 from sessions.errors import SessionError
 from sessions.build import OutsideTable
-from sessions.savefile import OverwriteRefused
+from sessions.format.save_file import OverwriteRefused
 from sessions.store import (autosave_candidate, flush_autosaves, load_autosave, load_session, parse_session,
                             set_aside_autosave)
 from sessions.target_use import unusable_targets
 
 from tui.config import Config
 from tui.keys import identified
-from tui.export_actions import ExportActions
+from tui.actions.exports import ExportActions
 from tui.files import remember, untitled_path, working_copy
-from tui.run_loop import RunLoop
+from tui.actions.run_loop import RunLoop
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
 from tui.screens.edit_flow import EditFlow
 from tui.screens.main import MainScreen
 from tui.screens.new_flow import NewSessionFlow, copy_tables
 from tui.screens.start import StartScreen
-from tui.sweep_actions import SweepActions
+from tui.actions.sweeps import SweepActions
 from tui.terminal_watch import HANGUP_EXIT, watch_terminal
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 
 # actions that change the session or replace it: disabled while a run or a sweep goes
 CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
@@ -297,7 +297,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         self.refresh_workbench()
 
     def action_choose_algorithm(self) -> None:
-        from engine.algorithm import load_builtin, lookup
+        from engine.stepping.protocol import load_builtin, lookup
 
         measures = [t.measure for t in self.bench.session.model.problem.targets]
 

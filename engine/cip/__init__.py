@@ -1,6 +1,6 @@
 """`cip`: constraint improvement on margins (Mitchell & McDaniel, report 000)."""
 
-from engine.algorithm import register
+from engine.stepping.protocol import register
 from engine.cip.algorithm import Cip, CipSettings
 from engine.cip.present import CipPresenter
 

@@ -22,12 +22,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
-from engine.loops import LoopModel, loop_model, open_loop
-from engine.margins import Margin, margins
-from engine.measure_kinds import check_accepted, kind, names
-from engine.problem import Point, Problem, Target
+from engine.loop.responses import LoopModel, loop_model, open_loop
+from engine.margins.search import Margin, margins
+from engine.design.measure_kinds import check_accepted, kind, names
+from engine.design.problem import Point, Problem, Target
 
-# measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.measure_kinds`)
+# measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.design.measure_kinds`)
 KIND = {name: kind(name).margin for name in names(algorithm="cip")}
 DEFAULT_POINTS = {"G": (Point(-1.0, "push"),), "P": (Point(-1.0, "push"),), "S": (Point(-1.0, "push"),),
                   "A": (Point(0.0, "pull"),), "D": ()}  # D: each its own point (peaks.py)

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.loops import open_loop
-from engine.problem import Problem
+from engine.loop.responses import open_loop
+from engine.design.problem import Problem
 from engine.cip.constraints import Constraint
 
 DEPENDENT = 1e-7   # smallest/largest singular value of G below this: dependent gradients

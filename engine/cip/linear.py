@@ -7,7 +7,7 @@ of its bound) outward, D is recomputed in the null space of the held rows
 (and of the coefficients held at their bounds), D = N (G N)'((G N)(G N)')^-1 c
 with N an orthonormal basis of that null space; with no row blocked D is the
 report's, unchanged.  The trial point x + h D is then projected onto
-{A x <= b, min <= x <= max} with the least change (`engine.constraints.project`),
+{A x <= b, min <= x <= max} with the least change (`engine.design.constraints.project`),
 which is the report's clip to the bounds when no row is crossed.
 """
 
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.constraints import inequality_rows, project, row_scale
-from engine.problem import Problem
+from engine.design.constraints import inequality_rows, project, row_scale
+from engine.design.problem import Problem
 from engine.cip.direction import DEPENDENT, ZERO, Direction, Rows, _at, improvement_direction
 
 

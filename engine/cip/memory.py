@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
 from engine.errors import EngineError
-from engine.memory import Fields, jsonable, to_float
-from engine.problem import Point
+from engine.stepping.memory_fields import Fields, jsonable, to_float
+from engine.design.problem import Point
 from engine.cip.constraints import KIND, Constraint
 
 KINDS = tuple(sorted(set(KIND.values())))

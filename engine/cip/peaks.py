@@ -1,10 +1,10 @@
-"""cip's constraints for the closed-loop peaks (`engine.peak_measures`).
+"""cip's constraints for the closed-loop peaks (`engine.margins.peak_measures`).
 
 Each peak measure is a stability margin: with f its transform of GH (S,
 T or S - 1/2) and 1 + F = 1/f,
   Ms <= M      is   |1 + GH| >= 1/M at every frequency: cip's stability
                margin itself (family S: the local minima of |1 + GH| from
-               `engine.margins`, pushed from -1; `constraints._constraint`
+               `engine.margins.search`, pushed from -1; `constraints._constraint`
                converts the desired value and shows 1/|1 + GH|);
   Mt <= M      is   |1 + 1/GH| = 1/|T| >= 1/M;
   alpha >= a   is   |1 + F| = 2|1 + GH|/|1 - GH| = 1/|S - 1/2| >= a (skew 0).
@@ -19,10 +19,10 @@ the direction is exactly the one a stability margin of F would get.
 from __future__ import annotations
 
 from engine.errors import EngineError
-from engine.loops import LoopModel
-from engine.margins import Band
-from engine.peak_measures import local_peaks, newton_point
-from engine.problem import Point, Target
+from engine.loop.responses import LoopModel
+from engine.margins.search import Band
+from engine.margins.peak_measures import local_peaks, newton_point
+from engine.design.problem import Point, Target
 from engine.cip.constraints import KIND, Constraint
 
 INVERTED = ("sensitivity_peak", "complementary_sensitivity_peak")  # at most M: the distance is 1/value

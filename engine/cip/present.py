@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import math
 
-from engine.algorithm import State, StepRecord
-from engine.present import Presenter
-from engine.problem import Problem
+from engine.stepping.protocol import State, StepRecord
+from engine.stepping.presenter import Presenter
+from engine.design.problem import Problem
 from engine.cip.constraints import KIND
 
 HZ = 2 * math.pi

@@ -1,5 +1,5 @@
 """Roots of a network's characteristic equation polished: the closed-loop poles
-of a design (`engine.polish`) and the points of a gain locus (`engine.root_locus`).
+of a design (`engine.closed_loop.poles`) and the points of a gain locus (`engine.closed_loop.root_locus`).
 
 Eigenvalues are as accurate as their conditioning allows, and digits go where
 roots cluster near the origin or where the state matrix is huge (a gain locus
@@ -13,7 +13,7 @@ at large gains).  With every use of the break signal scaled by the loop gain k
 the blocks' poles 1/(s - p) - trace((I - G_k)^-1 G_k') and size log|F| are
 evaluated at complex s to rounding, block by block (`GainCharacteristic`).
 That costs ~1 ms an evaluation (the blocks' expressions); a locus drawn on
-screen polishes (where its eigenvalues are noisy: `engine.root_locus`) on the
+screen polishes (where its eigenvalues are noisy: `engine.closed_loop.root_locus`) on the
 loop's pole-zero form L instead, F_k = prod(s - p) (1 + k L(s)): a few numpy
 operations (`FormCharacteristic`).
 
@@ -58,11 +58,11 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.blocks import ExpressionTransfer
+from engine.model.blocks import ExpressionTransfer
 from engine.errors import EngineError
-from engine.factored import pole_zero
-from engine.network import Network
-from engine.zpk import ZpkEvaluator
+from engine.model.factored import pole_zero
+from engine.model.network import Network
+from engine.loop.pole_zero import ZpkEvaluator
 
 Roots = NDArray[np.complex128]
 Ratio = Callable[[Roots], Roots]  # s -> F'(s)/F(s)
@@ -147,7 +147,7 @@ class GainCharacteristic(Characteristic):
 class FormCharacteristic(Characteristic):
     """F_k = prod(s - p) (1 + k L(s)) from the loop's pole-zero form L (module docstring): the
     network's roots to the form's accuracy (exact to rounding for a cascade of blocks, else
-    to its check, `engine.zpk`); an improper form: no polish."""
+    to its check, `engine.loop.pole_zero`); an improper form: no polish."""
 
     def __init__(self, form: ZpkEvaluator) -> None:
         self.form = form

@@ -7,7 +7,7 @@ order-16 loops whose roots span 1e-3..1e2).  The characteristic polynomial
 F(s) = prod_i d_i(s) det(I - G(s)) of an interconnection of blocks
 b_i = n_i/d_i can be evaluated at complex s to rounding, and its roots are
 refined from the eigenvalues as a gain locus's points are
-(`engine.locus_polish`, with no gain: Aberth's iteration, near-double roots
+(`engine.closed_loop.characteristic`, with no gain: Aberth's iteration, near-double roots
 solved as units, roots stalled on the real axis restarted off it, each root
 kept where |F| is smallest, so never made worse).  When a block has no
 usable rational form, or the count of block poles is not the order of the
@@ -21,8 +21,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.locus_polish import GainCharacteristic
-from engine.network import Network
+from engine.closed_loop.characteristic import GainCharacteristic
+from engine.model.network import Network
 
 
 def polish(network: Network, params: Mapping[str, float], eigenvalues: NDArray[np.complex128]) -> NDArray:

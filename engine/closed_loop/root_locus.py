@@ -8,12 +8,12 @@ where poles collide, at breakaway points); the poles of consecutive points
 are matched by nearest assignment (`linear_sum_assignment`).  The points are
 bounded (``max_points``; status ``"point budget reached"``).  Gain loci
 step on the eigenvalues of A - k B (1 + k D)^-1 C and polish each point kept
-on the network's characteristic equation (`engine.locus_polish`: Aberth's
+on the network's characteristic equation (`engine.closed_loop.characteristic`: Aberth's
 iteration, clusters at breakaway points solved as units; for drawing, only
 the points whose eigenvalues are noisy, and on the loop's pole-zero form);
 where the eigenvalues are noisy (~10 % off to wholly wrong at large gains)
 the steps they reject are judged on polished points.
-Parameter loci polish as `engine.polish` does.  Crossings of the imaginary
+Parameter loci polish as `engine.closed_loop.poles` does.  Crossings of the imaginary
 axis are refined by brentq; gain loci also carry asymptotes and breakaway
 points."""
 
@@ -29,14 +29,14 @@ from scipy import linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
 from engine.errors import EngineError
-from engine.fastloop import LoopEvaluator
-from engine.loops import loop_model
-from engine.margins import margins
-from engine.network import Network
-from engine.locus_polish import FormCharacteristic, GainCharacteristic, loop_terms
-from engine.polish import polish
-from engine.realization import realize
-from engine.zpk import ZpkEvaluator, loop_realization, zpk_evaluator
+from engine.loop.evaluator import LoopEvaluator
+from engine.loop.responses import loop_model
+from engine.margins.search import margins
+from engine.model.network import Network
+from engine.closed_loop.characteristic import FormCharacteristic, GainCharacteristic, loop_terms
+from engine.closed_loop.poles import polish
+from engine.loop.realization import realize
+from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
 
 MOVE = 0.05  # a step may move a pole by this fraction of max(|pole|, the floor)
 SEPARATE = 0.25  # ... and by this fraction of its distance to the nearest other pole
@@ -301,7 +301,7 @@ def _crossings(roots_at: Callable[[float], NDArray], values: NDArray, rows: NDAr
 
 def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> tuple[ZpkEvaluator, list[str]]:
     """The loop's pole-zero form (for asymptotes, breakaways and the map):
-    `engine.zpk`'s when it matches the network, else the same form unchecked, with a note."""
+    `engine.loop.pole_zero`'s when it matches the network, else the same form unchecked, with a note."""
     if not network.rational:
         raise EngineError("a pole-zero map needs a rational loop (no delays, no tables)")
     exact = LoopEvaluator(network, break_at, params)
@@ -327,7 +327,7 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
 
 def _gain_eigenvalues(network: Network, break_at: str, params: Mapping[str, float]) -> Callable[[float], NDArray]:
     """k -> the closed-loop poles with the loop gain multiplied by k: the
-    eigenvalues of A - k B (1 + k D)^-1 C (to polish: `engine.locus_polish`)."""
+    eigenvalues of A - k B (1 + k D)^-1 C (to polish: `engine.closed_loop.characteristic`)."""
     ss = loop_realization(network, break_at, params)
     b = network.signal(break_at)
     A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[b:b + 1], -ss.D[b:b + 1, -1:]

@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import EngineError
-from engine.realization import StateSpace
+from engine.loop.realization import StateSpace
 
 PeakRule = Literal["global", "first_half_cycle"]
 FinalFrom = Literal["dc_gain", "horizon"]

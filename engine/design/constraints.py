@@ -1,7 +1,7 @@
 """Linear inequality constraints between parameters, shared by the algorithms.
 
 A `LinearInequality` is ``sum(coefficient * parameter) <= bound`` (a ``>=`` is
-stored negated, `engine.linear_forms`).  Over the free vector x it becomes rows
+stored negated, `engine.design.constraint_reader`).  Over the free vector x it becomes rows
 of ``A x <= b`` (`inequality_rows`): fixed parameters move into b at their
 values; a term naming a parameter that has one value per condition without a
 condition (``condition`` None) makes the constraint hold in every condition,
@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from engine.errors import EngineError
 
 if TYPE_CHECKING:
-    from engine.problem import Problem
+    from engine.design.problem import Problem
 
 TOLERANCE = 1e-9        # a row is met when A x - b <= TOLERANCE * its scale (`row_scale`)
 SLACK = 1e-12           # `project` leaves a point alone whose rows are met within this (relative)

@@ -1,7 +1,7 @@
 """The measure kinds a target can name, in one table: what each is called
 (``name``, ``label``, ``short``), its unit, its natural sense, the desired
 value a new target starts with, where it is evaluated and which algorithms
-accept it.  `engine.problem`'s FREQUENCY_MEASURES, TIME_MEASURES,
+accept it.  `engine.design.problem`'s FREQUENCY_MEASURES, TIME_MEASURES,
 MEASURE_NAMES and AT_MOST are read from here, as are the engine's
 evaluators' lists of what they handle.
 
@@ -13,10 +13,10 @@ Columns:
   * ``domain``: ``frequency`` (read from the open loop's margins),
     ``time`` (a closed-loop response, which needs a target's ``response``)
     or ``poles`` (the closed-loop poles);
-  * ``margin``: the family of `engine.margins` a frequency measure is read
+  * ``margin``: the family of `engine.margins.search` a frequency measure is read
     from (G gain, P phase (gain crossovers), S stability, A attenuation and
     modal peaks; None outside the frequency domain), or D: a closed-loop
-    peak (`engine.peak_measures`: the disk margin and Mt, each the stability
+    peak (`engine.margins.peak_measures`: the disk margin and Mt, each the stability
     margin of a transform of the loop; Ms is family S, 1/Ms being the
     stability margin itself);
   * ``algorithms``: the algorithms whose targets may name the measure (cip:

@@ -17,14 +17,14 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.blocks import FrequencyTable
-from engine.constraints import LinearInequality, check_inequalities, inequality_rows
+from engine.model.blocks import FrequencyTable
+from engine.design.constraints import LinearInequality, check_inequalities, inequality_rows
 from engine.errors import EngineError
-from engine.measure_kinds import MEASURE_KINDS, names as measure_names
-from engine.network import Network, check_grid
+from engine.design.measure_kinds import MEASURE_KINDS, names as measure_names
+from engine.model.network import Network, check_grid
 
 Sign = Literal["any", "positive", "negative"]
-# read from the table of measure kinds (`engine.measure_kinds`), kept here for their importers
+# read from the table of measure kinds (`engine.design.measure_kinds`), kept here for their importers
 FREQUENCY_MEASURES = measure_names("frequency")
 TIME_MEASURES = measure_names("time")
 MEASURE_NAMES = measure_names()
@@ -99,7 +99,7 @@ class Point:
 @dataclass(frozen=True)
 class TimeResponse:
     """The response a time-domain measure reads: ``output`` for an input profile
-    (steps and ramps, as `engine.timeresp.Segment`) applied at ``input``, over
+    (steps and ramps, as `engine.closed_loop.time_response.Segment`) applied at ``input``, over
     [0, horizon] at ``points`` samples.  ``psd``: for a mean square, a shaping
     filter F(s) whose |F(jw)|^2 is the input's power spectral density.
     ``reference``: the value the output should settle at (steady-state error)."""
@@ -234,7 +234,7 @@ class Problem:
     @cached_property
     def linear_constraints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(A, b) with A x <= b over the free vector: the rows of `inequalities` that hold a free
-        parameter (fixed ones moved to b; `engine.constraints`).  Read-only arrays."""
+        parameter (fixed ones moved to b; `engine.design.constraints`).  Read-only arrays."""
         rows = inequality_rows(self)
         A, b = rows.A[rows.free], rows.b[rows.free]
         A.flags.writeable = b.flags.writeable = False

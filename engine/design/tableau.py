@@ -5,18 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.algorithm import MeasureRow
+from engine.stepping.protocol import MeasureRow
 from engine.errors import EngineError
-from engine.guard import numerical
-from engine.loops import loop_model
-from engine.margins import Band, Margin, margins
-from engine.measure_kinds import kind
-from engine.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
-from engine.problem import Problem, Target
-from engine.zpk import closed_loop_realization
+from engine.stepping.guard import numerical
+from engine.loop.responses import loop_model
+from engine.margins.search import Band, Margin, margins
+from engine.design.measure_kinds import kind
+from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
+from engine.design.problem import Problem, Target
+from engine.loop.pole_zero import closed_loop_realization
 
 # margin measure -> the attribute of its `Margin` the tableau shows (the margin family and the
-# natural sense are the table's, `engine.measure_kinds`)
+# natural sense are the table's, `engine.design.measure_kinds`)
 ATTRIBUTE = {"gain_margin": "value", "phase_margin": "value", "stability_margin": "value",
              "attenuation_margin": "value", "gain_margin_db": "gain_db", "phase_margin_deg": "phase_deg"}
 TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency", *CLOSED_LOOP_MEASURES)
@@ -61,7 +61,7 @@ def _stable(problem: Problem, c: int) -> bool | None:
 
 
 def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool | None) -> list[MeasureRow]:
-    """One row per band: the disk margin, Ms or Mt refined over it (`engine.peak_measures`), or the
+    """One row per band: the disk margin, Ms or Mt refined over it (`engine.margins.peak_measures`), or the
     smallest delay margin of its gain crossovers (inf with none)."""
     rows, short, at_least = [], kind(target.measure).short, target.at_least
     for n, band in enumerate(target.bands, start=1):

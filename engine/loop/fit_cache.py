@@ -1,7 +1,7 @@
 """The last rational fits of tabulated loops, kept by the table's content.
 
 One design's margins, Ms, Mt and disk margin all fit the same table
-(`engine.margins._fitted_loop`); an AAA fit of a thousand points takes about
+(`engine.margins.search._fitted_loop`); an AAA fit of a thousand points takes about
 a second, so it is made once and shared (a fit is immutable).  Thread-safe:
 the workbench's workers fit while the UI thread may ask too."""
 
@@ -14,7 +14,7 @@ from collections import OrderedDict
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.fitting import RationalFit, fit_response
+from engine.numerics.rational_fit import RationalFit, fit_response
 
 KEPT = 16
 

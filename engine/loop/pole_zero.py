@@ -4,13 +4,13 @@ operations per batch of frequencies, however many blocks the diagram has.
 
 A loop that is one cascade of blocks (the injection passes through each
 once, as in a unity-feedback loop) takes its form from the blocks' own
-factored forms (`engine.factored`): exact to rounding.  Any other loop takes
+factored forms (`engine.model.factored`): exact to rounding.  Any other loop takes
 it from a state-space realization of the loop broken at the given signal
 (poles: eigenvalues of A; zeros: the finite generalized eigenvalues of the
 pencil ([[A, B], [C, D]], diag(I, 0))), with the gain matched to the exact
 network at one frequency; near clustered light roots these eigenvalues can
 be off in the seventh digit.  Either form is used only after it agrees with
-the exact evaluator (`engine.fastloop`) to 1e-9 relative at spread-out check
+the exact evaluator (`engine.loop.evaluator`) to 1e-9 relative at spread-out check
 frequencies; otherwise the exact evaluator is kept.
 """
 
@@ -23,9 +23,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError, InterconnectionError
-from engine.factored import pole_zero
-from engine.network import Network
-from engine.realization import StateSpace, realize
+from engine.model.factored import pole_zero
+from engine.model.network import Network
+from engine.loop.realization import StateSpace, realize
 
 AGREEMENT = 1e-9
 BATCH_ELEMENTS = 1 << 14  # root-frequency pairs per batch (256 kB of complex work array)
@@ -48,7 +48,7 @@ class ZpkEvaluator:
         self.gaps = self.zeros[:m] - self.poles[:m]
         self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m,
                                                                       1.0 if self.extra_zeros else -1.0)]).astype(complex)
-        # what the grid-free searches derive from the form (`engine.zpk_levels`), kept with it:
+        # what the grid-free searches derive from the form (`engine.margins.pole_zero.levels`), kept with it:
         # the margins and the closed-loop peaks of one loop share it
         self.derived: dict[str, object] = {}
 
@@ -195,7 +195,7 @@ def _matches(form: ZpkEvaluator, checks: NDArray, reference: tuple[NDArray, NDAr
 
 
 def _cascade_form(network: Network, chain: list[int], params: Mapping[str, float]) -> ZpkEvaluator | None:
-    """GH = -(the chain's product) from each block's factored form (`engine.factored`)."""
+    """GH = -(the chain's product) from each block's factored form (`engine.model.factored`)."""
     gain, zeros, poles = -1.0, [], []
     for number in chain:
         expression = getattr(network.entries[number].transfer, "expression", None)

@@ -17,11 +17,11 @@ from weakref import WeakKeyDictionary
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.blocks import ExpressionTransfer
-from engine.factored import pole_zero
+from engine.model.blocks import ExpressionTransfer
+from engine.model.factored import pole_zero
 from engine.errors import BlockError, InterconnectionError
-from engine.polynomials import degree, trim
-from engine.network import Network
+from engine.numerics.polynomials import degree, trim
+from engine.model.network import Network
 
 
 @dataclass(frozen=True)
@@ -108,7 +108,7 @@ _REALIZED: WeakKeyDictionary = WeakKeyDictionary()  # transfer without parameter
 
 def _entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:
     """One entry's (A, B, C, D); kept on its transfer when that has no parameters
-    (a network and its broken copy, `engine.zpk`, share it)."""
+    (a network and its broken copy, `engine.loop.pole_zero`, share it)."""
     entry = network.entries[number]
     fixed = not entry.transfer.parameters
     if fixed and entry.transfer in _REALIZED:
@@ -198,7 +198,7 @@ def _section(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDA
 
 def poles(ss: StateSpace, refine: Callable[[NDArray], NDArray] | None = None) -> list[Pole]:
     """Eigenvalues of the closed-loop A, sorted by real part (least stable
-    last); ``refine`` polishes them (`engine.polish`)."""
+    last); ``refine`` polishes them (`engine.closed_loop.poles`)."""
     eig = np.linalg.eigvals(ss.A) if ss.A.size else np.zeros(0, dtype=complex)
     if refine is not None and eig.size:
         eig = refine(eig)

@@ -15,9 +15,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import EngineError
-from engine.fastloop import LoopEvaluator
-from engine.network import Network, check_grid, solve
-from engine.zpk import ZpkEvaluator, zpk_evaluator
+from engine.loop.evaluator import LoopEvaluator
+from engine.model.network import Network, check_grid, solve
+from engine.loop.pole_zero import ZpkEvaluator, zpk_evaluator
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
 
@@ -65,7 +65,7 @@ class LoopModel:
     ``delay``: the sum of the loop's delays (s; an upper bound of the phase
     rate a delay adds), ``axis_poles``: frequencies of block poles on the
     imaginary axis (GH may be infinite there), ``exact``: the network's own
-    evaluator when ``evaluate`` is a faster form of it (`engine.zpk`).
+    evaluator when ``evaluate`` is a faster form of it (`engine.loop.pole_zero`).
     """
 
     def __init__(self, omega: NDArray[np.float64], gh: NDArray[np.complex128] | None = None,
@@ -105,7 +105,7 @@ class LoopModel:
 
 def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float]) -> LoopModel:
     """The open loop at ``break_at`` with everything margins need (rational loops
-    are evaluated in pole-zero form when it matches the network: `engine.zpk`)."""
+    are evaluated in pole-zero form when it matches the network: `engine.loop.pole_zero`)."""
     w = check_grid(omega)
     if not network.exact:
         return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)
@@ -127,7 +127,7 @@ def _with_loop_zeros(corners: NDArray, damps: NDArray, is_pole: NDArray,
     branches summed (a rate and an attitude channel, a plant's modes in parallel) make
     zeros no block has, lightly damped between the modes, which the detection grid
     must cluster around as around any light corner."""
-    from engine.detection import LIGHT_DAMPING   # (detection imports this module)
+    from engine.margins.detection_grid import LIGHT_DAMPING   # (detection imports this module)
     zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0) & (zeros.imag > 0)]   # one of each complex pair
     size, damping = np.abs(zeros), np.abs(zeros.real) / np.abs(zeros)
     light = damping < LIGHT_DAMPING   # the grid clusters around light corners only (a far real zero

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
-from engine.loops import LoopModel
+from engine.loop.responses import LoopModel
 
 POINTS_PER_DECADE = 20  # 10 missed shallow minima of |1 + GH| hidden with a maximum in one interval
 CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n

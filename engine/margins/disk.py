@@ -15,7 +15,7 @@ the disk D(alpha, sigma) = {(1 + (1 - sigma)/2 d)/(1 - (1 + sigma)/2 d):
 
 and where it meets the unit circle the guaranteed phase margin
 acos((1 + gamma_min gamma_max)/(gamma_min + gamma_max)).  The maximum is
-refined to an exact extremum by `engine.sensitivity.refined_peaks`, not
+refined to an exact extremum by `engine.margins.peaks.refined_peaks`, not
 taken on a grid.  An unstable closed loop has no disk margin: alpha = 0.
 """
 
@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
-from engine.loops import LoopModel
-from engine.margins import Band
-from engine.sensitivity import Peak, Transform, refined_peaks, sensitivity
+from engine.loop.responses import LoopModel
+from engine.margins.search import Band
+from engine.margins.peaks import Peak, Transform, refined_peaks, sensitivity
 
 
 @dataclass(frozen=True)

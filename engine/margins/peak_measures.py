@@ -5,7 +5,7 @@ slp), every local extremum (cip's rows) and their partials at a fixed
 frequency (slp's LP rows, cip's direction).
 
 Each peak measure is the peak of |f| for a transform f of the open loop L
-(`engine.sensitivity`): f = S = 1/(1 + L) for Ms, f = T = L S for Mt,
+(`engine.margins.peaks`): f = S = 1/(1 + L) for Ms, f = T = L S for Mt,
 f = S - 1/2 for the disk margin, alpha = 1/max |f| (skew 0: a target has
 no options to carry another skew).  With 1 + F = 1/f, each is a stability
 margin min |1 + F| of a transformed loop F (F = L for Ms: 1/Ms is the
@@ -21,13 +21,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.detection import detection_grid
-from engine.disk_margins import disk_transform, from_peak
-from engine.loops import LoopModel
-from engine.margins import Band, Margins
-from engine.rootfind import sign_changes
+from engine.margins.detection_grid import detection_grid
+from engine.margins.disk import disk_transform, from_peak
+from engine.loop.responses import LoopModel
+from engine.margins.search import Band, Margins
+from engine.numerics.refinement import sign_changes
 # the peak search's own steps, reused to keep every local maximum, not only the largest
-from engine.sensitivity import (Peak, Transform, _agrees, _level, _refined_maxima, _resolved, _within,
+from engine.margins.peaks import (Peak, Transform, _agrees, _level, _refined_maxima, _resolved, _within,
                           complementary, refined_peaks, sensitivity)
 
 PEAK_MEASURES = ("disk_margin", "sensitivity_peak", "complementary_sensitivity_peak")
@@ -93,7 +93,7 @@ def band_delay(found: Margins, band: Band) -> tuple[float, float]:
 
 def local_peaks(loop: LoopModel, measure: str, band: Band) -> tuple[tuple[float, float, complex], ...]:
     """(frequency, |f|, GH) of every interior local maximum of |f| inside ``band``:
-    refined to 4 ulp as `engine.sensitivity` refines the peak; on a tabulated
+    refined to 4 ulp as `engine.margins.peaks` refines the peak; on a tabulated
     loop (no evaluator) the grid's local maxima (report 000's SRMINS rule)."""
     f = transform(measure)
     if loop.evaluate is None:

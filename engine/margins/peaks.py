@@ -2,12 +2,12 @@
 
 Ms = max |S| (S = 1/(1 + GH)), Mt = max |T| (T = GH/(1 + GH)) and the peak
 of |K S| in a band for a given compensator K.  `refined_peaks` is the one
-refinement helper, shared with `engine.disk_margins`: a magnitude |f| of the
+refinement helper, shared with `engine.margins.disk`: a magnitude |f| of the
 loop (``f`` a `Transform` of GH and dGH/domega) is searched on the margins'
-detection grid (`engine.detection`), every interval that could hide a
+detection grid (`engine.margins.detection_grid`), every interval that could hide a
 maximum-minimum pair of |f| is halved (bounded: `MAX_ROUNDS`, a point
 budget), every sign change of d log|f|/domega from + to - is refined to
-4 ulp (`engine.rootfind.refine`, all at once, vectorized) and the largest
+4 ulp (`engine.numerics.refinement.refine`, all at once, vectorized) and the largest
 of those maxima and the ends (w = 0, w -> inf: limits) is the peak.
 Tabulated loops are searched on a rational fit of the table, as margins
 are.  Method and bounds: docs/analysis.md.
@@ -22,13 +22,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.detection import _may_hide_pair, detection_grid
+from engine.margins.detection_grid import _may_hide_pair, detection_grid
 from engine.errors import EngineError
-from engine.loops import Evaluator, LoopModel
-from engine.margins import FIT_LIMIT, Band, _fitted_loop
-from engine.rootfind import refine, sign_changes
-from engine.zpk import ZpkEvaluator
-from engine.zpk_peaks import moebius_peaks
+from engine.loop.responses import Evaluator, LoopModel
+from engine.margins.search import FIT_LIMIT, Band, _fitted_loop
+from engine.numerics.refinement import refine, sign_changes
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.pole_zero.peaks import moebius_peaks
 
 # (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
 Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]
@@ -68,7 +68,7 @@ def complementary(w: NDArray, gh: NDArray, dgh: NDArray) -> tuple[NDArray, NDArr
         return np.where(np.abs(gh) > 1.0, 1.0 / (1.0 + 1.0 / gh), gh * s), dgh * s * s
 
 
-# (a, b) of a transform (a + b GH)/(1 + GH): its peaks are found without a grid (`engine.zpk_peaks`)
+# (a, b) of a transform (a + b GH)/(1 + GH): its peaks are found without a grid (`engine.margins.pole_zero.peaks`)
 sensitivity.moebius = (1.0, 0.0)
 complementary.moebius = (0.0, 1.0)
 
@@ -158,7 +158,7 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
 
 def _without_grid(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...] | None:
     """The peaks of a rational loop in pole-zero form whose transforms are all
-    Moebius transforms of GH, found without a grid (`engine.zpk_peaks`); None
+    Moebius transforms of GH, found without a grid (`engine.margins.pole_zero.peaks`); None
     when that method does not apply (or its form disagrees with the network)."""
     pairs = [getattr(t, "moebius", None) for t in transforms]
     if not (loop.rational and isinstance(loop.evaluate, ZpkEvaluator)) or any(p is None for p in pairs):

@@ -27,16 +27,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.detection import NOISE, Detection, detection_grid
+from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.errors import EngineError
-from engine.fit_cache import cached_fit
-from engine.loops import LoopModel
-from engine.margin_types import Band, Margin, Margins, margins_of, single_margin
-from engine.rootfind import Roots, refine, sign_changes
-from engine.shapes import level_notes, shape_notes
-from engine.zpk import ZpkEvaluator
-from engine.zpk_levels import LoopLevels, log_distance
-from engine.zpk_margins import fast_margins
+from engine.loop.fit_cache import cached_fit
+from engine.loop.responses import LoopModel
+from engine.margins.values import Band, Margin, Margins, margins_of, single_margin
+from engine.numerics.refinement import Roots, refine, sign_changes
+from engine.margins.shape_notes import level_notes, shape_notes
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.pole_zero.levels import LoopLevels, log_distance
+from engine.margins.pole_zero.search import fast_margins
 
 
 def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),
@@ -45,7 +45,7 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
 
     Loops with an evaluator are refined on it.  A tabulated loop is, by
     default (``"auto"`` or ``"fitted"``), refined on a rational fit of its
-    table (`engine.fitting`), its residual stated; ``method="grid"`` (or a
+    table (`engine.numerics.rational_fit`), its residual stated; ``method="grid"`` (or a
     fit worse than `FIT_LIMIT`) takes report 000's grid rule instead."""
     if method not in ("auto", "fitted", "grid"):
         raise ValueError(f"margin method must be auto, fitted or grid, not {method!r}")
@@ -91,7 +91,7 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
 
 def _without_grid(loop: LoopModel) -> tuple[dict[str, list[Margin]] | None, list[str]]:
     """The margins of a loop in pole-zero form found without a detection grid
-    (`engine.zpk_margins`) and what its constant levels mean (`engine.shapes`);
+    (`engine.margins.pole_zero.search`) and what its constant levels mean (`engine.margins.shape_notes`);
     (None, []) when that method does not apply."""
     if not (loop.rational and isinstance(loop.evaluate, ZpkEvaluator)):
         return None, []
@@ -105,7 +105,7 @@ def _without_grid(loop: LoopModel) -> tuple[dict[str, list[Margin]] | None, list
 
 
 AGREEMENT = 1e-11  # relative: a fast form of GH must match the network at every margin found
-POLISH_LIMIT = 1e-9  # relative: a form off by no more (its admission, `engine.zpk`) has its margins polished
+POLISH_LIMIT = 1e-9  # relative: a form off by no more (its admission, `engine.loop.pole_zero`) has its margins polished
 POLISH_WIDTHS = (1e-9, 1e-7, 1e-5)  # relative half-widths of the brackets tried around a margin to polish
 
 

@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
-from engine.polynomials import Rational, trim
+from engine.numerics.polynomials import Rational, trim
 
 
 def _scale(sample_time: float | None) -> float:

@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError, ExtrapolationError
-from engine.expressions import VARIABLES, Dual, Expression
-from engine.polynomials import Rational, degree
+from engine.model.expressions import VARIABLES, Dual, Expression
+from engine.numerics.polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
 Compiled = Callable[[NDArray], tuple[NDArray, NDArray | None]]

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.blocks import ExpressionTransfer, PolynomialTransfer
-from engine.network import Network
+from engine.model.blocks import ExpressionTransfer, PolynomialTransfer
+from engine.model.network import Network
 
 
 @dataclass(frozen=True)

@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import ExpressionError, ParameterError
-from engine.folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
-from engine.polynomials import Rational
+from engine.model.folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
+from engine.numerics.polynomials import Rational
 
 VARIABLES = ("s", "w", "z")
 MAX_POWER = 64

@@ -20,9 +20,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import ExpressionError
-from engine.expressions import Expression, Node
-from engine.folding import to_rational
-from engine.polynomials import trim
+from engine.model.expressions import Expression, Node
+from engine.model.folding import to_rational
+from engine.numerics.polynomials import trim
 
 CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
 MAX_ORDER = 400  # roots of one block: beyond, its realization alone would take minutes

@@ -1,7 +1,7 @@
 """Expression trees made fast: constant subtrees folded to polynomial ratios,
 the rest compiled to closures over numpy arrays (value and derivative in
 the variable), and the exact `Rational` form for given parameter values.
-`engine.expressions` parses; this module evaluates what it parsed."""
+`engine.model.expressions` parses; this module evaluates what it parsed."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.polynomials import Rational
+from engine.numerics.polynomials import Rational
 
 if TYPE_CHECKING:
-    from engine.expressions import Node
+    from engine.model.expressions import Node
 
 
 def to_rational(node: Node, params: Mapping[str, float]) -> Rational:

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.blocks import ExpressionTransfer, Transfer
+from engine.model.blocks import ExpressionTransfer, Transfer
 from engine.errors import EngineError, GridError, InterconnectionError, ParameterError
 
 

@@ -1,7 +1,7 @@
 """Roots of many functions of frequency at once, each in its own bracket.
 
 Used where the grid-free margin search must find a root it has no good start
-for (`engine.zpk_crossings`, `engine.zpk_certify`): h(lo) and h(hi) have
+for (`engine.margins.pole_zero.crossings`, `engine.margins.pole_zero.certificate`): h(lo) and h(hi) have
 opposite signs, h is given with its derivative.  Steps are taken in
 u = log omega (levels of a loop are close to linear in log omega far from its
 corners): Newton's step when it stays inside the bracket, else an Illinois

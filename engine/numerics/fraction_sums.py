@@ -1,5 +1,5 @@
 """Zeros of sums of simple fractions and of small polynomials, for the
-margin search of a loop in pole-zero form (`engine.zpk_margins`).
+margin search of a loop in pole-zero form (`engine.margins.pole_zero.search`).
 
 A sum f(x) = sum a_k / (x - t_k) whose terms are closed under conjugation
 ((t, a) and (conj t, conj a) both in it) is c^T (x I - L)^-1 b for a real
@@ -10,7 +10,7 @@ pencil ([[L, b], [c^T, 0]], diag(I, 0)), which LAPACK's QZ (dggev) finds
 backward stably whatever f's decay at infinity (a sum whose weights cancel,
 such as sum 1/(x - c_k) - sum 1/(x - p_k), falls off like 1/x^d, d > 1): no
 polynomial is expanded.  Polynomials are small here (at most `MAX_ROOTS` of
-`engine.zpk_margins`): built by products and rooted by their balanced
+`engine.margins.pole_zero.search`): built by products and rooted by their balanced
 companion matrices (dgeev), without np.poly's and np.roots's wrappers.
 """
 

@@ -1,7 +1,7 @@
 """`projection`: constrained differential-algebraic design by sequential
 projection with extrapolation (report 004)."""
 
-from engine.algorithm import register
+from engine.stepping.protocol import register
 from engine.projection.algorithm import Projection, ProjectionSettings
 from engine.projection.present import ProjectionPresenter
 

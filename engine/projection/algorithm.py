@@ -31,10 +31,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from engine.algorithm import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 from engine.errors import EngineError
-from engine.guard import guarded
-from engine.problem import Problem
+from engine.stepping.guard import guarded
+from engine.design.problem import Problem
 from engine.projection.banded import Projector
 from engine.projection.lq import Trajectory, norm
 from engine.projection.memory import Iterate, ProjectionMemory

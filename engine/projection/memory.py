@@ -9,7 +9,7 @@ from itertools import chain
 from typing import Any, ClassVar, Self
 
 from engine.errors import EngineError
-from engine.memory import Fields, jsonable
+from engine.stepping.memory_fields import Fields, jsonable
 
 
 @dataclass(frozen=True)

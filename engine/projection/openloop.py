@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.algorithm import MeasureRow
+from engine.stepping.protocol import MeasureRow
 from engine.errors import EngineError
 from engine.projection.lq import Trajectory
 from engine.projection.system import DaeSystem

@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from engine.algorithm import State, StepRecord
-from engine.present import Presenter
-from engine.problem import Problem
+from engine.stepping.protocol import State, StepRecord
+from engine.stepping.presenter import Presenter
+from engine.design.problem import Problem
 
 
 class ProjectionPresenter(Presenter):

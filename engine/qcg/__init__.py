@@ -1,7 +1,7 @@
 """`qcg`: quadratic cost in the frequency domain with the scaled, sign-constrained
 conjugate gradient of report 001 (Seidel & Lehtinen)."""
 
-from engine.algorithm import register
+from engine.stepping.protocol import register
 from engine.qcg.algorithm import Qcg, QcgSettings
 from engine.qcg.present import QcgPresenter
 

@@ -18,10 +18,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from engine.algorithm import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 from engine.errors import EngineError
-from engine.guard import check_vector, guarded
-from engine.problem import Problem
+from engine.stepping.guard import check_vector, guarded
+from engine.design.problem import Problem
 from engine.qcg.cgfm import Move, cgfm_step
 from engine.qcg.cost import CostResult, normalized_squares, open_loop_squares
 from engine.qcg.evaluate import PARTS, SQUARES, Counter, Evaluation, counted

@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.algorithm import Status
+from engine.stepping.protocol import Status
 from engine.errors import EngineError
 from engine.qcg.evaluate import Counter, Evaluation
 from engine.qcg.memory import QcgMemory

@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
-from engine.memory import Fields, jsonable
-from engine.problem import Problem
+from engine.stepping.memory_fields import Fields, jsonable
+from engine.design.problem import Problem
 from engine.qcg.cost import CostResult
 from engine.qcg.setup import CascadeProblem
 

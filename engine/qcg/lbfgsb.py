@@ -36,7 +36,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.algorithm import Status
+from engine.stepping.protocol import Status
 from engine.qcg.cgfm import Move
 from engine.qcg.evaluate import Counter, Evaluation
 from engine.qcg.memory import QcgMemory

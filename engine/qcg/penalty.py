@@ -21,8 +21,8 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.constraints import PENALTY_WEIGHT, check_start, penalty, row_scale
-from engine.problem import Problem
+from engine.design.constraints import PENALTY_WEIGHT, check_start, penalty, row_scale
+from engine.design.problem import Problem
 from engine.qcg.cost import CostResult
 from engine.qcg.setup import CascadeProblem
 

@@ -3,10 +3,10 @@ its parts, the counters, the parameters, and the INST = 4 frequency response."""
 
 from __future__ import annotations
 
-from engine.algorithm import StepRecord
+from engine.stepping.protocol import StepRecord
 from engine.errors import EngineError
-from engine.present import Presenter, tableau_text
-from engine.problem import Problem
+from engine.stepping.presenter import Presenter, tableau_text
+from engine.design.problem import Problem
 from engine.qcg.setup import cascade_problem
 
 

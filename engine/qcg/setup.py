@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.blocks import Transfer
+from engine.model.blocks import Transfer
 from engine.errors import EngineError
-from engine.measure_kinds import check_accepted
-from engine.problem import Problem
+from engine.design.measure_kinds import check_accepted
+from engine.design.problem import Problem
 from engine.qcg.cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
 
 OPTIONS = ("q1", "q2", "r1", "r2", "averaging_time", "disturbance_amplitude", "disturbance_pole", "rsnat",

@@ -15,9 +15,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from engine.algorithm import iterate
+from engine.stepping.protocol import iterate
 from engine.errors import EngineError
-from engine.problem import Problem
+from engine.design.problem import Problem
 from engine.qcg.algorithm import Qcg, QcgSettings
 
 PENALTIES = ("q1", "q2", "r1", "r2")

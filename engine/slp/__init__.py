@@ -1,6 +1,6 @@
 """`slp`: COEBRA's sequential linear programming (Martin Marietta, report 003)."""
 
-from engine.algorithm import register
+from engine.stepping.protocol import register
 from engine.slp.algorithm import Slp, SlpSettings
 from engine.slp.present import SlpPresenter
 

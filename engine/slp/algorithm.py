@@ -35,7 +35,7 @@ error tips them just under SPEC and the trial loses a measure (seen on the
 launch-vehicle example, where every trial near the boundary was rejected).
 Beyond the report: the problem's linear constraints A x <= b are rows of every
 LP (lp.py) and a trial is x0 + dx projected onto them and the bounds
-(`engine.constraints.project`: the clip, unless HiGHS's rounding left a row off).
+(`engine.design.constraints.project`: the clip, unless HiGHS's rounding left a row off).
 """
 
 from __future__ import annotations
@@ -47,11 +47,11 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.algorithm import MeasureRow, State, Status, StepRecord
-from engine.constraints import check_start, project
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
+from engine.design.constraints import check_start, project
 from engine.errors import EngineError
-from engine.guard import check_vector, guarded
-from engine.problem import Problem
+from engine.stepping.guard import check_vector, guarded
+from engine.design.problem import Problem
 from engine.slp.lp import LpResult, solve_step, step_box
 from engine.slp.measures import Spec, evaluate, measure_specs
 from engine.slp.memory import SlpMemory, SlpPoint

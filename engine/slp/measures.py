@@ -1,17 +1,17 @@
 """COEBRA's performance measures (report 003, sections 1.3 and 2.2, Appendix C):
 one row per target, band and flight condition, evaluated on the true responses.
 
-Frequency measures come from the exact margins of `engine.margins`; in each
+Frequency measures come from the exact margins of `engine.margins.search`; in each
 band the worst candidate is the row's value (the smallest gain or phase
 margin, the largest modal peak), except the crossover frequency, which is
 the highest gain crossover in the band (the rigid-body crossover when the
 band stops below the bending modes).  Time measures come from the closed-loop
-state space (`engine.realization`) under a profile of steps and ramps, or,
+state space (`engine.loop.realization`) under a profile of steps and ramps, or,
 for a mean square, from a Lyapunov equation (Appendix C: the mean square is
 (1/2 pi) times the integral of |H|^2 times the input's PSD, here |F(jw)|^2
 for a shaping filter F, i.e. the squared H2 norm of H F).  Step measures read
 the response against the closed loop's DC gain times the final input when the
-loop is stable (y at the horizon otherwise, `engine.timeresp.final_value`);
+loop is stable (y at the horizon otherwise, `engine.closed_loop.time_response.final_value`);
 overshoot and peak time are report 003's, the first half cycle's
 (``peak_rule="first_half_cycle"``, not the global maximum).
 
@@ -29,19 +29,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.blocks import ExpressionTransfer
+from engine.model.blocks import ExpressionTransfer
 from engine.errors import EngineError
-from engine.loops import loop_model
-from engine.margins import Margins, margins
-from engine.measure_kinds import MEASURE_KINDS, check_accepted, kind
-from engine.problem import FREQUENCY_MEASURES, Problem
-from engine.realization import StateSpace, cascade
-from engine.zpk import closed_loop_realization
-from engine.timeresp import PeakRule, Segment, final_value, simulate, step_measures
+from engine.loop.responses import loop_model
+from engine.margins.search import Margins, margins
+from engine.design.measure_kinds import MEASURE_KINDS, check_accepted, kind
+from engine.design.problem import FREQUENCY_MEASURES, Problem
+from engine.loop.realization import StateSpace, cascade
+from engine.loop.pole_zero import closed_loop_realization
+from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
 from engine.slp.peaks import closed_loop_values
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
-# the measures read from the attenuation minima (`engine.measure_kinds`: margin family A)
+# the measures read from the attenuation minima (`engine.design.measure_kinds`: margin family A)
 PEAK_KINDS = tuple(name for name, k in MEASURE_KINDS.items() if k.margin == "A")
 MARGIN_ATTRIBUTE = {"gain_margin": ("gain", "value"), "phase_margin": ("phase", "value"),
                     "stability_margin": ("stability", "value"), "attenuation_margin": ("attenuation", "value"),

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Any, Self
 
 from engine.errors import EngineError
-from engine.memory import Fields, jsonable
+from engine.stepping.memory_fields import Fields, jsonable
 
 
 @dataclass(frozen=True)

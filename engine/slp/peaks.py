@@ -1,4 +1,4 @@
-"""slp's rows of the closed-loop measures (`engine.peak_measures`): the
+"""slp's rows of the closed-loop measures (`engine.margins.peak_measures`): the
 balanced disk margin, Ms, Mt and the delay margin, one row per band, and
 their analytic partials.
 
@@ -26,14 +26,14 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.fastloop import LoopEvaluator
-from engine.loops import LoopModel, open_loop
-from engine.margins import Band, Margins
-from engine.peak_measures import (CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peaks, delay_partial,
+from engine.loop.evaluator import LoopEvaluator
+from engine.loop.responses import LoopModel, open_loop
+from engine.margins.search import Band, Margins
+from engine.margins.peak_measures import (CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peaks, delay_partial,
                              peak_partial, stable_realization)
-from engine.problem import Condition, Problem
-from engine.realization import StateSpace
-from engine.zpk import closed_loop_realization
+from engine.design.problem import Condition, Problem
+from engine.loop.realization import StateSpace
+from engine.loop.pole_zero import closed_loop_realization
 
 
 def closed_loop_values(condition: Condition, params: dict[str, float], model: LoopModel, found: Margins,

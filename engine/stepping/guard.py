@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from engine.errors import EngineError
-from engine.memory import jsonable
+from engine.stepping.memory_fields import jsonable
 
 F = TypeVar("F", bound=Callable[..., Any])
 NUMERICAL = (np.linalg.LinAlgError, FloatingPointError, OverflowError, ZeroDivisionError)

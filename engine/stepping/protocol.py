@@ -22,8 +22,8 @@ from enum import Enum
 from typing import Any, ClassVar, Protocol, Self
 
 from engine.errors import EngineError
-from engine.memory import Fields, jsonable as _jsonable
-from engine.problem import Problem
+from engine.stepping.memory_fields import Fields, jsonable as _jsonable
+from engine.design.problem import Problem
 
 
 class Status(str, Enum):
@@ -188,7 +188,7 @@ class Algorithm(Protocol):
 @dataclass(frozen=True)
 class Registration:
     """An algorithm's factory, its settings class (a dataclass with defaults), a
-    summary, and its presenter (`engine.present.Presenter`: how its records are shown)."""
+    summary, and its presenter (`engine.stepping.presenter.Presenter`: how its records are shown)."""
 
     factory: Callable[[], Algorithm]
     settings: type
@@ -198,13 +198,13 @@ class Registration:
 
 REGISTRY: dict[str, Registration] = {}
 # the report algorithms: name -> the package that registers it when imported (one at a time, on demand)
-BUILTIN = {"cip": ".cip", "qcg": ".qcg", "slp": ".slp", "projection": ".projection"}
+BUILTIN = {"cip": "engine.cip", "qcg": "engine.qcg", "slp": "engine.slp", "projection": "engine.projection"}
 
 
 def load_builtin() -> dict[str, Registration]:
     """Import every bundled algorithm (they register themselves); the registry."""
     for module in BUILTIN.values():
-        importlib.import_module(module, __package__)
+        importlib.import_module(module)
     return REGISTRY
 
 
@@ -213,7 +213,7 @@ def register(name: str, factory: Callable[[], Algorithm], settings: type, summar
     """Make an algorithm known to the CLI, the app and sweeps by name (without a
     presenter, its records are shown the generic way)."""
     if presenter is None:
-        from engine.present import Presenter
+        from engine.stepping.presenter import Presenter
         presenter = Presenter()
     REGISTRY[name] = Registration(factory, settings, summary, presenter)
 
@@ -221,7 +221,7 @@ def register(name: str, factory: Callable[[], Algorithm], settings: type, summar
 def lookup(name: str) -> Registration:
     """The registration of an algorithm (a bundled one is imported on first use)."""
     if name not in REGISTRY and name in BUILTIN:
-        importlib.import_module(BUILTIN[name], __package__)
+        importlib.import_module(BUILTIN[name])
     if name not in REGISTRY:
         known = ", ".join(sorted(set(REGISTRY) | set(BUILTIN)))
         raise EngineError(f"unknown algorithm {name!r} (known: {known})")
@@ -246,7 +246,7 @@ def make_settings(name: str, values: Mapping[str, Any]) -> Any:
     if unknown:
         raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; "
                           f"settings are {', '.join(sorted(names))}")
-    from engine.guard import setting_value, settings_types   # the settings' declared types, checked here once
+    from engine.stepping.guard import setting_value, settings_types   # the settings' declared types, checked here once
     kinds = settings_types(cls)
     values = {key: setting_value(name, key, kinds[key], value) if key in kinds else value
               for key, value in values.items()}

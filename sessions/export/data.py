@@ -6,7 +6,7 @@ equal roots cancelled (the coefficients are not); for a
 w-plane condition also the z-domain form by w = (z - 1)/(z + 1) with the
 sample time), and the state-space matrices of the broken loop (SISO, input
 the injected loop signal, output GH: 1 + GH = 0 closes it) and of the closed
-loop (the network's inputs to every signal), from `engine.realization`.
+loop (the network's inputs to every signal), from `engine.loop.realization`.
 csv: the open loop GH and the closed loop T = GH/(1 + GH) at the break point
 on the session's grid (frequency in the grid's unit).
 """
@@ -20,10 +20,10 @@ import math
 import numpy as np
 
 from engine.errors import EngineError
-from engine.loops import open_loop
-from engine.zpk import closed_loop_realization, loop_realization
+from engine.loop.responses import open_loop
+from engine.loop.pole_zero import closed_loop_realization, loop_realization
 
-from sessions.export_model import Design, ExportCondition, ExportEntry, w_to_z
+from sessions.export.design_model import Design, ExportCondition, ExportEntry, w_to_z
 from sessions.store import Session
 
 

@@ -4,7 +4,7 @@ numbers per flight condition, entry by entry of the compiled interconnection.
 Each entry of a condition's network (``x_row += G x_col``: a block, one signal
 of a junction, a matrix entry) becomes an `ExportEntry`: its rational form
 (descending coefficients, and gain/zeros/poles taken factor by factor), a pure
-delay, or, for a tabulated block, an AAA fit of its table (engine/fitting.py)
+delay, or, for a tabulated block, an AAA fit of its table (engine/numerics/rational_fit.py)
 with the fit's residual.  Entries that depend on a parameter are the
 compensators.  Signal names are also given as identifiers (``ident``) for
 tools whose signal names are parsed (python-control's ``sys.signal``).
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
 from engine.errors import EngineError
-from engine.factored import pole_zero
-from engine.fitting import FAR_POLE, RationalFit, fit_response
-from engine.network import Network
+from engine.model.factored import pole_zero
+from engine.numerics.rational_fit import FAR_POLE, RationalFit, fit_response
+from engine.model.network import Network
 
 from sessions.errors import SessionError
 from sessions.store import Session

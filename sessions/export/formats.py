@@ -19,18 +19,18 @@ FORMATS = {"python": "a python-control script that rebuilds the loop and prints 
 
 def export_text(session: "Session", iteration: int | None, to: str, sample_time: float | None = None) -> str:
     """The exported text of the design at ``iteration`` (None: the session's current one)."""
-    from sessions.export_model import design
+    from sessions.export.design_model import design
     if to not in SUFFIX:
         raise ValueError(f"unknown export format {to!r}; formats: {', '.join(SUFFIX)}")
     d = design(session, iteration)
     if to == "python":
-        from sessions.export_python import python_script
+        from sessions.export.python_script import python_script
         return python_script(d, sample_time)
     if to == "matlab":
-        from sessions.export_matlab import matlab_script
+        from sessions.export.matlab import matlab_script
         return matlab_script(d, sample_time)
     if to == "json":
-        from sessions.export_data import design_json
+        from sessions.export.data import design_json
         return json.dumps(design_json(d, sample_time), indent=2, allow_nan=False) + "\n"
-    from sessions.export_data import response_csv
+    from sessions.export.data import response_csv
     return response_csv(session, d)

@@ -1,6 +1,6 @@
 """`loopcraft export --to matlab`: an .m script (Control System Toolbox) of a design.
 
-The same construction as the python export (`sessions.export_python`): each
+The same construction as the python export (`sessions.export.python_script`): each
 entry a ``tf`` with named input and output (a table's AAA fit a ``zpk``, a
 delay an exact ``InputDelay``), junctions ``sumblk``, joined by ``connect``;
 the uses of the break signal read an injected loop signal, so the open loop
@@ -11,7 +11,7 @@ MATLAB reads the same double).
 
 from __future__ import annotations
 
-from sessions.export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
+from sessions.export.design_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
                            loop_input, rows, w_to_z)
 
 
@@ -23,7 +23,7 @@ def matlab_script(d: Design, sample_time: float | None = None) -> str:
              "% Needs the Control System Toolbox (tf, zpk, sumblk, connect, allmargin).",
              "% Each condition's loop is broken where the session breaks it: L = GH, 1 + L = 0 closes it."]
     for e in fitted_entries(d):
-        lines.append(f"% {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/fitting.py) of "
+        lines.append(f"% {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) of "
                      f"degree {e.degree}, relative residual {e.residual:.3e} on the table")
     lines += ["", f"% the parameters of iteration {d.iteration} (a vector: one value per condition)"]
     for name, value in d.parameters.items():

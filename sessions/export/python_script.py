@@ -1,7 +1,7 @@
 """`loopcraft export --to python`: a runnable python-control script of a design.
 
 Each flight condition's interconnection is rebuilt entry by entry
-(`sessions.export_model`): every block a ``control.tf`` (a table's AAA fit a
+(`sessions.export.design_model`): every block a ``control.tf`` (a table's AAA fit a
 ``control.zpk``, a delay a Pade approximation), junctions
 ``control.summing_junction``, joined by name with ``control.interconnect``.
 The uses of the break signal read an injected loop signal, so the open loop
@@ -14,7 +14,7 @@ condition's margins (``control.stability_margins``) and closed-loop poles;
 
 from __future__ import annotations
 
-from sessions.export_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
+from sessions.export.design_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
                            loop_input, rows, w_to_z)
 
 PADE_ORDER = 6
@@ -40,7 +40,7 @@ def _header(d: Design) -> str:
              "session does and prints the margins (control.stability_margins) and the",
              "closed-loop poles.  Run:  python THIS_FILE.py [--json]", '"""']
     for e in fitted_entries(d):
-        lines.append(f"# {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/fitting.py) "
+        lines.append(f"# {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) "
                      f"of degree {e.degree}, relative residual {e.residual:.3e} on the table")
     lines += ["import json", "import sys", "", "import control", "import numpy as np"]
     if fitted_entries(d):

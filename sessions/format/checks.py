@@ -8,13 +8,13 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from engine.algorithm import State, StepRecord, memory_type
+from engine.stepping.protocol import State, StepRecord, memory_type
 from engine.errors import EngineError
-from engine.memory import Fields
-from engine.problem import Problem
+from engine.stepping.memory_fields import Fields
+from engine.design.problem import Problem
 
 from sessions.errors import SessionError
-from sessions.schema import SessionModel
+from sessions.format.schema import SessionModel
 
 MAX_DEPTH = 64   # levels of JSON nesting a session may have (a real one has about 8)
 

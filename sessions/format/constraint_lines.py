@@ -1,7 +1,7 @@
 """The session's linear constraints between parameters (``problem.constraints``).
 
 Each is one line of text, ``a1*p1 + a2*p2 + ... <= c`` (or ``>=``), read by
-`engine.linear_forms` (never evaluated by Python).  A name is a parameter's;
+`engine.design.constraint_reader` (never evaluated by Python).  A name is a parameter's;
 ``name[condition]`` (a condition's name or index) picks one condition's value
 of a parameter with a value per condition, and such a parameter written
 without one makes the constraint hold in every condition.  A start that does
@@ -18,16 +18,16 @@ from typing import TYPE_CHECKING, Annotated
 
 from pydantic import AfterValidator, Field
 
-from engine.constraints import TOLERANCE, LinearInequality, unmet
+from engine.design.constraints import TOLERANCE, LinearInequality, unmet
 from engine.errors import EngineError
-from engine.linear_forms import MAX_LENGTH, LinearFormError, read_constraint
+from engine.design.constraint_reader import MAX_LENGTH, LinearFormError, read_constraint
 
 from sessions.errors import SessionError
 
 if TYPE_CHECKING:
-    from engine.problem import Problem
+    from engine.design.problem import Problem
 
-    from sessions.schema import ProblemModel
+    from sessions.format.schema import ProblemModel
 
 
 def _readable(text: str) -> str:

@@ -1,4 +1,4 @@
-"""Write the JSON Schema of the session format: python -m sessions.jsonschema [FILE]."""
+"""Write the JSON Schema of the session format: python -m sessions.format.json_schema [FILE]."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from sessions.schema import SessionModel
+from sessions.format.schema import SessionModel
 
 SCHEMA_FILE = Path(__file__).with_name("session.schema.json")
 

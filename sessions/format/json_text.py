@@ -18,7 +18,7 @@ import secrets
 import threading
 from typing import Any
 
-from sessions.schema import SessionModel
+from sessions.format.schema import SessionModel
 
 _MARKER = "\0" + secrets.token_hex(8)   # stands in for an infinity (and the records) while encoding
 _RECORD_TEXTS: dict[int, tuple[dict, dict[bool, str]]] = {}   # id -> (the record, kept alive: its id is

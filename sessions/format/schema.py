@@ -11,12 +11,12 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from engine.measure_kinds import MEASURE_KINDS
+from engine.design.measure_kinds import MEASURE_KINDS
 
 SCHEMA_VERSION = 1
 
-from sessions.constraints import ConstraintText
-from sessions.limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS,  # noqa: F401
+from sessions.format.constraint_lines import ConstraintText
+from sessions.format.limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS,  # noqa: F401
                      MAX_CONSTRAINTS, MAX_EQUALITIES, MAX_FACTORS, MAX_GRID_POINTS, MAX_JUNCTION_INPUTS, MAX_OPTIONS, MAX_PARAMETERS,
                      MAX_RESPONSE_POINTS, MAX_SIGNALS, MAX_TABLE_ROWS, MAX_TARGETS, Coefficient, Lower, Number,
                      Upper, bounded as _bounded)

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from typing import Literal, NamedTuple
 
 from engine.errors import EngineError
-from engine.expressions import Expression
-from sessions.schema import BandModel, PointModel, ResponseModel, SegmentModel
+from engine.model.expressions import Expression
+from sessions.format.schema import BandModel, PointModel, ResponseModel, SegmentModel
 
 Sense = Literal["at_least", "at_most"] | None
 Setting = bool | int | float | str | None

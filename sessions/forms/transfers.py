@@ -21,8 +21,8 @@ import re
 
 from pydantic import ValidationError
 
-from sessions.forms import FormError, format_number, parse_expression, parse_number
-from sessions.schema import (ControllerBlock, ControllerFactorModel, DelayBlock, ExpressionBlock, FactoredBlock,
+from sessions.forms.one_line import FormError, format_number, parse_expression, parse_number
+from sessions.format.schema import (ControllerBlock, ControllerFactorModel, DelayBlock, ExpressionBlock, FactoredBlock,
                              FactorModel, PolynomialBlock, TableBlock)
 
 KINDS = ("factored", "controller", "polynomial", "delay", "table")
@@ -237,7 +237,7 @@ def format_sub_compensator(sub) -> str:
 
 def parse_sub_compensator(text: str):
     """A channel's sub-compensator from 'num x0, x1, ...; den y0, y1, ...' (ascending powers)."""
-    from sessions.schema import SubCompensatorModel
+    from sessions.format.schema import SubCompensatorModel
     block = _polynomial(text, "s", None)
     try:
         return SubCompensatorModel(numerator=block.numerator, denominator=block.denominator)
@@ -265,7 +265,7 @@ def split_names(text: str, count: int) -> tuple[list[str], str]:
 def transfer_names(t, variable: str) -> set[str]:
     """The parameter names a transfer model reads."""
     if t.kind == "expression":
-        from engine.expressions import Expression
+        from engine.model.expressions import Expression
         return set(Expression(t.expression, variable).parameters)
     if t.kind == "table":
         return set()

@@ -22,12 +22,12 @@ from scipy import signal
 
 from sessions.errors import SessionError
 
-MAX_ORDER = 64   # a coefficient list of a polynomial block holds at most 65 numbers (sessions.limits)
+MAX_ORDER = 64   # a coefficient list of a polynomial block holds at most 65 numbers (sessions.format.limits)
 
 
 @dataclass(frozen=True)
 class ImportedPlant:
-    """A plant for `sessions.templates.new_session`: an expression, or a table transfer
+    """A plant for `sessions.new.templates.new_session`: an expression, or a table transfer
     with its grid and the CSV text to write as ``csv_name`` beside the session."""
 
     plant: str | dict

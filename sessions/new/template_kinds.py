@@ -1,4 +1,4 @@
-"""The kinds of new session the app offers, beside `sessions.templates`'s unity
+"""The kinds of new session the app offers, beside `sessions.new.templates`'s unity
 feedback loop: two nested loops, a tabulated plant from a CSV file, the same
 loop in COEBRA's matrix format, and a projection problem.  Each returns
 session JSON data that `sessions.store.parse_session` accepts."""
@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 from sessions.errors import SessionError
-from sessions.templates import grid_for, new_session, parameter_entry, read_compensator, read_plant
+from sessions.new.templates import grid_for, new_session, parameter_entry, read_compensator, read_plant
 
 KINDS: dict[str, str] = {
     "unity": "unity feedback: a plant and a compensator (PM >= 45 deg, GM >= 6 dB)",
@@ -20,7 +20,7 @@ KINDS: dict[str, str] = {
     "matrix": "a matrix-format plant: the unity loop as COEBRA's A(s) x = B r",
     "projection": "a projection problem: report 004's constrained DAE (the integrator example)",
 }
-EXAMPLES = Path(__file__).resolve().parent / "examples"
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
 def in_unit(data: dict, unit: str) -> dict:

@@ -88,7 +88,7 @@ def _block(name: str, source: str, output: str, expression: str) -> dict:
 def read_plant(plant: str) -> tuple[str, float, str]:
     """The plant's rational part, its delay and its variable; numbers only."""
     from engine.analysis import split_delays     # on use: the command line's parser reads STRUCTURES at start
-    from engine.expressions import Expression
+    from engine.model.expressions import Expression
     try:
         text, delay = split_delays(plant.strip())
         variable, names = "s", Expression(text, "s").parameters
@@ -106,7 +106,7 @@ def read_plant(plant: str) -> tuple[str, float, str]:
 
 def read_compensator(compensator: str, variable: str) -> tuple[str, dict[str, float]]:
     """The compensator's expression (in ``variable``) and its parameters' starting values."""
-    from engine.expressions import Expression
+    from engine.model.expressions import Expression
     if compensator in STRUCTURES:
         expression, starts = STRUCTURES[compensator]
         return (expression.replace("s", variable) if variable != "s" else expression), dict(starts)
@@ -134,8 +134,8 @@ def parameter_entry(name: str, value: float) -> dict:
 def grid_for(plant: str, variable: str) -> dict:
     """Log grid two decades beyond the plant's nonzero corner frequencies (0.01..1000 without any)."""
     import numpy as np
-    from engine.expressions import Expression
-    from engine.factored import pole_zero
+    from engine.model.expressions import Expression
+    from engine.model.factored import pole_zero
     try:
         form = pole_zero(Expression(plant, variable), {})
         corners = np.abs(np.concatenate([form.zeros, form.poles]))

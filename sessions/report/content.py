@@ -1,12 +1,12 @@
 """The design report's content (`loopcraft report --format html|md`), as a list of
-plain blocks that `sessions.report_render` writes as HTML or Markdown.
+plain blocks that `sessions.report.render` writes as HTML or Markdown.
 
 Blocks: ("h1"|"h2"|"h3", text), ("p", text), ("table", header, rows),
 ("figure", name, png bytes, caption), ("pre", text).  Content: the problem
 (every condition's blocks, the compensators, the parameters with bounds, the
 targets per condition, the algorithm), the initial and the final design with
 their tableaux (met/unmet), the convergence history, the figures of every
-condition (`sessions.report_figures`), and the algorithm's own report text
+condition (`sessions.report.figures`), and the algorithm's own report text
 (its presenter's) as an appendix.
 """
 
@@ -17,16 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from engine.algorithm import MeasureRow, StepRecord
+from engine.stepping.protocol import MeasureRow, StepRecord
 from engine.errors import EngineError
-from engine.loops import loop_model, open_loop
-from engine.margins import margins
-from engine.present import tableau_text, tolerant
-from engine.realization import realize
-from engine.timeresp import Segment, simulate
+from engine.loop.responses import loop_model, open_loop
+from engine.margins.search import margins
+from engine.stepping.presenter import tableau_text, tolerant
+from engine.loop.realization import realize
+from engine.closed_loop.time_response import Segment, simulate
 
-from sessions import report_figures as figures
-from sessions.export_model import iteration_parameters
+from sessions.report import figures
+from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import bound_algorithm, registration
 from sessions.store import Session
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.margins import Margins
+from engine.margins.search import Margins
 
 SIZE = (7.0, 4.2)   # inches; at DPI, 700 x 420 pixels
 DPI = 100

@@ -1,6 +1,6 @@
 """The design report written out: one self-contained HTML file (figures embedded
 as base64 PNG data URIs, no external resource) or Markdown with the PNGs
-written beside it (`sessions.report_content` gives the blocks)."""
+written beside it (`sessions.report.content` gives the blocks)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import html
 from pathlib import Path
 
 from sessions.errors import SessionError
-from sessions.savefile import write_atomic
-from sessions.report_content import Block
+from sessions.format.save_file import write_atomic
+from sessions.report.content import Block
 
 STYLE = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}"
          "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;"

@@ -99,7 +99,7 @@ QUIET_WORKERS = {
     "distributed.admin.system-monitor.interval": "5s",
     "distributed.worker.memory.monitor-interval": "1s",
 }
-PRELOAD = "sessions.sweep_worker"   # imports done as the workers start, after any configured preload
+PRELOAD = "sessions.sweeps.worker_preload"   # imports done as the workers start, after any configured preload
 # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (to hand memory back to the system sooner).
 # Setting it turns off glibc's adaptive thresholds: every numpy array over 128 KiB is then mapped and
 # unmapped anew, and a launch-vehicle run took 1.45 times as long (0.91 against 0.63 s, measured).

@@ -30,17 +30,17 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.algorithm import StepRecord, iterate
-from engine.present import tolerant
+from engine.stepping.protocol import StepRecord, iterate
+from engine.stepping.presenter import tolerant
 from engine.errors import EngineError
-from engine.loops import open_loop
-from engine.problem import Problem
+from engine.loop.responses import open_loop
+from engine.design.problem import Problem
 
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import bind
-from sessions.schema import SessionModel
-from sessions.sweep_cluster import DEFAULT_CONNECT_TIMEOUT, close, connect, connect_timeout, scheduler_address, sigint_ignored
+from sessions.format.schema import SessionModel
+from sessions.sweeps.cluster import DEFAULT_CONNECT_TIMEOUT, close, connect, connect_timeout, scheduler_address, sigint_ignored
 
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"

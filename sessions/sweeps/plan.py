@@ -1,8 +1,8 @@
 """Sweeps: many runs of one session on Dask (multi-start "map the hill",
 penalty trade-offs, toleranced plants).  This module plans them: the jobs
 (`Job`: data only, the session's JSON with its tables inlined) and the
-one-line form the app asks for.  `sessions.sweep_jobs` runs them,
-`sessions.sweep_results` makes the summary kept in the session.
+one-line form the app asks for.  `sessions.sweeps.jobs` runs them,
+`sessions.sweeps.results` makes the summary kept in the session.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from sessions.build import read_csv, table_path
 from sessions.errors import SessionError
 from sessions.lifecycle import folder
 from sessions.store import Session, tables_in
-from sessions.sweep_cluster import scheduler_address
-from sessions.sweep_jobs import run_job
+from sessions.sweeps.cluster import scheduler_address
+from sessions.sweeps.jobs import run_job
 
 
 @dataclass(frozen=True)

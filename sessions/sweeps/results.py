@@ -12,14 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.algorithm import lookup
-from engine.memory import jsonable
+from engine.stepping.protocol import lookup
+from engine.stepping.memory_fields import jsonable
 
 from sessions.errors import SessionError
 from sessions.lifecycle import adopt_parameters
-from sessions.schema import SweepModel
+from sessions.format.schema import SweepModel
 from sessions.store import Session, now
-from sessions.sweep_jobs import Outcome
+from sessions.sweeps.jobs import Outcome
 
 SWEEP_VERSION = 1
 SAME_PARAMETERS = 0.05     # decades (about 12 %): runs closer than this in every parameter share an optimum

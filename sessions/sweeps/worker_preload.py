@@ -1,9 +1,9 @@
 """Imported by each worker of a local sweep cluster as it starts (Dask's
-``distributed.worker.preload``, `sessions.sweep_jobs.local_cluster`): the job
+``distributed.worker.preload``, `sessions.sweeps.jobs.local_cluster`): the job
 runner and every bundled algorithm with what they import (scipy's HiGHS,
 pydantic's models), so that a worker's first run does not pay for them."""
 
-from engine.algorithm import load_builtin
-from sessions import sweep_jobs  # noqa: F401 - imported for what it imports
+from engine.stepping.protocol import load_builtin
+from sessions.sweeps import jobs as sweep_jobs  # noqa: F401 - imported for what it imports
 
 load_builtin()

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.network import Block, Junction, block_diagram
+from engine.model.network import Block, Junction, block_diagram
 
 from tests.bench.common import judged, samples, scaling, timed
 
@@ -23,8 +23,8 @@ def cip_problem(every: int = 1, channels: int = 2):
     """The launch vehicle's attitude, rate (and acceleration) channels on every
     ``every``-th point of its 999, 4 second-order sub-compensators each
     (2 channels: 34 free coefficients)."""
-    from engine.blocks import FrequencyTable, TabulatedTransfer, polynomial_transfer
-    from engine.problem import BandValue, Condition, Grid, Parameter, Problem, Target
+    from engine.model.blocks import FrequencyTable, TabulatedTransfer, polynomial_transfer
+    from engine.design.problem import BandValue, Condition, Grid, Parameter, Problem, Target
     from sessions.examples.launch_vehicles import E1_1, SINGLE_GRID, single_channel
 
     f = SINGLE_GRID[::every]
@@ -101,7 +101,7 @@ def qcg_figures(repeat: int) -> dict:
     same cost, same start, interleaved (all parameters of the sample are free)."""
     from scipy.optimize import minimize
 
-    from engine.algorithm import iterate
+    from engine.stepping.protocol import iterate
     from engine.qcg import Qcg, QcgSettings
     from engine.qcg.setup import cascade_problem
     from sessions.store import load_session
@@ -152,7 +152,7 @@ def projection_figures(repeat: int) -> dict:
     """Report 004's examples to convergence with their sessions' settings at
     N = 20, 200, 2000 (interleaved), with targets at 20 and 2000 and the
     fitted exponent of time against N."""
-    from engine.algorithm import iterate, make_settings
+    from engine.stepping.protocol import iterate, make_settings
     from engine.projection import Projection
     from sessions.store import load_session
     runs = []
@@ -182,7 +182,7 @@ def slp_major_iteration(repeat: int) -> dict:
     """`coebra_launch_vehicle.json` (3 flight conditions, 14 free variables,
     27 measures): the first major iteration from the start (partials, then
     minor-loop trials until the relinearization); target 0.5 s (report 003: 164 s)."""
-    from engine.algorithm import make_settings
+    from engine.stepping.protocol import make_settings
     from engine.slp import Slp
     from sessions.store import load_session
     samples_, trials, session = [], 0, None

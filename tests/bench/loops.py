@@ -12,10 +12,10 @@ import warnings
 import control as ct
 import numpy as np
 
-from engine.blocks import ExpressionTransfer
-from engine.loops import loop_model, open_loop
-from engine.margins import margins
-from engine.network import Block, Junction, block_diagram
+from engine.model.blocks import ExpressionTransfer
+from engine.loop.responses import loop_model, open_loop
+from engine.margins.search import margins
+from engine.model.network import Block, Junction, block_diagram
 
 from tests.bench.common import compared, perturbed, samples, scaling, timed
 

@@ -43,9 +43,9 @@ def sweep_throughput() -> dict:
     from distributed import Client
 
     from sessions.store import load_session
-    from sessions.sweep_cluster import close, local_cluster
-    from sessions.sweep_jobs import execute, execute_serial
-    from sessions.sweeps import start_jobs
+    from sessions.sweeps.cluster import close, local_cluster
+    from sessions.sweeps.jobs import execute, execute_serial
+    from sessions.sweeps.plan import start_jobs
     session = load_session(ROOT / "sessions" / "examples" / "coebra_launch_vehicle.json")
     session.model.algorithm.settings["max_major"] = 2
     jobs = start_jobs(session, 32, spread=1.5, seed=11)

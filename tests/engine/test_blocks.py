@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, factored_transfer,
+from engine.model.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, factored_transfer,
                            polynomial_transfer)
 from engine.errors import BlockError, ExtrapolationError
 

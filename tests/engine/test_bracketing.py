@@ -1,4 +1,4 @@
-"""Bracketed roots of many functions at once (`engine.bracketing`)."""
+"""Bracketed roots of many functions at once (`engine.numerics.bracketing`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from engine.bracketing import bracketed_roots
+from engine.numerics.bracketing import bracketed_roots
 
 
 def test_each_root_has_its_own_function():

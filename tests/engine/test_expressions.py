@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from engine.errors import ExpressionError, ParameterError
-from engine.expressions import Expression
+from engine.model.expressions import Expression
 
 
 def test_rational_of_report_003_loop():

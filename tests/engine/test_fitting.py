@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from engine.errors import EngineError
-from engine.fitting import RationalFit, fit_response
+from engine.numerics.rational_fit import RationalFit, fit_response
 
 
 class Loop:

@@ -12,12 +12,12 @@ import pytest
 from scipy.optimize import brentq
 
 from engine.analysis import unity_feedback
-from engine.blocks import ExpressionTransfer
-from engine.loops import loop_model
-from engine.detection import detection_grid
-from engine.margin_types import single_margin
-from engine.margins import AGREEMENT, POLISH_LIMIT, _disagreement, _polished, _refined, _without_grid, margins
-from engine.network import Block, Junction, block_diagram
+from engine.model.blocks import ExpressionTransfer
+from engine.loop.responses import loop_model
+from engine.margins.detection_grid import detection_grid
+from engine.margins.values import single_margin
+from engine.margins.search import AGREEMENT, POLISH_LIMIT, _disagreement, _polished, _refined, _without_grid, margins
+from engine.model.network import Block, Junction, block_diagram
 from sessions.store import load_session
 
 
@@ -135,7 +135,7 @@ def test_a_margin_the_network_does_not_show_near_the_form_s_is_not_polished():
 def test_a_seeded_detection_grid_holds_its_seed_within_the_background_range():
     """The network's grid starts from the pole-zero form's points (inside the range the
     background grid spans) and is then split as any grid is."""
-    from engine import detection
+    from engine.margins import detection_grid as detection
     problem = load_session(Path(__file__).parents[2] / "sessions/examples/coebra_launch_vehicle.json").problem
     condition = problem.conditions[0]
     loop = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(0))

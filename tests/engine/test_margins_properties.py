@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from engine.analysis import analyze, unity_feedback
-from engine.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer
-from engine.discrete import real_frequency, w_frequency, z_to_w
-from engine.loops import LoopModel, loop_model
-from engine.margins import Band, margins
-from engine.network import Block, Junction, block_diagram
-from engine.polynomials import Rational
+from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from engine.model.bilinear import real_frequency, w_frequency, z_to_w
+from engine.loop.responses import LoopModel, loop_model
+from engine.margins.search import Band, margins
+from engine.model.network import Block, Junction, block_diagram
+from engine.numerics.polynomials import Rational
 
 # a rigid-body loop with a bending mode at zeta = 0.001 (gain-stabilized peak)
 LIGHT_MODE = "40*(s+2)/(s*(s+10)*(s+30)) * 1/(s**2/25**2 + 2*0.001*s/25 + 1)"
@@ -106,7 +106,7 @@ def test_z_to_w_preserves_the_response_on_the_unit_circle():
 def test_delay_margin_puts_the_crossover_on_minus_one():
     """Adding a delay equal to the delay margin must leave a phase margin of 0 deg
     at the same crossover (an independent check of DM = PM / omega_c)."""
-    from engine.blocks import DelayTransfer
+    from engine.model.blocks import DelayTransfer
     expr = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"
     before = analyze(unity_feedback([expr]), "e", GRID, {}).margins
     assert before.delay_margin == pytest.approx(np.radians(52.1337) / 12.0571, rel=1e-4)
@@ -145,8 +145,8 @@ def test_two_crossings_hidden_in_one_grid_interval_are_both_found(name):
     (ends short of it).  The extremum inside is refined first and splits the
     interval; both crossings must match python-control's."""
     from tests.engine.loopfactory import loop_network
-    from engine.detection import Detection
-    from engine.margins import _refined
+    from engine.margins.detection_grid import Detection
+    from engine.margins.search import _refined
 
     s = ct.tf("s")
     system = {"resonance above 1": 0.1 / (s**2 + 0.02 * s + 1),

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from engine.analysis import analyze, unity_feedback
-from engine.loops import loop_model
-from engine.margins import margins
+from engine.loop.responses import loop_model
+from engine.margins.search import margins
 from tests.engine.loopfactory import loop_network, random_loop
 
 GRID = np.geomspace(1e-2, 1e2, 50)

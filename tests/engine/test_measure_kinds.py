@@ -1,4 +1,4 @@
-"""The table of measure kinds (`engine.measure_kinds`): complete (every measure
+"""The table of measure kinds (`engine.design.measure_kinds`): complete (every measure
 a session or a problem accepts has a kind), unique short labels, and senses
 that agree with how the evaluators judge real measures of a small loop."""
 
@@ -12,10 +12,10 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.errors import EngineError
-from engine.measure_kinds import (ALGORITHMS, DOMAINS, MEASURE_KINDS, accepts, check_accepted, default_desired, kind,
+from engine.design.measure_kinds import (ALGORITHMS, DOMAINS, MEASURE_KINDS, accepts, check_accepted, default_desired, kind,
                                   names, shorts)
-from engine.measures import tableau
-from engine.problem import (AT_MOST, FREQUENCY_MEASURES, MEASURE_NAMES, TIME_MEASURES, BandValue, Condition, Grid,
+from engine.design.tableau import tableau
+from engine.design.problem import (AT_MOST, FREQUENCY_MEASURES, MEASURE_NAMES, TIME_MEASURES, BandValue, Condition, Grid,
                             Objective, Parameter, Problem, Target, TimeResponse)
 from engine.slp.measures import SHORT, evaluate, measure_specs
 
@@ -51,7 +51,7 @@ def first_value(K: float, measure: str) -> float:
 # -- complete and consistent -------------------------------------------------
 
 def test_every_measure_a_session_names_has_a_kind():
-    from sessions.schema import TargetModel
+    from sessions.format.schema import TargetModel
     assert set(get_args(TargetModel.model_fields["measure"].annotation)) == set(MEASURE_KINDS)
 
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engine.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, TabulatedTransfer,
+from engine.model.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, TabulatedTransfer,
                            factored_transfer, polynomial_transfer)
 from engine.errors import GridError, InterconnectionError, ParameterError
-from engine.loops import closed_loop, open_loop
-from engine.network import Block, Junction, block_diagram, matrix_format, solve
+from engine.loop.responses import closed_loop, open_loop
+from engine.model.network import Block, Junction, block_diagram, matrix_format, solve
 
 OMEGA = np.geomspace(0.3, 80.0, 60)
 PARAMS = {"K": 2.0, "T1": 0.4, "T2": 0.05, "wa": 40.0, "za": 0.35, "Kr": 0.3, "Tr": 0.02,

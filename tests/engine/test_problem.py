@@ -7,7 +7,7 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.errors import EngineError
-from engine.problem import Condition, Grid, Parameter, Problem
+from engine.design.problem import Condition, Grid, Parameter, Problem
 
 
 def problem():
@@ -70,7 +70,7 @@ def test_inconsistent_problems_are_refused():
 
 
 def test_unknown_measures_are_refused_when_the_problem_is_made():
-    from engine.problem import BandValue, Target
+    from engine.design.problem import BandValue, Target
     net = unity_feedback(["2/s"])
     with pytest.raises(EngineError, match="unknown measure 'overshoot'"):
         Problem((Condition("c", net, "e"),), (), (Target("overshoot", (BandValue(0, 1, 1),)),), Grid(np.ones(1)))

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete
 
-from engine.algorithm import Status, iterate
+from engine.stepping.protocol import Status, iterate
 from engine.errors import EngineError
-from engine.problem import Grid, Objective, Problem
+from engine.design.problem import Grid, Objective, Problem
 from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
 from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection

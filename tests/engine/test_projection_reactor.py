@@ -19,7 +19,7 @@ import pytest
 from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
-from engine.algorithm import Status, iterate, make_settings
+from engine.stepping.protocol import Status, iterate, make_settings
 from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
 from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection

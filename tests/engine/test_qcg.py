@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.algorithm import Status, iterate
-from engine.blocks import ControllerFactor, ExpressionTransfer, controller_transfer
+from engine.stepping.protocol import Status, iterate
+from engine.model.blocks import ControllerFactor, ExpressionTransfer, controller_transfer
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.cost import Cascade, Weights, exponential_disturbance, quadratic_cost
 from engine.qcg.setup import cascade_problem

@@ -12,7 +12,7 @@ import pytest
 from scipy.optimize import minimize
 
 import engine.qcg.cost as qcg_cost
-from engine.algorithm import Status, iterate
+from engine.stepping.protocol import Status, iterate
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.cost import blend_weight
 from engine.qcg.setup import cascade_problem

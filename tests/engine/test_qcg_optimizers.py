@@ -15,7 +15,7 @@ from scipy.optimize import minimize
 
 import engine.qcg.cost as qcg_cost
 import engine.qcg.setup as qcg_setup
-from engine.algorithm import State, Status, iterate
+from engine.stepping.protocol import State, Status, iterate
 from engine.errors import EngineError
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.memory import QcgMemory

@@ -14,11 +14,11 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.errors import EngineError
-from engine.locus_polish import GainCharacteristic
-from engine.loops import loop_model
-from engine.margins import margins
-from engine.polish import polish
-from engine.root_locus import (DRAWN, FLOOR, MIN_STEP, MOVE, NOISY, _allowed, continuation, pole_zero_map,
+from engine.closed_loop.characteristic import GainCharacteristic
+from engine.loop.responses import loop_model
+from engine.margins.search import margins
+from engine.closed_loop.poles import polish
+from engine.closed_loop.root_locus import (DRAWN, FLOOR, MIN_STEP, MOVE, NOISY, _allowed, continuation, pole_zero_map,
                                root_locus)
 from tests.engine.loopfactory import loop_network, random_loop
 from tests.engine.test_sensitivity import mp_poly
@@ -84,7 +84,7 @@ def test_polish_finds_a_near_double_root_from_either_side_of_the_axis(d):
 
 @pytest.mark.parametrize("d", [1e-9, -1e-9, 1e-6, -1e-6])
 def test_a_designs_closed_loop_poles_near_a_double_pole_from_either_side_of_the_axis(d):
-    # `engine.polish` (a design's closed-loop poles): 1/((s+1)(s+3)) with the gain 1 + d, closed, has
+    # `engine.closed_loop.poles` (a design's closed-loop poles): 1/((s+1)(s+3)) with the gain 1 + d, closed, has
     # F = (s + 2)^2 + d, the near-double pole above.  Its own Aberth iteration returned the start where it
     # did not converge to 1e-9: from the wrong side residuals |d| / 8 (|F| = 2 |d|, scale 16: 1.3e-10 and
     # 1.3e-7), from the double root |d| / 16, from 10x too far 101 |d| / 16 (6.3e-9, 6.3e-6).  At d = -1e-6

@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from engine.rootfind import refine
+from engine.numerics.refinement import refine
 
 
 def _levels(functions):

@@ -12,9 +12,9 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.errors import EngineError
-from engine.loops import LoopModel, loop_model
-from engine.margins import Band
-from engine.sensitivity import (compensator_peak, complementary, complementary_peak, magnitude_curves,
+from engine.loop.responses import LoopModel, loop_model
+from engine.margins.search import Band
+from engine.margins.peaks import (compensator_peak, complementary, complementary_peak, magnitude_curves,
                                 refined_peaks, sensitivity, sensitivity_peak)
 from tests.engine.loopfactory import loop_network, random_loop
 

@@ -10,8 +10,8 @@ import control as ct
 import numpy as np
 import pytest
 
-from engine.loops import LoopModel
-from engine.margins import margins
+from engine.loop.responses import LoopModel
+from engine.margins.search import margins
 
 LOOPS = {
     "type 1 lag": ([10.0], [1.0, 6.0, 5.0, 0.0]),  # 10/(s(s+1)(s+5))

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
-from engine.blocks import ExpressionTransfer
-from engine.network import Block, Junction, block_diagram
-from engine.realization import poles, realize, stability
-from engine.timeresp import Segment, dc_gain, simulate, step_measures
+from engine.model.blocks import ExpressionTransfer
+from engine.model.network import Block, Junction, block_diagram
+from engine.loop.realization import poles, realize, stability
+from engine.closed_loop.time_response import Segment, dc_gain, simulate, step_measures
 from tests.engine.loopfactory import loop_network, random_loop
 
 COMPENSATED = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"
@@ -88,7 +88,7 @@ def test_second_order_step_measures_match_the_formulas():
 
 
 def test_peak_absolute_value_of_a_signal_under_a_wind_profile():
-    from engine.timeresp import peak_absolute
+    from engine.closed_loop.time_response import peak_absolute
     net = unity_feedback([COMPENSATED])
     t = np.linspace(0, 4, 4001)
     y = simulate(realize(net, {}), "r", t, [Segment(0.0, slope=1.0), Segment(1.0, slope=-1.0)])

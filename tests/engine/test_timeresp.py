@@ -1,4 +1,4 @@
-"""`engine.timeresp`: the blocked simulation against a step-by-step loop, the
+"""`engine.closed_loop.time_response`: the blocked simulation against a step-by-step loop, the
 step measures against python-control's step_info on 50 random stable loops
 (same final value and band), the peak rules, and the final value from the
 DC gain (not y at the horizon) through slp's time measures."""
@@ -11,13 +11,13 @@ import control as ct
 import numpy as np
 import pytest
 
-from engine.blocks import ExpressionTransfer
+from engine.model.blocks import ExpressionTransfer
 from engine.errors import EngineError
-from engine.network import Block, block_diagram
-from engine.problem import BandValue, Condition, Grid, Problem, Target, TimeResponse
-from engine.realization import StateSpace, realize
+from engine.model.network import Block, block_diagram
+from engine.design.problem import BandValue, Condition, Grid, Problem, Target, TimeResponse
+from engine.loop.realization import StateSpace, realize
 from engine.slp.measures import SLP_PEAK_RULE, evaluate, measure_specs
-from engine.timeresp import Segment, _equal_step_runs, _foh, final_value, input_profile, simulate, step_measures
+from engine.closed_loop.time_response import Segment, _equal_step_runs, _foh, final_value, input_profile, simulate, step_measures
 from tests.engine.loopfactory import loop_network
 
 PROFILE = [Segment(0.0, 0.5), Segment(1.37, slope=2.0), Segment(2.71, -1.0, -2.0)]

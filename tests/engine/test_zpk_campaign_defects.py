@@ -1,8 +1,8 @@
-"""Defects of the grid-free margin and peak search (`engine.zpk_margins`,
-`engine.zpk_peaks`) found by a verification campaign of 5 200 loops in 16
+"""Defects of the grid-free margin and peak search (`engine.margins.pole_zero.search`,
+`engine.margins.pole_zero.peaks`) found by a verification campaign of 5 200 loops in 16
 families, each kept here on a minimal loop.  The reference is the
-detection-grid search (`engine.margins._refined`,
-`engine.sensitivity._peaks_on`), confirmed there by an independent dense scan
+detection-grid search (`engine.margins.search._refined`,
+`engine.margins.peaks._peaks_on`), confirmed there by an independent dense scan
 and mpmath.  Each failed before its fix (the comments name the cause)."""
 
 from __future__ import annotations
@@ -10,13 +10,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engine import detection, margins as margin_search, sensitivity as peaks
+from engine.margins import detection_grid as detection
+
+from engine.margins import search as margin_search
+
+from engine.margins import peaks
 from engine.analysis import unity_feedback
-from engine.disk_margins import disk_transform
-from engine.loops import loop_model
-from engine.margins import Band, margins
-from engine.zpk_margins import fast_margins
-from engine.zpk_peaks import moebius_peaks
+from engine.margins.disk import disk_transform
+from engine.loop.responses import loop_model
+from engine.margins.search import Band, margins
+from engine.margins.pole_zero.search import fast_margins
+from engine.margins.pole_zero.peaks import moebius_peaks
 
 GRID = np.geomspace(1e-3, 1e3, 10)
 TRANSFORMS = [peaks.sensitivity, peaks.complementary, disk_transform(0.0), disk_transform(0.7)]
@@ -50,7 +54,7 @@ def test_no_crossover_from_rounding_when_the_dc_gain_is_one():
 
 
 def test_twenty_fourth_order_loop_at_a_megahertz():
-    # the closed-loop poles come out 1e6 times too small: engine.fractions.roots' dgeev (scipy's
+    # the closed-loop poles come out 1e6 times too small: engine.numerics.fraction_sums.roots' dgeev (scipy's
     # LAPACK) returns the eigenvalues of its internally scaled matrix once the companion's entries
     # exceed ~1.5e138 (here (1e6)**24); the certificate's half-decade probes do not see the lost pairs
     loop = loop_of("1/(1+s/1e6)**24")

@@ -1,5 +1,5 @@
 """Margins of loops in pole-zero form found without a detection grid
-(`engine.zpk_margins`): the zeros of sums of fractions, closed forms, the
+(`engine.margins.pole_zero.search`): the zeros of sums of fractions, closed forms, the
 cases it leaves to the detection grid, and agreement with the grid search
 on hundreds of random loops (where they differ, the grid missed a shallow
 extremum that the exact slope confirms)."""
@@ -12,12 +12,14 @@ import mpmath
 import numpy as np
 import pytest
 
-from engine import detection, margins as margin_search
+from engine.margins import detection_grid as detection
+
+from engine.margins import search as margin_search
 from engine.analysis import unity_feedback
-from engine.fractions import Fractions, poly, polynomial_sum, roots
-from engine.loops import loop_model
-from engine.zpk import ZpkEvaluator
-from engine.zpk_margins import fast_margins
+from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
+from engine.loop.responses import loop_model
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.pole_zero.search import fast_margins
 from tests.engine.loopfactory import loop_network, random_loop
 
 GRID = np.geomspace(1e-3, 1e3, 10)

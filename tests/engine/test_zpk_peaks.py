@@ -1,5 +1,5 @@
 """Peaks of |S|, |T| and the disk margin's |S + (sigma - 1)/2| found without
-a grid (`engine.zpk_peaks`): closed forms, limits at the ends, and agreement
+a grid (`engine.margins.pole_zero.peaks`): closed forms, limits at the ends, and agreement
 with the grid search on random loops."""
 
 from __future__ import annotations
@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from engine import sensitivity as peaks
+from engine.margins import peaks
 from engine.analysis import unity_feedback
-from engine.disk_margins import disk_transform
-from engine.loops import loop_model
-from engine.margins import Band
-from engine.zpk import ZpkEvaluator
-from engine.zpk_peaks import moebius_peaks
+from engine.margins.disk import disk_transform
+from engine.loop.responses import loop_model
+from engine.margins.search import Band
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.pole_zero.peaks import moebius_peaks
 from tests.engine.loopfactory import loop_network, random_loop
 
 GRID = np.geomspace(1e-3, 1e3, 10)
@@ -77,7 +77,7 @@ def test_a_degenerate_loop_is_left_to_the_grid(monkeypatch):
     does not try (it chased that pole through five rounds of repairs, 0.1 s)."""
     def searched(*args):
         raise AssertionError("the stationary points of a degenerate loop were searched")
-    monkeypatch.setattr("engine.zpk_peaks._stationary", searched)
+    monkeypatch.setattr("engine.margins.pole_zero.peaks._stationary", searched)
     assert moebius_peaks(form_of("3/s**2"), [t.moebius for t in TRANSFORMS]) is None
 
 
@@ -137,8 +137,8 @@ def test_the_peak_of_s_after_a_margin_search_is_the_one_searched_alone():
     """After the margin search of a form, a multiple of S takes its stationary points
     (those of |1 + GH|, certified there) instead of searching them again: the same
     peaks as a fresh form's own search, on 200 random loops."""
-    from engine.zpk_levels import LoopLevels
-    from engine.zpk_margins import fast_margins
+    from engine.margins.pole_zero.levels import LoopLevels
+    from engine.margins.pole_zero.search import fast_margins
     reused = 0
     ab = [t.moebius for t in TRANSFORMS] + [(2.5, 0.0)]
     for seed in range(200):
@@ -166,8 +166,8 @@ def test_the_disk_peak_by_light_modes_starts_where_the_distance_is_stationary(mo
     stationary points were missed, each bracketed by the certificate (five on
     this loop, 25 evaluations); it now starts from |1 + GH|'s as well, and
     after the margin search needs no repair.  The peaks equal the grid's."""
-    from engine import zpk_certify
-    from engine.zpk_margins import fast_margins
+    from engine.margins.pole_zero import certificate as zpk_certify
+    from engine.margins.pole_zero.search import fast_margins
     repaired = []
     real = zpk_certify._repaired
     monkeypatch.setattr(zpk_certify, "_repaired", lambda slopes, row, *rest, **kw: repaired.append(row) or real(

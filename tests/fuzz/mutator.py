@@ -16,7 +16,7 @@ import json
 import random
 from typing import Any
 
-from engine.measure_kinds import MEASURE_KINDS
+from engine.design.measure_kinds import MEASURE_KINDS
 
 Path = tuple[Any, ...]
 

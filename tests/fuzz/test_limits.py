@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 from engine.errors import ExpressionError
-from engine.expressions import Expression
-from sessions import limits
+from engine.model.expressions import Expression
+from sessions.format import limits
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

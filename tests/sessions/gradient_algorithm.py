@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from engine.algorithm import State, Status, StepRecord, register
+from engine.stepping.protocol import State, Status, StepRecord, register
 from engine.errors import EngineError
-from engine.memory import Fields
-from engine.expressions import Expression
-from engine.loops import open_loop
-from engine.measures import tableau
-from engine.problem import Problem
+from engine.stepping.memory_fields import Fields
+from engine.model.expressions import Expression
+from engine.loop.responses import open_loop
+from engine.design.tableau import tableau
+from engine.design.problem import Problem
 
 
 @dataclass(frozen=True)

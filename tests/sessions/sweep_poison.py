@@ -1,11 +1,11 @@
-"""A stand-in for `sessions.sweep_jobs.run_batch` whose run of job `POISON` kills
+"""A stand-in for `sessions.sweeps.jobs.run_batch` whose run of job `POISON` kills
 its worker process (imported by the workers of tests/sessions/test_sweep_batches.py)."""
 
 from __future__ import annotations
 
 import os
 
-from sessions.sweep_jobs import run_batch
+from sessions.sweeps.jobs import run_batch
 
 POISON = 5
 

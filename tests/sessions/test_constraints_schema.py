@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sessions.constraints import check_constraint_line
+from sessions.format.constraint_lines import check_constraint_line
 from sessions.errors import SessionError
-from sessions.limits import MAX_CONSTRAINTS
-from sessions.schema import ProblemModel
+from sessions.format.limits import MAX_CONSTRAINTS
+from sessions.format.schema import ProblemModel
 from sessions.store import load_session
 from sessions.runner import run_session
 

@@ -1,5 +1,5 @@
 """`loopcraft export --to python`: the exported script, run by python-control,
-gives loopcraft's own margins (engine/margins.py) of the same iteration.
+gives loopcraft's own margins (engine/margins/search.py) of the same iteration.
 
 Bundled examples exported and run: every rational one.  Skipped, and why:
 cip_dual_channel, cip_launch_vehicle, seidel_inlet_* (tabulated plants:
@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.loops import loop_model, open_loop
-from engine.margins import margins
-from engine.realization import poles, stability
-from engine.zpk import closed_loop_realization
+from engine.loop.responses import loop_model, open_loop
+from engine.margins.search import margins
+from engine.loop.realization import poles, stability
+from engine.loop.pole_zero import closed_loop_realization
 from sessions.runner import run_session
 from sessions.store import load_session, save_session
 from tui.cli import main

@@ -1,4 +1,4 @@
-"""Round trips of the edit dialogs' text forms (`sessions.forms`): every value
+"""Round trips of the edit dialogs' text forms (`sessions.forms.one_line`): every value
 reads back from its text exactly, texts settle after one parse, and malformed
 text raises FormError saying what is expected."""
 
@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sessions import forms
-from sessions.forms import FormError
-from sessions.schema import BandModel, PointModel, ResponseModel, SegmentModel
+from sessions.forms import one_line as forms
+from sessions.forms.one_line import FormError
+from sessions.format.schema import BandModel, PointModel, ResponseModel, SegmentModel
 
 FORMS = settings(max_examples=100, deadline=None, database=None)  # modest: the file runs in seconds
 

@@ -9,7 +9,7 @@ import pytest
 import control
 from scipy.io import savemat
 
-from engine.loops import open_loop
+from engine.loop.responses import open_loop
 from sessions.store import load_session
 from tui.cli import main
 

@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from engine.algorithm import StepRecord
+from engine.stepping.protocol import StepRecord
 from engine.errors import EngineError
 from sessions.errors import SessionError
 from sessions.runner import run_session

@@ -10,7 +10,7 @@ import shutil
 from pathlib import Path
 
 from sessions.runner import run_session
-from sessions.session_json import _MARKER, _RECORD_TEXTS, _plain, dumps
+from sessions.format.json_text import _MARKER, _RECORD_TEXTS, _plain, dumps
 from sessions.store import load_session, parse_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

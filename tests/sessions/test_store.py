@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import sessions.store as store
-from engine.algorithm import State, iterate, lookup, make_settings
+from engine.stepping.protocol import State, iterate, lookup, make_settings
 from sessions.errors import SessionError
-from sessions.jsonschema import SCHEMA_FILE, schema_text
+from sessions.format.json_schema import SCHEMA_FILE, schema_text
 from sessions.runner import replay, run_session
 from sessions.store import autosave_candidate, autosave_path, dumps, load_session, save_session
 
@@ -47,7 +47,7 @@ def test_saving_elsewhere_keeps_csv_tables_reachable(tmp_path):
 
 
 def test_json_schema_file_is_current():
-    assert SCHEMA_FILE.read_text() == schema_text(), "run: python -m sessions.jsonschema"
+    assert SCHEMA_FILE.read_text() == schema_text(), "run: python -m sessions.format.json_schema"
 
 
 @pytest.mark.parametrize("change, message", [

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from sessions.store import load_session
-from sessions.sweep_jobs import _gather, batch_size, execute_serial
-from sessions.sweeps import start_jobs
+from sessions.sweeps.jobs import _gather, batch_size, execute_serial
+from sessions.sweeps.plan import start_jobs
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
@@ -29,7 +29,7 @@ def test_batch_size(each, count, workers, size):
 def client():
     from distributed import Client
 
-    from sessions.sweep_cluster import close, local_cluster
+    from sessions.sweeps.cluster import close, local_cluster
     cluster = local_cluster(2)
     client = Client(cluster)
     yield client
@@ -64,7 +64,7 @@ def test_a_run_that_kills_its_worker_does_not_take_its_batch_with_it(tmp_path):
     import dask
     from distributed import Client
 
-    from sessions.sweep_cluster import close, local_cluster
+    from sessions.sweeps.cluster import close, local_cluster
 
     from tests.sessions.sweep_poison import POISON, poisoned
     jobs = _jobs(tmp_path, 8)
@@ -95,7 +95,7 @@ class _Job:
 def test_a_short_first_run_is_timed_again_on_the_second(monkeypatch, first, timed):
     """The first run pays for the imports made on first use (0.4-0.8 s against 5-9 ms
     for a tolerance run of the lag-lead loop): a second is timed when the first was short."""
-    import sessions.sweep_jobs as sweep_jobs
+    import sessions.sweeps.jobs as sweep_jobs
     seconds = iter([first] + [0.004] * 1000)
     monkeypatch.setattr(sweep_jobs, "run_job", lambda payload: {"index": payload["index"], "seconds": next(seconds)})
     here, each, serial = sweep_jobs._first_here([_Job(k) for k in range(1000)], None)

@@ -21,10 +21,10 @@ import pytest
 
 from sessions.errors import SessionError
 from sessions.store import load_session
-from sessions.sweep_cluster import scheduler_address
-from sessions.sweep_jobs import SECOND_TIMING, Outcome, execute, execute_serial
-from sessions.sweep_results import record_sweep, summarize
-from sessions.sweeps import parse_sweep, start_jobs
+from sessions.sweeps.cluster import scheduler_address
+from sessions.sweeps.jobs import SECOND_TIMING, Outcome, execute, execute_serial
+from sessions.sweeps.results import record_sweep, summarize
+from sessions.sweeps.plan import parse_sweep, start_jobs
 from tui.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -174,7 +174,7 @@ def _worker_view() -> dict:
     import dask
     return {"profile": dask.config.get("distributed.worker.profile.enabled"),
             "preload": list(dask.config.get("distributed.worker.preload")),
-            "warm": "engine.slp" in sys.modules and "sessions.sweep_jobs" in sys.modules,
+            "warm": "engine.slp" in sys.modules and "sessions.sweeps.jobs" in sys.modules,
             "environ": {name: os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_", "OPENBLAS_NUM_THREADS")}}
 
 
@@ -187,7 +187,7 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(mo
     import dask
     from distributed import Client
 
-    from sessions.sweep_cluster import local_cluster
+    from sessions.sweeps.cluster import local_cluster
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with dask.config.set({"distributed.worker.preload": ["json"]}):
         cluster = local_cluster(1)
@@ -196,7 +196,7 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(mo
             (seen,) = client.run(_worker_view).values()
     finally:
         cluster.close()
-    assert seen == {"profile": False, "preload": ["json", "sessions.sweep_worker"], "warm": True,
+    assert seen == {"profile": False, "preload": ["json", "sessions.sweeps.worker_preload"], "warm": True,
                     "environ": {"MALLOC_TRIM_THRESHOLD_": None, "OPENBLAS_NUM_THREADS": "1"}}
     with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 1 << 20}):
         cluster = local_cluster(1)   # a threshold configured on purpose is kept

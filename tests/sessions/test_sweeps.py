@@ -19,9 +19,9 @@ import pytest
 
 from sessions.errors import SessionError
 from sessions.store import load_session
-from sessions.sweep_jobs import loop_signature, run_job
-from sessions.sweep_results import optima, worst_case
-from sessions.sweeps import Job, shippable, start_jobs, tolerance_jobs, vary_jobs
+from sessions.sweeps.jobs import loop_signature, run_job
+from sessions.sweeps.results import optima, worst_case
+from sessions.sweeps.plan import Job, shippable, start_jobs, tolerance_jobs, vary_jobs
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

@@ -16,7 +16,7 @@ from sessions import build
 from sessions.build import OutsideTable, build_problem, outside_tables_allowed, read_csv, table_path
 from sessions.errors import SessionError
 from sessions.store import load_session
-from sessions.sweeps import shippable
+from sessions.sweeps.plan import shippable
 from tui.cli import main
 
 INLET = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"
@@ -69,7 +69,7 @@ def test_a_table_outside_the_folder_is_refused_unless_allowed(matching_dict, tmp
 
 
 def load_session_model(path: Path):
-    from sessions.schema import SessionModel
+    from sessions.format.schema import SessionModel
     return SessionModel.model_validate(json.loads(path.read_text()))
 
 

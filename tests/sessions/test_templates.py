@@ -1,4 +1,4 @@
-"""`sessions.templates.new_session`: every structure gives a session that loads,
+"""`sessions.new.templates.new_session`: every structure gives a session that loads,
 with bounded positive time constants and gains, PM >= 45 deg and GM >= 6 dB."""
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ import control
 import numpy as np
 import pytest
 
-from engine.loops import open_loop
+from engine.loop.responses import open_loop
 from sessions.errors import SessionError
 from sessions.runner import run_session
 from sessions.store import parse_session
-from sessions.templates import STRUCTURES, new_session
+from sessions.new.templates import STRUCTURES, new_session
 
 PLANT = "16000/(s*(s+8)*(s+20))"
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from hypothesis import given, settings, strategies as st
 
-from sessions.schema import (ControllerBlock, ControllerFactorModel, DelayBlock, FactoredBlock, FactorModel,
+from sessions.format.schema import (ControllerBlock, ControllerFactorModel, DelayBlock, FactoredBlock, FactorModel,
                              PolynomialBlock)
-from sessions.transfer_forms import format_transfer, parse_transfer, quote_name, split_names
+from sessions.forms.transfers import format_transfer, parse_transfer, quote_name, split_names
 
 numbers = st.floats(min_value=-1e12, max_value=1e12, allow_nan=False).filter(lambda v: abs(v) > 1e-300 or v == 0)
 names = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,6}", fullmatch=True).filter(

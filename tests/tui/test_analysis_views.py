@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from sessions.store import load_session
-from tui.analysis_views import locus_figure, poles_figure, sensitivity_figure
+from tui.figures.closed_loop import locus_figure, poles_figure, sensitivity_figure
 from tui.app import LoopcraftApp
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 
 from tests.tui.test_app import settle, synchronous
 
@@ -56,7 +56,7 @@ async def test_the_views_are_plot_tabs_and_the_locus_is_computed_when_shown(work
 
 
 def test_m_circles_and_the_exclusion_disk_are_what_they_say():
-    from tui.widgets.loop_figures import m_circle, nyquist_figure
+    from tui.figures.open_loop import m_circle, nyquist_figure
     for m_db in (0.5, 3.0, 6.0):
         phase, db = m_circle(m_db)
         L = 10 ** (db / 20) * np.exp(1j * np.radians(phase))
@@ -68,7 +68,7 @@ def test_m_circles_and_the_exclusion_disk_are_what_they_say():
 
 
 def test_the_run_tab_lists_the_closed_loop_poles_with_zeta_and_wn(workdir):
-    from tui.analysis_views import pole_lines
+    from tui.figures.closed_loop import pole_lines
     view = Workbench(load_session(workdir / "report003_lag_lead.json")).view()
     den = np.polymul(np.polymul([1, 0.1], [1, 50]), np.polymul([1, 0], np.polymul([1, 8], [1, 20])))
     roots = np.roots(np.polyadd(den, 16000 * np.polymul([1, 1], [1, 5])))
@@ -84,7 +84,7 @@ async def test_the_pole_lines_are_made_off_the_ui_thread_and_shown_for_each_step
     """A launch vehicle's pole lines take 25 ms: the run's worker or a thread worker makes them."""
     import threading
 
-    import tui.analysis_views as views
+    import tui.figures.closed_loop as views
     threads, lines = [], views.pole_lines
 
     def watched(view):
@@ -108,7 +108,7 @@ async def test_the_pole_lines_are_made_off_the_ui_thread_and_shown_for_each_step
 async def test_the_pole_lines_come_with_a_sweep_kept_in_the_session(workdir):
     """The views' key holds the latest sweep's identity: the same while it is the same sweep
     (its JSON data was made anew for every view, and the pole lines never matched)."""
-    from sessions.schema import SweepModel
+    from sessions.format.schema import SweepModel
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)

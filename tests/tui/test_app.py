@@ -9,7 +9,7 @@ import time
 
 from engine.errors import EngineError
 from tui.app import LoopcraftApp
-from tui.edits_fields import objective_rows
+from tui.state.field_edits import objective_rows
 from tui.screens.main import MainScreen
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from tui.app import LoopcraftApp
-from tui.edits_fields import objective_rows
+from tui.state.field_edits import objective_rows
 
 from tests.tui.test_app import select_row, settle, synchronous
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.expressions import Expression
+from engine.model.expressions import Expression
 from tui.app import LoopcraftApp
-from tui.copying import with_values
+from tui.state.clipboard import with_values
 
 from tests.tui.test_app import select_row, settle, synchronous
 

@@ -9,8 +9,8 @@ import threading
 import numpy as np
 import pytest
 
-from engine.loops import loop_model
-from engine.sensitivity import sensitivity_peak
+from engine.loop.responses import loop_model
+from engine.margins.peaks import sensitivity_peak
 from tui.app import LoopcraftApp
 
 from tests.tui.test_app import select_row, settle, synchronous
@@ -121,7 +121,7 @@ async def test_marked_pole_zero_maps_nichols_and_the_cursor(workdir):
 
 @synchronous
 async def test_the_locus_of_an_earlier_iteration_is_computed_off_the_ui_thread(workdir, monkeypatch):
-    import tui.history_figures as history_figures
+    import tui.figures.history as history_figures
     threads = []
     original = history_figures.locus_figure
 

@@ -1,4 +1,4 @@
-"""The Plant tab's grid of a matrix plant (tui.matrix_grid): headers, one row per
+"""The Plant tab's grid of a matrix plant (tui.state.matrix_grid): headers, one row per
 equation, each cell's entry index; pure data, no Textual."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from sessions.schema import MatrixModel
+from sessions.format.schema import MatrixModel
 from sessions.store import load_session
-from tui.matrix_grid import matrix_grid
+from tui.state.matrix_grid import matrix_grid
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
@@ -57,7 +57,7 @@ def test_the_launch_vehicle_shows_every_entry_once():
 
 
 def test_the_module_imports_no_textual():
-    code = "import sys, tui.matrix_grid; sys.exit('textual' in sys.modules)"
+    code = "import sys, tui.state.matrix_grid; sys.exit('textual' in sys.modules)"
     assert subprocess.run([sys.executable, "-c", code], cwd=EXAMPLES.parents[1], timeout=60).returncode == 0
 
 

@@ -56,7 +56,7 @@ def test_a_csv_preview_of_a_fifo_or_a_huge_file_is_refused_not_waited_on(tmp_pat
 
     import pytest
 
-    from tui.edits_fields import csv_preview
+    from tui.state.field_edits import csv_preview
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
     with pytest.raises(ValueError, match="pipe.csv"):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from engine.present import number
+from engine.stepping.presenter import number
 from tui.app import LoopcraftApp
 
 from tests.tui.test_app import select_row, settle, synchronous

@@ -32,7 +32,7 @@ def test_values_near_the_float_limits_draw():
 
 
 def test_a_time_axis_over_an_overflowing_span_still_has_a_step():
-    from tui.widgets.trajectories import _step
+    from tui.figures.trajectories import _step
     assert _step(float("inf"), 5) == 1.0 and _step(10.0, 5) == 2.0
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from tui.app import LoopcraftApp
-from tui.widgets.navigation import log_ticks
+from tui.figures.navigation import log_ticks
 
 from tests.tui.test_app import settle, synchronous
 

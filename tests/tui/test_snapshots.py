@@ -9,7 +9,7 @@ from textual.app import App, ComposeResult
 from sessions.store import load_session
 from tui.app import LoopcraftApp
 from tui.widgets.plots import FigurePlot, trajectories_figure
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 
 SIZES = [(100, 32), (80, 24)]
 

@@ -6,9 +6,9 @@ import control as ct
 import numpy as np
 
 from sessions.store import load_session
-from tui.step_view import StepSetup, parse_step_setup
+from tui.state.step_view import StepSetup, parse_step_setup
 from tui.widgets.plots import step_figure
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 
 from tests.tui.test_app import settle, synchronous
 

@@ -3,7 +3,7 @@ choosing an algorithm says what it will refuse or ignore."""
 
 from __future__ import annotations
 
-from engine.measure_kinds import MEASURE_KINDS
+from engine.design.measure_kinds import MEASURE_KINDS
 from sessions.target_use import target_note, unusable_targets
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ChooseDialog

@@ -11,8 +11,8 @@ import pytest
 
 from sessions.store import load_session
 from tui.widgets.plots import COMPACT_ROWS, FigurePlot, trajectories_figure
-from tui.widgets.trajectories import axis, short, time_ticks
-from tui.workbench import Workbench
+from tui.figures.trajectories import axis, short, time_ticks
+from tui.state.workbench import Workbench
 
 
 def stepped(workdir, name: str, steps: int) -> Workbench:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from sessions.store import load_session
 from tui.app import LoopcraftApp
-from tui.edit_history import describe_change
-from tui.workbench import Workbench
+from tui.state.edit_history import describe_change
+from tui.state.workbench import Workbench
 
 from tests.tui.test_app import edit_row, settle, status, synchronous
 

@@ -6,7 +6,7 @@ import control as ct
 import numpy as np
 
 from sessions.store import load_session
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 
 
 def test_step_response_matches_python_control(workdir):
@@ -36,7 +36,7 @@ def test_loop_curve_is_the_open_loop_and_undo_restores_parameters(workdir):
 
 def test_a_time_response_is_edited_as_one_line(workdir):
     """The wind profile of the launch vehicle's peak angle of attack, read and rewritten."""
-    from tui.edits_fields import target_edit
+    from tui.state.field_edits import target_edit
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     edit = target_edit(bench, ("targets", 5), "response")
     assert edit.text == "alpha_w alpha 10 201; ramp 0 0.05; ramp 2 -0.05; reference 0"
@@ -48,8 +48,8 @@ def test_a_time_response_is_edited_as_one_line(workdir):
 
 
 def test_junction_signs_and_the_break_point_are_edited(workdir):
-    from tui.edits import plant_edit
-    from tui.plant_rows import plant_rows
+    from tui.state.edits import plant_edit
+    from tui.state.plant_rows import plant_rows
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     refs = [ref for _, ref in plant_rows(bench.session.model.problem)]
     junction = plant_edit(bench, refs[2])    # rows: compensator, plant, the junction, the break point
@@ -69,8 +69,8 @@ def test_junction_signs_and_the_break_point_are_edited(workdir):
 
 
 def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workdir):
-    from tui.edits import copy_condition, delete_condition
-    from tui.edits_fields import parameter_edit
+    from tui.state.edits import copy_condition, delete_condition
+    from tui.state.field_edits import parameter_edit
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     copy_condition(bench, ("conditions", 1, "break_at"), "max-q hot")   # a row of the max-q condition
     problem = bench.session.problem
@@ -86,7 +86,7 @@ def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workd
 
 
 def test_shared_and_per_condition_toggle(workdir):
-    from tui.edits_fields import toggle_per_condition
+    from tui.state.field_edits import toggle_per_condition
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     names = [p.name for p in bench.session.model.problem.parameters]
     toggle_per_condition(bench, ("parameters", names.index("TA")))
@@ -110,8 +110,8 @@ def test_matrix_entries_are_deleted_and_added(workdir):
     path.write_text(json.dumps(doc))
     bench = Workbench(load_session(path))
     before = bench.view().loop_curve().gh
-    from tui.edits import add_to_plant, delete_item
-    from tui.plant_rows import plant_rows
+    from tui.state.edits import add_to_plant, delete_item
+    from tui.state.plant_rows import plant_rows
     refs = [ref for _, ref in plant_rows(bench.session.model.problem)]
     assert delete_item(bench, refs[5]) == "matrix entry a[3,2]"
     add_to_plant(bench, refs[0], "3 2 -16000/(s*(s+8)*(s+20))")
@@ -121,7 +121,7 @@ def test_matrix_entries_are_deleted_and_added(workdir):
 def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdir):
     """Per-condition gains (KD, KR, KL differ by flight condition after a step) must
     reach each condition's curve; `v` cycles all -> each alone -> all."""
-    from engine.loops import open_loop
+    from engine.loop.responses import open_loop
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     bench.step()
     problem, record = bench.session.problem, bench.records[-1]
@@ -147,7 +147,7 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
 
 def test_bode_plots_mark_the_margins_of_report_003(workdir):
     """Report 003 chapter 1, lag-lead compensated: PM 52.13 deg at 12.06 rad/s, GM 14.11 dB."""
-    from tui.widgets.loop_figures import bode_figures
+    from tui.figures.open_loop import bode_figures
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     magnitude, phase = bode_figures(bench.view().loop_curves(), "rad/s")
     marks = {s.label: s for s in magnitude.series if s.scatter}
@@ -161,7 +161,7 @@ def test_bode_plots_mark_the_margins_of_report_003(workdir):
 
 
 def test_the_convergence_starts_at_iteration_0_and_names_are_whole(workdir):
-    from tui.tableau import tableau_text
+    from tui.state.tableau_text import tableau_text
     bench = Workbench(load_session(workdir / "seidel_inlet_pi.json"))
     bench.step()
     label, iterations, values = bench.view().convergence()
@@ -176,7 +176,7 @@ def test_a_run_keeps_the_json_its_worker_made(workdir):
     thread does not; the session keeps exactly what `commit` would have made."""
     import json
 
-    from tui.workbench import stored_json
+    from tui.state.workbench import stored_json
     own, given = (Workbench(load_session(workdir / "cip_launch_vehicle.json")) for _ in range(2))
     for _ in range(3):
         algorithm, state = given.begin_run()

@@ -29,13 +29,13 @@ from typing import Any
 from textual import work
 from textual.message import Message
 
-from engine.algorithm import State, StepRecord
+from engine.stepping.protocol import State, StepRecord
 from sessions.errors import SessionError
 
-from tui.analysis_views import pole_text
-from tui.figures import figure_key, figures
-from tui.views import View
-from tui.workbench import stored_json
+from tui.figures.closed_loop import pole_text
+from tui.figures.catalog import figure_key, figures
+from tui.state.views import View
+from tui.state.workbench import stored_json
 from tui.widgets.plots import FigurePlot
 
 REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)

@@ -7,7 +7,7 @@ from __future__ import annotations
 from textual import work
 
 from sessions.errors import SessionError
-from sessions.sweeps import parse_sweep
+from sessions.sweeps.plan import parse_sweep
 
 SWEEP_PROMPT = ("sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance NAME=+-10% [samples N]; "
                 "end with 'at tcp://HOST:PORT' for a cluster")

@@ -14,7 +14,7 @@ from tui.cli.common import CliError, finite_or_none
 
 if TYPE_CHECKING:
     from engine.analysis import LoopAnalysis
-    from engine.root_locus import RootLocus
+    from engine.closed_loop.root_locus import RootLocus
 
 
 def _pair(z: complex) -> list[float]:
@@ -174,7 +174,7 @@ def _table_loop(args: argparse.Namespace):
 
     from engine.analysis import unity_feedback
     from sessions.build import _table
-    from sessions.schema import TableModel
+    from sessions.format.schema import TableModel
     path = Path(args.table)
     try:
         model = TableModel(unit=args.unit, form=args.form, gain=args.gain, csv=path.name, columns=args.columns)
@@ -234,7 +234,7 @@ def _locus(args: argparse.Namespace, network, params: dict[str, float]):
     """The root locus --locus asks for (None without it)."""
     if args.locus is None:
         return None
-    from engine.root_locus import root_locus
+    from engine.closed_loop.root_locus import root_locus
     return root_locus(network, "e", params, args.locus, None if args.locus_range is None else tuple(args.locus_range),
                       args.locus_points)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from engine.algorithm import MeasureRow, StepRecord
+    from engine.stepping.protocol import MeasureRow, StepRecord
     from sessions.store import Session
 
 

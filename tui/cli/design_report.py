@@ -1,5 +1,5 @@
 """`loopcraft report FILE --format html|md --out DIR`: the design report
-(sessions.report_content, report_render); the text, JSON and CSV formats
+(sessions.report.content, report_render); the text, JSON and CSV formats
 stay in session_commands."""
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ FORMATS = ("html", "md")
 
 def cmd_design_report(args: argparse.Namespace) -> int:
     """Write DIR/NAME.html (self-contained) or DIR/NAME.md with its PNGs."""
-    from sessions.report_content import report_blocks
-    from sessions.report_render import write_report
+    from sessions.report.content import report_blocks
+    from sessions.report.render import write_report
     folder = Path(args.out) if args.out else Path(args.file).resolve().parent
     if folder.exists() and not folder.is_dir():
         raise CliError(f"--out {args.out}: not a folder")

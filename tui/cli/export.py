@@ -8,13 +8,13 @@ import math
 import sys
 from pathlib import Path
 
-from sessions.exports import SUFFIX
+from sessions.export.formats import SUFFIX
 
 from tui.cli.common import CliError, load
 
 def export_text(file: str, iteration: int | None, to: str, sample_time: float | None) -> str:
     """The exported text of a session's design at an iteration (default: its last)."""
-    from sessions.exports import export_text as text_of
+    from sessions.export.formats import export_text as text_of
     return text_of(load(file), iteration, to, sample_time)
 
 
@@ -44,7 +44,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         sys.stdout.write(text)
         return 0
     try:
-        from sessions.savefile import write_atomic
+        from sessions.format.save_file import write_atomic
         write_atomic(target, text.encode("utf-8"))
     except OSError as exc:
         raise CliError(f"--out {target}: cannot write: {exc.strerror or exc}") from None

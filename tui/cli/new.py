@@ -1,5 +1,5 @@
 """`loopcraft new`: a new session from a plant (an expression, or a .mat/.npz
-file) and a compensator structure (sessions.templates, sessions.importers)."""
+file) and a compensator structure (sessions.new.templates, sessions.new.importers)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from tui.cli.common import CliError
 def cmd_new(args: argparse.Namespace) -> int:
     """Create FILE.json (refusing to overwrite one unless --force)."""
     from sessions.store import parse_session, save_session
-    from sessions.templates import new_session
+    from sessions.new.templates import new_session
     target = Path(args.file)
     if target.suffix != ".json":
         raise CliError(f"{args.file}: a session file ends in .json")
@@ -26,7 +26,7 @@ def cmd_new(args: argparse.Namespace) -> int:
         raise CliError("give --plant EXPR or --plant-file F.mat|F.npz (one of them)")
     grid, table = None, None
     if args.plant_file is not None:
-        from sessions.importers import read_plant_file
+        from sessions.new.importers import read_plant_file
         imported = read_plant_file(args.plant_file, target)
         plant, grid, table = imported.plant, imported.grid, imported
         notes = f"A new session: the plant is the {imported.description}."
@@ -44,7 +44,7 @@ def cmd_new(args: argparse.Namespace) -> int:
 
 def _write(path: Path, text: str) -> None:
     try:
-        from sessions.savefile import write_atomic
+        from sessions.format.save_file import write_atomic
         write_atomic(path, text.encode("utf-8"))
     except OSError as exc:
         raise CliError(f"{path}: cannot write the plant's table: {exc.strerror or exc}") from None
@@ -52,7 +52,7 @@ def _write(path: Path, text: str) -> None:
 
 def add_parser(sub) -> None:
     """The new subcommand and its options."""
-    from sessions.templates import ALGORITHMS, STRUCTURES
+    from sessions.new.templates import ALGORITHMS, STRUCTURES
     p = sub.add_parser("new", help="a new session: unity feedback, a compensator structure, PM/GM targets")
     p.add_argument("file", metavar="FILE.json")
     p.add_argument("--plant", metavar="EXPR", help="the plant, an expression in s (or w): numbers only")

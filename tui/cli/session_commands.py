@@ -18,8 +18,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Step the session's algorithm and save the records."""
-    from engine.algorithm import StepRecord
-    from engine.present import tableau_text
+    from engine.stepping.protocol import StepRecord
+    from engine.stepping.presenter import tableau_text
     from sessions.lifecycle import adopt_current, switch_algorithm
     from sessions.runner import run_session, set_setting
     from sessions.store import prepare_save, save_session
@@ -85,7 +85,7 @@ def cmd_report(args: argparse.Namespace) -> int:
             writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied,
                              r.method or ""])
     else:
-        from engine.present import tableau_text, tolerant
+        from engine.stepping.presenter import tableau_text, tolerant
         from sessions.lifecycle import registration
         presenter = registration(session).presenter
 
@@ -99,7 +99,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_tradeoff(args: argparse.Namespace) -> int:
     """Report 001's penalty sweep: one optimized design per penalty value."""
-    from engine.algorithm import make_settings
+    from engine.stepping.protocol import make_settings
     from engine.errors import EngineError
     from engine.qcg import Qcg
     from engine.qcg.tradeoff import penalty_sweep

@@ -43,7 +43,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finished runs (exit status 130); a session that cannot be saved leaves the summary
     in NAME.sweep-recovery.json."""
     from sessions.store import load_session, prepare_save
-    from sessions.sweep_cluster import connect_timeout, scheduler_address, sigint_ignored
+    from sessions.sweeps.cluster import connect_timeout, scheduler_address, sigint_ignored
     address = scheduler_address(args.scheduler)
     timeout = connect_timeout(args.connect_timeout)
     target = Path(args.out or args.file)
@@ -60,8 +60,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def _run(args: argparse.Namespace, session, address: str | None, timeout: float):
     """Plan the sweep and run its jobs: (kind, settings, outcome)."""
-    from sessions.sweep_jobs import execute, execute_serial
-    from sessions.sweeps import plan
+    from sessions.sweeps.jobs import execute, execute_serial
+    from sessions.sweeps.plan import plan
     kind, value = (("starts", args.starts) if args.starts is not None else ("vary", args.vary)
                    if args.vary is not None else ("tolerance", args.tolerance))
     jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
@@ -78,7 +78,7 @@ def _run(args: argparse.Namespace, session, address: str | None, timeout: float)
 
 def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome, target: Path) -> int:
     """Keep the sweep in the session (or in a recovery file), print it; the exit status."""
-    from sessions.sweep_results import record_sweep, summarize
+    from sessions.sweeps.results import record_sweep, summarize
     summary = summarize(session, kind, settings, outcome)
     record_sweep(session, summary)
     adopt_error = _adopt_best(session, summary) if args.adopt_best and not outcome.interrupted else None
@@ -97,7 +97,7 @@ def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome,
 def _adopt_best(session, summary: dict) -> str | None:
     """--adopt-best: the best optimum's best run becomes the start; why not, if it cannot."""
     from sessions.errors import SessionError
-    from sessions.sweep_results import adopt_run
+    from sessions.sweeps.results import adopt_run
     if not summary["optima"]:
         return "--adopt-best: no run finished"
     try:
@@ -112,7 +112,7 @@ def _save(session, summary: dict, target: Path) -> tuple[Path | None, bool]:
     Where the sweep is kept (None: only in the output printed), and whether in the session."""
     from sessions.errors import SessionError
     from sessions.store import save_session
-    from sessions.sweep_results import write_recovery
+    from sessions.sweeps.results import write_recovery
     try:
         return save_session(session, target), True
     except (SessionError, OSError, ValueError) as exc:

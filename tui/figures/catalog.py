@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from collections.abc import Collection
 
-from tui.analysis_views import poles_figure, sensitivity_figure
-from tui.views import View
-from tui.widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
+from tui.figures.closed_loop import poles_figure, sensitivity_figure
+from tui.state.views import View
+from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
 from tui.widgets.plots import Figure, line_figure, step_figure, sweep_figure, trajectories_figure
 
 

@@ -16,12 +16,12 @@ import math
 import numpy as np
 
 from engine.errors import EngineError
-from engine.loops import loop_model
-from engine.sensitivity import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
+from engine.loop.responses import loop_model
+from engine.margins.peaks import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
                                 transfer_evaluator)
 
-from tui.views import CONDITION_COLORS, INITIAL_COLOR
-from tui.widgets.navigation import Probe
+from tui.state.views import CONDITION_COLORS, INITIAL_COLOR
+from tui.figures.navigation import Probe
 from tui.widgets.plots import Figure, Series, _decades, _finite
 
 LOCUS_POINTS = 2000   # the engine's default bound
@@ -145,7 +145,7 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
     c = _rational(view, designs[0][1]) if designs else None
     if c is None:
         return fig
-    from engine.root_locus import pole_zero_map   # scipy.optimize, on first use
+    from engine.closed_loop.root_locus import pole_zero_map   # scipy.optimize, on first use
     shown = []
     for n, (at, k, label, _) in enumerate(designs):
         try:
@@ -212,7 +212,7 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     c = _rational(view, k)
     if c is None:
         return fig
-    from engine.root_locus import root_locus
+    from engine.closed_loop.root_locus import root_locus
     try:
         points = LOCUS_POINTS if parameter == "gain" else PARAMETER_LOCUS_POINTS
         locus = root_locus(c.network, c.break_at, view.parameters(iteration, k), parameter, max_points=points,
@@ -292,15 +292,15 @@ def pole_text(view) -> str:
     """`pole_lines` when the view's presenter shows poles, never raising ('' then)."""
     if "poles" not in view.presenter.plots:
         return ""
-    from engine.present import tolerant
+    from engine.stepping.presenter import tolerant
     return tolerant(lambda: pole_lines(view), lambda: "")
 
 
 def pole_lines(view) -> str:
     """The current design's closed-loop poles of the first plotted condition (a conjugate pair
     once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""
-    from engine.polish import polish
-    from engine.realization import poles
+    from engine.closed_loop.poles import polish
+    from engine.loop.realization import poles
     k = view.plotted()[0] if view.plotted() else 0
     c = _rational(view, k)
     ss = view.step_loop(k) if c is not None else None

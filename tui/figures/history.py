@@ -10,13 +10,13 @@ from __future__ import annotations
 from dataclasses import replace
 
 from engine.errors import EngineError
-from engine.loops import loop_model
-from engine.margins import margins
+from engine.loop.responses import loop_model
+from engine.margins.search import margins
 
-from tui.analysis_views import Design, locus_figure, poles_figure, sensitivity_figure
-from tui.figures import applicable, disk, points, radius
-from tui.views import INITIAL_COLOR, LoopCurve, View
-from tui.widgets.loop_figures import bode_figures, nichols_figure, nyquist_figure
+from tui.figures.closed_loop import Design, locus_figure, poles_figure, sensitivity_figure
+from tui.figures.catalog import applicable, disk, points, radius
+from tui.state.views import INITIAL_COLOR, LoopCurve, View
+from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
 from tui.widgets.plots import Figure, step_figure
 
 # the views, in the order o (or p) cycles them: title, and the presenter's plot each needs

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from tui.widgets.figure import Figure, Series
+from tui.figures.data import Figure, Series
 
 Box = tuple[float, float, float, float]   # x0, x1, y0, y1
 ZOOM = 1.5

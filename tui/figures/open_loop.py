@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from tui.widgets.navigation import loop_probe
+from tui.figures.navigation import loop_probe
 from tui.widgets.plots import Figure, Series, _decades, _finite
 
 M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)   # |T| contours on the Nichols chart

@@ -9,8 +9,8 @@ from typing import Any
 
 from sessions.errors import SessionError
 
-from tui.edit_history import Snapshot
-from tui.edits import Check, Edit
+from tui.state.edit_history import Snapshot
+from tui.state.edits import Check, Edit
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog
 
 

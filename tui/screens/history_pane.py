@@ -1,5 +1,5 @@
 """The History tab: every iteration; the selected one's design in one view
-(`tui.history_figures`: Nyquist, Bode, phase, Nichols, S/T, poles, locus,
+(`tui.figures.history`: Nyquist, Bode, phase, Nichols, S/T, poles, locus,
 step) beside the marked iteration or the current design, and its tableau (or
 its measures against the marked one's).
 
@@ -21,13 +21,13 @@ from textual.message import Message
 from textual.widget import Widget
 from textual.widgets import DataTable
 
-from engine.present import number, tolerant
+from engine.stepping.presenter import number, tolerant
 from sessions.compare import compare, comparison_text, side
 
-from tui.history_figures import TITLES, VIEWS, figure_key, history_figure, history_views, name
+from tui.figures.history import TITLES, VIEWS, figure_key, history_figure, history_views, name
 from tui.keys import identified
-from tui.tableau import tableau_text
-from tui.views import View
+from tui.state.tableau_text import tableau_text
+from tui.state.views import View
 from tui.widgets.plots import Figure, FigurePlot
 from tui.widgets.tables import HistoryTable
 from tui.widgets.textview import TextView

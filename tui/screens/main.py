@@ -13,27 +13,27 @@ from textual.containers import Horizontal, Vertical, VerticalScroll
 from textual.screen import Screen
 from textual.widgets import DataTable, TabbedContent, TabPane
 
-from engine.algorithm import StepRecord
-from engine.present import Presenter, number, tolerant
+from engine.stepping.protocol import StepRecord
+from engine.stepping.presenter import Presenter, number, tolerant
 
-from tui.edits_fields import objective_rows
-from tui.figures import FIGURE_IDS, applicable, figure_key
+from tui.state.field_edits import objective_rows
+from tui.figures.catalog import FIGURE_IDS, applicable, figure_key
 from tui.keys import identified
-from tui.plant_rows import plant_rows
-from tui.tableau import tableau_text
-from tui.views import View
+from tui.state.plant_rows import plant_rows
+from tui.state.tableau_text import tableau_text
+from tui.state.views import View
 from tui.widgets.matrix_table import MatrixTable
-from tui.run_loop import drawings
-from tui.widgets.figure import Figure
+from tui.actions.run_loop import drawings
+from tui.figures.data import Figure
 from tui.widgets.footer import Footer
 from tui.widgets.plots import FigurePlot, sweep_figure
 from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 from tui.screens.history_pane import HistoryPane
 from tui.screens.pole_lines import PoleLines
 from tui.screens.view_actions import ViewActions
-from sessions import forms
+from sessions.forms import one_line as forms
 from sessions.target_use import target_note
 
 # the plot tabs, and the plots (figure ids) each shows

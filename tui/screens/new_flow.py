@@ -1,5 +1,5 @@
 """The new-session dialogs: which kind of session, then the plant and the
-compensator's structure (`sessions.templates`, `sessions.template_kinds`).
+compensator's structure (`sessions.new.templates`, `sessions.new.template_kinds`).
 
 A unity-feedback design from nothing is: ctrl+n (n on the start screen),
 enter, the plant expression, enter, the structure (down to lead), enter.
@@ -13,11 +13,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from sessions import template_kinds, templates
+from sessions.new import template_kinds
+
+from sessions.new import templates
 from sessions.build import read_csv
 from sessions.errors import SessionError
 
-from tui.edits_fields import csv_preview, table_transfer
+from tui.state.field_edits import csv_preview, table_transfer
 from tui.screens.dialogs import ChooseDialog, EditDialog
 
 PLANT_HINT = "an expression in s (or w), e.g. 10/(s*(s+1)*(s+5)); exp(-T*s) is a delay"

@@ -1,14 +1,14 @@
 """The closed-loop pole lines under the Run tab's tableau, made off the UI thread
 (a launch vehicle's take 25 ms; they were made on it five times per step): by
-the run's worker for the steps it shows (`tui.run_loop.Stepped`), else by a
+the run's worker for the steps it shows (`tui.actions.run_loop.Stepped`), else by a
 thread worker, the tableau drawn again when they come.  The lines of one view
 are kept, with the view (the ids in its `figure_key` stay taken)."""
 
 from __future__ import annotations
 
-from tui.analysis_views import pole_text
-from tui.figures import figure_key
-from tui.views import View
+from tui.figures.closed_loop import pole_text
+from tui.figures.catalog import figure_key
+from tui.state.views import View
 
 COMPUTING = "closed-loop poles: computing ..."
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from textual.widgets import DataTable, TabbedContent
 
-from tui.analysis_views import locus_figure
-from tui.copying import design_text, row_text
-from tui.step_view import format_step_setup, horizon, parse_step_setup
-from tui.views import View
+from tui.figures.closed_loop import locus_figure
+from tui.state.clipboard import design_text, row_text
+from tui.state.step_view import format_step_setup, horizon, parse_step_setup
+from tui.state.views import View
 from tui.widgets.plots import Figure, FigurePlot
 from tui.widgets.textview import TextView
 from tui.screens.dialogs import EditDialog

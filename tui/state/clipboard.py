@@ -6,9 +6,9 @@ from __future__ import annotations
 import re
 from collections.abc import Mapping, Sequence
 
-from sessions.transfer_forms import format_sub_compensator, format_transfer, transfer_names
+from sessions.forms.transfers import format_sub_compensator, format_transfer, transfer_names
 
-from tui.plant_rows import cascade_transfers
+from tui.state.plant_rows import cascade_transfers
 
 
 def row_text(cells: Sequence[object]) -> str:

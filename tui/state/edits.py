@@ -6,7 +6,7 @@ the problem model (``("targets", 2)``, ``("conditions", 0, "plant",
 changes the copy, builds the engine problem from it and, only when that
 builds, puts the copy in place and drops the records (`transaction`): a
 failed edit leaves the session exactly as it was, with no restore by hand.
-The text of every value goes through `sessions.forms` (parse/format pairs).
+The text of every value goes through `sessions.forms.one_line` (parse/format pairs).
 """
 
 from __future__ import annotations
@@ -16,13 +16,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.errors import EngineError
-from sessions import forms, transfer_forms
+from sessions.forms import one_line as forms
+from sessions.forms import transfers as transfer_forms
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import folder
-from sessions.schema import ProblemModel
+from sessions.format.schema import ProblemModel
 
-from tui.workbench import Workbench
+from tui.state.workbench import Workbench
 
 Ref = tuple[Any, ...]   # a path into the problem model: attribute names and list indices
 Check = Callable[[str], str | None]
@@ -201,7 +202,7 @@ def _set_signed(bench: Workbench, ref: Ref, text: str) -> None:
 def _expression_edit(bench: Workbench, path: Ref, title: str, variable: str) -> Edit:
     def parse(text: str) -> str:
         return forms.parse_expression(text, variable)
-    from engine.expressions import Expression
+    from engine.model.expressions import Expression
     edit = field_edit(bench, path, "expression", f"{title} (expression in {variable})", parse, str)
     return Edit(edit.title, edit.text, known_names(bench, parse, lambda text: set(Expression(text, variable).parameters)),
                 edit.apply)
@@ -242,7 +243,7 @@ def delete_condition(bench: Workbench, ref: Ref) -> str:
 def add_to_plant(bench: Workbench, ref: Ref, text: str) -> None:
     """A new block ('NAME INPUT OUTPUT EXPRESSION') in a diagram, or a new entry
     ('ROW COL EXPRESSION') of a matrix plant, in the row's condition."""
-    from sessions.schema import BlockModel, ExpressionBlock, MatrixEntry
+    from sessions.format.schema import BlockModel, ExpressionBlock, MatrixEntry
     condition = bench.session.model.problem.conditions[ref[1]]
     plant = ("conditions", ref[1], "plant")
     if condition.plant.format == "matrix":

@@ -1,21 +1,21 @@
 """Edits of parameters, targets, the objective's options, the algorithm's
 settings, and a block made a CSV table (with a preview); every one a
-transaction on a model path (`tui.edits`)."""
+transaction on a model path (`tui.state.edits`)."""
 
 from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
 
-from engine.algorithm import make_settings
+from engine.stepping.protocol import make_settings
 from engine.errors import EngineError
-from engine.measure_kinds import MEASURE_KINDS
-from sessions import forms
+from engine.design.measure_kinds import MEASURE_KINDS
+from sessions.forms import one_line as forms
 from sessions.errors import SessionError
 from sessions.lifecycle import folder, registration
 
-from tui.edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
-from tui.workbench import Workbench
+from tui.state.edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
+from tui.state.workbench import Workbench
 
 PARAMETER_FIELDS = [("value", "value (per condition: one for all, or one each: 1, 2, 3)"),
                     ("min", "lower bound (none: unbounded)"), ("max", "upper bound (none: unbounded)")]
@@ -76,7 +76,7 @@ def toggle_per_condition(bench: Workbench, ref: Ref) -> None:
 
 def add_parameter(bench: Workbench, text: str) -> None:
     """'NAME VALUE [MIN MAX]': a new shared parameter."""
-    from sessions.schema import ParameterModel
+    from sessions.format.schema import ParameterModel
     name, value, low, high = forms.parse_parameter(text)
     within_bounds(name, value, low, high)
     parameter = ParameterModel(name=name, value=value, min=low, max=high)
@@ -110,7 +110,7 @@ def target_edit(bench: Workbench, ref: Ref, field: str = "bands") -> Edit:
 def add_target(bench: Workbench, measure: str) -> None:
     """A new target of one measure kind with one band at its default desired value
     (time measures read the first input's step response of the last signal)."""
-    from sessions.schema import BandModel, ResponseModel, TargetModel
+    from sessions.format.schema import BandModel, ResponseModel, TargetModel
     kind = MEASURE_KINDS[measure]
     response = None
     if kind.domain == "time":
@@ -169,7 +169,7 @@ def objective_edit(bench: Workbench, ref: Ref) -> Edit:
 
 def constraint_check(bench: Workbench, index: int | None) -> Check:
     """The live check of a constraint line (linear in the parameters, met at their values)."""
-    from sessions.constraints import check_constraint_line
+    from sessions.format.constraint_lines import check_constraint_line
     from sessions.errors import SessionError as Refused
 
     def check(text: str) -> str | None:
@@ -183,7 +183,7 @@ def constraint_check(bench: Workbench, index: int | None) -> Check:
 
 def constraint_edit(bench: Workbench, index: int) -> Edit:
     """A linear inequality between parameters, e.g. T1 >= 4*T2."""
-    from tui.edits import replace_at
+    from tui.state.edits import replace_at
     current = bench.session.model.problem.constraints[index]
     return Edit(f"constraint {index + 1}: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2", current,
                 constraint_check(bench, index), lambda text: replace_at(bench, ("constraints", index), text.strip()))
@@ -280,7 +280,7 @@ def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
         return table_transfer(text, header, name)
 
     def apply(text: str) -> None:
-        from sessions.schema import TableBlock
+        from sessions.format.schema import TableBlock
         set_fields(bench, ref, transfer=TableBlock.model_validate(parse(text)))
     guess = f"{','.join(header[:3])} polar hz 1"
     return Edit(f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",

@@ -5,7 +5,7 @@ plant's entries it shows, so the tab can edit that entry in place."""
 
 from __future__ import annotations
 
-from sessions.schema import MatrixModel
+from sessions.format.schema import MatrixModel
 
 Cell = tuple[str, int | None]        # (the text shown, the index in plant.entries or None)
 GridRow = tuple[str, list[Cell]]     # (the row's label, one cell per column)

@@ -3,9 +3,9 @@ or break point of every condition, each with the model path it shows."""
 
 from __future__ import annotations
 
-from sessions.transfer_forms import describe_transfer, format_sub_compensator
+from sessions.forms.transfers import describe_transfer, format_sub_compensator
 
-from tui.edits import Ref
+from tui.state.edits import Ref
 
 Cells = tuple[str, str, str, str, str, str]
 

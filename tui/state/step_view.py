@@ -5,7 +5,7 @@ one line: ``INPUT OUTPUT [HORIZON]``); by default the first input and the
 output named y, c or x1.  The horizon, unless given, comes from the current
 design's closed-loop poles (8 time constants of the slowest, 5 of the fastest
 unstable), and every trace uses it.  The current trace's rise time (10-90 %),
-overshoot, settling band (+-5 %) and settling time are `engine.timeresp`'s
+overshoot, settling band (+-5 %) and settling time are `engine.closed_loop.time_response`'s
 `step_measures`.
 """
 
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import EngineError
-from engine.realization import StateSpace, realize
-from engine.timeresp import Segment, StepMeasures, final_value, simulate, step_measures
+from engine.loop.realization import StateSpace, realize
+from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 
 SAMPLES = 400
 SETTLING_BAND = 0.05

@@ -8,9 +8,9 @@ import math
 
 from rich.text import Text
 
-from engine.algorithm import MeasureRow
-from engine.measure_kinds import shorts
-from engine.present import number
+from engine.stepping.protocol import MeasureRow
+from engine.design.measure_kinds import shorts
+from engine.stepping.presenter import number
 
 SHORT = shorts()
 

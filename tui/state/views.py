@@ -16,14 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from engine.algorithm import MeasureRow, StepRecord
+from engine.stepping.protocol import MeasureRow, StepRecord
 from engine.errors import EngineError
-from engine.loops import loop_model, open_loop
-from engine.margins import Margins, margins
-from engine.present import tolerant
-from engine.problem import Problem
+from engine.loop.responses import loop_model, open_loop
+from engine.margins.search import Margins, margins
+from engine.stepping.presenter import tolerant
+from engine.design.problem import Problem
 
-from tui.step_view import StepSetup, horizon, realized, step_response
+from tui.state.step_view import StepSetup, horizon, realized, step_response
 
 CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
 INITIAL_COLOR = "gray"

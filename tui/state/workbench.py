@@ -5,7 +5,7 @@ Only the UI thread calls the methods that change the session (`commit`,
 `undo`, `reset`, edits).  A run's worker gets what it needs from
 `begin_run` (the algorithm and the current state) and computes; the app
 commits each record it posts back.  What the screens show comes from
-`view()`, a read-only snapshot (`tui.views`).
+`view()`, a read-only snapshot (`tui.state.views`).
 """
 
 from __future__ import annotations
@@ -13,19 +13,19 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from engine.algorithm import State, Status, StepRecord
+from engine.stepping.protocol import State, Status, StepRecord
 from engine.errors import EngineError
 from sessions import lifecycle
 from sessions.errors import SessionError
 from sessions.runner import record_json, settings_snapshot
 from sessions.store import AUTOSAVE_INTERVAL, Session, autosave_path, save_session, write_autosave
-from sessions.sweep_jobs import execute
-from sessions.sweep_results import adopt_run, record_sweep, summarize
-from sessions.sweeps import parse_sweep, plan
+from sessions.sweeps.jobs import execute
+from sessions.sweeps.results import adopt_run, record_sweep, summarize
+from sessions.sweeps.plan import parse_sweep, plan
 
-from tui.edit_history import EditHistory
-from tui.step_view import StepSetup
-from tui.views import View
+from tui.state.edit_history import EditHistory
+from tui.state.step_view import StepSetup
+from tui.state.views import View
 
 
 class Workbench:
@@ -58,7 +58,7 @@ class Workbench:
         try:
             return lifecycle.registration(self.session).presenter
         except SessionError:
-            from engine.present import Presenter
+            from engine.stepping.presenter import Presenter
             return Presenter()
 
     @property
@@ -203,7 +203,7 @@ class Workbench:
 
     def latest_sweep(self) -> dict | None:
         """The session's most recent sweep (JSON data), if any: the same dict while it is the
-        same sweep (views are keyed by its identity: `tui.figures.figure_key`)."""
+        same sweep (views are keyed by its identity: `tui.figures.catalog.figure_key`)."""
         sweeps = self.session.model.sweeps
         if not sweeps:
             return None
@@ -212,7 +212,7 @@ class Workbench:
         return self._sweep_data[1]
 
     def run_sweep(self, text: str, progress=None, cancelled=lambda: False) -> dict:
-        """Plan and run a sweep described by one line (`sessions.sweeps.parse_sweep`);
+        """Plan and run a sweep described by one line (`sessions.sweeps.plan.parse_sweep`);
         safe in a worker thread while the session is not changed (the app disables
         every change during a sweep).  The summary is returned, not yet kept:
         `keep_sweep` does that on the UI thread."""

@@ -1,4 +1,4 @@
-"""The Plant tab's grid of a matrix-format plant (`tui.matrix_grid`): one row
+"""The Plant tab's grid of a matrix-format plant (`tui.state.matrix_grid`): one row
 per equation, one column per signal and the forcing; e edits the selected
 cell's entry in place (an empty cell gets a new entry)."""
 
@@ -7,12 +7,12 @@ from __future__ import annotations
 from textual.binding import Binding
 from textual.widgets import DataTable
 
-from sessions import forms
+from sessions.forms import one_line as forms
 
-from tui import edits
-from tui.edits import Edit
+from tui.state import edits
+from tui.state.edits import Edit
 from tui.keys import identified
-from tui.matrix_grid import matrix_grid
+from tui.state.matrix_grid import matrix_grid
 
 
 class MatrixTable(DataTable):

@@ -18,8 +18,8 @@ from textual_plotext import PlotextPlot
 from textual_plotext.plot import Plot
 
 from tui.keys import identified
-from tui.widgets.figure import Figure, Series  # noqa: F401 - the figures' data, re-exported for the figure modules
-from tui.widgets.navigation import Navigation, xy_probe
+from tui.figures.data import Figure, Series  # noqa: F401 - the figures' data, re-exported for the figure modules
+from tui.figures.navigation import Navigation, xy_probe
 
 COMPACT_ROWS = 24
 
@@ -245,7 +245,7 @@ def trajectories_figure(data: Mapping | None, system: Mapping | None = None) -> 
     ({"t", "x", "u", "current"} and maybe "open_loop"); with the untrimmed open
     loop (report 004's reactor), `projection_figure`'s two panels instead."""
     if data is not None and data.get("open_loop") is not None:
-        from tui.widgets.trajectories import projection_figure   # here: that module builds on this one's Figure
+        from tui.figures.trajectories import projection_figure   # here: that module builds on this one's Figure
         figure = projection_figure(data["current"], data["open_loop"], system or {})
         if figure.panels:
             return figure

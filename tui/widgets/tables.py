@@ -14,11 +14,13 @@ from pathlib import Path
 from textual.binding import Binding
 from textual.widgets import DataTable
 
-from engine.measure_kinds import MEASURE_KINDS
+from engine.design.measure_kinds import MEASURE_KINDS
 from sessions.lifecycle import folder
 
-from tui import edits, edits_fields
-from tui.edits import Ref
+from tui.state import edits
+
+from tui.state import field_edits as edits_fields
+from tui.state.edits import Ref
 from tui.keys import identified
 
 

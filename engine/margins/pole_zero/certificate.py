@@ -1,4 +1,4 @@
-"""The certificate of the stationary points found by `engine.zpk_margins`,
+"""The certificate of the stationary points found by `engine.margins.pole_zero.search`,
 with the repair of single misses.
 
 The stationary points of a smooth level alternate between maxima and
@@ -25,8 +25,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.bracketing import Noise, bracketed_roots
-from engine.zpk_levels import LoopLevels
+from engine.numerics.bracketing import Noise, bracketed_roots
+from engine.margins.pole_zero.levels import LoopLevels
 
 # omega -> (rows of each level's slope, rows of their derivatives)
 Slopes = Callable[[NDArray], tuple[NDArray, NDArray]]

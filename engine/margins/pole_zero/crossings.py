@@ -1,4 +1,4 @@
-"""The crossings of a loop in pole-zero form (`engine.zpk_margins`): gain
+"""The crossings of a loop in pole-zero form (`engine.margins.pole_zero.search`): gain
 crossovers (|GH| = 1) and phase crossings of the negative real axis
 (arg GH = 180 deg mod 360).
 
@@ -12,7 +12,7 @@ a root: a crossover at 1e-17 rad/s of a loop whose gain is tiny), every
 crossing of that level is found piece by piece instead: bracketed between
 the piece's ends (an end at 0 or infinity replaced by the first of the
 points decades beyond the other where the level is past the target) and
-refined to 4 ulp (`engine.bracketing`).
+refined to 4 ulp (`engine.numerics.bracketing`).
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.bracketing import bracketed_roots
-from engine.fractions import poly, polynomial_sum, roots
-from engine.zpk_levels import LoopLevels
+from engine.numerics.bracketing import bracketed_roots
+from engine.numerics.fraction_sums import poly, polynomial_sum, roots
+from engine.margins.pole_zero.levels import LoopLevels
 
 NEAR_REAL = 1e-2  # |Im x| / |x| below which a polynomial's root is a start
 LIMIT_NOISE = 1e-9  # a level this close to its limit at 0 or infinity is at the limit

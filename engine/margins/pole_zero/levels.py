@@ -1,4 +1,4 @@
-"""The levels a margin search in pole-zero form reads (`engine.zpk_margins`):
+"""The levels a margin search in pole-zero form reads (`engine.margins.pole_zero.search`):
 log |GH|, arg GH (continuous) and log |1 + GH| at s = j omega, their slopes
 and second derivatives from the roots (u = d log GH / ds = sum sigma / (s - r),
 du/ds = -sum sigma / (s - r)^2), their limits at 0 and infinity, and the
@@ -12,8 +12,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.fractions import Fractions, poly, polynomial_sum, roots
-from engine.zpk import ZpkEvaluator
+from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
+from engine.loop.pole_zero import ZpkEvaluator
 
 MAX_ROOTS = 48  # zeros + poles; beyond, the detection grid is faster (docs/margins.md)
 UNDAMPED = 1e-9  # |Re r| / |r| at or below which a root is on the imaginary axis

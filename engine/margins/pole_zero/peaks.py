@@ -8,15 +8,15 @@ GH = k N/D, f = (a D + b k N)/(D + k N), so on s = j omega
     d/domega log|f| = omega (sum_c' 1/(x + c'^2) - sum_c 1/(x + c^2)),
 
 c' the roots of a D + b k N and c those of D + k N (x = omega^2): the
-stationary points of |f| are the zeros of a sum of fractions (`engine.fractions`),
+stationary points of |f| are the zeros of a sum of fractions (`engine.numerics.fraction_sums`),
 polished by Newton's method on the exact form (slopes from GH, u = d log GH/ds
-and du/ds: `engine.zpk_levels`), certified and repaired as the margins'
-are (`engine.zpk_certify`).  The peak over a band is the largest of the
+and du/ds: `engine.margins.pole_zero.levels`), certified and repaired as the margins'
+are (`engine.margins.pole_zero.certificate`).  The peak over a band is the largest of the
 maxima inside it and its ends (limits at 0 and infinity).  A multiple of S
 (b = 0) is stationary where |1 + GH| is: when the margin search of the same
 form has certified those points (`LoopLevels.certified_distance`), they are
 taken, not searched again.  None whenever the method does not apply;
-`engine.sensitivity` then searches a grid.
+`engine.margins.peaks` then searches a grid.
 """
 
 from __future__ import annotations
@@ -26,11 +26,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.fractions import Fractions, polynomial_sum, roots
-from engine.zpk import ZpkEvaluator
-from engine.zpk_certify import certified
-from engine.zpk_levels import LoopLevels
-from engine.zpk_margins import degenerate, distinct, newton, real_eigenvalues
+from engine.numerics.fraction_sums import Fractions, polynomial_sum, roots
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.pole_zero.certificate import certified
+from engine.margins.pole_zero.levels import LoopLevels
+from engine.margins.pole_zero.search import degenerate, distinct, newton, real_eigenvalues
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
 

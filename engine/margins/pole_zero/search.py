@@ -10,17 +10,17 @@ of simple fractions in x with poles at t = -r**2:
 
 (c: the closed-loop poles, the zeros of 1 + GH).  Their zeros, the levels'
 stationary points, are eigenvalues found without expanding a polynomial
-(`engine.fractions`; for |1 + GH| also from its residue form,
-`engine.zpk_levels.distance_stationary`).  The crossings start from the
+(`engine.numerics.fraction_sums`; for |1 + GH| also from its residue form,
+`engine.margins.pole_zero.levels.distance_stationary`).  The crossings start from the
 roots of two small polynomials.  Every start is polished by Newton's method
 on the exact pole-zero form with analytic derivatives (maxima of |GH| are
 the attenuation margins, minima of |1 + GH| the stability margins); the
 stationary points are certified and single misses repaired
-(`engine.zpk_certify`), and the crossings counted piece by piece between
-them (`engine.zpk_crossings`).  Whenever a condition of the method fails
+(`engine.margins.pole_zero.certificate`), and the crossings counted piece by piece between
+them (`engine.margins.pole_zero.crossings`).  Whenever a condition of the method fails
 (roots on the imaginary axis, a constant |1 + GH|, |GH| = 1 or GH on the
 negative real axis at every frequency, a check, a step limit) the answer is
-None and `engine.margins` takes the detection grid instead.  Another
+None and `engine.margins.search` takes the detection grid instead.  Another
 constant level (|GH| of an all-pass shape, the phase of K / s**n) simply has
 no stationary points (`LoopLevels.constant`).
 """
@@ -33,11 +33,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.bracketing import EPS, NOISE_STEP
-from engine.zpk import ZpkEvaluator
-from engine.zpk_certify import DUPLICATE, Slopes, certified
-from engine.zpk_crossings import crossing_candidates, crossings_of
-from engine.zpk_levels import LoopLevels
+from engine.numerics.bracketing import EPS, NOISE_STEP
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.pole_zero.certificate import DUPLICATE, Slopes, certified
+from engine.margins.pole_zero.crossings import crossing_candidates, crossings_of
+from engine.margins.pole_zero.levels import LoopLevels
 
 REAL = 1e-7  # |Im x| / |x| below which an eigenvalue is a real stationary point
 NEAR_REAL = 1e-2  # ... below which a close real pair could hide near it (a check point there)

@@ -1,0 +1,2 @@
+"""Sweeps on Dask: planning, the jobs and their batches, the cluster, the
+results."""

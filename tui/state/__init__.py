@@ -1,0 +1,3 @@
+"""What the workbench's screens show, free of widgets: the open session
+(`Workbench`), views, edits and their history, the rows of the tables, the
+tableau's text."""
