@@ -8,7 +8,8 @@ import math
 
 import pytest
 
-from tui.widgets.plots import Figure, FigurePlot, Series, _near
+from tui.figures.data import Figure, Series
+from tui.widgets.plots import FigurePlot, _near
 
 
 def test_values_are_clipped_a_few_spans_about_the_limits():
@@ -37,7 +38,7 @@ def test_a_time_axis_over_an_overflowing_span_still_has_a_step():
 
 
 def test_axis_ticks_are_round_numbers_inside_the_axis():
-    from tui.widgets.plots import nice_ticks
+    from tui.figures.axes import nice_ticks
     for low, high in [(-107.0, 60.0), (-95.9, 4.4), (23.7, 40.9), (0.0013, 0.0041), (-3e-9, 7e-9), (1e5, 3.3e7)]:
         ticks, labels = nice_ticks(low, high)
         assert 2 <= len(ticks) <= 6 and all(low - 1e-12 * abs(high) <= t <= high + 1e-12 * abs(high) for t in ticks)

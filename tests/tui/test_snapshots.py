@@ -8,7 +8,8 @@ from textual.app import App, ComposeResult
 
 from sessions.store import load_session
 from tui.app import LoopcraftApp
-from tui.widgets.plots import FigurePlot, trajectories_figure
+from tui.figures.trajectories import trajectories_figure
+from tui.widgets.plots import FigurePlot
 from tui.state.workbench import Workbench
 
 SIZES = [(100, 32), (80, 24)]

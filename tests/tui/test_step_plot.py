@@ -7,7 +7,7 @@ import numpy as np
 
 from sessions.store import load_session
 from tui.state.step_view import StepSetup, parse_step_setup
-from tui.widgets.plots import step_figure
+from tui.figures.lines import step_figure
 from tui.state.workbench import Workbench
 
 from tests.tui.test_app import settle, synchronous

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from sessions.store import load_session
-from tui.widgets.plots import COMPACT_ROWS, FigurePlot, trajectories_figure
+from tui.figures.trajectories import trajectories_figure
+from tui.widgets.plots import COMPACT_ROWS, FigurePlot
 from tui.figures.trajectories import axis, short, time_ticks
 from tui.state.workbench import Workbench
 

@@ -22,7 +22,8 @@ from engine.margins.peaks import (compensator_peak, complementary_peak, magnitud
 
 from tui.state.views import CONDITION_COLORS, INITIAL_COLOR
 from tui.figures.navigation import Probe
-from tui.widgets.plots import Figure, Series, _decades, _finite
+from tui.figures.axes import decade_ticks, finite_points
+from tui.figures.data import Figure, Series
 
 LOCUS_POINTS = 2000   # the engine's default bound
 
@@ -79,9 +80,9 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     with np.errstate(divide="ignore"):
         s_db, t_db = 20 * np.log10(s), 20 * np.log10(t)
     peaks = f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
-    fig.series.append(Series(*_finite(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|",
+    fig.series.append(Series(*finite_points(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|",
                              color=s_color))
-    fig.series.append(Series(*_finite(lw, t_db), "" if role == "reference" else f"{prefix}|T|", color=t_color,
+    fig.series.append(Series(*finite_points(lw, t_db), "" if role == "reference" else f"{prefix}|T|", color=t_color,
                              marker="braille" if role == "paired" else "dot"))
     if fig.probe is None:
         fig.probe = _magnitude_probe(lw, s_db, t_db, problem.grid.unit)
@@ -95,7 +96,7 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
             if role == "paired" and condensed:
                 fig.title += f"  {name} {peak.value:.4g}"
     fig.title += f"  {effort}" if effort else ""
-    fig.xticks = _decades(lw, problem.grid.unit)
+    fig.xticks = decade_ticks(lw)
 
 
 def _magnitude_probe(lw: np.ndarray, s_db: np.ndarray, t_db: np.ndarray, unit: str) -> Probe:
@@ -121,7 +122,7 @@ def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, p
     name = network.signals[reading[0].row]
     with np.errstate(all="ignore"):
         ks = np.abs(evaluate(loop.omega)[0] / (1.0 + loop.gh))
-        fig.series.append(Series(*_finite(lw, 20 * np.log10(ks)), f"{prefix}|KS| ({condition.break_at}->{name})",
+        fig.series.append(Series(*finite_points(lw, 20 * np.log10(ks)), f"{prefix}|KS| ({condition.break_at}->{name})",
                                  color="magenta"))
     try:
         peak = compensator_peak(loop, evaluate)

@@ -9,7 +9,8 @@ import math
 import numpy as np
 
 from tui.figures.navigation import loop_probe
-from tui.widgets.plots import Figure, Series, _decades, _finite
+from tui.figures.axes import decade_ticks, finite_points
+from tui.figures.data import Figure, Series
 
 M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)   # |T| contours on the Nichols chart
 
@@ -24,7 +25,7 @@ def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | No
     fig.series.append(Series(np.cos(t).tolist(), np.sin(t).tolist(), "", color="gray"))
     for curve in curves:
         gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
-        x, y = _finite(gh.real, gh.imag)
+        x, y = finite_points(gh.real, gh.imag)
         fig.series.append(Series(x, [-v for v in y], "", color="gray"))   # negative frequencies
         fig.series.append(Series(x, y, curve.label, color=curve.color))
         if fig.probe is None:
@@ -61,12 +62,12 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(gh))
         degrees = np.degrees(np.unwrap(np.angle(gh)))
-        magnitude.series.append(Series(*_finite(lw, db), curve.label, color=curve.color))
-        phase.series.append(Series(*_finite(lw, degrees), curve.label, color=curve.color))
+        magnitude.series.append(Series(*finite_points(lw, db), curve.label, color=curve.color))
+        phase.series.append(Series(*finite_points(lw, degrees), curve.label, color=curve.color))
         if magnitude.probe is None:
             magnitude.probe = loop_probe(lw, db, curve.omega[positive], gh, unit)
             phase.probe = loop_probe(lw, degrees, curve.omega[positive], gh, unit)
-        magnitude.xticks = phase.xticks = _decades(lw, unit)
+        magnitude.xticks = phase.xticks = decade_ticks(lw)
         if curve.margins is not None:
             _mark_margins(magnitude, phase, curve, lw, degrees, scale)
     for fig in (magnitude, phase):
@@ -119,7 +120,7 @@ def nichols_figure(curves, unit: str = "rad/s") -> Figure:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(curve.gh))
         degrees = np.degrees(np.unwrap(np.angle(curve.gh)))
-        fig.series.append(Series(*_finite(degrees, db), curve.label, color=curve.color))
+        fig.series.append(Series(*finite_points(degrees, db), curve.label, color=curve.color))
         if fig.probe is None:
             fig.probe = loop_probe(degrees, db, curve.omega, curve.gh, unit)
     fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))

@@ -23,7 +23,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from tui.widgets.plots import Figure, Series, _finite
+from tui.figures.axes import finite_points
+from tui.figures.data import Figure, Series
 
 COLORS = ("blue", "orange", "magenta", "cyan", "green")
 INITIAL_COLOR = "gray"
@@ -74,10 +75,10 @@ def bounded_panel(t: np.ndarray, u: np.ndarray, u0: np.ndarray, inputs: list[int
         fig.series.append(Series(span, [level, level], label, marker="─", color=BOUND_COLOR))
     for k, j in enumerate(inputs):
         label = "initial (untrimmed)" if k == 0 else f"initial {names[k]}"
-        fig.series.append(Series(*_finite(t, u0[:, j]), label, color=INITIAL_COLOR))
+        fig.series.append(Series(*finite_points(t, u0[:, j]), label, color=INITIAL_COLOR))
     for k, j in enumerate(inputs):
         label = "" if compact else names[k]
-        fig.series.append(Series(*_finite(t, u[:, j]), label, color=COLORS[k % len(COLORS)]))
+        fig.series.append(Series(*finite_points(t, u[:, j]), label, color=COLORS[k % len(COLORS)]))
     shown = np.concatenate([u[:, inputs].ravel(), u0[:, inputs].ravel(), levels])
     limit = OFF_SCALE * max([abs(v) for v in levels] + [float(np.abs(u[:, inputs]).max(initial=0))])
     if float(np.abs(u0[:, inputs]).max(initial=0)) > limit > 0:
@@ -96,7 +97,7 @@ def trim_panel(t: np.ndarray, u: np.ndarray, inputs: list[int]) -> Figure:
     names = [f"u{j + 1}" for j in inputs]
     fig = Figure(title=f"Trim input{'s' if len(names) > 1 else ''} {', '.join(names)} (untrimmed: 0)")
     for k, j in enumerate(inputs):
-        fig.series.append(Series(*_finite(t, u[:, j]), names[k], color=COLORS[k % len(COLORS)]))
+        fig.series.append(Series(*finite_points(t, u[:, j]), names[k], color=COLORS[k % len(COLORS)]))
     values = u[:, inputs][np.isfinite(u[:, inputs])]
     fig.ylim, fig.yticks = axis(float(values.min(initial=0)), float(values.max(initial=0)))
     return fig
@@ -177,3 +178,21 @@ def short(value: float) -> str:
         return text
     mantissa, exponent = text.split("e")
     return f"{mantissa}e{int(exponent)}"
+
+
+def trajectories_figure(data: Mapping | None, system: Mapping | None = None) -> Figure:
+    """Controls u_j(t) of the current iterate, from a presenter's trajectories
+    ({"t", "x", "u", "current"} and maybe "open_loop"); with the untrimmed open
+    loop (report 004's reactor), `projection_figure`'s two panels instead."""
+    if data is not None and data.get("open_loop") is not None:
+        figure = projection_figure(data["current"], data["open_loop"], system or {})
+        if figure.panels:
+            return figure
+    fig = Figure(xlabel="t", ylabel="u", empty_message="no trajectories (projection sessions have them)")
+    if data is None:
+        return fig
+    fig.title = "Controls u(t)"
+    columns = np.array(data["u"], dtype=float)
+    for j in range(columns.shape[1]):
+        fig.series.append(Series(list(map(float, data["t"])), columns[:, j].tolist(), f"u{j + 1}"))
+    return fig

@@ -28,7 +28,8 @@ from tui.figures.history import TITLES, VIEWS, figure_key, history_figure, histo
 from tui.keys import identified
 from tui.state.tableau_text import tableau_text
 from tui.state.views import View
-from tui.widgets.plots import Figure, FigurePlot
+from tui.figures.data import Figure
+from tui.widgets.plots import FigurePlot
 from tui.widgets.tables import HistoryTable
 from tui.widgets.textview import TextView
 

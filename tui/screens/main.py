@@ -26,7 +26,8 @@ from tui.widgets.matrix_table import MatrixTable
 from tui.actions.run_loop import drawings
 from tui.figures.data import Figure
 from tui.widgets.footer import Footer
-from tui.widgets.plots import FigurePlot, sweep_figure
+from tui.figures.lines import sweep_figure
+from tui.widgets.plots import FigurePlot
 from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 from tui.state.workbench import Workbench

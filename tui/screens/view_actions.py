@@ -9,7 +9,8 @@ from tui.figures.closed_loop import locus_figure
 from tui.state.clipboard import design_text, row_text
 from tui.state.step_view import format_step_setup, horizon, parse_step_setup
 from tui.state.views import View
-from tui.widgets.plots import Figure, FigurePlot
+from tui.figures.data import Figure
+from tui.widgets.plots import FigurePlot
 from tui.widgets.textview import TextView
 from tui.screens.dialogs import EditDialog
 

@@ -9,7 +9,6 @@ linear axis with decade labels, never with plotext's log scale.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 
 import numpy as np
 from rich.text import Text
@@ -18,7 +17,8 @@ from textual_plotext import PlotextPlot
 from textual_plotext.plot import Plot
 
 from tui.keys import identified
-from tui.figures.data import Figure, Series  # noqa: F401 - the figures' data, re-exported for the figure modules
+from tui.figures.axes import nice_ticks
+from tui.figures.data import Figure
 from tui.figures.navigation import Navigation, xy_probe
 
 COMPACT_ROWS = 24
@@ -190,17 +190,6 @@ def _span(fig: Figure, axis: str) -> tuple[float, float] | None:
     return (min(values), max(values)) if values and max(values) > min(values) else None
 
 
-def nice_ticks(low: float, high: float, count: int = 5) -> tuple[list[float], list[str]]:
-    """Round ticks (1, 2 or 5 times a power of ten apart) inside [low, high]."""
-    power = 10.0 ** math.floor(math.log10((high - low) / max(count - 1, 1)))
-    candidates = [m * power * scale for scale in (0.1, 1.0, 10.0) for m in (1, 2, 5)]
-    step = next(c for c in candidates if math.floor(high / c) - math.ceil(low / c) + 1 <= count + 1)
-    first = math.ceil(low / step) * step
-    ticks = [round(first / step + k) * step for k in range(int((high - first) / step + 1e-9) + 1)]
-    digits = max(0, -math.floor(math.log10(step) + 1e-12))
-    return ticks, [f"{t:.{digits}f}" if abs(t) < 1e6 and digits <= 6 else f"{t:.3g}" for t in ticks]
-
-
 PLOTTABLE = 1e150   # plotext's arithmetic on the canvas overflows near the float limits
 
 
@@ -213,126 +202,3 @@ def _near(values: list[float], limits: tuple[float, float] | None) -> list[float
         span = max(abs(limits[1] - limits[0]), 1e-300)
         low, high = max(low, limits[0] - 2 * span), min(high, limits[1] + 2 * span)
     return np.clip(np.asarray(values, dtype=float), low, high).tolist()
-
-
-MAX_POINTS = 600   # a text canvas resolves fewer; more only slows plotext down
-
-
-def _finite(x: np.ndarray, y: np.ndarray) -> tuple[list[float], list[float]]:
-    keep = np.isfinite(x) & np.isfinite(y)
-    x, y = x[keep], y[keep]
-    if x.size > MAX_POINTS:
-        step = int(np.ceil(x.size / MAX_POINTS))
-        x, y = np.concatenate([x[::step], x[-1:]]), np.concatenate([y[::step], y[-1:]])
-    return x.tolist(), y.tolist()
-
-
-def _decades(log_w: np.ndarray, unit: str) -> tuple[list[float], list[str]]:
-    lo, hi = math.floor(np.nanmin(log_w)), math.ceil(np.nanmax(log_w))
-    ticks = list(range(lo, hi + 1))
-    return [float(t) for t in ticks], [f"{10.0 ** t:g}" for t in ticks]
-
-
-def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[float], empty: str) -> Figure:
-    fig = Figure(title=title if x else "", xlabel=xlabel, ylabel=ylabel, empty_message=empty)
-    if x:
-        fig.series.append(Series(list(map(float, x)), list(map(float, y)), ylabel, marker="dot"))
-    return fig
-
-
-def trajectories_figure(data: Mapping | None, system: Mapping | None = None) -> Figure:
-    """Controls u_j(t) of the current iterate, from a presenter's trajectories
-    ({"t", "x", "u", "current"} and maybe "open_loop"); with the untrimmed open
-    loop (report 004's reactor), `projection_figure`'s two panels instead."""
-    if data is not None and data.get("open_loop") is not None:
-        from tui.figures.trajectories import projection_figure   # here: that module builds on this one's Figure
-        figure = projection_figure(data["current"], data["open_loop"], system or {})
-        if figure.panels:
-            return figure
-    fig = Figure(xlabel="t", ylabel="u", empty_message="no trajectories (projection sessions have them)")
-    if data is None:
-        return fig
-    fig.title = "Controls u(t)"
-    columns = np.array(data["u"], dtype=float)
-    for j in range(columns.shape[1]):
-        fig.series.append(Series(list(map(float, data["t"])), columns[:, j].tolist(), f"u{j + 1}"))
-    return fig
-
-
-def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None,
-                reference_color: str = "gray") -> Figure:
-    """Closed-loop step responses of ``name``: (t, y, label, color) per trace, scaled to
-    the current design's traces (not the ``reference_color`` one); ``marks`` (the
-    current design's `StepMeasures`) adds the settling band, the peak and the
-    settling and rise times."""
-    fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
-    for t, y, label, color in traces:
-        fig.title = f"Step response: {name}"
-        fig.series.append(Series(*_finite(np.array(t), np.array(y)), label, color=color))
-    current = [s for s, trace in zip(fig.series, traces) if trace[3] != reference_color and s.y] or \
-        [s for s in fig.series if s.y]
-    if not current:
-        return fig
-    low, high = min(min(s.y) for s in current), max(max(s.y) for s in current)
-    t_end = max(s.x[-1] for s in fig.series if s.x)
-    if marks is not None:
-        _step_marks(fig, marks, t_end)
-        low, high = min(low, marks.final * 0.95), max(high, marks.final * 1.05)
-    pad = 0.08 * (high - low) or 0.1 * max(abs(high), 1.0)
-    fig.ylim = (low - pad, high + pad)
-    return fig
-
-
-def _step_marks(fig: Figure, m, t_end: float) -> None:
-    """The +-5 % band about the final value, the peak, the rise and settling times."""
-    band = [m.final * 0.95, m.final * 1.05]
-    for level in band:
-        fig.series.append(Series([0.0, t_end], [level, level], color="gray", marker="dot"))
-    parts = []
-    if m.rise_time is not None:
-        parts.append(f"rise {m.rise_time:.3g} s")
-    if m.peak_time is not None:
-        fig.series.append(Series([m.peak_time], [m.peak], "peak", marker="x", scatter=True, color="red"))
-        parts.append(f"overshoot {m.overshoot_percent:.3g} %")
-    if m.settling_time is not None:
-        fig.series.append(Series([m.settling_time] * 2, band, "settled (5 %)", marker="|", color="green"))
-        parts.append(f"settles {m.settling_time:.3g} s")
-    if parts:
-        fig.title += "  " + ", ".join(parts)
-
-
-def sweep_figure(sweep: dict | None) -> Figure:
-    """A sweep: final objective against the start (starts), the trade-off (vary),
-    or, for a tolerance study, the samples' smallest relative slack."""
-    fig = Figure(empty_message="no sweep yet: w starts one")
-    if not sweep:
-        return fig
-    runs = [r for r in sweep["runs"] if r["status"] != "failed"]
-    if sweep["kind"] == "vary" and runs and all("averaged_squares" in r for r in runs):
-        squares = [r["averaged_squares"] for r in runs]
-        fig.title, fig.xlabel, fig.ylabel = "Trade-off", "output (normalized)", "output rate (normalized)"
-        fig.series.append(Series([q["x1_normalized"] for q in squares], [q["x1_rate_normalized"] for q in squares],
-                                 "runs", marker="dot"))
-        return fig
-    if sweep["kind"] == "tolerance":
-        fig.title, fig.xlabel, fig.ylabel = "Tolerance samples", "sample", "unmet measures"
-        fig.series.append(Series([float(r["index"]) for r in runs],
-                                 [float(sum(not m["satisfied"] for m in r["measures"])) for r in runs], marker="dot",
-                                 scatter=True))
-        return fig
-    fig.title, fig.ylabel = "Final objective by start", "objective"
-    name = next((k for r in runs for k in r["start"]), None)
-    fig.xlabel = f"start {name} (log10)" if sweep["kind"] == "starts" and name else "run"
-    for meets, color in ((True, "green"), (False, "red")):
-        chosen = [r for r in runs if r["meets_requirements"] == meets and isinstance(r["objective"], (int, float))]
-        x = [_start_value(r, name) if fig.xlabel != "run" else float(r["index"]) for r in chosen]
-        fig.series.append(Series(x, [float(r["objective"]) for r in chosen],
-                                 "meets every requirement" if meets else "does not", marker="dot", scatter=True,
-                                 color=color))
-    return fig
-
-
-def _start_value(run: dict, name: str) -> float:
-    value = run["start"][name]
-    value = value[0] if isinstance(value, list) else value
-    return float(np.log10(value)) if value > 0 else float(value)

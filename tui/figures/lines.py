@@ -1,0 +1,95 @@
+"""Figures of lines over time or run: convergence, closed-loop step responses
+with their classical marks, and a sweep's runs."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tui.figures.axes import finite_points
+from tui.figures.data import Figure, Series
+
+
+def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[float], empty: str) -> Figure:
+    fig = Figure(title=title if x else "", xlabel=xlabel, ylabel=ylabel, empty_message=empty)
+    if x:
+        fig.series.append(Series(list(map(float, x)), list(map(float, y)), ylabel, marker="dot"))
+    return fig
+
+
+def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None,
+                reference_color: str = "gray") -> Figure:
+    """Closed-loop step responses of ``name``: (t, y, label, color) per trace, scaled to
+    the current design's traces (not the ``reference_color`` one); ``marks`` (the
+    current design's `StepMeasures`) adds the settling band, the peak and the
+    settling and rise times."""
+    fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
+    for t, y, label, color in traces:
+        fig.title = f"Step response: {name}"
+        fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, color=color))
+    current = [s for s, trace in zip(fig.series, traces) if trace[3] != reference_color and s.y] or \
+        [s for s in fig.series if s.y]
+    if not current:
+        return fig
+    low, high = min(min(s.y) for s in current), max(max(s.y) for s in current)
+    t_end = max(s.x[-1] for s in fig.series if s.x)
+    if marks is not None:
+        _step_marks(fig, marks, t_end)
+        low, high = min(low, marks.final * 0.95), max(high, marks.final * 1.05)
+    pad = 0.08 * (high - low) or 0.1 * max(abs(high), 1.0)
+    fig.ylim = (low - pad, high + pad)
+    return fig
+
+
+def _step_marks(fig: Figure, m, t_end: float) -> None:
+    """The +-5 % band about the final value, the peak, the rise and settling times."""
+    band = [m.final * 0.95, m.final * 1.05]
+    for level in band:
+        fig.series.append(Series([0.0, t_end], [level, level], color="gray", marker="dot"))
+    parts = []
+    if m.rise_time is not None:
+        parts.append(f"rise {m.rise_time:.3g} s")
+    if m.peak_time is not None:
+        fig.series.append(Series([m.peak_time], [m.peak], "peak", marker="x", scatter=True, color="red"))
+        parts.append(f"overshoot {m.overshoot_percent:.3g} %")
+    if m.settling_time is not None:
+        fig.series.append(Series([m.settling_time] * 2, band, "settled (5 %)", marker="|", color="green"))
+        parts.append(f"settles {m.settling_time:.3g} s")
+    if parts:
+        fig.title += "  " + ", ".join(parts)
+
+
+def sweep_figure(sweep: dict | None) -> Figure:
+    """A sweep: final objective against the start (starts), the trade-off (vary),
+    or, for a tolerance study, the samples' smallest relative slack."""
+    fig = Figure(empty_message="no sweep yet: w starts one")
+    if not sweep:
+        return fig
+    runs = [r for r in sweep["runs"] if r["status"] != "failed"]
+    if sweep["kind"] == "vary" and runs and all("averaged_squares" in r for r in runs):
+        squares = [r["averaged_squares"] for r in runs]
+        fig.title, fig.xlabel, fig.ylabel = "Trade-off", "output (normalized)", "output rate (normalized)"
+        fig.series.append(Series([q["x1_normalized"] for q in squares], [q["x1_rate_normalized"] for q in squares],
+                                 "runs", marker="dot"))
+        return fig
+    if sweep["kind"] == "tolerance":
+        fig.title, fig.xlabel, fig.ylabel = "Tolerance samples", "sample", "unmet measures"
+        fig.series.append(Series([float(r["index"]) for r in runs],
+                                 [float(sum(not m["satisfied"] for m in r["measures"])) for r in runs], marker="dot",
+                                 scatter=True))
+        return fig
+    fig.title, fig.ylabel = "Final objective by start", "objective"
+    name = next((k for r in runs for k in r["start"]), None)
+    fig.xlabel = f"start {name} (log10)" if sweep["kind"] == "starts" and name else "run"
+    for meets, color in ((True, "green"), (False, "red")):
+        chosen = [r for r in runs if r["meets_requirements"] == meets and isinstance(r["objective"], (int, float))]
+        x = [_start_value(r, name) if fig.xlabel != "run" else float(r["index"]) for r in chosen]
+        fig.series.append(Series(x, [float(r["objective"]) for r in chosen],
+                                 "meets every requirement" if meets else "does not", marker="dot", scatter=True,
+                                 color=color))
+    return fig
+
+
+def _start_value(run: dict, name: str) -> float:
+    value = run["start"][name]
+    value = value[0] if isinstance(value, list) else value
+    return float(np.log10(value)) if value > 0 else float(value)
