@@ -81,7 +81,7 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     targets = tuple(_target(t) for t in model.targets)
     objective = None if model.objective is None else Objective(
         model.objective.kind, dict(model.objective.options),
-        {name: _table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()},
+        {name: frequency_table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()},
         dict(model.objective.data))
     names = [c.name for c in model.conditions]
     equalities = tuple(_equality(e, f"problem.equalities[{i}]", names) for i, e in enumerate(model.equalities))
@@ -240,7 +240,7 @@ def _transfer(t, path: str, folder: Path, variable: str):
             transfer = controller_transfer(t.gain, t.s_power, [ControllerFactor(**f.model_dump()) for f in t.factors],
                                            variable)
         else:
-            transfer = TabulatedTransfer(_table(t.table, f"{path}.table", folder))
+            transfer = TabulatedTransfer(frequency_table(t.table, f"{path}.table", folder))
     except SessionError:
         raise
     except EngineError as exc:
@@ -248,7 +248,7 @@ def _transfer(t, path: str, folder: Path, variable: str):
     return transfer
 
 
-def _table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
+def frequency_table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
     if t.csv is not None:
         f, first, second = read_csv(table_path(folder, t.csv, path), t.columns, path)
     else:

@@ -110,13 +110,13 @@ def improvement_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray
         a = np.linalg.solve(G @ G.T, rows.weights)
         d = np.zeros(x.size)
         d[free] = G.T @ a
-        blocked = free & ((_at(x, lower, hold_tolerance) & (d < 0)) | (_at(x, upper, hold_tolerance) & (d > 0)))
+        blocked = free & ((at_bound(x, lower, hold_tolerance) & (d < 0)) | (at_bound(x, upper, hold_tolerance) & (d > 0)))
         if not blocked.any():
             return Direction(d / np.linalg.norm(d), held)
         held |= blocked
 
 
-def _at(x: NDArray, bound: NDArray, tolerance: float) -> NDArray[np.bool_]:
+def at_bound(x: NDArray, bound: NDArray, tolerance: float) -> NDArray[np.bool_]:
     """x is within ``tolerance`` (relative above 1) of a finite bound."""
     finite = np.isfinite(bound)
     gap = np.abs(x - np.where(finite, bound, 0.0))

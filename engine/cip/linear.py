@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from engine.design.constraints import inequality_rows, project, row_scale
 from engine.design.problem import Problem
-from engine.cip.direction import DEPENDENT, ZERO, Direction, Rows, _at, improvement_direction
+from engine.cip.direction import DEPENDENT, ZERO, Direction, Rows, at_bound, improvement_direction
 
 
 @dataclass(frozen=True)
@@ -43,8 +43,8 @@ def held_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray, hold_
         found = _reduced(unit, rows.weights, held, A[sorted(held_rows)])
         if isinstance(found, HeldDirection):
             return HeldDirection(None, held, found.termination, found.reason, tuple(sorted(held_rows)))
-        blocked = ~held & ((_at(x, lower, hold_tolerance) & (found < 0))
-                           | (_at(x, upper, hold_tolerance) & (found > 0)))
+        blocked = ~held & ((at_bound(x, lower, hold_tolerance) & (found < 0))
+                           | (at_bound(x, upper, hold_tolerance) & (found > 0)))
         crossing = _crossing(A, found, active, held_rows)
         if not blocked.any() and not crossing:
             return HeldDirection(found / np.linalg.norm(found), held, held_rows=tuple(sorted(held_rows)))

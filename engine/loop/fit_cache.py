@@ -1,7 +1,7 @@
 """The last rational fits of tabulated loops, kept by the table's content.
 
 One design's margins, Ms, Mt and disk margin all fit the same table
-(`engine.margins.search._fitted_loop`); an AAA fit of a thousand points takes about
+(`engine.margins.search.fitted_loop`); an AAA fit of a thousand points takes about
 a second, so it is made once and shared (a fit is immutable).  Thread-safe:
 the workbench's workers fit while the UI thread may ask too."""
 

@@ -162,13 +162,13 @@ def _needs_split(start: NDArray, stop: NDArray, shallow: set[str] | frozenset[st
 
     Row by row: the turns of GH, 1 + GH and the tangent dGH over each
     interval, and at each end the angles theta of the tangent against GH
-    and phi against 1 + GH (see `_may_hide_pair`).  Constant and shallow
+    and phi against 1 + GH (see `may_hide_pair`).  Constant and shallow
     levels (``shallow``) are not split for."""
     with np.errstate(all="ignore"):
         turns = np.abs(_angle(stop[1:] / start[1:]))  # GH, 1 + GH, tangent
         angles0, angles1 = _angle(start[3] / start[1:3]), _angle(stop[3] / stop[1:3])  # theta, phi
         variation = _tangent_turn(start, stop, turns[2]) + turns[:2]
-        pair = _may_hide_pair(angles0, angles1, variation)  # of |GH|, of |1 + GH|
+        pair = may_hide_pair(angles0, angles1, variation)  # of |GH|, of |1 + GH|
         coarse = turns[0] > MAX_PHASE_STEP
         if "GH" not in shallow:
             coarse |= pair[0]
@@ -204,7 +204,7 @@ def _angle(z: NDArray) -> NDArray:
     return np.arctan2(z.imag, z.real)
 
 
-def _may_hide_pair(angle0: NDArray, angle1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
+def may_hide_pair(angle0: NDArray, angle1: NDArray, variation: NDArray) -> NDArray[np.bool_]:
     """Could a distance |r| have a minimum and a maximum inside an interval?
 
     d|r|/domega changes sign where the tangent dr is perpendicular to r, i.e.
@@ -230,7 +230,7 @@ def _may_hide_phase_pair(theta0: NDArray, theta1: NDArray, variation: NDArray) -
 
     d(arg r)/domega changes sign where the tangent dr is parallel to r: the
     signed angle theta between them crosses 0 or 180 deg.  Same test as
-    `_may_hide_pair`, with the distance to the nearer of 0 and 180 deg.
+    `may_hide_pair`, with the distance to the nearer of 0 and 180 deg.
     """
     to_radial0 = np.minimum(np.abs(theta0), np.pi - np.abs(theta0))
     to_radial1 = np.minimum(np.abs(theta1), np.pi - np.abs(theta1))

@@ -27,7 +27,7 @@ from engine.loop.responses import LoopModel
 from engine.margins.search import Band, Margins
 from engine.numerics.refinement import sign_changes
 # the peak search's own steps, reused to keep every local maximum, not only the largest
-from engine.margins.peaks import (Peak, Transform, _agrees, _level, _refined_maxima, _resolved, _within,
+from engine.margins.peaks import (Peak, Transform, fast_form_agrees, log_level, refined_maxima, resolved_grid, band_grid,
                           complementary, refined_peaks, sensitivity)
 
 PEAK_MEASURES = ("disk_margin", "sensitivity_peak", "complementary_sensitivity_peak")
@@ -100,16 +100,16 @@ def local_peaks(loop: LoopModel, measure: str, band: Band) -> tuple[tuple[float,
         return _grid_peaks(loop.omega, loop.gh, f, band)
     found = _local_on(loop, f, band)
     check = [Peak(v, w) for w, v, _ in found]
-    if loop.exact is not loop.evaluate and check and not _agrees(loop, [f], check):
+    if loop.exact is not loop.evaluate and check and not fast_form_agrees(loop, [f], check):
         found = _local_on(loop.on_exact(), f, band)
     return found
 
 
 def _local_on(loop: LoopModel, f: Transform, band: Band) -> tuple[tuple[float, float, complex], ...]:
     grid = detection_grid(loop)
-    w, gh, dgh = _within(loop, grid.omega, grid.gh, grid.dgh, band)
-    w, gh, dgh = _resolved(loop, [f], w, gh, dgh, [])
-    at, _ = _refined_maxima(loop, [f], w, [_level(*f(w, gh, dgh))])
+    w, gh, dgh = band_grid(loop, grid.omega, grid.gh, grid.dgh, band)
+    w, gh, dgh = resolved_grid(loop, [f], w, gh, dgh, [])
+    at, _ = refined_maxima(loop, [f], w, [log_level(*f(w, gh, dgh))])
     at = np.sort(at[(at > band.low) & (at < band.high)])
     if at.size == 0:
         return ()

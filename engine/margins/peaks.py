@@ -22,10 +22,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.margins.detection_grid import _may_hide_pair, detection_grid
+from engine.margins.detection_grid import may_hide_pair, detection_grid
 from engine.errors import EngineError
 from engine.loop.responses import Evaluator, LoopModel
-from engine.margins.search import FIT_LIMIT, Band, _fitted_loop
+from engine.margins.search import FIT_LIMIT, Band, fitted_loop
 from engine.numerics.refinement import refine, sign_changes
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.margins.pole_zero.peaks import moebius_peaks
@@ -151,7 +151,7 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
     if peaks is not None:
         return peaks
     peaks = _peaks_on(loop, transforms, band)
-    if loop.exact is not loop.evaluate and not _agrees(loop, transforms, peaks):
+    if loop.exact is not loop.evaluate and not fast_form_agrees(loop, transforms, peaks):
         peaks = _peaks_on(loop.on_exact(), transforms, band)
     return peaks
 
@@ -167,7 +167,7 @@ def _without_grid(loop: LoopModel, transforms: Sequence[Transform], band: Band) 
     if found is None:
         return None
     peaks = tuple(Peak(value, frequency) for value, frequency in found)
-    if not getattr(loop.evaluate, "factored", False) and not _agrees(loop, transforms, peaks):
+    if not getattr(loop.evaluate, "factored", False) and not fast_form_agrees(loop, transforms, peaks):
         return None
     return peaks
 
@@ -177,10 +177,10 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     notes = list(grid.notes)
     if not loop.rational:
         notes.append(f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
-    w, gh, dgh = _within(loop, grid.omega, grid.gh, grid.dgh, band)
-    w, gh, dgh = _resolved(loop, transforms, w, gh, dgh, notes)
-    levels = [_level(*t(w, gh, dgh)) for t in transforms]
-    at, group = _refined_maxima(loop, transforms, w, levels)
+    w, gh, dgh = band_grid(loop, grid.omega, grid.gh, grid.dgh, band)
+    w, gh, dgh = resolved_grid(loop, transforms, w, gh, dgh, notes)
+    levels = [log_level(*t(w, gh, dgh)) for t in transforms]
+    at, group = refined_maxima(loop, transforms, w, levels)
     found = [_candidates(w, levels[k][0], at[group == k], _values(loop, transforms[k], at[group == k]))
              for k in range(len(transforms))]
     ends = _ends(loop, transforms, w, band, notes) if loop.rational else [([], [])] * len(transforms)
@@ -193,13 +193,13 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     return tuple(out)
 
 
-def _level(f: NDArray, df: NDArray) -> tuple[NDArray, NDArray]:
+def log_level(f: NDArray, df: NDArray) -> tuple[NDArray, NDArray]:
     """h = log |f| and h' = d h/domega = Re(f'/f)."""
     with np.errstate(all="ignore"):
         return np.log(np.abs(f)), (df / f).real
 
 
-def _within(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, band: Band) -> tuple[NDArray, ...]:
+def band_grid(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, band: Band) -> tuple[NDArray, ...]:
     """The grid cut to the band, with the band's finite inner ends added (evaluated exactly)."""
     keep = (w >= band.low) & (w <= band.high)
     ends = np.array([x for x in (band.low, band.high) if 0 < x < np.inf and w[0] <= x <= w[-1]])
@@ -214,10 +214,10 @@ def _within(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, band: Band) 
     return w, gh, dgh
 
 
-def _resolved(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray,
+def resolved_grid(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray,
               notes: list[str]) -> tuple[NDArray, ...]:
     """The grid with every interval halved that could hide a pair of extrema of
-    some |f| (the detection grid's own test, `_may_hide_pair`, on f), bounded."""
+    some |f| (the detection grid's own test, `may_hide_pair`, on f), bounded."""
     budget = w.size + EXTRA_POINTS
     for _ in range(MAX_ROUNDS):
         split = np.zeros(w.size - 1, dtype=bool)
@@ -245,11 +245,11 @@ def _may_hide(f: NDArray, df: NDArray) -> NDArray[np.bool_]:
     with np.errstate(all="ignore"):
         theta = np.arctan2((df / f).imag, (df / f).real)
         turn = np.abs(np.angle(f[1:] / f[:-1])) + np.abs(np.angle(df[1:] / df[:-1]))
-        hide = _may_hide_pair(theta[:-1], theta[1:], turn)
+        hide = may_hide_pair(theta[:-1], theta[1:], turn)
     return hide & np.isfinite(turn)
 
 
-def _refined_maxima(loop: LoopModel, transforms: Sequence[Transform], w: NDArray,
+def refined_maxima(loop: LoopModel, transforms: Sequence[Transform], w: NDArray,
                     levels: list[tuple[NDArray, NDArray]]) -> tuple[NDArray, NDArray]:
     """Every interior maximum of every |f| (h' from + to -), refined in one
     vectorized `refine`; their frequencies and which transform each is of."""
@@ -270,7 +270,7 @@ def _refined_maxima(loop: LoopModel, transforms: Sequence[Transform], w: NDArray
         for k, t in enumerate(transforms):
             sel = owner == k
             if sel.any():
-                h_out[sel], d_out[sel] = _level(*t(points[sel], g[sel], dg[sel]))
+                h_out[sel], d_out[sel] = log_level(*t(points[sel], g[sel], dg[sel]))
         return h_out, d_out
 
     roots = refine(fun, w[i], w[i + 1], h, h1, d, d1, True)
@@ -281,7 +281,7 @@ def _values(loop: LoopModel, transform: Transform, at: NDArray) -> NDArray:
     if at.size == 0:
         return np.zeros(0)
     g, dg = loop.evaluate(at)
-    return _level(*transform(at, g, dg))[0]
+    return log_level(*transform(at, g, dg))[0]
 
 
 def _candidates(w: NDArray, h: NDArray, at: NDArray, values: NDArray) -> tuple[NDArray, NDArray]:
@@ -321,7 +321,7 @@ def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float,
         except EngineError:  # the response overflows out there: the looks so far are the limit
             break
         with np.errstate(all="ignore"):
-            rows.append([_level(*t(x, g, dg))[0][0] for t in transforms])
+            rows.append([log_level(*t(x, g, dg))[0][0] for t in transforms])
         if len(rows) >= 2 and np.all(_settled(np.array(rows[-2]), np.array(rows[-1]))):
             break
     out = []
@@ -342,7 +342,7 @@ def _settled(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
         return (a == b) | (np.abs(b - a) <= 4e-16 * np.maximum(1.0, np.abs(b)))
 
 
-def _agrees(loop: LoopModel, transforms: Sequence[Transform], peaks: Sequence[Peak]) -> bool:
+def fast_form_agrees(loop: LoopModel, transforms: Sequence[Transform], peaks: Sequence[Peak]) -> bool:
     """Does the fast form of GH agree with the network at every finite interior peak?"""
     w = np.array([p.frequency for p in peaks if 0 < p.frequency < np.inf])
     if w.size == 0:
@@ -357,7 +357,7 @@ def _agrees(loop: LoopModel, transforms: Sequence[Transform], peaks: Sequence[Pe
 
 def _table_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...]:
     """Peaks of a tabulated loop: refined on its rational fit (the margins' fit), else grid maxima."""
-    fitted = _fitted_loop(loop)
+    fitted = fitted_loop(loop)
     if fitted is not None:
         model, residual, degree = fitted
         note = (f"tabulated loop: peaks refined on a rational fit of degree {degree} "

@@ -50,7 +50,7 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
     if method not in ("auto", "fitted", "grid"):
         raise ValueError(f"margin method must be auto, fitted or grid, not {method!r}")
     if loop.evaluate is None:
-        fitted = None if method == "grid" else _fitted_loop(loop)
+        fitted = None if method == "grid" else fitted_loop(loop)
         if fitted is None:
             result = _grid_margins(loop, gain_band, phase_band, attenuation_above)
             return result if method == "grid" else replace(result, notes=result.notes + (
@@ -185,7 +185,7 @@ def _changes_sign(levels: list[Level], g_lo: NDArray, dg_lo: NDArray, g_hi: NDAr
 FIT_LIMIT = 0.05  # a fit off by more than this (relative) is no better than the grid
 
 
-def _fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
+def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
     """A rational fit of a tabulated loop as a loop model (searched within
     the table's range), its residual and degree; None when it fits badly."""
     keep = loop.omega > 0

@@ -173,14 +173,14 @@ def _table_loop(args: argparse.Namespace):
     from pydantic import ValidationError
 
     from engine.analysis import unity_feedback
-    from sessions.build import _table
+    from sessions.build import frequency_table
     from sessions.format.schema import TableModel
     path = Path(args.table)
     try:
         model = TableModel(unit=args.unit, form=args.form, gain=args.gain, csv=path.name, columns=args.columns)
     except ValidationError as exc:
         raise CliError(f"--table: {exc.errors()[0]['msg']}") from None
-    table = _table(model, "table", path.parent)
+    table = frequency_table(model, "table", path.parent)
     network = unity_feedback(args.tf or ["1"], args.variable, args.delay, table=table)
     return network, table.omega
 
