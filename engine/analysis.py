@@ -11,15 +11,15 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from engine.model.blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
-from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
-from engine.errors import EngineError
 from engine.closed_loop.poles import polish
-from engine.loop.responses import LoopModel, loop_model
-from engine.margins.search import Band, Margins, margins
-from engine.model.network import Block, Junction, Network, block_diagram
+from engine.errors import EngineError
 from engine.loop.realization import Pole, poles, realize, stability
+from engine.loop.responses import LoopModel, loop_model
+from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
+from engine.margins.search import Band, Margins, margins
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from engine.model.network import Block, Junction, Network, block_diagram
 
 
 @dataclass(frozen=True)

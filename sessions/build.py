@@ -23,19 +23,45 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.model.blocks import (ControllerFactor, DelayTransfer, ExpressionTransfer, Factor, FrequencyTable,
-                           TabulatedTransfer, controller_transfer, factored_transfer, polynomial_transfer)
+from engine.design.problem import (
+    BandValue,
+    Condition,
+    Grid,
+    LinearEquality,
+    Objective,
+    Parameter,
+    Point,
+    Problem,
+    Target,
+    TimeResponse,
+)
 from engine.errors import EngineError
+from engine.model.blocks import (
+    ControllerFactor,
+    DelayTransfer,
+    ExpressionTransfer,
+    Factor,
+    FrequencyTable,
+    TabulatedTransfer,
+    controller_transfer,
+    factored_transfer,
+    polynomial_transfer,
+)
 from engine.model.network import Block, Junction, Network, block_diagram, matrix_format
-from engine.design.problem import (BandValue, Condition, Grid, LinearEquality, Objective, Parameter, Point, Problem, Target,
-                            TimeResponse)
-
-from sessions.format.constraint_lines import build_inequalities, check_start, engine_error
 from sessions.errors import SessionError
+from sessions.format.constraint_lines import build_inequalities, check_start, engine_error
 from sessions.format.limits import MAX_TABLE_ROWS
-from sessions.format.schema import (CascadeModel, ChannelsModel, ConditionModel, EqualityModel, GridModel, ParameterModel, ProblemModel,
-                     TableModel, TargetModel)
-
+from sessions.format.schema import (
+    CascadeModel,
+    ChannelsModel,
+    ConditionModel,
+    EqualityModel,
+    GridModel,
+    ParameterModel,
+    ProblemModel,
+    TableModel,
+    TargetModel,
+)
 
 MAX_TABLE_BYTES = 20 * 2**20   # a CSV table's size (its rows: MAX_TABLE_ROWS, sessions.format.limits)
 SHOWN_CELL = 40            # characters of an offending cell quoted in a message

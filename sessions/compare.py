@@ -14,10 +14,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from engine.stepping.protocol import MeasureRow
-from engine.errors import EngineError
 from engine.design.tableau import tableau
-
+from engine.errors import EngineError
+from engine.stepping.protocol import MeasureRow
 from sessions.errors import SessionError
 from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import bound_algorithm, registration

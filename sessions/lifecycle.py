@@ -12,9 +12,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from engine.stepping.protocol import Registration, StepRecord, lookup, make_settings
 from engine.errors import EngineError
-
+from engine.stepping.protocol import Registration, StepRecord, lookup, make_settings
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.format.save_file import real_path

@@ -9,13 +9,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from engine.stepping.protocol import State, StepRecord, iterate
 from engine.errors import EngineError
 from engine.stepping.memory_fields import jsonable
-
+from engine.stepping.protocol import State, StepRecord, iterate
 from sessions.errors import SessionError
-from sessions.lifecycle import bound_algorithm, forget_records, named_error
 from sessions.format.schema import SessionModel
+from sessions.lifecycle import bound_algorithm, forget_records, named_error
 from sessions.store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9    # relative

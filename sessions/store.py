@@ -26,22 +26,33 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from engine.stepping.protocol import State, StepRecord, memory_type
 from engine.design.problem import Problem
-
+from engine.stepping.protocol import State, StepRecord, memory_type
 from sessions.build import OutsideTable, build_problem
-from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
 from sessions.errors import SessionError
-from sessions.format.save_file import (DiskStamp, OverwriteRefused, back_up, check_writable, describe, mode_of, read_stamped,
-                       real_path, refuse_overwrite, remove_quietly, sweep_stale, write_atomic)
-from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
+from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
 from sessions.format.json_text import dumps
+from sessions.format.save_file import (
+    DiskStamp,
+    OverwriteRefused,
+    back_up,
+    check_writable,
+    describe,
+    mode_of,
+    read_stamped,
+    real_path,
+    refuse_overwrite,
+    remove_quietly,
+    sweep_stale,
+    write_atomic,
+)
+from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
 
 __all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
            "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",
@@ -83,7 +94,7 @@ class Session:
 
 
 def now() -> str:
-    return datetime.now(timezone.utc).replace(microsecond=0).isoformat()
+    return datetime.now(UTC).replace(microsecond=0).isoformat()
 
 
 def parse_session(text: str, source: str, folder: Path, allow_outside_tables: bool = False) -> Session:

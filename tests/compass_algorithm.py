@@ -16,12 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from engine.stepping.protocol import State, Status, StepRecord, register
-from engine.errors import EngineError
+from engine.design.problem import Problem
 from engine.design.tableau import tableau
+from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields
 from engine.stepping.presenter import Presenter
-from engine.design.problem import Problem
+from engine.stepping.protocol import State, Status, StepRecord, register
 
 
 @dataclass(frozen=True)

@@ -17,26 +17,31 @@ from pathlib import Path
 from textual.app import App, SystemCommand
 from textual.binding import Binding
 
-from sessions.errors import SessionError
 from sessions.build import OutsideTable
+from sessions.errors import SessionError
 from sessions.format.save_file import OverwriteRefused
-from sessions.store import (autosave_candidate, flush_autosaves, load_autosave, load_session, parse_session,
-                            set_aside_autosave)
+from sessions.store import (
+    autosave_candidate,
+    flush_autosaves,
+    load_autosave,
+    load_session,
+    parse_session,
+    set_aside_autosave,
+)
 from sessions.target_use import unusable_targets
-
-from tui.config import Config
-from tui.keys import identified
 from tui.actions.exports import ExportActions
-from tui.files import remember, untitled_path, working_copy
 from tui.actions.run_loop import RunLoop
+from tui.actions.sweeps import SweepActions
+from tui.config import Config
+from tui.files import remember, untitled_path, working_copy
+from tui.keys import identified
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
 from tui.screens.edit_flow import EditFlow
 from tui.screens.main import MainScreen
 from tui.screens.new_flow import NewSessionFlow, copy_tables
 from tui.screens.start import StartScreen
-from tui.actions.sweeps import SweepActions
-from tui.terminal_watch import HANGUP_EXIT, watch_terminal
 from tui.state.workbench import Workbench
+from tui.terminal_watch import HANGUP_EXIT, watch_terminal
 
 # actions that change the session or replace it: disabled while a run or a sweep goes
 CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",

@@ -36,16 +36,16 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
-from engine.model.compensators import coefficient_roles, compensators, split_by_role
-from engine.design.constraints import check_start
-from engine.errors import EngineError
-from engine.stepping.guard import check_vector, guarded
-from engine.design.problem import Problem
 from engine.cip.constraints import Constraint, check_targets, detect
 from engine.cip.direction import Direction, Rows, gradient_rows
 from engine.cip.linear import held_direction, held_labels, trial_point
 from engine.cip.memory import CipBest, CipMemory
+from engine.design.constraints import check_start
+from engine.design.problem import Problem
+from engine.errors import EngineError
+from engine.model.compensators import coefficient_roles, compensators, split_by_role
+from engine.stepping.guard import check_vector, guarded
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 
 TERMINATION_STATUS = {"theorem2": Status.INFEASIBLE, "dependent": Status.NO_IMPROVEMENT,
                       "zero_gradient": Status.NO_IMPROVEMENT}

@@ -21,11 +21,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.design.measure_kinds import check_accepted, kind, names
+from engine.design.problem import Point, Problem, Target
 from engine.errors import EngineError
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.search import Margin, margins
-from engine.design.measure_kinds import check_accepted, kind, names
-from engine.design.problem import Point, Problem, Target
 
 # measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.design.measure_kinds`)
 KIND = {name: kind(name).margin for name in names(algorithm="cip")}

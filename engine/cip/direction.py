@@ -22,9 +22,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.loop.responses import open_loop
-from engine.design.problem import Problem
 from engine.cip.constraints import Constraint
+from engine.design.problem import Problem
+from engine.loop.responses import open_loop
 
 DEPENDENT = 1e-7   # smallest/largest singular value of G below this: dependent gradients
 ZERO = 1e-12       # relative size of a gradient treated as zero

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.cip.direction import DEPENDENT, ZERO, Direction, Rows, at_bound, improvement_direction
 from engine.design.constraints import inequality_rows, project, row_scale
 from engine.design.problem import Problem
-from engine.cip.direction import DEPENDENT, ZERO, Direction, Rows, at_bound, improvement_direction
 
 
 @dataclass(frozen=True)

@@ -6,10 +6,10 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
+from engine.cip.constraints import KIND, Constraint
+from engine.design.problem import Point
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields, jsonable, to_float
-from engine.design.problem import Point
-from engine.cip.constraints import KIND, Constraint
 
 KINDS = tuple(sorted(set(KIND.values())))
 

@@ -18,12 +18,12 @@ the direction is exactly the one a stability margin of F would get.
 
 from __future__ import annotations
 
+from engine.cip.constraints import KIND, Constraint
+from engine.design.problem import Point, Target
 from engine.errors import EngineError
 from engine.loop.responses import LoopModel
-from engine.margins.search import Band
 from engine.margins.peak_measures import local_peaks, newton_point
-from engine.design.problem import Point, Target
-from engine.cip.constraints import KIND, Constraint
+from engine.margins.search import Band
 
 INVERTED = ("sensitivity_peak", "complementary_sensitivity_peak")  # at most M: the distance is 1/value
 

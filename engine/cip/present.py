@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import math
 
-from engine.stepping.protocol import State, StepRecord
-from engine.stepping.presenter import Presenter
-from engine.design.problem import Problem
 from engine.cip.constraints import KIND
+from engine.design.problem import Problem
+from engine.stepping.presenter import Presenter
+from engine.stepping.protocol import State, StepRecord
 
 HZ = 2 * math.pi
 

@@ -58,11 +58,11 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.model.blocks import ExpressionTransfer
 from engine.errors import EngineError
+from engine.loop.pole_zero import ZpkEvaluator
+from engine.model.blocks import ExpressionTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
-from engine.loop.pole_zero import ZpkEvaluator
 
 Roots = NDArray[np.complex128]
 Ratio = Callable[[Roots], Roots]  # s -> F'(s)/F(s)
@@ -316,7 +316,7 @@ def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp]) -> Roots | 
     if centre.imag == 0.0:
         sums = sums.real + 0j
     roots = centre + np.roots(_from_power_sums(sums))
-    from scipy.optimize import linear_sum_assignment   # on first use: `analyze` loads no scipy.optimize
+    from scipy.optimize import linear_sum_assignment  # on first use: `analyze` loads no scipy.optimize
     rows, cols = linear_sum_assignment(np.abs(z[members][:, None] - roots[None, :]))
     out = np.empty(m, dtype=complex)
     out[rows] = roots[cols]

@@ -28,15 +28,15 @@ from numpy.typing import NDArray
 from scipy import linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
+from engine.closed_loop.characteristic import FormCharacteristic, GainCharacteristic, loop_terms
+from engine.closed_loop.poles import polish
 from engine.errors import EngineError
 from engine.loop.evaluator import LoopEvaluator
+from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
+from engine.loop.realization import realize
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
 from engine.model.network import Network
-from engine.closed_loop.characteristic import FormCharacteristic, GainCharacteristic, loop_terms
-from engine.closed_loop.poles import polish
-from engine.loop.realization import realize
-from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
 
 MOVE = 0.05  # a step may move a pole by this fraction of max(|pole|, the floor)
 SEPARATE = 0.25  # ... and by this fraction of its distance to the nearest other pole

@@ -163,7 +163,7 @@ def _foh(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
     n = A.shape[0]
     big = np.zeros((n + 2, n + 2))
     big[:n, :n], big[:n, n], big[n, n + 1] = A * h, B * h, 1.0
-    from scipy.linalg import expm   # on first use (start-up)
+    from scipy.linalg import expm  # on first use (start-up)
     E = expm(big)
     return E[:n, :n], E[:n, n], E[:n, n + 1] * h
 

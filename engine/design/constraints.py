@@ -171,7 +171,7 @@ def project(z: NDArray, A: NDArray, b: NDArray, lower: NDArray, upper: NDArray, 
     E = np.vstack([G.T, h[None, :]])
     f = np.zeros(n + 1)
     f[-1] = 1.0
-    from scipy.optimize import nnls   # on use: scipy.optimize costs ~130 ms at every start
+    from scipy.optimize import nnls  # on use: scipy.optimize costs ~130 ms at every start
     u, _ = nnls(E, f, maxiter=50 * (E.shape[1] + 1))
     r = E @ u - f
     if not np.isfinite(r).all() or abs(r[-1]) <= 1e-12:

@@ -17,10 +17,11 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.model.blocks import FrequencyTable
 from engine.design.constraints import LinearInequality, check_inequalities, inequality_rows
+from engine.design.measure_kinds import MEASURE_KINDS
+from engine.design.measure_kinds import names as measure_names
 from engine.errors import EngineError
-from engine.design.measure_kinds import MEASURE_KINDS, names as measure_names
+from engine.model.blocks import FrequencyTable
 from engine.model.network import Network, check_grid
 
 Sign = Literal["any", "positive", "negative"]

@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.stepping.protocol import MeasureRow
-from engine.errors import EngineError
-from engine.stepping.guard import numerical
-from engine.loop.responses import loop_model
-from engine.margins.search import Band, Margin, margins
 from engine.design.measure_kinds import kind
-from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
 from engine.design.problem import Problem, Target
+from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.responses import loop_model
+from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
+from engine.margins.search import Band, Margin, margins
+from engine.stepping.guard import numerical
+from engine.stepping.protocol import MeasureRow
 
 # margin measure -> the attribute of its `Margin` the tableau shows (the margin family and the
 # natural sense are the table's, `engine.design.measure_kinds`)

@@ -17,8 +17,8 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.model.blocks import ExpressionTransfer
 from engine.errors import InterconnectionError
+from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Network, schedule_edges, sparse_solve
 
 FOLD_WIDTH = 3  # coefficients of a degree-2 polynomial

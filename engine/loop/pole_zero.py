@@ -23,9 +23,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError, InterconnectionError
+from engine.loop.realization import StateSpace, realize
 from engine.model.factored import pole_zero
 from engine.model.network import Network
-from engine.loop.realization import StateSpace, realize
 
 AGREEMENT = 1e-9
 BATCH_ELEMENTS = 1 << 14  # root-frequency pairs per batch (256 kB of complex work array)
@@ -136,7 +136,7 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
             reference = _evaluated(exact, checks)
             if reference is not None and _matches(form, checks, reference):
                 return form
-    from scipy import linalg   # on first use: scipy.linalg costs a fifth of a second of start-up
+    from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
     try:
         ss = loop_realization(network, break_at, params)
     except (EngineError, linalg.LinAlgError, ValueError):

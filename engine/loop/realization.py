@@ -17,11 +17,11 @@ from weakref import WeakKeyDictionary
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.errors import BlockError, InterconnectionError
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factored import pole_zero
-from engine.errors import BlockError, InterconnectionError
-from engine.numerics.polynomials import degree, trim
 from engine.model.network import Network
+from engine.numerics.polynomials import degree, trim
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,7 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
     for k, name in enumerate(network.inputs):
         E[network.signal(name), k] = 1.0
     lu = _factor_feedthrough(np.eye(n) - feed)
-    from scipy import linalg   # on first use (start-up)
+    from scipy import linalg  # on first use (start-up)
     P_state, P_input = linalg.lu_solve(lu, C_sig), linalg.lu_solve(lu, E)
     return StateSpace(A_blk + B_blk @ P_state, B_blk @ P_input, P_state, P_input,
                       network.inputs, network.signals)
@@ -90,7 +90,7 @@ def _factor_feedthrough(matrix: NDArray) -> tuple:
     from (diag(|L| |U|)): the test is blind to scaling, so a chain of gains
     from 3e-20 to 1e11 around a loop with 1 + GH(inf) = 8.77 is not
     mistaken for a singular one, while a loop gain of exactly -1 is."""
-    from scipy import linalg   # on first use: scipy.linalg costs a fifth of a second of start-up
+    from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
     if not np.all(np.isfinite(matrix)):
         raise InterconnectionError("a direct feedthrough is not finite")
     with warnings.catch_warnings():  # an exactly zero pivot is the error below, not a warning

@@ -16,8 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import EngineError
 from engine.loop.evaluator import LoopEvaluator
-from engine.model.network import Network, check_grid, solve
 from engine.loop.pole_zero import ZpkEvaluator, zpk_evaluator
+from engine.model.network import Network, check_grid, solve
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
 
@@ -127,7 +127,7 @@ def _with_loop_zeros(corners: NDArray, damps: NDArray, is_pole: NDArray,
     branches summed (a rate and an attitude channel, a plant's modes in parallel) make
     zeros no block has, lightly damped between the modes, which the detection grid
     must cluster around as around any light corner."""
-    from engine.margins.detection_grid import LIGHT_DAMPING   # (detection imports this module)
+    from engine.margins.detection_grid import LIGHT_DAMPING  # (detection imports this module)
     zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0) & (zeros.imag > 0)]   # one of each complex pair
     size, damping = np.abs(zeros), np.abs(zeros.real) / np.abs(zeros)
     light = damping < LIGHT_DAMPING   # the grid clusters around light corners only (a far real zero

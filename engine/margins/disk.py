@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError
 from engine.loop.responses import LoopModel
-from engine.margins.search import Band
 from engine.margins.peaks import Peak, Transform, refined_peaks, sensitivity
+from engine.margins.search import Band
 
 
 @dataclass(frozen=True)

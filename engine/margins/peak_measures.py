@@ -21,14 +21,25 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.loop.responses import LoopModel
 from engine.margins.detection_grid import detection_grid
 from engine.margins.disk import disk_transform, from_peak
-from engine.loop.responses import LoopModel
+
+# the peak search's own steps, reused to keep every local maximum, not only the largest
+from engine.margins.peaks import (
+    Peak,
+    Transform,
+    band_grid,
+    complementary,
+    fast_form_agrees,
+    log_level,
+    refined_maxima,
+    refined_peaks,
+    resolved_grid,
+    sensitivity,
+)
 from engine.margins.search import Band, Margins
 from engine.numerics.refinement import sign_changes
-# the peak search's own steps, reused to keep every local maximum, not only the largest
-from engine.margins.peaks import (Peak, Transform, fast_form_agrees, log_level, refined_maxima, resolved_grid, band_grid,
-                          complementary, refined_peaks, sensitivity)
 
 PEAK_MEASURES = ("disk_margin", "sensitivity_peak", "complementary_sensitivity_peak")
 CLOSED_LOOP_MEASURES = PEAK_MEASURES + ("delay_margin",)

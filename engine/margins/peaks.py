@@ -22,13 +22,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.margins.detection_grid import may_hide_pair, detection_grid
 from engine.errors import EngineError
+from engine.loop.pole_zero import ZpkEvaluator
 from engine.loop.responses import Evaluator, LoopModel
+from engine.margins.detection_grid import detection_grid, may_hide_pair
+from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.search import FIT_LIMIT, Band, fitted_loop
 from engine.numerics.refinement import refine, sign_changes
-from engine.loop.pole_zero import ZpkEvaluator
-from engine.margins.pole_zero.peaks import moebius_peaks
 
 # (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
 Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]

@@ -27,16 +27,16 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.errors import EngineError
 from engine.loop.fit_cache import cached_fit
-from engine.loop.responses import LoopModel
-from engine.margins.values import Band, Margin, Margins, margins_of, single_margin
-from engine.numerics.refinement import Roots, refine, sign_changes
-from engine.margins.shape_notes import level_notes, shape_notes
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.loop.responses import LoopModel
+from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
+from engine.margins.shape_notes import level_notes, shape_notes
+from engine.margins.values import Band, Margin, Margins, margins_of, single_margin
+from engine.numerics.refinement import Roots, refine, sign_changes
 
 
 def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from engine.margins.detection_grid import NOISE, Detection
 from engine.loop.responses import LoopModel
+from engine.margins.detection_grid import NOISE, Detection
 
 
 def shape_notes(loop: LoopModel, grid: Detection) -> list[str]:

@@ -38,7 +38,7 @@ class Node:
     """One node of the restricted expression tree."""
 
     op: str  # "num", "var", "param", "add", "sub", "mul", "div", "neg", "pow"
-    args: tuple["Node", ...] = ()
+    args: tuple[Node, ...] = ()
     value: float = 0.0
     name: str = ""
     exponent: int = 0

@@ -81,7 +81,7 @@ class Folded:
     def degree(self) -> int:
         return max(len(self.num), len(self.den)) - 1
 
-    def combine(self, op: str, other: "Folded | None", exponent: int) -> "Folded":
+    def combine(self, op: str, other: Folded | None, exponent: int) -> Folded:
         if op == "neg":
             return Folded(tuple(-c for c in self.num), self.den)
         if op == "pow":
@@ -122,11 +122,11 @@ def _horner(c: NDArray, x: NDArray) -> NDArray:
     return value
 
 
-def as_callable(c: "Folded | Evaluator") -> Evaluator:
+def as_callable(c: Folded | Evaluator) -> Evaluator:
     return _rational_evaluator(c.rational()) if isinstance(c, Folded) else c
 
 
-def constant_subtrees(root: Node) -> dict[int, "Folded | Evaluator"]:
+def constant_subtrees(root: Node) -> dict[int, Folded | Evaluator]:
     """The compiled form of every largest subtree without parameters (by node
     id): compiled once, reused whenever the parameters change."""
     constants: dict[int, Folded | Evaluator] = {}
@@ -146,7 +146,7 @@ def constant_subtrees(root: Node) -> dict[int, "Folded | Evaluator"]:
 
 
 def compile_tree(node: Node, params: Mapping[str, float],
-             constants: dict[int, "Folded | Evaluator"]) -> "Folded | Evaluator":
+             constants: dict[int, Folded | Evaluator]) -> Folded | Evaluator:
     """Fold subtrees of degree <= FOLD_DEGREE into polynomial ratios; keep the
     rest as closures (``constants``: parameter-free subtrees already compiled)."""
     if id(node) in constants:

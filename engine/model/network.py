@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.model.blocks import ExpressionTransfer, Transfer
 from engine.errors import EngineError, GridError, InterconnectionError, ParameterError
+from engine.model.blocks import ExpressionTransfer, Transfer
 
 
 @dataclass(frozen=True)

@@ -167,7 +167,7 @@ def _poles(nodes: Complex, w: Complex, d_inf: float) -> Complex:
     e = np.zeros((n + 1, n + 1), dtype=complex)
     e[0, 0], e[0, 1:], e[1:, 0] = d_inf, w, 1.0
     e[1:, 1:] = np.diag(nodes)
-    import scipy.linalg   # on first use (start-up)
+    import scipy.linalg  # on first use (start-up)
     try:
         lam = scipy.linalg.eigvals(e, np.diag(np.r_[0.0, np.ones(n)]))
     except (np.linalg.LinAlgError, ValueError):

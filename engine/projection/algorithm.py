@@ -31,15 +31,15 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
-from engine.errors import EngineError
-from engine.stepping.guard import guarded
 from engine.design.problem import Problem
+from engine.errors import EngineError
 from engine.projection.banded import Projector
 from engine.projection.lq import Trajectory, norm
 from engine.projection.memory import Iterate, ProjectionMemory
 from engine.projection.openloop import open_loop, peak_rows, peaks
 from engine.projection.system import DaeSystem, dae_system
+from engine.stepping.guard import guarded
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 
 STALL_WINDOW = 6
 

@@ -15,10 +15,10 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.stepping.protocol import MeasureRow
 from engine.errors import EngineError
 from engine.projection.lq import Trajectory
 from engine.projection.system import DaeSystem
+from engine.stepping.protocol import MeasureRow
 
 
 def open_loop_gain(system: DaeSystem) -> NDArray:

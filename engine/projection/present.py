@@ -7,9 +7,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from engine.stepping.protocol import State, StepRecord
-from engine.stepping.presenter import Presenter
 from engine.design.problem import Problem
+from engine.stepping.presenter import Presenter
+from engine.stepping.protocol import State, StepRecord
 
 
 class ProjectionPresenter(Presenter):

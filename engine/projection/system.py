@@ -19,8 +19,22 @@ from numpy.typing import NDArray
 from scipy.linalg import expm
 
 from engine.errors import EngineError
-from engine.projection.data import MAX_INPUTS, MAX_POWER, MAX_STATES, MAX_STEPS, fail, integer, items, limits, matrix, number, obj, \
-    sizes, vector, weights
+from engine.projection.data import (
+    MAX_INPUTS,
+    MAX_POWER,
+    MAX_STATES,
+    MAX_STEPS,
+    fail,
+    integer,
+    items,
+    limits,
+    matrix,
+    number,
+    obj,
+    sizes,
+    vector,
+    weights,
+)
 
 
 @dataclass(frozen=True)

@@ -18,10 +18,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
-from engine.errors import EngineError
-from engine.stepping.guard import check_vector, guarded
 from engine.design.problem import Problem
+from engine.errors import EngineError
 from engine.qcg.cgfm import Move, cgfm_step
 from engine.qcg.cost import CostResult, normalized_squares, open_loop_squares
 from engine.qcg.evaluate import PARTS, SQUARES, Counter, Evaluation, counted
@@ -29,6 +27,8 @@ from engine.qcg.lbfgsb import lbfgsb_step
 from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
 from engine.qcg.setup import CascadeProblem, cascade_problem
+from engine.stepping.guard import check_vector, guarded
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 
 __all__ = ["Qcg", "QcgSettings"]
 CONVENTIONS = "F = sum F(w_i)(w_{i+1} - w_{i-1}) as the listing prints; C = F/(2 pi), eq. (22)"

@@ -29,11 +29,11 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.stepping.protocol import Status
 from engine.errors import EngineError
 from engine.qcg.evaluate import Counter, Evaluation
 from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
+from engine.stepping.protocol import Status
 
 
 class Search(NamedTuple):

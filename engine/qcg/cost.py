@@ -35,8 +35,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.model.blocks import Transfer
 from engine.errors import EngineError
+from engine.model.blocks import Transfer
 
 BLEND = 0.05  # intervals with RSNAT <= min |1 + OPEN|^2 < RSNAT (1 + BLEND) are partly refined
 

@@ -14,11 +14,11 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.errors import EngineError
-from engine.stepping.memory_fields import Fields, jsonable
 from engine.design.problem import Problem
+from engine.errors import EngineError
 from engine.qcg.cost import CostResult
 from engine.qcg.setup import CascadeProblem
+from engine.stepping.memory_fields import Fields, jsonable
 
 PARTS = ("FDQ", "FDR", "FVQ", "FVR")
 SQUARES = ("x1", "x1_rate", "u", "u_rate")

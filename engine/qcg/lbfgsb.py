@@ -36,11 +36,11 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.stepping.protocol import Status
 from engine.qcg.cgfm import Move
 from engine.qcg.evaluate import Counter, Evaluation
 from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
+from engine.stepping.protocol import Status
 
 LOWER = 1e-6   # the least p = b/|b0|: a parameter keeps its sign and a millionth of its start
 CURVATURE = np.finfo(float).eps
@@ -105,7 +105,7 @@ def _search(cost: Counter, scale: NDArray, p: NDArray, d: NDArray, g: NDArray,
     """L-BFGS-B's line search along d (MINPACK's dcsrch, scipy's `DCSRCH`, L-BFGS-B's
     constants), capped at the bounds: the new p and its cost.  When it ends without a
     point meeting its conditions, the best point it tried with sufficient decrease."""
-    from scipy.optimize._dcsrch import DCSRCH   # no public name; on first use (scipy.optimize: 0.25 s of start-up)
+    from scipy.optimize._dcsrch import DCSRCH  # no public name; on first use (scipy.optimize: 0.25 s of start-up)
     seen: dict[float, Evaluation | None] = {}
 
     def at(alpha: float) -> Evaluation | None:

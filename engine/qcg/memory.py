@@ -6,8 +6,8 @@ from dataclasses import dataclass
 from typing import Any, Self
 
 from engine.errors import EngineError
-from engine.stepping.memory_fields import Fields, jsonable
 from engine.qcg.evaluate import Evaluation
+from engine.stepping.memory_fields import Fields, jsonable
 
 
 @dataclass(frozen=True)

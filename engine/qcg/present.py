@@ -3,11 +3,11 @@ its parts, the counters, the parameters, and the INST = 4 frequency response."""
 
 from __future__ import annotations
 
-from engine.stepping.protocol import StepRecord
-from engine.errors import EngineError
-from engine.stepping.presenter import Presenter, tableau_text
 from engine.design.problem import Problem
+from engine.errors import EngineError
 from engine.qcg.setup import cascade_problem
+from engine.stepping.presenter import Presenter, tableau_text
+from engine.stepping.protocol import StepRecord
 
 
 def qcg_report_text(record: StepRecord, response: list[dict] | None = None) -> str:

@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.model.blocks import Transfer
-from engine.errors import EngineError
 from engine.design.measure_kinds import check_accepted
 from engine.design.problem import Problem
+from engine.errors import EngineError
+from engine.model.blocks import Transfer
 from engine.qcg.cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
 
 OPTIONS = ("q1", "q2", "r1", "r2", "averaging_time", "disturbance_amplitude", "disturbance_pole", "rsnat",
@@ -53,7 +53,7 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     data = made.cascade
     if not all(np.all(np.isfinite(a)) for a in (data.g1, data.g1g2, data.ga, data.noise_psd, data.disturbance)):
         raise EngineError("qcg: the plant or the noise and disturbance weights are not finite on the grid")
-    from engine.qcg.penalty import penalized   # the linear constraints' penalty (penalty.py builds on this module)
+    from engine.qcg.penalty import penalized  # the linear constraints' penalty (penalty.py builds on this module)
     return penalized(made, problem)
 
 

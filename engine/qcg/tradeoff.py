@@ -15,10 +15,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
-from engine.stepping.protocol import iterate
-from engine.errors import EngineError
 from engine.design.problem import Problem
+from engine.errors import EngineError
 from engine.qcg.algorithm import Qcg, QcgSettings
+from engine.stepping.protocol import iterate
 
 PENALTIES = ("q1", "q2", "r1", "r2")
 

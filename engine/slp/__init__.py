@@ -1,8 +1,8 @@
 """`slp`: COEBRA's sequential linear programming (Martin Marietta, report 003)."""
 
-from engine.stepping.protocol import register
 from engine.slp.algorithm import Slp, SlpSettings
 from engine.slp.present import SlpPresenter
+from engine.stepping.protocol import register
 
 register("slp", Slp, SlpSettings,
          "sequential linear programming over margins and time-domain measures, several flight "

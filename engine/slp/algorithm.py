@@ -47,15 +47,15 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 from engine.design.constraints import check_start, project
-from engine.errors import EngineError
-from engine.stepping.guard import check_vector, guarded
 from engine.design.problem import Problem
+from engine.errors import EngineError
 from engine.slp.lp import LpResult, solve_step, step_box
 from engine.slp.measures import Spec, evaluate, measure_specs
 from engine.slp.memory import SlpMemory, SlpPoint
 from engine.slp.partials import jacobian
+from engine.stepping.guard import check_vector, guarded
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 
 LOAD_KINDS = ("peak_response", "mean_square")
 STILL = "the linear program does not move"

@@ -53,7 +53,7 @@ def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, 
     linearization's error at the vertex does not tip it over SPEC.  ``inequalities``:
     (A_in, b_in) of the problem's linear constraints, rows after the requirements'.
     """
-    from scipy.optimize import linprog   # on first use: scipy.optimize costs a quarter of a second of start-up
+    from scipy.optimize import linprog  # on first use: scipy.optimize costs a quarter of a second of start-up
     trouble = _unsolvable(c, gradients, values, specs, box, equalities)
     if trouble:
         return LpResult(None, float(steps[-1]), 0, trouble, np.zeros(len(values)))

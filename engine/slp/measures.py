@@ -29,15 +29,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.model.blocks import ExpressionTransfer
-from engine.errors import EngineError
-from engine.loop.responses import loop_model
-from engine.margins.search import Margins, margins
+from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
 from engine.design.measure_kinds import MEASURE_KINDS, check_accepted, kind
 from engine.design.problem import FREQUENCY_MEASURES, Problem
-from engine.loop.realization import StateSpace, cascade
+from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization
-from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
+from engine.loop.realization import StateSpace, cascade
+from engine.loop.responses import loop_model
+from engine.margins.search import Margins, margins
+from engine.model.blocks import ExpressionTransfer
 from engine.slp.peaks import closed_loop_values
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
@@ -232,6 +232,6 @@ def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -
         return math.inf  # white noise straight to the output
     if A.size and np.max(np.linalg.eigvals(A).real) >= 0:
         return math.inf
-    from scipy.linalg import solve_continuous_lyapunov   # on first use (start-up)
+    from scipy.linalg import solve_continuous_lyapunov  # on first use (start-up)
     P = solve_continuous_lyapunov(A, -np.outer(B, B))
     return float(C @ P @ C)

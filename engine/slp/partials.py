@@ -27,9 +27,9 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.design.problem import Problem
 from engine.loop.evaluator import LoopEvaluator
 from engine.loop.responses import open_loop
-from engine.design.problem import Problem
 from engine.slp.measures import Spec, evaluate
 from engine.slp.peaks import closed_loop_partials
 

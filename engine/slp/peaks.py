@@ -26,14 +26,21 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.loop.evaluator import LoopEvaluator
-from engine.loop.responses import LoopModel, open_loop
-from engine.margins.search import Band, Margins
-from engine.margins.peak_measures import (CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peaks, delay_partial,
-                             peak_partial, stable_realization)
 from engine.design.problem import Condition, Problem
-from engine.loop.realization import StateSpace
+from engine.loop.evaluator import LoopEvaluator
 from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.realization import StateSpace
+from engine.loop.responses import LoopModel, open_loop
+from engine.margins.peak_measures import (
+    CLOSED_LOOP_MEASURES,
+    PEAK_MEASURES,
+    band_delay,
+    band_peaks,
+    delay_partial,
+    peak_partial,
+    stable_realization,
+)
+from engine.margins.search import Band, Margins
 
 
 def closed_loop_values(condition: Condition, params: dict[str, float], model: LoopModel, found: Margins,

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import math
 
-from engine.stepping.protocol import State, StepRecord
-from engine.stepping.presenter import Presenter, number
 from engine.design.problem import Problem
+from engine.stepping.presenter import Presenter, number
+from engine.stepping.protocol import State, StepRecord
 
 
 def _number(value: float | None, width: int, digits: int = 6) -> str:

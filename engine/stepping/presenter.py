@@ -17,10 +17,10 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
-from engine.errors import EngineError
-from engine.design.tableau import tableau
 from engine.design.problem import Problem
+from engine.design.tableau import tableau
+from engine.errors import EngineError
+from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 
 LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step", "closed_loop", "poles", "locus"})
 # what reading a record's free-form `extra` raises when a session file was edited by hand

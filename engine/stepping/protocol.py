@@ -21,9 +21,10 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any, ClassVar, Protocol, Self
 
-from engine.errors import EngineError
-from engine.stepping.memory_fields import Fields, jsonable as _jsonable
 from engine.design.problem import Problem
+from engine.errors import EngineError
+from engine.stepping.memory_fields import Fields
+from engine.stepping.memory_fields import jsonable as _jsonable
 
 
 class Status(str, Enum):
@@ -246,7 +247,7 @@ def make_settings(name: str, values: Mapping[str, Any]) -> Any:
     if unknown:
         raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; "
                           f"settings are {', '.join(sorted(names))}")
-    from engine.stepping.guard import setting_value, settings_types   # the settings' declared types, checked here once
+    from engine.stepping.guard import setting_value, settings_types  # the settings' declared types, checked here once
     kinds = settings_types(cls)
     values = {key: setting_value(name, key, kinds[key], value) if key in kinds else value
               for key, value in values.items()}

@@ -35,7 +35,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from sessions.examples.coebra_launch_vehicle import ACTUATOR, CONDITIONS, session as diagram_session
+from sessions.examples.coebra_launch_vehicle import ACTUATOR, CONDITIONS
+from sessions.examples.coebra_launch_vehicle import session as diagram_session
 
 HERE = Path(__file__).parent
 NAME = "coebra_launch_vehicle_matrix.json"

@@ -20,9 +20,8 @@ import math
 import numpy as np
 
 from engine.errors import EngineError
-from engine.loop.responses import open_loop
 from engine.loop.pole_zero import closed_loop_realization, loop_realization
-
+from engine.loop.responses import open_loop
 from sessions.export.design_model import Design, ExportCondition, ExportEntry, w_to_z
 from sessions.store import Session
 

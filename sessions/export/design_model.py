@@ -18,12 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.model.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
 from engine.errors import EngineError
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
 from engine.model.factored import pole_zero
-from engine.numerics.rational_fit import FAR_POLE, RationalFit, fit_response
 from engine.model.network import Network
-
+from engine.numerics.rational_fit import FAR_POLE, RationalFit, fit_response
 from sessions.errors import SessionError
 from sessions.store import Session
 
@@ -161,7 +160,7 @@ def fit_zeros(fit: RationalFit) -> NDArray[np.complex128]:
     e = np.zeros((n + 1, n + 1), dtype=complex)
     e[0, 0], e[0, 1:], e[1:, 0] = fit.n_inf, w, 1.0
     e[1:, 1:] = np.diag(nodes)
-    import scipy.linalg   # on first use: scipy.linalg costs a fifth of a second of start-up
+    import scipy.linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
     lam = scipy.linalg.eigvals(e, np.diag(np.r_[0.0, np.ones(n)]))
     keep = np.isfinite(lam) & (np.abs(lam) <= FAR_POLE * np.max(np.abs(nodes)))
     return np.sort_complex(lam[keep])

@@ -17,7 +17,7 @@ FORMATS = {"python": "a python-control script that rebuilds the loop and prints 
            "csv": "the open and closed loop's frequency response on the session's grid"}
 
 
-def export_text(session: "Session", iteration: int | None, to: str, sample_time: float | None = None) -> str:
+def export_text(session: Session, iteration: int | None, to: str, sample_time: float | None = None) -> str:
     """The exported text of the design at ``iteration`` (None: the session's current one)."""
     from sessions.export.design_model import design
     if to not in SUFFIX:

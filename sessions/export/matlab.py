@@ -11,8 +11,17 @@ MATLAB reads the same double).
 
 from __future__ import annotations
 
-from sessions.export.design_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
-                           loop_input, rows, w_to_z)
+from sessions.export.design_model import (
+    Design,
+    ExportCondition,
+    ExportEntry,
+    fitted_entries,
+    identifiers,
+    is_junction,
+    loop_input,
+    rows,
+    w_to_z,
+)
 
 
 def matlab_script(d: Design, sample_time: float | None = None) -> str:

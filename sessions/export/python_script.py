@@ -14,8 +14,17 @@ condition's margins (``control.stability_margins``) and closed-loop poles;
 
 from __future__ import annotations
 
-from sessions.export.design_model import (Design, ExportCondition, ExportEntry, fitted_entries, identifiers, is_junction,
-                           loop_input, rows, w_to_z)
+from sessions.export.design_model import (
+    Design,
+    ExportCondition,
+    ExportEntry,
+    fitted_entries,
+    identifiers,
+    is_junction,
+    loop_input,
+    rows,
+    w_to_z,
+)
 
 PADE_ORDER = 6
 

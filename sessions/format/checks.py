@@ -8,11 +8,10 @@ from __future__ import annotations
 import dataclasses
 from typing import Any
 
-from engine.stepping.protocol import State, StepRecord, memory_type
+from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields
-from engine.design.problem import Problem
-
+from engine.stepping.protocol import State, StepRecord, memory_type
 from sessions.errors import SessionError
 from sessions.format.schema import SessionModel
 

@@ -18,15 +18,13 @@ from typing import TYPE_CHECKING, Annotated
 
 from pydantic import AfterValidator, Field
 
+from engine.design.constraint_reader import MAX_LENGTH, LinearFormError, read_constraint
 from engine.design.constraints import TOLERANCE, LinearInequality, unmet
 from engine.errors import EngineError
-from engine.design.constraint_reader import MAX_LENGTH, LinearFormError, read_constraint
-
 from sessions.errors import SessionError
 
 if TYPE_CHECKING:
     from engine.design.problem import Problem
-
     from sessions.format.schema import ProblemModel
 
 

@@ -10,7 +10,7 @@ target's ``detect_high``), and NaN nowhere.
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Union
+from typing import Annotated, Any
 
 from pydantic import AfterValidator, BeforeValidator, Field
 
@@ -50,7 +50,7 @@ def _coefficient(value: Any) -> Any:
 
 
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-Coefficient = Annotated[Union[Number, Name], BeforeValidator(_coefficient)]  # a number or a parameter name
+Coefficient = Annotated[Number | Name, BeforeValidator(_coefficient)]  # a number or a parameter name
 
 
 def bounded(list_type: Any, most: int, least: int = 0) -> Any:

@@ -7,7 +7,7 @@ version this code writes; older files are migrated (`store.MIGRATIONS`).
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -16,10 +16,29 @@ from engine.design.measure_kinds import MEASURE_KINDS
 SCHEMA_VERSION = 1
 
 from sessions.format.constraint_lines import ConstraintText
-from sessions.format.limits import (MAX_BANDS, MAX_BLOCKS, MAX_CHANNELS, MAX_COEFFICIENTS, MAX_CONDITIONS,  # noqa: F401
-                     MAX_CONSTRAINTS, MAX_EQUALITIES, MAX_FACTORS, MAX_GRID_POINTS, MAX_JUNCTION_INPUTS, MAX_OPTIONS, MAX_PARAMETERS,
-                     MAX_RESPONSE_POINTS, MAX_SIGNALS, MAX_TABLE_ROWS, MAX_TARGETS, Coefficient, Lower, Number,
-                     Upper, bounded as _bounded)
+from sessions.format.limits import (  # noqa: F401
+    MAX_BANDS,
+    MAX_BLOCKS,
+    MAX_CHANNELS,
+    MAX_COEFFICIENTS,
+    MAX_CONDITIONS,
+    MAX_CONSTRAINTS,
+    MAX_EQUALITIES,
+    MAX_FACTORS,
+    MAX_GRID_POINTS,
+    MAX_JUNCTION_INPUTS,
+    MAX_OPTIONS,
+    MAX_PARAMETERS,
+    MAX_RESPONSE_POINTS,
+    MAX_SIGNALS,
+    MAX_TABLE_ROWS,
+    MAX_TARGETS,
+    Coefficient,
+    Lower,
+    Number,
+    Upper,
+)
+from sessions.format.limits import bounded as _bounded
 
 
 class Strict(BaseModel):
@@ -149,7 +168,7 @@ class DelayBlock(Strict):
     tau: Coefficient
 
 
-Transfer = Annotated[Union[ExpressionBlock, PolynomialBlock, FactoredBlock, TableBlock, DelayBlock, ControllerBlock],
+Transfer = Annotated[ExpressionBlock | PolynomialBlock | FactoredBlock | TableBlock | DelayBlock | ControllerBlock,
                      Field(discriminator="kind")]
 
 
@@ -244,12 +263,12 @@ class ConditionModel(Strict):
     name: str
     variable: Literal["s", "w"] = "s"
     break_at: str
-    plant: Annotated[Union[DiagramModel, MatrixModel, ChannelsModel, CascadeModel], Field(discriminator="format")]
+    plant: Annotated[DiagramModel | MatrixModel | ChannelsModel | CascadeModel, Field(discriminator="format")]
 
 
 class ParameterModel(Strict):
     name: str
-    value: Union[Number, _bounded(list[Number], MAX_CONDITIONS)]
+    value: Number | _bounded(list[Number], MAX_CONDITIONS)
     min: Lower | None = Field(default=None, description="null (or -inf): unbounded")
     max: Upper | None = Field(default=None, description="null (or inf): unbounded")
     free: bool = True
@@ -322,7 +341,7 @@ class TargetModel(Strict):
 
 class ObjectiveModel(Strict):
     kind: str
-    options: Annotated[dict[str, Union[Number, str]], Field(max_length=MAX_OPTIONS)] = {}
+    options: Annotated[dict[str, Number | str], Field(max_length=MAX_OPTIONS)] = {}
     tables: Annotated[dict[str, TableModel], Field(max_length=MAX_OPTIONS)] = Field(default={}, description="e.g. noise_psd (form 'magnitude')")
     data: dict[str, Any] = Field(default={}, description="structured inputs: for kind 'dae' the matrices A, B, E, "
                                                          "F, x0, horizon, steps, bounds, Q, R")

@@ -21,9 +21,17 @@ import re
 
 from pydantic import ValidationError
 
+from sessions.format.schema import (
+    ControllerBlock,
+    ControllerFactorModel,
+    DelayBlock,
+    ExpressionBlock,
+    FactoredBlock,
+    FactorModel,
+    PolynomialBlock,
+    TableBlock,
+)
 from sessions.forms.one_line import FormError, format_number, parse_expression, parse_number
-from sessions.format.schema import (ControllerBlock, ControllerFactorModel, DelayBlock, ExpressionBlock, FactoredBlock,
-                             FactorModel, PolynomialBlock, TableBlock)
 
 KINDS = ("factored", "controller", "polynomial", "delay", "table")
 NAME = r"[A-Za-z_][A-Za-z0-9_]*"

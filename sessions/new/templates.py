@@ -15,10 +15,9 @@ corner frequencies.
 from __future__ import annotations
 
 import math
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 from engine.errors import EngineError
-
 from sessions.errors import SessionError
 
 LOOPCRAFT_VERSION = "0.1.0"
@@ -62,7 +61,7 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
                                                             "transfer": {"kind": "delay", "tau": delay}}]
     else:
         blocks.append(_block("plant", "u", "y", plant_text))
-    stamp = datetime.now(timezone.utc).replace(microsecond=0).isoformat()
+    stamp = datetime.now(UTC).replace(microsecond=0).isoformat()
     condition = {"name": name, "variable": variable, "break_at": "e",
                  "plant": {"format": "diagram", "inputs": ["r"], "blocks": blocks,
                            "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}]}}
@@ -87,7 +86,7 @@ def _block(name: str, source: str, output: str, expression: str) -> dict:
 
 def read_plant(plant: str) -> tuple[str, float, str]:
     """The plant's rational part, its delay and its variable; numbers only."""
-    from engine.analysis import split_delays     # on use: the command line's parser reads STRUCTURES at start
+    from engine.analysis import split_delays  # on use: the command line's parser reads STRUCTURES at start
     from engine.model.expressions import Expression
     try:
         text, delay = split_delays(plant.strip())
@@ -134,6 +133,7 @@ def parameter_entry(name: str, value: float) -> dict:
 def grid_for(plant: str, variable: str) -> dict:
     """Log grid two decades beyond the plant's nonzero corner frequencies (0.01..1000 without any)."""
     import numpy as np
+
     from engine.model.expressions import Expression
     from engine.model.factored import pole_zero
     try:

@@ -17,17 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from engine.stepping.protocol import MeasureRow, StepRecord
+from engine.closed_loop.time_response import Segment, simulate
 from engine.errors import EngineError
+from engine.loop.realization import realize
 from engine.loop.responses import loop_model, open_loop
 from engine.margins.search import margins
 from engine.stepping.presenter import tableau_text, tolerant
-from engine.loop.realization import realize
-from engine.closed_loop.time_response import Segment, simulate
-
-from sessions.report import figures
+from engine.stepping.protocol import MeasureRow, StepRecord
 from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import bound_algorithm, registration
+from sessions.report import figures
 from sessions.store import Session
 
 Block = tuple

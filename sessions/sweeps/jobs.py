@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import time
 import uuid
+from collections import deque
 from collections.abc import Callable, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field
@@ -30,17 +31,23 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.stepping.protocol import StepRecord, iterate
-from engine.stepping.presenter import tolerant
+from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.responses import open_loop
-from engine.design.problem import Problem
-
+from engine.stepping.presenter import tolerant
+from engine.stepping.protocol import StepRecord, iterate
 from sessions.build import build_problem
 from sessions.errors import SessionError
-from sessions.lifecycle import bind
 from sessions.format.schema import SessionModel
-from sessions.sweeps.cluster import DEFAULT_CONNECT_TIMEOUT, close, connect, connect_timeout, scheduler_address, sigint_ignored
+from sessions.lifecycle import bind
+from sessions.sweeps.cluster import (
+    DEFAULT_CONNECT_TIMEOUT,
+    close,
+    connect,
+    connect_timeout,
+    scheduler_address,
+    sigint_ignored,
+)
 
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"
@@ -59,11 +66,10 @@ def run_job(payload: dict) -> dict:
         if payload["mode"] == "evaluate":
             record = _evaluate(registration.presenter, algorithm, problem, settings)
         else:
-            record = None
-            for _, record in iterate(algorithm, problem, settings, max_iter=MAX_ITERATIONS):
-                pass
-            if record is None:
+            last = deque(iterate(algorithm, problem, settings, max_iter=MAX_ITERATIONS), maxlen=1)
+            if not last:
                 raise SessionError("the algorithm made no iteration")
+            record = last[0][1]
         result.update(_summary(registration.presenter, record))
         if payload["mode"] != "evaluate":
             result["signature"] = loop_signature(problem, record.parameters)

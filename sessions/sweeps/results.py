@@ -12,12 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.stepping.protocol import lookup
 from engine.stepping.memory_fields import jsonable
-
+from engine.stepping.protocol import lookup
 from sessions.errors import SessionError
-from sessions.lifecycle import adopt_parameters
 from sessions.format.schema import SweepModel
+from sessions.lifecycle import adopt_parameters
 from sessions.store import Session, now
 from sessions.sweeps.jobs import Outcome
 

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from engine.model.network import Block, Junction, block_diagram
-
 from tests.bench.common import judged, samples, scaling, timed
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -23,8 +22,8 @@ def cip_problem(every: int = 1, channels: int = 2):
     """The launch vehicle's attitude, rate (and acceleration) channels on every
     ``every``-th point of its 999, 4 second-order sub-compensators each
     (2 channels: 34 free coefficients)."""
-    from engine.model.blocks import FrequencyTable, TabulatedTransfer, polynomial_transfer
     from engine.design.problem import BandValue, Condition, Grid, Parameter, Problem, Target
+    from engine.model.blocks import FrequencyTable, TabulatedTransfer, polynomial_transfer
     from sessions.examples.launch_vehicles import E1_1, SINGLE_GRID, single_channel
 
     f = SINGLE_GRID[::every]
@@ -101,9 +100,9 @@ def qcg_figures(repeat: int) -> dict:
     same cost, same start, interleaved (all parameters of the sample are free)."""
     from scipy.optimize import minimize
 
-    from engine.stepping.protocol import iterate
     from engine.qcg import Qcg, QcgSettings
     from engine.qcg.setup import cascade_problem
+    from engine.stepping.protocol import iterate
     from sessions.store import load_session
 
     problem = load_session(EXAMPLES / "seidel_inlet_pi.json").problem
@@ -152,8 +151,8 @@ def projection_figures(repeat: int) -> dict:
     """Report 004's examples to convergence with their sessions' settings at
     N = 20, 200, 2000 (interleaved), with targets at 20 and 2000 and the
     fitted exponent of time against N."""
-    from engine.stepping.protocol import iterate, make_settings
     from engine.projection import Projection
+    from engine.stepping.protocol import iterate, make_settings
     from sessions.store import load_session
     runs = []
     for file, _, _ in PROJECTION_CASES.values():
@@ -182,8 +181,8 @@ def slp_major_iteration(repeat: int) -> dict:
     """`coebra_launch_vehicle.json` (3 flight conditions, 14 free variables,
     27 measures): the first major iteration from the start (partials, then
     minor-loop trials until the relinearization); target 0.5 s (report 003: 164 s)."""
-    from engine.stepping.protocol import make_settings
     from engine.slp import Slp
+    from engine.stepping.protocol import make_settings
     from sessions.store import load_session
     samples_, trials, session = [], 0, None
     for _ in range(max(repeat // 5, 3)):

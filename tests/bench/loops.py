@@ -12,11 +12,10 @@ import warnings
 import control as ct
 import numpy as np
 
-from engine.model.blocks import ExpressionTransfer
 from engine.loop.responses import loop_model, open_loop
 from engine.margins.search import margins
+from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Block, Junction, block_diagram
-
 from tests.bench.common import compared, perturbed, samples, scaling, timed
 
 ORDERS = (2, 4, 10, 20, 40, 80, 160)

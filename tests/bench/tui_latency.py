@@ -33,6 +33,7 @@ async def _step_latency(folder: Path, presses: int) -> list[float | None]:
     """From the key press to the end of the first paint after the app has
     taken the new iteration (the screen's compositor refresh), per press."""
     from textual.screen import Screen
+
     from tui.app import LoopcraftApp
     app = LoopcraftApp(folder / "cip_launch_vehicle.json")
     shown, painted = [False], []
@@ -86,6 +87,7 @@ async def _first_paint(path: Path, timeout: float = 20.0) -> float | None:
     """Wall-clock time (time.time(), comparable across processes) of the end
     of the first paint of the main screen, None when none came."""
     from textual.screen import Screen
+
     from tui.app import LoopcraftApp
     painted: list[float] = []
     refresh = Screen._compositor_refresh

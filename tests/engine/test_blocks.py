@@ -8,9 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.model.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, factored_transfer,
-                           polynomial_transfer)
 from engine.errors import BlockError, ExtrapolationError
+from engine.model.blocks import (
+    DelayTransfer,
+    ExpressionTransfer,
+    Factor,
+    FrequencyTable,
+    factored_transfer,
+    polynomial_transfer,
+)
 
 SHARED = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"  # the bundled copy of the clean Table I
 X = 1j * np.geomspace(0.1, 100, 40)

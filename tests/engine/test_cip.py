@@ -10,16 +10,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.stepping.protocol import Status, iterate, lookup
-from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer, polynomial_transfer
 from engine.cip import Cip, CipSettings
 from engine.cip.constraints import Constraint
 from engine.cip.direction import gradient_rows
 from engine.cip.partials import report_partials
+from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
 from engine.errors import EngineError
 from engine.loop.responses import open_loop
+from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer, polynomial_transfer
 from engine.model.network import Block, Junction, block_diagram
-from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
+from engine.stepping.protocol import Status, iterate, lookup
 from sessions.runner import replay, run_session
 from sessions.store import load_session
 

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from engine.analysis import analyze, unity_feedback
-from engine.margins.disk import disk_gain_phase, disk_margin
 from engine.errors import EngineError
-from engine.loop.responses import loop_model
 from engine.loop.realization import poles, realize, stability
+from engine.loop.responses import loop_model
+from engine.margins.disk import disk_gain_phase, disk_margin
 from tests.engine.loopfactory import loop_network, random_loop
 from tests.engine.test_sensitivity import _mp_loop, reference_peak
 

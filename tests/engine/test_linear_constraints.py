@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from scipy.optimize import linprog, minimize
 
+from engine.design.constraint_reader import LinearFormError, read_constraint
 from engine.design.constraints import LinearInequality, inequality_rows, project
-from engine.errors import EngineError
 from engine.design.problem import Parameter
+from engine.errors import EngineError
 from engine.qcg.setup import cascade_problem
 from engine.slp.lp import solve_step
-from engine.design.constraint_reader import LinearFormError, read_constraint
 from sessions.lifecycle import adopt_parameters
 from sessions.runner import replay, run_session
 from sessions.store import load_session, save_session

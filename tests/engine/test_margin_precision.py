@@ -12,11 +12,11 @@ import pytest
 from scipy.optimize import brentq
 
 from engine.analysis import unity_feedback
-from engine.model.blocks import ExpressionTransfer
 from engine.loop.responses import loop_model
 from engine.margins.detection_grid import detection_grid
-from engine.margins.values import single_margin
 from engine.margins.search import AGREEMENT, POLISH_LIMIT, _disagreement, _polished, _refined, _without_grid, margins
+from engine.margins.values import single_margin
+from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Block, Junction, block_diagram
 from sessions.store import load_session
 

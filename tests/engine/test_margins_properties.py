@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from engine.analysis import analyze, unity_feedback
-from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer
-from engine.model.bilinear import real_frequency, w_frequency, z_to_w
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Band, margins
+from engine.model.bilinear import real_frequency, w_frequency, z_to_w
+from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer
 from engine.model.network import Block, Junction, block_diagram
 from engine.numerics.polynomials import Rational
 
@@ -144,9 +144,9 @@ def test_two_crossings_hidden_in_one_grid_interval_are_both_found(name):
     crossovers of a pole-zero dipole that swings the phase past -180 deg
     (ends short of it).  The extremum inside is refined first and splits the
     interval; both crossings must match python-control's."""
-    from tests.engine.loopfactory import loop_network
     from engine.margins.detection_grid import Detection
     from engine.margins.search import _refined
+    from tests.engine.loopfactory import loop_network
 
     s = ct.tf("s")
     system = {"resonance above 1": 0.1 / (s**2 + 0.02 * s + 1),

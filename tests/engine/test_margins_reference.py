@@ -114,7 +114,7 @@ def test_random_loops_against_python_control():
 def _unexplained(num, den, m, label):
     """Disagreements with python-control not explained by its lost precision at tiny |GH|."""
     out = []
-    for label, kind, w_o, w_t, v_o, v_t in _compare(_ours_as_arrays(m), pc_margins(num, den), num, den, label):
+    for what, kind, w_o, w_t, v_o, v_t in _compare(_ours_as_arrays(m), pc_margins(num, den), num, den, label):
         extra_t = [w for w in w_t if not np.any(np.isclose(w_o, w, rtol=1e-6))]
         extra_o = [w for w in w_o if not np.any(np.isclose(w_t, w, rtol=1e-6))]
         explained = (kind == "S" and len(extra_t) == len(extra_o)
@@ -122,7 +122,7 @@ def _unexplained(num, den, m, label):
                      and not any(_stationary_here(num, den, w) for w in extra_t)
                      and all(abs(_gh(num, den, w)) < 1e-4 for w in extra_o))
         if not explained:
-            out.append((label, kind, w_o, w_t, v_o, v_t))
+            out.append((what, kind, w_o, w_t, v_o, v_t))
     return out
 
 

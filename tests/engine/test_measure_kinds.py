@@ -11,12 +11,33 @@ import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
-from engine.errors import EngineError
-from engine.design.measure_kinds import (ALGORITHMS, DOMAINS, MEASURE_KINDS, accepts, check_accepted, default_desired, kind,
-                                  names, shorts)
+from engine.design.measure_kinds import (
+    ALGORITHMS,
+    DOMAINS,
+    MEASURE_KINDS,
+    accepts,
+    check_accepted,
+    default_desired,
+    kind,
+    names,
+    shorts,
+)
+from engine.design.problem import (
+    AT_MOST,
+    FREQUENCY_MEASURES,
+    MEASURE_NAMES,
+    TIME_MEASURES,
+    BandValue,
+    Condition,
+    Grid,
+    Objective,
+    Parameter,
+    Problem,
+    Target,
+    TimeResponse,
+)
 from engine.design.tableau import tableau
-from engine.design.problem import (AT_MOST, FREQUENCY_MEASURES, MEASURE_NAMES, TIME_MEASURES, BandValue, Condition, Grid,
-                            Objective, Parameter, Problem, Target, TimeResponse)
+from engine.errors import EngineError
 from engine.slp.measures import SHORT, evaluate, measure_specs
 
 # a type-1 loop with a lightly damped mode at 10 rad/s; stable up to K = 6

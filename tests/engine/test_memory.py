@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from engine.stepping.protocol import State, lookup, make_settings
 from engine.errors import EngineError
 from engine.stepping.memory_fields import jsonable
+from engine.stepping.protocol import State, lookup, make_settings
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

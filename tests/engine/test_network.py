@@ -6,10 +6,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engine.model.blocks import (DelayTransfer, ExpressionTransfer, Factor, FrequencyTable, TabulatedTransfer,
-                           factored_transfer, polynomial_transfer)
 from engine.errors import GridError, InterconnectionError, ParameterError
 from engine.loop.responses import closed_loop, open_loop
+from engine.model.blocks import (
+    DelayTransfer,
+    ExpressionTransfer,
+    Factor,
+    FrequencyTable,
+    TabulatedTransfer,
+    factored_transfer,
+    polynomial_transfer,
+)
 from engine.model.network import Block, Junction, block_diagram, matrix_format, solve
 
 OMEGA = np.geomspace(0.3, 80.0, 60)

@@ -16,11 +16,11 @@ import pytest
 from engine.analysis import unity_feedback
 from engine.cip.constraints import check_targets, detect
 from engine.cip.direction import gradient_rows
-from engine.errors import EngineError
 from engine.design.measure_kinds import accepts, kind
-from engine.design.tableau import tableau
-from engine.margins.peak_measures import loop_derivative
 from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
+from engine.design.tableau import tableau
+from engine.errors import EngineError
+from engine.margins.peak_measures import loop_derivative
 from engine.slp.measures import evaluate, measure_specs
 from engine.slp.partials import jacobian
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
-from engine.errors import EngineError
 from engine.design.problem import Condition, Grid, Parameter, Problem
+from engine.errors import EngineError
 
 
 def problem():

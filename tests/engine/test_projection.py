@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete
 
-from engine.stepping.protocol import Status, iterate
-from engine.errors import EngineError
 from engine.design.problem import Grid, Objective, Problem
+from engine.errors import EngineError
 from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
 from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection
 from engine.projection.system import dae_system
+from engine.stepping.protocol import Status, iterate
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

@@ -19,11 +19,11 @@ import pytest
 from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
-from engine.stepping.protocol import Status, iterate, make_settings
 from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
 from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection
 from engine.projection.system import dae_system
+from engine.stepping.protocol import Status, iterate, make_settings
 from sessions.examples.projection_reactor import NUMBERS, sessions_from
 from sessions.runner import run_session
 from sessions.store import load_session, save_session
@@ -54,7 +54,7 @@ def _independent_open_loop(data: dict) -> tuple[np.ndarray, np.ndarray]:
     N, T = data["steps"], data["horizon"]
     Phi, Delta, *_ = cont2discrete((A, B, np.eye(8), np.zeros((8, 7))), T / N)
     x, u2 = np.array(data["x0"], dtype=float), []
-    for k in range(N + 1):
+    for _ in range(N + 1):
         u = np.concatenate([np.linalg.solve(E[:, :5], -F @ x), [0.0, 0.0]])   # u6 = u7 = 0
         u2.append(u[1])
         x = Phi @ x + Delta @ u

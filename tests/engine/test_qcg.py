@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.stepping.protocol import Status, iterate
 from engine.model.blocks import ControllerFactor, ExpressionTransfer, controller_transfer
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.cost import Cascade, Weights, exponential_disturbance, quadratic_cost
 from engine.qcg.setup import cascade_problem
+from engine.stepping.protocol import Status, iterate
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

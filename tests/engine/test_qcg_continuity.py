@@ -12,10 +12,10 @@ import pytest
 from scipy.optimize import minimize
 
 import engine.qcg.cost as qcg_cost
-from engine.stepping.protocol import Status, iterate
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.cost import blend_weight
 from engine.qcg.setup import cascade_problem
+from engine.stepping.protocol import Status, iterate
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

@@ -15,11 +15,11 @@ from scipy.optimize import minimize
 
 import engine.qcg.cost as qcg_cost
 import engine.qcg.setup as qcg_setup
-from engine.stepping.protocol import State, Status, iterate
 from engine.errors import EngineError
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.memory import QcgMemory
 from engine.qcg.setup import cascade_problem
+from engine.stepping.protocol import State, Status, iterate
 from sessions.runner import replay, run_session
 from sessions.store import load_session, save_session
 

@@ -13,13 +13,21 @@ import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
-from engine.errors import EngineError
 from engine.closed_loop.characteristic import GainCharacteristic
+from engine.closed_loop.poles import polish
+from engine.closed_loop.root_locus import (
+    FLOOR,
+    MIN_STEP,
+    MOVE,
+    NOISY,
+    _allowed,
+    continuation,
+    pole_zero_map,
+    root_locus,
+)
+from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
-from engine.closed_loop.poles import polish
-from engine.closed_loop.root_locus import (DRAWN, FLOOR, MIN_STEP, MOVE, NOISY, _allowed, continuation, pole_zero_map,
-                               root_locus)
 from tests.engine.loopfactory import loop_network, random_loop
 from tests.engine.test_sensitivity import mp_poly
 
@@ -131,8 +139,12 @@ def test_continuation_judges_noisy_raw_roots_on_refined_ones():
     # refined roots where the raw ones were noisy, the locus completes (the roots move by 1 over
     # t in [0, 1]: 25 steps; 50 allows for other step rules)
     rng = np.random.default_rng(0)
-    exact = lambda t: np.array([-1.0 - t, -3.0 - t], dtype=complex)
-    noisy = lambda t: exact(t) + rng.normal(0.0, 0.3, 2)
+
+    def exact(t):
+        return np.array([-1.0 - t, -3.0 - t], dtype=complex)
+
+    def noisy(t):
+        return exact(t) + rng.normal(0.0, 0.3, 2)
     assert continuation(noisy, 0.0, 1.0, max_points=500)[2] == "point budget reached"
     ts, rows, status = continuation(noisy, 0.0, 1.0, max_points=500, refine=lambda t, raw: exact(t))
     assert status == "complete" and ts.size <= 50

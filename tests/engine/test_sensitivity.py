@@ -13,9 +13,16 @@ import pytest
 from engine.analysis import unity_feedback
 from engine.errors import EngineError
 from engine.loop.responses import LoopModel, loop_model
+from engine.margins.peaks import (
+    compensator_peak,
+    complementary,
+    complementary_peak,
+    magnitude_curves,
+    refined_peaks,
+    sensitivity,
+    sensitivity_peak,
+)
 from engine.margins.search import Band
-from engine.margins.peaks import (compensator_peak, complementary, complementary_peak, magnitude_curves,
-                                refined_peaks, sensitivity, sensitivity_peak)
 from tests.engine.loopfactory import loop_network, random_loop
 
 GRID = np.geomspace(1e-3, 1e3, 10)

@@ -15,19 +15,19 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from engine.stepping.protocol import TIME_LIMIT, State, Status, iterate, make_settings
-from engine.model.blocks import ExpressionTransfer
+from engine.design.problem import BandValue, Condition, Grid, LinearEquality, Parameter, Problem, Target, TimeResponse
 from engine.errors import EngineError
 from engine.loop.evaluator import LoopEvaluator
-from engine.model.network import Block, Junction, block_diagram
-from engine.design.problem import BandValue, Condition, Grid, LinearEquality, Parameter, Problem, Target, TimeResponse
+from engine.loop.pole_zero import closed_loop_realization, zpk_evaluator
 from engine.loop.realization import realize
+from engine.model.blocks import ExpressionTransfer
+from engine.model.network import Block, Junction, block_diagram
 from engine.slp import Slp, SlpSettings
 from engine.slp.algorithm import w1
 from engine.slp.lp import solve_step
 from engine.slp.measures import Spec, evaluate, measure_specs
 from engine.slp.partials import jacobian
-from engine.loop.pole_zero import closed_loop_realization, zpk_evaluator
+from engine.stepping.protocol import TIME_LIMIT, State, Status, iterate, make_settings
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

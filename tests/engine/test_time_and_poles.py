@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
+from engine.closed_loop.time_response import Segment, dc_gain, simulate, step_measures
+from engine.loop.realization import poles, realize, stability
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Block, Junction, block_diagram
-from engine.loop.realization import poles, realize, stability
-from engine.closed_loop.time_response import Segment, dc_gain, simulate, step_measures
 from tests.engine.loopfactory import loop_network, random_loop
 
 COMPENSATED = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"

@@ -11,13 +11,21 @@ import control as ct
 import numpy as np
 import pytest
 
-from engine.model.blocks import ExpressionTransfer
-from engine.errors import EngineError
-from engine.model.network import Block, block_diagram
+from engine.closed_loop.time_response import (
+    Segment,
+    _equal_step_runs,
+    _foh,
+    final_value,
+    input_profile,
+    simulate,
+    step_measures,
+)
 from engine.design.problem import BandValue, Condition, Grid, Problem, Target, TimeResponse
+from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
+from engine.model.blocks import ExpressionTransfer
+from engine.model.network import Block, block_diagram
 from engine.slp.measures import SLP_PEAK_RULE, evaluate, measure_specs
-from engine.closed_loop.time_response import Segment, _equal_step_runs, _foh, final_value, input_profile, simulate, step_measures
 from tests.engine.loopfactory import loop_network
 
 PROFILE = [Segment(0.0, 0.5), Segment(1.37, slope=2.0), Segment(2.71, -1.0, -2.0)]

@@ -10,17 +10,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engine.margins import detection_grid as detection
-
-from engine.margins import search as margin_search
-
-from engine.margins import peaks
 from engine.analysis import unity_feedback
-from engine.margins.disk import disk_transform
 from engine.loop.responses import loop_model
-from engine.margins.search import Band, margins
-from engine.margins.pole_zero.search import fast_margins
+from engine.margins import detection_grid as detection
+from engine.margins import peaks
+from engine.margins import search as margin_search
+from engine.margins.disk import disk_transform
 from engine.margins.pole_zero.peaks import moebius_peaks
+from engine.margins.pole_zero.search import fast_margins
+from engine.margins.search import Band, margins
 
 GRID = np.geomspace(1e-3, 1e3, 10)
 TRANSFORMS = [peaks.sensitivity, peaks.complementary, disk_transform(0.0), disk_transform(0.7)]

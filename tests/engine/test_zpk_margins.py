@@ -12,14 +12,13 @@ import mpmath
 import numpy as np
 import pytest
 
-from engine.margins import detection_grid as detection
-
-from engine.margins import search as margin_search
 from engine.analysis import unity_feedback
-from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
-from engine.loop.responses import loop_model
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.loop.responses import loop_model
+from engine.margins import detection_grid as detection
+from engine.margins import search as margin_search
 from engine.margins.pole_zero.search import fast_margins
+from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
 from tests.engine.loopfactory import loop_network, random_loop
 
 GRID = np.geomspace(1e-3, 1e3, 10)

@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from engine.margins import peaks
 from engine.analysis import unity_feedback
-from engine.margins.disk import disk_transform
-from engine.loop.responses import loop_model
-from engine.margins.search import Band
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.loop.responses import loop_model
+from engine.margins import peaks
+from engine.margins.disk import disk_transform
 from engine.margins.pole_zero.peaks import moebius_peaks
+from engine.margins.search import Band
 from tests.engine.loopfactory import loop_network, random_loop
 
 GRID = np.geomspace(1e-3, 1e3, 10)
@@ -178,5 +178,5 @@ def test_the_disk_peak_by_light_modes_starts_where_the_distance_is_stationary(mo
     transforms = [disk_transform(0.0), peaks.sensitivity, peaks.complementary]
     fast = moebius_peaks(loop.evaluate, [t.moebius for t in transforms])
     assert fast is not None and repaired == []
-    for grid, (value, frequency) in zip(peaks._peaks_on(loop, transforms, Band()), fast):
+    for grid, (value, _frequency) in zip(peaks._peaks_on(loop, transforms, Band()), fast):
         assert value == pytest.approx(grid.value, rel=1e-12)

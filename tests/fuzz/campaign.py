@@ -57,7 +57,7 @@ class Tally:
             counts = {k: n for (c, k), n in self.commands.items() if c == command}
             lines.append(f"  {command}: " + ", ".join(f"{k} {n}" for k, n in sorted(counts.items())))
         lines.append("  slowest: " + ", ".join(f"case {i} ({o}) {s:.2f} s" for s, i, o in self.slowest))
-        for signature, outcomes in sorted(self.failures.items(), key=lambda kv: -len(kv[1])):
+        for _signature, outcomes in sorted(self.failures.items(), key=lambda kv: -len(kv[1])):
             lines.append(f"{len(outcomes)} x " + outcomes[0].describe())
         return "\n".join(lines)
 

@@ -21,11 +21,10 @@ from pathlib import Path
 
 from sessions.errors import SessionError
 from sessions.store import load_session
-from tui.cli import main
-
 from tests.fuzz.corpus import Seed
 from tests.fuzz.mutator import Mutator
 from tests.fuzz.tables import garble_csv
+from tui.cli import main
 
 SESSION = "session.json"
 OUT = "out.json"

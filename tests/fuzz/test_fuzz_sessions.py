@@ -54,10 +54,11 @@ def test_the_harness_sees_a_warning_and_a_hang(tmp_path, monkeypatch):
     """A RuntimeWarning fails a case that otherwise succeeds; so does running past the budget."""
     import time
     import warnings
+
     from tests.fuzz import harness
 
     def warns(argv):
-        warnings.warn("overflow encountered in multiply", RuntimeWarning)
+        warnings.warn("overflow encountered in multiply", RuntimeWarning, stacklevel=1)
         return 0
 
     def hangs(argv):

@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from engine.stepping.protocol import State, Status, StepRecord, register
-from engine.errors import EngineError
-from engine.stepping.memory_fields import Fields
-from engine.model.expressions import Expression
-from engine.loop.responses import open_loop
-from engine.design.tableau import tableau
 from engine.design.problem import Problem
+from engine.design.tableau import tableau
+from engine.errors import EngineError
+from engine.loop.responses import open_loop
+from engine.model.expressions import Expression
+from engine.stepping.memory_fields import Fields
+from engine.stepping.protocol import State, Status, StepRecord, register
 
 
 @dataclass(frozen=True)

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sessions.format.constraint_lines import check_constraint_line
 from sessions.errors import SessionError
+from sessions.format.constraint_lines import check_constraint_line
 from sessions.format.limits import MAX_CONSTRAINTS
 from sessions.format.schema import ProblemModel
-from sessions.store import load_session
 from sessions.runner import run_session
+from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 STAMP = "2026-01-01T00:00:00+00:00"

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.realization import poles, stability
 from engine.loop.responses import loop_model, open_loop
 from engine.margins.search import margins
-from engine.loop.realization import poles, stability
-from engine.loop.pole_zero import closed_loop_realization
 from sessions.runner import run_session
 from sessions.store import load_session, save_session
 from tui.cli import main

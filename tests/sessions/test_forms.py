@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sessions.format.schema import BandModel, PointModel, ResponseModel, SegmentModel
 from sessions.forms import one_line as forms
 from sessions.forms.one_line import FormError
-from sessions.format.schema import BandModel, PointModel, ResponseModel, SegmentModel
 
 FORMS = settings(max_examples=100, deadline=None, database=None)  # modest: the file runs in seconds
 

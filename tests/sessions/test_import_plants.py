@@ -4,9 +4,9 @@ python-control's own model of the same arrays; bad files exit 2 naming the file.
 
 from __future__ import annotations
 
+import control
 import numpy as np
 import pytest
-import control
 from scipy.io import savemat
 
 from engine.loop.responses import open_loop

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.loop.responses import closed_loop, open_loop
 from engine.design.tableau import TABLEAU_MEASURES, tableau
+from engine.loop.responses import closed_loop, open_loop
 from engine.slp.measures import evaluate, measure_specs
 from sessions.runner import run_session
 from sessions.store import load_session

@@ -9,8 +9,8 @@ import json
 
 import pytest
 
-from engine.stepping.protocol import StepRecord
 from engine.errors import EngineError
+from engine.stepping.protocol import StepRecord
 from sessions.errors import SessionError
 from sessions.runner import run_session
 from sessions.store import load_session, save_session

@@ -9,8 +9,8 @@ import math
 import shutil
 from pathlib import Path
 
-from sessions.runner import run_session
 from sessions.format.json_text import _MARKER, _RECORD_TEXTS, _plain, dumps
+from sessions.runner import run_session
 from sessions.store import load_session, parse_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

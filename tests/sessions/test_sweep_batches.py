@@ -65,7 +65,6 @@ def test_a_run_that_kills_its_worker_does_not_take_its_batch_with_it(tmp_path):
     from distributed import Client
 
     from sessions.sweeps.cluster import close, local_cluster
-
     from tests.sessions.sweep_poison import POISON, poisoned
     jobs = _jobs(tmp_path, 8)
     # one death fails the task it ran; a worker holds one task at a time (none queued behind the poison)

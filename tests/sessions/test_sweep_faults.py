@@ -23,8 +23,8 @@ from sessions.errors import SessionError
 from sessions.store import load_session
 from sessions.sweeps.cluster import scheduler_address
 from sessions.sweeps.jobs import SECOND_TIMING, Outcome, execute, execute_serial
-from sessions.sweeps.results import record_sweep, summarize
 from sessions.sweeps.plan import parse_sweep, start_jobs
+from sessions.sweeps.results import record_sweep, summarize
 from tui.cli import main
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -20,8 +20,8 @@ import pytest
 from sessions.errors import SessionError
 from sessions.store import load_session
 from sessions.sweeps.jobs import loop_signature, run_job
-from sessions.sweeps.results import optima, worst_case
 from sessions.sweeps.plan import Job, shippable, start_jobs, tolerance_jobs, vary_jobs
+from sessions.sweeps.results import optima, worst_case
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"

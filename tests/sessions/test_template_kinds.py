@@ -11,9 +11,9 @@ import pytest
 
 from engine.design.tableau import tableau
 from sessions.errors import SessionError
-from sessions.store import parse_session
 from sessions.new.template_kinds import in_unit, matrix_session, projection_session, table_session, two_loop_session
 from sessions.new.templates import new_session
+from sessions.store import parse_session
 
 
 def _load(data, tmp_path):

@@ -12,9 +12,9 @@ import pytest
 
 from engine.loop.responses import open_loop
 from sessions.errors import SessionError
+from sessions.new.templates import STRUCTURES, new_session
 from sessions.runner import run_session
 from sessions.store import parse_session
-from sessions.new.templates import STRUCTURES, new_session
 
 PLANT = "16000/(s*(s+8)*(s+20))"
 

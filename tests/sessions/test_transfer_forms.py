@@ -2,10 +2,17 @@
 
 from __future__ import annotations
 
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from sessions.format.schema import (ControllerBlock, ControllerFactorModel, DelayBlock, FactoredBlock, FactorModel,
-                             PolynomialBlock)
+from sessions.format.schema import (
+    ControllerBlock,
+    ControllerFactorModel,
+    DelayBlock,
+    FactoredBlock,
+    FactorModel,
+    PolynomialBlock,
+)
 from sessions.forms.transfers import format_transfer, parse_transfer, quote_name, split_names
 
 numbers = st.floats(min_value=-1e12, max_value=1e12, allow_nan=False).filter(lambda v: abs(v) > 1e-300 or v == 0)

@@ -6,12 +6,10 @@ import numpy as np
 import pytest
 
 from sessions.store import load_session
-from tui.figures.closed_loop import locus_figure, poles_figure, sensitivity_figure
-from tui.app import LoopcraftApp
-from tui.state.workbench import Workbench
-
 from tests.tui.test_app import settle, synchronous
-
+from tui.app import LoopcraftApp
+from tui.figures.closed_loop import locus_figure, poles_figure, sensitivity_figure
+from tui.state.workbench import Workbench
 
 
 def _loop(s):
@@ -73,7 +71,7 @@ def test_the_run_tab_lists_the_closed_loop_poles_with_zeta_and_wn(workdir):
     den = np.polymul(np.polymul([1, 0.1], [1, 50]), np.polymul([1, 0], np.polymul([1, 8], [1, 20])))
     roots = np.roots(np.polyadd(den, 16000 * np.polymul([1, 1], [1, 5])))
     pair = next(r for r in roots if r.imag > 0)
-    line = next(l for l in pole_lines(view).splitlines() if "+-" in l).split()
+    line = next(t for t in pole_lines(view).splitlines() if "+-" in t).split()
     assert float(line[0]) == pytest.approx(pair.real, rel=1e-4) and float(line[2][:-1]) == pytest.approx(pair.imag, rel=1e-4)
     assert float(line[3]) == pytest.approx(-pair.real / abs(pair), rel=1e-2)
     assert float(line[4]) == pytest.approx(abs(pair), rel=1e-4)

@@ -9,8 +9,8 @@ import time
 
 from engine.errors import EngineError
 from tui.app import LoopcraftApp
-from tui.state.field_edits import objective_rows
 from tui.screens.main import MainScreen
+from tui.state.field_edits import objective_rows
 
 
 def synchronous(test):

@@ -7,12 +7,11 @@ import pytest
 
 from sessions.errors import SessionError
 from sessions.store import load_session
+from tests.tui.conftest import EXAMPLES
+from tests.tui.test_app import edit_row, synchronous
 from tui.state.edits import plant_edit
 from tui.state.plant_rows import plant_rows
 from tui.state.workbench import Workbench
-
-from tests.tui.conftest import EXAMPLES
-from tests.tui.test_app import edit_row, synchronous
 
 ALL = sorted(p.name for p in EXAMPLES.glob("*.json"))
 

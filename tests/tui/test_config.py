@@ -7,11 +7,10 @@ import sys
 
 import pytest
 
+from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.config import SAMPLE, ConfigError, load_config
 from tui.keys import binding_table
-
-from tests.tui.test_app import settle, synchronous
 
 
 def test_every_binding_has_a_unique_id():

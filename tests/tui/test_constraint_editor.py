@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
+from tests.tui.test_app import select_row, settle, synchronous
 from tui.app import LoopcraftApp
 from tui.state.field_edits import objective_rows
-
-from tests.tui.test_app import select_row, settle, synchronous
 
 
 @synchronous

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from engine.model.expressions import Expression
+from tests.tui.test_app import select_row, settle, synchronous
 from tui.app import LoopcraftApp
 from tui.state.clipboard import with_values
-
-from tests.tui.test_app import select_row, settle, synchronous
 
 
 def test_values_are_put_in_place_of_parameter_names():
@@ -28,7 +27,7 @@ async def test_y_copies_the_row_or_the_tableau_and_Y_the_design(workdir):
         await pilot.press("y")
         assert app.clipboard.split("\t")[0] == "z1"
         await pilot.press("Y")
-        line = next(l for l in app.clipboard.splitlines() if l.startswith("compensator = "))
+        line = next(t for t in app.clipboard.splitlines() if t.startswith("compensator = "))
         copied = Expression(line.removeprefix("compensator = "), "s")
         values = app.bench.records[-1].parameters
         original = Expression("(s+z1)*(s+z2)/((s+p1)*(s+p2))", "s")

@@ -5,10 +5,9 @@ from __future__ import annotations
 import subprocess
 import sys
 
+from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ConfirmDialog
-
-from tests.tui.test_app import settle, synchronous
 
 
 @synchronous

@@ -6,13 +6,12 @@ from __future__ import annotations
 
 import time
 
+from textual.widgets import Footer as TextualFooter
 from textual.widgets._footer import FooterKey
 
+from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.widgets.footer import Footer
-from textual.widgets import Footer as TextualFooter
-
-from tests.tui.test_app import settle, synchronous
 
 
 def _disabled(app, action: str) -> bool:

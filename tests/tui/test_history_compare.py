@@ -3,9 +3,8 @@ side, curves overlaid; o or p chooses the view)."""
 
 from __future__ import annotations
 
-from tui.app import LoopcraftApp
-
 from tests.tui.test_app import select_row, settle, synchronous
+from tui.app import LoopcraftApp
 
 
 @synchronous

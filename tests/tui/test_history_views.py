@@ -11,9 +11,8 @@ import pytest
 
 from engine.loop.responses import loop_model
 from engine.margins.peaks import sensitivity_peak
-from tui.app import LoopcraftApp
-
 from tests.tui.test_app import select_row, settle, synchronous
+from tui.app import LoopcraftApp
 
 # lead_sensitivity_peak: L = 10 (1 + T1 s) / ((1 + T2 s) s (s + 1) (s + 5)), unity feedback
 

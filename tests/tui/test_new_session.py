@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from tui.app import LoopcraftApp
-
 from tests.tui.test_app import settle, synchronous
+from tui.app import LoopcraftApp
 
 
 async def _type(pilot, text: str) -> None:

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 from engine.stepping.presenter import number
-from tui.app import LoopcraftApp
-
 from tests.tui.test_app import select_row, settle, synchronous
+from tui.app import LoopcraftApp
 
 
 @synchronous

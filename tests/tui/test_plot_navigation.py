@@ -6,10 +6,9 @@ import math
 
 import numpy as np
 
+from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.figures.navigation import log_ticks
-
-from tests.tui.test_app import settle, synchronous
 
 
 def _loop(s):

@@ -9,8 +9,8 @@ from textual.app import App, ComposeResult
 from sessions.store import load_session
 from tui.app import LoopcraftApp
 from tui.figures.trajectories import trajectories_figure
-from tui.widgets.plots import FigurePlot
 from tui.state.workbench import Workbench
+from tui.widgets.plots import FigurePlot
 
 SIZES = [(100, 32), (80, 24)]
 

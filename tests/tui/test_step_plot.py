@@ -6,11 +6,10 @@ import control as ct
 import numpy as np
 
 from sessions.store import load_session
-from tui.state.step_view import StepSetup, parse_step_setup
-from tui.figures.lines import step_figure
-from tui.state.workbench import Workbench
-
 from tests.tui.test_app import settle, synchronous
+from tui.figures.lines import step_figure
+from tui.state.step_view import StepSetup, parse_step_setup
+from tui.state.workbench import Workbench
 
 
 def test_the_marks_agree_with_python_control_step_info(workdir):

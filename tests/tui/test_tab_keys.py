@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
+from tests.tui.test_app import synchronous
 from tui.app import LoopcraftApp
 from tui.screens.main import MAIN_WIDGETS
-
-from tests.tui.test_app import synchronous
 
 TABS = {"1": "run", "2": "plant", "3": "targets", "4": "history", "5": "sweep"}
 

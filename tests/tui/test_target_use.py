@@ -5,10 +5,9 @@ from __future__ import annotations
 
 from engine.design.measure_kinds import MEASURE_KINDS
 from sessions.target_use import target_note, unusable_targets
+from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ChooseDialog
-
-from tests.tui.test_app import settle, synchronous
 
 
 def test_every_measure_is_flagged_exactly_for_the_algorithms_that_refuse_it():

@@ -10,10 +10,9 @@ import numpy as np
 import pytest
 
 from sessions.store import load_session
-from tui.figures.trajectories import trajectories_figure
-from tui.widgets.plots import COMPACT_ROWS, FigurePlot
-from tui.figures.trajectories import axis, short, time_ticks
+from tui.figures.trajectories import axis, short, time_ticks, trajectories_figure
 from tui.state.workbench import Workbench
+from tui.widgets.plots import COMPACT_ROWS, FigurePlot
 
 
 def stepped(workdir, name: str, steps: int) -> Workbench:

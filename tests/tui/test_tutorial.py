@@ -8,9 +8,8 @@ import math
 
 import control as ct
 
-from tui.app import LoopcraftApp
-
 from tests.tui.test_app import settle, synchronous
+from tui.app import LoopcraftApp
 
 # the key sequence of docs/tutorial.md, one entry per key press (text typed counts a key per character)
 TUTORIAL = (["n", "enter"] + list("10/(s*(s+1)*(s+5))") + ["enter", "enter"]   # new session: unity, plant, lead

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 from sessions.store import load_session
+from tests.tui.test_app import edit_row, settle, status, synchronous
 from tui.app import LoopcraftApp
 from tui.state.edit_history import describe_change
 from tui.state.workbench import Workbench
-
-from tests.tui.test_app import edit_row, settle, status, synchronous
 
 
 def test_a_change_is_described_by_name_and_value():

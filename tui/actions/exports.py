@@ -7,9 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from sessions.errors import SessionError
-from sessions.format.save_file import write_atomic
 from sessions.export.formats import FORMATS, SUFFIX, export_text
-
+from sessions.format.save_file import write_atomic
 from tui.files import home
 
 

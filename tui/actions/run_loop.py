@@ -31,9 +31,8 @@ from textual.message import Message
 
 from engine.stepping.protocol import State, StepRecord
 from sessions.errors import SessionError
-
-from tui.figures.closed_loop import pole_text
 from tui.figures.catalog import figure_key, figures
+from tui.figures.closed_loop import pole_text
 from tui.state.views import View
 from tui.state.workbench import stored_json
 from tui.widgets.plots import FigurePlot

@@ -15,7 +15,6 @@ from pathlib import Path
 
 from engine.errors import EngineError
 from sessions.errors import SessionError
-
 from tui.cli import analyze, compare, config_command, export, new, session_commands, sweep
 from tui.cli.common import CliError
 

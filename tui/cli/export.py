@@ -9,8 +9,8 @@ import sys
 from pathlib import Path
 
 from sessions.export.formats import SUFFIX
-
 from tui.cli.common import CliError, load
+
 
 def export_text(file: str, iteration: int | None, to: str, sample_time: float | None) -> str:
     """The exported text of a session's design at an iteration (default: its last)."""

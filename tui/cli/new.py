@@ -13,8 +13,8 @@ from tui.cli.common import CliError
 
 def cmd_new(args: argparse.Namespace) -> int:
     """Create FILE.json (refusing to overwrite one unless --force)."""
-    from sessions.store import parse_session, save_session
     from sessions.new.templates import new_session
+    from sessions.store import parse_session, save_session
     target = Path(args.file)
     if target.suffix != ".json":
         raise CliError(f"{args.file}: a session file ends in .json")

@@ -18,8 +18,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Step the session's algorithm and save the records."""
-    from engine.stepping.protocol import StepRecord
     from engine.stepping.presenter import tableau_text
+    from engine.stepping.protocol import StepRecord
     from sessions.lifecycle import adopt_current, switch_algorithm
     from sessions.runner import run_session, set_setting
     from sessions.store import prepare_save, save_session
@@ -99,10 +99,10 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_tradeoff(args: argparse.Namespace) -> int:
     """Report 001's penalty sweep: one optimized design per penalty value."""
-    from engine.stepping.protocol import make_settings
     from engine.errors import EngineError
     from engine.qcg import Qcg
     from engine.qcg.tradeoff import penalty_sweep
+    from engine.stepping.protocol import make_settings
     from sessions.lifecycle import registration
     session = load(args.file)
     if registration(session).factory is not Qcg:

@@ -9,7 +9,6 @@ import math
 import sys
 from pathlib import Path
 
-
 INTERRUPTED = 130    # the exit status of a sweep stopped by Ctrl-C (128 + SIGINT), its finished runs kept
 
 

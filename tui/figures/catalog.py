@@ -6,11 +6,11 @@ from __future__ import annotations
 from collections.abc import Collection
 
 from tui.figures.closed_loop import poles_figure, sensitivity_figure
-from tui.state.views import View
-from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
 from tui.figures.data import Figure
 from tui.figures.lines import line_figure, step_figure, sweep_figure
+from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
 from tui.figures.trajectories import trajectories_figure
+from tui.state.views import View
 
 
 def points(view: View) -> list[tuple[complex, str]]:

@@ -17,13 +17,17 @@ import numpy as np
 
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
-from engine.margins.peaks import (compensator_peak, complementary_peak, magnitude_curves, sensitivity_peak,
-                                transfer_evaluator)
-
-from tui.state.views import CONDITION_COLORS, INITIAL_COLOR
-from tui.figures.navigation import Probe
+from engine.margins.peaks import (
+    compensator_peak,
+    complementary_peak,
+    magnitude_curves,
+    sensitivity_peak,
+    transfer_evaluator,
+)
 from tui.figures.axes import decade_ticks, finite_points
 from tui.figures.data import Figure, Series
+from tui.figures.navigation import Probe
+from tui.state.views import CONDITION_COLORS, INITIAL_COLOR
 
 LOCUS_POINTS = 2000   # the engine's default bound
 
@@ -146,7 +150,7 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
     c = _rational(view, designs[0][1]) if designs else None
     if c is None:
         return fig
-    from engine.closed_loop.root_locus import pole_zero_map   # scipy.optimize, on first use
+    from engine.closed_loop.root_locus import pole_zero_map  # scipy.optimize, on first use
     shown = []
     for n, (at, k, label, _) in enumerate(designs):
         try:

@@ -12,13 +12,12 @@ from dataclasses import replace
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
-
-from tui.figures.closed_loop import Design, locus_figure, poles_figure, sensitivity_figure
 from tui.figures.catalog import applicable, disk, points, radius
-from tui.state.views import INITIAL_COLOR, LoopCurve, View
-from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
+from tui.figures.closed_loop import Design, locus_figure, poles_figure, sensitivity_figure
 from tui.figures.data import Figure
 from tui.figures.lines import step_figure
+from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
+from tui.state.views import INITIAL_COLOR, LoopCurve, View
 
 # the views, in the order o (or p) cycles them: title, and the presenter's plot each needs
 VIEWS = {"nyquist": ("Nyquist", "nyquist"), "bode": ("Bode", "bode"), "phase": ("phase", "bode"),

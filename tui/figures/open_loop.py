@@ -8,9 +8,9 @@ import math
 
 import numpy as np
 
-from tui.figures.navigation import loop_probe
 from tui.figures.axes import decade_ticks, finite_points
 from tui.figures.data import Figure, Series
+from tui.figures.navigation import loop_probe
 
 M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)   # |T| contours on the Nichols chart
 

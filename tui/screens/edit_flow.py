@@ -8,10 +8,9 @@ from collections.abc import Callable
 from typing import Any
 
 from sessions.errors import SessionError
-
+from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog
 from tui.state.edit_history import Snapshot
 from tui.state.edits import Check, Edit
-from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog
 
 
 class EditFlow:

@@ -23,12 +23,11 @@ from textual.widgets import DataTable
 
 from engine.stepping.presenter import number, tolerant
 from sessions.compare import compare, comparison_text, side
-
+from tui.figures.data import Figure
 from tui.figures.history import TITLES, VIEWS, figure_key, history_figure, history_views, name
 from tui.keys import identified
 from tui.state.tableau_text import tableau_text
 from tui.state.views import View
-from tui.figures.data import Figure
 from tui.widgets.plots import FigurePlot
 from tui.widgets.tables import HistoryTable
 from tui.widgets.textview import TextView

@@ -13,29 +13,28 @@ from textual.containers import Horizontal, Vertical, VerticalScroll
 from textual.screen import Screen
 from textual.widgets import DataTable, TabbedContent, TabPane
 
-from engine.stepping.protocol import StepRecord
 from engine.stepping.presenter import Presenter, number, tolerant
-
-from tui.state.field_edits import objective_rows
-from tui.figures.catalog import FIGURE_IDS, applicable, figure_key
-from tui.keys import identified
-from tui.state.plant_rows import plant_rows
-from tui.state.tableau_text import tableau_text
-from tui.state.views import View
-from tui.widgets.matrix_table import MatrixTable
+from engine.stepping.protocol import StepRecord
+from sessions.forms import one_line as forms
+from sessions.target_use import target_note
 from tui.actions.run_loop import drawings
+from tui.figures.catalog import FIGURE_IDS, applicable, figure_key
 from tui.figures.data import Figure
-from tui.widgets.footer import Footer
 from tui.figures.lines import sweep_figure
-from tui.widgets.plots import FigurePlot
-from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
-from tui.widgets.textview import TextView
-from tui.state.workbench import Workbench
+from tui.keys import identified
 from tui.screens.history_pane import HistoryPane
 from tui.screens.pole_lines import PoleLines
 from tui.screens.view_actions import ViewActions
-from sessions.forms import one_line as forms
-from sessions.target_use import target_note
+from tui.state.field_edits import objective_rows
+from tui.state.plant_rows import plant_rows
+from tui.state.tableau_text import tableau_text
+from tui.state.views import View
+from tui.state.workbench import Workbench
+from tui.widgets.footer import Footer
+from tui.widgets.matrix_table import MatrixTable
+from tui.widgets.plots import FigurePlot
+from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
+from tui.widgets.textview import TextView
 
 # the plot tabs, and the plots (figure ids) each shows
 PLOT_TABS = {"p-nyquist": ("nyquist",), "p-bode": ("bode-mag", "bode-phase"), "p-nichols": ("nichols",),

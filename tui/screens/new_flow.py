@@ -13,14 +13,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from sessions.new import template_kinds
-
-from sessions.new import templates
 from sessions.build import read_csv
 from sessions.errors import SessionError
-
-from tui.state.field_edits import csv_preview, table_transfer
+from sessions.new import template_kinds, templates
 from tui.screens.dialogs import ChooseDialog, EditDialog
+from tui.state.field_edits import csv_preview, table_transfer
 
 PLANT_HINT = "an expression in s (or w), e.g. 10/(s*(s+1)*(s+5)); exp(-T*s) is a delay"
 STRUCTURE_CHOICES = [("lead", "K (1 + T1 s)/(1 + T2 s), T2 < T1"), ("lag", "K (1 + T1 s)/(1 + T2 s), T2 > T1"),

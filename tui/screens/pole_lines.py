@@ -6,8 +6,8 @@ are kept, with the view (the ids in its `figure_key` stay taken)."""
 
 from __future__ import annotations
 
-from tui.figures.closed_loop import pole_text
 from tui.figures.catalog import figure_key
+from tui.figures.closed_loop import pole_text
 from tui.state.views import View
 
 COMPUTING = "closed-loop poles: computing ..."

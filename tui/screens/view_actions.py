@@ -6,13 +6,13 @@ from __future__ import annotations
 from textual.widgets import DataTable, TabbedContent
 
 from tui.figures.closed_loop import locus_figure
+from tui.figures.data import Figure
+from tui.screens.dialogs import EditDialog
 from tui.state.clipboard import design_text, row_text
 from tui.state.step_view import format_step_setup, horizon, parse_step_setup
 from tui.state.views import View
-from tui.figures.data import Figure
 from tui.widgets.plots import FigurePlot
 from tui.widgets.textview import TextView
-from tui.screens.dialogs import EditDialog
 
 
 class ViewActions:

@@ -7,7 +7,6 @@ import re
 from collections.abc import Mapping, Sequence
 
 from sessions.forms.transfers import format_sub_compensator, format_transfer, transfer_names
-
 from tui.state.plant_rows import cascade_transfers
 
 

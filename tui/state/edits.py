@@ -16,13 +16,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.errors import EngineError
-from sessions.forms import one_line as forms
-from sessions.forms import transfers as transfer_forms
 from sessions.build import build_problem
 from sessions.errors import SessionError
-from sessions.lifecycle import folder
 from sessions.format.schema import ProblemModel
-
+from sessions.forms import one_line as forms
+from sessions.forms import transfers as transfer_forms
+from sessions.lifecycle import folder
 from tui.state.workbench import Workbench
 
 Ref = tuple[Any, ...]   # a path into the problem model: attribute names and list indices

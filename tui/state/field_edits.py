@@ -7,13 +7,12 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from engine.stepping.protocol import make_settings
-from engine.errors import EngineError
 from engine.design.measure_kinds import MEASURE_KINDS
-from sessions.forms import one_line as forms
+from engine.errors import EngineError
+from engine.stepping.protocol import make_settings
 from sessions.errors import SessionError
+from sessions.forms import one_line as forms
 from sessions.lifecycle import folder, registration
-
 from tui.state.edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
 from tui.state.workbench import Workbench
 
@@ -169,8 +168,8 @@ def objective_edit(bench: Workbench, ref: Ref) -> Edit:
 
 def constraint_check(bench: Workbench, index: int | None) -> Check:
     """The live check of a constraint line (linear in the parameters, met at their values)."""
-    from sessions.format.constraint_lines import check_constraint_line
     from sessions.errors import SessionError as Refused
+    from sessions.format.constraint_lines import check_constraint_line
 
     def check(text: str) -> str | None:
         try:

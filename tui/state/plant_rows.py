@@ -4,7 +4,6 @@ or break point of every condition, each with the model path it shows."""
 from __future__ import annotations
 
 from sessions.forms.transfers import describe_transfer, format_sub_compensator
-
 from tui.state.edits import Ref
 
 Cells = tuple[str, str, str, str, str, str]

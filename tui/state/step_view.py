@@ -17,9 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
-from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 
 SAMPLES = 400
 SETTLING_BAND = 0.05

@@ -8,9 +8,9 @@ import math
 
 from rich.text import Text
 
-from engine.stepping.protocol import MeasureRow
 from engine.design.measure_kinds import shorts
 from engine.stepping.presenter import number
+from engine.stepping.protocol import MeasureRow
 
 SHORT = shorts()
 

@@ -16,13 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from engine.stepping.protocol import MeasureRow, StepRecord
+from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.responses import loop_model, open_loop
 from engine.margins.search import Margins, margins
 from engine.stepping.presenter import tolerant
-from engine.design.problem import Problem
-
+from engine.stepping.protocol import MeasureRow, StepRecord
 from tui.state.step_view import StepSetup, horizon, realized, step_response
 
 CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")

@@ -13,16 +13,15 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from engine.stepping.protocol import State, Status, StepRecord
 from engine.errors import EngineError
+from engine.stepping.protocol import State, Status, StepRecord
 from sessions import lifecycle
 from sessions.errors import SessionError
 from sessions.runner import record_json, settings_snapshot
 from sessions.store import AUTOSAVE_INTERVAL, Session, autosave_path, save_session, write_autosave
 from sessions.sweeps.jobs import execute
-from sessions.sweeps.results import adopt_run, record_sweep, summarize
 from sessions.sweeps.plan import parse_sweep, plan
-
+from sessions.sweeps.results import adopt_run, record_sweep, summarize
 from tui.state.edit_history import EditHistory
 from tui.state.step_view import StepSetup
 from tui.state.views import View

@@ -8,10 +8,9 @@ from textual.binding import Binding
 from textual.widgets import DataTable
 
 from sessions.forms import one_line as forms
-
+from tui.keys import identified
 from tui.state import edits
 from tui.state.edits import Edit
-from tui.keys import identified
 from tui.state.matrix_grid import matrix_grid
 
 

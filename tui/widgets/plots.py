@@ -16,10 +16,10 @@ from textual.binding import Binding
 from textual_plotext import PlotextPlot
 from textual_plotext.plot import Plot
 
-from tui.keys import identified
 from tui.figures.axes import nice_ticks
 from tui.figures.data import Figure
 from tui.figures.navigation import Navigation, xy_probe
+from tui.keys import identified
 
 COMPACT_ROWS = 24
 

@@ -16,12 +16,10 @@ from textual.widgets import DataTable
 
 from engine.design.measure_kinds import MEASURE_KINDS
 from sessions.lifecycle import folder
-
+from tui.keys import identified
 from tui.state import edits
-
 from tui.state import field_edits as edits_fields
 from tui.state.edits import Ref
-from tui.keys import identified
 
 
 class RefTable(DataTable):

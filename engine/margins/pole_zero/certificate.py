@@ -25,8 +25,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.numerics.bracketing import Noise, bracketed_roots
 from engine.margins.pole_zero.levels import LoopLevels
+from engine.numerics.bracketing import Noise, bracketed_roots
 
 # omega -> (rows of each level's slope, rows of their derivatives)
 Slopes = Callable[[NDArray], tuple[NDArray, NDArray]]

@@ -22,9 +22,9 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.margins.pole_zero.levels import LoopLevels
 from engine.numerics.bracketing import bracketed_roots
 from engine.numerics.fraction_sums import poly, polynomial_sum, roots
-from engine.margins.pole_zero.levels import LoopLevels
 
 NEAR_REAL = 1e-2  # |Im x| / |x| below which a polynomial's root is a start
 LIMIT_NOISE = 1e-9  # a level this close to its limit at 0 or infinity is at the limit

@@ -12,8 +12,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
 
 MAX_ROOTS = 48  # zeros + poles; beyond, the detection grid is faster (docs/margins.md)
 UNDAMPED = 1e-9  # |Re r| / |r| at or below which a root is on the imaginary axis

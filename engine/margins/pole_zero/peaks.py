@@ -26,11 +26,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.numerics.fraction_sums import Fractions, polynomial_sum, roots
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.margins.pole_zero.certificate import certified
 from engine.margins.pole_zero.levels import LoopLevels
 from engine.margins.pole_zero.search import degenerate, distinct, newton, real_eigenvalues
+from engine.numerics.fraction_sums import Fractions, polynomial_sum, roots
 
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
 

@@ -33,11 +33,11 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.numerics.bracketing import EPS, NOISE_STEP
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.margins.pole_zero.certificate import DUPLICATE, Slopes, certified
 from engine.margins.pole_zero.crossings import crossing_candidates, crossings_of
 from engine.margins.pole_zero.levels import LoopLevels
+from engine.numerics.bracketing import EPS, NOISE_STEP
 
 REAL = 1e-7  # |Im x| / |x| below which an eigenvalue is a real stationary point
 NEAR_REAL = 1e-2  # ... below which a close real pair could hide near it (a check point there)
