@@ -43,8 +43,10 @@ class LoopAnalysis:
     complementary_peak: Peak | None = None  # Mt = max |T|
 
 
-DELAY_FACTOR = re.compile(r"exp\(\s*-\s*(?:(?P<a>[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*\*\s*s|s\s*\*\s*"
-                          r"(?P<b>[0-9.]+(?:[eE][-+]?[0-9]+)?)|(?P<c>s))\s*\)")
+DELAY_FACTOR = re.compile(
+    r"exp\(\s*-\s*(?:(?P<a>[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*\*\s*s|s\s*\*\s*"
+    r"(?P<b>[0-9.]+(?:[eE][-+]?[0-9]+)?)|(?P<c>s))\s*\)"
+)
 
 
 def split_delays(text: str) -> tuple[str, float]:
@@ -54,19 +56,21 @@ def split_delays(text: str) -> tuple[str, float]:
     (no other function is read)."""
     total, pieces, last = 0.0, [], 0
     for match in DELAY_FACTOR.finditer(text):
-        before, after = text[:match.start()].rstrip(), text[match.end():].lstrip()
+        before, after = text[: match.start()].rstrip(), text[match.end() :].lstrip()
         depth = before.count("(") - before.count(")")
         if depth != 0 or (before and not before.endswith("*")) or (after and after[0] not in "*/"):
-            raise EngineError(f"{text!r}: a delay exp(-T*s) must be a factor of the whole expression "
-                              f"(column {match.start() + 1})")
+            raise EngineError(
+                f"{text!r}: a delay exp(-T*s) must be a factor of the whole expression (column {match.start() + 1})"
+            )
         total += float(match.group("a") or match.group("b") or 1.0)
-        pieces += [text[last:match.start()], "1"]  # the factor becomes 1: the rest reads as before
+        pieces += [text[last : match.start()], "1"]  # the factor becomes 1: the rest reads as before
         last = match.end()
     return "".join(pieces + [text[last:]]), total
 
 
-def unity_feedback(expressions: Sequence[str], variable: str = "s", delay: float = 0.0,
-                   table: FrequencyTable | None = None) -> Network:
+def unity_feedback(
+    expressions: Sequence[str], variable: str = "s", delay: float = 0.0, table: FrequencyTable | None = None
+) -> Network:
     """r -> (+) -> e -> product of the expressions (a delay, a table) -> y,
     with e = r - y; break at 'e'.  Delay factors exp(-T*s) in the expressions
     are read by `split_delays`."""
@@ -103,8 +107,9 @@ def modal_peaks(model: LoopModel | Margins, bands: Sequence[Band]) -> tuple[Moda
     return tuple(out)
 
 
-def closed_loop_peaks(model: LoopModel, verdict: str, skew: float = 0.0
-                      ) -> tuple[DiskMargin | None, Peak | None, Peak | None, tuple[str, ...]]:
+def closed_loop_peaks(
+    model: LoopModel, verdict: str, skew: float = 0.0
+) -> tuple[DiskMargin | None, Peak | None, Peak | None, tuple[str, ...]]:
     """The disk margin, Ms and Mt of a loop, refined in one search
     (`engine.margins.peaks.refined_peaks`); None each with a note when it fails."""
     skew = check_skew(skew)
@@ -113,12 +118,18 @@ def closed_loop_peaks(model: LoopModel, verdict: str, skew: float = 0.0
     except EngineError as exc:
         return None, None, None, (f"no disk margin or sensitivity peaks: {exc}",)
     stable = None if verdict == "unknown" else verdict == "stable"
-    unbounded = tuple(dict.fromkeys(n for n in map(unbounded_note, (ms, mt)) if n))   # Ms and Mt: one note
+    unbounded = tuple(dict.fromkeys(n for n in map(unbounded_note, (ms, mt)) if n))  # Ms and Mt: one note
     return from_peak(disk, skew, stable), reported(ms), reported(mt), unbounded
 
 
-def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],
-            peak_bands: Sequence[Band] = (), skew: float = 0.0) -> LoopAnalysis:
+def analyze(
+    network: Network,
+    break_at: str,
+    omega: ArrayLike,
+    params: Mapping[str, float],
+    peak_bands: Sequence[Band] = (),
+    skew: float = 0.0,
+) -> LoopAnalysis:
     """Margins of the loop broken at ``break_at``, and the closed-loop poles
     when rational (first: an improper loop is an error before any search)."""
     pole_list: tuple[Pole, ...] | None = None
@@ -133,6 +144,4 @@ def analyze(network: Network, break_at: str, omega: ArrayLike, params: Mapping[s
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
     disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)
-    return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes) + failed,
-                        disk, ms, mt)
-
+    return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes) + failed, disk, ms, mt)

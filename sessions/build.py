@@ -63,8 +63,9 @@ from sessions.format.schema import (
     TargetModel,
 )
 
-MAX_TABLE_BYTES = 20 * 2**20   # a CSV table's size (its rows: MAX_TABLE_ROWS, sessions.format.limits)
-SHOWN_CELL = 40            # characters of an offending cell quoted in a message
+MAX_TABLE_BYTES = 20 * 2**20  # a CSV table's size (its rows: MAX_TABLE_ROWS, sessions.format.limits)
+SHOWN_CELL = 40  # characters of an offending cell quoted in a message
+
 
 class OutsideTable(SessionError):
     """A table outside the session's folder was refused; ``name`` is what its ``csv`` says
@@ -101,14 +102,24 @@ def build_problem(model: ProblemModel, folder: Path, *, allow_outside_tables: bo
 
 def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     conditions = tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
-    parameters = tuple(_parameter(p, f"problem.parameters[{i}]", len(conditions))
-                       for i, p in enumerate(model.parameters))
+    parameters = tuple(
+        _parameter(p, f"problem.parameters[{i}]", len(conditions)) for i, p in enumerate(model.parameters)
+    )
     parameters = _hold_dc_gains(model, parameters)
     targets = tuple(_target(t) for t in model.targets)
-    objective = None if model.objective is None else Objective(
-        model.objective.kind, dict(model.objective.options),
-        {name: frequency_table(t, f"problem.objective.tables.{name}", folder) for name, t in model.objective.tables.items()},
-        dict(model.objective.data))
+    objective = (
+        None
+        if model.objective is None
+        else Objective(
+            model.objective.kind,
+            dict(model.objective.options),
+            {
+                name: frequency_table(t, f"problem.objective.tables.{name}", folder)
+                for name, t in model.objective.tables.items()
+            },
+            dict(model.objective.data),
+        )
+    )
     names = [c.name for c in model.conditions]
     equalities = tuple(_equality(e, f"problem.equalities[{i}]", names) for i, e in enumerate(model.equalities))
     inequalities = build_inequalities(model)
@@ -122,16 +133,21 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
 
 def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
     """Channels with ``hold_dc_gain``: the parameters that are constant terms stay fixed."""
-    held = {coefficient
-            for condition in model.conditions if condition.plant.format == "channels"
-            for channel in condition.plant.channels if channel.hold_dc_gain
-            for sub in channel.compensators for coefficient in (sub.numerator[0], sub.denominator[0])
-            if isinstance(coefficient, str)}
+    held = {
+        coefficient
+        for condition in model.conditions
+        if condition.plant.format == "channels"
+        for channel in condition.plant.channels
+        if channel.hold_dc_gain
+        for sub in channel.compensators
+        for coefficient in (sub.numerator[0], sub.denominator[0])
+        if isinstance(coefficient, str)
+    }
     return tuple(replace(p, free=False) if p.name in held else p for p in parameters)
 
 
 def _grid(g: GridModel) -> Grid:
-    with np.errstate(all="ignore"):   # frequencies out of range are refused below, not warned about
+    with np.errstate(all="ignore"):  # frequencies out of range are refused below, not warned about
         if g.values is not None:
             values = np.array(g.values, dtype=float)
         elif g.spacing == "log":
@@ -149,16 +165,19 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
     try:
         if plant.format == "matrix":
             entries = {(e.row, e.col): e.expression for e in plant.entries}
-            network = matrix_format(plant.signals, entries, plant.forcing_row, plant.forcing, plant.input_name,
-                                    c.variable)
+            network = matrix_format(
+                plant.signals, entries, plant.forcing_row, plant.forcing, plant.input_name, c.variable
+            )
         elif plant.format == "channels":
             network = _channels(plant, path, folder, c.variable)
         elif plant.format == "cascade":
             network = _cascade(plant, f"{path}.plant", folder, c.variable)
         else:
             blocks = [_block(b, f"{path}.plant.blocks[{i}]", folder, c.variable) for i, b in enumerate(plant.blocks)]
-            junctions = [Junction(j.name, j.output, tuple((1.0, s) for s in j.plus) + tuple((-1.0, s) for s in j.minus))
-                         for j in plant.junctions]
+            junctions = [
+                Junction(j.name, j.output, tuple((1.0, s) for s in j.plus) + tuple((-1.0, s) for s in j.minus))
+                for j in plant.junctions
+            ]
             network = block_diagram(blocks, junctions, plant.inputs, c.variable)
         network.signal(c.break_at)
     except SessionError:
@@ -174,12 +193,22 @@ def _channels(plant: ChannelsModel, path: str, folder: Path, variable: str) -> N
     for k, ch in enumerate(plant.channels):
         where = f"{path}.plant.channels[{k}]"
         theta = f"{ch.name}.theta"
-        blocks.append(Block(f"{ch.name}.response", "e", theta, _transfer(ch.response, f"{where}.response", folder,
-                                                                        variable), ch.name))
+        blocks.append(
+            Block(
+                f"{ch.name}.response",
+                "e",
+                theta,
+                _transfer(ch.response, f"{where}.response", folder, variable),
+                ch.name,
+            )
+        )
         signal = theta
         if ch.gain != 1.0:
-            blocks.append(Block(f"{ch.name}.gain", signal, f"{ch.name}.scaled", ExpressionTransfer(repr(ch.gain),
-                                                                                                   variable), ch.name))
+            blocks.append(
+                Block(
+                    f"{ch.name}.gain", signal, f"{ch.name}.scaled", ExpressionTransfer(repr(ch.gain), variable), ch.name
+                )
+            )
             signal = f"{ch.name}.scaled"
         for i, sub in enumerate(ch.compensators, start=1):
             try:
@@ -190,14 +219,20 @@ def _channels(plant: ChannelsModel, path: str, folder: Path, variable: str) -> N
             blocks.append(Block(f"{ch.name}.{i}", signal, out, transfer, ch.name))
             signal = out
         if not ch.compensators:
-            blocks.append(Block(f"{ch.name}.direct", signal, f"{ch.name}.u", ExpressionTransfer("1", variable), ch.name))
+            blocks.append(
+                Block(f"{ch.name}.direct", signal, f"{ch.name}.u", ExpressionTransfer("1", variable), ch.name)
+            )
         outputs.append(f"{ch.name}.u")
-    junctions = [Junction("sum", "c", tuple((1.0, u) for u in outputs)), Junction("error", "e", ((1.0, "r"), (-1.0, "c")))]
+    junctions = [
+        Junction("sum", "c", tuple((1.0, u) for u in outputs)),
+        Junction("error", "e", ((1.0, "r"), (-1.0, "c"))),
+    ]
     return block_diagram(blocks, junctions, ["r"], variable)
 
 
 def _cascade(plant: CascadeModel, path: str, folder: Path, variable: str) -> Network:
     """Report 001's Figure 2 as a block diagram with blocks G1, G2, Ga, H1, H2."""
+
     def make(name: str):
         return _transfer(getattr(plant, name), f"{path}.{name}", folder, variable)
 
@@ -223,8 +258,10 @@ def _ratio(g1g2, g1, path: str, variable: str):
         with np.errstate(all="ignore"):
             ratio = a.response / b.response
         if not np.all(np.isfinite(ratio)):
-            raise SessionError(f"{path}: G2 = G1G2/G1 is not finite at every frequency (G1 is zero, or the "
-                               "quotient overflows, somewhere)")
+            raise SessionError(
+                f"{path}: G2 = G1G2/G1 is not finite at every frequency (G1 is zero, or the "
+                "quotient overflows, somewhere)"
+            )
         return TabulatedTransfer(FrequencyTable(a.omega, ratio, f"{a.source} / {b.source}"))
     if isinstance(g1g2, ExpressionTransfer) and isinstance(g1, ExpressionTransfer):
         return ExpressionTransfer(f"({g1g2.text})/({g1.text})", variable)
@@ -258,13 +295,19 @@ def _transfer(t, path: str, folder: Path, variable: str):
         elif t.kind == "polynomial":
             transfer = polynomial_transfer(t.numerator, t.denominator, t.order, variable)
         elif t.kind == "factored":
-            transfer = factored_transfer(t.gain, t.s_power, [Factor(**f.model_dump()) for f in t.zeros],
-                                         [Factor(**f.model_dump()) for f in t.poles], variable)
+            transfer = factored_transfer(
+                t.gain,
+                t.s_power,
+                [Factor(**f.model_dump()) for f in t.zeros],
+                [Factor(**f.model_dump()) for f in t.poles],
+                variable,
+            )
         elif t.kind == "delay":
             transfer = DelayTransfer(t.tau)
         elif t.kind == "controller":
-            transfer = controller_transfer(t.gain, t.s_power, [ControllerFactor(**f.model_dump()) for f in t.factors],
-                                           variable)
+            transfer = controller_transfer(
+                t.gain, t.s_power, [ControllerFactor(**f.model_dump()) for f in t.factors], variable
+            )
         else:
             transfer = TabulatedTransfer(frequency_table(t.table, f"{path}.table", folder))
     except SessionError:
@@ -292,7 +335,7 @@ def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = 
     """The file a table's ``csv`` names, relative to the session's ``folder``; one outside
     it (absolute, or leaving it by .. or a symlink) is refused unless ``allow_outside``
     (None: as the enclosing `outside_tables_allowed` says)."""
-    if "\0" in name:   # no file system takes it (pathlib raised a bare ValueError)
+    if "\0" in name:  # no file system takes it (pathlib raised a bare ValueError)
         raise SessionError(f"{path}.csv: {name!r} is not a file name (it holds a NUL character)")
     allowed = _OUTSIDE_ALLOWED.get() if allow_outside is None else allow_outside
     file = Path(folder) / name
@@ -300,19 +343,26 @@ def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = 
         return file
     base, resolved = Path(folder).resolve(), file.resolve()
     if Path(name).is_absolute() or not resolved.is_relative_to(base):
-        raise OutsideTable(f"{path}.csv: {name!r} is outside the session's folder {base}: tables are read from "
-                           "the session's folder or below (--allow-outside-tables allows others)", name)
-    return resolved   # what was checked is what is opened
+        raise OutsideTable(
+            f"{path}.csv: {name!r} is outside the session's folder {base}: tables are read from "
+            "the session's folder or below (--allow-outside-tables allows others)",
+            name,
+        )
+    return resolved  # what was checked is what is opened
 
 
 def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
     """The named columns of a CSV file (lines starting with # skipped); errors name line
     and column.  Only a regular file of at most MAX_TABLE_BYTES and MAX_TABLE_ROWS rows."""
-    numbered = [(n, line) for n, line in enumerate(io.StringIO(bounded_text(file, path), newline=""), start=1)
-                if not line.startswith("#")]
+    numbered = [
+        (n, line)
+        for n, line in enumerate(io.StringIO(bounded_text(file, path), newline=""), start=1)
+        if not line.startswith("#")
+    ]
     if len(numbered) - 1 > MAX_TABLE_ROWS:
-        raise SessionError(f"{path}.csv: {file.name} has {len(numbered) - 1} rows; a table has at most "
-                           f"{MAX_TABLE_ROWS}")
+        raise SessionError(
+            f"{path}.csv: {file.name} has {len(numbered) - 1} rows; a table has at most {MAX_TABLE_ROWS}"
+        )
     reader = csv.DictReader(line for _, line in numbered)
     try:
         rows, header = list(reader), reader.fieldnames or []
@@ -328,7 +378,7 @@ def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ..
 def bounded_text(file: Path, path: str) -> str:
     """The text of a regular file of at most MAX_TABLE_BYTES (never more is read)."""
     try:
-        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))   # a FIFO must not block the open
+        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO must not block the open
     except OSError as exc:
         raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror or exc}") from None
     _check_regular(fd, file, path)
@@ -364,8 +414,9 @@ def _columns(file: Path, columns: list[str], numbered: list, rows: list[dict]) -
             try:
                 out[k].append(float(row[name]))
             except (TypeError, ValueError):
-                raise SessionError(f"{file.name}: line {n}, column {name!r}: not a number: "
-                                   f"{_shown(row[name])}") from None
+                raise SessionError(
+                    f"{file.name}: line {n}, column {name!r}: not a number: {_shown(row[name])}"
+                ) from None
     return tuple(out) if len(out) == 3 else (out[0], out[1], [])
 
 
@@ -380,8 +431,9 @@ def _parameter(p: ParameterModel, path: str, conditions: int) -> Parameter:
     value = tuple(p.value) if isinstance(p.value, list) else p.value
     if isinstance(value, tuple) and len(value) != conditions:
         raise SessionError(f"{path}.value: {len(value)} values for {conditions} conditions")
-    return Parameter(p.name, value, -np.inf if p.min is None else p.min, np.inf if p.max is None else p.max,
-                     p.free, p.sign)
+    return Parameter(
+        p.name, value, -np.inf if p.min is None else p.min, np.inf if p.max is None else p.max, p.free, p.sign
+    )
 
 
 def _target(t: TargetModel) -> Target:
@@ -391,13 +443,33 @@ def _target(t: TargetModel) -> Target:
     def upper(x: float | None) -> float:
         return np.inf if x is None else x * scale
 
-    response = None if t.response is None else TimeResponse(
-        t.response.input, t.response.output, t.response.horizon, t.response.points,
-        tuple((seg.time, seg.step, seg.slope) for seg in t.response.profile), t.response.psd,
-        t.response.reference, t.response.settling_band)
-    return Target(t.measure, tuple(BandValue(b.low * scale, upper(b.high), b.desired, b.required) for b in t.bands),
-                  t.condition, t.weight, t.scale, tuple(Point(complex(q.real, q.imag), q.mode) for q in t.points),
-                  t.detect_low * scale, upper(t.detect_high), t.sense, t.constraint, response)
+    response = (
+        None
+        if t.response is None
+        else TimeResponse(
+            t.response.input,
+            t.response.output,
+            t.response.horizon,
+            t.response.points,
+            tuple((seg.time, seg.step, seg.slope) for seg in t.response.profile),
+            t.response.psd,
+            t.response.reference,
+            t.response.settling_band,
+        )
+    )
+    return Target(
+        t.measure,
+        tuple(BandValue(b.low * scale, upper(b.high), b.desired, b.required) for b in t.bands),
+        t.condition,
+        t.weight,
+        t.scale,
+        tuple(Point(complex(q.real, q.imag), q.mode) for q in t.points),
+        t.detect_low * scale,
+        upper(t.detect_high),
+        t.sense,
+        t.constraint,
+        response,
+    )
 
 
 def _equality(e: EqualityModel, path: str, conditions: list[str]) -> LinearEquality:

@@ -31,7 +31,7 @@ class Side:
     iteration: int
     parameters: dict
     rows: tuple[MeasureRow, ...]
-    how: str   # "tableau" or "records"
+    how: str  # "tableau" or "records"
 
     @property
     def met(self) -> int:
@@ -49,7 +49,7 @@ class Comparison:
 
     @property
     def better(self) -> str:
-        """"a" or "b": the one meeting more targets; "tie" when they meet as many."""
+        """ "a" or "b": the one meeting more targets; "tie" when they meet as many."""
         return "a" if self.a.met > self.b.met else "b" if self.b.met > self.a.met else "tie"
 
 
@@ -83,6 +83,7 @@ def _record_rows(session: Session, k: int, source: str) -> list[MeasureRow]:
 
 def compare(a: Side, b: Side) -> Comparison:
     """Match the two sides' rows by (condition, kind, name), in A's order then B's extra ones."""
+
     def keyed(rows) -> dict:
         return {(r.condition, r.kind, r.name): r for r in rows}
 
@@ -116,31 +117,53 @@ def _row_json(r: MeasureRow | None) -> dict | None:
 
 def comparison_json(c: Comparison) -> dict:
     """The comparison as JSON data (`loopcraft compare --json`)."""
+
     def side_json(s: Side) -> dict:
-        return {"source": s.source, "iteration": s.iteration, "parameters": s.parameters, "met": s.met,
-                "measures": len(s.rows), "how": s.how}
+        return {
+            "source": s.source,
+            "iteration": s.iteration,
+            "parameters": s.parameters,
+            "met": s.met,
+            "measures": len(s.rows),
+            "how": s.how,
+        }
 
     rows = []
     for (condition, kind, name), ra, rb in c.rows:
         target = (ra or rb).target
-        rows.append({"condition": condition, "kind": kind, "name": name, "target": _finite(target),
-                     "a": _row_json(ra), "b": _row_json(rb), "difference": difference(ra, rb)})
+        rows.append(
+            {
+                "condition": condition,
+                "kind": kind,
+                "name": name,
+                "target": _finite(target),
+                "a": _row_json(ra),
+                "b": _row_json(rb),
+                "difference": difference(ra, rb),
+            }
+        )
     return {"a": side_json(c.a), "b": side_json(c.b), "rows": rows, "better": c.better, "notes": list(c.notes)}
 
 
 def comparison_text(c: Comparison) -> str:
     """A side-by-side table, the parameters, and which design meets more targets."""
+
     def cell(r: MeasureRow | None) -> str:
         return f"{'-':>12} {'':3}" if r is None else f"{r.value:>12.6g} {'yes' if r.satisfied else 'NO':3}"
 
-    lines = [f"A: {c.a.source}, iteration {c.a.iteration}", f"B: {c.b.source}, iteration {c.b.iteration}", "",
-             f"{'condition':<12} {'kind':<20} {'name':<5} {'desired':>10} {'A':>12} met {'B':>12} met "
-             f"{'B - A':>12}"]
+    lines = [
+        f"A: {c.a.source}, iteration {c.a.iteration}",
+        f"B: {c.b.source}, iteration {c.b.iteration}",
+        "",
+        f"{'condition':<12} {'kind':<20} {'name':<5} {'desired':>10} {'A':>12} met {'B':>12} met {'B - A':>12}",
+    ]
     for (condition, kind, name), ra, rb in c.rows:
         target = (ra or rb).target
         d = difference(ra, rb)
-        lines.append(f"{condition:<12} {kind:<20} {name:<5} {'' if target is None else f'{target:.6g}':>10} "
-                     f"{cell(ra)} {cell(rb)} {'' if d is None else f'{d:.6g}':>12}")
+        lines.append(
+            f"{condition:<12} {kind:<20} {name:<5} {'' if target is None else f'{target:.6g}':>10} "
+            f"{cell(ra)} {cell(rb)} {'' if d is None else f'{d:.6g}':>12}"
+        )
     lines += ["", f"{'parameter':<12} {'A':>14} {'B':>14}"]
     for name in dict.fromkeys(list(c.a.parameters) + list(c.b.parameters)):
         lines.append(f"{name:<12} {_shown(c.a.parameters.get(name)):>14} {_shown(c.b.parameters.get(name)):>14}")

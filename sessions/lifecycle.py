@@ -74,8 +74,9 @@ def switch_algorithm(session: Session, name: str) -> None:
 def rebuild(session: Session) -> None:
     """Build the engine problem again from the edited model; the records are dropped.
     A `SessionError` says why it does not build (the session is unchanged then)."""
-    session.problem = build_problem(session.model.problem, folder(session),
-                                    allow_outside_tables=session.allow_outside_tables or None)
+    session.problem = build_problem(
+        session.model.problem, folder(session), allow_outside_tables=session.allow_outside_tables or None
+    )
     forget_records(session)
 
 

@@ -17,8 +17,8 @@ from sessions.format.schema import SessionModel
 from sessions.lifecycle import bound_algorithm, forget_records, named_error
 from sessions.store import AUTOSAVE_INTERVAL, Session, write_autosave
 
-REPLAY_TOLERANCE = 1e-9    # relative
-REPLAY_FLOOR = 1e-12       # absolute: a recorded 0.0 against 1e-13 is numerical noise, not a divergence
+REPLAY_TOLERANCE = 1e-9  # relative
+REPLAY_FLOOR = 1e-12  # absolute: a recorded 0.0 against 1e-13 is numerical noise, not a divergence
 NON_FINITE = ("inf", "-inf", "nan")
 
 
@@ -29,22 +29,27 @@ class Run(list):
     stopped: str | None = None
 
 
-def run_session(session: Session, iterations: int | None = None, until_done: bool = False,
-                progress: Callable[[StepRecord], None] | None = None, autosave: bool = True,
-                time_limit: float | None = None) -> Run:
+def run_session(
+    session: Session,
+    iterations: int | None = None,
+    until_done: bool = False,
+    progress: Callable[[StepRecord], None] | None = None,
+    autosave: bool = True,
+    time_limit: float | None = None,
+) -> Run:
     """Step from the current iteration; records after it (an undone tail) are dropped.
     ``time_limit``: seconds of wall clock, checked between iterations (the run stops
     there, resumable, its records a prefix of the unlimited run's: it replays)."""
     algorithm, settings = bound_algorithm(session)
     snapshot = settings_snapshot(settings)
     model = session.model
-    del model.records[model.current_iteration:]
+    del model.records[model.current_iteration :]
     new = Run()
     try:
         state = algorithm.init(session.problem, settings)
         if model.current_iteration and model.state is not None:
             state = State.from_json(model.state, algorithm.memory_type)
-        elif model.current_iteration:   # no saved state: rebuilt by stepping to the current iteration
+        elif model.current_iteration:  # no saved state: rebuilt by stepping to the current iteration
             for _ in range(model.current_iteration):
                 state, _ = algorithm.step(state)
         limit = iterations if iterations is not None else (10**9 if until_done else 1)
@@ -104,8 +109,9 @@ def difference(old: Any, new: Any, where: str = "") -> str | None:
     if isinstance(old, list) and isinstance(new, list):
         if len(old) != len(new):
             return f"{where or '(top)'}: {len(old)} entries recorded, {len(new)} now"
-        return next((d for k, (a, b) in enumerate(zip(old, new))
-                     if (d := difference(a, b, f"{where}[{k}]")) is not None), None)
+        return next(
+            (d for k, (a, b) in enumerate(zip(old, new)) if (d := difference(a, b, f"{where}[{k}]")) is not None), None
+        )
     same = _close(old, new) if _is_number(old) and _is_number(new) else type(old) is type(new) and old == new
     return None if same else f"{where or '(top)'}: {old!r} recorded, {new!r} now"
 
@@ -184,8 +190,11 @@ def _settings_difference(k: int, old: dict, snapshot: dict) -> str | None:
     if "settings" not in old:
         return None
     found = difference(old["settings"], snapshot, "settings")
-    return None if found is None else (f"settings mismatch: iteration {k} was recorded with other settings "
-                                       f"than the session's: {found}")
+    return (
+        None
+        if found is None
+        else (f"settings mismatch: iteration {k} was recorded with other settings than the session's: {found}")
+    )
 
 
 def _finished_early(k: int, state: State) -> str | None:
@@ -196,13 +205,15 @@ def _finished_early(k: int, state: State) -> str | None:
 
 def _record_difference(k: int, old: dict, new: dict) -> str | None:
     if old.get("iteration") != new["iteration"]:
-        return (f"iteration {k} diverges: iteration: {old.get('iteration')!r} recorded, {new['iteration']!r} now "
-                "(the records are out of order)")
+        return (
+            f"iteration {k} diverges: iteration: {old.get('iteration')!r} recorded, {new['iteration']!r} now "
+            "(the records are out of order)"
+        )
     found = difference(old, new)
     if found is None:
         return None
     if found.startswith("measures["):
-        index = int(found[len("measures["):found.index("]")])
+        index = int(found[len("measures[") : found.index("]")])
         m = old["measures"][index] if index < len(old.get("measures", [])) else {}
         found = f"measure {m.get('name')} ({m.get('kind')}, {m.get('condition')}), {found}"
     elif found.startswith("parameters."):
@@ -224,6 +235,8 @@ def _success(model: SessionModel) -> str:
         text += ", and the saved state"
     missing = sum("settings" not in r for r in model.records)
     if missing:
-        text += (f"\nnote: {missing} of the {n} records do not say which settings made them "
-                 "(made before records kept their settings): those settings are not checked")
+        text += (
+            f"\nnote: {missing} of the {n} records do not say which settings made them "
+            "(made before records kept their settings): those settings are not checked"
+        )
     return text

@@ -54,9 +54,25 @@ from sessions.format.save_file import (
 )
 from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
 
-__all__ = ["AUTOSAVE_INTERVAL", "MAX_DEPTH", "MIGRATIONS", "DiskStamp", "OverwriteRefused", "Session",
-           "autosave_candidate", "autosave_path", "dumps", "load_autosave", "load_session", "parse_session",
-           "flush_autosaves", "prepare_save", "save_session", "tables_in", "write_autosave"]
+__all__ = [
+    "AUTOSAVE_INTERVAL",
+    "MAX_DEPTH",
+    "MIGRATIONS",
+    "DiskStamp",
+    "OverwriteRefused",
+    "Session",
+    "autosave_candidate",
+    "autosave_path",
+    "dumps",
+    "load_autosave",
+    "load_session",
+    "parse_session",
+    "flush_autosaves",
+    "prepare_save",
+    "save_session",
+    "tables_in",
+    "write_autosave",
+]
 
 # version -> function turning a session dict of that version into the next version's
 MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
@@ -75,11 +91,11 @@ class Session:
     problem: Problem
     path: Path | None = None
     messages: list[str] = field(default_factory=list)
-    last_autosave: float = field(default=0.0, compare=False)   # monotonic time of the last autosave
+    last_autosave: float = field(default=0.0, compare=False)  # monotonic time of the last autosave
     disk: DiskStamp | None = field(default=None, compare=False)
     save_to: Path | None = field(default=None, compare=False)
     autosave_warning: str | None = field(default=None, compare=False)
-    allow_outside_tables: bool = field(default=False, compare=False)   # the user allowed tables outside its folder
+    allow_outside_tables: bool = field(default=False, compare=False)  # the user allowed tables outside its folder
 
     @property
     def records(self) -> list[StepRecord]:
@@ -122,7 +138,7 @@ def _json(text: str) -> Any:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise SessionError(f"line {exc.lineno}, column {exc.colno}: {exc.msg}") from None
-    except ValueError as exc:   # e.g. an integer of more than 4300 digits
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
         raise SessionError(f"not readable as JSON: {exc}") from None
     except RecursionError:
         raise SessionError(f"nested more than {MAX_DEPTH} levels deep") from None
@@ -147,8 +163,10 @@ def _migrate(data: Any) -> tuple[Any, list[str]]:
     if not isinstance(version, int) or isinstance(version, bool):
         raise SessionError("schema_version: missing or not an integer")
     if version > SCHEMA_VERSION:
-        raise SessionError(f"schema_version {version} is newer than this loopcraft reads "
-                           f"({SCHEMA_VERSION}); update loopcraft to open it")
+        raise SessionError(
+            f"schema_version {version} is newer than this loopcraft reads "
+            f"({SCHEMA_VERSION}); update loopcraft to open it"
+        )
     messages = []
     while version < SCHEMA_VERSION:
         if version not in MIGRATIONS:
@@ -214,7 +232,7 @@ def save_session(session: Session, path: str | Path | None = None, *, force: boo
         table.csv = name
     session.model.provenance.modified = modified
     remove_quietly(autosave_path(target))
-    if session.last_autosave and (session.save_to or session.path) is not None:   # ours, now saved in target
+    if session.last_autosave and (session.save_to or session.path) is not None:  # ours, now saved in target
         remove_quietly(autosave_path(session.save_to or session.path))
     session.path, session.save_to, session.autosave_warning = target, None, None
     return target
@@ -252,7 +270,7 @@ def _moved_tables(session: Session, new: Path) -> list[tuple[TableModel, str]]:
         source = (old / table.csv).resolve()
         name = Path(os.path.relpath(source, new.resolve())).as_posix()
         if name.startswith("../") and not session.allow_outside_tables:
-            name = _copy_beside(source, new)     # a table outside the new folder would be refused
+            name = _copy_beside(source, new)  # a table outside the new folder would be refused
         moved.append((table, name))
     return moved
 
@@ -299,7 +317,7 @@ def autosave_path(path: Path) -> Path:
     return real.with_name(real.name + ".autosave")
 
 
-AUTOSAVE_INTERVAL = 2.0   # s: a long run is autosaved this often (and at its end), not every iteration
+AUTOSAVE_INTERVAL = 2.0  # s: a long run is autosaved this often (and at its end), not every iteration
 
 
 def write_autosave(session: Session, at_most_every: float = 0.0, wait: bool = True) -> Path | None:
@@ -319,7 +337,7 @@ def write_autosave(session: Session, at_most_every: float = 0.0, wait: bool = Tr
     if at_most_every and session.last_autosave and now_ - session.last_autosave < at_most_every:
         return None
     target = autosave_path(base)
-    session.last_autosave = now_    # a failed one too: a full disk is not tried again every iteration
+    session.last_autosave = now_  # a failed one too: a full disk is not tried again every iteration
     snapshot = session.model.model_copy(update={"records": list(session.model.records)})
     written = _writer().submit(_write_autosave, session, target, snapshot, mode_of(real_path(base)))
     return written.result() if wait else target

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 
 from engine.design.measure_kinds import ALGORITHMS, MEASURE_KINDS, refusal
 
-READS_NO_TARGETS = ("qcg", "projection")   # they minimize their own cost / meet their own constraints
+READS_NO_TARGETS = ("qcg", "projection")  # they minimize their own cost / meet their own constraints
 
 
 def used_by(measure: str) -> str:
@@ -34,7 +34,12 @@ def unusable_targets(measures: Sequence[str], algorithm: str) -> list[str]:
     if algorithm not in ALGORITHMS or not measures:
         return []
     if algorithm in READS_NO_TARGETS:
-        return [f"{algorithm} {ALGORITHMS[algorithm].removeprefix('is not read by ' + algorithm + ' ')}: "
-                f"the {len(measures)} target(s) are kept but not used"]
-    return [f"{m}: refused by {algorithm}, it {refusal(algorithm, m)}; used by {used_by(m)}"
-            for m in measures if m in MEASURE_KINDS and algorithm not in MEASURE_KINDS[m].algorithms]
+        return [
+            f"{algorithm} {ALGORITHMS[algorithm].removeprefix('is not read by ' + algorithm + ' ')}: "
+            f"the {len(measures)} target(s) are kept but not used"
+        ]
+    return [
+        f"{m}: refused by {algorithm}, it {refusal(algorithm, m)}; used by {used_by(m)}"
+        for m in measures
+        if m in MEASURE_KINDS and algorithm not in MEASURE_KINDS[m].algorithms
+    ]

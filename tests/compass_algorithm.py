@@ -46,8 +46,11 @@ class CompassMemory:
 
 def merit(rows) -> float:
     """Unmet targets, then the summed relative shortfall (smaller is better)."""
-    shortfall = sum(max(0.0, (r.target - r.value) if r.at_least else (r.value - r.target)) / max(abs(r.target), 1e-9)
-                    for r in rows if r.target is not None and np.isfinite(r.value))
+    shortfall = sum(
+        max(0.0, (r.target - r.value) if r.at_least else (r.value - r.target)) / max(abs(r.target), 1e-9)
+        for r in rows
+        if r.target is not None and np.isfinite(r.value)
+    )
     return sum(not r.satisfied for r in rows) + shortfall / (1.0 + shortfall)
 
 
@@ -81,8 +84,16 @@ class Compass:
         moved = chosen is not x
         step = step if moved else step / 2
         status = Status.CONVERGED if step < self.settings.min_step else Status.RUNNING
-        record = StepRecord(state.iteration + 1, status, self.problem.named(chosen), rows, objective=best,
-                            step_size=step, counters={"probes": probes}, extra={"moved": moved})
+        record = StepRecord(
+            state.iteration + 1,
+            status,
+            self.problem.named(chosen),
+            rows,
+            objective=best,
+            step_size=step,
+            counters={"probes": probes},
+            extra={"moved": moved},
+        )
         return State(state.iteration + 1, tuple(chosen), status, CompassMemory(step)), record
 
 

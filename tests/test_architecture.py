@@ -22,10 +22,13 @@ def imported_top_levels(package: str) -> set[tuple[str, str]]:
     return found
 
 
-@pytest.mark.parametrize("package, forbidden", [
-    ("engine", {"tui", "sessions", "textual", "textual_plotext", "plotext"}),
-    ("sessions", {"tui", "textual", "textual_plotext", "plotext"}),
-])
+@pytest.mark.parametrize(
+    "package, forbidden",
+    [
+        ("engine", {"tui", "sessions", "textual", "textual_plotext", "plotext"}),
+        ("sessions", {"tui", "textual", "textual_plotext", "plotext"}),
+    ],
+)
 def test_import_direction(package, forbidden):
     offenders = [(mod, path) for mod, path in imported_top_levels(package) if mod in forbidden]
     assert offenders == []

@@ -26,7 +26,9 @@ def test_analyze_json_report_003():
     assert data["closed_loop_stable"] is True
     assert len(data["closed_loop_poles"]) == 5
     assert {"frequency", "distance"} <= set(data["stability_margins"][0])
-    assert pm["distance"] == pytest.approx(abs(2 * __import__("math").sin(__import__("math").radians(pm["phase_deg"]) / 2)))
+    assert pm["distance"] == pytest.approx(
+        abs(2 * __import__("math").sin(__import__("math").radians(pm["phase_deg"]) / 2))
+    )
 
 
 def test_analyze_text_table():
@@ -83,12 +85,14 @@ def test_the_app_without_a_terminal_exits_2_at_once(tmp_path):
     would draw for no one and spin; it says why and exits 2 instead."""
     import shutil
     from pathlib import Path
+
     session = tmp_path / "report003_lag_lead.json"
     shutil.copy2(Path(__file__).resolve().parent.parent / "sessions" / "examples" / session.name, session)
     out = subprocess.run(CMD + [str(session)], capture_output=True, text=True, timeout=60, stdin=subprocess.DEVNULL)
     assert out.returncode == 2
-    assert out.stderr.startswith("loopcraft: error: the workbench needs a terminal: "
-                                 "standard input and output are not terminals")
+    assert out.stderr.startswith(
+        "loopcraft: error: the workbench needs a terminal: standard input and output are not terminals"
+    )
     assert "Traceback" not in out.stderr and out.stdout == ""
 
 

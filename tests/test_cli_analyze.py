@@ -45,8 +45,9 @@ def test_table_analysis_is_refined_on_a_fit_and_says_so(capsys, tmp_path):
     gh = 10 / (1j * w * (1j * w + 1) * (1j * w + 5))
     rows = "".join(f"{float(a)!r},{float(abs(g))!r},{float(np.degrees(np.angle(g)))!r}\n" for a, g in zip(w, gh))
     (tmp_path / "plant.csv").write_text("w,mag,phase\n" + rows)
-    code, out, err = _run(capsys, "analyze", "--table", str(tmp_path / "plant.csv"), "--columns", "w", "mag",
-                          "phase", "--json")
+    code, out, err = _run(
+        capsys, "analyze", "--table", str(tmp_path / "plant.csv"), "--columns", "w", "mag", "phase", "--json"
+    )
     assert code == 0, err
     data = json.loads(out)
     assert data["method"].startswith("fitted (residual")

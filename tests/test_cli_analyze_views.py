@@ -66,23 +66,38 @@ def test_parameter_locus_and_its_text(capsys):
     code, out, err = _run(capsys, "analyze", "--tf", "K/(s*(s+8)*(s+20))", "--param", "K=1000", "--locus", "K")
     assert code == 0, err
     assert "root locus in K:" in out and "imaginary-axis crossing: K = 4480" in out
-    code, out, err = _run(capsys, "analyze", "--tf", "K/(s*(s+8)*(s+20))", "--param", "K=1000", "--locus", "K",
-                          "--locus-range", "1000", "5000", "--json")
+    code, out, err = _run(
+        capsys,
+        "analyze",
+        "--tf",
+        "K/(s*(s+8)*(s+20))",
+        "--param",
+        "K=1000",
+        "--locus",
+        "K",
+        "--locus-range",
+        "1000",
+        "5000",
+        "--json",
+    )
     assert code == 0, err
     locus = json.loads(out)["root_locus"]
     assert locus["values"][0] == pytest.approx(1000) and locus["values"][-1] == pytest.approx(5000)
     assert locus["crossings"][0]["value"] == pytest.approx(4480.0, rel=1e-12)
 
 
-@pytest.mark.parametrize("args, message", [
-    (("--tf", "K/(s+1)"), "--param NAME=VALUE"),
-    (("--tf", "K/(s+1)", "--param", "K"), "NAME=VALUE"),
-    (("--tf", "K/(s+1)", "--param", "K=nan"), "finite"),
-    (("--tf", "1/(s+1)", "--locus", "x"), "no parameter 'x'"),
-    (("--tf", "1/(s+1)", "--locus", "gain", "--locus-range", "2", "1"), "range"),
-    (("--tf", "1/(s+1)*exp(-0.1*s)", "--locus", "gain"), "rational"),
-    (("--tf", "1/(s+1)", "--skew", "inf"), "skew"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("--tf", "K/(s+1)"), "--param NAME=VALUE"),
+        (("--tf", "K/(s+1)", "--param", "K"), "NAME=VALUE"),
+        (("--tf", "K/(s+1)", "--param", "K=nan"), "finite"),
+        (("--tf", "1/(s+1)", "--locus", "x"), "no parameter 'x'"),
+        (("--tf", "1/(s+1)", "--locus", "gain", "--locus-range", "2", "1"), "range"),
+        (("--tf", "1/(s+1)*exp(-0.1*s)", "--locus", "gain"), "rational"),
+        (("--tf", "1/(s+1)", "--skew", "inf"), "skew"),
+    ],
+)
 def test_bad_requests_are_named_errors(capsys, args, message):
     code, _, err = _run(capsys, "analyze", *args)
     assert code == 2 and message in err and "Traceback" not in err

@@ -7,6 +7,7 @@ from tui.cli import main
 
 def test_help_lists_example_and_help_after_example_prints_help(capsys, monkeypatch):
     import tui.cli as cli
+
     monkeypatch.setattr(cli, "run_app", lambda *a, **k: (_ for _ in ()).throw(AssertionError("the app started")))
     for argv in (["--help"], ["--example", "coebra_lag_lead", "--help"], ["x.json", "-h"]):
         try:
@@ -26,6 +27,7 @@ def test_a_bare_example_option_names_the_examples(capsys):
 def test_run_prints_frequencies_in_the_sessions_unit_and_cip_says_db_and_deg(tmp_path, capsys):
     import shutil
     from pathlib import Path
+
     examples = Path(__file__).resolve().parent.parent / "sessions" / "examples"
     for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv", "report003_lag_lead.json"):
         shutil.copy2(examples / name, tmp_path / name)

@@ -41,8 +41,10 @@ def _python_control_margins(parameters: dict) -> dict:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     folder = tmp_path_factory.mktemp("compare")
-    return (_run_from(folder, "report_start", {}),
-            _run_from(folder, "other_start", {"T1": 2.0, "T2": 0.05, "T3": 30.0, "T4": 0.01}))
+    return (
+        _run_from(folder, "report_start", {}),
+        _run_from(folder, "other_start", {"T1": 2.0, "T2": 0.05, "T3": 30.0, "T4": 0.01}),
+    )
 
 
 def test_two_runs_side_by_side(runs, capsys):
@@ -73,18 +75,22 @@ def test_two_iterations_of_one_session(runs, capsys):
     assert main(["compare", str(a), "--iterations", "0", str(last), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     pm = next(r for r in data["rows"] if r["kind"] == "phase_margin_deg")
-    assert pm["a"]["value"] == pytest.approx(_python_control_margins(
-        {"T1": 10.0, "T2": 0.2, "T3": 10.0, "T4": 0.2})["phase_margin_deg"], rel=1e-9)
+    assert pm["a"]["value"] == pytest.approx(
+        _python_control_margins({"T1": 10.0, "T2": 0.2, "T3": 10.0, "T4": 0.2})["phase_margin_deg"], rel=1e-9
+    )
     assert data["better"] == "b" and data["b"]["met"] == data["b"]["measures"]
     assert main(["compare", str(a), "--iterations", "0", str(last)]) == 0
     text = capsys.readouterr().out
     assert "B meets more targets" in text and "phase_margin_deg" in text
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--iterations", "0", "99"], "--iteration: 99 is outside"),
-    ([], "give a second session"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--iterations", "0", "99"], "--iteration: 99 is outside"),
+        ([], "give a second session"),
+    ],
+)
 def test_bad_compare_options_exit_2(runs, capsys, args, message):
     assert main(["compare", str(runs[0]), *args]) == 2
     assert message in capsys.readouterr().err

@@ -28,11 +28,14 @@ def test_export_into_a_folder_names_the_file_after_the_session(tmp_path):
     assert (tmp_path / "design_iter0.py").is_file()
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--to", "python", "--iteration", "3"], "--iteration: 3 is outside 0..0"),
-    (["--to", "python", "--out", "/no/such/folder/x.py"], "--out /no/such/folder/x.py: the folder"),
-    (["--to", "json", "--sample-time", "-1"], "--sample-time"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--to", "python", "--iteration", "3"], "--iteration: 3 is outside 0..0"),
+        (["--to", "python", "--out", "/no/such/folder/x.py"], "--out /no/such/folder/x.py: the folder"),
+        (["--to", "json", "--sample-time", "-1"], "--sample-time"),
+    ],
+)
 def test_bad_export_options_exit_2(args, message):
     out = run("export", EXAMPLES / "report003_lag_lead.json", *args)
     assert out.returncode == 2 and message in out.stderr and out.stderr.count("\n") == 1, out.stderr
@@ -52,11 +55,14 @@ def test_new_writes_a_session_that_runs(tmp_path):
     assert again.returncode == 2 and "exists (--force replaces it)" in again.stderr
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--plant", "1/(s+q)"], "--plant: '1/(s+q)' names q"),
-    (["--plant", "1/(s+1)", "--compensator", "K*(s+"], "--compensator:"),
-    ([], "give --plant EXPR or --plant-file"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--plant", "1/(s+q)"], "--plant: '1/(s+q)' names q"),
+        (["--plant", "1/(s+1)", "--compensator", "K*(s+"], "--compensator:"),
+        ([], "give --plant EXPR or --plant-file"),
+    ],
+)
 def test_bad_new_options_exit_2(tmp_path, args, message):
     out = run("new", *args, tmp_path / "x.json")
     assert out.returncode == 2 and message in out.stderr and out.stderr.count("\n") == 1, out.stderr

@@ -49,7 +49,7 @@ def _check_png(data: bytes) -> None:
     assert data[:8] == b"\x89PNG\r\n\x1a\n"
     pixels = imread(io.BytesIO(data), format="png")
     assert pixels.ndim == 3 and pixels.shape[0] >= 300 and pixels.shape[1] >= 500
-    assert float(np.std(pixels[..., :3])) > 0.01     # a drawing, not a blank canvas
+    assert float(np.std(pixels[..., :3])) > 0.01  # a drawing, not a blank canvas
 
 
 @pytest.fixture(scope="module")
@@ -72,14 +72,22 @@ def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
     prefix = "data:image/png;base64,"
     assert len(parsed.images) == 5 and all(src.startswith(prefix) for src in parsed.images)  # conv., 4 loop plots
     for src in parsed.images:
-        _check_png(base64.b64decode(src[len(prefix):], validate=True))
-    for heading in ("Problem", "Initial and final design", "Convergence history", "Figures",
-                    "Appendix: the algorithm's report", "Condition nominal", "Parameters", "Targets"):
+        _check_png(base64.b64decode(src[len(prefix) :], validate=True))
+    for heading in (
+        "Problem",
+        "Initial and final design",
+        "Convergence history",
+        "Figures",
+        "Appendix: the algorithm's report",
+        "Condition nominal",
+        "Parameters",
+        "Targets",
+    ):
         assert heading in parsed.headings
     for word in ("T1", "phase_margin_deg", "gain_margin_db", "crossover_frequency", "UNMET", "met"):
         assert word in text
     capsys.readouterr()
-    assert main(["report", str(ran)]) == 0      # the algorithm's own text: the appendix
+    assert main(["report", str(ran)]) == 0  # the algorithm's own text: the appendix
     own = capsys.readouterr().out.strip()
     assert html.escape(own) in text
 

@@ -44,42 +44,87 @@ from tui.state.workbench import Workbench
 from tui.terminal_watch import HANGUP_EXIT, watch_terminal
 
 # actions that change the session or replace it: disabled while a run or a sweep goes
-CHANGES = frozenset({"step", "run_n", "run", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm", "sweep",
-                     "use_best", "open", "new", "save_as"})
+CHANGES = frozenset(
+    {
+        "step",
+        "run_n",
+        "run",
+        "undo",
+        "redo",
+        "undo_edit",
+        "redo_edit",
+        "choose_algorithm",
+        "sweep",
+        "use_best",
+        "open",
+        "new",
+        "save_as",
+    }
+)
 
 
-SESSION_ACTIONS = frozenset({"step", "run", "run_n", "undo", "redo", "undo_edit", "redo_edit", "choose_algorithm",
-                             "sweep", "use_best", "next_condition", "export", "save_screenshot", "pause", "save",
-                             "save_as"})
+SESSION_ACTIONS = frozenset(
+    {
+        "step",
+        "run",
+        "run_n",
+        "undo",
+        "redo",
+        "undo_edit",
+        "redo_edit",
+        "choose_algorithm",
+        "sweep",
+        "use_best",
+        "next_condition",
+        "export",
+        "save_screenshot",
+        "pause",
+        "save",
+        "save_as",
+    }
+)
 
 
 class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     """``LoopcraftApp(path)`` opens a session; without a path, the start screen."""
 
     TITLE = "loopcraft"
-    BINDINGS = identified("app", [
-        Binding("s", "step", "step", tooltip="one iteration"),
-        Binding("n", "run_n", "run N", tooltip="N iterations (asks N)"),
-        Binding("r", "run", "run", tooltip="until the algorithm stops"),
-        Binding("space,escape", "pause", "pause", tooltip="stop a run or a sweep (within one iteration)"),
-        Binding("z", "undo", "undo", tooltip="drop the last iteration"),
-        Binding("Z", "redo", "redo", show=False, tooltip="bring back the last iteration dropped"),
-        Binding("ctrl+z", "undo_edit", "undo edit", show=False, tooltip="undo the last edit of the problem"),
-        Binding("ctrl+y", "redo_edit", "redo edit", show=False, tooltip="redo the last edit undone"),
-        Binding("a", "choose_algorithm", "algorithm", tooltip="choose the algorithm (the records are dropped)"),
-        Binding("v", "next_condition", "conditions", show=False,
-                tooltip="plots: every flight condition, or one with its initial design"),
-        Binding("w", "sweep", "sweep", show=False, tooltip="many runs on Dask: starts, vary, tolerance"),
-        Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
-        Binding("ctrl+s", "save", "save", show=False, tooltip="save the session"),
-        Binding("ctrl+o", "open", "open", tooltip="open a session file"),
-        Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"),
-        Binding("ctrl+e", "export", "export", show=False,
-                tooltip="the current design as a python-control or MATLAB script, JSON or CSV, beside the session"),
-        Binding("S", "save_screenshot", "screenshot", show=False, tooltip="an SVG screenshot beside the session"),
-        Binding("question_mark", "help", "help", show=False, tooltip="every key"),
-        Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
-    ])
+    BINDINGS = identified(
+        "app",
+        [
+            Binding("s", "step", "step", tooltip="one iteration"),
+            Binding("n", "run_n", "run N", tooltip="N iterations (asks N)"),
+            Binding("r", "run", "run", tooltip="until the algorithm stops"),
+            Binding("space,escape", "pause", "pause", tooltip="stop a run or a sweep (within one iteration)"),
+            Binding("z", "undo", "undo", tooltip="drop the last iteration"),
+            Binding("Z", "redo", "redo", show=False, tooltip="bring back the last iteration dropped"),
+            Binding("ctrl+z", "undo_edit", "undo edit", show=False, tooltip="undo the last edit of the problem"),
+            Binding("ctrl+y", "redo_edit", "redo edit", show=False, tooltip="redo the last edit undone"),
+            Binding("a", "choose_algorithm", "algorithm", tooltip="choose the algorithm (the records are dropped)"),
+            Binding(
+                "v",
+                "next_condition",
+                "conditions",
+                show=False,
+                tooltip="plots: every flight condition, or one with its initial design",
+            ),
+            Binding("w", "sweep", "sweep", show=False, tooltip="many runs on Dask: starts, vary, tolerance"),
+            Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
+            Binding("ctrl+s", "save", "save", show=False, tooltip="save the session"),
+            Binding("ctrl+o", "open", "open", tooltip="open a session file"),
+            Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"),
+            Binding(
+                "ctrl+e",
+                "export",
+                "export",
+                show=False,
+                tooltip="the current design as a python-control or MATLAB script, JSON or CSV, beside the session",
+            ),
+            Binding("S", "save_screenshot", "screenshot", show=False, tooltip="an SVG screenshot beside the session"),
+            Binding("question_mark", "help", "help", show=False, tooltip="every key"),
+            Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
+        ],
+    )
 
     def __init__(self, path: str | Path | None = None):
         super().__init__()
@@ -94,8 +139,15 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         # resource tracker up before Textual takes over the terminal (docs/architecture.md)
         multiprocessing.resource_tracker.ensure_running()
 
-    def notify(self, message: str, *, title: str = "", severity="information", timeout: float | None = None,
-               markup: bool = False) -> None:
+    def notify(
+        self,
+        message: str,
+        *,
+        title: str = "",
+        severity="information",
+        timeout: float | None = None,
+        markup: bool = False,
+    ) -> None:
         """A notification; plain text by default (an error message may hold brackets: a[3,2], [/ R])."""
         super().notify(message, title=title, severity=severity, timeout=timeout, markup=markup)
 
@@ -108,7 +160,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         if action in CHANGES and self.busy:
             return None
         if action in SESSION_ACTIONS and self.bench is None:
-            return False   # no session (the start screen): not shown at all
+            return False  # no session (the start screen): not shown at all
         if action == "pause" and not self.busy:
             return None
         return None if self.bench is not None and not self._can(action) else True
@@ -116,16 +168,20 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     def _can(self, action: str) -> bool:
         """Whether an undo or redo has something to act on."""
         bench = self.bench
-        return {"undo": lambda: bench.iteration > 0, "redo": lambda: bench.can_redo,
-                "undo_edit": lambda: bool(bench.edits.undo_stack),
-                "redo_edit": lambda: bool(bench.edits.redo_stack)}.get(action, lambda: True)()
+        return {
+            "undo": lambda: bench.iteration > 0,
+            "redo": lambda: bench.can_redo,
+            "undo_edit": lambda: bool(bench.edits.undo_stack),
+            "redo_edit": lambda: bool(bench.edits.redo_stack),
+        }.get(action, lambda: True)()
 
     async def run_action(self, action, default_namespace=None, namespaces=None) -> bool:
         """Run an action; a key refused because a run or a sweep goes says so."""
         handled = await super().run_action(action, default_namespace, namespaces)
         if not handled and self.busy:
-            target, name, params = self._parse_action(action, self if default_namespace is None else default_namespace,
-                                                      namespaces)
+            target, name, params = self._parse_action(
+                action, self if default_namespace is None else default_namespace, namespaces
+            )
             if target.check_action(name, params) is None and name != "pause":
                 now = time.monotonic()
                 if now - self._refused_at > 1.0:
@@ -143,13 +199,14 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
             self.push_screen(StartScreen())
 
     def on_unmount(self) -> None:
-        flush_autosaves()   # the autosaves still being written in the background: nothing is lost
+        flush_autosaves()  # the autosaves still being written in the background: nothing is lost
 
     def apply_config(self) -> None:
         """The user's theme and keys (`tui.config`); a config that does not read is
         reported and the defaults are kept."""
         from tui.config import ConfigError, load_config, unknown_binding_ids
         from tui.keys import binding_table
+
         try:
             self.config = load_config(themes=set(self.available_themes))
         except ConfigError as exc:
@@ -158,8 +215,12 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         self.theme = self.config.theme
         unknown = unknown_binding_ids(self.config, {row[0] for row in binding_table()})
         if unknown:
-            self.notify(f"[keys]: no binding {', '.join(unknown)} (loopcraft config lists them)", title="config",
-                        severity="warning", timeout=12)
+            self.notify(
+                f"[keys]: no binding {', '.join(unknown)} (loopcraft config lists them)",
+                title="config",
+                severity="warning",
+                timeout=12,
+            )
         self.set_keymap(self.config.keys)
 
     # -- opening and saving -------------------------------------------------
@@ -168,6 +229,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         path = working_copy(Path(path))
         autosave = autosave_candidate(path)
         if autosave is not None:
+
             def answer(yes: bool) -> None:
                 if not yes:
                     try:
@@ -177,6 +239,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
                     else:
                         self.notify(f"the autosave is kept as {kept.name} (not offered again)", timeout=6)
                 self._open(autosave if yes else path, keep_path=path)
+
             self.push_screen(ConfirmDialog(f"{autosave.name} is newer than {path.name}: recover it?"), answer)
         else:
             self._open(path)
@@ -184,12 +247,16 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     def _open(self, path: Path, keep_path: Path | None = None, allow_outside_tables: bool = False) -> None:
         recovering = keep_path is not None and path != keep_path
         try:
-            session = (load_autosave(keep_path, allow_outside_tables) if recovering
-                       else load_session(path, allow_outside_tables))
+            session = (
+                load_autosave(keep_path, allow_outside_tables)
+                if recovering
+                else load_session(path, allow_outside_tables)
+            )
         except OutsideTable as exc:
             question = f"this session reads a table outside its folder: {exc.name}. Read it?"
-            self.push_screen(ConfirmDialog(question),
-                             lambda yes: yes and self._open(path, keep_path, allow_outside_tables=True))
+            self.push_screen(
+                ConfirmDialog(question), lambda yes: yes and self._open(path, keep_path, allow_outside_tables=True)
+            )
             return
         except (SessionError, OSError) as exc:
             self.notify(str(exc), title="cannot open", severity="error", timeout=10)
@@ -208,9 +275,13 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         self.refresh_bindings()
 
     def action_open(self) -> None:
-        self._ask_to_drop(lambda: self.push_screen(EditDialog("open session (path)", "", _existing_file),
-                                                   lambda text: text and self.open_path(Path(text).expanduser())),
-                          "open another session")
+        self._ask_to_drop(
+            lambda: self.push_screen(
+                EditDialog("open session (path)", "", _existing_file),
+                lambda text: text and self.open_path(Path(text).expanduser()),
+            ),
+            "open another session",
+        )
 
     def action_new(self) -> None:
         """A new session from a template (asks before dropping unsaved work)."""
@@ -222,7 +293,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         try:
             copy_tables(tables, path.parent)
             session = parse_session(json.dumps(data), str(path), path.parent)
-        except (SessionError, OSError) as exc:   # never closes the app: the current session is kept
+        except (SessionError, OSError) as exc:  # never closes the app: the current session is kept
             self.notify(str(exc), title="no new session", severity="error", timeout=10)
             return
         session.path = path
@@ -233,8 +304,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         """Go on when nothing unsaved would be dropped, else autosave and ask first."""
         if self.bench is not None and self.bench.dirty:
             where = self.bench.autosave()
-            self.push_screen(ConfirmDialog(f"unsaved changes ({where}): {what} anyway?"),
-                             lambda yes: yes and then())
+            self.push_screen(ConfirmDialog(f"unsaved changes ({where}): {what} anyway?"), lambda yes: yes and then())
         else:
             then()
 
@@ -247,8 +317,9 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         self._save(None)
 
     def action_save_as(self) -> None:
-        self.push_screen(EditDialog("save as (path)", "", None),
-                         lambda text: text and self._save(Path(text).expanduser()))
+        self.push_screen(
+            EditDialog("save as (path)", "", None), lambda text: text and self._save(Path(text).expanduser())
+        )
 
     def _save(self, path: Path | None, force: bool = False) -> None:
         try:
@@ -309,14 +380,21 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         def chosen(name: str | None) -> None:
             if name and name != self.bench.algorithm_name:
                 unusable = unusable_targets(measures, name)
-                self.edit_flow.change(lambda: self.bench.set_algorithm(name), f"switch to {name}",
-                                      done=lambda _: unusable and self.notify(
-                                          "\n".join(unusable), title=f"{name} and the targets", severity="warning",
-                                          timeout=12))
+                self.edit_flow.change(
+                    lambda: self.bench.set_algorithm(name),
+                    f"switch to {name}",
+                    done=lambda _: (
+                        unusable
+                        and self.notify(
+                            "\n".join(unusable), title=f"{name} and the targets", severity="warning", timeout=12
+                        )
+                    ),
+                )
 
         def summary(name: str, text: str) -> str:
             count = len(unusable_targets(measures, name)) if name not in ("qcg", "projection") else 0
             return f"{text} [refuses {count} of the targets]" if count else text
+
         choices = [(name, summary(name, registration.summary)) for name, registration in sorted(load_builtin().items())]
         if self.bench.algorithm_name not in dict(choices):
             choices.append((self.bench.algorithm_name, lookup(self.bench.algorithm_name).summary))
@@ -333,8 +411,11 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     # -- helpers ----------------------------------------------------------------
 
     def _main(self) -> MainScreen | None:
-        return self.screen if isinstance(self.screen, MainScreen) else next(
-            (s for s in reversed(self.screen_stack) if isinstance(s, MainScreen)), None)
+        return (
+            self.screen
+            if isinstance(self.screen, MainScreen)
+            else next((s for s in reversed(self.screen_stack) if isinstance(s, MainScreen)), None)
+        )
 
     def refresh_workbench(self, plots: bool = True) -> None:
         """Redraw the workbench screen from the session (after any change); ``plots``
@@ -345,15 +426,22 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         try:
             screen.refresh_all(plots)
         except Exception as exc:  # noqa: BLE001 - a view that cannot be drawn must not close the app
-            self.notify(f"{type(exc).__name__}: {exc}", title="the view could not be drawn (the session is kept)",
-                        severity="error", timeout=10)
+            self.notify(
+                f"{type(exc).__name__}: {exc}",
+                title="the view could not be drawn (the session is kept)",
+                severity="error",
+                timeout=10,
+            )
 
     def get_system_commands(self, screen):
         yield from super().get_system_commands(screen)
-        for binding in self.BINDINGS:   # only what can act now
+        for binding in self.BINDINGS:  # only what can act now
             if binding.action not in ("help", "quit") and self.check_action(binding.action, ()):
-                yield SystemCommand(binding.description.capitalize(), f"{binding.tooltip} ({binding.key})",
-                                    lambda action=binding.action: self.run_action(action))
+                yield SystemCommand(
+                    binding.description.capitalize(),
+                    f"{binding.tooltip} ({binding.key})",
+                    lambda action=binding.action: self.run_action(action),
+                )
         yield SystemCommand("Save as", "save under a new name", self.action_save_as)
         yield SystemCommand("New session", "a new session (asks before dropping unsaved work)", self.action_new)
         yield SystemCommand("Keys", "every key (?)", self.action_help)
@@ -364,15 +452,20 @@ def key_help() -> list[tuple[str, list[tuple[str, str]]]]:
     from tui.widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
 
     def rows(bindings) -> list[tuple[str, str]]:
-        return [(b.key.replace("question_mark", "?").replace(",", " / "), b.tooltip or b.description)
-                for b in bindings]
+        return [(b.key.replace("question_mark", "?").replace(",", " / "), b.tooltip or b.description) for b in bindings]
+
     groups = [("anywhere", rows(LoopcraftApp.BINDINGS)), ("workbench", rows(MainScreen.BINDINGS))]
     from tui.screens.history_pane import HistoryPane
     from tui.widgets.plots import FigurePlot
-    for name, bindings in (("plant table", PlantTable.BINDINGS), ("parameters", ParametersTable.BINDINGS),
-                           ("targets", TargetsTable.BINDINGS), ("settings", SettingsTable.BINDINGS),
-                           ("history", HistoryTable.BINDINGS + HistoryPane.BINDINGS),
-                           ("a plot (focused)", FigurePlot.BINDINGS)):
+
+    for name, bindings in (
+        ("plant table", PlantTable.BINDINGS),
+        ("parameters", ParametersTable.BINDINGS),
+        ("targets", TargetsTable.BINDINGS),
+        ("settings", SettingsTable.BINDINGS),
+        ("history", HistoryTable.BINDINGS + HistoryPane.BINDINGS),
+        ("a plot (focused)", FigurePlot.BINDINGS),
+    ):
         groups.append((name, rows(bindings)))
     return groups
 

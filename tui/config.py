@@ -82,9 +82,10 @@ def _checked(path: Path, data: dict, themes: set[str] | None) -> Config:
     if not isinstance(limit, int) or isinstance(limit, bool) or not 0 <= limit <= 100:
         raise ConfigError(f"{path}: recent_limit: a whole number from 0 to 100, not {limit!r}")
     keys = data.get("keys", {})
-    if not isinstance(keys, dict) or not all(isinstance(k, str) and isinstance(v, str) and v.strip()
-                                             for k, v in keys.items()):
-        raise ConfigError(f"{path}: [keys]: each entry is \"binding.id\" = \"key[,key...]\"")
+    if not isinstance(keys, dict) or not all(
+        isinstance(k, str) and isinstance(v, str) and v.strip() for k, v in keys.items()
+    ):
+        raise ConfigError(f'{path}: [keys]: each entry is "binding.id" = "key[,key...]"')
     return Config(theme, unit, limit, dict(keys))
 
 

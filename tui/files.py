@@ -45,6 +45,7 @@ def example(name: str) -> Path:
 def recent_limit() -> int:
     """How many recent sessions are kept (the config's recent_limit; a config that does not read: the default)."""
     from tui.config import ConfigError, load_config
+
     try:
         return load_config().recent_limit
     except ConfigError:
@@ -56,7 +57,7 @@ def recent_sessions() -> list[Path]:
         items = json.loads((home() / "recent.json").read_text())
     except (OSError, ValueError):
         return []
-    return [Path(p) for p in items if isinstance(p, str) and Path(p).exists()][:recent_limit()]
+    return [Path(p) for p in items if isinstance(p, str) and Path(p).exists()][: recent_limit()]
 
 
 def remember(path: Path) -> None:
@@ -64,7 +65,7 @@ def remember(path: Path) -> None:
     items = [str(path.resolve())] + [str(p) for p in recent_sessions() if p.resolve() != path.resolve()]
     try:
         home().mkdir(parents=True, exist_ok=True)
-        (home() / "recent.json").write_text(json.dumps(items[:recent_limit()], indent=1))
+        (home() / "recent.json").write_text(json.dumps(items[: recent_limit()], indent=1))
     except OSError:
         pass
 

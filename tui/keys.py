@@ -25,8 +25,18 @@ def binding_table() -> list[tuple[str, str, str]]:
     from tui.screens.main import MainScreen
     from tui.widgets.plots import FigurePlot
     from tui.widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
+
     rows = []
-    for owner in (LoopcraftApp, MainScreen, PlantTable, ParametersTable, TargetsTable, SettingsTable, HistoryTable,
-                  HistoryPane, FigurePlot):
+    for owner in (
+        LoopcraftApp,
+        MainScreen,
+        PlantTable,
+        ParametersTable,
+        TargetsTable,
+        SettingsTable,
+        HistoryTable,
+        HistoryPane,
+        FigurePlot,
+    ):
         rows += [(b.id, b.key, b.tooltip or b.description) for b in owner.BINDINGS]
     return rows

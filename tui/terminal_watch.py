@@ -23,8 +23,8 @@ from collections.abc import Callable
 from textual.app import App
 
 CHECK_INTERVAL_S = 1.0
-GRACE_S = 10.0   # for the app to save and end before the process is ended outright
-HANGUP_EXIT = 128 + signal.SIGHUP   # the shell's status for a process ended by a hang-up
+GRACE_S = 10.0  # for the app to save and end before the process is ended outright
+HANGUP_EXIT = 128 + signal.SIGHUP  # the shell's status for a process ended by a hang-up
 
 
 def watch_terminal(app: App, lost: Callable[[], None]) -> None:
@@ -36,12 +36,12 @@ def watch_terminal(app: App, lost: Callable[[], None]) -> None:
     loop = asyncio.get_running_loop()
     ending = threading.Event()
 
-    def end() -> None:   # on the loop (SIGHUP) or the watching thread, whichever notices first
+    def end() -> None:  # on the loop (SIGHUP) or the watching thread, whichever notices first
         if not ending.is_set():
             ending.set()
             _ended(loop, lost)
 
-    with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):   # no signals here (not Unix)
+    with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):  # no signals here (not Unix)
         loop.add_signal_handler(signal.SIGHUP, end)
     threading.Thread(target=_watch, args=(end,), name="terminal-watch", daemon=True).start()
 
@@ -69,7 +69,7 @@ def _ended(loop: asyncio.AbstractEventLoop, lost: Callable[[], None]) -> None:
         os.dup2(null, 1)
         os.dup2(null, 2)
         os.close(null)
-    with contextlib.suppress(RuntimeError):   # the loop already closed: the app has ended
+    with contextlib.suppress(RuntimeError):  # the loop already closed: the app has ended
         loop.call_soon_threadsafe(lost)
     timer = threading.Timer(GRACE_S, os._exit, (HANGUP_EXIT,))
     timer.daemon = True

@@ -47,27 +47,30 @@ from engine.model.compensators import coefficient_roles, compensators, split_by_
 from engine.stepping.guard import check_vector, guarded
 from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
 
-TERMINATION_STATUS = {"theorem2": Status.INFEASIBLE, "dependent": Status.NO_IMPROVEMENT,
-                      "zero_gradient": Status.NO_IMPROVEMENT}
+TERMINATION_STATUS = {
+    "theorem2": Status.INFEASIBLE,
+    "dependent": Status.NO_IMPROVEMENT,
+    "zero_gradient": Status.NO_IMPROVEMENT,
+}
 
 
 @dataclass(frozen=True)
 class CipSettings:
     """The listing's inputs (names in parentheses) and this program's options."""
 
-    mode: Literal["tifr", "sifr"] = "sifr"          # continuance criterion (chapter VI, a or b)
-    max_step: float = 0.1                           # STPMAX
-    min_step: float = 1e-4                          # STPMIN
-    initial_step: float | None = None               # default: the maximum step, as the listing
-    growth: float = 1.41416                         # step factor after an accepted move
-    max_iterations: int = 200                       # KQUIT
+    mode: Literal["tifr", "sifr"] = "sifr"  # continuance criterion (chapter VI, a or b)
+    max_step: float = 0.1  # STPMAX
+    min_step: float = 1e-4  # STPMIN
+    initial_step: float | None = None  # default: the maximum step, as the listing
+    growth: float = 1.41416  # step factor after an accepted move
+    max_iterations: int = 200  # KQUIT
     detection: Literal["auto", "grid", "refined"] = "auto"  # auto: refined on exact loops, grid on tables
-    gain_as_stability: bool = False                 # INCGMS
-    phase_as_stability: bool = False                # INCPMS
-    tolerance: float = 0.0                          # TIFR slack (the listing: 1e-5, single precision)
-    guard_band: float = 0.0                         # met margins this close (relative) to desired also steer D
-    keep_met: bool = False                          # reject a move that makes a met margin unmet
-    hold_tolerance: float = 1e-5                    # a coefficient this close to a bound is "at" it
+    gain_as_stability: bool = False  # INCGMS
+    phase_as_stability: bool = False  # INCPMS
+    tolerance: float = 0.0  # TIFR slack (the listing: 1e-5, single precision)
+    guard_band: float = 0.0  # met margins this close (relative) to desired also steer D
+    keep_met: bool = False  # reject a move that makes a met margin unmet
+    hold_tolerance: float = 1e-5  # a coefficient this close to a bound is "at" it
     stability_guard: bool = True
 
     def __post_init__(self) -> None:
@@ -93,7 +96,7 @@ class Cip:
     name = "cip"
     memory_type = CipMemory
 
-    @guarded('cip')
+    @guarded("cip")
     def init(self, problem: Problem, settings: CipSettings) -> State:
         check_targets(problem)
         if not problem.free_slots():
@@ -108,11 +111,16 @@ class Cip:
         check_start(problem, x, "cip")
         constraints, windings = self._detect(x)
         step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
-        memory = CipMemory(tuple(constraints), tuple(windings), step, sum(c.active for c in constraints),
-                           CipBest(0, tuple(x.tolist()), smallest_stability_margin(constraints)))
+        memory = CipMemory(
+            tuple(constraints),
+            tuple(windings),
+            step,
+            sum(c.active for c in constraints),
+            CipBest(0, tuple(x.tolist()), smallest_stability_margin(constraints)),
+        )
         return State(0, tuple(x.tolist()), Status.RUNNING, memory)
 
-    @guarded('cip')
+    @guarded("cip")
     def step(self, state: State) -> tuple[State, StepRecord]:
         check_vector("cip", state.x, len(self.lower))
         x = np.array(state.x, dtype=float)
@@ -128,11 +136,17 @@ class Cip:
         rows = _distinct(gradient_rows(self.problem, x, steering))
         if rows.gradients.shape[0] > x.size and len(steering) > len(active):
             rows = _distinct(gradient_rows(self.problem, x, active))  # guard rows are optional
-        direction = held_direction(rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels,
-                                   *self.problem.linear_constraints)   # the report's D when no constraint is held
+        direction = held_direction(
+            rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels, *self.problem.linear_constraints
+        )  # the report's D when no constraint is held
         if direction.vector is None:
-            return self._stop(state, TERMINATION_STATUS[direction.termination], direction.reason, constraints,
-                              termination=direction.termination)
+            return self._stop(
+                state,
+                TERMINATION_STATUS[direction.termination],
+                direction.reason,
+                constraints,
+                termination=direction.termination,
+            )
         h, rejected = memory.step, {}
         while True:
             trial = trial_point(x, h, direction.vector, *self.problem.linear_constraints, self.lower, self.upper)
@@ -142,37 +156,51 @@ class Cip:
             rejected[outcome] = rejected.get(outcome, 0) + 1
             h /= 2.0
             if h < self.settings.min_step:
-                return self._stop(state, Status.STEP_BELOW_MINIMUM,
-                                  f"step size fell below the minimum {self.settings.min_step:g} "
-                                  f"after {sum(rejected.values())} trials", constraints, direction=direction.vector,
-                                  rejected=rejected)
+                return self._stop(
+                    state,
+                    Status.STEP_BELOW_MINIMUM,
+                    f"step size fell below the minimum {self.settings.min_step:g} "
+                    f"after {sum(rejected.values())} trials",
+                    constraints,
+                    direction=direction.vector,
+                    rejected=rejected,
+                )
         new, windings, matched = outcome
         return self._accepted(state, k, trial, new, windings, matched, h, direction, rejected, len(active))
 
-    @guarded('cip')
+    @guarded("cip")
     def initial_record(self, state: State) -> StepRecord:
         """The tableau before any iteration (the report's Table 1), as iteration 0."""
         x = np.array(state.x)
         memory: CipMemory = state.memory
         constraints = list(memory.constraints)
-        return StepRecord(0, state.status, self.problem.named(x),
-                          _rows(self.problem, constraints), step_size=memory.step,
-                          extra=self._extra(x, constraints, memory, sum(c.active for c in constraints)))
+        return StepRecord(
+            0,
+            state.status,
+            self.problem.named(x),
+            _rows(self.problem, constraints),
+            step_size=memory.step,
+            extra=self._extra(x, constraints, memory, sum(c.active for c in constraints)),
+        )
 
     # -- pieces of a step --------------------------------------------------
 
     def _near(self, constraints: list[Constraint]) -> list[Constraint]:
         """Met margins within the guard band of their desired value."""
         band = self.settings.guard_band
-        return [c for c in constraints if not c.active and band > 0
-                and abs(c.value - c.desired) < band * max(abs(c.desired), 1e-12)]
+        return [
+            c
+            for c in constraints
+            if not c.active and band > 0 and abs(c.value - c.desired) < band * max(abs(c.desired), 1e-12)
+        ]
 
     def _detect(self, x: NDArray) -> tuple[list[Constraint], list[float]]:
         s = self.settings
         return detect(self.problem, x, s.detection, s.gain_as_stability, s.phase_as_stability)
 
-    def _trial(self, trial: NDArray, old: list[Constraint], active: list[Constraint],
-               windings: tuple[float, ...]) -> tuple[list[Constraint], list[float], list] | str:
+    def _trial(
+        self, trial: NDArray, old: list[Constraint], active: list[Constraint], windings: tuple[float, ...]
+    ) -> tuple[list[Constraint], list[float], list] | str:
         """The constraints at an accepted trial point, or why it was rejected."""
         try:
             new, new_windings = self._detect(trial)
@@ -187,9 +215,19 @@ class Cip:
             return "met_margin_lost"
         return new, new_windings, matched
 
-    def _accepted(self, state: State, k: int, x: NDArray, constraints: list[Constraint], windings: list[float],
-                  matched: list, h: float, direction: Direction, rejected: dict[str, int],
-                  before: int) -> tuple[State, StepRecord]:
+    def _accepted(
+        self,
+        state: State,
+        k: int,
+        x: NDArray,
+        constraints: list[Constraint],
+        windings: list[float],
+        matched: list,
+        h: float,
+        direction: Direction,
+        rejected: dict[str, int],
+        before: int,
+    ) -> tuple[State, StepRecord]:
         s = self.settings
         best = state.memory.best
         smallest = smallest_stability_margin(constraints)
@@ -200,24 +238,53 @@ class Cip:
             status, reason = Status.CONVERGED, "all system requirements have been met"
         elif k >= s.max_iterations:
             status, reason = Status.ITERATION_LIMIT, f"maximum iterations ({s.max_iterations})"
-        memory = replace(state.memory, constraints=tuple(constraints), windings=tuple(windings),
-                         step=min(h * s.growth, s.max_step), best=best)
+        memory = replace(
+            state.memory,
+            constraints=tuple(constraints),
+            windings=tuple(windings),
+            step=min(h * s.growth, s.max_step),
+            best=best,
+        )
         new_state = State(k, tuple(x.tolist()), status, memory)
         names = self._slot_names()
         extra = self._extra(x, constraints, memory, before) | {
-            "matched": [{"kind": o.kind, "frequency": o.frequency, "before": o.value, "after": n.value,
-                         "active_after": n.active} for o, n in matched],
-            "held": [names[i] for i in np.flatnonzero(direction.held)]
-            + held_labels(self.problem, direction),
-            "partials": self._split(dict(zip(names, direction.vector.tolist())))}
-        record = StepRecord(k, status, self.problem.named(x), _rows(self.problem, constraints),
-                            step_size=h, direction=tuple(direction.vector.tolist()),
-                            counters=_counters(rejected, accepted=True), reason=reason, extra=extra)
+            "matched": [
+                {
+                    "kind": o.kind,
+                    "frequency": o.frequency,
+                    "before": o.value,
+                    "after": n.value,
+                    "active_after": n.active,
+                }
+                for o, n in matched
+            ],
+            "held": [names[i] for i in np.flatnonzero(direction.held)] + held_labels(self.problem, direction),
+            "partials": self._split(dict(zip(names, direction.vector.tolist()))),
+        }
+        record = StepRecord(
+            k,
+            status,
+            self.problem.named(x),
+            _rows(self.problem, constraints),
+            step_size=h,
+            direction=tuple(direction.vector.tolist()),
+            counters=_counters(rejected, accepted=True),
+            reason=reason,
+            extra=extra,
+        )
         return new_state, record
 
-    def _stop(self, state: State, status: Status, reason: str, constraints: list[Constraint], *,
-              termination: str = "", direction: NDArray | None = None,
-              rejected: dict[str, int] | None = None) -> tuple[State, StepRecord]:
+    def _stop(
+        self,
+        state: State,
+        status: Status,
+        reason: str,
+        constraints: list[Constraint],
+        *,
+        termination: str = "",
+        direction: NDArray | None = None,
+        rejected: dict[str, int] | None = None,
+    ) -> tuple[State, StepRecord]:
         """End without moving: the record shows the current coefficients."""
         x = np.array(state.x)
         k = state.iteration + 1
@@ -225,20 +292,33 @@ class Cip:
         extra = self._extra(x, constraints, state.memory, before) | {"termination": termination}
         if direction is not None:
             extra["partials"] = self._split(dict(zip(self._slot_names(), direction.tolist())))
-        record = StepRecord(k, status, self.problem.named(x), _rows(self.problem, constraints),
-                            step_size=state.memory.step, direction=() if direction is None else
-                            tuple(direction.tolist()), counters=_counters(rejected or {}, accepted=False),
-                            reason=reason, extra=extra)
+        record = StepRecord(
+            k,
+            status,
+            self.problem.named(x),
+            _rows(self.problem, constraints),
+            step_size=state.memory.step,
+            direction=() if direction is None else tuple(direction.tolist()),
+            counters=_counters(rejected or {}, accepted=False),
+            reason=reason,
+            extra=extra,
+        )
         return State(k, state.x, status, state.memory), record
 
     def _extra(self, x: NDArray, constraints: list[Constraint], memory: CipMemory, before: int) -> dict:
         best = memory.best
-        return {"unmet": sum(c.active for c in constraints), "unmet_start": memory.unmet_start,
-                "unmet_before": before,
-                "smallest_stability_margin": smallest_stability_margin(constraints),
-                "best": {"iteration": best.iteration, "smallest_stability_margin": best.smallest,
-                         "parameters": self.problem.named(best.x)},
-                "compensators": [c.to_json() for c in self._compensators(x)]}
+        return {
+            "unmet": sum(c.active for c in constraints),
+            "unmet_start": memory.unmet_start,
+            "unmet_before": before,
+            "smallest_stability_margin": smallest_stability_margin(constraints),
+            "best": {
+                "iteration": best.iteration,
+                "smallest_stability_margin": best.smallest,
+                "parameters": self.problem.named(best.x),
+            },
+            "compensators": [c.to_json() for c in self._compensators(x)],
+        }
 
     def _compensators(self, x: NDArray):
         return compensators(self.problem.conditions[0].network, self.problem.condition_values(0, x))
@@ -248,8 +328,10 @@ class Cip:
 
     def _slot_names(self) -> list[str]:
         p = self.problem
-        return [p.parameters[i].name if c is None else f"{p.parameters[i].name}[{p.conditions[c].name}]"
-                for i, c in p.free_slots()]
+        return [
+            p.parameters[i].name if c is None else f"{p.parameters[i].name}[{p.conditions[c].name}]"
+            for i, c in p.free_slots()
+        ]
 
 
 def _counters(rejected: dict[str, int], accepted: bool) -> dict[str, int]:
@@ -267,6 +349,7 @@ def smallest_stability_margin(constraints: list[Constraint]) -> float | None:
 def match_constraints(old: list[Constraint], new: list[Constraint], chosen: list[Constraint]) -> list:
     """(old, new) pairs for the ``chosen`` old constraints: same family,
     mutually nearest in log frequency."""
+
     def by_family(pool: list[Constraint]) -> dict[str, tuple[list[Constraint], NDArray]]:
         groups: dict[str, list[Constraint]] = {}
         for c in pool:
@@ -318,6 +401,17 @@ def _label(c: Constraint, number: int) -> str:
 
 
 def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, ...]:
-    return tuple(MeasureRow(str(n), c.measure, problem.conditions[c.condition].name, c.shown, c.shown_desired,
-                            not c.active, c.frequency, c.shown_at_least, c.method)
-                 for n, c in enumerate(constraints, start=1))
+    return tuple(
+        MeasureRow(
+            str(n),
+            c.measure,
+            problem.conditions[c.condition].name,
+            c.shown,
+            c.shown_desired,
+            not c.active,
+            c.frequency,
+            c.shown_at_least,
+            c.method,
+        )
+        for n, c in enumerate(constraints, start=1)
+    )

@@ -29,8 +29,13 @@ from engine.margins.search import Margin, margins
 
 # measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.design.measure_kinds`)
 KIND = {name: kind(name).margin for name in names(algorithm="cip")}
-DEFAULT_POINTS = {"G": (Point(-1.0, "push"),), "P": (Point(-1.0, "push"),), "S": (Point(-1.0, "push"),),
-                  "A": (Point(0.0, "pull"),), "D": ()}  # D: each its own point (peaks.py)
+DEFAULT_POINTS = {
+    "G": (Point(-1.0, "push"),),
+    "P": (Point(-1.0, "push"),),
+    "S": (Point(-1.0, "push"),),
+    "A": (Point(0.0, "pull"),),
+    "D": (),
+}  # D: each its own point (peaks.py)
 
 
 @dataclass(frozen=True)
@@ -80,8 +85,22 @@ class Constraint:
         return self.value if self.at_least else -self.value
 
     def to_json(self) -> dict:
-        data = {k: getattr(self, k) for k in ("family", "kind", "measure", "condition", "frequency", "value",
-                                               "desired", "shown", "shown_desired", "weight", "method")}
+        data = {
+            k: getattr(self, k)
+            for k in (
+                "family",
+                "kind",
+                "measure",
+                "condition",
+                "frequency",
+                "value",
+                "desired",
+                "shown",
+                "shown_desired",
+                "weight",
+                "method",
+            )
+        }
         data["points"] = [[p.value.real, p.value.imag, p.mode] for p in self.points]
         data["gh"] = [self.gh.real, self.gh.imag]
         return data
@@ -99,11 +118,13 @@ def check_targets(problem: Problem) -> None:
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
     from engine.cip.peaks import check_peak_targets  # peaks.py builds on this module's Constraint
+
     check_peak_targets(problem.targets)
 
 
-def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool = False,
-           phase_as_stability: bool = False) -> tuple[list[Constraint], list[float]]:
+def detect(
+    problem: Problem, x: NDArray, detection: str, gain_as_stability: bool = False, phase_as_stability: bool = False
+) -> tuple[list[Constraint], list[float]]:
     """Every constraint at the free vector ``x``, in tableau order, and the
     winding of 1 + GH along the grid per condition (turns; a stability guard).
 
@@ -121,13 +142,17 @@ def detect(problem: Problem, x: NDArray, detection: str, gain_as_stability: bool
         loop = _loop(problem, c, problem.condition_values(c, x), detection != "grid")
         if not np.all(np.isfinite(loop.gh)):
             bad = problem.grid.omega[np.flatnonzero(~np.isfinite(loop.gh))[0]]
-            raise EngineError(f"cip: the open loop of {condition.name} is not finite at {bad:.6g} rad/s "
-                              "(a value out of floating-point range, or a pole on the grid)")
+            raise EngineError(
+                f"cip: the open loop of {condition.name} is not finite at {bad:.6g} rad/s "
+                "(a value out of floating-point range, or a pole on the grid)"
+            )
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
-        found += _constraints(found_margins.all(), targets, c, gain_as_stability, phase_as_stability,
-                              found_margins.label)
+        found += _constraints(
+            found_margins.all(), targets, c, gain_as_stability, phase_as_stability, found_margins.label
+        )
         from engine.cip.peaks import peak_constraints  # Mt and disk margins (family D); peaks.py imports Constraint
+
         found += peak_constraints(loop, targets, c)
         windings.append(winding(loop.gh))
     return sorted(found, key=_tableau_order), windings
@@ -137,8 +162,9 @@ def _loop(problem: Problem, c: int, params: dict[str, float], refined: bool) -> 
     condition = problem.conditions[c]
     if refined and condition.network.exact:
         return loop_model(condition.network, condition.break_at, problem.grid.omega, params)
-    gh = open_loop(condition.network, condition.break_at, problem.grid.omega, params, sensitivities=False,
-                   check=False).value
+    gh = open_loop(
+        condition.network, condition.break_at, problem.grid.omega, params, sensitivities=False, check=False
+    ).value
     return LoopModel(problem.grid.omega, gh)  # the grid was checked when the problem was made
 
 
@@ -156,8 +182,14 @@ def _tableau_order(c: Constraint) -> tuple:
     return (c.condition, SECTION_ORDER[section], c.family.split("@")[0], c.frequency)
 
 
-def _constraints(found: tuple[Margin, ...], targets: list[tuple[int, Target]], c: int,
-                 gain_as_stability: bool, phase_as_stability: bool, method: str = "grid") -> list[Constraint]:
+def _constraints(
+    found: tuple[Margin, ...],
+    targets: list[tuple[int, Target]],
+    c: int,
+    gain_as_stability: bool,
+    phase_as_stability: bool,
+    method: str = "grid",
+) -> list[Constraint]:
     out: list[Constraint] = []
     stability_targets = [(i, t) for i, t in targets if KIND[t.measure] == "S"]
     for i, target in targets:
@@ -176,8 +208,9 @@ def _constraints(found: tuple[Margin, ...], targets: list[tuple[int, Target]], c
             if copy is not None:
                 out.append(copy)
     taken = {(made.frequency, made.family.split("<")[0]) for made in out if "<" in made.family}
-    return [made for made in out if "<" in made.family or made.kind != "S"
-            or (made.frequency, made.family) not in taken]
+    return [
+        made for made in out if "<" in made.family or made.kind != "S" or (made.frequency, made.family) not in taken
+    ]
 
 
 def _constraint(m: Margin, target: Target, family: str, c: int, method: str = "grid") -> Constraint | None:
@@ -193,5 +226,18 @@ def _constraint(m: Margin, target: Target, family: str, c: int, method: str = "g
     elif target.measure == "sensitivity_peak":  # Ms <= M: the stability margin |1 + GH| >= 1/M
         shown, goal = (1.0 / m.value if m.value > 0 else math.inf), (1.0 / desired if desired > 0 else math.inf)
     points = target.points or DEFAULT_POINTS[KIND[target.measure]]
-    return Constraint(family, KIND[target.measure], target.measure, c, m.frequency, value, goal, shown,
-                      shown_desired, target.weight, points, m.gh, method)
+    return Constraint(
+        family,
+        KIND[target.measure],
+        target.measure,
+        c,
+        m.frequency,
+        value,
+        goal,
+        shown,
+        shown_desired,
+        target.weight,
+        points,
+        m.gh,
+        method,
+    )

@@ -26,8 +26,8 @@ from engine.cip.constraints import Constraint
 from engine.design.problem import Problem
 from engine.loop.responses import open_loop
 
-DEPENDENT = 1e-7   # smallest/largest singular value of G below this: dependent gradients
-ZERO = 1e-12       # relative size of a gradient treated as zero
+DEPENDENT = 1e-7  # smallest/largest singular value of G below this: dependent gradients
+ZERO = 1e-12  # relative size of a gradient treated as zero
 
 
 @dataclass(frozen=True)
@@ -82,8 +82,9 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Row
     return Rows(np.array(rows).reshape(len(rows), m), np.array(weights), tuple(owners), np.array(distances))
 
 
-def improvement_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray,
-                          hold_tolerance: float, labels: list[str]) -> Direction:
+def improvement_direction(
+    rows: Rows, x: NDArray, lower: NDArray, upper: NDArray, hold_tolerance: float, labels: list[str]
+) -> Direction:
     """D = G'(G G')^-1 c over unit gradient rows, with coefficients held at bounds."""
     norms = np.linalg.norm(rows.gradients, axis=1)
     scale = np.maximum(np.abs(x), 1.0)
@@ -96,21 +97,32 @@ def improvement_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray
         free = ~held
         G = unit[:, free]
         if np.any(np.linalg.norm(G, axis=1) <= ZERO):
-            return Direction(None, held, "zero_gradient",
-                             "a gradient is zero once the coefficients at their bounds are held")
+            return Direction(
+                None, held, "zero_gradient", "a gradient is zero once the coefficients at their bounds are held"
+            )
         if G.shape[0] > G.shape[1]:
-            return Direction(None, held, "theorem2",
-                             f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
-                             "free coefficients: improvement cannot be assured (report 000, Theorem 2)")
+            return Direction(
+                None,
+                held,
+                "theorem2",
+                f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
+                "free coefficients: improvement cannot be assured (report 000, Theorem 2)",
+            )
         singular = np.linalg.svd(G, compute_uv=False)
         if singular[-1] <= DEPENDENT * singular[0]:
-            return Direction(None, held, "dependent",
-                             "the gradients of the active constraints are linearly dependent "
-                             f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})")
+            return Direction(
+                None,
+                held,
+                "dependent",
+                "the gradients of the active constraints are linearly dependent "
+                f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})",
+            )
         a = np.linalg.solve(G @ G.T, rows.weights)
         d = np.zeros(x.size)
         d[free] = G.T @ a
-        blocked = free & ((at_bound(x, lower, hold_tolerance) & (d < 0)) | (at_bound(x, upper, hold_tolerance) & (d > 0)))
+        blocked = free & (
+            (at_bound(x, lower, hold_tolerance) & (d < 0)) | (at_bound(x, upper, hold_tolerance) & (d > 0))
+        )
         if not blocked.any():
             return Direction(d / np.linalg.norm(d), held)
         held |= blocked
@@ -125,5 +137,7 @@ def at_bound(x: NDArray, bound: NDArray, tolerance: float) -> NDArray[np.bool_]:
 
 def _zero_reason(rows: Rows, zero: NDArray, labels: list[str]) -> str:
     owner = rows.owners[int(np.flatnonzero(zero)[0])]
-    return (f"the gradient of {labels[owner]} is zero: no free coefficient moves it "
-            "(a relative extremum, report 000 chapter IV)")
+    return (
+        f"the gradient of {labels[owner]} is zero: no free coefficient moves it "
+        "(a relative extremum, report 000 chapter IV)"
+    )

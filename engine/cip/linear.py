@@ -30,8 +30,16 @@ class HeldDirection(Direction):
     held_rows: tuple[int, ...] = ()
 
 
-def held_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray, hold_tolerance: float,
-                   labels: list[str], A: NDArray, b: NDArray) -> HeldDirection:
+def held_direction(
+    rows: Rows,
+    x: NDArray,
+    lower: NDArray,
+    upper: NDArray,
+    hold_tolerance: float,
+    labels: list[str],
+    A: NDArray,
+    b: NDArray,
+) -> HeldDirection:
     """The report's direction, recomputed with the active rows of A x <= b it would cross held."""
     first = improvement_direction(rows, x, lower, upper, hold_tolerance, labels)
     active = _active_rows(A, b, x, hold_tolerance)
@@ -39,19 +47,21 @@ def held_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray, hold_
         return HeldDirection(first.vector, first.held, first.termination, first.reason)
     unit = rows.gradients / np.linalg.norm(rows.gradients, axis=1)[:, None]
     held, held_rows = first.held.copy(), set(_crossing(A, first.vector, active, set()))
-    for _ in range(x.size + len(active) + 1):          # each pass holds one more coefficient or row
+    for _ in range(x.size + len(active) + 1):  # each pass holds one more coefficient or row
         found = _reduced(unit, rows.weights, held, A[sorted(held_rows)])
         if isinstance(found, HeldDirection):
             return HeldDirection(None, held, found.termination, found.reason, tuple(sorted(held_rows)))
-        blocked = ~held & ((at_bound(x, lower, hold_tolerance) & (found < 0))
-                           | (at_bound(x, upper, hold_tolerance) & (found > 0)))
+        blocked = ~held & (
+            (at_bound(x, lower, hold_tolerance) & (found < 0)) | (at_bound(x, upper, hold_tolerance) & (found > 0))
+        )
         crossing = _crossing(A, found, active, held_rows)
         if not blocked.any() and not crossing:
             return HeldDirection(found / np.linalg.norm(found), held, held_rows=tuple(sorted(held_rows)))
         held |= blocked
         held_rows |= set(crossing)
-    return HeldDirection(None, held, "dependent", "the held coefficients and constraints leave no direction",
-                         tuple(sorted(held_rows)))
+    return HeldDirection(
+        None, held, "dependent", "the held coefficients and constraints leave no direction", tuple(sorted(held_rows))
+    )
 
 
 def _reduced(unit: NDArray, weights: NDArray, held: NDArray, rows: NDArray) -> NDArray | HeldDirection:
@@ -60,18 +70,31 @@ def _reduced(unit: NDArray, weights: NDArray, held: NDArray, rows: NDArray) -> N
     N = _null_space(H) if H.shape[0] else np.eye(held.size)
     G = unit @ N
     if N.shape[1] == 0 or np.any(np.linalg.norm(G, axis=1) <= ZERO):
-        return HeldDirection(None, held, "zero_gradient", "a gradient is zero once the coefficients at their "
-                             "bounds and the linear constraints at theirs are held")
+        return HeldDirection(
+            None,
+            held,
+            "zero_gradient",
+            "a gradient is zero once the coefficients at their bounds and the linear constraints at theirs are held",
+        )
     if G.shape[0] > G.shape[1]:
-        return HeldDirection(None, held, "theorem2",
-                             f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
-                             "directions left by the bounds and linear constraints held: improvement cannot "
-                             "be assured (report 000, Theorem 2)")
+        return HeldDirection(
+            None,
+            held,
+            "theorem2",
+            f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
+            "directions left by the bounds and linear constraints held: improvement cannot "
+            "be assured (report 000, Theorem 2)",
+        )
     singular = np.linalg.svd(G, compute_uv=False)
     if singular[-1] <= DEPENDENT * singular[0]:
-        return HeldDirection(None, held, "dependent", "the gradients of the active constraints are linearly "
-                             f"dependent in the directions the held linear constraints leave "
-                             f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})")
+        return HeldDirection(
+            None,
+            held,
+            "dependent",
+            "the gradients of the active constraints are linearly "
+            f"dependent in the directions the held linear constraints leave "
+            f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})",
+        )
     return N @ (G.T @ np.linalg.solve(G @ G.T, weights))
 
 
@@ -87,8 +110,7 @@ def _crossing(A: NDArray, d: NDArray, active: list[int], held: set[int]) -> list
     return [r for r in active if r not in held and A[r] @ d > ZERO * np.linalg.norm(A[r]) * np.linalg.norm(d)]
 
 
-def trial_point(x: NDArray, h: float, d: NDArray, A: NDArray, b: NDArray, lower: NDArray,
-                upper: NDArray) -> NDArray:
+def trial_point(x: NDArray, h: float, d: NDArray, A: NDArray, b: NDArray, lower: NDArray, upper: NDArray) -> NDArray:
     """x + h d projected onto the bounds and A x <= b (the clip when no row is crossed)."""
     return project(x + h * d, A, b, lower, upper)
 
@@ -107,4 +129,5 @@ def _null_space(matrix: NDArray) -> NDArray:
     """scipy's null space, imported on first use (scipy.linalg costs a tenth of a second of the
     workbench's start on a cip session, whose first paint needs none of it)."""
     from scipy.linalg import null_space
+
     return null_space(matrix)

@@ -37,11 +37,17 @@ class CipMemory:
 
     def to_json(self) -> dict:
         """Plain JSON types (`jsonable`'s, built directly: every step stores its memory)."""
-        return {"constraints": [_constraint_json(c.to_json()) for c in self.constraints],
-                "windings": [_plain(w) for w in self.windings], "step": _plain(self.step),
-                "unmet_start": _plain(self.unmet_start),
-                "best": {"iteration": _plain(self.best.iteration), "x": [_plain(v) for v in self.best.x],
-                         "smallest": _plain(self.best.smallest)}}
+        return {
+            "constraints": [_constraint_json(c.to_json()) for c in self.constraints],
+            "windings": [_plain(w) for w in self.windings],
+            "step": _plain(self.step),
+            "unmet_start": _plain(self.unmet_start),
+            "best": {
+                "iteration": _plain(self.best.iteration),
+                "x": [_plain(v) for v in self.best.x],
+                "smallest": _plain(self.best.smallest),
+            },
+        }
 
     @classmethod
     def from_json(cls, data: Any) -> Self:
@@ -51,10 +57,13 @@ class CipMemory:
         step = fields.number("step")
         if not step > 0:
             raise EngineError(f"cip memory.step: expected a step size > 0, got {step!r}")
-        return cls(tuple(_quick_constraint(c.data) or constraint_from(c) for c in fields.objects("constraints")),
-                   fields.numbers("windings"),
-                   step, fields.integer("unmet_start"),
-                   CipBest(best.integer("iteration"), best.numbers("x"), best.optional_number("smallest", False)))
+        return cls(
+            tuple(_quick_constraint(c.data) or constraint_from(c) for c in fields.objects("constraints")),
+            fields.numbers("windings"),
+            step,
+            fields.integer("unmet_start"),
+            CipBest(best.integer("iteration"), best.numbers("x"), best.optional_number("smallest", False)),
+        )
 
 
 def _plain(value: Any) -> Any:
@@ -67,13 +76,25 @@ def _plain(value: Any) -> Any:
 
 def _constraint_json(data: dict) -> dict:
     """`jsonable` of `Constraint.to_json`'s dict (its lists: the points and gh)."""
-    return {k: [[_plain(v) for v in p] for p in value] if k == "points" else
-            [_plain(v) for v in value] if k == "gh" else _plain(value) for k, value in data.items()}
+    return {
+        k: [[_plain(v) for v in p] for p in value]
+        if k == "points"
+        else [_plain(v) for v in value]
+        if k == "gh"
+        else _plain(value)
+        for k, value in data.items()
+    }
 
 
 TEXTS = ("family", "kind", "measure", "method")
-NUMBERS = {"frequency": False, "value": False, "desired": True, "shown": False, "shown_desired": False,
-           "weight": True}  # field: must be finite
+NUMBERS = {
+    "frequency": False,
+    "value": False,
+    "desired": True,
+    "shown": False,
+    "shown_desired": False,
+    "weight": True,
+}  # field: must be finite
 
 
 def _quick_constraint(data: Any) -> Constraint | None:
@@ -84,20 +105,49 @@ def _quick_constraint(data: Any) -> Constraint | None:
         texts = [data[k] for k in TEXTS]
         numbers = [data[k] for k in NUMBERS]
         condition, gh, points = data["condition"], data["gh"], data["points"]
-        if not (all(type(t) is str for t in texts) and texts[1] in KINDS and type(condition) is int
-                and condition >= 0 and type(gh) is list and len(gh) == 2 and type(points) is list
-                and all(type(v) is float and (math.isfinite(v) or not finite)
-                        for v, finite in zip(numbers + gh, list(NUMBERS.values()) + [False, False]))
-                and all(type(p) is list and len(p) == 3 and p[2] in ("push", "pull") and type(p[0]) is float
-                        and type(p[1]) is float and math.isfinite(p[0]) and math.isfinite(p[1]) for p in points)):
+        if not (
+            all(type(t) is str for t in texts)
+            and texts[1] in KINDS
+            and type(condition) is int
+            and condition >= 0
+            and type(gh) is list
+            and len(gh) == 2
+            and type(points) is list
+            and all(
+                type(v) is float and (math.isfinite(v) or not finite)
+                for v, finite in zip(numbers + gh, list(NUMBERS.values()) + [False, False])
+            )
+            and all(
+                type(p) is list
+                and len(p) == 3
+                and p[2] in ("push", "pull")
+                and type(p[0]) is float
+                and type(p[1]) is float
+                and math.isfinite(p[0])
+                and math.isfinite(p[1])
+                for p in points
+            )
+        ):
             return None
     except (KeyError, TypeError):
         return None
     family, kind, measure, method = texts
     frequency, value, desired, shown, shown_desired, weight = numbers
-    return Constraint(family=family, kind=kind, measure=measure, condition=condition, frequency=frequency,
-                      value=value, desired=desired, shown=shown, shown_desired=shown_desired, weight=weight,
-                      method=method, gh=complex(*gh), points=tuple(Point(complex(p[0], p[1]), p[2]) for p in points))
+    return Constraint(
+        family=family,
+        kind=kind,
+        measure=measure,
+        condition=condition,
+        frequency=frequency,
+        value=value,
+        desired=desired,
+        shown=shown,
+        shown_desired=shown_desired,
+        weight=weight,
+        method=method,
+        gh=complex(*gh),
+        points=tuple(Point(complex(p[0], p[1]), p[2]) for p in points),
+    )
 
 
 def constraint_from(fields: Fields) -> Constraint:
@@ -107,12 +157,20 @@ def constraint_from(fields: Fields) -> Constraint:
         raise EngineError(f"{fields.where}.kind: expected one of {', '.join(KINDS)}, got {kind!r}")
     gh = fields.numbers("gh", 2, finite=False)
     return Constraint(
-        family=fields.text("family"), kind=kind, measure=fields.text("measure"),
-        condition=fields.integer("condition"), frequency=fields.number("frequency", False),
-        value=fields.number("value", False), desired=fields.number("desired"),
-        shown=fields.number("shown", False), shown_desired=fields.number("shown_desired", False),
-        weight=fields.number("weight"), method=fields.text("method"), gh=complex(*gh),
-        points=tuple(_point(p, f"{fields.where}.points[{i}]") for i, p in enumerate(fields.items("points"))))
+        family=fields.text("family"),
+        kind=kind,
+        measure=fields.text("measure"),
+        condition=fields.integer("condition"),
+        frequency=fields.number("frequency", False),
+        value=fields.number("value", False),
+        desired=fields.number("desired"),
+        shown=fields.number("shown", False),
+        shown_desired=fields.number("shown_desired", False),
+        weight=fields.number("weight"),
+        method=fields.text("method"),
+        gh=complex(*gh),
+        points=tuple(_point(p, f"{fields.where}.points[{i}]") for i, p in enumerate(fields.items("points"))),
+    )
 
 
 def _point(data: Any, where: str) -> Point:

@@ -32,8 +32,10 @@ def check_peak_targets(targets: tuple[Target, ...]) -> None:
     """Peak targets cip can improve: no points for D targets (each row has its own)."""
     for k, target in enumerate(targets):
         if KIND.get(target.measure) == "D" and target.points:
-            raise EngineError(f"cip: target {k} ({target.measure}) takes no points: cip pushes it along its "
-                              "own gradient (docs/algorithms/cip.md)")
+            raise EngineError(
+                f"cip: target {k} ({target.measure}) takes no points: cip pushes it along its "
+                "own gradient (docs/algorithms/cip.md)"
+            )
 
 
 def peak_constraints(loop: LoopModel, targets: list[tuple[int, Target]], c: int) -> list[Constraint]:
@@ -47,14 +49,27 @@ def peak_constraints(loop: LoopModel, targets: list[tuple[int, Target]], c: int)
             desired = target.desired(w)
             if desired is None or not magnitude > 0:
                 continue
-            value = 1.0 / magnitude                       # 1/|T| or alpha: |1 + F|
+            value = 1.0 / magnitude  # 1/|T| or alpha: |1 + F|
             shown = magnitude if target.measure in INVERTED else value
             goal = inverse(desired) if target.measure in INVERTED else desired
-            out.append(Constraint(f"{target.measure}#{i}@{c}", "D", target.measure, c, w, value, goal, shown,
-                                  desired, target.weight, (Point(newton_point(target.measure, gh), "push"),), gh,
-                                  method))
+            out.append(
+                Constraint(
+                    f"{target.measure}#{i}@{c}",
+                    "D",
+                    target.measure,
+                    c,
+                    w,
+                    value,
+                    goal,
+                    shown,
+                    desired,
+                    target.weight,
+                    (Point(newton_point(target.measure, gh), "push"),),
+                    gh,
+                    method,
+                )
+            )
     return out
-
 
 
 def inverse(desired: float) -> float:

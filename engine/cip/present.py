@@ -22,8 +22,10 @@ def cip_report_text(record: StepRecord) -> str:
     lines = [f"{'ITERATION NO.':>40} {record.iteration:4d}"]
     if record.step_size is not None:
         lines.append(f"{'PRESENT STEP SIZE =':>40} {record.step_size:10.7f}")
-    sections = (("RELATIVE STABILITY INFORMATION", lambda k: k != "A"),
-                ("ATTENUATED FREQUENCY INFORMATION", lambda k: k == "A"))
+    sections = (
+        ("RELATIVE STABILITY INFORMATION", lambda k: k != "A"),
+        ("ATTENUATED FREQUENCY INFORMATION", lambda k: k == "A"),
+    )
     for title, wanted in sections:
         rows = [(n, r) for n, r in enumerate(record.measures, start=1) if wanted(KIND.get(r.kind, "?"))]
         if rows:
@@ -37,8 +39,11 @@ def cip_report_text(record: StepRecord) -> str:
         lines += _compensator(comp)
     best = record.extra.get("best")
     if best:
-        lines += ["", f"  BEST COMPENSATORS WITH RESPECT TO STABILITY OCCURRED ON STEP {best['iteration']}; "
-                      f"SMALLEST STABILITY MARGIN = {_fmt(best['smallest_stability_margin'])}"]
+        lines += [
+            "",
+            f"  BEST COMPENSATORS WITH RESPECT TO STABILITY OCCURRED ON STEP {best['iteration']}; "
+            f"SMALLEST STABILITY MARGIN = {_fmt(best['smallest_stability_margin'])}",
+        ]
     unmet = record.extra.get("unmet")
     if unmet is not None:
         lines.append(f"  UNMET REQUIREMENTS: {unmet} (at the start: {record.extra.get('unmet_start')})")
@@ -55,21 +60,26 @@ def _margin_line(n: int, r) -> str:
     flag = "" if r.satisfied else "  ACTIVE"
     label, unit = CLASSICAL.get(r.kind, ("MARGIN RADIUS", ""))
     unit = f" {unit}" if unit else ""
-    return (f"  {label} NO. {n:3d} = {r.value:10.5f}{unit}   FREQUENCY = {r.frequency / HZ:10.5f} HZ   "
-            f"DESIRED MARGIN = {r.target:10.5f}{unit}   MARGIN TYPE = {KIND.get(r.kind, '?')}{flag}")
+    return (
+        f"  {label} NO. {n:3d} = {r.value:10.5f}{unit}   FREQUENCY = {r.frequency / HZ:10.5f} HZ   "
+        f"DESIRED MARGIN = {r.target:10.5f}{unit}   MARGIN TYPE = {KIND.get(r.kind, '?')}{flag}"
+    )
 
 
 def _partials(split: dict | None) -> list[str]:
     if not split:
         return []
     out = [""]
-    for role, title in (("numerator", "PARTIALS WITH RESPECT TO X"), ("denominator", "PARTIALS WITH RESPECT TO Y"),
-                        ("other", "PARTIALS WITH RESPECT TO OTHER PARAMETERS")):
+    for role, title in (
+        ("numerator", "PARTIALS WITH RESPECT TO X"),
+        ("denominator", "PARTIALS WITH RESPECT TO Y"),
+        ("other", "PARTIALS WITH RESPECT TO OTHER PARAMETERS"),
+    ):
         values = split.get(role, {})
         if values:
             out.append(f"  {title}:")
             items = [f"{name}={value:10.3e}" for name, value in values.items()]
-            out += ["    " + "  ".join(items[i:i + 4]) for i in range(0, len(items), 4)]
+            out += ["    " + "  ".join(items[i : i + 4]) for i in range(0, len(items), 4)]
     return out
 
 

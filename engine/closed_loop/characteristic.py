@@ -310,13 +310,14 @@ def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp]) -> Roots | 
     nodes = radius * np.exp(2j * np.pi * (np.arange(NODES) + 0.5) / NODES)  # conjugate-symmetric
     with np.errstate(all="ignore"):
         values = ratio(centre + nodes) * nodes  # (z - c) F'/F: dz = i (z - c) dtheta
-        sums = np.array([np.mean(values * nodes ** p) for p in range(m + 1)])
+        sums = np.array([np.mean(values * nodes**p) for p in range(m + 1)])
     if not (np.all(np.isfinite(sums)) and abs(sums[0] - m) <= COUNT):
         return None
     if centre.imag == 0.0:
         sums = sums.real + 0j
     roots = centre + np.roots(_from_power_sums(sums))
     from scipy.optimize import linear_sum_assignment  # on first use: `analyze` loads no scipy.optimize
+
     rows, cols = linear_sum_assignment(np.abs(z[members][:, None] - roots[None, :]))
     out = np.empty(m, dtype=complex)
     out[rows] = roots[cols]

@@ -98,9 +98,15 @@ def pole_zero_map(network: Network, break_at: str, params: Mapping[str, float]) 
     return PoleZeroMap(open_loop, form.zeros, float(form.gain.real), closed_loop)
 
 
-def root_locus(network: Network, break_at: str, params: Mapping[str, float], parameter: str = "gain",
-               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS,
-               polished: bool = True) -> RootLocus:
+def root_locus(
+    network: Network,
+    break_at: str,
+    params: Mapping[str, float],
+    parameter: str = "gain",
+    value_range: tuple[float, float] | None = None,
+    max_points: int = MAX_POINTS,
+    polished: bool = True,
+) -> RootLocus:
     """The locus in the loop gain (``parameter="gain"``) or in a named parameter of the
     network; ``polished`` False: for drawing, a gain locus polished only where the eigenvalues
     are noisy, and on the loop's pole-zero form (`gain_locus`): ~30x faster."""
@@ -120,9 +126,14 @@ def root_locus(network: Network, break_at: str, params: Mapping[str, float], par
     return parameter_locus(network, params, parameter, value_range, max_points)
 
 
-def gain_locus(network: Network, break_at: str, params: Mapping[str, float],
-               value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS,
-               polished: bool = True) -> RootLocus:
+def gain_locus(
+    network: Network,
+    break_at: str,
+    params: Mapping[str, float],
+    value_range: tuple[float, float] | None = None,
+    max_points: int = MAX_POINTS,
+    polished: bool = True,
+) -> RootLocus:
     """Closed-loop poles of 1 + k L(s) = 0 for k from 0 over ``value_range``
     (default: 1e-3..1e3 around 1 and every imaginary-axis crossing).  Not ``polished`` (drawn):
     eigenvalues within DRAWN of the polished roots and within NOISY of a step's move (by Aberth's
@@ -144,24 +155,54 @@ def gain_locus(network: Network, break_at: str, params: Mapping[str, float],
         raise EngineError(f"a gain locus runs over positive gains (it starts at k = 0), not from {lo!r}")
     # the steps are chosen on the eigenvalues, the points kept polished (and the steps judged on
     # polished points where the eigenvalues are noisy: see `continuation`)
-    ts, rows, status = continuation(lambda t: eigenvalues(math.exp(t)), math.log(lo), math.log(hi),
-                                    [0.0] if lo < 1.0 < hi else [], max_points,
-                                    lambda t, row: polish(math.exp(t), row))
+    ts, rows, status = continuation(
+        lambda t: eigenvalues(math.exp(t)),
+        math.log(lo),
+        math.log(hi),
+        [0.0] if lo < 1.0 < hi else [],
+        max_points,
+        lambda t, row: polish(math.exp(t), row),
+    )
     values = np.concatenate([[0.0], np.exp(ts)])
     branches = np.vstack([_matched(rows[0], roots_at(0.0))[None, :], rows])
     crossings = _crossings(roots_at, values[1:], branches[1:])
     centroid, angles = _asymptotes(form)
-    return RootLocus("gain", values, branches, 1.0, tuple(roots_at(1.0).tolist()), crossings, status,
-                     centroid, angles, _breakaways(form), tuple(notes))
+    return RootLocus(
+        "gain",
+        values,
+        branches,
+        1.0,
+        tuple(roots_at(1.0).tolist()),
+        crossings,
+        status,
+        centroid,
+        angles,
+        _breakaways(form),
+        tuple(notes),
+    )
 
 
-def parameter_locus(network: Network, params: Mapping[str, float], name: str,
-                    value_range: tuple[float, float] | None = None, max_points: int = MAX_POINTS) -> RootLocus:
+def parameter_locus(
+    network: Network,
+    params: Mapping[str, float],
+    name: str,
+    value_range: tuple[float, float] | None = None,
+    max_points: int = MAX_POINTS,
+) -> RootLocus:
     """Closed-loop poles as ``name`` runs over ``value_range`` (default: a
     decade either side of its value; -1..1 about 0), from the realization."""
     current = float(params[name])
-    lo, hi = value_range if value_range is not None else (
-        (current / 10, current * 10) if current > 0 else (current * 10, current / 10) if current < 0 else (-1.0, 1.0))
+    lo, hi = (
+        value_range
+        if value_range is not None
+        else (
+            (current / 10, current * 10)
+            if current > 0
+            else (current * 10, current / 10)
+            if current < 0
+            else (-1.0, 1.0)
+        )
+    )
 
     def roots_at(v: float) -> NDArray:
         values = dict(params) | {name: v}
@@ -174,13 +215,19 @@ def parameter_locus(network: Network, params: Mapping[str, float], name: str,
     nodes = [to_t(current)] if lo < current < hi else []
     ts, rows, status = continuation(lambda t: roots_at(from_t(t)), to_t(lo), to_t(hi), nodes, max_points)
     values = np.exp(ts) if logarithmic else ts
-    return RootLocus(name, values, rows, current, tuple(roots_at(current).tolist()),
-                     _crossings(roots_at, values, rows), status)
+    return RootLocus(
+        name, values, rows, current, tuple(roots_at(current).tolist()), _crossings(roots_at, values, rows), status
+    )
 
 
-def continuation(roots_at: Callable[[float], NDArray], t0: float, t1: float, nodes: Sequence[float] = (),
-                 max_points: int = MAX_POINTS,
-                 refine: Callable[[float, NDArray], NDArray] | None = None) -> tuple[NDArray, NDArray, str]:
+def continuation(
+    roots_at: Callable[[float], NDArray],
+    t0: float,
+    t1: float,
+    nodes: Sequence[float] = (),
+    max_points: int = MAX_POINTS,
+    refine: Callable[[float, NDArray], NDArray] | None = None,
+) -> tuple[NDArray, NDArray, str]:
     """Roots of ``roots_at(t)`` followed from t0 to t1 by adaptive steps
     (module docstring), passing through every node; (t, rows, status).
     ``refine(t, roots)`` makes raw roots accurate: every row kept is refined, and
@@ -223,8 +270,9 @@ def continuation(roots_at: Callable[[float], NDArray], t0: float, t1: float, nod
     return np.array(ts), np.array(rows).reshape(len(rows), first.size), status
 
 
-def _refined(refine: Callable[[float, NDArray], NDArray] | None, t: float, raw: NDArray,
-             previous: NDArray) -> tuple[NDArray, bool]:
+def _refined(
+    refine: Callable[[float, NDArray], NDArray] | None, t: float, raw: NDArray, previous: NDArray
+) -> tuple[NDArray, bool]:
     """The row kept for ``raw`` at t (refined, matched to the ``previous`` row: raw roots that
     noisy may be matched wrongly), and whether ``raw`` was too noisy to judge steps by: off the
     refined roots by more than NOISY of a step's allowed move (the eigenvalues of a gain locus
@@ -310,7 +358,7 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
         return form, []
     ss = loop_realization(network, break_at, params)
     k = network.signal(break_at)
-    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k:k + 1], -ss.D[k:k + 1, -1:]
+    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:]
     if A.shape[0] == 0:
         raise EngineError(f"the loop broken at {break_at!r} has no dynamics: no locus")
     pencil, mass = np.block([[A, B], [C, D]]), np.zeros((A.shape[0] + 1,) * 2)
@@ -322,7 +370,8 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
     gain = complex(exact(at)[0][0] / unit(at)[0][0])
     return ZpkEvaluator(complex(gain.real, 0.0), unit.zeros, unit.poles), [
         "the loop's pole-zero form differs from the network beyond 1e-9: asymptotes and breakaway points "
-        "are approximate (the locus itself is polished on the network; drawn, on this form)"]
+        "are approximate (the locus itself is polished on the network; drawn, on this form)"
+    ]
 
 
 def _gain_eigenvalues(network: Network, break_at: str, params: Mapping[str, float]) -> Callable[[float], NDArray]:
@@ -330,7 +379,7 @@ def _gain_eigenvalues(network: Network, break_at: str, params: Mapping[str, floa
     eigenvalues of A - k B (1 + k D)^-1 C (to polish: `engine.closed_loop.characteristic`)."""
     ss = loop_realization(network, break_at, params)
     b = network.signal(break_at)
-    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[b:b + 1], -ss.D[b:b + 1, -1:]
+    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[b : b + 1], -ss.D[b : b + 1, -1:]
 
     def roots(k: float) -> NDArray:
         through = 1.0 + k * D[0, 0]
@@ -345,7 +394,7 @@ def _gain_range(network: Network, break_at: str, params: Mapping[str, float]) ->
     """1e-3..1e3 times the span of 1 and the gain margins' factors (where the locus crosses)."""
     found = margins(loop_model(network, break_at, np.geomspace(1e-3, 1e3, 8), params))
     gains = [1.0] + [10 ** (m.gain_db / 20) for m in found.gain if m.gain_db is not None and math.isfinite(m.gain_db)]
-    return min(gains) * 10 ** -GAIN_DECADES, max(gains) * 10 ** GAIN_DECADES
+    return min(gains) * 10**-GAIN_DECADES, max(gains) * 10**GAIN_DECADES
 
 
 def _scale(form: ZpkEvaluator) -> float:
@@ -369,8 +418,7 @@ def _breakaways(form: ZpkEvaluator) -> tuple[tuple[complex, float], ...]:
     """Points where dk/ds = 0 (roots of N'D - N D', Newton-polished on L'/L)
     with k = -1/L(s) real and positive: (point, gain)."""
     num, den = np.poly(form.zeros) if form.zeros.size else np.ones(1), np.poly(form.poles)
-    q = np.polysub(np.polymul(np.polyder(num), den) if num.size > 1 else np.zeros(1),
-                   np.polymul(num, np.polyder(den)))
+    q = np.polysub(np.polymul(np.polyder(num), den) if num.size > 1 else np.zeros(1), np.polymul(num, np.polyder(den)))
     q = np.trim_zeros(np.real_if_close(q), "f")
     if q.size <= 1:
         return ()
@@ -379,7 +427,7 @@ def _breakaways(form: ZpkEvaluator) -> tuple[tuple[complex, float], ...]:
         for _ in range(8):
             zq, pq = s[:, None] - form.zeros[None, :], s[:, None] - form.poles[None, :]
             phi = np.sum(1.0 / zq, axis=1) - np.sum(1.0 / pq, axis=1)
-            dphi = -np.sum(1.0 / zq ** 2, axis=1) + np.sum(1.0 / pq ** 2, axis=1)
+            dphi = -np.sum(1.0 / zq**2, axis=1) + np.sum(1.0 / pq**2, axis=1)
             step = np.where(np.isfinite(phi / dphi), phi / dphi, 0.0)
             s = s - step
         kl = loop_terms(form, 1.0, s)[0]

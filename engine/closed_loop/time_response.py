@@ -101,7 +101,7 @@ def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArra
             holds[step] = _foh(A, B, step)
         Phi, Gam0, Gam1 = holds[step]
         forced = np.outer(u[a:b], Gam0) + np.outer(du[a:b], Gam1)
-        x[a + 1:b + 1] = _scan(Phi, x[a], forced)
+        x[a + 1 : b + 1] = _scan(Phi, x[a], forced)
     return x
 
 
@@ -164,12 +164,14 @@ def _foh(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
     big = np.zeros((n + 2, n + 2))
     big[:n, :n], big[:n, n], big[n, n + 1] = A * h, B * h, 1.0
     from scipy.linalg import expm  # on first use (start-up)
+
     E = expm(big)
     return E[:n, :n], E[:n, n], E[:n, n + 1] * h
 
 
-def final_value(ss: StateSpace, input_name: str, output: str, segments: Sequence[Segment],
-                y: NDArray) -> tuple[float, FinalFrom]:
+def final_value(
+    ss: StateSpace, input_name: str, output: str, segments: Sequence[Segment], y: NDArray
+) -> tuple[float, FinalFrom]:
     """The final value of ``output`` (response ``y``) and where it comes from: the DC
     gain times the final input when the closed loop is stable and the input
     settles (slopes summing to 0), else the last sample ``y[-1]``."""
@@ -199,8 +201,16 @@ class StepMeasures:
     peak_rule: PeakRule = "global"
 
 
-def step_measures(t: NDArray, y: NDArray, final: float, desired: float = 1.0, band: float = 0.05, *,
-                  final_from: FinalFrom = "dc_gain", peak_rule: PeakRule = "global") -> StepMeasures:
+def step_measures(
+    t: NDArray,
+    y: NDArray,
+    final: float,
+    desired: float = 1.0,
+    band: float = 0.05,
+    *,
+    final_from: FinalFrom = "dc_gain",
+    peak_rule: PeakRule = "global",
+) -> StepMeasures:
     """Rise (10-90 %), delay (50 %), peak by ``peak_rule``, overshoot, settling within
     ``band`` of ``final`` (the caller's final value, see `final_value`)."""
     if final == 0 or not math.isfinite(final):

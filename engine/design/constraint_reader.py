@@ -21,13 +21,15 @@ from functools import lru_cache
 
 from engine.errors import ExpressionError
 
-MAX_LENGTH = 1000      # characters of one constraint
-MAX_NESTING = 50       # levels of parentheses (and unary signs)
+MAX_LENGTH = 1000  # characters of one constraint
+MAX_NESTING = 50  # levels of parentheses (and unary signs)
 MAX_POWER = 64
-MAX_BITS = 4000        # of a number's numerator or denominator while reading (beyond: not a float)
+MAX_BITS = 4000  # of a number's numerator or denominator while reading (beyond: not a float)
 COMPARISONS = ("<=", ">=")
-TOKEN = re.compile(r"\s*(?:(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_]\w*)"
-                   r"|(?P<label>\[[^\[\]]*\])|(?P<op><=|>=|=<|=>|==|\*\*|[-+*/^()<>=]))")
+TOKEN = re.compile(
+    r"\s*(?:(?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_]\w*)"
+    r"|(?P<label>\[[^\[\]]*\])|(?P<op><=|>=|=<|=>|==|\*\*|[-+*/^()<>=]))"
+)
 
 
 class LinearFormError(ExpressionError):
@@ -57,12 +59,12 @@ class LinearForm:
 
 @dataclass(frozen=True)
 class _Token:
-    kind: str      # number, name, label, op, end
+    kind: str  # number, name, label, op, end
     text: str
     column: int
 
 
-Affine = tuple[dict[Reference, Fraction], Fraction]   # coefficients and the constant
+Affine = tuple[dict[Reference, Fraction], Fraction]  # coefficients and the constant
 ONE, ZERO = Fraction(1), Fraction(0)
 
 
@@ -115,7 +117,7 @@ class _Reader:
         return token
 
     def _fail(self, message: str, token: _Token) -> LinearFormError:
-        return LinearFormError(message, self.text, token.column)   # the end: one past the last character
+        return LinearFormError(message, self.text, token.column)  # the end: one past the last character
 
     def constraint(self) -> LinearForm:
         left = self._sum()
@@ -125,16 +127,21 @@ class _Reader:
         right = self._sum()
         end = self._next()
         if end.kind != "end":
-            raise self._fail("one comparison per constraint (write two constraints)" if end.text in
-                             COMPARISONS else f"unexpected {end.text!r} (a missing operator?)", end)
+            raise self._fail(
+                "one comparison per constraint (write two constraints)"
+                if end.text in COMPARISONS
+                else f"unexpected {end.text!r} (a missing operator?)",
+                end,
+            )
         sign = 1 if op.text == "<=" else -1
         terms = {ref: sign * (left[0].get(ref, 0) - right[0].get(ref, 0)) for ref in {**left[0], **right[0]}}
         terms = {ref: c for ref, c in terms.items() if c != 0}
         if not terms:
             raise self._fail("no parameter left once the terms are collected: the constraint compares numbers", op)
         bound = sign * (right[1] - left[1])
-        return LinearForm(tuple((ref, self._float(c, op)) for ref, c in terms.items()), self._float(bound, op),
-                          self.text)
+        return LinearForm(
+            tuple((ref, self._float(c, op)) for ref, c in terms.items()), self._float(bound, op), self.text
+        )
 
     def _comparison_error(self, op: _Token) -> LinearFormError:
         if op.kind == "end":

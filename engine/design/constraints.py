@@ -27,10 +27,10 @@ from engine.errors import EngineError
 if TYPE_CHECKING:
     from engine.design.problem import Problem
 
-TOLERANCE = 1e-9        # a row is met when A x - b <= TOLERANCE * its scale (`row_scale`)
-SLACK = 1e-12           # `project` leaves a point alone whose rows are met within this (relative)
-PENALTY_WEIGHT = 1e8    # qcg: F (1 + weight * sum (violation / scale)^2)
-PENALTY_MARGIN = 1e-7   # qcg: the violation counts from this far (relative) inside the boundary
+TOLERANCE = 1e-9  # a row is met when A x - b <= TOLERANCE * its scale (`row_scale`)
+SLACK = 1e-12  # `project` leaves a point alone whose rows are met within this (relative)
+PENALTY_WEIGHT = 1e8  # qcg: F (1 + weight * sum (violation / scale)^2)
+PENALTY_MARGIN = 1e-7  # qcg: the violation counts from this far (relative) inside the boundary
 
 
 @dataclass(frozen=True)
@@ -105,7 +105,7 @@ def inequality_rows(problem: Problem) -> Rows:
     rows, bounds, origin = [], [], []
     for k, inequality in enumerate(problem.inequalities):
         every = any(c is None and by_name[n].per_condition for n, c, _ in inequality.terms)
-        for condition in (range(len(problem.conditions)) if every else (None,)):
+        for condition in range(len(problem.conditions)) if every else (None,):
             row, bound = np.zeros(len(slots)), inequality.bound
             for name, c, coefficient in inequality.terms:
                 p = by_name[name]
@@ -118,8 +118,9 @@ def inequality_rows(problem: Problem) -> Rows:
             rows.append(row)
             bounds.append(bound)
             origin.append((k, condition if every else None))
-    return Rows(np.array(rows, dtype=float).reshape(len(rows), len(slots)), np.array(bounds, dtype=float),
-                tuple(origin))
+    return Rows(
+        np.array(rows, dtype=float).reshape(len(rows), len(slots)), np.array(bounds, dtype=float), tuple(origin)
+    )
 
 
 def row_scale(A: NDArray, b: NDArray, x: NDArray) -> NDArray:
@@ -141,8 +142,10 @@ def unmet(problem: Problem, x: NDArray, when: str = "") -> list[str]:
         where = "" if condition is None else f" in condition {problem.conditions[condition].name!r}"
         inequality = problem.inequalities[k]
         left = rows.A[r] @ x + (inequality.bound - rows.b[r])
-        out.append(f"constraints[{k}] {inequality.label!r} is not met{where}{when}: violated by {excess[r]:.3g} "
-                   f"(as {inequality.normal}, the left side is {left:.6g})")
+        out.append(
+            f"constraints[{k}] {inequality.label!r} is not met{where}{when}: violated by {excess[r]:.3g} "
+            f"(as {inequality.normal}, the left side is {left:.6g})"
+        )
     return out
 
 
@@ -150,8 +153,7 @@ def check_start(problem: Problem, x: NDArray, who: str) -> None:
     """An `EngineError` naming the first constraint ``x`` does not meet."""
     found = unmet(problem, x, " at the start")
     if found:
-        raise EngineError(f"{who}: {found[0]}"
-                          + (f" (and {len(found) - 1} more)" if len(found) > 1 else ""))
+        raise EngineError(f"{who}: {found[0]}" + (f" (and {len(found) - 1} more)" if len(found) > 1 else ""))
 
 
 def project(z: NDArray, A: NDArray, b: NDArray, lower: NDArray, upper: NDArray, slack: float = SLACK) -> NDArray:
@@ -164,7 +166,7 @@ def project(z: NDArray, A: NDArray, b: NDArray, lower: NDArray, upper: NDArray, 
     n = z.size
     eye = np.eye(n)
     low, high = np.isfinite(lower), np.isfinite(upper)
-    G = np.vstack([-A, eye[low], -eye[high]])                 # G d >= h for the move d = x - z
+    G = np.vstack([-A, eye[low], -eye[high]])  # G d >= h for the move d = x - z
     h = np.concatenate([A @ z - b, lower[low] - z[low], z[high] - upper[high]])
     norms = np.maximum(np.linalg.norm(G, axis=1), 1e-300)
     G, h = G / norms[:, None], h / norms
@@ -172,6 +174,7 @@ def project(z: NDArray, A: NDArray, b: NDArray, lower: NDArray, upper: NDArray, 
     f = np.zeros(n + 1)
     f[-1] = 1.0
     from scipy.optimize import nnls  # on use: scipy.optimize costs ~130 ms at every start
+
     u, _ = nnls(E, f, maxiter=50 * (E.shape[1] + 1))
     r = E @ u - f
     if not np.isfinite(r).all() or abs(r[-1]) <= 1e-12:

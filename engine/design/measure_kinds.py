@@ -72,21 +72,60 @@ def _kinds(*rows: tuple) -> dict[str, MeasureKind]:
 MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
     ("gain_margin", "gain margin (distance from -1)", "G", "", True, 0.5, "frequency", _CIP_SLP, "G", "G"),
     ("phase_margin", "phase margin (distance from -1)", "P", "", True, 0.5, "frequency", _CIP_SLP, "P", "P"),
-    ("stability_margin", "stability margin (least distance from -1)", "S", "", True, 0.5, "frequency",
-     _CIP_SLP, "S", "S"),
-    ("attenuation_margin", "attenuation margin (modal peak |GH|)", "A", "", False, 0.25, "frequency",
-     _CIP_SLP, "A", "A"),
+    (
+        "stability_margin",
+        "stability margin (least distance from -1)",
+        "S",
+        "",
+        True,
+        0.5,
+        "frequency",
+        _CIP_SLP,
+        "S",
+        "S",
+    ),
+    (
+        "attenuation_margin",
+        "attenuation margin (modal peak |GH|)",
+        "A",
+        "",
+        False,
+        0.25,
+        "frequency",
+        _CIP_SLP,
+        "A",
+        "A",
+    ),
     ("gain_margin_db", "gain margin", "GM dB", "dB", True, 6.0, "frequency", _CIP_SLP, "GM", "G"),
     ("phase_margin_deg", "phase margin", "PM deg", "deg", True, 30.0, "frequency", _CIP_SLP, "PM", "P"),
     ("crossover_frequency", "gain crossover frequency", "wc", "rad/s", True, 1.0, "frequency", _SLP, "WC", "P"),
     ("modal_peak_db", "modal peak of |GH|", "peak", "dB", False, -10.0, "frequency", _SLP, "PK", "A"),
-    ("modal_peak_phase_deg", "phase of the modal peak (|angle GH|)", "pk ph", "deg", False, 90.0, "frequency",
-     _SLP, "PKPH", "A"),
-    ("disk_margin", "disk margin alpha (balanced, skew 0)", "disk", "", True, 0.5, "frequency", _CIP_SLP, "DM",
-     "D"),
+    (
+        "modal_peak_phase_deg",
+        "phase of the modal peak (|angle GH|)",
+        "pk ph",
+        "deg",
+        False,
+        90.0,
+        "frequency",
+        _SLP,
+        "PKPH",
+        "A",
+    ),
+    ("disk_margin", "disk margin alpha (balanced, skew 0)", "disk", "", True, 0.5, "frequency", _CIP_SLP, "DM", "D"),
     ("sensitivity_peak", "sensitivity peak Ms = max |S|", "Ms", "", False, 2.0, "frequency", _CIP_SLP, "SPK", "S"),
-    ("complementary_sensitivity_peak", "complementary sensitivity peak Mt = max |T|", "Mt", "", False, 1.5,
-     "frequency", _CIP_SLP, "TPK", "D"),
+    (
+        "complementary_sensitivity_peak",
+        "complementary sensitivity peak Mt = max |T|",
+        "Mt",
+        "",
+        False,
+        1.5,
+        "frequency",
+        _CIP_SLP,
+        "TPK",
+        "D",
+    ),
     ("delay_margin", "delay margin", "delay", "s", True, 0.1, "frequency", _SLP, "DLY", "P"),
     ("rise_time", "rise time", "rise", "s", False, 1.0, "time", _SLP, "TR"),
     ("settling_time", "settling time", "settle", "s", False, 5.0, "time", _SLP, "TS"),
@@ -95,15 +134,24 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
     ("steady_state_error", "steady-state error", "ss err", "", False, 0.01, "time", _SLP, "SSE"),
     ("peak_response", "peak |response|", "resp pk", "", False, 1.0, "time", _SLP, "PEAK"),
     ("mean_square", "mean square response to noise", "msq", "", False, 1.0, "time", _SLP, "MS"),
-    ("stability_abscissa", "stability abscissa (-max Re of the closed-loop poles)", "stab", "1/s", True, 0.0,
-     "poles", _SLP, "STAB"),
+    (
+        "stability_abscissa",
+        "stability abscissa (-max Re of the closed-loop poles)",
+        "stab",
+        "1/s",
+        True,
+        0.0,
+        "poles",
+        _SLP,
+        "STAB",
+    ),
 )
 
 
 # why an algorithm refuses one measure in particular (else ALGORITHMS' general reason)
 REFUSALS: dict[tuple[str, str], str] = {
     ("cip", "delay_margin"): "is not a distance cip can push at one frequency (a delay margin is the phase "
-                             "margin over a crossover frequency that moves with the design); use slp",
+    "margin over a crossover frequency that moves with the design); use slp",
 }
 
 
@@ -126,8 +174,11 @@ def names(domain: Domain | None = None, algorithm: str | None = None) -> tuple[s
         raise EngineError(f"unknown measure domain {domain!r}; known: {', '.join(DOMAINS)}")
     if algorithm is not None and algorithm not in ALGORITHMS:
         raise EngineError(f"unknown algorithm {algorithm!r}; known: {', '.join(ALGORITHMS)}")
-    return tuple(k.name for k in MEASURE_KINDS.values()
-                 if (domain is None or k.domain == domain) and (algorithm is None or algorithm in k.algorithms))
+    return tuple(
+        k.name
+        for k in MEASURE_KINDS.values()
+        if (domain is None or k.domain == domain) and (algorithm is None or algorithm in k.algorithms)
+    )
 
 
 def shorts() -> dict[str, str]:

@@ -162,6 +162,7 @@ class Grid:
     omega: NDArray[np.float64]
     unit: Literal["rad/s", "hz"] = "rad/s"
 
+
 @dataclass(frozen=True)
 class Objective:
     """What an algorithm minimizes or maximizes, where it has one (kind + options)."""
@@ -195,7 +196,7 @@ class Problem:
     grid: Grid
     objective: Objective | None = None
     equalities: tuple[LinearEquality, ...] = ()
-    inequalities: tuple[LinearInequality, ...] = ()   # A x <= b: `linear_constraints`
+    inequalities: tuple[LinearInequality, ...] = ()  # A x <= b: `linear_constraints`
 
     def __post_init__(self) -> None:
         if not self.conditions and (self.objective is None or self.objective.kind != "dae"):
@@ -206,8 +207,9 @@ class Problem:
             raise EngineError("parameter names must be unique")
         for p in self.parameters:
             if p.per_condition and len(p.value) != len(self.conditions):
-                raise EngineError(f"parameter {p.name!r} has {len(p.value)} values for "
-                                  f"{len(self.conditions)} conditions")
+                raise EngineError(
+                    f"parameter {p.name!r} has {len(p.value)} values for {len(self.conditions)} conditions"
+                )
         needed = {q for c in self.conditions for q in c.network.parameters}
         unknown = [t.measure for t in self.targets if t.measure not in MEASURE_NAMES]
         if unknown:
@@ -229,8 +231,14 @@ class Problem:
             if p is None:
                 raise EngineError(f"{where}: unknown parameter {name!r}")
             if p.per_condition != (c is not None) or (c is not None and not 0 <= c < len(self.conditions)):
-                raise EngineError(f"{where}: {name!r} " + ("has one value per condition: name the condition"
-                                                          if p.per_condition else "is shared by all conditions"))
+                raise EngineError(
+                    f"{where}: {name!r} "
+                    + (
+                        "has one value per condition: name the condition"
+                        if p.per_condition
+                        else "is shared by all conditions"
+                    )
+                )
 
     @cached_property
     def linear_constraints(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -274,18 +282,22 @@ class Problem:
         """(parameter name, condition) -> position in the free vector."""
         index = {}
         for k, (i, c) in enumerate(self._free_slots):
-            for condition in (range(len(self.conditions)) if c is None else (c,)):
+            for condition in range(len(self.conditions)) if c is None else (c,):
                 index[(self.parameters[i].name, condition)] = k
         return index
 
     def vector(self) -> NDArray[np.float64]:
-        return np.array([self.parameters[i].value[c] if c is not None else self.parameters[i].value
-                         for i, c in self.free_slots()], dtype=float)
+        return np.array(
+            [self.parameters[i].value[c] if c is not None else self.parameters[i].value for i, c in self.free_slots()],
+            dtype=float,
+        )
 
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         slots = self.free_slots()
-        return (np.array([self.parameters[i].lower() for i, _ in slots]),
-                np.array([self.parameters[i].upper() for i, _ in slots]))
+        return (
+            np.array([self.parameters[i].lower() for i, _ in slots]),
+            np.array([self.parameters[i].upper() for i, _ in slots]),
+        )
 
     def with_vector(self, x: Sequence[float]) -> Problem:
         """A copy with the free values replaced by ``x``."""
@@ -299,8 +311,12 @@ class Problem:
                 values[i] = tuple(per)
         return replace(self, parameters=tuple(replace(p, value=values[i]) for i, p in enumerate(self.parameters)))
 
-    def condition_values(self, condition: int, x: Sequence[float] | None = None,
-                         named: Mapping[str, float | Sequence[float]] | None = None) -> dict[str, float]:
+    def condition_values(
+        self,
+        condition: int,
+        x: Sequence[float] | None = None,
+        named: Mapping[str, float | Sequence[float]] | None = None,
+    ) -> dict[str, float]:
         """Parameter values one condition sees: at the start, with the free vector ``x``, or with
         ``named`` (as `named` gives it) replacing the values it names; ``x`` does not copy the problem."""
         if x is not None and named is not None:
@@ -343,11 +359,13 @@ class Problem:
         if unknown:
             raise EngineError(f"unknown parameter {unknown[0]!r}")
         for name, value in named.items():
-            if isinstance(value, (list, tuple)) and (not by_name[name].per_condition
-                                                     or len(value) != len(self.conditions)):
-                raise EngineError(f"parameter {name!r}: expected "
-                                  + (f"{len(self.conditions)} values" if by_name[name].per_condition
-                                     else "one value"))
+            if isinstance(value, (list, tuple)) and (
+                not by_name[name].per_condition or len(value) != len(self.conditions)
+            ):
+                raise EngineError(
+                    f"parameter {name!r}: expected "
+                    + (f"{len(self.conditions)} values" if by_name[name].per_condition else "one value")
+                )
         x = self.vector()
         for k, (i, c) in enumerate(self._free_slots):
             value = named.get(self.parameters[i].name)

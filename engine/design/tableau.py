@@ -17,8 +17,14 @@ from engine.stepping.protocol import MeasureRow
 
 # margin measure -> the attribute of its `Margin` the tableau shows (the margin family and the
 # natural sense are the table's, `engine.design.measure_kinds`)
-ATTRIBUTE = {"gain_margin": "value", "phase_margin": "value", "stability_margin": "value",
-             "attenuation_margin": "value", "gain_margin_db": "gain_db", "phase_margin_deg": "phase_deg"}
+ATTRIBUTE = {
+    "gain_margin": "value",
+    "phase_margin": "value",
+    "stability_margin": "value",
+    "attenuation_margin": "value",
+    "gain_margin_db": "gain_db",
+    "phase_margin_deg": "phase_deg",
+}
 TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency", *CLOSED_LOOP_MEASURES)
 
 
@@ -32,8 +38,10 @@ def tableau(problem: Problem) -> list[MeasureRow]:
 def _tableau(problem: Problem) -> list[MeasureRow]:
     unknown = [t.measure for t in problem.targets if t.measure not in TABLEAU_MEASURES]
     if unknown:
-        raise EngineError(f"the tableau evaluates {', '.join(TABLEAU_MEASURES)}, not {unknown[0]!r} "
-                          "(slp's own tableau evaluates every measure)")
+        raise EngineError(
+            f"the tableau evaluates {', '.join(TABLEAU_MEASURES)}, not {unknown[0]!r} "
+            "(slp's own tableau evaluates every measure)"
+        )
     rows: list[MeasureRow] = []
     for c, condition in enumerate(problem.conditions):
         targets = [t for t in problem.targets if t.condition in (None, condition.name)]
@@ -70,9 +78,19 @@ def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool
             method = peak.method
         else:
             (value, frequency), method = band_delay(found, Band(band.low, band.high)), found.label
-        rows.append(MeasureRow(f"{short}{n}", target.measure, condition, value, band.desired,
-                               bool(_met(value, band.desired, at_least)),
-                               None if np.isnan(frequency) else frequency, at_least, method))
+        rows.append(
+            MeasureRow(
+                f"{short}{n}",
+                target.measure,
+                condition,
+                value,
+                band.desired,
+                bool(_met(value, band.desired, at_least)),
+                None if np.isnan(frequency) else frequency,
+                at_least,
+                method,
+            )
+        )
     return rows
 
 
@@ -86,9 +104,19 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         wc = found.crossover_frequency
         desired = target.bands[0].desired if target.bands else None
         value = float("nan") if wc is None else wc
-        return [MeasureRow("wc", "crossover_frequency", condition, value, desired,
-                           desired is None or (wc is not None and _met(wc, desired, at_least)), wc, at_least,
-                           found.label)]
+        return [
+            MeasureRow(
+                "wc",
+                "crossover_frequency",
+                condition,
+                value,
+                desired,
+                desired is None or (wc is not None and _met(wc, desired, at_least)),
+                wc,
+                at_least,
+                found.label,
+            )
+        ]
     family, attribute = kind(target.measure).margin, ATTRIBUTE[target.measure]
     band = Band(target.detect_low, target.detect_high)
     chosen: list[Margin] = [m for m in found.all() if m.kind == family and band.contains(m.frequency)]
@@ -97,7 +125,9 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
         value = float(getattr(m, attribute))
         desired = target.desired(m.frequency)
         ok = _met(value, desired, at_least)
-        rows.append(MeasureRow(f"{family}{n}", target.measure, condition, value, desired, bool(ok), m.frequency,
-                               at_least, found.label))
+        rows.append(
+            MeasureRow(
+                f"{family}{n}", target.measure, condition, value, desired, bool(ok), m.frequency, at_least, found.label
+            )
+        )
     return rows
-

@@ -43,11 +43,11 @@ class LoopEvaluator:
                 self.single[number] = e.transfer.compile(params)
                 continue
             k = len(batch)
-            self.num[k, FOLD_WIDTH - folded.num.size:] = folded.num
-            self.den[k, FOLD_WIDTH - folded.den.size:] = folded.den
+            self.num[k, FOLD_WIDTH - folded.num.size :] = folded.num
+            self.den[k, FOLD_WIDTH - folded.den.size :] = folded.den
             batch.append(number)
         self.batch = np.array(batch, dtype=int)
-        self.num, self.den = self.num[:len(batch)], self.den[:len(batch)]
+        self.num, self.den = self.num[: len(batch)], self.den[: len(batch)]
 
     def corners(self, params: Mapping[str, float]) -> tuple[NDArray, NDArray, NDArray]:
         """Natural frequencies and dampings of every block's poles and zeros,
@@ -71,8 +71,7 @@ class LoopEvaluator:
         """Collapse single-in, single-out signals (not the break point) into chains."""
         n, k = len(self.network.signals), self.k
         source = n  # the injection replaces every use of x_k
-        edges = {number: [e.row, source if e.col == k else e.col, [number]]
-                 for number, e in enumerate(self.entries)}
+        edges = {number: [e.row, source if e.col == k else e.col, [number]] for number, e in enumerate(self.entries)}
         into: list[set[int]] = [set() for _ in range(n + 1)]
         out_of: list[set[int]] = [set() for _ in range(n + 1)]
         for number, (target, src, _) in edges.items():
@@ -97,8 +96,7 @@ class LoopEvaluator:
         compact = {signal: i for i, signal in enumerate(live)}
         self.chains = [ed[2] for ed in kept]
         self.groups = _chain_groups(self.chains)
-        self.schedule = schedule_edges(len(live), [(compact[ed[0]], compact[ed[1]], c)
-                                                   for c, ed in enumerate(kept)])
+        self.schedule = schedule_edges(len(live), [(compact[ed[0]], compact[ed[1]], c) for c, ed in enumerate(kept)])
         self.size, self.out, self.source = len(live), compact[k], compact[source]
 
     def cascade(self) -> list[int] | None:
@@ -133,8 +131,9 @@ class LoopEvaluator:
         if bad.any():
             row, col = np.argwhere(bad)[0]
             e = self.entries[row]
-            raise InterconnectionError(f"{e.label} ({e.transfer.text}) is not finite at "
-                                       f"{omega[col]:.6g} rad/s (a pole on the grid?)")
+            raise InterconnectionError(
+                f"{e.label} ({e.transfer.text}) is not finite at {omega[col]:.6g} rad/s (a pole on the grid?)"
+            )
         return values, slopes
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
@@ -147,7 +146,7 @@ class LoopEvaluator:
         rhs[self.source, 0] = 1.0
         sol = sparse_solve(self.schedule, gains, rhs, omega)[:, 0, :]
         R = np.zeros((self.size, 1, F), dtype=complex)
-        for (target, pairs) in enumerate(self.schedule.feeds):
+        for target, pairs in enumerate(self.schedule.feeds):
             for src, c in pairs:
                 R[target, 0] += 1j * dgains[c] * sol[src]
         dsol = sparse_solve(self.schedule, gains, R, omega)[:, 0, :]
@@ -174,8 +173,13 @@ class LoopEvaluator:
 def _chain_groups(chains: list[list[int]]) -> list[tuple[NDArray, NDArray]]:
     """(chain numbers, their members as rows) per chain length."""
     lengths = sorted({len(c) for c in chains})
-    return [(np.array([k for k, c in enumerate(chains) if len(c) == n], dtype=int),
-             np.array([c for c in chains if len(c) == n], dtype=int)) for n in lengths]
+    return [
+        (
+            np.array([k for k, c in enumerate(chains) if len(c) == n], dtype=int),
+            np.array([c for c in chains if len(c) == n], dtype=int),
+        )
+        for n in lengths
+    ]
 
 
 def _roots(coefficients: NDArray, label: str) -> NDArray[np.complex128]:

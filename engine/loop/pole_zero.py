@@ -46,8 +46,9 @@ class ZpkEvaluator:
         m = self.paired
         self.roots = np.concatenate([self.zeros[:m], self.poles[:m], self.zeros[m:], self.poles[m:]])[:, None]
         self.gaps = self.zeros[:m] - self.poles[:m]
-        self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m,
-                                                                      1.0 if self.extra_zeros else -1.0)]).astype(complex)
+        self.signs = np.concatenate(
+            [np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m, 1.0 if self.extra_zeros else -1.0)]
+        ).astype(complex)
         # what the grid-free searches derive from the form (`engine.margins.pole_zero.levels`), kept with it:
         # the margins and the closed-loop peaks of one loop share it
         self.derived: dict[str, object] = {}
@@ -75,12 +76,12 @@ class ZpkEvaluator:
         with np.errstate(all="ignore"):
             q = 1j * omega - self.roots
             r = 1.0 / q
-            gh = self.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)
+            gh = self.gain * np.multiply.reduce(q[:m] * r[m : 2 * m], axis=0)
             if self.roots.size > 2 * m:
-                gh = gh * np.multiply.reduce(q[2 * m:] if self.extra_zeros else r[2 * m:], axis=0)
+                gh = gh * np.multiply.reduce(q[2 * m :] if self.extra_zeros else r[2 * m :], axis=0)
             # a pair's 1/(s - z) - 1/(s - p) as (z - p) r_z r_p: no cancellation far above both
-            paired = self.gaps @ (r[:m] * r[m:2 * m]) if m else 0.0
-            rest = self.signs[2 * m:] @ r[2 * m:] if self.roots.size > 2 * m else 0.0
+            paired = self.gaps @ (r[:m] * r[m : 2 * m]) if m else 0.0
+            rest = self.signs[2 * m :] @ r[2 * m :] if self.roots.size > 2 * m else 0.0
             dgh = 1j * gh * (paired + rest)
         return gh, dgh
 
@@ -117,10 +118,9 @@ def closed_loop_realization(network: Network, break_at: str, params: Mapping[str
     denominator = 1.0 - ss.D[k, -1]
     if abs(denominator) < 1e-14:
         raise InterconnectionError(f"algebraic loop through {break_at!r} is singular")
-    Ck, Dk = ss.C[k:k + 1] / denominator, ss.D[k:k + 1, :-1] / denominator
+    Ck, Dk = ss.C[k : k + 1] / denominator, ss.D[k : k + 1, :-1] / denominator
     C, D = ss.C[:-1], ss.D[:-1, :-1]
-    return StateSpace(ss.A + Bu @ Ck, ss.B[:, :-1] + Bu @ Dk, C + Du @ Ck, D + Du @ Dk,
-                      network.inputs, network.signals)
+    return StateSpace(ss.A + Bu @ Ck, ss.B[:, :-1] + Bu @ Dk, C + Du @ Ck, D + Du @ Dk, network.inputs, network.signals)
 
 
 def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], exact) -> ZpkEvaluator | None:
@@ -137,12 +137,13 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
             if reference is not None and _matches(form, checks, reference):
                 return form
     from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
+
     try:
         ss = loop_realization(network, break_at, params)
     except (EngineError, linalg.LinAlgError, ValueError):
         return None
     k = network.signal(break_at)
-    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k:k + 1], -ss.D[k:k + 1, -1:]
+    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:]
     n = A.shape[0]
     if n == 0:
         return None

@@ -79,9 +79,9 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
         E[network.signal(name), k] = 1.0
     lu = _factor_feedthrough(np.eye(n) - feed)
     from scipy import linalg  # on first use (start-up)
+
     P_state, P_input = linalg.lu_solve(lu, C_sig), linalg.lu_solve(lu, E)
-    return StateSpace(A_blk + B_blk @ P_state, B_blk @ P_input, P_state, P_input,
-                      network.inputs, network.signals)
+    return StateSpace(A_blk + B_blk @ P_state, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
 
 
 def _factor_feedthrough(matrix: NDArray) -> tuple:
@@ -91,6 +91,7 @@ def _factor_feedthrough(matrix: NDArray) -> tuple:
     from 3e-20 to 1e11 around a loop with 1 + GH(inf) = 8.77 is not
     mistaken for a singular one, while a loop gain of exactly -1 is."""
     from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
+
     if not np.all(np.isfinite(matrix)):
         raise InterconnectionError("a direct feedthrough is not finite")
     with warnings.catch_warnings():  # an exactly zero pivot is the error below, not a warning
@@ -137,7 +138,7 @@ def _sections(roots: NDArray[np.complex128]) -> list[NDArray[np.float64]]:
     upper = sorted((r for r in roots if r.imag > 1e-12 * max(1.0, abs(r))), key=abs)
     reals = sorted((r.real for r in roots if abs(r.imag) <= 1e-12 * max(1.0, abs(r))), key=abs)
     out = [np.array([1.0, -2.0 * r.real, abs(r) ** 2]) for r in upper]
-    out += [np.poly(reals[i:i + 2]).real for i in range(0, len(reals), 2)]
+    out += [np.poly(reals[i : i + 2]).real for i in range(0, len(reals), 2)]
     return out
 
 
@@ -151,11 +152,12 @@ def cascade(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray, NDArray, NDAr
             raise BlockError("improper transfer function in cascade realization")
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[num[0] / den[0]]])
     if den.size <= 3 and num.size <= den.size:
-        return _section(num, den)   # one section already: no roots needed
+        return _section(num, den)  # one section already: no roots needed
     if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
         raise BlockError(f"polynomial coefficients overflow (degree {den.size - 1})")
-    return cascade_roots(num[0] / den[0], np.roots(num) if num.size > 1 else np.zeros(0),
-                         np.roots(den) if den.size > 1 else np.zeros(0))
+    return cascade_roots(
+        num[0] / den[0], np.roots(num) if num.size > 1 else np.zeros(0), np.roots(den) if den.size > 1 else np.zeros(0)
+    )
 
 
 def cascade_roots(gain: float, zero_roots: NDArray, pole_roots: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
@@ -174,9 +176,9 @@ def cascade_roots(gain: float, zero_roots: NDArray, pole_roots: NDArray) -> tupl
     top = 0  # the series so far has states :top; each section feeds on its output C x + D u
     for a, b, c, d in sections:
         n = a.shape[0]
-        A[top:top + n, :top], A[top:top + n, top:top + n] = b @ C[:, :top], a
-        B[top:top + n] = b @ D
-        C[:, :top], C[:, top:top + n] = d @ C[:, :top], c
+        A[top : top + n, :top], A[top : top + n, top : top + n] = b @ C[:, :top], a
+        B[top : top + n] = b @ D
+        C[:, :top], C[:, top : top + n] = d @ C[:, :top], c
         D = d @ D
         top += n
     return A, B, C, D
@@ -221,4 +223,3 @@ def stability(pole_list: list[Pole], tolerance: float = 1e-11) -> str:
     if worst >= -tolerance * scale:
         return "marginally stable"
     return "stable"
-

@@ -32,19 +32,32 @@ class Response:
     sensitivity: NDArray[np.complex128] | None
 
 
-def open_loop(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float],
-              sensitivities: bool = True, check: bool = True) -> Response:
+def open_loop(
+    network: Network,
+    break_at: str,
+    omega: ArrayLike,
+    params: Mapping[str, float],
+    sensitivities: bool = True,
+    check: bool = True,
+) -> Response:
     """GH(j omega) with the loop broken at ``break_at`` (1 + GH = 0 closes it);
     ``check=False`` skips validating a grid and parameters the caller has validated."""
-    sol = solve(network, omega, params, break_at, break_at=break_at, output=break_at,
-                sensitivities=sensitivities, check=check)
+    sol = solve(
+        network, omega, params, break_at, break_at=break_at, output=break_at, sensitivities=sensitivities, check=check
+    )
     k = network.signal(break_at)
     dgh = None if sol.dx is None else -sol.dx[:, 0, :]
     return Response(sol.omega, -sol.x[:, k], sol.parameters, dgh)
 
 
-def closed_loop(network: Network, source: str, target: str, omega: ArrayLike,
-                params: Mapping[str, float], sensitivities: bool = True) -> Response:
+def closed_loop(
+    network: Network,
+    source: str,
+    target: str,
+    omega: ArrayLike,
+    params: Mapping[str, float],
+    sensitivities: bool = True,
+) -> Response:
     """Response of signal ``target`` to a unit injection at signal ``source``, all loops closed."""
     sol = solve(network, omega, params, source, output=target, sensitivities=sensitivities)
     j = network.signal(target)
@@ -68,10 +81,19 @@ class LoopModel:
     evaluator when ``evaluate`` is a faster form of it (`engine.loop.pole_zero`).
     """
 
-    def __init__(self, omega: NDArray[np.float64], gh: NDArray[np.complex128] | None = None,
-                 evaluate: Evaluator | None = None, corner_frequencies: NDArray | None = None,
-                 dampings: NDArray | None = None, rational: bool = False, dc_value: complex | None = None,
-                 delay: float = 0.0, axis_poles: NDArray | None = None, exact: Evaluator | None = None):
+    def __init__(
+        self,
+        omega: NDArray[np.float64],
+        gh: NDArray[np.complex128] | None = None,
+        evaluate: Evaluator | None = None,
+        corner_frequencies: NDArray | None = None,
+        dampings: NDArray | None = None,
+        rational: bool = False,
+        dc_value: complex | None = None,
+        delay: float = 0.0,
+        axis_poles: NDArray | None = None,
+        exact: Evaluator | None = None,
+    ):
         if gh is None and evaluate is None:
             raise EngineError("a loop needs its response or an evaluator")
         self.omega = omega
@@ -87,8 +109,18 @@ class LoopModel:
 
     def on_exact(self) -> LoopModel:
         """The same loop evaluated on the exact network (not the pole-zero form)."""
-        return LoopModel(self.omega, self._gh, self.exact, self.corner_frequencies, self.dampings, self.rational,
-                         self.dc_value, self.delay, self.axis_poles, self.exact)
+        return LoopModel(
+            self.omega,
+            self._gh,
+            self.exact,
+            self.corner_frequencies,
+            self.dampings,
+            self.rational,
+            self.dc_value,
+            self.delay,
+            self.axis_poles,
+            self.exact,
+        )
 
     @property
     def gh(self) -> NDArray[np.complex128]:
@@ -114,31 +146,48 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
     if isinstance(evaluate, ZpkEvaluator) and not evaluate.factored:
         corners, damps, is_pole = _with_loop_zeros(corners, damps, is_pole, evaluate.zeros)
-    return LoopModel(w, None, evaluate, corners, damps, network.rational, _dc_value(exact),
-                     delay=network_delay(network, params), axis_poles=corners[is_pole & (damps <= 1e-9)], exact=exact)
+    return LoopModel(
+        w,
+        None,
+        evaluate,
+        corners,
+        damps,
+        network.rational,
+        _dc_value(exact),
+        delay=network_delay(network, params),
+        axis_poles=corners[is_pole & (damps <= 1e-9)],
+        exact=exact,
+    )
 
 
 SAME_CORNER = 1e-6  # relative frequency plus damping difference within which a loop zero is a block's corner
 
 
-def _with_loop_zeros(corners: NDArray, damps: NDArray, is_pole: NDArray,
-                     zeros: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+def _with_loop_zeros(
+    corners: NDArray, damps: NDArray, is_pole: NDArray, zeros: NDArray
+) -> tuple[NDArray, NDArray, NDArray]:
     """The blocks' corners and the loop's own light zeros (from its realized pole-zero form):
     branches summed (a rate and an attitude channel, a plant's modes in parallel) make
     zeros no block has, lightly damped between the modes, which the detection grid
     must cluster around as around any light corner."""
     from engine.margins.detection_grid import LIGHT_DAMPING  # (detection imports this module)
-    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0) & (zeros.imag > 0)]   # one of each complex pair
+
+    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0) & (zeros.imag > 0)]  # one of each complex pair
     size, damping = np.abs(zeros), np.abs(zeros.real) / np.abs(zeros)
-    light = damping < LIGHT_DAMPING   # the grid clusters around light corners only (a far real zero
-    size, damping = size[light], damping[light]   # would stretch its range by decades for nothing)
+    light = damping < LIGHT_DAMPING  # the grid clusters around light corners only (a far real zero
+    size, damping = size[light], damping[light]  # would stretch its range by decades for nothing)
     known = np.zeros(size.size, dtype=bool)
-    if corners.size:   # a block's own zero or pole (a cascade's part of the loop) is a corner already
-        known = np.min(np.abs(size[:, None] / corners[None, :] - 1) + np.abs(damping[:, None] - damps[None, :]),
-                       axis=1) <= SAME_CORNER
+    if corners.size:  # a block's own zero or pole (a cascade's part of the loop) is a corner already
+        known = (
+            np.min(np.abs(size[:, None] / corners[None, :] - 1) + np.abs(damping[:, None] - damps[None, :]), axis=1)
+            <= SAME_CORNER
+        )
     size, damping = size[~known], damping[~known]
-    return (np.concatenate([corners, size]), np.concatenate([damps, damping]),
-            np.concatenate([is_pole, np.zeros(size.size, dtype=bool)]))
+    return (
+        np.concatenate([corners, size]),
+        np.concatenate([damps, damping]),
+        np.concatenate([is_pole, np.zeros(size.size, dtype=bool)]),
+    )
 
 
 def network_delay(network: Network, params: Mapping[str, float]) -> float:

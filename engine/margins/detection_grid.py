@@ -102,8 +102,10 @@ def _detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) ->
         if starts.shape[1] == 0:
             break
         if total + starts.shape[1] > budget:
-            notes.append(f"the detection grid reached its budget of {budget} points: features narrower "
-                         f"than its spacing near {_where(starts):.6g} rad/s may be missed")
+            notes.append(
+                f"the detection grid reached its budget of {budget} points: features narrower "
+                f"than its spacing near {_where(starts):.6g} rad/s may be missed"
+            )
             break
         a, b = starts[0].real, stops[0].real
         mid = np.where(a > 0, np.sqrt(a * b), 0.5 * b)
@@ -262,7 +264,7 @@ def _initial_grid(loop: LoopModel, budget: int, notes: list[str]) -> NDArray[np.
     if loop.rational:
         lo = corners.min() if corners.size else 1.0
         hi = corners.max() if corners.size else 1.0
-        lo, hi = _extend_to_crossovers(loop, lo * 10.0 ** -DECADES_BEYOND, hi * 10.0 ** DECADES_BEYOND)
+        lo, hi = _extend_to_crossovers(loop, lo * 10.0**-DECADES_BEYOND, hi * 10.0**DECADES_BEYOND)
     else:
         lo, hi = _searched_range(loop)
     delayed, hi = _delay_grid(loop, lo, hi, DELAY_BUDGET, notes)
@@ -296,10 +298,14 @@ def _delay_grid(loop: LoopModel, lo: float, hi: float, most: int, notes: list[st
     if count > most:
         top = lo + (most - 1) * spacing
         if not top > lo * (1 + 1e-9):
-            raise EngineError(f"the delay ({loop.delay:.6g} s) turns the phase by pi within "
-                              f"{spacing:.3g} rad/s: no frequency range can be searched")
-        notes.append(f"the delay ({loop.delay:.6g} s) turns the phase faster than the grid's budget can "
-                     f"follow: searched up to {top:.6g} rad/s, not up to {hi:.6g}")
+            raise EngineError(
+                f"the delay ({loop.delay:.6g} s) turns the phase by pi within "
+                f"{spacing:.3g} rad/s: no frequency range can be searched"
+            )
+        notes.append(
+            f"the delay ({loop.delay:.6g} s) turns the phase faster than the grid's budget can "
+            f"follow: searched up to {top:.6g} rad/s, not up to {hi:.6g}"
+        )
         count, hi = most, top
     return lo + spacing * np.arange(count), hi
 
@@ -311,8 +317,8 @@ def _extend_to_crossovers(loop: LoopModel, lo: float, hi: float) -> tuple[float,
     for _ in range(40 // DECADES_PER_LOOK):
         with np.errstate(all="ignore"):
             level = np.log(np.abs(loop.evaluate(np.concatenate([hi * steps, lo / steps]))[0]))
-        up, down = _decades_moving(level[:steps.size]), _decades_moving(level[steps.size:])
-        hi, lo = hi * 10.0 ** up, lo / 10.0 ** down
+        up, down = _decades_moving(level[: steps.size]), _decades_moving(level[steps.size :])
+        hi, lo = hi * 10.0**up, lo / 10.0**down
         if up < DECADES_PER_LOOK and down < DECADES_PER_LOOK:
             break
     return lo, hi

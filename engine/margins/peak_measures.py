@@ -48,8 +48,11 @@ DISK_SKEW = 0.0  # the balanced disk margin: a target carries no skew
 
 def transform(measure: str) -> Transform:
     """The f whose peak |f| a peak measure reads."""
-    return {"disk_margin": disk_transform(DISK_SKEW), "sensitivity_peak": sensitivity,
-            "complementary_sensitivity_peak": complementary}[measure]
+    return {
+        "disk_margin": disk_transform(DISK_SKEW),
+        "sensitivity_peak": sensitivity,
+        "complementary_sensitivity_peak": complementary,
+    }[measure]
 
 
 def loop_derivative(measure: str, gh: NDArray | complex) -> tuple[NDArray, NDArray]:
@@ -70,8 +73,9 @@ def from_magnitude(measure: str, magnitude: float) -> float:
     return magnitude
 
 
-def band_peaks(loop: LoopModel, measures: Sequence[str], band: Band,
-               stable: bool | None = None) -> list[tuple[float, float, Peak]]:
+def band_peaks(
+    loop: LoopModel, measures: Sequence[str], band: Band, stable: bool | None = None
+) -> list[tuple[float, float, Peak]]:
     """(value, frequency, the refined peak) of each peak measure over ``band``, refined in one
     search.  An unstable closed loop (``stable`` False) has no disk margin (0) and no finite
     Ms or Mt (inf: S and T have poles in the right half-plane), at frequency NaN."""
@@ -131,7 +135,7 @@ def _local_on(loop: LoopModel, f: Transform, band: Band) -> tuple[tuple[float, f
 
 def _grid_peaks(w: NDArray, gh: NDArray, f: Transform, band: Band) -> tuple[tuple[float, float, complex], ...]:
     magnitude = np.abs(f(w, gh, np.zeros_like(gh))[0])
-    i = sign_changes(np.diff(magnitude ** 2), falling_only=True) + 1
+    i = sign_changes(np.diff(magnitude**2), falling_only=True) + 1
     i = i[(w[i] >= band.low) & (w[i] <= band.high)]
     return tuple((float(w[k]), float(magnitude[k]), complex(gh[k])) for k in i)
 
@@ -152,7 +156,7 @@ def peak_partial(measure: str, gh: complex, gh_x: NDArray) -> NDArray:
     f, f_l = complex(f), complex(f_l)
     magnitude = abs(f)
     d = np.real(np.conj(f) * f_l * np.asarray(gh_x)) / magnitude
-    return -d / magnitude ** 2 if measure == "disk_margin" else d
+    return -d / magnitude**2 if measure == "disk_margin" else d
 
 
 def delay_partial(gh: complex, gh_x: NDArray, gh_w: complex, w: float, delay: float) -> NDArray:

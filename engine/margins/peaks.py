@@ -103,8 +103,9 @@ def unbounded_note(peak: Peak) -> str | None:
     there, to rounding: 1/s^2 gave 3.2e14); None for a peak within it."""
     if not peak.value > UNBOUNDED:
         return None
-    return (f"unbounded: 1 + GH is 0 to rounding at {peak.frequency:.6g} rad/s "
-            "(a closed-loop pole on the imaginary axis)")
+    return (
+        f"unbounded: 1 + GH is 0 to rounding at {peak.frequency:.6g} rad/s (a closed-loop pole on the imaginary axis)"
+    )
 
 
 def reported(peak: Peak) -> Peak:
@@ -181,8 +182,10 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     w, gh, dgh = resolved_grid(loop, transforms, w, gh, dgh, notes)
     levels = [log_level(*t(w, gh, dgh)) for t in transforms]
     at, group = refined_maxima(loop, transforms, w, levels)
-    found = [_candidates(w, levels[k][0], at[group == k], _values(loop, transforms[k], at[group == k]))
-             for k in range(len(transforms))]
+    found = [
+        _candidates(w, levels[k][0], at[group == k], _values(loop, transforms[k], at[group == k]))
+        for k in range(len(transforms))
+    ]
     ends = _ends(loop, transforms, w, band, notes) if loop.rational else [([], [])] * len(transforms)
     out = []
     for (points, values), (end_w, end_v) in zip(found, ends):
@@ -214,8 +217,9 @@ def band_grid(loop: LoopModel, w: NDArray, gh: NDArray, dgh: NDArray, band: Band
     return w, gh, dgh
 
 
-def resolved_grid(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray,
-              notes: list[str]) -> tuple[NDArray, ...]:
+def resolved_grid(
+    loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray, notes: list[str]
+) -> tuple[NDArray, ...]:
     """The grid with every interval halved that could hide a pair of extrema of
     some |f| (the detection grid's own test, `may_hide_pair`, on f), bounded."""
     budget = w.size + EXTRA_POINTS
@@ -227,8 +231,10 @@ def resolved_grid(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, 
         if not split.any():
             return w, gh, dgh
         if w.size + np.count_nonzero(split) > budget:
-            notes.append(f"the peak search reached its budget of {budget} points: narrow peaks near "
-                         f"{float(np.median(w[:-1][split])):.6g} rad/s may be missed")
+            notes.append(
+                f"the peak search reached its budget of {budget} points: narrow peaks near "
+                f"{float(np.median(w[:-1][split])):.6g} rad/s may be missed"
+            )
             return w, gh, dgh
         a, b = w[:-1][split], w[1:][split]
         mid = np.where(a > 0, np.sqrt(a * b), 0.5 * b)
@@ -249,8 +255,9 @@ def _may_hide(f: NDArray, df: NDArray) -> NDArray[np.bool_]:
     return hide & np.isfinite(turn)
 
 
-def refined_maxima(loop: LoopModel, transforms: Sequence[Transform], w: NDArray,
-                    levels: list[tuple[NDArray, NDArray]]) -> tuple[NDArray, NDArray]:
+def refined_maxima(
+    loop: LoopModel, transforms: Sequence[Transform], w: NDArray, levels: list[tuple[NDArray, NDArray]]
+) -> tuple[NDArray, NDArray]:
     """Every interior maximum of every |f| (h' from + to -), refined in one
     vectorized `refine`; their frequencies and which transform each is of."""
     index = [sign_changes(d, falling_only=True) for _, d in levels]
@@ -289,8 +296,9 @@ def _candidates(w: NDArray, h: NDArray, at: NDArray, values: NDArray) -> tuple[N
     return np.concatenate([at, w]), np.concatenate([values, h])
 
 
-def _ends(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, band: Band,
-          notes: list[str]) -> list[tuple[list, list]]:
+def _ends(
+    loop: LoopModel, transforms: Sequence[Transform], w: NDArray, band: Band, notes: list[str]
+) -> list[tuple[list, list]]:
     """Per transform, the limits of log |f| at w -> 0 and w -> inf when the
     band reaches there (reported at frequencies 0 and inf)."""
     out: list[tuple[list, list]] = [([], []) for _ in transforms]
@@ -305,8 +313,7 @@ def _ends(loop: LoopModel, transforms: Sequence[Transform], w: NDArray, band: Ba
     return out
 
 
-def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float,
-           factor: float) -> list[tuple[float, bool]]:
+def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float, factor: float) -> list[tuple[float, bool]]:
     """Per transform, log |f| as omega -> 0 (factor < 1) or inf, by steps of
     factor**(2**j) (at most `END_LOOKS`), and whether it settled (changed by
     at most 4 ulp).  A level still falling there is -inf (never the peak)."""
@@ -360,11 +367,12 @@ def _table_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band) -
     fitted = fitted_loop(loop)
     if fitted is not None:
         model, residual, degree = fitted
-        note = (f"tabulated loop: peaks refined on a rational fit of degree {degree} "
-                f"(relative residual {residual:.1e} on the table)")
+        note = (
+            f"tabulated loop: peaks refined on a rational fit of degree {degree} "
+            f"(relative residual {residual:.1e} on the table)"
+        )
         found = _peaks_on(model, transforms, band)
-        return tuple(Peak(p.value, p.frequency, f"fitted (residual {residual:.1e})", (note,) + p.notes)
-                     for p in found)
+        return tuple(Peak(p.value, p.frequency, f"fitted (residual {residual:.1e})", (note,) + p.notes) for p in found)
     keep = (loop.omega >= band.low) & (loop.omega <= band.high)
     if not keep.any():
         raise EngineError(f"the band {band.low:g}..{band.high:g} rad/s holds no table frequencies")

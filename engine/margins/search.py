@@ -39,8 +39,13 @@ from engine.margins.values import Band, Margin, Margins, margins_of, single_marg
 from engine.numerics.refinement import Roots, refine, sign_changes
 
 
-def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band(),
-            attenuation_above: float | None = None, method: str = "auto") -> Margins:
+def margins(
+    loop: LoopModel,
+    gain_band: Band = Band(),
+    phase_band: Band = Band(),
+    attenuation_above: float | None = None,
+    method: str = "auto",
+) -> Margins:
     """All four margin kinds of ``loop`` (attenuation only when a frequency is given).
 
     Loops with an evaluator are refined on it.  A tabulated loop is, by
@@ -53,13 +58,27 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         fitted = None if method == "grid" else fitted_loop(loop)
         if fitted is None:
             result = _grid_margins(loop, gain_band, phase_band, attenuation_above)
-            return result if method == "grid" else replace(result, notes=result.notes + (
-                f"the table could not be fitted within {FIT_LIMIT:g} relative: grid rule used",))
+            return (
+                result
+                if method == "grid"
+                else replace(
+                    result,
+                    notes=result.notes
+                    + (f"the table could not be fitted within {FIT_LIMIT:g} relative: grid rule used",),
+                )
+            )
         found = margins(fitted[0], gain_band, phase_band, attenuation_above)
         notes = tuple(n for n in found.notes if not n.startswith("searched within"))
-        return replace(found, method="fitted", residual=fitted[1], notes=(
-            f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
-            f"(relative residual {fitted[1]:.1e} on the table, the margins' stated uncertainty)",) + notes)
+        return replace(
+            found,
+            method="fitted",
+            residual=fitted[1],
+            notes=(
+                f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
+                f"(relative residual {fitted[1]:.1e} on the table, the margins' stated uncertainty)",
+            )
+            + notes,
+        )
     grid, (found, notes) = None, _without_grid(loop)
     if found is None:
         grid = detection_grid(loop)
@@ -86,7 +105,9 @@ def margins(loop: LoopModel, gain_band: Band = Band(), phase_band: Band = Band()
         phase=tuple(m for m in found["P"] if phase_band.contains(m.frequency)),
         stability=tuple(found["S"]),
         attenuation=tuple(m for m in found["A"] if m.frequency >= above),
-        method="refined", notes=tuple(notes))
+        method="refined",
+        notes=tuple(notes),
+    )
 
 
 def _without_grid(loop: LoopModel) -> tuple[dict[str, list[Margin]] | None, list[str]]:
@@ -140,7 +161,7 @@ def _polished(loop: LoopModel, found: dict[str, list[Margin]]) -> dict[str, list
     kind = np.repeat(np.arange(len(names)), counts)
     if not (centre > 0).all():
         return None
-    ends = np.full((2, centre.size), np.nan)   # each bracket's ends, and GH and dGH there
+    ends = np.full((2, centre.size), np.nan)  # each bracket's ends, and GH and dGH there
     g, dg = np.zeros((2, centre.size), dtype=complex), np.zeros((2, centre.size), dtype=complex)
     for width in POLISH_WIDTHS:
         todo = np.flatnonzero(np.isnan(ends[0]))
@@ -160,7 +181,7 @@ def _polished(loop: LoopModel, found: dict[str, list[Margin]]) -> dict[str, list
     if not ((roots >= ends[0]) & (roots <= ends[1])).all():
         return None
     bounds = np.cumsum([0] + counts)
-    frequencies = {name: roots[bounds[k]:bounds[k + 1]] for k, name in enumerate(names)}
+    frequencies = {name: roots[bounds[k] : bounds[k + 1]] for k, name in enumerate(names)}
     values = _evaluated(loop, frequencies)
     return {name: margins_of(name, frequencies[name], values[name]) for name in names}
 
@@ -173,7 +194,7 @@ def _changes_sign(levels: list[Level], g_lo: NDArray, dg_lo: NDArray, g_hi: NDAr
     _, _, (h_lo, d_lo), (h_hi, d_hi) = _end_levels(shift, angle, (g_lo, dg_lo), (g_hi, dg_hi))
     stationary = np.array([lv.stationary for lv in levels], dtype=bool)
     a, b = np.where(stationary, d_lo, h_lo), np.where(stationary, d_hi, h_hi)
-    with np.errstate(all="ignore"):   # the slopes' sizes (h is a log or an angle: its own size is 1)
+    with np.errstate(all="ignore"):  # the slopes' sizes (h is a log or an angle: its own size is 1)
         size_a = np.where(stationary, np.abs(dg_lo / (g_lo + shift)), 1.0)
         size_b = np.where(stationary, np.abs(dg_hi / (g_hi + shift)), 1.0)
     loud = (np.abs(a) > NOISE * size_a) & (np.abs(b) > NOISE * size_b)
@@ -196,8 +217,7 @@ def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
     if not fit.residual <= FIT_LIMIT:
         return None
     poles = fit.poles[np.isfinite(fit.poles) & (np.abs(fit.poles) > 0)]
-    model = LoopModel(loop.omega[keep], loop.gh[keep], fit.evaluate, np.abs(poles),
-                      np.abs(poles.real) / np.abs(poles))
+    model = LoopModel(loop.omega[keep], loop.gh[keep], fit.evaluate, np.abs(poles), np.abs(poles.real) / np.abs(poles))
     return model, float(fit.residual), int(fit.degree)
 
 
@@ -218,8 +238,13 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
     names = list(brackets)
     index = np.concatenate([brackets[name].index for name in names])
     counts = [brackets[name].index.size for name in names]
-    roots = _refine(loop, (w[index], gh[index], dgh[index]), (w[index + 1], gh[index + 1], dgh[index + 1]),
-                    [LEVELS[name] for name in names], counts)
+    roots = _refine(
+        loop,
+        (w[index], gh[index], dgh[index]),
+        (w[index + 1], gh[index + 1], dgh[index + 1]),
+        [LEVELS[name] for name in names],
+        counts,
+    )
     bounds = np.cumsum([0] + counts)
     frequencies = {name: roots.at[start:stop] for name, start, stop in zip(names, bounds[:-1], bounds[1:])}
     for name, start, stop in zip(names, bounds[:-1], bounds[1:]):
@@ -261,9 +286,14 @@ class Level:
         return bool(self.reveals)
 
 
-LEVELS = {"S": Level(1.0, False, True, 1), "A": Level(0.0, False, True, -1, "P"),
-          "Amin": Level(0.0, False, True, 1, "P"), "phase": Level(0.0, True, True, 0, "G"),
-          "G": Level(0.0, True, False, 0), "P": Level(0.0, False, False, 0)}
+LEVELS = {
+    "S": Level(1.0, False, True, 1),
+    "A": Level(0.0, False, True, -1, "P"),
+    "Amin": Level(0.0, False, True, 1, "P"),
+    "phase": Level(0.0, True, True, 0, "G"),
+    "G": Level(0.0, True, False, 0),
+    "P": Level(0.0, False, False, 0),
+}
 
 
 @dataclass(frozen=True)
@@ -299,12 +329,24 @@ def _grid_brackets(w: NDArray, gh: NDArray, dgh: NDArray, flat: frozenset[str] =
     with np.errstate(all="ignore"):
         relative, distance = dgh / gh, dgh / (1.0 + gh)
         mag = np.abs(gh)
-        scale = {"S": np.abs(distance), "A": np.abs(relative), "Amin": np.abs(relative),
-                 "phase": np.abs(relative), "G": mag, "P": np.maximum(mag, 1.0)}
+        scale = {
+            "S": np.abs(distance),
+            "A": np.abs(relative),
+            "Amin": np.abs(relative),
+            "phase": np.abs(relative),
+            "G": mag,
+            "P": np.maximum(mag, 1.0),
+        }
     im = np.sign(gh.imag)
     negative = (gh.real[:-1] < 0) | (gh.real[1:] < 0)
-    targets = {"S": distance.real, "A": relative.real, "Amin": relative.real, "phase": relative.imag,
-               "G": gh.imag, "P": mag - 1.0}
+    targets = {
+        "S": distance.real,
+        "A": relative.real,
+        "Amin": relative.real,
+        "phase": relative.imag,
+        "G": gh.imag,
+        "P": mag - 1.0,
+    }
     moving = {"G": np.abs(relative.imag) * w > NOISE, "P": np.abs(relative.real) * w > NOISE}
     keep = {"Amin": (mag[:-1] > 1) & (mag[1:] > 1), "phase": (im[:-1] == im[1:]) & negative, "G": negative}
     out = {}
@@ -328,8 +370,9 @@ def _grid_brackets(w: NDArray, gh: NDArray, dgh: NDArray, flat: frozenset[str] =
     return out
 
 
-def _level_values(g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset: NDArray,
-                  angle: NDArray) -> tuple[NDArray, NDArray]:
+def _level_values(
+    g: NDArray, dg: NDArray, shift: NDArray, left: NDArray, offset: NDArray, angle: NDArray
+) -> tuple[NDArray, NDArray]:
     """(h, h') of each point's own level (see `Level`): ``left`` is the
     bracket's left-end GH for angles (1 for magnitudes), ``offset`` the
     angle of that end from the negative real axis (0 for magnitudes)."""
@@ -370,12 +413,11 @@ def _evaluated(loop: LoopModel, frequencies: dict[str, NDArray]) -> dict[str, ND
     values = loop.evaluate(every)[0] if every.size else np.zeros(0, dtype=complex)
     out, start = {}, 0
     for name, points in frequencies.items():
-        out[name], start = values[start:start + points.size], start + points.size
+        out[name], start = values[start : start + points.size], start + points.size
     return out
 
 
-def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,
-                  attenuation_above: float | None) -> Margins:
+def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band, attenuation_above: float | None) -> Margins:
     """The CIP listing's grid rules (GAINMG, PHASEM, SRMINS) on the user's grid."""
     w, gh = loop.omega, loop.gh
     im, mag2 = gh.imag, np.abs(gh) ** 2
@@ -393,7 +435,10 @@ def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band,
     pi = pi[np.array([phase_band.contains(w[i]) for i in pi], dtype=bool)]
     ai = ai[w[ai] > attenuation_above] if attenuation_above is not None else ai[:0]
     return Margins(
-        gain=tuple(margins_of("G", w[gi], gh[gi])), phase=tuple(margins_of("P", w[pi], gh[pi])),
-        stability=tuple(margins_of("S", w[si], gh[si])), attenuation=tuple(margins_of("A", w[ai], gh[ai])),
+        gain=tuple(margins_of("G", w[gi], gh[gi])),
+        phase=tuple(margins_of("P", w[pi], gh[pi])),
+        stability=tuple(margins_of("S", w[si], gh[si])),
+        attenuation=tuple(margins_of("A", w[ai], gh[ai])),
         method="grid",
-        notes=("tabulated loop: margins at grid points (report 000 grid rule), not refined",))
+        notes=("tabulated loop: margins at grid points (report 000 grid rule), not refined",),
+    )

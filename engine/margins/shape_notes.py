@@ -22,19 +22,29 @@ def level_notes(loop: LoopModel, flat: frozenset[str], gh: complex, on_real_axis
     "phase"), GH at any frequency, and whether GH is real at every frequency."""
     notes = []
     if "1+GH" in flat:
-        notes.append(f"|1+GH| is constant ({abs(1 + gh):.6g}) at every frequency: "
-                     "no interior minimum (no stability margin)")
+        notes.append(
+            f"|1+GH| is constant ({abs(1 + gh):.6g}) at every frequency: no interior minimum (no stability margin)"
+        )
     if "GH" in flat:
         level = abs(gh)
-        notes.append(f"|GH| is constant ({level:.6g}) at every frequency"
-                     + (": its crossing of 1 is not isolated (no phase margin)" if abs(level - 1) < 1e-9 else ""))
+        notes.append(
+            f"|GH| is constant ({level:.6g}) at every frequency"
+            + (": its crossing of 1 is not isolated (no phase margin)" if abs(level - 1) < 1e-9 else "")
+        )
     if "phase" in flat:
-        notes.append(f"the phase of GH is constant ({math.degrees(np.angle(gh)):.6g} deg)"
-                     + (": on the negative real axis everywhere (gain crossings not isolated)"
-                        if abs(abs(np.angle(gh)) - math.pi) < 1e-9 else ""))
+        notes.append(
+            f"the phase of GH is constant ({math.degrees(np.angle(gh)):.6g} deg)"
+            + (
+                ": on the negative real axis everywhere (gain crossings not isolated)"
+                if abs(abs(np.angle(gh)) - math.pi) < 1e-9
+                else ""
+            )
+        )
     elif on_real_axis:
-        notes.append("GH is real at every frequency (the Nyquist curve lies on the real axis): its crossings "
-                     "of the negative real axis are not isolated, so no gain margin is listed")
+        notes.append(
+            "GH is real at every frequency (the Nyquist curve lies on the real axis): its crossings "
+            "of the negative real axis are not isolated, so no gain margin is listed"
+        )
     if loop.axis_poles.size:
         listed = ", ".join(f"{w:.6g}" for w in np.unique(loop.axis_poles)[:6])
         notes.append(f"GH has poles on the imaginary axis at {listed} rad/s (|GH| is infinite there)")

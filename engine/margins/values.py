@@ -81,13 +81,17 @@ def margins_of(kind: str, w: NDArray, gh: NDArray) -> list[Margin]:
         magnitude, distance = np.abs(gh), np.abs(1.0 + gh)
         if kind == "G":
             db = np.where(magnitude > 0, -20.0 * np.log10(magnitude), np.inf)
-            return [Margin("G", f, d, g, gain_db=x) for f, d, g, x in zip(w.tolist(), distance.tolist(), gh.tolist(),
-                                                                           db.tolist())]
+            return [
+                Margin("G", f, d, g, gain_db=x)
+                for f, d, g, x in zip(w.tolist(), distance.tolist(), gh.tolist(), db.tolist())
+            ]
         if kind == "P":
             phase = 180.0 + np.degrees(np.arctan2(gh.imag, gh.real))
             phase = np.where(phase > 180.0, phase - 360.0, phase)
             delay = np.radians(phase) % (2 * np.pi) / w
-            return [Margin("P", f, d, g, phase_deg=x, delay=t if f > 0 else None)
-                    for f, d, g, x, t in zip(w.tolist(), distance.tolist(), gh.tolist(), phase.tolist(), delay.tolist())]
+            return [
+                Margin("P", f, d, g, phase_deg=x, delay=t if f > 0 else None)
+                for f, d, g, x, t in zip(w.tolist(), distance.tolist(), gh.tolist(), phase.tolist(), delay.tolist())
+            ]
     values = distance if kind == "S" else magnitude
     return [Margin(kind, f, v, g) for f, v, g in zip(w.tolist(), values.tolist(), gh.tolist())]

@@ -23,7 +23,7 @@ from engine.numerics.polynomials import Rational, degree
 Coefficient = float | str  # a number or the name of a parameter
 Compiled = Callable[[NDArray], tuple[NDArray, NDArray | None]]
 TWO_PI = 2.0 * np.pi
-MAX_TABLE_ROWS = 10_000   # rows of one frequency table (inline or CSV)
+MAX_TABLE_ROWS = 10_000  # rows of one frequency table (inline or CSV)
 
 
 def _term(c: Coefficient) -> str:
@@ -49,8 +49,9 @@ class ExpressionTransfer:
     def text(self) -> str:
         return self.expression.text
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
-                 with_grad: bool = True) -> Dual:
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
         if self._constant is not None:
             value = np.full(np.shape(x), self._constant)
             return Dual(value, {}, np.zeros_like(value) if with_dvar else None)
@@ -70,8 +71,10 @@ class ExpressionTransfer:
     def check_proper(self, params: Mapping[str, float], where: str) -> Rational:
         r = self.rational(params)
         if r.relative_degree < 0:
-            raise BlockError(f"{where}: {self.text!r} is improper (numerator degree "
-                             f"{degree(r.num)} > denominator degree {degree(r.den)})")
+            raise BlockError(
+                f"{where}: {self.text!r} is improper (numerator degree "
+                f"{degree(r.num)} > denominator degree {degree(r.den)})"
+            )
         return r
 
 
@@ -90,8 +93,9 @@ class PolynomialTransfer(ExpressionTransfer):
 
         super().__init__(f"{poly(self.numerator, 'numerator')}/{poly(self.denominator, 'denominator')}", variable)
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
-                 with_grad: bool = True) -> Dual:
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
         """N(x)/D(x) by Horner's rule, with d/dcoefficient = x^i/D (numerator)
         and -N x^i/D^2 (denominator): no expression tree on this hot path."""
         x = np.asarray(x, dtype=complex)
@@ -117,16 +121,20 @@ class PolynomialTransfer(ExpressionTransfer):
 
     def coefficients(self, params: Mapping[str, float]) -> tuple[list[float], list[float]]:
         """Numerator and denominator coefficients (ascending) for parameter values."""
-        return ([params[c] if type(c) is str else c for c in self.numerator],
-                [params[c] if type(c) is str else c for c in self.denominator])
+        return (
+            [params[c] if type(c) is str else c for c in self.numerator],
+            [params[c] if type(c) is str else c for c in self.denominator],
+        )
 
 
 def _coefficient(c: Coefficient, variable: str) -> Coefficient:
     """A polynomial coefficient: a finite number or a parameter's name (never an expression)."""
     if isinstance(c, str):
         if not c.isidentifier() or c in VARIABLES:
-            raise BlockError(f"coefficient {c[:40]!r} is neither a number nor a parameter name "
-                             "(write an expression block for a coefficient that is an expression)")
+            raise BlockError(
+                f"coefficient {c[:40]!r} is neither a number nor a parameter name "
+                "(write an expression block for a coefficient that is an expression)"
+            )
         return c
     if isinstance(c, bool) or not isinstance(c, (int, float)) or not np.isfinite(c):
         raise BlockError(f"coefficient {c!r} is not a finite number")
@@ -143,8 +151,12 @@ def _horner(ascending: Sequence[float], x: NDArray) -> NDArray:
     return value
 
 
-def polynomial_transfer(numerator: Sequence[Coefficient], denominator: Sequence[Coefficient],
-                        order: Literal["ascending", "descending"], variable: str = "s") -> PolynomialTransfer:
+def polynomial_transfer(
+    numerator: Sequence[Coefficient],
+    denominator: Sequence[Coefficient],
+    order: Literal["ascending", "descending"],
+    variable: str = "s",
+) -> PolynomialTransfer:
     """A ratio of polynomials from coefficient lists.
 
     ``order="ascending"`` reads x_0, x_1, ... as the CIP listing does;
@@ -182,8 +194,13 @@ class Factor:
         raise BlockError(f"unknown factor kind {self.kind!r}")
 
 
-def factored_transfer(gain: Coefficient = 1.0, s_power: int = 0, zeros: Sequence[Factor] = (),
-                      poles: Sequence[Factor] = (), variable: str = "s") -> ExpressionTransfer:
+def factored_transfer(
+    gain: Coefficient = 1.0,
+    s_power: int = 0,
+    zeros: Sequence[Factor] = (),
+    poles: Sequence[Factor] = (),
+    variable: str = "s",
+) -> ExpressionTransfer:
     """gain * x^s_power * prod(zeros) / prod(poles)."""
     num = [_term(gain)] + [f.text(variable) for f in zeros]
     den = [f.text(variable) for f in poles] or ["1"]
@@ -220,8 +237,9 @@ class ControllerFactor:
         return body if self.kind.endswith("zero") else f"1/{body}"
 
 
-def controller_transfer(gain: Coefficient, s_power: int = 0, factors: Sequence[ControllerFactor] = (),
-                        variable: str = "s") -> ExpressionTransfer:
+def controller_transfer(
+    gain: Coefficient, s_power: int = 0, factors: Sequence[ControllerFactor] = (), variable: str = "s"
+) -> ExpressionTransfer:
     """gain * x^s_power * prod(factors): report 001's eq. (27) (K is kept with the actuator)."""
     terms = [_term(gain)] + [f.text(variable) for f in factors]
     if s_power > 0:
@@ -253,10 +271,12 @@ class DelayTransfer:
         def evaluate(x: NDArray) -> tuple[NDArray, NDArray]:
             value = np.exp(-x * tau)
             return value, -tau * value
+
         return evaluate
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
-                 with_grad: bool = True) -> Dual:
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
         tau = float(params[self.tau]) if isinstance(self.tau, str) else float(self.tau)
         value = np.exp(-np.asarray(x, dtype=complex) * tau)
         grad = {self.tau: -x * value} if isinstance(self.tau, str) else {}
@@ -272,19 +292,31 @@ class FrequencyTable:
     source: str = "table"
 
     @staticmethod
-    def from_polar(frequencies: ArrayLike, magnitude: ArrayLike, phase_deg: ArrayLike, *,
-                   unit: Literal["hz", "rad/s"] = "rad/s", gain: float = 1.0,
-                   source: str = "table") -> FrequencyTable:
+    def from_polar(
+        frequencies: ArrayLike,
+        magnitude: ArrayLike,
+        phase_deg: ArrayLike,
+        *,
+        unit: Literal["hz", "rad/s"] = "rad/s",
+        gain: float = 1.0,
+        source: str = "table",
+    ) -> FrequencyTable:
         """Magnitude (normalized, multiplied by ``gain``) and phase in degrees."""
         f, mag, phase = _columns(source, frequencies, magnitude, phase_deg)
-        with np.errstate(over="ignore", invalid="ignore"):   # an overflow is reported as a non-finite row
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported as a non-finite row
             response = gain * mag * np.exp(1j * np.deg2rad(phase))
         return FrequencyTable._make(f, response, unit, source)
 
     @staticmethod
-    def from_cartesian(frequencies: ArrayLike, real: ArrayLike, imag: ArrayLike, *,
-                       unit: Literal["hz", "rad/s"] = "rad/s", gain: float = 1.0,
-                       source: str = "table") -> FrequencyTable:
+    def from_cartesian(
+        frequencies: ArrayLike,
+        real: ArrayLike,
+        imag: ArrayLike,
+        *,
+        unit: Literal["hz", "rad/s"] = "rad/s",
+        gain: float = 1.0,
+        source: str = "table",
+    ) -> FrequencyTable:
         """Real and imaginary parts, multiplied by ``gain``."""
         f, re, im = _columns(source, frequencies, real, imag)
         with np.errstate(over="ignore", invalid="ignore"):
@@ -309,8 +341,10 @@ class FrequencyTable:
         if step.size:
             raise BlockError(f"{source}: frequencies must increase strictly (row {step[0] + 2})")
         if np.any(response == 0):
-            raise BlockError(f"{source}: zero magnitude in row {np.flatnonzero(response == 0)[0] + 1} "
-                             "(log-magnitude interpolation needs |G| > 0)")
+            raise BlockError(
+                f"{source}: zero magnitude in row {np.flatnonzero(response == 0)[0] + 1} "
+                "(log-magnitude interpolation needs |G| > 0)"
+            )
         return FrequencyTable(omega, np.asarray(response, dtype=complex), source)
 
     def interpolate(self, omega: ArrayLike) -> NDArray[np.complex128]:
@@ -321,8 +355,10 @@ class FrequencyTable:
         outside = (omega < lo * (1 - 1e-12)) | (omega > hi + tol)
         if np.any(outside):
             w = omega[outside][0]
-            raise ExtrapolationError(f"{self.source}: frequency {w:.6g} rad/s is outside the data "
-                                     f"[{lo:.6g}, {hi:.6g}] rad/s; extrapolation is not allowed")
+            raise ExtrapolationError(
+                f"{self.source}: frequency {w:.6g} rad/s is outside the data "
+                f"[{lo:.6g}, {hi:.6g}] rad/s; extrapolation is not allowed"
+            )
         logw, logmag, phase = self._log_data
         at = np.log(np.clip(omega, lo, hi))
         return np.exp(np.interp(at, logw, logmag) + 1j * np.interp(at, logw, phase))
@@ -375,8 +411,9 @@ class TabulatedTransfer:
     def text(self) -> str:
         return f"table({self.table.source})"
 
-    def evaluate(self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False,
-                 with_grad: bool = True) -> Dual:
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
         return Dual(self.response(np.asarray(x).imag), {}, None)
 
 

@@ -47,10 +47,15 @@ class Compensator:
 
     def to_json(self) -> dict:
         num, den = self.multiplied_out()
-        return {"group": self.group,
-                "factors": [{"block": f.block, "numerator": list(f.numerator), "denominator": list(f.denominator)}
-                            for f in self.factors],
-                "numerator": list(num), "denominator": list(den)}
+        return {
+            "group": self.group,
+            "factors": [
+                {"block": f.block, "numerator": list(f.numerator), "denominator": list(f.denominator)}
+                for f in self.factors
+            ],
+            "numerator": list(num),
+            "denominator": list(den),
+        }
 
 
 def compensators(network: Network, params: Mapping[str, float]) -> list[Compensator]:
@@ -70,6 +75,7 @@ def _sub(label: str, transfer: ExpressionTransfer, params: Mapping[str, float]) 
 
         def names(coefficients: tuple) -> tuple[str | None, ...]:
             return tuple(c if isinstance(c, str) else None for c in coefficients)
+
         return SubCompensator(label, tuple(num), tuple(den), names(transfer.numerator), names(transfer.denominator))
     r = transfer.rational(params)
     num, den = r.num[::-1].tolist(), r.den[::-1].tolist()

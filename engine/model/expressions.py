@@ -29,8 +29,8 @@ from engine.numerics.polynomials import Rational
 VARIABLES = ("s", "w", "z")
 MAX_POWER = 64
 MAX_LENGTH = 10_000
-MAX_DEPTH = 100    # levels of nesting after long chains are balanced: every walk of a tree recurses
-CHAIN = 64         # a longer run of + - (or * /) is balanced, a shorter one kept as Python reads it
+MAX_DEPTH = 100  # levels of nesting after long chains are balanced: every walk of a tree recurses
+CHAIN = 64  # a longer run of + - (or * /) is balanced, a shorter one kept as Python reads it
 
 
 @dataclass(frozen=True)
@@ -117,8 +117,7 @@ class Expression:
         return f"Expression({self.text!r}, variable={self.variable!r})"
 
     def evaluate(
-        self, x: NDArray[np.complex128], params: Mapping[str, float], with_dvar: bool = False,
-        with_grad: bool = True
+        self, x: NDArray[np.complex128], params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
     ) -> Dual:
         """Value at every point of ``x`` with derivatives w.r.t. every parameter
         (none formed when not ``with_grad``)."""
@@ -238,7 +237,7 @@ class _Parser:
             tree = ast.parse(source, mode="eval")
         except SyntaxError as exc:
             col = self._original_column(source, (exc.offset or 1) - 1)
-            token = self.text[col:col + 1] if col < len(self.text) else "end of input"
+            token = self.text[col : col + 1] if col < len(self.text) else "end of input"
             reason = exc.msg.removeprefix("invalid syntax").strip(" .") or "invalid syntax"
             if "forgot a comma" in reason:
                 reason = "a missing operator (write '*' for products)"

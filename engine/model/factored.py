@@ -37,8 +37,9 @@ class PoleZero:
     poles: NDArray[np.complex128]
 
     def __mul__(self, other: PoleZero) -> PoleZero:
-        return PoleZero(self.gain * other.gain, np.concatenate([self.zeros, other.zeros]),
-                        np.concatenate([self.poles, other.poles]))
+        return PoleZero(
+            self.gain * other.gain, np.concatenate([self.zeros, other.zeros]), np.concatenate([self.poles, other.poles])
+        )
 
     def reciprocal(self) -> PoleZero:
         if self.gain == 0:
@@ -49,9 +50,10 @@ class PoleZero:
         base = self if k >= 0 else self.reciprocal()
         k = abs(k)
         if max(base.zeros.size, base.poles.size) * k > MAX_ORDER:
-            raise ExpressionError(f"order {max(base.zeros.size, base.poles.size) * k} is beyond the limit of "
-                                  f"{MAX_ORDER} for one block")
-        return PoleZero(base.gain ** k, np.tile(base.zeros, k), np.tile(base.poles, k))
+            raise ExpressionError(
+                f"order {max(base.zeros.size, base.poles.size) * k} is beyond the limit of {MAX_ORDER} for one block"
+            )
+        return PoleZero(base.gain**k, np.tile(base.zeros, k), np.tile(base.poles, k))
 
     def cancelled(self) -> PoleZero:
         """Without the zero-pole pairs that are the same root."""

@@ -145,8 +145,9 @@ def constant_subtrees(root: Node) -> dict[int, Folded | Evaluator]:
     return constants
 
 
-def compile_tree(node: Node, params: Mapping[str, float],
-             constants: dict[int, Folded | Evaluator]) -> Folded | Evaluator:
+def compile_tree(
+    node: Node, params: Mapping[str, float], constants: dict[int, Folded | Evaluator]
+) -> Folded | Evaluator:
     """Fold subtrees of degree <= FOLD_DEGREE into polynomial ratios; keep the
     rest as closures (``constants``: parameter-free subtrees already compiled)."""
     if id(node) in constants:
@@ -172,6 +173,7 @@ def compile_tree(node: Node, params: Mapping[str, float],
         def power(x):
             v, dv = f[0](x)
             return v**k, k * v ** (k - 1) * dv if k != 0 else 0 * dv
+
         return power
     return _binary(op, f[0], f[1])
 
@@ -187,4 +189,5 @@ def _binary(op: str, f, g) -> Evaluator:
             return a * b, da * b + a * db
         q = a / b
         return q, (da - q * db) / b
+
     return evaluate

@@ -91,27 +91,29 @@ class Network:
         return self.index[name]
 
 
-def block_diagram(blocks: Sequence[Block], junctions: Sequence[Junction] = (),
-                  inputs: Sequence[str] = (), variable: str = "s") -> Network:
+def block_diagram(
+    blocks: Sequence[Block], junctions: Sequence[Junction] = (), inputs: Sequence[str] = (), variable: str = "s"
+) -> Network:
     """Compile a block diagram; every signal read must be produced or a declared input."""
     producers: dict[str, str] = {name: f"input {name!r}" for name in inputs}
     for item in list(blocks) + list(junctions):
         kind = "block" if isinstance(item, Block) else "junction"
         if item.output in producers:
-            raise InterconnectionError(f"signal {item.output!r} is produced by both "
-                                       f"{producers[item.output]} and {kind} {item.name!r}")
+            raise InterconnectionError(
+                f"signal {item.output!r} is produced by both {producers[item.output]} and {kind} {item.name!r}"
+            )
         producers[item.output] = f"{kind} {item.name!r}"
     signals = tuple(producers)
     index = {name: i for i, name in enumerate(signals)}
 
     def read(signal: str, who: str) -> int:
         if signal not in index:
-            raise InterconnectionError(f"{who} reads signal {signal!r}, which no block or junction "
-                                       "produces and which is not a declared input")
+            raise InterconnectionError(
+                f"{who} reads signal {signal!r}, which no block or junction produces and which is not a declared input"
+            )
         return index[signal]
 
-    entries = [Entry(index[b.output], read(b.input, f"block {b.name!r}"), b.transfer, b.name, b.group)
-               for b in blocks]
+    entries = [Entry(index[b.output], read(b.input, f"block {b.name!r}"), b.transfer, b.name, b.group) for b in blocks]
     for j in junctions:
         for sign, signal in j.terms:
             if sign not in (1, -1, 1.0, -1.0):
@@ -121,9 +123,14 @@ def block_diagram(blocks: Sequence[Block], junctions: Sequence[Junction] = (),
     return Network(signals, tuple(inputs), tuple(entries), variable)
 
 
-def matrix_format(signals: Sequence[str], entries: Mapping[tuple[int, int], str],
-                  forcing_row: int, forcing: str = "1", input_name: str = "theta",
-                  variable: str = "s") -> Network:
+def matrix_format(
+    signals: Sequence[str],
+    entries: Mapping[tuple[int, int], str],
+    forcing_row: int,
+    forcing: str = "1",
+    input_name: str = "theta",
+    variable: str = "s",
+) -> Network:
     """COEBRA's A(s) x = B theta with one forcing input (row and column indices from 1).
 
     Row i defines signal i: a_ii x_i + sum_j a_ij x_j = b_i theta, so
@@ -133,15 +140,17 @@ def matrix_format(signals: Sequence[str], entries: Mapping[tuple[int, int], str]
     n = len(signals)
     if len(set(signals)) != n or input_name in signals:
         raise InterconnectionError("matrix format: signal names must be distinct and differ from the input")
-    for (i, j) in entries:
+    for i, j in entries:
         if not (1 <= i <= n and 1 <= j <= n):
             raise InterconnectionError(f"matrix format: entry a[{i},{j}] is outside the {n}x{n} matrix")
     if not 1 <= forcing_row <= n:
         raise InterconnectionError(f"matrix format: forcing row {forcing_row} is outside 1..{n}")
     missing = [i for i in range(1, n + 1) if (i, i) not in entries]
     if missing:
-        raise InterconnectionError(f"matrix format: row {missing[0]} has no diagonal entry "
-                                   f"a[{missing[0]},{missing[0]}]; row i must define signal i")
+        raise InterconnectionError(
+            f"matrix format: row {missing[0]} has no diagonal entry "
+            f"a[{missing[0]},{missing[0]}]; row i must define signal i"
+        )
     all_signals = tuple(signals) + (input_name,)
     compiled = []
     for (i, j), text in sorted(entries.items()):
@@ -150,8 +159,9 @@ def matrix_format(signals: Sequence[str], entries: Mapping[tuple[int, int], str]
         diag = entries[(i, i)]
         compiled.append(Entry(i - 1, j - 1, ExpressionTransfer(f"-({text})/({diag})", variable), f"a[{i},{j}]"))
     diag = entries[(forcing_row, forcing_row)]
-    compiled.append(Entry(forcing_row - 1, n, ExpressionTransfer(f"({forcing})/({diag})", variable),
-                          f"b[{forcing_row}]"))
+    compiled.append(
+        Entry(forcing_row - 1, n, ExpressionTransfer(f"({forcing})/({diag})", variable), f"b[{forcing_row}]")
+    )
     return Network(all_signals, (input_name,), tuple(compiled), variable)
 
 
@@ -166,8 +176,9 @@ def check_grid(omega: ArrayLike, what: str = "frequency grid") -> NDArray[np.flo
         raise GridError(f"{what}: negative frequency at index {np.flatnonzero(w < 0)[0]}")
     steps = np.flatnonzero(np.diff(w) <= 0)
     if steps.size:
-        raise GridError(f"{what}: not strictly increasing at index {steps[0] + 1} "
-                        f"({w[steps[0]]:.6g} then {w[steps[0] + 1]:.6g})")
+        raise GridError(
+            f"{what}: not strictly increasing at index {steps[0] + 1} ({w[steps[0]]:.6g} then {w[steps[0] + 1]:.6g})"
+        )
     return w
 
 
@@ -188,9 +199,18 @@ class Solution:
     rows: tuple[int, ...] = ()
 
 
-def solve(network: Network, omega: ArrayLike, params: Mapping[str, float], inject: str, *,
-          break_at: str | None = None, output: str | None = None, sensitivities: bool = True,
-          d_omega: bool = False, check: bool = True) -> Solution:
+def solve(
+    network: Network,
+    omega: ArrayLike,
+    params: Mapping[str, float],
+    inject: str,
+    *,
+    break_at: str | None = None,
+    output: str | None = None,
+    sensitivities: bool = True,
+    d_omega: bool = False,
+    check: bool = True,
+) -> Solution:
     """Solve the network with a unit injection at signal ``inject``.
 
     With ``break_at``, every use of that signal is fed by the injection
@@ -235,12 +255,22 @@ def solve(network: Network, omega: ArrayLike, params: Mapping[str, float], injec
         for e, dual in zip(network.entries, duals):
             R[e.row, -1] += 1j * dual.dvar * feed[e.col]
     D = sparse_solve(_schedule(network, broken, False), values, R if d_omega else R[:, :-1], w)
-    dx = D[:, :len(names), :].transpose(2, 0, 1) if sensitivities else None
+    dx = D[:, : len(names), :].transpose(2, 0, 1) if sensitivities else None
     return Solution(w, x.T, names, dx, D[:, -1, :].T if d_omega else None, tuple(range(n)))
 
 
-def _adjoint(network: Network, duals: list, feed: NDArray, names: tuple[str, ...], columns: list,
-             d_omega: bool, broken: int | None, out: int, w: NDArray, x: NDArray) -> Solution:
+def _adjoint(
+    network: Network,
+    duals: list,
+    feed: NDArray,
+    names: tuple[str, ...],
+    columns: list,
+    d_omega: bool,
+    broken: int | None,
+    out: int,
+    w: NDArray,
+    x: NDArray,
+) -> Solution:
     """d x_out / dp = y' R_p with (I - G)' y = e_out: one solve for any number of parameters."""
     n = len(network.signals)
     unit = np.zeros((n, 1, w.size), dtype=complex)
@@ -271,12 +301,15 @@ def _check_finite(entry: Entry, value: NDArray, x_var: NDArray) -> None:
         return
     bad = ~np.isfinite(value)
     if np.any(bad):
-        raise InterconnectionError(f"{entry.label} ({entry.transfer.text}) is not finite at "
-                                   f"{np.abs(x_var[bad][0]):.6g} rad/s (a pole on the grid?)")
+        raise InterconnectionError(
+            f"{entry.label} ({entry.transfer.text}) is not finite at "
+            f"{np.abs(x_var[bad][0]):.6g} rad/s (a pole on the grid?)"
+        )
 
 
-def _evaluate_entries(network: Network, x_var: NDArray, params: Mapping[str, float],
-                      sensitivities: bool, d_omega: bool) -> list:
+def _evaluate_entries(
+    network: Network, x_var: NDArray, params: Mapping[str, float], sensitivities: bool, d_omega: bool
+) -> list:
     duals = []
     for entry in network.entries:
         try:
@@ -303,8 +336,11 @@ def _schedule(network: Network, broken: int | None, transposed: bool) -> _Schedu
     """The schedule of the network broken at ``broken`` (or not), cached per case."""
     key = (broken, transposed)
     if key not in network.schedules:
-        edges = [((e.col, e.row) if transposed else (e.row, e.col)) + (number,)
-                 for number, e in enumerate(network.entries) if e.col != broken]
+        edges = [
+            ((e.col, e.row) if transposed else (e.row, e.col)) + (number,)
+            for number, e in enumerate(network.entries)
+            if e.col != broken
+        ]
         network.schedules[key] = schedule_edges(len(network.signals), edges)
     return network.schedules[key]
 
@@ -378,6 +414,7 @@ def sparse_solve(schedule: _Schedule, gains: Sequence[NDArray], B: NDArray, w: N
         except np.linalg.LinAlgError:
             bad = np.linalg.det(lhs) == 0
     if np.any(bad):
-        raise InterconnectionError(f"the interconnection is singular at {w[bad][0]:.6g} rad/s "
-                                   "(I - G has no inverse there)")
+        raise InterconnectionError(
+            f"the interconnection is singular at {w[bad][0]:.6g} rad/s (I - G has no inverse there)"
+        )
     return A + np.einsum("ntf,ftm->nmf", C, tau)

@@ -45,7 +45,7 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
     if lo.size == 0:
         return np.zeros(0)
     a, b = np.log(lo), np.log(hi)
-    fa, fb = fun(lo)[0], fun(hi)[0]   # each root's own function: point k belongs to root k
+    fa, fb = fun(lo)[0], fun(hi)[0]  # each root's own function: point k belongs to root k
     x = _secant(a, b, fa, fb)
     done, previous = (fa == 0) | (fb == 0), np.full(lo.size, np.inf)
     widths, before = [np.abs(b - a)] * STALL_STEPS, np.full(lo.size, np.inf)
@@ -67,10 +67,10 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
         # a bracket not halved in the last `STALL_STEPS` steps is bisected (Newton crawls along a
         # power law far from its root, the secant along values of very different sizes)
         width = np.abs(b - a)
-        stalled = (width > 0.5 * widths[0]) & ~(previous < 0.5 * before)   # steps not shrinking either
+        stalled = (width > 0.5 * widths[0]) & ~(previous < 0.5 * before)  # steps not shrinking either
         widths = widths[1:] + [width]
         tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
-        proposed = np.abs(newton - x)   # Newton's step, taken or not (in the noise it leaves the bracket)
+        proposed = np.abs(newton - x)  # Newton's step, taken or not (in the noise it leaves the bracket)
         # within 4 ulp the root is reached, even where the step rounds onto the bracket's end
         # (taken as outside, it fell to a secant step 2 % of the bracket away)
         reached = proposed <= tiny
@@ -81,7 +81,7 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
         crawling = (size >= 0.5 * previous) & inside
         settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
         stuck = (proposed >= 0.5 * proposed_before) & ~settled & ~done
-        if noise is not None and stuck.any():   # the bound costs an evaluation: only where it can decide
+        if noise is not None and stuck.any():  # the bound costs an evaluation: only where it can decide
             settled |= stuck & (np.abs(h) <= noise(w))
         proposed_before = np.where(np.isfinite(proposed), proposed, np.inf)
         finished = settled | (h == 0) | (np.abs(b - a) <= tiny)

@@ -44,11 +44,11 @@ class Fractions:
         self.count, n = (singles.size, pairs.size), singles.size + 2 * pairs.size
         self.pencil, self.mass = np.zeros((n + 1, n + 1)), np.zeros((n + 1, n + 1))
         tp = pairs / self.scale
-        self.pencil.flat[:n * (n + 2):n + 2] = np.concatenate([singles / self.scale, np.repeat(tp.real, 2)])
-        self.mass.flat[:n * (n + 2):n + 2] = 1.0
+        self.pencil.flat[: n * (n + 2) : n + 2] = np.concatenate([singles / self.scale, np.repeat(tp.real, 2)])
+        self.mass.flat[: n * (n + 2) : n + 2] = 1.0
         first = singles.size + 2 * np.arange(pairs.size)
         self.pencil[first, first + 1], self.pencil[first + 1, first] = -tp.imag, tp.imag
-        self.pencil[:singles.size, n] = 1.0
+        self.pencil[: singles.size, n] = 1.0
         self.pencil[first, n] = 1.0
         self.first, self.n = first, n
 
@@ -101,18 +101,18 @@ def _cascaded(matrix: NDArray, n: int, system: bool) -> NDArray:
     (``system``: the [[A, B], [C, 0]] side; else the diag(I, 0) side)."""
     out = np.zeros((2 * n + 1, 2 * n + 1))
     state = matrix[:n, :n]
-    out[:n, :n], out[n:2 * n, n:2 * n] = state, state
-    out[:n, 2 * n], out[2 * n, n:2 * n] = matrix[:n, n], matrix[n, :n]
+    out[:n, :n], out[n : 2 * n, n : 2 * n] = state, state
+    out[:n, 2 * n], out[2 * n, n : 2 * n] = matrix[:n, n], matrix[n, :n]
     if system:
-        out[n:2 * n, :n] = np.eye(n)
+        out[n : 2 * n, :n] = np.eye(n)
     return out
 
 
 def polynomial_sum(p: NDArray, q: NDArray) -> NDArray[np.float64]:
     """p + q, both in descending powers (the shorter one aligned at the constant term)."""
     out = np.zeros(max(p.size, q.size))
-    out[out.size - p.size:] += p
-    out[out.size - q.size:] += q
+    out[out.size - p.size :] += p
+    out[out.size - q.size :] += q
     return out
 
 
@@ -145,10 +145,10 @@ def roots(c: NDArray) -> NDArray[np.complex128]:
     lead = coefficients[first]
     log_lead = math.log(abs(lead))
     log_scale = (math.log(abs(coefficients[last])) - log_lead) / n
-    if abs(log_scale) > LARGEST_LOG:   # roots beyond the floats (1e-300 x - 1e300): none to give
+    if abs(log_scale) > LARGEST_LOG:  # roots beyond the floats (1e-300 x - 1e300): none to give
         return np.zeros(0, dtype=complex)
-    row = []   # -c_k / c_0 * scale^-k, as logs: no overflow on the way
-    for k, value in enumerate(coefficients[first + 1:last + 1], start=1):
+    row = []  # -c_k / c_0 * scale^-k, as logs: no overflow on the way
+    for k, value in enumerate(coefficients[first + 1 : last + 1], start=1):
         if value == 0.0:
             row.append(0.0)
             continue
@@ -169,4 +169,5 @@ def _lapack():
     """scipy's LAPACK wrappers, imported on first use (start-up time; cached:
     an import statement run per call cost more than dgeev on these sizes)."""
     from scipy.linalg import lapack
+
     return lapack

@@ -17,7 +17,7 @@ def trim(coefficients: ArrayLike) -> NDArray[np.float64]:
     if c[0] != 0.0:
         return c
     nonzero = np.flatnonzero(c)
-    return c[nonzero[0]:] if nonzero.size else np.zeros(1)
+    return c[nonzero[0] :] if nonzero.size else np.zeros(1)
 
 
 def _convolve(a: NDArray, b: NDArray) -> NDArray:
@@ -37,7 +37,7 @@ def _add(a: NDArray, b: NDArray) -> NDArray:
     if a.size < b.size:
         a, b = b, a
     out = a.copy()
-    out[a.size - b.size:] += b
+    out[a.size - b.size :] += b
     return out
 
 

@@ -127,13 +127,15 @@ class RationalFit:
         r, dr = np.empty_like(z), np.empty_like(z)
         for lo in range(0, z.size, CHUNK):
             part = slice(lo, lo + CHUNK)
-            r[part], dr[part] = _bary(z[part], self.support, self.weights, self.values,
-                                      self.n_inf, self.d_inf, derivative)
+            r[part], dr[part] = _bary(
+                z[part], self.support, self.weights, self.values, self.n_inf, self.d_inf, derivative
+            )
         return r.reshape(w.shape), (1j * dr).reshape(w.shape)
 
 
-def _bary(z: Complex, nodes: Complex, w: Complex, f: Complex, n_inf: float,
-          d_inf: float, derivative: bool) -> tuple[Complex, Complex]:
+def _bary(
+    z: Complex, nodes: Complex, w: Complex, f: Complex, n_inf: float, d_inf: float, derivative: bool
+) -> tuple[Complex, Complex]:
     """r(z) and r'(z) (or zeros), with the nearest node's term factored out."""
     if nodes.size == 0:
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -168,6 +170,7 @@ def _poles(nodes: Complex, w: Complex, d_inf: float) -> Complex:
     e[0, 0], e[0, 1:], e[1:, 0] = d_inf, w, 1.0
     e[1:, 1:] = np.diag(nodes)
     import scipy.linalg  # on first use (start-up)
+
     try:
         lam = scipy.linalg.eigvals(e, np.diag(np.r_[0.0, np.ones(n)]))
     except (np.linalg.LinAlgError, ValueError):
@@ -196,7 +199,7 @@ class _Step:
     @property
     def rms(self) -> float:
         with np.errstate(over="ignore"):
-            return float(np.sqrt(np.mean(self.err ** 2)))
+            return float(np.sqrt(np.mean(self.err**2)))
 
     @property
     def degree(self) -> int:
@@ -223,15 +226,14 @@ def _null_vector(a: Complex, row_weight: NDArray[np.float64]) -> NDArray[np.floa
     return np.linalg.svd(m)[2][-1] / norms
 
 
-def _solve(z: Complex, f: Complex, scale: NDArray[np.float64],
-           idx: NDArray[np.int_], use_inf: bool) -> _Step:
+def _solve(z: Complex, f: Complex, scale: NDArray[np.float64], idx: NDArray[np.int_], use_inf: bool) -> _Step:
     """Barycentric weights for support pairs `idx`: rows weighted 1 / |GH_i|, then
     (Sanathanan-Koerner) 1 / |GH_i D(z_i)| with D of the last solve; the best try."""
     rest = np.setdiff1d(np.arange(z.size), idx)
     zr, fr = z[rest, None], f[rest, None]
     zs, fs = z[idx], f[idx]
     cauchy = np.hstack([1.0 / (zr - zs), 1.0 / (zr - zs.conj())])
-    c1, c2 = (fr - fs) * cauchy[:, :idx.size], (fr - fs.conj()) * cauchy[:, idx.size:]
+    c1, c2 = (fr - fs) * cauchy[:, : idx.size], (fr - fs.conj()) * cauchy[:, idx.size :]
     a = np.hstack([c1 + c2, 1j * (c1 - c2)] + ([fr, -np.ones_like(fr)] if use_inf else []))
     nodes = np.concatenate([zs, zs.conj()])
     vals = np.concatenate([fs, fs.conj()])
@@ -239,7 +241,7 @@ def _solve(z: Complex, f: Complex, scale: NDArray[np.float64],
     tried: list[_Step] = []
     for _ in range(1 + SK_STEPS):
         v = _null_vector(a, row_weight)
-        c = v[:idx.size] + 1j * v[idx.size:2 * idx.size]
+        c = v[: idx.size] + 1j * v[idx.size : 2 * idx.size]
         d_inf, n_inf = (float(v[-2]), float(v[-1])) if use_inf else (0.0, 0.0)
         w = np.concatenate([c, c.conj()])
         r, _ = _bary(z, nodes, w, vals, n_inf, d_inf, derivative=False)
@@ -262,8 +264,7 @@ def _check(omega: ArrayLike, gh: ArrayLike) -> tuple[NDArray[np.float64], Comple
     except (TypeError, ValueError) as exc:
         raise EngineError(f"fit_response: omega must be real and gh numeric ({exc})") from None
     if w.ndim != 1 or f.shape != w.shape:
-        raise EngineError(f"fit_response: omega and gh must be 1-D of equal length, "
-                          f"got shapes {w.shape} and {f.shape}")
+        raise EngineError(f"fit_response: omega and gh must be 1-D of equal length, got shapes {w.shape} and {f.shape}")
     if w.size < 4:
         raise EngineError(f"fit_response: need at least 4 points, got {w.size}")
     if not np.all(np.isfinite(w)):
@@ -274,8 +275,10 @@ def _check(omega: ArrayLike, gh: ArrayLike) -> tuple[NDArray[np.float64], Comple
         bad = np.flatnonzero(np.diff(w) <= 0.0)[0]
         raise GridError(f"fit_response: omega not strictly increasing at index {bad + 1}")
     if not np.all(np.isfinite(f)):
-        raise EngineError(f"fit_response: non-finite gh at index {np.flatnonzero(~np.isfinite(f))[0]}"
-                          f" (omega = {w[~np.isfinite(f)][0]})")
+        raise EngineError(
+            f"fit_response: non-finite gh at index {np.flatnonzero(~np.isfinite(f))[0]}"
+            f" (omega = {w[~np.isfinite(f)][0]})"
+        )
     return w, f
 
 
@@ -288,8 +291,7 @@ def _degree_cap(m: int, tolerance: float, max_degree: int | None) -> int:
     return min(DEGREE_CAP, m // 2, DEGREE_CAP if max_degree is None else int(max_degree))
 
 
-def _iterate(z: Complex, f: Complex, scale: NDArray[np.float64],
-             tolerance: float, cap: int) -> list[_Step]:
+def _iterate(z: Complex, f: Complex, scale: NDArray[np.float64], tolerance: float, cap: int) -> list[_Step]:
     """AAA fits of degree 0, 1, 2, ... until the tolerance, the cap or stagnation."""
     steps: list[_Step] = []
     idx = np.empty(0, dtype=int)
@@ -326,8 +328,9 @@ def _doublets(z: Complex, step: _Step) -> Complex:
     return p[bad][np.argsort(gap[bad] / far[bad])]
 
 
-def _cleanup(z: Complex, f: Complex, scale: NDArray[np.float64], steps: list[_Step],
-             step: _Step, tolerance: float) -> _Step:
+def _cleanup(
+    z: Complex, f: Complex, scale: NDArray[np.float64], steps: list[_Step], step: _Step, tolerance: float
+) -> _Step:
     """Remove Froissart doublets: drop the nearest support pairs and re-solve (AAA paper).
 
     n doublets lower the degree by n (a pair is two degrees, the infinity node one).
@@ -343,23 +346,27 @@ def _cleanup(z: Complex, f: Complex, scale: NDArray[np.float64], steps: list[_St
         k_new, use_inf = (target + 1) // 2, target % 2 == 0
         near = np.argmin(np.abs(bad[:, None] - step.nodes[None, :]), axis=1) % step.idx.size
         order = list(dict.fromkeys(list(near) + list(range(step.idx.size - 1, -1, -1))))
-        idx = np.delete(step.idx, order[:step.idx.size - k_new])
+        idx = np.delete(step.idx, order[: step.idx.size - k_new])
         candidates = [s for s in steps if s.degree < step.degree]
         try:
             candidates.append(_solve(z, f, scale, idx, use_inf))
         except np.linalg.LinAlgError:
             pass
         floor = max(tolerance, ACCEPT)
-        good = [s for s in candidates if s.residual <= max(floor, 2.0 * first.residual)
-                and s.rms <= max(floor, CLEAN_SLACK * first.rms)]
+        good = [
+            s
+            for s in candidates
+            if s.residual <= max(floor, 2.0 * first.residual) and s.rms <= max(floor, CLEAN_SLACK * first.rms)
+        ]
         if not good:
             return step
         step = min(good, key=lambda s: (s.degree, s.residual))
     return step
 
 
-def fit_response(omega: ArrayLike, gh: ArrayLike, tolerance: float = 1e-12,
-                 max_degree: int | None = None) -> RationalFit:
+def fit_response(
+    omega: ArrayLike, gh: ArrayLike, tolerance: float = 1e-12, max_degree: int | None = None
+) -> RationalFit:
     """Fit a real-coefficient rational model to GH(j omega_i) by AAA (see module doc).
 
     `tolerance` is the target relative residual; `max_degree` is capped at
@@ -372,18 +379,20 @@ def fit_response(omega: ArrayLike, gh: ArrayLike, tolerance: float = 1e-12,
     if peak == 0.0:
         return RationalFit(empty, empty.copy(), empty.copy(), 0.0, 1.0, empty.copy(), 0.0, 0.0, 0)
     if peak < np.finfo(float).tiny:
-        raise EngineError(f"the tabulated response peaks at {peak:.3g}, below the smallest normal float: "
-                          "it cannot be fitted (check the table's gain)")
+        raise EngineError(
+            f"the tabulated response peaks at {peak:.3g}, below the smallest normal float: "
+            "it cannot be fitted (check the table's gain)"
+        )
     w_ref = float(np.sqrt(w[0]) * np.sqrt(w[-1]))  # fit in s / w_ref and f / peak
     z, fn = 1j * (w / w_ref), f / peak
     scale = np.maximum(np.abs(fn), FLOOR)
     steps = _iterate(z, fn, scale, tolerance, cap)
     if not steps:  # the SVD failed at once: fall back on the mean real value
-        with np.errstate(all="ignore"):   # an overflowing table: its residuals are not finite (refused below)
+        with np.errstate(all="ignore"):  # an overflowing table: its residuals are not finite (refused below)
             mean = float(np.mean(fn.real))
             steps = [_Step(np.empty(0, int), True, empty, empty, empty, mean, 1.0, abs(mean - fn) / scale)]
     steps = [s for s in steps if np.isfinite(s.rms)]
-    if not steps:   # a table with overflowing or non-finite values
+    if not steps:  # a table with overflowing or non-finite values
         raise EngineError("the tabulated response cannot be fitted: its residuals are not finite")
     best = min(s.rms for s in steps)
     enough = SELECT_SLACK * best + CONVERGED * tolerance
@@ -394,6 +403,13 @@ def fit_response(omega: ArrayLike, gh: ArrayLike, tolerance: float = 1e-12,
     r, _ = _bary(1j * w, support, weights, values, step.n_inf * peak, step.d_inf, False)
     final = replace(step, err=_relative_error(r, f, scale * peak))
     return RationalFit(
-        support=support, values=values, weights=weights,
-        n_inf=step.n_inf * peak, d_inf=step.d_inf, poles=_poles(support, weights, step.d_inf),
-        residual=final.residual, residual_rms=final.rms, degree=max(step.degree, 0))
+        support=support,
+        values=values,
+        weights=weights,
+        n_inf=step.n_inf * peak,
+        d_inf=step.d_inf,
+        poles=_poles(support, weights, step.d_inf),
+        residual=final.residual,
+        residual_rms=final.rms,
+        degree=max(step.degree, 0),
+    )

@@ -45,9 +45,18 @@ class Roots(NamedTuple):
     hidden: NDArray[np.float64]  # (brackets, 2): left and right crossing
 
 
-def refine(fun: LevelFunction, a: NDArray, b: NDArray, ha: NDArray, hb: NDArray, da: NDArray, db: NDArray,
-           stationary: bool | NDArray[np.bool_], hiding: NDArray[np.bool_] | None = None,
-           max_iter: int = 200) -> Roots:
+def refine(
+    fun: LevelFunction,
+    a: NDArray,
+    b: NDArray,
+    ha: NDArray,
+    hb: NDArray,
+    da: NDArray,
+    db: NDArray,
+    stationary: bool | NDArray[np.bool_],
+    hiding: NDArray[np.bool_] | None = None,
+    max_iter: int = 200,
+) -> Roots:
     """Roots of h (where ``stationary`` is False) or of h' (True; a bool or
     one per bracket) in brackets [a, b] (a < b) over which that function
     changes sign, given h and h' at both ends.
@@ -67,15 +76,26 @@ def refine(fun: LevelFunction, a: NDArray, b: NDArray, ha: NDArray, hb: NDArray,
     # rows of a bracket end: omega, h, h', and the target whose sign changes (h' or h)
     lo = np.array([a, ha, da, np.where(stationary, da, ha)], dtype=float).reshape(4, n)
     hi = np.array([b, hb, db, np.where(stationary, db, hb)], dtype=float).reshape(4, n)
-    watch = np.zeros(n, dtype=bool) if hiding is None else (
-        np.asarray(hiding, dtype=bool) & stationary & (np.sign(lo[1]) == np.sign(hi[1])) & (lo[1] != 0))
+    watch = (
+        np.zeros(n, dtype=bool)
+        if hiding is None
+        else (np.asarray(hiding, dtype=bool) & stationary & (np.sign(lo[1]) == np.sign(hi[1])) & (lo[1] != 0))
+    )
     out = np.full(3 * n, np.nan)  # the roots, then two hidden crossings per bracket
     out[:n] = np.where(lo[3] == 0, lo[0], np.where(hi[3] == 0, hi[0], np.nan))
     start = np.flatnonzero(np.isnan(out[:n]))
     start = start[np.argsort(~stationary[start], kind="stable")]  # extrema first: each step on a slice
-    state = {"slot": start, "which": start, "lo": lo[:, start], "hi": hi[:, start],
-             "stationary": stationary[start], "watch": watch[start], "side": np.sign(lo[1, start]),
-             "reference_width": hi[0, start] - lo[0, start], "stalled": np.zeros(start.size, dtype=int)}
+    state = {
+        "slot": start,
+        "which": start,
+        "lo": lo[:, start],
+        "hi": hi[:, start],
+        "stationary": stationary[start],
+        "watch": watch[start],
+        "side": np.sign(lo[1, start]),
+        "reference_width": hi[0, start] - lo[0, start],
+        "stalled": np.zeros(start.size, dtype=int),
+    }
     with np.errstate(all="ignore"):
         for _ in range(max_iter):
             if state["slot"].size == 0:
@@ -128,8 +148,11 @@ def _next_points(state: dict, x: NDArray, best: NDArray) -> tuple[NDArray, NDArr
     bisect = ~((x > lo) & (x < hi)) | (state["stalled"] >= STALL_STEPS)  # also where x is not finite
     guard = np.minimum(np.maximum(x + GUARD * (x - best), lo), hi)
     third = (hi - lo) / 3.0
-    return (np.where(bisect, lo + third, np.minimum(x, guard)),
-            np.where(bisect, hi - third, np.maximum(x, guard)), bisect)
+    return (
+        np.where(bisect, lo + third, np.minimum(x, guard)),
+        np.where(bisect, hi - third, np.maximum(x, guard)),
+        bisect,
+    )
 
 
 def _narrowed(state: dict, at_p: NDArray, at_q: NDArray, bisect: NDArray[np.bool_]) -> dict:
@@ -138,12 +161,18 @@ def _narrowed(state: dict, at_p: NDArray, at_q: NDArray, bisect: NDArray[np.bool
     lo, hi = state["lo"], state["hi"]
     in_first = np.sign(at_p[3]) != np.sign(lo[3])
     in_middle = ~in_first & (np.sign(at_q[3]) != np.sign(at_p[3]))
-    lo, hi = (np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
-              np.where(in_first, at_p, np.where(in_middle, at_q, hi)))
+    lo, hi = (
+        np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
+        np.where(in_first, at_p, np.where(in_middle, at_q, hi)),
+    )
     width = hi[0] - lo[0]
     halved = width <= 0.5 * state["reference_width"]
-    return state | {"lo": lo, "hi": hi, "reference_width": np.where(halved, width, state["reference_width"]),
-                    "stalled": np.where(halved | bisect, 0, state["stalled"] + 1)}
+    return state | {
+        "lo": lo,
+        "hi": hi,
+        "reference_width": np.where(halved, width, state["reference_width"]),
+        "stalled": np.where(halved | bisect, 0, state["stalled"] + 1),
+    }
 
 
 def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> tuple[NDArray[np.bool_], dict | None]:
@@ -169,10 +198,16 @@ def _revealed(state: dict, at_p: NDArray, at_q: NDArray, n: int) -> tuple[NDArra
         end[3] = end[1]  # crossings: the target is h
     size = 2 * slot.size
     return watch & ~found, {
-        "slot": np.concatenate([slot, slot + 1]), "which": np.tile(state["which"][found], 2),
-        "lo": brackets[0], "hi": brackets[1], "stationary": np.zeros(size, dtype=bool),
-        "watch": np.zeros(size, dtype=bool), "side": np.zeros(size),
-        "reference_width": brackets[1][0] - brackets[0][0], "stalled": np.zeros(size, dtype=int)}
+        "slot": np.concatenate([slot, slot + 1]),
+        "which": np.tile(state["which"][found], 2),
+        "lo": brackets[0],
+        "hi": brackets[1],
+        "stationary": np.zeros(size, dtype=bool),
+        "watch": np.zeros(size, dtype=bool),
+        "side": np.zeros(size),
+        "reference_width": brackets[1][0] - brackets[0][0],
+        "stalled": np.zeros(size, dtype=int),
+    }
 
 
 def _crossing_step(lo: NDArray, hi: NDArray) -> NDArray:
@@ -188,8 +223,9 @@ def _crossing_step(lo: NDArray, hi: NDArray) -> NDArray:
     slope_lo, slope_hi = rise / lo[2], rise / hi[2]  # d omega / du at the ends
     alpha, beta = slope_lo / width, slope_hi / width
     u2, u3 = u * u, u * u * u
-    inverse = ((2 * u3 - 3 * u2 + 1) * lo[0] + (u3 - 2 * u2 + u) * slope_lo
-               + (3 * u2 - 2 * u3) * hi[0] + (u3 - u2) * slope_hi)
+    inverse = (
+        (2 * u3 - 3 * u2 + 1) * lo[0] + (u3 - 2 * u2 + u) * slope_lo + (3 * u2 - 2 * u3) * hi[0] + (u3 - u2) * slope_hi
+    )
     newton = np.where(np.abs(lo[1]) < np.abs(hi[1]), lo[0] - lo[1] / lo[2], hi[0] - hi[1] / hi[2])
     usable = (inverse > lo[0]) & (inverse < hi[0]) & (alpha > 0) & (beta > 0) & (alpha * alpha + beta * beta <= 9.0)
     return np.where(usable, inverse, newton)

@@ -44,16 +44,20 @@ class Projector:
         t_index = terminal[:, 0].astype(int)
         # half bandwidth: -A (row lambda_k, column x_{k-1}) reaches b - 1; a terminal row N b + n + i to (N+1) b + t
         self.kl = kl = max([b - 1, *(b - n - i + t for t, i in enumerate(t_index))])
-        band = np.zeros((2 * kl + 1, self.size))        # band[kl + i - j, j] = K[i, j]
-        steps = band[:, :(N + 1) * b].reshape(2 * kl + 1, N + 1, b)
+        band = np.zeros((2 * kl + 1, self.size))  # band[kl + i - j, j] = K[i, j]
+        steps = band[:, : (N + 1) * b].reshape(2 * kl + 1, N + 1, b)
         every, later = np.arange(N + 1), np.arange(1, N + 1)
-        for ks, row, col, M, shift in ((every, n, 0, np.eye(n), 0), (every, 2 * n, n, red.S.T, 0),
-                                       (later, 0, n, -red.A, -1), (later, 0, 2 * n, -red.B, -1)):
+        for ks, row, col, M, shift in (
+            (every, n, 0, np.eye(n), 0),
+            (every, 2 * n, n, red.S.T, 0),
+            (later, 0, n, -red.A, -1),
+            (later, 0, 2 * n, -red.B, -1),
+        ):
             _place(steps, kl, b, ks, row, col, M, shift)
             _place(steps, kl, b, ks + shift, col, row, M.T, -shift)
         _place(steps, kl, b, every, n, n, red.Qt, 0)
         _place(steps, kl, b, every, 2 * n, 2 * n, red.Rt, 0)
-        for t, i in enumerate(t_index):                  # x_N[i] = value: row and column (N+1) b + t
+        for t, i in enumerate(t_index):  # x_N[i] = value: row and column (N+1) b + t
             r, c = (N + 1) * b + t, N * b + n + i
             band[kl + r - c, c] = band[kl + c - r, r] = 1.0
         self._factor(band)
@@ -66,14 +70,16 @@ class Projector:
         if np.any(largest == 0):
             raise EngineError("projection: the KKT system of the dynamics is singular (an empty row)")
         self.scale = scale = 1.0 / np.sqrt(largest)
-        full = np.zeros((3 * kl + 1, size))              # dgbtrf wants kl more rows for the fill-in
+        full = np.zeros((3 * kl + 1, size))  # dgbtrf wants kl more rows for the fill-in
         for d in range(2 * kl + 1):
-            lo, hi = max(0, kl - d), min(size, size + kl - d)     # columns j whose row j + d - kl exists
-            full[kl + d, lo:hi] = band[d, lo:hi] * scale[lo:hi] * scale[lo + d - kl:hi + d - kl]
+            lo, hi = max(0, kl - d), min(size, size + kl - d)  # columns j whose row j + d - kl exists
+            full[kl + d, lo:hi] = band[d, lo:hi] * scale[lo:hi] * scale[lo + d - kl : hi + d - kl]
         self.lu, self.piv, info = lapack.dgbtrf(full, kl, kl, overwrite_ab=1)
         if info != 0:
-            raise EngineError("projection: the KKT system of the dynamics is singular (E u + F x = 0 leaves "
-                              "no control, or the terminal states cannot be reached)")
+            raise EngineError(
+                "projection: the KKT system of the dynamics is singular (E u + F x = 0 leaves "
+                "no control, or the terminal states cannot be reached)"
+            )
 
     def _solve(self, rhs: NDArray) -> NDArray:
         z, _ = lapack.dgbtrs(self.lu, self.kl, self.kl, (rhs * self.scale)[:, None], self.piv)
@@ -84,12 +90,12 @@ class Projector:
         s, red, b, n = self.system, self.red, self.block, self.system.n
         rhs = np.zeros((s.steps + 1, b))
         rhs[0, :n] = s.x0
-        rhs[:, n:2 * n], rhs[:, 2 * n:] = red.linear_terms(s, reference)
+        rhs[:, n : 2 * n], rhs[:, 2 * n :] = red.linear_terms(s, reference)
         rhs = rhs.ravel()
         if s.terminal is not None:
             rhs = np.concatenate([rhs, s.terminal[:, 1]])
-        z = self._solve(rhs)[:(s.steps + 1) * b].reshape(s.steps + 1, b)
-        x, v = z[:, n:2 * n], z[:, 2 * n:]
+        z = self._solve(rhs)[: (s.steps + 1) * b].reshape(s.steps + 1, b)
+        x, v = z[:, n : 2 * n], z[:, 2 * n :]
         return Trajectory(x.copy(), x @ red.G.T + v @ red.N.T)
 
 

@@ -13,12 +13,12 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError
 
-MAX_STATES = 200      # n
-MAX_INPUTS = 200      # m (and algebraic equations)
-MAX_STEPS = 100_000   # N
-MAX_WORK = 2e9        # N (2n + m)^3: the banded KKT factorization's flops, a few seconds at most
-MAX_POWER = 20        # of t in an integral constraint
-MAX_ITEMS = 1000      # integral and terminal constraints
+MAX_STATES = 200  # n
+MAX_INPUTS = 200  # m (and algebraic equations)
+MAX_STEPS = 100_000  # N
+MAX_WORK = 2e9  # N (2n + m)^3: the banded KKT factorization's flops, a few seconds at most
+MAX_POWER = 20  # of t in an integral constraint
+MAX_ITEMS = 1000  # integral and terminal constraints
 
 
 def fail(key: str, message: str) -> EngineError:
@@ -79,8 +79,9 @@ def vector(value: Any, key: str, size: int) -> NDArray:
     return np.array([number(v, f"{key}[{i}]") for i, v in enumerate(values)], dtype=float)
 
 
-def matrix(value: Any, key: str, rows: int | None = None, columns: int | None = None,
-           most: int = MAX_STATES) -> NDArray:
+def matrix(
+    value: Any, key: str, rows: int | None = None, columns: int | None = None, most: int = MAX_STATES
+) -> NDArray:
     """A list of equally long lists of finite numbers (a list of numbers is one row)."""
     data = items(value, key, most)
     if data and not isinstance(data[0], list):
@@ -132,5 +133,7 @@ def sizes(n: int, m: int, steps: int) -> None:
     """Refuse a system whose projection would take more than seconds."""
     work = (steps + 1) * float(2 * n + m) ** 3
     if work > MAX_WORK:
-        raise EngineError(f"projection: {steps} steps of {n} states and {m} inputs are beyond the limit "
-                          f"(N (2n + m)^3 = {work:.3g} > {MAX_WORK:.0e}): fewer steps or a smaller system")
+        raise EngineError(
+            f"projection: {steps} steps of {n} states and {m} inputs are beyond the limit "
+            f"(N (2n + m)^3 = {work:.3g} > {MAX_WORK:.0e}): fewer steps or a smaller system"
+        )

@@ -121,10 +121,10 @@ def kkt_projection(system: DaeSystem, reference: Trajectory) -> Trajectory:
     H = np.zeros((nx + nu, nx + nu))
     h = np.zeros(nx + nu)
     for k in range(N + 1):
-        H[k * n:(k + 1) * n, k * n:(k + 1) * n] = system.Q
-        H[nx + k * m:nx + (k + 1) * m, nx + k * m:nx + (k + 1) * m] = system.R
-        h[k * n:(k + 1) * n] = system.Q @ reference.x[k]
-        h[nx + k * m:nx + (k + 1) * m] = system.R @ reference.u[k]
+        H[k * n : (k + 1) * n, k * n : (k + 1) * n] = system.Q
+        H[nx + k * m : nx + (k + 1) * m, nx + k * m : nx + (k + 1) * m] = system.R
+        h[k * n : (k + 1) * n] = system.Q @ reference.x[k]
+        h[nx + k * m : nx + (k + 1) * m] = system.R @ reference.u[k]
     rows = []
     rhs = []
     first = np.zeros((n, nx + nu))
@@ -133,18 +133,18 @@ def kkt_projection(system: DaeSystem, reference: Trajectory) -> Trajectory:
     rhs.append(system.x0)
     for k in range(N):
         block = np.zeros((n, nx + nu))
-        block[:, (k + 1) * n:(k + 2) * n] = np.eye(n)
-        block[:, k * n:(k + 1) * n] = -Phi
-        block[:, nx + k * m:nx + (k + 1) * m] = -Delta
+        block[:, (k + 1) * n : (k + 2) * n] = np.eye(n)
+        block[:, k * n : (k + 1) * n] = -Phi
+        block[:, nx + k * m : nx + (k + 1) * m] = -Delta
         rows.append(block)
         rhs.append(np.zeros(n))
     for k in range(N + 1):
         block = np.zeros((p, nx + nu))
-        block[:, k * n:(k + 1) * n] = system.F
-        block[:, nx + k * m:nx + (k + 1) * m] = system.E
+        block[:, k * n : (k + 1) * n] = system.F
+        block[:, nx + k * m : nx + (k + 1) * m] = system.E
         rows.append(block)
         rhs.append(np.zeros(p))
-    for index, value in (system.terminal if system.terminal is not None else []):
+    for index, value in system.terminal if system.terminal is not None else []:
         row = np.zeros((1, nx + nu))
         row[0, N * n + int(index)] = 1.0
         rows.append(row)
@@ -152,4 +152,4 @@ def kkt_projection(system: DaeSystem, reference: Trajectory) -> Trajectory:
     Aeq, b = np.vstack(rows), np.concatenate(rhs)
     kkt = np.block([[H, Aeq.T], [Aeq, np.zeros((Aeq.shape[0], Aeq.shape[0]))]])
     z = np.linalg.solve(kkt, np.concatenate([h, b]))
-    return Trajectory(z[:nx].reshape(N + 1, n), z[nx:nx + nu].reshape(N + 1, m))
+    return Trajectory(z[:nx].reshape(N + 1, n), z[nx : nx + nu].reshape(N + 1, m))

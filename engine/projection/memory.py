@@ -34,8 +34,10 @@ class ProjectionMemory:
 
     def to_json(self) -> dict:
         """Plain JSON types."""
-        return {"r": {"x": _rows_json(self.r.x), "u": _rows_json(self.r.u)},
-                **jsonable({"product": self.product, "distances": self.distances, "plain": self.plain})}
+        return {
+            "r": {"x": _rows_json(self.r.x), "u": _rows_json(self.r.u)},
+            **jsonable({"product": self.product, "distances": self.distances, "plain": self.plain}),
+        }
 
     @classmethod
     def from_json(cls, data: Any) -> Self:
@@ -55,6 +57,7 @@ class ProjectionMemory:
 # The iterate has (steps + 1) x (n + m) entries and every step stores (and the guard reads back) the
 # memory: the common case, rows of finite floats, is written and read without a call per entry.
 
+
 def _finite_floats(rows: Iterable) -> bool:
     """Whether every entry of the rows is a finite float."""
     flat = list(chain.from_iterable(rows))
@@ -72,7 +75,12 @@ def _matrix(fields: Fields, name: str, rows: int | None = None) -> tuple[tuple[f
     """`Fields.matrix` (finite entries; the same tuples), which reads and names what is wrong
     unless every row is a list of finite floats, all of one length."""
     value = fields.data.get(name)
-    if (type(value) is list and (rows is None or len(value) == rows) and set(map(type, value)) <= {list}
-            and len(set(map(len, value))) <= 1 and _finite_floats(value)):
+    if (
+        type(value) is list
+        and (rows is None or len(value) == rows)
+        and set(map(type, value)) <= {list}
+        and len(set(map(len, value))) <= 1
+        and _finite_floats(value)
+    ):
         return tuple(map(tuple, value))
     return fields.matrix(name, rows)

@@ -27,9 +27,11 @@ def open_loop_gain(system: DaeSystem) -> NDArray:
     free = [j for j in range(system.m) if j + 1 not in zero]
     E_free = system.E[:, free]
     if E_free.shape[0] != E_free.shape[1] or np.linalg.matrix_rank(E_free) < len(free):
-        raise EngineError(f"projection: with inputs {sorted(zero)} at zero, E u + F x = 0 must fix the other "
-                          f"{len(free)} inputs: needs {len(free)} independent algebraic equations, "
-                          f"has {system.E.shape[0]}")
+        raise EngineError(
+            f"projection: with inputs {sorted(zero)} at zero, E u + F x = 0 must fix the other "
+            f"{len(free)} inputs: needs {len(free)} independent algebraic equations, "
+            f"has {system.E.shape[0]}"
+        )
     G = np.zeros((system.m, system.n))
     G[free] = -np.linalg.solve(E_free, system.F)
     return G
@@ -41,9 +43,9 @@ def open_loop(system: DaeSystem, Phi: NDArray, Delta: NDArray) -> Trajectory:
     M = Phi + Delta @ G
     x, power = system.x0[None, :], M
     while x.shape[0] < system.steps + 1:
-        x = np.vstack([x, x @ power.T])       # rows M^L .. M^(2L-1) x0 from rows M^0 .. M^(L-1) x0
+        x = np.vstack([x, x @ power.T])  # rows M^L .. M^(2L-1) x0 from rows M^0 .. M^(L-1) x0
         power = power @ power
-    x = x[:system.steps + 1]
+    x = x[: system.steps + 1]
     return Trajectory(x, x @ G.T)
 
 
@@ -65,5 +67,15 @@ def peaks(system: DaeSystem, t: Trajectory) -> dict[str, dict[str, float]]:
 def peak_rows(system: DaeSystem, found: dict[str, dict[str, float]], kind: str, slack: float) -> list[MeasureRow]:
     """Tableau rows |uj| (at most the bound, met within `slack`), the time in the condition column."""
     unit, seconds = system.time_unit
-    return [MeasureRow(f"|{name}|", kind, f"t={p['time'] / seconds:.4g} {unit}", abs(p["value"]), p["bound"],
-                       abs(p["value"]) <= p["bound"] + slack, at_least=False) for name, p in found.items()]
+    return [
+        MeasureRow(
+            f"|{name}|",
+            kind,
+            f"t={p['time'] / seconds:.4g} {unit}",
+            abs(p["value"]),
+            p["bound"],
+            abs(p["value"]) <= p["bound"] + slack,
+            at_least=False,
+        )
+        for name, p in found.items()
+    ]

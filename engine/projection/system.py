@@ -52,10 +52,10 @@ class DaeSystem:
     u_upper: NDArray
     x_lower: NDArray
     x_upper: NDArray
-    integral: NDArray | None = None      # K1 as hyperplanes: rows c with c . vec(u) = integral_values
+    integral: NDArray | None = None  # K1 as hyperplanes: rows c with c . vec(u) = integral_values
     integral_values: NDArray | None = None
-    terminal: NDArray | None = None      # K2 also holds x_i(N) = value: rows (state index, value)
-    open_loop: tuple[int, ...] | None = None   # inputs (from 1) held at 0 in the untrimmed open loop
+    terminal: NDArray | None = None  # K2 also holds x_i(N) = value: rows (state index, value)
+    open_loop: tuple[int, ...] | None = None  # inputs (from 1) held at 0 in the untrimmed open loop
     time_unit: tuple[str, float] = ("s", 1.0)  # how times are shown: name, seconds per unit
 
     @property
@@ -116,8 +116,12 @@ def _terminal(data: Mapping[str, Any], n: int) -> NDArray | None:
     out = []
     for k, entry in enumerate(entries):
         entry = obj(entry, f"terminal[{k}]")
-        out.append([integer(entry.get("state"), f"terminal[{k}].state", 1, n) - 1,
-                    number(entry.get("value"), f"terminal[{k}].value")])
+        out.append(
+            [
+                integer(entry.get("state"), f"terminal[{k}].state", 1, n) - 1,
+                number(entry.get("value"), f"terminal[{k}].value"),
+            ]
+        )
     return np.array(out, dtype=float)
 
 
@@ -132,7 +136,7 @@ def _open_loop(data: Mapping[str, Any], m: int) -> tuple[int, ...] | None:
 def _time_unit(data: Mapping[str, Any]) -> tuple[str, float]:
     raw = data.get("time_unit", ["s", 1.0])
     if not (isinstance(raw, list) and len(raw) == 2 and isinstance(raw[0], str)):
-        raise EngineError("projection: time_unit is [name, seconds per unit], e.g. [\"h\", 3600]")
+        raise EngineError('projection: time_unit is [name, seconds per unit], e.g. ["h", 3600]')
     return raw[0][:20], number(raw[1], "time_unit[1]", positive=True)
 
 
@@ -169,14 +173,31 @@ def dae_system(data: Mapping[str, Any]) -> DaeSystem:
     horizon = number(data.get("horizon", 1.0), "horizon", positive=True)
     sizes(n, m, steps)
     integral, values = _integrals(data, m, steps, horizon)
-    system = DaeSystem(A, B, E, F, x0, horizon, steps, weights(data, "Q", n, semidefinite=True),
-                       weights(data, "R", m), limits(data.get("u_min"), "u_min", m, -np.inf),
-                       limits(data.get("u_max"), "u_max", m, np.inf), limits(data.get("x_min"), "x_min", n, -np.inf),
-                       limits(data.get("x_max"), "x_max", n, np.inf), integral, values,
-                       _terminal(data, n), _open_loop(data, m), _time_unit(data))
+    system = DaeSystem(
+        A,
+        B,
+        E,
+        F,
+        x0,
+        horizon,
+        steps,
+        weights(data, "Q", n, semidefinite=True),
+        weights(data, "R", m),
+        limits(data.get("u_min"), "u_min", m, -np.inf),
+        limits(data.get("u_max"), "u_max", m, np.inf),
+        limits(data.get("x_min"), "x_min", n, -np.inf),
+        limits(data.get("x_max"), "x_max", n, np.inf),
+        integral,
+        values,
+        _terminal(data, n),
+        _open_loop(data, m),
+        _time_unit(data),
+    )
     if system.integral is not None and system.boxed:
-        raise EngineError("projection: K1 is either boxes or integral hyperplanes, not both (no closed-form "
-                          "projection onto their intersection)")
+        raise EngineError(
+            "projection: K1 is either boxes or integral hyperplanes, not both (no closed-form "
+            "projection onto their intersection)"
+        )
     for name, lo, hi in (("u", system.u_lower, system.u_upper), ("x", system.x_lower, system.x_upper)):
         empty = np.flatnonzero(lo > hi)
         if empty.size:

@@ -40,7 +40,7 @@ class Qcg:
     name = "qcg"
     memory_type = QcgMemory
 
-    @guarded('qcg')
+    @guarded("qcg")
     def init(self, problem: Problem, settings: QcgSettings) -> State:
         """Bind the problem and settings; the first state, with the cost at the start."""
         self.problem, self.settings = problem, settings
@@ -53,19 +53,28 @@ class Qcg:
         self.open_loop = open_loop_squares(self.cascade.cascade)
         cost = Counter(self.cascade, problem, self._names())
         last = cost.full(x)
-        memory = QcgMemory(size=settings.size, ncyc=0, tsave=0.0, direction=(0.0,) * x.size, knt=cost.evaluations,
-                           kount=0, initial_scale=tuple(np.abs(x).tolist()), evaluations=cost.evaluations + 1,
-                           gradients=cost.gradients, last=last)
+        memory = QcgMemory(
+            size=settings.size,
+            ncyc=0,
+            tsave=0.0,
+            direction=(0.0,) * x.size,
+            knt=cost.evaluations,
+            kount=0,
+            initial_scale=tuple(np.abs(x).tolist()),
+            evaluations=cost.evaluations + 1,
+            gradients=cost.gradients,
+            last=last,
+        )
         return State(0, tuple(x.tolist()), Status.RUNNING, memory)
 
-    @guarded('qcg')
+    @guarded("qcg")
     def step(self, state: State) -> tuple[State, StepRecord]:
         """One line search (CGFM) or one iteration (lbfgsb)."""
         check_vector("qcg", state.x, len(self._names()))
         b0 = np.array(state.x)
         cost = Counter(self.cascade, self.problem, self._names())
         memory: QcgMemory = state.memory
-        if memory.last is None or memory.last.at != state.x:   # a state whose point was set from outside
+        if memory.last is None or memory.last.at != state.x:  # a state whose point was set from outside
             memory = replace(memory, last=cost.full(b0))
         optimizer = cgfm_step if self.settings.optimizer == "cgfm" else lbfgsb_step
         move = optimizer(self.settings, cost, b0, memory)
@@ -81,16 +90,39 @@ class Qcg:
         memory: QcgMemory = state.memory
         result = _result(memory.last)
         squares = normalized_squares(result.squares, self.open_loop)
-        rows = tuple(MeasureRow(name, "averaged_square", self.problem.conditions[0].name, value, None, True)
-                     for name, value in squares.items())
-        extra = {"F": result.F, "C": result.C, "parts": result.parts, "refined_intervals": result.refined_intervals,
-                 "size": memory.size, "beta": move.beta, "averaged_squares": squares,
-                 "optimizer": self.settings.optimizer, "conventions": CONVENTIONS}
-        return StepRecord(state.iteration, state.status, self.problem.named(move.b), rows, objective=result.C,
-                          step_size=move.step_size, direction=move.direction,
-                          counters={"KNT": memory.knt, "KOUNT": memory.kount, "evaluations": memory.evaluations,
-                                    "gradients": memory.gradients, "line_searches": memory.kount},
-                          reason=move.reason, extra=extra)
+        rows = tuple(
+            MeasureRow(name, "averaged_square", self.problem.conditions[0].name, value, None, True)
+            for name, value in squares.items()
+        )
+        extra = {
+            "F": result.F,
+            "C": result.C,
+            "parts": result.parts,
+            "refined_intervals": result.refined_intervals,
+            "size": memory.size,
+            "beta": move.beta,
+            "averaged_squares": squares,
+            "optimizer": self.settings.optimizer,
+            "conventions": CONVENTIONS,
+        }
+        return StepRecord(
+            state.iteration,
+            state.status,
+            self.problem.named(move.b),
+            rows,
+            objective=result.C,
+            step_size=move.step_size,
+            direction=move.direction,
+            counters={
+                "KNT": memory.knt,
+                "KOUNT": memory.kount,
+                "evaluations": memory.evaluations,
+                "gradients": memory.gradients,
+                "line_searches": memory.kount,
+            },
+            reason=move.reason,
+            extra=extra,
+        )
 
 
 def _result(last: Evaluation) -> CostResult:

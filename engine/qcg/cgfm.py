@@ -71,14 +71,29 @@ def cgfm_step(settings: QcgSettings, cost: Counter, b0: NDArray, memory: QcgMemo
     h = -g + beta * np.array(memory.direction)
     total = float(np.abs(h).sum())
     if total <= 0:
-        return Move(b0, memory, Status.NO_IMPROVEMENT, "zero gradient: no descent direction", here,
-                    memory.size, memory.direction)
+        return Move(
+            b0,
+            memory,
+            Status.NO_IMPROVEMENT,
+            "zero gradient: no descent direction",
+            here,
+            memory.size,
+            memory.direction,
+        )
     memory = replace(memory, tsave=tsqr, ncyc=memory.ncyc + 1, direction=tuple(h.tolist()))
     search = _line_search(s, cost, b0, here.f, h, memory.size / total, lam, memory.size)
     memory = replace(memory, size=search.size, kount=memory.kount + (search.outcome == "ok"))
     if search.outcome == "failed":
-        return Move(b0, memory, Status.FAILED, f"{s.max_expansions} step expansions without a minimum (IER = 2)",
-                    here, memory.size, memory.direction, beta)
+        return Move(
+            b0,
+            memory,
+            Status.FAILED,
+            f"{s.max_expansions} step expansions without a minimum (IER = 2)",
+            here,
+            memory.size,
+            memory.direction,
+            beta,
+        )
     direction = memory.direction
     if search.outcome == "restart" or memory.ncyc > b0.size:
         memory = replace(memory, ncyc=0, direction=(0.0,) * b0.size)
@@ -91,8 +106,9 @@ def cgfm_step(settings: QcgSettings, cost: Counter, b0: NDArray, memory: QcgMemo
     return Move(search.b, memory, status, reason, last, memory.size, direction, beta)
 
 
-def _line_search(s: QcgSettings, cost: Counter, b0: NDArray, f0: float, h: NDArray, scale: float, lam: NDArray,
-                 size: float) -> Search:
+def _line_search(
+    s: QcgSettings, cost: Counter, b0: NDArray, f0: float, h: NDArray, scale: float, lam: NDArray, size: float
+) -> Search:
     """The listing's expansion/contraction and three-point parabola."""
     fss, f, L, K, scasv = f0, f0, 1, 0, scale
     while True:
@@ -126,7 +142,7 @@ def _trial(scaling: str, b0: NDArray, scale: float, h: NDArray, lam: NDArray) ->
     if scaling == "iteration":
         return b0 * np.abs(1.0 + scale * h)
     b = b0 + lam * scale * h
-    return np.where(b * b0 > 0, b, 0.1 * b0)   # the sign constraint
+    return np.where(b * b0 > 0, b, 0.1 * b0)  # the sign constraint
 
 
 def _scale(scaling: str, b: NDArray, memory: QcgMemory) -> NDArray:

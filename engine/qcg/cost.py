@@ -80,10 +80,17 @@ class Cascade:
         """The weights of eq. (24) per unit penalty on the grid: disturbance (d, with |Ga|^2: dg)
         and noise (nq, over |G1G2|^2: nr) terms, each also times w^2 (suffix 2) for the rates."""
         gasq = np.abs(self.ga) ** 2
-        base = {"d": self.disturbance, "dg": self.disturbance * gasq, "nq": self.noise_psd * gasq,
-                "nr": self.noise_psd * gasq / np.abs(self.g1g2) ** 2}
-        return {name + suffix: value * factor for name, value in base.items()
-                for suffix, factor in (("", 1.0), ("2", self.omega ** 2))}
+        base = {
+            "d": self.disturbance,
+            "dg": self.disturbance * gasq,
+            "nq": self.noise_psd * gasq,
+            "nr": self.noise_psd * gasq / np.abs(self.g1g2) ** 2,
+        }
+        return {
+            name + suffix: value * factor
+            for name, value in base.items()
+            for suffix, factor in (("", 1.0), ("2", self.omega**2))
+        }
 
     @cached_property
     def plain(self) -> Points:
@@ -96,10 +103,12 @@ class Cascade:
 def exponential_disturbance(omega: NDArray, amplitude: float, pole: float, averaging_time: float) -> NDArray:
     """|d(jw)|^2 / T for d(t) = A exp(-a t): A^2 / (T (w^2 + a^2))."""
     with np.errstate(all="ignore"):
-        value = np.float64(amplitude) ** 2 / (averaging_time * (omega ** 2 + np.float64(pole) ** 2))
+        value = np.float64(amplitude) ** 2 / (averaging_time * (omega**2 + np.float64(pole) ** 2))
     if not np.all(np.isfinite(value)):
-        raise EngineError("qcg: the disturbance term A^2 / (T (w^2 + a^2)) is not finite on the grid "
-                          "(disturbance_amplitude, disturbance_pole, averaging_time)")
+        raise EngineError(
+            "qcg: the disturbance term A^2 / (T (w^2 + a^2)) is not finite on the grid "
+            "(disturbance_amplitude, disturbance_pole, averaging_time)"
+        )
     return value
 
 
@@ -176,8 +185,9 @@ def _at_points(values: NDArray, points: Points) -> NDArray:
     return np.concatenate([values, inserted])
 
 
-def _response(h: Transfer | None, w: NDArray, params: Mapping[str, float],
-              gradient: bool) -> tuple[NDArray, dict[str, NDArray]]:
+def _response(
+    h: Transfer | None, w: NDArray, params: Mapping[str, float], gradient: bool
+) -> tuple[NDArray, dict[str, NDArray]]:
     """A controller's value at jw and its parameter derivatives (zero without a controller)."""
     if h is None or w.size == 0:
         return np.zeros(w.size, dtype=complex), {}
@@ -190,41 +200,57 @@ def _joined(grid: tuple[NDArray, dict], inserted: tuple[NDArray, dict]) -> tuple
     names = set(grid[1]) | set(inserted[1])
     zeros = (np.zeros(grid[0].size), np.zeros(inserted[0].size))
     return np.concatenate([grid[0], inserted[0]]), {
-        n: np.concatenate([grid[1].get(n, zeros[0]), inserted[1].get(n, zeros[1])]) for n in names}
+        n: np.concatenate([grid[1].get(n, zeros[0]), inserted[1].get(n, zeros[1])]) for n in names
+    }
 
 
 def _plant(cascade: Cascade, points: Points) -> tuple[NDArray, NDArray, NDArray]:
     """G1, G1G2, Ga at every point: exact for a rational plant, else interpolated."""
     arrays = (cascade.g1, cascade.g1g2, cascade.ga)
-    inserted = points.omega[cascade.omega.size:]
+    inserted = points.omega[cascade.omega.size :]
     if cascade.exact is None or inserted.size == 0:
         return tuple(_at_points(a, points) for a in arrays)
     return tuple(np.concatenate([a, e]) for a, e in zip(arrays, cascade.exact(inserted)))
 
 
-def quadratic_cost(cascade: Cascade, h1: Transfer | None, h2: Transfer | None, params: Mapping[str, float],
-                   weights: Weights, gradient: bool = True, names: tuple[str, ...] = ()) -> CostResult:
+def quadratic_cost(
+    cascade: Cascade,
+    h1: Transfer | None,
+    h2: Transfer | None,
+    params: Mapping[str, float],
+    weights: Weights,
+    gradient: bool = True,
+    names: tuple[str, ...] = (),
+) -> CostResult:
     """F(b), its parts, the unit-weight integrals and (optionally) dF/dp for the parameters ``names``."""
     w = cascade.omega
     grid1, grid2 = _response(h1, w, params, gradient), _response(h2, w, params, gradient)
     open_grid = cascade.ga * (cascade.g1 * grid2[0] + cascade.g1g2 * grid1[0])
     points = _points(cascade, np.abs(1.0 + open_grid) ** 2, weights)
-    inserted = points.omega[w.size:]
+    inserted = points.omega[w.size :]
     H1, dH1 = _joined(grid1, _response(h1, inserted, params, gradient))
     H2, dH2 = _joined(grid2, _response(h2, inserted, params, gradient))
     g1, g1g2, ga = _plant(cascade, points)
     s = {name: _at_points(value, points) for name, value in cascade.spectra.items()}
     one_plus_open = 1.0 + ga * (g1 * H2 + g1g2 * H1)
     Y = g1g2 / one_plus_open
-    M = g1 * H2 / g1g2 + H1                      # H2/G2 + H1
+    M = g1 * H2 / g1g2 + H1  # H2/G2 + H1
     hmag, m2, y2, c = np.abs(H1) ** 2 + np.abs(H2) ** 2, np.abs(M) ** 2, np.abs(Y) ** 2, points.coefficient
-    squares = {"x1": y2 * (s["d"] + s["nq"] * hmag), "x1_rate": y2 * (s["d2"] + s["nq2"] * hmag),
-               "u": y2 * (s["dg"] * m2 + s["nr"] * hmag), "u_rate": y2 * (s["dg2"] * m2 + s["nr2"] * hmag)}
+    squares = {
+        "x1": y2 * (s["d"] + s["nq"] * hmag),
+        "x1_rate": y2 * (s["d2"] + s["nq2"] * hmag),
+        "u": y2 * (s["dg"] * m2 + s["nr"] * hmag),
+        "u_rate": y2 * (s["dg2"] * m2 + s["nr2"] * hmag),
+    }
     q = weights
     dq, dr = q.q1 * s["d"] + q.q2 * s["d2"], q.r1 * s["dg"] + q.r2 * s["dg2"]
     vq, vr = q.q1 * s["nq"] + q.q2 * s["nq2"], q.r1 * s["nr"] + q.r2 * s["nr2"]
-    parts = {"FDQ": float(y2 * dq @ c), "FDR": float(y2 * dr * m2 @ c), "FVQ": float(y2 * vq * hmag @ c),
-             "FVR": float(y2 * vr * hmag @ c)}
+    parts = {
+        "FDQ": float(y2 * dq @ c),
+        "FDR": float(y2 * dr * m2 @ c),
+        "FVQ": float(y2 * vq * hmag @ c),
+        "FVR": float(y2 * vr * hmag @ c),
+    }
     grad = None
     if gradient:
         Q = dq + dr * m2 + (vq + vr) * hmag
@@ -238,10 +264,11 @@ def quadratic_cost(cascade: Cascade, h1: Transfer | None, h2: Transfer | None, p
             dM = g1 * d2 / g1g2 + d1
             dQ = 2 * dr * np.real(np.conj(M) * dM) + 2 * (vq + vr) * np.real(np.conj(H1) * d1 + np.conj(H2) * d2)
             dF = 2 * np.real(np.conj(Y) * dY) * Q + y2 * dQ
-            d_r = 2 * np.real(np.conj(one_plus_open[:w.size]) * d_open[:w.size])   # d|1 + OPEN|^2 on the grid
+            d_r = 2 * np.real(np.conj(one_plus_open[: w.size]) * d_open[: w.size])  # d|1 + OPEN|^2 on the grid
             grad[name] = float(dF @ c + blend.weight @ d_r[blend.at])
-    return CostResult(sum(parts.values()), parts, grad, int(points.split.size),
-                      {k: float(v @ c) for k, v in squares.items()})
+    return CostResult(
+        sum(parts.values()), parts, grad, int(points.split.size), {k: float(v @ c) for k, v in squares.items()}
+    )
 
 
 class BlendSensitivity(NamedTuple):
@@ -280,14 +307,22 @@ def open_loop_squares(cascade: Cascade) -> dict[str, float]:
     return {name: squares[name] for name in ("x1", "x1_rate")}
 
 
-def frequency_response(cascade: Cascade, h1: Transfer | None, h2: Transfer | None, params: Mapping[str, float],
-                       normalizing_gain: float) -> list[dict[str, float]]:
+def frequency_response(
+    cascade: Cascade, h1: Transfer | None, h2: Transfer | None, params: Mapping[str, float], normalizing_gain: float
+) -> list[dict[str, float]]:
     """The listing's INST = 4 printout: Hz, |Gcl|/GN, angle Gcl (deg), OPEN."""
     w = cascade.omega
     H1 = h1.evaluate(1j * w, params).value if h1 is not None else 0.0 * w
     H2 = h2.evaluate(1j * w, params).value if h2 is not None else 0.0 * w
     open_ = cascade.ga * (cascade.g1 * H2 + cascade.g1g2 * H1)
     Y = cascade.g1g2 / (1 + open_)
-    return [{"hz": float(wi / (2 * np.pi)), "magnitude": float(abs(y) / normalizing_gain),
-             "phase_deg": float(np.degrees(np.angle(y))), "open_real": float(o.real), "open_imag": float(o.imag)}
-            for wi, y, o in zip(w, Y, np.broadcast_to(open_, w.shape))]
+    return [
+        {
+            "hz": float(wi / (2 * np.pi)),
+            "magnitude": float(abs(y) / normalizing_gain),
+            "phase_deg": float(np.degrees(np.angle(y))),
+            "open_real": float(o.real),
+            "open_imag": float(o.imag),
+        }
+        for wi, y, o in zip(w, Y, np.broadcast_to(open_, w.shape))
+    ]

@@ -39,9 +39,14 @@ class Evaluation:
     @classmethod
     def of(cls, b: NDArray, result: CostResult, names: list[str]) -> Self:
         """From a `CostResult` computed with the gradient."""
-        return cls(tuple(b.tolist()), result.F, tuple(result.gradient[n] for n in names),
-                   tuple(result.parts[k] for k in PARTS), tuple(result.squares[k] for k in SQUARES),
-                   result.refined_intervals)
+        return cls(
+            tuple(b.tolist()),
+            result.F,
+            tuple(result.gradient[n] for n in names),
+            tuple(result.parts[k] for k in PARTS),
+            tuple(result.squares[k] for k in SQUARES),
+            result.refined_intervals,
+        )
 
     @property
     def g(self) -> NDArray:
@@ -49,16 +54,28 @@ class Evaluation:
 
     def to_json(self) -> dict:
         """Plain JSON types (non-finite parts and squares as strings)."""
-        return jsonable({"at": self.at, "f": self.f, "gradient": self.gradient, "parts": self.parts,
-                         "squares": self.squares, "refined": self.refined})
+        return jsonable(
+            {
+                "at": self.at,
+                "f": self.f,
+                "gradient": self.gradient,
+                "parts": self.parts,
+                "squares": self.squares,
+                "refined": self.refined,
+            }
+        )
 
     @classmethod
     def from_json(cls, fields: Fields, n: int) -> Self:
         """Read back `to_json`'s data for n parameters (errors name the field)."""
-        return cls(fields.numbers("at", n), fields.number("f"), fields.numbers("gradient", n),
-                   fields.numbers("parts", len(PARTS), finite=False),
-                   fields.numbers("squares", len(SQUARES), finite=False),
-                   fields.integer("refined"))
+        return cls(
+            fields.numbers("at", n),
+            fields.number("f"),
+            fields.numbers("gradient", n),
+            fields.numbers("parts", len(PARTS), finite=False),
+            fields.numbers("squares", len(SQUARES), finite=False),
+            fields.integer("refined"),
+        )
 
 
 class Counter:
@@ -94,5 +111,8 @@ class Counter:
 
 def counted(memory: Any, counter: Counter) -> dict[str, int]:
     """The memory's counters advanced by a step's evaluations."""
-    return {"knt": memory.knt + counter.evaluations, "evaluations": memory.evaluations + counter.evaluations,
-            "gradients": memory.gradients + counter.gradients}
+    return {
+        "knt": memory.knt + counter.evaluations,
+        "evaluations": memory.evaluations + counter.evaluations,
+        "gradients": memory.gradients + counter.gradients,
+    }

@@ -42,10 +42,10 @@ from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
 from engine.stepping.protocol import Status
 
-LOWER = 1e-6   # the least p = b/|b0|: a parameter keeps its sign and a millionth of its start
+LOWER = 1e-6  # the least p = b/|b0|: a parameter keeps its sign and a millionth of its start
 CURVATURE = np.finfo(float).eps
-C1, C2, XTOL = 1e-3, 0.9, 0.1   # L-BFGS-B's line search: sufficient decrease, curvature, interval tolerance
-MAX_TRIALS = 20                 # L-BFGS-B's maxls: cost evaluations of one line search
+C1, C2, XTOL = 1e-3, 0.9, 0.1  # L-BFGS-B's line search: sufficient decrease, curvature, interval tolerance
+MAX_TRIALS = 20  # L-BFGS-B's maxls: cost evaluations of one line search
 
 
 def lbfgsb_step(settings: QcgSettings, cost: Counter, b: NDArray, memory: QcgMemory) -> Move:
@@ -54,16 +54,25 @@ def lbfgsb_step(settings: QcgSettings, cost: Counter, b: NDArray, memory: QcgMem
     scale = np.sign(b) * np.array(memory.initial_scale)
     p, g = b / scale, here.g * scale
     if _projected_norm(p, g) <= settings.gtol:
-        return Move(b, memory, Status.CONVERGED, f"projected gradient <= gtol = {settings.gtol:g}", here, 0.0,
-                    (0.0,) * b.size)
+        return Move(
+            b, memory, Status.CONVERGED, f"projected gradient <= gtol = {settings.gtol:g}", here, 0.0, (0.0,) * b.size
+        )
     d = _direction(p, g, memory)
     found = _search(cost, scale, p, d, g, here.f)
     if found is None:
         if memory.pairs_s:
-            return Move(b, replace(memory, pairs_s=(), pairs_y=()), Status.RUNNING,
-                        "the line search failed: the pairs are dropped", here, 0.0, tuple(d.tolist()))
-        return Move(b, memory, Status.NO_IMPROVEMENT, "no decrease along the projected gradient", here, 0.0,
-                    tuple(d.tolist()))
+            return Move(
+                b,
+                replace(memory, pairs_s=(), pairs_y=()),
+                Status.RUNNING,
+                "the line search failed: the pairs are dropped",
+                here,
+                0.0,
+                tuple(d.tolist()),
+            )
+        return Move(
+            b, memory, Status.NO_IMPROVEMENT, "no decrease along the projected gradient", here, 0.0, tuple(d.tolist())
+        )
     p_new, new = found
     memory = _remember(replace(memory, kount=memory.kount + 1), p_new - p, new.g * scale - g, settings.pairs)
     status, reason = _stop(settings, memory, here.f, new, p_new, new.g * scale)
@@ -81,7 +90,7 @@ def _direction(p: NDArray, g: NDArray, memory: QcgMemory) -> NDArray:
     if memory.pairs_s:
         S, Y = np.array(memory.pairs_s)[:, free], np.array(memory.pairs_y)[:, free]
         d[free] = -_two_loop(g[free], S, Y)
-    if not memory.pairs_s or d @ g >= 0:   # no pairs, or not a descent direction: steepest descent
+    if not memory.pairs_s or d @ g >= 0:  # no pairs, or not a descent direction: steepest descent
         d = np.where(free, -g, 0.0)
         d = d / np.linalg.norm(d)
     return np.where((p <= LOWER) & (d < 0), 0.0, d)
@@ -100,12 +109,14 @@ def _two_loop(g: NDArray, S: NDArray, Y: NDArray) -> NDArray:
     return r
 
 
-def _search(cost: Counter, scale: NDArray, p: NDArray, d: NDArray, g: NDArray,
-            f: float) -> tuple[NDArray, Evaluation] | None:
+def _search(
+    cost: Counter, scale: NDArray, p: NDArray, d: NDArray, g: NDArray, f: float
+) -> tuple[NDArray, Evaluation] | None:
     """L-BFGS-B's line search along d (MINPACK's dcsrch, scipy's `DCSRCH`, L-BFGS-B's
     constants), capped at the bounds: the new p and its cost.  When it ends without a
     point meeting its conditions, the best point it tried with sufficient decrease."""
     from scipy.optimize._dcsrch import DCSRCH  # no public name; on first use (scipy.optimize: 0.25 s of start-up)
+
     seen: dict[float, Evaluation | None] = {}
 
     def at(alpha: float) -> Evaluation | None:
@@ -142,12 +153,16 @@ def _remember(memory: QcgMemory, s: NDArray, y: NDArray, keep: int) -> QcgMemory
     """The pair (s, y) added (the oldest dropped beyond ``keep``) when its curvature is positive."""
     if not s @ y > CURVATURE * (y @ y):
         return memory
-    return replace(memory, pairs_s=(memory.pairs_s + (tuple(s.tolist()),))[-keep:],
-                   pairs_y=(memory.pairs_y + (tuple(y.tolist()),))[-keep:])
+    return replace(
+        memory,
+        pairs_s=(memory.pairs_s + (tuple(s.tolist()),))[-keep:],
+        pairs_y=(memory.pairs_y + (tuple(y.tolist()),))[-keep:],
+    )
 
 
-def _stop(settings: QcgSettings, memory: QcgMemory, f_old: float, new: Evaluation, p: NDArray,
-          g: NDArray) -> tuple[Status, str]:
+def _stop(
+    settings: QcgSettings, memory: QcgMemory, f_old: float, new: Evaluation, p: NDArray, g: NDArray
+) -> tuple[Status, str]:
     if _projected_norm(p, g) <= settings.gtol:
         return Status.CONVERGED, f"projected gradient <= gtol = {settings.gtol:g}"
     if not new.f < f_old:

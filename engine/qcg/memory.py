@@ -38,11 +38,22 @@ class QcgMemory:
 
     def to_json(self) -> dict:
         """Plain JSON types."""
-        return jsonable({"size": self.size, "ncyc": self.ncyc, "tsave": self.tsave, "direction": self.direction,
-                         "knt": self.knt, "kount": self.kount, "initial_scale": self.initial_scale,
-                         "evaluations": self.evaluations, "gradients": self.gradients,
-                         "last": None if self.last is None else self.last.to_json(), "pairs_s": self.pairs_s,
-                         "pairs_y": self.pairs_y})
+        return jsonable(
+            {
+                "size": self.size,
+                "ncyc": self.ncyc,
+                "tsave": self.tsave,
+                "direction": self.direction,
+                "knt": self.knt,
+                "kount": self.kount,
+                "initial_scale": self.initial_scale,
+                "evaluations": self.evaluations,
+                "gradients": self.gradients,
+                "last": None if self.last is None else self.last.to_json(),
+                "pairs_s": self.pairs_s,
+                "pairs_y": self.pairs_y,
+            }
+        )
 
     @classmethod
     def from_json(cls, data: Any) -> Self:
@@ -55,6 +66,17 @@ class QcgMemory:
         n = len(direction)
         last = None if fields.get("last") is None else Evaluation.from_json(fields.object("last"), n)
         pairs_s = fields.matrix("pairs_s", columns=n)
-        return cls(size, fields.integer("ncyc"), fields.number("tsave"), direction, fields.integer("knt"),
-                   fields.integer("kount"), fields.numbers("initial_scale", n), fields.integer("evaluations"),
-                   fields.integer("gradients"), last, pairs_s, fields.matrix("pairs_y", len(pairs_s), n))
+        return cls(
+            size,
+            fields.integer("ncyc"),
+            fields.number("tsave"),
+            direction,
+            fields.integer("knt"),
+            fields.integer("kount"),
+            fields.numbers("initial_scale", n),
+            fields.integer("evaluations"),
+            fields.integer("gradients"),
+            last,
+            pairs_s,
+            fields.matrix("pairs_y", len(pairs_s), n),
+        )

@@ -59,5 +59,6 @@ def penalized(made: CascadeProblem, problem: Problem) -> CascadeProblem:
         return made
     check_start(problem, problem.vector(), "qcg")
     scale = row_scale(A, b, problem.vector())
-    return PenalizedCascade(*(getattr(made, f.name) for f in fields(CascadeProblem)), A=np.array(A), b=np.array(b),
-                            scale=scale)
+    return PenalizedCascade(
+        *(getattr(made, f.name) for f in fields(CascadeProblem)), A=np.array(A), b=np.array(b), scale=scale
+    )

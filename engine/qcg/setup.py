@@ -22,8 +22,18 @@ from engine.errors import EngineError
 from engine.model.blocks import Transfer
 from engine.qcg.cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
 
-OPTIONS = ("q1", "q2", "r1", "r2", "averaging_time", "disturbance_amplitude", "disturbance_pole", "rsnat",
-           "subdivisions", "normalizing_gain")
+OPTIONS = (
+    "q1",
+    "q2",
+    "r1",
+    "r2",
+    "averaging_time",
+    "disturbance_amplitude",
+    "disturbance_pole",
+    "rsnat",
+    "subdivisions",
+    "normalizing_gain",
+)
 
 
 @dataclass(frozen=True)
@@ -54,6 +64,7 @@ def cascade_problem(problem: Problem) -> CascadeProblem:
     if not all(np.all(np.isfinite(a)) for a in (data.g1, data.g1g2, data.ga, data.noise_psd, data.disturbance)):
         raise EngineError("qcg: the plant or the noise and disturbance weights are not finite on the grid")
     from engine.qcg.penalty import penalized  # the linear constraints' penalty (penalty.py builds on this module)
+
     return penalized(made, problem)
 
 
@@ -71,8 +82,10 @@ def _cascade_problem(problem: Problem) -> CascadeProblem:
     blocks = {e.label: e.transfer for e in network.entries}
     missing = [name for name in ("G1", "G2", "Ga") if name not in blocks]
     if missing or not ({"H1", "H2"} & set(blocks)):
-        raise EngineError("qcg: the plant needs blocks named G1, G2, Ga and H1 and/or H2 (report 001, Figure 2); "
-                          f"missing {', '.join(missing) or 'H1/H2'}")
+        raise EngineError(
+            "qcg: the plant needs blocks named G1, G2, Ga and H1 and/or H2 (report 001, Figure 2); "
+            f"missing {', '.join(missing) or 'H1/H2'}"
+        )
     w = problem.grid.omega
     fixed = {}
     for name in ("G1", "G2", "Ga"):
@@ -88,20 +101,38 @@ def _cascade_problem(problem: Problem) -> CascadeProblem:
     if "disturbance_psd" in tables:
         disturbance = np.abs(tables["disturbance_psd"].interpolate(w))
     else:
-        disturbance = exponential_disturbance(w, option.get("disturbance_amplitude", 0.0),
-                                              option.get("disturbance_pole", 1.0), option.get("averaging_time", 1.0))
+        disturbance = exponential_disturbance(
+            w,
+            option.get("disturbance_amplitude", 0.0),
+            option.get("disturbance_pole", 1.0),
+            option.get("averaging_time", 1.0),
+        )
     exact = _exact_plant(blocks) if all(blocks[name].exact for name in ("G1", "G2", "Ga")) else None
     cascade = Cascade(w, fixed["G1"], fixed["G1"] * fixed["G2"], fixed["Ga"], noise, disturbance, exact)
-    weights = Weights(option.get("q1", 1.0), option.get("q2", 0.0), option.get("r1", 0.0), option.get("r2", 0.0),
-                      option.get("rsnat", 0.5), int(option.get("subdivisions", 3)))
+    weights = Weights(
+        option.get("q1", 1.0),
+        option.get("q2", 0.0),
+        option.get("r1", 0.0),
+        option.get("r2", 0.0),
+        option.get("rsnat", 0.5),
+        int(option.get("subdivisions", 3)),
+    )
     names = tuple(problem.parameters[i].name for i, _ in problem.free_slots())
-    return CascadeProblem(cascade, blocks.get("H1"), blocks.get("H2"), weights, names,
-                          option.get("normalizing_gain", 1.0))
+    return CascadeProblem(
+        cascade, blocks.get("H1"), blocks.get("H2"), weights, names, option.get("normalizing_gain", 1.0)
+    )
 
 
 # option -> (least, greatest, whether the least is excluded)
-RANGES = {"averaging_time": (0.0, 1e300, True), "rsnat": (0.0, 1e300, False), "subdivisions": (1, 100, False),
-          "q1": (0.0, 1e300, False), "q2": (0.0, 1e300, False), "r1": (0.0, 1e300, False), "r2": (0.0, 1e300, False)}
+RANGES = {
+    "averaging_time": (0.0, 1e300, True),
+    "rsnat": (0.0, 1e300, False),
+    "subdivisions": (1, 100, False),
+    "q1": (0.0, 1e300, False),
+    "q2": (0.0, 1e300, False),
+    "r1": (0.0, 1e300, False),
+    "r2": (0.0, 1e300, False),
+}
 
 
 def _options(options: Mapping[str, object]) -> dict[str, float]:
@@ -112,8 +143,9 @@ def _options(options: Mapping[str, object]) -> dict[str, float]:
             raise EngineError(f"qcg: objective option {name} must be a finite number, not {str(value)[:40]!r}")
         low, high, strict = RANGES.get(name, (-np.inf, np.inf, False))
         if not (low < value if strict else low <= value) or value > high:
-            raise EngineError(f"qcg: objective option {name} = {value!r} is outside "
-                              f"{'(' if strict else '['}{low:g}, {high:g}]")
+            raise EngineError(
+                f"qcg: objective option {name} = {value!r} is outside {'(' if strict else '['}{low:g}, {high:g}]"
+            )
         out[name] = float(value)
     if out.get("normalizing_gain", 1.0) == 0:
         raise EngineError("qcg: objective option normalizing_gain must not be 0")
@@ -122,8 +154,12 @@ def _options(options: Mapping[str, object]) -> dict[str, float]:
 
 def _exact_plant(blocks: Mapping[str, Transfer]):
     """G1, G1G2 and Ga at any frequencies (plants in closed form)."""
+
     def evaluate(omega: np.ndarray):
-        g1, g2, ga = (np.broadcast_to(blocks[n].evaluate(1j * omega, {}).value, omega.shape).astype(complex)
-                      for n in ("G1", "G2", "Ga"))
+        g1, g2, ga = (
+            np.broadcast_to(blocks[n].evaluate(1j * omega, {}).value, omega.shape).astype(complex)
+            for n in ("G1", "G2", "Ga")
+        )
         return g1, g1 * g2, ga
+
     return evaluate

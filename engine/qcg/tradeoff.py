@@ -35,8 +35,9 @@ class TradeoffPoint:
     evaluations: int
 
 
-def penalty_sweep(problem: Problem, settings: QcgSettings, penalty: str, values: Sequence[float],
-                  max_steps: int = 1000) -> list[TradeoffPoint]:
+def penalty_sweep(
+    problem: Problem, settings: QcgSettings, penalty: str, values: Sequence[float], max_steps: int = 1000
+) -> list[TradeoffPoint]:
     """Optimized designs at every penalty value, sorted by value (see the module docstring)."""
     if penalty not in PENALTIES:
         raise EngineError(f"tradeoff: penalty must be one of {', '.join(PENALTIES)}, not {penalty!r}")
@@ -54,13 +55,20 @@ def penalty_sweep(problem: Problem, settings: QcgSettings, penalty: str, values:
     return [points[v] for v in ordered]
 
 
-def _optimize(problem: Problem, settings: QcgSettings, penalty: str, value: float,
-              max_steps: int) -> tuple[TradeoffPoint, tuple[float, ...]]:
+def _optimize(
+    problem: Problem, settings: QcgSettings, penalty: str, value: float, max_steps: int
+) -> tuple[TradeoffPoint, tuple[float, ...]]:
     objective = replace(problem.objective, options=dict(problem.objective.options, **{penalty: value}))
     runs = list(iterate(Qcg(), replace(problem, objective=objective), settings, max_iter=max_steps))
     if not runs:
         raise EngineError("tradeoff: the search made no step")
     state, record = runs[-1]
-    point = TradeoffPoint(value, dict(record.parameters), record.status.value, float(record.objective),
-                          dict(record.extra["averaged_squares"]), int(record.counters["evaluations"]))
+    point = TradeoffPoint(
+        value,
+        dict(record.parameters),
+        record.status.value,
+        float(record.objective),
+        dict(record.extra["averaged_squares"]),
+        int(record.counters["evaluations"]),
+    )
     return point, state.x

@@ -4,8 +4,13 @@ from engine.slp.algorithm import Slp, SlpSettings
 from engine.slp.present import SlpPresenter
 from engine.stepping.protocol import register
 
-register("slp", Slp, SlpSettings,
-         "sequential linear programming over margins and time-domain measures, several flight "
-         "conditions, load relief (report 003, COEBRA)", SlpPresenter())
+register(
+    "slp",
+    Slp,
+    SlpSettings,
+    "sequential linear programming over margins and time-domain measures, several flight "
+    "conditions, load relief (report 003, COEBRA)",
+    SlpPresenter(),
+)
 
 __all__ = ["Slp", "SlpSettings"]

@@ -65,25 +65,26 @@ STILL = "the linear program does not move"
 class SlpSettings:
     """The report's inputs and this program's options."""
 
-    objective: Literal["margins", "load_relief"] = "margins"   # Y1 (2-11) or Y2 (2-12)
+    objective: Literal["margins", "load_relief"] = "margins"  # Y1 (2-11) or Y2 (2-12)
     partials: Literal["analytic", "finite_difference"] = "analytic"
-    initial_step: float = 0.2          # P of the first trial
-    step_growth: float = 2.0           # P after a better trial (before the bracket closes)
-    min_step: float = 1e-3             # a minor loop whose P falls below this gives up
+    initial_step: float = 0.2  # P of the first trial
+    step_growth: float = 2.0  # P after a better trial (before the bracket closes)
+    min_step: float = 1e-3  # a minor loop whose P falls below this gives up
     max_step: float = 10.0
-    step_resolution: float = 0.1       # bracket width (relative) that ends a minor loop
-    step_floor: float = 0.0            # the box is +-P max(|x0|, step_floor * the variable's range)
-    relaxation_step: float = 0.2       # STEP = 1, 1 - this, ..., 0 in the inner loop
-    backoff: float = 0.01              # met rows are held this fraction of |SPEC| above SPEC (0: the report)
-    improvement_percent: float = 0.1   # a tie in the counter needs this much more figure of merit
+    step_resolution: float = 0.1  # bracket width (relative) that ends a minor loop
+    step_floor: float = 0.0  # the box is +-P max(|x0|, step_floor * the variable's range)
+    relaxation_step: float = 0.2  # STEP = 1, 1 - this, ..., 0 in the inner loop
+    backoff: float = 0.01  # met rows are held this fraction of |SPEC| above SPEC (0: the report)
+    improvement_percent: float = 0.1  # a tie in the counter needs this much more figure of merit
     max_minor: int = 12
     max_major: int = 30
     require_stable: bool = True
-    fd_step: float = 1e-6              # relative forward-difference step
+    fd_step: float = 1e-6  # relative forward-difference step
 
     RETIRED: ClassVar[dict[str, str]] = {
         "time_limit": "a wall-clock limit made a run impossible to replay; give it to the run instead "
-                      "(loopcraft run --time-limit SECONDS, or run_session(..., time_limit=SECONDS))"}
+        "(loopcraft run --time-limit SECONDS, or run_session(..., time_limit=SECONDS))"
+    }
 
     def __post_init__(self) -> None:
         if not 0 < self.relaxation_step <= 1:
@@ -112,7 +113,7 @@ class Slp:
     name = "slp"
     memory_type = SlpMemory
 
-    @guarded('slp')
+    @guarded("slp")
     def init(self, problem: Problem, settings: SlpSettings) -> State:
         self.problem, self.settings = problem, settings
         self.specs = measure_specs(problem, settings.require_stable)
@@ -128,13 +129,29 @@ class Slp:
         x = self._feasible_start(np.clip(problem.vector(), self.lower, self.upper))
         check_start(problem, x, "slp")
         start = _stored(self._point(x))
-        return State(0, tuple(x.tolist()), Status.RUNNING, SlpMemory(
-            major=1, minor=0, x0=tuple(x.tolist()), base=start, best=start, partials=None, partial_methods=(),
-            P=settings.initial_step, P_best=0.0, P_failed=None, evaluations=1, lps=0))
+        return State(
+            0,
+            tuple(x.tolist()),
+            Status.RUNNING,
+            SlpMemory(
+                major=1,
+                minor=0,
+                x0=tuple(x.tolist()),
+                base=start,
+                best=start,
+                partials=None,
+                partial_methods=(),
+                P=settings.initial_step,
+                P_best=0.0,
+                P_failed=None,
+                evaluations=1,
+                lps=0,
+            ),
+        )
 
     # -- one minor-loop trial ----------------------------------------------
 
-    @guarded('slp')
+    @guarded("slp")
     def step(self, state: State) -> tuple[State, StepRecord]:
         memory: SlpMemory = state.memory
         check_vector("slp", state.x, len(self.lower))
@@ -143,20 +160,33 @@ class Slp:
         base = _point_from(memory.base)
         counters = {"partial_evaluations": 0}
         if memory.partials is None:
-            J, how = jacobian(self.problem, x0, self.specs, base.values, base.frequencies,
-                              self.settings.partials, self.settings.fd_step)
+            J, how = jacobian(
+                self.problem,
+                x0,
+                self.specs,
+                base.values,
+                base.frequencies,
+                self.settings.partials,
+                self.settings.fd_step,
+            )
             memory = replace(memory, partials=tuple(map(tuple, J.tolist())), partial_methods=tuple(how))
             counters["partial_evaluations"] = len(x0) if "finite difference" in how else 1
         J = np.array(memory.partials, dtype=float)
         if J.shape != (len(self.specs), len(x0)):
-            raise EngineError(f"slp: the state's partials are {' x '.join(map(str, J.shape))}, the problem needs "
-                              f"{len(self.specs)} x {len(x0)} (the stored state belongs to another problem)")
+            raise EngineError(
+                f"slp: the state's partials are {' x '.join(map(str, J.shape))}, the problem needs "
+                f"{len(self.specs)} x {len(x0)} (the stored state belongs to another problem)"
+            )
         P = float(memory.P)
         lp = self._program(x0, base.values, J, P)
         trial, reason = self._trial(x0, lp)
         better = trial is not None and self._better(trial, _point_from(memory.best))
-        memory = replace(memory, minor=memory.minor + 1, lps=memory.lps + lp.solves,
-                         evaluations=memory.evaluations + (trial is not None))
+        memory = replace(
+            memory,
+            minor=memory.minor + 1,
+            lps=memory.lps + lp.solves,
+            evaluations=memory.evaluations + (trial is not None),
+        )
         memory = replace(memory, best=_stored(trial), P_best=P) if better else replace(memory, P_failed=P)
         numbers = (memory.major, memory.minor)
         done, why, memory = self._next_step(memory, reason == STILL)
@@ -165,8 +195,9 @@ class Slp:
             status, reason, final, memory = self._end_major(memory, why, reason)
             shown = final or trial
         shown = shown or base
-        record = self._record(state.iteration + 1, status, shown, memory, numbers, lp, P, trial, better, reason,
-                              counters)
+        record = self._record(
+            state.iteration + 1, status, shown, memory, numbers, lp, P, trial, better, reason, counters
+        )
         x = memory.best.x if status.finished else memory.x0
         return State(state.iteration + 1, x, status, memory), record
 
@@ -176,7 +207,7 @@ class Slp:
         if np.all(np.abs(lp.dx) <= 1e-14 * np.maximum(np.abs(x0), 1.0)):
             return None, STILL
         try:
-            x = project(x0 + lp.dx, *self.inequalities, self.lower, self.upper)   # the clip, or the LP's rounding off
+            x = project(x0 + lp.dx, *self.inequalities, self.lower, self.upper)  # the clip, or the LP's rounding off
             return self._point(x), ""
         except (EngineError, np.linalg.LinAlgError, ValueError) as exc:
             return None, f"trial point cannot be evaluated: {exc}"
@@ -203,8 +234,7 @@ class Slp:
             return True, "step below minimum", memory
         return False, "", memory
 
-    def _end_major(self, memory: SlpMemory, why: str,
-                   reason: str) -> tuple[Status, str, Point | None, SlpMemory]:
+    def _end_major(self, memory: SlpMemory, why: str, reason: str) -> tuple[Status, str, Point | None, SlpMemory]:
         """Start the next major iteration at the best point, or end the run."""
         best, base = _point_from(memory.best), _point_from(memory.base)
         s = self.settings
@@ -212,12 +242,25 @@ class Slp:
         if improved and self._complete(best):
             return Status.CONVERGED, "every requirement met and every desired value reached", best, memory
         if not improved:
-            return (Status.NO_IMPROVEMENT, f"major iteration {memory.major} found no better point ({why})", best,
-                    memory)
+            return (
+                Status.NO_IMPROVEMENT,
+                f"major iteration {memory.major} found no better point ({why})",
+                best,
+                memory,
+            )
         if memory.major >= s.max_major:
             return Status.ITERATION_LIMIT, f"major-iteration limit ({s.max_major})", best, memory
-        memory = replace(memory, major=memory.major + 1, minor=0, x0=memory.best.x, base=memory.best,
-                         partials=None, P=max(memory.P_best, s.min_step), P_best=0.0, P_failed=None)
+        memory = replace(
+            memory,
+            major=memory.major + 1,
+            minor=0,
+            x0=memory.best.x,
+            base=memory.best,
+            partials=None,
+            P=max(memory.P_best, s.min_step),
+            P_best=0.0,
+            P_failed=None,
+        )
         return Status.RUNNING, reason or f"relinearize at the best point ({why})", None, memory
 
     # -- the linear program ------------------------------------------------
@@ -232,8 +275,9 @@ class Slp:
         steps = np.append(np.arange(1.0, 0.0, -s.relaxation_step), 0.0)
         box = step_box(x0, self.lower, self.upper, P, s.step_floor)
         c = self._objective(values, gradients, present)
-        result = solve_step(c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps,
-                            s.backoff, self.inequalities)
+        result = solve_step(
+            c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps, s.backoff, self.inequalities
+        )
         duals = np.zeros(len(self.specs))
         duals[rows] = result.duals if result.duals.size == len(rows) else 0.0
         return LpResult(result.dx, result.step, result.solves, result.status, duals)
@@ -256,8 +300,9 @@ class Slp:
     def _point(self, x: NDArray) -> Point:
         values, frequencies = evaluate(self.problem, x, self.specs)
         counter = sum(spec.met(v) for spec, v in zip(self.specs, values) if spec.required is not None)
-        stable = all(v > 0 for spec, v in zip(self.specs, values) if spec.kind == "stability_abscissa"
-                     and spec.target is None)
+        stable = all(
+            v > 0 for spec, v in zip(self.specs, values) if spec.kind == "stability_abscissa" and spec.target is None
+        )
         return Point(np.asarray(x, dtype=float), values, frequencies, int(counter), self._merit(values), stable)
 
     def _merit(self, values: NDArray) -> float:
@@ -278,8 +323,10 @@ class Slp:
         if self.settings.objective == "load_relief":
             return False
         met = all(spec.met(v) for spec, v in zip(self.specs, point.values))
-        at_cap = all(spec.desired is None or spec.weight == 0 or math.isnan(v)
-                     or spec.sign * v >= spec.sign * spec.desired for spec, v in zip(self.specs, point.values))
+        at_cap = all(
+            spec.desired is None or spec.weight == 0 or math.isnan(v) or spec.sign * v >= spec.sign * spec.desired
+            for spec, v in zip(self.specs, point.values)
+        )
         return met and at_cap
 
     def _better(self, trial: Point, best: Point) -> bool:
@@ -289,7 +336,7 @@ class Slp:
             return False
         if trial.counter != best.counter:
             return trial.counter > best.counter
-        if not math.isfinite(best.merit):   # -inf (an unstable loop's peak): any finite merit is better
+        if not math.isfinite(best.merit):  # -inf (an unstable loop's peak): any finite merit is better
             return trial.merit > best.merit
         return trial.merit > best.merit + self.settings.improvement_percent / 100.0 * max(abs(best.merit), 1e-12)
 
@@ -309,42 +356,83 @@ class Slp:
         """The tableau of a point: every row with its requirement and whether it is met."""
         out = []
         for spec, v, f in zip(self.specs, point.values, point.frequencies):
-            out.append(MeasureRow(spec.name, spec.kind, self.problem.conditions[spec.condition].name, float(v),
-                                  spec.required, bool(spec.met(v)), None if math.isnan(f) else float(f),
-                                  spec.at_least))
+            out.append(
+                MeasureRow(
+                    spec.name,
+                    spec.kind,
+                    self.problem.conditions[spec.condition].name,
+                    float(v),
+                    spec.required,
+                    bool(spec.met(v)),
+                    None if math.isnan(f) else float(f),
+                    spec.at_least,
+                )
+            )
         return tuple(out)
 
-    @guarded('slp')
+    @guarded("slp")
     def initial_record(self, state: State) -> StepRecord:
         """Iteration 0: the tableau of the starting point."""
         start = _point_from(state.memory.base)
-        return StepRecord(0, Status.RUNNING, self.problem.named(start.x), self.rows(start),
-                          objective=start.merit, extra={"counter": start.counter, "figure_of_merit": start.merit,
-                                                        "desired": self._desired()})
+        return StepRecord(
+            0,
+            Status.RUNNING,
+            self.problem.named(start.x),
+            self.rows(start),
+            objective=start.merit,
+            extra={"counter": start.counter, "figure_of_merit": start.merit, "desired": self._desired()},
+        )
 
     def _desired(self) -> list[float | None]:
         return [spec.desired for spec in self.specs]
 
-    def _record(self, iteration: int, status: Status, shown: Point, memory: SlpMemory, numbers: tuple[int, int],
-                lp: LpResult, P: float, trial: Point | None, better: bool, reason: str,
-                counters: dict) -> StepRecord:
+    def _record(
+        self,
+        iteration: int,
+        status: Status,
+        shown: Point,
+        memory: SlpMemory,
+        numbers: tuple[int, int],
+        lp: LpResult,
+        P: float,
+        trial: Point | None,
+        better: bool,
+        reason: str,
+        counters: dict,
+    ) -> StepRecord:
         names = [f"{s.name}@{self.problem.conditions[s.condition].name}" for s in self.specs]
         extra = {
-            "major": numbers[0], "minor": numbers[1],
-            "P": P, "STEP": lp.step, "lp_status": lp.status, "accepted": better,
-            "counter": shown.counter, "figure_of_merit": shown.merit,
+            "major": numbers[0],
+            "minor": numbers[1],
+            "P": P,
+            "STEP": lp.step,
+            "lp_status": lp.status,
+            "accepted": better,
+            "counter": shown.counter,
+            "figure_of_merit": shown.merit,
             "trial_counter": None if trial is None else trial.counter,
             "trial_figure_of_merit": None if trial is None else trial.merit,
-            "best_counter": memory.best.counter, "best_figure_of_merit": memory.best.merit,
+            "best_counter": memory.best.counter,
+            "best_figure_of_merit": memory.best.merit,
             "duals": dict(zip(names, lp.duals.tolist())),
             "partials": dict(zip(names, memory.partial_methods)),
-            "desired": self._desired(), "stable": shown.stable,
+            "desired": self._desired(),
+            "stable": shown.stable,
         }
         counters = dict(counters, evaluations=memory.evaluations, lps=memory.lps)
         dx = () if lp.dx is None else tuple(float(v) for v in lp.dx)
-        return StepRecord(iteration, status, self.problem.named(shown.x), self.rows(shown),
-                          objective=shown.merit, step_size=P, direction=dx, counters=counters,
-                          reason=reason, extra=extra)
+        return StepRecord(
+            iteration,
+            status,
+            self.problem.named(shown.x),
+            self.rows(shown),
+            objective=shown.merit,
+            step_size=P,
+            direction=dx,
+            counters=counters,
+            reason=reason,
+            extra=extra,
+        )
 
 
 def w1(spec: Spec, value: float) -> float:
@@ -361,11 +449,23 @@ def w1(spec: Spec, value: float) -> float:
 
 def _stored(point: Point) -> SlpPoint:
     """A point as the memory keeps it (tuples)."""
-    return SlpPoint(tuple(point.x.tolist()), tuple(point.values.tolist()), tuple(point.frequencies.tolist()),
-                    point.counter, point.merit, point.stable)
+    return SlpPoint(
+        tuple(point.x.tolist()),
+        tuple(point.values.tolist()),
+        tuple(point.frequencies.tolist()),
+        point.counter,
+        point.merit,
+        point.stable,
+    )
 
 
 def _point_from(stored: SlpPoint) -> Point:
     """A point from memory, as arrays."""
-    return Point(np.array(stored.x, dtype=float), np.array(stored.values, dtype=float),
-                 np.array(stored.frequencies, dtype=float), stored.counter, stored.merit, stored.stable)
+    return Point(
+        np.array(stored.x, dtype=float),
+        np.array(stored.values, dtype=float),
+        np.array(stored.frequencies, dtype=float),
+        stored.counter,
+        stored.merit,
+        stored.stable,
+    )

@@ -43,9 +43,18 @@ def step_box(x0: NDArray, lower: NDArray, upper: NDArray, P: float, floor: float
     return np.maximum(lower - x0, -reach), np.minimum(upper - x0, reach)
 
 
-def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, box: tuple[NDArray, NDArray],
-               equalities: tuple[NDArray, NDArray], x0: NDArray, steps: NDArray, backoff: float = 0.0,
-               inequalities: tuple[NDArray, NDArray] | None = None) -> LpResult:
+def solve_step(
+    c: NDArray,
+    gradients: NDArray,
+    values: NDArray,
+    specs: NDArray,
+    box: tuple[NDArray, NDArray],
+    equalities: tuple[NDArray, NDArray],
+    x0: NDArray,
+    steps: NDArray,
+    backoff: float = 0.0,
+    inequalities: tuple[NDArray, NDArray] | None = None,
+) -> LpResult:
     """The inner loop: the first STEP in ``steps`` whose program HiGHS solves.
 
     ``gradients``/``values``/``specs``: the requirement rows (oriented).  A met
@@ -54,6 +63,7 @@ def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, 
     (A_in, b_in) of the problem's linear constraints, rows after the requirements'.
     """
     from scipy.optimize import linprog  # on first use: scipy.optimize costs a quarter of a second of start-up
+
     trouble = _unsolvable(c, gradients, values, specs, box, equalities)
     if trouble:
         return LpResult(None, float(steps[-1]), 0, trouble, np.zeros(len(values)))
@@ -67,21 +77,39 @@ def solve_step(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, 
     for step in steps:
         wanted = np.where(met, held, values + step * (specs - values))
         b_ub = np.concatenate([values - wanted, b_in - A_in @ x0])
-        result = linprog(-c, A_ub=A_ub if A_ub.size else None, b_ub=b_ub if A_ub.size else None,
-                         bounds=np.column_stack(box), method="highs", **eq)
+        result = linprog(
+            -c,
+            A_ub=A_ub if A_ub.size else None,
+            b_ub=b_ub if A_ub.size else None,
+            bounds=np.column_stack(box),
+            method="highs",
+            **eq,
+        )
         solves += 1
         status = STATUS_TEXT.get(result.status, f"status {result.status}")
         if result.status == 0:
-            duals = -result.ineqlin.marginals[:len(values)] if A_ub.size else np.zeros(0)
+            duals = -result.ineqlin.marginals[: len(values)] if A_ub.size else np.zeros(0)
             return LpResult(np.asarray(result.x), float(step), solves, status, duals)
     return LpResult(None, float(steps[-1]), solves, status, np.zeros(len(values)))
 
 
-def _unsolvable(c: NDArray, gradients: NDArray, values: NDArray, specs: NDArray, box: tuple[NDArray, NDArray],
-                equalities: tuple[NDArray, NDArray]) -> str:
+def _unsolvable(
+    c: NDArray,
+    gradients: NDArray,
+    values: NDArray,
+    specs: NDArray,
+    box: tuple[NDArray, NDArray],
+    equalities: tuple[NDArray, NDArray],
+) -> str:
     """Why no program can be posed ('' when one can): non-finite data, or an empty box."""
-    for name, data in (("objective", c), ("partials", gradients), ("measures", values), ("requirements", specs),
-                       ("equalities", equalities[0]), ("equality values", equalities[1])):
+    for name, data in (
+        ("objective", c),
+        ("partials", gradients),
+        ("measures", values),
+        ("requirements", specs),
+        ("equalities", equalities[0]),
+        ("equality values", equalities[1]),
+    ):
         if not np.all(np.isfinite(data)):
             return f"not posed: the {name} are not finite"
     lower, upper = box

@@ -43,9 +43,14 @@ from engine.slp.peaks import closed_loop_values
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
 # the measures read from the attenuation minima (`engine.design.measure_kinds`: margin family A)
 PEAK_KINDS = tuple(name for name, k in MEASURE_KINDS.items() if k.margin == "A")
-MARGIN_ATTRIBUTE = {"gain_margin": ("gain", "value"), "phase_margin": ("phase", "value"),
-                    "stability_margin": ("stability", "value"), "attenuation_margin": ("attenuation", "value"),
-                    "gain_margin_db": ("gain", "gain_db"), "phase_margin_deg": ("phase", "phase_deg")}
+MARGIN_ATTRIBUTE = {
+    "gain_margin": ("gain", "value"),
+    "phase_margin": ("phase", "value"),
+    "stability_margin": ("stability", "value"),
+    "attenuation_margin": ("attenuation", "value"),
+    "gain_margin_db": ("gain", "gain_db"),
+    "phase_margin_deg": ("phase", "phase_deg"),
+}
 # a row's name: the measure's tag (COEBRA's listing: GM, PM, WC, ...) and its count in the condition
 SHORT = {name: k.tag for name, k in MEASURE_KINDS.items()}
 
@@ -97,23 +102,49 @@ def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, 
                 continue
             needs_time = kind(target.measure).domain in ("time", "poles")
             if needs_time and not condition.network.rational:
-                raise EngineError(f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
-                                  "(tables or delays): no time response")
+                raise EngineError(
+                    f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
+                    "(tables or delays): no time response"
+                )
             for band in target.bands or ():
                 counts[target.measure] = counts.get(target.measure, 0) + 1
-                specs.append(Spec(f"{SHORT[target.measure]}{counts[target.measure]}", target.measure, c, k,
-                                  band.low, band.high, target.at_least,
-                                  band.requirement if target.constraint else None, band.desired,
-                                  target.weight, target.scale))
+                specs.append(
+                    Spec(
+                        f"{SHORT[target.measure]}{counts[target.measure]}",
+                        target.measure,
+                        c,
+                        k,
+                        band.low,
+                        band.high,
+                        target.at_least,
+                        band.requirement if target.constraint else None,
+                        band.desired,
+                        target.weight,
+                        target.scale,
+                    )
+                )
         has_stability = any(s.kind == "stability_abscissa" and s.condition == c for s in specs)
         if require_stable and condition.network.rational and not has_stability:
-            specs.append(Spec(SHORT["stability_abscissa"], "stability_abscissa", c, None, 0.0, math.inf,
-                              kind("stability_abscissa").at_least, 0.0, None, 0.0))
+            specs.append(
+                Spec(
+                    SHORT["stability_abscissa"],
+                    "stability_abscissa",
+                    c,
+                    None,
+                    0.0,
+                    math.inf,
+                    kind("stability_abscissa").at_least,
+                    0.0,
+                    None,
+                    0.0,
+                )
+            )
     return tuple(specs)
 
 
-def evaluate(problem: Problem, x: Sequence[float], specs: Sequence[Spec],
-             conditions: Sequence[int] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def evaluate(
+    problem: Problem, x: Sequence[float], specs: Sequence[Spec], conditions: Sequence[int] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(values, frequencies) of the rows, NaN where absent or not evaluated
     (only the rows of ``conditions`` when given)."""
     values = np.full(len(specs), np.nan)
@@ -127,8 +158,9 @@ def evaluate(problem: Problem, x: Sequence[float], specs: Sequence[Spec],
     return values, frequencies
 
 
-def condition_values(problem: Problem, x: Sequence[float], c: int,
-                     specs: Sequence[Spec]) -> tuple[list[float], list[float]]:
+def condition_values(
+    problem: Problem, x: Sequence[float], c: int, specs: Sequence[Spec]
+) -> tuple[list[float], list[float]]:
     """Values and frequencies of one condition's rows at the free values ``x``."""
     condition = problem.conditions[c]
     params = problem.condition_values(c, x)
@@ -185,8 +217,10 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:
     if spec.kind == "mean_square":
         return mean_square(ss, response.input, response.output, response.psd)
     if response.input not in ss.inputs:
-        raise EngineError(f"target {spec.target}: {response.input!r} is not an input of condition "
-                          f"{problem.conditions[spec.condition].name!r} (inputs: {', '.join(ss.inputs)})")
+        raise EngineError(
+            f"target {spec.target}: {response.input!r} is not an input of condition "
+            f"{problem.conditions[spec.condition].name!r} (inputs: {', '.join(ss.inputs)})"
+        )
     if response.output not in ss.outputs:
         raise EngineError(f"target {spec.target}: unknown output signal {response.output!r}")
     t = np.linspace(0.0, response.horizon, response.points)
@@ -199,10 +233,15 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:
         return abs(response.reference - final)
     if final == 0 or not math.isfinite(final):
         return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
-    m = step_measures(t, y, final, response.reference, response.settling_band, final_from=source,
-                      peak_rule=SLP_PEAK_RULE)
-    value = {"rise_time": m.rise_time, "settling_time": m.settling_time, "peak_time": m.peak_time,
-             "overshoot_percent": m.overshoot_percent}[spec.kind]
+    m = step_measures(
+        t, y, final, response.reference, response.settling_band, final_from=source, peak_rule=SLP_PEAK_RULE
+    )
+    value = {
+        "rise_time": m.rise_time,
+        "settling_time": m.settling_time,
+        "peak_time": m.peak_time,
+        "overshoot_percent": m.overshoot_percent,
+    }[spec.kind]
     if value is None:
         return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
     return float(value)
@@ -233,5 +272,6 @@ def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -
     if A.size and np.max(np.linalg.eigvals(A).real) >= 0:
         return math.inf
     from scipy.linalg import solve_continuous_lyapunov  # on first use (start-up)
+
     P = solve_continuous_lyapunov(A, -np.outer(B, B))
     return float(C @ P @ C)

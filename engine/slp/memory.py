@@ -23,15 +23,29 @@ class SlpPoint:
 
     def to_json(self) -> dict:
         """Plain JSON types."""
-        return jsonable({"x": self.x, "values": self.values, "frequencies": self.frequencies,
-                         "counter": self.counter, "merit": self.merit, "stable": self.stable})
+        return jsonable(
+            {
+                "x": self.x,
+                "values": self.values,
+                "frequencies": self.frequencies,
+                "counter": self.counter,
+                "merit": self.merit,
+                "stable": self.stable,
+            }
+        )
 
     @classmethod
     def from_json(cls, fields: Fields, size: int) -> Self:
         """Read back `to_json`'s data (``size`` free variables)."""
         values = fields.numbers("values", finite=False)
-        return cls(fields.numbers("x", size), values, fields.numbers("frequencies", len(values), finite=False),
-                   fields.integer("counter"), fields.number("merit", finite=False), fields.boolean("stable"))
+        return cls(
+            fields.numbers("x", size),
+            values,
+            fields.numbers("frequencies", len(values), finite=False),
+            fields.integer("counter"),
+            fields.number("merit", finite=False),
+            fields.boolean("stable"),
+        )
 
 
 @dataclass(frozen=True)
@@ -56,10 +70,22 @@ class SlpMemory:
 
     def to_json(self) -> dict:
         """Plain JSON types."""
-        return jsonable({"major": self.major, "minor": self.minor, "x0": self.x0, "base": self.base.to_json(),
-                         "best": self.best.to_json(), "partials": self.partials,
-                         "partial_methods": self.partial_methods, "P": self.P, "P_best": self.P_best,
-                         "P_failed": self.P_failed, "evaluations": self.evaluations, "lps": self.lps})
+        return jsonable(
+            {
+                "major": self.major,
+                "minor": self.minor,
+                "x0": self.x0,
+                "base": self.base.to_json(),
+                "best": self.best.to_json(),
+                "partials": self.partials,
+                "partial_methods": self.partial_methods,
+                "P": self.P,
+                "P_best": self.P_best,
+                "P_failed": self.P_failed,
+                "evaluations": self.evaluations,
+                "lps": self.lps,
+            }
+        )
 
     @classmethod
     def from_json(cls, data: Any) -> Self:
@@ -68,16 +94,25 @@ class SlpMemory:
         x0 = fields.numbers("x0")
         base = SlpPoint.from_json(fields.object("base"), len(x0))
         rows = len(base.values)
-        partials = (None if fields.get("partials") is None
-                    else fields.matrix("partials", rows, len(x0), finite=False))
+        partials = None if fields.get("partials") is None else fields.matrix("partials", rows, len(x0), finite=False)
         methods = tuple(_texts(fields, "partial_methods", rows))
         P = fields.number("P")
         if not P > 0:
             raise EngineError(f"slp memory.P: expected a step size > 0, got {P!r}")
-        return cls(fields.integer("major", 1), fields.integer("minor"), x0, base,
-                   SlpPoint.from_json(fields.object("best"), len(x0)), partials, methods, P,
-                   fields.number("P_best"), fields.optional_number("P_failed"), fields.integer("evaluations"),
-                   fields.integer("lps"))
+        return cls(
+            fields.integer("major", 1),
+            fields.integer("minor"),
+            x0,
+            base,
+            SlpPoint.from_json(fields.object("best"), len(x0)),
+            partials,
+            methods,
+            P,
+            fields.number("P_best"),
+            fields.optional_number("P_failed"),
+            fields.integer("evaluations"),
+            fields.integer("lps"),
+        )
 
 
 def _texts(fields: Fields, name: str, length: int) -> list[str]:

@@ -33,13 +33,28 @@ from engine.loop.responses import open_loop
 from engine.slp.measures import Spec, evaluate
 from engine.slp.peaks import closed_loop_partials
 
-ANALYTIC = ("gain_margin_db", "phase_margin_deg", "crossover_frequency", "modal_peak_db",
-            "attenuation_margin", "stability_margin", "gain_margin", "phase_margin")
+ANALYTIC = (
+    "gain_margin_db",
+    "phase_margin_deg",
+    "crossover_frequency",
+    "modal_peak_db",
+    "attenuation_margin",
+    "stability_margin",
+    "gain_margin",
+    "phase_margin",
+)
 DB = 20.0 / math.log(10.0)
 
 
-def jacobian(problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArray, frequencies: NDArray,
-             method: str = "analytic", fd_step: float = 1e-6) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+def jacobian(
+    problem: Problem,
+    x: NDArray,
+    specs: Sequence[Spec],
+    values: NDArray,
+    frequencies: NDArray,
+    method: str = "analytic",
+    fd_step: float = 1e-6,
+) -> tuple[NDArray[np.float64], tuple[str, ...]]:
     """(rows x free variables, the method used per row); absent rows get zero rows."""
     J = np.zeros((len(specs), len(x)))
     how = ["" if math.isnan(v) or math.isinf(v) else "finite difference" for v in values]
@@ -54,12 +69,16 @@ def jacobian(problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArra
     return J, tuple(how)
 
 
-def _analytic_rows(problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArray,
-                   frequencies: NDArray, J: NDArray) -> list[int]:
+def _analytic_rows(
+    problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArray, frequencies: NDArray, J: NDArray
+) -> list[int]:
     done: list[int] = []
     for c, condition in enumerate(problem.conditions):
-        rows = [i for i, s in enumerate(specs) if s.condition == c and s.kind in ANALYTIC
-                and np.isfinite(values[i]) and np.isfinite(frequencies[i])]
+        rows = [
+            i
+            for i, s in enumerate(specs)
+            if s.condition == c and s.kind in ANALYTIC and np.isfinite(values[i]) and np.isfinite(frequencies[i])
+        ]
         if not rows or not condition.network.exact:
             continue
         params = problem.condition_values(c, x)
@@ -102,13 +121,17 @@ def _row(kind: str, gh: complex, gh_x: NDArray, gh_w: complex, moving: bool) -> 
     return np.real(np.conj(one) * (gh_x + gh_w * w_x)) / abs(one)
 
 
-def _finite_differences(problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArray,
-                        rows: list[int], J: NDArray, fd_step: float) -> None:
+def _finite_differences(
+    problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArray, rows: list[int], J: NDArray, fd_step: float
+) -> None:
     """Forward differences of the given rows, one perturbed evaluation per variable."""
     for j, (i_param, c_slot) in enumerate(problem.free_slots()):
         name = problem.parameters[i_param].name
-        affected = [c for c, cond in enumerate(problem.conditions)
-                    if (c_slot is None or c == c_slot) and name in cond.network.parameters]
+        affected = [
+            c
+            for c, cond in enumerate(problem.conditions)
+            if (c_slot is None or c == c_slot) and name in cond.network.parameters
+        ]
         mine = [i for i in rows if specs[i].condition in affected]
         if not mine:
             continue

@@ -43,8 +43,14 @@ from engine.margins.peak_measures import (
 from engine.margins.search import Band, Margins
 
 
-def closed_loop_values(condition: Condition, params: dict[str, float], model: LoopModel, found: Margins,
-                       specs: Sequence, ss: StateSpace | None) -> dict[int, tuple[float, float]]:
+def closed_loop_values(
+    condition: Condition,
+    params: dict[str, float],
+    model: LoopModel,
+    found: Margins,
+    specs: Sequence,
+    ss: StateSpace | None,
+) -> dict[int, tuple[float, float]]:
     """index -> (value, frequency) of every closed-loop row among ``specs`` (one condition's)."""
     out: dict[int, tuple[float, float]] = {}
     mine = [i for i, s in enumerate(specs) if s.kind in CLOSED_LOOP_MEASURES]
@@ -65,8 +71,9 @@ def closed_loop_values(condition: Condition, params: dict[str, float], model: Lo
     return out
 
 
-def closed_loop_partials(problem: Problem, x: NDArray, specs: Sequence, values: NDArray, frequencies: NDArray,
-                         J: NDArray) -> list[int]:
+def closed_loop_partials(
+    problem: Problem, x: NDArray, specs: Sequence, values: NDArray, frequencies: NDArray, J: NDArray
+) -> list[int]:
     """Fill the analytic rows of the closed-loop measures into J; the rows done."""
     done: list[int] = []
     for c, condition in enumerate(problem.conditions):

@@ -21,23 +21,34 @@ def _number(value: float | None, width: int, digits: int = 6) -> str:
 def slp_report_text(record: StepRecord) -> str:
     """Header lines and the measure table of one record (iteration 0: the start)."""
     e = record.extra
-    lines = [f"ITERATION {record.iteration}   STATUS {record.status.value}"
-             + (f" ({record.reason})" if record.reason else "")]
+    lines = [
+        f"ITERATION {record.iteration}   STATUS {record.status.value}"
+        + (f" ({record.reason})" if record.reason else "")
+    ]
     if "major" in e:
-        lines.append(f"MAJOR {e['major']}  MINOR {e['minor']}  P {e['P']:.4g}  STEP {e['STEP']:.2f}  "
-                     f"LP {e['lp_status']}  trial {'accepted' if e['accepted'] else 'rejected'}")
-    lines.append(f"COUNTER {e.get('counter')}  FIGURE OF MERIT {e.get('figure_of_merit', float('nan')):.6g}"
-                 + (f"  (best {e['best_counter']}, {e['best_figure_of_merit']:.6g})" if "best_counter" in e else ""))
+        lines.append(
+            f"MAJOR {e['major']}  MINOR {e['minor']}  P {e['P']:.4g}  STEP {e['STEP']:.2f}  "
+            f"LP {e['lp_status']}  trial {'accepted' if e['accepted'] else 'rejected'}"
+        )
+    lines.append(
+        f"COUNTER {e.get('counter')}  FIGURE OF MERIT {e.get('figure_of_merit', float('nan')):.6g}"
+        + (f"  (best {e['best_counter']}, {e['best_figure_of_merit']:.6g})" if "best_counter" in e else "")
+    )
     lines.append("X= " + "  ".join(f"{k}={_values(v)}" for k, v in record.parameters.items()))
     desired = e.get("desired") or [None] * len(record.measures)
     partials, duals = e.get("partials", {}), e.get("duals", {})
-    lines += ["", f"{'no.':>3} {'name':<6}{'condition':<12}{'value':>12}{'freq':>10}{'required':>10}"
-                  f"{'desired':>10} {'met':<4}{'partials':<18}{'dual':>10}"]
+    lines += [
+        "",
+        f"{'no.':>3} {'name':<6}{'condition':<12}{'value':>12}{'freq':>10}{'required':>10}"
+        f"{'desired':>10} {'met':<4}{'partials':<18}{'dual':>10}",
+    ]
     for k, (m, d) in enumerate(zip(record.measures, desired), start=1):
         key = f"{m.name}@{m.condition}"
-        lines.append(f"{k:>3} {m.name:<6}{m.condition[:11]:<12}{_number(m.value, 12)}{_number(m.frequency, 10, 4)}"
-                     f"{_number(m.target, 10, 4)}{_number(d, 10, 4)} {'yes' if m.satisfied else 'NO':<4}"
-                     f"{partials.get(key, ''):<18}{_number(duals.get(key), 10, 3)}")
+        lines.append(
+            f"{k:>3} {m.name:<6}{m.condition[:11]:<12}{_number(m.value, 12)}{_number(m.frequency, 10, 4)}"
+            f"{_number(m.target, 10, 4)}{_number(d, 10, 4)} {'yes' if m.satisfied else 'NO':<4}"
+            f"{partials.get(key, ''):<18}{_number(duals.get(key), 10, 3)}"
+        )
     return "\n".join(lines)
 
 
@@ -59,8 +70,10 @@ class SlpPresenter(Presenter):
         e = record.extra
         lines = [self.headline(record)]
         if "major" in e:
-            lines.append(f"major {e['major']} minor {e['minor']}  P {number(e['P'], 3)}  STEP {e['STEP']:.1f}  "
-                         f"{'accepted' if e['accepted'] else 'rejected'}  counter {e['counter']}")
+            lines.append(
+                f"major {e['major']} minor {e['minor']}  P {number(e['P'], 3)}  STEP {e['STEP']:.1f}  "
+                f"{'accepted' if e['accepted'] else 'rejected'}  counter {e['counter']}"
+            )
         return lines + super().status_lines(record)[1:]
 
     def report(self, record: StepRecord, problem: Problem) -> str:

@@ -30,8 +30,11 @@ def _what(exc: BaseException) -> str:
     if isinstance(exc, np.linalg.LinAlgError):
         text = str(exc).strip().rstrip(".") or "a linear system cannot be solved"
         return f"{text[0].lower()}{text[1:]} (linear algebra)"
-    return {OverflowError: "a number overflows", ZeroDivisionError: "a division by zero",
-            FloatingPointError: "a floating-point error"}.get(type(exc), type(exc).__name__) + f" ({exc})"
+    return {
+        OverflowError: "a number overflows",
+        ZeroDivisionError: "a division by zero",
+        FloatingPointError: "a floating-point error",
+    }.get(type(exc), type(exc).__name__) + f" ({exc})"
 
 
 def _from_numerics(exc: BaseException) -> bool:
@@ -57,18 +60,26 @@ def numerical(name: str, where: str = "") -> Iterator[None]:
 def guarded(name: str) -> Callable[[F], F]:
     """Decorate an algorithm's method: no numpy warnings, numerical failures as `EngineError`,
     and a new state that could not be stored is refused."""
+
     def decorate(method: F) -> F:
         @functools.wraps(method)
         def wrapper(self, *args: Any, **kwargs: Any) -> Any:
             state = args[0] if args and hasattr(args[0], "iteration") else None
-            where = f" at iteration {state.iteration + 1}" if method.__name__ == "step" and state else \
-                " at the start" if method.__name__ != "step" else ""
+            where = (
+                f" at iteration {state.iteration + 1}"
+                if method.__name__ == "step" and state
+                else " at the start"
+                if method.__name__ != "step"
+                else ""
+            )
             with numerical(name, where):
                 result = method(self, *args, **kwargs)
             if method.__name__ != "initial_record":
                 _storable(name, result[0] if isinstance(result, tuple) else result, where)
             return result
+
         return wrapper  # type: ignore[return-value]
+
     return decorate
 
 
@@ -90,8 +101,10 @@ def _storable(name: str, state: Any, where: str) -> None:
 def check_vector(name: str, x: Sequence[float], size: int) -> None:
     """A state's free vector must fit the problem (a stored state of another problem does not)."""
     if len(x) != size:
-        raise EngineError(f"{name}: the state has {len(x)} free values but the problem has {size} "
-                          "(the stored state belongs to another problem: run again from iteration 0)")
+        raise EngineError(
+            f"{name}: the state has {len(x)} free values but the problem has {size} "
+            "(the stored state belongs to another problem: run again from iteration 0)"
+        )
     if not np.all(np.isfinite(np.asarray(x, dtype=float))):
         raise EngineError(f"{name}: the state's free vector is not finite")
 
@@ -134,7 +147,7 @@ def _fits(kind: Any, value: Any) -> tuple[bool, Any]:
         return math.isfinite(converted), converted
     if kind is str:
         return isinstance(value, str), value
-    return True, value   # a type this check does not know: the settings class checks it
+    return True, value  # a type this check does not know: the settings class checks it
 
 
 def _described(kind: Any) -> str:
@@ -143,8 +156,9 @@ def _described(kind: Any) -> str:
         return "one of " + ", ".join(repr(a) for a in args)
     if origin in (typing.Union, types.UnionType):
         return " or ".join(_described(a) for a in args)
-    return {bool: "true or false", int: "an integer", float: "a finite number", str: "a text",
-            type(None): "null"}.get(kind, getattr(kind, "__name__", str(kind)))
+    return {bool: "true or false", int: "an integer", float: "a finite number", str: "a text", type(None): "null"}.get(
+        kind, getattr(kind, "__name__", str(kind))
+    )
 
 
 def _shown(value: Any) -> str:

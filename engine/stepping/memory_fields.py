@@ -45,9 +45,10 @@ def to_float(value: Any, where: str, finite: bool = True) -> float:
         raise EngineError(f"{where}: expected a {'finite ' if finite else ''}number, got {_shown(value)}")
     try:
         number = float(value)
-    except OverflowError:   # a JSON integer beyond a float's range
-        raise EngineError(f"{where}: expected a number within a float's range, got an integer of "
-                          f"{len(str(abs(value)))} digits") from None
+    except OverflowError:  # a JSON integer beyond a float's range
+        raise EngineError(
+            f"{where}: expected a number within a float's range, got an integer of {len(str(abs(value)))} digits"
+        ) from None
     if finite and not math.isfinite(number):
         raise EngineError(f"{where}: expected a finite number, got {number!r}")
     return number
@@ -111,11 +112,11 @@ class Fields:
 
     def numbers(self, name: str, length: int | None = None, finite: bool = True) -> tuple[float, ...]:
         """A list of floats."""
-        return tuple(to_float(v, f"{self._name(name)}[{i}]", finite)
-                     for i, v in enumerate(self.items(name, length)))
+        return tuple(to_float(v, f"{self._name(name)}[{i}]", finite) for i, v in enumerate(self.items(name, length)))
 
-    def matrix(self, name: str, rows: int | None = None, columns: int | None = None,
-               finite: bool = True) -> tuple[tuple[float, ...], ...]:
+    def matrix(
+        self, name: str, rows: int | None = None, columns: int | None = None, finite: bool = True
+    ) -> tuple[tuple[float, ...], ...]:
         """A list of equally long lists of floats."""
         out = []
         for i, row in enumerate(self.items(name, rows)):

@@ -55,28 +55,44 @@ def tableau_text(rows: Sequence[MeasureRow], unit: str = "rad/s") -> str:
     columns as wide as their widest entry."""
     scale = 1 / (2 * math.pi) if unit == "hz" else 1.0
     head = ("no.", "name", "kind", "condition", "value", f"freq {unit}", "desired", "met", "method")
-    body = [(str(n), r.name, r.kind, r.condition, f"{r.value:.6g}",
-             "" if r.frequency is None else f"{r.frequency * scale:.6g}",
-             "" if r.target is None else f"{r.target:.6g}", "yes" if r.satisfied else "NO", r.method or "")
-            for n, r in enumerate(rows, start=1)]
+    body = [
+        (
+            str(n),
+            r.name,
+            r.kind,
+            r.condition,
+            f"{r.value:.6g}",
+            "" if r.frequency is None else f"{r.frequency * scale:.6g}",
+            "" if r.target is None else f"{r.target:.6g}",
+            "yes" if r.satisfied else "NO",
+            r.method or "",
+        )
+        for n, r in enumerate(rows, start=1)
+    ]
     widths = [max(len(line[k]) for line in [head, *body]) for k in range(len(head))]
     right = {0, 4, 5, 6}
-    return "\n".join("  ".join(cell.rjust(w) if k in right else cell.ljust(w)
-                               for k, (cell, w) in enumerate(zip(line, widths))).rstrip() for line in [head, *body])
+    return "\n".join(
+        "  ".join(
+            cell.rjust(w) if k in right else cell.ljust(w) for k, (cell, w) in enumerate(zip(line, widths))
+        ).rstrip()
+        for line in [head, *body]
+    )
 
 
 def parameters_line(record: StepRecord, count: int = 8) -> str:
     """The first parameters of a record on one line (a list per condition as a/b/c)."""
+
     def text(value: Any) -> str:
         return "/".join(number(v, 3) for v in value) if isinstance(value, list) else number(value, 5)
+
     return "  ".join(f"{k}={text(v)}" for k, v in list(record.parameters.items())[:count])
 
 
 class Presenter:
     """The generic presentation; an algorithm subclasses what it shows differently."""
 
-    plots: frozenset[str] = LOOP_PLOTS   # which of the workbench's plots apply
-    maximize: bool = False               # sweeps rank runs by `ranking`, larger better when True
+    plots: frozenset[str] = LOOP_PLOTS  # which of the workbench's plots apply
+    maximize: bool = False  # sweeps rank runs by `ranking`, larger better when True
 
     def initial_record(self, algorithm: Any, state: State, problem: Problem) -> StepRecord | None:
         """Iteration 0 as a record: the tableau at the start (None when it cannot be computed)."""

@@ -54,7 +54,7 @@ class MeasureRow:
     target: float | None
     satisfied: bool
     frequency: float | None = None
-    at_least: bool = True   # larger values are better (False: peaks, times, errors, attenuation)
+    at_least: bool = True  # larger values are better (False: peaks, times, errors, attenuation)
     method: str | None = None  # margins: "refined", "fitted (residual ...)" or "grid"
 
     @staticmethod
@@ -64,11 +64,16 @@ class MeasureRow:
         fields = Fields(data, where)
         _known_only(fields, {f.name for f in dataclasses.fields(MeasureRow)}, "a measure")
         return MeasureRow(
-            fields.text("name"), fields.text("kind"), fields.text("condition"),
-            fields.number("value", finite=False), fields.optional_number("target", finite=False),
-            fields.boolean("satisfied"), _or_default(fields, "frequency", None, fields.optional_number, finite=False),
+            fields.text("name"),
+            fields.text("kind"),
+            fields.text("condition"),
+            fields.number("value", finite=False),
+            fields.optional_number("target", finite=False),
+            fields.boolean("satisfied"),
+            _or_default(fields, "frequency", None, fields.optional_number, finite=False),
             _or_default(fields, "at_least", True, fields.boolean),
-            _or_default(fields, "method", None, lambda name: None if fields.get(name) is None else fields.text(name)))
+            _or_default(fields, "method", None, lambda name: None if fields.get(name) is None else fields.text(name)),
+        )
 
 
 def _known_only(fields: Fields, known: set[str], what: str) -> None:
@@ -85,15 +90,18 @@ def _or_default(fields: Fields, name: str, default: Any, read: Callable[..., Any
 def _status(fields: Fields) -> Status:
     status = fields.text("status")
     if status not in {s.value for s in Status}:
-        raise EngineError(f"{fields.where}.status: expected one of {', '.join(s.value for s in Status)}, "
-                          f"got {status!r}")
+        raise EngineError(
+            f"{fields.where}.status: expected one of {', '.join(s.value for s in Status)}, got {status!r}"
+        )
     return Status(status)
 
 
 def _parameters(fields: Fields) -> dict[str, float | list[float]]:
     """name -> a finite number, or a list of them (one per condition)."""
-    return {name: list(fields.numbers(name)) if isinstance(value, list) else fields.number(name)
-            for name, value in fields.data.items()}
+    return {
+        name: list(fields.numbers(name)) if isinstance(value, list) else fields.number(name)
+        for name, value in fields.data.items()
+    }
 
 
 def _counters(fields: Fields) -> dict[str, int]:
@@ -128,7 +136,8 @@ class StepRecord:
         fields = Fields(data, where)
         opt = functools.partial(_or_default, fields)
         return StepRecord(
-            iteration=fields.integer("iteration"), status=_status(fields),
+            iteration=fields.integer("iteration"),
+            status=_status(fields),
             parameters=_parameters(fields.object("parameters")),
             measures=tuple(MeasureRow.from_json(m.data, m.where) for m in fields.objects("measures")),
             objective=opt("objective", None, fields.optional_number, finite=False),
@@ -136,7 +145,8 @@ class StepRecord:
             direction=opt("direction", (), fields.numbers, finite=False),
             counters=_counters(fields.object("counters")) if "counters" in fields.data else {},
             reason=opt("reason", "", fields.text),
-            extra=dict(fields.object("extra").data) if "extra" in fields.data else {})
+            extra=dict(fields.object("extra").data) if "extra" in fields.data else {},
+        )
 
 
 class Memory(Protocol):
@@ -161,17 +171,20 @@ class State:
     memory: Memory
 
     def to_json(self) -> dict:
-        memory = self.memory.to_json()   # a memory that writes plain JSON is not walked again
-        return {**_jsonable({"iteration": self.iteration, "x": self.x, "status": self.status}),
-                "memory": memory if getattr(type(self.memory), "PLAIN_JSON", False) else _jsonable(memory)}
+        memory = self.memory.to_json()  # a memory that writes plain JSON is not walked again
+        return {
+            **_jsonable({"iteration": self.iteration, "x": self.x, "status": self.status}),
+            "memory": memory if getattr(type(self.memory), "PLAIN_JSON", False) else _jsonable(memory),
+        }
 
     @staticmethod
     def from_json(data: Any, memory_type: type[Memory]) -> State:
         """A state from JSON; malformed data (memory included) raises `EngineError`."""
         fields = Fields(data, "state")
         status = _status(fields)
-        return State(fields.integer("iteration"), fields.numbers("x"), status,
-                     memory_type.from_json(fields.get("memory")))
+        return State(
+            fields.integer("iteration"), fields.numbers("x"), status, memory_type.from_json(fields.get("memory"))
+        )
 
 
 class Algorithm(Protocol):
@@ -209,12 +222,12 @@ def load_builtin() -> dict[str, Registration]:
     return REGISTRY
 
 
-def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str,
-             presenter: Any = None) -> None:
+def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str, presenter: Any = None) -> None:
     """Make an algorithm known to the CLI, the app and sweeps by name (without a
     presenter, its records are shown the generic way)."""
     if presenter is None:
         from engine.stepping.presenter import Presenter
+
         presenter = Presenter()
     REGISTRY[name] = Registration(factory, settings, summary, presenter)
 
@@ -245,12 +258,13 @@ def make_settings(name: str, values: Mapping[str, Any]) -> Any:
         if setting in retired:
             raise EngineError(f"{name}: {setting!r} is no longer a setting: {retired[setting]}")
     if unknown:
-        raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; "
-                          f"settings are {', '.join(sorted(names))}")
+        raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; settings are {', '.join(sorted(names))}")
     from engine.stepping.guard import setting_value, settings_types  # the settings' declared types, checked here once
+
     kinds = settings_types(cls)
-    values = {key: setting_value(name, key, kinds[key], value) if key in kinds else value
-              for key, value in values.items()}
+    values = {
+        key: setting_value(name, key, kinds[key], value) if key in kinds else value for key, value in values.items()
+    }
     try:
         return cls(**values)
     except (TypeError, ValueError, OverflowError) as exc:
@@ -270,8 +284,15 @@ class Iteration(Iterator[tuple[State, StepRecord]]):
     one step is made; a step is never cut short, and the records made are exactly
     a prefix of the run without the limit (the state stays resumable)."""
 
-    def __init__(self, algorithm: Algorithm, problem: Problem, settings: Any, max_iter: int,
-                 state: State | None, time_limit: float | None):
+    def __init__(
+        self,
+        algorithm: Algorithm,
+        problem: Problem,
+        settings: Any,
+        max_iter: int,
+        state: State | None,
+        time_limit: float | None,
+    ):
         self.algorithm, self.problem, self.settings = algorithm, problem, settings
         self.max_iter, self.state, self.time_limit = max_iter, state, time_limit
         self.steps, self.stopped = 0, None
@@ -292,8 +313,15 @@ class Iteration(Iterator[tuple[State, StepRecord]]):
         return self.state, record
 
 
-def iterate(algorithm: Algorithm, problem: Problem, settings: Any, *, max_iter: int,
-            state: State | None = None, time_limit: float | None = None) -> Iteration:
+def iterate(
+    algorithm: Algorithm,
+    problem: Problem,
+    settings: Any,
+    *,
+    max_iter: int,
+    state: State | None = None,
+    time_limit: float | None = None,
+) -> Iteration:
     """Step (from ``state``, else from ``init``) until the algorithm finishes, ``max_iter``
     steps were made, or ``time_limit`` seconds of wall clock have passed (checked
     between steps; the `Iteration`'s ``stopped`` is then `TIME_LIMIT`)."""

@@ -28,8 +28,12 @@ from sessions.store import Session
 
 def design_json(d: Design, sample_time: float | None = None) -> dict:
     """The JSON data of a design (see the module doc); ``sample_time`` of w-plane z-domain forms."""
-    return {"source": d.source, "iteration": d.iteration, "parameters": d.parameters,
-            "conditions": [_condition(c, sample_time) for c in d.conditions]}
+    return {
+        "source": d.source,
+        "iteration": d.iteration,
+        "parameters": d.parameters,
+        "conditions": [_condition(c, sample_time) for c in d.conditions],
+    }
 
 
 def _pairs(values) -> list[list[float]]:
@@ -37,34 +41,55 @@ def _pairs(values) -> list[list[float]]:
 
 
 def _entry(e: ExportEntry, variable: str, sample_time: float | None) -> dict:
-    data = {"block": e.label, "input": e.input, "output": e.output, "kind": e.kind, "text": e.text,
-            "compensator": e.compensator}
+    data = {
+        "block": e.label,
+        "input": e.input,
+        "output": e.output,
+        "kind": e.kind,
+        "text": e.text,
+        "compensator": e.compensator,
+    }
     if e.kind == "delay":
         data["delay"] = e.delay
         return data
-    data.update(numerator=list(e.num), denominator=list(e.den), zeros=_pairs(e.zeros), poles=_pairs(e.poles),
-                gain=e.gain)
+    data.update(
+        numerator=list(e.num), denominator=list(e.den), zeros=_pairs(e.zeros), poles=_pairs(e.poles), gain=e.gain
+    )
     if e.kind == "fitted":
         data.update(fit_residual=e.residual, fit_degree=e.degree)
     if variable == "w" and e.kind == "rational":
         numz, denz = w_to_z(e.num, e.den)
-        data["z_domain"] = {"numerator": numz, "denominator": denz, "sample_time": sample_time,
-                            "map": "w = (z - 1)/(z + 1)"}
+        data["z_domain"] = {
+            "numerator": numz,
+            "denominator": denz,
+            "sample_time": sample_time,
+            "map": "w = (z - 1)/(z + 1)",
+        }
     return data
 
 
 def _condition(c: ExportCondition, sample_time: float | None) -> dict:
     entries = [_entry(e, c.variable, sample_time) for e in c.entries]
-    data = {"name": c.name, "variable": c.variable, "break_at": c.break_at, "inputs": list(c.inputs),
-            "signals": list(c.signals), "compensators": [e for e in entries if e["compensator"]],
-            "entries": entries}
+    data = {
+        "name": c.name,
+        "variable": c.variable,
+        "break_at": c.break_at,
+        "inputs": list(c.inputs),
+        "signals": list(c.signals),
+        "compensators": [e for e in entries if e["compensator"]],
+        "entries": entries,
+    }
     data.update(_state_spaces(c))
     return data
 
 
 def _matrices(A, B, C, D) -> dict:
-    return {"A": np.asarray(A).tolist(), "B": np.asarray(B).tolist(), "C": np.asarray(C).tolist(),
-            "D": np.asarray(D).tolist()}
+    return {
+        "A": np.asarray(A).tolist(),
+        "B": np.asarray(B).tolist(),
+        "C": np.asarray(C).tolist(),
+        "D": np.asarray(D).tolist(),
+    }
 
 
 def _state_spaces(c: ExportCondition) -> dict:
@@ -75,15 +100,25 @@ def _state_spaces(c: ExportCondition) -> dict:
     except EngineError as exc:
         return {"open_loop": None, "closed_loop": None, "state_space_note": str(exc)}
     k = c.network.signal(c.break_at)
-    loop = _matrices(ss.A, ss.B[:, -1:], -ss.C[k:k + 1], -ss.D[k:k + 1, -1:])
+    loop = _matrices(ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:])
     loop.update(input=f"{c.break_at} (injected)", output="GH = -(returned " + c.break_at + ")")
     shut = _matrices(closed.A, closed.B, closed.C, closed.D)
     shut.update(inputs=list(closed.inputs), outputs=list(closed.outputs))
     return {"open_loop": loop, "closed_loop": shut}
 
 
-CSV_HEADER = ("condition", "frequency", "open_mag_db", "open_phase_deg", "open_real", "open_imag",
-              "closed_mag_db", "closed_phase_deg", "closed_real", "closed_imag")
+CSV_HEADER = (
+    "condition",
+    "frequency",
+    "open_mag_db",
+    "open_phase_deg",
+    "open_real",
+    "open_imag",
+    "closed_mag_db",
+    "closed_phase_deg",
+    "closed_real",
+    "closed_imag",
+)
 
 
 def response_csv(session: Session, d: Design) -> str:

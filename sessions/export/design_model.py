@@ -26,7 +26,7 @@ from engine.numerics.rational_fit import FAR_POLE, RationalFit, fit_response
 from sessions.errors import SessionError
 from sessions.store import Session
 
-FIT_TOLERANCE = 1e-10   # relative residual asked of a table's fit (the residual reached is stated)
+FIT_TOLERANCE = 1e-10  # relative residual asked of a table's fit (the residual reached is stated)
 
 
 @dataclass(frozen=True)
@@ -100,30 +100,53 @@ def design(session: Session, iteration: int | None = None) -> Design:
     k, named = iteration_parameters(session, iteration)
     problem = session.problem
     if not problem.conditions:
-        raise SessionError(f"{session.path or 'session'}: it has no flight conditions (a 'dae' problem): "
-                           "there is no loop to export")
+        raise SessionError(
+            f"{session.path or 'session'}: it has no flight conditions (a 'dae' problem): there is no loop to export"
+        )
     conditions = []
     for c, condition in enumerate(problem.conditions):
         values = problem.condition_values(c, named=named)
         network = condition.network
         entries = tuple(_entry(network, e, values) for e in network.entries)
-        conditions.append(ExportCondition(condition.name, network.variable, condition.break_at, network.signals,
-                                          network.inputs, entries, values, network))
-    return Design(str(session.path or "session"), k, problem.named() if named is None else dict(named),
-                  tuple(conditions))
+        conditions.append(
+            ExportCondition(
+                condition.name,
+                network.variable,
+                condition.break_at,
+                network.signals,
+                network.inputs,
+                entries,
+                values,
+                network,
+            )
+        )
+    return Design(
+        str(session.path or "session"), k, problem.named() if named is None else dict(named), tuple(conditions)
+    )
 
 
 def _entry(network: Network, e, values: dict[str, float]) -> ExportEntry:
-    common = dict(label=e.label, input=network.signals[e.col], output=network.signals[e.row],
-                  compensator=bool(e.transfer.parameters))
+    common = dict(
+        label=e.label,
+        input=network.signals[e.col],
+        output=network.signals[e.row],
+        compensator=bool(e.transfer.parameters),
+    )
     transfer = e.transfer
     try:
         if isinstance(transfer, ExpressionTransfer):
             r = transfer.rational(values)
             form = pole_zero(transfer.expression, values)
-            return ExportEntry(kind="rational", text=transfer.text, num=tuple(r.num.tolist()),
-                               den=tuple(r.den.tolist()), gain=float(form.gain), zeros=tuple(form.zeros.tolist()),
-                               poles=tuple(form.poles.tolist()), **common)
+            return ExportEntry(
+                kind="rational",
+                text=transfer.text,
+                num=tuple(r.num.tolist()),
+                den=tuple(r.den.tolist()),
+                gain=float(form.gain),
+                zeros=tuple(form.zeros.tolist()),
+                poles=tuple(form.poles.tolist()),
+                **common,
+            )
         if isinstance(transfer, DelayTransfer):
             tau = values[transfer.tau] if isinstance(transfer.tau, str) else float(transfer.tau)
             return ExportEntry(kind="delay", text=transfer.text, delay=float(tau), **common)
@@ -145,10 +168,18 @@ def _fitted(transfer: TabulatedTransfer, common: dict) -> ExportEntry:
     gain = float((fit(np.array([w0]))[0] / shape).real)
     num = np.real(gain * np.poly(zeros)) if zeros.size else np.array([gain])
     den = np.real(np.poly(poles)) if poles.size else np.array([1.0])
-    return ExportEntry(kind="fitted", text=transfer.text, num=tuple(num.tolist()), den=tuple(den.tolist()),
-                       gain=gain, zeros=tuple(_conjugate_clean(zeros).tolist()),
-                       poles=tuple(_conjugate_clean(poles).tolist()), residual=float(fit.residual),
-                       degree=int(fit.degree), **common)
+    return ExportEntry(
+        kind="fitted",
+        text=transfer.text,
+        num=tuple(num.tolist()),
+        den=tuple(den.tolist()),
+        gain=gain,
+        zeros=tuple(_conjugate_clean(zeros).tolist()),
+        poles=tuple(_conjugate_clean(poles).tolist()),
+        residual=float(fit.residual),
+        degree=int(fit.degree),
+        **common,
+    )
 
 
 def fit_zeros(fit: RationalFit) -> NDArray[np.complex128]:
@@ -161,6 +192,7 @@ def fit_zeros(fit: RationalFit) -> NDArray[np.complex128]:
     e[0, 0], e[0, 1:], e[1:, 0] = fit.n_inf, w, 1.0
     e[1:, 1:] = np.diag(nodes)
     import scipy.linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
+
     lam = scipy.linalg.eigvals(e, np.diag(np.r_[0.0, np.ones(n)]))
     keep = np.isfinite(lam) & (np.abs(lam) <= FAR_POLE * np.max(np.abs(nodes)))
     return np.sort_complex(lam[keep])
@@ -218,7 +250,7 @@ def w_to_z(num: tuple[float, ...], den: tuple[float, ...]) -> tuple[list[float],
 
     def substitute(coefficients: tuple[float, ...]) -> NDArray:
         total = np.zeros(1)
-        for k, c in enumerate(coefficients[::-1]):   # c multiplies w^k
+        for k, c in enumerate(coefficients[::-1]):  # c multiplies w^k
             term = np.poly1d([1.0, -1.0]) ** k * np.poly1d([1.0, 1.0]) ** (n - k)
             total = np.polyadd(total, c * term.coeffs)
         return np.trim_zeros(np.atleast_1d(total), "f") if np.any(total) else np.zeros(1)

@@ -27,13 +27,17 @@ from sessions.export.design_model import (
 def matlab_script(d: Design, sample_time: float | None = None) -> str:
     """The whole .m script (text) of design ``d``; ``sample_time`` is the z-domain forms' Ts (-1: unstated)."""
     names = identifiers(tuple(c.name for c in d.conditions))
-    lines = [f"% Design exported by loopcraft from {d.source}, iteration {d.iteration}"
-             f"{' (the start)' if d.iteration == 0 else ''}.",
-             "% Needs the Control System Toolbox (tf, zpk, sumblk, connect, allmargin).",
-             "% Each condition's loop is broken where the session breaks it: L = GH, 1 + L = 0 closes it."]
+    lines = [
+        f"% Design exported by loopcraft from {d.source}, iteration {d.iteration}"
+        f"{' (the start)' if d.iteration == 0 else ''}.",
+        "% Needs the Control System Toolbox (tf, zpk, sumblk, connect, allmargin).",
+        "% Each condition's loop is broken where the session breaks it: L = GH, 1 + L = 0 closes it.",
+    ]
     for e in fitted_entries(d):
-        lines.append(f"% {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) of "
-                     f"degree {e.degree}, relative residual {e.residual:.3e} on the table")
+        lines.append(
+            f"% {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) of "
+            f"degree {e.degree}, relative residual {e.residual:.3e} on the table"
+        )
     lines += ["", f"% the parameters of iteration {d.iteration} (a vector: one value per condition)"]
     for name, value in d.parameters.items():
         lines.append(f"parameters.{_field(name)} = {_number_or_vector(value)};  % {name}")
@@ -68,25 +72,31 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list
     ident = identifiers(c.signals)
     produced = [ident[s] for s, _ in rows(c)]
     inputs = [ident[s] for s in c.inputs]
-    lines = [f"%% condition '{c.name}' (variable {c.variable}"
-             f"{'; the w-plane, w = (z - 1)/(z + 1), written as s' if c.variable == 'w' else ''})",
-             f"blocks_{name} = {{}};"]
+    lines = [
+        f"%% condition '{c.name}' (variable {c.variable}"
+        f"{'; the w-plane, w = (z - 1)/(z + 1), written as s' if c.variable == 'w' else ''})",
+        f"blocks_{name} = {{}};",
+    ]
     for signal, entries in rows(c):
         lines += _row(c, name, signal, entries, cut)
     cells = f"blocks_{name}{{:}}"
-    lines += [f"L_{name} = -connect({cells}, '{cut}', '{ident[c.break_at]}');  % open loop at '{c.break_at}'",
-              f"margins_{name} = allmargin(L_{name})",
-              f"[Gm_{name}, Pm_{name}, Wcg_{name}, Wcp_{name}] = margin(L_{name})",
-              f"closed_{name} = connect({cells}, sumblk('{cut} = {ident[c.break_at]}'), "
-              f"{_cell(inputs)}, {_cell(produced)});  % all loops closed",
-              f"poles_{name} = pole(closed_{name})"]
+    lines += [
+        f"L_{name} = -connect({cells}, '{cut}', '{ident[c.break_at]}');  % open loop at '{c.break_at}'",
+        f"margins_{name} = allmargin(L_{name})",
+        f"[Gm_{name}, Pm_{name}, Wcg_{name}, Wcp_{name}] = margin(L_{name})",
+        f"closed_{name} = connect({cells}, sumblk('{cut} = {ident[c.break_at]}'), "
+        f"{_cell(inputs)}, {_cell(produced)});  % all loops closed",
+        f"poles_{name} = pole(closed_{name})",
+    ]
     if c.variable == "w":
         ts = "-1" if sample_time is None else repr(float(sample_time))
         for e in c.entries:
             if e.compensator and e.kind == "rational":
                 numz, denz = w_to_z(e.num, e.den)
-                lines.append(f"Cz_{name}_{_field(e.label)} = tf({_vector(numz)}, {_vector(denz)}, {ts})  "
-                             f"% {e.label} in z (Ts {ts}{': unstated' if sample_time is None else ''})")
+                lines.append(
+                    f"Cz_{name}_{_field(e.label)} = tf({_vector(numz)}, {_vector(denz)}, {ts})  "
+                    f"% {e.label} in z (Ts {ts}{': unstated' if sample_time is None else ''})"
+                )
     return lines
 
 

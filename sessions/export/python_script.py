@@ -35,22 +35,29 @@ def python_script(d: Design, sample_time: float | None = None) -> str:
     parts = [_header(d), _parameters(d)]
     for c in d.conditions:
         parts.append(_condition(c, names[c.name], sample_time))
-    table = ", ".join(f"{c.name!r}: ({names[c.name]}_loop, {names[c.name]}_closed, {names[c.name]}_z)"
-                      for c in d.conditions)
+    table = ", ".join(
+        f"{c.name!r}: ({names[c.name]}_loop, {names[c.name]}_closed, {names[c.name]}_z)" for c in d.conditions
+    )
     parts.append(f"# condition -> (open loop, closed loop, z-domain compensators)\nCONDITIONS = {{{table}}}\n")
     parts.append(MAIN)
     return "\n\n".join(parts)
 
 
 def _header(d: Design) -> str:
-    lines = [f'"""Design exported by loopcraft from {d.source}, iteration {d.iteration}'
-             f'{" (the start)" if d.iteration == 0 else ""}.', "",
-             "Rebuilds every flight condition with python-control, breaks the loop where the",
-             "session does and prints the margins (control.stability_margins) and the",
-             "closed-loop poles.  Run:  python THIS_FILE.py [--json]", '"""']
+    lines = [
+        f'"""Design exported by loopcraft from {d.source}, iteration {d.iteration}'
+        f"{' (the start)' if d.iteration == 0 else ''}.",
+        "",
+        "Rebuilds every flight condition with python-control, breaks the loop where the",
+        "session does and prints the margins (control.stability_margins) and the",
+        "closed-loop poles.  Run:  python THIS_FILE.py [--json]",
+        '"""',
+    ]
     for e in fitted_entries(d):
-        lines.append(f"# {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) "
-                     f"of degree {e.degree}, relative residual {e.residual:.3e} on the table")
+        lines.append(
+            f"# {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) "
+            f"of degree {e.degree}, relative residual {e.residual:.3e} on the table"
+        )
     lines += ["import json", "import sys", "", "import control", "import numpy as np"]
     if fitted_entries(d):
         lines += ["", "", ZPK]
@@ -59,8 +66,10 @@ def _header(d: Design) -> str:
 
 def _parameters(d: Design) -> str:
     body = "".join(f"    {name!r}: {value!r},\n" for name, value in d.parameters.items())
-    return (f"# the parameters of iteration {d.iteration} (a list: one value per condition); the blocks "
-            f"below are computed from them\nPARAMETERS = {{\n{body}}}")
+    return (
+        f"# the parameters of iteration {d.iteration} (a list: one value per condition); the blocks "
+        f"below are computed from them\nPARAMETERS = {{\n{body}}}"
+    )
 
 
 def _condition(c: ExportCondition, name: str, sample_time: float | None) -> str:
@@ -68,26 +77,37 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> str:
     ident = identifiers(c.signals)
     produced = [ident[s] for s, _ in rows(c)]
     inputs = [ident[s] for s in c.inputs]
-    lines = [f"def {name}_blocks():",
-             f'    """Condition {c.name!r} (variable {c.variable}): its blocks and junctions; the uses of '
-             f'{c.break_at!r} read the loop signal {cut!r}."""',
-             "    return ["]
+    lines = [
+        f"def {name}_blocks():",
+        f'    """Condition {c.name!r} (variable {c.variable}): its blocks and junctions; the uses of '
+        f'{c.break_at!r} read the loop signal {cut!r}."""',
+        "    return [",
+    ]
     for signal, entries in rows(c):
         lines += ["        " + line for line in _row(c, signal, entries, cut)]
-    lines += ["    ]", "", "", f"def {name}_loop():",
-              f'    """The open loop L = GH broken at {c.break_at!r} (1 + L = 0 closes it)."""',
-              f"    broken = control.interconnect({name}_blocks(), inplist=[{cut!r}], "
-              f"outlist=[{ident[c.break_at]!r}], check_unused=False)",
-              "    return -broken", "", "",
-              f"def {name}_closed():",
-              f'    """The closed loop (the loop signal fed back from {c.break_at!r}): from the inputs '
-              f'{inputs} to every signal {produced}."""',
-              f"    broken = control.interconnect({name}_blocks(), inplist={inputs + [cut]!r}, "
-              f"outlist={produced!r}, check_unused=False)",
-              f"    back = np.zeros(({len(inputs) + 1}, {len(produced)}))",
-              f"    back[-1, {produced.index(ident[c.break_at])}] = 1.0",
-              "    closed = control.feedback(broken, back, sign=1)   # solves an algebraic loop, if any",
-              f"    return closed[:, :{len(inputs)}]" if inputs else "    return closed", "", ""]
+    lines += [
+        "    ]",
+        "",
+        "",
+        f"def {name}_loop():",
+        f'    """The open loop L = GH broken at {c.break_at!r} (1 + L = 0 closes it)."""',
+        f"    broken = control.interconnect({name}_blocks(), inplist=[{cut!r}], "
+        f"outlist=[{ident[c.break_at]!r}], check_unused=False)",
+        "    return -broken",
+        "",
+        "",
+        f"def {name}_closed():",
+        f'    """The closed loop (the loop signal fed back from {c.break_at!r}): from the inputs '
+        f'{inputs} to every signal {produced}."""',
+        f"    broken = control.interconnect({name}_blocks(), inplist={inputs + [cut]!r}, "
+        f"outlist={produced!r}, check_unused=False)",
+        f"    back = np.zeros(({len(inputs) + 1}, {len(produced)}))",
+        f"    back[-1, {produced.index(ident[c.break_at])}] = 1.0",
+        "    closed = control.feedback(broken, back, sign=1)   # solves an algebraic loop, if any",
+        f"    return closed[:, :{len(inputs)}]" if inputs else "    return closed",
+        "",
+        "",
+    ]
     lines += _z_domain(c, name, sample_time)
     return "\n".join(lines)
 
@@ -117,20 +137,25 @@ def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
     role = "compensator" if e.compensator else "plant"
     names = f"inputs={source!r}, outputs={out!r}, name={name!r}"
     if e.kind == "delay":
-        return [f"# {e.label} ({role}): {e.text}, a Pade approximation of order {PADE_ORDER}",
-                f"control.tf(*control.pade({e.delay!r}, {PADE_ORDER}), {names}),"]
+        return [
+            f"# {e.label} ({role}): {e.text}, a Pade approximation of order {PADE_ORDER}",
+            f"control.tf(*control.pade({e.delay!r}, {PADE_ORDER}), {names}),",
+        ]
     if e.kind == "fitted":
-        return [f"# {e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}",
-                f"zpk({list(e.zeros)!r}, {list(e.poles)!r}, {e.gain!r}, {names}),"]
-    return [f"# {e.label} ({role}): {e.text}",
-            f"control.tf({list(e.num)!r}, {list(e.den)!r}, {names}),"]
+        return [
+            f"# {e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}",
+            f"zpk({list(e.zeros)!r}, {list(e.poles)!r}, {e.gain!r}, {names}),",
+        ]
+    return [f"# {e.label} ({role}): {e.text}", f"control.tf({list(e.num)!r}, {list(e.den)!r}, {names}),"]
 
 
 def _z_domain(c: ExportCondition, name: str, sample_time: float | None) -> list[str]:
     """w-plane conditions: each compensator in z by w = (z - 1)/(z + 1)."""
     dt = "True" if sample_time is None else repr(float(sample_time))
-    lines = [f"def {name}_z():",
-             '    """The compensators in the z-domain (w-plane conditions; dt True: sample time unstated)."""']
+    lines = [
+        f"def {name}_z():",
+        '    """The compensators in the z-domain (w-plane conditions; dt True: sample time unstated)."""',
+    ]
     items = []
     if c.variable == "w":
         for e in c.entries:

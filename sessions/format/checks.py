@@ -15,7 +15,7 @@ from engine.stepping.protocol import State, StepRecord, memory_type
 from sessions.errors import SessionError
 from sessions.format.schema import SessionModel
 
-MAX_DEPTH = 64   # levels of JSON nesting a session may have (a real one has about 8)
+MAX_DEPTH = 64  # levels of JSON nesting a session may have (a real one has about 8)
 
 
 def location(loc: tuple) -> str:
@@ -65,8 +65,9 @@ def check_records(model: SessionModel) -> None:
         if unknown is not None:
             raise SessionError(f"{where}.{unknown}: not a field of a record")
         if record.iteration != i + 1:
-            raise SessionError(f"{where}.iteration: expected {i + 1} (records are numbered 1..n in order), "
-                               f"got {record.iteration}")
+            raise SessionError(
+                f"{where}.iteration: expected {i + 1} (records are numbered 1..n in order), got {record.iteration}"
+            )
     if model.current_iteration > len(model.records):
         raise SessionError(f"current_iteration {model.current_iteration} exceeds the {len(model.records)} records")
 
@@ -81,8 +82,10 @@ def check_state(model: SessionModel) -> None:
     except EngineError as exc:
         raise SessionError(str(exc)) from None
     if iteration != model.current_iteration:
-        raise SessionError(f"state.iteration: {iteration}, but current_iteration is {model.current_iteration} "
-                           "(the state is the one after the current iteration)")
+        raise SessionError(
+            f"state.iteration: {iteration}, but current_iteration is {model.current_iteration} "
+            "(the state is the one after the current iteration)"
+        )
     try:
         kind = memory_type(model.algorithm.name)
     except EngineError:
@@ -104,8 +107,9 @@ def check_record_parameters(model: SessionModel, problem: Problem) -> None:
                 raise SessionError(f"{where}: not a parameter of the problem")
             n = lengths[name]
             if n is None and isinstance(value, list):
-                raise SessionError(f"{where}: expected a number ({name} has one value for all conditions), "
-                                   f"got a list of {len(value)}")
+                raise SessionError(
+                    f"{where}: expected a number ({name} has one value for all conditions), got a list of {len(value)}"
+                )
             if n is not None and not (isinstance(value, list) and len(value) == n):
                 got = f"a list of {len(value)}" if isinstance(value, list) else f"{type(value).__name__} {value!r}"
                 raise SessionError(f"{where}: expected a list of {n} numbers (one per condition), got {got}")

@@ -56,8 +56,9 @@ def inequality(text: str, path: str, conditions: list[str]) -> LinearInequality:
             elif label.isdigit() and int(label) < len(conditions):
                 condition = int(label)
             else:
-                raise SessionError(f"{path}: {reference}: no condition {label!r} (conditions: "
-                                   f"{', '.join(conditions) or 'none'})")
+                raise SessionError(
+                    f"{path}: {reference}: no condition {label!r} (conditions: {', '.join(conditions) or 'none'})"
+                )
         terms.append((reference.name, condition, coefficient))
     return LinearInequality(tuple(terms), form.bound, text)
 
@@ -73,9 +74,11 @@ def check_start(problem: Problem) -> None:
     found = unmet(problem, problem.vector(), " at the start")
     if found:
         index, _, rest = found[0].removeprefix("constraints[").partition("] ")
-        raise SessionError(f"problem.constraints[{index}]: {rest}; change the parameters' values or the "
-                           "constraint (the design would otherwise start outside it)"
-                           + (f" (and {len(found) - 1} more)" if len(found) > 1 else ""))
+        raise SessionError(
+            f"problem.constraints[{index}]: {rest}; change the parameters' values or the "
+            "constraint (the design would otherwise start outside it)"
+            + (f" (and {len(found) - 1} more)" if len(found) > 1 else "")
+        )
 
 
 def check_constraint_line(text: str, model: ProblemModel, index: int | None = None) -> LinearInequality:
@@ -95,15 +98,20 @@ def check_constraint_line(text: str, model: ProblemModel, index: int | None = No
         if c is not None and not isinstance(p.value, list):
             raise SessionError(f"{where}: {name!r} is shared by all conditions: write it without a condition")
     every = any(c is None and isinstance(parameters[n].value, list) for n, c, _ in found.terms)
-    for condition in (range(len(conditions)) if every else (None,)):
-        parts = [coefficient * _value(parameters[name].value, c if c is not None else condition)
-                 for name, c, coefficient in found.terms]
-        rows.append((sum(parts), sum(map(abs, parts)), "" if condition is None else
-                     f" in condition {conditions[condition]!r}"))
+    for condition in range(len(conditions)) if every else (None,):
+        parts = [
+            coefficient * _value(parameters[name].value, c if c is not None else condition)
+            for name, c, coefficient in found.terms
+        ]
+        rows.append(
+            (sum(parts), sum(map(abs, parts)), "" if condition is None else f" in condition {conditions[condition]!r}")
+        )
     for left, size, label in rows:
         if left - found.bound > TOLERANCE * max(1.0, abs(found.bound), size):
-            raise SessionError(f"{where}: {text!r} is not met{label} at the parameters' values: violated by "
-                               f"{left - found.bound:.3g} (as {found.normal}, the left side is {left:.6g})")
+            raise SessionError(
+                f"{where}: {text!r} is not met{label} at the parameters' values: violated by "
+                f"{left - found.bound:.3g} (as {found.normal}, the left side is {left:.6g})"
+            )
     return found
 
 

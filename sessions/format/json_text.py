@@ -20,8 +20,8 @@ from typing import Any
 
 from sessions.format.schema import SessionModel
 
-_MARKER = "\0" + secrets.token_hex(8)   # stands in for an infinity (and the records) while encoding
-_RECORD_TEXTS: dict[int, tuple[dict, dict[bool, str]]] = {}   # id -> (the record, kept alive: its id is
+_MARKER = "\0" + secrets.token_hex(8)  # stands in for an infinity (and the records) while encoding
+_RECORD_TEXTS: dict[int, tuple[dict, dict[bool, str]]] = {}  # id -> (the record, kept alive: its id is
 # not reused; its text by compactness)
 _LOCK = threading.Lock()
 
@@ -36,7 +36,7 @@ def dumps(model: SessionModel, compact: bool = False) -> str:
     texts = _record_texts(model.records, compact)
     if compact:
         records = "[" + ", ".join(texts) + "]"
-    else:   # json's layout of a list of objects one level in
+    else:  # json's layout of a list of objects one level in
         records = "[\n    " + ",\n    ".join(texts) + "\n  ]" if texts else "[]"
     return text.replace(json.dumps(data["records"]), records, 1) + "\n"
 
@@ -50,8 +50,9 @@ def _record_texts(records: list[dict], compact: bool) -> list[str]:
             hit = _RECORD_TEXTS.get(id(record))
             forms = hit[1] if hit is not None and hit[0] is record else {}
             if compact not in forms:
-                encoded = json.dumps(_plain(record, _MARKER), indent=None if compact else 2, sort_keys=True,
-                                     allow_nan=False)
+                encoded = json.dumps(
+                    _plain(record, _MARKER), indent=None if compact else 2, sort_keys=True, allow_nan=False
+                )
                 forms[compact] = _standard(encoded if compact else encoded.replace("\n", "\n    "))
             kept[id(record)] = (record, forms)
             texts.append(forms[compact])

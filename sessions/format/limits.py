@@ -15,21 +15,21 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, BeforeValidator, Field
 
 MAX_CONDITIONS = 100
-MAX_BLOCKS = 1000            # blocks of a diagram, entries of a matrix, compensators of a channel
-MAX_SIGNALS = 1000           # inputs of a diagram, its junctions, the signals of a matrix
-MAX_JUNCTION_INPUTS = 100    # signals into one junction (plus and minus each)
+MAX_BLOCKS = 1000  # blocks of a diagram, entries of a matrix, compensators of a channel
+MAX_SIGNALS = 1000  # inputs of a diagram, its junctions, the signals of a matrix
+MAX_JUNCTION_INPUTS = 100  # signals into one junction (plus and minus each)
 MAX_CHANNELS = 100
-MAX_FACTORS = 100            # factors of one factored or controller block
-MAX_COEFFICIENTS = 65        # of one polynomial: degree 64, the largest power an expression takes
-MAX_PARAMETERS = 1000        # parameters, and terms of one equality
+MAX_FACTORS = 100  # factors of one factored or controller block
+MAX_COEFFICIENTS = 65  # of one polynomial: degree 64, the largest power an expression takes
+MAX_PARAMETERS = 1000  # parameters, and terms of one equality
 MAX_TARGETS = 1000
-MAX_BANDS = 100              # bands of a target (and its push/pull points, a response's profile segments)
-MAX_TABLE_ROWS = 100_000     # rows of an inline table (a CSV table's rows: sessions.build)
-MAX_GRID_POINTS = 100_000    # a grid's points or explicit values
+MAX_BANDS = 100  # bands of a target (and its push/pull points, a response's profile segments)
+MAX_TABLE_ROWS = 100_000  # rows of an inline table (a CSV table's rows: sessions.build)
+MAX_GRID_POINTS = 100_000  # a grid's points or explicit values
 MAX_RESPONSE_POINTS = 100_000  # time points of a time response
 MAX_EQUALITIES = 1000
-MAX_CONSTRAINTS = 1000       # linear inequalities between parameters (1000 characters each)
-MAX_OPTIONS = 100            # options, tables of an objective
+MAX_CONSTRAINTS = 1000  # linear inequalities between parameters (1000 characters each)
+MAX_OPTIONS = 100  # options, tables of an objective
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=200)]
@@ -42,8 +42,10 @@ def _coefficient(value: Any) -> Any:
             raise ValueError(f"a coefficient must be finite, not {value!r}")
         if not IDENTIFIER.fullmatch(value):
             shown = value if len(value) <= 40 else value[:37] + "..."
-            raise ValueError(f"a coefficient is a number or a parameter name, not {shown!r} "
-                             "(an expression belongs in an expression block)")
+            raise ValueError(
+                f"a coefficient is a number or a parameter name, not {shown!r} "
+                "(an expression belongs in an expression block)"
+            )
     elif isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f"a coefficient is a number or a parameter name, not {type(value).__name__}")
     return value
@@ -60,14 +62,16 @@ def bounded(list_type: Any, most: int, least: int = 0) -> Any:
 
 def _limit(refused: float) -> Any:
     """A float that may be infinite (no limit) but is neither NaN nor ``refused``."""
+
     def check(x: float) -> float:
         if x != x:
             raise ValueError("must be a number, not NaN")
         if x == refused:
             raise ValueError(f"must not be {refused}")
         return x
+
     return Annotated[float, AfterValidator(check)]
 
 
-Upper = _limit(float("-inf"))   # an upper limit: +inf is no limit
-Lower = _limit(float("inf"))    # a lower limit: -inf is no limit
+Upper = _limit(float("-inf"))  # an upper limit: +inf is no limit
+Lower = _limit(float("inf"))  # a lower limit: -inf is no limit

@@ -29,7 +29,7 @@ from pathlib import Path
 
 from sessions.errors import SessionError
 
-STALE_AFTER = 3600.0   # s: a temporary file this old is a leftover, whoever made it
+STALE_AFTER = 3600.0  # s: a temporary file this old is a leftover, whoever made it
 _HOST = re.sub(r"[^A-Za-z0-9_.-]", "_", socket.gethostname()) or "host"
 _TAGGED = re.compile(r"\.~(?P<host>[^~]*)~(?P<pid>\d+)~[^~]*\.tmp$")
 
@@ -85,18 +85,22 @@ def refuse_overwrite(target: Path, loaded: DiskStamp | None, force: bool) -> Non
     if force:
         return
     if not st.st_mode & 0o222 or not os.access(real, os.W_OK):
-        raise OverwriteRefused(f"{target}: the file is read-only (mode {stat.S_IMODE(st.st_mode):04o}); "
-                               "not saved (save with force to overwrite it)")
+        raise OverwriteRefused(
+            f"{target}: the file is read-only (mode {stat.S_IMODE(st.st_mode):04o}); "
+            "not saved (save with force to overwrite it)"
+        )
     if loaded is not None and loaded.path == str(real) and _changed(real, st, loaded):
-        raise OverwriteRefused(f"{target}: changed on disk since it was loaded (another program or session "
-                               "saved it); not saved (save with force to overwrite it)")
+        raise OverwriteRefused(
+            f"{target}: changed on disk since it was loaded (another program or session "
+            "saved it); not saved (save with force to overwrite it)"
+        )
 
 
 def _changed(real: Path, st: os.stat_result, loaded: DiskStamp) -> bool:
     if (st.st_mtime_ns, st.st_size) == (loaded.mtime_ns, loaded.size):
         return False
     try:
-        return hashlib.sha256(real.read_bytes()).hexdigest() != loaded.sha256   # touched is not changed
+        return hashlib.sha256(real.read_bytes()).hexdigest() != loaded.sha256  # touched is not changed
     except OSError:
         return True
 
@@ -113,8 +117,9 @@ def check_writable(target: Path, force: bool = False) -> None:
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
-        raise SessionError(f"{target}: cannot save: the folder {real.parent} is not writable "
-                           f"({describe(exc)})") from None
+        raise SessionError(
+            f"{target}: cannot save: the folder {real.parent} is not writable ({describe(exc)})"
+        ) from None
 
 
 def _temporary(real: Path) -> tuple[int, str]:
@@ -145,7 +150,7 @@ def write_atomic(path: Path, data: bytes, mode: int | None = None) -> DiskStamp:
         try:
             view = memoryview(data)
             while view:
-                view = view[os.write(fd, view):]
+                view = view[os.write(fd, view) :]
             if mode is not None:
                 os.fchmod(fd, mode)
             os.fsync(fd)

@@ -54,15 +54,15 @@ class GridModel(Strict):
     points: Annotated[int, Field(ge=2, le=MAX_GRID_POINTS)] = 200
     spacing: Literal["log", "linear"] = "log"
     values: _bounded(list[Number], MAX_GRID_POINTS) | None = Field(
-        default=None, description="explicit frequencies (e.g. a table's), instead of start/stop/points")
+        default=None, description="explicit frequencies (e.g. a table's), instead of start/stop/points"
+    )
 
     @model_validator(mode="after")
     def _increasing(self) -> GridModel:
         if self.values is not None:
             if self.start is not None or self.stop is not None:
                 raise ValueError("give either values or start/stop, not both")
-            if len(self.values) < 2 or any(b <= a for a, b in zip(self.values, self.values[1:])) \
-                    or self.values[0] < 0:
+            if len(self.values) < 2 or any(b <= a for a, b in zip(self.values, self.values[1:])) or self.values[0] < 0:
                 raise ValueError("values must be at least two increasing frequencies >= 0")
             return self
         if self.start is None or self.stop is None:
@@ -95,12 +95,14 @@ class TableModel(Strict):
 
     unit: Literal["rad/s", "hz"] = "rad/s"
     form: Literal["polar", "cartesian", "magnitude"] = Field(
-        default="polar", description="magnitude: one value column (a PSD), phase 0")
+        default="polar", description="magnitude: one value column (a PSD), phase 0"
+    )
     gain: Number = 1.0
     frequency: _bounded(list[Number], MAX_TABLE_ROWS) | None = None
     first: _bounded(list[Number], MAX_TABLE_ROWS) | None = Field(default=None, description="magnitude, or real part")
-    second: _bounded(list[Number], MAX_TABLE_ROWS) | None = Field(default=None,
-                                                                  description="phase in degrees, or imaginary part")
+    second: _bounded(list[Number], MAX_TABLE_ROWS) | None = Field(
+        default=None, description="phase in degrees, or imaginary part"
+    )
     csv: str | None = None
     columns: _bounded(list[str], 3) | None = Field(default=None, description="CSV columns: frequency, first, second")
 
@@ -114,11 +116,12 @@ class TableModel(Strict):
             raise ValueError("inline tables need frequency, first and second")
         lengths = [len(c) for c in (self.frequency, self.first, None if two else self.second) if c is not None]
         if inline and len(set(lengths)) > 1:
-            raise ValueError(f"inline columns frequency, first{'' if two else ', second'} must have one length, "
-                             f"not {', '.join(map(str, lengths))}")
+            raise ValueError(
+                f"inline columns frequency, first{'' if two else ', second'} must have one length, "
+                f"not {', '.join(map(str, lengths))}"
+            )
         if self.csv is not None and (self.columns is None or len(self.columns) != (2 if two else 3)):
-            raise ValueError("csv tables need three column names: frequency, first, second "
-                             "(two for form 'magnitude')")
+            raise ValueError("csv tables need three column names: frequency, first, second (two for form 'magnitude')")
         return self
 
 
@@ -168,8 +171,10 @@ class DelayBlock(Strict):
     tau: Coefficient
 
 
-Transfer = Annotated[ExpressionBlock | PolynomialBlock | FactoredBlock | TableBlock | DelayBlock | ControllerBlock,
-                     Field(discriminator="kind")]
+Transfer = Annotated[
+    ExpressionBlock | PolynomialBlock | FactoredBlock | TableBlock | DelayBlock | ControllerBlock,
+    Field(discriminator="kind"),
+]
 
 
 class BlockModel(Strict):
@@ -280,8 +285,10 @@ class ParameterModel(Strict):
             raise ValueError("min must not exceed max")
         for v in self.value if isinstance(self.value, list) else [self.value]:
             if (self.min is not None and v < self.min) or (self.max is not None and v > self.max):
-                raise ValueError(f"value {v!r} is outside [min, max] = [{self.min}, {self.max}] (the design "
-                                 "would be computed at the bound, not at this value)")
+                raise ValueError(
+                    f"value {v!r} is outside [min, max] = [{self.min}, {self.max}] (the design "
+                    "would be computed at the bound, not at this value)"
+                )
         return self
 
 
@@ -289,9 +296,12 @@ class BandModel(Strict):
     low: Annotated[Number, Field(ge=0)] = 0.0
     high: Upper | None = Field(default=None, description="upper edge (the target's unit); null: no limit")
     desired: Number
-    required: Number | None = Field(default=None, description="least acceptable value (most, for an at-most "
-                                   "measure) when it differs from desired; slp constrains it and rewards "
-                                   "improvement up to desired")
+    required: Number | None = Field(
+        default=None,
+        description="least acceptable value (most, for an at-most "
+        "measure) when it differs from desired; slp constrains it and rewards "
+        "improvement up to desired",
+    )
 
 
 class SegmentModel(Strict):
@@ -307,8 +317,9 @@ class ResponseModel(Strict):
     output: str
     horizon: Annotated[Number, Field(gt=0)] = 10.0
     points: Annotated[int, Field(ge=10, le=MAX_RESPONSE_POINTS)] = 400
-    profile: _bounded(list[SegmentModel], MAX_BANDS) = Field(default=[SegmentModel(step=1.0)],
-                                        description="steps and ramps at the input (e.g. a wind profile)")
+    profile: _bounded(list[SegmentModel], MAX_BANDS) = Field(
+        default=[SegmentModel(step=1.0)], description="steps and ramps at the input (e.g. a wind profile)"
+    )
     psd: str | None = Field(default=None, description="mean_square: shaping filter F(s), PSD = |F(jw)|^2")
     reference: Number = 1.0
     settling_band: Annotated[float, Field(gt=0, lt=1)] = 0.05
@@ -320,7 +331,7 @@ class PointModel(Strict):
     mode: Literal["push", "pull"] = "push"
 
 
-MeasureName = Literal[tuple(MEASURE_KINDS)]   # the measure kinds, from their one table
+MeasureName = Literal[tuple(MEASURE_KINDS)]  # the measure kinds, from their one table
 
 
 class TargetModel(Strict):
@@ -333,8 +344,9 @@ class TargetModel(Strict):
     detect_low: Annotated[Number, Field(ge=0)] = 0.0
     detect_high: Upper | None = Field(default=None, description="null: no upper limit")
     unit: Literal["rad/s", "hz"] = Field(default="rad/s", description="unit of band edges and detect_low/high")
-    sense: Literal["at_least", "at_most"] | None = Field(default=None, description="null: the measure's own "
-                                                         "(at most for peaks, times, errors; at least otherwise)")
+    sense: Literal["at_least", "at_most"] | None = Field(
+        default=None, description="null: the measure's own (at most for peaks, times, errors; at least otherwise)"
+    )
     constraint: bool = Field(default=True, description="false: only in the objective, never a requirement")
     response: ResponseModel | None = Field(default=None, description="for time-domain measures")
 
@@ -342,9 +354,13 @@ class TargetModel(Strict):
 class ObjectiveModel(Strict):
     kind: str
     options: Annotated[dict[str, Number | str], Field(max_length=MAX_OPTIONS)] = {}
-    tables: Annotated[dict[str, TableModel], Field(max_length=MAX_OPTIONS)] = Field(default={}, description="e.g. noise_psd (form 'magnitude')")
-    data: dict[str, Any] = Field(default={}, description="structured inputs: for kind 'dae' the matrices A, B, E, "
-                                                         "F, x0, horizon, steps, bounds, Q, R")
+    tables: Annotated[dict[str, TableModel], Field(max_length=MAX_OPTIONS)] = Field(
+        default={}, description="e.g. noise_psd (form 'magnitude')"
+    )
+    data: dict[str, Any] = Field(
+        default={},
+        description="structured inputs: for kind 'dae' the matrices A, B, E, F, x0, horizon, steps, bounds, Q, R",
+    )
 
 
 class EqualityModel(Strict):
@@ -358,14 +374,19 @@ class EqualityModel(Strict):
 class ProblemModel(Strict):
     grid: GridModel
     conditions: _bounded(list[ConditionModel], MAX_CONDITIONS) = Field(
-        default=[], description="at least one, except for a 'dae' objective")
+        default=[], description="at least one, except for a 'dae' objective"
+    )
     parameters: _bounded(list[ParameterModel], MAX_PARAMETERS) = []
     targets: _bounded(list[TargetModel], MAX_TARGETS) = []
     objective: ObjectiveModel | None = None
-    equalities: _bounded(list[EqualityModel], MAX_EQUALITIES) = Field(default=[], description="linear equalities between parameters (slp)")
+    equalities: _bounded(list[EqualityModel], MAX_EQUALITIES) = Field(
+        default=[], description="linear equalities between parameters (slp)"
+    )
     constraints: _bounded(list[ConstraintText], MAX_CONSTRAINTS) = Field(
-        default=[], description="linear inequalities between parameters, one a line: 'T1 >= 4*T2', "
-                                "'K + 2*T1[cruise] <= 10' (docs/session-format.md)")
+        default=[],
+        description="linear inequalities between parameters, one a line: 'T1 >= 4*T2', "
+        "'K + 2*T1[cruise] <= 10' (docs/session-format.md)",
+    )
 
 
 class AlgorithmModel(Strict):
@@ -389,12 +410,16 @@ class SweepModel(Strict):
     settings: dict[str, Any] = {}
     workers: int = 0
     cancelled: bool = False
-    runs: list[dict[str, Any]] = Field(default=[], description="one per run: index, label, start, parameters, "
-                                       "objective, status, reason, measures, meets_requirements, worker, attempts")
+    runs: list[dict[str, Any]] = Field(
+        default=[],
+        description="one per run: index, label, start, parameters, "
+        "objective, status, reason, measures, meets_requirements, worker, attempts",
+    )
     failed: list[int] = []
     retried: dict[str, list[str]] = Field(default={}, description="run index -> the workers it was started on")
-    optima: list[dict[str, Any]] = Field(default=[], description="parameters, objective, count, "
-                                         "meets_requirements, best_run, runs")
+    optima: list[dict[str, Any]] = Field(
+        default=[], description="parameters, objective, count, meets_requirements, best_run, runs"
+    )
     worst_case: list[dict[str, Any]] = Field(default=[], description="tolerance sweeps: per measure row")
 
 

@@ -16,8 +16,9 @@ Sense = Literal["at_least", "at_most"] | None
 Setting = bool | int | float | str | None
 BAND_FORM = "LOW..HIGH: DESIRED [/ REQUIRED]"
 POINT_FORM = "push|pull REAL+IMAGj, e.g. push -1+0j"
-RESPONSE_CLAUSES = dict(step="step T A", ramp="ramp T S", psd="psd F(s)", reference="reference R",
-                        settling="settling B")
+RESPONSE_CLAUSES = dict(
+    step="step T A", ramp="ramp T S", psd="psd F(s)", reference="reference R", settling="settling B"
+)
 
 
 class FormError(ValueError):
@@ -26,6 +27,7 @@ class FormError(ValueError):
 
 class ParameterLine(NamedTuple):
     """'NAME VALUE [MIN MAX]': a new shared parameter."""
+
     name: str
     value: float
     min: float | None
@@ -34,6 +36,7 @@ class ParameterLine(NamedTuple):
 
 class BlockLine(NamedTuple):
     """'NAME INPUT OUTPUT EXPRESSION': a new diagram block."""
+
     name: str
     input: str
     output: str
@@ -42,6 +45,7 @@ class BlockLine(NamedTuple):
 
 class EntryLine(NamedTuple):
     """'ROW COL EXPRESSION': a new matrix-format entry (rows and columns from 1)."""
+
     row: int
     col: int
     expression: str
@@ -222,8 +226,13 @@ def _parse_band(part: str) -> BandModel:
     desired, _, required = values.partition("/")
     try:
         low, high = parse_range(span)
-        return _model(BandModel, low=low, high=high, desired=parse_number(desired, "a number for DESIRED"),
-                      required=parse_number(required, "a number for REQUIRED") if required.strip() else None)
+        return _model(
+            BandModel,
+            low=low,
+            high=high,
+            desired=parse_number(desired, "a number for DESIRED"),
+            required=parse_number(required, "a number for REQUIRED") if required.strip() else None,
+        )
     except FormError as exc:
         hint = "" if colon else f" (write {BAND_FORM}, or DESIRED alone for every frequency)"
         raise FormError(f"band {part!r}: {exc}{hint}") from None
@@ -239,8 +248,11 @@ def parse_bands(text: str) -> list[BandModel]:
 
 def format_bands(bands: Sequence[BandModel]) -> str:
     """Bands as 'low..high: desired', '/ required' where a requirement is set."""
-    return "; ".join(f"{format_range((b.low, b.high))}: {format_number(b.desired)}"
-                     + ("" if b.required is None else f" / {format_number(b.required)}") for b in bands)
+    return "; ".join(
+        f"{format_range((b.low, b.high))}: {format_number(b.desired)}"
+        + ("" if b.required is None else f" / {format_number(b.required)}")
+        for b in bands
+    )
 
 
 def _parse_point(part: str) -> PointModel:

@@ -68,13 +68,18 @@ def describe_transfer(t, variable: str = "s") -> str:
         return t.expression
     if t.kind == "factored":
         items = [f"gain {c(t.gain)}"] + ([f"{variable}^{t.s_power}"] if t.s_power else [])
-        items += [f"{side} " + " ".join(_factor_text(f, variable) for f in getattr(t, side))
-                  for side in ("zeros", "poles") if getattr(t, side)]
+        items += [
+            f"{side} " + " ".join(_factor_text(f, variable) for f in getattr(t, side))
+            for side in ("zeros", "poles")
+            if getattr(t, side)
+        ]
         return "; ".join(items)
     if t.kind == "controller":
         items = [f"gain {c(t.gain)}"] + ([f"{variable}^{t.s_power}"] if t.s_power else [])
-        items += [f"{f.kind} {c(f.b)}" if f.kind in ("zero", "pole") else f"{f.kind} {c(f.damping)} {c(f.frequency)}"
-                  for f in t.factors]
+        items += [
+            f"{f.kind} {c(f.b)}" if f.kind in ("zero", "pole") else f"{f.kind} {c(f.damping)} {c(f.frequency)}"
+            for f in t.factors
+        ]
         return "; ".join(items)
     if t.kind == "polynomial":
         return f"num {', '.join(map(c, t.numerator))}; den {', '.join(map(c, t.denominator))}; {t.order}"
@@ -103,15 +108,21 @@ def parse_transfer(text: str, variable: str, current=None):
     kind = head.strip().lower()
     if not sep or kind not in KINDS:
         return ExpressionBlock(kind="expression", expression=parse_expression(text, variable))
-    readers = {"factored": _factored, "controller": _controller, "polynomial": _polynomial,
-               "delay": _delay, "table": _table}
+    readers = {
+        "factored": _factored,
+        "controller": _controller,
+        "polynomial": _polynomial,
+        "delay": _delay,
+        "table": _table,
+    }
     try:
         return readers[kind](body, variable, current)
     except ValidationError as exc:
         first = exc.errors()[0]
         where = ".".join(str(p) for p in first["loc"])
-        raise FormError(f"{kind}: {where + ': ' if where else ''}{first['msg'].removeprefix('Value error, ')}") \
-            from None
+        raise FormError(
+            f"{kind}: {where + ': ' if where else ''}{first['msg'].removeprefix('Value error, ')}"
+        ) from None
 
 
 def _items(body: str) -> list[tuple[str, str]]:
@@ -139,24 +150,28 @@ def _factored(body: str, variable: str, _current) -> FactoredBlock:
         elif word in ("zeros", "poles"):
             values[word] = _factors(rest, variable)
         else:
-            raise FormError(f"factored: {word!r}: write gain G; {variable}^N; zeros F F ...; poles F F ... "
-                            f"with factors ({variable}+a), (1+T{variable}), sos(zeta, omega)")
+            raise FormError(
+                f"factored: {word!r}: write gain G; {variable}^N; zeros F F ...; poles F F ... "
+                f"with factors ({variable}+a), (1+T{variable}), sos(zeta, omega)"
+            )
     return FactoredBlock(**values)
 
 
 def _factors(text: str, x: str) -> list[FactorModel]:
     """Factors '(x+a)', '(x-a)', '(1+Tx)' or '(1+T*x)', 'sos(zeta, omega)', side by side."""
     v = re.escape(x)
-    patterns = [(rf"\(\s*{v}\s*([-+])\s*({COEF})\s*\)", "root"),
-                (rf"\(\s*1\s*\+\s*({COEF})\s*\*?\s*{v}\s*\)", "time_constant"),
-                (rf"sos\(\s*({COEF})\s*,\s*({COEF})\s*\)", "second_order")]
+    patterns = [
+        (rf"\(\s*{v}\s*([-+])\s*({COEF})\s*\)", "root"),
+        (rf"\(\s*1\s*\+\s*({COEF})\s*\*?\s*{v}\s*\)", "time_constant"),
+        (rf"sos\(\s*({COEF})\s*,\s*({COEF})\s*\)", "second_order"),
+    ]
     factors, rest = [], text.strip()
     while rest:
         for pattern, kind in patterns:
             match = re.match(pattern, rest)
             if match:
                 factors.append(_factor(kind, match.groups()))
-                rest = rest[match.end():].strip()
+                rest = rest[match.end() :].strip()
                 break
         else:
             raise FormError(f"factored: cannot read {rest[:30]!r}: factors are ({x}+a), (1+T{x}), sos(zeta, omega)")
@@ -174,8 +189,9 @@ def _factor(kind: str, groups: tuple[str, ...]) -> FactorModel:
         return FactorModel(kind="root", a=value)
     if kind == "time_constant":
         return FactorModel(kind="time_constant", T=parse_coefficient(groups[0], "a time constant"))
-    return FactorModel(kind="second_order", zeta=parse_coefficient(groups[0], "zeta"),
-                       omega=parse_coefficient(groups[1], "omega"))
+    return FactorModel(
+        kind="second_order", zeta=parse_coefficient(groups[0], "zeta"), omega=parse_coefficient(groups[1], "omega")
+    )
 
 
 def _controller(body: str, variable: str, _current) -> ControllerBlock:
@@ -189,12 +205,18 @@ def _controller(body: str, variable: str, _current) -> ControllerBlock:
         elif word in ("zero", "pole") and len(words) == 1:
             values["factors"].append(ControllerFactorModel(kind=word, b=parse_coefficient(words[0], "a corner")))
         elif word in ("complex_zero", "complex_pole") and len(words) == 2:
-            values["factors"].append(ControllerFactorModel(
-                kind=word, damping=parse_coefficient(words[0], "a damping"),
-                frequency=parse_coefficient(words[1], "a frequency")))
+            values["factors"].append(
+                ControllerFactorModel(
+                    kind=word,
+                    damping=parse_coefficient(words[0], "a damping"),
+                    frequency=parse_coefficient(words[1], "a frequency"),
+                )
+            )
         else:
-            raise FormError(f"controller: {word!r}: write gain G; {variable}^N; zero b; pole b; "
-                            "complex_zero zeta w; complex_pole zeta w")
+            raise FormError(
+                f"controller: {word!r}: write gain G; {variable}^N; zero b; pole b; "
+                "complex_zero zeta w; complex_pole zeta w"
+            )
     if "gain" not in values:
         raise FormError("controller: give its gain (gain G)")
     return ControllerBlock(**values)
@@ -205,7 +227,8 @@ def _polynomial(body: str, _variable: str, _current) -> PolynomialBlock:
     for word, rest in _items(body):
         if word in ("num", "den"):
             values["numerator" if word == "num" else "denominator"] = [
-                parse_coefficient(c, "a coefficient") for c in rest.split(",") if c.strip()]
+                parse_coefficient(c, "a coefficient") for c in rest.split(",") if c.strip()
+            ]
         elif word in ("ascending", "descending") and not rest:
             values["order"] = word
         else:
@@ -246,6 +269,7 @@ def format_sub_compensator(sub) -> str:
 def parse_sub_compensator(text: str):
     """A channel's sub-compensator from 'num x0, x1, ...; den y0, y1, ...' (ascending powers)."""
     from sessions.format.schema import SubCompensatorModel
+
     block = _polynomial(text, "s", None)
     try:
         return SubCompensatorModel(numerator=block.numerator, denominator=block.denominator)
@@ -266,7 +290,7 @@ def split_names(text: str, count: int) -> tuple[list[str], str]:
         if not match:
             break
         names.append(match.group(1) if match.group(1) is not None else match.group(2))
-        rest = rest[match.end():]
+        rest = rest[match.end() :]
     return names, rest.strip()
 
 
@@ -274,6 +298,7 @@ def transfer_names(t, variable: str) -> set[str]:
     """The parameter names a transfer model reads."""
     if t.kind == "expression":
         from engine.model.expressions import Expression
+
         return set(Expression(t.expression, variable).parameters)
     if t.kind == "table":
         return set()
@@ -289,5 +314,6 @@ def transfer_names(t, variable: str) -> set[str]:
                 collect(item)
         elif isinstance(node, str):
             names.add(node)
+
     collect(t.model_dump())
     return names

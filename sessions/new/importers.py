@@ -22,7 +22,7 @@ from scipy import signal
 
 from sessions.errors import SessionError
 
-MAX_ORDER = 64   # a coefficient list of a polynomial block holds at most 65 numbers (sessions.format.limits)
+MAX_ORDER = 64  # a coefficient list of a polynomial block holds at most 65 numbers (sessions.format.limits)
 
 
 @dataclass(frozen=True)
@@ -48,8 +48,10 @@ def read_plant_file(path: str | Path, session: str | Path) -> ImportedPlant:
         return _state_space(arrays, where)
     if "freq" in arrays and ("resp" in arrays or ("resp_real" in arrays and "resp_imag" in arrays)):
         return _frd(arrays, where, Path(session))
-    raise SessionError(f"{where}: holds {', '.join(sorted(arrays)) or 'no arrays'}; expected num and den, "
-                       "A, B, C (and D), or freq and resp")
+    raise SessionError(
+        f"{where}: holds {', '.join(sorted(arrays)) or 'no arrays'}; expected num and den, "
+        "A, B, C (and D), or freq and resp"
+    )
 
 
 def _arrays(path: Path) -> dict[str, np.ndarray]:
@@ -60,6 +62,7 @@ def _arrays(path: Path) -> dict[str, np.ndarray]:
     try:
         if path.suffix.lower() == ".mat":
             from scipy.io import loadmat
+
             raw = {k: v for k, v in loadmat(str(path)).items() if not k.startswith("__")}
         elif path.suffix.lower() == ".npz":
             with np.load(path, allow_pickle=False) as data:
@@ -123,8 +126,10 @@ def _state_space(arrays: dict, where: str) -> ImportedPlant:
     C = np.asarray(arrays["C"], dtype=float).reshape(-1, A.shape[0]) if A.size else np.zeros((1, 0))
     D = np.atleast_2d(np.asarray(arrays.get("D", np.zeros((1, 1))), dtype=float))
     if A.shape[0] != A.shape[1] or B.shape[1] != 1 or C.shape[0] != 1 or D.shape != (1, 1):
-        raise SessionError(f"{where}: A, B, C, D must be a SISO state space (A n x n, B n x 1, C 1 x n, D 1 x 1); "
-                           f"got {A.shape}, {B.shape}, {C.shape}, {D.shape}")
+        raise SessionError(
+            f"{where}: A, B, C, D must be a SISO state space (A n x n, B n x 1, C 1 x n, D 1 x 1); "
+            f"got {A.shape}, {B.shape}, {C.shape}, {D.shape}"
+        )
     if not all(np.all(np.isfinite(m)) for m in (A, B, C, D)):
         raise SessionError(f"{where}: A, B, C, D must be finite")
     num, den = signal.ss2tf(A, B, C, D)
@@ -136,8 +141,9 @@ def _frd(arrays: dict, where: str, session: Path) -> ImportedPlant:
     if "resp" in arrays:
         resp = _finite_vector(arrays["resp"], f"{where}: resp").astype(complex)
     else:
-        resp = _real_vector(arrays["resp_real"], f"{where}: resp_real") + \
-            1j * _real_vector(arrays["resp_imag"], f"{where}: resp_imag")
+        resp = _real_vector(arrays["resp_real"], f"{where}: resp_real") + 1j * _real_vector(
+            arrays["resp_imag"], f"{where}: resp_imag"
+        )
     unit = str(arrays.get("unit", np.asarray("rad/s"))).strip().lower() or "rad/s"
     if unit not in ("rad/s", "hz"):
         raise SessionError(f"{where}: unit must be 'rad/s' or 'hz', not {unit!r}")
@@ -148,9 +154,16 @@ def _frd(arrays: dict, where: str, session: Path) -> ImportedPlant:
     writer.writerow(["frequency", "real", "imag"])
     writer.writerows([repr(float(f)), repr(float(r.real)), repr(float(r.imag))] for f, r in zip(freq, resp))
     name = f"{session.stem}_plant.csv"
-    table = {"kind": "table", "table": {"csv": name, "columns": ["frequency", "real", "imag"],
-                                        "form": "cartesian", "unit": unit}}
+    table = {
+        "kind": "table",
+        "table": {"csv": name, "columns": ["frequency", "real", "imag"], "form": "cartesian", "unit": unit},
+    }
     positive = freq[freq > 0]
     grid = {"unit": unit, "start": float(positive[0]), "stop": float(freq[-1]), "points": 400, "spacing": "log"}
-    return ImportedPlant(table, f"frequency response ({freq.size} points) from {where.removeprefix('--plant-file ')}",
-                         grid, name, out.getvalue())
+    return ImportedPlant(
+        table,
+        f"frequency response ({freq.size} points) from {where.removeprefix('--plant-file ')}",
+        grid,
+        name,
+        out.getvalue(),
+    )

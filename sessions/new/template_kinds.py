@@ -40,8 +40,9 @@ def _renamed(expression: str, starts: dict[str, float], suffix: str) -> tuple[st
     return expression, {name + suffix: value for name, value in starts.items()}
 
 
-def two_loop_session(inner_plant: str, outer_plant: str, inner: str = "pi", outer: str = "lead",
-                     algorithm: str = "slp") -> dict:
+def two_loop_session(
+    inner_plant: str, outer_plant: str, inner: str = "pi", outer: str = "lead", algorithm: str = "slp"
+) -> dict:
     """r -> e1 -> outer compensator -> x_ref -> e2 -> inner compensator -> u -> inner plant -> x
     -> outer plant -> y, e1 = r - y, e2 = x_ref - x; one condition broken at e1 (the outer
     loop, the inner one closed) and one at e2 (the inner loop), the same targets at both."""
@@ -54,20 +55,38 @@ def two_loop_session(inner_plant: str, outer_plant: str, inner: str = "pi", oute
     c_out, p_out = _renamed(*read_compensator(outer, variable), "_o")
 
     def block(name: str, source: str, output: str, expression: str) -> dict:
-        return {"name": name, "input": source, "output": output,
-                "transfer": {"kind": "expression", "expression": expression}}
-    plant = {"format": "diagram", "inputs": ["r"],
-             "blocks": [block("outer compensator", "e1", "x_ref", c_out), block("inner compensator", "e2", "u", c_in),
-                        block("inner plant", "u", "x", inner_text), block("outer plant", "x", "y", outer_text)],
-             "junctions": [{"name": "outer sum", "output": "e1", "plus": ["r"], "minus": ["y"]},
-                           {"name": "inner sum", "output": "e2", "plus": ["x_ref"], "minus": ["x"]}]}
+        return {
+            "name": name,
+            "input": source,
+            "output": output,
+            "transfer": {"kind": "expression", "expression": expression},
+        }
+
+    plant = {
+        "format": "diagram",
+        "inputs": ["r"],
+        "blocks": [
+            block("outer compensator", "e1", "x_ref", c_out),
+            block("inner compensator", "e2", "u", c_in),
+            block("inner plant", "u", "x", inner_text),
+            block("outer plant", "x", "y", outer_text),
+        ],
+        "junctions": [
+            {"name": "outer sum", "output": "e1", "plus": ["r"], "minus": ["y"]},
+            {"name": "inner sum", "output": "e2", "plus": ["x_ref"], "minus": ["x"]},
+        ],
+    }
     problem = data["problem"]
-    problem["conditions"] = [{"name": f"{loop} loop", "variable": variable, "break_at": point, "plant": plant}
-                             for loop, point in (("outer", "e1"), ("inner", "e2"))]
+    problem["conditions"] = [
+        {"name": f"{loop} loop", "variable": variable, "break_at": point, "plant": plant}
+        for loop, point in (("outer", "e1"), ("inner", "e2"))
+    ]
     problem["parameters"] = [parameter_entry(n, v) for n, v in {**p_out, **p_in}.items()]
     problem["grid"] = grid_for(f"({inner_text})*({outer_text})", variable)
-    data["notes"] = (f"Two loops: the inner compensator {c_in} around {inner_text}, the outer {c_out} around "
-                     f"{outer_text}; margins at both break points (conditions 'outer loop' at e1, 'inner loop' at e2).")
+    data["notes"] = (
+        f"Two loops: the inner compensator {c_in} around {inner_text}, the outer {c_out} around "
+        f"{outer_text}; margins at both break points (conditions 'outer loop' at e1, 'inner loop' at e2)."
+    )
     return data
 
 
@@ -82,11 +101,18 @@ def matrix_session(plant: str, compensator: str = "lead", algorithm: str = "slp"
     c = blocks["compensator"]["transfer"]["expression"]
     p = blocks["plant"]["transfer"]["expression"]
     entries = [(1, 1, "1"), (1, 3, "1"), (2, 2, "1"), (2, 1, f"-({c})"), (3, 3, "1"), (3, 2, f"-({p})")]
-    condition["plant"] = {"format": "matrix", "signals": ["e", "u", "y"], "forcing_row": 1, "forcing": "1",
-                          "input_name": "r",
-                          "entries": [{"row": r, "col": k, "expression": x} for r, k, x in entries]}
-    data["notes"] = (f"The compensator {c} on {p} in COEBRA's matrix format: row 1 e + y = r, row 2 u = C e, "
-                     "row 3 y = P u; the loop is broken at e.")
+    condition["plant"] = {
+        "format": "matrix",
+        "signals": ["e", "u", "y"],
+        "forcing_row": 1,
+        "forcing": "1",
+        "input_name": "r",
+        "entries": [{"row": r, "col": k, "expression": x} for r, k, x in entries],
+    }
+    data["notes"] = (
+        f"The compensator {c} on {p} in COEBRA's matrix format: row 1 e + y = r, row 2 u = C e, "
+        "row 3 y = P u; the loop is broken at e."
+    )
     return data
 
 
@@ -96,11 +122,15 @@ def table_session(table: dict, frequencies: list[float], compensator: str = "lea
     positive = sorted(f for f in frequencies if f > 0)
     if len(positive) < 2:
         raise SessionError("the table needs at least two positive frequencies")
-    grid = {"unit": table["table"]["unit"], "start": positive[0], "stop": positive[-1], "points": 400,
-            "spacing": "log"}
-    return new_session(table, compensator, algorithm, grid=grid,
-                       notes=f"A tabulated plant ({table['table'].get('csv', 'inline')}) with a {compensator} "
-                             "compensator; targets PM >= 45 deg, GM >= 6 dB.")
+    grid = {"unit": table["table"]["unit"], "start": positive[0], "stop": positive[-1], "points": 400, "spacing": "log"}
+    return new_session(
+        table,
+        compensator,
+        algorithm,
+        grid=grid,
+        notes=f"A tabulated plant ({table['table'].get('csv', 'inline')}) with a {compensator} "
+        "compensator; targets PM >= 45 deg, GM >= 6 dB.",
+    )
 
 
 def projection_session() -> dict:

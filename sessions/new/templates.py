@@ -21,7 +21,7 @@ from engine.errors import EngineError
 from sessions.errors import SessionError
 
 LOOPCRAFT_VERSION = "0.1.0"
-ALGORITHMS = ("slp", "cip")      # those whose targets may be margins in dB and degrees
+ALGORITHMS = ("slp", "cip")  # those whose targets may be margins in dB and degrees
 TIME_CONSTANT = (1e-4, 1e4)
 GAIN = (1e-6, 1e6)
 
@@ -30,15 +30,21 @@ STRUCTURES: dict[str, tuple[str, dict[str, float]]] = {
     "gain": ("K", {"K": 1.0}),
     "lead": ("K*(1+T1*s)/(1+T2*s)", {"K": 1.0, "T1": 1.0, "T2": 0.1}),
     "lag": ("K*(1+T1*s)/(1+T2*s)", {"K": 1.0, "T1": 1.0, "T2": 10.0}),
-    "lead-lag": ("K*(1+T1*s)*(1+T3*s)/((1+T2*s)*(1+T4*s))", {"K": 1.0, "T1": 1.0, "T2": 0.1, "T3": 10.0,
-                                                            "T4": 100.0}),
+    "lead-lag": ("K*(1+T1*s)*(1+T3*s)/((1+T2*s)*(1+T4*s))", {"K": 1.0, "T1": 1.0, "T2": 0.1, "T3": 10.0, "T4": 100.0}),
     "pi": ("K*(1+Ti*s)/(Ti*s)", {"K": 1.0, "Ti": 1.0}),
     "pid": ("K*(1+1/(Ti*s)+Td*s/(1+0.1*Td*s))", {"K": 1.0, "Ti": 1.0, "Td": 0.1}),
 }
 
 
-def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "slp", *,
-                name: str = "nominal", notes: str = "", grid: dict | None = None) -> dict:
+def new_session(
+    plant: str | dict,
+    compensator: str = "lead",
+    algorithm: str = "slp",
+    *,
+    name: str = "nominal",
+    notes: str = "",
+    grid: dict | None = None,
+) -> dict:
     """A valid session (JSON data `sessions.store.parse_session` accepts) designing
     ``compensator`` (a name of `STRUCTURES` or an expression in s, or w, whose other
     names become parameters) for ``plant`` (an expression in s, or w for a w-plane
@@ -46,8 +52,10 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
     JSON, e.g. a table, with its ``grid``) with ``algorithm`` (slp or cip).  ``name``
     names the flight condition.  Bad input is a `SessionError` naming it."""
     if algorithm not in ALGORITHMS:
-        raise SessionError(f"algorithm {algorithm!r}: a new session is made for {' or '.join(ALGORITHMS)} "
-                           "(the others need an objective of their own)")
+        raise SessionError(
+            f"algorithm {algorithm!r}: a new session is made for {' or '.join(ALGORITHMS)} "
+            "(the others need an objective of their own)"
+        )
     if isinstance(plant, dict):
         plant_text, delay, variable = "", 0.0, "s"
     else:
@@ -57,55 +65,80 @@ def new_session(plant: str | dict, compensator: str = "lead", algorithm: str = "
     if isinstance(plant, dict):
         blocks.append({"name": "plant", "input": "u", "output": "y", "transfer": plant})
     elif delay > 0:
-        blocks += [_block("plant", "u", "y0", plant_text), {"name": "delay", "input": "y0", "output": "y",
-                                                            "transfer": {"kind": "delay", "tau": delay}}]
+        blocks += [
+            _block("plant", "u", "y0", plant_text),
+            {"name": "delay", "input": "y0", "output": "y", "transfer": {"kind": "delay", "tau": delay}},
+        ]
     else:
         blocks.append(_block("plant", "u", "y", plant_text))
     stamp = datetime.now(UTC).replace(microsecond=0).isoformat()
-    condition = {"name": name, "variable": variable, "break_at": "e",
-                 "plant": {"format": "diagram", "inputs": ["r"], "blocks": blocks,
-                           "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}]}}
+    condition = {
+        "name": name,
+        "variable": variable,
+        "break_at": "e",
+        "plant": {
+            "format": "diagram",
+            "inputs": ["r"],
+            "blocks": blocks,
+            "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}],
+        },
+    }
     return {
         "schema_version": 1,
         "provenance": {"loopcraft_version": LOOPCRAFT_VERSION, "created": stamp, "modified": stamp},
-        "notes": notes or f"A new session: the compensator {expression} ({compensator}) on the plant "
-                          f"{plant_text or 'table'}, unity feedback; targets PM >= 45 deg, GM >= 6 dB.",
-        "problem": {"grid": grid or grid_for(plant_text, variable), "conditions": [condition],
-                    "parameters": [parameter_entry(p, v) for p, v in starts.items()],
-                    "targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 45.0}], "scale": 0.2},
-                                {"measure": "gain_margin_db", "bands": [{"desired": 6.0}]}]},
+        "notes": notes
+        or f"A new session: the compensator {expression} ({compensator}) on the plant "
+        f"{plant_text or 'table'}, unity feedback; targets PM >= 45 deg, GM >= 6 dB.",
+        "problem": {
+            "grid": grid or grid_for(plant_text, variable),
+            "conditions": [condition],
+            "parameters": [parameter_entry(p, v) for p, v in starts.items()],
+            "targets": [
+                {"measure": "phase_margin_deg", "bands": [{"desired": 45.0}], "scale": 0.2},
+                {"measure": "gain_margin_db", "bands": [{"desired": 6.0}]},
+            ],
+        },
         "algorithm": {"name": algorithm, "settings": {}},
-        "records": [], "current_iteration": 0, "state": None,
+        "records": [],
+        "current_iteration": 0,
+        "state": None,
     }
 
 
 def _block(name: str, source: str, output: str, expression: str) -> dict:
-    return {"name": name, "input": source, "output": output,
-            "transfer": {"kind": "expression", "expression": expression}}
+    return {
+        "name": name,
+        "input": source,
+        "output": output,
+        "transfer": {"kind": "expression", "expression": expression},
+    }
 
 
 def read_plant(plant: str) -> tuple[str, float, str]:
     """The plant's rational part, its delay and its variable; numbers only."""
     from engine.analysis import split_delays  # on use: the command line's parser reads STRUCTURES at start
     from engine.model.expressions import Expression
+
     try:
         text, delay = split_delays(plant.strip())
         variable, names = "s", Expression(text, "s").parameters
     except EngineError as exc:
-        try:   # an expression in w (a w-plane loop: no delay)
+        try:  # an expression in w (a w-plane loop: no delay)
             variable, names = "w", Expression(plant.strip(), "w").parameters
             text, delay = plant.strip(), 0.0
         except EngineError:
             raise SessionError(f"--plant: {exc}") from None
     if names:
-        raise SessionError(f"--plant: {plant!r} names {', '.join(sorted(names))}: a plant has numbers and the "
-                           "variable s (or w) only")
+        raise SessionError(
+            f"--plant: {plant!r} names {', '.join(sorted(names))}: a plant has numbers and the variable s (or w) only"
+        )
     return text, delay, variable
 
 
 def read_compensator(compensator: str, variable: str) -> tuple[str, dict[str, float]]:
     """The compensator's expression (in ``variable``) and its parameters' starting values."""
     from engine.model.expressions import Expression
+
     if compensator in STRUCTURES:
         expression, starts = STRUCTURES[compensator]
         return (expression.replace("s", variable) if variable != "s" else expression), dict(starts)
@@ -114,8 +147,9 @@ def read_compensator(compensator: str, variable: str) -> tuple[str, dict[str, fl
     except EngineError as exc:
         raise SessionError(f"--compensator: {exc} (or one of {', '.join(STRUCTURES)})") from None
     if not names:
-        raise SessionError(f"--compensator: {compensator!r} has no parameter to design (structures: "
-                           f"{', '.join(STRUCTURES)})")
+        raise SessionError(
+            f"--compensator: {compensator!r} has no parameter to design (structures: {', '.join(STRUCTURES)})"
+        )
     return compensator, {n: 1.0 for n in sorted(names)}
 
 
@@ -136,6 +170,7 @@ def grid_for(plant: str, variable: str) -> dict:
 
     from engine.model.expressions import Expression
     from engine.model.factored import pole_zero
+
     try:
         form = pole_zero(Expression(plant, variable), {})
         corners = np.abs(np.concatenate([form.zeros, form.poles]))

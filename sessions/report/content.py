@@ -30,9 +30,13 @@ from sessions.report import figures
 from sessions.store import Session
 
 Block = tuple
-DISTANCE = {"stability_margin": lambda v: v, "gain_margin": lambda v: v, "phase_margin": lambda v: v,
-            "gain_margin_db": lambda db: 1 - 10 ** (-db / 20), "phase_margin_deg": lambda d: 2 * math.sin(
-                math.radians(abs(d)) / 2)}
+DISTANCE = {
+    "stability_margin": lambda v: v,
+    "gain_margin": lambda v: v,
+    "phase_margin": lambda v: v,
+    "gain_margin_db": lambda db: 1 - 10 ** (-db / 20),
+    "phase_margin_deg": lambda d: 2 * math.sin(math.radians(abs(d)) / 2),
+}
 
 
 def report_blocks(session: Session, iteration: int | None = None) -> list[Block]:
@@ -40,9 +44,14 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
     k, named = iteration_parameters(session, iteration)
     initial, final = _records(session, k)
     name = session.path.name if session.path else "session"
-    blocks: list[Block] = [("h1", f"Design report: {name}"),
-                           ("p", f"Algorithm {session.model.algorithm.name}; iteration {k} of "
-                                 f"{session.model.current_iteration}. {session.model.notes}")]
+    blocks: list[Block] = [
+        ("h1", f"Design report: {name}"),
+        (
+            "p",
+            f"Algorithm {session.model.algorithm.name}; iteration {k} of "
+            f"{session.model.current_iteration}. {session.model.notes}",
+        ),
+    ]
     blocks += _problem(session, named)
     blocks += _designs(initial, final, k)
     blocks += _convergence(session, k)
@@ -75,18 +84,46 @@ def _problem(session: Session, named: dict | None) -> list[Block]:
     problem, model = session.problem, session.model.problem
     blocks: list[Block] = [("h2", "Problem")]
     for c in problem.conditions:
-        rows = [[e.label, c.network.signals[e.col], c.network.signals[e.row], e.transfer.text,
-                 "compensator" if e.transfer.parameters else "plant"] for e in c.network.entries]
-        blocks += [("h3", f"Condition {c.name} (variable {c.network.variable}, loop broken at {c.break_at})"),
-                   ("table", ("block", "from", "to", "transfer", "role"), rows)]
+        rows = [
+            [
+                e.label,
+                c.network.signals[e.col],
+                c.network.signals[e.row],
+                e.transfer.text,
+                "compensator" if e.transfer.parameters else "plant",
+            ]
+            for e in c.network.entries
+        ]
+        blocks += [
+            ("h3", f"Condition {c.name} (variable {c.network.variable}, loop broken at {c.break_at})"),
+            ("table", ("block", "from", "to", "transfer", "role"), rows),
+        ]
     final = problem.named() if named is None else named
-    rows = [[p.name, _number(p.value), _number(p.min), _number(p.max), "yes" if p.free else "no", p.sign,
-             _number(final.get(p.name))] for p in model.parameters]
+    rows = [
+        [
+            p.name,
+            _number(p.value),
+            _number(p.min),
+            _number(p.max),
+            "yes" if p.free else "no",
+            p.sign,
+            _number(final.get(p.name)),
+        ]
+        for p in model.parameters
+    ]
     blocks += [("h3", "Parameters"), ("table", ("name", "start", "min", "max", "free", "sign", "final"), rows)]
-    rows = [[t.measure, t.condition or "all", "; ".join(_band(b) for b in t.bands), t.sense or "natural",
-             _number(t.weight), "yes" if t.constraint else "objective only"] for t in model.targets]
-    blocks += [("h3", "Targets"), ("table", ("measure", "condition", "bands", "sense", "weight", "constraint"),
-                                   rows)]
+    rows = [
+        [
+            t.measure,
+            t.condition or "all",
+            "; ".join(_band(b) for b in t.bands),
+            t.sense or "natural",
+            _number(t.weight),
+            "yes" if t.constraint else "objective only",
+        ]
+        for t in model.targets
+    ]
+    blocks += [("h3", "Targets"), ("table", ("measure", "condition", "bands", "sense", "weight", "constraint"), rows)]
     settings = ", ".join(f"{k}={v}" for k, v in session.model.algorithm.settings.items()) or "defaults"
     blocks.append(("p", f"Algorithm {session.model.algorithm.name} ({settings})."))
     return blocks
@@ -99,9 +136,22 @@ def _band(b) -> str:
 
 
 def _tableau(rows: list[MeasureRow]) -> Block:
-    return ("table", ("name", "kind", "condition", "value", "frequency", "desired", "met"),
-            [[r.name, r.kind, r.condition, _number(r.value), _number(r.frequency), _number(r.target),
-              "met" if r.satisfied else "UNMET"] for r in rows])
+    return (
+        "table",
+        ("name", "kind", "condition", "value", "frequency", "desired", "met"),
+        [
+            [
+                r.name,
+                r.kind,
+                r.condition,
+                _number(r.value),
+                _number(r.frequency),
+                _number(r.target),
+                "met" if r.satisfied else "UNMET",
+            ]
+            for r in rows
+        ],
+    )
 
 
 def _designs(initial: StepRecord | None, final: StepRecord | None, k: int) -> list[Block]:
@@ -112,9 +162,14 @@ def _designs(initial: StepRecord | None, final: StepRecord | None, k: int) -> li
             blocks.append(("p", "The loop cannot be evaluated at this design."))
             continue
         met = sum(bool(r.satisfied) for r in record.measures)
-        blocks += [("p", f"{met} of {len(record.measures)} measures met. Parameters: "
-                         + ", ".join(f"{n} = {_number(v)}" for n, v in record.parameters.items())),
-                   _tableau(list(record.measures))]
+        blocks += [
+            (
+                "p",
+                f"{met} of {len(record.measures)} measures met. Parameters: "
+                + ", ".join(f"{n} = {_number(v)}" for n, v in record.parameters.items()),
+            ),
+            _tableau(list(record.measures)),
+        ]
     return blocks
 
 
@@ -133,8 +188,14 @@ def _convergence(session: Session, k: int) -> list[Block]:
             points.append((r.iteration, float(value)))
     blocks.append(("table", ("iteration", "status", "objective", label or "value", "unmet"), rows))
     if points:
-        blocks.append(("figure", "convergence", figures.convergence([p[0] for p in points], [p[1] for p in points],
-                                                                    label), f"Convergence: {label}"))
+        blocks.append(
+            (
+                "figure",
+                "convergence",
+                figures.convergence([p[0] for p in points], [p[1] for p in points], label),
+                f"Convergence: {label}",
+            )
+        )
     return blocks
 
 
@@ -144,8 +205,9 @@ def _curve(session: Session, c: int, named: dict | None, label: str, style: str,
     values = problem.condition_values(c, named=named)
     try:
         gh = open_loop(condition.network, condition.break_at, problem.grid.omega, values, sensitivities=False).value
-        found = margins(loop_model(condition.network, condition.break_at, problem.grid.omega, values)) \
-            if marked else None
+        found = (
+            margins(loop_model(condition.network, condition.break_at, problem.grid.omega, values)) if marked else None
+        )
     except EngineError:
         return None
     return figures.Curve(problem.grid.omega, gh, label, style, found)
@@ -167,25 +229,51 @@ def _figures(session: Session, named: dict | None) -> list[Block]:
     problem = session.problem
     blocks: list[Block] = [("h2", "Figures")]
     for c, condition in enumerate(problem.conditions):
-        curves = [x for x in (_curve(session, c, None, "initial", "--", named is None),
-                              _curve(session, c, named, "final", "-", True) if named is not None else None) if x]
+        curves = [
+            x
+            for x in (
+                _curve(session, c, None, "initial", "--", named is None),
+                _curve(session, c, named, "final", "-", True) if named is not None else None,
+            )
+            if x
+        ]
         title = f"condition {condition.name}"
         blocks.append(("h3", f"Condition {condition.name}"))
         if not curves:
             blocks.append(("p", "The loop cannot be evaluated on the grid."))
             continue
-        blocks += [("figure", f"bode_{c}", figures.bode(curves, problem.grid.unit, f"Bode, {title}"),
-                    f"Bode, {title}: margins marked on the final design"),
-                   ("figure", f"nyquist_{c}", figures.nyquist(curves, _circles(session, condition.name),
-                                                             f"Nyquist, {title}"),
-                    f"Nyquist, {title}: -1 and the margin targets as circles |1 + GH| around it"),
-                   ("figure", f"nichols_{c}", figures.nichols(curves, f"Nichols, {title}"), f"Nichols, {title}")]
-        traces = [t for t in (_step(session, c, None, "initial", "--"),
-                              _step(session, c, named, "final", "-") if named is not None else None) if t]
+        blocks += [
+            (
+                "figure",
+                f"bode_{c}",
+                figures.bode(curves, problem.grid.unit, f"Bode, {title}"),
+                f"Bode, {title}: margins marked on the final design",
+            ),
+            (
+                "figure",
+                f"nyquist_{c}",
+                figures.nyquist(curves, _circles(session, condition.name), f"Nyquist, {title}"),
+                f"Nyquist, {title}: -1 and the margin targets as circles |1 + GH| around it",
+            ),
+            ("figure", f"nichols_{c}", figures.nichols(curves, f"Nichols, {title}"), f"Nichols, {title}"),
+        ]
+        traces = [
+            t
+            for t in (
+                _step(session, c, None, "initial", "--"),
+                _step(session, c, named, "final", "-") if named is not None else None,
+            )
+            if t
+        ]
         if traces:
-            blocks.append(("figure", f"step_{c}", figures.step([t[:4] for t in traces], traces[0][4],
-                                                                f"Step response, {title}"),
-                           f"Closed-loop step response, {title}: {traces[0][4]}"))
+            blocks.append(
+                (
+                    "figure",
+                    f"step_{c}",
+                    figures.step([t[:4] for t in traces], traces[0][4], f"Step response, {title}"),
+                    f"Closed-loop step response, {title}: {traces[0][4]}",
+                )
+            )
     return blocks
 
 

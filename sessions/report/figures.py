@@ -17,7 +17,7 @@ import numpy as np
 
 from engine.margins.search import Margins
 
-SIZE = (7.0, 4.2)   # inches; at DPI, 700 x 420 pixels
+SIZE = (7.0, 4.2)  # inches; at DPI, 700 x 420 pixels
 DPI = 100
 
 
@@ -36,6 +36,7 @@ def _figure(rows: int = 1):
     """A figure on the Agg canvas (no pyplot, no global backend switch)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
     fig = Figure(figsize=(SIZE[0], SIZE[1] * (1.5 if rows > 1 else 1.0)), dpi=DPI)
     FigureCanvasAgg(fig)
     return fig, [fig.add_subplot(rows, 1, k + 1) for k in range(rows)]
@@ -65,11 +66,11 @@ def bode(curves: list[Curve], unit: str, title: str) -> bytes:
     for c in curves:
         mag.semilogx(c.omega / scale, _db(c.gh), c.style, label=c.label)
         phase.semilogx(c.omega / scale, _phase(c.gh), c.style, label=c.label)
-        for m in (c.margins.gain if c.margins else ()):
+        for m in c.margins.gain if c.margins else ():
             if m.frequency > 0 and m.gain_db is not None and np.isfinite(m.gain_db):
                 mag.plot([m.frequency / scale] * 2, [0.0, -m.gain_db], "r-", lw=1.5)
                 mag.annotate(f"GM {m.gain_db:.3g} dB", (m.frequency / scale, -m.gain_db), fontsize=7)
-        for m in (c.margins.phase if c.margins else ()):
+        for m in c.margins.phase if c.margins else ():
             wrapped = np.degrees(np.angle(m.gh))
             mag.plot([m.frequency / scale], [0.0], "go", ms=4)
             phase.annotate(f"PM {m.phase_deg:.3g} deg", (m.frequency / scale, wrapped), fontsize=7)

@@ -12,17 +12,22 @@ from sessions.errors import SessionError
 from sessions.format.save_file import write_atomic
 from sessions.report.content import Block
 
-STYLE = ("body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}"
-         "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;"
-         "font-size:90%}th{background:#eee}pre{background:#f6f6f6;padding:0.5em;overflow-x:auto}"
-         "td.unmet{color:#b00;font-weight:bold}figure{margin:1em 0}img{max-width:100%}")
+STYLE = (
+    "body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}"
+    "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;"
+    "font-size:90%}th{background:#eee}pre{background:#f6f6f6;padding:0.5em;overflow-x:auto}"
+    "td.unmet{color:#b00;font-weight:bold}figure{margin:1em 0}img{max-width:100%}"
+)
 
 
 def render_html(blocks: list[Block]) -> str:
     """One HTML document; every figure a data: URI."""
     title = next((b[1] for b in blocks if b[0] == "h1"), "Design report")
-    out = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-           f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>"]
+    out = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>",
+    ]
     for block in blocks:
         kind = block[0]
         if kind in ("h1", "h2", "h3", "p"):
@@ -33,16 +38,22 @@ def render_html(blocks: list[Block]) -> str:
             out.append(_html_table(block[1], block[2]))
         elif kind == "figure":
             data = base64.b64encode(block[2]).decode("ascii")
-            out.append(f'<figure><img alt="{html.escape(block[1])}" src="data:image/png;base64,{data}">'
-                       f"<figcaption>{html.escape(block[3])}</figcaption></figure>")
+            out.append(
+                f'<figure><img alt="{html.escape(block[1])}" src="data:image/png;base64,{data}">'
+                f"<figcaption>{html.escape(block[3])}</figcaption></figure>"
+            )
     out.append("</body></html>")
     return "\n".join(out) + "\n"
 
 
 def _html_table(header, rows) -> str:
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f'<td{" class=unmet" if cell == "UNMET" else ""}>{html.escape(str(cell))}</td>'
-                                    for cell in row) + "</tr>" for row in rows)
+    body = "".join(
+        "<tr>"
+        + "".join(f"<td{' class=unmet' if cell == 'UNMET' else ''}>{html.escape(str(cell))}</td>" for cell in row)
+        + "</tr>"
+        for row in rows
+    )
     return f"<table><tr>{head}</tr>{body}</table>"
 
 

@@ -16,7 +16,7 @@ from urllib.parse import urlsplit
 
 from sessions.errors import SessionError
 
-DEFAULT_CONNECT_TIMEOUT = 5.0    # s: how long to wait for a scheduler, or for a local cluster's workers
+DEFAULT_CONNECT_TIMEOUT = 5.0  # s: how long to wait for a scheduler, or for a local cluster's workers
 
 
 def scheduler_address(text: str | None, label: str = "--scheduler") -> str | None:
@@ -35,8 +35,14 @@ def scheduler_address(text: str | None, label: str = "--scheduler") -> str | Non
     except ValueError:
         raise SessionError(form) from None
     host = parts.hostname or ""
-    if (not port or not _HOST.fullmatch(host) or parts.username is not None
-            or parts.path or parts.query or parts.fragment):
+    if (
+        not port
+        or not _HOST.fullmatch(host)
+        or parts.username is not None
+        or parts.path
+        or parts.query
+        or parts.fragment
+    ):
         raise SessionError(form)
     return f"tcp://{'[' + host + ']' if ':' in host else host}:{port}"
 
@@ -69,15 +75,17 @@ def sigint_ignored() -> Iterator[None]:
 def connect(address: str | None, workers: int | None, timeout: float):
     """A client of the scheduler at ``address``, or of a new local cluster; every failure a `SessionError`."""
     from distributed import Client
+
     if address is not None:
         try:
             return Client(address, timeout=timeout), None
         except Exception as exc:  # noqa: BLE001 - whatever answers (or not) there, one clean error
-            raise SessionError(f"cannot reach the Dask scheduler {address} within {timeout:g} s: "
-                               f"{_reason(exc)}") from None
+            raise SessionError(
+                f"cannot reach the Dask scheduler {address} within {timeout:g} s: {_reason(exc)}"
+            ) from None
     n = workers or os.cpu_count() or 1
     try:
-        with sigint_ignored():   # the worker processes inherit it: Ctrl-C is for this process alone
+        with sigint_ignored():  # the worker processes inherit it: Ctrl-C is for this process alone
             cluster = local_cluster(n)
     except Exception as exc:  # noqa: BLE001 - e.g. "Nanny failed to start": one clean error
         raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {_reason(exc)}") from None
@@ -99,7 +107,7 @@ QUIET_WORKERS = {
     "distributed.admin.system-monitor.interval": "5s",
     "distributed.worker.memory.monitor-interval": "1s",
 }
-PRELOAD = "sessions.sweeps.worker_preload"   # imports done as the workers start, after any configured preload
+PRELOAD = "sessions.sweeps.worker_preload"  # imports done as the workers start, after any configured preload
 # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (to hand memory back to the system sooner).
 # Setting it turns off glibc's adaptive thresholds: every numpy array over 128 KiB is then mapped and
 # unmapped anew, and a launch-vehicle run took 1.45 times as long (0.91 against 0.63 s, measured).
@@ -112,13 +120,19 @@ def local_cluster(workers: int):
     preloaded (`PRELOAD`) and with glibc's own memory thresholds (`DASK_DEFAULTS_UNSET`)."""
     import dask
     from distributed import LocalCluster
+
     preload = list(dask.config.get("distributed.worker.preload", [])) + [PRELOAD]
-    environ = {name: value for name, value in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
-               if str(DASK_DEFAULTS_UNSET.get(name)) != str(value)}
-    with dask.config.set({**QUIET_WORKERS, "distributed.worker.preload": preload,
-                          "distributed.nanny.pre-spawn-environ": environ}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                            silence_logs=40)
+    environ = {
+        name: value
+        for name, value in dask.config.get("distributed.nanny.pre-spawn-environ", {}).items()
+        if str(DASK_DEFAULTS_UNSET.get(name)) != str(value)
+    }
+    with dask.config.set(
+        {**QUIET_WORKERS, "distributed.worker.preload": preload, "distributed.nanny.pre-spawn-environ": environ}
+    ):
+        return LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+        )
 
 
 def _reason(exc: BaseException) -> str:

@@ -51,7 +51,7 @@ from sessions.sweeps.cluster import (
 
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"
-SIGNATURE_POINTS = 24      # frequencies (grid points spread over the grid) of a run's loop signature
+SIGNATURE_POINTS = 24  # frequencies (grid points spread over the grid) of a run's loop signature
 
 
 def run_job(payload: dict) -> dict:
@@ -74,8 +74,15 @@ def run_job(payload: dict) -> dict:
         if payload["mode"] != "evaluate":
             result["signature"] = loop_signature(problem, record.parameters)
     except Exception as exc:  # noqa: BLE001 - a run's failure is data, never the sweep's end
-        result.update(status="failed", reason=f"{type(exc).__name__}: {exc}", parameters={}, objective=None,
-                      measures=[], meets_requirements=False, iterations=0)
+        result.update(
+            status="failed",
+            reason=f"{type(exc).__name__}: {exc}",
+            parameters={},
+            objective=None,
+            measures=[],
+            meets_requirements=False,
+            iterations=0,
+        )
     result["seconds"] = time.perf_counter() - began
     return result
 
@@ -95,11 +102,15 @@ def _evaluate(presenter, algorithm, problem, settings) -> StepRecord:
 
 def _summary(presenter, record: StepRecord) -> dict:
     """A finished run as plain JSON: status, parameters, the presenter's ranking value, measures."""
-    out = {"status": record.status.value, "reason": record.reason, "iterations": record.iteration,
-           "parameters": dict(record.parameters),
-           "objective": tolerant(lambda: presenter.ranking(record), lambda: record.objective),
-           "measures": record.to_json()["measures"],
-           "meets_requirements": all(m.satisfied for m in record.measures)}
+    out = {
+        "status": record.status.value,
+        "reason": record.reason,
+        "iterations": record.iteration,
+        "parameters": dict(record.parameters),
+        "objective": tolerant(lambda: presenter.ranking(record), lambda: record.objective),
+        "measures": record.to_json()["measures"],
+        "meets_requirements": all(m.satisfied for m in record.measures),
+    }
     out.update(tolerant(lambda: presenter.summary(record), dict))
     return out
 
@@ -115,8 +126,13 @@ def loop_signature(problem: Problem, parameters: dict) -> list[list[float]] | No
     signature = []
     for k, condition in enumerate(problem.conditions):
         try:
-            gh = open_loop(condition.network, condition.break_at, omega, problem.condition_values(k, named=parameters),
-                           sensitivities=False).value
+            gh = open_loop(
+                condition.network,
+                condition.break_at,
+                omega,
+                problem.condition_values(k, named=parameters),
+                sensitivities=False,
+            ).value
         except EngineError:
             return None
         signature += [[float(g.real), float(g.imag)] for g in gh]
@@ -127,6 +143,7 @@ def _announce(index: int) -> str:
     """Log 'job started' on the scheduler (to count retries); the worker's address."""
     try:
         from distributed import get_worker
+
         worker = get_worker()
     except (ImportError, ValueError):
         return "local"
@@ -136,7 +153,7 @@ def _announce(index: int) -> str:
 
 # -- execution ---------------------------------------------------------------
 
-RESULT_WAIT = 5.0                # s: for a finished run's result after an interrupt
+RESULT_WAIT = 5.0  # s: for a finished run's result after an interrupt
 
 
 @dataclass
@@ -149,8 +166,8 @@ class Outcome:
     attempts: dict[int, list[str]] = field(default_factory=dict)
     cancelled: bool = False
     interrupted: bool = False
-    note: str = ""   # why the runs went serially rather than on a local cluster, or in batches
-    serial: bool = False   # the runs were made in this process, one after the other
+    note: str = ""  # why the runs went serially rather than on a local cluster, or in batches
+    serial: bool = False  # the runs were made in this process, one after the other
 
     @property
     def finished(self) -> int:
@@ -161,10 +178,15 @@ class Outcome:
 CANCELLED = "cancelled"
 
 
-def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = None,
-            progress: Callable[[int, int], None] | None = None,
-            cancelled: Callable[[], bool] = lambda: False, client=None,
-            timeout: float = DEFAULT_CONNECT_TIMEOUT) -> Outcome:
+def execute(
+    jobs: Sequence,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    cancelled: Callable[[], bool] = lambda: False,
+    client=None,
+    timeout: float = DEFAULT_CONNECT_TIMEOUT,
+) -> Outcome:
     """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
     per core, one thread each) or the cluster at ``scheduler`` (tcp://HOST:PORT,
     reached within ``timeout`` seconds).  With neither ``scheduler`` nor ``workers``
@@ -175,7 +197,7 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []
-    if address is None and workers is None and jobs:   # a local cluster of the default size: maybe not worth it
+    if address is None and workers is None and jobs:  # a local cluster of the default size: maybe not worth it
         here, each, serial = _first_here(jobs, progress)
         if serial is not None:
             return serial
@@ -185,7 +207,7 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
             return _gather(client, jobs, progress, cancelled)
         size = batch_size(each, len(jobs) - len(here), _worker_count(client))
         shifted = None if progress is None else lambda k, _: progress(k + len(here), len(jobs))
-        rest = _gather(client, jobs[len(here):], shifted, cancelled, size)
+        rest = _gather(client, jobs[len(here) :], shifted, cancelled, size)
         note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
         return Outcome(here + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted, note)
     finally:
@@ -193,10 +215,10 @@ def execute(jobs: Sequence, scheduler: str | None = None, workers: int | None = 
             close(client, cluster)
 
 
-LOCAL_CLUSTER_START = 3.0   # s: a local cluster's start-up and first imports, measured on 2 cores
-BATCH_SECONDS = 0.25        # s: runs shorter than this go to a worker together, about this much work at a time
-BATCHES_PER_WORKER = 4      # ... but in at least this many batches per worker (none idles long at the end)
-SECOND_TIMING = 1.0         # s: a first run at most this long is timed again on the second (its imports)
+LOCAL_CLUSTER_START = 3.0  # s: a local cluster's start-up and first imports, measured on 2 cores
+BATCH_SECONDS = 0.25  # s: runs shorter than this go to a worker together, about this much work at a time
+BATCHES_PER_WORKER = 4  # ... but in at least this many batches per worker (none idles long at the end)
+SECOND_TIMING = 1.0  # s: a first run at most this long is timed again on the second (its imports)
 
 
 def batch_size(each: float, count: int, workers: int) -> int:
@@ -216,15 +238,16 @@ def _worker_count(client) -> int:
         return 1
 
 
-def _first_here(jobs: Sequence, progress: Callable[[int, int], None] | None) -> tuple[list[dict], float,
-                                                                                      Outcome | None]:
+def _first_here(
+    jobs: Sequence, progress: Callable[[int, int], None] | None
+) -> tuple[list[dict], float, Outcome | None]:
     """Run the first job here and time it (and the second, when the first took at most
     `SECOND_TIMING`); when the rest would take less than a local cluster of one process
     per core saves (or there is one core), run them here too: (the runs made here,
     the shortest one's time, the serial outcome or None)."""
     n = os.cpu_count() or 1
     here = []
-    for job in jobs[:2]:   # a second when the first was short: the first pays for imports made on first use
+    for job in jobs[:2]:  # a second when the first was short: the first pays for imports made on first use
         if here and here[0]["seconds"] > SECOND_TIMING:
             break
         here.append(run_job(job.payload()))
@@ -234,14 +257,17 @@ def _first_here(jobs: Sequence, progress: Callable[[int, int], None] | None) -> 
     each = min(run["seconds"] for run in here)
     estimate = each * (len(jobs) - len(here))
     if n > 1 and estimate * (1 - 1 / n) <= LOCAL_CLUSTER_START:
-        note = (f"serial: the {len(jobs) - len(here)} other run(s) take about {estimate:.2g} s here, less than "
-                f"a local cluster's start-up ({LOCAL_CLUSTER_START:g} s) would save")
+        note = (
+            f"serial: the {len(jobs) - len(here)} other run(s) take about {estimate:.2g} s here, less than "
+            f"a local cluster's start-up ({LOCAL_CLUSTER_START:g} s) would save"
+        )
     elif n == 1:
         note = "serial: one core"
     else:
         return here, each, None
-    rest = execute_serial(jobs[len(here):], None if progress is None else
-                          lambda k, _: progress(k + len(here), len(jobs)))
+    rest = execute_serial(
+        jobs[len(here) :], None if progress is None else lambda k, _: progress(k + len(here), len(jobs))
+    )
     return here, each, Outcome(here + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note, serial=True)
 
 
@@ -250,8 +276,9 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
     a batch whose task fails (its worker died under it) is sent again one run to a
     task, so that a run that kills its worker does not take the others with it."""
     from distributed import as_completed
+
     tag = uuid.uuid4().hex[:8]
-    tasks = _submit(client, task, [list(jobs[k:k + size]) for k in range(0, len(jobs), size)], tag)
+    tasks = _submit(client, task, [list(jobs[k : k + size]) for k in range(0, len(jobs), size)], tag)
     runs: dict[int, dict] = {}
     stopped = interrupted = False
     try:
@@ -282,8 +309,13 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
 def _submit(client, task: Callable, batches: list[list], tag: str, suffix: str = "") -> dict:
     """One Dask task per batch (retried once when it raises), keyed by its first job:
     each task's future -> its batch of jobs."""
-    futures = client.map(task, [[job.payload() for job in batch] for batch in batches],
-                         key=[f"loopcraft-{tag}-{batch[0].index}{suffix}" for batch in batches], pure=False, retries=1)
+    futures = client.map(
+        task,
+        [[job.payload() for job in batch] for batch in batches],
+        key=[f"loopcraft-{tag}-{batch[0].index}{suffix}" for batch in batches],
+        pure=False,
+        retries=1,
+    )
     return dict(zip(futures, batches))
 
 
@@ -333,9 +365,20 @@ def _lost(job, exc: BaseException | None) -> dict:
     """A run that did not finish: ``exc`` None or a CancelledError for a cancelled one."""
     kind = type(exc).__name__
     reason = CANCELLED if exc is None or kind == "CancelledError" else f"{kind}: {exc}"
-    return {"index": job.index, "label": job.label, "start": job.start, "worker": None, "status": "failed",
-            "reason": reason, "parameters": {}, "objective": None, "measures": [], "meets_requirements": False,
-            "iterations": 0, "seconds": None}
+    return {
+        "index": job.index,
+        "label": job.label,
+        "start": job.start,
+        "worker": None,
+        "status": "failed",
+        "reason": reason,
+        "parameters": {},
+        "objective": None,
+        "measures": [],
+        "meets_requirements": False,
+        "iterations": 0,
+        "seconds": None,
+    }
 
 
 def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome:
@@ -350,6 +393,6 @@ def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None =
             if progress:
                 progress(len(runs), len(jobs))
     except KeyboardInterrupt:
-        rest = [_lost(job, None) for job in jobs[len(runs):]]
+        rest = [_lost(job, None) for job in jobs[len(runs) :]]
         return Outcome(runs + rest, 1, {}, cancelled=True, interrupted=True, serial=True)
     return Outcome(runs, 1, {}, serial=True)

@@ -30,12 +30,11 @@ class Job:
     index: int
     label: str
     model: dict
-    mode: str = "run"      # "run": the algorithm to its end; "evaluate": the tableau of the design
+    mode: str = "run"  # "run": the algorithm to its end; "evaluate": the tableau of the design
     start: dict = field(default_factory=dict)
 
     def payload(self) -> dict:
-        return {"index": self.index, "label": self.label, "model": self.model, "mode": self.mode,
-                "start": self.start}
+        return {"index": self.index, "label": self.label, "model": self.model, "mode": self.mode, "start": self.start}
 
 
 def shippable(session: Session, allow_outside_tables: bool | None = None) -> dict:
@@ -143,8 +142,10 @@ def _assign(problem: dict, name: str, value: float) -> None:
         else:
             raise KeyError(last)
     except (KeyError, IndexError, ValueError, TypeError):
-        raise SessionError(f"--vary {name!r}: not an objective option, a parameter, or a path in the problem "
-                           "(e.g. targets[0].bands[0].desired)") from None
+        raise SessionError(
+            f"--vary {name!r}: not an objective option, a parameter, or a path in the problem "
+            "(e.g. targets[0].bands[0].desired)"
+        ) from None
 
 
 def tolerance_jobs(session: Session, tolerances: Sequence[str], samples: int, seed: int = 0) -> list[Job]:
@@ -194,8 +195,9 @@ def _current_design(session: Session) -> dict:
     return dict(session.records[k - 1].parameters) if k else {}
 
 
-def plan(session: Session, kind: str, value, spread: float | None = None, seed: int = 0,
-         samples: int = 32) -> tuple[list[Job], dict]:
+def plan(
+    session: Session, kind: str, value, spread: float | None = None, seed: int = 0, samples: int = 32
+) -> tuple[list[Job], dict]:
     """The jobs of a sweep and the settings it is recorded with: ``kind`` "starts"
     (value: how many), "vary" (value: NAME=V1,V2,...) or "tolerance" (value: a list
     of NAME=+-P%)."""
@@ -204,8 +206,10 @@ def plan(session: Session, kind: str, value, spread: float | None = None, seed: 
     if kind == "vary":
         return vary_jobs(session, value), {"vary": value}
     if kind == "tolerance":
-        return (tolerance_jobs(session, list(value), samples, seed),
-                {"tolerance": list(value), "samples": samples, "seed": seed})
+        return (
+            tolerance_jobs(session, list(value), samples, seed),
+            {"tolerance": list(value), "samples": samples, "seed": seed},
+        )
     raise SessionError(f"unknown sweep {kind!r}: starts, vary or tolerance")
 
 
@@ -221,7 +225,7 @@ def parse_sweep(text: str) -> dict:
         k = rest.index("at")
         if k + 1 >= len(rest):
             raise SessionError("'at' needs a scheduler address (tcp://HOST:PORT)")
-        out["scheduler"], rest = scheduler_address(rest[k + 1], "at"), rest[:k] + rest[k + 2:]
+        out["scheduler"], rest = scheduler_address(rest[k + 1], "at"), rest[:k] + rest[k + 2 :]
     options = {"spread": float, "seed": int, "samples": int}
     values = []
     while rest:

@@ -21,9 +21,9 @@ from sessions.store import Session, now
 from sessions.sweeps.jobs import Outcome
 
 SWEEP_VERSION = 1
-SAME_PARAMETERS = 0.05     # decades (about 12 %): runs closer than this in every parameter share an optimum
-SAME_LOOP = 0.01           # runs whose open loops agree within 1 % at every signature point share an optimum
-SAME_OBJECTIVE = 0.01      # relative
+SAME_PARAMETERS = 0.05  # decades (about 12 %): runs closer than this in every parameter share an optimum
+SAME_LOOP = 0.01  # runs whose open loops agree within 1 % at every signature point share an optimum
+SAME_OBJECTIVE = 0.01  # relative
 
 
 def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
@@ -38,23 +38,42 @@ def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
     def rank(r: dict) -> tuple:
         objective = r["objective"] if isinstance(r["objective"], (int, float)) else math.inf
         return (not r["meets_requirements"], sign * objective if math.isfinite(objective) else math.inf)
+
     clusters: list[dict] = []
     for run in sorted(done, key=rank):
         vector, signature = _vector(run["parameters"]), _signature(run)
         for cluster in clusters:
-            same = _same_loop(signature, cluster["signature"]) if signature is not None and \
-                cluster["signature"] is not None else _near(vector, cluster["vector"])
+            same = (
+                _same_loop(signature, cluster["signature"])
+                if signature is not None and cluster["signature"] is not None
+                else _near(vector, cluster["vector"])
+            )
             if same and _close(run["objective"], cluster["objective"]):
                 cluster["runs"].append(run["index"])
                 break
         else:
-            clusters.append({"vector": vector, "signature": signature, "objective": run["objective"],
-                             "parameters": run["parameters"],
-                             "meets_requirements": run["meets_requirements"], "best_run": run["index"],
-                             "runs": [run["index"]]})
-    return [{"parameters": c["parameters"], "objective": c["objective"], "count": len(c["runs"]),
-             "meets_requirements": c["meets_requirements"], "best_run": c["best_run"], "runs": c["runs"]}
-            for c in clusters]
+            clusters.append(
+                {
+                    "vector": vector,
+                    "signature": signature,
+                    "objective": run["objective"],
+                    "parameters": run["parameters"],
+                    "meets_requirements": run["meets_requirements"],
+                    "best_run": run["index"],
+                    "runs": [run["index"]],
+                }
+            )
+    return [
+        {
+            "parameters": c["parameters"],
+            "objective": c["objective"],
+            "count": len(c["runs"]),
+            "meets_requirements": c["meets_requirements"],
+            "best_run": c["best_run"],
+            "runs": c["runs"],
+        }
+        for c in clusters
+    ]
 
 
 def _signature(run: dict) -> np.ndarray | None:
@@ -97,9 +116,19 @@ def worst_case(runs: Sequence[dict]) -> list[dict]:
         for m in run["measures"]:
             value = m["value"] if isinstance(m["value"], (int, float)) else float(m["value"])
             key = (m["name"], m["kind"], m["condition"])
-            row = table.setdefault(key, {"name": m["name"], "kind": m["kind"], "condition": m["condition"],
-                                         "target": m["target"], "worst": value, "worst_sample": run["index"],
-                                         "unmet_samples": 0, "samples": 0})
+            row = table.setdefault(
+                key,
+                {
+                    "name": m["name"],
+                    "kind": m["kind"],
+                    "condition": m["condition"],
+                    "target": m["target"],
+                    "worst": value,
+                    "worst_sample": run["index"],
+                    "unmet_samples": 0,
+                    "samples": 0,
+                },
+            )
             row["samples"] += 1
             row["unmet_samples"] += not m["satisfied"]
             worse = value < row["worst"] if m["at_least"] else value > row["worst"]
@@ -112,12 +141,23 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
     """The sweep as saved in the session and printed by --json (its settings with the
     outcome's: "scheduler" serial when the runs were made here, and its note)."""
     maximize = lookup(session.model.algorithm.name).presenter.maximize
-    settings = {**settings, **({"scheduler": "serial"} if outcome.serial else {}),
-                **({"note": outcome.note} if outcome.note else {})}
-    data = {"version": SWEEP_VERSION, "kind": kind, "created": now(), "algorithm": session.model.algorithm.name,
-            "settings": settings, "workers": outcome.workers, "cancelled": outcome.cancelled,
-            "runs": outcome.runs, "failed": [r["index"] for r in outcome.runs if r["status"] == "failed"],
-            "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1}}
+    settings = {
+        **settings,
+        **({"scheduler": "serial"} if outcome.serial else {}),
+        **({"note": outcome.note} if outcome.note else {}),
+    }
+    data = {
+        "version": SWEEP_VERSION,
+        "kind": kind,
+        "created": now(),
+        "algorithm": session.model.algorithm.name,
+        "settings": settings,
+        "workers": outcome.workers,
+        "cancelled": outcome.cancelled,
+        "runs": outcome.runs,
+        "failed": [r["index"] for r in outcome.runs if r["status"] == "failed"],
+        "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1},
+    }
     if kind == "tolerance":
         data["worst_case"] = worst_case([r for r in outcome.runs if r["status"] != "failed"])
         data["optima"] = []
@@ -125,7 +165,7 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         data["optima"] = optima(outcome.runs, maximize)
     for run in outcome.runs:
         run.pop("signature", None)  # only for clustering: not kept in the session
-    return jsonable(data)   # infinities and NaN as "inf", "nan": the session's JSON has no others
+    return jsonable(data)  # infinities and NaN as "inf", "nan": the session's JSON has no others
 
 
 def recovery_path(target: Path) -> Path:

@@ -28,26 +28,37 @@ def cip_problem(every: int = 1, channels: int = 2):
 
     f = SINGLE_GRID[::every]
     attitude, jw = single_channel(f), 2j * np.pi * f
-    responses = dict(list({"att": attitude, "rate": jw * attitude * 0.2, "acc": jw * jw * attitude * 0.04}.items())
-                     [:channels])
+    responses = dict(
+        list({"att": attitude, "rate": jw * attitude * 0.2, "acc": jw * jw * attitude * 0.04}.items())[:channels]
+    )
     factors = E1_1 + [([400.0, 2.0, 1.0], [400.0, 8.0, 1.0])]
     blocks, params, outputs = [], [], []
     for ch, response in responses.items():
-        blocks.append(Block(f"{ch}.response", "e", f"{ch}.0", TabulatedTransfer(FrequencyTable(f * 2 * np.pi, response)),
-                            ch))
+        blocks.append(
+            Block(f"{ch}.response", "e", f"{ch}.0", TabulatedTransfer(FrequencyTable(f * 2 * np.pi, response)), ch)
+        )
         for k, (num, den) in enumerate(factors, start=1):
             names = ([f"{ch}{k}x{i}" for i in range(len(num))], [f"{ch}{k}y{i}" for i in range(len(den))])
             for side, values in zip(names, (num, den)):
-                params += [Parameter(n, float(v), minimum=0.0, free=i > 0 or (k == 1 and n.endswith("y0")))
-                           for i, (n, v) in enumerate(zip(side, values))]
-            blocks.append(Block(f"{ch}.{k}", f"{ch}.{k - 1}", f"{ch}.{k}", polynomial_transfer(*names, "ascending"), ch))
+                params += [
+                    Parameter(n, float(v), minimum=0.0, free=i > 0 or (k == 1 and n.endswith("y0")))
+                    for i, (n, v) in enumerate(zip(side, values))
+                ]
+            blocks.append(
+                Block(f"{ch}.{k}", f"{ch}.{k - 1}", f"{ch}.{k}", polynomial_transfer(*names, "ascending"), ch)
+            )
         outputs.append(f"{ch}.{len(factors)}")
-    junctions = [Junction("sum", "c", tuple((1.0, o) for o in outputs)), Junction("err", "e", ((1.0, "r"), (-1.0, "c")))]
+    junctions = [
+        Junction("sum", "c", tuple((1.0, o) for o in outputs)),
+        Junction("err", "e", ((1.0, "r"), (-1.0, "c"))),
+    ]
     net = block_diagram(blocks, junctions, ["r"])
     every_w = (0.0, np.inf)
-    targets = (Target("gain_margin", (BandValue(*every_w, 1.5),), detect_high=2 * np.pi * 0.1),
-               Target("stability_margin", (BandValue(*every_w, 0.6),)),
-               Target("attenuation_margin", (BandValue(*every_w, 0.2),), detect_low=2 * np.pi * 2.1))
+    targets = (
+        Target("gain_margin", (BandValue(*every_w, 1.5),), detect_high=2 * np.pi * 0.1),
+        Target("stability_margin", (BandValue(*every_w, 0.6),)),
+        Target("attenuation_margin", (BandValue(*every_w, 0.2),), detect_low=2 * np.pi * 2.1),
+    )
     return Problem((Condition("flight", net, "e"),), tuple(params), targets, Grid(f * 2 * np.pi))
 
 
@@ -55,6 +66,7 @@ def cip_iterations(problem, runs: int) -> tuple[list[float], list[int]]:
     """Wall times of `cip` steps over ``runs`` runs of consecutive iterations
     from the start (as a user steps), and the trial moves of each step."""
     from engine.cip import Cip, CipSettings
+
     cip, times, trials = Cip(), [], []
     for _ in range(runs):
         state = cip.init(problem, CipSettings(mode="tifr", max_step=0.05))
@@ -74,9 +86,18 @@ def cip_figures(repeat: int) -> dict:
     runs = max(repeat // 6, 3)
     problem = cip_problem()
     times, trials = cip_iterations(problem, runs)
-    out = {"iteration": timed(statistics.median(times), CIP_TARGET_S, frequencies=problem.grid.omega.size,
-                              channels=2, free_coefficients=len(problem.free_slots()), iterations_timed=len(times),
-                              mean_trials=statistics.mean(trials), report_univac_1106_s=0.9)}
+    out = {
+        "iteration": timed(
+            statistics.median(times),
+            CIP_TARGET_S,
+            frequencies=problem.grid.omega.size,
+            channels=2,
+            free_coefficients=len(problem.free_slots()),
+            iterations_timed=len(times),
+            mean_trials=statistics.mean(trials),
+            report_univac_1106_s=0.9,
+        )
+    }
     sizes, medians = [], []
     for every in (4, 2, 1):
         p = cip_problem(every)
@@ -115,12 +136,22 @@ def qcg_figures(repeat: int) -> dict:
         result = cascade.cost(dict(zip(names, b)), gradient=True)
         return result.F, np.array([result.gradient[n] for n in names])
 
-    runs = {"cgfm": qcg(), "scipy_lbfgsb_analytic_gradient": lambda i=0: minimize(  # scipy's defaults stop at
-                cost, problem.vector(), jac=True, method="L-BFGS-B",  # F = 0.343 on this badly scaled problem
-                options={"ftol": 1e-15, "gtol": 1e-12}),
-            "scipy_bfgs_numerical_gradient": lambda i=0: minimize(
-                lambda b: cascade.cost(dict(zip(names, b)), gradient=False).F, problem.vector(), method="BFGS",
-                options={"gtol": 1e-9})}
+    runs = {
+        "cgfm": qcg(),
+        "scipy_lbfgsb_analytic_gradient": lambda i=0: minimize(  # scipy's defaults stop at
+            cost,
+            problem.vector(),
+            jac=True,
+            method="L-BFGS-B",  # F = 0.343 on this badly scaled problem
+            options={"ftol": 1e-15, "gtol": 1e-12},
+        ),
+        "scipy_bfgs_numerical_gradient": lambda i=0: minimize(
+            lambda b: cascade.cost(dict(zip(names, b)), gradient=False).F,
+            problem.vector(),
+            method="BFGS",
+            options={"gtol": 1e-9},
+        ),
+    }
     has_lbfgsb = "optimizer" in {f.name for f in fields(QcgSettings)}
     if has_lbfgsb:
         runs["qcg_lbfgsb"] = qcg(optimizer="lbfgsb")
@@ -129,18 +160,30 @@ def qcg_figures(repeat: int) -> dict:
     for (name, run), t in zip(runs.items(), times):
         result = run()
         if name.startswith("scipy"):
-            out[name] = {"median_s": statistics.median(t), "F": float(result.fun), "evaluations": int(result.nfev),
-                         "success": bool(result.success)}
+            out[name] = {
+                "median_s": statistics.median(t),
+                "F": float(result.fun),
+                "evaluations": int(result.nfev),
+                "success": bool(result.success),
+            }
         else:
-            out[name] = {"median_s": statistics.median(t), "F": result.extra["F"], "evaluations": result.counters["KNT"]}
-    ratios = {f"time_{other}_over_cgfm": statistics.median([a / b for a, b in zip(t, times[0])])
-              for other, t in zip(list(runs)[1:], times[1:])}
-    out["ratios"] = {name: {"ratio": r, **(judged(r, *QCG_TARGETS[name]) if name in QCG_TARGETS else {})}
-                     for name, r in ratios.items()}
+            out[name] = {
+                "median_s": statistics.median(t),
+                "F": result.extra["F"],
+                "evaluations": result.counters["KNT"],
+            }
+    ratios = {
+        f"time_{other}_over_cgfm": statistics.median([a / b for a, b in zip(t, times[0])])
+        for other, t in zip(list(runs)[1:], times[1:])
+    }
+    out["ratios"] = {
+        name: {"ratio": r, **(judged(r, *QCG_TARGETS[name]) if name in QCG_TARGETS else {})}
+        for name, r in ratios.items()
+    }
     return out
 
 
-PROJECTION_CASES = {   # name: (bundled session, target s at N = 20, at N = 2000)
+PROJECTION_CASES = {  # name: (bundled session, target s at N = 20, at N = 2000)
     "projection_integrator": ("projection_integrator.json", 0.050, 0.100),
     "projection_reactor": ("projection_reactor.json", 0.050, 0.300),
 }
@@ -154,6 +197,7 @@ def projection_figures(repeat: int) -> dict:
     from engine.projection import Projection
     from engine.stepping.protocol import iterate, make_settings
     from sessions.store import load_session
+
     runs = []
     for file, _, _ in PROJECTION_CASES.values():
         session = load_session(EXAMPLES / file)
@@ -161,8 +205,9 @@ def projection_figures(repeat: int) -> dict:
         for steps in PROJECTION_STEPS:
             objective = replace(session.problem.objective, data=dict(session.problem.objective.data, steps=steps))
             problem = replace(session.problem, objective=objective)
-            runs.append(lambda i=0, p=problem, s=settings: list(iterate(Projection(), p, s,
-                                                                        max_iter=s.max_iterations + 1)))
+            runs.append(
+                lambda i=0, p=problem, s=settings: list(iterate(Projection(), p, s, max_iter=s.max_iterations + 1))
+            )
     medians = [statistics.median(t) for t in samples(runs, repeat)]
     out, k = {}, 0
     for name, (_, target_20, target_2000) in PROJECTION_CASES.items():
@@ -170,10 +215,9 @@ def projection_figures(repeat: int) -> dict:
             records = [r for _, r in runs[k]()]
             target = {20: target_20, 2000: target_2000}.get(steps)
             key = name if steps == 20 else f"{name}_{steps}"
-            out[key] = timed(medians[k], target, steps=steps, iterations=len(records),
-                             status=records[-1].status.value)
+            out[key] = timed(medians[k], target, steps=steps, iterations=len(records), status=records[-1].status.value)
             k += 1
-        out[f"{name}_scaling_vs_N"] = scaling("N", PROJECTION_STEPS, medians[k - len(PROJECTION_STEPS):k])
+        out[f"{name}_scaling_vs_N"] = scaling("N", PROJECTION_STEPS, medians[k - len(PROJECTION_STEPS) : k])
     return out
 
 
@@ -184,9 +228,10 @@ def slp_major_iteration(repeat: int) -> dict:
     from engine.slp import Slp
     from engine.stepping.protocol import make_settings
     from sessions.store import load_session
+
     samples_, trials, session = [], 0, None
     for _ in range(max(repeat // 5, 3)):
-        session = load_session(EXAMPLES / "coebra_launch_vehicle.json")   # fresh networks: no cached realization
+        session = load_session(EXAMPLES / "coebra_launch_vehicle.json")  # fresh networks: no cached realization
         settings = make_settings("slp", session.model.algorithm.settings)
         start = time.perf_counter()
         algorithm = Slp()
@@ -196,5 +241,10 @@ def slp_major_iteration(repeat: int) -> dict:
             state, _ = algorithm.step(state)
             trials += 1
         samples_.append(time.perf_counter() - start)
-    return timed(statistics.median(samples_), 0.5, minor_trials=trials,
-                 free_variables=len(session.problem.free_slots()), report_cdc_s=164.0)
+    return timed(
+        statistics.median(samples_),
+        0.5,
+        minor_trials=trials,
+        free_variables=len(session.problem.free_slots()),
+        report_cdc_s=164.0,
+    )

@@ -23,8 +23,11 @@ from tests.bench.common import compared
 EXPRESSIONS = {  # order: (gain, the rest of the typed expression)
     4: (10.0, "*(s+2)/(s*(s+1)*(s+5)*(s+20))"),
     10: (50.0, "*(s+1)*(s+3)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)*(s+40))"),
-    20: (1e3, "*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)"
-              "*(s+40)*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))"),
+    20: (
+        1e3,
+        "*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)"
+        "*(s+40)*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))",
+    ),
 }
 
 
@@ -38,6 +41,7 @@ def ratio_target(order: int) -> float:
 
 def _parser() -> argparse.ArgumentParser:
     from tui.cli.analyze import add_parser
+
     parser = argparse.ArgumentParser()
     add_parser(parser.add_subparsers())
     return parser
@@ -67,8 +71,9 @@ def analyze_path(repeat: int) -> dict:
                 warnings.simplefilter("ignore")
                 found = ct.stability_margins(loop, returnall=True), ct.feedback(loop, 1).poles()
                 return found + (ct.disk_margins(loop, GRID),) if disk else found
-        out[f"order_{order}"] = compared(ours, theirs, repeat, ratio_target(order), order=order,
-                                         expression=texts[0])
-        out[f"order_{order}_without_disk_margins"] = compared(ours, lambda i=0: theirs(i, disk=False), repeat,
-                                                              order=order, note="python-control: margins and poles only")
+
+        out[f"order_{order}"] = compared(ours, theirs, repeat, ratio_target(order), order=order, expression=texts[0])
+        out[f"order_{order}_without_disk_margins"] = compared(
+            ours, lambda i=0: theirs(i, disk=False), repeat, order=order, note="python-control: margins and poles only"
+        )
     return out

@@ -59,8 +59,13 @@ def compared(ours: Timed, theirs: Timed, repeat: int, target: float | None = Non
     per-pair ratios theirs/ours (> 1: ours is faster) and its target."""
     a, b = samples([ours, theirs], repeat)
     ratio = statistics.median([t / o for o, t in zip(a, b)])
-    out = {"ours_median_s": statistics.median(a), "theirs_median_s": statistics.median(b),
-           "ratio": ratio, "pairs": repeat, **extra}
+    out = {
+        "ours_median_s": statistics.median(a),
+        "theirs_median_s": statistics.median(b),
+        "ratio": ratio,
+        "pairs": repeat,
+        **extra,
+    }
     return out | (judged(ratio, target, "min_ratio") if target is not None else {})
 
 

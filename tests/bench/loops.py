@@ -58,6 +58,7 @@ def _pc_margins(system):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             return ct.stability_margins(system, returnall=True)
+
     return run
 
 
@@ -82,11 +83,20 @@ def dense_check(loop, found, points: int = 400_000) -> dict:
     crossings = int(np.sum(np.sign(level[1:]) != np.sign(level[:-1])))
     turns = np.flatnonzero((np.sign(gh.imag[1:]) != np.sign(gh.imag[:-1])) & (gh.real[1:] < 0))
     on_level = [abs(abs(loop.exact(np.array([m.frequency]))[0][0]) - 1.0) for m in found.phase]
-    checked = (crossings == len(found.phase) and turns.size == len([m for m in found.gain if m.frequency > 0])
-               and max(on_level, default=0.0) < 1e-9)
-    return {"dense_points": points, "phase_crossovers_dense": crossings, "phase_margins": len(found.phase),
-            "gain_crossings_dense": int(turns.size), "gain_margins": len(found.gain),
-            "worst_level_error": max(on_level, default=0.0), "checked": bool(checked)}
+    checked = (
+        crossings == len(found.phase)
+        and turns.size == len([m for m in found.gain if m.frequency > 0])
+        and max(on_level, default=0.0) < 1e-9
+    )
+    return {
+        "dense_points": points,
+        "phase_crossovers_dense": crossings,
+        "phase_margins": len(found.phase),
+        "gain_crossings_dense": int(turns.size),
+        "gain_margins": len(found.gain),
+        "worst_level_error": max(on_level, default=0.0),
+        "checked": bool(checked),
+    }
 
 
 def margins_by_order(repeat: int, orders=ORDERS) -> dict:
@@ -106,9 +116,16 @@ def margins_by_order(repeat: int, orders=ORDERS) -> dict:
             figure = compared(ours, _pc_margins(system), repeat, ratio_target(order), order=order)
         else:  # python-control fails: our time, and our answer checked
             check = dense_check(built[0], ours())
-            figure = {"order": order, "ours_median_s": float(np.median(samples([ours], repeat)[0])),
-                      "python_control": failure, **check, "target": "answer checked on a dense grid",
-                      "target_kind": "check", "met": check["checked"], "enforced": True}
+            figure = {
+                "order": order,
+                "ours_median_s": float(np.median(samples([ours], repeat)[0])),
+                "python_control": failure,
+                **check,
+                "target": "answer checked on a dense grid",
+                "target_kind": "check",
+                "met": check["checked"],
+                "enforced": True,
+            }
         out[f"order_{order}"] = figure
         ours_times.append(figure["ours_median_s"])
     out["scaling_vs_order"] = scaling("order", list(orders), ours_times)
@@ -122,9 +139,15 @@ def with_building(repeat: int) -> dict:
 
     def ours(i=0):
         return margins(loop_model(net, "e", OMEGA, perturbed(params, i)), attenuation_above=0.0)
+
     m = ours()
-    return compared(ours, _pc_margins(ct.tf(num, den)), repeat, order=40, found={
-        "G": len(m.gain), "P": len(m.phase), "S": len(m.stability), "A": len(m.attenuation)})
+    return compared(
+        ours,
+        _pc_margins(ct.tf(num, den)),
+        repeat,
+        order=40,
+        found={"G": len(m.gain), "P": len(m.phase), "S": len(m.stability), "A": len(m.attenuation)},
+    )
 
 
 def responses(repeat: int) -> dict:
@@ -137,11 +160,15 @@ def responses(repeat: int) -> dict:
 
     def ours(sens: bool, omega=OMEGA, net=net, params=params):
         return lambda i=0: open_loop(net, "e", omega, perturbed(params, i), sensitivities=sens)
+
     assert ours(True)().sensitivity.shape == (1000, 30)
     with_sens = samples([ours(True)], repeat)[0]
-    out = {"with_sensitivities": timed(float(np.median(with_sens)), 0.005, parameters=30, frequencies=OMEGA.size),
-           "no_sensitivities_vs_python_control": compared(ours(False), lambda i=0: system(1j * OMEGA), repeat,
-                                                          note="reported: issue 23 sets no target")}
+    out = {
+        "with_sensitivities": timed(float(np.median(with_sens)), 0.005, parameters=30, frequencies=OMEGA.size),
+        "no_sensitivities_vs_python_control": compared(
+            ours(False), lambda i=0: system(1j * OMEGA), repeat, note="reported: issue 23 sets no target"
+        ),
+    }
     points = (250, 1000, 4000)
     by_points = samples([ours(True, np.geomspace(0.01, 1000.0, n)) for n in points], max(repeat // 2, 5))
     out["scaling_vs_points"] = scaling("frequencies", points, [float(np.median(t)) for t in by_points])

@@ -26,8 +26,10 @@ from tests.bench.loops import benchmark_loop  # tests/engine/test_margins_refere
 __all__ = ["GROUPS", "benchmark_loop", "main"]
 
 GROUPS: dict[str, Callable[[int], dict]] = {
-    "margins": lambda r: {"margins_by_order": loops.margins_by_order(3 * r),
-                          "margins_with_building_order_40": loops.with_building(3 * r)},
+    "margins": lambda r: {
+        "margins_by_order": loops.margins_by_order(3 * r),
+        "margins_with_building_order_40": loops.with_building(3 * r),
+    },
     "response": lambda r: {"response_order_40": loops.responses(r)},
     "analyze": lambda r: {"analyze_path": analyze_path.analyze_path(r)},
     "cip": lambda r: {"cip": algorithms.cip_figures(r)},
@@ -42,6 +44,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
 
 def _workbench() -> dict:
     from tests.bench.tui_latency import measure
+
     return measure()
 
 
@@ -73,12 +76,26 @@ def main(argv: list[str] | None = None) -> int:
             benchmarks |= GROUPS[group](args.repeat)
         except Exception as exc:  # noqa: BLE001 - a group that crashes is a missed check; the others still run
             traceback.print_exc()
-            benchmarks[f"{group}_failed"] = {"error": f"{type(exc).__name__}: {exc}", "target": "the group runs",
-                                             "target_kind": "check", "met": False, "enforced": True}
+            benchmarks[f"{group}_failed"] = {
+                "error": f"{type(exc).__name__}: {exc}",
+                "target": "the group runs",
+                "target_kind": "check",
+                "met": False,
+                "enforced": True,
+            }
     failed = missed(benchmarks)
-    results = {"machine": {"python": platform.python_version(), "processor": platform.processor(),
-                           "numpy": np.__version__, "control": ct.__version__},
-               "repeat": args.repeat, "groups": chosen, "benchmarks": benchmarks, "enforced_missed": failed}
+    results = {
+        "machine": {
+            "python": platform.python_version(),
+            "processor": platform.processor(),
+            "numpy": np.__version__,
+            "control": ct.__version__,
+        },
+        "repeat": args.repeat,
+        "groups": chosen,
+        "benchmarks": benchmarks,
+        "enforced_missed": failed,
+    }
     with open(args.out, "w") as fh:
         json.dump(results, fh, indent=2, sort_keys=True)
     print("\n".join(summary(benchmarks)))

@@ -17,7 +17,7 @@ from pathlib import Path
 from tests.bench.common import judged
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-STEP_TO_SCREEN_TARGET_S = 0.080   # issue 23: key to painted screen <= 80 ms median at 120x40
+STEP_TO_SCREEN_TARGET_S = 0.080  # issue 23: key to painted screen <= 80 ms median at 120x40
 
 
 def _workdir() -> Path:
@@ -35,6 +35,7 @@ async def _step_latency(folder: Path, presses: int) -> list[float | None]:
     from textual.screen import Screen
 
     from tui.app import LoopcraftApp
+
     app = LoopcraftApp(folder / "cip_launch_vehicle.json")
     shown, painted = [False], []
     owner = next(c for c in type(app).__mro__ if "on_stepped" in c.__dict__)  # the `Stepped` handler's class
@@ -71,6 +72,7 @@ async def _step_latency(folder: Path, presses: int) -> list[float | None]:
 
 async def _timer_gaps(folder: Path, seconds: float) -> list[float]:
     from tui.app import LoopcraftApp
+
     app = LoopcraftApp(folder / "cip_dual_channel.json")
     ticks: list[float] = []
     async with app.run_test(size=(120, 40)) as pilot:
@@ -89,6 +91,7 @@ async def _first_paint(path: Path, timeout: float = 20.0) -> float | None:
     from textual.screen import Screen
 
     from tui.app import LoopcraftApp
+
     painted: list[float] = []
     refresh = Screen._compositor_refresh
 
@@ -110,11 +113,17 @@ def first_paint(repeat: int, target_s: float = 1.0) -> dict:
     paint (cip_launch_vehicle, 120x40), median over ``repeat`` subprocesses."""
     import subprocess
     import sys
+
     path, times = _workdir() / "cip_launch_vehicle.json", []
     for _ in range(repeat):
         start = time.time()
-        done = subprocess.run([sys.executable, "-m", "tests.bench.tui_latency", "--first-paint", str(path)],
-                              check=True, capture_output=True, text=True, cwd=Path(__file__).resolve().parents[2])
+        done = subprocess.run(
+            [sys.executable, "-m", "tests.bench.tui_latency", "--first-paint", str(path)],
+            check=True,
+            capture_output=True,
+            text=True,
+            cwd=Path(__file__).resolve().parents[2],
+        )
         painted = done.stdout.strip().splitlines()[-1]
         times.append(None if painted == "None" else float(painted) - start)
     return _summary(times, target_s, runs=repeat)
@@ -124,8 +133,13 @@ def _summary(times: list[float | None], target_s: float, **extra) -> dict:
     """Median and max of the samples that painted, how many did not, the target and met."""
     painted = [t for t in times if t is not None]
     median = statistics.median(painted) if painted else None
-    return {"median_s": median, "max_s": max(painted) if painted else None, "unpainted": len(times) - len(painted),
-            **judged(median, target_s, "max_s"), **extra}
+    return {
+        "median_s": median,
+        "max_s": max(painted) if painted else None,
+        "unpainted": len(times) - len(painted),
+        **judged(median, target_s, "max_s"),
+        **extra,
+    }
 
 
 def measure(presses: int = 15, run_seconds: float = 2.0) -> dict:
@@ -133,14 +147,18 @@ def measure(presses: int = 15, run_seconds: float = 2.0) -> dict:
     latency = asyncio.run(_step_latency(folder, presses))
     gaps = asyncio.run(_timer_gaps(_workdir(), run_seconds))
     longest = max(gaps) if gaps else None
-    return {"step_to_screen": _summary(latency, STEP_TO_SCREEN_TARGET_S, presses=presses, terminal="120x40",
-                                       session="cip_launch_vehicle"),
-            "timer_50ms_during_run": {"max_wait_s": longest, "ticks": len(gaps) + 1, **judged(longest, 0.100, "max_s")}}
+    return {
+        "step_to_screen": _summary(
+            latency, STEP_TO_SCREEN_TARGET_S, presses=presses, terminal="120x40", session="cip_launch_vehicle"
+        ),
+        "timer_50ms_during_run": {"max_wait_s": longest, "ticks": len(gaps) + 1, **judged(longest, 0.100, "max_s")},
+    }
 
 
 if __name__ == "__main__":
     import json
     import sys
+
     if sys.argv[1:2] == ["--first-paint"]:
         print(asyncio.run(_first_paint(Path(sys.argv[2]))))
     else:

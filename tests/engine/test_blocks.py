@@ -18,7 +18,9 @@ from engine.model.blocks import (
     polynomial_transfer,
 )
 
-SHARED = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"  # the bundled copy of the clean Table I
+SHARED = (
+    Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"
+)  # the bundled copy of the clean Table I
 X = 1j * np.geomspace(0.1, 100, 40)
 
 
@@ -38,9 +40,12 @@ def test_polynomial_with_named_coefficients():
 
 
 def test_factored_shorthand():
-    block = factored_transfer(gain="K", s_power=-1,
-                              zeros=[Factor("time_constant", T=0.5)],
-                              poles=[Factor("root", a=3.0), Factor("second_order", zeta="z2", omega="w2")])
+    block = factored_transfer(
+        gain="K",
+        s_power=-1,
+        zeros=[Factor("time_constant", T=0.5)],
+        poles=[Factor("root", a=3.0), Factor("second_order", zeta="z2", omega="w2")],
+    )
     p = {"K": 7.0, "z2": 0.1, "w2": 20.0}
     expected = 7 * (1 + 0.5 * X) / (X * (X + 3) * (X**2 / 400 + 2 * 0.1 * X / 20 + 1))
     np.testing.assert_allclose(block.evaluate(X, p).value, expected, rtol=1e-13)
@@ -68,12 +73,15 @@ def test_table_refuses_to_extrapolate():
         table.interpolate([5.0, 20.0])
 
 
-@pytest.mark.parametrize("freq, mag, message", [
-    ([1.0, 1.0], [1.0, 1.0], "increase strictly"),
-    ([0.0, 1.0], [1.0, 1.0], "must be > 0"),
-    ([1.0, np.nan], [1.0, 1.0], "non-finite"),
-    ([1.0, 2.0], [1.0, 0.0], "zero magnitude in row 2"),
-])
+@pytest.mark.parametrize(
+    "freq, mag, message",
+    [
+        ([1.0, 1.0], [1.0, 1.0], "increase strictly"),
+        ([0.0, 1.0], [1.0, 1.0], "must be > 0"),
+        ([1.0, np.nan], [1.0, 1.0], "non-finite"),
+        ([1.0, 2.0], [1.0, 0.0], "zero magnitude in row 2"),
+    ],
+)
 def test_bad_tables(freq, mag, message):
     with pytest.raises(BlockError, match=message):
         FrequencyTable.from_polar(freq, mag, [0.0, 0.0])
@@ -85,8 +93,9 @@ def test_inlet_table_of_report_001_with_its_gains():
         rows = list(csv.reader(line for line in fh if not line.startswith("#")))
     header, data = rows[0], np.array(rows[1:], dtype=float)
     hz = data[:, header.index("hz")]
-    g1 = FrequencyTable.from_polar(hz, data[:, header.index("g1_mag")], data[:, header.index("g1_phase_deg")],
-                                   unit="hz", gain=0.016, source="G1")
+    g1 = FrequencyTable.from_polar(
+        hz, data[:, header.index("g1_mag")], data[:, header.index("g1_phase_deg")], unit="hz", gain=0.016, source="G1"
+    )
     np.testing.assert_allclose(g1.omega, 2 * np.pi * hz)
     at_60hz = g1.interpolate([2 * np.pi * 60])[0]
     assert abs(at_60hz) == pytest.approx(0.016 * 0.326)

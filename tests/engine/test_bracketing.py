@@ -17,6 +17,7 @@ def test_each_root_has_its_own_function():
 
     def fun(w):
         return np.log(w) - c, 1.0 / w
+
     found = bracketed_roots(fun, np.array([0.5, 1.0, 5.0]), np.array([2.0, 5.0, 10.0]))
     np.testing.assert_allclose(found, np.exp(c), rtol=4e-16)
 
@@ -29,7 +30,8 @@ def test_a_steep_power_law_does_not_crawl():
 
     def fun(w):
         calls.append(w.size)
-        return w ** -8.0 - 1e-16, -8.0 * w ** -9.0
+        return w**-8.0 - 1e-16, -8.0 * w**-9.0
+
     (root,) = bracketed_roots(fun, np.array([1e-6]), np.array([1e6]))
     assert root == pytest.approx(100.0, rel=4e-15)
     assert len(calls) <= 40
@@ -54,6 +56,7 @@ def _counted(fun):
     def counting(w):
         calls.append(w.size)
         return fun(w)
+
     return counting, calls
 
 
@@ -67,8 +70,9 @@ def test_a_newton_step_below_one_ulp_ends_the_search():
     for _ in range(200):
         root, scale = 10 ** rng.uniform(1, 3), 10 ** rng.uniform(-40, 0)
         fun, calls = _counted(lambda w, r=root, c=scale: (c * (w - r), np.full_like(w, c)))
-        (found,) = bracketed_roots(fun, np.array([root / rng.uniform(1.01, 100)]),
-                                   np.array([root * rng.uniform(1.01, 100)]))
+        (found,) = bracketed_roots(
+            fun, np.array([root / rng.uniform(1.01, 100)]), np.array([root * rng.uniform(1.01, 100)])
+        )
         assert found == pytest.approx(root, rel=4 * np.finfo(float).eps)
         worst = max(worst, len(calls))
     assert worst <= 12
@@ -83,6 +87,7 @@ def test_a_root_flat_to_rounding_stops_within_its_noise_bound():
 
     def fun(w):
         return 1e-20 * (np.log(w) - math.log(r)) + 1e-26 * np.sin(1e9 * w / r), 1e-20 / w
+
     quiet, calls = _counted(fun)
     (found,) = bracketed_roots(quiet, np.array([5e-5]), np.array([1.6e-4]), noise=lambda w: np.full_like(w, 1e-24))
     assert abs(math.log(found / r)) < 1e-5

@@ -26,11 +26,30 @@ from sessions.store import load_session
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 # two channels, two sub-compensators each: (numerator, denominator) ascending, by parameter name
-SUBS = {"a": [(["a1x0", "a1x1"], ["a1y0", "a1y1", "a1y2"]), (["a2x0", "a2x1", "a2x2"], ["a2y0", "a2y1"])],
-        "b": [(["b1x0", "b1x1"], ["b1y0", "b1y1"]), (["b2x0"], ["b2y0", "b2y1", "b2y2"])]}
-VALUES = {"a1x0": 1.0, "a1x1": 2.5, "a1y0": 1.0, "a1y1": 0.8, "a1y2": 0.05, "a2x0": 100.0, "a2x1": 6.0,
-          "a2x2": 7.5, "a2y0": 100.0, "a2y1": 10.0, "b1x0": 0.5, "b1x1": 0.3, "b1y0": 1.0, "b1y1": 0.2,
-          "b2x0": 10.0, "b2y0": 10.0, "b2y1": 1.2, "b2y2": 0.09}
+SUBS = {
+    "a": [(["a1x0", "a1x1"], ["a1y0", "a1y1", "a1y2"]), (["a2x0", "a2x1", "a2x2"], ["a2y0", "a2y1"])],
+    "b": [(["b1x0", "b1x1"], ["b1y0", "b1y1"]), (["b2x0"], ["b2y0", "b2y1", "b2y2"])],
+}
+VALUES = {
+    "a1x0": 1.0,
+    "a1x1": 2.5,
+    "a1y0": 1.0,
+    "a1y1": 0.8,
+    "a1y2": 0.05,
+    "a2x0": 100.0,
+    "a2x1": 6.0,
+    "a2x2": 7.5,
+    "a2y0": 100.0,
+    "a2y1": 10.0,
+    "b1x0": 0.5,
+    "b1x1": 0.3,
+    "b1y0": 1.0,
+    "b1y1": 0.2,
+    "b2x0": 10.0,
+    "b2y0": 10.0,
+    "b2y1": 1.2,
+    "b2y2": 0.09,
+}
 W_TABLE = np.geomspace(0.05, 50.0, 401)
 
 
@@ -41,14 +60,19 @@ def _table_channel():
 
 def two_channel_problem(targets: tuple[Target, ...] = ()) -> Problem:
     """Report 000's Figure 1 with a tabulated and a rational channel."""
-    blocks = [Block("a.response", "e", "a.theta", _table_channel(), "a"),
-              Block("b.response", "e", "b.theta", ExpressionTransfer("5*s/((s+2)*(s+30))"), "b")]
+    blocks = [
+        Block("a.response", "e", "a.theta", _table_channel(), "a"),
+        Block("b.response", "e", "b.theta", ExpressionTransfer("5*s/((s+2)*(s+30))"), "b"),
+    ]
     for ch, subs in SUBS.items():
         signal = f"{ch}.theta"
         for k, (num, den) in enumerate(subs, start=1):
             blocks.append(Block(f"{ch}.{k}", signal, f"{ch}.{k}.out", polynomial_transfer(num, den, "ascending"), ch))
             signal = f"{ch}.{k}.out"
-    junctions = [Junction("sum", "c", ((1.0, "a.2.out"), (1.0, "b.2.out"))), Junction("err", "e", ((1.0, "r"), (-1.0, "c")))]
+    junctions = [
+        Junction("sum", "c", ((1.0, "a.2.out"), (1.0, "b.2.out"))),
+        Junction("err", "e", ((1.0, "r"), (-1.0, "c"))),
+    ]
     network = block_diagram(blocks, junctions, ["r"])
     params = tuple(Parameter(n, v, minimum=0.0) for n, v in VALUES.items())
     targets = targets or (Target("stability_margin", (BandValue(0, np.inf, 0.5),)),)
@@ -58,7 +82,7 @@ def two_channel_problem(targets: tuple[Target, ...] = ()) -> Problem:
 def _sub_response(ch: str, k: int, params: dict, w: float) -> complex:
     num, den = SUBS[ch][k]
     s = 1j * w
-    return sum(params[c] * s ** i for i, c in enumerate(num)) / sum(params[c] * s ** i for i, c in enumerate(den))
+    return sum(params[c] * s**i for i, c in enumerate(num)) / sum(params[c] * s**i for i, c in enumerate(den))
 
 
 def _channel_response(problem: Problem, ch: str, w: float, params: dict) -> complex:
@@ -73,8 +97,9 @@ def test_gradient_matches_differences_and_report_closed_form(k, point):
     problem = two_channel_problem()
     w = float(W_TABLE[k])
     gh = open_loop(problem.conditions[0].network, "e", [w], VALUES, sensitivities=False).value[0]
-    constraint = Constraint("f", "S", "stability_margin", 0, w, abs(1 + gh), 0.5, 0.0, 0.5, 1.0,
-                            (Point(point, "push"),), gh)
+    constraint = Constraint(
+        "f", "S", "stability_margin", 0, w, abs(1 + gh), 0.5, 0.0, 0.5, 1.0, (Point(point, "push"),), gh
+    )
     analytic = gradient_rows(problem, problem.vector(), [constraint]).gradients[0]
     names = [p.name for p in problem.parameters]
 
@@ -86,7 +111,7 @@ def test_gradient_matches_differences_and_report_closed_form(k, point):
         return (distance(VALUES | {name: VALUES[name] + h}) - distance(VALUES | {name: VALUES[name] - h})) / (2 * h)
 
     for j, name in enumerate(names):
-        h = 1e-3 * abs(VALUES[name])   # Richardson-extrapolated central differences: error O(h^4)
+        h = 1e-3 * abs(VALUES[name])  # Richardson-extrapolated central differences: error O(h^4)
         richardson = (4 * central(name, h / 2) - central(name, h)) / 3
         assert analytic[j] == pytest.approx(richardson, rel=1e-6, abs=1e-9 * np.abs(analytic).max())
     # the report's closed form, sub-compensator by sub-compensator: A + jB holds everything else
@@ -99,8 +124,9 @@ def test_gradient_matches_differences_and_report_closed_form(k, point):
                 assert value == pytest.approx(analytic[names.index(c)], rel=1e-6, abs=1e-9 * np.abs(analytic).max())
 
 
-def _loop_problem(expression: str, params: dict, free: tuple[str, ...], targets: tuple[Target, ...],
-                  side: str | None = None) -> Problem:
+def _loop_problem(
+    expression: str, params: dict, free: tuple[str, ...], targets: tuple[Target, ...], side: str | None = None
+) -> Problem:
     blocks = [Block("loop", "e", "c", ExpressionTransfer(expression))]
     if side:
         blocks.append(Block("side", "c", "y", ExpressionTransfer(side)))
@@ -153,8 +179,13 @@ def test_settings_are_checked():
         with pytest.raises(EngineError):
             CipSettings(**bad)
     with pytest.raises(EngineError, match="not a margin"):
-        Cip().init(replace(_loop_problem("3/(s+1)", {"K": 1.0}, ("K",), (GM,)),
-                           targets=(Target("crossover_frequency", (BandValue(0, np.inf, 1.0),)),)), CipSettings())
+        Cip().init(
+            replace(
+                _loop_problem("3/(s+1)", {"K": 1.0}, ("K",), (GM,)),
+                targets=(Target("crossover_frequency", (BandValue(0, np.inf, 1.0),)),),
+            ),
+            CipSettings(),
+        )
 
 
 def test_refined_detection_matches_grid_detection_to_grid_accuracy():
@@ -197,7 +228,7 @@ def test_launch_vehicle_tableau_starts_like_table_1(example_runs):
     state = Cip().init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
     rows = state.memory.constraints
     assert [r.kind for r in rows[:4]] == ["G", "P", "P", "S"]
-    assert rows[3].value == rows[0].value and rows[3].desired == 0.505   # INCGMS copy (Table 1, no. 4)
+    assert rows[3].value == rows[0].value and rows[3].desired == 0.505  # INCGMS copy (Table 1, no. 4)
     assert rows[0].frequency / (2 * np.pi) < 0.1 and 1.0 < rows[1].frequency / (2 * np.pi) < 1.4
 
 
@@ -207,18 +238,26 @@ def test_example_replays(example_runs, tmp_path):
 
 
 def _numbers(text: str) -> np.ndarray:
-    return np.array([[float(v) for v in line.split(",")] for line in text.splitlines()
-                     if line and (line[0].isdigit() or line[0] in "+-.")], dtype=float)
+    return np.array(
+        [
+            [float(v) for v in line.split(",")]
+            for line in text.splitlines()
+            if line and (line[0].isdigit() or line[0] in "+-.")
+        ],
+        dtype=float,
+    )
 
 
 def test_examples_are_generated_by_their_script(tmp_path):
     from sessions.examples.launch_vehicles import write_examples
+
     write_examples(tmp_path)
     for name in ("cip_launch_vehicle.csv", "cip_dual_channel.csv"):
         # the same table to the last digits printed (the last of 13 may differ with the BLAS build)
         made, bundled = ((tmp_path / name).read_text(), (EXAMPLES / name).read_text())
-        assert [line for line in made.splitlines() if line.startswith("#") or not line[0].isdigit()] == \
-            [line for line in bundled.splitlines() if line.startswith("#") or not line[0].isdigit()]
+        assert [line for line in made.splitlines() if line.startswith("#") or not line[0].isdigit()] == [
+            line for line in bundled.splitlines() if line.startswith("#") or not line[0].isdigit()
+        ]
         np.testing.assert_allclose(_numbers(made), _numbers(bundled), rtol=1e-11, atol=1e-14)
     for name in ("cip_launch_vehicle.json", "cip_dual_channel.json"):
         assert json.loads((tmp_path / name).read_text()) == json.loads((EXAMPLES / name).read_text())

@@ -41,7 +41,10 @@ def test_disk_margins_match_python_control_and_a_brute_force_maximum(seed, skew)
     shift = 0.5 * (skew - 1)
     peak, w0, interior = reference_peak(
         lambda w: np.abs(1 / (1 + np.polyval(num, 1j * w) / np.polyval(den, 1j * w)) + shift),
-        lambda x: abs(1 / (1 + _mp_loop(num, den, x)) + shift), 1e-5, 1e6)
+        lambda x: abs(1 / (1 + _mp_loop(num, den, x)) + shift),
+        1e-5,
+        1e6,
+    )
     if not interior:
         pytest.skip("the worst disk is at an end of the frequency axis (closed-form tests cover it)")
     assert d.alpha == pytest.approx(1 / peak, rel=1e-10)
@@ -76,8 +79,12 @@ def test_skew_one_is_the_sensitivity_disk():
     # skew 1: alpha = 1/max |S|, gamma_min = 1/(1 + alpha), gamma_max unbounded for alpha >= 1
     model = loop_model(unity_feedback(["9/(s*(s+1.2))"]), "e", GRID, {})
     d = disk_margin(model, 1.0, stable=True)
-    ms, _, interior = reference_peak(lambda w: np.abs(1 / (1 + 9 / (1j * w * (1j * w + 1.2)))),
-                                     lambda x: abs(1 / (1 + _mp_loop([9.0], [1.0, 1.2, 0.0], x))), 1e-3, 1e3)
+    ms, _, interior = reference_peak(
+        lambda w: np.abs(1 / (1 + 9 / (1j * w * (1j * w + 1.2)))),
+        lambda x: abs(1 / (1 + _mp_loop([9.0], [1.0, 1.2, 0.0], x))),
+        1e-3,
+        1e3,
+    )
     assert interior and d.alpha == pytest.approx(1 / ms, rel=1e-12)
     assert d.gain_low == pytest.approx(1 / (1 + d.alpha), rel=1e-14)
 

@@ -35,21 +35,24 @@ def test_parameter_expression_value():
     assert Expression("2*zeta*omega").value({"zeta": 0.5, "omega": 4.0}) == pytest.approx(4.0)
 
 
-@pytest.mark.parametrize("text, message, column", [
-    ("2s+1", "near '2'", 1),
-    ("s**0.5", "exponent must be an integer constant", 4),
-    ("__import__('os')", "function calls are not allowed", 11),
-    ("16000/(s*(s+8)(s+20))", "function calls are not allowed", 15),
-    ("s % 2", "unsupported operator 'Mod'", 1),
-    ("s+", "near", None),
-    ("", "empty expression", None),
-    ("lambda: 1", "unsupported element 'Lambda'", 1),
-    ("s.real", "unsupported element 'Attribute'", 1),
-    ("[1, 2]", "unsupported element 'List'", 1),
-    ("1e400", "non-finite number", 1),
-    ("z + s", "variable 'z' in an expression in 's'", 1),
-    ("True", "unsupported constant", 1),
-])
+@pytest.mark.parametrize(
+    "text, message, column",
+    [
+        ("2s+1", "near '2'", 1),
+        ("s**0.5", "exponent must be an integer constant", 4),
+        ("__import__('os')", "function calls are not allowed", 11),
+        ("16000/(s*(s+8)(s+20))", "function calls are not allowed", 15),
+        ("s % 2", "unsupported operator 'Mod'", 1),
+        ("s+", "near", None),
+        ("", "empty expression", None),
+        ("lambda: 1", "unsupported element 'Lambda'", 1),
+        ("s.real", "unsupported element 'Attribute'", 1),
+        ("[1, 2]", "unsupported element 'List'", 1),
+        ("1e400", "non-finite number", 1),
+        ("z + s", "variable 'z' in an expression in 's'", 1),
+        ("True", "unsupported constant", 1),
+    ],
+)
 def test_errors_name_the_offending_token_and_column(text, message, column):
     with pytest.raises(ExpressionError, match=message) as info:
         Expression(text)

@@ -32,7 +32,7 @@ class Loop:
     def derivative(self, w):
         s = 1j * np.asarray(w, dtype=float)
         n, d = self.num(s), self.den(s)
-        return 1j * (self.num.deriv()(s) * d - n * self.den.deriv()(s)) / d ** 2
+        return 1j * (self.num.deriv()(s) * d - n * self.den.deriv()(s)) / d**2
 
     @property
     def poles(self):
@@ -49,8 +49,7 @@ def product(*polys):
 W0, ZETA = 2.0, 0.02
 LOOPS = {
     "type1": (Loop([10.0], product([1, 0], [1, 1], [1, 5])), (1e-2, 1e2)),
-    "resonance_lead": (Loop(product([W0 ** 2], [2.0, 1.0]),
-                            product([1, 2 * ZETA * W0, W0 ** 2], [0.2, 1.0])), (1e-2, 1e2)),
+    "resonance_lead": (Loop(product([W0**2], [2.0, 1.0]), product([1, 2 * ZETA * W0, W0**2], [0.2, 1.0])), (1e-2, 1e2)),
     "rhp_zero": (Loop([-2.5, 5.0], product([1, 1], [0.1, 1])), (1e-2, 1e2)),
     "rhp_pole": (Loop([20.0, 40.0], product([1, -1], [1, 10])), (1e-2, 1e2)),
     "spread_1e-3_1e3": (Loop([1000.0, 100.0], product([1e3, 1], [1, 1], [1e-3, 1])), (1e-4, 1e4)),
@@ -125,13 +124,15 @@ def test_noise_is_reported_not_fitted_away(name, m):
 
 
 @settings(max_examples=30, deadline=None)
-@given(gain=st.floats(-1.0, 2.0), reals=st.lists(st.floats(-1.5, 1.5), min_size=0, max_size=2),
-       pairs=st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(0.05, 0.9)), min_size=1, max_size=2),
-       zero=st.one_of(st.none(), st.floats(-1.5, 1.5)))
+@given(
+    gain=st.floats(-1.0, 2.0),
+    reals=st.lists(st.floats(-1.5, 1.5), min_size=0, max_size=2),
+    pairs=st.lists(st.tuples(st.floats(-1.0, 1.0), st.floats(0.05, 0.9)), min_size=1, max_size=2),
+    zero=st.one_of(st.none(), st.floats(-1.5, 1.5)),
+)
 def test_random_stable_loops(gain, reals, pairs, zero):
-    den = product(*[[1.0, 10 ** r] for r in reals],
-                  *[[1.0, 2 * z * 10 ** wn, 10 ** (2 * wn)] for wn, z in pairs])
-    num = [10 ** gain] if zero is None else product([10 ** gain], [1.0, 10 ** zero])
+    den = product(*[[1.0, 10**r] for r in reals], *[[1.0, 2 * z * 10**wn, 10 ** (2 * wn)] for wn, z in pairs])
+    num = [10**gain] if zero is None else product([10**gain], [1.0, 10**zero])
     loop = Loop(num, den)
     w = grid((1e-2, 1e2), 200)
     fit = fit_response(w, loop(w))
@@ -164,7 +165,7 @@ def test_pure_integrator():
     value, slope = fit.evaluate(wm)
     assert fit.degree == 1 and fit.poles.size == 1 and abs(fit.poles[0]) < 1e-9
     np.testing.assert_allclose(value, 1 / (1j * wm), rtol=1e-10)
-    np.testing.assert_allclose(slope, 1j / wm ** 2, rtol=1e-10)
+    np.testing.assert_allclose(slope, 1j / wm**2, rtol=1e-10)
 
 
 def test_evaluation_at_and_near_support_points():
@@ -188,8 +189,7 @@ def test_four_points():
     loop = Loop([1.0], [1.0, 1.0])
     fit = fit_response(w, loop(w))
     assert fit.degree == 1
-    np.testing.assert_allclose(fit(np.array([0.03, 3.3, 50.0])), loop(np.array([0.03, 3.3, 50.0])),
-                               rtol=1e-12)
+    np.testing.assert_allclose(fit(np.array([0.03, 3.3, 50.0])), loop(np.array([0.03, 3.3, 50.0])), rtol=1e-12)
     rough = fit_response(w, np.array([1.0, 2j, -3.0, 4 + 1j]))
     assert rough.degree <= 2 and np.isfinite(rough.residual)
 
@@ -197,8 +197,9 @@ def test_four_points():
 def test_arbitrary_finite_data_terminates_with_a_bounded_degree():
     rng = np.random.default_rng(3)
     w = grid((1e-2, 1e2), 200)
-    fit = fit_response(w, (rng.standard_normal(200) + 1j * rng.standard_normal(200))
-                       * 10.0 ** rng.uniform(-100, 100, 200))
+    fit = fit_response(
+        w, (rng.standard_normal(200) + 1j * rng.standard_normal(200)) * 10.0 ** rng.uniform(-100, 100, 200)
+    )
     assert fit.degree <= 100 and np.isfinite(fit.residual)
     assert np.all(np.isfinite(fit(midpoints(w))))
 
@@ -232,25 +233,28 @@ GOOD_W = np.array([0.1, 0.2, 0.5, 1.0, 2.0])
 GOOD_GH = 1 / (1j * GOOD_W + 1)
 
 
-@pytest.mark.parametrize("omega, gh, kwargs", [
-    (GOOD_W, np.where(GOOD_W == 0.5, np.nan, GOOD_GH), {}),
-    (GOOD_W, np.where(GOOD_W == 0.5, np.inf, GOOD_GH), {}),
-    (GOOD_W, np.where(GOOD_W == 0.5, complex(1, np.inf), GOOD_GH), {}),
-    (np.where(GOOD_W == 0.5, np.nan, GOOD_W), GOOD_GH, {}),
-    (np.where(GOOD_W == 0.5, np.inf, GOOD_W), GOOD_GH, {}),
-    (GOOD_W[::-1], GOOD_GH, {}),
-    (np.array([0.1, 0.2, 0.2, 1.0, 2.0]), GOOD_GH, {}),
-    (np.array([0.0, 0.2, 0.5, 1.0, 2.0]), GOOD_GH, {}),
-    (np.array([-1.0, 0.2, 0.5, 1.0, 2.0]), GOOD_GH, {}),
-    (GOOD_W[:3], GOOD_GH[:3], {}),
-    (GOOD_W, GOOD_GH[:4], {}),
-    (GOOD_W.reshape(1, 5), GOOD_GH.reshape(1, 5), {}),
-    (GOOD_W * (1 + 0j), GOOD_GH, {}),
-    (GOOD_W, GOOD_GH, {"tolerance": -1.0}),
-    (GOOD_W, GOOD_GH, {"tolerance": np.nan}),
-    (GOOD_W, GOOD_GH, {"max_degree": -1}),
-    (GOOD_W, GOOD_GH, {"max_degree": 2.5}),
-])
+@pytest.mark.parametrize(
+    "omega, gh, kwargs",
+    [
+        (GOOD_W, np.where(GOOD_W == 0.5, np.nan, GOOD_GH), {}),
+        (GOOD_W, np.where(GOOD_W == 0.5, np.inf, GOOD_GH), {}),
+        (GOOD_W, np.where(GOOD_W == 0.5, complex(1, np.inf), GOOD_GH), {}),
+        (np.where(GOOD_W == 0.5, np.nan, GOOD_W), GOOD_GH, {}),
+        (np.where(GOOD_W == 0.5, np.inf, GOOD_W), GOOD_GH, {}),
+        (GOOD_W[::-1], GOOD_GH, {}),
+        (np.array([0.1, 0.2, 0.2, 1.0, 2.0]), GOOD_GH, {}),
+        (np.array([0.0, 0.2, 0.5, 1.0, 2.0]), GOOD_GH, {}),
+        (np.array([-1.0, 0.2, 0.5, 1.0, 2.0]), GOOD_GH, {}),
+        (GOOD_W[:3], GOOD_GH[:3], {}),
+        (GOOD_W, GOOD_GH[:4], {}),
+        (GOOD_W.reshape(1, 5), GOOD_GH.reshape(1, 5), {}),
+        (GOOD_W * (1 + 0j), GOOD_GH, {}),
+        (GOOD_W, GOOD_GH, {"tolerance": -1.0}),
+        (GOOD_W, GOOD_GH, {"tolerance": np.nan}),
+        (GOOD_W, GOOD_GH, {"max_degree": -1}),
+        (GOOD_W, GOOD_GH, {"max_degree": 2.5}),
+    ],
+)
 def test_bad_input_raises_engine_error(omega, gh, kwargs):
     with pytest.raises(EngineError, match="fit_response"):
         fit_response(omega, gh, **kwargs)
@@ -262,6 +266,7 @@ def test_a_denormal_table_is_refused_and_a_tiny_normal_one_fits():
     import warnings
 
     from engine.errors import EngineError
+
     w = np.geomspace(0.1, 100, 200)
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)

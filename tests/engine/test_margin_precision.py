@@ -44,6 +44,7 @@ def _text(k, zeros, poles) -> str:
             elif r.imag == 0:
                 out.append(f"(s+{float(-r.real)!r})")
         return "*".join(out)
+
     return f"{k!r}*{factors(zeros)}/({factors(poles)})"
 
 
@@ -62,15 +63,16 @@ def _reference(k, zeros, poles):
 
     def dist_slope(x):
         g, d = _gh(k, zeros, poles, x)
-        return ((np.conj(1 + g) * d).real)
+        return (np.conj(1 + g) * d).real
 
     g = _gh(k, zeros, poles, w)[0]
     f = g.imag
     gains = [brentq(im, w[i], w[i + 1], xtol=1e-300, rtol=1e-15) for i in np.flatnonzero(f[:-1] * f[1:] < 0)]
     gains = [x for x in gains if _gh(k, zeros, poles, x)[0].real < 0]
     d = dist_slope(w)
-    minima = [brentq(dist_slope, w[i], w[i + 1], xtol=1e-300, rtol=1e-15)
-              for i in np.flatnonzero((d[:-1] < 0) & (d[1:] > 0))]
+    minima = [
+        brentq(dist_slope, w[i], w[i + 1], xtol=1e-300, rtol=1e-15) for i in np.flatnonzero((d[:-1] < 0) & (d[1:] > 0))
+    ]
     return np.array(gains), np.array(minima)
 
 
@@ -105,18 +107,18 @@ def test_margins_polished_on_the_network_are_those_of_a_full_search():
     polished = 0
     for c, condition in enumerate(problem.conditions):
         loop = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(c))
-        assert _without_grid(loop)[0] is None   # too many roots for the grid-free search
+        assert _without_grid(loop)[0] is None  # too many roots for the grid-free search
         form = _refined(loop, detection_grid(loop))
         if AGREEMENT < _disagreement(loop, form) <= POLISH_LIMIT:
             polished += _polished(loop.on_exact(), form) is not None
         found = margins(loop, attenuation_above=0.0)
-        alone = margins(loop.on_exact(), attenuation_above=0.0)   # the network from the background grid
+        alone = margins(loop.on_exact(), attenuation_above=0.0)  # the network from the background grid
         for kind in ("gain", "phase", "stability", "attenuation"):
             ours, theirs = getattr(found, kind), getattr(alone, kind)
             assert len(ours) == len(theirs), kind
             np.testing.assert_allclose([m.frequency for m in ours], [m.frequency for m in theirs], rtol=1e-12)
             np.testing.assert_allclose([m.value for m in ours], [m.value for m in theirs], rtol=1e-12)
-    assert polished >= 1   # the polishing path was taken
+    assert polished >= 1  # the polishing path was taken
 
 
 def test_a_margin_the_network_does_not_show_near_the_form_s_is_not_polished():
@@ -125,17 +127,19 @@ def test_a_margin_the_network_does_not_show_near_the_form_s_is_not_polished():
     loop = loop_model(unity_feedback(["4/((s+1)*(s+2))"]), "e", np.geomspace(1e-2, 1e2, 50), {})
     exact = loop.on_exact()
     shifted = {"G": [], "P": [], "S": [], "A": [single_margin("A", 3.0, complex(exact.exact(np.array([3.0]))[0][0]))]}
-    assert _polished(exact, shifted) is None   # |GH| of this loop has no maximum at all
+    assert _polished(exact, shifted) is None  # |GH| of this loop has no maximum at all
     real = margins(exact)
     found = _polished(exact, {"G": list(real.gain), "P": list(real.phase), "S": list(real.stability), "A": []})
-    assert found is not None and [m.frequency for m in found["P"]] == pytest.approx([m.frequency for m in real.phase],
-                                                                                      rel=1e-14)
+    assert found is not None and [m.frequency for m in found["P"]] == pytest.approx(
+        [m.frequency for m in real.phase], rel=1e-14
+    )
 
 
 def test_a_seeded_detection_grid_holds_its_seed_within_the_background_range():
     """The network's grid starts from the pole-zero form's points (inside the range the
     background grid spans) and is then split as any grid is."""
     from engine.margins import detection_grid as detection
+
     problem = load_session(Path(__file__).parents[2] / "sessions/examples/coebra_launch_vehicle.json").problem
     condition = problem.conditions[0]
     loop = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(0))
@@ -151,8 +155,9 @@ def summed_branches(texts: list[tuple[str, str, str]], outputs: list[str]):
     are summed into e = r - sum(outputs)."""
     blocks = [Block(f"B{k}", a, b, ExpressionTransfer(t)) for k, (a, b, t) in enumerate(texts)]
     terms = ((1.0, "r"),) + tuple((-1.0, y) for y in outputs)
-    return loop_model(block_diagram(blocks, [Junction("sum", "e", terms)], ["r"]), "e",
-                      np.geomspace(1e-2, 1e3, 400), {})
+    return loop_model(
+        block_diagram(blocks, [Junction("sum", "e", terms)], ["r"]), "e", np.geomspace(1e-2, 1e3, 400), {}
+    )
 
 
 def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
@@ -163,24 +168,38 @@ def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
     search finds it too: its detection grid stepped over the S-shaped stretch
     (the tangent's net turn 1.4 deg, its turn through the chord's direction
     30 deg) until that turn counted.  Reference: dense sampling of the network."""
-    texts = [("e", "h0", "1.0097152978283161/s"),
-             ("h0", "x0_0", "0.2736393453429445/(s**2 + 0.003806555885498571*s + 0.2736393453429445)"),
-             ("x0_0", "x0_1", "0.25118627528661425/(s**2 + 0.009046245378668867*s + 0.25118627528661425)"),
-             ("x0_1", "y0", "0.25318775164112256/(s**2 + 0.0020372285376377263*s + 0.25318775164112256)"),
-             ("e", "h1", "8.481548959667355/s"),
-             ("h1", "x1_0", "(0.9751011751633305)*(s**2 + 0.006860065416095117*s + 0.30798930450169115)"
-                            "/(s**2 + 0.02565477322915219*s + 0.3003207327573359)"),
-             ("x1_0", "x1_1", "(1.0009942258165758)*(s**2 + 0.06612782616267188*s + 7.011035158159626)"
-                              "/(s**2 + 0.057860180090717174*s + 7.018005710314789)"),
-             ("x1_1", "y1", "(0.9847515522189946)*(s**2 + 0.015010993174837343*s + 7.586346198382245)"
-                            "/(s**2 + 0.018300113653855473*s + 7.470666194527584)")]
+    texts = [
+        ("e", "h0", "1.0097152978283161/s"),
+        ("h0", "x0_0", "0.2736393453429445/(s**2 + 0.003806555885498571*s + 0.2736393453429445)"),
+        ("x0_0", "x0_1", "0.25118627528661425/(s**2 + 0.009046245378668867*s + 0.25118627528661425)"),
+        ("x0_1", "y0", "0.25318775164112256/(s**2 + 0.0020372285376377263*s + 0.25318775164112256)"),
+        ("e", "h1", "8.481548959667355/s"),
+        (
+            "h1",
+            "x1_0",
+            "(0.9751011751633305)*(s**2 + 0.006860065416095117*s + 0.30798930450169115)"
+            "/(s**2 + 0.02565477322915219*s + 0.3003207327573359)",
+        ),
+        (
+            "x1_0",
+            "x1_1",
+            "(1.0009942258165758)*(s**2 + 0.06612782616267188*s + 7.011035158159626)"
+            "/(s**2 + 0.057860180090717174*s + 7.018005710314789)",
+        ),
+        (
+            "x1_1",
+            "y1",
+            "(0.9847515522189946)*(s**2 + 0.015010993174837343*s + 7.586346198382245)"
+            "/(s**2 + 0.018300113653855473*s + 7.470666194527584)",
+        ),
+    ]
     loop = summed_branches(texts, ["y0", "y1"])
     assert AGREEMENT < _disagreement(loop, _refined(loop, detection_grid(loop))) <= POLISH_LIMIT
     w = np.linspace(2.664, 2.670, 200_001)
     distance = np.abs(1 + loop.exact(w)[0])
     k = int(np.argmin(distance))
-    assert 0 < k < w.size - 1   # an interior minimum of the network's |1 + GH|
-    for found in (margins(loop), margins(loop.on_exact())):   # polished; the network's own search
+    assert 0 < k < w.size - 1  # an interior minimum of the network's |1 + GH|
+    for found in (margins(loop), margins(loop.on_exact())):  # polished; the network's own search
         near = [m for m in found.stability if abs(m.frequency / w[k] - 1) < 1e-7]
         assert len(near) == 1 and near[0].value == pytest.approx(distance[k], rel=1e-10)
 
@@ -192,21 +211,31 @@ def test_the_network_search_clusters_around_the_loop_s_own_light_zeros():
     from 0.989 to 1.087 rad/s over two gain crossovers and two negative-axis
     crossings; with the loop's zeros among its corners it finds every one.
     Reference: dense sampling of the network."""
-    texts = [("e", "h0", "2.4934575289486753*(1 + 0.4957570763822468*s)/(s*(1 + 0.0050484385967451695*s))"),
-             ("h0", "x0_0", "52.9598962110403/(s**2 + 0.34777085061084595*s + 52.9598962110403)"),
-             ("x0_0", "x0_1", "52.85424058406001/(s**2 + 0.1832433066598205*s + 52.85424058406001)"),
-             ("x0_1", "y0", "52.85424058406001/(s**2 + 0.0209540456553339*s + 52.85424058406001)"),
-             ("e", "h1", "0.9063421436502311/(1 + 1.5148646880628054*s)"),
-             ("h1", "x1_0", "351.5706530912205/(s**2 + 0.32256090164884993*s + 351.5706530912205)"),
-             ("x1_0", "y1", "53.808939132595306/(s**2 + 0.24862483450986567*s + 53.808939132595306)"),
-             ("e", "h2", "1.602516415201549/(1 + 2.087212029857315*s)"),
-             ("h2", "x2_0", "(1.016208281515215)*(s**2 + 0.6168066994824734*s + 373.4465137778295)"
-                            "/(s**2 + 0.7326691284678574*s + 379.49944000401615)"),
-             ("x2_0", "x2_1", "(0.9643647006700845)*(s**2 + 0.004067696517905475*s + 0.9694531068384069)"
-                              "/(s**2 + 0.0077943471782319*s + 0.9349063551899037)"),
-             ("x2_1", "x2_2", "351.21952137470424/(s**2 + 0.3700968661035373*s + 351.21952137470424)"),
-             ("x2_2", "x2_3", "53.38357369277054/(s**2 + 0.3942639302645859*s + 53.38357369277054)"),
-             ("x2_3", "y2", "0.9311927288486833/(s**2 + 0.01610277038203933*s + 0.9311927288486833)")]
+    texts = [
+        ("e", "h0", "2.4934575289486753*(1 + 0.4957570763822468*s)/(s*(1 + 0.0050484385967451695*s))"),
+        ("h0", "x0_0", "52.9598962110403/(s**2 + 0.34777085061084595*s + 52.9598962110403)"),
+        ("x0_0", "x0_1", "52.85424058406001/(s**2 + 0.1832433066598205*s + 52.85424058406001)"),
+        ("x0_1", "y0", "52.85424058406001/(s**2 + 0.0209540456553339*s + 52.85424058406001)"),
+        ("e", "h1", "0.9063421436502311/(1 + 1.5148646880628054*s)"),
+        ("h1", "x1_0", "351.5706530912205/(s**2 + 0.32256090164884993*s + 351.5706530912205)"),
+        ("x1_0", "y1", "53.808939132595306/(s**2 + 0.24862483450986567*s + 53.808939132595306)"),
+        ("e", "h2", "1.602516415201549/(1 + 2.087212029857315*s)"),
+        (
+            "h2",
+            "x2_0",
+            "(1.016208281515215)*(s**2 + 0.6168066994824734*s + 373.4465137778295)"
+            "/(s**2 + 0.7326691284678574*s + 379.49944000401615)",
+        ),
+        (
+            "x2_0",
+            "x2_1",
+            "(0.9643647006700845)*(s**2 + 0.004067696517905475*s + 0.9694531068384069)"
+            "/(s**2 + 0.0077943471782319*s + 0.9349063551899037)",
+        ),
+        ("x2_1", "x2_2", "351.21952137470424/(s**2 + 0.3700968661035373*s + 351.21952137470424)"),
+        ("x2_2", "x2_3", "53.38357369277054/(s**2 + 0.3942639302645859*s + 53.38357369277054)"),
+        ("x2_3", "y2", "0.9311927288486833/(s**2 + 0.01610277038203933*s + 0.9311927288486833)"),
+    ]
     network = summed_branches(texts, ["y0", "y1", "y2"]).on_exact()
     found = margins(network)
     w = np.geomspace(0.95, 1.1, 400_001)

@@ -55,8 +55,11 @@ def test_tabulated_loop_uses_the_grid_rule_when_asked():
     grid = margins(LoopModel.from_table(w, gh), method="grid")
     exact = margins(loop_model(unity_feedback([expr]), "e", w, {}))
     assert grid.method == "grid" and exact.method == "refined"
-    for g, e in [(grid.gain[0], exact.gain[0]), (grid.phase[0], exact.phase[0]),
-                 (grid.stability[0], exact.stability[0])]:
+    for g, e in [
+        (grid.gain[0], exact.gain[0]),
+        (grid.phase[0], exact.phase[0]),
+        (grid.stability[0], exact.stability[0]),
+    ]:
         i = np.argmin(np.abs(w - e.frequency))
         assert g.frequency in (w[i], w[max(i - 1, 0)], w[min(i + 1, w.size - 1)])
         assert g.value == pytest.approx(e.value, rel=2e-2)
@@ -65,8 +68,9 @@ def test_tabulated_loop_uses_the_grid_rule_when_asked():
 def test_tabulated_block_in_a_diagram_is_refined_on_a_fit():
     w = np.geomspace(0.1, 100, 200)
     table = FrequencyTable.from_polar(w, 10 / (w * np.sqrt(1 + w**2)), -90 - np.degrees(np.arctan(w)))
-    net = block_diagram([Block("P", "e", "y", TabulatedTransfer(table))],
-                        [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"])
+    net = block_diagram(
+        [Block("P", "e", "y", TabulatedTransfer(table))], [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"]
+    )
     a = analyze(net, "e", w, {})
     assert a.margins.method == "fitted" and a.margins.label.startswith("fitted (residual")
     assert a.verdict == "unknown"
@@ -107,12 +111,15 @@ def test_delay_margin_puts_the_crossover_on_minus_one():
     """Adding a delay equal to the delay margin must leave a phase margin of 0 deg
     at the same crossover (an independent check of DM = PM / omega_c)."""
     from engine.model.blocks import DelayTransfer
+
     expr = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"
     before = analyze(unity_feedback([expr]), "e", GRID, {}).margins
     assert before.delay_margin == pytest.approx(np.radians(52.1337) / 12.0571, rel=1e-4)
-    net = block_diagram([Block("L", "e", "y", ExpressionTransfer(expr)),
-                         Block("D", "y", "yd", DelayTransfer(before.delay_margin))],
-                        [Junction("sum", "e", ((1.0, "r"), (-1.0, "yd")))], ["r"])
+    net = block_diagram(
+        [Block("L", "e", "y", ExpressionTransfer(expr)), Block("D", "y", "yd", DelayTransfer(before.delay_margin))],
+        [Junction("sum", "e", ((1.0, "r"), (-1.0, "yd")))],
+        ["r"],
+    )
     after = margins(loop_model(net, "e", np.geomspace(0.1, 100, 400), {}))
     (pm,) = [p for p in after.phase]
     assert pm.frequency == pytest.approx(before.crossover_frequency, rel=1e-12)
@@ -122,6 +129,7 @@ def test_delay_margin_puts_the_crossover_on_minus_one():
 
 def test_modal_peaks_with_their_phase():
     from engine.analysis import modal_peaks
+
     model = loop_model(unity_feedback([LIGHT_MODE]), "e", np.geomspace(0.1, 100, 100), {})
     (peak,) = modal_peaks(model, [Band(20.0, 30.0)])
     gh = ExpressionTransfer(LIGHT_MODE).evaluate(np.array([1j * peak.frequency]), {}).value[0]
@@ -129,8 +137,10 @@ def test_modal_peaks_with_their_phase():
     assert peak.phase_deg == pytest.approx(np.degrees(np.angle(gh)), rel=1e-12)
     # |GH| is stationary there: d|GH|/dw = 0 (checked by central differences)
     h = 1e-6 * peak.frequency
-    up, down = (abs(ExpressionTransfer(LIGHT_MODE).evaluate(np.array([1j * (peak.frequency + d)]), {}).value[0])
-                for d in (h, -h))
+    up, down = (
+        abs(ExpressionTransfer(LIGHT_MODE).evaluate(np.array([1j * (peak.frequency + d)]), {}).value[0])
+        for d in (h, -h)
+    )
     assert abs(up - down) / (2 * h) < 1e-6 * abs(gh) / peak.frequency * 1e3
 
 
@@ -149,9 +159,10 @@ def test_two_crossings_hidden_in_one_grid_interval_are_both_found(name):
     from tests.engine.loopfactory import loop_network
 
     s = ct.tf("s")
-    system = {"resonance above 1": 0.1 / (s**2 + 0.02 * s + 1),
-              "phase dipole past -180": 30 / (s * (s + 1)) * (s**2 + 1.05 * s + 110.25) / (s**2 + s + 100) * (100 / 110.25),
-              }[name]
+    system = {
+        "resonance above 1": 0.1 / (s**2 + 0.02 * s + 1),
+        "phase dipole past -180": 30 / (s * (s + 1)) * (s**2 + 1.05 * s + 110.25) / (s**2 + s + 100) * (100 / 110.25),
+    }[name]
     grid = np.array([0.1, 0.5, 0.8, 1.3, 2.0, 5.0, 8.5, 12.5, 30.0, 100.0])
     loop = loop_model(loop_network(system.num[0][0], system.den[0][0]), "e", grid, {})
     gh, dgh = loop.evaluate(grid)

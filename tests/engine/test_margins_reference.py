@@ -34,8 +34,11 @@ def pc_margins(num, den):
     # differentiator), with GM = inf.  The origin is not on the negative real
     # axis (Re GH < 0 fails): there is no phase crossover, so no gain margin.
     real_crossing = np.isfinite(gm)
-    return [(wg[real_crossing], 20 * np.log10(gm[real_crossing])), (np.asarray(wp), np.asarray(pm)),
-            (np.asarray(ws), np.asarray(sm))]
+    return [
+        (wg[real_crossing], 20 * np.log10(gm[real_crossing])),
+        (np.asarray(wp), np.asarray(pm)),
+        (np.asarray(ws), np.asarray(sm)),
+    ]
 
 
 def _gh(num, den, w):
@@ -79,17 +82,22 @@ def _compare(ours, theirs, num, den, label):
     for kind, (w_o, v_o), (w_t, v_t) in zip("GPS", ours, theirs):
         order = np.argsort(w_t)
         w_t, v_t = w_t[order], v_t[order]
-        if w_o.size == w_t.size and np.allclose(w_o, w_t, rtol=1e-6, atol=1e-12) \
-                and np.allclose(v_o, v_t, rtol=1e-6, atol=1e-9):
+        if (
+            w_o.size == w_t.size
+            and np.allclose(w_o, w_t, rtol=1e-6, atol=1e-12)
+            and np.allclose(v_o, v_t, rtol=1e-6, atol=1e-9)
+        ):
             continue
         problems.append((label, kind, w_o, w_t, v_o, v_t))
     return problems
 
 
 def _ours_as_arrays(m):
-    return [(np.array([g.frequency for g in m.gain]), np.array([g.gain_db for g in m.gain])),
-            (np.array([p.frequency for p in m.phase]), np.array([p.phase_deg for p in m.phase])),
-            (np.array([s.frequency for s in m.stability]), np.array([s.value for s in m.stability]))]
+    return [
+        (np.array([g.frequency for g in m.gain]), np.array([g.gain_db for g in m.gain])),
+        (np.array([p.frequency for p in m.phase]), np.array([p.phase_deg for p in m.phase])),
+        (np.array([s.frequency for s in m.stability]), np.array([s.value for s in m.stability])),
+    ]
 
 
 def test_random_loops_against_python_control():
@@ -117,10 +125,13 @@ def _unexplained(num, den, m, label):
     for what, kind, w_o, w_t, v_o, v_t in _compare(_ours_as_arrays(m), pc_margins(num, den), num, den, label):
         extra_t = [w for w in w_t if not np.any(np.isclose(w_o, w, rtol=1e-6))]
         extra_o = [w for w in w_o if not np.any(np.isclose(w_t, w, rtol=1e-6))]
-        explained = (kind == "S" and len(extra_t) == len(extra_o)
-                     and all(_stationary_here(num, den, w) for w in extra_o)
-                     and not any(_stationary_here(num, den, w) for w in extra_t)
-                     and all(abs(_gh(num, den, w)) < 1e-4 for w in extra_o))
+        explained = (
+            kind == "S"
+            and len(extra_t) == len(extra_o)
+            and all(_stationary_here(num, den, w) for w in extra_o)
+            and not any(_stationary_here(num, den, w) for w in extra_t)
+            and all(abs(_gh(num, den, w)) < 1e-4 for w in extra_o)
+        )
         if not explained:
             out.append((what, kind, w_o, w_t, v_o, v_t))
     return out
@@ -130,13 +141,24 @@ def _unexplained(num, den, m, label):
 S = ct.tf([1, 0], [1])
 MARGIN_TEST_SYSTEMS = [
     (ct.tf([1, 2], [1, 2, 3]), ([], [], [], [], [], [])),
-    (ct.tf([1], [1, 2, 3, 4]), ([2.], [], [1.2500, 0.4170], [1.7321], [], [0.1690, 1.6620])),
-    (ct.ss2tf(ct.ss([[1., 4.], [3., 2.]], [[1.], [-4.]], [[1., 0.]], [[0.]])),
-     ([], [147.0743], [], [], [2.5483], [])),
-    ((8.75 * (4 * S**2 + 0.4 * S + 1)) / ((100 * S + 1) * (S**2 + 0.22 * S + 1))
-     / (S**2 / 10.**2 + 2 * 0.04 * S / 10. + 1),
-     ([2.2716], [97.5941, -157.7844, 134.7359], [1.0381, 0.5591], [10.0053], [0.0850, 0.9373, 1.0919],
-      [0.4064, 9.9918])),
+    (ct.tf([1], [1, 2, 3, 4]), ([2.0], [], [1.2500, 0.4170], [1.7321], [], [0.1690, 1.6620])),
+    (
+        ct.ss2tf(ct.ss([[1.0, 4.0], [3.0, 2.0]], [[1.0], [-4.0]], [[1.0, 0.0]], [[0.0]])),
+        ([], [147.0743], [], [], [2.5483], []),
+    ),
+    (
+        (8.75 * (4 * S**2 + 0.4 * S + 1))
+        / ((100 * S + 1) * (S**2 + 0.22 * S + 1))
+        / (S**2 / 10.0**2 + 2 * 0.04 * S / 10.0 + 1),
+        (
+            [2.2716],
+            [97.5941, -157.7844, 134.7359],
+            [1.0381, 0.5591],
+            [10.0053],
+            [0.0850, 0.9373, 1.0919],
+            [0.4064, 9.9918],
+        ),
+    ),
     (1 / (1 + S), ([], [], [], [], [], [])),
     (3 * (10 + S) / (2 + S), ([], [], [], [], [], [])),
     (0.01 * (10 - S) / (2 + S) / (1 + S), ([300.0], [], [0.9917], [5.6569], [], [2.3171])),
@@ -165,8 +187,13 @@ ZMORE = {
     "type1": (S + 0.1) / S / (S + 1),
     "type2": (S + 0.1) / S**2 / (S + 1),
     "type3": (S + 0.1) * (S + 0.1) / S**3 / (S + 1),
-    "example21": 1000 * 0.002 * (S + 0.02) * (S + 0.05) * (S + 5) * (S + 10) / (
-        (S - 0.0005) * (S + 0.0001) * (S + 0.01) * (S + 0.2) * (S + 1) * (S + 100) ** 2),
+    "example21": 1000
+    * 0.002
+    * (S + 0.02)
+    * (S + 0.05)
+    * (S + 5)
+    * (S + 10)
+    / ((S - 0.0005) * (S + 0.0001) * (S + 0.01) * (S + 0.2) * (S + 1) * (S + 100) ** 2),
     "example23": ((S + 0.1) ** 2 + 1) * (S - 0.1) / (((S + 0.1) ** 2 + 4) * (S + 1)),
     "example25a": S / (S**2 + 2 * S + 2) ** 4,
     "example26a": ((S - 0.1) ** 2 + 1) / ((S + 0.1) * ((S - 0.2) ** 2 + 4)),
@@ -192,6 +219,7 @@ def test_40th_order_benchmark_loop_against_python_control_and_dense_sampling():
     confirms ours.  A pair of phase crossovers (2.828 and 3.403 rad/s) sits on
     a phase excursion past -180 deg; the dense sampling confirms them too."""
     from tests.bench.run import benchmark_loop
+
     net, params, num, den = benchmark_loop()
     m = margins(loop_model(net, "e", GRID, params))
     ours, theirs = _ours_as_arrays(m), pc_margins(num, den)
@@ -205,7 +233,6 @@ def test_40th_order_benchmark_loop_against_python_control_and_dense_sampling():
         gh *= (1j * w - z) / (1j * w - p)
     d = np.abs(1 + gh)
     minima = np.flatnonzero((d[1:-1] < d[:-2]) & (d[1:-1] < d[2:])) + 1
-    np.testing.assert_allclose([x.frequency for x in m.stability if 0.3 < x.frequency < 110], w[minima],
-                               rtol=1e-5)
+    np.testing.assert_allclose([x.frequency for x in m.stability if 0.3 < x.frequency < 110], w[minima], rtol=1e-5)
     change = np.flatnonzero((np.sign(gh.imag[:-1]) * np.sign(gh.imag[1:]) < 0) & (gh.real[1:] < 0))
     np.testing.assert_allclose([g.frequency for g in m.gain if 0.3 < g.frequency < 110], w[change], rtol=1e-5)

@@ -44,20 +44,35 @@ from engine.slp.measures import SHORT, evaluate, measure_specs
 LOOP = "K/(s*(s+1)*(s+2)) * 100/(s**2 + 0.4*s + 100)"
 ROBUST, AGGRESSIVE = 1.0, 4.0
 STEP = TimeResponse("r", "y", horizon=60.0, points=1200)
-MARGIN_MEASURES = ("gain_margin", "phase_margin", "stability_margin", "gain_margin_db", "phase_margin_deg",
-                   "attenuation_margin", "crossover_frequency", "disk_margin", "sensitivity_peak",
-                   "complementary_sensitivity_peak", "delay_margin")
+MARGIN_MEASURES = (
+    "gain_margin",
+    "phase_margin",
+    "stability_margin",
+    "gain_margin_db",
+    "phase_margin_deg",
+    "attenuation_margin",
+    "crossover_frequency",
+    "disk_margin",
+    "sensitivity_peak",
+    "complementary_sensitivity_peak",
+    "delay_margin",
+)
 
 
 def loop_problem(K: float, targets) -> Problem:
     net = unity_feedback([LOOP])
-    return Problem((Condition("c", net, "e"),), (Parameter("K", K),), tuple(targets),
-                   Grid(np.geomspace(0.01, 100, 400)))
+    return Problem(
+        (Condition("c", net, "e"),), (Parameter("K", K),), tuple(targets), Grid(np.geomspace(0.01, 100, 400))
+    )
 
 
 def target(measure: str, desired: float = 0.0) -> Target:
-    return Target(measure, (BandValue(0.0, np.inf, desired),), detect_low=5.0 if measure == "attenuation_margin"
-                  else 0.0, response=STEP if kind(measure).domain == "time" else None)
+    return Target(
+        measure,
+        (BandValue(0.0, np.inf, desired),),
+        detect_low=5.0 if measure == "attenuation_margin" else 0.0,
+        response=STEP if kind(measure).domain == "time" else None,
+    )
 
 
 def first_value(K: float, measure: str) -> float:
@@ -71,8 +86,10 @@ def first_value(K: float, measure: str) -> float:
 
 # -- complete and consistent -------------------------------------------------
 
+
 def test_every_measure_a_session_names_has_a_kind():
     from sessions.format.schema import TargetModel
+
     assert set(get_args(TargetModel.model_fields["measure"].annotation)) == set(MEASURE_KINDS)
 
 
@@ -112,6 +129,7 @@ def test_short_labels_and_slp_tags_are_unique():
 
 # -- senses -------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("measure", MARGIN_MEASURES)
 def test_the_tableau_judges_a_real_margin_by_the_tables_sense(measure):
     value = first_value(ROBUST, measure)
@@ -119,14 +137,29 @@ def test_the_tableau_judges_a_real_margin_by_the_tables_sense(measure):
     below = tableau(loop_problem(ROBUST, [target(measure, value - step)]))[0]
     above = tableau(loop_problem(ROBUST, [target(measure, value + step)]))[0]
     assert below.value == pytest.approx(value) and below.at_least == kind(measure).at_least
-    assert below.satisfied == kind(measure).at_least    # value > desired: met only when larger is better
+    assert below.satisfied == kind(measure).at_least  # value > desired: met only when larger is better
     assert above.satisfied == (not kind(measure).at_least)
 
 
-@pytest.mark.parametrize("measure", ["gain_margin", "phase_margin", "stability_margin", "gain_margin_db",
-                                     "phase_margin_deg", "attenuation_margin", "overshoot_percent",
-                                     "settling_time", "peak_response", "stability_abscissa", "disk_margin",
-                                     "sensitivity_peak", "complementary_sensitivity_peak", "delay_margin"])
+@pytest.mark.parametrize(
+    "measure",
+    [
+        "gain_margin",
+        "phase_margin",
+        "stability_margin",
+        "gain_margin_db",
+        "phase_margin_deg",
+        "attenuation_margin",
+        "overshoot_percent",
+        "settling_time",
+        "peak_response",
+        "stability_abscissa",
+        "disk_margin",
+        "sensitivity_peak",
+        "complementary_sensitivity_peak",
+        "delay_margin",
+    ],
+)
 def test_the_better_loop_is_better_by_the_tables_sense(measure):
     """Not a tautology: the gentler gain (K = 1, far from the K = 6 limit) is the better loop by every
     robustness measure, the modal peak and the step response's overshoot, settling and peak."""
@@ -136,9 +169,14 @@ def test_the_better_loop_is_better_by_the_tables_sense(measure):
 
 
 def test_slp_rows_follow_the_table_and_an_explicit_sense():
-    problem = loop_problem(ROBUST, [target("gain_margin_db"), target("rise_time", 1.0),
-                                    Target("rise_time", (BandValue(0, np.inf, 1.0),), sense="at_least",
-                                           response=STEP)])
+    problem = loop_problem(
+        ROBUST,
+        [
+            target("gain_margin_db"),
+            target("rise_time", 1.0),
+            Target("rise_time", (BandValue(0, np.inf, 1.0),), sense="at_least", response=STEP),
+        ],
+    )
     gm, rise, reversed_rise = measure_specs(problem, require_stable=False)
     assert (gm.at_least, rise.at_least, reversed_rise.at_least) == (True, False, True)
     assert rise.met(0.5) and not reversed_rise.met(0.5)
@@ -146,11 +184,20 @@ def test_slp_rows_follow_the_table_and_an_explicit_sense():
 
 # -- algorithms ---------------------------------------------------------------
 
+
 def test_acceptance_column():
     assert names(algorithm="slp") == names()
-    assert set(names(algorithm="cip")) == {"gain_margin", "phase_margin", "stability_margin", "attenuation_margin",
-                                           "gain_margin_db", "phase_margin_deg", "disk_margin", "sensitivity_peak",
-                                           "complementary_sensitivity_peak"}
+    assert set(names(algorithm="cip")) == {
+        "gain_margin",
+        "phase_margin",
+        "stability_margin",
+        "attenuation_margin",
+        "gain_margin_db",
+        "phase_margin_deg",
+        "disk_margin",
+        "sensitivity_peak",
+        "complementary_sensitivity_peak",
+    }
     assert names(algorithm="qcg") == names(algorithm="projection") == ()
     assert accepts("cip", "gain_margin") and not accepts("cip", "rise_time")
     with pytest.raises(EngineError, match="unknown algorithm"):
@@ -159,6 +206,7 @@ def test_acceptance_column():
 
 def test_cip_refuses_a_measure_it_cannot_improve_naming_both():
     from engine.cip.constraints import check_targets
+
     with pytest.raises(EngineError, match="cip: target measure 'rise_time' is not a margin"):
         check_targets(loop_problem(1.0, [target("gain_margin"), target("rise_time")]))
     check_targets(loop_problem(1.0, [target(name) for name in names(algorithm="cip")]))
@@ -166,8 +214,10 @@ def test_cip_refuses_a_measure_it_cannot_improve_naming_both():
 
 def test_qcg_refuses_targets_it_would_ignore():
     from engine.qcg.setup import cascade_problem
+
     problem = loop_problem(1.0, [target("phase_margin_deg")])
-    problem = Problem(problem.conditions, problem.parameters, problem.targets, problem.grid,
-                      Objective("quadratic_cost"))
+    problem = Problem(
+        problem.conditions, problem.parameters, problem.targets, problem.grid, Objective("quadratic_cost")
+    )
     with pytest.raises(EngineError, match="qcg: target measure 'phase_margin_deg' is not read by qcg"):
         cascade_problem(problem)

@@ -16,8 +16,12 @@ from engine.stepping.protocol import State, lookup, make_settings
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-SESSIONS = {"cip": "cip_launch_vehicle.json", "qcg": "seidel_inlet_pi.json", "slp": "coebra_lag_lead.json",
-            "projection": "projection_integrator.json"}
+SESSIONS = {
+    "cip": "cip_launch_vehicle.json",
+    "qcg": "seidel_inlet_pi.json",
+    "slp": "coebra_lag_lead.json",
+    "projection": "projection_integrator.json",
+}
 
 
 def stepped(name: str) -> State:
@@ -40,16 +44,17 @@ def test_memory_is_frozen_and_round_trips(states, name):
     assert isinstance(state.memory, memory_type) and dataclasses.is_dataclass(state.memory)
     with pytest.raises(dataclasses.FrozenInstanceError):
         state.memory.__setattr__(dataclasses.fields(state.memory)[0].name, None)
-    text = json.dumps(state.to_json(), allow_nan=False)   # plain JSON: non-finite numbers are strings
+    text = json.dumps(state.to_json(), allow_nan=False)  # plain JSON: non-finite numbers are strings
     again = State.from_json(json.loads(text), memory_type)
     assert again.to_json() == state.to_json()
-    if getattr(memory_type, "PLAIN_JSON", False):   # the guard then reads it back as it is
+    if getattr(memory_type, "PLAIN_JSON", False):  # the guard then reads it back as it is
         assert jsonable(state.memory.to_json()) == state.memory.to_json()
         json.dumps(state.memory.to_json(), allow_nan=False)
 
 
 def _set(path: str, value):
     """A corruption: set (or, with ..., delete) the item at a dotted path of the memory."""
+
     def corrupt(data: dict) -> None:
         *parents, last = path.split(".")
         for part in parents:
@@ -59,6 +64,7 @@ def _set(path: str, value):
             del data[key]
         else:
             data[key] = value
+
     return corrupt
 
 
@@ -68,24 +74,28 @@ def _shorten(path: str):
         for part in parents:
             data = data[part]
         data[last] = data[last][:-1]
+
     return corrupt
 
 
-@pytest.mark.parametrize("name, corrupt, message", [
-    ("cip", _set("step", "fast"), r"cip memory\.step: expected a finite number, got str 'fast'"),
-    ("cip", _set("constraints.0.desired", ...), r"cip memory\.constraints\[0\]\.desired: missing"),
-    ("cip", _set("best.x.0", "nan"), r"cip memory\.best\.x\[0\]: expected a finite number, got nan"),
-    ("cip", _set("constraints.1.kind", "Q"), r"cip memory\.constraints\[1\]\.kind: expected one of A, D, G, P, S"),
-    ("qcg", _shorten("initial_scale"), r"qcg memory\.initial_scale: expected \d+ items, got \d+"),
-    ("qcg", _set("kount", 1.5), r"qcg memory\.kount: expected an integer >= 0, got float 1\.5"),
-    ("slp", _set("P", "inf"), r"slp memory\.P: expected a finite number, got inf"),
-    ("slp", _shorten("base.frequencies"), r"slp memory\.base\.frequencies: expected \d+ items, got \d+"),
-    ("slp", _set("major", ...), r"slp memory\.major: missing"),
-    ("slp", _set("best.stable", "yes"), r"slp memory\.best\.stable: expected true or false, got str 'yes'"),
-    ("projection", _shorten("r.u"), r"projection memory\.r\.u: expected \d+ items, got \d+"),
-    ("projection", _set("distances", ["1.0"]), r"projection memory\.distances\[0\]: expected a finite number"),
-    ("projection", _set("r.x.0", 3.0), r"projection memory\.r\.x\[0\]: expected a list, got float 3\.0"),
-])
+@pytest.mark.parametrize(
+    "name, corrupt, message",
+    [
+        ("cip", _set("step", "fast"), r"cip memory\.step: expected a finite number, got str 'fast'"),
+        ("cip", _set("constraints.0.desired", ...), r"cip memory\.constraints\[0\]\.desired: missing"),
+        ("cip", _set("best.x.0", "nan"), r"cip memory\.best\.x\[0\]: expected a finite number, got nan"),
+        ("cip", _set("constraints.1.kind", "Q"), r"cip memory\.constraints\[1\]\.kind: expected one of A, D, G, P, S"),
+        ("qcg", _shorten("initial_scale"), r"qcg memory\.initial_scale: expected \d+ items, got \d+"),
+        ("qcg", _set("kount", 1.5), r"qcg memory\.kount: expected an integer >= 0, got float 1\.5"),
+        ("slp", _set("P", "inf"), r"slp memory\.P: expected a finite number, got inf"),
+        ("slp", _shorten("base.frequencies"), r"slp memory\.base\.frequencies: expected \d+ items, got \d+"),
+        ("slp", _set("major", ...), r"slp memory\.major: missing"),
+        ("slp", _set("best.stable", "yes"), r"slp memory\.best\.stable: expected true or false, got str 'yes'"),
+        ("projection", _shorten("r.u"), r"projection memory\.r\.u: expected \d+ items, got \d+"),
+        ("projection", _set("distances", ["1.0"]), r"projection memory\.distances\[0\]: expected a finite number"),
+        ("projection", _set("r.x.0", 3.0), r"projection memory\.r\.x\[0\]: expected a list, got float 3\.0"),
+    ],
+)
 def test_corrupt_memory_is_rejected_naming_the_field(states, name, corrupt, message):
     data = copy.deepcopy(states[name].to_json())
     corrupt(data["memory"])
@@ -93,11 +103,14 @@ def test_corrupt_memory_is_rejected_naming_the_field(states, name, corrupt, mess
         State.from_json(data, lookup(name).factory.memory_type)
 
 
-@pytest.mark.parametrize("change, message", [
-    (("status", "asleep"), r"state\.status: expected one of running, .*, got 'asleep'"),
-    (("x", [1.0, "two"]), r"state\.x\[1\]: expected a finite number, got str 'two'"),
-    (("memory", [1, 2]), r"slp memory: expected an object, got list"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (("status", "asleep"), r"state\.status: expected one of running, .*, got 'asleep'"),
+        (("x", [1.0, "two"]), r"state\.x\[1\]: expected a finite number, got str 'two'"),
+        (("memory", [1, 2]), r"slp memory: expected an object, got list"),
+    ],
+)
 def test_corrupt_state_is_rejected_naming_the_field(states, change, message):
     data = dict(states["slp"].to_json(), **dict([change]))
     with pytest.raises(EngineError, match=message):

@@ -34,9 +34,12 @@ POINTS = [(1.0, 1.0, 0.1), (0.6, 0.4, 0.3)]
 def problem(values, targets, resonance: bool = False) -> Problem:
     chain = [LEAD, PLANT] + (["400/(s**2 + 0.8*s + 400)"] if resonance else [])
     names = ("K", "T", "a")
-    return Problem((Condition("c", unity_feedback(chain), "e"),),
-                   tuple(Parameter(n, v, 1e-3, 1e3) for n, v in zip(names, values)), tuple(targets),
-                   Grid(np.geomspace(0.01, 100, 300)))
+    return Problem(
+        (Condition("c", unity_feedback(chain), "e"),),
+        tuple(Parameter(n, v, 1e-3, 1e3) for n, v in zip(names, values)),
+        tuple(targets),
+        Grid(np.geomspace(0.01, 100, 300)),
+    )
 
 
 def target(measure: str, desired: float | None = None, band=(0.0, np.inf)) -> Target:
@@ -68,8 +71,10 @@ def test_values_match_python_control_and_dense_sampling(values, resonance):
     disk = found["disk_margin"]
     dm, _, _ = control.disk_margins(L, np.geomspace(disk.frequency * 0.999, disk.frequency * 1.001, 20_001))
     assert disk.value == pytest.approx(dm, rel=1e-7) and disk.value <= dm * (1 + 1e-12)  # grid min is above
-    for measure, f in (("sensitivity_peak", lambda g: 1 / (1 + g)), ("complementary_sensitivity_peak",
-                                                                       lambda g: g / (1 + g))):
+    for measure, f in (
+        ("sensitivity_peak", lambda g: 1 / (1 + g)),
+        ("complementary_sensitivity_peak", lambda g: g / (1 + g)),
+    ):
         row = found[measure]
         sampled = dense_peak(lambda w: np.abs(f(L(1j * w))), row.frequency)
         assert row.value == pytest.approx(sampled, rel=1e-9) and row.value >= sampled * (1 - 1e-13)
@@ -92,7 +97,7 @@ def test_the_whole_axis_is_searched_not_the_grid():
 
 
 def test_an_unstable_closed_loop_has_no_disk_margin_and_infinite_peaks():
-    found = rows((8.0, 0.01, 0.5))   # K = 8: well past the gain limit of 10/(s(s+1)(s+5)) (K < 3)
+    found = rows((8.0, 0.01, 0.5))  # K = 8: well past the gain limit of 10/(s(s+1)(s+5)) (K < 3)
     assert found["disk_margin"].value == 0.0 and not found["disk_margin"].satisfied
     assert math.isinf(found["sensitivity_peak"].value) and math.isinf(found["complementary_sensitivity_peak"].value)
 
@@ -100,11 +105,12 @@ def test_an_unstable_closed_loop_has_no_disk_margin_and_infinite_peaks():
 def test_a_band_limits_the_peak():
     L = python_control_loop(POINTS[0])
     row = tableau(problem(POINTS[0], [target("sensitivity_peak", band=(0.01, 1.0))]))[0]
-    assert row.frequency == pytest.approx(1.0)     # |S| rises through the band: its top edge
+    assert row.frequency == pytest.approx(1.0)  # |S| rises through the band: its top edge
     assert row.value == pytest.approx(abs(1 / (1 + L(1j))), rel=1e-12)
 
 
 # -- slp ------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("resonance", [False, True])
 @pytest.mark.parametrize("values", POINTS)
@@ -135,6 +141,7 @@ def test_slp_names_its_rows_and_falls_back_where_not_differentiable():
 
 # -- cip ------------------------------------------------------------------------
 
+
 def test_cip_accepts_the_peaks_and_refuses_the_delay_margin_saying_why():
     assert all(accepts("cip", m) for m in NEW[:3]) and not accepts("cip", "delay_margin")
     check_targets(problem(POINTS[0], [target(m) for m in NEW[:3]]))
@@ -150,8 +157,9 @@ def test_cip_ms_rows_are_its_stability_margins():
     found, _ = detect(p, p.vector(), "auto")
     ms = [c for c in found if c.measure == "sensitivity_peak"]
     sm = [c for c in found if c.measure == "stability_margin"]
-    assert [(c.kind, c.frequency, c.value, c.desired, c.active) for c in ms] == \
-        [(c.kind, c.frequency, c.value, c.desired, c.active) for c in sm]
+    assert [(c.kind, c.frequency, c.value, c.desired, c.active) for c in ms] == [
+        (c.kind, c.frequency, c.value, c.desired, c.active) for c in sm
+    ]
     assert max(c.shown for c in ms) == pytest.approx(rows(POINTS[1], True)["sensitivity_peak"].value, rel=1e-12)
 
 
@@ -167,10 +175,13 @@ def test_cip_rows_push_along_the_gradient_of_the_measures_stability_margin(measu
     assert (worst if measure == "disk_margin" else 1 / worst) == pytest.approx(reference, rel=1e-10)
     grads = gradient_rows(p, x, found).gradients
     for c, row in zip(found, grads):
+
         def margin(xv):  # |1 + F| = 1/|f| at the constraint's fixed frequency
             gh = python_control_loop(xv, resonance)(1j * c.frequency)
             return 1 / abs(loop_derivative(measure, gh)[0])
-        central = np.array([(margin(x + e) - margin(x - e)) / (2 * np.linalg.norm(e))
-                            for e in np.diag(1e-6 * np.abs(x))])
+
+        central = np.array(
+            [(margin(x + e) - margin(x - e)) / (2 * np.linalg.norm(e)) for e in np.diag(1e-6 * np.abs(x))]
+        )
         assert margin(x) == pytest.approx(c.value, rel=1e-10)
         np.testing.assert_allclose(row / np.linalg.norm(row), central / np.linalg.norm(central), atol=1e-7)

@@ -21,6 +21,7 @@ def _random_factors(rng: np.random.Generator, order: int) -> tuple[str, list, li
     expression: first- and second-order factors, time constants 1e-3..1e2,
     light damping, some right-half-plane roots; returns the text, the
     factors' (ascending) coefficient lists and K."""
+
     def factor(k: int) -> tuple[str, list[float]]:
         wn = float(10 ** rng.uniform(-3, 2))
         if k == 2:
@@ -48,6 +49,7 @@ def _random_factors(rng: np.random.Generator, order: int) -> tuple[str, list, li
 
 def _reference_poles(zeros: list, poles: list, gain: float) -> list:
     """Roots of D + K N at 60 digits (ascending coefficient lists multiplied out exactly)."""
+
     def product(factors: list) -> list:
         out = [mpmath.mpf(1)]
         for f in factors:
@@ -69,8 +71,9 @@ def _reference_poles(zeros: list, poles: list, gain: float) -> list:
 def test_closed_loop_poles_of_one_high_order_expression_match_60_digit_roots(seed):
     rng = np.random.default_rng(1000 + seed)
     text, zeros, poles, gain = _random_factors(rng, int(rng.integers(10, 21)))
-    found = np.array([p.value for p in analyze(unity_feedback([text]), "e", np.geomspace(1e-3, 1e3, 50), {})
-                      .closed_loop_poles])
+    found = np.array(
+        [p.value for p in analyze(unity_feedback([text]), "e", np.geomspace(1e-3, 1e3, 50), {}).closed_loop_poles]
+    )
     reference = np.array([complex(r) for r in _reference_poles(zeros, poles, gain)])
     assert found.size == reference.size
     for r in reference:  # each true pole has a computed one within 1e-8 relative

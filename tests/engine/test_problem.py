@@ -13,8 +13,11 @@ from engine.errors import EngineError
 def problem():
     net = unity_feedback(["K*(1+T*s)/(s*(s+2))"])
     conditions = (Condition("low q", net, "e"), Condition("high q", net, "e"))
-    params = (Parameter("K", (1.0, 2.0), minimum=-5.0, sign="positive"), Parameter("T", 0.1, maximum=1.0),
-              Parameter("unused", 3.0, free=False))
+    params = (
+        Parameter("K", (1.0, 2.0), minimum=-5.0, sign="positive"),
+        Parameter("T", 0.1, maximum=1.0),
+        Parameter("unused", 3.0, free=False),
+    )
     return Problem(conditions, params, (), Grid(np.geomspace(0.1, 10, 5)))
 
 
@@ -71,6 +74,7 @@ def test_inconsistent_problems_are_refused():
 
 def test_unknown_measures_are_refused_when_the_problem_is_made():
     from engine.design.problem import BandValue, Target
+
     net = unity_feedback(["2/s"])
     with pytest.raises(EngineError, match="unknown measure 'overshoot'"):
         Problem((Condition("c", net, "e"),), (), (Target("overshoot", (BandValue(0, 1, 1),)),), Grid(np.ones(1)))

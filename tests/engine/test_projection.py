@@ -45,12 +45,19 @@ def test_discretization_matches_scipy_zero_order_hold(integrator):
 def test_banded_and_riccati_projections_equal_the_direct_kkt_solve(integrator, seed):
     rng = np.random.default_rng(seed)
     data = _data(integrator)
-    if seed == 2:   # a random system: 5 states, 4 inputs, 2 algebraic equations, non-diagonal weights
+    if seed == 2:  # a random system: 5 states, 4 inputs, 2 algebraic equations, non-diagonal weights
         M = rng.normal(size=(5, 5))
-        data = {"A": rng.normal(size=(5, 5)).tolist(), "B": rng.normal(size=(5, 4)).tolist(),
-                "E": rng.normal(size=(2, 4)).tolist(), "F": rng.normal(size=(2, 5)).tolist(),
-                "x0": rng.normal(size=5).tolist(), "horizon": 2.0, "steps": 15,
-                "Q": (M @ M.T + np.eye(5)).tolist(), "R": [1.0, 2.0, 0.5, 3.0]}
+        data = {
+            "A": rng.normal(size=(5, 5)).tolist(),
+            "B": rng.normal(size=(5, 4)).tolist(),
+            "E": rng.normal(size=(2, 4)).tolist(),
+            "F": rng.normal(size=(2, 5)).tolist(),
+            "x0": rng.normal(size=5).tolist(),
+            "horizon": 2.0,
+            "steps": 15,
+            "Q": (M @ M.T + np.eye(5)).tolist(),
+            "R": [1.0, 2.0, 0.5, 3.0],
+        }
     system = dae_system(data)
     reference = Trajectory(rng.normal(size=(system.steps + 1, system.n)), rng.normal(size=(system.steps + 1, system.m)))
     direct = kkt_projection(system, reference)
@@ -85,10 +92,12 @@ def test_disjoint_sets_are_reported_infeasible_with_the_closest_distance(integra
 
 def test_bad_systems_are_refused(integrator):
     data = _data(integrator)
-    for change, message in ((dict(u_max=[None, None, -1.0]), "box is empty"),
-                            (dict(E=[[1, 1, 1], [2, 2, 2]]), "full row rank"),
-                            (dict(Q=[[1, 0.1, 0, 0], [0.1, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "diagonal"),
-                            (dict(B=[[0, 0]]), "rows")):
+    for change, message in (
+        (dict(u_max=[None, None, -1.0]), "box is empty"),
+        (dict(E=[[1, 1, 1], [2, 2, 2]]), "full row rank"),
+        (dict(Q=[[1, 0.1, 0, 0], [0.1, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "diagonal"),
+        (dict(B=[[0, 0]]), "rows"),
+    ):
         with pytest.raises(EngineError, match=message):
             dae_system(dict(data, **change))
     with pytest.raises(EngineError, match="dae"):
@@ -113,7 +122,14 @@ def test_theorem_3_converges_in_one_iteration_to_the_minimum_norm_control():
 
 def test_an_unreachable_terminal_state_is_an_error():
     """x' = 0 u cannot reach x(1) = 1: the KKT system is singular, and the factorization says so."""
-    data = {"A": [[0.0]], "B": [[0.0]], "Q": [0.0], "R": [1.0], "x0": [0.0], "steps": 5,
-            "terminal": [{"state": 1, "value": 1.0}]}
+    data = {
+        "A": [[0.0]],
+        "B": [[0.0]],
+        "Q": [0.0],
+        "R": [1.0],
+        "x0": [0.0],
+        "steps": 5,
+        "terminal": [{"state": 1, "value": 1.0}],
+    }
     with pytest.raises(EngineError, match="singular"):
         Projector(dae_system(data))

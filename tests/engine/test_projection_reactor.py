@@ -29,7 +29,7 @@ from sessions.runner import run_session
 from sessions.store import load_session, save_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-UNIT = np.sqrt(2) * 1e12          # Table 2's unit of ||k - s||
+UNIT = np.sqrt(2) * 1e12  # Table 2's unit of ||k - s||
 BOUND = 0.4e14
 HOUR = 3600.0
 
@@ -55,7 +55,7 @@ def _independent_open_loop(data: dict) -> tuple[np.ndarray, np.ndarray]:
     Phi, Delta, *_ = cont2discrete((A, B, np.eye(8), np.zeros((8, 7))), T / N)
     x, u2 = np.array(data["x0"], dtype=float), []
     for _ in range(N + 1):
-        u = np.concatenate([np.linalg.solve(E[:, :5], -F @ x), [0.0, 0.0]])   # u6 = u7 = 0
+        u = np.concatenate([np.linalg.solve(E[:, :5], -F @ x), [0.0, 0.0]])  # u6 = u7 = 0
         u2.append(u[1])
         x = Phi @ x + Delta @ u
     return np.linspace(0, T, N + 1), np.array(u2)
@@ -64,9 +64,18 @@ def _independent_open_loop(data: dict) -> tuple[np.ndarray, np.ndarray]:
 def test_the_generator_writes_the_bundled_sessions_from_their_own_numbers():
     data = _session().problem.objective.data
     printed = _session("projection_reactor_printed_r.json").problem.objective.data
-    numbers = {"A": data["A"], "B": data["B"], "E": data["E"], "F": data["F"], "x0": data["x0"],
-               "T_seconds": data["horizon"], "N": data["steps"], "u2_bound": data["u_max"][1],
-               "R_that_reproduces_table_2": data["R"], "R_printed": printed["R"]}
+    numbers = {
+        "A": data["A"],
+        "B": data["B"],
+        "E": data["E"],
+        "F": data["F"],
+        "x0": data["x0"],
+        "T_seconds": data["horizon"],
+        "N": data["steps"],
+        "u2_bound": data["u_max"][1],
+        "R_that_reproduces_table_2": data["R"],
+        "R_printed": printed["R"],
+    }
     assert set(numbers) == set(NUMBERS)
     for name, text in sessions_from(numbers).items():
         assert text == (EXAMPLES / name).read_text(), name
@@ -146,7 +155,7 @@ def test_the_reset_reading_and_the_iteration_counts_with_the_printed_trim_weight
     1e8 needs r_13 to come within 1 % of the bound and r_26 within 1e-6 (record i holds r_{i+1})."""
     records = _run(_session("projection_reactor_printed_r.json"))
     _reset_rule_holds(records)
-    assert records[0].extra["lambda"] < 0.5 * 34.6          # not Table 2's first lambda
+    assert records[0].extra["lambda"] < 0.5 * 34.6  # not Table 2's first lambda
     within = [next(r.iteration + 1 for r in records if _over(r) <= level) for level in (0.01, 1e-6)]
     assert within == [13, 26]
     assert records[-1].status is Status.CONVERGED and records[-1].iteration == 29
@@ -155,7 +164,7 @@ def test_the_reset_reading_and_the_iteration_counts_with_the_printed_trim_weight
 def test_the_reset_reading_gives_table_2s_second_lambda():
     records = _run(_session())
     _reset_rule_holds(records)
-    assert records[1].extra["lambda"] > 1.0     # the candidate-included reading would set lambda_2 = 1
+    assert records[1].extra["lambda"] > 1.0  # the candidate-included reading would set lambda_2 = 1
 
 
 def test_the_records_carry_the_trajectories_the_plot_needs_and_the_session_runs(tmp_path):
@@ -190,12 +199,17 @@ def test_banded_projection_of_the_reactor_equals_riccati_and_the_dense_solve(nam
 
 def test_banded_projection_with_terminal_equalities_equals_the_dense_solve():
     data = dict(_session("projection_hyperplane.json").problem.objective.data, steps=60)
-    data.update(A=[[0.0, 1.0], [-2.0, -0.3]], B=[[0.0], [1.0]], x0=[1.0, 0.0], Q=[1.0, 0.5],
-                terminal=[{"state": 1, "value": 0.5}, {"state": 2, "value": -1.0}], integral_constraints=[])
+    data.update(
+        A=[[0.0, 1.0], [-2.0, -0.3]],
+        B=[[0.0], [1.0]],
+        x0=[1.0, 0.0],
+        Q=[1.0, 0.5],
+        terminal=[{"state": 1, "value": 0.5}, {"state": 2, "value": -1.0}],
+        integral_constraints=[],
+    )
     system = dae_system(data)
     rng = np.random.default_rng(5)
     reference = Trajectory(rng.normal(size=(61, 2)), rng.normal(size=(61, 1)))
     banded, dense = Projector(system)(reference), kkt_projection(system, reference)
     assert np.allclose(banded.x[-1], [0.5, -1.0], atol=1e-12)
     assert np.abs(banded.u - dense.u).max() <= 1e-10 * np.abs(dense.u).max()
-

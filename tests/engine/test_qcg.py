@@ -73,9 +73,16 @@ def _rational_cascade(points: int = 60, w_max: float = 400.0, damping: float = 0
     return Cascade(w, *plant(w), 1e-4 * np.ones(w.size), exponential_disturbance(w, 2.0, 10.0, 1.0), plant)
 
 
-EVERY_KIND = controller_transfer("k", -1, [ControllerFactor("zero", b="bz"), ControllerFactor("pole", b="bp"),
-                                           ControllerFactor("complex_zero", damping="zc", frequency="wc"),
-                                           ControllerFactor("complex_pole", damping="zq", frequency="wq")])
+EVERY_KIND = controller_transfer(
+    "k",
+    -1,
+    [
+        ControllerFactor("zero", b="bz"),
+        ControllerFactor("pole", b="bp"),
+        ControllerFactor("complex_zero", damping="zc", frequency="wc"),
+        ControllerFactor("complex_pole", damping="zq", frequency="wq"),
+    ],
+)
 VALUES = {"k": 3.0, "bz": 12.0, "bp": 90.0, "zc": 0.4, "wc": 40.0, "zq": 0.7, "wq": 120.0, "k2": 0.05, "b2": 25.0}
 
 
@@ -86,7 +93,7 @@ def test_gradient_matches_central_differences_for_every_parameter_kind(sample, t
         cascade, h1 = cascade_problem(sample.problem).cascade, EVERY_KIND
     else:
         cascade, h1 = _rational_cascade(), EVERY_KIND
-    weights = Weights(q1=1.0, q2=1e-4, r1=0.3, r2=1e-5, rsnat=0.0)   # no resonance splitting: a smooth sum
+    weights = Weights(q1=1.0, q2=1e-4, r1=0.3, r2=1e-5, rsnat=0.0)  # no resonance splitting: a smooth sum
     names = tuple(VALUES)
     analytic = quadratic_cost(cascade, h1, h2, VALUES, weights, names=names).gradient
 
@@ -98,6 +105,7 @@ def test_gradient_matches_central_differences_for_every_parameter_kind(sample, t
 
         def central(step):
             return (F(VALUES | {name: VALUES[name] + step}) - F(VALUES | {name: VALUES[name] - step})) / (2 * step)
+
         richardson = (4 * central(h / 2) - central(h)) / 3
         assert analytic[name] == pytest.approx(richardson, rel=1e-6, abs=1e-12), name
 
@@ -110,8 +118,9 @@ def test_resonance_refinement_brings_the_sum_closer_to_the_integral():
     params = {"k": 5.0, "bz": 20.0}
     plain = quadratic_cost(coarse, h1, None, params, Weights(q1=1, subdivisions=1), gradient=False)
     refined = quadratic_cost(coarse, h1, None, params, Weights(q1=1, subdivisions=3), gradient=False)
-    dense = quadratic_cost(_rational_cascade(points=4000, damping=0.1), h1, None, params,
-                           Weights(q1=1, subdivisions=1), gradient=False)
+    dense = quadratic_cost(
+        _rational_cascade(points=4000, damping=0.1), h1, None, params, Weights(q1=1, subdivisions=1), gradient=False
+    )
     assert refined.refined_intervals > 0
     assert abs(refined.F - dense.F) < abs(plain.F - dense.F)
 
@@ -119,9 +128,10 @@ def test_resonance_refinement_brings_the_sum_closer_to_the_integral():
 def test_penalty_sweep_trades_output_against_its_rate(sample):
     """Report 001, Figure 4(a): as q2 grows the output rate falls and the output rises."""
     from engine.qcg.tradeoff import penalty_sweep
+
     points = penalty_sweep(sample.problem, QcgSettings(), "q2", [0.0, 1e-5, 1e-4, 1e-3])
     x1 = [p.averaged_squares["x1_normalized"] for p in points]
     rate = [p.averaged_squares["x1_rate_normalized"] for p in points]
     assert all(p.status == "converged" for p in points)
     assert x1 == sorted(x1) and rate == sorted(rate, reverse=True)
-    assert points[2].parameters["b1"] == pytest.approx(47.41, rel=0.01)   # the session's own q2: Appendix C
+    assert points[2].parameters["b1"] == pytest.approx(47.41, rel=0.01)  # the session's own q2: Appendix C

@@ -19,7 +19,7 @@ from engine.stepping.protocol import Status, iterate
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-STOP_B21 = 7010.89   # where CGFM stopped, "converged", on the listing's all-or-nothing refinement
+STOP_B21 = 7010.89  # where CGFM stopped, "converged", on the listing's all-or-nothing refinement
 
 
 @pytest.fixture(scope="module")
@@ -61,15 +61,21 @@ def test_gradient_matches_central_differences_inside_the_blend_band(no_rate_pena
     """Where an interval is partly refined (0 < weight < 1) the analytic gradient includes d weight/db."""
     cascade = cascade_problem(no_rate_penalty)
     rsnat = cascade.weights.rsnat
-    b1 = next(b for b in np.linspace(125.0, 143.0, 73)
-              if np.any(np.abs(blend_weight(smaller_ends(cascade, b), rsnat)[0] - 0.5) < 0.3))
+    b1 = next(
+        b
+        for b in np.linspace(125.0, 143.0, 73)
+        if np.any(np.abs(blend_weight(smaller_ends(cascade, b), rsnat)[0] - 0.5) < 0.3)
+    )
     b = {"b1": float(b1), "b21": STOP_B21}
     analytic = cascade.cost(b).gradient
     for name in b:
         step = 1e-4 * b[name]
 
         def central(h):
-            return (cascade.cost(b | {name: b[name] + h}, False).F - cascade.cost(b | {name: b[name] - h}, False).F) / (2 * h)
+            return (cascade.cost(b | {name: b[name] + h}, False).F - cascade.cost(b | {name: b[name] - h}, False).F) / (
+                2 * h
+            )
+
         assert analytic[name] == pytest.approx((4 * central(step / 2) - central(step)) / 3, rel=1e-6), name
 
 
@@ -80,8 +86,10 @@ def reference_optimum(problem):
     def cost(p):
         result = cascade.cost({"b1": p[0] * b0[0], "b21": p[1] * b0[1]})
         return result.F, np.array([result.gradient["b1"], result.gradient["b21"]]) * b0
-    found = minimize(cost, np.ones(2), jac=True, method="L-BFGS-B", bounds=[(1e-6, None)] * 2,
-                     options={"ftol": 1e-14, "gtol": 1e-10})
+
+    found = minimize(
+        cost, np.ones(2), jac=True, method="L-BFGS-B", bounds=[(1e-6, None)] * 2, options={"ftol": 1e-14, "gtol": 1e-10}
+    )
     assert found.success
     return found.fun, found.x * b0
 

@@ -24,7 +24,7 @@ from sessions.runner import replay, run_session
 from sessions.store import load_session, save_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-SAMPLE_F = 0.3122836   # Appendix C sample with the clean Table I (docs/algorithms/qcg.md)
+SAMPLE_F = 0.3122836  # Appendix C sample with the clean Table I (docs/algorithms/qcg.md)
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +44,7 @@ def scipy_lbfgsb(problem):
     def cost(p):
         result = cascade.cost(dict(zip(names, p * b0)), gradient=True)
         return result.F, np.array([result.gradient[n] for n in names]) * b0
+
     return minimize(cost, np.ones(b0.size), jac=True, method="L-BFGS-B", bounds=[(1e-6, None)] * b0.size), b0
 
 
@@ -57,15 +58,16 @@ def test_every_cost_evaluation_is_counted(sample, monkeypatch, optimizer):
     def counted(*args, **options):
         calls.append(options.get("gradient", args[5] if len(args) > 5 else True))
         return real(*args, **options)
-    for module in (qcg_cost, qcg_setup):     # the cost's only two callers
+
+    for module in (qcg_cost, qcg_setup):  # the cost's only two callers
         monkeypatch.setattr(module, "quadratic_cost", counted)
     records = run(sample, optimizer=optimizer)
     last = records[-1]
     assert last.counters["evaluations"] == len(calls) and last.counters["gradients"] == sum(calls)
-    assert last.counters["KNT"] == len(calls) - 1          # all but the open-loop reference
+    assert last.counters["KNT"] == len(calls) - 1  # all but the open-loop reference
     assert last.extra["F"] == pytest.approx(SAMPLE_F, abs=5e-8) and last.status is Status.CONVERGED
     counts = [r.counters["evaluations"] for r in records]
-    assert all(b > a for a, b in zip(counts, counts[1:])) or optimizer == "cgfm"   # CGFM restarts reuse b
+    assert all(b > a for a, b in zip(counts, counts[1:])) or optimizer == "cgfm"  # CGFM restarts reuse b
 
 
 def test_cgfm_evaluations_are_those_of_the_listing(sample):
@@ -73,7 +75,7 @@ def test_cgfm_evaluations_are_those_of_the_listing(sample):
     former 94 less the 5 re-evaluations at an unchanged point after a failed contraction."""
     last = run(sample)[-1]
     assert last.counters["KOUNT"] == 19 and last.counters["KNT"] == 94 - 5
-    assert last.counters["evaluations"] <= 102          # the report's count (Appendix C)
+    assert last.counters["evaluations"] <= 102  # the report's count (Appendix C)
 
 
 def test_lbfgsb_matches_scipys_on_the_same_cost(sample):
@@ -85,7 +87,7 @@ def test_lbfgsb_matches_scipys_on_the_same_cost(sample):
     assert last.extra["F"] == pytest.approx(reference.fun, rel=1e-9)
     assert [last.parameters["b1"], last.parameters["b21"]] == pytest.approx(reference.x * b0, rel=1e-4)
     assert last.counters["evaluations"] <= reference.nfev + 5
-    assert len(records) == last.counters["KOUNT"] <= 20      # one iteration per step
+    assert len(records) == last.counters["KOUNT"] <= 20  # one iteration per step
 
 
 @pytest.mark.parametrize("optimizer", ["cgfm", "lbfgsb"])
@@ -99,8 +101,9 @@ def test_a_stored_state_resumes_exactly(sample, optimizer):
     assert state.memory.pairs_s if optimizer == "lbfgsb" else state.memory.direction
     algorithm = Qcg()
     algorithm.init(sample, QcgSettings(optimizer=optimizer))
-    rest = [r.to_json() for _, r in iterate(algorithm, sample, QcgSettings(optimizer=optimizer), max_iter=1000,
-                                            state=state)]
+    rest = [
+        r.to_json() for _, r in iterate(algorithm, sample, QcgSettings(optimizer=optimizer), max_iter=1000, state=state)
+    ]
     assert [r.to_json() for _, r in steps] + rest == whole
 
 

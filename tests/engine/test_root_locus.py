@@ -58,8 +58,9 @@ def test_gain_locus_points_solve_the_characteristic_equation_and_crossings_are_g
     assert locus.status == "complete"
     assert locus.values[0] == 0.0 and np.all(np.diff(locus.values) > 0)
     rows = range(1, locus.values.size, max(1, locus.values.size // 60))  # about 60 rows, all poles each
-    worst = max(relative_residual(num, den, float(locus.values[i]), complex(s)) for i in rows
-                for s in locus.branches[i])
+    worst = max(
+        relative_residual(num, den, float(locus.values[i]), complex(s)) for i in rows for s in locus.branches[i]
+    )
     assert worst <= 1e-9
     # the current poles (k = 1) are the closed-loop poles
     assert max(relative_residual(num, den, 1.0, s) for s in locus.current) <= 1e-9
@@ -145,6 +146,7 @@ def test_continuation_judges_noisy_raw_roots_on_refined_ones():
 
     def noisy(t):
         return exact(t) + rng.normal(0.0, 0.3, 2)
+
     assert continuation(noisy, 0.0, 1.0, max_points=500)[2] == "point budget reached"
     ts, rows, status = continuation(noisy, 0.0, 1.0, max_points=500, refine=lambda t, raw: exact(t))
     assert status == "complete" and ts.size <= 50
@@ -164,8 +166,11 @@ def test_gain_locus_where_the_eigenvalues_are_wholly_wrong():
     # (0.06 here), a swap of the pairs at +-0.116j, +-0.225j by 0.23..0.45
     small = np.abs(locus.branches[1:-1]) < 1.0
     assert np.all(np.abs(np.diff(locus.branches[1:], axis=0))[small] < 0.1)
-    worst = max(relative_residual(num, den, float(k), complex(s))
-                for k, row in zip(locus.values[1::5], locus.branches[1::5]) for s in row)
+    worst = max(
+        relative_residual(num, den, float(k), complex(s))
+        for k, row in zip(locus.values[1::5], locus.branches[1::5])
+        for s in row
+    )
     assert worst <= 1e-9
 
 
@@ -182,8 +187,10 @@ def test_a_drawn_locus_is_complete_continuous_and_on_the_roots(seed):
     # on the roots: within DRAWN of them (to first order), a residual <= n DRAWN (|s F'(s)| <= n sum
     # |f_i| |s|^i for F of degree n = 8, 6): 1e-5
     rows = range(1, locus.values.size, 5)
-    assert max(relative_residual(num, den, float(locus.values[i]), complex(s))
-               for i in rows for s in locus.branches[i]) <= 1e-5
+    assert (
+        max(relative_residual(num, den, float(locus.values[i]), complex(s)) for i in rows for s in locus.branches[i])
+        <= 1e-5
+    )
     # continuous: a step moves no pole by more than the continuation allows (`_allowed` of the last row),
     # up to the NOISY (of that) by which a kept row may differ from the eigenvalues the step was judged
     # on, at the last row and at the new one; steps forced at the floor (MIN_STEP of the range, to the
@@ -202,7 +209,9 @@ def test_third_order_locus_closed_forms():
     # asymptotes from -1 at 60, 180, 300 deg; breakaway where 3 s^2 + 6 s + 2 = 0: s = -1 + 1/sqrt 3
     locus = root_locus(unity_feedback(["1/(s*(s+1)*(s+2))"]), "e", {})
     (crossing,) = locus.crossings
-    assert crossing.value == pytest.approx(6.0, rel=1e-13) and crossing.frequency == pytest.approx(math.sqrt(2), rel=1e-13)
+    assert crossing.value == pytest.approx(6.0, rel=1e-13) and crossing.frequency == pytest.approx(
+        math.sqrt(2), rel=1e-13
+    )
     assert crossing.direction == 1
     assert locus.centroid == pytest.approx(-1.0, rel=1e-14) and locus.angles_deg == (60.0, 180.0, 300.0)
     ((point, gain),) = locus.breakaways
@@ -216,7 +225,11 @@ def test_parameter_locus_in_a_gain_and_in_a_damping_term():
     locus = root_locus(network, "e", {"K": 1000.0}, "K")
     (c,) = locus.crossings
     assert c.value == pytest.approx(4480.0, rel=1e-12) and c.frequency == pytest.approx(math.sqrt(160), rel=1e-12)
-    assert locus.current_value == 1000.0 and locus.values[0] == pytest.approx(100.0) and locus.values[-1] == pytest.approx(1e4)
+    assert (
+        locus.current_value == 1000.0
+        and locus.values[0] == pytest.approx(100.0)
+        and locus.values[-1] == pytest.approx(1e4)
+    )
     for i in range(0, locus.values.size, 7):
         K = locus.values[i]
         for s in locus.branches[i]:
@@ -258,4 +271,5 @@ def test_pole_zero_map():
     assert pz.zeros == pytest.approx([-3.0], rel=1e-13) and pz.gain == pytest.approx(2.0, rel=1e-13)
     # closed loop: s^3 + 5 s^2 + 6 s + 6
     assert sorted(pz.closed_loop, key=lambda z: (z.real, z.imag)) == pytest.approx(
-        sorted(np.roots([1, 5, 6, 6]), key=lambda z: (z.real, z.imag)), rel=1e-13)
+        sorted(np.roots([1, 5, 6, 6]), key=lambda z: (z.real, z.imag)), rel=1e-13
+    )

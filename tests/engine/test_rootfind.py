@@ -13,11 +13,13 @@ from engine.numerics.refinement import refine
 
 def _levels(functions):
     """fun(points, which) for one (h, h') pair per bracket."""
+
     def fun(points, which):
         h, d = np.empty(points.size), np.empty(points.size)
         for i, (x, k) in enumerate(zip(points, which)):
             h[i], d[i] = functions[k](x)
         return h, d
+
     return fun
 
 
@@ -68,12 +70,20 @@ def test_a_watched_extremum_reveals_the_two_crossings_beside_it():
     crossings at 1 and 3, refined in the same loop.  A bracket beside it
     (a plain crossing of x^2 - 2) is refined alongside, and
     h = (x - 2)^2 + 1 (its minimum does not reach 0) reveals nothing."""
-    f = [lambda x: (1.0 - (x - 2.0) ** 2, -2.0 * (x - 2.0)),
-         lambda x: ((x - 2.0) ** 2 + 1.0, 2.0 * (x - 2.0)),
-         lambda x: (x * x - 2.0, 2.0 * x)]
+    f = [
+        lambda x: (1.0 - (x - 2.0) ** 2, -2.0 * (x - 2.0)),
+        lambda x: ((x - 2.0) ** 2 + 1.0, 2.0 * (x - 2.0)),
+        lambda x: (x * x - 2.0, 2.0 * x),
+    ]
     a, b = np.array([0.5, 0.5, 1.0]), np.array([3.5, 3.5, 2.0])
-    found = refine(_levels(f), a, b, *_ends(f, a, b), stationary=np.array([True, True, False]),
-                   hiding=np.array([True, True, False]))
+    found = refine(
+        _levels(f),
+        a,
+        b,
+        *_ends(f, a, b),
+        stationary=np.array([True, True, False]),
+        hiding=np.array([True, True, False]),
+    )
     eps = np.finfo(float).eps
     np.testing.assert_allclose(found.at, [2.0, 2.0, math.sqrt(2.0)], rtol=8 * eps)
     np.testing.assert_allclose(found.hidden[0], [1.0, 3.0], rtol=8 * eps)

@@ -21,11 +21,24 @@ GRID = np.geomspace(1e-3, 1e3, 400)
 
 # each class the margin search once ran away on (memory or time without bound)
 RUNAWAY = [
-    ("2/(s-1)", 0.0), ("-2/(s+1)", 0.0), ("-2.000001/(s+1)", 0.0), ("(s-3)/(s+3)", 0.0), ("1", 0.0),
+    ("2/(s-1)", 0.0),
+    ("-2/(s+1)", 0.0),
+    ("-2.000001/(s+1)", 0.0),
+    ("(s-3)/(s+3)", 0.0),
+    ("1", 0.0),
     *[(f"1/s**{k}", 0.0) for k in range(9, 24, 2)],
-    ("s**9/(s+1)**9", 0.0), ("s**11/(0.01*s+1)**11", 0.0),
-    ("0.5", 1.0), ("0.5*(s+1)/s", 1.0), ("(s+2)/(s+1)", 0.3), ("2/(s-1)", 0.0 + 1e-300), ("2/(s-1)", 0.0),
-    ("1/(s+1)", 1e300), ("1e308", 0.0), ("1e308/(s+1)", 0.5), ("1/(s^2+1)", 0.0), ("(s^2+4)/(s^2+1)", 0.0),
+    ("s**9/(s+1)**9", 0.0),
+    ("s**11/(0.01*s+1)**11", 0.0),
+    ("0.5", 1.0),
+    ("0.5*(s+1)/s", 1.0),
+    ("(s+2)/(s+1)", 0.3),
+    ("2/(s-1)", 0.0 + 1e-300),
+    ("2/(s-1)", 0.0),
+    ("1/(s+1)", 1e300),
+    ("1e308", 0.0),
+    ("1e308/(s+1)", 0.5),
+    ("1/(s^2+1)", 0.0),
+    ("(s^2+4)/(s^2+1)", 0.0),
 ]
 
 PROBE = textwrap.dedent("""
@@ -126,6 +139,7 @@ def test_delay_written_as_a_factor_equals_the_delay_option():
 def _brute_force_phase_crossovers(k: float, a: float, tau: float, lo: float, hi: float) -> np.ndarray:
     """Every zero of Im GH with Re GH < 0 for GH = k e^{-s tau}/(s + a), by
     a dense linear sampling (64 points per pi/tau) and brentq."""
+
     def im(w):
         return (k * np.exp(-1j * w * tau) / (1j * w + a)).imag
 

@@ -79,8 +79,12 @@ def test_peaks_of_random_loops_match_a_dense_refined_reference(seed):
     model = loop_model(loop_network(num, den), "e", GRID, {})
     found = dict(zip("ST", refined_peaks(model, [sensitivity, complementary])))
     for name, f in KINDS.items():
-        peak, w0, interior = reference_peak(lambda w: np.abs(f(np.polyval(num, 1j * w) / np.polyval(den, 1j * w))),
-                                            lambda x: abs(f(_mp_loop(num, den, x))), 1e-5, 1e6)
+        peak, w0, interior = reference_peak(
+            lambda w: np.abs(f(np.polyval(num, 1j * w) / np.polyval(den, 1j * w))),
+            lambda x: abs(f(_mp_loop(num, den, x))),
+            1e-5,
+            1e6,
+        )
         if not interior:  # the supremum is at an end (w -> 0 or inf): checked in the closed-form tests
             continue
         p = found[name]
@@ -92,7 +96,7 @@ def test_peaks_of_random_loops_match_a_dense_refined_reference(seed):
 def test_closed_form_second_order_sensitivity_peaks():
     # L = wn^2/(s (s + 2 zeta wn)): T is the standard second-order system, Mt = 1/(2 zeta sqrt(1 - zeta^2))
     zeta, wn = 0.2, 3.0
-    model = loop_model(unity_feedback([f"{wn**2}/(s*(s+{2*zeta*wn}))"]), "e", GRID, {})
+    model = loop_model(unity_feedback([f"{wn**2}/(s*(s+{2 * zeta * wn}))"]), "e", GRID, {})
     mt = complementary_peak(model)
     assert mt.value == pytest.approx(1 / (2 * zeta * math.sqrt(1 - zeta**2)), rel=1e-13)
     assert mt.frequency == pytest.approx(wn * math.sqrt(1 - 2 * zeta**2), rel=1e-9)
@@ -117,8 +121,11 @@ def test_compensator_sensitivity_peak_in_a_band():
     def k_eval(w):
         s = 1j * np.asarray(w, dtype=float)
         k = np.polyval(kn, s) / np.polyval(kd, s)
-        dk = 1j * (np.polyval(np.polyder(kn), s) * np.polyval(kd, s) - np.polyval(kn, s) * np.polyval(np.polyder(kd), s)) \
+        dk = (
+            1j
+            * (np.polyval(np.polyder(kn), s) * np.polyval(kd, s) - np.polyval(kn, s) * np.polyval(np.polyder(kd), s))
             / np.polyval(kd, s) ** 2
+        )
         return k, dk
 
     def ks_np(w):
@@ -175,8 +182,7 @@ def test_a_closed_loop_pole_on_the_axis_makes_the_peaks_unbounded(text, at):
     the closed loop's characteristic polynomial (numpy.roots)."""
     loop = loop_model(unity_feedback([text]), "e", np.geomspace(1e-2, 1e2, 50), {})
     num = {"1/s^2": [1.0], "4/(s^2*(s^2/100 + 1))": [4.0], "2/(s*(s+1))": [2.0]}[text]
-    den = {"1/s^2": [1.0, 0, 0], "4/(s^2*(s^2/100 + 1))": [0.01, 0, 1.0, 0, 0],
-           "2/(s*(s+1))": [1.0, 1.0, 0]}[text]
+    den = {"1/s^2": [1.0, 0, 0], "4/(s^2*(s^2/100 + 1))": [0.01, 0, 1.0, 0, 0], "2/(s*(s+1))": [1.0, 1.0, 0]}[text]
     char = np.polyadd(den, num)
     on_axis = np.abs(np.roots(char).real) < 1e-9
     for peak in (sensitivity_peak(loop), complementary_peak(loop)):

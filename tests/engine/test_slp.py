@@ -39,13 +39,16 @@ def lag_lead(targets, values=(10.0, 0.2, 10.0, 0.2), equalities=()) -> Problem:
     blocks = [Block("C", "e", "u", ExpressionTransfer(COMPENSATOR)), Block("G", "u", "y", ExpressionTransfer(PLANT))]
     net = block_diagram(blocks, [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"])
     params = tuple(Parameter(n, v, 1e-3, 1e3) for n, v in zip(("T1", "T2", "T3", "T4"), values))
-    return Problem((Condition("c", net, "e"),), params, tuple(targets), Grid(np.geomspace(0.01, 1000, 300)),
-                   equalities=equalities)
+    return Problem(
+        (Condition("c", net, "e"),), params, tuple(targets), Grid(np.geomspace(0.01, 1000, 300)), equalities=equalities
+    )
 
 
-CLASSICAL = (Target("crossover_frequency", (BandValue(0, np.inf, 10.0),)),
-             Target("gain_margin_db", (BandValue(0, np.inf, 10.0),)),
-             Target("phase_margin_deg", (BandValue(0, np.inf, 45.0),), scale=0.2))
+CLASSICAL = (
+    Target("crossover_frequency", (BandValue(0, np.inf, 10.0),)),
+    Target("gain_margin_db", (BandValue(0, np.inf, 10.0),)),
+    Target("phase_margin_deg", (BandValue(0, np.inf, 45.0),), scale=0.2),
+)
 
 
 def compensated(T) -> ct.TransferFunction:
@@ -110,8 +113,16 @@ def test_lp_solves_the_reports_two_variable_example():
     gradients = np.array([[1.0, -3.0], [-1.0, -1.0], [-1.0, 1.0], [1.0, 3.0]])  # rows g'x >= spec
     specs = np.array([-10.0, -6.0, -2.0, 6.0])
     box = (np.zeros(2), np.full(2, 100.0))
-    result = solve_step(np.array([1.0, 2.0]), gradients, np.zeros(4), specs, box, (np.zeros((0, 2)), np.zeros(0)),
-                        np.zeros(2), np.array([1.0]))
+    result = solve_step(
+        np.array([1.0, 2.0]),
+        gradients,
+        np.zeros(4),
+        specs,
+        box,
+        (np.zeros((0, 2)), np.zeros(0)),
+        np.zeros(2),
+        np.array([1.0]),
+    )
     assert result.status == "optimal" and result.step == 1.0
     np.testing.assert_allclose(result.dx, [2.0, 4.0], atol=1e-9)
     assert result.duals[0] > 0 and result.duals[1] > 0 and abs(result.duals[3]) < 1e-9
@@ -122,23 +133,25 @@ def test_inner_loop_relaxes_step_until_feasible():
     gradients, values, specs = np.array([[1.0]]), np.array([0.0]), np.array([5.0])
     box = (np.array([-2.0]), np.array([2.0]))
     steps = np.array([1.0, 0.8, 0.6, 0.4, 0.2, 0.0])
-    result = solve_step(np.zeros(1), gradients, values, specs, box, (np.zeros((0, 1)), np.zeros(0)), np.zeros(1),
-                        steps)
+    result = solve_step(np.zeros(1), gradients, values, specs, box, (np.zeros((0, 1)), np.zeros(0)), np.zeros(1), steps)
     assert result.step == pytest.approx(0.4) and result.solves == 4
 
 
 def test_w1_follows_the_report():
     gm = Spec("GM1", "gain_margin_db", 0, 0, 0, np.inf, True, 6.0, 10.0)
-    assert w1(gm, 5.0) == pytest.approx(2.0)          # desired/actual, unmet: > 1
-    assert w1(gm, 20.0) == pytest.approx(0.5)         # exceeded: < 1
-    assert w1(gm, -5.0) == pytest.approx(2.5)         # actual negative: 1 + (desired - actual)/|desired|
+    assert w1(gm, 5.0) == pytest.approx(2.0)  # desired/actual, unmet: > 1
+    assert w1(gm, 20.0) == pytest.approx(0.5)  # exceeded: < 1
+    assert w1(gm, -5.0) == pytest.approx(2.5)  # actual negative: 1 + (desired - actual)/|desired|
     phase = Spec("PKPH1", "modal_peak_phase_deg", 0, 0, 0, np.inf, False, 90.0, 0.0)
     assert w1(phase, 180.0) == 2.0 and w1(phase, 0.0) == 0.0 and w1(phase, 90.0) == 1.0
 
 
 def test_mean_square_matches_the_psd_integral():
     """Appendix C: E[y^2] = (1/2 pi) integral |H(jw)|^2 |F(jw)|^2 dw, H the closed loop."""
-    blocks = [Block("K", "e", "u", ExpressionTransfer("K/(1+0.1*s)")), Block("G", "u", "y", ExpressionTransfer("1/(s+1)"))]
+    blocks = [
+        Block("K", "e", "u", ExpressionTransfer("K/(1+0.1*s)")),
+        Block("G", "u", "y", ExpressionTransfer("1/(s+1)")),
+    ]
     net = block_diagram(blocks, [Junction("sum", "e", ((1.0, "d"), (-1.0, "y")))], ["d"])
     response = TimeResponse("d", "y", psd="2/(s+3)")
     target = Target("mean_square", (BandValue(0, np.inf, 0.0),), response=response)
@@ -151,9 +164,13 @@ def test_mean_square_matches_the_psd_integral():
 
 
 def test_step_measures_match_python_control():
-    problem = lag_lead([Target(kind, (BandValue(0, np.inf, 1.0),), response=TimeResponse("r", "y", 3.0, 3001))
-                        for kind in ("overshoot_percent", "rise_time", "peak_time", "steady_state_error")],
-                       (1.24, 0.72, 36.1, 0.0286))
+    problem = lag_lead(
+        [
+            Target(kind, (BandValue(0, np.inf, 1.0),), response=TimeResponse("r", "y", 3.0, 3001))
+            for kind in ("overshoot_percent", "rise_time", "peak_time", "steady_state_error")
+        ],
+        (1.24, 0.72, 36.1, 0.0286),
+    )
     values = evaluate(problem, problem.vector(), measure_specs(problem, require_stable=False))[0]
     loop = ct.feedback(compensated((1.24, 0.72, 36.1, 0.0286)), 1)
     t = np.linspace(0, 3.0, 3001)
@@ -180,8 +197,12 @@ def test_zpk_and_closed_loop_realizations_match_the_network():
     np.testing.assert_allclose(g2, g1, rtol=1e-9)
     np.testing.assert_allclose(d2, d1, rtol=1e-7)
     direct, closed = realize(condition.network, params), closed_loop_realization(condition.network, "dc", params)
-    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(closed.A)),
-                               np.sort_complex(np.linalg.eigvals(direct.A)), rtol=1e-9, atol=1e-11)
+    np.testing.assert_allclose(
+        np.sort_complex(np.linalg.eigvals(closed.A)),
+        np.sort_complex(np.linalg.eigvals(direct.A)),
+        rtol=1e-9,
+        atol=1e-11,
+    )
 
 
 def test_lag_lead_example_meets_every_requirement():
@@ -197,7 +218,7 @@ def test_lag_lead_example_meets_every_requirement():
     assert 20 * math.log10(gm) >= 10 and pm >= 45
     assert np.all(ct.feedback(compensated(T), 1).poles().real < 0)
     zeros, poles = sorted(1 / np.array(T[:2])), sorted(1 / np.array(T[2:]))
-    assert poles[0] < zeros[0] and zeros[1] < poles[1]   # a lag pair below a lead pair
+    assert poles[0] < zeros[0] and zeros[1] < poles[1]  # a lag pair below a lead pair
     assert {r.extra["major"] for r in records} >= {1, 2}
 
 
@@ -269,15 +290,15 @@ def test_a_time_limited_run_is_a_prefix_of_the_full_run():
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
     limited = iterate(Slp(), session.problem, SlpSettings(), max_iter=100, time_limit=0.0)
     records = [r for _, r in limited]
-    assert limited.stopped == TIME_LIMIT and len(records) == 1   # at least one step, then the clock
+    assert limited.stopped == TIME_LIMIT and len(records) == 1  # at least one step, then the clock
     assert records[0].status is Status.RUNNING
     full = iterate(Slp(), session.problem, SlpSettings(), max_iter=100)
     again = [r for _, r in full]
     assert full.stopped is None and again[0].to_json() == records[0].to_json()
     fresh = Slp()
-    fresh.init(session.problem, SlpSettings())   # as a session resumes: a new stepper, the stored state
+    fresh.init(session.problem, SlpSettings())  # as a session resumes: a new stepper, the stored state
     stored = State.from_json(json.loads(json.dumps(limited.state.to_json())), Slp.memory_type)
-    assert stored.to_json() == limited.state.to_json()   # (NaN rows: == on the states would not hold)
+    assert stored.to_json() == limited.state.to_json()  # (NaN rows: == on the states would not hold)
     resumed = [r for _, r in iterate(fresh, session.problem, SlpSettings(), max_iter=100, state=stored)]
     assert [r.to_json() for r in records + resumed] == [r.to_json() for r in again]
 

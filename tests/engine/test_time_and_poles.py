@@ -63,7 +63,7 @@ def test_wind_profile_of_steps_and_ramps_matches_python_control():
 
     def delayed(r, t0):
         k = int(round(t0 / (t[1] - t[0])))
-        return np.concatenate([np.zeros(k), r[:t.size - k]])
+        return np.concatenate([np.zeros(k), r[: t.size - k]])
 
     expected = 0.5 * step + 2.0 * delayed(ramp, 1.0) - delayed(step, 2.0) - 2.0 * delayed(ramp, 2.0)
     np.testing.assert_allclose(y, expected, atol=1e-9)
@@ -71,8 +71,11 @@ def test_wind_profile_of_steps_and_ramps_matches_python_control():
 
 def test_second_order_step_measures_match_the_formulas():
     zeta, wn = 0.3, 5.0
-    net = block_diagram([Block("G", "e", "y", ExpressionTransfer(f"{wn**2}/(s*(s+{2 * zeta * wn}))"))],
-                        [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"])
+    net = block_diagram(
+        [Block("G", "e", "y", ExpressionTransfer(f"{wn**2}/(s*(s+{2 * zeta * wn}))"))],
+        [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))],
+        ["r"],
+    )
     ss = realize(net, {})
     t = np.linspace(0, 6, 60001)
     y = simulate(ss, "r", t, [Segment(0.0, step=1.0)])[:, net.signal("y")]
@@ -81,14 +84,16 @@ def test_second_order_step_measures_match_the_formulas():
     assert m.overshoot_percent == pytest.approx(100 * np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2)), rel=1e-6)
     assert m.peak_time == pytest.approx(np.pi / wd, abs=1e-4)
     assert m.steady_state_error == pytest.approx(0.0, abs=1e-12)
-    info = ct.step_info(ct.tf([wn**2], [1, 2 * zeta * wn, wn**2]), T=t, SettlingTimeThreshold=0.05,
-                        RiseTimeLimits=(0.1, 0.9))
+    info = ct.step_info(
+        ct.tf([wn**2], [1, 2 * zeta * wn, wn**2]), T=t, SettlingTimeThreshold=0.05, RiseTimeLimits=(0.1, 0.9)
+    )
     assert m.rise_time == pytest.approx(info["RiseTime"], abs=2e-4)
     assert m.settling_time == pytest.approx(info["SettlingTime"], abs=2e-4)
 
 
 def test_peak_absolute_value_of_a_signal_under_a_wind_profile():
     from engine.closed_loop.time_response import peak_absolute
+
     net = unity_feedback([COMPENSATED])
     t = np.linspace(0, 4, 4001)
     y = simulate(realize(net, {}), "r", t, [Segment(0.0, slope=1.0), Segment(1.0, slope=-1.0)])

@@ -37,17 +37,23 @@ def random_system(rng: np.random.Generator, n: int) -> StateSpace:
     M = np.zeros((n, n))
     i = 0
     while i < n:
-        re = -10 ** rng.uniform(-1, 0.7)
+        re = -(10 ** rng.uniform(-1, 0.7))
         if n - i >= 2 and rng.random() < 0.6:
             im = 10 ** rng.uniform(-0.5, 1)
-            M[i:i + 2, i:i + 2] = [[re, im], [-im, re]]
+            M[i : i + 2, i : i + 2] = [[re, im], [-im, re]]
             i += 2
         else:
             M[i, i] = re
             i += 1
     Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
-    return StateSpace(Q @ M @ Q.T, rng.standard_normal((n, 1)), rng.standard_normal((2, n)),
-                      rng.standard_normal((2, 1)), ("u",), ("y1", "y2"))
+    return StateSpace(
+        Q @ M @ Q.T,
+        rng.standard_normal((n, 1)),
+        rng.standard_normal((2, n)),
+        rng.standard_normal((2, 1)),
+        ("u",),
+        ("y1", "y2"),
+    )
 
 
 def reference_simulate(ss: StateSpace, t: np.ndarray, segments: list[Segment]) -> np.ndarray:
@@ -89,6 +95,7 @@ def test_equal_steps_within_the_grid_rounding_share_one_map():
     drifting = 1000.0 + j + 2 * ulp * j * (j - 1)  # each step 4 ulp longer: a drift, not jitter
     assert _equal_step_runs(drifting) == [(i, i + 1) for i in range(11)]
 
+
 def stable_loop(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """(num, den) of an open loop (order 1..6, maybe an integrator, maybe a right
     half-plane zero) whose unity-feedback closed loop is stable."""
@@ -103,8 +110,10 @@ def stable_loop(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
                 poles += [pole, pole.conjugate()]
             else:
                 poles.append(-wn)
-        zeros = [rng.choice([-1, 1], p=[0.85, 0.15]) * 10 ** rng.uniform(-0.3, 1.3)
-                 for _ in range(int(rng.integers(0, order)))]
+        zeros = [
+            rng.choice([-1, 1], p=[0.85, 0.15]) * 10 ** rng.uniform(-0.3, 1.3)
+            for _ in range(int(rng.integers(0, order)))
+        ]
         num, den = np.real(np.poly(zeros)) if zeros else np.ones(1), np.real(np.poly(poles))
         gain = 10 ** rng.uniform(-0.5, 1) / abs(np.polyval(num, 1j) / np.polyval(den, 1j))
         for _ in range(30):
@@ -128,15 +137,18 @@ def compare_with_step_info(seed: int) -> dict[str, float]:
     info = ct.step_info(closed, T=t, yfinal=closed.dcgain(), SettlingTimeThreshold=band, RiseTimeLimits=(0.1, 0.9))
     dt = t[1] - t[0]
     settle = math.nan if m.settling_time is None else m.settling_time
-    return {"from_dc_gain": float(source == "dc_gain"),
-            "final": m.final - info["SteadyStateValue"],
-            "rise": (m.rise_time - info["RiseTime"]) / dt,
-            "settle": 0.0 if math.isnan(settle) and math.isnan(info["SettlingTime"])
-            else (settle - info["SettlingTime"]) / dt,
-            "overshoot": m.overshoot_percent - info["Overshoot"],
-            "peak": abs(m.peak) - info["Peak"],
-            # step_info's peak time is that of the largest |y|, also without overshoot
-            "peak_time": 0.0 if m.peak_time is None else (m.peak_time - info["PeakTime"]) / dt}
+    return {
+        "from_dc_gain": float(source == "dc_gain"),
+        "final": m.final - info["SteadyStateValue"],
+        "rise": (m.rise_time - info["RiseTime"]) / dt,
+        "settle": 0.0
+        if math.isnan(settle) and math.isnan(info["SettlingTime"])
+        else (settle - info["SettlingTime"]) / dt,
+        "overshoot": m.overshoot_percent - info["Overshoot"],
+        "peak": abs(m.peak) - info["Peak"],
+        # step_info's peak time is that of the largest |y|, also without overshoot
+        "peak_time": 0.0 if m.peak_time is None else (m.peak_time - info["PeakTime"]) / dt,
+    }
 
 
 def test_measures_of_50_random_stable_loops_agree_with_step_info():
@@ -191,8 +203,10 @@ def test_settling_and_steady_state_error_come_from_the_dc_gain():
     num, den = slow_tail_loop()
     net = loop_network(num, den)
     response = TimeResponse("r", "y", horizon=88.0, points=4401, settling_band=0.02)
-    targets = [Target(kind, (BandValue(0, np.inf, 1.0),), response=response)
-               for kind in ("settling_time", "steady_state_error")]
+    targets = [
+        Target(kind, (BandValue(0, np.inf, 1.0),), response=response)
+        for kind in ("settling_time", "steady_state_error")
+    ]
     problem = Problem((Condition("c", net, "e"),), (), tuple(targets), Grid(np.ones(1)))
     settle, error = evaluate(problem, problem.vector(), measure_specs(problem, require_stable=False))[0]
     t = np.linspace(0.0, 88.0, 4401)
@@ -215,4 +229,3 @@ def test_final_value_falls_back_to_the_horizon_and_says_so():
     assert final_value(unstable, "r", "y", [Segment(0.0, 1.0)], y) == (0.45, "horizon")
     m = step_measures(np.arange(3.0), y, 0.45, final_from="horizon")
     assert m.final_from == "horizon" and m.steady_state_error == pytest.approx(0.55)
-

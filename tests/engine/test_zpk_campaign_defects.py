@@ -33,11 +33,14 @@ def grid_margins(loop, kind: str) -> np.ndarray:
     return np.sort([m.frequency for m in found if kind != "G" or m.gh.real < 0])
 
 
-@pytest.mark.parametrize("expression", [
-    "(s/3+1)/((s+1)*(s/2+1))",          # |GH(0)| = 1 exactly: zpk_crossings._finite reads loop.scale (no such attribute)
-    "2/((1+s/1e4)**8*(1+s/1e5)**8)",    # the same path, reached through wrong crossover starts (see below)
-    "1/(1+s/1e8)**20",                  # gain 1e160: `loop.gain ** 2` (a Python float) raises OverflowError
-])
+@pytest.mark.parametrize(
+    "expression",
+    [
+        "(s/3+1)/((s+1)*(s/2+1))",  # |GH(0)| = 1 exactly: zpk_crossings._finite reads loop.scale (no such attribute)
+        "2/((1+s/1e4)**8*(1+s/1e5)**8)",  # the same path, reached through wrong crossover starts (see below)
+        "1/(1+s/1e8)**20",  # gain 1e160: `loop.gain ** 2` (a Python float) raises OverflowError
+    ],
+)
 def test_margins_do_not_raise(expression):
     margins(loop_of(expression))
 
@@ -75,7 +78,9 @@ def test_flat_minimum_next_to_a_near_cancellation():
     # a zero within 1e-7 of a pole: the minimum of |1 + GH| at 5.1304164 rad/s is found 4e-9 off
     # (the grid search: 2e-16).  LoopLevels.terms sums u = sum sigma/(s - r) term by term; the
     # pole-zero form's own derivative pairs them as (z - p)/((s - z)(s - p)), without cancellation
-    loop = loop_of("2.0552038257887197*(s**2 + 0.17427634204489162*s + 5.266466925913512)"
-                   "/(s**2 + 0.174274890335235*s + 5.266466546213577)")
+    loop = loop_of(
+        "2.0552038257887197*(s**2 + 0.17427634204489162*s + 5.266466925913512)"
+        "/(s**2 + 0.174274890335235*s + 5.266466546213577)"
+    )
     fast = fast_margins(loop.evaluate)
     np.testing.assert_allclose(np.sort(fast["S"]), grid_margins(loop, "S"), rtol=1e-11)

@@ -51,7 +51,7 @@ def test_polynomial_roots_in_a_scaled_variable():
     for c in ([1.0, -4.0, 3.0], [-1.0, 4.0, -3.0], [-0.9615, 4.639, -3.7348]):
         np.testing.assert_allclose(np.sort(roots(np.array(c)).real), np.sort(np.roots(c).real), rtol=1e-13)
     far = roots(poly(np.full(24, -1e6 + 0j)))
-    assert np.all((np.abs(far) > 0.4e6) & (np.abs(far) < 2.5e6))   # a 24-fold root: known only to a factor
+    assert np.all((np.abs(far) > 0.4e6) & (np.abs(far) < 2.5e6))  # a 24-fold root: known only to a factor
     # a zero coefficient inside, trailing zeros (roots at 0), a coefficient too large to scale, non-finite
     np.testing.assert_allclose(np.sort(roots(np.array([2.0, 0.0, -8.0, 0.0, 0.0])).real), [-2.0, 0.0, 0.0, 2.0])
     assert roots(np.array([1e-300, 1e300, 1.0])).size == 0 and roots(np.array([1e-300, 1e300])).size == 0
@@ -81,15 +81,18 @@ def test_resonance_peak_is_the_attenuation_maximum():
     zeta = 0.05
     found = fast_margins(form_of(f"1/(s**2 + {2 * zeta}*s + 1)"))
     (peak,) = found["A"]
-    assert peak == pytest.approx(math.sqrt(1 - 2 * zeta ** 2), rel=4e-16)
+    assert peak == pytest.approx(math.sqrt(1 - 2 * zeta**2), rel=4e-16)
 
 
-@pytest.mark.parametrize("expression", [
-    "1/(s**2 + 1)",               # poles on the imaginary axis: |GH| infinite there
-    "2/(s - 1)",                  # |1 + GH| constant (all-pass): no isolated minimum
-    "5/s**2",                     # the phase constant on the negative real axis: crossings not isolated
-    "(s - 1)/(s + 1)",            # |GH| constant at 1: crossovers not isolated
-])
+@pytest.mark.parametrize(
+    "expression",
+    [
+        "1/(s**2 + 1)",  # poles on the imaginary axis: |GH| infinite there
+        "2/(s - 1)",  # |1 + GH| constant (all-pass): no isolated minimum
+        "5/s**2",  # the phase constant on the negative real axis: crossings not isolated
+        "(s - 1)/(s + 1)",  # |GH| constant at 1: crossovers not isolated
+    ],
+)
 def test_shapes_left_to_the_detection_grid(expression):
     network = unity_feedback([expression])
     loop = loop_model(network, "e", GRID, {})
@@ -97,14 +100,17 @@ def test_shapes_left_to_the_detection_grid(expression):
         assert fast_margins(loop.evaluate) is None
 
 
-@pytest.mark.parametrize("expression, note", [
-    ("79/s", "the phase of GH is constant (-90 deg)"),
-    ("10/s**3", "the phase of GH is constant (90 deg)"),
-    ("1/s**9", "the phase of GH is constant (-90 deg)"),
-    ("2*(s - 1)/(s + 1)", "|GH| is constant (2) at every frequency"),
-    ("0.5*(s - 3)*(s - 7)/((s + 3)*(s + 7))", "|GH| is constant (0.5) at every frequency"),
-    ("(s - 1)*(s + 1)/((s - 2)*(s + 2))", "the phase of GH is constant (0 deg)"),   # roots mirrored: GH real
-])
+@pytest.mark.parametrize(
+    "expression, note",
+    [
+        ("79/s", "the phase of GH is constant (-90 deg)"),
+        ("10/s**3", "the phase of GH is constant (90 deg)"),
+        ("1/s**9", "the phase of GH is constant (-90 deg)"),
+        ("2*(s - 1)/(s + 1)", "|GH| is constant (2) at every frequency"),
+        ("0.5*(s - 3)*(s - 7)/((s + 3)*(s + 7))", "|GH| is constant (0.5) at every frequency"),
+        ("(s - 1)*(s + 1)/((s - 2)*(s + 2))", "the phase of GH is constant (0 deg)"),  # roots mirrored: GH real
+    ],
+)
 def test_a_constant_level_has_no_stationary_points(expression, note):
     """A constant |GH| or phase that is not degenerate: the grid-free search
     finds the same margins as the detection grid and says the same."""
@@ -161,8 +167,10 @@ def test_random_loops_agree_with_the_grid_search():
     assert answered >= 280  # the method answers for nearly all of them (measured: 294)
 
 
-HIGH_ORDER = ("*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)*(s+40)"
-              "*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))")
+HIGH_ORDER = (
+    "*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)*(s+40)"
+    "*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))"
+)
 
 
 @pytest.mark.parametrize("gain", ["3e22", "1e3"])
@@ -207,4 +215,5 @@ def _is_a_minimum_of_the_distance(form: ZpkEvaluator, w: float) -> bool:
         for r in form.poles:
             g /= s - mpmath.mpc(float(r.real), float(r.imag))
         return abs(1 + g)
+
     return bool(distance(w) < distance(w / 2) and distance(w) < distance(2 * w))

@@ -31,8 +31,8 @@ def test_second_order_resonance_closed_form():
     # Mt = 1/(2 zeta sqrt(1 - zeta^2)) at wn sqrt(1 - 2 zeta^2)
     ((mt, wr),) = moebius_peaks(form_of("4/(s*(s+1))"), [(0.0, 1.0)])
     zeta = 0.25
-    assert mt == pytest.approx(1 / (2 * zeta * math.sqrt(1 - zeta ** 2)), rel=1e-14)
-    assert wr == pytest.approx(2 * math.sqrt(1 - 2 * zeta ** 2), rel=1e-13)
+    assert mt == pytest.approx(1 / (2 * zeta * math.sqrt(1 - zeta**2)), rel=1e-14)
+    assert wr == pytest.approx(2 * math.sqrt(1 - 2 * zeta**2), rel=1e-13)
 
 
 def test_a_peak_at_an_end_is_the_limit_there():
@@ -75,8 +75,10 @@ def test_a_degenerate_loop_is_left_to_the_grid(monkeypatch):
     """GH = 3/s**2 lies on the negative real axis at every frequency: its closed loop
     has poles at +-j sqrt(3), where |S| and |T| are infinite.  The grid-free search
     does not try (it chased that pole through five rounds of repairs, 0.1 s)."""
+
     def searched(*args):
         raise AssertionError("the stationary points of a degenerate loop were searched")
+
     monkeypatch.setattr("engine.margins.pole_zero.peaks._stationary", searched)
     assert moebius_peaks(form_of("3/s**2"), [t.moebius for t in TRANSFORMS]) is None
 
@@ -103,8 +105,10 @@ def test_random_loops_agree_with_the_grid_search():
     assert answered >= 190  # measured: 199
 
 
-HIGH_GAIN_ORDER_20 = ("*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)"
-                      "*(s+40)*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))")
+HIGH_GAIN_ORDER_20 = (
+    "*(s+1)*(s+3)*(s**2+0.2*s+9)/(s*(s+0.5)*(s+2)*(s+5)*(s+10)*(s**2+0.4*s+4)*(s**2+2*s+50)"
+    "*(s+40)*(s**2+0.1*s+25)*(s**2+0.3*s+100)*(s+60)*(s+80)*(s**2+3*s+400)*(s+200)*(s+300))"
+)
 
 
 @pytest.mark.parametrize("step", range(8))
@@ -139,6 +143,7 @@ def test_the_peak_of_s_after_a_margin_search_is_the_one_searched_alone():
     peaks as a fresh form's own search, on 200 random loops."""
     from engine.margins.pole_zero.levels import LoopLevels
     from engine.margins.pole_zero.search import fast_margins
+
     reused = 0
     ab = [t.moebius for t in TRANSFORMS] + [(2.5, 0.0)]
     for seed in range(200):
@@ -146,19 +151,24 @@ def test_the_peak_of_s_after_a_margin_search_is_the_one_searched_alone():
         fresh, searched = (loop_model(loop_network(num, den), "e", GRID, {}).evaluate for _ in range(2))
         if not isinstance(fresh, ZpkEvaluator) or fast_margins(searched) is None:
             continue
-        assert LoopLevels.of(searched).certified_distance is not None and LoopLevels.of(fresh).certified_distance is None
+        assert (
+            LoopLevels.of(searched).certified_distance is not None and LoopLevels.of(fresh).certified_distance is None
+        )
         alone, after = moebius_peaks(fresh, ab), moebius_peaks(searched, ab)
         if alone is None:
             continue
         reused += 1
         for (value, frequency), (again, where) in zip(alone, after):
-            assert again == pytest.approx(value, rel=1e-13) and (where == frequency or where == pytest.approx(
-                frequency, rel=1e-9)), seed
+            assert again == pytest.approx(value, rel=1e-13) and (
+                where == frequency or where == pytest.approx(frequency, rel=1e-9)
+            ), seed
     assert reused >= 180
 
 
-SIX_LIGHT_MODES = ("1e4*(s+1)/(s*(s+0.1)*(s+10)*(s+100)*(s**2+0.002*s+25)*(s**2+0.004*s+100)*(s**2+0.006*s+400)"
-                   "*(s**2+0.008*s+900)*(s**2+0.01*s+1600)*(s**2+0.01*s+2500)*(s**2+0.01*s+3600))")
+SIX_LIGHT_MODES = (
+    "1e4*(s+1)/(s*(s+0.1)*(s+10)*(s+100)*(s**2+0.002*s+25)*(s**2+0.004*s+100)*(s**2+0.006*s+400)"
+    "*(s**2+0.008*s+900)*(s**2+0.01*s+1600)*(s**2+0.01*s+2500)*(s**2+0.01*s+3600))"
+)
 
 
 def test_the_disk_peak_by_light_modes_starts_where_the_distance_is_stationary(monkeypatch):
@@ -168,10 +178,14 @@ def test_the_disk_peak_by_light_modes_starts_where_the_distance_is_stationary(mo
     after the margin search needs no repair.  The peaks equal the grid's."""
     from engine.margins.pole_zero import certificate as zpk_certify
     from engine.margins.pole_zero.search import fast_margins
+
     repaired = []
     real = zpk_certify._repaired
-    monkeypatch.setattr(zpk_certify, "_repaired", lambda slopes, row, *rest, **kw: repaired.append(row) or real(
-        slopes, row, *rest, **kw))
+    monkeypatch.setattr(
+        zpk_certify,
+        "_repaired",
+        lambda slopes, row, *rest, **kw: repaired.append(row) or real(slopes, row, *rest, **kw),
+    )
     loop = loop_model(unity_feedback([SIX_LIGHT_MODES]), "e", GRID, {})
     assert fast_margins(loop.evaluate) is not None
     repaired.clear()

@@ -1,7 +1,7 @@
 """Run a fuzz campaign, or reproduce one case:
 
-    python -m tests.fuzz --cases 20000            # a campaign, its summary
-    python -m tests.fuzz --seed S --case I -v     # one case: its files, its output, its traceback
+python -m tests.fuzz --cases 20000            # a campaign, its summary
+python -m tests.fuzz --seed S --case I -v     # one case: its files, its output, its traceback
 """
 
 from __future__ import annotations

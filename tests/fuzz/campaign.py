@@ -16,7 +16,7 @@ from tests.fuzz.harness import Outcome, draw, execute
 
 DEFAULT_SEED = 20261201
 DEFAULT_CASES = 2000
-DEFAULT_BUDGET = 10.0   # seconds a case may take before it counts as a hang
+DEFAULT_BUDGET = 10.0  # seconds a case may take before it counts as a hang
 
 
 def setting(name: str, default: float) -> float:
@@ -40,8 +40,9 @@ class Tally:
         self.kinds[outcome.kind] += 1
         self.commands[(outcome.case.command, outcome.kind)] += 1
         self.seconds += outcome.seconds
-        self.slowest = sorted(self.slowest + [(outcome.seconds, outcome.case.index, outcome.case.origin)],
-                              reverse=True)[:5]
+        self.slowest = sorted(
+            self.slowest + [(outcome.seconds, outcome.case.index, outcome.case.origin)], reverse=True
+        )[:5]
         if outcome.failed:
             self.failures[outcome.signature].append(outcome)
 
@@ -51,8 +52,10 @@ class Tally:
 
     def summary(self) -> str:
         """A few lines: totals, by command, the slowest cases, each failure class with one example."""
-        lines = [f"{self.cases} cases in {self.seconds:.1f} s: "
-                 + ", ".join(f"{k} {n}" for k, n in sorted(self.kinds.items()))]
+        lines = [
+            f"{self.cases} cases in {self.seconds:.1f} s: "
+            + ", ".join(f"{k} {n}" for k, n in sorted(self.kinds.items()))
+        ]
         for command in ("report", "run", "replay"):
             counts = {k: n for (c, k), n in self.commands.items() if c == command}
             lines.append(f"  {command}: " + ", ".join(f"{k} {n}" for k, n in sorted(counts.items())))
@@ -62,8 +65,7 @@ class Tally:
         return "\n".join(lines)
 
 
-def run_cases(seeds: list[Seed], seed: int, indices: Iterable[int], budget: float,
-              folder: Path | None = None) -> Tally:
+def run_cases(seeds: list[Seed], seed: int, indices: Iterable[int], budget: float, folder: Path | None = None) -> Tally:
     """Run the cases ``indices`` of fuzz run ``seed``, each in a fresh folder."""
     tally = Tally()
     root = Path(tempfile.mkdtemp(prefix="loopcraft-fuzz-")) if folder is None else folder

@@ -75,11 +75,13 @@ class Outcome:
 
     def describe(self) -> str:
         """Everything needed to see and reproduce the failure."""
-        return (f"[{self.kind}] {self.signature}\n  case {self.case.index} of seed {self.case.seed} "
-                f"({self.case.origin}, {self.case.command} {' '.join(self.case.options)}): "
-                f"{'; '.join(self.case.log) or 'unmutated'}\n"
-                f"  reproduce: .venv/bin/python -m tests.fuzz --seed {self.case.seed} --case {self.case.index} -v\n"
-                + "".join(f"  {line}\n" for line in self.detail.strip().splitlines()[-12:]))
+        return (
+            f"[{self.kind}] {self.signature}\n  case {self.case.index} of seed {self.case.seed} "
+            f"({self.case.origin}, {self.case.command} {' '.join(self.case.options)}): "
+            f"{'; '.join(self.case.log) or 'unmutated'}\n"
+            f"  reproduce: .venv/bin/python -m tests.fuzz --seed {self.case.seed} --case {self.case.index} -v\n"
+            + "".join(f"  {line}\n" for line in self.detail.strip().splitlines()[-12:])
+        )
 
 
 def draw(seeds: list[Seed], seed: int, index: int) -> Case:
@@ -151,8 +153,11 @@ def execute(case: Case, folder: Path, budget: float) -> Outcome:
             signal.signal(signal.SIGALRM, previous)
     seconds = time.perf_counter() - began
     outcome = Outcome(case, "ok", seconds, stderr=err.getvalue())
-    outcome.warnings = [f"{w.category.__name__}: {Path(w.filename).name}:{w.lineno}: {w.message}" for w in caught
-                        if issubclass(w.category, RuntimeWarning)]
+    outcome.warnings = [
+        f"{w.category.__name__}: {Path(w.filename).name}:{w.lineno}: {w.message}"
+        for w in caught
+        if issubclass(w.category, RuntimeWarning)
+    ]
     _judge(outcome, status, escaped, files, folder)
     return outcome
 

@@ -21,30 +21,192 @@ from engine.design.measure_kinds import MEASURE_KINDS
 Path = tuple[Any, ...]
 
 # Tokens JSON cannot carry as Python floats: written into the text as they are.
-RAW = ("NaN", "Infinity", "-Infinity", "1e999", "-1e999", "-0.0", "1" + "0" * 400, "-" + "9" * 330, "1" * 5000,
-       "1e-999", "0.000000000000000000000000000000000000000000000001")
-NUMBERS: tuple[Any, ...] = (0, 0.0, 1, -1, 2, 0.5, -0.5, 1e-300, -1e-300, 5e-324, 1e300, -1e300, 1e308, -1e308,
-                            1.7976931348623157e308, 1e15, 1e-15, 2**63, -2**63, 10**20, 3, 1000, 123456789)
-WRONG_TYPES: tuple[Any, ...] = (None, True, False, "", "text", "nan", "inf", "1e999", "-0", [], {}, [1], [[1]],
-                                {"a": 1}, 0, "0", [None], ["s"], {"kind": "expression"})
+RAW = (
+    "NaN",
+    "Infinity",
+    "-Infinity",
+    "1e999",
+    "-1e999",
+    "-0.0",
+    "1" + "0" * 400,
+    "-" + "9" * 330,
+    "1" * 5000,
+    "1e-999",
+    "0.000000000000000000000000000000000000000000000001",
+)
+NUMBERS: tuple[Any, ...] = (
+    0,
+    0.0,
+    1,
+    -1,
+    2,
+    0.5,
+    -0.5,
+    1e-300,
+    -1e-300,
+    5e-324,
+    1e300,
+    -1e300,
+    1e308,
+    -1e308,
+    1.7976931348623157e308,
+    1e15,
+    1e-15,
+    2**63,
+    -(2**63),
+    10**20,
+    3,
+    1000,
+    123456789,
+)
+WRONG_TYPES: tuple[Any, ...] = (
+    None,
+    True,
+    False,
+    "",
+    "text",
+    "nan",
+    "inf",
+    "1e999",
+    "-0",
+    [],
+    {},
+    [1],
+    [[1]],
+    {"a": 1},
+    0,
+    "0",
+    [None],
+    ["s"],
+    {"kind": "expression"},
+)
 EXPRESSIONS: tuple[str, ...] = (
-    "s/s", "-1e308/s", "1e308", "1e308*s", "1e308*s**2 + 1e308", "1/(s-s)", "0", "0/s", "s*0", "0*s/(s+1)",
-    "-" * 900 + "s", "s" + "+s" * 500, "s" + "-s*s/s" * 150, "(" * 300 + "s" + ")" * 300, "(" * 60 + "s" + ")" * 60,
-    "s**1" + "0" * 400, "s**64", "(s+1)**64", "(s+1)**64/(s+2)**64", "s**-64", "(1e10*s+1)**40", "s**0.5",
-    "s^s", "s**s", "sin(s)", "__import__('os')", "1e-320", "1e-320*s", "x[0]", "lambda: 0", "s if s else s",
-    "(s+1)/(s+1)", "2*vehicle_1_x0", "K", "unknown_parameter", "K/(s+K)", "1/K", "s**2/(0*s+0)", "", " ", "s s",
-    "1/(s**2+1)", "1/s**3", "1/(s+1e-300)", "1/(s-1)", "s/(s-1)**3", "(s**2+2*s+1)**32", "1/(s*(s+1)*(s+2))",
-    "exp(-s)", "s**2", "s**3/(s+1)", "9" * 400, "0.0/0.0", "1e-300/1e300", "s\x00", "s\u2212 1", "1/(1e-300*s)",
-    "1" + "*s" * 300, "(s+1)" * 200, "1/((s+1)" * 40 + ")" * 40, "w", "z", "s+w", "True", "None", "'s'", "s,s",
-    "1e999", "NaN", "inf", "-s/(s*s+1e-30)", "((((s))))", "s**+2", "s**(-1)", "2**1000",
+    "s/s",
+    "-1e308/s",
+    "1e308",
+    "1e308*s",
+    "1e308*s**2 + 1e308",
+    "1/(s-s)",
+    "0",
+    "0/s",
+    "s*0",
+    "0*s/(s+1)",
+    "-" * 900 + "s",
+    "s" + "+s" * 500,
+    "s" + "-s*s/s" * 150,
+    "(" * 300 + "s" + ")" * 300,
+    "(" * 60 + "s" + ")" * 60,
+    "s**1" + "0" * 400,
+    "s**64",
+    "(s+1)**64",
+    "(s+1)**64/(s+2)**64",
+    "s**-64",
+    "(1e10*s+1)**40",
+    "s**0.5",
+    "s^s",
+    "s**s",
+    "sin(s)",
+    "__import__('os')",
+    "1e-320",
+    "1e-320*s",
+    "x[0]",
+    "lambda: 0",
+    "s if s else s",
+    "(s+1)/(s+1)",
+    "2*vehicle_1_x0",
+    "K",
+    "unknown_parameter",
+    "K/(s+K)",
+    "1/K",
+    "s**2/(0*s+0)",
+    "",
+    " ",
+    "s s",
+    "1/(s**2+1)",
+    "1/s**3",
+    "1/(s+1e-300)",
+    "1/(s-1)",
+    "s/(s-1)**3",
+    "(s**2+2*s+1)**32",
+    "1/(s*(s+1)*(s+2))",
+    "exp(-s)",
+    "s**2",
+    "s**3/(s+1)",
+    "9" * 400,
+    "0.0/0.0",
+    "1e-300/1e300",
+    "s\x00",
+    "s\u2212 1",
+    "1/(1e-300*s)",
+    "1" + "*s" * 300,
+    "(s+1)" * 200,
+    "1/((s+1)" * 40 + ")" * 40,
+    "w",
+    "z",
+    "s+w",
+    "True",
+    "None",
+    "'s'",
+    "s,s",
+    "1e999",
+    "NaN",
+    "inf",
+    "-s/(s*s+1e-30)",
+    "((((s))))",
+    "s**+2",
+    "s**(-1)",
+    "2**1000",
 )
 # the schema's names and enumerations: a valid-looking value of the wrong kind (a measure qcg does not know...)
 ENUMS = tuple(MEASURE_KINDS) + (
-    "expression", "polynomial", "factored", "table", "delay", "controller", "diagram", "matrix", "channels",
-    "cascade", "ascending", "descending", "log", "linear", "hz", "rad/s", "polar", "cartesian", "magnitude", "push",
-    "pull", "at_least", "at_most", "time_constant", "root", "second_order", "zero", "pole", "complex_zero",
-    "complex_pole", "s", "w", "z", "cip", "qcg", "slp", "projection", "running", "converged", "failed", "dae",
-    "quadratic_cost", "match", "e", "r", "u", "y")
+    "expression",
+    "polynomial",
+    "factored",
+    "table",
+    "delay",
+    "controller",
+    "diagram",
+    "matrix",
+    "channels",
+    "cascade",
+    "ascending",
+    "descending",
+    "log",
+    "linear",
+    "hz",
+    "rad/s",
+    "polar",
+    "cartesian",
+    "magnitude",
+    "push",
+    "pull",
+    "at_least",
+    "at_most",
+    "time_constant",
+    "root",
+    "second_order",
+    "zero",
+    "pole",
+    "complex_zero",
+    "complex_pole",
+    "s",
+    "w",
+    "z",
+    "cip",
+    "qcg",
+    "slp",
+    "projection",
+    "running",
+    "converged",
+    "failed",
+    "dae",
+    "quadratic_cost",
+    "match",
+    "e",
+    "r",
+    "u",
+    "y",
+)
 SIZES = (0, 1, 2, 3, 7, 50, 101, 1001, 2001, 10_001, 100_000)
 
 
@@ -75,8 +237,15 @@ def _shape(node: Any) -> str:
         return "other"
     if isinstance(node, (int, float)):
         return "number"
-    return "string" if isinstance(node, str) else "list" if isinstance(node, list) else \
-        "dict" if isinstance(node, dict) else "other"
+    return (
+        "string"
+        if isinstance(node, str)
+        else "list"
+        if isinstance(node, list)
+        else "dict"
+        if isinstance(node, dict)
+        else "other"
+    )
 
 
 def walk(rng: random.Random, doc: Any, start: Path = ()) -> Path:
@@ -210,7 +379,7 @@ class Mutator:
         """An element of the list deleted, or the list cut short."""
         if node:
             start = self.rng.randrange(len(node))
-            del node[start:start + (len(node) if self.rng.random() < 0.3 else 1)]
+            del node[start : start + (len(node) if self.rng.random() < 0.3 else 1)]
         return _KEEP
 
     def _expression(self, doc, path, node):
@@ -236,11 +405,15 @@ class Mutator:
         if choice == 0:
             doc["current_iteration"] = self.rng.choice((0, 1, len(records), len(records) + 1, -1, 10**9))
         elif choice == 1 and records:
-            del records[self.rng.randrange(len(records)):]
+            del records[self.rng.randrange(len(records)) :]
         elif choice == 2 and records:
             record = self.rng.choice(records)
-            if isinstance(record, dict) and isinstance(record.get("measures"), list) and record["measures"] \
-                    and isinstance(record["measures"][0], dict):
+            if (
+                isinstance(record, dict)
+                and isinstance(record.get("measures"), list)
+                and record["measures"]
+                and isinstance(record["measures"][0], dict)
+            ):
                 record["measures"][0]["value"] = self.rng.choice((0.0, 1e300, -1.0, "nan", "inf"))
         elif choice == 3 and isinstance(doc.get("state"), dict):
             self.mutate(doc, ("state",))

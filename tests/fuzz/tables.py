@@ -4,8 +4,29 @@ from __future__ import annotations
 
 import random
 
-CELLS = ("nan", "NaN", "inf", "-inf", "1e999", "-1e999", "", " ", "abc", "0", "-0", "-1", "1e-320", "0x10", "1,5",
-         "1e308", "--1", "\x00", "\u00e9", "1e-300", "10" * 200)
+CELLS = (
+    "nan",
+    "NaN",
+    "inf",
+    "-inf",
+    "1e999",
+    "-1e999",
+    "",
+    " ",
+    "abc",
+    "0",
+    "-0",
+    "-1",
+    "1e-320",
+    "0x10",
+    "1,5",
+    "1e308",
+    "--1",
+    "\x00",
+    "\u00e9",
+    "1e-300",
+    "10" * 200,
+)
 
 
 def garble_csv(rng: random.Random, text: str) -> tuple[str | bytes, str]:
@@ -15,7 +36,7 @@ def garble_csv(rng: random.Random, text: str) -> tuple[str | bytes, str]:
     data = list(range(header + 1, len(lines)))
     choice = rng.randrange(14)
     if choice == 0:
-        return text[:rng.randrange(len(text) + 1)], "truncated"
+        return text[: rng.randrange(len(text) + 1)], "truncated"
     if choice == 1 and data:
         n = rng.choice(data)
         cells = lines[n].rstrip("\r\n").split(",")
@@ -23,7 +44,7 @@ def garble_csv(rng: random.Random, text: str) -> tuple[str | bytes, str]:
         lines[n] = ",".join(cells) + "\n"
         return "".join(lines), f"cell on line {n + 1}"
     if choice == 2:
-        return "".join(lines[:header] + lines[header + 1:]), "no header"
+        return "".join(lines[:header] + lines[header + 1 :]), "no header"
     if choice == 3 and len(data) > 2:
         a, b = rng.sample(data, 2)
         lines[a], lines[b] = lines[b], lines[a]
@@ -37,12 +58,12 @@ def garble_csv(rng: random.Random, text: str) -> tuple[str | bytes, str]:
     if choice == 6:
         return bytes(rng.randrange(256) for _ in range(rng.choice((1, 64, 4096)))), "binary"
     if choice == 7:
-        return "".join(lines[:header + 1]), "header only"
+        return "".join(lines[: header + 1]), "header only"
     if choice == 8 and data:
-        return "".join(lines[:header + 1] + [lines[data[0]]]), "one row"
+        return "".join(lines[: header + 1] + [lines[data[0]]]), "one row"
     if choice == 9 and data:
         rows = [lines[rng.choice(data)] for _ in range(rng.choice((10_001, 20_000)))]
-        return "".join(lines[:header + 1] + rows), f"{len(rows)} rows"
+        return "".join(lines[: header + 1] + rows), f"{len(rows)} rows"
     if choice == 10 and data:
         n = rng.choice(data)
         lines[n] = lines[n].rstrip("\r\n") + ",extra,1\n"

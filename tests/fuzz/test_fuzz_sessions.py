@@ -34,8 +34,11 @@ def test_mutants_of_an_example_never_crash(example, tmp_path):
     tally = run_cases(seeds, SEED, indices, BUDGET, tmp_path)
     print(tally.summary())
     if tally.failures:
-        pytest.fail(f"{sum(map(len, tally.failures.values()))} failing case(s) of {example}:\n" + "\n".join(
-            f"{len(o)} x {o[0].describe()}" for o in tally.failures.values()), pytrace=False)
+        pytest.fail(
+            f"{sum(map(len, tally.failures.values()))} failing case(s) of {example}:\n"
+            + "\n".join(f"{len(o)} x {o[0].describe()}" for o in tally.failures.values()),
+            pytrace=False,
+        )
 
 
 def test_the_harness_sees_a_crash(tmp_path, monkeypatch):
@@ -44,6 +47,7 @@ def test_the_harness_sees_a_crash(tmp_path, monkeypatch):
 
     def broken(argv):
         raise KeyError("boom")
+
     monkeypatch.setattr(harness, "main", broken)
     case = harness.draw(list(corpus()), SEED, 0)
     outcome = harness.execute(case, tmp_path, BUDGET)
@@ -64,6 +68,7 @@ def test_the_harness_sees_a_warning_and_a_hang(tmp_path, monkeypatch):
     def hangs(argv):
         time.sleep(5)
         return 0
+
     case = harness.draw(list(corpus()), SEED, 1)
     case.command = "report"
     monkeypatch.setattr(harness, "main", warns)

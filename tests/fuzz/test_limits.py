@@ -26,8 +26,11 @@ LAG_LEAD = json.loads((EXAMPLES / "report003_lag_lead.json").read_text())
 
 def _cli(path: Path, *argv: str) -> tuple[int, str, list[str]]:
     out, err = io.StringIO(), io.StringIO()
-    with warnings.catch_warnings(record=True) as caught, contextlib.redirect_stdout(out), \
-            contextlib.redirect_stderr(err):
+    with (
+        warnings.catch_warnings(record=True) as caught,
+        contextlib.redirect_stdout(out),
+        contextlib.redirect_stderr(err),
+    ):
         warnings.simplefilter("always")
         status = main([argv[0], str(path), *argv[1:]])
     return status, err.getvalue(), [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
@@ -37,8 +40,15 @@ def _chain(doc: dict, count: int) -> dict:
     plant = doc["problem"]["conditions"][0]["plant"]
     first, rest = plant["blocks"][0], plant["blocks"][1:]
     first["output"] = "g0"
-    chain = [{"name": f"g{i}", "input": f"g{i}", "output": f"g{i + 1}",
-              "transfer": {"kind": "expression", "expression": "1"}} for i in range(count - len(rest) - 1)]
+    chain = [
+        {
+            "name": f"g{i}",
+            "input": f"g{i}",
+            "output": f"g{i + 1}",
+            "transfer": {"kind": "expression", "expression": "1"},
+        }
+        for i in range(count - len(rest) - 1)
+    ]
     chain[-1]["output"] = "u"
     plant["blocks"] = [first, *chain, *rest]
     return doc
@@ -60,7 +70,8 @@ def _bands(doc: dict, count: int) -> dict:
     for t in doc["problem"]["targets"]:
         desired = t["bands"][0]["desired"]
         t["bands"] = [{"low": float(i), "high": i + 1.0, "desired": desired} for i in range(count - 1)] + [
-            {"low": float(count - 1), "desired": desired}]
+            {"low": float(count - 1), "desired": desired}
+        ]
     return doc
 
 
@@ -70,9 +81,13 @@ def _junction(doc: dict, count: int) -> dict:
     return doc
 
 
-SIZES = [(_chain, limits.MAX_BLOCKS, "blocks"), (_conditions, limits.MAX_CONDITIONS, "conditions"),
-         (_targets, limits.MAX_TARGETS, "targets"), (_bands, limits.MAX_BANDS, "bands"),
-         (_junction, limits.MAX_JUNCTION_INPUTS, "plus")]
+SIZES = [
+    (_chain, limits.MAX_BLOCKS, "blocks"),
+    (_conditions, limits.MAX_CONDITIONS, "conditions"),
+    (_targets, limits.MAX_TARGETS, "targets"),
+    (_bands, limits.MAX_BANDS, "bands"),
+    (_junction, limits.MAX_JUNCTION_INPUTS, "plus"),
+]
 
 
 @pytest.mark.parametrize("grow, limit, field", SIZES, ids=[s[2] for s in SIZES])
@@ -94,10 +109,18 @@ def _block(doc: dict, transfer: dict) -> dict:
 
 
 MUTANTS = {
-    "s/s as a coefficient": {"kind": "polynomial", "numerator": ["s/s", 1.0], "denominator": [1.0, 1.0],
-                             "order": "ascending"},
-    "an expression as a coefficient": {"kind": "polynomial", "numerator": ["2*z1"], "denominator": [1.0],
-                                       "order": "ascending"},
+    "s/s as a coefficient": {
+        "kind": "polynomial",
+        "numerator": ["s/s", 1.0],
+        "denominator": [1.0, 1.0],
+        "order": "ascending",
+    },
+    "an expression as a coefficient": {
+        "kind": "polynomial",
+        "numerator": ["2*z1"],
+        "denominator": [1.0],
+        "order": "ascending",
+    },
     "NaN coefficient": {"kind": "factored", "gain": "nan"},
     "deep minus": {"kind": "expression", "expression": "-" * 900 + "s"},
     "long sum": {"kind": "expression", "expression": "s" + "+s" * 500},
@@ -128,15 +151,21 @@ def test_settings_of_the_wrong_type_are_named(tmp_path):
     assert status == 2 and "max_step takes a finite number" in err
 
 
-@pytest.mark.parametrize("text, result", [("-" * 901 + "s", -1j), ("s" + "+s" * 999, 1000j),
-                                          ("s" + "*s/s" * 400, 1j), ("+" * 500 + "s", 1j)])
+@pytest.mark.parametrize(
+    "text, result", [("-" * 901 + "s", -1j), ("s" + "+s" * 999, 1000j), ("s" + "*s/s" * 400, 1j), ("+" * 500 + "s", 1j)]
+)
 def test_long_chains_parse_without_recursion(text, result):
     assert Expression(text).evaluate([1j], {}).value[0] == pytest.approx(result)
 
 
-@pytest.mark.parametrize("text, message", [("(s+" * 150 + "s" + ")" * 150, "nested more than"),
-                                           ("s**1" + "0" * 400, "exceeds 64"), ("(" * 300 + "s" + ")" * 300,
-                                                                                "too many nested parentheses")])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("(s+" * 150 + "s" + ")" * 150, "nested more than"),
+        ("s**1" + "0" * 400, "exceeds 64"),
+        ("(" * 300 + "s" + ")" * 300, "too many nested parentheses"),
+    ],
+)
 def test_deep_nesting_is_refused_with_a_message(text, message):
     with pytest.raises(ExpressionError, match=message):
         Expression(text)

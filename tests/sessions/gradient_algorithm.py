@@ -100,10 +100,16 @@ class GradientDescent:
         if status is Status.RUNNING and j0 - j1 <= self.settings.tolerance * max(j0, 1e-300):
             status = Status.CONVERGED
         problem = self.problem.with_vector(trial)
-        record = StepRecord(iteration=state.iteration + 1, status=status, parameters=problem.named(),
-                            measures=tuple(tableau(problem)), objective=j1, step_size=step,
-                            direction=tuple(g / (np.linalg.norm(g) or 1.0)),
-                            counters={"evaluations": evaluations})
+        record = StepRecord(
+            iteration=state.iteration + 1,
+            status=status,
+            parameters=problem.named(),
+            measures=tuple(tableau(problem)),
+            objective=j1,
+            step_size=step,
+            direction=tuple(g / (np.linalg.norm(g) or 1.0)),
+            counters={"evaluations": evaluations},
+        )
         return State(state.iteration + 1, tuple(trial), status, GradientMemory(min(step * 2, 1.0))), record
 
 

@@ -61,9 +61,15 @@ def test_examples_list_and_copy(tmp_path, capsys):
     assert (tmp_path / "ex" / "report003_lag_lead.json").exists()
 
 
-@pytest.mark.parametrize("args", [["run", "missing.json"], ["report", "missing.json"], ["replay", "missing.json"],
-                                  ["run", "sessions/examples/report003_lag_lead.json", "--out", "/tmp/x.json",
-                                   "--algorithm", "nonesuch"]])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["run", "missing.json"],
+        ["report", "missing.json"],
+        ["replay", "missing.json"],
+        ["run", "sessions/examples/report003_lag_lead.json", "--out", "/tmp/x.json", "--algorithm", "nonesuch"],
+    ],
+)
 def test_bad_input_exits_2_with_one_line(args):
     out = subprocess.run([sys.executable, "-m", "tui.cli"] + args, capture_output=True, text=True, timeout=120)
     assert out.returncode == 2
@@ -73,6 +79,7 @@ def test_bad_input_exits_2_with_one_line(args):
 def test_a_newer_autosave_is_mentioned(matching, capsys):
     from sessions.runner import run_session
     from sessions.store import load_session
+
     run_session(load_session(matching), iterations=1)  # autosaves, does not save
     assert main(["report", str(matching)]) == 0
     assert "matching.json.autosave is newer than matching.json" in capsys.readouterr().err
@@ -99,8 +106,21 @@ def test_cip_report_in_the_listing_layout(tmp_path, capsys):
 def test_tradeoff_command(tmp_path, capsys):
     assert main(["examples", "--copy", str(tmp_path)]) == 0
     capsys.readouterr()
-    assert main(["tradeoff", str(tmp_path / "seidel_inlet_pi.json"), "--penalty", "q2", "--values", "1e-4", "1e-3",
-                 "--json"]) == 0
+    assert (
+        main(
+            [
+                "tradeoff",
+                str(tmp_path / "seidel_inlet_pi.json"),
+                "--penalty",
+                "q2",
+                "--values",
+                "1e-4",
+                "1e-3",
+                "--json",
+            ]
+        )
+        == 0
+    )
     points = json.loads(capsys.readouterr().out)
     assert [p["penalty"] for p in points] == [1e-4, 1e-3]
     assert points[0]["parameters"]["b1"] == pytest.approx(47.41, rel=0.01)

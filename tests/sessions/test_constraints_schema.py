@@ -22,23 +22,51 @@ STAMP = "2026-01-01T00:00:00+00:00"
 
 def two_conditions(constraints: list[str]) -> dict:
     """A lead compensator on 10/(s(s+1)(s+5)) in two conditions: K per condition, T1 and T2 shared."""
+
     def condition(name: str) -> dict:
-        blocks = [{"name": "lead", "input": "e", "output": "u",
-                   "transfer": {"kind": "expression", "expression": "K*(1 + T1*s)/(1 + T2*s)"}},
-                  {"name": "plant", "input": "u", "output": "y",
-                   "transfer": {"kind": "expression", "expression": "10/(s*(s + 1)*(s + 5))"}}]
-        return {"name": name, "break_at": "e", "plant": {"format": "diagram", "inputs": ["r"], "blocks": blocks,
-                "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}]}}
-    problem = {"grid": {"start": 0.01, "stop": 100.0, "points": 100},
-               "conditions": [condition("cruise"), condition("climb")],
-               "parameters": [{"name": "K", "value": [1.0, 2.0], "min": 0.1},
-                              {"name": "T1", "value": 0.5, "min": 0.01},
-                              {"name": "T2", "value": 0.1, "min": 0.01},
-                              {"name": "G", "value": 3.0, "free": False}],
-               "targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 50.0}]}],
-               "constraints": constraints}
-    return {"schema_version": 1, "provenance": {"loopcraft_version": "0.1.0", "created": STAMP, "modified": STAMP},
-            "problem": problem, "algorithm": {"name": "slp", "settings": {}}}
+        blocks = [
+            {
+                "name": "lead",
+                "input": "e",
+                "output": "u",
+                "transfer": {"kind": "expression", "expression": "K*(1 + T1*s)/(1 + T2*s)"},
+            },
+            {
+                "name": "plant",
+                "input": "u",
+                "output": "y",
+                "transfer": {"kind": "expression", "expression": "10/(s*(s + 1)*(s + 5))"},
+            },
+        ]
+        return {
+            "name": name,
+            "break_at": "e",
+            "plant": {
+                "format": "diagram",
+                "inputs": ["r"],
+                "blocks": blocks,
+                "junctions": [{"name": "sum", "output": "e", "plus": ["r"], "minus": ["y"]}],
+            },
+        }
+
+    problem = {
+        "grid": {"start": 0.01, "stop": 100.0, "points": 100},
+        "conditions": [condition("cruise"), condition("climb")],
+        "parameters": [
+            {"name": "K", "value": [1.0, 2.0], "min": 0.1},
+            {"name": "T1", "value": 0.5, "min": 0.01},
+            {"name": "T2", "value": 0.1, "min": 0.01},
+            {"name": "G", "value": 3.0, "free": False},
+        ],
+        "targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 50.0}]}],
+        "constraints": constraints,
+    }
+    return {
+        "schema_version": 1,
+        "provenance": {"loopcraft_version": "0.1.0", "created": STAMP, "modified": STAMP},
+        "problem": problem,
+        "algorithm": {"name": "slp", "settings": {}},
+    }
 
 
 def load(tmp_path: Path, doc: dict):
@@ -60,19 +88,22 @@ def test_rows_over_the_free_vector(tmp_path):
     A, b = session.problem.linear_constraints
     assert np.array_equal(A, [[0, 0, -1, 4], [1, 0, 2, 0], [0, 1, 2, 0], [-1, 1, 0, 0]])
     assert np.array_equal(b, [0, 13, 13, 1.5])
-    assert session.model.problem.constraints[0] == "T1 >= 4*T2"   # kept as written
+    assert session.model.problem.constraints[0] == "T1 >= 4*T2"  # kept as written
 
 
-@pytest.mark.parametrize("line, message", [
-    ("K*T1 <= 10", "problem.constraints[1]: not linear: a product of parameters (K and T1) at column 2"),
-    ("T1 >= 4T2", "problem.constraints[1]: unexpected 'T2' (a missing operator?) at column 8"),
-    ("X + T1 <= 2", "problem.constraints[1]: unknown parameter 'X'"),
-    ("T1[cruise] <= 2", "problem.constraints[1]: 'T1' is shared by all conditions"),
-    ("K[descent] <= 2", "problem.constraints[1]: K[descent]: no condition 'descent'"),
-    ("T1 <= 4*T2", "problem.constraints[1]: 'T1 <= 4*T2' is not met at the start: violated by 0.1"),
-    ("K <= 1.5", "problem.constraints[1]: 'K <= 1.5' is not met in condition 'climb' at the start"),
-    ("G >= 4", "problem.constraints[1]: 'G >= 4' is not met at the start"),
-])
+@pytest.mark.parametrize(
+    "line, message",
+    [
+        ("K*T1 <= 10", "problem.constraints[1]: not linear: a product of parameters (K and T1) at column 2"),
+        ("T1 >= 4T2", "problem.constraints[1]: unexpected 'T2' (a missing operator?) at column 8"),
+        ("X + T1 <= 2", "problem.constraints[1]: unknown parameter 'X'"),
+        ("T1[cruise] <= 2", "problem.constraints[1]: 'T1' is shared by all conditions"),
+        ("K[descent] <= 2", "problem.constraints[1]: K[descent]: no condition 'descent'"),
+        ("T1 <= 4*T2", "problem.constraints[1]: 'T1 <= 4*T2' is not met at the start: violated by 0.1"),
+        ("K <= 1.5", "problem.constraints[1]: 'K <= 1.5' is not met in condition 'climb' at the start"),
+        ("G >= 4", "problem.constraints[1]: 'G >= 4' is not met at the start"),
+    ],
+)
 def test_refusals_name_the_path(tmp_path, line, message):
     assert message in refused(tmp_path, two_conditions(["T1 >= 4*T2", line]))
 

@@ -18,7 +18,7 @@ import pytest
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-LAG_LEAD = EXAMPLES / "coebra_lag_lead.json"     # (1+10s)(1+0.2s)/((1+10s)(1+0.2s)) x 16000/(s(s+8)(s+20))
+LAG_LEAD = EXAMPLES / "coebra_lag_lead.json"  # (1+10s)(1+0.2s)/((1+10s)(1+0.2s)) x 16000/(s(s+8)(s+20))
 PLANT = control.tf([16000.0], np.polymul([1.0, 0.0], np.polymul([1.0, 8.0], [1.0, 20.0])))
 
 
@@ -38,8 +38,15 @@ def test_matlab_script_has_every_block_and_full_precision_numbers(capsys):
             assert f"% {junction['name']}" in text
     for p in session["problem"]["parameters"]:
         values = p["value"] if isinstance(p["value"], list) else [p["value"]]
-        assert f"parameters.{p['name']} = " + (" ".join(repr(float(v)) for v in values) if len(values) == 1
-                                               else "[" + " ".join(repr(float(v)) for v in values) + "]") in text
+        assert (
+            f"parameters.{p['name']} = "
+            + (
+                " ".join(repr(float(v)) for v in values)
+                if len(values) == 1
+                else "[" + " ".join(repr(float(v)) for v in values) + "]"
+            )
+            in text
+        )
     assert text.count("= -connect(") == 3 and text.count("allmargin(") == 3
     assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc', 'OutputName', 'delta')" not in text  # broken at dc
     assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc_loop', 'OutputName', 'delta')" in text
@@ -60,7 +67,7 @@ def test_json_compensators_and_state_spaces(capsys):
     num = np.polymul([10.0, 1.0], [0.2, 1.0])
     assert comp["numerator"] == pytest.approx(list(num), rel=1e-15)
     assert comp["denominator"] == pytest.approx(list(num), rel=1e-15)
-    assert comp["zeros"] == [] and comp["poles"] == []   # equal roots cancel (T1 = T3, T2 = T4 at the start)
+    assert comp["zeros"] == [] and comp["poles"] == []  # equal roots cancel (T1 = T3, T2 = T4 at the start)
     loop = condition["open_loop"]
     ss = control.ss(loop["A"], loop["B"], loop["C"], loop["D"])
     compensator = control.tf(num, num)

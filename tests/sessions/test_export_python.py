@@ -28,9 +28,14 @@ from sessions.store import load_session, save_session
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
-RATIONAL = ["coebra_lag_lead", "coebra_kuo_digital", "report003_lag_lead", "report003_disk_margin",
-            "lead_sensitivity_peak"]
-HIGH_ORDER = ["coebra_launch_vehicle"]   # bending modes: see test_high_order_loops_respond_as_loopcraft_s
+RATIONAL = [
+    "coebra_lag_lead",
+    "coebra_kuo_digital",
+    "report003_lag_lead",
+    "report003_disk_margin",
+    "lead_sensitivity_peak",
+]
+HIGH_ORDER = ["coebra_launch_vehicle"]  # bending modes: see test_high_order_loops_respond_as_loopcraft_s
 REL = 1e-9
 
 
@@ -85,7 +90,7 @@ def test_exported_script_gives_loopcraft_s_margins(name, tmp_path):
     found = _run_json(_export(source, tmp_path / f"{name}.py"))
     engine = _engine_margins(source)
     _check_margins(found, engine)
-    for n, (_, cond, values) in engine.items():   # the closed loop: control.feedback of the broken loop
+    for n, (_, cond, values) in engine.items():  # the closed loop: control.feedback of the broken loop
         ss = closed_loop_realization(cond.network, cond.break_at, values)
         assert found[n]["stable"] is (stability(poles(ss)) == "stable")
         assert len(found[n]["closed_loop_poles"]) == ss.A.shape[0]
@@ -101,7 +106,7 @@ def test_an_iteration_s_design_is_exported(tmp_path):
     script = _export(path, tmp_path / "iteration2.py", "--iteration", "2")
     text = script.read_text()
     for value in session.model.records[1]["parameters"].values():
-        assert repr(float(value)) in text   # the iteration's values, full precision
+        assert repr(float(value)) in text  # the iteration's values, full precision
     _check_margins(_run_json(script), _engine_margins(path, 2))
 
 
@@ -132,19 +137,19 @@ def test_high_order_loops_respond_as_loopcraft_s(name, tmp_path):
     script = _export(source, tmp_path / f"{name}.py")
     engine = _engine_margins(source)
     query = {n: [x.frequency for x in m.gain + m.phase] for n, (m, _, _) in engine.items()}
-    done = subprocess.run([sys.executable, "-c", DRIVER, str(script), json.dumps(query)], capture_output=True,
-                          text=True, timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-c", DRIVER, str(script), json.dumps(query)], capture_output=True, text=True, timeout=300
+    )
     assert done.returncode == 0, done.stderr
     got = json.loads(done.stdout)
     for n, (m, cond, values) in engine.items():
         exported = np.array([complex(*v) for v in got[n]])
         w = np.array(query[n])
-        ours = np.array([open_loop(cond.network, cond.break_at, [x], values, sensitivities=False).value[0]
-                         for x in w])
+        ours = np.array([open_loop(cond.network, cond.break_at, [x], values, sensitivities=False).value[0] for x in w])
         assert np.all(np.abs(exported - ours) <= REL * np.abs(ours)), np.max(np.abs(exported - ours) / np.abs(ours))
         for g, value in zip(m.gain, exported):
             assert -20 * np.log10(abs(value)) == pytest.approx(g.gain_db, rel=REL)
             assert abs(value.imag) <= 1e-8 * abs(value) and value.real < 0
-        for p, value in zip(m.phase, exported[len(m.gain):]):
+        for p, value in zip(m.phase, exported[len(m.gain) :]):
             assert abs(value) == pytest.approx(1.0, rel=REL)
             assert 180 + np.degrees(np.angle(value)) == pytest.approx(p.phase_deg, rel=REL, abs=1e-9)

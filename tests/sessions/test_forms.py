@@ -17,16 +17,60 @@ FORMS = settings(max_examples=100, deadline=None, database=None)  # modest: the 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 nonneg = st.floats(min_value=0, allow_nan=False, allow_infinity=False)
 names = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,8}", fullmatch=True)
-words = st.text(st.characters(blacklist_categories=("Cs",)), min_size=1, max_size=8).filter(
-    lambda w: w.split() == [w])
+words = st.text(st.characters(blacklist_categories=("Cs",)), min_size=1, max_size=8).filter(lambda w: w.split() == [w])
 expressions = st.text(min_size=1, max_size=20).map(str.strip).filter(bool)
 # number spellings a user might type: exact, short, exponent, integer, and some that are not numbers
-spelled = st.one_of(finite.map(repr), finite.map("{:g}".format), finite.map("{:.3e}".format),
-                    st.integers(-10**6, 10**6).map(str), st.just("inf"), st.just("-inf"), st.just("nan"),
-                    st.just("none"), st.just(""))
-TOKENS = ["push", "pull", "step", "ramp", "psd", "reference", "settling", "auto", "at_least", "true", "False",
-          "none", "inf", "1/(s+1)", "j", "+", "-", "..", ":", "/", ";", ",", " ", " ", "  ", "\t", "x", "y", "K",
-          "0", "1", "2.5", "-3", "1e3", "10", "400", "-7-3j", "1+2j"]
+spelled = st.one_of(
+    finite.map(repr),
+    finite.map("{:g}".format),
+    finite.map("{:.3e}".format),
+    st.integers(-(10**6), 10**6).map(str),
+    st.just("inf"),
+    st.just("-inf"),
+    st.just("nan"),
+    st.just("none"),
+    st.just(""),
+)
+TOKENS = [
+    "push",
+    "pull",
+    "step",
+    "ramp",
+    "psd",
+    "reference",
+    "settling",
+    "auto",
+    "at_least",
+    "true",
+    "False",
+    "none",
+    "inf",
+    "1/(s+1)",
+    "j",
+    "+",
+    "-",
+    "..",
+    ":",
+    "/",
+    ";",
+    ",",
+    " ",
+    " ",
+    "  ",
+    "\t",
+    "x",
+    "y",
+    "K",
+    "0",
+    "1",
+    "2.5",
+    "-3",
+    "1e3",
+    "10",
+    "400",
+    "-7-3j",
+    "1+2j",
+]
 token_texts = st.lists(st.one_of(st.sampled_from(TOKENS), spelled), max_size=12).map("".join)
 any_text = st.one_of(token_texts, st.text(max_size=30))
 space = st.sampled_from([" ", "  ", "\t", " \t "])
@@ -36,7 +80,8 @@ pad = st.sampled_from(["", " ", "\t"])
 def joined(*parts, sep=space):
     """Text of the parts' texts separated by varied white space (or by ``sep``)."""
     return st.tuples(*parts, st.lists(sep, min_size=len(parts), max_size=len(parts))).map(
-        lambda t: "".join(s + x for s, x in zip(t[-1], t[:-1])))
+        lambda t: "".join(s + x for s, x in zip(t[-1], t[:-1]))
+    )
 
 
 def listed(part, sep=";"):
@@ -49,21 +94,34 @@ num = st.one_of(plain, plain, plain, spelled)  # mostly valid
 cased = st.sampled_from(["true", "false", "True", "FALSE", "auto", "at_least", "at_most", "At_Most", "none"])
 spelled_range = joined(num, st.just(".."), num, sep=pad)
 spelled_band = joined(spelled_range, st.just(":"), num, st.just("") | joined(st.just("/"), num), sep=pad)
-spelled_point = joined(st.sampled_from(["push", "pull", "Push"]), num, st.sampled_from(["+", "-"]),
-                       num, st.sampled_from(["j", "j", "J", ""]), sep=pad)
-clause = st.one_of(joined(st.sampled_from(["step", "ramp"]), num, num),
-                   joined(st.just("reference"), num), joined(st.just("settling"), st.sampled_from(["0.02", "2", "x"])),
-                   joined(st.just("psd"), st.sampled_from(["1/(s+1)", "K/(s + a)", "1/(s+1)", "s*(", ""])))
+spelled_point = joined(
+    st.sampled_from(["push", "pull", "Push"]),
+    num,
+    st.sampled_from(["+", "-"]),
+    num,
+    st.sampled_from(["j", "j", "J", ""]),
+    sep=pad,
+)
+clause = st.one_of(
+    joined(st.sampled_from(["step", "ramp"]), num, num),
+    joined(st.just("reference"), num),
+    joined(st.just("settling"), st.sampled_from(["0.02", "2", "x"])),
+    joined(st.just("psd"), st.sampled_from(["1/(s+1)", "K/(s + a)", "1/(s+1)", "s*(", ""])),
+)
 head = joined(names, names, num, st.one_of(st.just(""), st.integers(0, 200_000).map(str), st.just("50")))
 # per form: texts near the form's grammar (most parse), besides arbitrary ones
 GRAMMAR = {
-    "number": num, "optional": num,
+    "number": num,
+    "optional": num,
     "signed": listed(joined(st.sampled_from(["+", "-", ""]), words, sep=st.just("")), sep=" "),
     "parameter": joined(st.one_of(names, words), num, st.one_of(st.just(""), joined(num, num))),
     "block": joined(words, words, words, st.one_of(expressions, pad)),
     "matrix_entry": joined(st.integers(-1, 99).map(str), st.integers(0, 99).map(str), st.one_of(expressions, pad)),
-    "range": spelled_range, "bands": listed(spelled_band), "points": listed(spelled_point),
-    "sense": joined(cased, sep=pad), "bool": joined(cased, sep=pad),
+    "range": spelled_range,
+    "bands": listed(spelled_band),
+    "points": listed(spelled_point),
+    "sense": joined(cased, sep=pad),
+    "bool": joined(cased, sep=pad),
     "response": st.tuples(head, listed(clause)).map(";".join),
 }
 
@@ -76,17 +134,24 @@ def ranges(draw, low=nonneg):
     return lo, high
 
 
-bands = st.builds(lambda r, d, q: BandModel(low=r[0], high=r[1], desired=d, required=q),
-                  ranges(), finite, st.none() | finite)
+bands = st.builds(
+    lambda r, d, q: BandModel(low=r[0], high=r[1], desired=d, required=q), ranges(), finite, st.none() | finite
+)
 points = st.builds(PointModel, real=finite, imag=finite, mode=st.sampled_from(["push", "pull"]))
-segments = st.one_of(st.builds(SegmentModel, time=nonneg, step=finite),
-                     st.builds(SegmentModel, time=nonneg, slope=finite.filter(bool)))
+segments = st.one_of(
+    st.builds(SegmentModel, time=nonneg, step=finite), st.builds(SegmentModel, time=nonneg, slope=finite.filter(bool))
+)
 responses = st.builds(
-    ResponseModel, input=names, output=names,
+    ResponseModel,
+    input=names,
+    output=names,
     horizon=st.floats(min_value=0, exclude_min=True, allow_infinity=False),
-    points=st.integers(10, 100_000), profile=st.lists(segments, min_size=1, max_size=4),
-    psd=st.none() | st.sampled_from(["1/(s+1)", "K/(s+a)", "2/(s^2 + 2*s + 1)"]), reference=finite,
-    settling_band=st.floats(min_value=0, max_value=1, exclude_min=True, exclude_max=True))
+    points=st.integers(10, 100_000),
+    profile=st.lists(segments, min_size=1, max_size=4),
+    psd=st.none() | st.sampled_from(["1/(s+1)", "K/(s+a)", "2/(s^2 + 2*s + 1)"]),
+    reference=finite,
+    settling_band=st.floats(min_value=0, max_value=1, exclude_min=True, exclude_max=True),
+)
 
 
 @st.composite
@@ -101,19 +166,31 @@ def per_condition_values():
     return st.one_of(finite, st.lists(finite, min_size=1, max_size=5))
 
 
-settings_values = st.one_of(st.booleans(), st.integers(), finite, st.none(),
-                            names.filter(lambda n: n.lower() != "none"), st.from_regex(r"[0-9]{1,4}", fullmatch=True))
+settings_values = st.one_of(
+    st.booleans(),
+    st.integers(),
+    finite,
+    st.none(),
+    names.filter(lambda n: n.lower() != "none"),
+    st.from_regex(r"[0-9]{1,4}", fullmatch=True),
+)
 
 # form name -> (parse, format, strategy of values)
 PAIRS = {
     "number": (forms.parse_number, forms.format_number, finite),
     "optional": (forms.parse_optional, forms.format_optional, st.none() | finite),
-    "signed": (forms.parse_signed, forms.format_signed,
-               st.tuples(st.lists(words, max_size=4), st.lists(words, max_size=4)).filter(lambda v: v[0] or v[1])),
+    "signed": (
+        forms.parse_signed,
+        forms.format_signed,
+        st.tuples(st.lists(words, max_size=4), st.lists(words, max_size=4)).filter(lambda v: v[0] or v[1]),
+    ),
     "parameter": (forms.parse_parameter, forms.format_parameter, parameter_lines()),
     "block": (forms.parse_block, forms.format_block, st.builds(forms.BlockLine, words, words, words, expressions)),
-    "matrix_entry": (forms.parse_matrix_entry, forms.format_matrix_entry,
-                     st.builds(forms.EntryLine, st.integers(1, 10**6), st.integers(1, 10**6), expressions)),
+    "matrix_entry": (
+        forms.parse_matrix_entry,
+        forms.format_matrix_entry,
+        st.builds(forms.EntryLine, st.integers(1, 10**6), st.integers(1, 10**6), expressions),
+    ),
     "range": (forms.parse_range, forms.format_range, ranges()),
     "bands": (forms.parse_bands, forms.format_bands, st.lists(bands, min_size=1, max_size=4)),
     "points": (forms.parse_points, forms.format_points, st.lists(points, max_size=4)),
@@ -128,10 +205,10 @@ def test_value_reads_back_from_its_text(form):
     parse, format_, values = PAIRS[form]
 
     @FORMS
-
     @given(values)
     def check(value):
         assert parse(format_(value)) == value
+
     check()
 
 
@@ -140,7 +217,6 @@ def test_parsed_text_is_stable_and_only_form_errors_escape(form):
     parse, format_, _ = PAIRS[form]
 
     @FORMS
-
     @given(st.one_of(GRAMMAR[form], any_text))
     def check(text):
         try:
@@ -151,6 +227,7 @@ def test_parsed_text_is_stable_and_only_form_errors_escape(form):
         canonical = format_(value)
         assert parse(canonical) == value
         assert format_(parse(canonical)) == canonical
+
     check()
 
 
@@ -165,16 +242,12 @@ def test_checked_expressions_read_back(form):
 
 
 @FORMS
-
-
 @given(per_condition_values())
 def test_values_read_back_in_their_shape(value):
     assert forms.parse_values(forms.format_values(value), value) == value
 
 
 @FORMS
-
-
 @given(per_condition_values(), st.one_of(listed(spelled, sep=","), listed(spelled, sep=" "), any_text))
 def test_values_text_is_stable(old, text):
     try:
@@ -192,8 +265,6 @@ def test_one_value_for_all_conditions():
 
 
 @FORMS
-
-
 @given(settings_values)
 def test_setting_reads_back_with_its_type(value):
     back = forms.parse_setting(forms.format_setting(value), value)
@@ -201,8 +272,6 @@ def test_setting_reads_back_with_its_type(value):
 
 
 @FORMS
-
-
 @given(st.sampled_from([True, 3, 2.5, "grid", None]), st.one_of(spelled, cased, any_text))
 def test_setting_text_is_stable(current, text):
     try:
@@ -236,8 +305,8 @@ def test_inf_high_means_no_limit():
     assert forms.parse_range("1..inf") == (1.0, None)
     assert forms.parse_range("1 .. Infinity") == (1.0, None)
     assert forms.parse_bands("0..INF: 3 /")[0].high is None
-    assert forms.parse_optional(" Inf ") is None and forms.parse_optional("-inf") is None   # no bound, either way
-    assert forms.parse_optional("1.798e+308") is None                                 # overflows: no bound too
+    assert forms.parse_optional(" Inf ") is None and forms.parse_optional("-inf") is None  # no bound, either way
+    assert forms.parse_optional("1.798e+308") is None  # overflows: no bound too
     assert forms.parse_parameter("K 1 -inf inf") == ("K", 1.0, None, None)
 
 
@@ -311,8 +380,8 @@ def test_module_is_pure():
     """No Textual and no workbench: the module is importable without the TUI."""
     import ast
     import inspect
+
     tree = ast.parse(inspect.getsource(forms))
     modules = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     modules |= {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-    assert {m.split(".")[0] for m in modules} <= {"__future__", "math", "collections", "typing", "engine",
-                                                  "sessions"}
+    assert {m.split(".")[0] for m in modules} <= {"__future__", "math", "collections", "typing", "engine", "sessions"}

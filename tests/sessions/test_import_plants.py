@@ -13,7 +13,7 @@ from engine.loop.responses import open_loop
 from sessions.store import load_session
 from tui.cli import main
 
-NUM, DEN = [2.0, 3.0], [1.0, 0.7, 4.0, 0.0]          # (2 s + 3)/(s^3 + 0.7 s^2 + 4 s)
+NUM, DEN = [2.0, 3.0], [1.0, 0.7, 4.0, 0.0]  # (2 s + 3)/(s^3 + 0.7 s^2 + 4 s)
 A = np.array([[0.0, 1.0], [-4.0, -0.7]])
 B, C, D = np.array([[0.0], [1.0]]), np.array([[3.0, 2.0]]), np.array([[0.5]])
 W = np.array([0.2, 1.3, 7.0])
@@ -63,16 +63,19 @@ def test_frequency_response_becomes_a_table_beside_the_session(tmp_path, suffix)
     block = session.model.problem.conditions[0].plant.blocks[1]
     assert block.transfer.kind == "table" and block.transfer.table.csv == "frd_plant.csv"
     got = _plant_response(folder / "frd.json", freq[[10, 100, 150]])
-    assert np.allclose(got, resp[[10, 100, 150]], rtol=1e-12)   # at the table's own points
+    assert np.allclose(got, resp[[10, 100, 150]], rtol=1e-12)  # at the table's own points
 
 
-@pytest.mark.parametrize("arrays, message", [
-    ({"x": np.ones(3)}, "expected num and den"),
-    ({"num": np.array([1.0]), "den": np.array([0.0])}, "den is zero"),
-    ({"num": np.array([1.0, np.nan]), "den": np.array([1.0, 1.0])}, "finite numbers"),
-    ({"A": np.ones((2, 3)), "B": np.ones((2, 1)), "C": np.ones((1, 2))}, "SISO state space"),
-    ({"freq": np.array([1.0, 0.5]), "resp": np.array([1.0, 2.0])}, "freq increasing"),
-])
+@pytest.mark.parametrize(
+    "arrays, message",
+    [
+        ({"x": np.ones(3)}, "expected num and den"),
+        ({"num": np.array([1.0]), "den": np.array([0.0])}, "den is zero"),
+        ({"num": np.array([1.0, np.nan]), "den": np.array([1.0, 1.0])}, "finite numbers"),
+        ({"A": np.ones((2, 3)), "B": np.ones((2, 1)), "C": np.ones((1, 2))}, "SISO state space"),
+        ({"freq": np.array([1.0, 0.5]), "resp": np.array([1.0, 2.0])}, "freq increasing"),
+    ],
+)
 def test_bad_arrays_exit_2_naming_the_file(tmp_path, capsys, arrays, message):
     source = _save(tmp_path / "bad.npz", arrays)
     assert main(["new", "--plant-file", str(source), str(tmp_path / "s.json")]) == 2
@@ -84,8 +87,11 @@ def test_bad_arrays_exit_2_naming_the_file(tmp_path, capsys, arrays, message):
 def test_unreadable_files_exit_2(tmp_path, capsys):
     (tmp_path / "broken.mat").write_bytes(b"not a mat file at all")
     (tmp_path / "plant.txt").write_text("1 2 3")
-    for name, message in (("broken.mat", "cannot read"), ("plant.txt", "expected a .mat or .npz"),
-                          ("missing.npz", "no such file")):
+    for name, message in (
+        ("broken.mat", "cannot read"),
+        ("plant.txt", "expected a .mat or .npz"),
+        ("missing.npz", "no such file"),
+    ):
         assert main(["new", "--plant-file", str(tmp_path / name), str(tmp_path / "s.json")]) == 2
         err = capsys.readouterr().err
         assert message in err and name in err

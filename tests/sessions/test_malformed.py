@@ -14,9 +14,10 @@ from tests.sessions.conftest import MATCHING
 
 VALID = json.dumps(MATCHING, indent=1)
 JSON_VALUES = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=False) | st.text(max_size=8),
+    st.none() | st.booleans() | st.integers(-(10**6), 10**6) | st.floats(allow_nan=False) | st.text(max_size=8),
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3),
-    max_leaves=6)
+    max_leaves=6,
+)
 
 
 def _paths(node, prefix=()):
@@ -50,7 +51,8 @@ def _mutate(data, path, action, value):
 MUTANTS = st.one_of(
     st.integers(0, len(VALID) - 1).map(lambda n: VALID[:n]),
     st.tuples(st.sampled_from(PATHS), st.sampled_from(["delete", "replace"]), JSON_VALUES).map(
-        lambda t: _mutate(MATCHING, *t)),
+        lambda t: _mutate(MATCHING, *t)
+    ),
     st.binary(max_size=64).map(lambda b: b.decode("latin-1")),
 )
 
@@ -77,10 +79,11 @@ def test_a_g2_quotient_that_overflows_is_a_clean_error_without_warnings(tmp_path
     import pytest
 
     from sessions.store import load_session
+
     examples = Path(__file__).resolve().parents[2] / "sessions" / "examples"
     shutil.copy(examples / "seidel_inlet_inner_pi.json", tmp_path / "s.json")
     lines = (examples / "seidel_inlet_table1.csv").read_text().splitlines()
-    k = next(i for i, line in enumerate(lines) if not line.startswith("#"))   # the header
+    k = next(i for i, line in enumerate(lines) if not line.startswith("#"))  # the header
     header = [c.strip() for c in lines[k].split(",")]
     cells = lines[k + 1].split(",")
     cells[header.index("g1_mag")], cells[header.index("g1g2_mag")] = "1e-300", "1e300"

@@ -70,7 +70,7 @@ def _value(node: ast.AST, s: np.ndarray, params: Mapping[str, float]) -> np.ndar
     left, right = _value(node.left, s, params), _value(node.right, s, params)
     op = type(node.op)
     if op is ast.Pow:
-        return left ** node.right.value
+        return left**node.right.value
     return {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply, ast.Div: np.divide}[op](left, right)
 
 
@@ -81,6 +81,7 @@ def _parse(text: str) -> ast.Expression:
 
 def test_example_is_generated_by_its_script(tmp_path):
     from sessions.examples.coebra_launch_vehicle_matrix import write_example
+
     write_example(tmp_path)
     assert json.loads((tmp_path / MATRIX).read_text()) == json.loads((EXAMPLES / MATRIX).read_text())
 
@@ -113,8 +114,11 @@ def test_every_entry_is_at_most_a_second_order_ratio_in_s(sessions):
         assert (plant.forcing_row, plant.forcing) == (1, "1")
         # why the slack variables: the attitude sensor's delta entry, the sum of its modes, is of sixth order
         delta = plant.signals.index("delta") + 1
-        modes = [e.expression for e in plant.entries if e.col == delta
-                 and plant.signals[e.row - 1] in ("q1_att", "q2_att", "q3_att")]
+        modes = [
+            e.expression
+            for e in plant.entries
+            if e.col == delta and plant.signals[e.row - 1] in ("q1_att", "q2_att", "q3_att")
+        ]
         assert len(modes) == 3 and _degrees(_parse("+".join(f"({m})" for m in modes))) == (4, 6)
 
 
@@ -149,8 +153,12 @@ def test_open_and_closed_loops_agree_on_the_grid(sessions):
         assert sorted(a.parameters) == sorted(b.parameters)
         scale = np.max(np.abs(b.sensitivity), axis=0)[order]
         np.testing.assert_allclose(a.sensitivity / scale, b.sensitivity[:, order] / scale, rtol=0, atol=REL)
-        wind = [closed_loop(p.conditions[c].network, "alpha_w", "alpha", omega, p.condition_values(c),
-                            sensitivities=False).value for p in (pm, pd)]
+        wind = [
+            closed_loop(
+                p.conditions[c].network, "alpha_w", "alpha", omega, p.condition_values(c), sensitivities=False
+            ).value
+            for p in (pm, pd)
+        ]
         np.testing.assert_allclose(wind[0], wind[1], rtol=REL, atol=0)
 
 
@@ -162,8 +170,9 @@ def test_tableau_and_slp_measures_agree_at_every_condition(sessions):
     for p in (pm, pd):
         margins_only = dataclasses.replace(p, targets=tuple(t for t in p.targets if t.measure in TABLEAU_MEASURES))
         rows.append(tableau(margins_only))
-    assert [(r.name, r.kind, r.condition, r.satisfied) for r in rows[0]] == \
-        [(r.name, r.kind, r.condition, r.satisfied) for r in rows[1]]
+    assert [(r.name, r.kind, r.condition, r.satisfied) for r in rows[0]] == [
+        (r.name, r.kind, r.condition, r.satisfied) for r in rows[1]
+    ]
     assert {r.condition for r in rows[1]} == {"switch-in", "max-q", "switch-out"}
     for a, b in zip(*rows):
         assert a.value == pytest.approx(b.value, rel=REL) and a.frequency == pytest.approx(b.frequency, rel=REL)
@@ -171,7 +180,7 @@ def test_tableau_and_slp_measures_agree_at_every_condition(sessions):
     assert [(s.name, s.kind, s.condition) for s in measure_specs(pm)] == [(s.name, s.kind, s.condition) for s in specs]
     assert {"peak_response", "modal_peak_db", "stability_abscissa"} <= {s.kind for s in specs}
     (vm, fm), (vd, fd) = evaluate(pm, pm.vector(), specs), evaluate(pd, pd.vector(), specs)
-    assert np.count_nonzero(np.isnan(vd)) == 3   # no gain margin in 1..8 rad/s at the start, per condition
+    assert np.count_nonzero(np.isnan(vd)) == 3  # no gain margin in 1..8 rad/s at the start, per condition
     np.testing.assert_allclose(vm, vd, rtol=REL, atol=0)
     np.testing.assert_allclose(fm, fd, rtol=REL, atol=0)
 
@@ -190,4 +199,4 @@ def test_slp_makes_the_same_three_iterations(tmp_path):
         xa, xb = pm.vector_from(a.parameters), pd.vector_from(b.parameters)
         np.testing.assert_allclose(xa, xb, rtol=1e-8, atol=0)
         assert a.objective == pytest.approx(b.objective, rel=1e-8)
-    assert np.max(np.abs(xb - start) / np.abs(start)) > 0.1   # the iterations moved the design
+    assert np.max(np.abs(xb - start) / np.abs(start)) > 0.1  # the iterations moved the design

@@ -47,7 +47,7 @@ def test_cip_meets_a_disk_margin_target_confirmed_by_python_control(tmp_path):
     alpha = min(m["value"] for m in last["measures"] if m["kind"] == "disk_margin")
     assert alpha == pytest.approx(dm, rel=1e-7) and alpha <= dm * (1 + 1e-12) and dm >= 0.9
     whole = control.disk_margins(L, np.geomspace(1e-3, 1e4, 200_001))[0]
-    assert whole >= alpha * (1 - 1e-12)   # no worse disk anywhere else on the axis
+    assert whole >= alpha * (1 - 1e-12)  # no worse disk anywhere else on the axis
     gm, pm, _, _, _, _ = control.stability_margins(L)
     assert 20 * math.log10(gm) >= 10.0 and pm >= 45.0
     save_session(session, tmp_path / "ran.json")
@@ -65,7 +65,7 @@ def test_slp_meets_an_ms_target_confirmed_by_python_control(tmp_path):
     sampled = dense(L, ms["frequency"], lambda g: 1 / (1 + g))
     assert ms["value"] == pytest.approx(sampled, rel=1e-9) and sampled <= 1.5
     w = np.geomspace(1e-3, 1e3, 400_001)
-    assert np.max(np.abs(1 / (1 + L(1j * w)))) <= ms["value"] * (1 + 1e-12)   # the peak over the whole axis
+    assert np.max(np.abs(1 / (1 + L(1j * w)))) <= ms["value"] * (1 + 1e-12)  # the peak over the whole axis
     _, pm, _, _, wgc, _ = control.stability_margins(L)
     assert row["crossover_frequency"]["value"] == pytest.approx(wgc, rel=1e-9) and wgc >= 1.5
     assert row["delay_margin"]["value"] == pytest.approx(math.radians(pm) / wgc, rel=1e-9)

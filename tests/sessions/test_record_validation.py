@@ -44,34 +44,47 @@ def _set(*keys_and_value):
             del node[keys[-1]]
         else:
             node[keys[-1]] = value
+
     return change
 
 
 DELETE = object()
 
 CASES = [
-    (_set("records", 1, "parameters", "K", "abc"),
-     r"records\[1\]\.parameters\.K: expected a finite number, got str 'abc'"),
+    (
+        _set("records", 1, "parameters", "K", "abc"),
+        r"records\[1\]\.parameters\.K: expected a finite number, got str 'abc'",
+    ),
     (_set("records", 1, "parameters", "K", "inf"), r"records\[1\]\.parameters\.K: expected a finite number, got inf"),
-    (_set("records", 1, "parameters", "K", None),
-     r"records\[1\]\.parameters\.K: expected a finite number, got NoneType"),
-    (_set("records", 1, "parameters", "K", [1.0, 2.0]),
-     r"records\[1\]\.parameters\.K: expected a number \(K has one value for all conditions\), got a list of 2"),
+    (
+        _set("records", 1, "parameters", "K", None),
+        r"records\[1\]\.parameters\.K: expected a finite number, got NoneType",
+    ),
+    (
+        _set("records", 1, "parameters", "K", [1.0, 2.0]),
+        r"records\[1\]\.parameters\.K: expected a number \(K has one value for all conditions\), got a list of 2",
+    ),
     (_set("records", 1, "parameters", "Z", 1.0), r"records\[1\]\.parameters\.Z: not a parameter of the problem"),
     (_set("records", 1, "parameters", [1, 2]), r"records\[1\]\.parameters: expected an object, got list"),
     (_set("records", 0, "status", "done"), r"records\[0\]\.status: expected one of running, converged"),
     (_set("records", 0, "status", DELETE), r"records\[0\]\.status: missing"),
     (_set("records", 2, "iteration", 5), r"records\[2\]\.iteration: expected 3 \(records are numbered 1\.\.n"),
     (_set("records", 2, "iteration", "3"), r"records\[2\]\.iteration: expected an integer >= 0, got str '3'"),
-    (_set("records", 1, "measures", 0, "value", "abc"),
-     r"records\[1\]\.measures\[0\]\.value: expected a number, got str"),
-    (_set("records", 1, "measures", 0, "satisfied", "yes"),
-     r"records\[1\]\.measures\[0\]\.satisfied: expected true or false, got str 'yes'"),
+    (
+        _set("records", 1, "measures", 0, "value", "abc"),
+        r"records\[1\]\.measures\[0\]\.value: expected a number, got str",
+    ),
+    (
+        _set("records", 1, "measures", 0, "satisfied", "yes"),
+        r"records\[1\]\.measures\[0\]\.satisfied: expected true or false, got str 'yes'",
+    ),
     (_set("records", 1, "measures", 0, "name", DELETE), r"records\[1\]\.measures\[0\]\.name: missing"),
     (_set("records", 1, "measures", 0, "name", 7), r"records\[1\]\.measures\[0\]\.name: expected a string, got int 7"),
     (_set("records", 1, "measures", 0, "frequency", "x"), r"records\[1\]\.measures\[0\]\.frequency: expected a number"),
-    (_set("records", 1, "measures", 0, "colour", "red"),
-     r"records\[1\]\.measures\[0\]\.colour: not a field of a measure"),
+    (
+        _set("records", 1, "measures", 0, "colour", "red"),
+        r"records\[1\]\.measures\[0\]\.colour: not a field of a measure",
+    ),
     (_set("records", 1, "measures", {}), r"records\[1\]\.measures: expected a list, got dict"),
     (_set("records", 1, "measures", [3]), r"records\[1\]\.measures\[0\]: expected an object, got int 3"),
     (_set("records", 1, "counters", "evaluations", 1.5), r"records\[1\]\.counters\.evaluations: expected an integer"),
@@ -97,10 +110,12 @@ def test_a_corrupted_record_is_a_load_error_naming_its_path(ran, change, message
 
 def test_measure_values_may_be_non_finite_as_written(ran):
     """'nan' is "no crossing"; the strings 'inf', '-inf', 'nan' are how records write non-finite floats."""
+
     def change(doc):
         row = doc["records"][1]["measures"][0]
         row["value"], row["frequency"], row["target"] = "nan", "nan", "-inf"
         doc["records"][1]["objective"] = "inf"
+
     _corrupt(ran, change)
     record = load_session(ran).records[1]
     row = record.measures[0]
@@ -118,9 +133,11 @@ def test_a_per_condition_parameter_has_one_value_per_condition(matching_dict, tm
     path = tmp_path / "two.json"
     path.write_text(json.dumps(matching_dict))
     assert load_session(path).records[0].parameters["K"] == [1.0, 2.0]
-    for wrong, said in ([1.0], r"expected a list of 2 numbers \(one per condition\), got a list of 1"), \
-                       (3.0, r"expected a list of 2 numbers \(one per condition\), got float 3\.0"), \
-                       ([1.0, "a"], r"\[1\]: expected a finite number, got str 'a'"):
+    for wrong, said in (
+        ([1.0], r"expected a list of 2 numbers \(one per condition\), got a list of 1"),
+        (3.0, r"expected a list of 2 numbers \(one per condition\), got float 3\.0"),
+        ([1.0, "a"], r"\[1\]: expected a finite number, got str 'a'"),
+    ):
         record["parameters"]["K"] = wrong
         path.write_text(json.dumps(matching_dict))
         with pytest.raises(SessionError, match=rf"records\[0\]\.parameters\.K.*{said}"):

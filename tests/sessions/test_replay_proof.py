@@ -16,7 +16,7 @@ from sessions.store import load_session, save_session
 from tui.cli import main
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "report003_lag_lead.json"
-START = {"z1": 2.0, "z2": 10.0, "p1": 0.5, "p2": 20.0}   # away from the hand design: three running iterations
+START = {"z1": 2.0, "z2": 10.0, "p1": 0.5, "p2": 20.0}  # away from the hand design: three running iterations
 
 
 @pytest.fixture(scope="module")
@@ -41,8 +41,11 @@ def _replayed(doc: dict, tmp_path: Path):
     try:
         session = load_session(path)
     except SessionError:
-        original = {**doc, "records": [{**r, "iteration": k} for k, r in enumerate(doc["records"], start=1)],
-                    "state": {**doc["state"], "iteration": doc["current_iteration"]}}
+        original = {
+            **doc,
+            "records": [{**r, "iteration": k} for k, r in enumerate(doc["records"], start=1)],
+            "state": {**doc["state"], "iteration": doc["current_iteration"]},
+        }
         path.write_text(json.dumps(original))
         session = load_session(path)
         session.model.records[:] = doc["records"]
@@ -89,12 +92,15 @@ RECORD_FIELDS = [
     (("extra", "compensators", 0, "numerator", 1), "extra.compensators[0].numerator[1]"),
     (("extra", "matched", 2, "active_after"), "extra.matched[2].active_after"),
     (("settings", "max_iterations"), "settings mismatch"),
-] + [(("measures", 1, name), f"measures[1].{name}")
-     for name in ("name", "kind", "condition", "value", "target", "satisfied", "frequency", "at_least", "method")]
+] + [
+    (("measures", 1, name), f"measures[1].{name}")
+    for name in ("name", "kind", "condition", "value", "target", "satisfied", "frequency", "at_least", "method")
+]
 
 
-@pytest.mark.parametrize("path, named", RECORD_FIELDS, ids=lambda p: ".".join(map(str, p)) if isinstance(p, tuple)
-                         else None)
+@pytest.mark.parametrize(
+    "path, named", RECORD_FIELDS, ids=lambda p: ".".join(map(str, p)) if isinstance(p, tuple) else None
+)
 def test_every_field_of_a_record_is_compared(recorded, tmp_path, path, named):
     doc = copy.deepcopy(recorded)
     _edit(doc["records"][1], path)
@@ -112,10 +118,15 @@ def test_a_frequency_divergence_shows_both_values(recorded, tmp_path):
     assert message.startswith(f"iteration 3 diverges: measure {measure['name']} ({measure['kind']}, nominal)")
 
 
-@pytest.mark.parametrize("path, named", [(("x", 0), "state.x[0]"), (("memory", "step"), "state.memory.step"),
-                                         (("memory", "constraints", 1, "frequency"),
-                                          "state.memory.constraints[1].frequency"),
-                                         (("iteration",), "state.iteration")])
+@pytest.mark.parametrize(
+    "path, named",
+    [
+        (("x", 0), "state.x[0]"),
+        (("memory", "step"), "state.memory.step"),
+        (("memory", "constraints", 1, "frequency"), "state.memory.constraints[1].frequency"),
+        (("iteration",), "state.iteration"),
+    ],
+)
 def test_the_saved_state_is_compared(recorded, tmp_path, path, named):
     doc = copy.deepcopy(recorded)
     _edit(doc["state"], path)
@@ -166,7 +177,7 @@ def test_errors_exit_2_and_divergence_1(recorded, tmp_path, capsys):
     path = tmp_path / "edited.json"
     path.write_text(json.dumps(doc))
     assert main(["replay", str(path)]) == 1
-    doc["algorithm"]["settings"]["nonesuch"] = 1              # the algorithm cannot be made: an error
+    doc["algorithm"]["settings"]["nonesuch"] = 1  # the algorithm cannot be made: an error
     path.write_text(json.dumps(doc))
     assert main(["replay", str(path)]) == 2
     assert "unknown setting(s) nonesuch" in capsys.readouterr().err

@@ -43,25 +43,43 @@ def test_an_infinite_bound_saves_and_reads_back(matching_dict, tmp_path):
     path.write_text(json.dumps(matching_dict, indent=2).replace("-12345.5", "-1e999").replace("12345.5", "1e999"))
     try:
         session = load_session(path)
-    except SessionError as exc:                 # refused where it makes no sense (the schema's choice) ...
+    except SessionError as exc:  # refused where it makes no sense (the schema's choice) ...
         assert str(exc).startswith(f"{path}: problem.parameters[1].m")
         return
     assert session.model.problem.parameters[1].max == float("inf")
-    save_session(session)                       # ... or saved: never "Out of range float values are not JSON compliant"
+    save_session(session)  # ... or saved: never "Out of range float values are not JSON compliant"
     again = load_session(path).model.problem.parameters[1]
     assert (again.min, again.max) == (float("-inf"), float("inf"))
-    assert json.loads(path.read_text())["problem"]["parameters"][1]["max"] == float("inf")   # standard JSON
+    assert json.loads(path.read_text())["problem"]["parameters"][1]["max"] == float("inf")  # standard JSON
 
 
 def test_non_finite_values_in_free_form_data_save(matching_dict, tmp_path):
     matching_dict["problem"]["objective"]["data"] = {"big": 1.5, "none": 2.5}
-    record = {"iteration": 1, "status": "running", "parameters": {"K": 1.0, "T": 0.1},
-              "measures": [{"name": "P1", "kind": "phase_margin_deg", "condition": "nominal", "value": 3.5,
-                            "target": 45.0, "satisfied": False, "frequency": 4.5}]}
+    record = {
+        "iteration": 1,
+        "status": "running",
+        "parameters": {"K": 1.0, "T": 0.1},
+        "measures": [
+            {
+                "name": "P1",
+                "kind": "phase_margin_deg",
+                "condition": "nominal",
+                "value": 3.5,
+                "target": 45.0,
+                "satisfied": False,
+                "frequency": 4.5,
+            }
+        ],
+    }
     matching_dict.update(records=[record], current_iteration=1)
     path = tmp_path / "nan.json"
-    path.write_text(json.dumps(matching_dict).replace("1.5", "1e999").replace("2.5", "NaN")
-                    .replace("3.5", "-Infinity").replace("4.5", "NaN"))
+    path.write_text(
+        json.dumps(matching_dict)
+        .replace("1.5", "1e999")
+        .replace("2.5", "NaN")
+        .replace("3.5", "-Infinity")
+        .replace("4.5", "NaN")
+    )
     session = load_session(path)
     save_session(session)
     again = load_session(path)
@@ -71,16 +89,17 @@ def test_non_finite_values_in_free_form_data_save(matching_dict, tmp_path):
 
 
 JSON_VALUES = st.recursive(
-    st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats() | st.text(max_size=8),
+    st.none() | st.booleans() | st.integers(-(10**6), 10**6) | st.floats() | st.text(max_size=8),
     lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(max_size=6), inner, max_size=3),
-    max_leaves=6)
+    max_leaves=6,
+)
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(mutant=st.tuples(st.sampled_from(PATHS), st.sampled_from(["delete", "replace"]), JSON_VALUES))
 def test_saving_never_fails_on_what_loading_accepted(tmp_path, mutant):
     path = tmp_path / "mutant.json"
-    path.write_text(_mutate(MATCHING, *mutant))       # json.dumps writes inf and nan as Infinity and NaN
+    path.write_text(_mutate(MATCHING, *mutant))  # json.dumps writes inf and nan as Infinity and NaN
     try:
         session = load_session(path)
     except SessionError:
@@ -115,9 +134,14 @@ def _deep_record(doc):
     doc["current_iteration"] = 1
 
 
-@pytest.mark.parametrize("change, where", [(_deep_objective, r"problem\.objective\.data\.deep\.a"),
-                                           (_deep_state, r"state\.memory\.a\.a"),
-                                           (_deep_record, r"records\[0\]\.extra\.a\.a")])
+@pytest.mark.parametrize(
+    "change, where",
+    [
+        (_deep_objective, r"problem\.objective\.data\.deep\.a"),
+        (_deep_state, r"state\.memory\.a\.a"),
+        (_deep_record, r"records\[0\]\.extra\.a\.a"),
+    ],
+)
 def test_deep_nesting_is_refused_at_load(matching_dict, tmp_path, change, where):
     change(matching_dict)
     path = tmp_path / "deep.json"
@@ -184,6 +208,7 @@ def test_run_in_a_read_only_folder_fails_before_the_work(locked, capsys, monkeyp
 
     def no_work(*args, **kwargs):
         raise AssertionError("the run started before the output was found unwritable")
+
     monkeypatch.setattr("sessions.runner.run_session", no_work)
     assert main(["run", str(locked), "--iterations", "2"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -193,7 +218,7 @@ def test_run_in_a_read_only_folder_fails_before_the_work(locked, capsys, monkeyp
 
 def test_an_autosave_that_cannot_be_written_is_a_warning(locked):
     session = load_session(locked)
-    records = run_session(session, iterations=2)               # autosaves on the way: never raises
+    records = run_session(session, iterations=2)  # autosaves on the way: never raises
     assert len(records) == 2 and not autosave_path(locked).exists()
     assert session.autosave_warning.startswith(f"{autosave_path(locked)}: cannot autosave: Permission denied")
     with pytest.raises(SessionError, match=r"cannot save: Permission denied \(EACCES\)"):
@@ -213,6 +238,7 @@ def test_a_full_disk_is_a_clean_error_and_the_old_file_stays(matching, monkeypat
 
     def full(fd):
         raise OSError(errno.ENOSPC, "No space left on device")
+
     monkeypatch.setattr(os, "fsync", full)
     with pytest.raises(SessionError, match=rf"^{matching}: cannot save: No space left on device \(ENOSPC\)$"):
         save_session(session)
@@ -229,8 +255,10 @@ def test_a_full_disk_is_a_clean_error_and_the_old_file_stays(matching, monkeypat
 
 
 def test_a_save_sweeps_only_old_temporary_files(matching):
-    in_flight = [matching.parent / f".{matching.name}.inflight.tmp",
-                 matching.parent / f".{matching.name}.autosave.inflight.tmp"]
+    in_flight = [
+        matching.parent / f".{matching.name}.inflight.tmp",
+        matching.parent / f".{matching.name}.autosave.inflight.tmp",
+    ]
     stale = matching.parent / f".{matching.name}.left.tmp"
     for p in in_flight + [stale]:
         p.write_text("{")
@@ -250,10 +278,10 @@ def test_a_file_changed_on_disk_is_not_overwritten_without_force(matching):
     assert load_session(matching).model.notes == "first"
     save_session(second, force=True)
     assert load_session(matching).model.notes == "second"
-    save_session(second)                                        # its own save is not a change on disk
+    save_session(second)  # its own save is not a change on disk
     third = load_session(matching)
     later = time.time() + 5
-    os.utime(matching, (later, later))                          # touched, not changed
+    os.utime(matching, (later, later))  # touched, not changed
     save_session(third)
 
 
@@ -268,8 +296,16 @@ for i in range(int(sys.argv[2])):
 
 
 def test_two_processes_saving_one_file_never_break_each_other(matching):
-    procs = [subprocess.Popen([sys.executable, "-c", SAVER, str(matching), "150", mark], cwd=ROOT,
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for mark in "ab"]
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", SAVER, str(matching), "150", mark],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for mark in "ab"
+    ]
     outcomes = [p.communicate(timeout=300) for p in procs]
     assert [p.returncode for p in procs] == [0, 0], [err for _, err in outcomes]
     assert set(load_session(matching).model.notes) in ({"a"}, {"b"})
@@ -287,20 +323,20 @@ def test_a_symlinked_session_saves_through_the_link_and_reads_tables_beside_the_
     (tmp_path / "links").mkdir()
     link = tmp_path / "links" / "session.json"
     link.symlink_to(Path("..") / "real" / "cip_launch_vehicle.json")
-    session = load_session(link)                                 # the CSV is beside the real file
+    session = load_session(link)  # the CSV is beside the real file
     session.model.notes = "through the link"
     save_session(session)
     assert link.is_symlink() and load_session(real / "cip_launch_vehicle.json").model.notes == "through the link"
     assert (real / "cip_launch_vehicle.json.bak").exists() and os.listdir(tmp_path / "links") == ["session.json"]
     assert write_autosave(session) == real / "cip_launch_vehicle.json.autosave"
     assert store.autosave_candidate(link) == real / "cip_launch_vehicle.json.autosave"
-    save_session(session, real / "copy.json")      # beside the real file: the table names stay as they are
+    save_session(session, real / "copy.json")  # beside the real file: the table names stay as they are
     assert load_session(real / "copy.json").model.problem == session.model.problem
 
 
 def test_a_recovered_autosave_saves_over_its_file_unless_that_changed(matching):
     session = load_session(matching)
-    run_session(session, iterations=2)                           # autosaved, not saved
+    run_session(session, iterations=2)  # autosaved, not saved
     recovered = store.load_autosave(matching)
     assert recovered.path == matching and recovered.model.current_iteration == 2
     other = load_session(matching)

@@ -18,8 +18,12 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 def _full(model, compact: bool = True) -> str:
     """The text as the whole session encoded at once (independent of the kept texts)."""
-    text = json.dumps(_plain(model.model_dump(mode="python", exclude_none=False), _MARKER), sort_keys=True,
-                      indent=None if compact else 2, allow_nan=False)
+    text = json.dumps(
+        _plain(model.model_dump(mode="python", exclude_none=False), _MARKER),
+        sort_keys=True,
+        indent=None if compact else 2,
+        allow_nan=False,
+    )
     return text.replace(json.dumps(_MARKER + "+"), "1e999").replace(json.dumps(_MARKER + "-"), "-1e999") + "\n"
 
 
@@ -32,12 +36,12 @@ def test_the_text_is_the_whole_encoding_and_keeps_the_records_texts(tmp_path):
     model.records[1] = dict(model.records[1], objective=math.inf, measures=measures, reason="1e999 as text")
     first = dumps(model, compact=True)
     assert first == _full(model)
-    assert [_RECORD_TEXTS[id(r)][0] for r in model.records] == model.records   # each record's text is kept
+    assert [_RECORD_TEXTS[id(r)][0] for r in model.records] == model.records  # each record's text is kept
     kept = {id(r): _RECORD_TEXTS[id(r)][1][True] for r in model.records}
-    model.records[2] = dict(model.records[2], objective=-1.5)   # replaced, never changed in place
+    model.records[2] = dict(model.records[2], objective=-1.5)  # replaced, never changed in place
     again = dumps(model, compact=True)
     assert again == _full(model) and again != first
-    assert _RECORD_TEXTS[id(model.records[0])][1][True] is kept[id(model.records[0])]   # not encoded again
+    assert _RECORD_TEXTS[id(model.records[0])][1][True] is kept[id(model.records[0])]  # not encoded again
     read = parse_session(again, "s.json", tmp_path).model.records
     assert read[1]["objective"] == math.inf and read[1]["measures"][0]["value"] == -math.inf
     assert read[1]["reason"] == "1e999 as text" and read[2]["objective"] == -1.5

@@ -19,6 +19,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 def test_launch_vehicle_example_is_generated_by_its_script(tmp_path):
     from sessions.examples.coebra_launch_vehicle import write_example
+
     write_example(tmp_path)
     name = "coebra_launch_vehicle.json"
     assert json.loads((tmp_path / name).read_text()) == json.loads((EXAMPLES / name).read_text())
@@ -49,12 +50,15 @@ def test_equality_terms_name_conditions(tmp_path):
     assert A.shape == (1, len(problem.free_slots())) and sorted(A[0][A[0] != 0]) == [-1.0, 1.0]
 
 
-@pytest.mark.parametrize("terms, message", [
-    ({"KL[cruise]": 1.0}, "problem.equalities[0].terms.KL[cruise]: no condition 'cruise'"),
-    ({"KL": 1.0}, "equalities[0]: 'KL' has one value per condition"),
-    ({"TA[max-q]": 1.0}, "equalities[0]: 'TA' is shared by all conditions"),
-    ({"XX": 1.0}, "equalities[0]: unknown parameter 'XX'"),
-])
+@pytest.mark.parametrize(
+    "terms, message",
+    [
+        ({"KL[cruise]": 1.0}, "problem.equalities[0].terms.KL[cruise]: no condition 'cruise'"),
+        ({"KL": 1.0}, "equalities[0]: 'KL' has one value per condition"),
+        ({"TA[max-q]": 1.0}, "equalities[0]: 'TA' is shared by all conditions"),
+        ({"XX": 1.0}, "equalities[0]: unknown parameter 'XX'"),
+    ],
+)
 def test_bad_equalities_name_their_path(tmp_path, terms, message):
     with pytest.raises(SessionError, match=message.replace("[", r"\[").replace("]", r"\]")):
         load_session(_with_equality(tmp_path, terms))
@@ -78,8 +82,22 @@ def test_run_adopt_set_continues_with_load_relief(tmp_path, capsys):
     phase1 = json.loads(capsys.readouterr().out)
     assert all(m["satisfied"] for m in phase1["measures"])
     second = tmp_path / "phase2.json"
-    assert main(["run", str(first), "--adopt", "--set", "objective=load_relief", "--until-done",
-                 "--out", str(second), "--json"]) == 0
+    assert (
+        main(
+            [
+                "run",
+                str(first),
+                "--adopt",
+                "--set",
+                "objective=load_relief",
+                "--until-done",
+                "--out",
+                str(second),
+                "--json",
+            ]
+        )
+        == 0
+    )
     phase2 = json.loads(capsys.readouterr().out)
     saved = json.loads(second.read_text())
     assert saved["algorithm"]["settings"]["objective"] == "load_relief"

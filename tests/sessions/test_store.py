@@ -33,8 +33,9 @@ def test_examples_round_trip_to_equal_sessions_and_stable_json(example, tmp_path
     text = saved.read_text()
     assert json.loads(text) == json.loads(dumps(again.model))  # before saving again stamps a new time
     save_session(again, tmp_path / "again.json")
-    assert (tmp_path / "again.json").read_text().replace(again.model.provenance.modified, "") == \
-        text.replace(json.loads(text)["provenance"]["modified"], "")
+    assert (tmp_path / "again.json").read_text().replace(again.model.provenance.modified, "") == text.replace(
+        json.loads(text)["provenance"]["modified"], ""
+    )
 
 
 def test_saving_elsewhere_keeps_csv_tables_reachable(tmp_path):
@@ -50,20 +51,30 @@ def test_json_schema_file_is_current():
     assert SCHEMA_FILE.read_text() == schema_text(), "run: python -m sessions.format.json_schema"
 
 
-@pytest.mark.parametrize("change, message", [
-    (lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"].update(
-        poles=[{"kind": "second_order", "zeta": -0.1, "omega": 3.0}]),
-     r"problem\.conditions\[0\]\.plant\.diagram\.blocks\[1\]\.transfer\.factored\.poles\[0\]: zeta: must be > 0"),
-    (lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0]["transfer"].update(expression="K*(1+T s)"),
-     r"problem\.conditions\[0\]\.plant\.blocks\[0\]\.transfer: a missing operator .* at column 4"),
-    (lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0].update(input="ee"),
-     r"problem\.conditions\[0\]: block 'C' reads signal 'ee'"),
-    (lambda d: d["problem"]["grid"].update(stop=0.01), r"problem\.grid: stop must be greater than start"),
-    (lambda d: d["problem"].update(colour="blue"), r"problem\.colour: Extra inputs are not permitted"),
-    (lambda d: d["problem"]["parameters"].pop(), r"no parameter defined for T"),
-    (lambda d: d.update(schema_version=7), r"schema_version 7 is newer than this loopcraft reads"),
-    (lambda d: d.pop("schema_version"), r"schema_version: missing"),
-])
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"].update(
+                poles=[{"kind": "second_order", "zeta": -0.1, "omega": 3.0}]
+            ),
+            r"problem\.conditions\[0\]\.plant\.diagram\.blocks\[1\]\.transfer\.factored\.poles\[0\]: zeta: must be > 0",
+        ),
+        (
+            lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0]["transfer"].update(expression="K*(1+T s)"),
+            r"problem\.conditions\[0\]\.plant\.blocks\[0\]\.transfer: a missing operator .* at column 4",
+        ),
+        (
+            lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0].update(input="ee"),
+            r"problem\.conditions\[0\]: block 'C' reads signal 'ee'",
+        ),
+        (lambda d: d["problem"]["grid"].update(stop=0.01), r"problem\.grid: stop must be greater than start"),
+        (lambda d: d["problem"].update(colour="blue"), r"problem\.colour: Extra inputs are not permitted"),
+        (lambda d: d["problem"]["parameters"].pop(), r"no parameter defined for T"),
+        (lambda d: d.update(schema_version=7), r"schema_version 7 is newer than this loopcraft reads"),
+        (lambda d: d.pop("schema_version"), r"schema_version: missing"),
+    ],
+)
 def test_errors_name_the_json_path(matching_dict, tmp_path, change, message):
     change(matching_dict)
     path = tmp_path / "bad.json"
@@ -160,10 +171,14 @@ while True:
 
 def test_a_killed_save_leaves_the_old_or_the_new_file(matching):
     for delay in (0.05, 0.2, 0.45):
-        proc = subprocess.Popen([sys.executable, "-c", KILLER, str(matching)], stdout=subprocess.PIPE,
-                                cwd=Path(__file__).resolve().parents[2])
+        proc = subprocess.Popen(
+            [sys.executable, "-c", KILLER, str(matching)],
+            stdout=subprocess.PIPE,
+            cwd=Path(__file__).resolve().parents[2],
+        )
         assert proc.stdout.readline().strip() == b"ready"
         import time
+
         time.sleep(delay)
         proc.kill()
         proc.wait()
@@ -188,8 +203,10 @@ def test_csv_table_next_to_the_session(matching_dict, tmp_path):
     shared = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "seidel_inlet_table1.csv"
     (tmp_path / "inlet.csv").write_text(shared.read_text())
     plant = matching_dict["problem"]["conditions"][0]["plant"]
-    plant["blocks"][1]["transfer"] = {"kind": "table", "table": {
-        "unit": "hz", "gain": 0.016, "csv": "inlet.csv", "columns": ["hz", "g1_mag", "g1_phase_deg"]}}
+    plant["blocks"][1]["transfer"] = {
+        "kind": "table",
+        "table": {"unit": "hz", "gain": 0.016, "csv": "inlet.csv", "columns": ["hz", "g1_mag", "g1_phase_deg"]},
+    }
     matching_dict["problem"]["grid"] = {"unit": "hz", "start": 1.0, "stop": 600.0, "points": 50}
     path = tmp_path / "inlet.json"
     path.write_text(json.dumps(matching_dict))
@@ -205,7 +222,7 @@ def test_csv_table_next_to_the_session(matching_dict, tmp_path):
 
 def test_autosave_during_a_run_is_throttled_and_written_at_its_end(matching):
     session = load_session(matching)
-    assert store.write_autosave(session, at_most_every=60.0) is not None      # the first one is written
-    assert store.write_autosave(session, at_most_every=60.0) is None          # the next within 60 s is not
+    assert store.write_autosave(session, at_most_every=60.0) is not None  # the first one is written
+    assert store.write_autosave(session, at_most_every=60.0) is None  # the next within 60 s is not
     run_session(session, iterations=3)
-    assert json.loads(autosave_path(matching).read_text())["current_iteration"] == 3   # the end of the run is
+    assert json.loads(autosave_path(matching).read_text())["current_iteration"] == 3  # the end of the run is

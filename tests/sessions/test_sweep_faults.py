@@ -36,9 +36,21 @@ def _copy(tmp_path: Path, name: str) -> Path:
     return tmp_path / f"{name}.json"
 
 
-@pytest.mark.parametrize("address", ["tcp://127.0.0.1", "nonsense", "inproc://x", "tls://127.0.0.1:1", "",
-                                     "tcp://127.0.0.1:0", "tcp://127.0.0.1:65536", "tcp://:8786",
-                                     "tcp://127.0.0.1:8786/path", "tcp://a b:1"])
+@pytest.mark.parametrize(
+    "address",
+    [
+        "tcp://127.0.0.1",
+        "nonsense",
+        "inproc://x",
+        "tls://127.0.0.1:1",
+        "",
+        "tcp://127.0.0.1:0",
+        "tcp://127.0.0.1:65536",
+        "tcp://:8786",
+        "tcp://127.0.0.1:8786/path",
+        "tcp://a b:1",
+    ],
+)
 def test_a_bad_scheduler_address_is_refused_before_anything_starts(tmp_path, capsys, address):
     path = _copy(tmp_path, "coebra_lag_lead")
     began = time.monotonic()
@@ -57,13 +69,15 @@ def test_good_addresses_are_kept():
 
 
 def test_an_unreachable_scheduler_is_given_up_after_the_connect_timeout(tmp_path, capsys):
-    with socket.socket() as s:      # a port nobody listens on
+    with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     path = _copy(tmp_path, "coebra_lag_lead")
     began = time.monotonic()
-    assert main(["sweep", str(path), "--starts", "2", "--scheduler", f"tcp://127.0.0.1:{port}",
-                 "--connect-timeout", "1"]) == 2
+    assert (
+        main(["sweep", str(path), "--starts", "2", "--scheduler", f"tcp://127.0.0.1:{port}", "--connect-timeout", "1"])
+        == 2
+    )
     assert time.monotonic() - began < 6.0
     assert f"cannot reach the Dask scheduler tcp://127.0.0.1:{port} within 1 s" in capsys.readouterr().err
     for bad in ("0", "-1", "nan", "inf"):
@@ -73,20 +87,28 @@ def test_an_unreachable_scheduler_is_given_up_after_the_connect_timeout(tmp_path
 
 def test_a_worker_dying_at_start_up_is_a_clean_error(tmp_path, capsys):
     import dask
+
     path = _copy(tmp_path, "coebra_lag_lead")
-    with dask.config.set({"distributed.worker.preload": ["loopcraft_no_such_module"]}):   # the worker dies
+    with dask.config.set({"distributed.worker.preload": ["loopcraft_no_such_module"]}):  # the worker dies
         assert main(["sweep", str(path), "--starts", "2", "--workers", "1"]) == 2
-    assert "cannot start a local Dask cluster of 1 worker(s): RuntimeError: Nanny failed to start" in \
-        capsys.readouterr().err
+    assert (
+        "cannot start a local Dask cluster of 1 worker(s): RuntimeError: Nanny failed to start"
+        in capsys.readouterr().err
+    )
     assert not json.loads(path.read_text()).get("sweeps")
 
 
 def test_ctrl_c_on_a_serial_sweep_keeps_the_finished_runs(tmp_path):
     """A real SIGINT to the process group, as a terminal's Ctrl-C sends it."""
-    path = _copy(tmp_path, "coebra_launch_vehicle")            # runs of a few seconds each
-    child = subprocess.Popen([sys.executable, "-m", "tui.cli", "sweep", str(path), "--starts", "12", "--spread",
-                              "1.5", "--serial"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                             text=True, start_new_session=True)
+    path = _copy(tmp_path, "coebra_launch_vehicle")  # runs of a few seconds each
+    child = subprocess.Popen(
+        [sys.executable, "-m", "tui.cli", "sweep", str(path), "--starts", "12", "--spread", "1.5", "--serial"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     time.sleep(7.0)
     os.killpg(child.pid, signal.SIGINT)
     out, err = child.communicate(timeout=60)
@@ -102,6 +124,7 @@ def _interrupt_after(n: int):
     def progress(done: int, total: int) -> None:
         if done >= n:
             raise KeyboardInterrupt
+
     return progress
 
 
@@ -123,12 +146,14 @@ def test_an_interrupted_dask_execution_keeps_what_finished(tmp_path):
 def test_an_output_that_cannot_be_written_is_refused_before_the_runs(tmp_path, capsys):
     path = _copy(tmp_path, "coebra_lag_lead")
     (tmp_path / "a-file").write_text("")
-    for out, said in ((tmp_path / "missing" / "x.json", "does not exist"),
-                      (tmp_path / "a-file" / "x.json", "does not exist"),
-                      (tmp_path, "cannot save: it is a folder")):
+    for out, said in (
+        (tmp_path / "missing" / "x.json", "does not exist"),
+        (tmp_path / "a-file" / "x.json", "does not exist"),
+        (tmp_path, "cannot save: it is a folder"),
+    ):
         began = time.monotonic()
         assert main(["sweep", str(path), "--starts", "200", "--serial", "--out", str(out)]) == 2
-        assert said in capsys.readouterr().err and time.monotonic() - began < 2.0   # no run was made
+        assert said in capsys.readouterr().err and time.monotonic() - began < 2.0  # no run was made
 
 
 def test_a_session_that_cannot_be_saved_leaves_a_recovery_file(tmp_path, capsys, monkeypatch):
@@ -136,6 +161,7 @@ def test_a_session_that_cannot_be_saved_leaves_a_recovery_file(tmp_path, capsys,
 
     def full(*args, **kwargs):
         raise SessionError("x.json: cannot save: No space left on device")
+
     monkeypatch.setattr(sessions.store, "save_session", full)
     path = _copy(tmp_path, "coebra_lag_lead")
     assert main(["sweep", str(path), "--starts", "3", "--serial", "--json"]) == 2
@@ -148,34 +174,51 @@ def test_a_session_that_cannot_be_saved_leaves_a_recovery_file(tmp_path, capsys,
 
 def test_non_finite_objectives_are_kept_as_json(tmp_path):
     session = load_session(_copy(tmp_path, "coebra_lag_lead"))
-    runs = [{"index": 0, "label": "start 0", "start": {}, "status": "converged", "reason": "", "parameters": {"T1": 1.0},
-             "objective": math.inf, "measures": [], "meets_requirements": True, "iterations": 3, "attempts": 1}]
+    runs = [
+        {
+            "index": 0,
+            "label": "start 0",
+            "start": {},
+            "status": "converged",
+            "reason": "",
+            "parameters": {"T1": 1.0},
+            "objective": math.inf,
+            "measures": [],
+            "meets_requirements": True,
+            "iterations": 3,
+            "attempts": 1,
+        }
+    ]
     summary = summarize(session, "starts", {}, Outcome(runs, 1))
     record_sweep(session, summary)
     assert summary["runs"][0]["objective"] == "inf"
     from sessions.store import dumps
+
     assert json.loads(dumps(session.model))["sweeps"][0]["runs"][0]["objective"] == "inf"
 
 
 def test_a_sweep_too_small_for_a_local_cluster_runs_serially_and_says_so(tmp_path):
     jobs = start_jobs(load_session(_copy(tmp_path, "coebra_lag_lead")), 4, seed=1)
     outcome = execute(jobs)
-    timed = 2 if outcome.runs[0]["seconds"] <= SECOND_TIMING else 1   # a short first run is timed again
+    timed = 2 if outcome.runs[0]["seconds"] <= SECOND_TIMING else 1  # a short first run is timed again
     assert outcome.workers == 1 and outcome.note.startswith(f"serial: the {4 - timed} other run(s) take about")
     serial = execute_serial(jobs)
     assert [r["parameters"] for r in outcome.runs] == [r["parameters"] for r in serial.runs]
     kept = summarize(load_session(_copy(tmp_path, "coebra_lag_lead")), "starts", {"scheduler": "local"}, outcome)
-    assert kept["settings"] == {"scheduler": "serial", "note": outcome.note}   # as saved in the session
+    assert kept["settings"] == {"scheduler": "serial", "note": outcome.note}  # as saved in the session
 
 
 def _worker_view() -> dict:
     import sys
 
     import dask
-    return {"profile": dask.config.get("distributed.worker.profile.enabled"),
-            "preload": list(dask.config.get("distributed.worker.preload")),
-            "warm": "engine.slp" in sys.modules and "sessions.sweeps.jobs" in sys.modules,
-            "environ": {name: os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_", "OPENBLAS_NUM_THREADS")}}
+
+    return {
+        "profile": dask.config.get("distributed.worker.profile.enabled"),
+        "preload": list(dask.config.get("distributed.worker.preload")),
+        "warm": "engine.slp" in sys.modules and "sessions.sweeps.jobs" in sys.modules,
+        "environ": {name: os.environ.get(name) for name in ("MALLOC_TRIM_THRESHOLD_", "OPENBLAS_NUM_THREADS")},
+    }
 
 
 def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(monkeypatch):
@@ -188,6 +231,7 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(mo
     from distributed import Client
 
     from sessions.sweeps.cluster import local_cluster
+
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
     with dask.config.set({"distributed.worker.preload": ["json"]}):
         cluster = local_cluster(1)
@@ -196,10 +240,14 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(mo
             (seen,) = client.run(_worker_view).values()
     finally:
         cluster.close()
-    assert seen == {"profile": False, "preload": ["json", "sessions.sweeps.worker_preload"], "warm": True,
-                    "environ": {"MALLOC_TRIM_THRESHOLD_": None, "OPENBLAS_NUM_THREADS": "1"}}
+    assert seen == {
+        "profile": False,
+        "preload": ["json", "sessions.sweeps.worker_preload"],
+        "warm": True,
+        "environ": {"MALLOC_TRIM_THRESHOLD_": None, "OPENBLAS_NUM_THREADS": "1"},
+    }
     with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": 1 << 20}):
-        cluster = local_cluster(1)   # a threshold configured on purpose is kept
+        cluster = local_cluster(1)  # a threshold configured on purpose is kept
     try:
         with Client(cluster) as client:
             (seen,) = client.run(_worker_view).values()

@@ -41,10 +41,10 @@ def test_starts_are_log_uniform_within_bounds_and_reproducible(tmp_path):
     assert [j.start for j in jobs] == [j.start for j in again]
     t1 = np.array([j.start["T1"] for j in jobs])
     assert t1.min() >= 1e-3 and t1.max() <= 1e3
-    logs = np.log10(t1)   # uniform on [-3, 3]: mean 0, standard deviation sqrt(3)
+    logs = np.log10(t1)  # uniform on [-3, 3]: mean 0, standard deviation sqrt(3)
     assert abs(logs.mean()) < 0.3 and abs(logs.std() - math.sqrt(3.0)) < 0.2
     spread = start_jobs(session, 50, spread=2.0, seed=1)
-    assert all(5.0 <= j.start["T1"] <= 20.0 for j in spread)   # within a factor 2 of 10
+    assert all(5.0 <= j.start["T1"] <= 20.0 for j in spread)  # within a factor 2 of 10
 
 
 def test_shipped_sessions_carry_their_tables(tmp_path):
@@ -52,23 +52,34 @@ def test_shipped_sessions_carry_their_tables(tmp_path):
     data = shippable(load_session(_copy(tmp_path, "seidel_inlet_pi")))
     text = json.dumps(data)
     assert ".csv" not in text and data["records"] == []
-    result = run_job(Job(0, "here", data).payload())   # in this process, from any folder
+    result = run_job(Job(0, "here", data).payload())  # in this process, from any folder
     assert result["status"] == "converged" and result["parameters"]["b1"] == pytest.approx(47.41, abs=0.01)
 
 
 def test_a_failing_run_is_a_result_not_an_exception(tmp_path):
     data = shippable(load_session(_copy(tmp_path, "coebra_lag_lead")))
-    data["problem"]["parameters"][0]["value"] = "ten"          # invalid: the worker's validation fails
+    data["problem"]["parameters"][0]["value"] = "ten"  # invalid: the worker's validation fails
     result = run_job(Job(4, "broken", data).payload())
     assert result["status"] == "failed" and "ValidationError" in result["reason"] and result["index"] == 4
 
 
 def test_optima_cluster_by_parameters_and_objective():
     def run(i, T, objective, meets=True):
-        return {"index": i, "status": "converged", "parameters": {"T1": T[0], "T2": T[1]}, "objective": objective,
-                "meets_requirements": meets}
-    runs = [run(0, (1.0, 10.0), 29.0), run(1, (1.05, 10.2), 29.0), run(2, (5.0, 10.0), 29.0),
-            run(3, (1.0, 10.0), 20.0, meets=False), {"index": 4, "status": "failed", "parameters": {}}]
+        return {
+            "index": i,
+            "status": "converged",
+            "parameters": {"T1": T[0], "T2": T[1]},
+            "objective": objective,
+            "meets_requirements": meets,
+        }
+
+    runs = [
+        run(0, (1.0, 10.0), 29.0),
+        run(1, (1.05, 10.2), 29.0),
+        run(2, (5.0, 10.0), 29.0),
+        run(3, (1.0, 10.0), 20.0, meets=False),
+        {"index": 4, "status": "failed", "parameters": {}},
+    ]
     found = optima(runs, maximize=True)
     assert [o["count"] for o in found] == [2, 1, 1]
     assert found[0]["best_run"] == 0 and found[0]["runs"] == [0, 1] and found[-1]["meets_requirements"] is False
@@ -78,25 +89,56 @@ def test_runs_with_the_same_loop_are_one_optimum_whatever_their_parameters(tmp_p
     """(1+T1 s)(1+T2 s)/((1+T3 s)(1+T4 s)): swapping T1 and T2 is the same
     compensator, so the same loop and one optimum; moving a pole is not."""
     session = load_session(_copy(tmp_path, "coebra_lag_lead"))
-    designs = [{"T1": 1.2, "T2": 0.7, "T3": 36.0, "T4": 0.03}, {"T1": 0.7, "T2": 1.2, "T3": 36.0, "T4": 0.03},
-               {"T1": 1.2, "T2": 0.7, "T3": 18.0, "T4": 0.03}]
-    runs = [{"index": i, "status": "converged", "parameters": d, "objective": 29.0, "meets_requirements": True,
-             "signature": loop_signature(session.problem, d)} for i, d in enumerate(designs)]
+    designs = [
+        {"T1": 1.2, "T2": 0.7, "T3": 36.0, "T4": 0.03},
+        {"T1": 0.7, "T2": 1.2, "T3": 36.0, "T4": 0.03},
+        {"T1": 1.2, "T2": 0.7, "T3": 18.0, "T4": 0.03},
+    ]
+    runs = [
+        {
+            "index": i,
+            "status": "converged",
+            "parameters": d,
+            "objective": 29.0,
+            "meets_requirements": True,
+            "signature": loop_signature(session.problem, d),
+        }
+        for i, d in enumerate(designs)
+    ]
     first, swapped = (np.array([complex(*p) for p in r["signature"]]) for r in runs[:2])
     np.testing.assert_allclose(first, swapped, rtol=1e-12)
     found = optima(runs, maximize=True)
     assert [o["runs"] for o in found] == [[0, 1], [2]]
     without = [{k: v for k, v in r.items() if k != "signature"} for r in runs]
-    assert [o["count"] for o in optima(without, maximize=True)] == [1, 1, 1]   # by parameters: three
+    assert [o["count"] for o in optima(without, maximize=True)] == [1, 1, 1]  # by parameters: three
 
 
 def test_worst_case_follows_each_measures_sense():
     def sample(i, pm, peak):
-        return {"index": i, "measures": [
-            {"name": "PM1", "kind": "phase_margin_deg", "condition": "c", "value": pm, "target": 30.0,
-             "satisfied": pm >= 30, "at_least": True},
-            {"name": "PK1", "kind": "modal_peak_db", "condition": "c", "value": peak, "target": -6.0,
-             "satisfied": peak <= -6, "at_least": False}]}
+        return {
+            "index": i,
+            "measures": [
+                {
+                    "name": "PM1",
+                    "kind": "phase_margin_deg",
+                    "condition": "c",
+                    "value": pm,
+                    "target": 30.0,
+                    "satisfied": pm >= 30,
+                    "at_least": True,
+                },
+                {
+                    "name": "PK1",
+                    "kind": "modal_peak_db",
+                    "condition": "c",
+                    "value": peak,
+                    "target": -6.0,
+                    "satisfied": peak <= -6,
+                    "at_least": False,
+                },
+            ],
+        }
+
     rows = worst_case([sample(0, 40.0, -9.0), sample(1, 28.0, -7.0), sample(2, 35.0, -5.0)])
     assert (rows[0]["worst"], rows[0]["worst_sample"], rows[0]["unmet_samples"]) == (28.0, 1, 1)
     assert (rows[1]["worst"], rows[1]["worst_sample"], rows[1]["unmet_samples"]) == (-5.0, 2, 1)
@@ -136,7 +178,7 @@ def test_thirty_two_starts_on_a_local_cluster(tmp_path, capsys):
     summary = json.loads(capsys.readouterr().out)
     assert summary["workers"] == 2 and len(summary["runs"]) == 32 and not summary["failed"]
     workers = {r["worker"] for r in summary["runs"]}
-    assert len(workers) == 2 and all(w.startswith("tcp://") for w in workers)   # both worker processes ran
+    assert len(workers) == 2 and all(w.startswith("tcp://") for w in workers)  # both worker processes ran
     best = summary["optima"][0]
     assert best["meets_requirements"] and best["count"] >= 1
     assert sum(o["count"] for o in summary["optima"]) == 32
@@ -151,18 +193,47 @@ def dask_cluster(tmp_path):
     """A scheduler and two single-threaded workers on 127.0.0.1 (dask's own
     processes, no nanny: killing a worker kills it for good)."""
     file = tmp_path / "scheduler.json"
-    processes = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-                                   "--port", "0", "--no-dashboard", "--scheduler-file", str(file)],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    processes = [
+        subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "distributed.cli.dask_scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(file),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
     deadline = time.monotonic() + 30
     while not file.exists() and time.monotonic() < deadline:
         time.sleep(0.1)
     address = json.loads(file.read_text())["address"]
     for _ in range(2):
-        processes.append(subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", address,
-                                           "--nthreads", "1", "--no-nanny", "--no-dashboard"],
-                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        processes.append(
+            subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "distributed.cli.dask_worker",
+                    address,
+                    "--nthreads",
+                    "1",
+                    "--no-nanny",
+                    "--no-dashboard",
+                ],
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        )
     from distributed import Client
+
     with Client(address, timeout="30s") as client:
         client.wait_for_workers(2, timeout=30)
     yield address, processes
@@ -173,7 +244,7 @@ def dask_cluster(tmp_path):
 
 def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster, tmp_path, capsys):
     address, processes = dask_cluster
-    path = _copy(tmp_path, "coebra_launch_vehicle")   # runs of a few seconds each
+    path = _copy(tmp_path, "coebra_launch_vehicle")  # runs of a few seconds each
     killer = threading.Timer(4.0, lambda: processes[2].send_signal(signal.SIGKILL))
     killer.start()
     try:
@@ -181,7 +252,7 @@ def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster,
     finally:
         killer.cancel()
     summary = json.loads(capsys.readouterr().out)
-    assert processes[2].poll() is not None   # the worker is gone
+    assert processes[2].poll() is not None  # the worker is gone
     runs = summary["runs"]
     assert len(runs) == 8
     assert all(r["status"] != "failed" or r["reason"] for r in runs)

@@ -26,8 +26,10 @@ COLUMNS = ["hz", "g1_mag", "g1_phase_deg"]
 def _session(matching_dict: dict, folder: Path, csv: str, columns: list[str] = COLUMNS) -> Path:
     """The tests' matching session with its plant a CSV table named ``csv``."""
     plant = matching_dict["problem"]["conditions"][0]["plant"]
-    plant["blocks"][1]["transfer"] = {"kind": "table", "table": {"unit": "hz", "gain": 0.016, "csv": csv,
-                                                                 "columns": columns}}
+    plant["blocks"][1]["transfer"] = {
+        "kind": "table",
+        "table": {"unit": "hz", "gain": 0.016, "csv": csv, "columns": columns},
+    }
     matching_dict["problem"]["grid"] = {"unit": "hz", "start": 1.0, "stop": 600.0, "points": 50}
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / "session.json"
@@ -45,7 +47,7 @@ def outside(tmp_path) -> Path:
 def test_a_table_beside_or_below_the_session_is_read(matching_dict, tmp_path):
     (tmp_path / "s" / "data").mkdir(parents=True)
     shutil.copy(INLET, tmp_path / "s" / "data" / "inlet.csv")
-    os.symlink(tmp_path / "s" / "data" / "inlet.csv", tmp_path / "s" / "link.csv")   # a symlink staying inside
+    os.symlink(tmp_path / "s" / "data" / "inlet.csv", tmp_path / "s" / "link.csv")  # a symlink staying inside
     for name in ("data/inlet.csv", "link.csv", "data/../data/inlet.csv"):
         load_session(_session(matching_dict, tmp_path / "s", name))
 
@@ -65,11 +67,12 @@ def test_a_table_outside_the_folder_is_refused_unless_allowed(matching_dict, tmp
     with outside_tables_allowed():
         load_session(path)
     with pytest.raises(SessionError, match="outside"):
-        build_problem(model.problem, folder)      # the default is refusing again
+        build_problem(model.problem, folder)  # the default is refusing again
 
 
 def load_session_model(path: Path):
     from sessions.format.schema import SessionModel
+
     return SessionModel.model_validate(json.loads(path.read_text()))
 
 
@@ -90,20 +93,20 @@ def test_dev_zero_and_a_fifo_are_not_regular_files(tmp_path):
     os.mkfifo(tmp_path / "fifo.csv")
     for file in (Path("/dev/zero"), tmp_path / "fifo.csv", tmp_path):
         with pytest.raises(SessionError, match="not a regular file"):
-            read_csv(file, COLUMNS, "table")      # at once: no read until memory runs out, no blocking open
+            read_csv(file, COLUMNS, "table")  # at once: no read until memory runs out, no blocking open
 
 
 def test_tables_are_bounded_in_bytes_and_rows(tmp_path, monkeypatch):
     big = tmp_path / "big.csv"
     with big.open("wb") as fh:
-        fh.truncate(build.MAX_TABLE_BYTES + 1)    # sparse: no disk used
+        fh.truncate(build.MAX_TABLE_BYTES + 1)  # sparse: no disk used
     with pytest.raises(SessionError, match="at most"):
         read_csv(big, COLUMNS, "table")
     rows = tmp_path / "rows.csv"
     rows.write_text("hz,g1_mag,g1_phase_deg\n" + "1,1,1\n" * (build.MAX_TABLE_ROWS + 1))
     with pytest.raises(SessionError, match=f"{build.MAX_TABLE_ROWS + 1} rows"):
         read_csv(rows, COLUMNS, "table")
-    monkeypatch.setattr(build, "MAX_TABLE_BYTES", 100)    # the bounded read, whatever stat says
+    monkeypatch.setattr(build, "MAX_TABLE_BYTES", 100)  # the bounded read, whatever stat says
     monkeypatch.setattr(os, "fstat", lambda fd, real=os.fstat: os.stat_result(real(fd)[:6] + (0,) + real(fd)[7:]))
     with pytest.raises(SessionError, match="more than 100 bytes"):
         read_csv(INLET, COLUMNS, "table")
@@ -111,7 +114,7 @@ def test_tables_are_bounded_in_bytes_and_rows(tmp_path, monkeypatch):
 
 def test_a_line_that_is_not_csv_is_a_clean_error(tmp_path):
     bad = tmp_path / "bad.csv"
-    bad.write_text("hz,g1_mag,g1_phase_deg\n1,2,3\n1," + "9" * 200_000 + ",3\n")   # beyond csv's field limit
+    bad.write_text("hz,g1_mag,g1_phase_deg\n1,2,3\n1," + "9" * 200_000 + ",3\n")  # beyond csv's field limit
     with pytest.raises(SessionError, match="line 3: not CSV"):
         read_csv(bad, COLUMNS, "table")
     bad.write_bytes(b"hz,g1_mag,g1_phase_deg\n1,\xff,3\n")
@@ -133,8 +136,12 @@ def test_sweeps_do_not_ship_an_outside_table(matching_dict, tmp_path, outside):
         session = load_session(path)
     with pytest.raises(SessionError, match="outside"):
         shippable(session)
-    assert shippable(session, allow_outside_tables=True)["problem"]["conditions"][0]["plant"]["blocks"][1][
-        "transfer"]["table"]["csv"] is None
+    assert (
+        shippable(session, allow_outside_tables=True)["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"][
+            "table"
+        ]["csv"]
+        is None
+    )
 
 
 @pytest.mark.parametrize("command", [["report"], ["replay"], ["run", "--iterations", "1"]])

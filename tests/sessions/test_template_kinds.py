@@ -42,7 +42,7 @@ def test_two_loops_have_the_margins_at_each_break_point_with_the_other_loop_clos
     outer_c = v["K_o"] * (1 + v["T1_o"] * s) / (1 + v["T2_o"] * s)
     inner_loop = inner_c * 10 / (s + 1)
     outer_loop = outer_c * ct.feedback(inner_loop, 1) * (1 / s)
-    at_e2 = inner_c * 10 / (s + 1) * (1 + outer_c / s)    # e2 = x_ref - x with x_ref = -C_o G2 x
+    at_e2 = inner_c * 10 / (s + 1) * (1 + outer_c / s)  # e2 = x_ref - x with x_ref = -C_o G2 x
     rows = {(r.condition, r.kind): r.value for r in tableau(session.problem)}
     for condition, loop in (("outer loop", outer_loop), ("inner loop", at_e2)):
         _, pm, _, _ = ct.margin(loop)
@@ -51,8 +51,10 @@ def test_two_loops_have_the_margins_at_each_break_point_with_the_other_loop_clos
 
 def test_a_table_the_projection_and_the_unit(tmp_path):
     (tmp_path / "plant.csv").write_text("hz,mag,deg\n0.1,10,-90\n1,1,-120\n10,0.1,-170\n")
-    table = {"kind": "table", "table": {"csv": "plant.csv", "columns": ["hz", "mag", "deg"], "form": "polar",
-                                        "unit": "hz", "gain": 1.0}}
+    table = {
+        "kind": "table",
+        "table": {"csv": "plant.csv", "columns": ["hz", "mag", "deg"], "form": "polar", "unit": "hz", "gain": 1.0},
+    }
     session = _load(table_session(table, [0.1, 1, 10]), tmp_path)
     assert session.model.problem.grid.unit == "hz" and session.model.problem.grid.stop == 10
     assert _load(projection_session(), tmp_path).model.algorithm.name == "projection"

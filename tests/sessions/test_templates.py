@@ -66,12 +66,15 @@ def test_custom_expression_delay_and_w_plane():
     _load(w)
 
 
-@pytest.mark.parametrize("plant, compensator, algorithm, message", [
-    ("1/(s+a)", "lead", "slp", "--plant: '1/(s+a)' names a"),
-    ("1/(s+", "lead", "slp", "--plant:"),
-    ("1/(s+1)", "s+1", "slp", "--compensator: 's+1' has no parameter"),
-    ("1/(s+1)", "lead", "qcg", "algorithm 'qcg'"),
-])
+@pytest.mark.parametrize(
+    "plant, compensator, algorithm, message",
+    [
+        ("1/(s+a)", "lead", "slp", "--plant: '1/(s+a)' names a"),
+        ("1/(s+", "lead", "slp", "--plant:"),
+        ("1/(s+1)", "s+1", "slp", "--compensator: 's+1' has no parameter"),
+        ("1/(s+1)", "lead", "qcg", "algorithm 'qcg'"),
+    ],
+)
 def test_bad_input_names_what_is_wrong(plant, compensator, algorithm, message):
     with pytest.raises(SessionError, match=None) as caught:
         new_session(plant, compensator, algorithm)

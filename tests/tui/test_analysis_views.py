@@ -47,7 +47,7 @@ async def test_the_views_are_plot_tabs_and_the_locus_is_computed_when_shown(work
         await settle(app, pilot)
         figure = app.screen.query_one("#locus").figure
         assert figure.title.startswith("Root locus") and figure.series
-    app = LoopcraftApp(workdir / "seidel_inlet_pi.json")     # tabulated: no poles to show
+    app = LoopcraftApp(workdir / "seidel_inlet_pi.json")  # tabulated: no poles to show
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         assert "p-closed" in app.screen.plot_tabs and "p-locus" not in app.screen.plot_tabs
@@ -55,6 +55,7 @@ async def test_the_views_are_plot_tabs_and_the_locus_is_computed_when_shown(work
 
 def test_m_circles_and_the_exclusion_disk_are_what_they_say():
     from tui.figures.open_loop import m_circle, nyquist_figure
+
     for m_db in (0.5, 3.0, 6.0):
         phase, db = m_circle(m_db)
         L = 10 ** (db / 20) * np.exp(1j * np.radians(phase))
@@ -62,17 +63,20 @@ def test_m_circles_and_the_exclusion_disk_are_what_they_say():
     fig = nyquist_figure([], [], None, disk=0.8)
     edge = next(s for s in fig.series if s.label.startswith("disk margin"))
     L = np.array(edge.x) + 1j * np.array(edge.y)
-    assert np.allclose(np.abs(1 / (1 + L) - 0.5), 1 / 0.8, rtol=1e-9)      # |S - 1/2| = 1/alpha on its edge
+    assert np.allclose(np.abs(1 / (1 + L) - 0.5), 1 / 0.8, rtol=1e-9)  # |S - 1/2| = 1/alpha on its edge
 
 
 def test_the_run_tab_lists_the_closed_loop_poles_with_zeta_and_wn(workdir):
     from tui.figures.closed_loop import pole_lines
+
     view = Workbench(load_session(workdir / "report003_lag_lead.json")).view()
     den = np.polymul(np.polymul([1, 0.1], [1, 50]), np.polymul([1, 0], np.polymul([1, 8], [1, 20])))
     roots = np.roots(np.polyadd(den, 16000 * np.polymul([1, 1], [1, 5])))
     pair = next(r for r in roots if r.imag > 0)
     line = next(t for t in pole_lines(view).splitlines() if "+-" in t).split()
-    assert float(line[0]) == pytest.approx(pair.real, rel=1e-4) and float(line[2][:-1]) == pytest.approx(pair.imag, rel=1e-4)
+    assert float(line[0]) == pytest.approx(pair.real, rel=1e-4) and float(line[2][:-1]) == pytest.approx(
+        pair.imag, rel=1e-4
+    )
     assert float(line[3]) == pytest.approx(-pair.real / abs(pair), rel=1e-2)
     assert float(line[4]) == pytest.approx(abs(pair), rel=1e-4)
 
@@ -83,13 +87,15 @@ async def test_the_pole_lines_are_made_off_the_ui_thread_and_shown_for_each_step
     import threading
 
     import tui.figures.closed_loop as views
+
     threads, lines = [], views.pole_lines
 
     def watched(view):
         threads.append(threading.current_thread() is threading.main_thread())
         return lines(view)
+
     monkeypatch.setattr(views, "pole_lines", watched)
-    monkeypatch.setattr("tui.screens.main.pole_lines", watched, raising=False)   # where the screen made them
+    monkeypatch.setattr("tui.screens.main.pole_lines", watched, raising=False)  # where the screen made them
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
@@ -99,7 +105,7 @@ async def test_the_pole_lines_are_made_off_the_ui_thread_and_shown_for_each_step
         tableau = str(app.screen.query_one("#tableau").render())
         expected = lines(app.bench.view())
         assert "closed-loop poles" in tableau and expected.splitlines()[2] in tableau and "computing" not in tableau
-    assert len(threads) >= 2 and not any(threads)   # the first view's, and the step's
+    assert len(threads) >= 2 and not any(threads)  # the first view's, and the step's
 
 
 @synchronous
@@ -107,11 +113,13 @@ async def test_the_pole_lines_come_with_a_sweep_kept_in_the_session(workdir):
     """The views' key holds the latest sweep's identity: the same while it is the same sweep
     (its JSON data was made anew for every view, and the pole lines never matched)."""
     from sessions.format.schema import SweepModel
+
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        app.bench.session.model.sweeps.append(SweepModel(version=1, kind="starts", created="x",
-                                                         algorithm=app.bench.algorithm_name))
+        app.bench.session.model.sweeps.append(
+            SweepModel(version=1, kind="starts", created="x", algorithm=app.bench.algorithm_name)
+        )
         assert app.bench.latest_sweep() is app.bench.latest_sweep()
         await pilot.press("s")
         await settle(app, pilot)
@@ -139,4 +147,4 @@ async def test_L_draws_the_locus_in_a_parameter(workdir):
         p2, w = (float(v) for v in figure.xlabel.split("p2=")[1].split(" rad/s")[0].split(" at "))
         s = 1j * w
         residual = abs(1 + 16000 * (s + 1) * (s + 5) / ((s + 0.1) * (s + p2) * s * (s + 8) * (s + 20)))
-        assert residual < 1e-3      # the label's 4 digits
+        assert residual < 1e-3  # the label's 4 digits

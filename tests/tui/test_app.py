@@ -15,9 +15,11 @@ from tui.state.field_edits import objective_rows
 
 def synchronous(test):
     """Run an async test on a fresh event loop (no async plugin needed)."""
+
     @functools.wraps(test)
     def run(*args, **kwargs):
         return asyncio.run(test(*args, **kwargs))
+
     return run
 
 
@@ -81,9 +83,10 @@ async def test_pause_stops_a_run_within_one_iteration(workdir, monkeypatch):
         algorithm = app.bench.ensure_algorithm()
         step = algorithm.step
 
-        def slow_step(state):   # an algorithm whose iterations take 20 ms, so the run is still going
+        def slow_step(state):  # an algorithm whose iterations take 20 ms, so the run is still going
             time.sleep(0.02)
             return step(state)
+
         monkeypatch.setattr(algorithm, "step", slow_step)
         await pilot.press("r")
         await pilot.pause(0.3)
@@ -106,15 +109,15 @@ async def test_undo_and_start_from_an_earlier_iteration(workdir):
         await settle(app, pilot)
         assert app.bench.iteration == 2 and "Iteration 2" in status(app)
         await select_row(app, pilot, "4", "history-table", 1)
-        await settle(app, pilot)          # the History plot is drawn by a worker
+        await settle(app, pilot)  # the History plot is drawn by a worker
         history_plot = app.screen.query_one("#history-plot").figure
         assert history_plot.title == "Nyquist: iteration 1"
-        curves = [s for s in history_plot.series if s.label][:2]     # the unlabelled: unit circle, mirror images
+        curves = [s for s in history_plot.series if s.label][:2]  # the unlabelled: unit circle, mirror images
         assert [s.label for s in curves] == ["iteration 1", "current"]
         assert curves[0].y != curves[1].y
         await pilot.press("b")
         await pilot.pause()
-        await pilot.press("y")                # later iterations will be dropped: yes
+        await pilot.press("y")  # later iterations will be dropped: yes
         await settle(app, pilot)
         assert app.bench.iteration == 1
         await pilot.press("s")
@@ -149,6 +152,7 @@ async def test_an_engine_error_is_a_notification_not_a_crash(workdir, monkeypatc
 
         def broken(state):
             raise EngineError("singular matrix at 3.1 rad/s")
+
         monkeypatch.setattr(app.bench.ensure_algorithm(), "step", broken)
         await pilot.press("s")
         await settle(app, pilot)
@@ -167,7 +171,7 @@ async def test_a_typo_in_an_expression_is_shown_and_the_old_value_kept(workdir):
         field.value = "(s+z1)*(s+z2)/((s+p1)*(s+p2"
         await pilot.pause()
         assert "column" in str(dialog.query_one("#error").render())
-        await pilot.press("enter")          # refused: still the dialog
+        await pilot.press("enter")  # refused: still the dialog
         await pilot.pause()
         assert app.screen is dialog
         await pilot.press("escape")
@@ -196,7 +200,7 @@ async def test_a_bad_session_file_is_a_message_and_the_start_screen(workdir):
         await pilot.pause()
         assert any("line 1" in n.message for n in app._notifications)
         assert type(app.screen).__name__ == "StartScreen" and app.is_running
-    assert bad.read_text() == '{"schema_version": 1, "problem": '   # left untouched
+    assert bad.read_text() == '{"schema_version": 1, "problem": '  # left untouched
 
 
 @synchronous
@@ -204,13 +208,18 @@ async def test_editing_a_targets_bands(workdir):
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await edit_row(app, pilot, "3", "targets-table", 2)   # stability margins, desired 0.49
-        await pilot.press("enter")                    # "bands", the first choice
+        await edit_row(app, pilot, "3", "targets-table", 2)  # stability margins, desired 0.49
+        await pilot.press("enter")  # "bands", the first choice
         await pilot.pause()
         field = app.screen.query_one("#value")
         assert field.value == "0..inf: 0.49"
-        await typo_then_enter(app, pilot, "0..1: 0.5; 1..inf 0.4", "write LOW..HIGH: DESIRED",   # the missing colon
-                              "0..1: 0.5; 1..inf: 0.4")
+        await typo_then_enter(
+            app,
+            pilot,
+            "0..1: 0.5; 1..inf 0.4",
+            "write LOW..HIGH: DESIRED",  # the missing colon
+            "0..1: 0.5; 1..inf: 0.4",
+        )
         await settle(app, pilot)
         bands = app.bench.session.problem.targets[2].bands
         assert [(b.low, b.desired) for b in bands] == [(0.0, 0.5), (1.0, 0.4)]
@@ -221,8 +230,8 @@ async def test_editing_a_parameter_bound(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await edit_row(app, pilot, "2", "parameters", 0)       # z1
-        await pilot.press("down", "enter")        # "min"
+        await edit_row(app, pilot, "2", "parameters", 0)  # z1
+        await pilot.press("down", "enter")  # "min"
         await pilot.pause()
         field = app.screen.query_one("#value")
         assert field.value == "0.01"
@@ -238,13 +247,13 @@ async def test_importing_a_csv_table_into_a_block_with_a_preview(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        await select_row(app, pilot, "2", "blocks", 1)           # the plant block
+        await select_row(app, pilot, "2", "blocks", 1)  # the plant block
         await pilot.press("i")
         await pilot.pause()
         app.screen.query_one("#value").value = "plant.csv"
         await pilot.press("enter")
         await pilot.pause()
-        assert "0.01,100,-90" in str(app.screen.query_one("Label").render())     # the preview
+        assert "0.01,100,-90" in str(app.screen.query_one("Label").render())  # the preview
         field = app.screen.query_one("#value")
         assert field.value == "hz,mag,deg polar hz 1"
         await typo_then_enter(app, pilot, "hz,mag,phase polar hz 1", "no column 'phase'", "hz,mag,deg polar hz 1")
@@ -280,7 +289,7 @@ async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
         assert "max-q" in tableau and "switch-out" in tableau
         record = app.bench.records[-1]
         assert record.extra["major"] == 1 and record.extra["minor"] == 1
-        await edit_row(app, pilot, "3", "targets-table", 2)   # phase margin: 0.5..8: 40 / 30
+        await edit_row(app, pilot, "3", "targets-table", 2)  # phase margin: 0.5..8: 40 / 30
         await pilot.press("enter")
         await pilot.pause()
         field = app.screen.query_one("#value")
@@ -288,11 +297,11 @@ async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
         field.value = "0.5..8: 45 / 35"
         await pilot.press("enter")
         await pilot.pause()
-        await pilot.press("y")                        # the recorded iteration will be dropped: yes
+        await pilot.press("y")  # the recorded iteration will be dropped: yes
         await settle(app, pilot)
         band = app.bench.session.problem.targets[2].bands[0]
         assert (band.desired, band.required) == (45.0, 35.0)
-        assert app.bench.iteration == 0   # the problem changed: the records are gone
+        assert app.bench.iteration == 0  # the problem changed: the records are gone
 
 
 @synchronous
@@ -326,12 +335,12 @@ async def test_targets_parameters_blocks_and_options_are_added_deleted_and_edite
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        problem = lambda: app.bench.session.model.problem   # noqa: E731
+        problem = lambda: app.bench.session.model.problem  # noqa: E731
         count = len(problem().targets)
         await select_row(app, pilot, "3", "targets-table", 0)
         await pilot.press("plus")
         await pilot.pause()
-        for _ in range(6):                                   # crossover_frequency, the 7th measure
+        for _ in range(6):  # crossover_frequency, the 7th measure
             await pilot.press("down")
         await pilot.press("enter")
         await settle(app, pilot)
@@ -373,7 +382,7 @@ async def test_an_objective_penalty_and_an_unset_setting_are_edited(workdir):
         assert app.bench.session.problem.objective.options["q2"] == 0.001
         row = next(k for k, label in enumerate(labels) if label.startswith("qcg.") and "(default)" in label)
         await edit_row(app, pilot, "3", "objective-table", row)
-        assert app.screen.query_one("#value").value != ""    # the default is shown
+        assert app.screen.query_one("#value").value != ""  # the default is shown
 
 
 @synchronous
@@ -384,8 +393,9 @@ async def test_v_cycles_the_plots_through_the_flight_conditions(workdir):
         nyquist = app.screen.query_one("#nyquist")
         names = [c.name for c in app.bench.session.problem.conditions]
 
-        def labels() -> list[str]:   # the curves' (the unit circle and the mirror images have none)
+        def labels() -> list[str]:  # the curves' (the unit circle and the mirror images have none)
             return [s.label for s in nyquist.figure.series if s.label][:3]
+
         assert labels() == names
         await pilot.press("v")
         await pilot.pause()

@@ -42,11 +42,11 @@ def test_a_factored_block_is_edited_renamed_and_rewired_in_one_line(workdir):
     edit.apply("plant u y factored: gain 8000; s^-1; poles (s+8) (s+20)")
     assert np.allclose(bench.view().loop_curve().gh, gh_before / 2, rtol=1e-13)
     edit = plant_edit(bench, ref)
-    edit.apply("plant u y 16000/(s*(s+8)*(s+20))")     # the expression it equals
+    edit.apply("plant u y 16000/(s*(s+8)*(s+20))")  # the expression it equals
     assert bench.session.model.problem.conditions[0].plant.blocks[ref[-1]].transfer.kind == "expression"
     assert np.allclose(bench.view().loop_curve().gh, gh_before, rtol=1e-12)
     assert "factors are" in plant_edit(bench, ref).check("plant u y factored: gain 1; poles (s+)")
-    with pytest.raises(SessionError):                 # re-wired to a signal nothing reads: refused, kept
+    with pytest.raises(SessionError):  # re-wired to a signal nothing reads: refused, kept
         plant_edit(bench, ref).apply("plant u nowhere 1/s")
     assert bench.session.model.problem.conditions[0].plant.blocks[ref[-1]].output == "y"
     plant_edit(bench, ref).apply("G u y 16000/(s*(s+8)*(s+20))")
@@ -59,7 +59,7 @@ def test_cascade_transfers_and_channel_compensators_are_edited(workdir):
     h1 = next(ref for cells, ref in rows if cells[1] == "H1")
     edit = plant_edit(bench, h1)
     assert edit.text == "controller: gain b1; s^-1; zero b21"
-    edit.apply("controller: gain b1; s^-1; zero b21; pole 5000")     # the PI becomes seidel_inlet_pid's H1
+    edit.apply("controller: gain b1; s^-1; zero b21; pole 5000")  # the PI becomes seidel_inlet_pid's H1
     assert bench.session.model.problem.conditions[0].plant.h1.factors[-1].kind == "pole"
     ga = next(ref for cells, ref in rows if cells[1] == "GA")
     edit = plant_edit(bench, ga)
@@ -77,12 +77,12 @@ def test_cascade_transfers_and_channel_compensators_are_edited(workdir):
 @synchronous
 async def test_the_factored_plant_opens_its_dialog_from_the_plant_tab(workdir):
     from tui.app import LoopcraftApp
+
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await pilot.pause()
         bench = app.bench
-        index = next(i for i, (cells, _) in enumerate(plant_rows(bench.session.model.problem))
-                     if cells[1] == "plant")
+        index = next(i for i, (cells, _) in enumerate(plant_rows(bench.session.model.problem)) if cells[1] == "plant")
         await edit_row(app, pilot, "2", "blocks", index)
         field = app.screen.query_one("#value")
         assert field.value == "plant u y factored: gain 16000; s^-1; poles (s+8) (s+20)"
@@ -97,6 +97,7 @@ async def test_the_factored_plant_opens_its_dialog_from_the_plant_tab(workdir):
 async def test_a_refused_edit_keeps_the_typed_text_and_an_unknown_name_is_flagged_while_typing(workdir):
     from tui.app import LoopcraftApp
     from tui.screens.dialogs import EditDialog
+
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await pilot.pause()
@@ -105,7 +106,7 @@ async def test_a_refused_edit_keeps_the_typed_text_and_an_unknown_name_is_flagge
         field.value = "plant u y 16000/(s*(s+p9)*(s+20))"
         await pilot.pause()
         assert "unknown name 'p9'" in str(app.screen.query_one("#error").render())
-        field.value = "plant u nowhere 16000/(s*(s+8)*(s+20))"     # reads, but the diagram does not build
+        field.value = "plant u nowhere 16000/(s*(s+8)*(s+20))"  # reads, but the diagram does not build
         await pilot.press("enter")
         await pilot.pause()
         await pilot.pause()
@@ -115,4 +116,4 @@ async def test_a_refused_edit_keeps_the_typed_text_and_an_unknown_name_is_flagge
         await pilot.press("escape")
         await pilot.pause()
         assert app.bench.session.model.problem.conditions[0].plant.blocks[1].output == "y"
-        assert app.screen.query_one("#blocks").cursor_row == 1           # the cursor stays on the edited row
+        assert app.screen.query_one("#blocks").cursor_row == 1  # the cursor stays on the edited row

@@ -24,9 +24,14 @@ def test_the_sample_reads_and_bad_files_say_where(tmp_path):
     config = load_config(path, themes={"textual-dark", "textual-light"})
     assert (config.theme, config.unit, config.recent_limit) == ("textual-light", "hz", 10)
     assert config.keys["app.step"] == "s,j"
-    for text, message in [("theme = \n", "line 1, column"), ("colour = 'red'\n", "unknown key 'colour'"),
-                          ("unit = 'Hz'\n", "unit"), ("recent_limit = -1\n", "recent_limit"),
-                          ("[keys]\n'app.step' = 3\n", "[keys]"), ("theme = 'neon'\n", "unknown theme")]:
+    for text, message in [
+        ("theme = \n", "line 1, column"),
+        ("colour = 'red'\n", "unknown key 'colour'"),
+        ("unit = 'Hz'\n", "unit"),
+        ("recent_limit = -1\n", "recent_limit"),
+        ("[keys]\n'app.step' = 3\n", "[keys]"),
+        ("theme = 'neon'\n", "unknown theme"),
+    ]:
         path.write_text(text)
         with pytest.raises(ConfigError, match=None) as info:
             load_config(path, themes={"textual-dark"})
@@ -64,8 +69,9 @@ def test_loopcraft_config_prints_where_and_what(tmp_path):
     config = tmp_path / "config.toml"
     config.write_text('unit = "hz"\n')
     env = {"LOOPCRAFT_CONFIG": str(config), "PATH": ""}
-    out = subprocess.run([sys.executable, "-m", "tui.cli", "config", "--keys"], capture_output=True, text=True,
-                         env=env, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "tui.cli", "config", "--keys"], capture_output=True, text=True, env=env, check=True
+    ).stdout
     assert str(config) in out and "unit = 'hz'" in out and "app.step" in out
     config.write_text("unit = 3\n")
     bad = subprocess.run([sys.executable, "-m", "tui.cli", "config"], capture_output=True, text=True, env=env)

@@ -18,7 +18,7 @@ async def test_a_constraint_is_added_checked_edited_and_deleted(workdir):
         field = app.screen.query_one("#value")
         field.value = "z1*p1 <= 3"
         await pilot.pause()
-        assert "z1" in str(app.screen.query_one("#error").render())        # not linear: said while typing
+        assert "z1" in str(app.screen.query_one("#error").render())  # not linear: said while typing
         field.value = "p2 >= 10*p1"
         await pilot.press("enter")
         await settle(app, pilot)
@@ -28,7 +28,7 @@ async def test_a_constraint_is_added_checked_edited_and_deleted(workdir):
         await select_row(app, pilot, "3", "objective-table", row)
         await pilot.press("e")
         await pilot.pause()
-        app.screen.query_one("#value").value = "p2 >= 1000*p1"                # not met at the start: refused
+        app.screen.query_one("#value").value = "p2 >= 1000*p1"  # not met at the start: refused
         await pilot.pause()
         assert "not met" in str(app.screen.query_one("#error").render())
         app.screen.query_one("#value").value = "p2 >= 100*p1"

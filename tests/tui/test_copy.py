@@ -32,5 +32,8 @@ async def test_y_copies_the_row_or_the_tableau_and_Y_the_design(workdir):
         values = app.bench.records[-1].parameters
         original = Expression("(s+z1)*(s+z2)/((s+p1)*(s+p2))", "s")
         s = 1j * np.logspace(-2, 3, 50)
-        assert np.allclose(copied.evaluate(s, {}, with_grad=False).value,
-                           original.evaluate(s, values, with_grad=False).value, rtol=1e-14)
+        assert np.allclose(
+            copied.evaluate(s, {}, with_grad=False).value,
+            original.evaluate(s, values, with_grad=False).value,
+            rtol=1e-14,
+        )

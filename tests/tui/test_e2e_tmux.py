@@ -13,8 +13,9 @@ import pytest
 
 TMUX = shutil.which("tmux")
 LOOPCRAFT = Path(sys.executable).parent / "loopcraft"
-pytestmark = pytest.mark.skipif(TMUX is None, reason="tmux is not installed (.ci/run installs it): end-to-end "
-                                                      "test skipped")
+pytestmark = pytest.mark.skipif(
+    TMUX is None, reason="tmux is not installed (.ci/run installs it): end-to-end test skipped"
+)
 
 
 def tmux(*args: str) -> str:
@@ -35,8 +36,10 @@ def wait_for(session: str, text: str, timeout: float = 30.0) -> str:
 def test_open_step_three_times_save_and_quit(workdir):
     session = f"loopcraft-e2e-{time.monotonic_ns()}"
     exit_file = workdir / "exit.txt"
-    command = (f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
-               f"seidel_inlet_pi.json; echo EXIT:$? > {exit_file}")
+    command = (
+        f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
+        f"seidel_inlet_pi.json; echo EXIT:$? > {exit_file}"
+    )
     tmux("new-session", "-d", "-s", session, "-x", "120", "-y", "40", command)
     tmux("set-option", "-t", session, "window-size", "manual")
     tmux("resize-window", "-t", session, "-x", "120", "-y", "40")
@@ -45,7 +48,7 @@ def test_open_step_three_times_save_and_quit(workdir):
         for k in (1, 2, 3):
             tmux("send-keys", "-t", session, "s")
             screen = wait_for(session, f"Iteration {k}")
-        screen = wait_for(session, "objective 0.05")   # the cost C after three line searches
+        screen = wait_for(session, "objective 0.05")  # the cost C after three line searches
         assert "Iteration 3" in screen
         tmux("send-keys", "-t", session, "C-s")
         wait_for(session, "saved")
@@ -63,14 +66,19 @@ def test_every_tab_is_readable_at_80x24(workdir):
     """At 80x24: the tableau's target and frequency columns, each tab's key columns and the
     footer's ? and save are on the screen."""
     session = f"loopcraft-e2e-{time.monotonic_ns()}"
-    command = (f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
-               f"coebra_launch_vehicle.json")
+    command = (
+        f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} coebra_launch_vehicle.json"
+    )
     tmux("new-session", "-d", "-s", session, "-x", "80", "-y", "24", command)
     tmux("set-option", "-t", session, "window-size", "manual")
     tmux("resize-window", "-t", session, "-x", "80", "-y", "24")
-    expected = {"1": ["target", "freq rad/s", "PM deg"], "2": ["condition", "block", "parameter", "min"],
-                "3": ["measure", "used", "bands", "objective / setting"], "4": ["iteration", "status", "unmet"],
-                "5": ["no sweep yet"]}
+    expected = {
+        "1": ["target", "freq rad/s", "PM deg"],
+        "2": ["condition", "block", "parameter", "min"],
+        "3": ["measure", "used", "bands", "objective / setting"],
+        "4": ["iteration", "status", "unmet"],
+        "5": ["no sweep yet"],
+    }
     try:
         wait_for(session, "Iteration 0")
         for key, words in expected.items():

@@ -19,7 +19,7 @@ async def test_export_and_screenshot_land_beside_the_session(workdir):
         await settle(app, pilot)
         await pilot.press("ctrl+e")
         await pilot.pause()
-        await pilot.press("enter")                     # python
+        await pilot.press("enter")  # python
         await settle(app, pilot)
         script = workdir / "report003_lag_lead_iter1.py"
         assert script.exists()
@@ -27,7 +27,7 @@ async def test_export_and_screenshot_land_beside_the_session(workdir):
         await settle(app, pilot)
         svg = workdir / "report003_lag_lead_iter1.svg"
         assert svg.read_text().startswith("<svg") and "Iteration 1" in svg.read_text().replace("&#160;", " ")
-        await pilot.press("S")                         # exists: asked before it is replaced
+        await pilot.press("S")  # exists: asked before it is replaced
         await pilot.pause()
         assert isinstance(app.screen, ConfirmDialog)
         await pilot.press("n")

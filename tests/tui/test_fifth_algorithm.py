@@ -37,9 +37,9 @@ def test_a_sweep_ranks_its_runs_by_the_presenters_value(workdir, capsys):
     summary = json.loads(capsys.readouterr().out)
     runs = summary["runs"]
     assert len(runs) == 3 and all(r["status"] != "failed" for r in runs)
-    assert all(isinstance(r["objective"], float) for r in runs)         # the presenter's ranking: the merit
+    assert all(isinstance(r["objective"], float) for r in runs)  # the presenter's ranking: the merit
     best = [o["objective"] for o in summary["optima"]]
-    assert best == sorted(best)                                         # smaller merit first (maximize False)
+    assert best == sorted(best)  # smaller merit first (maximize False)
 
 
 @synchronous
@@ -52,7 +52,7 @@ async def test_the_workbench_steps_it_and_shows_its_own_lines(workdir):
         assert "Iteration 1" in status(app) and "compass" in status(app)
         info = str(app.screen.query_one("#step-info").render())
         assert "compass step" in info and "probes" in info
-        app.screen.query_one("#plots").active = "p-convergence"   # plots are drawn when shown
+        app.screen.query_one("#plots").active = "p-convergence"  # plots are drawn when shown
         await settle(app, pilot)
         convergence = app.screen.query_one("#convergence").figure
         assert convergence.ylabel == "compass merit" and len(convergence.series[0].x) == 1

@@ -27,6 +27,7 @@ def _counted_rebuilds(monkeypatch) -> list[float]:
     async def counted(self):
         rebuilds.append(time.perf_counter())
         await recompose(self)
+
     monkeypatch.setattr(TextualFooter, "recompose", counted)
     return rebuilds
 
@@ -37,12 +38,12 @@ async def test_a_step_rebuilds_the_footer_at_most_twice(workdir, monkeypatch):
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        assert _disabled(app, "undo")   # nothing to undo yet
+        assert _disabled(app, "undo")  # nothing to undo yet
         rebuilds.clear()
         await pilot.press("s")
         await settle(app, pilot)
         assert app.bench.iteration == 1 and not _disabled(app, "undo")
-        assert 1 <= len(rebuilds) <= 2   # one, or two when the step outlasts the dimming delay
+        assert 1 <= len(rebuilds) <= 2  # one, or two when the step outlasts the dimming delay
         assert isinstance(app.screen.query_one("Footer"), Footer)
 
 
@@ -57,7 +58,7 @@ async def test_binding_refreshes_before_a_rebuild_make_one_rebuild(workdir, monk
             app.screen.refresh_bindings()
         await settle(app, pilot)
         assert len(rebuilds) == 1
-        app.screen.refresh_bindings()   # a later refresh rebuilds again
+        app.screen.refresh_bindings()  # a later refresh rebuilds again
         await settle(app, pilot)
         assert len(rebuilds) == 2
 
@@ -70,9 +71,10 @@ async def test_a_run_dims_the_session_keys_and_its_end_enables_them(workdir, mon
         algorithm = app.bench.ensure_algorithm()
         step = algorithm.step
 
-        def slow_step(state):   # 20 ms iterations: the run outlasts the dimming delay
+        def slow_step(state):  # 20 ms iterations: the run outlasts the dimming delay
             time.sleep(0.02)
             return step(state)
+
         monkeypatch.setattr(algorithm, "step", slow_step)
         assert not _disabled(app, "step")
         await pilot.press("r")

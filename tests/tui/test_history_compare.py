@@ -29,11 +29,11 @@ async def test_two_iterations_are_compared_and_their_curves_overlaid(workdir):
         await pilot.press("o")
         await settle(app, pilot)
         assert app.screen.query_one("#history-plot").figure.title.startswith("Bode magnitude: iteration 3")
-        for _ in range(6):                # phase, Nichols, S/T, poles, locus: step
+        for _ in range(6):  # phase, Nichols, S/T, poles, locus: step
             await pilot.press("o")
             await settle(app, pilot)
         step = app.screen.query_one("#history-plot").figure
         assert step.title.startswith("Step: iteration 3") and len([s for s in step.series if s.label]) >= 2
-        await pilot.press("m")            # m on another row marks that one instead
+        await pilot.press("m")  # m on another row marks that one instead
         await pilot.pause()
         assert app.screen.query_one("#history-pane").compare_mark == 3

@@ -15,14 +15,22 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 
 def _plant(entries: list[tuple[int, int, str]], **extra) -> MatrixModel:
-    return MatrixModel(format="matrix", signals=["e", "u", "y"], forcing_row=1, input_name="r",
-                       entries=[{"row": r, "col": c, "expression": x} for r, c, x in entries], **extra)
+    return MatrixModel(
+        format="matrix",
+        signals=["e", "u", "y"],
+        forcing_row=1,
+        input_name="r",
+        entries=[{"row": r, "col": c, "expression": x} for r, c, x in entries],
+        **extra,
+    )
 
 
 def test_rows_are_equations_and_cells_name_their_entries():
     """e + y = r, u = C e, y = G u (report 003's chapter-1 loop in matrix form)."""
-    plant = _plant([(1, 1, "1"), (1, 3, "1"), (2, 2, "1"), (2, 1, "-K/(1+T*s)"), (3, 3, "1"),
-                    (3, 2, "-16000/(s*(s+8)*(s+20))")], forcing="2")
+    plant = _plant(
+        [(1, 1, "1"), (1, 3, "1"), (2, 2, "1"), (2, 1, "-K/(1+T*s)"), (3, 3, "1"), (3, 2, "-16000/(s*(s+8)*(s+20))")],
+        forcing="2",
+    )
     headers, rows = matrix_grid(plant)
     assert headers == ["e", "u", "y", "forcing"]
     assert [label for label, _ in rows] == ["1 e", "2 u", "3 y"]
@@ -35,7 +43,7 @@ def test_a_cell_given_twice_shows_the_last_entry_as_the_build_reads_it():
     plant = _plant([(1, 1, "1"), (2, 2, "1"), (3, 3, "1"), (3, 2, "-1/s"), (3, 2, "-2/s")])
     _, rows = matrix_grid(plant)
     assert rows[2][1][1] == ("-2/s", 4)
-    assert rows[0][1][3] == ("1", None)   # the default forcing, in the forcing row only
+    assert rows[0][1][3] == ("1", None)  # the default forcing, in the forcing row only
     assert [cells[3] for _, cells in rows[1:]] == [("", None), ("", None)]
 
 
@@ -45,8 +53,12 @@ def test_the_launch_vehicle_shows_every_entry_once():
         plant = condition.plant
         headers, rows = matrix_grid(plant)
         assert headers[:-1] == plant.signals and len(rows) == len(plant.signals) == 24
-        shown = [(i, j, text, k) for i, (_, cells) in enumerate(rows, start=1)
-                 for j, (text, k) in enumerate(cells[:-1], start=1) if k is not None]
+        shown = [
+            (i, j, text, k)
+            for i, (_, cells) in enumerate(rows, start=1)
+            for j, (text, k) in enumerate(cells[:-1], start=1)
+            if k is not None
+        ]
         assert sorted(k for *_, k in shown) == list(range(len(plant.entries)))
         for i, j, text, k in shown:
             e = plant.entries[k]
@@ -75,7 +87,7 @@ def test_the_plant_tab_edits_the_matrix_grid_in_place(workdir):
             grid = app.screen.query_one("#matrix-grid")
             assert grid.display and grid.row_count == len(app.bench.session.model.problem.conditions[0].plant.signals)
             grid.focus()
-            grid.move_cursor(row=0, column=1)                       # a[1,1]
+            grid.move_cursor(row=0, column=1)  # a[1,1]
             await pilot.press("e")
             await pilot.pause()
             entries = app.bench.session.model.problem.conditions[0].plant.entries
@@ -93,4 +105,5 @@ def test_the_plant_tab_edits_the_matrix_grid_in_place(workdir):
             entries = app.bench.session.model.problem.conditions[0].plant.entries
             assert any((e.row, e.col, e.expression) == (1, empty + 1, "0") for e in entries)
             assert str(grid.get_cell_at(grid.cursor_coordinate)) == "0"
+
     asyncio.run(run())

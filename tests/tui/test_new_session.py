@@ -19,13 +19,17 @@ async def test_every_kind_of_new_session_opens(workdir):
     app = LoopcraftApp(workdir / "coebra_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        kinds = {"unity": ["10/(s+1)", None], "two-loops": ["10/(s+1)", None, "1/s", None],
-                 "table": [str(workdir / "plant.csv"), "hz,mag,deg polar hz 1", None], "matrix": ["1/(s*(s+2))", None],
-                 "projection": []}
+        kinds = {
+            "unity": ["10/(s+1)", None],
+            "two-loops": ["10/(s+1)", None, "1/s", None],
+            "table": [str(workdir / "plant.csv"), "hz,mag,deg polar hz 1", None],
+            "matrix": ["1/(s*(s+2))", None],
+            "projection": [],
+        }
         for index, (kind, answers) in enumerate(kinds.items()):
             await pilot.press("ctrl+n")
             await pilot.pause()
-            if app.screen.__class__.__name__ == "ConfirmDialog":   # unsaved: asked first
+            if app.screen.__class__.__name__ == "ConfirmDialog":  # unsaved: asked first
                 await pilot.press("y")
                 await pilot.pause()
             for _ in range(index):
@@ -34,7 +38,7 @@ async def test_every_kind_of_new_session_opens(workdir):
             await pilot.pause()
             for answer in answers:
                 if answer is None:
-                    await pilot.press("enter")       # the first structure: lead
+                    await pilot.press("enter")  # the first structure: lead
                     await pilot.pause()
                 else:
                     await _type(pilot, answer)
@@ -43,8 +47,13 @@ async def test_every_kind_of_new_session_opens(workdir):
             assert session.path.name.startswith("untitled-"), kind
             assert app.bench.iteration == 0 and app.bench.dirty, kind
             formats = {c.plant.format for c in session.model.problem.conditions}
-            expected = {"unity": {"diagram"}, "two-loops": {"diagram"}, "table": {"diagram"},
-                        "matrix": {"matrix"}, "projection": set()}[kind]
+            expected = {
+                "unity": {"diagram"},
+                "two-loops": {"diagram"},
+                "table": {"diagram"},
+                "matrix": {"matrix"},
+                "projection": set(),
+            }[kind]
             assert formats == expected, (kind, formats)
             if kind == "table":
                 assert (session.path.parent / "plant.csv").exists()
@@ -56,6 +65,7 @@ def test_a_csv_preview_of_a_fifo_or_a_huge_file_is_refused_not_waited_on(tmp_pat
     import pytest
 
     from tui.state.field_edits import csv_preview
+
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
     with pytest.raises(ValueError, match="pipe.csv"):

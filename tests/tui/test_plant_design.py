@@ -24,10 +24,10 @@ async def test_the_parameters_show_the_current_design_and_d_makes_it_the_start(w
         assert str(table.get_row_at(0)[2]) == number(start[name])
         await pilot.press("d")
         await pilot.pause()
-        await pilot.press("y")                       # the three iterations will be dropped: yes
+        await pilot.press("y")  # the three iterations will be dropped: yes
         await settle(app, pilot)
         assert app.bench.iteration == 0
         assert app.bench.session.model.problem.parameters[0].value == current[name]
         assert str(table.get_row_at(0)[1]) == number(current[name])
         assert app.check_action("adopt_design", ()) is not False
-        assert table.check_action("adopt_design", ()) is None         # nothing to adopt at iteration 0
+        assert table.check_action("adopt_design", ()) is None  # nothing to adopt at iteration 0

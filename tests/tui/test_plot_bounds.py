@@ -14,8 +14,8 @@ from tui.widgets.plots import FigurePlot, _near
 
 def test_values_are_clipped_a_few_spans_about_the_limits():
     assert _near([0.0, 1e36, -1e36, 0.5], (-1.0, 1.0)) == [0.0, 5.0, -5.0, 0.5]
-    assert _near([1e36], None) == [1e36]                       # no limits: plotext scales to the data
-    assert _near([1e300, -1e300], None) == [1e150, -1e150]     # but never near the float limits
+    assert _near([1e36], None) == [1e36]  # no limits: plotext scales to the data
+    assert _near([1e300, -1e300], None) == [1e150, -1e150]  # but never near the float limits
 
 
 def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
@@ -29,16 +29,18 @@ def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
 def test_values_near_the_float_limits_draw():
     fig = Figure(title="huge")
     fig.series.append(Series([0.0, 1.0, 2.0], [0.0, 1.7e308, -1.7e308], "u"))
-    assert FigurePlot.prebuild(fig, (60, 20, "textual-dark")) is not None   # drawn, no OverflowError
+    assert FigurePlot.prebuild(fig, (60, 20, "textual-dark")) is not None  # drawn, no OverflowError
 
 
 def test_a_time_axis_over_an_overflowing_span_still_has_a_step():
     from tui.figures.trajectories import _step
+
     assert _step(float("inf"), 5) == 1.0 and _step(10.0, 5) == 2.0
 
 
 def test_axis_ticks_are_round_numbers_inside_the_axis():
     from tui.figures.axes import nice_ticks
+
     for low, high in [(-107.0, 60.0), (-95.9, 4.4), (23.7, 40.9), (0.0013, 0.0041), (-3e-9, 7e-9), (1e5, 3.3e7)]:
         ticks, labels = nice_ticks(low, high)
         assert 2 <= len(ticks) <= 6 and all(low - 1e-12 * abs(high) <= t <= high + 1e-12 * abs(high) for t in ticks)

@@ -24,7 +24,7 @@ async def test_zoom_pan_cursor_and_reset_on_the_bode_plot(workdir):
         await settle(app, pilot)
         plot = app.screen.query_one("#bode-mag")
         plot.focus()
-        await pilot.press("right")                      # the cursor appears mid-curve
+        await pilot.press("right")  # the cursor appears mid-curve
         await pilot.press(*["right"] * 5)
         await pilot.pause()
         shown = plot.shown
@@ -50,7 +50,7 @@ async def test_zoom_pan_cursor_and_reset_on_the_bode_plot(workdir):
         await pilot.pause()
         assert plot.navigation.box is None and plot.navigation.cursor is None
         assert (plot.shown.xlim, plot.shown.ylim) == whole
-        await pilot.press("1")                           # the tab keys still work from a plot
+        await pilot.press("1")  # the tab keys still work from a plot
         await pilot.pause()
         assert app.screen.query_one("#tabs").active == "run"
 

@@ -23,7 +23,7 @@ from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 
 TRIALS = 24
-STEP_SECONDS = 0.004   # each iteration made this much slower, so a run outlasts the keys
+STEP_SECONDS = 0.004  # each iteration made this much slower, so a run outlasts the keys
 MUTATING_KEYS = ("z", "s", "r", "a", "w", "u", "n", "b", "e", "f", "g", "plus", "minus", "x", "c", "i", "ctrl+o")
 CHARACTERS = {"plus": "+", "minus": "-", "space": " "}
 
@@ -51,8 +51,9 @@ async def test_keys_pressed_during_runs_never_corrupt_the_history(workdir, monke
     def slow_step(self, state):
         time.sleep(STEP_SECONDS)
         return step(self, state)
+
     monkeypatch.setattr(Cip, "step", slow_step)
-    rng = random.Random(int(os.environ.get("LOOPCRAFT_RACE_SEED", "7")))   # another seed: another key sequence
+    rng = random.Random(int(os.environ.get("LOOPCRAFT_RACE_SEED", "7")))  # another seed: another key sequence
     path = workdir / "cip_dual_channel.json"
     app = LoopcraftApp(path)
     refused = []
@@ -63,6 +64,7 @@ async def test_keys_pressed_during_runs_never_corrupt_the_history(workdir, monke
         if app.busy and action == "undo":
             refused.append(verdict)
         return verdict
+
     app.check_action = spy
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
@@ -74,7 +76,7 @@ async def test_keys_pressed_during_runs_never_corrupt_the_history(workdir, monke
             await asyncio.sleep(rng.uniform(0.0, 0.05))
             await send_keys(app, *rng.sample(MUTATING_KEYS, 5), "z", "z", "space")
             await settle(app, pilot)
-            while len(app.screen_stack) > 2:           # a dialog opened after the run ended: close it
+            while len(app.screen_stack) > 2:  # a dialog opened after the run ended: close it
                 await pilot.press("escape")
             _consistent(app.bench)
             if rng.random() < 0.5:
@@ -83,7 +85,7 @@ async def test_keys_pressed_during_runs_never_corrupt_the_history(workdir, monke
                 _consistent(app.bench)
         await pilot.press("ctrl+s")
         await settle(app, pilot)
-    assert refused and all(verdict is None for verdict in refused)   # undo came during runs, and was disabled
+    assert refused and all(verdict is None for verdict in refused)  # undo came during runs, and was disabled
     result = replay(load_session(path))
     assert result.ok, result.message
     assert result.iterations == len(load_session(path).model.records) > 0

@@ -18,7 +18,7 @@ SIZES = [(100, 32), (80, 24)]
 def steps(*keys: str, wait_workers: bool = True):
     async def run_before(pilot) -> None:
         await pilot.pause()
-        await pilot.app.workers.wait_for_complete()   # the plots are drawn in a worker
+        await pilot.app.workers.wait_for_complete()  # the plots are drawn in a worker
         await pilot.pause()
         for key in keys:
             await pilot.press(key)
@@ -26,6 +26,7 @@ def steps(*keys: str, wait_workers: bool = True):
             if wait_workers:
                 await pilot.app.workers.wait_for_complete()
                 await pilot.pause()
+
     return run_before
 
 
@@ -39,10 +40,14 @@ CASES = {
     "history": ("cip_launch_vehicle.json", steps("s", "s", "s", "4")),
     # History's views of iteration 1 (beside the current design), or of iteration 3 against the marked 1
     "history_closed_loop": ("lead_sensitivity_peak.json", steps("s", "s", "s", "4", "down", *"pppp")),
-    "history_nichols_marked": ("lead_sensitivity_peak.json",
-                               steps("s", "s", "s", "4", "down", "m", "down", "down", *"ppp")),
-    "history_poles_marked": ("lead_sensitivity_peak.json",
-                             steps("s", "s", "s", "4", "down", "m", "down", "down", *"ppppp")),
+    "history_nichols_marked": (
+        "lead_sensitivity_peak.json",
+        steps("s", "s", "s", "4", "down", "m", "down", "down", *"ppp"),
+    ),
+    "history_poles_marked": (
+        "lead_sensitivity_peak.json",
+        steps("s", "s", "s", "4", "down", "m", "down", "down", *"ppppp"),
+    ),
     "history_locus": ("lead_sensitivity_peak.json", steps("s", "s", "s", "4", "down", *"pppppp")),
     "help": ("cip_launch_vehicle.json", steps("question_mark")),
     "qcg_run": ("seidel_inlet_pi.json", steps("s", "s", "s")),

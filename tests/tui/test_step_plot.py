@@ -48,7 +48,7 @@ def test_signals_and_horizon_are_chosen_and_checked(workdir):
 
 
 def test_the_axis_is_scaled_to_the_current_design_not_an_unstable_start(workdir):
-    bench = Workbench(load_session(workdir / "coebra_lag_lead.json"))    # the start is unstable (PM -28.6 deg)
+    bench = Workbench(load_session(workdir / "coebra_lag_lead.json"))  # the start is unstable (PM -28.6 deg)
     for _ in range(8):
         bench.step()
     view = bench.view()
@@ -58,13 +58,14 @@ def test_the_axis_is_scaled_to_the_current_design_not_an_unstable_start(workdir)
     current = np.array(traces[0][1])
     low, high = fig.ylim
     assert low <= current.min() and current.max() <= high and high - low < 3 * (current.max() - current.min() + 0.1)
-    assert traces[0][0][-1] == traces[1][0][-1]      # one horizon: the current design's
+    assert traces[0][0][-1] == traces[1][0][-1]  # one horizon: the current design's
 
 
 @synchronous
 async def test_t_opens_the_step_setup_and_the_plot_follows(workdir):
     from tui.app import LoopcraftApp
     from tui.screens.dialogs import EditDialog
+
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)

@@ -15,10 +15,16 @@ async def test_every_tab_key_works_from_every_table_and_focuses_the_tab(workdir)
     async with app.run_test(size=(120, 40)) as pilot:
         await pilot.pause()
         tabs = app.screen.query_one("#tabs")
-        starts = {"blocks": "2", "parameters": "2", "targets-table": "3", "objective-table": "3",
-                  "history-table": "4", "optima-table": "5"}
+        starts = {
+            "blocks": "2",
+            "parameters": "2",
+            "targets-table": "3",
+            "objective-table": "3",
+            "history-table": "4",
+            "optima-table": "5",
+        }
         for n, (start, home) in enumerate(starts.items()):
-            for key in (str(n % 5 + 1), str((n + 2) % 5 + 1)):     # every tab key, from two tables each
+            for key in (str(n % 5 + 1), str((n + 2) % 5 + 1)):  # every tab key, from two tables each
                 pane = TABS[key]
                 widget = app.screen.query_one(f"#{start}")
                 await pilot.press(home)

@@ -43,8 +43,14 @@ def started(tmp_path: Path) -> tuple[subprocess.Popen, int, Path]:
     shutil.copy2(EXAMPLE, session)
     master, slave = pty.openpty()
     env = dict(os.environ, TERM="xterm-256color", LOOPCRAFT_HOME=str(tmp_path / "home"), COLUMNS="120", LINES="40")
-    app = subprocess.Popen([sys.executable, "-m", "tui.cli", str(session)], stdin=slave, stdout=slave, stderr=slave,
-                           cwd=Path(__file__).resolve().parents[2], env=env)
+    app = subprocess.Popen(
+        [sys.executable, "-m", "tui.cli", str(session)],
+        stdin=slave,
+        stdout=slave,
+        stderr=slave,
+        cwd=Path(__file__).resolve().parents[2],
+        env=env,
+    )
     os.close(slave)
     assert b"Iteration 0" in drain(master, 30, until=b"Iteration 0"), "the app never painted"
     os.write(master, b"s")
@@ -62,11 +68,11 @@ def ended(app: subprocess.Popen) -> int | None:
 
 def test_a_terminal_that_hangs_up_ends_the_app_with_its_work_autosaved(tmp_path):
     app, master, session = started(tmp_path)
-    os.close(master)   # the terminal is gone; no signal: the app notices by itself
+    os.close(master)  # the terminal is gone; no signal: the app notices by itself
     assert ended(app) == HANGUP_EXIT
     autosave = json.loads(session.with_name(session.name + ".autosave").read_text())
     assert autosave["current_iteration"] == 1 and len(autosave["records"]) == 1
-    assert json.loads(session.read_text())["records"] == []   # the file itself is untouched
+    assert json.loads(session.read_text())["records"] == []  # the file itself is untouched
 
 
 def test_a_hang_up_signal_ends_the_app_with_its_work_autosaved(tmp_path):

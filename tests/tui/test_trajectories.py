@@ -35,21 +35,21 @@ def test_the_reactor_plots_u2_its_bound_and_the_open_loop_then_the_trims(workdir
     fig = figure_of(bench)
     top, bottom = fig.panels
     current, initial = bench.records[-1].extra, bench.records[0].extra["open_loop"]
-    assert initial["zero_inputs"] == [6, 7]          # numbers from 1: u6, u7
+    assert initial["zero_inputs"] == [6, 7]  # numbers from 1: u6, u7
     series = by_label(top)
     assert list(series) == ["bound ±4e13", "initial (untrimmed)", "u2"]
     assert series["u2"].y == pytest.approx(np.array(current["u"])[:, 1].tolist())
     assert series["initial (untrimmed)"].y == pytest.approx(np.array(initial["u"])[:, 1].tolist())
     assert series["initial (untrimmed)"].color == "gray"
     assert sorted(s.y[0] for s in top.series if s.color == "red") == [-4e13, 4e13]
-    assert series["u2"].x[-1] == pytest.approx(40.0) and bottom.xlabel == "t (h)"   # 144000 s in hours
-    assert top.title == "u2: untrimmed peak -5.46e14 at 36 h"                      # off the cut axis
+    assert series["u2"].x[-1] == pytest.approx(40.0) and bottom.xlabel == "t (h)"  # 144000 s in hours
+    assert top.title == "u2: untrimmed peak -5.46e14 at 36 h"  # off the cut axis
     assert top.ylim == pytest.approx((-8.8e13, 8.8e13)) and 4e13 in top.yticks[0]
     assert top.xticks == ([], []) and bottom.xticks[1][-1] == "40"
     trims = by_label(bottom)
     assert list(trims) == ["u6", "u7"]
     assert trims["u7"].y == pytest.approx(np.array(current["u"])[:, 6].tolist())
-    assert max(abs(v) for v in trims["u6"].y) < 1e-2 * 4e13                      # why it has its own axis
+    assert max(abs(v) for v in trims["u6"].y) < 1e-2 * 4e13  # why it has its own axis
     assert bottom.ylim[1] < 1e12
 
 
@@ -62,7 +62,7 @@ def test_the_compact_variant_keeps_the_open_loop_label_and_puts_the_unit_on_a_ti
 
 def test_iteration_0_has_the_open_loop_in_the_initial_record(workdir):
     bench = stepped(workdir, "projection_reactor.json", 0)
-    fig = figure_of(bench)                         # no records yet: iteration 0's
+    fig = figure_of(bench)  # no records yet: iteration 0's
     assert len(fig.panels) == 2 and "initial (untrimmed)" in by_label(fig.panels[0])
 
 

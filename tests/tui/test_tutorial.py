@@ -12,12 +12,24 @@ from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 
 # the key sequence of docs/tutorial.md, one entry per key press (text typed counts a key per character)
-TUTORIAL = (["n", "enter"] + list("10/(s*(s+1)*(s+5))") + ["enter", "enter"]   # new session: unity, plant, lead
-            + ["3", "e", "enter", "ctrl+u"] + list("50") + ["enter"]          # PM target 50 deg
-            + ["down", "e", "enter", "ctrl+u"] + list("10") + ["enter"]       # GM target 10 dB
-            + ["plus"] + ["down"] * 6 + ["enter"]                             # a crossover target
-            + ["down", "e", "enter", "ctrl+u"] + list("3") + ["enter"]        # at least 3 rad/s
-            + ["r", "1"])                                                     # run slp to the end
+TUTORIAL = (
+    ["n", "enter"]
+    + list("10/(s*(s+1)*(s+5))")
+    + ["enter", "enter"]  # new session: unity, plant, lead
+    + ["3", "e", "enter", "ctrl+u"]
+    + list("50")
+    + ["enter"]  # PM target 50 deg
+    + ["down", "e", "enter", "ctrl+u"]
+    + list("10")
+    + ["enter"]  # GM target 10 dB
+    + ["plus"]
+    + ["down"] * 6
+    + ["enter"]  # a crossover target
+    + ["down", "e", "enter", "ctrl+u"]
+    + list("3")
+    + ["enter"]  # at least 3 rad/s
+    + ["r", "1"]
+)  # run slp to the end
 
 
 @synchronous

@@ -31,20 +31,20 @@ async def test_edits_undo_and_redo_with_their_descriptions_and_the_records_they_
         app.screen.query_one("#value").value = "(s+z1)*(s+z2)/((s+p1)*(s+p2))*2"
         await pilot.press("enter")
         await pilot.pause()
-        await pilot.press("y")                     # the recorded iteration will be dropped: yes
+        await pilot.press("y")  # the recorded iteration will be dropped: yes
         await settle(app, pilot)
         assert app.bench.iteration == 0
         assert "*2" in status(app) and "edit:" in status(app)
         await pilot.press("ctrl+z")
         await settle(app, pilot)
         assert app.bench.session.model.problem.model_dump() == before
-        assert app.bench.iteration == 1 and "undid:" in status(app)          # the dropped iteration is back
+        assert app.bench.iteration == 1 and "undid:" in status(app)  # the dropped iteration is back
         assert app.bench.view().loop_curve().gh is not None
         await pilot.press("ctrl+y")
         await settle(app, pilot)
         assert "*2" in app.bench.session.model.problem.conditions[0].plant.blocks[0].transfer.expression
         assert app.bench.iteration == 0 and "redid:" in status(app)
-        await pilot.press("ctrl+y")                # nothing left to redo: the key is disabled
+        await pilot.press("ctrl+y")  # nothing left to redo: the key is disabled
         await settle(app, pilot)
         assert app.check_action("redo_edit", ()) is None
 
@@ -70,12 +70,13 @@ def test_an_undone_iteration_comes_back_with_redo_and_a_new_step_forgets_it(work
 async def test_a_paused_run_says_paused(workdir):
     import asyncio
     import time
+
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         algorithm = app.bench.ensure_algorithm()
         step = algorithm.step
-        algorithm.step = lambda state: (time.sleep(0.05), step(state))[1]    # slow enough to pause
+        algorithm.step = lambda state: (time.sleep(0.05), step(state))[1]  # slow enough to pause
         await pilot.press("r")
         await asyncio.sleep(0.3)
         await pilot.press("space")

@@ -37,6 +37,7 @@ def test_loop_curve_is_the_open_loop_and_undo_restores_parameters(workdir):
 def test_a_time_response_is_edited_as_one_line(workdir):
     """The wind profile of the launch vehicle's peak angle of attack, read and rewritten."""
     from tui.state.field_edits import target_edit
+
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     edit = target_edit(bench, ("targets", 5), "response")
     assert edit.text == "alpha_w alpha 10 201; ramp 0 0.05; ramp 2 -0.05; reference 0"
@@ -50,11 +51,12 @@ def test_a_time_response_is_edited_as_one_line(workdir):
 def test_junction_signs_and_the_break_point_are_edited(workdir):
     from tui.state.edits import plant_edit
     from tui.state.plant_rows import plant_rows
+
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     refs = [ref for _, ref in plant_rows(bench.session.model.problem)]
-    junction = plant_edit(bench, refs[2])    # rows: compensator, plant, the junction, the break point
+    junction = plant_edit(bench, refs[2])  # rows: compensator, plant, the junction, the break point
     assert junction.text == "+r -y" and "write +SIGNAL" in junction.check("r y")
-    junction.apply("+r +y")                  # positive feedback: the problem changes, still builds
+    junction.apply("+r +y")  # positive feedback: the problem changes, still builds
     assert bench.session.model.problem.conditions[0].plant.junctions[0].plus == ["r", "y"]
     junction.apply("+r -y")
     brk = plant_edit(bench, refs[3])
@@ -63,7 +65,7 @@ def test_junction_signs_and_the_break_point_are_edited(workdir):
     assert bench.session.problem.conditions[0].break_at == "u"
     try:
         brk.apply("nowhere")
-    except Exception as exc:               # an unknown signal is refused and the old value kept
+    except Exception as exc:  # an unknown signal is refused and the old value kept
         assert "nowhere" in str(exc)
     assert bench.session.model.problem.conditions[0].break_at == "u"
 
@@ -71,13 +73,14 @@ def test_junction_signs_and_the_break_point_are_edited(workdir):
 def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workdir):
     from tui.state.edits import copy_condition, delete_condition
     from tui.state.field_edits import parameter_edit
+
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
-    copy_condition(bench, ("conditions", 1, "break_at"), "max-q hot")   # a row of the max-q condition
+    copy_condition(bench, ("conditions", 1, "break_at"), "max-q hot")  # a row of the max-q condition
     problem = bench.session.problem
     assert [c.name for c in problem.conditions][-1] == "max-q hot"
     kd = next(p for p in problem.parameters if p.name == "KD")
     assert len(kd.value) == 4 and kd.value[3] == kd.value[1]
-    edit = parameter_edit(bench, ("parameters", 0), "value")            # KD: one per condition
+    edit = parameter_edit(bench, ("parameters", 0), "value")  # KD: one per condition
     assert "one per condition" in edit.check("1, 2")
     edit.apply("0.5, 0.6, 0.7, 0.8")
     assert bench.session.problem.parameters[0].value == (0.5, 0.6, 0.7, 0.8)
@@ -87,6 +90,7 @@ def test_conditions_are_copied_and_deleted_with_their_per_condition_values(workd
 
 def test_shared_and_per_condition_toggle(workdir):
     from tui.state.field_edits import toggle_per_condition
+
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     names = [p.name for p in bench.session.model.problem.parameters]
     toggle_per_condition(bench, ("parameters", names.index("TA")))
@@ -99,19 +103,30 @@ def test_shared_and_per_condition_toggle(workdir):
 def test_matrix_entries_are_deleted_and_added(workdir):
     """Report 003's matrix format: e + y = theta, u = C e, y = G u."""
     import json
+
     doc = json.loads((workdir / "report003_lag_lead.json").read_text())
     doc["problem"]["conditions"][0]["plant"] = {
-        "format": "matrix", "signals": ["e", "u", "y"], "forcing_row": 1, "forcing": "1", "input_name": "r",
-        "entries": [{"row": 1, "col": 1, "expression": "1"}, {"row": 1, "col": 3, "expression": "1"},
-                    {"row": 2, "col": 2, "expression": "1"},
-                    {"row": 2, "col": 1, "expression": "-(s+z1)*(s+z2)/((s+p1)*(s+p2))"},
-                    {"row": 3, "col": 3, "expression": "1"}, {"row": 3, "col": 2, "expression": "-16000/(s*(s+8)*(s+20))"}]}
+        "format": "matrix",
+        "signals": ["e", "u", "y"],
+        "forcing_row": 1,
+        "forcing": "1",
+        "input_name": "r",
+        "entries": [
+            {"row": 1, "col": 1, "expression": "1"},
+            {"row": 1, "col": 3, "expression": "1"},
+            {"row": 2, "col": 2, "expression": "1"},
+            {"row": 2, "col": 1, "expression": "-(s+z1)*(s+z2)/((s+p1)*(s+p2))"},
+            {"row": 3, "col": 3, "expression": "1"},
+            {"row": 3, "col": 2, "expression": "-16000/(s*(s+8)*(s+20))"},
+        ],
+    }
     path = workdir / "matrix.json"
     path.write_text(json.dumps(doc))
     bench = Workbench(load_session(path))
     before = bench.view().loop_curve().gh
     from tui.state.edits import add_to_plant, delete_item
     from tui.state.plant_rows import plant_rows
+
     refs = [ref for _, ref in plant_rows(bench.session.model.problem)]
     assert delete_item(bench, refs[5]) == "matrix entry a[3,2]"
     add_to_plant(bench, refs[0], "3 2 -16000/(s*(s+8)*(s+20))")
@@ -122,6 +137,7 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     """Per-condition gains (KD, KR, KL differ by flight condition after a step) must
     reach each condition's curve; `v` cycles all -> each alone -> all."""
     from engine.loop.responses import open_loop
+
     bench = Workbench(load_session(workdir / "coebra_launch_vehicle.json"))
     bench.step()
     problem, record = bench.session.problem, bench.records[-1]
@@ -131,8 +147,9 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     for k, (curve, condition) in enumerate(zip(curves, problem.conditions)):
         values = problem.condition_values(k)
         values.update({n: v[k] if isinstance(v, list) else v for n, v in record.parameters.items()})
-        expected = open_loop(condition.network, condition.break_at, problem.grid.omega, values,
-                             sensitivities=False).value
+        expected = open_loop(
+            condition.network, condition.break_at, problem.grid.omega, values, sensitivities=False
+        ).value
         np.testing.assert_allclose(curve.gh, expected, rtol=1e-12)
     assert not np.allclose(curves[0].gh, curves[1].gh)
     messages = [bench.next_plotted_condition() for _ in names] + [bench.next_plotted_condition()]
@@ -148,6 +165,7 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
 def test_bode_plots_mark_the_margins_of_report_003(workdir):
     """Report 003 chapter 1, lag-lead compensated: PM 52.13 deg at 12.06 rad/s, GM 14.11 dB."""
     from tui.figures.open_loop import bode_figures
+
     bench = Workbench(load_session(workdir / "report003_lag_lead.json"))
     magnitude, phase = bode_figures(bench.view().loop_curves(), "rad/s")
     marks = {s.label: s for s in magnitude.series if s.scatter}
@@ -162,6 +180,7 @@ def test_bode_plots_mark_the_margins_of_report_003(workdir):
 
 def test_the_convergence_starts_at_iteration_0_and_names_are_whole(workdir):
     from tui.state.tableau_text import tableau_text
+
     bench = Workbench(load_session(workdir / "seidel_inlet_pi.json"))
     bench.step()
     label, iterations, values = bench.view().convergence()
@@ -177,6 +196,7 @@ def test_a_run_keeps_the_json_its_worker_made(workdir):
     import json
 
     from tui.state.workbench import stored_json
+
     own, given = (Workbench(load_session(workdir / "cip_launch_vehicle.json")) for _ in range(2))
     for _ in range(3):
         algorithm, state = given.begin_run()

@@ -24,10 +24,12 @@ class ExportActions:
     def action_export(self) -> None:
         """Choose a format, then write the current iteration's design beside the session."""
         from tui.screens.dialogs import ChooseDialog
+
         if self.bench is None:
             return
-        self.push_screen(ChooseDialog("export the current design as", list(FORMATS.items())),
-                         lambda to: to and self._export(to))
+        self.push_screen(
+            ChooseDialog("export the current design as", list(FORMATS.items())), lambda to: to and self._export(to)
+        )
 
     def _export(self, to: str) -> None:
         try:
@@ -53,10 +55,12 @@ class ExportActions:
                 target.parent.mkdir(parents=True, exist_ok=True)
                 write_atomic(target, text.encode("utf-8"))
             except OSError as exc:
-                self.notify(f"{target}: {exc.strerror or exc}", title=f"{what} not written", severity="error",
-                            timeout=10)
+                self.notify(
+                    f"{target}: {exc.strerror or exc}", title=f"{what} not written", severity="error", timeout=10
+                )
                 return
             self.notify(f"wrote {what} to {target}", timeout=6)
+
         if target.exists():
             self.push_screen(ConfirmDialog(f"{target.name} exists: replace it?"), write)
         else:

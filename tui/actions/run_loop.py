@@ -46,11 +46,17 @@ class Stepped(Message):
     """One iteration computed by the worker (``show``: refresh the tableau for it;
     ``stored``: its record's and state's JSON, made in the worker)."""
 
-    def __init__(self, state: State, record: StepRecord, show: bool, stored: tuple[dict, dict],
-                 poles: tuple[tuple, str, View] | None = None):
+    def __init__(
+        self,
+        state: State,
+        record: StepRecord,
+        show: bool,
+        stored: tuple[dict, dict],
+        poles: tuple[tuple, str, View] | None = None,
+    ):
         super().__init__()
         self.state, self.record, self.show, self.stored = state, record, show, stored
-        self.poles = poles   # (figure_key, the pole lines under the tableau, the view), made in the worker when shown
+        self.poles = poles  # (figure_key, the pole lines under the tableau, the view), made in the worker when shown
 
 
 class Drawn(Message):
@@ -86,7 +92,7 @@ class RunRequest:
     view: View
     count: int
     canvases: dict
-    settings: dict | None   # the snapshot the records are kept with (`Workbench.settings`)
+    settings: dict | None  # the snapshot the records are kept with (`Workbench.settings`)
 
 
 class RunLoop:
@@ -96,13 +102,13 @@ class RunLoop:
 
     def _run_setup(self) -> None:
         self._pause = threading.Event()
-        self._painted = threading.Event()   # set by the UI thread once it has painted what was posted
+        self._painted = threading.Event()  # set by the UI thread once it has painted what was posted
 
     def action_step(self) -> None:
         self._start(1)
 
     def action_run(self) -> None:
-        self._start(10 ** 9)
+        self._start(10**9)
 
     def action_run_n(self) -> None:
         from tui.screens.dialogs import EditDialog
@@ -110,6 +116,7 @@ class RunLoop:
         def chosen(text: str | None) -> None:
             if text:
                 self._start(int(float(text)))
+
         self.push_screen(EditDialog("run how many iterations?", "10", _positive_integer), chosen)
 
     def action_pause(self) -> None:
@@ -128,8 +135,9 @@ class RunLoop:
             self.notify("the algorithm has finished; z undoes, a changes it")
             return
         screen = self._main()
-        request = RunRequest(algorithm, state, self.bench.view(), count, screen.canvases() if screen else {},
-                             self.bench.settings)
+        request = RunRequest(
+            algorithm, state, self.bench.view(), count, screen.canvases() if screen else {}, self.bench.settings
+        )
         self._pause.clear()
         self._painted.clear()
         self._set_running(True)
@@ -155,7 +163,7 @@ class RunLoop:
 
     @work(thread=True, exclusive=True, exit_on_error=False, group="run")
     def _run_worker(self, request: RunRequest) -> None:
-        gc.freeze()   # a full collection then scans only what is new, not a long session's records
+        gc.freeze()  # a full collection then scans only what is new, not a long session's records
         try:
             note, view, drawn = self._steps(request)
         except Exception as exc:  # noqa: BLE001 - an engine failure ends the run, never the app
@@ -166,14 +174,14 @@ class RunLoop:
         self._painted.clear()
         self.post_message(RunEnded(note))
         if view is not None and not drawn:
-            self._painted.wait(PAINT_WAIT)   # the keys come back and are painted first
+            self._painted.wait(PAINT_WAIT)  # the keys come back and are painted first
             self._post_drawings(view, request.canvases)
 
     def _steps(self, request: RunRequest) -> tuple[str | None, View | None, bool]:
         """In the worker: step, post every record, draw now and then; why it stopped,
         the last view and whether its plots were drawn."""
         state, view, last, drawn = request.state, request.view, 0.0, True
-        self._painted.wait(PAINT_WAIT)   # the screen as the run starts is painted first
+        self._painted.wait(PAINT_WAIT)  # the screen as the run starts is painted first
         for n in range(request.count):
             if self._pause.is_set():
                 return "paused", view, drawn
@@ -185,12 +193,12 @@ class RunLoop:
             poles = (figure_key(view), pole_text(view), view) if show else None
             self.post_message(Stepped(state, record, show, stored_json(state, record, request.settings), poles))
             drawn = False
-            if show and not final:   # the last view is drawn after RunEnded: the keys need not wait
-                self._painted.wait(PAINT_WAIT)   # the UI paints the tableau without the worker taking the GIL
+            if show and not final:  # the last view is drawn after RunEnded: the keys need not wait
+                self._painted.wait(PAINT_WAIT)  # the UI paints the tableau without the worker taking the GIL
                 last = time.monotonic()
                 self._painted.clear()
                 self._post_drawings(view, request.canvases)
-                self._painted.wait(PAINT_WAIT)   # ... and the plots
+                self._painted.wait(PAINT_WAIT)  # ... and the plots
                 drawn = True
             if record.status.finished:
                 break
@@ -211,7 +219,7 @@ class RunLoop:
     def _show_stepped(self, message: Stepped) -> None:
         try:
             self.bench.commit(message.state, message.record, message.stored)
-        except SessionError as exc:   # cannot happen while changes are disabled; said, never silent
+        except SessionError as exc:  # cannot happen while changes are disabled; said, never silent
             self.notify(str(exc), title="record not kept", severity="error", timeout=10)
             self._pause.set()
             return
@@ -252,7 +260,7 @@ class RunLoop:
 
     def _run_done(self) -> None:
         """The keys are enabled again; everything but the plots (drawn by the worker) is refreshed."""
-        self.bench.autosave(wait=False)   # a long session's JSON: written off the UI thread
+        self.bench.autosave(wait=False)  # a long session's JSON: written off the UI thread
         self._set_running(False)
         self.refresh_workbench(plots=False)
 
@@ -261,8 +269,7 @@ def drawings(view: View, canvases: dict, only: set[str] | None = None) -> tuple[
     """The figures of a view's plots on screen (``canvases``; ``only``: of these), and
     their text at the canvases' sizes (off the UI thread)."""
     drawn = figures(view, set(canvases) if only is None else only)
-    return drawn, {name: FigurePlot.prebuild(drawn[name], canvas) for name, canvas in canvases.items()
-                   if name in drawn}
+    return drawn, {name: FigurePlot.prebuild(drawn[name], canvas) for name, canvas in canvases.items() if name in drawn}
 
 
 def _positive_integer(text: str) -> str | None:

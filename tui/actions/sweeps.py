@@ -9,8 +9,10 @@ from textual import work
 from sessions.errors import SessionError
 from sessions.sweeps.plan import parse_sweep
 
-SWEEP_PROMPT = ("sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance NAME=+-10% [samples N]; "
-                "end with 'at tcp://HOST:PORT' for a cluster")
+SWEEP_PROMPT = (
+    "sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance NAME=+-10% [samples N]; "
+    "end with 'at tcp://HOST:PORT' for a cluster"
+)
 
 
 class SweepActions:
@@ -21,6 +23,7 @@ class SweepActions:
     def action_sweep(self) -> None:
         """Ask for a sweep (one line), then run it on Dask in a worker thread."""
         from tui.screens.dialogs import EditDialog
+
         if self.bench is None or self.busy:
             return
 
@@ -42,12 +45,14 @@ class SweepActions:
                 screen.action_tab("sweep")
                 screen.refresh_sweep(f"sweep {text}: starting the cluster ...  (space cancels)")
             self._sweep_worker(text)
+
         self.push_screen(EditDialog(SWEEP_PROMPT, "starts 16", check), chosen)
 
     @work(thread=True, exclusive=True, exit_on_error=False, group="sweep")
     def _sweep_worker(self, text: str) -> None:
         def progress(done: int, total: int) -> None:
             self.call_from_thread(self._sweep_progress, f"sweep {text}: {done}/{total} runs  (space cancels)")
+
         try:
             summary = self.bench.run_sweep(text, progress, lambda: self._sweep_cancel)
         except Exception as exc:  # noqa: BLE001 - a cluster that cannot be reached must not close the app
@@ -77,5 +82,8 @@ class SweepActions:
         """Adopt the latest sweep's best run as the session's start (asks when iterations would go)."""
         if self.bench is None or self.bench.latest_sweep() is None:
             return
-        self.edit_flow.change(self.bench.adopt_best, "use the best optimum's design as the start",
-                              done=lambda run: self.notify(f"the start is now run {run['index']}'s design"))
+        self.edit_flow.change(
+            self.bench.adopt_best,
+            "use the best optimum's design as the start",
+            done=lambda run: self.notify(f"the start is now run {run['index']}'s design"),
+        )

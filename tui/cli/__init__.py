@@ -22,11 +22,16 @@ from tui.cli.common import CliError
 def build_parser() -> argparse.ArgumentParser:
     """Every subcommand and its options."""
     parser = argparse.ArgumentParser(
-        prog="loopcraft", usage="loopcraft [FILE.json | --example NAME] | loopcraft COMMAND ...",
+        prog="loopcraft",
+        usage="loopcraft [FILE.json | --example NAME] | loopcraft COMMAND ...",
         description="Classical compensator design workbench. Without a command: the app, on FILE.json, on a "
-        "bundled example (--example NAME), or on its start screen.")
-    parser.add_argument("--example", metavar="NAME", help="open the app on a bundled example (a working copy): "
-                        + ", ".join(_example_names()))
+        "bundled example (--example NAME), or on its start screen.",
+    )
+    parser.add_argument(
+        "--example",
+        metavar="NAME",
+        help="open the app on a bundled example (a working copy): " + ", ".join(_example_names()),
+    )
     sub = parser.add_subparsers(dest="command")
     analyze.add_parser(sub)
     session_commands.add_parsers(sub)
@@ -37,13 +42,23 @@ def build_parser() -> argparse.ArgumentParser:
     config_command.add_parser(sub)
     for name in TABLE_COMMANDS:
         sub.choices[name].add_argument(
-            "--allow-outside-tables", action="store_true",
-            help="read CSV tables outside the session's folder (absolute paths, .., symlinks leading out)")
+            "--allow-outside-tables",
+            action="store_true",
+            help="read CSV tables outside the session's folder (absolute paths, .., symlinks leading out)",
+        )
     return parser
 
 
-TABLE_COMMANDS = ("run", "replay", "report", "tradeoff", "sweep", "analyze", "export",
-                  "compare")   # those that read tables
+TABLE_COMMANDS = (
+    "run",
+    "replay",
+    "report",
+    "tradeoff",
+    "sweep",
+    "analyze",
+    "export",
+    "compare",
+)  # those that read tables
 
 
 def _handle(args: argparse.Namespace) -> int:
@@ -51,6 +66,7 @@ def _handle(args: argparse.Namespace) -> int:
     if not getattr(args, "allow_outside_tables", False):
         return args.handler(args)
     from sessions.build import outside_tables_allowed
+
     with outside_tables_allowed():
         return args.handler(args)
 
@@ -59,6 +75,7 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
     """The workbench: on a session file, on a bundled example, or the start screen."""
     from tui.app import LoopcraftApp
     from tui.files import example as example_copy
+
     path = None
     if example is not None:
         try:
@@ -71,12 +88,16 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
         if not path.is_file():
             print(f"loopcraft: error: {target}: no such file", file=sys.stderr)
             return 2
-    streams = [name for name, stream in (("input", sys.stdin), ("output", sys.stdout))
-               if stream is None or not stream.isatty()]
-    if streams:   # the app would draw for no one (and keep a core busy doing it)
+    streams = [
+        name for name, stream in (("input", sys.stdin), ("output", sys.stdout)) if stream is None or not stream.isatty()
+    ]
+    if streams:  # the app would draw for no one (and keep a core busy doing it)
         verb = "is not one" if len(streams) == 1 else "are not terminals"
-        print(f"loopcraft: error: the workbench needs a terminal: standard {' and '.join(streams)} {verb} "
-              "(for scripts: loopcraft run, analyze, report, export; see loopcraft --help)", file=sys.stderr)
+        print(
+            f"loopcraft: error: the workbench needs a terminal: standard {' and '.join(streams)} {verb} "
+            "(for scripts: loopcraft run, analyze, report, export; see loopcraft --help)",
+            file=sys.stderr,
+        )
         return 2
     result = LoopcraftApp(path).run()
     return result if isinstance(result, int) else 0
@@ -84,6 +105,7 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
 
 def _example_names() -> list[str]:
     from tui.files import EXAMPLES
+
     return sorted(p.stem for p in EXAMPLES.glob("*.json"))
 
 
@@ -127,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (EngineError, CliError, SessionError) as exc:
         print(f"loopcraft {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except BrokenPipeError:   # the output's reader stopped early (| head): not an error of ours
+    except BrokenPipeError:  # the output's reader stopped early (| head): not an error of ours
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
 

@@ -22,29 +22,49 @@ def _pair(z: complex) -> list[float]:
 
 
 def _peak_json(p) -> dict | None:
-    return None if p is None else {"value": finite_or_none(p.value), "unbounded": p.value == math.inf,
-                                   "db": finite_or_none(p.db),
-                                   "frequency": p.frequency if math.isfinite(p.frequency) else None,
-                                   "at_infinity": p.frequency == math.inf, "method": p.method}
+    return (
+        None
+        if p is None
+        else {
+            "value": finite_or_none(p.value),
+            "unbounded": p.value == math.inf,
+            "db": finite_or_none(p.db),
+            "frequency": p.frequency if math.isfinite(p.frequency) else None,
+            "at_infinity": p.frequency == math.inf,
+            "method": p.method,
+        }
+    )
 
 
 def disk_to_json(d) -> dict | None:
     """The `disk_margin` object of `analyze --json` (None when not computed)."""
     if d is None:
         return None
-    return {"alpha": d.alpha, "skew": d.skew, "gain_margin_low": d.gain_low,
-            "gain_margin_high": finite_or_none(d.gain_high), "gain_margin_low_db": finite_or_none(d.gain_low_db),
-            "gain_margin_high_db": finite_or_none(d.gain_high_db), "gain_margin_db": finite_or_none(d.gain_db),
-            "phase_margin_deg": finite_or_none(d.phase_deg), "frequency": finite_or_none(d.frequency),
-            "at_infinity": d.frequency == math.inf, "method": d.method, "notes": list(d.notes)}
+    return {
+        "alpha": d.alpha,
+        "skew": d.skew,
+        "gain_margin_low": d.gain_low,
+        "gain_margin_high": finite_or_none(d.gain_high),
+        "gain_margin_low_db": finite_or_none(d.gain_low_db),
+        "gain_margin_high_db": finite_or_none(d.gain_high_db),
+        "gain_margin_db": finite_or_none(d.gain_db),
+        "phase_margin_deg": finite_or_none(d.phase_deg),
+        "frequency": finite_or_none(d.frequency),
+        "at_infinity": d.frequency == math.inf,
+        "method": d.method,
+        "notes": list(d.notes),
+    }
 
 
 def locus_to_json(r: RootLocus) -> dict:
     """The `root_locus` object of `analyze --json --locus PARAM`."""
     return {
-        "parameter": r.parameter, "values": r.values.tolist(), "status": r.status,
+        "parameter": r.parameter,
+        "values": r.values.tolist(),
+        "status": r.status,
         "branches": [[_pair(z) for z in r.branches[:, j]] for j in range(r.branches.shape[1])],
-        "current_value": r.current_value, "current_poles": [_pair(z) for z in r.current],
+        "current_value": r.current_value,
+        "current_poles": [_pair(z) for z in r.current],
         "crossings": [{"value": c.value, "frequency": c.frequency, "direction": c.direction} for c in r.crossings],
         "asymptotes": None if r.centroid is None else {"centroid": r.centroid, "angles_deg": list(r.angles_deg)},
         "breakaways": [{"point": _pair(z), "gain": k} for z, k in r.breakaways],
@@ -56,19 +76,32 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
     """The documented JSON object of `loopcraft analyze --json`."""
     m = a.margins
     return {
-        "gain_margins": [{"frequency": g.frequency, "gain_db": finite_or_none(g.gain_db), "distance": g.value}
-                         for g in m.gain],
-        "phase_margins": [{"frequency": p.frequency, "phase_deg": p.phase_deg, "distance": p.value,
-                           "delay": finite_or_none(p.delay)} for p in m.phase],
+        "gain_margins": [
+            {"frequency": g.frequency, "gain_db": finite_or_none(g.gain_db), "distance": g.value} for g in m.gain
+        ],
+        "phase_margins": [
+            {"frequency": p.frequency, "phase_deg": p.phase_deg, "distance": p.value, "delay": finite_or_none(p.delay)}
+            for p in m.phase
+        ],
         "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.stability],
         "crossover_frequency": finite_or_none(m.crossover_frequency),
         "delay_margin": finite_or_none(m.delay_margin),
         "delay_margin_samples": finite_or_none(delay_margin_samples(m)) if variable == "w" else None,
         "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
         "verdict": a.verdict,
-        "closed_loop_poles": None if a.closed_loop_poles is None else [
-            {"real": p.value.real, "imag": p.value.imag, "damping": p.damping,
-             "natural_frequency": p.natural_frequency, "zeta": p.zeta, "wn": p.wn} for p in a.closed_loop_poles],
+        "closed_loop_poles": None
+        if a.closed_loop_poles is None
+        else [
+            {
+                "real": p.value.real,
+                "imag": p.value.imag,
+                "damping": p.damping,
+                "natural_frequency": p.natural_frequency,
+                "zeta": p.zeta,
+                "wn": p.wn,
+            }
+            for p in a.closed_loop_poles
+        ],
         "disk_margin": disk_to_json(a.disk_margin),
         "sensitivity_peak": _peak_json(a.sensitivity_peak),
         "complementary_sensitivity_peak": _peak_json(a.complementary_peak),
@@ -82,8 +115,9 @@ def delay_margin_samples(m) -> float | None:
     """A w-plane loop's delay margin in samples: at a gain crossover of
     w-plane frequency nu (w = (z - 1)/(z + 1)), the sampled frequency is
     omega T = 2 atan(nu), and d samples of delay turn the phase by d omega T."""
-    values = [math.radians(p.phase_deg) % (2 * math.pi) / (2 * math.atan(p.frequency))
-              for p in m.phase if p.frequency > 0]
+    values = [
+        math.radians(p.phase_deg) % (2 * math.pi) / (2 * math.atan(p.frequency)) for p in m.phase if p.frequency > 0
+    ]
     return min(values) if values else None
 
 
@@ -126,8 +160,9 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     lines.append(f"closed loop: {a.verdict}")
     for p in a.closed_loop_poles or ():
         zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
-        lines.append(f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {zeta:.4f}"
-                     f"   wn {p.natural_frequency:.6g} {unit}")
+        lines.append(
+            f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {zeta:.4f}   wn {p.natural_frequency:.6g} {unit}"
+        )
     lines.extend(_measure_lines(a, unit))
     lines.extend(f"note: {n}" for n in a.notes)
     return "\n".join(lines)
@@ -142,23 +177,29 @@ def _measure_lines(a: LoopAnalysis, unit: str) -> list[str]:
     lines = []
     d = a.disk_margin
     if d is not None:
-        lines.append(f"disk margin (skew {d.skew:g}): alpha {d.alpha:.6g}, gain {_num(d.gain_low_db, 'dB', '.4f')}"
-                     f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')}"
-                     f" {_at(d.frequency, unit)}".rstrip())
+        lines.append(
+            f"disk margin (skew {d.skew:g}): alpha {d.alpha:.6g}, gain {_num(d.gain_low_db, 'dB', '.4f')}"
+            f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')}"
+            f" {_at(d.frequency, unit)}".rstrip()
+        )
     for name, p in (("sensitivity peak Ms", a.sensitivity_peak), ("complementary peak Mt", a.complementary_peak)):
         if p is not None:
-            size = _num(p.db, 'dB', '.4f') if math.isfinite(p.value) else "unbounded"
+            size = _num(p.db, "dB", ".4f") if math.isfinite(p.value) else "unbounded"
             lines.append(f"{name}: {p.value:.6g} ({size}) {_at(p.frequency, unit)}".rstrip())
     return lines
 
 
 def locus_to_text(r: RootLocus) -> str:
     """A short text summary of a root locus: range, status, crossings, asymptotes, breakaways."""
-    lines = [f"root locus in {r.parameter}: {r.values[0]:.6g} .. {r.values[-1]:.6g}, {r.values.size} points, "
-             f"{r.branches.shape[1]} branches ({r.status})"]
+    lines = [
+        f"root locus in {r.parameter}: {r.values[0]:.6g} .. {r.values[-1]:.6g}, {r.values.size} points, "
+        f"{r.branches.shape[1]} branches ({r.status})"
+    ]
     for c in r.crossings:
-        lines.append(f"  imaginary-axis crossing: {r.parameter} = {c.value:.10g} at {c.frequency:.6g} rad/s "
-                     f"({'into' if c.direction > 0 else 'out of'} the right half-plane)")
+        lines.append(
+            f"  imaginary-axis crossing: {r.parameter} = {c.value:.10g} at {c.frequency:.6g} rad/s "
+            f"({'into' if c.direction > 0 else 'out of'} the right half-plane)"
+        )
     if r.centroid is not None:
         lines.append(f"  asymptotes: centroid {r.centroid:.6g}, angles {', '.join(f'{x:g}' for x in r.angles_deg)} deg")
     for z, k in r.breakaways:
@@ -175,6 +216,7 @@ def _table_loop(args: argparse.Namespace):
     from engine.analysis import unity_feedback
     from sessions.build import frequency_table
     from sessions.format.schema import TableModel
+
     path = Path(args.table)
     try:
         model = TableModel(unit=args.unit, form=args.form, gain=args.gain, csv=path.name, columns=args.columns)
@@ -190,6 +232,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     import numpy as np
 
     from engine.analysis import analyze, unity_feedback
+
     if args.table is not None:
         network, omega = _table_loop(args)
     elif not args.tf:
@@ -200,9 +243,11 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     params = _params(args.param or [])
     missing = [name for name in network.parameters if name not in params]
     if missing:
-        raise CliError(f"--tf: unknown name(s) {', '.join(missing)} (expressions for analyze "
-                       f"take numbers, the variable {args.variable!r}, delay factors exp(-T*s) "
-                       "and names given by --param NAME=VALUE)")
+        raise CliError(
+            f"--tf: unknown name(s) {', '.join(missing)} (expressions for analyze "
+            f"take numbers, the variable {args.variable!r}, delay factors exp(-T*s) "
+            "and names given by --param NAME=VALUE)"
+        )
     result = analyze(network, "e", omega, params, skew=args.skew)
     locus = _locus(args, network, params)
     if args.json:
@@ -235,35 +280,71 @@ def _locus(args: argparse.Namespace, network, params: dict[str, float]):
     if args.locus is None:
         return None
     from engine.closed_loop.root_locus import root_locus
-    return root_locus(network, "e", params, args.locus, None if args.locus_range is None else tuple(args.locus_range),
-                      args.locus_points)
+
+    return root_locus(
+        network,
+        "e",
+        params,
+        args.locus,
+        None if args.locus_range is None else tuple(args.locus_range),
+        args.locus_points,
+    )
 
 
 def add_parser(sub) -> None:
     """The `analyze` subcommand and its options."""
     p = sub.add_parser("analyze", help="margins and closed-loop poles of a unity-feedback loop")
-    p.add_argument("--tf", action="append", metavar="EXPR",
-                   help="a transfer function, e.g. '16000/(s*(s+8)*(s+20))'; repeat to multiply")
-    p.add_argument("--table", metavar="FILE.csv", help="a tabulated open loop (times any --tf): margins "
-                   "refined on a rational fit, its residual stated")
-    p.add_argument("--columns", nargs="+", metavar="NAME", help="--table: frequency and value column names "
-                   "(three, two for --form magnitude)")
-    p.add_argument("--form", default="polar", choices=["polar", "cartesian", "magnitude"],
-                   help="--table: magnitude and phase (deg), real and imaginary, or magnitude only")
+    p.add_argument(
+        "--tf",
+        action="append",
+        metavar="EXPR",
+        help="a transfer function, e.g. '16000/(s*(s+8)*(s+20))'; repeat to multiply",
+    )
+    p.add_argument(
+        "--table",
+        metavar="FILE.csv",
+        help="a tabulated open loop (times any --tf): margins refined on a rational fit, its residual stated",
+    )
+    p.add_argument(
+        "--columns",
+        nargs="+",
+        metavar="NAME",
+        help="--table: frequency and value column names (three, two for --form magnitude)",
+    )
+    p.add_argument(
+        "--form",
+        default="polar",
+        choices=["polar", "cartesian", "magnitude"],
+        help="--table: magnitude and phase (deg), real and imaginary, or magnitude only",
+    )
     p.add_argument("--unit", default="rad/s", choices=["rad/s", "hz"], help="--table: unit of its frequencies")
     p.add_argument("--gain", type=float, default=1.0, help="--table: a gain its values are multiplied by")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--variable", default="s", choices=["s", "w"], help="frequency variable (w: w-plane)")
-    p.add_argument("--delay", type=float, default=0.0, metavar="T",
-                   help="a loop delay exp(-T s) in seconds (also written as a factor exp(-T*s) in --tf)")
+    p.add_argument(
+        "--delay",
+        type=float,
+        default=0.0,
+        metavar="T",
+        help="a loop delay exp(-T s) in seconds (also written as a factor exp(-T*s) in --tf)",
+    )
     p.add_argument("--wmin", type=float, default=1e-3, help="plot grid start, rad/s (margins do not depend on it)")
     p.add_argument("--wmax", type=float, default=1e3, help="plot grid end, rad/s")
     p.add_argument("--points", type=int, default=400, help="plot grid points")
-    p.add_argument("--param", action="append", metavar="NAME=VALUE",
-                   help="a value for a name in the expressions (repeatable), e.g. for --locus NAME")
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="a value for a name in the expressions (repeatable), e.g. for --locus NAME",
+    )
     p.add_argument("--skew", type=float, default=0.0, help="disk margin skew (0 balanced, 1: S, -1: T)")
     p.add_argument("--locus", metavar="PARAM", help="add the root locus in the loop gain ('gain') or a --param name")
-    p.add_argument("--locus-range", type=float, nargs=2, metavar=("LO", "HI"),
-                   help="--locus: the range of the gain or parameter (default: decades around it)")
+    p.add_argument(
+        "--locus-range",
+        type=float,
+        nargs=2,
+        metavar=("LO", "HI"),
+        help="--locus: the range of the gain or parameter (default: decades around it)",
+    )
     p.add_argument("--locus-points", type=int, default=2000, help="--locus: most points of the locus")
     p.set_defaults(handler=cmd_analyze)

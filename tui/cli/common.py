@@ -26,13 +26,15 @@ def finite_or_none(x: float | None) -> float | None:
 def load(file: str) -> Session:
     """Load a session; say so when a newer autosave sits beside it."""
     from sessions.store import autosave_candidate, load_session
+
     session = load_session(file)
     for message in session.messages:
         print(f"note: {message}", file=sys.stderr)
     autosave = autosave_candidate(file)
     if autosave is not None:
-        print(f"note: {autosave.name} is newer than {Path(file).name}; open it to recover unsaved work",
-              file=sys.stderr)
+        print(
+            f"note: {autosave.name} is newer than {Path(file).name}; open it to recover unsaved work", file=sys.stderr
+        )
     return session
 
 
@@ -41,6 +43,7 @@ def initial_record(session: Session) -> StepRecord | None:
     projection: the untrimmed open loop; others: the tableau at the start)."""
     from engine.errors import EngineError
     from sessions.lifecycle import bound_algorithm, registration
+
     algorithm, settings = bound_algorithm(session)
     try:
         state = algorithm.init(session.problem, settings)
@@ -52,7 +55,7 @@ def initial_record(session: Session) -> StepRecord | None:
 def rows_now(session: Session, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:
     """The tableau at an iteration (the current one by default) and its record
     (iteration 0's record, when the algorithm gives one)."""
-    records = session.records[:session.model.current_iteration]
+    records = session.records[: session.model.current_iteration]
     iteration = len(records) if iteration is None else iteration
     if not 0 <= iteration <= len(records):
         raise CliError(f"--iteration: {iteration} is outside 0..{len(records)}")
@@ -72,8 +75,17 @@ def summary_json(session: Session) -> dict:
         "iterations": session.model.current_iteration,
         "parameters": dict(record.parameters) if started else session.problem.named(),
         "objective": record.objective if started else None,
-        "measures": [{"name": r.name, "kind": r.kind, "condition": r.condition, "value": finite_or_none(r.value),
-                      "target": r.target, "satisfied": r.satisfied, "frequency": finite_or_none(r.frequency)}
-                     for r in rows],
+        "measures": [
+            {
+                "name": r.name,
+                "kind": r.kind,
+                "condition": r.condition,
+                "value": finite_or_none(r.value),
+                "target": r.target,
+                "satisfied": r.satisfied,
+                "frequency": finite_or_none(r.frequency),
+            }
+            for r in rows
+        ],
         "counters": dict(record.counters) if started else {},
     }

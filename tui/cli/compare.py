@@ -11,6 +11,7 @@ from tui.cli.common import CliError, load
 def cmd_compare(args: argparse.Namespace) -> int:
     """A.json B.json (each at its last iteration), or A.json --iterations I J."""
     from sessions.compare import compare, comparison_json, comparison_text, side
+
     if (args.b is None) == (args.iterations is None):
         raise CliError("give a second session (compare A.json B.json) or --iterations I J (of A.json)")
     a = load(args.a)

@@ -11,10 +11,12 @@ from tui.cli.common import CliError
 def cmd_config(args: argparse.Namespace) -> int:
     """Print the config's path and settings in effect; --sample: a sample file; --keys: the binding ids."""
     from tui.config import SAMPLE, ConfigError, config_path, load_config
+
     if args.sample:
         print(SAMPLE)
         return 0
     from textual.theme import BUILTIN_THEMES
+
     path = config_path()
     try:
         config = load_config(path, themes=set(BUILTIN_THEMES))
@@ -26,6 +28,7 @@ def cmd_config(args: argparse.Namespace) -> int:
         print(f"keys.{binding_id} = {keys!r}")
     if args.keys:
         from tui.keys import binding_table
+
         print("\nbinding id                          keys              what it does")
         for binding_id, keys, what in binding_table():
             shown = config.keys.get(binding_id, keys)
@@ -34,9 +37,12 @@ def cmd_config(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("config", help="where the config file is and what it holds (theme, unit, keys)",
-                       description="The user's settings: a TOML file (LOOPCRAFT_CONFIG, else "
-                       "$XDG_CONFIG_HOME/loopcraft/config.toml, else ~/.config/loopcraft/config.toml).")
+    p = sub.add_parser(
+        "config",
+        help="where the config file is and what it holds (theme, unit, keys)",
+        description="The user's settings: a TOML file (LOOPCRAFT_CONFIG, else "
+        "$XDG_CONFIG_HOME/loopcraft/config.toml, else ~/.config/loopcraft/config.toml).",
+    )
     p.add_argument("--keys", action="store_true", help="also list every key binding's id, keys and action")
     p.add_argument("--sample", action="store_true", help="print a sample config file")
     p.set_defaults(handler=cmd_config)

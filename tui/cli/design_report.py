@@ -17,6 +17,7 @@ def cmd_design_report(args: argparse.Namespace) -> int:
     """Write DIR/NAME.html (self-contained) or DIR/NAME.md with its PNGs."""
     from sessions.report.content import report_blocks
     from sessions.report.render import write_report
+
     folder = Path(args.out) if args.out else Path(args.file).resolve().parent
     if folder.exists() and not folder.is_dir():
         raise CliError(f"--out {args.out}: not a folder")
@@ -26,6 +27,5 @@ def cmd_design_report(args: argparse.Namespace) -> int:
     except ImportError as exc:
         raise CliError(f"--format {args.format}: the figures need matplotlib ({exc})") from None
     written = write_report(blocks, args.format, folder, Path(args.file).stem)
-    print(f"wrote {written[0]}" + (f" and {len(written) - 1} figure(s)" if len(written) > 1 else ""),
-          file=sys.stderr)
+    print(f"wrote {written[0]}" + (f" and {len(written) - 1} figure(s)" if len(written) > 1 else ""), file=sys.stderr)
     return 0

@@ -15,6 +15,7 @@ from tui.cli.common import CliError, load
 def export_text(file: str, iteration: int | None, to: str, sample_time: float | None) -> str:
     """The exported text of a session's design at an iteration (default: its last)."""
     from sessions.export.formats import export_text as text_of
+
     return text_of(load(file), iteration, to, sample_time)
 
 
@@ -38,13 +39,14 @@ def cmd_export(args: argparse.Namespace) -> int:
     target = target_path(args.file, args.out, args.to, args.iteration)
     try:
         text = export_text(args.file, args.iteration, args.to, args.sample_time)
-    except ValueError as exc:    # e.g. JSON refusing a non-finite number
+    except ValueError as exc:  # e.g. JSON refusing a non-finite number
         raise CliError(f"--to {args.to}: {exc}") from None
     if target is None:
         sys.stdout.write(text)
         return 0
     try:
         from sessions.format.save_file import write_atomic
+
         write_atomic(target, text.encode("utf-8"))
     except OSError as exc:
         raise CliError(f"--out {target}: cannot write: {exc.strerror or exc}") from None
@@ -58,8 +60,15 @@ def add_parser(sub) -> None:
     p.add_argument("file")
     p.add_argument("--iteration", type=int, metavar="K", help="the iteration (default: the last; 0: the start)")
     p.add_argument("--to", required=True, choices=list(SUFFIX))
-    p.add_argument("--out", metavar="PATH", help="a file, or a folder (NAME.py, .m, .export.json, .csv inside); "
-                   "default: standard output")
-    p.add_argument("--sample-time", type=float, metavar="T",
-                   help="w-plane designs: the sample time of the z-domain forms (default: unstated)")
+    p.add_argument(
+        "--out",
+        metavar="PATH",
+        help="a file, or a folder (NAME.py, .m, .export.json, .csv inside); default: standard output",
+    )
+    p.add_argument(
+        "--sample-time",
+        type=float,
+        metavar="T",
+        help="w-plane designs: the sample time of the z-domain forms (default: unstated)",
+    )
     p.set_defaults(handler=cmd_export)

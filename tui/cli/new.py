@@ -15,6 +15,7 @@ def cmd_new(args: argparse.Namespace) -> int:
     """Create FILE.json (refusing to overwrite one unless --force)."""
     from sessions.new.templates import new_session
     from sessions.store import parse_session, save_session
+
     target = Path(args.file)
     if target.suffix != ".json":
         raise CliError(f"{args.file}: a session file ends in .json")
@@ -27,6 +28,7 @@ def cmd_new(args: argparse.Namespace) -> int:
     grid, table = None, None
     if args.plant_file is not None:
         from sessions.new.importers import read_plant_file
+
         imported = read_plant_file(args.plant_file, target)
         plant, grid, table = imported.plant, imported.grid, imported
         notes = f"A new session: the plant is the {imported.description}."
@@ -35,16 +37,19 @@ def cmd_new(args: argparse.Namespace) -> int:
     data = new_session(plant, args.compensator, args.algorithm, grid=grid, notes=notes)
     if table is not None and table.csv_name:
         _write(target.parent / table.csv_name, table.csv_text)
-    session = parse_session(json.dumps(data), str(target), target.parent)   # what is written loads
+    session = parse_session(json.dumps(data), str(target), target.parent)  # what is written loads
     save_session(session, target, force=True)
-    print(f"wrote {target}" + (f" and {target.parent / table.csv_name}" if table and table.csv_name else ""),
-          file=sys.stderr)
+    print(
+        f"wrote {target}" + (f" and {target.parent / table.csv_name}" if table and table.csv_name else ""),
+        file=sys.stderr,
+    )
     return 0
 
 
 def _write(path: Path, text: str) -> None:
     try:
         from sessions.format.save_file import write_atomic
+
         write_atomic(path, text.encode("utf-8"))
     except OSError as exc:
         raise CliError(f"{path}: cannot write the plant's table: {exc.strerror or exc}") from None
@@ -53,13 +58,21 @@ def _write(path: Path, text: str) -> None:
 def add_parser(sub) -> None:
     """The new subcommand and its options."""
     from sessions.new.templates import ALGORITHMS, STRUCTURES
+
     p = sub.add_parser("new", help="a new session: unity feedback, a compensator structure, PM/GM targets")
     p.add_argument("file", metavar="FILE.json")
     p.add_argument("--plant", metavar="EXPR", help="the plant, an expression in s (or w): numbers only")
-    p.add_argument("--plant-file", metavar="F.mat|F.npz",
-                   help="the plant from arrays num/den, A/B/C/D, or freq/resp (a table written beside FILE)")
-    p.add_argument("--compensator", default="lead", metavar="|".join(STRUCTURES) + "|EXPR",
-                   help="a structure, or an expression whose names are the parameters (default lead)")
+    p.add_argument(
+        "--plant-file",
+        metavar="F.mat|F.npz",
+        help="the plant from arrays num/den, A/B/C/D, or freq/resp (a table written beside FILE)",
+    )
+    p.add_argument(
+        "--compensator",
+        default="lead",
+        metavar="|".join(STRUCTURES) + "|EXPR",
+        help="a structure, or an expression whose names are the parameters (default lead)",
+    )
     p.add_argument("--algorithm", default="slp", choices=list(ALGORITHMS))
     p.add_argument("--force", action="store_true", help="replace an existing FILE")
     p.set_defaults(handler=cmd_new)

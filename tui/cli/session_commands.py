@@ -23,8 +23,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     from sessions.lifecycle import adopt_current, switch_algorithm
     from sessions.runner import run_session, set_setting
     from sessions.store import prepare_save, save_session
+
     session = load(args.file)
-    prepare_save(session, args.out or args.file)   # before any work: the output is writable; autosaves go there
+    prepare_save(session, args.out or args.file)  # before any work: the output is writable; autosaves go there
     if args.adopt:
         adopt_current(session)
     for assignment in args.set or ():
@@ -35,12 +36,17 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     def progress(record: StepRecord) -> None:
         if show:
-            print(f"\riteration {record.iteration}: {record.status.value}"
-                  + ("" if record.objective is None else f", objective {record.objective:.6g}"),
-                  end="", file=sys.stderr, flush=True)
+            print(
+                f"\riteration {record.iteration}: {record.status.value}"
+                + ("" if record.objective is None else f", objective {record.objective:.6g}"),
+                end="",
+                file=sys.stderr,
+                flush=True,
+            )
 
-    outcome = run_session(session, None if args.until_done else args.iterations, args.until_done, progress,
-                          time_limit=args.time_limit)
+    outcome = run_session(
+        session, None if args.until_done else args.iterations, args.until_done, progress, time_limit=args.time_limit
+    )
     if show:
         print(file=sys.stderr)
     save_session(session, args.out or args.file)
@@ -59,6 +65,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     """Re-run the session and compare every recorded iteration."""
     from sessions.runner import replay
+
     result = replay(load(args.file))
     print(result.message, file=sys.stdout if result.ok else sys.stderr)
     return 0 if result.ok else 1
@@ -69,31 +76,41 @@ def cmd_report(args: argparse.Namespace) -> int:
     html and md: the design report (tui/cli/design_report.py)."""
     if args.format in ("html", "md"):
         from tui.cli.design_report import cmd_design_report
+
         return cmd_design_report(args)
     if args.out is not None:
         raise CliError("--out: only with --format html or md (text, json and csv are printed)")
     session = load(args.file)
     rows, record = rows_now(session, args.iteration)
     if args.format == "json":
-        data = summary_json(session) if args.iteration is None else {
-            "iteration": args.iteration, "measures": [dict(vars(r)) for r in rows]}
+        data = (
+            summary_json(session)
+            if args.iteration is None
+            else {"iteration": args.iteration, "measures": [dict(vars(r)) for r in rows]}
+        )
         print(json.dumps(data, indent=2, sort_keys=True, default=finite_or_none))
     elif args.format == "csv":
         writer = csv.writer(sys.stdout)
         writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied", "method"])
         for r in rows:
-            writer.writerow([r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied,
-                             r.method or ""])
+            writer.writerow(
+                [r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied, r.method or ""]
+            )
     else:
         from engine.stepping.presenter import tableau_text, tolerant
         from sessions.lifecycle import registration
+
         presenter = registration(session).presenter
 
         def generic() -> str:
             return tableau_text(rows, unit) + "\nnote: the record's algorithm data is malformed: the generic tableau"
+
         unit = session.problem.grid.unit
-        print(tableau_text(rows, unit) if record is None else
-              tolerant(lambda: presenter.report(record, session.problem), generic))
+        print(
+            tableau_text(rows, unit)
+            if record is None
+            else tolerant(lambda: presenter.report(record, session.problem), generic)
+        )
     return 0
 
 
@@ -104,10 +121,12 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
     from engine.qcg.tradeoff import penalty_sweep
     from engine.stepping.protocol import make_settings
     from sessions.lifecycle import registration
+
     session = load(args.file)
     if registration(session).factory is not Qcg:
-        raise CliError(f"tradeoff: {args.file} uses {session.model.algorithm.name!r}; "
-                       f"the sweep needs a {Qcg.name} session")
+        raise CliError(
+            f"tradeoff: {args.file} uses {session.model.algorithm.name!r}; the sweep needs a {Qcg.name} session"
+        )
     settings = make_settings(session.model.algorithm.name, session.model.algorithm.settings)
     try:
         points = penalty_sweep(session.problem, settings, args.penalty, args.values)
@@ -117,13 +136,19 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
         print(json.dumps([vars(p) for p in points], indent=2, sort_keys=True, default=finite_or_none))
         return 0
     names = list(points[0].parameters) if points else []
-    print(f"{args.penalty:>10} {'x1^2 (N)':>10} {'x1dot^2 (N)':>12} {'u^2':>12} {'udot^2':>12} {'C':>12}  "
-          + " ".join(f"{n:>10}" for n in names) + "  status")
+    print(
+        f"{args.penalty:>10} {'x1^2 (N)':>10} {'x1dot^2 (N)':>12} {'u^2':>12} {'udot^2':>12} {'C':>12}  "
+        + " ".join(f"{n:>10}" for n in names)
+        + "  status"
+    )
     for p in points:
         a = p.averaged_squares
-        print(f"{p.penalty:>10.4g} {a['x1_normalized']:>10.4f} {a['x1_rate_normalized']:>12.4f} {a['u']:>12.5g} "
-              f"{a['u_rate']:>12.5g} {p.cost:>12.6g}  " + " ".join(f"{p.parameters[n]:>10.5g}" for n in names)
-              + f"  {p.status}")
+        print(
+            f"{p.penalty:>10.4g} {a['x1_normalized']:>10.4f} {a['x1_rate_normalized']:>12.4f} {a['u']:>12.5g} "
+            f"{a['u_rate']:>12.5g} {p.cost:>12.6g}  "
+            + " ".join(f"{p.parameters[n]:>10.5g}" for n in names)
+            + f"  {p.status}"
+        )
     return 0
 
 
@@ -151,14 +176,23 @@ def add_parsers(sub) -> None:
     group = p.add_mutually_exclusive_group()
     group.add_argument("--iterations", type=int, default=1, metavar="N")
     group.add_argument("--until-done", action="store_true")
-    p.add_argument("--time-limit", type=float, metavar="SECONDS",
-                   help="stop stepping after this much wall-clock time (the records replay)")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        metavar="SECONDS",
+        help="stop stepping after this much wall-clock time (the records replay)",
+    )
     p.add_argument("--out", help="save here instead of in place")
     p.add_argument("--json", action="store_true")
-    p.add_argument("--adopt", action="store_true",
-                   help="start from the current iteration's parameters (records are cleared)")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help="set an algorithm setting (restarts from iteration 0); repeatable")
+    p.add_argument(
+        "--adopt", action="store_true", help="start from the current iteration's parameters (records are cleared)"
+    )
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="NAME=VALUE",
+        help="set an algorithm setting (restarts from iteration 0); repeatable",
+    )
     p.set_defaults(handler=cmd_run)
     p = sub.add_parser("replay", help="re-run a session and compare every recorded iteration")
     p.add_argument("file")
@@ -167,8 +201,9 @@ def add_parsers(sub) -> None:
     p.add_argument("file")
     p.add_argument("--iteration", type=int)
     p.add_argument("--format", choices=["text", "json", "csv", "html", "md"], default="text")
-    p.add_argument("--out", metavar="DIR", help="html, md: the folder to write the design report in "
-                   "(default: the session's)")
+    p.add_argument(
+        "--out", metavar="DIR", help="html, md: the folder to write the design report in (default: the session's)"
+    )
     p.set_defaults(handler=cmd_report)
     p = sub.add_parser("tradeoff", help="qcg penalty sweep (report 001, Figure 4)")
     p.add_argument("file")

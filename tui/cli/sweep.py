@@ -9,7 +9,7 @@ import math
 import sys
 from pathlib import Path
 
-INTERRUPTED = 130    # the exit status of a sweep stopped by Ctrl-C (128 + SIGINT), its finished runs kept
+INTERRUPTED = 130  # the exit status of a sweep stopped by Ctrl-C (128 + SIGINT), its finished runs kept
 
 
 def add_parser(sub) -> None:
@@ -19,19 +19,27 @@ def add_parser(sub) -> None:
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--starts", type=int, metavar="N", help="N runs from random starting points")
     what.add_argument("--vary", metavar="NAME=V1,V2,...", help="one run per value of a penalty, parameter or path")
-    what.add_argument("--tolerance", action="append", metavar="NAME=+-P%",
-                      help="Monte Carlo over parameter tolerances at the current design (repeatable)")
+    what.add_argument(
+        "--tolerance",
+        action="append",
+        metavar="NAME=+-P%",
+        help="Monte Carlo over parameter tolerances at the current design (repeatable)",
+    )
     p.add_argument("--spread", type=float, metavar="F", help="starts within a factor F of the session's start")
     p.add_argument("--samples", type=int, default=32, help="tolerance samples (default 32)")
     p.add_argument("--seed", type=int, default=0)
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
     where.add_argument("--serial", action="store_true", help="in this process, one run after the other")
-    p.add_argument("--connect-timeout", type=float, metavar="SECONDS",
-                   help="how long to wait for the scheduler (default 5)")
+    p.add_argument(
+        "--connect-timeout", type=float, metavar="SECONDS", help="how long to wait for the scheduler (default 5)"
+    )
     p.add_argument("--workers", type=int, help="local cluster size (default: the machine's cores)")
-    p.add_argument("--adopt-best", action="store_true",
-                   help="make the best optimum's best run the session's start (records are cleared)")
+    p.add_argument(
+        "--adopt-best",
+        action="store_true",
+        help="make the best optimum's best run the session's start (records are cleared)",
+    )
     p.add_argument("--out", help="save here instead of in place")
     p.add_argument("--json", action="store_true", help="print one JSON object: runs and optima")
     p.set_defaults(handler=cmd_sweep)
@@ -43,11 +51,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     in NAME.sweep-recovery.json."""
     from sessions.store import load_session, prepare_save
     from sessions.sweeps.cluster import connect_timeout, scheduler_address, sigint_ignored
+
     address = scheduler_address(args.scheduler)
     timeout = connect_timeout(args.connect_timeout)
     target = Path(args.out or args.file)
     session = load_session(args.file)
-    prepare_save(session, target)   # before any run: the output can be written
+    prepare_save(session, target)  # before any run: the output can be written
     try:
         kind, settings, outcome = _run(args, session, address, timeout)
     except KeyboardInterrupt:
@@ -61,13 +70,22 @@ def _run(args: argparse.Namespace, session, address: str | None, timeout: float)
     """Plan the sweep and run its jobs: (kind, settings, outcome)."""
     from sessions.sweeps.jobs import execute, execute_serial
     from sessions.sweeps.plan import plan
-    kind, value = (("starts", args.starts) if args.starts is not None else ("vary", args.vary)
-                   if args.vary is not None else ("tolerance", args.tolerance))
+
+    kind, value = (
+        ("starts", args.starts)
+        if args.starts is not None
+        else ("vary", args.vary)
+        if args.vary is not None
+        else ("tolerance", args.tolerance)
+    )
     jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
     settings["scheduler"] = address or ("serial" if args.serial else "local")
     progress = _progress_bar if sys.stderr.isatty() and not args.json else None
-    outcome = (execute_serial(jobs, progress) if args.serial
-               else execute(jobs, address, args.workers, progress, timeout=timeout))
+    outcome = (
+        execute_serial(jobs, progress)
+        if args.serial
+        else execute(jobs, address, args.workers, progress, timeout=timeout)
+    )
     if progress:
         print(file=sys.stderr)
     if outcome.note:
@@ -78,15 +96,19 @@ def _run(args: argparse.Namespace, session, address: str | None, timeout: float)
 def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome, target: Path) -> int:
     """Keep the sweep in the session (or in a recovery file), print it; the exit status."""
     from sessions.sweeps.results import record_sweep, summarize
+
     summary = summarize(session, kind, settings, outcome)
     record_sweep(session, summary)
     adopt_error = _adopt_best(session, summary) if args.adopt_best and not outcome.interrupted else None
     kept, in_session = _save(session, summary, target)
     print(json.dumps(summary, indent=2, sort_keys=True) if args.json else sweep_text(summary))
     if outcome.interrupted:
-        print(f"loopcraft sweep: interrupted: {outcome.finished} of {len(outcome.runs)} runs finished; "
-              f"kept {'in ' + str(kept) if kept else 'above'} as a cancelled sweep"
-              + (" (--adopt-best not applied)" if args.adopt_best else ""), file=sys.stderr)
+        print(
+            f"loopcraft sweep: interrupted: {outcome.finished} of {len(outcome.runs)} runs finished; "
+            f"kept {'in ' + str(kept) if kept else 'above'} as a cancelled sweep"
+            + (" (--adopt-best not applied)" if args.adopt_best else ""),
+            file=sys.stderr,
+        )
         return INTERRUPTED
     if adopt_error:
         print(f"loopcraft sweep: error: {adopt_error} (the sweep is kept)", file=sys.stderr)
@@ -97,6 +119,7 @@ def _adopt_best(session, summary: dict) -> str | None:
     """--adopt-best: the best optimum's best run becomes the start; why not, if it cannot."""
     from sessions.errors import SessionError
     from sessions.sweeps.results import adopt_run
+
     if not summary["optima"]:
         return "--adopt-best: no run finished"
     try:
@@ -112,6 +135,7 @@ def _save(session, summary: dict, target: Path) -> tuple[Path | None, bool]:
     from sessions.errors import SessionError
     from sessions.store import save_session
     from sessions.sweeps.results import write_recovery
+
     try:
         return save_session(session, target), True
     except (SessionError, OSError, ValueError) as exc:
@@ -138,20 +162,26 @@ def _number(value, width: int = 12) -> str:
 
 
 def _values(parameters: dict) -> str:
-    return "  ".join(f"{k}=" + ("/".join(f"{v:.4g}" for v in value) if isinstance(value, list) else f"{value:.4g}")
-                     for k, value in parameters.items())
+    return "  ".join(
+        f"{k}=" + ("/".join(f"{v:.4g}" for v in value) if isinstance(value, list) else f"{value:.4g}")
+        for k, value in parameters.items()
+    )
 
 
 def sweep_text(summary: dict) -> str:
     """Runs, then optima (or the worst case of a tolerance study)."""
     runs = summary["runs"]
-    lines = [f"{summary['kind']} sweep: {len(runs)} runs on {summary['workers']} worker(s), "
-             f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"]
+    lines = [
+        f"{summary['kind']} sweep: {len(runs)} runs on {summary['workers']} worker(s), "
+        f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"
+    ]
     lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'objective':>12} {'meets':<6}{'tries':>5}")
     for r in runs:
-        lines.append(f"{r['index']:>4} {r['label'][:17]:<18}{r['status'][:23]:<24}{_number(r['objective'])} "
-                     f"{'yes' if r['meets_requirements'] else 'no':<6}{r.get('attempts', 1):>5}"
-                     + (f"  {r['reason']}" if r['status'] == 'failed' else ""))
+        lines.append(
+            f"{r['index']:>4} {r['label'][:17]:<18}{r['status'][:23]:<24}{_number(r['objective'])} "
+            f"{'yes' if r['meets_requirements'] else 'no':<6}{r.get('attempts', 1):>5}"
+            + (f"  {r['reason']}" if r["status"] == "failed" else "")
+        )
     if summary["kind"] == "vary" and any("averaged_squares" in r for r in runs):
         lines += ["", "trade-off (averaged squares, normalized to open loop where named so):"]
         for r in runs:
@@ -160,11 +190,15 @@ def sweep_text(summary: dict) -> str:
     if summary["kind"] == "tolerance":
         lines += ["", f"{'measure':<10}{'kind':<22}{'condition':<12}{'worst':>12}{'target':>10}  unmet/samples"]
         for w in summary["worst_case"]:
-            lines.append(f"{w['name']:<10}{w['kind'][:21]:<22}{w['condition'][:11]:<12}{_number(w['worst'])}"
-                         f"{_number(w['target'], 10)}  {w['unmet_samples']}/{w['samples']}")
+            lines.append(
+                f"{w['name']:<10}{w['kind'][:21]:<22}{w['condition'][:11]:<12}{_number(w['worst'])}"
+                f"{_number(w['target'], 10)}  {w['unmet_samples']}/{w['samples']}"
+            )
     else:
         lines += ["", f"{'optimum':>7} {'count':>5} {'meets':<6}{'objective':>12} {'best run':>8}  parameters"]
         for k, o in enumerate(summary["optima"], start=1):
-            lines.append(f"{k:>7} {o['count']:>5} {'yes' if o['meets_requirements'] else 'no':<6}"
-                         f"{_number(o['objective'])} {o['best_run']:>8}  {_values(o['parameters'])}")
+            lines.append(
+                f"{k:>7} {o['count']:>5} {'yes' if o['meets_requirements'] else 'no':<6}"
+                f"{_number(o['objective'])} {o['best_run']:>8}  {_values(o['parameters'])}"
+            )
     return "\n".join(lines)

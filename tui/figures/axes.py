@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-MAX_POINTS = 600   # a text canvas resolves fewer; more only slows the drawing down
+MAX_POINTS = 600  # a text canvas resolves fewer; more only slows the drawing down
 
 
 def nice_ticks(low: float, high: float, count: int = 5) -> tuple[list[float], list[str]]:
@@ -36,4 +36,4 @@ def decade_ticks(log_w: np.ndarray) -> tuple[list[float], list[str]]:
     """Ticks at every decade spanned by log10(omega) values, labelled with omega."""
     lo, hi = math.floor(np.nanmin(log_w)), math.ceil(np.nanmax(log_w))
     ticks = list(range(lo, hi + 1))
-    return [float(t) for t in ticks], [f"{10.0 ** t:g}" for t in ticks]
+    return [float(t) for t in ticks], [f"{10.0**t:g}" for t in ticks]

@@ -41,13 +41,25 @@ def applicable(plots: frozenset[str], problem) -> frozenset[str]:
     if not conditions:
         return plots - {"nyquist", "bode", "nichols", "step", "closed_loop", "poles", "locus"}
     if not any(c.network.rational for c in conditions):
-        return plots - {"poles", "locus"}   # a tabulated loop has no poles to show
+        return plots - {"poles", "locus"}  # a tabulated loop has no poles to show
     return plots
 
 
 # the plot ids `figures` draws (the root locus and History's plot are drawn by their own workers)
-FIGURE_IDS = frozenset({"nyquist", "bode-mag", "bode-phase", "nichols", "closed-loop", "poles", "convergence",
-                        "trajectories", "step", "sweep-plot"})
+FIGURE_IDS = frozenset(
+    {
+        "nyquist",
+        "bode-mag",
+        "bode-phase",
+        "nichols",
+        "closed-loop",
+        "poles",
+        "convergence",
+        "trajectories",
+        "step",
+        "sweep-plot",
+    }
+)
 
 
 def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure]:
@@ -57,9 +69,13 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
 
     def asked(*names: str) -> bool:
         return only is None or any(name in only for name in names)
+
     out: dict[str, Figure] = {}
-    curves = view.loop_curves(with_margins=asked("bode-mag", "bode-phase")) if wanted & {
-        "nyquist", "bode", "nichols"} and asked("nyquist", "bode-mag", "bode-phase", "nichols") else []
+    curves = (
+        view.loop_curves(with_margins=asked("bode-mag", "bode-phase"))
+        if wanted & {"nyquist", "bode", "nichols"} and asked("nyquist", "bode-mag", "bode-phase", "nichols")
+        else []
+    )
     unit = view.problem.grid.unit
     if curves and asked("nyquist"):
         out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view), unit=unit)

@@ -29,17 +29,24 @@ from tui.figures.data import Figure, Series
 from tui.figures.navigation import Probe
 from tui.state.views import CONDITION_COLORS, INITIAL_COLOR
 
-LOCUS_POINTS = 2000   # the engine's default bound
+LOCUS_POINTS = 2000  # the engine's default bound
 
-Design = tuple[int | None, int, str, str]   # (iteration or None: the current one, condition, label, colour)
+Design = tuple[int | None, int, str, str]  # (iteration or None: the current one, condition, label, colour)
 
 
 def current_designs(view) -> list[Design]:
     """The current design of each plotted condition (named when the session has several)."""
     plotted, conditions = view.plotted(), view.problem.conditions
     named = len(conditions) > 1
-    return [(None, k, conditions[k].name if named else "",
-             CONDITION_COLORS[k % len(CONDITION_COLORS)] if len(plotted) > 1 else "blue") for k in plotted]
+    return [
+        (
+            None,
+            k,
+            conditions[k].name if named else "",
+            CONDITION_COLORS[k % len(CONDITION_COLORS)] if len(plotted) > 1 else "blue",
+        )
+        for k in plotted
+    ]
 
 
 def sensitivity_figure(view, designs: list[Design] | None = None) -> Figure:
@@ -49,8 +56,13 @@ def sensitivity_figure(view, designs: list[Design] | None = None) -> Figure:
     reference has one legend entry.  The cursor reads |S| and |T| of the first design."""
     designs = current_designs(view) if designs is None else designs
     unit = view.problem.grid.unit
-    fig = Figure(title="Closed loop: |S|, |T|", xlabel=f"frequency ({unit})", ylabel="dB",
-                 empty_message="no closed loop to show", log_x=True)
+    fig = Figure(
+        title="Closed loop: |S|, |T|",
+        xlabel=f"frequency ({unit})",
+        ylabel="dB",
+        empty_message="no closed loop to show",
+        log_x=True,
+    )
     notes: list[str] = []
     references = any(d[3] == INITIAL_COLOR for d in designs)
     paired = sum(d[3] != INITIAL_COLOR for d in designs) == 1
@@ -84,19 +96,33 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     with np.errstate(divide="ignore"):
         s_db, t_db = 20 * np.log10(s), 20 * np.log10(t)
     peaks = f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
-    fig.series.append(Series(*finite_points(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|",
-                             color=s_color))
-    fig.series.append(Series(*finite_points(lw, t_db), "" if role == "reference" else f"{prefix}|T|", color=t_color,
-                             marker="braille" if role == "paired" else "dot"))
+    fig.series.append(
+        Series(*finite_points(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|", color=s_color)
+    )
+    fig.series.append(
+        Series(
+            *finite_points(lw, t_db),
+            "" if role == "reference" else f"{prefix}|T|",
+            color=t_color,
+            marker="braille" if role == "paired" else "dot",
+        )
+    )
     if fig.probe is None:
         fig.probe = _magnitude_probe(lw, s_db, t_db, problem.grid.unit)
     effort = _compensator_curve(fig, c, params, loop, lw, scale, prefix, condensed) if role == "paired" else ""
     labelled = role == "condition" or (role == "paired" and not condensed)
     for name, peak, peak_color in (("Ms", ms, s_color), ("Mt", mt, t_color)):
         if 0 < peak.frequency < math.inf and 0 < peak.value < math.inf:
-            fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db],
-                                     f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)" if labelled else "",
-                                     marker="x", scatter=True, color=peak_color))
+            fig.series.append(
+                Series(
+                    [math.log10(peak.frequency / scale)],
+                    [peak.db],
+                    f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)" if labelled else "",
+                    marker="x",
+                    scatter=True,
+                    color=peak_color,
+                )
+            )
             if role == "paired" and condensed:
                 fig.title += f"  {name} {peak.value:.4g}"
     fig.title += f"  {effort}" if effort else ""
@@ -110,11 +136,13 @@ def _magnitude_probe(lw: np.ndarray, s_db: np.ndarray, t_db: np.ndarray, unit: s
 
     def readout(i: int) -> str:
         return f"w = {10.0 ** lw[i]:.6g} {unit}  |S| = {s_db[i]:.4f} dB  |T| = {t_db[i]:.4f} dB"
+
     return Probe(lw.tolist(), s_db.tolist(), readout)
 
 
-def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, prefix: str,
-                       condensed: bool = False) -> str:
+def _compensator_curve(
+    fig: Figure, condition, params, loop, lw, scale: float, prefix: str, condensed: bool = False
+) -> str:
     """|K S|, K the one block that reads the break signal (the compensator of a
     unity loop broken at its error): the control effort, with its refined peak;
     ``condensed``: the peak's text is returned for the title, not put in the legend."""
@@ -126,8 +154,11 @@ def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, p
     name = network.signals[reading[0].row]
     with np.errstate(all="ignore"):
         ks = np.abs(evaluate(loop.omega)[0] / (1.0 + loop.gh))
-        fig.series.append(Series(*finite_points(lw, 20 * np.log10(ks)), f"{prefix}|KS| ({condition.break_at}->{name})",
-                                 color="magenta"))
+        fig.series.append(
+            Series(
+                *finite_points(lw, 20 * np.log10(ks)), f"{prefix}|KS| ({condition.break_at}->{name})", color="magenta"
+            )
+        )
     try:
         peak = compensator_peak(loop, evaluate)
     except EngineError:
@@ -135,8 +166,16 @@ def _compensator_curve(fig: Figure, condition, params, loop, lw, scale: float, p
     if not 0 < peak.frequency < math.inf:
         return ""
     text = f"max|KS| {peak.db:.2f} dB"
-    fig.series.append(Series([math.log10(peak.frequency / scale)], [peak.db], "" if condensed else prefix + text,
-                             marker="x", scatter=True, color="magenta"))
+    fig.series.append(
+        Series(
+            [math.log10(peak.frequency / scale)],
+            [peak.db],
+            "" if condensed else prefix + text,
+            marker="x",
+            scatter=True,
+            color="magenta",
+        )
+    )
     return text if condensed else ""
 
 
@@ -144,13 +183,16 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
     """Open-loop poles (x) and zeros (o) and the closed-loop poles (*) of the first design
     (the current one of the first plotted condition by default), and of the others on its
     condition in gray; the cursor steps through its closed-loop poles with zeta and wn."""
-    fig = Figure(title="Poles and zeros", xlabel="Re", ylabel="Im", empty_message="no pole-zero map (needs a rational loop)")
+    fig = Figure(
+        title="Poles and zeros", xlabel="Re", ylabel="Im", empty_message="no pole-zero map (needs a rational loop)"
+    )
     designs = current_designs(view) if designs is None else designs
-    designs = [d for d in designs if d[1] == designs[0][1]] if designs else []   # on the first one's condition
+    designs = [d for d in designs if d[1] == designs[0][1]] if designs else []  # on the first one's condition
     c = _rational(view, designs[0][1]) if designs else None
     if c is None:
         return fig
     from engine.closed_loop.root_locus import pole_zero_map  # scipy.optimize, on first use
+
     shown = []
     for n, (at, k, label, _) in enumerate(designs):
         try:
@@ -172,16 +214,23 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
 def _pole_series(fig: Figure, pz, reference: str) -> None:
     """A pole-zero map's points: blue and red, or all gray (one legend entry each for the
     open and the closed loop) when it is the ``reference`` design's."""
-    rows = ((pz.poles, "open-loop poles", "x", "blue"), (pz.zeros, "open-loop zeros", "o", "blue"),
-            (pz.closed_loop, "closed-loop poles", "*", "red"))
+    rows = (
+        (pz.poles, "open-loop poles", "x", "blue"),
+        (pz.zeros, "open-loop zeros", "o", "blue"),
+        (pz.closed_loop, "closed-loop poles", "*", "red"),
+    )
     if reference:
-        rows = ((pz.poles, f"{reference} open loop", "x", INITIAL_COLOR), (pz.zeros, "", "o", INITIAL_COLOR),
-                (pz.closed_loop, f"{reference} closed loop", "*", INITIAL_COLOR))
+        rows = (
+            (pz.poles, f"{reference} open loop", "x", INITIAL_COLOR),
+            (pz.zeros, "", "o", INITIAL_COLOR),
+            (pz.closed_loop, f"{reference} closed loop", "*", INITIAL_COLOR),
+        )
     for points, label, marker, color in rows:
         points = np.asarray(points)[np.isfinite(points)]
         if points.size:
-            fig.series.append(Series(points.real.tolist(), points.imag.tolist(), label, marker=marker,
-                                     scatter=True, color=color))
+            fig.series.append(
+                Series(points.real.tolist(), points.imag.tolist(), label, marker=marker, scatter=True, color=color)
+            )
 
 
 def _pole_probe(poles, variable: str) -> Probe:
@@ -194,6 +243,7 @@ def _pole_probe(poles, variable: str) -> Probe:
         p = found[i]
         zeta, wn = _damping(p)
         return f"pole {p.real:.5g}{p.imag:+.5g}j  zeta {zeta:.4g}  wn {wn:.5g}{unit}"
+
     return Probe([float(p.real) for p in found], [float(p.imag) for p in found], readout, start=0)
 
 
@@ -203,7 +253,7 @@ def _damping(p: complex) -> tuple[float, float]:
     return (-p.real / wn if wn > 0 else 1.0), wn
 
 
-PARAMETER_LOCUS_POINTS = 300   # each point is a realization and its polish (~10 ms)
+PARAMETER_LOCUS_POINTS = 300  # each point is a realization and its polish (~10 ms)
 
 
 def locus_figure(view, parameter: str = "gain", iteration: int | None = None, subject: str | None = None) -> Figure:
@@ -211,17 +261,23 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     current one) in the loop gain k (or in a named parameter, a decade either side of its
     value), that design's closed-loop poles marked, the imaginary-axis crossings below;
     the title names ``subject`` (default: the condition)."""
-    fig = Figure(title="Root locus (loop gain k)", xlabel="Re", ylabel="Im",
-                 empty_message="no root locus (needs a rational loop)")
+    fig = Figure(
+        title="Root locus (loop gain k)",
+        xlabel="Re",
+        ylabel="Im",
+        empty_message="no root locus (needs a rational loop)",
+    )
     k = view.plotted()[0] if view.plotted() else 0
     c = _rational(view, k)
     if c is None:
         return fig
     from engine.closed_loop.root_locus import root_locus
+
     try:
         points = LOCUS_POINTS if parameter == "gain" else PARAMETER_LOCUS_POINTS
-        locus = root_locus(c.network, c.break_at, view.parameters(iteration, k), parameter, max_points=points,
-                           polished=False)
+        locus = root_locus(
+            c.network, c.break_at, view.parameters(iteration, k), parameter, max_points=points, polished=False
+        )
     except EngineError as exc:
         fig.empty_message = f"no root locus: {exc}"
         return fig
@@ -229,17 +285,20 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     for j in range(branches.shape[1]):
         column = branches[:, j]
         keep = np.isfinite(column)
-        fig.series.append(Series(column.real[keep].tolist(), column.imag[keep].tolist(),
-                                 "branches" if j == 0 else "", color="blue"))
+        fig.series.append(
+            Series(column.real[keep].tolist(), column.imag[keep].tolist(), "branches" if j == 0 else "", color="blue")
+        )
     current = np.asarray(locus.current)
     now = "k = 1" if parameter == "gain" else f"{parameter} = {locus.current_value:.5g}"
     design = "current" if iteration is None else f"iteration {iteration}" if iteration else "start"
-    fig.series.append(Series(current.real.tolist(), current.imag.tolist(), f"{now} ({design})", marker="*",
-                             scatter=True, color="red"))
+    fig.series.append(
+        Series(current.real.tolist(), current.imag.tolist(), f"{now} ({design})", marker="*", scatter=True, color="red")
+    )
     name = "k" if parameter == "gain" else parameter
     crossings = ", ".join(f"{name}={x.value:.4g} at {x.frequency:.4g} rad/s" for x in locus.crossings[:3])
-    fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {subject or c.name}" + \
-        ("" if locus.status == "complete" else f" ({locus.status})")
+    fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {subject or c.name}" + (
+        "" if locus.status == "complete" else f" ({locus.status})"
+    )
     if crossings:
         fig.xlabel = f"Re   jw-axis crossings: {crossings}"
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
@@ -255,12 +314,26 @@ def _asymptotes_and_breakaways(fig: Figure, locus) -> None:
         reach = 4 * max(abs(fig.xlim[0] - locus.centroid), abs(fig.xlim[1] - locus.centroid), abs(fig.ylim[1]))
         for n, angle in enumerate(locus.angles_deg):
             end = locus.centroid + reach * np.exp(1j * np.radians(angle))
-            fig.series.append(Series([locus.centroid, end.real], [0.0, end.imag],
-                                     f"asymptotes from {locus.centroid:.4g}" if n == 0 else "", color="gray",
-                                     marker="dot"))
+            fig.series.append(
+                Series(
+                    [locus.centroid, end.real],
+                    [0.0, end.imag],
+                    f"asymptotes from {locus.centroid:.4g}" if n == 0 else "",
+                    color="gray",
+                    marker="dot",
+                )
+            )
     for n, (point, gain) in enumerate(locus.breakaways[:4]):
-        fig.series.append(Series([point.real], [point.imag], f"breakaway k={gain:.4g}" if n == 0 else "",
-                                 marker="+", scatter=True, color="magenta"))
+        fig.series.append(
+            Series(
+                [point.real],
+                [point.imag],
+                f"breakaway k={gain:.4g}" if n == 0 else "",
+                marker="+",
+                scatter=True,
+                color="magenta",
+            )
+        )
 
 
 def _rational(view, k: int):
@@ -298,6 +371,7 @@ def pole_text(view) -> str:
     if "poles" not in view.presenter.plots:
         return ""
     from engine.stepping.presenter import tolerant
+
     return tolerant(lambda: pole_lines(view), lambda: "")
 
 
@@ -306,6 +380,7 @@ def pole_lines(view) -> str:
     once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""
     from engine.closed_loop.poles import polish
     from engine.loop.realization import poles
+
     k = view.plotted()[0] if view.plotted() else 0
     c = _rational(view, k)
     ss = view.step_loop(k) if c is not None else None
@@ -317,8 +392,10 @@ def pole_lines(view) -> str:
     except EngineError:
         found = poles(ss)
     shown = sorted((p for p in found if p.value.imag >= 0), key=lambda p: (p.zeta, p.wn))
-    lines = [f"closed-loop poles ({c.name})" if len(view.problem.conditions) > 1 else "closed-loop poles",
-             f"{'pole':>22} {'zeta':>7} {'wn rad/s' if c.network.variable == 's' else 'wn (w)':>10}"]
+    lines = [
+        f"closed-loop poles ({c.name})" if len(view.problem.conditions) > 1 else "closed-loop poles",
+        f"{'pole':>22} {'zeta':>7} {'wn rad/s' if c.network.variable == 's' else 'wn (w)':>10}",
+    ]
     for p in shown[:MAX_POLES_LISTED]:
         value = f"{p.value.real:.5g}" + (f" +- {p.value.imag:.5g}j" if p.value.imag > 0 else "")
         lines.append(f"{value:>22} {p.zeta:>7.3g} {p.wn:>10.5g}")

@@ -27,7 +27,7 @@ class Figure:
     yticks: tuple[list[float], list[str]] | None = None
     series: list[Series] = field(default_factory=list)
     empty_message: str = ""
-    panels: list[Figure] = field(default_factory=list)   # drawn one above the other instead of `series`
-    compact: Figure | None = None   # drawn instead on a canvas of fewer than COMPACT_ROWS rows
-    probe: Any = None               # a `navigation.Probe`: where a cursor moves and what it reads
-    log_x: bool = False             # x is log10 of a frequency: zoomed ticks are labelled as frequencies
+    panels: list[Figure] = field(default_factory=list)  # drawn one above the other instead of `series`
+    compact: Figure | None = None  # drawn instead on a canvas of fewer than COMPACT_ROWS rows
+    probe: Any = None  # a `navigation.Probe`: where a cursor moves and what it reads
+    log_x: bool = False  # x is log10 of a frequency: zoomed ticks are labelled as frequencies

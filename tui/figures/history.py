@@ -20,11 +20,26 @@ from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
 from tui.state.views import INITIAL_COLOR, LoopCurve, View
 
 # the views, in the order o (or p) cycles them: title, and the presenter's plot each needs
-VIEWS = {"nyquist": ("Nyquist", "nyquist"), "bode": ("Bode", "bode"), "phase": ("phase", "bode"),
-         "nichols": ("Nichols", "nichols"), "closed-loop": ("S/T", "closed_loop"), "poles": ("poles", "poles"),
-         "locus": ("locus", "locus"), "step": ("step", "step")}
-TITLES = {"nyquist": "Nyquist", "bode": "Bode magnitude", "phase": "Bode phase", "nichols": "Nichols",
-          "closed-loop": "S/T", "poles": "Poles and zeros", "locus": "Root locus", "step": "Step"}
+VIEWS = {
+    "nyquist": ("Nyquist", "nyquist"),
+    "bode": ("Bode", "bode"),
+    "phase": ("phase", "bode"),
+    "nichols": ("Nichols", "nichols"),
+    "closed-loop": ("S/T", "closed_loop"),
+    "poles": ("poles", "poles"),
+    "locus": ("locus", "locus"),
+    "step": ("step", "step"),
+}
+TITLES = {
+    "nyquist": "Nyquist",
+    "bode": "Bode magnitude",
+    "phase": "Bode phase",
+    "nichols": "Nichols",
+    "closed-loop": "S/T",
+    "poles": "Poles and zeros",
+    "locus": "Root locus",
+    "step": "Step",
+}
 
 
 def history_views(plots: frozenset[str], problem) -> list[str]:
@@ -50,14 +65,18 @@ def designs(view: View, iteration: int, marked: int | None = None) -> list[Desig
 
 def subject(view: View, iteration: int, marked: int | None, condition: int | None = None) -> str:
     """'iteration 3', 'iteration 3 vs marked start', and the condition when one of several is drawn."""
-    text = name(iteration) if marked is None or marked == iteration else \
-        f"{name(iteration)} vs marked {marked if marked else 'start'}"
+    text = (
+        name(iteration)
+        if marked is None or marked == iteration
+        else f"{name(iteration)} vs marked {marked if marked else 'start'}"
+    )
     conditions = view.problem.conditions
     return f"{text} ({conditions[condition].name})" if len(conditions) > 1 and condition is not None else text
 
 
-def history_figure(view: View, iteration: int, marked: int | None = None, kind: str = "nyquist",
-                   parameter: str = "gain") -> Figure:
+def history_figure(
+    view: View, iteration: int, marked: int | None = None, kind: str = "nyquist", parameter: str = "gain"
+) -> Figure:
     """One view of an iteration's design beside its reference (`designs`); the root
     locus (in ``parameter``) of the iteration alone."""
     if kind == "locus":
@@ -73,7 +92,7 @@ def history_figure(view: View, iteration: int, marked: int | None = None, kind: 
         fig = poles_figure(view, drawn)
     else:
         fig = _step_figure(view, drawn)
-    one = drawn and (len({k for _, k, _, _ in drawn}) == 1 or kind == "poles")   # poles: the first's condition
+    one = drawn and (len({k for _, k, _, _ in drawn}) == 1 or kind == "poles")  # poles: the first's condition
     about = subject(view, iteration, marked, drawn[0][1] if one else None)
     if any(s.x for s in fig.series):
         fig.title = f"{TITLES[kind]}: {about}" + _measures(fig.title, kind)
@@ -100,8 +119,9 @@ def _margins_of_the_first(view: View, drawn: list[Design], curves: list[LoopCurv
     at, k = drawn[0][:2]
     c = view.problem.conditions[k]
     try:
-        out[0] = replace(out[0], margins=margins(loop_model(c.network, c.break_at, view.problem.grid.omega,
-                                                            view.parameters(at, k))))
+        out[0] = replace(
+            out[0], margins=margins(loop_model(c.network, c.break_at, view.problem.grid.omega, view.parameters(at, k)))
+        )
     except EngineError:
         pass
     return out
@@ -137,8 +157,9 @@ def figure_key(view: View, iteration: int, marked: int | None, kind: str, parame
     if kind == "locus":
         k = view.plotted()[0] if view.plotted() else 0
         return kind, iteration, _frozen(view.parameters(iteration, k)), k, parameter
-    drawn = tuple((label, color, k, _frozen(view.parameters(at, k))) for at, k, label, color in
-                  designs(view, iteration, marked))
+    drawn = tuple(
+        (label, color, k, _frozen(view.parameters(at, k))) for at, k, label, color in designs(view, iteration, marked)
+    )
     return kind, iteration, marked, drawn, view.step_setup if kind == "step" else None
 
 

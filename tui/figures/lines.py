@@ -16,8 +16,9 @@ def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[fl
     return fig
 
 
-def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None,
-                reference_color: str = "gray") -> Figure:
+def step_figure(
+    name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None, reference_color: str = "gray"
+) -> Figure:
     """Closed-loop step responses of ``name``: (t, y, label, color) per trace, scaled to
     the current design's traces (not the ``reference_color`` one); ``marks`` (the
     current design's `StepMeasures`) adds the settling band, the peak and the
@@ -26,8 +27,9 @@ def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str
     for t, y, label, color in traces:
         fig.title = f"Step response: {name}"
         fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, color=color))
-    current = [s for s, trace in zip(fig.series, traces) if trace[3] != reference_color and s.y] or \
-        [s for s in fig.series if s.y]
+    current = [s for s, trace in zip(fig.series, traces) if trace[3] != reference_color and s.y] or [
+        s for s in fig.series if s.y
+    ]
     if not current:
         return fig
     low, high = min(min(s.y) for s in current), max(max(s.y) for s in current)
@@ -68,14 +70,22 @@ def sweep_figure(sweep: dict | None) -> Figure:
     if sweep["kind"] == "vary" and runs and all("averaged_squares" in r for r in runs):
         squares = [r["averaged_squares"] for r in runs]
         fig.title, fig.xlabel, fig.ylabel = "Trade-off", "output (normalized)", "output rate (normalized)"
-        fig.series.append(Series([q["x1_normalized"] for q in squares], [q["x1_rate_normalized"] for q in squares],
-                                 "runs", marker="dot"))
+        fig.series.append(
+            Series(
+                [q["x1_normalized"] for q in squares], [q["x1_rate_normalized"] for q in squares], "runs", marker="dot"
+            )
+        )
         return fig
     if sweep["kind"] == "tolerance":
         fig.title, fig.xlabel, fig.ylabel = "Tolerance samples", "sample", "unmet measures"
-        fig.series.append(Series([float(r["index"]) for r in runs],
-                                 [float(sum(not m["satisfied"] for m in r["measures"])) for r in runs], marker="dot",
-                                 scatter=True))
+        fig.series.append(
+            Series(
+                [float(r["index"]) for r in runs],
+                [float(sum(not m["satisfied"] for m in r["measures"])) for r in runs],
+                marker="dot",
+                scatter=True,
+            )
+        )
         return fig
     fig.title, fig.ylabel = "Final objective by start", "objective"
     name = next((k for r in runs for k in r["start"]), None)
@@ -83,9 +93,16 @@ def sweep_figure(sweep: dict | None) -> Figure:
     for meets, color in ((True, "green"), (False, "red")):
         chosen = [r for r in runs if r["meets_requirements"] == meets and isinstance(r["objective"], (int, float))]
         x = [_start_value(r, name) if fig.xlabel != "run" else float(r["index"]) for r in chosen]
-        fig.series.append(Series(x, [float(r["objective"]) for r in chosen],
-                                 "meets every requirement" if meets else "does not", marker="dot", scatter=True,
-                                 color=color))
+        fig.series.append(
+            Series(
+                x,
+                [float(r["objective"]) for r in chosen],
+                "meets every requirement" if meets else "does not",
+                marker="dot",
+                scatter=True,
+                color=color,
+            )
+        )
     return fig
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from tui.figures.data import Figure, Series
 
-Box = tuple[float, float, float, float]   # x0, x1, y0, y1
+Box = tuple[float, float, float, float]  # x0, x1, y0, y1
 ZOOM = 1.5
 PAN = 0.25
 
@@ -29,7 +29,7 @@ class Probe:
     x: list[float]
     y: list[float]
     readout: Callable[[int], str]
-    start: int | None = None   # where the cursor appears (None: the middle point)
+    start: int | None = None  # where the cursor appears (None: the middle point)
 
 
 def loop_probe(x, y, omega, gh, unit: str) -> Probe:
@@ -40,8 +40,11 @@ def loop_probe(x, y, omega, gh, unit: str) -> Probe:
     def readout(i: int) -> str:
         g = gh[i]
         db = 20 * math.log10(abs(g)) if g != 0 else -math.inf
-        return (f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {math.degrees(np.angle(g)):.3f} deg"
-                f"  GH = {g.real:.5g}{g.imag:+.5g}j")
+        return (
+            f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {math.degrees(np.angle(g)):.3f} deg"
+            f"  GH = {g.real:.5g}{g.imag:+.5g}j"
+        )
+
     return Probe(list(map(float, x)), list(map(float, y)), readout)
 
 
@@ -91,13 +94,20 @@ class Navigation:
         """The figure as shown: the box as its limits, the cursor marked and read out."""
         if self.box is None and self.cursor is None:
             return figure
-        out = figure if self.box is None else replace(
-            figure, xlim=self.box[:2], ylim=self.box[2:], xticks=log_ticks(*self.box[:2]) if figure.log_x else None)
+        out = (
+            figure
+            if self.box is None
+            else replace(
+                figure, xlim=self.box[:2], ylim=self.box[2:], xticks=log_ticks(*self.box[:2]) if figure.log_x else None
+            )
+        )
         point = self._point(figure)
         if point is not None:
-            out = replace(out, title=figure.probe.readout(self.cursor),
-                          series=out.series + [Series([point[0]], [point[1]], "cursor", marker="+", scatter=True,
-                                                      color="red")])
+            out = replace(
+                out,
+                title=figure.probe.readout(self.cursor),
+                series=out.series + [Series([point[0]], [point[1]], "cursor", marker="+", scatter=True, color="red")],
+            )
         return out
 
 
@@ -117,10 +127,10 @@ def data_box(figure: Figure) -> Box:
 def log_ticks(x0: float, x1: float) -> tuple[list[float], list[str]]:
     """Ticks of a log10 axis between x0 and x1 at 1, 2, 5 times powers of ten
     (thirds of the span, labelled as frequencies, when fewer than two fall inside)."""
-    ticks = [math.log10(m * 10.0 ** k) for k in range(math.floor(x0) - 1, math.ceil(x1) + 1) for m in (1, 2, 5)]
+    ticks = [math.log10(m * 10.0**k) for k in range(math.floor(x0) - 1, math.ceil(x1) + 1) for m in (1, 2, 5)]
     inside = [t for t in ticks if x0 <= t <= x1]
     if len(inside) > 6:
         inside = [t for t in inside if abs(t - round(t)) < 1e-9] or inside[::3]
     if len(inside) < 2:
         inside = [x0 + (x1 - x0) * f for f in (0.1, 0.5, 0.9)]
-    return inside, [f"{10.0 ** t:.3g}" for t in inside]
+    return inside, [f"{10.0**t:.3g}" for t in inside]

@@ -12,11 +12,17 @@ from tui.figures.axes import decade_ticks, finite_points
 from tui.figures.data import Figure, Series
 from tui.figures.navigation import loop_probe
 
-M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)   # |T| contours on the Nichols chart
+M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)  # |T| contours on the Nichols chart
 
 
-def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | None,
-                   title: str = "Nyquist (GH plane)", disk: float | None = None, unit: str = "rad/s") -> Figure:
+def nyquist_figure(
+    curves,
+    points: list[tuple[complex, str]],
+    radius: float | None,
+    title: str = "Nyquist (GH plane)",
+    disk: float | None = None,
+    unit: str = "rad/s",
+) -> Figure:
     """GH plane around -1: the curves (their mirror images at negative frequencies
     dotted), the unit circle, -1, push/pull points, the desired stability circle and
     the exclusion disk of a disk-margin target (balanced: |S - 1/2| >= 1/alpha)."""
@@ -26,25 +32,47 @@ def nyquist_figure(curves, points: list[tuple[complex, str]], radius: float | No
     for curve in curves:
         gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
         x, y = finite_points(gh.real, gh.imag)
-        fig.series.append(Series(x, [-v for v in y], "", color="gray"))   # negative frequencies
+        fig.series.append(Series(x, [-v for v in y], "", color="gray"))  # negative frequencies
         fig.series.append(Series(x, y, curve.label, color=curve.color))
         if fig.probe is None:
             fig.probe = loop_probe(gh.real, gh.imag, curve.omega, curve.gh, unit)
     if disk:
-        s = 0.5 + np.exp(1j * t) / disk          # the S values on the disk's edge
+        s = 0.5 + np.exp(1j * t) / disk  # the S values on the disk's edge
         with np.errstate(divide="ignore", invalid="ignore"):
             edge = 1.0 / s - 1.0
         keep = np.isfinite(edge) & (np.abs(edge) < 1e3)
-        fig.series.append(Series(edge.real[keep].tolist(), edge.imag[keep].tolist(),
-                                 f"disk margin {disk:g} (excluded)", marker="dot", color="red"))
+        fig.series.append(
+            Series(
+                edge.real[keep].tolist(),
+                edge.imag[keep].tolist(),
+                f"disk margin {disk:g} (excluded)",
+                marker="dot",
+                color="red",
+            )
+        )
     if radius:
         t = np.linspace(0, 2 * np.pi, 90)
-        fig.series.append(Series((-1 + radius * np.cos(t)).tolist(), (radius * np.sin(t)).tolist(),
-                                 f"|1+GH| = {radius:g}", marker="dot", color="green"))
+        fig.series.append(
+            Series(
+                (-1 + radius * np.cos(t)).tolist(),
+                (radius * np.sin(t)).tolist(),
+                f"|1+GH| = {radius:g}",
+                marker="dot",
+                color="green",
+            )
+        )
     fig.series.append(Series([-1.0], [0.0], "-1", marker="x", scatter=True, color="red"))
     if points:
-        fig.series.append(Series([p.real for p, _ in points], [p.imag for p, _ in points], "push/pull points",
-                                 marker="o", scatter=True, color="orange"))
+        fig.series.append(
+            Series(
+                [p.real for p, _ in points],
+                [p.imag for p, _ in points],
+                "push/pull points",
+                marker="o",
+                scatter=True,
+                color="orange",
+            )
+        )
     return fig
 
 
@@ -87,8 +115,7 @@ def _legend_room(fig: Figure) -> None:
     fig.ylim = (low - 0.05 * span, high + span * min(0.12 * entries, 0.6))
 
 
-def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray,
-                  scale: float) -> None:
+def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray, scale: float) -> None:
     """Phase margins at the gain crossovers (0 dB) and gain margins at the phase
     crossovers, on both plots; the legend gives the one nearest 0 of each kind."""
     prefix = "" if curve.label == "current" else f"{curve.label.split(':')[0]} "
@@ -104,8 +131,9 @@ def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degre
         label = f"{prefix}{kind} {worst}" + (f" ({len(marks)})" if len(marks) > 1 else "")
         marker = "x" if kind == "PM" else "o"
         magnitude.series.append(Series(x, level, label, marker=marker, scatter=True, color=curve.color))
-        phase.series.append(Series(x, np.interp(x, lw, degrees).tolist(), label, marker=marker, scatter=True,
-                                   color=curve.color))
+        phase.series.append(
+            Series(x, np.interp(x, lw, degrees).tolist(), label, marker=marker, scatter=True, color=curve.color)
+        )
 
 
 def nichols_figure(curves, unit: str = "rad/s") -> Figure:
@@ -114,8 +142,14 @@ def nichols_figure(curves, unit: str = "rad/s") -> Figure:
     fig = Figure(title="Nichols", xlabel="phase (deg)", ylabel="dB")
     for k, m_db in enumerate(M_CIRCLES_DB):
         phase, db = m_circle(m_db)
-        fig.series.append(Series(phase.tolist(), db.tolist(), "M " + ", ".join(f"{m:g}" for m in M_CIRCLES_DB) + " dB"
-                                 if k == 0 else "", color="gray"))
+        fig.series.append(
+            Series(
+                phase.tolist(),
+                db.tolist(),
+                "M " + ", ".join(f"{m:g}" for m in M_CIRCLES_DB) + " dB" if k == 0 else "",
+                color="gray",
+            )
+        )
     for curve in curves:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(curve.gh))

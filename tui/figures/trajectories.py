@@ -29,7 +29,7 @@ from tui.figures.data import Figure, Series
 COLORS = ("blue", "orange", "magenta", "cyan", "green")
 INITIAL_COLOR = "gray"
 BOUND_COLOR = "red"
-OFF_SCALE = 2.0   # the bounded panel shows up to this times the bound (or the current peak)
+OFF_SCALE = 2.0  # the bounded panel shows up to this times the bound (or the current peak)
 
 
 def projection_figure(current: Mapping, initial: Mapping, system: Mapping) -> Figure:
@@ -62,15 +62,23 @@ def _panels(current: Mapping, initial: Mapping, system: Mapping, compact: bool) 
     return Figure(title=panels[0].title, panels=panels)
 
 
-def bounded_panel(t: np.ndarray, u: np.ndarray, u0: np.ndarray, inputs: list[int], system: Mapping,
-                  peaks: Mapping, unit: tuple[str, float], compact: bool = False) -> Figure:
+def bounded_panel(
+    t: np.ndarray,
+    u: np.ndarray,
+    u0: np.ndarray,
+    inputs: list[int],
+    system: Mapping,
+    peaks: Mapping,
+    unit: tuple[str, float],
+    compact: bool = False,
+) -> Figure:
     """The bounded inputs now, their bound lines and the untrimmed open loop, the axis cut at
     OFF_SCALE times the larger of the bounds and the current peak when the open loop goes past."""
     names = [f"u{j + 1}" for j in inputs]
     fig = Figure(title=f"Bounded input{'s' if len(names) > 1 else ''} {', '.join(names)}")
     levels = [level for j in inputs for level in bounds(system, j, peaks.get(f"u{j + 1}"))]
     span = [float(t[0]), float(t[-1])]
-    for k, level in enumerate(levels):   # first: the curves are drawn over them
+    for k, level in enumerate(levels):  # first: the curves are drawn over them
         label = "" if k or compact else bound_label(levels)
         fig.series.append(Series(span, [level, level], label, marker="─", color=BOUND_COLOR))
     for k, j in enumerate(inputs):
@@ -139,14 +147,15 @@ def bound_label(levels: list[float]) -> str:
 def _step(span: float, count: int) -> float:
     """A round step (1, 2, 2.5 or 5 times a power of 10) giving about `count` ticks over `span`."""
     raw = span / count
-    if not math.isfinite(raw) or raw <= 0:   # a degenerate or overflowing span: one step over it
+    if not math.isfinite(raw) or raw <= 0:  # a degenerate or overflowing span: one step over it
         return 1.0
     power = 10.0 ** math.floor(math.log10(raw))
     return next((m * power for m in (1, 2, 2.5, 5, 10) if m * power >= raw), 10 * power)
 
 
-def axis(lo: float, hi: float, count: int = 4,
-         marks: list[float] = ()) -> tuple[tuple[float, float], tuple[list[float], list[str]]]:
+def axis(
+    lo: float, hi: float, count: int = 4, marks: list[float] = ()
+) -> tuple[tuple[float, float], tuple[list[float], list[str]]]:
     """Limits a little wider than [lo, hi], and round ticks (about `count`) labelled shortly;
     `marks` (the bounds) are ticks too, the round ticks nearer than half a step to one dropped."""
     if not hi > lo:

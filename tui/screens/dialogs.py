@@ -40,7 +40,7 @@ class EditDialog(ModalScreen[str | None]):
 
     def on_input_changed(self, event: Input.Changed) -> None:
         if event.value == self.value and self.error:
-            return   # the text it was opened with keeps the reason it was refused
+            return  # the text it was opened with keeps the reason it was refused
         error = self.validate(event.value) if self.validate else None
         self.query_one("#error", Static).update(error or "")
 

@@ -35,23 +35,43 @@ class EditFlow:
 
         self._ask(edit.title, edit.text, edit.check, edit.apply, "this edit changes the problem", empty=True)
 
-    def _ask(self, title: str, text: str, check: Check | None, apply: Callable[[str], Any], what: str,
-             error: str = "", empty: bool = False) -> None:
+    def _ask(
+        self,
+        title: str,
+        text: str,
+        check: Check | None,
+        apply: Callable[[str], Any],
+        what: str,
+        error: str = "",
+        empty: bool = False,
+    ) -> None:
         """The edit dialog (``empty``: an empty line is a value too); an edit refused when
         applied opens it again with the typed text and the reason under it."""
+
         def typed(typed_text: str | None) -> None:
             if typed_text or (empty and typed_text is not None):
-                self.change(lambda: apply(typed_text), what, failed="the old value is kept",
-                            refused=lambda reason: self._ask(title, typed_text, check, apply, what, reason, empty))
+                self.change(
+                    lambda: apply(typed_text),
+                    what,
+                    failed="the old value is kept",
+                    refused=lambda reason: self._ask(title, typed_text, check, apply, what, reason, empty),
+                )
+
         self.app.push_screen(EditDialog(title, text, check, error), typed)
 
     def line(self, title: str, check: Check | None, apply: Callable[[str], Any], what: str) -> None:
         """Ask for one line (e.g. a new parameter) and apply it."""
         self._ask(title, "", check, apply, what)
 
-    def change(self, change: Callable[[], Any], what: str, always_ask: bool = False,
-               failed: str = "nothing changed", done: Callable[[Any], None] | None = None,
-               refused: Callable[[str], None] | None = None) -> None:
+    def change(
+        self,
+        change: Callable[[], Any],
+        what: str,
+        always_ask: bool = False,
+        failed: str = "nothing changed",
+        done: Callable[[Any], None] | None = None,
+        refused: Callable[[str], None] | None = None,
+    ) -> None:
         """Apply a change of the problem; ask first when iterations would be dropped
         (or always, for deletions).  A failure changes nothing and is reported (to
         ``refused`` when given, else as a notification)."""
@@ -70,13 +90,17 @@ class EditFlow:
                     self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
             else:
                 self.bench.edits.push(before, self.bench)
-                self.bench.autosave(throttled=True)     # an accepted edit is never only in memory
+                self.bench.autosave(throttled=True)  # an accepted edit is never only in memory
                 if done is not None:
                     done(result)
             self.app.refresh_workbench()
+
         if iterations or always_ask:
-            dropped = f"; the {iterations} recorded iteration(s) will be dropped (save first to keep them)" \
-                if iterations else ""
+            dropped = (
+                f"; the {iterations} recorded iteration(s) will be dropped (save first to keep them)"
+                if iterations
+                else ""
+            )
             self.app.push_screen(ConfirmDialog(f"{what}{dropped}?"), apply)
         else:
             apply()

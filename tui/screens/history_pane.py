@@ -32,8 +32,8 @@ from tui.widgets.plots import FigurePlot
 from tui.widgets.tables import HistoryTable
 from tui.widgets.textview import TextView
 
-KEPT_FIGURES = 64      # computed figures kept (for going back to a row)
-PLACEHOLDER_AFTER = 0.15   # s: a figure not drawn by then shows 'computing ...'
+KEPT_FIGURES = 64  # computed figures kept (for going back to a row)
+PLACEHOLDER_AFTER = 0.15  # s: a figure not drawn by then shows 'computing ...'
 
 
 class ViewsLine(Widget):
@@ -57,21 +57,30 @@ class ViewsLine(Widget):
         line = Text()
         for kind in self.views:
             title = VIEWS[kind][0]
-            line.append(f" {title} " if kind == self.current else f"{title} ",
-                        style="reverse bold" if kind == self.current else "dim")
+            line.append(
+                f" {title} " if kind == self.current else f"{title} ",
+                style="reverse bold" if kind == self.current else "dim",
+            )
         if line.cell_len <= self.size.width or self.current not in self.views:
             return line
         at = self.views.index(self.current) + 1
-        return Text.assemble((f" {VIEWS[self.current][0]} ", "reverse bold"),
-                             (f" {at}/{len(self.views)}  p: next view", "dim"))
+        return Text.assemble(
+            (f" {VIEWS[self.current][0]} ", "reverse bold"), (f" {at}/{len(self.views)}  p: next view", "dim")
+        )
 
 
 class HistoryPane(Horizontal):
     """The history table beside the selected iteration's plot and tableau."""
 
-    BINDINGS = identified("history", [
-        Binding("m", "mark", "mark", tooltip="mark it: the others are compared with it (m again: unmark)"),
-        Binding("o", "next_view", "view", show=False, tooltip="the History plot's next view (those that apply; p too)")])
+    BINDINGS = identified(
+        "history",
+        [
+            Binding("m", "mark", "mark", tooltip="mark it: the others are compared with it (m again: unmark)"),
+            Binding(
+                "o", "next_view", "view", show=False, tooltip="the History plot's next view (those that apply; p too)"
+            ),
+        ],
+    )
     DEFAULT_CSS = """
     HistoryPane #history-table, HistoryPane #history-side { height: 1fr; }
     HistoryPane #history-plot { height: 2fr; }
@@ -87,14 +96,14 @@ class HistoryPane(Horizontal):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.compare_mark: int | None = None   # the iteration the others are compared with
-        self.kind = "nyquist"                  # the view shown
+        self.compare_mark: int | None = None  # the iteration the others are compared with
+        self.kind = "nyquist"  # the view shown
         self._kept: dict[tuple, Figure] = {}
-        self._kept_for = None                  # the problem the kept figures are of
-        self._wanted: tuple | None = None      # (key, build, problem): the request to compute next
-        self._computing: tuple | None = None   # the key being computed
-        self._latest: tuple | None = None      # the key of the figure wanted on screen
-        self._shown: tuple | None = None       # the key of the figure on screen
+        self._kept_for = None  # the problem the kept figures are of
+        self._wanted: tuple | None = None  # (key, build, problem): the request to compute next
+        self._computing: tuple | None = None  # the key being computed
+        self._latest: tuple | None = None  # the key of the figure wanted on screen
+        self._shown: tuple | None = None  # the key of the figure on screen
         self._shown_kind = ""
 
     def compose(self) -> ComposeResult:
@@ -120,8 +129,18 @@ class HistoryPane(Horizontal):
         label, its, values = view.convergence()
         value_at = dict(zip(its, values))
         rows = [(("0", "start", "", ""), (0,))]
-        rows += [((str(r.iteration), r.status.value, number(value_at.get(r.iteration), 6),
-                   str(sum(not m.satisfied for m in r.measures))), (r.iteration,)) for r in view.records]
+        rows += [
+            (
+                (
+                    str(r.iteration),
+                    r.status.value,
+                    number(value_at.get(r.iteration), 6),
+                    str(sum(not m.satisfied for m in r.measures)),
+                ),
+                (r.iteration,),
+            )
+            for r in view.records
+        ]
         table = self.query_one(HistoryTable)
         table.fill(("iteration", "status", label or "value", "unmet"), rows)
         self.show_iteration(max(table.cursor_row, 0), view)
@@ -130,7 +149,7 @@ class HistoryPane(Horizontal):
         """The selected iteration's view (beside the current design, or the marked
         iteration) and its tableau (or its measures against the marked one's)."""
         view = self.bench.view() if view is None else view
-        iteration = min(iteration, view.iteration)   # the table may not be refilled yet (an undo)
+        iteration = min(iteration, view.iteration)  # the table may not be refilled yet (an undo)
         marked = self.compare_mark if self.compare_mark is not None and self.compare_mark <= view.iteration else None
         self._tableau(view, iteration, marked)
         views = history_views(view.presenter.plots, view.problem)
@@ -141,17 +160,25 @@ class HistoryPane(Horizontal):
             self._show(("none",), Figure(empty_message="no views of a design: the session has no loop"))
             return
         kind, parameter = self.kind, self.screen.locus_parameter
-        self.request(view, figure_key(view, iteration, marked, kind, parameter),
-                     lambda: history_figure(view, iteration, marked, kind, parameter),
-                     f"{TITLES[kind]} of {name(iteration)}")
+        self.request(
+            view,
+            figure_key(view, iteration, marked, kind, parameter),
+            lambda: history_figure(view, iteration, marked, kind, parameter),
+            f"{TITLES[kind]} of {name(iteration)}",
+        )
 
     def _tableau(self, view: View, iteration: int, marked: int | None) -> None:
         text = None
         if marked is not None and marked != iteration:
             session = self.bench.session
-            text = tolerant(lambda: comparison_text(compare(side(session, marked, f"iteration {marked}"),
-                                                            side(session, iteration, f"iteration {iteration}"))),
-                            lambda: None)
+            text = tolerant(
+                lambda: comparison_text(
+                    compare(
+                        side(session, marked, f"iteration {marked}"), side(session, iteration, f"iteration {iteration}")
+                    )
+                ),
+                lambda: None,
+            )
         if text is None:
             rows, _ = view.tableau(iteration)
             self.query_one("#history-tableau", TextView).set(tableau_text(rows, [], view.problem.grid.unit))
@@ -196,6 +223,7 @@ class HistoryPane(Horizontal):
             except Exception as exc:  # noqa: BLE001 - a figure that cannot be made must not end the app
                 figure = Figure(empty_message=f"cannot draw it: {type(exc).__name__}: {exc}")
             self.post_message(self.Drawn(key, figure, problem))
+
         self.run_worker(compute, thread=True, group="history-figure", exit_on_error=False)
 
     def on_history_pane_drawn(self, message: Drawn) -> None:
@@ -212,7 +240,7 @@ class HistoryPane(Horizontal):
 
     def _show(self, key: tuple, figure: Figure) -> None:
         plot = self.query_one("#history-plot", FigurePlot)
-        if key[0] != self._shown_kind:    # another view: its own zoom and cursor
+        if key[0] != self._shown_kind:  # another view: its own zoom and cursor
             plot.navigation.reset()
             self._shown_kind = key[0]
         self._shown = self._latest = key
@@ -231,8 +259,12 @@ class HistoryPane(Horizontal):
         """Mark the selected iteration (again: unmark it); the plot and tableau compare with it."""
         iteration = self.selected
         self.compare_mark = None if self.compare_mark == iteration else iteration
-        self.app.notify("no iteration marked" if self.compare_mark is None else
-                        f"iteration {iteration} marked: the others are compared with it", timeout=4)
+        self.app.notify(
+            "no iteration marked"
+            if self.compare_mark is None
+            else f"iteration {iteration} marked: the others are compared with it",
+            timeout=4,
+        )
         self.show_iteration(iteration)
 
     def action_next_view(self) -> None:
@@ -247,4 +279,3 @@ class HistoryPane(Horizontal):
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
         if event.data_table.id == "history-table" and event.cursor_row is not None:
             self.show_iteration(event.cursor_row)
-

@@ -37,12 +37,28 @@ from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, Targe
 from tui.widgets.textview import TextView
 
 # the plot tabs, and the plots (figure ids) each shows
-PLOT_TABS = {"p-nyquist": ("nyquist",), "p-bode": ("bode-mag", "bode-phase"), "p-nichols": ("nichols",),
-             "p-closed": ("closed-loop",), "p-poles": ("poles",), "p-locus": ("locus",),
-             "p-convergence": ("convergence",), "p-step": ("step",), "p-trajectories": ("trajectories",)}
-PRESENTER_PLOTS = {"p-nyquist": "nyquist", "p-bode": "bode", "p-nichols": "nichols", "p-closed": "closed_loop",
-                   "p-poles": "poles", "p-locus": "locus", "p-convergence": "convergence", "p-step": "step",
-                   "p-trajectories": "trajectories"}
+PLOT_TABS = {
+    "p-nyquist": ("nyquist",),
+    "p-bode": ("bode-mag", "bode-phase"),
+    "p-nichols": ("nichols",),
+    "p-closed": ("closed-loop",),
+    "p-poles": ("poles",),
+    "p-locus": ("locus",),
+    "p-convergence": ("convergence",),
+    "p-step": ("step",),
+    "p-trajectories": ("trajectories",),
+}
+PRESENTER_PLOTS = {
+    "p-nyquist": "nyquist",
+    "p-bode": "bode",
+    "p-nichols": "nichols",
+    "p-closed": "closed_loop",
+    "p-poles": "poles",
+    "p-locus": "locus",
+    "p-convergence": "convergence",
+    "p-step": "step",
+    "p-trajectories": "trajectories",
+}
 
 
 def _values(value) -> str:
@@ -50,30 +66,53 @@ def _values(value) -> str:
     return ", ".join(number(v) for v in value) if isinstance(value, list) else number(value)
 
 
-MAIN_WIDGETS = {"run": "#tableau-scroll", "plant": "#blocks", "targets": "#targets-table",
-                "history": "#history-table", "sweep": "#optima-table"}
+MAIN_WIDGETS = {
+    "run": "#tableau-scroll",
+    "plant": "#blocks",
+    "targets": "#targets-table",
+    "history": "#history-table",
+    "sweep": "#optima-table",
+}
 
 
 class MainScreen(PoleLines, ViewActions, Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
-    BINDINGS = identified("main", [Binding("question_mark", "app.help", "help", id="main.help"),
-                Binding("ctrl+s", "app.save", "save", id="main.save"),
-                Binding("p", "next_plot", "next plot",
-                        tooltip="the Run tab's next plot, or the History plot's next view"),
-                Binding("1", "tab('run')", "run", show=False),
-                Binding("2", "tab('plant')", "plant", show=False),
-                Binding("3", "tab('targets')", "targets", show=False),
-                Binding("4", "tab('history')", "history", show=False),
-                Binding("5", "tab('sweep')", "sweep", show=False),
-                Binding("L", "locus_parameter", "locus in", show=False,
-                        tooltip="the root locus (Run or History) in the loop gain or a parameter"),
-                Binding("t", "step_setup", "step signals", show=False,
-                        tooltip="the step plot's input, output and horizon"),
-                Binding("y", "copy", "copy", show=False,
-                        tooltip="copy the selected table row, or the tableau (OSC 52: works over SSH)"),
-                Binding("Y", "copy_design", "copy design", show=False,
-                        tooltip="copy the current compensator(s) as expressions with the values in place")])
+    BINDINGS = identified(
+        "main",
+        [
+            Binding("question_mark", "app.help", "help", id="main.help"),
+            Binding("ctrl+s", "app.save", "save", id="main.save"),
+            Binding("p", "next_plot", "next plot", tooltip="the Run tab's next plot, or the History plot's next view"),
+            Binding("1", "tab('run')", "run", show=False),
+            Binding("2", "tab('plant')", "plant", show=False),
+            Binding("3", "tab('targets')", "targets", show=False),
+            Binding("4", "tab('history')", "history", show=False),
+            Binding("5", "tab('sweep')", "sweep", show=False),
+            Binding(
+                "L",
+                "locus_parameter",
+                "locus in",
+                show=False,
+                tooltip="the root locus (Run or History) in the loop gain or a parameter",
+            ),
+            Binding("t", "step_setup", "step signals", show=False, tooltip="the step plot's input, output and horizon"),
+            Binding(
+                "y",
+                "copy",
+                "copy",
+                show=False,
+                tooltip="copy the selected table row, or the tableau (OSC 52: works over SSH)",
+            ),
+            Binding(
+                "Y",
+                "copy_design",
+                "copy design",
+                show=False,
+                tooltip="copy the current compensator(s) as expressions with the values in place",
+            ),
+        ],
+    )
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
     #plots { min-width: 38; }
@@ -94,10 +133,10 @@ class MainScreen(PoleLines, ViewActions, Screen):
         super().__init__()
         self.bench = bench
         self._history_stale = True
-        self._locus_key = None   # what the root locus shown was computed for
-        self._figure_keys: dict[str, tuple] = {}   # plot id -> the `figure_key` of the view it shows
-        self.poles: tuple[tuple, str, View] | None = None   # (`figure_key`, pole lines under the tableau, view)
-        self._poles_asked: tuple | None = None   # the `figure_key` a thread worker makes pole lines for
+        self._locus_key = None  # what the root locus shown was computed for
+        self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
+        self.poles: tuple[tuple, str, View] | None = None  # (`figure_key`, pole lines under the tableau, view)
+        self._poles_asked: tuple | None = None  # the `figure_key` a thread worker makes pole lines for
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -131,9 +170,17 @@ class MainScreen(PoleLines, ViewActions, Screen):
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
         wanted = applicable(self.bench.presenter.plots, self.bench.session.problem)
-        titles = {"p-nyquist": "Nyquist", "p-bode": "Bode", "p-nichols": "Nichols", "p-closed": "S/T",
-                  "p-poles": "Poles", "p-locus": "Locus", "p-convergence": "Convergence", "p-step": "Step",
-                  "p-trajectories": "Trajectories"}
+        titles = {
+            "p-nyquist": "Nyquist",
+            "p-bode": "Bode",
+            "p-nichols": "Nichols",
+            "p-closed": "S/T",
+            "p-poles": "Poles",
+            "p-locus": "Locus",
+            "p-convergence": "Convergence",
+            "p-step": "Step",
+            "p-trajectories": "Trajectories",
+        }
         self.plot_tabs = [tab for tab in PLOT_TABS if PRESENTER_PLOTS[tab] in wanted]
         with TabbedContent(id="plots"):
             for tab in self.plot_tabs:
@@ -164,13 +211,16 @@ class MainScreen(PoleLines, ViewActions, Screen):
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """p and L are disabled where they have nothing to show."""
-        tabs = self.query_one_optional("#tabs", TabbedContent)   # (query_one is cached; a query's truth walks the DOM)
+        tabs = self.query_one_optional("#tabs", TabbedContent)  # (query_one is cached; a query's truth walks the DOM)
         history = tabs is not None and tabs.active == "history"
         if action == "next_plot" and history:
             return self.query_one(HistoryPane).check_action("next_view", parameters)
         if action == "locus_parameter":
-            there = "locus" in self.query_one(HistoryPane).views() if history else \
-                "p-locus" in getattr(self, "plot_tabs", [])
+            there = (
+                "locus" in self.query_one(HistoryPane).views()
+                if history
+                else "p-locus" in getattr(self, "plot_tabs", [])
+            )
             return True if there else None
         return True
 
@@ -218,7 +268,8 @@ class MainScreen(PoleLines, ViewActions, Screen):
         edit = f"  [dim]{escape(b.edits.last)}[/dim]" if b.edits.last else ""
         self.query_one("#status", TextView).set(
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
-            f"{escape(b.status_text())}{busy}{edit}")
+            f"{escape(b.status_text())}{busy}{edit}"
+        )
 
     def refresh_run(self, view: View | None = None, plots: bool = True) -> None:
         """The tableau, the lines under it and (with ``plots``) the plots, drawn in a
@@ -272,6 +323,7 @@ class MainScreen(PoleLines, ViewActions, Screen):
         def compute() -> None:
             drawn, prebuilt = drawings(view, canvases, missing)
             self.app.call_from_thread(self._figures_drawn, key, drawn, prebuilt)
+
         self.run_worker(compute, thread=True, exclusive=True, group="figures")
 
     def _figures_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
@@ -294,13 +346,16 @@ class MainScreen(PoleLines, ViewActions, Screen):
     def _step_info(self, view: View, record: StepRecord | None) -> str | Text:
         if record is None or record.iteration == 0:
             return "no iterations yet: [b]s[/b] steps, [b]r[/b] runs, [b]?[/b] help"
-        lines = tolerant(lambda: view.presenter.status_lines(record), lambda: Presenter.status_lines(view.presenter, record))
+        lines = tolerant(
+            lambda: view.presenter.status_lines(record), lambda: Presenter.status_lines(view.presenter, record)
+        )
         return Text("\n".join(lines))
 
     def refresh_plant(self) -> None:
         model = self.bench.session.model.problem
-        self.query_one("#blocks", PlantTable).fill(("condition", "block", "input", "output", "kind", "definition"),
-                                                   plant_rows(model))
+        self.query_one("#blocks", PlantTable).fill(
+            ("condition", "block", "input", "output", "kind", "definition"), plant_rows(model)
+        )
         self.query_one("#matrix-grid", MatrixTable).fill(model, self.bench.plotted_condition)
         free = {p.name: p.free for p in self.bench.session.problem.parameters}
         records = self.bench.records
@@ -309,11 +364,32 @@ class MainScreen(PoleLines, ViewActions, Screen):
         for k, p in enumerate(model.parameters):
             state = "free" if free.get(p.name, p.free) else ("held" if p.free else "fixed")
             now = current.get(p.name, p.value)
-            rows.append(((p.name, _values(now), _values(p.value) if records else "", number(p.min), number(p.max),
-                          state, "yes" if isinstance(p.value, list) else "shared"), ("parameters", k)))
+            rows.append(
+                (
+                    (
+                        p.name,
+                        _values(now),
+                        _values(p.value) if records else "",
+                        number(p.min),
+                        number(p.max),
+                        state,
+                        "yes" if isinstance(p.value, list) else "shared",
+                    ),
+                    ("parameters", k),
+                )
+            )
         self.query_one("#parameters", ParametersTable).fill(
-            ("parameter", f"value (iteration {len(records)})" if records else "value", "start" if records else "",
-             "min", "max", "free", "per condition"), rows)
+            (
+                "parameter",
+                f"value (iteration {len(records)})" if records else "value",
+                "start" if records else "",
+                "min",
+                "max",
+                "free",
+                "per condition",
+            ),
+            rows,
+        )
 
     def refresh_targets(self) -> None:
         model = self.bench.session.model.problem
@@ -322,13 +398,38 @@ class MainScreen(PoleLines, ViewActions, Screen):
             points = forms.format_points(t.points) or "default"
             detect = forms.format_range((t.detect_low, t.detect_high))
             use = target_note(t.measure, self.bench.algorithm_name) or "yes"
-            rows.append(((t.measure, use, t.condition or "all", forms.format_bands(t.bands), points, number(t.weight),
-                          detect, t.unit), ("targets", k)))
+            rows.append(
+                (
+                    (
+                        t.measure,
+                        use,
+                        t.condition or "all",
+                        forms.format_bands(t.bands),
+                        points,
+                        number(t.weight),
+                        detect,
+                        t.unit,
+                    ),
+                    ("targets", k),
+                )
+            )
         self.query_one("#targets-table", TargetsTable).fill(
-            ("measure", "used", "condition", "bands (low..high: desired / required)", "points", "weight", "detect",
-             "unit"), rows)
+            (
+                "measure",
+                "used",
+                "condition",
+                "bands (low..high: desired / required)",
+                "points",
+                "weight",
+                "detect",
+                "unit",
+            ),
+            rows,
+        )
         self.query_one("#objective-table", SettingsTable).fill(
-            ("objective / setting", "value"), [((label, value), ref) for label, value, ref in objective_rows(self.bench)])
+            ("objective / setting", "value"),
+            [((label, value), ref) for label, value, ref in objective_rows(self.bench)],
+        )
 
     def refresh_history(self, view: View | None = None) -> None:
         """The history table, rebuilt only while its tab is shown (else on the next visit)."""
@@ -348,9 +449,12 @@ class MainScreen(PoleLines, ViewActions, Screen):
         table.clear(columns=True)
         status = "no sweep yet.  [b]w[/b] starts one (starts 16 | vary NAME=V1,V2 | tolerance NAME=+-10%)"
         if sweep:
-            status = (f"{escape(str(sweep['kind']))} sweep of {escape(str(sweep['created']))}: {len(sweep['runs'])} runs on {sweep['workers']} "
-                      f"worker(s), {len(sweep['failed'])} failed, {len(sweep['retried'])} retried"
-                      + (", cancelled" if sweep["cancelled"] else "") + ".  [b]u[/b] uses the best optimum")
+            status = (
+                f"{escape(str(sweep['kind']))} sweep of {escape(str(sweep['created']))}: {len(sweep['runs'])} runs on {sweep['workers']} "
+                f"worker(s), {len(sweep['failed'])} failed, {len(sweep['retried'])} retried"
+                + (", cancelled" if sweep["cancelled"] else "")
+                + ".  [b]u[/b] uses the best optimum"
+            )
             _fill_sweep(table, sweep)
         self.query_one("#sweep-status", TextView).set(status)
         self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep))
@@ -361,12 +465,24 @@ def _fill_sweep(table: DataTable, sweep: dict) -> None:
     if sweep["kind"] == "tolerance":
         table.add_columns("measure", "condition", "worst", "target", "unmet/samples")
         for w in sweep["worst_case"]:
-            table.add_row(w["name"], w["condition"], number(w["worst"], 5), number(w["target"], 4),
-                          f"{w['unmet_samples']}/{w['samples']}")
+            table.add_row(
+                w["name"],
+                w["condition"],
+                number(w["worst"], 5),
+                number(w["target"], 4),
+                f"{w['unmet_samples']}/{w['samples']}",
+            )
         return
     table.add_columns("optimum", "count", "meets", "objective", "best run", "parameters")
     for k, o in enumerate(sweep["optima"], start=1):
-        params = "  ".join(f"{n}={number(v if not isinstance(v, list) else v[0], 4)}"
-                           for n, v in o["parameters"].items())
-        table.add_row(str(k), str(o["count"]), "yes" if o["meets_requirements"] else "no",
-                      number(o["objective"], 6), str(o["best_run"]), params)
+        params = "  ".join(
+            f"{n}={number(v if not isinstance(v, list) else v[0], 4)}" for n, v in o["parameters"].items()
+        )
+        table.add_row(
+            str(k),
+            str(o["count"]),
+            "yes" if o["meets_requirements"] else "no",
+            number(o["objective"], 6),
+            str(o["best_run"]),
+            params,
+        )

@@ -20,9 +20,15 @@ from tui.screens.dialogs import ChooseDialog, EditDialog
 from tui.state.field_edits import csv_preview, table_transfer
 
 PLANT_HINT = "an expression in s (or w), e.g. 10/(s*(s+1)*(s+5)); exp(-T*s) is a delay"
-STRUCTURE_CHOICES = [("lead", "K (1 + T1 s)/(1 + T2 s), T2 < T1"), ("lag", "K (1 + T1 s)/(1 + T2 s), T2 > T1"),
-                     ("gain", "K"), ("lead-lag", "two lead/lag pairs"), ("pi", "K (1 + Ti s)/(Ti s)"),
-                     ("pid", "K (1 + 1/(Ti s) + Td s/(1 + 0.1 Td s))"), ("expression", "type it (its names are the parameters)")]
+STRUCTURE_CHOICES = [
+    ("lead", "K (1 + T1 s)/(1 + T2 s), T2 < T1"),
+    ("lag", "K (1 + T1 s)/(1 + T2 s), T2 > T1"),
+    ("gain", "K"),
+    ("lead-lag", "two lead/lag pairs"),
+    ("pi", "K (1 + Ti s)/(Ti s)"),
+    ("pid", "K (1 + 1/(Ti s) + Td s/(1 + 0.1 Td s))"),
+    ("expression", "type it (its names are the parameters)"),
+]
 
 
 class NewSessionFlow:
@@ -32,8 +38,10 @@ class NewSessionFlow:
         self.app, self.create = app, create
 
     def start(self) -> None:
-        self.app.push_screen(ChooseDialog("new session: which kind?", list(template_kinds.KINDS.items())),
-                             lambda kind: kind and getattr(self, "_" + kind.replace("-", "_"))())
+        self.app.push_screen(
+            ChooseDialog("new session: which kind?", list(template_kinds.KINDS.items())),
+            lambda kind: kind and getattr(self, "_" + kind.replace("-", "_"))(),
+        )
 
     def _ask(self, title: str, check: Callable[[str], str | None], then: Callable[[str], None]) -> None:
         self.app.push_screen(EditDialog(title, "", check), lambda text: text and then(text.strip()))
@@ -44,6 +52,7 @@ class NewSessionFlow:
                 self._ask(f"{title}: the compensator, an expression in s", _compensator_check, then)
             elif name:
                 then(name)
+
         self.app.push_screen(ChooseDialog(title, STRUCTURE_CHOICES), chosen)
 
     def _made(self, build: Callable[[], dict], tables: list[Path] = ()) -> None:
@@ -57,20 +66,39 @@ class NewSessionFlow:
         self.create(data, list(tables))
 
     def _unity(self) -> None:
-        self._ask(f"plant: {PLANT_HINT}", _plant_check, lambda plant: self._structure(
-            "compensator structure", lambda c: self._made(lambda: templates.new_session(plant, c))))
+        self._ask(
+            f"plant: {PLANT_HINT}",
+            _plant_check,
+            lambda plant: self._structure(
+                "compensator structure", lambda c: self._made(lambda: templates.new_session(plant, c))
+            ),
+        )
 
     def _matrix(self) -> None:
-        self._ask(f"plant (matrix format): {PLANT_HINT}", _plant_check, lambda plant: self._structure(
-            "compensator structure", lambda c: self._made(lambda: template_kinds.matrix_session(plant, c))))
+        self._ask(
+            f"plant (matrix format): {PLANT_HINT}",
+            _plant_check,
+            lambda plant: self._structure(
+                "compensator structure", lambda c: self._made(lambda: template_kinds.matrix_session(plant, c))
+            ),
+        )
 
     def _two_loops(self) -> None:
         def outer(inner_plant: str, inner: str) -> None:
-            self._ask(f"outer plant (from the inner loop's output x to y): {PLANT_HINT}", _plant_check,
-                      lambda outer_plant: self._structure("outer compensator", lambda c: self._made(
-                          lambda: template_kinds.two_loop_session(inner_plant, outer_plant, inner, c))))
-        self._ask(f"inner plant (from u to the inner signal x): {PLANT_HINT}", _plant_check,
-                  lambda inner_plant: self._structure("inner compensator", lambda c: outer(inner_plant, c)))
+            self._ask(
+                f"outer plant (from the inner loop's output x to y): {PLANT_HINT}",
+                _plant_check,
+                lambda outer_plant: self._structure(
+                    "outer compensator",
+                    lambda c: self._made(lambda: template_kinds.two_loop_session(inner_plant, outer_plant, inner, c)),
+                ),
+            )
+
+        self._ask(
+            f"inner plant (from u to the inner signal x): {PLANT_HINT}",
+            _plant_check,
+            lambda inner_plant: self._structure("inner compensator", lambda c: outer(inner_plant, c)),
+        )
 
     def _projection(self) -> None:
         self._made(template_kinds.projection_session)
@@ -78,12 +106,20 @@ class NewSessionFlow:
     def _table(self) -> None:
         def columns(path: Path) -> None:
             header, preview = csv_preview(path)
-            self._ask(f"{path.name}\n{preview}\n\ncolumns frequency,first,second form unit gain "
-                      f"(e.g. '{','.join(header[:3])} polar hz 1'):",
-                      lambda t: _table_check(t, header), lambda line: self._structure(
-                          "compensator structure", lambda c: self._made(lambda: _table_data(path, line, c), [path])))
-        self._ask("CSV file of the plant's frequency response (path)", _csv_check,
-                  lambda text: columns(Path(text).expanduser()))
+            self._ask(
+                f"{path.name}\n{preview}\n\ncolumns frequency,first,second form unit gain "
+                f"(e.g. '{','.join(header[:3])} polar hz 1'):",
+                lambda t: _table_check(t, header),
+                lambda line: self._structure(
+                    "compensator structure", lambda c: self._made(lambda: _table_data(path, line, c), [path])
+                ),
+            )
+
+        self._ask(
+            "CSV file of the plant's frequency response (path)",
+            _csv_check,
+            lambda text: columns(Path(text).expanduser()),
+        )
 
 
 def _check(read: Callable[[str], Any]) -> Callable[[str], str | None]:
@@ -93,6 +129,7 @@ def _check(read: Callable[[str], Any]) -> Callable[[str], str | None]:
         except (SessionError, ValueError, OSError) as exc:
             return str(exc).removeprefix("--plant: ").removeprefix("--compensator: ")
         return None
+
     return check
 
 
@@ -108,7 +145,7 @@ def _table_check(text: str, header: list[str]) -> str | None:
 def _table_data(path: Path, line: str, compensator: str) -> dict:
     header, _ = csv_preview(path)
     transfer = table_transfer(line, header, path.name)
-    frequencies = read_csv(path, transfer["table"]["columns"], "table")[0]   # checked as the build reads it
+    frequencies = read_csv(path, transfer["table"]["columns"], "table")[0]  # checked as the build reads it
     return template_kinds.table_session(transfer, frequencies, compensator)
 
 

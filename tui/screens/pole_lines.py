@@ -29,6 +29,7 @@ class PoleLines:
             def compute() -> None:
                 text = pole_text(view)
                 self.app.call_from_thread(self._poles_found, view, text)
+
             self.run_worker(compute, thread=True, exclusive=True, group="poles")
         return COMPUTING
 

@@ -18,8 +18,11 @@ from tui.widgets.footer import Footer
 class StartScreen(Screen):
     """enter opens the highlighted session; o opens a path; n starts a new session."""
 
-    BINDINGS = [Binding("o", "app.open", "open a file"), Binding("n", "app.new", "new session"),
-                Binding("q", "app.quit", "quit")]
+    BINDINGS = [
+        Binding("o", "app.open", "open a file"),
+        Binding("n", "app.new", "new session"),
+        Binding("q", "app.quit", "quit"),
+    ]
     DEFAULT_CSS = """
     StartScreen > Vertical { padding: 1 2; }
     StartScreen OptionList { height: 1fr; }

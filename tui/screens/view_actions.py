@@ -18,7 +18,7 @@ from tui.widgets.textview import TextView
 class ViewActions:
     """Mixed into `MainScreen`: needs ``bench``, ``app`` and the screen's widgets."""
 
-    locus_parameter = "gain"   # what the root locus varies
+    locus_parameter = "gain"  # what the root locus varies
 
     def action_step_setup(self) -> None:
         """Ask which input is stepped, which output is plotted and for how long."""
@@ -39,8 +39,11 @@ class ViewActions:
             if text is not None:
                 self.bench.step_setup = parse_step_setup(text, ss.inputs, ss.outputs)
                 self.refresh_plots()
-        title = (f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, horizon {horizon(ss):.3g} s from the "
-                 f"slowest pole)\ninputs: {', '.join(ss.inputs)}\nsignals: {', '.join(ss.outputs)}")
+
+        title = (
+            f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, horizon {horizon(ss):.3g} s from the "
+            f"slowest pole)\ninputs: {', '.join(ss.inputs)}\nsignals: {', '.join(ss.outputs)}"
+        )
         self.app.push_screen(EditDialog(title, format_step_setup(self.bench.step_setup, ss), check), typed)
 
     def action_copy(self) -> None:
@@ -56,8 +59,11 @@ class ViewActions:
     def action_copy_design(self) -> None:
         view = self.bench.view()
         condition = view.plotted()[0] if view.plotted() else 0
-        text = design_text(self.bench.session.model.problem, view.parameters(None, condition), condition) \
-            if self.bench.session.model.problem.conditions else ""
+        text = (
+            design_text(self.bench.session.model.problem, view.parameters(None, condition), condition)
+            if self.bench.session.model.problem.conditions
+            else ""
+        )
         if not text:
             self.app.notify("no block of this session reads a parameter", severity="warning")
             return
@@ -82,15 +88,18 @@ class ViewActions:
         def compute() -> None:
             figure = locus_figure(view, parameter)
             self.app.call_from_thread(self._show_locus, key, figure)
+
         self.run_worker(compute, thread=True, exclusive=True, group="locus")
 
     def action_locus_parameter(self) -> None:
         """Choose what the root locus varies, the loop gain or one parameter, and show the
         locus: History's plot when that tab is shown, else the Run tab's."""
         from tui.screens.dialogs import ChooseDialog
+
         names = [p.name for p in self.bench.session.problem.parameters]
-        choices = [("gain", "the loop gain k (1 + k L = 0)")] + [(n, "this parameter, a decade either side")
-                                                                 for n in names]
+        choices = [("gain", "the loop gain k (1 + k L = 0)")] + [
+            (n, "this parameter, a decade either side") for n in names
+        ]
 
         def chosen(name: str | None) -> None:
             if not name:
@@ -101,6 +110,7 @@ class ViewActions:
                 return
             self.query_one("#plots").active = "p-locus"
             self.refresh_locus()
+
         self.app.push_screen(ChooseDialog("root locus in", choices), chosen)
 
     def _show_locus(self, key, figure: Figure) -> None:

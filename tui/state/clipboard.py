@@ -17,10 +17,12 @@ def row_text(cells: Sequence[object]) -> str:
 
 def with_values(text: str, values: Mapping[str, float]) -> str:
     """``text`` with every parameter name replaced by its value (exactly, as repr)."""
+
     def value(match: re.Match) -> str:
         name = match.group(0)
         v = values.get(name)
         return name if v is None or isinstance(v, list) else f"({float(v)!r})" if v < 0 else repr(float(v))
+
     return re.sub(r"\b[A-Za-z_][A-Za-z0-9_]*\b", value, text)
 
 
@@ -34,8 +36,11 @@ def design_text(problem_model, values: Mapping[str, float], condition: int = 0) 
         if transfer_names(transfer, x):
             lines.append(f"{name} = {with_values(format_transfer(transfer, x), values)}")
     if cond.plant.format == "channels":
-        lines += [f"{ch.name}.{n + 1} = {with_values(format_sub_compensator(sub), values)}"
-                  for ch in cond.plant.channels for n, sub in enumerate(ch.compensators)]
+        lines += [
+            f"{ch.name}.{n + 1} = {with_values(format_sub_compensator(sub), values)}"
+            for ch in cond.plant.channels
+            for n, sub in enumerate(ch.compensators)
+        ]
     return "\n".join(lines)
 
 

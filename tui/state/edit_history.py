@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-MAX_EDITS = 100   # undo depth: the oldest edit is forgotten beyond it
+MAX_EDITS = 100  # undo depth: the oldest edit is forgotten beyond it
 
 
 @dataclass
@@ -32,9 +32,15 @@ class Snapshot:
     @classmethod
     def of(cls, bench) -> Snapshot:
         model = bench.session.model
-        return cls(model.problem.model_copy(deep=True), model.algorithm.model_copy(deep=True),
-                   list(model.records), model.current_iteration, model.state, bench.session.problem,
-                   list(bench._records))
+        return cls(
+            model.problem.model_copy(deep=True),
+            model.algorithm.model_copy(deep=True),
+            list(model.records),
+            model.current_iteration,
+            model.state,
+            bench.session.problem,
+            list(bench._records),
+        )
 
     def restore(self, bench) -> None:
         model = bench.session.model
@@ -44,7 +50,7 @@ class Snapshot:
         bench.session.problem = self.problem
         bench.forget_algorithm()
         bench._records[:] = self.parsed_records
-        bench._redo.clear()   # undone iterations belonged to the state left
+        bench._redo.clear()  # undone iterations belonged to the state left
         bench.dirty = True
 
 
@@ -54,12 +60,12 @@ class EditHistory:
     def __init__(self) -> None:
         self.undo_stack: list[tuple[str, Snapshot]] = []
         self.redo_stack: list[tuple[str, Snapshot]] = []
-        self.last = ""   # what the latest edit, undo or redo did (the status line shows it)
+        self.last = ""  # what the latest edit, undo or redo did (the status line shows it)
 
     def push(self, before: Snapshot, after_bench) -> str | None:
         """Keep ``before`` as the undo of an edit that led to ``after_bench``'s state;
         its description (None when nothing changed)."""
-        model = after_bench.session.model   # read as it is: no copy of it is kept
+        model = after_bench.session.model  # read as it is: no copy of it is kept
         text = describe_change(_dump(before.problem_model, before.algorithm), _dump(model.problem, model.algorithm))
         if text is None:
             return None

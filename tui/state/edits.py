@@ -24,7 +24,7 @@ from sessions.forms import transfers as transfer_forms
 from sessions.lifecycle import folder
 from tui.state.workbench import Workbench
 
-Ref = tuple[Any, ...]   # a path into the problem model: attribute names and list indices
+Ref = tuple[Any, ...]  # a path into the problem model: attribute names and list indices
 Check = Callable[[str], str | None]
 
 
@@ -53,8 +53,9 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
     try:
         change(draft)
         draft = ProblemModel.model_validate(draft.model_dump())
-        problem = build_problem(draft, folder(bench.session),
-                                allow_outside_tables=bench.session.allow_outside_tables or None)
+        problem = build_problem(
+            draft, folder(bench.session), allow_outside_tables=bench.session.allow_outside_tables or None
+        )
     except (ValueError, EngineError) as exc:
         raise SessionError(str(exc)) from None
     bench.session.model.problem, bench.session.problem = draft, problem
@@ -63,10 +64,12 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
 
 def set_fields(bench: Workbench, path: Ref, **values: Any) -> None:
     """Set fields of the model object at ``path``, as one transaction."""
+
     def change(draft: ProblemModel) -> None:
         owner = resolve(draft, path)
         for name, value in values.items():
             setattr(owner, name, value)
+
     transaction(bench, change)
 
 
@@ -77,24 +80,27 @@ def change_list(bench: Workbench, path: Ref, change: Callable[[list], None]) -> 
 
 def checker(parse: Callable[[str], object]) -> Check:
     """A live check from a parser: None when the text reads, else why not."""
+
     def check(text: str) -> str | None:
         try:
             parse(text)
         except (ValueError, TypeError, EngineError) as exc:
             return str(exc)
         return None
+
     return check
 
 
-def field_edit(bench: Workbench, path: Ref, name: str, title: str, parse: Callable[[str], Any],
-               format_: Callable[[Any], str]) -> Edit:
+def field_edit(
+    bench: Workbench, path: Ref, name: str, title: str, parse: Callable[[str], Any], format_: Callable[[Any], str]
+) -> Edit:
     """An edit of one field of the object at ``path`` through a parse/format pair."""
     current = getattr(resolve(bench.session.model.problem, path), name)
-    return Edit(title, format_(current), checker(parse),
-                lambda text: set_fields(bench, path, **{name: parse(text)}))
+    return Edit(title, format_(current), checker(parse), lambda text: set_fields(bench, path, **{name: parse(text)}))
 
 
 # -- the plant table ----------------------------------------------------------
+
 
 def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
     """The edit of a plant-table row: a block (name, wiring and definition in one
@@ -103,36 +109,59 @@ def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
     model = bench.session.model.problem
     condition = model.conditions[ref[1]]
     if ref[-1] == "break_at":
-        return Edit(f"{condition.name}: break the loop at signal", condition.break_at,
-                    lambda t: None if t.strip() else "a signal name",
-                    lambda t: set_fields(bench, ref[:-1], break_at=t.strip()))
+        return Edit(
+            f"{condition.name}: break the loop at signal",
+            condition.break_at,
+            lambda t: None if t.strip() else "a signal name",
+            lambda t: set_fields(bench, ref[:-1], break_at=t.strip()),
+        )
     owner, kind, variable = resolve(model, ref), (ref[-2] if len(ref) >= 2 else ""), condition.variable
     if kind == "junctions":
-        return Edit(f"{condition.name}: junction {owner.name} -> {owner.output} (+a -b ...)",
-                    forms.format_signed((owner.plus, owner.minus)), checker(forms.parse_signed),
-                    lambda t: _set_signed(bench, ref, t))
+        return Edit(
+            f"{condition.name}: junction {owner.name} -> {owner.output} (+a -b ...)",
+            forms.format_signed((owner.plus, owner.minus)),
+            checker(forms.parse_signed),
+            lambda t: _set_signed(bench, ref, t),
+        )
     if kind == "entries":
         return _expression_edit(bench, ref, f"{condition.name}: a[{owner.row},{owner.col}]", variable)
     if kind == "blocks":
         return _block_edit(bench, ref, f"{condition.name}: block {owner.name}", variable)
     if kind == "compensators":
-        return field_edit_whole(bench, ref, f"{condition.name}: sub-compensator (ascending powers)",
-                                transfer_forms.parse_sub_compensator, transfer_forms.format_sub_compensator)
+        return field_edit_whole(
+            bench,
+            ref,
+            f"{condition.name}: sub-compensator (ascending powers)",
+            transfer_forms.parse_sub_compensator,
+            transfer_forms.format_sub_compensator,
+        )
     if isinstance(ref[-1], str) and hasattr(owner, "kind"):
+
         def parse(text: str):
             return transfer_forms.parse_transfer(text, variable, owner)
-        edit = field_edit_whole(bench, ref, f"{condition.name}: {ref[-1]} ({TRANSFER_HELP})", parse,
-                                lambda t: transfer_forms.format_transfer(t, variable))
-        return Edit(edit.title, edit.text,
-                    known_names(bench, parse, lambda t: transfer_forms.transfer_names(t, variable)), edit.apply)
+
+        edit = field_edit_whole(
+            bench,
+            ref,
+            f"{condition.name}: {ref[-1]} ({TRANSFER_HELP})",
+            parse,
+            lambda t: transfer_forms.format_transfer(t, variable),
+        )
+        return Edit(
+            edit.title,
+            edit.text,
+            known_names(bench, parse, lambda t: transfer_forms.transfer_names(t, variable)),
+            edit.apply,
+        )
     return None
 
 
 TRANSFER_HELP = "an expression, or factored: / controller: / polynomial: / delay: / table: ..."
 
 
-def field_edit_whole(bench: Workbench, path: Ref, title: str, parse: Callable[[str], Any],
-                     format_: Callable[[Any], str]) -> Edit:
+def field_edit_whole(
+    bench: Workbench, path: Ref, title: str, parse: Callable[[str], Any], format_: Callable[[Any], str]
+) -> Edit:
     """An edit that replaces the model object at ``path`` (an attribute or a list item of its owner)."""
     current = resolve(bench.session.model.problem, path)
     return Edit(title, format_(current), checker(parse), lambda text: replace_at(bench, path, parse(text)))
@@ -140,12 +169,14 @@ def field_edit_whole(bench: Workbench, path: Ref, title: str, parse: Callable[[s
 
 def replace_at(bench: Workbench, path: Ref, value: Any) -> None:
     """Put ``value`` at ``path`` (an attribute or a list item), as one transaction."""
+
     def change(draft: ProblemModel) -> None:
         owner = resolve(draft, path[:-1])
         if isinstance(path[-1], int):
             owner[path[-1]] = value
         else:
             setattr(owner, path[-1], value)
+
     transaction(bench, change)
 
 
@@ -160,25 +191,31 @@ def _block_edit(bench: Workbench, ref: Ref, title: str, variable: str) -> Edit:
         wired = None
         if len(names) == 3 and definition:
             try:
-                return dict(zip(kept, names), transfer=transfer_forms.parse_transfer(definition, variable, block.transfer))
+                return dict(
+                    zip(kept, names), transfer=transfer_forms.parse_transfer(definition, variable, block.transfer)
+                )
             except forms.FormError as exc:
-                wired = exc   # perhaps a definition with spaces: read the whole line as one below
+                wired = exc  # perhaps a definition with spaces: read the whole line as one below
         try:
             return dict(kept, transfer=transfer_forms.parse_transfer(text, variable, block.transfer))
         except forms.FormError:
             if wired is not None:
-                raise forms.FormError(f"{wired} (the line is NAME INPUT OUTPUT DEFINITION, or a definition alone)") \
-                    from None
+                raise forms.FormError(
+                    f"{wired} (the line is NAME INPUT OUTPUT DEFINITION, or a definition alone)"
+                ) from None
             raise
+
     quoted = " ".join(transfer_forms.quote_name(n) for n in (block.name, block.input, block.output))
     text = f"{quoted} {transfer_forms.format_transfer(block.transfer, variable)}"
     check = known_names(bench, parse, lambda found: transfer_forms.transfer_names(found["transfer"], variable))
-    return Edit(f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, check,
-                lambda t: set_fields(bench, ref, **parse(t)))
+    return Edit(
+        f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, check, lambda t: set_fields(bench, ref, **parse(t))
+    )
 
 
 def known_names(bench: Workbench, parse: Callable[[str], Any], names_of: Callable[[Any], set[str]]) -> Check:
     """A live check that also flags names that are not parameters of the session."""
+
     def check(text: str) -> str | None:
         try:
             found = parse(text)
@@ -190,6 +227,7 @@ def known_names(bench: Workbench, parse: Callable[[str], Any], names_of: Callabl
             listed = ", ".join(sorted(parameters)[:12]) or "none yet"
             return f"unknown name {unknown[0]!r}: not a parameter (parameters: {listed}; + adds one in Plant)"
         return None
+
     return check
 
 
@@ -201,10 +239,16 @@ def _set_signed(bench: Workbench, ref: Ref, text: str) -> None:
 def _expression_edit(bench: Workbench, path: Ref, title: str, variable: str) -> Edit:
     def parse(text: str) -> str:
         return forms.parse_expression(text, variable)
+
     from engine.model.expressions import Expression
+
     edit = field_edit(bench, path, "expression", f"{title} (expression in {variable})", parse, str)
-    return Edit(edit.title, edit.text, known_names(bench, parse, lambda text: set(Expression(text, variable).parameters)),
-                edit.apply)
+    return Edit(
+        edit.title,
+        edit.text,
+        known_names(bench, parse, lambda text: set(Expression(text, variable).parameters)),
+        edit.apply,
+    )
 
 
 def copy_condition(bench: Workbench, ref: Ref, name: str) -> None:
@@ -219,6 +263,7 @@ def copy_condition(bench: Workbench, ref: Ref, name: str) -> None:
         for p in draft.parameters:
             if isinstance(p.value, list):
                 p.value = p.value + [p.value[k]]
+
     transaction(bench, change)
 
 
@@ -234,7 +279,8 @@ def delete_condition(bench: Workbench, ref: Ref) -> str:
         draft.conditions.pop(k)
         for p in draft.parameters:
             if isinstance(p.value, list):
-                p.value = p.value[:k] + p.value[k + 1:]
+                p.value = p.value[:k] + p.value[k + 1 :]
+
     transaction(bench, change)
     return name
 
@@ -243,6 +289,7 @@ def add_to_plant(bench: Workbench, ref: Ref, text: str) -> None:
     """A new block ('NAME INPUT OUTPUT EXPRESSION') in a diagram, or a new entry
     ('ROW COL EXPRESSION') of a matrix plant, in the row's condition."""
     from sessions.format.schema import BlockModel, ExpressionBlock, MatrixEntry
+
     condition = bench.session.model.problem.conditions[ref[1]]
     plant = ("conditions", ref[1], "plant")
     if condition.plant.format == "matrix":
@@ -251,8 +298,9 @@ def add_to_plant(bench: Workbench, ref: Ref, text: str) -> None:
         change_list(bench, plant + ("entries",), lambda items: items.append(entry))
     elif condition.plant.format == "diagram":
         name, source, target, expression = forms.parse_block(text, condition.variable)
-        block = BlockModel(name=name, input=source, output=target,
-                           transfer=ExpressionBlock(kind="expression", expression=expression))
+        block = BlockModel(
+            name=name, input=source, output=target, transfer=ExpressionBlock(kind="expression", expression=expression)
+        )
         change_list(bench, plant + ("blocks",), lambda items: items.append(block))
     else:
         raise SessionError("blocks are added to block-diagram plants, entries to matrix plants")

@@ -16,19 +16,25 @@ from sessions.lifecycle import folder, registration
 from tui.state.edits import Check, Edit, Ref, change_list, checker, field_edit, resolve, set_fields
 from tui.state.workbench import Workbench
 
-PARAMETER_FIELDS = [("value", "value (per condition: one for all, or one each: 1, 2, 3)"),
-                    ("min", "lower bound (none: unbounded)"), ("max", "upper bound (none: unbounded)")]
-TARGET_FIELDS = [("bands", "bands: low..high: desired / required (optional); ... (high inf: no limit)"),
-                 ("points", "push/pull points: push -1+0j; pull -7-3j (empty: the defaults)"),
-                 ("weight", "weight (the c vector component; slp: W2)"),
-                 ("scale", "scale factor (slp: S, e.g. 0.2 so 5 deg count as 1 dB)"),
-                 ("sense", "sense: at_least, at_most or auto (the measure's own)"),
-                 ("constraint", "requirement (true) or objective only (false)"),
-                 ("response", "time response: INPUT OUTPUT HORIZON [POINTS]; step T A; ramp T S; psd F(s); ..."),
-                 ("detect", "detection range: low..high (inf: no limit)")]
+PARAMETER_FIELDS = [
+    ("value", "value (per condition: one for all, or one each: 1, 2, 3)"),
+    ("min", "lower bound (none: unbounded)"),
+    ("max", "upper bound (none: unbounded)"),
+]
+TARGET_FIELDS = [
+    ("bands", "bands: low..high: desired / required (optional); ... (high inf: no limit)"),
+    ("points", "push/pull points: push -1+0j; pull -7-3j (empty: the defaults)"),
+    ("weight", "weight (the c vector component; slp: W2)"),
+    ("scale", "scale factor (slp: S, e.g. 0.2 so 5 deg count as 1 dB)"),
+    ("sense", "sense: at_least, at_most or auto (the measure's own)"),
+    ("constraint", "requirement (true) or objective only (false)"),
+    ("response", "time response: INPUT OUTPUT HORIZON [POINTS]; step T A; ramp T S; psd F(s); ..."),
+    ("detect", "detection range: low..high (inf: no limit)"),
+]
 
 
 # -- parameters ------------------------------------------------------------------
+
 
 def parameter_edit(bench: Workbench, ref: Ref, field: str = "value") -> Edit:
     """A parameter's value (one per condition where it has several), min or max; a value
@@ -36,8 +42,10 @@ def parameter_edit(bench: Workbench, ref: Ref, field: str = "value") -> Edit:
     p = resolve(bench.session.model.problem, ref)
     title = f"parameter {p.name}: {field}"
     if field == "value":
+
         def parse(text: str):
             return within_bounds(p.name, forms.parse_values(text, p.value), p.min, p.max)
+
         return field_edit(bench, ref, "value", title, parse, forms.format_values)
 
     def parse_bound(text: str) -> float | None:
@@ -47,6 +55,7 @@ def parameter_edit(bench: Workbench, ref: Ref, field: str = "value") -> Edit:
             raise forms.FormError(f"min {forms.format_number(low)} would exceed max {forms.format_number(high)}")
         within_bounds(p.name, p.value, low, high, "the value of")
         return bound
+
     return field_edit(bench, ref, field, title, parse_bound, forms.format_optional)
 
 
@@ -54,10 +63,14 @@ def within_bounds(name: str, value, low: float | None, high: float | None, what:
     """``value`` (or each per-condition value) when inside [low, high], else a FormError naming the bounds."""
     for v in value if isinstance(value, list) else [value]:
         if (low is not None and v < low) or (high is not None and v > high):
-            span = (f"[{'-inf' if low is None else forms.format_number(low)}, "
-                    f"{'inf' if high is None else forms.format_number(high)}]")
-            raise forms.FormError(f"{what + ' ' if what else ''}{name} = {forms.format_number(v)} is outside its "
-                                  f"bounds {span}: change the bounds first")
+            span = (
+                f"[{'-inf' if low is None else forms.format_number(low)}, "
+                f"{'inf' if high is None else forms.format_number(high)}]"
+            )
+            raise forms.FormError(
+                f"{what + ' ' if what else ''}{name} = {forms.format_number(v)} is outside its "
+                f"bounds {span}: change the bounds first"
+            )
     return value
 
 
@@ -76,6 +89,7 @@ def toggle_per_condition(bench: Workbench, ref: Ref) -> None:
 def add_parameter(bench: Workbench, text: str) -> None:
     """'NAME VALUE [MIN MAX]': a new shared parameter."""
     from sessions.format.schema import ParameterModel
+
     name, value, low, high = forms.parse_parameter(text)
     within_bounds(name, value, low, high)
     parameter = ParameterModel(name=name, value=value, min=low, max=high)
@@ -87,14 +101,20 @@ ADD_PARAMETER_CHECK = checker(lambda text: within_bounds(*forms.parse_parameter(
 
 # -- targets ------------------------------------------------------------------------
 
+
 def target_edit(bench: Workbench, ref: Ref, field: str = "bands") -> Edit:
     """One field of a target as one line of text."""
     target = resolve(bench.session.model.problem, ref)
     title = f"{target.measure}: {field} ({target.unit})"
-    pairs = {"bands": (forms.parse_bands, forms.format_bands), "points": (forms.parse_points, forms.format_points),
-             "weight": (forms.parse_number, forms.format_number), "scale": (forms.parse_number, forms.format_number),
-             "sense": (forms.parse_sense, forms.format_sense), "constraint": (forms.parse_bool, forms.format_bool),
-             "response": (forms.parse_response, forms.format_response)}
+    pairs = {
+        "bands": (forms.parse_bands, forms.format_bands),
+        "points": (forms.parse_points, forms.format_points),
+        "weight": (forms.parse_number, forms.format_number),
+        "scale": (forms.parse_number, forms.format_number),
+        "sense": (forms.parse_sense, forms.format_sense),
+        "constraint": (forms.parse_bool, forms.format_bool),
+        "response": (forms.parse_response, forms.format_response),
+    }
     if field in pairs:
         parse, format_ = pairs[field]
         return field_edit(bench, ref, field, title, parse, format_)
@@ -103,6 +123,7 @@ def target_edit(bench: Workbench, ref: Ref, field: str = "bands") -> Edit:
     def apply(new: str) -> None:
         low, high = forms.parse_range(new)
         set_fields(bench, ref, detect_low=low, detect_high=high)
+
     return Edit(title, text, checker(forms.parse_range), apply)
 
 
@@ -110,6 +131,7 @@ def add_target(bench: Workbench, measure: str) -> None:
     """A new target of one measure kind with one band at its default desired value
     (time measures read the first input's step response of the last signal)."""
     from sessions.format.schema import BandModel, ResponseModel, TargetModel
+
     kind = MEASURE_KINDS[measure]
     response = None
     if kind.domain == "time":
@@ -121,6 +143,7 @@ def add_target(bench: Workbench, measure: str) -> None:
 
 
 # -- the objective and the algorithm's settings ---------------------------------------
+
 
 def setting_rows(bench: Workbench) -> list[tuple[str, object, bool]]:
     """Every setting of the session's algorithm: (name, value, set in the session)."""
@@ -140,10 +163,14 @@ def objective_rows(bench: Workbench) -> list[tuple[str, str, Ref | None]]:
     if objective is not None:
         rows.append(("objective kind", objective.kind, None))
         rows += [(name, shown(value), ("objective", name)) for name, value in objective.options.items()]
-    rows += [(f"constraint {k + 1}", line, ("constraint", k))
-             for k, line in enumerate(bench.session.model.problem.constraints)]
-    rows += [(f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), shown(value), ("setting", name))
-             for name, value, given in setting_rows(bench)]
+    rows += [
+        (f"constraint {k + 1}", line, ("constraint", k))
+        for k, line in enumerate(bench.session.model.problem.constraints)
+    ]
+    rows += [
+        (f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), shown(value), ("setting", name))
+        for name, value, given in setting_rows(bench)
+    ]
     return rows
 
 
@@ -177,15 +204,21 @@ def constraint_check(bench: Workbench, index: int | None) -> Check:
         except (Refused, ValueError, EngineError) as exc:
             return str(exc)
         return None
+
     return check
 
 
 def constraint_edit(bench: Workbench, index: int) -> Edit:
     """A linear inequality between parameters, e.g. T1 >= 4*T2."""
     from tui.state.edits import replace_at
+
     current = bench.session.model.problem.constraints[index]
-    return Edit(f"constraint {index + 1}: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2", current,
-                constraint_check(bench, index), lambda text: replace_at(bench, ("constraints", index), text.strip()))
+    return Edit(
+        f"constraint {index + 1}: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2",
+        current,
+        constraint_check(bench, index),
+        lambda text: replace_at(bench, ("constraints", index), text.strip()),
+    )
 
 
 def add_constraint(bench: Workbench, text: str) -> None:
@@ -208,6 +241,7 @@ def objective_option_edit(bench: Workbench, name: str) -> Edit:
     def apply(text: str) -> None:
         options = dict(bench.session.model.problem.objective.options, **{name: parse(text)})
         set_fields(bench, ("objective",), options=options)
+
     return Edit(f"objective option {name}", str(current), checker(parse), apply)
 
 
@@ -226,16 +260,19 @@ def setting_edit(bench: Workbench, name: str) -> Edit:
     def apply(text: str) -> None:
         settings[name] = forms.parse_setting(text, current)
         bench.reset()
+
     return Edit(f"{bench.algorithm_name} setting {name}", forms.format_setting(current), check, apply)
 
 
 # -- a block from a CSV table -------------------------------------------------------
+
 
 def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
     """The header's column names and the first lines of a CSV file (comment lines skipped);
     only a regular file of a table's size is read (`sessions.build.bounded_text`: a FIFO
     typed as the path must not hang the app)."""
     from sessions.build import bounded_text
+
     try:
         whole = bounded_text(path, "table")
     except SessionError as exc:
@@ -261,8 +298,16 @@ def table_transfer(text: str, header: list[str], csv_name: str) -> dict:
         raise forms.FormError("form is polar, cartesian or magnitude; unit hz or rad/s")
     if len(columns) != (2 if form == "magnitude" else 3):
         raise forms.FormError("three columns (two for magnitude)")
-    return {"kind": "table", "table": {"csv": csv_name, "columns": columns, "form": form, "unit": unit,
-                                       "gain": forms.parse_number(words[3], "a gain")}}
+    return {
+        "kind": "table",
+        "table": {
+            "csv": csv_name,
+            "columns": columns,
+            "form": form,
+            "unit": unit,
+            "gain": forms.parse_number(words[3], "a gain"),
+        },
+    }
 
 
 def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
@@ -280,7 +325,13 @@ def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
 
     def apply(text: str) -> None:
         from sessions.format.schema import TableBlock
+
         set_fields(bench, ref, transfer=TableBlock.model_validate(parse(text)))
+
     guess = f"{','.join(header[:3])} polar hz 1"
-    return Edit(f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
-                guess, checker(parse), apply)
+    return Edit(
+        f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
+        guess,
+        checker(parse),
+        apply,
+    )

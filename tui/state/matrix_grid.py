@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from sessions.format.schema import MatrixModel
 
-Cell = tuple[str, int | None]        # (the text shown, the index in plant.entries or None)
-GridRow = tuple[str, list[Cell]]     # (the row's label, one cell per column)
+Cell = tuple[str, int | None]  # (the text shown, the index in plant.entries or None)
+GridRow = tuple[str, list[Cell]]  # (the row's label, one cell per column)
 
 
 def matrix_grid(plant: MatrixModel) -> tuple[list[str], list[GridRow]]:

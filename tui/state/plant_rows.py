@@ -22,29 +22,47 @@ def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None
 
     def describe(transfer) -> str:
         return describe_transfer(transfer, x)
+
     if plant.format == "diagram":
-        rows = [((b.name, b.input, b.output, b.transfer.kind, describe(b.transfer)), base + ("blocks", i))
-                for i, b in enumerate(plant.blocks)]
-        rows += [((j.name, " ".join([f"+{s}" for s in j.plus] + [f"-{s}" for s in j.minus]), j.output, "junction",
-                   ""), base + ("junctions", i)) for i, j in enumerate(plant.junctions)]
+        rows = [
+            ((b.name, b.input, b.output, b.transfer.kind, describe(b.transfer)), base + ("blocks", i))
+            for i, b in enumerate(plant.blocks)
+        ]
+        rows += [
+            (
+                (j.name, " ".join([f"+{s}" for s in j.plus] + [f"-{s}" for s in j.minus]), j.output, "junction", ""),
+                base + ("junctions", i),
+            )
+            for i, j in enumerate(plant.junctions)
+        ]
         rows.append((("(loop broken at)", condition.break_at, "", "", ""), ("conditions", k, "break_at")))
         return rows
     if plant.format == "channels":
         rows = []
         for i, ch in enumerate(plant.channels):
-            rows.append(((f"{ch.name}.response", "e", f"{ch.name}.theta", ch.response.kind, describe(ch.response)),
-                         base + ("channels", i, "response")))
+            rows.append(
+                (
+                    (f"{ch.name}.response", "e", f"{ch.name}.theta", ch.response.kind, describe(ch.response)),
+                    base + ("channels", i, "response"),
+                )
+            )
             for n, sub in enumerate(ch.compensators):
-                rows.append(((f"{ch.name}.{n + 1}", "", "", "compensator", format_sub_compensator(sub)),
-                             base + ("channels", i, "compensators", n)))
+                rows.append(
+                    (
+                        (f"{ch.name}.{n + 1}", "", "", "compensator", format_sub_compensator(sub)),
+                        base + ("channels", i, "compensators", n),
+                    )
+                )
         return rows
     if plant.format == "cascade":
         return [((name.upper(), "", "", t.kind, describe(t)), base + (name,)) for name, t in cascade_transfers(plant)]
-    return [((f"a[{e.row},{e.col}]", "", "", "matrix entry", e.expression), base + ("entries", i))
-            for i, e in enumerate(plant.entries)]
+    return [
+        ((f"a[{e.row},{e.col}]", "", "", "matrix entry", e.expression), base + ("entries", i))
+        for i, e in enumerate(plant.entries)
+    ]
 
 
-CASCADE = ("g1", "g2", "g1g2", "ga", "h1", "h2")   # report 001's Figure 2, in the order the tab lists them
+CASCADE = ("g1", "g2", "g1g2", "ga", "h1", "h2")  # report 001's Figure 2, in the order the tab lists them
 
 
 def cascade_transfers(plant) -> list[tuple[str, object]]:

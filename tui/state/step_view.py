@@ -39,8 +39,8 @@ class StepSetup:
 class StepResponse:
     t: list[float]
     y: list[float]
-    name: str                       # 'y (step at r)'
-    measures: StepMeasures | None   # None when the response has no settled final value to measure from
+    name: str  # 'y (step at r)'
+    measures: StepMeasures | None  # None when the response has no settled final value to measure from
 
 
 def default_output(ss: StateSpace) -> str:

@@ -36,7 +36,7 @@ class LoopCurve:
     gh: np.ndarray
     label: str
     color: str = "blue"
-    margins: Margins | None = None   # marked on the Bode plots (the current design's curves)
+    margins: Margins | None = None  # marked on the Bode plots (the current design's curves)
 
 
 @dataclass(frozen=True)
@@ -46,10 +46,10 @@ class View:
     problem: Problem
     records: tuple[StepRecord, ...]
     presenter: Any
-    initial: StepRecord | None = None        # iteration 0's record (the presenter's)
-    plotted_condition: int | None = None     # the flight condition the plots show; None: all
-    sweep: dict | None = None                # the latest sweep (JSON data)
-    step_setup: StepSetup = StepSetup()      # the step plot's input, output and horizon
+    initial: StepRecord | None = None  # iteration 0's record (the presenter's)
+    plotted_condition: int | None = None  # the flight condition the plots show; None: all
+    sweep: dict | None = None  # the latest sweep (JSON data)
+    step_setup: StepSetup = StepSetup()  # the step plot's input, output and horizon
 
     @property
     def iteration(self) -> int:
@@ -75,8 +75,14 @@ class View:
         named = self.records[k - 1].parameters if k > 0 else None
         return self.problem.condition_values(condition, named=named)
 
-    def loop_curve(self, iteration: int | None = None, label: str = "current", condition: int = 0,
-                   color: str = "blue", with_margins: bool = True) -> LoopCurve | None:
+    def loop_curve(
+        self,
+        iteration: int | None = None,
+        label: str = "current",
+        condition: int = 0,
+        color: str = "blue",
+        with_margins: bool = True,
+    ) -> LoopCurve | None:
         """GH of one condition (None when the loop cannot be evaluated); the current one with
         its margins (``with_margins``: a tabulated loop's margins are a rational fit's)."""
         problem = self.problem
@@ -131,8 +137,9 @@ class View:
         curves = [self.loop_curve(at, label, k, color, with_margins) for at, k, label, color in self.shown(iteration)]
         return [c for c in curves if c is not None]
 
-    def step_response(self, iteration: int | None = None, condition: int = 0,
-                      span: float | None = None) -> tuple[list[float], list[float], str] | None:
+    def step_response(
+        self, iteration: int | None = None, condition: int = 0, span: float | None = None
+    ) -> tuple[list[float], list[float], str] | None:
         """Closed-loop response to a unit step (`step_setup`) of one condition, for
         rational plants; None otherwise."""
         found = self.step(iteration, condition, span)

@@ -37,13 +37,13 @@ class Workbench:
         self._algorithm: Any = None
         self._initial: StepRecord | None = None
         self._settings: dict | None = None
-        self._records: list[StepRecord] = session.records   # parsed once, kept in step with the model
-        self.plotted_condition: int | None = None   # the flight condition the plots show; None: all
+        self._records: list[StepRecord] = session.records  # parsed once, kept in step with the model
+        self.plotted_condition: int | None = None  # the flight condition the plots show; None: all
         self.edits = EditHistory()
-        self.paused_at: int | None = None   # the iteration a run was paused at
-        self.step_setup = StepSetup()       # the step plot's input, output and horizon
-        self._redo: list[tuple[dict, StepRecord, State | None]] = []   # undone iterations, latest last
-        self._sweep_data: tuple[Any, dict] | None = None   # the latest sweep and its JSON data
+        self.paused_at: int | None = None  # the iteration a run was paused at
+        self.step_setup = StepSetup()  # the step plot's input, output and horizon
+        self._redo: list[tuple[dict, StepRecord, State | None]] = []  # undone iterations, latest last
+        self._sweep_data: tuple[Any, dict] | None = None  # the latest sweep and its JSON data
 
     # -- the algorithm ------------------------------------------------------
 
@@ -58,6 +58,7 @@ class Workbench:
             return lifecycle.registration(self.session).presenter
         except SessionError:
             from engine.stepping.presenter import Presenter
+
             return Presenter()
 
     @property
@@ -66,7 +67,7 @@ class Workbench:
 
     @property
     def records(self) -> list[StepRecord]:
-        return self._records[:self.iteration]
+        return self._records[: self.iteration]
 
     def status(self) -> Status:
         records = self.records
@@ -86,11 +87,11 @@ class Workbench:
         (a `SessionError` says why it cannot be set up)."""
         if self._algorithm is None or 0 not in self._states:
             algorithm, settings = lifecycle.bound_algorithm(self.session)
-            self._settings = settings_snapshot(settings)   # kept with every record (replay checks them)
+            self._settings = settings_snapshot(settings)  # kept with every record (replay checks them)
             try:
                 self._states = {0: algorithm.init(self.session.problem, settings)}
                 saved = self.session.model.state
-                if self.iteration and saved is not None:   # the saved state: no replay to go on
+                if self.iteration and saved is not None:  # the saved state: no replay to go on
                     self._states[self.iteration] = State.from_json(saved, algorithm.memory_type)
             except EngineError as exc:
                 raise lifecycle.named_error(self.algorithm_name, exc) from None
@@ -125,8 +126,8 @@ class Workbench:
         if record.iteration != self.iteration + 1:
             raise SessionError(f"iteration {record.iteration} does not follow iteration {self.iteration}")
         model = self.session.model
-        del model.records[self.iteration:]
-        del self._records[self.iteration:]
+        del model.records[self.iteration :]
+        del self._records[self.iteration :]
         self._redo.clear()
         record_data, state_data = stored or stored_json(state, record, self._settings)
         self._keep(record_data, record, state, state_data)
@@ -174,8 +175,8 @@ class Workbench:
         k = model.current_iteration
         self._redo.append((model.records[k - 1], self._records[k - 1], self._states.get(k)))
         model.current_iteration -= 1
-        del model.records[model.current_iteration:]
-        del self._records[model.current_iteration:]
+        del model.records[model.current_iteration :]
+        del self._records[model.current_iteration :]
         previous = self._states.get(model.current_iteration)
         model.state = previous.to_json() if previous is not None else None
         self.dirty = True
@@ -216,8 +217,9 @@ class Workbench:
         every change during a sweep).  The summary is returned, not yet kept:
         `keep_sweep` does that on the UI thread."""
         spec = parse_sweep(text)
-        jobs, settings = plan(self.session, spec["kind"], spec["value"], spec.get("spread"), spec.get("seed", 0),
-                              spec.get("samples", 32))
+        jobs, settings = plan(
+            self.session, spec["kind"], spec["value"], spec.get("spread"), spec.get("seed", 0), spec.get("samples", 32)
+        )
         settings["scheduler"] = spec["scheduler"] or "local"
         outcome = execute(jobs, spec["scheduler"], progress=progress, cancelled=cancelled)
         return summarize(self.session, spec["kind"], settings, outcome)
@@ -292,8 +294,15 @@ class Workbench:
 
     def view(self) -> View:
         """A read-only snapshot of what the screens show now."""
-        return View(self.session.problem, tuple(self.records), self.presenter, self.initial_record(),
-                    self.plotted_condition, self.latest_sweep(), self.step_setup)
+        return View(
+            self.session.problem,
+            tuple(self.records),
+            self.presenter,
+            self.initial_record(),
+            self.plotted_condition,
+            self.latest_sweep(),
+            self.step_setup,
+        )
 
     def next_plotted_condition(self) -> str:
         """Cycle the plots through every condition together and each alone; says what they show now."""
@@ -303,8 +312,11 @@ class Workbench:
             return "the session has one flight condition"
         k = self.plotted_condition
         self.plotted_condition = 0 if k is None else None if k + 1 >= len(names) else k + 1
-        return "plots: every flight condition" if self.plotted_condition is None else \
-            f"plots: {names[self.plotted_condition]} (current and initial)"
+        return (
+            "plots: every flight condition"
+            if self.plotted_condition is None
+            else f"plots: {names[self.plotted_condition]} (current and initial)"
+        )
 
 
 def stored_json(state: State, record: StepRecord, settings: dict | None) -> tuple[dict, dict]:

@@ -18,8 +18,8 @@ from textual.widgets import Footer as TextualFooter
 class Footer(TextualFooter):
     """`textual.widgets.Footer` that skips a rebuild for bindings it already shows."""
 
-    _asked = 0    # binding refreshes seen
-    _built = -1   # the refresh the footer was last built after
+    _asked = 0  # binding refreshes seen
+    _built = -1  # the refresh the footer was last built after
 
     def bindings_changed(self, screen: Screen) -> None:
         self._asked += 1
@@ -27,6 +27,6 @@ class Footer(TextualFooter):
 
     async def recompose(self) -> None:
         if self._built == self._asked:
-            return   # built after the latest refresh already (it reads the bindings as they are then)
+            return  # built after the latest refresh already (it reads the bindings as they are then)
         self._built = self._asked
         await super().recompose()

@@ -17,8 +17,10 @@ from tui.state.matrix_grid import matrix_grid
 class MatrixTable(DataTable):
     """The grid of the first matrix-format condition (the plotted one when it is one)."""
 
-    BINDINGS = identified("matrix", [Binding("e", "edit_cell", "edit entry",
-                                             tooltip="edit the selected entry of A(s) (an empty cell adds one)")])
+    BINDINGS = identified(
+        "matrix",
+        [Binding("e", "edit_cell", "edit entry", tooltip="edit the selected entry of A(s) (an empty cell adds one)")],
+    )
 
     def __init__(self, **kwargs):
         super().__init__(cursor_type="cell", **kwargs)
@@ -67,6 +69,12 @@ class MatrixTable(DataTable):
             except ValueError as exc:
                 return str(exc)
             return None
-        self.app.edit_flow.open(Edit(f"new entry a[{row + 1},{col}] (expression in {variable})", "", check,
-                                     lambda text: edits.add_to_plant(bench, base[:-1] + ("entries", 0),
-                                                                     f"{row + 1} {col} {text}")))
+
+        self.app.edit_flow.open(
+            Edit(
+                f"new entry a[{row + 1},{col}] (expression in {variable})",
+                "",
+                check,
+                lambda text: edits.add_to_plant(bench, base[:-1] + ("entries", 0), f"{row + 1} {col} {text}"),
+            )
+        )

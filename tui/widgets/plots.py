@@ -31,19 +31,30 @@ class FigurePlot(PlotextPlot):
     pans and moves a cursor along the current curve (`navigation`)."""
 
     can_focus = True
-    BINDINGS = identified("plot", [
-        Binding("plus,equals_sign", "zoom(1.5)", "zoom in", tooltip="zoom in (about the cursor)", id="plot.zoom_in"),
-        Binding("minus", "zoom(0.6666666666666666)", "zoom out", id="plot.zoom_out"),
-        Binding("left", "cursor(-1)", "cursor", id="plot.cursor_left",
-                tooltip="the cursor along the curve (Poles: pole to pole, zeta, wn)"),
-        Binding("right", "cursor(1)", "cursor", show=False, id="plot.cursor_right"),
-        Binding("shift+left", "cursor(-10)", "", show=False, id="plot.cursor_left_10"),
-        Binding("shift+right", "cursor(10)", "", show=False, id="plot.cursor_right_10"),
-        Binding("h", "pan(-0.25, 0)", "pan", tooltip="pan: h j k l", id="plot.pan_left"),
-        Binding("l", "pan(0.25, 0)", "", show=False, id="plot.pan_right"),
-        Binding("k", "pan(0, 0.25)", "", show=False, id="plot.pan_up"),
-        Binding("j", "pan(0, -0.25)", "", show=False, id="plot.pan_down"),
-        Binding("0", "reset_view", "reset", tooltip="the whole plot, no cursor")])
+    BINDINGS = identified(
+        "plot",
+        [
+            Binding(
+                "plus,equals_sign", "zoom(1.5)", "zoom in", tooltip="zoom in (about the cursor)", id="plot.zoom_in"
+            ),
+            Binding("minus", "zoom(0.6666666666666666)", "zoom out", id="plot.zoom_out"),
+            Binding(
+                "left",
+                "cursor(-1)",
+                "cursor",
+                id="plot.cursor_left",
+                tooltip="the cursor along the curve (Poles: pole to pole, zeta, wn)",
+            ),
+            Binding("right", "cursor(1)", "cursor", show=False, id="plot.cursor_right"),
+            Binding("shift+left", "cursor(-10)", "", show=False, id="plot.cursor_left_10"),
+            Binding("shift+right", "cursor(10)", "", show=False, id="plot.cursor_right_10"),
+            Binding("h", "pan(-0.25, 0)", "pan", tooltip="pan: h j k l", id="plot.pan_left"),
+            Binding("l", "pan(0.25, 0)", "", show=False, id="plot.pan_right"),
+            Binding("k", "pan(0, 0.25)", "", show=False, id="plot.pan_up"),
+            Binding("j", "pan(0, -0.25)", "", show=False, id="plot.pan_down"),
+            Binding("0", "reset_view", "reset", tooltip="the whole plot, no cursor"),
+        ],
+    )
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -79,7 +90,7 @@ class FigurePlot(PlotextPlot):
         return self.navigation.applied(self.figure)
 
     def show(self, figure: Figure, prebuilt: tuple[tuple[int, int, str], Text] | None = None) -> None:
-        if figure.probe is None:   # a cursor on any plot: along its first curve
+        if figure.probe is None:  # a cursor on any plot: along its first curve
             first = next((s for s in figure.series if s.x and not s.scatter), None)
             if first is not None:
                 figure.probe = xy_probe(first, figure.xlabel or "x", figure.ylabel or "y")
@@ -112,7 +123,7 @@ class FigurePlot(PlotextPlot):
         _draw(self.plt, figure, self.size.height, self.size.width)
         try:
             return super().render()
-        except (IndexError, ValueError, ZeroDivisionError, OverflowError) as exc:   # a tiny canvas, odd values
+        except (IndexError, ValueError, ZeroDivisionError, OverflowError) as exc:  # a tiny canvas, odd values
             return f"{self.figure.title}: cannot draw at this size ({type(exc).__name__})"
 
 
@@ -154,7 +165,7 @@ def _draw_one(plt, fig: Figure, width: int | None = None) -> None:
         plt.xlim(*fig.xlim)
     if fig.ylim:
         plt.ylim(*fig.ylim)
-    if fig.xticks is not None:    # ([], []): no time ticks (a panel above another)
+    if fig.xticks is not None:  # ([], []): no time ticks (a panel above another)
         plt.xticks(*fig.xticks)
     elif (span := _span(fig, "x")) is not None:
         plt.xticks(*nice_ticks(*span))
@@ -176,7 +187,8 @@ def _fitted(fig: Figure, title: str, xlabel: str, width: int) -> tuple[str, str]
     room_x = min(2 * (centre - len(fig.ylabel) - 1), 2 * right) - 2
 
     def cut(text: str, room: int) -> str:
-        return text if len(text) <= room else text[:max(room - 1, 0)].rstrip() + "…"
+        return text if len(text) <= room else text[: max(room - 1, 0)].rstrip() + "…"
+
     return cut(title, room_title), cut(xlabel, room_x) if xlabel else xlabel
 
 
@@ -185,12 +197,11 @@ def _span(fig: Figure, axis: str) -> tuple[float, float] | None:
     limits = fig.xlim if axis == "x" else fig.ylim
     if limits:
         return limits
-    values = [v for s in fig.series for v in (s.x if axis == "x" else s.y)
-              if math.isfinite(v) and abs(v) < PLOTTABLE]
+    values = [v for s in fig.series for v in (s.x if axis == "x" else s.y) if math.isfinite(v) and abs(v) < PLOTTABLE]
     return (min(values), max(values)) if values and max(values) > min(values) else None
 
 
-PLOTTABLE = 1e150   # plotext's arithmetic on the canvas overflows near the float limits
+PLOTTABLE = 1e150  # plotext's arithmetic on the canvas overflows near the float limits
 
 
 def _near(values: list[float], limits: tuple[float, float] | None) -> list[float]:

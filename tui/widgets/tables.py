@@ -26,7 +26,7 @@ class RefTable(DataTable):
     """A DataTable whose rows carry model references."""
 
     MUTATING: frozenset[str] = frozenset()
-    DELETES = "row"   # what `-` deletes, in its question
+    DELETES = "row"  # what `-` deletes, in its question
 
     def __init__(self, **kwargs):
         super().__init__(cursor_type="row", **kwargs)
@@ -68,7 +68,7 @@ class RefTable(DataTable):
         return self.ref is not None
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
-        if self.has_focus:   # the footer shows what the newly selected row allows
+        if self.has_focus:  # the footer shows what the newly selected row allows
             self.refresh_bindings()
 
     def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
@@ -80,17 +80,28 @@ class RefTable(DataTable):
     def action_delete(self) -> None:
         """Delete the selected model object (always asks first)."""
         ref = self.ref
-        self.flow.change(lambda: edits.delete_item(self.bench, ref), f"delete the selected {self.DELETES}",
-                         always_ask=True, done=lambda what: self.app.notify(f"deleted {what}"))
+        self.flow.change(
+            lambda: edits.delete_item(self.bench, ref),
+            f"delete the selected {self.DELETES}",
+            always_ask=True,
+            done=lambda what: self.app.notify(f"deleted {what}"),
+        )
 
 
 class PlantTable(RefTable):
     """Blocks, junctions, matrix entries and break points of every condition."""
 
-    BINDINGS = identified("plant", [Binding("e", "edit", "edit"), Binding("plus", "add", "add block"),
-                Binding("minus,delete", "delete", "delete"), Binding("c", "copy_condition", "copy condition", show=False),
-                Binding("x", "delete_condition", "delete condition", show=False),
-                Binding("i", "import_table", "import CSV", show=False)])
+    BINDINGS = identified(
+        "plant",
+        [
+            Binding("e", "edit", "edit"),
+            Binding("plus", "add", "add block"),
+            Binding("minus,delete", "delete", "delete"),
+            Binding("c", "copy_condition", "copy condition", show=False),
+            Binding("x", "delete_condition", "delete condition", show=False),
+            Binding("i", "import_table", "import CSV", show=False),
+        ],
+    )
     MUTATING = frozenset({"edit", "add", "delete", "copy_condition", "delete_condition", "import_table"})
 
     def applies(self, action: str) -> bool:
@@ -112,19 +123,30 @@ class PlantTable(RefTable):
 
     def action_add(self) -> None:
         ref = self.ref
-        self.flow.line("new block: NAME INPUT OUTPUT EXPRESSION, or matrix entry: ROW COL EXPRESSION",
-                       edits.add_check(self.bench, ref), lambda text: edits.add_to_plant(self.bench, ref, text),
-                       "add it")
+        self.flow.line(
+            "new block: NAME INPUT OUTPUT EXPRESSION, or matrix entry: ROW COL EXPRESSION",
+            edits.add_check(self.bench, ref),
+            lambda text: edits.add_to_plant(self.bench, ref, text),
+            "add it",
+        )
 
     def action_copy_condition(self) -> None:
         ref = self.ref
-        self.flow.line("copy this condition as (a new name):", lambda t: None if t.strip() else "a name",
-                       lambda name: edits.copy_condition(self.bench, ref, name), "add a condition")
+        self.flow.line(
+            "copy this condition as (a new name):",
+            lambda t: None if t.strip() else "a name",
+            lambda name: edits.copy_condition(self.bench, ref, name),
+            "add a condition",
+        )
 
     def action_delete_condition(self) -> None:
         ref = self.ref
-        self.flow.change(lambda: edits.delete_condition(self.bench, ref), "delete the selected row's condition",
-                         always_ask=True, done=lambda name: self.app.notify(f"deleted condition {name}"))
+        self.flow.change(
+            lambda: edits.delete_condition(self.bench, ref),
+            "delete the selected row's condition",
+            always_ask=True,
+            done=lambda name: self.app.notify(f"deleted condition {name}"),
+        )
 
     def action_import_table(self) -> None:
         ref, base = self.ref, folder(self.bench.session)
@@ -138,20 +160,33 @@ class PlantTable(RefTable):
                 self.app.notify(str(exc), title="cannot read the table", severity="error")
                 return
             self.flow.open(edit)
+
         from tui.screens.dialogs import EditDialog
-        self.app.push_screen(EditDialog("CSV file (relative to the session's folder)", "",
-                                        lambda t: None if (base / Path(t).expanduser()).is_file() else "no such file"),
-                             lambda text: text and chosen(text))
+
+        self.app.push_screen(
+            EditDialog(
+                "CSV file (relative to the session's folder)",
+                "",
+                lambda t: None if (base / Path(t).expanduser()).is_file() else "no such file",
+            ),
+            lambda text: text and chosen(text),
+        )
 
 
 class ParametersTable(RefTable):
     """The parameters: value, bounds, free or fixed, shared or per condition."""
 
-    BINDINGS = identified("parameters", [Binding("e", "edit", "edit"),
-                Binding("f", "toggle_free", "free", tooltip="free or fix the parameter"),
-                Binding("g", "toggle_per_condition", "shared/per condition", show=False), Binding("plus", "add", "add"),
-                Binding("minus,delete", "delete", "delete"),
-                Binding("d", "adopt_design", "adopt design", tooltip="the current design becomes the start")])
+    BINDINGS = identified(
+        "parameters",
+        [
+            Binding("e", "edit", "edit"),
+            Binding("f", "toggle_free", "free", tooltip="free or fix the parameter"),
+            Binding("g", "toggle_per_condition", "shared/per condition", show=False),
+            Binding("plus", "add", "add"),
+            Binding("minus,delete", "delete", "delete"),
+            Binding("d", "adopt_design", "adopt design", tooltip="the current design becomes the start"),
+        ],
+    )
     MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete", "adopt_design"})
     DELETES = "parameter"
 
@@ -162,14 +197,19 @@ class ParametersTable(RefTable):
 
     def action_adopt_design(self) -> None:
         iteration = self.bench.iteration
-        self.flow.change(lambda: self.bench.adopt_current(), f"make iteration {iteration}'s design the start",
-                         done=lambda _: self.app.notify(f"iteration {iteration}'s design is the start "
-                                                        "(ctrl+z undoes)"))
+        self.flow.change(
+            lambda: self.bench.adopt_current(),
+            f"make iteration {iteration}'s design the start",
+            done=lambda _: self.app.notify(f"iteration {iteration}'s design is the start (ctrl+z undoes)"),
+        )
 
     def action_edit(self) -> None:
         ref = self.ref
-        self.flow.choose("edit which field of the parameter?", edits_fields.PARAMETER_FIELDS,
-                         lambda field: self.flow.open(edits_fields.parameter_edit(self.bench, ref, field)))
+        self.flow.choose(
+            "edit which field of the parameter?",
+            edits_fields.PARAMETER_FIELDS,
+            lambda field: self.flow.open(edits_fields.parameter_edit(self.bench, ref, field)),
+        )
 
     def action_toggle_free(self) -> None:
         ref = self.ref
@@ -180,15 +220,21 @@ class ParametersTable(RefTable):
         self.flow.change(lambda: edits_fields.toggle_per_condition(self.bench, ref), "switch shared/per condition")
 
     def action_add(self) -> None:
-        self.flow.line("new parameter: NAME VALUE [MIN MAX]", edits_fields.ADD_PARAMETER_CHECK,
-                       lambda text: edits_fields.add_parameter(self.bench, text), "add it")
+        self.flow.line(
+            "new parameter: NAME VALUE [MIN MAX]",
+            edits_fields.ADD_PARAMETER_CHECK,
+            lambda text: edits_fields.add_parameter(self.bench, text),
+            "add it",
+        )
 
 
 class TargetsTable(RefTable):
     """The targets: bands, points, weights, detection ranges, time responses."""
 
-    BINDINGS = identified("targets", [Binding("e", "edit", "edit"), Binding("plus", "add", "add"),
-                Binding("minus,delete", "delete", "delete")])
+    BINDINGS = identified(
+        "targets",
+        [Binding("e", "edit", "edit"), Binding("plus", "add", "add"), Binding("minus,delete", "delete", "delete")],
+    )
     MUTATING = frozenset({"edit", "add", "delete"})
     DELETES = "target"
 
@@ -197,22 +243,32 @@ class TargetsTable(RefTable):
 
     def action_edit(self) -> None:
         ref = self.ref
-        self.flow.choose("edit which part of the target?", edits_fields.TARGET_FIELDS,
-                         lambda field: self.flow.open(edits_fields.target_edit(self.bench, ref, field)))
+        self.flow.choose(
+            "edit which part of the target?",
+            edits_fields.TARGET_FIELDS,
+            lambda field: self.flow.open(edits_fields.target_edit(self.bench, ref, field)),
+        )
 
     def action_add(self) -> None:
         choices = [(name, f"default desired {kind.default_desired:g}") for name, kind in MEASURE_KINDS.items()]
-        self.flow.choose("add a target: which measure?", choices,
-                         lambda m: self.flow.change(lambda: edits_fields.add_target(self.bench, m), f"add {m}"))
+        self.flow.choose(
+            "add a target: which measure?",
+            choices,
+            lambda m: self.flow.change(lambda: edits_fields.add_target(self.bench, m), f"add {m}"),
+        )
 
 
 class SettingsTable(RefTable):
     """The objective's options and the algorithm's settings."""
 
-    BINDINGS = identified("settings", [Binding("e", "edit", "edit"),
-                                       Binding("plus", "add", "add constraint",
-                                               tooltip="a linear constraint between parameters, e.g. T1 >= 4*T2"),
-                                       Binding("minus,delete", "delete", "delete constraint")])
+    BINDINGS = identified(
+        "settings",
+        [
+            Binding("e", "edit", "edit"),
+            Binding("plus", "add", "add constraint", tooltip="a linear constraint between parameters, e.g. T1 >= 4*T2"),
+            Binding("minus,delete", "delete", "delete constraint"),
+        ],
+    )
     MUTATING = frozenset({"edit", "add", "delete"})
     DELETES = "constraint"
 
@@ -224,15 +280,21 @@ class SettingsTable(RefTable):
         return self.ref is not None
 
     def action_add(self) -> None:
-        self.flow.line("new constraint: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2",
-                       edits_fields.constraint_check(self.bench, None),
-                       lambda text: edits_fields.add_constraint(self.bench, text), "add the constraint")
+        self.flow.line(
+            "new constraint: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2",
+            edits_fields.constraint_check(self.bench, None),
+            lambda text: edits_fields.add_constraint(self.bench, text),
+            "add the constraint",
+        )
 
     def action_delete(self) -> None:
         index = self.ref[1]
-        self.flow.change(lambda: edits.change_list(self.bench, ("constraints",), lambda items: items.pop(index)),
-                         "delete the selected constraint", always_ask=True,
-                         done=lambda _: self.app.notify(f"deleted constraint {index + 1}"))
+        self.flow.change(
+            lambda: edits.change_list(self.bench, ("constraints",), lambda items: items.pop(index)),
+            "delete the selected constraint",
+            always_ask=True,
+            done=lambda _: self.app.notify(f"deleted constraint {index + 1}"),
+        )
 
     def action_edit(self) -> None:
         self.flow.open(edits_fields.objective_edit(self.bench, self.ref))
@@ -250,8 +312,9 @@ class HistoryTable(RefTable):
 
     def action_start_here(self) -> None:
         iteration = self.ref[0]
-        self.flow.change(lambda: self.bench.start_from(iteration),
-                         f"make iteration {iteration} the current one (later iterations are dropped)",
-                         always_ask=True,
-                         done=lambda _: self.app.notify(f"iteration {iteration} is the current one"))
-
+        self.flow.change(
+            lambda: self.bench.start_from(iteration),
+            f"make iteration {iteration} the current one (later iterations are dropped)",
+            always_ask=True,
+            done=lambda _: self.app.notify(f"iteration {iteration} is the current one"),
+        )

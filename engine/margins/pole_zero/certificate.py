@@ -39,10 +39,16 @@ DUPLICATE = 1e-9  # relative distance at which two stationary points are one
 LIMIT_SLACK = 1e-12  # a level this close (relative) to its limit is at it
 
 
-def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray,
-              slopes: Slopes | None = None, ends: Ends | None = None,
-              noise: Callable[[NDArray], NDArray] | None = None,
-              constant: list[bool] | None = None) -> tuple[list[NDArray], list[NDArray]] | None:
+def certified(
+    loop: LoopLevels,
+    points: list[NDArray],
+    maxima: list[NDArray],
+    near: NDArray,
+    slopes: Slopes | None = None,
+    ends: Ends | None = None,
+    noise: Callable[[NDArray], NDArray] | None = None,
+    constant: list[bool] | None = None,
+) -> tuple[list[NDArray], list[NDArray]] | None:
     """Per level (row k of ``slopes``, by default of `LoopLevels.slopes`), its
     stationary points and which are maxima, checked and repaired (module
     docstring), and with ``ends`` (the levels' values and their limits at 0 and
@@ -63,8 +69,8 @@ def certified(loop: LoopLevels, points: list[NDArray], maxima: list[NDArray], ne
     if every.size:
         probes = probes[np.min(np.abs(probes[:, None] / every[None, :] - 1.0), axis=1) > CLEARANCE]
     first, rounding = probe(probes) if probe else (slopes(probes)[0], noise(probes))
-    first = first[:len(points)]
-    signs = np.where(np.abs(first) > rounding[:len(points)], np.sign(first), np.where(np.isnan(first), np.nan, 0.0))
+    first = first[: len(points)]
+    signs = np.where(np.abs(first) > rounding[: len(points)], np.sign(first), np.where(np.isnan(first), np.nan, 0.0))
     out_points, out_maxima = [], []
     for row, (w, top) in enumerate(zip(points, maxima)):
         for _ in range(REPAIR_ROUNDS + 1):
@@ -90,7 +96,7 @@ def _all_reach(points: list[NDArray], maxima: list[NDArray], ends: Ends, constan
     values = ends[0](every) if every.size else np.zeros((len(points), 0))
     start = 0
     for row, (w, top) in enumerate(zip(points, maxima)):
-        own, start = values[row, start:start + w.size], start + w.size
+        own, start = values[row, start : start + w.size], start + w.size
         if not constant[row] and not _reaches(own, top, ends[1][row]):
             return False
     return True
@@ -100,8 +106,10 @@ def _reaches(values: NDArray, maxima: NDArray, limits: tuple[float, float]) -> b
     """Are a level's values at its stationary points (maxima flagged) consistent with
     its limits at 0 and infinity?  (A missed extremum placed far from every check
     point shows here: a level that cannot rise to its first maximum from its limit.)"""
+
     def near(a: float, b: float) -> bool:
         return math.isfinite(a) and math.isfinite(b) and abs(a - b) <= LIMIT_SLACK * max(1.0, abs(a), abs(b))
+
     low, high = limits
     if values.size == 0:
         return not near(low, high)
@@ -111,8 +119,7 @@ def _reaches(values: NDArray, maxima: NDArray, limits: tuple[float, float]) -> b
     return True
 
 
-def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray,
-                    slope: NDArray) -> tuple[NDArray, NDArray] | None:
+def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray, slope: NDArray) -> tuple[NDArray, NDArray] | None:
     """The intervals (lo, hi) between neighbouring stationary and check points
     whose slope signs contradict each other (check points without a sign
     skipped); None when there are none."""
@@ -133,8 +140,9 @@ def _contradictions(w: NDArray, maxima: NDArray, probes: NDArray,
     return lo, hi
 
 
-def _repaired(slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray,
-              hi: NDArray, noise: Noise) -> tuple[NDArray, NDArray] | None:
+def _repaired(
+    slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray, hi: NDArray, noise: Noise
+) -> tuple[NDArray, NDArray] | None:
     """The stationary points with one more found in each interval; None when an
     interval holds no sign change of the slope or its search does not settle
     (``noise``: the slope's rounding, where its search may stop)."""
@@ -149,12 +157,15 @@ def _repaired(slopes: Slopes, row: int, w: NDArray, maxima: NDArray, lo: NDArray
     return w[keep], maxima[keep]
 
 
-def _bracketed_roots(slopes: Slopes, row: int, lo: NDArray, hi: NDArray,
-                     noise: Noise) -> tuple[NDArray, NDArray] | None:
+def _bracketed_roots(
+    slopes: Slopes, row: int, lo: NDArray, hi: NDArray, noise: Noise
+) -> tuple[NDArray, NDArray] | None:
     """A root of the level's slope in each [lo, hi] (its ends of opposite signs)
     and the second derivative there; None when one does not settle."""
+
     def fun(w: NDArray) -> tuple[NDArray, NDArray]:
         first, second = slopes(w)
         return first[row], second[row]
+
     found = bracketed_roots(fun, lo, hi, noise)
     return None if found is None else (found, slopes(found)[1][row])

@@ -42,7 +42,7 @@ def crossing_candidates(loop: LoopLevels) -> tuple[NDArray, NDArray]:
     log_gain = math.log(abs(loop.gain)) + (zeros.size - poles.size) * math.log(scale)
     gains = np.zeros(0)
     if abs(log_gain) < 300:
-        difference = polynomial_sum(poly(-poles ** 2), -math.exp(2 * log_gain) * poly(-zeros ** 2))
+        difference = polynomial_sum(poly(-(poles**2)), -math.exp(2 * log_gain) * poly(-(zeros**2)))
         gains = _positive_roots(difference) * scale
     den = poly(poles)
     mirrored = den * (-1.0) ** np.arange(den.size - 1, -1, -1)  # D(-s)
@@ -64,8 +64,10 @@ def crossings_of(loop: LoopLevels, points: list[NDArray]) -> tuple[NDArray, NDAr
     the stationary points of log|GH| (``points[0]``) and arg GH (``points[1]``)
     hold, else found piece by piece; None when that fails too."""
     mag_limits, phase_limits = loop.limits
-    levels = ((points[0], np.log(np.abs(loop.terms(points[0])[0])), mag_limits, False),
-              (points[1], loop.phase(points[1]), phase_limits, True))
+    levels = (
+        (points[0], np.log(np.abs(loop.terms(points[0])[0])), mag_limits, False),
+        (points[1], loop.phase(points[1]), phase_limits, True),
+    )
     found = [points[3], points[4][loop.terms(points[4])[0].real < 0]]
     out = []
     for (w, values, limits, phase), polished in zip(levels, found):
@@ -97,13 +99,14 @@ def _targets(values: NDArray, k: int, phase: bool) -> list[float]:
         first = math.floor((low - math.pi) / (2 * math.pi))
         levels = [math.pi + 2 * math.pi * q for q in range(first, first + int((high - low) / (2 * math.pi)) + 3)]
     else:
-        levels = [0.0]   # log|GH| = 0
+        levels = [0.0]  # log|GH| = 0
     outer = [v for v, end in ((a, k == 0), (b, k == values.size - 2)) if end]
     return [v for v in levels if low < v < high and all(abs(v - o) > LIMIT_NOISE for o in outer)]
 
 
-def _piece_brackets(loop: LoopLevels, edges: NDArray, ends: NDArray,
-                    phase: bool) -> tuple[NDArray, NDArray, NDArray] | None:
+def _piece_brackets(
+    loop: LoopLevels, edges: NDArray, ends: NDArray, phase: bool
+) -> tuple[NDArray, NDArray, NDArray] | None:
     """(lo, hi, target) of every crossing, one bracket per target in its piece."""
     lo, hi, target = [], [], []
     for k in range(ends.size - 1):
@@ -150,4 +153,5 @@ def _refined(loop: LoopLevels, lo: NDArray, hi: NDArray, target: NDArray, phase:
 
     def fun(w: NDArray) -> tuple[NDArray, NDArray]:
         return _level(loop, w, phase) - target, loop.slopes(w)[0][row]
+
     return bracketed_roots(fun, lo, hi)

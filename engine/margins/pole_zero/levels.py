@@ -35,7 +35,7 @@ class LoopLevels:
         nonzero = np.abs(self.roots[self.roots != 0])
         low, high = (float(nonzero.min()), float(nonzero.max())) if nonzero.size else (1.0, 1.0)
         self.scale = math.sqrt(low * high)
-        reach = [min(max(w, low * UNIT_GAIN_REACH ** -1), high * UNIT_GAIN_REACH) for w in self._unit_gains()]
+        reach = [min(max(w, low * UNIT_GAIN_REACH**-1), high * UNIT_GAIN_REACH) for w in self._unit_gains()]
         low, high = min([low] + reach), max([high] + reach)
         decades = math.ceil(math.log10(high / low)) + 2 * PROBE_DECADES
         ladder = low * 10.0 ** (np.arange(PROBES_PER_DECADE * decades + 1) / PROBES_PER_DECADE - PROBE_DECADES)
@@ -52,8 +52,10 @@ class LoopLevels:
         """Where the asymptotes of |GH| at 0 and at infinity cross 1 (features a gain
         places far from every root lie there: the check points reach them)."""
         n0, excess, low_level = self.asymptotes
-        found = [math.exp(-low_level / n0) if n0 else None,
-                 math.exp(-math.log(abs(self.gain)) / excess) if excess else None]
+        found = [
+            math.exp(-low_level / n0) if n0 else None,
+            math.exp(-math.log(abs(self.gain)) / excess) if excess else None,
+        ]
         return [w for w in found if w is not None and 0 < w < math.inf]
 
     @cached_property
@@ -92,14 +94,14 @@ class LoopLevels:
         form, m = self.form, self.form.paired
         q = 1j * w - form.roots
         r = 1.0 / q
-        gh = form.gain * np.multiply.reduce(q[:m] * r[m:2 * m], axis=0)
-        pair = r[:m] * r[m:2 * m]
+        gh = form.gain * np.multiply.reduce(q[:m] * r[m : 2 * m], axis=0)
+        pair = r[:m] * r[m : 2 * m]
         u = form.gaps @ pair
-        du = -(form.gaps @ (pair * (r[:m] + r[m:2 * m])))
+        du = -(form.gaps @ (pair * (r[:m] + r[m : 2 * m])))
         if form.roots.size > 2 * m:
-            gh = gh * np.multiply.reduce(q[2 * m:] if form.extra_zeros else r[2 * m:], axis=0)
-            rest = r[2 * m:]
-            u, du = u + form.signs[2 * m:] @ rest, du - form.signs[2 * m:] @ (rest * rest)
+            gh = gh * np.multiply.reduce(q[2 * m :] if form.extra_zeros else r[2 * m :], axis=0)
+            rest = r[2 * m :]
+            u, du = u + form.signs[2 * m :] @ rest, du - form.signs[2 * m :] @ (rest * rest)
         return gh, u, du
 
     def slopes(self, w: NDArray) -> tuple[NDArray, NDArray]:
@@ -119,7 +121,7 @@ class LoopLevels:
         `slope_noise` at ``w``, from one evaluation of the terms (the certificate
         reads both at its check points)."""
         gh, u, _ = self.terms(w)
-        g = gh * u / (1.0 + gh)   # as `slopes` forms it: the same bits
+        g = gh * u / (1.0 + gh)  # as `slopes` forms it: the same bits
         return np.array([-u.imag, u.real, -g.imag]), _noise_rows(gh, self._u_noise(w, u))
 
     def u_rounding(self, w: NDArray) -> tuple[NDArray, NDArray]:
@@ -132,7 +134,7 @@ class LoopLevels:
         """The rounding of u = d log GH / ds at ``w`` (`u_rounding`)."""
         form, m = self.form, self.form.paired
         r = np.abs(1.0 / (1j * w - form.roots))
-        spread = np.abs(form.gaps) @ (r[:m] * r[m:2 * m]) + r[2 * m:].sum(axis=0)
+        spread = np.abs(form.gaps) @ (r[:m] * r[m : 2 * m]) + r[2 * m :].sum(axis=0)
         return ROUNDING * (spread + self.roots.size * np.abs(u))
 
     def slope_noise(self, w: NDArray) -> NDArray:
@@ -156,14 +158,16 @@ class LoopLevels:
     @cached_property
     def fractions(self) -> Fractions:
         """The pencil of sums over t = -r**2, the slopes of log|GH| and arg GH in x = omega**2."""
-        return Fractions(-self.roots ** 2)
+        return Fractions(-(self.roots**2))
 
     @cached_property
     def slope_weights(self) -> dict[str, NDArray | None]:
         """The `Fractions.weights` of the slopes of log|GH| ("GH") and arg GH ("phase")
         over `fractions`; None for a level whose slope vanishes identically."""
-        return {"GH": self.fractions.weights(self.signs.astype(complex)),
-                "phase": self.fractions.weights(-self.signs * self.roots)}
+        return {
+            "GH": self.fractions.weights(self.signs.astype(complex)),
+            "phase": self.fractions.weights(-self.signs * self.roots),
+        }
 
     @cached_property
     def constant(self) -> frozenset[str]:
@@ -191,7 +195,7 @@ class LoopLevels:
                 ends.append(math.inf)
             elif level == -math.inf:
                 ends.append(0.0)
-            else:   # GH there is real: its magnitude and the sign its phase gives
+            else:  # GH there is real: its magnitude and the sign its phase gives
                 real = math.copysign(math.exp(level), math.cos(turn))
                 ends.append(math.log(abs(1.0 + real)) if real != -1.0 else -math.inf)
         return [mag, phase, (ends[0], ends[1])]
@@ -213,8 +217,9 @@ def _noise_rows(gh: NDArray, u_noise: NDArray) -> NDArray:
 
 def log_distance(gh: NDArray) -> NDArray:
     """log |1 + GH|, from GH itself where |GH| is small (1 + GH would round its variation away)."""
-    return np.where(np.abs(gh) < 0.5, 0.5 * np.log1p(2.0 * gh.real + (gh * gh.conjugate()).real),
-                    np.log(np.abs(1.0 + gh)))
+    return np.where(
+        np.abs(gh) < 0.5, 0.5 * np.log1p(2.0 * gh.real + (gh * gh.conjugate()).real), np.log(np.abs(1.0 + gh))
+    )
 
 
 def _closed_loop_poles(numerator: NDArray, denominator: NDArray) -> NDArray | None:
@@ -239,8 +244,8 @@ def distance_stationary(loop: LoopLevels) -> NDArray | None:
     p, z, k = loop.form.poles, loop.form.zeros, loop.gain
     both = np.concatenate([loop.closed, p])
     weights = np.concatenate([np.ones(loop.closed.size), -np.ones(p.size)]).astype(complex)
-    closed_form = Fractions(-both ** 2).zeros(weights)
-    t = -p ** 2
+    closed_form = Fractions(-(both**2)).zeros(weights)
+    t = -(p**2)
     gaps = t[None, :] - t[:, None]
     np.fill_diagonal(gaps, 1.0)
     if z.size >= p.size or not np.abs(gaps).min(initial=np.inf) > 1e-8 * (float(np.abs(t).max()) or 1.0):

@@ -35,22 +35,25 @@ from engine.numerics.fraction_sums import Fractions, polynomial_sum, roots
 Moebius = tuple[float, float]  # (a, b): f = (a + b GH)/(1 + GH)
 
 
-def moebius_peaks(form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.0,
-                  high: float = math.inf) -> list[tuple[float, float]] | None:
+def moebius_peaks(
+    form: ZpkEvaluator, transforms: list[Moebius], low: float = 0.0, high: float = math.inf
+) -> list[tuple[float, float]] | None:
     """Per transform, (max |f| over [low, high], where: 0 or inf for a limit at an end);
     None when the method does not apply or a check fails."""
     loop = LoopLevels.of(form)
     if loop is None or not all(_proper(loop, ab) for ab in transforms) or degenerate(loop):
-        return None   # degenerate: GH on the negative real axis everywhere (1/s**2) or |GH| = 1 (the grid names it)
-    known = loop.certified_distance   # the margin search's, when it ran: |a / (1 + GH)| peaks at its minima
+        return None  # degenerate: GH on the negative real axis everywhere (1/s**2) or |GH| = 1 (the grid names it)
+    known = loop.certified_distance  # the margin search's, when it ran: |a / (1 + GH)| peaks at its minima
     reused = [known is not None and ab[1] == 0 for ab in transforms]
     searched = [ab for ab, taken in zip(transforms, reused) if not taken]
     found = _stationary(loop, searched) if searched else ([], [])
     if found is None:
         return None
     maxima = iter(points[top] for points, top in zip(*found))
-    return [_peak(loop, ab, known[0][~known[1]] if taken else next(maxima), low, high)
-            for ab, taken in zip(transforms, reused)]
+    return [
+        _peak(loop, ab, known[0][~known[1]] if taken else next(maxima), low, high)
+        for ab, taken in zip(transforms, reused)
+    ]
 
 
 def _stationary(loop: LoopLevels, transforms: list[Moebius]) -> tuple[list[NDArray], list[NDArray]] | None:
@@ -63,21 +66,32 @@ def _stationary(loop: LoopLevels, transforms: list[Moebius]) -> tuple[list[NDArr
 
         def slopes(omega: NDArray) -> tuple[NDArray, NDArray]:
             return _moebius_slopes(loop, omega, transforms)
+
         found = distinct(*newton(slopes, w, kind), kinds=len(transforms))
         if found is None:
             return None
-        return certified(loop, found[0], found[1], near, slopes, ends=_ends(loop, transforms),
-                         noise=lambda omega: _moebius_noise(loop, omega, transforms), constant=constant)
+        return certified(
+            loop,
+            found[0],
+            found[1],
+            near,
+            slopes,
+            ends=_ends(loop, transforms),
+            noise=lambda omega: _moebius_noise(loop, omega, transforms),
+            constant=constant,
+        )
 
 
 def _ends(loop: LoopLevels, transforms: list[Moebius]):
     """log|f| of each transform at given frequencies, and its limits at 0 and infinity."""
+
     def levels(omega: NDArray) -> NDArray:
         gh = loop.terms(omega)[0]
         return np.array([np.log(np.abs(_moebius(ab, gh))) for ab in transforms])
 
     def log(value: float) -> float:
         return math.log(value) if value > 0 else -math.inf
+
     return levels, [(log(_limit(loop, ab, 0.0)), log(_limit(loop, ab, math.inf))) for ab in transforms]
 
 
@@ -109,7 +123,7 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
     starts, kinds, near, constant = [], [], [], []
     for number, ab in enumerate(transforms):
         top = _numerator_roots(loop, ab)
-        fractions = Fractions(-np.concatenate([top, loop.closed]) ** 2)
+        fractions = Fractions(-(np.concatenate([top, loop.closed]) ** 2))
         weights = fractions.weights(np.concatenate([np.ones(top.size), -np.ones(loop.closed.size)]).astype(complex))
         constant.append(weights is None)
         x = np.zeros(0, dtype=complex) if constant[-1] else fractions.zeros_of(weights)

@@ -62,15 +62,14 @@ def fast_margins(form: ZpkEvaluator) -> dict[str, NDArray[np.float64]] | None:
             return None
         points, maxima = found
         constant = [name in loop.constant for name in ("GH", "phase")] + [False]
-        checked = certified(loop, points[:3], maxima[:3], near, ends=(loop.values, loop.all_limits),
-                            constant=constant)
+        checked = certified(loop, points[:3], maxima[:3], near, ends=(loop.values, loop.all_limits), constant=constant)
         if checked is None:
             return None
         points[:3], maxima[:3] = checked
         crossings = crossings_of(loop, points)
     if crossings is None:
         return None
-    loop.certified_distance = (points[2], maxima[2])   # the closed-loop peaks of |S| read them
+    loop.certified_distance = (points[2], maxima[2])  # the closed-loop peaks of |S| read them
     return {"G": crossings[1], "P": crossings[0], "S": points[2][~maxima[2]], "A": points[0][maxima[0]]}
 
 
@@ -82,8 +81,9 @@ def _starts(loop: LoopLevels) -> tuple[NDArray, NDArray, NDArray] | None:
     if degenerate(loop):
         return None
     no_points = np.zeros(0, dtype=complex)
-    eigenvalues = [no_points if weights is None else loop.fractions.zeros_of(weights)
-                   for weights in loop.slope_weights.values()] + [loop.distance_starts]
+    eigenvalues = [
+        no_points if weights is None else loop.fractions.zeros_of(weights) for weights in loop.slope_weights.values()
+    ] + [loop.distance_starts]
     if any(x is None for x in eigenvalues):
         return None
     x = np.concatenate(eigenvalues)
@@ -101,8 +101,9 @@ def degenerate(loop: LoopLevels) -> bool:
     if not loop.constant:
         return False
     gh = loop.sample
-    return (("GH" in loop.constant and abs(math.log(abs(gh))) <= FLAT)
-            or ("phase" in loop.constant and abs(math.remainder(cmath.phase(gh) - math.pi, 2 * math.pi)) <= FLAT))
+    return ("GH" in loop.constant and abs(math.log(abs(gh))) <= FLAT) or (
+        "phase" in loop.constant and abs(math.remainder(cmath.phase(gh) - math.pi, 2 * math.pi)) <= FLAT
+    )
 
 
 def real_eigenvalues(x: NDArray) -> tuple[NDArray, NDArray]:
@@ -151,5 +152,7 @@ def distinct(w: NDArray, kind: NDArray, second: NDArray, kinds: int) -> tuple[li
     keep[1:] = (kind[1:] != kind[:-1]) | (np.diff(w) > DUPLICATE * w[1:])
     w, kind, second = w[keep], kind[keep], second[keep]
     bounds = np.searchsorted(kind, np.arange(kinds + 1))
-    return ([w[bounds[k]:bounds[k + 1]] for k in range(kinds)],
-            [second[bounds[k]:bounds[k + 1]] < 0 for k in range(kinds)])
+    return (
+        [w[bounds[k] : bounds[k + 1]] for k in range(kinds)],
+        [second[bounds[k] : bounds[k + 1]] < 0 for k in range(kinds)],
+    )
