@@ -10,7 +10,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("engine", "sessions", "tui")
-MOST_MODULES = 11   # "about ten" modules at one package level (not counting __init__)
+MOST_MODULES = 11  # "about ten" modules at one package level (not counting __init__)
 
 
 def product_modules() -> dict[str, Path]:
@@ -31,7 +31,7 @@ def private_uses(module: str, path: Path, modules: dict[str, Path]) -> list[str]
     """Every private name of another product module that ``module`` imports or reads
     as an attribute of that module."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-    bound: dict[str, str] = {}   # local name -> product module it names
+    bound: dict[str, str] = {}  # local name -> product module it names
     found = []
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module:
@@ -70,7 +70,9 @@ def test_the_private_check_sees_a_private_import(tmp_path):
     modules = {"engine.a": tmp_path / "a.py", "engine.b": tmp_path / "b.py"}
     modules["engine.b"].write_text("from engine.a import _hidden\nimport engine.a as a\nx = a._other\n")
     assert private_uses("engine.b", modules["engine.b"], modules) == [
-        "engine.b imports engine.a._hidden", "engine.b reads engine.a._other"]
+        "engine.b imports engine.a._hidden",
+        "engine.b reads engine.a._other",
+    ]
 
 
 def test_no_package_level_holds_more_than_about_ten_modules():
