@@ -66,13 +66,6 @@ def loop_derivative(measure: str, gh: NDArray | complex) -> tuple[NDArray, NDArr
         return s + shift, -s * s
 
 
-def from_magnitude(measure: str, magnitude: float) -> float:
-    """The measure's value given |f| at a frequency: alpha = 1/|f|, else |f|."""
-    if measure == "disk_margin":
-        return 1.0 / magnitude if magnitude > 0 else math.inf
-    return magnitude
-
-
 def band_peaks(
     loop: LoopModel, measures: Sequence[str], band: Band, stable: bool | None = None
 ) -> list[tuple[float, float, Peak]]:

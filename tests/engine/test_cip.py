@@ -13,7 +13,6 @@ import pytest
 from engine.cip import Cip, CipSettings
 from engine.cip.constraints import Constraint
 from engine.cip.direction import gradient_rows
-from engine.cip.partials import report_partials
 from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
 from engine.errors import EngineError
 from engine.loop.responses import open_loop
@@ -22,6 +21,7 @@ from engine.model.network import Block, Junction, block_diagram
 from engine.stepping.protocol import Status, iterate, lookup
 from sessions.runner import replay, run_session
 from sessions.store import load_session
+from tests.engine.cip_report_partials import report_partials
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
