@@ -142,7 +142,7 @@ def _trial(scaling: str, b0: NDArray, scale: float, h: NDArray, lam: NDArray) ->
     if scaling == "iteration":
         return b0 * np.abs(1.0 + scale * h)
     b = b0 + lam * scale * h
-    return np.where(b * b0 > 0, b, 0.1 * b0)  # the sign constraint
+    return np.where(b * b0 > 0, b, 0.1 * b0)  # the sign bound
 
 
 def _scale(scaling: str, b: NDArray, memory: QcgMemory) -> NDArray:

@@ -5,13 +5,13 @@ scipy's L-BFGS-B (`scipy.optimize.minimize(method="L-BFGS-B")`) runs to the end 
 one call and keeps its memory in an internal workspace: it cannot start from a stored
 state, so a step could not be replayed from (problem, settings, state).  The step is
 therefore made of scipy.optimize's public pieces around a memory we own:
-  * bounds p_i >= LOWER (> 0): no parameter changes sign, the sign constraint;
+  * bounds p_i >= LOWER (> 0): no parameter changes sign, the sign bound;
   * the projected gradient (components at a bound whose gradient points out are 0)
     and its largest component against ``gtol`` (converged), as L-BFGS-B;
   * the direction -H g of the two-loop recursion over the last ``pairs`` (s, y),
     H0 = (s'y / y'y) I, on the free components; the first step (no pairs) is
     -g/|g|, as L-BFGS-B's first step 1/|g|;
-  * L-BFGS-B's own line search: MINPACK's dcsrch (scipy's `DCSRCH`, the one
+  * L-BFGS-B's own line search: MINPACK's dcsrch (`engine.qcg.dcsrch`, scipy's, the one
     scipy's L-BFGS-B calls) with L-BFGS-B's constants (ftol 1e-3, gtol 0.9, xtol
     0.1, at most 20 evaluations), the first step 1 (or up to the bound), its
     step capped where a component reaches its bound; when it ends without a
@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.qcg.cgfm import Move
+from engine.qcg.dcsrch import DCSRCH
 from engine.qcg.evaluate import Counter, Evaluation
 from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
@@ -112,10 +113,9 @@ def _two_loop(g: NDArray, S: NDArray, Y: NDArray) -> NDArray:
 def _search(
     cost: Counter, scale: NDArray, p: NDArray, d: NDArray, g: NDArray, f: float
 ) -> tuple[NDArray, Evaluation] | None:
-    """L-BFGS-B's line search along d (MINPACK's dcsrch, scipy's `DCSRCH`, L-BFGS-B's
+    """L-BFGS-B's line search along d (MINPACK's dcsrch, `engine.qcg.dcsrch`, L-BFGS-B's
     constants), capped at the bounds: the new p and its cost.  When it ends without a
     point meeting its conditions, the best point it tried with sufficient decrease."""
-    from scipy.optimize._dcsrch import DCSRCH  # no public name; on first use (scipy.optimize: 0.25 s of start-up)
 
     seen: dict[float, Evaluation | None] = {}
 
