@@ -2,7 +2,7 @@
 
 Carried from scipy 1.17.1 (scipy/optimize/_dcsrch.py, unchanged but for formatting
 and this header): scipy gives it no public name, and any release may move it.
-L-BFGS-B (engine.qcg.lbfgsb) uses it with its own constants; a test checks this copy
+qcg's L-BFGS-B (engine.qcg.lbfgsb) uses it with its own constants; a test checks this copy
 against the installed scipy's on random functions.
 
 Port: 2023, from minpack2.dcsrch and dcstep (Fortran); MINPACK-1 Project, June 1983,

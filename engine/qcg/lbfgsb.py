@@ -11,7 +11,7 @@ therefore made of scipy.optimize's public pieces around a memory we own:
   * the direction -H g of the two-loop recursion over the last ``pairs`` (s, y),
     H0 = (s'y / y'y) I, on the free components; the first step (no pairs) is
     -g/|g|, as L-BFGS-B's first step 1/|g|;
-  * L-BFGS-B's own line search: MINPACK's dcsrch (`engine.qcg.dcsrch`, scipy's, the one
+  * L-BFGS-B's own line search: MINPACK's dcsrch (`engine.numerics.line_search`, scipy's, the one
     scipy's L-BFGS-B calls) with L-BFGS-B's constants (ftol 1e-3, gtol 0.9, xtol
     0.1, at most 20 evaluations), the first step 1 (or up to the bound), its
     step capped where a component reaches its bound; when it ends without a
@@ -36,8 +36,8 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.numerics.line_search import DCSRCH
 from engine.qcg.cgfm import Move
-from engine.qcg.dcsrch import DCSRCH
 from engine.qcg.evaluate import Counter, Evaluation
 from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
@@ -113,7 +113,7 @@ def _two_loop(g: NDArray, S: NDArray, Y: NDArray) -> NDArray:
 def _search(
     cost: Counter, scale: NDArray, p: NDArray, d: NDArray, g: NDArray, f: float
 ) -> tuple[NDArray, Evaluation] | None:
-    """L-BFGS-B's line search along d (MINPACK's dcsrch, `engine.qcg.dcsrch`, L-BFGS-B's
+    """L-BFGS-B's line search along d (MINPACK's dcsrch, `engine.numerics.line_search`, L-BFGS-B's
     constants), capped at the bounds: the new p and its cost.  When it ends without a
     point meeting its conditions, the best point it tried with sufficient decrease."""
 

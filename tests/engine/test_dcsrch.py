@@ -1,4 +1,4 @@
-"""The carried line search (engine/qcg/dcsrch.py) against the installed scipy's own
+"""The carried line search (engine/numerics/line_search.py) against the installed scipy's own
 (a private module there, which is why it is carried): the same steps, values and
 tasks on random smooth functions along a descent direction."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from engine.qcg.dcsrch import DCSRCH
+from engine.numerics.line_search import DCSRCH
 
 
 def _quartic(seed: int):
