@@ -1,5 +1,7 @@
 # make run   : set up .venv if needed, install loopcraft, open the app on an example
 # make test  : set up .venv with the test extras and run the whole test suite (TEST_WORKERS=2 processes)
+# make test-fast : the unit tests alone (no app, fuzzers, benches or tests marked slow): under a minute
+# make lint  : ruff (lint and format check) and mypy on the public seams
 # make bench : run the benchmarks, write bench-results.json; fails when a ratio target is missed
 #              (BENCH_ARGS='--only margins,analyze --repeat 10' for a quick subset)
 # make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
@@ -10,7 +12,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: run test bench fuzz clean
+.PHONY: run test test-fast lint bench fuzz clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -26,6 +28,14 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) $(PYTEST_ARGS)
+
+test-fast: $(STAMP)
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) -m "not slow and not app and not fuzz and not bench" $(PYTEST_ARGS)
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
+	$(BIN)/mypy
 
 fuzz: $(STAMP)
 	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} $(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)

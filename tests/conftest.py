@@ -10,7 +10,21 @@ settings.register_profile("repeatable", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "repeatable"))
 
+from pathlib import Path
+
 import pytest
+
+TESTS = Path(__file__).resolve().parent
+FOLDER_MARKS = {"tui": "app", "fuzz": "fuzz", "bench": "bench"}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests of the Textual app and fuzzers are marked by their folder (pyproject.toml's
+    markers; `make test-fast` leaves them out with the ones marked slow)."""
+    for item in items:
+        folder = item.path.relative_to(TESTS).parts[0]
+        if folder in FOLDER_MARKS:
+            item.add_marker(FOLDER_MARKS[folder])
 
 
 @pytest.fixture(autouse=True)

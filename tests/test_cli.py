@@ -64,6 +64,7 @@ def _modules_after(code: str) -> set[str]:
     return set(out.stdout.split("MODULES:")[-1].split())
 
 
+@pytest.mark.slow
 def test_the_command_line_does_not_build_the_app():
     """Importing the CLI, `--help` and `analyze` load neither Textual nor an algorithm;
     a cip run loads the cip package alone."""
@@ -96,6 +97,7 @@ def test_the_app_without_a_terminal_exits_2_at_once(tmp_path):
     assert "Traceback" not in out.stderr and out.stdout == ""
 
 
+@pytest.mark.slow
 def test_unbounded_peaks_are_null_in_json_and_named_in_text():
     """1/s^2 closes with poles at +-1j: Ms and Mt are infinite; JSON has no
     infinities, so the value is null with "unbounded": true (strict JSON)."""

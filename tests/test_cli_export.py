@@ -18,6 +18,7 @@ def run(*args, cwd=None):
     return subprocess.run(CMD + [str(a) for a in args], capture_output=True, text=True, timeout=120, cwd=cwd)
 
 
+@pytest.mark.slow
 def test_export_into_a_folder_names_the_file_after_the_session(tmp_path):
     shutil.copy(EXAMPLES / "report003_lag_lead.json", tmp_path / "design.json")
     for to, suffix in (("python", ".py"), ("matlab", ".m"), ("json", ".export.json"), ("csv", ".csv")):
@@ -46,6 +47,7 @@ def test_a_session_without_a_loop_cannot_be_exported():
     assert out.returncode == 2 and "no flight conditions" in out.stderr
 
 
+@pytest.mark.slow
 def test_new_writes_a_session_that_runs(tmp_path):
     out = run("new", "--plant", "16000/(s*(s+8)*(s+20))", "--compensator", "lead-lag", tmp_path / "new.json")
     assert out.returncode == 0, out.stderr

@@ -63,6 +63,7 @@ def ran(tmp_path_factory):
     return path
 
 
+@pytest.mark.slow
 def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
     assert main(["report", str(ran), "--format", "html", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "lag_lead.html").read_text()
@@ -92,6 +93,7 @@ def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
     assert html.escape(own) in text
 
 
+@pytest.mark.slow
 def test_markdown_writes_its_pngs_beside_it(tmp_path):
     """Three flight conditions at the start: Bode, Nyquist, Nichols and step of each."""
     source = tmp_path / "vehicle.json"

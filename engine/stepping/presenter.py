@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from engine.design.problem import Problem
 from engine.design.tableau import tableau
 from engine.errors import EngineError
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import Algorithm, MeasureRow, State, Status, StepRecord
 
 LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step", "closed_loop", "poles", "locus"})
 # what reading a record's free-form `extra` raises when a session file was edited by hand
@@ -38,7 +38,7 @@ def tolerant(call: Callable[[], T], fallback: Callable[[], T]) -> T:
         return fallback()
 
 
-def number(value: Any, digits: int = 6) -> str:
+def number(value: object, digits: int = 6) -> str:
     """A number as the tableaux print it ('-' for a missing crossing, '' for none)."""
     if value is None:
         return ""
@@ -82,7 +82,7 @@ def tableau_text(rows: Sequence[MeasureRow], unit: str = "rad/s") -> str:
 def parameters_line(record: StepRecord, count: int = 8) -> str:
     """The first parameters of a record on one line (a list per condition as a/b/c)."""
 
-    def text(value: Any) -> str:
+    def text(value: float | list[float]) -> str:
         return "/".join(number(v, 3) for v in value) if isinstance(value, list) else number(value, 5)
 
     return "  ".join(f"{k}={text(v)}" for k, v in list(record.parameters.items())[:count])
@@ -94,7 +94,7 @@ class Presenter:
     plots: frozenset[str] = LOOP_PLOTS  # which of the workbench's plots apply
     maximize: bool = False  # sweeps rank runs by `ranking`, larger better when True
 
-    def initial_record(self, algorithm: Any, state: State, problem: Problem) -> StepRecord | None:
+    def initial_record(self, algorithm: Algorithm, state: State, problem: Problem) -> StepRecord | None:
         """Iteration 0 as a record: the tableau at the start (None when it cannot be computed)."""
         try:
             rows = tuple(tableau(problem))
@@ -112,7 +112,7 @@ class Presenter:
         """The value sweeps rank a finished run by (see `maximize`)."""
         return record.objective
 
-    def summary(self, record: StepRecord) -> dict:
+    def summary(self, record: StepRecord) -> dict[str, object]:
         """Algorithm-specific fields of a sweep run's summary (JSON data)."""
         return {}
 
@@ -132,7 +132,7 @@ class Presenter:
         """`loopcraft report`'s text for a record (iteration 0 included)."""
         return tableau_text(record.measures, problem.grid.unit)
 
-    def trajectories(self, records: Sequence[StepRecord]) -> dict | None:
+    def trajectories(self, records: Sequence[StepRecord]) -> dict[str, object] | None:
         """Time trajectories of the latest record, for algorithms that produce them:
         {"t", "x", "u"} and, when the first record has it, "open_loop"; else None."""
         return None

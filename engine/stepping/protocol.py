@@ -19,12 +19,23 @@ import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, ClassVar, Protocol, Self
+from typing import TYPE_CHECKING, ClassVar, Protocol, Self, TypeVar
 
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields
 from engine.stepping.memory_fields import jsonable as _jsonable
+
+if TYPE_CHECKING:
+    from engine.stepping.presenter import Presenter
+
+T = TypeVar("T")
+
+
+class Settings(Protocol):
+    """An algorithm's settings: a dataclass with a default for every field."""
+
+    __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[object]]]
 
 
 class Status(str, Enum):
@@ -58,7 +69,7 @@ class MeasureRow:
     method: str | None = None  # margins: "refined", "fitted (residual ...)" or "grid"
 
     @staticmethod
-    def from_json(data: Any, where: str = "measure") -> MeasureRow:
+    def from_json(data: object, where: str = "measure") -> MeasureRow:
         """A row from JSON (non-finite numbers as 'inf', '-inf', 'nan'); malformed data
         raises `EngineError` naming the field."""
         fields = Fields(data, where)
@@ -70,7 +81,7 @@ class MeasureRow:
             fields.number("value", finite=False),
             fields.optional_number("target", finite=False),
             fields.boolean("satisfied"),
-            _or_default(fields, "frequency", None, fields.optional_number, finite=False),
+            _or_default(fields, "frequency", None, functools.partial(fields.optional_number, finite=False)),
             _or_default(fields, "at_least", True, fields.boolean),
             _or_default(fields, "method", None, lambda name: None if fields.get(name) is None else fields.text(name)),
         )
@@ -82,9 +93,9 @@ def _known_only(fields: Fields, known: set[str], what: str) -> None:
             raise EngineError(f"{fields.where}.{name}: not a field of {what}")
 
 
-def _or_default(fields: Fields, name: str, default: Any, read: Callable[..., Any], **options: Any) -> Any:
-    """``read(name, **options)`` when the field is present, else ``default``."""
-    return read(name, **options) if name in fields.data else default
+def _or_default(fields: Fields, name: str, default: T, read: Callable[[str], T]) -> T:
+    """``read(name)`` when the field is present, else ``default``."""
+    return read(name) if name in fields.data else default
 
 
 def _status(fields: Fields) -> Status:
@@ -121,7 +132,7 @@ class StepRecord:
     direction: tuple[float, ...] = ()
     counters: Mapping[str, int] = field(default_factory=dict)
     reason: str = ""
-    extra: Mapping[str, Any] = field(default_factory=dict)
+    extra: Mapping[str, object] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         data = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
@@ -129,20 +140,21 @@ class StepRecord:
         return _jsonable(data)
 
     @staticmethod
-    def from_json(data: Any, where: str = "record") -> StepRecord:
+    def from_json(data: object, where: str = "record") -> StepRecord:
         """A record from JSON; malformed data raises `EngineError` naming the field
         (``where`` names the record).  Keys other than a record's fields are the caller's;
         ``extra`` stays free-form (presenters read it with ``.get``)."""
         fields = Fields(data, where)
         opt = functools.partial(_or_default, fields)
+        unbounded = functools.partial(fields.optional_number, finite=False)
         return StepRecord(
             iteration=fields.integer("iteration"),
             status=_status(fields),
             parameters=_parameters(fields.object("parameters")),
             measures=tuple(MeasureRow.from_json(m.data, m.where) for m in fields.objects("measures")),
-            objective=opt("objective", None, fields.optional_number, finite=False),
-            step_size=opt("step_size", None, fields.optional_number, finite=False),
-            direction=opt("direction", (), fields.numbers, finite=False),
+            objective=opt("objective", None, unbounded),
+            step_size=opt("step_size", None, unbounded),
+            direction=opt("direction", (), functools.partial(fields.numbers, finite=False)),
             counters=_counters(fields.object("counters")) if "counters" in fields.data else {},
             reason=opt("reason", "", fields.text),
             extra=dict(fields.object("extra").data) if "extra" in fields.data else {},
@@ -157,7 +169,7 @@ class Memory(Protocol):
     def to_json(self) -> dict: ...
 
     @classmethod
-    def from_json(cls, data: Any) -> Self: ...
+    def from_json(cls, data: object) -> Self: ...
 
 
 @dataclass(frozen=True)
@@ -178,7 +190,7 @@ class State:
         }
 
     @staticmethod
-    def from_json(data: Any, memory_type: type[Memory]) -> State:
+    def from_json(data: object, memory_type: type[Memory]) -> State:
         """A state from JSON; malformed data (memory included) raises `EngineError`."""
         fields = Fields(data, "state")
         status = _status(fields)
@@ -194,7 +206,7 @@ class Algorithm(Protocol):
     name: str
     memory_type: ClassVar[type[Memory]]
 
-    def init(self, problem: Problem, settings: Any) -> State: ...
+    def init(self, problem: Problem, settings: Settings) -> State: ...
 
     def step(self, state: State) -> tuple[State, StepRecord]: ...
 
@@ -205,9 +217,9 @@ class Registration:
     summary, and its presenter (`engine.stepping.presenter.Presenter`: how its records are shown)."""
 
     factory: Callable[[], Algorithm]
-    settings: type
+    settings: type[Settings]
     summary: str
-    presenter: Any
+    presenter: Presenter
 
 
 REGISTRY: dict[str, Registration] = {}
@@ -222,7 +234,13 @@ def load_builtin() -> dict[str, Registration]:
     return REGISTRY
 
 
-def register(name: str, factory: Callable[[], Algorithm], settings: type, summary: str, presenter: Any = None) -> None:
+def register(
+    name: str,
+    factory: Callable[[], Algorithm],
+    settings: type[Settings],
+    summary: str,
+    presenter: Presenter | None = None,
+) -> None:
     """Make an algorithm known to the CLI, the app and sweeps by name (without a
     presenter, its records are shown the generic way)."""
     if presenter is None:
@@ -248,7 +266,7 @@ def memory_type(name: str) -> type[Memory]:
     return getattr(factory, "memory_type", None) or factory().memory_type
 
 
-def make_settings(name: str, values: Mapping[str, Any]) -> Any:
+def make_settings(name: str, values: Mapping[str, object]) -> Settings:
     """The algorithm's settings from a mapping; unknown names are an error."""
     cls = lookup(name).settings
     names = {f.name for f in dataclasses.fields(cls)}
@@ -288,21 +306,22 @@ class Iteration(Iterator[tuple[State, StepRecord]]):
         self,
         algorithm: Algorithm,
         problem: Problem,
-        settings: Any,
+        settings: Settings,
         max_iter: int,
         state: State | None,
         time_limit: float | None,
-    ):
+    ) -> None:
         self.algorithm, self.problem, self.settings = algorithm, problem, settings
         self.max_iter, self.state, self.time_limit = max_iter, state, time_limit
-        self.steps, self.stopped = 0, None
+        self.steps = 0
+        self.stopped: str | None = None
         self._began: float | None = None
 
     def __next__(self) -> tuple[State, StepRecord]:
         if self._began is None:
             self._began = time.perf_counter()
-            if self.state is None:
-                self.state = self.algorithm.init(self.problem, self.settings)
+        if self.state is None:
+            self.state = self.algorithm.init(self.problem, self.settings)
         if self.stopped is not None or self.state.status.finished or self.steps >= self.max_iter:
             raise StopIteration
         if self.steps and self.time_limit is not None and time.perf_counter() - self._began >= self.time_limit:
@@ -316,7 +335,7 @@ class Iteration(Iterator[tuple[State, StepRecord]]):
 def iterate(
     algorithm: Algorithm,
     problem: Problem,
-    settings: Any,
+    settings: Settings,
     *,
     max_iter: int,
     state: State | None = None,

@@ -76,6 +76,7 @@ def _reference(k, zeros, poles):
     return np.array(gains), np.array(minima)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [11, 25, 30, 32, 44, 3])  # the pole-zero form was 1e-6..2e-4 off on the first five
 def test_clustered_light_modes_are_refined_to_1e_10(seed):
     k, zeros, poles = _loop(np.random.default_rng(seed))
@@ -160,6 +161,7 @@ def summed_branches(texts: list[tuple[str, str, str]], outputs: list[str]):
     )
 
 
+@pytest.mark.slow
 def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
     """Two parallel branches of light modes (a verification campaign's loop): a
     maximum and a minimum of |1 + GH| 0.3 % apart near 2.66 rad/s.  The form's
@@ -204,6 +206,7 @@ def test_a_close_extremum_pair_the_form_finds_is_polished_on_the_network():
         assert len(near) == 1 and near[0].value == pytest.approx(distance[k], rel=1e-10)
 
 
+@pytest.mark.slow
 def test_the_network_search_clusters_around_the_loop_s_own_light_zeros():
     """Three parallel branches summed (a verification campaign's loop): their sum
     has a zero at 0.990 rad/s of damping 0.0019 that no block has.  The

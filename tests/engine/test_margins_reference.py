@@ -100,6 +100,7 @@ def _ours_as_arrays(m):
     ]
 
 
+@pytest.mark.slow
 def test_random_loops_against_python_control():
     """200 random loops, orders 1-12, half with unstable roots, damping down to 0.005.
 

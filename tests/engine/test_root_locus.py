@@ -50,6 +50,7 @@ def relative_residual(num, den, k: float, s: complex) -> float:
 
 # seed 28 has a breakaway point (-1.79641 at k = 14.5955070), and at gains 1e4..2e7 (|A - k B C| up to
 # ~1e12) eigenvalues ~10 % off to wholly wrong: see the tests after this one for the mechanisms
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(50))
 def test_gain_locus_points_solve_the_characteristic_equation_and_crossings_are_gain_margins(seed):
     num, den = random_loop(seed)
@@ -153,6 +154,7 @@ def test_continuation_judges_noisy_raw_roots_on_refined_ones():
     assert np.array_equal(rows, np.array([exact(t) for t in ts]))
 
 
+@pytest.mark.slow
 def test_gain_locus_where_the_eigenvalues_are_wholly_wrong():
     # random loop 62 (order 6, 4 zeros near the origin; not among the acceptance test's 50): at
     # gains ~1e6..1e9 two poles run out to ~1e8 j and the eigenvalues of the small ones, near the
@@ -174,6 +176,7 @@ def test_gain_locus_where_the_eigenvalues_are_wholly_wrong():
     assert worst <= 1e-9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [28, 62])
 def test_a_drawn_locus_is_complete_continuous_and_on_the_roots(seed):
     # the TUI draws with polished=False.  Judged on the eigenvalues alone, at large gains (|A - k B C|

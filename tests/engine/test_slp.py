@@ -256,6 +256,7 @@ def test_settings_are_checked():
         make_settings("slp", {"relaxation_step": 0.0})
 
 
+@pytest.mark.slow
 def test_launch_vehicle_phases():
     """Phase 1 meets every margin from a poor start; phase 2 (load relief) lowers
     the max-q peak angle of attack under the wind shear by >= 10 % with every

@@ -151,6 +151,7 @@ def compare_with_step_info(seed: int) -> dict[str, float]:
     }
 
 
+@pytest.mark.slow
 def test_measures_of_50_random_stable_loops_agree_with_step_info():
     rows = [compare_with_step_info(seed) for seed in range(50)]
     for seed, row in enumerate(rows):

@@ -84,6 +84,7 @@ def _check_margins(found: dict, engine: dict) -> None:
             assert got["phase_margins_deg"][k] == pytest.approx(p.phase_deg, rel=REL)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", RATIONAL)
 def test_exported_script_gives_loopcraft_s_margins(name, tmp_path):
     source = EXAMPLES / f"{name}.json"
@@ -96,6 +97,7 @@ def test_exported_script_gives_loopcraft_s_margins(name, tmp_path):
         assert len(found[n]["closed_loop_poles"]) == ss.A.shape[0]
 
 
+@pytest.mark.slow
 def test_an_iteration_s_design_is_exported(tmp_path):
     """After three slp iterations, iteration 2's design (not the start, not the last)."""
     path = tmp_path / "lag_lead.json"
@@ -124,6 +126,7 @@ print(json.dumps(out))
 """
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", HIGH_ORDER)
 def test_high_order_loops_respond_as_loopcraft_s(name, tmp_path):
     """Three conditions of a launch vehicle with three lightly damped bending modes

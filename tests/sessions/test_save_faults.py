@@ -95,6 +95,7 @@ JSON_VALUES = st.recursive(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(mutant=st.tuples(st.sampled_from(PATHS), st.sampled_from(["delete", "replace"]), JSON_VALUES))
 def test_saving_never_fails_on_what_loading_accepted(tmp_path, mutant):
@@ -295,6 +296,7 @@ for i in range(int(sys.argv[2])):
 """
 
 
+@pytest.mark.slow
 def test_two_processes_saving_one_file_never_break_each_other(matching):
     procs = [
         subprocess.Popen(

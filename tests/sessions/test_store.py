@@ -169,6 +169,7 @@ while True:
 """
 
 
+@pytest.mark.slow
 def test_a_killed_save_leaves_the_old_or_the_new_file(matching):
     for delay in (0.05, 0.2, 0.45):
         proc = subprocess.Popen(

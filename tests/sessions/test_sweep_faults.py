@@ -68,6 +68,7 @@ def test_good_addresses_are_kept():
     assert scheduler_address(None) is None
 
 
+@pytest.mark.slow
 def test_an_unreachable_scheduler_is_given_up_after_the_connect_timeout(tmp_path, capsys):
     with socket.socket() as s:  # a port nobody listens on
         s.bind(("127.0.0.1", 0))
@@ -98,6 +99,7 @@ def test_a_worker_dying_at_start_up_is_a_clean_error(tmp_path, capsys):
     assert not json.loads(path.read_text()).get("sweeps")
 
 
+@pytest.mark.slow
 def test_ctrl_c_on_a_serial_sweep_keeps_the_finished_runs(tmp_path):
     """A real SIGINT to the process group, as a terminal's Ctrl-C sends it."""
     path = _copy(tmp_path, "coebra_launch_vehicle")  # runs of a few seconds each
@@ -135,6 +137,7 @@ def test_an_interrupted_serial_execution_is_an_outcome(tmp_path):
     assert [r["reason"] for r in outcome.runs[2:]] == ["cancelled"] * 3 and len(outcome.runs) == 5
 
 
+@pytest.mark.slow
 def test_an_interrupted_dask_execution_keeps_what_finished(tmp_path):
     jobs = start_jobs(load_session(_copy(tmp_path, "coebra_lag_lead")), 6, seed=1)
     outcome = execute(jobs, workers=2, progress=_interrupt_after(1))
@@ -156,6 +159,7 @@ def test_an_output_that_cannot_be_written_is_refused_before_the_runs(tmp_path, c
         assert said in capsys.readouterr().err and time.monotonic() - began < 2.0  # no run was made
 
 
+@pytest.mark.slow
 def test_a_session_that_cannot_be_saved_leaves_a_recovery_file(tmp_path, capsys, monkeypatch):
     import sessions.store
 
@@ -197,6 +201,7 @@ def test_non_finite_objectives_are_kept_as_json(tmp_path):
     assert json.loads(dumps(session.model))["sweeps"][0]["runs"][0]["objective"] == "inf"
 
 
+@pytest.mark.slow
 def test_a_sweep_too_small_for_a_local_cluster_runs_serially_and_says_so(tmp_path):
     jobs = start_jobs(load_session(_copy(tmp_path, "coebra_lag_lead")), 4, seed=1)
     outcome = execute(jobs)
@@ -221,6 +226,7 @@ def _worker_view() -> dict:
     }
 
 
+@pytest.mark.slow
 def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(monkeypatch):
     """Dask's statistical profiler (a stack sample every 10 ms) is off on our local workers,
     which import the engine and the algorithms as they start; a preload the user

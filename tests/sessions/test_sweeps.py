@@ -170,6 +170,7 @@ def test_penalty_trade_off_is_monotone(tmp_path, capsys):
     assert len(saved) == 1 and saved[0]["version"] == 1 and saved[0]["kind"] == "vary"
 
 
+@pytest.mark.slow
 def test_thirty_two_starts_on_a_local_cluster(tmp_path, capsys):
     """Report 003's 'map the hill' on the lag-lead example: some starts meet every
     requirement, some climb a local optimum that does not (Table B-3)."""
@@ -242,6 +243,7 @@ def dask_cluster(tmp_path):
         p.wait()
 
 
+@pytest.mark.slow
 def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster, tmp_path, capsys):
     address, processes = dask_cluster
     path = _copy(tmp_path, "coebra_launch_vehicle")  # runs of a few seconds each

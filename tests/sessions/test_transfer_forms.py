@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -60,6 +61,7 @@ transfers = st.one_of(
 )
 
 
+@pytest.mark.slow
 @settings(max_examples=300)
 @given(transfers, st.sampled_from(["s", "w"]))
 def test_the_text_of_a_transfer_reads_back(transfer, variable):

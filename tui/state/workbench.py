@@ -10,13 +10,15 @@ commits each record it posts back.  What the screens show comes from
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from engine.errors import EngineError
-from engine.stepping.protocol import State, Status, StepRecord
+from engine.stepping.presenter import Presenter
+from engine.stepping.protocol import Algorithm, State, Status, StepRecord
 from sessions import lifecycle
 from sessions.errors import SessionError
+from sessions.format.schema import SweepModel
 from sessions.runner import record_json, settings_snapshot
 from sessions.store import AUTOSAVE_INTERVAL, Session, autosave_path, save_session, write_autosave
 from sessions.sweeps.jobs import execute
@@ -30,11 +32,11 @@ from tui.state.views import View
 class Workbench:
     """One open session and its algorithm."""
 
-    def __init__(self, session: Session):
+    def __init__(self, session: Session) -> None:
         self.session = session
         self.dirty = False
         self._states: dict[int, State] = {}
-        self._algorithm: Any = None
+        self._algorithm: Algorithm | None = None
         self._initial: StepRecord | None = None
         self._settings: dict | None = None
         self._records: list[StepRecord] = session.records  # parsed once, kept in step with the model
@@ -43,7 +45,7 @@ class Workbench:
         self.paused_at: int | None = None  # the iteration a run was paused at
         self.step_setup = StepSetup()  # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []  # undone iterations, latest last
-        self._sweep_data: tuple[Any, dict] | None = None  # the latest sweep and its JSON data
+        self._sweep_data: tuple[SweepModel, dict] | None = None  # the latest sweep and its JSON data
 
     # -- the algorithm ------------------------------------------------------
 
@@ -52,13 +54,11 @@ class Workbench:
         return self.session.model.algorithm.name
 
     @property
-    def presenter(self) -> Any:
+    def presenter(self) -> Presenter:
         """How the session's algorithm shows its records (the generic way when it is unknown)."""
         try:
             return lifecycle.registration(self.session).presenter
         except SessionError:
-            from engine.stepping.presenter import Presenter
-
             return Presenter()
 
     @property
@@ -82,7 +82,7 @@ class Workbench:
             return "paused (s steps on, r runs on)"
         return last.status.value + (f": {last.reason}" if last.reason else "")
 
-    def ensure_algorithm(self) -> Any:
+    def ensure_algorithm(self) -> Algorithm:
         """The algorithm bound to the problem, and the state before any iteration
         (a `SessionError` says why it cannot be set up)."""
         if self._algorithm is None or 0 not in self._states:
@@ -109,10 +109,10 @@ class Workbench:
             self._states[i + 1] = state
         return state
 
-    def begin_run(self) -> tuple[Any, State]:
+    def begin_run(self) -> tuple[Algorithm, State]:
         """What a run's worker steps: the bound algorithm and the current state."""
         state = self._state()
-        return self._algorithm, state
+        return self.ensure_algorithm(), state
 
     @property
     def settings(self) -> dict | None:
@@ -193,8 +193,7 @@ class Workbench:
             return False
         data, record, state = self._redo.pop()
         if state is None:
-            self.ensure_algorithm()
-            state, _ = self._algorithm.step(self._state())
+            state, _ = self.ensure_algorithm().step(self._state())
         self._keep(data, record, state)
         self.dirty = True
         return True
@@ -211,7 +210,12 @@ class Workbench:
             self._sweep_data = (sweeps[-1], sweeps[-1].model_dump())
         return self._sweep_data[1]
 
-    def run_sweep(self, text: str, progress=None, cancelled=lambda: False) -> dict:
+    def run_sweep(
+        self,
+        text: str,
+        progress: Callable[[int, int], None] | None = None,
+        cancelled: Callable[[], bool] = lambda: False,
+    ) -> dict:
         """Plan and run a sweep described by one line (`sessions.sweeps.plan.parse_sweep`);
         safe in a worker thread while the session is not changed (the app disables
         every change during a sweep).  The summary is returned, not yet kept:
