@@ -467,7 +467,7 @@ def _target(t: TargetModel) -> Target:
         t.detect_low * scale,
         upper(t.detect_high),
         t.sense,
-        t.constraint,
+        t.requirement,
         response,
     )
 

@@ -130,13 +130,14 @@ def comparison_json(c: Comparison) -> dict:
 
     rows = []
     for (condition, kind, name), ra, rb in c.rows:
-        target = (ra or rb).target
+        desired = (ra or rb).desired
         rows.append(
             {
                 "condition": condition,
                 "kind": kind,
                 "name": name,
-                "target": _finite(target),
+                "target": _finite(desired),  # the JSON key other programs read
+                "desired": _finite(desired),
                 "a": _row_json(ra),
                 "b": _row_json(rb),
                 "difference": difference(ra, rb),
@@ -158,10 +159,10 @@ def comparison_text(c: Comparison) -> str:
         f"{'condition':<12} {'kind':<20} {'name':<5} {'desired':>10} {'A':>12} met {'B':>12} met {'B - A':>12}",
     ]
     for (condition, kind, name), ra, rb in c.rows:
-        target = (ra or rb).target
+        desired = (ra or rb).desired
         d = difference(ra, rb)
         lines.append(
-            f"{condition:<12} {kind:<20} {name:<5} {'' if target is None else f'{target:.6g}':>10} "
+            f"{condition:<12} {kind:<20} {name:<5} {'' if desired is None else f'{desired:.6g}':>10} "
             f"{cell(ra)} {cell(rb)} {'' if d is None else f'{d:.6g}':>12}"
         )
     lines += ["", f"{'parameter':<12} {'A':>14} {'B':>14}"]

@@ -23,7 +23,6 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -38,6 +37,7 @@ from sessions.build import OutsideTable, build_problem
 from sessions.errors import SessionError
 from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
 from sessions.format.json_text import dumps
+from sessions.format.migrations import MIGRATIONS
 from sessions.format.save_file import (
     DiskStamp,
     OverwriteRefused,
@@ -57,7 +57,6 @@ from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
 __all__ = [
     "AUTOSAVE_INTERVAL",
     "MAX_DEPTH",
-    "MIGRATIONS",
     "DiskStamp",
     "OverwriteRefused",
     "Session",
@@ -73,9 +72,6 @@ __all__ = [
     "tables_in",
     "write_autosave",
 ]
-
-# version -> function turning a session dict of that version into the next version's
-MIGRATIONS: dict[int, Callable[[dict], dict]] = {}
 
 
 @dataclass

@@ -47,9 +47,9 @@ class CompassMemory:
 def merit(rows) -> float:
     """Unmet targets, then the summed relative shortfall (smaller is better)."""
     shortfall = sum(
-        max(0.0, (r.target - r.value) if r.at_least else (r.value - r.target)) / max(abs(r.target), 1e-9)
+        max(0.0, (r.desired - r.value) if r.at_least else (r.value - r.desired)) / max(abs(r.desired), 1e-9)
         for r in rows
-        if r.target is not None and np.isfinite(r.value)
+        if r.desired is not None and np.isfinite(r.value)
     )
     return sum(not r.satisfied for r in rows) + shortfall / (1.0 + shortfall)
 

@@ -111,3 +111,19 @@ def test_unbounded_peaks_are_null_in_json_and_named_in_text():
     assert finite["sensitivity_peak"]["unbounded"] is False and finite["sensitivity_peak"]["value"] > 1
     text = run("analyze", "--tf", "1/s^2").stdout
     assert "sensitivity peak Ms: inf (unbounded) at 1 rad/s" in text and "note: unbounded: 1 + GH is 0" in text
+
+
+def test_sweep_json_keeps_the_keys_other_programs_read():
+    """The saved names changed in version 2 (ranking, desired); `sweep --json` prints
+    the former keys beside them."""
+    from tui.cli.sweep import with_former_keys
+
+    summary = {
+        "runs": [{"index": 0, "ranking": 2.0, "measures": [{"name": "P1", "desired": 45.0}]}],
+        "optima": [{"ranking": 2.0}],
+        "worst_case": [{"name": "P1", "desired": 45.0}],
+    }
+    printed = with_former_keys(summary)
+    assert printed["runs"][0]["objective"] == printed["runs"][0]["ranking"] == 2.0
+    assert printed["runs"][0]["measures"][0]["target"] == 45.0 and printed["optima"][0]["objective"] == 2.0
+    assert printed["worst_case"][0]["target"] == printed["worst_case"][0]["desired"] == 45.0

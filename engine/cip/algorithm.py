@@ -3,7 +3,7 @@
 One `step` is one accepted iteration of the listing's main loop:
   1. the margins at the current coefficients are known (from the last step);
      if none is active, all requirements are met;
-  2. the direction D = G'(G G')^-1 c of the active constraints (direction.py),
+  2. the direction D = G'(G G')^-1 c of the active requirements (direction.py),
      with coefficients held at their bounds;
   3. a trial move x + h D/|D| (clipped to the bounds), margins detected again;
      the move is accepted when it improves every active margin (TIFR) or
@@ -17,7 +17,7 @@ the listing's IBEST) are kept in the state and reported.
 Departures from the listing, each a strict improvement and recorded here:
 margins are matched from one iteration to the next by kind, target and
 nearest frequency (the listing matched grid indices, so a margin that moved
-by one grid point escaped the ratchet); a constraint that became satisfied
+by one grid point escaped the ratchet); a requirement that became satisfied
 counts its gain in the SIFR sum; a move that changes the number of turns of
 1 + GH about the origin along the grid (closed-loop stability changes) is
 rejected (`stability_guard`); the run never ends on a rejected trial point;
@@ -36,10 +36,10 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.cip.constraints import Constraint, check_targets, detect
 from engine.cip.direction import Direction, Rows, gradient_rows
 from engine.cip.linear import held_direction, held_labels, trial_point
 from engine.cip.memory import CipBest, CipMemory
+from engine.cip.requirements import Requirement, check_targets, detect
 from engine.design.constraints import check_start
 from engine.design.problem import Problem
 from engine.errors import EngineError
@@ -109,14 +109,14 @@ class Cip:
         if outside.size:
             raise EngineError(f"cip: {self._slot_names()[outside[0]]} = {x[outside[0]]:.6g} is outside its bounds")
         check_start(problem, x, "cip")
-        constraints, windings = self._detect(x)
+        requirements, windings = self._detect(x)
         step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
         memory = CipMemory(
-            tuple(constraints),
+            tuple(requirements),
             tuple(windings),
             step,
-            sum(c.active for c in constraints),
-            CipBest(0, tuple(x.tolist()), smallest_stability_margin(constraints)),
+            sum(c.active for c in requirements),
+            CipBest(0, tuple(x.tolist()), smallest_stability_margin(requirements)),
         )
         return State(0, tuple(x.tolist()), Status.RUNNING, memory)
 
@@ -125,32 +125,32 @@ class Cip:
         check_vector("cip", state.x, len(self.lower))
         x = np.array(state.x, dtype=float)
         memory: CipMemory = state.memory
-        constraints = list(memory.constraints)
-        active = [c for c in constraints if c.active]
+        requirements = list(memory.requirements)
+        active = [c for c in requirements if c.active]
         k = state.iteration + 1
         if not active:
-            return self._stop(state, Status.CONVERGED, "all system requirements have been met", constraints)
-        steering = active + self._near(constraints)
-        number = {id(c): n for n, c in enumerate(constraints, start=1)}
+            return self._stop(state, Status.CONVERGED, "all system requirements have been met", requirements)
+        steering = active + self._near(requirements)
+        number = {id(c): n for n, c in enumerate(requirements, start=1)}
         labels = [_label(c, number[id(c)]) for c in steering]
         rows = _distinct(gradient_rows(self.problem, x, steering))
         if rows.gradients.shape[0] > x.size and len(steering) > len(active):
             rows = _distinct(gradient_rows(self.problem, x, active))  # guard rows are optional
         direction = held_direction(
             rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels, *self.problem.linear_constraints
-        )  # the report's D when no constraint is held
+        )  # the report's D when no requirement is held
         if direction.vector is None:
             return self._stop(
                 state,
                 TERMINATION_STATUS[direction.termination],
                 direction.reason,
-                constraints,
+                requirements,
                 termination=direction.termination,
             )
         h, rejected = memory.step, {}
         while True:
             trial = trial_point(x, h, direction.vector, *self.problem.linear_constraints, self.lower, self.upper)
-            outcome = self._trial(trial, constraints, active, memory.windings)
+            outcome = self._trial(trial, requirements, active, memory.windings)
             if not isinstance(outcome, str):
                 break
             rejected[outcome] = rejected.get(outcome, 0) + 1
@@ -161,7 +161,7 @@ class Cip:
                     Status.STEP_BELOW_MINIMUM,
                     f"step size fell below the minimum {self.settings.min_step:g} "
                     f"after {sum(rejected.values())} trials",
-                    constraints,
+                    requirements,
                     direction=direction.vector,
                     rejected=rejected,
                 )
@@ -173,45 +173,45 @@ class Cip:
         """The tableau before any iteration (the report's Table 1), as iteration 0."""
         x = np.array(state.x)
         memory: CipMemory = state.memory
-        constraints = list(memory.constraints)
+        requirements = list(memory.requirements)
         return StepRecord(
             0,
             state.status,
             self.problem.named(x),
-            _rows(self.problem, constraints),
+            _rows(self.problem, requirements),
             step_size=memory.step,
-            extra=self._extra(x, constraints, memory, sum(c.active for c in constraints)),
+            extra=self._extra(x, requirements, memory, sum(c.active for c in requirements)),
         )
 
     # -- pieces of a step --------------------------------------------------
 
-    def _near(self, constraints: list[Constraint]) -> list[Constraint]:
+    def _near(self, requirements: list[Requirement]) -> list[Requirement]:
         """Met margins within the guard band of their desired value."""
         band = self.settings.guard_band
         return [
             c
-            for c in constraints
+            for c in requirements
             if not c.active and band > 0 and abs(c.value - c.desired) < band * max(abs(c.desired), 1e-12)
         ]
 
-    def _detect(self, x: NDArray) -> tuple[list[Constraint], list[float]]:
+    def _detect(self, x: NDArray) -> tuple[list[Requirement], list[float]]:
         s = self.settings
         return detect(self.problem, x, s.detection, s.gain_as_stability, s.phase_as_stability)
 
     def _trial(
-        self, trial: NDArray, old: list[Constraint], active: list[Constraint], windings: tuple[float, ...]
-    ) -> tuple[list[Constraint], list[float], list] | str:
-        """The constraints at an accepted trial point, or why it was rejected."""
+        self, trial: NDArray, old: list[Requirement], active: list[Requirement], windings: tuple[float, ...]
+    ) -> tuple[list[Requirement], list[float], list] | str:
+        """The requirements at an accepted trial point, or why it was rejected."""
         try:
             new, new_windings = self._detect(trial)
         except EngineError:
             return "unusable"  # e.g. a denominator that vanishes on the grid
         if self.settings.stability_guard and any(abs(a - b) >= 0.5 for a, b in zip(windings, new_windings)):
             return "stability_changed"
-        matched = match_constraints(old, new, active)
+        matched = match_requirements(old, new, active)
         if not improved(matched, self.settings.mode, self.settings.tolerance):
             return "not_improved"
-        if self.settings.keep_met and any(n.active for o, n in match_constraints(old, new, old) if not o.active):
+        if self.settings.keep_met and any(n.active for o, n in match_requirements(old, new, old) if not o.active):
             return "met_margin_lost"
         return new, new_windings, matched
 
@@ -220,7 +220,7 @@ class Cip:
         state: State,
         k: int,
         x: NDArray,
-        constraints: list[Constraint],
+        requirements: list[Requirement],
         windings: list[float],
         matched: list,
         h: float,
@@ -230,24 +230,24 @@ class Cip:
     ) -> tuple[State, StepRecord]:
         s = self.settings
         best = state.memory.best
-        smallest = smallest_stability_margin(constraints)
+        smallest = smallest_stability_margin(requirements)
         if smallest is not None and (best.smallest is None or smallest > best.smallest):
             best = CipBest(k, tuple(x.tolist()), smallest)
         status, reason = Status.RUNNING, ""
-        if not any(c.active for c in constraints):
+        if not any(c.active for c in requirements):
             status, reason = Status.CONVERGED, "all system requirements have been met"
         elif k >= s.max_iterations:
             status, reason = Status.ITERATION_LIMIT, f"maximum iterations ({s.max_iterations})"
         memory = replace(
             state.memory,
-            constraints=tuple(constraints),
+            requirements=tuple(requirements),
             windings=tuple(windings),
             step=min(h * s.growth, s.max_step),
             best=best,
         )
         new_state = State(k, tuple(x.tolist()), status, memory)
         names = self._slot_names()
-        extra = self._extra(x, constraints, memory, before) | {
+        extra = self._extra(x, requirements, memory, before) | {
             "matched": [
                 {
                     "kind": o.kind,
@@ -265,7 +265,7 @@ class Cip:
             k,
             status,
             self.problem.named(x),
-            _rows(self.problem, constraints),
+            _rows(self.problem, requirements),
             step_size=h,
             direction=tuple(direction.vector.tolist()),
             counters=_counters(rejected, accepted=True),
@@ -279,7 +279,7 @@ class Cip:
         state: State,
         status: Status,
         reason: str,
-        constraints: list[Constraint],
+        requirements: list[Requirement],
         *,
         termination: str = "",
         direction: NDArray | None = None,
@@ -288,15 +288,15 @@ class Cip:
         """End without moving: the record shows the current coefficients."""
         x = np.array(state.x)
         k = state.iteration + 1
-        before = sum(c.active for c in constraints)
-        extra = self._extra(x, constraints, state.memory, before) | {"termination": termination}
+        before = sum(c.active for c in requirements)
+        extra = self._extra(x, requirements, state.memory, before) | {"termination": termination}
         if direction is not None:
             extra["partials"] = self._split(dict(zip(self._slot_names(), direction.tolist())))
         record = StepRecord(
             k,
             status,
             self.problem.named(x),
-            _rows(self.problem, constraints),
+            _rows(self.problem, requirements),
             step_size=state.memory.step,
             direction=() if direction is None else tuple(direction.tolist()),
             counters=_counters(rejected or {}, accepted=False),
@@ -305,13 +305,13 @@ class Cip:
         )
         return State(k, state.x, status, state.memory), record
 
-    def _extra(self, x: NDArray, constraints: list[Constraint], memory: CipMemory, before: int) -> dict:
+    def _extra(self, x: NDArray, requirements: list[Requirement], memory: CipMemory, before: int) -> dict:
         best = memory.best
         return {
-            "unmet": sum(c.active for c in constraints),
+            "unmet": sum(c.active for c in requirements),
             "unmet_start": memory.unmet_start,
             "unmet_before": before,
-            "smallest_stability_margin": smallest_stability_margin(constraints),
+            "smallest_stability_margin": smallest_stability_margin(requirements),
             "best": {
                 "iteration": best.iteration,
                 "smallest_stability_margin": best.smallest,
@@ -340,18 +340,18 @@ def _counters(rejected: dict[str, int], accepted: bool) -> dict[str, int]:
     return {"trials": trials, "evaluations": trials} | {f"rejected_{k}": v for k, v in rejected.items()}
 
 
-def smallest_stability_margin(constraints: list[Constraint]) -> float | None:
+def smallest_stability_margin(requirements: list[Requirement]) -> float | None:
     """The smallest relative-stability margin (G, P or S distance from -1)."""
-    values = [c.value for c in constraints if c.kind in ("G", "P", "S")]
+    values = [c.value for c in requirements if c.kind in ("G", "P", "S")]
     return min(values) if values else None
 
 
-def match_constraints(old: list[Constraint], new: list[Constraint], chosen: list[Constraint]) -> list:
-    """(old, new) pairs for the ``chosen`` old constraints: same family,
+def match_requirements(old: list[Requirement], new: list[Requirement], chosen: list[Requirement]) -> list:
+    """(old, new) pairs for the ``chosen`` old requirements: same family,
     mutually nearest in log frequency."""
 
-    def by_family(pool: list[Constraint]) -> dict[str, tuple[list[Constraint], NDArray]]:
-        groups: dict[str, list[Constraint]] = {}
+    def by_family(pool: list[Requirement]) -> dict[str, tuple[list[Requirement], NDArray]]:
+        groups: dict[str, list[Requirement]] = {}
         for c in pool:
             groups.setdefault(c.family, []).append(c)
         return {f: (cs, np.log(np.maximum([c.frequency for c in cs], 1e-300))) for f, cs in groups.items()}
@@ -396,11 +396,11 @@ def _distinct(rows: Rows) -> Rows:
     return Rows(rows.gradients[keep], rows.weights[keep], tuple(rows.owners[i] for i in keep), rows.distances[keep])
 
 
-def _label(c: Constraint, number: int) -> str:
+def _label(c: Requirement, number: int) -> str:
     return f"margin {number} ({c.kind} at {c.frequency / (2 * math.pi):.5g} Hz)"
 
 
-def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, ...]:
+def _rows(problem: Problem, requirements: list[Requirement]) -> tuple[MeasureRow, ...]:
     return tuple(
         MeasureRow(
             str(n),
@@ -413,5 +413,5 @@ def _rows(problem: Problem, constraints: list[Constraint]) -> tuple[MeasureRow, 
             c.shown_at_least,
             c.method,
         )
-        for n, c in enumerate(constraints, start=1)
+        for n, c in enumerate(requirements, start=1)
     )

@@ -2,7 +2,7 @@
 PARCLT and DIRVEC).
 
 Each active margin is moved relative to its push or pull points: the
-constraint is the squared distance d(w) = |GH(jw) - q|^2 at the margin's
+requirement is the squared distance d(w) = |GH(jw) - q|^2 at the margin's
 frequency, to be increased (push) or decreased (pull).  Its gradient with
 respect to the free coefficients comes from the engine's analytic
 sensitivities, d d / d p = 2 Re(conj(GH - q) dGH/dp); `partials.py` has the
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.cip.constraints import Constraint
+from engine.cip.requirements import Requirement
 from engine.design.problem import Problem
 from engine.loop.responses import open_loop
 
@@ -33,7 +33,7 @@ ZERO = 1e-12  # relative size of a gradient treated as zero
 @dataclass(frozen=True)
 class Rows:
     """Raw gradient rows (one per active margin and point), their weights,
-    the constraint each row belongs to, and the squared distances."""
+    the requirement each row belongs to, and the squared distances."""
 
     gradients: NDArray[np.float64]
     weights: NDArray[np.float64]
@@ -51,8 +51,8 @@ class Direction:
     reason: str = ""
 
 
-def gradient_rows(problem: Problem, x: NDArray, active: list[Constraint]) -> Rows:
-    """Gradients of d(w) for every active constraint and each of its points."""
+def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement]) -> Rows:
+    """Gradients of d(w) for every active requirement and each of its points."""
     slot_of = problem.slot_index
     m = len(problem.free_slots())
     rows, weights, owners, distances = [], [], [], []
@@ -105,7 +105,7 @@ def improvement_direction(
                 None,
                 held,
                 "theorem2",
-                f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
+                f"{G.shape[0]} active requirements (margins x points) but only {G.shape[1]} "
                 "free coefficients: improvement cannot be assured (report 000, Theorem 2)",
             )
         singular = np.linalg.svd(G, compute_uv=False)
@@ -114,7 +114,7 @@ def improvement_direction(
                 None,
                 held,
                 "dependent",
-                "the gradients of the active constraints are linearly dependent "
+                "the gradients of the active requirements are linearly dependent "
                 f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})",
             )
         a = np.linalg.solve(G @ G.T, rows.weights)

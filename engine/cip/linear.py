@@ -81,7 +81,7 @@ def _reduced(unit: NDArray, weights: NDArray, held: NDArray, rows: NDArray) -> N
             None,
             held,
             "theorem2",
-            f"{G.shape[0]} active constraints (margins x points) but only {G.shape[1]} "
+            f"{G.shape[0]} active requirements (margins x points) but only {G.shape[1]} "
             "directions left by the bounds and linear constraints held: improvement cannot "
             "be assured (report 000, Theorem 2)",
         )
@@ -91,7 +91,7 @@ def _reduced(unit: NDArray, weights: NDArray, held: NDArray, rows: NDArray) -> N
             None,
             held,
             "dependent",
-            "the gradients of the active constraints are linearly "
+            "the gradients of the active requirements are linearly "
             f"dependent in the directions the held linear constraints leave "
             f"(singular values {singular[0]:.3g} .. {singular[-1]:.3g})",
         )

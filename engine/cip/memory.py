@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Self
 
-from engine.cip.constraints import KIND, Constraint
+from engine.cip.requirements import KIND, Requirement
 from engine.design.problem import Point
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields, jsonable, to_float
@@ -28,7 +28,7 @@ class CipMemory:
     """The margins at the current coefficients, the windings of 1 + GH per condition
     (the stability guard), the step size h, the unmet count at the start, the best point."""
 
-    constraints: tuple[Constraint, ...]
+    requirements: tuple[Requirement, ...]
     windings: tuple[float, ...]
     step: float
     unmet_start: int
@@ -38,7 +38,7 @@ class CipMemory:
     def to_json(self) -> dict:
         """Plain JSON types (`jsonable`'s, built directly: every step stores its memory)."""
         return {
-            "constraints": [_constraint_json(c.to_json()) for c in self.constraints],
+            "requirements": [_requirement_json(c.to_json()) for c in self.requirements],
             "windings": [_plain(w) for w in self.windings],
             "step": _plain(self.step),
             "unmet_start": _plain(self.unmet_start),
@@ -58,7 +58,7 @@ class CipMemory:
         if not step > 0:
             raise EngineError(f"cip memory.step: expected a step size > 0, got {step!r}")
         return cls(
-            tuple(_quick_constraint(c.data) or constraint_from(c) for c in fields.objects("constraints")),
+            tuple(_quick_requirement(c.data) or requirement_from(c) for c in fields.objects("requirements")),
             fields.numbers("windings"),
             step,
             fields.integer("unmet_start"),
@@ -74,8 +74,8 @@ def _plain(value: Any) -> Any:
     return value if kind is int or kind is str else jsonable(value)
 
 
-def _constraint_json(data: dict) -> dict:
-    """`jsonable` of `Constraint.to_json`'s dict (its lists: the points and gh)."""
+def _requirement_json(data: dict) -> dict:
+    """`jsonable` of `Requirement.to_json`'s dict (its lists: the points and gh)."""
     return {
         k: [[_plain(v) for v in p] for p in value]
         if k == "points"
@@ -97,10 +97,10 @@ NUMBERS = {
 }  # field: must be finite
 
 
-def _quick_constraint(data: Any) -> Constraint | None:
-    """The constraint when every field is of its plain type (texts, a condition
+def _quick_requirement(data: Any) -> Requirement | None:
+    """The requirement when every field is of its plain type (texts, a condition
     number, floats finite where required, points of finite floats); None
-    otherwise, for `constraint_from` to read or to name what is wrong."""
+    otherwise, for `requirement_from` to read or to name what is wrong."""
     try:
         texts = [data[k] for k in TEXTS]
         numbers = [data[k] for k in NUMBERS]
@@ -133,7 +133,7 @@ def _quick_constraint(data: Any) -> Constraint | None:
         return None
     family, kind, measure, method = texts
     frequency, value, desired, shown, shown_desired, weight = numbers
-    return Constraint(
+    return Requirement(
         family=family,
         kind=kind,
         measure=measure,
@@ -150,13 +150,13 @@ def _quick_constraint(data: Any) -> Constraint | None:
     )
 
 
-def constraint_from(fields: Fields) -> Constraint:
-    """A `Constraint` from its JSON (`Constraint.to_json`), every field checked."""
+def requirement_from(fields: Fields) -> Requirement:
+    """A `Requirement` from its JSON (`Requirement.to_json`), every field checked."""
     kind = fields.text("kind")
     if kind not in KINDS:
         raise EngineError(f"{fields.where}.kind: expected one of {', '.join(KINDS)}, got {kind!r}")
     gh = fields.numbers("gh", 2, finite=False)
-    return Constraint(
+    return Requirement(
         family=fields.text("family"),
         kind=kind,
         measure=fields.text("measure"),

@@ -1,14 +1,14 @@
-"""cip's constraints for the closed-loop peaks (`engine.margins.peak_measures`).
+"""cip's requirements for the closed-loop peaks (`engine.margins.peak_measures`).
 
 Each peak measure is a stability margin: with f its transform of GH (S,
 T or S - 1/2) and 1 + F = 1/f,
   Ms <= M      is   |1 + GH| >= 1/M at every frequency: cip's stability
                margin itself (family S: the local minima of |1 + GH| from
-               `engine.margins.search`, pushed from -1; `constraints._constraint`
+               `engine.margins.search`, pushed from -1; `requirements._requirement`
                converts the desired value and shows 1/|1 + GH|);
   Mt <= M      is   |1 + 1/GH| = 1/|T| >= 1/M;
   alpha >= a   is   |1 + F| = 2|1 + GH|/|1 - GH| = 1/|S - 1/2| >= a (skew 0).
-For Mt and the disk margin (family D) the constraints are the local maxima
+For Mt and the disk margin (family D) the requirements are the local maxima
 of |f| in the target's detection band (refined, or the grid's on a
 tabulated loop), valued 1/|T| or alpha there, each pushed from its Newton
 point q = GH + f/(df/dGH): cip's row 2 Re(conj(GH - q) dGH/dx) is then a
@@ -18,7 +18,7 @@ the direction is exactly the one a stability margin of F would get.
 
 from __future__ import annotations
 
-from engine.cip.constraints import KIND, Constraint
+from engine.cip.requirements import KIND, Requirement
 from engine.design.problem import Point, Target
 from engine.errors import EngineError
 from engine.loop.responses import LoopModel
@@ -38,8 +38,8 @@ def check_peak_targets(targets: tuple[Target, ...]) -> None:
             )
 
 
-def peak_constraints(loop: LoopModel, targets: list[tuple[int, Target]], c: int) -> list[Constraint]:
-    """The family-D constraints (Mt, disk margin) of one condition's targets."""
+def peak_requirements(loop: LoopModel, targets: list[tuple[int, Target]], c: int) -> list[Requirement]:
+    """The family-D requirements (Mt, disk margin) of one condition's targets."""
     out = []
     method = "refined" if loop.evaluate is not None else "grid"
     for i, target in targets:
@@ -53,7 +53,7 @@ def peak_constraints(loop: LoopModel, targets: list[tuple[int, Target]], c: int)
             shown = magnitude if target.measure in INVERTED else value
             goal = inverse(desired) if target.measure in INVERTED else desired
             out.append(
-                Constraint(
+                Requirement(
                     f"{target.measure}#{i}@{c}",
                     "D",
                     target.measure,

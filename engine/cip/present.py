@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from engine.cip.constraints import KIND
+from engine.cip.requirements import KIND
 from engine.design.problem import Problem
 from engine.stepping.presenter import Presenter
 from engine.stepping.protocol import State, StepRecord
@@ -62,7 +62,7 @@ def _margin_line(n: int, r) -> str:
     unit = f" {unit}" if unit else ""
     return (
         f"  {label} NO. {n:3d} = {r.value:10.5f}{unit}   FREQUENCY = {r.frequency / HZ:10.5f} HZ   "
-        f"DESIRED MARGIN = {r.target:10.5f}{unit}   MARGIN TYPE = {KIND.get(r.kind, '?')}{flag}"
+        f"DESIRED MARGIN = {r.desired:10.5f}{unit}   MARGIN TYPE = {KIND.get(r.kind, '?')}{flag}"
     )
 
 

@@ -1,4 +1,4 @@
-"""CIP's constraints: the margins of every condition's loop, each with its
+"""CIP's requirements: the margins of every condition's loop, each with its
 desired value, written as report 000 does (chapter VI, listing MAIN).
 
 Order and numbering follow the listing's tableau: relative stability first
@@ -39,7 +39,7 @@ DEFAULT_POINTS = {
 
 
 @dataclass(frozen=True)
-class Constraint:
+class Requirement:
     """One margin with its requirement.
 
     ``value``/``desired`` are distances (report 000's units: from -1 for G, P
@@ -76,7 +76,7 @@ class Constraint:
 
     @property
     def active(self) -> bool:
-        """Unsatisfied (the report's active constraint)."""
+        """Unsatisfied (the report's active requirement)."""
         return self.value < self.desired if self.at_least else self.value > self.desired
 
     @property
@@ -106,10 +106,10 @@ class Constraint:
         return data
 
     @staticmethod
-    def from_json(data: dict) -> Constraint:
+    def from_json(data: dict) -> Requirement:
         points = tuple(Point(complex(re, im), mode) for re, im, mode in data["points"])
         rest = {k: v for k, v in data.items() if k not in ("points", "gh")}
-        return Constraint(**rest, points=points, gh=complex(*data["gh"]))
+        return Requirement(**rest, points=points, gh=complex(*data["gh"]))
 
 
 def check_targets(problem: Problem) -> None:
@@ -117,22 +117,22 @@ def check_targets(problem: Problem) -> None:
     check_accepted("cip", (target.measure for target in problem.targets))
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
-    from engine.cip.peaks import check_peak_targets  # peaks.py builds on this module's Constraint
+    from engine.cip.peaks import check_peak_targets  # peaks.py builds on this module's Requirement
 
     check_peak_targets(problem.targets)
 
 
 def detect(
     problem: Problem, x: NDArray, detection: str, gain_as_stability: bool = False, phase_as_stability: bool = False
-) -> tuple[list[Constraint], list[float]]:
-    """Every constraint at the free vector ``x``, in tableau order, and the
+) -> tuple[list[Requirement], list[float]]:
+    """Every requirement at the free vector ``x``, in tableau order, and the
     winding of 1 + GH along the grid per condition (turns; a stability guard).
 
     ``detection``: ``grid`` (report 000's grid rules on the user's grid),
     ``refined`` (exact loops refined on the network, tables on a rational
     fit), ``auto`` (exact loops refined, tables by the grid rule, so the
     report's tabulated examples are reproduced)."""
-    found: list[Constraint] = []
+    found: list[Requirement] = []
     windings = []
     for c, condition in enumerate(problem.conditions):
         targets = [(i, t) for i, t in enumerate(problem.targets) if t.condition in (None, condition.name)]
@@ -148,12 +148,12 @@ def detect(
             )
         above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
         found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
-        found += _constraints(
+        found += _requirements(
             found_margins.all(), targets, c, gain_as_stability, phase_as_stability, found_margins.label
         )
-        from engine.cip.peaks import peak_constraints  # Mt and disk margins (family D); peaks.py imports Constraint
+        from engine.cip.peaks import peak_requirements  # Mt and disk margins (family D); peaks.py imports Requirement
 
-        found += peak_constraints(loop, targets, c)
+        found += peak_requirements(loop, targets, c)
         windings.append(winding(loop.gh))
     return sorted(found, key=_tableau_order), windings
 
@@ -177,26 +177,26 @@ def winding(gh: NDArray) -> float:
 SECTION_ORDER = {"G": 0, "P": 1, "copy": 2, "S": 3, "D": 4, "A": 5}
 
 
-def _tableau_order(c: Constraint) -> tuple:
+def _tableau_order(c: Requirement) -> tuple:
     section = "copy" if "<" in c.family else c.kind
     return (c.condition, SECTION_ORDER[section], c.family.split("@")[0], c.frequency)
 
 
-def _constraints(
+def _requirements(
     found: tuple[Margin, ...],
     targets: list[tuple[int, Target]],
     c: int,
     gain_as_stability: bool,
     phase_as_stability: bool,
     method: str = "grid",
-) -> list[Constraint]:
-    out: list[Constraint] = []
+) -> list[Requirement]:
+    out: list[Requirement] = []
     stability_targets = [(i, t) for i, t in targets if KIND[t.measure] == "S"]
     for i, target in targets:
         kind = KIND[target.measure]
         for m in found:
             if m.kind == kind and target.detect_low <= m.frequency <= target.detect_high:
-                made = _constraint(m, target, f"{target.measure}#{i}@{c}", c, method)
+                made = _requirement(m, target, f"{target.measure}#{i}@{c}", c, method)
                 if made is not None:
                     out.append(made)
     copies = [k for k, wanted in (("G", gain_as_stability), ("P", phase_as_stability)) if wanted]
@@ -204,7 +204,7 @@ def _constraints(
     for made in copied:
         for i, target in stability_targets:
             margin = Margin("S", made.frequency, made.value, made.gh)
-            copy = _constraint(margin, target, f"stability_margin#{i}@{c}<{made.kind}", c, method)
+            copy = _requirement(margin, target, f"stability_margin#{i}@{c}<{made.kind}", c, method)
             if copy is not None:
                 out.append(copy)
     taken = {(made.frequency, made.family.split("<")[0]) for made in out if "<" in made.family}
@@ -213,7 +213,7 @@ def _constraints(
     ]
 
 
-def _constraint(m: Margin, target: Target, family: str, c: int, method: str = "grid") -> Constraint | None:
+def _requirement(m: Margin, target: Target, family: str, c: int, method: str = "grid") -> Requirement | None:
     desired = target.desired(m.frequency)
     if desired is None:
         return None
@@ -226,7 +226,7 @@ def _constraint(m: Margin, target: Target, family: str, c: int, method: str = "g
     elif target.measure == "sensitivity_peak":  # Ms <= M: the stability margin |1 + GH| >= 1/M
         shown, goal = (1.0 / m.value if m.value > 0 else math.inf), (1.0 / desired if desired > 0 else math.inf)
     points = target.points or DEFAULT_POINTS[KIND[target.measure]]
-    return Constraint(
+    return Requirement(
         family,
         KIND[target.measure],
         target.measure,

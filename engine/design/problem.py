@@ -137,7 +137,7 @@ class Target:
     detect_low: float = 0.0
     detect_high: float = np.inf
     sense: Literal["at_least", "at_most"] | None = None  # None: the measure's natural sense
-    constraint: bool = True  # False: only in the objective (e.g. a peak load to minimize)
+    requirement: bool = True  # False: only in the objective (e.g. a peak load to minimize), never judged met
     response: TimeResponse | None = None  # for time-domain measures
 
     @property

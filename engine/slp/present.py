@@ -46,7 +46,7 @@ def slp_report_text(record: StepRecord) -> str:
         key = f"{m.name}@{m.condition}"
         lines.append(
             f"{k:>3} {m.name:<6}{m.condition[:11]:<12}{_number(m.value, 12)}{_number(m.frequency, 10, 4)}"
-            f"{_number(m.target, 10, 4)}{_number(d, 10, 4)} {'yes' if m.satisfied else 'NO':<4}"
+            f"{_number(m.desired, 10, 4)}{_number(d, 10, 4)} {'yes' if m.satisfied else 'NO':<4}"
             f"{partials.get(key, ''):<18}{_number(duals.get(key), 10, 3)}"
         )
     return "\n".join(lines)

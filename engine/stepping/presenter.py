@@ -63,7 +63,7 @@ def tableau_text(rows: Sequence[MeasureRow], unit: str = "rad/s") -> str:
             r.condition,
             f"{r.value:.6g}",
             "" if r.frequency is None else f"{r.frequency * scale:.6g}",
-            "" if r.target is None else f"{r.target:.6g}",
+            "" if r.desired is None else f"{r.desired:.6g}",
             "yes" if r.satisfied else "NO",
             r.method or "",
         )

@@ -62,7 +62,7 @@ class MeasureRow:
     kind: str
     condition: str
     value: float
-    target: float | None
+    desired: float | None  # the target's desired value (None: a row shown without one)
     satisfied: bool
     frequency: float | None = None
     at_least: bool = True  # larger values are better (False: peaks, times, errors, attenuation)
@@ -79,7 +79,7 @@ class MeasureRow:
             fields.text("kind"),
             fields.text("condition"),
             fields.number("value", finite=False),
-            fields.optional_number("target", finite=False),
+            fields.optional_number("desired", finite=False),
             fields.boolean("satisfied"),
             _or_default(fields, "frequency", None, functools.partial(fields.optional_number, finite=False)),
             _or_default(fields, "at_least", True, fields.boolean),

@@ -195,7 +195,7 @@ def _targets() -> list[dict]:
         },
         {
             "measure": "peak_response",
-            "constraint": False,
+            "requirement": False,
             "weight": 1.0,
             "scale": 100.0,
             "bands": [{"desired": 0.0}],
@@ -216,7 +216,7 @@ def session() -> dict:
         "angle of attack under a wind shear while every margin stays met."
     )
     return {
-        "schema_version": 1,
+        "schema_version": 2,
         "provenance": {"loopcraft_version": "0.1.0", "created": stamp, "modified": stamp},
         "notes": notes,
         "algorithm": {"name": "slp", "settings": {"max_major": 20, "step_floor": 0.05}},

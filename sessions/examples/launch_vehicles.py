@@ -166,7 +166,7 @@ def _channel(name: str, csv: str, columns: list[str], gain: float, factors: list
 def _session(notes: str, channels: list[dict], params: list, grid: dict, targets: list, settings: dict) -> dict:
     stamp = "2026-11-23T00:00:00+00:00"
     return {
-        "schema_version": 1,
+        "schema_version": 2,
         "provenance": {"loopcraft_version": "0.1.0", "created": stamp, "modified": stamp},
         "notes": notes,
         "algorithm": {"name": "cip", "settings": settings},

@@ -78,7 +78,7 @@ def _session(t: dict, R: list[float], notes: str) -> dict:
         "time_unit": ["h", 3600.0],
     }
     return {
-        "schema_version": 1,
+        "schema_version": 2,
         "notes": notes,
         "current_iteration": 0,
         "records": [],

@@ -2,7 +2,7 @@
 
 Every model forbids unknown fields, so a misspelt key is an error that names
 its path rather than something silently ignored.  `SCHEMA_VERSION` is the
-version this code writes; older files are migrated (`store.MIGRATIONS`).
+version this code writes; older files are migrated (`sessions.format.migrations`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from engine.design.measure_kinds import MEASURE_KINDS
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 from sessions.format.constraint_lines import ConstraintText
 from sessions.format.limits import (  # noqa: F401
@@ -347,7 +347,7 @@ class TargetModel(Strict):
     sense: Literal["at_least", "at_most"] | None = Field(
         default=None, description="null: the measure's own (at most for peaks, times, errors; at least otherwise)"
     )
-    constraint: bool = Field(default=True, description="false: only in the objective, never a requirement")
+    requirement: bool = Field(default=True, description="false: only in the objective, never a requirement")
     response: ResponseModel | None = Field(default=None, description="for time-domain measures")
 
 
@@ -403,7 +403,7 @@ class ProvenanceModel(Strict):
 class SweepModel(Strict):
     """A sweep's results (`loopcraft sweep`); `version` is this section's own format version."""
 
-    version: Literal[1]
+    version: Literal[2]
     kind: Literal["starts", "vary", "tolerance"]
     created: str
     algorithm: str
@@ -413,12 +413,12 @@ class SweepModel(Strict):
     runs: list[dict[str, Any]] = Field(
         default=[],
         description="one per run: index, label, start, parameters, "
-        "objective, status, reason, measures, meets_requirements, worker, attempts",
+        "ranking, status, reason, measures, meets_requirements, worker, attempts",
     )
     failed: list[int] = []
     retried: dict[str, list[str]] = Field(default={}, description="run index -> the workers it was started on")
     optima: list[dict[str, Any]] = Field(
-        default=[], description="parameters, objective, count, meets_requirements, best_run, runs"
+        default=[], description="parameters, ranking, count, meets_requirements, best_run, runs"
     )
     worst_case: list[dict[str, Any]] = Field(default=[], description="tolerance sweeps: per measure row")
 
@@ -426,7 +426,7 @@ class SweepModel(Strict):
 class SessionModel(Strict):
     """A whole session: the problem, the algorithm, what it did, and notes."""
 
-    schema_version: Literal[1]
+    schema_version: Literal[2]
     provenance: ProvenanceModel
     notes: str = ""
     problem: ProblemModel

@@ -19,6 +19,7 @@ from datetime import UTC, datetime
 
 from engine.errors import EngineError
 from sessions.errors import SessionError
+from sessions.format.schema import SCHEMA_VERSION
 
 LOOPCRAFT_VERSION = "0.1.0"
 ALGORITHMS = ("slp", "cip")  # those whose targets may be margins in dB and degrees
@@ -84,7 +85,7 @@ def new_session(
         },
     }
     return {
-        "schema_version": 1,
+        "schema_version": SCHEMA_VERSION,
         "provenance": {"loopcraft_version": LOOPCRAFT_VERSION, "created": stamp, "modified": stamp},
         "notes": notes
         or f"A new session: the compensator {expression} ({compensator}) on the plant "

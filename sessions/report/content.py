@@ -119,11 +119,11 @@ def _problem(session: Session, named: dict | None) -> list[Block]:
             "; ".join(_band(b) for b in t.bands),
             t.sense or "natural",
             _number(t.weight),
-            "yes" if t.constraint else "objective only",
+            "yes" if t.requirement else "objective only",
         ]
         for t in model.targets
     ]
-    blocks += [("h3", "Targets"), ("table", ("measure", "condition", "bands", "sense", "weight", "constraint"), rows)]
+    blocks += [("h3", "Targets"), ("table", ("measure", "condition", "bands", "sense", "weight", "requirement"), rows)]
     settings = ", ".join(f"{k}={v}" for k, v in session.model.algorithm.settings.items()) or "defaults"
     blocks.append(("p", f"Algorithm {session.model.algorithm.name} ({settings})."))
     return blocks
@@ -146,7 +146,7 @@ def _tableau(rows: list[MeasureRow]) -> Block:
                 r.condition,
                 _number(r.value),
                 _number(r.frequency),
-                _number(r.target),
+                _number(r.desired),
                 "met" if r.satisfied else "UNMET",
             ]
             for r in rows

@@ -20,7 +20,7 @@ from sessions.lifecycle import adopt_parameters
 from sessions.store import Session, now
 from sessions.sweeps.jobs import Outcome
 
-SWEEP_VERSION = 1
+SWEEP_VERSION = 2
 SAME_PARAMETERS = 0.05  # decades (about 12 %): runs closer than this in every parameter share an optimum
 SAME_LOOP = 0.01  # runs whose open loops agree within 1 % at every signature point share an optimum
 SAME_OBJECTIVE = 0.01  # relative
@@ -30,14 +30,14 @@ def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
     """Distinct local optima: runs whose open loops agree within 1 % at every
     signature point (`loop_signature`; without signatures, whose final
     parameters agree within about 12 % in every parameter, log scale, linear
-    near zero) and whose objectives agree within 1 %; each with its count
+    near zero) and whose ranking values agree within 1 %; each with its count
     and best run."""
     done = [r for r in runs if r["status"] != "failed" and r["parameters"]]
     sign = -1.0 if maximize else 1.0
 
     def rank(r: dict) -> tuple:
-        objective = r["objective"] if isinstance(r["objective"], (int, float)) else math.inf
-        return (not r["meets_requirements"], sign * objective if math.isfinite(objective) else math.inf)
+        ranking = r["ranking"] if isinstance(r["ranking"], (int, float)) else math.inf
+        return (not r["meets_requirements"], sign * ranking if math.isfinite(ranking) else math.inf)
 
     clusters: list[dict] = []
     for run in sorted(done, key=rank):
@@ -48,7 +48,7 @@ def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
                 if signature is not None and cluster["signature"] is not None
                 else _near(vector, cluster["vector"])
             )
-            if same and _close(run["objective"], cluster["objective"]):
+            if same and _close(run["ranking"], cluster["ranking"]):
                 cluster["runs"].append(run["index"])
                 break
         else:
@@ -56,7 +56,7 @@ def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
                 {
                     "vector": vector,
                     "signature": signature,
-                    "objective": run["objective"],
+                    "ranking": run["ranking"],
                     "parameters": run["parameters"],
                     "meets_requirements": run["meets_requirements"],
                     "best_run": run["index"],
@@ -66,7 +66,7 @@ def optima(runs: Sequence[dict], maximize: bool) -> list[dict]:
     return [
         {
             "parameters": c["parameters"],
-            "objective": c["objective"],
+            "ranking": c["ranking"],
             "count": len(c["runs"]),
             "meets_requirements": c["meets_requirements"],
             "best_run": c["best_run"],
@@ -122,7 +122,7 @@ def worst_case(runs: Sequence[dict]) -> list[dict]:
                     "name": m["name"],
                     "kind": m["kind"],
                     "condition": m["condition"],
-                    "target": m["target"],
+                    "desired": m["desired"],
                     "worst": value,
                     "worst_sample": run["index"],
                     "unmet_samples": 0,

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from engine.cip import Cip, CipSettings
-from engine.cip.constraints import Constraint
 from engine.cip.direction import gradient_rows
+from engine.cip.requirements import Requirement
 from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
 from engine.errors import EngineError
 from engine.loop.responses import open_loop
@@ -97,10 +97,10 @@ def test_gradient_matches_differences_and_report_closed_form(k, point):
     problem = two_channel_problem()
     w = float(W_TABLE[k])
     gh = open_loop(problem.conditions[0].network, "e", [w], VALUES, sensitivities=False).value[0]
-    constraint = Constraint(
+    requirement = Requirement(
         "f", "S", "stability_margin", 0, w, abs(1 + gh), 0.5, 0.0, 0.5, 1.0, (Point(point, "push"),), gh
     )
-    analytic = gradient_rows(problem, problem.vector(), [constraint]).gradients[0]
+    analytic = gradient_rows(problem, problem.vector(), [requirement]).gradients[0]
     names = [p.name for p in problem.parameters]
 
     def distance(values: dict) -> float:
@@ -145,7 +145,7 @@ def _first(problem: Problem, settings: CipSettings = CipSettings()):
     return algorithm.step(state)
 
 
-def test_more_active_constraints_than_coefficients_is_theorem_2():
+def test_more_active_requirements_than_coefficients_is_theorem_2():
     state, record = _first(_loop_problem("K/(s*(s+1)*(s+2))", {"K": 3.0}, ("K",), (GM, PM)))
     assert record.status is Status.INFEASIBLE and state.status is Status.INFEASIBLE
     assert record.extra["termination"] == "theorem2" and "Theorem 2" in record.reason
@@ -226,7 +226,7 @@ def test_examples_ratchet_and_end_with_fewer_unmet_targets(example_runs, name):
 def test_launch_vehicle_tableau_starts_like_table_1(example_runs):
     session, _ = example_runs["cip_launch_vehicle"]
     state = Cip().init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
-    rows = state.memory.constraints
+    rows = state.memory.requirements
     assert [r.kind for r in rows[:4]] == ["G", "P", "P", "S"]
     assert rows[3].value == rows[0].value and rows[3].desired == 0.505  # INCGMS copy (Table 1, no. 4)
     assert rows[0].frequency / (2 * np.pi) < 0.1 and 1.0 < rows[1].frequency / (2 * np.pi) < 1.4

@@ -149,7 +149,7 @@ def lead_session(algorithm: str, start: tuple[float, float, float], constraints:
     }
     stamp = "2026-01-01T00:00:00+00:00"
     return {
-        "schema_version": 1,
+        "schema_version": 2,
         "provenance": {"loopcraft_version": "0.1.0", "created": stamp, "modified": stamp},
         "problem": problem,
         "algorithm": {"name": algorithm, "settings": {}},

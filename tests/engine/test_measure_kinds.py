@@ -205,7 +205,7 @@ def test_acceptance_column():
 
 
 def test_cip_refuses_a_measure_it_cannot_improve_naming_both():
-    from engine.cip.constraints import check_targets
+    from engine.cip.requirements import check_targets
 
     with pytest.raises(EngineError, match="cip: target measure 'rise_time' is not a margin"):
         check_targets(loop_problem(1.0, [target("gain_margin"), target("rise_time")]))

@@ -82,9 +82,13 @@ def _shorten(path: str):
     "name, corrupt, message",
     [
         ("cip", _set("step", "fast"), r"cip memory\.step: expected a finite number, got str 'fast'"),
-        ("cip", _set("constraints.0.desired", ...), r"cip memory\.constraints\[0\]\.desired: missing"),
+        ("cip", _set("requirements.0.desired", ...), r"cip memory\.requirements\[0\]\.desired: missing"),
         ("cip", _set("best.x.0", "nan"), r"cip memory\.best\.x\[0\]: expected a finite number, got nan"),
-        ("cip", _set("constraints.1.kind", "Q"), r"cip memory\.constraints\[1\]\.kind: expected one of A, D, G, P, S"),
+        (
+            "cip",
+            _set("requirements.1.kind", "Q"),
+            r"cip memory\.requirements\[1\]\.kind: expected one of A, D, G, P, S",
+        ),
         ("qcg", _shorten("initial_scale"), r"qcg memory\.initial_scale: expected \d+ items, got \d+"),
         ("qcg", _set("kount", 1.5), r"qcg memory\.kount: expected an integer >= 0, got float 1\.5"),
         ("slp", _set("P", "inf"), r"slp memory\.P: expected a finite number, got inf"),

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
-from engine.cip.constraints import check_targets, detect
 from engine.cip.direction import gradient_rows
+from engine.cip.requirements import check_targets, detect
 from engine.design.measure_kinds import accepts, kind
 from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
 from engine.design.tableau import tableau
@@ -176,7 +176,7 @@ def test_cip_rows_push_along_the_gradient_of_the_measures_stability_margin(measu
     grads = gradient_rows(p, x, found).gradients
     for c, row in zip(found, grads):
 
-        def margin(xv):  # |1 + F| = 1/|f| at the constraint's fixed frequency
+        def margin(xv):  # |1 + F| = 1/|f| at the requirement's fixed frequency
             gh = python_control_loop(xv, resonance)(1j * c.frequency)
             return 1 / abs(loop_derivative(measure, gh)[0])
 

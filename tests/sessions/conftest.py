@@ -6,7 +6,7 @@ import pytest
 import tests.sessions.gradient_algorithm  # noqa: F401  (registers "gradient")
 
 MATCHING = {
-    "schema_version": 1,
+    "schema_version": 2,
     "provenance": {
         "loopcraft_version": "0.1.0",
         "created": "2026-11-23T00:00:00+00:00",

@@ -19,7 +19,9 @@ def test_run_json_saves_records_and_reports(matching, tmp_path, capsys):
     assert set(data) == {"algorithm", "status", "iterations", "parameters", "objective", "measures", "counters"}
     assert data["algorithm"] == "gradient" and data["status"] == "converged"
     assert data["parameters"]["K"] == pytest.approx(4.0) and data["objective"] < 1e-24
-    assert {"name", "kind", "condition", "value", "target", "satisfied", "frequency"} == set(data["measures"][0])
+    assert {"name", "kind", "condition", "value", "target", "desired", "satisfied", "frequency"} == set(
+        data["measures"][0]
+    )
     assert data["counters"]["evaluations"] >= 1
     saved = json.loads(out.read_text())
     assert saved["current_iteration"] == data["iterations"] == len(saved["records"])
@@ -46,7 +48,10 @@ def test_report_formats(matching, capsys, fmt):
     out = capsys.readouterr().out
     assert "phase_margin_deg" in out
     if fmt == "json":
-        assert json.loads(out)["iteration"] == 1
+        data = json.loads(out)
+        assert data["iteration"] == 1
+        row = data["measures"][0]   # the key other programs read, beside the row's own name
+        assert row["target"] == row["desired"] == 45.0
 
 
 def test_report_iteration_out_of_range(matching, capsys):

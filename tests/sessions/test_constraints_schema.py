@@ -62,7 +62,7 @@ def two_conditions(constraints: list[str]) -> dict:
         "constraints": constraints,
     }
     return {
-        "schema_version": 1,
+        "schema_version": 2,
         "provenance": {"loopcraft_version": "0.1.0", "created": STAMP, "modified": STAMP},
         "problem": problem,
         "algorithm": {"name": "slp", "settings": {}},

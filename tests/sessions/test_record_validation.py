@@ -113,13 +113,13 @@ def test_measure_values_may_be_non_finite_as_written(ran):
 
     def change(doc):
         row = doc["records"][1]["measures"][0]
-        row["value"], row["frequency"], row["target"] = "nan", "nan", "-inf"
+        row["value"], row["frequency"], row["desired"] = "nan", "nan", "-inf"
         doc["records"][1]["objective"] = "inf"
 
     _corrupt(ran, change)
     record = load_session(ran).records[1]
     row = record.measures[0]
-    assert row.value != row.value and row.frequency != row.frequency and row.target == float("-inf")
+    assert row.value != row.value and row.frequency != row.frequency and row.desired == float("-inf")
     assert record.objective == float("inf")
 
 

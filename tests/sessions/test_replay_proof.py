@@ -94,7 +94,7 @@ RECORD_FIELDS = [
     (("settings", "max_iterations"), "settings mismatch"),
 ] + [
     (("measures", 1, name), f"measures[1].{name}")
-    for name in ("name", "kind", "condition", "value", "target", "satisfied", "frequency", "at_least", "method")
+    for name in ("name", "kind", "condition", "value", "desired", "satisfied", "frequency", "at_least", "method")
 ]
 
 
@@ -123,7 +123,7 @@ def test_a_frequency_divergence_shows_both_values(recorded, tmp_path):
     [
         (("x", 0), "state.x[0]"),
         (("memory", "step"), "state.memory.step"),
-        (("memory", "constraints", 1, "frequency"), "state.memory.constraints[1].frequency"),
+        (("memory", "requirements", 1, "frequency"), "state.memory.requirements[1].frequency"),
         (("iteration",), "state.iteration"),
     ],
 )
@@ -162,7 +162,7 @@ def test_the_untouched_session_reproduces(recorded, tmp_path, capsys):
 
 def test_noise_on_a_zero_is_not_a_divergence(recorded, tmp_path):
     doc = copy.deepcopy(recorded)
-    points = doc["state"]["memory"]["constraints"][0]["points"][0]
+    points = doc["state"]["memory"]["requirements"][0]["points"][0]
     assert points[1] == 0.0
     points[1] = 1e-13
     assert _replayed(doc, tmp_path).ok

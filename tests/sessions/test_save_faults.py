@@ -65,7 +65,7 @@ def test_non_finite_values_in_free_form_data_save(matching_dict, tmp_path):
                 "kind": "phase_margin_deg",
                 "condition": "nominal",
                 "value": 3.5,
-                "target": 45.0,
+                "desired": 45.0,
                 "satisfied": False,
                 "frequency": 4.5,
             }

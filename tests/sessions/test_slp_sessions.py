@@ -31,7 +31,7 @@ def test_time_response_and_required_values_are_read(tmp_path):
     assert targets[0].sense == "at_most" and not targets[0].at_least
     assert targets[0].bands[0].required == -6.0 and targets[0].bands[0].desired == -8.0
     peak = targets[-1]
-    assert peak.measure == "peak_response" and not peak.constraint
+    assert peak.measure == "peak_response" and not peak.requirement
     assert peak.response.input == "alpha_w" and peak.response.profile == ((0.0, 0.0, 0.05), (2.0, 0.0, -0.05))
 
 

@@ -3,6 +3,7 @@ saves, autosave, and the stepper protocol through the tests' algorithm."""
 
 from __future__ import annotations
 
+import copy
 import json
 import shutil
 import subprocess
@@ -15,9 +16,11 @@ import pytest
 import sessions.store as store
 from engine.stepping.protocol import State, iterate, lookup, make_settings
 from sessions.errors import SessionError
+from sessions.format import migrations
 from sessions.format.json_schema import SCHEMA_FILE, schema_text
+from sessions.format.schema import SweepModel
 from sessions.runner import replay, run_session
-from sessions.store import autosave_candidate, autosave_path, dumps, load_session, save_session
+from sessions.store import autosave_candidate, autosave_path, dumps, load_session, parse_session, save_session
 
 EXAMPLES = sorted((Path(__file__).resolve().parents[2] / "sessions" / "examples").glob("*.json"))
 
@@ -97,13 +100,13 @@ def test_older_versions_are_migrated_and_say_so(matching_dict, tmp_path, monkeyp
         data["notes"] = data.pop("comment")
         return data
 
-    monkeypatch.setitem(store.MIGRATIONS, 0, from_0)
+    monkeypatch.setitem(migrations.MIGRATIONS, 0, from_0)
     matching_dict["schema_version"] = 0
     matching_dict["comment"] = matching_dict.pop("notes")
     path = tmp_path / "old.json"
     path.write_text(json.dumps(matching_dict))
     session = load_session(path)
-    assert session.messages == ["migrated from schema version 0 to 1"]
+    assert session.messages == ["migrated from schema version 0 to 1", "migrated from schema version 1 to 2"]
     assert session.model.notes.startswith("model matching")
 
 
@@ -227,3 +230,53 @@ def test_autosave_during_a_run_is_throttled_and_written_at_its_end(matching):
     assert store.write_autosave(session, at_most_every=60.0) is None  # the next within 60 s is not
     run_session(session, iterations=3)
     assert json.loads(autosave_path(matching).read_text())["current_iteration"] == 3  # the end of the run is
+
+
+def test_a_version_1_session_reads_as_it_was_saved(tmp_path):
+    """Version 2 renamed saved names (sessions/format/migrations.py): a session saved by
+    version 1, written here by renaming a version-2 save's keys back, loads to the same
+    model, records, state and sweep."""
+    source = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "cip_launch_vehicle.json"
+    path = tmp_path / "lv.json"
+    shutil.copy(source, path)
+    shutil.copy(source.with_suffix(".csv"), tmp_path / source.with_suffix(".csv").name)
+    session = load_session(path)
+    session.model.problem.targets[0].requirement = False
+    assert len(run_session(session, 2, autosave=False)) == 2
+    session.model.sweeps.append(
+        SweepModel(
+            version=2,
+            kind="starts",
+            created="x",
+            algorithm="cip",
+            runs=[{"index": 0, "ranking": 1.5, "measures": [{"name": "G1", "desired": 0.5}]}],
+            optima=[{"ranking": 1.5, "count": 1}],
+            worst_case=[{"name": "G1", "desired": 0.5, "worst": 0.2}],
+        )
+    )
+    save_session(session)
+    saved = json.loads(path.read_text())
+
+    old = copy.deepcopy(saved)
+    old["schema_version"] = 1
+    old["problem"]["targets"][0]["constraint"] = old["problem"]["targets"][0].pop("requirement")
+    for record in old["records"]:
+        for row in record["measures"]:
+            row["target"] = row.pop("desired")
+    old["state"]["memory"]["constraints"] = old["state"]["memory"].pop("requirements")
+    sweep = old["sweeps"][0]
+    sweep["version"] = 1
+    sweep["runs"][0]["objective"] = sweep["runs"][0].pop("ranking")
+    sweep["runs"][0]["measures"][0]["target"] = sweep["runs"][0]["measures"][0].pop("desired")
+    sweep["optima"][0]["objective"] = sweep["optima"][0].pop("ranking")
+    sweep["worst_case"][0]["target"] = sweep["worst_case"][0].pop("desired")
+    path.write_text(json.dumps(old))
+
+    migrated = load_session(path)
+    assert migrated.messages == ["migrated from schema version 1 to 2"]
+    assert migrated.model == load_session_text(saved, tmp_path).model
+    assert migrated.state == session.state and migrated.records == session.records
+
+
+def load_session_text(data: dict, folder: Path):
+    return parse_session(json.dumps(data), "saved", folder)

@@ -26,6 +26,7 @@ from sessions.sweeps.jobs import SECOND_TIMING, Outcome, execute, execute_serial
 from sessions.sweeps.plan import parse_sweep, start_jobs
 from sessions.sweeps.results import record_sweep, summarize
 from tui.cli import main
+from tui.cli.sweep import with_former_keys
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "sessions" / "examples"
@@ -172,7 +173,7 @@ def test_a_session_that_cannot_be_saved_leaves_a_recovery_file(tmp_path, capsys,
     out, err = capsys.readouterr()
     recovery = tmp_path / "coebra_lag_lead.sweep-recovery.json"
     saved = json.loads(recovery.read_text())
-    assert saved["sweep"]["runs"] == json.loads(out)["runs"] and saved["session"] == str(path)
+    assert with_former_keys(saved["sweep"])["runs"] == json.loads(out)["runs"] and saved["session"] == str(path)
     assert f"No space left on device; the sweep's results are in {recovery}" in err
 
 
@@ -186,7 +187,7 @@ def test_non_finite_objectives_are_kept_as_json(tmp_path):
             "status": "converged",
             "reason": "",
             "parameters": {"T1": 1.0},
-            "objective": math.inf,
+            "ranking": math.inf,
             "measures": [],
             "meets_requirements": True,
             "iterations": 3,
@@ -195,10 +196,10 @@ def test_non_finite_objectives_are_kept_as_json(tmp_path):
     ]
     summary = summarize(session, "starts", {}, Outcome(runs, 1))
     record_sweep(session, summary)
-    assert summary["runs"][0]["objective"] == "inf"
+    assert summary["runs"][0]["ranking"] == "inf"
     from sessions.store import dumps
 
-    assert json.loads(dumps(session.model))["sweeps"][0]["runs"][0]["objective"] == "inf"
+    assert json.loads(dumps(session.model))["sweeps"][0]["runs"][0]["ranking"] == "inf"
 
 
 @pytest.mark.slow

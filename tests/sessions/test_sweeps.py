@@ -69,7 +69,7 @@ def test_optima_cluster_by_parameters_and_objective():
             "index": i,
             "status": "converged",
             "parameters": {"T1": T[0], "T2": T[1]},
-            "objective": objective,
+            "ranking": objective,
             "meets_requirements": meets,
         }
 
@@ -99,7 +99,7 @@ def test_runs_with_the_same_loop_are_one_optimum_whatever_their_parameters(tmp_p
             "index": i,
             "status": "converged",
             "parameters": d,
-            "objective": 29.0,
+            "ranking": 29.0,
             "meets_requirements": True,
             "signature": loop_signature(session.problem, d),
         }
@@ -123,7 +123,7 @@ def test_worst_case_follows_each_measures_sense():
                     "kind": "phase_margin_deg",
                     "condition": "c",
                     "value": pm,
-                    "target": 30.0,
+                    "desired": 30.0,
                     "satisfied": pm >= 30,
                     "at_least": True,
                 },
@@ -132,7 +132,7 @@ def test_worst_case_follows_each_measures_sense():
                     "kind": "modal_peak_db",
                     "condition": "c",
                     "value": peak,
-                    "target": -6.0,
+                    "desired": -6.0,
                     "satisfied": peak <= -6,
                     "at_least": False,
                 },
@@ -167,7 +167,7 @@ def test_penalty_trade_off_is_monotone(tmp_path, capsys):
     assert all(r["status"] == "converged" for r in runs)
     assert np.all(np.diff(output) > 0) and np.all(np.diff(rate) < 0)
     saved = json.loads(path.read_text())["sweeps"]
-    assert len(saved) == 1 and saved[0]["version"] == 1 and saved[0]["kind"] == "vary"
+    assert len(saved) == 1 and saved[0]["version"] == 2 and saved[0]["kind"] == "vary"
 
 
 @pytest.mark.slow

@@ -118,7 +118,7 @@ async def test_the_pole_lines_come_with_a_sweep_kept_in_the_session(workdir):
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         app.bench.session.model.sweeps.append(
-            SweepModel(version=1, kind="starts", created="x", algorithm=app.bench.algorithm_name)
+            SweepModel(version=2, kind="starts", created="x", algorithm=app.bench.algorithm_name)
         )
         assert app.bench.latest_sweep() is app.bench.latest_sweep()
         await pilot.press("s")

@@ -37,8 +37,8 @@ def test_a_sweep_ranks_its_runs_by_the_presenters_value(workdir, capsys):
     summary = json.loads(capsys.readouterr().out)
     runs = summary["runs"]
     assert len(runs) == 3 and all(r["status"] != "failed" for r in runs)
-    assert all(isinstance(r["objective"], float) for r in runs)  # the presenter's ranking: the merit
-    best = [o["objective"] for o in summary["optima"]]
+    assert all(isinstance(r["ranking"], float) for r in runs)  # the presenter's ranking: the merit
+    best = [o["ranking"] for o in summary["optima"]]
     assert best == sorted(best)  # smaller merit first (maximize False)
 
 

@@ -81,7 +81,8 @@ def summary_json(session: Session) -> dict:
                 "kind": r.kind,
                 "condition": r.condition,
                 "value": finite_or_none(r.value),
-                "target": r.target,
+                "target": r.desired,  # the JSON key other programs read
+                "desired": r.desired,
                 "satisfied": r.satisfied,
                 "frequency": finite_or_none(r.frequency),
             }

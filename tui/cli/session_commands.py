@@ -86,7 +86,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         data = (
             summary_json(session)
             if args.iteration is None
-            else {"iteration": args.iteration, "measures": [dict(vars(r)) for r in rows]}
+            else {"iteration": args.iteration, "measures": [dict(vars(r), target=r.desired) for r in rows]}
         )
         print(json.dumps(data, indent=2, sort_keys=True, default=finite_or_none))
     elif args.format == "csv":
@@ -94,7 +94,7 @@ def cmd_report(args: argparse.Namespace) -> int:
         writer.writerow(["name", "kind", "condition", "value", "frequency", "target", "satisfied", "method"])
         for r in rows:
             writer.writerow(
-                [r.name, r.kind, r.condition, repr(r.value), r.frequency, r.target, r.satisfied, r.method or ""]
+                [r.name, r.kind, r.condition, repr(r.value), r.frequency, r.desired, r.satisfied, r.method or ""]
             )
     else:
         from engine.stepping.presenter import tableau_text, tolerant

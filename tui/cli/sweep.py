@@ -101,7 +101,7 @@ def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome,
     record_sweep(session, summary)
     adopt_error = _adopt_best(session, summary) if args.adopt_best and not outcome.interrupted else None
     kept, in_session = _save(session, summary, target)
-    print(json.dumps(summary, indent=2, sort_keys=True) if args.json else sweep_text(summary))
+    print(json.dumps(with_former_keys(summary), indent=2, sort_keys=True) if args.json else sweep_text(summary))
     if outcome.interrupted:
         print(
             f"loopcraft sweep: interrupted: {outcome.finished} of {len(outcome.runs)} runs finished; "
@@ -175,10 +175,10 @@ def sweep_text(summary: dict) -> str:
         f"{summary['kind']} sweep: {len(runs)} runs on {summary['workers']} worker(s), "
         f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"
     ]
-    lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'objective':>12} {'meets':<6}{'tries':>5}")
+    lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'ranking':>12} {'meets':<6}{'tries':>5}")
     for r in runs:
         lines.append(
-            f"{r['index']:>4} {r['label'][:17]:<18}{r['status'][:23]:<24}{_number(r['objective'])} "
+            f"{r['index']:>4} {r['label'][:17]:<18}{r['status'][:23]:<24}{_number(r['ranking'])} "
             f"{'yes' if r['meets_requirements'] else 'no':<6}{r.get('attempts', 1):>5}"
             + (f"  {r['reason']}" if r["status"] == "failed" else "")
         )
@@ -195,10 +195,27 @@ def sweep_text(summary: dict) -> str:
                 f"{_number(w['target'], 10)}  {w['unmet_samples']}/{w['samples']}"
             )
     else:
-        lines += ["", f"{'optimum':>7} {'count':>5} {'meets':<6}{'objective':>12} {'best run':>8}  parameters"]
+        lines += ["", f"{'optimum':>7} {'count':>5} {'meets':<6}{'ranking':>12} {'best run':>8}  parameters"]
         for k, o in enumerate(summary["optima"], start=1):
             lines.append(
                 f"{k:>7} {o['count']:>5} {'yes' if o['meets_requirements'] else 'no':<6}"
-                f"{_number(o['objective'])} {o['best_run']:>8}  {_values(o['parameters'])}"
+                f"{_number(o['ranking'])} {o['best_run']:>8}  {_values(o['parameters'])}"
             )
     return "\n".join(lines)
+
+
+def with_former_keys(summary: dict) -> dict:
+    """The summary as `sweep --json` printed it before the names were made one per idea:
+    each run's and optimum's ranking value also as "objective", each measure's and worst
+    case's desired value also as "target" (other programs read those keys)."""
+
+    def measure(row: dict) -> dict:
+        return {**row, "target": row.get("desired")}
+
+    runs = [
+        {**r, "objective": r.get("ranking"), "measures": [measure(m) for m in r.get("measures", [])]}
+        for r in summary.get("runs", [])
+    ]
+    optima = [{**o, "objective": o.get("ranking")} for o in summary.get("optima", [])]
+    worst = [measure(w) for w in summary.get("worst_case", [])]
+    return {**summary, "runs": runs, "optima": optima, "worst_case": worst}

@@ -61,7 +61,7 @@ def _step_marks(fig: Figure, m, t_end: float) -> None:
 
 
 def sweep_figure(sweep: dict | None) -> Figure:
-    """A sweep: final objective against the start (starts), the trade-off (vary),
+    """A sweep: the final ranking value against the start (starts), the trade-off (vary),
     or, for a tolerance study, the samples' smallest relative slack."""
     fig = Figure(empty_message="no sweep yet: w starts one")
     if not sweep:
@@ -87,16 +87,16 @@ def sweep_figure(sweep: dict | None) -> Figure:
             )
         )
         return fig
-    fig.title, fig.ylabel = "Final objective by start", "objective"
+    fig.title, fig.ylabel = "Final ranking value by start", "ranking"
     name = next((k for r in runs for k in r["start"]), None)
     fig.xlabel = f"start {name} (log10)" if sweep["kind"] == "starts" and name else "run"
     for meets, color in ((True, "green"), (False, "red")):
-        chosen = [r for r in runs if r["meets_requirements"] == meets and isinstance(r["objective"], (int, float))]
+        chosen = [r for r in runs if r["meets_requirements"] == meets and isinstance(r["ranking"], (int, float))]
         x = [_start_value(r, name) if fig.xlabel != "run" else float(r["index"]) for r in chosen]
         fig.series.append(
             Series(
                 x,
-                [float(r["objective"]) for r in chosen],
+                [float(r["ranking"]) for r in chosen],
                 "meets every requirement" if meets else "does not",
                 marker="dot",
                 scatter=True,

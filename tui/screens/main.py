@@ -469,11 +469,11 @@ def _fill_sweep(table: DataTable, sweep: dict) -> None:
                 w["name"],
                 w["condition"],
                 number(w["worst"], 5),
-                number(w["target"], 4),
+                number(w["desired"], 4),
                 f"{w['unmet_samples']}/{w['samples']}",
             )
         return
-    table.add_columns("optimum", "count", "meets", "objective", "best run", "parameters")
+    table.add_columns("optimum", "count", "meets", "ranking", "best run", "parameters")
     for k, o in enumerate(sweep["optima"], start=1):
         params = "  ".join(
             f"{n}={number(v if not isinstance(v, list) else v[0], 4)}" for n, v in o["parameters"].items()
@@ -482,7 +482,7 @@ def _fill_sweep(table: DataTable, sweep: dict) -> None:
             str(k),
             str(o["count"]),
             "yes" if o["meets_requirements"] else "no",
-            number(o["objective"], 6),
+            number(o["ranking"], 6),
             str(o["best_run"]),
             params,
         )

@@ -27,7 +27,7 @@ TARGET_FIELDS = [
     ("weight", "weight (the c vector component; slp: W2)"),
     ("scale", "scale factor (slp: S, e.g. 0.2 so 5 deg count as 1 dB)"),
     ("sense", "sense: at_least, at_most or auto (the measure's own)"),
-    ("constraint", "requirement (true) or objective only (false)"),
+    ("requirement", "requirement (true) or objective only (false)"),
     ("response", "time response: INPUT OUTPUT HORIZON [POINTS]; step T A; ramp T S; psd F(s); ..."),
     ("detect", "detection range: low..high (inf: no limit)"),
 ]
@@ -112,7 +112,7 @@ def target_edit(bench: Workbench, ref: Ref, field: str = "bands") -> Edit:
         "weight": (forms.parse_number, forms.format_number),
         "scale": (forms.parse_number, forms.format_number),
         "sense": (forms.parse_sense, forms.format_sense),
-        "constraint": (forms.parse_bool, forms.format_bool),
+        "requirement": (forms.parse_bool, forms.format_bool),
         "response": (forms.parse_response, forms.format_response),
     }
     if field in pairs:

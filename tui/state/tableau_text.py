@@ -50,7 +50,7 @@ def tableau_text(rows: list[MeasureRow], previous: list[MeasureRow], unit: str, 
         )
         text.append(f"{number(r.value, 5):>9}", style="bold" if changed else "")
         text.append(" yes " if r.satisfied else " NO  ", style="" if r.satisfied else "bold red")
-        text.append(f"{number(r.target, 4):>7} {freq:>10}\n")
+        text.append(f"{number(r.desired, 4):>7} {freq:>10}\n")
     methods = sorted({r.method for r in rows if r.method})
     if methods:
         text.append(f"margins: {', '.join(methods)}\n", style="dim")
