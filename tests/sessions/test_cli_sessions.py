@@ -50,7 +50,7 @@ def test_report_formats(matching, capsys, fmt):
     if fmt == "json":
         data = json.loads(out)
         assert data["iteration"] == 1
-        row = data["measures"][0]   # the key other programs read, beside the row's own name
+        row = data["measures"][0]  # the key other programs read, beside the row's own name
         assert row["target"] == row["desired"] == 45.0
 
 
