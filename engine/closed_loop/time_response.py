@@ -274,9 +274,3 @@ def dc_gain(ss: StateSpace, input_name: str) -> NDArray:
     if ss.A.size == 0:
         return ss.D[:, k]
     return ss.D[:, k] - ss.C @ np.linalg.solve(ss.A, ss.B[:, k])
-
-
-def peak_absolute(t: NDArray, y: NDArray) -> tuple[float, float]:
-    """(time, value) of the largest |y|, e.g. peak angle of attack under a wind profile."""
-    i = int(np.argmax(np.abs(y)))
-    return float(t[i]), float(np.abs(y[i]))

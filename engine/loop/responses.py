@@ -128,12 +128,6 @@ class LoopModel:
             self._gh = self.evaluate(self.omega)[0]
         return self._gh
 
-    @staticmethod
-    def from_table(omega: ArrayLike, gh: ArrayLike) -> LoopModel:
-        """A tabulated open loop: margins use the report-000 grid rule."""
-        w = check_grid(omega)
-        return LoopModel(w, np.asarray(gh, dtype=complex))
-
 
 def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float]) -> LoopModel:
     """The open loop at ``break_at`` with everything margins need (rational loops

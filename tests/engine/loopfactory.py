@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from engine.analysis import unity_feedback
+from engine.loop.responses import LoopModel
+from engine.model.network import check_grid
 
 
 def random_poly(rng: np.random.Generator, order: int, unstable: bool) -> np.ndarray:
@@ -46,3 +48,8 @@ def poly_text(c: np.ndarray, x: str = "s") -> str:
 
 def loop_network(num: np.ndarray, den: np.ndarray):
     return unity_feedback([f"{poly_text(num)}/{poly_text(den)}"])
+
+
+def tabulated_loop(omega, gh) -> LoopModel:
+    """A tabulated open loop (no exact evaluator): what a table of GH(j omega) gives the margins."""
+    return LoopModel(check_grid(omega), np.asarray(gh, dtype=complex))

@@ -7,12 +7,13 @@ import numpy as np
 import pytest
 
 from engine.analysis import analyze, unity_feedback
-from engine.loop.responses import LoopModel, loop_model
+from engine.loop.responses import loop_model
 from engine.margins.search import Band, margins
 from engine.model.bilinear import real_frequency, w_frequency, z_to_w
 from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer
 from engine.model.network import Block, Junction, block_diagram
 from engine.numerics.polynomials import Rational
+from tests.engine.loopfactory import tabulated_loop
 
 # a rigid-body loop with a bending mode at zeta = 0.001 (gain-stabilized peak)
 LIGHT_MODE = "40*(s+2)/(s*(s+10)*(s+30)) * 1/(s**2/25**2 + 2*0.001*s/25 + 1)"
@@ -52,7 +53,7 @@ def test_tabulated_loop_uses_the_grid_rule_when_asked():
     expr = "16000*(s+1)*(s+5)/(s*(s+8)*(s+20)*(s+0.1)*(s+50))"
     w = np.geomspace(0.5, 200, 400)
     gh = ExpressionTransfer(expr).evaluate(1j * w, {}).value
-    grid = margins(LoopModel.from_table(w, gh), method="grid")
+    grid = margins(tabulated_loop(w, gh), method="grid")
     exact = margins(loop_model(unity_feedback([expr]), "e", w, {}))
     assert grid.method == "grid" and exact.method == "refined"
     for g, e in [

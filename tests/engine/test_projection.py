@@ -16,10 +16,11 @@ from engine.design.problem import Grid, Objective, Problem
 from engine.errors import EngineError
 from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
-from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection
+from engine.projection.lq import Trajectory
 from engine.projection.system import dae_system
 from engine.stepping.protocol import Status, iterate
 from sessions.store import load_session
+from tests.engine.projection_references import RiccatiProjector, kkt_projection
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 

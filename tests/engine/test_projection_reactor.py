@@ -21,12 +21,13 @@ from scipy.signal import cont2discrete
 
 from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
-from engine.projection.lq import RiccatiProjector, Trajectory, kkt_projection
+from engine.projection.lq import Trajectory
 from engine.projection.system import dae_system
 from engine.stepping.protocol import Status, iterate, make_settings
 from sessions.examples.projection_reactor import NUMBERS, sessions_from
 from sessions.runner import run_session
 from sessions.store import load_session, save_session
+from tests.engine.projection_references import RiccatiProjector, kkt_projection
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 UNIT = np.sqrt(2) * 1e12  # Table 2's unit of ||k - s||

@@ -12,7 +12,7 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.errors import EngineError
-from engine.loop.responses import LoopModel, loop_model
+from engine.loop.responses import loop_model
 from engine.margins.peaks import (
     compensator_peak,
     complementary,
@@ -23,7 +23,7 @@ from engine.margins.peaks import (
     sensitivity_peak,
 )
 from engine.margins.search import Band
-from tests.engine.loopfactory import loop_network, random_loop
+from tests.engine.loopfactory import loop_network, random_loop, tabulated_loop
 
 GRID = np.geomspace(1e-3, 1e3, 10)
 mpmath.mp.dps = 40
@@ -159,7 +159,7 @@ def test_delay_loops_are_searched_within_the_grid_and_say_so():
 def test_tabulated_loops_are_refined_on_a_fit():
     w = np.geomspace(0.01, 100, 400)
     gh = 10 / (1j * w * (1j * w + 1) * (1j * w + 5))
-    p = sensitivity_peak(LoopModel.from_table(w, gh))
+    p = sensitivity_peak(tabulated_loop(w, gh))
     exact = sensitivity_peak(loop_model(unity_feedback(["10/(s*(s+1)*(s+5))"]), "e", GRID, {}))
     assert p.method.startswith("fitted (residual")
     assert p.value == pytest.approx(exact.value, rel=1e-6)

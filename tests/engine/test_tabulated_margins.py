@@ -10,8 +10,8 @@ import control as ct
 import numpy as np
 import pytest
 
-from engine.loop.responses import LoopModel
 from engine.margins.search import margins
+from tests.engine.loopfactory import tabulated_loop
 
 LOOPS = {
     "type 1 lag": ([10.0], [1.0, 6.0, 5.0, 0.0]),  # 10/(s(s+1)(s+5))
@@ -42,7 +42,7 @@ def _dense_stability_minimum(num, den, lo=1e-2, hi=1e2):
 def test_fitted_margins_match_the_rational_loop_to_1e_4(name, points):
     num, den = LOOPS[name]
     w, gh = _table(num, den, points)
-    found = margins(LoopModel.from_table(w, gh))
+    found = margins(tabulated_loop(w, gh))
     assert found.method == "fitted" and found.residual < 1e-6
     wg, wp, pm = _reference(num, den)
     inside = (wg > w[0]) & (wg < w[-1])
@@ -60,8 +60,8 @@ def test_the_grid_rule_is_optimistic_and_the_fit_is_not():
     the fitted minimum agrees with the dense reference."""
     num, den = LOOPS["light resonance"]
     w, gh = _table(num, den, 400)
-    grid = margins(LoopModel.from_table(w, gh), method="grid")
-    fitted = margins(LoopModel.from_table(w, gh))
+    grid = margins(tabulated_loop(w, gh), method="grid")
+    fitted = margins(tabulated_loop(w, gh))
     _, ds = _dense_stability_minimum(num, den)
     assert min(m.value for m in grid.stability) > min(ds) * (1 + 1e-4)
     assert min(m.value for m in fitted.stability) == pytest.approx(min(ds), rel=1e-6)
@@ -75,7 +75,7 @@ def test_the_stated_residual_bounds_the_error_on_a_noisy_table():
     w, gh = _table(num, den, 400)
     rng = np.random.default_rng(7)
     noisy = gh * (1 + 1e-3 * (rng.standard_normal(w.size) + 1j * rng.standard_normal(w.size)) / np.sqrt(2))
-    found = margins(LoopModel.from_table(w, noisy))
+    found = margins(tabulated_loop(w, noisy))
     assert found.method == "fitted" and 5e-4 < found.residual < 2e-2
     wg, wp, pm = _reference(num, den)
     assert abs(found.phase[0].frequency / wp[0] - 1) <= found.residual

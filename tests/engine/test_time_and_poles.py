@@ -89,15 +89,3 @@ def test_second_order_step_measures_match_the_formulas():
     )
     assert m.rise_time == pytest.approx(info["RiseTime"], abs=2e-4)
     assert m.settling_time == pytest.approx(info["SettlingTime"], abs=2e-4)
-
-
-def test_peak_absolute_value_of_a_signal_under_a_wind_profile():
-    from engine.closed_loop.time_response import peak_absolute
-
-    net = unity_feedback([COMPENSATED])
-    t = np.linspace(0, 4, 4001)
-    y = simulate(realize(net, {}), "r", t, [Segment(0.0, slope=1.0), Segment(1.0, slope=-1.0)])
-    e = y[:, net.signal("e")]  # tracking error of a ramp that stops: its largest magnitude
-    when, value = peak_absolute(t, e)
-    assert value == pytest.approx(np.max(np.abs(e))) and e[np.argmin(np.abs(t - when))] != 0
-    assert 0 < when <= 1.2
