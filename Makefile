@@ -10,7 +10,7 @@ PYTHON ?= python3
 TEST_WORKERS ?= 2
 VENV := .venv
 BIN := $(VENV)/bin
-STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+STAMP := $(VENV)/.installed-$(shell cat pyproject.toml tests/plugins/pyproject.toml | cksum | cut -d' ' -f1)
 
 .PHONY: run test test-fast lint bench fuzz clean
 
@@ -18,8 +18,9 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+# the tests' plug-in algorithms (tests/plugins) install beside loopcraft, as a plug-in would
+$(STAMP): pyproject.toml tests/plugins/pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e '.[test]' -e tests/plugins
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
 

@@ -16,10 +16,11 @@ from dataclasses import dataclass, field
 
 from engine.design.tableau import tableau
 from engine.errors import EngineError
+from engine.stepping.driver import first_record
 from engine.stepping.protocol import MeasureRow
 from sessions.errors import SessionError
 from sessions.export.design_model import iteration_parameters
-from sessions.lifecycle import bound_algorithm, registration
+from sessions.lifecycle import registration, stepper
 from sessions.store import Session
 
 
@@ -70,10 +71,8 @@ def side(session: Session, iteration: int | None, source: str) -> Side:
 def _record_rows(session: Session, k: int, source: str) -> list[MeasureRow]:
     if k:
         return list(session.records[k - 1].measures)
-    algorithm, settings = bound_algorithm(session)
     try:
-        state = algorithm.init(session.problem, settings)
-        record = registration(session).presenter.initial_record(algorithm, state, session.problem)
+        record = first_record(registration(session).presenter, stepper(session))
     except EngineError as exc:
         raise SessionError(f"{source}: iteration 0: {exc}") from None
     if record is None:

@@ -12,8 +12,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from engine.design.problem import Problem
 from engine.errors import EngineError
-from engine.stepping.protocol import Registration, StepRecord, lookup, make_settings
+from engine.stepping.protocol import Stepper, StepRecord
+from engine.stepping.registry import Registration, lookup, make_settings
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.format.save_file import real_path
@@ -35,21 +37,21 @@ def registration(session: Session) -> Registration:
         raise SessionError(f"algorithm: {exc}") from None
 
 
-def bound_algorithm(session: Session) -> tuple[Any, Any]:
-    """A new instance of the session's algorithm and its settings (not yet `init`)."""
-    _, algorithm, settings = bind(session.model.algorithm)
-    return algorithm, settings
+def stepper(session: Session) -> Stepper:
+    """The session's algorithm bound to its problem and settings (a `SessionError` when the
+    algorithm or its settings are unknown; the algorithm's own checks of the problem raise
+    `EngineError`)."""
+    return bind(session.model.algorithm, session.problem)[1]
 
 
-def bind(model: AlgorithmModel) -> tuple[Registration, Any, Any]:
-    """An algorithm section's registration, a new instance and its settings
-    (a `SessionError` says why they cannot be made)."""
+def bind(model: AlgorithmModel, problem: Problem) -> tuple[Registration, Stepper]:
+    """An algorithm section's registration and its stepper bound to ``problem``."""
     try:
         found = lookup(model.name)
         settings = make_settings(model.name, model.settings)
     except (EngineError, TypeError) as exc:
         raise SessionError(f"algorithm: {exc}") from None
-    return found, found.factory(), settings
+    return found, found.bind(problem, settings)
 
 
 def forget_records(session: Session) -> None:

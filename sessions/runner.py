@@ -10,11 +10,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from engine.errors import EngineError
+from engine.stepping.driver import iterate, resume
 from engine.stepping.memory_fields import jsonable
-from engine.stepping.protocol import State, StepRecord, iterate
+from engine.stepping.protocol import State, StepRecord
 from sessions.errors import SessionError
 from sessions.format.schema import SessionModel
-from sessions.lifecycle import bound_algorithm, forget_records, named_error
+from sessions.lifecycle import forget_records, named_error, stepper
 from sessions.store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9  # relative
@@ -40,20 +41,15 @@ def run_session(
     """Step from the current iteration; records after it (an undone tail) are dropped.
     ``time_limit``: seconds of wall clock, checked between iterations (the run stops
     there, resumable, its records a prefix of the unlimited run's: it replays)."""
-    algorithm, settings = bound_algorithm(session)
-    snapshot = settings_snapshot(settings)
     model = session.model
     del model.records[model.current_iteration :]
     new = Run()
     try:
-        state = algorithm.init(session.problem, settings)
-        if model.current_iteration and model.state is not None:
-            state = State.from_json(model.state, algorithm.memory_type)
-        elif model.current_iteration:  # no saved state: rebuilt by stepping to the current iteration
-            for _ in range(model.current_iteration):
-                state, _ = algorithm.step(state)
+        bound = stepper(session)
+        snapshot = settings_snapshot(bound.settings)
+        state = resume(bound, model.state, model.current_iteration)
         limit = iterations if iterations is not None else (10**9 if until_done else 1)
-        steps = iterate(algorithm, session.problem, settings, max_iter=limit, state=state, time_limit=time_limit)
+        steps = iterate(bound, max_iter=limit, state=state, time_limit=time_limit)
         for state, record in steps:
             model.records.append(record_json(record, snapshot))
             model.state = state.to_json()
@@ -160,18 +156,18 @@ class ReplayResult:
 def replay(session: Session) -> ReplayResult:
     """Re-run from the initial state; compare every field of every record, the
     settings the records were made with, and the saved state (by `difference`)."""
-    algorithm, settings = bound_algorithm(session)
-    snapshot = settings_snapshot(settings)
     model = session.model
     try:
-        state = algorithm.init(session.problem, settings)
+        bound = stepper(session)
+        snapshot = settings_snapshot(bound.settings)
+        state = bound.init()
         if model.current_iteration == 0 and (found := _state_difference(model.state, state, 0)):
             return ReplayResult(False, 0, found)
         for k, old in enumerate(model.records, start=1):
             found = _settings_difference(k, old, snapshot) or _finished_early(k, state)
             if found:
                 return ReplayResult(False, k, found)
-            state, new = algorithm.step(state)
+            state, new = bound.step(state)
             found = _record_difference(k, old, record_json(new, snapshot if "settings" in old else None))
             if not found and k == model.current_iteration:
                 found = _state_difference(model.state, state, k)

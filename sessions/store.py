@@ -32,7 +32,8 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from engine.design.problem import Problem
-from engine.stepping.protocol import State, StepRecord, memory_type
+from engine.stepping.protocol import State, StepRecord
+from engine.stepping.registry import lookup
 from sessions.build import OutsideTable, build_problem
 from sessions.errors import SessionError
 from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
@@ -102,7 +103,7 @@ class Session:
         """The stored state, read with the algorithm's memory class (None: none stored)."""
         if self.model.state is None:
             return None
-        return State.from_json(self.model.state, memory_type(self.model.algorithm.name))
+        return State.from_json(self.model.state, lookup(self.model.algorithm.name).memory_type)
 
 
 def now() -> str:

@@ -1,45 +1,53 @@
 """Which algorithm uses which target: the Targets tab's 'used by' column and
-the list shown when another algorithm is chosen, read from the one table of
-measure kinds (`engine.design.measure_kinds`)."""
+the list shown when another algorithm is chosen, read from what each installed
+algorithm's registration declares (`TargetUse`, engine.stepping.registry)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-from engine.design.measure_kinds import ALGORITHMS, MEASURE_KINDS, refusal
-
-READS_NO_TARGETS = ("qcg", "projection")  # they minimize their own cost / meet their own constraints
+from engine.design.measure_kinds import MEASURE_KINDS
+from engine.errors import EngineError
+from engine.stepping.registry import Registration, lookup, registrations
 
 
 def used_by(measure: str) -> str:
     """The algorithms whose targets may name ``measure`` ('cip, slp')."""
-    found = MEASURE_KINDS.get(measure)
-    return ", ".join(sorted(found.algorithms)) if found else "none"
+    found = [name for name, r in registrations().items() if r.targets.accepts(measure)]
+    return ", ".join(found) if found else "none"
+
+
+def _known(algorithm: str) -> Registration | None:
+    try:
+        return lookup(algorithm)
+    except EngineError:
+        return None
 
 
 def target_note(measure: str, algorithm: str) -> str:
-    """'' when ``algorithm`` uses the measure (or is not one the table knows),
-    else a short note: 'not cip (slp)', 'ignored by qcg'."""
-    if algorithm not in ALGORITHMS or measure not in MEASURE_KINDS:
+    """'' when ``algorithm`` uses the measure (or is not one installed), else a short
+    note: 'not cip (slp)', 'ignored by qcg'."""
+    registration = _known(algorithm)
+    if registration is None or measure not in MEASURE_KINDS:
         return ""
-    if algorithm in READS_NO_TARGETS:
+    if not registration.targets.reads:
         return f"ignored by {algorithm}"
-    if algorithm in MEASURE_KINDS[measure].algorithms:
+    if registration.targets.accepts(measure):
         return ""
     return f"not {algorithm} ({used_by(measure)})"
 
 
 def unusable_targets(measures: Sequence[str], algorithm: str) -> list[str]:
     """One line per target ``algorithm`` will refuse or ignore, saying which and why."""
-    if algorithm not in ALGORITHMS or not measures:
+    registration = _known(algorithm)
+    if registration is None or not measures:
         return []
-    if algorithm in READS_NO_TARGETS:
-        return [
-            f"{algorithm} {ALGORITHMS[algorithm].removeprefix('is not read by ' + algorithm + ' ')}: "
-            f"the {len(measures)} target(s) are kept but not used"
-        ]
+    use = registration.targets
+    if not use.reads:
+        reason = use.refusal.removeprefix(f"is not read by {algorithm} ")
+        return [f"{algorithm} {reason}: the {len(measures)} target(s) are kept but not used"]
     return [
-        f"{m}: refused by {algorithm}, it {refusal(algorithm, m)}; used by {used_by(m)}"
+        f"{m}: refused by {algorithm}, it {use.why_not(m)}; used by {used_by(m)}"
         for m in measures
-        if m in MEASURE_KINDS and algorithm not in MEASURE_KINDS[m].algorithms
+        if m in MEASURE_KINDS and not use.accepts(m)
     ]

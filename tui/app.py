@@ -373,7 +373,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         self.refresh_workbench()
 
     def action_choose_algorithm(self) -> None:
-        from engine.stepping.protocol import load_builtin, lookup
+        from engine.stepping.registry import lookup, registrations
 
         measures = [t.measure for t in self.bench.session.model.problem.targets]
 
@@ -392,10 +392,10 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
                 )
 
         def summary(name: str, text: str) -> str:
-            count = len(unusable_targets(measures, name)) if name not in ("qcg", "projection") else 0
+            count = len(unusable_targets(measures, name)) if lookup(name).targets.reads else 0
             return f"{text} [refuses {count} of the targets]" if count else text
 
-        choices = [(name, summary(name, registration.summary)) for name, registration in sorted(load_builtin().items())]
+        choices = [(name, summary(name, registration.summary)) for name, registration in registrations().items()]
         if self.bench.algorithm_name not in dict(choices):
             choices.append((self.bench.algorithm_name, lookup(self.bench.algorithm_name).summary))
         self.push_screen(ChooseDialog("algorithm", choices), chosen)

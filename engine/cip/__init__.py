@@ -1,15 +1,20 @@
 """`cip`: constraint improvement on margins (Mitchell & McDaniel, report 000)."""
 
 from engine.cip.algorithm import Cip, CipSettings
+from engine.cip.memory import CipMemory
 from engine.cip.present import CipPresenter
-from engine.stepping.protocol import register
+from engine.cip.requirements import TARGETS
+from engine.stepping.registry import Registration
 
-register(
-    "cip",
-    Cip,
-    CipSettings,
-    "constraint improvement on gain/phase/stability/attenuation margins (report 000, CIP)",
-    CipPresenter(),
+REGISTRATION = Registration(
+    name="cip",
+    bind=Cip.bind,
+    settings=CipSettings,
+    memory_type=CipMemory,
+    summary="constraint improvement on gain/phase/stability/attenuation margins (report 000, CIP)",
+    presenter=CipPresenter(),
+    targets=TARGETS,
+    new_session_rank=1,
 )
 
-__all__ = ["Cip", "CipSettings"]
+__all__ = ["REGISTRATION", "Cip", "CipSettings"]

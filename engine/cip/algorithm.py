@@ -45,7 +45,7 @@ from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.model.compensators import coefficient_roles, compensators, split_by_role
 from engine.stepping.guard import check_vector, guarded
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import BoundStepper, MeasureRow, State, Status, StepRecord
 
 TERMINATION_STATUS = {
     "theorem2": Status.INFEASIBLE,
@@ -90,18 +90,19 @@ class CipSettings:
             raise EngineError("cip: max_iterations must be >= 1")
 
 
-class Cip:
+class Cip(BoundStepper):
     """The stepper (see the module docstring)."""
 
     name = "cip"
     memory_type = CipMemory
+    settings: CipSettings
 
     @guarded("cip")
-    def init(self, problem: Problem, settings: CipSettings) -> State:
+    def setup(self) -> None:
+        problem = self.problem
         check_targets(problem)
         if not problem.free_slots():
             raise EngineError("cip: no free coefficients to vary")
-        self.problem, self.settings = problem, settings
         self.lower, self.upper = problem.bounds()
         self._roles = coefficient_roles(problem.conditions[0].network)
         x = problem.vector()
@@ -109,6 +110,10 @@ class Cip:
         if outside.size:
             raise EngineError(f"cip: {self._slot_names()[outside[0]]} = {x[outside[0]]:.6g} is outside its bounds")
         check_start(problem, x, "cip")
+
+    @guarded("cip")
+    def init(self) -> State:
+        settings, x = self.settings, self.problem.vector()
         requirements, windings = self._detect(x)
         step = settings.max_step if settings.initial_step is None else min(settings.initial_step, settings.max_step)
         memory = CipMemory(

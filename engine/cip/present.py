@@ -12,7 +12,7 @@ import math
 from engine.cip.requirements import KIND
 from engine.design.problem import Problem
 from engine.stepping.presenter import Presenter
-from engine.stepping.protocol import State, StepRecord
+from engine.stepping.protocol import State, Stepper, StepRecord
 
 HZ = 2 * math.pi
 
@@ -115,8 +115,8 @@ class CipPresenter(Presenter):
 
     maximize = True
 
-    def initial_record(self, algorithm, state: State, problem: Problem) -> StepRecord:
-        return algorithm.initial_record(state)
+    def initial_record(self, stepper: Stepper, state: State) -> StepRecord:
+        return stepper.initial_record(state)  # its own stepper's, which knows the record's layout
 
     def convergence(self, record: StepRecord) -> tuple[str, float | None]:
         return "smallest stability margin", record.extra.get("smallest_stability_margin")

@@ -21,14 +21,36 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.design.measure_kinds import check_accepted, kind, names
+from engine.design.measure_kinds import TargetUse, kind
 from engine.design.problem import Point, Problem, Target
 from engine.errors import EngineError
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.search import Margin, margins
 
 # measure -> margin kind (G, P, S, A) of the measures cip accepts (`engine.design.measure_kinds`)
-KIND = {name: kind(name).margin for name in names(algorithm="cip")}
+# the measures cip's targets may name: distances at one frequency (and their classical forms)
+TARGETS = TargetUse(
+    measures=(
+        "gain_margin",
+        "phase_margin",
+        "stability_margin",
+        "attenuation_margin",
+        "gain_margin_db",
+        "phase_margin_deg",
+        "disk_margin",
+        "sensitivity_peak",
+        "complementary_sensitivity_peak",
+    ),
+    refusal="is not a margin (cip improves gain, phase, stability, attenuation and disk margins, Ms and Mt)",
+    refusals=(
+        (
+            "delay_margin",
+            "is not a distance cip can push at one frequency (a delay margin is the phase margin over a "
+            "crossover frequency that moves with the design); use slp",
+        ),
+    ),
+)
+KIND = {name: kind(name).margin for name in TARGETS.measures}
 DEFAULT_POINTS = {
     "G": (Point(-1.0, "push"),),
     "P": (Point(-1.0, "push"),),
@@ -114,7 +136,7 @@ class Requirement:
 
 def check_targets(problem: Problem) -> None:
     """CIP works on the four margin kinds (and their classical forms) only."""
-    check_accepted("cip", (target.measure for target in problem.targets))
+    TARGETS.check("cip", (target.measure for target in problem.targets))
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
     from engine.cip.peaks import check_peak_targets  # peaks.py builds on this module's Requirement

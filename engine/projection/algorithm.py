@@ -31,7 +31,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.projection.banded import Projector
 from engine.projection.lq import Trajectory, norm
@@ -39,7 +38,7 @@ from engine.projection.memory import Iterate, ProjectionMemory
 from engine.projection.openloop import open_loop, peak_rows, peaks
 from engine.projection.system import DaeSystem, dae_system
 from engine.stepping.guard import guarded
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import BoundStepper, MeasureRow, State, Status, StepRecord
 
 STALL_WINDOW = 6
 
@@ -58,12 +57,14 @@ class ProjectionSettings:
             raise EngineError("projection: need tolerance > 0, reset_product >= 1, max_iterations >= 1")
 
 
-class Projection:
+class Projection(BoundStepper):
     name = "projection"
     memory_type = ProjectionMemory
+    settings: ProjectionSettings
 
     @guarded("projection")
-    def init(self, problem: Problem, settings: ProjectionSettings) -> State:
+    def setup(self) -> None:
+        problem = self.problem
         if problem.objective is None or problem.objective.kind != "dae":
             raise EngineError("projection: the problem needs an objective of kind 'dae' with the system in its data")
         if problem.inequalities:
@@ -73,18 +74,19 @@ class Projection:
                 "in the objective's data; remove the constraints"
             )
         self.system: DaeSystem = dae_system(problem.objective.data)
-        self.settings, self.problem = settings, problem
         self.project = Projector(self.system)
         self.open_loop = (
             None if self.system.open_loop is None else open_loop(self.system, self.project.Phi, self.project.Delta)
         )
         self._hyperplanes()
+        self._times = self.system.times().tolist()
+        self._open_rows = None if self.open_loop is None else self.open_loop.packed
+
+    @guarded("projection")
+    def init(self) -> State:
         zero = Trajectory(
             np.zeros((self.system.steps + 1, self.system.n)), np.zeros((self.system.steps + 1, self.system.m))
         )
-        self._times = self.system.times().tolist()
-        self._open_rows = None if self.open_loop is None else _rows(self.open_loop)
-        self._last: tuple[Iterate, Trajectory] | None = None
         return State(0, (), Status.RUNNING, ProjectionMemory(self._pack(self.project(zero)), 1.0, ()))
 
     @guarded("projection")
@@ -291,17 +293,15 @@ class Projection:
         )
 
     def _pack(self, t: Trajectory) -> Iterate:
-        """The iterate as the memory keeps it (tuples), made once per trajectory; the next step
-        takes the arrays back without converting.  A non-finite iterate is an error (it could not be stored)."""
+        """The iterate as the memory keeps it (tuples, made once per trajectory, with its arrays
+        for the next step).  A non-finite iterate is an error (it could not be stored)."""
         if not (np.all(np.isfinite(t.x)) and np.all(np.isfinite(t.u))):
             raise EngineError("projection: the iterate overflows (the system's scales are beyond floating point)")
-        if self._last is None or self._last[1] is not t:
-            self._last = (_rows(t), t)
-        return self._last[0]
+        return t.packed
 
     def _unpack(self, r: Iterate) -> Trajectory:
-        if self._last is not None and self._last[0] is r:
-            return self._last[1]
+        if isinstance(r.source, Trajectory):
+            return r.source
         sys = self.system
         x, u = np.array(r.x, dtype=float), np.array(r.u, dtype=float)
         if x.shape != (sys.steps + 1, sys.n) or u.shape != (sys.steps + 1, sys.m):
@@ -310,11 +310,6 @@ class Projection:
                 f"{sys.m} inputs, got x {x.shape} and u {u.shape}"
             )
         return Trajectory(x, u)
-
-
-def _rows(t: Trajectory) -> Iterate:
-    """The trajectory as tuples of rows (the memory's and the records' form)."""
-    return Iterate(tuple(map(tuple, t.x.tolist())), tuple(map(tuple, t.u.tolist())))
 
 
 def _scale(t: Trajectory) -> float:

@@ -13,12 +13,14 @@ finite-horizon problem in (x, v) with a cross term.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import null_space
 
+from engine.projection.memory import Iterate
 from engine.projection.system import DaeSystem
 
 
@@ -28,6 +30,11 @@ class Trajectory:
 
     x: NDArray
     u: NDArray
+
+    @functools.cached_property
+    def packed(self) -> Iterate:
+        """The trajectory as tuples of rows (the memory's and the records' form), made once."""
+        return Iterate(tuple(map(tuple, self.x.tolist())), tuple(map(tuple, self.u.tolist())), self)
 
     def __add__(self, other: Trajectory) -> Trajectory:
         return Trajectory(self.x + other.x, self.u + other.u)

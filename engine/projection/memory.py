@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import chain
 from typing import Any, ClassVar, Self
 
@@ -14,10 +14,13 @@ from engine.stepping.memory_fields import Fields, jsonable
 
 @dataclass(frozen=True)
 class Iterate:
-    """The iterate r: states x (steps + 1 rows of n) and inputs u (steps + 1 rows of m)."""
+    """The iterate r: states x (steps + 1 rows of n) and inputs u (steps + 1 rows of m);
+    ``source``: the trajectory (`engine.projection.lq.Trajectory`) it was made from, never
+    compared nor stored, so the next step takes its arrays back without converting."""
 
     x: tuple[tuple[float, ...], ...]
     u: tuple[tuple[float, ...], ...]
+    source: object = field(default=None, compare=False, repr=False)
 
 
 @dataclass(frozen=True)

@@ -7,9 +7,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from engine.design.problem import Problem
 from engine.stepping.presenter import Presenter
-from engine.stepping.protocol import State, StepRecord
+from engine.stepping.protocol import State, Stepper, StepRecord
 
 
 class ProjectionPresenter(Presenter):
@@ -17,8 +16,8 @@ class ProjectionPresenter(Presenter):
 
     plots = frozenset({"convergence", "trajectories"})
 
-    def initial_record(self, algorithm, state: State, problem: Problem) -> StepRecord:
-        return algorithm.initial_record(state)
+    def initial_record(self, stepper: Stepper, state: State) -> StepRecord:
+        return stepper.initial_record(state)  # its own stepper's, which knows the record's layout
 
     def convergence(self, record: StepRecord) -> tuple[str, float | None]:
         distance = record.extra.get("distance")

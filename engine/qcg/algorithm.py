@@ -18,7 +18,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.qcg.cgfm import Move, cgfm_step
 from engine.qcg.cost import CostResult, normalized_squares, open_loop_squares
@@ -28,22 +27,22 @@ from engine.qcg.memory import QcgMemory
 from engine.qcg.settings import QcgSettings
 from engine.qcg.setup import CascadeProblem, cascade_problem
 from engine.stepping.guard import check_vector, guarded
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import BoundStepper, MeasureRow, State, Status, StepRecord
 
 __all__ = ["Qcg", "QcgSettings"]
 CONVENTIONS = "F = sum F(w_i)(w_{i+1} - w_{i-1}) as the listing prints; C = F/(2 pi), eq. (22)"
 
 
-class Qcg:
+class Qcg(BoundStepper):
     """The stepper (see the module docstring)."""
 
     name = "qcg"
     memory_type = QcgMemory
+    settings: QcgSettings
 
     @guarded("qcg")
-    def init(self, problem: Problem, settings: QcgSettings) -> State:
-        """Bind the problem and settings; the first state, with the cost at the start."""
-        self.problem, self.settings = problem, settings
+    def setup(self) -> None:
+        problem = self.problem
         self.cascade: CascadeProblem = cascade_problem(problem)
         x = problem.vector()
         if x.size == 0:
@@ -51,6 +50,11 @@ class Qcg:
         if np.any(x == 0):
             raise EngineError("qcg: a free parameter is zero; the search keeps every sign, so start away from 0")
         self.open_loop = open_loop_squares(self.cascade.cascade)
+
+    @guarded("qcg")
+    def init(self) -> State:
+        """The first state, with the cost at the start."""
+        problem, settings, x = self.problem, self.settings, self.problem.vector()
         cost = Counter(self.cascade, problem, self._names())
         last = cost.full(x)
         memory = QcgMemory(

@@ -16,12 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.design.measure_kinds import check_accepted
+from engine.design.measure_kinds import TargetUse
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.model.blocks import Transfer
 from engine.qcg.cost import Cascade, CostResult, Weights, exponential_disturbance, frequency_response, quadratic_cost
 
+TARGETS = TargetUse(reads=False, refusal="is not read by qcg (it minimizes its quadratic cost and reads no targets)")
 OPTIONS = (
     "q1",
     "q2",
@@ -72,7 +73,7 @@ def _cascade_problem(problem: Problem) -> CascadeProblem:
     objective = problem.objective
     if objective is None or objective.kind != "quadratic_cost":
         raise EngineError("qcg: the problem needs an objective of kind 'quadratic_cost'")
-    check_accepted("qcg", (target.measure for target in problem.targets))
+    TARGETS.check("qcg", (target.measure for target in problem.targets))
     unknown = sorted(set(objective.options) - set(OPTIONS))
     if unknown:
         raise EngineError(f"qcg: unknown objective option(s) {', '.join(unknown)}; options are {', '.join(OPTIONS)}")

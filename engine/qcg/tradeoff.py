@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.qcg.algorithm import Qcg, QcgSettings
-from engine.stepping.protocol import iterate
+from engine.stepping.driver import iterate
 
 PENALTIES = ("q1", "q2", "r1", "r2")
 
@@ -59,7 +59,7 @@ def _optimize(
     problem: Problem, settings: QcgSettings, penalty: str, value: float, max_steps: int
 ) -> tuple[TradeoffPoint, tuple[float, ...]]:
     objective = replace(problem.objective, options=dict(problem.objective.options, **{penalty: value}))
-    runs = list(iterate(Qcg(), replace(problem, objective=objective), settings, max_iter=max_steps))
+    runs = list(iterate(Qcg.bind(replace(problem, objective=objective), settings), max_iter=max_steps))
     if not runs:
         raise EngineError("tradeoff: the search made no step")
     state, record = runs[-1]

@@ -48,14 +48,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.constraints import check_start, project
-from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.slp.lp import LpResult, solve_step, step_box
 from engine.slp.measures import Spec, evaluate, measure_specs
 from engine.slp.memory import SlpMemory, SlpPoint
 from engine.slp.partials import jacobian
 from engine.stepping.guard import check_vector, guarded
-from engine.stepping.protocol import MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import BoundStepper, MeasureRow, State, Status, StepRecord
 
 LOAD_KINDS = ("peak_response", "mean_square")
 STILL = "the linear program does not move"
@@ -107,15 +106,16 @@ class Point:
     stable: bool
 
 
-class Slp:
+class Slp(BoundStepper):
     """The sequential linear programming stepper (see the module docstring)."""
 
     name = "slp"
     memory_type = SlpMemory
+    settings: SlpSettings
 
     @guarded("slp")
-    def init(self, problem: Problem, settings: SlpSettings) -> State:
-        self.problem, self.settings = problem, settings
+    def setup(self) -> None:
+        problem, settings = self.problem, self.settings
         self.specs = measure_specs(problem, settings.require_stable)
         if not problem.conditions:
             raise EngineError("slp needs at least one flight condition")
@@ -126,6 +126,10 @@ class Slp:
         self.lower, self.upper = problem.bounds()
         self.equalities = problem.equality_system()
         self.inequalities = problem.linear_constraints
+
+    @guarded("slp")
+    def init(self) -> State:
+        problem, settings = self.problem, self.settings
         x = self._feasible_start(np.clip(problem.vector(), self.lower, self.upper))
         check_start(problem, x, "slp")
         start = _stored(self._point(x))

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
-from engine.design.measure_kinds import MEASURE_KINDS, check_accepted, kind
+from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, kind, names
 from engine.design.problem import FREQUENCY_MEASURES, Problem
 from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization
@@ -53,6 +53,7 @@ MARGIN_ATTRIBUTE = {
 }
 # a row's name: the measure's tag (COEBRA's listing: GM, PM, WC, ...) and its count in the condition
 SHORT = {name: k.tag for name, k in MEASURE_KINDS.items()}
+TARGETS = TargetUse(measures=names(), refusal="is not an slp measure")  # every measure of the table
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,7 @@ class Spec:
 def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, ...]:
     """Every row: each target in each condition it applies to (one per band),
     plus a closed-loop stability row per rational condition if asked."""
-    check_accepted("slp", (target.measure for target in problem.targets))
+    TARGETS.check("slp", (target.measure for target in problem.targets))
     specs: list[Spec] = []
     for c, condition in enumerate(problem.conditions):
         counts: dict[str, int] = {}

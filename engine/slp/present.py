@@ -9,7 +9,7 @@ import math
 
 from engine.design.problem import Problem
 from engine.stepping.presenter import Presenter, number
-from engine.stepping.protocol import State, StepRecord
+from engine.stepping.protocol import State, Stepper, StepRecord
 
 
 def _number(value: float | None, width: int, digits: int = 6) -> str:
@@ -63,8 +63,8 @@ class SlpPresenter(Presenter):
 
     maximize = True
 
-    def initial_record(self, algorithm, state: State, problem: Problem) -> StepRecord:
-        return algorithm.initial_record(state)
+    def initial_record(self, stepper: Stepper, state: State) -> StepRecord:
+        return stepper.initial_record(state)  # its own stepper's, which knows the record's layout
 
     def status_lines(self, record: StepRecord) -> list[str]:
         e = record.extra

@@ -20,7 +20,7 @@ from typing import TypeVar
 from engine.design.problem import Problem
 from engine.design.tableau import tableau
 from engine.errors import EngineError
-from engine.stepping.protocol import Algorithm, MeasureRow, State, Status, StepRecord
+from engine.stepping.protocol import MeasureRow, State, Status, Stepper, StepRecord
 
 LOOP_PLOTS = frozenset({"nyquist", "bode", "nichols", "convergence", "step", "closed_loop", "poles", "locus"})
 # what reading a record's free-form `extra` raises when a session file was edited by hand
@@ -94,8 +94,9 @@ class Presenter:
     plots: frozenset[str] = LOOP_PLOTS  # which of the workbench's plots apply
     maximize: bool = False  # sweeps rank runs by `ranking`, larger better when True
 
-    def initial_record(self, algorithm: Algorithm, state: State, problem: Problem) -> StepRecord | None:
+    def initial_record(self, stepper: Stepper, state: State) -> StepRecord | None:
         """Iteration 0 as a record: the tableau at the start (None when it cannot be computed)."""
+        problem = stepper.problem
         try:
             rows = tuple(tableau(problem))
         except EngineError:

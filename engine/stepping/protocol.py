@@ -1,9 +1,10 @@
-"""The stepper protocol every design algorithm follows, and its registry.
+"""The stepper protocol every design algorithm follows.
 
-An algorithm is set up with `init(problem, settings)`, which returns the first
-`State`; `step(state)` returns the next state and a `StepRecord`, never
-changes its input, and depends on nothing but the problem, the settings and
-the state (no clock: a wall-clock bound is the driver's, `iterate`'s
+An algorithm is bound to a problem and its settings (`Registration.bind`,
+engine.stepping.registry), which gives a frozen `Stepper`; its `init()` returns
+the first `State`, and `step(state)` the next state and a `StepRecord`, never
+changing its input and depending on nothing but the problem, the settings and
+the state (no clock: a wall-clock bound is the driver's, engine.stepping.driver's
 ``time_limit``).  States and records are frozen and convert to and from JSON
 (`to_json`/`from_json`), so a session can store them and replay them; an
 algorithm's memory is its own frozen class (`Memory`, the algorithm's
@@ -14,20 +15,15 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import importlib
-import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import TYPE_CHECKING, ClassVar, Protocol, Self, TypeVar
+from typing import ClassVar, Protocol, Self, TypeVar
 
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields
 from engine.stepping.memory_fields import jsonable as _jsonable
-
-if TYPE_CHECKING:
-    from engine.stepping.presenter import Presenter
 
 T = TypeVar("T")
 
@@ -199,151 +195,49 @@ class State:
         )
 
 
-class Algorithm(Protocol):
-    """The stepper protocol (docs/architecture.md): `init` binds the problem and settings;
+class Stepper(Protocol):
+    """The stepper protocol (docs/architecture.md): an algorithm bound to one problem and
+    its settings (`Registration.bind`), frozen from then on.  `init` gives the first
+    state; `step` the next state and its record, a function of the state alone.
     ``memory_type`` reads a stored state's memory back (`State.from_json`)."""
 
-    name: str
     memory_type: ClassVar[type[Memory]]
 
-    def init(self, problem: Problem, settings: Settings) -> State: ...
+    @property
+    def problem(self) -> Problem: ...
+
+    @property
+    def settings(self) -> Settings: ...
+
+    def init(self) -> State: ...
 
     def step(self, state: State) -> tuple[State, StepRecord]: ...
 
 
-@dataclass(frozen=True)
-class Registration:
-    """An algorithm's factory, its settings class (a dataclass with defaults), a
-    summary, and its presenter (`engine.stepping.presenter.Presenter`: how its records are shown)."""
+class BoundStepper:
+    """The base of the bundled steppers: `bind` makes one for a problem and settings,
+    `setup` (the subclass's) computes what the algorithm keeps of them, and from then on
+    the stepper is frozen: an assignment to it raises, so nothing a step does can leak
+    into the next one."""
 
-    factory: Callable[[], Algorithm]
-    settings: type[Settings]
-    summary: str
-    presenter: Presenter
+    name: ClassVar[str]
+    memory_type: ClassVar[type[Memory]]
+    problem: Problem
+    settings: Settings
 
+    @classmethod
+    def bind(cls, problem: Problem, settings: Settings) -> Self:
+        stepper = cls.__new__(cls)
+        object.__setattr__(stepper, "problem", problem)
+        object.__setattr__(stepper, "settings", settings)
+        stepper.setup()
+        object.__setattr__(stepper, "bound", True)
+        return stepper
 
-REGISTRY: dict[str, Registration] = {}
-# the report algorithms: name -> the package that registers it when imported (one at a time, on demand)
-BUILTIN = {"cip": "engine.cip", "qcg": "engine.qcg", "slp": "engine.slp", "projection": "engine.projection"}
+    def setup(self) -> None:
+        """What the algorithm keeps of its problem and settings (checks included)."""
 
-
-def load_builtin() -> dict[str, Registration]:
-    """Import every bundled algorithm (they register themselves); the registry."""
-    for module in BUILTIN.values():
-        importlib.import_module(module)
-    return REGISTRY
-
-
-def register(
-    name: str,
-    factory: Callable[[], Algorithm],
-    settings: type[Settings],
-    summary: str,
-    presenter: Presenter | None = None,
-) -> None:
-    """Make an algorithm known to the CLI, the app and sweeps by name (without a
-    presenter, its records are shown the generic way)."""
-    if presenter is None:
-        from engine.stepping.presenter import Presenter
-
-        presenter = Presenter()
-    REGISTRY[name] = Registration(factory, settings, summary, presenter)
-
-
-def lookup(name: str) -> Registration:
-    """The registration of an algorithm (a bundled one is imported on first use)."""
-    if name not in REGISTRY and name in BUILTIN:
-        importlib.import_module(BUILTIN[name])
-    if name not in REGISTRY:
-        known = ", ".join(sorted(set(REGISTRY) | set(BUILTIN)))
-        raise EngineError(f"unknown algorithm {name!r} (known: {known})")
-    return REGISTRY[name]
-
-
-def memory_type(name: str) -> type[Memory]:
-    """The memory class of a registered algorithm (what `State.from_json` reads its memory with)."""
-    factory = lookup(name).factory
-    return getattr(factory, "memory_type", None) or factory().memory_type
-
-
-def make_settings(name: str, values: Mapping[str, object]) -> Settings:
-    """The algorithm's settings from a mapping; unknown names are an error."""
-    cls = lookup(name).settings
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(values) - names)
-    retired = getattr(cls, "RETIRED", {})
-    for setting in unknown:
-        if setting in retired:
-            raise EngineError(f"{name}: {setting!r} is no longer a setting: {retired[setting]}")
-    if unknown:
-        raise EngineError(f"{name}: unknown setting(s) {', '.join(unknown)}; settings are {', '.join(sorted(names))}")
-    from engine.stepping.guard import setting_value, settings_types  # the settings' declared types, checked here once
-
-    kinds = settings_types(cls)
-    values = {
-        key: setting_value(name, key, kinds[key], value) if key in kinds else value for key, value in values.items()
-    }
-    try:
-        return cls(**values)
-    except (TypeError, ValueError, OverflowError) as exc:
-        if isinstance(exc, EngineError):
-            raise
-        raise EngineError(f"{name}: settings: {exc}") from None
-
-
-TIME_LIMIT = "time limit"
-
-
-class Iteration(Iterator[tuple[State, StepRecord]]):
-    """The (state, record) of each step, made as they are asked for.  ``stopped`` is
-    `TIME_LIMIT` once the wall-clock bound ended the iteration, else None (the
-    algorithm finished, or ``max_iter`` steps were made: ``steps`` counts them).
-    The clock starts at the first request and is read between steps, so at least
-    one step is made; a step is never cut short, and the records made are exactly
-    a prefix of the run without the limit (the state stays resumable)."""
-
-    def __init__(
-        self,
-        algorithm: Algorithm,
-        problem: Problem,
-        settings: Settings,
-        max_iter: int,
-        state: State | None,
-        time_limit: float | None,
-    ) -> None:
-        self.algorithm, self.problem, self.settings = algorithm, problem, settings
-        self.max_iter, self.state, self.time_limit = max_iter, state, time_limit
-        self.steps = 0
-        self.stopped: str | None = None
-        self._began: float | None = None
-
-    def __next__(self) -> tuple[State, StepRecord]:
-        if self._began is None:
-            self._began = time.perf_counter()
-        if self.state is None:
-            self.state = self.algorithm.init(self.problem, self.settings)
-        if self.stopped is not None or self.state.status.finished or self.steps >= self.max_iter:
-            raise StopIteration
-        if self.steps and self.time_limit is not None and time.perf_counter() - self._began >= self.time_limit:
-            self.stopped = TIME_LIMIT
-            raise StopIteration
-        self.state, record = self.algorithm.step(self.state)
-        self.steps += 1
-        return self.state, record
-
-
-def iterate(
-    algorithm: Algorithm,
-    problem: Problem,
-    settings: Settings,
-    *,
-    max_iter: int,
-    state: State | None = None,
-    time_limit: float | None = None,
-) -> Iteration:
-    """Step (from ``state``, else from ``init``) until the algorithm finishes, ``max_iter``
-    steps were made, or ``time_limit`` seconds of wall clock have passed (checked
-    between steps; the `Iteration`'s ``stopped`` is then `TIME_LIMIT`)."""
-    if time_limit is not None and not time_limit >= 0:
-        raise EngineError(f"time limit must be a number of seconds >= 0, not {time_limit!r}")
-    return Iteration(algorithm, problem, settings, max_iter, state, time_limit)
+    def __setattr__(self, name: str, value: object) -> None:
+        if getattr(self, "bound", False):
+            raise AttributeError(f"{self.name}: a bound stepper does not change ({name})")
+        object.__setattr__(self, name, value)

@@ -11,7 +11,8 @@ from typing import Any
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields
-from engine.stepping.protocol import State, StepRecord, memory_type
+from engine.stepping.protocol import State, StepRecord
+from engine.stepping.registry import lookup
 from sessions.errors import SessionError
 from sessions.format.schema import SessionModel
 
@@ -87,7 +88,7 @@ def check_state(model: SessionModel) -> None:
             "(the state is the one after the current iteration)"
         )
     try:
-        kind = memory_type(model.algorithm.name)
+        kind = lookup(model.algorithm.name).memory_type
     except EngineError:
         return
     try:

@@ -36,9 +36,8 @@ def _one_name_per_idea(data: dict) -> dict:
     for record in _each(data, "records"):
         for row in _each(record, "measures"):
             _renamed(row, "target", "desired")
-    algorithm = data.get("algorithm")
     state = data.get("state")
-    if isinstance(algorithm, dict) and algorithm.get("name") == "cip" and isinstance(state, dict):
+    if isinstance(state, dict):  # only cip's memory held "constraints" in version 1
         _renamed(state.get("memory"), "constraints", "requirements")
     for sweep in _each(data, "sweeps"):
         for run in _each(sweep, "runs"):

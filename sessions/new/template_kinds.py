@@ -1,6 +1,6 @@
 """The kinds of new session the app offers, beside `sessions.new.templates`'s unity
 feedback loop: two nested loops, a tabulated plant from a CSV file, the same
-loop in COEBRA's matrix format, and a projection problem.  Each returns
+loop in COEBRA's matrix format, and a constrained DAE.  Each returns
 session JSON data that `sessions.store.parse_session` accepts."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ KINDS: dict[str, str] = {
     "two-loops": "two loops: an inner plant and compensator inside an outer loop (margins at both)",
     "table": "a tabulated plant: a frequency response from a CSV file",
     "matrix": "a matrix-format plant: the unity loop as COEBRA's A(s) x = B r",
-    "projection": "a projection problem: report 004's constrained DAE (the integrator example)",
+    "dae": "a constrained DAE: report 004's integrator example, designed by alternating projections",
 }
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -41,7 +41,7 @@ def _renamed(expression: str, starts: dict[str, float], suffix: str) -> tuple[st
 
 
 def two_loop_session(
-    inner_plant: str, outer_plant: str, inner: str = "pi", outer: str = "lead", algorithm: str = "slp"
+    inner_plant: str, outer_plant: str, inner: str = "pi", outer: str = "lead", algorithm: str | None = None
 ) -> dict:
     """r -> e1 -> outer compensator -> x_ref -> e2 -> inner compensator -> u -> inner plant -> x
     -> outer plant -> y, e1 = r - y, e2 = x_ref - x; one condition broken at e1 (the outer
@@ -90,7 +90,7 @@ def two_loop_session(
     return data
 
 
-def matrix_session(plant: str, compensator: str = "lead", algorithm: str = "slp") -> dict:
+def matrix_session(plant: str, compensator: str = "lead", algorithm: str | None = None) -> dict:
     """The unity-feedback loop of `new_session` written in the matrix format: signals
     e, u, y with e + y = r, u - C e = 0, y - P u = 0 (forcing r in the first row)."""
     data = new_session(plant, compensator, algorithm)
@@ -116,7 +116,9 @@ def matrix_session(plant: str, compensator: str = "lead", algorithm: str = "slp"
     return data
 
 
-def table_session(table: dict, frequencies: list[float], compensator: str = "lead", algorithm: str = "slp") -> dict:
+def table_session(
+    table: dict, frequencies: list[float], compensator: str = "lead", algorithm: str | None = None
+) -> dict:
     """A tabulated plant (a table transfer, e.g. from a CSV file beside the session) with a
     compensator; the grid spans the table's frequencies (in the table's unit)."""
     positive = sorted(f for f in frequencies if f > 0)
@@ -133,7 +135,7 @@ def table_session(table: dict, frequencies: list[float], compensator: str = "lea
     )
 
 
-def projection_session() -> dict:
+def dae_session() -> dict:
     """A copy of the bundled projection_integrator example, without its records."""
     data = json.loads((EXAMPLES / "projection_integrator.json").read_text(encoding="utf-8"))
     data.update(records=[], current_iteration=0, state=None)

@@ -18,11 +18,11 @@ import math
 from datetime import UTC, datetime
 
 from engine.errors import EngineError
+from engine.stepping.registry import new_session_algorithms
 from sessions.errors import SessionError
 from sessions.format.schema import SCHEMA_VERSION
 
 LOOPCRAFT_VERSION = "0.1.0"
-ALGORITHMS = ("slp", "cip")  # those whose targets may be margins in dB and degrees
 TIME_CONSTANT = (1e-4, 1e4)
 GAIN = (1e-6, 1e6)
 
@@ -40,7 +40,7 @@ STRUCTURES: dict[str, tuple[str, dict[str, float]]] = {
 def new_session(
     plant: str | dict,
     compensator: str = "lead",
-    algorithm: str = "slp",
+    algorithm: str | None = None,
     *,
     name: str = "nominal",
     notes: str = "",
@@ -50,11 +50,14 @@ def new_session(
     ``compensator`` (a name of `STRUCTURES` or an expression in s, or w, whose other
     names become parameters) for ``plant`` (an expression in s, or w for a w-plane
     loop, numbers only, delay factors exp(-T*s) allowed; or a block's ``transfer``
-    JSON, e.g. a table, with its ``grid``) with ``algorithm`` (slp or cip).  ``name``
+    JSON, e.g. a table, with its ``grid``) with ``algorithm`` (one that offers new sessions,
+    `new_session_algorithms`; None: the first).  ``name``
     names the flight condition.  Bad input is a `SessionError` naming it."""
-    if algorithm not in ALGORITHMS:
+    offered = new_session_algorithms()
+    algorithm = offered[0] if algorithm is None else algorithm
+    if algorithm not in offered:
         raise SessionError(
-            f"algorithm {algorithm!r}: a new session is made for {' or '.join(ALGORITHMS)} "
+            f"algorithm {algorithm!r}: a new session is made for {' or '.join(offered)} "
             "(the others need an objective of their own)"
         )
     if isinstance(plant, dict):

@@ -22,10 +22,11 @@ from engine.errors import EngineError
 from engine.loop.realization import realize
 from engine.loop.responses import loop_model, open_loop
 from engine.margins.search import margins
+from engine.stepping.driver import first_record
 from engine.stepping.presenter import tableau_text, tolerant
 from engine.stepping.protocol import MeasureRow, StepRecord
 from sessions.export.design_model import iteration_parameters
-from sessions.lifecycle import bound_algorithm, registration
+from sessions.lifecycle import registration, stepper
 from sessions.report import figures
 from sessions.store import Session
 
@@ -61,10 +62,8 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
 
 
 def _records(session: Session, k: int) -> tuple[StepRecord | None, StepRecord | None]:
-    algorithm, settings = bound_algorithm(session)
     try:
-        state = algorithm.init(session.problem, settings)
-        initial = registration(session).presenter.initial_record(algorithm, state, session.problem)
+        initial = first_record(registration(session).presenter, stepper(session))
     except EngineError:
         initial = None
     return initial, (session.records[k - 1] if k else initial)

@@ -34,8 +34,9 @@ import numpy as np
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.responses import open_loop
-from engine.stepping.presenter import tolerant
-from engine.stepping.protocol import StepRecord, iterate
+from engine.stepping.driver import first_record, iterate
+from engine.stepping.presenter import Presenter, tolerant
+from engine.stepping.protocol import Stepper, StepRecord
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.format.schema import SessionModel
@@ -62,11 +63,11 @@ def run_job(payload: dict) -> dict:
     try:
         model = SessionModel.model_validate(payload["model"])
         problem = build_problem(model.problem, Path.cwd())
-        registration, algorithm, settings = bind(model.algorithm)
+        registration, stepper = bind(model.algorithm, problem)
         if payload["mode"] == "evaluate":
-            record = _evaluate(registration.presenter, algorithm, problem, settings)
+            record = _evaluate(registration.presenter, stepper)
         else:
-            last = deque(iterate(algorithm, problem, settings, max_iter=MAX_ITERATIONS), maxlen=1)
+            last = deque(iterate(stepper, max_iter=MAX_ITERATIONS), maxlen=1)
             if not last:
                 raise SessionError("the algorithm made no iteration")
             record = last[0][1]
@@ -92,9 +93,9 @@ def run_batch(payloads: list[dict]) -> list[dict]:
     return [run_job(payload) for payload in payloads]
 
 
-def _evaluate(presenter, algorithm, problem, settings) -> StepRecord:
+def _evaluate(presenter: Presenter, stepper: Stepper) -> StepRecord:
     """The tableau of the design as it is: iteration 0's record, as the presenter gives it."""
-    record = presenter.initial_record(algorithm, algorithm.init(problem, settings), problem)
+    record = first_record(presenter, stepper)
     if record is None:
         raise SessionError("the design's tableau cannot be computed")
     return record

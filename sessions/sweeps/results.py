@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.stepping.memory_fields import jsonable
-from engine.stepping.protocol import lookup
+from engine.stepping.registry import lookup
 from sessions.errors import SessionError
 from sessions.format.schema import SweepModel
 from sessions.lifecycle import adopt_parameters

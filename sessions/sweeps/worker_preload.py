@@ -1,9 +1,10 @@
 """Imported by each worker of a local sweep cluster as it starts (Dask's
 ``distributed.worker.preload``, `sessions.sweeps.jobs.local_cluster`): the job
-runner and every bundled algorithm with what they import (scipy's HiGHS,
-pydantic's models), so that a worker's first run does not pay for them."""
+runner and every installed algorithm (found through its entry point, as the CLI
+and the app find it) with what they import (scipy's HiGHS, pydantic's models), so
+that a worker's first run does not pay for them."""
 
-from engine.stepping.protocol import load_builtin
+from engine.stepping.registry import registrations
 from sessions.sweeps import jobs as sweep_jobs  # noqa: F401 - imported for what it imports
 
-load_builtin()
+registrations()

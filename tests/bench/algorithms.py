@@ -67,9 +67,9 @@ def cip_iterations(problem, runs: int) -> tuple[list[float], list[int]]:
     from the start (as a user steps), and the trial moves of each step."""
     from engine.cip import Cip, CipSettings
 
-    cip, times, trials = Cip(), [], []
+    cip, times, trials = Cip.bind(problem, CipSettings(mode="tifr", max_step=0.05)), [], []
     for _ in range(runs):
-        state = cip.init(problem, CipSettings(mode="tifr", max_step=0.05))
+        state = cip.init()
         for _ in range(40):
             start = time.perf_counter()
             state, record = cip.step(state)
@@ -123,14 +123,14 @@ def qcg_figures(repeat: int) -> dict:
 
     from engine.qcg import Qcg, QcgSettings
     from engine.qcg.setup import cascade_problem
-    from engine.stepping.protocol import iterate
+    from engine.stepping.driver import iterate
     from sessions.store import load_session
 
     problem = load_session(EXAMPLES / "seidel_inlet_pi.json").problem
     cascade, names = cascade_problem(problem), [p.name for p in problem.parameters]
 
     def qcg(**settings):
-        return lambda i=0: list(iterate(Qcg(), problem, QcgSettings(**settings), max_iter=1000))[-1][1]
+        return lambda i=0: list(iterate(Qcg.bind(problem, QcgSettings(**settings)), max_iter=1000))[-1][1]
 
     def cost(b):
         result = cascade.cost(dict(zip(names, b)), gradient=True)
@@ -195,7 +195,8 @@ def projection_figures(repeat: int) -> dict:
     N = 20, 200, 2000 (interleaved), with targets at 20 and 2000 and the
     fitted exponent of time against N."""
     from engine.projection import Projection
-    from engine.stepping.protocol import iterate, make_settings
+    from engine.stepping.driver import iterate
+    from engine.stepping.registry import make_settings
     from sessions.store import load_session
 
     runs = []
@@ -206,7 +207,7 @@ def projection_figures(repeat: int) -> dict:
             objective = replace(session.problem.objective, data=dict(session.problem.objective.data, steps=steps))
             problem = replace(session.problem, objective=objective)
             runs.append(
-                lambda i=0, p=problem, s=settings: list(iterate(Projection(), p, s, max_iter=s.max_iterations + 1))
+                lambda i=0, p=problem, s=settings: list(iterate(Projection.bind(p, s), max_iter=s.max_iterations + 1))
             )
     medians = [statistics.median(t) for t in samples(runs, repeat)]
     out, k = {}, 0
@@ -226,7 +227,7 @@ def slp_major_iteration(repeat: int) -> dict:
     27 measures): the first major iteration from the start (partials, then
     minor-loop trials until the relinearization); target 0.5 s (report 003: 164 s)."""
     from engine.slp import Slp
-    from engine.stepping.protocol import make_settings
+    from engine.stepping.registry import make_settings
     from sessions.store import load_session
 
     samples_, trials, session = [], 0, None
@@ -234,8 +235,8 @@ def slp_major_iteration(repeat: int) -> dict:
         session = load_session(EXAMPLES / "coebra_launch_vehicle.json")  # fresh networks: no cached realization
         settings = make_settings("slp", session.model.algorithm.settings)
         start = time.perf_counter()
-        algorithm = Slp()
-        state = algorithm.init(session.problem, settings)
+        algorithm = Slp.bind(session.problem, settings)
+        state = algorithm.init()
         trials = 0
         while state.memory.major == 1 and not state.status.finished:
             state, _ = algorithm.step(state)

@@ -18,7 +18,9 @@ from engine.errors import EngineError
 from engine.loop.responses import open_loop
 from engine.model.blocks import ExpressionTransfer, FrequencyTable, TabulatedTransfer, polynomial_transfer
 from engine.model.network import Block, Junction, block_diagram
-from engine.stepping.protocol import Status, iterate, lookup
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import Status
+from engine.stepping.registry import lookup
 from sessions.runner import replay, run_session
 from sessions.store import load_session
 from tests.engine.cip_report_partials import report_partials
@@ -140,9 +142,8 @@ PM = Target("phase_margin", (BandValue(0, np.inf, 1.5),))
 
 
 def _first(problem: Problem, settings: CipSettings = CipSettings()):
-    algorithm = Cip()
-    state = algorithm.init(problem, settings)
-    return algorithm.step(state)
+    stepper = Cip.bind(problem, settings)
+    return stepper.step(stepper.init())
 
 
 def test_more_active_requirements_than_coefficients_is_theorem_2():
@@ -168,9 +169,9 @@ def test_iteration_limit_and_met_requirements():
     # only K varies: with T free too, the fixed-frequency gradient of report 000 lowers T, which moves
     # the phase crossover to where |GH| is larger (the report's Figure 16 trap)
     problem = _loop_problem("K*(1+T*s)/(s*(s+1)*(s+2))", {"K": 3.0, "T": 0.1}, ("K",), (GM,))
-    limited = list(iterate(Cip(), problem, CipSettings(max_iterations=2, max_step=0.01), max_iter=10))
+    limited = list(iterate(Cip.bind(problem, CipSettings(max_iterations=2, max_step=0.01)), max_iter=10))
     assert [r.status for _, r in limited] == [Status.RUNNING, Status.ITERATION_LIMIT]
-    done = list(iterate(Cip(), problem, CipSettings(max_step=0.2), max_iter=200))
+    done = list(iterate(Cip.bind(problem, CipSettings(max_step=0.2)), max_iter=200))
     assert done[-1][1].status is Status.CONVERGED and done[-1][1].extra["unmet"] == 0
 
 
@@ -179,7 +180,7 @@ def test_settings_are_checked():
         with pytest.raises(EngineError):
             CipSettings(**bad)
     with pytest.raises(EngineError, match="not a margin"):
-        Cip().init(
+        Cip.bind(
             replace(
                 _loop_problem("3/(s+1)", {"K": 1.0}, ("K",), (GM,)),
                 targets=(Target("crossover_frequency", (BandValue(0, np.inf, 1.0),)),),
@@ -217,15 +218,14 @@ def test_examples_ratchet_and_end_with_fewer_unmet_targets(example_runs, name):
                 assert better, (record.iteration, pair)
     start, end = records[0].extra["unmet_start"], records[-1].extra["unmet"]
     assert end < start
-    initial = Cip()
-    first = initial.init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
+    first = Cip.bind(session.problem, lookup("cip").settings(**session.model.algorithm.settings)).init()
     assert records[-1].extra["best"]["smallest_stability_margin"] >= first.memory.best.smallest
     assert records[-1].status is (Status.CONVERGED if name == "cip_launch_vehicle" else Status.STEP_BELOW_MINIMUM)
 
 
 def test_launch_vehicle_tableau_starts_like_table_1(example_runs):
     session, _ = example_runs["cip_launch_vehicle"]
-    state = Cip().init(session.problem, lookup("cip").settings(**session.model.algorithm.settings))
+    state = Cip.bind(session.problem, lookup("cip").settings(**session.model.algorithm.settings)).init()
     rows = state.memory.requirements
     assert [r.kind for r in rows[:4]] == ["G", "P", "P", "S"]
     assert rows[3].value == rows[0].value and rows[3].desired == 0.505  # INCGMS copy (Table 1, no. 4)
@@ -267,5 +267,5 @@ def test_without_the_guard_met_margins_slip_on_the_dual_channel_example():
     """The report's caveat (chapter VII): TIFR ratchets active margins only, so met ones can slip."""
     session = load_session(EXAMPLES / "cip_dual_channel.json")
     settings = dict(session.model.algorithm.settings, guard_band=0.0, keep_met=False)
-    records = [r for _, r in iterate(Cip(), session.problem, CipSettings(**settings), max_iter=300)]
+    records = [r for _, r in iterate(Cip.bind(session.problem, CipSettings(**settings)), max_iter=300)]
     assert records[-1].extra["unmet"] > records[0].extra["unmet_start"]

@@ -12,11 +12,8 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.design.measure_kinds import (
-    ALGORITHMS,
     DOMAINS,
     MEASURE_KINDS,
-    accepts,
-    check_accepted,
     default_desired,
     kind,
     names,
@@ -39,6 +36,7 @@ from engine.design.problem import (
 from engine.design.tableau import tableau
 from engine.errors import EngineError
 from engine.slp.measures import SHORT, evaluate, measure_specs
+from engine.stepping.registry import lookup
 
 # a type-1 loop with a lightly damped mode at 10 rad/s; stable up to K = 6
 LOOP = "K/(s*(s+1)*(s+2)) * 100/(s**2 + 0.4*s + 100)"
@@ -114,7 +112,7 @@ def test_the_problem_constants_are_the_table():
 def test_columns_are_well_formed():
     for name, k in MEASURE_KINDS.items():
         assert k.name == name and k.label and k.short and k.tag
-        assert k.domain in DOMAINS and k.algorithms <= set(ALGORITHMS)
+        assert k.domain in DOMAINS
         assert math.isfinite(k.default_desired)
         assert (k.margin is not None) == (k.domain == "frequency")
     assert default_desired()["phase_margin_deg"] == 30.0 and shorts()["phase_margin_deg"] == "PM deg"
@@ -185,9 +183,11 @@ def test_slp_rows_follow_the_table_and_an_explicit_sense():
 # -- algorithms ---------------------------------------------------------------
 
 
-def test_acceptance_column():
-    assert names(algorithm="slp") == names()
-    assert set(names(algorithm="cip")) == {
+def test_each_algorithm_declares_the_measures_it_reads():
+    """The registrations' `TargetUse` (found through the entry points), not a column here."""
+    use = {name: lookup(name).targets for name in ("cip", "slp", "qcg", "projection")}
+    assert use["slp"].measures == names()
+    assert set(use["cip"].measures) == {
         "gain_margin",
         "phase_margin",
         "stability_margin",
@@ -198,10 +198,13 @@ def test_acceptance_column():
         "sensitivity_peak",
         "complementary_sensitivity_peak",
     }
-    assert names(algorithm="qcg") == names(algorithm="projection") == ()
-    assert accepts("cip", "gain_margin") and not accepts("cip", "rise_time")
-    with pytest.raises(EngineError, match="unknown algorithm"):
-        check_accepted("newton", ["gain_margin"])
+    assert not use["qcg"].reads and not use["projection"].reads
+    assert not use["qcg"].accepts("gain_margin") and not use["projection"].accepts("rise_time")
+    assert use["cip"].accepts("gain_margin") and not use["cip"].accepts("rise_time")
+    with pytest.raises(EngineError, match="unknown measure"):
+        use["slp"].check("slp", ["gain_margins"])
+    with pytest.raises(EngineError, match="unknown algorithm 'newton'"):
+        lookup("newton")
 
 
 def test_cip_refuses_a_measure_it_cannot_improve_naming_both():
@@ -209,7 +212,7 @@ def test_cip_refuses_a_measure_it_cannot_improve_naming_both():
 
     with pytest.raises(EngineError, match="cip: target measure 'rise_time' is not a margin"):
         check_targets(loop_problem(1.0, [target("gain_margin"), target("rise_time")]))
-    check_targets(loop_problem(1.0, [target(name) for name in names(algorithm="cip")]))
+    check_targets(loop_problem(1.0, [target(name) for name in lookup("cip").targets.measures]))
 
 
 def test_qcg_refuses_targets_it_would_ignore():

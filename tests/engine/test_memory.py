@@ -12,7 +12,8 @@ import pytest
 
 from engine.errors import EngineError
 from engine.stepping.memory_fields import jsonable
-from engine.stepping.protocol import State, lookup, make_settings
+from engine.stepping.protocol import State
+from engine.stepping.registry import lookup, make_settings
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -27,9 +28,8 @@ SESSIONS = {
 def stepped(name: str) -> State:
     """The state after one step of an example session's algorithm."""
     session = load_session(EXAMPLES / SESSIONS[name])
-    algorithm = lookup(name).factory()
-    state = algorithm.init(session.problem, make_settings(name, session.model.algorithm.settings))
-    return algorithm.step(state)[0]
+    stepper = lookup(name).bind(session.problem, make_settings(name, session.model.algorithm.settings))
+    return stepper.step(stepper.init())[0]
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +40,7 @@ def states() -> dict[str, State]:
 @pytest.mark.parametrize("name", sorted(SESSIONS))
 def test_memory_is_frozen_and_round_trips(states, name):
     state = states[name]
-    memory_type = lookup(name).factory.memory_type
+    memory_type = lookup(name).memory_type
     assert isinstance(state.memory, memory_type) and dataclasses.is_dataclass(state.memory)
     with pytest.raises(dataclasses.FrozenInstanceError):
         state.memory.__setattr__(dataclasses.fields(state.memory)[0].name, None)
@@ -104,7 +104,7 @@ def test_corrupt_memory_is_rejected_naming_the_field(states, name, corrupt, mess
     data = copy.deepcopy(states[name].to_json())
     corrupt(data["memory"])
     with pytest.raises(EngineError, match=message):
-        State.from_json(data, lookup(name).factory.memory_type)
+        State.from_json(data, lookup(name).memory_type)
 
 
 @pytest.mark.parametrize(
@@ -118,4 +118,4 @@ def test_corrupt_memory_is_rejected_naming_the_field(states, name, corrupt, mess
 def test_corrupt_state_is_rejected_naming_the_field(states, change, message):
     data = dict(states["slp"].to_json(), **dict([change]))
     with pytest.raises(EngineError, match=message):
-        State.from_json(data, lookup("slp").factory.memory_type)
+        State.from_json(data, lookup("slp").memory_type)

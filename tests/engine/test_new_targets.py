@@ -16,13 +16,14 @@ import pytest
 from engine.analysis import unity_feedback
 from engine.cip.direction import gradient_rows
 from engine.cip.requirements import check_targets, detect
-from engine.design.measure_kinds import accepts, kind
+from engine.design.measure_kinds import kind
 from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
 from engine.design.tableau import tableau
 from engine.errors import EngineError
 from engine.margins.peak_measures import loop_derivative
 from engine.slp.measures import evaluate, measure_specs
 from engine.slp.partials import jacobian
+from engine.stepping.registry import lookup
 
 PLANT = "10/(s*(s+1)*(s+5))"
 LEAD = "K*(1+T*s)/(1+a*T*s)"
@@ -143,7 +144,8 @@ def test_slp_names_its_rows_and_falls_back_where_not_differentiable():
 
 
 def test_cip_accepts_the_peaks_and_refuses_the_delay_margin_saying_why():
-    assert all(accepts("cip", m) for m in NEW[:3]) and not accepts("cip", "delay_margin")
+    cip = lookup("cip").targets
+    assert all(cip.accepts(m) for m in NEW[:3]) and not cip.accepts("delay_margin")
     check_targets(problem(POINTS[0], [target(m) for m in NEW[:3]]))
     with pytest.raises(EngineError, match="'delay_margin' is not a distance cip can push at one frequency.*use slp"):
         check_targets(problem(POINTS[0], [target("delay_margin")]))

@@ -18,7 +18,8 @@ from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
 from engine.projection.lq import Trajectory
 from engine.projection.system import dae_system
-from engine.stepping.protocol import Status, iterate
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import Status
 from sessions.store import load_session
 from tests.engine.projection_references import RiccatiProjector, kkt_projection
 
@@ -69,8 +70,8 @@ def test_banded_and_riccati_projections_equal_the_direct_kkt_solve(integrator, s
 
 
 def test_example_a_converges_with_extrapolation_much_faster_than_without(integrator):
-    fast = [r for _, r in iterate(Projection(), integrator, ProjectionSettings(), max_iter=100)]
-    slow = [r for _, r in iterate(Projection(), integrator, ProjectionSettings(extrapolation=False), max_iter=500)]
+    fast = [r for _, r in iterate(Projection.bind(integrator, ProjectionSettings()), max_iter=100)]
+    slow = [r for _, r in iterate(Projection.bind(integrator, ProjectionSettings(extrapolation=False)), max_iter=500)]
     assert fast[-1].status is Status.CONVERGED and slow[-1].status is Status.CONVERGED
     updates_fast, updates_slow = len(fast) - 1, len(slow) - 1
     assert updates_fast <= 12 and updates_slow >= 3 * updates_fast
@@ -84,8 +85,8 @@ def test_example_a_converges_with_extrapolation_much_faster_than_without(integra
 def test_disjoint_sets_are_reported_infeasible_with_the_closest_distance(integrator):
     data = dict(_data(integrator), u_min=[10.0, 10.0, 10.0], x_min=[-1.0] * 4, x_max=[1.0] * 4)
     problem = replace(integrator, objective=replace(integrator.objective, data=data))
-    plain = [r for _, r in iterate(Projection(), problem, ProjectionSettings(extrapolation=False), max_iter=500)]
-    extrapolated = [r for _, r in iterate(Projection(), problem, ProjectionSettings(), max_iter=500)]
+    plain = [r for _, r in iterate(Projection.bind(problem, ProjectionSettings(extrapolation=False)), max_iter=500)]
+    extrapolated = [r for _, r in iterate(Projection.bind(problem, ProjectionSettings()), max_iter=500)]
     for records in (plain, extrapolated):
         assert records[-1].status is Status.INFEASIBLE and "u1" in records[-1].reason
     assert extrapolated[-1].extra["distance"] == pytest.approx(plain[-1].extra["distance"], rel=1e-6)
@@ -112,7 +113,7 @@ def test_theorem_3_converges_in_one_iteration_to_the_minimum_norm_control():
     for steps in (20, 80):
         data = dict(session.problem.objective.data, steps=steps)
         problem = replace(session.problem, objective=replace(session.problem.objective, data=data))
-        records = [r for _, r in iterate(Projection(), problem, ProjectionSettings(), max_iter=20)]
+        records = [r for _, r in iterate(Projection.bind(problem, ProjectionSettings()), max_iter=20)]
         assert records[-1].status is Status.CONVERGED and len(records) == 2
         assert records[0].extra["lambda"] == pytest.approx(4.0, rel=1e-2)
         t, u = np.array(records[-1].extra["t"]), np.array(records[-1].extra["u"])[:, 0]

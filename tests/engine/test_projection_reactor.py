@@ -23,7 +23,9 @@ from engine.projection import Projection, ProjectionSettings
 from engine.projection.banded import Projector
 from engine.projection.lq import Trajectory
 from engine.projection.system import dae_system
-from engine.stepping.protocol import Status, iterate, make_settings
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import Status
+from engine.stepping.registry import make_settings
 from sessions.examples.projection_reactor import NUMBERS, sessions_from
 from sessions.runner import run_session
 from sessions.store import load_session, save_session
@@ -41,7 +43,7 @@ def _session(name: str = "projection_reactor.json"):
 
 def _run(session, **changes) -> list:
     settings = replace(make_settings("projection", session.model.algorithm.settings), **changes)
-    return [r for _, r in iterate(Projection(), session.problem, settings, max_iter=settings.max_iterations + 1)]
+    return [r for _, r in iterate(Projection.bind(session.problem, settings), max_iter=settings.max_iterations + 1)]
 
 
 def _over(record) -> float:
@@ -176,8 +178,8 @@ def test_the_records_carry_the_trajectories_the_plot_needs_and_the_session_runs(
     assert "open_loop" in first.extra and "open_loop" not in last.extra
     assert np.array(last.extra["u"]).shape == (21, 7) and len(last.extra["t"]) == 21
     assert last.extra["peaks"]["u2"]["bound"] == BOUND
-    initial = Projection()
-    state = initial.init(session.problem, ProjectionSettings())
+    initial = Projection.bind(session.problem, ProjectionSettings())
+    state = initial.init()
     zero = initial.initial_record(state)
     assert zero.iteration == 0 and "open_loop" in zero.extra and zero.extra["lambda"] is None
 

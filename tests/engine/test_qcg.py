@@ -12,7 +12,8 @@ from engine.model.blocks import ControllerFactor, ExpressionTransfer, controller
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.cost import Cascade, Weights, exponential_disturbance, quadratic_cost
 from engine.qcg.setup import cascade_problem
-from engine.stepping.protocol import Status, iterate
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import Status
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -44,7 +45,7 @@ def test_frequency_response_printout_at_3_hz(sample):
 
 
 def test_appendix_c_search(sample):
-    records = [r for _, r in iterate(Qcg(), sample.problem, QcgSettings(), max_iter=500)]
+    records = [r for _, r in iterate(Qcg.bind(sample.problem, QcgSettings()), max_iter=500)]
     last = records[-1]
     assert last.status is Status.CONVERGED and "IER = 0" in last.reason
     assert last.parameters["b1"] == pytest.approx(47.2, rel=0.01)
@@ -56,10 +57,10 @@ def test_appendix_c_search(sample):
 
 
 def test_iteration_limit_and_expansion_failure(sample):
-    limited = [r for _, r in iterate(Qcg(), sample.problem, QcgSettings(limit=3), max_iter=100)]
+    limited = [r for _, r in iterate(Qcg.bind(sample.problem, QcgSettings(limit=3)), max_iter=100)]
     assert limited[-1].status is Status.ITERATION_LIMIT and limited[-1].counters["KOUNT"] == 3
     # constant scaling by the initial estimates: the step keeps improving past 15 doublings (IER = 2)
-    constant = [r for _, r in iterate(Qcg(), sample.problem, QcgSettings(scaling="initial"), max_iter=100)]
+    constant = [r for _, r in iterate(Qcg.bind(sample.problem, QcgSettings(scaling="initial")), max_iter=100)]
     assert constant[-1].status is Status.FAILED and "IER = 2" in constant[-1].reason
 
 

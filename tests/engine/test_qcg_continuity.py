@@ -15,7 +15,8 @@ import engine.qcg.cost as qcg_cost
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.cost import blend_weight
 from engine.qcg.setup import cascade_problem
-from engine.stepping.protocol import Status, iterate
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import Status
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -99,7 +100,7 @@ def test_q2_zero_reaches_the_optimum_from_the_sessions_start(no_rate_penalty, op
     """Before, CGFM stopped "converged" at b = (143.06, 7010.9), F = 0.14327, on the jump; now both
     optimizers reach F <= 0.0782 at the optimum scipy finds on the same cost (about (111.36, 81.90))."""
     F_ref, b_ref = reference_optimum(no_rate_penalty)
-    last = [r for _, r in iterate(Qcg(), no_rate_penalty, QcgSettings(optimizer=optimizer), max_iter=1000)][-1]
+    last = [r for _, r in iterate(Qcg.bind(no_rate_penalty, QcgSettings(optimizer=optimizer)), max_iter=1000)][-1]
     assert last.status is Status.CONVERGED
     assert last.extra["F"] <= 0.0782 and last.extra["F"] == pytest.approx(F_ref, abs=1e-9)
     assert [last.parameters["b1"], last.parameters["b21"]] == pytest.approx(b_ref, rel=2e-3)

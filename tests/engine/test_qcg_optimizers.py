@@ -19,7 +19,8 @@ from engine.errors import EngineError
 from engine.qcg import Qcg, QcgSettings
 from engine.qcg.memory import QcgMemory
 from engine.qcg.setup import cascade_problem
-from engine.stepping.protocol import State, Status, iterate
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import State, Status
 from sessions.runner import replay, run_session
 from sessions.store import load_session, save_session
 
@@ -33,7 +34,7 @@ def sample():
 
 
 def run(problem, **settings):
-    return [r for _, r in iterate(Qcg(), problem, QcgSettings(**settings), max_iter=1000)]
+    return [r for _, r in iterate(Qcg.bind(problem, QcgSettings(**settings)), max_iter=1000)]
 
 
 def scipy_lbfgsb(problem):
@@ -95,15 +96,12 @@ def test_a_stored_state_resumes_exactly(sample, optimizer):
     """Stop after 4 steps, store the state as JSON, read it back, go on: the records are those of the
     run without the stop, field for field."""
     whole = [r.to_json() for r in run(sample, optimizer=optimizer)]
-    steps = list(iterate(Qcg(), sample, QcgSettings(optimizer=optimizer), max_iter=4))
+    steps = list(iterate(Qcg.bind(sample, QcgSettings(optimizer=optimizer)), max_iter=4))
     stored = json.loads(json.dumps(steps[-1][0].to_json(), allow_nan=False))
     state = State.from_json(stored, QcgMemory)
     assert state.memory.pairs_s if optimizer == "lbfgsb" else state.memory.direction
-    algorithm = Qcg()
-    algorithm.init(sample, QcgSettings(optimizer=optimizer))
-    rest = [
-        r.to_json() for _, r in iterate(algorithm, sample, QcgSettings(optimizer=optimizer), max_iter=1000, state=state)
-    ]
+    fresh = Qcg.bind(sample, QcgSettings(optimizer=optimizer))  # as a session resumes: a new stepper
+    rest = [r.to_json() for _, r in iterate(fresh, max_iter=1000, state=state)]
     assert [r.to_json() for _, r in steps] + rest == whole
 
 
@@ -152,7 +150,7 @@ def test_optimizer_and_its_settings_are_checked():
 
 
 def test_lbfgsb_memory_rejects_malformed_pairs(sample):
-    state = list(iterate(Qcg(), sample, QcgSettings(optimizer="lbfgsb"), max_iter=3))[-1][0]
+    state = list(iterate(Qcg.bind(sample, QcgSettings(optimizer="lbfgsb")), max_iter=3))[-1][0]
     data = state.to_json()
     data["memory"]["pairs_y"] = data["memory"]["pairs_y"][:-1]
     with pytest.raises(EngineError, match=r"qcg memory\.pairs_y: expected \d+ items"):

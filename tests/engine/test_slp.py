@@ -27,7 +27,9 @@ from engine.slp.algorithm import w1
 from engine.slp.lp import solve_step
 from engine.slp.measures import Spec, evaluate, measure_specs
 from engine.slp.partials import jacobian
-from engine.stepping.protocol import TIME_LIMIT, State, Status, iterate, make_settings
+from engine.stepping.driver import TIME_LIMIT, iterate
+from engine.stepping.protocol import State, Status
+from engine.stepping.registry import make_settings
 from sessions.store import load_session
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -209,7 +211,7 @@ def test_lag_lead_example_meets_every_requirement():
     """Report 003, Example 2 (Run 2): from the unity compensator (unstable) to
     crossover >= 10 rad/s, GM >= 10 dB, PM >= 45 deg, stable, lag-lead."""
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
-    records = [r for _, r in iterate(Slp(), session.problem, SlpSettings(), max_iter=100)]
+    records = [r for _, r in iterate(Slp.bind(session.problem, SlpSettings()), max_iter=100)]
     final = records[-1]
     assert final.status.value == "converged"
     assert all(m.satisfied for m in final.measures)
@@ -225,7 +227,7 @@ def test_lag_lead_example_meets_every_requirement():
 def test_kuo_digital_example_ends_on_a_lag_compensator():
     """Report 003, Example 1: w-plane, from T1 = T2 = 20 to PM >= 50, GM >= 12, stable, phase lag."""
     session = load_session(EXAMPLES / "coebra_kuo_digital.json")
-    final = [r for _, r in iterate(Slp(), session.problem, SlpSettings(), max_iter=100)][-1]
+    final = [r for _, r in iterate(Slp.bind(session.problem, SlpSettings()), max_iter=100)][-1]
     assert final.status.value == "converged"
     T1, T2 = final.parameters["T1"], final.parameters["T2"]
     w = ct.tf("s")  # w plays s's part in the w-plane
@@ -239,7 +241,7 @@ def test_equalities_hold_along_the_run():
     """A linear equality between variables (the drift-minimum condition's kind): T2 = 4 T1."""
     session = load_session(EXAMPLES / "coebra_kuo_digital.json")
     problem = replace(session.problem, equalities=(LinearEquality((("T2", None, 1.0), ("T1", None, -4.0)), 0.0),))
-    records = [r for _, r in iterate(Slp(), problem, SlpSettings(), max_iter=60)]
+    records = [r for _, r in iterate(Slp.bind(problem, SlpSettings()), max_iter=60)]
     for record in records:
         assert record.parameters["T2"] == pytest.approx(4 * record.parameters["T1"], rel=1e-9)
     assert records[0].parameters["T1"] != 20.0  # the start was moved onto the equality
@@ -248,7 +250,7 @@ def test_equalities_hold_along_the_run():
 def test_unmeetable_equality_is_a_clear_error():
     problem = lag_lead(CLASSICAL, equalities=(LinearEquality((("T1", None, 1.0),), 5000.0),))
     with pytest.raises(EngineError, match="cannot be met within the parameter bounds"):
-        Slp().init(problem, SlpSettings())
+        Slp.bind(problem, SlpSettings()).init()
 
 
 def test_settings_are_checked():
@@ -263,14 +265,14 @@ def test_launch_vehicle_phases():
     requirement still met."""
     session = load_session(EXAMPLES / "coebra_launch_vehicle.json")
     settings = make_settings("slp", session.model.algorithm.settings)
-    first = [r for _, r in iterate(Slp(), session.problem, settings, max_iter=200)]
+    first = [r for _, r in iterate(Slp.bind(session.problem, settings), max_iter=200)]
     start = first[0].measures
     assert not all(m.satisfied for m in start)
     assert first[-1].status.value in ("no further improvement", "converged")
     assert all(m.satisfied for m in first[-1].measures)
     peak = {m.condition: m.value for m in first[-1].measures if m.kind == "peak_response"}
     adopted = session.problem.with_vector(session.problem.vector_from(first[-1].parameters))
-    second = [r for _, r in iterate(Slp(), adopted, replace(settings, objective="load_relief"), max_iter=200)]
+    second = [r for _, r in iterate(Slp.bind(adopted, replace(settings, objective="load_relief")), max_iter=200)]
     assert all(m.satisfied for m in second[-1].measures)
     relieved = {m.condition: m.value for m in second[-1].measures if m.kind == "peak_response"}
     assert relieved["max-q"] <= 0.9 * peak["max-q"]
@@ -279,7 +281,7 @@ def test_launch_vehicle_phases():
 
 def test_major_limit_ends_on_the_best_point():
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
-    records = [r for _, r in iterate(Slp(), session.problem, SlpSettings(max_major=1), max_iter=100)]
+    records = [r for _, r in iterate(Slp.bind(session.problem, SlpSettings(max_major=1)), max_iter=100)]
     final = records[-1]
     assert final.status.value == "iteration limit" and {r.extra["major"] for r in records} == {1}
     assert final.extra["counter"] == final.extra["best_counter"]
@@ -289,18 +291,17 @@ def test_major_limit_ends_on_the_best_point():
 def test_a_time_limited_run_is_a_prefix_of_the_full_run():
     """The wall clock is the driver's: it stops between steps, and what was made replays."""
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
-    limited = iterate(Slp(), session.problem, SlpSettings(), max_iter=100, time_limit=0.0)
+    limited = iterate(Slp.bind(session.problem, SlpSettings()), max_iter=100, time_limit=0.0)
     records = [r for _, r in limited]
     assert limited.stopped == TIME_LIMIT and len(records) == 1  # at least one step, then the clock
     assert records[0].status is Status.RUNNING
-    full = iterate(Slp(), session.problem, SlpSettings(), max_iter=100)
+    full = iterate(Slp.bind(session.problem, SlpSettings()), max_iter=100)
     again = [r for _, r in full]
     assert full.stopped is None and again[0].to_json() == records[0].to_json()
-    fresh = Slp()
-    fresh.init(session.problem, SlpSettings())  # as a session resumes: a new stepper, the stored state
+    fresh = Slp.bind(session.problem, SlpSettings())  # as a session resumes: a new stepper, the stored state
     stored = State.from_json(json.loads(json.dumps(limited.state.to_json())), Slp.memory_type)
     assert stored.to_json() == limited.state.to_json()  # (NaN rows: == on the states would not hold)
-    resumed = [r for _, r in iterate(fresh, session.problem, SlpSettings(), max_iter=100, state=stored)]
+    resumed = [r for _, r in iterate(fresh, max_iter=100, state=stored)]
     assert [r.to_json() for r in records + resumed] == [r.to_json() for r in again]
 
 

@@ -3,8 +3,6 @@ import json
 
 import pytest
 
-import tests.sessions.gradient_algorithm  # noqa: F401  (registers "gradient")
-
 MATCHING = {
     "schema_version": 2,
     "provenance": {

@@ -14,7 +14,9 @@ import numpy as np
 import pytest
 
 import sessions.store as store
-from engine.stepping.protocol import State, iterate, lookup, make_settings
+from engine.stepping.driver import iterate
+from engine.stepping.protocol import State
+from engine.stepping.registry import lookup, make_settings
 from sessions.errors import SessionError
 from sessions.format import migrations
 from sessions.format.json_schema import SCHEMA_FILE, schema_text
@@ -147,14 +149,14 @@ def test_replay_names_the_first_altered_iteration(matching):
 
 def test_step_never_mutates_its_input(matching):
     session = load_session(matching)
-    algorithm = lookup("gradient").factory()
-    state = algorithm.init(session.problem, make_settings("gradient", {}))
+    algorithm = lookup("gradient").bind(session.problem, make_settings("gradient", {}))
+    state = algorithm.init()
     frozen = json.dumps(state.to_json(), sort_keys=True)
     new, record = algorithm.step(state)
     assert json.dumps(state.to_json(), sort_keys=True) == frozen
     assert new.iteration == 1 and State.from_json(json.loads(json.dumps(new.to_json())), algorithm.memory_type) == new
     assert record.to_json() == type(record).from_json(json.loads(json.dumps(record.to_json()))).to_json()
-    steps = list(iterate(algorithm, session.problem, make_settings("gradient", {}), max_iter=3))
+    steps = list(iterate(algorithm, max_iter=3))
     assert [s.iteration for s, _ in steps] == [1, 2, 3]
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from engine.design.tableau import tableau
 from sessions.errors import SessionError
-from sessions.new.template_kinds import in_unit, matrix_session, projection_session, table_session, two_loop_session
+from sessions.new.template_kinds import dae_session, in_unit, matrix_session, table_session, two_loop_session
 from sessions.new.templates import new_session
 from sessions.store import parse_session
 
@@ -57,7 +57,7 @@ def test_a_table_the_projection_and_the_unit(tmp_path):
     }
     session = _load(table_session(table, [0.1, 1, 10]), tmp_path)
     assert session.model.problem.grid.unit == "hz" and session.model.problem.grid.stop == 10
-    assert _load(projection_session(), tmp_path).model.algorithm.name == "projection"
+    assert _load(dae_session(), tmp_path).model.algorithm.name == "projection"
     hz = in_unit(new_session("1/(s+1)"), "hz")["problem"]["grid"]
     rad = new_session("1/(s+1)")["problem"]["grid"]
     assert hz["unit"] == "hz" and math.isclose(hz["start"] * 2 * math.pi, rad["start"])

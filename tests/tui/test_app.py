@@ -80,14 +80,14 @@ async def test_pause_stops_a_run_within_one_iteration(workdir, monkeypatch):
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await pilot.pause()
-        algorithm = app.bench.ensure_algorithm()
-        step = algorithm.step
+        stepper = type(app.bench.ensure_stepper())  # a bound stepper is frozen: its class is patched
+        step = stepper.step
 
-        def slow_step(state):  # an algorithm whose iterations take 20 ms, so the run is still going
+        def slow_step(self, state):  # an algorithm whose iterations take 20 ms, so the run is still going
             time.sleep(0.02)
-            return step(state)
+            return step(self, state)
 
-        monkeypatch.setattr(algorithm, "step", slow_step)
+        monkeypatch.setattr(stepper, "step", slow_step)
         await pilot.press("r")
         await pilot.pause(0.3)
         await pilot.press("space")
@@ -150,10 +150,10 @@ async def test_an_engine_error_is_a_notification_not_a_crash(workdir, monkeypatc
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
 
-        def broken(state):
+        def broken(self, state):
             raise EngineError("singular matrix at 3.1 rad/s")
 
-        monkeypatch.setattr(app.bench.ensure_algorithm(), "step", broken)
+        monkeypatch.setattr(type(app.bench.ensure_stepper()), "step", broken)
         await pilot.press("s")
         await settle(app, pilot)
         assert any("singular matrix" in n.message for n in app._notifications)

@@ -1,12 +1,14 @@
-"""A fifth algorithm, registered in the tests only (tests/compass_algorithm.py),
-driven through the CLI, the workbench and a sweep without touching any other
-file: everything algorithm-specific reaches the screens through its presenter."""
+"""A fifth algorithm, installed beside loopcraft as a plug-in
+(tests/plugins/loopcraft_test_algorithms/compass.py, one entry point in
+tests/plugins/pyproject.toml), driven through the CLI, the workbench and a sweep
+on the local Dask cluster: nothing registers it in the test process, every part
+finds it through its entry point, and everything algorithm-specific reaches the
+screens through its presenter."""
 
 from __future__ import annotations
 
 import json
 
-import tests.compass_algorithm  # noqa: F401  (registers "compass")
 from tests.tui.test_app import settle, status, synchronous
 from tui.app import LoopcraftApp
 from tui.cli import main
@@ -33,10 +35,11 @@ def test_the_cli_runs_reports_and_replays_it(workdir, capsys):
 
 def test_a_sweep_ranks_its_runs_by_the_presenters_value(workdir, capsys):
     path = _compass_session(workdir)
-    assert main(["sweep", str(path), "--starts", "3", "--serial", "--json"]) == 0
+    assert main(["sweep", str(path), "--starts", "3", "--workers", "2", "--json"]) == 0  # a local Dask cluster
     summary = json.loads(capsys.readouterr().out)
     runs = summary["runs"]
     assert len(runs) == 3 and all(r["status"] != "failed" for r in runs)
+    assert summary["workers"] == 2 and all(r["worker"].startswith("tcp://") for r in runs)  # Dask workers found it
     assert all(isinstance(r["ranking"], float) for r in runs)  # the presenter's ranking: the merit
     best = [o["ranking"] for o in summary["optima"]]
     assert best == sorted(best)  # smaller merit first (maximize False)

@@ -68,14 +68,14 @@ async def test_a_run_dims_the_session_keys_and_its_end_enables_them(workdir, mon
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        algorithm = app.bench.ensure_algorithm()
-        step = algorithm.step
+        stepper = type(app.bench.ensure_stepper())  # a bound stepper is frozen: its class is patched
+        step = stepper.step
 
-        def slow_step(state):  # 20 ms iterations: the run outlasts the dimming delay
+        def slow_step(self, state):  # 20 ms iterations: the run outlasts the dimming delay
             time.sleep(0.02)
-            return step(state)
+            return step(self, state)
 
-        monkeypatch.setattr(algorithm, "step", slow_step)
+        monkeypatch.setattr(stepper, "step", slow_step)
         assert not _disabled(app, "step")
         await pilot.press("r")
         await pilot.pause(0.5)

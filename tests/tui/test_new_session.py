@@ -24,7 +24,7 @@ async def test_every_kind_of_new_session_opens(workdir):
             "two-loops": ["10/(s+1)", None, "1/s", None],
             "table": [str(workdir / "plant.csv"), "hz,mag,deg polar hz 1", None],
             "matrix": ["1/(s*(s+2))", None],
-            "projection": [],
+            "dae": [],
         }
         for index, (kind, answers) in enumerate(kinds.items()):
             await pilot.press("ctrl+n")
@@ -52,7 +52,7 @@ async def test_every_kind_of_new_session_opens(workdir):
                 "two-loops": {"diagram"},
                 "table": {"diagram"},
                 "matrix": {"matrix"},
-                "projection": set(),
+                "dae": set(),
             }[kind]
             assert formats == expected, (kind, formats)
             if kind == "table":

@@ -4,20 +4,22 @@ choosing an algorithm says what it will refuse or ignore."""
 from __future__ import annotations
 
 from engine.design.measure_kinds import MEASURE_KINDS
-from sessions.target_use import target_note, unusable_targets
+from engine.stepping.registry import lookup
+from sessions.target_use import target_note, unusable_targets, used_by
 from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ChooseDialog
 
 
 def test_every_measure_is_flagged_exactly_for_the_algorithms_that_refuse_it():
-    for name, kind in MEASURE_KINDS.items():
+    for name in MEASURE_KINDS:
         for algorithm in ("cip", "slp"):
             note = target_note(name, algorithm)
-            assert (note == "") == (algorithm in kind.algorithms), (name, algorithm, note)
-            assert bool(unusable_targets([name], algorithm)) == (algorithm not in kind.algorithms)
+            accepted = lookup(algorithm).targets.accepts(name)
+            assert (note == "") == accepted, (name, algorithm, note)
+            assert bool(unusable_targets([name], algorithm)) == (not accepted)
         assert target_note(name, "qcg") == "ignored by qcg"
-    assert unusable_targets([], "qcg") == [] and target_note("gain_margin", "compass") == ""
+    assert unusable_targets([], "qcg") == [] and target_note("gain_margin", "newton") == ""  # not installed
 
 
 @synchronous
@@ -40,5 +42,5 @@ async def test_a_crossover_target_is_marked_for_cip_and_listed_when_cip_is_chose
         dialog.dismiss("cip")
         await settle(app, pilot)
         assert app.bench.algorithm_name == "cip"
-        assert str(table.get_row_at(row)[1]) == "not cip (slp)"
+        assert str(table.get_row_at(row)[1]) == f"not cip ({used_by('crossover_frequency')})"  # slp, and plug-ins
         assert any("crossover_frequency: refused by cip" in n.message for n in app._notifications)

@@ -67,16 +67,16 @@ def test_an_undone_iteration_comes_back_with_redo_and_a_new_step_forgets_it(work
 
 
 @synchronous
-async def test_a_paused_run_says_paused(workdir):
+async def test_a_paused_run_says_paused(workdir, monkeypatch):
     import asyncio
     import time
 
     app = LoopcraftApp(workdir / "cip_dual_channel.json")
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        algorithm = app.bench.ensure_algorithm()
-        step = algorithm.step
-        algorithm.step = lambda state: (time.sleep(0.05), step(state))[1]  # slow enough to pause
+        stepper = type(app.bench.ensure_stepper())  # a bound stepper is frozen: its class is patched
+        step = stepper.step
+        monkeypatch.setattr(stepper, "step", lambda self, state: (time.sleep(0.05), step(self, state))[1])  # pausable
         await pilot.press("r")
         await asyncio.sleep(0.3)
         await pilot.press("space")

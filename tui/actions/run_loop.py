@@ -1,6 +1,6 @@
 """The run loop: a thread worker computes, the UI thread commits.
 
-`s`, `n` and `r` take the bound algorithm and the current state from the
+`s`, `n` and `r` take the bound stepper and the current state from the
 workbench on the UI thread, then a thread worker steps: each iteration it
 computes the next (State, StepRecord) from its own state and view and posts
 a `Stepped` message (marked to be shown a few times a second, and always the
@@ -24,12 +24,11 @@ import gc
 import threading
 import time
 from dataclasses import dataclass
-from typing import Any
 
 from textual import work
 from textual.message import Message
 
-from engine.stepping.protocol import State, StepRecord
+from engine.stepping.protocol import State, Stepper, StepRecord
 from sessions.errors import SessionError
 from tui.figures.catalog import figure_key, figures
 from tui.figures.closed_loop import pole_text
@@ -85,9 +84,9 @@ class RunFailed(Message):
 
 @dataclass
 class RunRequest:
-    """What the worker steps: the algorithm, the state to step from, the view, how far."""
+    """What the worker steps: the bound stepper, the state to step from, the view, how far."""
 
-    algorithm: Any
+    stepper: Stepper
     state: State
     view: View
     count: int
@@ -127,7 +126,7 @@ class RunLoop:
         if self.bench is None or self.busy:
             return
         try:
-            algorithm, state = self.bench.begin_run()
+            stepper, state = self.bench.begin_run()
         except SessionError as exc:
             self.notify(str(exc), title="cannot run", severity="error", timeout=10)
             return
@@ -136,7 +135,7 @@ class RunLoop:
             return
         screen = self._main()
         request = RunRequest(
-            algorithm, state, self.bench.view(), count, screen.canvases() if screen else {}, self.bench.settings
+            stepper, state, self.bench.view(), count, screen.canvases() if screen else {}, self.bench.settings
         )
         self._pause.clear()
         self._painted.clear()
@@ -185,7 +184,7 @@ class RunLoop:
         for n in range(request.count):
             if self._pause.is_set():
                 return "paused", view, drawn
-            state, record = request.algorithm.step(state)
+            state, record = request.stepper.step(state)
             view = view.extended(record)
             final = record.status.finished or n == request.count - 1
             show = final or time.monotonic() - last >= REDRAW_INTERVAL

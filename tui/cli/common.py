@@ -42,14 +42,13 @@ def initial_record(session: Session) -> StepRecord | None:
     """Iteration 0 as the algorithm's presenter gives it (cip: the report's Table 1;
     projection: the untrimmed open loop; others: the tableau at the start)."""
     from engine.errors import EngineError
-    from sessions.lifecycle import bound_algorithm, registration
+    from engine.stepping.driver import first_record
+    from sessions.lifecycle import registration, stepper
 
-    algorithm, settings = bound_algorithm(session)
     try:
-        state = algorithm.init(session.problem, settings)
+        return first_record(registration(session).presenter, stepper(session))
     except EngineError as exc:
         raise CliError(f"initial tableau: {exc}") from None
-    return registration(session).presenter.initial_record(algorithm, state, session.problem)
 
 
 def rows_now(session: Session, iteration: int | None = None) -> tuple[list[MeasureRow], StepRecord | None]:

@@ -57,7 +57,8 @@ def _write(path: Path, text: str) -> None:
 
 def add_parser(sub) -> None:
     """The new subcommand and its options."""
-    from sessions.new.templates import ALGORITHMS, STRUCTURES
+    from engine.stepping.registry import known
+    from sessions.new.templates import STRUCTURES
 
     p = sub.add_parser("new", help="a new session: unity feedback, a compensator structure, PM/GM targets")
     p.add_argument("file", metavar="FILE.json")
@@ -73,6 +74,10 @@ def add_parser(sub) -> None:
         metavar="|".join(STRUCTURES) + "|EXPR",
         help="a structure, or an expression whose names are the parameters (default lead)",
     )
-    p.add_argument("--algorithm", default="slp", choices=list(ALGORITHMS))
+    p.add_argument(
+        "--algorithm",
+        metavar="|".join(known()),
+        help="the algorithm, one that offers new sessions (default: the first of them)",
+    )
     p.add_argument("--force", action="store_true", help="replace an existing FILE")
     p.set_defaults(handler=cmd_new)

@@ -119,11 +119,11 @@ def cmd_tradeoff(args: argparse.Namespace) -> int:
     from engine.errors import EngineError
     from engine.qcg import Qcg
     from engine.qcg.tradeoff import penalty_sweep
-    from engine.stepping.protocol import make_settings
+    from engine.stepping.registry import make_settings
     from sessions.lifecycle import registration
 
     session = load(args.file)
-    if registration(session).factory is not Qcg:
+    if registration(session).name != Qcg.name:
         raise CliError(
             f"tradeoff: {args.file} uses {session.model.algorithm.name!r}; the sweep needs a {Qcg.name} session"
         )

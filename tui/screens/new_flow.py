@@ -100,8 +100,8 @@ class NewSessionFlow:
             lambda inner_plant: self._structure("inner compensator", lambda c: outer(inner_plant, c)),
         )
 
-    def _projection(self) -> None:
-        self._made(template_kinds.projection_session)
+    def _dae(self) -> None:
+        self._made(template_kinds.dae_session)
 
     def _table(self) -> None:
         def columns(path: Path) -> None:

@@ -48,7 +48,7 @@ class Snapshot:
         model.records[:] = self.records
         model.current_iteration, model.state = self.current_iteration, self.state
         bench.session.problem = self.problem
-        bench.forget_algorithm()
+        bench.forget_stepper()
         bench._records[:] = self.parsed_records
         bench._redo.clear()  # undone iterations belonged to the state left
         bench.dirty = True

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
-from engine.stepping.protocol import make_settings
+from engine.stepping.registry import make_settings
 from sessions.errors import SessionError
 from sessions.forms import one_line as forms
 from sessions.lifecycle import folder, registration

@@ -14,8 +14,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from engine.errors import EngineError
+from engine.stepping.driver import first_record, resume
 from engine.stepping.presenter import Presenter
-from engine.stepping.protocol import Algorithm, State, Status, StepRecord
+from engine.stepping.protocol import State, Status, Stepper, StepRecord
 from sessions import lifecycle
 from sessions.errors import SessionError
 from sessions.format.schema import SweepModel
@@ -36,7 +37,7 @@ class Workbench:
         self.session = session
         self.dirty = False
         self._states: dict[int, State] = {}
-        self._algorithm: Algorithm | None = None
+        self._stepper: Stepper | None = None
         self._initial: StepRecord | None = None
         self._settings: dict | None = None
         self._records: list[StepRecord] = session.records  # parsed once, kept in step with the model
@@ -82,37 +83,37 @@ class Workbench:
             return "paused (s steps on, r runs on)"
         return last.status.value + (f": {last.reason}" if last.reason else "")
 
-    def ensure_algorithm(self) -> Algorithm:
+    def ensure_stepper(self) -> Stepper:
         """The algorithm bound to the problem, and the state before any iteration
         (a `SessionError` says why it cannot be set up)."""
-        if self._algorithm is None or 0 not in self._states:
-            algorithm, settings = lifecycle.bound_algorithm(self.session)
-            self._settings = settings_snapshot(settings)  # kept with every record (replay checks them)
+        if self._stepper is None or 0 not in self._states:
             try:
-                self._states = {0: algorithm.init(self.session.problem, settings)}
+                stepper = lifecycle.stepper(self.session)
+                self._states = {0: stepper.init()}
                 saved = self.session.model.state
                 if self.iteration and saved is not None:  # the saved state: no replay to go on
-                    self._states[self.iteration] = State.from_json(saved, algorithm.memory_type)
+                    self._states[self.iteration] = resume(stepper, saved, self.iteration)
             except EngineError as exc:
                 raise lifecycle.named_error(self.algorithm_name, exc) from None
-            self._algorithm, self._initial = algorithm, None
-        return self._algorithm
+            self._settings = settings_snapshot(stepper.settings)  # kept with every record (replay checks them)
+            self._stepper, self._initial = stepper, None
+        return self._stepper
 
     def _state(self) -> State:
         """The state after the current iteration (replayed from the nearest known one)."""
-        algorithm = self.ensure_algorithm()
+        stepper = self.ensure_stepper()
         k = self.iteration
         known = max(i for i in self._states if i <= k)
         state = self._states[known]
         for i in range(known, k):
-            state, _ = algorithm.step(state)
+            state, _ = stepper.step(state)
             self._states[i + 1] = state
         return state
 
-    def begin_run(self) -> tuple[Algorithm, State]:
-        """What a run's worker steps: the bound algorithm and the current state."""
+    def begin_run(self) -> tuple[Stepper, State]:
+        """What a run's worker steps: the bound stepper and the current state."""
         state = self._state()
-        return self.ensure_algorithm(), state
+        return self.ensure_stepper(), state
 
     @property
     def settings(self) -> dict | None:
@@ -193,7 +194,7 @@ class Workbench:
             return False
         data, record, state = self._redo.pop()
         if state is None:
-            state, _ = self.ensure_algorithm().step(self._state())
+            state, _ = self.ensure_stepper().step(self._state())
         self._keep(data, record, state)
         self.dirty = True
         return True
@@ -265,12 +266,12 @@ class Workbench:
         lifecycle.forget_records(self.session)
         self._records.clear()
         self._redo.clear()
-        self.forget_algorithm()
+        self.forget_stepper()
         self.dirty = True
 
-    def forget_algorithm(self) -> None:
+    def forget_stepper(self) -> None:
         """Set the algorithm up again on next use (the problem or its settings changed)."""
-        self._states, self._algorithm, self._initial = {}, None, None
+        self._states, self._stepper, self._initial = {}, None, None
 
     def rebuild(self) -> None:
         """Rebuild the engine problem after an edit of the model (a `SessionError` when it
@@ -289,11 +290,11 @@ class Workbench:
     def initial_record(self) -> StepRecord | None:
         """Iteration 0 as the presenter gives it (None when the algorithm cannot be set up)."""
         try:
-            algorithm = self.ensure_algorithm()
+            stepper = self.ensure_stepper()
+            if self._initial is None:
+                self._initial = first_record(self.presenter, stepper, self._states[0])
         except (EngineError, SessionError):
             return None
-        if self._initial is None:
-            self._initial = self.presenter.initial_record(algorithm, self._states[0], self.session.problem)
         return self._initial
 
     def view(self) -> View:

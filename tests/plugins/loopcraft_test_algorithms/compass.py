@@ -1,8 +1,9 @@
 """A fifth algorithm, kept in the tests: compass search on the tableau.
 
-It touches no other file of loopcraft: it registers itself with its own
-presenter, and the CLI, the workbench and the sweeps must show it through
-that presenter alone.  Each iteration probes every free parameter up and
+It touches no file of loopcraft: it is a plug-in package installed beside it
+(tests/plugins/pyproject.toml declares its entry point), and the CLI, the
+workbench and the sweeps, Dask workers included, find it there and show it
+through its presenter alone.  Each iteration probes every free parameter up and
 down by a factor (1 + step) and keeps the best probe when it lowers the
 merit (unmet targets first, then the summed relative shortfall); with no
 better probe the step is halved, and below `min_step` the search has
@@ -16,12 +17,14 @@ from typing import Any
 
 import numpy as np
 
+from engine.design.measure_kinds import TargetUse, names
 from engine.design.problem import Problem
 from engine.design.tableau import tableau
 from engine.errors import EngineError
 from engine.stepping.memory_fields import Fields
 from engine.stepping.presenter import Presenter
-from engine.stepping.protocol import State, Status, StepRecord, register
+from engine.stepping.protocol import BoundStepper, State, Status, StepRecord
+from engine.stepping.registry import Registration
 
 
 @dataclass(frozen=True)
@@ -54,13 +57,13 @@ def merit(rows) -> float:
     return sum(not r.satisfied for r in rows) + shortfall / (1.0 + shortfall)
 
 
-class Compass:
+class Compass(BoundStepper):
     name = "compass"
     memory_type = CompassMemory
+    settings: CompassSettings
 
-    def init(self, problem: Problem, settings: CompassSettings) -> State:
-        self.problem, self.settings = problem, settings
-        return State(0, tuple(problem.vector()), Status.RUNNING, CompassMemory(settings.step))
+    def init(self) -> State:
+        return State(0, tuple(self.problem.vector()), Status.RUNNING, CompassMemory(self.settings.step))
 
     def _evaluate(self, x: np.ndarray) -> tuple[float, tuple]:
         try:
@@ -113,4 +116,12 @@ class CompassPresenter(Presenter):
         return "\n".join(lines)
 
 
-register("compass", Compass, CompassSettings, "compass search on the tableau (tests only)", CompassPresenter())
+REGISTRATION = Registration(
+    name="compass",
+    bind=Compass.bind,
+    settings=CompassSettings,
+    memory_type=CompassMemory,
+    summary="compass search on the tableau (tests only)",
+    presenter=CompassPresenter(),
+    targets=TargetUse(measures=names(), refusal="is not a measure of the tableau"),
+)

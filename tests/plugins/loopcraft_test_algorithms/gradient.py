@@ -15,13 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from engine.design.problem import Problem
+from engine.design.measure_kinds import TargetUse
 from engine.design.tableau import tableau
 from engine.errors import EngineError
 from engine.loop.responses import open_loop
 from engine.model.expressions import Expression
 from engine.stepping.memory_fields import Fields
-from engine.stepping.protocol import State, Status, StepRecord, register
+from engine.stepping.protocol import BoundStepper, State, Status, StepRecord
+from engine.stepping.registry import Registration
 
 
 @dataclass(frozen=True)
@@ -48,14 +49,16 @@ class GradientMemory:
         return cls(step)
 
 
-class GradientDescent:
+class GradientDescent(BoundStepper):
     name = "gradient"
     memory_type = GradientMemory
+    settings: GradientSettings
 
-    def init(self, problem: Problem, settings: GradientSettings) -> State:
-        self.problem, self.settings = problem, settings
-        self.reference = Expression(str(problem.objective.options["reference"]))
-        return State(0, tuple(problem.vector()), Status.RUNNING, GradientMemory(settings.step))
+    def setup(self) -> None:
+        self.reference = Expression(str(self.problem.objective.options["reference"]))
+
+    def init(self) -> State:
+        return State(0, tuple(self.problem.vector()), Status.RUNNING, GradientMemory(self.settings.step))
 
     def residuals(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Scaled residuals (real and imaginary parts) and their Jacobian."""
@@ -113,4 +116,11 @@ class GradientDescent:
         return State(state.iteration + 1, tuple(trial), status, GradientMemory(min(step * 2, 1.0))), record
 
 
-register("gradient", GradientDescent, GradientSettings, "Gauss-Newton on a model-matching cost (tests only)")
+REGISTRATION = Registration(
+    name="gradient",
+    bind=GradientDescent.bind,
+    settings=GradientSettings,
+    memory_type=GradientMemory,
+    summary="Gauss-Newton on a model-matching cost (tests only)",
+    targets=TargetUse(reads=False, refusal="is not read by gradient (it matches its reference response)"),
+)
