@@ -13,7 +13,8 @@ from numpy.typing import ArrayLike
 
 from engine.closed_loop.poles import polish
 from engine.errors import EngineError
-from engine.loop.realization import Pole, poles, realize, stability
+from engine.loop.design import design
+from engine.loop.realization import Pole, poles, stability
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
@@ -135,7 +136,7 @@ def analyze(
     pole_list: tuple[Pole, ...] | None = None
     verdict = "unknown"
     if network.rational:
-        pole_list = tuple(poles(realize(network, params), lambda eig: polish(network, params, eig)))
+        pole_list = tuple(poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig)))
         verdict = stability(list(pole_list))
     model = loop_model(network, break_at, omega, params)
     every = margins(model, attenuation_above=0.0)

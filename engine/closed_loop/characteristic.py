@@ -59,9 +59,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
+from engine.loop.design import design
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.model.blocks import ExpressionTransfer
-from engine.model.factored import pole_zero
 from engine.model.network import Network
 
 Roots = NDArray[np.complex128]
@@ -116,7 +115,7 @@ class GainCharacteristic(Characteristic):
 
     def __init__(self, network: Network, break_at: str | None, params: Mapping[str, float]) -> None:
         try:
-            self.poles = block_poles(network, params)
+            self.poles = design(network, params).block_poles
             self.compiled = [(e.row, e.col, e.transfer.compile(params)) for e in network.entries]
         except EngineError:  # a block without a usable rational form: nothing to polish against
             self.poles, self.compiled = None, []
@@ -161,18 +160,6 @@ class FormCharacteristic(Characteristic):
     def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
         with np.errstate(all="ignore"):
             return _pole_logs(s, self.form.poles) + np.log(np.abs(1.0 + loop_terms(self.form, k, s)[0]))
-
-
-def block_poles(network: Network, params: Mapping[str, float]) -> Roots:
-    """Every block's own poles, from its factored form (exact to rounding)."""
-    out = [np.zeros(0, dtype=complex)]
-    for e in network.entries:
-        if isinstance(e.transfer, ExpressionTransfer):
-            out.append(pole_zero(e.transfer.expression, params).poles)
-        else:
-            den = e.transfer.rational(params).den
-            out.append(np.roots(den) if den.size > 1 else np.zeros(0))
-    return np.concatenate([np.asarray(p, dtype=complex) for p in out])
 
 
 def loop_terms(form: ZpkEvaluator, k: float, s: Roots) -> tuple[Roots, Roots, Roots]:

@@ -31,9 +31,8 @@ from scipy.optimize import brentq, linear_sum_assignment
 from engine.closed_loop.characteristic import FormCharacteristic, GainCharacteristic, loop_terms
 from engine.closed_loop.poles import polish
 from engine.errors import EngineError
-from engine.loop.evaluator import LoopEvaluator
-from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
-from engine.loop.realization import realize
+from engine.loop.design import design
+from engine.loop.pole_zero import ZpkEvaluator
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
 from engine.model.network import Network
@@ -206,7 +205,7 @@ def parameter_locus(
 
     def roots_at(v: float) -> NDArray:
         values = dict(params) | {name: v}
-        ss = realize(network, values)
+        ss = design(network, values).closed_realization
         eig = np.linalg.eigvals(ss.A) if ss.A.size else np.zeros(0, dtype=complex)
         return polish(network, values, eig) if eig.size else eig
 
@@ -352,11 +351,11 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
     `engine.loop.pole_zero`'s when it matches the network, else the same form unchecked, with a note."""
     if not network.rational:
         raise EngineError("a pole-zero map needs a rational loop (no delays, no tables)")
-    exact = LoopEvaluator(network, break_at, params)
-    form = zpk_evaluator(network, break_at, params, exact)
+    loop = design(network, params).loop(break_at)
+    exact, form = loop.evaluator, loop.pole_zero
     if form is not None:
         return form, []
-    ss = loop_realization(network, break_at, params)
+    ss = loop.realization
     k = network.signal(break_at)
     A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:]
     if A.shape[0] == 0:
@@ -377,7 +376,7 @@ def _loop_form(network: Network, break_at: str, params: Mapping[str, float]) -> 
 def _gain_eigenvalues(network: Network, break_at: str, params: Mapping[str, float]) -> Callable[[float], NDArray]:
     """k -> the closed-loop poles with the loop gain multiplied by k: the
     eigenvalues of A - k B (1 + k D)^-1 C (to polish: `engine.closed_loop.characteristic`)."""
-    ss = loop_realization(network, break_at, params)
+    ss = design(network, params).loop(break_at).realization
     b = network.signal(break_at)
     A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[b : b + 1], -ss.D[b : b + 1, -1:]
 

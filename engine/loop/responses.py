@@ -15,8 +15,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import EngineError
-from engine.loop.evaluator import LoopEvaluator
-from engine.loop.pole_zero import ZpkEvaluator, zpk_evaluator
+from engine.loop.design import design
+from engine.loop.pole_zero import ZpkEvaluator
 from engine.model.network import Network, check_grid, solve
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
@@ -135,9 +135,10 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     w = check_grid(omega)
     if not network.exact:
         return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)
-    exact = LoopEvaluator(network, break_at, params)
+    loop = design(network, params).loop(break_at)
+    exact = loop.evaluator
     corners, damps, is_pole = exact.corners(params)
-    evaluate = (zpk_evaluator(network, break_at, params, exact) if network.rational else None) or exact
+    evaluate = loop.pole_zero or exact
     if isinstance(evaluate, ZpkEvaluator) and not evaluate.factored:
         corners, damps, is_pole = _with_loop_zeros(corners, damps, is_pole, evaluate.zeros)
     return LoopModel(

@@ -1,0 +1,109 @@
+"""One design's loop, formed once: a network at fixed parameter values, and that
+network broken at one signal, with every form the analyses read (the blocks'
+poles, the closed loop's realization; per break: the fast evaluator, the
+pole-zero form, the broken network's realization), each computed on first use
+and then shared.
+
+Margins (`engine.loop.responses.loop_model`), the root locus and pole-zero
+map (`engine.closed_loop.root_locus`), the closed-loop poles and their polish
+(`engine.analysis`, `engine.closed_loop.poles`) all ask `design(network,
+params)` for their forms, so a design's pole-zero form, realization and
+blocks' poles are computed once however many of them are shown
+(`tests/engine/test_design_loop.py` counts them).  A network keeps its latest
+design (a new parameter value is a new design).
+"""
+
+from __future__ import annotations
+
+import functools
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.loop.evaluator import LoopEvaluator
+from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
+from engine.loop.realization import StateSpace, realize
+from engine.model.blocks import ExpressionTransfer
+from engine.model.factored import pole_zero
+from engine.model.network import Network
+
+Roots = NDArray[np.complex128]
+
+
+@dataclass(frozen=True)
+class DesignLoop:
+    """The design's network broken at ``break_at``."""
+
+    design: Design
+    break_at: str
+
+    @functools.cached_property
+    def evaluator(self) -> LoopEvaluator:
+        """GH(j omega) and its slope, evaluated block by block (exact)."""
+        return LoopEvaluator(self.design.network, self.break_at, self.design.params)
+
+    @functools.cached_property
+    def pole_zero(self) -> ZpkEvaluator | None:
+        """The loop's pole-zero form when it matches the network (`engine.loop.pole_zero`)."""
+        if not self.design.network.rational:
+            return None
+        return zpk_evaluator(self.design.network, self.break_at, self.design.params, self.evaluator)
+
+    @functools.cached_property
+    def realization(self) -> StateSpace:
+        """The broken network's state space (inputs: the network's, then the loop input)."""
+        return loop_realization(self.design.network, self.break_at, self.design.params)
+
+
+@dataclass(frozen=True)
+class Design:
+    """A network at fixed parameter values (``values``: name -> value, sorted)."""
+
+    network: Network
+    values: tuple[tuple[str, float], ...]
+    loops: dict[str, DesignLoop] = field(default_factory=dict, compare=False, repr=False)
+
+    @functools.cached_property
+    def params(self) -> dict[str, float]:
+        return dict(self.values)
+
+    def loop(self, break_at: str) -> DesignLoop:
+        """The design's loop broken at ``break_at`` (one object per break)."""
+        found = self.loops.get(break_at)
+        if found is None:
+            found = self.loops.setdefault(break_at, DesignLoop(self, break_at))
+        return found
+
+    @functools.cached_property
+    def block_poles(self) -> Roots:
+        """Every block's own poles, from its factored form (exact to rounding)."""
+        out = [np.zeros(0, dtype=complex)]
+        for e in self.network.entries:
+            if isinstance(e.transfer, ExpressionTransfer):
+                out.append(pole_zero(e.transfer.expression, self.params).poles)
+            else:
+                den = e.transfer.rational(self.params).den
+                out.append(np.roots(den) if den.size > 1 else np.zeros(0))
+        return np.concatenate([np.asarray(p, dtype=complex) for p in out])
+
+    @functools.cached_property
+    def closed_realization(self) -> StateSpace:
+        """The whole network's state space (every loop closed)."""
+        return realize(self.network, self.params)
+
+
+_KEEPING = threading.Lock()
+
+
+def design(network: Network, params: Mapping[str, float]) -> Design:
+    """The design of ``network`` at ``params``: the same object while the values are the same."""
+    values = tuple(sorted((name, float(params[name])) for name in network.parameters))
+    with _KEEPING:
+        kept = network.schedules.get("design")
+        if kept is None or kept.values != values:
+            kept = Design(network, values)
+            network.schedules["design"] = kept
+    return kept

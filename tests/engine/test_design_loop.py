@@ -1,0 +1,60 @@
+"""A design's loop is formed once (engine/loop/design.py): the margins, the closed-loop
+poles with their polish, the root locus and the pole-zero map of one design all read
+the same pole-zero form, realizations and blocks' poles."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from engine.analysis import analyze, unity_feedback
+from engine.closed_loop.root_locus import pole_zero_map, root_locus
+from engine.loop import design as design_module
+from engine.loop.design import design
+
+# a loop that is not one cascade (its pole-zero form comes from the realization: the costly path)
+LOOP = ["K*(1 + T1*s)/(1 + T2*s)", "4/(s*(s + 2)*(s**2 + 0.4*s + 9))"]
+PARAMS = {"K": 2.0, "T1": 1.0, "T2": 0.1}
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Calls of the form-making functions the design's cached forms wrap."""
+    counts = {"pole_zero": 0, "loop_realization": 0, "realize": 0, "factored": 0}
+
+    def counting(name, function):
+        def wrapped(*args, **kwargs):
+            counts[name] += 1
+            return function(*args, **kwargs)
+
+        return wrapped
+
+    monkeypatch.setattr(design_module, "zpk_evaluator", counting("pole_zero", design_module.zpk_evaluator))
+    monkeypatch.setattr(design_module, "loop_realization", counting("loop_realization", design_module.loop_realization))
+    monkeypatch.setattr(design_module, "realize", counting("realize", design_module.realize))
+    monkeypatch.setattr(design_module, "pole_zero", counting("factored", design_module.pole_zero))
+    return counts
+
+
+def test_margins_poles_locus_and_map_of_one_design_form_its_loop_once(counted):
+    network = unity_feedback(LOOP)
+    omega = np.geomspace(1e-2, 1e2, 400)
+    result = analyze(network, "e", omega, PARAMS)
+    assert result.closed_loop_poles and result.margins.phase  # the analyses ran
+    root_locus(network, "e", PARAMS, "gain", polished=False)
+    root_locus(network, "e", PARAMS, "gain", polished=True)
+    pole_zero_map(network, "e", PARAMS)
+    analyze(network, "e", np.geomspace(1e-3, 1e3, 200), PARAMS)  # another grid: the same design
+    blocks = len(network.entries)
+    assert counted["pole_zero"] == 1 and counted["realize"] == 1, counted
+    assert counted["loop_realization"] <= 1, counted
+    assert counted["factored"] <= blocks, counted  # each block's poles once
+
+
+def test_a_new_parameter_value_is_a_new_design(counted):
+    network = unity_feedback(LOOP)
+    first = design(network, PARAMS)
+    assert design(network, dict(PARAMS)) is first
+    second = design(network, PARAMS | {"K": 3.0})
+    assert second is not first and second.params["K"] == 3.0
+    assert first.loop("e") is first.loop("e")
