@@ -9,13 +9,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from engine.closed_loop.poles import polish
 from engine.errors import EngineError
 from engine.loop.design import design
 from engine.loop.realization import Pole, poles, stability
-from engine.loop.responses import LoopModel, loop_model
+from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
 from engine.margins.search import Band, Margins, margins
@@ -42,6 +42,44 @@ class LoopAnalysis:
     disk_margin: DiskMargin | None = None
     sensitivity_peak: Peak | None = None  # Ms = max |S|
     complementary_peak: Peak | None = None  # Mt = max |T|
+
+
+@dataclass(frozen=True)
+class LoopCurve:
+    """One loop's frequency response as a plot or a report shows it: GH(j omega) of one
+    design of one flight condition, its label, its ``role`` (``current``, ``reference``:
+    an initial or earlier design, ``condition``: one of several conditions, the
+    ``index``-th), and the margins marked on it (None: unmarked).  The workbench's views
+    and the design report both draw these (each maps the role to a colour or a line style)."""
+
+    omega: NDArray[np.float64]
+    gh: NDArray[np.complex128]
+    label: str
+    role: str = "current"
+    index: int = 0
+    margins: Margins | None = None
+
+
+def loop_curve(
+    network: Network,
+    break_at: str,
+    omega: NDArray[np.float64],
+    params: Mapping[str, float],
+    label: str,
+    role: str = "current",
+    index: int = 0,
+    marked: bool = False,
+) -> LoopCurve:
+    """GH over ``omega`` (an `EngineError` when the loop cannot be evaluated), with its margins
+    when ``marked`` (omitted, not an error, when they cannot be found)."""
+    gh = open_loop(network, break_at, omega, params, sensitivities=False).value
+    found = None
+    if marked:
+        try:
+            found = margins(loop_model(network, break_at, omega, params))
+        except EngineError:
+            pass
+    return LoopCurve(omega, gh, label, role, index, found)
 
 
 DELAY_FACTOR = re.compile(

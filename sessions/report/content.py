@@ -17,11 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from engine.analysis import LoopCurve, loop_curve
 from engine.closed_loop.time_response import Segment, simulate
 from engine.errors import EngineError
 from engine.loop.realization import realize
-from engine.loop.responses import loop_model, open_loop
-from engine.margins.search import margins
 from engine.stepping.driver import first_record
 from engine.stepping.presenter import tableau_text, tolerant
 from engine.stepping.protocol import MeasureRow, StepRecord
@@ -198,18 +197,14 @@ def _convergence(session: Session, k: int) -> list[Block]:
     return blocks
 
 
-def _curve(session: Session, c: int, named: dict | None, label: str, style: str, marked: bool):
+def _curve(session: Session, c: int, named: dict | None, label: str, role: str, marked: bool) -> LoopCurve | None:
     problem = session.problem
     condition = problem.conditions[c]
     values = problem.condition_values(c, named=named)
     try:
-        gh = open_loop(condition.network, condition.break_at, problem.grid.omega, values, sensitivities=False).value
-        found = (
-            margins(loop_model(condition.network, condition.break_at, problem.grid.omega, values)) if marked else None
-        )
+        return loop_curve(condition.network, condition.break_at, problem.grid.omega, values, label, role, c, marked)
     except EngineError:
         return None
-    return figures.Curve(problem.grid.omega, gh, label, style, found)
 
 
 def _circles(session: Session, name: str) -> list[tuple[str, float]]:
@@ -231,8 +226,8 @@ def _figures(session: Session, named: dict | None) -> list[Block]:
         curves = [
             x
             for x in (
-                _curve(session, c, None, "initial", "--", named is None),
-                _curve(session, c, named, "final", "-", True) if named is not None else None,
+                _curve(session, c, None, "initial", "reference", named is None),
+                _curve(session, c, named, "final", "current", True) if named is not None else None,
             )
             if x
         ]

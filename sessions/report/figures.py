@@ -11,25 +11,18 @@ closed-loop step response; and the convergence history.
 from __future__ import annotations
 
 import io
-from dataclasses import dataclass
 
 import numpy as np
 
-from engine.margins.search import Margins
+from engine.analysis import LoopCurve
 
 SIZE = (7.0, 4.2)  # inches; at DPI, 700 x 420 pixels
 DPI = 100
 
 
-@dataclass(frozen=True)
-class Curve:
-    """GH(j omega) of one design of one condition; ``margins`` marked when given."""
-
-    omega: np.ndarray
-    gh: np.ndarray
-    label: str
-    style: str = "-"
-    margins: Margins | None = None
+def _style(curve: LoopCurve) -> str:
+    """A curve's line style by its role: a reference (the initial design) dashed."""
+    return "--" if curve.role == "reference" else "-"
 
 
 def _figure(rows: int = 1):
@@ -58,14 +51,14 @@ def _phase(gh: np.ndarray) -> np.ndarray:
     return np.degrees(np.unwrap(np.angle(gh)))
 
 
-def bode(curves: list[Curve], unit: str, title: str) -> bytes:
+def bode(curves: list[LoopCurve], unit: str, title: str) -> bytes:
     """Magnitude and phase against frequency; gain margins (at phase crossovers) and
     phase margins (at gain crossovers) of the curves that carry them, marked."""
     fig, (mag, phase) = _figure(2)
     scale = 2 * np.pi if unit == "hz" else 1.0
     for c in curves:
-        mag.semilogx(c.omega / scale, _db(c.gh), c.style, label=c.label)
-        phase.semilogx(c.omega / scale, _phase(c.gh), c.style, label=c.label)
+        mag.semilogx(c.omega / scale, _db(c.gh), _style(c), label=c.label)
+        phase.semilogx(c.omega / scale, _phase(c.gh), _style(c), label=c.label)
         for m in c.margins.gain if c.margins else ():
             if m.frequency > 0 and m.gain_db is not None and np.isfinite(m.gain_db):
                 mag.plot([m.frequency / scale] * 2, [0.0, -m.gain_db], "r-", lw=1.5)
@@ -85,15 +78,15 @@ def bode(curves: list[Curve], unit: str, title: str) -> bytes:
     return _png(fig)
 
 
-def nyquist(curves: list[Curve], circles: list[tuple[str, float]], title: str) -> bytes:
+def nyquist(curves: list[LoopCurve], circles: list[tuple[str, float]], title: str) -> bytes:
     """GH in the complex plane (and its mirror image), -1, and circles of the given
     radii around -1 (the targets' distances |1 + GH|); clipped to |GH| <= 4."""
     fig, (ax,) = _figure()
     theta = np.linspace(0, 2 * np.pi, 200)
     for c in curves:
         gh = np.where(np.abs(c.gh) > 4.0, np.nan, c.gh)
-        line = ax.plot(gh.real, gh.imag, c.style, label=c.label)[0]
-        ax.plot(gh.real, -gh.imag, c.style, color=line.get_color(), alpha=0.35)
+        line = ax.plot(gh.real, gh.imag, _style(c), label=c.label)[0]
+        ax.plot(gh.real, -gh.imag, _style(c), color=line.get_color(), alpha=0.35)
     ax.plot(np.cos(theta), np.sin(theta), "k:", lw=0.6)
     for label, radius in circles:
         ax.plot(-1 + radius * np.cos(theta), radius * np.sin(theta), "--", lw=0.8, label=label)
@@ -108,11 +101,11 @@ def nyquist(curves: list[Curve], circles: list[tuple[str, float]], title: str) -
     return _png(fig)
 
 
-def nichols(curves: list[Curve], title: str) -> bytes:
+def nichols(curves: list[LoopCurve], title: str) -> bytes:
     """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB)."""
     fig, (ax,) = _figure()
     for c in curves:
-        ax.plot(_phase(c.gh), _db(c.gh), c.style, label=c.label)
+        ax.plot(_phase(c.gh), _db(c.gh), _style(c), label=c.label)
     ax.plot([-180.0], [0.0], "r+", ms=12, mew=2)
     ax.set_xlabel("phase (deg)")
     ax.set_ylabel("magnitude (dB)")

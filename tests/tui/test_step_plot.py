@@ -53,7 +53,7 @@ def test_the_axis_is_scaled_to_the_current_design_not_an_unstable_start(workdir)
         bench.step()
     view = bench.view()
     name, traces, marks = view.step_plot()
-    assert len(traces) == 2 and traces[1][3] == "gray"
+    assert len(traces) == 2 and traces[1][3] == "reference"
     fig = step_figure(name, traces, marks)
     current = np.array(traces[0][1])
     low, high = fig.ylim

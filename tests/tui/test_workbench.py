@@ -143,7 +143,7 @@ def test_plots_show_every_condition_at_its_own_parameters_then_each_alone(workdi
     problem, record = bench.session.problem, bench.records[-1]
     names = [c.name for c in problem.conditions]
     curves = bench.view().loop_curves()
-    assert [c.label for c in curves] == names and len({c.color for c in curves}) == len(names)
+    assert [c.label for c in curves] == names and len({(c.role, c.index) for c in curves}) == len(names)
     for k, (curve, condition) in enumerate(zip(curves, problem.conditions)):
         values = problem.condition_values(k)
         values.update({n: v[k] if isinstance(v, list) else v for n, v in record.parameters.items()})

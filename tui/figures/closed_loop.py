@@ -25,13 +25,12 @@ from engine.margins.peaks import (
     transfer_evaluator,
 )
 from tui.figures.axes import decade_ticks, finite_points
-from tui.figures.data import Figure, Series
+from tui.figures.data import REFERENCE_COLOR, Figure, Series, role_color
 from tui.figures.navigation import Probe
-from tui.state.views import CONDITION_COLORS, INITIAL_COLOR
 
 LOCUS_POINTS = 2000  # the engine's default bound
 
-Design = tuple[int | None, int, str, str]  # (iteration or None: the current one, condition, label, colour)
+Design = tuple[int | None, int, str, str]  # (iteration or None: the current one, condition, label, role)
 
 
 def current_designs(view) -> list[Design]:
@@ -43,7 +42,7 @@ def current_designs(view) -> list[Design]:
             None,
             k,
             conditions[k].name if named else "",
-            CONDITION_COLORS[k % len(CONDITION_COLORS)] if len(plotted) > 1 else "blue",
+            "condition" if len(plotted) > 1 else "current",
         )
         for k in plotted
     ]
@@ -64,10 +63,10 @@ def sensitivity_figure(view, designs: list[Design] | None = None) -> Figure:
         log_x=True,
     )
     notes: list[str] = []
-    references = any(d[3] == INITIAL_COLOR for d in designs)
-    paired = sum(d[3] != INITIAL_COLOR for d in designs) == 1
+    references = any(d[3] == "reference" for d in designs)
+    paired = sum(d[3] != "reference" for d in designs) == 1
     for design in designs:
-        role = "reference" if design[3] == INITIAL_COLOR else "paired" if paired else "condition"
+        role = "reference" if design[3] == "reference" else "paired" if paired else "condition"
         _closed_loop(fig, view, design, role, references, notes)
     if notes and not fig.series:
         fig.empty_message = "; ".join(notes)
@@ -78,7 +77,8 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     """One design's |S| and |T| and their refined peaks: ``role`` paired: |S| blue, |T|
     orange, with |KS|; condition: both in its colour, |T| dotted; reference: gray, one
     legend entry.  ``condensed``: the paired design's peaks in the title, not the legend."""
-    at, k, label, color = design
+    at, k, label, drawn_as = design
+    color = role_color(drawn_as, k)
     problem = view.problem
     c = problem.conditions[k]
     scale = 2 * np.pi if problem.grid.unit == "hz" else 1.0
@@ -221,9 +221,9 @@ def _pole_series(fig: Figure, pz, reference: str) -> None:
     )
     if reference:
         rows = (
-            (pz.poles, f"{reference} open loop", "x", INITIAL_COLOR),
-            (pz.zeros, "", "o", INITIAL_COLOR),
-            (pz.closed_loop, f"{reference} closed loop", "*", INITIAL_COLOR),
+            (pz.poles, f"{reference} open loop", "x", REFERENCE_COLOR),
+            (pz.zeros, "", "o", REFERENCE_COLOR),
+            (pz.closed_loop, f"{reference} closed loop", "*", REFERENCE_COLOR),
         )
     for points, label, marker, color in rows:
         points = np.asarray(points)[np.isfinite(points)]

@@ -31,3 +31,18 @@ class Figure:
     compact: Figure | None = None  # drawn instead on a canvas of fewer than COMPACT_ROWS rows
     probe: Any = None  # a `navigation.Probe`: where a cursor moves and what it reads
     log_x: bool = False  # x is log10 of a frequency: zoomed ticks are labelled as frequencies
+
+
+CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
+REFERENCE_COLOR = "gray"
+
+
+def role_color(role: str, index: int = 0) -> str:
+    """The colour a curve of a role is drawn in (`engine.analysis.LoopCurve`'s roles): the
+    current design blue, a reference (initial or earlier design) gray, the ``index``-th of
+    several conditions its own."""
+    if role == "reference":
+        return REFERENCE_COLOR
+    if role == "condition":
+        return CONDITION_COLORS[index % len(CONDITION_COLORS)]
+    return "blue"

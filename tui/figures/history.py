@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from engine.analysis import LoopCurve
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
@@ -17,7 +18,7 @@ from tui.figures.closed_loop import Design, locus_figure, poles_figure, sensitiv
 from tui.figures.data import Figure
 from tui.figures.lines import step_figure
 from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
-from tui.state.views import INITIAL_COLOR, LoopCurve, View
+from tui.state.views import View
 
 # the views, in the order o (or p) cycles them: title, and the presenter's plot each needs
 VIEWS = {
@@ -60,7 +61,7 @@ def designs(view: View, iteration: int, marked: int | None = None) -> list[Desig
     if marked is None or marked == iteration:
         return view.shown(iteration)
     k = view.plotted()[0] if view.plotted() else 0
-    return [(iteration, k, name(iteration), "blue"), (marked, k, f"{name(marked)} (marked)", INITIAL_COLOR)]
+    return [(iteration, k, name(iteration), "current"), (marked, k, f"{name(marked)} (marked)", "reference")]
 
 
 def subject(view: View, iteration: int, marked: int | None, condition: int | None = None) -> str:
@@ -84,7 +85,7 @@ def history_figure(
         return locus_figure(view, parameter, iteration, subject(view, iteration, None, k))
     drawn = designs(view, iteration, marked)
     if kind in ("nyquist", "bode", "phase", "nichols"):
-        curves = [c for c in (view.loop_curve(at, label, k, color) for at, k, label, color in drawn) if c is not None]
+        curves = [c for c in (view.loop_curve(at, label, k, role) for at, k, label, role in drawn) if c is not None]
         fig = _loop_figure(view, _margins_of_the_first(view, drawn, curves), kind)
     elif kind == "closed-loop":
         fig = sensitivity_figure(view, drawn)
@@ -114,7 +115,7 @@ def _loop_figure(view: View, curves, kind: str) -> Figure:
 def _margins_of_the_first(view: View, drawn: list[Design], curves: list[LoopCurve]) -> list[LoopCurve]:
     """The curves, the margins (marked on the Bode plots) on the first design's alone."""
     out = [replace(c, margins=None) for c in curves]
-    if not out or drawn[0][3] == INITIAL_COLOR or len({k for _, k, _, _ in drawn}) > 1:
+    if not out or drawn[0][3] == "reference" or len({k for _, k, _, _ in drawn}) > 1:
         return out
     at, k = drawn[0][:2]
     c = view.problem.conditions[k]
@@ -131,13 +132,13 @@ def _step_figure(view: View, drawn: list[Design]) -> Figure:
     """The designs' step responses over the first one's horizon, its rise time, overshoot
     and settling marked; the title keeps the measures alone, the signal is the y label."""
     traces, signal, span, marks = [], "", None, None
-    for n, (at, k, label, color) in enumerate(drawn):
+    for n, (at, k, label, role) in enumerate(drawn):
         response = view.step(at, k, span)
         if response is None:
             continue
         if not traces:
             span, signal, marks = response.t[-1], response.name, response.measures if n == 0 else None
-        traces.append((response.t, response.y, label, color))
+        traces.append((response.t, response.y, label, role))
     fig = step_figure(signal, traces, marks)
     fig.title = fig.title.replace(f"Step response: {signal}", "", 1)
     fig.ylabel = signal or fig.ylabel
@@ -158,7 +159,7 @@ def figure_key(view: View, iteration: int, marked: int | None, kind: str, parame
         k = view.plotted()[0] if view.plotted() else 0
         return kind, iteration, _frozen(view.parameters(iteration, k)), k, parameter
     drawn = tuple(
-        (label, color, k, _frozen(view.parameters(at, k))) for at, k, label, color in designs(view, iteration, marked)
+        (label, role, k, _frozen(view.parameters(at, k))) for at, k, label, role in designs(view, iteration, marked)
     )
     return kind, iteration, marked, drawn, view.step_setup if kind == "step" else None
 

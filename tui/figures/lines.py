@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from tui.figures.axes import finite_points
-from tui.figures.data import Figure, Series
+from tui.figures.data import Figure, Series, role_color
 
 
 def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[float], empty: str) -> Figure:
@@ -16,18 +16,17 @@ def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[fl
     return fig
 
 
-def step_figure(
-    name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None, reference_color: str = "gray"
-) -> Figure:
-    """Closed-loop step responses of ``name``: (t, y, label, color) per trace, scaled to
-    the current design's traces (not the ``reference_color`` one); ``marks`` (the
+def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str]], marks=None) -> Figure:
+    """Closed-loop step responses of ``name``: (t, y, label, role) per trace (roles as
+    `engine.analysis.LoopCurve`'s, the index its rank), scaled to the current design's
+    traces (not a reference's); ``marks`` (the
     current design's `StepMeasures`) adds the settling band, the peak and the
     settling and rise times."""
     fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
-    for t, y, label, color in traces:
+    for index, (t, y, label, role) in enumerate(traces):
         fig.title = f"Step response: {name}"
-        fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, color=color))
-    current = [s for s, trace in zip(fig.series, traces) if trace[3] != reference_color and s.y] or [
+        fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, color=role_color(role, index)))
+    current = [s for s, trace in zip(fig.series, traces) if trace[3] != "reference" and s.y] or [
         s for s in fig.series if s.y
     ]
     if not current:

@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from tui.figures.axes import decade_ticks, finite_points
-from tui.figures.data import Figure, Series
+from tui.figures.data import Figure, Series, role_color
 from tui.figures.navigation import loop_probe
 
 M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)  # |T| contours on the Nichols chart
@@ -33,7 +33,7 @@ def nyquist_figure(
         gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
         x, y = finite_points(gh.real, gh.imag)
         fig.series.append(Series(x, [-v for v in y], "", color="gray"))  # negative frequencies
-        fig.series.append(Series(x, y, curve.label, color=curve.color))
+        fig.series.append(Series(x, y, curve.label, color=role_color(curve.role, curve.index)))
         if fig.probe is None:
             fig.probe = loop_probe(gh.real, gh.imag, curve.omega, curve.gh, unit)
     if disk:
@@ -90,8 +90,8 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(gh))
         degrees = np.degrees(np.unwrap(np.angle(gh)))
-        magnitude.series.append(Series(*finite_points(lw, db), curve.label, color=curve.color))
-        phase.series.append(Series(*finite_points(lw, degrees), curve.label, color=curve.color))
+        magnitude.series.append(Series(*finite_points(lw, db), curve.label, color=role_color(curve.role, curve.index)))
+        phase.series.append(Series(*finite_points(lw, degrees), curve.label, color=role_color(curve.role, curve.index)))
         if magnitude.probe is None:
             magnitude.probe = loop_probe(lw, db, curve.omega[positive], gh, unit)
             phase.probe = loop_probe(lw, degrees, curve.omega[positive], gh, unit)
@@ -130,9 +130,18 @@ def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degre
             level, worst = [-m.gain_db for m in marks], f"{min((m.gain_db for m in marks), key=abs):.1f} dB"
         label = f"{prefix}{kind} {worst}" + (f" ({len(marks)})" if len(marks) > 1 else "")
         marker = "x" if kind == "PM" else "o"
-        magnitude.series.append(Series(x, level, label, marker=marker, scatter=True, color=curve.color))
+        magnitude.series.append(
+            Series(x, level, label, marker=marker, scatter=True, color=role_color(curve.role, curve.index))
+        )
         phase.series.append(
-            Series(x, np.interp(x, lw, degrees).tolist(), label, marker=marker, scatter=True, color=curve.color)
+            Series(
+                x,
+                np.interp(x, lw, degrees).tolist(),
+                label,
+                marker=marker,
+                scatter=True,
+                color=role_color(curve.role, curve.index),
+            )
         )
 
 
@@ -154,7 +163,7 @@ def nichols_figure(curves, unit: str = "rad/s") -> Figure:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(curve.gh))
         degrees = np.degrees(np.unwrap(np.angle(curve.gh)))
-        fig.series.append(Series(*finite_points(degrees, db), curve.label, color=curve.color))
+        fig.series.append(Series(*finite_points(degrees, db), curve.label, color=role_color(curve.role, curve.index)))
         if fig.probe is None:
             fig.probe = loop_probe(degrees, db, curve.omega, curve.gh, unit)
     fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))

@@ -14,29 +14,12 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
-import numpy as np
-
+from engine.analysis import LoopCurve, loop_curve
 from engine.design.problem import Problem
 from engine.errors import EngineError
-from engine.loop.responses import loop_model, open_loop
-from engine.margins.search import Margins, margins
 from engine.stepping.presenter import tolerant
 from engine.stepping.protocol import MeasureRow, StepRecord
 from tui.state.step_view import StepSetup, horizon, realized, step_response
-
-CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
-INITIAL_COLOR = "gray"
-
-
-@dataclass(frozen=True)
-class LoopCurve:
-    """GH(j omega) of one condition at some parameters (for Nyquist, Bode, Nichols)."""
-
-    omega: np.ndarray
-    gh: np.ndarray
-    label: str
-    color: str = "blue"
-    margins: Margins | None = None  # marked on the Bode plots (the current design's curves)
 
 
 @dataclass(frozen=True)
@@ -80,7 +63,7 @@ class View:
         iteration: int | None = None,
         label: str = "current",
         condition: int = 0,
-        color: str = "blue",
+        role: str = "current",
         with_margins: bool = True,
     ) -> LoopCurve | None:
         """GH of one condition (None when the loop cannot be evaluated); the current one with
@@ -90,17 +73,11 @@ class View:
             return None
         c = problem.conditions[condition]
         values = self.parameters(iteration, condition)
+        marked = iteration is None and with_margins
         try:
-            response = open_loop(c.network, c.break_at, problem.grid.omega, values, sensitivities=False)
+            return loop_curve(c.network, c.break_at, problem.grid.omega, values, label, role, condition, marked)
         except EngineError:
             return None
-        found = None
-        if iteration is None and with_margins:
-            try:
-                found = margins(loop_model(c.network, c.break_at, problem.grid.omega, values))
-            except EngineError:
-                pass
-        return LoopCurve(problem.grid.omega, response.value, label, color, found)
 
     def plotted(self) -> list[int]:
         """The conditions the plots show (`plotted_condition`; every one when None)."""
@@ -111,7 +88,7 @@ class View:
 
     def shown(self, iteration: int | None = None) -> list[tuple[int | None, int, str, str]]:
         """What the plots draw for an iteration (None: the current one), as
-        (iteration or None for the current, condition, label, colour): each
+        (iteration or None for the current, condition, label, role): each
         plotted condition, labelled by name, when there are several; one
         condition alone also with a reference: the initial design beside the
         current one, the current design beside an earlier iteration."""
@@ -120,21 +97,21 @@ class View:
         k_it = self.iteration if iteration is None else iteration
         at = None if k_it == self.iteration else k_it
         if len(plotted) > 1:
-            return [(at, k, conditions[k].name, CONDITION_COLORS[k % len(CONDITION_COLORS)]) for k in plotted]
+            return [(at, k, conditions[k].name, "condition") for k in plotted]
         if not plotted:
             return []
         k = plotted[0]
         prefix = f"{conditions[k].name}: " if len(conditions) > 1 else ""
-        wanted = [(at, k, prefix + ("current" if at is None else f"iteration {k_it}" if k_it else "start"), "blue")]
+        wanted = [(at, k, prefix + ("current" if at is None else f"iteration {k_it}" if k_it else "start"), "current")]
         if at is not None:
-            wanted.append((None, k, prefix + "current", INITIAL_COLOR))
+            wanted.append((None, k, prefix + "current", "reference"))
         elif self.iteration:
-            wanted.append((0, k, prefix + "initial", INITIAL_COLOR))
+            wanted.append((0, k, prefix + "initial", "reference"))
         return wanted
 
     def loop_curves(self, iteration: int | None = None, with_margins: bool = True) -> list[LoopCurve]:
         """The open loops the plots draw (`shown`), the current one's with its margins."""
-        curves = [self.loop_curve(at, label, k, color, with_margins) for at, k, label, color in self.shown(iteration)]
+        curves = [self.loop_curve(at, label, k, role, with_margins) for at, k, label, role in self.shown(iteration)]
         return [c for c in curves if c is not None]
 
     def step_response(
@@ -162,15 +139,15 @@ class View:
 
     def step_plot(self) -> tuple[str, list[tuple[list[float], list[float], str, str]], Any]:
         """What the step plot draws (`shown`), each response simulated once: what is
-        plotted, (t, y, label, colour) per trace over the current design's horizon, and
+        plotted, (t, y, label, role) per trace over the current design's horizon, and
         the current design's `StepMeasures` (first plotted condition; None without one)."""
         name, traces, marks = "", [], None
-        for at, k, label, color in self.shown():
+        for at, k, label, role in self.shown():
             ss = self.step_loop(k)
             response = self.step(at, k, horizon(ss) if ss is not None else None)
             if response is not None:
                 name = response.name
-                traces.append((response.t, response.y, label, color))
+                traces.append((response.t, response.y, label, role))
                 if at is None and not traces[:-1]:
                     marks = response.measures
         return name, traces, marks
