@@ -93,3 +93,17 @@ def test_the_architecture_page_names_every_module():
     files = {str(path.relative_to(ROOT)) for path in product_modules().values() if path.name != "__init__.py"}
     assert sorted(files - named) == [], "modules the page does not name"
     assert sorted(named - files) == [], "modules the page names that do not exist"
+
+
+def test_workers_answer_by_posted_messages_and_the_app_is_composed_not_mixed():
+    """One way back from a thread worker (a posted message, handled with @on), and the
+    app's and the main screen's state in composed parts, not mixins sharing self."""
+    from textual.app import App
+    from textual.screen import Screen
+
+    from tui.app import LoopcraftApp
+    from tui.screens.main import MainScreen
+
+    calls = [str(p.relative_to(ROOT)) for p in (ROOT / "tui").rglob("*.py") if "call_from_thread" in p.read_text()]
+    assert calls == []
+    assert LoopcraftApp.__bases__ == (App,) and MainScreen.__bases__ == (Screen,)

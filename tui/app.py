@@ -1,5 +1,6 @@
 """The Textual app: opens and saves sessions, runs the algorithm (`RunLoop`),
-sweeps (`SweepActions`), and says which keys can act now.
+sweeps (`Sweeps`) and exports (`Exports`), each a part composed into it, and
+says which keys can act now.
 
 Keys are written once, as bindings with a description and a tooltip: the
 footer, the help screen and the command palette are made from them.  A
@@ -12,8 +13,10 @@ from __future__ import annotations
 import json
 import multiprocessing.resource_tracker
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
+from textual import on
 from textual.app import App, SystemCommand
 from textual.binding import Binding
 
@@ -29,9 +32,9 @@ from sessions.store import (
     set_aside_autosave,
 )
 from sessions.target_use import unusable_targets
-from tui.actions.exports import ExportActions
+from tui.actions.exports import Exports
 from tui.actions.run_loop import RunLoop
-from tui.actions.sweeps import SweepActions
+from tui.actions.sweeps import Sweeps
 from tui.config import Config
 from tui.files import remember, untitled_path, working_copy
 from tui.keys import identified
@@ -43,98 +46,113 @@ from tui.screens.start import StartScreen
 from tui.state.workbench import Workbench
 from tui.terminal_watch import HANGUP_EXIT, watch_terminal
 
-# actions that change the session or replace it: disabled while a run or a sweep goes
-CHANGES = frozenset(
-    {
-        "step",
-        "run_n",
-        "run",
-        "undo",
-        "redo",
-        "undo_edit",
-        "redo_edit",
-        "choose_algorithm",
-        "sweep",
-        "use_best",
-        "open",
-        "new",
-        "save_as",
-    }
+FOOTER_DIM_DELAY = 0.15  # s: work still going then has its footer's keys dimmed
+
+
+@dataclass(frozen=True)
+class KeyAction:
+    """One row of the app's action table: its binding, whether it changes or replaces the
+    session (disabled while a run or a sweep goes) and whether it needs an open session
+    (hidden on the start screen)."""
+
+    binding: Binding
+    changes: bool = False
+    needs_session: bool = False
+
+
+# the app's keys, each once: the bindings, the footer, the help, the palette and
+# which keys can act now (`check_action`) are all read from this table
+ACTIONS = (
+    KeyAction(Binding("s", "step", "step", tooltip="one iteration"), changes=True, needs_session=True),
+    KeyAction(Binding("n", "run_n", "run N", tooltip="N iterations (asks N)"), changes=True, needs_session=True),
+    KeyAction(Binding("r", "run", "run", tooltip="until the algorithm stops"), changes=True, needs_session=True),
+    KeyAction(
+        Binding("space,escape", "pause", "pause", tooltip="stop a run or a sweep (within one iteration)"),
+        needs_session=True,
+    ),
+    KeyAction(Binding("z", "undo", "undo", tooltip="drop the last iteration"), changes=True, needs_session=True),
+    KeyAction(
+        Binding("Z", "redo", "redo", show=False, tooltip="bring back the last iteration dropped"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("ctrl+z", "undo_edit", "undo edit", show=False, tooltip="undo the last edit of the problem"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("ctrl+y", "redo_edit", "redo edit", show=False, tooltip="redo the last edit undone"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("a", "choose_algorithm", "algorithm", tooltip="choose the algorithm (the records are dropped)"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding(
+            "v",
+            "next_condition",
+            "conditions",
+            show=False,
+            tooltip="plots: every flight condition, or one with its initial design",
+        ),
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("w", "sweep", "sweep", show=False, tooltip="many runs on Dask: starts, vary, tolerance"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(Binding("ctrl+s", "save", "save", show=False, tooltip="save the session"), needs_session=True),
+    KeyAction(Binding("ctrl+o", "open", "open", tooltip="open a session file"), changes=True),
+    KeyAction(Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"), changes=True),
+    KeyAction(
+        Binding(
+            "ctrl+e",
+            "export",
+            "export",
+            show=False,
+            tooltip="the current design as a python-control or MATLAB script, JSON or CSV, beside the session",
+        ),
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("S", "save_screenshot", "screenshot", show=False, tooltip="an SVG screenshot beside the session"),
+        needs_session=True,
+    ),
+    KeyAction(Binding("question_mark", "help", "help", show=False, tooltip="every key")),
+    KeyAction(Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)")),
 )
+CHANGES = frozenset(a.binding.action for a in ACTIONS if a.changes)
+SESSION_ACTIONS = frozenset(a.binding.action for a in ACTIONS if a.needs_session)
 
 
-SESSION_ACTIONS = frozenset(
-    {
-        "step",
-        "run",
-        "run_n",
-        "undo",
-        "redo",
-        "undo_edit",
-        "redo_edit",
-        "choose_algorithm",
-        "sweep",
-        "use_best",
-        "next_condition",
-        "export",
-        "save_screenshot",
-        "pause",
-        "save",
-        "save_as",
-    }
-)
-
-
-class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
-    """``LoopcraftApp(path)`` opens a session; without a path, the start screen."""
+class LoopcraftApp(App):
+    """``LoopcraftApp(path)`` opens a session; without a path, the start screen.  Its state
+    is composed: the run loop (`runs`), the sweeps (`sweeps`), the exports (`exports`) and
+    the edit dialogs (`edit_flow`), each with its own attributes."""
 
     TITLE = "loopcraft"
-    BINDINGS = identified(
-        "app",
-        [
-            Binding("s", "step", "step", tooltip="one iteration"),
-            Binding("n", "run_n", "run N", tooltip="N iterations (asks N)"),
-            Binding("r", "run", "run", tooltip="until the algorithm stops"),
-            Binding("space,escape", "pause", "pause", tooltip="stop a run or a sweep (within one iteration)"),
-            Binding("z", "undo", "undo", tooltip="drop the last iteration"),
-            Binding("Z", "redo", "redo", show=False, tooltip="bring back the last iteration dropped"),
-            Binding("ctrl+z", "undo_edit", "undo edit", show=False, tooltip="undo the last edit of the problem"),
-            Binding("ctrl+y", "redo_edit", "redo edit", show=False, tooltip="redo the last edit undone"),
-            Binding("a", "choose_algorithm", "algorithm", tooltip="choose the algorithm (the records are dropped)"),
-            Binding(
-                "v",
-                "next_condition",
-                "conditions",
-                show=False,
-                tooltip="plots: every flight condition, or one with its initial design",
-            ),
-            Binding("w", "sweep", "sweep", show=False, tooltip="many runs on Dask: starts, vary, tolerance"),
-            Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
-            Binding("ctrl+s", "save", "save", show=False, tooltip="save the session"),
-            Binding("ctrl+o", "open", "open", tooltip="open a session file"),
-            Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"),
-            Binding(
-                "ctrl+e",
-                "export",
-                "export",
-                show=False,
-                tooltip="the current design as a python-control or MATLAB script, JSON or CSV, beside the session",
-            ),
-            Binding("S", "save_screenshot", "screenshot", show=False, tooltip="an SVG screenshot beside the session"),
-            Binding("question_mark", "help", "help", show=False, tooltip="every key"),
-            Binding("q", "quit", "quit", tooltip="quit (asks when there are unsaved changes)"),
-        ],
-    )
+    BINDINGS = identified("app", [a.binding for a in ACTIONS])
 
     def __init__(self, path: str | Path | None = None):
         super().__init__()
         self.initial_path = Path(path) if path else None
         self.bench: Workbench | None = None
         self.edit_flow = EditFlow(self)
-        self._sweep_cancel = False
+        self.runs = RunLoop(self)
+        self.sweeps = Sweeps(self)
+        self.exports = Exports(self)
         self._refused_at = 0.0
         self.config = Config()
-        self._run_setup()
         # Dask's worker processes, started from inside the running app, need the
         # resource tracker up before Textual takes over the terminal (docs/architecture.md)
         multiprocessing.resource_tracker.ensure_running()
@@ -154,7 +172,80 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     @property
     def busy(self) -> bool:
         """A run or a sweep is going: nothing may change the session."""
-        return self.running or self.sweeping
+        return self.runs.running or self.sweeps.sweeping
+
+    def busy_changed(self) -> None:
+        """Enable or disable the keys that change the session (at once: `check_action`);
+        the footer dims them when the work lasts `FOOTER_DIM_DELAY` (a step that ends
+        before would make it flicker, and rebuild it twice for nothing)."""
+        if self.busy:
+            self.set_timer(FOOTER_DIM_DELAY, self._dim_if_busy)
+        else:
+            self.screen.refresh_bindings()
+        main = self.main_screen()
+        if main is not None:
+            main.refresh_status()
+
+    def _dim_if_busy(self) -> None:
+        if self.busy:
+            self.screen.refresh_bindings()
+
+    # -- the actions the composed parts carry out ------------------------------
+
+    def action_step(self) -> None:
+        self.runs.step()
+
+    def action_run(self) -> None:
+        self.runs.run()
+
+    def action_run_n(self) -> None:
+        self.runs.run_n()
+
+    def action_pause(self) -> None:
+        self.runs.pause()
+        self.sweeps.cancel()
+
+    def action_sweep(self) -> None:
+        self.sweeps.ask()
+
+    def action_use_best(self) -> None:
+        self.sweeps.use_best()
+
+    def action_export(self) -> None:
+        self.exports.export()
+
+    def action_save_screenshot(self) -> None:
+        self.exports.screenshot()
+
+    # -- what the workers post back ---------------------------------------------
+
+    @on(RunLoop.Stepped)
+    def _stepped(self, message: RunLoop.Stepped) -> None:
+        self.runs.stepped(message)
+
+    @on(RunLoop.Drawn)
+    def _drawn(self, message: RunLoop.Drawn) -> None:
+        self.runs.drawn(message)
+
+    @on(RunLoop.Ended)
+    def _run_ended(self, message: RunLoop.Ended) -> None:
+        self.runs.ended(message)
+
+    @on(RunLoop.Failed)
+    def _run_failed(self, message: RunLoop.Failed) -> None:
+        self.runs.failed(message)
+
+    @on(Sweeps.Progress)
+    def _sweep_progress(self, message: Sweeps.Progress) -> None:
+        self.sweeps.progressed(message)
+
+    @on(Sweeps.Done)
+    def _sweep_done(self, message: Sweeps.Done) -> None:
+        self.sweeps.done(message)
+
+    @on(Sweeps.Failed)
+    def _sweep_failed(self, message: Sweeps.Failed) -> None:
+        self.sweeps.failed(message)
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         if action in CHANGES and self.busy:
@@ -186,7 +277,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
                 now = time.monotonic()
                 if now - self._refused_at > 1.0:
                     self._refused_at = now
-                    what = "a sweep" if self.sweeping else "a run"
+                    what = "a sweep" if self.sweeps.sweeping else "a run"
                     self.notify(f"{name.replace('_', ' ')}: not while {what} goes (space pauses it)", timeout=3)
         return handled
 
@@ -342,7 +433,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
         self.exit(HANGUP_EXIT)
 
     def action_quit(self) -> None:
-        self._pause.set()
+        self.runs.pause()
         self._ask_to_drop(lambda: self.exit(0), "quit")
 
     def action_help(self) -> None:
@@ -402,7 +493,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
 
     def action_next_condition(self) -> None:
         """Plots: every flight condition together, then each alone with its initial design."""
-        screen = self._main()
+        screen = self.main_screen()
         if self.bench is None or screen is None:
             return
         self.notify(self.bench.next_plotted_condition(), timeout=3)
@@ -410,7 +501,8 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
 
     # -- helpers ----------------------------------------------------------------
 
-    def _main(self) -> MainScreen | None:
+    def main_screen(self) -> MainScreen | None:
+        """The workbench screen, under any dialog (None: the start screen alone)."""
         return (
             self.screen
             if isinstance(self.screen, MainScreen)
@@ -420,7 +512,7 @@ class LoopcraftApp(RunLoop, SweepActions, ExportActions, App):
     def refresh_workbench(self, plots: bool = True) -> None:
         """Redraw the workbench screen from the session (after any change); ``plots``
         False keeps the plots (a run's worker drew them)."""
-        screen = self._main()
+        screen = self.main_screen()
         if screen is None:
             return
         try:

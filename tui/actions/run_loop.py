@@ -12,7 +12,7 @@ taken when the run began) and posts them (`Drawn`): the tableau never waits
 for a plot.  After posting what the screen shows, the worker waits (at most
 `PAINT_WAIT`) until the UI thread has painted it: a worker stepping on would
 hold the GIL half the time and double every paint (the 50 ms timer waited
-up to 180 ms).  `RunEnded` or `RunFailed` follows the last `Stepped` (messages
+up to 180 ms).  `Ended` or `Failed` follows the last `Stepped` (messages
 keep their order), and only then are the keys that change the session
 enabled again, so an undo can never meet a record still on its way; plots
 drawn for a view that is no longer current are dropped.
@@ -20,12 +20,13 @@ drawn for a view that is no longer current are dropped.
 
 from __future__ import annotations
 
+import functools
 import gc
 import threading
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from textual import work
 from textual.message import Message
 
 from engine.stepping.protocol import State, Stepper, StepRecord
@@ -36,50 +37,11 @@ from tui.state.views import View
 from tui.state.workbench import stored_json
 from tui.widgets.plots import FigurePlot
 
+if TYPE_CHECKING:
+    from tui.app import LoopcraftApp
+
 REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)
-FOOTER_DIM_DELAY = 0.15  # s: a run still going then has its footer's keys dimmed
 PAINT_WAIT = 0.3  # s: after posting what the screen shows, the worker waits at most this for its paint
-
-
-class Stepped(Message):
-    """One iteration computed by the worker (``show``: refresh the tableau for it;
-    ``stored``: its record's and state's JSON, made in the worker)."""
-
-    def __init__(
-        self,
-        state: State,
-        record: StepRecord,
-        show: bool,
-        stored: tuple[dict, dict],
-        poles: tuple[tuple, str, View] | None = None,
-    ):
-        super().__init__()
-        self.state, self.record, self.show, self.stored = state, record, show, stored
-        self.poles = poles  # (figure_key, the pole lines under the tableau, the view), made in the worker when shown
-
-
-class Drawn(Message):
-    """The plots on screen drawn by the worker for the view of ``key`` (`figure_key`)."""
-
-    def __init__(self, key: tuple, drawn: dict, prebuilt: dict):
-        super().__init__()
-        self.key, self.drawn, self.prebuilt = key, drawn, prebuilt
-
-
-class RunEnded(Message):
-    """The worker stopped: finished, paused or the count reached (``note`` says which when it matters)."""
-
-    def __init__(self, note: str | None = None):
-        super().__init__()
-        self.note = note
-
-
-class RunFailed(Message):
-    """An iteration raised: the run stops, the records so far are kept."""
-
-    def __init__(self, error: str):
-        super().__init__()
-        self.error = error
 
 
 @dataclass
@@ -95,83 +57,114 @@ class RunRequest:
 
 
 class RunLoop:
-    """The app's run actions and the handlers of the worker's messages (a mixin of the app)."""
+    """`s`, `n`, `r` and pause, composed into the app (``app.runs``): its own state (whether
+    a run goes, the pause request, the paint handshake), a thread worker that computes,
+    and the handlers of the messages the worker posts back (nested here, handled by the
+    app with ``@on``), which commit on the UI thread."""
 
-    running = False
+    class Stepped(Message):
+        """One iteration computed by the worker (``show``: refresh the tableau for it;
+        ``stored``: its record's and state's JSON, made in the worker)."""
 
-    def _run_setup(self) -> None:
+        def __init__(
+            self,
+            state: State,
+            record: StepRecord,
+            show: bool,
+            stored: tuple[dict, dict],
+            poles: tuple[tuple, str, View] | None = None,
+        ):
+            super().__init__()
+            self.state, self.record, self.show, self.stored = state, record, show, stored
+            self.poles = (
+                poles  # (figure_key, the pole lines under the tableau, the view), made in the worker when shown
+            )
+
+    class Drawn(Message):
+        """The plots on screen drawn by the worker for the view of ``key`` (`figure_key`)."""
+
+        def __init__(self, key: tuple, drawn: dict, prebuilt: dict):
+            super().__init__()
+            self.key, self.drawn, self.prebuilt = key, drawn, prebuilt
+
+    class Ended(Message):
+        """The worker stopped: finished, paused or the count reached (``note`` says which when it matters)."""
+
+        def __init__(self, note: str | None = None):
+            super().__init__()
+            self.note = note
+
+    class Failed(Message):
+        """An iteration raised: the run stops, the records so far are kept."""
+
+        def __init__(self, error: str):
+            super().__init__()
+            self.error = error
+
+    def __init__(self, app: LoopcraftApp) -> None:
+        self.app = app
+        self.running = False
         self._pause = threading.Event()
         self._painted = threading.Event()  # set by the UI thread once it has painted what was posted
 
-    def action_step(self) -> None:
-        self._start(1)
+    def step(self) -> None:
+        self.start(1)
 
-    def action_run(self) -> None:
-        self._start(10**9)
+    def run(self) -> None:
+        self.start(10**9)
 
-    def action_run_n(self) -> None:
+    def run_n(self) -> None:
         from tui.screens.dialogs import EditDialog
 
         def chosen(text: str | None) -> None:
             if text:
-                self._start(int(float(text)))
+                self.start(int(float(text)))
 
-        self.push_screen(EditDialog("run how many iterations?", "10", _positive_integer), chosen)
+        self.app.push_screen(EditDialog("run how many iterations?", "10", _positive_integer), chosen)
 
-    def action_pause(self) -> None:
+    def pause(self) -> None:
         self._pause.set()
-        self._sweep_cancel = True
 
-    def _start(self, count: int) -> None:
-        if self.bench is None or self.busy:
+    def start(self, count: int) -> None:
+        app = self.app
+        if app.bench is None or app.busy:
             return
         try:
-            stepper, state = self.bench.begin_run()
+            stepper, state = self.app.bench.begin_run()
         except SessionError as exc:
-            self.notify(str(exc), title="cannot run", severity="error", timeout=10)
+            self.app.notify(str(exc), title="cannot run", severity="error", timeout=10)
             return
         if state.status.finished:
-            self.notify("the algorithm has finished; z undoes, a changes it")
+            self.app.notify("the algorithm has finished; z undoes, a changes it")
             return
-        screen = self._main()
+        screen = self.app.main_screen()
         request = RunRequest(
-            stepper, state, self.bench.view(), count, screen.canvases() if screen else {}, self.bench.settings
+            stepper, state, self.app.bench.view(), count, screen.canvases() if screen else {}, self.app.bench.settings
         )
         self._pause.clear()
         self._painted.clear()
         self._set_running(True)
-        self.call_after_refresh(self._painted.set)
-        self._run_worker(request)
+        self.app.call_after_refresh(self._painted.set)
+        self.app.run_worker(
+            functools.partial(self._work, request), thread=True, exclusive=True, exit_on_error=False, group="run"
+        )
 
     def _set_running(self, running: bool) -> None:
-        """Enable or disable the keys that change the session (at once: `check_action`);
-        the footer dims them when a run lasts `FOOTER_DIM_DELAY` (a step that ends
-        before would make it flicker, and rebuild it twice for nothing)."""
         self.running = running
-        if running:
-            self.set_timer(FOOTER_DIM_DELAY, self._dim_if_running)
-        else:
-            self.screen.refresh_bindings()
-        main = self._main()
-        if main is not None:
-            main.refresh_status()
+        self.app.busy_changed()
 
-    def _dim_if_running(self) -> None:
-        if self.running:
-            self.screen.refresh_bindings()
-
-    @work(thread=True, exclusive=True, exit_on_error=False, group="run")
-    def _run_worker(self, request: RunRequest) -> None:
+    def _work(self, request: RunRequest) -> None:
+        """The worker thread's body (`start` runs it): step, post back, stop when asked."""
         gc.freeze()  # a full collection then scans only what is new, not a long session's records
         try:
             note, view, drawn = self._steps(request)
         except Exception as exc:  # noqa: BLE001 - an engine failure ends the run, never the app
-            self.post_message(RunFailed(f"{type(exc).__name__}: {exc}"))
+            self.app.post_message(self.Failed(f"{type(exc).__name__}: {exc}"))
             return
         finally:
             gc.unfreeze()
         self._painted.clear()
-        self.post_message(RunEnded(note))
+        self.app.post_message(self.Ended(note))
         if view is not None and not drawn:
             self._painted.wait(PAINT_WAIT)  # the keys come back and are painted first
             self._post_drawings(view, request.canvases)
@@ -190,7 +183,9 @@ class RunLoop:
             show = final or time.monotonic() - last >= REDRAW_INTERVAL
             self._painted.clear()
             poles = (figure_key(view), pole_text(view), view) if show else None
-            self.post_message(Stepped(state, record, show, stored_json(state, record, request.settings), poles))
+            self.app.post_message(
+                self.Stepped(state, record, show, stored_json(state, record, request.settings), poles)
+            )
             drawn = False
             if show and not final:  # the last view is drawn after RunEnded: the keys need not wait
                 self._painted.wait(PAINT_WAIT)  # the UI paints the tableau without the worker taking the GIL
@@ -204,64 +199,64 @@ class RunLoop:
         return None, view, drawn
 
     def _post_drawings(self, view: View, canvases: dict) -> None:
-        self.post_message(Drawn(figure_key(view), *drawings(view, canvases)))
+        self.app.post_message(self.Drawn(figure_key(view), *drawings(view, canvases)))
 
-    def on_stepped(self, message: Stepped) -> None:
+    def stepped(self, message: RunLoop.Stepped) -> None:
         """UI thread: keep the record, then show it in the tableau when asked (and
         tell the worker once it is painted)."""
         try:
             self._show_stepped(message)
         finally:
             if message.show:
-                self.call_after_refresh(self._painted.set)
+                self.app.call_after_refresh(self._painted.set)
 
-    def _show_stepped(self, message: Stepped) -> None:
+    def _show_stepped(self, message: RunLoop.Stepped) -> None:
         try:
-            self.bench.commit(message.state, message.record, message.stored)
+            self.app.bench.commit(message.state, message.record, message.stored)
         except SessionError as exc:  # cannot happen while changes are disabled; said, never silent
-            self.notify(str(exc), title="record not kept", severity="error", timeout=10)
+            self.app.notify(str(exc), title="record not kept", severity="error", timeout=10)
             self._pause.set()
             return
-        screen = self._main()
+        screen = self.app.main_screen()
         if screen is None:
             return
         screen.refresh_status()
         if message.show:
-            screen.keep_poles(message.poles)
-            view = self.bench.view()
+            screen.pole_lines.keep(message.poles)
+            view = self.app.bench.view()
             screen.refresh_run(view, plots=False)
             screen.refresh_history(view)
             gc.freeze()
 
-    def on_drawn(self, message: Drawn) -> None:
+    def drawn(self, message: RunLoop.Drawn) -> None:
         """UI thread: the worker's plots, when they are of the current view (the worker
         is told once they are painted)."""
-        screen = self._main()
+        screen = self.app.main_screen()
         try:
             if screen is not None:
                 screen.show_drawn(message.key, message.drawn, message.prebuilt)
         finally:
-            self.call_after_refresh(self._painted.set)
+            self.app.call_after_refresh(self._painted.set)
 
-    def on_run_ended(self, message: RunEnded) -> None:
+    def ended(self, message: RunLoop.Ended) -> None:
         if message.note == "paused":
-            self.bench.paused_at = self.bench.iteration
+            self.app.bench.paused_at = self.app.bench.iteration
         try:
             self._run_done()
         finally:
-            self.call_after_refresh(self._painted.set)
+            self.app.call_after_refresh(self._painted.set)
         if message.note == "paused":
-            self.notify(f"paused at iteration {self.bench.iteration}", timeout=3)
+            self.app.notify(f"paused at iteration {self.app.bench.iteration}", timeout=3)
 
-    def on_run_failed(self, message: RunFailed) -> None:
+    def failed(self, message: RunLoop.Failed) -> None:
         self._run_done()
-        self.notify(message.error, title="iteration failed", severity="error", timeout=10)
+        self.app.notify(message.error, title="iteration failed", severity="error", timeout=10)
 
     def _run_done(self) -> None:
         """The keys are enabled again; everything but the plots (drawn by the worker) is refreshed."""
-        self.bench.autosave(wait=False)  # a long session's JSON: written off the UI thread
+        self.app.bench.autosave(wait=False)  # a long session's JSON: written off the UI thread
         self._set_running(False)
-        self.refresh_workbench(plots=False)
+        self.app.refresh_workbench(plots=False)
 
 
 def drawings(view: View, canvases: dict, only: set[str] | None = None) -> tuple[dict, dict]:

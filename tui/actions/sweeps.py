@@ -1,13 +1,21 @@
-"""The app's sweep actions: ask for a sweep, run it on Dask in a thread worker
-(the session is only read there: every change is disabled meanwhile), keep
-the summary on the UI thread, adopt the best optimum."""
+"""The app's sweeps, composed into the app (``app.sweeps``): ask for a sweep, run
+it on Dask in a thread worker (the session is only read there: every change is
+disabled meanwhile), keep the summary on the UI thread, adopt the best optimum.
+The worker's way back is posted messages (nested here, handled by the app)."""
 
 from __future__ import annotations
 
-from textual import work
+import functools
+import threading
+from typing import TYPE_CHECKING
+
+from textual.message import Message
 
 from sessions.errors import SessionError
 from sessions.sweeps.plan import parse_sweep
+
+if TYPE_CHECKING:
+    from tui.app import LoopcraftApp
 
 SWEEP_PROMPT = (
     "sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance NAME=+-10% [samples N]; "
@@ -15,16 +23,41 @@ SWEEP_PROMPT = (
 )
 
 
-class SweepActions:
-    """`w` starts a sweep, `u` adopts its best run (a mixin of the app)."""
+class Sweeps:
+    """`w` starts a sweep, space cancels it, `u` adopts its best run."""
 
-    sweeping = False
+    class Progress(Message):
+        """How far the sweep is (a line for the Sweep tab)."""
 
-    def action_sweep(self) -> None:
+        def __init__(self, text: str) -> None:
+            super().__init__()
+            self.text = text
+
+    class Done(Message):
+        """The sweep's summary (not yet kept: the UI thread keeps it)."""
+
+        def __init__(self, summary: dict) -> None:
+            super().__init__()
+            self.summary = summary
+
+    class Failed(Message):
+        """The sweep could not run (a cluster out of reach, a broken session)."""
+
+        def __init__(self, error: str) -> None:
+            super().__init__()
+            self.error = error
+
+    def __init__(self, app: LoopcraftApp) -> None:
+        self.app = app
+        self.sweeping = False
+        self._cancel = threading.Event()
+
+    def ask(self) -> None:
         """Ask for a sweep (one line), then run it on Dask in a worker thread."""
         from tui.screens.dialogs import EditDialog
 
-        if self.bench is None or self.busy:
+        app = self.app
+        if app.bench is None or app.busy:
             return
 
         def check(text: str) -> str | None:
@@ -35,55 +68,64 @@ class SweepActions:
             return None
 
         def chosen(text: str | None) -> None:
-            if not text or self.busy:
+            if not text or app.busy:
                 return
-            self._sweep_cancel = False
+            self._cancel.clear()
             self.sweeping = True
-            self._set_running(self.running)
-            screen = self._main()
+            app.busy_changed()
+            screen = app.main_screen()
             if screen is not None:
                 screen.action_tab("sweep")
                 screen.refresh_sweep(f"sweep {text}: starting the cluster ...  (space cancels)")
-            self._sweep_worker(text)
+            app.run_worker(
+                functools.partial(self._work, text), thread=True, exclusive=True, exit_on_error=False, group="sweep"
+            )
 
-        self.push_screen(EditDialog(SWEEP_PROMPT, "starts 16", check), chosen)
+        app.push_screen(EditDialog(SWEEP_PROMPT, "starts 16", check), chosen)
 
-    @work(thread=True, exclusive=True, exit_on_error=False, group="sweep")
-    def _sweep_worker(self, text: str) -> None:
+    def cancel(self) -> None:
+        self._cancel.set()
+
+    def _work(self, text: str) -> None:
+        """The worker thread's body: the sweep, its progress and its end posted back."""
+        app = self.app
+
         def progress(done: int, total: int) -> None:
-            self.call_from_thread(self._sweep_progress, f"sweep {text}: {done}/{total} runs  (space cancels)")
+            app.post_message(self.Progress(f"sweep {text}: {done}/{total} runs  (space cancels)"))
 
         try:
-            summary = self.bench.run_sweep(text, progress, lambda: self._sweep_cancel)
+            summary = app.bench.run_sweep(text, progress, self._cancel.is_set)
         except Exception as exc:  # noqa: BLE001 - a cluster that cannot be reached must not close the app
-            self.call_from_thread(self._sweep_failed, f"{type(exc).__name__}: {exc}")
+            app.post_message(self.Failed(f"{type(exc).__name__}: {exc}"))
             return
-        self.call_from_thread(self._swept, summary)
+        app.post_message(self.Done(summary))
 
-    def _sweep_progress(self, text: str) -> None:
-        screen = self._main()
+    def progressed(self, message: Sweeps.Progress) -> None:
+        screen = self.app.main_screen()
         if screen is not None:
-            screen.refresh_sweep(text)
+            screen.refresh_sweep(message.text)
 
-    def _sweep_failed(self, error: str) -> None:
+    def failed(self, message: Sweeps.Failed) -> None:
         self.sweeping = False
-        self._set_running(self.running)
-        self.notify(error, title="sweep failed", severity="error", timeout=10)
-        self.refresh_workbench()
+        self.app.busy_changed()
+        self.app.notify(message.error, title="sweep failed", severity="error", timeout=10)
+        self.app.refresh_workbench()
 
-    def _swept(self, summary: dict) -> None:
+    def done(self, message: Sweeps.Done) -> None:
+        summary = message.summary
         self.sweeping = False
-        self.bench.keep_sweep(summary)
-        self._set_running(self.running)
-        self.refresh_workbench()
-        self.notify(f"sweep done: {len(summary['runs'])} runs, {len(summary['optima'])} optima")
+        self.app.bench.keep_sweep(summary)
+        self.app.busy_changed()
+        self.app.refresh_workbench()
+        self.app.notify(f"sweep done: {len(summary['runs'])} runs, {len(summary['optima'])} optima")
 
-    def action_use_best(self) -> None:
+    def use_best(self) -> None:
         """Adopt the latest sweep's best run as the session's start (asks when iterations would go)."""
-        if self.bench is None or self.bench.latest_sweep() is None:
+        app = self.app
+        if app.bench is None or app.bench.latest_sweep() is None:
             return
-        self.edit_flow.change(
-            self.bench.adopt_best,
+        app.edit_flow.change(
+            app.bench.adopt_best,
             "use the best optimum's design as the start",
-            done=lambda run: self.notify(f"the start is now run {run['index']}'s design"),
+            done=lambda run: app.notify(f"the start is now run {run['index']}'s design"),
         )

@@ -159,7 +159,7 @@ class HistoryPane(Horizontal):
         if not views:
             self._show(("none",), Figure(empty_message="no views of a design: the session has no loop"))
             return
-        kind, parameter = self.kind, self.screen.locus_parameter
+        kind, parameter = self.kind, self.screen.view_actions.locus_parameter
         self.request(
             view,
             figure_key(view, iteration, marked, kind, parameter),

@@ -7,9 +7,11 @@ from __future__ import annotations
 
 from rich.markup import escape
 from rich.text import Text
+from textual import on
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical, VerticalScroll
+from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import DataTable, TabbedContent, TabPane
 
@@ -75,7 +77,7 @@ MAIN_WIDGETS = {
 }
 
 
-class MainScreen(PoleLines, ViewActions, Screen):
+class MainScreen(Screen):
     """Tabs: 1 run, 2 plant, 3 targets, 4 history, 5 sweep."""
 
     BINDINGS = identified(
@@ -129,14 +131,20 @@ class MainScreen(PoleLines, ViewActions, Screen):
     #blocks, #matrix-grid, #parameters, #targets-table, #objective-table { height: 1fr; }
     """
 
+    class FiguresDrawn(Message):
+        """A thread worker's figures of the plots on screen for the view of ``key``."""
+
+        def __init__(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
+            super().__init__()
+            self.key, self.drawn, self.prebuilt = key, drawn, prebuilt
+
     def __init__(self, bench: Workbench):
         super().__init__()
         self.bench = bench
         self._history_stale = True
-        self._locus_key = None  # what the root locus shown was computed for
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
-        self.poles: tuple[tuple, str, View] | None = None  # (`figure_key`, pole lines under the tableau, view)
-        self._poles_asked: tuple | None = None  # the `figure_key` a thread worker makes pole lines for
+        self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
+        self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -209,6 +217,28 @@ class MainScreen(PoleLines, ViewActions, Screen):
         plots.active = tabs[(tabs.index(plots.active) + 1) % len(tabs)] if plots.active in tabs else tabs[0]
         self.refresh_plots()
 
+    # -- the parts' actions and what their workers post back -------------------
+
+    def action_step_setup(self) -> None:
+        self.view_actions.step_setup()
+
+    def action_copy(self) -> None:
+        self.view_actions.copy()
+
+    def action_copy_design(self) -> None:
+        self.view_actions.copy_design()
+
+    def action_locus_parameter(self) -> None:
+        self.view_actions.choose_locus_parameter()
+
+    @on(ViewActions.LocusDrawn)
+    def _locus_drawn(self, message: ViewActions.LocusDrawn) -> None:
+        self.view_actions.locus_drawn(message)
+
+    @on(PoleLines.Found)
+    def _poles_found(self, message: PoleLines.Found) -> None:
+        self.pole_lines.found(message)
+
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """p and L are disabled where they have nothing to show."""
         tabs = self.query_one_optional("#tabs", TabbedContent)  # (query_one is cached; a query's truth walks the DOM)
@@ -236,7 +266,7 @@ class MainScreen(PoleLines, ViewActions, Screen):
 
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         if event.tabbed_content.id == "plots":
-            self.refresh_locus()
+            self.view_actions.refresh_locus()
             self.call_after_refresh(self.draw_missing)
         if event.tabbed_content.id != "tabs":
             return
@@ -280,7 +310,7 @@ class MainScreen(PoleLines, ViewActions, Screen):
         unit = view.problem.grid.unit
         width = self.query_one("#tableau-scroll").size.width or None
         text = tableau_text(rows, previous, unit, width)
-        poles = self._pole_text(view)
+        poles = self.pole_lines.text(view)
         if poles:
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
@@ -301,8 +331,8 @@ class MainScreen(PoleLines, ViewActions, Screen):
         (`draw_missing`); the root locus and History's plot as their tabs ask."""
         view = self.bench.view()
         self.draw_missing(view)
-        self._locus_key = None
-        self.refresh_locus(view)
+        self.view_actions.forget_locus()
+        self.view_actions.refresh_locus(view)
         if self.query_one("#tabs", TabbedContent).active == "history":
             self.query_one(HistoryPane).show_iteration(self.query_one(HistoryPane).selected, view)
 
@@ -321,14 +351,14 @@ class MainScreen(PoleLines, ViewActions, Screen):
                 plot.show(Figure(empty_message="computing ..."))
 
         def compute() -> None:
-            drawn, prebuilt = drawings(view, canvases, missing)
-            self.app.call_from_thread(self._figures_drawn, key, drawn, prebuilt)
+            self.post_message(self.FiguresDrawn(key, *drawings(view, canvases, missing)))
 
         self.run_worker(compute, thread=True, exclusive=True, group="figures")
 
-    def _figures_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
-        if key == figure_key(self.bench.view()):
-            self._show_figures(key, drawn, prebuilt)
+    @on(FiguresDrawn)
+    def _figures_drawn(self, message: FiguresDrawn) -> None:
+        if message.key == figure_key(self.bench.view()):
+            self._show_figures(message.key, message.drawn, message.prebuilt)
 
     def show_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
         """A run's plots, when they are of the current view; then any other plot on screen."""

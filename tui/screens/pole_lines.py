@@ -1,47 +1,67 @@
 """The closed-loop pole lines under the Run tab's tableau, made off the UI thread
 (a launch vehicle's take 25 ms; they were made on it five times per step): by
-the run's worker for the steps it shows (`tui.actions.run_loop.Stepped`), else by a
-thread worker, the tableau drawn again when they come.  The lines of one view
-are kept, with the view (the ids in its `figure_key` stay taken)."""
+the run's worker for the steps it shows (`tui.actions.run_loop.RunLoop.Stepped`),
+else by a thread worker, which posts them back (`PoleLines.Found`), the tableau
+drawn again when they come.  The lines of one view are kept, with the view (the
+ids in its `figure_key` stay taken).  A part composed into the main screen
+(``screen.pole_lines``)."""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from textual.message import Message
 
 from tui.figures.catalog import figure_key
 from tui.figures.closed_loop import pole_text
 from tui.state.views import View
 
+if TYPE_CHECKING:
+    from tui.screens.main import MainScreen
+
 COMPUTING = "closed-loop poles: computing ..."
 
 
 class PoleLines:
-    """Mixin of the main screen (which has ``bench``, ``refresh_run``, ``poles`` and ``_poles_asked``)."""
+    """The pole lines of the view on screen: kept, or asked of a thread worker."""
 
-    def _pole_text(self, view: View) -> str:
+    class Found(Message):
+        """A thread worker's pole lines for a view."""
+
+        def __init__(self, view: View, text: str) -> None:
+            super().__init__()
+            self.view, self.text = view, text
+
+    def __init__(self, screen: MainScreen) -> None:
+        self.screen = screen
+        self.kept: tuple[tuple, str, View] | None = None  # (`figure_key`, the lines, the view)
+        self._asked: tuple | None = None  # the `figure_key` a thread worker makes lines for
+
+    def text(self, view: View) -> str:
         """The pole lines of ``view``: kept, or asked of a thread worker (`COMPUTING` meanwhile)."""
         if "poles" not in view.presenter.plots:
             return ""
         key = figure_key(view)
-        if self.poles is not None and self.poles[0] == key:
-            return self.poles[1]
-        if self._poles_asked != key:
-            self._poles_asked = key
+        if self.kept is not None and self.kept[0] == key:
+            return self.kept[1]
+        if self._asked != key:
+            self._asked = key
 
             def compute() -> None:
-                text = pole_text(view)
-                self.app.call_from_thread(self._poles_found, view, text)
+                self.screen.post_message(self.Found(view, pole_text(view)))
 
-            self.run_worker(compute, thread=True, exclusive=True, group="poles")
+            self.screen.run_worker(compute, thread=True, exclusive=True, group="poles")
         return COMPUTING
 
-    def _poles_found(self, view: View, text: str) -> None:
-        key = figure_key(view)
-        if self._poles_asked == key:
-            self._poles_asked = None
-        if key == figure_key(self.bench.view()):
-            self.keep_poles((key, text, view))
-            self.refresh_run(plots=False)
+    def found(self, message: PoleLines.Found) -> None:
+        key = figure_key(message.view)
+        if self._asked == key:
+            self._asked = None
+        if key == figure_key(self.screen.bench.view()):
+            self.keep((key, message.text, message.view))
+            self.screen.refresh_run(plots=False)
 
-    def keep_poles(self, poles: tuple[tuple, str, View] | None) -> None:
+    def keep(self, poles: tuple[tuple, str, View] | None) -> None:
         """Keep the pole lines of one view (from the run's worker, or a thread worker)."""
         if poles is not None:
-            self.poles = poles
+            self.kept = poles
