@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from textual import on
+from textual.actions import parse as parse_action
 from textual.app import App, SystemCommand
 from textual.binding import Binding
 
@@ -270,9 +271,9 @@ class LoopcraftApp(App):
         """Run an action; a key refused because a run or a sweep goes says so."""
         handled = await super().run_action(action, default_namespace, namespaces)
         if not handled and self.busy:
-            target, name, params = self._parse_action(
-                action, self if default_namespace is None else default_namespace, namespaces
-            )
+            destination, name, params = action if isinstance(action, tuple) else parse_action(action)
+            target = (namespaces or {}).get(destination) or {"app": self, "screen": self.screen}.get(destination)
+            target = target or (self if default_namespace is None else default_namespace)
             if target.check_action(name, params) is None and name != "pause":
                 now = time.monotonic()
                 if now - self._refused_at > 1.0:
