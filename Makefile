@@ -10,7 +10,9 @@ PYTHON ?= python3
 TEST_WORKERS ?= 2
 VENV := .venv
 BIN := $(VENV)/bin
-STAMP := $(VENV)/.installed-$(shell cat pyproject.toml tests/plugins/pyproject.toml | cksum | cut -d' ' -f1)
+STAMP := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+# the tests' plug-in algorithms (tests/plugins), installed beside loopcraft as a plug-in would be (tests only)
+PLUGINS := $(VENV)/.plugins-$(shell cat tests/plugins/pyproject.toml | cksum | cut -d' ' -f1)
 
 .PHONY: run test test-fast lint bench fuzz clean
 
@@ -18,19 +20,23 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-# the tests' plug-in algorithms (tests/plugins) install beside loopcraft, as a plug-in would
-$(STAMP): pyproject.toml tests/plugins/pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e '.[test]' -e tests/plugins
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e '.[test]'
 	rm -f $(VENV)/.installed-*
 	touch $(STAMP)
+
+$(PLUGINS): tests/plugins/pyproject.toml $(STAMP)
+	$(BIN)/python -m pip install --quiet --no-deps -e tests/plugins
+	rm -f $(VENV)/.plugins-*
+	touch $(PLUGINS)
 
 run: $(STAMP)
 	$(BIN)/loopcraft $(if $(ARGS),$(ARGS),--example cip_launch_vehicle)
 
-test: $(STAMP)
+test: $(PLUGINS)
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) $(PYTEST_ARGS)
 
-test-fast: $(STAMP)
+test-fast: $(PLUGINS)
 	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) -m "not slow and not app and not fuzz and not bench" $(PYTEST_ARGS)
 
 lint: $(STAMP)
@@ -38,7 +44,7 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check .
 	$(BIN)/mypy
 
-fuzz: $(STAMP)
+fuzz: $(PLUGINS)
 	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} $(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
 
 bench: $(STAMP)
