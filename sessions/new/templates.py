@@ -18,9 +18,7 @@ import math
 from datetime import UTC, datetime
 
 from engine.errors import EngineError
-from engine.stepping.registry import new_session_algorithms
 from sessions.errors import SessionError
-from sessions.format.schema import SCHEMA_VERSION
 
 LOOPCRAFT_VERSION = "0.1.0"
 TIME_CONSTANT = (1e-4, 1e4)
@@ -53,6 +51,9 @@ def new_session(
     JSON, e.g. a table, with its ``grid``) with ``algorithm`` (one that offers new sessions,
     `new_session_algorithms`; None: the first).  ``name``
     names the flight condition.  Bad input is a `SessionError` naming it."""
+    from engine.stepping.registry import new_session_algorithms  # here: `loopcraft new --help` stays light
+    from sessions.format.schema import SCHEMA_VERSION
+
     offered = new_session_algorithms()
     algorithm = offered[0] if algorithm is None else algorithm
     if algorithm not in offered:

@@ -34,12 +34,12 @@ async def _step_latency(folder: Path, presses: int) -> list[float | None]:
     taken the new iteration (the screen's compositor refresh), per press."""
     from textual.screen import Screen
 
+    from tui.actions.run_loop import RunLoop
     from tui.app import LoopcraftApp
 
     app = LoopcraftApp(folder / "cip_launch_vehicle.json")
     shown, painted = [False], []
-    owner = next(c for c in type(app).__mro__ if "on_stepped" in c.__dict__)  # the `Stepped` handler's class
-    stepped, refresh = owner.__dict__["on_stepped"], Screen._compositor_refresh
+    stepped, refresh = RunLoop.stepped, Screen._compositor_refresh  # the run loop's `Stepped` handler
 
     def stepped_and_noted(self, message):
         stepped(self, message)
@@ -51,7 +51,7 @@ async def _step_latency(folder: Path, presses: int) -> list[float | None]:
             painted.append(time.perf_counter())
             shown[0] = False
 
-    owner.on_stepped = stepped_and_noted
+    RunLoop.stepped = stepped_and_noted
     Screen._compositor_refresh = refresh_and_noted
     samples = []
     try:
@@ -66,7 +66,7 @@ async def _step_latency(folder: Path, presses: int) -> list[float | None]:
                 samples.append(painted[-1] - start if len(painted) > before else None)  # no paint: no sample
                 await pilot.pause()
     finally:
-        Screen._compositor_refresh, owner.on_stepped = refresh, stepped
+        Screen._compositor_refresh, RunLoop.stepped = refresh, stepped
     return samples
 
 

@@ -57,7 +57,6 @@ def _write(path: Path, text: str) -> None:
 
 def add_parser(sub) -> None:
     """The new subcommand and its options."""
-    from engine.stepping.registry import known
     from sessions.new.templates import STRUCTURES
 
     p = sub.add_parser("new", help="a new session: unity feedback, a compensator structure, PM/GM targets")
@@ -76,7 +75,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--algorithm",
-        metavar="|".join(known()),
+        metavar="NAME",
         help="the algorithm, one that offers new sessions (default: the first of them)",
     )
     p.add_argument("--force", action="store_true", help="replace an existing FILE")
