@@ -7,6 +7,11 @@ tableau cannot evaluate (slp's modal peaks, time responses) is compared on
 its records' own measures instead (iteration 0: the algorithm's initial
 record), and the result says so.  Rows are matched by condition, kind and
 name (G1, P1, wc, ...); the difference is B - A.
+
+Two sessions need not pose the same problem: when their plants, targets,
+constraints, grids or objectives differ (`problem_differences`: the JSON paths
+where they do, parameter values aside, which are the designs), the comparison
+says so, and where, before it says which design meets more of its targets.
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ class Comparison:
     b: Side
     rows: tuple[tuple[tuple[str, str, str], MeasureRow | None, MeasureRow | None], ...]
     notes: tuple[str, ...] = field(default=())
+    differences: tuple[str, ...] = field(default=())  # where the two problems differ (empty: the same problem)
 
     @property
     def better(self) -> str:
@@ -80,8 +86,45 @@ def _record_rows(session: Session, k: int, source: str) -> list[MeasureRow]:
     return list(record.measures)
 
 
-def compare(a: Side, b: Side) -> Comparison:
-    """Match the two sides' rows by (condition, kind, name), in A's order then B's extra ones."""
+SHOWN_DIFFERENCES = 5  # the first paths where two problems differ that are listed (then a count)
+
+
+def problem_differences(a: Session, b: Session) -> tuple[str, ...]:
+    """Where the two sessions' problems differ, as JSON paths with both values (the parameters'
+    values aside: they are the designs compared); empty when they pose the same problem."""
+    found: list[str] = []
+    _differ(_problem(a), _problem(b), "problem", found)
+    if len(found) > SHOWN_DIFFERENCES:
+        found = found[:SHOWN_DIFFERENCES] + [f"and {len(found) - SHOWN_DIFFERENCES} more"]
+    return tuple(found)
+
+
+def _problem(session: Session) -> dict:
+    data = session.model.problem.model_dump(mode="json")
+    for parameter in data.get("parameters", []):
+        parameter.pop("value", None)
+    return data
+
+
+def _differ(a: object, b: object, path: str, found: list[str]) -> None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in dict.fromkeys([*a, *b]):
+            _differ(a.get(key), b.get(key), f"{path}.{key}", found)
+    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for k, (x, y) in enumerate(zip(a, b)):
+            _differ(x, y, f"{path}[{k}]", found)
+    elif a != b:
+        found.append(f"{path}: {_brief(a)} in A, {_brief(b)} in B")
+
+
+def _brief(value: object) -> str:
+    text = "absent" if value is None else repr(value) if isinstance(value, str) else str(value)
+    return text if len(text) <= 60 else text[:59] + "…"
+
+
+def compare(a: Side, b: Side, differences: tuple[str, ...] = ()) -> Comparison:
+    """Match the two sides' rows by (condition, kind, name), in A's order then B's extra ones;
+    ``differences``: where the two problems differ (`problem_differences`)."""
 
     def keyed(rows) -> dict:
         return {(r.condition, r.kind, r.name): r for r in rows}
@@ -94,7 +137,7 @@ def compare(a: Side, b: Side) -> Comparison:
     missing = [k for k in keys if k not in left or k not in right]
     if missing:
         notes.append(f"{len(missing)} measure(s) found in one design only (a crossing that the other lacks)")
-    return Comparison(a, b, tuple((k, left.get(k), right.get(k)) for k in keys), tuple(notes))
+    return Comparison(a, b, tuple((k, left.get(k), right.get(k)) for k in keys), tuple(notes), differences)
 
 
 def difference(ra: MeasureRow | None, rb: MeasureRow | None) -> float | None:
@@ -142,7 +185,15 @@ def comparison_json(c: Comparison) -> dict:
                 "difference": difference(ra, rb),
             }
         )
-    return {"a": side_json(c.a), "b": side_json(c.b), "rows": rows, "better": c.better, "notes": list(c.notes)}
+    return {
+        "a": side_json(c.a),
+        "b": side_json(c.b),
+        "rows": rows,
+        "better": c.better,
+        "notes": list(c.notes),
+        "same_problem": not c.differences,
+        "differences": list(c.differences),
+    }
 
 
 def comparison_text(c: Comparison) -> str:
@@ -167,8 +218,12 @@ def comparison_text(c: Comparison) -> str:
     lines += ["", f"{'parameter':<12} {'A':>14} {'B':>14}"]
     for name in dict.fromkeys(list(c.a.parameters) + list(c.b.parameters)):
         lines.append(f"{name:<12} {_shown(c.a.parameters.get(name)):>14} {_shown(c.b.parameters.get(name)):>14}")
+    lines.append("")
+    if c.differences:
+        lines.append("the problems differ (each design is judged on its own targets):")
+        lines += [f"  {d}" for d in c.differences]
     verdict = {"a": "A meets more targets", "b": "B meets more targets", "tie": "they meet as many targets"}
-    lines += ["", f"{verdict[c.better]}: A {c.a.met} of {len(c.a.rows)}, B {c.b.met} of {len(c.b.rows)}"]
+    lines.append(f"{verdict[c.better]}: A {c.a.met} of {len(c.a.rows)}, B {c.b.met} of {len(c.b.rows)}")
     lines += [f"note: {n}" for n in c.notes]
     return "\n".join(lines)
 

@@ -94,3 +94,28 @@ def test_two_iterations_of_one_session(runs, capsys):
 def test_bad_compare_options_exit_2(runs, capsys, args, message):
     assert main(["compare", str(runs[0]), *args]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_different_problems_are_said_to_differ_and_where_before_the_verdict(runs, tmp_path, capsys):
+    """Another plant and another target: compare says the problems differ, naming both
+    places, before which design meets more; two runs of one problem say nothing of it."""
+    data = json.loads(runs[1].read_text())
+    blocks = data["problem"]["conditions"][0]["plant"]["blocks"]
+    plant = next(b for b in blocks if "16000" in json.dumps(b["transfer"]))
+    plant["transfer"] = json.loads(json.dumps(plant["transfer"]).replace("16000", "8000"))
+    data["problem"]["targets"][0]["bands"][0]["desired"] = 99.0
+    other = tmp_path / "other_problem.json"
+    other.write_text(json.dumps(data))
+
+    assert main(["compare", str(runs[0]), str(other)]) == 0
+    out = capsys.readouterr().out
+    differ = out.index("the problems differ")
+    assert differ < out.index("meets more") if "meets more" in out else differ < out.index("meet as many")
+    assert "16000" in out and "8000" in out and ".targets[0].bands[0].desired: 10.0 in A, 99.0 in B" in out
+    assert main(["compare", str(runs[0]), str(other), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["same_problem"] is False and len(data["differences"]) == 2
+
+    assert main(["compare", str(runs[0]), str(runs[1]), "--json"]) == 0
+    same = json.loads(capsys.readouterr().out)
+    assert same["same_problem"] is True and same["differences"] == []  # other starts, one problem

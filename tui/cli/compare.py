@@ -10,17 +10,18 @@ from tui.cli.common import CliError, load
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """A.json B.json (each at its last iteration), or A.json --iterations I J."""
-    from sessions.compare import compare, comparison_json, comparison_text, side
+    from sessions.compare import compare, comparison_json, comparison_text, problem_differences, side
 
     if (args.b is None) == (args.iterations is None):
         raise CliError("give a second session (compare A.json B.json) or --iterations I J (of A.json)")
     a = load(args.a)
     if args.iterations is not None:
         i, j = args.iterations
-        left, right = side(a, i, f"{args.a}"), side(a, j, f"{args.a}")
+        left, right, differences = side(a, i, f"{args.a}"), side(a, j, f"{args.a}"), ()
     else:
-        left, right = side(a, None, args.a), side(load(args.b), None, args.b)
-    result = compare(left, right)
+        b = load(args.b)
+        left, right, differences = side(a, None, args.a), side(b, None, args.b), problem_differences(a, b)
+    result = compare(left, right, differences)
     if args.json:
         print(json.dumps(comparison_json(result), indent=2, sort_keys=True))
     else:
