@@ -107,6 +107,13 @@ def split_delays(text: str) -> tuple[str, float]:
     return "".join(pieces + [text[last:]]), total
 
 
+def check_not_zero(transfer: ExpressionTransfer, name: str) -> None:
+    """A transfer of numbers only that is 0 at every frequency is refused (the loop would be
+    open: no margin, no crossover, nothing to design)."""
+    if not transfer.parameters and not np.any(transfer.rational({}).num):
+        raise EngineError(f"{name} = {transfer.expression.text!r} is 0 at every frequency: the loop is open")
+
+
 def unity_feedback(
     expressions: Sequence[str], variable: str = "s", delay: float = 0.0, table: FrequencyTable | None = None
 ) -> Network:
@@ -125,6 +132,8 @@ def unity_feedback(
     if not (math.isfinite(delay) and delay >= 0):
         raise EngineError(f"a delay must be finite and >= 0, not {delay!r}")
     chain = [(f"L{k + 1}", ExpressionTransfer(text, variable)) for k, text in enumerate(texts)]
+    for name, transfer in chain:
+        check_not_zero(transfer, name)
     chain += [("delay", DelayTransfer(delay))] if delay else []
     chain += [("table", TabulatedTransfer(table))] if table is not None else []
     blocks, previous = [], "e"

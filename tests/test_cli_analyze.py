@@ -71,3 +71,20 @@ def test_columns_never_run_together(capsys):
         if re.match(r"^[GPS] ", line):
             cells = line.split()
             assert all(re.fullmatch(r"[-+0-9.e]+|inf|-inf|-|dB|deg", c) for c in cells[1:]), line
+
+
+@pytest.mark.parametrize(
+    "expression, said",
+    [
+        ("s^2+", "'+' at the end has nothing after it at column 4"),
+        ("(1+s)/(s*(s+2))*", "'*' at the end has nothing after it at column 16"),
+        ("0.5s", "write 0.5*s for a product at column 4"),
+        ("10/(s*(2.5e-2s+1))", "write 2.5e-2*s for a product at column 14"),
+        ("0", "L1 = '0' is 0 at every frequency: the loop is open"),
+        ("0*(s+1)/(s+2)", "is 0 at every frequency"),
+    ],
+)
+def test_expression_errors_point_at_the_real_place_and_a_zero_loop_is_refused(capsys, expression, said):
+    assert main(["analyze", "--tf", expression]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "Traceback" not in err

@@ -15,6 +15,7 @@ is a parameter.  An expression evaluates to
 from __future__ import annotations
 
 import ast
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -217,6 +218,10 @@ def _depth(root: Node) -> int:
     return deepest
 
 
+# a number written directly before a name (0.5s, 2T1): a product without its '*'
+NUMBER_AGAINST_NAME = re.compile(r"(?<![\w.])(\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?)([A-Za-z_]\w*)")
+
+
 class _Parser:
     """Translate Python's ast into `Node`s, refusing everything else (without
     recursion: a long chain of operators makes a deep ast)."""
@@ -236,12 +241,7 @@ class _Parser:
         try:
             tree = ast.parse(source, mode="eval")
         except SyntaxError as exc:
-            col = self._original_column(source, (exc.offset or 1) - 1)
-            token = self.text[col : col + 1] if col < len(self.text) else "end of input"
-            reason = exc.msg.removeprefix("invalid syntax").strip(" .") or "invalid syntax"
-            if "forgot a comma" in reason:
-                reason = "a missing operator (write '*' for products)"
-            raise ExpressionError(f"{reason} near {token!r}", self.text, col) from None
+            raise self._syntax_error(source, exc) from None
         except (RecursionError, MemoryError):
             raise ExpressionError("expression nested too deeply to read", self.text) from None
         except ValueError:
@@ -250,6 +250,25 @@ class _Parser:
         if _depth(root) > MAX_DEPTH:
             raise ExpressionError(f"expression nested more than {MAX_DEPTH} levels deep", self.text)
         return root
+
+    def _syntax_error(self, source: str, exc: SyntaxError) -> ExpressionError:
+        """What does not read, said where it is: Python points at the start of an unfinished
+        expression, so a dangling operator and a number written against a name are found first."""
+        text = self.text.rstrip()
+        if text and text[-1] in "+-*/^(":
+            return ExpressionError(f"{text[-1]!r} at the end has nothing after it", self.text, len(text) - 1)
+        glued = NUMBER_AGAINST_NAME.search(self.text)
+        if glued is not None:
+            number, name = glued.group(1), glued.group(2)
+            return ExpressionError(
+                f"a number against a name: write {number}*{name} for a product", self.text, glued.start(2)
+            )
+        col = self._original_column(source, (exc.offset or 1) - 1)
+        token = self.text[col : col + 1] if col < len(self.text) else "end of input"
+        reason = exc.msg.removeprefix("invalid syntax").strip(" .") or "invalid syntax"
+        if "forgot a comma" in reason:
+            reason = "a missing operator (write '*' for products)"
+        return ExpressionError(f"{reason} near {token!r}", self.text, col)
 
     def _original_column(self, source: str, col: int) -> int:
         """Map a column of the '^'-rewritten source back to the user's text."""

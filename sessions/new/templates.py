@@ -121,7 +121,8 @@ def _block(name: str, source: str, output: str, expression: str) -> dict:
 
 def read_plant(plant: str) -> tuple[str, float, str]:
     """The plant's rational part, its delay and its variable; numbers only."""
-    from engine.analysis import split_delays  # on use: the command line's parser reads STRUCTURES at start
+    from engine.analysis import check_not_zero, split_delays  # on use: the command line's parser reads STRUCTURES
+    from engine.model.blocks import ExpressionTransfer
     from engine.model.expressions import Expression
 
     try:
@@ -137,6 +138,10 @@ def read_plant(plant: str) -> tuple[str, float, str]:
         raise SessionError(
             f"--plant: {plant!r} names {', '.join(sorted(names))}: a plant has numbers and the variable s (or w) only"
         )
+    try:
+        check_not_zero(ExpressionTransfer(text, variable), "--plant")
+    except EngineError as exc:
+        raise SessionError(str(exc)) from None
     return text, delay, variable
 
 
