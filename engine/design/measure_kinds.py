@@ -26,9 +26,13 @@ registration's `TargetUse` (engine.stepping.registry), built from this table.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
 
 from engine.errors import EngineError
 
@@ -128,6 +132,57 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
         "STAB",
     ),
 )
+
+
+# What a measure stands at when the loop has no such feature, and why: the one rule every
+# verdict reads (the tableau, slp's rows, sweeps, tolerance studies, compare).  A margin
+# without its crossing is infinite (met); a peak that does not exist is not above any bound
+# (met); a crossover that does not exist is 0 when |GH| < 1 everywhere (no bandwidth: a
+# requirement ">= X" unmet, "<= X" met) and infinite when |GH| > 1 everywhere (the reverse).
+# A measure not named here is always defined: its absence, a NaN, is never met.
+ABSENT: dict[str, tuple[float, str]] = {
+    "gain_margin": (math.inf, "no phase crossing: an infinite gain margin"),
+    "gain_margin_db": (math.inf, "no phase crossing: an infinite gain margin"),
+    "phase_margin": (math.inf, "no gain crossover: an infinite phase margin"),
+    "phase_margin_deg": (math.inf, "no gain crossover: an infinite phase margin"),
+    "stability_margin": (math.inf, "no local minimum of |1 + GH|: none nearer -1 than the band's ends"),
+    "attenuation_margin": (0.0, "no modal peak: nothing to attenuate"),
+    "modal_peak_db": (-math.inf, "no modal peak"),
+    "modal_peak_phase_deg": (0.0, "no modal peak"),
+    "delay_margin": (math.inf, "no gain crossover: any delay is tolerated"),
+}
+NO_CROSSOVER = {
+    "below": (0.0, "no crossover: |GH| < 1 everywhere (no bandwidth)"),
+    "above": (math.inf, "no crossover: |GH| > 1 everywhere"),
+}
+
+
+def absence(name: str, magnitudes: NDArray | None = None) -> tuple[float, str] | None:
+    """The value a measure stands at when the loop lacks its feature, and why (`ABSENT`);
+    a crossover's from the loop's |GH| over the band searched (``magnitudes``); None for a
+    measure that is always defined (a NaN of it is never met)."""
+    if name == "crossover_frequency":
+        if magnitudes is None or not np.any(np.isfinite(magnitudes)):
+            return None
+        return NO_CROSSOVER["below" if np.nanmax(magnitudes) < 1.0 else "above"]
+    return ABSENT.get(name)
+
+
+def absent_reason(name: str, value: float) -> str | None:
+    """Why a row stands at ``value`` when that is its absence value (None otherwise)."""
+    if name == "crossover_frequency":
+        return next((why for v, why in NO_CROSSOVER.values() if v == value), None)
+    found = ABSENT.get(name)
+    return found[1] if found is not None and found[0] == value else None
+
+
+def met(value: float, desired: float | None, at_least: bool) -> bool:
+    """The one verdict: no requirement is met; a NaN (an error, an undefined measure) never is."""
+    if desired is None:
+        return True
+    if math.isnan(value):
+        return False
+    return value >= desired if at_least else value <= desired
 
 
 def kind(name: str) -> MeasureKind:

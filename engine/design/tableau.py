@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from engine.design.measure_kinds import kind
+from engine.design.measure_kinds import absence, kind, met
 from engine.design.problem import Problem, Target
 from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization
-from engine.loop.responses import loop_model
+from engine.loop.responses import LoopModel, loop_model
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
 from engine.margins.search import Band, Margin, margins
 from engine.stepping.guard import numerical
@@ -55,7 +55,7 @@ def _tableau(problem: Problem) -> list[MeasureRow]:
             if target.measure in CLOSED_LOOP_MEASURES:
                 rows += _closed_loop_rows(target, model, found, condition.name, stable)
             else:
-                rows += _rows(target, found, condition.name)
+                rows += _rows(target, found, condition.name, model)
     return rows
 
 
@@ -85,7 +85,7 @@ def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool
                 condition,
                 value,
                 band.desired,
-                bool(_met(value, band.desired, at_least)),
+                bool(met(value, band.desired, at_least)),
                 None if np.isnan(frequency) else frequency,
                 at_least,
                 method,
@@ -94,16 +94,12 @@ def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool
     return rows
 
 
-def _met(value: float, desired: float | None, at_least: bool) -> bool:
-    return desired is None or (value >= desired if at_least else value <= desired)
-
-
-def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
+def _rows(target: Target, found, condition: str, model: LoopModel) -> list[MeasureRow]:
     at_least = target.at_least  # the measure's natural sense (the table's) unless the target names one
     if target.measure == "crossover_frequency":
         wc = found.crossover_frequency
         desired = target.bands[0].desired if target.bands else None
-        value = float("nan") if wc is None else wc
+        value, method = (wc, found.label) if wc is not None else _no_crossover(model)
         return [
             MeasureRow(
                 "wc",
@@ -111,10 +107,10 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
                 condition,
                 value,
                 desired,
-                desired is None or (wc is not None and _met(wc, desired, at_least)),
+                met(value, desired, at_least),
                 wc,
                 at_least,
-                found.label,
+                method,
             )
         ]
     family, attribute = kind(target.measure).margin, ATTRIBUTE[target.measure]
@@ -124,10 +120,17 @@ def _rows(target: Target, found, condition: str) -> list[MeasureRow]:
     for n, m in enumerate(chosen, start=1):
         value = float(getattr(m, attribute))
         desired = target.desired(m.frequency)
-        ok = _met(value, desired, at_least)
+        ok = met(value, desired, at_least)
         rows.append(
             MeasureRow(
                 f"{family}{n}", target.measure, condition, value, desired, bool(ok), m.frequency, at_least, found.label
             )
         )
     return rows
+
+
+def _no_crossover(model: LoopModel) -> tuple[float, str]:
+    """A loop without a gain crossover stands at 0 (|GH| < 1 everywhere: no bandwidth) or at
+    infinity (|GH| > 1 everywhere), with the reason (`engine.design.measure_kinds.absence`)."""
+    found = absence("crossover_frequency", np.abs(model.gh[model.omega > 0]))
+    return found if found is not None else (float("nan"), "no crossover, and no |GH| to judge it by")

@@ -48,9 +48,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.constraints import check_start, project
+from engine.design.measure_kinds import absent_reason
 from engine.errors import EngineError
 from engine.slp.lp import LpResult, solve_step, step_box
-from engine.slp.measures import Spec, evaluate, measure_specs
+from engine.slp.measures import Spec, absent_row, evaluate, measure_specs
 from engine.slp.memory import SlpMemory, SlpPoint
 from engine.slp.partials import jacobian
 from engine.stepping.guard import check_vector, guarded
@@ -182,7 +183,7 @@ class Slp(BoundStepper):
                 f"{len(self.specs)} x {len(x0)} (the stored state belongs to another problem)"
             )
         P = float(memory.P)
-        lp = self._program(x0, base.values, J, P)
+        lp = self._program(x0, base.values, base.frequencies, J, P)
         trial, reason = self._trial(x0, lp)
         better = trial is not None and self._better(trial, _point_from(memory.best))
         memory = replace(
@@ -269,11 +270,12 @@ class Slp(BoundStepper):
 
     # -- the linear program ------------------------------------------------
 
-    def _program(self, x0: NDArray, values: NDArray, J: NDArray, P: float) -> LpResult:
+    def _program(self, x0: NDArray, values: NDArray, frequencies: NDArray, J: NDArray, P: float) -> LpResult:
         s = self.settings
         signs = np.array([spec.sign for spec in self.specs])
         oriented, gradients = signs * values, signs[:, None] * J
-        present = np.isfinite(oriented)
+        absent = np.array([absent_row(spec, v, f) for spec, v, f in zip(self.specs, values, frequencies)], dtype=bool)
+        present = np.isfinite(oriented) & ~absent  # a feature the loop lacks is judged, not steered
         rows = [i for i, spec in enumerate(self.specs) if spec.required is not None and present[i]]
         specs = np.array([self.specs[i].sign * self.specs[i].required for i in rows])
         steps = np.append(np.arange(1.0, 0.0, -s.relaxation_step), 0.0)
@@ -370,6 +372,7 @@ class Slp(BoundStepper):
                     bool(spec.met(v)),
                     None if math.isnan(f) else float(f),
                     spec.at_least,
+                    absent_reason(spec.kind, float(v)) if absent_row(spec, v, f) else None,
                 )
             )
         return tuple(out)

@@ -30,12 +30,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
-from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, kind, names
+from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
 from engine.design.problem import FREQUENCY_MEASURES, Problem
 from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization
 from engine.loop.realization import StateSpace, cascade
-from engine.loop.responses import loop_model
+from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
 from engine.model.blocks import ExpressionTransfer
 from engine.slp.peaks import closed_loop_values
@@ -83,12 +83,12 @@ class Spec:
         return 1.0 if self.at_least else -1.0
 
     def met(self, value: float) -> bool:
-        """Whether a value satisfies the requirement (absent rows count as met)."""
-        if self.required is None or math.isnan(value):
-            return True
-        if self.kind == "stability_abscissa":
+        """Whether a value satisfies the requirement (`engine.design.measure_kinds.met`: an
+        objective-only row is met, a NaN never is; an absent feature stands at its absence
+        value, `frequency_value`)."""
+        if self.kind == "stability_abscissa" and self.required is not None and not math.isnan(value):
             return value > self.required
-        return value >= self.required if self.at_least else value <= self.required
+        return met(value, self.required, self.at_least)
 
 
 def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, ...]:
@@ -179,7 +179,7 @@ def condition_values(
         if i in closed:
             value, frequency = closed[i]
         elif s.kind in FREQUENCY_MEASURES:
-            value, frequency = frequency_value(s, found)
+            value, frequency = frequency_value(s, found, model)
         else:
             value, frequency = time_value(s, problem, ss), math.nan
         values.append(value)
@@ -187,16 +187,20 @@ def condition_values(
     return values, frequencies
 
 
-def frequency_value(spec: Spec, found: Margins) -> tuple[float, float]:
-    """The row's value and the frequency it was found at (NaN, NaN when absent)."""
+def frequency_value(spec: Spec, found: Margins, model: LoopModel) -> tuple[float, float]:
+    """The row's value and the frequency it was found at; a feature the loop lacks stands at
+    its absence value (`engine.design.measure_kinds.absence`) at frequency NaN."""
     inside = lambda ms: [m for m in ms if spec.low <= m.frequency <= spec.high]  # noqa: E731
     if spec.kind == "crossover_frequency":
         cross = inside(found.phase)
-        return (max(m.frequency for m in cross),) * 2 if cross else (math.nan, math.nan)
+        if cross:
+            return (max(m.frequency for m in cross),) * 2
+        band = (model.omega >= spec.low) & (model.omega <= spec.high)
+        return _absent(spec, np.abs(model.gh[band]))
     if spec.kind in ("modal_peak_db", "modal_peak_phase_deg"):
         peaks = inside(found.attenuation)
         if not peaks:
-            return math.nan, math.nan
+            return _absent(spec)
         top = max(peaks, key=lambda m: abs(m.gh))
         if spec.kind == "modal_peak_db":
             return 20.0 * math.log10(abs(top.gh)), top.frequency
@@ -204,10 +208,21 @@ def frequency_value(spec: Spec, found: Margins) -> tuple[float, float]:
     family, attribute = MARGIN_ATTRIBUTE[spec.kind]
     candidates = inside(getattr(found, family))
     if not candidates:
-        return math.nan, math.nan
+        return _absent(spec)
     pick = min if spec.at_least else max
     worst = pick(candidates, key=lambda m: float(getattr(m, attribute)))
     return float(getattr(worst, attribute)), worst.frequency
+
+
+def _absent(spec: Spec, magnitudes: NDArray | None = None) -> tuple[float, float]:
+    found = absence(spec.kind, magnitudes)
+    return (math.nan if found is None else found[0]), math.nan
+
+
+def absent_row(spec: Spec, value: float, frequency: float) -> bool:
+    """Whether a row stands at its absence value (a feature the loop lacks): such a row has
+    no partials and no place in the linear program (it is judged, not steered)."""
+    return spec.kind in FREQUENCY_MEASURES and math.isnan(frequency) and absent_reason(spec.kind, value) is not None
 
 
 def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:

@@ -49,7 +49,8 @@ def slp_report_text(record: StepRecord) -> str:
             f"{_number(m.desired, 10, 4)}{_number(d, 10, 4)} {'yes' if m.satisfied else 'NO':<4}"
             f"{partials.get(key, ''):<18}{_number(duals.get(key), 10, 3)}"
         )
-    return "\n".join(lines)
+    notes = [f"{m.name}@{m.condition}: {m.method}" for m in record.measures if m.method]
+    return "\n".join(lines + ([""] + notes if notes else []))
 
 
 def _values(value) -> str:
