@@ -318,10 +318,9 @@ class Slp(BoundStepper):
                 if spec.kind in LOAD_KINDS and math.isfinite(v):
                     total += spec.weight * spec.scale * spec.sign * v
                 continue
-            if spec.desired is None or spec.weight == 0:
-                continue
-            capped = spec.sign * spec.desired if math.isnan(v) else min(spec.sign * v, spec.sign * spec.desired)
-            total += spec.weight * spec.scale * capped
+            if spec.desired is None or spec.weight == 0 or math.isnan(v):
+                continue  # a NaN (an error, an undefined measure) earns nothing: it is never met
+            total += spec.weight * spec.scale * min(spec.sign * v, spec.sign * spec.desired)
         return float(total)
 
     def _complete(self, point: Point) -> bool:

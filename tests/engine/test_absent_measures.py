@@ -105,3 +105,11 @@ def _row(name: str, value: float, satisfied: bool) -> dict:
         "satisfied": satisfied,
         "at_least": True,
     }
+
+
+def test_slp_gives_a_nan_no_credit_in_its_figure_of_merit():
+    """A NaN used to be credited its desired value (it was 'absent'); now it earns nothing."""
+    from engine.slp.algorithm import Slp, SlpSettings
+
+    stepper = Slp.bind(problem("10/(s*(s+1))", [target("phase_margin_deg", 45.0)]), SlpSettings(require_stable=False))
+    assert stepper._merit(np.array([math.nan])) < stepper._merit(np.array([45.0]))
