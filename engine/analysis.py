@@ -43,6 +43,12 @@ class LoopAnalysis:
     sensitivity_peak: Peak | None = None  # Ms = max |S|
     complementary_peak: Peak | None = None  # Mt = max |T|
 
+    @property
+    def delay_margin(self) -> float | None:
+        """The smallest delay margin of the gain crossovers (None: no crossover, any delay is
+        tolerated); 0 for an unstable closed loop (already unstable: none is tolerated)."""
+        return 0.0 if self.verdict == "unstable" else self.margins.delay_margin
+
 
 @dataclass(frozen=True)
 class LoopCurve:
@@ -166,8 +172,22 @@ def closed_loop_peaks(
     except EngineError as exc:
         return None, None, None, (f"no disk margin or sensitivity peaks: {exc}",)
     stable = None if verdict == "unknown" else verdict == "stable"
+    if verdict == "unstable":
+        return from_peak(disk, skew, stable), unstable(ms, "S"), unstable(mt, "T"), (UNSTABLE_NOTE,)
     unbounded = tuple(dict.fromkeys(n for n in map(unbounded_note, (ms, mt)) if n))  # Ms and Mt: one note
     return from_peak(disk, skew, stable), reported(ms), reported(mt), unbounded
+
+
+UNSTABLE_NOTE = (
+    "the closed loop is unstable: Ms and Mt are unbounded (S and T have right-half-plane poles) and the "
+    "delay margin is 0 (already unstable); the peaks of |S| and |T| on the axis bound nothing"
+)
+
+
+def unstable(peak: Peak, name: str) -> Peak:
+    """An unstable closed loop's peak: unbounded, the finite peak on the axis kept in its note."""
+    on_axis = f"peak of |{name}| on the axis {peak.value:.6g} at {peak.frequency:.6g} rad/s (bounds nothing)"
+    return replace(peak, value=math.inf, notes=peak.notes + (on_axis,))
 
 
 def analyze(

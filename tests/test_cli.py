@@ -107,7 +107,7 @@ def test_unbounded_peaks_are_null_in_json_and_named_in_text():
     for key in ("sensitivity_peak", "complementary_sensitivity_peak"):
         assert data[key]["value"] is None and data[key]["unbounded"] is True
         assert data[key]["frequency"] == pytest.approx(1.0, rel=1e-9)
-    finite = json.loads(run("analyze", "--tf", "16000/(s*(s+8)*(s+20))", "--json").stdout)
+    finite = json.loads(run("analyze", "--tf", "1600/(s*(s+8)*(s+20))", "--json").stdout)  # a stable loop
     assert finite["sensitivity_peak"]["unbounded"] is False and finite["sensitivity_peak"]["value"] > 1
     text = run("analyze", "--tf", "1/s^2").stdout
     assert "sensitivity peak Ms: inf (unbounded) at 1 rad/s" in text and "note: unbounded: 1 + GH is 0" in text
@@ -127,3 +127,16 @@ def test_sweep_json_keeps_the_keys_other_programs_read():
     assert printed["runs"][0]["objective"] == printed["runs"][0]["ranking"] == 2.0
     assert printed["runs"][0]["measures"][0]["target"] == 45.0 and printed["optima"][0]["objective"] == 2.0
     assert printed["worst_case"][0]["target"] == printed["worst_case"][0]["desired"] == 45.0
+
+
+def test_an_unstable_closed_loop_has_unbounded_peaks_and_no_delay_margin():
+    """16000/(s(s+8)(s+20)) closes unstable: Ms, Mt unbounded (S and T have right-half-plane
+    poles) and the delay margin 0, each said; the finite peaks on the axis are kept, labelled
+    (analyze printed Ms 2.03, Mt 2.36 and a delay margin of 0.258 s without a word)."""
+    data = json.loads(run("analyze", "--tf", "16000/(s*(s+8)*(s+20))", "--json").stdout)
+    assert data["verdict"] == "unstable"
+    for key in ("sensitivity_peak", "complementary_sensitivity_peak"):
+        assert data[key]["unbounded"] is True and any("on the axis" in n for n in data[key]["notes"])
+    assert data["delay_margin"] == 0.0 and any("unstable" in n for n in data["notes"])
+    text = run("analyze", "--tf", "16000/(s*(s+8)*(s+20))").stdout
+    assert "delay margin: 0 s" in text and "sensitivity peak Ms: inf (unbounded); peak of |S| on the axis 2.03" in text

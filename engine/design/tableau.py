@@ -50,7 +50,7 @@ def _tableau(problem: Problem) -> list[MeasureRow]:
         model = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(c))
         attenuation_from = min((t.detect_low for t in targets if t.measure == "attenuation_margin"), default=None)
         found = margins(model, attenuation_above=attenuation_from)
-        stable = _stable(problem, c) if any(t.measure in PEAK_MEASURES for t in targets) else None
+        stable = _stable(problem, c) if any(t.measure in CLOSED_LOOP_MEASURES for t in targets) else None
         for target in targets:
             if target.measure in CLOSED_LOOP_MEASURES:
                 rows += _closed_loop_rows(target, model, found, condition.name, stable)
@@ -77,7 +77,9 @@ def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool
             value, frequency, peak = band_peak(model, target.measure, Band(band.low, band.high), stable)
             method = peak.method
         else:
-            (value, frequency), method = band_delay(found, Band(band.low, band.high)), found.label
+            (value, frequency), method = band_delay(found, Band(band.low, band.high), stable), found.label
+            if stable is False:
+                method = "the closed loop is unstable: no delay is tolerated"
         rows.append(
             MeasureRow(
                 f"{short}{n}",

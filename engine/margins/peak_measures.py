@@ -89,9 +89,12 @@ def band_peak(loop: LoopModel, measure: str, band: Band, stable: bool | None = N
     return band_peaks(loop, [measure], band, stable)[0]
 
 
-def band_delay(found: Margins, band: Band) -> tuple[float, float]:
+def band_delay(found: Margins, band: Band, stable: bool | None = None) -> tuple[float, float]:
     """(the smallest delay margin of the gain crossovers in ``band``, its frequency);
-    (inf, nan) with none there (any delay is tolerated, as python-control says)."""
+    (inf, nan) with none there (any delay is tolerated, as python-control says); (0, nan)
+    for an unstable closed loop (``stable`` False: already unstable, no delay is tolerated)."""
+    if stable is False:
+        return 0.0, math.nan
     delays = [m for m in found.phase if m.delay is not None and band.contains(m.frequency)]
     if not delays:
         return math.inf, math.nan

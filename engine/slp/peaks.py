@@ -55,13 +55,13 @@ def closed_loop_values(
     out: dict[int, tuple[float, float]] = {}
     mine = [i for i, s in enumerate(specs) if s.kind in CLOSED_LOOP_MEASURES]
     stable = None
-    if condition.network.rational and any(specs[i].kind in PEAK_MEASURES for i in mine):
+    if condition.network.rational and mine:
         ss = ss if ss is not None else closed_loop_realization(condition.network, condition.break_at, params)
         stable = stable_realization(ss.A)
     bands: dict[tuple[float, float], list[int]] = {}
     for i in mine:
         if specs[i].kind == "delay_margin":
-            out[i] = band_delay(found, Band(specs[i].low, specs[i].high))
+            out[i] = band_delay(found, Band(specs[i].low, specs[i].high), stable)
         else:
             bands.setdefault((specs[i].low, specs[i].high), []).append(i)
     for (low, high), rows in bands.items():

@@ -113,3 +113,12 @@ def test_slp_gives_a_nan_no_credit_in_its_figure_of_merit():
 
     stepper = Slp.bind(problem("10/(s*(s+1))", [target("phase_margin_deg", 45.0)]), SlpSettings(require_stable=False))
     assert stepper._merit(np.array([math.nan])) < stepper._merit(np.array([45.0]))
+
+
+def test_an_unstable_closed_loop_tolerates_no_delay_and_has_unbounded_peaks():
+    """Issue 37 section 3: the tableau and slp agree with analyze and the docs."""
+    p = problem("16000/(s*(s+8)*(s+20))", [target("delay_margin", 0.1), target("sensitivity_peak", 2.0)])
+    delay, ms = tableau(p)
+    assert (delay.value, delay.satisfied) == (0.0, False) and "unstable" in delay.method
+    assert ms.value == math.inf and not ms.satisfied
+    assert slp_rows(p) == [("delay_margin", 0.0, False), ("sensitivity_peak", math.inf, False)]

@@ -32,6 +32,7 @@ def _peak_json(p) -> dict | None:
             "frequency": p.frequency if math.isfinite(p.frequency) else None,
             "at_infinity": p.frequency == math.inf,
             "method": p.method,
+            "notes": list(p.notes),
         }
     )
 
@@ -85,8 +86,8 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
         ],
         "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.stability],
         "crossover_frequency": finite_or_none(m.crossover_frequency),
-        "delay_margin": finite_or_none(m.delay_margin),
-        "delay_margin_samples": finite_or_none(delay_margin_samples(m)) if variable == "w" else None,
+        "delay_margin": finite_or_none(a.delay_margin),
+        "delay_margin_samples": finite_or_none(delay_margin_samples(a)) if variable == "w" else None,
         "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
         "verdict": a.verdict,
         "closed_loop_poles": None
@@ -111,10 +112,14 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
     }
 
 
-def delay_margin_samples(m) -> float | None:
+def delay_margin_samples(a) -> float | None:
     """A w-plane loop's delay margin in samples: at a gain crossover of
     w-plane frequency nu (w = (z - 1)/(z + 1)), the sampled frequency is
-    omega T = 2 atan(nu), and d samples of delay turn the phase by d omega T."""
+    omega T = 2 atan(nu), and d samples of delay turn the phase by d omega T
+    (0 for an unstable closed loop)."""
+    if a.verdict == "unstable":
+        return 0.0
+    m = a.margins
     values = [
         math.radians(p.phase_deg) % (2 * math.pi) / (2 * math.atan(p.frequency)) for p in m.phase if p.frequency > 0
     ]
@@ -149,12 +154,12 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     if not m.all():
         lines.append("(no crossings)")
     lines.append("")
-    wc, dm = m.crossover_frequency, m.delay_margin
+    wc, dm = m.crossover_frequency, a.delay_margin
     lines.append(f"crossover frequency: {'none' if wc is None else f'{wc:.6g} {unit}'}")
     if variable == "s":
         lines.append(f"delay margin: {'none' if dm is None else f'{dm:.6g} s'}")
     else:
-        samples = delay_margin_samples(m)
+        samples = delay_margin_samples(a)
         lines.append(f"delay margin: {'none' if samples is None else f'{samples:.6g} samples'}")
     lines.append(f"margins: {m.label}")
     lines.append(f"closed loop: {a.verdict}")
@@ -184,8 +189,12 @@ def _measure_lines(a: LoopAnalysis, unit: str) -> list[str]:
         )
     for name, p in (("sensitivity peak Ms", a.sensitivity_peak), ("complementary peak Mt", a.complementary_peak)):
         if p is not None:
-            size = _num(p.db, "dB", ".4f") if math.isfinite(p.value) else "unbounded"
-            lines.append(f"{name}: {p.value:.6g} ({size}) {_at(p.frequency, unit)}".rstrip())
+            if math.isfinite(p.value):
+                lines.append(f"{name}: {p.value:.6g} ({_num(p.db, 'dB', '.4f')}) {_at(p.frequency, unit)}".rstrip())
+            elif a.verdict == "unstable":  # the finite peak on the axis is in the notes, labelled
+                lines.append(f"{name}: inf (unbounded)" + "".join(f"; {n}" for n in p.notes))
+            else:  # a closed-loop pole on the axis, there
+                lines.append(f"{name}: inf (unbounded) {_at(p.frequency, unit)}".rstrip())
     return lines
 
 
