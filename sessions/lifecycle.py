@@ -82,12 +82,36 @@ def rebuild(session: Session) -> None:
     forget_records(session)
 
 
-def adopt_parameters(session: Session, values: Mapping[str, Any]) -> None:
-    """Make a design (name -> value, or a list per condition) the session's start."""
+def adopt_parameters(session: Session, values: Mapping[str, Any]) -> list[str]:
+    """Make a design (name -> value, or a list per condition) the session's start; a value
+    outside its parameter's design bounds (a tolerance sample's) widens them to hold it:
+    what was widened, one line each (also kept in the session's messages)."""
+    widened = []
     for parameter in session.model.problem.parameters:
         if parameter.name in values:
-            parameter.value = values[parameter.name]
+            value = values[parameter.name]
+            low, high, note = bounds_holding(parameter.name, parameter.min, parameter.max, value)
+            parameter.min, parameter.max, parameter.value = low, high, value
+            widened += [note] if note else []
     rebuild(session)
+    session.messages.extend(widened)
+    return widened
+
+
+def bounds_holding(name: str, low: float | None, high: float | None, value: Any) -> tuple:
+    """(min, max) widened to hold ``value`` (a number or one per condition), and what was
+    widened (None: nothing).  Design bounds limit the optimizer's search, not a value a
+    tolerance study samples or a design adopted from it."""
+    values = value if isinstance(value, list) else [value]
+    new_low = low if low is None or min(values) >= low else min(values)
+    new_high = high if high is None or max(values) <= high else max(values)
+    if (new_low, new_high) == (low, high):
+        return low, high, None
+    return (
+        new_low,
+        new_high,
+        f"{name}: design bounds [{low}, {high}] widened to [{new_low}, {new_high}] to hold {value}",
+    )
 
 
 def adopt_current(session: Session) -> None:

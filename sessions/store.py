@@ -36,7 +36,7 @@ from engine.stepping.protocol import State, StepRecord
 from engine.stepping.registry import lookup
 from sessions.build import OutsideTable, build_problem
 from sessions.errors import SessionError
-from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, location
+from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, invalid
 from sessions.format.json_text import dumps
 from sessions.format.migrations import MIGRATIONS
 from sessions.format.save_file import (
@@ -115,7 +115,7 @@ def parse_session(text: str, source: str, folder: Path, allow_outside_tables: bo
     (one outside it only with ``allow_outside_tables``: `OutsideTable` otherwise)."""
     try:
         data, messages = _migrate(_json(text))
-        model = _validated(data)
+        model = validated_model(data)
         check_records(model)
         check_state(model)
         problem = build_problem(model.problem, folder, allow_outside_tables=allow_outside_tables or None)
@@ -143,14 +143,12 @@ def _json(text: str) -> Any:
     return data
 
 
-def _validated(data: Any) -> SessionModel:
+def validated_model(data: Any) -> SessionModel:
+    """The session model of JSON data, or a `SessionError` naming the first fault's JSON path."""
     try:
         return SessionModel.model_validate(data)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
-        msg = first["msg"].removeprefix("Value error, ")
-        raise SessionError(f"{location(first['loc'])}: {msg}{more}") from None
+        raise SessionError(invalid(exc)) from None
 
 
 def _migrate(data: Any) -> tuple[Any, list[str]]:

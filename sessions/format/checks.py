@@ -6,7 +6,10 @@ caller prefixes the file)."""
 from __future__ import annotations
 
 import dataclasses
+import re
 from typing import Any
+
+from pydantic import ValidationError
 
 from engine.design.problem import Problem
 from engine.errors import EngineError
@@ -25,6 +28,20 @@ def location(loc: tuple) -> str:
     for part in loc:
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
     return out or "(top)"
+
+
+# the union members pydantic adds to an error's location (value.float, value.list[float])
+PYDANTIC_TAG = re.compile(r"^(float|int|str|bool|none|list\[.*\]|dict\[.*\]|[a-z-]+\[.*\])$")
+
+
+def invalid(exc: ValidationError, root: str = "") -> str:
+    """A pydantic validation error as one line that names where (a JSON path under ``root``)
+    and what, never pydantic's own dump: the first error, and how many more."""
+    first = exc.errors()[0]
+    more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
+    loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and PYDANTIC_TAG.match(part)))
+    where = location((root,) + loc if root else loc)
+    return f"{where}: {first['msg'].removeprefix('Value error, ')}{more}"
 
 
 def check_depth(data: Any) -> None:

@@ -39,8 +39,8 @@ from engine.stepping.presenter import Presenter, tolerant
 from engine.stepping.protocol import Stepper, StepRecord
 from sessions.build import build_problem
 from sessions.errors import SessionError
-from sessions.format.schema import SessionModel
 from sessions.lifecycle import bind
+from sessions.store import validated_model
 from sessions.sweeps.cluster import (
     DEFAULT_CONNECT_TIMEOUT,
     close,
@@ -61,7 +61,7 @@ def run_job(payload: dict) -> dict:
     worker = _announce(payload["index"])
     result = {"index": payload["index"], "label": payload["label"], "start": payload["start"], "worker": worker}
     try:
-        model = SessionModel.model_validate(payload["model"])
+        model = validated_model(payload["model"])
         problem = build_problem(model.problem, Path.cwd())
         registration, stepper = bind(model.algorithm, problem)
         if payload["mode"] == "evaluate":

@@ -17,7 +17,7 @@ import numpy as np
 
 from sessions.build import read_csv, table_path
 from sessions.errors import SessionError
-from sessions.lifecycle import folder
+from sessions.lifecycle import bounds_holding, folder
 from sessions.store import Session, tables_in
 from sessions.sweeps.cluster import scheduler_address
 from sessions.sweeps.jobs import run_job
@@ -150,7 +150,9 @@ def _assign(problem: dict, name: str, value: float) -> None:
 
 def tolerance_jobs(session: Session, tolerances: Sequence[str], samples: int, seed: int = 0) -> list[Job]:
     """Monte Carlo over NAME=+-P% (uniform within +-P % of each value) at the
-    session's current design; each job evaluates the tableau (no optimization)."""
+    session's current design; each job evaluates the tableau (no optimization) at the
+    drawn values, whatever the design bounds (they limit the optimizer: a sample's
+    bounds are widened to hold it)."""
     spreads = {}
     for text in tolerances:
         name, sep, amount = text.partition("=")
@@ -178,6 +180,8 @@ def tolerance_jobs(session: Session, tolerances: Sequence[str], samples: int, se
                 scale = (1 + rng.uniform(-f, f, len(value))) if isinstance(value, list) else 1 + rng.uniform(-f, f)
                 value = (np.asarray(value) * scale).tolist() if isinstance(value, list) else float(value * scale)
                 entry["value"] = drawn[entry["name"]] = value
+                # a sample is evaluated at its value: the design bounds limit the optimizer, not the physics
+                entry["min"], entry["max"], _ = bounds_holding(entry["name"], entry.get("min"), entry.get("max"), value)
         jobs.append(Job(k, f"sample {k}", model, mode="evaluate", start=drawn))
     return jobs
 

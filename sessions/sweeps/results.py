@@ -206,8 +206,9 @@ def record_sweep(session: Session, summary: dict) -> None:
     session.model.sweeps.append(SweepModel.model_validate(summary))
 
 
-def adopt_run(session: Session, run: dict) -> None:
-    """Make a run's final parameters the session's start (records are cleared)."""
+def adopt_run(session: Session, run: dict) -> list[str]:
+    """Make a run's final parameters (a sample's values) the session's start (records are
+    cleared); the design bounds widened to hold them, one line each."""
     if not run.get("parameters"):
         raise SessionError(f"run {run['index']} has no parameters to adopt ({run['status']})")
-    adopt_parameters(session, run["parameters"])
+    return adopt_parameters(session, run["parameters"])

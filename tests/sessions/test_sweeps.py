@@ -21,7 +21,7 @@ from sessions.errors import SessionError
 from sessions.store import load_session
 from sessions.sweeps.jobs import loop_signature, run_job
 from sessions.sweeps.plan import Job, shippable, start_jobs, tolerance_jobs, vary_jobs
-from sessions.sweeps.results import optima, worst_case
+from sessions.sweeps.results import adopt_run, optima, worst_case
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -60,7 +60,8 @@ def test_a_failing_run_is_a_result_not_an_exception(tmp_path):
     data = shippable(load_session(_copy(tmp_path, "coebra_lag_lead")))
     data["problem"]["parameters"][0]["value"] = "ten"  # invalid: the worker's validation fails
     result = run_job(Job(4, "broken", data).payload())
-    assert result["status"] == "failed" and "ValidationError" in result["reason"] and result["index"] == 4
+    assert result["status"] == "failed" and result["index"] == 4
+    assert result["reason"].startswith("SessionError: problem.parameters[0].value: Input should be")
 
 
 def test_optima_cluster_by_parameters_and_objective():
@@ -262,3 +263,34 @@ def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster,
     for index, workers in summary["retried"].items():
         assert len(workers) >= 2 and runs[int(index)]["attempts"] >= 2
     assert summary["workers"] == 1
+
+
+def test_a_tolerance_sample_outside_the_design_bounds_is_evaluated_at_its_value(tmp_path, capsys):
+    """Issue 37 section 4: a parameter at its design bound, +-10 %: every sample is
+    evaluated at its drawn value (half of them failed with pydantic's dump), and a sample
+    adopted as the start widens the bounds to hold it, saying so."""
+    path = _copy(tmp_path, "coebra_lag_lead")
+    data = json.loads(path.read_text())
+    t2 = next(p for p in data["problem"]["parameters"] if p["name"] == "T2")
+    t2["min"] = t2["value"]  # the design sits at its lower bound
+    path.write_text(json.dumps(data))
+    session = load_session(path)
+    jobs = tolerance_jobs(session, ["T2=+-10%"], 12, seed=1)
+    below = [j for j in jobs if j.start["T2"] < t2["value"]]
+    assert below  # samples under the design bound exist
+    results = [run_job(j.payload()) for j in below]
+    assert all(r["status"] != "failed" for r in results), [r.get("reason") for r in results]
+    lowest = min(below, key=lambda j: j.start["T2"])
+    widened = adopt_run(session, {"index": lowest.index, "status": "evaluated", "parameters": lowest.start})
+    t2_model = next(p for p in session.model.problem.parameters if p.name == "T2")
+    assert t2_model.min == lowest.start["T2"] and len(widened) == 1 and "widened" in widened[0]
+
+
+def test_a_sample_that_fails_says_why_in_one_line_without_a_library_dump(tmp_path):
+    session = load_session(_copy(tmp_path, "coebra_lag_lead"))
+    job = tolerance_jobs(session, ["T1=+-10%"], 1)[0]
+    payload = job.payload()
+    payload["model"]["problem"]["parameters"][0]["value"] = "ten"
+    result = run_job(payload)
+    assert result["status"] == "failed" and "pydantic" not in result["reason"] and "\n" not in result["reason"]
+    assert "problem.parameters[0].value" in result["reason"]

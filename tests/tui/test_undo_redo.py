@@ -85,3 +85,15 @@ async def test_a_paused_run_says_paused(workdir, monkeypatch):
         await pilot.press("s")
         await settle(app, pilot)
         assert "paused" not in status(app)
+
+
+def test_an_edit_is_described_without_a_python_repr():
+    """'edit: targets: [{'measure': ...' was the status line after adding a target."""
+    from tui.state.edit_history import describe_change
+
+    one = {"problem": {"targets": [{"measure": "phase_margin_deg", "bands": [{"desired": 45.0}]}]}}
+    two = {"problem": {"targets": one["problem"]["targets"] + [{"measure": "gain_margin_db", "bands": []}]}}
+    assert describe_change(one, two) == "targets: added gain_margin_db"
+    assert describe_change(two, one) == "targets: removed gain_margin_db"
+    lines = describe_change({"problem": {"constraints": ["T1 >= 4*T2"]}}, {"problem": {"constraints": []}})
+    assert lines == "constraints: T1 >= 4*T2 -> none" and "[" not in lines and "'" not in lines

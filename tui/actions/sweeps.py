@@ -127,5 +127,7 @@ class Sweeps:
         app.edit_flow.change(
             app.bench.adopt_best,
             "use the best optimum's design as the start",
-            done=lambda run: app.notify(f"the start is now run {run['index']}'s design"),
+            done=lambda run: app.notify(
+                "\n".join([f"the start is now run {run['index']}'s design", *run.get("widened", [])])
+            ),
         )

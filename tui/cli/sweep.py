@@ -123,9 +123,11 @@ def _adopt_best(session, summary: dict) -> str | None:
     if not summary["optima"]:
         return "--adopt-best: no run finished"
     try:
-        adopt_run(session, summary["runs"][summary["optima"][0]["best_run"]])
+        widened = adopt_run(session, summary["runs"][summary["optima"][0]["best_run"]])
     except SessionError as exc:
         return f"--adopt-best: {exc}"
+    for note in widened:
+        print(f"note: {note}", file=sys.stderr)
     return None
 
 

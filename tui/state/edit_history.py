@@ -114,6 +114,12 @@ def _walk(a: Any, b: Any, path: list[str], out: list[str]) -> None:
     elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b) and not _leafy(a):
         for k, (x, y) in enumerate(zip(a, b)):
             _walk(x, y, path + [_item_name(x, k)], out)
+    elif isinstance(a, list) and isinstance(b, list) and not (_leafy(a) and _leafy(b)):
+        before, after = [_item_name(x, k) for k, x in enumerate(a)], [_item_name(x, k) for k, x in enumerate(b)]
+        added = [n for n in after if n not in before] or ([after[-1]] if len(b) > len(a) else [])
+        removed = [n for n in before if n not in after] or ([before[-1]] if len(a) > len(b) else [])
+        parts = [f"added {', '.join(added)}"] * bool(added) + [f"removed {', '.join(removed)}"] * bool(removed)
+        out.append(f"{path[-1] if path else 'items'}: {'; '.join(parts) or 'reordered'}")
     elif a != b:
         out.append(f"{_where(path)}: {_short(a)} -> {_short(b)}")
 
@@ -138,9 +144,17 @@ def _where(path: list[str]) -> str:
 
 
 def _short(value: Any) -> str:
+    """A value as a reader writes it (never a Python repr): numbers in short form, lists
+    joined by '/' (one per condition, coefficients, lines of text), objects by their count."""
     if value is None:
         return "none"
-    if isinstance(value, list) and len(value) > 4 and not _leafy(value):
-        return f"{len(value)} items"
-    text = str(value) if not isinstance(value, float) else f"{value:g}"
+    if isinstance(value, float):
+        text = f"{value:g}"
+    elif isinstance(value, list):
+        text = "/".join(_short(v) for v in value) if _leafy(value) else f"{len(value)} items"
+        text = text or "none"
+    elif isinstance(value, dict):
+        text = f"{len(value)} fields"
+    else:
+        text = str(value)
     return text if len(text) <= 40 else text[:37] + "..."

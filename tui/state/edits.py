@@ -15,9 +15,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from pydantic import ValidationError
+
 from engine.errors import EngineError
 from sessions.build import build_problem
 from sessions.errors import SessionError
+from sessions.format.checks import invalid
 from sessions.format.schema import ProblemModel
 from sessions.forms import one_line as forms
 from sessions.forms import transfers as transfer_forms
@@ -56,6 +59,8 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
         problem = build_problem(
             draft, folder(bench.session), allow_outside_tables=bench.session.allow_outside_tables or None
         )
+    except ValidationError as exc:
+        raise SessionError(invalid(exc, "problem")) from None
     except (ValueError, EngineError) as exc:
         raise SessionError(str(exc)) from None
     bench.session.model.problem, bench.session.problem = draft, problem

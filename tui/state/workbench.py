@@ -239,9 +239,9 @@ class Workbench:
         if not sweep or not sweep["optima"]:
             raise SessionError("no sweep with a finished run to adopt")
         run = sweep["runs"][sweep["optima"][0]["best_run"]]
-        adopt_run(self.session, run)
+        widened = adopt_run(self.session, run)
         self.reset()
-        return run
+        return {**run, "widened": widened}
 
     # -- changing the problem ------------------------------------------------------
 
