@@ -324,11 +324,28 @@ def frequency_table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
         f, first, second = t.frequency, t.first, t.second
     if t.form == "magnitude":
         second = [0.0] * len(first)
+    if t.form == "db":
+        first = [10.0 ** (v / 20.0) for v in first]
+    elif t.form in ("polar", "magnitude"):
+        _check_linear_magnitudes(first, t, path)
     make = FrequencyTable.from_cartesian if t.form == "cartesian" else FrequencyTable.from_polar
     try:
         return make(f, first, second, unit=t.unit, gain=t.gain, source=path)
     except EngineError as exc:
         raise SessionError(str(exc)) from None
+
+
+def _check_linear_magnitudes(values: list[float], t: TableModel, path: str) -> None:
+    """A linear magnitude is >= 0: a negative one is refused, naming its row and column
+    (a column in dB read as linear gave a gain margin of 193 dB)."""
+    row = next((k for k, v in enumerate(values) if v < 0), None)
+    if row is None:
+        return
+    column = t.columns[1] if t.csv is not None and t.columns else "first"
+    raise SessionError(
+        f"{path}: row {row + 1} of column {column!r}: magnitude {values[row]:g} is negative; a linear magnitude "
+        "is >= 0 (a magnitude in dB is the form 'db')"
+    )
 
 
 def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = None) -> Path:

@@ -88,3 +88,21 @@ def test_expression_errors_point_at_the_real_place_and_a_zero_loop_is_refused(ca
     assert main(["analyze", "--tf", expression]) == 2
     err = capsys.readouterr().err
     assert said in err and "Traceback" not in err
+
+
+def test_a_table_in_db_is_read_as_db_and_a_negative_linear_magnitude_is_refused(capsys, tmp_path):
+    """Issue 37 section 5: the form 'db'; a dB column read as linear gave a GM of 193 dB."""
+    w = np.geomspace(0.01, 100, 400)
+    gh = 10 / (1j * w * (1j * w + 1) * (1j * w + 5))
+    rows = "".join(
+        f"{float(a)!r},{float(20 * np.log10(abs(g)))!r},{float(np.degrees(np.angle(g)))!r}\n" for a, g in zip(w, gh)
+    )
+    (tmp_path / "plant_db.csv").write_text("w,mag_db,phase\n" + rows)
+    table = ["analyze", "--table", str(tmp_path / "plant_db.csv"), "--columns", "w", "mag_db", "phase"]
+    code, out, err = _run(capsys, *table, "--form", "db", "--json")
+    assert code == 0, err
+    (gm,) = json.loads(out)["gain_margins"]
+    assert gm["gain_db"] == pytest.approx(20 * math.log10(3), rel=1e-8)
+    code, _, err = _run(capsys, *table)  # the default form, polar: linear magnitudes
+    row = next(k for k, g in enumerate(gh) if 20 * np.log10(abs(g)) < 0) + 1
+    assert code == 2 and f"row {row} of column 'mag_db'" in err and "form 'db'" in err

@@ -94,8 +94,10 @@ class TableModel(Strict):
     next to the session (``csv`` with column names)."""
 
     unit: Literal["rad/s", "hz"] = "rad/s"
-    form: Literal["polar", "cartesian", "magnitude"] = Field(
-        default="polar", description="magnitude: one value column (a PSD), phase 0"
+    form: Literal["polar", "db", "cartesian", "magnitude"] = Field(
+        default="polar",
+        description="polar: linear magnitude and phase in degrees; db: magnitude in dB and phase in degrees; "
+        "cartesian: real and imaginary parts; magnitude: one value column (a PSD), phase 0",
     )
     gain: Number = 1.0
     frequency: _bounded(list[Number], MAX_TABLE_ROWS) | None = None

@@ -323,8 +323,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--form",
         default="polar",
-        choices=["polar", "cartesian", "magnitude"],
-        help="--table: magnitude and phase (deg), real and imaginary, or magnitude only",
+        choices=["polar", "db", "cartesian", "magnitude"],
+        help="--table: magnitude (linear) and phase (deg), magnitude in dB and phase (deg), real and imaginary, "
+        "or magnitude only",
     )
     p.add_argument("--unit", default="rad/s", choices=["rad/s", "hz"], help="--table: unit of its frequencies")
     p.add_argument("--gain", type=float, default=1.0, help="--table: a gain its values are multiplied by")

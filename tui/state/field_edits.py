@@ -294,8 +294,8 @@ def table_transfer(text: str, header: list[str], csv_name: str) -> dict:
     if missing:
         raise forms.FormError(f"no column {missing[0]!r}; columns are {', '.join(header)}")
     form, unit = words[1], words[2]
-    if form not in ("polar", "cartesian", "magnitude") or unit not in ("hz", "rad/s"):
-        raise forms.FormError("form is polar, cartesian or magnitude; unit hz or rad/s")
+    if form not in ("polar", "db", "cartesian", "magnitude") or unit not in ("hz", "rad/s"):
+        raise forms.FormError("form is polar, db (magnitude in dB), cartesian or magnitude; unit hz or rad/s")
     if len(columns) != (2 if form == "magnitude" else 3):
         raise forms.FormError("three columns (two for magnitude)")
     return {
