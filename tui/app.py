@@ -93,6 +93,11 @@ ACTIONS = (
         needs_session=True,
     ),
     KeyAction(
+        Binding("d", "adopt_design", "adopt design", show=False, tooltip="the current design becomes the start"),
+        changes=True,
+        needs_session=True,
+    ),
+    KeyAction(
         Binding(
             "v",
             "next_condition",
@@ -258,29 +263,41 @@ class LoopcraftApp(App):
         return None if self.bench is not None and not self._can(action) else True
 
     def _can(self, action: str) -> bool:
-        """Whether an undo or redo has something to act on."""
-        bench = self.bench
-        return {
-            "undo": lambda: bench.iteration > 0,
-            "redo": lambda: bench.can_redo,
-            "undo_edit": lambda: bool(bench.edits.undo_stack),
-            "redo_edit": lambda: bool(bench.edits.redo_stack),
-        }.get(action, lambda: True)()
+        """Whether the key has something to act on (`disabled_reason` says why not)."""
+        return self.disabled_reason(action) is None
 
     async def run_action(self, action, default_namespace=None, namespaces=None) -> bool:
-        """Run an action; a key refused because a run or a sweep goes says so."""
+        """Run an action; a key that cannot act now says why (a run or a sweep goes, or the
+        target's `disabled_reason`)."""
         handled = await super().run_action(action, default_namespace, namespaces)
-        if not handled and self.busy:
+        if not handled:
             destination, name, params = action if isinstance(action, tuple) else parse_action(action)
             target = (namespaces or {}).get(destination) or {"app": self, "screen": self.screen}.get(destination)
             target = target or (self if default_namespace is None else default_namespace)
             if target.check_action(name, params) is None and name != "pause":
+                reason = self._busy_reason() if self.busy else getattr(target, "disabled_reason", lambda _: None)(name)
                 now = time.monotonic()
-                if now - self._refused_at > 1.0:
+                if reason and now - self._refused_at > 1.0:
                     self._refused_at = now
-                    what = "a sweep" if self.sweeps.sweeping else "a run"
-                    self.notify(f"{name.replace('_', ' ')}: not while {what} goes (space pauses it)", timeout=3)
+                    self.notify(f"{name.replace('_', ' ')}: {reason}", timeout=3)
         return handled
+
+    def _busy_reason(self) -> str:
+        return f"not while {'a sweep' if self.sweeps.sweeping else 'a run'} goes (space pauses it)"
+
+    def disabled_reason(self, action: str) -> str | None:
+        """Why an app key cannot act now (None: it can, or it says nothing)."""
+        bench = self.bench
+        if bench is None:
+            return None
+        return {
+            "undo": None if bench.iteration > 0 else "no iteration to drop",
+            "redo": None if bench.can_redo else "no iteration was dropped",
+            "undo_edit": None if bench.edits.undo_stack else "no edit to undo",
+            "redo_edit": None if bench.edits.redo_stack else "no edit to redo",
+            "adopt_design": None if bench.iteration > 0 else "no iteration yet: the start is the current design",
+            "use_best": None if bench.latest_sweep() else "no sweep yet (w starts one)",
+        }.get(action)
 
     def on_mount(self) -> None:
         watch_terminal(self, self._terminal_lost)
@@ -422,6 +439,7 @@ class LoopcraftApp(App):
         except SessionError as exc:
             self.notify(str(exc), title="not saved (the session is kept in memory)", severity="error", timeout=10)
             return
+        remember(target)  # a new session saved appears in the start screen's recent list
         self.notify(f"saved {target}")
         self.refresh_workbench()
 
@@ -463,6 +481,15 @@ class LoopcraftApp(App):
         self.bench.autosave(throttled=True)
         self.notify(self.bench.edits.last, timeout=4)
         self.refresh_workbench()
+
+    def action_adopt_design(self) -> None:
+        """The current iteration's design becomes the start (asks when iterations would go)."""
+        iteration = self.bench.iteration
+        self.edit_flow.change(
+            self.bench.adopt_current,
+            f"make iteration {iteration}'s design the start",
+            done=lambda _: self.notify(f"iteration {iteration}'s design is the start (ctrl+z undoes)"),
+        )
 
     def action_choose_algorithm(self) -> None:
         from engine.stepping.registry import lookup, registrations
@@ -527,7 +554,8 @@ class LoopcraftApp(App):
             )
 
     def get_system_commands(self, screen):
-        yield from super().get_system_commands(screen)
+        ours = {"Screenshot", "Keys"}  # Textual's own commands this app gives with its keys
+        yield from (c for c in super().get_system_commands(screen) if c.title not in ours)
         for binding in self.BINDINGS:  # only what can act now
             if binding.action not in ("help", "quit") and self.check_action(binding.action, ()):
                 yield SystemCommand(

@@ -13,6 +13,8 @@ from sessions.export.formats import FORMATS, SUFFIX, export_text
 from sessions.format.save_file import write_atomic
 from tui.files import home
 
+MAX_SCREENSHOTS = 1000  # of one iteration, named NAME_iterK-N.svg; past it the last one is asked over
+
 if TYPE_CHECKING:
     from tui.app import LoopcraftApp
 
@@ -50,10 +52,14 @@ class Exports:
         self._write_asking(self._beside(SUFFIX[to]), text, f"the {to} export")
 
     def screenshot(self) -> None:
-        """The screen as an SVG beside the session."""
+        """The screen as an SVG beside the session, under a name of its own (a screen is not a
+        design: a second screenshot of an iteration is a second file, never a question)."""
         if self.app.bench is None:
             return
-        self._write_asking(self._beside(".svg"), self.app.export_screenshot(), "the screenshot")
+        target, n = self._beside(".svg"), 2
+        while target.exists() and n < MAX_SCREENSHOTS:
+            target, n = target.with_name(f"{self._beside('').name}-{n}.svg"), n + 1
+        self._write_asking(target, self.app.export_screenshot(), "the screenshot")
 
     def _write_asking(self, target: Path, text: str, what: str) -> None:
         from tui.screens.dialogs import ConfirmDialog

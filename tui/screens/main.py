@@ -254,6 +254,12 @@ class MainScreen(Screen):
             return True if there else None
         return True
 
+    def disabled_reason(self, action: str) -> str | None:
+        """Why a screen key cannot act now."""
+        if action == "locus_parameter":
+            return "no root locus here: it needs a rational loop (no table, no delay) and a loop-plot session"
+        return None
+
     def action_tab(self, name: str) -> None:
         """Show a tab and focus its main widget (focus left in a hidden pane would
         make the tabs switch back to it)."""

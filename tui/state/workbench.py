@@ -81,6 +81,8 @@ class Workbench:
         last = records[-1]
         if self.paused_at == self.iteration and not last.status.finished:
             return "paused (s steps on, r runs on)"
+        if not last.status.finished:  # the record's status says the algorithm goes on, not that it runs now
+            return "not finished" + (f": {last.reason}" if last.reason else "") + " (s steps on, r runs on)"
         return last.status.value + (f": {last.reason}" if last.reason else "")
 
     def ensure_stepper(self) -> Stepper:

@@ -184,24 +184,13 @@ class ParametersTable(RefTable):
             Binding("g", "toggle_per_condition", "shared/per condition", show=False),
             Binding("plus", "add", "add"),
             Binding("minus,delete", "delete", "delete"),
-            Binding("d", "adopt_design", "adopt design", tooltip="the current design becomes the start"),
         ],
     )
-    MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete", "adopt_design"})
+    MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete"})
     DELETES = "parameter"
 
     def applies(self, action: str) -> bool:
-        if action == "adopt_design":
-            return self.bench.iteration > 0
         return action == "add" or self.ref is not None
-
-    def action_adopt_design(self) -> None:
-        iteration = self.bench.iteration
-        self.flow.change(
-            lambda: self.bench.adopt_current(),
-            f"make iteration {iteration}'s design the start",
-            done=lambda _: self.app.notify(f"iteration {iteration}'s design is the start (ctrl+z undoes)"),
-        )
 
     def action_edit(self) -> None:
         ref = self.ref
