@@ -140,3 +140,27 @@ def test_an_unstable_closed_loop_has_unbounded_peaks_and_no_delay_margin():
     assert data["delay_margin"] == 0.0 and any("unstable" in n for n in data["notes"])
     text = run("analyze", "--tf", "16000/(s*(s+8)*(s+20))").stdout
     assert "delay margin: 0 s" in text and "sensitivity peak Ms: inf (unbounded); peak of |S| on the axis 2.03" in text
+
+
+def test_a_tolerance_sweep_prints_its_worst_cases_and_optima_their_notes():
+    """The worst case's desired value is 'desired' since version 2 (the text read 'target');
+    an optimum at a bound says so under its line."""
+    from tui.cli.sweep import sweep_text
+
+    base = {
+        "kind": "tolerance",
+        "algorithm": "slp",
+        "workers": 1,
+        "settings": {},
+        "cancelled": False,
+        "failed": [],
+        "retried": {},
+    }
+    row = {"name": "GM1", "kind": "gain_margin_db", "condition": "c", "worst": 5.0, "desired": 6.0}
+    text = sweep_text({**base, "runs": [], "optima": [], "worst_case": [{**row, "unmet_samples": 3, "samples": 8}]})
+    assert "GM1" in text and "3/8" in text
+    optimum = {"count": 2, "meets_requirements": True, "ranking": 1.0, "best_run": 0, "parameters": {"T2": 1e-4}}
+    text = sweep_text(
+        {**base, "kind": "starts", "runs": [], "optima": [{**optimum, "notes": ["T2 at its lower bound 0.0001"]}]}
+    )
+    assert "note: T2 at its lower bound 0.0001" in text

@@ -35,6 +35,17 @@ STRUCTURES: dict[str, tuple[str, dict[str, float]]] = {
 }
 
 
+# a lead's or lag's zero and pole at most a factor 20 apart (1/20 <= T1/T2 <= 20): linear
+# constraints the new session carries, which the engineer sees in the Targets tab and may delete
+# (without them an optimizer may put a pole at the bound, 1e4 rad/s, and amplify noise)
+RATIO = 20
+STRUCTURE_CONSTRAINTS: dict[str, list[str]] = {
+    "lead": [f"T1 <= {RATIO}*T2", f"T2 <= {RATIO}*T1"],
+    "lag": [f"T1 <= {RATIO}*T2", f"T2 <= {RATIO}*T1"],
+    "lead-lag": [f"T1 <= {RATIO}*T2", f"T2 <= {RATIO}*T1", f"T3 <= {RATIO}*T4", f"T4 <= {RATIO}*T3"],
+}
+
+
 def new_session(
     plant: str | dict,
     compensator: str = "lead",
@@ -102,6 +113,11 @@ def new_session(
                 {"measure": "phase_margin_deg", "bands": [{"desired": 45.0}], "scale": 0.2},
                 {"measure": "gain_margin_db", "bands": [{"desired": 6.0}]},
             ],
+            **(
+                {"constraints": list(STRUCTURE_CONSTRAINTS[compensator])}
+                if compensator in STRUCTURE_CONSTRAINTS
+                else {}
+            ),
         },
         "algorithm": {"name": algorithm, "settings": {}},
         "records": [],

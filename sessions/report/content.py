@@ -19,6 +19,7 @@ import numpy as np
 
 from engine.analysis import LoopCurve, loop_curve
 from engine.closed_loop.time_response import Segment, simulate
+from engine.design.notes import design_notes
 from engine.errors import EngineError
 from engine.loop.realization import realize
 from engine.stepping.driver import first_record
@@ -299,5 +300,7 @@ def _appendix(session: Session, initial: StepRecord | None, final: StepRecord | 
         if record is None or (title == "Final iteration" and record is initial):
             continue
         text = tolerant(lambda: presenter.report(record, session.problem), lambda: tableau_text(record.measures))
+        notes = design_notes(session.problem, dict(record.parameters))  # as `loopcraft report` prints them
+        text += "".join(f"\nnote: {n}" for n in notes)
         blocks += [("h3", f"{title} ({record.iteration})"), ("pre", text)]
     return blocks

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.design.notes import at_bounds
 from engine.stepping.memory_fields import jsonable
 from engine.stepping.registry import lookup
 from sessions.errors import SessionError
@@ -162,7 +163,9 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         data["worst_case"] = worst_case([r for r in outcome.runs if r["status"] != "failed"])
         data["optima"] = []
     else:
-        data["optima"] = optima(outcome.runs, maximize)
+        data["optima"] = [
+            {**o, "notes": at_bounds(session.problem, o["parameters"])} for o in optima(outcome.runs, maximize)
+        ]
     for run in outcome.runs:
         run.pop("signature", None)  # only for clustering: not kept in the session
     return jsonable(data)  # infinities and NaN as "inf", "nan": the session's JSON has no others

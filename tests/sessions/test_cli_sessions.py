@@ -16,7 +16,16 @@ def test_run_json_saves_records_and_reports(matching, tmp_path, capsys):
     out = tmp_path / "out.json"
     assert main(["run", str(matching), "--until-done", "--out", str(out), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert set(data) == {"algorithm", "status", "iterations", "parameters", "objective", "measures", "counters"}
+    assert set(data) == {
+        "algorithm",
+        "status",
+        "iterations",
+        "parameters",
+        "objective",
+        "measures",
+        "counters",
+        "design_notes",
+    }
     assert data["algorithm"] == "gradient" and data["status"] == "converged"
     assert data["parameters"]["K"] == pytest.approx(4.0) and data["objective"] < 1e-24
     assert {"name", "kind", "condition", "value", "target", "desired", "satisfied", "frequency"} == set(

@@ -88,4 +88,15 @@ def summary_json(session: Session) -> dict:
             for r in rows
         ],
         "counters": dict(record.counters) if started else {},
+        "design_notes": design_notes_now(session),
     }
+
+
+def design_notes_now(session: Session, iteration: int | None = None) -> list[str]:
+    """The notes on the design at ``iteration`` (default: the current one): parameters at a
+    bound, a compensator amplifying noise (`engine.design.notes`)."""
+    from engine.design.notes import design_notes
+
+    k = session.model.current_iteration if iteration is None else iteration
+    values = dict(session.records[k - 1].parameters) if k else session.problem.named()
+    return design_notes(session.problem, values)

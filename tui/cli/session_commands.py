@@ -11,7 +11,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from tui.cli.common import CliError, finite_or_none, load, rows_now, summary_json
+from tui.cli.common import CliError, design_notes_now, finite_or_none, load, rows_now, summary_json
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
@@ -59,6 +59,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         status = "not started" if record is None else record.status.value
         print(f"{session.model.algorithm.name}: iteration {session.model.current_iteration}, {status}")
         print(tableau_text(rows, session.problem.grid.unit))
+        print("".join(f"note: {n}\n" for n in design_notes_now(session)), end="")
     return 0
 
 
@@ -111,6 +112,7 @@ def cmd_report(args: argparse.Namespace) -> int:
             if record is None
             else tolerant(lambda: presenter.report(record, session.problem), generic)
         )
+        print("".join(f"note: {n}\n" for n in design_notes_now(session, args.iteration)), end="")
     return 0
 
 

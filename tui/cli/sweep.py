@@ -194,7 +194,7 @@ def sweep_text(summary: dict) -> str:
         for w in summary["worst_case"]:
             lines.append(
                 f"{w['name']:<10}{w['kind'][:21]:<22}{w['condition'][:11]:<12}{_number(w['worst'])}"
-                f"{_number(w['target'], 10)}  {w['unmet_samples']}/{w['samples']}"
+                f"{_number(w['desired'], 10)}  {w['unmet_samples']}/{w['samples']}"
             )
     else:
         lines += ["", f"{'optimum':>7} {'count':>5} {'meets':<6}{'ranking':>12} {'best run':>8}  parameters"]
@@ -203,6 +203,7 @@ def sweep_text(summary: dict) -> str:
                 f"{k:>7} {o['count']:>5} {'yes' if o['meets_requirements'] else 'no':<6}"
                 f"{_number(o['ranking'])} {o['best_run']:>8}  {_values(o['parameters'])}"
             )
+            lines += [f"{'':>13}note: {n}" for n in o.get("notes", [])]
     return "\n".join(lines)
 
 

@@ -385,7 +385,7 @@ class MainScreen(Screen):
         lines = tolerant(
             lambda: view.presenter.status_lines(record), lambda: Presenter.status_lines(view.presenter, record)
         )
-        return Text("\n".join(lines))
+        return Text("\n".join(lines + [f"note: {n}" for n in self.bench.design_notes(record)]))
 
     def refresh_plant(self) -> None:
         model = self.bench.session.model.problem

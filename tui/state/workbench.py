@@ -47,6 +47,7 @@ class Workbench:
         self.step_setup = StepSetup()  # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []  # undone iterations, latest last
         self._sweep_data: tuple[SweepModel, dict] | None = None  # the latest sweep and its JSON data
+        self._noise: tuple[tuple | None, list[str]] = (None, [])  # a finished record's noise notes, by record
 
     # -- the algorithm ------------------------------------------------------
 
@@ -298,6 +299,21 @@ class Workbench:
         except (EngineError, SessionError):
             return None
         return self._initial
+
+    def design_notes(self, record: StepRecord) -> list[str]:
+        """The notes on a record's design: its parameters at a bound after every step; once
+        the algorithm has finished, its compensator's noise amplification too (a margin
+        search: made once per finished record, `engine.design.notes`)."""
+        from engine.design.notes import at_bounds, noise_notes
+
+        values = dict(record.parameters)
+        notes = at_bounds(self.session.problem, values)
+        if record.status.finished:
+            key = (id(self.session.problem), record.iteration)
+            if self._noise[0] != key:
+                self._noise = (key, noise_notes(self.session.problem, values))
+            notes += self._noise[1]
+        return notes
 
     def view(self) -> View:
         """A read-only snapshot of what the screens show now."""

@@ -1,0 +1,93 @@
+"""What a design's numbers do not say by themselves: free parameters sitting at
+(or within a hair of) a bound of their box, and a compensator whose high-frequency
+gain is far above its gain at the crossover (it amplifies sensor noise).
+
+An optimizer that "converges" with a time constant at its lower bound found the
+box, not a design (slp drove a lead's pole to 1e4 rad/s and a high-frequency gain
+near 1.35e5, and a gain to its lower bound); the CLI's `run` and `report`, the
+workbench's status and the sweep's optima list these notes beside the verdict.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from engine.design.problem import Problem
+from engine.errors import EngineError
+from engine.loop.responses import loop_model
+from engine.margins.search import margins
+from engine.model.blocks import ExpressionTransfer
+
+AT_BOUND = 1e-6  # relative distance to a bound within which a parameter is "at" it
+NOISE_FACTOR = 100.0  # the compensator's |K(j inf)| / |K(j wc)| above which a design is flagged
+
+
+def at_bounds(problem: Problem, values: dict) -> list[str]:
+    """'T2 at its lower bound 0.0001' for every free parameter (each condition's value of a
+    per-condition one) at or within `AT_BOUND` of a finite bound."""
+    notes = []
+    for p in problem.parameters:
+        if not p.free:
+            continue
+        value = values.get(p.name, p.value)
+        for k, v in enumerate(value if isinstance(value, (list, tuple)) else [value]):
+            where = f"[{problem.conditions[k].name}]" if isinstance(value, (list, tuple)) else ""
+            for side, bound in (("lower", p.lower()), ("upper", p.upper())):
+                if math.isfinite(bound) and abs(float(v) - bound) <= AT_BOUND * max(abs(bound), 1e-12):
+                    notes.append(f"{p.name}{where} at its {side} bound {bound:.6g}")
+    return notes
+
+
+def noise_notes(problem: Problem, values: dict, factor: float = NOISE_FACTOR) -> list[str]:
+    """For each condition's tunable blocks (expressions that read parameters): their product's
+    gain at high frequency against its gain at the loop's gain crossover, flagged above
+    ``factor`` (noise amplification)."""
+    notes = []
+    x = problem.vector_from(values)
+    for c, condition in enumerate(problem.conditions):
+        params = problem.condition_values(c, x)
+        blocks = [e.transfer for e in condition.network.entries if _tunable(e.transfer)]
+        if not blocks:
+            continue
+        try:
+            wc = margins(
+                loop_model(condition.network, condition.break_at, problem.grid.omega, params)
+            ).crossover_frequency
+            if wc is None:
+                continue
+            high, low = 1.0, 1.0
+            with np.errstate(all="ignore"):  # extreme values: judged below, never warned about
+                for transfer in blocks:
+                    rational = transfer.rational(params)
+                    high *= _high_frequency_gain(rational.num, rational.den)
+                    low *= abs(np.polyval(rational.num, 1j * wc) / np.polyval(rational.den, 1j * wc))
+                ratio = high / low if low > 0 else math.nan
+        except (EngineError, ValueError, ZeroDivisionError, FloatingPointError):
+            continue
+        if math.isfinite(ratio) and ratio > factor:
+            notes.append(
+                f"{condition.name}: the compensator's high-frequency gain is {ratio:.3g} times its gain at "
+                f"the crossover {wc:.4g} rad/s (above {factor:g}: it amplifies sensor noise)"
+            )
+    return notes
+
+
+def design_notes(problem: Problem, values: dict) -> list[str]:
+    """Every note on a design (`at_bounds`, `noise_notes`)."""
+    return at_bounds(problem, values) + noise_notes(problem, values)
+
+
+def _tunable(transfer: object) -> bool:
+    return isinstance(transfer, ExpressionTransfer) and bool(transfer.parameters)
+
+
+def _high_frequency_gain(num: np.ndarray, den: np.ndarray) -> float:
+    """|K(j omega)| as omega -> inf of a proper ratio (inf for an improper one)."""
+    num, den = np.trim_zeros(np.asarray(num, dtype=float), "f"), np.trim_zeros(np.asarray(den, dtype=float), "f")
+    if num.size < den.size:
+        return 0.0
+    if num.size > den.size:
+        return math.inf
+    return abs(num[0] / den[0])
