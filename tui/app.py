@@ -290,14 +290,15 @@ class LoopcraftApp(App):
         bench = self.bench
         if bench is None:
             return None
-        return {
-            "undo": None if bench.iteration > 0 else "no iteration to drop",
-            "redo": None if bench.can_redo else "no iteration was dropped",
-            "undo_edit": None if bench.edits.undo_stack else "no edit to undo",
-            "redo_edit": None if bench.edits.redo_stack else "no edit to redo",
-            "adopt_design": None if bench.iteration > 0 else "no iteration yet: the start is the current design",
-            "use_best": None if bench.latest_sweep() else "no sweep yet (w starts one)",
-        }.get(action)
+        can, reason = {  # only the asked key's test runs: check_action asks for every key of every refresh
+            "undo": (lambda: bench.iteration > 0, "no iteration to drop"),
+            "redo": (lambda: bench.can_redo, "no iteration was dropped"),
+            "undo_edit": (lambda: bool(bench.edits.undo_stack), "no edit to undo"),
+            "redo_edit": (lambda: bool(bench.edits.redo_stack), "no edit to redo"),
+            "adopt_design": (lambda: bench.iteration > 0, "no iteration yet: the start is the current design"),
+            "use_best": (lambda: bench.latest_sweep() is not None, "no sweep yet (w starts one)"),
+        }.get(action, (lambda: True, None))
+        return None if can() else reason
 
     def on_mount(self) -> None:
         watch_terminal(self, self._terminal_lost)
