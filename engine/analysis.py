@@ -11,10 +11,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.closed_loop.poles import polish
+from engine.closed_loop.poles import checked, polish
 from engine.errors import EngineError
 from engine.loop.design import design
-from engine.loop.realization import Pole, poles, stability
+from engine.loop.realization import Pole, poles, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
@@ -201,14 +201,17 @@ def analyze(
     """Margins of the loop broken at ``break_at``, and the closed-loop poles
     when rational (first: an improper loop is an error before any search)."""
     pole_list: tuple[Pole, ...] | None = None
+    pole_notes: tuple[str, ...] = ()
     verdict = "unknown"
     if network.rational:
-        pole_list = tuple(poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig)))
+        found = poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig))
+        pole_list, pole_notes = checked(network, params, found)
         verdict = stability(list(pole_list))
+        pole_notes += tuple(filter(None, [stability_note(list(pole_list))]))
     model = loop_model(network, break_at, omega, params)
     every = margins(model, attenuation_above=0.0)
     result = replace(every, attenuation=())
-    notes = list(result.notes)
+    notes = list(result.notes) + list(pole_notes)
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
     disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)

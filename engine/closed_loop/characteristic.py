@@ -79,6 +79,9 @@ CLUSTER = 0.01
 RADIUS = 0.1
 NODES = 32
 MAX_CLUSTER = 4
+ORIGIN_CLUSTER = 8  # roots about the origin: a type-k loop's k (`clusters`)
+TINY = 1e-280  # a root this small is at the origin to the floating-point range
+ROUNDS = 64  # circles about one cluster, each shrunk to its roots (`cluster_roots`)
 COUNT = 1e-3  # the circle's root count (sum p = 0) must be the members' count to this
 
 
@@ -137,7 +140,32 @@ class GainCharacteristic(Characteristic):
         M, dG = self._matrices(s, k)
         return _pole_sums(s, self.poles) - _traces(M, dG)
 
+    def backward_errors(self, s: Roots, k: float = 1.0) -> NDArray[np.float64]:
+        """Per point, the smallest relative change of the entries of M = I - G_k(s) and of s
+        itself that makes s an exact root of F_k = prod(s - p) det M (to first order:
+        det(M + E) = det M (1 + trace(M^-1 E))): 1 / (sum |M_ij| |M^-1_ji| + |s| |F'/F|).  For
+        a unity-feedback loop it is |1 + L| / (2 (1 + |L|)), |D + KN| / (|D| + |KN|) halved,
+        with the rounding of s allowed for (a root within eps of a block pole).  0 on a block
+        pole exactly, at a singular M, and below TINY (the origin, to the floating-point range)."""
+        with np.errstate(all="ignore"):
+            M, dG = self._matrices(s, k)
+            out = np.zeros(s.size)
+            usable = np.all(np.isfinite(M), axis=(1, 2)) & np.all(np.isfinite(dG), axis=(1, 2)) & (np.abs(s) > TINY)
+            for i in np.flatnonzero(usable).tolist():
+                try:
+                    inverse = np.linalg.inv(M[i])
+                except np.linalg.LinAlgError:
+                    continue
+                slope = _pole_sums(s[i : i + 1], self.poles)[0] - np.trace(inverse @ dG[i])  # F'/F
+                terms = np.sum(np.abs(M[i]) * np.abs(inverse.T)) + abs(s[i]) * abs(slope)
+                out[i] = 1.0 / terms if np.isfinite(terms) else 0.0
+            return out
+
     def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
+        """On a block pole exactly (0 * inf), at the next floating-point number: where Aberth's
+        iteration lands when the root is there to rounding (a gain of 1e-33 moves a pole by
+        1e-100), |F| is then as small as any representable point makes it."""
+        s = np.where(np.isin(s, self.poles), s + np.maximum(np.abs(s) * 2.0**-52, 5e-324), s)
         with np.errstate(all="ignore"):  # NaN on a block pole (k = 0): not measurable
             M, _ = self._matrices(s, k)
             return _pole_logs(s, self.poles) + np.linalg.slogdet(M)[1]
@@ -201,9 +229,9 @@ def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
     the smallest |F| (module docstring)."""
     start = np.asarray(start, dtype=complex)
     polished, stalled, steps = aberth(ratio, start)
-    clustered, groups = polished.copy(), clusters(polished)
+    clustered, groups, origin = polished.copy(), clusters(polished), _origin_cluster(polished)
     for members in groups:
-        roots = cluster_roots(ratio, polished, members)
+        roots = cluster_roots(ratio, polished, members, origin is not None and np.array_equal(members, origin))
         if roots is not None:
             clustered[members], stalled[members] = roots, False
     candidates = [clustered, polished, start]
@@ -213,7 +241,53 @@ def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
         kicked = clustered + np.where(stalled, (1 + 1j) * np.abs(steps), 0.0)
         candidates.insert(0, aberth(ratio, kicked)[0])
     best = _smallest(log_size, candidates, groups)
-    return np.where(np.abs(best.imag) <= 1e-14 * np.abs(best), best.real + 0j, best)
+    best = np.where(np.abs(best.imag) <= 1e-14 * np.abs(best), best.real + 0j, best)
+    return conjugate_pairs(ratio, best)
+
+
+def conjugate_pairs(ratio: Ratio, z: Roots) -> Roots:
+    """The roots of a real F in exact conjugate pairs: each complex root matched with the
+    nearest mirror image of another (greedily, nearest first) or, nearer its own mirror
+    than any other's, moved onto the real axis (a complex root without a partner stands
+    for a real one); the moved roots are refined again, the pairs averaged."""
+    if _mirrored(z):
+        return z
+    partner = _mirror_matching(z)
+    moved = np.where(partner == np.arange(z.size), z.real + 0j, z)
+    moved = _averaged(moved, partner)
+    again, _, _ = aberth(ratio, moved)
+    again = np.where(partner == np.arange(z.size), again.real + 0j, again)
+    return _averaged(again, partner)
+
+
+def _mirrored(z: Roots) -> bool:
+    """Is every complex root's conjugate among the roots, exactly?"""
+    complex_roots = z[z.imag != 0]
+    return bool(np.array_equal(np.sort_complex(complex_roots), np.sort_complex(complex_roots.conj())))
+
+
+def _mirror_matching(z: Roots) -> NDArray[np.intp]:
+    """partner[i]: the root whose mirror image z_i is (i itself: a real root)."""
+    cost = np.abs(z[:, None] - z.conj()[None, :])
+    partner = np.full(z.size, -1, dtype=np.intp)
+    for flat in np.argsort(cost, axis=None, kind="stable"):
+        i, j = divmod(int(flat), z.size)
+        if partner[i] < 0 and partner[j] < 0:
+            partner[i], partner[j] = j, i
+            if (partner >= 0).all():
+                break
+    return partner
+
+
+def _averaged(z: Roots, partner: NDArray[np.intp]) -> Roots:
+    """Each pair set to the mean of one root and its partner's mirror (upper, lower)."""
+    out = z.copy()
+    for i, j in enumerate(partner.tolist()):
+        if i < j:
+            mean = 0.5 * (z[i] + z[j].conj())
+            upper = complex(mean.real, abs(mean.imag))
+            out[i], out[j] = (upper, upper.conjugate()) if z[i].imag >= 0 else (upper.conjugate(), upper)
+    return out
 
 
 def aberth(ratio: Ratio, start: Roots) -> tuple[Roots, NDArray[np.bool_], Roots]:
@@ -247,9 +321,16 @@ def aberth_step(ratio: Ratio, z: Roots) -> Roots:
 
 
 def clusters(z: Roots) -> list[NDArray[np.intp]]:
-    """Disjoint groups of 2..MAX_CLUSTER roots (the smallest about each root) whose spread
-    about their centre is within CLUSTER of its scale (`_extent`)."""
+    """Disjoint groups of roots solved as units: 2..MAX_CLUSTER roots (the smallest about each
+    root) whose spread about their centre is within CLUSTER of its scale (`_extent`), and the
+    roots about the origin (up to ORIGIN_CLUSTER) within CLUSTER of the next root's size: a
+    type-k loop at a small gain has k roots on a tiny circle there, where the eigenvalues are
+    off by eps^(1/k) of the state matrix's size and Aberth's iteration crawls."""
     used, out = np.zeros(z.size, dtype=bool), []
+    about_origin = _origin_cluster(z)
+    if about_origin is not None:
+        out.append(about_origin)
+        used[about_origin] = True
     for i in _seeds(z):
         if used[i]:
             continue
@@ -264,6 +345,17 @@ def clusters(z: Roots) -> list[NDArray[np.intp]]:
     return out
 
 
+def _origin_cluster(z: Roots) -> NDArray[np.intp] | None:
+    """The 1..ORIGIN_CLUSTER smallest roots when they lie within CLUSTER of the next one's size
+    (one root too: within eps of a block pole at the origin, Aberth's correction cancels)."""
+    order = np.argsort(np.abs(z), kind="stable")
+    size = np.abs(z[order])
+    for m in range(1, min(ORIGIN_CLUSTER, z.size - 1) + 1):
+        if size[m - 1] <= CLUSTER * size[m]:
+            return np.sort(order[:m])
+    return None
+
+
 def _seeds(z: Roots) -> NDArray[np.intp]:
     """The roots a cluster can be found about (the others need no search): those whose nearest
     other root is within 2.1 CLUSTER of their size, as in a cluster about z_i (holding that root,
@@ -275,40 +367,65 @@ def _seeds(z: Roots) -> NDArray[np.intp]:
     return np.flatnonzero(np.min(gaps, axis=1) <= 2.1 * CLUSTER * np.abs(z))
 
 
-def _extent(z: Roots, members: NDArray[np.intp]) -> tuple[complex, float, float]:
+def _extent(z: Roots, members: NDArray[np.intp], about_origin: bool = False) -> tuple[complex, float, float]:
     """The members' centre, their largest distance from it and its scale: its distance to
-    the nearest other root and to the origin."""
+    the nearest other root and to the origin.  Members about the origin (so found, or
+    their centre nearer it than their spread) are taken about the origin itself, their
+    scale the distance to the nearest other root."""
     centre = complex(np.mean(z[members]))
+    spread = float(np.max(np.abs(z[members] - centre)))
+    about_origin = about_origin or abs(centre) <= spread
+    if about_origin:
+        centre, spread = 0j, float(np.max(np.abs(z[members])))
     others = np.delete(z, members)
-    gap = min(float(np.min(np.abs(others - centre))) if others.size else np.inf, abs(centre))
-    return centre, float(np.max(np.abs(z[members] - centre))), gap
+    gap = float(np.min(np.abs(others - centre))) if others.size else np.inf
+    return centre, spread, gap if about_origin else min(gap, abs(centre))
 
 
-def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp]) -> Roots | None:
+def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp], about_origin: bool = False) -> Roots | None:
     """The roots of the cluster z[members] from their power sums on a circle (module docstring),
-    in the members' order; None where the circle does not hold exactly as many roots."""
-    m = members.size
-    centre, spread, gap = _extent(z, members)
-    radius = RADIUS * gap
+    in the members' order; None where the first circle does not hold exactly as many roots.
+    The circle shrinks about the roots found (to 1/RADIUS of their spread) while that halves it
+    at least, up to ROUNDS times: a circle much wider than the roots gives their power sums
+    to eps of its radius only (roots to eps^(1/m) of it)."""
+    centre, spread, gap = _extent(z, members, about_origin)
+    radius, found = RADIUS * gap, None
+    for _ in range(ROUNDS):
+        roots = _circle_roots(ratio, centre, radius, members.size)
+        if roots is None:
+            break
+        found = roots
+        centre = complex(np.mean(roots))
+        spread = float(np.max(np.abs(roots - centre)))
+        if about_origin or abs(centre) <= spread:
+            centre, spread = 0j, float(np.max(np.abs(roots)))
+        if not (spread / RADIUS <= 0.5 * radius and spread > 1e-300):
+            break
+        radius = spread / RADIUS
+    if found is None:
+        return None
+    from scipy.optimize import linear_sum_assignment  # on first use: `analyze` loads no scipy.optimize
+
+    rows, cols = linear_sum_assignment(np.abs(z[members][:, None] - found[None, :]))
+    out = np.empty(members.size, dtype=complex)
+    out[rows] = found[cols]
+    return out
+
+
+def _circle_roots(ratio: Ratio, centre: complex, radius: float, m: int) -> Roots | None:
+    """The m roots inside the circle about ``centre`` (None: it does not hold exactly m)."""
     if not (0 < radius < np.inf):
         return None
     if abs(centre.imag) <= 1e-3 * radius:  # the circle holds the conjugates too: a real factor
         centre = complex(centre.real, 0.0)
-    nodes = radius * np.exp(2j * np.pi * (np.arange(NODES) + 0.5) / NODES)  # conjugate-symmetric
+    unit = np.exp(2j * np.pi * (np.arange(NODES) + 0.5) / NODES)  # conjugate-symmetric
     with np.errstate(all="ignore"):
-        values = ratio(centre + nodes) * nodes  # (z - c) F'/F: dz = i (z - c) dtheta
-        sums = np.array([np.mean(values * nodes**p) for p in range(m + 1)])
+        values = ratio(centre + radius * unit) * (radius * unit)  # (z - c) F'/F: dz = i (z - c) dtheta
+        sums = np.array([np.mean(values * unit**p) for p in range(m + 1)])  # of ((root - c)/radius)^p
     if not (np.all(np.isfinite(sums)) and abs(sums[0] - m) <= COUNT):
         return None
-    if centre.imag == 0.0:
-        sums = sums.real + 0j
-    roots = centre + np.roots(_from_power_sums(sums))
-    from scipy.optimize import linear_sum_assignment  # on first use: `analyze` loads no scipy.optimize
-
-    rows, cols = linear_sum_assignment(np.abs(z[members][:, None] - roots[None, :]))
-    out = np.empty(m, dtype=complex)
-    out[rows] = roots[cols]
-    return out
+    polynomial = _from_power_sums(sums.real + 0j if centre.imag == 0.0 else sums)
+    return centre + radius * np.roots(polynomial.real if centre.imag == 0.0 else polynomial)
 
 
 def _from_power_sums(sums: Roots) -> Roots:

@@ -16,12 +16,14 @@ realization, the eigenvalues are kept as they are.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.characteristic import GainCharacteristic
+from engine.loop.realization import Pole
 from engine.model.network import Network
 
 
@@ -29,3 +31,27 @@ def polish(network: Network, params: Mapping[str, float], eigenvalues: NDArray[n
     """The eigenvalues refined on F, in their order (or as given, see the module docstring)."""
     start = np.asarray(eigenvalues, dtype=complex)
     return GainCharacteristic(network, None, params).polish(1.0, start)
+
+
+CONFIRMED = 1e-8  # the largest backward error of a pole shown as a root (`GainCharacteristic.backward_errors`)
+
+
+def checked(
+    network: Network, params: Mapping[str, float], poles: Sequence[Pole]
+) -> tuple[tuple[Pole, ...], tuple[str, ...]]:
+    """The poles with their backward errors against the blocks' factored forms, and a note
+    naming those that are not roots to `CONFIRMED` (their digits cannot be trusted)."""
+    characteristic = GainCharacteristic(network, None, params)
+    if characteristic.poles is None or not poles:
+        return tuple(poles), ()
+    errors = characteristic.backward_errors(np.array([p.value for p in poles], dtype=complex))
+    out = tuple(replace(p, backward_error=float(e)) for p, e in zip(poles, errors))
+    doubtful = [p for p in out if not p.backward_error <= CONFIRMED]
+    if not doubtful:
+        return out, ()
+    named = ", ".join(f"{p.value:.6g} ({p.backward_error:.1g})" for p in doubtful[:3])
+    more = f" and {len(doubtful) - 3} more" if len(doubtful) > 3 else ""
+    return out, (
+        f"{len(doubtful)} closed-loop pole(s) are not roots of the characteristic equation to {CONFIRMED:g} "
+        f"(backward error against the blocks' factored forms): {named}{more}; their digits are not to be trusted",
+    )

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from engine.errors import InterconnectionError
 from engine.model.blocks import ExpressionTransfer
+from engine.model.factored import pole_zero
 from engine.model.network import Network, schedule_edges, sparse_solve
 
 FOLD_WIDTH = 3  # coefficients of a degree-2 polynomial
@@ -55,10 +56,10 @@ class LoopEvaluator:
         zeros, poles = [_quadratic_roots(self.num)], [_quadratic_roots(self.den)]
         for number in self.single:
             transfer = self.entries[number].transfer
-            if transfer.rational_form:
-                r = transfer.rational(params)
-                zeros.append(_roots(r.num, self.entries[number].label))
-                poles.append(_roots(r.den, self.entries[number].label))
+            if isinstance(transfer, ExpressionTransfer):  # factor by factor: no expansion overflows
+                form = pole_zero(transfer.expression, params)
+                zeros.append(form.zeros)
+                poles.append(form.poles)
         zeros = np.concatenate([np.asarray(r, dtype=complex).ravel() for r in zeros])
         poles = np.concatenate([np.asarray(r, dtype=complex).ravel() for r in poles])
         roots = np.concatenate([zeros, poles])
@@ -180,16 +181,6 @@ def _chain_groups(chains: list[list[int]]) -> list[tuple[NDArray, NDArray]]:
         )
         for n in lengths
     ]
-
-
-def _roots(coefficients: NDArray, label: str) -> NDArray[np.complex128]:
-    """Roots of a block's polynomial; an error naming the block when its
-    coefficients are not finite (an overflowing expansion)."""
-    if coefficients.size <= 1:
-        return np.zeros(0, dtype=complex)
-    if not np.all(np.isfinite(coefficients)):
-        raise InterconnectionError(f"{label}: its polynomial coefficients overflow (degree {coefficients.size - 1})")
-    return np.roots(coefficients)
 
 
 def _quadratic_ratios(num: NDArray, den: NDArray, omega: NDArray) -> tuple[NDArray, NDArray]:

@@ -147,12 +147,15 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
     n = A.shape[0]
     if n == 0:
         return None
-    poles = linalg.eigvals(A)
     pencil = np.block([[A, B], [C, D]])
     mass = np.zeros_like(pencil)
     mass[:n, :n] = np.eye(n)
-    with np.errstate(all="ignore"):
-        zeros = linalg.eigvals(pencil, mass)
+    try:
+        poles = linalg.eigvals(A)
+        with np.errstate(all="ignore"):
+            zeros = linalg.eigvals(pencil, mass)
+    except (linalg.LinAlgError, ValueError):  # QZ not converging, or a realization not finite
+        return None
     zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) < 1e12 * max(1.0, np.max(np.abs(poles))))]
     checks = _check_frequencies(zeros, poles)
     reference = _evaluated(exact, checks)

@@ -43,6 +43,7 @@ class Pole:
     value: complex
     damping: float
     natural_frequency: float
+    backward_error: float | None = None  # as a root of the blocks' characteristic equation (None: not checked)
 
     @property
     def zeta(self) -> float:
@@ -212,14 +213,40 @@ def poles(ss: StateSpace, refine: Callable[[NDArray], NDArray] | None = None) ->
     return out
 
 
-def stability(pole_list: list[Pole], tolerance: float = 1e-11) -> str:
-    """'stable', 'unstable' or 'marginally stable' (a pole within tolerance of the axis)."""
-    if not pole_list:
-        return "stable"
-    scale = max(1.0, max(abs(p.value) for p in pole_list))
-    worst = max(p.value.real for p in pole_list)
-    if worst > tolerance * scale:
+AXIS = 1e-12  # |Re p| within this of |p| (|zeta| <= 1e-12): a pole on the imaginary axis
+ORIGIN = 1e-12  # |p| within this of the largest pole's modulus: a pole at the origin
+
+
+def stability(pole_list: list[Pole]) -> str:
+    """'unstable' (a pole right of the axis), 'marginally stable' (none, and one on it by
+    `marginal_poles`' rule) or 'stable'."""
+    on_axis = {id(p) for p in marginal_poles(pole_list)}
+    if any(p.value.real > 0 and id(p) not in on_axis for p in pole_list):
         return "unstable"
-    if worst >= -tolerance * scale:
-        return "marginally stable"
-    return "stable"
+    return "marginally stable" if on_axis else "stable"
+
+
+def marginal_poles(pole_list: list[Pole]) -> list[Pole]:
+    """The poles taken to lie on the imaginary axis: |zeta| < AXIS (relative to the pole's
+    own modulus), or |p| < ORIGIN times the largest pole's modulus (at the origin relative
+    to the loop's fastest pole).  A real pole at -2.8e-11 beside poles of modulus 3 is
+    stable (a time constant of 3.6e10 s: slow, not marginal)."""
+    if not pole_list:
+        return []
+    scale = max(abs(p.value) for p in pole_list)
+    return [p for p in pole_list if abs(p.value.real) <= AXIS * abs(p.value) or abs(p.value) <= ORIGIN * scale]
+
+
+def stability_note(pole_list: list[Pole]) -> str | None:
+    """What a 'marginally stable' verdict rests on (None for any other)."""
+    if stability(pole_list) != "marginally stable":
+        return None
+    on_axis = marginal_poles(pole_list)
+    named = ", ".join(f"{p.value:.6g}" for p in on_axis[:4]) + (
+        f" and {len(on_axis) - 4} more" if len(on_axis) > 4 else ""
+    )
+    scale = max(abs(p.value) for p in pole_list)
+    return (
+        f"marginally stable: {len(on_axis)} pole(s) on the imaginary axis ({named}): |Re p| <= {AXIS:g} |p|, "
+        f"or |p| <= {ORIGIN:g} of the largest pole's modulus ({scale:.6g}); every other pole has Re p < 0"
+    )

@@ -315,13 +315,24 @@ def _extend_to_crossovers(loop: LoopModel, lo: float, hi: float) -> tuple[float,
     beyond it (up to 40 decades; eight at a time, both ends in one evaluation)."""
     steps = 10.0 ** np.arange(DECADES_PER_LOOK + 1)
     for _ in range(40 // DECADES_PER_LOOK):
-        with np.errstate(all="ignore"):
-            level = np.log(np.abs(loop.evaluate(np.concatenate([hi * steps, lo / steps]))[0]))
+        level = _log_levels(loop, np.concatenate([hi * steps, lo / steps]))
         up, down = _decades_moving(level[: steps.size]), _decades_moving(level[steps.size :])
         hi, lo = hi * 10.0**up, lo / 10.0**down
         if up < DECADES_PER_LOOK and down < DECADES_PER_LOOK:
             break
     return lo, hi
+
+
+def _log_levels(loop: LoopModel, omega: NDArray) -> NDArray:
+    """log |GH| at ``omega``; NaN where GH is beyond the floating-point range (far below
+    the corners of a type-3 loop): there the extension stops."""
+    with np.errstate(all="ignore"):
+        try:
+            return np.log(np.abs(loop.evaluate(omega)[0]))
+        except EngineError:
+            return np.array(
+                [_log_levels(loop, omega[k : k + 1])[0] if omega.size > 1 else np.nan for k in range(omega.size)]
+            )
 
 
 def _decades_moving(level: NDArray) -> int:

@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError, ExtrapolationError
 from engine.model.expressions import VARIABLES, Dual, Expression
+from engine.model.factored import pole_zero
 from engine.numerics.polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
@@ -58,8 +59,20 @@ class ExpressionTransfer:
         return self.expression.evaluate(x, params, with_dvar, with_grad)
 
     def compile(self, params: Mapping[str, float]) -> Compiled:
-        """Fast (value, d/dx) evaluator for fixed parameters."""
-        return self.expression.compile(params)
+        """Fast (value, d/dx) evaluator for fixed parameters: the expression's tree, and its
+        pole-zero form where a product of many factors over- or underflowed in the tree
+        (1e200 (s + 3000)^40 / (s^57 ...) is finite while its numerator is not)."""
+        tree = self.expression.compile(params)
+
+        def evaluate(x: NDArray) -> tuple[NDArray, NDArray]:
+            value, slope = tree(x)
+            lost = ~(np.isfinite(value) & np.isfinite(slope))
+            if lost.any():
+                value, slope = np.array(value, dtype=complex), np.array(slope, dtype=complex)
+                value[lost], slope[lost] = pole_zero(self.expression, params).evaluate(np.asarray(x)[lost])
+            return value, slope
+
+        return evaluate
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """Polynomial ratio for the given parameter values; checks it is usable."""

@@ -55,6 +55,21 @@ class PoleZero:
             )
         return PoleZero(base.gain**k, np.tile(base.zeros, k), np.tile(base.poles, k))
 
+    def evaluate(self, x: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+        """The value and d/dx at ``x``, a zero and a pole paired in each factor: no partial
+        product over- or underflows where a tree's product of many factors can."""
+        x = np.asarray(x, dtype=complex)[..., None]
+        m = min(self.zeros.size, self.poles.size)
+        with np.errstate(all="ignore"):
+            zq, pq = x - self.zeros, x - self.poles
+            value = self.gain * np.prod(zq[..., :m] / pq[..., :m], axis=-1)
+            value = value * np.prod(zq[..., m:], axis=-1) / np.prod(pq[..., m:], axis=-1)
+            lost = ~np.isfinite(value) | (value == 0)  # still beyond the range: by logarithms
+            if lost.any() and self.gain != 0:
+                logs = np.sum(np.log(zq[lost]), axis=-1) - np.sum(np.log(pq[lost]), axis=-1)
+                value[lost] = np.sign(self.gain) * np.exp(logs + np.log(abs(self.gain)))
+            return value, value * (np.sum(1.0 / zq, axis=-1) - np.sum(1.0 / pq, axis=-1))
+
     def cancelled(self) -> PoleZero:
         """Without the zero-pole pairs that are the same root."""
         zeros, poles = list(self.zeros), list(self.poles)
@@ -93,21 +108,69 @@ def _node(node: Node, params: Mapping[str, float]) -> PoleZero:
     if node.op == "neg":
         inner = _node(node.args[0], params)
         return PoleZero(-inner.gain, inner.zeros, inner.poles)
-    return _folded(node, params)
+    if node.op in ("add", "sub"):
+        return _sum(_terms(node), params)
+    return _leaf(node, params)
 
 
-def _folded(node: Node, params: Mapping[str, float]) -> PoleZero:
-    """A sum or a leaf: its own polynomial ratio, then its roots."""
-    r = to_rational(node, params)
-    num, den = trim(r.num), trim(r.den)
-    if not (np.all(np.isfinite(num)) and np.all(np.isfinite(den))):
+def _leaf(node: Node, params: Mapping[str, float]) -> PoleZero:
+    """A number, a parameter or the variable."""
+    none = np.zeros(0, dtype=complex)
+    if node.op == "var":
+        return PoleZero(1.0, np.zeros(1, dtype=complex), none)
+    value = float(to_rational(node, params).num[0])
+    if not np.isfinite(value):
         raise ExpressionError("polynomial coefficients overflow")
-    if den[0] == 0:
-        raise ExpressionError("division by zero")
-    gain = float(num[0] / den[0])
-    zeros = _roots(num) if num.size > 1 and num[0] != 0 else np.zeros(0, dtype=complex)
-    poles = _roots(den) if den.size > 1 else np.zeros(0, dtype=complex)
-    return PoleZero(gain, zeros.astype(complex), poles.astype(complex))
+    return PoleZero(value, none, none)
+
+
+def _terms(node: Node) -> list[tuple[float, Node]]:
+    """A run of + and - as its signed terms (a - (b - c) is a - b + c)."""
+    out, stack = [], [(1.0, node)]
+    while stack:
+        sign, item = stack.pop()
+        if item.op in ("add", "sub"):
+            stack.append((sign if item.op == "add" else -sign, item.args[1]))
+            stack.append((sign, item.args[0]))
+        else:
+            out.append((sign, item))
+    return out
+
+
+def _sum(terms: list[tuple[float, Node]], params: Mapping[str, float]) -> PoleZero:
+    """A sum over the least common denominator of its terms: a pole that terms share (the
+    same root, within CANCEL) is one pole of the sum, not a pole of each (over the product
+    of the denominators, Z^2 - 0.5 Z with Z = (1 + w)/(1 - w) had a third pole at w = 1 and
+    a zero beside it, a pair that no longer cancelled once the roots were recomputed).
+    Only the numerator is multiplied out; the terms' own factors are kept as roots."""
+    forms = [(sign, _node(term, params)) for sign, term in terms]
+    common: list[complex] = []
+    for _, form in forms:
+        missing = list(form.poles)
+        for p in common:
+            k = _matching(missing, p)
+            if k is not None:
+                missing.pop(k)
+        common += missing
+    numerator = np.zeros(1)
+    for sign, form in forms:
+        rest = list(common)
+        for p in form.poles:
+            rest.pop(_matching(rest, p))
+        term = sign * form.gain * np.poly(np.concatenate([form.zeros, np.array(rest, dtype=complex)])).real
+        numerator = np.polyadd(numerator, term)
+    numerator = trim(numerator)
+    if not np.all(np.isfinite(numerator)):
+        raise ExpressionError("polynomial coefficients overflow")
+    zeros = (
+        _roots(numerator).astype(complex) if numerator.size > 1 and numerator[0] != 0 else np.zeros(0, dtype=complex)
+    )
+    return PoleZero(float(numerator[0]), zeros, np.array(common, dtype=complex))
+
+
+def _matching(roots: list[complex], root: complex) -> int | None:
+    """The index of the first of ``roots`` that is ``root`` within CANCEL, or None."""
+    return next((k for k, r in enumerate(roots) if abs(r - root) <= CANCEL * max(1.0, abs(root))), None)
 
 
 def _roots(c: NDArray) -> NDArray:
