@@ -36,6 +36,7 @@ from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.shape_notes import level_notes, shape_notes
 from engine.margins.values import Band, Margin, Margins, margins_of, single_margin
+from engine.numerics.rational_fit import Trend
 from engine.numerics.refinement import Roots, refine, sign_changes
 
 
@@ -67,7 +68,7 @@ def margins(
                     + (f"the table could not be fitted within {FIT_LIMIT:g} relative: grid rule used",),
                 )
             )
-        found = margins(fitted[0], gain_band, phase_band, attenuation_above)
+        found = supported(loop, margins(fitted[0], gain_band, phase_band, attenuation_above), fitted[1])
         notes = tuple(n for n in found.notes if not n.startswith("searched within"))
         return replace(
             found,
@@ -75,7 +76,7 @@ def margins(
             residual=fitted[1],
             notes=(
                 f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
-                f"(relative residual {fitted[1]:.1e} on the table, the margins' stated uncertainty)",
+                f"(relative residual {fitted[1]:.1e} at every table point, the margins' stated uncertainty)",
             )
             + notes,
         )
@@ -204,21 +205,97 @@ def _changes_sign(levels: list[Level], g_lo: NDArray, dg_lo: NDArray, g_hi: NDAr
 
 
 FIT_LIMIT = 0.05  # a fit off by more than this (relative) is no better than the grid
+SUPPORT = 3.0  # the fit between two table points may leave their magnitudes' range by this factor
+SUPPORT_PHASE = 30.0  # ... and their phases' range by this many degrees
+
+
+def supported(table: LoopModel, found: Margins, residual: float) -> Margins:
+    """The fitted margins the table supports, and a note for the others.  A margin between
+    two table points stands when the fit there stays within `SUPPORT` of the magnitudes and
+    `SUPPORT_PHASE` of the phases of the two points (a fit of a table spanning 20 decades
+    placed |GH| = 1.56 where the points around said 4e-5: a crossover the table never had),
+    and a gain margin also when the phase leaves -180 deg by more than the fit's uncertainty
+    (asin of the residual) at a point on either side (a loop whose phase is -180 deg to
+    rounding over decades, 1/s^2, has a phase crossing at every rounding error)."""
+    omega, gh = table.omega[table.omega > 0], table.gh[table.omega > 0]
+    dropped: dict[str, int] = {}
+
+    def stands(m: Margin) -> bool:
+        k = int(np.searchsorted(omega, m.frequency))
+        if k == 0 or k >= omega.size:  # at or beyond an end of the table: no bracket to judge by
+            return True
+        pair = gh[k - 1 : k + 1]
+        magnitude, phase = np.abs(pair), np.unwrap(np.angle(pair))
+        fit_phase = phase[0] + np.angle(m.gh / pair[0])
+        ok = (
+            magnitude.min() / SUPPORT <= abs(m.gh) <= magnitude.max() * SUPPORT
+            and np.degrees(phase.min() - fit_phase) <= SUPPORT_PHASE
+            and np.degrees(fit_phase - phase.max()) <= SUPPORT_PHASE
+        )
+        if ok and m.kind == "G":
+            ok = _phase_resolved(gh, k, residual)
+        if not ok:
+            dropped[m.kind] = dropped.get(m.kind, 0) + 1
+        return ok
+
+    kept = replace(
+        found,
+        gain=tuple(filter(stands, found.gain)),
+        phase=tuple(filter(stands, found.phase)),
+        stability=tuple(filter(stands, found.stability)),
+    )
+    if not dropped:
+        return kept
+    counts = ", ".join(f"{n} {KIND_NAMES[kind]}" for kind, n in sorted(dropped.items()))
+    return replace(
+        kept,
+        notes=kept.notes
+        + (
+            f"{counts} of the fit dropped: the table does not support them (the fit leaves its points' "
+            f"range between them, or the phase is -180 deg within the fit's uncertainty there)",
+        ),
+    )
+
+
+KIND_NAMES = {"G": "gain margin(s)", "P": "phase margin(s)", "S": "stability margin(s)"}
+
+
+def _phase_resolved(gh: NDArray, k: int, residual: float) -> bool:
+    """Does the table's phase leave -180 deg by more than the fit's uncertainty at the
+    points on both sides of the crossing between points k - 1 and k (three points out)?"""
+    uncertainty = np.arcsin(min(1.0, 2.0 * max(residual, 1e-15)))
+    away = np.abs(np.angle(-gh))  # distance from -180 deg, rad
+    before, after = away[max(0, k - 3) : k], away[k : k + 3]
+    return bool(before.size and after.size and before.max() > uncertainty and after.max() > uncertainty)
 
 
 def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
     """A rational fit of a tabulated loop as a loop model (searched within
     the table's range), its residual and degree; None when it fits badly."""
     keep = loop.omega > 0
+    omega, gh = loop.omega[keep], loop.gh[keep]
+    trend = Trend.of(omega, gh)
     try:
-        fit = cached_fit(loop.omega[keep], loop.gh[keep])
+        with np.errstate(all="ignore"):
+            fit = cached_fit(omega, gh / trend.evaluate(omega)[0])
     except EngineError:
         return None
-    if not fit.residual <= FIT_LIMIT:
+
+    def evaluate(w: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        (g, dg), (t, dt) = fit.evaluate(w), trend.evaluate(w)
+        return g * t, dg * t + g * dt
+
+    with np.errstate(all="ignore"):  # judged point by point, relative to each point's value
+        relative = np.abs(evaluate(omega)[0] - gh) / np.abs(gh)
+    residual = float(np.max(relative[gh != 0], initial=0.0))
+    if not residual <= FIT_LIMIT:
         return None
+
     poles = fit.poles[np.isfinite(fit.poles) & (np.abs(fit.poles) > 0)]
-    model = LoopModel(loop.omega[keep], loop.gh[keep], fit.evaluate, np.abs(poles), np.abs(poles.real) / np.abs(poles))
-    return model, float(fit.residual), int(fit.degree)
+    corners = np.concatenate([np.abs(poles), [trend.corner] if trend.low != trend.high else []])
+    dampings = np.concatenate([np.abs(poles.real) / np.abs(poles), [1.0] if trend.low != trend.high else []])
+    model = LoopModel(omega, gh, evaluate, corners, dampings)
+    return model, residual, int(fit.degree + abs(trend.low - trend.high) + abs(trend.low))
 
 
 def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
@@ -434,11 +511,63 @@ def _grid_margins(loop: LoopModel, gain_band: Band, phase_band: Band, attenuatio
     gi = gi[np.array([gain_band.contains(w[i]) for i in gi], dtype=bool)]
     pi = pi[np.array([phase_band.contains(w[i]) for i in pi], dtype=bool)]
     ai = ai[w[ai] > attenuation_above] if attenuation_above is not None else ai[:0]
+    noise = table_noise(gh)
+    found = (gi.size, pi.size, si.size)
+    gi = _beyond_noise(gi, np.abs(np.angle(-gh)), noise)
+    pi = _beyond_noise(pi, np.abs(np.log(np.sqrt(mag2))), noise)
+    si = _deeper_than_noise(si, np.sqrt(dist2), NOISE_FLOOR * noise * np.abs(gh))
+    notes = ["tabulated loop: margins at grid points (report 000 grid rule), not refined"]
+    if (gi.size, pi.size, si.size) != found:
+        notes.append(
+            f"the table's noise is about {noise:.1g} relative (second differences of log GH): crossings within "
+            f"{NOISE_FLOOR:g} times it of -180 deg or of |GH| = 1 count once, minima of |1 + GH| shallower than "
+            f"it are not margins ({sum(found) - gi.size - pi.size - si.size} dropped)"
+        )
     return Margins(
         gain=tuple(margins_of("G", w[gi], gh[gi])),
         phase=tuple(margins_of("P", w[pi], gh[pi])),
         stability=tuple(margins_of("S", w[si], gh[si])),
         attenuation=tuple(margins_of("A", w[ai], gh[ai])),
         method="grid",
-        notes=("tabulated loop: margins at grid points (report 000 grid rule), not refined",),
+        notes=tuple(notes),
     )
+
+
+NOISE_FLOOR = 5.0  # crossings and minima within this many times the table's noise are one, or none
+
+
+def table_noise(gh: NDArray[np.complex128]) -> float:
+    """The table's relative noise: the median size of the second differences of log GH (log
+    magnitude and unwrapped phase) over sqrt(6) (white noise's), by 0.6745 (a median's).
+    Smooth data sampled coarsely read as a little noise: their curvature."""
+    with np.errstate(all="ignore"):
+        log_gh = np.log(np.abs(gh)) + 1j * np.unwrap(np.angle(gh))
+    second = np.abs(log_gh[:-2] - 2.0 * log_gh[1:-1] + log_gh[2:])
+    second = second[np.isfinite(second)]
+    return float(np.median(second) / (0.6745 * np.sqrt(6.0))) if second.size else 0.0
+
+
+def _beyond_noise(crossings: NDArray[np.intp], distance: NDArray, noise: float) -> NDArray[np.intp]:
+    """One crossing (the middle one) of each run whose points between stay within
+    `NOISE_FLOOR` noise of the threshold (``distance``: from it, relative)."""
+    if crossings.size < 2 or noise == 0.0:
+        return crossings
+    runs, current = [], [int(crossings[0])]
+    for i in crossings[1:].tolist():
+        if np.max(distance[current[-1] : i + 1]) <= NOISE_FLOOR * noise:
+            current.append(i)
+        else:
+            runs.append(current)
+            current = [i]
+    runs.append(current)
+    return np.array([run[len(run) // 2] for run in runs], dtype=np.intp)
+
+
+def _deeper_than_noise(minima: NDArray[np.intp], distance: NDArray, floor: NDArray) -> NDArray[np.intp]:
+    """The minima of ``distance`` whose prominence exceeds the noise ``floor`` there."""
+    if minima.size == 0:
+        return minima
+    from scipy.signal import peak_prominences  # on first use (start-up)
+
+    prominence = peak_prominences(-distance, minima)[0]
+    return minima[prominence > floor[minima]]

@@ -413,3 +413,43 @@ def fit_response(
         residual_rms=final.rms,
         degree=max(step.degree, 0),
     )
+
+
+@dataclass(frozen=True)
+class Trend:
+    """T(s) = (s/c)^-low (1 + s/c)^(low - high): a table's asymptotes (slopes of -20 low and
+    -20 high dB/decade at its ends, c the geometric middle of its range).  A table spanning
+    twenty decades (a type-3 loop) is fitted as GH / T, within a few decades: a fit of GH
+    itself in barycentric form cannot be relatively accurate both at its largest and at its
+    smallest values (its sums cancel to eps of the largest, and `FLOOR` measures the
+    smallest absolutely)."""
+
+    low: int
+    high: int
+    corner: float
+
+    @staticmethod
+    def of(omega: NDArray[np.float64], gh: Complex) -> Trend:
+        """The integer end slopes of log |GH| over log omega (the first and last twentieth
+        of the table, at least three points)."""
+        n = max(3, omega.size // 20)
+        with np.errstate(all="ignore"):
+            x, y = np.log10(omega), np.log10(np.abs(gh))
+
+        def slope(part: slice) -> int:
+            xs, ys = x[part], y[part]
+            keep = np.isfinite(ys)
+            if keep.sum() < 2 or np.ptp(xs[keep]) == 0:
+                return 0
+            return int(np.clip(np.round(-np.polyfit(xs[keep], ys[keep], 1)[0]), -MAX_TREND, MAX_TREND))
+
+        return Trend(slope(slice(0, n)), slope(slice(-n, None)), float(np.sqrt(omega[0]) * np.sqrt(omega[-1])))
+
+    def evaluate(self, omega: ArrayLike) -> tuple[Complex, Complex]:
+        """T(j omega) and dT/domega."""
+        s = 1j * np.asarray(omega, dtype=float) / self.corner
+        value = s ** (-self.low) * (1.0 + s) ** (self.low - self.high)
+        return value, value * 1j / self.corner * (-self.low / s + (self.low - self.high) / (1.0 + s))
+
+
+MAX_TREND = 8  # end slopes beyond this many decades per decade are not asymptotes
