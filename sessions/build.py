@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import csv
 import io
-import os
-import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -51,6 +49,7 @@ from engine.model.network import Block, Junction, Network, block_diagram, matrix
 from sessions.errors import SessionError
 from sessions.format.constraint_lines import build_inequalities, check_start, engine_error
 from sessions.format.limits import MAX_TABLE_ROWS
+from sessions.format.reading import decoded, read_regular, resolved
 from sessions.format.schema import (
     CascadeModel,
     ChannelsModel,
@@ -358,14 +357,17 @@ def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = 
     file = Path(folder) / name
     if allowed:
         return file
-    base, resolved = Path(folder).resolve(), file.resolve()
-    if Path(name).is_absolute() or not resolved.is_relative_to(base):
+    try:
+        base, real = resolved(Path(folder)), resolved(file)
+    except SessionError as exc:
+        raise SessionError(f"{path}.csv: {exc}") from None
+    if Path(name).is_absolute() or not real.is_relative_to(base):
         raise OutsideTable(
             f"{path}.csv: {name!r} is outside the session's folder {base}: tables are read from "
             "the session's folder or below (--allow-outside-tables allows others)",
             name,
         )
-    return resolved  # what was checked is what is opened
+    return real  # what was checked is what is opened
 
 
 def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ...]:
@@ -393,35 +395,12 @@ def read_csv(file: Path, columns: list[str], path: str) -> tuple[list[float], ..
 
 
 def bounded_text(file: Path, path: str) -> str:
-    """The text of a regular file of at most MAX_TABLE_BYTES (never more is read)."""
+    """The text of a regular file of at most MAX_TABLE_BYTES (never more is read;
+    `sessions.format.reading`), a BOM dropped; errors are prefixed with ``path``."""
     try:
-        fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO must not block the open
-    except OSError as exc:
-        raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror or exc}") from None
-    _check_regular(fd, file, path)
-    with open(fd, "rb") as fh:
-        try:
-            data = fh.read(MAX_TABLE_BYTES + 1)
-        except OSError as exc:
-            raise SessionError(f"{path}.csv: cannot read {file}: {exc.strerror or exc}") from None
-    if len(data) > MAX_TABLE_BYTES:
-        raise SessionError(f"{path}.csv: {file.name} has more than {MAX_TABLE_BYTES} bytes")
-    try:
-        return data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise SessionError(f"{path}.csv: {file.name}: not UTF-8 text (byte {exc.start})") from None
-
-
-def _check_regular(fd: int, file: Path, path: str) -> None:
-    """An open file must be a regular file within MAX_TABLE_BYTES; else the descriptor
-    is closed and a `SessionError` says why (a device, a FIFO, a folder, too large)."""
-    info = os.fstat(fd)
-    problem = None if stat.S_ISREG(info.st_mode) else f"{file} is not a regular file"
-    if problem is None and info.st_size > MAX_TABLE_BYTES:
-        problem = f"{file.name} has {info.st_size} bytes; a table has at most {MAX_TABLE_BYTES}"
-    if problem is not None:
-        os.close(fd)
-        raise SessionError(f"{path}.csv: {problem}")
+        return decoded(read_regular(file, MAX_TABLE_BYTES)[0], file)
+    except SessionError as exc:
+        raise SessionError(f"{path}.csv: {exc}") from None
 
 
 def _columns(file: Path, columns: list[str], numbered: list, rows: list[dict]) -> tuple[list[float], ...]:

@@ -38,7 +38,9 @@ from sessions.build import OutsideTable, build_problem
 from sessions.errors import SessionError
 from sessions.format.checks import MAX_DEPTH, check_depth, check_record_parameters, check_records, check_state, invalid
 from sessions.format.json_text import dumps
+from sessions.format.limits import MAX_SESSION_BYTES
 from sessions.format.migrations import MIGRATIONS
+from sessions.format.reading import decoded, read_regular, resolved
 from sessions.format.save_file import (
     DiskStamp,
     OverwriteRefused,
@@ -46,10 +48,10 @@ from sessions.format.save_file import (
     check_writable,
     describe,
     mode_of,
-    read_stamped,
     real_path,
     refuse_overwrite,
     remove_quietly,
+    stamp_of,
     sweep_stale,
     write_atomic,
 )
@@ -190,18 +192,18 @@ def load_autosave(path: str | Path, allow_outside_tables: bool = False) -> Sessi
     session = parse_session(_read(auto)[0], str(auto), real_path(path).parent, allow_outside_tables)
     session.path = path
     try:
-        session.disk = read_stamped(path)[1]
-    except OSError:
+        data, info = read_regular(path, MAX_SESSION_BYTES)
+        session.disk = stamp_of(path, data, info)
+    except SessionError:
         session.disk = None
     return session
 
 
 def _read(path: Path) -> tuple[str, DiskStamp]:
-    try:
-        data, stamp = read_stamped(path)
-        return data.decode("utf-8"), stamp
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SessionError(f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}") from None
+    """A session file's text (a regular file of at most MAX_SESSION_BYTES, a BOM dropped)
+    and its stamp."""
+    data, info = read_regular(path, MAX_SESSION_BYTES)
+    return decoded(data, path), stamp_of(path, data, info)
 
 
 def save_session(session: Session, path: str | Path | None = None, *, force: bool = False) -> Path:
@@ -220,7 +222,7 @@ def save_session(session: Session, path: str | Path | None = None, *, force: boo
     try:
         sweep_stale(real)
         back_up(real, real.with_name(real.name + ".bak"))
-        session.disk = write_atomic(real, text.encode("utf-8"), mode_of(real))
+        session.disk = write_atomic(real, text, mode_of(real))
     except OSError as exc:
         raise SessionError(f"{target}: cannot save: {describe(exc)}") from None
     for table, name in moved:
@@ -262,8 +264,8 @@ def _moved_tables(session: Session, new: Path) -> list[tuple[TableModel, str]]:
     for table in tables_in(session.model.problem):
         if table.csv is None or Path(table.csv).is_absolute():
             continue
-        source = (old / table.csv).resolve()
-        name = Path(os.path.relpath(source, new.resolve())).as_posix()
+        source = resolved(old / table.csv)
+        name = Path(os.path.relpath(source, resolved(new))).as_posix()
         if name.startswith("../") and not session.allow_outside_tables:
             name = _copy_beside(source, new)  # a table outside the new folder would be refused
         moved.append((table, name))
@@ -355,7 +357,7 @@ def _writer() -> ThreadPoolExecutor:
 
 def _write_autosave(session: Session, target: Path, snapshot: SessionModel, mode: int | None) -> Path | None:
     try:
-        write_atomic(target, dumps(snapshot, compact=True).encode("utf-8"), mode)
+        write_atomic(target, dumps(snapshot, compact=True), mode)
     except (OSError, ValueError, TypeError, RecursionError) as exc:
         reason = describe(exc) if isinstance(exc, OSError) else f"the session is not JSON data ({exc})"
         session.autosave_warning = f"{target}: cannot autosave: {reason}"

@@ -14,6 +14,10 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BeforeValidator, Field
 
+from engine.model.blocks import (
+    MAX_TABLE_ROWS as MAX_TABLE_ROWS,  # rows of a table, inline or CSV: the engine's one limit
+)
+
 MAX_CONDITIONS = 100
 MAX_BLOCKS = 1000  # blocks of a diagram, entries of a matrix, compensators of a channel
 MAX_SIGNALS = 1000  # inputs of a diagram, its junctions, the signals of a matrix
@@ -24,12 +28,12 @@ MAX_COEFFICIENTS = 65  # of one polynomial: degree 64, the largest power an expr
 MAX_PARAMETERS = 1000  # parameters, and terms of one equality
 MAX_TARGETS = 1000
 MAX_BANDS = 100  # bands of a target (and its push/pull points, a response's profile segments)
-MAX_TABLE_ROWS = 100_000  # rows of an inline table (a CSV table's rows: sessions.build)
 MAX_GRID_POINTS = 100_000  # a grid's points or explicit values
 MAX_RESPONSE_POINTS = 100_000  # time points of a time response
 MAX_EQUALITIES = 1000
 MAX_CONSTRAINTS = 1000  # linear inequalities between parameters (1000 characters each)
 MAX_OPTIONS = 100  # options, tables of an objective
+MAX_SESSION_BYTES = 256 * 2**20  # a session file (its records included), read with a bounded read
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=200)]

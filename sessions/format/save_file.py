@@ -61,12 +61,21 @@ def describe(exc: OSError) -> str:
     return f"{words} ({name})" if name else words
 
 
-def read_stamped(path: Path) -> tuple[bytes, DiskStamp]:
-    """A file's bytes and its stamp (taken from the same open file)."""
-    with open(path, "rb") as fh:
-        data = fh.read()
-        st = os.fstat(fh.fileno())
-    return data, DiskStamp(str(real_path(path)), st.st_mtime_ns, st.st_size, hashlib.sha256(data).hexdigest())
+def encoded(text: str) -> bytes:
+    """The UTF-8 bytes of a text to write: a lone surrogate (a JSON file can hold "\\ud800")
+    is written as its escape, never an error (every text a file gets goes through here)."""
+    return text.encode("utf-8", errors="backslashreplace")
+
+
+def printable(text: str) -> str:
+    """``text`` with each lone surrogate written as its escape (for a library that takes
+    only encodable text, such as matplotlib's fonts)."""
+    return encoded(text).decode("utf-8")
+
+
+def stamp_of(path: Path, data: bytes, st: os.stat_result) -> DiskStamp:
+    """The stamp of ``data`` read from ``path`` whose open file's status was ``st``."""
+    return DiskStamp(str(real_path(path)), st.st_mtime_ns, st.st_size, hashlib.sha256(data).hexdigest())
 
 
 def refuse_overwrite(target: Path, loaded: DiskStamp | None, force: bool) -> None:
@@ -141,9 +150,11 @@ def mode_of(path: Path) -> int | None:
         return None
 
 
-def write_atomic(path: Path, data: bytes, mode: int | None = None) -> DiskStamp:
+def write_atomic(path: Path, data: bytes | str, mode: int | None = None) -> DiskStamp:
     """Replace the real file of ``path`` by ``data`` (a rename of a flushed temporary
-    file); ``mode``: its permission bits (None: a new file's).  Raises `OSError`."""
+    file); ``mode``: its permission bits (None: a new file's).  Raises `OSError`.
+    A text is written as UTF-8 whatever it holds (`encoded`)."""
+    data = encoded(data) if isinstance(data, str) else data
     real = real_path(path)
     fd, tmp = _temporary(real)
     try:
