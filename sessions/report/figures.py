@@ -15,6 +15,7 @@ import io
 import numpy as np
 
 from engine.analysis import LoopCurve
+from sessions.format.save_file import printable
 
 SIZE = (7.0, 4.2)  # inches; at DPI, 700 x 420 pixels
 DPI = 100
@@ -36,6 +37,13 @@ def _figure(rows: int = 1):
 
 
 def _png(fig) -> bytes:
+    """The figure's PNG; every text drawn as it is written (any string a JSON file can
+    hold: a lone surrogate as its escape, a '$' never read as mathtext)."""
+    from matplotlib.text import Text
+
+    for text in fig.findobj(Text):
+        text.set_parse_math(False)
+        text.set_text(printable(text.get_text()))
     buffer = io.BytesIO()
     fig.tight_layout()
     fig.savefig(buffer, format="png", dpi=DPI)

@@ -93,7 +93,7 @@ def write_report(blocks: list[Block], fmt: str, folder: Path, stem: str) -> list
         folder.mkdir(parents=True, exist_ok=True)
         if fmt == "html":
             target = folder / f"{stem}.html"
-            write_atomic(target, render_html(blocks).encode("utf-8"))
+            write_atomic(target, render_html(blocks))
             return [target]
         text, files = render_markdown(blocks, stem)
         written = []
@@ -101,7 +101,7 @@ def write_report(blocks: list[Block], fmt: str, folder: Path, stem: str) -> list
             (folder / name).write_bytes(data)
             written.append(folder / name)
         target = folder / f"{stem}.md"
-        write_atomic(target, text.encode("utf-8"))
+        write_atomic(target, text)
         return [target] + written
     except OSError as exc:
         raise SessionError(f"--out {folder}: cannot write the report: {exc.strerror or exc}") from None

@@ -69,7 +69,7 @@ class Exports:
                 return
             try:
                 target.parent.mkdir(parents=True, exist_ok=True)
-                write_atomic(target, text.encode("utf-8"))
+                write_atomic(target, text)
             except OSError as exc:
                 self.app.notify(
                     f"{target}: {exc.strerror or exc}", title=f"{what} not written", severity="error", timeout=10

@@ -10,18 +10,28 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 from engine.errors import EngineError
-from sessions.errors import SessionError
+from sessions.errors import SessionError, bounded_message
 from tui.cli import analyze, compare, config_command, export, new, session_commands, sweep
 from tui.cli.common import CliError
+from tui.cli.options import check_options
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser whose messages echo no more than `bounded_message` lets
+    through of a bad value (its subcommands' parsers are of this class too)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        super().error(bounded_message(message))
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Every subcommand and its options."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="loopcraft",
         usage="loopcraft [FILE.json | --example NAME] | loopcraft COMMAND ...",
         description="Classical compensator design workbench. Without a command: the app, on FILE.json, on a "
@@ -123,8 +133,25 @@ def _attached_values(argv: list[str]) -> list[str]:
     return out
 
 
+def survive_any_text() -> None:
+    """Standard output and error write any string a JSON file can hold: a lone
+    surrogate ("\\ud800" in a name) is written as its escape, never an error."""
+    for stream in {sys.stdout, sys.stderr, sys.__stdout__, sys.__stderr__}:
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            reconfigure(errors="backslashreplace")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """The console script: a command, or the app (on a FILE.json or --example NAME)."""
+    """The console script: a command, or the app (on a FILE.json or --example NAME).
+
+    As the console script (``argv`` None) no RuntimeWarning reaches the terminal (numpy's
+    overflow in an intermediate is not the user's to read; results are checked where they
+    are made); called in-process (tests, the fuzzer) warnings go where the caller's filters
+    send them, so that they can be counted."""
+    if argv is None:
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
+    survive_any_text()
     argv = list(sys.argv[1:] if argv is None else argv)
     wants_help = any(a in ("-h", "--help") for a in argv)
     if not wants_help and (not argv or argv[0].endswith(".json")):
@@ -145,9 +172,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
+        check_options(args)
         return _handle(args)
     except (EngineError, CliError, SessionError) as exc:
-        print(f"loopcraft {args.command}: error: {exc}", file=sys.stderr)
+        print(f"loopcraft {args.command}: error: {bounded_message(str(exc))}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # the output's reader stopped early (| head): not an error of ours
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

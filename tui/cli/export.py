@@ -47,7 +47,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     try:
         from sessions.format.save_file import write_atomic
 
-        write_atomic(target, text.encode("utf-8"))
+        write_atomic(target, text)
     except OSError as exc:
         raise CliError(f"--out {target}: cannot write: {exc.strerror or exc}") from None
     print(f"wrote {target}", file=sys.stderr)

@@ -50,7 +50,7 @@ def _write(path: Path, text: str) -> None:
     try:
         from sessions.format.save_file import write_atomic
 
-        write_atomic(path, text.encode("utf-8"))
+        write_atomic(path, text)
     except OSError as exc:
         raise CliError(f"{path}: cannot write the plant's table: {exc.strerror or exc}") from None
 
