@@ -106,6 +106,8 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     )
     parameters = _hold_dc_gains(model, parameters)
     targets = tuple(_target(t) for t in model.targets)
+    for k, t in enumerate(model.targets):
+        _check_response(t, f"problem.targets[{k}].response", conditions)
     objective = (
         None
         if model.objective is None
@@ -128,6 +130,28 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
         raise engine_error(exc) from None
     check_start(problem)
     return problem
+
+
+def _check_response(t: TargetModel, path: str, conditions: tuple[Condition, ...]) -> None:
+    """A time target's response names an input and a signal of every condition it is
+    evaluated in, and a mean square its input's PSD; else a `SessionError` naming ``path``."""
+    if t.response is None:
+        return
+    if t.measure == "mean_square" and t.response.psd is None:
+        raise SessionError(f"{path}.psd: a mean_square target needs the input's PSD as a shaping filter F(s)")
+    for c in conditions:
+        if t.condition not in (None, c.name):
+            continue
+        if t.response.input not in c.network.inputs:
+            raise SessionError(
+                f"{path}.input: {t.response.input!r} is not an input of condition {c.name!r} "
+                f"(inputs: {', '.join(c.network.inputs) or 'none'})"
+            )
+        if t.response.output not in c.network.signals:
+            raise SessionError(
+                f"{path}.output: {t.response.output!r} is not a signal of condition {c.name!r} "
+                f"(signals: {', '.join(c.network.signals)})"
+            )
 
 
 def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
