@@ -22,7 +22,7 @@ import numpy as np
 from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization, loop_realization
 from engine.loop.responses import open_loop
-from sessions.export.design_model import Design, ExportCondition, ExportEntry, w_to_z
+from sessions.export.design_model import Design, ExportCondition, ExportEntry, not_finite, w_to_z
 from sessions.store import Session
 
 
@@ -97,8 +97,8 @@ def _state_spaces(c: ExportCondition) -> dict:
     try:
         ss = loop_realization(c.network, c.break_at, c.values)
         closed = closed_loop_realization(c.network, c.break_at, c.values)
-    except EngineError as exc:
-        return {"open_loop": None, "closed_loop": None, "state_space_note": str(exc)}
+    except (EngineError, ValueError, ArithmeticError) as exc:  # LinAlgError is a ValueError
+        return {"open_loop": None, "closed_loop": None, "state_space_note": not_finite(exc)}
     k = c.network.signal(c.break_at)
     loop = _matrices(ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:])
     loop.update(input=f"{c.break_at} (injected)", output="GH = -(returned " + c.break_at + ")")

@@ -107,7 +107,7 @@ def design(session: Session, iteration: int | None = None) -> Design:
     for c, condition in enumerate(problem.conditions):
         values = problem.condition_values(c, named=named)
         network = condition.network
-        entries = tuple(_entry(network, e, values) for e in network.entries)
+        entries = tuple(_entry(network, e, values, f"condition {condition.name!r}") for e in network.entries)
         conditions.append(
             ExportCondition(
                 condition.name,
@@ -125,7 +125,25 @@ def design(session: Session, iteration: int | None = None) -> Design:
     )
 
 
-def _entry(network: Network, e, values: dict[str, float]) -> ExportEntry:
+def _entry(network: Network, e, values: dict[str, float], where: str) -> ExportEntry:
+    """One entry's exportable numbers; a failure is a `SessionError` naming the condition
+    and the entry (numpy's "array must not contain infs or NaNs" said neither)."""
+    try:
+        return _numbers(network, e, values)
+    except (EngineError, ValueError, ArithmeticError) as exc:  # LinAlgError is a ValueError
+        raise SessionError(f"{where}, {e.label}: cannot be exported: {not_finite(exc)}") from None
+
+
+def not_finite(exc: Exception) -> str:
+    """An error of numpy or scipy in words: a non-finite array says that the numbers
+    overflow (inf or NaN), not what numpy calls them."""
+    text = str(exc)
+    if "infs or NaNs" in text or "overflow" in text:
+        return "its numbers are not finite at these parameter values (a coefficient overflows to inf or NaN)"
+    return text
+
+
+def _numbers(network: Network, e, values: dict[str, float]) -> ExportEntry:
     common = dict(
         label=e.label,
         input=network.signals[e.col],
@@ -133,28 +151,25 @@ def _entry(network: Network, e, values: dict[str, float]) -> ExportEntry:
         compensator=bool(e.transfer.parameters),
     )
     transfer = e.transfer
-    try:
-        if isinstance(transfer, ExpressionTransfer):
-            r = transfer.rational(values)
-            form = pole_zero(transfer.expression, values)
-            return ExportEntry(
-                kind="rational",
-                text=transfer.text,
-                num=tuple(r.num.tolist()),
-                den=tuple(r.den.tolist()),
-                gain=float(form.gain),
-                zeros=tuple(form.zeros.tolist()),
-                poles=tuple(form.poles.tolist()),
-                **common,
-            )
-        if isinstance(transfer, DelayTransfer):
-            tau = values[transfer.tau] if isinstance(transfer.tau, str) else float(transfer.tau)
-            return ExportEntry(kind="delay", text=transfer.text, delay=float(tau), **common)
-        if isinstance(transfer, TabulatedTransfer):
-            return _fitted(transfer, common)
-    except EngineError as exc:
-        raise SessionError(f"{e.label}: {exc}") from None
-    raise SessionError(f"{e.label}: a {type(transfer).__name__} entry cannot be exported")
+    if isinstance(transfer, ExpressionTransfer):
+        r = transfer.rational(values)
+        form = pole_zero(transfer.expression, values)
+        return ExportEntry(
+            kind="rational",
+            text=transfer.text,
+            num=tuple(r.num.tolist()),
+            den=tuple(r.den.tolist()),
+            gain=float(form.gain),
+            zeros=tuple(form.zeros.tolist()),
+            poles=tuple(form.poles.tolist()),
+            **common,
+        )
+    if isinstance(transfer, DelayTransfer):
+        tau = values[transfer.tau] if isinstance(transfer.tau, str) else float(transfer.tau)
+        return ExportEntry(kind="delay", text=transfer.text, delay=float(tau), **common)
+    if isinstance(transfer, TabulatedTransfer):
+        return _fitted(transfer, common)
+    raise SessionError(f"it is a {type(transfer).__name__} entry")
 
 
 def _fitted(transfer: TabulatedTransfer, common: dict) -> ExportEntry:

@@ -5,6 +5,7 @@ text of a python-control script, a MATLAB script, JSON data or a CSV response
 from __future__ import annotations
 
 import json
+import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the command line reads SUFFIX to build its parser: no schema import at start
@@ -37,7 +38,31 @@ def export_text(session: Session, iteration: int | None, to: str, sample_time: f
     if to == "json":
         from sessions.export.data import design_json
 
-        return json.dumps(design_json(d, sample_time), indent=2, allow_nan=False) + "\n"
+        return json_text(design_json(d, sample_time))
     from sessions.export.data import response_csv
 
     return response_csv(session, d)
+
+
+def json_text(data: object) -> str:
+    """Exported JSON data as text; a non-finite number is a `SessionError` naming its
+    place in the data (``conditions[0].open_loop.A[1][0]: inf``: JSON has no infinities)."""
+    try:
+        return json.dumps(data, indent=2, allow_nan=False) + "\n"
+    except ValueError:
+        from sessions.errors import SessionError
+
+        where = first_non_finite(data, "") or "a number"
+        raise SessionError(f"{where}: not finite (inf or NaN) at this design; JSON has neither") from None
+
+
+def first_non_finite(data: object, path: str) -> str | None:
+    """The path of the first float in ``data`` that is inf or NaN, or None."""
+    if isinstance(data, float):
+        return None if math.isfinite(data) else path
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list | tuple) else ()
+    for key, value in items:
+        found = first_non_finite(value, f"{path}.{key}" if isinstance(key, str) else f"{path}[{key}]")
+        if found is not None:
+            return found.lstrip(".")
+    return None
