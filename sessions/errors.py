@@ -9,7 +9,7 @@ class SessionError(ValueError):
 
 SHOWN_QUOTE = 200  # characters of a quoted input shown in a message before it is cut
 SHOWN_LINE = 1000  # characters of any line of a message (paths and all)
-_QUOTED = re.compile(r"'[^'\n]{%d,}'|\"[^\"\n]{%d,}\"" % (SHOWN_QUOTE + 1, SHOWN_QUOTE + 1))
+_QUOTED = re.compile(rf"'[^'\n]{{{SHOWN_QUOTE + 1},}}'|\"[^\"\n]{{{SHOWN_QUOTE + 1},}}\"")
 
 
 def bounded_message(text: str) -> str:

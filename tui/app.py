@@ -22,7 +22,7 @@ from textual.app import App, SystemCommand
 from textual.binding import Binding
 
 from sessions.build import OutsideTable
-from sessions.errors import SessionError
+from sessions.errors import SessionError, bounded_message
 from sessions.format.save_file import OverwriteRefused
 from sessions.store import (
     autosave_candidate,
@@ -172,8 +172,9 @@ class LoopcraftApp(App):
         timeout: float | None = None,
         markup: bool = False,
     ) -> None:
-        """A notification; plain text by default (an error message may hold brackets: a[3,2], [/ R])."""
-        super().notify(message, title=title, severity=severity, timeout=timeout, markup=markup)
+        """A notification; plain text by default (an error message may hold brackets: a[3,2], [/ R]);
+        an echoed input in it is cut (`sessions.errors.bounded_message`)."""
+        super().notify(bounded_message(message), title=title, severity=severity, timeout=timeout, markup=markup)
 
     @property
     def busy(self) -> bool:

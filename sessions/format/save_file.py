@@ -91,18 +91,29 @@ def refuse_overwrite(target: Path, loaded: DiskStamp | None, force: bool) -> Non
         raise SessionError(f"{target}: cannot save: {describe(exc)}") from None
     if not stat.S_ISREG(st.st_mode):
         raise SessionError(f"{target}: cannot save: {'it is a folder' if stat.S_ISDIR(st.st_mode) else 'not a file'}")
+    if read_only_system(real):
+        raise SessionError(f"{target}: cannot save: the file system is read-only (EROFS); save elsewhere")
     if force:
         return
-    if not st.st_mode & 0o222 or not os.access(real, os.W_OK):
+    if not st.st_mode & 0o222:
+        raise OverwriteRefused(f"{target}: the file is read-only (mode {stat.S_IMODE(st.st_mode):04o}); not saved")
+    if not os.access(real, os.W_OK):
         raise OverwriteRefused(
-            f"{target}: the file is read-only (mode {stat.S_IMODE(st.st_mode):04o}); "
-            "not saved (save with force to overwrite it)"
+            f"{target}: this user may not write the file (mode {stat.S_IMODE(st.st_mode):04o}, "
+            f"owner uid {st.st_uid}); not saved"
         )
     if loaded is not None and loaded.path == str(real) and _changed(real, st, loaded):
         raise OverwriteRefused(
-            f"{target}: changed on disk since it was loaded (another program or session "
-            "saved it); not saved (save with force to overwrite it)"
+            f"{target}: changed on disk since it was loaded (another program or session saved it); not saved"
         )
+
+
+def read_only_system(path: Path) -> bool:
+    """Whether ``path`` lies on a file system mounted read-only (no save there can succeed)."""
+    try:
+        return bool(os.statvfs(path).f_flag & os.ST_RDONLY)
+    except (OSError, AttributeError):
+        return False
 
 
 def _changed(real: Path, st: os.stat_result, loaded: DiskStamp) -> bool:

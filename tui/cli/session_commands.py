@@ -15,6 +15,8 @@ from tui.cli.common import CliError, design_notes_now, finite_or_none, load, row
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
+RUN_REMEDY = "run has no force: save elsewhere with --out FILE, or make the file writable"
+
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Step the session's algorithm and save the records."""
@@ -22,10 +24,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     from engine.stepping.protocol import StepRecord
     from sessions.lifecycle import adopt_current, switch_algorithm
     from sessions.runner import run_session, set_setting
-    from sessions.store import prepare_save, save_session
+    from sessions.store import OverwriteRefused, prepare_save, save_session
 
     session = load(args.file)
-    prepare_save(session, args.out or args.file)  # before any work: the output is writable; autosaves go there
+    try:
+        prepare_save(session, args.out or args.file)  # before any work: the output is writable; autosaves go there
+    except OverwriteRefused as exc:
+        raise CliError(f"{exc} ({RUN_REMEDY})") from None
     if args.adopt:
         adopt_current(session)
     for assignment in args.set or ():
@@ -49,7 +54,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     if show:
         print(file=sys.stderr)
-    save_session(session, args.out or args.file)
+    try:
+        save_session(session, args.out or args.file)
+    except OverwriteRefused as exc:
+        raise CliError(f"{exc}; the run is kept in its autosave ({RUN_REMEDY})") from None
     if outcome.stopped:
         print(f"note: stopped: {outcome.stopped}", file=sys.stderr)
     if args.json:
