@@ -61,6 +61,9 @@ class Detection:
     flat: frozenset[str] = frozenset()
     shallow: frozenset[str] = frozenset()
     notes: tuple[str, ...] = field(default=())
+    crossovers_beyond: float | None = (
+        None  # a delay loop's search stopped here with |GH| >= 1: crossovers may lie above
+    )
 
 
 def point_budget(loop: LoopModel) -> int:
@@ -121,7 +124,10 @@ def _detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) ->
             notes.append(f"the detection grid stopped after {MAX_ROUNDS} rounds of halving")
     points = np.concatenate(found, axis=1)
     points = points[:, np.argsort(points[0].real, kind="stable")]
-    return Detection(points[0].real, points[1], points[3], frozenset(flat), frozenset(shallow), tuple(notes))
+    top = float(points[0, -1].real)
+    cut = loop.delay > 0 and not loop.rational and top < _searched_range(loop)[1]
+    beyond = top if cut and abs(points[1, -1]) >= 1.0 else None
+    return Detection(points[0].real, points[1], points[3], frozenset(flat), frozenset(shallow), tuple(notes), beyond)
 
 
 def _where(starts: NDArray) -> float:
@@ -241,10 +247,31 @@ def _may_hide_phase_pair(theta0: NDArray, theta1: NDArray, variation: NDArray) -
 
 
 def _searched_range(loop: LoopModel) -> tuple[float, float]:
-    """Where a delay loop is searched: the user's grid (nothing is known
-    beyond it); for rational loops the range is found in `_initial_grid`."""
+    """Where a delay loop is searched: the user's grid and, when its rational part's corners
+    are known, `DECADES_BEYOND` about them, extended to every crossover of |GH| (a delay
+    leaves |GH| as it is): margins do not depend on the plot grid (2e-4/(s (1 + s/1e-4))
+    exp(-3000 s) crosses over at 1.25e-4 rad/s, below the default grid's 1e-3).  The delay's
+    grid bounds the top (`_delay_grid`, with a note); for rational loops the range is found in
+    `_initial_grid`."""
     lo, hi = float(loop.omega[0]), float(loop.omega[-1])
-    return (lo if lo > 0 else min(float(loop.omega[1]) * 1e-3, 1e-6)), hi
+    lo = lo if lo > 0 else min(float(loop.omega[1]) * 1e-3, 1e-6)
+    corners = loop.corner_frequencies[loop.corner_frequencies > 0]
+    if loop.evaluate is None or not loop.delay > 0 or not corners.size:  # a table's fit: only its range
+        return lo, hi
+    low, high = _extend_to_crossovers(loop, corners.min() * 10.0**-DECADES_BEYOND, corners.max() * 10.0**DECADES_BEYOND)
+    return min(lo, low), max(hi, high)
+
+
+def _beyond_note(loop: LoopModel, top: float) -> str:
+    """Which margins may lie beyond the top of a delay loop's search."""
+    with np.errstate(all="ignore"):
+        level = float(np.abs(loop.evaluate(np.array([top]))[0][0]))
+    if level >= 1.0:
+        return (
+            f"|GH| is {level:.3g} there: phase margins, the delay margin and gain margins may lie beyond "
+            "(the delay margin is not known)"
+        )
+    return f"|GH| is {level:.3g} there: gain and stability margins above |GH| = {level:.3g} may lie beyond"
 
 
 def _delay_points(loop: LoopModel, lo: float, hi: float) -> tuple[int, float]:
@@ -304,7 +331,7 @@ def _delay_grid(loop: LoopModel, lo: float, hi: float, most: int, notes: list[st
             )
         notes.append(
             f"the delay ({loop.delay:.6g} s) turns the phase faster than the grid's budget can "
-            f"follow: searched up to {top:.6g} rad/s, not up to {hi:.6g}"
+            f"follow: searched up to {top:.6g} rad/s, not up to {hi:.6g}; " + _beyond_note(loop, top)
         )
         count, hi = most, top
     return lo + spacing * np.arange(count), hi

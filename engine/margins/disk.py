@@ -123,11 +123,13 @@ def disk_gain_phase(alpha: float, skew: float) -> tuple[float, float, float]:
         return 1.0, 1.0, 0.0
     low = _ratio(1.0 - 0.5 * alpha * (1.0 - skew), 1.0 + 0.5 * alpha * (1.0 + skew))
     high_raw = _ratio(1.0 + 0.5 * alpha * (1.0 - skew), 1.0 - 0.5 * alpha * (1.0 + skew))
+    # 1 - x, written without cancellation: a tiny alpha (exp(-s): 1.1e-15) leaves x = 1 - O(alpha^2),
+    # which rounds to 1 (a phase 'inf' where it is 2 atan(alpha/2), about alpha rad, at skew 0)
     if math.isinf(high_raw):
-        x = low
+        one_minus = 1.0 - low
     else:
-        x = _ratio(1.0 + low * high_raw, low + high_raw)
-    phase = math.degrees(math.acos(x)) if abs(x) < 1.0 else math.inf
+        one_minus = _ratio((1.0 - low) * (high_raw - 1.0), low + high_raw)
+    phase = math.degrees(2.0 * math.asin(math.sqrt(one_minus / 2.0))) if 0.0 <= one_minus < 2.0 else math.inf
     high = high_raw if 0 < high_raw < math.inf else math.inf
     return max(low, 0.0), high, phase
 

@@ -177,7 +177,9 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     grid = detection_grid(loop)
     notes = list(grid.notes)
     if not loop.rational:
-        notes.append(f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
+        notes.append(
+            f"searched within {grid.omega[0]:.6g}..{grid.omega[-1]:.6g} rad/s (the plot grid's range joined with what the loop's corners and crossovers need)"
+        )
     w, gh, dgh = band_grid(loop, grid.omega, grid.gh, grid.dgh, band)
     w, gh, dgh = resolved_grid(loop, transforms, w, gh, dgh, notes)
     levels = [log_level(*t(w, gh, dgh)) for t in transforms]

@@ -35,7 +35,7 @@ from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.shape_notes import level_notes, shape_notes
-from engine.margins.values import Band, Margin, Margins, margins_of, single_margin
+from engine.margins.values import Band, Margin, Margins, family, margins_of, single_margin
 from engine.numerics.rational_fit import Trend
 from engine.numerics.refinement import Roots, refine, sign_changes
 
@@ -99,15 +99,23 @@ def margins(
     if grid is not None:
         notes = list(grid.notes) + shape_notes(loop, grid)
     if not loop.rational:
-        notes.insert(0, f"searched within the grid {loop.omega[0]:.6g}..{loop.omega[-1]:.6g} rad/s")
+        lo, hi = (loop.omega[0], loop.omega[-1]) if grid is None else (grid.omega[0], grid.omega[-1])
+        notes.insert(
+            0,
+            f"searched within {lo:.6g}..{hi:.6g} rad/s (the plot grid's range joined with what the loop's corners and crossovers need)",
+        )
     above = float("inf") if attenuation_above is None else attenuation_above
+    stability = found["S"]
+    families = tuple(f for f in (family("G", gain, loop.delay), family("S", stability, loop.delay)) if f is not None)
     return Margins(
         gain=tuple(m for m in gain if gain_band.contains(m.frequency)),
         phase=tuple(m for m in found["P"] if phase_band.contains(m.frequency)),
-        stability=tuple(found["S"]),
+        stability=tuple(stability),
         attenuation=tuple(m for m in found["A"] if m.frequency >= above),
         method="refined",
         notes=tuple(notes),
+        crossovers_beyond=None if grid is None else grid.crossovers_beyond,
+        families=families,
     )
 
 

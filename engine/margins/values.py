@@ -4,6 +4,7 @@ a frequency (`margins_of`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +35,8 @@ class Margins:
     method: str  # "refined", "fitted" or "grid"
     notes: tuple[str, ...] = field(default=())
     residual: float | None = None  # "fitted": the fit's relative residual on the table
+    crossovers_beyond: float | None = None  # a delay loop searched up to here, |GH| >= 1: the delay margin is not known
+    families: tuple[Family, ...] = ()  # a delay's periodic families of margins (outputs list a few of each)
 
     @property
     def label(self) -> str:
@@ -49,9 +52,19 @@ class Margins:
 
     @property
     def delay_margin(self) -> float | None:
-        """Smallest added delay that puts a gain crossover on -1 (s); None with no crossover."""
+        """Smallest added delay that puts a gain crossover on -1 (s); None with no crossover;
+        NaN when crossovers may lie beyond the search (`crossovers_beyond`): not known."""
+        if self.crossovers_beyond is not None:
+            return math.nan
         delays = [m.delay for m in self.phase if m.delay is not None]
         return min(delays) if delays else None
+
+    def listed(self, kind: str) -> tuple[Margin, ...]:
+        """The gain ("G") or stability ("S") margins an output lists: a periodic family's
+        few (`Family.listed`, the count in its summary), else all."""
+        found = self.gain if kind == "G" else self.stability
+        family = next((f for f in self.families if f.kind == kind), None)
+        return found if family is None else family.listed(found)
 
     def all(self) -> tuple[Margin, ...]:
         return self.gain + self.phase + self.stability + self.attenuation
@@ -95,3 +108,43 @@ def margins_of(kind: str, w: NDArray, gh: NDArray) -> list[Margin]:
             ]
     values = distance if kind == "S" else magnitude
     return [Margin(kind, f, v, g) for f, v, g in zip(w.tolist(), values.tolist(), gh.tolist())]
+
+
+FAMILY = 40  # more margins of one kind than this in a delay loop are a periodic family
+FAMILY_LOWEST, FAMILY_NEAREST = 10, 5  # of a family, listed: the lowest in frequency and the nearest -1
+
+
+@dataclass(frozen=True)
+class Family:
+    """A delay's periodic family of margins of one kind (exp(-s): a gain and a stability margin
+    every 2 pi rad/s, 159 of each up to 1000 rad/s): how many, from where to where, the period
+    2 pi/delay (rad/s), and which an output lists (`listed`)."""
+
+    kind: str
+    count: int
+    low: float
+    high: float
+    period: float
+
+    def listed(self, found: tuple[Margin, ...]) -> tuple[Margin, ...]:
+        """The `FAMILY_LOWEST` lowest and the `FAMILY_NEAREST` nearest -1 (smallest |1 + GH|)."""
+        lowest = sorted(found, key=lambda m: m.frequency)[:FAMILY_LOWEST]
+        nearest = sorted(found, key=lambda m: m.value)[:FAMILY_NEAREST]
+        return tuple(sorted({id(m): m for m in lowest + nearest}.values(), key=lambda m: m.frequency))
+
+    @property
+    def summary(self) -> str:
+        name = {"G": "gain", "S": "stability"}[self.kind]
+        return (
+            f"{self.count} {name} margins from {self.low:.6g} to {self.high:.6g} rad/s, a periodic family (the delay "
+            f"turns the phase once every {self.period:.6g} rad/s): the {FAMILY_LOWEST} lowest and the "
+            f"{FAMILY_NEAREST} nearest -1 are listed"
+        )
+
+
+def family(kind: str, found: list[Margin], delay: float) -> Family | None:
+    """The family of ``found`` when a delay makes one (more than `FAMILY` margins)."""
+    if len(found) <= FAMILY or not delay > 0:
+        return None
+    frequencies = [m.frequency for m in found]
+    return Family(kind, len(found), min(frequencies), max(frequencies), 2.0 * math.pi / delay)

@@ -153,7 +153,7 @@ def test_delay_loops_are_searched_within_the_grid_and_say_so():
     w = np.geomspace(1e-2, 1e2, 400_001)
     ref = np.max(np.abs(1 / (1 + 2 * np.exp(-0.1j * w) / (1j * w * (1j * w + 1)))))
     assert p.value == pytest.approx(ref, rel=1e-9) and p.value >= ref
-    assert any("searched within the grid" in n for n in p.notes)
+    assert any("searched within" in n for n in p.notes)
 
 
 def test_tabulated_loops_are_refined_on_a_fit():

@@ -78,15 +78,19 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
     m = a.margins
     return {
         "gain_margins": [
-            {"frequency": g.frequency, "gain_db": finite_or_none(g.gain_db), "distance": g.value} for g in m.gain
+            {"frequency": g.frequency, "gain_db": finite_or_none(g.gain_db), "distance": g.value} for g in m.listed("G")
         ],
         "phase_margins": [
             {"frequency": p.frequency, "phase_deg": p.phase_deg, "distance": p.value, "delay": finite_or_none(p.delay)}
             for p in m.phase
         ],
-        "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.stability],
+        "stability_margins": [{"frequency": s.frequency, "distance": s.value} for s in m.listed("S")],
+        "margin_families": [
+            {"kind": f.kind, "count": f.count, "from": f.low, "to": f.high, "period": f.period} for f in m.families
+        ],
         "crossover_frequency": finite_or_none(m.crossover_frequency),
         "delay_margin": finite_or_none(a.delay_margin),
+        "delay_margin_known": a.delay_margin is None or not math.isnan(a.delay_margin),
         "delay_margin_samples": finite_or_none(delay_margin_samples(a)) if variable == "w" else None,
         "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
         "verdict": a.verdict,
@@ -100,6 +104,7 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
                 "natural_frequency": p.natural_frequency,
                 "zeta": p.zeta,
                 "wn": p.wn,
+                "backward_error": p.backward_error,
             }
             for p in a.closed_loop_poles
         ],
@@ -110,6 +115,14 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
         "method": m.label,
         "notes": list(a.notes),
     }
+
+
+def _delay_text(dm: float | None) -> str:
+    """'none' (no crossover: any delay is tolerated), 'not known' (crossovers may lie beyond
+    the search: a note says where) or the margin in seconds."""
+    if dm is None:
+        return "none (no gain crossover: any delay is tolerated)"
+    return "not known (gain crossovers may lie beyond the search, see the notes)" if math.isnan(dm) else f"{dm:.6g} s"
 
 
 def delay_margin_samples(a) -> float | None:
@@ -145,11 +158,11 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     loop = " * ".join(f"({e})" for e in expressions) + (f" * exp(-{delay:g} s)" if delay else "")
     lines = [f"Open loop GH = {loop}  (unity negative feedback)", ""]
     lines.append(_cells("kind", f"frequency {unit}", "classical", "|1+GH|"))
-    for g in m.gain:
+    for g in m.listed("G"):
         lines.append(_cells("G", _num(g.frequency), _num(g.gain_db, "dB", ".4f"), _num(g.value, spec=".6g")))
     for p in m.phase:
         lines.append(_cells("P", _num(p.frequency), _num(p.phase_deg, "deg", ".4f"), _num(p.value, spec=".6g")))
-    for st in m.stability:
+    for st in m.listed("S"):
         lines.append(_cells("S", _num(st.frequency), "", _num(st.value, spec=".6g")))
     if not m.all():
         lines.append("(no crossings)")
@@ -157,7 +170,7 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     wc, dm = m.crossover_frequency, a.delay_margin
     lines.append(f"crossover frequency: {'none' if wc is None else f'{wc:.6g} {unit}'}")
     if variable == "s":
-        lines.append(f"delay margin: {'none' if dm is None else f'{dm:.6g} s'}")
+        lines.append(f"delay margin: {_delay_text(dm)}")
     else:
         samples = delay_margin_samples(a)
         lines.append(f"delay margin: {'none' if samples is None else f'{samples:.6g} samples'}")
@@ -170,6 +183,7 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
         )
     lines.extend(_measure_lines(a, unit))
     lines.extend(f"note: {n}" for n in a.notes)
+    lines.extend(f"note: {f.summary}" for f in m.families)
     return "\n".join(lines)
 
 

@@ -119,7 +119,7 @@ def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degre
     """Phase margins at the gain crossovers (0 dB) and gain margins at the phase
     crossovers, on both plots; the legend gives the one nearest 0 of each kind."""
     prefix = "" if curve.label == "current" else f"{curve.label.split(':')[0]} "
-    for kind, found in (("PM", curve.margins.phase), ("GM", curve.margins.gain)):
+    for kind, found in (("PM", curve.margins.phase), ("GM", curve.margins.listed("G"))):
         marks = [m for m in found if m.frequency > 0 and lw[0] <= math.log10(m.frequency / scale) <= lw[-1]]
         if not marks or not np.all(np.isfinite(degrees)):
             continue
