@@ -102,3 +102,10 @@ def test_no_runtime_warning_reaches_the_console_scripts_terminal():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert "RuntimeWarning" not in out.stderr and "Warning" not in out.stderr, out.stderr
+
+
+def test_an_os_error_from_a_typed_path_is_a_message(surrogate_session, tmp_path, capsys):
+    long = str(tmp_path / ("x" * 300) / "out.py")
+    assert main(["export", str(surrogate_session), "--to", "python", "--out", long]) == 2
+    err = capsys.readouterr().err
+    assert "ENAMETOOLONG" in err and "Traceback" not in err

@@ -21,9 +21,10 @@ from textual.actions import parse as parse_action
 from textual.app import App, SystemCommand
 from textual.binding import Binding
 
+from engine.errors import EngineError
 from sessions.build import OutsideTable
 from sessions.errors import SessionError, bounded_message
-from sessions.format.save_file import OverwriteRefused
+from sessions.format.save_file import OverwriteRefused, describe
 from sessions.store import (
     autosave_candidate,
     flush_autosaves,
@@ -37,7 +38,7 @@ from tui.actions.exports import Exports
 from tui.actions.run_loop import RunLoop
 from tui.actions.sweeps import Sweeps
 from tui.config import Config
-from tui.files import remember, untitled_path, working_copy
+from tui.files import file_problem, remember, untitled_path, working_copy
 from tui.keys import identified
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
 from tui.screens.edit_flow import EditFlow
@@ -337,7 +338,17 @@ class LoopcraftApp(App):
     # -- opening and saving -------------------------------------------------
 
     def open_path(self, path: Path) -> None:
-        path = working_copy(Path(path))
+        """Open a session file (a bundled example's working copy), offering a newer autosave;
+        a path that cannot be opened is a message (a name over 255 bytes, a folder, ...)."""
+        problem = file_problem(Path(path))
+        if problem is not None:
+            self.notify(f"{path}: {problem}", title="cannot open", severity="error", timeout=10)
+            return
+        try:
+            path = working_copy(Path(path))
+        except OSError as exc:
+            self.notify(f"{path}: {describe(exc)}", title="cannot open", severity="error", timeout=10)
+            return
         autosave = autosave_candidate(path)
         if autosave is not None:
 
@@ -463,11 +474,20 @@ class LoopcraftApp(App):
     # -- the session ----------------------------------------------------------
 
     def action_undo(self) -> None:
-        if self.bench is not None and self.bench.undo():
-            self.refresh_workbench()
+        self._move_iterations(Workbench.undo, "undo")
 
     def action_redo(self) -> None:
-        if self.bench is not None and self.bench.redo():
+        self._move_iterations(Workbench.redo, "redo")
+
+    def _move_iterations(self, move, what: str) -> None:
+        """Undo or redo an iteration; a session that cannot step (an algorithm not installed,
+        or none named) says so instead of closing the app."""
+        try:
+            moved = self.bench is not None and move(self.bench)
+        except (SessionError, EngineError) as exc:
+            self.notify(str(exc), title=f"cannot {what}", severity="error", timeout=10)
+            return
+        if moved:
             self.refresh_workbench()
 
     def action_undo_edit(self) -> None:
@@ -517,8 +537,8 @@ class LoopcraftApp(App):
             return f"{text} [refuses {count} of the targets]" if count else text
 
         choices = [(name, summary(name, registration.summary)) for name, registration in registrations().items()]
-        if self.bench.algorithm_name not in dict(choices):
-            choices.append((self.bench.algorithm_name, lookup(self.bench.algorithm_name).summary))
+        if self.bench.algorithm_name not in dict(choices):  # a plug-in not installed, or no name at all
+            choices.append((self.bench.algorithm_name, "(not installed: cannot step; choose another)"))
         self.push_screen(ChooseDialog("algorithm", choices), chosen)
 
     def action_next_condition(self) -> None:
@@ -594,4 +614,4 @@ def key_help() -> list[tuple[str, list[tuple[str, str]]]]:
 
 
 def _existing_file(text: str) -> str | None:
-    return None if Path(text).expanduser().is_file() else "no such file"
+    return file_problem(Path(text).expanduser())

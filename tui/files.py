@@ -8,7 +8,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import stat
 from pathlib import Path
+
+from sessions.format.save_file import describe
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "sessions" / "examples"
 RECENT_LIMIT = 10
@@ -57,7 +60,7 @@ def recent_sessions() -> list[Path]:
         items = json.loads((home() / "recent.json").read_text())
     except (OSError, ValueError):
         return []
-    return [Path(p) for p in items if isinstance(p, str) and Path(p).exists()][: recent_limit()]
+    return [Path(p) for p in items if isinstance(p, str) and file_problem(Path(p)) is None][: recent_limit()]
 
 
 def remember(path: Path) -> None:
@@ -68,6 +71,20 @@ def remember(path: Path) -> None:
         (home() / "recent.json").write_text(json.dumps(items[: recent_limit()], indent=1))
     except OSError:
         pass
+
+
+def file_problem(path: Path) -> str | None:
+    """None when ``path`` names a regular file; else why not, in words ("no such file",
+    "File name too long (ENAMETOOLONG)"): never raises, whatever the user typed."""
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        return "no such file"
+    except OSError as exc:
+        return describe(exc)
+    except ValueError:  # a NUL in the text
+        return "not a file name"
+    return None if stat.S_ISREG(info.st_mode) else "not a regular file"
 
 
 def untitled_path() -> Path:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from engine.errors import EngineError
 from sessions.errors import SessionError, bounded_message
+from sessions.format.save_file import describe
 from tui.cli import analyze, compare, config_command, export, new, session_commands, sweep
 from tui.cli.common import CliError
 from tui.cli.options import check_options
@@ -94,9 +95,12 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
             print(f"loopcraft: error: {exc}", file=sys.stderr)
             return 2
     elif target is not None:
+        from tui.files import file_problem
+
         path = Path(target)
-        if not path.is_file():
-            print(f"loopcraft: error: {target}: no such file", file=sys.stderr)
+        problem = file_problem(path)
+        if problem is not None:
+            print(f"loopcraft: error: {bounded_message(f'{target}: {problem}')}", file=sys.stderr)
             return 2
     streams = [
         name for name, stream in (("input", sys.stdin), ("output", sys.stdout)) if stream is None or not stream.isatty()
@@ -180,6 +184,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the output's reader stopped early (| head): not an error of ours
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as exc:  # a path the user typed (a name over 255 bytes, a folder for a file, ...)
+        where = f"{exc.filename}: " if exc.filename is not None else ""
+        print(f"loopcraft {args.command}: error: {bounded_message(where + describe(exc))}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

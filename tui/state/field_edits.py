@@ -135,6 +135,8 @@ def add_target(bench: Workbench, measure: str) -> None:
     kind = MEASURE_KINDS[measure]
     response = None
     if kind.domain == "time":
+        if not bench.session.problem.conditions:
+            raise SessionError(f"a {measure} target reads a flight condition's response; this problem has none")
         network = bench.session.problem.conditions[0].network
         output = next((n for n in ("y", "c", "theta") if n in network.signals), network.signals[-1])
         response = ResponseModel(input=network.inputs[0] if network.inputs else "r", output=output)

@@ -16,6 +16,7 @@ from textual.widgets import DataTable
 
 from engine.design.measure_kinds import MEASURE_KINDS
 from sessions.lifecycle import folder
+from tui.files import file_problem
 from tui.keys import identified
 from tui.state import edits
 from tui.state import field_edits as edits_fields
@@ -167,7 +168,7 @@ class PlantTable(RefTable):
             EditDialog(
                 "CSV file (relative to the session's folder)",
                 "",
-                lambda t: None if (base / Path(t).expanduser()).is_file() else "no such file",
+                lambda t: file_problem(base / Path(t).expanduser()),
             ),
             lambda text: text and chosen(text),
         )
