@@ -5,6 +5,7 @@
 # make bench : run the benchmarks, write bench-results.json; fails when a ratio target is missed
 #              (BENCH_ARGS='--only margins,analyze --repeat 10' for a quick subset)
 # make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
+#              and the app fuzzer on 200 sessions under the pilot (make test runs 6)
 PYTHON ?= python3
 # pytest-xdist processes for make test (the suite mostly waits on apps to settle: two halve its time)
 TEST_WORKERS ?= 2
@@ -45,7 +46,8 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 fuzz: $(PLUGINS)
-	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} $(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
+	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} LOOPCRAFT_FUZZ_APP_CASES=$${LOOPCRAFT_FUZZ_APP_CASES:-200} \
+		$(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
 
 bench: $(STAMP)
 	$(BIN)/python -m tests.bench.run --out bench-results.json $(BENCH_ARGS)
