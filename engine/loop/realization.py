@@ -81,8 +81,11 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
     lu = _factor_feedthrough(np.eye(n) - feed)
     from scipy import linalg  # on first use (start-up)
 
-    P_state, P_input = linalg.lu_solve(lu, C_sig), linalg.lu_solve(lu, E)
-    return StateSpace(A_blk + B_blk @ P_state, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
+    P_state, P_input = linalg.lu_solve(lu, C_sig, check_finite=False), linalg.lu_solve(lu, E, check_finite=False)
+    A = A_blk + B_blk @ P_state
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(P_state)) and np.all(np.isfinite(P_input))):
+        raise InterconnectionError("the closed loop's realization leaves the floating-point range")
+    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
 
 
 def _factor_feedthrough(matrix: NDArray) -> tuple:
@@ -128,6 +131,8 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
     else:
         r = entry.transfer.check_proper(params, entry.label)
         realization = cascade(r.num, r.den)
+    if not all(np.all(np.isfinite(m)) for m in realization):
+        raise BlockError(f"{entry.label}: its realization's numbers leave the floating-point range")
     if fixed:
         _REALIZED[entry.transfer] = realization
     return realization

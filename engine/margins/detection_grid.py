@@ -33,6 +33,7 @@ POINTS_PER_DECADE = 20  # 10 missed shallow minima of |1 + GH| hidden with a max
 CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
 LIGHT_DAMPING = 0.3
 DECADES_BEYOND = 2.0
+RANGE = (1e-300, 1e300)  # the frequencies any search stays within (rad/s)
 DECADES_PER_LOOK = 8
 MAX_ROUNDS = 60
 MAX_PHASE_STEP = np.radians(20.0)
@@ -294,8 +295,13 @@ def _initial_grid(loop: LoopModel, budget: int, notes: list[str]) -> NDArray[np.
         lo, hi = _extend_to_crossovers(loop, lo * 10.0**-DECADES_BEYOND, hi * 10.0**DECADES_BEYOND)
     else:
         lo, hi = _searched_range(loop)
+    lo, hi = max(lo, RANGE[0]), min(hi, RANGE[1])  # corners at the ends of the floating-point range
+    if not lo < hi:
+        raise EngineError(
+            f"the loop's corners lie beyond {RANGE[0]:g}..{RANGE[1]:g} rad/s: no frequency range to search"
+        )
     delayed, hi = _delay_grid(loop, lo, hi, DELAY_BUDGET, notes)
-    n = max(int(np.ceil(np.log10(hi / lo) * POINTS_PER_DECADE)), 2)
+    n = max(int(np.ceil((np.log10(hi) - np.log10(lo)) * POINTS_PER_DECADE)), 2)  # hi / lo may overflow
     background = np.exp(np.linspace(math.log(lo), math.log(hi), n))
     background[0], background[-1] = lo, hi
     parts = [background]

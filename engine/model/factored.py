@@ -53,7 +53,9 @@ class PoleZero:
             raise ExpressionError(
                 f"order {max(base.zeros.size, base.poles.size) * k} is beyond the limit of {MAX_ORDER} for one block"
             )
-        return PoleZero(base.gain**k, np.tile(base.zeros, k), np.tile(base.poles, k))
+        with np.errstate(all="ignore"):
+            gain = float(np.float64(base.gain) ** k)  # a Python float's ** raises OverflowError
+        return PoleZero(gain, np.tile(base.zeros, k), np.tile(base.poles, k))
 
     def evaluate(self, x: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
         """The value and d/dx at ``x``, a zero and a pole paired in each factor: no partial
@@ -91,7 +93,18 @@ def pole_zero(expression: Expression, params: Mapping[str, float]) -> PoleZero:
 
 
 def _checked(expression: Expression, params: Mapping[str, float]) -> PoleZero:
-    form = _node(expression.root, params)
+    try:
+        with np.errstate(all="ignore"):
+            form = _node(expression.root, params)
+    except ExpressionError as exc:
+        if exc.expression:
+            raise
+        raise ExpressionError(str(exc), expression.text) from None
+    if not (np.isfinite(form.gain) and np.all(np.isfinite(form.zeros)) and np.all(np.isfinite(form.poles))):
+        raise ExpressionError(
+            f"its numbers leave the floating-point range (gain {form.gain:.3g}, roots beyond 1e308 or not numbers)",
+            expression.text,
+        )
     order = max(form.zeros.size, form.poles.size)
     if order > MAX_ORDER:
         raise ExpressionError(f"order {order} is beyond the limit of {MAX_ORDER} for one block", expression.text)
@@ -176,6 +189,16 @@ def _matching(roots: list[complex], root: complex) -> int | None:
 def _roots(c: NDArray) -> NDArray:
     """np.roots, without its eigenvalue problem for a first-order factor a x + b
     (b != 0): its companion matrix is the number -b/a, which is the root."""
-    if c.size == 2 and c[1] != 0:
-        return -c[1:] / c[0]
-    return np.roots(c)
+    if not np.all(np.isfinite(c)):
+        raise ExpressionError("polynomial coefficients overflow")
+    with np.errstate(all="ignore"):
+        if c.size == 2 and c[1] != 0:
+            roots = -c[1:] / c[0]
+        else:
+            try:
+                roots = np.roots(c)
+            except np.linalg.LinAlgError:  # its companion matrix is not finite: a denormal leading coefficient
+                roots = np.full(1, np.inf)
+    if not np.all(np.isfinite(roots)):
+        raise ExpressionError("a root lies beyond the floating-point range (a leading coefficient near 0?)")
+    return roots

@@ -37,7 +37,7 @@ class LoopLevels:
         self.scale = math.sqrt(low * high)
         reach = [min(max(w, low * UNIT_GAIN_REACH**-1), high * UNIT_GAIN_REACH) for w in self._unit_gains()]
         low, high = min([low] + reach), max([high] + reach)
-        decades = math.ceil(math.log10(high / low)) + 2 * PROBE_DECADES
+        decades = math.ceil(math.log10(high) - math.log10(low)) + 2 * PROBE_DECADES  # high / low may overflow
         ladder = low * 10.0 ** (np.arange(PROBES_PER_DECADE * decades + 1) / PROBES_PER_DECADE - PROBE_DECADES)
         self.probes = np.concatenate([nonzero, ladder])
         # arg(j w - r) = offset + turn * atan2(w - Im r, |Re r|), continuous in w > 0 (r = 0: pi/2)
@@ -52,11 +52,8 @@ class LoopLevels:
         """Where the asymptotes of |GH| at 0 and at infinity cross 1 (features a gain
         places far from every root lie there: the check points reach them)."""
         n0, excess, low_level = self.asymptotes
-        found = [
-            math.exp(-low_level / n0) if n0 else None,
-            math.exp(-math.log(abs(self.gain)) / excess) if excess else None,
-        ]
-        return [w for w in found if w is not None and 0 < w < math.inf]
+        logs = [-low_level / n0 if n0 else None, -math.log(abs(self.gain)) / excess if excess else None]
+        return [math.exp(x) for x in logs if x is not None and -700.0 < x < 700.0]  # within the float range
 
     @cached_property
     def asymptotes(self) -> tuple[float, float, float]:
@@ -195,6 +192,8 @@ class LoopLevels:
                 ends.append(math.inf)
             elif level == -math.inf:
                 ends.append(0.0)
+            elif level > 700.0:  # |GH| beyond the floating-point range: log|1 + GH| is log|GH|
+                ends.append(level)
             else:  # GH there is real: its magnitude and the sign its phase gives
                 real = math.copysign(math.exp(level), math.cos(turn))
                 ends.append(math.log(abs(1.0 + real)) if real != -1.0 else -math.inf)
