@@ -125,7 +125,9 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     equalities = tuple(_equality(e, f"problem.equalities[{i}]", names) for i, e in enumerate(model.equalities))
     inequalities = build_inequalities(model)
     try:
-        problem = Problem(conditions, parameters, targets, _grid(model.grid), objective, equalities, inequalities)
+        problem = Problem(
+            conditions, parameters, targets, _grid(model.grid), objective, equalities, inequalities, model.noise_factor
+        )
     except EngineError as exc:
         raise engine_error(exc) from None
     check_start(problem)

@@ -21,7 +21,6 @@ from engine.margins.search import margins
 from engine.model.blocks import ExpressionTransfer
 
 AT_BOUND = 1e-6  # relative distance to a bound within which a parameter is "at" it
-NOISE_FACTOR = 100.0  # the compensator's |K(j inf)| / |K(j wc)| above which a design is flagged
 
 
 def at_bounds(problem: Problem, values: dict) -> list[str]:
@@ -40,10 +39,11 @@ def at_bounds(problem: Problem, values: dict) -> list[str]:
     return notes
 
 
-def noise_notes(problem: Problem, values: dict, factor: float = NOISE_FACTOR) -> list[str]:
+def noise_notes(problem: Problem, values: dict) -> list[str]:
     """For each condition's tunable blocks (expressions that read parameters): their product's
-    gain at high frequency against its gain at the loop's gain crossover, flagged above
-    ``factor`` (noise amplification)."""
+    gain at high frequency against its gain at the loop's gain crossover, flagged above the
+    problem's ``noise_factor`` (noise amplification; the session's problem.noise_factor)."""
+    factor = problem.noise_factor
     notes = []
     x = problem.vector_from(values)
     for c, condition in enumerate(problem.conditions):

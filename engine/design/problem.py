@@ -197,6 +197,7 @@ class Problem:
     objective: Objective | None = None
     equalities: tuple[LinearEquality, ...] = ()
     inequalities: tuple[LinearInequality, ...] = ()  # A x <= b: `linear_constraints`
+    noise_factor: float = 100.0  # a compensator's |K(j inf)| / |K(j wc)| above which a design is flagged
 
     def __post_init__(self) -> None:
         if not self.conditions and (self.objective is None or self.objective.kind != "dae"):

@@ -389,6 +389,13 @@ class ProblemModel(Strict):
         description="linear inequalities between parameters, one a line: 'T1 >= 4*T2', "
         "'K + 2*T1[cruise] <= 10' (docs/session-format.md)",
     )
+    noise_factor: float = Field(
+        default=100.0,
+        gt=1.0,
+        le=1e12,
+        description="a design note flags a compensator whose high-frequency gain is more than this "
+        "times its gain at the crossover (it amplifies sensor noise)",
+    )
 
 
 class AlgorithmModel(Strict):

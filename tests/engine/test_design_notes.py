@@ -4,12 +4,13 @@ for 1/(s^2 (s+10)) with its pole time constant at the lower bound 1e-4."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from engine.analysis import unity_feedback
-from engine.design.notes import NOISE_FACTOR, at_bounds, noise_notes
+from engine.design.notes import at_bounds, noise_notes
 from engine.design.problem import Condition, Grid, Parameter, Problem
 from sessions.new.templates import new_session
 from tui.cli import main
@@ -41,8 +42,26 @@ def test_a_compensator_amplifying_noise_is_flagged_against_an_independent_comput
     wc = w[np.argmin(np.abs(np.abs(loop) - 1))]
     ratio = 13.5 * 1.0 / 1e-4 / abs(13.5 * (1 + 1j * wc) / (1 + 1e-4j * wc))
     shown = float(note.split("gain is ")[1].split(" times")[0])
-    assert shown == pytest.approx(ratio, rel=1e-2) and ratio > NOISE_FACTOR
+    assert shown == pytest.approx(ratio, rel=1e-2) and ratio > p.noise_factor == 100.0
     assert noise_notes(p, p.named() | {"T2": 0.1}) == []  # a lead of ratio 10: quiet
+    assert noise_notes(replace(p, noise_factor=ratio * 1.01), p.named()) == []  # the problem's own factor
+    assert noise_notes(replace(p, noise_factor=ratio * 0.99), p.named())
+
+
+def test_the_session_sets_the_noise_factor(tmp_path, capsys):
+    data = new_session("1/(s^2*(s+10))", "lead")
+    for parameter in data["problem"]["parameters"]:
+        parameter["value"] = {"K": 13.5, "T1": 1.0, "T2": 1e-4}[parameter["name"]]
+    data["problem"]["constraints"] = []
+    data["problem"]["noise_factor"] = 1e4  # the ratio is 5.35e3: below it, quiet
+    path = tmp_path / "lead.json"
+    path.write_text(json.dumps(data))
+    assert main(["report", str(path)]) == 0
+    assert "amplifies sensor noise" not in capsys.readouterr().out
+    data["problem"]["noise_factor"] = 0.5
+    path.write_text(json.dumps(data))
+    assert main(["report", str(path)]) == 2
+    assert "problem.noise_factor" in capsys.readouterr().err
 
 
 def test_run_and_report_list_the_notes(tmp_path, capsys):
