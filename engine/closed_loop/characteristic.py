@@ -80,6 +80,7 @@ RADIUS = 0.1
 NODES = 32
 MAX_CLUSTER = 4
 ORIGIN_CLUSTER = 8  # roots about the origin: a type-k loop's k (`clusters`)
+ORIGIN_GAP = 1e-6  # ... when they are this much smaller than the next root
 TINY = 1e-280  # a root this small is at the origin to the floating-point range
 ROUNDS = 64  # circles about one cluster, each shrunk to its roots (`cluster_roots`)
 COUNT = 1e-3  # the circle's root count (sum p = 0) must be the members' count to this
@@ -229,7 +230,8 @@ def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
     the smallest |F| (module docstring)."""
     start = np.asarray(start, dtype=complex)
     polished, stalled, steps = aberth(ratio, start)
-    clustered, groups, origin = polished.copy(), clusters(polished), _origin_cluster(polished)
+    origin = _origin_cluster(polished)
+    clustered, groups = polished.copy(), clusters(polished, origin)
     for members in groups:
         roots = cluster_roots(ratio, polished, members, origin is not None and np.array_equal(members, origin))
         if roots is not None:
@@ -320,14 +322,12 @@ def aberth_step(ratio: Ratio, z: Roots) -> Roots:
     return newton / (1.0 - newton * np.sum(others, axis=1))
 
 
-def clusters(z: Roots) -> list[NDArray[np.intp]]:
-    """Disjoint groups of roots solved as units: 2..MAX_CLUSTER roots (the smallest about each
-    root) whose spread about their centre is within CLUSTER of its scale (`_extent`), and the
-    roots about the origin (up to ORIGIN_CLUSTER) within CLUSTER of the next root's size: a
-    type-k loop at a small gain has k roots on a tiny circle there, where the eigenvalues are
-    off by eps^(1/k) of the state matrix's size and Aberth's iteration crawls."""
+def clusters(z: Roots, about_origin: NDArray[np.intp] | None = None) -> list[NDArray[np.intp]]:
+    """Disjoint groups of roots solved as units: ``about_origin`` (`_origin_cluster`: a type-k
+    loop at a small gain has k roots on a tiny circle there, where the eigenvalues are off by
+    eps^(1/k) of the state matrix's size and Aberth's iteration crawls), then 2..MAX_CLUSTER roots (the smallest about each root) whose
+    spread about their centre is within CLUSTER of its scale (`_extent`)."""
     used, out = np.zeros(z.size, dtype=bool), []
-    about_origin = _origin_cluster(z)
     if about_origin is not None:
         out.append(about_origin)
         used[about_origin] = True
@@ -346,12 +346,13 @@ def clusters(z: Roots) -> list[NDArray[np.intp]]:
 
 
 def _origin_cluster(z: Roots) -> NDArray[np.intp] | None:
-    """The 1..ORIGIN_CLUSTER smallest roots when they lie within CLUSTER of the next one's size
-    (one root too: within eps of a block pole at the origin, Aberth's correction cancels)."""
+    """The 1..ORIGIN_CLUSTER smallest roots when they lie within ORIGIN_GAP of the next one's
+    size (one root too: within eps of a block pole at the origin, Aberth's correction cancels);
+    so far from the others, the circles' power sums resolve them however they lie inside."""
     order = np.argsort(np.abs(z), kind="stable")
     size = np.abs(z[order])
     for m in range(1, min(ORIGIN_CLUSTER, z.size - 1) + 1):
-        if size[m - 1] <= CLUSTER * size[m]:
+        if size[m - 1] <= ORIGIN_GAP * size[m]:
             return np.sort(order[:m])
     return None
 
@@ -369,12 +370,10 @@ def _seeds(z: Roots) -> NDArray[np.intp]:
 
 def _extent(z: Roots, members: NDArray[np.intp], about_origin: bool = False) -> tuple[complex, float, float]:
     """The members' centre, their largest distance from it and its scale: its distance to
-    the nearest other root and to the origin.  Members about the origin (so found, or
-    their centre nearer it than their spread) are taken about the origin itself, their
-    scale the distance to the nearest other root."""
+    the nearest other root and to the origin.  Members ``about_origin`` (`_origin_cluster`)
+    are taken about the origin itself, their scale the distance to the nearest other root."""
     centre = complex(np.mean(z[members]))
     spread = float(np.max(np.abs(z[members] - centre)))
-    about_origin = about_origin or abs(centre) <= spread
     if about_origin:
         centre, spread = 0j, float(np.max(np.abs(z[members])))
     others = np.delete(z, members)
@@ -397,7 +396,7 @@ def cluster_roots(ratio: Ratio, z: Roots, members: NDArray[np.intp], about_origi
         found = roots
         centre = complex(np.mean(roots))
         spread = float(np.max(np.abs(roots - centre)))
-        if about_origin or abs(centre) <= spread:
+        if about_origin:
             centre, spread = 0j, float(np.max(np.abs(roots)))
         if not (spread / RADIUS <= 0.5 * radius and spread > 1e-300):
             break

@@ -575,7 +575,26 @@ def _deeper_than_noise(minima: NDArray[np.intp], distance: NDArray, floor: NDArr
     """The minima of ``distance`` whose prominence exceeds the noise ``floor`` there."""
     if minima.size == 0:
         return minima
-    from scipy.signal import peak_prominences  # on first use (start-up)
+    prominence = valley_prominences(distance)
+    return minima[prominence[minima] > floor[minima]]
 
-    prominence = peak_prominences(-distance, minima)[0]
-    return minima[prominence > floor[minima]]
+
+def valley_prominences(d: NDArray) -> NDArray:
+    """Per point, how far it lies below the lower of the highest points between it and the
+    nearest lower point on either side (an edge where there is none): a valley's prominence."""
+    return np.minimum(_rise(d), _rise(d[::-1])[::-1]) - d
+
+
+def _rise(d: NDArray) -> NDArray:
+    """Per point, the largest value between it and the nearest lower point to its left (all
+    the points before it where none is lower): with the same from the right, a valley's
+    prominence, as scipy.signal.peak_prominences has it (whose import costs start-up)."""
+    out, stack, cover = np.full(d.size, -np.inf), [], {}  # stack: indices of rising values
+    for i, value in enumerate(d.tolist()):
+        highest = -np.inf
+        while stack and d[stack[-1]] >= value:
+            top = stack.pop()
+            highest = max(highest, cover.pop(top), d[top])
+        out[i] = cover[i] = highest
+        stack.append(i)
+    return out

@@ -79,3 +79,17 @@ def test_the_stated_residual_holds_at_every_point() -> None:
     model, residual, _ = fitted_loop(LoopModel(omega, gh))
     relative = np.abs(model.evaluate(omega)[0] - gh) / np.abs(gh)
     assert np.max(relative) <= residual < 1e-6
+
+
+def test_valley_prominences_are_scipys() -> None:
+    """The noise floor's prominence (scipy.signal is not imported: it costs start-up)."""
+    from scipy.signal import argrelmin, peak_prominences
+
+    from engine.margins.search import valley_prominences
+
+    rng = np.random.default_rng(0)
+    for _ in range(100):
+        d = rng.standard_normal(int(rng.integers(5, 300))).cumsum()
+        minima = argrelmin(d)[0]
+        if minima.size:
+            np.testing.assert_allclose(valley_prominences(d)[minima], peak_prominences(-d, minima)[0])
