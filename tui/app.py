@@ -284,6 +284,18 @@ class LoopcraftApp(App):
                     self.notify(f"{name.replace('_', ' ')}: {reason}", timeout=3)
         return handled
 
+    def key_reason(self, action: str) -> str | None:
+        """Why a key's action cannot act now, for the footer's tooltip: a run or a sweep
+        goes, or the app's or the screen's `disabled_reason` (whichever names it)."""
+        if self.busy:
+            return self._busy_reason()
+        name = parse_action(action)[1]
+        for target in (self, self.screen):
+            reason = getattr(target, "disabled_reason", lambda _: None)(name)
+            if reason:
+                return reason
+        return None
+
     def _busy_reason(self) -> str:
         return f"not while {'a sweep' if self.sweeps.sweeping else 'a run'} goes (space pauses it)"
 

@@ -55,3 +55,19 @@ def checked(
         f"{len(doubtful)} closed-loop pole(s) are not roots of the characteristic equation to {CONFIRMED:g} "
         f"(backward error against the blocks' factored forms): {named}{more}; their digits are not to be trusted",
     )
+
+
+def closed_loop_verdict(network: Network, params: Mapping[str, float]) -> str:
+    """'stable', 'unstable', 'marginally stable' (`engine.loop.realization.stability`, on the
+    polished poles) or 'unknown' (no rational model, or no realization)."""
+    from engine.errors import EngineError
+    from engine.loop.design import design
+    from engine.loop.realization import poles, stability
+
+    if not network.rational:
+        return "unknown"
+    try:
+        found = poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig))
+    except EngineError:
+        return "unknown"
+    return stability(found)

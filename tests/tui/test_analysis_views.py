@@ -148,3 +148,26 @@ async def test_L_draws_the_locus_in_a_parameter(workdir):
         s = 1j * w
         residual = abs(1 + 16000 * (s + 1) * (s + 5) / ((s + 0.1) * (s + p2) * s * (s + 8) * (s + 20)))
         assert residual < 1e-3  # the label's 4 digits
+
+
+def test_an_unstable_loop_marks_its_peaks_unbounded(tmp_path):
+    """The lead K (1 + T1 s)/(1 + T2 s) at K = 600, T1 = 1, T2 = 0.1 on 1/(s (s + 1)(s + 2)):
+    s (s + 1)(s + 2)(1 + 0.1 s) + 600 (1 + s) has roots right of the axis; the |S|, |T| and
+    |KS| peaks on the axis bound nothing (issue 37, section 3)."""
+    import json
+
+    from sessions.new.templates import new_session
+
+    data = new_session("1/(s*(s+1)*(s+2))", "lead")
+    for parameter in data["problem"]["parameters"]:
+        parameter["value"] = {"K": 600.0, "T1": 1.0, "T2": 0.1}[parameter["name"]]
+    data["problem"]["constraints"] = []
+    path = tmp_path / "unstable.json"
+    path.write_text(json.dumps(data))
+    closed = np.roots(np.polyadd(np.polymul([1, 3, 2, 0], [0.1, 1]), [0, 0, 600.0, 600.0]))
+    assert np.any(closed.real > 0)  # independently: unstable
+    fig = sensitivity_figure(Workbench(load_session(path)).view())
+    labels = [s.label for s in fig.series if s.label]
+    assert "unbounded" in fig.title
+    assert any(label.startswith("Ms unbounded") for label in labels)
+    assert any("max|KS| unbounded" in label for label in labels)

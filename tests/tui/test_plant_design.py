@@ -35,6 +35,9 @@ async def test_the_parameters_show_the_current_design_and_d_makes_it_the_start(w
         await settle(app, pilot)
         assert any("no iteration yet" in n.message for n in app._notifications)
         assert app.bench.iteration == 0
+        # the footer's disabled key says the same as its tooltip (issue 37, section 7)
+        keys = [k for k in app.screen.query(".-disabled") if getattr(k, "action", None) == "undo"]
+        assert keys and all(str(k.tooltip).endswith(": no iteration to drop") for k in keys)
 
 
 @synchronous

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from engine.closed_loop.poles import closed_loop_verdict
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.peaks import (
@@ -46,6 +47,9 @@ def current_designs(view) -> list[Design]:
         )
         for k in plotted
     ]
+
+
+UNBOUNDED = "closed loop unstable: Ms, Mt and max|KS| unbounded"
 
 
 def sensitivity_figure(view, designs: list[Design] | None = None) -> Figure:
@@ -95,7 +99,11 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     lw = np.log10(w / scale)
     with np.errstate(divide="ignore"):
         s_db, t_db = 20 * np.log10(s), 20 * np.log10(t)
-    peaks = f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
+    unstable = closed_loop_verdict(c.network, params) == "unstable"
+    peaks = UNBOUNDED if unstable else f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
+    if unstable:
+        notes.append(f"{label or c.name}: {UNBOUNDED}")
+        fig.title += f"  ({UNBOUNDED})" if role != "reference" else ""
     fig.series.append(
         Series(*finite_points(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|", color=s_color)
     )
@@ -109,21 +117,24 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     )
     if fig.probe is None:
         fig.probe = _magnitude_probe(lw, s_db, t_db, problem.grid.unit)
-    effort = _compensator_curve(fig, c, params, loop, lw, scale, prefix, condensed) if role == "paired" else ""
+    effort = (
+        _compensator_curve(fig, c, params, loop, lw, scale, prefix, condensed, unstable) if role == "paired" else ""
+    )
     labelled = role == "condition" or (role == "paired" and not condensed)
     for name, peak, peak_color in (("Ms", ms, s_color), ("Mt", mt, t_color)):
         if 0 < peak.frequency < math.inf and 0 < peak.value < math.inf:
+            value = f"unbounded (on the axis {peak.value:.4g})" if unstable else f"{peak.value:.4g} ({peak.db:.2f} dB)"
             fig.series.append(
                 Series(
                     [math.log10(peak.frequency / scale)],
                     [peak.db],
-                    f"{prefix}{name} {peak.value:.4g} ({peak.db:.2f} dB)" if labelled else "",
+                    f"{prefix}{name} {value}" if labelled else "",
                     marker="x",
                     scatter=True,
                     color=peak_color,
                 )
             )
-            if role == "paired" and condensed:
+            if role == "paired" and condensed and not unstable:
                 fig.title += f"  {name} {peak.value:.4g}"
     fig.title += f"  {effort}" if effort else ""
     fig.xticks = decade_ticks(lw)
@@ -141,10 +152,11 @@ def _magnitude_probe(lw: np.ndarray, s_db: np.ndarray, t_db: np.ndarray, unit: s
 
 
 def _compensator_curve(
-    fig: Figure, condition, params, loop, lw, scale: float, prefix: str, condensed: bool = False
+    fig: Figure, condition, params, loop, lw, scale: float, prefix: str, condensed: bool = False, unstable: bool = False
 ) -> str:
     """|K S|, K the one block that reads the break signal (the compensator of a
-    unity loop broken at its error): the control effort, with its refined peak;
+    unity loop broken at its error): the control effort, with its refined peak (unbounded
+    when the closed loop is ``unstable``: its peak on the axis bounds nothing);
     ``condensed``: the peak's text is returned for the title, not put in the legend."""
     network = condition.network
     reading = [e for e in network.entries if e.col == network.signal(condition.break_at)]
@@ -165,7 +177,7 @@ def _compensator_curve(
         return ""
     if not 0 < peak.frequency < math.inf:
         return ""
-    text = f"max|KS| {peak.db:.2f} dB"
+    text = f"max|KS| unbounded (on the axis {peak.db:.2f} dB)" if unstable else f"max|KS| {peak.db:.2f} dB"
     fig.series.append(
         Series(
             [math.log10(peak.frequency / scale)],

@@ -7,10 +7,12 @@ again, the workbench redrawn), and each rebuild came after the other, between
 the key press and the painted iteration.  Here every refresh still asks for a
 rebuild, as Textual's does (one that is dropped, say with a screen popped
 before it ran, is made up by the next), and a rebuild for bindings the footer
-was already built for does nothing."""
+was already built for does nothing.  A disabled key's tooltip says why it cannot
+act now (the app's `key_reason`), as pressing it does."""
 
 from __future__ import annotations
 
+from textual.app import ComposeResult
 from textual.screen import Screen
 from textual.widgets import Footer as TextualFooter
 
@@ -30,3 +32,13 @@ class Footer(TextualFooter):
             return  # built after the latest refresh already (it reads the bindings as they are then)
         self._built = self._asked
         await super().recompose()
+
+    def compose(self) -> ComposeResult:
+        reason_of = getattr(self.app, "key_reason", lambda _: None)
+        for widget in super().compose():
+            action = getattr(widget, "action", None)  # a key (Textual's FooterKey, not exported)
+            if action and widget.has_class("-disabled"):
+                reason = reason_of(action)
+                if reason:
+                    widget.tooltip = f"{getattr(widget, 'description', '') or action}: {reason}"
+            yield widget
