@@ -73,3 +73,16 @@ def test_a_csv_preview_of_a_fifo_or_a_huge_file_is_refused_not_waited_on(tmp_pat
     table = tmp_path / "t.csv"
     table.write_text("# a comment\nhz,mag,deg\n1,2,3\n")
     assert csv_preview(table) == (["hz", "mag", "deg"], "hz,mag,deg\n1,2,3")
+
+
+def test_the_import_line_is_guessed_from_the_columns_and_rows():
+    """Issue 37, section 5: a dB column (negative values, or a dB name) is guessed 'db', not
+    read as a linear magnitude; real/imag names are 'cartesian'; a Hz name sets the unit."""
+    from tui.state.field_edits import guessed_table_line
+
+    assert guessed_table_line(["hz", "mag", "deg"], "hz,mag,deg\n0.1,10,-90") == "hz,mag,deg polar hz 1"
+    assert (
+        guessed_table_line(["w", "gain", "phase"], "w,gain,phase\n0.1,20,-90\n1,-3,-120") == "w,gain,phase db rad/s 1"
+    )
+    assert guessed_table_line(["f_hz", "mag_db", "ph"], "f_hz,mag_db,ph\n1,3,-90") == "f_hz,mag_db,ph db hz 1"
+    assert guessed_table_line(["w", "re", "im"], "w,re,im\n1,-3,-1") == "w,re,im cartesian rad/s 1"

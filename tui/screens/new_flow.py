@@ -17,7 +17,7 @@ from sessions.build import read_csv
 from sessions.errors import SessionError
 from sessions.new import template_kinds, templates
 from tui.screens.dialogs import ChooseDialog, EditDialog
-from tui.state.field_edits import csv_preview, table_transfer
+from tui.state.field_edits import csv_preview, guessed_table_line, table_transfer
 
 PLANT_HINT = "an expression in s (or w), e.g. 10/(s*(s+1)*(s+5)); exp(-T*s) is a delay"
 STRUCTURE_CHOICES = [
@@ -43,8 +43,10 @@ class NewSessionFlow:
             lambda kind: kind and getattr(self, "_" + kind.replace("-", "_"))(),
         )
 
-    def _ask(self, title: str, check: Callable[[str], str | None], then: Callable[[str], None]) -> None:
-        self.app.push_screen(EditDialog(title, "", check), lambda text: text and then(text.strip()))
+    def _ask(
+        self, title: str, check: Callable[[str], str | None], then: Callable[[str], None], value: str = ""
+    ) -> None:
+        self.app.push_screen(EditDialog(title, value, check), lambda text: text and then(text.strip()))
 
     def _structure(self, title: str, then: Callable[[str], None]) -> None:
         def chosen(name: str | None) -> None:
@@ -108,11 +110,12 @@ class NewSessionFlow:
             header, preview = csv_preview(path)
             self._ask(
                 f"{path.name}\n{preview}\n\ncolumns frequency,first,second form unit gain "
-                f"(e.g. '{','.join(header[:3])} polar hz 1'):",
+                "(guessed from the columns and rows above: check the form, polar or db, and the unit):",
                 lambda t: _table_check(t, header),
                 lambda line: self._structure(
                     "compensator structure", lambda c: self._made(lambda: _table_data(path, line, c), [path])
                 ),
+                guessed_table_line(header, preview),
             )
 
         self._ask(

@@ -285,6 +285,32 @@ def csv_preview(path: Path, lines: int = 8) -> tuple[list[str], str]:
     return [c.strip() for c in text[0].split(",")], "\n".join(text[:lines])
 
 
+def guessed_table_line(header: list[str], preview: str) -> str:
+    """A 'columns form unit gain' line guessed from a CSV file's header and first rows (the
+    import dialog's starting text, to check and change): the first three columns; form
+    'cartesian' for real/imag names, 'db' for a dB name or a second column with a negative
+    value (a magnitude in dB read as linear is refused: its gain margin was 193 dB off), else
+    'polar'; unit 'hz' when the first column's name says so."""
+    names = [h.lower() for h in header[:3]]
+    rows = [line.split(",") for line in preview.splitlines()[1:]]
+    second = []
+    for row in rows:
+        try:
+            second.append(float(row[1]))
+        except (IndexError, ValueError):
+            continue
+    if len(names) == 3 and names[1].startswith("re") and names[2].startswith("im"):
+        form = "cartesian"
+    elif len(names) == 2:
+        form = "magnitude"
+    elif "db" in names[1] or any(v < 0 for v in second):
+        form = "db"
+    else:
+        form = "polar"
+    unit = "hz" if "hz" in names[0] else "rad/s"
+    return f"{','.join(header[:3])} {form} {unit} 1"
+
+
 def table_transfer(text: str, header: list[str], csv_name: str) -> dict:
     """A table block's transfer from 'columns form unit gain' ('hz,mag,deg polar hz 1')
     naming columns of a CSV file with ``header``."""
@@ -330,10 +356,10 @@ def table_import(bench: Workbench, ref: Ref, path: Path) -> Edit:
 
         set_fields(bench, ref, transfer=TableBlock.model_validate(parse(text)))
 
-    guess = f"{','.join(header[:3])} polar hz 1"
     return Edit(
-        f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain:",
-        guess,
+        f"{block.name} <- {path.name}\n{preview}\n\ncolumns (frequency,first,second) form unit gain "
+        "(guessed from the columns and rows above: check the form and the unit):",
+        guessed_table_line(header, preview),
         checker(parse),
         apply,
     )
