@@ -38,10 +38,15 @@ def invalid(exc: ValidationError, root: str = "") -> str:
     """A pydantic validation error as one line that names where (a JSON path under ``root``)
     and what, never pydantic's own dump: the first error, and how many more."""
     first = exc.errors()[0]
-    more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
     loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and PYDANTIC_TAG.match(part)))
     where = location((root,) + loc if root else loc)
-    return f"{where}: {first['msg'].removeprefix('Value error, ')}{more}"
+    return f"{where}: {invalid_what(exc)}"
+
+
+def invalid_what(exc: ValidationError) -> str:
+    """What is wrong, without where (`invalid`): the first error's message, how many more."""
+    more = f" (and {exc.error_count() - 1} more)" if exc.error_count() > 1 else ""
+    return exc.errors()[0]["msg"].removeprefix("Value error, ") + more
 
 
 def check_depth(data: Any) -> None:

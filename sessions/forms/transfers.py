@@ -21,6 +21,7 @@ import re
 
 from pydantic import ValidationError
 
+from sessions.format.checks import invalid_what
 from sessions.format.schema import (
     ControllerBlock,
     ControllerFactorModel,
@@ -274,7 +275,7 @@ def parse_sub_compensator(text: str):
     try:
         return SubCompensatorModel(numerator=block.numerator, denominator=block.denominator)
     except ValidationError as exc:
-        raise FormError(f"compensator: {exc.errors()[0]['msg'].removeprefix('Value error, ')}") from None
+        raise FormError(f"compensator: {invalid_what(exc)}") from None
 
 
 def quote_name(name: str) -> str:

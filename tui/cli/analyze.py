@@ -238,13 +238,14 @@ def _table_loop(args: argparse.Namespace):
 
     from engine.analysis import unity_feedback
     from sessions.build import frequency_table
+    from sessions.format.checks import invalid_what
     from sessions.format.schema import TableModel
 
     path = Path(args.table)
     try:
         model = TableModel(unit=args.unit, form=args.form, gain=args.gain, csv=path.name, columns=args.columns)
     except ValidationError as exc:
-        raise CliError(f"--table: {exc.errors()[0]['msg']}") from None
+        raise CliError(f"--table: {invalid_what(exc)}") from None
     table = frequency_table(model, "table", path.parent)
     network = unity_feedback(args.tf or ["1"], args.variable, args.delay, table=table)
     return network, table.omega
