@@ -106,3 +106,11 @@ def test_a_table_in_db_is_read_as_db_and_a_negative_linear_magnitude_is_refused(
     code, _, err = _run(capsys, *table)  # the default form, polar: linear magnitudes
     row = next(k for k, g in enumerate(gh) if 20 * np.log10(abs(g)) < 0) + 1
     assert code == 2 and f"row {row} of column 'mag_db'" in err and "form 'db'" in err
+
+
+def test_a_table_without_its_columns_is_one_plain_line(capsys, tmp_path):
+    (tmp_path / "t.csv").write_text("w,mag,phase\n1,2,-90\n2,1,-120\n")
+    assert main(["analyze", "--table", str(tmp_path / "t.csv"), "--allow-outside-tables"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("--table: csv tables need three column names: frequency, first, second (two for form 'magnitude')")
+    assert "Value error" not in err and "\n" not in err
