@@ -112,5 +112,7 @@ def test_a_table_without_its_columns_is_one_plain_line(capsys, tmp_path):
     (tmp_path / "t.csv").write_text("w,mag,phase\n1,2,-90\n2,1,-120\n")
     assert main(["analyze", "--table", str(tmp_path / "t.csv"), "--allow-outside-tables"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.endswith("--table: csv tables need three column names: frequency, first, second (two for form 'magnitude')")
+    assert err.endswith(
+        "--table: csv tables need three column names: frequency, first, second (two for form 'magnitude')"
+    )
     assert "Value error" not in err and "\n" not in err
