@@ -67,7 +67,7 @@ def bode(curves: list[LoopCurve], unit: str, title: str) -> bytes:
     for c in curves:
         mag.semilogx(c.omega / scale, _db(c.gh), _style(c), label=c.label)
         phase.semilogx(c.omega / scale, _phase(c.gh), _style(c), label=c.label)
-        for m in c.margins.gain if c.margins else ():
+        for m in c.margins.listed("G") if c.margins else ():  # a delay's periodic family: its few
             if m.frequency > 0 and m.gain_db is not None and np.isfinite(m.gain_db):
                 mag.plot([m.frequency / scale] * 2, [0.0, -m.gain_db], "r-", lw=1.5)
                 mag.annotate(f"GM {m.gain_db:.3g} dB", (m.frequency / scale, -m.gain_db), fontsize=7)
