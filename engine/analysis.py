@@ -215,4 +215,9 @@ def analyze(
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
     disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)
+    if every.crossovers_beyond is not None:
+        notes.append(
+            f"the disk margin, Ms and Mt are those of the searched range (up to {every.crossovers_beyond:.6g} rad/s, "
+            "where |GH| >= 1 still): beyond it they are not known"
+        )
     return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes) + failed, disk, ms, mt)

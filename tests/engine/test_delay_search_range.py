@@ -55,3 +55,4 @@ def test_a_search_cut_by_the_delay_grid_leaves_the_delay_margin_unknown() -> Non
     a = analyze(unity_feedback(["1e6/(s*(1+s/1e-4))"], delay=3000.0), "e", DEFAULT_GRID, {})
     assert math.isnan(a.delay_margin)
     assert any("the delay margin is not known" in n for n in a.notes)
+    assert any("Ms and Mt are those of the searched range" in n for n in a.notes)
