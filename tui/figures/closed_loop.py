@@ -49,7 +49,7 @@ def current_designs(view) -> list[Design]:
     ]
 
 
-UNBOUNDED = "closed loop unstable: Ms, Mt and max|KS| unbounded"
+UNBOUNDED = "unstable: Ms, Mt, max|KS| unbounded"
 
 
 def sensitivity_figure(view, designs: list[Design] | None = None) -> Figure:
