@@ -157,7 +157,7 @@ def _draw_one(plt, fig: Figure, width: int | None = None) -> None:
         if not s.x:
             continue
         draw = plt.scatter if s.scatter else plt.plot
-        kwargs = {"marker": s.marker, "label": s.label or None}
+        kwargs = {"marker": s.marker, "label": (s.label or None) if _in_view(s, fig) else None}
         if s.color:
             kwargs["color"] = s.color
         draw(_near(s.x, fig.xlim), _near(s.y, fig.ylim), **kwargs)
@@ -173,6 +173,18 @@ def _draw_one(plt, fig: Figure, width: int | None = None) -> None:
         plt.yticks(*fig.yticks)
     elif (span := _span(fig, "y")) is not None:
         plt.yticks(*nice_ticks(*span))
+
+
+def _in_view(series, fig: Figure) -> bool:
+    """Has the series a point within the figure's limits?  plotext's legend indexes the
+    colours of the points it kept, and fails (IndexError) for a labelled series it kept
+    none of: zoomed in past a curve's samples, the plot read 'cannot draw at this size'."""
+    x, y = np.asarray(series.x, dtype=float), np.asarray(series.y, dtype=float)
+    inside = np.isfinite(x) & np.isfinite(y)
+    for values, limits in ((x, fig.xlim), (y, fig.ylim)):
+        if limits:
+            inside &= (values >= min(limits)) & (values <= max(limits))
+    return bool(inside.any())
 
 
 def _fitted(fig: Figure, title: str, xlabel: str, width: int) -> tuple[str, str]:
