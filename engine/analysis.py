@@ -11,10 +11,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.closed_loop.poles import checked, polish
+from engine.closed_loop.poles import checked, closed_loop_poles
 from engine.errors import EngineError
-from engine.loop.design import design
-from engine.loop.realization import Pole, poles, stability, stability_note
+from engine.loop.realization import Pole, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
@@ -204,8 +203,7 @@ def analyze(
     pole_notes: tuple[str, ...] = ()
     verdict = "unknown"
     if network.rational:
-        found = poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig))
-        pole_list, pole_notes = checked(network, params, found)
+        pole_list, pole_notes = checked(network, params, closed_loop_poles(network, params))
         verdict = stability(list(pole_list))
         pole_notes += tuple(filter(None, [stability_note(list(pole_list))]))
     model = loop_model(network, break_at, omega, params)

@@ -277,21 +277,22 @@ class LoopcraftApp(App):
             target = (namespaces or {}).get(destination) or {"app": self, "screen": self.screen}.get(destination)
             target = target or (self if default_namespace is None else default_namespace)
             if target.check_action(name, params) is None and name != "pause":
-                reason = self._busy_reason() if self.busy else getattr(target, "disabled_reason", lambda _: None)(name)
+                reason = self.key_reason(name, target)
                 now = time.monotonic()
                 if reason and now - self._refused_at > 1.0:
                     self._refused_at = now
                     self.notify(f"{name.replace('_', ' ')}: {reason}", timeout=3)
         return handled
 
-    def key_reason(self, action: str) -> str | None:
-        """Why a key's action cannot act now, for the footer's tooltip: a run or a sweep
-        goes, or the app's or the screen's `disabled_reason` (whichever names it)."""
+    def key_reason(self, action: str, target: object | None = None) -> str | None:
+        """Why a key's action cannot act now (a refused key's notice, the footer's tooltip): a
+        run or a sweep goes, or ``target``'s `disabled_reason` (none given: the app's or the
+        screen's, whichever names it)."""
         if self.busy:
             return self._busy_reason()
         name = parse_action(action)[1]
-        for target in (self, self.screen):
-            reason = getattr(target, "disabled_reason", lambda _: None)(name)
+        for asked in (self, self.screen) if target is None else (target,):
+            reason = getattr(asked, "disabled_reason", lambda _: None)(name)
             if reason:
                 return reason
         return None

@@ -57,17 +57,23 @@ def checked(
     )
 
 
-def closed_loop_verdict(network: Network, params: Mapping[str, float]) -> str:
-    """'stable', 'unstable', 'marginally stable' (`engine.loop.realization.stability`, on the
-    polished poles) or 'unknown' (no rational model, or no realization)."""
-    from engine.errors import EngineError
+def closed_loop_poles(network: Network, params: Mapping[str, float]) -> list[Pole]:
+    """The closed loop's poles: the eigenvalues of its realization, polished (`polish`)."""
     from engine.loop.design import design
-    from engine.loop.realization import poles, stability
+    from engine.loop.realization import poles
+
+    return poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig))
+
+
+def closed_loop_verdict(network: Network, params: Mapping[str, float]) -> str:
+    """'stable', 'unstable', 'marginally stable' (`engine.loop.realization.stability`, on
+    `closed_loop_poles`) or 'unknown' (no rational model, or no realization)."""
+    from engine.errors import EngineError
+    from engine.loop.realization import stability
 
     if not network.rational:
         return "unknown"
     try:
-        found = poles(design(network, params).closed_realization, lambda eig: polish(network, params, eig))
+        return stability(closed_loop_poles(network, params))
     except EngineError:
         return "unknown"
-    return stability(found)

@@ -67,11 +67,11 @@ class Detection:
     )
 
 
-def point_budget(loop: LoopModel) -> int:
+def point_budget(loop: LoopModel, searched: tuple[float, float] | None) -> int:
     """Most points the grid may hold: a base, more per corner, more per delay
-    half-turn over the searched range (capped at `MAX_BUDGET`)."""
+    half-turn over the ``searched`` range of a delay loop (capped at `MAX_BUDGET`)."""
     budget = BASE_BUDGET + BUDGET_PER_CORNER * int(loop.corner_frequencies.size)
-    delay = min(DELAY_BUDGET, _delay_points(loop, *_searched_range(loop))[0])
+    delay = min(DELAY_BUDGET, _delay_points(loop, *searched)[0]) if searched is not None else 0
     return min(MAX_BUDGET, budget + delay)
 
 
@@ -92,9 +92,10 @@ def detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) -> 
 
 
 def _detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) -> Detection:
-    budget = point_budget(loop)
+    searched = None if loop.rational else _searched_range(loop)  # its extension evaluates GH: once
+    budget = point_budget(loop, searched)
     notes: list[str] = []
-    w = _initial_grid(loop, budget, notes)
+    w = _initial_grid(loop, budget, notes, searched)
     if seed is not None:
         w = np.union1d(w, seed[(seed >= w[0]) & (seed <= w[-1])])
     points = _with_curve(w, *loop.evaluate(w))
@@ -126,7 +127,7 @@ def _detection_grid(loop: LoopModel, seed: NDArray[np.float64] | None = None) ->
     points = np.concatenate(found, axis=1)
     points = points[:, np.argsort(points[0].real, kind="stable")]
     top = float(points[0, -1].real)
-    cut = loop.delay > 0 and not loop.rational and top < _searched_range(loop)[1]
+    cut = searched is not None and loop.delay > 0 and top < searched[1]
     beyond = top if cut and abs(points[1, -1]) >= 1.0 else None
     return Detection(points[0].real, points[1], points[3], frozenset(flat), frozenset(shallow), tuple(notes), beyond)
 
@@ -284,17 +285,19 @@ def _delay_points(loop: LoopModel, lo: float, hi: float) -> tuple[int, float]:
     return int(min(MAX_BUDGET, math.ceil((hi - lo) / spacing) + 1)), spacing
 
 
-def _initial_grid(loop: LoopModel, budget: int, notes: list[str]) -> NDArray[np.float64]:
+def _initial_grid(
+    loop: LoopModel, budget: int, notes: list[str], searched: tuple[float, float] | None
+) -> NDArray[np.float64]:
     """Background, clusters around light corners, the delay grid (within half
-    the budget), and for delay loops the user's grid; never on an
-    undamped corner itself, where GH may be infinite."""
+    the budget), and for delay loops (``searched``: their range) the user's grid;
+    never on an undamped corner itself, where GH may be infinite."""
     corners = loop.corner_frequencies
     if loop.rational:
         lo = corners.min() if corners.size else 1.0
         hi = corners.max() if corners.size else 1.0
         lo, hi = _extend_to_crossovers(loop, lo * 10.0**-DECADES_BEYOND, hi * 10.0**DECADES_BEYOND)
     else:
-        lo, hi = _searched_range(loop)
+        lo, hi = searched
     lo, hi = max(lo, RANGE[0]), min(hi, RANGE[1])  # corners at the ends of the floating-point range
     if not lo < hi:
         raise EngineError(

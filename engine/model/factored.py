@@ -77,7 +77,7 @@ class PoleZero:
         zeros, poles = list(self.zeros), list(self.poles)
         kept_zeros = []
         for z in zeros:
-            match = next((k for k, p in enumerate(poles) if abs(z - p) <= CANCEL * max(1.0, abs(p))), None)
+            match = _matching(poles, z)
             if match is None:
                 kept_zeros.append(z)
             else:
@@ -182,8 +182,8 @@ def _sum(terms: list[tuple[float, Node]], params: Mapping[str, float]) -> PoleZe
 
 
 def _matching(roots: list[complex], root: complex) -> int | None:
-    """The index of the first of ``roots`` that is ``root`` within CANCEL, or None."""
-    return next((k for k, r in enumerate(roots) if abs(r - root) <= CANCEL * max(1.0, abs(root))), None)
+    """The index of the first of ``roots`` that is ``root`` within CANCEL of it, or None."""
+    return next((k for k, r in enumerate(roots) if abs(root - r) <= CANCEL * max(1.0, abs(r))), None)
 
 
 def _roots(c: NDArray) -> NDArray:

@@ -101,9 +101,8 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
         s_db, t_db = 20 * np.log10(s), 20 * np.log10(t)
     unstable = closed_loop_verdict(c.network, params) == "unstable"
     peaks = UNBOUNDED if unstable else f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
-    if unstable:
-        notes.append(f"{label or c.name}: {UNBOUNDED}")
-        fig.title += f"  ({UNBOUNDED})" if role != "reference" else ""
+    if unstable and role != "reference":
+        fig.title += f"  ({UNBOUNDED})"
     fig.series.append(
         Series(*finite_points(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|", color=s_color)
     )
