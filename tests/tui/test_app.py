@@ -326,6 +326,9 @@ async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workd
         await settle(app, pilot)
         best = sweep["runs"][sweep["optima"][0]["best_run"]]["parameters"]
         assert app.bench.session.problem.condition_values(0)["T1"] == best["T1"]
+        from tests.tui.test_never_stale import stale_plots
+
+        assert await stale_plots(app, pilot) == []  # every plot shows the adopted design
 
 
 @synchronous

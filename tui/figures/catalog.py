@@ -100,9 +100,26 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
     return out
 
 
+class Same:
+    """An object in a key, equal only to itself and held there: an `id` alone could be
+    taken again by a new object once the old one is freed (an edited problem, an undone
+    iteration's record), and a plot of the old design would pass for current."""
+
+    __slots__ = ("held",)
+
+    def __init__(self, held: object) -> None:
+        self.held = held
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Same) and other.held is self.held
+
+    def __hash__(self) -> int:
+        return id(self.held)
+
+
 def figure_key(view: View) -> tuple:
     """What a view's figures depend on: the problem, the records (the last one's
     identity: an undo then a new step has the same count), the condition shown,
     the step plot's setup and the sweep."""
     last = view.records[-1] if view.records else None
-    return (id(view.problem), view.iteration, id(last), view.plotted_condition, view.step_setup, id(view.sweep))
+    return (Same(view.problem), view.iteration, Same(last), view.plotted_condition, view.step_setup, Same(view.sweep))

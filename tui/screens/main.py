@@ -273,7 +273,6 @@ class MainScreen(Screen):
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         if event.tabbed_content.id == "plots":
             self.view_actions.refresh_locus()
-            self.call_after_refresh(self.draw_missing)
         if event.tabbed_content.id != "tabs":
             return
         self.refresh_bindings()
@@ -360,6 +359,12 @@ class MainScreen(Screen):
             self.post_message(self.FiguresDrawn(key, *drawings(view, canvases, missing)))
 
         self.run_worker(compute, thread=True, exclusive=True, group="figures")
+
+    @on(FigurePlot.Shown)
+    def _plot_shown(self) -> None:
+        """A plot that comes on screen (its tab, either level, shown) is drawn anew when its
+        figure is of an earlier design: a run finished, or an edit made, while it was hidden."""
+        self.call_after_refresh(self.draw_missing)
 
     @on(FiguresDrawn)
     def _figures_drawn(self, message: FiguresDrawn) -> None:

@@ -2,8 +2,7 @@
 (a launch vehicle's take 25 ms; they were made on it five times per step): by
 the run's worker for the steps it shows (`tui.actions.run_loop.RunLoop.Stepped`),
 else by a thread worker, which posts them back (`PoleLines.Found`), the tableau
-drawn again when they come.  The lines of one view are kept, with the view (the
-ids in its `figure_key` stay taken).  A part composed into the main screen
+drawn again when they come.  The lines of one view are kept, with the view.  A part composed into the main screen
 (``screen.pole_lines``)."""
 
 from __future__ import annotations

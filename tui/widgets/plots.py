@@ -13,6 +13,7 @@ import math
 import numpy as np
 from rich.text import Text
 from textual.binding import Binding
+from textual.message import Message
 from textual_plotext import PlotextPlot
 from textual_plotext.plot import Plot
 
@@ -56,6 +57,14 @@ class FigurePlot(PlotextPlot):
         ],
     )
 
+    class Shown(Message):
+        """The plot came on screen (its tab shown, the screen resumed): whatever it shows
+        may be of an earlier design, so the screen checks it against the current one."""
+
+        def __init__(self, plot: FigurePlot) -> None:
+            super().__init__()
+            self.plot = plot
+
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.figure = Figure()
@@ -77,6 +86,9 @@ class FigurePlot(PlotextPlot):
     def action_reset_view(self) -> None:
         self.navigation.reset()
         self.refresh()
+
+    def on_show(self) -> None:
+        self.post_message(self.Shown(self))
 
     def on_mouse_scroll_up(self, event) -> None:
         self.action_zoom(1.25)
