@@ -55,14 +55,18 @@ async def test_the_views_are_plot_tabs_and_the_locus_is_computed_when_shown(work
 
 def test_m_circles_and_the_exclusion_disk_are_what_they_say():
     from tui.figures.open_loop import m_circle, nyquist_figure
+    from tui.figures.overlays import nyquist
+    from tui.figures.requirements import Requirement
 
     for m_db in (0.5, 3.0, 6.0):
         phase, db = m_circle(m_db)
         L = 10 ** (db / 20) * np.exp(1j * np.radians(phase))
         assert np.allclose(20 * np.log10(np.abs(L / (1 + L))), m_db, atol=1e-9)
-    fig = nyquist_figure([], [], None, disk=0.8)
-    edge = next(s for s in fig.series if s.label.startswith("disk margin"))
+    fig = nyquist_figure([], [])
+    nyquist(fig, [Requirement("disk_margin", 0.8, True, 0.0, np.inf, None)])
+    edge = next(s for s in fig.series if s.label.startswith("disk >= 0.8"))
     L = np.array(edge.x) + 1j * np.array(edge.y)
+    L = L[np.isfinite(L)]
     assert np.allclose(np.abs(1 / (1 + L) - 0.5), 1 / 0.8, rtol=1e-9)  # |S - 1/2| = 1/alpha on its edge
 
 

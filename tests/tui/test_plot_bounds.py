@@ -8,14 +8,15 @@ import math
 
 import pytest
 
+from tui.drawing.text_canvas import near
 from tui.figures.data import Figure, Series
-from tui.widgets.plots import FigurePlot, _near
+from tui.widgets.plots import FigurePlot
 
 
 def test_values_are_clipped_a_few_spans_about_the_limits():
-    assert _near([0.0, 1e36, -1e36, 0.5], (-1.0, 1.0)) == [0.0, 5.0, -5.0, 0.5]
-    assert _near([1e36], None) == [1e36]  # no limits: plotext scales to the data
-    assert _near([1e300, -1e300], None) == [1e150, -1e150]  # but never near the float limits
+    assert near([0.0, 1e36, -1e36, 0.5], (-1.0, 1.0)) == [0.0, 5.0, -5.0, 0.5]
+    assert near([1e36], None) == [1e36]  # no limits: plotext scales to the data
+    assert near([1e300, -1e300], None) == [1e150, -1e150]  # but never near the float limits
 
 
 def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
@@ -23,13 +24,13 @@ def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
     fig.series.append(Series([0.0, 1.0, 2.0], [0.0, 1e36, 0.0], "u"))
     canvas = (60, 20, "textual-dark")
     built = FigurePlot.prebuild(fig, canvas)
-    assert built is not None and built[0] == canvas and "bounded" in built[1].plain
+    assert built[1] is not None and built[0] == canvas and "bounded" in built[1].text.plain
 
 
 def test_values_near_the_float_limits_draw():
     fig = Figure(title="huge")
     fig.series.append(Series([0.0, 1.0, 2.0], [0.0, 1.7e308, -1.7e308], "u"))
-    assert FigurePlot.prebuild(fig, (60, 20, "textual-dark")) is not None  # drawn, no OverflowError
+    assert FigurePlot.prebuild(fig, (60, 20, "textual-dark"))[1] is not None  # drawn, no OverflowError
 
 
 def test_a_time_axis_over_an_overflowing_span_still_has_a_step():
@@ -80,4 +81,44 @@ def test_zoom_pan_and_cursor_never_break_a_plot(example):
                     navigation.pan(fig, rng.choice([-0.25, 0.25]), rng.choice([-0.25, 0.0, 0.25]))
                 else:
                     navigation.move(fig, rng.choice([-5, 1, 20]))
-                assert FigurePlot.prebuild(navigation.applied(fig), canvas) is not None, (name, canvas)
+                assert FigurePlot.prebuild(navigation.applied(fig), canvas)[1] is not None, (name, canvas)
+
+
+def _dots(plain: str) -> set[tuple[int, int]]:
+    """The braille dots of a drawing, as (column, row) in dot units."""
+    bits = [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2), (0, 3), (1, 3)]  # the Unicode dot order
+    out = set()
+    for row, line in enumerate(plain.split("\n")):
+        for col, char in enumerate(line):
+            code = ord(char) - 0x2800
+            if 0 < code < 256:
+                out |= {(2 * col + dx, 4 * row + dy) for k, (dx, dy) in enumerate(bits) if code >> k & 1}
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_thinned_line_is_drawn_within_a_dot_of_the_whole_line(seed):
+    """Lines are thinned to what the canvas resolves (first, lowest, highest and last point
+    of each pixel column's run) before plotext draws them: every dot of either drawing is
+    within one dot of the other's."""
+    import numpy as np
+
+    import tui.drawing.text_canvas as canvas
+
+    rng = np.random.default_rng(seed)
+    x = np.sort(rng.uniform(-2, 3, 2000)) if seed % 2 else np.linspace(-2, 3, 2000)
+    y = np.cumsum(rng.normal(size=x.size)) * (1 + seed) + 5 * np.sin(3 * x)
+    fig = Figure(title="thinned")
+    fig.series.append(Series(x.tolist(), y.tolist(), "random walk"))
+    thin = canvas.draw(fig, 70, 20, "textual-dark").text.plain
+    original = canvas.thinned
+    try:
+        canvas.thinned = lambda x, y, span, columns: (x, y)
+        whole = canvas.draw(fig, 70, 20, "textual-dark").text.plain
+    finally:
+        canvas.thinned = original
+    a, b = _dots(thin), _dots(whole)
+    near_b = {(c + i, r + j) for c, r in b for i in (-1, 0, 1) for j in (-1, 0, 1)}
+    near_a = {(c + i, r + j) for c, r in a for i in (-1, 0, 1) for j in (-1, 0, 1)}
+    assert a <= near_b and b <= near_a
+    assert len(canvas.thinned(x.tolist(), y.tolist(), (-2.0, 3.0), 140)[0]) < 0.4 * x.size

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 
 from sessions.store import load_session
+from tui.drawing.text_canvas import COMPACT_ROWS
 from tui.figures.trajectories import axis, short, time_ticks, trajectories_figure
 from tui.state.workbench import Workbench
-from tui.widgets.plots import COMPACT_ROWS, FigurePlot
+from tui.widgets.plots import FigurePlot
 
 
 def stepped(workdir, name: str, steps: int) -> Workbench:
@@ -89,8 +90,8 @@ def test_sessions_without_an_open_loop_keep_the_plot_of_every_control(workdir, n
 
 def test_both_panels_are_drawn_at_the_workbench_sizes(workdir):
     fig = figure_of(stepped(workdir, "projection_reactor.json", 3))
-    large = FigurePlot.prebuild(fig, (72, 34, "textual-dark"))[1].plain
-    small = FigurePlot.prebuild(fig, (48, COMPACT_ROWS - 6, "textual-dark"))[1].plain
+    large = FigurePlot.prebuild(fig, (72, 34, "textual-dark"))[1].text.plain
+    small = FigurePlot.prebuild(fig, (48, COMPACT_ROWS - 6, "textual-dark"))[1].text.plain
     for text in (large, small):
         assert "u2: untrimmed peak -5.46e14 at 36 h" in text and "Trim inputs u6, u7" in text
         assert "initial (untrimmed)" in text and "-4e13┤" in text and "2e11┤" in text

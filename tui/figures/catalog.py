@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from collections.abc import Collection
 
+from tui.figures import overlays
 from tui.figures.closed_loop import poles_figure, sensitivity_figure
 from tui.figures.data import Figure
 from tui.figures.lines import line_figure, step_figure, sweep_figure
 from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
+from tui.figures.requirements import Requirement, requirements
 from tui.figures.trajectories import trajectories_figure
 from tui.state.views import View
 
@@ -16,22 +18,6 @@ from tui.state.views import View
 def points(view: View) -> list[tuple[complex, str]]:
     """The targets' push/pull points (drawn on the Nyquist plot)."""
     return [(p.value, p.mode) for t in view.problem.targets for p in t.points]
-
-
-def disk(view: View) -> float | None:
-    """The first disk-margin target's desired alpha (its exclusion disk on the Nyquist plot)."""
-    for t in view.problem.targets:
-        if t.measure == "disk_margin" and t.bands:
-            return t.bands[0].desired
-    return None
-
-
-def radius(view: View) -> float | None:
-    """The first stability-margin target's desired radius (a circle about -1)."""
-    for t in view.problem.targets:
-        if t.measure == "stability_margin" and t.bands:
-            return t.bands[0].desired
-    return None
 
 
 def applicable(plots: frozenset[str], problem) -> frozenset[str]:
@@ -78,7 +64,7 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
     )
     unit = view.problem.grid.unit
     if curves and asked("nyquist"):
-        out["nyquist"] = nyquist_figure(curves, points(view), radius(view), disk=disk(view), unit=unit)
+        out["nyquist"] = nyquist_figure(curves, points(view), unit=unit)  # circles: `overlays.nyquist`
     if curves and asked("bode-mag", "bode-phase"):
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
     if curves and asked("nichols"):
@@ -94,10 +80,28 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         objective = view.problem.objective
         out["trajectories"] = trajectories_figure(view.trajectories(), objective.data if objective else None)
     if "step" in wanted and asked("step"):
-        out["step"] = step_figure(*view.step_plot())
+        name, traces, marks = view.step_plot()
+        out["step"] = step_figure(name, traces, marks)
+        overlays.step(out["step"], requirements(view), marks.final if marks is not None else None)
     if asked("sweep-plot"):
         out["sweep-plot"] = sweep_figure(view.sweep)
+    _overlay(out, requirements(view), unit)
     return out
+
+
+def _overlay(out: dict[str, Figure], found: list[Requirement], unit: str) -> None:
+    """The targets' requirements drawn on the loop plots and the pole map (the step plot's
+    are drawn with its marks)."""
+    if not found:
+        return
+    if "bode-mag" in out:
+        overlays.bode(out["bode-mag"], out["bode-phase"], found, unit)
+    if "nichols" in out:
+        overlays.nichols(out["nichols"], found)
+    if "nyquist" in out:
+        overlays.nyquist(out["nyquist"], found)
+    if "poles" in out:
+        overlays.poles(out["poles"], found)
 
 
 class Same:

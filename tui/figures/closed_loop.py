@@ -26,7 +26,7 @@ from engine.margins.peaks import (
     transfer_evaluator,
 )
 from tui.figures.axes import decade_ticks, finite_points
-from tui.figures.data import REFERENCE_COLOR, Figure, Series, role_color
+from tui.figures.data import REFERENCE_COLOR, REFERENCE_MARKER, Figure, Series, role_color, role_style
 from tui.figures.navigation import Probe
 
 LOCUS_POINTS = 2000  # the engine's default bound
@@ -103,17 +103,13 @@ def _closed_loop(fig: Figure, view, design: Design, role: str, condensed: bool, 
     peaks = UNBOUNDED if unstable else f"Ms {ms.value:.4g}, Mt {mt.value:.4g}"
     if unstable and role != "reference":
         fig.title += f"  ({UNBOUNDED})"
-    fig.series.append(
-        Series(*finite_points(lw, s_db), f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|", color=s_color)
-    )
-    fig.series.append(
-        Series(
-            *finite_points(lw, t_db),
-            "" if role == "reference" else f"{prefix}|T|",
-            color=t_color,
-            marker="braille" if role == "paired" else "dot",
-        )
-    )
+    s_marker = "braille" if role == "paired" else role_style(drawn_as, k)["marker"]
+    t_marker = REFERENCE_MARKER if role == "reference" else "dot"  # |T| dotted beside |S|: told apart without colour
+    s_label = f"{label}: {peaks}" if role == "reference" else f"{prefix}|S|"
+    beneath = role == "reference"
+    fig.series.append(Series(*finite_points(lw, s_db), s_label, color=s_color, marker=s_marker, beneath=beneath))
+    t_label = "" if role == "reference" else f"{prefix}|T|"
+    fig.series.append(Series(*finite_points(lw, t_db), t_label, color=t_color, marker=t_marker, beneath=beneath))
     if fig.probe is None:
         fig.probe = _magnitude_probe(lw, s_db, t_db, problem.grid.unit)
     effort = (
@@ -167,7 +163,10 @@ def _compensator_curve(
         ks = np.abs(evaluate(loop.omega)[0] / (1.0 + loop.gh))
         fig.series.append(
             Series(
-                *finite_points(lw, 20 * np.log10(ks)), f"{prefix}|KS| ({condition.break_at}->{name})", color="magenta"
+                *finite_points(lw, 20 * np.log10(ks)),
+                f"{prefix}|KS| ({condition.break_at}->{name})",
+                color="magenta",
+                marker="~",  # told from |S| (braille) and |T| (dots) without colour
             )
         )
     try:

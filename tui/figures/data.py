@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 
 @dataclass
 class Series:
@@ -14,6 +16,7 @@ class Series:
     marker: str = "braille"
     scatter: bool = False
     color: str | None = None
+    beneath: bool = False  # drawn under the other series (a reference, a guide, a shaded region): it never hides them
 
 
 @dataclass
@@ -31,10 +34,38 @@ class Figure:
     compact: Figure | None = None  # drawn instead on a canvas of fewer than COMPACT_ROWS rows
     probe: Any = None  # a `navigation.Probe`: where a cursor moves and what it reads
     log_x: bool = False  # x is log10 of a frequency: zoomed ticks are labelled as frequencies
+    legend: bool = True  # False: another plot beside it carries the same legend (Bode phase under magnitude)
+
+
+def in_view(series: Series, fig: Figure) -> bool:
+    """Has the series a finite point within the figure's limits?"""
+    x, y = np.asarray(series.x, dtype=float), np.asarray(series.y, dtype=float)
+    inside = np.isfinite(x) & np.isfinite(y)
+    for values, limits in ((x, fig.xlim), (y, fig.ylim)):
+        if limits:
+            inside &= (values >= min(limits)) & (values <= max(limits))
+    return bool(inside.any())
 
 
 CONDITION_COLORS = ("blue", "orange", "magenta", "cyan", "green", "yellow", "red")
 REFERENCE_COLOR = "gray"
+
+
+CONDITION_MARKERS = ("braille", "dot", "*", "+", "~", "=", "#")
+REFERENCE_MARKER = "·"
+
+
+def role_style(role: str, index: int = 0) -> dict:
+    """The colour and line style of a curve of a role (`role_color`): the current design a
+    fine braille line, a reference a dotted one, each condition its own marker, so the
+    curves are told apart without colour (a monochrome terminal, an SVG, a colour-blind eye)."""
+    if role == "reference":
+        return {"color": role_color(role, index), "marker": REFERENCE_MARKER, "beneath": True}
+    if role == "condition":
+        marker = CONDITION_MARKERS[index % len(CONDITION_MARKERS)]
+    else:
+        marker = "braille"
+    return {"color": role_color(role, index), "marker": marker}
 
 
 def role_color(role: str, index: int = 0) -> str:

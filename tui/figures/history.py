@@ -13,11 +13,13 @@ from engine.analysis import LoopCurve
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
-from tui.figures.catalog import applicable, disk, points, radius
+from tui.figures import overlays
+from tui.figures.catalog import applicable, points
 from tui.figures.closed_loop import Design, locus_figure, poles_figure, sensitivity_figure
 from tui.figures.data import Figure
 from tui.figures.lines import step_figure
 from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
+from tui.figures.requirements import requirements
 from tui.state.views import View
 
 # the views, in the order o (or p) cycles them: title, and the presenter's plot each needs
@@ -82,15 +84,18 @@ def history_figure(
     locus (in ``parameter``) of the iteration alone."""
     if kind == "locus":
         k = view.plotted()[0] if view.plotted() else 0
-        return locus_figure(view, parameter, iteration, subject(view, iteration, None, k))
+        fig = locus_figure(view, parameter, iteration, subject(view, iteration, None, k))
+        overlays.poles(fig, requirements(view, iteration))
+        return fig
     drawn = designs(view, iteration, marked)
     if kind in ("nyquist", "bode", "phase", "nichols"):
         curves = [c for c in (view.loop_curve(at, label, k, role) for at, k, label, role in drawn) if c is not None]
-        fig = _loop_figure(view, _margins_of_the_first(view, drawn, curves), kind)
+        fig = _loop_figure(view, _margins_of_the_first(view, drawn, curves), kind, iteration)
     elif kind == "closed-loop":
         fig = sensitivity_figure(view, drawn)
     elif kind == "poles":
         fig = poles_figure(view, drawn)
+        overlays.poles(fig, requirements(view, iteration))
     else:
         fig = _step_figure(view, drawn)
     one = drawn and (len({k for _, k, _, _ in drawn}) == 1 or kind == "poles")  # poles: the first's condition
@@ -102,14 +107,18 @@ def history_figure(
     return fig
 
 
-def _loop_figure(view: View, curves, kind: str) -> Figure:
+def _loop_figure(view: View, curves, kind: str, iteration: int) -> Figure:
+    """A loop view with the requirements judged at the iteration drawn on it."""
     unit = view.problem.grid.unit
-    if kind == "nyquist":
-        return nyquist_figure(curves, points(view), radius(view), disk=disk(view), unit=unit)
-    if kind == "nichols":
-        return nichols_figure(curves, unit)
+    found = requirements(view, iteration)
+    if kind in ("nyquist", "nichols"):
+        fig = nyquist_figure(curves, points(view), unit=unit) if kind == "nyquist" else nichols_figure(curves, unit)
+        overlays.history(fig, kind, found, unit)
+        return fig
     magnitude, phase = bode_figures(curves, unit)
-    return magnitude if kind == "bode" else phase
+    shown, partner = (magnitude, phase) if kind == "bode" else (phase, magnitude)
+    overlays.history(shown, kind, found, unit, partner)
+    return shown
 
 
 def _margins_of_the_first(view: View, drawn: list[Design], curves: list[LoopCurve]) -> list[LoopCurve]:

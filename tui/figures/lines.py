@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from tui.figures.axes import finite_points
-from tui.figures.data import Figure, Series, role_color
+from tui.figures.data import Figure, Series, role_style
 
 
 def line_figure(title: str, xlabel: str, ylabel: str, x: list[float], y: list[float], empty: str) -> Figure:
@@ -25,7 +25,7 @@ def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str
     fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
     for index, (t, y, label, role) in enumerate(traces):
         fig.title = f"Step response: {name}"
-        fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, color=role_color(role, index)))
+        fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, **role_style(role, index)))
     current = [s for s, trace in zip(fig.series, traces) if trace[3] != "reference" and s.y] or [
         s for s in fig.series if s.y
     ]

@@ -57,35 +57,73 @@ def xy_probe(series: Series, xname: str = "x", yname: str = "y") -> Probe:
 class Navigation:
     box: Box | None = None
     cursor: int | None = None
+    picked: Probe | None = None  # the curve a click put the cursor on (None: the figure's probe)
 
     def reset(self) -> None:
-        self.box, self.cursor = None, None
+        self.box, self.cursor, self.picked = None, None, None
+
+    def forget_pick(self) -> None:
+        """A new figure: a picked curve is of the old one (the cursor goes with it)."""
+        if self.picked is not None:
+            self.picked, self.cursor = None, None
+
+    def probe(self, figure: Figure) -> Probe | None:
+        return self.picked or figure.probe
 
     def zoom(self, figure: Figure, factor: float) -> None:
         """Zoom about the cursor (else the box's centre): factor > 1 zooms in."""
         x0, x1, y0, y1 = self.box or data_box(figure)
-        cx, cy = ((x0 + x1) / 2, (y0 + y1) / 2) if self._point(figure) is None else self._point(figure)
-        hx, hy = (x1 - x0) / 2 / factor, (y1 - y0) / 2 / factor
-        if hx > 0 and hy > 0 and math.isfinite(hx * hy):
-            self.box = (cx - hx, cx + hx, cy - hy, cy + hy)
+        about = self._point(figure) or ((x0 + x1) / 2, (y0 + y1) / 2)
+        self.zoom_at(figure, factor, about)
+
+    def zoom_at(self, figure: Figure, factor: float, about: tuple[float, float]) -> None:
+        """Zoom keeping the data point ``about`` where it is (the mouse wheel's pointer)."""
+        x0, x1, y0, y1 = self.box or data_box(figure)
+        cx, cy = about
+        box = (cx - (cx - x0) / factor, cx + (x1 - cx) / factor, cy - (cy - y0) / factor, cy + (y1 - cy) / factor)
+        if all(math.isfinite(v) for v in box) and box[1] > box[0] and box[3] > box[2]:
+            self.box = box
 
     def pan(self, figure: Figure, dx: float, dy: float) -> None:
         """Move the box by fractions of its size."""
         x0, x1, y0, y1 = self.box or data_box(figure)
-        sx, sy = (x1 - x0) * dx, (y1 - y0) * dy
-        self.box = (x0 + sx, x1 + sx, y0 + sy, y1 + sy)
+        self.shift(figure, (x1 - x0) * dx, (y1 - y0) * dy)
+
+    def shift(self, figure: Figure, dx: float, dy: float) -> None:
+        """Move the box by data distances (a mouse drag)."""
+        x0, x1, y0, y1 = self.box or data_box(figure)
+        box = (x0 + dx, x1 + dx, y0 + dy, y1 + dy)
+        if all(math.isfinite(v) for v in box):
+            self.box = box
 
     def move(self, figure: Figure, step: int) -> None:
         """Move the cursor along the probe (it appears at its start, else the middle point, first)."""
-        probe = figure.probe
+        probe = self.probe(figure)
         if probe is None or not probe.x:
             return
         n = len(probe.x)
         first = n // 2 if probe.start is None else min(probe.start, n - 1)
         self.cursor = first if self.cursor is None else min(max(self.cursor + step, 0), n - 1)
 
+    def pick(self, figure: Figure, x: float, y: float, scale: tuple[float, float]) -> None:
+        """Put the cursor on the point nearest (x, y) of the nearest curve; ``scale``: the
+        cells per data unit across and up, so nearness is what the eye sees.  The figure's
+        probe (its rich readout) wins within a cell of any other curve: it runs along one."""
+        found = [(_nearest(figure.probe.x, figure.probe.y, x, y, scale), figure.probe)] if figure.probe else []
+        for s in figure.series:
+            if s.x and s.label != "cursor":
+                found.append((_nearest(s.x, s.y, x, y, scale), xy_probe(s, figure.xlabel or "x", figure.ylabel or "y")))
+        if not found:
+            return
+        (distance, index), probe = min(found, key=lambda item: item[0][0])
+        if figure.probe is not None and found[0][0][0] <= distance + 1.0:
+            (distance, index), probe = found[0]
+        if math.isfinite(distance):
+            self.picked = None if probe is figure.probe else _labelled(probe, series_label(figure, probe))
+            self.cursor = index
+
     def _point(self, figure: Figure) -> tuple[float, float] | None:
-        probe = figure.probe
+        probe = self.probe(figure)
         if self.cursor is None or probe is None or self.cursor >= len(probe.x):
             return None
         return probe.x[self.cursor], probe.y[self.cursor]
@@ -105,10 +143,29 @@ class Navigation:
         if point is not None:
             out = replace(
                 out,
-                title=figure.probe.readout(self.cursor),
+                title=self.probe(figure).readout(self.cursor),
                 series=out.series + [Series([point[0]], [point[1]], "cursor", marker="+", scatter=True, color="red")],
             )
         return out
+
+
+def _nearest(xs, ys, x: float, y: float, scale: tuple[float, float]) -> tuple[float, int]:
+    """(distance in cells, index) of the point of a curve nearest (x, y)."""
+    d = np.hypot((np.asarray(xs, dtype=float) - x) * scale[0], (np.asarray(ys, dtype=float) - y) * scale[1])
+    d[~np.isfinite(d)] = math.inf
+    i = int(np.argmin(d))
+    return float(d[i]), i
+
+
+def series_label(figure: Figure, probe: Probe) -> str:
+    """The label of the series a picked probe runs along."""
+    return next((s.label for s in figure.series if s.x is probe.x and s.label), "")
+
+
+def _labelled(probe: Probe, label: str) -> Probe:
+    if not label:
+        return probe
+    return replace(probe, readout=lambda i: f"{label}: {probe.readout(i)}")
 
 
 def data_box(figure: Figure) -> Box:

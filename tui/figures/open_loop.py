@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from tui.figures.axes import decade_ticks, finite_points
-from tui.figures.data import Figure, Series, role_color
+from tui.figures.data import Figure, Series, role_color, role_style
 from tui.figures.navigation import loop_probe
 
 M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)  # |T| contours on the Nichols chart
@@ -18,49 +18,22 @@ M_CIRCLES_DB = (0.5, 1.0, 3.0, 6.0)  # |T| contours on the Nichols chart
 def nyquist_figure(
     curves,
     points: list[tuple[complex, str]],
-    radius: float | None,
     title: str = "Nyquist (GH plane)",
-    disk: float | None = None,
     unit: str = "rad/s",
 ) -> Figure:
-    """GH plane around -1: the curves (their mirror images at negative frequencies
-    dotted), the unit circle, -1, push/pull points, the desired stability circle and
-    the exclusion disk of a disk-margin target (balanced: |S - 1/2| >= 1/alpha)."""
+    """GH plane around -1: the curves (their mirror images at negative frequencies in
+    gray), the unit circle, -1 and push/pull points (the targets' circles and disks are
+    drawn with their verdicts: `tui.figures.overlays.nyquist`)."""
     fig = Figure(title=title, xlabel="Re GH", ylabel="Im GH", xlim=(-4.0, 2.0), ylim=(-3.0, 3.0))
     t = np.linspace(0, 2 * np.pi, 120)
-    fig.series.append(Series(np.cos(t).tolist(), np.sin(t).tolist(), "", color="gray"))
+    fig.series.append(Series(np.cos(t).tolist(), np.sin(t).tolist(), "", color="gray", beneath=True))
     for curve in curves:
         gh = np.clip(curve.gh.real, -50, 50) + 1j * np.clip(curve.gh.imag, -50, 50)
         x, y = finite_points(gh.real, gh.imag)
-        fig.series.append(Series(x, [-v for v in y], "", color="gray"))  # negative frequencies
-        fig.series.append(Series(x, y, curve.label, color=role_color(curve.role, curve.index)))
+        fig.series.append(Series(x, [-v for v in y], "", color="gray", beneath=True))  # negative frequencies
+        fig.series.append(Series(x, y, curve.label, **role_style(curve.role, curve.index)))
         if fig.probe is None:
             fig.probe = loop_probe(gh.real, gh.imag, curve.omega, curve.gh, unit)
-    if disk:
-        s = 0.5 + np.exp(1j * t) / disk  # the S values on the disk's edge
-        with np.errstate(divide="ignore", invalid="ignore"):
-            edge = 1.0 / s - 1.0
-        keep = np.isfinite(edge) & (np.abs(edge) < 1e3)
-        fig.series.append(
-            Series(
-                edge.real[keep].tolist(),
-                edge.imag[keep].tolist(),
-                f"disk margin {disk:g} (excluded)",
-                marker="dot",
-                color="red",
-            )
-        )
-    if radius:
-        t = np.linspace(0, 2 * np.pi, 90)
-        fig.series.append(
-            Series(
-                (-1 + radius * np.cos(t)).tolist(),
-                (radius * np.sin(t)).tolist(),
-                f"|1+GH| = {radius:g}",
-                marker="dot",
-                color="green",
-            )
-        )
     fig.series.append(Series([-1.0], [0.0], "-1", marker="x", scatter=True, color="red"))
     if points:
         fig.series.append(
@@ -74,6 +47,15 @@ def nyquist_figure(
             )
         )
     return fig
+
+
+def disk_edge(alpha: float, t: np.ndarray) -> np.ndarray:
+    """The edge of a disk margin's exclusion disk in the GH plane (balanced, skew 0): the
+    GH whose S = 1/(1 + GH) lies on |S - 1/2| = 1/alpha, at the angles ``t``."""
+    s = 0.5 + np.exp(1j * t) / alpha
+    with np.errstate(divide="ignore", invalid="ignore"):
+        edge = 1.0 / s - 1.0
+    return np.where(np.isfinite(edge) & (np.abs(edge) < 1e3), edge, np.nan)
 
 
 def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
@@ -90,29 +72,16 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(gh))
         degrees = np.degrees(np.unwrap(np.angle(gh)))
-        magnitude.series.append(Series(*finite_points(lw, db), curve.label, color=role_color(curve.role, curve.index)))
-        phase.series.append(Series(*finite_points(lw, degrees), curve.label, color=role_color(curve.role, curve.index)))
+        magnitude.series.append(Series(*finite_points(lw, db), curve.label, **role_style(curve.role, curve.index)))
+        phase.series.append(Series(*finite_points(lw, degrees), curve.label, **role_style(curve.role, curve.index)))
         if magnitude.probe is None:
             magnitude.probe = loop_probe(lw, db, curve.omega[positive], gh, unit)
             phase.probe = loop_probe(lw, degrees, curve.omega[positive], gh, unit)
         magnitude.xticks = phase.xticks = decade_ticks(lw)
         if curve.margins is not None:
             _mark_margins(magnitude, phase, curve, lw, degrees, scale)
-    for fig in (magnitude, phase):
-        _legend_room(fig)
+    phase.legend = False  # the magnitude plot above it carries the legend
     return magnitude, phase
-
-
-def _legend_room(fig: Figure) -> None:
-    """Room above the curves for plotext's legend (top left), which otherwise covers the
-    low-frequency end of a Bode plot: the top of the axis raised by a row per entry."""
-    ys = [v for s in fig.series for v in s.y if math.isfinite(v)]
-    if not ys or fig.ylim is not None:
-        return
-    low, high = min(ys), max(ys)
-    span = (high - low) or 1.0
-    entries = sum(1 for s in fig.series if s.label)
-    fig.ylim = (low - 0.05 * span, high + span * min(0.12 * entries, 0.6))
 
 
 def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degrees: np.ndarray, scale: float) -> None:
@@ -156,14 +125,16 @@ def nichols_figure(curves, unit: str = "rad/s") -> Figure:
                 phase.tolist(),
                 db.tolist(),
                 "M " + ", ".join(f"{m:g}" for m in M_CIRCLES_DB) + " dB" if k == 0 else "",
+                marker="∙",
                 color="gray",
+                beneath=True,
             )
         )
     for curve in curves:
         with np.errstate(divide="ignore"):
             db = 20 * np.log10(np.abs(curve.gh))
         degrees = np.degrees(np.unwrap(np.angle(curve.gh)))
-        fig.series.append(Series(*finite_points(degrees, db), curve.label, color=role_color(curve.role, curve.index)))
+        fig.series.append(Series(*finite_points(degrees, db), curve.label, **role_style(curve.role, curve.index)))
         if fig.probe is None:
             fig.probe = loop_probe(degrees, db, curve.omega, curve.gh, unit)
     fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))

@@ -86,6 +86,13 @@ class MainScreen(Screen):
             Binding("question_mark", "app.help", "help", id="main.help"),
             Binding("ctrl+s", "app.save", "save", id="main.save"),
             Binding("p", "next_plot", "next plot", tooltip="the Run tab's next plot, or the History plot's next view"),
+            Binding(
+                "P",
+                "focus_plot",
+                "focus plot",
+                show=False,
+                tooltip="focus the plot of this tab (then + - h j k l, arrows, 0, the mouse)",
+            ),
             Binding("1", "tab('run')", "run", show=False),
             Binding("2", "tab('plant')", "plant", show=False),
             Binding("3", "tab('targets')", "targets", show=False),
@@ -214,8 +221,25 @@ class MainScreen(Screen):
             return
         plots = self.query_one("#plots", TabbedContent)
         tabs = self.plot_tabs
+        on_plot = isinstance(self.focused, FigurePlot)
         plots.active = tabs[(tabs.index(plots.active) + 1) % len(tabs)] if plots.active in tabs else tabs[0]
         self.refresh_plots()
+        if on_plot:  # the focus stays on the plots: on the one shown now
+            self.call_after_refresh(self.action_focus_plot)
+
+    def tab_plot(self) -> FigurePlot | None:
+        """The plot of the tab shown (the Run tab's: the first of its plot tab), if any."""
+        tabs = self.query_one_optional("#tabs", TabbedContent)
+        where = {"run": None, "history": "#history-plot", "sweep": "#sweep-plot"}.get(tabs.active if tabs else "", "")
+        if where is None:
+            pane = self.query_one("#plots", TabbedContent).active
+            where = f"#{PLOT_TABS[pane][0]}" if pane in PLOT_TABS else ""
+        return self.query_one(where, FigurePlot) if where else None
+
+    def action_focus_plot(self) -> None:
+        plot = self.tab_plot()
+        if plot is not None:
+            self.set_focus(plot)
 
     # -- the parts' actions and what their workers post back -------------------
 
@@ -245,6 +269,8 @@ class MainScreen(Screen):
         history = tabs is not None and tabs.active == "history"
         if action == "next_plot" and history:
             return self.query_one(HistoryPane).check_action("next_view", parameters)
+        if action == "focus_plot":
+            return True if self.tab_plot() is not None else None
         if action == "locus_parameter":
             there = (
                 "locus" in self.query_one(HistoryPane).views()
@@ -256,6 +282,8 @@ class MainScreen(Screen):
 
     def disabled_reason(self, action: str) -> str | None:
         """Why a screen key cannot act now."""
+        if action == "focus_plot":
+            return "no plot on this tab (Run, History and Sweep have one)"
         if action == "locus_parameter":
             return "no root locus here: it needs a rational loop (no table, no delay) and a loop-plot session"
         return None

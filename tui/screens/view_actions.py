@@ -10,8 +10,10 @@ from typing import TYPE_CHECKING
 from textual.message import Message
 from textual.widgets import DataTable, TabbedContent
 
+from tui.figures import overlays
 from tui.figures.closed_loop import locus_figure
 from tui.figures.data import Figure
+from tui.figures.requirements import requirements
 from tui.screens.dialogs import EditDialog
 from tui.state.clipboard import design_text, row_text
 from tui.state.step_view import format_step_setup, horizon, parse_step_setup
@@ -111,7 +113,9 @@ class ViewActions:
         parameter = self.locus_parameter
 
         def compute() -> None:
-            screen.post_message(self.LocusDrawn(key, locus_figure(view, parameter)))
+            figure = locus_figure(view, parameter)
+            overlays.poles(figure, requirements(view))
+            screen.post_message(self.LocusDrawn(key, figure))
 
         screen.run_worker(compute, thread=True, exclusive=True, group="locus")
 

@@ -1,28 +1,20 @@
-"""The text plots (the only module that touches plotext).
-
-Each plot keeps plain lists of its series and redraws from them inside
-`render` (plotext's `build` rewrites stored data, so a redraw from stored
-figure state could lie).  Log-frequency axes are drawn as log10(omega) on a
-linear axis with decade labels, never with plotext's log scale.
-"""
+"""The plot widget: a `Figure` drawn on a text canvas (`tui.drawing.text_canvas`), with
+keys and the mouse to zoom, pan and move a data tip (`tui.figures.navigation`)."""
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 from rich.text import Text
+from textual import events
 from textual.binding import Binding
 from textual.message import Message
 from textual_plotext import PlotextPlot
-from textual_plotext.plot import Plot
 
-from tui.figures.axes import nice_ticks
+from tui.drawing.text_canvas import Drawing, Frame, draw
 from tui.figures.data import Figure
 from tui.figures.navigation import Navigation, xy_probe
 from tui.keys import identified
 
-COMPACT_ROWS = 24
+Prebuilt = tuple[tuple[int, int, str], Drawing | None]
 
 
 class FigurePlot(PlotextPlot):
@@ -32,6 +24,10 @@ class FigurePlot(PlotextPlot):
     pans and moves a cursor along the current curve (`navigation`)."""
 
     can_focus = True
+    DEFAULT_CSS = """
+    FigurePlot { border-left: blank; }
+    FigurePlot:focus { border-left: thick $accent; }
+    """
     BINDINGS = identified(
         "plot",
         [
@@ -69,7 +65,10 @@ class FigurePlot(PlotextPlot):
         super().__init__(**kwargs)
         self.figure = Figure()
         self.navigation = Navigation()
-        self._prebuilt: tuple[tuple[int, int, str], Text] | None = None
+        self._prebuilt: Prebuilt | None = None
+        self.drawing: Drawing | None = None  # the last drawn (where its panels' data areas are)
+        self._drag: tuple[int, int] | None = None  # the cell a mouse button went down on
+        self._dragged = False
 
     def action_zoom(self, factor: float) -> None:
         self.navigation.zoom(self.figure, factor)
@@ -87,153 +86,95 @@ class FigurePlot(PlotextPlot):
         self.navigation.reset()
         self.refresh()
 
-    def on_show(self) -> None:
-        self.post_message(self.Shown(self))
+    def on_mouse_scroll_up(self, event: events.MouseScrollUp) -> None:
+        self._zoom_at(event, 1.25)
 
-    def on_mouse_scroll_up(self, event) -> None:
-        self.action_zoom(1.25)
+    def on_mouse_scroll_down(self, event: events.MouseScrollDown) -> None:
+        self._zoom_at(event, 0.8)
 
-    def on_mouse_scroll_down(self, event) -> None:
-        self.action_zoom(0.8)
+    def _zoom_at(self, event: events.MouseEvent, factor: float) -> None:
+        """The wheel zooms about the data point under the pointer (else about the cursor)."""
+        cell = self._cell(event)
+        frame = self._frame(cell)
+        if frame is None:
+            self.action_zoom(factor)
+            return
+        self.navigation.zoom_at(self.figure, factor, frame.point(*cell))
+        self.refresh()
+
+    def on_mouse_down(self, event: events.MouseDown) -> None:
+        self._drag, self._dragged = self._cell(event), False
+        self.capture_mouse()
+
+    def on_mouse_move(self, event: events.MouseMove) -> None:
+        """A drag pans: the data under the pointer follows it."""
+        if self._drag is None:
+            return
+        offset = event.get_content_offset_capture(self)  # the mouse is captured: it may leave the plot
+        cell, frame = (offset.x, offset.y), self._frame(self._drag)
+        if frame is None or cell == self._drag:
+            return
+        x0, y0 = frame.point(*self._drag)
+        x1, y1 = frame.point(*cell)
+        self.navigation.shift(self.figure, x0 - x1, y0 - y1)
+        self._drag, self._dragged = cell, True
+        self.refresh()
+
+    def on_mouse_up(self, event: events.MouseUp) -> None:
+        """A click (no drag) puts the data tip on the nearest point of the nearest curve."""
+        self.release_mouse()
+        clicked, self._drag = self._drag is not None and not self._dragged, None
+        cell = self._cell(event)
+        frame = self._frame(cell)
+        if clicked and frame is not None:
+            (x0, x1), (y0, y1) = frame.xlim, frame.ylim
+            across = (frame.right - frame.left) / ((x1 - x0) or 1.0)
+            up = 2 * (frame.bottom - frame.top) / ((y1 - y0) or 1.0)  # a row is about two columns tall
+            self.navigation.pick(self.figure, *frame.point(*cell), (across, up))
+            self.refresh()
+
+    def _cell(self, event: events.MouseEvent) -> tuple[int, int] | None:
+        offset = event.get_content_offset(self)
+        return None if offset is None else (offset.x, offset.y)
+
+    def _frame(self, cell: tuple[int, int] | None) -> Frame | None:
+        """The data area of the drawing at a cell (one panel's; none on a figure of panels)."""
+        if cell is None or self.drawing is None or self.figure.panels:
+            return None
+        return next((f for f in self.drawing.frames if f.contains(*cell)), None)
 
     @property
     def shown(self) -> Figure:
         """The figure as drawn: zoomed, with the cursor (`navigation`)."""
         return self.navigation.applied(self.figure)
 
-    def show(self, figure: Figure, prebuilt: tuple[tuple[int, int, str], Text] | None = None) -> None:
+    def show(self, figure: Figure, prebuilt: Prebuilt | None = None) -> None:
         if figure.probe is None:  # a cursor on any plot: along its first curve
             first = next((s for s in figure.series if s.x and not s.scatter), None)
             if first is not None:
                 figure.probe = xy_probe(first, figure.xlabel or "x", figure.ylabel or "y")
         self.figure, self._prebuilt = figure, prebuilt
+        self.navigation.forget_pick()
         self.refresh()
+
+    def on_show(self) -> None:
+        self.post_message(self.Shown(self))
 
     def canvas(self) -> tuple[int, int, str]:
         """(width, height, plotext theme) of the next render."""
-        return self.size.width, self.size.height, self._get_plotext_theme_name(self.app.theme)
+        return self.content_size.width, self.content_size.height, self._get_plotext_theme_name(self.app.theme)
 
     @staticmethod
-    def prebuild(figure: Figure, canvas: tuple[int, int, str]) -> tuple[tuple[int, int, str], Text] | None:
-        width, height, theme = canvas
-        if width < 10 or height < 5:
-            return None
-        plot = Plot()
-        _draw(plot, figure, height, width)
-        plot.plotsize(width, height)
-        plot._set_size(width, height)
-        plot.theme(theme)
-        try:
-            return canvas, Text.from_ansi(plot.build())
-        except (IndexError, ValueError, ZeroDivisionError, OverflowError):
-            return None
+    def prebuild(figure: Figure, canvas: tuple[int, int, str]) -> Prebuilt:
+        """The figure drawn at a canvas (any thread: a worker takes the drawing off the UI thread)."""
+        return canvas, draw(figure, *canvas)
 
-    def render(self):
+    def render(self) -> Text | str:
         figure = self.shown
         if self._prebuilt is not None and self._prebuilt[0] == self.canvas() and figure is self.figure:
-            return self._prebuilt[1]
-        _draw(self.plt, figure, self.size.height, self.size.width)
-        try:
-            return super().render()
-        except (IndexError, ValueError, ZeroDivisionError, OverflowError) as exc:  # a tiny canvas, odd values
-            return f"{self.figure.title}: cannot draw at this size ({type(exc).__name__})"
-
-
-def _draw(plt, fig: Figure, height: int | None = None, width: int | None = None) -> None:
-    """Clear ``plt`` and draw ``fig`` on it (its panels as subplots in one column; its compact
-    variant when the canvas is shorter than COMPACT_ROWS; its title and x label cut to the
-    ``width``)."""
-    if fig.compact is not None and height is not None and height < COMPACT_ROWS:
-        fig = fig.compact
-    plt.clear_figure()
-    if fig.panels:
-        plt.subplots(len(fig.panels), 1)
-        for row, panel in enumerate(fig.panels, start=1):
-            _draw_one(plt.subplot(row, 1), panel, width)
-        plt.main()
-        return
-    _draw_one(plt, fig, width)
-
-
-def _draw_one(plt, fig: Figure, width: int | None = None) -> None:
-    """Draw ``fig`` on a cleared plot or subplot (``width`` wide: the labels cut to fit)."""
-    title, xlabel = fig.title or fig.empty_message, fig.xlabel
-    if width is not None:
-        title, xlabel = _fitted(fig, title, xlabel, width)
-    plt.title(title)
-    if xlabel:
-        plt.xlabel(xlabel)
-    if fig.ylabel:
-        plt.ylabel(fig.ylabel)
-    for s in fig.series:
-        if not s.x:
-            continue
-        draw = plt.scatter if s.scatter else plt.plot
-        kwargs = {"marker": s.marker, "label": (s.label or None) if _in_view(s, fig) else None}
-        if s.color:
-            kwargs["color"] = s.color
-        draw(_near(s.x, fig.xlim), _near(s.y, fig.ylim), **kwargs)
-    if fig.xlim:
-        plt.xlim(*fig.xlim)
-    if fig.ylim:
-        plt.ylim(*fig.ylim)
-    if fig.xticks is not None:  # ([], []): no time ticks (a panel above another)
-        plt.xticks(*fig.xticks)
-    elif (span := _span(fig, "x")) is not None:
-        plt.xticks(*nice_ticks(*span))
-    if fig.yticks:
-        plt.yticks(*fig.yticks)
-    elif (span := _span(fig, "y")) is not None:
-        plt.yticks(*nice_ticks(*span))
-
-
-def _in_view(series, fig: Figure) -> bool:
-    """Has the series a point within the figure's limits?  plotext's legend indexes the
-    colours of the points it kept, and fails (IndexError) for a labelled series it kept
-    none of: zoomed in past a curve's samples, the plot read 'cannot draw at this size'."""
-    x, y = np.asarray(series.x, dtype=float), np.asarray(series.y, dtype=float)
-    inside = np.isfinite(x) & np.isfinite(y)
-    for values, limits in ((x, fig.xlim), (y, fig.ylim)):
-        if limits:
-            inside &= (values >= min(limits)) & (values <= max(limits))
-    return bool(inside.any())
-
-
-def _fitted(fig: Figure, title: str, xlabel: str, width: int) -> tuple[str, str]:
-    """The title and x label cut (with an ellipsis) to the room plotext gives them about the
-    canvas centre (it drops a label that does not fit); the y tick labels' width estimated."""
-    span = _span(fig, "y")
-    labels = fig.yticks[1] if fig.yticks else nice_ticks(*span)[1] if span else []
-    start = max((len(label) for label in labels), default=1) + 1
-    centre = start + (width - start - 1) // 2
-    right = width - centre
-    room_title = 2 * right - 2
-    room_x = min(2 * (centre - len(fig.ylabel) - 1), 2 * right) - 2
-
-    def cut(text: str, room: int) -> str:
-        return text if len(text) <= room else text[: max(room - 1, 0)].rstrip() + "…"
-
-    return cut(title, room_title), cut(xlabel, room_x) if xlabel else xlabel
-
-
-def _span(fig: Figure, axis: str) -> tuple[float, float] | None:
-    """The axis's shown range: its limits, else the finite data's extent (None: no data)."""
-    limits = fig.xlim if axis == "x" else fig.ylim
-    if limits:
-        return limits
-    values = [v for s in fig.series for v in (s.x if axis == "x" else s.y) if math.isfinite(v) and abs(v) < PLOTTABLE]
-    return (min(values), max(values)) if values and max(values) > min(values) else None
-
-
-PLOTTABLE = 1e150  # plotext's arithmetic on the canvas overflows near the float limits
-
-
-def _near(values: list[float], limits: tuple[float, float] | None) -> list[float]:
-    """Values clipped to a few spans about the axis limits (plotext draws a line point by
-    point across the canvas, so a point 1e23 spans off the axis would exhaust memory),
-    and always to +-PLOTTABLE."""
-    low, high = -PLOTTABLE, PLOTTABLE
-    if limits and all(math.isfinite(v) for v in limits):
-        span = max(abs(limits[1] - limits[0]), 1e-300)
-        low, high = max(low, limits[0] - 2 * span), min(high, limits[1] + 2 * span)
-    return np.clip(np.asarray(values, dtype=float), low, high).tolist()
+            self.drawing = self._prebuilt[1]
+        else:
+            self.drawing = draw(figure, *self.canvas())
+        if self.drawing is None:
+            return f"{self.figure.title}: cannot draw at this size" if self.content_size.width else ""
+        return self.drawing.text

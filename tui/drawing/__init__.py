@@ -1,0 +1,1 @@
+"""Drawing figures on a text canvas: the one place that knows the plotting library."""

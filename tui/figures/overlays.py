@@ -1,0 +1,197 @@
+"""The requirements drawn where the engineer looks (`tui.figures.requirements`): the
+margins and the crossover band on Bode and Nichols, the Ms and Mt circles and the
+margins' arcs on Nyquist, damping rays, settling and frequency bounds on the pole map
+and the root locus, overshoot, times and the final-value band on the step plot.  A
+requirement met is a gray line; one violated is red, its region shaded (░).  Each line's
+legend entry names the target and its verdict."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+from tui.figures.data import Figure, Series
+from tui.figures.navigation import data_box
+from tui.figures.open_loop import disk_edge, m_circle
+from tui.figures.requirements import SHADE, Requirement
+
+SHADE_GRID = (9, 3)  # shading points across and up a violated region
+SETTLING_BAND = 0.05  # the step measures' settling band (engine.closed_loop.time_response)
+
+
+def _line(fig: Figure, x: Iterable[float], y: Iterable[float], req: Requirement, marker: str) -> None:
+    fig.series.append(Series(list(map(float, x)), list(map(float, y)), req.label, marker=marker, **req.style))
+
+
+def _shade(fig: Figure, req: Requirement, x0: float, x1: float, y0: float, y1: float) -> None:
+    """Points shading a region that violates ``req`` (nothing when it is met)."""
+    if req.met is not False or not (x1 > x0 and y1 > y0):
+        return
+    across, up = SHADE_GRID
+    xs, ys = np.meshgrid(np.linspace(x0, x1, across + 2)[1:-1], np.linspace(y0, y1, up + 2)[1:-1])
+    shade = Series(xs.ravel().tolist(), ys.ravel().tolist(), "", marker=SHADE, scatter=True, color="red", beneath=True)
+    fig.series.append(shade)
+
+
+def _band(req: Requirement, x0: float, x1: float, scale: float) -> tuple[float, float] | None:
+    """A band's frequencies as log10 x on a Bode axis, within [x0, x1] (None: outside)."""
+    low = math.log10(req.low / scale) if req.low > 0 else -math.inf
+    high = math.log10(req.high / scale) if math.isfinite(req.high) and req.high > 0 else math.inf
+    low, high = max(low, x0), min(high, x1)
+    return (low, high) if high > low else None
+
+
+def _branch(phases: list[float], gains_db: list[float]) -> float:
+    """The -180 deg (+- 360 k) nearest the phase where the gain is nearest 0 dB."""
+    if not phases:
+        return -180.0
+    at = phases[int(np.nanargmin(np.abs(np.asarray(gains_db, dtype=float))))]
+    return -180.0 + 360.0 * round((at + 180.0) / 360.0)
+
+
+def bode(magnitude: Figure, phase: Figure, found: list[Requirement], unit: str) -> None:
+    """GM and peak levels and the crossover bound on the magnitude, PM on the phase."""
+    if magnitude.probe is None or phase.probe is None:
+        return
+    scale = 2 * math.pi if unit == "hz" else 1.0
+    mx0, mx1, my0, my1 = data_box(magnitude)
+    base = _branch(phase.probe.y, magnitude.probe.y)
+    for req in found:
+        band = _band(req, mx0, mx1, scale)
+        if band is None:
+            continue
+        if req.measure == "gain_margin_db":
+            _line(magnitude, band, [-req.value] * 2, req, "─")
+            _shade(magnitude, req, *band, -req.value, max(0.0, -req.value))
+        elif req.measure == "modal_peak_db":
+            _line(magnitude, band, [req.value] * 2, req, "─")
+            _shade(magnitude, req, *band, req.value, min(my1, req.value + 0.2 * (my1 - my0)))
+        elif req.measure == "crossover_frequency" and req.value > 0:
+            x = math.log10(req.value / scale)
+            _line(magnitude, [x, x], [my0, my1], req, "│")
+            left, right = (mx0, x) if req.at_least else (x, mx1)
+            _shade(magnitude, req, left, right, -0.05 * (my1 - my0), 0.05 * (my1 - my0))
+        elif req.measure == "phase_margin_deg":
+            _line(phase, band, [base + req.value] * 2, req, "─")
+            _shade(phase, req, *band, base, base + req.value)
+
+
+def nichols(fig: Figure, found: list[Requirement]) -> None:
+    """The PM/GM exclusion box about the critical point, and the M-circle of an Mt target."""
+    if fig.probe is None:
+        return
+    base = _branch(fig.probe.x, fig.probe.y)
+    pm = next((r for r in found if r.measure == "phase_margin_deg"), None)
+    gm = next((r for r in found if r.measure == "gain_margin_db"), None)
+    if pm is not None or gm is not None:
+        half = pm.value if pm is not None else 0.0
+        level = gm.value if gm is not None else 0.0
+        worst = pm if pm is not None and pm.met is False else gm if gm is not None and gm.met is False else pm or gm
+        x = [base - half, base + half, base + half, base - half, base - half]
+        y = [-level, -level, level, level, -level]
+        _line(fig, x, y, worst, "─")
+        for req in (pm, gm):
+            if req is not None and req is not worst:
+                fig.series.append(Series([base], [0.0], req.label, marker="+", scatter=True, **req.style))
+        _shade(fig, worst, base - half, base + half, -level, level)
+    for req in found:
+        if req.measure == "complementary_sensitivity_peak" and req.value > 0:
+            ph, db = m_circle(20 * math.log10(req.value))
+            _line(fig, ph + base + 180.0, db, req, "dot")
+
+
+def nyquist(fig: Figure, found: list[Requirement]) -> None:
+    """The Ms circle (|1 + GH| >= 1/Ms), the Mt circle, the GM segment of the negative real
+    axis and the PM arc of the unit circle that GH must keep out of."""
+    t = np.linspace(0, 2 * np.pi, 120)
+    for req in found:
+        if req.measure == "stability_margin" and req.value > 0:  # |1 + GH| >= r
+            _line(fig, -1 + req.value * np.cos(t), req.value * np.sin(t), req, "dot")
+        elif req.measure == "disk_margin" and req.value > 0:
+            edge = disk_edge(req.value, t)
+            _line(fig, edge.real, edge.imag, req, "dot")
+        elif req.measure == "sensitivity_peak" and req.value > 0:
+            r = 1.0 / req.value
+            _line(fig, -1 + r * np.cos(t), r * np.sin(t), req, "dot")
+        elif req.measure == "complementary_sensitivity_peak" and req.value > 1:
+            m2 = req.value**2
+            centre, r = -m2 / (m2 - 1), req.value / (m2 - 1)
+            _line(fig, centre + r * np.cos(t), r * np.sin(t), req, "dot")
+        elif req.measure == "gain_margin_db":
+            _line(fig, [-1.0, -(10 ** (-req.value / 20))], [0.0, 0.0], req, "═")
+        elif req.measure == "phase_margin_deg":
+            arc = np.radians(np.linspace(180 - req.value, 180 + req.value, 40))
+            _line(fig, np.cos(arc), np.sin(arc), req, "═")
+
+
+def history(fig: Figure, kind: str, found: list[Requirement], unit: str, partner: Figure | None = None) -> None:
+    """A History view's requirements (judged at its iteration): ``partner``, the other
+    Bode plot of the pair (the phase for the magnitude and back)."""
+    if kind == "nyquist":
+        nyquist(fig, found)
+    elif kind == "nichols":
+        nichols(fig, found)
+    elif kind in ("poles", "locus"):
+        poles(fig, found)
+    elif kind == "bode" and partner is not None:
+        bode(fig, partner, found, unit)
+    elif kind == "phase" and partner is not None:
+        bode(partner, fig, found, unit)
+
+
+def poles(fig: Figure, found: list[Requirement]) -> None:
+    """The s-plane bounds of the time-response targets: the stability abscissa and the
+    settling time as vertical lines, overshoot as damping rays, rise time as a natural
+    frequency arc, peak time as a damped frequency line."""
+    x0, x1, y0, y1 = data_box(fig)
+    reach = max(abs(x0), abs(x1), abs(y0), abs(y1))
+    for req in found:
+        if req.measure == "stability_abscissa":
+            _line(fig, [-req.value] * 2, [y0, y1], req, "│")
+            _shade(fig, req, -req.value, max(x1, -req.value + 0.1 * reach), y0, y1)
+        elif req.measure == "settling_time" and req.value > 0:
+            sigma = -math.log(SETTLING_BAND) / req.value  # a pole's envelope e^(-sigma t) inside the band
+            _line(fig, [-sigma] * 2, [y0, y1], req, "│")
+            _shade(fig, req, -sigma, min(0.0, x1), y0, y1)
+        elif req.measure == "overshoot_percent" and 0 < req.value < 100:
+            lo = math.log(req.value / 100)
+            zeta = -lo / math.hypot(math.pi, lo)
+            r = np.linspace(0, reach, 30)
+            _line(fig, -zeta * r, math.sqrt(1 - zeta**2) * r, req, "╲")
+            _line(fig, -zeta * r, -math.sqrt(1 - zeta**2) * r, req, "╱")
+        elif req.measure == "rise_time" and req.value > 0:
+            wn = 1.8 / req.value  # the 10-90 % rise of a second-order loop, about 1.8/wn
+            arc = np.linspace(math.pi / 2, 3 * math.pi / 2, 60)
+            _line(fig, wn * np.cos(arc), wn * np.sin(arc), req, "dot")
+        elif req.measure == "peak_time" and req.value > 0:
+            wd = math.pi / req.value
+            _line(fig, [min(x0, -reach), 0.0], [wd, wd], req, "─")
+            _line(fig, [min(x0, -reach), 0.0], [-wd, -wd], req, "─")
+
+
+def step(fig: Figure, found: list[Requirement], final: float | None) -> None:
+    """Overshoot and peak levels, the final-value band, and the rise, peak and settling
+    times as vertical lines over the response."""
+    if not fig.series:
+        return
+    x0, x1, y0, y1 = data_box(fig)
+    for req in found:
+        if req.measure == "overshoot_percent" and final is not None:
+            level = final * (1 + req.value / 100)
+            _line(fig, [x0, x1], [level, level], req, "─")
+            _shade(fig, req, x0, x1, level, max(y1, level))
+        elif req.measure == "peak_response":
+            _line(fig, [x0, x1], [req.value, req.value], req, "─")
+        elif req.measure == "steady_state_error" and final is not None:
+            reference = 1.0  # a unit step
+            for level in (reference - req.value, reference + req.value):
+                _line(fig, [x0 + 0.6 * (x1 - x0), x1], [level, level], req, "─")
+        elif req.measure in ("rise_time", "settling_time", "peak_time") and x0 <= req.value <= x1:
+            _line(fig, [req.value] * 2, [y0, y1], req, "│")
+            if req.measure == "settling_time":
+                _shade(fig, req, req.value, x1, y0, y1)
+    if fig.ylim is not None:
+        values = [v for s in fig.series for v in s.y if math.isfinite(v)]
+        fig.ylim = (min(fig.ylim[0], *values), max(fig.ylim[1], *values)) if values else fig.ylim
