@@ -157,10 +157,10 @@ def plotext5_available() -> str | None:
 
 
 def plotext5(fig, width: int, height: int) -> str | None:
-    from tui.widgets.plots import FigurePlot
+    from tui.drawing.text_canvas import draw
 
-    built = FigurePlot.prebuild(fig, (width, height, THEME))
-    return None if built is None else built[1].plain
+    drawing = draw(fig, width, height, THEME)
+    return None if drawing is None else drawing.text.plain
 
 
 # ---- layer 2: plotext 6 behind a thin drawing function ----
