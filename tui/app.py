@@ -38,6 +38,7 @@ from tui.actions.exports import Exports
 from tui.actions.run_loop import RunLoop
 from tui.actions.sweeps import Sweeps
 from tui.config import Config
+from tui.drawing.graphics import Graphics
 from tui.files import file_problem, remember, untitled_path, working_copy
 from tui.keys import identified
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, HelpScreen
@@ -150,9 +151,10 @@ class LoopcraftApp(App):
     TITLE = "loopcraft"
     BINDINGS = identified("app", [a.binding for a in ACTIONS])
 
-    def __init__(self, path: str | Path | None = None):
+    def __init__(self, path: str | Path | None = None, graphics: Graphics | None = None):
         super().__init__()
         self.initial_path = Path(path) if path else None
+        self.graphics = graphics  # the terminal's image protocol, asked before the app ran (None: text plots)
         self.bench: Workbench | None = None
         self.edit_flow = EditFlow(self)
         self.runs = RunLoop(self)
@@ -338,6 +340,13 @@ class LoopcraftApp(App):
             self.notify(f"{exc} (the defaults are used)", title="config", severity="warning", timeout=12)
             return
         self.theme = self.config.theme
+        if self.config.plots == "image" and self.graphics is None:
+            self.notify(
+                'plots = "image", but this terminal shows no images (sixel or kitty graphics; in tmux: '
+                "set -g allow-passthrough on): the plots are text",
+                title="config",
+                timeout=8,
+            )
         unknown = unknown_binding_ids(self.config, {row[0] for row in binding_table()})
         if unknown:
             self.notify(

@@ -6,6 +6,8 @@
     theme = "textual-light"     # any Textual theme; textual-dark and textual-light ship
     unit = "hz"                 # the frequency unit of new sessions: "rad/s" or "hz"
     recent_limit = 10           # how many recent sessions the start screen lists
+    plots = "image"             # "text" (the default), or images where the terminal shows them
+                                #   (sixel, kitty; in tmux: set -g allow-passthrough on)
 
     [keys]                      # binding id = "key[,key...]" (`loopcraft config` lists the ids)
     "app.step" = "s,j"
@@ -24,6 +26,7 @@ from pathlib import Path
 
 SAMPLE = __doc__.split("Every key is optional:\n\n", 1)[1].split("\n\nA file", 1)[0]
 UNITS = ("rad/s", "hz")
+PLOTS = ("text", "image")
 
 
 @dataclass(frozen=True)
@@ -34,6 +37,7 @@ class Config:
     unit: str = "rad/s"
     recent_limit: int = 10
     keys: dict[str, str] = field(default_factory=dict)
+    plots: str = "text"
 
 
 class ConfigError(ValueError):
@@ -67,7 +71,7 @@ def load_config(path: Path | None = None, themes: set[str] | None = None) -> Con
 
 
 def _checked(path: Path, data: dict, themes: set[str] | None) -> Config:
-    known = {"theme", "unit", "recent_limit", "keys"}
+    known = {"theme", "unit", "recent_limit", "keys", "plots"}
     unknown = sorted(set(data) - known)
     if unknown:
         raise ConfigError(f"{path}: unknown key {unknown[0]!r}; keys are {', '.join(sorted(known))}")
@@ -86,7 +90,10 @@ def _checked(path: Path, data: dict, themes: set[str] | None) -> Config:
         isinstance(k, str) and isinstance(v, str) and v.strip() for k, v in keys.items()
     ):
         raise ConfigError(f'{path}: [keys]: each entry is "binding.id" = "key[,key...]"')
-    return Config(theme, unit, limit, dict(keys))
+    plots = data.get("plots", Config.plots)
+    if plots not in PLOTS:
+        raise ConfigError(f"{path}: plots: {plots!r} is not one of {', '.join(PLOTS)}")
+    return Config(theme, unit, limit, dict(keys), plots)
 
 
 def unknown_binding_ids(config: Config, ids: set[str]) -> list[str]:

@@ -22,7 +22,7 @@ def test_the_sample_reads_and_bad_files_say_where(tmp_path):
     path = tmp_path / "config.toml"
     path.write_text(SAMPLE)
     config = load_config(path, themes={"textual-dark", "textual-light"})
-    assert (config.theme, config.unit, config.recent_limit) == ("textual-light", "hz", 10)
+    assert (config.theme, config.unit, config.recent_limit, config.plots) == ("textual-light", "hz", 10, "image")
     assert config.keys["app.step"] == "s,j"
     for text, message in [
         ("theme = \n", "line 1, column"),
@@ -31,6 +31,7 @@ def test_the_sample_reads_and_bad_files_say_where(tmp_path):
         ("recent_limit = -1\n", "recent_limit"),
         ("[keys]\n'app.step' = 3\n", "[keys]"),
         ("theme = 'neon'\n", "unknown theme"),
+        ("plots = 'sixel'\n", "plots: 'sixel' is not one of text, image"),
     ]:
         path.write_text(text)
         with pytest.raises(ConfigError, match=None) as info:

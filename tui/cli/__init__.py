@@ -113,8 +113,27 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    result = LoopcraftApp(path).run()
+    result = LoopcraftApp(path, graphics=_graphics()).run()
     return result if isinstance(result, int) else 0
+
+
+def _graphics():
+    """The terminal's image protocol when the config asks for image plots (asked now: not
+    once the app has the terminal); None: text plots (a config that does not read is
+    reported by the app)."""
+    from tui.config import ConfigError, load_config
+
+    try:
+        if load_config().plots != "image":
+            return None
+    except ConfigError:
+        return None
+    from tui.drawing.graphics import probe
+
+    try:
+        return probe()
+    except Exception:  # noqa: BLE001 - a terminal that answers oddly gets text plots, never a crash
+        return None
 
 
 def _example_names() -> list[str]:

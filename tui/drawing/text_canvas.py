@@ -179,11 +179,11 @@ def _fitted(fig: Figure, yspan: Span, title: str, xlabel: str, width: int) -> tu
 
 
 def _spans(fig: Figure) -> Spans:
-    """The axes' shown ranges (`_span`) of a figure."""
-    return _span(fig.xlim, [s.x for s in fig.series]), _span(fig.ylim, [s.y for s in fig.series])
+    """The axes' shown ranges (`span_of`) of a figure."""
+    return span_of(fig.xlim, [s.x for s in fig.series]), span_of(fig.ylim, [s.y for s in fig.series])
 
 
-def _span(limits: Span, series: list[list[float]]) -> Span:
+def span_of(limits: Span, series: list[list[float]]) -> Span:
     """An axis's shown range: its limits, else the finite data's extent, widened about a
     constant (None: no data)."""
     if limits:

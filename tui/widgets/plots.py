@@ -7,6 +7,7 @@ from rich.text import Text
 from textual import events
 from textual.binding import Binding
 from textual.message import Message
+from textual.widget import Widget
 from textual_plotext import PlotextPlot
 
 from tui.drawing.text_canvas import Drawing, Frame, draw
@@ -67,6 +68,8 @@ class FigurePlot(PlotextPlot):
         self.navigation = Navigation()
         self._prebuilt: Prebuilt | None = None
         self.drawing: Drawing | None = None  # the last drawn (where its panels' data areas are)
+        self.image: Widget | None = None  # the image widget of a graphics terminal (None: text)
+        self._imaged: tuple | None = None  # what the image shows: (figure, navigation, canvas)
         self._drag: tuple[int, int] | None = None  # the cell a mouse button went down on
         self._dragged = False
 
@@ -160,6 +163,16 @@ class FigurePlot(PlotextPlot):
     def on_show(self) -> None:
         self.post_message(self.Shown(self))
 
+    def on_mount(self) -> None:
+        """Where the terminal shows images (`tui.drawing.graphics`, the `plots = "image"`
+        setting), the figure is drawn as an image in a child widget that speaks its protocol."""
+        graphics = getattr(self.app, "graphics", None)
+        if graphics is not None:
+            self.image = graphics.widget()
+            self.image.styles.width, self.image.styles.height = "100%", "1fr"
+            self.image.styles.margin = (0, 0, 1, 0)  # a sixel touching the last row moves the cursor off the screen
+            self.mount(self.image)
+
     def canvas(self) -> tuple[int, int, str]:
         """(width, height, plotext theme) of the next render."""
         return self.content_size.width, self.content_size.height, self._get_plotext_theme_name(self.app.theme)
@@ -170,6 +183,8 @@ class FigurePlot(PlotextPlot):
         return canvas, draw(figure, *canvas)
 
     def render(self) -> Text | str:
+        if self.image is not None:
+            return self._render_image()
         figure = self.shown
         if self._prebuilt is not None and self._prebuilt[0] == self.canvas() and figure is self.figure:
             self.drawing = self._prebuilt[1]
@@ -178,3 +193,23 @@ class FigurePlot(PlotextPlot):
         if self.drawing is None:
             return f"{self.figure.title}: cannot draw at this size" if self.content_size.width else ""
         return self.drawing.text
+
+    def _render_image(self) -> str:
+        """Nothing here: the image child shows the figure, drawn anew (after this paint,
+        never inside it) when the figure, the view or the size changed."""
+        width, height, _ = self.canvas()
+        key = (self.figure, repr(self.navigation), width, height, self.app.current_theme.dark)
+        if width >= 10 and height >= 5 and key != self._imaged:
+            self._imaged = key
+            self.call_later(self._draw_image)
+        return ""
+
+    def _draw_image(self) -> None:
+        from tui.drawing import image_canvas  # matplotlib: only on a graphics terminal, never before the first paint
+
+        width, height, _ = self.canvas()
+        picture, frames = image_canvas.draw(self.shown, (width, height - 1), self.app.graphics.cell, self._imaged[-1])
+        self.image.image = picture
+        for part in [self.image, *self.image.walk_children()]:  # rows the image leaves uncovered: its own colour
+            part.styles.background = image_canvas.face(self._imaged[-1])
+        self.drawing = Drawing(Text(""), frames)
