@@ -13,6 +13,7 @@ from sessions.store import load_session
 from tui.figures import overlays
 from tui.figures.catalog import figures
 from tui.figures.data import Figure, Series
+from tui.figures.navigation import data_box
 from tui.figures.requirements import SHADE, Requirement, requirements
 from tui.state.workbench import Workbench
 
@@ -126,3 +127,32 @@ def test_the_stability_circle_and_the_history_views_carry_their_iterations_verdi
             drawn = [label for label in verdicts.values() if label in labels]
             assert kind in ("bode", "phase", "nichols") or verdicts["stability_margin"] in labels, (kind, labels)
             assert all(label in verdicts.values() for label in labels if " target: " in label), (kind, drawn)
+
+
+def test_a_settling_time_bound_uses_the_targets_own_band():
+    fig = Figure(series=[Series([-3.0, 0.5], [2.0, -2.0], "poles", scatter=True)])
+    overlays.poles(fig, [Requirement("settling_time", 4.0, False, 0.0, math.inf, True, settling_band=0.02)])
+    assert np.allclose(_drawn(fig, "settle <= 4 s")[0].x, -math.log(50) / 4.0)  # 2 %: e^(-sigma Ts) = 0.02
+
+
+def test_a_requirement_never_hides_a_curve():
+    """Requirement lines and shading are drawn beneath the curves: every braille dot of the
+    curves (and their marks) alone is still drawn with the requirements and the other
+    guides (the GM level drawn over the Bode magnitude cut the current curve where it
+    crossed the line's row)."""
+    from dataclasses import replace
+
+    from tests.tui.test_plot_bounds import _dots
+    from tui.drawing.text_canvas import draw
+
+    for name, fig in figures(_view("coebra_kuo_digital")).items():
+        if not any(" target: " in s.label for s in fig.series):
+            continue
+        box = data_box(fig)
+        fixed = replace(fig, xlim=box[:2], ylim=box[2:], legend=False)  # one layout for both
+        curves = [s for s in fig.series if not s.beneath and " target: " not in s.label and s.marker != SHADE]
+        bare = replace(fixed, series=curves)  # the curves and their marks alone
+        for width, height in ((100, 30), (70, 14)):
+            assert _dots(draw(bare, width, height, "textual-dark").text.plain) <= _dots(
+                draw(fixed, width, height, "textual-dark").text.plain
+            ), (name, width, height)

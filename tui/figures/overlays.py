@@ -18,11 +18,11 @@ from tui.figures.open_loop import disk_edge, m_circle
 from tui.figures.requirements import SHADE, Requirement
 
 SHADE_GRID = (9, 3)  # shading points across and up a violated region
-SETTLING_BAND = 0.05  # the step measures' settling band (engine.closed_loop.time_response)
 
 
 def _line(fig: Figure, x: Iterable[float], y: Iterable[float], req: Requirement, marker: str) -> None:
-    fig.series.append(Series(list(map(float, x)), list(map(float, y)), req.label, marker=marker, **req.style))
+    points = list(map(float, x)), list(map(float, y))
+    fig.series.append(Series(*points, req.label, marker=marker, beneath=True, **req.style))  # never over a curve
 
 
 def _shade(fig: Figure, req: Requirement, x0: float, x1: float, y0: float, y1: float) -> None:
@@ -94,7 +94,7 @@ def nichols(fig: Figure, found: list[Requirement]) -> None:
         _line(fig, x, y, worst, "─")
         for req in (pm, gm):
             if req is not None and req is not worst:
-                fig.series.append(Series([base], [0.0], req.label, marker="+", scatter=True, **req.style))
+                fig.series.append(Series([base], [0.0], req.label, marker="+", scatter=True, beneath=True, **req.style))
         _shade(fig, worst, base - half, base + half, -level, level)
     for req in found:
         if req.measure == "complementary_sensitivity_peak" and req.value > 0:
@@ -152,7 +152,7 @@ def poles(fig: Figure, found: list[Requirement]) -> None:
             _line(fig, [-req.value] * 2, [y0, y1], req, "│")
             _shade(fig, req, -req.value, max(x1, -req.value + 0.1 * reach), y0, y1)
         elif req.measure == "settling_time" and req.value > 0:
-            sigma = -math.log(SETTLING_BAND) / req.value  # a pole's envelope e^(-sigma t) inside the band
+            sigma = -math.log(req.settling_band) / req.value  # a pole's envelope e^(-sigma t) inside the band
             _line(fig, [-sigma] * 2, [y0, y1], req, "│")
             _shade(fig, req, -sigma, min(0.0, x1), y0, y1)
         elif req.measure == "overshoot_percent" and 0 < req.value < 100:
@@ -185,8 +185,7 @@ def step(fig: Figure, found: list[Requirement], final: float | None) -> None:
         elif req.measure == "peak_response":
             _line(fig, [x0, x1], [req.value, req.value], req, "─")
         elif req.measure == "steady_state_error" and final is not None:
-            reference = 1.0  # a unit step
-            for level in (reference - req.value, reference + req.value):
+            for level in (req.reference - req.value, req.reference + req.value):
                 _line(fig, [x0 + 0.6 * (x1 - x0), x1], [level, level], req, "─")
         elif req.measure in ("rise_time", "settling_time", "peak_time") and x0 <= req.value <= x1:
             _line(fig, [req.value] * 2, [y0, y1], req, "│")

@@ -28,6 +28,8 @@ class Requirement:
     low: float
     high: float
     met: bool | None
+    settling_band: float = 0.05  # a time target's response: the settling band and the reference
+    reference: float = 1.0
 
     @property
     def label(self) -> str:
@@ -58,7 +60,12 @@ def requirements(view: View, iteration: int | None = None) -> list[Requirement]:
             continue
         judged = [r.satisfied for r in rows if r.kind == target.measure and (not plotted or r.condition in plotted)]
         met = all(judged) if judged else None
+        response = target.response
+        timing = (response.settling_band, response.reference) if response is not None else ()
         for band in target.bands:
             if math.isfinite(band.requirement):
-                out.append(Requirement(target.measure, band.requirement, target.at_least, band.low, band.high, met))
+                found = Requirement(
+                    target.measure, band.requirement, target.at_least, band.low, band.high, met, *timing
+                )
+                out.append(found)
     return out
