@@ -532,6 +532,7 @@ class LoopcraftApp(App):
         self.edit_flow.change(
             self.bench.adopt_current,
             f"make iteration {iteration}'s design the start",
+            keeps_design=False,
             done=lambda _: self.notify(f"iteration {iteration}'s design is the start (ctrl+z undoes)"),
         )
 

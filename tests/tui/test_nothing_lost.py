@@ -12,7 +12,7 @@ from engine.cip import Cip
 from tests.tui.test_app import edit_row, settle, status, synchronous
 from tests.tui.test_run_race import send_keys
 from tui.app import LoopcraftApp
-from tui.screens.dialogs import ConfirmDialog
+from tui.screens.dialogs import ConfirmDialog, StartDialog
 from tui.screens.main import MainScreen
 
 
@@ -89,7 +89,7 @@ async def test_switching_the_algorithm_asks_before_dropping_iterations(workdir):
         await pilot.pause()
         await pilot.press("down", "enter")  # another algorithm than cip
         await pilot.pause()
-        assert isinstance(app.screen, ConfirmDialog)
+        assert isinstance(app.screen, StartDialog)  # the session's first edit that drops iterations asks
         await pilot.press("n")
         await settle(app, pilot)
         assert app.bench.iteration == 1 and app.bench.algorithm_name == "cip"

@@ -127,6 +127,7 @@ class Sweeps:
         app.edit_flow.change(
             app.bench.adopt_best,
             "use the best optimum's design as the start",
+            keeps_design=False,
             done=lambda run: app.notify(
                 "\n".join([f"the start is now run {run['index']}'s design", *run.get("widened", [])])
             ),

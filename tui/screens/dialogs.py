@@ -78,6 +78,38 @@ class ConfirmDialog(ModalScreen[bool]):
         self.dismiss(yes)
 
 
+class StartDialog(ModalScreen[str | None]):
+    """An edit that drops recorded iterations: which design the session starts from
+    then.  y or enter: the design on screen ("design"), s: the saved start ("saved"),
+    n or escape: no edit (None)."""
+
+    BINDINGS = [
+        Binding("y,enter", "answer('design')", "the design on screen"),
+        Binding("s", "answer('saved')", "the saved start"),
+        Binding("n,escape", "answer(None)", "cancel"),
+    ]
+    DEFAULT_CSS = """
+    StartDialog { align: center middle; }
+    StartDialog > Vertical { width: 72; height: auto; border: round $warning; padding: 0 1; background: $panel; }
+    StartDialog Label { width: 100%; }
+    """
+
+    def __init__(self, question: str):
+        super().__init__()
+        self.question = question
+
+    def compose(self) -> ComposeResult:
+        with Vertical():
+            yield Label(self.question, markup=False)
+            yield Label(
+                "[b]y[/b] start from the design on screen   [b]s[/b] back to the saved start   [b]n[/b] cancel\n"
+                "(the answer holds for the rest of the session)"
+            )
+
+    def action_answer(self, answer: str | None) -> None:
+        self.dismiss(answer)
+
+
 class ChooseDialog(ModalScreen[str | None]):
     """Pick one of several names."""
 

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from sessions.errors import SessionError
-from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog
+from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, StartDialog
 from tui.state.edit_history import Snapshot
 from tui.state.edits import Check, Edit
 
@@ -71,19 +71,28 @@ class EditFlow:
         failed: str = "nothing changed",
         done: Callable[[Any], None] | None = None,
         refused: Callable[[str], None] | None = None,
+        keeps_design: bool = True,
     ) -> None:
-        """Apply a change of the problem; ask first when iterations would be dropped
-        (or always, for deletions).  A failure changes nothing and is reported (to
-        ``refused`` when given, else as a notification)."""
+        """Apply a change of the problem.  When it drops recorded iterations, the design on
+        screen becomes the start first (``keeps_design``; the session's first such edit asks,
+        with the saved start as the other answer, and the answer holds: `Workbench.start`);
+        a deletion (``always_ask``) is confirmed.  A failure changes nothing and is reported
+        (to ``refused`` when given, else as a notification)."""
         iterations = self.bench.iteration
+        adopting = keeps_design and iterations > 0
 
-        def apply(yes: bool | None = True) -> None:
-            if not yes:
+        def apply(start: str | None = "design") -> None:
+            if start is None:
                 return
+            if adopting:
+                self.bench.start = start
             before = Snapshot.of(self.bench)
             try:
+                if adopting and start == "design":
+                    self.bench.adopt_current()
                 result = change()
             except (SessionError, ValueError) as exc:
+                before.restore(self.bench)
                 if refused is not None:
                     refused(f"not applied ({failed}): {exc}")
                 else:
@@ -91,16 +100,24 @@ class EditFlow:
             else:
                 self.bench.edits.push(before, self.bench)
                 self.bench.autosave(throttled=True)  # an accepted edit is never only in memory
+                if adopting:
+                    self.app.notify(_dropped(iterations, start), timeout=6)
                 if done is not None:
                     done(result)
             self.app.refresh_workbench()
 
-        if iterations or always_ask:
-            dropped = (
-                f"; the {iterations} recorded iteration(s) will be dropped (save first to keep them)"
-                if iterations
-                else ""
-            )
-            self.app.push_screen(ConfirmDialog(f"{what}{dropped}?"), apply)
+        if adopting and self.bench.start is None:
+            question = f"{what}: iterations 1-{iterations} are dropped (ctrl+z brings them back). Start from?"
+            self.app.push_screen(StartDialog(question), apply)
+        elif always_ask or (iterations and not keeps_design):
+            dropped = f"; iterations 1-{iterations} will be dropped (ctrl+z brings them back)" if iterations else ""
+            answer = self.bench.start or "design"
+            self.app.push_screen(ConfirmDialog(f"{what}{dropped}?"), lambda yes: apply(answer if yes else None))
         else:
-            apply()
+            apply(self.bench.start or "design")
+
+
+def _dropped(iterations: int, start: str) -> str:
+    """What an edit did to the recorded iterations and the start."""
+    kept = f"iteration {iterations}'s design is the start" if start == "design" else "back to the saved start"
+    return f"iterations 1-{iterations} dropped; {kept} (ctrl+z brings them back)"

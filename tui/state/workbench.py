@@ -44,6 +44,9 @@ class Workbench:
         self.plotted_condition: int | None = None  # the flight condition the plots show; None: all
         self.edits = EditHistory()
         self.paused_at: int | None = None  # the iteration a run was paused at
+        # the start after an edit that drops iterations: "design" (the one on screen), "saved"
+        # (the session's saved start), None (not asked yet: the first such edit asks)
+        self.start: str | None = None
         self.step_setup = StepSetup()  # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []  # undone iterations, latest last
         self._sweep_data: tuple[SweepModel, dict] | None = None  # the latest sweep and its JSON data

@@ -306,5 +306,6 @@ class HistoryTable(RefTable):
             lambda: self.bench.start_from(iteration),
             f"make iteration {iteration} the current one (later iterations are dropped)",
             always_ask=True,
+            keeps_design=False,
             done=lambda _: self.app.notify(f"iteration {iteration} is the current one"),
         )
