@@ -257,6 +257,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
     from engine.analysis import analyze, unity_feedback
 
+    if args.file is not None:
+        return _session_design(args)
     if args.table is not None:
         network, omega = _table_loop(args)
     elif not args.tf:
@@ -281,6 +283,35 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         print(analysis_to_text(result, shown, args.variable, args.delay))
         if locus is not None:
             print(locus_to_text(locus))
+    return 0
+
+
+def _session_design(args: argparse.Namespace) -> int:
+    """`analyze FILE.json`: the loop of a session's current design (the last iteration's,
+    else the start) in one flight condition, as text or JSON."""
+    from engine.analysis import analyze
+    from engine.stepping.protocol import StepRecord
+    from tui.cli.common import load
+
+    if args.tf or args.table is not None:
+        raise CliError("FILE.json analyzes a session's loop: give it, or --tf/--table, not both")
+    session = load(args.file)
+    problem, model = session.problem, session.model
+    names = [c.name for c in problem.conditions]
+    if not names:
+        raise CliError(f"{args.file}: the session has no loop (no flight condition)")
+    if args.condition is not None and args.condition not in names:
+        raise CliError(f"--condition {args.condition!r}: the session's conditions are {', '.join(names)}")
+    k = names.index(args.condition) if args.condition is not None else 0
+    at = model.current_iteration
+    named = StepRecord.from_json(model.records[at - 1]).parameters if at else None
+    c = problem.conditions[k]
+    result = analyze(c.network, c.break_at, problem.grid.omega, problem.condition_values(k, named=named))
+    if args.json:
+        print(json.dumps(analysis_to_json(result), indent=2, sort_keys=True))
+    else:
+        design = f"iteration {at}" if at else "the start"
+        print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"]))
     return 0
 
 
@@ -317,7 +348,11 @@ def _locus(args: argparse.Namespace, network, params: dict[str, float]):
 
 def add_parser(sub) -> None:
     """The `analyze` subcommand and its options."""
-    p = sub.add_parser("analyze", help="margins and closed-loop poles of a unity-feedback loop")
+    p = sub.add_parser(
+        "analyze", help="margins and closed-loop poles of a unity-feedback loop, or of a session's current design"
+    )
+    p.add_argument("file", nargs="?", metavar="FILE.json", help="a session: the loop of its current design")
+    p.add_argument("--condition", metavar="NAME", help="FILE.json: the flight condition (default: the first)")
     p.add_argument(
         "--tf",
         action="append",

@@ -1,5 +1,5 @@
 """The CLI's commands on a session file: run, replay, report, tradeoff,
-examples.  They use sessions and engine only (never the Textual app); the
+examples, and the hand edits set and tune (`sessions.shaping`).  They use sessions and engine only (never the Textual app); the
 algorithm-specific layout of a report comes from the algorithm's presenter."""
 
 from __future__ import annotations
@@ -178,6 +178,68 @@ def cmd_examples(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_set(args: argparse.Namespace) -> int:
+    """Set or scale parameters of the design on screen; save; print what changed."""
+    from sessions.shaping import Assignment, assign
+
+    session = load(args.file)
+    lines = assign(session, [Assignment.parse(text) for text in args.assignments])
+    _save(session, args)
+    print("\n".join(lines))
+    print(_margins(session, 0))
+    return 0
+
+
+def cmd_tune(args: argparse.Namespace) -> int:
+    """Solve the loop gain for a crossover frequency or a phase margin; save; print it."""
+    from sessions.shaping import tune
+
+    goal, _, number = args.gain_for.partition("=")
+    if goal not in ("crossover", "pm") or not number:
+        raise CliError(f"--gain-for {args.gain_for!r}: write crossover=W (rad/s) or pm=DEG")
+    try:
+        target = float(number)
+    except ValueError:
+        raise CliError(f"--gain-for {args.gain_for!r}: {number!r} is not a number") from None
+    session = load(args.file)
+    condition = _condition(session, args.condition)
+    solution, line = tune(session, goal, target, args.parameter, condition)
+    _save(session, args)
+    print(f"{line}  (x {solution.factor:.6g}, {solution.note})")
+    print(f"crossover {solution.frequency:.6g} rad/s, phase margin {solution.phase_margin:.4f} deg there")
+    print(_margins(session, condition))
+    return 0
+
+
+def _condition(session, name: str | None) -> int:
+    names = [c.name for c in session.problem.conditions]
+    if name is None:
+        return 0
+    if name not in names:
+        raise CliError(f"--condition {name!r}: the session's conditions are {', '.join(names)}")
+    return names.index(name)
+
+
+def _save(session, args: argparse.Namespace) -> None:
+    from sessions.store import OverwriteRefused, save_session
+
+    try:
+        save_session(session, args.out or args.file)
+    except OverwriteRefused as exc:
+        raise CliError(str(exc)) from None
+
+
+def _margins(session, condition: int) -> str:
+    """The analysis of a condition's loop at the session's start (now the edited design)."""
+    from engine.analysis import analyze
+    from tui.cli.analyze import analysis_to_text
+
+    problem = session.problem
+    c = problem.conditions[condition]
+    result = analyze(c.network, c.break_at, problem.grid.omega, problem.condition_values(condition))
+    return analysis_to_text(result, [f"{c.name}: the loop at {c.break_at}"])
+
+
 def add_parsers(sub) -> None:
     """The session subcommands and their options."""
     p = sub.add_parser("run", help="run a session's algorithm and save its records")
@@ -224,3 +286,20 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("examples", help="list (or copy) the bundled example sessions")
     p.add_argument("--copy", metavar="DIR")
     p.set_defaults(handler=cmd_examples)
+    p = sub.add_parser(
+        "set",
+        help="set or scale parameters of a session's design (T1=2 T2*=0.5 K*=+3dB); the design becomes the start",
+    )
+    p.add_argument("file")
+    p.add_argument("assignments", nargs="+", metavar="NAME=VALUE|NAME*=FACTOR|NAME*=+3dB")
+    p.add_argument("--out", help="save here instead of in place")
+    p.set_defaults(handler=cmd_set)
+    p = sub.add_parser("tune", help="solve the loop gain for a crossover frequency or a phase margin, exactly")
+    p.add_argument("file")
+    p.add_argument("--gain-for", required=True, metavar="crossover=W|pm=DEG")
+    p.add_argument(
+        "--parameter", metavar="NAME", help="the gain parameter (default: the one the loop is proportional to)"
+    )
+    p.add_argument("--condition", metavar="NAME", help="the flight condition whose loop is solved (default: the first)")
+    p.add_argument("--out", help="save here instead of in place")
+    p.set_defaults(handler=cmd_tune)

@@ -1,0 +1,143 @@
+"""Hand edits of a session's design, as the command line makes them (`loopcraft set`,
+`loopcraft tune`): the design on screen (the current iteration's, else the start)
+becomes the start, then named parameters are set or scaled, or the loop gain is solved
+for a crossover frequency or a phase margin (`engine.design.gain_solves`).  Bounds are
+respected: a value outside its parameter's bounds is refused, naming them."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from engine.design.gain_solves import GainSolution, gain_for_crossover, gain_for_phase_margin
+from engine.errors import EngineError
+from engine.loop.responses import loop_model
+from sessions.errors import SessionError
+from sessions.lifecycle import adopt_current, rebuild
+from sessions.store import Session
+
+ASSIGNMENT = re.compile(r"^\s*([A-Za-z_]\w*)\s*(\*?=)\s*([-+]?[^\s]+?)\s*(dB)?\s*$")
+LINEAR = 1e-9  # relative: doubling a gain parameter doubles GH within this
+
+
+@dataclass(frozen=True)
+class Assignment:
+    """``name = value`` or ``name *= factor`` (a factor in dB: ``K*=+3dB``)."""
+
+    name: str
+    scale: bool
+    value: float
+
+    @staticmethod
+    def parse(text: str) -> Assignment:
+        match = ASSIGNMENT.match(text)
+        if not match:
+            raise SessionError(f"{text!r}: write NAME=VALUE, NAME*=FACTOR or NAME*=+3dB")
+        name, op, number, db = match.groups()
+        try:
+            value = float(number)
+        except ValueError:
+            raise SessionError(f"{text!r}: {number!r} is not a number") from None
+        if db and op != "*=":
+            raise SessionError(f"{text!r}: dB scales a value: write {name}*={number}dB")
+        if not math.isfinite(value):
+            raise SessionError(f"{text!r}: the value must be finite")
+        return Assignment(name, op == "*=", 10 ** (value / 20) if db else value)
+
+
+def assign(session: Session, assignments: list[Assignment]) -> list[str]:
+    """Make the design on screen the start, then set or scale the named parameters (every
+    condition's value of a per-condition one); what changed, one line each."""
+    adopt_current(session)
+    lines = [
+        _set(session, item.name, lambda v, item=item: v * item.value if item.scale else item.value)
+        for item in assignments
+    ]
+    rebuild(session)
+    return lines
+
+
+def tune(session: Session, goal: str, target: float, parameter: str | None, condition: int) -> tuple[GainSolution, str]:
+    """Solve the loop gain of a condition for ``goal`` ("crossover", rad/s, or "pm", deg)
+    and scale the gain parameter by it, in that condition alone when it is per condition
+    (the design on screen first made the start): the solution and what changed."""
+    adopt_current(session)
+    problem = session.problem
+    if not 0 <= condition < len(problem.conditions):
+        raise SessionError(f"condition {condition} is outside 0..{len(problem.conditions) - 1}")
+    values = problem.condition_values(condition)
+    if parameter is not None and not _scales(session, condition, values, parameter):
+        raise SessionError(f"--parameter {parameter}: the loop is not proportional to it (no such gain)")
+    name = parameter or _gain_parameter(session, condition, values)
+    c = problem.conditions[condition]
+    try:
+        loop = loop_model(c.network, c.break_at, problem.grid.omega, values)
+        solution = (gain_for_crossover if goal == "crossover" else gain_for_phase_margin)(loop, target)
+    except EngineError as exc:
+        raise SessionError(f"{goal}={target:g}: {exc}") from None
+    line = _set(session, name, lambda v: v * solution.factor, condition)
+    rebuild(session)
+    return solution, line
+
+
+def _set(session: Session, name: str, change, condition: int | None = None) -> str:
+    """Change a parameter's start value (each condition's, or one condition's), within
+    its bounds: the line that says what changed."""
+    parameters = {p.name: p for p in session.model.problem.parameters}
+    if name not in parameters:
+        raise SessionError(f"{name}: no such parameter; the session has {', '.join(parameters)}")
+    p = parameters[name]
+    old = p.value
+    if isinstance(old, list):
+        new = [change(v) if condition in (None, k) else v for k, v in enumerate(old)]
+    else:
+        new = change(old)
+    for v in new if isinstance(new, list) else [new]:
+        _check_bounds(name, v, p.min, p.max)
+    p.value = new
+    return f"{name}: {_text(old)} -> {_text(new)}"
+
+
+def _gain_parameter(session: Session, condition: int, values: dict[str, float]) -> str:
+    """The one parameter the loop is proportional to (a refusal names the candidates)."""
+    scaling = [p.name for p in session.model.problem.parameters if _scales(session, condition, values, p.name)]
+    if len(scaling) != 1:
+        name = session.problem.conditions[condition].name
+        if not scaling:
+            raise SessionError(
+                f"no parameter scales the loop of {name}: write the compensator as K*(...) with a gain K"
+            )
+        raise SessionError(f"{', '.join(scaling)} all scale the loop of {name}: name the gain with --parameter")
+    return scaling[0]
+
+
+def _scales(session: Session, condition: int, values: dict[str, float], name: str) -> bool:
+    """Does doubling ``name`` double the loop (at three of the grid's frequencies)?"""
+    value = values.get(name)
+    if not value or not math.isfinite(value):
+        return False
+    problem = session.problem
+    c = problem.conditions[condition]
+    w = problem.grid.omega[np.linspace(0, problem.grid.omega.size - 1, 3).astype(int)]
+    try:
+        before = loop_model(c.network, c.break_at, w, values).gh
+        after = loop_model(c.network, c.break_at, w, {**values, name: 2 * value}).gh
+    except EngineError:
+        return False
+    with np.errstate(all="ignore"):
+        return bool(np.all(np.abs(after / before - 2.0) < LINEAR * 2))
+
+
+def _check_bounds(name: str, value: float, low: float | None, high: float | None) -> None:
+    if low is not None and value < low:
+        raise SessionError(f"{name} = {value:.6g} is below its bound {low:g} (min): not set")
+    if high is not None and value > high:
+        raise SessionError(f"{name} = {value:.6g} is above its bound {high:g} (max): not set")
+
+
+def _text(value: Any) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in value) + "]" if isinstance(value, list) else f"{value:.6g}"

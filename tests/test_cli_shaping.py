@@ -1,0 +1,99 @@
+"""`loopcraft set`, `loopcraft tune` and `loopcraft analyze FILE.json` (issue 38, section
+4): the lead for 1/(s^2 (s+10)) designed in three commands, checked against
+python-control on the saved session's values; bad input refused with exit status 2 and
+the file left as it was."""
+
+from __future__ import annotations
+
+import json
+
+import control as ct
+import numpy as np
+import pytest
+
+from tui.cli import main
+
+
+def _run(capsys, *args) -> tuple[int, str, str]:
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def _loop(path) -> ct.TransferFunction:
+    """The saved design's loop, built by python-control from the template's structure."""
+    values = {p["name"]: p["value"] for p in json.loads(path.read_text())["problem"]["parameters"]}
+    lead = ct.tf([values["K"] * values["T1"], values["K"]], [values["T2"], 1])
+    return lead * ct.tf([1], [1, 10, 0, 0])
+
+
+@pytest.fixture
+def lead(tmp_path, capsys):
+    path = tmp_path / "lead.json"
+    assert _run(capsys, "new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead")[0] == 0
+    text = json.loads(path.read_text())["problem"]["conditions"][0]["plant"]["blocks"][0]["transfer"]["expression"]
+    assert text == "K*(1+T1*s)/(1+T2*s)"  # the structure `_loop` rebuilds
+    return path
+
+
+def test_a_lead_for_a_double_integrator_in_three_commands(lead, capsys):
+    code, out, _ = _run(capsys, "tune", str(lead), "--gain-for", "crossover=1")
+    assert code == 0 and "exact on the loop" in out
+    assert abs(_loop(lead)(1j)) == pytest.approx(1.0, rel=1e-10)
+    assert _run(capsys, "set", str(lead), "T1*=1.5")[0] == 0
+    code, out, _ = _run(capsys, "tune", str(lead), "--gain-for", "pm=45")
+    gm, pm, _, _, wc, _ = ct.stability_margins(_loop(lead))
+    assert code == 0 and pm == pytest.approx(45.0, abs=1e-6) and wc >= 1.0
+    code, out, _ = _run(capsys, "analyze", str(lead))
+    assert code == 0 and f"{wc:.6g}" in out and "45.0000 deg" in out and "closed loop: stable" in out
+
+
+def test_set_scales_by_a_factor_and_by_decibels(lead, capsys):
+    before = {p["name"]: p["value"] for p in json.loads(lead.read_text())["problem"]["parameters"]}
+    code, out, _ = _run(capsys, "set", str(lead), "K*=+6dB", "T2=0.05")
+    after = {p["name"]: p["value"] for p in json.loads(lead.read_text())["problem"]["parameters"]}
+    assert code == 0 and after["K"] == pytest.approx(before["K"] * 10 ** (6 / 20)) and after["T2"] == 0.05
+    assert f"K: {before['K']:.6g} -> {after['K']:.6g}" in out
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["set", "{f}", "T9=1"], "T9: no such parameter; the session has K, T1, T2"),
+        (["set", "{f}", "T1=1e9"], "is above its bound"),
+        (["set", "{f}", "T1=3dB"], "dB scales a value"),
+        (["set", "{f}", "T1"], "write NAME=VALUE"),
+        (["tune", "{f}", "--gain-for", "bandwidth=3"], "write crossover=W (rad/s) or pm=DEG"),
+        (["tune", "{f}", "--gain-for", "pm=95", "--parameter", "T1"], "not proportional"),
+        (["tune", "{f}", "--gain-for", "pm=170"], "never reaches"),
+        (["analyze", "{f}", "--condition", "cruise"], "the session's conditions are nominal"),
+    ],
+)
+def test_bad_input_is_refused_and_the_file_is_untouched(lead, capsys, args, message):
+    saved = lead.read_bytes()
+    code, _, err = _run(capsys, *[a.format(f=lead) for a in args])
+    assert code == 2 and message in err and "Traceback" not in err
+    assert lead.read_bytes() == saved
+
+
+def test_tune_without_a_gain_names_what_to_do(capsys, tmp_path):
+    import shutil
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "sessions" / "examples" / "report003_lag_lead.json"
+    path = tmp_path / example.name
+    shutil.copy2(example, path)
+    code, _, err = _run(capsys, "tune", str(path), "--gain-for", "crossover=3")
+    assert code == 2 and "no parameter scales the loop of nominal" in err
+
+
+def test_tune_sets_a_pure_gain_compensator(capsys, tmp_path):
+    """The gain template (K alone): the crossover put where it is asked."""
+    path = tmp_path / "two.json"
+    assert _run(capsys, "new", str(path), "--plant", "1/(s*(s+1))", "--compensator", "gain")[0] == 0
+    data = json.loads(path.read_text())
+    names = [p["name"] for p in data["problem"]["parameters"]]
+    assert names == ["K"]
+    code, _, _ = _run(capsys, "tune", str(path), "--gain-for", "crossover=2")
+    k = json.loads(path.read_text())["problem"]["parameters"][0]["value"]
+    assert code == 0 and np.isfinite(k) and abs(k * ct.tf([1], [1, 1, 0])(2j)) == pytest.approx(1.0, rel=1e-10)
