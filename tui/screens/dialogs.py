@@ -55,14 +55,15 @@ class EditDialog(ModalScreen[str | None]):
         self.dismiss(None)
 
 
-class ConfirmDialog(ModalScreen[bool]):
-    """A yes/no question: y or enter answers yes, n or escape no."""
+class QuestionDialog(ModalScreen):
+    """A question answered by a key (the subclass's bindings call `answer`); ``KEYS``: the
+    line under it that says the keys."""
 
-    BINDINGS = [Binding("y,enter", "answer(True)", "yes"), Binding("n,escape", "answer(False)", "no")]
+    KEYS = ""
     DEFAULT_CSS = """
-    ConfirmDialog { align: center middle; }
-    ConfirmDialog > Vertical { width: 64; height: auto; border: round $warning; padding: 0 1; background: $panel; }
-    ConfirmDialog Label { width: 100%; }
+    QuestionDialog { align: center middle; }
+    QuestionDialog > Vertical { width: 64; height: auto; border: round $warning; padding: 0 1; background: $panel; }
+    QuestionDialog Label { width: 100%; }
     """
 
     def __init__(self, question: str):
@@ -72,13 +73,20 @@ class ConfirmDialog(ModalScreen[bool]):
     def compose(self) -> ComposeResult:
         with Vertical():
             yield Label(self.question, markup=False)
-            yield Label("[b]y[/b] yes   [b]n[/b] no")
+            yield Label(self.KEYS)
 
-    def action_answer(self, yes: bool) -> None:
-        self.dismiss(yes)
+    def action_answer(self, answer: object) -> None:
+        self.dismiss(answer)
 
 
-class StartDialog(ModalScreen[str | None]):
+class ConfirmDialog(QuestionDialog):
+    """A yes/no question: y or enter answers yes, n or escape no."""
+
+    BINDINGS = [Binding("y,enter", "answer(True)", "yes"), Binding("n,escape", "answer(False)", "no")]
+    KEYS = "[b]y[/b] yes   [b]n[/b] no"
+
+
+class StartDialog(QuestionDialog):
     """An edit that drops recorded iterations: which design the session starts from
     then.  y or enter: the design on screen ("design"), s: the saved start ("saved"),
     n or escape: no edit (None)."""
@@ -88,26 +96,10 @@ class StartDialog(ModalScreen[str | None]):
         Binding("s", "answer('saved')", "the saved start"),
         Binding("n,escape", "answer(None)", "cancel"),
     ]
-    DEFAULT_CSS = """
-    StartDialog { align: center middle; }
-    StartDialog > Vertical { width: 72; height: auto; border: round $warning; padding: 0 1; background: $panel; }
-    StartDialog Label { width: 100%; }
-    """
-
-    def __init__(self, question: str):
-        super().__init__()
-        self.question = question
-
-    def compose(self) -> ComposeResult:
-        with Vertical():
-            yield Label(self.question, markup=False)
-            yield Label(
-                "[b]y[/b] start from the design on screen   [b]s[/b] back to the saved start   [b]n[/b] cancel\n"
-                "(the answer holds for the rest of the session)"
-            )
-
-    def action_answer(self, answer: str | None) -> None:
-        self.dismiss(answer)
+    KEYS = (
+        "[b]y[/b] start from the design on screen   [b]s[/b] back to the saved start   [b]n[/b] cancel\n"
+        "(the answer holds for the rest of the session)"
+    )
 
 
 class ChooseDialog(ModalScreen[str | None]):

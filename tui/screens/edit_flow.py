@@ -107,10 +107,10 @@ class EditFlow:
             self.app.refresh_workbench()
 
         if adopting and self.bench.start is None:
-            question = f"{what}: iterations 1-{iterations} are dropped (ctrl+z brings them back). Start from?"
+            question = f"{what}: {_recorded(iterations)} dropped (ctrl+z undoes the edit). Start from?"
             self.app.push_screen(StartDialog(question), apply)
         elif always_ask or (iterations and not keeps_design):
-            dropped = f"; iterations 1-{iterations} will be dropped (ctrl+z brings them back)" if iterations else ""
+            dropped = f"; {_recorded(iterations)} will be dropped (ctrl+z undoes the edit)" if iterations else ""
             answer = self.bench.start or "design"
             self.app.push_screen(ConfirmDialog(f"{what}{dropped}?"), lambda yes: apply(answer if yes else None))
         else:
@@ -120,4 +120,9 @@ class EditFlow:
 def _dropped(iterations: int, start: str) -> str:
     """What an edit did to the recorded iterations and the start."""
     kept = f"iteration {iterations}'s design is the start" if start == "design" else "back to the saved start"
-    return f"iterations 1-{iterations} dropped; {kept} (ctrl+z brings them back)"
+    return f"{_recorded(iterations)} dropped; {kept} (ctrl+z undoes the edit)"
+
+
+def _recorded(iterations: int) -> str:
+    """The recorded iterations, named: 'iteration 1', 'iterations 1-3'."""
+    return "iteration 1" if iterations == 1 else f"iterations 1-{iterations}"
