@@ -46,6 +46,10 @@ def test_a_lead_for_a_double_integrator_in_three_commands(lead, capsys):
     assert code == 0 and pm == pytest.approx(45.0, abs=1e-6) and wc >= 1.0
     code, out, _ = _run(capsys, "analyze", str(lead))
     assert code == 0 and f"{wc:.6g}" in out and "45.0000 deg" in out and "closed loop: stable" in out
+    assert "compensator compensator:" in out and "zero at 0.666667 rad/s (T 1.5 s) [T1]" in out
+    code, out, _ = _run(capsys, "analyze", str(lead), "--json")
+    parts = json.loads(out)["compensators"]["compensator"]
+    assert code == 0 and [p["kind"] for p in parts] == ["gain", "zero", "pole"] and parts[2]["frequency"] == 10.0
 
 
 def test_set_scales_by_a_factor_and_by_decibels(lead, capsys):

@@ -306,13 +306,45 @@ def _session_design(args: argparse.Namespace) -> int:
     at = model.current_iteration
     named = StepRecord.from_json(model.records[at - 1]).parameters if at else None
     c = problem.conditions[k]
-    result = analyze(c.network, c.break_at, problem.grid.omega, problem.condition_values(k, named=named))
+    values = problem.condition_values(k, named=named)
+    result = analyze(c.network, c.break_at, problem.grid.omega, values)
+    parts = compensator_parts(c.network, values)
     if args.json:
-        print(json.dumps(analysis_to_json(result), indent=2, sort_keys=True))
+        out = analysis_to_json(result) | {
+            "compensators": {name: [_item_json(i) for i in found] for name, found in parts.items()}
+        }
+        print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
         print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"]))
+        for name, found in parts.items():
+            print(f"compensator {name}:\n" + "\n".join(f"  {i.text}" for i in found))
     return 0
+
+
+def compensator_parts(network, values: dict[str, float]) -> dict:
+    """The compensator entries of a loop (those with parameters) as the engineer reads them
+    (`engine.design.compensator_items`), by label (the block's name)."""
+    from engine.design.compensator_items import items
+    from engine.model.blocks import ExpressionTransfer
+
+    return {
+        e.label: items(e.transfer, values)
+        for e in network.entries
+        if isinstance(e.transfer, ExpressionTransfer) and e.transfer.parameters
+    }
+
+
+def _item_json(item) -> dict:
+    w = abs(item.root)
+    return {
+        "kind": item.kind,
+        "value": item.root.real if item.kind == "gain" else None,
+        "root": None if item.kind == "gain" else _pair(item.root),
+        "frequency": None if item.kind == "gain" else w,
+        "zeta": -item.root.real / w if item.kind.endswith("pair") and w else None,
+        "parameters": list(item.parameters),
+    }
 
 
 def _params(items: Sequence[str]) -> dict[str, float]:

@@ -1,0 +1,49 @@
+"""A compensator as the engineer reads it (issue 38, section 1): gain, corners, pairs and
+the parameters behind each, against closed forms and numpy's polynomial roots."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from engine.design.compensator_items import items
+from engine.model.blocks import ExpressionTransfer
+
+
+def _by_kind(found):
+    return [(i.kind, i.root, i.parameters) for i in found]
+
+
+def test_a_lead_reads_as_gain_zero_and_pole_each_with_its_parameter():
+    found = items(ExpressionTransfer("K*(1+T1*s)/(1+T2*s)"), {"K": 7.0, "T1": 1.5, "T2": 0.1})
+    (gain, g, by_gain), (zero, z, by_zero), (pole, p, by_pole) = _by_kind(found)
+    assert (gain, zero, pole) == ("gain", "zero", "pole")
+    assert g.real == pytest.approx(7.0) and z == pytest.approx(-1 / 1.5) and p == pytest.approx(-10.0)
+    assert (by_gain, by_zero, by_pole) == (("K",), ("T1",), ("T2",))
+    assert found[1].text == "zero at 0.666667 rad/s (T 1.5 s) [T1]"
+
+
+def test_pairs_integrators_and_the_right_half_plane():
+    found = items(ExpressionTransfer("K*(s^2+2*zn*wn*s+wn^2)/(s*(s+a))"), {"K": 2.0, "zn": 0.3, "wn": 2.0, "a": 10.0})
+    kinds = [i.kind for i in found]
+    assert kinds == ["gain", "integrator", "zero pair", "pole"]
+    pair = found[2]
+    assert abs(pair.root) == pytest.approx(2.0) and -pair.root.real / abs(pair.root) == pytest.approx(0.3)
+    assert set(pair.parameters) == {"wn", "zn"} and found[0].root.real == pytest.approx(2.0 * 4.0 / 10.0)
+    rhp = items(ExpressionTransfer("(1-T*s)/(1+T*s)"), {"T": 0.5})
+    assert "right half-plane" in rhp[1].text and rhp[1].root == pytest.approx(2.0)
+
+
+def test_a_polynomial_compensator_shows_its_roots_moved_by_its_coefficients():
+    values = {"x0": 1.0, "x1": 0.5, "x2": 0.1, "y1": 0.3, "y2": 0.02}
+    found = items(ExpressionTransfer("(x0+x1*s+x2*s^2)/(1+y1*s+y2*s^2)"), values)
+    zeros = np.roots([0.1, 0.5, 1.0])
+    poles = np.roots([0.02, 0.3, 1.0])
+    pair = next(i for i in found if i.kind == "zero pair")
+    assert pair.root == pytest.approx(zeros[zeros.imag > 0][0]) and set(pair.parameters) == {"x0", "x1", "x2"}
+    real = sorted(abs(i.root) for i in found if i.kind == "pole")
+    assert real == pytest.approx(sorted(abs(poles))) and found[0].root.real == pytest.approx(1.0)
+    assert [abs(i.root) for i in found[1:]] == sorted(abs(i.root) for i in found[1:])  # low frequency first
+    assert math.isclose(abs(pair.root), math.sqrt(10.0))
