@@ -72,7 +72,7 @@ def tune(session: Session, goal: str, target: float, parameter: str | None, cond
     values = problem.condition_values(condition)
     if parameter is not None and not _scales(session, condition, values, parameter):
         raise SessionError(f"--parameter {parameter}: the loop is not proportional to it (no such gain)")
-    name = parameter or _gain_parameter(session, condition, values)
+    name = parameter or gain_parameter(session, condition, values)
     c = problem.conditions[condition]
     try:
         loop = loop_model(c.network, c.break_at, problem.grid.omega, values)
@@ -102,8 +102,9 @@ def _set(session: Session, name: str, change, condition: int | None = None) -> s
     return f"{name}: {_text(old)} -> {_text(new)}"
 
 
-def _gain_parameter(session: Session, condition: int, values: dict[str, float]) -> str:
-    """The one parameter the loop is proportional to (a refusal names the candidates)."""
+def gain_parameter(session: Session, condition: int, values: dict[str, float]) -> str:
+    """The one parameter a condition's loop is proportional to at ``values`` (a refusal
+    names the candidates, or says to write a gain)."""
     scaling = [p.name for p in session.model.problem.parameters if _scales(session, condition, values, p.name)]
     if len(scaling) != 1:
         name = session.problem.conditions[condition].name

@@ -257,6 +257,30 @@ def _pole_probe(poles, variable: str) -> Probe:
     return Probe([float(p.real) for p in found], [float(p.imag) for p in found], readout, start=0)
 
 
+def _locus_probe(locus, name: str) -> Probe:
+    """A cursor along every branch (one after another), reading the gain (or parameter)
+    there and the closed-loop poles it gives; enter picks that value (`Probe.chosen`)."""
+    rows, count = locus.branches.shape
+    points = locus.branches.T.ravel()  # branch by branch
+    keep = np.flatnonzero(np.isfinite(points))
+    values = np.tile(locus.values, count)[keep]
+    rows_of = np.tile(np.arange(rows), count)[keep]
+
+    def readout(i: int) -> str:
+        poles = [p for p in locus.branches[rows_of[i]] if np.isfinite(p) and p.imag >= 0]
+        least = min(poles, key=lambda p: _damping(p)[0], default=None)
+        damped = "" if least is None else f"  least damped zeta {_damping(least)[0]:.3g} wn {_damping(least)[1]:.4g}"
+        return f"{name} = {values[i]:.5g}: poles " + ", ".join(_root_text(p) for p in poles[:4]) + damped
+
+    start = int(np.argmin(np.abs(values - locus.current_value))) if values.size else None
+    return Probe(points.real[keep].tolist(), points.imag[keep].tolist(), readout, start, lambda i: float(values[i]))
+
+
+def _root_text(p: complex) -> str:
+    """A closed-loop pole, a pair written once: '-0.5+-1.2j', '-8.1'."""
+    return f"{p.real:.4g}" if p.imag == 0 else f"{p.real:.4g}+-{p.imag:.4g}j"
+
+
 def _damping(p: complex) -> tuple[float, float]:
     """(zeta, wn) of a pole."""
     wn = abs(p)
@@ -311,6 +335,7 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     )
     if crossings:
         fig.xlabel = f"Re   jw-axis crossings: {crossings}"
+    fig.probe = _locus_probe(locus, name)
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
     if parameter == "gain":
         _asymptotes_and_breakaways(fig, locus)

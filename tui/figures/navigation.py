@@ -30,6 +30,7 @@ class Probe:
     y: list[float]
     readout: Callable[[int], str]
     start: int | None = None  # where the cursor appears (None: the middle point)
+    chosen: Callable[[int], object] | None = None  # what enter on a point picks (a locus: the gain there)
 
 
 def loop_probe(x, y, omega, gh, unit: str) -> Probe:

@@ -388,6 +388,11 @@ class MainScreen(Screen):
 
         self.run_worker(compute, thread=True, exclusive=True, group="figures")
 
+    @on(FigurePlot.Chosen)
+    def _plot_chosen(self, message: FigurePlot.Chosen) -> None:
+        if message.plot.id == "locus":  # enter on the root locus: the design takes the gain there
+            self.view_actions.adopt_locus_value(float(message.value))
+
     @on(FigurePlot.Shown)
     def _plot_shown(self) -> None:
         """A plot that comes on screen (its tab, either level, shown) is drawn anew when its

@@ -11,10 +11,12 @@ from textual.message import Message
 from textual.widgets import DataTable, TabbedContent
 
 from tui.figures import overlays
+from tui.figures.catalog import Same
 from tui.figures.closed_loop import locus_figure
 from tui.figures.data import Figure
 from tui.figures.requirements import requirements
 from tui.screens.dialogs import EditDialog
+from tui.state import edits
 from tui.state.clipboard import design_text, row_text
 from tui.state.step_view import format_step_setup, horizon, parse_step_setup
 from tui.state.views import View
@@ -104,7 +106,7 @@ class ViewActions:
         if plots is None or plots.active != "p-locus" or self.screen.query_one_optional("#locus") is None:
             return
         view = self.screen.bench.view() if view is None else view
-        key = (id(view.problem), view.iteration, view.plotted_condition, self.locus_parameter)
+        key = (Same(view.problem), view.iteration, view.plotted_condition, self.locus_parameter)
         if key == self._locus_key:
             return
         self._locus_key = key
@@ -140,6 +142,25 @@ class ViewActions:
             self.refresh_locus()
 
         self.screen.app.push_screen(ChooseDialog("root locus in", choices), chosen)
+
+    def adopt_locus_value(self, value: float) -> None:
+        """enter on the Run tab's root locus: the design takes the value at the cursor (the
+        loop gain k there, through the gain parameter; or the locus's parameter's value)."""
+        bench, parameter = self.screen.bench, self.locus_parameter
+        view = bench.view()
+        k = view.plotted()[0] if view.plotted() else 0
+        if parameter == "gain":
+            what = f"multiply the loop by k = {value:.5g} (the root locus's cursor)"
+            self.screen.app.edit_flow.change(
+                lambda: edits.scale_gain(bench, k, value),
+                what,
+                done=lambda name: self.screen.app.notify(f"{name} scaled by {value:.5g}: the loop gain at the cursor"),
+            )
+            return
+        self.screen.app.edit_flow.change(
+            lambda: edits.set_parameter(bench, parameter, value, k),
+            f"{parameter} = {value:.5g} (the root locus's cursor)",
+        )
 
     def locus_drawn(self, message: ViewActions.LocusDrawn) -> None:
         if message.key == self._locus_key:

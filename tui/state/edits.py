@@ -78,6 +78,33 @@ def set_fields(bench: Workbench, path: Ref, **values: Any) -> None:
     transaction(bench, change)
 
 
+def set_parameter(bench: Workbench, name: str, value: float, condition: int | None = None) -> None:
+    """A parameter's start value (one condition's entry of a per-condition one), as one
+    transaction (its bounds checked by the model)."""
+
+    def change(draft: ProblemModel) -> None:
+        found = next((p for p in draft.parameters if p.name == name), None)
+        if found is None:
+            raise SessionError(f"{name}: no such parameter")
+        if isinstance(found.value, list):
+            found.value = [value if condition in (None, k) else v for k, v in enumerate(found.value)]
+        else:
+            found.value = value
+
+    transaction(bench, change)
+
+
+def scale_gain(bench: Workbench, condition: int, factor: float) -> str:
+    """Multiply a condition's loop by ``factor`` through its gain parameter (the one the
+    loop is proportional to); its name."""
+    from sessions.shaping import gain_parameter
+
+    values = bench.session.problem.condition_values(condition)
+    name = gain_parameter(bench.session, condition, values)
+    set_parameter(bench, name, values[name] * factor, condition)
+    return name
+
+
 def change_list(bench: Workbench, path: Ref, change: Callable[[list], None]) -> None:
     """Change the model list at ``path`` in place, as one transaction."""
     transaction(bench, lambda draft: change(resolve(draft, path)))

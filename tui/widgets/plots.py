@@ -51,8 +51,22 @@ class FigurePlot(PlotextPlot):
             Binding("k", "pan(0, 0.25)", "", show=False, id="plot.pan_up"),
             Binding("j", "pan(0, -0.25)", "", show=False, id="plot.pan_down"),
             Binding("0", "reset_view", "reset", tooltip="the whole plot, no cursor"),
+            Binding(
+                "enter",
+                "choose",
+                "adopt",
+                tooltip="the root locus: adopt the gain (or parameter value) at the cursor",
+                id="plot.choose",
+            ),
         ],
     )
+
+    class Chosen(Message):
+        """enter on a point whose probe picks a value (`Probe.chosen`: a locus's gain)."""
+
+        def __init__(self, plot: FigurePlot, value: object) -> None:
+            super().__init__()
+            self.plot, self.value = plot, value
 
     class Shown(Message):
         """The plot came on screen (its tab shown, the screen resumed): whatever it shows
@@ -84,6 +98,20 @@ class FigurePlot(PlotextPlot):
     def action_cursor(self, step: int) -> None:
         self.navigation.move(self.figure, step)
         self.refresh()
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """enter acts only on a cursor over a probe that picks a value (a root locus)."""
+        if action == "choose":
+            probe = self.navigation.probe(self.figure)
+            return (
+                True if probe is not None and probe.chosen is not None and self.navigation.cursor is not None else None
+            )
+        return True
+
+    def action_choose(self) -> None:
+        probe = self.navigation.probe(self.figure)
+        if probe is not None and probe.chosen is not None and self.navigation.cursor is not None:
+            self.post_message(self.Chosen(self, probe.chosen(self.navigation.cursor)))
 
     def action_reset_view(self) -> None:
         self.navigation.reset()
