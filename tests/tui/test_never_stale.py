@@ -130,3 +130,24 @@ def test_a_figure_key_is_never_matched_by_a_later_object_at_a_freed_address():
 
     kept = figure_key(view(Problem()))
     assert all(figure_key(view(Problem())) != kept for _ in range(200))
+
+
+def test_the_noise_notes_are_those_of_the_record_asked_about(monkeypatch):
+    """Kept by (problem id, iteration): an undone finished iteration's notes were shown for
+    the different design stepped to the same iteration after it."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    import engine.design.notes as notes
+    from engine.stepping.protocol import Status
+    from sessions.store import load_session
+    from tui.state.workbench import Workbench
+
+    monkeypatch.setattr(notes, "noise_notes", lambda problem, values: [f"noise of {sorted(values.items())[0]}"])
+    path = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "lead_sensitivity_peak.json"
+    bench = Workbench(load_session(path))
+    bench.session.path = None
+    bench.step()
+    first = replace(bench.records[-1], status=Status.CONVERGED)
+    second = replace(first, parameters={name: 2 * value for name, value in first.parameters.items()})
+    assert bench.design_notes(first) != bench.design_notes(second)

@@ -50,7 +50,8 @@ class Workbench:
         self.step_setup = StepSetup()  # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []  # undone iterations, latest last
         self._sweep_data: tuple[SweepModel, dict] | None = None  # the latest sweep and its JSON data
-        self._noise: tuple[tuple | None, list[str]] = (None, [])  # a finished record's noise notes, by record
+        # a finished record's noise notes, with the problem and the record they are of
+        self._noise: tuple[object, object, list[str]] = (None, None, [])
 
     # -- the algorithm ------------------------------------------------------
 
@@ -312,10 +313,10 @@ class Workbench:
         values = dict(record.parameters)
         notes = at_bounds(self.session.problem, values)
         if record.status.finished:
-            key = (id(self.session.problem), record.iteration)
-            if self._noise[0] != key:
-                self._noise = (key, noise_notes(self.session.problem, values))
-            notes += self._noise[1]
+            problem, kept = self._noise[:2]
+            if problem is not self.session.problem or kept is not record:  # the objects held, not their ids
+                self._noise = (self.session.problem, record, noise_notes(self.session.problem, values))
+            notes += self._noise[2]
         return notes
 
     def view(self) -> View:
