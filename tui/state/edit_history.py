@@ -39,7 +39,7 @@ class Snapshot:
             model.current_iteration,
             model.state,
             bench.session.problem,
-            list(bench._records),
+            bench.parsed_records(),
         )
 
     def restore(self, bench) -> None:
@@ -49,8 +49,7 @@ class Snapshot:
         model.current_iteration, model.state = self.current_iteration, self.state
         bench.session.problem = self.problem
         bench.forget_stepper()
-        bench._records[:] = self.parsed_records
-        bench._redo.clear()  # undone iterations belonged to the state left
+        bench.put_back(self.parsed_records)
         bench.dirty = True
 
 

@@ -75,6 +75,16 @@ class Workbench:
     def records(self) -> list[StepRecord]:
         return self._records[: self.iteration]
 
+    def parsed_records(self) -> list[StepRecord]:
+        """Every parsed record, as an edit's snapshot keeps them (`edit_history.Snapshot`)."""
+        return list(self._records)
+
+    def put_back(self, parsed: list[StepRecord]) -> None:
+        """Records an edit's undo brings back; the iterations undone before it are forgotten
+        (their redo belonged to the state left)."""
+        self._records[:] = parsed
+        self._redo.clear()
+
     def status(self) -> Status:
         records = self.records
         return records[-1].status if records else Status.RUNNING
