@@ -20,13 +20,15 @@ from sessions.errors import SessionError
 from sessions.lifecycle import adopt_current, rebuild
 from sessions.store import Session
 
-ASSIGNMENT = re.compile(r"^\s*([A-Za-z_]\w*)\s*(\*?=)\s*([-+]?[^\s]+?)\s*(dB)?\s*$")
+ASSIGNMENT = re.compile(r"^\s*([^=*]+?)\s*(\*?=)\s*([-+]?[^\s]+?)\s*(dB)?\s*$")
 LINEAR = 1e-9  # relative: doubling a gain parameter doubles GH within this
 
 
 @dataclass(frozen=True)
 class Assignment:
-    """``name = value`` or ``name *= factor`` (a factor in dB: ``K*=+3dB``)."""
+    """``name = value`` or ``name *= factor`` (a factor in dB: ``K*=+3dB``); a name is a
+    parameter, or a compensator's item ``BLOCK.ITEM`` (its frequency, or its gain) or
+    ``BLOCK.ITEM.zeta`` (a pair's damping), items named as `compensator_items.named`."""
 
     name: str
     scale: bool
@@ -53,12 +55,53 @@ def assign(session: Session, assignments: list[Assignment]) -> list[str]:
     """Make the design on screen the start, then set or scale the named parameters (every
     condition's value of a per-condition one); what changed, one line each."""
     adopt_current(session)
-    lines = [
-        _set(session, item.name, lambda v, item=item: v * item.value if item.scale else item.value)
-        for item in assignments
-    ]
-    rebuild(session)
+    lines = []
+    for item in assignments:
+        if "." in item.name:
+            lines.append(_move(session, item))
+        else:
+            lines.append(_set(session, item.name, lambda v, item=item: v * item.value if item.scale else item.value))
+        rebuild(session)  # the next assignment reads the values this one set
     return lines
+
+
+def _move(session: Session, assignment: Assignment) -> str:
+    """Move a compensator's item (``BLOCK.ITEM[.zeta]``) of the first condition by solving
+    for the parameter that owns it (`compensator_items.moved`), within its bounds."""
+    from engine.design.compensator_items import items, moved, named
+
+    block, _, rest = assignment.name.partition(".")
+    item_name, _, measure = rest.partition(".")
+    problem = session.problem
+    values = problem.condition_values(0)
+    entry = (
+        next((e for e in problem.conditions[0].network.entries if e.label == block), None)
+        if problem.conditions
+        else None
+    )
+    if entry is None or not entry.transfer.parameters:
+        raise SessionError(f"{assignment.name}: no compensator block {block!r} (loopcraft analyze FILE lists them)")
+    found = items(entry.transfer, values)
+    names = named(found)
+    if item_name not in names or measure not in ("", "zeta"):
+        raise SessionError(f"{assignment.name}: {block} has {', '.join(names)} (and ITEM.zeta for a pair's damping)")
+    index = names.index(item_name)
+    kind = "damping" if measure else "frequency"
+    now = _item_measure(found[index], kind)
+    target = now * assignment.value if assignment.scale else assignment.value
+    bounds = {p.name: (p.min, p.max) for p in session.model.problem.parameters}
+    try:
+        name, value = moved(entry.transfer, values, index, target, kind, bounds)
+    except EngineError as exc:
+        raise SessionError(f"{assignment.name}: {exc}") from None
+    line = _set(session, name, lambda v: value, 0)
+    return f"{assignment.name}: {now:.6g} -> {target:.6g} ({line})"
+
+
+def _item_measure(item, kind: str) -> float:
+    if item.kind == "gain":
+        return item.root.real
+    return -item.root.real / abs(item.root) if kind == "damping" else abs(item.root)
 
 
 def tune(session: Session, goal: str, target: float, parameter: str | None, condition: int) -> tuple[GainSolution, str]:

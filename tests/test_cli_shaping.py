@@ -101,3 +101,30 @@ def test_tune_sets_a_pure_gain_compensator(capsys, tmp_path):
     code, _, _ = _run(capsys, "tune", str(path), "--gain-for", "crossover=2")
     k = json.loads(path.read_text())["problem"]["parameters"][0]["value"]
     assert code == 0 and np.isfinite(k) and abs(k * ct.tf([1], [1, 1, 0])(2j)) == pytest.approx(1.0, rel=1e-10)
+
+
+def test_set_moves_a_compensator_item_by_its_own_parameter(lead, capsys):
+    code, out, _ = _run(capsys, "analyze", str(lead))
+    assert "compensator.zero1: zero at 1 rad/s (T 1 s) [T1]" in out and "compensator.pole1: pole at" in out
+    code, out, err = _run(
+        capsys, "set", str(lead), "compensator.zero1=0.8", "compensator.pole1*=1.5", "compensator.gain*=+6dB"
+    )
+    values = {p["name"]: p["value"] for p in json.loads(lead.read_text())["problem"]["parameters"]}
+    assert code == 0 and "compensator.zero1: 1 -> 0.8 (T1: 1 -> 1.25)" in out, err
+    assert np.min(np.abs(_loop(lead).zeros() + 0.8)) < 1e-9  # python-control: the zero at -0.8, the pole at -15
+    assert np.min(np.abs(_loop(lead).poles() + 15.0)) < 1e-8
+    assert values["K"] == pytest.approx(10 ** (6 / 20), rel=1e-10)
+
+
+@pytest.mark.parametrize(
+    "item,message",
+    [
+        ("compensator.pair1=3", "compensator has gain, zero1, pole1"),
+        ("plant.pole1=3", "no compensator block 'plant'"),
+        ("compensator.zero1=1e-9", "within its bounds"),
+    ],
+)
+def test_an_item_that_cannot_move_says_why(lead, capsys, item, message):
+    saved = lead.read_bytes()
+    code, _, err = _run(capsys, "set", str(lead), item)
+    assert code == 2 and message in err and lead.read_bytes() == saved

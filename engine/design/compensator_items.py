@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
 from engine.errors import EngineError
 from engine.model.blocks import ExpressionTransfer
@@ -67,6 +68,21 @@ def items(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Ite
     return out + [item for _, item in sorted(found, key=lambda pair: pair[0])]
 
 
+def named(found: list[Item]) -> list[str]:
+    """The items' names, as `loopcraft set` takes them: gain, zero1, pole2, zeropair1,
+    polepair1, integrator1, differentiator1 (numbered by kind, low frequency first)."""
+    counts: dict[str, int] = {}
+    out = []
+    for item in found:
+        kind = item.kind.replace(" ", "")
+        if kind == "gain":
+            out.append("gain")
+            continue
+        counts[kind] = counts.get(kind, 0) + 1
+        out.append(f"{kind}{counts[kind]}")
+    return out
+
+
 def _bode_gain(base, scale: float) -> float:
     """The gain with each factor away from the origin written (1 + s/w): gain * prod(-z)/prod(-p)."""
     zeros = [z for z in base.zeros if abs(z) > ORIGIN * scale]
@@ -100,3 +116,107 @@ def _which(before: np.ndarray, after: np.ndarray, scale: float) -> list[bool]:
         k = int(np.argmin([abs(a - r) for a in left]))
         out.append(abs(left.pop(k) - r) > MOVED * max(abs(r), ORIGIN * scale))
     return out
+
+
+GROWTH = 2.0  # the bracket around a parameter's value grows by this factor a step
+BRACKET_STEPS = 40  # at most 2^40 either way
+TOLERANCE = 1e-12  # relative, on the solved parameter
+
+
+def moved(
+    transfer: ExpressionTransfer,
+    params: Mapping[str, float],
+    index: int,
+    target: float,
+    measure: str = "frequency",
+    bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
+) -> tuple[str, float]:
+    """The parameter and its value that bring item ``index`` (of `items`) to ``target``:
+    the frequency of a zero, pole or pair, the damping of a pair (``measure="damping"``),
+    the value of the gain.  One parameter is solved for, the one that moves this item's
+    measure most and the other items least; within its ``bounds``.  An `EngineError` says
+    why it cannot (a fixed item, a target out of the parameter's reach)."""
+    item = items(transfer, params)[index]
+    if not item.parameters:
+        raise EngineError(f"the {item.kind} is fixed: no parameter moves it")
+    name = _mover(transfer, params, index, measure)
+    value = params[name]
+    if not value or not math.isfinite(value):
+        raise EngineError(f"{name} is {value!r}: a value of 0 cannot be scaled to move the {item.kind}")
+    low, high = (bounds or {}).get(name, (None, None))
+
+    def miss(log_scale: float) -> float:
+        found = _tracked(transfer, {**params, name: value * math.exp(log_scale)}, item)
+        return math.log(_measure(found, measure)) - math.log(target)
+
+    here = miss(0.0)
+    if here == 0:
+        return name, value
+    for side in (1.0, -1.0):
+        step = 0.0
+        for _ in range(BRACKET_STEPS):
+            step += side * math.log(GROWTH)
+            scaled = value * math.exp(step)
+            if (low is not None and scaled < low) or (high is not None and scaled > high):
+                break
+            try:
+                there = miss(step)
+            except EngineError:
+                break
+            if np.sign(there) != np.sign(here):
+                root = brentq(miss, min(0.0, step), max(0.0, step), xtol=TOLERANCE)
+                return name, value * math.exp(root)
+    raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {measure} to {target:.6g}")
+
+
+def _measure(item: Item, measure: str) -> float:
+    if item.kind == "gain":
+        return abs(item.root.real)
+    if measure == "damping":
+        return max(-item.root.real / abs(item.root), 1e-300)
+    return abs(item.root)
+
+
+def _tracked(transfer: ExpressionTransfer, params: Mapping[str, float], like: Item) -> Item:
+    """The item of the same kind nearest ``like`` (in log frequency) at other values."""
+    same = [i for i in items(transfer, params) if i.kind == like.kind]
+    if not same:
+        raise EngineError(f"the {like.kind} is gone at these values")
+    if like.kind == "gain":
+        return same[0]
+    return min(same, key=lambda i: abs(math.log(abs(i.root) or 1e-300) - math.log(abs(like.root) or 1e-300)))
+
+
+def _mover(transfer: ExpressionTransfer, params: Mapping[str, float], index: int, measure: str) -> str:
+    """Of the parameters that move item ``index``, the one that moves its measure most
+    relative to how much it moves the others."""
+    base = items(transfer, params)
+    item = base[index]
+    shared = {n for i in base if i is not item and i.kind != "gain" for n in i.parameters}
+    own = [n for n in item.parameters if n not in shared]
+    if not own and item.kind == "gain":
+        raise EngineError("no one parameter sets the gain alone: write the compensator as K*(...) with a gain K")
+    if not own:
+        raise EngineError(
+            f"the {item.kind} is set by {', '.join(item.parameters)} together with other roots (a polynomial's "
+            "coefficients): no one parameter moves it alone"
+        )
+    best, score = own[0], -math.inf
+    for name in own:
+        value = params[name]
+        nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
+        try:
+            after = items(transfer, nudged)
+            own = abs(math.log(_measure(_tracked(transfer, nudged, item), measure) / _measure(item, measure)))
+        except (EngineError, ValueError):
+            continue
+        others = sum(
+            abs(math.log(_measure(a, "frequency") / _measure(b, "frequency")))
+            for a, b in zip(after, base)
+            if b is not item and a.kind == b.kind and _measure(b, "frequency") > 0 and _measure(a, "frequency") > 0
+        )
+        if item.kind.endswith("pair") and measure == "frequency":
+            others += abs(math.log(_measure(_tracked(transfer, nudged, item), "damping") / _measure(item, "damping")))
+        if own / (others + own * 1e-3 + 1e-300) > score:
+            best, score = name, own / (others + own * 1e-3 + 1e-300)
+    return best

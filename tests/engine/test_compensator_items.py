@@ -47,3 +47,37 @@ def test_a_polynomial_compensator_shows_its_roots_moved_by_its_coefficients():
     assert real == pytest.approx(sorted(abs(poles))) and found[0].root.real == pytest.approx(1.0)
     assert [abs(i.root) for i in found[1:]] == sorted(abs(i.root) for i in found[1:])  # low frequency first
     assert math.isclose(abs(pair.root), math.sqrt(10.0))
+
+
+def test_moving_an_item_solves_for_the_parameter_that_owns_it():
+    from engine.design.compensator_items import moved
+
+    lead = ExpressionTransfer("K*(1+T1*s)/(1+T2*s)")
+    values = {"K": 7.0, "T1": 1.5, "T2": 0.1}
+    assert moved(lead, values, 1, 0.7) == ("T1", pytest.approx(1 / 0.7, rel=1e-10))  # the zero to 0.7 rad/s
+    assert moved(lead, values, 2, 12.0) == ("T2", pytest.approx(1 / 12.0, rel=1e-10))
+    assert moved(lead, values, 0, 14.0) == ("K", pytest.approx(14.0, rel=1e-10))
+    notch = ExpressionTransfer("K*(s^2+2*zn*wn*s+wn^2)/(s*(s+a))")
+    values = {"K": 2.0, "zn": 0.3, "wn": 2.0, "a": 10.0}
+    assert moved(notch, values, 2, 2.5) == ("wn", pytest.approx(2.5, rel=1e-10))  # frequency: wn, zeta kept
+    assert moved(notch, values, 2, 0.5, "damping") == ("zn", pytest.approx(0.5, rel=1e-10))
+
+
+def test_moving_an_item_no_one_parameter_owns_is_refused_with_the_reason():
+    from engine.design.compensator_items import moved
+    from engine.errors import EngineError
+
+    values = {"x0": 1.0, "x1": 0.5, "x2": 0.1, "y1": 0.3, "y2": 0.02}
+    with pytest.raises(EngineError, match="set by y1, y2 together"):
+        moved(ExpressionTransfer("(x0+x1*s+x2*s^2)/(1+y1*s+y2*s^2)"), values, 2, 6.0)
+    corners = {"z1": 1.0, "z2": 5.0, "p1": 0.1, "p2": 50.0}
+    with pytest.raises(EngineError, match="write the compensator as K"):
+        moved(ExpressionTransfer("(s+z1)*(s+z2)/((s+p1)*(s+p2))"), corners, 0, 2.0)
+    with pytest.raises(EngineError, match="within its bounds"):
+        moved(
+            ExpressionTransfer("K*(1+T1*s)/(1+T2*s)"),
+            {"K": 1.0, "T1": 1.0, "T2": 0.1},
+            1,
+            0.01,
+            bounds={"T1": (0.5, 2)},
+        )

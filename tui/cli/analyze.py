@@ -290,6 +290,7 @@ def _session_design(args: argparse.Namespace) -> int:
     """`analyze FILE.json`: the loop of a session's current design (the last iteration's,
     else the start) in one flight condition, as text or JSON."""
     from engine.analysis import analyze
+    from engine.design.compensator_items import named as item_names
     from engine.stepping.protocol import StepRecord
     from tui.cli.common import load
 
@@ -311,14 +312,18 @@ def _session_design(args: argparse.Namespace) -> int:
     parts = compensator_parts(c.network, values)
     if args.json:
         out = analysis_to_json(result) | {
-            "compensators": {name: [_item_json(i) for i in found] for name, found in parts.items()}
+            "compensators": {
+                name: [_item_json(i) | {"name": n} for n, i in zip(item_names(found), found)]
+                for name, found in parts.items()
+            }
         }
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
         print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"]))
         for name, found in parts.items():
-            print(f"compensator {name}:\n" + "\n".join(f"  {i.text}" for i in found))
+            lines = [f"  {name}.{item_name}: {i.text}" for item_name, i in zip(item_names(found), found)]
+            print(f"compensator {name}:\n" + "\n".join(lines))
     return 0
 
 
