@@ -72,12 +72,14 @@ class EditFlow:
         done: Callable[[Any], None] | None = None,
         refused: Callable[[str], None] | None = None,
         keeps_design: bool = True,
+        burst: object = None,
     ) -> None:
         """Apply a change of the problem.  When it drops recorded iterations, the design on
         screen becomes the start first (``keeps_design``; the session's first such edit asks,
         with the saved start as the other answer, and the answer holds: `Workbench.start`);
         a deletion (``always_ask``) is confirmed.  A failure changes nothing and is reported
-        (to ``refused`` when given, else as a notification)."""
+        (to ``refused`` when given, else as a notification).  Edits of one ``burst`` (a
+        shaping key held on one item) are one undo step (`EditHistory.push`)."""
         iterations = self.bench.iteration
         adopting = keeps_design and iterations > 0
 
@@ -98,7 +100,7 @@ class EditFlow:
                 else:
                     self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
             else:
-                self.bench.edits.push(before, self.bench)
+                self.bench.edits.push(before, self.bench, burst)
                 self.bench.autosave(throttled=True)  # an accepted edit is never only in memory
                 if adopting:
                     self.app.notify(_dropped(iterations, start), timeout=6)

@@ -27,6 +27,7 @@ from tui.keys import identified
 from tui.screens.history_pane import HistoryPane
 from tui.screens.pole_lines import PoleLines
 from tui.screens.view_actions import ViewActions
+from tui.state import edits
 from tui.state.field_edits import objective_rows
 from tui.state.plant_rows import plant_rows
 from tui.state.tableau_text import tableau_text
@@ -35,6 +36,7 @@ from tui.state.workbench import Workbench
 from tui.widgets.footer import Footer
 from tui.widgets.matrix_table import MatrixTable
 from tui.widgets.plots import FigurePlot
+from tui.widgets.shape_table import ShapeTable
 from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 
@@ -87,6 +89,13 @@ class MainScreen(Screen):
             Binding("ctrl+s", "app.save", "save", id="main.save"),
             Binding("p", "next_plot", "next plot", tooltip="the Run tab's next plot, or the History plot's next view"),
             Binding(
+                "C",
+                "shape",
+                "shape",
+                show=False,
+                tooltip="shape the compensator by hand: its gain, zeros, poles and pairs, moved with keys",
+            ),
+            Binding(
                 "P",
                 "focus_plot",
                 "focus plot",
@@ -134,6 +143,8 @@ class MainScreen(Screen):
     #tableau-scroll { height: 1fr; }
     #tableau { height: auto; }
     #step-info { height: 6; }
+    #shape { height: auto; max-height: 9; display: none; }
+    #shape.shown { display: block; }
     #bode-mag, #bode-phase { height: 1fr; }
     #blocks, #matrix-grid, #parameters, #targets-table, #objective-table { height: 1fr; }
     """
@@ -162,6 +173,7 @@ class MainScreen(Screen):
                     with Vertical(id="tableau-side"):
                         with VerticalScroll(id="tableau-scroll"):
                             yield TextView("", id="tableau")
+                        yield ShapeTable(id="shape")
                         yield TextView("", id="step-info")
             with TabPane("Plant", id="plant"):
                 with Vertical():
@@ -226,6 +238,24 @@ class MainScreen(Screen):
         self.refresh_plots()
         if on_plot:  # the focus stays on the plots: on the one shown now
             self.call_after_refresh(self.action_focus_plot)
+
+    def action_shape(self) -> None:
+        """Show the shaping table under the tableau (Run tab) and focus it; again: hide it."""
+        table = self.query_one("#shape", ShapeTable)
+        if table.has_class("shown") and table.has_focus:
+            table.remove_class("shown")
+            self.focus_main("run")
+            return
+        self.action_tab("run")
+        table.add_class("shown")
+        self.fill_shape()
+        self.call_after_refresh(table.focus)
+
+    def fill_shape(self) -> None:
+        """The shaping table's rows, when it is shown."""
+        table = self.query_one("#shape", ShapeTable)
+        if table.has_class("shown"):
+            table.fill(edits.compensator_rows(self.bench))
 
     def tab_plot(self) -> FigurePlot | None:
         """The plot of the tab shown (the Run tab's: the first of its plot tab), if any."""
@@ -348,6 +378,7 @@ class MainScreen(Screen):
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
+        self.fill_shape()
         if plots:
             self.refresh_plots()
 

@@ -105,6 +105,72 @@ def scale_gain(bench: Workbench, condition: int, factor: float) -> str:
     return name
 
 
+def compensator_rows(bench: Workbench) -> list[tuple[str, str, Any]]:
+    """The compensators of the plotted condition's loop as the shaping table lists them:
+    (block.item name, reading, the item), at the start values (the design an edit keeps)."""
+    from engine.design.compensator_items import items, named
+    from engine.model.blocks import ExpressionTransfer
+
+    problem = bench.session.problem
+    if not problem.conditions:
+        return []
+    k = bench.view().plotted()[0] if bench.view().plotted() else 0
+    values = problem.condition_values(k)
+    rows = []
+    for entry in problem.conditions[k].network.entries:
+        if isinstance(entry.transfer, ExpressionTransfer) and entry.transfer.parameters:
+            found = items(entry.transfer, values)
+            rows += [(f"{entry.label}.{name}", item.text, item) for name, item in zip(named(found), found)]
+    return rows
+
+
+def move_item(bench: Workbench, name: str, scale: float, measure: str = "frequency") -> str:
+    """Move a compensator's item (``block.item``, of the plotted condition) by ``scale`` in
+    frequency (its gain by ``scale``, or a pair's damping), solving for the parameter that
+    owns it (`engine.design.compensator_items.moved`), as one transaction; the parameter."""
+    from engine.design.compensator_items import items, moved, named
+
+    problem = bench.session.problem
+    k = bench.view().plotted()[0] if bench.view().plotted() else 0
+    values = problem.condition_values(k)
+    block, _, item_name = name.partition(".")
+    entry = next(e for e in problem.conditions[k].network.entries if e.label == block)
+    found = items(entry.transfer, values)
+    index = named(found).index(item_name)
+    item = found[index]
+    now = item.root.real if item.kind == "gain" else abs(item.root)
+    if measure == "damping":
+        now = -item.root.real / abs(item.root)
+    bounds = {p.name: (p.min, p.max) for p in bench.session.model.problem.parameters}
+    try:
+        parameter, value = moved(entry.transfer, values, index, now * scale, measure, bounds)
+    except EngineError as exc:
+        raise SessionError(f"{name}: {exc}") from None
+    set_parameter(bench, parameter, value, k)
+    return parameter
+
+
+def gain_for(bench: Workbench, goal: str, target: float) -> str:
+    """Scale the plotted condition's gain parameter so its loop has the crossover (rad/s)
+    or the phase margin (deg) asked, exactly (`engine.design.gain_solves`); the parameter."""
+    from engine.design.gain_solves import gain_for_crossover, gain_for_phase_margin
+    from engine.loop.responses import loop_model
+    from sessions.shaping import gain_parameter
+
+    problem = bench.session.problem
+    k = bench.view().plotted()[0] if bench.view().plotted() else 0
+    values = problem.condition_values(k)
+    name = gain_parameter(bench.session, k, values)
+    c = problem.conditions[k]
+    try:
+        loop = loop_model(c.network, c.break_at, problem.grid.omega, values)
+        solution = (gain_for_crossover if goal == "crossover" else gain_for_phase_margin)(loop, target)
+    except EngineError as exc:
+        raise SessionError(str(exc)) from None
+    set_parameter(bench, name, values[name] * solution.factor, k)
+    return name
+
+
 def change_list(bench: Workbench, path: Ref, change: Callable[[list], None]) -> None:
     """Change the model list at ``path`` in place, as one transaction."""
     transaction(bench, lambda draft: change(resolve(draft, path)))

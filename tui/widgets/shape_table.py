@@ -1,0 +1,122 @@
+"""The shaping table: the plotted condition's compensators as an engineer reads them
+(gain, zeros, poles, pairs, with the parameters behind each), moved by keys; every move
+is an edit (undoable, one undo step per burst on one item) and every plot and the
+tableau follow.  `C` on the Run tab shows it."""
+
+from __future__ import annotations
+
+import math
+
+from textual.binding import Binding
+from textual.widgets import DataTable
+
+from tui.keys import identified
+from tui.state import edits
+
+STEP, BIG_STEP = 1.05, 1.25  # frequency factors of a nudge (shift: a big one)
+STEP_DB, BIG_STEP_DB = 0.5, 3.0  # the gain's nudges, dB
+DAMPING_STEP = 1.1  # a pair's damping factor of a nudge
+
+
+class ShapeTable(DataTable):
+    """One row per compensator item; left/right move it, [ and ] a pair's damping, e types
+    a value, g and G solve the loop gain for a crossover or a phase margin."""
+
+    BINDINGS = identified(
+        "shape",
+        [
+            Binding("left", "nudge(-1)", "lower", tooltip="the item 5 % lower in frequency (a gain 0.5 dB)"),
+            Binding("right", "nudge(1)", "higher", tooltip="the item 5 % higher in frequency (a gain 0.5 dB)"),
+            Binding("shift+left", "nudge(-5)", "", show=False, tooltip="25 % lower (a gain 3 dB)"),
+            Binding("shift+right", "nudge(5)", "", show=False, tooltip="25 % higher (a gain 3 dB)"),
+            Binding("left_square_bracket", "damp(-1)", "damping -", tooltip="a pair's damping 10 % lower"),
+            Binding("right_square_bracket", "damp(1)", "damping +", show=False, tooltip="a pair's damping 10 % higher"),
+            Binding("e", "type_value", "set", tooltip="type the item's frequency (rad/s), or the gain"),
+            Binding(
+                "g", "gain_for('crossover')", "gain for wc", tooltip="the gain that puts the crossover at a frequency"
+            ),
+            Binding("G", "gain_for('pm')", "gain for PM", tooltip="the gain that gives a phase margin"),
+        ],
+    )
+
+    def __init__(self, **kwargs):
+        super().__init__(cursor_type="row", **kwargs)
+        self.names: list[str] = []
+        self.found: list = []
+
+    def fill(self, rows: list[tuple[str, str, object]]) -> None:
+        """The items (name, reading, item), the cursor kept on its row."""
+        row = self.cursor_row
+        self.clear(columns=not self.columns)
+        if not self.columns:
+            self.add_columns("item", "reads")
+        self.names = [name for name, _, _ in rows]
+        self.found = [item for _, _, item in rows]
+        for name, text, _ in rows:
+            self.add_row(name, text)
+        if rows:
+            self.move_cursor(row=min(max(row, 0), len(rows) - 1))
+
+    @property
+    def selected(self) -> tuple[str, object] | None:
+        k = self.cursor_row
+        return (self.names[k], self.found[k]) if 0 <= k < len(self.names) else None
+
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        if action in ("nudge", "damp", "type_value", "gain_for"):
+            if self.app.busy or self.selected is None:
+                return None
+            if action == "damp":
+                return True if self.selected[1].kind.endswith("pair") else None
+        return True
+
+    def action_nudge(self, steps: int) -> None:
+        name, item = self.selected
+        if item.kind == "gain":
+            db = (STEP_DB if abs(steps) == 1 else BIG_STEP_DB) * (1 if steps > 0 else -1)
+            self._move(name, 10 ** (db / 20), f"{name} {db:+g} dB")
+        else:
+            factor = (STEP if abs(steps) == 1 else BIG_STEP) ** (1 if steps > 0 else -1)
+            self._move(name, factor, f"{name} x {factor:.4g}")
+
+    def action_damp(self, direction: int) -> None:
+        name, _ = self.selected
+        self._move(name, DAMPING_STEP**direction, f"{name} damping x {DAMPING_STEP**direction:.3g}", "damping")
+
+    def _move(self, name: str, scale: float, what: str, measure: str = "frequency") -> None:
+        bench = self.app.bench
+        self.app.edit_flow.change(lambda: edits.move_item(bench, name, scale, measure), what, burst=(name, measure))
+
+    def action_type_value(self) -> None:
+        name, item = self.selected
+        now = item.root.real if item.kind == "gain" else abs(item.root)
+        unit = "" if item.kind == "gain" else " (rad/s)"
+
+        def apply(text: str) -> None:
+            edits.move_item(self.app.bench, name, float(text) / now, "frequency")
+
+        self.app.edit_flow.line(f"{name}{unit}: now {now:.6g}", _positive, apply, f"set {name}")
+
+    def action_gain_for(self, goal: str) -> None:
+        title = "the crossover frequency (rad/s)" if goal == "crossover" else "the phase margin (deg)"
+
+        def apply(text: str) -> None:
+            edits.gain_for(self.app.bench, goal, float(text))
+
+        self.app.edit_flow.line(f"the loop gain for {title}", _number, apply, f"the gain for {goal} {title}")
+
+
+def _positive(text: str) -> str | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return "a number"
+    return None if value > 0 and math.isfinite(value) else "a positive, finite number"
+
+
+def _number(text: str) -> str | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return "a number"
+    return None if math.isfinite(value) else "a finite number"
