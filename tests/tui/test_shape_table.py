@@ -25,6 +25,14 @@ def _loop(values) -> ct.TransferFunction:
     return ct.tf([values["K"] * values["T1"], values["K"]], [values["T2"], 1]) * PLANT
 
 
+def _lead_app(tmp_path, monkeypatch) -> LoopcraftApp:
+    """The app on a new lead session for 1/(s^2 (s+10)): K*(1+T1*s)/(1+T2*s)."""
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    path = tmp_path / "lead.json"
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
+    return LoopcraftApp(path)
+
+
 async def _typed(app, pilot, key: str, text: str) -> None:
     await pilot.press(key)
     await pilot.pause()
@@ -35,10 +43,7 @@ async def _typed(app, pilot, key: str, text: str) -> None:
 
 @synchronous
 async def test_a_lead_shaped_by_keys(tmp_path, monkeypatch):
-    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
-    path = tmp_path / "lead.json"
-    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
-    app = LoopcraftApp(path)
+    app = _lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         await pilot.press("C")
@@ -74,10 +79,7 @@ TUTORIAL = ["C", "g", "1", "enter", "down"]  # docs/tutorial.md, "Shaping a lead
 async def test_the_tutorials_lead_takes_well_under_thirty_keys(tmp_path, monkeypatch):
     """The issue's lead for 1/(s^2 (s+10)) by hand: the gain for a 1 rad/s crossover, then the
     zero nudged down until PM >= 45 deg (python-control's margins of the design on screen)."""
-    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
-    path = tmp_path / "lead.json"
-    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
-    app = LoopcraftApp(path)
+    app = _lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         keys = 0
