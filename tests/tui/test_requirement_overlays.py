@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from sessions.store import load_session
 from tui.figures import overlays
@@ -156,3 +157,23 @@ def test_a_requirement_never_hides_a_curve():
             assert _dots(draw(bare, width, height, "textual-dark").text.plain) <= _dots(
                 draw(fixed, width, height, "textual-dark").text.plain
             ), (name, width, height)
+
+
+def test_the_compensators_corners_are_marked_on_the_bode_magnitude(tmp_path):
+    """A lead's zero (1/T1) and pole (1/T2) on the current magnitude curve, where the
+    shaping table moves them (issue 38, section 2)."""
+    from tui.cli import main
+
+    path = tmp_path / "lead.json"
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
+    bench = Workbench(load_session(path))
+    values = {p.name: p.value for p in bench.session.model.problem.parameters}
+    fig = figures(bench.view())["bode-mag"]
+    zero, pole = _drawn(fig, "compensator zeros")[0], _drawn(fig, "compensator poles")[0]
+    assert zero.x == pytest.approx([math.log10(1 / values["T1"])]) and pole.x == pytest.approx(
+        [math.log10(1 / values["T2"])]
+    )
+    k = values["K"]
+    for mark, w in ((zero, 1 / values["T1"]), (pole, 1 / values["T2"])):
+        gh = k * (1 + values["T1"] * 1j * w) / (1 + values["T2"] * 1j * w) / ((1j * w) ** 2 * (1j * w + 10))
+        assert mark.y[0] == pytest.approx(20 * math.log10(abs(gh)), abs=0.05)  # on the curve (its samples)

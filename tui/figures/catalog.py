@@ -67,6 +67,7 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         out["nyquist"] = nyquist_figure(curves, points(view), unit=unit)  # circles: `overlays.nyquist`
     if curves and asked("bode-mag", "bode-phase"):
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
+        overlays.corners(out["bode-mag"], compensator_corners(view), unit)
     if curves and asked("nichols"):
         out["nichols"] = nichols_figure(curves, unit)
     if "closed_loop" in wanted and view.problem.conditions and asked("closed-loop"):
@@ -86,6 +87,28 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
     if asked("sweep-plot"):
         out["sweep-plot"] = sweep_figure(view.sweep)
     _overlay(out, requirements(view), unit)
+    return out
+
+
+def compensator_corners(view: View) -> list[tuple[str, float]]:
+    """("zero" or "pole", frequency rad/s) of the plotted condition's compensators at the
+    current design (`engine.design.compensator_items`; none when they do not read)."""
+    from engine.design.compensator_items import items
+    from engine.errors import EngineError
+    from engine.model.blocks import ExpressionTransfer
+
+    if not view.problem.conditions:
+        return []
+    k = view.plotted()[0] if view.plotted() else 0
+    values = view.parameters(None, k)
+    out = []
+    for entry in view.problem.conditions[k].network.entries:
+        if isinstance(entry.transfer, ExpressionTransfer) and entry.transfer.parameters:
+            try:
+                found = items(entry.transfer, values)
+            except (EngineError, ValueError):
+                continue
+            out += [(i.kind.split()[0], abs(i.root)) for i in found if i.kind.split()[0] in ("zero", "pole")]
     return out
 
 

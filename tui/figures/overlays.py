@@ -78,6 +78,21 @@ def bode(magnitude: Figure, phase: Figure, found: list[Requirement], unit: str) 
             _shade(phase, req, *band, base, base + req.value)
 
 
+def corners(magnitude: Figure, corners_found: list[tuple[str, float]], unit: str) -> None:
+    """The compensator's corner frequencies on the Bode magnitude, on the current curve:
+    z for a zero (or a pair of zeros), p for a pole, where the shaping table moves them."""
+    if magnitude.probe is None or not corners_found:
+        return
+    scale = 2 * math.pi if unit == "hz" else 1.0
+    x, y = np.asarray(magnitude.probe.x), np.asarray(magnitude.probe.y)
+    for kind, marker in (("zero", "z"), ("pole", "p")):
+        at = [math.log10(w / scale) for k, w in corners_found if k == kind and w > 0]
+        at = [v for v in at if x[0] <= v <= x[-1]]
+        if at:
+            label = f"compensator {kind}s"
+            magnitude.series.append(Series(at, np.interp(at, x, y).tolist(), label, marker=marker, scatter=True))
+
+
 def nichols(fig: Figure, found: list[Requirement]) -> None:
     """The PM/GM exclusion box about the critical point, and the M-circle of an Mt target."""
     if fig.probe is None:
