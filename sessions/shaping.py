@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from engine.design.gain_solves import GainSolution, gain_for_crossover, gain_for_phase_margin
+from engine.design.gain_solves import GainSolution, gain_for
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
@@ -67,41 +67,20 @@ def assign(session: Session, assignments: list[Assignment]) -> list[str]:
 
 def _move(session: Session, assignment: Assignment) -> str:
     """Move a compensator's item (``BLOCK.ITEM[.zeta]``) of the first condition by solving
-    for the parameter that owns it (`compensator_items.moved`), within its bounds."""
-    from engine.design.compensator_items import items, moved, named
+    for the parameter that owns it (`compensator_items.move_named`), within its bounds."""
+    from engine.design.compensator_items import move_named
 
-    block, _, rest = assignment.name.partition(".")
-    item_name, _, measure = rest.partition(".")
     problem = session.problem
-    values = problem.condition_values(0)
-    entry = (
-        next((e for e in problem.conditions[0].network.entries if e.label == block), None)
-        if problem.conditions
-        else None
-    )
-    if entry is None or not entry.transfer.parameters:
-        raise SessionError(f"{assignment.name}: no compensator block {block!r} (loopcraft analyze FILE lists them)")
-    found = items(entry.transfer, values)
-    names = named(found)
-    if item_name not in names or measure not in ("", "zeta"):
-        raise SessionError(f"{assignment.name}: {block} has {', '.join(names)} (and ITEM.zeta for a pair's damping)")
-    index = names.index(item_name)
-    kind = "damping" if measure else "frequency"
-    now = _item_measure(found[index], kind)
-    target = now * assignment.value if assignment.scale else assignment.value
+    if not problem.conditions:
+        raise SessionError(f"{assignment.name}: the session has no loop")
     bounds = {p.name: (p.min, p.max) for p in session.model.problem.parameters}
+    change = (lambda now: now * assignment.value) if assignment.scale else (lambda now: assignment.value)
     try:
-        name, value = moved(entry.transfer, values, index, target, kind, bounds)
+        move = move_named(problem.conditions[0].network, problem.condition_values(0), assignment.name, change, bounds)
     except EngineError as exc:
-        raise SessionError(f"{assignment.name}: {exc}") from None
-    line = _set(session, name, lambda v: value, 0)
-    return f"{assignment.name}: {now:.6g} -> {target:.6g} ({line})"
-
-
-def _item_measure(item, kind: str) -> float:
-    if item.kind == "gain":
-        return item.root.real
-    return -item.root.real / abs(item.root) if kind == "damping" else abs(item.root)
+        raise SessionError(str(exc)) from None
+    line = _set(session, move.parameter, lambda v: move.value, 0)
+    return f"{assignment.name}: {move.now:.6g} -> {move.target:.6g} ({line})"
 
 
 def tune(session: Session, goal: str, target: float, parameter: str | None, condition: int) -> tuple[GainSolution, str]:
@@ -109,6 +88,17 @@ def tune(session: Session, goal: str, target: float, parameter: str | None, cond
     and scale the gain parameter by it, in that condition alone when it is per condition
     (the design on screen first made the start): the solution and what changed."""
     adopt_current(session)
+    name, solution = solved_gain(session, condition, goal, target, parameter)
+    line = _set(session, name, lambda v: v * solution.factor, condition)
+    rebuild(session)
+    return solution, line
+
+
+def solved_gain(
+    session: Session, condition: int, goal: str, target: float, parameter: str | None = None
+) -> tuple[str, GainSolution]:
+    """The gain parameter of a condition's loop at the start values (``parameter``, checked,
+    else the one the loop is proportional to) and the solution for ``goal`` (`gain_for`)."""
     problem = session.problem
     if not 0 <= condition < len(problem.conditions):
         raise SessionError(f"condition {condition} is outside 0..{len(problem.conditions) - 1}")
@@ -118,13 +108,9 @@ def tune(session: Session, goal: str, target: float, parameter: str | None, cond
     name = parameter or gain_parameter(session, condition, values)
     c = problem.conditions[condition]
     try:
-        loop = loop_model(c.network, c.break_at, problem.grid.omega, values)
-        solution = (gain_for_crossover if goal == "crossover" else gain_for_phase_margin)(loop, target)
+        return name, gain_for(loop_model(c.network, c.break_at, problem.grid.omega, values), goal, target)
     except EngineError as exc:
         raise SessionError(f"{goal}={target:g}: {exc}") from None
-    line = _set(session, name, lambda v: v * solution.factor, condition)
-    rebuild(session)
-    return solution, line
 
 
 def _set(session: Session, name: str, change, condition: int | None = None) -> str:

@@ -7,7 +7,7 @@ moves belongs to it)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +16,7 @@ from scipy.optimize import brentq
 from engine.errors import EngineError
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factored import pole_zero
+from engine.model.network import Network
 
 NUDGE = 1e-6  # relative change of a parameter that tells which roots it moves
 MOVED = 1e-9  # relative change of a root (or the gain) that counts as moved
@@ -66,6 +67,55 @@ def items(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Ite
             else:
                 found.append((abs(r), Item(f"{kind} pair" if r.imag > 0 else kind, complex(r), by)))
     return out + [item for _, item in sorted(found, key=lambda pair: pair[0])]
+
+
+def compensators(network: Network, params: Mapping[str, float]) -> dict[str, list[Item]]:
+    """The items of every compensator of a loop (its entries with parameters), by label."""
+    return {
+        e.label: items(e.transfer, params)
+        for e in network.entries
+        if isinstance(e.transfer, ExpressionTransfer) and e.transfer.parameters
+    }
+
+
+@dataclass(frozen=True)
+class Move:
+    """An item moved by name: the parameter solved for and its value, the item's measure
+    before (``now``) and asked (``target``)."""
+
+    parameter: str
+    value: float
+    now: float
+    target: float
+
+
+def move_named(
+    network: Network,
+    params: Mapping[str, float],
+    name: str,
+    target: Callable[[float], float],
+    bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
+) -> Move:
+    """Move the item ``BLOCK.ITEM`` (its frequency, or the gain) or ``BLOCK.ITEM.zeta`` (a
+    pair's damping) of a loop, items named as `named`, to ``target(now)`` (`moved`)."""
+    block, _, rest = name.partition(".")
+    item_name, _, suffix = rest.partition(".")
+    entry = next((e for e in network.entries if e.label == block), None)
+    if entry is None or not isinstance(entry.transfer, ExpressionTransfer) or not entry.transfer.parameters:
+        raise EngineError(f"{name}: no compensator block {block!r} (loopcraft analyze FILE lists them)")
+    found = items(entry.transfer, params)
+    names = named(found)
+    if item_name not in names or suffix not in ("", "zeta"):
+        raise EngineError(f"{name}: {block} has {', '.join(names)} (and ITEM.zeta for a pair's damping)")
+    index = names.index(item_name)
+    kind = "damping" if suffix else "frequency"
+    now = measure(found[index], kind)
+    wanted = target(now)
+    try:
+        parameter, value = moved(entry.transfer, params, index, wanted, kind, bounds)
+    except EngineError as exc:
+        raise EngineError(f"{name}: {exc}") from None
+    return Move(parameter, value, now, wanted)
 
 
 def named(found: list[Item]) -> list[str]:
@@ -128,18 +178,18 @@ def moved(
     params: Mapping[str, float],
     index: int,
     target: float,
-    measure: str = "frequency",
+    kind: str = "frequency",
     bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
 ) -> tuple[str, float]:
     """The parameter and its value that bring item ``index`` (of `items`) to ``target``:
-    the frequency of a zero, pole or pair, the damping of a pair (``measure="damping"``),
+    the frequency of a zero, pole or pair, the damping of a pair (``kind="damping"``),
     the value of the gain.  One parameter is solved for, the one that moves this item's
     measure most and the other items least; within its ``bounds``.  An `EngineError` says
     why it cannot (a fixed item, a target out of the parameter's reach)."""
     item = items(transfer, params)[index]
     if not item.parameters:
         raise EngineError(f"the {item.kind} is fixed: no parameter moves it")
-    name = _mover(transfer, params, index, measure)
+    name = _mover(transfer, params, index, kind)
     value = params[name]
     if not value or not math.isfinite(value):
         raise EngineError(f"{name} is {value!r}: a value of 0 cannot be scaled to move the {item.kind}")
@@ -147,7 +197,7 @@ def moved(
 
     def miss(log_scale: float) -> float:
         found = _tracked(transfer, {**params, name: value * math.exp(log_scale)}, item)
-        return math.log(_measure(found, measure)) - math.log(target)
+        return math.log(measure(found, kind)) - math.log(target)
 
     here = miss(0.0)
     if here == 0:
@@ -166,13 +216,15 @@ def moved(
             if np.sign(there) != np.sign(here):
                 root = brentq(miss, min(0.0, step), max(0.0, step), xtol=TOLERANCE)
                 return name, value * math.exp(root)
-    raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {measure} to {target:.6g}")
+    raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {kind} to {target:.6g}")
 
 
-def _measure(item: Item, measure: str) -> float:
+def measure(item: Item, kind: str = "frequency") -> float:
+    """What a move of an item changes: its frequency (rad/s), a pair's damping (``kind=
+    "damping"``), the gain's size (its magnitude: a move keeps its sign)."""
     if item.kind == "gain":
         return abs(item.root.real)
-    if measure == "damping":
+    if kind == "damping":
         return max(-item.root.real / abs(item.root), 1e-300)
     return abs(item.root)
 
@@ -187,7 +239,7 @@ def _tracked(transfer: ExpressionTransfer, params: Mapping[str, float], like: It
     return min(same, key=lambda i: abs(math.log(abs(i.root) or 1e-300) - math.log(abs(like.root) or 1e-300)))
 
 
-def _mover(transfer: ExpressionTransfer, params: Mapping[str, float], index: int, measure: str) -> str:
+def _mover(transfer: ExpressionTransfer, params: Mapping[str, float], index: int, kind: str) -> str:
     """Of the parameters that move item ``index``, the one that moves its measure most
     relative to how much it moves the others."""
     base = items(transfer, params)
@@ -207,16 +259,16 @@ def _mover(transfer: ExpressionTransfer, params: Mapping[str, float], index: int
         nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
         try:
             after = items(transfer, nudged)
-            own = abs(math.log(_measure(_tracked(transfer, nudged, item), measure) / _measure(item, measure)))
+            own = abs(math.log(measure(_tracked(transfer, nudged, item), kind) / measure(item, kind)))
         except (EngineError, ValueError):
             continue
         others = sum(
-            abs(math.log(_measure(a, "frequency") / _measure(b, "frequency")))
+            abs(math.log(measure(a, "frequency") / measure(b, "frequency")))
             for a, b in zip(after, base)
-            if b is not item and a.kind == b.kind and _measure(b, "frequency") > 0 and _measure(a, "frequency") > 0
+            if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
         )
-        if item.kind.endswith("pair") and measure == "frequency":
-            others += abs(math.log(_measure(_tracked(transfer, nudged, item), "damping") / _measure(item, "damping")))
+        if item.kind.endswith("pair") and kind == "frequency":
+            others += abs(math.log(measure(_tracked(transfer, nudged, item), "damping") / measure(item, "damping")))
         if own / (others + own * 1e-3 + 1e-300) > score:
             best, score = name, own / (others + own * 1e-3 + 1e-300)
     return best

@@ -39,6 +39,13 @@ class GainSolution:
     note: str
 
 
+def gain_for(loop: LoopModel, goal: str, target: float) -> GainSolution:
+    """The gain for ``goal``: "crossover" (``target`` in rad/s) or "pm" (in deg)."""
+    if goal not in ("crossover", "pm"):
+        raise EngineError(f"a gain is solved for a crossover or a phase margin (pm), not {goal!r}")
+    return gain_for_crossover(loop, target) if goal == "crossover" else gain_for_phase_margin(loop, target)
+
+
 def gain_for_crossover(loop: LoopModel, frequency: float) -> GainSolution:
     """The factor that makes |K GH(j frequency)| = 1."""
     exact, note, _ = _exact(loop)

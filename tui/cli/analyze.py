@@ -290,6 +290,7 @@ def _session_design(args: argparse.Namespace) -> int:
     """`analyze FILE.json`: the loop of a session's current design (the last iteration's,
     else the start) in one flight condition, as text or JSON."""
     from engine.analysis import analyze
+    from engine.design.compensator_items import compensators
     from engine.design.compensator_items import named as item_names
     from engine.stepping.protocol import StepRecord
     from tui.cli.common import load
@@ -309,7 +310,7 @@ def _session_design(args: argparse.Namespace) -> int:
     c = problem.conditions[k]
     values = problem.condition_values(k, named=named)
     result = analyze(c.network, c.break_at, problem.grid.omega, values)
-    parts = compensator_parts(c.network, values)
+    parts = compensators(c.network, values)
     if args.json:
         out = analysis_to_json(result) | {
             "compensators": {
@@ -325,19 +326,6 @@ def _session_design(args: argparse.Namespace) -> int:
             lines = [f"  {name}.{item_name}: {i.text}" for item_name, i in zip(item_names(found), found)]
             print(f"compensator {name}:\n" + "\n".join(lines))
     return 0
-
-
-def compensator_parts(network, values: dict[str, float]) -> dict:
-    """The compensator entries of a loop (those with parameters) as the engineer reads them
-    (`engine.design.compensator_items`), by label (the block's name)."""
-    from engine.design.compensator_items import items
-    from engine.model.blocks import ExpressionTransfer
-
-    return {
-        e.label: items(e.transfer, values)
-        for e in network.entries
-        if isinstance(e.transfer, ExpressionTransfer) and e.transfer.parameters
-    }
 
 
 def _item_json(item) -> dict:

@@ -99,7 +99,7 @@ def compensator_corners(view: View) -> list[tuple[str, float]]:
 
     if not view.problem.conditions:
         return []
-    k = view.plotted()[0] if view.plotted() else 0
+    k = view.first_plotted
     values = view.parameters(None, k)
     out = []
     for entry in view.problem.conditions[k].network.entries:

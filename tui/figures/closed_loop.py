@@ -301,7 +301,7 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
         ylabel="Im",
         empty_message="no root locus (needs a rational loop)",
     )
-    k = view.plotted()[0] if view.plotted() else 0
+    k = view.first_plotted
     c = _rational(view, k)
     if c is None:
         return fig
@@ -416,7 +416,7 @@ def pole_lines(view) -> str:
     from engine.closed_loop.poles import polish
     from engine.loop.realization import poles
 
-    k = view.plotted()[0] if view.plotted() else 0
+    k = view.first_plotted
     c = _rational(view, k)
     ss = view.step_loop(k) if c is not None else None
     if ss is None:

@@ -62,7 +62,7 @@ def designs(view: View, iteration: int, marked: int | None = None) -> list[Desig
     else `View.shown` (the iteration beside the current design, or each condition)."""
     if marked is None or marked == iteration:
         return view.shown(iteration)
-    k = view.plotted()[0] if view.plotted() else 0
+    k = view.first_plotted
     return [(iteration, k, name(iteration), "current"), (marked, k, f"{name(marked)} (marked)", "reference")]
 
 
@@ -83,7 +83,7 @@ def history_figure(
     """One view of an iteration's design beside its reference (`designs`); the root
     locus (in ``parameter``) of the iteration alone."""
     if kind == "locus":
-        k = view.plotted()[0] if view.plotted() else 0
+        k = view.first_plotted
         fig = locus_figure(view, parameter, iteration, subject(view, iteration, None, k))
         overlays.poles(fig, requirements(view, iteration))
         return fig
@@ -165,7 +165,7 @@ def figure_key(view: View, iteration: int, marked: int | None, kind: str, parame
     """What a history figure depends on besides the problem: the designs' parameter
     values and labels, the locus parameter, the step setup."""
     if kind == "locus":
-        k = view.plotted()[0] if view.plotted() else 0
+        k = view.first_plotted
         return kind, iteration, _frozen(view.parameters(iteration, k)), k, parameter
     drawn = tuple(
         (label, role, k, _frozen(view.parameters(at, k))) for at, k, label, role in designs(view, iteration, marked)

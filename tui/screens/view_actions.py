@@ -49,7 +49,7 @@ class ViewActions:
     def step_setup(self) -> None:
         """Ask which input is stepped, which output is plotted and for how long."""
         view = self.screen.bench.view()
-        ss = view.step_loop(view.plotted()[0] if view.plotted() else 0)
+        ss = view.step_loop(view.first_plotted)
         if ss is None:
             self.screen.app.notify("no step response here (it needs a rational plant)", severity="warning")
             return
@@ -86,7 +86,7 @@ class ViewActions:
 
     def copy_design(self) -> None:
         view = self.screen.bench.view()
-        condition = view.plotted()[0] if view.plotted() else 0
+        condition = view.first_plotted
         text = (
             design_text(self.screen.bench.session.model.problem, view.parameters(None, condition), condition)
             if self.screen.bench.session.model.problem.conditions
@@ -148,7 +148,7 @@ class ViewActions:
         loop gain k there, through the gain parameter; or the locus's parameter's value)."""
         bench, parameter = self.screen.bench, self.locus_parameter
         view = bench.view()
-        k = view.plotted()[0] if view.plotted() else 0
+        k = view.first_plotted
         if parameter == "gain":
             what = f"multiply the loop by k = {value:.5g} (the root locus's cursor)"
             self.screen.app.edit_flow.change(

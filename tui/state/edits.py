@@ -108,66 +108,46 @@ def scale_gain(bench: Workbench, condition: int, factor: float) -> str:
 def compensator_rows(bench: Workbench) -> list[tuple[str, str, Any]]:
     """The compensators of the plotted condition's loop as the shaping table lists them:
     (block.item name, reading, the item), at the start values (the design an edit keeps)."""
-    from engine.design.compensator_items import items, named
-    from engine.model.blocks import ExpressionTransfer
+    from engine.design.compensator_items import compensators, named
 
     problem = bench.session.problem
     if not problem.conditions:
         return []
-    k = bench.view().plotted()[0] if bench.view().plotted() else 0
-    values = problem.condition_values(k)
-    rows = []
-    for entry in problem.conditions[k].network.entries:
-        if isinstance(entry.transfer, ExpressionTransfer) and entry.transfer.parameters:
-            found = items(entry.transfer, values)
-            rows += [(f"{entry.label}.{name}", item.text, item) for name, item in zip(named(found), found)]
-    return rows
+    k = bench.view().first_plotted
+    parts = compensators(problem.conditions[k].network, problem.condition_values(k))
+    return [
+        (f"{label}.{name}", item.text, item)
+        for label, found in parts.items()
+        for name, item in zip(named(found), found)
+    ]
 
 
-def move_item(bench: Workbench, name: str, scale: float, measure: str = "frequency") -> str:
-    """Move a compensator's item (``block.item``, of the plotted condition) by ``scale`` in
-    frequency (its gain by ``scale``, or a pair's damping), solving for the parameter that
-    owns it (`engine.design.compensator_items.moved`), as one transaction; the parameter."""
-    from engine.design.compensator_items import items, moved, named
+def move_item(bench: Workbench, name: str, target: Callable[[float], float]) -> str:
+    """Move a compensator's item (``block.item``, or ``block.item.zeta``, of the plotted
+    condition) to ``target(now)`` of its frequency, damping or gain, solving for the
+    parameter that owns it (`engine.design.compensator_items.move_named`), as one
+    transaction; the parameter."""
+    from engine.design.compensator_items import move_named
 
     problem = bench.session.problem
-    k = bench.view().plotted()[0] if bench.view().plotted() else 0
-    values = problem.condition_values(k)
-    block, _, item_name = name.partition(".")
-    entry = next(e for e in problem.conditions[k].network.entries if e.label == block)
-    found = items(entry.transfer, values)
-    index = named(found).index(item_name)
-    item = found[index]
-    now = item.root.real if item.kind == "gain" else abs(item.root)
-    if measure == "damping":
-        now = -item.root.real / abs(item.root)
+    k = bench.view().first_plotted
     bounds = {p.name: (p.min, p.max) for p in bench.session.model.problem.parameters}
     try:
-        parameter, value = moved(entry.transfer, values, index, now * scale, measure, bounds)
+        move = move_named(problem.conditions[k].network, problem.condition_values(k), name, target, bounds)
     except EngineError as exc:
-        raise SessionError(f"{name}: {exc}") from None
-    set_parameter(bench, parameter, value, k)
-    return parameter
+        raise SessionError(str(exc)) from None
+    set_parameter(bench, move.parameter, move.value, k)
+    return move.parameter
 
 
 def gain_for(bench: Workbench, goal: str, target: float) -> str:
     """Scale the plotted condition's gain parameter so its loop has the crossover (rad/s)
-    or the phase margin (deg) asked, exactly (`engine.design.gain_solves`); the parameter."""
-    from engine.design.gain_solves import gain_for_crossover, gain_for_phase_margin
-    from engine.loop.responses import loop_model
-    from sessions.shaping import gain_parameter
+    or the phase margin (deg) asked, exactly (`sessions.shaping.solved_gain`); the parameter."""
+    from sessions.shaping import solved_gain
 
-    problem = bench.session.problem
-    k = bench.view().plotted()[0] if bench.view().plotted() else 0
-    values = problem.condition_values(k)
-    name = gain_parameter(bench.session, k, values)
-    c = problem.conditions[k]
-    try:
-        loop = loop_model(c.network, c.break_at, problem.grid.omega, values)
-        solution = (gain_for_crossover if goal == "crossover" else gain_for_phase_margin)(loop, target)
-    except EngineError as exc:
-        raise SessionError(str(exc)) from None
-    set_parameter(bench, name, values[name] * solution.factor, k)
+    k = bench.view().first_plotted
+    name, solution = solved_gain(bench.session, k, goal, target)
+    set_parameter(bench, name, bench.session.problem.condition_values(k)[name] * solution.factor, k)
     return name
 
 

@@ -86,6 +86,12 @@ class View:
             return [self.plotted_condition]
         return list(range(count))
 
+    @property
+    def first_plotted(self) -> int:
+        """The first condition the plots show (0 when the session has none)."""
+        plotted = self.plotted()
+        return plotted[0] if plotted else 0
+
     def shown(self, iteration: int | None = None) -> list[tuple[int | None, int, str, str]]:
         """What the plots draw for an iteration (None: the current one), as
         (iteration or None for the current, condition, label, role): each

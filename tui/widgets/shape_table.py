@@ -10,6 +10,7 @@ import math
 from textual.binding import Binding
 from textual.widgets import DataTable
 
+from engine.design.compensator_items import measure
 from tui.keys import identified
 from tui.state import edits
 
@@ -81,19 +82,21 @@ class ShapeTable(DataTable):
 
     def action_damp(self, direction: int) -> None:
         name, _ = self.selected
-        self._move(name, DAMPING_STEP**direction, f"{name} damping x {DAMPING_STEP**direction:.3g}", "damping")
+        self._move(f"{name}.zeta", DAMPING_STEP**direction, f"{name} damping x {DAMPING_STEP**direction:.3g}")
 
-    def _move(self, name: str, scale: float, what: str, measure: str = "frequency") -> None:
+    def _move(self, name: str, scale: float, what: str) -> None:
+        """Scale an item's measure (``name``: ``block.item`` or ``block.item.zeta``) as an edit;
+        the nudges of one item, one burst."""
         bench = self.app.bench
-        self.app.edit_flow.change(lambda: edits.move_item(bench, name, scale, measure), what, burst=(name, measure))
+        self.app.edit_flow.change(lambda: edits.move_item(bench, name, lambda now: now * scale), what, burst=name)
 
     def action_type_value(self) -> None:
         name, item = self.selected
-        now = item.root.real if item.kind == "gain" else abs(item.root)
+        now = measure(item)
         unit = "" if item.kind == "gain" else " (rad/s)"
 
         def apply(text: str) -> None:
-            edits.move_item(self.app.bench, name, float(text) / now, "frequency")
+            edits.move_item(self.app.bench, name, lambda _: float(text))
 
         self.app.edit_flow.line(f"{name}{unit}: now {now:.6g}", _positive, apply, f"set {name}")
 
