@@ -81,3 +81,13 @@ def test_moving_an_item_no_one_parameter_owns_is_refused_with_the_reason():
             0.01,
             bounds={"T1": (0.5, 2)},
         )
+
+
+def test_a_negative_gain_is_moved_by_its_size_and_keeps_its_sign():
+    from engine.analysis import unity_feedback
+    from engine.design.compensator_items import move_named
+
+    network = unity_feedback(["K*(1+T1*s)/(1+T2*s)", "1/(s+1)"], "s", 0.0)
+    label = next(e.label for e in network.entries if "K" in e.transfer.parameters)
+    move = move_named(network, {"K": -3.0, "T1": 1.0, "T2": 0.1}, f"{label}.gain", lambda now: 2 * now)
+    assert (move.parameter, move.now, move.target) == ("K", 3.0, 6.0) and move.value == pytest.approx(-6.0)
