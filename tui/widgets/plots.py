@@ -101,17 +101,18 @@ class FigurePlot(PlotextPlot):
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """enter acts only on a cursor over a probe that picks a value (a root locus)."""
-        if action == "choose":
-            probe = self.navigation.probe(self.figure)
-            return (
-                True if probe is not None and probe.chosen is not None and self.navigation.cursor is not None else None
-            )
-        return True
+        return None if action == "choose" and self._choosable() is None else True
 
     def action_choose(self) -> None:
-        probe = self.navigation.probe(self.figure)
-        if probe is not None and probe.chosen is not None and self.navigation.cursor is not None:
+        probe = self._choosable()
+        if probe is not None:
             self.post_message(self.Chosen(self, probe.chosen(self.navigation.cursor)))
+
+    def _choosable(self):
+        """The probe under the cursor when enter picks a value on it (else None)."""
+        probe = self.navigation.probe(self.figure)
+        chooses = probe is not None and probe.chosen is not None and self.navigation.cursor is not None
+        return probe if chooses else None
 
     def action_reset_view(self) -> None:
         self.navigation.reset()
@@ -226,9 +227,10 @@ class FigurePlot(PlotextPlot):
         """Nothing here: the image child shows the figure, drawn anew (after this paint,
         never inside it) when the figure, the view or the size changed."""
         width, height, _ = self.canvas()
-        key = (self.figure, repr(self.navigation), width, height, self.app.current_theme.dark)
-        if width >= 10 and height >= 5 and key != self._imaged:
-            self._imaged = key
+        key = (repr(self.navigation), width, height, self.app.current_theme.dark)
+        imaged = self._imaged
+        if width >= 10 and height >= 5 and (imaged is None or imaged[0] is not self.figure or imaged[1:] != key):
+            self._imaged = (self.figure, *key)  # the figure by identity: comparing its series would cost a pass
             self.call_later(self._draw_image)
         return ""
 
