@@ -10,7 +10,6 @@ import math
 from textual.binding import Binding
 from textual.widgets import DataTable
 
-from engine.design.compensator_items import measure
 from tui.keys import identified
 from tui.state import edits
 
@@ -91,6 +90,8 @@ class ShapeTable(DataTable):
         self.app.edit_flow.change(lambda: edits.move_item(bench, name, lambda now: now * scale), what, burst=name)
 
     def action_type_value(self) -> None:
+        from engine.design.compensator_items import measure  # scipy: never before the first paint
+
         name, item = self.selected
         now = measure(item)
         unit = "" if item.kind == "gain" else " (rad/s)"
