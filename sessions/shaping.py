@@ -67,8 +67,8 @@ def assign(session: Session, assignments: list[Assignment]) -> list[str]:
 
 def _move(session: Session, assignment: Assignment) -> str:
     """Move a compensator's item (``BLOCK.ITEM[.zeta]``) of the first condition by solving
-    for the parameter that owns it (`compensator_items.move_named`), within its bounds."""
-    from engine.design.compensator_items import move_named
+    for the parameters that own it (`compensator_moves.move_named`), within its bounds."""
+    from engine.design.compensator_moves import move_named
 
     problem = session.problem
     if not problem.conditions:
@@ -79,8 +79,8 @@ def _move(session: Session, assignment: Assignment) -> str:
         move = move_named(problem.conditions[0].network, problem.condition_values(0), assignment.name, change, bounds)
     except EngineError as exc:
         raise SessionError(str(exc)) from None
-    line = _set(session, move.parameter, lambda v: move.value, 0)
-    return f"{assignment.name}: {move.now:.6g} -> {move.target:.6g} ({line})"
+    lines = [_set(session, name, lambda v, value=value: value, 0) for name, value in move.values.items()]
+    return f"{assignment.name}: {move.now:.6g} -> {move.target:.6g} ({'; '.join(lines)})"
 
 
 def tune(session: Session, goal: str, target: float, parameter: str | None, condition: int) -> tuple[GainSolution, str]:

@@ -128,3 +128,23 @@ def test_an_item_that_cannot_move_says_why(lead, capsys, item, message):
     saved = lead.read_bytes()
     code, _, err = _run(capsys, "set", str(lead), item)
     assert code == 2 and message in err and lead.read_bytes() == saved
+
+
+def test_a_root_of_a_cip_polynomial_moves_by_its_coefficients_with_the_dc_gain_kept(tmp_path, capsys):
+    """cip's blocks are (x0 + x1 s + x2 s^2)/(y0 + y1 s + y2 s^2), labelled vehicle.1 ..:
+    moving zero1 sets x1 and x2 so that the numerator is x0 (1 + s/z1')(1 + s/z2)."""
+    import shutil
+    from pathlib import Path
+
+    for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv"):
+        shutil.copy(Path(__file__).resolve().parents[1] / "sessions" / "examples" / name, tmp_path / name)
+    path = tmp_path / "cip_launch_vehicle.json"
+    before = {p["name"]: p["value"] for p in json.loads(path.read_text())["problem"]["parameters"]}
+    z1, z2 = sorted(abs(np.roots([before[f"vehicle_1_x{k}"] for k in (2, 1, 0)])))
+    code, out, err = _run(capsys, "set", str(path), "vehicle.1.zero1*=1.2")
+    after = {p["name"]: p["value"] for p in json.loads(path.read_text())["problem"]["parameters"]}
+    x0, moved = before["vehicle_1_x0"], 1.2 * z1
+    assert code == 0, err
+    assert after["vehicle_1_x0"] == x0 and after["vehicle_1_x1"] == pytest.approx(x0 * (1 / moved + 1 / z2), rel=1e-9)
+    assert after["vehicle_1_x2"] == pytest.approx(x0 / (moved * z2), rel=1e-9)
+    assert all(after[k] == before[k] for k in before if not k.startswith("vehicle_1_x"))

@@ -2,7 +2,7 @@
 written as (1 + s/w)), its real zeros and poles as corner frequencies and time
 constants, its complex pairs as (wn, zeta), its integrators and differentiators, and
 for each the parameters that move it (found by nudging each parameter: a root that
-moves belongs to it)."""
+moves belongs to it).  Moving an item is `compensator_moves`."""
 
 from __future__ import annotations
 
@@ -11,7 +11,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from engine.errors import EngineError
 from engine.model.blocks import ExpressionTransfer
@@ -54,18 +53,28 @@ def items(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Ite
     """The gain, then the zeros and poles of a block, low frequency first."""
     base = pole_zero(transfer.expression, params)
     moved = {name: _moved(transfer, params, name, base) for name in transfer.parameters}
+    return _listed(base, lambda index, k: tuple(n for n, m in moved.items() if (m[0] if index == 0 else m[index][k])))
+
+
+def readings(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Item]:
+    """The items of `items` without the parameters that move them (one pole-zero form)."""
+    return _listed(pole_zero(transfer.expression, params), lambda index, k: ())
+
+
+def _listed(base, by: Callable[[int, int], tuple[str, ...]]) -> list[Item]:
+    """The items of a pole-zero form; ``by(0, 0)`` names the gain's parameters, ``by(1, k)``
+    zero k's, ``by(2, k)`` pole k's."""
     scale = max([abs(r) for r in [*base.zeros, *base.poles]], default=1.0) or 1.0
-    out = [Item("gain", complex(_bode_gain(base, scale)), tuple(n for n, m in moved.items() if m[0]))]
+    out = [Item("gain", complex(_bode_gain(base, scale)), by(0, 0))]
     found = []
     for kind, roots, index in (("zero", base.zeros, 1), ("pole", base.poles, 2)):
         for k, r in enumerate(roots):
             if r.imag < 0:
                 continue  # a pair is listed once, by its upper root
-            by = tuple(n for n, m in moved.items() if m[index][k])
             if abs(r) <= ORIGIN * scale:
-                found.append((0.0, Item("differentiator" if kind == "zero" else "integrator", 0j, by)))
+                found.append((0.0, Item("differentiator" if kind == "zero" else "integrator", 0j, by(index, k))))
             else:
-                found.append((abs(r), Item(f"{kind} pair" if r.imag > 0 else kind, complex(r), by)))
+                found.append((abs(r), Item(f"{kind} pair" if r.imag > 0 else kind, complex(r), by(index, k))))
     return out + [item for _, item in sorted(found, key=lambda pair: pair[0])]
 
 
@@ -76,46 +85,6 @@ def compensators(network: Network, params: Mapping[str, float]) -> dict[str, lis
         for e in network.entries
         if isinstance(e.transfer, ExpressionTransfer) and e.transfer.parameters
     }
-
-
-@dataclass(frozen=True)
-class Move:
-    """An item moved by name: the parameter solved for and its value, the item's measure
-    before (``now``) and asked (``target``)."""
-
-    parameter: str
-    value: float
-    now: float
-    target: float
-
-
-def move_named(
-    network: Network,
-    params: Mapping[str, float],
-    name: str,
-    target: Callable[[float], float],
-    bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
-) -> Move:
-    """Move the item ``BLOCK.ITEM`` (its frequency, or the gain) or ``BLOCK.ITEM.zeta`` (a
-    pair's damping) of a loop, items named as `named`, to ``target(now)`` (`moved`)."""
-    block, _, rest = name.partition(".")
-    item_name, _, suffix = rest.partition(".")
-    entry = next((e for e in network.entries if e.label == block), None)
-    if entry is None or not isinstance(entry.transfer, ExpressionTransfer) or not entry.transfer.parameters:
-        raise EngineError(f"{name}: no compensator block {block!r} (loopcraft analyze FILE lists them)")
-    found = items(entry.transfer, params)
-    names = named(found)
-    if item_name not in names or suffix not in ("", "zeta"):
-        raise EngineError(f"{name}: {block} has {', '.join(names)} (and ITEM.zeta for a pair's damping)")
-    index = names.index(item_name)
-    kind = "damping" if suffix else "frequency"
-    now = measure(found[index], kind)
-    wanted = target(now)
-    try:
-        parameter, value = moved(entry.transfer, params, index, wanted, kind, bounds)
-    except EngineError as exc:
-        raise EngineError(f"{name}: {exc}") from None
-    return Move(parameter, value, now, wanted)
 
 
 def named(found: list[Item]) -> list[str]:
@@ -168,57 +137,6 @@ def _which(before: np.ndarray, after: np.ndarray, scale: float) -> list[bool]:
     return out
 
 
-GROWTH = 2.0  # the bracket around a parameter's value grows by this factor a step
-BRACKET_STEPS = 40  # at most 2^40 either way
-TOLERANCE = 1e-12  # relative, on the solved parameter
-
-
-def moved(
-    transfer: ExpressionTransfer,
-    params: Mapping[str, float],
-    index: int,
-    target: float,
-    kind: str = "frequency",
-    bounds: Mapping[str, tuple[float | None, float | None]] | None = None,
-) -> tuple[str, float]:
-    """The parameter and its value that bring item ``index`` (of `items`) to ``target``:
-    the frequency of a zero, pole or pair, the damping of a pair (``kind="damping"``),
-    the value of the gain.  One parameter is solved for, the one that moves this item's
-    measure most and the other items least; within its ``bounds``.  An `EngineError` says
-    why it cannot (a fixed item, a target out of the parameter's reach)."""
-    item = items(transfer, params)[index]
-    if not item.parameters:
-        raise EngineError(f"the {item.kind} is fixed: no parameter moves it")
-    name = _mover(transfer, params, index, kind)
-    value = params[name]
-    if not value or not math.isfinite(value):
-        raise EngineError(f"{name} is {value!r}: a value of 0 cannot be scaled to move the {item.kind}")
-    low, high = (bounds or {}).get(name, (None, None))
-
-    def miss(log_scale: float) -> float:
-        found = _tracked(transfer, {**params, name: value * math.exp(log_scale)}, item)
-        return math.log(measure(found, kind)) - math.log(target)
-
-    here = miss(0.0)
-    if here == 0:
-        return name, value
-    for side in (1.0, -1.0):
-        step = 0.0
-        for _ in range(BRACKET_STEPS):
-            step += side * math.log(GROWTH)
-            scaled = value * math.exp(step)
-            if (low is not None and scaled < low) or (high is not None and scaled > high):
-                break
-            try:
-                there = miss(step)
-            except EngineError:
-                break
-            if np.sign(there) != np.sign(here):
-                root = brentq(miss, min(0.0, step), max(0.0, step), xtol=TOLERANCE)
-                return name, value * math.exp(root)
-    raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {kind} to {target:.6g}")
-
-
 def measure(item: Item, kind: str = "frequency") -> float:
     """What a move of an item changes: its frequency (rad/s), a pair's damping (``kind=
     "damping"``), the gain's size (its magnitude: a move keeps its sign)."""
@@ -227,48 +145,3 @@ def measure(item: Item, kind: str = "frequency") -> float:
     if kind == "damping":
         return max(-item.root.real / abs(item.root), 1e-300)
     return abs(item.root)
-
-
-def _tracked(transfer: ExpressionTransfer, params: Mapping[str, float], like: Item) -> Item:
-    """The item of the same kind nearest ``like`` (in log frequency) at other values."""
-    same = [i for i in items(transfer, params) if i.kind == like.kind]
-    if not same:
-        raise EngineError(f"the {like.kind} is gone at these values")
-    if like.kind == "gain":
-        return same[0]
-    return min(same, key=lambda i: abs(math.log(abs(i.root) or 1e-300) - math.log(abs(like.root) or 1e-300)))
-
-
-def _mover(transfer: ExpressionTransfer, params: Mapping[str, float], index: int, kind: str) -> str:
-    """Of the parameters that move item ``index``, the one that moves its measure most
-    relative to how much it moves the others."""
-    base = items(transfer, params)
-    item = base[index]
-    shared = {n for i in base if i is not item and i.kind != "gain" for n in i.parameters}
-    own = [n for n in item.parameters if n not in shared]
-    if not own and item.kind == "gain":
-        raise EngineError("no one parameter sets the gain alone: write the compensator as K*(...) with a gain K")
-    if not own:
-        raise EngineError(
-            f"the {item.kind} is set by {', '.join(item.parameters)} together with other roots (a polynomial's "
-            "coefficients): no one parameter moves it alone"
-        )
-    best, score = own[0], -math.inf
-    for name in own:
-        value = params[name]
-        nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
-        try:
-            after = items(transfer, nudged)
-            own = abs(math.log(measure(_tracked(transfer, nudged, item), kind) / measure(item, kind)))
-        except (EngineError, ValueError):
-            continue
-        others = sum(
-            abs(math.log(measure(a, "frequency") / measure(b, "frequency")))
-            for a, b in zip(after, base)
-            if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
-        )
-        if item.kind.endswith("pair") and kind == "frequency":
-            others += abs(math.log(measure(_tracked(transfer, nudged, item), "damping") / measure(item, "damping")))
-        if own / (others + own * 1e-3 + 1e-300) > score:
-            best, score = name, own / (others + own * 1e-3 + 1e-300)
-    return best

@@ -50,26 +50,46 @@ def test_a_polynomial_compensator_shows_its_roots_moved_by_its_coefficients():
 
 
 def test_moving_an_item_solves_for_the_parameter_that_owns_it():
-    from engine.design.compensator_items import moved
+    from engine.design.compensator_moves import moved
 
     lead = ExpressionTransfer("K*(1+T1*s)/(1+T2*s)")
     values = {"K": 7.0, "T1": 1.5, "T2": 0.1}
-    assert moved(lead, values, 1, 0.7) == ("T1", pytest.approx(1 / 0.7, rel=1e-10))  # the zero to 0.7 rad/s
-    assert moved(lead, values, 2, 12.0) == ("T2", pytest.approx(1 / 12.0, rel=1e-10))
-    assert moved(lead, values, 0, 14.0) == ("K", pytest.approx(14.0, rel=1e-10))
+    assert moved(lead, values, 1, 0.7) == {"T1": pytest.approx(1 / 0.7, rel=1e-10)}  # the zero to 0.7 rad/s
+    assert moved(lead, values, 2, 12.0) == {"T2": pytest.approx(1 / 12.0, rel=1e-10)}
+    assert moved(lead, values, 0, 14.0) == {"K": pytest.approx(14.0, rel=1e-10)}
     notch = ExpressionTransfer("K*(s^2+2*zn*wn*s+wn^2)/(s*(s+a))")
     values = {"K": 2.0, "zn": 0.3, "wn": 2.0, "a": 10.0}
-    assert moved(notch, values, 2, 2.5) == ("wn", pytest.approx(2.5, rel=1e-10))  # frequency: wn, zeta kept
-    assert moved(notch, values, 2, 0.5, "damping") == ("zn", pytest.approx(0.5, rel=1e-10))
+    # wn moves the pair and the Bode gain K wn^2/a: K keeps the gain (2 * 4/10), zeta kept
+    assert moved(notch, values, 2, 2.5) == {"wn": pytest.approx(2.5, rel=1e-10), "K": pytest.approx(1.28, rel=1e-10)}
+    assert moved(notch, values, 2, 0.5, "damping") == {"zn": pytest.approx(0.5, rel=1e-10)}
 
 
-def test_moving_an_item_no_one_parameter_owns_is_refused_with_the_reason():
-    from engine.design.compensator_items import moved
+def test_a_root_of_a_polynomial_moves_by_its_coefficients_together_keeping_the_gain_and_the_other_roots():
+    from engine.design.compensator_moves import moved
+
+    # (x0 + x1 s + x2 s^2)/(y0 + y1 s + y2 s^2), as cip writes a compensator; y0 held (hold_dc_gain)
+    cip = ExpressionTransfer("(x0+x1*s+x2*s^2)/(y0+y1*s+y2*s^2)")
+    values = {"x0": 1.0, "x1": 0.5, "x2": 0.1, "y0": 1.0, "y1": 0.3, "y2": 0.02}
+    poles = sorted(abs(np.roots([0.02, 0.3, 1.0])))  # 5 and 10 rad/s
+    found = items(cip, values)
+    index = next(k for k, i in enumerate(found) if i.kind == "pole" and abs(abs(i.root) - poles[0]) < 1e-9)
+    solved = moved(cip, values, index, 6.0, bounds={"y0": (1.0, 1.0)})
+    # closed form: y0 (1 + s/6)(1 + s/10) = 1 + (1/6 + 1/10) s + s^2/60
+    assert solved == {"y1": pytest.approx(1 / 6 + 1 / 10, rel=1e-9), "y2": pytest.approx(1 / 60, rel=1e-9)}
+    pair = next(k for k, i in enumerate(found) if i.kind == "zero pair")
+    zeta = 0.5 / (2 * math.sqrt(0.1))  # x1 / (2 sqrt(x0 x2))
+    solved = moved(cip, values, pair, 2.0)  # wn to 2 rad/s, zeta and the DC gain x0 kept: x2 = x0/wn^2
+    assert solved == {"x1": pytest.approx(2 * zeta * 2.0 * 0.25, rel=1e-9), "x2": pytest.approx(0.25, rel=1e-9)}
+    assert moved(cip, values, pair, 0.5, "damping") == {"x1": pytest.approx(2 * 0.5 * math.sqrt(0.1), rel=1e-9)}
+
+
+def test_moving_an_item_no_parameter_can_move_is_refused_with_the_reason():
+    from engine.design.compensator_moves import moved
     from engine.errors import EngineError
 
     values = {"x0": 1.0, "x1": 0.5, "x2": 0.1, "y1": 0.3, "y2": 0.02}
-    with pytest.raises(EngineError, match="set by y1, y2 together"):
-        moved(ExpressionTransfer("(x0+x1*s+x2*s^2)/(1+y1*s+y2*s^2)"), values, 2, 6.0)
+    with pytest.raises(EngineError, match="no values of y1, y2.* within their bounds"):
+        moved(ExpressionTransfer("(x0+x1*s+x2*s^2)/(1+y1*s+y2*s^2)"), values, 2, 6.0, bounds={"y2": (0.019, 0.021)})
     corners = {"z1": 1.0, "z2": 5.0, "p1": 0.1, "p2": 50.0}
     with pytest.raises(EngineError, match="write the compensator as K"):
         moved(ExpressionTransfer("(s+z1)*(s+z2)/((s+p1)*(s+p2))"), corners, 0, 2.0)
@@ -85,9 +105,9 @@ def test_moving_an_item_no_one_parameter_owns_is_refused_with_the_reason():
 
 def test_a_negative_gain_is_moved_by_its_size_and_keeps_its_sign():
     from engine.analysis import unity_feedback
-    from engine.design.compensator_items import move_named
+    from engine.design.compensator_moves import move_named
 
     network = unity_feedback(["K*(1+T1*s)/(1+T2*s)", "1/(s+1)"], "s", 0.0)
     label = next(e.label for e in network.entries if "K" in e.transfer.parameters)
     move = move_named(network, {"K": -3.0, "T1": 1.0, "T2": 0.1}, f"{label}.gain", lambda now: 2 * now)
-    assert (move.parameter, move.now, move.target) == ("K", 3.0, 6.0) and move.value == pytest.approx(-6.0)
+    assert (move.now, move.target) == (3.0, 6.0) and move.values == {"K": pytest.approx(-6.0)}

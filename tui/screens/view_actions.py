@@ -158,7 +158,7 @@ class ViewActions:
             )
             return
         self.screen.app.edit_flow.change(
-            lambda: edits.set_parameter(bench, parameter, value, k),
+            lambda: edits.set_parameters(bench, {parameter: value}, k),
             f"{parameter} = {value:.5g} (the root locus's cursor)",
         )
 

@@ -11,7 +11,7 @@ The text of every value goes through `sessions.forms.one_line` (parse/format pai
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -78,18 +78,20 @@ def set_fields(bench: Workbench, path: Ref, **values: Any) -> None:
     transaction(bench, change)
 
 
-def set_parameter(bench: Workbench, name: str, value: float, condition: int | None = None) -> None:
-    """A parameter's start value (one condition's entry of a per-condition one), as one
-    transaction (its bounds checked by the model)."""
+def set_parameters(bench: Workbench, values: Mapping[str, float], condition: int | None = None) -> None:
+    """Parameters' start values (one condition's entry of a per-condition one), as one
+    transaction (their bounds checked by the model)."""
 
     def change(draft: ProblemModel) -> None:
-        found = next((p for p in draft.parameters if p.name == name), None)
-        if found is None:
-            raise SessionError(f"{name}: no such parameter")
-        if isinstance(found.value, list):
-            found.value = [value if condition in (None, k) else v for k, v in enumerate(found.value)]
-        else:
-            found.value = value
+        found = {p.name: p for p in draft.parameters}
+        for name, value in values.items():
+            if name not in found:
+                raise SessionError(f"{name}: no such parameter")
+            p = found[name]
+            if isinstance(p.value, list):
+                p.value = [value if condition in (None, k) else v for k, v in enumerate(p.value)]
+            else:
+                p.value = value
 
     transaction(bench, change)
 
@@ -101,7 +103,7 @@ def scale_gain(bench: Workbench, condition: int, factor: float) -> str:
 
     values = bench.session.problem.condition_values(condition)
     name = gain_parameter(bench.session, condition, values)
-    set_parameter(bench, name, values[name] * factor, condition)
+    set_parameters(bench, {name: values[name] * factor}, condition)
     return name
 
 
@@ -125,9 +127,9 @@ def compensator_rows(bench: Workbench) -> list[tuple[str, str, Any]]:
 def move_item(bench: Workbench, name: str, target: Callable[[float], float]) -> str:
     """Move a compensator's item (``block.item``, or ``block.item.zeta``, of the plotted
     condition) to ``target(now)`` of its frequency, damping or gain, solving for the
-    parameter that owns it (`engine.design.compensator_items.move_named`), as one
-    transaction; the parameter."""
-    from engine.design.compensator_items import move_named
+    parameters that own it (`engine.design.compensator_moves.move_named`), as one
+    transaction; their names."""
+    from engine.design.compensator_moves import move_named
 
     problem = bench.session.problem
     k = bench.view().first_plotted
@@ -136,8 +138,8 @@ def move_item(bench: Workbench, name: str, target: Callable[[float], float]) -> 
         move = move_named(problem.conditions[k].network, problem.condition_values(k), name, target, bounds)
     except EngineError as exc:
         raise SessionError(str(exc)) from None
-    set_parameter(bench, move.parameter, move.value, k)
-    return move.parameter
+    set_parameters(bench, move.values, k)
+    return ", ".join(move.values)
 
 
 def gain_for(bench: Workbench, goal: str, target: float) -> str:
@@ -147,7 +149,7 @@ def gain_for(bench: Workbench, goal: str, target: float) -> str:
 
     k = bench.view().first_plotted
     name, solution = solved_gain(bench.session, k, goal, target)
-    set_parameter(bench, name, bench.session.problem.condition_values(k)[name] * solution.factor, k)
+    set_parameters(bench, {name: bench.session.problem.condition_values(k)[name] * solution.factor}, k)
     return name
 
 

@@ -1,0 +1,288 @@
+"""Moving a compensator's item (`compensator_items`) to a frequency, a damping or a gain:
+by the one parameter that owns it (a bracketed root of the item's measure), or, where
+the item is set by several parameters together (a polynomial's coefficients), by all of
+them at once, keeping the gain and every other root where they are."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq, least_squares
+
+from engine.design.compensator_items import NUDGE, Item, items, measure, named, readings
+from engine.errors import EngineError
+from engine.model.blocks import ExpressionTransfer
+from engine.model.network import Network
+
+Bounds = Mapping[str, tuple[float | None, float | None]]
+
+GROWTH = 2.0  # the bracket around a parameter's value grows by this factor a step
+BRACKET_STEPS = 40  # at most 2^40 either way
+TOLERANCE = 1e-12  # relative, on the solved parameter
+JOINT_EVALUATIONS = 400  # the most pole-zero forms a joint move may compute
+JOINT_MISS = 1e-9  # the largest relative miss a joint move may leave on any root or the gain
+APART = 1e3  # the miss charged per item when a trial's roots change structure
+CLEAN = 1e-6  # a parameter moving the other measures this much relative to its item's moves it alone
+
+
+@dataclass(frozen=True)
+class Move:
+    """An item moved by name: the parameters solved for and their values, the item's
+    measure before (``now``) and asked (``target``)."""
+
+    values: dict[str, float]
+    now: float
+    target: float
+
+
+def move_named(
+    network: Network,
+    params: Mapping[str, float],
+    name: str,
+    target: Callable[[float], float],
+    bounds: Bounds | None = None,
+) -> Move:
+    """Move the item ``BLOCK.ITEM`` (its frequency, or the gain) or ``BLOCK.ITEM.zeta`` (a
+    pair's damping) of a loop, items named as `named`, to ``target(now)`` (`moved`)."""
+    labels = [e.label for e in network.entries if name.startswith(f"{e.label}.")]
+    block = max(labels, key=len) if labels else name.partition(".")[0]  # a label may hold dots: vehicle.1
+    item_name, _, suffix = name[len(block) + 1 :].partition(".")
+    entry = next((e for e in network.entries if e.label == block), None)
+    if entry is None or not isinstance(entry.transfer, ExpressionTransfer) or not entry.transfer.parameters:
+        raise EngineError(f"{name}: no compensator block {block!r} (loopcraft analyze FILE lists them)")
+    found = items(entry.transfer, params)
+    names = named(found)
+    if item_name not in names or suffix not in ("", "zeta"):
+        raise EngineError(f"{name}: {block} has {', '.join(names)} (and ITEM.zeta for a pair's damping)")
+    index = names.index(item_name)
+    kind = "damping" if suffix else "frequency"
+    now = measure(found[index], kind)
+    wanted = target(now)
+    try:
+        values = moved(entry.transfer, params, index, wanted, kind, bounds)
+    except EngineError as exc:
+        raise EngineError(f"{name}: {exc}") from None
+    return Move(values, now, wanted)
+
+
+def moved(
+    transfer: ExpressionTransfer,
+    params: Mapping[str, float],
+    index: int,
+    target: float,
+    kind: str = "frequency",
+    bounds: Bounds | None = None,
+) -> dict[str, float]:
+    """The parameters, and their values, that bring item ``index`` (of `items`) to
+    ``target``: the frequency of a zero, pole or pair, the damping of a pair (``kind=
+    "damping"``), the value of the gain.  One parameter where one owns the item (the one
+    that moves its measure most and the other items least); else the item's parameters
+    together, the gain and every other root kept.  Within ``bounds``; an `EngineError`
+    says why it cannot (a fixed item, a target out of reach)."""
+    found = items(transfer, params)
+    item = found[index]
+    if not item.parameters:
+        raise EngineError(f"the {item.kind} is fixed: no parameter moves it")
+    name, clean = _mover(transfer, params, found, index, kind)
+    if clean:
+        return {name: _solved(transfer, params, item, name, target, kind, bounds or {})}
+    try:
+        return _joint(transfer, params, found, index, target, kind, bounds or {})
+    except EngineError:
+        if name is None:
+            raise
+    return {name: _solved(transfer, params, item, name, target, kind, bounds or {})}
+
+
+def _solved(
+    transfer: ExpressionTransfer, params: Mapping[str, float], item: Item, name: str, target: float, kind: str, bounds
+) -> float:
+    """The value of ``name`` that brings ``item``'s measure to ``target`` (bracketed in
+    log scale, then Brent's method)."""
+    value = params[name]
+    if not value or not math.isfinite(value):
+        raise EngineError(f"{name} is {value!r}: a value of 0 cannot be scaled to move the {item.kind}")
+    low, high = bounds.get(name, (None, None))
+
+    def miss(log_scale: float) -> float:
+        found = _nearest(readings(transfer, {**params, name: value * math.exp(log_scale)}), item)
+        return math.log(measure(found, kind)) - math.log(target)
+
+    here = miss(0.0)
+    if here == 0:
+        return value
+    for side in (1.0, -1.0):
+        step = 0.0
+        for _ in range(BRACKET_STEPS):
+            step += side * math.log(GROWTH)
+            scaled = value * math.exp(step)
+            if (low is not None and scaled < low) or (high is not None and scaled > high):
+                break
+            try:
+                there = miss(step)
+            except EngineError:
+                break
+            if np.sign(there) != np.sign(here):
+                root = brentq(miss, min(0.0, step), max(0.0, step), xtol=TOLERANCE)
+                return value * math.exp(root)
+    raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {kind} to {target:.6g}")
+
+
+def _joint(
+    transfer: ExpressionTransfer,
+    params: Mapping[str, float],
+    found: list[Item],
+    index: int,
+    target: float,
+    kind,
+    bounds,
+) -> dict[str, float]:
+    """The item's parameters solved together for the item at ``target`` with the gain and
+    every other root unchanged: those that leave the gain alone first, then with the
+    gain's own parameters (such as K), then with all the gain's."""
+    item = found[index]
+    held = set(found[0].parameters) if index else set()
+    free = [n for n in item.parameters if params[n] and math.isfinite(params[n]) and _movable(bounds.get(n))]
+    gain = [n for n in found[0].parameters if n not in free and params[n] and _movable(bounds.get(n))] if index else []
+    alone = [n for n in gain if not any(n in i.parameters for i in found[1:])]  # the gain's own, such as K
+    for unknowns in ([n for n in free if n not in held], free + alone, free + gain):
+        if unknowns:
+            try:
+                return _least_squares(transfer, params, found, index, target, kind, bounds, unknowns)
+            except EngineError as exc:
+                failure = exc
+    if not free:
+        raise EngineError(f"the {item.kind}'s parameters ({', '.join(item.parameters)}) are all held")
+    raise failure
+
+
+def _least_squares(transfer, params, found, index, target, kind, bounds, unknowns: list[str]) -> dict[str, float]:
+    """``unknowns`` solved (in log scale, within their bounds) for item ``index`` at
+    ``target``, the gain and every other root unchanged."""
+    item = found[index]
+    counts, wanted = _goal(found, index, target, kind)
+    start = np.array([params[n] for n in unknowns])
+
+    def miss(u: np.ndarray) -> np.ndarray:
+        trial = {**params, **dict(zip(unknowns, start * np.exp(u)))}
+        try:
+            shape, got = _signature(readings(transfer, trial))
+        except EngineError:
+            return np.full(wanted.size, APART)
+        return got - wanted if shape == counts else np.full(wanted.size, APART)
+
+    box = np.array([_log_bounds(v, *bounds.get(n, (None, None))) for n, v in zip(unknowns, start)]).T
+    fit = least_squares(
+        miss,
+        np.zeros(len(unknowns)),
+        bounds=(box[0], box[1]),
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+        max_nfev=JOINT_EVALUATIONS,
+    )
+    if np.max(np.abs(miss(fit.x))) > JOINT_MISS:
+        held = "the gain and the other roots kept"
+        raise EngineError(
+            f"no values of {', '.join(unknowns)} within their bounds bring the {item.kind}'s {kind} to {target:.6g} "
+            f"({held})"
+        )
+    return {n: float(v) for n, v, u in zip(unknowns, start * np.exp(fit.x), fit.x) if abs(u) > TOLERANCE}
+
+
+def _goal(found: list[Item], index: int, target: float, kind: str) -> tuple[tuple[int, ...], np.ndarray]:
+    """The signature (`_signature`) of the items with item ``index`` moved to ``target``."""
+    item = found[index]
+    w, zeta = abs(item.root), measure(item, "damping")
+    if kind == "damping":
+        zeta = target
+    else:
+        w = target
+    root = complex(-zeta * w, w * math.sqrt(max(1 - zeta * zeta, 0.0))) if item.kind.endswith("pair") else -w
+    if item.kind == "gain":
+        root = complex(math.copysign(target, item.root.real))
+    elif item.root.real > 0 and not item.kind.endswith("pair"):
+        root = w
+    return _signature([*found[:index], Item(item.kind, complex(root), ()), *found[index + 1 :]])
+
+
+KINDS = ("zero", "pole", "zero pair", "pole pair", "integrator", "differentiator")
+
+
+def _signature(found: list[Item]) -> tuple[tuple[int, ...], np.ndarray]:
+    """How many items of each kind, and the log of the gain's size then for each kind in
+    turn the sorted log frequencies and, for pairs, the log dampings: what a joint move
+    holds (or moves)."""
+    out = [math.log(abs(found[0].root.real) or 1e-300)]
+    counts = []
+    for kind in KINDS:
+        same = sorted((i for i in found if i.kind == kind), key=lambda i: abs(i.root))
+        counts.append(len(same))
+        out += [math.log(abs(i.root) or 1.0) for i in same]
+        out += [math.log(measure(i, "damping")) for i in same if kind.endswith("pair")]
+    return tuple(counts), np.array(out)
+
+
+def _movable(bound: tuple[float | None, float | None] | None) -> bool:
+    """Is a parameter free to move (not held by equal bounds)?"""
+    return bound is None or bound[0] is None or bound[1] is None or bound[0] < bound[1]
+
+
+def _log_bounds(value: float, low: float | None, high: float | None) -> tuple[float, float]:
+    """The bounds on u for value * exp(u) within [low, high] (``value`` nonzero)."""
+    lo, hi = -np.inf, np.inf
+    for bound, is_low in ((low, True), (high, False)):
+        if bound is None or not math.isfinite(bound) or bound / value <= 0:
+            continue
+        u = math.log(bound / value)
+        if is_low == (value > 0):
+            lo = max(lo, u)
+        else:
+            hi = min(hi, u)
+    return lo, hi
+
+
+def _nearest(found: list[Item], like: Item) -> Item:
+    """The item of the same kind nearest ``like`` (in log frequency)."""
+    same = [i for i in found if i.kind == like.kind]
+    if not same:
+        raise EngineError(f"the {like.kind} is gone at these values")
+    if like.kind == "gain":
+        return same[0]
+    return min(same, key=lambda i: abs(math.log(abs(i.root) or 1e-300) - math.log(abs(like.root) or 1e-300)))
+
+
+def _mover(
+    transfer: ExpressionTransfer, params: Mapping[str, float], base: list[Item], index: int, kind: str
+) -> tuple[str | None, bool]:
+    """Of the parameters that move item ``index``, the one that moves its measure most
+    relative to how much it moves the others (None where none moves it alone), and
+    whether it leaves the others where they are."""
+    item = base[index]
+    shared = {n for i in base if i is not item and i.kind != "gain" for n in i.parameters}
+    own = [n for n in item.parameters if n not in shared]
+    if not own and item.kind == "gain":
+        raise EngineError("no one parameter sets the gain alone: write the compensator as K*(...) with a gain K")
+    best, score = (own[0] if own else None), (-math.inf, math.inf)
+    for name in own:
+        value = params[name]
+        nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
+        try:
+            after = readings(transfer, nudged)
+            change = abs(math.log(measure(_nearest(after, item), kind) / measure(item, kind)))
+        except (EngineError, ValueError):
+            continue
+        others = sum(
+            abs(math.log(measure(a, "frequency") / measure(b, "frequency")))
+            for a, b in zip(after, base)
+            if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
+        )
+        if item.kind.endswith("pair") and kind == "frequency":
+            others += abs(math.log(measure(_nearest(after, item), "damping") / measure(item, "damping")))
+        ratio = change / (others + change * 1e-3 + 1e-300)
+        if ratio > score[0]:
+            best, score = name, (ratio, others / (change + 1e-300))
+    return best, score[1] <= CLEAN
