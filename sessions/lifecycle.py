@@ -20,6 +20,7 @@ from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.format.save_file import real_path
 from sessions.format.schema import AlgorithmModel
+from sessions.hand_history import keep_run, note_edit
 from sessions.store import Session
 
 
@@ -82,10 +83,13 @@ def rebuild(session: Session) -> None:
     forget_records(session)
 
 
-def adopt_parameters(session: Session, values: Mapping[str, Any]) -> list[str]:
+def adopt_parameters(session: Session, values: Mapping[str, Any], jump: bool = True) -> list[str]:
     """Make a design (name -> value, or a list per condition) the session's start; a value
     outside its parameter's design bounds (a tolerance sample's) widens them to hold it:
-    what was widened, one line each (also kept in the session's messages)."""
+    what was widened, one line each (also kept in the session's messages).  A ``jump``
+    (a design from elsewhere, such as a sweep's) is noted in the earlier stages as a
+    hand move would be (`hand_history.note_edit`)."""
+    before = session.model.problem.model_copy(deep=True)
     widened = []
     for parameter in session.model.problem.parameters:
         if parameter.name in values:
@@ -94,6 +98,8 @@ def adopt_parameters(session: Session, values: Mapping[str, Any]) -> list[str]:
             parameter.min, parameter.max, parameter.value = low, high, value
             widened += [note] if note else []
     rebuild(session)
+    if jump:
+        note_edit(session, before)
     session.messages.extend(widened)
     return widened
 
@@ -116,10 +122,12 @@ def bounds_holding(name: str, low: float | None, high: float | None, value: Any)
 
 def adopt_current(session: Session) -> None:
     """Start from the current iteration's parameters (to continue with other
-    settings, e.g. slp's load-relief phase after its margin phase)."""
+    settings, e.g. slp's load-relief phase after its margin phase); the run that
+    led there is kept as an earlier stage (`hand_history.keep_run`)."""
     k = session.model.current_iteration
     if k:
-        adopt_parameters(session, StepRecord.from_json(session.model.records[k - 1]).parameters)
+        keep_run(session)
+        adopt_parameters(session, StepRecord.from_json(session.model.records[k - 1]).parameters, jump=False)
 
 
 def named_error(name: str, exc: Exception) -> SessionError:

@@ -13,9 +13,11 @@ from engine.errors import EngineError
 from engine.stepping.driver import iterate, resume
 from engine.stepping.memory_fields import jsonable
 from engine.stepping.protocol import State, StepRecord
+from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.format.schema import SessionModel
-from sessions.lifecycle import forget_records, named_error, stepper
+from sessions.hand_history import chain_break
+from sessions.lifecycle import folder, forget_records, named_error, stepper
 from sessions.store import AUTOSAVE_INTERVAL, Session, write_autosave
 
 REPLAY_TOLERANCE = 1e-9  # relative
@@ -155,8 +157,13 @@ class ReplayResult:
 
 def replay(session: Session) -> ReplayResult:
     """Re-run from the initial state; compare every field of every record, the
-    settings the records were made with, and the saved state (by `difference`)."""
+    settings the records were made with, and the saved state (by `difference`).
+    Earlier runs are replayed first, each on its own start, and the stages are checked
+    to lead from one to the next (`hand_history`)."""
     model = session.model
+    found, earlier = _earlier_difference(session)
+    if found:
+        return ReplayResult(False, 0, found)
     try:
         bound = stepper(session)
         snapshot = settings_snapshot(bound.settings)
@@ -179,7 +186,40 @@ def replay(session: Session) -> ReplayResult:
         raise SessionError(f"replay: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any failure of a step is an error of the replay (exit 2)
         raise SessionError(f"replay: {type(exc).__name__}: {exc}") from None
-    return ReplayResult(True, len(model.records), _success(model))
+    return ReplayResult(True, len(model.records), _success(model) + earlier)
+
+
+def _earlier_difference(session: Session) -> tuple[str | None, str]:
+    """Replay every earlier run of a session on its own start (parameters and
+    algorithm), then check the chain of stages: the first difference (None), and what
+    reproduced, as a line for the success message."""
+    runs = iterations = 0
+    for k, stage in enumerate(session.model.earlier, start=1):
+        if stage.kind != "run":
+            continue
+        problem = session.model.problem.model_copy(update={"parameters": stage.parameters})
+        model = session.model.model_copy(
+            update={
+                "problem": problem,
+                "algorithm": stage.algorithm,
+                "records": stage.records,
+                "current_iteration": len(stage.records),
+                "state": None,
+                "earlier": [],
+            }
+        )
+        built = build_problem(problem, folder(session), allow_outside_tables=session.allow_outside_tables or None)
+        result = replay(Session(model, built, session.path, allow_outside_tables=session.allow_outside_tables))
+        if not result.ok:
+            return f"earlier stage {k} (a {stage.algorithm.name} run): {result.message}", ""
+        runs, iterations = runs + 1, iterations + result.iterations
+    broken = chain_break(session)
+    if broken:
+        return f"the stages do not lead from one to the next: {broken}", ""
+    hands = sum(stage.kind == "hand" for stage in session.model.earlier)
+    if not session.model.earlier:
+        return None, ""
+    return None, f"\nand the {iterations} iterations of {runs} earlier run(s), with {hands} hand move(s) between"
 
 
 def _settings_difference(k: int, old: dict, snapshot: dict) -> str | None:

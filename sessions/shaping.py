@@ -1,7 +1,8 @@
 """Hand edits of a session's design, as the command line makes them (`loopcraft set`,
 `loopcraft tune`): the design on screen (the current iteration's, else the start)
-becomes the start, then named parameters are set or scaled, or the loop gain is solved
-for a crossover frequency or a phase margin (`engine.design.gain_solves`).  Bounds are
+becomes the start (the run that led there kept, and the change noted as a hand move:
+`sessions.hand_history`), then named parameters are set or scaled, or the loop gain is
+solved for a crossover frequency or a phase margin (`engine.design.gain_solves`).  Bounds are
 respected: a value outside its parameter's bounds is refused, naming them."""
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from engine.design.gain_solves import GainSolution, gain_for
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
+from sessions.hand_history import note_edit
 from sessions.lifecycle import adopt_current, rebuild
 from sessions.store import Session
 
@@ -55,6 +57,7 @@ def assign(session: Session, assignments: list[Assignment]) -> list[str]:
     """Make the design on screen the start, then set or scale the named parameters (every
     condition's value of a per-condition one); what changed, one line each."""
     adopt_current(session)
+    before = session.model.problem.model_copy(deep=True)
     lines = []
     for item in assignments:
         if "." in item.name:
@@ -62,6 +65,7 @@ def assign(session: Session, assignments: list[Assignment]) -> list[str]:
         else:
             lines.append(_set(session, item.name, lambda v, item=item: v * item.value if item.scale else item.value))
         rebuild(session)  # the next assignment reads the values this one set
+    note_edit(session, before)
     return lines
 
 
@@ -88,9 +92,11 @@ def tune(session: Session, goal: str, target: float, parameter: str | None, cond
     and scale the gain parameter by it, in that condition alone when it is per condition
     (the design on screen first made the start): the solution and what changed."""
     adopt_current(session)
+    before = session.model.problem.model_copy(deep=True)
     name, solution = solved_gain(session, condition, goal, target, parameter)
     line = _set(session, name, lambda v: v * solution.factor, condition)
     rebuild(session)
+    note_edit(session, before)
     return solution, line
 
 

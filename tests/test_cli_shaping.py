@@ -148,3 +148,19 @@ def test_a_root_of_a_cip_polynomial_moves_by_its_coefficients_with_the_dc_gain_k
     assert after["vehicle_1_x0"] == x0 and after["vehicle_1_x1"] == pytest.approx(x0 * (1 / moved + 1 / z2), rel=1e-9)
     assert after["vehicle_1_x2"] == pytest.approx(x0 / (moved * z2), rel=1e-9)
     assert all(after[k] == before[k] for k in before if not k.startswith("vehicle_1_x"))
+
+
+def test_a_run_then_a_hand_move_then_a_run_replays_every_iteration(lead, capsys, monkeypatch, tmp_path):
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    assert _run(capsys, "run", str(lead), "--iterations", "3")[0] == 0
+    assert _run(capsys, "tune", str(lead), "--gain-for", "crossover=1")[0] == 0
+    assert _run(capsys, "run", str(lead), "--iterations", "2")[0] == 0
+    stages = json.loads(lead.read_text())["earlier"]
+    assert [s["kind"] for s in stages] == ["run", "hand"] and [c["name"] for c in stages[1]["changes"]] == ["K"]
+    code, out, _ = _run(capsys, "replay", str(lead))
+    assert code == 0 and "iterations of 1 earlier run(s), with 1 hand move(s) between" in out
+    data = json.loads(lead.read_text())
+    data["earlier"][0]["records"][1]["parameters"]["T1"] *= 1.01  # an earlier run's record that does not reproduce
+    lead.write_text(json.dumps(data))
+    code, out, err = _run(capsys, "replay", str(lead))
+    assert code != 0 and "earlier stage 1 (a " in out + err and "iteration 2 diverges" in out + err

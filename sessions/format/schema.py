@@ -432,6 +432,33 @@ class SweepModel(Strict):
     worst_case: list[dict[str, Any]] = Field(default=[], description="tolerance sweeps: per measure row")
 
 
+class RunStageModel(Strict):
+    """A run before the current one: the parameters it started from (values and bounds),
+    its algorithm and its records (up to the iteration its design was taken from)."""
+
+    kind: Literal["run"]
+    parameters: list[ParameterModel]
+    algorithm: AlgorithmModel
+    records: list[dict[str, Any]] = []
+
+
+class HandChangeModel(Strict):
+    name: str
+    before: Number | list[Number]
+    after: Number | list[Number]
+
+
+class HandStageModel(Strict):
+    """Parameter values changed by hand (the shaping table, `loopcraft set` and `tune`)
+    between runs: each one's value before and after."""
+
+    kind: Literal["hand"]
+    changes: list[HandChangeModel]
+
+
+EarlierStage = Annotated[RunStageModel | HandStageModel, Field(discriminator="kind")]
+
+
 class SessionModel(Strict):
     """A whole session: the problem, the algorithm, what it did, and notes."""
 
@@ -444,3 +471,6 @@ class SessionModel(Strict):
     current_iteration: Annotated[int, Field(ge=0)] = 0
     state: dict[str, Any] | None = Field(default=None, description="the algorithm state after the current iteration")
     sweeps: list[SweepModel] = Field(default=[], description="results of `loopcraft sweep`, oldest first")
+    earlier: list[EarlierStage] = Field(
+        default=[], description="the runs and hand moves before the current run, oldest first"
+    )

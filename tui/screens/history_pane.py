@@ -1,4 +1,5 @@
-"""The History tab: every iteration; the selected one's design in one view
+"""The History tab: every iteration (the earlier runs and hand moves above, one
+line each); the selected one's design in one view
 (`tui.figures.history`: Nyquist, Bode, phase, Nichols, S/T, poles, locus,
 step) beside the marked iteration or the current design, and its tableau (or
 its measures against the marked one's).
@@ -23,6 +24,7 @@ from textual.widgets import DataTable
 
 from engine.stepping.presenter import number, tolerant
 from sessions.compare import compare, comparison_text, side
+from sessions.hand_history import earlier_lines
 from tui.figures.data import Figure
 from tui.figures.history import TITLES, VIEWS, figure_key, history_figure, history_views, name
 from tui.keys import identified
@@ -85,6 +87,7 @@ class HistoryPane(Horizontal):
     HistoryPane #history-table, HistoryPane #history-side { height: 1fr; }
     HistoryPane #history-plot { height: 2fr; }
     HistoryPane #history-scroll { height: 1fr; }
+    HistoryPane #history-earlier { height: auto; max-height: 6; }
     """
 
     class Drawn(Message):
@@ -109,6 +112,7 @@ class HistoryPane(Horizontal):
     def compose(self) -> ComposeResult:
         yield HistoryTable(id="history-table")
         with Vertical(id="history-side"):
+            yield TextView("", id="history-earlier")
             yield ViewsLine(id="history-views")
             yield FigurePlot(id="history-plot")
             with VerticalScroll(id="history-scroll"):
@@ -143,6 +147,10 @@ class HistoryPane(Horizontal):
         ]
         table = self.query_one(HistoryTable)
         table.fill(("iteration", "status", label or "value", "unmet"), rows)
+        earlier = self.query_one("#history-earlier", TextView)
+        lines = earlier_lines(self.bench.session)
+        earlier.set(Text("\n".join(lines), style="dim"))
+        earlier.display = bool(lines)
         self.show_iteration(max(table.cursor_row, 0), view)
 
     def show_iteration(self, iteration: int, view: View | None = None) -> None:

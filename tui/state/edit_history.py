@@ -2,7 +2,7 @@
 
 Before an edit the workbench's changeable content is kept as a `Snapshot`:
 the problem model, the algorithm and its settings, the records and the
-current iteration, and the engine problem built from that model (so an undo
+current iteration, the earlier runs and hand moves, and the engine problem built from that model (so an undo
 needs no rebuild).  An accepted edit pushes the snapshot with a description
 of what changed, read off the two models ("parameter K value: 1 -> 2");
 undoing it puts the snapshot back, records included: iterations an edit
@@ -30,6 +30,7 @@ class Snapshot:
     state: Any
     problem: Any
     parsed_records: list
+    earlier: list
 
     @classmethod
     def of(cls, bench) -> Snapshot:
@@ -42,6 +43,7 @@ class Snapshot:
             model.state,
             bench.session.problem,
             bench.parsed_records(),
+            list(model.earlier),
         )
 
     def restore(self, bench) -> None:
@@ -49,6 +51,7 @@ class Snapshot:
         model.problem, model.algorithm = self.problem_model.model_copy(deep=True), self.algorithm.model_copy(deep=True)
         model.records[:] = self.records
         model.current_iteration, model.state = self.current_iteration, self.state
+        model.earlier[:] = self.earlier
         bench.session.problem = self.problem
         bench.forget_stepper()
         bench.put_back(self.parsed_records)

@@ -24,6 +24,7 @@ from sessions.format.checks import invalid
 from sessions.format.schema import ProblemModel
 from sessions.forms import one_line as forms
 from sessions.forms import transfers as transfer_forms
+from sessions.hand_history import note_edit
 from sessions.lifecycle import folder
 from tui.state.workbench import Workbench
 
@@ -63,7 +64,8 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
         raise SessionError(invalid(exc, "problem")) from None
     except (ValueError, EngineError) as exc:
         raise SessionError(str(exc)) from None
-    bench.session.model.problem, bench.session.problem = draft, problem
+    before, bench.session.model.problem, bench.session.problem = bench.session.model.problem, draft, problem
+    note_edit(bench.session, before)
     bench.reset()
 
 
