@@ -8,8 +8,10 @@ from __future__ import annotations
 import math
 
 import control as ct
+import numpy as np
 import pytest
 
+from engine.analysis import loop_curve
 from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.cli import main
@@ -97,3 +99,80 @@ async def test_the_tutorials_lead_takes_well_under_thirty_keys(tmp_path, monkeyp
         gm, pm, _, _, wc, _ = ct.stability_margins(_loop(_values(app)))
         print(f"keys {keys}: PM {pm:.2f} deg, GM {20 * math.log10(gm):.2f} dB, crossover {wc:.4g} rad/s")
         assert pm >= 45 and keys == 12 and 20 * math.log10(gm) >= 8 and wc >= 1.0
+
+
+@synchronous
+async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
+    """+ adds a notch about the crossover (its zero and pole pairs, wn and zeta named for
+    what they are), - deletes the lead's zero with its factor, its parameter and the
+    constraint on it (asked first); the loop checked against python-control."""
+    app = _lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C")
+        await settle(app, pilot)
+        wc = ct.stability_margins(_loop(_values(app)))[4]
+        await pilot.press("plus")
+        await pilot.pause()
+        option = app.screen.query_one("OptionList")
+        option.highlighted = [k for k, _ in app.screen.choices].index("notch")
+        await pilot.press("enter")
+        await settle(app, pilot)
+        block = app.bench.session.model.problem.conditions[0].plant.blocks[0].transfer
+        assert block.expression == (
+            "K*(1+T1*s)*(1+2*notch1_zz*s/notch1_wz+(s/notch1_wz)^2)/((1+T2*s)*(1+2*notch1_zp*s/notch1_wp+(s/notch1_wp)^2))"
+        )
+        values = _values(app)
+        assert values["notch1_wz"] == values["notch1_wp"] == pytest.approx(wc, rel=1e-6)
+        table = app.screen.query_one("#shape")
+        assert {"compensator.zeropair1", "compensator.polepair1"} <= set(table.names)
+        notch = ct.tf([1 / wc**2, 2 * 0.05 / wc, 1], [1 / wc**2, 2 * 0.5 / wc, 1])
+        w = np.array([0.3 * wc, wc, 3 * wc])
+        c = app.bench.session.problem.conditions[0]
+        ours = loop_curve(c.network, c.break_at, w, app.bench.session.problem.condition_values(0), "").gh
+        assert np.allclose(ours, (_loop(values) * notch)(1j * w), rtol=1e-12)
+        table.move_cursor(row=table.names.index("compensator.zero1"))
+        await pilot.press("minus")
+        await pilot.pause()
+        await pilot.press("y")  # asked first
+        await settle(app, pilot)
+        block = app.bench.session.model.problem.conditions[0].plant.blocks[0].transfer
+        assert block.expression.startswith("K*(1+2*notch1_zz*s/notch1_wz+(s/notch1_wz)^2)/")
+        assert "T1" not in _values(app) and not any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
+        await pilot.press("ctrl+z")  # one undo brings the zero, T1 and its constraint back
+        await settle(app, pilot)
+        assert "T1" in _values(app) and any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
+
+
+@synchronous
+async def test_a_notch_on_a_resonance_puts_its_zeros_on_the_modes_poles(workdir):
+    """N lists the plant's lightly damped pole pairs (the launch vehicle's bending modes,
+    read off each block: 11, 24, 38 rad/s) and adds a notch whose zeros are the chosen
+    mode's poles exactly."""
+    from engine.design.compensator_items import items
+    from engine.model.blocks import ExpressionTransfer
+
+    app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C")
+        await settle(app, pilot)
+        await pilot.press("N")
+        await pilot.pause()
+        assert [text.split(" (")[0] for _, text in app.screen.choices] == [
+            "11 rad/s, zeta 0.01",
+            "24 rad/s, zeta 0.01",
+            "38 rad/s, zeta 0.015",
+        ]
+        app.screen.query_one("OptionList").highlighted = 1
+        await pilot.press("enter")
+        await settle(app, pilot)
+        model = app.bench.session.model.problem
+        text = model.conditions[0].plant.blocks[19].transfer.expression
+        assert text == (
+            "KD*(1+2*notch1_zz*s/notch1_wz+(s/notch1_wz)^2)/((1+TA*s)*(1+2*notch1_zp*s/notch1_wp+(s/notch1_wp)^2))"
+        )
+        values = app.bench.session.problem.condition_values(0)
+        (pair,) = [i for i in items(ExpressionTransfer(text), values) if i.kind == "zero pair"]
+        mode = complex(-0.24, (576 - 0.24**2) ** 0.5)  # s^2 + 0.48 s + 576
+        assert abs(pair.root - mode) <= 1e-12 * abs(mode)

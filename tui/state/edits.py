@@ -144,6 +144,55 @@ def move_item(bench: Workbench, name: str, target: Callable[[float], float]) -> 
     return ", ".join(move.values)
 
 
+def add_part(bench: Workbench, block: str, kind: str) -> str:
+    """Add a part (`sessions.compensator_parts.PARTS`) to a compensator, placed about the
+    plotted condition's crossover (1 rad/s without one), as one transaction; what it added."""
+    from sessions.compensator_parts import add_part as added
+
+    view = bench.view()
+    curve = view.loop_curve(condition=view.first_plotted)
+    w = (curve.margins.crossover_frequency if curve and curve.margins else None) or 1.0
+    names: list[str] = []
+    transaction(bench, lambda draft: names.extend(added(draft, block, kind, w)))
+    return f"{block}: {kind} added about {w:.4g} rad/s ({', '.join(names)})"
+
+
+def notch_on(bench: Workbench, block: str, resonance: Any) -> str:
+    """A notch on a resonance (`engine.design.resonances`) in a compensator, as one
+    transaction; what it added."""
+    from sessions.compensator_parts import notch_on as added
+
+    names: list[str] = []
+    transaction(bench, lambda draft: names.extend(added(draft, block, resonance.frequency, resonance.damping)))
+    return f"{block}: notch on {resonance.text} ({', '.join(names)})"
+
+
+def resonances(bench: Workbench) -> list:
+    """The plotted condition's resonances at the start values (`engine.design.resonances`)."""
+    from engine.design.resonances import resonances as found
+
+    problem = bench.session.problem
+    if not problem.conditions:
+        return []
+    k = bench.view().first_plotted
+    return found(problem.conditions[k].network, problem.condition_values(k))
+
+
+def remove_item(bench: Workbench, name: str, item: Any, draft: ProblemModel | None = None) -> str:
+    """Delete a compensator's item (``block.item`` of the plotted condition) with the
+    factor that holds it, as one transaction (on ``draft`` alone, a copy, to say first
+    what would go); what went."""
+    from sessions.compensator_parts import remove_item as removed
+
+    block = name.rsplit(".", 1)[0]
+    values = bench.session.problem.condition_values(bench.view().first_plotted)
+    lines: list[str] = []
+    if draft is not None:
+        return "; ".join(removed(draft, block, values, item.root, item.kind))
+    transaction(bench, lambda draft: lines.extend(removed(draft, block, values, item.root, item.kind)))
+    return "; ".join(lines)
+
+
 def gain_for(bench: Workbench, goal: str, target: float) -> str:
     """Scale the plotted condition's gain parameter so its loop has the crossover (rad/s)
     or the phase margin (deg) asked, exactly (`sessions.shaping.solved_gain`); the parameter."""

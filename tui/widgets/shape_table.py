@@ -10,6 +10,7 @@ import math
 from textual.binding import Binding
 from textual.widgets import DataTable
 
+from sessions.errors import SessionError
 from tui.keys import identified
 from tui.state import edits
 
@@ -20,7 +21,8 @@ DAMPING_STEP = 1.1  # a pair's damping factor of a nudge
 
 class ShapeTable(DataTable):
     """One row per compensator item; left/right move it, [ and ] a pair's damping, e types
-    a value, g and G solve the loop gain for a crossover or a phase margin."""
+    a value, g and G solve the loop gain for a crossover or a phase margin, + adds a part,
+    N a notch on a resonance and - deletes the selected item."""
 
     BINDINGS = identified(
         "shape",
@@ -36,6 +38,9 @@ class ShapeTable(DataTable):
                 "g", "gain_for('crossover')", "gain for wc", tooltip="the gain that puts the crossover at a frequency"
             ),
             Binding("G", "gain_for('pm')", "gain for PM", tooltip="the gain that gives a phase margin"),
+            Binding("plus", "add", "add", tooltip="add a lead, lag, integrator, zero, pole, notch or pole pair"),
+            Binding("minus,delete", "delete", "delete", tooltip="delete the selected zero, pole or pair (its factor)"),
+            Binding("N", "notch", "notch", tooltip="a notch on one of the plant's resonances (zeros on its poles)"),
         ],
     )
 
@@ -63,11 +68,13 @@ class ShapeTable(DataTable):
         return (self.names[k], self.found[k]) if 0 <= k < len(self.names) else None
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
-        if action in ("nudge", "damp", "type_value", "gain_for"):
+        if action in ("nudge", "damp", "type_value", "gain_for", "add", "delete", "notch"):
             if self.app.busy or self.selected is None:
                 return None
             if action == "damp":
                 return True if self.selected[1].kind.endswith("pair") else None
+            if action == "delete":
+                return None if self.selected[1].kind == "gain" else True
         return True
 
     def action_nudge(self, steps: int) -> None:
@@ -108,6 +115,59 @@ class ShapeTable(DataTable):
             edits.gain_for(self.app.bench, goal, float(text))
 
         self.app.edit_flow.line(f"the loop gain for {title}", _number, apply, f"the gain for {goal} {title}")
+
+    def action_add(self) -> None:
+        from sessions.compensator_parts import PARTS  # scipy: never before the first paint
+
+        block = self.selected[0].rsplit(".", 1)[0]
+        bench = self.app.bench
+
+        def add(kind: str) -> None:
+            self.app.edit_flow.change(
+                lambda: edits.add_part(bench, block, kind),
+                f"add a {kind} to {block}",
+                done=lambda text: self.app.notify(f"{text}: g re-solves the gain for the crossover", timeout=6),
+            )
+
+        self.app.edit_flow.choose(f"add to {block}", [(k, p.title) for k, p in PARTS.items()], add)
+
+    def action_notch(self) -> None:
+        block = self.selected[0].rsplit(".", 1)[0]
+        bench = self.app.bench
+        found = edits.resonances(bench)
+        if not found:
+            self.app.notify(
+                "no pole pair of a fixed block is damped less than 0.3 (a tabulated plant has none to read): "
+                "+ adds a notch about the crossover, e types its frequency",
+                title="no resonance",
+                timeout=8,
+            )
+            return
+
+        def add(index: str) -> None:
+            resonance = found[int(index)]
+            self.app.edit_flow.change(
+                lambda: edits.notch_on(bench, block, resonance),
+                f"a notch on {resonance.text}",
+                done=lambda text: self.app.notify(text, timeout=6),
+            )
+
+        self.app.edit_flow.choose(f"a notch in {block} on", [(str(k), r.text) for k, r in enumerate(found)], add)
+
+    def action_delete(self) -> None:
+        name, item = self.selected
+        bench = self.app.bench
+        try:
+            plan = edits.remove_item(bench, name, item, bench.session.model.problem.model_copy(deep=True))
+        except SessionError as exc:
+            self.app.notify(str(exc), title=f"{name} cannot be deleted", severity="error", timeout=8)
+            return
+        self.app.edit_flow.change(
+            lambda: edits.remove_item(bench, name, item),
+            f"delete {name}: {plan}",
+            always_ask=True,
+            done=lambda text: self.app.notify(text, timeout=8),
+        )
 
 
 def _positive(text: str) -> str | None:
