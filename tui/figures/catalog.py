@@ -67,13 +67,14 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         out["nyquist"] = nyquist_figure(curves, points(view), unit=unit)  # circles: `overlays.nyquist`
     if curves and asked("bode-mag", "bode-phase"):
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
-        overlays.corners(out["bode-mag"], compensator_corners(view), unit)
+        overlays.corners(out["bode-mag"], compensator_roots(view), unit)
     if curves and asked("nichols"):
         out["nichols"] = nichols_figure(curves, unit)
     if "closed_loop" in wanted and view.problem.conditions and asked("closed-loop"):
         out["closed-loop"] = sensitivity_figure(view)
     if "poles" in wanted and view.problem.conditions and asked("poles"):
         out["poles"] = poles_figure(view)
+        overlays.compensator_roots(out["poles"], compensator_roots(view))
     if asked("convergence"):
         label, its, values = view.convergence()
         out["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet")
@@ -90,9 +91,10 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
     return out
 
 
-def compensator_corners(view: View) -> list[tuple[str, float]]:
-    """("zero" or "pole", frequency rad/s) of the plotted condition's compensators at the
-    current design (`engine.design.compensator_items`; none when they do not read)."""
+def compensator_roots(view: View) -> list[tuple[str, complex]]:
+    """("zero" or "pole", root: the upper one of a pair) of the plotted condition's
+    compensators at the current design (`engine.design.compensator_items`; none when
+    they do not read)."""
     from engine.design.compensator_items import items
     from engine.errors import EngineError
     from engine.model.blocks import ExpressionTransfer
@@ -108,7 +110,8 @@ def compensator_corners(view: View) -> list[tuple[str, float]]:
                 found = items(entry.transfer, values)
             except (EngineError, ValueError):
                 continue
-            out += [(i.kind.split()[0], abs(i.root)) for i in found if i.kind.split()[0] in ("zero", "pole")]
+            kinds = {"zero": "zero", "zero pair": "zero", "differentiator": "zero"}
+            out += [(kinds.get(i.kind, "pole"), i.root) for i in found if i.kind != "gain"]
     return out
 
 

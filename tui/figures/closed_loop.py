@@ -288,13 +288,17 @@ def _damping(p: complex) -> tuple[float, float]:
 
 
 PARAMETER_LOCUS_POINTS = 300  # each point is a realization and its polish (~10 ms)
+COARSE_LOCUS_POINTS = 60  # the first, coarse locus the workbench draws while the fine one is computed
 
 
-def locus_figure(view, parameter: str = "gain", iteration: int | None = None, subject: str | None = None) -> Figure:
+def locus_figure(
+    view, parameter: str = "gain", iteration: int | None = None, subject: str | None = None, points: int | None = None
+) -> Figure:
     """The root locus of the first plotted condition at an iteration's design (None: the
     current one) in the loop gain k (or in a named parameter, a decade either side of its
     value), that design's closed-loop poles marked, the imaginary-axis crossings below;
-    the title names ``subject`` (default: the condition)."""
+    the title names ``subject`` (default: the condition).  ``points``: a coarse locus
+    of at most so many points (its title says so), drawn while the fine one is computed."""
     fig = Figure(
         title="Root locus (loop gain k)",
         xlabel="Re",
@@ -308,9 +312,9 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     from engine.closed_loop.root_locus import root_locus
 
     try:
-        points = LOCUS_POINTS if parameter == "gain" else PARAMETER_LOCUS_POINTS
+        bound = LOCUS_POINTS if parameter == "gain" else PARAMETER_LOCUS_POINTS
         locus = root_locus(
-            c.network, c.break_at, view.parameters(iteration, k), parameter, max_points=points, polished=False
+            c.network, c.break_at, view.parameters(iteration, k), parameter, max_points=points or bound, polished=False
         )
     except EngineError as exc:
         fig.empty_message = f"no root locus: {exc}"
@@ -330,8 +334,9 @@ def locus_figure(view, parameter: str = "gain", iteration: int | None = None, su
     )
     name = "k" if parameter == "gain" else parameter
     crossings = ", ".join(f"{name}={x.value:.4g} at {x.frequency:.4g} rad/s" for x in locus.crossings[:3])
+    status = "coarse: refining ..." if points else "" if locus.status == "complete" else locus.status
     fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {subject or c.name}" + (
-        "" if locus.status == "complete" else f" ({locus.status})"
+        f" ({status})" if status else ""
     )
     if crossings:
         fig.xlabel = f"Re   jw-axis crossings: {crossings}"

@@ -78,19 +78,32 @@ def bode(magnitude: Figure, phase: Figure, found: list[Requirement], unit: str) 
             _shade(phase, req, *band, base, base + req.value)
 
 
-def corners(magnitude: Figure, corners_found: list[tuple[str, float]], unit: str) -> None:
+def corners(magnitude: Figure, roots: list[tuple[str, complex]], unit: str) -> None:
     """The compensator's corner frequencies on the Bode magnitude, on the current curve:
     z for a zero (or a pair of zeros), p for a pole, where the shaping table moves them."""
-    if magnitude.probe is None or not corners_found:
+    if magnitude.probe is None or not roots:
         return
     scale = 2 * math.pi if unit == "hz" else 1.0
     x, y = np.asarray(magnitude.probe.x), np.asarray(magnitude.probe.y)
     for kind, marker in (("zero", "z"), ("pole", "p")):
-        at = [math.log10(w / scale) for k, w in corners_found if k == kind and w > 0]
+        at = [math.log10(abs(r) / scale) for k, r in roots if k == kind and abs(r) > 0]
         at = [v for v in at if x[0] <= v <= x[-1]]
         if at:
             label = f"compensator {kind}s"
             magnitude.series.append(Series(at, np.interp(at, x, y).tolist(), label, marker=marker, scatter=True))
+
+
+def compensator_roots(fig: Figure, roots: list[tuple[str, complex]]) -> None:
+    """The compensator's zeros (z) and poles (p) on an s-plane figure (the pole map, the
+    root locus), each pair with its conjugate: what the shaping table moves."""
+    if not roots or not fig.series:
+        return
+    for kind, marker in (("zero", "z"), ("pole", "p")):
+        at = [r for k, root in roots if k == kind for r in ([root, root.conjugate()] if root.imag else [root])]
+        if at:
+            fig.series.append(
+                Series([r.real for r in at], [r.imag for r in at], f"compensator {kind}s", marker=marker, scatter=True)
+            )
 
 
 def nichols(fig: Figure, found: list[Requirement]) -> None:

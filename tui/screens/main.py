@@ -25,6 +25,7 @@ from tui.figures.data import Figure
 from tui.figures.lines import sweep_figure
 from tui.keys import identified
 from tui.screens.history_pane import HistoryPane
+from tui.screens.latest_work import LatestWork
 from tui.screens.pole_lines import PoleLines
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
@@ -162,6 +163,7 @@ class MainScreen(Screen):
         self._history_stale = True
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
+        self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
 
     def compose(self) -> ComposeResult:
@@ -403,7 +405,8 @@ class MainScreen(Screen):
     def draw_missing(self, view: View | None = None) -> None:
         """The plots on screen whose figures are not of the current view, computed in a
         thread worker (a tabulated loop's fit takes a second) and shown when done; a
-        newer request supersedes it.  A plot never drawn says it is computing."""
+        newer request replaces one waiting (`LatestWork`).  A plot never drawn says it
+        is computing."""
         view = self.bench.view() if view is None else view
         key, canvases = figure_key(view), self.canvases()
         missing = {name for name in canvases if name in FIGURE_IDS and self._figure_keys.get(name) != key}
@@ -417,7 +420,7 @@ class MainScreen(Screen):
         def compute() -> None:
             self.post_message(self.FiguresDrawn(key, *drawings(view, canvases, missing)))
 
-        self.run_worker(compute, thread=True, exclusive=True, group="figures")
+        self.figure_work.request(compute, (key, frozenset(missing)))
 
     @on(FigurePlot.Chosen)
     def _plot_chosen(self, message: FigurePlot.Chosen) -> None:

@@ -11,11 +11,12 @@ from textual.message import Message
 from textual.widgets import DataTable, TabbedContent
 
 from tui.figures import overlays
-from tui.figures.catalog import Same
-from tui.figures.closed_loop import locus_figure
+from tui.figures.catalog import Same, compensator_roots
+from tui.figures.closed_loop import COARSE_LOCUS_POINTS, locus_figure
 from tui.figures.data import Figure
 from tui.figures.requirements import requirements
 from tui.screens.dialogs import EditDialog
+from tui.screens.latest_work import LatestWork
 from tui.state import edits
 from tui.state.clipboard import design_text, row_text
 from tui.state.step_view import format_step_setup, horizon, parse_step_setup
@@ -41,6 +42,7 @@ class ViewActions:
         self.screen = screen
         self.locus_parameter = "gain"  # what the root locus varies
         self._locus_key: tuple | None = None  # what the root locus shown was computed for
+        self._locus_work = LatestWork(screen, "locus")  # one locus at a time, the latest design's next
 
     def forget_locus(self) -> None:
         """The design changed: the locus shown is computed again when its tab is shown."""
@@ -100,7 +102,9 @@ class ViewActions:
 
     def refresh_locus(self, view: View | None = None) -> None:
         """The root locus, computed in a thread worker only while its tab is shown
-        (a locus of a dozen bending modes takes seconds); kept until the design changes."""
+        (a locus of a dozen bending modes takes seconds): coarse first, then refined, one
+        design at a time and only the latest one waiting (`LatestWork`: a held shaping key
+        never queues stale loci); kept until the design changes."""
         screen = self.screen
         plots = screen.query_one_optional("#plots", TabbedContent)
         if plots is None or plots.active != "p-locus" or self.screen.query_one_optional("#locus") is None:
@@ -115,11 +119,15 @@ class ViewActions:
         parameter = self.locus_parameter
 
         def compute() -> None:
-            figure = locus_figure(view, parameter)
-            overlays.poles(figure, requirements(view))
-            screen.post_message(self.LocusDrawn(key, figure))
+            for points in (COARSE_LOCUS_POINTS, None):  # coarse first, then as fine as the engine goes
+                if key != self._locus_key:
+                    return  # a newer design is asked for: this one is passed over
+                figure = locus_figure(view, parameter, points=points)
+                overlays.poles(figure, requirements(view))
+                overlays.compensator_roots(figure, compensator_roots(view))
+                screen.post_message(self.LocusDrawn(key, figure))
 
-        screen.run_worker(compute, thread=True, exclusive=True, group="locus")
+        self._locus_work.request(compute, key)
 
     def choose_locus_parameter(self) -> None:
         """Choose what the root locus varies, the loop gain or one parameter, and show the

@@ -1,0 +1,47 @@
+"""One computation at a time in a thread worker, and only the latest request waiting:
+while a key is held (a nudge thirty times a second) the figures of the designs passed
+over are never computed, and no thread piles up behind another (a thread worker cannot
+be stopped midway, so an exclusive worker per request would run them all at once)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from textual.dom import DOMNode
+
+
+class LatestWork:
+    """Requests run one at a time on ``owner``'s thread workers of ``group``; a request
+    made while one runs replaces the one waiting, and a request for what is running or
+    waiting already (the same ``key``) is dropped."""
+
+    def __init__(self, owner: DOMNode, group: str) -> None:
+        self.owner, self.group = owner, group
+        self.running: object = None  # the key of the computation running (None: none)
+        self.waiting: tuple[object, Callable[[], None]] | None = None
+
+    def request(self, compute: Callable[[], None], key: object = True) -> None:
+        """Run ``compute`` now, or after the running one (replacing any waiting)."""
+        if self.running is None:
+            self._start(key, compute)
+        elif key != self.running and (self.waiting is None or key != self.waiting[0]):
+            self.waiting = (key, compute)
+
+    def _start(self, key: object, compute: Callable[[], None]) -> None:
+        self.running = key
+        app = self.owner.app
+
+        def run() -> None:
+            try:
+                compute()
+            finally:
+                app.call_from_thread(self._done)
+
+        self.owner.run_worker(run, thread=True, group=self.group)
+
+    def _done(self) -> None:
+        """(UI thread) The running one finished: the waiting one, if any, runs next."""
+        self.running = None
+        if self.waiting is not None:
+            (key, compute), self.waiting = self.waiting, None
+            self._start(key, compute)
