@@ -6,15 +6,22 @@ from __future__ import annotations
 
 import threading
 
+from textual import on
 from textual.app import App
 
 from tests.tui.test_app import settle, synchronous
 from tui.screens.latest_work import LatestWork
 
 
+class Owner(App):
+    @on(LatestWork.Done)
+    def _done(self, message: LatestWork.Done) -> None:  # what an owner does
+        message.work.done()
+
+
 @synchronous
 async def test_requests_made_while_one_runs_leave_only_the_latest_waiting():
-    app = App()
+    app = Owner()
     release = threading.Event()
     ran: list[int] = []
 

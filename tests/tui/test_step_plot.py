@@ -5,10 +5,11 @@ from __future__ import annotations
 import control as ct
 import numpy as np
 
+from engine.closed_loop.step_response import StepSetup
 from sessions.store import load_session
 from tests.tui.test_app import settle, synchronous
 from tui.figures.lines import step_figure
-from tui.state.step_view import StepSetup, parse_step_setup
+from tui.state.step_view import parse_step_setup
 from tui.state.workbench import Workbench
 
 

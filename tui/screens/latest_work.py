@@ -8,12 +8,14 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from textual.dom import DOMNode
+from textual.message import Message
 
 
 class LatestWork:
     """Requests run one at a time on ``owner``'s thread workers of ``group``; a request
     made while one runs replaces the one waiting, and a request for what is running or
-    waiting already (the same ``key``) is dropped."""
+    waiting already (the same ``key``) is dropped.  The owner handles `Done` by calling
+    `done`."""
 
     def __init__(self, owner: DOMNode, group: str) -> None:
         self.owner, self.group = owner, group
@@ -27,20 +29,28 @@ class LatestWork:
         elif key != self.running and (self.waiting is None or key != self.waiting[0]):
             self.waiting = (key, compute)
 
+    class Done(Message):
+        """A computation of ``work`` finished (posted by its thread to the owner, whose
+        handler calls `LatestWork.done`)."""
+
+        def __init__(self, work: LatestWork) -> None:
+            super().__init__()
+            self.work = work
+
     def _start(self, key: object, compute: Callable[[], None]) -> None:
         self.running = key
-        app = self.owner.app
+        owner = self.owner
 
         def run() -> None:
             try:
                 compute()
             finally:
-                app.call_from_thread(self._done)
+                owner.post_message(self.Done(self))
 
-        self.owner.run_worker(run, thread=True, group=self.group)
+        owner.run_worker(run, thread=True, group=self.group)
 
-    def _done(self) -> None:
-        """(UI thread) The running one finished: the waiting one, if any, runs next."""
+    def done(self) -> None:
+        """(UI thread, on `Done`) The running one finished: the waiting one, if any, runs next."""
         self.running = None
         if self.waiting is not None:
             (key, compute), self.waiting = self.waiting, None

@@ -287,6 +287,10 @@ class MainScreen(Screen):
     def action_locus_parameter(self) -> None:
         self.view_actions.choose_locus_parameter()
 
+    @on(LatestWork.Done)
+    def _work_done(self, message: LatestWork.Done) -> None:
+        message.work.done()
+
     @on(ViewActions.LocusDrawn)
     def _locus_drawn(self, message: ViewActions.LocusDrawn) -> None:
         self.view_actions.locus_drawn(message)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 from textual.message import Message
 from textual.widgets import DataTable, TabbedContent
 
+from engine.closed_loop.step_response import horizon
 from tui.figures import overlays
 from tui.figures.catalog import Same, compensator_roots
 from tui.figures.closed_loop import COARSE_LOCUS_POINTS, locus_figure
@@ -19,7 +20,7 @@ from tui.screens.dialogs import EditDialog
 from tui.screens.latest_work import LatestWork
 from tui.state import edits
 from tui.state.clipboard import design_text, row_text
-from tui.state.step_view import format_step_setup, horizon, parse_step_setup
+from tui.state.step_view import format_step_setup, parse_step_setup
 from tui.state.views import View
 from tui.widgets.plots import FigurePlot
 from tui.widgets.textview import TextView

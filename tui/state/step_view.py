@@ -1,92 +1,10 @@
-"""The step plot's data: which signals, how long, and the classical marks.
-
-The engineer chooses the input stepped and the output plotted (`StepSetup`,
-one line: ``INPUT OUTPUT [HORIZON]``); by default the first input and the
-output named y, c or x1.  The horizon, unless given, comes from the current
-design's closed-loop poles (8 time constants of the slowest, 5 of the fastest
-unstable), and every trace uses it.  The current trace's rise time (10-90 %),
-overshoot, settling band (+-5 %) and settling time are `engine.closed_loop.time_response`'s
-`step_measures`.
-"""
+"""The step plot's setup line: ``INPUT OUTPUT [HORIZON]`` read and written
+(`engine.closed_loop.step_response` computes the response and its measures)."""
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
-from dataclasses import dataclass
-
-import numpy as np
-
-from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
-from engine.errors import EngineError
-from engine.loop.realization import StateSpace, realize
-
-SAMPLES = 400
-SETTLING_BAND = 0.05
-MAX_HORIZON = 1e4
-
-
-@dataclass(frozen=True)
-class StepSetup:
-    """What the step plot shows: None picks the default."""
-
-    input: str | None = None
-    output: str | None = None
-    horizon: float | None = None
-
-
-@dataclass(frozen=True)
-class StepResponse:
-    t: list[float]
-    y: list[float]
-    name: str  # 'y (step at r)'
-    measures: StepMeasures | None  # None when the response has no settled final value to measure from
-
-
-def default_output(ss: StateSpace) -> str:
-    """y, c or x1 when the network has one, else its last signal."""
-    return next((name for name in ("y", "c", "x1") if name in ss.outputs), ss.outputs[-1])
-
-
-def horizon(ss: StateSpace) -> float:
-    """A step response's duration from the closed-loop poles' real parts."""
-    real = np.linalg.eigvals(ss.A).real
-    if real.max() > 0:
-        return min(5.0 / real.max(), MAX_HORIZON)
-    slowest = np.abs(real[real < 0]).min(initial=np.inf)
-    return min(8.0 / slowest, MAX_HORIZON) if np.isfinite(slowest) else 10.0
-
-
-def realized(network, params: Mapping[str, float]) -> StateSpace | None:
-    """The closed loop's state space (None when it has no state or cannot be realized)."""
-    try:
-        ss = realize(network, params)
-    except EngineError:
-        return None
-    return ss if ss.inputs and ss.A.size else None
-
-
-def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -> StepResponse | None:
-    """The response of the chosen output to a unit step at the chosen input, over
-    ``span`` (the setup's horizon, else this loop's own)."""
-    source = setup.input if setup.input in ss.inputs else ss.inputs[0]
-    output = setup.output if setup.output in ss.outputs else default_output(ss)
-    t = np.linspace(0.0, setup.horizon or span or horizon(ss), SAMPLES)
-    segments = [Segment(0.0, step=1.0)]
-    try:
-        y = simulate(ss, source, t, segments)[:, ss.outputs.index(output)]
-    except EngineError:
-        return None
-    return StepResponse(t.tolist(), y.tolist(), f"{output} (step at {source})", _measures(ss, source, output, t, y))
-
-
-def _measures(ss: StateSpace, source: str, output: str, t: np.ndarray, y: np.ndarray) -> StepMeasures | None:
-    if not np.all(np.isfinite(y)):
-        return None
-    final, origin = final_value(ss, source, output, [Segment(0.0, step=1.0)], y)
-    if origin != "dc_gain" or final == 0 or not math.isfinite(final):
-        return None
-    return step_measures(t, y, final, band=SETTLING_BAND)
+from engine.closed_loop.step_response import MAX_HORIZON, StepSetup, default_output
+from engine.loop.realization import StateSpace
 
 
 def parse_step_setup(text: str, inputs: tuple[str, ...], outputs: tuple[str, ...]) -> StepSetup:

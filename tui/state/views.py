@@ -15,11 +15,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from engine.analysis import LoopCurve, loop_curve
+from engine.closed_loop.step_response import StepSetup, horizon, realized, step_response
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.presenter import tolerant
 from engine.stepping.protocol import MeasureRow, StepRecord
-from tui.state.step_view import StepSetup, horizon, realized, step_response
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+from engine.closed_loop.step_response import StepSetup
 from engine.errors import EngineError
 from engine.stepping.driver import first_record, resume
 from engine.stepping.presenter import Presenter
@@ -26,7 +27,6 @@ from sessions.sweeps.jobs import execute
 from sessions.sweeps.plan import parse_sweep, plan
 from sessions.sweeps.results import adopt_run, record_sweep, summarize
 from tui.state.edit_history import EditHistory
-from tui.state.step_view import StepSetup
 from tui.state.views import View
 
 
