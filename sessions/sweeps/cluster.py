@@ -12,9 +12,14 @@ import signal
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING, NamedTuple
 from urllib.parse import urlsplit
 
 from sessions.errors import SessionError
+
+if TYPE_CHECKING:
+    from distributed import Client
+    from distributed.deploy import Cluster
 
 DEFAULT_CONNECT_TIMEOUT = 5.0  # s: how long to wait for a scheduler, or for a local cluster's workers
 
@@ -72,28 +77,44 @@ def sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
-def connect(address: str | None, workers: int | None, timeout: float):
+class Connection(NamedTuple):
+    """A client, the cluster started for it (None: a running scheduler's), and how many
+    workers the cluster is planned to have (0: as many as the scheduler has)."""
+
+    client: Client
+    cluster: Cluster | None
+    workers: int
+
+
+def connect(address: str | None, workers: int | None, timeout: float) -> Connection:
     """A client of the scheduler at ``address``, or of a new local cluster; every failure a `SessionError`."""
     from distributed import Client
 
     if address is not None:
         try:
-            return Client(address, timeout=timeout), None
+            return Connection(Client(address, timeout=timeout), None, 0)
         except Exception as exc:  # noqa: BLE001 - whatever answers (or not) there, one clean error
             raise SessionError(
-                f"cannot reach the Dask scheduler {address} within {timeout:g} s: {_reason(exc)}"
+                f"cannot reach the Dask scheduler {address} within {timeout:g} s: {reason(exc)}"
             ) from None
     n = workers or os.cpu_count() or 1
     try:
         with sigint_ignored():  # the worker processes inherit it: Ctrl-C is for this process alone
             cluster = local_cluster(n)
     except Exception as exc:  # noqa: BLE001 - e.g. "Nanny failed to start": one clean error
-        raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {_reason(exc)}") from None
+        raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {reason(exc)}") from None
+    return Connection(cluster_client(cluster, timeout, "the local Dask cluster"), cluster, n)
+
+
+def cluster_client(cluster: Cluster, timeout: float, label: str) -> Client:
+    """A client of a cluster started here; the cluster closed when none can be had."""
+    from distributed import Client
+
     try:
-        return Client(cluster, timeout=timeout), cluster
+        return Client(cluster, timeout=timeout)
     except Exception as exc:  # noqa: BLE001
         close(None, cluster)
-        raise SessionError(f"cannot connect to the local Dask cluster: {_reason(exc)}") from None
+        raise SessionError(f"cannot connect to {label}: {reason(exc)}") from None
 
 
 # A local cluster's workers run long numerical jobs: Dask's own monitors there only take
@@ -135,8 +156,9 @@ def local_cluster(workers: int):
         )
 
 
-def _reason(exc: BaseException) -> str:
-    text = str(exc).strip()
+def reason(exc: BaseException) -> str:
+    """An exception in one line: its type and its message (dask-jobqueue's put an example on a line of its own)."""
+    text = " ".join(str(exc).split())
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 

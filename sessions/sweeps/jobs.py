@@ -7,7 +7,11 @@ need loopcraft installed), and sends back plain JSON (the final StepRecord's
 content, summarized by the algorithm's presenter).  Without an address a
 local cluster is started with one process per core, one thread each; with
 ``tcp://HOST:PORT`` (checked before anything starts) that cluster is used,
-reached within a connect timeout.  Every failure to start or reach a cluster
+reached within a connect timeout; a cluster named in Dask's configuration (a
+batch system's, through dask-jobqueue: `sessions.sweeps.named_clusters`) is
+started and scaled adaptively.  Short runs go to the workers in batches sized
+from the first runs' times, so that 100 000 samples do not become 100 000
+tasks.  Every failure to start or reach a cluster
 is a `SessionError`.  Ctrl-C stops a sweep: the runs not finished are
 cancelled and the finished ones kept (the local workers ignore it, started
 with SIGINT ignored, so that only this process sees it).
@@ -20,6 +24,7 @@ is reported with its attempts.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 import uuid
@@ -43,12 +48,14 @@ from sessions.lifecycle import bind
 from sessions.store import validated_model
 from sessions.sweeps.cluster import (
     DEFAULT_CONNECT_TIMEOUT,
+    Connection,
     close,
     connect,
     connect_timeout,
     scheduler_address,
     sigint_ignored,
 )
+from sessions.sweeps.named_clusters import NamedCluster, connect_named
 
 MAX_ITERATIONS = 1000
 EVENT_TOPIC = "loopcraft-sweep"
@@ -187,39 +194,40 @@ def execute(
     cancelled: Callable[[], bool] = lambda: False,
     client=None,
     timeout: float = DEFAULT_CONNECT_TIMEOUT,
+    cluster: NamedCluster | None = None,
 ) -> Outcome:
     """Run the jobs on Dask: ``client`` if given, else a local cluster (one process
-    per core, one thread each) or the cluster at ``scheduler`` (tcp://HOST:PORT,
-    reached within ``timeout`` seconds).  With neither ``scheduler`` nor ``workers``
-    given, the first run (or two) is made and timed here: the rest run here too
-    when a local cluster could not pay for its start-up, and runs shorter than
-    `BATCH_SECONDS` go to the workers in batches (`batch_size`); the outcome's
-    ``note`` says which.  Ctrl-C stops it: the finished runs are kept."""
+    per core, one thread each), the cluster at ``scheduler`` (tcp://HOST:PORT,
+    reached within ``timeout`` seconds) or a ``cluster`` named in Dask's configuration
+    (`sessions.sweeps.named_clusters`).  With none of ``scheduler``, ``workers`` and
+    ``cluster`` given, the first run (or two) is made and timed here: the rest run here
+    too when a local cluster could not pay for its start-up.  Otherwise the first
+    `FIRST_PER_WORKER` runs per worker are timed on the cluster, one to a task.  Runs
+    shorter than `BATCH_SECONDS` then go to the workers in batches (`batch_size`); the
+    outcome's ``note`` says which.  Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []
-    if address is None and workers is None and jobs:  # a local cluster of the default size: maybe not worth it
+    if address is None and workers is None and cluster is None and jobs:  # a local cluster: maybe not worth it
         here, each, serial = _first_here(jobs, progress)
         if serial is not None:
             return serial
-    client, cluster = connect(address, workers, connect_timeout(timeout))
+    wait = connect_timeout(timeout)
+    connection = connect(address, workers, wait) if cluster is None else connect_named(cluster, workers, wait)
     try:
         if not here:
-            return _gather(client, jobs, progress, cancelled)
-        size = batch_size(each, len(jobs) - len(here), _worker_count(client))
-        shifted = None if progress is None else lambda k, _: progress(k + len(here), len(jobs))
-        rest = _gather(client, jobs[len(here) :], shifted, cancelled, size)
-        note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
-        return Outcome(here + rest.runs, rest.workers, rest.attempts, rest.cancelled, rest.interrupted, note)
+            return _timed_on_cluster(connection, jobs, progress, cancelled)
+        return _rest_batched(connection, jobs, Outcome(here, 1), each, progress, cancelled)
     finally:
         with sigint_ignored():
-            close(client, cluster)
+            close(connection.client, connection.cluster)
 
 
 LOCAL_CLUSTER_START = 3.0  # s: a local cluster's start-up and first imports, measured on 2 cores
 BATCH_SECONDS = 0.25  # s: runs shorter than this go to a worker together, about this much work at a time
 BATCHES_PER_WORKER = 4  # ... but in at least this many batches per worker (none idles long at the end)
 SECOND_TIMING = 1.0  # s: a first run at most this long is timed again on the second (its imports)
+FIRST_PER_WORKER = 2  # runs per worker timed on a cluster, one to a task, before the rest are batched
 
 
 def batch_size(each: float, count: int, workers: int) -> int:
@@ -230,6 +238,36 @@ def batch_size(each: float, count: int, workers: int) -> int:
     by_time = int(BATCH_SECONDS / each) if each > 0 else count
     by_balance = count // (BATCHES_PER_WORKER * max(workers, 1))
     return max(1, min(by_time, by_balance))
+
+
+def _timed_on_cluster(connection: Connection, jobs: Sequence, progress, cancelled) -> Outcome:
+    """The first `FIRST_PER_WORKER` runs per worker one to a task, timed on the workers
+    (the shortest counts: a worker's first run pays for its imports); the rest in
+    batches sized from them."""
+    workers = max(connection.workers, _worker_count(connection.client))
+    count = min(len(jobs), FIRST_PER_WORKER * workers)
+    first = _gather(connection.client, jobs[:count], _shifted(progress, 0, len(jobs)), cancelled)
+    if first.cancelled or count == len(jobs):
+        rest = [_lost(job, None) for job in jobs[count:]]
+        return Outcome(first.runs + rest, first.workers, first.attempts, first.cancelled, first.interrupted)
+    timed = [r["seconds"] for r in first.runs if r["status"] != "failed" and r["seconds"] is not None]
+    return _rest_batched(connection, jobs, first, min(timed, default=math.inf), progress, cancelled)
+
+
+def _rest_batched(connection: Connection, jobs: Sequence, first: Outcome, each: float, progress, cancelled) -> Outcome:
+    """The jobs after the ``first`` ones, in batches of runs of about ``each`` seconds (`batch_size`)."""
+    done = len(first.runs)
+    workers = max(connection.workers, _worker_count(connection.client))
+    size = batch_size(each, len(jobs) - done, workers)
+    rest = _gather(connection.client, jobs[done:], _shifted(progress, done, len(jobs)), cancelled, size)
+    note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
+    attempts = {**first.attempts, **rest.attempts}
+    return Outcome(first.runs + rest.runs, rest.workers, attempts, rest.cancelled, rest.interrupted, note)
+
+
+def _shifted(progress: Callable[[int, int], None] | None, offset: int, total: int):
+    """A progress report of ``total`` runs from one of the runs after the first ``offset``."""
+    return None if progress is None else lambda k, _: progress(k + offset, total)
 
 
 def _worker_count(client) -> int:

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 
 from sessions.format.limits import MAX_GRID_POINTS
+from sessions.sweeps.named_clusters import MAX_JOBS
 from tui.cli.common import CliError
 
 MAX_ITERATIONS = 1_000_000  # of one run
@@ -68,6 +69,8 @@ BOUNDS: dict[str, dict[str, Bound]] = {
         "seed": Bound(0, 2**32 - 1),
         "connect_timeout": SECONDS,
         "workers": Bound(1, 1024),
+        "min_jobs": Bound(0, MAX_JOBS),
+        "max_jobs": Bound(1, MAX_JOBS),
     },
 }
 ORDERED = {"analyze": [("wmin", "wmax")]}  # pairs that must be increasing (first < second)

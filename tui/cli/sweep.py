@@ -8,6 +8,12 @@ import json
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
+
+from tui.cli.common import CliError
+
+if TYPE_CHECKING:
+    from sessions.sweeps.named_clusters import NamedCluster
 
 INTERRUPTED = 130  # the exit status of a sweep stopped by Ctrl-C (128 + SIGINT), its finished runs kept
 
@@ -16,7 +22,7 @@ def add_parser(sub) -> None:
     """The `sweep` subcommand and its options (--allow-outside-tables: `tui.cli.build_parser`)."""
     p = sub.add_parser("sweep", help="many runs on Dask: multi-start, a parameter sweep, or a tolerance study")
     p.add_argument("file")
-    what = p.add_mutually_exclusive_group(required=True)
+    what = p.add_mutually_exclusive_group()  # one of them is required, but for --print-job-script
     what.add_argument("--starts", type=int, metavar="N", help="N runs from random starting points")
     what.add_argument("--vary", metavar="NAME=V1,V2,...", help="one run per value of a penalty, parameter or path")
     what.add_argument(
@@ -31,6 +37,16 @@ def add_parser(sub) -> None:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
     where.add_argument("--serial", action="store_true", help="in this process, one run after the other")
+    where.add_argument(
+        "--cluster",
+        metavar="NAME",
+        help="a cluster from Dask's configuration: local, or slurm, pbs, sge, lsf (dask-jobqueue's jobqueue.NAME)",
+    )
+    p.add_argument(
+        "--min-jobs", type=int, metavar="N", help="a batch system's cluster keeps at least N jobs (default 0)"
+    )
+    p.add_argument("--max-jobs", type=int, metavar="N", help="... and scales up to N jobs (default 1)")
+    p.add_argument("--print-job-script", action="store_true", help="print the job script --cluster would submit")
     p.add_argument(
         "--connect-timeout", type=float, metavar="SECONDS", help="how long to wait for the scheduler (default 5)"
     )
@@ -51,14 +67,21 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     in NAME.sweep-recovery.json."""
     from sessions.store import load_session, prepare_save
     from sessions.sweeps.cluster import connect_timeout, scheduler_address, sigint_ignored
+    from sessions.sweeps.named_clusters import job_script
 
     address = scheduler_address(args.scheduler)
     timeout = connect_timeout(args.connect_timeout)
+    named = _named_cluster(args)
+    if args.print_job_script:
+        print(job_script(named))
+        return 0
+    if args.starts is None and args.vary is None and args.tolerance is None:
+        raise CliError("one of --starts, --vary, --tolerance is required")
     target = Path(args.out or args.file)
     session = load_session(args.file)
     prepare_save(session, target)  # before any run: the output can be written
     try:
-        kind, settings, outcome = _run(args, session, address, timeout)
+        kind, settings, outcome = _run(args, session, Where(address, named, timeout))
     except KeyboardInterrupt:
         print("loopcraft sweep: interrupted before any run finished; nothing saved", file=sys.stderr)
         return INTERRUPTED
@@ -66,7 +89,27 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return _keep(args, session, kind, settings, outcome, target)
 
 
-def _run(args: argparse.Namespace, session, address: str | None, timeout: float):
+def _named_cluster(args: argparse.Namespace) -> NamedCluster | None:
+    """--cluster NAME checked (None without it); --min-jobs, --max-jobs and --print-job-script need it."""
+    from sessions.sweeps.named_clusters import named_cluster
+
+    if args.cluster is None:
+        if args.min_jobs is not None or args.max_jobs is not None or args.print_job_script:
+            raise CliError("--min-jobs, --max-jobs and --print-job-script are for --cluster NAME")
+        return None
+    return named_cluster(args.cluster, args.min_jobs, args.max_jobs)
+
+
+class Where(NamedTuple):
+    """Where the runs go: a scheduler's address, a named cluster or neither (a local
+    cluster), reached within ``timeout`` seconds."""
+
+    address: str | None
+    cluster: NamedCluster | None
+    timeout: float
+
+
+def _run(args: argparse.Namespace, session, where: Where):
     """Plan the sweep and run its jobs: (kind, settings, outcome)."""
     from sessions.sweeps.jobs import execute, execute_serial
     from sessions.sweeps.plan import plan
@@ -79,12 +122,14 @@ def _run(args: argparse.Namespace, session, address: str | None, timeout: float)
         else ("tolerance", args.tolerance)
     )
     jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
-    settings["scheduler"] = address or ("serial" if args.serial else "local")
+    settings["scheduler"] = where.address or (
+        "serial" if args.serial else where.cluster.name if where.cluster else "local"
+    )
     progress = _progress_bar if sys.stderr.isatty() and not args.json else None
     outcome = (
         execute_serial(jobs, progress)
         if args.serial
-        else execute(jobs, address, args.workers, progress, timeout=timeout)
+        else execute(jobs, where.address, args.workers, progress, timeout=where.timeout, cluster=where.cluster)
     )
     if progress:
         print(file=sys.stderr)
