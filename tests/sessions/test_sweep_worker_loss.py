@@ -1,0 +1,115 @@
+"""A tolerance study on a `dask scheduler` and two `dask worker` processes started here on
+127.0.0.1 (real processes, not the in-process cluster), one of which is killed midway:
+every sample's result is found once, and equals a serial run's (issue 41, section 3)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from engine.stepping.memory_fields import jsonable
+from sessions.store import load_session
+from sessions.sweeps.jobs import EVENT_TOPIC, execute_serial
+from sessions.sweeps.plan import tolerance_jobs
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "sessions" / "examples"
+SAMPLES = 600  # lag-lead samples of 5-9 ms: a study of 2-3 s on two workers, in batches of about 0.25 s
+
+
+def _copy(tmp_path: Path) -> Path:
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", tmp_path / "s.json")
+    return tmp_path / "s.json"
+
+
+def _started(arguments: list[str]) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", *arguments], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+
+
+@pytest.fixture
+def scheduler_and_two_workers(tmp_path):
+    """`dask scheduler` and two `dask worker` processes on 127.0.0.1, ports chosen by the
+    system (the scheduler's written to its scheduler file); the workers without a nanny,
+    so that a killed one stays dead.  Every process is killed at the end."""
+    from distributed import Client
+
+    file = tmp_path / "scheduler.json"
+    processes = [
+        _started(
+            ["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
+            + ["--scheduler-file", str(file)]
+        )
+    ]
+    try:
+        deadline = time.monotonic() + 30
+        while not file.exists() and time.monotonic() < deadline and processes[0].poll() is None:
+            time.sleep(0.05)
+        assert file.exists(), "the scheduler did not start within 30 s"
+        address = json.loads(file.read_text())["address"]
+        for _ in range(2):
+            processes.append(
+                _started(
+                    ["distributed.cli.dask_worker", address, "--host", "127.0.0.1", "--nthreads", "1"]
+                    + ["--no-nanny", "--no-dashboard"]
+                )
+            )
+        with Client(address, timeout="30s") as client:
+            client.wait_for_workers(2, timeout=30)
+            yield client, address, processes
+    finally:
+        for process in processes:
+            process.kill()
+        for process in processes:
+            process.wait(timeout=30)
+
+
+def _kill_when_started(client, worker: subprocess.Popen, count: int, stop: threading.Event) -> None:
+    """Kill ``worker`` once ``count`` runs have started (each run logs its start on the scheduler)."""
+    while not stop.wait(0.02):
+        if len(client.get_events(EVENT_TOPIC)) >= count:
+            worker.send_signal(signal.SIGKILL)
+            return
+
+
+@pytest.mark.slow
+def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(scheduler_and_two_workers, tmp_path):
+    """The sweep in a process of its own, as it is run (this process's client only watches
+    the scheduler's log of the runs' starts: two clients in one process share futures'
+    events across event loops)."""
+    client, address, processes = scheduler_and_two_workers
+    path = _copy(tmp_path)
+    jobs = tolerance_jobs(load_session(path), ["T1=+-10%"], SAMPLES)  # as the sweep plans them
+    stop = threading.Event()
+    killer = threading.Thread(target=_kill_when_started, args=(client, processes[2], SAMPLES // 4, stop))
+    killer.start()
+    try:
+        argv = ["sweep", str(path), "--tolerance", "T1=+-10%", "--samples", str(SAMPLES), "--scheduler", address]
+        done = subprocess.run(
+            [sys.executable, "-m", "tui.cli", *argv, "--json"], cwd=ROOT, capture_output=True, text=True, timeout=120
+        )
+    finally:
+        stop.set()
+        killer.join(timeout=10)
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)
+    assert processes[2].poll() is not None, "the worker was killed midway"
+    runs = summary["runs"]
+    assert not summary["failed"], {runs[k]["reason"] for k in summary["failed"]}
+    assert summary["workers"] == 1
+    assert summary["retried"], "the runs of the batch on the killed worker were started again on the other"
+    assert sorted(r["index"] for r in runs) == list(range(SAMPLES))  # every sample's result, once
+    size = int(done.stderr.split(" at a time")[0].split()[-1])
+    assert size > 1, done.stderr  # runs of a few ms go in batches: 600 samples are not 600 tasks
+    serial = jsonable([[r["start"], r["measures"]] for r in execute_serial(jobs).runs])
+    kept = json.loads(path.read_text())["sweeps"][-1]["runs"]  # as saved ("target" is only in --json's)
+    assert [[r["start"], r["measures"]] for r in kept] == serial
