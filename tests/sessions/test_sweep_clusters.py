@@ -134,7 +134,9 @@ def test_an_adaptive_jobqueue_cluster_runs_a_study_in_batches(tmp_path, monkeypa
     monkeypatch.setattr(dask_jobqueue, "SLURMCluster", LocalCluster)
     monkeypatch.setattr(named_clusters, "quiet_exports", list)  # its jobs run the command alone, no script
     jobs = tolerance_jobs(load_session(_copy(tmp_path)), ["T1=+-10%"], 200, seed=3)
-    with dask.config.set(_profile("slurm", cores=1, memory="1GB")):
+    with dask.config.set(
+        _profile("slurm", cores=1, memory="1GB", **{"scheduler-options": {"dashboard_address": ":0"}})
+    ):
         outcome = execute(jobs, cluster=named_cluster("slurm", 0, 2))
     assert not outcome.serial and all(r["worker"].startswith("tcp://") for r in outcome.runs)
     size = int(outcome.note.split(" at a time")[0].split()[-1])
