@@ -1,8 +1,7 @@
-"""`loopcraft report FILE --format html|md --out DIR`: the design report.
-
-Headless Chromium is not installed here, so the HTML is not rendered in a
-browser; instead it is parsed, and every embedded PNG decoded and read back
-by matplotlib: a valid image of plausible size whose pixels are not uniform."""
+"""`loopcraft report FILE --format html|md --out DIR`: the design report, parsed, and
+every embedded PNG decoded and read back by matplotlib: a valid image of plausible
+size whose pixels are not uniform (tests/test_report_browser.py renders it in a real
+browser)."""
 
 from __future__ import annotations
 
@@ -71,11 +70,15 @@ def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
     parsed.feed(text)
     assert parsed.external == []
     prefix = "data:image/png;base64,"
-    assert len(parsed.images) == 5 and all(src.startswith(prefix) for src in parsed.images)  # conv., 4 loop plots
+    # convergence, and Bode, Nyquist, Nichols, S/T, root locus, step of the one condition
+    assert len(parsed.images) == 7 and all(src.startswith(prefix) for src in parsed.images)
     for src in parsed.images:
         _check_png(base64.b64decode(src[len(prefix) :], validate=True))
     for heading in (
-        "Problem",
+        "Flight conditions and targets",
+        "Compensator",
+        "Constraints",
+        "Loop analysis at the design",
         "Initial and final design",
         "Convergence history",
         "Figures",
@@ -95,19 +98,21 @@ def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_markdown_writes_its_pngs_beside_it(tmp_path):
-    """Three flight conditions at the start: Bode, Nyquist, Nichols and step of each."""
+    """Three flight conditions at the start: Bode, Nyquist, Nichols, S/T, root locus and
+    step of each."""
     source = tmp_path / "vehicle.json"
     shutil.copy(EXAMPLES / "coebra_launch_vehicle.json", source)
     out = tmp_path / "out"
     assert main(["report", str(source), "--format", "md", "--out", str(out)]) == 0
     text = (out / "vehicle.md").read_text()
     pngs = sorted(out.glob("*.png"))
-    assert len(pngs) == 12
+    assert len(pngs) == 18
     for png in pngs:
         assert f"]({png.name})" in text
         _check_png(png.read_bytes())
     for name in ("switch-in", "max-q", "switch-out"):
         assert f"### Condition {name}" in text
+    assert "> **Note.** Report 003, Appendix B" in text  # the session's notes, shown as a note
     assert "No iteration has run yet." in text
 
 

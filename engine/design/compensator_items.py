@@ -145,3 +145,47 @@ def measure(item: Item, kind: str = "frequency") -> float:
     if kind == "damping":
         return max(-item.root.real / abs(item.root), 1e-300)
     return abs(item.root)
+
+
+def time_constant_form(found: list[Item], variable: str = "s") -> str:
+    """The compensator in time-constant form, from its items: '7.14 (1 + s/0.667) /
+    (1 + s/10)', a pair '(1 + 2*0.3*s/2 + (s/2)^2)', an integrator '/s'."""
+    s = variable
+    over, under = [], []
+    for item in found[1:]:
+        w = abs(item.root)
+        if item.kind in ("integrator", "differentiator"):
+            factor = s
+        elif item.kind.endswith("pair"):
+            factor = f"(1 + {2 * measure(item, 'damping'):.6g}*{s}/{w:.6g} + ({s}/{w:.6g})^2)"
+        else:
+            factor = f"(1 {'-' if item.root.real > 0 else '+'} {s}/{w:.6g})"
+        (over if item.kind.startswith(("zero", "differentiator")) else under).append(factor)
+    text = " ".join([f"{found[0].root.real:.6g}", *over])
+    return text + (f" / ({' '.join(under)})" if len(under) > 1 else f" / {under[0]}" if under else "")
+
+
+def pole_zero_form(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
+    """The compensator in gain/zero/pole form: '71.4 (s + 0.667) / (s + 10)', a pair as
+    '(s^2 + 1.2 s + 4)'."""
+    base = pole_zero(transfer.expression, params)
+    s = transfer.expression.variable
+
+    def factors(roots: np.ndarray) -> list[str]:
+        out = []
+        for r in sorted(roots, key=abs):
+            if r.imag < 0:
+                continue
+            if r.imag > 0:
+                out.append(f"({s}^2 {_signed(-2 * r.real)} {s} + {abs(r) ** 2:.6g})")
+            else:
+                out.append(s if r == 0 else f"({s} {_signed(-r.real)})")
+        return out
+
+    over, under = factors(base.zeros), factors(base.poles)
+    text = " ".join([f"{base.gain.real:.6g}", *over])
+    return text + (f" / ({' '.join(under)})" if len(under) > 1 else f" / {under[0]}" if under else "")
+
+
+def _signed(value: float) -> str:
+    return f"{'-' if value < 0 else '+'} {abs(value):.6g}"

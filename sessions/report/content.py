@@ -1,33 +1,34 @@
 """The design report's content (`loopcraft report --format html|md`), as a list of
 plain blocks that `sessions.report.render` writes as HTML or Markdown.
 
-Blocks: ("h1"|"h2"|"h3", text), ("p", text), ("table", header, rows),
-("figure", name, png bytes, caption), ("pre", text).  Content: the problem
-(every condition's blocks, the compensators, the parameters with bounds, the
-targets per condition, the algorithm), the initial and the final design with
-their tableaux (met/unmet), the convergence history, the figures of every
-condition (`sessions.report.figures`), and the algorithm's own report text
-(its presenter's) as an appendix.
+Blocks: ("h1"|"h2"|"h3", text), ("p", text), ("note", text), ("table", header,
+rows), ("figure", name, png bytes, caption), ("pre", text).  Content: provenance,
+the session's notes (as notes), the summary (every requirement with its sense, unit,
+value and method), the compensators in three forms, the parameters and constraints
+(which bind), the loop analysis of each condition (`sessions.report.design_state`),
+the conditions' blocks and the targets as set, the initial and final tableaux, the
+convergence history, the figures with the requirements drawn
+(`sessions.report.figures`), and the algorithm's own report text as an appendix.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
 from engine.analysis import LoopCurve, loop_curve
-from engine.closed_loop.time_response import Segment, simulate
+from engine.closed_loop.step_response import StepSetup, realized, step_response
+from engine.design.measure_kinds import MEASURE_KINDS
 from engine.design.notes import design_notes
 from engine.errors import EngineError
-from engine.loop.realization import realize
 from engine.stepping.driver import first_record
 from engine.stepping.presenter import tableau_text, tolerant
-from engine.stepping.protocol import MeasureRow, StepRecord
+from engine.stepping.protocol import StepRecord
 from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import registration, stepper
-from sessions.report import figures
+from sessions.report import design_state, figures
+from sessions.report.design_state import number
 from sessions.store import Session
 
 Block = tuple
@@ -45,18 +46,22 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
     k, named = iteration_parameters(session, iteration)
     initial, final = _records(session, k)
     name = session.path.name if session.path else "session"
-    blocks: list[Block] = [
-        ("h1", f"Design report: {name}"),
-        (
-            "p",
-            f"Algorithm {session.model.algorithm.name}; iteration {k} of "
-            f"{session.model.current_iteration}. {session.model.notes}",
-        ),
-    ]
-    blocks += _problem(session, named)
-    blocks += _designs(initial, final, k)
+    design = session.problem.named() if named is None else named
+    found = design_state.analyses(session, design)
+    methods = {name: a.margins.label for name, a in found.items() if not isinstance(a, str)}
+    verdict, requirements = design_state.requirement_rows(final, session.problem.grid.unit, methods)
+    blocks: list[Block] = [("h1", f"Design report: {name}"), *design_state.provenance(session, k)]
+    if session.model.notes.strip():
+        blocks += [("h2", "Notes"), ("note", session.model.notes.strip())]
+    blocks += [("h2", f"Summary: {verdict} (iteration {k})"), requirements]
+    blocks += [("h2", "Compensator"), *design_state.compensator_forms(session, design)]
+    blocks += [("h2", "Parameters"), *design_state.parameters(session, design)]
+    blocks += [("h2", "Constraints"), *design_state.constraints(session, design)]
+    blocks += [("h2", "Loop analysis at the design"), *design_state.loop_analysis(session, design, found)]
+    blocks += _problem(session)
+    blocks += _designs(initial, final, k, session.problem.grid.unit)
     blocks += _convergence(session, k)
-    blocks += _figures(session, named)
+    blocks += _figures(session, named, final)
     blocks += _appendix(session, initial, final)
     return blocks
 
@@ -69,106 +74,74 @@ def _records(session: Session, k: int) -> tuple[StepRecord | None, StepRecord | 
     return initial, (session.records[k - 1] if k else initial)
 
 
-def _number(x: Any) -> str:
-    if x is None:
-        return ""
-    if isinstance(x, list):
-        return " / ".join(_number(v) for v in x)
-    if isinstance(x, float):
-        return "-" if math.isnan(x) else f"{x:.6g}"
-    return str(x)
-
-
-def _problem(session: Session, named: dict | None) -> list[Block]:
+def _problem(session: Session) -> list[Block]:
+    """The flight conditions (every block, its signals and role) and the targets as set."""
     problem, model = session.problem, session.model.problem
-    blocks: list[Block] = [("h2", "Problem")]
-    for c in problem.conditions:
+    blocks: list[Block] = [("h2", "Flight conditions and targets")]
+    for k, c in enumerate(problem.conditions):
+        junctions = _junctions(model.conditions[k]) if k < len(model.conditions) else set()
         rows = [
-            [
-                e.label,
-                c.network.signals[e.col],
-                c.network.signals[e.row],
-                e.transfer.text,
-                "compensator" if e.transfer.parameters else "plant",
-            ]
+            [e.label, c.network.signals[e.col], c.network.signals[e.row], e.transfer.text, _role(e, junctions)]
             for e in c.network.entries
         ]
         blocks += [
             ("h3", f"Condition {c.name} (variable {c.network.variable}, loop broken at {c.break_at})"),
             ("table", ("block", "from", "to", "transfer", "role"), rows),
         ]
-    final = problem.named() if named is None else named
-    rows = [
-        [
-            p.name,
-            _number(p.value),
-            _number(p.min),
-            _number(p.max),
-            "yes" if p.free else "no",
-            p.sign,
-            _number(final.get(p.name)),
-        ]
-        for p in model.parameters
-    ]
-    blocks += [("h3", "Parameters"), ("table", ("name", "start", "min", "max", "free", "sign", "final"), rows)]
     rows = [
         [
             t.measure,
             t.condition or "all",
+            _sense(t.measure, t.sense),
             "; ".join(_band(b) for b in t.bands),
-            t.sense or "natural",
-            _number(t.weight),
+            number(t.weight),
             "yes" if t.requirement else "objective only",
         ]
         for t in model.targets
     ]
-    blocks += [("h3", "Targets"), ("table", ("measure", "condition", "bands", "sense", "weight", "requirement"), rows)]
+    blocks += [("h3", "Targets"), ("table", ("measure", "condition", "sense", "bands", "weight", "requirement"), rows)]
     settings = ", ".join(f"{k}={v}" for k, v in session.model.algorithm.settings.items()) or "defaults"
     blocks.append(("p", f"Algorithm {session.model.algorithm.name} ({settings})."))
     return blocks
 
 
+def _junctions(condition) -> set[str]:
+    plant = condition.plant
+    return {j.name for j in getattr(plant, "junctions", None) or ()}
+
+
+def _role(entry, junctions: set[str]) -> str:
+    if entry.transfer.parameters:
+        return "compensator"
+    if entry.label in junctions:
+        return f"summing junction ({'+' if entry.transfer.text.lstrip()[:1] != '-' else '-'})"
+    return "plant"
+
+
+def _sense(measure: str, sense: str | None) -> str:
+    """'>= (at least)' or '<= (at most)' with the measure's unit."""
+    kind = MEASURE_KINDS.get(measure)
+    at_least = sense == "at_least" if sense is not None else (kind.at_least if kind is not None else True)
+    unit = f", {kind.unit}" if kind is not None and kind.unit else ""
+    return (">= (at least" if at_least else "<= (at most") + unit + ")"
+
+
 def _band(b) -> str:
-    where = "" if b.low == 0 and b.high is None else f"{_number(b.low)}..{_number(b.high) or 'inf'}: "
-    required = "" if b.required is None else f" (required {_number(b.required)})"
-    return f"{where}{_number(b.desired)}{required}"
+    where = "" if b.low == 0 and b.high is None else f"{number(b.low)}..{number(b.high) or 'inf'}: "
+    required = "" if b.required is None else f" (required {number(b.required)})"
+    return f"{where}{number(b.desired)}{required}"
 
 
-def _tableau(rows: list[MeasureRow]) -> Block:
-    return (
-        "table",
-        ("name", "kind", "condition", "value", "frequency", "desired", "met"),
-        [
-            [
-                r.name,
-                r.kind,
-                r.condition,
-                _number(r.value),
-                _number(r.frequency),
-                _number(r.desired),
-                "met" if r.satisfied else "UNMET",
-            ]
-            for r in rows
-        ],
-    )
-
-
-def _designs(initial: StepRecord | None, final: StepRecord | None, k: int) -> list[Block]:
+def _designs(initial: StepRecord | None, final: StepRecord | None, k: int, unit: str) -> list[Block]:
     blocks: list[Block] = [("h2", "Initial and final design")]
     for title, record in (("Initial design (iteration 0)", initial), (f"Final design (iteration {k})", final)):
         blocks.append(("h3", title))
         if record is None:
             blocks.append(("p", "The loop cannot be evaluated at this design."))
             continue
-        met = sum(bool(r.satisfied) for r in record.measures)
-        blocks += [
-            (
-                "p",
-                f"{met} of {len(record.measures)} measures met. Parameters: "
-                + ", ".join(f"{n} = {_number(v)}" for n, v in record.parameters.items()),
-            ),
-            _tableau(list(record.measures)),
-        ]
+        verdict, table = design_state.requirement_rows(record, unit)
+        values = ", ".join(f"{n} = {number(v)}" for n, v in record.parameters.items())
+        blocks += [("p", f"{verdict}. Parameters: {values}"), table]
     return blocks
 
 
@@ -182,7 +155,7 @@ def _convergence(session: Session, k: int) -> list[Block]:
     for r in records:
         label, value = tolerant(lambda: presenter.convergence(r), lambda: (label, None))
         unmet = sum(not m.satisfied for m in r.measures)
-        rows.append([str(r.iteration), r.status.value, _number(r.objective), _number(value), str(unmet)])
+        rows.append([str(r.iteration), r.status.value, number(r.objective), number(value), str(unmet)])
         if value is not None and math.isfinite(value):
             points.append((r.iteration, float(value)))
     blocks.append(("table", ("iteration", "status", "objective", label or "value", "unmet"), rows))
@@ -220,7 +193,9 @@ def _circles(session: Session, name: str) -> list[tuple[str, float]]:
     return out
 
 
-def _figures(session: Session, named: dict | None) -> list[Block]:
+def _figures(session: Session, named: dict | None, final: StepRecord | None) -> list[Block]:
+    """Per condition: Bode, Nyquist, Nichols, S/T, the root locus (rational loops) and the
+    step response, the requirements drawn on them as the workbench draws them."""
     problem = session.problem
     blocks: list[Block] = [("h2", "Figures")]
     for c, condition in enumerate(problem.conditions):
@@ -233,16 +208,18 @@ def _figures(session: Session, named: dict | None) -> list[Block]:
             if x
         ]
         title = f"condition {condition.name}"
+        rows = [r for r in (final.measures if final is not None else ()) if r.condition == condition.name]
         blocks.append(("h3", f"Condition {condition.name}"))
         if not curves:
             blocks.append(("p", "The loop cannot be evaluated on the grid."))
             continue
+        unit = problem.grid.unit
         blocks += [
             (
                 "figure",
                 f"bode_{c}",
-                figures.bode(curves, problem.grid.unit, f"Bode, {title}"),
-                f"Bode, {title}: margins marked on the final design",
+                figures.bode(curves, unit, f"Bode, {title}", rows),
+                f"Bode, {title}: margins and targets",
             ),
             (
                 "figure",
@@ -251,46 +228,54 @@ def _figures(session: Session, named: dict | None) -> list[Block]:
                 f"Nyquist, {title}: -1 and the margin targets as circles |1 + GH| around it",
             ),
             ("figure", f"nichols_{c}", figures.nichols(curves, f"Nichols, {title}"), f"Nichols, {title}"),
+            (
+                "figure",
+                f"st_{c}",
+                figures.sensitivity(curves, unit, f"S and T, {title}", rows),
+                f"|S| and |T|, {title}",
+            ),
         ]
-        traces = [
-            t
-            for t in (
-                _step(session, c, None, "initial", "--"),
-                _step(session, c, named, "final", "-") if named is not None else None,
-            )
-            if t
-        ]
-        if traces:
-            blocks.append(
-                (
-                    "figure",
-                    f"step_{c}",
-                    figures.step([t[:4] for t in traces], traces[0][4], f"Step response, {title}"),
-                    f"Closed-loop step response, {title}: {traces[0][4]}",
-                )
-            )
+        blocks += _locus(session, c, named, title) + _step_figure(session, c, named, title, rows)
     return blocks
 
 
-def _step(session: Session, c: int, named: dict | None, label: str, style: str):
-    """Step at the first input, response of y (or c, x1, the last signal): rational loops only."""
-    problem = session.problem
-    network = problem.conditions[c].network
-    if not network.rational:
-        return None
+def _locus(session: Session, c: int, named: dict | None, title: str) -> list[Block]:
+    """The root locus in the loop gain at the design (rational loops)."""
+    from engine.closed_loop.root_locus import pole_zero_map, root_locus
+
+    condition = session.problem.conditions[c]
+    if not condition.network.rational:
+        return []
+    values = session.problem.condition_values(c, named=named)
     try:
-        ss = realize(network, problem.condition_values(c, named=named))
-        if not ss.inputs or ss.A.size == 0:
-            return None
-        output = next((n for n in ("y", "c", "x1") if n in ss.outputs), ss.outputs[-1])
-        real = np.linalg.eigvals(ss.A).real
-        slowest = np.abs(real[real < 0]).min(initial=np.inf)
-        horizon = 5.0 / real.max() if real.max() > 0 else (min(8.0 / slowest, 1e4) if np.isfinite(slowest) else 10.0)
-        t = np.linspace(0.0, horizon, 400)
-        y = simulate(ss, ss.inputs[0], t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
-    except (EngineError, np.linalg.LinAlgError):
+        found = root_locus(condition.network, condition.break_at, values, polished=False)
+        pz = pole_zero_map(condition.network, condition.break_at, values)
+    except EngineError:
+        return []
+    chart = figures.locus(found, pz, f"Root locus, {title}")
+    return [("figure", f"locus_{c}", chart, f"Root locus in the loop gain, {title}")]
+
+
+def _step_figure(session: Session, c: int, named: dict | None, title: str, rows) -> list[Block]:
+    traces = [t for t in (_step(session, c, None, "initial", "--"), _step(session, c, named, "final", "-")) if t]
+    if named is None:
+        traces = traces[:1]
+    if not traces:
+        return []
+    what = traces[0][4]
+    chart = figures.step([t[:4] for t in traces], what, f"Step response, {title}", rows, traces[-1][5])
+    return [("figure", f"step_{c}", chart, f"Closed-loop step response, {title}: {what}")]
+
+
+def _step(session: Session, c: int, named: dict | None, label: str, style: str):
+    """The step response of the default output to the first input (rational loops): t,
+    y, label, style, what it is, its measures."""
+    problem = session.problem
+    ss = realized(problem.conditions[c].network, problem.condition_values(c, named=named))
+    response = step_response(ss, StepSetup()) if ss is not None and problem.conditions[c].network.rational else None
+    if response is None:
         return None
-    return t, y, label, style, f"{output} (step at {ss.inputs[0]})"
+    return np.array(response.t), np.array(response.y), label, style, response.name, response.measures
 
 
 def _appendix(session: Session, initial: StepRecord | None, final: StepRecord | None) -> list[Block]:

@@ -3,9 +3,11 @@
 matplotlib is imported inside the functions (the report alone needs it, and
 the command line starts without it).  Each figure shows the final design
 (solid) beside the initial one (dashed) of one flight condition: Bode with
-the margins marked, Nyquist with -1 and the targets' circles around it (each
-margin target in its distance form |1 + GH|, report 000), Nichols, and the
-closed-loop step response; and the convergence history.
+the margins and the targets marked, Nyquist with -1 and the targets' circles around it
+(each margin target in its distance form |1 + GH|, report 000), Nichols, |S| and |T|
+with the Ms and Mt ceilings, the root locus, and the closed-loop step response with its
+overshoot, settling and rise-time bounds; and the convergence history.  A requirement's
+line is green where the design meets it, red where it misses it.
 """
 
 from __future__ import annotations
@@ -50,6 +52,16 @@ def _png(fig) -> bytes:
     return buffer.getvalue()
 
 
+def _plain_log_ticks(*axes) -> None:
+    """Log-axis tick labels as plain numbers ('0.01', '100'): the default ones are
+    mathtext, which `_png` turns off for every text."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    for ax in axes:
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def _db(gh: np.ndarray) -> np.ndarray:
     with np.errstate(all="ignore"):
         return 20 * np.log10(np.abs(gh))
@@ -59,9 +71,39 @@ def _phase(gh: np.ndarray) -> np.ndarray:
     return np.degrees(np.unwrap(np.angle(gh)))
 
 
-def bode(curves: list[LoopCurve], unit: str, title: str) -> bytes:
+def _desired(rows, kind: str):
+    """The first row of a measure kind that has a desired value (None: no such target)."""
+    return next((r for r in rows if r.kind == kind and r.desired is not None and np.isfinite(r.desired)), None)
+
+
+def _requirement_style(row) -> dict:
+    """A requirement's line: red where the design misses it, green where it meets it."""
+    return {"color": "tab:green" if row.satisfied else "tab:red", "ls": "--", "lw": 1.0}
+
+
+def _bode_requirements(mag, phase, rows, scale: float) -> None:
+    """The targets on a Bode plot: the GM level below 0 dB and the PM level above
+    -180 deg (at the crossings), a crossover bound, a modal-peak ceiling."""
+    gm, pm = _desired(rows, "gain_margin_db"), _desired(rows, "phase_margin_deg")
+    if gm is not None:
+        mag.axhline(-gm.desired, **_requirement_style(gm), label=f"GM >= {gm.desired:g} dB (at phase crossovers)")
+    if pm is not None:
+        phase.axhline(
+            -180 + pm.desired, **_requirement_style(pm), label=f"PM >= {pm.desired:g} deg (at gain crossovers)"
+        )
+    wc = _desired(rows, "crossover_frequency")
+    if wc is not None:
+        sense = ">=" if wc.at_least else "<="
+        mag.axvline(wc.desired / scale, **_requirement_style(wc), label=f"crossover {sense} {wc.desired:g} rad/s")
+    peak = _desired(rows, "modal_peak_db")
+    if peak is not None:
+        mag.axhline(peak.desired, **_requirement_style(peak), label=f"modal peak <= {peak.desired:g} dB")
+
+
+def bode(curves: list[LoopCurve], unit: str, title: str, rows=()) -> bytes:
     """Magnitude and phase against frequency; gain margins (at phase crossovers) and
-    phase margins (at gain crossovers) of the curves that carry them, marked."""
+    phase margins (at gain crossovers) of the curves that carry them, marked; the
+    requirements of ``rows`` (a tableau's) drawn."""
     fig, (mag, phase) = _figure(2)
     scale = 2 * np.pi if unit == "hz" else 1.0
     for c in curves:
@@ -78,11 +120,64 @@ def bode(curves: list[LoopCurve], unit: str, title: str) -> bytes:
     mag.axhline(0.0, color="k", lw=0.5)
     for k in (-180.0, -540.0, 180.0):
         phase.axhline(k, color="k", lw=0.5, ls=":")
+    _bode_requirements(mag, phase, rows, scale)
+    _plain_log_ticks(mag, phase)
     mag.set_ylabel("magnitude (dB)")
     phase.set_ylabel("phase (deg)")
     phase.set_xlabel(f"frequency ({unit})")
     mag.set_title(title)
     mag.legend(fontsize=7)
+    phase.legend(fontsize=7)
+    return _png(fig)
+
+
+def sensitivity(curves: list[LoopCurve], unit: str, title: str, rows=()) -> bytes:
+    """|S| = 1/|1 + GH| and |T| = |GH/(1 + GH)| in dB, with the Ms and Mt ceilings."""
+    fig, (ax,) = _figure()
+    scale = 2 * np.pi if unit == "hz" else 1.0
+    for c in curves:
+        with np.errstate(all="ignore"):
+            s, t = 1 / (1 + c.gh), c.gh / (1 + c.gh)
+        line = ax.semilogx(c.omega / scale, _db(s), _style(c), label=f"|S| {c.label}")[0]
+        ax.semilogx(c.omega / scale, _db(t), _style(c), color=line.get_color(), alpha=0.5, label=f"|T| {c.label}")
+    for kind, name in (("sensitivity_peak", "Ms"), ("complementary_sensitivity_peak", "Mt")):
+        row = _desired(rows, kind)
+        if row is not None and row.desired > 0:
+            ax.axhline(20 * np.log10(row.desired), **_requirement_style(row), label=f"{name} <= {row.desired:g}")
+    ax.axhline(0.0, color="k", lw=0.5)
+    _plain_log_ticks(ax)
+    ax.set_xlabel(f"frequency ({unit})")
+    ax.set_ylabel("magnitude (dB)")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    return _png(fig)
+
+
+def locus(found, pole_zero, title: str) -> bytes:
+    """Root locus branches in the loop gain (``found``), the open-loop poles (x) and zeros
+    (o) of ``pole_zero``, the design's closed-loop poles (*)."""
+    fig, (ax,) = _figure()
+    branches = np.asarray(found.branches)
+    for j in range(branches.shape[1]):
+        column = branches[:, j]
+        keep = np.isfinite(column)
+        ax.plot(
+            column.real[keep], column.imag[keep], "-", color="tab:blue", lw=0.8, label="branches" if j == 0 else None
+        )
+    current = np.asarray(found.current)
+    ax.plot(current.real, current.imag, "*", color="tab:red", ms=8, label="design (k = 1)")
+    poles, zeros = np.asarray(pole_zero.poles), np.asarray(pole_zero.zeros)
+    ax.plot(poles.real, poles.imag, "x", color="k", label="open-loop poles")
+    if zeros.size:
+        ax.plot(zeros.real, zeros.imag, "o", mfc="none", color="k", label="open-loop zeros")
+    reach = max(np.abs(current).max(initial=1.0), np.abs(poles).max(initial=1.0)) * 1.5
+    ax.set_xlim(-reach, reach * 0.3)
+    ax.set_ylim(-reach, reach)
+    ax.axvline(0.0, color="k", lw=0.5)
+    ax.set_xlabel("Re")
+    ax.set_ylabel("Im")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
     return _png(fig)
 
 
@@ -122,11 +217,26 @@ def nichols(curves: list[LoopCurve], title: str) -> bytes:
     return _png(fig)
 
 
-def step(traces: list[tuple[np.ndarray, np.ndarray, str, str]], what: str, title: str) -> bytes:
-    """Step responses (t, y, label, line style)."""
+def step(traces, what: str, title: str, rows=(), measures=None) -> bytes:
+    """Step responses (t, y, label, line style), with the requirements of ``rows``: the
+    overshoot ceiling, the settling band from the settling-time target on, the rise-time
+    bound (about the final value of ``measures``, the design's)."""
     fig, (ax,) = _figure()
     for t, y, label, style in traces:
         ax.plot(t, y, style, label=label)
+    final = measures.final if measures is not None else None
+    if final:
+        overshoot, settle, rise = (_desired(rows, k) for k in ("overshoot_percent", "settling_time", "rise_time"))
+        if overshoot is not None:
+            level = final * (1 + overshoot.desired / 100)
+            ax.axhline(level, **_requirement_style(overshoot), label=f"overshoot <= {overshoot.desired:g} %")
+        if settle is not None:
+            end = traces[-1][0][-1]
+            for edge in (0.95, 1.05):
+                ax.plot([settle.desired, max(end, settle.desired)], [final * edge] * 2, **_requirement_style(settle))
+            ax.axvline(settle.desired, **_requirement_style(settle), label=f"settled (5 %) by {settle.desired:g} s")
+        if rise is not None:
+            ax.axvline(rise.desired, **_requirement_style(rise), label=f"rise time <= {rise.desired:g} s")
     ax.set_xlabel("time (s)")
     ax.set_ylabel(what)
     ax.set_title(title)

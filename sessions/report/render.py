@@ -1,60 +1,39 @@
-"""The design report written out: one self-contained HTML file (figures embedded
-as base64 PNG data URIs, no external resource) or Markdown with the PNGs
-written beside it (`sessions.report.content` gives the blocks)."""
+"""The design report written out: one self-contained HTML file from a Jinja2 template
+(figures embedded as base64 PNG data URIs, no external resource; a print stylesheet
+so that a browser's "print to PDF" gives a clean document) or Markdown with the
+PNGs written beside it (`sessions.report.content` gives the blocks)."""
 
 from __future__ import annotations
 
 import base64
-import html
 from pathlib import Path
 
 from sessions.errors import SessionError
 from sessions.format.save_file import write_atomic
 from sessions.report.content import Block
 
-STYLE = (
-    "body{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}"
-    "table{border-collapse:collapse;margin:0.5em 0}td,th{border:1px solid #bbb;padding:2px 6px;"
-    "font-size:90%}th{background:#eee}pre{background:#f6f6f6;padding:0.5em;overflow-x:auto}"
-    "td.unmet{color:#b00;font-weight:bold}figure{margin:1em 0}img{max-width:100%}"
-)
+TEMPLATES = Path(__file__).resolve().parent / "templates"
 
 
 def render_html(blocks: list[Block]) -> str:
-    """One HTML document; every figure a data: URI."""
+    """One HTML document from the template (``templates/report.html``: every value
+    escaped, every figure a data: URI, a print stylesheet for a browser's PDF)."""
+    from jinja2 import Environment, FileSystemLoader, select_autoescape
+
+    environment = Environment(loader=FileSystemLoader(TEMPLATES), autoescape=select_autoescape(["html"]))
     title = next((b[1] for b in blocks if b[0] == "h1"), "Design report")
-    out = [
-        "<!DOCTYPE html>",
-        '<html lang="en"><head><meta charset="utf-8">',
-        f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>",
-    ]
-    for block in blocks:
-        kind = block[0]
-        if kind in ("h1", "h2", "h3", "p"):
-            out.append(f"<{kind}>{html.escape(block[1])}</{kind}>")
-        elif kind == "pre":
-            out.append(f"<pre>{html.escape(block[1])}</pre>")
-        elif kind == "table":
-            out.append(_html_table(block[1], block[2]))
-        elif kind == "figure":
-            data = base64.b64encode(block[2]).decode("ascii")
-            out.append(
-                f'<figure><img alt="{html.escape(block[1])}" src="data:image/png;base64,{data}">'
-                f"<figcaption>{html.escape(block[3])}</figcaption></figure>"
-            )
-    out.append("</body></html>")
-    return "\n".join(out) + "\n"
+    return environment.get_template("report.html").render(title=title, blocks=[_fields(b) for b in blocks])
 
 
-def _html_table(header, rows) -> str:
-    head = "".join(f"<th>{html.escape(str(h))}</th>" for h in header)
-    body = "".join(
-        "<tr>"
-        + "".join(f"<td{' class=unmet' if cell == 'UNMET' else ''}>{html.escape(str(cell))}</td>" for cell in row)
-        + "</tr>"
-        for row in rows
-    )
-    return f"<table><tr>{head}</tr>{body}</table>"
+def _fields(block: Block) -> dict:
+    """A block as the template reads it."""
+    kind = block[0]
+    if kind == "table":
+        return {"kind": kind, "header": [str(h) for h in block[1]], "rows": [[str(c) for c in r] for r in block[2]]}
+    if kind == "figure":
+        data = base64.b64encode(block[2]).decode("ascii")
+        return {"kind": kind, "name": block[1], "data": data, "caption": block[3]}
+    return {"kind": kind, "text": block[1]}
 
 
 def render_markdown(blocks: list[Block], stem: str) -> tuple[str, dict[str, bytes]]:
@@ -66,6 +45,8 @@ def render_markdown(blocks: list[Block], stem: str) -> tuple[str, dict[str, byte
             out.append("#" * int(kind[1]) + " " + block[1])
         elif kind == "p":
             out.append(block[1])
+        elif kind == "note":
+            out.append("> **Note.** " + block[1].replace("\n", "\n> "))
         elif kind == "pre":
             out.append("```\n" + block[1] + "\n```")
         elif kind == "table":

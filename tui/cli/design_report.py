@@ -5,7 +5,6 @@ stay in session_commands."""
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 from tui.cli.common import CliError, load
@@ -14,11 +13,12 @@ FORMATS = ("html", "md")
 
 
 def cmd_design_report(args: argparse.Namespace) -> int:
-    """Write DIR/NAME.html (self-contained) or DIR/NAME.md with its PNGs."""
+    """Write DIR/NAME.html (self-contained) or DIR/NAME.md with its PNGs (DIR: --out, else
+    the working folder, never the session's own unasked), and say where."""
     from sessions.report.content import report_blocks
     from sessions.report.render import write_report
 
-    folder = Path(args.out) if args.out else Path(args.file).resolve().parent
+    folder = Path(args.out) if args.out else Path.cwd()
     if folder.exists() and not folder.is_dir():
         raise CliError(f"--out {args.out}: not a folder")
     session = load(args.file)
@@ -27,5 +27,7 @@ def cmd_design_report(args: argparse.Namespace) -> int:
     except ImportError as exc:
         raise CliError(f"--format {args.format}: the figures need matplotlib ({exc})") from None
     written = write_report(blocks, args.format, folder, Path(args.file).stem)
-    print(f"wrote {written[0]}" + (f" and {len(written) - 1} figure(s)" if len(written) > 1 else ""), file=sys.stderr)
+    print(
+        f"wrote {written[0].resolve()}" + (f" and {len(written) - 1} figure(s) beside it" if len(written) > 1 else "")
+    )
     return 0

@@ -274,7 +274,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--iteration", type=int)
     p.add_argument("--format", choices=["text", "json", "csv", "html", "md"], default="text")
     p.add_argument(
-        "--out", metavar="DIR", help="html, md: the folder to write the design report in (default: the session's)"
+        "--out", metavar="DIR", help="html, md: the folder to write the design report in (default: the working folder)"
     )
     p.set_defaults(handler=cmd_report)
     p = sub.add_parser("tradeoff", help="qcg penalty sweep (report 001, Figure 4)")

@@ -1,0 +1,76 @@
+"""The design report states the design as it is (issue 40, section 1): the targets as
+they are now (not the session's creation-time notes, which are shown as notes), with
+their senses and units and how each value was obtained; the constraints and the
+bounds that bind; summing junctions as junctions; the compensator in three forms;
+closed-loop poles, Ms, Mt and step measures; provenance with the file's hash; the
+report written in the working folder unless told otherwise, saying where.  Numbers
+checked against python-control on the same loop."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import control as ct
+import pytest
+
+from tui.cli import main
+
+
+@pytest.fixture
+def lead(tmp_path, monkeypatch):
+    """A lead for 1/(s^2 (s+10)) whose targets were edited after creation: GM >= 8 dB
+    (the notes still say 6) and a crossover >= 1 rad/s."""
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    path = tmp_path / "lead.json"
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
+    data = json.loads(path.read_text())
+    targets = data["problem"]["targets"]
+    targets[1]["bands"][0]["desired"] = 8.0
+    targets.append({**targets[1], "measure": "crossover_frequency", "bands": [{"desired": 1.0}]})
+    data["problem"]["parameters"][0]["value"] = 5.0  # K
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _section(text: str, title: str) -> str:
+    start = text.index(f"## {title}")
+    end = text.find("\n## ", start + 3)
+    return text[start : end if end > 0 else None]
+
+
+def test_the_report_states_the_targets_constraints_and_loop_as_they_are(lead, tmp_path, monkeypatch, capsys):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    assert main(["report", str(lead), "--format", "md"]) == 0
+    assert capsys.readouterr().out.startswith(f"wrote {work / 'lead.md'}")  # the working folder, and said
+    text = (work / "lead.md").read_text()
+    summary = _section(text, "Summary")
+    assert "| GM dB" not in summary and ">= 8 dB" in summary and ">= 45 deg" in summary and ">= 1 rad/s" in summary
+    assert "6 dB" not in summary and "> **Note.** A new session" in _section(text, "Notes")
+    assert "| refined |" in summary  # how the margins were obtained
+    constraints = _section(text, "Constraints")
+    assert "| T1 <= 20*T2 |" in constraints and "| T2 <= 20*T1 |" in constraints and "holds" in constraints
+    junctions = _junction_rows(text)
+    assert junctions and "summing junction" in junctions and "| plant |" not in junctions
+    compensator = _section(text, "Compensator")
+    assert "| as typed | K*(1+T1*s)/(1+T2*s) |" in compensator
+    assert "| time constants | 5 (1 + s/1) / (1 + s/10) |" in compensator
+    assert "| gain, zeros, poles | 50 (s + 1) / (s + 10) |" in compensator
+    loop = ct.tf([5, 5], [0.1, 1]) * ct.tf([1], [1, 10, 0, 0])
+    gm, pm, _, _, wc, _ = ct.stability_margins(loop)
+    analysis = _section(text, "Loop analysis at the design")
+    assert f"| phase margin | {pm:.6g} deg | {wc:.6g} | refined |" in analysis
+    poles = sorted(ct.poles(ct.feedback(loop, 1)), key=lambda p: (abs(p), p.imag))
+    for p in poles:
+        if p.imag >= 0:
+            assert f"{p.real:.6g}" in analysis
+    for name in (r"Ms = max \|S\|", r"Mt = max \|T\|", "rise time (10-90 %)", "settling time (5 %)", "overshoot"):
+        assert name in analysis
+    digest = hashlib.sha256(lead.read_bytes()).hexdigest()
+    assert f"| SHA-256 of the file | {digest} |" in text
+
+
+def _junction_rows(text: str) -> str:
+    return "\n".join(line for line in text.splitlines() if line.startswith("| sum |"))
