@@ -18,7 +18,13 @@ from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
 from engine.margins.search import Band, Margins, margins
-from engine.model.blocks import DelayTransfer, ExpressionTransfer, FrequencyTable, TabulatedTransfer
+from engine.model.blocks import (
+    DelayTransfer,
+    ExpressionTransfer,
+    FrequencyTable,
+    StateSpaceTransfer,
+    TabulatedTransfer,
+)
 from engine.model.network import Block, Junction, Network, block_diagram
 
 
@@ -120,9 +126,13 @@ def check_not_zero(transfer: ExpressionTransfer, name: str) -> None:
 
 
 def unity_feedback(
-    expressions: Sequence[str], variable: str = "s", delay: float = 0.0, table: FrequencyTable | None = None
+    expressions: Sequence[str],
+    variable: str = "s",
+    delay: float = 0.0,
+    table: FrequencyTable | None = None,
+    state_space: StateSpaceTransfer | None = None,
 ) -> Network:
-    """r -> (+) -> e -> product of the expressions (a delay, a table) -> y,
+    """r -> (+) -> e -> product of the expressions (a state space, a delay, a table) -> y,
     with e = r - y; break at 'e'.  Delay factors exp(-T*s) in the expressions
     are read by `split_delays`."""
     if not expressions:
@@ -139,6 +149,9 @@ def unity_feedback(
     chain = [(f"L{k + 1}", ExpressionTransfer(text, variable)) for k, text in enumerate(texts)]
     for name, transfer in chain:
         check_not_zero(transfer, name)
+    if state_space is not None and state_space.form.gain == 0:
+        raise EngineError(f"{state_space.text} is 0 at every frequency: the loop is open")
+    chain += [("plant", state_space)] if state_space is not None else []
     chain += [("delay", DelayTransfer(delay))] if delay else []
     chain += [("table", TabulatedTransfer(table))] if table is not None else []
     blocks, previous = [], "e"

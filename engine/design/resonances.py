@@ -1,6 +1,6 @@
 """A loop's resonances: the lightly damped pole pairs of its fixed blocks (the plant's
-bending modes, a sensor's filter), exact from each block's pole-zero form, where a
-designer places a notch."""
+bending modes, a sensor's filter), exact from each block's pole-zero form (a state
+space's from its realization), where a designer places a notch."""
 
 from __future__ import annotations
 
@@ -8,8 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from engine.errors import EngineError
-from engine.model.blocks import ExpressionTransfer
-from engine.model.factored import pole_zero
+from engine.model.blocks import block_pole_zero
 from engine.model.network import Network
 
 LIGHT = 0.3  # a pole pair damped less than this is a resonance
@@ -35,10 +34,10 @@ def resonances(network: Network, params: Mapping[str, float]) -> list[Resonance]
     found: dict[tuple[float, float], Resonance] = {}
     for entry in network.entries:
         transfer = entry.transfer
-        if not isinstance(transfer, ExpressionTransfer) or transfer.parameters:
+        if not transfer.rational_form or transfer.parameters:
             continue
         try:
-            poles = pole_zero(transfer.expression, params).poles
+            poles = block_pole_zero(transfer, params).poles
         except EngineError:
             continue
         for p in poles:

@@ -26,8 +26,7 @@ from numpy.typing import NDArray
 from engine.loop.evaluator import LoopEvaluator
 from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
 from engine.loop.realization import StateSpace, realize
-from engine.model.blocks import ExpressionTransfer
-from engine.model.factored import pole_zero
+from engine.model.blocks import block_pole_zero
 from engine.model.network import Network
 
 Roots = NDArray[np.complex128]
@@ -79,14 +78,9 @@ class Design:
 
     @functools.cached_property
     def block_poles(self) -> Roots:
-        """Every block's own poles, from its factored form (exact to rounding)."""
+        """Every block's own poles, from its factored form (exact to rounding) or its realization."""
         out = [np.zeros(0, dtype=complex)]
-        for e in self.network.entries:
-            if isinstance(e.transfer, ExpressionTransfer):
-                out.append(pole_zero(e.transfer.expression, self.params).poles)
-            else:
-                den = e.transfer.rational(self.params).den
-                out.append(np.roots(den) if den.size > 1 else np.zeros(0))
+        out += [block_pole_zero(e.transfer, self.params).poles for e in self.network.entries]
         return np.concatenate([np.asarray(p, dtype=complex) for p in out])
 
     @functools.cached_property

@@ -18,8 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import InterconnectionError
-from engine.model.blocks import ExpressionTransfer
-from engine.model.factored import pole_zero
+from engine.model.blocks import ExpressionTransfer, block_pole_zero
 from engine.model.network import Network, schedule_edges, sparse_solve
 
 FOLD_WIDTH = 3  # coefficients of a degree-2 polynomial
@@ -56,8 +55,8 @@ class LoopEvaluator:
         zeros, poles = [_quadratic_roots(self.num)], [_quadratic_roots(self.den)]
         for number in self.single:
             transfer = self.entries[number].transfer
-            if isinstance(transfer, ExpressionTransfer):  # factor by factor: no expansion overflows
-                form = pole_zero(transfer.expression, params)
+            if transfer.rational_form:  # factor by factor, or from a realization: no expansion overflows
+                form = block_pole_zero(transfer, params)
                 zeros.append(form.zeros)
                 poles.append(form.poles)
         zeros = np.concatenate([np.asarray(r, dtype=complex).ravel() for r in zeros])

@@ -9,9 +9,11 @@ it from a state-space realization of the loop broken at the given signal
 (poles: eigenvalues of A; zeros: the finite generalized eigenvalues of the
 pencil ([[A, B], [C, D]], diag(I, 0))), with the gain matched to the exact
 network at one frequency; near clustered light roots these eigenvalues can
-be off in the seventh digit.  Either form is used only after it agrees with
-the exact evaluator (`engine.loop.evaluator`) to 1e-9 relative at spread-out check
-frequencies; otherwise the exact evaluator is kept.
+be off in the seventh digit.  A cascade with a state-space block takes that
+block's form from its own realization (`engine.model.state_space`).  Either
+form is used only after it agrees with the exact evaluator
+(`engine.loop.evaluator`) to 1e-9 relative at spread-out check frequencies;
+otherwise the exact evaluator is kept.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError, InterconnectionError
 from engine.loop.realization import StateSpace, realize
-from engine.model.factored import pole_zero
+from engine.model.blocks import StateSpaceTransfer, block_pole_zero
 from engine.model.network import Network
 
 AGREEMENT = 1e-9
@@ -199,14 +201,13 @@ def _matches(form: ZpkEvaluator, checks: NDArray, reference: tuple[NDArray, NDAr
 
 
 def _cascade_form(network: Network, chain: list[int], params: Mapping[str, float]) -> ZpkEvaluator | None:
-    """GH = -(the chain's product) from each block's factored form (`engine.model.factored`)."""
+    """GH = -(the chain's product) from each block's factored form (`engine.model.factored`), or a
+    state-space block's form from its realization (then the form is not exact to rounding: `factored`
+    is False, and the margins found on it are checked on the network)."""
     gain, zeros, poles = -1.0, [], []
     for number in chain:
-        expression = getattr(network.entries[number].transfer, "expression", None)
-        if expression is None:
-            return None
         try:
-            form = pole_zero(expression, params)
+            form = block_pole_zero(network.entries[number].transfer, params)
         except EngineError:
             return None
         gain *= form.gain
@@ -215,4 +216,5 @@ def _cascade_form(network: Network, chain: list[int], params: Mapping[str, float
     zeros_all, poles_all = np.concatenate(zeros), np.concatenate(poles)
     if poles_all.size == 0 or not (np.all(np.isfinite(zeros_all)) and np.all(np.isfinite(poles_all))):
         return None
-    return ZpkEvaluator(complex(gain, 0.0), zeros_all, poles_all, factored=True)
+    factored = not any(isinstance(network.entries[number].transfer, StateSpaceTransfer) for number in chain)
+    return ZpkEvaluator(complex(gain, 0.0), zeros_all, poles_all, factored=factored)

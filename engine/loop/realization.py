@@ -1,7 +1,7 @@
 """State-space realization of a rational interconnection, closed-loop poles.
 
 Every entry G_ij (proper, rational) is realized in controllable canonical
-form; with D the matrix of direct feedthroughs and C the state-to-signal map,
+form (a state-space block by its own A, B, C, D); with D the matrix of direct feedthroughs and C the state-to-signal map,
 the signal equation x = D x + C z + E u gives x = (I - D)^-1 (C z + E u),
 and the states obey z' = A_blk z + B_blk x.  The result maps the exogenous
 inputs to every signal, with all loops closed.
@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import BlockError, InterconnectionError
-from engine.model.blocks import ExpressionTransfer
+from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 from engine.numerics.polynomials import degree, trim
@@ -120,7 +120,9 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
         return _REALIZED[entry.transfer]
     expression = entry.transfer.expression if isinstance(entry.transfer, ExpressionTransfer) else None
     folded = expression.folded(params) if expression is not None else None
-    if folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
+    if isinstance(entry.transfer, StateSpaceTransfer):
+        realization = entry.transfer.realization()  # as given: no roots, no polynomials
+    elif folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
         realization = cascade(trim(folded.num), trim(folded.den))  # a small ratio: no roots needed
     elif expression is not None:
         form = pole_zero(expression, params)  # factor by factor: no expansion loses the roots' digits

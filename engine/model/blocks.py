@@ -1,5 +1,5 @@
 """Transfer elements of a plant: rational expressions (polynomial, factored or
-free form), tabulated frequency responses, and pure delays.
+free form), state spaces, tabulated frequency responses, and pure delays.
 
 Every transfer answers `evaluate(x, params, with_dvar)` with a `Dual`: its
 complex response at the points ``x`` of the frequency variable (``x = j*omega``)
@@ -18,7 +18,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError, ExtrapolationError
 from engine.model.expressions import VARIABLES, Dual, Expression
-from engine.model.factored import pole_zero
+from engine.model.factored import PoleZero, pole_zero
+from engine.model.state_space import Response, checked, pole_zero_form
 from engine.numerics.polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
@@ -262,6 +263,63 @@ def controller_transfer(
     return ExpressionTransfer("*".join(terms), variable)
 
 
+class StateSpaceTransfer:
+    """A SISO state space (A, B, C, D), kept as state space (`engine.model.state_space`):
+    evaluated by a modal or Hessenberg decomposition, never multiplied out into polynomials."""
+
+    exact = True
+    rational_form = True
+    parameters: tuple[str, ...] = ()
+
+    def __init__(self, A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike = 0.0, source: str = "state space"):
+        self.matrices = checked(A, B, C, D, source)
+        self.source = source
+
+    @property
+    def order(self) -> int:
+        return self.matrices.order
+
+    @property
+    def text(self) -> str:
+        return f"state space of order {self.order} ({self.source})"
+
+    @cached_property
+    def response(self) -> Response:
+        return Response(self.matrices)
+
+    @cached_property
+    def form(self) -> PoleZero:
+        """Gain, zeros (transmission zeros) and poles (eigenvalues of A), equal roots cancelled."""
+        try:
+            return pole_zero_form(self.response)
+        except BlockError as exc:
+            raise BlockError(f"{self.source}: {exc}") from None
+
+    def compile(self, params: Mapping[str, float]) -> Compiled:
+        return self.response
+
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
+        value, slope = self.response(x)
+        return Dual(value, {}, slope if with_dvar else None)
+
+    def realization(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """(A, B, C, D) as n x n, n x 1, 1 x n and 1 x 1 arrays."""
+        m = self.matrices
+        return m.A, m.B[:, None], m.C[None, :], np.array([[m.D]])
+
+
+def block_pole_zero(transfer: Transfer, params: Mapping[str, float]) -> PoleZero:
+    """A rational block's pole-zero form: an expression's read factor by factor
+    (`engine.model.factored`), a state space's from its realization."""
+    if isinstance(transfer, StateSpaceTransfer):
+        return transfer.form
+    if isinstance(transfer, ExpressionTransfer):
+        return pole_zero(transfer.expression, params)
+    raise BlockError(f"{transfer.text}: a {type(transfer).__name__} has no pole-zero form")
+
+
 class DelayTransfer:
     """exp(-x tau): a pure delay (frequency domain only)."""
 
@@ -430,4 +488,4 @@ class TabulatedTransfer:
         return Dual(self.response(np.asarray(x).imag), {}, None)
 
 
-Transfer = ExpressionTransfer | DelayTransfer | TabulatedTransfer
+Transfer = ExpressionTransfer | StateSpaceTransfer | DelayTransfer | TabulatedTransfer

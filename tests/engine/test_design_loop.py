@@ -32,7 +32,7 @@ def counted(monkeypatch):
     monkeypatch.setattr(design_module, "zpk_evaluator", counting("pole_zero", design_module.zpk_evaluator))
     monkeypatch.setattr(design_module, "loop_realization", counting("loop_realization", design_module.loop_realization))
     monkeypatch.setattr(design_module, "realize", counting("realize", design_module.realize))
-    monkeypatch.setattr(design_module, "pole_zero", counting("factored", design_module.pole_zero))
+    monkeypatch.setattr(design_module, "block_pole_zero", counting("factored", design_module.block_pole_zero))
     return counts
 
 
