@@ -52,6 +52,9 @@ def _entry(e: ExportEntry, variable: str, sample_time: float | None) -> dict:
     if e.kind == "delay":
         data["delay"] = e.delay
         return data
+    if e.kind == "table":
+        data.update(frequencies=list(e.omega), response=_pairs(e.response))
+        return data
     data.update(
         numerator=list(e.num), denominator=list(e.den), zeros=_pairs(e.zeros), poles=_pairs(e.poles), gain=e.gain
     )

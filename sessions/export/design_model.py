@@ -4,8 +4,9 @@ numbers per flight condition, entry by entry of the compiled interconnection.
 Each entry of a condition's network (``x_row += G x_col``: a block, one signal
 of a junction, a matrix entry) becomes an `ExportEntry`: its rational form
 (descending coefficients, and gain/zeros/poles taken factor by factor), a pure
-delay, or, for a tabulated block, an AAA fit of its table (engine/numerics/rational_fit.py)
-with the fit's residual.  Entries that depend on a parameter are the
+delay, or a tabulated block's table (its frequencies and response: python-control's
+``frd``, MATLAB's), or on request its AAA fit with the fit's residual, refused where the
+fit has right-half-plane roots outside the table's band (`sessions.export.tables`).  Entries that depend on a parameter are the
 compensators.  Signal names are also given as identifiers (``ident``) for
 tools whose signal names are parsed (python-control's ``sys.signal``).
 """
@@ -22,11 +23,9 @@ from engine.errors import EngineError
 from engine.model.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
-from engine.numerics.rational_fit import FAR_POLE, RationalFit, fit_response
 from sessions.errors import SessionError
+from sessions.export.tables import fit_fields, table_fields
 from sessions.store import Session
-
-FIT_TOLERANCE = 1e-10  # relative residual asked of a table's fit (the residual reached is stated)
 
 
 @dataclass(frozen=True)
@@ -48,6 +47,8 @@ class ExportEntry:
     delay: float = 0.0
     residual: float | None = None
     degree: int = 0
+    omega: tuple[float, ...] = ()  # a table's frequencies (rad/s) and its response there
+    response: tuple[complex, ...] = ()
 
     @property
     def constant(self) -> float | None:
@@ -69,6 +70,7 @@ class ExportCondition:
     entries: tuple[ExportEntry, ...]
     values: dict[str, float]
     network: Network
+    chain: tuple[int, ...] | None = None  # a unity loop: every entry on the one chain, L = sign * their product
 
     def ident(self, signal: str) -> str:
         """The signal's name as an identifier, unique within the condition."""
@@ -95,8 +97,9 @@ def iteration_parameters(session: Session, iteration: int | None) -> tuple[int, 
     return k, (session.model.records[k - 1].get("parameters") if k else None)
 
 
-def design(session: Session, iteration: int | None = None) -> Design:
-    """The design of an iteration (default: the last) as exportable numbers."""
+def design(session: Session, iteration: int | None = None, fit: bool = False) -> Design:
+    """The design of an iteration (default: the last) as exportable numbers; a table as
+    its table, or (``fit``) as its rational fit, checked (`sessions.export.tables`)."""
     k, named = iteration_parameters(session, iteration)
     problem = session.problem
     if not problem.conditions:
@@ -107,7 +110,7 @@ def design(session: Session, iteration: int | None = None) -> Design:
     for c, condition in enumerate(problem.conditions):
         values = problem.condition_values(c, named=named)
         network = condition.network
-        entries = tuple(_entry(network, e, values, f"condition {condition.name!r}") for e in network.entries)
+        entries = tuple(_entry(network, e, values, f"condition {condition.name!r}", fit) for e in network.entries)
         conditions.append(
             ExportCondition(
                 condition.name,
@@ -118,6 +121,7 @@ def design(session: Session, iteration: int | None = None) -> Design:
                 entries,
                 values,
                 network,
+                unity_chain(entries, network.inputs, condition.break_at),
             )
         )
     return Design(
@@ -125,11 +129,31 @@ def design(session: Session, iteration: int | None = None) -> Design:
     )
 
 
-def _entry(network: Network, e, values: dict[str, float], where: str) -> ExportEntry:
+def unity_chain(entries: tuple[ExportEntry, ...], inputs: tuple[str, ...], break_at: str) -> tuple[int, ...] | None:
+    """The entries of a unity loop in the order the signal goes round from ``break_at``
+    (L = -(their product)); None unless every other entry is a constant fed by an input
+    (the reference's +1 into the junction): any other diagram needs interconnect."""
+    outside = {n for n, e in enumerate(entries) if e.input in inputs}
+    if any(entries[n].constant is None for n in outside):
+        return None
+    chain, signal = [], break_at
+    for _ in entries:
+        readers = [n for n, e in enumerate(entries) if e.input == signal and n not in outside]
+        if len(readers) != 1 or readers[0] in chain:
+            return None
+        chain.append(readers[0])
+        signal = entries[readers[0]].output
+        if signal == break_at:
+            break
+    covered = set(chain) | outside
+    return tuple(chain) if signal == break_at and covered == set(range(len(entries))) else None
+
+
+def _entry(network: Network, e, values: dict[str, float], where: str, fit: bool) -> ExportEntry:
     """One entry's exportable numbers; a failure is a `SessionError` naming the condition
     and the entry (numpy's "array must not contain infs or NaNs" said neither)."""
     try:
-        return _numbers(network, e, values)
+        return _numbers(network, e, values, fit)
     except (EngineError, ValueError, ArithmeticError) as exc:  # LinAlgError is a ValueError
         raise SessionError(f"{where}, {e.label}: cannot be exported: {not_finite(exc)}") from None
 
@@ -143,7 +167,7 @@ def not_finite(exc: Exception) -> str:
     return text
 
 
-def _numbers(network: Network, e, values: dict[str, float]) -> ExportEntry:
+def _numbers(network: Network, e, values: dict[str, float], fit: bool) -> ExportEntry:
     common = dict(
         label=e.label,
         input=network.signals[e.col],
@@ -168,57 +192,8 @@ def _numbers(network: Network, e, values: dict[str, float]) -> ExportEntry:
         tau = values[transfer.tau] if isinstance(transfer.tau, str) else float(transfer.tau)
         return ExportEntry(kind="delay", text=transfer.text, delay=float(tau), **common)
     if isinstance(transfer, TabulatedTransfer):
-        return _fitted(transfer, common)
+        return ExportEntry(**(fit_fields(transfer) if fit else table_fields(transfer)), **common)
     raise SessionError(f"it is a {type(transfer).__name__} entry")
-
-
-def _fitted(transfer: TabulatedTransfer, common: dict) -> ExportEntry:
-    """A table's AAA fit as gain, zeros, poles (and coefficients)."""
-    table = transfer.table
-    keep = table.omega > 0
-    fit = fit_response(table.omega[keep], table.response[keep], tolerance=FIT_TOLERANCE)
-    zeros, poles = fit_zeros(fit), np.asarray(fit.poles)
-    w0 = float(np.sqrt(table.omega[keep][0] * table.omega[keep][-1]))
-    shape = np.prod(1j * w0 - zeros) / np.prod(1j * w0 - poles)
-    gain = float((fit(np.array([w0]))[0] / shape).real)
-    num = np.real(gain * np.poly(zeros)) if zeros.size else np.array([gain])
-    den = np.real(np.poly(poles)) if poles.size else np.array([1.0])
-    return ExportEntry(
-        kind="fitted",
-        text=transfer.text,
-        num=tuple(num.tolist()),
-        den=tuple(den.tolist()),
-        gain=gain,
-        zeros=tuple(_conjugate_clean(zeros).tolist()),
-        poles=tuple(_conjugate_clean(poles).tolist()),
-        residual=float(fit.residual),
-        degree=int(fit.degree),
-        **common,
-    )
-
-
-def fit_zeros(fit: RationalFit) -> NDArray[np.complex128]:
-    """Zeros of the barycentric numerator (the arrowhead eigenproblem the fit's poles use)."""
-    nodes, w = fit.support, fit.weights * fit.values
-    n = nodes.size
-    if n == 0:
-        return np.empty(0, dtype=complex)
-    e = np.zeros((n + 1, n + 1), dtype=complex)
-    e[0, 0], e[0, 1:], e[1:, 0] = fit.n_inf, w, 1.0
-    e[1:, 1:] = np.diag(nodes)
-    import scipy.linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
-
-    lam = scipy.linalg.eigvals(e, np.diag(np.r_[0.0, np.ones(n)]))
-    keep = np.isfinite(lam) & (np.abs(lam) <= FAR_POLE * np.max(np.abs(nodes)))
-    return np.sort_complex(lam[keep])
-
-
-def _conjugate_clean(roots: NDArray) -> NDArray:
-    """Roots with rounding-level imaginary parts made real."""
-    roots = np.asarray(roots, dtype=complex).copy()
-    small = np.abs(roots.imag) <= 1e-12 * np.maximum(1.0, np.abs(roots))
-    roots[small] = roots[small].real
-    return roots
 
 
 def identifiers(names: tuple[str, ...]) -> dict[str, str]:

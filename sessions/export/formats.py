@@ -20,17 +20,20 @@ FORMATS = {
 }
 
 
-def export_text(session: Session, iteration: int | None, to: str, sample_time: float | None = None) -> str:
-    """The exported text of the design at ``iteration`` (None: the session's current one)."""
+def export_text(
+    session: Session, iteration: int | None, to: str, sample_time: float | None = None, fit: bool = False
+) -> str:
+    """The exported text of the design at ``iteration`` (None: the session's current one);
+    ``fit``: tables as their rational fits (checked) rather than as tables."""
     from sessions.export.design_model import design
 
     if to not in SUFFIX:
         raise ValueError(f"unknown export format {to!r}; formats: {', '.join(SUFFIX)}")
-    d = design(session, iteration)
+    d = design(session, iteration, fit)
     if to == "python":
         from sessions.export.python_script import python_script
 
-        return python_script(d, sample_time)
+        return python_script(d, sample_time, loopcraft_margins(session, d))
     if to == "matlab":
         from sessions.export.matlab import matlab_script
 
@@ -42,6 +45,28 @@ def export_text(session: Session, iteration: int | None, to: str, sample_time: f
     from sessions.export.data import response_csv
 
     return response_csv(session, d)
+
+
+def loopcraft_margins(session: Session, d) -> dict[str, dict]:
+    """loopcraft's gain margins (dB, rad/s) and phase margins (deg, rad/s) of each
+    condition at the design, and how they were obtained, for the script to print."""
+    from engine.errors import EngineError
+    from engine.loop.responses import loop_model
+    from engine.margins.search import margins
+
+    out = {}
+    for c, condition in zip(session.problem.conditions, d.conditions):
+        try:
+            found = margins(loop_model(c.network, c.break_at, session.problem.grid.omega, condition.values))
+        except EngineError as exc:
+            out[c.name] = {"method": f"not found: {exc}"}
+            continue
+        out[c.name] = {
+            "method": found.label,
+            "gain": [(float(m.gain_db), float(m.frequency)) for m in found.gain if m.gain_db is not None],
+            "phase": [(float(m.phase_deg), float(m.frequency)) for m in found.phase if m.phase_deg is not None],
+        }
+    return out
 
 
 def json_text(data: object) -> str:

@@ -1,8 +1,9 @@
 """`loopcraft export --to matlab`: an .m script (Control System Toolbox) of a design.
 
-The same construction as the python export (`sessions.export.python_script`): each
-entry a ``tf`` with named input and output (a table's AAA fit a ``zpk``, a
-delay an exact ``InputDelay``), junctions ``sumblk``, joined by ``connect``;
+Each entry a ``tf`` with named input and output (a table an ``frd`` of the table
+itself, or with ``--fit`` its AAA fit as a ``zpk``; a delay an exact
+``InputDelay``), junctions ``sumblk``, joined by ``connect`` (which joins ``frd``
+models too);
 the uses of the break signal read an injected loop signal, so the open loop
 is ``L = -connect(..., loop, break)`` and ``allmargin(L)`` gives every
 margin.  Numbers are written with Python's ``repr`` (shortest round trip;
@@ -129,6 +130,9 @@ def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
     if e.kind == "delay":
         make = f"tf(1, 1, 'InputDelay', {e.delay!r}, {names})"
         comment = f"{e.label} ({role}): {e.text}"
+    elif e.kind == "table":
+        make = f"frd({_vector(e.response)}, {_vector(e.omega)}, {names})"
+        comment = f"{e.label} ({role}): {e.text}, the table itself ({len(e.omega)} frequencies, rad/s)"
     elif e.kind == "fitted":
         make = f"zpk({_vector(e.zeros)}, {_vector(e.poles)}, {e.gain!r}, {names})"
         comment = f"{e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}"

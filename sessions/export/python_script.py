@@ -1,19 +1,24 @@
 """`loopcraft export --to python`: a runnable python-control script of a design.
 
-Each flight condition's interconnection is rebuilt entry by entry
-(`sessions.export.design_model`): every block a ``control.tf`` (a table's AAA fit a
-``control.zpk``, a delay a Pade approximation), junctions
-``control.summing_junction``, joined by name with ``control.interconnect``.
-The uses of the break signal read an injected loop signal, so the open loop
-is ``L = -(break signal)/(loop signal)``; closing it adds the junction
-``loop signal = break signal``.  Numbers are written with ``repr`` (the
-shortest text that reads back to the same float).  The script prints each
-condition's margins (``control.stability_margins``) and closed-loop poles;
-``--json`` prints them as JSON.
+A unity loop (every block on the loop's one chain) is written compactly: each block a
+``control.tf`` (a table a ``control.frd`` of the table itself; with ``--fit`` its AAA
+fit as a ``zpk``; a delay a Pade approximation) and the open loop their product,
+``L = C * P``; the closed loop ``control.feedback(L, 1)``.  Any other diagram is
+rebuilt entry by entry (`sessions.export.design_model`): junctions
+``control.summing_junction``, joined by name with ``control.interconnect``, whose uses
+of the break signal read an injected loop signal, so ``L = -(break signal)/(loop
+signal)``; a table there needs ``--fit`` (``interconnect`` joins no ``frd``).  Numbers
+are written with ``repr`` (the shortest text that reads back to the same float).  The
+script prints each condition's margins as python-control finds them
+(``control.stability_margins``) beside loopcraft's (how obtained), says where
+python-control is known to differ, and the closed-loop poles; ``--json`` prints them.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
+from sessions.errors import SessionError
 from sessions.export.design_model import (
     Design,
     ExportCondition,
@@ -27,20 +32,35 @@ from sessions.export.design_model import (
 )
 
 PADE_ORDER = 6
+DIFFERS = {
+    "table": "python-control reads an frd's margins off the table's own frequencies (interpolated between "
+    "them); loopcraft refines them on a rational fit of the table and states its residual",
+    "rational": "python-control roots the expanded loop's polynomials: at high order or near light modes its "
+    "crossings can be off in the fourth digit, and it may list spurious ones (a gain margin at 0 rad/s of a "
+    "type-k loop, a crossing where |L| ~ 1e-30); loopcraft's are refined and certified (docs/margins.md)",
+}
 
 
-def python_script(d: Design, sample_time: float | None = None) -> str:
-    """The whole script (text) of design ``d``; ``sample_time`` labels w-plane designs' z-domain forms."""
+def python_script(d: Design, sample_time: float | None = None, ours: dict | None = None) -> str:
+    """The whole script (text) of design ``d``; ``sample_time`` labels w-plane designs'
+    z-domain forms; ``ours``: loopcraft's margins by condition, printed beside python-control's."""
     names = identifiers(tuple(c.name for c in d.conditions))
-    parts = [_header(d), _parameters(d)]
+    parts = [_header(d), _parameters(d), f"# loopcraft's margins, by condition\nLOOPCRAFT = {ours or {}!r}"]
     for c in d.conditions:
-        parts.append(_condition(c, names[c.name], sample_time))
+        parts.append(_compact(c, names[c.name]) if c.chain is not None else _condition(c, names[c.name]))
+        parts.append(_z_domain(c, names[c.name], sample_time))
     table = ", ".join(
         f"{c.name!r}: ({names[c.name]}_loop, {names[c.name]}_closed, {names[c.name]}_z)" for c in d.conditions
     )
     parts.append(f"# condition -> (open loop, closed loop, z-domain compensators)\nCONDITIONS = {{{table}}}\n")
+    differs = {c.name: DIFFERS["table" if _has_table(c) else "rational"] for c in d.conditions}
+    parts.append(f"# where python-control is known to differ, by condition\nDIFFERS = {differs!r}\n")
     parts.append(MAIN)
     return "\n\n".join(parts)
+
+
+def _has_table(c: ExportCondition) -> bool:
+    return any(e.kind == "table" for e in c.entries)
 
 
 def _header(d: Design) -> str:
@@ -72,7 +92,73 @@ def _parameters(d: Design) -> str:
     )
 
 
-def _condition(c: ExportCondition, name: str, sample_time: float | None) -> str:
+def _compact(c: ExportCondition, name: str) -> str:
+    """A unity loop: its blocks, L their product (the junction's sign folded in), the
+    closed loop control.feedback(L, 1) (None with a table: an frd has no poles)."""
+    labels = identifiers(tuple(dict.fromkeys(e.label for e in c.entries)))
+    sign, lines, factors, tables = -1.0, [], [], []
+    for number in c.chain:
+        e = c.entries[number]
+        if e.constant is not None:
+            sign *= e.constant
+            continue
+        role = "compensator" if e.compensator else "plant"
+        lines += [f"    # {e.label} ({role}): {_what(e)}", f"    {labels[e.label]} = {_make(e, '')}"]
+        (tables if e.kind == "table" else factors).append(labels[e.label])
+    product = " * ".join(tables + factors) or "control.tf(1, 1)"  # an frd first: it takes the tf's on
+    body = product if sign == 1.0 else f"{sign!r} * {product}"
+    closed = (
+        "    return None  # an frd: the table's response, no poles"
+        if tables
+        else f"    return control.feedback({name}_loop(), 1)"
+    )
+    return "\n".join(
+        [
+            f"def {name}_loop():",
+            f'    """Condition {c.name!r} (variable {c.variable}), a unity loop: L = GH broken at {c.break_at!r}."""',
+            *lines,
+            f"    return {body}",
+            "",
+            "",
+            f"def {name}_closed():",
+            '    """The closed loop, 1 + L = 0."""',
+            closed,
+        ]
+    )
+
+
+def _what(e: ExportEntry) -> str:
+    if e.kind == "table":
+        return f"{e.text}, the table itself ({len(e.omega)} frequencies)"
+    if e.kind == "fitted":
+        return f"AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}"
+    if e.kind == "delay":
+        return f"{e.text}, a Pade approximation of order {PADE_ORDER}"
+    return e.text
+
+
+def _make(e: ExportEntry, names: str) -> str:
+    """The python-control system of one entry (``names``: its signal names, or '')."""
+    named = f", {names}" if names else ""
+    if e.kind == "table":
+        response = np.asarray(e.response)
+        return (
+            f"control.frd(np.array({response.real.tolist()!r}) + 1j * np.array({response.imag.tolist()!r}), "
+            f"np.array({list(e.omega)!r}){named})"
+        )
+    if e.kind == "delay":
+        return f"control.tf(*control.pade({e.delay!r}, {PADE_ORDER}){named})"
+    if e.kind == "fitted":
+        return f"zpk({list(e.zeros)!r}, {list(e.poles)!r}, {e.gain!r}{named})"
+    return f"control.tf({list(e.num)!r}, {list(e.den)!r}{named})"
+
+
+def _condition(c: ExportCondition, name: str) -> str:
+    if _has_table(c):
+        raise SessionError(
+            f"condition {c.name!r}: a table in a diagram that is not a unity loop: python-control's interconnect "
+            "joins no frd; export its rational fit with --fit"
+        )
     cut = loop_input(c)
     ident = identifiers(c.signals)
     produced = [ident[s] for s, _ in rows(c)]
@@ -105,10 +191,7 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> str:
         f"    back[-1, {produced.index(ident[c.break_at])}] = 1.0",
         "    closed = control.feedback(broken, back, sign=1)   # solves an algebraic loop, if any",
         f"    return closed[:, :{len(inputs)}]" if inputs else "    return closed",
-        "",
-        "",
     ]
-    lines += _z_domain(c, name, sample_time)
     return "\n".join(lines)
 
 
@@ -136,20 +219,10 @@ def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
     """One entry as a named SISO system, with a comment saying what it is."""
     role = "compensator" if e.compensator else "plant"
     names = f"inputs={source!r}, outputs={out!r}, name={name!r}"
-    if e.kind == "delay":
-        return [
-            f"# {e.label} ({role}): {e.text}, a Pade approximation of order {PADE_ORDER}",
-            f"control.tf(*control.pade({e.delay!r}, {PADE_ORDER}), {names}),",
-        ]
-    if e.kind == "fitted":
-        return [
-            f"# {e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}",
-            f"zpk({list(e.zeros)!r}, {list(e.poles)!r}, {e.gain!r}, {names}),",
-        ]
-    return [f"# {e.label} ({role}): {e.text}", f"control.tf({list(e.num)!r}, {list(e.den)!r}, {names}),"]
+    return [f"# {e.label} ({role}): {_what(e)}", f"{_make(e, names)},"]
 
 
-def _z_domain(c: ExportCondition, name: str, sample_time: float | None) -> list[str]:
+def _z_domain(c: ExportCondition, name: str, sample_time: float | None) -> str:
     """w-plane conditions: each compensator in z by w = (z - 1)/(z + 1)."""
     dt = "True" if sample_time is None else repr(float(sample_time))
     lines = [
@@ -163,7 +236,7 @@ def _z_domain(c: ExportCondition, name: str, sample_time: float | None) -> list[
                 numz, denz = w_to_z(e.num, e.den)
                 items.append(f"        {e.label!r}: control.tf({numz!r}, {denz!r}, {dt}),")
     lines += ["    return {"] + items + ["    }"]
-    return lines
+    return "\n".join(lines)
 
 
 ZPK = '''def zpk(zeros, poles, gain, **names):
@@ -182,25 +255,49 @@ MAIN = '''def stability_margins(loop):
             "stability_frequencies": [float(x) for x in np.atleast_1d(wms)]}
 
 
+def side_by_side(what, unit, theirs, ours):
+    """Each margin beside the other tool's at the nearest frequency (one listed alone: '-')."""
+    left = list(theirs)
+    for value, w in ours:
+        k = min(range(len(left)), key=lambda i: abs(np.log(left[i][1] / w)) if left[i][1] > 0 else np.inf,
+                default=None)
+        if k is not None and left[k][1] > 0 and abs(np.log(left[k][1] / w)) < 0.1:
+            mine = left.pop(k)
+            text = f"{mine[0]:.6g} {unit} at {mine[1]:.6g}"
+        else:
+            text = "-"
+        print(f"  {what:<14}{text:<30}{value:.6g} {unit} at {w:.6g} rad/s")
+    for value, w in left:
+        print(f"  {what:<14}{f'{value:.6g} {unit} at {w:.6g}':<30}- (python-control alone)")
+
+
 def main():
     report = {}
     for name, (loop, closed, _) in CONDITIONS.items():
         found = stability_margins(loop())
-        poles = control.poles(closed())
-        found["closed_loop_poles"] = [[float(p.real), float(p.imag)] for p in poles]
-        found["stable"] = bool(np.all(poles.real < 0))
+        system = closed()
+        if system is not None:
+            poles = control.poles(system)
+            found["closed_loop_poles"] = [[float(p.real), float(p.imag)] for p in poles]
+            found["stable"] = bool(np.all(poles.real < 0))
+        found["loopcraft"] = LOOPCRAFT.get(name, {})
         report[name] = found
     if "--json" in sys.argv[1:]:
         print(json.dumps(report, indent=2))
         return
     for name, r in report.items():
-        print(f"condition {name}: {'stable' if r['stable'] else 'UNSTABLE'} closed loop")
-        for gm, w in zip(r["gain_margins"], r["phase_crossovers"]):
-            print(f"  gain margin {gm!r} ({20 * np.log10(gm):.6g} dB) at {w!r} rad/s")
-        for pm, w in zip(r["phase_margins_deg"], r["gain_crossovers"]):
-            print(f"  phase margin {pm!r} deg at {w!r} rad/s")
-        for sm, w in zip(r["stability_margins"], r["stability_frequencies"]):
-            print(f"  stability margin {sm!r} at {w!r} rad/s")
+        verdict = ("stable" if r["stable"] else "UNSTABLE") + " closed loop" if "stable" in r else "a table: no poles"
+        print(f"condition {name}: {verdict}")
+        if not isinstance(CONDITIONS[name][0](), control.FrequencyResponseData):
+            fraction = str(CONDITIONS[name][0]()).split("\\n\\n", 1)[-1]  # without python-control's header
+            print("  L(s) =\\n  " + fraction.strip("\\n").replace("\\n", "\\n  "))
+        ours = r["loopcraft"]
+        print(f"  {'':<14}{'python-control':<30}loopcraft ({ours.get('method', 'not given')})")
+        theirs = [(20 * np.log10(g), w) for g, w in zip(r["gain_margins"], r["phase_crossovers"])]
+        side_by_side("gain margin", "dB", theirs, ours.get("gain", []))
+        theirs = list(zip(r["phase_margins_deg"], r["gain_crossovers"]))
+        side_by_side("phase margin", "deg", theirs, ours.get("phase", []))
+        print(f"  where they differ: {DIFFERS[name]}")
         for label, sys_z in CONDITIONS[name][2]().items():
             print(f"  {label} in the z-domain:{sys_z}")
 

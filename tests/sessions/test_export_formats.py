@@ -9,6 +9,10 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
+import runpy
+import subprocess
+import sys
 from pathlib import Path
 
 import control
@@ -121,16 +125,38 @@ def test_csv_is_the_loop_on_the_session_s_grid(capsys):
     assert float(rows[0]["frequency_rad_per_s"]) == pytest.approx(0.01)
 
 
-def test_tabulated_plants_export_their_fit_with_its_residual(capsys, tmp_path):
-    """cip_launch_vehicle's table becomes an AAA fit; the script says its residual and
-    compiles; the MATLAB script carries the same comment and a zpk."""
+def test_tabulated_plants_export_their_tables_which_a_peer_reads_back_exactly(capsys, tmp_path):
+    """cip_launch_vehicle's table becomes a control.frd of the table itself: the script
+    runs with no warning and no spurious margin at 0 rad/s, and its loop's response at the
+    table's frequencies is loopcraft's own to 1e-12; MATLAB gets an frd and JSON the
+    table (issue 40, section 2)."""
+    from engine.loop.responses import open_loop
+    from sessions.store import load_session
+
     text = _export(capsys, EXAMPLES / "cip_launch_vehicle.json", "python")
-    assert "is tabulated; here its AAA rational fit" in text and "relative residual" in text
-    assert "zpk([" in text
-    compile(text, "exported.py", "exec")
+    assert "control.frd(" in text and "zpk(" not in text and "the table itself (999 frequencies)" in text
+    script = tmp_path / "vehicle.py"
+    script.write_text(text)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and "Warning" not in done.stderr, done.stderr
+    assert " at 0 " not in done.stdout and "loopcraft (fitted (residual" in done.stdout
+    ns = runpy.run_path(str(script))
+    loop = ns["CONDITIONS"]["flight"][0]()
+    session = load_session(EXAMPLES / "cip_launch_vehicle.json")
+    c = session.problem.conditions[0]
+    ours = open_loop(c.network, c.break_at, loop.omega, session.problem.condition_values(0), sensitivities=False).value
+    assert np.allclose(np.squeeze(loop.frdata), ours, rtol=1e-12, atol=0)
     matlab = _export(capsys, EXAMPLES / "cip_launch_vehicle.json", "matlab")
-    assert "AAA fit of table(" in matlab and "zpk([" in matlab
+    assert "frd([" in matlab and "the table itself (999 frequencies, rad/s)" in matlab
     data = json.loads(_export(capsys, EXAMPLES / "seidel_inlet_pi.json", "json"))
-    fitted = [e for e in data["conditions"][0]["entries"] if e["kind"] == "fitted"]
-    assert {e["block"] for e in fitted} == {"G1", "G2", "Ga"} and all(e["fit_residual"] > 0 for e in fitted)
-    assert data["conditions"][0]["open_loop"] is None and "state_space_note" in data["conditions"][0]
+    tables = [e for e in data["conditions"][0]["entries"] if e["kind"] == "table"]
+    assert {e["block"] for e in tables} == {"G1", "G2", "Ga"} and all(len(e["frequencies"]) > 10 for e in tables)
+
+
+def test_a_fit_is_a_labelled_option_with_its_residual_or_refused_with_the_reason(capsys):
+    text = _export(capsys, EXAMPLES / "cip_dual_channel.json", "python", "--fit")
+    residuals = [float(r) for r in re.findall(r"AAA fit of table\(.*?\), degree \d+, residual ([0-9.e+-]+)", text)]
+    assert len(residuals) == 2 and all(0 < r < 1e-3 for r in residuals) and "zpk([" in text
+    compile(text, "exported.py", "exec")
+    assert main(["export", str(EXAMPLES / "seidel_inlet_pi.json"), "--to", "python", "--fit"]) == 2
+    assert "misses the table by" in capsys.readouterr().err  # a fit that does not stand for the table

@@ -12,11 +12,11 @@ from sessions.export.formats import SUFFIX
 from tui.cli.common import CliError, load
 
 
-def export_text(file: str, iteration: int | None, to: str, sample_time: float | None) -> str:
+def export_text(file: str, iteration: int | None, to: str, sample_time: float | None, fit: bool = False) -> str:
     """The exported text of a session's design at an iteration (default: its last)."""
     from sessions.export.formats import export_text as text_of
 
-    return text_of(load(file), iteration, to, sample_time)
+    return text_of(load(file), iteration, to, sample_time, fit)
 
 
 def target_path(file: str, out: str | None, to: str, iteration: int | None) -> Path | None:
@@ -38,7 +38,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise CliError(f"--sample-time: {args.sample_time!r} must be a finite number > 0")
     target = target_path(args.file, args.out, args.to, args.iteration)
     try:
-        text = export_text(args.file, args.iteration, args.to, args.sample_time)
+        text = export_text(args.file, args.iteration, args.to, args.sample_time, args.fit)
     except ValueError as exc:  # e.g. JSON refusing a non-finite number
         raise CliError(f"--to {args.to}: {exc}") from None
     if target is None:
@@ -70,5 +70,11 @@ def add_parser(sub) -> None:
         type=float,
         metavar="T",
         help="w-plane designs: the sample time of the z-domain forms (default: unstated)",
+    )
+    p.add_argument(
+        "--fit",
+        action="store_true",
+        help="tables as their rational (AAA) fits, residual stated, refused with right-half-plane artefacts "
+        "(default: the tables themselves, as frd)",
     )
     p.set_defaults(handler=cmd_export)
