@@ -2,11 +2,11 @@
 
 Engine errors (an expression that does not parse, an unknown signal) are
 re-raised as `SessionError` prefixed with the JSON path of what caused them.
-CSV tables are read here, relative to the session's folder: a table outside
-it (an absolute path, ``..``, a symlink leading out) is refused unless allowed
-(``allow_outside_tables``); only regular files, at most MAX_TABLE_BYTES and
-MAX_TABLE_ROWS, read with a bounded read; messages quote no more of a file
-than the offending cell.
+CSV tables and state-space files are read here, relative to the session's
+folder: a file outside it (an absolute path, ``..``, a symlink leading out)
+is refused unless allowed (``allow_outside_tables``); only regular files, at
+most MAX_TABLE_BYTES and MAX_TABLE_ROWS, read with a bounded read; messages
+quote no more of a file than the offending cell.
 """
 
 from __future__ import annotations
@@ -40,6 +40,7 @@ from engine.model.blocks import (
     ExpressionTransfer,
     Factor,
     FrequencyTable,
+    StateSpaceTransfer,
     TabulatedTransfer,
     controller_transfer,
     factored_transfer,
@@ -58,9 +59,11 @@ from sessions.format.schema import (
     GridModel,
     ParameterModel,
     ProblemModel,
+    StateSpaceBlock,
     TableModel,
     TargetModel,
 )
+from sessions.format.state_space_files import read_matrices
 
 MAX_TABLE_BYTES = 20 * 2**20  # a CSV table's size (its rows: MAX_TABLE_ROWS, sessions.format.limits)
 SHOWN_CELL = 40  # characters of an offending cell quoted in a message
@@ -306,7 +309,10 @@ def _times(transfer, gain: float, variable: str):
         return TabulatedTransfer(FrequencyTable(t.omega, response, t.source))
     if isinstance(transfer, ExpressionTransfer):
         return ExpressionTransfer(f"{gain!r}*({transfer.text})", variable)
-    raise SessionError("the transducer gain applies to a table or an expression")
+    if isinstance(transfer, StateSpaceTransfer):
+        m = transfer.matrices
+        return StateSpaceTransfer(m.A, m.B, gain * m.C, gain * m.D, transfer.source)
+    raise SessionError("the transducer gain applies to a table, an expression or a state space")
 
 
 def _block(b, path: str, folder: Path, variable: str) -> Block:
@@ -333,6 +339,8 @@ def _transfer(t, path: str, folder: Path, variable: str):
             transfer = controller_transfer(
                 t.gain, t.s_power, [ControllerFactor(**f.model_dump()) for f in t.factors], variable
             )
+        elif t.kind == "state_space":
+            transfer = state_space_transfer(t, path, folder)
         else:
             transfer = TabulatedTransfer(frequency_table(t.table, f"{path}.table", folder))
     except SessionError:
@@ -340,6 +348,15 @@ def _transfer(t, path: str, folder: Path, variable: str):
     except EngineError as exc:
         raise SessionError(f"{path}: {exc}") from None
     return transfer
+
+
+def state_space_transfer(t: StateSpaceBlock, path: str, folder: Path) -> StateSpaceTransfer:
+    """A state-space block from its inline matrices or its file (beside the session, as a
+    table's CSV is: `table_path`); errors name the JSON path and the file."""
+    if t.file is None:
+        return StateSpaceTransfer(t.A, t.B, t.C, 0.0 if t.D is None else t.D, "inline")
+    m = read_matrices(table_path(folder, t.file, path, field="file"), f"{path}.file")
+    return StateSpaceTransfer(m["A"], m["B"], m["C"], m["D"], t.file)
 
 
 def frequency_table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
@@ -373,12 +390,12 @@ def _check_linear_magnitudes(values: list[float], t: TableModel, path: str) -> N
     )
 
 
-def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = None) -> Path:
-    """The file a table's ``csv`` names, relative to the session's ``folder``; one outside
-    it (absolute, or leaving it by .. or a symlink) is refused unless ``allow_outside``
-    (None: as the enclosing `outside_tables_allowed` says)."""
+def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = None, field: str = "csv") -> Path:
+    """The file a table's ``csv`` (a state space's ``file``: ``field``) names, relative to the
+    session's ``folder``; one outside it (absolute, or leaving it by .. or a symlink) is refused
+    unless ``allow_outside`` (None: as the enclosing `outside_tables_allowed` says)."""
     if "\0" in name:  # no file system takes it (pathlib raised a bare ValueError)
-        raise SessionError(f"{path}.csv: {name!r} is not a file name (it holds a NUL character)")
+        raise SessionError(f"{path}.{field}: {name!r} is not a file name (it holds a NUL character)")
     allowed = _OUTSIDE_ALLOWED.get() if allow_outside is None else allow_outside
     file = Path(folder) / name
     if allowed:
@@ -386,10 +403,11 @@ def table_path(folder: Path, name: str, path: str, allow_outside: bool | None = 
     try:
         base, real = resolved(Path(folder)), resolved(file)
     except SessionError as exc:
-        raise SessionError(f"{path}.csv: {exc}") from None
+        raise SessionError(f"{path}.{field}: {exc}") from None
     if Path(name).is_absolute() or not real.is_relative_to(base):
+        what = "tables are" if field == "csv" else "state-space files are"
         raise OutsideTable(
-            f"{path}.csv: {name!r} is outside the session's folder {base}: tables are read from "
+            f"{path}.{field}: {name!r} is outside the session's folder {base}: {what} read from "
             "the session's folder or below (--allow-outside-tables allows others)",
             name,
         )

@@ -17,6 +17,9 @@ from pydantic import AfterValidator, BeforeValidator, Field
 from engine.model.blocks import (
     MAX_TABLE_ROWS as MAX_TABLE_ROWS,  # rows of a table, inline or CSV: the engine's one limit
 )
+from engine.model.state_space import (
+    MAX_STATES as MAX_STATES,  # states of a state-space block, inline or from a file: the engine's one limit
+)
 
 MAX_CONDITIONS = 100
 MAX_BLOCKS = 1000  # blocks of a diagram, entries of a matrix, compensators of a channel

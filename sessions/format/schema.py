@@ -31,6 +31,7 @@ from sessions.format.limits import (  # noqa: F401
     MAX_PARAMETERS,
     MAX_RESPONSE_POINTS,
     MAX_SIGNALS,
+    MAX_STATES,
     MAX_TABLE_ROWS,
     MAX_TARGETS,
     Coefficient,
@@ -173,8 +174,46 @@ class DelayBlock(Strict):
     tau: Coefficient
 
 
+class StateSpaceBlock(Strict):
+    """A SISO state space x' = A x + B u, y = C x + D u, kept as state space: ``A`` (its rows),
+    ``B`` (the input column, n numbers), ``C`` (the output row, n numbers) and ``D`` inline, or
+    ``file``: a .npz (arrays A, B, C and optionally D) or a .json (keys A, B, C, D) beside the session."""
+
+    kind: Literal["state_space"]
+    A: _bounded(list[_bounded(list[Number], MAX_STATES)], MAX_STATES) | None = Field(
+        default=None, description="n rows of n numbers"
+    )
+    B: _bounded(list[Number], MAX_STATES) | None = Field(default=None, description="the input column: n numbers")
+    C: _bounded(list[Number], MAX_STATES) | None = Field(default=None, description="the output row: n numbers")
+    D: Number | None = Field(default=None, description="the feedthrough (inline; null: 0)")
+    file: str | None = Field(default=None, description="a .npz or .json file beside the session holding A, B, C, D")
+
+    @model_validator(mode="after")
+    def _one_source(self) -> StateSpaceBlock:
+        given = [name for name in ("A", "B", "C", "D") if getattr(self, name) is not None]
+        if (self.file is not None) == bool(given):
+            raise ValueError("give either A, B, C (and D) inline or a file, not both")
+        if self.file is None:
+            missing = [name for name in ("A", "B", "C") if name not in given]
+            if missing:
+                raise ValueError(f"an inline state space needs A, B and C (missing {', '.join(missing)})")
+            _check_shapes(self.A, self.B, self.C)
+        return self
+
+
+def _check_shapes(a: list[list[float]], b: list[float], c: list[float]) -> None:
+    """A square (n x n), B and C of n numbers each, with messages naming what differs."""
+    n = len(a)
+    row = next((k for k, r in enumerate(a) if len(r) != n), None)
+    if row is not None:
+        raise ValueError(f"A must be square: it has {n} rows, and row {row + 1} has {len(a[row])} numbers")
+    for name, vector in (("B", b), ("C", c)):
+        if len(vector) != n:
+            raise ValueError(f"{name} has {len(vector)} numbers; with A {n} x {n} it must have {n}")
+
+
 Transfer = Annotated[
-    ExpressionBlock | PolynomialBlock | FactoredBlock | TableBlock | DelayBlock | ControllerBlock,
+    ExpressionBlock | PolynomialBlock | FactoredBlock | TableBlock | DelayBlock | ControllerBlock | StateSpaceBlock,
     Field(discriminator="kind"),
 ]
 

@@ -10,7 +10,12 @@ so a factored block can be retyped as the expression it equals:
     polynomial: num 1, 2; den 1, 3, 2; ascending
     delay: tau
     table: inlet.csv columns f,mag,ph polar hz gain 1     (table: inline polar hz gain 1)
+    state_space: plant.npz                                (state_space: inline)
     10*(s+1)/(s*(s+5))
+
+A state space is replaced as a whole: by a file's name, or ``inline`` to keep
+its matrices; the Plant table shows it by its order, poles and zeros
+(`describe_state_space`).
 
 Coefficients are numbers or parameter names.  The text of a factored block's
 factors uses the block's variable (``(w+8)`` in a w-plane condition)."""
@@ -21,6 +26,8 @@ import re
 
 from pydantic import ValidationError
 
+from engine.errors import EngineError
+from engine.model.blocks import StateSpaceTransfer
 from sessions.format.checks import invalid_what
 from sessions.format.schema import (
     ControllerBlock,
@@ -30,11 +37,13 @@ from sessions.format.schema import (
     FactoredBlock,
     FactorModel,
     PolynomialBlock,
+    StateSpaceBlock,
     TableBlock,
 )
 from sessions.forms.one_line import FormError, format_number, parse_expression, parse_number
 
-KINDS = ("factored", "controller", "polynomial", "delay", "table")
+KINDS = ("factored", "controller", "polynomial", "delay", "table", "state_space")
+SHOWN_ROOTS = 8  # poles (and zeros) a state space's line lists, the slowest first
 NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 COEF = rf"(?:{NAME}|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 
@@ -86,9 +95,30 @@ def describe_transfer(t, variable: str = "s") -> str:
         return f"num {', '.join(map(c, t.numerator))}; den {', '.join(map(c, t.denominator))}; {t.order}"
     if t.kind == "delay":
         return c(t.tau)
+    if t.kind == "state_space":
+        return "inline" if t.file is None else t.file
     table = t.table
     source = f"{table.csv} columns {','.join(table.columns or [])}" if table.csv else "inline"
     return f"{source} {table.form} {table.unit} gain {format_number(table.gain)}"
+
+
+def describe_state_space(transfer: StateSpaceTransfer) -> str:
+    """'state space, order 12: poles ..., zeros ...' (a pair once, as a +- b j; the slowest
+    `SHOWN_ROOTS` of each, and how many more)."""
+    try:
+        form = transfer.form
+    except EngineError as exc:
+        return f"state space, order {transfer.order}: {exc}"
+    return f"state space, order {transfer.order}: poles {_roots_text(form.poles)}, zeros {_roots_text(form.zeros)}"
+
+
+def _roots_text(roots) -> str:
+    upper = sorted((r for r in roots if r.imag >= 0), key=abs)
+    if not upper:
+        return "none"
+    shown = [f"{r.real:.4g}" if r.imag == 0 else f"{r.real:.4g}+-{r.imag:.4g}j" for r in upper[:SHOWN_ROOTS]]
+    more = f" and {len(upper) - SHOWN_ROOTS} more" if len(upper) > SHOWN_ROOTS else ""
+    return " ".join(shown) + more
 
 
 def _factor_text(f: FactorModel, x: str) -> str:
@@ -115,6 +145,7 @@ def parse_transfer(text: str, variable: str, current=None):
         "polynomial": _polynomial,
         "delay": _delay,
         "table": _table,
+        "state_space": _state_space,
     }
     try:
         return readers[kind](body, variable, current)
@@ -261,6 +292,17 @@ def _table(body: str, _variable: str, current) -> TableBlock:
     return TableBlock.model_validate({"kind": "table", "table": table})
 
 
+def _state_space(body: str, _variable: str, current) -> StateSpaceBlock:
+    name = body.strip()
+    if not name:
+        raise FormError("state_space: write a .npz or .json file's name (beside the session), or inline")
+    if name != "inline":
+        return StateSpaceBlock(kind="state_space", file=name)
+    if current is None or getattr(current, "kind", None) != "state_space" or current.file is not None:
+        raise FormError("state_space: an inline state space keeps its matrices: write a file's name to read one")
+    return current.model_copy()
+
+
 def format_sub_compensator(sub) -> str:
     """A channel's sub-compensator: 'num x0, x1, ...; den y0, y1, ...' (ascending powers)."""
     c = format_coefficient
@@ -301,7 +343,7 @@ def transfer_names(t, variable: str) -> set[str]:
         from engine.model.expressions import Expression
 
         return set(Expression(t.expression, variable).parameters)
-    if t.kind == "table":
+    if t.kind in ("table", "state_space"):
         return set()
     names: set[str] = set()
 

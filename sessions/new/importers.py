@@ -4,7 +4,8 @@
 Documented array names, the same in both formats (the first set found wins):
 
 * ``num``, ``den``: transfer-function coefficients, descending powers of s;
-* ``A``, ``B``, ``C``, ``D``: a SISO state space (D optional, 0);
+* ``A``, ``B``, ``C``, ``D``: a SISO state space (D optional, 0), kept as a
+  state-space block with its matrices inline;
 * ``freq``, ``resp``: a frequency response (FRD): frequencies (rad/s, or Hz
   with ``unit`` = "hz") and complex responses (or ``resp_real`` and
   ``resp_imag``); it becomes a CSV table written beside the session.
@@ -18,9 +19,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import signal
 
+from engine.errors import EngineError
 from sessions.errors import SessionError
+from sessions.new.templates import corner_grid
 
 MAX_ORDER = 64  # a coefficient list of a polynomial block holds at most 65 numbers (sessions.format.limits)
 
@@ -121,6 +123,10 @@ def _polynomial(c: np.ndarray) -> str:
 
 
 def _state_space(arrays: dict, where: str) -> ImportedPlant:
+    """A state-space block with the matrices inline (never multiplied out into a polynomial,
+    which overflows at high order), and a grid two decades beyond its poles and zeros."""
+    from engine.model.blocks import StateSpaceTransfer  # on use: `loopcraft new --help` stays light
+
     A = np.atleast_2d(np.asarray(arrays["A"], dtype=float))
     B = np.asarray(arrays["B"], dtype=float).reshape(A.shape[0], -1) if A.size else np.zeros((0, 1))
     C = np.asarray(arrays["C"], dtype=float).reshape(-1, A.shape[0]) if A.size else np.zeros((1, 0))
@@ -130,10 +136,16 @@ def _state_space(arrays: dict, where: str) -> ImportedPlant:
             f"{where}: A, B, C, D must be a SISO state space (A n x n, B n x 1, C 1 x n, D 1 x 1); "
             f"got {A.shape}, {B.shape}, {C.shape}, {D.shape}"
         )
-    if not all(np.all(np.isfinite(m)) for m in (A, B, C, D)):
-        raise SessionError(f"{where}: A, B, C, D must be finite")
-    num, den = signal.ss2tf(A, B, C, D)
-    return _rational(num[0], den, where, "A, B, C, D")
+    try:
+        plant = StateSpaceTransfer(A, B, C, D, where.removeprefix("--plant-file "))
+        form = plant.form
+    except EngineError as exc:
+        raise SessionError(f"{where}: {exc}") from None
+    if form.gain == 0:
+        raise SessionError(f"{where}: C (sI - A)^-1 B + D is 0 at every frequency (no loop to design)")
+    block = {"kind": "state_space", "A": A.tolist(), "B": B[:, 0].tolist(), "C": C[0].tolist(), "D": float(D[0, 0])}
+    grid = corner_grid(np.concatenate([form.zeros, form.poles]))
+    return ImportedPlant(block, f"state space of order {plant.order} (A, B, C, D) from {plant.source}", grid)
 
 
 def _frd(arrays: dict, where: str, session: Path) -> ImportedPlant:

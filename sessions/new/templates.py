@@ -16,9 +16,14 @@ from __future__ import annotations
 
 import math
 from datetime import UTC, datetime
+from typing import TYPE_CHECKING
 
 from engine.errors import EngineError
 from sessions.errors import SessionError
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
 
 LOOPCRAFT_VERSION = "0.1.0"
 TIME_CONSTANT = (1e-4, 1e4)
@@ -104,7 +109,7 @@ def new_session(
         "provenance": {"loopcraft_version": LOOPCRAFT_VERSION, "created": stamp, "modified": stamp},
         "notes": notes
         or f"A new session: the compensator {expression} ({compensator}) on the plant "
-        f"{plant_text or 'table'}, unity feedback; targets PM >= 45 deg, GM >= 6 dB.",
+        f"{plant_text or plant['kind'].replace('_', ' ')}, unity feedback; targets PM >= 45 deg, GM >= 6 dB.",
         "problem": {
             "grid": grid or grid_for(plant_text, variable),
             "conditions": [condition],
@@ -199,9 +204,17 @@ def grid_for(plant: str, variable: str) -> dict:
 
     try:
         form = pole_zero(Expression(plant, variable), {})
-        corners = np.abs(np.concatenate([form.zeros, form.poles]))
+        roots = np.concatenate([form.zeros, form.poles])
     except EngineError:
-        corners = np.zeros(0)
+        roots = np.zeros(0)
+    return corner_grid(roots)
+
+
+def corner_grid(roots: NDArray[np.complex128]) -> dict:
+    """Log grid two decades beyond the nonzero roots' frequencies (0.01..1000 without any)."""
+    import numpy as np
+
+    corners = np.abs(roots)
     corners = corners[(corners > 0) & np.isfinite(corners)]
     low = float(np.clip(corners.min() / 100, 1e-6, 1e3)) if corners.size else 0.01
     high = float(np.clip(corners.max() * 100, low * 1e3, 1e8)) if corners.size else 1000.0

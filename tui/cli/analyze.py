@@ -1,5 +1,5 @@
 """`loopcraft analyze`: the margins and closed-loop poles of a loop typed on
-the command line (expressions, a delay, a table), as text or JSON."""
+the command line (expressions, a state space, a delay, a table), as text or JSON."""
 
 from __future__ import annotations
 
@@ -251,6 +251,19 @@ def _table_loop(args: argparse.Namespace):
     return network, table.omega
 
 
+def _state_space_loop(args: argparse.Namespace):
+    """The network of `analyze --ss`: the state space in the file (times any --tf
+    expressions, a delay) with unity negative feedback, kept as state space."""
+    from engine.analysis import unity_feedback
+    from engine.model.blocks import StateSpaceTransfer
+    from sessions.format.state_space_files import read_matrices
+
+    path = Path(args.ss)
+    m = read_matrices(path, f"--ss {args.ss}")
+    plant = StateSpaceTransfer(m["A"], m["B"], m["C"], m["D"], f"--ss {path.name}")
+    return unity_feedback(args.tf or ["1"], args.variable, args.delay, state_space=plant)
+
+
 def cmd_analyze(args: argparse.Namespace) -> int:
     """Analyze the loop the options describe; print text or JSON."""
     import numpy as np
@@ -259,10 +272,15 @@ def cmd_analyze(args: argparse.Namespace) -> int:
 
     if args.file is not None:
         return _session_design(args)
+    if args.table is not None and args.ss is not None:
+        raise CliError("give --ss FILE or --table FILE.csv, not both")
     if args.table is not None:
         network, omega = _table_loop(args)
+    elif args.ss is not None:
+        network = _state_space_loop(args)
+        omega = np.geomspace(args.wmin, args.wmax, args.points)
     elif not args.tf:
-        raise CliError("give --tf EXPR (repeatable) or --table FILE.csv")
+        raise CliError("give --tf EXPR (repeatable), --ss FILE or --table FILE.csv")
     else:
         network = unity_feedback(args.tf, args.variable, args.delay)
         omega = np.geomspace(args.wmin, args.wmax, args.points)
@@ -280,6 +298,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         print(json.dumps(analysis_to_json(result, args.variable, locus), indent=2, sort_keys=True))
     else:
         shown = ([f"table {args.table}"] if args.table else []) + list(args.tf or [])
+        shown += [f"state space {args.ss}"] if args.ss else []
         print(analysis_to_text(result, shown, args.variable, args.delay))
         if locus is not None:
             print(locus_to_text(locus))
@@ -295,8 +314,8 @@ def _session_design(args: argparse.Namespace) -> int:
     from engine.stepping.protocol import StepRecord
     from tui.cli.common import load
 
-    if args.tf or args.table is not None:
-        raise CliError("FILE.json analyzes a session's loop: give it, or --tf/--table, not both")
+    if args.tf or args.table is not None or args.ss is not None:
+        raise CliError("FILE.json analyzes a session's loop: give it, or --tf/--ss/--table, not both")
     session = load(args.file)
     problem, model = session.problem, session.model
     names = [c.name for c in problem.conditions]
@@ -388,6 +407,12 @@ def add_parser(sub) -> None:
         "--table",
         metavar="FILE.csv",
         help="a tabulated open loop (times any --tf): margins refined on a rational fit, its residual stated",
+    )
+    p.add_argument(
+        "--ss",
+        metavar="FILE",
+        help="a state-space plant (times any --tf): a .npz with arrays A, B, C, D or a .json with those keys, "
+        "kept as state space (no polynomial is multiplied out)",
     )
     p.add_argument(
         "--columns",

@@ -466,7 +466,8 @@ class MainScreen(Screen):
     def refresh_plant(self) -> None:
         model = self.bench.session.model.problem
         self.query_one("#blocks", PlantTable).fill(
-            ("condition", "block", "input", "output", "kind", "definition"), plant_rows(model)
+            ("condition", "block", "input", "output", "kind", "definition"),
+            plant_rows(model, self.bench.session.problem),
         )
         self.query_one("#matrix-grid", MatrixTable).fill(model, self.bench.plotted_condition)
         free = {p.name: p.free for p in self.bench.session.problem.parameters}

@@ -287,7 +287,7 @@ def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
     return None
 
 
-TRANSFER_HELP = "an expression, or factored: / controller: / polynomial: / delay: / table: ..."
+TRANSFER_HELP = "an expression, or factored: / controller: / polynomial: / delay: / table: / state_space: ..."
 
 
 def field_edit_whole(

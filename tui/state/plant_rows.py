@@ -1,31 +1,54 @@
 """The rows of the Plant tab: one per block, junction, matrix entry, channel
-or break point of every condition, each with the model path it shows."""
+or break point of every condition, each with the model path it shows.  A
+state-space block is shown by its order, poles and zeros, read from the built
+problem's block of the same name (its file is read once, when the session is)."""
 
 from __future__ import annotations
 
-from sessions.forms.transfers import describe_transfer, format_sub_compensator
+from typing import TYPE_CHECKING
+
+from engine.model.blocks import StateSpaceTransfer
+from sessions.forms.transfers import describe_state_space, describe_transfer, format_sub_compensator
 from tui.state.edits import Ref
+
+if TYPE_CHECKING:
+    from engine.design.problem import Problem
 
 Cells = tuple[str, str, str, str, str, str]
 
 
-def plant_rows(model) -> list[tuple[Cells, Ref | None]]:
-    """(condition, block, input, output, kind, definition) and the row's model path."""
+def plant_rows(model, problem: Problem | None = None) -> list[tuple[Cells, Ref | None]]:
+    """(condition, block, input, output, kind, definition) and the row's model path;
+    ``problem`` (the engine's, built from ``model``) describes the state-space blocks."""
     rows: list[tuple[Cells, Ref | None]] = []
     for k, condition in enumerate(model.conditions):
-        rows += [((condition.name,) + cells, ref) for cells, ref in _condition_rows(condition, k)]
+        built = _state_spaces(problem, k, condition.name)
+        rows += [((condition.name,) + cells, ref) for cells, ref in _condition_rows(condition, k, built)]
     return rows
 
 
-def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None]]:
+def _state_spaces(problem: Problem | None, k: int, name: str) -> dict[str, StateSpaceTransfer]:
+    """The state-space blocks of condition ``k`` of the built problem, by label (none when
+    the problem is not given or is not of this model)."""
+    if problem is None or k >= len(problem.conditions) or problem.conditions[k].name != name:
+        return {}
+    entries = problem.conditions[k].network.entries
+    return {e.label: e.transfer for e in entries if isinstance(e.transfer, StateSpaceTransfer)}
+
+
+def _condition_rows(
+    condition, k: int, built: dict[str, StateSpaceTransfer]
+) -> list[tuple[tuple[str, ...], Ref | None]]:
     plant, base, x = condition.plant, ("conditions", k, "plant"), condition.variable
 
-    def describe(transfer) -> str:
+    def describe(transfer, label: str) -> str:
+        if transfer.kind == "state_space" and label in built:
+            return describe_state_space(built[label])
         return describe_transfer(transfer, x)
 
     if plant.format == "diagram":
         rows = [
-            ((b.name, b.input, b.output, b.transfer.kind, describe(b.transfer)), base + ("blocks", i))
+            ((b.name, b.input, b.output, b.transfer.kind, describe(b.transfer, b.name)), base + ("blocks", i))
             for i, b in enumerate(plant.blocks)
         ]
         rows += [
@@ -42,7 +65,13 @@ def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None
         for i, ch in enumerate(plant.channels):
             rows.append(
                 (
-                    (f"{ch.name}.response", "e", f"{ch.name}.theta", ch.response.kind, describe(ch.response)),
+                    (
+                        f"{ch.name}.response",
+                        "e",
+                        f"{ch.name}.theta",
+                        ch.response.kind,
+                        describe(ch.response, f"{ch.name}.response"),
+                    ),
                     base + ("channels", i, "response"),
                 )
             )
@@ -55,7 +84,11 @@ def _condition_rows(condition, k: int) -> list[tuple[tuple[str, ...], Ref | None
                 )
         return rows
     if plant.format == "cascade":
-        return [((name.upper(), "", "", t.kind, describe(t)), base + (name,)) for name, t in cascade_transfers(plant)]
+        labels = {name: name.upper() for name in CASCADE} | {"ga": "Ga"}  # as sessions.build names the blocks
+        return [
+            ((name.upper(), "", "", t.kind, describe(t, labels[name])), base + (name,))
+            for name, t in cascade_transfers(plant)
+        ]
     return [
         ((f"a[{e.row},{e.col}]", "", "", "matrix entry", e.expression), base + ("entries", i))
         for i, e in enumerate(plant.entries)
