@@ -1,0 +1,160 @@
+"""Loops in z with a sample time T, analyzed through the bilinear map (report 003's
+unscaled w-plane): z = (1 + w)/(1 - w) makes a z loop rational in w, and on the unit
+circle z = exp(j omega T) the w-plane frequency is nu = tan(omega T/2), so the
+grid-free pole-zero search of s loops serves z loops unchanged.  Every frequency it
+finds is reported in rad/s, omega = (2/T) atan(nu) exactly, up to the Nyquist frequency
+pi/T; a delay margin becomes seconds (the phase margin taken in [0, 2 pi), over omega, as
+for s loops) and samples (over T); the
+closed-loop poles are z = (1 + w)/(1 - w) of the w-plane ones, with their equivalent
+s-plane damping and natural frequency (s = ln(z)/T), stable when |z| < 1 (Re w < 0)."""
+
+from __future__ import annotations
+
+import cmath
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.analysis import LoopAnalysis, analyze
+from engine.errors import EngineError
+from engine.loop.realization import Pole
+from engine.loop.responses import open_loop
+from engine.margins.search import Band
+from engine.margins.values import margins_of
+from engine.model.blocks import ExpressionTransfer
+from engine.model.network import Network
+
+Z = re.compile(r"(?<![A-Za-z0-9_])z(?![A-Za-z0-9_])")
+W_OF_Z = "((1+w)/(1-w))"
+
+
+def w_plane(network: Network) -> Network:
+    """The z network with every block's z replaced by (1 + w)/(1 - w)."""
+    if network.variable != "z":
+        raise EngineError(f"a sampled loop is a loop in z, not in {network.variable}")
+    entries = []
+    for e in network.entries:
+        if not isinstance(e.transfer, ExpressionTransfer):
+            raise EngineError(f"{e.label}: a loop in z takes expressions in z (not a {type(e.transfer).__name__})")
+        entries.append(replace(e, transfer=ExpressionTransfer(Z.sub(W_OF_Z, e.transfer.expression.text), "w")))
+    return Network(network.signals, network.inputs, tuple(entries), "w")
+
+
+def w_frequencies(omega: NDArray, sample_time: float) -> NDArray[np.float64]:
+    """nu = tan(omega T/2) of the grid's frequencies below the Nyquist frequency."""
+    omega = np.asarray(omega, dtype=float)
+    return np.tan(omega[(omega > 0) & (omega < math.pi / sample_time)] * sample_time / 2.0)
+
+
+def real_frequency(nu: float, sample_time: float) -> float:
+    """omega = (2/T) atan(nu), rad/s (nu = inf: the Nyquist frequency)."""
+    return 2.0 * math.atan(nu) / sample_time
+
+
+def analyze_sampled(
+    network: Network,
+    break_at: str,
+    omega: NDArray,
+    params: Mapping[str, float],
+    sample_time: float,
+    peak_bands: Sequence[Band] = (),
+    skew: float = 0.0,
+) -> LoopAnalysis:
+    """`engine.analysis.analyze` of a loop in z with sample time T: the search on its
+    w-plane form, every frequency back in rad/s, delays in seconds, poles in z."""
+    if not (math.isfinite(sample_time) and sample_time > 0):
+        raise EngineError(f"a loop in z needs a sample time > 0, not {sample_time!r}")
+    nu = w_frequencies(omega, sample_time)
+    if nu.size < 2:
+        raise EngineError(f"the grid has no frequencies below the Nyquist frequency pi/T = {math.pi / sample_time:.6g}")
+    bands = [replace(b, low=_nu(b.low, sample_time), high=_nu(b.high, sample_time)) for b in peak_bands]
+    found = in_real_frequencies(analyze(w_plane(network), break_at, nu, params, bands, skew), sample_time)
+    return with_nyquist_crossing(found, network, break_at, params, sample_time)
+
+
+def with_nyquist_crossing(
+    found: LoopAnalysis, network: Network, break_at: str, params: Mapping[str, float], sample_time: float
+) -> LoopAnalysis:
+    """The gain margin at the Nyquist frequency, where z = -1 and L is real: a crossing
+    of the negative real axis when L(-1) < 0 (the w-plane search ends short of w = inf)."""
+    entries = tuple(
+        replace(e, transfer=ExpressionTransfer(Z.sub("(-1)", e.transfer.expression.text), "z")) for e in network.entries
+    )
+    at_nyquist = Network(network.signals, network.inputs, entries, "z")
+    try:
+        value = complex(open_loop(at_nyquist, break_at, np.array([1.0]), params, sensitivities=False).value[0])
+    except EngineError:
+        return found
+    if not (cmath.isfinite(value) and value.real < 0 and abs(value.imag) <= 1e-12 * abs(value)):
+        return found
+    w = math.pi / sample_time
+    if any(abs(m.frequency - w) <= 1e-9 * w for m in found.margins.gain):
+        return found
+    crossing = margins_of("G", np.array([w]), np.array([complex(value.real, 0.0)]))
+    return replace(found, margins=replace(found.margins, gain=found.margins.gain + tuple(crossing)))
+
+
+def _nu(omega: float, sample_time: float) -> float:
+    return math.inf if omega >= math.pi / sample_time else math.tan(omega * sample_time / 2.0)
+
+
+def in_real_frequencies(found: LoopAnalysis, sample_time: float) -> LoopAnalysis:
+    """A w-plane analysis with its frequencies in rad/s, delay margins in seconds and its
+    poles in z."""
+    T = sample_time
+
+    def margin(m):
+        w = real_frequency(m.frequency, T)
+        delay = (
+            math.radians(m.phase_deg) % (2 * math.pi) / w
+            if m.kind == "P" and m.phase_deg is not None and w > 0
+            else None
+        )
+        return replace(m, frequency=w, delay=delay if m.kind == "P" else m.delay)
+
+    m = found.margins
+    margins = replace(
+        m,
+        gain=tuple(map(margin, m.gain)),
+        phase=tuple(map(margin, m.phase)),
+        stability=tuple(map(margin, m.stability)),
+        attenuation=tuple(map(margin, m.attenuation)),
+        crossovers_beyond=None if m.crossovers_beyond is None else real_frequency(m.crossovers_beyond, T),
+        families=(),
+        notes=m.notes + (f"a loop in z, T = {T:g} s: searched on its w-plane form, frequencies up to pi/T",),
+    )
+    peaks = {
+        name: None if p is None else replace(p, frequency=real_frequency(p.frequency, T))
+        for name, p in (("sensitivity_peak", found.sensitivity_peak), ("complementary_peak", found.complementary_peak))
+    }
+    disk = found.disk_margin
+    return replace(
+        found,
+        margins=margins,
+        closed_loop_poles=None
+        if found.closed_loop_poles is None
+        else tuple(z_pole(p.value, T) for p in found.closed_loop_poles),
+        modal_peaks=tuple(replace(p, frequency=real_frequency(p.frequency, T)) for p in found.modal_peaks),
+        disk_margin=None if disk is None else replace(disk, frequency=real_frequency(disk.frequency, T)),
+        **peaks,
+    )
+
+
+def z_pole(w: complex, sample_time: float) -> Pole:
+    """The z-plane pole of a w-plane one, with the damping and natural frequency of its
+    s-plane equivalent s = ln(z)/T (a pole at z = 0: infinitely fast, damping 1)."""
+    z = (1 + w) / (1 - w) if w != 1 else complex(math.inf)
+    if z == 0 or not cmath.isfinite(z):
+        return Pole(z, 1.0, math.inf)
+    s = cmath.log(z) / sample_time
+    wn = abs(s)
+    return Pole(z, -s.real / wn if wn else 1.0, wn)
+
+
+def delay_in_samples(seconds: float | None, sample_time: float) -> float | None:
+    """A delay margin in samples (None: no crossover)."""
+    return None if seconds is None else seconds / sample_time

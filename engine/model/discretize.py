@@ -1,0 +1,153 @@
+"""Continuous blocks discretized for a loop in z with sample time T: zero-order hold
+(exact, with the block's delay as whole and fractional samples: the modified z-transform,
+computed from the state space as Franklin and Powell do), Tustin (with optional
+prewarping at a frequency, where the discrete response then equals the continuous one
+exactly), and matched pole-zero.  Transfer functions are (numerator, denominator) in
+descending powers: of s going in, of z coming out."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from engine.errors import BlockError
+
+Polynomials = tuple[NDArray[np.float64], NDArray[np.float64]]
+
+
+def _checked(num: ArrayLike, den: ArrayLike, sample_time: float) -> Polynomials:
+    n = np.trim_zeros(np.atleast_1d(np.asarray(num, float)), "f")
+    d = np.trim_zeros(np.atleast_1d(np.asarray(den, float)), "f")
+    if not (math.isfinite(sample_time) and sample_time > 0):
+        raise BlockError(f"the sample time must be finite and > 0, not {sample_time!r}")
+    if d.size == 0 or not np.all(np.isfinite(n)) or not np.all(np.isfinite(d)):
+        raise BlockError("a block to discretize needs finite coefficients and a nonzero denominator")
+    if n.size > d.size:
+        raise BlockError("an improper block (more zeros than poles) has no zero-order-hold equivalent")
+    return (n if n.size else np.zeros(1)), d
+
+
+def zoh(num: ArrayLike, den: ArrayLike, sample_time: float, delay: float = 0.0) -> Polynomials:
+    """The zero-order-hold equivalent of num/den with an input delay (seconds, >= 0):
+    G(z) = (1 - 1/z) Z{exp(-delay s) G(s)/s}, exact (the delay as N whole samples and a
+    fraction: Franklin, Powell and Workman's Gamma_0, Gamma_1)."""
+    from scipy.linalg import expm
+    from scipy.signal import tf2ss
+
+    n, d = _checked(num, den, sample_time)
+    if not (math.isfinite(delay) and delay >= 0):
+        raise BlockError(f"the delay must be finite and >= 0, not {delay!r}")
+    whole = math.floor(delay / sample_time + 1e-12)
+    fraction = max(delay - whole * sample_time, 0.0)
+    if fraction <= 1e-12 * sample_time:
+        fraction = 0.0
+    A, B, C, D = tf2ss(n, d)
+    size = A.shape[0]
+    phi, gamma0 = _hold(A, B, sample_time - fraction, expm)
+    if fraction:
+        step, gamma1 = _hold(A, B, fraction, expm)
+        gamma1 = phi @ gamma1
+        phi = phi @ step
+    else:
+        gamma1 = np.zeros_like(B)
+    # x[k+1] = phi x[k] + gamma1 u[k-1] + gamma0 u[k]; y[k] = C x[k] + D (u[k] or u[k-1] with a fraction)
+    z_num, z_den = _transfer(phi, gamma0, gamma1, C, D, size, bool(fraction))
+    z_den = np.concatenate([z_den, np.zeros(whole)])  # z^-whole
+    return _normalized(z_num, z_den)
+
+
+def _hold(A: NDArray, B: NDArray, span: float, expm) -> tuple[NDArray, NDArray]:
+    """(exp(A span), integral_0^span exp(A eta) d eta B) from one exponential."""
+    size, inputs = A.shape[0], B.shape[1]
+    block = np.zeros((size + inputs, size + inputs))
+    block[:size, :size], block[:size, size:] = A * span, B * span
+    e = expm(block)
+    return e[:size, :size], e[:size, size:]
+
+
+def _transfer(phi, gamma0, gamma1, C, D, size: int, fraction: bool) -> Polynomials:
+    """The transfer function of x+ = phi x + gamma0 u + gamma1 u_prev, y = C x + D u(_prev):
+    the previous input is a state of its own."""
+    from scipy.signal import ss2tf
+
+    A = np.zeros((size + 1, size + 1))
+    A[:size, :size], A[:size, size:] = phi, gamma1
+    B = np.zeros((size + 1, 1))
+    B[:size], B[size, 0] = gamma0, 1.0
+    C2 = np.zeros((1, size + 1))
+    C2[0, :size] = C
+    D2 = np.array([[0.0]]) if fraction else np.asarray(D, float).reshape(1, 1)
+    if fraction:
+        C2[0, size] = float(np.asarray(D).ravel()[0])
+    num, den = ss2tf(A, B, C2, D2)
+    return np.asarray(num[0], float), np.asarray(den, float)
+
+
+def tustin(num: ArrayLike, den: ArrayLike, sample_time: float, prewarp: float | None = None) -> Polynomials:
+    """Tustin's bilinear equivalent, s = k (z - 1)/(z + 1) with k = 2/T, or prewarped
+    (k = w/tan(w T/2): the discrete response equals the continuous one at w, rad/s,
+    below the Nyquist frequency)."""
+    n, d = _checked(num, den, sample_time)
+    k = 2.0 / sample_time
+    if prewarp is not None:
+        if not (0 < prewarp < math.pi / sample_time):
+            raise BlockError(f"the prewarp frequency must lie in (0, pi/T) = (0, {math.pi / sample_time:.6g}) rad/s")
+        k = prewarp / math.tan(prewarp * sample_time / 2.0)
+    order = d.size - 1
+    plus, minus = np.array([1.0, 1.0]), np.array([1.0, -1.0])
+
+    def substitute(c: NDArray) -> NDArray:
+        total = np.zeros(1)
+        degree = c.size - 1
+        for i, coefficient in enumerate(c):  # coefficient of s^(degree - i)
+            power = degree - i
+            term = coefficient * k**power * _power(minus, power)
+            total = np.polyadd(total, np.polymul(term, _power(plus, order - power)))
+        return total
+
+    return _normalized(substitute(n), substitute(d))
+
+
+def matched(num: ArrayLike, den: ArrayLike, sample_time: float) -> Polynomials:
+    """Matched pole-zero: every finite pole and zero p goes to exp(p T), each zero at
+    infinity but one to z = -1, the gain matched at DC (at w = pi/(10 T) when a pole or
+    zero sits at the origin)."""
+    n, d = _checked(num, den, sample_time)
+    zeros, poles = np.roots(n), np.roots(d)
+    z_zeros = np.exp(zeros * sample_time)
+    z_poles = np.exp(poles * sample_time)
+    extra = max(poles.size - zeros.size - 1, 0)
+    z_zeros = np.concatenate([z_zeros, -np.ones(extra)])
+    z_num, z_den = np.real(np.poly(z_zeros)), np.real(np.poly(z_poles))
+    at_origin = np.any(np.abs(np.concatenate([zeros, poles])) < 1e-12)
+    w = math.pi / (10 * sample_time) if at_origin else 0.0
+    continuous = np.polyval(n, 1j * w) / np.polyval(d, 1j * w)
+    point = np.exp(1j * w * sample_time)
+    discrete = np.polyval(z_num, point) / np.polyval(z_den, point)
+    return _normalized(z_num * abs(continuous) / abs(discrete) * np.sign(n[0] / d[0]), z_den)
+
+
+def _power(p: NDArray, k: int) -> NDArray:
+    out = np.ones(1)
+    for _ in range(k):
+        out = np.polymul(out, p)
+    return out
+
+
+def _normalized(num: NDArray, den: NDArray) -> Polynomials:
+    """Both divided by the denominator's leading coefficient, leading zeros trimmed."""
+    den = np.trim_zeros(np.asarray(den, float), "f")
+    num = np.asarray(num, float)
+    scale = den[0]
+    num = np.trim_zeros(num, "f") if np.any(num) else np.zeros(1)
+    common = min(_trailing_zeros(num), _trailing_zeros(den))  # z factors both share (an unused state)
+    if common:
+        num, den = num[:-common], den[:-common]
+    return num / scale, den / scale
+
+
+def _trailing_zeros(c: NDArray) -> int:
+    nonzero = np.flatnonzero(c)
+    return 0 if nonzero.size == 0 else c.size - 1 - int(nonzero[-1])
