@@ -265,15 +265,23 @@ def controller_transfer(
 
 class StateSpaceTransfer:
     """A SISO state space (A, B, C, D), kept as state space (`engine.model.state_space`):
-    evaluated by a modal or Hessenberg decomposition, never multiplied out into polynomials."""
+    evaluated by a modal or Hessenberg decomposition (``response``), never multiplied out
+    into polynomials; ``form``: its gain, zeros (transmission zeros) and poles (eigenvalues
+    of A), equal roots cancelled."""
 
     exact = True
     rational_form = True
     parameters: tuple[str, ...] = ()
 
     def __init__(self, A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike = 0.0, source: str = "state space"):
+        """Checked, decomposed and in pole-zero form at once: a fault is a `BlockError` naming ``source``."""
         self.matrices = checked(A, B, C, D, source)
         self.source = source
+        try:
+            self.response = Response(self.matrices)
+            self.form = pole_zero_form(self.response)
+        except BlockError as exc:
+            raise BlockError(f"{source}: {exc}") from None
 
     @property
     def order(self) -> int:
@@ -282,18 +290,6 @@ class StateSpaceTransfer:
     @property
     def text(self) -> str:
         return f"state space of order {self.order} ({self.source})"
-
-    @cached_property
-    def response(self) -> Response:
-        return Response(self.matrices)
-
-    @cached_property
-    def form(self) -> PoleZero:
-        """Gain, zeros (transmission zeros) and poles (eigenvalues of A), equal roots cancelled."""
-        try:
-            return pole_zero_form(self.response)
-        except BlockError as exc:
-            raise BlockError(f"{self.source}: {exc}") from None
 
     def compile(self, params: Mapping[str, float]) -> Compiled:
         return self.response

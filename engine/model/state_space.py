@@ -60,6 +60,7 @@ def checked(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) 
     vector, D a number or 1 x 1), or a `BlockError` naming ``where`` and what is wrong."""
     arrays = [_real(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D"))]
     a, b, c, d = arrays
+    a = a.reshape(0, 0) if a.size == 0 else a  # no states: a static gain D ([] read as 0 x 0)
     n = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape[1] != n:
         raise BlockError(f"{where}: A must be a square matrix, not {_shape(a)}")
@@ -96,16 +97,21 @@ class Response:
     """G(s) and dG/ds of a state space at complex points (module docstring)."""
 
     def __init__(self, m: Matrices) -> None:
+        """The decompositions; a `BlockError` when their numbers leave the floating-point range."""
         self.m = m
-        self.poles, vectors = np.linalg.eig(m.A) if m.order else (np.zeros(0, dtype=complex), np.zeros((0, 0)))
-        self.modal = m.order > 0 and bool(np.linalg.cond(vectors) <= MODAL_CONDITION)
-        if self.modal:
-            self.residues = (m.C @ vectors) * np.linalg.solve(vectors, m.B.astype(complex))
-        elif m.order:
-            from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
+        with np.errstate(all="ignore"):
+            self.poles, vectors = np.linalg.eig(m.A) if m.order else (np.zeros(0, dtype=complex), np.zeros((0, 0)))
+            _finite(self.poles, vectors)
+            self.modal = m.order > 0 and bool(np.linalg.cond(vectors) <= MODAL_CONDITION)
+            if self.modal:
+                self.residues = (m.C @ vectors) * np.linalg.solve(vectors, m.B.astype(complex))
+                self.modal = bool(np.all(np.isfinite(self.residues)))
+            if m.order and not self.modal:
+                from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
 
-            self.h, q = linalg.hessenberg(m.A, calc_q=True)
-            self.b, self.c = q.T @ m.B, m.C @ q
+                self.h, q = linalg.hessenberg(m.A, calc_q=True)
+                self.b, self.c = q.T @ m.B, m.C @ q
+                _finite(self.h, self.b, self.c)
 
     def __call__(self, s: ArrayLike) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
         s = np.asarray(s, dtype=complex)
@@ -174,6 +180,11 @@ class HessenbergLU:
         return x
 
 
+def _finite(*arrays: NDArray) -> None:
+    if not all(np.all(np.isfinite(x)) for x in arrays):
+        raise BlockError("its numbers leave the floating-point range (A's eigenvalues or its reduction overflow)")
+
+
 def _size(a: NDArray, b: NDArray, c: NDArray) -> float:
     """|C| |B| / |A| (Frobenius; 0 for A = 0): the strictly proper part's size about |s| = |A|."""
     scale = float(np.linalg.norm(a))
@@ -196,9 +207,9 @@ def transmission_zeros(m: Matrices) -> NDArray[np.complex128] | None:
 
 
 def _householder_to_last(b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """An orthogonal (symmetric) Q with Q' b = +-|b| e_n."""
-    v = b.astype(float).copy()
-    v[-1] += np.copysign(np.linalg.norm(b), b[-1] if b[-1] != 0 else 1.0)
+    """An orthogonal (symmetric) Q with Q' b = +-|b| e_n (b scaled first: no square under- or overflows)."""
+    v = b / np.max(np.abs(b))
+    v[-1] += np.copysign(np.linalg.norm(v), v[-1] if v[-1] != 0 else 1.0)
     return np.eye(b.size) - 2.0 * np.outer(v, v) / (v @ v)
 
 
@@ -206,7 +217,13 @@ def pole_zero_form(response: Response) -> PoleZero:
     """gain * prod(s - zeros) / prod(s - poles) of the state space, equal roots cancelled;
     gain 0 (and the poles) when G is zero at every frequency."""
     poles = response.poles.astype(complex)
-    zeros = transmission_zeros(response.m)
+    with np.errstate(all="ignore"):
+        try:
+            zeros = transmission_zeros(response.m)
+        except np.linalg.LinAlgError:  # an eigenvalue iteration not converging, or its matrix not finite
+            zeros = np.full(1, np.nan)
+    if zeros is not None:
+        _finite(zeros)
     if zeros is None:
         return PoleZero(0.0, np.zeros(0, dtype=complex), poles)
     shape = PoleZero(1.0, zeros, poles)

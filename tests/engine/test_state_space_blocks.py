@@ -89,11 +89,21 @@ def test_zeros_with_and_without_feedthrough_are_python_control_s():
         assert np.allclose(form.evaluate(S)[0], sys(S).ravel(), rtol=1e-7)
 
 
+def test_the_deflation_is_blind_to_the_scale_of_b_and_c():
+    """B of size 1e-200 (its square underflows) and C of 1e150: the same zeros, the gain 1e-50 times."""
+    sys = _random(7, 8)
+    plain = StateSpaceTransfer(sys.A, sys.B, sys.C, 0.0).form
+    scaled = StateSpaceTransfer(sys.A, 1e-200 * sys.B, 1e150 * sys.C, 0.0).form
+    assert np.allclose(np.sort_complex(scaled.zeros), np.sort_complex(plain.zeros), rtol=1e-10)
+    assert scaled.gain == pytest.approx(1e-50 * plain.gain, rel=1e-10)
+
+
 def test_a_zero_transfer_has_gain_zero_and_a_static_gain_no_roots():
     zero = StateSpaceTransfer(np.diag([-1.0, -2.0]), [1.0, 0.0], [0.0, 1.0]).form  # the input never reaches C
     assert zero.gain == 0.0
-    static = StateSpaceTransfer(np.zeros((0, 0)), np.zeros(0), np.zeros(0), 2.5).form
-    assert static.gain == 2.5 and static.zeros.size == 0 and static.poles.size == 0
+    for no_states in (np.zeros((0, 0)), []):
+        static = StateSpaceTransfer(no_states, [], [], 2.5).form
+        assert static.gain == 2.5 and static.zeros.size == 0 and static.poles.size == 0
     with pytest.raises(Exception, match="0 at every frequency"):
         unity_feedback(["1"], state_space=StateSpaceTransfer(np.diag([-1.0, -2.0]), [1.0, 0.0], [0.0, 1.0]))
 
@@ -107,6 +117,7 @@ def test_a_zero_transfer_has_gain_zero_and_a_static_gain_no_roots():
         ((np.eye(2), [1, 1], [1, 1], [1, 2]), "D is 2"),
         ((np.eye(2), [1, np.nan], [1, 1], 0), "B has a value that is not finite"),
         ((np.eye(401), np.ones(401), np.ones(401), 0), "beyond the limit of 400"),
+        ((np.full((2, 2), 1e308), [1e308, 1], [1e308, 1e308], 1e308), "leave the floating-point range"),
     ],
 )
 def test_bad_matrices_are_refused_naming_the_source(matrices, message):
