@@ -214,3 +214,24 @@ def test_a_cascade_s_actuator_as_state_space_takes_the_transducer_gain(tmp_path)
     network = load_session(tmp_path / "s.json").problem.conditions[0].network
     ga = next(e.transfer for e in network.entries if e.label == "Ga")
     assert np.allclose(ga.evaluate(1j * W, {}).value, 2 * PLANT(1j * W).ravel(), rtol=1e-13)
+
+
+def test_the_plant_tab_s_row_replaces_a_state_space_whole(tmp_path):
+    from tui.state.edits import plant_edit
+    from tui.state.workbench import Workbench
+
+    bench = Workbench(load_session(_write(tmp_path, INLINE)))
+    ref = next(ref for cells, ref in plant_rows(bench.session.model.problem) if cells[1] == "plant")
+    edit = plant_edit(bench, ref)
+    assert edit.text == "plant u y state_space: inline" and edit.check(edit.text) is None
+    before = bench.session.model.problem.model_dump()
+    edit.apply(edit.text)
+    assert bench.session.model.problem.model_dump() == before
+    np.savez(tmp_path / "half.npz", A=A, B=B, C=C / 2, D=np.array(D / 2))
+    plant_edit(bench, ref).apply("plant u y state_space: half.npz")
+    assert bench.session.model.problem.conditions[0].plant.blocks[ref[-1]].transfer.file == "half.npz"
+    condition = bench.session.problem.conditions[0]
+    response = open_loop(condition.network, "e", W, bench.session.problem.condition_values(0), sensitivities=False)
+    assert np.allclose(response.value, PLANT(1j * W).ravel() / 2, rtol=1e-13)
+    with pytest.raises(SessionError, match="missing.npz"):
+        plant_edit(bench, ref).apply("plant u y state_space: missing.npz")
