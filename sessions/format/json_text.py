@@ -30,7 +30,8 @@ def dumps(model: SessionModel, compact: bool = False) -> str:
     """Stable JSON: sorted keys, shortest float repr, two-space indent (``compact``: none,
     for autosaves); inf and -inf as 1e999 and -1e999, nan as "nan".  Each record's
     text is kept from the last time (the module docstring)."""
-    data = _plain(model.model_dump(mode="python", exclude_none=False, exclude={"records"}), _MARKER)
+    skipped = {"records"} | (set() if model.earlier else {"earlier"})  # no hand history: the file as before it
+    data = _plain(model.model_dump(mode="python", exclude_none=False, exclude=skipped), _MARKER)
     data["records"] = _MARKER + "records"
     text = _standard(json.dumps(data, indent=None if compact else 2, sort_keys=True, allow_nan=False))
     texts = _record_texts(model.records, compact)
