@@ -1,5 +1,6 @@
 """Loops in z with a sample time T, analyzed through the bilinear map (report 003's
-unscaled w-plane): z = (1 + w)/(1 - w) makes a z loop rational in w, and on the unit
+unscaled w-plane): z = (1 + w)/(1 - w) makes a z loop rational in w (each block's poles
+and zeros mapped, `w_block`), and on the unit
 circle z = exp(j omega T) the w-plane frequency is nu = tan(omega T/2), so the
 grid-free pole-zero search of s loops serves z loops unchanged.  Every frequency it
 finds is reported in rad/s, omega = (2/T) atan(nu) exactly, up to the Nyquist frequency
@@ -26,22 +27,54 @@ from engine.loop.responses import open_loop
 from engine.margins.search import Band
 from engine.margins.values import margins_of
 from engine.model.blocks import ExpressionTransfer
+from engine.model.factored import pole_zero
 from engine.model.network import Network
 
 Z = re.compile(r"(?<![A-Za-z0-9_])z(?![A-Za-z0-9_])")
-W_OF_Z = "((1+w)/(1-w))"
+ON_CIRCLE = 1e-12  # a root this near z = 1 or z = -1 is there (the roots of a typed polynomial carry rounding)
 
 
-def w_plane(network: Network) -> Network:
-    """The z network with every block's z replaced by (1 + w)/(1 - w)."""
+def w_plane(network: Network, params: Mapping[str, float]) -> Network:
+    """The z network at ``params`` with each block's poles and zeros r mapped to
+    w = (r - 1)/(r + 1) (`w_block`): exact, no polynomial expanded."""
     if network.variable != "z":
         raise EngineError(f"a sampled loop is a loop in z, not in {network.variable}")
     entries = []
     for e in network.entries:
         if not isinstance(e.transfer, ExpressionTransfer):
             raise EngineError(f"{e.label}: a loop in z takes expressions in z (not a {type(e.transfer).__name__})")
-        entries.append(replace(e, transfer=ExpressionTransfer(Z.sub(W_OF_Z, e.transfer.expression.text), "w")))
+        entries.append(replace(e, transfer=ExpressionTransfer(w_block(e.transfer, params), "w")))
     return Network(network.signals, network.inputs, tuple(entries), "w")
+
+
+def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
+    """A block in z as an expression in w: with z = (1 + w)/(1 - w) each factor z - r is
+    (1 + r)(w - (r - 1)/(r + 1))/(1 - w) (z + 1 is 2/(1 - w)), so H(w) is the gain times
+    those constants, the mapped factors, and (1 - w) to the relative degree (zeros at
+    w = 1, z = infinity): no common factor (1 - w) is left to cancel."""
+    form = pole_zero(transfer.expression, params)
+    gain = complex(form.gain)
+    over, under = [], []
+    power = 0  # of (1 - w) over the line
+    for roots, side, sign in ((form.zeros, over, -1), (form.poles, under, 1)):
+        for r in roots:
+            if abs(r + 1) <= ON_CIRCLE:
+                gain *= 2.0 if sign < 0 else 0.5
+                power += sign
+                continue
+            gain *= (1 + r) if sign < 0 else 1 / (1 + r)
+            power += sign
+            if r.imag < 0:
+                continue
+            w = 0j if abs(r - 1) <= ON_CIRCLE else (r - 1) / (r + 1)  # z = 1: an integrator, w = 0 exactly
+            partner = next((q for q in roots if abs(q - r.conjugate()) <= 1e-12 * max(abs(r), 1.0)), None)
+            if r.imag > 0 and partner is not None:
+                side.append(f"(w^2-({float(2 * w.real)!r})*w+({float(abs(w) ** 2)!r}))")
+            else:
+                side.append(f"(w-({float(w.real)!r}))")
+    factors = [f"({float(gain.real)!r})", *over] + ([f"(1-w)^{power}"] if power > 0 else [])
+    under += [f"(1-w)^{-power}"] if power < 0 else []
+    return "*".join(factors) + (f"/({'*'.join(under)})" if under else "")
 
 
 def w_frequencies(omega: NDArray, sample_time: float) -> NDArray[np.float64]:
@@ -72,7 +105,7 @@ def analyze_sampled(
     if nu.size < 2:
         raise EngineError(f"the grid has no frequencies below the Nyquist frequency pi/T = {math.pi / sample_time:.6g}")
     bands = [replace(b, low=_nu(b.low, sample_time), high=_nu(b.high, sample_time)) for b in peak_bands]
-    found = in_real_frequencies(analyze(w_plane(network), break_at, nu, params, bands, skew), sample_time)
+    found = in_real_frequencies(analyze(w_plane(network, params), break_at, nu, {}, bands, skew), sample_time)
     return with_nyquist_crossing(found, network, break_at, params, sample_time)
 
 

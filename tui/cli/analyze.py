@@ -73,10 +73,17 @@ def locus_to_json(r: RootLocus) -> dict:
     }
 
 
-def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | None = None) -> dict:
-    """The documented JSON object of `loopcraft analyze --json`."""
+def analysis_to_json(
+    a: LoopAnalysis, variable: str = "s", locus: RootLocus | None = None, sample_time: float | None = None
+) -> dict:
+    """The documented JSON object of `loopcraft analyze --json` (a loop in z: its sample
+    time; poles in z, delay margins in seconds and samples)."""
     m = a.margins
+    sampled = variable == "z" and sample_time is not None and a.delay_margin is not None
+    samples = a.delay_margin / sample_time if sampled else delay_margin_samples(a) if variable == "w" else None
     return {
+        "variable": variable,
+        "sample_time": sample_time if variable == "z" else None,
         "gain_margins": [
             {"frequency": g.frequency, "gain_db": finite_or_none(g.gain_db), "distance": g.value} for g in m.listed("G")
         ],
@@ -91,7 +98,7 @@ def analysis_to_json(a: LoopAnalysis, variable: str = "s", locus: RootLocus | No
         "crossover_frequency": finite_or_none(m.crossover_frequency),
         "delay_margin": finite_or_none(a.delay_margin),
         "delay_margin_known": a.delay_margin is None or not math.isnan(a.delay_margin),
-        "delay_margin_samples": finite_or_none(delay_margin_samples(a)) if variable == "w" else None,
+        "delay_margin_samples": finite_or_none(samples),
         "closed_loop_stable": None if a.verdict == "unknown" else a.verdict == "stable",
         "verdict": a.verdict,
         "closed_loop_poles": None
@@ -151,10 +158,17 @@ def _num(x: float | None, unit: str = "", spec: str = ".6g") -> str:
     return f"{x:{spec}}{(' ' + unit) if unit else ''}"
 
 
-def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str = "s", delay: float = 0.0) -> str:
-    """A readable table of the margins and poles (w-plane frequencies labelled as such)."""
+def analysis_to_text(
+    a: LoopAnalysis,
+    expressions: Sequence[str],
+    variable: str = "s",
+    delay: float = 0.0,
+    sample_time: float | None = None,
+) -> str:
+    """A readable table of the margins and poles (w-plane frequencies labelled as such; a
+    loop in z in rad/s, its delay margin in seconds and samples, its poles in z)."""
     m = a.margins
-    unit = "rad/s" if variable == "s" else "w-plane rad/s"
+    unit = "w-plane rad/s" if variable == "w" else "rad/s"
     loop = " * ".join(f"({e})" for e in expressions) + (f" * exp(-{delay:g} s)" if delay else "")
     lines = [f"Open loop GH = {loop}  (unity negative feedback)", ""]
     lines.append(_cells("kind", f"frequency {unit}", "classical", "|1+GH|"))
@@ -169,7 +183,11 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     lines.append("")
     wc, dm = m.crossover_frequency, a.delay_margin
     lines.append(f"crossover frequency: {'none' if wc is None else f'{wc:.6g} {unit}'}")
-    if variable == "s":
+    if variable == "z":
+        lines.append(f"sample time: {sample_time:g} s (Nyquist frequency {math.pi / sample_time:.6g} rad/s)")
+        samples = "" if dm is None or math.isnan(dm) else f" ({dm / sample_time:.6g} samples)"
+        lines.append(f"delay margin: {_delay_text(dm)}{samples}")
+    elif variable == "s":
         lines.append(f"delay margin: {_delay_text(dm)}")
     else:
         samples = delay_margin_samples(a)
@@ -178,9 +196,13 @@ def analysis_to_text(a: LoopAnalysis, expressions: Sequence[str], variable: str 
     lines.append(f"closed loop: {a.verdict}")
     for p in a.closed_loop_poles or ():
         zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
-        lines.append(
-            f"  pole {p.value.real:+.6g} {p.value.imag:+.6g}j   zeta {zeta:.4f}   wn {p.natural_frequency:.6g} {unit}"
+        where = (
+            f"z {p.value.real:+.6g} {p.value.imag:+.6g}j |z| {abs(p.value):.6g}"
+            if variable == "z"
+            else (f"{p.value.real:+.6g} {p.value.imag:+.6g}j")
         )
+        equivalent = " (s-plane equivalent)" if variable == "z" else ""
+        lines.append(f"  pole {where}   zeta {zeta:.4f}   wn {p.natural_frequency:.6g} {unit}{equivalent}")
     lines.extend(_measure_lines(a, unit))
     lines.extend(f"note: {n}" for n in a.notes)
     lines.extend(f"note: {f.summary}" for f in m.families)
@@ -292,17 +314,40 @@ def cmd_analyze(args: argparse.Namespace) -> int:
             f"take numbers, the variable {args.variable!r}, delay factors exp(-T*s) "
             "and names given by --param NAME=VALUE)"
         )
-    result = analyze(network, "e", omega, params, skew=args.skew)
-    locus = _locus(args, network, params)
+    if args.variable == "z":
+        result = _sampled(args, network, omega, params)
+        locus = None
+    else:
+        result = analyze(network, "e", omega, params, skew=args.skew)
+        locus = _locus(args, network, params)
     if args.json:
-        print(json.dumps(analysis_to_json(result, args.variable, locus), indent=2, sort_keys=True))
+        print(json.dumps(analysis_to_json(result, args.variable, locus, args.sample_time), indent=2, sort_keys=True))
     else:
         shown = ([f"table {args.table}"] if args.table else []) + list(args.tf or [])
         shown += [f"state space {args.ss}"] if args.ss else []
-        print(analysis_to_text(result, shown, args.variable, args.delay))
+        print(analysis_to_text(result, shown, args.variable, args.delay, args.sample_time))
         if locus is not None:
             print(locus_to_text(locus))
     return 0
+
+
+def _sampled(args: argparse.Namespace, network, omega, params):
+    """`analyze --variable z --sample-time T`: the loop in z through the w-plane
+    (`engine.loop.sampled`), its grid up to the Nyquist frequency."""
+    import numpy as np
+
+    from engine.loop.sampled import analyze_sampled
+
+    T = args.sample_time
+    if T is None:
+        raise CliError("--variable z needs --sample-time T (seconds): the frequencies are reported in rad/s")
+    if args.table is not None or args.ss is not None or args.delay:
+        raise CliError("--variable z: give the loop as --tf expressions in z (a delay of k samples: z^-k)")
+    if not (math.isfinite(T) and T > 0):
+        raise CliError(f"--sample-time {T!r}: a finite number of seconds > 0")
+    nyquist = math.pi / T
+    omega = np.geomspace(min(args.wmin, 1e-3 * nyquist), nyquist * (1 - 1e-9), args.points)
+    return analyze_sampled(network, "e", omega, params, T, skew=args.skew)
 
 
 def _session_design(args: argparse.Namespace) -> int:
@@ -430,7 +475,18 @@ def add_parser(sub) -> None:
     p.add_argument("--unit", default="rad/s", choices=["rad/s", "hz"], help="--table: unit of its frequencies")
     p.add_argument("--gain", type=float, default=1.0, help="--table: a gain its values are multiplied by")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--variable", default="s", choices=["s", "w"], help="frequency variable (w: w-plane)")
+    p.add_argument(
+        "--variable",
+        default="s",
+        choices=["s", "w", "z"],
+        help="frequency variable (w: w-plane; z: with --sample-time)",
+    )
+    p.add_argument(
+        "--sample-time",
+        type=float,
+        metavar="T",
+        help="a loop in z: its sample time, s (frequencies in rad/s up to the Nyquist frequency pi/T)",
+    )
     p.add_argument(
         "--delay",
         type=float,
