@@ -116,3 +116,35 @@ def test_a_table_without_its_columns_is_one_plain_line(capsys, tmp_path):
         "--table: csv tables need three column names: frequency, first, second (two for form 'magnitude')"
     )
     assert "Value error" not in err and "\n" not in err
+
+
+def test_a_loop_in_z_is_analyzed_in_rad_per_s_with_its_sample_time(capsys):
+    """analyze --variable z --sample-time T (issue 39): the margins python-control finds
+    on the same discrete loop (dt = T), the gain margin at the Nyquist frequency it leaves
+    out (L(-1) < 0 there), the delay margin in seconds and samples, poles in z."""
+    import control as ct
+    import numpy as np
+
+    from tui.cli import main
+
+    T = 0.1
+    assert (
+        main(["analyze", "--variable", "z", "--sample-time", str(T), "--tf", "0.2*(z+0.8)/((z-1)*(z-0.6))", "--json"])
+        == 0
+    )
+    data = json.loads(capsys.readouterr().out)
+    gm, pm, _, wg, wp, _ = ct.stability_margins(ct.tf([0.2, 0.16], np.polymul([1, -1], [1, -0.6]), T))
+    gains = {round(g["frequency"], 9): g["gain_db"] for g in data["gain_margins"]}
+    assert gains[round(wg, 9)] == pytest.approx(20 * np.log10(gm), rel=1e-9)
+    nyquist = round(np.pi / T, 9)
+    value = 0.2 * (-1 + 0.8) / ((-1 - 1) * (-1 - 0.6))  # L(-1), real and negative
+    assert value < 0 and gains[nyquist] == pytest.approx(-20 * np.log10(abs(value)), rel=1e-9)
+    (phase,) = data["phase_margins"]
+    assert phase["frequency"] == pytest.approx(wp, rel=1e-9) and phase["phase_deg"] == pytest.approx(pm, rel=1e-9)
+    assert data["delay_margin_samples"] == pytest.approx(data["delay_margin"] / T, rel=1e-12)
+    poles = [complex(p["real"], p["imag"]) for p in data["closed_loop_poles"]]
+    expected = np.roots(np.polyadd(np.polymul([1, -1], [1, -0.6]), [0.2, 0.16]))
+    assert np.allclose(sorted(poles, key=lambda z: z.imag), sorted(expected, key=lambda z: z.imag), rtol=1e-9)
+    assert data["closed_loop_stable"] is True and data["sample_time"] == T
+    assert main(["analyze", "--variable", "z", "--tf", "z/(z-0.5)"]) == 2
+    assert "--variable z needs --sample-time" in capsys.readouterr().err
