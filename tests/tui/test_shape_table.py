@@ -176,3 +176,11 @@ async def test_a_notch_on_a_resonance_puts_its_zeros_on_the_modes_poles(workdir)
         (pair,) = [i for i in items(ExpressionTransfer(text), values) if i.kind == "zero pair"]
         mode = complex(-0.24, (576 - 0.24**2) ** 0.5)  # s^2 + 0.48 s + 576
         assert abs(pair.root - mode) <= 1e-12 * abs(mode)
+        table = app.screen.query_one("#shape")
+        table.move_cursor(row=table.names.index("attitude path.zeropair1"))
+        await pilot.press("right_square_bracket", "left_square_bracket", "right_square_bracket")  # one burst
+        await settle(app, pilot)
+        values = app.bench.session.problem.condition_values(0)
+        (moved,) = [i for i in items(ExpressionTransfer(text), values) if i.kind == "zero pair"]
+        assert -moved.root.real / abs(moved.root) == pytest.approx(0.01 * 1.1, rel=1e-9)  # zeta x 1.1 / 1.1 x 1.1
+        assert abs(moved.root) == pytest.approx(24.0, rel=1e-9)  # wn kept
