@@ -31,3 +31,21 @@ def pytest_collection_modifyitems(config, items):
 def _no_user_config(tmp_path, monkeypatch):
     """No test reads the user's own config file (tui.config)."""
     monkeypatch.setenv("LOOPCRAFT_CONFIG", str(tmp_path / "no-config.toml"))
+
+
+@pytest.fixture(scope="module")
+def ran_lag_lead(tmp_path_factory) -> Path:
+    """coebra_lag_lead after four slp iterations, saved in a folder of its own (the design
+    reports' session)."""
+    import shutil
+
+    from sessions.runner import run_session
+    from sessions.store import load_session, save_session
+
+    folder = tmp_path_factory.mktemp("report")
+    path = folder / "lag_lead.json"
+    shutil.copy(Path(__file__).resolve().parents[1] / "sessions" / "examples" / "coebra_lag_lead.json", path)
+    session = load_session(path)
+    run_session(session, iterations=4, autosave=False)
+    save_session(session, path)
+    return path

@@ -16,8 +16,6 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from sessions.runner import run_session
-from sessions.store import load_session, save_session
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "sessions" / "examples"
@@ -51,20 +49,9 @@ def _check_png(data: bytes) -> None:
     assert float(np.std(pixels[..., :3])) > 0.01  # a drawing, not a blank canvas
 
 
-@pytest.fixture(scope="module")
-def ran(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("report")
-    path = folder / "lag_lead.json"
-    shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
-    session = load_session(path)
-    run_session(session, iterations=4, autosave=False)
-    save_session(session, path)
-    return path
-
-
 @pytest.mark.slow
-def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
-    assert main(["report", str(ran), "--format", "html", "--out", str(tmp_path)]) == 0
+def test_html_is_self_contained_with_valid_figures(ran_lag_lead, tmp_path, capsys):
+    assert main(["report", str(ran_lag_lead), "--format", "html", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "lag_lead.html").read_text()
     parsed = _Collect()
     parsed.feed(text)
@@ -91,7 +78,7 @@ def test_html_is_self_contained_with_valid_figures(ran, tmp_path, capsys):
     for word in ("T1", "phase_margin_deg", "gain_margin_db", "crossover_frequency", "UNMET", "met"):
         assert word in text
     capsys.readouterr()
-    assert main(["report", str(ran)]) == 0  # the algorithm's own text: the appendix
+    assert main(["report", str(ran_lag_lead)]) == 0  # the algorithm's own text: the appendix
     own = capsys.readouterr().out.strip()
     assert html.escape(own) in text
 
@@ -116,9 +103,9 @@ def test_markdown_writes_its_pngs_beside_it(tmp_path):
     assert "No iteration has run yet." in text
 
 
-def test_report_options_are_checked(ran, tmp_path, capsys):
-    assert main(["report", str(ran), "--out", str(tmp_path)]) == 2
+def test_report_options_are_checked(ran_lag_lead, tmp_path, capsys):
+    assert main(["report", str(ran_lag_lead), "--out", str(tmp_path)]) == 2
     assert "--out: only with --format html or md" in capsys.readouterr().err
     (tmp_path / "file").write_text("x")
-    assert main(["report", str(ran), "--format", "html", "--out", str(tmp_path / "file")]) == 2
+    assert main(["report", str(ran_lag_lead), "--format", "html", "--out", str(tmp_path / "file")]) == 2
     assert "not a folder" in capsys.readouterr().err

@@ -18,11 +18,8 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from sessions.runner import run_session
-from sessions.store import load_session, save_session
 from tui.cli import main
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "sessions" / "examples"
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 pytestmark = [
     pytest.mark.slow,
@@ -49,15 +46,10 @@ def _chromium(*args: str) -> subprocess.CompletedProcess:
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("browser")
-    path = folder / "lag_lead.json"
-    shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
-    session = load_session(path)
-    run_session(session, iterations=4, autosave=False)
-    save_session(session, path)
-    assert main(["report", str(path), "--format", "html", "--out", str(folder)]) == 0
-    return folder / "lag_lead.html"
+def report(ran_lag_lead) -> Path:
+    """The HTML report of the lag-lead after four iterations (tests/conftest.py)."""
+    assert main(["report", str(ran_lag_lead), "--format", "html", "--out", str(ran_lag_lead.parent)]) == 0
+    return ran_lag_lead.parent / "lag_lead.html"
 
 
 def test_every_figure_loads_and_no_text_is_cut(report, tmp_path):
