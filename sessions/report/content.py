@@ -8,7 +8,8 @@ value and method), the compensators in three forms, the parameters and constrain
 (which bind), the loop analysis of each condition (`sessions.report.design_state`),
 the conditions' blocks and the targets as set, the initial and final tableaux, the
 convergence history, the figures with the requirements drawn
-(`sessions.report.figures`), and the algorithm's own report text as an appendix.
+(`sessions.report.figures`), the latest tolerance study's distributions when the
+session keeps one, and the algorithm's own report text as an appendix.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from sessions.lifecycle import registration, stepper
 from sessions.report import design_state, figures
 from sessions.report.design_state import number
 from sessions.store import Session
+from sessions.sweeps.dispersion import PERCENTILE_KEYS
 
 Block = tuple
 DISTANCE = {
@@ -62,6 +64,7 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
     blocks += _designs(initial, final, k, session.problem.grid.unit)
     blocks += _convergence(session, k)
     blocks += _figures(session, named, final)
+    blocks += _tolerance_study(session)
     blocks += _appendix(session, initial, final)
     return blocks
 
@@ -276,6 +279,46 @@ def _step(session: Session, c: int, named: dict | None, label: str, style: str):
     if response is None:
         return None
     return np.array(response.t), np.array(response.y), label, style, response.name, response.measures
+
+
+def _tolerance_study(session: Session) -> list[Block]:
+    """The latest tolerance study kept in the session, when there is one: per measure and
+    flight condition its percentiles, the fraction unmet with its 95 % Clopper-Pearson
+    interval, the worst sample with its drawn values, and the histograms."""
+    studies = [sweep for sweep in session.model.sweeps if sweep.kind == "tolerance"]
+    if not studies:
+        return []
+    study, settings = studies[-1], studies[-1].settings
+    laws = ", ".join(settings.get("tolerance", []))
+    blocks: list[Block] = [
+        ("h2", "Tolerance study"),
+        (
+            "p",
+            f"{len(study.runs)} samples of {laws}, drawn {settings.get('sampling', 'random')} with seed "
+            f"{settings.get('seed')}, at the design of {study.created} ({len(study.failed)} failed).",
+        ),
+    ]
+    rows = [row for row in study.worst_case if row.get("histogram") is not None]
+    if not rows:
+        return blocks + [("p", "The study kept no distribution (it was saved before they were): run it again.")]
+    header = ("measure", "condition", *PERCENTILE_KEYS, "unmet % [95 %]", "worst sample")
+    table = [
+        [
+            row["name"],
+            row["condition"],
+            *(number(_float(row["percentiles"].get(key))) for key in PERCENTILE_KEYS),
+            "{:.1f} [{:.1f}, {:.1f}]".format(*(100 * v for v in (row["unmet_fraction"], *row["unmet_interval"]))),
+            f"{row['worst_sample']}: " + ", ".join(f"{k} = {number(v)}" for k, v in row["worst_parameters"].items()),
+        ]
+        for row in rows
+    ]
+    caption = "Histograms of the samples' values; the desired value green when every sample meets it, else red"
+    return blocks + [("table", header, table), ("figure", "tolerance", figures.histograms(rows), caption)]
+
+
+def _float(value) -> float | None:
+    """A number kept in the session's JSON (infinities and NaN as text) as a float."""
+    return None if value is None else float(value)
 
 
 def _appendix(session: Session, initial: StepRecord | None, final: StepRecord | None) -> list[Block]:

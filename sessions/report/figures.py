@@ -253,3 +253,42 @@ def convergence(iterations: list[int], values: list[float], label: str) -> bytes
     ax.set_title("convergence")
     ax.grid(True, lw=0.3)
     return _png(fig)
+
+
+def histograms(rows: list[dict]) -> bytes:
+    """A tolerance study's histograms, one per measure and flight condition (three to a
+    row of panels), each with its desired value: green when every sample meets it, red
+    otherwise."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    columns = min(3, len(rows))
+    lines = -(-len(rows) // columns)
+    fig = Figure(figsize=(SIZE[0], 2.2 * lines + 0.4), dpi=DPI)
+    FigureCanvasAgg(fig)
+    for k, row in enumerate(rows):
+        ax = fig.add_subplot(lines, columns, k + 1)
+        edges = row["histogram"]["edges"]
+        if edges:
+            ax.stairs(row["histogram"]["counts"], edges, fill=True, alpha=0.6)
+            _desired_line(ax, row, (edges[0], edges[-1]))
+        ax.set_title(f"{row['name']} at {row['condition']}", fontsize=8)
+        ax.tick_params(labelsize=7)
+    return _png(fig)
+
+
+def _desired_line(ax, row: dict, span: tuple[float, float]) -> None:
+    """The desired value: a line within the samples' span, else its value written on the
+    side where it lies (the histogram keeps its scale)."""
+    desired = None if row.get("desired") is None else float(row["desired"])
+    if desired is None or np.isnan(desired):
+        return
+    color = "green" if row["unmet_samples"] == 0 else "red"
+    ax.set_xlim(*span)
+    if span[0] <= desired <= span[1]:
+        ax.axvline(desired, color=color, lw=1.2)
+        return
+    right = desired > span[1]
+    text = f"desired {desired:.4g} " + ("->" if right else "<-")
+    place = {"ha": "right" if right else "left", "color": color, "fontsize": 7, "transform": ax.transAxes}
+    ax.text(0.98 if right else 0.02, 0.92, text, **place)

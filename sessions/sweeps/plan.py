@@ -21,6 +21,7 @@ from sessions.lifecycle import bounds_holding, folder
 from sessions.store import Session, tables_in
 from sessions.sweeps.cluster import scheduler_address
 from sessions.sweeps.jobs import run_job
+from sessions.sweeps.sampling import SAMPLINGS, deviations, parse_tolerances
 
 
 @dataclass(frozen=True)
@@ -148,42 +149,38 @@ def _assign(problem: dict, name: str, value: float) -> None:
         ) from None
 
 
-def tolerance_jobs(session: Session, tolerances: Sequence[str], samples: int, seed: int = 0) -> list[Job]:
-    """Monte Carlo over NAME=+-P% (uniform within +-P % of each value) at the
+def tolerance_jobs(
+    session: Session, tolerances: Sequence[str], samples: int, seed: int = 0, sampling: str = "random"
+) -> list[Job]:
+    """Monte Carlo over the parameters' laws (`sessions.sweeps.sampling`: NAME=+-P%
+    uniform, NAME=normal:P% normal; drawn at random or by Latin hypercube) about the
     session's current design; each job evaluates the tableau (no optimization) at the
     drawn values, whatever the design bounds (they limit the optimizer: a sample's
     bounds are widened to hold it)."""
-    spreads = {}
-    for text in tolerances:
-        name, sep, amount = text.partition("=")
-        amount = amount.strip().removeprefix("+-").removeprefix("±")
-        try:
-            fraction = float(amount.removesuffix("%")) / (100.0 if amount.endswith("%") else 1.0)
-        except ValueError:
-            raise SessionError(f"--tolerance {text!r}: write NAME=+-10%") from None
-        if not sep or fraction < 0:
-            raise SessionError(f"--tolerance {text!r}: write NAME=+-10%")
-        spreads[name.strip()] = fraction
+    laws = parse_tolerances(tolerances)
     base = _with_design(shippable(session), _current_design(session))
-    known = {p["name"] for p in base["problem"]["parameters"]}
-    unknown = sorted(set(spreads) - known)
+    entries = {p["name"]: p for p in base["problem"]["parameters"]}
+    unknown = sorted(set(laws) - set(entries))
     if unknown:
-        raise SessionError(f"--tolerance: no parameter {', '.join(unknown)} (parameters: {', '.join(sorted(known))})")
-    rng = np.random.default_rng(seed)
-    jobs = []
-    for k in range(samples):
-        model = copy.deepcopy(base)
-        drawn = {}
-        for entry in model["problem"]["parameters"]:
-            if entry["name"] in spreads:
-                f, value = spreads[entry["name"]], entry["value"]
-                scale = (1 + rng.uniform(-f, f, len(value))) if isinstance(value, list) else 1 + rng.uniform(-f, f)
-                value = (np.asarray(value) * scale).tolist() if isinstance(value, list) else float(value * scale)
-                entry["value"] = drawn[entry["name"]] = value
-                # a sample is evaluated at its value: the design bounds limit the optimizer, not the physics
-                entry["min"], entry["max"], _ = bounds_holding(entry["name"], entry.get("min"), entry.get("max"), value)
-        jobs.append(Job(k, f"sample {k}", model, mode="evaluate", start=drawn))
-    return jobs
+        raise SessionError(f"--tolerance: no parameter {', '.join(unknown)} (parameters: {', '.join(sorted(entries))})")
+    names = [name for name in entries if name in laws]  # the session's order: a seed draws as it always did
+    sizes = [len(entries[name]["value"]) if isinstance(entries[name]["value"], list) else 1 for name in names]
+    drawn = deviations([laws[name] for name in names], sizes, samples, sampling, seed)
+    return [_sample(base, k, {name: d[k] for name, d in zip(names, drawn)}) for k in range(samples)]
+
+
+def _sample(base: dict, k: int, deviation: dict[str, np.ndarray]) -> Job:
+    """The job of sample ``k``: each named parameter's value times 1 + its deviation."""
+    model = copy.deepcopy(base)
+    drawn = {}
+    for entry in model["problem"]["parameters"]:
+        if entry["name"] in deviation:
+            value, scale = entry["value"], 1 + deviation[entry["name"]]
+            value = (np.asarray(value) * scale).tolist() if isinstance(value, list) else float(value * scale[0])
+            entry["value"] = drawn[entry["name"]] = value
+            # a sample is evaluated at its value: the design bounds limit the optimizer, not the physics
+            entry["min"], entry["max"], _ = bounds_holding(entry["name"], entry.get("min"), entry.get("max"), value)
+    return Job(k, f"sample {k}", model, mode="evaluate", start=drawn)
 
 
 def _with_design(model: dict, design: dict) -> dict:
@@ -200,26 +197,33 @@ def _current_design(session: Session) -> dict:
 
 
 def plan(
-    session: Session, kind: str, value, spread: float | None = None, seed: int = 0, samples: int = 32
+    session: Session,
+    kind: str,
+    value,
+    spread: float | None = None,
+    seed: int = 0,
+    samples: int = 32,
+    sampling: str = "random",
 ) -> tuple[list[Job], dict]:
     """The jobs of a sweep and the settings it is recorded with: ``kind`` "starts"
     (value: how many), "vary" (value: NAME=V1,V2,...) or "tolerance" (value: a list
-    of NAME=+-P%)."""
+    of NAME=+-P% or NAME=normal:P%, drawn by ``sampling``, random or lhs)."""
     if kind == "starts":
         return start_jobs(session, int(value), spread, seed), {"starts": int(value), "spread": spread, "seed": seed}
     if kind == "vary":
         return vary_jobs(session, value), {"vary": value}
     if kind == "tolerance":
         return (
-            tolerance_jobs(session, list(value), samples, seed),
-            {"tolerance": list(value), "samples": samples, "seed": seed},
+            tolerance_jobs(session, list(value), samples, seed, sampling),
+            {"tolerance": list(value), "samples": samples, "seed": seed, "sampling": sampling},
         )
     raise SessionError(f"unknown sweep {kind!r}: starts, vary or tolerance")
 
 
 def parse_sweep(text: str) -> dict:
-    """'starts 16 [spread 2] [seed 3]', 'vary q2=0,1e-4', 'tolerance T1=+-10% [samples 20]',
-    each optionally ending 'at tcp://HOST:PORT' -> keyword arguments of `plan` and ``scheduler``."""
+    """'starts 16 [spread 2] [seed 3]', 'vary q2=0,1e-4', 'tolerance T1=+-10% T2=normal:5%
+    [samples 20] [sampling lhs] [seed 3]', each optionally ending 'at tcp://HOST:PORT' ->
+    keyword arguments of `plan` and ``scheduler``."""
     words = text.split()
     if not words or words[0] not in ("starts", "vary", "tolerance"):
         raise SessionError("begin with starts, vary or tolerance")
@@ -230,7 +234,7 @@ def parse_sweep(text: str) -> dict:
         if k + 1 >= len(rest):
             raise SessionError("'at' needs a scheduler address (tcp://HOST:PORT)")
         out["scheduler"], rest = scheduler_address(rest[k + 1], "at"), rest[:k] + rest[k + 2 :]
-    options = {"spread": float, "seed": int, "samples": int}
+    options = {"spread": float, "seed": int, "samples": int, "sampling": _sampling}
     values = []
     while rest:
         word = rest.pop(0)
@@ -239,6 +243,8 @@ def parse_sweep(text: str) -> dict:
                 raise SessionError(f"{word!r} needs a value")
             try:
                 out[word] = options[word](rest.pop(0))
+            except SessionError:  # (a ValueError too) sampling's own
+                raise
             except ValueError:
                 raise SessionError(f"{word}: not a number") from None
         else:
@@ -250,6 +256,15 @@ def parse_sweep(text: str) -> dict:
             out["value"] = int(values[0])
         except ValueError:
             raise SessionError(f"starts {values[0]!r}: a number of runs") from None
+    elif out["kind"] == "vary":
+        out["value"] = values[0]
     else:
-        out["value"] = values[0] if out["kind"] == "vary" else values
+        parse_tolerances(values)  # a law mistyped is said in the dialog, before any run
+        out["value"] = values
     return out
+
+
+def _sampling(word: str) -> str:
+    if word not in SAMPLINGS:
+        raise SessionError(f"sampling {word!r}: random or lhs")
+    return word

@@ -19,6 +19,7 @@ from sessions.errors import SessionError
 from sessions.format.schema import SweepModel
 from sessions.lifecycle import adopt_parameters
 from sessions.store import Session, now
+from sessions.sweeps.dispersion import with_distributions, worst_row
 from sessions.sweeps.jobs import Outcome
 
 SWEEP_VERSION = 2
@@ -111,7 +112,8 @@ def _close(a, b) -> bool:
 
 
 def worst_case(runs: Sequence[dict]) -> list[dict]:
-    """Per measure row (name, kind, condition): the worst value over the samples."""
+    """Per measure row (name, kind, condition): the worst value over the samples, the
+    sample it is of, and how many samples miss the desired value."""
     table: dict[tuple, dict] = {}
     for run in runs:
         for m in run["measures"]:
@@ -124,6 +126,7 @@ def worst_case(runs: Sequence[dict]) -> list[dict]:
                     "kind": m["kind"],
                     "condition": m["condition"],
                     "desired": m["desired"],
+                    "at_least": m["at_least"],
                     "worst": value,
                     "worst_sample": run["index"],
                     "unmet_samples": 0,
@@ -160,7 +163,8 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1},
     }
     if kind == "tolerance":
-        data["worst_case"] = worst_case([r for r in outcome.runs if r["status"] != "failed"])
+        done = [r for r in outcome.runs if r["status"] != "failed"]
+        data["worst_case"] = with_distributions(worst_case(done), done)
         data["optima"] = []
     else:
         data["optima"] = [
@@ -215,3 +219,16 @@ def adopt_run(session: Session, run: dict) -> list[str]:
     if not run.get("parameters"):
         raise SessionError(f"run {run['index']} has no parameters to adopt ({run['status']})")
     return adopt_parameters(session, run["parameters"])
+
+
+def adopt_worst(session: Session, sweep: dict, which: str | None = None) -> tuple[dict, dict, list[str]]:
+    """Make a tolerance study's worst sample the session's start, to look at (records
+    are cleared): the worst sample of the row ``which`` names (MEASURE or
+    MEASURE@CONDITION), else of the row that misses its desired value by the most
+    (`sessions.sweeps.dispersion.worst_row`).  (The row, the sample's run, the lines
+    saying which bounds were widened.)"""
+    if sweep["kind"] != "tolerance":
+        raise SessionError(f"a {sweep['kind']} sweep has no worst sample (a tolerance study has)")
+    row = worst_row(sweep["worst_case"], which)
+    run = next(r for r in sweep["runs"] if r["index"] == row["worst_sample"])
+    return row, run, adopt_run(session, run)

@@ -10,6 +10,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
+from sessions.sweeps.dispersion import PERCENTILE_KEYS
+from sessions.sweeps.sampling import SAMPLINGS
 from tui.cli.common import CliError
 
 if TYPE_CHECKING:
@@ -28,12 +30,16 @@ def add_parser(sub) -> None:
     what.add_argument(
         "--tolerance",
         action="append",
-        metavar="NAME=+-P%",
-        help="Monte Carlo over parameter tolerances at the current design (repeatable)",
+        metavar="NAME=+-P%|NAME=normal:P%",
+        help="a tolerance study at the current design: NAME uniform within +-P %% or normal with sigma P %% "
+        "(repeatable, one parameter each)",
     )
     p.add_argument("--spread", type=float, metavar="F", help="starts within a factor F of the session's start")
     p.add_argument("--samples", type=int, default=32, help="tolerance samples (default 32)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="the draws' seed: the same seed draws the same samples")
+    p.add_argument(
+        "--sampling", choices=SAMPLINGS, help="tolerance samples drawn at random (default) or by Latin hypercube (lhs)"
+    )
     where = p.add_mutually_exclusive_group()
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="a running Dask scheduler")
     where.add_argument("--serial", action="store_true", help="in this process, one run after the other")
@@ -51,10 +57,19 @@ def add_parser(sub) -> None:
         "--connect-timeout", type=float, metavar="SECONDS", help="how long to wait for the scheduler (default 5)"
     )
     p.add_argument("--workers", type=int, help="local cluster size (default: the machine's cores)")
-    p.add_argument(
+    adopt = p.add_mutually_exclusive_group()
+    adopt.add_argument(
         "--adopt-best",
         action="store_true",
         help="make the best optimum's best run the session's start (records are cleared)",
+    )
+    adopt.add_argument(
+        "--adopt-worst",
+        nargs="?",
+        const="",
+        metavar="MEASURE[@CONDITION]",
+        help="a tolerance study: make the worst sample (of that measure, else of the row that misses its "
+        "desired value by the most) the session's start, to look at (records are cleared)",
     )
     p.add_argument("--out", help="save here instead of in place")
     p.add_argument("--json", action="store_true", help="print one JSON object: runs and optima")
@@ -77,6 +92,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 0
     if args.starts is None and args.vary is None and args.tolerance is None:
         raise CliError("one of --starts, --vary, --tolerance is required")
+    if args.tolerance is None and (args.sampling is not None or args.adopt_worst is not None):
+        raise CliError("--sampling and --adopt-worst are for a tolerance study (--tolerance)")
     target = Path(args.out or args.file)
     session = load_session(args.file)
     prepare_save(session, target)  # before any run: the output can be written
@@ -121,7 +138,7 @@ def _run(args: argparse.Namespace, session, where: Where):
         if args.vary is not None
         else ("tolerance", args.tolerance)
     )
-    jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples)
+    jobs, settings = plan(session, kind, value, args.spread, args.seed, args.samples, args.sampling or "random")
     settings["scheduler"] = where.address or (
         "serial" if args.serial else where.cluster.name if where.cluster else "local"
     )
@@ -144,20 +161,54 @@ def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome,
 
     summary = summarize(session, kind, settings, outcome)
     record_sweep(session, summary)
-    adopt_error = _adopt_best(session, summary) if args.adopt_best and not outcome.interrupted else None
+    adopt_error = _adopt(args, session, summary) if not outcome.interrupted else None
     kept, in_session = _save(session, summary, target)
     print(json.dumps(with_former_keys(summary), indent=2, sort_keys=True) if args.json else sweep_text(summary))
     if outcome.interrupted:
         print(
             f"loopcraft sweep: interrupted: {outcome.finished} of {len(outcome.runs)} runs finished; "
             f"kept {'in ' + str(kept) if kept else 'above'} as a cancelled sweep"
-            + (" (--adopt-best not applied)" if args.adopt_best else ""),
+            + (f" ({_adopt_option(args)} not applied)" if _adopt_option(args) else ""),
             file=sys.stderr,
         )
         return INTERRUPTED
     if adopt_error:
         print(f"loopcraft sweep: error: {adopt_error} (the sweep is kept)", file=sys.stderr)
     return 0 if in_session and not adopt_error else 2
+
+
+def _adopt_option(args: argparse.Namespace) -> str | None:
+    """The adopt option given, if any."""
+    return "--adopt-best" if args.adopt_best else "--adopt-worst" if args.adopt_worst is not None else None
+
+
+def _adopt(args: argparse.Namespace, session, summary: dict) -> str | None:
+    """--adopt-best or --adopt-worst, when given: why not, if it cannot."""
+    if args.adopt_best:
+        return _adopt_best(session, summary)
+    if args.adopt_worst is not None:
+        return _adopt_worst(session, summary, args.adopt_worst or None)
+    return None
+
+
+def _adopt_worst(session, summary: dict, which: str | None) -> str | None:
+    """--adopt-worst: a tolerance study's worst sample becomes the start (said on
+    standard error, with its values); why not, if it cannot."""
+    from sessions.errors import SessionError
+    from sessions.sweeps.results import adopt_worst
+
+    try:
+        row, run, widened = adopt_worst(session, summary, which)
+    except SessionError as exc:
+        return f"--adopt-worst: {exc}"
+    print(
+        f"note: the start is now sample {run['index']}, the worst of {row['name']} at {row['condition']} "
+        f"({_number(row['worst'], 0).strip()} against {_number(row['desired'], 0).strip()}): {_values(run['start'])}",
+        file=sys.stderr,
+    )
+    for note in widened:
+        print(f"note: {note}", file=sys.stderr)
+    return None
 
 
 def _adopt_best(session, summary: dict) -> str | None:
@@ -241,6 +292,7 @@ def sweep_text(summary: dict) -> str:
                 f"{w['name']:<10}{w['kind'][:21]:<22}{w['condition'][:11]:<12}{_number(w['worst'])}"
                 f"{_number(w['desired'], 10)}  {w['unmet_samples']}/{w['samples']}"
             )
+        lines += _distribution_lines(summary["worst_case"])
     else:
         lines += ["", f"{'optimum':>7} {'count':>5} {'meets':<6}{'ranking':>12} {'best run':>8}  parameters"]
         for k, o in enumerate(summary["optima"], start=1):
@@ -250,6 +302,25 @@ def sweep_text(summary: dict) -> str:
             )
             lines += [f"{'':>13}note: {n}" for n in o.get("notes", [])]
     return "\n".join(lines)
+
+
+def _distribution_lines(rows: list[dict]) -> list[str]:
+    """Each row's percentiles, fraction unmet with its 95 % interval, and worst sample with
+    its drawn values (rows of sweeps saved before version 2's distributions have none)."""
+    rows = [w for w in rows if w.get("percentiles") is not None]
+    if not rows:
+        return []
+    lines = ["", f"{'measure':<10}{'condition':<12}" + "".join(f"{p:>11}" for p in PERCENTILE_KEYS)]
+    lines[-1] += "  unmet % [95 % interval]  worst sample: values"
+    for w in rows:
+        low, high = w["unmet_interval"]
+        lines.append(
+            f"{w['name']:<10}{w['condition'][:11]:<12}"
+            + "".join(_number(w["percentiles"].get(p), 11) for p in PERCENTILE_KEYS)
+            + f"  {100 * w['unmet_fraction']:5.1f} [{100 * low:.1f}, {100 * high:.1f}]"
+            + f"  {w['worst_sample']}: {_values(w['worst_parameters'])}"
+        )
+    return lines
 
 
 def with_former_keys(summary: dict) -> dict:
