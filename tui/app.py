@@ -115,7 +115,7 @@ ACTIONS = (
         needs_session=True,
     ),
     KeyAction(
-        Binding("u", "use_best", "use best", show=False, tooltip="the latest sweep's best design as the start"),
+        Binding("u", "use_best", "use best", show=False, tooltip="best design, or worst sample, as the start"),
         changes=True,
         needs_session=True,
     ),
@@ -313,8 +313,9 @@ class LoopcraftApp(App):
             "undo_edit": (lambda: bool(bench.edits.undo_stack), "no edit to undo"),
             "redo_edit": (lambda: bool(bench.edits.redo_stack), "no edit to redo"),
             "adopt_design": (lambda: bench.iteration > 0, "no iteration yet: the start is the current design"),
-            "use_best": (lambda: bench.latest_sweep() is not None, "no sweep yet (w starts one)"),
         }.get(action, (lambda: True, None))
+        if action == "use_best":  # why depends on the sweep: none yet, or none of its runs finished
+            return bench.adoption_refusal()
         return None if can() else reason
 
     def on_mount(self) -> None:

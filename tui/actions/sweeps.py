@@ -1,6 +1,7 @@
 """The app's sweeps, composed into the app (``app.sweeps``): ask for a sweep, run
 it on Dask in a thread worker (the session is only read there: every change is
-disabled meanwhile), keep the summary on the UI thread, adopt the best optimum.
+disabled meanwhile), keep the summary on the UI thread, adopt the best optimum (or a
+tolerance study's worst sample, to look at).
 The worker's way back is posted messages (nested here, handled by the app)."""
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING
 
 from textual.message import Message
 
+from engine.stepping.presenter import number
 from sessions.errors import SessionError
 from sessions.sweeps.plan import parse_sweep
 
@@ -18,13 +20,22 @@ if TYPE_CHECKING:
     from tui.app import LoopcraftApp
 
 SWEEP_PROMPT = (
-    "sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance NAME=+-10% [samples N]; "
-    "end with 'at tcp://HOST:PORT' for a cluster"
+    "sweep: starts N [spread F] [seed S] | vary NAME=V1,V2,... | tolerance NAME=+-10% NAME=normal:5% "
+    "[samples N] [sampling lhs] [seed S]; end with 'at tcp://HOST:PORT' for a cluster"
 )
 
 
+def sample_values(values: dict) -> str:
+    """A sample's drawn values, NAME=V (a value per flight condition: V1/V2/...)."""
+    return "  ".join(
+        f"{name}=" + ("/".join(number(float(v), 4) for v in value) if isinstance(value, list) else number(value, 4))
+        for name, value in values.items()
+    )
+
+
 class Sweeps:
-    """`w` starts a sweep, space cancels it, `u` adopts its best run."""
+    """`w` starts a sweep, space cancels it, `u` adopts its best run (a tolerance study's
+    worst sample of the row highlighted)."""
 
     class Progress(Message):
         """How far the sweep is (a line for the Sweep tab)."""
@@ -120,9 +131,13 @@ class Sweeps:
         self.app.notify(f"sweep done: {len(summary['runs'])} runs, {len(summary['optima'])} optima")
 
     def use_best(self) -> None:
-        """Adopt the latest sweep's best run as the session's start (asks when iterations would go)."""
+        """Adopt the latest sweep's best run as the session's start, or a tolerance study's
+        worst sample of the row highlighted, to look at (asks when iterations would go)."""
         app = self.app
-        if app.bench is None or app.bench.latest_sweep() is None:
+        if app.bench is None or app.bench.adoption_refusal() is not None:
+            return
+        if app.bench.latest_sweep()["kind"] == "tolerance":
+            self._use_worst()
             return
         app.edit_flow.change(
             app.bench.adopt_best,
@@ -131,4 +146,22 @@ class Sweeps:
             done=lambda run: app.notify(
                 "\n".join([f"the start is now run {run['index']}'s design", *run.get("widened", [])])
             ),
+        )
+
+    def _use_worst(self) -> None:
+        app = self.app
+        screen = app.main_screen()
+        row = screen.sweep_row() if screen is not None else 0
+
+        def adopted(run: dict) -> None:
+            chosen = run["row"]
+            values = sample_values(run["start"])
+            lines = [f"the start is now sample {run['index']}, the worst of {chosen['name']} at {chosen['condition']}"]
+            app.notify("\n".join([*lines, values, *run.get("widened", [])]))
+
+        app.edit_flow.change(
+            lambda: app.bench.adopt_worst(row),
+            "open the tolerance study's worst sample as the start",
+            keeps_design=False,
+            done=adopted,
         )

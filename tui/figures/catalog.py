@@ -8,7 +8,7 @@ from collections.abc import Collection
 from tui.figures import overlays
 from tui.figures.closed_loop import poles_figure, sensitivity_figure
 from tui.figures.data import Figure
-from tui.figures.lines import line_figure, step_figure, sweep_figure
+from tui.figures.lines import line_figure, step_figure
 from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
 from tui.figures.requirements import Requirement, requirements
 from tui.figures.trajectories import trajectories_figure
@@ -31,7 +31,8 @@ def applicable(plots: frozenset[str], problem) -> frozenset[str]:
     return plots
 
 
-# the plot ids `figures` draws (the root locus and History's plot are drawn by their own workers)
+# the plot ids `figures` draws (the root locus and History's plot are drawn by their own workers, the
+# Sweep tab's by the screen from the sweep's data: its histogram follows the row highlighted)
 FIGURE_IDS = frozenset(
     {
         "nyquist",
@@ -43,7 +44,6 @@ FIGURE_IDS = frozenset(
         "convergence",
         "trajectories",
         "step",
-        "sweep-plot",
     }
 )
 
@@ -85,8 +85,6 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         name, traces, marks = view.step_plot()
         out["step"] = step_figure(name, traces, marks)
         overlays.step(out["step"], requirements(view), marks.final if marks is not None else None)
-    if asked("sweep-plot"):
-        out["sweep-plot"] = sweep_figure(view.sweep)
     _overlay(out, requirements(view), unit)
     return out
 
@@ -149,7 +147,7 @@ class Same:
 
 def figure_key(view: View) -> tuple:
     """What a view's figures depend on: the problem, the records (the last one's
-    identity: an undo then a new step has the same count), the condition shown,
-    the step plot's setup and the sweep."""
+    identity: an undo then a new step has the same count), the condition shown
+    and the step plot's setup."""
     last = view.records[-1] if view.records else None
-    return (Same(view.problem), view.iteration, Same(last), view.plotted_condition, view.step_setup, Same(view.sweep))
+    return (Same(view.problem), view.iteration, Same(last), view.plotted_condition, view.step_setup)

@@ -1,7 +1,13 @@
 """Figures of lines over time or run: convergence, closed-loop step responses
-with their classical marks, and a sweep's runs."""
+with their classical marks, and a sweep's runs; a tolerance study's histogram of
+one measure at one flight condition (a row of its worst case,
+`sessions.sweeps.dispersion`): the counts as bars' outline, the desired value
+(green when every sample meets it, red otherwise; beyond the samples, written with
+an arrow to its side), the 5th, 50th and 95th percentiles and the worst sample."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -59,12 +65,18 @@ def _step_marks(fig: Figure, m, t_end: float) -> None:
         fig.title += "  " + ", ".join(parts)
 
 
-def sweep_figure(sweep: dict | None) -> Figure:
+def sweep_figure(sweep: dict | None, row: int = 0) -> Figure:
     """A sweep: the final ranking value against the start (starts), the trade-off (vary),
-    or, for a tolerance study, the samples' smallest relative slack."""
+    or, for a tolerance study, the histogram of one row of its worst case (``row``)."""
     fig = Figure(empty_message="no sweep yet: w starts one")
     if not sweep:
         return fig
+    if sweep["kind"] == "tolerance":
+        rows = sweep["worst_case"]
+        if not rows:
+            fig.empty_message = "no sample of the tolerance study finished"
+            return fig
+        return histogram_figure(rows[min(max(row, 0), len(rows) - 1)])
     runs = [r for r in sweep["runs"] if r["status"] != "failed"]
     if sweep["kind"] == "vary" and runs and all("averaged_squares" in r for r in runs):
         squares = [r["averaged_squares"] for r in runs]
@@ -72,17 +84,6 @@ def sweep_figure(sweep: dict | None) -> Figure:
         fig.series.append(
             Series(
                 [q["x1_normalized"] for q in squares], [q["x1_rate_normalized"] for q in squares], "runs", marker="dot"
-            )
-        )
-        return fig
-    if sweep["kind"] == "tolerance":
-        fig.title, fig.xlabel, fig.ylabel = "Tolerance samples", "sample", "unmet measures"
-        fig.series.append(
-            Series(
-                [float(r["index"]) for r in runs],
-                [float(sum(not m["satisfied"] for m in r["measures"])) for r in runs],
-                marker="dot",
-                scatter=True,
             )
         )
         return fig
@@ -109,3 +110,69 @@ def _start_value(run: dict, name: str) -> float:
     value = run["start"][name]
     value = value[0] if isinstance(value, list) else value
     return float(np.log10(value)) if value > 0 else float(value)
+
+
+def histogram_figure(row: dict) -> Figure:
+    """The histogram of one worst-case row (empty, saying why, for a row without one)."""
+    fig = Figure(empty_message="no distribution kept with this study: run it again")
+    histogram = row.get("histogram")
+    if not histogram or not histogram["counts"]:
+        if histogram:
+            fig.empty_message = "no finite value to draw (every sample infinite or undefined)"
+        return fig
+    edges, counts = histogram["edges"], histogram["counts"]
+    fig.title = _histogram_title(row)
+    fig.xlabel, fig.ylabel = f"{row['name']} ({row['kind']}) at {row['condition']}", "samples"
+    fig.series.append(Series(*_outline(edges, counts), "samples", marker="braille", color="blue"))
+    top = max(counts) * 1.1 or 1.0
+    fig.ylim = (0.0, top)
+    _histogram_marks(fig, row, top, (edges[0], edges[-1]))
+    return fig
+
+
+def _histogram_title(row: dict) -> str:
+    low, high = row["unmet_interval"]
+    histogram = row["histogram"]
+    off = [f"{n} at {sign}inf" for n, sign in ((histogram["below"], "-"), (histogram["above"], "+")) if n]
+    off += [f"{row['undefined']} undefined"] if row.get("undefined") else []
+    return (
+        f"{row['name']} at {row['condition']}: {100 * row['unmet_fraction']:.1f} % unmet "
+        f"(95 %: {100 * low:.1f}-{100 * high:.1f} %)" + "".join(f", {text}" for text in off)
+    )
+
+
+def _outline(edges: list[float], counts: list[int]) -> tuple[list[float], list[float]]:
+    """The bars' outline: up each bar's left edge, across its top, down at the last one's right."""
+    x, y = [float(edges[0])], [0.0]
+    for k, count in enumerate(counts):
+        x += [float(edges[k]), float(edges[k + 1])]
+        y += [float(count), float(count)]
+    return x + [float(edges[-1])], y + [0.0]
+
+
+def _histogram_marks(fig: Figure, row: dict, top: float, span: tuple[float, float]) -> None:
+    """The desired value (when within the drawn span), the percentiles and the worst sample."""
+    desired = _finite(row.get("desired"))
+    if desired is not None and span[0] <= desired <= span[1]:
+        met = row["unmet_samples"] == 0
+        fig.series.append(Series([desired] * 2, [0.0, top], "desired", marker="|", color="green" if met else "red"))
+    elif desired is not None:  # the histogram keeps its scale: where the desired value lies is written
+        fig.xlabel += f"; desired {desired:.4g} " + ("->" if desired > span[1] else "<-")
+    shown = [(key, _finite(row.get("percentiles", {}).get(key))) for key in ("p5", "p50", "p95")]
+    shown = [(key, value) for key, value in shown if value is not None]
+    if shown:
+        label = "5th, 50th, 95th percentiles"
+        fig.series.append(Series([v for _, v in shown], [top * 0.95] * len(shown), label, marker="+", scatter=True))
+    worst = _finite(row.get("worst"))
+    if worst is not None:
+        label = f"worst: sample {row['worst_sample']}"
+        fig.series.append(Series([worst], [top * 0.95], label, marker="x", scatter=True, color="red"))
+
+
+def _finite(value) -> float | None:
+    """A number kept in JSON (infinities as text) as a float when it is finite."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return None
+    return number if math.isfinite(number) else None

@@ -18,8 +18,10 @@ from textual.widgets import DataTable, TabbedContent, TabPane
 from engine.stepping.presenter import Presenter, number, tolerant
 from engine.stepping.protocol import StepRecord
 from sessions.forms import one_line as forms
+from sessions.sweeps.dispersion import PERCENTILE_KEYS
 from sessions.target_use import target_note
 from tui.actions.run_loop import drawings
+from tui.actions.sweeps import sample_values
 from tui.figures.catalog import FIGURE_IDS, applicable, figure_key
 from tui.figures.data import Figure
 from tui.figures.lines import sweep_figure
@@ -566,17 +568,41 @@ class MainScreen(Screen):
                 f"{escape(str(sweep['kind']))} sweep of {escape(str(sweep['created']))}: {len(sweep['runs'])} runs on {sweep['workers']} "
                 f"worker(s), {len(sweep['failed'])} failed, {len(sweep['retried'])} retried"
                 + (", cancelled" if sweep["cancelled"] else "")
-                + ".  [b]u[/b] uses the best optimum"
+                + (
+                    ".\nThe plot: the highlighted row's histogram; [b]u[/b] opens its worst sample"
+                    if sweep["kind"] == "tolerance"
+                    else ".  [b]u[/b] uses the best optimum"
+                )
             )
             _fill_sweep(table, sweep)
         self.query_one("#sweep-status", TextView).set(status)
-        self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep))
+        self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep, self.sweep_row()))
+
+    def sweep_row(self) -> int:
+        """The row highlighted in the Sweep tab's table (0 when none)."""
+        return max(self.query_one("#optima-table", DataTable).cursor_row, 0)
+
+    @on(DataTable.RowHighlighted, "#optima-table")
+    def _sweep_row_highlighted(self) -> None:
+        """A tolerance study's plot follows its table: the histogram of the row highlighted."""
+        sweep = self.bench.latest_sweep()
+        if sweep is not None and sweep["kind"] == "tolerance":
+            self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep, self.sweep_row()))
 
 
 def _fill_sweep(table: DataTable, sweep: dict) -> None:
     """The worst case of a tolerance sweep, or the optima of the others."""
     if sweep["kind"] == "tolerance":
-        table.add_columns("measure", "condition", "worst", "target", "unmet/samples")
+        table.add_columns(
+            "measure",
+            "condition",
+            "worst",
+            "target",
+            "unmet/samples",
+            "unmet % [95 %]",
+            *PERCENTILE_KEYS,
+            "worst sample",
+        )
         for w in sweep["worst_case"]:
             table.add_row(
                 w["name"],
@@ -584,6 +610,7 @@ def _fill_sweep(table: DataTable, sweep: dict) -> None:
                 number(w["worst"], 5),
                 number(w["desired"], 4),
                 f"{w['unmet_samples']}/{w['samples']}",
+                *_distribution_cells(w),
             )
         return
     table.add_columns("optimum", "count", "meets", "ranking", "best run", "parameters")
@@ -599,3 +626,16 @@ def _fill_sweep(table: DataTable, sweep: dict) -> None:
             str(o["best_run"]),
             params,
         )
+
+
+def _distribution_cells(row: dict) -> list[str]:
+    """A worst-case row's unmet fraction with its interval, percentiles and worst sample
+    (blank for a row of a study saved without them)."""
+    if row.get("percentiles") is None:
+        return [""] * (len(PERCENTILE_KEYS) + 2)
+    low, high = row["unmet_interval"]
+    return [
+        f"{100 * row['unmet_fraction']:.1f} [{100 * low:.1f}, {100 * high:.1f}]",
+        *(number(row["percentiles"].get(key), 5) for key in PERCENTILE_KEYS),
+        f"{row['worst_sample']}: {sample_values(row['worst_parameters'])}",
+    ]

@@ -31,7 +31,6 @@ class View:
     presenter: Any
     initial: StepRecord | None = None  # iteration 0's record (the presenter's)
     plotted_condition: int | None = None  # the flight condition the plots show; None: all
-    sweep: dict | None = None  # the latest sweep (JSON data)
     step_setup: StepSetup = StepSetup()  # the step plot's input, output and horizon
 
     @property

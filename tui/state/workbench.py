@@ -220,7 +220,7 @@ class Workbench:
 
     def latest_sweep(self) -> dict | None:
         """The session's most recent sweep (JSON data), if any: the same dict while it is the
-        same sweep (views are keyed by its identity: `tui.figures.catalog.figure_key`)."""
+        same sweep (dumped once: the Sweep tab reads it at every refresh)."""
         sweeps = self.session.model.sweeps
         if not sweeps:
             return None
@@ -240,7 +240,13 @@ class Workbench:
         `keep_sweep` does that on the UI thread."""
         spec = parse_sweep(text)
         jobs, settings = plan(
-            self.session, spec["kind"], spec["value"], spec.get("spread"), spec.get("seed", 0), spec.get("samples", 32)
+            self.session,
+            spec["kind"],
+            spec["value"],
+            spec.get("spread"),
+            spec.get("seed", 0),
+            spec.get("samples", 32),
+            spec.get("sampling", "random"),
         )
         settings["scheduler"] = spec["scheduler"] or "local"
         outcome = execute(jobs, spec["scheduler"], progress=progress, cancelled=cancelled)
@@ -259,6 +265,27 @@ class Workbench:
         widened = adopt_run(self.session, run)
         self.reset()
         return {**run, "widened": widened}
+
+    def adopt_worst(self, row: int) -> dict:
+        """Make the worst sample of a row of the latest tolerance study's worst case the
+        start, to look at (records dropped); its run, with the row."""
+        sweep = self.latest_sweep()
+        if not sweep or sweep["kind"] != "tolerance" or not 0 <= row < len(sweep["worst_case"]):
+            raise SessionError("no row of a tolerance study to adopt the worst sample of")
+        chosen = sweep["worst_case"][row]
+        run = next(r for r in sweep["runs"] if r["index"] == chosen["worst_sample"])
+        widened = adopt_run(self.session, run)
+        self.reset()
+        return {**run, "row": chosen, "widened": widened}
+
+    def adoption_refusal(self) -> str | None:
+        """Why the latest sweep has no design to adopt (None: it has)."""
+        sweep = self.latest_sweep()
+        if sweep is None:
+            return "no sweep yet (w starts one)"
+        if sweep["kind"] == "tolerance":
+            return None if sweep["worst_case"] else "no sample of the tolerance study finished"
+        return None if sweep["optima"] else "no run of the sweep finished"
 
     # -- changing the problem ------------------------------------------------------
 
@@ -337,7 +364,6 @@ class Workbench:
             self.presenter,
             self.initial_record(),
             self.plotted_condition,
-            self.latest_sweep(),
             self.step_setup,
         )
 
