@@ -38,14 +38,16 @@ def percentiles(values: np.ndarray) -> list[float]:
 
 def clopper_pearson(unmet: int, samples: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
     """The exact (Clopper-Pearson) interval of a binomial fraction ``unmet / samples``:
-    the beta distribution's quantiles, 0 below no unmet sample, 1 above all."""
-    from scipy.stats import beta
+    the beta distribution's quantiles (scipy.special's inverse of the regularized
+    incomplete beta function, as scipy.stats.beta.ppf computes them, without importing
+    scipy.stats: 0.7 s), 0 below no unmet sample, 1 above all."""
+    from scipy.special import betaincinv
 
     if samples < 1 or not 0 <= unmet <= samples:
         raise ValueError(f"{unmet} unmet of {samples} samples")
     tail = (1.0 - confidence) / 2.0
-    low = 0.0 if unmet == 0 else float(beta.ppf(tail, unmet, samples - unmet + 1))
-    high = 1.0 if unmet == samples else float(beta.ppf(1.0 - tail, unmet + 1, samples - unmet))
+    low = 0.0 if unmet == 0 else float(betaincinv(unmet, samples - unmet + 1, tail))
+    high = 1.0 if unmet == samples else float(betaincinv(unmet + 1, samples - unmet, 1.0 - tail))
     return low, high
 
 
