@@ -56,6 +56,7 @@ BOUNDS: dict[str, dict[str, Bound]] = {
         "skew": ANY,
         "locus_range": ANY,
         "locus_points": Bound(2, 100_000),
+        "sample_time": POSITIVE,
     },
     "run": {"iterations": Bound(1, MAX_ITERATIONS), "time_limit": SECONDS},
     "report": {"iteration": Bound(0, MAX_ITERATIONS)},
