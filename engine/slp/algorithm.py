@@ -304,7 +304,12 @@ class Slp(BoundStepper):
     # -- points, counters, figure of merit ---------------------------------
 
     def _point(self, x: NDArray) -> Point:
-        values, frequencies = evaluate(self.problem, x, self.specs)
+        return self.point_at(x, *evaluate(self.problem, x, self.specs))
+
+    def point_at(self, x: NDArray, values: NDArray, frequencies: NDArray) -> Point:
+        """The point at ``x`` whose rows (`specs`) have these values and frequencies: its
+        met-measure counter, figure of merit and stability (a batch of samples evaluated
+        elsewhere, `sessions.sweeps.batch_study`, is recorded as a point is)."""
         counter = sum(spec.met(v) for spec, v in zip(self.specs, values) if spec.required is not None)
         stable = all(
             v > 0 for spec, v in zip(self.specs, values) if spec.kind == "stability_abscissa" and spec.target is None

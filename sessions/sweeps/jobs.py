@@ -422,7 +422,15 @@ def _lost(job, exc: BaseException | None) -> dict:
 
 def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome:
     """The same jobs in this process, one after the other (the throughput baseline);
-    Ctrl-C stops it: the finished runs are kept, the rest cancelled."""
+    Ctrl-C stops it: the finished runs are kept, the rest cancelled.  A tolerance study
+    that can be is evaluated as a batch (`sessions.sweeps.batch_study`; its note says
+    how many samples went the per-loop path)."""
+    from sessions.sweeps.batch_study import batch_runs  # (it runs the samples it leaves with run_job)
+
+    batch = batch_runs(jobs, progress)
+    if batch is not None:
+        rest = [_lost(job, None) for job in jobs[len(batch.runs) :]]
+        return Outcome(batch.runs + rest, 1, {}, batch.interrupted, batch.interrupted, batch.note, serial=True)
     runs: list[dict] = []
     try:
         for job in jobs:

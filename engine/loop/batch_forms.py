@@ -1,0 +1,222 @@
+"""The pole-zero forms of many loops of one structure at once: the loops of a
+tolerance study share their network and expressions and differ in the numbers.
+
+Each block's expression is read factor by factor from its tree, as
+`engine.model.factored` reads it for one loop, with every quantity carrying a
+leading axis of samples: products and quotients join root arrays, a sum
+(or a leaf) is folded to its small polynomial over its terms' common
+denominator and only its roots are computed, those of degree two and more by
+one batched eigenvalue call on the stacked companion matrices (numpy's
+``np.roots`` matrix, so each sample's roots are the ones the per-loop path
+computes).  GH = -(the chain's product) for a loop that is one cascade.
+
+A sample whose numbers leave the shared structure is marked ``odd`` and left
+to the per-loop path: a pole shared by two terms of a sum (within
+`engine.model.factored.CANCEL`: the per-loop path merges it), a zero that
+cancels a pole, a leading or trailing coefficient that vanishes, a gain of
+zero under a quotient, a number out of range.  A loop that is not a cascade
+of expression blocks (a delay, a table, a state space, inner loops) has no
+batch form (None).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.errors import EngineError
+from engine.loop.evaluator import LoopEvaluator
+from engine.model.blocks import ExpressionTransfer
+from engine.model.expressions import Node
+from engine.model.factored import CANCEL, MAX_ORDER
+from engine.model.network import Network
+
+
+@dataclass
+class Stack:
+    """gain * prod(x - zeros) / prod(x - poles) for every sample: gain (S,), zeros (S, m),
+    poles (S, n); ``odd`` (S,) marks the samples this shared structure does not describe."""
+
+    gain: NDArray[np.float64]
+    zeros: NDArray[np.complex128]
+    poles: NDArray[np.complex128]
+    odd: NDArray[np.bool_]
+
+    def times(self, other: Stack) -> Stack:
+        return Stack(
+            self.gain * other.gain,
+            np.concatenate([self.zeros, other.zeros], axis=1),
+            np.concatenate([self.poles, other.poles], axis=1),
+            self.odd | other.odd,
+        )
+
+    def reciprocal(self) -> Stack:
+        return Stack(
+            1.0 / np.where(self.gain == 0, 1.0, self.gain), self.poles, self.zeros, self.odd | (self.gain == 0)
+        )
+
+    def power(self, k: int) -> Stack:
+        base = self if k >= 0 else self.reciprocal()
+        k = abs(k)
+        if max(base.zeros.shape[1], base.poles.shape[1]) * k > MAX_ORDER:
+            raise EngineError(f"order beyond the limit of {MAX_ORDER} for one block")
+        return Stack(np.power(base.gain, k), np.tile(base.zeros, k), np.tile(base.poles, k), base.odd)
+
+
+def block_stack(expression_root: Node, columns: Mapping[str, NDArray[np.float64]], count: int) -> Stack:
+    """One expression's pole-zero form for every sample (``columns``: each parameter's
+    values), its zero-pole pairs that cancel in any sample marking that sample odd."""
+    with np.errstate(all="ignore"):
+        form = _node(expression_root, columns, count)
+        finite = np.isfinite(form.gain) & _finite_rows(form.zeros) & _finite_rows(form.poles)
+        return Stack(form.gain, form.zeros, form.poles, form.odd | ~finite | _meet(form.zeros, form.poles))
+
+
+def _finite_rows(roots: NDArray) -> NDArray[np.bool_]:
+    return np.isfinite(roots).all(axis=1)
+
+
+def _meet(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
+    """Per sample: is any root of ``a`` within `CANCEL` (relative to the larger, or 1) of any root of ``b``?"""
+    if a.shape[1] == 0 or b.shape[1] == 0:
+        return np.zeros(a.shape[0], dtype=bool)
+    gap = np.abs(a[:, :, None] - b[:, None, :])
+    size = np.maximum(np.maximum(np.abs(a)[:, :, None], np.abs(b)[:, None, :]), 1.0)
+    return (gap <= CANCEL * size).any(axis=(1, 2))
+
+
+def _node(node: Node, columns: Mapping[str, NDArray], count: int) -> Stack:
+    if node.op == "mul":
+        return _node(node.args[0], columns, count).times(_node(node.args[1], columns, count))
+    if node.op == "div":
+        return _node(node.args[0], columns, count).times(_node(node.args[1], columns, count).reciprocal())
+    if node.op == "pow":
+        return _node(node.args[0], columns, count).power(node.exponent)
+    if node.op == "neg":
+        inner = _node(node.args[0], columns, count)
+        return Stack(-inner.gain, inner.zeros, inner.poles, inner.odd)
+    if node.op in ("add", "sub"):
+        return _sum(_terms(node), columns, count)
+    return _leaf(node, columns, count)
+
+
+def _leaf(node: Node, columns: Mapping[str, NDArray], count: int) -> Stack:
+    """A number, a parameter or the variable."""
+    none = np.zeros((count, 0), dtype=complex)
+    if node.op == "var":
+        return Stack(np.ones(count), np.zeros((count, 1), dtype=complex), none, np.zeros(count, dtype=bool))
+    value = np.full(count, node.value) if node.op == "num" else np.asarray(columns[node.name], dtype=float)
+    return Stack(value.copy(), none, none.copy(), ~np.isfinite(value))
+
+
+def _terms(node: Node) -> list[tuple[float, Node]]:
+    """A run of + and - as its signed terms (a - (b - c) is a - b + c), in the per-loop path's order."""
+    out, stack = [], [(1.0, node)]
+    while stack:
+        sign, item = stack.pop()
+        if item.op in ("add", "sub"):
+            stack.append((sign if item.op == "add" else -sign, item.args[1]))
+            stack.append((sign, item.args[0]))
+        else:
+            out.append((sign, item))
+    return out
+
+
+def _sum(terms: list[tuple[float, Node]], columns: Mapping[str, NDArray], count: int) -> Stack:
+    """A sum over its terms' common denominator, the terms' poles kept as roots; a sample where
+    two terms share a pole (the per-loop path merges them) is odd."""
+    forms = [(sign, _node(term, columns, count)) for sign, term in terms]
+    odd = np.zeros(count, dtype=bool)
+    for k, (_, form) in enumerate(forms):
+        odd |= form.odd
+        for _, earlier in forms[:k]:
+            odd |= _meet(form.poles, earlier.poles)
+    numerator = np.zeros((count, 1))
+    for k, (sign, form) in enumerate(forms):
+        rest = [f.poles for j, (_, f) in enumerate(forms) if j != k]
+        roots = np.concatenate([form.zeros, *rest], axis=1)
+        numerator = _added(numerator, (sign * form.gain)[:, None] * _poly(roots).real)
+    common = np.concatenate([f.poles for _, f in forms], axis=1)
+    odd |= (numerator[:, 0] == 0) | ~np.isfinite(numerator).all(axis=1)
+    zeros, bad = _roots(numerator)
+    return Stack(numerator[:, 0].copy(), zeros, common, odd | bad)
+
+
+def _poly(roots: NDArray) -> NDArray[np.complex128]:
+    """np.poly of every row: the products (1, -r) convolved in the roots' order."""
+    c = np.ones((roots.shape[0], 1), dtype=complex)
+    for k in range(roots.shape[1]):
+        nxt = np.zeros((c.shape[0], c.shape[1] + 1), dtype=complex)
+        nxt[:, :-1] = c
+        nxt[:, 1:] += c * -roots[:, k : k + 1]
+        c = nxt
+    return c
+
+
+def _added(a: NDArray, b: NDArray) -> NDArray:
+    """np.polyadd of every row (aligned at the constant term)."""
+    if a.shape[1] < b.shape[1]:
+        a, b = b, a
+    out = a.copy()
+    out[:, a.shape[1] - b.shape[1] :] = out[:, a.shape[1] - b.shape[1] :] + b
+    return out
+
+
+def _roots(c: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
+    """The roots of every row (leading coefficient nonzero) as the per-loop path takes them:
+    a x + b directly, higher degrees as np.roots does, in one batched eigenvalue call; and
+    the samples this does not describe (a vanishing constant term, roots out of range)."""
+    count, n = c.shape[0], c.shape[1] - 1
+    if n == 0:
+        return np.zeros((count, 0), dtype=complex), np.zeros(count, dtype=bool)
+    if n == 1:
+        roots = (-c[:, 1:] / c[:, :1]).astype(complex)
+        return roots, ~np.isfinite(roots).all(axis=1)
+    bad = c[:, -1] == 0
+    lead = np.where(bad, 1.0, c[:, 0])
+    companion = np.zeros((count, n, n))
+    companion[:, 1:, :-1] = np.eye(n - 1)
+    companion[:, 0, :] = -np.where(bad[:, None], 1.0, c[:, 1:]) / lead[:, None]
+    finite = np.isfinite(companion).all(axis=(1, 2))
+    companion[~finite] = np.eye(n)
+    roots = np.linalg.eigvals(companion).astype(complex)
+    return roots, bad | ~finite | ~np.isfinite(roots).all(axis=1)
+
+
+@dataclass
+class BatchForms:
+    """The open loops GH = gain prod(s - zeros) / prod(s - poles) of many samples of one
+    structure; ``odd``: the samples left to the per-loop path."""
+
+    gain: NDArray[np.float64]
+    zeros: NDArray[np.complex128]
+    poles: NDArray[np.complex128]
+    odd: NDArray[np.bool_]
+
+
+def batch_pole_zero(network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]) -> BatchForms | None:
+    """The loop broken at ``break_at`` for every sample (``columns``: each parameter's values,
+    one per sample) in pole-zero form; None when the loop is not one cascade of expression
+    blocks (module docstring)."""
+    count = len(next(iter(columns.values()))) if columns else 1
+    if not network.rational:
+        return None
+    first = {name: float(values[0]) for name, values in columns.items()}
+    try:
+        chain = LoopEvaluator(network, break_at, first).cascade()
+    except EngineError:
+        return None
+    if chain is None or not all(isinstance(network.entries[k].transfer, ExpressionTransfer) for k in chain):
+        return None
+    total = Stack(-np.ones(count), *(np.zeros((count, 0), dtype=complex),) * 2, np.zeros(count, dtype=bool))
+    try:
+        for number in chain:
+            total = total.times(block_stack(network.entries[number].transfer.expression.root, columns, count))
+    except EngineError:
+        return None
+    if total.poles.shape[1] == 0:
+        return None
+    return BatchForms(total.gain, total.zeros, total.poles, total.odd)

@@ -1,0 +1,462 @@
+"""The gain crossovers and the crossings of the negative real axis of many loops of
+one structure at once (`engine.loop.batch_forms`), vectorized over the samples: the
+method of `engine.margins.pole_zero.search` for the levels log |GH| and arg GH, every
+array carrying a leading axis of samples (NaN where a sample has fewer points).
+
+For each sample: the stationary points of log |GH| and of arg GH are the real positive
+roots, in x = omega^2, of the numerators of their slopes' sums of simple fractions
+(sum sigma / (x + r^2) and sum sigma r / (x + r^2)), found by one batched eigenvalue
+call on the stacked companion matrices (the variable scaled by the roots' geometric
+mean) and polished by Newton's method on the exact pole-zero form; the crossings
+start from the roots of the same two polynomials as the per-loop search and are
+polished alike.  The certificate is the per-loop one without its repair: the slopes'
+signs at the check points (every root's frequency, a ladder two points a decade from
+1e-3 of the smallest root to 1e3 times the largest and the unit-gain asymptotes,
+around and between the stationary points, near-real eigenvalues) agree with the
+stationary points found, each level reaches its limits at 0 and infinity, and the
+crossings polished are as many as the monotone pieces between stationary points hold.
+A sample that fails any check is not ``certified``: it goes to the per-loop search.
+The closed-loop poles (the roots of D + k N) come from a batched eigenvalue call too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.loop.batch_forms import BatchForms
+from engine.margins.pole_zero.certificate import CLEARANCE, DUPLICATE, LIMIT_SLACK
+from engine.margins.pole_zero.crossings import LIMIT_NOISE
+from engine.margins.pole_zero.levels import PROBE_DECADES, ROUNDING, UNDAMPED, UNIT_GAIN_REACH
+from engine.margins.pole_zero.search import NEAR_REAL, NEWTON_STEPS, REAL
+from engine.numerics.bracketing import EPS, NOISE_STEP
+
+MAX_BATCH_ROOTS = 24  # zeros + poles: beyond, the per-loop search
+LARGEST_LOG = 300.0  # a scaled gain whose square would overflow: the per-loop search
+CONDITION = 1e-13  # relative change of GH a crossing's rounding may make, at most (else the per-loop search)
+
+
+@dataclass(frozen=True)
+class BatchCrossings:
+    """Per sample (rows): the gain crossovers (|GH| = 1) and the crossings of the negative real
+    axis, sorted and NaN-padded, GH at each, the closed-loop stability abscissa, and whether
+    the sample is ``certified`` (else its values mean nothing: the per-loop search takes it)."""
+
+    gain: NDArray[np.float64]
+    gain_gh: NDArray[np.complex128]
+    phase: NDArray[np.float64]
+    phase_gh: NDArray[np.complex128]
+    abscissa: NDArray[np.float64]
+    certified: NDArray[np.bool_]
+
+
+class BatchLevels:
+    """The levels of every sample's loop at frequencies (S, P): GH, u = d log GH / ds and du/ds."""
+
+    def __init__(self, forms: BatchForms):
+        self.gain = forms.gain
+        self.roots = np.concatenate([forms.zeros, forms.poles], axis=1)
+        self.zero_count = forms.zeros.shape[1]
+        self.signs = np.concatenate([np.ones(forms.zeros.shape[1]), -np.ones(forms.poles.shape[1])])
+        size = np.abs(self.roots)
+        nonzero = np.where(size > 0, size, np.nan)
+        self.low, self.high = np.nanmin(nonzero, axis=1, initial=np.inf), np.nanmax(nonzero, axis=1, initial=0.0)
+        none = ~np.isfinite(self.low)
+        self.low, self.high = np.where(none, 1.0, self.low), np.where(none, 1.0, self.high)
+        self.scale = np.sqrt(self.low * self.high)
+        right = self.roots.real > 0
+        self.phase_offset = np.where(self.gain < 0, math.pi, 0.0) + math.pi * (right * self.signs).sum(axis=1)
+        self.phase_turn = np.where(right, -self.signs, self.signs)
+
+    def terms(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """GH, u, du/ds at s = j w (S, P) and the sum of 1/|s - r| over the roots, computed at the
+        finite entries of ``w`` only (NaN elsewhere: rows are padded), one root at a time over
+        every point (long vector operations, no reduction over a short axis)."""
+        at = np.isfinite(w)
+        rows = np.nonzero(at)[0]
+        s, roots = 1j * w[at], self.roots[rows].T
+        gh, u, du = self.gain[rows].astype(complex), np.zeros(s.size, dtype=complex), np.zeros(s.size, dtype=complex)
+        size = np.zeros(s.size)
+        for k, sign in enumerate(self.signs):
+            q = s - roots[k]
+            r = 1.0 / q
+            gh *= q if sign > 0 else r
+            u += sign * r
+            du -= sign * (r * r)
+            size += np.abs(r)
+        out = [np.full(w.shape, np.nan, dtype=complex) for _ in range(3)] + [np.full(w.shape, np.nan)]
+        for full, part in zip(out, (gh, u, du, size)):
+            full[at] = part
+        return out[0], out[1], out[2], out[3]
+
+    def row(self, w: NDArray, kind: int) -> tuple[NDArray, NDArray]:
+        """Newton's (first, second) for the slopes of log|GH| (0) and arg GH (1), and the
+        levels log|GH| (3) and Im GH (4) (the rows of `LoopLevels.slopes`)."""
+        gh, u, du, _ = self.terms(w)
+        if kind == 0:
+            return -u.imag, -du.real
+        if kind == 1:
+            return u.real, -du.imag
+        if kind == 3:
+            return np.log(np.abs(gh)), -u.imag
+        return gh.imag, (gh * u).real
+
+    def slopes_and_noise(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+        """The slopes of log|GH| and arg GH at ``w`` and their rounding (`LoopLevels.slope_noise`,
+        every root's term counted at its size)."""
+        _, u, _, size = self.terms(w)
+        noise = ROUNDING * (size + self.roots.shape[1] * np.abs(u))
+        return -u.imag, u.real, noise
+
+    def phase(self, w: NDArray) -> NDArray:
+        """arg GH(j w), continuous in w > 0 (`LoopLevels.phase`)."""
+        angles = np.arctan2(w[:, :, None] - self.roots.imag[:, None, :], np.abs(self.roots.real)[:, None, :])
+        return self.phase_offset[:, None] + np.einsum("spn,sn->sp", angles, self.phase_turn)
+
+    def limits(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        """log|GH| and arg GH as omega -> 0 and -> infinity (`LoopLevels.limits`)."""
+        at_zero = self.roots == 0
+        n0, excess = (self.signs * at_zero).sum(axis=1), float(self.signs.sum())
+        logs = np.log(np.where(at_zero, 1.0, np.abs(self.roots)))
+        low_level = np.log(np.abs(self.gain)) + logs @ self.signs
+        mag0 = np.where(n0 > 0, -np.inf, np.where(n0 < 0, np.inf, low_level))
+        top = excess * np.inf if excess else None
+        mag_inf = np.full(self.gain.size, top) if top is not None else np.log(np.abs(self.gain))
+        phase0 = self.phase(np.zeros((self.gain.size, 1)))[:, 0] + math.pi / 2 * n0
+        phase_inf = np.where(self.gain < 0, math.pi, 0.0) + math.pi / 2 * excess
+        return mag0, mag_inf, phase0, phase_inf
+
+    def probes(self) -> NDArray:
+        """Check points (S, Q): every nonzero root's frequency and the ladder (`LoopLevels.probes`)."""
+        mag0, _, _, _ = self.limits()
+        at_zero = self.roots == 0
+        n0, excess = (self.signs * at_zero).sum(axis=1), float(self.signs.sum())
+        reach = [self.low, self.high]
+        with np.errstate(all="ignore"):
+            logs = [np.where(n0 != 0, -mag0 / np.where(n0 == 0, 1.0, n0), np.nan)]
+            if excess:
+                logs.append(-np.log(np.abs(self.gain)) / excess)
+        for x in logs:
+            ok = np.isfinite(x) & (np.abs(x) < 700.0)
+            w = np.clip(np.exp(np.where(ok, x, 0.0)), self.low / UNIT_GAIN_REACH, self.high * UNIT_GAIN_REACH)
+            reach.append(np.where(ok, w, np.nan))
+        low, high = np.nanmin(np.array(reach), axis=0), np.nanmax(np.array(reach), axis=0)
+        decades = np.ceil(np.log10(high) - np.log10(low)) + 2 * PROBE_DECADES
+        steps = np.arange(2 * int(decades.max()) + 1)
+        ladder = low[:, None] * 10.0 ** (steps[None, :] / 2 - PROBE_DECADES)
+        ladder = np.where(steps[None, :] <= 2 * decades[:, None], ladder, np.nan)
+        return np.concatenate([np.where(at_zero, np.nan, np.abs(self.roots)), ladder], axis=1)
+
+
+def batch_crossings(forms: BatchForms) -> BatchCrossings:
+    """Every sample's crossings, certified or not (module docstring)."""
+    levels = BatchLevels(forms)
+    odd = forms.odd | (levels.roots.shape[1] > MAX_BATCH_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
+    with np.errstate(all="ignore"):
+        t = -(levels.roots**2) / (levels.scale**2)[:, None]
+        stationary, near, bad = [], [], odd.copy()
+        for weights in (levels.signs[None, :] + 0 * t, levels.signs[None, :] * levels.roots / levels.scale[:, None]):
+            x, flat = _fraction_zeros(t, weights)
+            real, close = _real_positive(x)
+            stationary.append(np.where(real, np.sqrt(x.real), np.nan) * levels.scale[:, None])
+            near.append(np.where(close, np.sqrt(np.abs(x.real)), np.nan) * levels.scale[:, None])
+            bad |= flat
+        gains, phases, far = _crossing_starts(levels)
+        points, maxima = [], []
+        for kind, starts in enumerate(stationary):
+            w, second, _ = _newton(levels, starts, kind)
+            w, second = _distinct(w, second)
+            points.append(w)
+            maxima.append(second < 0)
+            bad |= (second == 0).any(axis=1)
+        bad |= far | ~_signs_agree(levels, points, maxima, np.concatenate(near, axis=1))
+        bad |= ~_reach_limits(levels, points, maxima)
+        crossings, values, enclosed = _crossings(levels, points, gains, phases)
+        bad |= ~enclosed
+        abscissa = _abscissa(levels)
+    certified = ~bad & np.isfinite(abscissa)
+    return BatchCrossings(crossings[0], values[0], crossings[1], values[1], abscissa, certified)
+
+
+def _on_axis(roots: NDArray) -> NDArray[np.bool_]:
+    """Samples with a root on the imaginary axis but at 0, or not finite (`LoopLevels.of` refuses them)."""
+    size = np.abs(roots)
+    return (~np.isfinite(size) | ((size > 0) & (np.abs(roots.real) <= UNDAMPED * size))).any(axis=1)
+
+
+def poly_rows(roots: NDArray) -> NDArray[np.complex128]:
+    """The monic polynomial (descending powers) of every row's roots."""
+    c = np.ones((roots.shape[0], 1), dtype=complex)
+    for k in range(roots.shape[1]):
+        c = np.concatenate([c, np.zeros((c.shape[0], 1))], axis=1) - np.concatenate(
+            [np.zeros((c.shape[0], 1)), c * roots[:, k : k + 1]], axis=1
+        )
+    return c
+
+
+def _aligned_sum(a: NDArray, b: NDArray) -> NDArray:
+    """a + b, polynomials in descending powers aligned at the constant term."""
+    if a.shape[1] < b.shape[1]:
+        a, b = b, a
+    out = a.copy()
+    out[:, a.shape[1] - b.shape[1] :] += b
+    return out
+
+
+def batch_roots(c: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
+    """The roots of every row (descending real coefficients, equal degree): the companion
+    matrices' eigenvalues in one call; and the rows whose leading coefficient vanishes or
+    whose companion is not finite (their roots are NaN)."""
+    count, n = c.shape[0], c.shape[1] - 1
+    if n <= 0:
+        return np.zeros((count, 0), dtype=complex), np.zeros(count, dtype=bool)
+    lead = c[:, 0]
+    row = -c[:, 1:] / np.where(lead == 0, 1.0, lead)[:, None]
+    bad = (lead == 0) | ~np.isfinite(row).all(axis=1)
+    companion = np.zeros((count, n, n))
+    companion[:, 1:, :-1] = np.eye(n - 1)
+    companion[:, 0, :] = np.where(bad[:, None], 0.0, row)
+    roots = np.linalg.eigvals(companion).astype(complex)
+    return np.where(bad[:, None], np.nan, roots), bad
+
+
+def _fraction_zeros(t: NDArray, weights: NDArray) -> tuple[NDArray, NDArray[np.bool_]]:
+    """The zeros in x of sum w_i / (x - t_i) per row (the roots of its numerator), and the rows
+    where the sum vanishes identically (a constant level) or its roots cannot be had."""
+    n = t.shape[1]
+    numerator = np.zeros((t.shape[0], n), dtype=complex)
+    size = np.zeros(t.shape[0])
+    for i in range(n):
+        part = weights[:, i : i + 1] * poly_rows(np.delete(t, i, axis=1))
+        numerator += part
+        size = np.maximum(size, np.abs(part).max(axis=1))
+    c = numerator.real
+    flat = np.abs(c).max(axis=1, initial=0.0) <= 1e-12 * size
+    while c.shape[1] > 1 and (c[:, 0] == 0).all():
+        c = c[:, 1:]
+    x, bad = batch_roots(c)
+    return x, flat | bad
+
+
+def _real_positive(x: NDArray) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Which eigenvalues x = omega^2 are real and positive (Newton's starts), and which only
+    near it (check points), as `engine.margins.pole_zero.search.real_eigenvalues` judges."""
+    positive = x.real > 0
+    real = positive & (np.abs(x.imag) <= REAL * np.abs(x))
+    return real, positive & ~real & (np.abs(x.imag) <= NEAR_REAL * np.abs(x))
+
+
+def _crossing_starts(levels: BatchLevels) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """Starts of the gain crossovers and the phase crossings (the roots of the per-loop search's two
+    polynomials, `engine.margins.pole_zero.crossings.crossing_candidates`), and the samples whose
+    scaled gain is beyond the range."""
+    m, scale = levels.zero_count, levels.scale[:, None]
+    zeros, poles = levels.roots[:, :m] / scale, levels.roots[:, m:] / scale
+    log_gain = np.log(np.abs(levels.gain)) + (zeros.shape[1] - poles.shape[1]) * np.log(levels.scale)
+    far = ~(np.abs(log_gain) < LARGEST_LOG)
+    factor = np.exp(2 * np.where(far, 0.0, log_gain))[:, None]
+    difference = _aligned_sum(poly_rows(-(poles**2)).real, -factor * poly_rows(-(zeros**2)).real)
+    den = poly_rows(poles).real
+    mirrored = den * (-1.0) ** np.arange(den.shape[1] - 1, -1, -1)
+    numerator = poly_rows(zeros).real
+    product = np.zeros((den.shape[0], den.shape[1] + numerator.shape[1] - 1))
+    for i in range(numerator.shape[1]):
+        product[:, i : i + den.shape[1]] += numerator[:, i : i + 1] * mirrored
+    ascending = product[:, ::-1]
+    odd = ascending[:, 1::2] * (-1.0) ** np.arange(ascending[:, 1::2].shape[1])
+    out = []
+    for c in (difference, odd[:, ::-1]):
+        x, bad = batch_roots(c)
+        keep = (x.real > 0) & (np.abs(x.imag) <= 1e-2 * np.abs(x))
+        out.append(np.where(keep, np.sqrt(np.abs(x.real)), np.nan) * scale)
+        far |= bad
+    return out[0], out[1], far
+
+
+def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """Newton's method on row ``kind`` (`BatchLevels.row`) from every start, stopped as the per-loop
+    search stops (`engine.margins.pole_zero.search.newton`): the points converged (NaN where not),
+    the second derivatives there, and the samples with a point that stopped on rounding noise
+    rather than within 4 ulp (an ill-conditioned point: the per-loop search may stop elsewhere
+    in the noise)."""
+    done, previous, second = np.zeros(w.shape, dtype=bool), np.full(w.shape, np.inf), np.zeros(w.shape)
+    noisy = np.zeros(w.shape, dtype=bool)
+    for _ in range(NEWTON_STEPS):
+        first, bend = levels.row(np.where(done, np.nan, w), kind)  # the points still moving
+        second = np.where(done, second, bend)
+        step = np.where(done, 0.0, first / bend)
+        size = np.abs(step)
+        exact = size <= 4 * EPS * w
+        finished = exact | ((size <= NOISE_STEP * w) & (size >= 0.5 * previous))
+        moved = w - step
+        lost = ~(np.isfinite(moved) & (moved > 0))
+        w = np.where(lost, w, moved)
+        noisy |= finished & ~exact & ~lost & ~done
+        done |= finished & ~lost
+        previous = np.where(lost, np.inf, size)
+        if (done | ~np.isfinite(w)).all():
+            break
+    return np.where(done, w, np.nan), np.where(done, second, np.nan), (noisy & done).any(axis=1)
+
+
+def _distinct(w: NDArray, second: NDArray) -> tuple[NDArray, NDArray]:
+    """Every row's points sorted (NaN last), two that met merged."""
+    order = np.argsort(w, axis=1)
+    w, second = np.take_along_axis(w, order, 1), np.take_along_axis(second, order, 1)
+    same = np.zeros(w.shape, dtype=bool)
+    same[:, 1:] = np.diff(w, axis=1) <= DUPLICATE * w[:, 1:]
+    w, second = np.where(same, np.nan, w), np.where(same, np.nan, second)
+    order = np.argsort(w, axis=1)
+    width = int(np.isfinite(w).sum(axis=1).max(initial=0))  # the columns some row fills
+    return np.take_along_axis(w, order, 1)[:, :width], np.take_along_axis(second, order, 1)[:, :width]
+
+
+def _signs_agree(levels: BatchLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray) -> NDArray:
+    """Per sample: do the slopes of log|GH| and arg GH at the check points have the signs their
+    stationary points predict (`engine.margins.pole_zero.certificate`, without its repair)?"""
+    parts = [levels.probes(), near]
+    for w in points:
+        if w.shape[1]:
+            parts += [np.sqrt(w[:, 1:] * w[:, :-1]), w[:, :1] / 4, _last(w) * 4]
+    probes = np.concatenate(parts, axis=1)
+    every = np.concatenate(points, axis=1)
+    if every.shape[1]:
+        gap = np.abs(probes[:, :, None] / every[:, None, :] - 1.0)
+        clear = np.where(np.isnan(gap), np.inf, gap).min(axis=2) > CLEARANCE
+        probes = np.where(clear, probes, np.nan)
+    *slopes, noise = levels.slopes_and_noise(probes)
+    agree = np.ones(probes.shape[0], dtype=bool)
+    for w, top, first in zip(points, maxima, slopes):
+        known = np.isfinite(probes) & (np.abs(first) > noise)
+        agree &= ~(np.isfinite(probes) & np.isnan(first)).any(axis=1)
+        after = np.where(top, -1.0, 1.0)
+        at = np.concatenate([np.where(np.isfinite(w), w, np.inf), np.where(known, probes, np.inf)], axis=1)
+        left = np.concatenate([-after, np.sign(first)], axis=1)
+        right = np.concatenate([after, np.sign(first)], axis=1)
+        order = np.argsort(at, axis=1, kind="stable")
+        at, left, right = (np.take_along_axis(a, order, 1) for a in (at, left, right))
+        both = np.isfinite(at[:, :-1]) & np.isfinite(at[:, 1:])
+        agree &= ~(both & (right[:, :-1] != left[:, 1:])).any(axis=1)
+    return agree
+
+
+def _last(w: NDArray) -> NDArray:
+    """Each row's last point (rows sorted, NaN last; NaN for a row without one), as a column."""
+    count = np.isfinite(w).sum(axis=1)
+    return np.where(count > 0, np.take_along_axis(w, np.maximum(count - 1, 0)[:, None], 1)[:, 0], np.nan)[:, None]
+
+
+def _near(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
+    return (
+        np.isfinite(a)
+        & np.isfinite(b)
+        & (np.abs(a - b) <= LIMIT_SLACK * np.maximum(1.0, np.maximum(np.abs(a), np.abs(b))))
+    )
+
+
+def _reach_limits(levels: BatchLevels, points: list[NDArray], maxima: list[NDArray]) -> NDArray[np.bool_]:
+    """Per sample: are both levels' values at their stationary points consistent with their
+    limits at 0 and infinity (`engine.margins.pole_zero.certificate`)?"""
+    mag0, mag_inf, phase0, phase_inf = levels.limits()
+    rows = [
+        (_level_values(levels, points[0], 0), maxima[0], mag0, mag_inf),
+        (_level_values(levels, points[1], 1), maxima[1], phase0, phase_inf),
+    ]
+    ok = np.ones(levels.gain.size, dtype=bool)
+    for (values, top, low, high), w in zip(rows, points):
+        count = np.isfinite(w).sum(axis=1)
+        ok &= np.where(count == 0, ~_near(low, high), True)
+        last = np.maximum(count - 1, 0)[:, None]
+        if not w.shape[1]:
+            continue
+        for value, peak, limit in (
+            (values[:, 0], top[:, 0], low),
+            (np.take_along_axis(values, last, 1)[:, 0], np.take_along_axis(top, last, 1)[:, 0], high),
+        ):
+            wrong = np.where(peak, value < limit, value > limit)
+            ok &= (count == 0) | _near(value, limit) | ~wrong
+    return ok
+
+
+def _level_values(levels: BatchLevels, w: NDArray, kind: int) -> NDArray:
+    """log|GH| (``kind`` 0) or arg GH (1) at ``w``."""
+    return np.log(np.abs(levels.terms(w)[0])) if kind == 0 else levels.phase(w)
+
+
+def _crossings(
+    levels: BatchLevels, points: list[NDArray], gains: NDArray, phases: NDArray
+) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
+    """The crossings polished ((S, a) each, NaN-padded), GH at them, and whether each sample's
+    are as many as the monotone pieces between the stationary points hold, each within 4 ulp."""
+    gain, _, noisy = _newton(levels, gains, 3)
+    phase, _, noisy_phase = _newton(levels, phases, 4)
+    gain, phase = _distinct(gain, gain)[0], _distinct(phase, phase)[0]
+    phase_gh = levels.terms(phase)[0]
+    phase = np.where(phase_gh.real < 0, phase, np.nan)
+    phase, _ = _distinct(phase, phase)
+    mag0, mag_inf, phase0, phase_inf = levels.limits()
+    held = _enclosed(_ends(mag0, _level_values(levels, points[0], 0), mag_inf), False)
+    held_phase = _enclosed(_ends(phase0, _level_values(levels, points[1], 1), phase_inf), True)
+    ok = (np.isfinite(gain).sum(axis=1) == held) & (np.isfinite(phase).sum(axis=1) == held_phase)
+    gain_gh, gain_u, _, _ = levels.terms(gain)
+    phase_gh, phase_u, _, _ = levels.terms(phase)
+    ok &= (
+        ~noisy & ~noisy_phase & _conditioned(levels, gain_u, gain_u.imag) & _conditioned(levels, phase_u, phase_u.real)
+    )
+    return [gain, phase], [gain_gh, phase_gh], ok
+
+
+def _conditioned(levels: BatchLevels, u: NDArray, slope: NDArray) -> NDArray[np.bool_]:
+    """Per sample: is every crossing determined to within `CONDITION` of GH?  A level read to
+    a few ulp per root places its crossing to that over its slope (``slope``: the level's
+    d/domega), where GH moves by |u| per unit of omega; near a tangent crossing the slope
+    vanishes and the per-loop search, stopping elsewhere in the rounding, finds other margins."""
+    spread = ROUNDING * levels.roots.shape[1] * np.abs(u) / np.abs(slope)
+    return ~(spread > CONDITION).any(axis=1)
+
+
+def _ends(low: NDArray, values: NDArray, high: NDArray) -> NDArray:
+    """Each row's piece ends: the limit at 0, the values at the stationary points, the limit at
+    infinity right after the last (NaN after it)."""
+    count = np.isfinite(values).sum(axis=1)
+    ends = np.full((values.shape[0], values.shape[1] + 2), np.nan)
+    ends[:, 0] = low
+    ends[:, 1:-1] = values
+    np.put_along_axis(ends, (count + 1)[:, None], high[:, None], 1)
+    return ends
+
+
+def _enclosed(ends: NDArray, phase: bool) -> NDArray:
+    """How many target levels (0 for log|GH|, 180 deg mod 360 for the phase) each row's monotone
+    pieces cross (`engine.margins.pole_zero.crossings.enclosed`)."""
+    a, b = ends[:, :-1], ends[:, 1:]
+    valid = ~np.isnan(a) & ~np.isnan(b)
+    low, high = np.fmin(a, b), np.fmax(a, b)
+    if phase:
+        f = lambda v: (v - math.pi) / (2 * math.pi)  # noqa: E731
+        count = np.maximum(np.ceil(f(high)) - np.floor(f(low)) - 1, 0)
+        nearest = lambda v: math.pi + 2 * math.pi * np.round(f(v))  # noqa: E731
+    else:
+        count = ((low < 0) & (high > 0)).astype(float)
+        nearest = lambda v: np.zeros_like(v)  # noqa: E731
+    pieces = valid.sum(axis=1)
+    first = np.arange(a.shape[1])[None, :] == 0
+    last = np.arange(a.shape[1])[None, :] == (pieces - 1)[:, None]
+    for end, outer in ((a, first), (b, last)):
+        target = nearest(np.where(np.isfinite(end), end, 0.0))
+        hugs = outer & np.isfinite(end) & (np.abs(end - target) <= LIMIT_NOISE) & (low < target) & (target < high)
+        count = count - hugs
+    return np.where(valid, count, 0).sum(axis=1)
+
+
+def _abscissa(levels: BatchLevels) -> NDArray:
+    """-max Re of the closed-loop poles, the roots of D + k N (the variable scaled)."""
+    m, scale = levels.zero_count, levels.scale
+    zeros, poles = levels.roots[:, :m] / scale[:, None], levels.roots[:, m:] / scale[:, None]
+    factor = (levels.gain * scale ** (zeros.shape[1] - poles.shape[1]))[:, None]
+    roots, bad = batch_roots(_aligned_sum(poly_rows(poles).real, factor * poly_rows(zeros).real))
+    abscissa = -np.max((roots * scale[:, None]).real, axis=1, initial=-np.inf)
+    return np.where(bad, np.nan, abscissa)
