@@ -17,9 +17,13 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 
 def _full(model, compact: bool = True) -> str:
-    """The text as the whole session encoded at once (independent of the kept texts)."""
+    """The text as the whole session encoded at once (independent of the kept texts; an
+    empty hand history left out, as a session without one saves)."""
     text = json.dumps(
-        _plain(model.model_dump(mode="python", exclude_none=False), _MARKER),
+        _plain(
+            model.model_dump(mode="python", exclude_none=False, exclude=set() if model.earlier else {"earlier"}),
+            _MARKER,
+        ),
         sort_keys=True,
         indent=None if compact else 2,
         allow_nan=False,
