@@ -18,7 +18,7 @@ the stability or attenuation margins are not batched).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,8 +31,7 @@ from engine.margins.pole_zero.search import fast_margins
 from engine.margins.values import Margin, Margins, margins_of, single_margin
 
 
-@dataclass(frozen=True)
-class SampleLoop:
+class SampleLoop(NamedTuple):
     """One sample's margins, its closed-loop stability abscissa (-max Re of the closed-loop
     poles, the zeros of 1 + GH) and whether the batch certified it (else the per-loop search
     on its form found them)."""

@@ -31,6 +31,7 @@ from engine.loop.batch_forms import batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp.algorithm import Slp
 from engine.slp.measures import frequency_value
+from engine.stepping.protocol import MeasureRow
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import bind
@@ -127,17 +128,28 @@ def _one_structure(jobs: Sequence) -> bool:
     base = jobs[0].model
     if base.get("algorithm", {}).get("name") != "slp":
         return False
-    problem, names = base["problem"], [p["name"] for p in base["problem"]["parameters"]]
-    drawn = set(jobs[0].start)
+    study = getattr(jobs[0], "study", None)
+    if study is not None and all(getattr(job, "study", None) is study for job in jobs):
+        return True  # samples of one study (`sessions.sweeps.plan.tolerance_jobs`): one document by construction
+    problem, drawn = base["problem"], set(jobs[0].start)
     for job in jobs:
         model = job.model
-        if set(job.start) != drawn or [p["name"] for p in model["problem"]["parameters"]] != names:
+        if set(job.start) != drawn or not _equal_but(model, base, ("problem",)):
             return False
-        if any(model[k] != base[k] for k in base if k != "problem"):
+        if not _equal_but(model["problem"], problem, ("parameters",)):
             return False
-        if any(model["problem"][k] != problem[k] for k in problem if k != "parameters"):
+        entries, others = model["problem"]["parameters"], problem["parameters"]
+        if len(entries) != len(others) or not all(a is b or _equal_but(a, b, _VALUES) for a, b in zip(entries, others)):
             return False
     return True
+
+
+_VALUES = ("value", "min", "max")
+
+
+def _equal_but(a: dict, b: dict, skip: tuple[str, ...]) -> bool:
+    """Do two dicts hold the same keys and values but for ``skip`` (shared values compared by identity first)?"""
+    return a.keys() == b.keys() and all(a[k] is b[k] or a[k] == b[k] for k in a if k not in skip)
 
 
 def _chunk(study: _Study, jobs: Sequence) -> tuple[list[dict], tuple[int, int]]:
@@ -215,20 +227,11 @@ def _run(study: _Study, job, x: np.ndarray, loops: list[SampleLoop | None], shar
     }
 
 
-def _row_json(row) -> dict:
+def _row_json(row: MeasureRow) -> dict:
     """A tableau row as `StepRecord.to_json` writes it (non-finite numbers as 'inf', '-inf', 'nan')."""
-    return {
-        "name": row.name,
-        "kind": row.kind,
-        "condition": row.condition,
-        "value": _number(row.value),
-        "desired": _number(row.desired),
-        "satisfied": row.satisfied,
-        "frequency": _number(row.frequency),
-        "at_least": row.at_least,
-        "method": row.method,
-    }
-
-
-def _number(value: float | None) -> float | str | None:
-    return value if value is None or math.isfinite(value) else repr(value)
+    out = dict(vars(row))
+    for key in ("value", "desired", "frequency"):
+        number = out[key]
+        if number is not None and not math.isfinite(number):
+            out[key] = repr(number)
+    return out

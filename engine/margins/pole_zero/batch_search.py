@@ -106,10 +106,20 @@ class BatchLevels:
 
     def slopes_and_noise(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray]:
         """The slopes of log|GH| and arg GH at ``w`` and their rounding (`LoopLevels.slope_noise`,
-        every root's term counted at its size)."""
-        _, u, _, size = self.terms(w)
-        noise = ROUNDING * (size + self.roots.shape[1] * np.abs(u))
-        return -u.imag, u.real, noise
+        every root's term counted at its size), at the finite entries of ``w`` (the check points:
+        u alone, as `terms` forms it)."""
+        at = np.isfinite(w)
+        rows = np.nonzero(at)[0]
+        s, roots = 1j * w[at], self.roots[rows].T
+        u, size = np.zeros(s.size, dtype=complex), np.zeros(s.size)
+        for k, sign in enumerate(self.signs):
+            r = 1.0 / (s - roots[k])
+            u += sign * r
+            size += np.abs(r)
+        out = np.full((3, *w.shape), np.nan)
+        out[0][at], out[1][at] = -u.imag, u.real
+        out[2][at] = ROUNDING * (size + self.roots.shape[1] * np.abs(u))
+        return out[0], out[1], out[2]
 
     def phase(self, w: NDArray) -> NDArray:
         """arg GH(j w), continuous in w > 0 (`LoopLevels.phase`)."""
@@ -189,11 +199,11 @@ def _on_axis(roots: NDArray) -> NDArray[np.bool_]:
 
 def poly_rows(roots: NDArray) -> NDArray[np.complex128]:
     """The monic polynomial (descending powers) of every row's roots."""
-    c = np.ones((roots.shape[0], 1), dtype=complex)
-    for k in range(roots.shape[1]):
-        c = np.concatenate([c, np.zeros((c.shape[0], 1))], axis=1) - np.concatenate(
-            [np.zeros((c.shape[0], 1)), c * roots[:, k : k + 1]], axis=1
-        )
+    count, n = roots.shape
+    c = np.zeros((count, n + 1), dtype=complex)
+    c[:, 0] = 1.0
+    for k in range(n):
+        c[:, 1 : k + 2] -= roots[:, k : k + 1] * c[:, : k + 1]  # (the right side is formed first)
     return c
 
 
