@@ -5,10 +5,11 @@ crossover): a lead's zero a third of it and its pole three times it, a lag a dec
 two below, a notch on it.  The compensator's expression gains the part's factors as
 typed (`engine.model.factor_text`), in every condition whose block reads the same, and
 the parameters join the session's.  Deleting an item removes the factor with the fewest
-roots that holds it, the parameters no other factor uses, and the constraints on them."""
+roots that holds it, the parameters nothing else names, and the constraints and equalities on them."""
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from collections.abc import Callable
@@ -67,10 +68,17 @@ PARTS: dict[str, Part] = {
 DAMPING_BOUNDS = (1e-4, 5.0)
 
 
-def add_part(draft: ProblemModel, block: str, kind: str, w: float, given: dict[str, float] | None = None) -> list[str]:
+def add_part(
+    draft: ProblemModel,
+    block: str,
+    kind: str,
+    w: float,
+    given: dict[str, float] | None = None,
+    condition: int = 0,
+) -> list[str]:
     """Add the part ``kind`` to the compensator ``block`` of every condition where it
-    reads as in the first, placed about ``w`` rad/s (``given``: start values of some of
-    its parameters, by field): the new parameters' names."""
+    reads as in ``condition``, placed about ``w`` rad/s (``given``: start values of some
+    of its parameters, by field): the new parameters' names."""
     part = PARTS[kind]
     if not (w > 0 and math.isfinite(w)):
         raise SessionError(f"the {kind} is placed about a frequency: {w!r} rad/s is not one")
@@ -79,7 +87,7 @@ def add_part(draft: ProblemModel, block: str, kind: str, w: float, given: dict[s
     names = {field: f"{kind}{n}_{field}" for field in part.starts}
     values = {field: start(w) for field, start in part.starts.items()} | (given or {})
     added = Product(tuple(f.format(**names) for f in part.over), tuple(f.format(**names) for f in part.under))
-    for transfer in _transfers(draft, block):
+    for transfer in _transfers(draft, block, condition):
         transfer.expression = product(transfer.expression).times(added).text
     for field, name in names.items():
         low, high = DAMPING_BOUNDS if field.startswith("z") else (values[field] / SPAN, values[field] * SPAN)
@@ -87,19 +95,21 @@ def add_part(draft: ProblemModel, block: str, kind: str, w: float, given: dict[s
     return list(names.values())
 
 
-def notch_on(draft: ProblemModel, block: str, frequency: float, damping: float) -> list[str]:
+def notch_on(draft: ProblemModel, block: str, frequency: float, damping: float, condition: int = 0) -> list[str]:
     """A notch whose zeros sit on a resonance (its frequency and damping: they cancel its
     poles exactly at these values), its poles at the same frequency damped 0.5."""
-    return add_part(draft, block, "notch", frequency, {"zz": max(damping, DAMPING_BOUNDS[0])})
+    return add_part(draft, block, "notch", frequency, {"zz": max(damping, DAMPING_BOUNDS[0])}, condition)
 
 
-def remove_item(draft: ProblemModel, block: str, values: dict[str, float], root: complex, kind: str) -> list[str]:
+def remove_item(
+    draft: ProblemModel, block: str, values: dict[str, float], root: complex, kind: str, condition: int = 0
+) -> list[str]:
     """Delete the item (a zero or pole, ``kind``; ``root`` its upper root) from the
     compensator ``block`` of every condition where it reads as in the first: the factor
     with the fewest roots that holds it goes (with the other roots it has: the first line
     says which), with the parameters no other factor uses and the constraints on them.
     What went, one line each."""
-    transfers = _transfers(draft, block)
+    transfers = _transfers(draft, block, condition)
     found = product(transfers[0].expression)
     held = [
         (len(r), k, over)
@@ -116,19 +126,32 @@ def remove_item(draft: ProblemModel, block: str, values: dict[str, float], root:
     text = kept.text
     for transfer in transfers:
         transfer.expression = text
-    used = set(ExpressionTransfer(text).parameters) | _used_elsewhere(draft, block)
-    gone = [
-        p.name for p in draft.parameters if p.name in ExpressionTransfer(side[index]).parameters and p.name not in used
-    ]
+    gone = [p.name for p in draft.parameters if p.name in ExpressionTransfer(side[index]).parameters]
+    gone = [n for n in gone if not _still_named(draft, n)]
     draft.parameters[:] = [p for p in draft.parameters if p.name not in gone]
     also = f", with its other roots {', '.join(f'{r:.4g}' for r in roots if abs(r - root) > 1e-9 * abs(root))}"
     lines = [f"{block}: the factor {side[index]} goes{also if len(roots) > 1 + bool(root.imag) else ''} -> {text}"]
     lines += [f"parameter {n} goes" for n in gone]
     for c in list(draft.constraints):
-        if any(re.search(rf"\b{re.escape(n)}\b", str(c)) for n in gone):
+        if any(_names(str(c), n) for n in gone):
             draft.constraints.remove(c)
             lines.append(f"constraint {c} goes")
+    for e in list(draft.equalities):
+        if any(_names(term, n) for term in e.terms for n in gone):
+            draft.equalities.remove(e)
+            lines.append(f"equality {' + '.join(f'{v:g}*{t}' for t, v in e.terms.items())} = {e.value:g} goes")
     return lines
+
+
+def _still_named(draft: ProblemModel, name: str) -> bool:
+    """Does anything but the parameters, constraints and equalities (which go with it)
+    still name ``name``: a block's expression or coefficient in any condition?"""
+    text = json.dumps(draft.model_dump(mode="json", exclude={"parameters", "constraints", "equalities"}))
+    return _names(text, name)
+
+
+def _names(text: str, name: str) -> bool:
+    return re.search(rf"(?<![A-Za-z0-9_]){re.escape(name)}(?![A-Za-z0-9_])", text) is not None
 
 
 def _roots(factor: str, values: dict[str, float]) -> list[complex]:
@@ -144,11 +167,12 @@ def _holds(roots: list[complex], root: complex) -> bool:
     return any(abs(r - root) <= 1e-9 * abs(root) for r in roots)
 
 
-def _transfers(draft: ProblemModel, block: str) -> list:
-    """The expression transfers of ``block`` in every condition that reads as the first."""
+def _transfers(draft: ProblemModel, block: str, condition: int = 0) -> list:
+    """The expression transfers of ``block`` in every condition that reads as it does in
+    ``condition`` (the one the shaping table shows), that one first."""
     found = [
         b.transfer
-        for c in draft.conditions
+        for c in draft.conditions[condition : condition + 1] + draft.conditions
         if c.plant.format == "diagram"
         for b in c.plant.blocks
         if b.name == block and getattr(b.transfer, "kind", "") == "expression"
@@ -158,16 +182,4 @@ def _transfers(draft: ProblemModel, block: str) -> list:
             f"{block}: parts are added to an expression block of a diagram (this compensator is another form: edit "
             "it in the Plant tab)"
         )
-    return [t for t in found if t.expression == found[0].expression]
-
-
-def _used_elsewhere(draft: ProblemModel, block: str) -> set[str]:
-    """Parameters other blocks' expressions use."""
-    return {
-        name
-        for c in draft.conditions
-        if c.plant.format == "diagram"
-        for b in c.plant.blocks
-        if b.name != block and getattr(b.transfer, "kind", "") == "expression"
-        for name in ExpressionTransfer(b.transfer.expression).parameters
-    }
+    return list({id(t): t for t in found if t.expression == found[0].expression}.values())

@@ -164,3 +164,9 @@ def test_a_run_then_a_hand_move_then_a_run_replays_every_iteration(lead, capsys,
     lead.write_text(json.dumps(data))
     code, out, err = _run(capsys, "replay", str(lead))
     assert code != 0 and "earlier stage 1 (a " in out + err and "iteration 2 diverges" in out + err
+
+
+def test_a_damping_is_a_pairs_alone(lead, capsys):
+    before = lead.read_text()
+    code, _, err = _run(capsys, "set", str(lead), "compensator.gain.zeta=0.5")
+    assert code == 2 and "the gain has no damping" in err and lead.read_text() == before

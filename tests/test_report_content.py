@@ -74,3 +74,20 @@ def test_the_report_states_the_targets_constraints_and_loop_as_they_are(lead, tm
 
 def _junction_rows(text: str) -> str:
     return "\n".join(line for line in text.splitlines() if line.startswith("| sum |"))
+
+
+def test_frequencies_in_the_summary_are_in_the_grid_s_unit(tmp_path):
+    """cip_launch_vehicle's grid is in Hz: every 'at' of its summary is at most the grid's
+    10 Hz top (the rows' rad/s were written as Hz before)."""
+    import shutil
+    from pathlib import Path
+
+    from sessions.report.content import report_blocks
+    from sessions.store import load_session
+
+    for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv"):
+        shutil.copy(Path(__file__).resolve().parents[1] / "sessions" / "examples" / name, tmp_path / name)
+    blocks = report_blocks(load_session(tmp_path / "cip_launch_vehicle.json"))
+    table = next(b for b in blocks if b[0] == "table" and b[1][:2] == ("measure", "condition") and "at" in b[1])
+    at = [float(row[5].split()[0]) for row in table[2] if row[5]]
+    assert at and all(row[5].endswith(" hz") for row in table[2] if row[5]) and max(at) <= 10.0

@@ -157,7 +157,7 @@ def time_constant_form(found: list[Item], variable: str = "s") -> str:
         if item.kind in ("integrator", "differentiator"):
             factor = s
         elif item.kind.endswith("pair"):
-            factor = f"(1 + {2 * measure(item, 'damping'):.6g}*{s}/{w:.6g} + ({s}/{w:.6g})^2)"
+            factor = f"(1 + {-2 * item.root.real / w:.6g}*{s}/{w:.6g} + ({s}/{w:.6g})^2)"  # zeta signed
         else:
             factor = f"(1 {'-' if item.root.real > 0 else '+'} {s}/{w:.6g})"
         (over if item.kind.startswith(("zero", "differentiator")) else under).append(factor)

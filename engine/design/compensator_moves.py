@@ -58,6 +58,8 @@ def move_named(
     if item_name not in names or suffix not in ("", "zeta"):
         raise EngineError(f"{name}: {block} has {', '.join(names)} (and ITEM.zeta for a pair's damping)")
     index = names.index(item_name)
+    if suffix and not found[index].kind.endswith("pair"):
+        raise EngineError(f"{name}: the {found[index].kind} has no damping (ITEM.zeta is a pair's)")
     kind = "damping" if suffix else "frequency"
     now = measure(found[index], kind)
     wanted = target(now)

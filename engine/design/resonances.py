@@ -42,7 +42,7 @@ def resonances(network: Network, params: Mapping[str, float]) -> list[Resonance]
             continue
         for p in poles:
             w = abs(p)
-            if p.imag > 0 and -p.real / w < LIGHT:
+            if p.imag > 0 and 0 <= -p.real / w < LIGHT:  # stable and light: an unstable pair is no notch's
                 key = (round(w, 9), round(-p.real / w, 9))
                 found.setdefault(key, Resonance(float(w), float(-p.real / w), entry.label))
     return sorted(found.values(), key=lambda r: r.frequency)

@@ -25,7 +25,7 @@ def _checked(num: ArrayLike, den: ArrayLike, sample_time: float) -> Polynomials:
     if d.size == 0 or not np.all(np.isfinite(n)) or not np.all(np.isfinite(d)):
         raise BlockError("a block to discretize needs finite coefficients and a nonzero denominator")
     if n.size > d.size:
-        raise BlockError("an improper block (more zeros than poles) has no zero-order-hold equivalent")
+        raise BlockError("an improper block (more zeros than poles) cannot be discretized")
     return (n if n.size else np.zeros(1)), d
 
 
@@ -103,8 +103,8 @@ def tustin(num: ArrayLike, den: ArrayLike, sample_time: float, prewarp: float | 
         degree = c.size - 1
         for i, coefficient in enumerate(c):  # coefficient of s^(degree - i)
             power = degree - i
-            term = coefficient * k**power * _power(minus, power)
-            total = np.polyadd(total, np.polymul(term, _power(plus, order - power)))
+            term = coefficient * k**power * (np.poly1d(minus) ** power).coeffs
+            total = np.polyadd(total, np.polymul(term, (np.poly1d(plus) ** (order - power)).coeffs))
         return total
 
     return _normalized(substitute(n), substitute(d))
@@ -120,20 +120,13 @@ def matched(num: ArrayLike, den: ArrayLike, sample_time: float) -> Polynomials:
     z_poles = np.exp(poles * sample_time)
     extra = max(poles.size - zeros.size - 1, 0)
     z_zeros = np.concatenate([z_zeros, -np.ones(extra)])
-    z_num, z_den = np.real(np.poly(z_zeros)), np.real(np.poly(z_poles))
+    z_num, z_den = np.atleast_1d(np.real(np.poly(z_zeros))), np.atleast_1d(np.real(np.poly(z_poles)))
     at_origin = np.any(np.abs(np.concatenate([zeros, poles])) < 1e-12)
     w = math.pi / (10 * sample_time) if at_origin else 0.0
     continuous = np.polyval(n, 1j * w) / np.polyval(d, 1j * w)
     point = np.exp(1j * w * sample_time)
     discrete = np.polyval(z_num, point) / np.polyval(z_den, point)
     return _normalized(z_num * abs(continuous) / abs(discrete) * np.sign(n[0] / d[0]), z_den)
-
-
-def _power(p: NDArray, k: int) -> NDArray:
-    out = np.ones(1)
-    for _ in range(k):
-        out = np.polymul(out, p)
-    return out
 
 
 def _normalized(num: NDArray, den: NDArray) -> Polynomials:

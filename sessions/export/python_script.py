@@ -258,10 +258,15 @@ MAIN = '''def stability_margins(loop):
 def side_by_side(what, unit, theirs, ours):
     """Each margin beside the other tool's at the nearest frequency (one listed alone: '-')."""
     left = list(theirs)
+
+    def apart(a, b):
+        if a == b:
+            return 0.0
+        return abs(np.log(a / b)) if a > 0 and b > 0 else np.inf
+
     for value, w in ours:
-        k = min(range(len(left)), key=lambda i: abs(np.log(left[i][1] / w)) if left[i][1] > 0 else np.inf,
-                default=None)
-        if k is not None and left[k][1] > 0 and abs(np.log(left[k][1] / w)) < 0.1:
+        k = min(range(len(left)), key=lambda i: apart(left[i][1], w), default=None)
+        if k is not None and apart(left[k][1], w) < 0.1:
             mine = left.pop(k)
             text = f"{mine[0]:.6g} {unit} at {mine[1]:.6g}"
         else:

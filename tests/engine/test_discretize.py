@@ -86,6 +86,19 @@ def test_matched_maps_poles_and_keeps_the_dc_gain():
     assert np.roots(n).size == 1  # the finite zero alone: relative degree 1 puts no zero at -1
 
 
+@pytest.mark.parametrize("num, den", [([1.0], [1.0, 1.0]), ([-1.0], [1.0, 0.0]), ([2.0], [1.0])])
+def test_matched_takes_blocks_without_zeros_integrators_and_constants(num, den):
+    T = 0.1
+    n, d = matched(num, den, T)
+    assert np.allclose(np.sort_complex(np.roots(d)), np.sort_complex(np.exp(np.roots(den) * T)), rtol=REL)
+    w = 0.0 if 0 not in np.roots(den) else math.pi / (10 * T)  # the gain matched at DC, or off the origin's pole
+    z = np.exp(1j * w * T)
+    assert abs(np.polyval(n, z) / np.polyval(d, z)) == pytest.approx(
+        abs(np.polyval(num, 1j * w) / np.polyval(den, 1j * w))
+    )
+    assert np.sign(n[0]) == np.sign(num[0])
+
+
 def test_bad_blocks_are_refused():
     with pytest.raises(BlockError, match="sample time"):
         zoh([1.0], [1.0, 1.0], 0.0)

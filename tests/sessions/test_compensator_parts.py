@@ -85,3 +85,19 @@ def test_an_integrator_goes_with_the_factor_that_holds_it_over_or_under_the_line
     values = {p.name: p.value for p in draft.parameters}
     lines = remove_item(draft, "compensator", values, 0j, "integrator")
     assert lines[0] == "compensator: the factor 1+int1_wi/s goes, with its other roots -0.2+0j -> K*(1+T1*s)/(1+T2*s)"
+
+
+def test_a_deleted_parameter_takes_its_equalities_and_one_named_elsewhere_stays(lead):
+    from sessions.format.schema import EqualityModel
+
+    draft = lead()
+    draft.equalities.append(EqualityModel(terms={"T1": 1.0, "T2": -10.0}, value=0.0))
+    values = {p.name: p.value for p in draft.parameters}
+    lines = remove_item(draft, "compensator", values, complex(-1 / values["T1"]), "zero")
+    assert "parameter T1 goes" in lines and any(line.startswith("equality 1*T1 + -10*T2 = 0 goes") for line in lines)
+    assert draft.equalities == [] and "T1" not in {p.name for p in draft.parameters}
+    draft = lead()
+    draft.conditions[0].plant.blocks[1].transfer.expression = "T1/(s^2*(s+10))"  # the plant names T1 too
+    values = {p.name: p.value for p in draft.parameters}
+    lines = remove_item(draft, "compensator", values, complex(-1 / values["T1"]), "zero")
+    assert "parameter T1 goes" not in lines and "T1" in {p.name for p in draft.parameters}

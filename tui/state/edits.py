@@ -153,7 +153,8 @@ def add_part(bench: Workbench, block: str, kind: str) -> str:
     curve = view.loop_curve(condition=view.first_plotted)
     w = (curve.margins.crossover_frequency if curve and curve.margins else None) or 1.0
     names: list[str] = []
-    transaction(bench, lambda draft: names.extend(added(draft, block, kind, w)))
+    k = view.first_plotted
+    transaction(bench, lambda draft: names.extend(added(draft, block, kind, w, condition=k)))
     return f"{block}: {kind} added about {w:.4g} rad/s ({', '.join(names)})"
 
 
@@ -163,7 +164,8 @@ def notch_on(bench: Workbench, block: str, resonance: Any) -> str:
     from sessions.compensator_parts import notch_on as added
 
     names: list[str] = []
-    transaction(bench, lambda draft: names.extend(added(draft, block, resonance.frequency, resonance.damping)))
+    k = bench.view().first_plotted
+    transaction(bench, lambda draft: names.extend(added(draft, block, resonance.frequency, resonance.damping, k)))
     return f"{block}: notch on {resonance.text} ({', '.join(names)})"
 
 
@@ -185,11 +187,12 @@ def remove_item(bench: Workbench, name: str, item: Any, draft: ProblemModel | No
     from sessions.compensator_parts import remove_item as removed
 
     block = name.rsplit(".", 1)[0]
-    values = bench.session.problem.condition_values(bench.view().first_plotted)
+    k = bench.view().first_plotted
+    values = bench.session.problem.condition_values(k)
     lines: list[str] = []
     if draft is not None:
-        return "; ".join(removed(draft, block, values, item.root, item.kind))
-    transaction(bench, lambda draft: lines.extend(removed(draft, block, values, item.root, item.kind)))
+        return "; ".join(removed(draft, block, values, item.root, item.kind, k))
+    transaction(bench, lambda draft: lines.extend(removed(draft, block, values, item.root, item.kind, k)))
     return "; ".join(lines)
 
 
