@@ -148,3 +148,28 @@ def test_a_loop_in_z_is_analyzed_in_rad_per_s_with_its_sample_time(capsys):
     assert data["closed_loop_stable"] is True and data["sample_time"] == T
     assert main(["analyze", "--variable", "z", "--tf", "z/(z-0.5)"]) == 2
     assert "--variable z needs --sample-time" in capsys.readouterr().err
+    assert main(["analyze", "--sample-time", "0.1", "--tf", "1/(s+1)"]) == 2
+    assert "give --variable z" in capsys.readouterr().err
+    assert main(["analyze", "--variable", "z", "--sample-time", "0.1", "--tf", "0.5/(z*(z+1))"]) == 2
+    assert "a pole at z = -1" in capsys.readouterr().err
+
+
+def test_a_continuous_block_held_and_sampled_is_analyzed_in_z(capsys):
+    """--held 1/(s(s+1)) --sample-time 0.2: zero-order hold (engine/model/discretize.py,
+    checked against scipy in its own tests), its margins python-control's on
+    control.c2d(G, T, 'zoh') where both list them (the crossings below Nyquist)."""
+    import control as ct
+
+    from tui.cli import main
+
+    T = 0.2
+    args = ["analyze", "--variable", "z", "--sample-time", str(T), "--held", "1/(s*(s+1))", "--tf", "2", "--json"]
+    assert main(args) == 0
+    data = json.loads(capsys.readouterr().out)
+    gm, pm, _, wg, wp, _ = ct.stability_margins(2 * ct.c2d(ct.tf([1], [1, 1, 0]), T, "zoh"))
+    (phase,) = data["phase_margins"]
+    assert phase["frequency"] == pytest.approx(wp, rel=1e-8) and phase["phase_deg"] == pytest.approx(pm, rel=1e-8)
+    gains = [g for g in data["gain_margins"] if abs(g["frequency"] - wg) <= 1e-8 * wg]
+    assert gains and gains[0]["gain_db"] == pytest.approx(20 * math.log10(gm), rel=1e-8)
+    assert main([*args[:-1], "--delay", "0.05", "--discretize", "tustin"]) == 2
+    assert "discretized with its hold" in capsys.readouterr().err

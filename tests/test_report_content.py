@@ -62,10 +62,14 @@ def test_the_report_states_the_targets_constraints_and_loop_as_they_are(lead, tm
     gm, pm, _, _, wc, _ = ct.stability_margins(loop)
     analysis = _section(text, "Loop analysis at the design")
     assert f"| phase margin | {pm:.6g} deg | {wc:.6g} | refined |" in analysis
-    poles = sorted(ct.poles(ct.feedback(loop, 1)), key=lambda p: (abs(p), p.imag))
-    for p in poles:
-        if p.imag >= 0:
-            assert f"{p.real:.6g}" in analysis
+    for p in ct.poles(ct.feedback(loop, 1)):  # each pole's row: value, zeta, wn
+        if p.imag > 0:
+            row = f"| {p.real:.6g} +- {p.imag:.6g}j | {-p.real / abs(p):.6g} | {abs(p):.6g} |"
+        elif p.imag == 0:
+            row = f"| {p.real:.6g} | 1 | {abs(p):.6g} |"
+        else:
+            continue
+        assert row in analysis, row
     for name in (r"Ms = max \|S\|", r"Mt = max \|T\|", "rise time (10-90 %)", "settling time (5 %)", "overshoot"):
         assert name in analysis
     digest = hashlib.sha256(lead.read_bytes()).hexdigest()

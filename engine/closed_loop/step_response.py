@@ -20,6 +20,7 @@ import numpy as np
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
+from engine.model.network import Network
 
 SAMPLES = 400
 SETTLING_BAND = 0.05
@@ -49,21 +50,26 @@ def default_output(ss: StateSpace) -> str:
 
 
 def horizon(ss: StateSpace) -> float:
-    """A step response's duration from the closed-loop poles' real parts."""
-    real = np.linalg.eigvals(ss.A).real
+    """A step response's duration from the closed-loop poles' real parts (10 s when
+    they cannot be computed)."""
+    try:
+        real = np.linalg.eigvals(ss.A).real
+    except np.linalg.LinAlgError:
+        return 10.0
     if real.max() > 0:
         return min(5.0 / real.max(), MAX_HORIZON)
     slowest = np.abs(real[real < 0]).min(initial=np.inf)
     return min(8.0 / slowest, MAX_HORIZON) if np.isfinite(slowest) else 10.0
 
 
-def realized(network, params: Mapping[str, float]) -> StateSpace | None:
-    """The closed loop's state space (None when it has no state or cannot be realized)."""
+def realized(network: Network, params: Mapping[str, float]) -> StateSpace | None:
+    """The closed loop's state space (None when it has no state, cannot be realized or
+    its matrix is not finite)."""
     try:
         ss = realize(network, params)
     except EngineError:
         return None
-    return ss if ss.inputs and ss.A.size else None
+    return ss if ss.inputs and ss.A.size and np.all(np.isfinite(ss.A)) else None
 
 
 def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -> StepResponse | None:

@@ -26,6 +26,8 @@ from engine.loop.realization import Pole
 from engine.loop.responses import open_loop
 from engine.margins.search import Band
 from engine.margins.values import margins_of
+from engine.model.bilinear import real_frequency as bilinear_real_frequency
+from engine.model.bilinear import w_frequency
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
@@ -56,9 +58,15 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
     gain = complex(form.gain)
     over, under = [], []
     power = 0  # of (1 - w) over the line
-    for roots, side, sign in ((form.zeros, over, -1), (form.poles, under, 1)):
+    zeros, poles = _snapped(_snapped(form.zeros, 1.0), -1.0), _snapped(_snapped(form.poles, 1.0), -1.0)
+    if np.any(poles == -1):
+        raise EngineError(
+            f"{transfer.text}: a pole at z = -1 (on the unit circle at the Nyquist frequency) is not analyzed: the loop "
+            "has no finite value there"
+        )
+    for roots, side, sign in ((zeros, over, -1), (poles, under, 1)):
         for r in roots:
-            if abs(r + 1) <= ON_CIRCLE:
+            if r == -1:
                 gain *= 2.0 if sign < 0 else 0.5
                 power += sign
                 continue
@@ -66,7 +74,7 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
             power += sign
             if r.imag < 0:
                 continue
-            w = 0j if abs(r - 1) <= ON_CIRCLE else (r - 1) / (r + 1)  # z = 1: an integrator, w = 0 exactly
+            w = 0j if r == 1 else (r - 1) / (r + 1)  # z = 1: an integrator, w = 0 exactly
             partner = next((q for q in roots if abs(q - r.conjugate()) <= 1e-12 * max(abs(r), 1.0)), None)
             if r.imag > 0 and partner is not None:
                 side.append(f"(w^2-({float(2 * w.real)!r})*w+({float(abs(w) ** 2)!r}))")
@@ -77,15 +85,29 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
     return "*".join(factors) + (f"/({'*'.join(under)})" if under else "")
 
 
+def _snapped(roots: NDArray, point: float) -> NDArray:
+    """Roots at ``point`` (z = 1 or -1) made exact: m roots typed as an expanded polynomial
+    with an m-fold root there scatter by about eps^(1/m) around it."""
+    roots = np.asarray(roots, dtype=complex).copy()
+    near = np.abs(roots - point) < 1e-4
+    m = int(near.sum())
+    if m:
+        radius = max(ON_CIRCLE, 10 * np.finfo(float).eps ** (1.0 / m))
+        roots[near & (np.abs(roots - point) <= radius)] = point
+    return roots
+
+
 def w_frequencies(omega: NDArray, sample_time: float) -> NDArray[np.float64]:
-    """nu = tan(omega T/2) of the grid's frequencies below the Nyquist frequency."""
+    """nu = tan(omega T/2) (`engine.model.bilinear.w_frequency`) of the grid's frequencies
+    below the Nyquist frequency."""
     omega = np.asarray(omega, dtype=float)
-    return np.tan(omega[(omega > 0) & (omega < math.pi / sample_time)] * sample_time / 2.0)
+    return w_frequency(omega[(omega > 0) & (omega < math.pi / sample_time)], sample_time)
 
 
 def real_frequency(nu: float, sample_time: float) -> float:
-    """omega = (2/T) atan(nu), rad/s (nu = inf: the Nyquist frequency)."""
-    return 2.0 * math.atan(nu) / sample_time
+    """omega = (2/T) atan(nu), rad/s (`engine.model.bilinear.real_frequency`; nu = inf:
+    the Nyquist frequency)."""
+    return float(bilinear_real_frequency(nu, sample_time))
 
 
 def analyze_sampled(
@@ -186,8 +208,3 @@ def z_pole(w: complex, sample_time: float) -> Pole:
     s = cmath.log(z) / sample_time
     wn = abs(s)
     return Pole(z, -s.real / wn if wn else 1.0, wn)
-
-
-def delay_in_samples(seconds: float | None, sample_time: float) -> float | None:
-    """A delay margin in samples (None: no crossover)."""
-    return None if seconds is None else seconds / sample_time

@@ -9,6 +9,7 @@ import math
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the command line reads SUFFIX to build its parser: no schema import at start
+    from sessions.export.design_model import Design
     from sessions.store import Session
 
 SUFFIX = {"python": ".py", "matlab": ".m", "json": ".export.json", "csv": ".csv"}
@@ -47,7 +48,7 @@ def export_text(
     return response_csv(session, d)
 
 
-def loopcraft_margins(session: Session, d) -> dict[str, dict]:
+def loopcraft_margins(session: Session, d: Design) -> dict[str, dict]:
     """loopcraft's gain margins (dB, rad/s) and phase margins (deg, rad/s) of each
     condition at the design, and how they were obtained, for the script to print."""
     from engine.errors import EngineError

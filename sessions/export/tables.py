@@ -50,8 +50,9 @@ def fit_fields(transfer: TabulatedTransfer) -> dict:
     shape = np.prod(1j * w0 - zeros) / np.prod(1j * w0 - poles)
     gain = float((fit(np.array([w0]))[0] / shape).real)
     model = gain * np.prod(1j * omega[:, None] - zeros, axis=1) / np.prod(1j * omega[:, None] - poles, axis=1)
-    residual = float(np.max(np.abs(model - table.response[keep]) / np.abs(table.response[keep])))
-    if residual > MAX_RESIDUAL:
+    scale = np.maximum(np.abs(table.response[keep]), 1e-300)
+    residual = float(np.max(np.abs(model - table.response[keep]) / scale))
+    if not residual <= MAX_RESIDUAL:  # NaN too (a zero in the table)
         raise SessionError(
             f"--fit: the rational fit of {transfer.text} misses the table by {residual:.2e} (relative) once its "
             "roots far beyond the band are dropped: export the table itself (leave out --fit)"

@@ -13,10 +13,14 @@ line is green where the design meets it, red where it misses it.
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 
 import numpy as np
 
 from engine.analysis import LoopCurve
+from engine.closed_loop.root_locus import PoleZeroMap, RootLocus
+from engine.closed_loop.time_response import StepMeasures
+from engine.stepping.protocol import MeasureRow
 from sessions.format.save_file import printable
 
 SIZE = (7.0, 4.2)  # inches; at DPI, 700 x 420 pixels
@@ -71,17 +75,17 @@ def _phase(gh: np.ndarray) -> np.ndarray:
     return np.degrees(np.unwrap(np.angle(gh)))
 
 
-def _desired(rows, kind: str):
+def _desired(rows: Sequence[MeasureRow], kind: str) -> MeasureRow | None:
     """The first row of a measure kind that has a desired value (None: no such target)."""
     return next((r for r in rows if r.kind == kind and r.desired is not None and np.isfinite(r.desired)), None)
 
 
-def _requirement_style(row) -> dict:
+def _requirement_style(row: MeasureRow) -> dict:
     """A requirement's line: red where the design misses it, green where it meets it."""
     return {"color": "tab:green" if row.satisfied else "tab:red", "ls": "--", "lw": 1.0}
 
 
-def _bode_requirements(mag, phase, rows, scale: float) -> None:
+def _bode_requirements(mag, phase, rows: Sequence[MeasureRow], scale: float) -> None:
     """The targets on a Bode plot: the GM level below 0 dB and the PM level above
     -180 deg (at the crossings), a crossover bound, a modal-peak ceiling."""
     gm, pm = _desired(rows, "gain_margin_db"), _desired(rows, "phase_margin_deg")
@@ -100,7 +104,7 @@ def _bode_requirements(mag, phase, rows, scale: float) -> None:
         mag.axhline(peak.desired, **_requirement_style(peak), label=f"modal peak <= {peak.desired:g} dB")
 
 
-def bode(curves: list[LoopCurve], unit: str, title: str, rows=()) -> bytes:
+def bode(curves: list[LoopCurve], unit: str, title: str, rows: Sequence[MeasureRow] = ()) -> bytes:
     """Magnitude and phase against frequency; gain margins (at phase crossovers) and
     phase margins (at gain crossovers) of the curves that carry them, marked; the
     requirements of ``rows`` (a tableau's) drawn."""
@@ -131,7 +135,7 @@ def bode(curves: list[LoopCurve], unit: str, title: str, rows=()) -> bytes:
     return _png(fig)
 
 
-def sensitivity(curves: list[LoopCurve], unit: str, title: str, rows=()) -> bytes:
+def sensitivity(curves: list[LoopCurve], unit: str, title: str, rows: Sequence[MeasureRow] = ()) -> bytes:
     """|S| = 1/|1 + GH| and |T| = |GH/(1 + GH)| in dB, with the Ms and Mt ceilings."""
     fig, (ax,) = _figure()
     scale = 2 * np.pi if unit == "hz" else 1.0
@@ -153,7 +157,7 @@ def sensitivity(curves: list[LoopCurve], unit: str, title: str, rows=()) -> byte
     return _png(fig)
 
 
-def locus(found, pole_zero, title: str) -> bytes:
+def locus(found: RootLocus, pole_zero: PoleZeroMap, title: str) -> bytes:
     """Root locus branches in the loop gain (``found``), the open-loop poles (x) and zeros
     (o) of ``pole_zero``, the design's closed-loop poles (*)."""
     fig, (ax,) = _figure()
@@ -217,7 +221,9 @@ def nichols(curves: list[LoopCurve], title: str) -> bytes:
     return _png(fig)
 
 
-def step(traces, what: str, title: str, rows=(), measures=None) -> bytes:
+def step(
+    traces: list[tuple], what: str, title: str, rows: Sequence[MeasureRow] = (), measures: StepMeasures | None = None
+) -> bytes:
     """Step responses (t, y, label, line style), with the requirements of ``rows``: the
     overshoot ceiling, the settling band from the settling-time target on, the rise-time
     bound (about the final value of ``measures``, the design's)."""

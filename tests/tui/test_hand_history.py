@@ -9,13 +9,13 @@ import pytest
 
 from sessions.runner import replay
 from tests.tui.test_app import settle, synchronous
-from tests.tui.test_shape_table import _lead_app, _values
+from tests.tui.test_shape_table import lead_app, start_values
 from tui.screens.dialogs import StartDialog
 
 
 @synchronous
 async def test_a_hand_move_between_runs_is_kept_shown_and_replayed(tmp_path, monkeypatch):
-    app = _lead_app(tmp_path, monkeypatch)
+    app = lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         for _ in range(2):
@@ -36,7 +36,7 @@ async def test_a_hand_move_between_runs_is_kept_shown_and_replayed(tmp_path, mon
         (change,) = earlier[1].changes
         assert change.name == "T1" and change.before == pytest.approx(run_end["T1"], rel=1e-12)
         assert change.after == pytest.approx(run_end["T1"] / 1.05**2, rel=1e-9)  # the zero up twice by 5 %
-        assert _values(app)["T1"] == change.after and app.bench.iteration == 0
+        assert start_values(app)["T1"] == change.after and app.bench.iteration == 0
         await pilot.press("s")  # a new run, from the hand design
         await settle(app, pilot)
         assert app.bench.iteration == 1

@@ -14,9 +14,13 @@ from tui.screens.latest_work import LatestWork
 
 
 class Owner(App):
+    errors: list[str] = []
+
     @on(LatestWork.Done)
     def _done(self, message: LatestWork.Done) -> None:  # what an owner does
         message.work.done()
+        if message.error is not None:
+            self.errors.append(message.error)
 
 
 @synchronous
@@ -43,6 +47,14 @@ async def test_requests_made_while_one_runs_leave_only_the_latest_waiting():
         await pilot.pause()
         await app.workers.wait_for_complete()
         assert ran == [0, 29] and work.running is None and work.waiting is None
+
+        def broken() -> None:
+            raise ValueError("no figure")
+
+        work.request(broken, "bad")
+        await app.workers.wait_for_complete()
+        await pilot.pause()
+        assert app.errors == ["ValueError: no figure"] and work.running is None  # said, and the app goes on
 
 
 @synchronous

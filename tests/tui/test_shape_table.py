@@ -19,7 +19,7 @@ from tui.cli import main
 PLANT = ct.tf([1], [1, 10, 0, 0])
 
 
-def _values(app) -> dict[str, float]:
+def start_values(app) -> dict[str, float]:
     return {p.name: p.value for p in app.bench.session.model.problem.parameters}
 
 
@@ -27,7 +27,7 @@ def _loop(values) -> ct.TransferFunction:
     return ct.tf([values["K"] * values["T1"], values["K"]], [values["T2"], 1]) * PLANT
 
 
-def _lead_app(tmp_path, monkeypatch) -> LoopcraftApp:
+def lead_app(tmp_path, monkeypatch) -> LoopcraftApp:
     """The app on a new lead session for 1/(s^2 (s+10)): K*(1+T1*s)/(1+T2*s)."""
     monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
     path = tmp_path / "lead.json"
@@ -45,7 +45,7 @@ async def _typed(app, pilot, key: str, text: str) -> None:
 
 @synchronous
 async def test_a_lead_shaped_by_keys(tmp_path, monkeypatch):
-    app = _lead_app(tmp_path, monkeypatch)
+    app = lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         await pilot.press("C")
@@ -53,25 +53,25 @@ async def test_a_lead_shaped_by_keys(tmp_path, monkeypatch):
         table = app.screen.query_one("#shape")
         assert app.focused is table and table.names == ["compensator.gain", "compensator.zero1", "compensator.pole1"]
         await _typed(app, pilot, "g", "1")  # the gain for a 1 rad/s crossover
-        assert abs(_loop(_values(app))(1j)) == pytest.approx(1.0, rel=1e-10)
+        assert abs(_loop(start_values(app))(1j)) == pytest.approx(1.0, rel=1e-10)
         assert table.check_action("damp", ()) is None  # the gain is no pair: [ ] disabled
         await pilot.press("down")
-        before = _values(app)
+        before = start_values(app)
         await pilot.press(*["left"] * 6)  # the zero 5 % lower, six times: one burst
         await settle(app, pilot)
-        after = _values(app)
+        after = start_values(app)
         assert after["T1"] == pytest.approx(before["T1"] * 1.05**6, rel=1e-9) and after["K"] == before["K"]
         assert app.bench.edits.last.startswith("edit: T1 value: 1 -> 1.34")
         await _typed(app, pilot, "G", "45")  # then the gain for a 45 deg phase margin
-        _, pm, _, _, wc, _ = ct.stability_margins(_loop(_values(app)))
+        _, pm, _, _, wc, _ = ct.stability_margins(_loop(start_values(app)))
         assert pm == pytest.approx(45.0, abs=1e-6) and wc > 1.0
         await pilot.press("down")
         await _typed(app, pilot, "e", "12")  # the pole typed at 12 rad/s (the session keeps T1 <= 20 T2)
-        assert _values(app)["T2"] == pytest.approx(1 / 12, rel=1e-10)
+        assert start_values(app)["T2"] == pytest.approx(1 / 12, rel=1e-10)
         for _ in range(3):  # the pole, the PM gain, the burst: three undo steps
             await pilot.press("ctrl+z")
             await settle(app, pilot)
-        assert _values(app)["T1"] == before["T1"] and _values(app)["K"] == before["K"]
+        assert start_values(app)["T1"] == before["T1"] and start_values(app)["K"] == before["K"]
 
 
 TUTORIAL = ["C", "g", "1", "enter", "down"]  # docs/tutorial.md, "Shaping a lead by hand"
@@ -81,7 +81,7 @@ TUTORIAL = ["C", "g", "1", "enter", "down"]  # docs/tutorial.md, "Shaping a lead
 async def test_the_tutorials_lead_takes_well_under_thirty_keys(tmp_path, monkeypatch):
     """The issue's lead for 1/(s^2 (s+10)) by hand: the gain for a 1 rad/s crossover, then the
     zero nudged down until PM >= 45 deg (python-control's margins of the design on screen)."""
-    app = _lead_app(tmp_path, monkeypatch)
+    app = lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         keys = 0
@@ -92,11 +92,11 @@ async def test_the_tutorials_lead_takes_well_under_thirty_keys(tmp_path, monkeyp
                 await pilot.press(key)
             keys += 1
             await settle(app, pilot)
-        while ct.stability_margins(_loop(_values(app)))[1] < 45 and keys < 30:
+        while ct.stability_margins(_loop(start_values(app)))[1] < 45 and keys < 30:
             await pilot.press("left")
             await settle(app, pilot)
             keys += 1
-        gm, pm, _, _, wc, _ = ct.stability_margins(_loop(_values(app)))
+        gm, pm, _, _, wc, _ = ct.stability_margins(_loop(start_values(app)))
         print(f"keys {keys}: PM {pm:.2f} deg, GM {20 * math.log10(gm):.2f} dB, crossover {wc:.4g} rad/s")
         assert pm >= 45 and keys == 12 and 20 * math.log10(gm) >= 8 and wc >= 1.0
 
@@ -106,12 +106,12 @@ async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
     """+ adds a notch about the crossover (its zero and pole pairs, wn and zeta named for
     what they are), - deletes the lead's zero with its factor, its parameter and the
     constraint on it (asked first); the loop checked against python-control."""
-    app = _lead_app(tmp_path, monkeypatch)
+    app = lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         await pilot.press("C")
         await settle(app, pilot)
-        wc = ct.stability_margins(_loop(_values(app)))[4]
+        wc = ct.stability_margins(_loop(start_values(app)))[4]
         await pilot.press("plus")
         await pilot.pause()
         option = app.screen.query_one("OptionList")
@@ -122,11 +122,12 @@ async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
         assert block.expression == (
             "K*(1+T1*s)*(1+2*notch1_zz*s/notch1_wz+(s/notch1_wz)^2)/((1+T2*s)*(1+2*notch1_zp*s/notch1_wp+(s/notch1_wp)^2))"
         )
-        values = _values(app)
+        values = start_values(app)
         assert values["notch1_wz"] == values["notch1_wp"] == pytest.approx(wc, rel=1e-6)
         table = app.screen.query_one("#shape")
         assert {"compensator.zeropair1", "compensator.polepair1"} <= set(table.names)
-        notch = ct.tf([1 / wc**2, 2 * 0.05 / wc, 1], [1 / wc**2, 2 * 0.5 / wc, 1])
+        wn = values["notch1_wz"]  # the notch where loopcraft placed it (its crossover, checked above to 1e-6)
+        notch = ct.tf([1 / wn**2, 2 * 0.05 / wn, 1], [1 / wn**2, 2 * 0.5 / wn, 1])
         w = np.array([0.3 * wc, wc, 3 * wc])
         c = app.bench.session.problem.conditions[0]
         ours = loop_curve(c.network, c.break_at, w, app.bench.session.problem.condition_values(0), "").gh
@@ -138,10 +139,10 @@ async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
         await settle(app, pilot)
         block = app.bench.session.model.problem.conditions[0].plant.blocks[0].transfer
         assert block.expression.startswith("K*(1+2*notch1_zz*s/notch1_wz+(s/notch1_wz)^2)/")
-        assert "T1" not in _values(app) and not any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
+        assert "T1" not in start_values(app) and not any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
         await pilot.press("ctrl+z")  # one undo brings the zero, T1 and its constraint back
         await settle(app, pilot)
-        assert "T1" in _values(app) and any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
+        assert "T1" in start_values(app) and any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
 
 
 @synchronous

@@ -301,6 +301,11 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     elif args.ss is not None:
         network = _state_space_loop(args)
         omega = np.geomspace(args.wmin, args.wmax, args.points)
+    elif args.variable == "z" and (args.tf or args.held):
+        if args.delay and not args.held:
+            raise CliError("--delay with --variable z: a delay of k samples is a factor z^-k of a --tf expression")
+        network = unity_feedback([*(args.tf or []), *_held(args)], "z")
+        omega = np.geomspace(args.wmin, args.wmax, args.points)
     elif not args.tf:
         raise CliError("give --tf EXPR (repeatable), --ss FILE or --table FILE.csv")
     else:
@@ -314,6 +319,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
             f"take numbers, the variable {args.variable!r}, delay factors exp(-T*s) "
             "and names given by --param NAME=VALUE)"
         )
+    if args.sample_time is not None and args.variable != "z":
+        raise CliError("--sample-time is a loop in z's: give --variable z (and the loop in z)")
     if args.variable == "z":
         result = _sampled(args, network, omega, params)
         locus = None
@@ -341,13 +348,43 @@ def _sampled(args: argparse.Namespace, network, omega, params):
     T = args.sample_time
     if T is None:
         raise CliError("--variable z needs --sample-time T (seconds): the frequencies are reported in rad/s")
-    if args.table is not None or args.ss is not None or args.delay:
-        raise CliError("--variable z: give the loop as --tf expressions in z (a delay of k samples: z^-k)")
+    if args.table is not None or args.ss is not None:
+        raise CliError("--variable z: give the loop as --tf expressions in z, and --held expressions in s")
     if not (math.isfinite(T) and T > 0):
         raise CliError(f"--sample-time {T!r}: a finite number of seconds > 0")
     nyquist = math.pi / T
     omega = np.geomspace(min(args.wmin, 1e-3 * nyquist), nyquist * (1 - 1e-9), args.points)
     return analyze_sampled(network, "e", omega, params, T, skew=args.skew)
+
+
+def _held(args: argparse.Namespace) -> list[str]:
+    """The --held continuous blocks (expressions in s) discretized by --discretize (zero-order
+    hold by default, --delay taken as whole and fractional samples): polynomials in z."""
+    from engine.errors import EngineError
+    from engine.model.blocks import ExpressionTransfer
+    from engine.model.discretize import matched, tustin, zoh
+
+    if args.held and args.sample_time is None:
+        raise CliError("--variable z needs --sample-time T (seconds): the frequencies are reported in rad/s")
+    if args.delay and args.discretize != "zoh":
+        raise CliError(f"--delay: a delay is discretized with its hold (--discretize zoh), not by {args.discretize}")
+    out = []
+    for text in args.held or []:
+        try:
+            r = ExpressionTransfer(text, "s").rational({})
+            if args.discretize == "zoh":
+                num, den = zoh(r.num, r.den, args.sample_time, args.delay)
+            else:
+                num, den = (tustin if args.discretize == "tustin" else matched)(r.num, r.den, args.sample_time)
+        except EngineError as exc:
+            raise CliError(f"--held {text!r}: {exc}") from None
+        out.append(f"({_polynomial(num)})/({_polynomial(den)})")
+    return out
+
+
+def _polynomial(c) -> str:
+    n = len(c) - 1
+    return "+".join(f"({float(v)!r})*z^{n - k}" for k, v in enumerate(c))
 
 
 def _session_design(args: argparse.Namespace) -> int:
@@ -480,6 +517,18 @@ def add_parser(sub) -> None:
         default="s",
         choices=["s", "w", "z"],
         help="frequency variable (w: w-plane; z: with --sample-time)",
+    )
+    p.add_argument(
+        "--held",
+        action="append",
+        metavar="EXPR",
+        help="a loop in z: a continuous block (in s, numbers only) discretized by --discretize (repeatable)",
+    )
+    p.add_argument(
+        "--discretize",
+        choices=["zoh", "tustin", "matched"],
+        default="zoh",
+        help="how --held blocks are discretized (default zoh: exact, with --delay as whole and fractional samples)",
     )
     p.add_argument(
         "--sample-time",

@@ -26,16 +26,18 @@ class LatestWork:
         """Run ``compute`` now, or after the running one (replacing any waiting)."""
         if self.running is None:
             self._start(key, compute)
-        elif key != self.running and (self.waiting is None or key != self.waiting[0]):
+        elif key == self.running:
+            self.waiting = None  # back to the design being computed: the one waiting is stale
+        elif self.waiting is None or key != self.waiting[0]:
             self.waiting = (key, compute)
 
     class Done(Message):
         """A computation of ``work`` finished (posted by its thread to the owner, whose
-        handler calls `LatestWork.done`)."""
+        handler calls `LatestWork.done`); ``error``: what it raised, if it failed."""
 
-        def __init__(self, work: LatestWork) -> None:
+        def __init__(self, work: LatestWork, error: str | None = None) -> None:
             super().__init__()
-            self.work = work
+            self.work, self.error = work, error
 
     def _start(self, key: object, compute: Callable[[], None]) -> None:
         self.running = key
@@ -44,10 +46,12 @@ class LatestWork:
         def run() -> None:
             try:
                 compute()
-            finally:
+            except Exception as exc:  # noqa: BLE001 - a figure that cannot be made must not end the app
+                owner.post_message(self.Done(self, f"{type(exc).__name__}: {exc}"))
+            else:
                 owner.post_message(self.Done(self))
 
-        owner.run_worker(run, thread=True, group=self.group)
+        owner.run_worker(run, thread=True, group=self.group, exit_on_error=False)
 
     def done(self) -> None:
         """(UI thread, on `Done`) The running one finished: the waiting one, if any, runs next."""

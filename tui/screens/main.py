@@ -292,6 +292,8 @@ class MainScreen(Screen):
     @on(LatestWork.Done)
     def _work_done(self, message: LatestWork.Done) -> None:
         message.work.done()
+        if message.error is not None:
+            self.notify(message.error, title=f"cannot draw ({message.work.group})", severity="error", timeout=10)
 
     @on(ViewActions.LocusDrawn)
     def _locus_drawn(self, message: ViewActions.LocusDrawn) -> None:

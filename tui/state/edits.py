@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
@@ -27,6 +27,10 @@ from sessions.forms import transfers as transfer_forms
 from sessions.hand_history import note_edit
 from sessions.lifecycle import folder
 from tui.state.workbench import Workbench
+
+if TYPE_CHECKING:  # scipy behind them: imported where used, never before the first paint
+    from engine.design.compensator_items import Item
+    from engine.design.resonances import Resonance
 
 Ref = tuple[Any, ...]  # a path into the problem model: attribute names and list indices
 Check = Callable[[str], str | None]
@@ -158,7 +162,7 @@ def add_part(bench: Workbench, block: str, kind: str) -> str:
     return f"{block}: {kind} added about {w:.4g} rad/s ({', '.join(names)})"
 
 
-def notch_on(bench: Workbench, block: str, resonance: Any) -> str:
+def notch_on(bench: Workbench, block: str, resonance: Resonance) -> str:
     """A notch on a resonance (`engine.design.resonances`) in a compensator, as one
     transaction; what it added."""
     from sessions.compensator_parts import notch_on as added
@@ -169,7 +173,7 @@ def notch_on(bench: Workbench, block: str, resonance: Any) -> str:
     return f"{block}: notch on {resonance.text} ({', '.join(names)})"
 
 
-def resonances(bench: Workbench) -> list:
+def resonances(bench: Workbench) -> list[Resonance]:
     """The plotted condition's resonances at the start values (`engine.design.resonances`)."""
     from engine.design.resonances import resonances as found
 
@@ -180,7 +184,7 @@ def resonances(bench: Workbench) -> list:
     return found(problem.conditions[k].network, problem.condition_values(k))
 
 
-def remove_item(bench: Workbench, name: str, item: Any, draft: ProblemModel | None = None) -> str:
+def remove_item(bench: Workbench, name: str, item: Item, draft: ProblemModel | None = None) -> str:
     """Delete a compensator's item (``block.item`` of the plotted condition) with the
     factor that holds it, as one transaction (on ``draft`` alone, a copy, to say first
     what would go); what went."""
