@@ -364,10 +364,15 @@ class Slp(BoundStepper):
 
     def rows(self, point: Point) -> tuple[MeasureRow, ...]:
         """The tableau of a point: every row with its requirement and whether it is met."""
+        return tuple(MeasureRow(*fields) for fields in self.row_fields(point))
+
+    def row_fields(self, point: Point) -> list[tuple]:
+        """Each row of `rows` as the tuple of its `MeasureRow` fields, in their order (a batch of
+        samples, `sessions.sweeps.batch_study`, writes them as JSON without making the rows)."""
         out = []
         for spec, v, f in zip(self.specs, point.values, point.frequencies):
             out.append(
-                MeasureRow(
+                (
                     spec.name,
                     spec.kind,
                     self.problem.conditions[spec.condition].name,
@@ -379,7 +384,7 @@ class Slp(BoundStepper):
                     absent_reason(spec.kind, float(v)) if absent_row(spec, v, f) else None,
                 )
             )
-        return tuple(out)
+        return out
 
     @guarded("slp")
     def initial_record(self, state: State) -> StepRecord:

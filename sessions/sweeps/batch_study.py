@@ -17,6 +17,7 @@ study's note says how many.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -210,7 +211,7 @@ def _run(study: _Study, job, x: np.ndarray, loops: list[SampleLoop | None], shar
         values.append(value)
         frequencies.append(frequency)
     point = stepper.point_at(x, np.array(values, dtype=float), np.array(frequencies, dtype=float))
-    rows = stepper.rows(point)
+    rows = [_row_json(fields) for fields in stepper.row_fields(point)]
     return {
         "index": job.index,
         "label": job.label,
@@ -221,15 +222,19 @@ def _run(study: _Study, job, x: np.ndarray, loops: list[SampleLoop | None], shar
         "iterations": 0,
         "parameters": {**study.named, **job.start},
         "ranking": point.merit,
-        "measures": [_row_json(row) for row in rows],
-        "meets_requirements": all(row.satisfied for row in rows),
+        "measures": rows,
+        "meets_requirements": all(row["satisfied"] for row in rows),
         "seconds": share,
     }
 
 
-def _row_json(row: MeasureRow) -> dict:
-    """A tableau row as `StepRecord.to_json` writes it (non-finite numbers as 'inf', '-inf', 'nan')."""
-    out = dict(vars(row))
+ROW_FIELDS = tuple(f.name for f in dataclasses.fields(MeasureRow))
+
+
+def _row_json(fields: tuple) -> dict:
+    """A tableau row (its `MeasureRow` fields) as `StepRecord.to_json` writes it (non-finite
+    numbers as 'inf', '-inf', 'nan')."""
+    out = dict(zip(ROW_FIELDS, fields))
     for key in ("value", "desired", "frequency"):
         number = out[key]
         if number is not None and not math.isfinite(number):

@@ -19,7 +19,7 @@ from collections.abc import Callable
 import control as ct
 import numpy as np
 
-from tests.bench import algorithms, analyze_path, loops, plots, shaping, startup
+from tests.bench import algorithms, analyze_path, loops, plots, shaping, startup, tolerance
 from tests.bench.common import missed, targets
 from tests.bench.loops import benchmark_loop  # tests/engine/test_margins_reference.py imports it from here
 
@@ -41,6 +41,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
     "shaping": lambda r: {"shaping_nudge": shaping.nudge_latency(r)},
     "startup": lambda r: {"startup": startup.cli_startup(min(r, 15))},
     "sweep": lambda r: {"sweep_throughput": startup.sweep_throughput()},
+    "tolerance": lambda r: {"tolerance_study": tolerance.tolerance_figures(r)},
 }
 
 

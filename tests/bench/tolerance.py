@@ -1,0 +1,196 @@
+"""Tolerance studies (issue 41, section 1): the lag-lead study of 2000 samples
+evaluated as a batch against python-control looping `stability_margins` and the
+closed-loop poles over the same samples (interleaved, median of per-pair ratios),
+its margins checked against the per-loop path; 100 000 samples serially in a fresh
+process (time and peak memory, beside 10 000 for the memory's growth); the
+three-condition launch-vehicle study of 1000 samples (it stays per loop: its peak
+and time rows are not batched) against today's per-loop path.
+
+    python -m tests.bench.tolerance SAMPLES    # one lag-lead study in this process: JSON on stdout
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import subprocess
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import control as ct
+import numpy as np
+
+from tests.bench.common import compared, samples, timed
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+LAG_LEAD = ["T1=+-10%", "T2=+-10%"]
+LAUNCH_VEHICLE = ["WF=+-10%", "ZF=+-10%", "TA=+-10%"]  # the bending filter's frequency and damping, the actuator lag
+EXACT = 1e-12
+CHECKED_SAMPLES = 300  # samples whose runs the per-loop path makes again (the check, and today's time)
+
+
+def _jobs(name: str, tolerances: list[str], count: int, seed: int = 0) -> list:
+    from sessions.store import load_session
+    from sessions.sweeps.plan import plan
+
+    return plan(load_session(EXAMPLES / name), "tolerance", tolerances, None, seed, count)[0]
+
+
+def _python_control(jobs: list) -> None:
+    """What the study reports, the python-control way: every sample's loop as a transfer
+    function, its margins (stability_margins, returnall) and closed-loop poles."""
+    plant = ct.tf([16000.0], [1.0, 28.0, 160.0, 0.0])
+    for job in jobs:
+        p = {e["name"]: e["value"] for e in job.model["problem"]["parameters"]}
+        compensator = ct.tf(np.polymul([p["T1"], 1.0], [p["T2"], 1.0]), np.polymul([p["T3"], 1.0], [p["T4"], 1.0]))
+        loop = compensator * plant
+        ct.stability_margins(loop, returnall=True)
+        ct.feedback(loop, 1).poles()
+
+
+def _worst_difference(batch: list[dict], loop: list[dict]) -> tuple[float, float]:
+    """The largest relative difference of the margin rows (values and frequencies) and of the
+    stability abscissa between the batch's runs and the per-loop path's."""
+    margin = abscissa = 0.0
+    for got, want in zip(batch, loop, strict=True):
+        for a, b in zip(got["measures"], want["measures"], strict=True):
+            for key in ("value", "frequency"):
+                if isinstance(b[key], float):
+                    off = abs(a[key] - b[key]) / abs(b[key])
+                    if a["kind"] == "stability_abscissa":
+                        abscissa = max(abscissa, off)
+                    else:
+                        margin = max(margin, off)
+                elif a[key] != b[key]:
+                    margin = float("inf")
+    return margin, abscissa
+
+
+def lag_lead(repeat: int) -> dict:
+    """The 2000-sample study against python-control, and its first samples against the per-loop path."""
+    from sessions.sweeps.jobs import execute_serial, run_job
+
+    jobs = _jobs("coebra_lag_lead.json", LAG_LEAD, 2000)
+    outcome = execute_serial(jobs)
+    figure = compared(lambda i: execute_serial(jobs), lambda i: _python_control(jobs), repeat, target=20.0)
+    figure.update(
+        ours_per_sample_us=figure["ours_median_s"] / len(jobs) * 1e6,
+        theirs_per_sample_us=figure["theirs_median_s"] / len(jobs) * 1e6,
+        note=outcome.note,
+    )
+    first = jobs[:CHECKED_SAMPLES]
+    per_loop = lambda i: [run_job(job.payload()) for job in first]  # noqa: E731
+    batch, loop = samples([lambda i: execute_serial(first), per_loop], 1)
+    margin, abscissa = _worst_difference(execute_serial(first).runs, per_loop(0))
+    return {
+        "vs_python_control": figure,
+        "vs_per_loop": {
+            "samples": len(first),
+            "per_loop_per_sample_us": loop[0] / len(first) * 1e6,
+            "batch_per_sample_us": batch[0] / len(first) * 1e6,
+            "ratio": loop[0] / batch[0],
+        },
+        "margins_equal_per_loop": {
+            "samples": len(first),
+            "worst_relative_difference": margin,
+            "stability_abscissa_worst_relative_difference": abscissa,
+            "checked": margin <= EXACT,
+            "target": f"every margin and frequency within {EXACT:g} relative",
+            "target_kind": "check",
+            "met": margin <= EXACT,
+            "enforced": True,
+        },
+    }
+
+
+def study(count: int) -> dict:
+    """One lag-lead study of ``count`` samples as `loopcraft sweep --serial` makes it (plan, runs,
+    summary) in this process: the stages' times and the process's peak memory."""
+    from sessions.store import load_session
+    from sessions.sweeps.jobs import execute_serial
+    from sessions.sweeps.plan import plan
+    from sessions.sweeps.results import summarize
+
+    session = load_session(EXAMPLES / "coebra_lag_lead.json")
+    began = time.perf_counter()
+    jobs, settings = plan(session, "tolerance", LAG_LEAD, None, 0, count)
+    planned = time.perf_counter()
+    outcome = execute_serial(jobs)
+    ran = time.perf_counter()
+    summarize(session, "tolerance", settings, outcome)
+    done = time.perf_counter()
+    return {
+        "samples": count,
+        "seconds": done - began,
+        "plan_s": planned - began,
+        "runs_s": ran - planned,
+        "summary_s": done - ran,
+        "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "note": outcome.note,
+    }
+
+
+def _in_fresh_process(count: int) -> dict:
+    command = [sys.executable, "-m", "tests.bench.tolerance", str(count)]
+    return json.loads(subprocess.run(command, capture_output=True, text=True, check=True).stdout)
+
+
+def hundred_thousand() -> dict:
+    """100 000 samples serially in a fresh process (target 30 s, reported), beside 10 000, and the
+    batch's own memory (what it holds beyond the runs it returns) at two sizes."""
+    small, large = _in_fresh_process(10_000), _in_fresh_process(100_000)
+    return {
+        "samples_100000": {**timed(large["seconds"], 30.0), **large},
+        "samples_10000": small,
+        "memory_growth_mb_per_1000_samples": (large["peak_memory_mb"] - small["peak_memory_mb"]) / 90,
+        "batch_working_memory": [_working_memory(count) for count in (2000, 20_000)],
+    }
+
+
+def _working_memory(count: int) -> dict:
+    """The batch's peak traced memory beyond the runs it keeps (bounded by its chunk), and the runs' size."""
+    from sessions.sweeps.batch_study import batch_runs
+
+    jobs = _jobs("coebra_lag_lead.json", LAG_LEAD, count)
+    tracemalloc.start()
+    outcome = batch_runs(jobs)
+    kept, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert outcome is not None and len(outcome.runs) == count
+    return {"samples": count, "working_mb": (peak - kept) / 2**20, "runs_kb_per_sample": kept / count / 1024}
+
+
+def launch_vehicle(pairs: int = 3, count: int = 1000, compared_samples: int = 100) -> dict:
+    """The 1000-sample three-condition study (per loop: reported), and today's per-loop path
+    against the study's path on its first samples, interleaved."""
+    from sessions.sweeps.jobs import execute_serial, run_job
+
+    jobs = _jobs("coebra_launch_vehicle.json", LAUNCH_VEHICLE, count)
+    began = time.perf_counter()
+    outcome = execute_serial(jobs)
+    seconds = time.perf_counter() - began
+    first = jobs[:compared_samples]
+    today = compared(lambda i: execute_serial(first), lambda i: [run_job(job.payload()) for job in first], pairs)
+    return {
+        "samples_1000": {
+            **timed(seconds),
+            "per_sample_ms": seconds / count * 1e3,
+            "path": outcome.note or "per loop (peak and time rows; loops that are not single cascades: not batched)",
+        },
+        "vs_today": {**today, "samples": compared_samples},
+    }
+
+
+def tolerance_figures(repeat: int) -> dict:
+    """Every figure of the group (`make bench`: ``--only tolerance``)."""
+    return {
+        "lag_lead_2000": lag_lead(max(3, repeat // 6)),
+        "lag_lead_serial": hundred_thousand(),
+        "launch_vehicle": launch_vehicle(),
+    }
+
+
+if __name__ == "__main__":
+    print(json.dumps(study(int(sys.argv[1]))))
