@@ -47,13 +47,14 @@ def batch_margins(forms: BatchForms) -> list[SampleLoop | None]:
     dc = _dc_values(forms)
     gain = _per_sample("G", found.phase, found.phase_gh)
     phase = _per_sample("P", found.gain, found.gain_gh)
+    odd, certified, abscissa = forms.odd.tolist(), found.certified.tolist(), found.abscissa.tolist()
     out: list[SampleLoop | None] = []
     for k in range(forms.gain.size):
-        if forms.odd[k]:
+        if odd[k]:
             out.append(None)
-        elif found.certified[k]:
+        elif certified[k]:
             margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), (), method="refined")
-            out.append(SampleLoop(margins, float(found.abscissa[k]), True))
+            out.append(SampleLoop(margins, abscissa[k], True))
         else:
             out.append(sample_loop(forms, k))
     return out
@@ -63,23 +64,24 @@ def _per_sample(kind: str, w: NDArray, gh: NDArray) -> list[list[Margin]]:
     """Each row's margins of one kind at its frequencies (NaN padding left out), made in one call."""
     found = np.isfinite(w)
     every = margins_of(kind, w[found], gh[found])
-    ends = np.concatenate([[0], np.cumsum(found.sum(axis=1))])
+    ends = np.concatenate([[0], np.cumsum(found.sum(axis=1))]).tolist()
     return [every[ends[k] : ends[k + 1]] for k in range(w.shape[0])]
 
 
-def _with_dc(gain: list[Margin], dc: complex) -> tuple[Margin, ...]:
+def _with_dc(gain: list[Margin], dc: complex | None) -> tuple[Margin, ...]:
     """The gain margins with GH(0) first when it is finite and negative (a loop without an
     integrator whose DC gain is on the negative real axis), as the per-loop path lists them."""
-    if np.isfinite(dc) and dc.real < 0:
+    if dc is not None and dc.real < 0:
         return (single_margin("G", 0.0, dc), *(m for m in gain if m.frequency > 0))
     return tuple(gain)
 
 
-def _dc_values(forms: BatchForms) -> NDArray[np.complex128]:
-    """GH(0) of every sample, real (not finite with an integrator)."""
+def _dc_values(forms: BatchForms) -> list[complex | None]:
+    """GH(0) of every sample, real; None where it is not finite (an integrator)."""
     with np.errstate(all="ignore"):
         value = forms.gain * np.prod(-forms.zeros, axis=1) / np.prod(-forms.poles, axis=1)
-    return np.where(np.isfinite(value), value.real, np.nan).astype(complex)
+    finite = np.isfinite(value).tolist()
+    return [complex(v, 0.0) if ok else None for v, ok in zip(value.real.tolist(), finite)]
 
 
 def sample_loop(forms: BatchForms, k: int) -> SampleLoop | None:
@@ -94,7 +96,9 @@ def sample_loop(forms: BatchForms, k: int) -> SampleLoop | None:
     found, start = {}, 0
     for name, points in frequencies.items():
         found[name], start = margins_of(name, points, values[start : start + points.size]), start + points.size
-    gain = _with_dc([m for m in found["G"] if m.gh.real < 0], _dc_values(forms)[k])
+    with np.errstate(all="ignore"):
+        dc = form(np.zeros(1))[0][0]
+    gain = _with_dc([m for m in found["G"] if m.gh.real < 0], complex(dc.real, 0.0) if np.isfinite(dc) else None)
     margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), (), method="refined")
     abscissa = float(-np.max(levels.closed.real)) if levels.closed.size else math.inf
     return SampleLoop(margins, abscissa, False)

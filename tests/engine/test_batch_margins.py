@@ -117,3 +117,12 @@ def test_odd_samples_are_left_to_the_per_loop_path():
 )
 def test_delay_and_tabulated_loops_have_no_batch_form(network):
     assert batch_pole_zero(network, "e", {"k": np.array([1.0, 2.0])}) is None
+
+
+def test_a_negative_dc_gain_is_a_gain_margin_at_zero():
+    """GH(0) on the negative real axis (no integrator): the gain margin at 0 rad/s, listed first."""
+    rng = np.random.default_rng(5)
+    network = unity_feedback(["-k/((s/a + 1)*(s**2/b**2 + 0.2*s/b + 1))"])
+    found = _check_against_per_loop(network, _samples({"k": 0.5, "a": 2.0, "b": 10.0}, 20, 0.3, rng))
+    assert all(sample.margins.gain[0].frequency == 0.0 for sample in found if sample is not None)
+    assert sum(sample is not None and sample.batched for sample in found) >= 15

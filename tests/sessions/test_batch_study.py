@@ -108,3 +108,21 @@ def test_the_serial_sweep_says_how_many_samples_were_batched(tmp_path, capsys):
     summary = json.loads(out.out)
     assert "40 of 40 samples evaluated as a batch" in summary["settings"]["note"]
     assert "evaluated as a batch" in out.err
+
+
+def test_two_flight_conditions_and_a_value_per_condition(tmp_path):
+    """Every condition's loop is batched, a parameter with a value per condition draws one each."""
+    model = json.loads((EXAMPLES / "coebra_lag_lead.json").read_text())
+    second = copy.deepcopy(model["problem"]["conditions"][0])
+    second["name"] = "heavy"
+    second["plant"]["blocks"][1]["transfer"]["expression"] = "12000/(s*(s+6)*(s+25))"
+    model["problem"]["conditions"].append(second)
+    model["problem"]["parameters"][1]["value"] = [0.2, 0.25]  # T2, one per condition
+    path = tmp_path / "two.json"
+    path.write_text(json.dumps(model))
+    jobs = _jobs(path, 40)
+    batch = batch_runs(jobs)
+    assert batch is not None and batch.per_loop == 0
+    assert {m["condition"] for m in batch.runs[0]["measures"]} == {"nominal", "heavy"}
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
