@@ -17,7 +17,6 @@ study's note says how many.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -32,7 +31,6 @@ from engine.loop.batch_forms import batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp.algorithm import Slp
 from engine.slp.measures import frequency_value
-from engine.stepping.protocol import MeasureRow
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import bind
@@ -228,15 +226,22 @@ def _run(study: _Study, job, x: np.ndarray, loops: list[SampleLoop | None], shar
     }
 
 
-ROW_FIELDS = tuple(f.name for f in dataclasses.fields(MeasureRow))
-
-
 def _row_json(fields: tuple) -> dict:
-    """A tableau row (its `MeasureRow` fields) as `StepRecord.to_json` writes it (non-finite
-    numbers as 'inf', '-inf', 'nan')."""
-    out = dict(zip(ROW_FIELDS, fields))
-    for key in ("value", "desired", "frequency"):
-        number = out[key]
-        if number is not None and not math.isfinite(number):
-            out[key] = repr(number)
-    return out
+    """A tableau row (its `MeasureRow` fields, in their order) as `StepRecord.to_json` writes it
+    (non-finite numbers as 'inf', '-inf', 'nan')."""
+    name, kind, condition, value, desired, satisfied, frequency, at_least, method = fields
+    return {
+        "name": name,
+        "kind": kind,
+        "condition": condition,
+        "value": _number(value),
+        "desired": _number(desired),
+        "satisfied": satisfied,
+        "frequency": _number(frequency),
+        "at_least": at_least,
+        "method": method,
+    }
+
+
+def _number(value: float | None) -> float | str | None:
+    return value if value is None or math.isfinite(value) else repr(value)
