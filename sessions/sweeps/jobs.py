@@ -200,7 +200,8 @@ def execute(
     per core, one thread each), the cluster at ``scheduler`` (tcp://HOST:PORT,
     reached within ``timeout`` seconds) or a ``cluster`` named in Dask's configuration
     (`sessions.sweeps.named_clusters`).  With none of ``scheduler``, ``workers`` and
-    ``cluster`` given, the first run (or two) is made and timed here: the rest run here
+    ``cluster`` given, a tolerance study that can be is evaluated here as a batch
+    (`batch_here`); otherwise the first run (or two) is made and timed here: the rest run here
     too when a local cluster could not pay for its start-up.  Otherwise the first
     `FIRST_PER_WORKER` runs per worker are timed on the cluster, one to a task.  Runs
     shorter than `BATCH_SECONDS` then go to the workers in batches (`batch_size`); the
@@ -209,6 +210,9 @@ def execute(
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []
     if address is None and workers is None and cluster is None and jobs:  # a local cluster: maybe not worth it
+        batched = batch_here(jobs, progress)  # a batch in this process outruns a local cluster of single runs
+        if batched is not None:
+            return batched
         here, each, serial = _first_here(jobs, progress)
         if serial is not None:
             return serial
@@ -420,17 +424,26 @@ def _lost(job, exc: BaseException | None) -> dict:
     }
 
 
+def batch_here(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome | None:
+    """A tolerance study's samples evaluated as a batch in this process (`sessions.sweeps.batch_study`;
+    its note says how many went the per-loop path); None when the jobs are not such a study."""
+    from sessions.sweeps.batch_study import batch_runs  # (it runs the samples it leaves with run_job)
+
+    batch = batch_runs(jobs, progress)
+    if batch is None:
+        return None
+    rest = [_lost(job, None) for job in jobs[len(batch.runs) :]]
+    return Outcome(batch.runs + rest, 1, {}, batch.interrupted, batch.interrupted, batch.note, serial=True)
+
+
 def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome:
     """The same jobs in this process, one after the other (the throughput baseline);
     Ctrl-C stops it: the finished runs are kept, the rest cancelled.  A tolerance study
     that can be is evaluated as a batch (`sessions.sweeps.batch_study`; its note says
     how many samples went the per-loop path)."""
-    from sessions.sweeps.batch_study import batch_runs  # (it runs the samples it leaves with run_job)
-
-    batch = batch_runs(jobs, progress)
-    if batch is not None:
-        rest = [_lost(job, None) for job in jobs[len(batch.runs) :]]
-        return Outcome(batch.runs + rest, 1, {}, batch.interrupted, batch.interrupted, batch.note, serial=True)
+    batched = batch_here(jobs, progress)
+    if batched is not None:
+        return batched
     runs: list[dict] = []
     try:
         for job in jobs:

@@ -14,7 +14,7 @@ import pytest
 
 from sessions.store import load_session
 from sessions.sweeps.batch_study import batch_runs
-from sessions.sweeps.jobs import execute_serial, run_job
+from sessions.sweeps.jobs import execute, execute_serial, run_job
 from sessions.sweeps.plan import plan
 from tui.cli import main
 
@@ -125,4 +125,13 @@ def test_two_flight_conditions_and_a_value_per_condition(tmp_path):
     assert batch is not None and batch.per_loop == 0
     assert {m["condition"] for m in batch.runs[0]["measures"]} == {"nominal", "heavy"}
     for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+
+
+def test_without_a_cluster_asked_for_the_batch_runs_here(tmp_path):
+    """No scheduler, cluster or workers named: the batch in this process, not a local cluster."""
+    jobs = _jobs(_session(tmp_path), 30)
+    outcome = execute(jobs)
+    assert outcome.serial and outcome.note.startswith("30 of 30 samples evaluated as a batch")
+    for got, job in zip(outcome.runs, jobs, strict=True):
         _same_run(got, run_job(job.payload()))
