@@ -1,8 +1,8 @@
 """One design's loop, formed once: a network at fixed parameter values, and that
 network broken at one signal, with every form the analyses read (the blocks'
 poles, the closed loop's realization; per break: the fast evaluator, the
-pole-zero form, the broken network's realization), each computed on first use
-and then shared.
+pole-zero form, the broken network's realization and its rational part's
+roots), each computed on first use and then shared.
 
 Margins (`engine.loop.responses.loop_model`), the root locus and pole-zero
 map (`engine.closed_loop.root_locus`), the closed-loop poles and their polish
@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.loop.evaluator import LoopEvaluator
-from engine.loop.pole_zero import ZpkEvaluator, loop_realization, zpk_evaluator
+from engine.loop.pole_zero import ZpkEvaluator, loop_realization, realized_roots, without_delays, zpk_evaluator
 from engine.loop.realization import StateSpace, realize
 from engine.model.blocks import block_pole_zero
 from engine.model.network import Network
@@ -55,6 +55,24 @@ class DesignLoop:
     def realization(self) -> StateSpace:
         """The broken network's state space (inputs: the network's, then the loop input)."""
         return loop_realization(self.design.network, self.break_at, self.design.params)
+
+    @functools.cached_property
+    def rational_roots(self) -> tuple[Roots, Roots] | None:
+        """Zeros and poles of the loop's rational part (its delays unit gains: `without_delays`)
+        from a realization, as accurate as its eigenvalues (near clustered light roots, a few
+        digits short: the detection grid reads them as corners only); None when it has none."""
+        network = self.design.network
+        try:
+            ss = (
+                self.realization
+                if network.rational
+                else loop_realization(without_delays(network), self.break_at, self.design.params)
+            )
+            if ss.A.shape[0] == 0:
+                return None
+            return realized_roots(ss, network.signal(self.break_at))
+        except (np.linalg.LinAlgError, ValueError):  # an EngineError is a ValueError; scipy's LinAlgError numpy's
+            return None
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError, InterconnectionError
 from engine.loop.realization import StateSpace, realize
-from engine.model.blocks import StateSpaceTransfer, block_pole_zero
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer, block_pole_zero
 from engine.model.network import Network
 
 AGREEMENT = 1e-9
@@ -144,21 +144,12 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
         ss = loop_realization(network, break_at, params)
     except (EngineError, linalg.LinAlgError, ValueError):
         return None
-    k = network.signal(break_at)
-    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:]
-    n = A.shape[0]
-    if n == 0:
+    if ss.A.shape[0] == 0:
         return None
-    pencil = np.block([[A, B], [C, D]])
-    mass = np.zeros_like(pencil)
-    mass[:n, :n] = np.eye(n)
     try:
-        poles = linalg.eigvals(A)
-        with np.errstate(all="ignore"):
-            zeros = linalg.eigvals(pencil, mass)
+        zeros, poles = realized_roots(ss, network.signal(break_at))
     except (linalg.LinAlgError, ValueError):  # QZ not converging, or a realization not finite
         return None
-    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) < 1e12 * max(1.0, np.max(np.abs(poles))))]
     checks = _check_frequencies(zeros, poles)
     reference = _evaluated(exact, checks)
     if reference is None:
@@ -171,6 +162,36 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
         gain = complex(gain.real, 0.0)
     candidate = ZpkEvaluator(gain, zeros, poles)
     return candidate if _matches(candidate, checks, reference) else None
+
+
+def realized_roots(ss: StateSpace, k: int) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+    """Zeros and poles of the loop broken at signal ``k`` from the broken network's realization
+    ``ss`` (`loop_realization`): the finite generalized eigenvalues of ([[A, B], [C, D]], diag(I, 0))
+    short of 1e12 times the largest pole, and the eigenvalues of A.  scipy's LinAlgError or
+    ValueError when QZ does not converge or the realization is not finite."""
+    from scipy import linalg
+
+    A, B, C, D = ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:]
+    n = A.shape[0]
+    pencil = np.block([[A, B], [C, D]])
+    mass = np.zeros_like(pencil)
+    mass[:n, :n] = np.eye(n)
+    poles = linalg.eigvals(A)
+    with np.errstate(all="ignore"):
+        zeros = linalg.eigvals(pencil, mass)
+    largest = float(np.max(np.abs(poles))) if n else 0.0
+    return zeros[np.isfinite(zeros) & (np.abs(zeros) < 1e12 * max(1.0, largest))], poles
+
+
+def without_delays(network: Network) -> Network:
+    """The network with every delay a unit gain: the loop's rational part, whose poles and zeros
+    are the loop's own when its delays lie in series with it (a delay inside an inner loop gives
+    that loop infinitely many poles: these are then only the delay-free loop's)."""
+    entries = tuple(
+        replace(e, transfer=ExpressionTransfer("1")) if isinstance(e.transfer, DelayTransfer) else e
+        for e in network.entries
+    )
+    return Network(network.signals, network.inputs, entries, network.variable)
 
 
 def _check_frequencies(zeros: NDArray, poles: NDArray) -> NDArray[np.float64]:

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import EngineError
-from engine.loop.design import design
+from engine.loop.design import DesignLoop, design
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.model.network import Network, check_grid, solve
 
@@ -139,8 +139,9 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     exact = loop.evaluator
     corners, damps, is_pole = exact.corners(params)
     evaluate = loop.pole_zero or exact
-    if isinstance(evaluate, ZpkEvaluator) and not evaluate.factored:
-        corners, damps, is_pole = _with_loop_zeros(corners, damps, is_pole, evaluate.zeros)
+    own = _roots_no_block_has(loop, evaluate)
+    if own is not None:
+        corners, damps, is_pole = _with_loop_roots(corners, damps, is_pole, own)
     return LoopModel(
         w,
         None,
@@ -155,20 +156,32 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     )
 
 
-SAME_CORNER = 1e-6  # relative frequency plus damping difference within which a loop zero is a block's corner
+SAME_CORNER = 1e-6  # relative frequency plus damping difference within which a loop root is a block's corner
 
 
-def _with_loop_zeros(
-    corners: NDArray, damps: NDArray, is_pole: NDArray, zeros: NDArray
+def _roots_no_block_has(loop: DesignLoop, evaluate: Evaluator) -> NDArray | None:
+    """The loop's own zeros and poles, where they may differ from its blocks': branches summed (a rate
+    and an attitude channel, a plant's modes in parallel) make zeros no block has, an inner loop poles
+    no block has.  From the realized pole-zero form, or, for a loop that is not one cascade and has
+    none (a delay loop, a form off the network), from a realization of its rational part.  None for a
+    cascade: its roots are its blocks'."""
+    if isinstance(evaluate, ZpkEvaluator):
+        return None if evaluate.factored else np.concatenate([evaluate.zeros, evaluate.poles])
+    roots = None if loop.evaluator.cascade() is not None else loop.rational_roots
+    return None if roots is None else np.concatenate(roots)
+
+
+def _with_loop_roots(
+    corners: NDArray, damps: NDArray, is_pole: NDArray, roots: NDArray
 ) -> tuple[NDArray, NDArray, NDArray]:
-    """The blocks' corners and the loop's own light zeros (from its realized pole-zero form):
-    branches summed (a rate and an attitude channel, a plant's modes in parallel) make
-    zeros no block has, lightly damped between the modes, which the detection grid
-    must cluster around as around any light corner."""
+    """The blocks' corners and the loop's own light roots that no block has
+    (`_roots_no_block_has`), lightly damped between the modes or beside them,
+    which the detection grid must cluster around as around any light corner
+    (counted as corners, not as block poles: ``axis_poles`` stay the blocks')."""
     from engine.margins.detection_grid import LIGHT_DAMPING  # (detection imports this module)
 
-    zeros = zeros[np.isfinite(zeros) & (np.abs(zeros) > 0) & (zeros.imag > 0)]  # one of each complex pair
-    size, damping = np.abs(zeros), np.abs(zeros.real) / np.abs(zeros)
+    roots = roots[np.isfinite(roots) & (np.abs(roots) > 0) & (roots.imag > 0)]  # one of each complex pair
+    size, damping = np.abs(roots), np.abs(roots.real) / np.abs(roots)
     light = damping < LIGHT_DAMPING  # the grid clusters around light corners only (a far real zero
     size, damping = size[light], damping[light]  # would stretch its range by decades for nothing)
     known = np.zeros(size.size, dtype=bool)
