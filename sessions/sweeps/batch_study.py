@@ -29,6 +29,7 @@ from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
+from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
 from engine.slp.measures import frequency_value
 from sessions.build import build_problem
@@ -125,7 +126,7 @@ def _one_structure(jobs: Sequence) -> bool:
     """Are the jobs one session document but for their parameters' values and bounds, each
     drawing the same parameters (what a tolerance study's samples share)?"""
     base = jobs[0].model
-    if base.get("algorithm", {}).get("name") != "slp":
+    if base.get("algorithm", {}).get("name") != SLP.name:  # the batch records a sample as slp does
         return False
     study = getattr(jobs[0], "study", None)
     if study is not None and all(getattr(job, "study", None) is study for job in jobs):

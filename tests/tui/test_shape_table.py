@@ -139,7 +139,9 @@ async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
         await settle(app, pilot)
         block = app.bench.session.model.problem.conditions[0].plant.blocks[0].transfer
         assert block.expression.startswith("K*(1+2*notch1_zz*s/notch1_wz+(s/notch1_wz)^2)/")
-        assert "T1" not in start_values(app) and not any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
+        assert "T1" not in start_values(app) and not any(
+            "T1" in str(c) for c in app.bench.session.model.problem.constraints
+        )
         await pilot.press("ctrl+z")  # one undo brings the zero, T1 and its constraint back
         await settle(app, pilot)
         assert "T1" in start_values(app) and any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
