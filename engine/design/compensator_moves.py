@@ -198,7 +198,7 @@ def _least_squares(transfer, params, found, index, target, kind, bounds, unknown
 def _goal(found: list[Item], index: int, target: float, kind: str) -> tuple[tuple[int, ...], np.ndarray]:
     """The signature (`_signature`) of the items with item ``index`` moved to ``target``."""
     item = found[index]
-    w, zeta = abs(item.root), measure(item, "damping")
+    w, zeta = abs(item.root), _damping(item)  # signed: a right-half-plane pair keeps its side
     if kind == "damping":
         zeta = target
     else:
@@ -216,15 +216,15 @@ KINDS = ("zero", "pole", "zero pair", "pole pair", "integrator", "differentiator
 
 def _signature(found: list[Item]) -> tuple[tuple[int, ...], np.ndarray]:
     """How many items of each kind, and the log of the gain's size then for each kind in
-    turn the sorted log frequencies and, for pairs, the log dampings: what a joint move
-    holds (or moves)."""
+    turn the sorted log frequencies and, for pairs, the (signed) dampings: what a joint
+    move holds (or moves)."""
     out = [math.log(abs(found[0].root.real) or 1e-300)]
     counts = []
     for kind in KINDS:
         same = sorted((i for i in found if i.kind == kind), key=lambda i: abs(i.root))
         counts.append(len(same))
         out += [math.log(abs(i.root) or 1.0) for i in same]
-        out += [math.log(measure(i, "damping")) for i in same if kind.endswith("pair")]
+        out += [_damping(i) for i in same if kind.endswith("pair")]  # signed
     return tuple(counts), np.array(out)
 
 
@@ -245,6 +245,11 @@ def _log_bounds(value: float, low: float | None, high: float | None) -> tuple[fl
         else:
             hi = min(hi, u)
     return lo, hi
+
+
+def _damping(item: Item) -> float:
+    """A pair's damping with its sign (negative in the right half-plane)."""
+    return -item.root.real / abs(item.root)
 
 
 def _nearest(found: list[Item], like: Item) -> Item:
@@ -283,7 +288,8 @@ def _mover(
             if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
         )
         if item.kind.endswith("pair") and kind == "frequency":
-            others += abs(math.log(measure(_nearest(after, item), "damping") / measure(item, "damping")))
+            before, now = _damping(item), _damping(_nearest(after, item))
+            others += abs(now - before) / max(abs(before), 1e-9)  # signed: a right-half-plane pair's too
         ratio = change / (others + change * 1e-3 + 1e-300)
         if ratio > score[0]:
             best, score = name, (ratio, others / (change + 1e-300))

@@ -111,3 +111,17 @@ def test_a_negative_gain_is_moved_by_its_size_and_keeps_its_sign():
     label = next(e.label for e in network.entries if "K" in e.transfer.parameters)
     move = move_named(network, {"K": -3.0, "T1": 1.0, "T2": 0.1}, f"{label}.gain", lambda now: 2 * now)
     assert (move.now, move.target) == (3.0, 6.0) and move.values == {"K": pytest.approx(-6.0)}
+
+
+def test_a_right_half_plane_pair_moves_with_its_damping_s_sign_kept():
+    """x0 + x1 s + x2 s^2 with x1 < 0: zeros at wn 2, zeta -0.6.  Moving wn to 3 keeps
+    zeta -0.6 and the DC gain x0: x2 = x0/9, x1 = 2 zeta wn x2 = -0.4 (closed form)."""
+    from engine.design.compensator_moves import moved
+
+    transfer = ExpressionTransfer("(x0+x1*s+x2*s^2)/(1+y1*s)")
+    values = {"x0": 1.0, "x1": -0.6, "x2": 0.25, "y1": 0.1}
+    pair = next(k for k, i in enumerate(items(transfer, values)) if i.kind == "zero pair")
+    assert moved(transfer, values, pair, 3.0) == {
+        "x1": pytest.approx(-0.4, rel=1e-9),
+        "x2": pytest.approx(1 / 9, rel=1e-9),
+    }
