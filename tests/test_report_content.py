@@ -95,3 +95,28 @@ def test_frequencies_in_the_summary_are_in_the_grid_s_unit(tmp_path):
     table = next(b for b in blocks if b[0] == "table" and b[1][:2] == ("measure", "condition") and "at" in b[1])
     at = [float(row[5].split()[0]) for row in table[2] if row[5]]
     assert at and all(row[5].endswith(" hz") for row in table[2] if row[5]) and max(at) <= 10.0
+
+
+def test_compensators_with_per_condition_values_are_written_per_condition(tmp_path):
+    """coebra_launch_vehicle's gains are per condition: each of its three conditions gets
+    its own forms, labelled, with that condition's KD."""
+    import json
+    import shutil
+    from pathlib import Path
+
+    from sessions.report.content import report_blocks
+    from sessions.store import load_session
+
+    source = Path(__file__).resolve().parents[1] / "sessions" / "examples" / "coebra_launch_vehicle.json"
+    shutil.copy(source, tmp_path / "v.json")
+    data = json.loads((tmp_path / "v.json").read_text())
+    kd = next(p for p in data["problem"]["parameters"] if p["name"] == "KD")
+    kd["value"] = [0.5, 0.6, 0.7]
+    (tmp_path / "v.json").write_text(json.dumps(data))
+    blocks = report_blocks(load_session(tmp_path / "v.json"))
+    table = next(b for b in blocks if b[0] == "table" and b[1] == ("compensator", "form", "transfer function"))
+    labels = [row[0] for row in table[2] if row[0].startswith("attitude path")]
+    assert labels == ["attitude path (switch-in)", "attitude path (max-q)", "attitude path (switch-out)"]
+    rows = table[2]
+    constants = [rows[k + 1][2] for k, row in enumerate(rows) if row[0].startswith("attitude path")]
+    assert constants == ["0.5 / (1 + s/20)", "0.6 / (1 + s/20)", "0.7 / (1 + s/20)"]

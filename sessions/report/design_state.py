@@ -151,25 +151,37 @@ def _binds(value: Any, low: float | None, high: float | None) -> str:
 
 
 def compensator_forms(session: Session, named: dict[str, Any]) -> list[Block]:
-    """Each compensator block of the first condition: as typed, in time-constant and in
-    gain/zero/pole form at the design's values."""
+    """Each compensator block: as typed, in time-constant and in gain/zero/pole form at the
+    design's values; once for the conditions where it reads the same, labelled with them
+    when they differ (per-condition parameters)."""
     problem = session.problem
     if not problem.conditions:
         return [("p", "The session has no loop.")]
-    values = problem.condition_values(0, named=named)
-    network = problem.conditions[0].network
+    seen: dict[tuple, list[str]] = {}
+    for k, c in enumerate(problem.conditions):
+        seen.setdefault(tuple(_forms(c.network, problem.condition_values(k, named=named))), []).append(c.name)
     rows = []
-    for label, found in compensators(network, values).items():
-        entry = next(e for e in network.entries if e.label == label)
-        transfer: ExpressionTransfer = entry.transfer
-        rows += [
-            [label, "as typed", transfer.text],
-            ["", "time constants", time_constant_form(found, transfer.expression.variable)],
-            ["", "gain, zeros, poles", pole_zero_form(transfer, values)],
-        ]
+    for forms, names in seen.items():
+        where = f" ({', '.join(names)})" if len(seen) > 1 else ""
+        for label, typed, constants, zpk in forms:
+            rows += [
+                [label + where, "as typed", typed],
+                ["", "time constants", constants],
+                ["", "gain, zeros, poles", zpk],
+            ]
     if not rows:
         return [("p", "No block has a parameter: the loop has no compensator to tune.")]
     return [("table", ("compensator", "form", "transfer function"), rows)]
+
+
+def _forms(network, values: dict[str, float]) -> list[tuple[str, str, str, str]]:
+    """(label, as typed, time-constant form, gain/zero/pole form) of each compensator."""
+    out = []
+    for label, found in compensators(network, values).items():
+        transfer: ExpressionTransfer = next(e for e in network.entries if e.label == label).transfer
+        variable = transfer.expression.variable
+        out.append((label, transfer.text, time_constant_form(found, variable), pole_zero_form(transfer, values)))
+    return out
 
 
 def analyses(session: Session, named: dict[str, Any]) -> dict[str, LoopAnalysis | str]:
