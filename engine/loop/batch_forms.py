@@ -31,7 +31,7 @@ from engine.errors import EngineError
 from engine.loop.evaluator import LoopEvaluator
 from engine.model.blocks import ExpressionTransfer
 from engine.model.expressions import Node
-from engine.model.factored import CANCEL, MAX_ORDER
+from engine.model.factored import CANCEL, MAX_ORDER, signed_terms
 from engine.model.network import Network
 
 
@@ -99,7 +99,7 @@ def _node(node: Node, columns: Mapping[str, NDArray], count: int) -> Stack:
         inner = _node(node.args[0], columns, count)
         return Stack(-inner.gain, inner.zeros, inner.poles, inner.odd)
     if node.op in ("add", "sub"):
-        return _sum(_terms(node), columns, count)
+        return _sum(signed_terms(node), columns, count)
     return _leaf(node, columns, count)
 
 
@@ -110,19 +110,6 @@ def _leaf(node: Node, columns: Mapping[str, NDArray], count: int) -> Stack:
         return Stack(np.ones(count), np.zeros((count, 1), dtype=complex), none, np.zeros(count, dtype=bool))
     value = np.full(count, node.value) if node.op == "num" else np.asarray(columns[node.name], dtype=float)
     return Stack(value.copy(), none, none.copy(), ~np.isfinite(value))
-
-
-def _terms(node: Node) -> list[tuple[float, Node]]:
-    """A run of + and - as its signed terms (a - (b - c) is a - b + c), in the per-loop path's order."""
-    out, stack = [], [(1.0, node)]
-    while stack:
-        sign, item = stack.pop()
-        if item.op in ("add", "sub"):
-            stack.append((sign if item.op == "add" else -sign, item.args[1]))
-            stack.append((sign, item.args[0]))
-        else:
-            out.append((sign, item))
-    return out
 
 
 def _sum(terms: list[tuple[float, Node]], columns: Mapping[str, NDArray], count: int) -> Stack:

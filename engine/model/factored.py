@@ -122,7 +122,7 @@ def _node(node: Node, params: Mapping[str, float]) -> PoleZero:
         inner = _node(node.args[0], params)
         return PoleZero(-inner.gain, inner.zeros, inner.poles)
     if node.op in ("add", "sub"):
-        return _sum(_terms(node), params)
+        return _sum(signed_terms(node), params)
     return _leaf(node, params)
 
 
@@ -137,7 +137,7 @@ def _leaf(node: Node, params: Mapping[str, float]) -> PoleZero:
     return PoleZero(value, none, none)
 
 
-def _terms(node: Node) -> list[tuple[float, Node]]:
+def signed_terms(node: Node) -> list[tuple[float, Node]]:
     """A run of + and - as its signed terms (a - (b - c) is a - b + c)."""
     out, stack = [], [(1.0, node)]
     while stack:
