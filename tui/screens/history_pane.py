@@ -4,9 +4,9 @@ line each); the selected one's design in one view
 step) beside the marked iteration or the current design, and its tableau (or
 its measures against the marked one's).
 
-A figure is computed in a thread worker, one at a time: the worker posts it
-back (`Drawn`) and the latest request waiting is computed next, so moving
-through the rows never piles up work (a tabulated loop's S/T takes seconds).
+A figure is computed in a thread worker, one at a time (`LatestWork`): the
+worker posts it back (`Drawn`) and the latest request waiting is computed next,
+so moving through the rows never piles up work (a tabulated loop's S/T takes seconds).
 Figures are kept until the problem changes.  Zoom, pan and the cursor are
 the plot's own (`FigurePlot`); they reset when the view changes."""
 
@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from rich.text import Text
+from textual import on
 from textual.app import ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical, VerticalScroll
@@ -28,6 +29,7 @@ from sessions.hand_history import earlier_lines
 from tui.figures.data import Figure
 from tui.figures.history import TITLES, VIEWS, figure_key, history_figure, history_views, name
 from tui.keys import identified
+from tui.screens.latest_work import LatestWork
 from tui.state.tableau_text import tableau_text
 from tui.state.views import View
 from tui.widgets.plots import FigurePlot
@@ -103,8 +105,7 @@ class HistoryPane(Horizontal):
         self.kind = "nyquist"  # the view shown
         self._kept: dict[tuple, Figure] = {}
         self._kept_for = None  # the problem the kept figures are of
-        self._wanted: tuple | None = None  # (key, build, problem): the request to compute next
-        self._computing: tuple | None = None  # the key being computed
+        self.figure_work = LatestWork(self, "history-figure")  # one figure at a time, the latest waiting
         self._latest: tuple | None = None  # the key of the figure wanted on screen
         self._shown: tuple | None = None  # the key of the figure on screen
         self._shown_kind = ""
@@ -210,20 +211,7 @@ class HistoryPane(Horizontal):
         if key in self._kept:
             self._show(key, self._kept[key])
             return
-        self._wanted = None if key == self._computing else (key, build, view.problem)
-        if self._computing is None:
-            self._start()
-        self.set_timer(PLACEHOLDER_AFTER, lambda: self._placeholder(key, what))
-
-    def _placeholder(self, key: tuple, what: str) -> None:
-        """'computing ...' while the latest request is not drawn."""
-        if key == self._latest and key != self._shown:
-            self.query_one("#history-plot", FigurePlot).show(Figure(empty_message=f"computing the {what} ..."))
-
-    def _start(self) -> None:
-        """Compute the request waiting in a thread worker; it posts `Drawn`."""
-        key, build, problem = self._wanted
-        self._wanted, self._computing = None, key
+        problem = view.problem
 
         def compute() -> None:
             try:
@@ -232,19 +220,26 @@ class HistoryPane(Horizontal):
                 figure = Figure(empty_message=f"cannot draw it: {type(exc).__name__}: {exc}")
             self.post_message(self.Drawn(key, figure, problem))
 
-        self.run_worker(compute, thread=True, group="history-figure", exit_on_error=False)
+        self.figure_work.request(compute, key)
+        self.set_timer(PLACEHOLDER_AFTER, lambda: self._placeholder(key, what))
+
+    def _placeholder(self, key: tuple, what: str) -> None:
+        """'computing ...' while the latest request is not drawn."""
+        if key == self._latest and key != self._shown:
+            self.query_one("#history-plot", FigurePlot).show(Figure(empty_message=f"computing the {what} ..."))
 
     def on_history_pane_drawn(self, message: Drawn) -> None:
-        """Keep a worker's figure, show it if it is still wanted, start the next request."""
-        self._computing = None
+        """Keep a worker's figure, show it if it is still wanted."""
         if message.problem is self._kept_for:
             if len(self._kept) >= KEPT_FIGURES:
                 self._kept.pop(next(iter(self._kept)))
             self._kept[message.key] = message.figure
             if message.key == self._latest:
                 self._show(message.key, message.figure)
-        if self._wanted is not None:
-            self._start()
+
+    @on(LatestWork.Done)
+    def _figure_done(self, message: LatestWork.Done) -> None:
+        message.work.done()  # the latest request waiting, if any, is computed next
 
     def _show(self, key: tuple, figure: Figure) -> None:
         plot = self.query_one("#history-plot", FigurePlot)

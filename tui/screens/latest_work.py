@@ -33,7 +33,10 @@ class LatestWork:
 
     class Done(Message):
         """A computation of ``work`` finished (posted by its thread to the owner, whose
-        handler calls `LatestWork.done`); ``error``: what it raised, if it failed."""
+        handler calls `LatestWork.done`, once: it does not bubble); ``error``: what it
+        raised, if it failed."""
+
+        bubble = False
 
         def __init__(self, work: LatestWork, error: str | None = None) -> None:
             super().__init__()
