@@ -63,18 +63,19 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         else []
     )
     unit = view.problem.grid.unit
+    roots = compensator_roots(view) if asked("bode-mag", "bode-phase", "poles") else []  # for both, read once
     if curves and asked("nyquist"):
         out["nyquist"] = nyquist_figure(curves, points(view), unit=unit)  # circles: `overlays.nyquist`
     if curves and asked("bode-mag", "bode-phase"):
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
-        overlays.corners(out["bode-mag"], compensator_roots(view), unit)
+        overlays.corners(out["bode-mag"], roots, unit)
     if curves and asked("nichols"):
         out["nichols"] = nichols_figure(curves, unit)
     if "closed_loop" in wanted and view.problem.conditions and asked("closed-loop"):
         out["closed-loop"] = sensitivity_figure(view)
     if "poles" in wanted and view.problem.conditions and asked("poles"):
         out["poles"] = poles_figure(view)
-        overlays.compensator_roots(out["poles"], compensator_roots(view))
+        overlays.compensator_roots(out["poles"], roots)
     if asked("convergence"):
         label, its, values = view.convergence()
         out["convergence"] = line_figure("Convergence", "iteration", label or "value", its, values, "no iterations yet")

@@ -120,12 +120,13 @@ class ViewActions:
         parameter = self.locus_parameter
 
         def compute() -> None:
+            roots = compensator_roots(view)  # the same for the coarse locus and the fine one
             for points in (COARSE_LOCUS_POINTS, None):  # coarse first, then as fine as the engine goes
                 if key != self._locus_key:
                     return  # a newer design is asked for: this one is passed over
                 figure = locus_figure(view, parameter, points=points)
                 overlays.poles(figure, requirements(view))
-                overlays.compensator_roots(figure, compensator_roots(view))
+                overlays.compensator_roots(figure, roots)
                 screen.post_message(self.LocusDrawn(key, figure))
 
         self._locus_work.request(compute, key)
