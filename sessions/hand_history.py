@@ -64,7 +64,7 @@ def note_edit(session: Session, before: ProblemModel) -> None:
 
 def hand_text(stage: HandStageModel) -> str:
     """'T1: 1 -> 1.34; K: 7.14 -> 5.66'."""
-    return "; ".join(f"{c.name}: {_text(c.before)} -> {_text(c.after)}" for c in stage.changes)
+    return "; ".join(f"{c.name}: {value_text(c.before)} -> {value_text(c.after)}" for c in stage.changes)
 
 
 def earlier_lines(session: Session) -> list[str]:
@@ -95,7 +95,7 @@ def chain_break(session: Session) -> str | None:
     for (name, _, end), (next_name, begin, _) in zip(ends, ends[1:]):
         for key, value in end.items():
             if key in begin and not _same(value, begin[key]):
-                return f"{name} ends with {key} = {_text(value)}, {next_name} begins with {_text(begin[key])}"
+                return f"{name} ends with {key} = {value_text(value)}, {next_name} begins with {value_text(begin[key])}"
     return None
 
 
@@ -134,5 +134,7 @@ def _copied(value: Any) -> Any:
     return list(value) if isinstance(value, list) else value
 
 
-def _text(value: Any) -> str:
+def value_text(value: Any) -> str:
+    """A parameter's value as the status line and the history write it: '1.34', or
+    '[0.5, 0.6]' for one per condition."""
     return "[" + ", ".join(f"{v:.6g}" for v in value) + "]" if isinstance(value, (list, tuple)) else f"{value:.6g}"

@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -18,7 +17,7 @@ from engine.design.gain_solves import GainSolution, gain_for
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
-from sessions.hand_history import note_edit
+from sessions.hand_history import note_edit, value_text
 from sessions.lifecycle import adopt_current, rebuild
 from sessions.store import Session
 
@@ -134,7 +133,7 @@ def _set(session: Session, name: str, change, condition: int | None = None) -> s
     for v in new if isinstance(new, list) else [new]:
         _check_bounds(name, v, p.min, p.max)
     p.value = new
-    return f"{name}: {_text(old)} -> {_text(new)}"
+    return f"{name}: {value_text(old)} -> {value_text(new)}"
 
 
 def gain_parameter(session: Session, condition: int, values: dict[str, float]) -> str:
@@ -173,7 +172,3 @@ def _check_bounds(name: str, value: float, low: float | None, high: float | None
         raise SessionError(f"{name} = {value:.6g} is below its bound {low:g} (min): not set")
     if high is not None and value > high:
         raise SessionError(f"{name} = {value:.6g} is above its bound {high:g} (max): not set")
-
-
-def _text(value: Any) -> str:
-    return "[" + ", ".join(f"{v:.6g}" for v in value) + "]" if isinstance(value, list) else f"{value:.6g}"
