@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.closed_loop.poles import checked, closed_loop_poles
+from engine.closed_loop.poles import checked, closed_loop_poles, z_pole
 from engine.errors import EngineError
 from engine.loop.realization import Pole, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
@@ -219,6 +219,8 @@ def analyze(
         pole_list, pole_notes = checked(network, params, closed_loop_poles(network, params))
         verdict = stability(list(pole_list))
         pole_notes += tuple(filter(None, [stability_note(list(pole_list))]))
+        if network.sample_time is not None:  # stable when |z| < 1: Re w < 0, read above
+            pole_list = tuple(z_pole(p, network.sample_time) for p in pole_list)
     model = loop_model(network, break_at, omega, params)
     every = margins(model, attenuation_above=0.0)
     result = replace(every, attenuation=())

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -21,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.design.measure_kinds import kind
 from engine.design.problem import (
     BandValue,
     Condition,
@@ -34,6 +36,7 @@ from engine.design.problem import (
     TimeResponse,
 )
 from engine.errors import EngineError
+from engine.model.bilinear import sampled_network
 from engine.model.blocks import (
     ControllerFactor,
     DelayTransfer,
@@ -111,6 +114,8 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     targets = tuple(_target(t) for t in model.targets)
     for k, t in enumerate(model.targets):
         _check_response(t, f"problem.targets[{k}].response", conditions)
+    grid = _grid(model.grid)
+    _check_sampled(model, conditions, grid)
     objective = (
         None
         if model.objective is None
@@ -129,7 +134,7 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
     inequalities = build_inequalities(model)
     try:
         problem = Problem(
-            conditions, parameters, targets, _grid(model.grid), objective, equalities, inequalities, model.noise_factor
+            conditions, parameters, targets, grid, objective, equalities, inequalities, model.noise_factor
         )
     except EngineError as exc:
         raise engine_error(exc) from None
@@ -157,6 +162,28 @@ def _check_response(t: TargetModel, path: str, conditions: tuple[Condition, ...]
                 f"{path}.output: {t.response.output!r} is not a signal of condition {c.name!r} "
                 f"(signals: {', '.join(c.network.signals)})"
             )
+
+
+def _check_sampled(model: ProblemModel, conditions: tuple[Condition, ...], grid: Grid) -> None:
+    """A condition in z is read below its Nyquist frequency, by the frequency measures: the grid
+    ends below pi/T, and its targets are margins and peaks (its time responses and poles in the
+    measures' terms are not evaluated yet); else a `SessionError` naming the path."""
+    for i, c in enumerate(conditions):
+        T = c.network.sample_time
+        if T is None:
+            continue
+        if grid.omega[-1] >= math.pi / T:
+            raise SessionError(
+                f"problem.grid: it reaches {grid.omega[-1]:.6g} rad/s, at or above the Nyquist frequency pi/T = "
+                f"{math.pi / T:.6g} rad/s of condition {c.name!r} (problem.conditions[{i}].sample_time {T:g} s): "
+                "end the grid below it"
+            )
+        for k, t in enumerate(model.targets):
+            if t.condition in (None, c.name) and kind(t.measure).domain != "frequency":
+                raise SessionError(
+                    f"problem.targets[{k}].measure: {t.measure} is not evaluated on condition {c.name!r}, a loop "
+                    "in z (its targets are margins, crossovers and peaks)"
+                )
 
 
 def _hold_dc_gains(model: ProblemModel, parameters: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
@@ -208,6 +235,8 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
             ]
             network = block_diagram(blocks, junctions, plant.inputs, c.variable)
         network.signal(c.break_at)
+        if c.sample_time is not None:
+            network = sampled_network(network, c.sample_time)
     except SessionError:
         raise
     except EngineError as exc:

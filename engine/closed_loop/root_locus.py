@@ -21,10 +21,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy import linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
@@ -90,7 +90,12 @@ class PoleZeroMap:
 
 
 def pole_zero_map(network: Network, break_at: str, params: Mapping[str, float]) -> PoleZeroMap:
-    """The pole-zero map of the loop broken at ``break_at`` (rational loops)."""
+    """The pole-zero map of the loop broken at ``break_at`` (rational loops; a sampled loop's in z)."""
+    if network.sample_time is not None:
+        found = pole_zero_map(network.unsampled(), break_at, params)
+        return replace(
+            found, poles=z_of_w(found.poles), zeros=z_of_w(found.zeros), closed_loop=z_of_w(found.closed_loop)
+        )
     (form, _), eigenvalues = _loop_form(network, break_at, params), _gain_eigenvalues(network, break_at, params)
     polish = GainCharacteristic(network, break_at, params).polish
     open_loop, closed_loop = polish(0.0, eigenvalues(0.0)), polish(1.0, eigenvalues(1.0))
@@ -117,12 +122,41 @@ def root_locus(
         lo, hi = (float(v) for v in value_range)
         if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
             raise EngineError(f"a locus range must be finite with low < high, not {value_range!r}")
+    if network.sample_time is not None:
+        found = root_locus(network.unsampled(), break_at, params, parameter, value_range, max_points, polished)
+        return sampled_locus(found, network.sample_time)
     if parameter == "gain":
         return gain_locus(network, break_at, params, value_range, max_points, polished)
     if parameter not in network.parameters:
         known = ", ".join(network.parameters) or "none"
         raise EngineError(f"no parameter {parameter!r} to draw a locus in (parameters: {known}; or 'gain')")
     return parameter_locus(network, params, parameter, value_range, max_points)
+
+
+def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:
+    """A sampled loop's w-plane roots in z = (1 + w)/(1 - w) (w = 1: z = inf)."""
+    w = np.asarray(points, dtype=complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(w == 1, complex(np.inf), (1 + w) / (1 - w))
+
+
+def sampled_locus(found: RootLocus, sample_time: float) -> RootLocus:
+    """A sampled loop's locus, found in w, in z: its crossings those of the unit circle, at
+    omega = (2/T) atan(nu) rad/s; no asymptotes (in z they are arcs to z = -1, not lines)."""
+    crossings = tuple(
+        replace(x, frequency=2.0 * math.atan(x.frequency) / sample_time, pole=complex(z_of_w(x.pole)))
+        for x in found.crossings
+    )
+    return replace(
+        found,
+        branches=z_of_w(found.branches),
+        current=tuple(complex(z) for z in z_of_w(found.current)),
+        crossings=crossings,
+        centroid=None,
+        angles_deg=(),
+        breakaways=tuple((complex(z_of_w(p)), k) for p, k in found.breakaways),
+        notes=found.notes + (f"in z (T = {sample_time:g} s): found on the w-plane form, z = (1 + w)/(1 - w)",),
+    )
 
 
 def gain_locus(

@@ -7,6 +7,10 @@ given, comes from the closed-loop poles (8 time constants of the slowest, 5 of t
 fastest unstable).  The measures: rise time (10-90 %), overshoot, settling band
 (+-5 %) and settling time (`time_response.step_measures`), from the DC gain's final
 value (none when the response has no settled final value to measure from).
+
+A sampled loop (its realization in w, `StateSpace.sample_time`) responds at its samples
+t = k T: its realization taken to z (w = (z - 1)/(z + 1), `in_z`) and stepped sample by sample; the response is drawn as a staircase and measured at the
+samples, over a horizon from the poles' radii (8 time constants -T/ln|z| of the slowest).
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from engine.loop.realization import StateSpace, realize
 from engine.model.network import Network
 
 SAMPLES = 400
+MIN_SAMPLES, MAX_SAMPLES = 20, 2000  # a sampled loop's step response: samples shown
 SETTLING_BAND = 0.05
 MAX_HORIZON = 1e4
 
@@ -51,11 +56,23 @@ def default_output(ss: StateSpace) -> str:
 
 def horizon(ss: StateSpace) -> float:
     """A step response's duration from the closed-loop poles' real parts (10 s when
-    they cannot be computed)."""
+    they cannot be computed; a sampled loop's from the s-plane equivalents of its poles,
+    at least `MIN_SAMPLES` samples)."""
     try:
         real = np.linalg.eigvals(ss.A).real
     except np.linalg.LinAlgError:
         return 10.0
+    if ss.sample_time is not None:
+        with np.errstate(divide="ignore"):
+            w = np.linalg.eigvals(ss.A)
+            real = np.log(np.abs((1 + w) / (1 - w))) / ss.sample_time  # Re s of s = ln(z)/T
+        real = real[np.isfinite(real)] if np.isfinite(real).any() else np.array([-1.0])
+        shortest, longest = MIN_SAMPLES * ss.sample_time, MAX_SAMPLES * ss.sample_time
+        return float(np.clip(_from_real_parts(real), shortest, longest))
+    return _from_real_parts(real)
+
+
+def _from_real_parts(real: np.ndarray) -> float:
     if real.max() > 0:
         return min(5.0 / real.max(), MAX_HORIZON)
     slowest = np.abs(real[real < 0]).min(initial=np.inf)
@@ -77,13 +94,42 @@ def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -
     ``span`` (the setup's horizon, else this loop's own)."""
     source = setup.input if setup.input in ss.inputs else ss.inputs[0]
     output = setup.output if setup.output in ss.outputs else default_output(ss)
-    t = np.linspace(0.0, setup.horizon or span or horizon(ss), SAMPLES)
+    end = setup.horizon or span or horizon(ss)
+    if ss.sample_time is not None:
+        return _sampled_step(ss, source, output, end)
+    t = np.linspace(0.0, end, SAMPLES)
     segments = [Segment(0.0, step=1.0)]
     try:
         y = simulate(ss, source, t, segments)[:, ss.outputs.index(output)]
     except EngineError:
         return None
     return StepResponse(t.tolist(), y.tolist(), f"{output} (step at {source})", _measures(ss, source, output, t, y))
+
+
+def _sampled_step(ss: StateSpace, source: str, output: str, end: float) -> StepResponse | None:
+    """A sampled loop's step response at t = k T up to ``end`` (at most `MAX_SAMPLES` samples), as a
+    staircase, measured at its samples."""
+    T = ss.sample_time
+    i, j = ss.inputs.index(source), ss.outputs.index(output)
+    A, B, C, D = in_z(ss.A, ss.B[:, i : i + 1], ss.C[j : j + 1], ss.D[j : j + 1, i : i + 1])
+    count = int(min(MAX_SAMPLES, max(MIN_SAMPLES, math.ceil(end / T)))) + 1
+    x, y = np.zeros(A.shape[0]), np.empty(count)
+    with np.errstate(all="ignore"):  # an unstable loop grows: shown until it leaves the float range
+        for k in range(count):
+            y[k] = C[0] @ x + D[0, 0]
+            x = A @ x + B[:, 0]
+    t = np.arange(count) * T
+    stairs_t, stairs_y = np.repeat(t, 2)[1:], np.repeat(y, 2)[:-1]
+    name = f"{output} (step at {source}, every {T:g} s)"
+    return StepResponse(stairs_t.tolist(), stairs_y.tolist(), name, _measures(ss, source, output, t, y))
+
+
+def in_z(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, ...]:
+    """A realization in w as one in z, w = (z - 1)/(z + 1): with M = (I - A)^-1, A_z = (I + A) M,
+    B_z = sqrt(2) M B, C_z = sqrt(2) C M, D_z = D + C M B (= H(w = 1), z = inf)."""
+    M = np.linalg.inv(np.eye(A.shape[0]) - A)
+    root2 = math.sqrt(2.0)
+    return (np.eye(A.shape[0]) + A) @ M, root2 * M @ B, root2 * C @ M, D + C @ M @ B
 
 
 def _measures(ss: StateSpace, source: str, output: str, t: np.ndarray, y: np.ndarray) -> StepMeasures | None:

@@ -137,8 +137,17 @@ class LoopEvaluator:
         return values, slopes
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """GH(j omega) and dGH/domega."""
+        """GH(j omega) and dGH/domega; for a sampled loop (`Network.sampled`), GH at w = j tan(omega T/2)."""
         omega = np.asarray(omega, dtype=float)
+        T = self.network.sample_time
+        if T is None:
+            return self._at(omega)
+        nu = np.tan(omega * T / 2.0)
+        value, slope = self._at(nu)
+        return value, slope * (T / 2.0) * (1.0 + nu * nu)
+
+    def _at(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+        """GH(j omega) and dGH/domega of the loop read as one in s (or w, over nu)."""
         values, slopes = self._blocks(omega)
         gains, dgains = self._chain_gains(values, slopes)
         F = omega.size

@@ -93,7 +93,9 @@ def broken_network(network: Network, break_at: str) -> Network:
     k = network.signal(break_at)
     n = len(network.signals)
     entries = tuple(replace(e, col=n) if e.col == k else e for e in network.entries)
-    return Network(network.signals + (LOOP_INPUT,), network.inputs + (LOOP_INPUT,), entries, network.variable)
+    return Network(
+        network.signals + (LOOP_INPUT,), network.inputs + (LOOP_INPUT,), entries, network.variable, network.sample_time
+    )
 
 
 def loop_realization(network: Network, break_at: str, params: Mapping[str, float]) -> StateSpace:
@@ -191,7 +193,7 @@ def without_delays(network: Network) -> Network:
         replace(e, transfer=ExpressionTransfer("1")) if isinstance(e.transfer, DelayTransfer) else e
         for e in network.entries
     )
-    return Network(network.signals, network.inputs, entries, network.variable)
+    return Network(network.signals, network.inputs, entries, network.variable, network.sample_time)
 
 
 def _check_frequencies(zeros: NDArray, poles: NDArray) -> NDArray[np.float64]:

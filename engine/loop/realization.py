@@ -34,6 +34,7 @@ class StateSpace:
     D: NDArray[np.float64]
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
+    sample_time: float | None = None  # a sampled loop's realization in w (`Network.sampled`)
 
 
 @dataclass(frozen=True)
@@ -85,7 +86,7 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
     A = A_blk + B_blk @ P_state
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(P_state)) and np.all(np.isfinite(P_input))):
         raise InterconnectionError("the closed loop's realization leaves the floating-point range")
-    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
+    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals, network.sample_time)
 
 
 def _factor_feedthrough(matrix: NDArray) -> tuple:
@@ -108,6 +109,12 @@ def _factor_feedthrough(matrix: NDArray) -> tuple:
     return lu
 
 
+def _vanishes_at_one(r) -> bool:
+    """Numerator and denominator both 0 at w = 1 to rounding: a common factor (1 - w), which a
+    loop in z written with z = (1 + w)/(1 - w) leaves, and which must cancel, not be a pole."""
+    return all(abs(np.polyval(p, 1.0)) <= 1e-12 * max(np.sum(np.abs(p)), 1e-300) for p in (r.num, r.den))
+
+
 _REALIZED: WeakKeyDictionary = WeakKeyDictionary()  # transfer without parameters -> its (A, B, C, D)
 
 
@@ -122,8 +129,13 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
     folded = expression.folded(params) if expression is not None else None
     if isinstance(entry.transfer, StateSpaceTransfer):
         realization = entry.transfer.realization()  # as given: no roots, no polynomials
-    elif folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
-        realization = cascade(trim(folded.num), trim(folded.den))  # a small ratio: no roots needed
+    elif (
+        folded is not None
+        and not (network.variable == "w" and _vanishes_at_one(folded))  # a z written (1 + w)/(1 - w): its
+        and degree(folded.num) <= degree(folded.den)
+        and degree(folded.den) >= 0
+    ):
+        realization = cascade(trim(folded.num), trim(folded.den))  # (1 - w) cancels below; a small ratio: no roots
     elif expression is not None:
         form = pole_zero(expression, params)  # factor by factor: no expansion loses the roots' digits
         if form.zeros.size > form.poles.size:

@@ -129,10 +129,51 @@ class LoopModel:
         return self._gh
 
 
+class SampledLoop(LoopModel):
+    """A loop in z (sample time ``sample_time``) over rad/s below the Nyquist frequency pi/T:
+    ``w_plane`` is the same loop over the w-plane frequency nu = tan(omega T/2), which the
+    margin and peak searches read (`engine.margins.sampled`); this one evaluates it at
+    nu(omega), with dGH/domega = dGH/dnu dnu/domega."""
+
+    def __init__(self, w_plane: LoopModel, omega: NDArray[np.float64], sample_time: float):
+        T = sample_time
+
+        def warped(evaluate: Evaluator) -> Evaluator:
+            def at(w: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+                nu = np.tan(np.asarray(w, dtype=float) * T / 2.0)
+                value, slope = evaluate(nu)
+                return value, slope * (T / 2.0) * (1.0 + nu * nu)
+
+            return at
+
+        corners = 2.0 * np.arctan(w_plane.corner_frequencies) / T
+        super().__init__(
+            omega,
+            None,
+            warped(w_plane.evaluate),
+            corners,
+            w_plane.dampings,
+            False,  # searched through ``w_plane``, which covers every frequency up to pi/T
+            w_plane.dc_value,
+            axis_poles=2.0 * np.arctan(w_plane.axis_poles) / T,
+            exact=warped(w_plane.exact),
+        )
+        self.w_plane = w_plane
+        self.sample_time = sample_time
+
+    def on_exact(self) -> LoopModel:
+        return SampledLoop(self.w_plane.on_exact(), self.omega, self.sample_time)
+
+
 def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float]) -> LoopModel:
     """The open loop at ``break_at`` with everything margins need (rational loops
-    are evaluated in pole-zero form when it matches the network: `engine.loop.pole_zero`)."""
+    are evaluated in pole-zero form when it matches the network: `engine.loop.pole_zero`;
+    a sampled loop through its w-plane form: `SampledLoop`)."""
     w = check_grid(omega)
+    if network.sample_time is not None:
+        network.points(w)  # below the Nyquist frequency, or a GridError that says so
+        nu = np.tan(w * network.sample_time / 2.0)
+        return SampledLoop(loop_model(network.unsampled(), break_at, nu, params), w, network.sample_time)
     if not network.exact:
         return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)
     loop = design(network, params).loop(break_at)

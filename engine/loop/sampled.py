@@ -11,9 +11,7 @@ s-plane damping and natural frequency (s = ln(z)/T), stable when |z| < 1 (Re w <
 
 from __future__ import annotations
 
-import cmath
 import math
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
@@ -22,17 +20,11 @@ from numpy.typing import NDArray
 
 from engine.analysis import LoopAnalysis, analyze
 from engine.errors import EngineError
-from engine.loop.realization import Pole
-from engine.loop.responses import open_loop
 from engine.margins.search import Band
-from engine.margins.values import margins_of
-from engine.model.bilinear import real_frequency as bilinear_real_frequency
-from engine.model.bilinear import w_frequency
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 
-Z = re.compile(r"(?<![A-Za-z0-9_])z(?![A-Za-z0-9_])")
 ON_CIRCLE = 1e-12  # a root this near z = 1 or z = -1 is there (the roots of a typed polynomial carry rounding)
 
 
@@ -97,19 +89,6 @@ def _snapped(roots: NDArray, point: float) -> NDArray:
     return roots
 
 
-def w_frequencies(omega: NDArray, sample_time: float) -> NDArray[np.float64]:
-    """nu = tan(omega T/2) (`engine.model.bilinear.w_frequency`) of the grid's frequencies
-    below the Nyquist frequency."""
-    omega = np.asarray(omega, dtype=float)
-    return w_frequency(omega[(omega > 0) & (omega < math.pi / sample_time)], sample_time)
-
-
-def real_frequency(nu: float, sample_time: float) -> float:
-    """omega = (2/T) atan(nu), rad/s (`engine.model.bilinear.real_frequency`; nu = inf:
-    the Nyquist frequency)."""
-    return float(bilinear_real_frequency(nu, sample_time))
-
-
 def analyze_sampled(
     network: Network,
     break_at: str,
@@ -119,92 +98,14 @@ def analyze_sampled(
     peak_bands: Sequence[Band] = (),
     skew: float = 0.0,
 ) -> LoopAnalysis:
-    """`engine.analysis.analyze` of a loop in z with sample time T: the search on its
-    w-plane form, every frequency back in rad/s, delays in seconds, poles in z."""
+    """`engine.analysis.analyze` of a loop in z with sample time T, on the grid's frequencies below
+    the Nyquist frequency: its w-plane form (`w_plane`) read as a sampled loop, so every frequency
+    comes back in rad/s, delays in seconds and poles in z (`engine.margins.sampled`)."""
     if not (math.isfinite(sample_time) and sample_time > 0):
         raise EngineError(f"a loop in z needs a sample time > 0, not {sample_time!r}")
-    nu = w_frequencies(omega, sample_time)
-    if nu.size < 2:
+    omega = np.asarray(omega, dtype=float)
+    below = omega[(omega > 0) & (omega < math.pi / sample_time)]
+    if below.size < 2:
         raise EngineError(f"the grid has no frequencies below the Nyquist frequency pi/T = {math.pi / sample_time:.6g}")
-    bands = [replace(b, low=_nu(b.low, sample_time), high=_nu(b.high, sample_time)) for b in peak_bands]
-    found = in_real_frequencies(analyze(w_plane(network, params), break_at, nu, {}, bands, skew), sample_time)
-    return with_nyquist_crossing(found, network, break_at, params, sample_time)
-
-
-def with_nyquist_crossing(
-    found: LoopAnalysis, network: Network, break_at: str, params: Mapping[str, float], sample_time: float
-) -> LoopAnalysis:
-    """The gain margin at the Nyquist frequency, where z = -1 and L is real: a crossing
-    of the negative real axis when L(-1) < 0 (the w-plane search ends short of w = inf)."""
-    entries = tuple(
-        replace(e, transfer=ExpressionTransfer(Z.sub("(-1)", e.transfer.expression.text), "z")) for e in network.entries
-    )
-    at_nyquist = Network(network.signals, network.inputs, entries, "z")
-    try:
-        value = complex(open_loop(at_nyquist, break_at, np.array([1.0]), params, sensitivities=False).value[0])
-    except EngineError:
-        return found
-    if not (cmath.isfinite(value) and value.real < 0 and abs(value.imag) <= 1e-12 * abs(value)):
-        return found
-    w = math.pi / sample_time
-    if any(abs(m.frequency - w) <= 1e-9 * w for m in found.margins.gain):
-        return found
-    crossing = margins_of("G", np.array([w]), np.array([complex(value.real, 0.0)]))
-    return replace(found, margins=replace(found.margins, gain=found.margins.gain + tuple(crossing)))
-
-
-def _nu(omega: float, sample_time: float) -> float:
-    return math.inf if omega >= math.pi / sample_time else math.tan(omega * sample_time / 2.0)
-
-
-def in_real_frequencies(found: LoopAnalysis, sample_time: float) -> LoopAnalysis:
-    """A w-plane analysis with its frequencies in rad/s, delay margins in seconds and its
-    poles in z."""
-    T = sample_time
-
-    def margin(m):
-        w = real_frequency(m.frequency, T)
-        delay = (
-            math.radians(m.phase_deg) % (2 * math.pi) / w
-            if m.kind == "P" and m.phase_deg is not None and w > 0
-            else None
-        )
-        return replace(m, frequency=w, delay=delay if m.kind == "P" else m.delay)
-
-    m = found.margins
-    margins = replace(
-        m,
-        gain=tuple(map(margin, m.gain)),
-        phase=tuple(map(margin, m.phase)),
-        stability=tuple(map(margin, m.stability)),
-        attenuation=tuple(map(margin, m.attenuation)),
-        crossovers_beyond=None if m.crossovers_beyond is None else real_frequency(m.crossovers_beyond, T),
-        families=(),
-        notes=m.notes + (f"a loop in z, T = {T:g} s: searched on its w-plane form, frequencies up to pi/T",),
-    )
-    peaks = {
-        name: None if p is None else replace(p, frequency=real_frequency(p.frequency, T))
-        for name, p in (("sensitivity_peak", found.sensitivity_peak), ("complementary_peak", found.complementary_peak))
-    }
-    disk = found.disk_margin
-    return replace(
-        found,
-        margins=margins,
-        closed_loop_poles=None
-        if found.closed_loop_poles is None
-        else tuple(z_pole(p.value, T) for p in found.closed_loop_poles),
-        modal_peaks=tuple(replace(p, frequency=real_frequency(p.frequency, T)) for p in found.modal_peaks),
-        disk_margin=None if disk is None else replace(disk, frequency=real_frequency(disk.frequency, T)),
-        **peaks,
-    )
-
-
-def z_pole(w: complex, sample_time: float) -> Pole:
-    """The z-plane pole of a w-plane one, with the damping and natural frequency of its
-    s-plane equivalent s = ln(z)/T (a pole at z = 0: infinitely fast, damping 1)."""
-    z = (1 + w) / (1 - w) if w != 1 else complex(math.inf)
-    if z == 0 or not cmath.isfinite(z):
-        return Pole(z, 1.0, math.inf)
-    s = cmath.log(z) / sample_time
-    wn = abs(s)
-    return Pole(z, -s.real / wn if wn else 1.0, wn)
+    sampled = replace(w_plane(network, params), sample_time=sample_time)
+    return analyze(sampled, break_at, below, {}, peak_bands, skew)

@@ -24,9 +24,10 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.loop.responses import Evaluator, LoopModel
+from engine.loop.responses import Evaluator, LoopModel, SampledLoop
 from engine.margins.detection_grid import detection_grid, may_hide_pair
 from engine.margins.pole_zero.peaks import moebius_peaks
+from engine.margins.sampled import sampled_peaks
 from engine.margins.search import FIT_LIMIT, Band, fitted_loop
 from engine.numerics.refinement import refine, sign_changes
 
@@ -146,6 +147,8 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
         raise EngineError(f"a peak's band must be 0 <= low <= high, not {band.low!r}..{band.high!r}")
     if not transforms:
         return ()
+    if isinstance(loop, SampledLoop):
+        return sampled_peaks(loop, refined_peaks, transforms, band)
     if loop.evaluate is None:
         return _table_peaks(loop, transforms, band)
     peaks = _without_grid(loop, transforms, band)

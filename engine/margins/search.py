@@ -30,10 +30,11 @@ from numpy.typing import NDArray
 from engine.errors import EngineError
 from engine.loop.fit_cache import cached_fit
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.loop.responses import LoopModel
+from engine.loop.responses import LoopModel, SampledLoop
 from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
+from engine.margins.sampled import sampled_margins
 from engine.margins.shape_notes import level_notes, shape_notes
 from engine.margins.values import Band, Margin, Margins, family, margins_of, single_margin
 from engine.numerics.rational_fit import Trend
@@ -55,6 +56,8 @@ def margins(
     fit worse than `FIT_LIMIT`) takes report 000's grid rule instead."""
     if method not in ("auto", "fitted", "grid"):
         raise ValueError(f"margin method must be auto, fitted or grid, not {method!r}")
+    if isinstance(loop, SampledLoop):
+        return sampled_margins(loop, margins, gain_band, phase_band, attenuation_above, method)
     if loop.evaluate is None:
         fitted = None if method == "grid" else fitted_loop(loop)
         if fitted is None:

@@ -7,10 +7,15 @@ circle z = exp(j omega T) the w-plane frequency is nu = tan(omega T/2)
 
 from __future__ import annotations
 
+import re
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
+from engine.model.blocks import ExpressionTransfer
+from engine.model.network import Network
 from engine.numerics.polynomials import Rational, trim
 
 
@@ -58,3 +63,26 @@ def real_frequency(nu: ArrayLike, sample_time: float, scaled: bool = False) -> N
     if scaled:
         nu = nu * sample_time / 2.0
     return 2.0 * np.arctan(nu) / sample_time
+
+
+Z_VARIABLE = re.compile(r"(?<![A-Za-z0-9_.])z(?![A-Za-z0-9_])")
+Z_OF_W = "((1+w)/(1-w))"
+
+
+def sampled_network(network: Network, sample_time: float) -> Network:
+    """A network of expressions in z as the sampled loop the engine analyzes: every z written
+    (1 + w)/(1 - w), variable w, with its sample time (`Network.sampled`).  The factored forms
+    cancel the (1 - w) this leaves exactly (`engine.model.factored`); no polynomial is expanded."""
+    _scale(sample_time)
+    entries = []
+    for e in network.entries:
+        t = e.transfer
+        if not isinstance(t, ExpressionTransfer) or t.expression.variable != "z":
+            raise BlockError(
+                f"{e.label}: a loop in z takes expressions in z (polynomial, factored or typed), "
+                f"not a {type(t).__name__} (discretize a continuous block first)"
+            )
+        if "w" in t.parameters:
+            raise BlockError(f"{e.label}: a loop in z names w, the variable of its w-plane form: rename the parameter")
+        entries.append(replace(e, transfer=ExpressionTransfer(Z_VARIABLE.sub(Z_OF_W, t.text), "w")))
+    return Network(network.signals, network.inputs, tuple(entries), "w", sample_time)

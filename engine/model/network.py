@@ -66,6 +66,7 @@ class Network:
     inputs: tuple[str, ...]
     entries: tuple[Entry, ...]
     variable: str = "s"
+    sample_time: float | None = None
     index: dict[str, int] = field(default_factory=dict, compare=False, repr=False)
     schedules: dict = field(default_factory=dict, compare=False, repr=False)
 
@@ -84,6 +85,37 @@ class Network:
     @property
     def rational(self) -> bool:
         return all(e.transfer.rational_form for e in self.entries)
+
+    @property
+    def sampled(self) -> bool:
+        """A loop in z with sample time T, held in its w-plane form (variable w, z = (1 + w)/(1 - w)):
+        its frequencies are rad/s, each evaluated at w = j tan(omega T/2) (`points`)."""
+        return self.sample_time is not None
+
+    def points(self, omega: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+        """Where the blocks are evaluated at ``omega`` (rad/s), and d(point)/d(omega): j omega, or,
+        for a sampled loop, w = j nu with nu = tan(omega T/2) below the Nyquist frequency pi/T."""
+        if self.sample_time is None:
+            return 1j * omega, np.full(omega.shape, 1j)
+        T = self.sample_time
+        above = np.flatnonzero(omega >= np.pi / T)
+        if above.size:
+            raise GridError(
+                f"{omega[above[0]]:.6g} rad/s is at or above the Nyquist frequency pi/T = {np.pi / T:.6g} rad/s "
+                f"of a loop sampled every {T:g} s"
+            )
+        nu = np.tan(omega * T / 2.0)
+        return 1j * nu, 1j * (T / 2.0) * (1.0 + nu * nu)
+
+    def unsampled(self) -> Network:
+        """The same network read as a w-plane loop (its frequencies w-plane frequencies nu): kept, so that
+        its designs are formed once."""
+        if self.sample_time is None:
+            return self
+        kept = self.schedules.get("w-plane")
+        if kept is None:
+            kept = self.schedules.setdefault("w-plane", Network(self.signals, self.inputs, self.entries, self.variable))
+        return kept
 
     def signal(self, name: str) -> int:
         if name not in self.index:
@@ -227,7 +259,8 @@ def solve(
     n, k = len(network.signals), network.signal(inject)
     broken = None if break_at is None else network.signal(break_at)
     out = None if output is None else network.signal(output)
-    duals = _evaluate_entries(network, 1j * w, params, sensitivities, d_omega)
+    point, slope = network.points(w)
+    duals = _evaluate_entries(network, point, params, sensitivities, d_omega)
     values = [d.value for d in duals]
     # internal layout (signal, column, frequency): frequency last and contiguous
     rhs = np.zeros((n, 1, w.size), dtype=complex)
@@ -245,7 +278,7 @@ def solve(
         feed[broken] = 1.0
     columns = [(number, p) for number, dual in enumerate(duals) for p in dual.grad] if sensitivities else []
     if out is not None:
-        return _adjoint(network, duals, feed, names, columns, d_omega, broken, out, w, x)
+        return _adjoint(network, duals, feed, names, columns, d_omega, broken, out, w, x, slope)
     R = np.zeros((n, len(names) + 1, w.size), dtype=complex)
     position = {p: i for i, p in enumerate(names)}
     for number, p in columns:
@@ -253,7 +286,7 @@ def solve(
         R[e.row, position[p]] += duals[number].grad[p] * feed[e.col]
     if d_omega:
         for e, dual in zip(network.entries, duals):
-            R[e.row, -1] += 1j * dual.dvar * feed[e.col]
+            R[e.row, -1] += slope * dual.dvar * feed[e.col]
     D = sparse_solve(_schedule(network, broken, False), values, R if d_omega else R[:, :-1], w)
     dx = D[:, : len(names), :].transpose(2, 0, 1) if sensitivities else None
     return Solution(w, x.T, names, dx, D[:, -1, :].T if d_omega else None, tuple(range(n)))
@@ -270,6 +303,7 @@ def _adjoint(
     out: int,
     w: NDArray,
     x: NDArray,
+    slope: NDArray,
 ) -> Solution:
     """d x_out / dp = y' R_p with (I - G)' y = e_out: one solve for any number of parameters."""
     n = len(network.signals)
@@ -283,7 +317,7 @@ def _adjoint(
         dx[:, 0, position[p]] += y[e.row] * duals[number].grad[p] * feed[e.col]
     dw = None
     if d_omega:
-        dw = sum(y[e.row] * 1j * dual.dvar * feed[e.col] for e, dual in zip(network.entries, duals))
+        dw = sum(y[e.row] * slope * dual.dvar * feed[e.col] for e, dual in zip(network.entries, duals))
         dw = np.asarray(dw, dtype=complex).reshape(w.size, 1)
     return Solution(w, x.T, names, dx if columns else None, dw, (out,))
 

@@ -181,7 +181,7 @@ def condition_values(
         elif s.kind in FREQUENCY_MEASURES:
             value, frequency = frequency_value(s, found, model)
         else:
-            value, frequency = time_value(s, problem, ss), math.nan
+            value, frequency = time_value(s, problem, ss, condition.network.sample_time), math.nan
         values.append(value)
         frequencies.append(frequency)
     return values, frequencies
@@ -225,10 +225,11 @@ def absent_row(spec: Spec, value: float, frequency: float) -> bool:
     return spec.kind in FREQUENCY_MEASURES and math.isnan(frequency) and absent_reason(spec.kind, value) is not None
 
 
-def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:
-    """A time-domain row's value, or the closed-loop stability abscissa."""
+def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float | None = None) -> float:
+    """A time-domain row's value, or the closed-loop stability abscissa (of a sampled loop's
+    s-plane equivalent, ``sample_time`` given: its realization is in w)."""
     if spec.kind == "stability_abscissa":
-        return stability_abscissa(ss)
+        return stability_abscissa(ss, sample_time)
     response = problem.targets[spec.target].response
     if spec.kind == "mean_square":
         return mean_square(ss, response.input, response.output, response.psd)
@@ -263,11 +264,17 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace) -> float:
     return float(value)
 
 
-def stability_abscissa(ss: StateSpace) -> float:
-    """-max Re(closed-loop pole): positive when the closed loop is stable (inf with no states)."""
+def stability_abscissa(ss: StateSpace, sample_time: float | None = None) -> float:
+    """-max Re(closed-loop pole): positive when the closed loop is stable (inf with no states).  A
+    sampled loop's realization is in w: its poles' s-plane equivalents s = ln(z)/T, z = (1 + w)/(1 - w),
+    give -max ln|z|/T."""
     if ss.A.size == 0:
         return math.inf
-    return float(-np.max(np.linalg.eigvals(ss.A).real))
+    poles = np.linalg.eigvals(ss.A)
+    if sample_time is None:
+        return float(-np.max(poles.real))
+    with np.errstate(divide="ignore"):
+        return float(-np.max(np.log(np.abs((1 + poles) / (1 - poles)))) / sample_time)
 
 
 def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -> float:

@@ -307,9 +307,18 @@ class CascadeModel(Strict):
 
 class ConditionModel(Strict):
     name: str
-    variable: Literal["s", "w"] = "s"
+    variable: Literal["s", "w", "z"] = "s"
+    sample_time: Annotated[Number, Field(gt=0, description="s; a loop in z only")] | None = None
     break_at: str
     plant: Annotated[DiagramModel | MatrixModel | ChannelsModel | CascadeModel, Field(discriminator="format")]
+
+    @model_validator(mode="after")
+    def _sampled(self) -> ConditionModel:
+        if self.variable == "z" and self.sample_time is None:
+            raise ValueError("a condition in z needs its sample_time (s)")
+        if self.variable != "z" and self.sample_time is not None:
+            raise ValueError(f"sample_time is for a condition in z, not in {self.variable}")
+        return self
 
 
 class ParameterModel(Strict):

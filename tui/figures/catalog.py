@@ -68,7 +68,9 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         out["nyquist"] = nyquist_figure(curves, points(view), unit=unit)  # circles: `overlays.nyquist`
     if curves and asked("bode-mag", "bode-phase"):
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
-        overlays.corners(out["bode-mag"], roots, unit)
+        sample_time = view.problem.conditions[view.first_plotted].network.sample_time
+        overlays.corners(out["bode-mag"], roots, unit, sample_time)
+        overlays.nyquist_frequency(out["bode-mag"], out["bode-phase"], sample_time, unit)
     if curves and asked("nichols"):
         out["nichols"] = nichols_figure(curves, unit)
     if "closed_loop" in wanted and view.problem.conditions and asked("closed-loop"):
@@ -93,7 +95,8 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
 def compensator_roots(view: View) -> list[tuple[str, complex]]:
     """("zero" or "pole", root: the upper one of a pair) of the plotted condition's
     compensators at the current design (`engine.design.compensator_items`; none when
-    they do not read)."""
+    they do not read); a sampled loop's in z, as its pole map and locus are drawn."""
+    from engine.closed_loop.root_locus import z_of_w
     from engine.design.compensator_items import items
     from engine.errors import EngineError
     from engine.model.blocks import ExpressionTransfer
@@ -111,6 +114,8 @@ def compensator_roots(view: View) -> list[tuple[str, complex]]:
                 continue
             kinds = {"zero": "zero", "zero pair": "zero", "differentiator": "zero"}
             out += [(kinds.get(i.kind, "pole"), i.root) for i in found if i.kind != "gain"]
+    if view.problem.conditions[k].network.sample_time is not None:
+        out = [(kind, complex(z_of_w(root))) for kind, root in out]
     return out
 
 

@@ -203,6 +203,7 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
         return fig
     from engine.closed_loop.root_locus import pole_zero_map  # scipy.optimize, on first use
 
+    T = c.network.sample_time
     shown = []
     for n, (at, k, label, _) in enumerate(designs):
         try:
@@ -213,12 +214,25 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
         _pole_series(fig, pz, "" if n == 0 else label)
         shown.append(pz)
     first = shown[0]
-    fig.title = f"Poles and zeros: {c.name}"
+    fig.title = f"Poles and zeros: {c.name}" + ("" if T is None else f" (in z, T = {T:g} s)")
     if len(first.closed_loop):
-        fig.xlabel = f"Re   slowest closed-loop pole {_pole_text(first.closed_loop)}"
-        fig.probe = _pole_probe(first.closed_loop, c.network.variable)
+        fig.xlabel = f"Re   slowest closed-loop pole {_pole_text(first.closed_loop, T)}"
+        fig.probe = _pole_probe(first.closed_loop, c.network.variable, T)
     _square(fig, np.concatenate([np.concatenate([pz.poles, pz.zeros, pz.closed_loop]) for pz in shown]))
+    if T is not None:
+        _unit_circle(fig)
     return fig
+
+
+def _unit_circle(fig: Figure) -> None:
+    """The unit circle (the stability boundary in z), beneath the roots, and a view that holds it."""
+    angle = np.linspace(0.0, 2 * np.pi, 181)
+    fig.series.insert(
+        0, Series(np.cos(angle).tolist(), np.sin(angle).tolist(), "|z| = 1", color="gray", marker="dot", beneath=True)
+    )
+    if fig.xlim and fig.ylim:
+        fig.xlim = (min(fig.xlim[0], -1.2), max(fig.xlim[1], 1.2))
+        fig.ylim = (min(fig.ylim[0], -1.2), max(fig.ylim[1], 1.2))
 
 
 def _pole_series(fig: Figure, pz, reference: str) -> None:
@@ -243,33 +257,37 @@ def _pole_series(fig: Figure, pz, reference: str) -> None:
             )
 
 
-def _pole_probe(poles, variable: str) -> Probe:
+def _pole_probe(poles, variable: str, sample_time: float | None = None) -> Probe:
     """A cursor over the closed-loop poles (one of each conjugate pair), the least damped
-    first, reading each one's zeta and wn."""
-    found = sorted((p for p in np.asarray(poles) if np.isfinite(p) and p.imag >= 0), key=lambda p: _damping(p))
-    unit = " rad/s" if variable == "s" else ""
+    first, reading each one's zeta and wn (in z: of its s-plane equivalent)."""
+    found = sorted(
+        (p for p in np.asarray(poles) if np.isfinite(p) and p.imag >= 0), key=lambda p: _damping(p, sample_time)
+    )
+    unit = " rad/s" if variable == "s" or sample_time is not None else ""
 
     def readout(i: int) -> str:
         p = found[i]
-        zeta, wn = _damping(p)
+        zeta, wn = _damping(p, sample_time)
         return f"pole {p.real:.5g}{p.imag:+.5g}j  zeta {zeta:.4g}  wn {wn:.5g}{unit}"
 
     return Probe([float(p.real) for p in found], [float(p.imag) for p in found], readout, start=0)
 
 
-def _locus_probe(locus, name: str) -> Probe:
+def _locus_probe(locus, name: str, sample_time: float | None = None) -> Probe:
     """A cursor along every branch (one after another), reading the gain (or parameter)
     there and the closed-loop poles it gives; enter picks that value (`Probe.chosen`)."""
-    rows, count = locus.branches.shape
-    points = locus.branches.T.ravel()  # branch by branch
+    branches = np.asarray(locus.branches)
+    rows, count = branches.shape
+    points = branches.T.ravel()  # branch by branch
     keep = np.flatnonzero(np.isfinite(points))
     values = np.tile(locus.values, count)[keep]
     rows_of = np.tile(np.arange(rows), count)[keep]
 
     def readout(i: int) -> str:
-        poles = [p for p in locus.branches[rows_of[i]] if np.isfinite(p) and p.imag >= 0]
-        least = min(poles, key=lambda p: _damping(p)[0], default=None)
-        damped = "" if least is None else f"  least damped zeta {_damping(least)[0]:.3g} wn {_damping(least)[1]:.4g}"
+        poles = [p for p in branches[rows_of[i]] if np.isfinite(p) and p.imag >= 0]
+        least = min(poles, key=lambda p: _damping(p, sample_time)[0], default=None)
+        zeta, wn = (None, None) if least is None else _damping(least, sample_time)
+        damped = "" if least is None else f"  least damped zeta {zeta:.3g} wn {wn:.4g}"
         return f"{name} = {values[i]:.5g}: poles " + ", ".join(_root_text(p) for p in poles[:4]) + damped
 
     start = int(np.argmin(np.abs(values - locus.current_value))) if values.size else None
@@ -281,8 +299,12 @@ def _root_text(p: complex) -> str:
     return f"{p.real:.4g}" if p.imag == 0 else f"{p.real:.4g}+-{p.imag:.4g}j"
 
 
-def _damping(p: complex) -> tuple[float, float]:
-    """(zeta, wn) of a pole."""
+def _damping(p: complex, sample_time: float | None = None) -> tuple[float, float]:
+    """(zeta, wn) of a pole (in z: of its s-plane equivalent s = ln(z)/T; z = 0: damping 1)."""
+    if sample_time is not None:
+        if p == 0:
+            return 1.0, math.inf
+        p = complex(np.log(complex(p))) / sample_time
     wn = abs(p)
     return (-p.real / wn if wn > 0 else 1.0), wn
 
@@ -319,6 +341,7 @@ def locus_figure(
     except EngineError as exc:
         fig.empty_message = f"no root locus: {exc}"
         return fig
+    T = c.network.sample_time
     branches = np.asarray(locus.branches)
     for j in range(branches.shape[1]):
         column = branches[:, j]
@@ -339,10 +362,12 @@ def locus_figure(
         f" ({status})" if status else ""
     )
     if crossings:
-        fig.xlabel = f"Re   jw-axis crossings: {crossings}"
-    fig.probe = _locus_probe(locus, name)
+        fig.xlabel = f"Re   {'jw-axis' if T is None else 'unit-circle'} crossings: {crossings}"
+    fig.probe = _locus_probe(locus, name, T)
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
-    if parameter == "gain":
+    if T is not None:
+        _unit_circle(fig)
+    elif parameter == "gain":  # (in z, the w-plane's asymptotes are arcs: not drawn)
         _asymptotes_and_breakaways(fig, locus)
     return fig
 
@@ -383,9 +408,11 @@ def _rational(view, k: int):
     return problem.conditions[k]
 
 
-def _pole_text(poles) -> str:
-    p = min(np.asarray(poles), key=lambda z: abs(z.real))
-    zeta, wn = _damping(p)
+def _pole_text(poles, sample_time: float | None = None) -> str:
+    """The slowest pole (nearest the imaginary axis; in z, the unit circle) with its zeta and wn."""
+    points = np.asarray(poles)
+    p = min(points, key=lambda z: abs(z.real) if sample_time is None else abs(1 - abs(z)))
+    zeta, wn = _damping(p, sample_time)
     return f"{p.real:.4g}{p.imag:+.4g}j, zeta {zeta:.3g}, wn {wn:.4g}"
 
 
@@ -418,7 +445,7 @@ def pole_text(view) -> str:
 def pole_lines(view) -> str:
     """The current design's closed-loop poles of the first plotted condition (a conjugate pair
     once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""
-    from engine.closed_loop.poles import polish
+    from engine.closed_loop.poles import polish, z_pole
     from engine.loop.realization import poles
 
     k = view.first_plotted
@@ -431,10 +458,14 @@ def pole_lines(view) -> str:
         found = poles(ss, lambda eig: polish(c.network, params, eig))
     except EngineError:
         found = poles(ss)
+    T = c.network.sample_time
+    if T is not None:  # in z, with the damping and natural frequency of s = ln(z)/T
+        found = [z_pole(p, T) for p in found]
     shown = sorted((p for p in found if p.value.imag >= 0), key=lambda p: (p.zeta, p.wn))
+    plane = "z" if T is not None else c.network.variable
     lines = [
         f"closed-loop poles ({c.name})" if len(view.problem.conditions) > 1 else "closed-loop poles",
-        f"{'pole':>22} {'zeta':>7} {'wn rad/s' if c.network.variable == 's' else 'wn (w)':>10}",
+        f"{'pole (z)' if plane == 'z' else 'pole':>22} {'zeta':>7} {'wn (w)' if plane == 'w' else 'wn rad/s':>10}",
     ]
     for p in shown[:MAX_POLES_LISTED]:
         value = f"{p.value.real:.5g}" + (f" +- {p.value.imag:.5g}j" if p.value.imag > 0 else "")

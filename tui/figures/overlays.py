@@ -7,6 +7,7 @@ legend entry names the target and its verdict."""
 
 from __future__ import annotations
 
+import cmath
 import math
 from collections.abc import Iterable
 
@@ -78,19 +79,41 @@ def bode(magnitude: Figure, phase: Figure, found: list[Requirement], unit: str) 
             _shade(phase, req, *band, base, base + req.value)
 
 
-def corners(magnitude: Figure, roots: list[tuple[str, complex]], unit: str) -> None:
+def corners(magnitude: Figure, roots: list[tuple[str, complex]], unit: str, sample_time: float | None = None) -> None:
     """The compensator's corner frequencies on the Bode magnitude, on the current curve:
-    z for a zero (or a pair of zeros), p for a pole, where the shaping table moves them."""
+    z for a zero (or a pair of zeros), p for a pole, where the shaping table moves them (a
+    root in z at the natural frequency |ln z|/T of its s-plane equivalent)."""
     if magnitude.probe is None or not roots:
         return
     scale = 2 * math.pi if unit == "hz" else 1.0
     x, y = np.asarray(magnitude.probe.x), np.asarray(magnitude.probe.y)
+
+    def corner(r: complex) -> float:
+        return abs(r) if sample_time is None else abs(cmath.log(r)) / sample_time if r != 0 else 0.0
+
     for kind, marker in (("zero", "z"), ("pole", "p")):
-        at = [math.log10(abs(r) / scale) for k, r in roots if k == kind and abs(r) > 0]
+        at = [math.log10(corner(r) / scale) for k, r in roots if k == kind and corner(r) > 0]
         at = [v for v in at if x[0] <= v <= x[-1]]
         if at:
             label = f"compensator {kind}s"
             magnitude.series.append(Series(at, np.interp(at, x, y).tolist(), label, marker=marker, scatter=True))
+
+
+def nyquist_frequency(magnitude: Figure, phase: Figure, sample_time: float | None, unit: str) -> None:
+    """A sampled loop's Nyquist frequency pi/T, where its response ends, on both Bode plots."""
+    if sample_time is None or magnitude.probe is None:
+        return
+    scale = 2 * math.pi if unit == "hz" else 1.0
+    x = math.log10(math.pi / sample_time / scale)
+    for fig in (magnitude, phase):
+        low, high = _y_range(fig)
+        label = f"Nyquist pi/T = {math.pi / sample_time / scale:.4g} {unit}" if fig is magnitude else ""
+        fig.series.append(Series([x, x], [low, high], label, color="gray", marker="|", beneath=True))
+
+
+def _y_range(fig: Figure) -> tuple[float, float]:
+    ys = [v for s in fig.series for v in s.y if math.isfinite(v)]
+    return (min(ys), max(ys)) if ys else (-1.0, 1.0)
 
 
 def compensator_roots(fig: Figure, roots: list[tuple[str, complex]]) -> None:

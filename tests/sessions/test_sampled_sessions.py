@@ -1,0 +1,209 @@
+"""Conditions in z with a sample time: the bundled Kuo example designed in z, checked against
+the unit circle sampled densely (written here), python-control's discrete margins, and the
+w-plane example where the bilinear map says the numbers must agree; and what a z condition
+refuses, by name."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import shutil
+from pathlib import Path
+
+import control
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from engine.analysis import analyze
+from sessions.errors import SessionError
+from sessions.store import load_session, parse_session
+from tui.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+
+T = 0.5
+PLANT_NUM = 0.13 * 3 * np.polymul([1, 1.31], [1, 0.054])  # report 003, eq. B-3 (K = 3)
+PLANT_DEN = np.polymul([1, 0], [1, -1.368, 0.368])  # z (z - 1)(z - 0.368)
+
+
+def _compensator(t1: float, t2: float) -> tuple[np.ndarray, np.ndarray]:
+    return np.array([1 + t1, -(t1 - 1)]), np.array([1 + t2, -(t2 - 1)])
+
+
+def _loop(t1: float, t2: float):
+    cn, cd = _compensator(t1, t2)
+    num, den = np.polymul(cn, PLANT_NUM), np.polymul(cd, PLANT_DEN)
+    return lambda w: np.polyval(num, np.exp(1j * w * T)) / np.polyval(den, np.exp(1j * w * T))
+
+
+def _circle_margins(t1: float, t2: float) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """(frequency, dB) of every phase crossing and (frequency, deg) of every gain crossover, from
+    200 000 points of the unit circle below the Nyquist frequency, each refined by brentq."""
+    L = _loop(t1, t2)
+    w = np.linspace(1e-6, math.pi / T * (1 - 1e-9), 200_000)
+    values = L(w)
+    gains, phases = [], []
+    for f, out, keep in (
+        (lambda x: L(x).imag, gains, lambda v: v.real < 0),
+        (lambda x: abs(L(x)) - 1.0, phases, lambda v: True),
+    ):
+        s = f(w)
+        for i in np.flatnonzero(np.sign(s[:-1]) != np.sign(s[1:])):
+            root = brentq(f, w[i], w[i + 1], xtol=1e-15, rtol=1e-15)
+            v = L(root)
+            if keep(v):
+                out.append(
+                    (root, -20 * math.log10(abs(v)) if out is gains else (math.degrees(np.angle(v)) + 360) % 360 - 180)
+                )
+    assert values.size
+    return gains, phases
+
+
+def _session_margins(path, t1: float, t2: float):
+    session = load_session(path)
+    problem = session.problem
+    c = problem.conditions[0]
+    return analyze(c.network, c.break_at, problem.grid.omega, {"T1": t1, "T2": t2})
+
+
+@pytest.mark.parametrize("t1, t2", [(20.0, 20.0), (24.0, 146.03), (50.0, 195.0), (3.0, 0.5)])
+def test_kuo_in_z_against_the_unit_circle_and_python_control(t1, t2):
+    found = _session_margins(EXAMPLES / "coebra_kuo_z.json", t1, t2)
+    gains, phases = _circle_margins(t1, t2)
+    assert len(found.margins.gain) == len(gains) and len(found.margins.phase) == len(phases)
+    for m, (w, db) in zip(found.margins.gain, gains):
+        assert m.frequency == pytest.approx(w, rel=1e-10) and m.gain_db == pytest.approx(db, rel=1e-9, abs=1e-9)
+    for m, (w, deg) in zip(found.margins.phase, phases):
+        assert m.frequency == pytest.approx(w, rel=1e-10) and m.phase_deg == pytest.approx(deg, rel=1e-9, abs=1e-9)
+        assert m.delay == pytest.approx(math.radians(deg) % (2 * math.pi) / w, rel=1e-12)  # seconds
+    cn, cd = _compensator(t1, t2)
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(
+        control.tf(np.polymul(cn, PLANT_NUM), np.polymul(cd, PLANT_DEN), T)
+    )
+    if found.margins.phase:
+        assert found.margins.crossover_frequency == pytest.approx(wgc, rel=1e-9)
+        assert min(found.margins.phase, key=lambda m: abs(m.phase_deg)).phase_deg == pytest.approx(pm, rel=1e-9)
+    if found.margins.gain and math.isfinite(gm):
+        assert min(m.gain_db for m in found.margins.gain) == pytest.approx(20 * math.log10(gm), rel=1e-8)
+    poles = np.roots(np.polyadd(np.polymul(cd, PLANT_DEN), np.polymul(cn, PLANT_NUM)))
+    shown = np.array([p.value for p in found.closed_loop_poles])  # in z
+    cancelled = (t1 - 1) / (t1 + 1) if t1 == t2 else None  # D(z) = 1: its pole and zero cancel
+    expected = np.array([p for p in poles if cancelled is None or abs(p - cancelled) > 1e-9])
+    assert shown.size == expected.size
+    assert max(np.min(np.abs(shown[:, None] - expected[None, :]), axis=1)) < 1e-9
+    assert found.verdict == ("stable" if np.all(np.abs(poles) < 1) else "unstable")
+
+
+def test_equal_to_the_w_plane_example_where_the_bilinear_map_says_so(tmp_path):
+    """The w example's plant written in z (z = (1 + w)/(1 - w), exactly) gives the w example's
+    margins at omega = (2/T) atan(nu) to rounding; the report's z plant, of which the w plant is a
+    rounded image (0.13 K = 0.39 against the image's 0.3978, zeros to two digits), agrees to that
+    rounding: frequencies within 2.5 %, gain margins within 0.3 dB, phase margins within 1.5 deg."""
+    data = json.loads((EXAMPLES / "coebra_kuo_digital.json").read_text())
+    exact = copy.deepcopy(data)
+    c = exact["problem"]["conditions"][0]
+    c.update(variable="z", sample_time=T)
+    w = "((z-1)/(z+1))"
+    for b in c["plant"]["blocks"]:
+        b["transfer"]["expression"] = b["transfer"]["expression"].replace("w", w)
+    exact["problem"]["grid"]["stop"] = 6.28
+    path = tmp_path / "exact.json"
+    path.write_text(json.dumps(exact))
+    for t1, t2 in [(20.0, 20.0), (50.0, 195.0)]:
+        in_w = _session_margins(EXAMPLES / "coebra_kuo_digital.json", t1, t2)
+        in_z = _session_margins(path, t1, t2)
+        report_z = _session_margins(EXAMPLES / "coebra_kuo_z.json", t1, t2)
+        for mw, mz, mr in zip(in_w.margins.all(), in_z.margins.all(), report_z.margins.all()):
+            assert mz.frequency == pytest.approx(2 * math.atan(mw.frequency) / T, rel=1e-11)
+            assert mz.value == pytest.approx(mw.value, rel=1e-11)
+            assert mr.frequency == pytest.approx(mz.frequency, rel=0.025)
+            if mw.kind == "G":
+                assert mr.gain_db == pytest.approx(mw.gain_db, abs=0.3)
+            if mw.kind == "P":
+                assert mr.phase_deg == pytest.approx(mw.phase_deg, abs=1.5)
+
+
+def test_the_z_example_runs_and_replays_from_the_cli(tmp_path, capsys):
+    path = tmp_path / "kuo_z.json"
+    shutil.copy(EXAMPLES / "coebra_kuo_z.json", path)
+    assert main(["run", str(path), "--iterations", "40"]) == 0
+    assert "converged" in capsys.readouterr().out
+    x = load_session(path).records[-1].parameters
+    found = _session_margins(path, x["T1"], x["T2"])
+    gains, phases = _circle_margins(x["T1"], x["T2"])
+    assert min(db for _, db in gains) >= 12 and min(deg for _, deg in phases) >= 50  # the requirements, met
+    assert found.margins.phase[0].phase_deg == pytest.approx(phases[0][1], rel=1e-9)
+    assert main(["replay", str(path)]) == 0
+    assert "reproduce" in capsys.readouterr().out
+
+
+def _edited(change) -> str:
+    data = json.loads((EXAMPLES / "coebra_kuo_z.json").read_text())
+    change(data)
+    return json.dumps(data)
+
+
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (lambda d: d["problem"]["conditions"][0].pop("sample_time"), "needs its sample_time"),
+        (lambda d: d["problem"]["grid"].update(stop=7.0), "Nyquist frequency pi/T = 6.28319"),
+        (
+            lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][1].update(
+                transfer={"kind": "delay", "tau": 0.1}
+            ),
+            "a loop in z takes expressions in z",
+        ),
+        (
+            lambda d: d["problem"]["targets"].append({"measure": "stability_abscissa", "bands": [{"desired": 0.0}]}),
+            "problem.targets[2].measure",
+        ),
+    ],
+)
+def test_what_a_z_condition_refuses_is_named(tmp_path, change, words):
+    with pytest.raises(SessionError, match=None) as caught:
+        parse_session(_edited(change), "kuo_z.json", tmp_path)
+    assert words in str(caught.value)
+
+
+def test_the_step_response_is_the_sampled_loop_s_at_its_samples(tmp_path):
+    """The z loop's step response at t = k T against python-control's discrete step (to rounding),
+    drawn as a staircase; the horizon from the poles' radii."""
+    from engine.closed_loop.step_response import StepSetup, realized, step_response
+
+    session = load_session(EXAMPLES / "coebra_kuo_z.json")
+    c = session.problem.conditions[0]
+    t1, t2 = 24.0, 146.03
+    response = step_response(realized(c.network, {"T1": t1, "T2": t2}), StepSetup())
+    samples = np.array(response.y[::2])
+    assert response.t[:4] == [0.0, T, T, 2 * T]  # a staircase
+    cn, cd = _compensator(t1, t2)
+    closed = control.feedback(control.tf(np.polymul(cn, PLANT_NUM), np.polymul(cd, PLANT_DEN), T), 1)
+    _, expected = control.step_response(closed, T=np.arange(samples.size) * T)
+    np.testing.assert_allclose(samples, expected, atol=1e-12)
+    poles = np.abs(np.roots(np.polyadd(np.polymul(cd, PLANT_DEN), np.polymul(cn, PLANT_NUM))))
+    slowest = -T / math.log(poles.max())  # s
+    assert response.t[-1] == pytest.approx(8 * slowest, abs=T)
+    m = response.measures
+    assert m.final == pytest.approx(1.0, rel=1e-12)  # a type-1 loop
+    assert m.peak == pytest.approx(expected.max(), rel=1e-12) and m.peak_time == pytest.approx(T * expected.argmax())
+
+
+def test_the_pole_map_and_locus_are_drawn_in_z_with_the_unit_circle(tmp_path):
+    from tui.figures.closed_loop import locus_figure, poles_figure
+    from tui.state.workbench import Workbench
+
+    path = tmp_path / "kuo_z.json"
+    shutil.copy(EXAMPLES / "coebra_kuo_z.json", path)
+    view = Workbench(load_session(path)).view()
+    fig = poles_figure(view)
+    by_label = {s.label: s for s in fig.series if s.label}
+    closed = np.array(by_label["closed-loop poles"].x) + 1j * np.array(by_label["closed-loop poles"].y)
+    cn, cd = _compensator(20.0, 20.0)
+    expected = np.roots(np.polyadd(np.polymul(cd, PLANT_DEN), np.polymul(cn, PLANT_NUM)))
+    assert all(np.min(np.abs(expected - p)) < 1e-9 for p in closed)
+    assert "|z| = 1" in by_label and "z-plane" in fig.title
+    locus = locus_figure(view)
+    assert any(s.label == "|z| = 1" for s in locus.series) and "unit-circle crossings" in locus.xlabel
