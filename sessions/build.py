@@ -49,6 +49,7 @@ from engine.model.blocks import (
     factored_transfer,
     polynomial_transfer,
 )
+from engine.model.discretize import discretized_text
 from engine.model.network import Block, Junction, Network, block_diagram, matrix_format
 from sessions.errors import SessionError
 from sessions.format.constraint_lines import build_inequalities, check_start, engine_error
@@ -228,7 +229,10 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
         elif plant.format == "cascade":
             network = _cascade(plant, f"{path}.plant", folder, c.variable)
         else:
-            blocks = [_block(b, f"{path}.plant.blocks[{i}]", folder, c.variable) for i, b in enumerate(plant.blocks)]
+            blocks = [
+                _block(b, f"{path}.plant.blocks[{i}]", folder, c.variable, c.sample_time)
+                for i, b in enumerate(plant.blocks)
+            ]
             junctions = [
                 Junction(j.name, j.output, tuple((1.0, s) for s in j.plus) + tuple((-1.0, s) for s in j.minus))
                 for j in plant.junctions
@@ -344,13 +348,19 @@ def _times(transfer, gain: float, variable: str):
     raise SessionError("the transducer gain applies to a table, an expression or a state space")
 
 
-def _block(b, path: str, folder: Path, variable: str) -> Block:
-    return Block(b.name, b.input, b.output, _transfer(b.transfer, f"{path}.transfer", folder, variable))
+def _block(b, path: str, folder: Path, variable: str, sample_time: float | None = None) -> Block:
+    return Block(b.name, b.input, b.output, _transfer(b.transfer, f"{path}.transfer", folder, variable, sample_time))
 
 
-def _transfer(t, path: str, folder: Path, variable: str):
+def _transfer(t, path: str, folder: Path, variable: str, sample_time: float | None = None):
     try:
-        if t.kind == "expression":
+        if t.kind == "discretized":
+            if sample_time is None:
+                raise SessionError(f"{path}: a discretized block belongs to a condition in z (with its sample_time)")
+            transfer = ExpressionTransfer(
+                discretized_text(t.expression, sample_time, t.method, t.delay, t.prewarp), "z"
+            )
+        elif t.kind == "expression":
             transfer = ExpressionTransfer(t.expression, variable)
         elif t.kind == "polynomial":
             transfer = polynomial_transfer(t.numerator, t.denominator, t.order, variable)

@@ -9,7 +9,7 @@ fastest unstable).  The measures: rise time (10-90 %), overshoot, settling band
 value (none when the response has no settled final value to measure from).
 
 A sampled loop (its realization in w, `StateSpace.sample_time`) responds at its samples
-t = k T: its realization taken to z (w = (z - 1)/(z + 1), `in_z`) and stepped sample by sample; the response is drawn as a staircase and measured at the
+t = k T: its realization taken to z (w = (z - 1)/(z + 1), `engine.model.bilinear.realization_in_z`) and stepped sample by sample; the response is drawn as a staircase and measured at the
 samples, over a horizon from the poles' radii (8 time constants -T/ln|z| of the slowest).
 """
 
@@ -24,6 +24,7 @@ import numpy as np
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
+from engine.model.bilinear import realization_in_z
 from engine.model.network import Network
 
 SAMPLES = 400
@@ -111,7 +112,7 @@ def _sampled_step(ss: StateSpace, source: str, output: str, end: float) -> StepR
     staircase, measured at its samples."""
     T = ss.sample_time
     i, j = ss.inputs.index(source), ss.outputs.index(output)
-    A, B, C, D = in_z(ss.A, ss.B[:, i : i + 1], ss.C[j : j + 1], ss.D[j : j + 1, i : i + 1])
+    A, B, C, D = realization_in_z(ss.A, ss.B[:, i : i + 1], ss.C[j : j + 1], ss.D[j : j + 1, i : i + 1])
     count = int(min(MAX_SAMPLES, max(MIN_SAMPLES, math.ceil(end / T)))) + 1
     x, y = np.zeros(A.shape[0]), np.empty(count)
     with np.errstate(all="ignore"):  # an unstable loop grows: shown until it leaves the float range
@@ -122,14 +123,6 @@ def _sampled_step(ss: StateSpace, source: str, output: str, end: float) -> StepR
     stairs_t, stairs_y = np.repeat(t, 2)[1:], np.repeat(y, 2)[:-1]
     name = f"{output} (step at {source}, every {T:g} s)"
     return StepResponse(stairs_t.tolist(), stairs_y.tolist(), name, _measures(ss, source, output, t, y))
-
-
-def in_z(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, ...]:
-    """A realization in w as one in z, w = (z - 1)/(z + 1): with M = (I - A)^-1, A_z = (I + A) M,
-    B_z = sqrt(2) M B, C_z = sqrt(2) C M, D_z = D + C M B (= H(w = 1), z = inf)."""
-    M = np.linalg.inv(np.eye(A.shape[0]) - A)
-    root2 = math.sqrt(2.0)
-    return (np.eye(A.shape[0]) + A) @ M, root2 * M @ B, root2 * C @ M, D + C @ M @ B
 
 
 def _measures(ss: StateSpace, source: str, output: str, t: np.ndarray, y: np.ndarray) -> StepMeasures | None:

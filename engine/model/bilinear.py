@@ -7,6 +7,7 @@ circle z = exp(j omega T) the w-plane frequency is nu = tan(omega T/2)
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 
@@ -67,6 +68,19 @@ def real_frequency(nu: ArrayLike, sample_time: float, scaled: bool = False) -> N
 
 Z_VARIABLE = re.compile(r"(?<![A-Za-z0-9_.])z(?![A-Za-z0-9_])")
 Z_OF_W = "((1+w)/(1-w))"
+
+
+def realization_in_z(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, ...]:
+    """A realization in w as one in z, w = (z - 1)/(z + 1): with M = (I - A)^-1, A_z = (I + A) M,
+    B_z = sqrt(2) M B, C_z = sqrt(2) C M, D_z = D + C M B (= H(w = 1), z = inf)."""
+    M = np.linalg.inv(np.eye(A.shape[0]) - A)
+    root2 = math.sqrt(2.0)
+    return (np.eye(A.shape[0]) + A) @ M, root2 * M @ B, root2 * C @ M, D + C @ M @ B
+
+
+def z_transfer(transfer: ExpressionTransfer) -> ExpressionTransfer:
+    """A sampled network's entry as it was typed, in z (`sampled_network` wrote each z as `Z_OF_W`)."""
+    return ExpressionTransfer(transfer.text.replace(Z_OF_W, "z"), "z")
 
 
 def sampled_network(network: Network, sample_time: float) -> Network:

@@ -144,3 +144,75 @@ def _normalized(num: NDArray, den: NDArray) -> Polynomials:
 def _trailing_zeros(c: NDArray) -> int:
     nonzero = np.flatnonzero(c)
     return 0 if nonzero.size == 0 else c.size - 1 - int(nonzero[-1])
+
+
+METHODS = ("zoh", "tustin", "matched")
+
+
+def discretized_text(
+    text: str, sample_time: float, method: str = "zoh", delay: float = 0.0, prewarp: float | None = None
+) -> str:
+    """A continuous block (an expression in s, numbers only) discretized by ``method`` as an
+    expression in z: its polynomials' coefficients, descending; ``delay`` (s) with the hold
+    only (zoh), ``prewarp`` (rad/s) with Tustin only."""
+    from engine.model.blocks import ExpressionTransfer
+
+    if method not in METHODS:
+        raise BlockError(f"discretized by {method!r}: the methods are {', '.join(METHODS)}")
+    if delay and method != "zoh":
+        raise BlockError(f"a delay is discretized with its hold (zoh), not by {method}")
+    if prewarp is not None and method != "tustin":
+        raise BlockError(f"prewarping is Tustin's, not {method}'s")
+    transfer = ExpressionTransfer(text, "s")
+    if transfer.parameters:
+        raise BlockError(
+            f"{text!r} names {', '.join(transfer.parameters)}: a block discretized on the way in has numbers only"
+        )
+    r = transfer.rational({})
+    if method == "zoh":
+        num, den = zoh(r.num, r.den, sample_time, delay)
+    elif method == "tustin":
+        num, den = tustin(r.num, r.den, sample_time, prewarp)
+    else:
+        num, den = matched(r.num, r.den, sample_time)
+    at_origin = (_trailing_zeros(np.trim_zeros(r.num, "f")), _trailing_zeros(np.trim_zeros(r.den, "f")))
+    zeros, poles = (_at_one(np.roots(c), k) for c, k in zip((num, den), at_origin))
+    return f"({float(num[0] / den[0])!r})*{z_factors(zeros)}/{z_factors(poles)}"
+
+
+def _at_one(roots: NDArray, count: int) -> NDArray:
+    """The ``count`` roots nearest z = 1 set to 1 exactly: integrators (or differentiators) of the
+    continuous block, which every method maps to z = 1 and which rounding moves off it by ~eps."""
+    roots = np.asarray(roots, dtype=complex).copy()
+    if count:
+        nearest = np.argsort(np.abs(roots - 1.0))[:count]
+        roots[nearest] = 1.0
+    return roots
+
+
+def z_factors(roots: NDArray) -> str:
+    """prod (z - r) as text, a conjugate pair as one real quadratic, real roots exact."""
+    roots = np.asarray(roots, dtype=complex)
+    factors, used = [], np.zeros(roots.size, dtype=bool)
+    for i, r in enumerate(roots):
+        if used[i]:
+            continue
+        used[i] = True
+        if abs(r.imag) <= 1e-14 * max(abs(r), 1.0):
+            factors.append(f"(z-({float(r.real)!r}))")
+            continue
+        partner = next(
+            (j for j in range(i + 1, roots.size) if not used[j] and abs(roots[j] - r.conjugate()) <= 1e-9 * abs(r)),
+            None,
+        )
+        if partner is not None:
+            used[partner] = True
+        factors.append(f"(z^2-({float(2 * r.real)!r})*z+({float(abs(r) ** 2)!r}))")
+    return "(" + "*".join(factors) + ")" if factors else "1"
+
+
+def z_polynomial(c: ArrayLike) -> str:
+    """Descending coefficients as a polynomial in z (text an expression reads back exactly)."""
+    c = np.atleast_1d(np.asarray(c, dtype=float))
+    n = c.size - 1
+    return "+".join(f"({float(v)!r})*z^{n - k}" for k, v in enumerate(c))

@@ -80,6 +80,11 @@ def _cascade_problem(problem: Problem) -> CascadeProblem:
     if not problem.conditions:
         raise EngineError("qcg: the problem needs a flight condition (the cascade of report 001, Figure 2)")
     network = problem.conditions[0].network
+    if network.sample_time is not None:
+        raise EngineError(
+            "qcg: report 001's cost integrates a continuous loop's PSDs over frequency; a condition in z is not "
+            "one (design it with slp or cip, or give qcg the continuous plant)"
+        )
     blocks = {e.label: e.transfer for e in network.entries}
     missing = [name for name in ("G1", "G2", "Ga") if name not in blocks]
     if missing or not ({"H1", "H2"} & set(blocks)):

@@ -16,12 +16,14 @@ from __future__ import annotations
 import csv
 import io
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from engine.errors import EngineError
 from engine.loop.pole_zero import closed_loop_realization, loop_realization
 from engine.loop.responses import open_loop
+from engine.model.bilinear import realization_in_z
 from sessions.export.design_model import Design, ExportCondition, ExportEntry, not_finite, w_to_z
 from sessions.store import Session
 
@@ -76,6 +78,7 @@ def _condition(c: ExportCondition, sample_time: float | None) -> dict:
     data = {
         "name": c.name,
         "variable": c.variable,
+        "sample_time": c.sample_time,
         "break_at": c.break_at,
         "inputs": list(c.inputs),
         "signals": list(c.signals),
@@ -103,6 +106,9 @@ def _state_spaces(c: ExportCondition) -> dict:
     except (EngineError, ValueError, ArithmeticError) as exc:  # LinAlgError is a ValueError
         return {"open_loop": None, "closed_loop": None, "state_space_note": not_finite(exc)}
     k = c.network.signal(c.break_at)
+    if c.sample_time is not None:  # realized in w: written in z
+        ss = replace(ss, **dict(zip("ABCD", realization_in_z(ss.A, ss.B, ss.C, ss.D))))
+        closed = replace(closed, **dict(zip("ABCD", realization_in_z(closed.A, closed.B, closed.C, closed.D))))
     loop = _matrices(ss.A, ss.B[:, -1:], -ss.C[k : k + 1], -ss.D[k : k + 1, -1:])
     loop.update(input=f"{c.break_at} (injected)", output="GH = -(returned " + c.break_at + ")")
     shut = _matrices(closed.A, closed.B, closed.C, closed.D)

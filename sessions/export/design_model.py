@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
+from engine.model.bilinear import z_transfer
 from engine.model.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
@@ -49,6 +50,7 @@ class ExportEntry:
     degree: int = 0
     omega: tuple[float, ...] = ()  # a table's frequencies (rad/s) and its response there
     response: tuple[complex, ...] = ()
+    sample_time: float | None = None  # an entry of a condition in z: num/den, zeros and poles in z
 
     @property
     def constant(self) -> float | None:
@@ -71,6 +73,7 @@ class ExportCondition:
     values: dict[str, float]
     network: Network
     chain: tuple[int, ...] | None = None  # a unity loop: every entry on the one chain, L = sign * their product
+    sample_time: float | None = None  # a condition in z (its entries in z)
 
     def ident(self, signal: str) -> str:
         """The signal's name as an identifier, unique within the condition."""
@@ -114,7 +117,7 @@ def design(session: Session, iteration: int | None = None, fit: bool = False) ->
         conditions.append(
             ExportCondition(
                 condition.name,
-                network.variable,
+                network.variable if network.sample_time is None else "z",
                 condition.break_at,
                 network.signals,
                 network.inputs,
@@ -122,6 +125,7 @@ def design(session: Session, iteration: int | None = None, fit: bool = False) ->
                 values,
                 network,
                 unity_chain(entries, network.inputs, condition.break_at),
+                network.sample_time,
             )
         )
     return Design(
@@ -175,6 +179,9 @@ def _numbers(network: Network, e, values: dict[str, float], fit: bool) -> Export
         compensator=bool(e.transfer.parameters),
     )
     transfer = e.transfer
+    if isinstance(transfer, ExpressionTransfer) and network.sample_time is not None:
+        transfer = z_transfer(transfer)  # exported as typed, in z
+        common["sample_time"] = network.sample_time
     if isinstance(transfer, ExpressionTransfer):
         r = transfer.rational(values)
         form = pole_zero(transfer.expression, values)

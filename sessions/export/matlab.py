@@ -136,6 +136,9 @@ def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
     elif e.kind == "fitted":
         make = f"zpk({_vector(e.zeros)}, {_vector(e.poles)}, {e.gain!r}, {names})"
         comment = f"{e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}"
+    elif e.sample_time is not None:  # in z
+        make = f"tf({_vector(e.num)}, {_vector(e.den)}, {e.sample_time!r}, {names})"
+        comment = f"{e.label} ({role}): {e.text} (in z, Ts {e.sample_time!r} s)"
     else:
         make = f"tf({_vector(e.num)}, {_vector(e.den)}, {names})"
         comment = f"{e.label} ({role}): {e.text}"

@@ -150,7 +150,8 @@ def _make(e: ExportEntry, names: str) -> str:
         return f"control.tf(*control.pade({e.delay!r}, {PADE_ORDER}){named})"
     if e.kind == "fitted":
         return f"zpk({list(e.zeros)!r}, {list(e.poles)!r}, {e.gain!r}{named})"
-    return f"control.tf({list(e.num)!r}, {list(e.den)!r}{named})"
+    dt = "" if e.sample_time is None else f", {e.sample_time!r}"  # in z, every {sample_time} s
+    return f"control.tf({list(e.num)!r}, {list(e.den)!r}{dt}{named})"
 
 
 def _condition(c: ExportCondition, name: str) -> str:
@@ -230,6 +231,13 @@ def _z_domain(c: ExportCondition, name: str, sample_time: float | None) -> str:
         '    """The compensators in the z-domain (w-plane conditions; dt True: sample time unstated)."""',
     ]
     items = []
+    if c.variable == "z":  # the compensators as typed, in z
+        lines[1] = f'    """The compensators in z (every {c.sample_time!r} s)."""'
+        items = [
+            f"        {e.label!r}: control.tf({list(e.num)!r}, {list(e.den)!r}, {c.sample_time!r}),"
+            for e in c.entries
+            if e.compensator and e.kind == "rational"
+        ]
     if c.variable == "w":
         for e in c.entries:
             if e.compensator and e.kind == "rational":
@@ -284,7 +292,7 @@ def main():
         if system is not None:
             poles = control.poles(system)
             found["closed_loop_poles"] = [[float(p.real), float(p.imag)] for p in poles]
-            found["stable"] = bool(np.all(poles.real < 0))
+            found["stable"] = bool(np.all(np.abs(poles) < 1) if system.isdtime(strict=True) else np.all(poles.real < 0))
         found["loopcraft"] = LOOPCRAFT.get(name, {})
         report[name] = found
     if "--json" in sys.argv[1:]:
@@ -295,7 +303,8 @@ def main():
         print(f"condition {name}: {verdict}")
         if not isinstance(CONDITIONS[name][0](), control.FrequencyResponseData):
             fraction = str(CONDITIONS[name][0]()).split("\\n\\n", 1)[-1]  # without python-control's header
-            print("  L(s) =\\n  " + fraction.strip("\\n").replace("\\n", "\\n  "))
+            variable = "z" if CONDITIONS[name][0]().isdtime(strict=True) else "s"
+            print(f"  L({variable}) =\\n  " + fraction.strip("\\n").replace("\\n", "\\n  "))
         ours = r["loopcraft"]
         print(f"  {'':<14}{'python-control':<30}loopcraft ({ours.get('method', 'not given')})")
         theirs = [(20 * np.log10(g), w) for g, w in zip(r["gain_margins"], r["phase_crossovers"])]

@@ -169,6 +169,18 @@ class TableBlock(Strict):
     table: TableModel
 
 
+class DiscretizedBlock(Strict):
+    """A continuous block (an expression in s, numbers only) discretized on the way in, for a
+    condition in z: ``method`` zoh (exact; ``delay`` s, as whole and fractional samples), tustin
+    (``prewarp`` rad/s, optional) or matched pole-zero."""
+
+    kind: Literal["discretized"]
+    expression: str
+    method: Literal["zoh", "tustin", "matched"] = "zoh"
+    delay: Annotated[Number, Field(ge=0)] = 0.0
+    prewarp: Annotated[Number, Field(gt=0)] | None = None
+
+
 class DelayBlock(Strict):
     kind: Literal["delay"]
     tau: Coefficient
@@ -213,7 +225,14 @@ def _check_shapes(a: list[list[float]], b: list[float], c: list[float]) -> None:
 
 
 Transfer = Annotated[
-    ExpressionBlock | PolynomialBlock | FactoredBlock | TableBlock | DelayBlock | ControllerBlock | StateSpaceBlock,
+    ExpressionBlock
+    | PolynomialBlock
+    | FactoredBlock
+    | TableBlock
+    | DelayBlock
+    | ControllerBlock
+    | StateSpaceBlock
+    | DiscretizedBlock,
     Field(discriminator="kind"),
 ]
 

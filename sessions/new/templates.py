@@ -15,6 +15,7 @@ corner frequencies.
 from __future__ import annotations
 
 import math
+import re
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
@@ -59,6 +60,8 @@ def new_session(
     name: str = "nominal",
     notes: str = "",
     grid: dict | None = None,
+    sample_time: float | None = None,
+    discretize: str = "zoh",
 ) -> dict:
     """A valid session (JSON data `sessions.store.parse_session` accepts) designing
     ``compensator`` (a name of `STRUCTURES` or an expression in s, or w, whose other
@@ -66,7 +69,8 @@ def new_session(
     loop, numbers only, delay factors exp(-T*s) allowed; or a block's ``transfer``
     JSON, e.g. a table, with its ``grid``) with ``algorithm`` (one that offers new sessions,
     `new_session_algorithms`; None: the first).  ``name``
-    names the flight condition.  Bad input is a `SessionError` naming it."""
+    names the flight condition.  With ``sample_time`` (s) the loop is in z (`sampled_session`).
+    Bad input is a `SessionError` naming it."""
     from engine.stepping.registry import new_session_algorithms  # here: `loopcraft new --help` stays light
     from sessions.format.schema import SCHEMA_VERSION
 
@@ -76,6 +80,10 @@ def new_session(
         raise SessionError(
             f"algorithm {algorithm!r}: a new session is made for {' or '.join(offered)} "
             "(the others need an objective of their own)"
+        )
+    if sample_time is not None:
+        return sampled_session(
+            new_session(plant, compensator, algorithm, name=name, notes=notes, grid=grid), sample_time, discretize
         )
     if isinstance(plant, dict):
         plant_text, delay, variable = "", 0.0, "s"
@@ -131,6 +139,63 @@ def new_session(
     }
 
 
+def sampled_session(data: dict, sample_time: float, discretize: str = "zoh") -> dict:
+    """A new session's loop in z, every ``sample_time`` s: a plant in s discretized on the way in
+    (``discretize``: zoh, exact, its delay as whole and fractional samples; tustin; matched), a plant
+    typed in z kept; the compensator's structure by Tustin's map s = (2/T)(z - 1)/(z + 1), its
+    parameters keeping their meaning (time constants in s, gains); the grid up to the Nyquist
+    frequency pi/T."""
+
+    if not (math.isfinite(sample_time) and sample_time > 0):
+        raise SessionError(f"--sample-time: {sample_time!r} must be a finite number of seconds > 0")
+    condition = data["problem"]["conditions"][0]
+    if condition["variable"] == "w":
+        raise SessionError("--sample-time: the plant is in s (discretized) or in z, not a w-plane loop")
+    typed_in_z = condition["variable"] == "z"
+    blocks = condition["plant"]["blocks"]
+    delay = next((b["transfer"]["tau"] for b in blocks if b["transfer"]["kind"] == "delay"), 0.0)
+    blocks[:] = [b for b in blocks if b["transfer"]["kind"] != "delay"]
+    tustin = f"({2.0 / sample_time!r}*(z-1)/(z+1))"
+    for b in blocks:
+        t = b["transfer"]
+        if t["kind"] != "expression":
+            raise SessionError(f"--sample-time: a {t['kind']} plant is not discretized (give it as an expression)")
+        if b["name"] == "compensator":
+            if not _reads_in_z(t["expression"]):  # a structure, written in s
+                t["expression"] = S_VARIABLE.sub(tustin, t["expression"])
+        elif not typed_in_z:
+            b["transfer"] = {"kind": "discretized", "expression": t["expression"], "method": discretize}
+            if delay:
+                b["transfer"]["delay"] = delay
+        b["output"] = "y" if b["name"] == "plant" else b["output"]
+    condition.update(variable="z", sample_time=sample_time)
+    nyquist = math.pi / sample_time
+    data["problem"]["grid"] = {
+        "unit": "rad/s",
+        "start": _round(nyquist * 1e-4),
+        "stop": nyquist * 0.999,
+        "points": 400,
+        "spacing": "log",
+    }
+    data["notes"] += f" Sampled every {sample_time:g} s" + (
+        "." if typed_in_z else f": the plant by {discretize}, the compensator by Tustin's map."
+    )
+    return data
+
+
+def _reads_in_z(text: str) -> bool:
+    from engine.model.expressions import Expression
+
+    try:
+        Expression(text, "z")
+    except EngineError:
+        return False
+    return True
+
+
+S_VARIABLE = re.compile(r"(?<![A-Za-z0-9_.])s(?![A-Za-z0-9_])")
+
+
 def _block(name: str, source: str, output: str, expression: str) -> dict:
     return {
         "name": name,
@@ -150,14 +215,11 @@ def read_plant(plant: str) -> tuple[str, float, str]:
         text, delay = split_delays(plant.strip())
         variable, names = "s", Expression(text, "s").parameters
     except EngineError as exc:
-        try:  # an expression in w (a w-plane loop: no delay)
-            variable, names = "w", Expression(plant.strip(), "w").parameters
-            text, delay = plant.strip(), 0.0
-        except EngineError:
-            raise SessionError(f"--plant: {exc}") from None
+        variable, names, text, delay = _other_variable(plant.strip(), exc)
     if names:
         raise SessionError(
-            f"--plant: {plant!r} names {', '.join(sorted(names))}: a plant has numbers and the variable s (or w) only"
+            f"--plant: {plant!r} names {', '.join(sorted(names))}: a plant has numbers and the variable s "
+            "(or w, or z) only"
         )
     try:
         check_not_zero(ExpressionTransfer(text, variable), "--plant")
@@ -166,13 +228,27 @@ def read_plant(plant: str) -> tuple[str, float, str]:
     return text, delay, variable
 
 
+def _other_variable(text: str, failed: EngineError) -> tuple[str, tuple[str, ...], str, float]:
+    """A plant that does not read in s: in w (a w-plane loop) or in z (a sampled loop, its sample time
+    given beside it); no delay.  Else `failed`, as a `SessionError`."""
+    from engine.model.expressions import Expression
+
+    for variable in ("w", "z"):
+        try:
+            return variable, Expression(text, variable).parameters, text, 0.0
+        except EngineError:
+            continue
+    raise SessionError(f"--plant: {failed}") from None
+
+
 def read_compensator(compensator: str, variable: str) -> tuple[str, dict[str, float]]:
     """The compensator's expression (in ``variable``) and its parameters' starting values."""
     from engine.model.expressions import Expression
 
     if compensator in STRUCTURES:
         expression, starts = STRUCTURES[compensator]
-        return (expression.replace("s", variable) if variable != "s" else expression), dict(starts)
+        # in s; a w-plane loop reads it in w; a loop in z maps it by Tustin (`sampled_session`)
+        return (expression.replace("s", variable) if variable == "w" else expression), dict(starts)
     try:
         names = Expression(compensator, variable).parameters
     except EngineError as exc:

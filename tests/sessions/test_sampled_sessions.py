@@ -207,3 +207,34 @@ def test_the_pole_map_and_locus_are_drawn_in_z_with_the_unit_circle(tmp_path):
     assert "|z| = 1" in by_label and "z-plane" in fig.title
     locus = locus_figure(view)
     assert any(s.label == "|z| = 1" for s in locus.series) and "unit-circle crossings" in locus.xlabel
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.5])
+def test_new_discretizes_a_continuous_plant_with_its_hold(tmp_path, capsys, delay):
+    """`new --sample-time` with a plant in s: the zero-order-hold equivalent (a whole-sample delay
+    as z^-1) and the lead by Tustin's map, against python-control's c2d of the same blocks."""
+    path = tmp_path / "held.json"
+    plant = "4/(s*(s+2))" + (f"*exp(-{delay}*s)" if delay else "")
+    assert main(["new", str(path), "--plant", plant, "--sample-time", str(T), "--compensator", "lead"]) == 0
+    session = load_session(path)
+    c = session.problem.conditions[0]
+    found = analyze(c.network, c.break_at, session.problem.grid.omega, session.problem.condition_values(0))
+    held = control.c2d(control.tf([4.0], [1.0, 2.0, 0.0]), T, "zoh") * (control.tf([1], [1, 0], T) if delay else 1)
+    lead = control.c2d(control.tf([1.0, 1.0], [0.1, 1.0]), T, "tustin")  # K (1 + T1 s)/(1 + T2 s) at the start
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(lead * held)
+    assert found.margins.crossover_frequency == pytest.approx(wgc, rel=1e-9)
+    assert found.margins.phase[0].phase_deg == pytest.approx(pm, rel=1e-9)
+    assert min(m.gain_db for m in found.margins.gain) == pytest.approx(20 * math.log10(gm), rel=1e-9)
+    assert found.margins.gain[0].frequency == pytest.approx(wpc, rel=1e-9)
+
+
+def test_new_keeps_a_plant_typed_in_z(tmp_path):
+    path = tmp_path / "typed.json"
+    plant = "0.39*(z+1.31)*(z+0.054)/(z*(z-1)*(z-0.368))"
+    assert main(["new", str(path), "--plant", plant, "--sample-time", str(T), "--compensator", "lag"]) == 0
+    data = json.loads(path.read_text())
+    condition = data["problem"]["conditions"][0]
+    assert condition["variable"] == "z" and condition["sample_time"] == T
+    assert condition["plant"]["blocks"][1]["transfer"] == {"kind": "expression", "expression": plant}
+    assert data["problem"]["grid"]["stop"] < math.pi / T
+    assert main(["run", str(path), "--iterations", "30"]) == 0

@@ -361,8 +361,7 @@ def _held(args: argparse.Namespace) -> list[str]:
     """The --held continuous blocks (expressions in s) discretized by --discretize (zero-order
     hold by default, --delay taken as whole and fractional samples): polynomials in z."""
     from engine.errors import EngineError
-    from engine.model.blocks import ExpressionTransfer
-    from engine.model.discretize import matched, tustin, zoh
+    from engine.model.discretize import discretized_text
 
     if args.held and args.sample_time is None:
         raise CliError("--variable z needs --sample-time T (seconds): the frequencies are reported in rad/s")
@@ -371,20 +370,10 @@ def _held(args: argparse.Namespace) -> list[str]:
     out = []
     for text in args.held or []:
         try:
-            r = ExpressionTransfer(text, "s").rational({})
-            if args.discretize == "zoh":
-                num, den = zoh(r.num, r.den, args.sample_time, args.delay)
-            else:
-                num, den = (tustin if args.discretize == "tustin" else matched)(r.num, r.den, args.sample_time)
+            out.append(discretized_text(text, args.sample_time, args.discretize, args.delay))
         except EngineError as exc:
             raise CliError(f"--held {text!r}: {exc}") from None
-        out.append(f"({_polynomial(num)})/({_polynomial(den)})")
     return out
-
-
-def _polynomial(c) -> str:
-    n = len(c) - 1
-    return "+".join(f"({float(v)!r})*z^{n - k}" for k, v in enumerate(c))
 
 
 def _session_design(args: argparse.Namespace) -> int:

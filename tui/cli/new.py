@@ -34,7 +34,17 @@ def cmd_new(args: argparse.Namespace) -> int:
         notes = f"A new session: the plant is the {imported.description}."
     else:
         plant, notes = args.plant, ""
-    data = new_session(plant, args.compensator, args.algorithm, grid=grid, notes=notes)
+    if args.sample_time is not None and args.plant_file is not None:
+        raise CliError("--sample-time: give the plant as --plant EXPR (in s, discretized; or in z)")
+    data = new_session(
+        plant,
+        args.compensator,
+        args.algorithm,
+        grid=grid,
+        notes=notes,
+        sample_time=args.sample_time,
+        discretize=args.discretize,
+    )
     if table is not None and table.csv_name:
         _write(target.parent / table.csv_name, table.csv_text)
     session = parse_session(json.dumps(data), str(target), target.parent)  # what is written loads
@@ -77,6 +87,20 @@ def add_parser(sub) -> None:
         "--algorithm",
         metavar="NAME",
         help="the algorithm, one that offers new sessions (default: the first of them)",
+    )
+    p.add_argument(
+        "--sample-time",
+        type=float,
+        metavar="T",
+        help="a loop in z sampled every T s: a plant in s is discretized (--discretize), one in z kept; "
+        "the compensator's structure by Tustin's map",
+    )
+    p.add_argument(
+        "--discretize",
+        choices=("zoh", "tustin", "matched"),
+        default="zoh",
+        help="how a plant in s is discretized with --sample-time (default zoh: exact, its exp(-T*s) delay "
+        "as whole and fractional samples)",
     )
     p.add_argument("--force", action="store_true", help="replace an existing FILE")
     p.set_defaults(handler=cmd_new)

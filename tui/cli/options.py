@@ -60,6 +60,7 @@ BOUNDS: dict[str, dict[str, Bound]] = {
     },
     "run": {"iterations": Bound(1, MAX_ITERATIONS), "time_limit": SECONDS},
     "report": {"iteration": Bound(0, MAX_ITERATIONS)},
+    "new": {"sample_time": POSITIVE},
     "export": {"iteration": Bound(0, MAX_ITERATIONS), "sample_time": POSITIVE},
     "compare": {"iterations": Bound(0, MAX_ITERATIONS)},
     "tradeoff": {"values": ANY},
