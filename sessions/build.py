@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 
-from engine.design.measure_kinds import kind
 from engine.design.problem import (
     BandValue,
     Condition,
@@ -166,9 +165,9 @@ def _check_response(t: TargetModel, path: str, conditions: tuple[Condition, ...]
 
 
 def _check_sampled(model: ProblemModel, conditions: tuple[Condition, ...], grid: Grid) -> None:
-    """A condition in z is read below its Nyquist frequency, by the frequency measures: the grid
-    ends below pi/T, and its targets are margins and peaks (its time responses and poles in the
-    measures' terms are not evaluated yet); else a `SessionError` naming the path."""
+    """A condition in z is read below its Nyquist frequency: the grid ends below pi/T; its time
+    responses are at its samples, and a mean square (a continuous PSD) is not one of its targets;
+    else a `SessionError` naming the path."""
     for i, c in enumerate(conditions):
         T = c.network.sample_time
         if T is None:
@@ -180,10 +179,10 @@ def _check_sampled(model: ProblemModel, conditions: tuple[Condition, ...], grid:
                 "end the grid below it"
             )
         for k, t in enumerate(model.targets):
-            if t.condition in (None, c.name) and kind(t.measure).domain != "frequency":
+            if t.condition in (None, c.name) and t.measure == "mean_square":
                 raise SessionError(
-                    f"problem.targets[{k}].measure: {t.measure} is not evaluated on condition {c.name!r}, a loop "
-                    "in z (its targets are margins, crossovers and peaks)"
+                    f"problem.targets[{k}].measure: mean_square is not evaluated on condition {c.name!r}, a loop "
+                    "in z (its noise PSD is a continuous shaping filter)"
                 )
 
 

@@ -9,7 +9,7 @@ fastest unstable).  The measures: rise time (10-90 %), overshoot, settling band
 value (none when the response has no settled final value to measure from).
 
 A sampled loop (its realization in w, `StateSpace.sample_time`) responds at its samples
-t = k T: its realization taken to z (w = (z - 1)/(z + 1), `engine.model.bilinear.realization_in_z`) and stepped sample by sample; the response is drawn as a staircase and measured at the
+t = k T: its realization taken to z (w = (z - 1)/(z + 1)) and stepped sample by sample; the response is drawn as a staircase and measured at the
 samples, over a horizon from the poles' radii (8 time constants -T/ln|z| of the slowest).
 """
 
@@ -24,7 +24,6 @@ import numpy as np
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
-from engine.model.bilinear import realization_in_z
 from engine.model.network import Network
 
 SAMPLES = 400
@@ -109,17 +108,12 @@ def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -
 
 def _sampled_step(ss: StateSpace, source: str, output: str, end: float) -> StepResponse | None:
     """A sampled loop's step response at t = k T up to ``end`` (at most `MAX_SAMPLES` samples), as a
-    staircase, measured at its samples."""
+    staircase, measured at its samples (`time_response.simulate`)."""
     T = ss.sample_time
-    i, j = ss.inputs.index(source), ss.outputs.index(output)
-    A, B, C, D = realization_in_z(ss.A, ss.B[:, i : i + 1], ss.C[j : j + 1], ss.D[j : j + 1, i : i + 1])
     count = int(min(MAX_SAMPLES, max(MIN_SAMPLES, math.ceil(end / T)))) + 1
-    x, y = np.zeros(A.shape[0]), np.empty(count)
-    with np.errstate(all="ignore"):  # an unstable loop grows: shown until it leaves the float range
-        for k in range(count):
-            y[k] = C[0] @ x + D[0, 0]
-            x = A @ x + B[:, 0]
     t = np.arange(count) * T
+    with np.errstate(all="ignore"):  # an unstable loop grows: shown until it leaves the float range
+        y = simulate(ss, source, t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
     stairs_t, stairs_y = np.repeat(t, 2)[1:], np.repeat(y, 2)[:-1]
     name = f"{output} (step at {source}, every {T:g} s)"
     return StepResponse(stairs_t.tolist(), stairs_y.tolist(), name, _measures(ss, source, output, t, y))

@@ -76,6 +76,8 @@ def simulate(ss: StateSpace, input_name: str, t: ArrayLike, segments: Sequence[S
     if input_name not in ss.inputs:
         raise EngineError(f"unknown input {input_name!r}; inputs are {', '.join(ss.inputs)}")
     k = ss.inputs.index(input_name)
+    if ss.sample_time is not None:
+        return _sampled(ss, k, t, segments)
     breaks = [s.time for s in segments if 0 < s.time < t[-1]]
     grid = np.unique(np.concatenate([t, breaks]))
     u = input_profile(grid, segments)
@@ -84,6 +86,27 @@ def simulate(ss: StateSpace, input_name: str, t: ArrayLike, segments: Sequence[S
     x = _propagate(ss.A, ss.B[:, k], grid, u, u_left)
     y = x @ ss.C.T + np.outer(u, ss.D[:, k])
     return y[np.isin(grid, t)]
+
+
+MAX_SAMPLES = 1_000_000  # a sampled loop's samples in one response
+
+
+def _sampled(ss: StateSpace, k: int, t: NDArray, segments: Sequence[Segment]) -> NDArray:
+    """A sampled loop (its realization in w, taken to z) stepped at its samples t_j = j T, the input
+    read at each sample; the signals held between samples (what a sampled loop is)."""
+    from engine.model.bilinear import realization_in_z
+
+    T = ss.sample_time
+    count = math.floor(t[-1] / T + 1e-9) + 1
+    if count > MAX_SAMPLES:
+        raise EngineError(f"{t[-1]:g} s is {count} samples of {T:g} s: more than {MAX_SAMPLES} in one response")
+    A, B, C, D = realization_in_z(ss.A, ss.B[:, k : k + 1], ss.C, ss.D[:, k : k + 1])
+    u = input_profile(np.arange(count) * T, segments)
+    x = np.zeros((count, A.shape[0]))
+    if A.shape[0] and count > 1:
+        x[1:] = _scan(A, x[0], np.outer(u[:-1], B[:, 0]))
+    y = x @ C.T + np.outer(u, D[:, 0])
+    return y[np.floor(t / T + 1e-9).astype(int)]
 
 
 def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArray) -> NDArray:

@@ -240,7 +240,11 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
         )
     if response.output not in ss.outputs:
         raise EngineError(f"target {spec.target}: unknown output signal {response.output!r}")
-    t = np.linspace(0.0, response.horizon, response.points)
+    t = (
+        np.linspace(0.0, response.horizon, response.points)
+        if ss.sample_time is None
+        else np.arange(math.floor(response.horizon / ss.sample_time + 1e-9) + 1) * ss.sample_time  # its samples
+    )
     segments = [Segment(*p) for p in response.profile]
     y = simulate(ss, response.input, t, segments)[:, ss.outputs.index(response.output)]
     if spec.kind == "peak_response":

@@ -157,8 +157,14 @@ def _edited(change) -> str:
             "a loop in z takes expressions in z",
         ),
         (
-            lambda d: d["problem"]["targets"].append({"measure": "stability_abscissa", "bands": [{"desired": 0.0}]}),
-            "problem.targets[2].measure",
+            lambda d: d["problem"]["targets"].append(
+                {
+                    "measure": "mean_square",
+                    "bands": [{"desired": 1.0}],
+                    "response": {"input": "r", "output": "y", "psd": "1/(s+1)"},
+                }
+            ),
+            "problem.targets[2].measure: mean_square",
         ),
     ],
 )
@@ -238,3 +244,32 @@ def test_new_keeps_a_plant_typed_in_z(tmp_path):
     assert condition["plant"]["blocks"][1]["transfer"] == {"kind": "expression", "expression": plant}
     assert data["problem"]["grid"]["stop"] < math.pi / T
     assert main(["run", str(path), "--iterations", "30"]) == 0
+
+
+def test_time_targets_on_a_z_condition_read_the_samples(tmp_path):
+    """An overshoot target on the Kuo loop in z: slp's row is the overshoot of the response at its
+    samples (python-control's discrete step), and the step plot's measures are the same."""
+    from engine.closed_loop.step_response import StepSetup, realized, step_response
+    from engine.slp.measures import measure_specs, time_value
+
+    data = json.loads((EXAMPLES / "coebra_kuo_z.json").read_text())
+    data["problem"]["targets"].append(
+        {
+            "measure": "overshoot_percent",
+            "bands": [{"desired": 25.0}],
+            "response": {"input": "r", "output": "y", "horizon": 40.0, "points": 400},
+        }
+    )
+    path = tmp_path / "kuo_overshoot.json"
+    path.write_text(json.dumps(data))
+    session = load_session(path)
+    problem, c = session.problem, session.problem.conditions[0]
+    values = {"T1": 24.0, "T2": 146.03}
+    ss = realized(c.network, values)
+    cn, cd = _compensator(24.0, 146.03)
+    closed = control.feedback(control.tf(np.polymul(cn, PLANT_NUM), np.polymul(cd, PLANT_DEN), T), 1)
+    _, y = control.step_response(closed, T=np.arange(81) * T)
+    expected = 100 * (y.max() - 1.0)
+    spec = next(s for s in measure_specs(problem) if s.kind == "overshoot_percent")
+    assert time_value(spec, problem, ss, T) == pytest.approx(expected, rel=1e-10)
+    assert step_response(ss, StepSetup()).measures.overshoot_percent == pytest.approx(expected, rel=1e-10)
