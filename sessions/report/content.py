@@ -294,7 +294,8 @@ def _tolerance_study(session: Session) -> list[Block]:
         ("h2", "Tolerance study"),
         (
             "p",
-            f"{len(study.runs)} samples of {laws}, drawn {settings.get('sampling', 'random')} with seed "
+            f"{settings.get('samples', len(study.runs))} samples of {laws}, "
+            f"drawn {settings.get('sampling', 'random')} with seed "
             f"{settings.get('seed')}, at the design of {study.created} ({len(study.failed)} failed).",
         ),
     ]

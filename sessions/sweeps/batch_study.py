@@ -6,13 +6,18 @@ its margins found by the certified grid-free search on each form
 realization per sample.  Each sample's run is the one `sessions.sweeps.jobs.run_job`
 gives (its rows are slp's own, `Slp.point_at` and `Slp.rows`).
 
-It applies to slp studies whose rows are margins, crossover frequencies and the
-closed-loop stability abscissa, of conditions whose loops are cascades of
-expression blocks, with no linear constraints between parameters.  Any other study
-(a delay, a table, a state-space block, time or peak measures, another algorithm)
-runs per loop, as does each sample the batch cannot certify (its form is odd, its
-search fails its certificate, a level is constant, a crossover is absent): the
-study's note says how many.
+It applies to slp studies with no linear constraints between parameters, whose drawn
+parameters are free.  Their samples are batched when the rows are margins, crossover
+frequencies and the closed-loop stability abscissa, of conditions whose loops are
+cascades of expression blocks.  A sample the batch cannot certify (its form is odd, its
+search fails its certificate, a level is constant, a crossover is absent), and every
+sample of a study that is not batched (a delay, a table, a state-space block, a loop
+that is not one cascade, a loop in z, time or peak rows), is evaluated per loop, by slp's own
+measures (`engine.slp.measures.evaluate`) on the problem built once: what `run_job`
+computes but for building the sample's session (a sample whose evaluation raises gets
+`run_job` itself).  The study's note says which samples went per loop, and why a study
+is not batched.  Another algorithm's study, or one with linear constraints, runs per
+loop from each sample's session.
 """
 
 from __future__ import annotations
@@ -27,16 +32,18 @@ import numpy as np
 
 from engine.design.problem import Problem
 from engine.errors import EngineError
-from engine.loop.batch_forms import batch_pole_zero
+from engine.loop.batch_forms import BatchForms, batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
-from engine.slp.measures import frequency_value
+from engine.slp.measures import evaluate, frequency_value
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import bind
 from sessions.store import validated_model
+from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import run_job
+from sessions.sweeps.plan import ToleranceSamples
 
 BATCH_KINDS = frozenset(
     ("crossover_frequency", "gain_margin", "gain_margin_db", "phase_margin", "phase_margin_deg", "stability_abscissa")
@@ -47,21 +54,49 @@ CHUNK = 2000  # samples whose forms are held at once: the memory stays bounded h
 @dataclass(frozen=True)
 class BatchOutcome:
     """The samples' runs in job order (all of them unless ``interrupted``: Ctrl-C stopped the
-    study after these), and how many of them went the per-loop path."""
+    study after the first ``done``; none when they went to a `Tally`), and which samples went
+    the per-loop path or the per-loop search on their batched forms."""
 
     runs: list[dict]
-    per_loop: int
-    searched: int = 0  # samples whose forms were batched but whose margins the per-loop search found
+    done: int
+    alone: tuple[int, ...] = ()  # the samples that went the per-loop path
+    by_search: tuple[int, ...] = ()  # the samples the per-loop search found on their batched forms
     interrupted: bool = False
+    unbatched: str = ""  # why the study is not batched (its samples all go per loop); "" when it is
+
+    @property
+    def per_loop(self) -> int:
+        """How many samples went the per-loop path."""
+        return len(self.alone)
+
+    @property
+    def searched(self) -> int:
+        """How many samples the per-loop search found on their batched forms."""
+        return len(self.by_search)
 
     @property
     def note(self) -> str:
-        """What the study's summary says of the batch."""
+        """What the study's summary says of the batch, naming the samples the batch did not certify."""
+        if self.unbatched:
+            return (
+                f"{self.done} samples evaluated per loop on the study's problem, built once "
+                f"(not batched: {self.unbatched})"
+            )
         return (
-            f"{len(self.runs) - self.per_loop - self.searched} of {len(self.runs)} samples evaluated as a batch, "
-            f"{self.searched} by the per-loop search on their batched forms and {self.per_loop} on the per-loop "
-            "path (their batch certificate failed)"
+            f"{self.done - self.per_loop - self.searched} of {self.done} samples evaluated as a batch, "
+            f"{self.searched} by the per-loop search on their batched forms{_named(self.by_search)} and "
+            f"{self.per_loop} on the per-loop path (their batch certificate failed){_named(self.alone)}"
         )
+
+
+NAMED = 10  # samples named in the note (the first ones), of those the batch did not certify
+
+
+def _named(samples: tuple[int, ...]) -> str:
+    if not samples:
+        return ""
+    listed = ", ".join(str(k) for k in samples[:NAMED])
+    return f" (sample{'s' if len(samples) > 1 else ''} {listed}{', ...' if len(samples) > NAMED else ''})"
 
 
 @dataclass
@@ -74,31 +109,47 @@ class _Study:
     start: np.ndarray
     named: dict
     slots: list[tuple[int, str, int | None]]
+    unbatched: str  # why its samples are not batched ("" when they are)
+    signed: tuple[np.ndarray, np.ndarray]  # each free slot's range by its parameter's sign (-inf, 0 or +inf)
 
 
-def batch_runs(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> BatchOutcome | None:
-    """The runs of a tolerance study's evaluate jobs as a batch, chunk by chunk (`CHUNK`);
-    None when the study is not one the batch applies to (module docstring)."""
+def batch_runs(
+    jobs: Sequence,
+    progress: Callable[[int, int], None] | None = None,
+    tally: Tally | None = None,
+    unbatched: bool = True,
+) -> BatchOutcome | None:
+    """The runs of a tolerance study's evaluate jobs as a batch, chunk by chunk (`CHUNK`),
+    each chunk's runs added to ``tally`` when given (then none is returned: only the chunk's
+    runs are held at once); None when the study is not one this applies to (module
+    docstring), or, without ``unbatched``, when its samples would all go per loop."""
     study = _study(jobs)
-    if study is None:
+    if study is None or (study.unbatched and not unbatched):
         return None
     runs: list[dict] = []
-    per_loop = searched = 0
+    alone: list[int] = []
+    searched: list[int] = []
+    done = 0
     try:
         for first in range(0, len(jobs), CHUNK):
-            chunk, (missed, alone) = _chunk(study, jobs[first : first + CHUNK])
-            runs += chunk
-            per_loop, searched = per_loop + missed, searched + alone
+            chunk = _chunk(study, jobs[first : first + CHUNK], alone, searched)
+            if tally is None:
+                runs += chunk
+            else:
+                for run in chunk:
+                    tally.add(run)
+            done += len(chunk)
             if progress:
-                progress(len(runs), len(jobs))
+                progress(done, len(jobs))
     except KeyboardInterrupt:
-        return BatchOutcome(runs, per_loop, searched, interrupted=True)
-    return BatchOutcome(runs, per_loop, searched)
+        return BatchOutcome(runs, done, tuple(alone), tuple(searched), True, study.unbatched)
+    return BatchOutcome(runs, done, tuple(alone), tuple(searched), False, study.unbatched)
 
 
 def _study(jobs: Sequence) -> _Study | None:
-    """The shared problem and stepper, when every job evaluates one structure with slp's batchable rows."""
-    if not jobs or any(getattr(job, "mode", None) != "evaluate" for job in jobs) or not _one_structure(jobs):
+    """The shared problem and stepper, when every job evaluates one structure with slp, without
+    linear constraints, drawing free parameters (module docstring)."""
+    if not jobs or not _one_structure(jobs):
         return None
     try:
         model = validated_model(jobs[0].model)
@@ -106,11 +157,9 @@ def _study(jobs: Sequence) -> _Study | None:
         _, stepper = bind(model.algorithm, problem)
     except (SessionError, EngineError, ValueError):
         return None
-    if not isinstance(stepper, Slp) or not all(s.kind in BATCH_KINDS for s in stepper.specs):
+    if not isinstance(stepper, Slp):
         return None
     if problem.linear_constraints[0].size or problem.equality_system()[0].size:
-        return None
-    if not all(c.network.rational for c in problem.conditions):
         return None
     lower, upper = problem.bounds()
     start = np.clip(problem.vector(), lower, upper)
@@ -119,12 +168,39 @@ def _study(jobs: Sequence) -> _Study | None:
         for k, (i, c) in enumerate(problem.free_slots())
         if problem.parameters[i].name in jobs[0].start
     ]
-    return _Study(problem, stepper, start, problem.named(start), slots)
+    if not set(jobs[0].start) <= {name for _, name, _ in slots}:
+        return None  # a drawn parameter that is not free: the free vector does not carry it
+    others = sorted({s.kind for s in stepper.specs} - BATCH_KINDS)
+    unbatched = f"rows of kind {', '.join(others)}" if others else ""
+    if not unbatched and not all(c.network.rational for c in problem.conditions):
+        unbatched = "a loop with a delay, a table or a state-space block"
+    if not unbatched and any(c.network.sampled for c in problem.conditions):
+        unbatched = "a loop in z (its margins are searched on its w-plane form)"
+    for c, condition in enumerate(problem.conditions):
+        if not unbatched and _cascade(problem, c) is None:
+            unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+    signs = [problem.parameters[i].sign for i, _ in problem.free_slots()]
+    signed = (
+        np.array([0.0 if sign == "positive" else -math.inf for sign in signs]),
+        np.array([0.0 if sign == "negative" else math.inf for sign in signs]),
+    )
+    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, signed)
+
+
+def _cascade(problem: Problem, c: int) -> BatchForms | None:
+    """Condition ``c``'s loop at the design's values in batch form (None: it has none)."""
+    condition = problem.conditions[c]
+    columns = {name: np.array([value]) for name, value in problem.condition_values(c).items()}
+    return batch_pole_zero(condition.network, condition.break_at, columns)
 
 
 def _one_structure(jobs: Sequence) -> bool:
-    """Are the jobs one session document but for their parameters' values and bounds, each
-    drawing the same parameters (what a tolerance study's samples share)?"""
+    """Are the jobs evaluations of one session document but for their parameters' values and
+    bounds, each drawing the same parameters (what a tolerance study's samples share)?"""
+    if isinstance(jobs, ToleranceSamples):  # one study's samples: one document by construction
+        return jobs.base.get("algorithm", {}).get("name") == SLP.name
+    if any(getattr(job, "mode", None) != "evaluate" for job in jobs):
+        return False
     base = jobs[0].model
     if base.get("algorithm", {}).get("name") != SLP.name:  # the batch records a sample as slp does
         return False
@@ -152,26 +228,50 @@ def _equal_but(a: dict, b: dict, skip: tuple[str, ...]) -> bool:
     return a.keys() == b.keys() and all(a[k] is b[k] or a[k] == b[k] for k in a if k not in skip)
 
 
-def _chunk(study: _Study, jobs: Sequence) -> tuple[list[dict], tuple[int, int]]:
-    """One chunk's runs (the batch's, or the per-loop path's for the samples it leaves), and
-    how many went the per-loop path and how many the per-loop search on their batched forms."""
+def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int]) -> list[dict]:
+    """One chunk's runs (the batch's, or the per-loop path's for the samples it leaves); the
+    samples that went the per-loop path added to ``alone``, those the per-loop search on
+    their batched forms found to ``searched``.  A chunk of `ToleranceSamples` makes a job
+    only for a sample that goes the per-loop path."""
     began = time.perf_counter()
-    xs = np.tile(study.start, (len(jobs), 1))
+    if isinstance(jobs, ToleranceSamples):
+        heads = [(k, f"sample {k}", start) for k, start in zip(jobs.indices, jobs.drawn())]
+    else:
+        heads = [(job.index, job.label, job.start) for job in jobs]
+    xs = np.tile(study.start, (len(heads), 1))
     for k, name, c in study.slots:
-        xs[:, k] = [_drawn(job.start[name], c) for job in jobs]
-    loops = [_condition_loops(study.problem, c, jobs) for c in range(len(study.problem.conditions))]
-    share = (time.perf_counter() - began) / max(len(jobs), 1)
-    runs, missed, alone = [], 0, 0
-    for k, job in enumerate(jobs):
-        mine = None if any(found is None for found in loops) else [found[k] for found in loops]
-        run = None if mine is None else _run(study, job, xs[k], mine, share)
+        xs[:, k] = [_drawn(start[name], c) for _, _, start in heads]
+    # a value against its parameter's sign: its own session evaluates it at the sign's bound (slp clips its start)
+    against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1).tolist()
+    loops = [] if study.unbatched else [_condition_loops(study, c, heads) for c in range(len(study.problem.conditions))]
+    share = (time.perf_counter() - began) / max(len(heads), 1)
+    runs = []
+    for k, head in enumerate(heads):
+        mine = (
+            None
+            if study.unbatched or against_sign[k] or any(found is None for found in loops)
+            else [found[k] for found in loops]
+        )
+        run = None if mine is None else _run(study, head, xs[k], mine, share)
         if run is None:
-            run, missed = run_job(job.payload()), missed + 1
+            run = (None if against_sign[k] else _per_loop(study, head, xs[k])) or run_job(jobs[k].payload())
+            alone.append(head[0])
         elif not all(loop.batched for loop in mine):
-            alone += 1
+            searched.append(head[0])
         run["attempts"] = 1
         runs.append(run)
-    return runs, (missed, alone)
+    return runs
+
+
+def _per_loop(study: _Study, head: tuple[int, str, dict], x: np.ndarray) -> dict | None:
+    """One sample's run by slp's own measures on the shared problem (what `run_job` computes
+    from the sample's session); None when they raise (`run_job` says how)."""
+    began = time.perf_counter()
+    try:
+        values, frequencies = evaluate(study.problem, x, study.stepper.specs)
+    except Exception:  # noqa: BLE001 - the sample's own session then says what failed, as run_job does
+        return None
+    return _sample_run(study, head, x, values, frequencies, time.perf_counter() - began)
 
 
 def _drawn(value: float | list[float], condition: int | None) -> float:
@@ -179,20 +279,27 @@ def _drawn(value: float | list[float], condition: int | None) -> float:
     return float(value[condition] if isinstance(value, list) and condition is not None else value)
 
 
-def _condition_loops(problem: Problem, c: int, jobs: Sequence) -> list[SampleLoop | None] | None:
-    """Condition ``c``'s loop of every sample, margins found; None when it has no batch form."""
+def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) -> list[SampleLoop | None] | None:
+    """Condition ``c``'s loop of every sample (its index, label and drawn values), margins
+    found; None when it has no batch form (the study is then not batched: it says why)."""
+    problem = study.problem
     condition = problem.conditions[c]
-    columns = {name: np.full(len(jobs), value) for name, value in problem.condition_values(c).items()}
-    for name in jobs[0].start:
+    columns = {name: np.full(len(heads), value) for name, value in problem.condition_values(c).items()}
+    for name in heads[0][2]:
         if name in columns:
-            columns[name] = np.array([_drawn(job.start[name], c) for job in jobs])
+            columns[name] = np.array([_drawn(start[name], c) for _, _, start in heads])
     forms = batch_pole_zero(condition.network, condition.break_at, columns)
-    return None if forms is None else batch_margins(forms)
+    if forms is None:
+        study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+        return None
+    return batch_margins(forms)
 
 
-def _run(study: _Study, job, x: np.ndarray, loops: list[SampleLoop | None], share: float) -> dict | None:
-    """One sample's run as `run_job` makes it, from its conditions' loops; None when a row
-    needs the per-loop path."""
+def _run(
+    study: _Study, head: tuple[int, str, dict], x: np.ndarray, loops: list[SampleLoop | None], share: float
+) -> dict | None:
+    """One sample's run as `run_job` makes it (``head``: its index, label and drawn values),
+    from its conditions' loops; None when a row needs the per-loop path."""
     stepper = study.stepper
     values, frequencies = [], []
     for spec in stepper.specs:
@@ -209,21 +316,35 @@ def _run(study: _Study, job, x: np.ndarray, loops: list[SampleLoop | None], shar
             value, frequency = frequency_value(spec, loop.margins, None)
         values.append(value)
         frequencies.append(frequency)
-    point = stepper.point_at(x, np.array(values, dtype=float), np.array(frequencies, dtype=float))
+    return _sample_run(study, head, x, np.array(values, dtype=float), np.array(frequencies, dtype=float), share)
+
+
+def _sample_run(
+    study: _Study,
+    head: tuple[int, str, dict],
+    x: np.ndarray,
+    values: np.ndarray,
+    frequencies: np.ndarray,
+    seconds: float,
+) -> dict:
+    """The run of a sample whose rows have these values and frequencies, as `run_job` makes it."""
+    index, label, start = head
+    stepper = study.stepper
+    point = stepper.point_at(x, values, frequencies)
     rows = [_row_json(fields) for fields in stepper.row_fields(point)]
     return {
-        "index": job.index,
-        "label": job.label,
-        "start": job.start,
+        "index": index,
+        "label": label,
+        "start": start,
         "worker": "local",
         "status": "running",
         "reason": "",
         "iterations": 0,
-        "parameters": {**study.named, **job.start},
+        "parameters": {**study.named, **start},
         "ranking": point.merit,
         "measures": rows,
         "meets_requirements": all(row["satisfied"] for row in rows),
-        "seconds": share,
+        "seconds": seconds,
     }
 
 

@@ -13,6 +13,7 @@ values; infinite ones are counted beside it.
 from __future__ import annotations
 
 import math
+from array import array
 from collections.abc import Sequence
 
 import numpy as np
@@ -77,22 +78,145 @@ def distribution(values: np.ndarray, unmet: int) -> dict:
     }
 
 
-def with_distributions(rows: Sequence[dict], runs: Sequence[dict]) -> list[dict]:
-    """The worst-case rows (`sessions.sweeps.results.worst_case`, of these ``runs``) with
-    each one's distribution and its worst sample's drawn values (``worst_parameters``)."""
-    values: dict[tuple, list[float]] = {}
-    for run in runs:
+CANCELLED = "cancelled"  # the reason of a run that did not finish (a sweep stopped before it)
+EVERY_RUN_KEPT = 10_000  # a study of at most this many samples keeps every sample's run
+FAILED_RUNS_KEPT = 20  # ... a larger one the worst samples' runs and the first failed ones (their reasons)
+
+
+class Tally:
+    """A tolerance study's outputs gathered run by run (`add`, in job order): per measure row
+    (name, kind, condition) its values as a float array, how many are unmet, its worst value
+    and sample; every failed run's index.  What it keeps of the runs themselves: every run,
+    or, when ``every_run`` is False (a study of more than `EVERY_RUN_KEPT` samples), only
+    each row's worst sample's run and the first `FAILED_RUNS_KEPT` failed runs, so that its
+    memory does not grow by a run (some 2 KB) per sample."""
+
+    def __init__(self, every_run: bool = True) -> None:
+        self.every_run = every_run
+        self.count = 0  # runs added
+        self.cancelled = 0  # ... of which cancelled
+        self.failed: list[int] = []  # every failed run's index, in the order added
+        self._rows: dict[tuple, _Row] = {}  # in the order first seen
+        self._runs: dict[int, dict] = {}  # index -> run: the runs kept
+        self._every: list[dict] = []  # every run in the order added, when every run is kept
+        self._failed_kept: set[int] = set()
+
+    @classmethod
+    def of_study(cls, samples: int) -> Tally:
+        """Where a study of ``samples`` runs is gathered as they are made: every run kept up to
+        `EVERY_RUN_KEPT` samples, above that only what the study's outputs need."""
+        return cls(every_run=samples <= EVERY_RUN_KEPT)
+
+    @classmethod
+    def of(cls, runs: Sequence[dict]) -> Tally:
+        """The tally of a whole study's runs (`of_study`)."""
+        tally = cls.of_study(len(runs))
+        for run in runs:
+            tally.add(run)
+        return tally
+
+    def add(self, run: dict) -> None:
+        """One run more (its measures counted when it did not fail)."""
+        self.count += 1
+        if self.every_run:
+            self._every.append(run)
+            self._runs[run["index"]] = run
+        if run.get("status") == "failed":
+            self.failed.append(run["index"])
+            self.cancelled += run["reason"] == CANCELLED
+            if not self.every_run and len(self._failed_kept) < FAILED_RUNS_KEPT:
+                self._failed_kept.add(run["index"])
+                self._runs[run["index"]] = run
+            return
+        rows = self._rows
         for m in run["measures"]:
-            values.setdefault((m["name"], m["kind"], m["condition"]), []).append(float(m["value"]))
-    start = {run["index"]: run["start"] for run in runs}
-    return [
-        {
-            **row,
-            **distribution(np.array(values[(row["name"], row["kind"], row["condition"])]), row["unmet_samples"]),
-            "worst_parameters": start[row["worst_sample"]],
+            key = (m["name"], m["kind"], m["condition"])
+            row = rows.get(key)
+            if row is None:
+                row = rows[key] = _Row(m)
+            value = m["value"]
+            if not isinstance(value, (int, float)):
+                value = float(value)  # "inf", "-inf", "nan" as the session's JSON writes them
+            row.values.append(value)
+            if not m["satisfied"]:
+                row.unmet += 1
+            worst = row.worst
+            if worst != worst or (value < worst if m["at_least"] else value > worst):  # NaN: any value replaces it
+                before, row.worst, row.worst_sample = row.worst_sample, value, run["index"]
+                if not self.every_run:
+                    self._runs[run["index"]] = run
+                    self._release(before)
+
+    def _release(self, index: int | None) -> None:
+        """Drop a run no row's worst sample is any more (when only those are kept)."""
+        if index is None or index in self._failed_kept or any(r.worst_sample == index for r in self._rows.values()):
+            return
+        self._runs.pop(index, None)
+
+    @property
+    def finished(self) -> int:
+        """How many runs ran to their end (not cancelled)."""
+        return self.count - self.cancelled
+
+    @property
+    def thinned(self) -> bool:
+        """Did it keep fewer runs than it was given?"""
+        return not self.every_run and len(self._runs) < self.count
+
+    def runs(self) -> list[dict]:
+        """The runs kept: every run in the order added, or the worst samples' and the first
+        failed ones by index."""
+        return list(self._every) if self.every_run else sorted(self._runs.values(), key=lambda run: run["index"])
+
+    def worst_case(self) -> list[dict]:
+        """Per measure row: the worst value over the samples, the sample it is of, and how
+        many samples miss the desired value (`sessions.sweeps.results.worst_case`)."""
+        return [row.worst_row() for row in self._rows.values()]
+
+    def rows(self) -> list[dict]:
+        """The worst-case rows with each one's distribution and its worst sample's drawn
+        values (``worst_parameters``)."""
+        return [
+            {
+                **row.worst_row(),
+                **distribution(np.frombuffer(row.values, dtype=float), row.unmet),
+                "worst_parameters": self._runs[row.worst_sample]["start"],
+            }
+            for row in self._rows.values()
+        ]
+
+    @property
+    def note(self) -> str:
+        """What a study that kept only some runs says of it ("" when it kept every run)."""
+        if not self.thinned:
+            return ""
+        return (
+            f"the runs of {len(self._runs)} of {self.count} samples kept (each row's worst sample"
+            + (", the first failed" if self._failed_kept else "")
+            + f"): a study of more than {EVERY_RUN_KEPT} samples keeps its distributions, not every run"
+        )
+
+
+class _Row:
+    """One measure row of a `Tally`: its first run's fields and what the samples gave."""
+
+    __slots__ = ("head", "values", "unmet", "worst", "worst_sample")
+
+    def __init__(self, first: dict) -> None:
+        self.head = {k: first[k] for k in ("name", "kind", "condition", "desired", "at_least")}
+        self.values = array("d")  # every sample's value, 8 bytes each
+        self.unmet = 0
+        self.worst = math.nan
+        self.worst_sample: int | None = None
+
+    def worst_row(self) -> dict:
+        return {
+            **self.head,
+            "worst": self.worst,
+            "worst_sample": self.worst_sample,
+            "unmet_samples": self.unmet,
+            "samples": len(self.values),
         }
-        for row in rows
-    ]
 
 
 def shortfall(row: dict) -> float:

@@ -31,7 +31,7 @@ import uuid
 from collections import deque
 from collections.abc import Callable, Sequence
 from contextlib import nullcontext
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,6 +55,7 @@ from sessions.sweeps.cluster import (
     scheduler_address,
     sigint_ignored,
 )
+from sessions.sweeps.dispersion import CANCELLED, Tally
 from sessions.sweeps.named_clusters import NamedCluster, connect_named
 
 MAX_ITERATIONS = 1000
@@ -176,14 +177,15 @@ class Outcome:
     interrupted: bool = False
     note: str = ""  # why the runs went serially rather than on a local cluster, or in batches
     serial: bool = False  # the runs were made in this process, one after the other
+    # a tolerance study's outputs gathered as its runs were made (``runs``: the ones it kept, `Tally`)
+    tally: Tally | None = None
 
     @property
     def finished(self) -> int:
         """How many runs ran to their end (not cancelled)."""
+        if self.tally is not None:
+            return self.tally.finished
         return sum(r["reason"] != CANCELLED for r in self.runs)
-
-
-CANCELLED = "cancelled"
 
 
 def execute(
@@ -210,7 +212,8 @@ def execute(
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []
     if address is None and workers is None and cluster is None and jobs:  # a local cluster: maybe not worth it
-        batched = batch_here(jobs, progress)  # a batch in this process outruns a local cluster of single runs
+        # a batch in this process outruns a local cluster of single runs (a study evaluated per loop does not)
+        batched = batch_here(jobs, progress, unbatched=False)
         if batched is not None:
             return batched
         here, each, serial = _first_here(jobs, progress)
@@ -308,10 +311,9 @@ def _first_here(
         note = "serial: one core"
     else:
         return here, each, None
-    rest = execute_serial(
-        jobs[len(here) :], None if progress is None else lambda k, _: progress(k + len(here), len(jobs))
-    )
-    return here, each, Outcome(here + rest.runs, 1, {}, rest.cancelled, rest.interrupted, note, serial=True)
+    rest = execute_serial(jobs[len(here) :], progress, made=here)
+    note = "; ".join(text for text in (note, rest.note) if text)
+    return here, each, replace(rest, note=note)
 
 
 def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = run_batch) -> Outcome:
@@ -424,35 +426,58 @@ def _lost(job, exc: BaseException | None) -> dict:
     }
 
 
-def batch_here(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome | None:
-    """A tolerance study's samples evaluated as a batch in this process (`sessions.sweeps.batch_study`;
-    its note says how many went the per-loop path); None when the jobs are not such a study."""
+def batch_here(
+    jobs: Sequence, progress: Callable[[int, int], None] | None = None, unbatched: bool = True
+) -> Outcome | None:
+    """A tolerance study's samples evaluated as a batch in this process (`sessions.sweeps.batch_study`:
+    its note says which went the per-loop path, and why a study is not batched), gathered as they
+    are made (`Tally.of_study`); None when the jobs are not such a study, or, without ``unbatched``,
+    when its samples would all go per loop."""
     from sessions.sweeps.batch_study import batch_runs  # (it runs the samples it leaves with run_job)
 
-    batch = batch_runs(jobs, progress)
+    tally = Tally.of_study(len(jobs))
+    batch = batch_runs(jobs, progress, tally, unbatched)
     if batch is None:
         return None
-    rest = [_lost(job, None) for job in jobs[len(batch.runs) :]]
-    return Outcome(batch.runs + rest, 1, {}, batch.interrupted, batch.interrupted, batch.note, serial=True)
+    for job in jobs[batch.done :]:
+        tally.add(_lost(job, None))
+    note = "; ".join(text for text in (batch.note, tally.note) if text)
+    return Outcome(tally.runs(), 1, {}, batch.interrupted, batch.interrupted, note, serial=True, tally=tally)
 
 
-def execute_serial(jobs: Sequence, progress: Callable[[int, int], None] | None = None) -> Outcome:
+def execute_serial(
+    jobs: Sequence, progress: Callable[[int, int], None] | None = None, made: Sequence[dict] = ()
+) -> Outcome:
     """The same jobs in this process, one after the other (the throughput baseline);
     Ctrl-C stops it: the finished runs are kept, the rest cancelled.  A tolerance study
-    that can be is evaluated as a batch (`sessions.sweeps.batch_study`; its note says
-    how many samples went the per-loop path)."""
-    batched = batch_here(jobs, progress)
-    if batched is not None:
-        return batched
+    that can be is evaluated by `sessions.sweeps.batch_study` (as a batch, or per loop on its
+    problem built once: its note says which samples went the per-loop path, and why a study is
+    not batched); its runs are gathered as they are made (`Tally.of_study`).  ``made``: the runs
+    of jobs before these, made already (they come first)."""
+    if not made:
+        batched = batch_here(jobs, progress)
+        if batched is not None:
+            return batched
+    tolerance = len(jobs) > 0 and getattr(jobs[0], "mode", None) == "evaluate"  # a tolerance study's samples
+    tally = Tally.of_study(len(made) + len(jobs)) if tolerance else None
     runs: list[dict] = []
+    keep = runs.append if tally is None else tally.add
+    for run in made:
+        keep(run)
+    done, total = len(made), len(made) + len(jobs)
     try:
         for job in jobs:
             run = run_job(job.payload())
             run["attempts"] = 1
-            runs.append(run)
+            keep(run)
+            done += 1
             if progress:
-                progress(len(runs), len(jobs))
+                progress(done, total)
     except KeyboardInterrupt:
-        rest = [_lost(job, None) for job in jobs[len(runs) :]]
-        return Outcome(runs + rest, 1, {}, cancelled=True, interrupted=True, serial=True)
-    return Outcome(runs, 1, {}, serial=True)
+        for job in jobs[done - len(made) :]:
+            keep(_lost(job, None))
+        kept = runs if tally is None else tally.runs()
+        return Outcome(kept, 1, {}, cancelled=True, interrupted=True, serial=True, tally=tally)
+    if tally is None:
+        return Outcome(runs, 1, {}, serial=True)
+    return Outcome(tally.runs(), 1, {}, note=tally.note, serial=True, tally=tally)

@@ -19,7 +19,7 @@ from sessions.errors import SessionError
 from sessions.format.schema import SweepModel
 from sessions.lifecycle import adopt_parameters
 from sessions.store import Session, now
-from sessions.sweeps.dispersion import with_distributions, worst_row
+from sessions.sweeps.dispersion import Tally, worst_row
 from sessions.sweeps.jobs import Outcome
 
 SWEEP_VERSION = 2
@@ -114,41 +114,22 @@ def _close(a, b) -> bool:
 def worst_case(runs: Sequence[dict]) -> list[dict]:
     """Per measure row (name, kind, condition): the worst value over the samples, the
     sample it is of, and how many samples miss the desired value."""
-    table: dict[tuple, dict] = {}
-    for run in runs:
-        for m in run["measures"]:
-            value = m["value"] if isinstance(m["value"], (int, float)) else float(m["value"])
-            key = (m["name"], m["kind"], m["condition"])
-            row = table.setdefault(
-                key,
-                {
-                    "name": m["name"],
-                    "kind": m["kind"],
-                    "condition": m["condition"],
-                    "desired": m["desired"],
-                    "at_least": m["at_least"],
-                    "worst": value,
-                    "worst_sample": run["index"],
-                    "unmet_samples": 0,
-                    "samples": 0,
-                },
-            )
-            row["samples"] += 1
-            row["unmet_samples"] += not m["satisfied"]
-            worse = value < row["worst"] if m["at_least"] else value > row["worst"]
-            if math.isnan(row["worst"]) or worse:
-                row["worst"], row["worst_sample"] = value, run["index"]
-    return list(table.values())
+    return Tally.of(runs).worst_case()
 
 
 def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> dict:
     """The sweep as saved in the session and printed by --json (its settings with the
     outcome's: "scheduler" serial when the runs were made here, and its note)."""
     maximize = lookup(session.model.algorithm.name).presenter.maximize
+    tally = (outcome.tally or Tally.of(outcome.runs)) if kind == "tolerance" else None
+    note = outcome.note
+    if tally is not None and tally.note and tally.note not in note:
+        note = f"{note}; {tally.note}" if note else tally.note
     settings = {
         **settings,
         **({"scheduler": "serial"} if outcome.serial else {}),
-        **({"note": outcome.note} if outcome.note else {}),
+        **({"note": note} if note else {}),
+        **({"runs_kept": len(tally.runs())} if tally is not None and tally.thinned else {}),
     }
     data = {
         "version": SWEEP_VERSION,
@@ -162,10 +143,8 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         "failed": [r["index"] for r in outcome.runs if r["status"] == "failed"],
         "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1},
     }
-    if kind == "tolerance":
-        done = [r for r in outcome.runs if r["status"] != "failed"]
-        data["worst_case"] = with_distributions(worst_case(done), done)
-        data["optima"] = []
+    if tally is not None:  # a tolerance study: its rows from the tally; the runs it kept
+        data.update(runs=tally.runs(), failed=list(tally.failed), worst_case=tally.rows(), optima=[])
     else:
         data["optima"] = [
             {**o, "notes": at_bounds(session.problem, o["parameters"])} for o in optima(outcome.runs, maximize)

@@ -1,7 +1,10 @@
 """A tolerance study evaluated as a batch (issue 41, section 1): every sample's run is
-the per-loop path's (`run_job`), its margins equal to 1e-12 relative; samples the batch
-cannot certify go per loop, alone, and the study's note counts them; a loop with a delay
-stays per loop whole; `sweep --serial` says what it did."""
+the per-loop path's (`run_job`), its margins equal to 1e-12 relative, on the lag-lead and on
+random loops; samples the batch cannot certify (an odd form, a certificate that fails at a
+near-tangent crossover) go per loop, alone, and the study's note names them; a study that is
+not batched (a delay, a tabulated plant, an inner loop, the launch vehicle's peak and time
+rows) is evaluated per loop on its problem built once, every run equal to `run_job`'s, and
+its note says why; `sweep --serial` says what it did."""
 
 from __future__ import annotations
 
@@ -10,6 +13,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sessions.store import load_session
@@ -32,8 +36,14 @@ def _session(tmp_path: Path, plant: str | None = None) -> Path:
     return path
 
 
-def _same_run(batch: dict, loop: dict) -> None:
+def _same_run(batch: dict, loop: dict, exact: bool = False) -> None:
+    """The batch's run is ``loop``'s, its numbers to 1e-12 relative (``exact``: equal)."""
     assert set(batch) == set(loop) | {"attempts"}
+    if exact:
+        assert {k: v for k, v in batch.items() if k not in ("seconds", "attempts")} == {
+            k: v for k, v in loop.items() if k != "seconds"
+        }
+        return
     for key in loop:
         if key not in ("seconds", "measures", "ranking"):
             assert batch[key] == loop[key], key
@@ -66,7 +76,7 @@ def test_the_lag_lead_study_equals_the_per_loop_path(tmp_path):
 def test_a_sample_the_batch_leaves_goes_per_loop_alone(tmp_path):
     """Sample 2 draws T1 = T3 (its compensator's zero cancels a pole, which the per-loop path
     cancels): it alone runs per loop; every run equals run_job's."""
-    jobs = _jobs(_session(tmp_path), 5)
+    jobs = list(_jobs(_session(tmp_path), 5))  # a list of jobs, one changed (the study's are made when read)
     odd = copy.deepcopy(jobs[2].model)
     odd["problem"]["parameters"][0]["value"] = 10.0
     jobs[2] = type(jobs[2])(2, jobs[2].label, odd, jobs[2].mode, {**jobs[2].start, "T1": 10.0})
@@ -77,22 +87,97 @@ def test_a_sample_the_batch_leaves_goes_per_loop_alone(tmp_path):
         _same_run(got, run_job(job.payload()))
 
 
-def test_a_loop_with_a_delay_stays_per_loop(tmp_path):
+def _per_loop_equal(jobs, why: str) -> None:
+    """The study is not batched, its note says why, and every sample, evaluated per loop on the
+    problem built once, is `run_job`'s run exactly."""
+    batch = batch_runs(jobs)
+    assert batch is not None and batch.per_loop == len(jobs) and batch.unbatched == why
+    assert (
+        batch.note == f"{len(jobs)} samples evaluated per loop on the study's problem, built once (not batched: {why})"
+    )
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()), exact=True)
+    assert batch_runs(jobs, unbatched=False) is None  # execute() leaves it to a local cluster
+
+
+def _edited(tmp_path: Path, edit) -> Path:
+    """The lag-lead example changed by ``edit`` (a function of its problem's plant)."""
     path = _session(tmp_path)
     model = json.loads(path.read_text())
-    plant = model["problem"]["conditions"][0]["plant"]
-    plant["blocks"][1]["output"] = "yd"
-    plant["blocks"].append({"input": "yd", "name": "delay", "output": "y", "transfer": {"kind": "delay", "tau": 0.002}})
+    edit(model["problem"]["conditions"][0]["plant"])
     path.write_text(json.dumps(model))
-    jobs = _jobs(path, 4)
-    assert batch_runs(jobs) is None
+    return path
+
+
+def test_a_loop_with_a_delay_is_evaluated_per_loop(tmp_path):
+    def delayed(plant: dict) -> None:
+        plant["blocks"][1]["output"] = "yd"
+        delay = {"input": "yd", "name": "delay", "output": "y", "transfer": {"kind": "delay", "tau": 0.002}}
+        plant["blocks"].append(delay)
+
+    jobs = _jobs(_edited(tmp_path, delayed), 6)
+    _per_loop_equal(jobs, "a loop with a delay, a table or a state-space block")
     outcome = execute_serial(jobs)
-    assert outcome.note == ""
-    assert [run["status"] for run in outcome.runs] == ["running"] * 4
+    assert "not batched: a loop with a delay" in outcome.note
+    assert [run["status"] for run in outcome.runs] == ["running"] * 6
+
+
+def test_a_tabulated_plant_is_evaluated_per_loop(tmp_path):
+    """The lag-lead's plant as a table of its frequency response (cartesian, 200 points)."""
+    omega = np.logspace(-2, 3, 200)
+    response = 16000 / (1j * omega * (1j * omega + 8) * (1j * omega + 20))
+
+    def tabulated(plant: dict) -> None:
+        table = {"form": "cartesian", "frequency": omega.tolist(), "first": response.real.tolist()}
+        plant["blocks"][1]["transfer"] = {"kind": "table", "table": {**table, "second": response.imag.tolist()}}
+
+    _per_loop_equal(_jobs(_edited(tmp_path, tabulated), 6), "a loop with a delay, a table or a state-space block")
+
+
+def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
+    """The lag-lead's plant with a rate feedback around its lags (an inner loop)."""
+
+    def inner(plant: dict) -> None:
+        plant["blocks"][1:] = [
+            {
+                "input": "u2",
+                "name": "lags",
+                "output": "v",
+                "transfer": {"kind": "expression", "expression": "16000/((s+8)*(s+20))"},
+            },
+            {
+                "input": "v",
+                "name": "integrator",
+                "output": "y",
+                "transfer": {"kind": "expression", "expression": "1/s"},
+            },
+            {
+                "input": "v",
+                "name": "tachometer",
+                "output": "w",
+                "transfer": {"kind": "expression", "expression": "0.002"},
+            },
+        ]
+        plant["junctions"].append({"name": "inner", "output": "u2", "plus": ["u"], "minus": ["w"]})
+
+    why = "condition 'nominal''s loop is not one cascade of expression blocks"
+    _per_loop_equal(_jobs(_edited(tmp_path, inner), 6), why)
+
+
+def test_a_loop_in_z_is_evaluated_per_loop(tmp_path):
+    shutil.copy(EXAMPLES / "coebra_kuo_z.json", tmp_path / "z.json")
+    _per_loop_equal(_jobs(tmp_path / "z.json", 6), "a loop in z (its margins are searched on its w-plane form)")
+
+
+def test_the_launch_vehicle_is_evaluated_per_loop(tmp_path):
+    """Three conditions whose loops are not one cascade, with modal peak and peak response rows."""
+    shutil.copy(EXAMPLES / "coebra_launch_vehicle.json", tmp_path / "lv.json")
+    jobs = _jobs(tmp_path / "lv.json", 3, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
+    _per_loop_equal(jobs, "rows of kind modal_peak_db, peak_response")
 
 
 def test_a_sample_that_is_not_of_the_study_keeps_the_study_per_loop(tmp_path):
-    jobs = _jobs(_session(tmp_path), 3)
+    jobs = list(_jobs(_session(tmp_path), 3))
     odd = copy.deepcopy(jobs[1].model)
     odd["problem"]["targets"][0]["bands"][0]["desired"] = 11.0
     jobs[1] = type(jobs[1])(jobs[1].index, jobs[1].label, odd, jobs[1].mode, jobs[1].start)
@@ -135,3 +220,86 @@ def test_without_a_cluster_asked_for_the_batch_runs_here(tmp_path):
     assert outcome.serial and outcome.note.startswith("30 of 30 samples evaluated as a batch")
     for got, job in zip(outcome.runs, jobs, strict=True):
         _same_run(got, run_job(job.payload()))
+
+
+def _loop_session(tmp_path: Path, blocks: list[str], values: dict[str, float], name: str = "loop") -> Path:
+    """A unity-feedback session of a cascade of expression blocks (e -> ... -> y), the lag-lead's
+    targets (crossover, gain and phase margins; slp adds the stability row) and parameters."""
+    model = json.loads((EXAMPLES / "coebra_lag_lead.json").read_text())
+    plant = model["problem"]["conditions"][0]["plant"]
+    signals = ["e", *(f"x{k}" for k in range(1, len(blocks))), "y"]
+    plant["blocks"] = [
+        {"input": a, "name": f"block {k}", "output": b, "transfer": {"kind": "expression", "expression": text}}
+        for k, (a, b, text) in enumerate(zip(signals, signals[1:], blocks))
+    ]
+    model["problem"]["parameters"] = [{"name": n, "value": v, "min": 1e-9, "max": 1e9} for n, v in values.items()]
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(model))
+    return path
+
+
+def test_random_loops_equal_the_per_loop_path(tmp_path):
+    """Six random cascades (`tests.engine.test_batch_margins`: gains, real zeros and poles,
+    light pairs, integrators), every parameter +-20 %, 25 samples each: every run is
+    `run_job`'s; most samples batched, the rest named in the note."""
+    from tests.engine.test_batch_margins import _random_structure
+
+    batched = 0
+    for seed in range(6):
+        blocks, values = _random_structure(np.random.default_rng(seed))
+        path = _loop_session(tmp_path, blocks, values, f"random{seed}")
+        jobs = _jobs(path, 25, [f"{name}=+-20%" for name in values])
+        batch = batch_runs(jobs)
+        assert batch is not None and not batch.unbatched
+        for got, job in zip(batch.runs, jobs, strict=True):
+            _same_run(got, run_job(job.payload()))
+        for sample in (*batch.alone, *batch.by_search)[:10]:
+            assert str(sample) in batch.note
+        batched += batch.done - batch.per_loop - batch.searched
+    assert batched >= 0.7 * 6 * 25
+
+
+def test_samples_whose_certificate_fails_go_per_loop_alone_named_in_the_note(tmp_path):
+    """K/s times a light resonance: |GH|'s local peak at the resonance is 1 within rounding in
+    sample 3 (1e-14 above) and nearly in sample 7 (1e-8 above), where two crossovers nearly meet,
+    which the batch's certificate does not settle: those two alone go per loop (or to the
+    per-loop search on their batched forms), the note names them, every run is `run_job`'s."""
+    from scipy.optimize import minimize_scalar
+
+    expression = "K*25/(s*(s**2 + 0.5*s + 25))"
+    magnitude = lambda w: abs(25 / (1j * w * ((1j * w) ** 2 + 0.5j * w + 25)))  # noqa: E731
+    peak = magnitude(
+        minimize_scalar(lambda w: -magnitude(w), bounds=(3, 6), method="bounded", options={"xatol": 1e-12}).x
+    )
+    path = _loop_session(tmp_path, [expression], {"K": 0.6 / peak})
+    jobs = list(_jobs(path, 10, ["K=+-10%"]))
+    for k, tangent in ((3, (1 + 1e-14) / peak), (7, (1 + 1e-8) / peak)):
+        odd = copy.deepcopy(jobs[k].model)
+        odd["problem"]["parameters"][0]["value"] = tangent
+        jobs[k] = type(jobs[k])(k, jobs[k].label, odd, jobs[k].mode, {"K": tangent})
+    batch = batch_runs(jobs)
+    assert batch is not None and not batch.unbatched
+    assert set(batch.alone) | set(batch.by_search) == {3, 7}
+    assert batch.note.startswith("8 of 10 samples evaluated as a batch")
+    for what, samples in (("batched forms", batch.by_search), ("certificate failed)", batch.alone)):
+        if samples:
+            listed = ", ".join(str(k) for k in samples)
+            assert f"{what} (sample{'s' if len(samples) > 1 else ''} {listed})" in batch.note
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+
+
+def test_a_value_against_its_parameters_sign_goes_to_its_own_session(tmp_path):
+    """T2 is positive; normal:80 % draws some negative values, which a sample's own session
+    evaluates at the sign's bound (slp clips its start to it): those samples go that way, alone."""
+    path = _session(tmp_path)
+    model = json.loads(path.read_text())
+    model["problem"]["parameters"][1]["sign"] = "positive"
+    path.write_text(json.dumps(model))
+    jobs = _jobs(path, 30, ["T1=+-10%", "T2=normal:80%"])
+    negative = [job.index for job in jobs if job.start["T2"] < 0]
+    assert negative
+    batch = batch_runs(jobs)
+    assert batch is not None and set(negative) <= set(batch.alone)
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()), exact=job.index in negative)

@@ -279,3 +279,64 @@ def test_the_report_shows_the_latest_tolerance_study(tmp_path, capsys):
     )
     kind, name, png, _ = blocks[k + 3]
     assert (kind, name) == ("figure", "tolerance") and png.startswith(b"\x89PNG")
+
+
+def test_a_large_study_keeps_its_distributions_and_its_worst_samples_runs(tmp_path, capsys, monkeypatch):
+    """Above `EVERY_RUN_KEPT` samples (lowered here to 40) a study keeps, of its runs, each row's
+    worst sample's only: its rows (percentiles, interval, histogram, worst sample) are those of
+    the same study keeping every run, the summary says so, --adopt-worst and the report work."""
+    from sessions.report.content import report_blocks
+    from sessions.sweeps import dispersion
+
+    path = _copy(tmp_path, "coebra_lag_lead")
+    every, _ = _study(path, capsys, "--samples", "60", "--seed", "3", "--out", str(tmp_path / "every.json"))
+    monkeypatch.setattr(dispersion, "EVERY_RUN_KEPT", 40)
+    options = ("--samples", "60", "--seed", "3", "--adopt-worst", "PM1", "--out", str(tmp_path / "kept.json"))
+    kept, err = _study(path, capsys, *options)
+    assert len(every["runs"]) == 60 and "runs_kept" not in every["settings"]
+    assert kept["worst_case"] == every["worst_case"] and kept["failed"] == every["failed"] == []
+    worst = sorted({row["worst_sample"] for row in kept["worst_case"]})
+    assert [run["index"] for run in kept["runs"]] == worst and kept["settings"]["runs_kept"] == len(worst)
+    timeless = lambda runs: [{k: v for k, v in run.items() if k != "seconds"} for run in runs]  # noqa: E731
+    assert timeless(kept["runs"]) == timeless(run for run in every["runs"] if run["index"] in worst)
+    note = f"the runs of {len(worst)} of 60 samples kept (each row's worst sample)"
+    assert note in kept["settings"]["note"] and note in err
+    row = next(r for r in kept["worst_case"] if r["name"] == "PM1")
+    saved = json.loads((tmp_path / "kept.json").read_text())
+    assert {p["name"]: p["value"] for p in saved["problem"]["parameters"] if p["name"] in ("T1", "T2")} == row[
+        "worst_parameters"
+    ]
+    assert f"the start is now sample {row['worst_sample']}, the worst of PM1" in err
+    blocks = report_blocks(load_session(tmp_path / "every.json"))
+    assert blocks[blocks.index(("h2", "Tolerance study")) + 1][1].startswith("60 samples of T1=+-10%")
+
+
+def test_a_large_studys_failed_runs_are_counted_and_the_first_kept(monkeypatch):
+    """Failed samples: every index in ``failed``, the first `FAILED_RUNS_KEPT` runs kept (their reasons)."""
+    from sessions.sweeps import dispersion
+    from sessions.sweeps.dispersion import Tally
+
+    monkeypatch.setattr(dispersion, "EVERY_RUN_KEPT", 10)
+    monkeypatch.setattr(dispersion, "FAILED_RUNS_KEPT", 2)
+
+    def run(k: int) -> dict:
+        if k % 3 == 0:
+            return {"index": k, "status": "failed", "reason": "cancelled" if k > 20 else "singular", "measures": []}
+        measure = {"name": "GM", "kind": "gain_margin_db", "condition": "c", "desired": 6.0, "at_least": True}
+        value = 10.0 - abs(k - 13)
+        return {
+            "index": k,
+            "status": "running",
+            "start": {"K": k},
+            "measures": [{**measure, "value": value, "satisfied": value >= 6}],
+        }
+
+    runs = [run(k) for k in range(30)]
+    tally = Tally.of(runs)
+    assert tally.thinned and tally.failed == list(range(0, 30, 3)) and tally.finished == 30 - 3  # 21, 24, 27 cancelled
+    assert [r["index"] for r in tally.runs()] == [0, 3, 29]  # the first two failed, the worst (GM -6 dB)
+    every = Tally(every_run=True)
+    for r in runs:
+        every.add(r)
+    assert tally.rows() == every.rows() and every.runs() == runs and not every.thinned
+    assert tally.rows()[0]["samples"] == 20 and tally.rows()[0]["worst_parameters"] == {"K": 29}
