@@ -33,6 +33,7 @@ from sessions.format.schema import (
     ControllerBlock,
     ControllerFactorModel,
     DelayBlock,
+    DiscretizedBlock,
     ExpressionBlock,
     FactoredBlock,
     FactorModel,
@@ -42,7 +43,7 @@ from sessions.format.schema import (
 )
 from sessions.forms.one_line import FormError, format_number, parse_expression, parse_number
 
-KINDS = ("factored", "controller", "polynomial", "delay", "table", "state_space")
+KINDS = ("factored", "controller", "polynomial", "delay", "table", "state_space", "discretized")
 SHOWN_ROOTS = 8  # poles (and zeros) a state space's line lists, the slowest first
 NAME = r"[A-Za-z_][A-Za-z0-9_]*"
 COEF = rf"(?:{NAME}|[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
@@ -97,6 +98,10 @@ def describe_transfer(t, variable: str = "s") -> str:
         return c(t.tau)
     if t.kind == "state_space":
         return "inline" if t.file is None else t.file
+    if t.kind == "discretized":
+        extra = [f"delay {format_number(t.delay)}"] if t.delay else []
+        extra += [f"prewarp {format_number(t.prewarp)}"] if t.prewarp is not None else []
+        return "; ".join([t.expression, t.method, *extra])
     table = t.table
     source = f"{table.csv} columns {','.join(table.columns or [])}" if table.csv else "inline"
     return f"{source} {table.form} {table.unit} gain {format_number(table.gain)}"
@@ -146,6 +151,7 @@ def parse_transfer(text: str, variable: str, current=None):
         "delay": _delay,
         "table": _table,
         "state_space": _state_space,
+        "discretized": _discretized,
     }
     try:
         return readers[kind](body, variable, current)
@@ -274,6 +280,20 @@ def _delay(body: str, _variable: str, _current) -> DelayBlock:
     return DelayBlock(kind="delay", tau=parse_coefficient(body, "the delay"))
 
 
+def _discretized(body: str, _variable: str, _current) -> DiscretizedBlock:
+    """'EXPR; zoh|tustin|matched[; delay SECONDS][; prewarp RAD/S]': a continuous block held on the way in."""
+    parts = [p.strip() for p in body.split(";")]
+    if len(parts) < 2:
+        raise FormError("discretized: write EXPR; zoh|tustin|matched[; delay SECONDS][; prewarp RAD/S]")
+    options = {}
+    for item in parts[2:]:
+        name, _, value = item.partition(" ")
+        if name not in ("delay", "prewarp"):
+            raise FormError(f"discretized: {item!r}: the options are delay SECONDS and prewarp RAD/S")
+        options[name] = parse_number(value, f"the {name}")
+    return DiscretizedBlock(kind="discretized", expression=parse_expression(parts[0], "s"), method=parts[1], **options)
+
+
 def _table(body: str, _variable: str, current) -> TableBlock:
     words = body.split()
     inline = bool(words) and words[0] == "inline"
@@ -343,7 +363,7 @@ def transfer_names(t, variable: str) -> set[str]:
         from engine.model.expressions import Expression
 
         return set(Expression(t.expression, variable).parameters)
-    if t.kind in ("table", "state_space"):
+    if t.kind in ("table", "state_space", "discretized"):
         return set()
     names: set[str] = set()
 

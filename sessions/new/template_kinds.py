@@ -19,6 +19,7 @@ KINDS: dict[str, str] = {
     "table": "a tabulated plant: a frequency response from a CSV file",
     "matrix": "a matrix-format plant: the unity loop as COEBRA's A(s) x = B r",
     "dae": "a constrained DAE: report 004's integrator example, designed by alternating projections",
+    "digital": "a digital loop in z: a sample time, a plant in s (held: zero-order hold) or in z, a compensator",
 }
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -25,6 +25,7 @@ async def test_every_kind_of_new_session_opens(workdir):
             "table": [str(workdir / "plant.csv"), "hz,mag,deg polar hz 1", None],
             "matrix": ["1/(s*(s+2))", None],
             "dae": [],
+            "digital": ["0.5", "exp(-0.1*s)/(s*(s+2))", None],
         }
         for index, (kind, answers) in enumerate(kinds.items()):
             await pilot.press("ctrl+n")
@@ -53,10 +54,16 @@ async def test_every_kind_of_new_session_opens(workdir):
                 "table": {"diagram"},
                 "matrix": {"matrix"},
                 "dae": set(),
+                "digital": {"diagram"},
             }[kind]
             assert formats == expected, (kind, formats)
             if kind == "table":
                 assert (session.path.parent / "plant.csv").exists()
+            if kind == "digital":  # a loop in z, the plant held (zoh) with its delay
+                condition = session.model.problem.conditions[0]
+                assert (condition.variable, condition.sample_time) == ("z", 0.5)
+                held = condition.plant.blocks[1].transfer
+                assert (held.kind, held.method, held.delay) == ("discretized", "zoh", 0.1)
 
 
 def test_a_csv_preview_of_a_fifo_or_a_huge_file_is_refused_not_waited_on(tmp_path):

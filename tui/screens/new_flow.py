@@ -8,6 +8,7 @@ The session starts with PM >= 45 deg and GM >= 6 dB and the slp algorithm
 
 from __future__ import annotations
 
+import math
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -76,6 +77,20 @@ class NewSessionFlow:
             ),
         )
 
+    def _digital(self) -> None:
+        def plant(sample_time: float) -> None:
+            self._ask(
+                f"plant, every {sample_time:g} s: an expression in s (held: zero-order hold; exp(-T*s), the "
+                "computational delay, as whole and fractional samples) or in z",
+                _plant_check,
+                lambda text: self._structure(
+                    "compensator structure (in z by Tustin's map)",
+                    lambda c: self._made(lambda: templates.new_session(text, c, sample_time=sample_time)),
+                ),
+            )
+
+        self._ask("sample time T (s)", _sample_time_check, lambda text: plant(float(text)))
+
     def _matrix(self) -> None:
         self._ask(
             f"plant (matrix format): {PLANT_HINT}",
@@ -139,6 +154,14 @@ def _check(read: Callable[[str], Any]) -> Callable[[str], str | None]:
 _plant_check = _check(templates.read_plant)
 _compensator_check = _check(lambda text: templates.read_compensator(text, "s"))
 _csv_check = _check(lambda text: csv_preview(Path(text).expanduser()))
+
+
+def _sample_time_check(text: str) -> str | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return f"{text!r} is not a number of seconds"
+    return None if math.isfinite(value) and value > 0 else f"{text!r}: a sample time is a finite number of seconds > 0"
 
 
 def _table_check(text: str, header: list[str]) -> str | None:

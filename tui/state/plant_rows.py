@@ -5,6 +5,7 @@ problem's block of the same name (its file is read once, when the session is).""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from engine.model.blocks import StateSpaceTransfer
@@ -24,6 +25,10 @@ def plant_rows(model, problem: Problem | None = None) -> list[tuple[Cells, Ref |
     for k, condition in enumerate(model.conditions):
         built = _state_spaces(problem, k, condition.name)
         rows += [((condition.name,) + cells, ref) for cells, ref in _condition_rows(condition, k, built)]
+        if condition.sample_time is not None:  # a loop in z: its sample time, edited on its own row
+            T = condition.sample_time
+            every = f"every {T:g} s (Nyquist frequency pi/T = {math.pi / T:.6g} rad/s)"
+            rows.append(((condition.name, "(sampled)", "", "", "in z", every), ("conditions", k, "sample_time")))
     return rows
 
 
