@@ -2,11 +2,12 @@
 evaluated as a batch against python-control looping `stability_margins` and the
 closed-loop poles over the same samples (interleaved, median of per-pair ratios),
 its margins checked against the per-loop path; 100 000 samples serially in a fresh
-process (time and peak memory, beside 10 000 for the memory's growth); the
-three-condition launch-vehicle study of 1000 samples (it stays per loop: its peak
-and time rows are not batched) against today's per-loop path.
+process (time and peak memory, beside 10 000 and 20 000 for the memory's growth, and the
+study's own allocations traced); the three-condition launch-vehicle study of 1000
+samples (it stays per loop: its loop is not one cascade, its peak and time rows are not
+batched) against today's per-loop path.
 
-    python -m tests.bench.tolerance SAMPLES    # one lag-lead study in this process: JSON on stdout
+    python -m tests.bench.tolerance SAMPLES [--traced]   # one lag-lead study in this process: JSON on stdout
 """
 
 from __future__ import annotations
@@ -19,7 +20,6 @@ import time
 import tracemalloc
 from pathlib import Path
 
-import control as ct
 import numpy as np
 
 from tests.bench.common import compared, samples, timed
@@ -28,6 +28,8 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 LAG_LEAD = ["T1=+-10%", "T2=+-10%"]
 LAUNCH_VEHICLE = ["WF=+-10%", "ZF=+-10%", "TA=+-10%"]  # the bending filter's frequency and damping, the actuator lag
 EXACT = 1e-12
+LAUNCH_VEHICLE_BEFORE_S = 33.2  # its 1000 samples, each a session of its own (docs/benchmarks.md, a84e0b6)
+PEAK_MEMORY_MB = 300  # the 100 000-sample study's process at most (it was 711 MB: every run kept)
 CHECKED_SAMPLES = 300  # samples whose runs the per-loop path makes again (the check, and today's time)
 
 
@@ -38,12 +40,18 @@ def _jobs(name: str, tolerances: list[str], count: int, seed: int = 0) -> list:
     return plan(load_session(EXAMPLES / name), "tolerance", tolerances, None, seed, count)[0]
 
 
-def _python_control(jobs: list) -> None:
+def _parameters(jobs) -> list[dict]:
+    """Each sample's parameter values (read before python-control's loop is timed)."""
+    return [{e["name"]: e["value"] for e in job.model["problem"]["parameters"]} for job in jobs]
+
+
+def _python_control(samples: list[dict]) -> None:
     """What the study reports, the python-control way: every sample's loop as a transfer
     function, its margins (stability_margins, returnall) and closed-loop poles."""
+    import control as ct  # (here: the fresh processes measuring memory do not load it)
+
     plant = ct.tf([16000.0], [1.0, 28.0, 160.0, 0.0])
-    for job in jobs:
-        p = {e["name"]: e["value"] for e in job.model["problem"]["parameters"]}
+    for p in samples:
         compensator = ct.tf(np.polymul([p["T1"], 1.0], [p["T2"], 1.0]), np.polymul([p["T3"], 1.0], [p["T4"], 1.0]))
         loop = compensator * plant
         ct.stability_margins(loop, returnall=True)
@@ -74,7 +82,8 @@ def lag_lead(repeat: int) -> dict:
 
     jobs = _jobs("coebra_lag_lead.json", LAG_LEAD, 2000)
     outcome = execute_serial(jobs)
-    figure = compared(lambda i: execute_serial(jobs), lambda i: _python_control(jobs), repeat, target=20.0)
+    values = _parameters(jobs)
+    figure = compared(lambda i: execute_serial(jobs), lambda i: _python_control(values), repeat, target=20.0)
     figure.update(
         ours_per_sample_us=figure["ours_median_s"] / len(jobs) * 1e6,
         theirs_per_sample_us=figure["theirs_median_s"] / len(jobs) * 1e6,
@@ -105,66 +114,89 @@ def lag_lead(repeat: int) -> dict:
     }
 
 
-def study(count: int) -> dict:
+def study(count: int, traced: bool = False) -> dict:
     """One lag-lead study of ``count`` samples as `loopcraft sweep --serial` makes it (plan, runs,
-    summary) in this process: the stages' times and the process's peak memory."""
+    summary) in this process: the stages' times and the process's peak memory; ``traced``: the
+    peak of the study's own allocations (tracemalloc, which slows it: its times are not the
+    study's)."""
     from sessions.store import load_session
     from sessions.sweeps.jobs import execute_serial
     from sessions.sweeps.plan import plan
     from sessions.sweeps.results import summarize
 
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
+    if traced:  # the study's own allocations: not the imports and caches of first use
+        execute_serial(plan(session, "tolerance", LAG_LEAD, None, 1, 20)[0])
+        tracemalloc.start()
     began = time.perf_counter()
     jobs, settings = plan(session, "tolerance", LAG_LEAD, None, 0, count)
     planned = time.perf_counter()
     outcome = execute_serial(jobs)
     ran = time.perf_counter()
-    summarize(session, "tolerance", settings, outcome)
+    summary = summarize(session, "tolerance", settings, outcome)
     done = time.perf_counter()
-    return {
+    figure = {
         "samples": count,
         "seconds": done - began,
         "plan_s": planned - began,
         "runs_s": ran - planned,
         "summary_s": done - ran,
-        "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "peak_memory_mb": peak_rss_mb(),
+        "runs_kept": len(summary["runs"]),
         "note": outcome.note,
     }
+    if traced:
+        figure["traced_peak_mb"] = tracemalloc.get_traced_memory()[1] / 2**20
+        tracemalloc.stop()
+    return figure
 
 
-def _in_fresh_process(count: int) -> dict:
-    command = [sys.executable, "-m", "tests.bench.tolerance", str(count)]
+def peak_rss_mb() -> float:
+    """This process's peak resident memory: Linux's VmHWM (ru_maxrss keeps the peak of the process
+    that forked it: every fresh process of the bench read the runner's 181 MB), else ru_maxrss."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def _in_fresh_process(count: int, *options: str) -> dict:
+    command = [sys.executable, "-m", "tests.bench.tolerance", str(count), *options]
     return json.loads(subprocess.run(command, capture_output=True, text=True, check=True).stdout)
 
 
 def hundred_thousand() -> dict:
-    """100 000 samples serially in a fresh process (target 30 s, reported), beside 10 000, and the
-    batch's own memory (what it holds beyond the runs it returns) at two sizes."""
-    small, large = _in_fresh_process(10_000), _in_fresh_process(100_000)
+    """100 000 samples serially in a fresh process (time: target 30 s, reported; peak memory:
+    target `PEAK_MEMORY_MB`, enforced), beside 10 000 (the largest study that keeps every run)
+    and 20 000 (the memory's growth per sample), and the study's own allocations traced at 20 000
+    and 100 000."""
+    every, small, large = (_in_fresh_process(n) for n in (10_000, 20_000, 100_000))
+    traced = {n: _in_fresh_process(n, "--traced")["traced_peak_mb"] for n in (20_000, 100_000)}
     return {
         "samples_100000": {**timed(large["seconds"], 30.0), **large},
-        "samples_10000": small,
-        "memory_growth_mb_per_1000_samples": (large["peak_memory_mb"] - small["peak_memory_mb"]) / 90,
-        "batch_working_memory": [_working_memory(count) for count in (2000, 20_000)],
+        "peak_memory_100000": {
+            "value": large["peak_memory_mb"],
+            "unit": "MB",
+            "traced_peak_mb": traced[100_000],  # the study's own allocations (plan, runs, summary)
+            "traced_peak_mb_20000": traced[20_000],
+            "target": PEAK_MEMORY_MB,
+            "target_kind": "max_mb",
+            "met": large["peak_memory_mb"] <= PEAK_MEMORY_MB,
+            "enforced": True,
+        },
+        "samples_10000": every,
+        "samples_20000": small,
+        "memory_growth_mb_per_1000_samples": (large["peak_memory_mb"] - small["peak_memory_mb"]) / 80,
     }
 
 
-def _working_memory(count: int) -> dict:
-    """The batch's peak traced memory beyond the runs it keeps (bounded by its chunk), and the runs' size."""
-    from sessions.sweeps.batch_study import batch_runs
-
-    jobs = _jobs("coebra_lag_lead.json", LAG_LEAD, count)
-    tracemalloc.start()
-    outcome = batch_runs(jobs)
-    kept, peak = tracemalloc.get_traced_memory()
-    tracemalloc.stop()
-    assert outcome is not None and len(outcome.runs) == count
-    return {"samples": count, "working_mb": (peak - kept) / 2**20, "runs_kb_per_sample": kept / count / 1024}
-
-
 def launch_vehicle(pairs: int = 3, count: int = 1000, compared_samples: int = 100) -> dict:
-    """The 1000-sample three-condition study (per loop: reported), and today's per-loop path
-    against the study's path on its first samples, interleaved."""
+    """The 1000-sample three-condition study (reported, beside its time before, and its ratio),
+    and today's per-loop path (a session built per sample, `run_job`) against the study's path
+    on its first samples, interleaved."""
     from sessions.sweeps.jobs import execute_serial, run_job
 
     jobs = _jobs("coebra_launch_vehicle.json", LAUNCH_VEHICLE, count)
@@ -177,7 +209,9 @@ def launch_vehicle(pairs: int = 3, count: int = 1000, compared_samples: int = 10
         "samples_1000": {
             **timed(seconds),
             "per_sample_ms": seconds / count * 1e3,
-            "path": outcome.note or "per loop (peak and time rows; loops that are not single cascades: not batched)",
+            "before_s": LAUNCH_VEHICLE_BEFORE_S,
+            "before_over_now": LAUNCH_VEHICLE_BEFORE_S / seconds,
+            "path": outcome.note,
         },
         "vs_today": {**today, "samples": compared_samples},
     }
@@ -193,4 +227,4 @@ def tolerance_figures(repeat: int) -> dict:
 
 
 if __name__ == "__main__":
-    print(json.dumps(study(int(sys.argv[1]))))
+    print(json.dumps(study(int(sys.argv[1]), traced="--traced" in sys.argv[2:])))
