@@ -23,6 +23,8 @@ from engine.closed_loop.step_response import StepSetup, realized, step_response
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.design.notes import design_notes
 from engine.errors import EngineError
+from engine.model.bilinear import z_transfer
+from engine.model.blocks import ExpressionTransfer
 from engine.stepping.driver import first_record
 from engine.stepping.presenter import tableau_text, tolerant
 from engine.stepping.protocol import StepRecord
@@ -84,11 +86,13 @@ def _problem(session: Session) -> list[Block]:
     for k, c in enumerate(problem.conditions):
         junctions = _junctions(model.conditions[k]) if k < len(model.conditions) else set()
         rows = [
-            [e.label, c.network.signals[e.col], c.network.signals[e.row], e.transfer.text, _role(e, junctions)]
+            [e.label, c.network.signals[e.col], c.network.signals[e.row], _typed(c.network, e), _role(e, junctions)]
             for e in c.network.entries
         ]
+        T = c.network.sample_time
+        plane = f"in z, every {T:g} s" if T is not None else f"variable {c.network.variable}"
         blocks += [
-            ("h3", f"Condition {c.name} (variable {c.network.variable}, loop broken at {c.break_at})"),
+            ("h3", f"Condition {c.name} ({plane}, loop broken at {c.break_at})"),
             ("table", ("block", "from", "to", "transfer", "role"), rows),
         ]
     rows = [
@@ -111,6 +115,13 @@ def _problem(session: Session) -> list[Block]:
 def _junctions(condition) -> set[str]:
     plant = condition.plant
     return {j.name for j in getattr(plant, "junctions", None) or ()}
+
+
+def _typed(network, entry) -> str:
+    """An entry's transfer as typed (a condition in z's in z, not its w-plane form)."""
+    if network.sample_time is not None and isinstance(entry.transfer, ExpressionTransfer):
+        return z_transfer(entry.transfer).text
+    return entry.transfer.text
 
 
 def _role(entry, junctions: set[str]) -> str:

@@ -18,6 +18,7 @@ from engine.closed_loop.step_response import StepSetup, realized, step_response
 from engine.design.compensator_items import compensators, pole_zero_form, time_constant_form
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
+from engine.model.bilinear import z_transfer
 from engine.model.blocks import ExpressionTransfer
 from engine.stepping.protocol import MeasureRow, StepRecord
 from sessions.new.templates import LOOPCRAFT_VERSION
@@ -164,21 +165,24 @@ def compensator_forms(session: Session, named: dict[str, Any]) -> list[Block]:
     for forms, names in seen.items():
         where = f" ({', '.join(names)})" if len(seen) > 1 else ""
         for label, typed, constants, zpk in forms:
-            rows += [
-                [label + where, "as typed", typed],
-                ["", "time constants", constants],
-                ["", "gain, zeros, poles", zpk],
-            ]
+            rows += [[label + where, "as typed", typed]]
+            rows += [["", "time constants", constants]] if constants else []
+            rows += [["", "gain, zeros, poles", zpk]]
     if not rows:
         return [("p", "No block has a parameter: the loop has no compensator to tune.")]
     return [("table", ("compensator", "form", "transfer function"), rows)]
 
 
 def _forms(network, values: dict[str, float]) -> list[tuple[str, str, str, str]]:
-    """(label, as typed, time-constant form, gain/zero/pole form) of each compensator."""
+    """(label, as typed, time-constant form, gain/zero/pole form) of each compensator; in a
+    condition in z, as typed and in z (no time-constant form: its roots are z's)."""
     out = []
     for label, found in compensators(network, values).items():
         transfer: ExpressionTransfer = next(e for e in network.entries if e.label == label).transfer
+        if network.sample_time is not None:
+            typed = z_transfer(transfer)
+            out.append((label, typed.text, "", pole_zero_form(typed, values)))
+            continue
         variable = transfer.expression.variable
         out.append((label, transfer.text, time_constant_form(found, variable), pole_zero_form(transfer, values)))
     return out
