@@ -24,7 +24,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 from scipy import linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
@@ -35,6 +35,7 @@ from engine.loop.design import design
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
+from engine.model.bilinear import z_of_w
 from engine.model.network import Network
 
 MOVE = 0.05  # a step may move a pole by this fraction of max(|pole|, the floor)
@@ -131,13 +132,6 @@ def root_locus(
         known = ", ".join(network.parameters) or "none"
         raise EngineError(f"no parameter {parameter!r} to draw a locus in (parameters: {known}; or 'gain')")
     return parameter_locus(network, params, parameter, value_range, max_points)
-
-
-def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:
-    """A sampled loop's w-plane roots in z = (1 + w)/(1 - w) (w = 1: z = inf)."""
-    w = np.asarray(points, dtype=complex)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(w == 1, complex(np.inf), (1 + w) / (1 - w))
 
 
 def sampled_locus(found: RootLocus, sample_time: float) -> RootLocus:

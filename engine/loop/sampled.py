@@ -21,7 +21,8 @@ from numpy.typing import NDArray
 from engine.analysis import LoopAnalysis, analyze
 from engine.errors import EngineError
 from engine.margins.search import Band
-from engine.model.blocks import ExpressionTransfer
+from engine.model.bilinear import realization_in_w
+from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 
@@ -35,6 +36,10 @@ def w_plane(network: Network, params: Mapping[str, float]) -> Network:
         raise EngineError(f"a sampled loop is a loop in z, not in {network.variable}")
     entries = []
     for e in network.entries:
+        if isinstance(e.transfer, StateSpaceTransfer):  # in w by its realization, kept as state space
+            matrices = realization_in_w(*e.transfer.realization())
+            entries.append(replace(e, transfer=StateSpaceTransfer(*matrices, source=f"{e.transfer.source}, in z")))
+            continue
         if not isinstance(e.transfer, ExpressionTransfer):
             raise EngineError(f"{e.label}: a loop in z takes expressions in z (not a {type(e.transfer).__name__})")
         entries.append(replace(e, transfer=ExpressionTransfer(w_block(e.transfer, params), "w")))

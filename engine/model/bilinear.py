@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
-from engine.model.blocks import ExpressionTransfer
+from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
 from engine.model.network import Network
 from engine.numerics.polynomials import Rational, trim
 
@@ -78,6 +78,25 @@ def realization_in_z(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray)
     return (np.eye(A.shape[0]) + A) @ M, root2 * M @ B, root2 * C @ M, D + C @ M @ B
 
 
+def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:
+    """A sampled loop's w-plane roots in z = (1 + w)/(1 - w) (w = 1: z = inf)."""
+    w = np.asarray(points, dtype=complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(w == 1, complex(np.inf), (1 + w) / (1 - w))
+
+
+def realization_in_w(A: NDArray, B: NDArray, C: NDArray, D: NDArray) -> tuple[NDArray, ...]:
+    """A realization in z as one in w, z = (1 + w)/(1 - w) (`realization_in_z` undone): with
+    N = (I + A)^-1, A_w = N (A - I), B_w = sqrt(2) N B, C_w = sqrt(2) C N, D_w = D - C N B.
+    A pole at z = -1 (on the unit circle at the Nyquist frequency) has no w-plane form."""
+    identity = np.eye(A.shape[0])
+    if A.shape[0] and np.min(np.abs(np.linalg.eigvals(A) + 1.0)) <= 1e-12 * max(1.0, np.abs(A).max()):
+        raise BlockError("a pole at z = -1 (on the unit circle at the Nyquist frequency): the loop has no value there")
+    N = np.linalg.inv(identity + A)
+    root2 = math.sqrt(2.0)
+    return N @ (A - identity), root2 * N @ B, root2 * C @ N, D - C @ N @ B
+
+
 def z_transfer(transfer: ExpressionTransfer) -> ExpressionTransfer:
     """A sampled network's entry as it was typed, in z (`sampled_network` wrote each z as `Z_OF_W`)."""
     return ExpressionTransfer(transfer.text.replace(Z_OF_W, "z"), "z")
@@ -91,9 +110,16 @@ def sampled_network(network: Network, sample_time: float) -> Network:
     entries = []
     for e in network.entries:
         t = e.transfer
+        if isinstance(t, StateSpaceTransfer):  # x[k+1] = A x[k] + B u[k]: in w, kept as state space
+            try:
+                w_form = StateSpaceTransfer(*realization_in_w(*t.realization()), source=f"{t.source}, in z")
+            except BlockError as exc:
+                raise BlockError(f"{e.label}: {exc}") from None
+            entries.append(replace(e, transfer=w_form))
+            continue
         if not isinstance(t, ExpressionTransfer) or t.expression.variable != "z":
             raise BlockError(
-                f"{e.label}: a loop in z takes expressions in z (polynomial, factored or typed), "
+                f"{e.label}: a loop in z takes expressions in z (polynomial, factored or typed) and state spaces, "
                 f"not a {type(t).__name__} (discretize a continuous block first)"
             )
         if "w" in t.parameters:

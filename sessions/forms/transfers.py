@@ -22,6 +22,7 @@ factors uses the block's variable (``(w+8)`` in a w-plane condition)."""
 
 from __future__ import annotations
 
+import cmath
 import re
 
 from pydantic import ValidationError
@@ -107,14 +108,20 @@ def describe_transfer(t, variable: str = "s") -> str:
     return f"{source} {table.form} {table.unit} gain {format_number(table.gain)}"
 
 
-def describe_state_space(transfer: StateSpaceTransfer) -> str:
+def describe_state_space(transfer: StateSpaceTransfer, in_z: bool = False) -> str:
     """'state space, order 12: poles ..., zeros ...' (a pair once, as a +- b j; the slowest
-    `SHOWN_ROOTS` of each, and how many more)."""
+    `SHOWN_ROOTS` of each, and how many more); ``in_z``: a sampled loop's block (its w-plane
+    form's roots shown in z)."""
+    from engine.model.bilinear import z_of_w
+
     try:
         form = transfer.form
     except EngineError as exc:
         return f"state space, order {transfer.order}: {exc}"
-    return f"state space, order {transfer.order}: poles {_roots_text(form.poles)}, zeros {_roots_text(form.zeros)}"
+    poles, zeros = (z_of_w(form.poles), z_of_w(form.zeros)) if in_z else (form.poles, form.zeros)
+    zeros = [z for z in zeros if cmath.isfinite(z)]  # a w-plane zero at w = 1 is z = inf
+    where = " in z" if in_z else ""
+    return f"state space, order {transfer.order}: poles{where} {_roots_text(poles)}, zeros {_roots_text(zeros)}"
 
 
 def _roots_text(roots) -> str:

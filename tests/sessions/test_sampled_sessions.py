@@ -273,3 +273,66 @@ def test_time_targets_on_a_z_condition_read_the_samples(tmp_path):
     spec = next(s for s in measure_specs(problem) if s.kind == "overshoot_percent")
     assert time_value(spec, problem, ss, T) == pytest.approx(expected, rel=1e-10)
     assert step_response(ss, StepSetup()).measures.overshoot_percent == pytest.approx(expected, rel=1e-10)
+
+
+def _ss_session(tmp_path, name: str, sys_d, K: float) -> Path:
+    """A unity loop in z: the gain K and a state-space plant given inline in z."""
+    data = json.loads((EXAMPLES / "coebra_kuo_z.json").read_text())
+    c = data["problem"]["conditions"][0]
+    c["sample_time"] = float(sys_d.dt)
+    c["plant"]["blocks"] = [
+        {"name": "gain", "input": "e", "output": "u", "transfer": {"kind": "expression", "expression": "K"}},
+        {
+            "name": "plant",
+            "input": "u",
+            "output": "y",
+            "transfer": {
+                "kind": "state_space",
+                "A": sys_d.A.tolist(),
+                "B": sys_d.B[:, 0].tolist(),
+                "C": sys_d.C[0].tolist(),
+                "D": float(sys_d.D[0, 0]),
+            },
+        },
+    ]
+    data["problem"]["parameters"] = [{"name": "K", "value": K}]
+    data["problem"]["grid"] = {"start": 1e-3, "stop": 0.999 * math.pi / sys_d.dt, "points": 300}
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_state_space_blocks_in_z_agree_with_python_control(tmp_path):
+    """20 random stable discrete state spaces (orders 1-20, python-control's drss) as blocks of a
+    condition in z, kept as state space: the closed-loop poles and the verdict equal python-control's
+    on the same dt system; every gain crossover is one on the unit circle (evaluated modally here),
+    and none is missed (100 001 points of the circle)."""
+    rng = np.random.default_rng(39)
+    np.random.seed(39)  # drss draws from numpy's global generator
+    for n in range(20):
+        order = 1 + n
+        sys_d = control.drss(order, 1, 1, strictly_proper=False)
+        sys_d.dt = float(rng.choice([1e-3, 0.01, 0.1, 1.0]))
+        K = float(10 ** rng.uniform(-1, 1))
+        session = load_session(_ss_session(tmp_path, f"ss{n}", sys_d, K))
+        c = session.problem.conditions[0]
+        found = analyze(c.network, c.break_at, session.problem.grid.omega, {"K": K})
+        loop = K * sys_d
+        poles = control.poles(control.feedback(loop, 1))
+        shown = np.array([p.value for p in found.closed_loop_poles])
+        assert found.verdict == ("stable" if np.all(np.abs(poles) < 1) else "unstable"), n
+        assert max(np.min(np.abs(shown[:, None] - poles[None, :]), axis=1)) < 1e-7 * max(1, np.abs(poles).max()), n
+        circle = _modal(sys_d.A, sys_d.B, sys_d.C, sys_d.D, K)
+        w = np.linspace(1e-6, math.pi / sys_d.dt * (1 - 1e-9), 100_001)
+        values = circle(np.exp(1j * w * sys_d.dt))
+        for m in found.margins.phase:  # |L| = 1 there, on the circle
+            assert abs(abs(circle(np.exp(1j * np.array([m.frequency]) * sys_d.dt))[0]) - 1) < 1e-9, n
+        crossings = np.flatnonzero(np.diff(np.sign(np.abs(values) - 1)) != 0)
+        assert len(found.margins.phase) == crossings.size, n
+
+
+def _modal(A, B, C, D, K):
+    """K (C (zI - A)^-1 B + D) at many z, through A's eigenvectors (vectorized)."""
+    lam, V = np.linalg.eig(A)
+    left, right = (C @ V)[0], np.linalg.solve(V, B)[:, 0]
+    return lambda z: K * ((left * right)[None, :] / (z[:, None] - lam[None, :])).sum(axis=1) + K * D[0, 0]

@@ -348,8 +348,10 @@ def _sampled(args: argparse.Namespace, network, omega, params):
     T = args.sample_time
     if T is None:
         raise CliError("--variable z needs --sample-time T (seconds): the frequencies are reported in rad/s")
-    if args.table is not None or args.ss is not None:
-        raise CliError("--variable z: give the loop as --tf expressions in z, and --held expressions in s")
+    if args.table is not None:
+        raise CliError(
+            "--variable z: give the loop as --tf expressions in z or --ss (in z), and --held expressions in s"
+        )
     if not (math.isfinite(T) and T > 0):
         raise CliError(f"--sample-time {T!r}: a finite number of seconds > 0")
     nyquist = math.pi / T

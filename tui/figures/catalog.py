@@ -96,9 +96,9 @@ def compensator_roots(view: View) -> list[tuple[str, complex]]:
     """("zero" or "pole", root: the upper one of a pair) of the plotted condition's
     compensators at the current design (`engine.design.compensator_items`; none when
     they do not read); a sampled loop's in z, as its pole map and locus are drawn."""
-    from engine.closed_loop.root_locus import z_of_w
     from engine.design.compensator_items import items
     from engine.errors import EngineError
+    from engine.model.bilinear import z_of_w
     from engine.model.blocks import ExpressionTransfer
 
     if not view.problem.conditions:

@@ -24,7 +24,8 @@ def plant_rows(model, problem: Problem | None = None) -> list[tuple[Cells, Ref |
     rows: list[tuple[Cells, Ref | None]] = []
     for k, condition in enumerate(model.conditions):
         built = _state_spaces(problem, k, condition.name)
-        rows += [((condition.name,) + cells, ref) for cells, ref in _condition_rows(condition, k, built)]
+        in_z = condition.sample_time is not None
+        rows += [((condition.name,) + cells, ref) for cells, ref in _condition_rows(condition, k, built, in_z)]
         if condition.sample_time is not None:  # a loop in z: its sample time, edited on its own row
             T = condition.sample_time
             every = f"every {T:g} s (Nyquist frequency pi/T = {math.pi / T:.6g} rad/s)"
@@ -42,13 +43,13 @@ def _state_spaces(problem: Problem | None, k: int, name: str) -> dict[str, State
 
 
 def _condition_rows(
-    condition, k: int, built: dict[str, StateSpaceTransfer]
+    condition, k: int, built: dict[str, StateSpaceTransfer], in_z: bool = False
 ) -> list[tuple[tuple[str, ...], Ref | None]]:
     plant, base, x = condition.plant, ("conditions", k, "plant"), condition.variable
 
     def describe(transfer, label: str) -> str:
         if transfer.kind == "state_space" and label in built:
-            return describe_state_space(built[label])
+            return describe_state_space(built[label], in_z)
         return describe_transfer(transfer, x)
 
     if plant.format == "diagram":
