@@ -6,6 +6,7 @@ moves belongs to it).  Moving an item is `compensator_moves`."""
 
 from __future__ import annotations
 
+import cmath
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -35,7 +36,22 @@ class Item:
     @property
     def text(self) -> str:
         """'zero at 1 rad/s (T 1 s) [T1]', 'pole pair wn 2 rad/s zeta 0.3 [a, b]', 'gain 7.1 (17.1 dB) [K]'."""
+        return self.reading()
+
+    def reading(self, sample_time: float | None = None) -> str:
+        """`text`; of a sampled loop's compensator (its roots found in w), the root in z with its
+        s-plane equivalent: 'zero at z = 0.92 (0.167 rad/s) [T1]', 'pole pair at z = 0.5+-0.8j
+        (wn 2.04 rad/s zeta 0.036) [a, b]'."""
         by = f" [{', '.join(self.parameters)}]" if self.parameters else " [fixed]"
+        if sample_time is not None and self.kind not in ("gain", "integrator", "differentiator"):
+            z = (1 + self.root) / (1 - self.root) if self.root != 1 else complex(math.inf)
+            if z == 0 or not cmath.isfinite(z):
+                return f"{self.kind} at z = {z.real:.6g}{by}"
+            s = cmath.log(z) / sample_time
+            at = f"{z.real:.6g}" + (f"+-{abs(z.imag):.6g}j" if z.imag else "")
+            if self.kind.endswith("pair"):
+                return f"{self.kind} at z = {at} (wn {abs(s):.6g} rad/s zeta {-s.real / abs(s):.4g}){by}"
+            return f"{self.kind} at z = {at} ({abs(s):.6g} rad/s){by}"
         if self.kind == "gain":
             value = self.root.real
             db = f" ({round(20 * math.log10(abs(value)), 9):.4g} dB)" if value else ""

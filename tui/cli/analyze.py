@@ -403,8 +403,10 @@ def _session_design(args: argparse.Namespace) -> int:
     values = problem.condition_values(k, named=named)
     result = analyze(c.network, c.break_at, problem.grid.omega, values)
     parts = compensators(c.network, values)
+    T = c.network.sample_time
+    variable = "z" if T is not None else c.network.variable
     if args.json:
-        out = analysis_to_json(result) | {
+        out = analysis_to_json(result, variable, sample_time=T) | {
             "compensators": {
                 name: [_item_json(i) | {"name": n} for n, i in zip(item_names(found), found)]
                 for name, found in parts.items()
@@ -413,9 +415,12 @@ def _session_design(args: argparse.Namespace) -> int:
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
-        print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"]))
+        print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"], variable, 0.0, T))
         for name, found in parts.items():
-            lines = [f"  {name}.{item_name}: {i.text}" for item_name, i in zip(item_names(found), found)]
+            lines = [
+                f"  {name}.{item_name}: {i.reading(c.network.sample_time)}"
+                for item_name, i in zip(item_names(found), found)
+            ]
             print(f"compensator {name}:\n" + "\n".join(lines))
     return 0
 

@@ -123,9 +123,10 @@ def compensator_rows(bench: Workbench) -> list[tuple[str, str, Any]]:
     if not problem.conditions:
         return []
     k = bench.view().first_plotted
-    parts = compensators(problem.conditions[k].network, problem.condition_values(k))
+    network = problem.conditions[k].network
+    parts = compensators(network, problem.condition_values(k))
     return [
-        (f"{label}.{name}", item.text, item)
+        (f"{label}.{name}", item.reading(network.sample_time), item)
         for label, found in parts.items()
         for name, item in zip(named(found), found)
     ]
