@@ -88,9 +88,7 @@ def in_rad_per_s(found: Margins, sample_time: float) -> Margins:
     )
 
 
-def sampled_peaks(
-    loop: SampledLoop, search: Callable[..., Sequence], transforms: Sequence, band: Band
-) -> tuple:
+def sampled_peaks(loop: SampledLoop, search: Callable[..., Sequence], transforms: Sequence, band: Band) -> tuple:
     """``search`` (`engine.margins.peaks.refined_peaks`) on the w-plane form, in rad/s."""
     found = search(loop.w_plane, transforms, band_in_nu(band, loop.sample_time))
     return tuple(replace(p, frequency=omega_of(p.frequency, loop.sample_time)) for p in found)

@@ -248,3 +248,12 @@ def worst_row(rows: Sequence[dict], which: str | None = None) -> dict:
         known = ", ".join(sorted({f"{r['name']}@{r['condition']}" for r in rows})) or "none"
         raise SessionError(f"no measure row {which!r} in the tolerance study (rows: {known})")
     return max(chosen, key=shortfall)
+
+
+def run_count(summary: dict) -> str:
+    """'2000 runs', or a large tolerance study's '100000 runs (42 kept)': its samples, not the runs
+    it keeps (`Tally`: its worst samples' and the first failed ones)."""
+    settings = summary.get("settings", {})
+    kept = settings.get("runs_kept")
+    total = settings.get("samples", len(summary["runs"])) if kept is not None else len(summary["runs"])
+    return f"{total} runs" + (f" ({kept} kept)" if kept is not None else "")

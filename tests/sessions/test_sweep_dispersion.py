@@ -340,3 +340,13 @@ def test_a_large_studys_failed_runs_are_counted_and_the_first_kept(monkeypatch):
         every.add(r)
     assert tally.rows() == every.rows() and every.runs() == runs and not every.thinned
     assert tally.rows()[0]["samples"] == 20 and tally.rows()[0]["worst_parameters"] == {"K": 29}
+
+
+def test_a_large_study_counts_its_samples_not_the_runs_it_keeps():
+    from sessions.sweeps.dispersion import run_count
+
+    kept = {"runs": [{}] * 3, "settings": {"samples": 100_000, "runs_kept": 3}}
+    every = {"runs": [{}] * 2000, "settings": {"samples": 2000}}
+    assert run_count(kept) == "100000 runs (3 kept)"
+    assert run_count(every) == "2000 runs"
+    assert run_count({"runs": [{}] * 16, "settings": {}}) == "16 runs"  # a starts sweep

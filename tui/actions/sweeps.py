@@ -14,6 +14,7 @@ from textual.message import Message
 
 from engine.stepping.presenter import number
 from sessions.errors import SessionError
+from sessions.sweeps.dispersion import run_count
 from sessions.sweeps.plan import parse_sweep
 
 if TYPE_CHECKING:
@@ -128,7 +129,7 @@ class Sweeps:
         self.app.bench.keep_sweep(summary)
         self.app.busy_changed()
         self.app.refresh_workbench()
-        self.app.notify(f"sweep done: {len(summary['runs'])} runs, {len(summary['optima'])} optima")
+        self.app.notify(f"sweep done: {run_count(summary)}, {len(summary['optima'])} optima")
 
     def use_best(self) -> None:
         """Adopt the latest sweep's best run as the session's start, or a tolerance study's

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
-from sessions.sweeps.dispersion import PERCENTILE_KEYS
+from sessions.sweeps.dispersion import PERCENTILE_KEYS, run_count
 from sessions.sweeps.sampling import SAMPLINGS
 from tui.cli.common import CliError
 
@@ -166,7 +166,7 @@ def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome,
     print(json.dumps(with_former_keys(summary), indent=2, sort_keys=True) if args.json else sweep_text(summary))
     if outcome.interrupted:
         print(
-            f"loopcraft sweep: interrupted: {outcome.finished} of {len(outcome.runs)} runs finished; "
+            f"loopcraft sweep: interrupted: {outcome.finished} of {run_count(summary)} finished; "
             f"kept {'in ' + str(kept) if kept else 'above'} as a cancelled sweep"
             + (f" ({_adopt_option(args)} not applied)" if _adopt_option(args) else ""),
             file=sys.stderr,
@@ -270,7 +270,7 @@ def sweep_text(summary: dict) -> str:
     """Runs, then optima (or the worst case of a tolerance study)."""
     runs = summary["runs"]
     lines = [
-        f"{summary['kind']} sweep: {len(runs)} runs on {summary['workers']} worker(s), "
+        f"{summary['kind']} sweep: {run_count(summary)} on {summary['workers']} worker(s), "
         f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"
     ]
     lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'ranking':>12} {'meets':<6}{'tries':>5}")

@@ -18,7 +18,7 @@ from textual.widgets import DataTable, TabbedContent, TabPane
 from engine.stepping.presenter import Presenter, number, tolerant
 from engine.stepping.protocol import StepRecord
 from sessions.forms import one_line as forms
-from sessions.sweeps.dispersion import PERCENTILE_KEYS
+from sessions.sweeps.dispersion import PERCENTILE_KEYS, run_count
 from sessions.target_use import target_note
 from tui.actions.run_loop import drawings
 from tui.actions.sweeps import sample_values
@@ -567,7 +567,7 @@ class MainScreen(Screen):
         status = "no sweep yet.  [b]w[/b] starts one (starts 16 | vary NAME=V1,V2 | tolerance NAME=+-10%)"
         if sweep:
             status = (
-                f"{escape(str(sweep['kind']))} sweep of {escape(str(sweep['created']))}: {len(sweep['runs'])} runs on {sweep['workers']} "
+                f"{escape(str(sweep['kind']))} sweep of {escape(str(sweep['created']))}: {run_count(sweep)} on {sweep['workers']} "
                 f"worker(s), {len(sweep['failed'])} failed, {len(sweep['retried'])} retried"
                 + (", cancelled" if sweep["cancelled"] else "")
                 + (
