@@ -198,7 +198,7 @@ def test_the_step_response_is_the_sampled_loop_s_at_its_samples(tmp_path):
 
 
 def test_the_pole_map_and_locus_are_drawn_in_z_with_the_unit_circle(tmp_path):
-    from tui.figures.closed_loop import locus_figure, poles_figure
+    from tui.figures.closed_loop import Z_GRID_DAMPINGS, locus_figure, poles_figure
     from tui.state.workbench import Workbench
 
     path = tmp_path / "kuo_z.json"
@@ -211,6 +211,10 @@ def test_the_pole_map_and_locus_are_drawn_in_z_with_the_unit_circle(tmp_path):
     expected = np.roots(np.polyadd(np.polymul(cd, PLANT_DEN), np.polymul(cn, PLANT_NUM)))
     assert all(np.min(np.abs(expected - p)) < 1e-9 for p in closed)
     assert "|z| = 1" in by_label and "z-plane" in fig.title
+    curve = next(s for s in fig.series if s.label.startswith("zeta"))  # the first constant-damping curve
+    z = np.array(curve.x) + 1j * np.array(curve.y)
+    s = np.log(z[1:-1])  # s T, off z = 1
+    np.testing.assert_allclose(-s.real / np.abs(s), Z_GRID_DAMPINGS[0], rtol=1e-12)
     locus = locus_figure(view)
     assert any(s.label == "|z| = 1" for s in locus.series) and "unit-circle crossings" in locus.xlabel
 

@@ -220,16 +220,36 @@ def poles_figure(view, designs: list[Design] | None = None) -> Figure:
         fig.probe = _pole_probe(first.closed_loop, c.network.variable, T)
     _square(fig, np.concatenate([np.concatenate([pz.poles, pz.zeros, pz.closed_loop]) for pz in shown]))
     if T is not None:
-        _unit_circle(fig)
+        _z_grid(fig)
     return fig
 
 
-def _unit_circle(fig: Figure) -> None:
-    """The unit circle (the stability boundary in z), beneath the roots, and a view that holds it."""
+Z_GRID_DAMPINGS = (0.3, 0.7)  # constant-damping curves drawn in z (as MATLAB's zgrid)
+Z_GRID_FREQUENCIES = (0.25, 0.5, 0.75)  # constant natural frequencies, in units of pi/T
+
+
+def _z_grid(fig: Figure) -> None:
+    """The unit circle (the stability boundary in z) and, as MATLAB's zgrid, the curves of
+    constant damping and of constant natural frequency of the s-plane equivalents (z = exp(s T)),
+    beneath the roots, in a view that holds the circle."""
     angle = np.linspace(0.0, 2 * np.pi, 181)
-    fig.series.insert(
-        0, Series(np.cos(angle).tolist(), np.sin(angle).tolist(), "|z| = 1", color="gray", marker="dot", beneath=True)
-    )
+    grid = [Series(np.cos(angle).tolist(), np.sin(angle).tolist(), "|z| = 1", color="gray", marker="dot", beneath=True)]
+    for n, zeta in enumerate(Z_GRID_DAMPINGS):  # s T = x (-zeta + j sqrt(1 - zeta^2)), x from 0 to pi/sqrt(1 - zeta^2)
+        x = np.linspace(0.0, np.pi / math.sqrt(1 - zeta**2), 90)
+        upper = np.exp(x * complex(-zeta, math.sqrt(1 - zeta**2)))
+        path = np.concatenate([upper, upper[::-1].conjugate()])
+        label = f"zeta {', '.join(f'{z:g}' for z in Z_GRID_DAMPINGS)}; wn pi/T x {', '.join(f'{f:g}' for f in Z_GRID_FREQUENCIES)}"
+        grid.append(
+            Series(
+                path.real.tolist(), path.imag.tolist(), label if n == 0 else "", color="gray", marker="·", beneath=True
+            )
+        )
+    for fraction in Z_GRID_FREQUENCIES:  # wn T = fraction pi, zeta from 0 to 1
+        zeta = np.linspace(0.0, 1.0, 45)
+        upper = np.exp(fraction * np.pi * (-zeta + 1j * np.sqrt(1 - zeta**2)))
+        path = np.concatenate([upper, upper[::-1].conjugate()])
+        grid.append(Series(path.real.tolist(), path.imag.tolist(), "", color="gray", marker="·", beneath=True))
+    fig.series[:0] = grid
     if fig.xlim and fig.ylim:
         fig.xlim = (min(fig.xlim[0], -1.2), max(fig.xlim[1], 1.2))
         fig.ylim = (min(fig.ylim[0], -1.2), max(fig.ylim[1], 1.2))
@@ -366,7 +386,7 @@ def locus_figure(
     fig.probe = _locus_probe(locus, name, T)
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
     if T is not None:
-        _unit_circle(fig)
+        _z_grid(fig)
     elif parameter == "gain":  # (in z, the w-plane's asymptotes are arcs: not drawn)
         _asymptotes_and_breakaways(fig, locus)
     return fig
