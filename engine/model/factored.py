@@ -6,7 +6,9 @@ of degree 16 given by its coefficients can be wrong in the third digit when
 they cluster.  The tree of a typed expression usually keeps the factors, so
 the roots are taken where they are: products, quotients and integer powers
 combine root lists; a sum (or a number, a name, the variable) is folded to
-its own, small polynomial ratio and only its roots are computed.  Equal
+its own, small polynomial ratio and only its roots are computed, those of a
+sum made accurate on the sum itself, term by term (`_sum_zeros`: the
+numerator of a sum of light, close modes places its zeros to 1e-6..1e-2).  Equal
 roots of the numerator and the denominator cancel (H((1 + w)/(1 - w)) has
 (1 - w) factors that cancel exactly), within `CANCEL` relative.
 """
@@ -22,6 +24,7 @@ from numpy.typing import NDArray
 from engine.errors import ExpressionError
 from engine.model.expressions import Expression, Node
 from engine.model.folding import to_rational
+from engine.numerics.fraction_sums import conjugate_closed, factored_sum_zeros, polished_roots
 from engine.numerics.polynomials import trim
 
 CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
@@ -178,7 +181,100 @@ def _sum(terms: list[tuple[float, Node]], params: Mapping[str, float]) -> PoleZe
     zeros = (
         _roots(numerator).astype(complex) if numerator.size > 1 and numerator[0] != 0 else np.zeros(0, dtype=complex)
     )
-    return PoleZero(float(numerator[0]), zeros, np.array(common, dtype=complex))
+    return PoleZero(float(numerator[0]), _sum_zeros(forms, common, zeros), np.array(common, dtype=complex))
+
+
+def _sum_zeros(forms: list[tuple[float, PoleZero]], common: list[complex], zeros: NDArray) -> NDArray:
+    """The zeros of a sum, accurate.  The roots of its expanded numerator (``zeros``) are
+    estimates: a sum of lightly damped, closely spaced modes, k0/s + sum k_i/(s^2 + 2 z_i w_i
+    s + w_i^2), has zeros between its modes that the numerator's coefficients place to
+    1e-6..1e-2 relative with eight modes, to 0.1 with twenty.  They stand when every backward
+    error (`_worst_backward_error`) is within `BACKWARD` (most small sums).  Else the zeros
+    of the sum's realization (`_realized_zeros`, backward stable) are polished together on
+    the sum evaluated term by term (`_at`: never through the expanded numerator),
+    and stand when within `BACKWARD`; where they do not, or the sum has no realization (a
+    term improper), the numerator's roots are polished too, and of these sets the one with
+    the smallest largest backward error is kept (if within `SOUND`: else the numerator's
+    roots stand, as where the terms' numbers span 1e-146..1e-1).  Conjugate pairs stay exact pairs.  A root
+    of the numerator on one of the common poles (within CANCEL: it cancels) is left as it is
+    (a zero of the realization there is checked as any other)."""
+    if zeros.size == 0 or all(form.poles.size == 0 and not np.any(form.zeros) for _, form in forms):
+        return zeros  # a polynomial typed by its coefficients (terms c x^k): its numerator is what was typed
+    if max(zeros.size, len(common)) > MAX_ORDER:
+        return zeros  # the block is refused (`_checked`)
+    poles = np.array(common, dtype=complex)
+    frozen = np.array([_matching(common, z) is not None for z in zeros.tolist()])
+    best, worst = zeros, _worst_backward_error(forms, poles, zeros, frozen)
+    if worst <= BACKWARD:
+        return zeros  # roots of a well-conditioned numerator (most small sums): already there
+    for start, fixed in ((_realized_zeros(forms, common), None), (zeros, frozen)):
+        if start is None or start.size != zeros.size:
+            continue
+        fixed = np.zeros(start.size, dtype=bool) if fixed is None else fixed  # on a pole: no root of the sum's
+        polished, _ = polished_roots(start, lambda x: _at(forms, poles, x)[0], fixed)
+        error = _worst_backward_error(forms, poles, polished, fixed)
+        if error < worst and error <= SOUND:
+            best, worst = polished, error
+        if worst <= BACKWARD:
+            break
+    return best
+
+
+SOUND = 1e-8  # a polished set with a larger backward error is no set of roots: the numerator's stand
+BACKWARD = 1e-14  # |N| / (sum |N_k| + |x| sum |N_k'|) at a zero (`_at`): a few roundings of the terms' factors
+
+
+def _at(forms: list[tuple[float, PoleZero]], poles: NDArray, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """N'/N and the backward error |N| / (sum |N_k| + |x| sum |N_k'|) at ``x``, for the sum's
+    numerator N = sum_k N_k, N_k = term_k * D over the common poles' D = prod(x - p), each
+    term evaluated in factored form (never through the expanded numerator): N'/N = f'/f +
+    D'/D, N_k'/D = term_k' + term_k D'/D.  The backward error weighs the terms' moduli and
+    how much they move when x is rounded (beside a mode of damping zeta, 1 / zeta times
+    more), in N, which has no poles: beside a pole of the sum no point looks like a root.
+    N'/N is inf where f is 0; the error is inf where it is not finite."""
+    value, slope, size = np.zeros(x.shape, complex), np.zeros(x.shape, complex), np.zeros(x.shape)
+    with np.errstate(all="ignore"):
+        log_d = np.sum(1.0 / (x[:, None] - poles[None, :]), axis=1)
+        for sign, form in forms:
+            v, d = form.evaluate(x)
+            on_zero = (v == 0) & ~np.isfinite(d)  # x on one of the term's zeros: its other factors' product
+            for k in np.flatnonzero(on_zero):
+                rest = form.zeros.tolist()
+                if x[k] in rest:
+                    rest.remove(x[k])
+                d[k] = PoleZero(form.gain, np.array(rest, dtype=complex), form.poles).evaluate(x[k : k + 1])[0][0]
+            value, slope = value + sign * v, slope + sign * d
+            size = size + np.abs(v) + np.abs(x) * np.abs(d + v * log_d)
+        ratio = np.divide(slope, value, out=np.full(x.shape, np.inf, dtype=complex), where=value != 0)
+        error = np.where(value == 0, 0.0, np.abs(value) / size)
+    return ratio + log_d, np.where(np.isfinite(error), error, np.inf), value
+
+
+def _worst_backward_error(
+    forms: list[tuple[float, PoleZero]], poles: NDArray, zeros: NDArray, frozen: NDArray
+) -> float:
+    """The largest backward error (`_at`) over the zeros not frozen."""
+    x = zeros[~frozen]
+    return float(np.max(_at(forms, poles, x)[1])) if x.size else 0.0
+
+
+def _realized_zeros(forms: list[tuple[float, PoleZero]], common: list[complex]) -> NDArray | None:
+    """The sum's zeros as the generalized eigenvalues of its terms' realizations in parallel
+    (`engine.numerics.fraction_sums.factored_sum_zeros`: backward stable, in factored form),
+    less one zero at each pole that two terms share (a state of each), made exactly closed
+    under conjugation; None when a term is improper or the eigenvalues are not so closed."""
+    found = factored_sum_zeros([(sign * form.gain, form.zeros, form.poles) for sign, form in forms])
+    if found is None:
+        return None
+    kept = found.tolist()
+    shared = list(common)
+    for p in np.concatenate([form.poles for _, form in forms]).tolist():
+        k = _matching(shared, p)
+        if k is not None:
+            shared.pop(k)  # the first of its kind is the sum's pole
+        elif kept:
+            kept.pop(int(np.argmin(np.abs(np.array(kept) - p))))
+    return conjugate_closed(np.array(kept, dtype=complex))
 
 
 def _matching(roots: list[complex], root: complex) -> int | None:

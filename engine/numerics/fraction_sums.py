@@ -12,12 +12,20 @@ such as sum 1/(x - c_k) - sum 1/(x - p_k), falls off like 1/x^d, d > 1): no
 polynomial is expanded.  Polynomials are small here (at most `MAX_ROOTS` of
 `engine.margins.pole_zero.search`): built by products and rooted by their balanced
 companion matrices (dgeev), without np.poly's and np.roots's wrappers.
+
+A sum of rational terms in factored form, sum_k g_k prod(x - z_k)/prod(x - p_k)
+(an expression's sum, `engine.model.factored`), has its zeros from the same
+kind of pencil, its terms realized as cascades (`factored_sum_zeros`), and
+they are polished together by the Aberth-Ehrlich iteration on the sum itself
+(`polished_roots`), conjugate pairs kept exact (the closed loop's poles have
+their own iteration over every root, `engine.closed_loop.characteristic.aberth`).
 """
 
 from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -93,6 +101,123 @@ class Fractions:
             return None
         finite = np.abs(beta) > FINITE * np.hypot(alpha_re, alpha_im)
         return (alpha_re[finite] + 1j * alpha_im[finite]) / beta[finite] * self.scale
+
+
+POLISH_STEPS = 40  # Aberth steps at most: cubic convergence from a few digits takes about five
+STALLED = 1e-8  # a step this small (relative) that does not halve the last: the root is at its noise
+
+
+def polished_roots(
+    roots: NDArray[np.complex128],
+    log_slope: Callable[[NDArray[np.complex128]], NDArray[np.complex128]],
+    frozen: NDArray[np.bool_] | None = None,
+) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
+    """The roots of a real polynomial p refined together by the Aberth-Ehrlich iteration,
+    p known only through ``log_slope(x)`` = p'(x)/p(x) (inf where p(x) = 0): each root
+    steps by 1 / (p'/p - sum over the others 1/(x - x_j)), so two estimates never settle
+    on one simple root.  ``roots`` are closed under conjugation (real ones exactly real,
+    complex ones in exact pairs, as real eigenvalue solvers give them, or as
+    `conjugate_closed` makes them) and stay so: the real ones and the upper half-plane
+    ones are iterated, the lower ones are their conjugates.  ``frozen`` roots are not
+    moved (they repel the others; a pair by its upper root's mark).  Returns the roots
+    (reals, upper, lower, each in the given order) and, per root, whether its last step
+    was within 4 eps of it or stalled below `STALLED` (frozen ones: True); roots not
+    closed under conjugation come back unchanged and unsettled."""
+    roots = np.asarray(roots, dtype=complex)
+    frozen = np.zeros(roots.size, dtype=bool) if frozen is None else np.asarray(frozen, dtype=bool)
+    real, upper = roots.imag == 0, roots.imag > 0
+    if not np.array_equal(np.sort_complex(roots[upper]), np.sort_complex(roots[roots.imag < 0].conj())):
+        return roots, np.zeros(roots.size, dtype=bool)
+    order = np.concatenate([np.flatnonzero(real), np.flatnonzero(upper)])
+    half, is_real = roots[order], np.arange(order.size) < np.count_nonzero(real)
+    pairs = ~is_real
+    moving = np.flatnonzero(~frozen[order])  # a pair is frozen by its upper root's mark
+    done, last = np.zeros(moving.size, dtype=bool), np.full(moving.size, np.inf)
+    with np.errstate(all="ignore"):
+        for _ in range(POLISH_STEPS if moving.size else 0):
+            x = half[moving]
+            every = np.concatenate([half, half[pairs].conj()])
+            gaps = x[:, None] - every[None, :]
+            gaps[np.arange(moving.size), moving] = np.inf  # a root does not repel itself
+            slope = log_slope(x)
+            step = np.where(np.isinf(slope), 0.0, 1.0 / (slope - np.sum(1.0 / gaps, axis=1)))  # inf: on a root
+            step[is_real[moving]] = step[is_real[moving]].real
+            failed = ~np.isfinite(step)
+            step[failed] = 0.0
+            half[moving] = x - step
+            size = np.abs(step)
+            stalled = (size > 0.5 * last) & (size <= STALLED * np.abs(x))  # at its rounding's noise
+            done = ~failed & ((size <= 4 * np.finfo(float).eps * np.abs(half[moving])) | stalled)
+            last = size
+            if done.all():  # every root at once: one settled early moves again while its neighbours move
+                break
+    settled = np.ones(half.size, dtype=bool)
+    settled[moving] = done
+    return np.concatenate([half, half[pairs].conj()]), np.concatenate([settled, settled[pairs]])
+
+
+def conjugate_closed(roots: NDArray[np.complex128], tolerance: float = 1e-8) -> NDArray[np.complex128] | None:
+    """``roots`` (a complex eigenvalue solver's, of a real problem) made exactly closed under
+    conjugation: a root above the axis and the nearest conjugate of one below, within
+    ``tolerance`` of its size, become an exact pair (their mean and its conjugate); a root
+    left alone within ``tolerance`` of the axis becomes real; None when one is neither."""
+    roots = np.asarray(roots, dtype=complex)
+    upper, lower = roots[roots.imag > 0].tolist(), roots[roots.imag < 0].conj().tolist()
+    reals, pairs = roots[roots.imag == 0].real.tolist(), []
+    for u in sorted(upper, key=lambda x: -x.imag):  # farthest from the axis first: they pair surely
+        k = min(range(len(lower)), key=lambda j: abs(lower[j] - u), default=None)
+        if k is not None and abs(lower[k] - u) <= tolerance * abs(u):
+            pairs.append((u + lower.pop(k)) / 2)
+        elif u.imag <= tolerance * abs(u):
+            reals.append(u.real)
+        else:
+            return None
+    for x in lower:
+        if x.imag > tolerance * abs(x):
+            return None
+        reals.append(x.real)
+    half = np.array(pairs, dtype=complex)
+    return np.concatenate([np.array(reals, dtype=complex), half, half.conj()])
+
+
+def factored_sum_zeros(terms: list[tuple[float, NDArray, NDArray]]) -> NDArray[np.complex128] | None:
+    """The finite zeros of sum_k g_k prod(x - z_k) / prod(x - p_k), every term proper and
+    given as (g_k, z_k, p_k): the generalized eigenvalues of the pencil ([[A, B], [C, D]],
+    diag(I, 0)) of the terms' realizations in parallel (LAPACK's QZ, zggev: backward stable).
+    Each term is a cascade of first-order sections, (x - z)/(x - p) = 1 + (p - z)/(x - p)
+    while zeros last, then 1/(x - p): no polynomial is formed, a repeated pole is a Jordan
+    chain, and the variable is scaled by the largest root.  A pole that two terms share is
+    a state of each, so it is a zero of this realization too (not of the sum: the caller
+    removes it).  Complex: conjugate pairs come back close, not exact (`conjugate_closed`).
+    None when a term is improper, a number leaves the floating-point range, or QZ fails."""
+    if any(z.size > p.size for _, z, p in terms):
+        return None
+    scale = max((float(np.abs(np.concatenate([z, p])).max(initial=0.0)) for _, z, p in terms), default=0.0) or 1.0
+    n = sum(p.size for _, _, p in terms)
+    system, mass = np.zeros((n + 1, n + 1), dtype=complex), np.zeros((n + 1, n + 1), dtype=complex)
+    mass[np.arange(n), np.arange(n)] = 1.0
+    top = 0
+    for gain, zeros, poles in terms:
+        z, p = zeros / scale, poles / scale
+        feed, through = np.zeros(p.size, dtype=complex), 1.0  # the next section's input: feed . x + through u
+        for j in range(p.size):
+            system[top + j, top + j] = p[j]
+            system[top + j, top : top + j], system[top + j, n] = feed[:j], through
+            if j < z.size:
+                feed[j] += p[j] - z[j]
+            else:
+                feed, through = np.zeros(p.size, dtype=complex), 0.0
+                feed[j] = 1.0
+        scaled = gain * np.float64(scale) ** (z.size - p.size)  # a Python float's ** raises OverflowError
+        system[n, top : top + p.size], system[n, n] = scaled * feed, system[n, n] + scaled * through
+        top += p.size
+    if not np.all(np.isfinite(system)):
+        return None
+    alpha, beta, *_, info = _lapack().zggev(system, mass, compute_vl=0, compute_vr=0)
+    if info != 0:
+        return None
+    finite = np.abs(beta) > FINITE * np.abs(alpha)
+    return alpha[finite] / beta[finite] * scale
 
 
 def _cascaded(matrix: NDArray, n: int, system: bool) -> NDArray:
