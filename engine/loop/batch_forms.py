@@ -14,7 +14,9 @@ A sample whose numbers leave the shared structure is marked ``odd`` and left
 to the per-loop path: a pole shared by two terms of a sum (within
 `engine.model.factored.CANCEL`: the per-loop path merges it), a zero that
 cancels a pole, a leading or trailing coefficient that vanishes, a gain of
-zero under a quotient, a number out of range.  A loop that is not a cascade
+zero under a quotient, a number out of range, a sum of fractions whose
+numerator's roots are not its zeros to `engine.model.factored.BACKWARD` (lightly
+damped modes close together: the per-loop path polishes them).  A loop that is not a cascade
 of expression blocks (a delay, a table, a state space, inner loops) has no
 batch form (None).
 """
@@ -31,7 +33,7 @@ from engine.errors import EngineError
 from engine.loop.evaluator import LoopEvaluator
 from engine.model.blocks import ExpressionTransfer
 from engine.model.expressions import Node
-from engine.model.factored import CANCEL, MAX_ORDER, signed_terms
+from engine.model.factored import BACKWARD, CANCEL, MAX_ORDER, signed_terms
 from engine.model.network import Network
 
 
@@ -129,7 +131,32 @@ def _sum(terms: list[tuple[float, Node]], columns: Mapping[str, NDArray], count:
     common = np.concatenate([f.poles for _, f in forms], axis=1)
     odd |= (numerator[:, 0] == 0) | ~np.isfinite(numerator).all(axis=1)
     zeros, bad = _roots(numerator)
+    if common.shape[1] and zeros.shape[1]:  # a sum of fractions: its numerator's roots only estimate its zeros
+        bad |= _backward_errors(forms, common, zeros) > BACKWARD
     return Stack(numerator[:, 0].copy(), zeros, common, odd | bad)
+
+
+def _backward_errors(forms: list[tuple[float, Stack]], common: NDArray, zeros: NDArray) -> NDArray[np.float64]:
+    """Per sample, the largest backward error of its zeros as zeros of the sum's numerator N = sum N_k,
+    each N_k in factored form (never the expanded numerator): |N| / (sum |N_k| + |x| sum |N_k'|), the
+    per-loop path's measure (`engine.model.factored`).  Beyond `BACKWARD` (lightly damped modes close
+    together: the expanded numerator's roots are off) the sample goes to the per-loop path, which
+    polishes them."""
+    x = zeros[:, :, None]  # (S, m, 1)
+    value = np.zeros(zeros.shape, dtype=complex)
+    size = np.zeros(zeros.shape)
+    with np.errstate(all="ignore"):
+        for k, (sign, form) in enumerate(forms):
+            rest = [f.poles for j, (_, f) in enumerate(forms) if j != k]
+            roots = np.concatenate([form.zeros, *rest], axis=1)[:, None, :]  # (S, 1, r)
+            factors = x - roots
+            term = (sign * form.gain)[:, None] * np.prod(factors, axis=2)
+            slope = term * np.sum(1.0 / factors, axis=2)
+            slope = np.where(np.isfinite(slope), slope, 0.0)  # x on one of the term's roots: it adds nothing there
+            value += term
+            size += np.abs(term) + np.abs(zeros) * np.abs(slope)
+        error = np.where(value == 0, 0.0, np.abs(value) / size)
+    return np.max(np.where(np.isfinite(error), error, np.inf), axis=1)
 
 
 def _poly(roots: NDArray) -> NDArray[np.complex128]:
