@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from weakref import WeakKeyDictionary
 
 import numpy as np
@@ -109,10 +109,19 @@ def _factor_feedthrough(matrix: NDArray) -> tuple:
     return lu
 
 
-def _vanishes_at_one(r) -> bool:
-    """Numerator and denominator both 0 at w = 1 to rounding: a common factor (1 - w), which a
-    loop in z written with z = (1 + w)/(1 - w) leaves, and which must cancel, not be a pole."""
-    return all(abs(np.polyval(p, 1.0)) <= 1e-12 * max(np.sum(np.abs(p)), 1e-300) for p in (r.num, r.den))
+def _without_one(r):
+    """``r`` without the factors (1 - w) its numerator and denominator share (both 0 at w = 1 to
+    rounding), divided out: a loop in z written with z = (1 + w)/(1 - w) leaves them, and they
+    must cancel, not be a pole at w = 1 (z = inf); every other root, a pole a zero cancels
+    included, stays, as in s."""
+
+    def vanishes(p: NDArray) -> bool:
+        return p.size > 1 and abs(np.polyval(p, 1.0)) <= 1e-12 * max(np.sum(np.abs(p)), 1e-300)
+
+    num, den = trim(r.num), trim(r.den)
+    while vanishes(num) and vanishes(den):
+        num, den = np.polydiv(num, [1.0, -1.0])[0], np.polydiv(den, [1.0, -1.0])[0]
+    return replace(r, num=num, den=den)
 
 
 _REALIZED: WeakKeyDictionary = WeakKeyDictionary()  # transfer without parameters -> its (A, B, C, D)
@@ -127,15 +136,12 @@ def _entry_realization(network: Network, number: int, params: Mapping[str, float
         return _REALIZED[entry.transfer]
     expression = entry.transfer.expression if isinstance(entry.transfer, ExpressionTransfer) else None
     folded = expression.folded(params) if expression is not None else None
+    if folded is not None and network.variable == "w":
+        folded = _without_one(folded)
     if isinstance(entry.transfer, StateSpaceTransfer):
         realization = entry.transfer.realization()  # as given: no roots, no polynomials
-    elif (
-        folded is not None
-        and not (network.variable == "w" and _vanishes_at_one(folded))  # a z written (1 + w)/(1 - w): its
-        and degree(folded.num) <= degree(folded.den)
-        and degree(folded.den) >= 0
-    ):
-        realization = cascade(trim(folded.num), trim(folded.den))  # (1 - w) cancels below; a small ratio: no roots
+    elif folded is not None and degree(folded.num) <= degree(folded.den) and degree(folded.den) >= 0:
+        realization = cascade(trim(folded.num), trim(folded.den))  # a small ratio: no roots needed
     elif expression is not None:
         form = pole_zero(expression, params)  # factor by factor: no expansion loses the roots' digits
         if form.zeros.size > form.poles.size:

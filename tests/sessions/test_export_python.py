@@ -31,6 +31,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 RATIONAL = [
     "coebra_lag_lead",
     "coebra_kuo_digital",
+    "coebra_kuo_z",  # in z: tf(num, den, dt)
     "report003_lag_lead",
     "report003_disk_margin",
     "lead_sensitivity_peak",
