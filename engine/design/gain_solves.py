@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from scipy.optimize import brentq
 
 from engine.errors import EngineError
-from engine.loop.responses import LoopModel
+from engine.loop.responses import LoopModel, SampledLoop
 from engine.margins.search import fitted_loop
 
 POINTS_PER_DECADE = 200
@@ -103,8 +103,11 @@ def _exact(loop: LoopModel) -> tuple[LoopModel, str, float]:
 
 
 def _search_grid(loop: LoopModel, reach: float) -> NDArray[np.float64]:
+    """``reach`` decades beyond the loop's grid each side (a sampled loop's: up to just below pi/T)."""
     omega = loop.omega[loop.omega > 0]
     low, high = math.log10(omega.min()) - reach, math.log10(omega.max()) + reach
+    if isinstance(loop, SampledLoop):
+        high = min(high, math.log10(math.pi / loop.sample_time * (1 - 1e-9)))
     return np.logspace(low, high, int((high - low) * POINTS_PER_DECADE) + 1)
 
 

@@ -140,7 +140,13 @@ class SampledLoop(LoopModel):
 
         def warped(evaluate: Evaluator) -> Evaluator:
             def at(w: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
-                nu = np.tan(np.asarray(w, dtype=float) * T / 2.0)
+                w = np.asarray(w, dtype=float)
+                if np.any(w > np.pi / T):  # tan would wrap: an alias, silently
+                    raise EngineError(
+                        f"{w.max():.6g} rad/s is above the Nyquist frequency pi/T = {np.pi / T:.6g} rad/s of a loop "
+                        f"sampled every {T:g} s"
+                    )
+                nu = np.tan(w * T / 2.0)
                 value, slope = evaluate(nu)
                 return value, slope * (T / 2.0) * (1.0 + nu * nu)
 

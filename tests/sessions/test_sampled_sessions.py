@@ -338,3 +338,17 @@ def _modal(A, B, C, D, K):
     lam, V = np.linalg.eig(A)
     left, right = (C @ V)[0], np.linalg.solve(V, B)[:, 0]
     return lambda z: K * ((left * right)[None, :] / (z[:, None] - lam[None, :])).sum(axis=1) + K * D[0, 0]
+
+
+def test_tune_solves_a_z_loop_below_the_nyquist_frequency(tmp_path):
+    """tune's gain for a phase margin is searched up to pi/T, not beyond (where tan wraps and a
+    phase crossing of an alias gave K = 4e-15); the tuned loop's margin, checked on the unit circle."""
+    path = tmp_path / "tuned.json"
+    plant = "0.39*(z+1.31)*(z+0.054)/(z*(z-1)*(z-0.368))"
+    assert main(["new", str(path), "--plant", plant, "--sample-time", str(T), "--compensator", "lead"]) == 0
+    assert main(["tune", str(path), "--gain-for", "pm=50"]) == 0
+    session = load_session(path)
+    c = session.problem.conditions[0]
+    found = analyze(c.network, c.break_at, session.problem.grid.omega, session.problem.condition_values(0))
+    assert found.margins.phase[0].phase_deg == pytest.approx(50.0, abs=1e-9)
+    assert found.margins.crossover_frequency < math.pi / T
