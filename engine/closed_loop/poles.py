@@ -42,7 +42,8 @@ def checked(
     network: Network, params: Mapping[str, float], poles: Sequence[Pole]
 ) -> tuple[tuple[Pole, ...], tuple[str, ...]]:
     """The poles with their backward errors against the blocks' factored forms, and a note
-    naming those that are not roots to `CONFIRMED` (their digits cannot be trusted)."""
+    naming those that are not roots to `CONFIRMED` (their digits cannot be trusted; a sampled
+    loop's named in z, as it shows its poles)."""
     characteristic = GainCharacteristic(network, None, params)
     if characteristic.poles is None or not poles:
         return tuple(poles), ()
@@ -51,7 +52,10 @@ def checked(
     doubtful = [p for p in out if not p.backward_error <= CONFIRMED]
     if not doubtful:
         return out, ()
-    named = ", ".join(f"{p.value:.6g} ({p.backward_error:.1g})" for p in doubtful[:3])
+    T = network.sample_time
+    named = ", ".join(
+        f"{(p.value if T is None else z_pole(p, T).value):.6g} ({p.backward_error:.1g})" for p in doubtful[:3]
+    )
     more = f" and {len(doubtful) - 3} more" if len(doubtful) > 3 else ""
     return out, (
         f"{len(doubtful)} closed-loop pole(s) are not roots of the characteristic equation to {CONFIRMED:g} "

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from engine.errors import BlockError
 from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
 from engine.model.network import Network
-from engine.numerics.polynomials import Rational, trim
+from engine.numerics.polynomials import Rational, degree, trim
 
 
 def _scale(sample_time: float | None) -> float:
@@ -102,6 +102,21 @@ def z_transfer(transfer: ExpressionTransfer) -> ExpressionTransfer:
     return ExpressionTransfer(transfer.text.replace(Z_OF_W, "z"), "z")
 
 
+GENERIC = 0.7371  # a parameter value no degree depends on (a block's degrees are read at it)
+
+
+def _check_causal(transfer: ExpressionTransfer, label: str) -> None:
+    """A block in z has no more zeros than poles: else its output leads its input (z^2/(z - 0.5)),
+    which no computer can run, though its w-plane form is proper."""
+    r = transfer.rational(dict.fromkeys(transfer.parameters, GENERIC))
+    zeros, poles = degree(r.num), degree(r.den)
+    if zeros > poles:
+        raise BlockError(
+            f"{label}: {transfer.text} has more zeros than poles in z ({zeros} over {poles}): not causal "
+            "(its output would lead its input by a sample)"
+        )
+
+
 def sampled_network(network: Network, sample_time: float) -> Network:
     """A network of expressions in z as the sampled loop the engine analyzes: every z written
     (1 + w)/(1 - w), variable w, with its sample time (`Network.sampled`).  The factored forms
@@ -124,5 +139,6 @@ def sampled_network(network: Network, sample_time: float) -> Network:
             )
         if "w" in t.parameters:
             raise BlockError(f"{e.label}: a loop in z names w, the variable of its w-plane form: rename the parameter")
+        _check_causal(t, e.label)
         entries.append(replace(e, transfer=ExpressionTransfer(Z_VARIABLE.sub(Z_OF_W, t.text), "w")))
     return Network(network.signals, network.inputs, tuple(entries), "w", sample_time)

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
+from engine.model.factored import MAX_ORDER
 
 Polynomials = tuple[NDArray[np.float64], NDArray[np.float64]]
 
@@ -40,6 +41,11 @@ def zoh(num: ArrayLike, den: ArrayLike, sample_time: float, delay: float = 0.0) 
     if not (math.isfinite(delay) and delay >= 0):
         raise BlockError(f"the delay must be finite and >= 0, not {delay!r}")
     whole = math.floor(delay / sample_time + 1e-12)
+    if whole > MAX_ORDER:  # z^-N is a block of order N
+        raise BlockError(
+            f"a delay of {delay:g} s is {delay / sample_time:.6g} samples of {sample_time:g} s: more than {MAX_ORDER} "
+            "(one block's order is bounded)"
+        )
     fraction = max(delay - whole * sample_time, 0.0)
     if fraction <= 1e-12 * sample_time:
         fraction = 0.0

@@ -266,7 +266,7 @@ def _locus(session: Session, c: int, named: dict | None, title: str) -> list[Blo
         pz = pole_zero_map(condition.network, condition.break_at, values)
     except EngineError:
         return []
-    chart = figures.locus(found, pz, f"Root locus, {title}")
+    chart = figures.locus(found, pz, f"Root locus, {title}", condition.network.sample_time)
     return [("figure", f"locus_{c}", chart, f"Root locus in the loop gain, {title}")]
 
 

@@ -157,9 +157,10 @@ def sensitivity(curves: list[LoopCurve], unit: str, title: str, rows: Sequence[M
     return _png(fig)
 
 
-def locus(found: RootLocus, pole_zero: PoleZeroMap, title: str) -> bytes:
+def locus(found: RootLocus, pole_zero: PoleZeroMap, title: str, sample_time: float | None = None) -> bytes:
     """Root locus branches in the loop gain (``found``), the open-loop poles (x) and zeros
-    (o) of ``pole_zero``, the design's closed-loop poles (*)."""
+    (o) of ``pole_zero``, the design's closed-loop poles (*); a sampled loop's in z, about the
+    unit circle."""
     fig, (ax,) = _figure()
     branches = np.asarray(found.branches)
     for j in range(branches.shape[1]):
@@ -174,10 +175,18 @@ def locus(found: RootLocus, pole_zero: PoleZeroMap, title: str) -> bytes:
     ax.plot(poles.real, poles.imag, "x", color="k", label="open-loop poles")
     if zeros.size:
         ax.plot(zeros.real, zeros.imag, "o", mfc="none", color="k", label="open-loop zeros")
-    reach = max(np.abs(current).max(initial=1.0), np.abs(poles).max(initial=1.0)) * 1.5
-    ax.set_xlim(-reach, reach * 0.3)
+    finite = np.concatenate([current, poles])
+    reach = np.abs(finite[np.isfinite(finite)]).max(initial=1.0) * 1.5
+    if sample_time is None:
+        ax.set_xlim(-reach, reach * 0.3)
+        ax.axvline(0.0, color="k", lw=0.5)
+    else:  # in z: the unit circle, the stability boundary
+        theta = np.linspace(0, 2 * np.pi, 200)
+        ax.plot(np.cos(theta), np.sin(theta), "k:", lw=0.6, label=f"|z| = 1 (T = {sample_time:g} s)")
+        reach = max(reach, 1.5)
+        ax.set_xlim(-reach, reach)
+        ax.set_aspect("equal", adjustable="datalim")
     ax.set_ylim(-reach, reach)
-    ax.axvline(0.0, color="k", lw=0.5)
     ax.set_xlabel("Re")
     ax.set_ylabel("Im")
     ax.set_title(title)

@@ -352,3 +352,24 @@ def test_tune_solves_a_z_loop_below_the_nyquist_frequency(tmp_path):
     found = analyze(c.network, c.break_at, session.problem.grid.omega, session.problem.condition_values(0))
     assert found.margins.phase[0].phase_deg == pytest.approx(50.0, abs=1e-9)
     assert found.margins.crossover_frequency < math.pi / T
+
+
+@pytest.mark.parametrize(
+    "plant, words",
+    [
+        ("z^2/(z-0.5)", "not causal"),  # proper in w, which no computer can run
+    ],
+)
+def test_a_block_in_z_that_leads_its_input_is_refused(tmp_path, plant, words):
+    data = json.loads((EXAMPLES / "coebra_kuo_z.json").read_text())
+    data["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"]["expression"] = plant
+    with pytest.raises(SessionError) as caught:
+        parse_session(json.dumps(data), "kuo_z.json", tmp_path)
+    assert words in str(caught.value) and "problem.conditions[0]" in str(caught.value)
+
+
+def test_a_held_delay_of_more_samples_than_a_block_may_have_is_refused(tmp_path, capsys):
+    path = tmp_path / "held.json"
+    plant = "exp(-0.3*s)/(s+1)"
+    assert main(["new", str(path), "--plant", plant, "--sample-time", "1e-300", "--compensator", "pi"]) == 2
+    assert "3e+299 samples" in capsys.readouterr().err and not path.exists()
