@@ -16,8 +16,6 @@ realization, the eigenvalues are kept as they are.
 
 from __future__ import annotations
 
-import cmath
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
@@ -26,6 +24,7 @@ from numpy.typing import NDArray
 
 from engine.closed_loop.characteristic import GainCharacteristic
 from engine.loop.realization import Pole
+from engine.model.bilinear import s_equivalent
 from engine.model.network import Network
 
 
@@ -89,10 +88,5 @@ def z_pole(pole: Pole, sample_time: float) -> Pole:
     """The z-plane pole z = (1 + w)/(1 - w) of a sampled loop's w-plane pole, with the damping and
     natural frequency of its s-plane equivalent s = ln(z)/T (z = 0: infinitely fast, damping 1);
     its backward error is the w-plane pole's."""
-    w = pole.value
-    z = (1 + w) / (1 - w) if w != 1 else complex(math.inf)
-    if z == 0 or not cmath.isfinite(z):
-        return replace(pole, value=z, damping=1.0, natural_frequency=math.inf)
-    s = cmath.log(z) / sample_time
-    wn = abs(s)
-    return replace(pole, value=z, damping=-s.real / wn if wn else 1.0, natural_frequency=wn)
+    z, damping, wn = s_equivalent(pole.value, sample_time)
+    return replace(pole, value=z, damping=damping, natural_frequency=wn)

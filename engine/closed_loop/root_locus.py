@@ -35,7 +35,7 @@ from engine.loop.design import design
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
-from engine.model.bilinear import z_of_w
+from engine.model.bilinear import real_frequency, z_of_w
 from engine.model.network import Network
 
 MOVE = 0.05  # a step may move a pole by this fraction of max(|pole|, the floor)
@@ -138,7 +138,7 @@ def sampled_locus(found: RootLocus, sample_time: float) -> RootLocus:
     """A sampled loop's locus, found in w, in z: its crossings those of the unit circle, at
     omega = (2/T) atan(nu) rad/s; no asymptotes (in z they are arcs to z = -1, not lines)."""
     crossings = tuple(
-        replace(x, frequency=2.0 * math.atan(x.frequency) / sample_time, pole=complex(z_of_w(x.pole)))
+        replace(x, frequency=float(real_frequency(x.frequency, sample_time)), pole=complex(z_of_w(x.pole)))
         for x in found.crossings
     )
     return replace(

@@ -24,6 +24,7 @@ import numpy as np
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
+from engine.model.bilinear import z_of_w
 from engine.model.network import Network
 
 SAMPLES = 400
@@ -65,7 +66,7 @@ def horizon(ss: StateSpace) -> float:
     if ss.sample_time is not None:
         with np.errstate(divide="ignore"):
             w = np.linalg.eigvals(ss.A)
-            real = np.log(np.abs((1 + w) / (1 - w))) / ss.sample_time  # Re s of s = ln(z)/T
+            real = np.log(np.abs(z_of_w(w))) / ss.sample_time  # Re s of s = ln(z)/T
         real = real[np.isfinite(real)] if np.isfinite(real).any() else np.array([-1.0])
         shortest, longest = MIN_SAMPLES * ss.sample_time, MAX_SAMPLES * ss.sample_time
         return float(np.clip(_from_real_parts(real), shortest, longest))

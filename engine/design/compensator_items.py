@@ -6,7 +6,6 @@ moves belongs to it).  Moving an item is `compensator_moves`."""
 
 from __future__ import annotations
 
-import cmath
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -14,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.errors import EngineError
+from engine.model.bilinear import s_equivalent
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
@@ -44,14 +44,13 @@ class Item:
         (wn 2.04 rad/s zeta 0.036) [a, b]'."""
         by = f" [{', '.join(self.parameters)}]" if self.parameters else " [fixed]"
         if sample_time is not None and self.kind not in ("gain", "integrator", "differentiator"):
-            z = (1 + self.root) / (1 - self.root) if self.root != 1 else complex(math.inf)
-            if z == 0 or not cmath.isfinite(z):
+            z, damping, wn = s_equivalent(self.root, sample_time)
+            if not math.isfinite(wn):
                 return f"{self.kind} at z = {z.real:.6g}{by}"
-            s = cmath.log(z) / sample_time
             at = f"{z.real:.6g}" + (f"+-{abs(z.imag):.6g}j" if z.imag else "")
             if self.kind.endswith("pair"):
-                return f"{self.kind} at z = {at} (wn {abs(s):.6g} rad/s zeta {-s.real / abs(s):.4g}){by}"
-            return f"{self.kind} at z = {at} ({abs(s):.6g} rad/s){by}"
+                return f"{self.kind} at z = {at} (wn {wn:.6g} rad/s zeta {damping:.4g}){by}"
+            return f"{self.kind} at z = {at} ({wn:.6g} rad/s){by}"
         if self.kind == "gain":
             value = self.root.real
             db = f" ({round(20 * math.log10(abs(value)), 9):.4g} dB)" if value else ""

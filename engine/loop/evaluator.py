@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from engine.errors import InterconnectionError
 from engine.model.blocks import ExpressionTransfer, block_pole_zero
-from engine.model.network import Network, schedule_edges, sparse_solve
+from engine.model.network import Network, schedule_edges, sparse_solve, warped
 
 FOLD_WIDTH = 3  # coefficients of a degree-2 polynomial
 
@@ -142,9 +142,9 @@ class LoopEvaluator:
         T = self.network.sample_time
         if T is None:
             return self._at(omega)
-        nu = np.tan(omega * T / 2.0)
+        nu, d_nu = warped(omega, T)
         value, slope = self._at(nu)
-        return value, slope * (T / 2.0) * (1.0 + nu * nu)
+        return value, slope * d_nu
 
     def _at(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         """GH(j omega) and dGH/domega of the loop read as one in s (or w, over nu)."""

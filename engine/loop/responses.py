@@ -17,7 +17,8 @@ from numpy.typing import ArrayLike, NDArray
 from engine.errors import EngineError
 from engine.loop.design import DesignLoop, design
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.model.network import Network, check_grid, solve
+from engine.model.bilinear import real_frequency
+from engine.model.network import Network, check_grid, solve, warped
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
 
@@ -138,7 +139,7 @@ class SampledLoop(LoopModel):
     def __init__(self, w_plane: LoopModel, omega: NDArray[np.float64], sample_time: float):
         T = sample_time
 
-        def warped(evaluate: Evaluator) -> Evaluator:
+        def in_omega(evaluate: Evaluator) -> Evaluator:
             def at(w: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
                 w = np.asarray(w, dtype=float)
                 if np.any(w > np.pi / T):  # tan would wrap: an alias, silently
@@ -146,23 +147,22 @@ class SampledLoop(LoopModel):
                         f"{w.max():.6g} rad/s is above the Nyquist frequency pi/T = {np.pi / T:.6g} rad/s of a loop "
                         f"sampled every {T:g} s"
                     )
-                nu = np.tan(w * T / 2.0)
+                nu, d_nu = warped(w, T)
                 value, slope = evaluate(nu)
-                return value, slope * (T / 2.0) * (1.0 + nu * nu)
+                return value, slope * d_nu
 
             return at
 
-        corners = 2.0 * np.arctan(w_plane.corner_frequencies) / T
         super().__init__(
             omega,
             None,
-            warped(w_plane.evaluate),
-            corners,
+            in_omega(w_plane.evaluate),
+            real_frequency(w_plane.corner_frequencies, T),
             w_plane.dampings,
             False,  # searched through ``w_plane``, which covers every frequency up to pi/T
             w_plane.dc_value,
-            axis_poles=2.0 * np.arctan(w_plane.axis_poles) / T,
-            exact=warped(w_plane.exact),
+            axis_poles=real_frequency(w_plane.axis_poles, T),
+            exact=in_omega(w_plane.exact),
         )
         self.w_plane = w_plane
         self.sample_time = sample_time
@@ -178,7 +178,7 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     w = check_grid(omega)
     if network.sample_time is not None:
         network.points(w)  # below the Nyquist frequency, or a GridError that says so
-        nu = np.tan(w * network.sample_time / 2.0)
+        nu, _ = warped(w, network.sample_time)
         return SampledLoop(loop_model(network.unsampled(), break_at, nu, params), w, network.sample_time)
     if not network.exact:
         return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)

@@ -16,6 +16,7 @@ import numpy as np
 
 from engine.loop.responses import LoopModel, SampledLoop
 from engine.margins.values import Band, Margin, Margins, single_margin
+from engine.model.bilinear import real_frequency
 
 NYQUIST_NU = 1e150  # nu this large is z = -1 to rounding: GH there is its limit
 
@@ -26,8 +27,8 @@ def nu_of(omega: float, sample_time: float) -> float:
 
 
 def omega_of(nu: float, sample_time: float) -> float:
-    """rad/s of the w-plane frequency ``nu`` (pi/T for nu = inf)."""
-    return 2.0 * math.atan(nu) / sample_time
+    """rad/s of the w-plane frequency ``nu`` (pi/T for nu = inf: `engine.model.bilinear.real_frequency`)."""
+    return float(real_frequency(nu, sample_time))
 
 
 def band_in_nu(band: Band, sample_time: float) -> Band:

@@ -7,8 +7,8 @@ circle z = exp(j omega T) the w-plane frequency is nu = tan(omega T/2)
 
 from __future__ import annotations
 
+import cmath
 import math
-import re
 from dataclasses import replace
 
 import numpy as np
@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
 from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
+from engine.model.expressions import substituted
 from engine.model.network import Network
 from engine.numerics.polynomials import Rational, degree, trim
 
@@ -66,7 +67,6 @@ def real_frequency(nu: ArrayLike, sample_time: float, scaled: bool = False) -> N
     return 2.0 * np.arctan(nu) / sample_time
 
 
-Z_VARIABLE = re.compile(r"(?<![A-Za-z0-9_.])z(?![A-Za-z0-9_])")
 Z_OF_W = "((1+w)/(1-w))"
 
 
@@ -83,6 +83,17 @@ def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:
     w = np.asarray(points, dtype=complex)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(w == 1, complex(np.inf), (1 + w) / (1 - w))
+
+
+def s_equivalent(w: complex, sample_time: float) -> tuple[complex, float, float]:
+    """A sampled loop's w-plane root as (z, damping, natural frequency) of its s-plane equivalent
+    s = ln(z)/T, z = (1 + w)/(1 - w); z = 0 or inf: infinitely fast, damping 1."""
+    z = complex(z_of_w(w))
+    if z == 0 or not cmath.isfinite(z):
+        return z, 1.0, math.inf
+    s = cmath.log(z) / sample_time
+    wn = abs(s)
+    return z, (-s.real / wn if wn else 1.0), wn
 
 
 def realization_in_w(A: NDArray, B: NDArray, C: NDArray, D: NDArray) -> tuple[NDArray, ...]:
@@ -140,5 +151,5 @@ def sampled_network(network: Network, sample_time: float) -> Network:
         if "w" in t.parameters:
             raise BlockError(f"{e.label}: a loop in z names w, the variable of its w-plane form: rename the parameter")
         _check_causal(t, e.label)
-        entries.append(replace(e, transfer=ExpressionTransfer(Z_VARIABLE.sub(Z_OF_W, t.text), "w")))
+        entries.append(replace(e, transfer=ExpressionTransfer(substituted(t.text, "z", Z_OF_W), "w")))
     return Network(network.signals, network.inputs, tuple(entries), "w", sample_time)

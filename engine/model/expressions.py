@@ -218,6 +218,13 @@ def _depth(root: Node) -> int:
     return deepest
 
 
+def substituted(text: str, name: str, replacement: str) -> str:
+    """An expression's text with every use of the name ``name`` (the variable or a parameter)
+    replaced by ``replacement`` (parenthesized by the caller): a name as the parser reads one,
+    not part of a longer name or of a number."""
+    return re.sub(rf"(?<![\w.]){re.escape(name)}(?!\w)", lambda _: replacement, text)
+
+
 # a number written directly before a name (0.5s, 2T1): a product without its '*'
 NUMBER_AGAINST_NAME = re.compile(r"(?<![\w.])(\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?)([A-Za-z_]\w*)")
 

@@ -104,8 +104,8 @@ class Network:
                 f"{omega[above[0]]:.6g} rad/s is at or above the Nyquist frequency pi/T = {np.pi / T:.6g} rad/s "
                 f"of a loop sampled every {T:g} s"
             )
-        nu = np.tan(omega * T / 2.0)
-        return 1j * nu, 1j * (T / 2.0) * (1.0 + nu * nu)
+        nu, slope = warped(omega, T)
+        return 1j * nu, 1j * slope
 
     def unsampled(self) -> Network:
         """The same network read as a w-plane loop (its frequencies w-plane frequencies nu): kept, so that
@@ -121,6 +121,13 @@ class Network:
         if name not in self.index:
             raise InterconnectionError(f"unknown signal {name!r}; signals are {', '.join(self.signals)}")
         return self.index[name]
+
+
+def warped(omega: NDArray[np.float64], sample_time: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A sampled loop's w-plane frequency nu = tan(omega T/2) of ``omega`` (rad/s, below pi/T) and
+    d(nu)/d(omega) = (T/2)(1 + nu^2): the chain rule every derivative in omega goes through."""
+    nu = np.tan(np.asarray(omega, dtype=float) * sample_time / 2.0)
+    return nu, (sample_time / 2.0) * (1.0 + nu * nu)
 
 
 def block_diagram(

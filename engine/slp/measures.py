@@ -37,6 +37,7 @@ from engine.loop.pole_zero import closed_loop_realization
 from engine.loop.realization import StateSpace, cascade
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
+from engine.model.bilinear import z_of_w
 from engine.model.blocks import ExpressionTransfer
 from engine.slp.peaks import closed_loop_values
 
@@ -278,7 +279,7 @@ def stability_abscissa(ss: StateSpace, sample_time: float | None = None) -> floa
     if sample_time is None:
         return float(-np.max(poles.real))
     with np.errstate(divide="ignore"):
-        return float(-np.max(np.log(np.abs((1 + poles) / (1 - poles)))) / sample_time)
+        return float(-np.max(np.log(np.abs(z_of_w(poles)))) / sample_time)
 
 
 def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -> float:

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from pathlib import Path
 
 from sessions.errors import SessionError
@@ -36,8 +35,10 @@ def in_unit(data: dict, unit: str) -> dict:
 
 def _renamed(expression: str, starts: dict[str, float], suffix: str) -> tuple[str, dict[str, float]]:
     """The compensator's parameters with a suffix (K -> K_o), so two compensators do not share them."""
+    from engine.model.expressions import substituted  # on use: the command line's parser reads KINDS
+
     for name in sorted(starts, key=len, reverse=True):
-        expression = re.sub(rf"\b{re.escape(name)}\b", name + suffix, expression)
+        expression = substituted(expression, name, name + suffix)
     return expression, {name + suffix: value for name, value in starts.items()}
 
 

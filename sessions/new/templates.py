@@ -15,7 +15,6 @@ corner frequencies.
 from __future__ import annotations
 
 import math
-import re
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
@@ -146,6 +145,8 @@ def sampled_session(data: dict, sample_time: float, discretize: str = "zoh") -> 
     parameters keeping their meaning (time constants in s, gains); the grid up to the Nyquist
     frequency pi/T."""
 
+    from engine.model.expressions import substituted
+
     if not (math.isfinite(sample_time) and sample_time > 0):
         raise SessionError(f"--sample-time: {sample_time!r} must be a finite number of seconds > 0")
     condition = data["problem"]["conditions"][0]
@@ -162,7 +163,7 @@ def sampled_session(data: dict, sample_time: float, discretize: str = "zoh") -> 
             raise SessionError(f"--sample-time: a {t['kind']} plant is not discretized (give it as an expression)")
         if b["name"] == "compensator":
             if not _reads_in_z(t["expression"]):  # a structure, written in s
-                t["expression"] = S_VARIABLE.sub(tustin, t["expression"])
+                t["expression"] = substituted(t["expression"], "s", tustin)
         elif not typed_in_z:
             b["transfer"] = {"kind": "discretized", "expression": t["expression"], "method": discretize}
             if delay:
@@ -191,9 +192,6 @@ def _reads_in_z(text: str) -> bool:
     except EngineError:
         return False
     return True
-
-
-S_VARIABLE = re.compile(r"(?<![A-Za-z0-9_.])s(?![A-Za-z0-9_])")
 
 
 def _block(name: str, source: str, output: str, expression: str) -> dict:
