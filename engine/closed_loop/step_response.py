@@ -60,13 +60,13 @@ def horizon(ss: StateSpace) -> float:
     they cannot be computed; a sampled loop's from the s-plane equivalents of its poles,
     at least `MIN_SAMPLES` samples)."""
     try:
-        real = np.linalg.eigvals(ss.A).real
+        eigenvalues = np.linalg.eigvals(ss.A)
     except np.linalg.LinAlgError:
         return 10.0
+    real = eigenvalues.real
     if ss.sample_time is not None:
         with np.errstate(divide="ignore"):
-            w = np.linalg.eigvals(ss.A)
-            real = np.log(np.abs(z_of_w(w))) / ss.sample_time  # Re s of s = ln(z)/T
+            real = np.log(np.abs(z_of_w(eigenvalues))) / ss.sample_time  # Re s of s = ln(z)/T
         real = real[np.isfinite(real)] if np.isfinite(real).any() else np.array([-1.0])
         shortest, longest = MIN_SAMPLES * ss.sample_time, MAX_SAMPLES * ss.sample_time
         return float(np.clip(_from_real_parts(real), shortest, longest))

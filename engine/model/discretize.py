@@ -159,8 +159,8 @@ def discretized_text(
     text: str, sample_time: float, method: str = "zoh", delay: float = 0.0, prewarp: float | None = None
 ) -> str:
     """A continuous block (an expression in s, numbers only) discretized by ``method`` as an
-    expression in z: its polynomials' coefficients, descending; ``delay`` (s) with the hold
-    only (zoh), ``prewarp`` (rad/s) with Tustin only."""
+    expression in z: its gain and its zeros' and poles' factors (`z_factors`; integrators at
+    z = 1 exactly); ``delay`` (s) with the hold only (zoh), ``prewarp`` (rad/s) with Tustin only."""
     from engine.model.blocks import ExpressionTransfer
 
     if method not in METHODS:
@@ -215,10 +215,3 @@ def z_factors(roots: NDArray) -> str:
             used[partner] = True
         factors.append(f"(z^2-({float(2 * r.real)!r})*z+({float(abs(r) ** 2)!r}))")
     return "(" + "*".join(factors) + ")" if factors else "1"
-
-
-def z_polynomial(c: ArrayLike) -> str:
-    """Descending coefficients as a polynomial in z (text an expression reads back exactly)."""
-    c = np.atleast_1d(np.asarray(c, dtype=float))
-    n = c.size - 1
-    return "+".join(f"({float(v)!r})*z^{n - k}" for k, v in enumerate(c))

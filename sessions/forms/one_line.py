@@ -62,6 +62,14 @@ def parse_number(text: str, what: str = "a number") -> float:
     return value
 
 
+def parse_sample_time(text: str) -> float:
+    """A sample time: a finite number of seconds > 0."""
+    value = parse_number(text, "the sample time (s)")
+    if not (math.isfinite(value) and value > 0):
+        raise FormError(f"{text.strip()!r}: a sample time is a finite number of seconds > 0")
+    return value
+
+
 def format_number(value: float) -> str:
     """A number exactly: its short ':g' text where that reads back exactly, else its repr."""
     text = f"{value:g}"

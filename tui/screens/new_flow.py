@@ -8,7 +8,6 @@ The session starts with PM >= 45 deg and GM >= 6 dB and the slp algorithm
 
 from __future__ import annotations
 
-import math
 import shutil
 from collections.abc import Callable
 from pathlib import Path
@@ -16,6 +15,7 @@ from typing import Any
 
 from sessions.build import read_csv
 from sessions.errors import SessionError
+from sessions.forms.one_line import parse_sample_time
 from sessions.new import template_kinds, templates
 from tui.screens.dialogs import ChooseDialog, EditDialog
 from tui.state.field_edits import csv_preview, guessed_table_line, table_transfer
@@ -89,7 +89,7 @@ class NewSessionFlow:
                 ),
             )
 
-        self._ask("sample time T (s)", _sample_time_check, lambda text: plant(float(text)))
+        self._ask("sample time T (s)", _sample_time_check, lambda text: plant(parse_sample_time(text)))
 
     def _matrix(self) -> None:
         self._ask(
@@ -154,14 +154,7 @@ def _check(read: Callable[[str], Any]) -> Callable[[str], str | None]:
 _plant_check = _check(templates.read_plant)
 _compensator_check = _check(lambda text: templates.read_compensator(text, "s"))
 _csv_check = _check(lambda text: csv_preview(Path(text).expanduser()))
-
-
-def _sample_time_check(text: str) -> str | None:
-    try:
-        value = float(text)
-    except ValueError:
-        return f"{text!r} is not a number of seconds"
-    return None if math.isfinite(value) and value > 0 else f"{text!r}: a sample time is a finite number of seconds > 0"
+_sample_time_check = _check(parse_sample_time)
 
 
 def _table_check(text: str, header: list[str]) -> str | None:

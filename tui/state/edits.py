@@ -11,7 +11,6 @@ The text of every value goes through `sessions.forms.one_line` (parse/format pai
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -259,8 +258,8 @@ def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
         return Edit(
             f"{condition.name}: sample time T (s; the grid must end below pi/T)",
             forms.format_number(condition.sample_time),
-            checker(_sample_time),
-            lambda t: set_fields(bench, ref[:-1], sample_time=_sample_time(t)),
+            checker(forms.parse_sample_time),
+            lambda t: set_fields(bench, ref[:-1], sample_time=forms.parse_sample_time(t)),
         )
     owner, kind, variable = resolve(model, ref), (ref[-2] if len(ref) >= 2 else ""), condition.variable
     if kind == "junctions":
@@ -301,13 +300,6 @@ def plant_edit(bench: Workbench, ref: Ref) -> Edit | None:
             edit.apply,
         )
     return None
-
-
-def _sample_time(text: str) -> float:
-    value = forms.parse_number(text, "the sample time")
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{text!r}: a sample time is a finite number of seconds > 0")
-    return value
 
 
 TRANSFER_HELP = "an expression, or factored: / controller: / polynomial: / delay: / table: / state_space: ..."
