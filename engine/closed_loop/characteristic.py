@@ -17,10 +17,9 @@ screen polishes (where its eigenvalues are noisy: `engine.closed_loop.root_locus
 loop's pole-zero form L instead, F_k = prod(s - p) (1 + k L(s)): a few numpy
 operations (`FormCharacteristic`).
 
-Aberth's iteration on F'/F refines every eigenvalue at once.  A root is done
-when its correction is below `DONE` of it, or below `FLOOR` and no longer
-halving: a correction that stops shrinking there is F's evaluation noise,
-not progress (waiting for `DONE` then ran all the iterations).
+Aberth's iteration on F'/F refines every eigenvalue at once (`engine.numerics.aberth`,
+with its one stopping rule: 4 ulp, or a correction below 1e-11 that no longer halves,
+F's evaluation noise).
 
 Clusters.  Where branches meet (a breakaway point) two roots nearly
 coincide, and the eigenvalues, accurate to ~sqrt(eps) there, are as often as
@@ -62,14 +61,14 @@ from engine.errors import EngineError
 from engine.loop.design import design
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.model.network import Network
+from engine.model.paired_product import log_modulus_sum, reciprocal_sum
+from engine.numerics.aberth import aberth, aberth_step
+from engine.numerics.iteration import Status
 
 Roots = NDArray[np.complex128]
 Ratio = Callable[[Roots], Roots]  # s -> F'(s)/F(s)
 Size = Callable[[Roots], NDArray[np.float64]]  # s -> log|F(s)| (up to a constant)
 
-ITERATIONS = 50
-DONE = 1e-14  # relative correction at which a root is converged
-FLOOR = 1e-11  # ... below which a correction not halving is the evaluation's noise: done too
 # a cluster: members within CLUSTER of its scale, the distance from their centre to every other
 # root and to the origin; its circle: RADIUS of that scale.  Inside, spread / radius <= 0.1 (0.3
 # if the start was off by 3x); outside, radius / distance <= 0.1; on NODES points the trapezoid
@@ -139,7 +138,7 @@ class GainCharacteristic(Characteristic):
 
     def ratio(self, s: Roots, k: float) -> Roots:
         M, dG = self._matrices(s, k)
-        return _pole_sums(s, self.poles) - _traces(M, dG)
+        return reciprocal_sum(s, self.poles) - _traces(M, dG)
 
     def backward_errors(self, s: Roots, k: float = 1.0) -> NDArray[np.float64]:
         """Per point, the smallest relative change of the entries of M = I - G_k(s) and of s
@@ -157,7 +156,7 @@ class GainCharacteristic(Characteristic):
                     inverse = np.linalg.inv(M[i])
                 except np.linalg.LinAlgError:
                     continue
-                slope = _pole_sums(s[i : i + 1], self.poles)[0] - np.trace(inverse @ dG[i])  # F'/F
+                slope = reciprocal_sum(s[i : i + 1], self.poles)[0] - np.trace(inverse @ dG[i])  # F'/F
                 terms = np.sum(np.abs(M[i]) * np.abs(inverse.T)) + abs(s[i]) * abs(slope)
                 out[i] = 1.0 / terms if np.isfinite(terms) else 0.0
             return out
@@ -169,7 +168,7 @@ class GainCharacteristic(Characteristic):
         s = np.where(np.isin(s, self.poles), s + np.maximum(np.abs(s) * 2.0**-52, 5e-324), s)
         with np.errstate(all="ignore"):  # NaN on a block pole (k = 0): not measurable
             M, _ = self._matrices(s, k)
-            return _pole_logs(s, self.poles) + np.linalg.slogdet(M)[1]
+            return log_modulus_sum(s, self.poles) + np.linalg.slogdet(M)[1]
 
 
 class FormCharacteristic(Characteristic):
@@ -183,30 +182,13 @@ class FormCharacteristic(Characteristic):
 
     def ratio(self, s: Roots, k: float) -> Roots:
         with np.errstate(all="ignore"):
-            kl, zeros, poles = loop_terms(self.form, k, s)
-            return poles + kl * (zeros - poles) / (1.0 + kl)  # F'/F = P'/P + k L'/(1 + k L)
+            terms = self.form.product.terms(s)
+            kl = k * terms.value
+            return reciprocal_sum(s, self.form.poles) + kl * terms.slope / (1.0 + kl)  # F'/F = P'/P + k L'/(1 + k L)
 
     def log_size(self, s: Roots, k: float) -> NDArray[np.float64]:
         with np.errstate(all="ignore"):
-            return _pole_logs(s, self.form.poles) + np.log(np.abs(1.0 + loop_terms(self.form, k, s)[0]))
-
-
-def loop_terms(form: ZpkEvaluator, k: float, s: Roots) -> tuple[Roots, Roots, Roots]:
-    """k L(s) at complex s from the pole-zero form (zeros and poles paired: no partial product
-    overflows), sum 1/(s - zeros) and sum 1/(s - poles)."""
-    zq = s[:, None] - form.zeros[None, :]
-    pq = s[:, None] - form.poles[None, :]
-    m = min(form.zeros.size, form.poles.size)
-    value = np.prod(zq[:, :m] / pq[:, :m], axis=1) * np.prod(zq[:, m:], axis=1) / np.prod(pq[:, m:], axis=1)
-    return k * form.gain.real * value, np.sum(1.0 / zq, axis=1), np.sum(1.0 / pq, axis=1)
-
-
-def _pole_sums(s: Roots, poles: Roots) -> Roots:
-    return np.sum(1.0 / (s[:, None] - poles[None, :]), axis=1)
-
-
-def _pole_logs(s: Roots, poles: Roots) -> NDArray[np.float64]:
-    return np.sum(np.log(np.abs(s[:, None] - poles[None, :])), axis=1)
+            return log_modulus_sum(s, self.form.poles) + np.log(np.abs(1.0 + k * self.form.product.terms(s).value))
 
 
 def _traces(M: NDArray, dG: NDArray) -> Roots:
@@ -229,7 +211,8 @@ def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
     stalled roots restarted off the real axis, each root kept from the candidate with
     the smallest |F| (module docstring)."""
     start = np.asarray(start, dtype=complex)
-    polished, stalled, steps = aberth(ratio, start)
+    first = aberth(ratio, start)
+    polished, stalled, steps = first.roots, first.status == Status.ROUNDS, first.steps
     origin = _origin_cluster(polished)
     clustered, groups = polished.copy(), clusters(polished, origin)
     for members in groups:
@@ -241,7 +224,7 @@ def refine(ratio: Ratio, log_size: Size, start: Roots) -> Roots:
         # the same trap away from a cluster (noisy eigenvalues at large gains: a real pair where
         # the roots are complex): restarted diagonally off it by their last correction (module docstring)
         kicked = clustered + np.where(stalled, (1 + 1j) * np.abs(steps), 0.0)
-        candidates.insert(0, aberth(ratio, kicked)[0])
+        candidates.insert(0, aberth(ratio, kicked).roots)
     best = _smallest(log_size, candidates, groups)
     best = np.where(np.abs(best.imag) <= 1e-14 * np.abs(best), best.real + 0j, best)
     return conjugate_pairs(ratio, best)
@@ -257,7 +240,7 @@ def conjugate_pairs(ratio: Ratio, z: Roots) -> Roots:
     partner = _mirror_matching(z)
     moved = np.where(partner == np.arange(z.size), z.real + 0j, z)
     moved = _averaged(moved, partner)
-    again, _, _ = aberth(ratio, moved)
+    again = aberth(ratio, moved).roots
     again = np.where(partner == np.arange(z.size), again.real + 0j, again)
     return _averaged(again, partner)
 
@@ -290,36 +273,6 @@ def _averaged(z: Roots, partner: NDArray[np.intp]) -> Roots:
             upper = complex(mean.real, abs(mean.imag))
             out[i], out[j] = (upper, upper.conjugate()) if z[i].imag >= 0 else (upper.conjugate(), upper)
     return out
-
-
-def aberth(ratio: Ratio, start: Roots) -> tuple[Roots, NDArray[np.bool_], Roots]:
-    """Roots refined together by Aberth's iteration (the start where it fails), which of
-    them had not stopped when the iterations ran out, and their last corrections."""
-    z, active = start.copy(), np.ones(start.size, dtype=bool)
-    last, step = np.full(start.size, np.inf), np.zeros(start.size, dtype=complex)
-    with np.errstate(all="ignore"):
-        for _ in range(ITERATIONS):
-            step = aberth_step(ratio, z)
-            finite = np.isfinite(step)
-            step = np.where(finite & active, step, 0.0)
-            z = z - step
-            relative = np.abs(step) / np.maximum(np.abs(z), 1e-300)
-            # converged, or at the rounding floor: a small correction that no longer halves is noise
-            active &= finite & (relative > DONE) & ((relative > FLOOR) | (relative < 0.5 * last))
-            last = relative
-            if not active.any():
-                break
-    if not np.all(np.isfinite(z)):
-        return start, np.zeros(start.size, dtype=bool), np.zeros(start.size, dtype=complex)
-    return z, active, step
-
-
-def aberth_step(ratio: Ratio, z: Roots) -> Roots:
-    """Every root's Newton correction deflated by the others (Aberth's); not finite where F'/F is not."""
-    newton = 1.0 / ratio(z)
-    others = 1.0 / (z[:, None] - z[None, :])
-    np.fill_diagonal(others, 0.0)
-    return newton / (1.0 - newton * np.sum(others, axis=1))
 
 
 def clusters(z: Roots, about_origin: NDArray[np.intp] | None = None) -> list[NDArray[np.intp]]:

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from scipy import linalg
 from scipy.optimize import brentq, linear_sum_assignment
 
-from engine.closed_loop.characteristic import FormCharacteristic, GainCharacteristic, loop_terms
+from engine.closed_loop.characteristic import FormCharacteristic, GainCharacteristic
 from engine.closed_loop.poles import polish
 from engine.errors import EngineError
 from engine.loop.design import design
@@ -452,13 +452,10 @@ def _breakaways(form: ZpkEvaluator) -> tuple[tuple[complex, float], ...]:
     s = np.roots(q).astype(complex)
     with np.errstate(all="ignore"):
         for _ in range(8):
-            zq, pq = s[:, None] - form.zeros[None, :], s[:, None] - form.poles[None, :]
-            phi = np.sum(1.0 / zq, axis=1) - np.sum(1.0 / pq, axis=1)
-            dphi = -np.sum(1.0 / zq**2, axis=1) + np.sum(1.0 / pq**2, axis=1)
-            step = np.where(np.isfinite(phi / dphi), phi / dphi, 0.0)
-            s = s - step
-        kl = loop_terms(form, 1.0, s)[0]
-        k = -1.0 / kl
+            terms = form.product.terms(s, curvature=True)
+            step = terms.slope / terms.curvature
+            s = s - np.where(np.isfinite(step), step, 0.0)
+        k = -1.0 / form.product.terms(s).value
     out = []
     for point, gain in zip(s.tolist(), k.tolist()):
         if np.isfinite(gain) and gain.real > 0 and abs(gain.imag) <= 1e-8 * abs(gain):

@@ -15,8 +15,10 @@ import numpy as np
 from engine.errors import EngineError
 from engine.model.bilinear import s_equivalent
 from engine.model.blocks import ExpressionTransfer
+from engine.model.factor_text import root_factors, time_constant_factor
 from engine.model.factored import pole_zero
 from engine.model.network import Network
+from engine.model.paired_product import PairedProduct
 
 NUDGE = 1e-6  # relative change of a parameter that tells which roots it moves
 MOVED = 1e-9  # relative change of a root (or the gain) that counts as moved
@@ -121,7 +123,7 @@ def _bode_gain(base, scale: float) -> float:
     """The gain with each factor away from the origin written (1 + s/w): gain * prod(-z)/prod(-p)."""
     zeros = [z for z in base.zeros if abs(z) > ORIGIN * scale]
     poles = [p for p in base.poles if abs(p) > ORIGIN * scale]
-    return float((base.gain * np.prod(-np.asarray(zeros)) / np.prod(-np.asarray(poles))).real)
+    return float(PairedProduct(base.gain, np.asarray(zeros), np.asarray(poles)).terms(np.zeros(1)).value[0].real)
 
 
 def _moved(transfer: ExpressionTransfer, params: Mapping[str, float], name: str, base) -> tuple:
@@ -168,13 +170,7 @@ def time_constant_form(found: list[Item], variable: str = "s") -> str:
     s = variable
     over, under = [], []
     for item in found[1:]:
-        w = abs(item.root)
-        if item.kind in ("integrator", "differentiator"):
-            factor = s
-        elif item.kind.endswith("pair"):
-            factor = f"(1 + {-2 * item.root.real / w:.6g}*{s}/{w:.6g} + ({s}/{w:.6g})^2)"  # zeta signed
-        else:
-            factor = f"(1 {'-' if item.root.real > 0 else '+'} {s}/{w:.6g})"
+        factor = time_constant_factor(item.root, s, item.kind.endswith("pair"))
         (over if item.kind.startswith(("zero", "differentiator")) else under).append(factor)
     text = " ".join([f"{found[0].root.real:.6g}", *over])
     return text + (f" / ({' '.join(under)})" if len(under) > 1 else f" / {under[0]}" if under else "")
@@ -186,21 +182,7 @@ def pole_zero_form(transfer: ExpressionTransfer, params: Mapping[str, float]) ->
     base = pole_zero(transfer.expression, params)
     s = transfer.expression.variable
 
-    def factors(roots: np.ndarray) -> list[str]:
-        out = []
-        for r in sorted(roots, key=abs):
-            if r.imag < 0:
-                continue
-            if r.imag > 0:
-                out.append(f"({s}^2 {_signed(-2 * r.real)} {s} + {abs(r) ** 2:.6g})")
-            else:
-                out.append(s if r == 0 else f"({s} {_signed(-r.real)})")
-        return out
-
-    over, under = factors(base.zeros), factors(base.poles)
+    over = root_factors(sorted(base.zeros, key=abs), s, exact=False)
+    under = root_factors(sorted(base.poles, key=abs), s, exact=False)
     text = " ".join([f"{base.gain.real:.6g}", *over])
     return text + (f" / ({' '.join(under)})" if len(under) > 1 else f" / {under[0]}" if under else "")
-
-
-def _signed(value: float) -> str:
-    return f"{'-' if value < 0 else '+'} {abs(value):.6g}"

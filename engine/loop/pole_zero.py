@@ -28,6 +28,7 @@ from engine.errors import EngineError, InterconnectionError
 from engine.loop.realization import StateSpace, realize
 from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer, block_pole_zero
 from engine.model.network import Network
+from engine.model.paired_product import PairedProduct
 
 AGREEMENT = 1e-9
 BATCH_ELEMENTS = 1 << 14  # root-frequency pairs per batch (256 kB of complex work array)
@@ -40,24 +41,15 @@ class ZpkEvaluator:
     def __init__(self, gain: complex, zeros: NDArray, poles: NDArray, factored: bool = False):
         self.gain = gain
         self.factored = factored  # read off the blocks' own factors: exact to rounding, no check needed
-        self.zeros = np.sort_complex(zeros)
-        self.poles = np.sort_complex(poles)
-        # rows: m zeros, m poles (paired in order), then the unpaired roots of either kind
-        self.paired = min(self.zeros.size, self.poles.size)
-        self.extra_zeros = self.zeros.size > self.poles.size
-        m = self.paired
-        self.roots = np.concatenate([self.zeros[:m], self.poles[:m], self.zeros[m:], self.poles[m:]])[:, None]
-        self.gaps = self.zeros[:m] - self.poles[:m]
-        self.signs = np.concatenate(
-            [np.ones(m), -np.ones(m), np.full(self.roots.size - 2 * m, 1.0 if self.extra_zeros else -1.0)]
-        ).astype(complex)
+        self.product = PairedProduct(gain, zeros, poles)  # the one pole-zero kernel: zeros and poles paired
+        self.zeros, self.poles = self.product.zeros, self.product.poles
         # what the grid-free searches derive from the form (`engine.margins.pole_zero.levels`), kept with it:
         # the margins and the closed-loop peaks of one loop share it
         self.derived: dict[str, object] = {}
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         omega = np.asarray(omega, dtype=float).ravel()
-        step = max(16, BATCH_ELEMENTS // max(1, self.roots.size))
+        step = max(16, BATCH_ELEMENTS // max(1, self.product.roots.size))
         if omega.size <= step:
             return self._batch(omega)
         gh, dgh = np.empty(omega.size, dtype=complex), np.empty(omega.size, dtype=complex)
@@ -67,25 +59,9 @@ class ZpkEvaluator:
         return gh, dgh
 
     def _batch(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        """Roots along the first axis, frequencies along the second (fast reductions).
-
-        With q = s - root and r = 1/q: GH = k prod (q_zero r_pole) over the
-        pairs (no partial product over- or underflows; a product, as complex
-        division is slow) times the unpaired factors, and dGH/domega =
-        j GH sum(+-r) (+ for zeros, - for poles).
-        """
-        m = self.paired
-        with np.errstate(all="ignore"):
-            q = 1j * omega - self.roots
-            r = 1.0 / q
-            gh = self.gain * np.multiply.reduce(q[:m] * r[m : 2 * m], axis=0)
-            if self.roots.size > 2 * m:
-                gh = gh * np.multiply.reduce(q[2 * m :] if self.extra_zeros else r[2 * m :], axis=0)
-            # a pair's 1/(s - z) - 1/(s - p) as (z - p) r_z r_p: no cancellation far above both
-            paired = self.gaps @ (r[:m] * r[m : 2 * m]) if m else 0.0
-            rest = self.signs[2 * m :] @ r[2 * m :] if self.roots.size > 2 * m else 0.0
-            dgh = 1j * gh * (paired + rest)
-        return gh, dgh
+        """GH and dGH/domega = j GH u at s = j omega (`engine.model.paired_product`)."""
+        terms = self.product.terms(1j * omega)
+        return terms.value, 1j * terms.value * terms.slope
 
 
 def broken_network(network: Network, break_at: str) -> Network:

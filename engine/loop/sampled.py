@@ -23,6 +23,7 @@ from engine.errors import EngineError
 from engine.margins.search import Band
 from engine.model.bilinear import realization_in_w
 from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
+from engine.model.factor_text import root_factors
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 
@@ -62,21 +63,15 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
             "has no finite value there"
         )
     for roots, side, sign in ((zeros, over, -1), (poles, under, 1)):
+        mapped = []
         for r in roots:
+            power += sign
             if r == -1:
                 gain *= 2.0 if sign < 0 else 0.5
-                power += sign
                 continue
             gain *= (1 + r) if sign < 0 else 1 / (1 + r)
-            power += sign
-            if r.imag < 0:
-                continue
-            w = 0j if r == 1 else (r - 1) / (r + 1)  # z = 1: an integrator, w = 0 exactly
-            partner = next((q for q in roots if abs(q - r.conjugate()) <= 1e-12 * max(abs(r), 1.0)), None)
-            if r.imag > 0 and partner is not None:
-                side.append(f"(w^2-({float(2 * w.real)!r})*w+({float(abs(w) ** 2)!r}))")
-            else:
-                side.append(f"(w-({float(w.real)!r}))")
+            mapped.append(0j if r == 1 else (r - 1) / (r + 1))  # z = 1: an integrator, w = 0 exactly
+        side += root_factors(mapped, "w")
     factors = [f"({float(gain.real)!r})", *over] + ([f"(1-w)^{power}"] if power > 0 else [])
     under += [f"(1-w)^{-power}"] if power < 0 else []
     return "*".join(factors) + (f"/({'*'.join(under)})" if under else "")

@@ -29,6 +29,7 @@ from engine.margins.pole_zero.batch_search import batch_crossings
 from engine.margins.pole_zero.levels import LoopLevels
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.values import Margin, Margins, margins_of, single_margin
+from engine.model.paired_product import PairedProduct
 
 
 class SampleLoop(NamedTuple):
@@ -78,8 +79,7 @@ def _with_dc(gain: list[Margin], dc: complex | None) -> tuple[Margin, ...]:
 
 def _dc_values(forms: BatchForms) -> list[complex | None]:
     """GH(0) of every sample, real; None where it is not finite (an integrator)."""
-    with np.errstate(all="ignore"):
-        value = forms.gain * np.prod(-forms.zeros, axis=1) / np.prod(-forms.poles, axis=1)
+    value = PairedProduct(forms.gain, forms.zeros, forms.poles).terms(np.zeros(forms.gain.size)).value
     finite = np.isfinite(value).tolist()
     return [complex(v, 0.0) if ok else None for v, ok in zip(value.real.tolist(), finite)]
 

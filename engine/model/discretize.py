@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
+from engine.model.factor_text import root_factors
 from engine.model.factored import MAX_ORDER
 
 Polynomials = tuple[NDArray[np.float64], NDArray[np.float64]]
@@ -197,21 +198,7 @@ def _at_one(roots: NDArray, count: int) -> NDArray:
 
 
 def z_factors(roots: NDArray) -> str:
-    """prod (z - r) as text, a conjugate pair as one real quadratic, real roots exact."""
-    roots = np.asarray(roots, dtype=complex)
-    factors, used = [], np.zeros(roots.size, dtype=bool)
-    for i, r in enumerate(roots):
-        if used[i]:
-            continue
-        used[i] = True
-        if abs(r.imag) <= 1e-14 * max(abs(r), 1.0):
-            factors.append(f"(z-({float(r.real)!r}))")
-            continue
-        partner = next(
-            (j for j in range(i + 1, roots.size) if not used[j] and abs(roots[j] - r.conjugate()) <= 1e-9 * abs(r)),
-            None,
-        )
-        if partner is not None:
-            used[partner] = True
-        factors.append(f"(z^2-({float(2 * r.real)!r})*z+({float(abs(r) ** 2)!r}))")
+    """prod (z - r) as text (`engine.model.factor_text.root_factors`: a conjugate pair as one real
+    quadratic, real roots exact)."""
+    factors = root_factors(roots, "z")
     return "(" + "*".join(factors) + ")" if factors else "1"

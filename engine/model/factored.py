@@ -24,7 +24,9 @@ from numpy.typing import NDArray
 from engine.errors import ExpressionError
 from engine.model.expressions import Expression, Node
 from engine.model.folding import to_rational
-from engine.numerics.fraction_sums import conjugate_closed, factored_sum_zeros, polished_roots
+from engine.model.paired_product import PairedProduct, reciprocal_sum
+from engine.numerics.aberth import aberth
+from engine.numerics.fraction_sums import conjugate_closed, factored_sum_zeros
 from engine.numerics.polynomials import trim
 
 CANCEL = 1e-10  # relative distance at which a zero and a pole are the same root
@@ -61,19 +63,12 @@ class PoleZero:
         return PoleZero(gain, np.tile(base.zeros, k), np.tile(base.poles, k))
 
     def evaluate(self, x: NDArray[np.complex128]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
-        """The value and d/dx at ``x``, a zero and a pole paired in each factor: no partial
-        product over- or underflows where a tree's product of many factors can."""
-        x = np.asarray(x, dtype=complex)[..., None]
-        m = min(self.zeros.size, self.poles.size)
+        """The value and d/dx at ``x`` (`engine.model.paired_product`: no partial product over- or
+        underflows where a tree's product of many factors can, logarithms beyond the range)."""
+        x = np.asarray(x, dtype=complex)
+        terms = PairedProduct(self.gain, self.zeros, self.poles).terms(x.ravel())
         with np.errstate(all="ignore"):
-            zq, pq = x - self.zeros, x - self.poles
-            value = self.gain * np.prod(zq[..., :m] / pq[..., :m], axis=-1)
-            value = value * np.prod(zq[..., m:], axis=-1) / np.prod(pq[..., m:], axis=-1)
-            lost = ~np.isfinite(value) | (value == 0)  # still beyond the range: by logarithms
-            if lost.any() and self.gain != 0:
-                logs = np.sum(np.log(zq[lost]), axis=-1) - np.sum(np.log(pq[lost]), axis=-1)
-                value[lost] = np.sign(self.gain) * np.exp(logs + np.log(abs(self.gain)))
-            return value, value * (np.sum(1.0 / zq, axis=-1) - np.sum(1.0 / pq, axis=-1))
+            return terms.value.reshape(x.shape), (terms.value * terms.slope).reshape(x.shape)
 
     def cancelled(self) -> PoleZero:
         """Without the zero-pole pairs that are the same root."""
@@ -211,7 +206,7 @@ def _sum_zeros(forms: list[tuple[float, PoleZero]], common: list[complex], zeros
         if start is None or start.size != zeros.size:
             continue
         fixed = np.zeros(start.size, dtype=bool) if fixed is None else fixed  # on a pole: no root of the sum's
-        polished, _ = polished_roots(start, lambda x: _at(forms, poles, x)[0], fixed)
+        polished = aberth(lambda x: _at(forms, poles, x)[0], start, fixed, conjugate=True).roots
         error = _worst_backward_error(forms, poles, polished, fixed)
         if error < worst and error <= SOUND:
             best, worst = polished, error
@@ -234,7 +229,7 @@ def _at(forms: list[tuple[float, PoleZero]], poles: NDArray, x: NDArray) -> tupl
     N'/N is inf where f is 0; the error is inf where it is not finite."""
     value, slope, size = np.zeros(x.shape, complex), np.zeros(x.shape, complex), np.zeros(x.shape)
     with np.errstate(all="ignore"):
-        log_d = np.sum(1.0 / (x[:, None] - poles[None, :]), axis=1)
+        log_d = reciprocal_sum(x, poles)
         for sign, form in forms:
             v, d = form.evaluate(x)
             on_zero = (v == 0) & ~np.isfinite(d)  # x on one of the term's zeros: its other factors' product

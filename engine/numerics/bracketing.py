@@ -27,68 +27,91 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.numerics.iteration import Status, Work, iterate
+
 MAX_STEPS = 200
 NOISE_STEP = 1e-9  # relative step below which steps that stop shrinking are rounding noise
 STALL_STEPS = 3  # steps in which a bracket must halve, else it is bisected
 EPS = np.finfo(float).eps
 
-# omega -> (h, dh/domega), point k of the k-th root's function
-Function = Callable[[NDArray], tuple[NDArray, NDArray]]
+# (omega, which) -> (h, dh/domega): point k belongs to root which[k]'s function
+Function = Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]
 # omega -> the rounding bound of h there (below it h's sign is not known)
 Noise = Callable[[NDArray], NDArray]
 
 
 def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None = None) -> NDArray | None:
     """A root of h in each [lo, hi] (0 < lo < hi, h of opposite signs at the ends);
-    None when one does not settle within `MAX_STEPS`.  ``noise``: h's rounding
-    bound (module docstring)."""
+    None when one does not settle within `MAX_STEPS` (`engine.numerics.iteration`'s
+    ROUNDS).  ``noise``: h's rounding bound (module docstring)."""
     if lo.size == 0:
         return np.zeros(0)
+    which = np.arange(lo.size)
     a, b = np.log(lo), np.log(hi)
-    fa, fb = fun(lo)[0], fun(hi)[0]  # each root's own function: point k belongs to root k
-    x = _secant(a, b, fa, fb)
-    done, previous = (fa == 0) | (fb == 0), np.full(lo.size, np.inf)
-    widths, before = [np.abs(b - a)] * STALL_STEPS, np.full(lo.size, np.inf)
-    proposed_before = np.full(lo.size, np.inf)
-    x = np.where(fa == 0, a, np.where(fb == 0, b, x))
-    for _ in range(MAX_STEPS):
-        if done.all():
-            return np.exp(x)
-        w = np.exp(x)
-        h, dh = fun(w)
-        low_side = np.sign(h) == np.sign(fa)
-        # Illinois: the end that stays has its value halved, so the secant moves it next time
-        fb = np.where(low_side, fb * 0.5, fb)
-        fa = np.where(low_side, fa, fa * 0.5)
-        a, fa = np.where(low_side, x, a), np.where(low_side, h, fa)
-        b, fb = np.where(low_side, b, x), np.where(low_side, fb, h)
-        newton = x - h / (dh * w)
-        inside = (newton > np.minimum(a, b)) & (newton < np.maximum(a, b)) & np.isfinite(newton)
-        # a bracket not halved in the last `STALL_STEPS` steps is bisected (Newton crawls along a
-        # power law far from its root, the secant along values of very different sizes)
-        width = np.abs(b - a)
-        stalled = (width > 0.5 * widths[0]) & ~(previous < 0.5 * before)  # steps not shrinking either
-        widths = widths[1:] + [width]
-        tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
-        proposed = np.abs(newton - x)  # Newton's step, taken or not (in the noise it leaves the bracket)
-        # within 4 ulp the root is reached, even where the step rounds onto the bracket's end
-        # (taken as outside, it fell to a secant step 2 % of the bracket away)
-        reached = proposed <= tiny
-        inside = (inside & ~stalled) | reached
-        moved = np.where(inside, newton, np.where(stalled, 0.5 * (a + b), _secant(a, b, fa, fb)))
-        size = np.abs(moved - x)
-        before = previous
-        crawling = (size >= 0.5 * previous) & inside
-        settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
-        stuck = (proposed >= 0.5 * proposed_before) & ~settled & ~done
-        if noise is not None and stuck.any():  # the bound costs an evaluation: only where it can decide
-            settled |= stuck & (np.abs(h) <= noise(w))
-        proposed_before = np.where(np.isfinite(proposed), proposed, np.inf)
-        finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
-        x = np.where(done | (h == 0), x, moved)
-        done |= finished
-        previous = np.where(inside, size, np.inf)
-    return np.exp(x) if done.all() else None
+    fa, fb = fun(lo, which)[0], fun(hi, which)[0]
+    x = np.where(fa == 0, a, np.where(fb == 0, b, _secant(a, b, fa, fb)))
+    inf = np.full(lo.size, np.inf)
+    work = {"which": which, "a": a, "b": b, "fa": fa, "fb": fb, "x": x, "finished": (fa == 0) | (fb == 0)}
+    work |= {"previous": inf, "before": inf, "proposed_before": inf, "widths": np.tile(np.abs(b - a), (STALL_STEPS, 1))}
+    out = np.full(lo.size, np.nan)
+
+    def finish(done: Work, status: NDArray[np.int8]) -> None:
+        out[done["which"]] = np.where(status == Status.CONVERGED, done["x"], np.nan)
+
+    with np.errstate(all="ignore"):
+        outcome = iterate(work, _stopped, lambda work: _advanced(work, fun, noise), finish, MAX_STEPS)
+    return np.exp(out) if outcome.bounded == 0 else None
+
+
+def _stopped(work: Work) -> NDArray[np.int8]:
+    return np.where(work["finished"], Status.CONVERGED, Status.RUNNING).astype(np.int8)
+
+
+def _advanced(work: Work, fun: Function, noise: Noise | None) -> Work:
+    """One step of every root still open (module docstring)."""
+    a, b, fa, fb, x = work["a"], work["b"], work["fa"], work["fb"], work["x"]
+    previous, before = work["previous"], work["before"]
+    w = np.exp(x)
+    h, dh = fun(w, work["which"])
+    low_side = np.sign(h) == np.sign(fa)
+    # Illinois: the end that stays has its value halved, so the secant moves it next time
+    fb = np.where(low_side, fb * 0.5, fb)
+    fa = np.where(low_side, fa, fa * 0.5)
+    a, fa = np.where(low_side, x, a), np.where(low_side, h, fa)
+    b, fb = np.where(low_side, b, x), np.where(low_side, fb, h)
+    newton = x - h / (dh * w)
+    inside = (newton > np.minimum(a, b)) & (newton < np.maximum(a, b)) & np.isfinite(newton)
+    # a bracket not halved in the last `STALL_STEPS` steps is bisected (Newton crawls along a
+    # power law far from its root, the secant along values of very different sizes)
+    width = np.abs(b - a)
+    stalled = (width > 0.5 * work["widths"][0]) & ~(previous < 0.5 * before)  # steps not shrinking either
+    widths = np.concatenate([work["widths"][1:], width[None]])
+    tiny = 4 * EPS * np.maximum(1.0, np.abs(x))
+    proposed = np.abs(newton - x)  # Newton's step, taken or not (in the noise it leaves the bracket)
+    # within 4 ulp the root is reached, even where the step rounds onto the bracket's end
+    # (taken as outside, it fell to a secant step 2 % of the bracket away)
+    reached = proposed <= tiny
+    inside = (inside & ~stalled) | reached
+    moved = np.where(inside, newton, np.where(stalled, 0.5 * (a + b), _secant(a, b, fa, fb)))
+    size = np.abs(moved - x)
+    crawling = (size >= 0.5 * previous) & inside
+    settled = reached | (size <= tiny) | (crawling & (size <= NOISE_STEP))
+    stuck = (proposed >= 0.5 * work["proposed_before"]) & ~settled
+    if noise is not None and stuck.any():  # the bound costs an evaluation: only where it can decide
+        settled |= stuck & (np.abs(h) <= noise(w))
+    finished = settled | (h == 0) | (np.abs(b - a) <= tiny)
+    return work | {
+        "a": a,
+        "b": b,
+        "fa": fa,
+        "fb": fb,
+        "x": np.where(h == 0, x, moved),
+        "finished": finished,
+        "previous": np.where(inside, size, np.inf),
+        "before": previous,
+        "proposed_before": np.where(np.isfinite(proposed), proposed, np.inf),
+        "widths": widths,
+    }
 
 
 def _secant(a: NDArray, b: NDArray, fa: NDArray, fb: NDArray) -> NDArray:

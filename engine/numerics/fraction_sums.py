@@ -17,15 +17,14 @@ A sum of rational terms in factored form, sum_k g_k prod(x - z_k)/prod(x - p_k)
 (an expression's sum, `engine.model.factored`), has its zeros from the same
 kind of pencil, its terms realized as cascades (`factored_sum_zeros`), and
 they are polished together by the Aberth-Ehrlich iteration on the sum itself
-(`polished_roots`), conjugate pairs kept exact (the closed loop's poles have
-their own iteration over every root, `engine.closed_loop.characteristic.aberth`).
+(`engine.numerics.aberth`, conjugate pairs kept exact: the polisher of the closed
+loop's poles too).
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -101,59 +100,6 @@ class Fractions:
             return None
         finite = np.abs(beta) > FINITE * np.hypot(alpha_re, alpha_im)
         return (alpha_re[finite] + 1j * alpha_im[finite]) / beta[finite] * self.scale
-
-
-POLISH_STEPS = 40  # Aberth steps at most: cubic convergence from a few digits takes about five
-STALLED = 1e-8  # a step this small (relative) that does not halve the last: the root is at its noise
-
-
-def polished_roots(
-    roots: NDArray[np.complex128],
-    log_slope: Callable[[NDArray[np.complex128]], NDArray[np.complex128]],
-    frozen: NDArray[np.bool_] | None = None,
-) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
-    """The roots of a real polynomial p refined together by the Aberth-Ehrlich iteration,
-    p known only through ``log_slope(x)`` = p'(x)/p(x) (inf where p(x) = 0): each root
-    steps by 1 / (p'/p - sum over the others 1/(x - x_j)), so two estimates never settle
-    on one simple root.  ``roots`` are closed under conjugation (real ones exactly real,
-    complex ones in exact pairs, as real eigenvalue solvers give them, or as
-    `conjugate_closed` makes them) and stay so: the real ones and the upper half-plane
-    ones are iterated, the lower ones are their conjugates.  ``frozen`` roots are not
-    moved (they repel the others; a pair by its upper root's mark).  Returns the roots
-    (reals, upper, lower, each in the given order) and, per root, whether its last step
-    was within 4 eps of it or stalled below `STALLED` (frozen ones: True); roots not
-    closed under conjugation come back unchanged and unsettled."""
-    roots = np.asarray(roots, dtype=complex)
-    frozen = np.zeros(roots.size, dtype=bool) if frozen is None else np.asarray(frozen, dtype=bool)
-    real, upper = roots.imag == 0, roots.imag > 0
-    if not np.array_equal(np.sort_complex(roots[upper]), np.sort_complex(roots[roots.imag < 0].conj())):
-        return roots, np.zeros(roots.size, dtype=bool)
-    order = np.concatenate([np.flatnonzero(real), np.flatnonzero(upper)])
-    half, is_real = roots[order], np.arange(order.size) < np.count_nonzero(real)
-    pairs = ~is_real
-    moving = np.flatnonzero(~frozen[order])  # a pair is frozen by its upper root's mark
-    done, last = np.zeros(moving.size, dtype=bool), np.full(moving.size, np.inf)
-    with np.errstate(all="ignore"):
-        for _ in range(POLISH_STEPS if moving.size else 0):
-            x = half[moving]
-            every = np.concatenate([half, half[pairs].conj()])
-            gaps = x[:, None] - every[None, :]
-            gaps[np.arange(moving.size), moving] = np.inf  # a root does not repel itself
-            slope = log_slope(x)
-            step = np.where(np.isinf(slope), 0.0, 1.0 / (slope - np.sum(1.0 / gaps, axis=1)))  # inf: on a root
-            step[is_real[moving]] = step[is_real[moving]].real
-            failed = ~np.isfinite(step)
-            step[failed] = 0.0
-            half[moving] = x - step
-            size = np.abs(step)
-            stalled = (size > 0.5 * last) & (size <= STALLED * np.abs(x))  # at its rounding's noise
-            done = ~failed & ((size <= 4 * np.finfo(float).eps * np.abs(half[moving])) | stalled)
-            last = size
-            if done.all():  # every root at once: one settled early moves again while its neighbours move
-                break
-    settled = np.ones(half.size, dtype=bool)
-    settled[moving] = done
-    return np.concatenate([half, half[pairs].conj()]), np.concatenate([settled, settled[pairs]])
 
 
 def conjugate_closed(roots: NDArray[np.complex128], tolerance: float = 1e-8) -> NDArray[np.complex128] | None:

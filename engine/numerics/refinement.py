@@ -29,6 +29,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.numerics.iteration import Status, Work, iterate
+
 EPS = np.finfo(float).eps
 CUBIC_NARROWEST = 1e-7  # relative bracket width below which the cubic's difference of h is noise
 GUARD = 0.1  # a second point this fraction of the step beyond the estimate, to bracket the root closely
@@ -43,6 +45,7 @@ class Roots(NamedTuple):
 
     at: NDArray[np.float64]
     hidden: NDArray[np.float64]  # (brackets, 2): left and right crossing
+    bounded: int = 0  # brackets the bound on rounds stopped (their middles stand): Status.ROUNDS
 
 
 def refine(
@@ -85,7 +88,7 @@ def refine(
     out[:n] = np.where(lo[3] == 0, lo[0], np.where(hi[3] == 0, hi[0], np.nan))
     start = np.flatnonzero(np.isnan(out[:n]))
     start = start[np.argsort(~stationary[start], kind="stable")]  # extrema first: each step on a slice
-    state = {
+    work = {
         "slot": start,
         "which": start,
         "lo": lo[:, start],
@@ -96,32 +99,34 @@ def refine(
         "reference_width": hi[0, start] - lo[0, start],
         "stalled": np.zeros(start.size, dtype=int),
     }
+
+    def finish(done: Work, status: NDArray[np.int8]) -> None:
+        # settled: the estimate or the better end; the rounds ran out: the bracket's middle
+        middle = 0.5 * (done["lo"][0] + done["hi"][0])
+        out[done["slot"]] = np.where(status == Status.ROUNDS, middle, done["root"])
+
+    def advance(work: Work) -> Work:
+        p, q, bisect = _next_points(work, work["x"], work["best"])
+        h, d = fun(np.concatenate([p, q]), np.concatenate([work["which"], work["which"]]))
+        m, kind = p.size, work["stationary"]
+        at_p = np.array([p, h[:m], d[:m], np.where(kind, d[:m], h[:m])])
+        at_q = np.array([q, h[m:], d[m:], np.where(kind, d[m:], h[m:])])
+        watch, revealed = _revealed(work, at_p, at_q, n)
+        work = _narrowed(work | {"watch": watch}, at_p, at_q, bisect)
+        if revealed is not None:
+            work = {key: np.concatenate([work[key], revealed[key]], axis=-1) for key in revealed}
+        return work
+
     with np.errstate(all="ignore"):
-        for _ in range(max_iter):
-            if state["slot"].size == 0:
-                break
-            x, best, done, root = _estimates(state)
-            if np.count_nonzero(done):
-                out[state["slot"][done]] = root[done]
-                state, x, best = _kept(state, ~done), x[~done], best[~done]
-                if state["slot"].size == 0:
-                    break
-            p, q, bisect = _next_points(state, x, best)
-            h, d = fun(np.concatenate([p, q]), np.concatenate([state["which"], state["which"]]))
-            m, kind = p.size, state["stationary"]
-            at_p = np.array([p, h[:m], d[:m], np.where(kind, d[:m], h[:m])])
-            at_q = np.array([q, h[m:], d[m:], np.where(kind, d[m:], h[m:])])
-            watch, revealed = _revealed(state, at_p, at_q, n)
-            state = _narrowed(state | {"watch": watch}, at_p, at_q, bisect)
-            if revealed is not None:
-                state = {key: np.concatenate([state[key], revealed[key]], axis=-1) for key in state}
-    if state["slot"].size:
-        out[state["slot"]] = 0.5 * (state["lo"][0] + state["hi"][0])
-    return Roots(out[:n], out[n:].reshape(n, 2))
+        outcome = iterate(work, _stopped, advance, finish, max_iter)
+    return Roots(out[:n], out[n:].reshape(n, 2), outcome.bounded)
 
 
-def _kept(state: dict, keep: NDArray[np.bool_]) -> dict:
-    return {key: value[..., keep] for key, value in state.items()}
+def _stopped(work: Work) -> NDArray[np.int8]:
+    """Each bracket's next estimate, its better end and its root if done (`_estimates`), kept in
+    the work; CONVERGED where it is done."""
+    work["x"], work["best"], done, work["root"] = _estimates(work)
+    return np.where(done, Status.CONVERGED, Status.RUNNING).astype(np.int8)
 
 
 def _estimates(state: dict) -> tuple[NDArray, NDArray, NDArray[np.bool_], NDArray]:

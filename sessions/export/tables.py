@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.model.blocks import TabulatedTransfer
+from engine.model.paired_product import PairedProduct
 from engine.numerics.rational_fit import FAR_POLE, RationalFit, fit_response
 from sessions.errors import SessionError
 
@@ -47,9 +48,9 @@ def fit_fields(transfer: TabulatedTransfer) -> dict:
     zeros, poles = zeros[~_far_right(zeros, high)], poles[~_far_right(poles, high)]
     _refuse_artefacts(transfer.text, zeros, poles, float(omega.min()), float(omega.max()))
     w0 = float(np.sqrt(omega[0] * omega[-1]))
-    shape = np.prod(1j * w0 - zeros) / np.prod(1j * w0 - poles)
-    gain = float((fit(np.array([w0]))[0] / shape).real)
-    model = gain * np.prod(1j * omega[:, None] - zeros, axis=1) / np.prod(1j * omega[:, None] - poles, axis=1)
+    shape = PairedProduct(1.0, zeros, poles)
+    gain = float((fit(np.array([w0]))[0] / shape.terms(np.array([1j * w0])).value[0]).real)
+    model = gain * shape.terms(1j * omega).value
     scale = np.maximum(np.abs(table.response[keep]), 1e-300)
     residual = float(np.max(np.abs(model - table.response[keep]) / scale))
     if not residual <= MAX_RESIDUAL:  # NaN too (a zero in the table)

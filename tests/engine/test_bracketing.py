@@ -15,8 +15,8 @@ def test_each_root_has_its_own_function():
     # of all brackets were once evaluated in one call, against the wrong c_k)
     c = np.array([0.0, 1.0, 2.0])
 
-    def fun(w):
-        return np.log(w) - c, 1.0 / w
+    def fun(w, which):
+        return np.log(w) - c[which], 1.0 / w
 
     found = bracketed_roots(fun, np.array([0.5, 1.0, 5.0]), np.array([2.0, 5.0, 10.0]))
     np.testing.assert_allclose(found, np.exp(c), rtol=4e-16)
@@ -28,7 +28,7 @@ def test_a_steep_power_law_does_not_crawl():
     # bisection of a stalled bracket it takes 33 evaluations (measured; bisection alone: ~55)
     calls = []
 
-    def fun(w):
+    def fun(w, which):
         calls.append(w.size)
         return w**-8.0 - 1e-16, -8.0 * w**-9.0
 
@@ -38,22 +38,22 @@ def test_a_steep_power_law_does_not_crawl():
 
 
 def test_a_root_at_an_end_and_an_empty_request():
-    (root,) = bracketed_roots(lambda w: (w - 2.0, np.ones_like(w)), np.array([2.0]), np.array([3.0]))
+    (root,) = bracketed_roots(lambda w, which: (w - 2.0, np.ones_like(w)), np.array([2.0]), np.array([3.0]))
     assert root == 2.0
-    assert bracketed_roots(lambda w: (w, w), np.zeros(0), np.zeros(0)).size == 0
+    assert bracketed_roots(lambda w, which: (w, w), np.zeros(0), np.zeros(0)).size == 0
 
 
 def test_a_flat_root_stops_at_its_rounding_noise():
     # h(w) = (w - 1)^3: a triple root, which no method resolves beyond ~eps^(1/3); the search
     # stops (steps that stop shrinking below 1e-9) instead of running out of steps
-    (root,) = bracketed_roots(lambda w: ((w - 1.0) ** 3, 3 * (w - 1.0) ** 2), np.array([0.5]), np.array([3.0]))
+    (root,) = bracketed_roots(lambda w, which: ((w - 1.0) ** 3, 3 * (w - 1.0) ** 2), np.array([0.5]), np.array([3.0]))
     assert abs(root - 1.0) < 1e-5 and math.isfinite(root)
 
 
 def _counted(fun):
     calls = []
 
-    def counting(w):
+    def counting(w, which=None):
         calls.append(w.size)
         return fun(w)
 

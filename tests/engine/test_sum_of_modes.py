@@ -21,7 +21,7 @@ from engine.loop.responses import loop_model
 from engine.margins.search import margins
 from engine.model.expressions import Expression
 from engine.model.factored import pole_zero
-from engine.numerics.fraction_sums import polished_roots
+from engine.numerics.aberth import aberth
 
 LOOPS = 60
 MODES = 8
@@ -197,7 +197,7 @@ def test_a_mode_two_terms_share_is_one_pole_and_no_zero() -> None:
         assert abs(z - _mp_root(f, complex(z))) <= 1e-12 * abs(z)
 
 
-def test_polished_roots_keep_pairs_exact_and_stop_on_a_root() -> None:
+def test_aberth_keeps_pairs_exact_and_stops_on_a_root() -> None:
     """(x - 2)(x^2 + 0.002 x + 1)(x - 3): estimates 1e-3 off come back to 1e-15, the pair exact; an
     estimate already on a root (p'/p infinite there) stays."""
     roots = np.array([2.0, -0.001 + 1j * np.sqrt(1 - 1e-6), -0.001 - 1j * np.sqrt(1 - 1e-6), 3.0])
@@ -207,7 +207,8 @@ def test_polished_roots_keep_pairs_exact_and_stop_on_a_root() -> None:
             return np.sum(1.0 / (x[:, None] - roots[None, :]), axis=1)
 
     start = np.array([2.002, roots[1] * (1 + 1e-3j), (roots[1] * (1 + 1e-3j)).conjugate(), 3.0])
-    polished, settled = polished_roots(start, log_slope)
+    result = aberth(log_slope, start, conjugate=True)
+    polished, settled = result.roots, result.settled
     assert settled.all()
     assert np.max(np.abs(np.sort_complex(polished) - np.sort_complex(roots))) <= 1e-15 * 3
     assert polished[-1] == polished[-2].conjugate() and polished[1] == 3.0

@@ -32,7 +32,9 @@ from engine.margins.pole_zero.certificate import CLEARANCE, DUPLICATE, LIMIT_SLA
 from engine.margins.pole_zero.crossings import LIMIT_NOISE
 from engine.margins.pole_zero.levels import PROBE_DECADES, ROUNDING, UNDAMPED, UNIT_GAIN_REACH
 from engine.margins.pole_zero.search import NEAR_REAL, NEWTON_STEPS, REAL
+from engine.model.paired_product import PairedProduct
 from engine.numerics.bracketing import EPS, NOISE_STEP
+from engine.numerics.iteration import Status, Work, iterate
 
 MAX_BATCH_ROOTS = 24  # zeros + poles: beyond, the per-loop search
 LARGEST_LOG = 300.0  # a scaled gain whose square would overflow: the per-loop search
@@ -58,6 +60,7 @@ class BatchLevels:
 
     def __init__(self, forms: BatchForms):
         self.gain = forms.gain
+        self.product = PairedProduct(forms.gain, forms.zeros, forms.poles)
         self.roots = np.concatenate([forms.zeros, forms.poles], axis=1)
         self.zero_count = forms.zeros.shape[1]
         self.signs = np.concatenate([np.ones(forms.zeros.shape[1]), -np.ones(forms.poles.shape[1])])
@@ -72,23 +75,12 @@ class BatchLevels:
         self.phase_turn = np.where(right, -self.signs, self.signs)
 
     def terms(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """GH, u, du/ds at s = j w (S, P) and the sum of 1/|s - r| over the roots, computed at the
-        finite entries of ``w`` only (NaN elsewhere: rows are padded), one root at a time over
-        every point (long vector operations, no reduction over a short axis)."""
+        """GH, u, du/ds at s = j w (S, P) and the size of u's terms (`engine.model.paired_product`),
+        computed at the finite entries of ``w`` only (NaN elsewhere: rows are padded)."""
         at = np.isfinite(w)
-        rows = np.nonzero(at)[0]
-        s, roots = 1j * w[at], self.roots[rows].T
-        gh, u, du = self.gain[rows].astype(complex), np.zeros(s.size, dtype=complex), np.zeros(s.size, dtype=complex)
-        size = np.zeros(s.size)
-        for k, sign in enumerate(self.signs):
-            q = s - roots[k]
-            r = 1.0 / q
-            gh *= q if sign > 0 else r
-            u += sign * r
-            du -= sign * (r * r)
-            size += np.abs(r)
+        terms = self.product.columns(np.nonzero(at)[0]).terms(1j * w[at], curvature=True, size=True)
         out = [np.full(w.shape, np.nan, dtype=complex) for _ in range(3)] + [np.full(w.shape, np.nan)]
-        for full, part in zip(out, (gh, u, du, size)):
+        for full, part in zip(out, terms):
             full[at] = part
         return out[0], out[1], out[2], out[3]
 
@@ -105,20 +97,14 @@ class BatchLevels:
         return gh.imag, (gh * u).real
 
     def slopes_and_noise(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        """The slopes of log|GH| and arg GH at ``w`` and their rounding (`LoopLevels.slope_noise`,
-        every root's term counted at its size), at the finite entries of ``w`` (the check points:
-        u alone, as `terms` forms it)."""
+        """The slopes of log|GH| and arg GH at ``w`` and their rounding (`LoopLevels.slope_noise`),
+        at the finite entries of ``w`` (the check points)."""
         at = np.isfinite(w)
-        rows = np.nonzero(at)[0]
-        s, roots = 1j * w[at], self.roots[rows].T
-        u, size = np.zeros(s.size, dtype=complex), np.zeros(s.size)
-        for k, sign in enumerate(self.signs):
-            r = 1.0 / (s - roots[k])
-            u += sign * r
-            size += np.abs(r)
+        terms = self.product.columns(np.nonzero(at)[0]).terms(1j * w[at], size=True)
+        u = terms.slope
         out = np.full((3, *w.shape), np.nan)
         out[0][at], out[1][at] = -u.imag, u.real
-        out[2][at] = ROUNDING * (size + self.roots.shape[1] * np.abs(u))
+        out[2][at] = ROUNDING * (terms.size + self.roots.shape[1] * np.abs(u))
         return out[0], out[1], out[2]
 
     def phase(self, w: NDArray) -> NDArray:
@@ -288,28 +274,39 @@ def _crossing_starts(levels: BatchLevels) -> tuple[NDArray, NDArray, NDArray[np.
 
 def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
     """Newton's method on row ``kind`` (`BatchLevels.row`) from every start, stopped as the per-loop
-    search stops (`engine.margins.pole_zero.search.newton`): the points converged (NaN where not),
-    the second derivatives there, and the samples with a point that stopped on rounding noise
-    rather than within 4 ulp (an ill-conditioned point: the per-loop search may stop elsewhere
-    in the noise)."""
-    done, previous, second = np.zeros(w.shape, dtype=bool), np.full(w.shape, np.inf), np.zeros(w.shape)
-    noisy = np.zeros(w.shape, dtype=bool)
-    for _ in range(NEWTON_STEPS):
-        first, bend = levels.row(np.where(done, np.nan, w), kind)  # the points still moving
-        second = np.where(done, second, bend)
-        step = np.where(done, 0.0, first / bend)
-        size = np.abs(step)
-        exact = size <= 4 * EPS * w
-        finished = exact | ((size <= NOISE_STEP * w) & (size >= 0.5 * previous))
-        moved = w - step
+    search stops (`engine.margins.pole_zero.search.newton`), through the iteration driver: the points
+    converged (NaN where not), the second derivatives there, and the samples with a point that
+    stopped on rounding noise rather than within 4 ulp (STALLED: an ill-conditioned point, where
+    the per-loop search may stop elsewhere in the noise).  A step that leaves w > 0 or is not
+    finite would be the same step again: FAILED."""
+    points, second = np.full(w.size, np.nan), np.full(w.size, np.nan)
+    noisy = np.zeros(w.size, dtype=bool)
+    start = np.flatnonzero(np.isfinite(w.ravel()))
+    work = {"index": start, "w": w.ravel()[start], "status": np.zeros(start.size, dtype=np.int8)}
+    work |= {"previous": np.full(start.size, np.inf), "second": np.zeros(start.size)}
+
+    def advance(work: Work) -> Work:
+        at = np.full(w.size, np.nan)
+        at[work["index"]] = work["w"]
+        first, bend = (row.ravel()[work["index"]] for row in levels.row(at.reshape(w.shape), kind))
+        step = first / bend
+        size, moved = np.abs(step), work["w"] - step
+        exact = size <= 4 * EPS * work["w"]
+        noise = ~exact & (size <= NOISE_STEP * work["w"]) & (size >= 0.5 * work["previous"])
         lost = ~(np.isfinite(moved) & (moved > 0))
-        w = np.where(lost, w, moved)
-        noisy |= finished & ~exact & ~lost & ~done
-        done |= finished & ~lost
-        previous = np.where(lost, np.inf, size)
-        if (done | ~np.isfinite(w)).all():
-            break
-    return np.where(done, w, np.nan), np.where(done, second, np.nan), (noisy & done).any(axis=1)
+        status = np.where(exact, Status.CONVERGED, np.where(noise, Status.STALLED, Status.RUNNING))
+        status = np.where(lost, Status.FAILED, status).astype(np.int8)
+        return work | {"w": np.where(lost, work["w"], moved), "status": status, "previous": size, "second": bend}
+
+    def finish(done: Work, status: NDArray[np.int8]) -> None:
+        found = (status == Status.CONVERGED) | (status == Status.STALLED)
+        points[done["index"][found]], second[done["index"][found]] = done["w"][found], done["second"][found]
+        noisy[done["index"]] = status == Status.STALLED
+
+    with np.errstate(all="ignore"):
+        iterate(work, lambda work: work["status"], advance, finish, NEWTON_STEPS)
+    shape = w.shape
+    return points.reshape(shape), second.reshape(shape), noisy.reshape(shape).any(axis=1)
 
 
 def _distinct(w: NDArray, second: NDArray) -> tuple[NDArray, NDArray]:

@@ -163,7 +163,7 @@ def _bracketed_roots(
     """A root of the level's slope in each [lo, hi] (its ends of opposite signs)
     and the second derivative there; None when one does not settle."""
 
-    def fun(w: NDArray) -> tuple[NDArray, NDArray]:
+    def fun(w: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
         first, second = slopes(w)
         return first[row], second[row]
 

@@ -151,7 +151,7 @@ def _refined(loop: LoopLevels, lo: NDArray, hi: NDArray, target: NDArray, phase:
     """The root of level - target in each [lo, hi] (the level monotone there)."""
     row = 1 if phase else 0
 
-    def fun(w: NDArray) -> tuple[NDArray, NDArray]:
-        return _level(loop, w, phase) - target, loop.slopes(w)[0][row]
+    def fun(w: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
+        return _level(loop, w, phase) - target[which], loop.slopes(w)[0][row]
 
     return bracketed_roots(fun, lo, hi)

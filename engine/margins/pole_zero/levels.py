@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.model.paired_product import ProductTerms
 from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
 
 MAX_ROOTS = 48  # zeros + poles; beyond, the detection grid is faster (docs/margins.md)
@@ -85,21 +86,9 @@ class LoopLevels:
         return None if closed is None else LoopLevels(form, closed, numerator, denominator)
 
     def terms(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray]:
-        """GH, u = d log GH / ds and du/ds at s = j w, zeros and poles paired as
-        `ZpkEvaluator` pairs them: 1/(s - z) - 1/(s - p) = (z - p) r_z r_p has no
-        cancellation when a zero nearly cancels its pole (nor does its derivative)."""
-        form, m = self.form, self.form.paired
-        q = 1j * w - form.roots
-        r = 1.0 / q
-        gh = form.gain * np.multiply.reduce(q[:m] * r[m : 2 * m], axis=0)
-        pair = r[:m] * r[m : 2 * m]
-        u = form.gaps @ pair
-        du = -(form.gaps @ (pair * (r[:m] + r[m : 2 * m])))
-        if form.roots.size > 2 * m:
-            gh = gh * np.multiply.reduce(q[2 * m :] if form.extra_zeros else r[2 * m :], axis=0)
-            rest = r[2 * m :]
-            u, du = u + form.signs[2 * m :] @ rest, du - form.signs[2 * m :] @ (rest * rest)
-        return gh, u, du
+        """GH, u = d log GH / ds and du/ds at s = j w (`engine.model.paired_product`)."""
+        terms = self.form.product.terms(1j * w, curvature=True)
+        return terms.value, terms.slope, terms.curvature
 
     def slopes(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """Rows: each level's derivative in omega and its own derivative, for
@@ -117,22 +106,20 @@ class LoopLevels:
         """The first three rows of `slopes` (the stationary points' levels) and of
         `slope_noise` at ``w``, from one evaluation of the terms (the certificate
         reads both at its check points)."""
-        gh, u, _ = self.terms(w)
+        terms = self.form.product.terms(1j * w, size=True)
+        gh, u = terms.value, terms.slope
         g = gh * u / (1.0 + gh)  # as `slopes` forms it: the same bits
-        return np.array([-u.imag, u.real, -g.imag]), _noise_rows(gh, self._u_noise(w, u))
+        return np.array([-u.imag, u.real, -g.imag]), _noise_rows(gh, self._u_noise(terms))
 
     def u_rounding(self, w: NDArray) -> tuple[NDArray, NDArray]:
         """GH at s = j w and the rounding of u there: a few ulp of the sum of its
         terms' sizes, and per root of |u| (each factor's relative error)."""
-        gh, u, _ = self.terms(w)
-        return gh, self._u_noise(w, u)
+        terms = self.form.product.terms(1j * w, size=True)
+        return terms.value, self._u_noise(terms)
 
-    def _u_noise(self, w: NDArray, u: NDArray) -> NDArray:
-        """The rounding of u = d log GH / ds at ``w`` (`u_rounding`)."""
-        form, m = self.form, self.form.paired
-        r = np.abs(1.0 / (1j * w - form.roots))
-        spread = np.abs(form.gaps) @ (r[:m] * r[m : 2 * m]) + r[2 * m :].sum(axis=0)
-        return ROUNDING * (spread + self.roots.size * np.abs(u))
+    def _u_noise(self, terms: ProductTerms) -> NDArray:
+        """The rounding of u = d log GH / ds from its terms (`u_rounding`)."""
+        return ROUNDING * (terms.size + self.roots.size * np.abs(terms.slope))
 
     def slope_noise(self, w: NDArray) -> NDArray:
         """Rows: the rounding of the first three rows of `slopes` at ``w``: below it
