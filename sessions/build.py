@@ -35,7 +35,6 @@ from engine.design.problem import (
     TimeResponse,
 )
 from engine.errors import EngineError
-from engine.model.bilinear import sampled_network
 from engine.model.blocks import (
     ControllerFactor,
     DelayTransfer,
@@ -49,7 +48,7 @@ from engine.model.blocks import (
     polynomial_transfer,
 )
 from engine.model.discretize import discretized_text
-from engine.model.network import Block, Junction, Network, block_diagram, matrix_format
+from engine.model.network import Block, Junction, Network, block_diagram, matrix_format, sampled_network
 from sessions.errors import SessionError
 from sessions.format.constraint_lines import build_inequalities, check_start, engine_error
 from sessions.format.limits import MAX_TABLE_ROWS

@@ -24,7 +24,7 @@ import numpy as np
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
-from engine.model.bilinear import z_of_w
+from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.network import Network
 
 SAMPLES = 400
@@ -65,8 +65,7 @@ def horizon(ss: StateSpace) -> float:
         return 10.0
     real = eigenvalues.real
     if ss.sample_time is not None:
-        with np.errstate(divide="ignore"):
-            real = np.log(np.abs(z_of_w(eigenvalues))) / ss.sample_time  # Re s of s = ln(z)/T
+        real = s_of_z(z_of_w(eigenvalues), ss.sample_time).real
         real = real[np.isfinite(real)] if np.isfinite(real).any() else np.array([-1.0])
         shortest, longest = MIN_SAMPLES * ss.sample_time, MAX_SAMPLES * ss.sample_time
         return float(np.clip(_from_real_parts(real), shortest, longest))

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from engine.errors import EngineError
 from engine.loop.design import DesignLoop, design
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.model.bilinear import real_frequency
+from engine.model.bilinear import real_frequency, refuse_above_nyquist
 from engine.model.network import Network, check_grid, solve, warped
 
 Evaluator = Callable[[NDArray[np.float64]], tuple[NDArray[np.complex128], NDArray[np.complex128]]]
@@ -142,11 +142,7 @@ class SampledLoop(LoopModel):
         def in_omega(evaluate: Evaluator) -> Evaluator:
             def at(w: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
                 w = np.asarray(w, dtype=float)
-                if np.any(w > np.pi / T):  # tan would wrap: an alias, silently
-                    raise EngineError(
-                        f"{w.max():.6g} rad/s is above the Nyquist frequency pi/T = {np.pi / T:.6g} rad/s of a loop "
-                        f"sampled every {T:g} s"
-                    )
+                refuse_above_nyquist(w, T)
                 nu, d_nu = warped(w, T)
                 value, slope = evaluate(nu)
                 return value, slope * d_nu

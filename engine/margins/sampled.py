@@ -57,13 +57,17 @@ def sampled_margins(
 
 def nyquist_crossing(w_plane: LoopModel, sample_time: float) -> Margin | None:
     """The gain margin at the Nyquist frequency, where z = -1 and GH is real: a phase crossing when
-    GH(-1) < 0 (the w-plane search ends short of nu = inf)."""
+    GH(-1) < 0 (the w-plane search ends short of nu = inf).  GH(-1) is GH's limit as nu grows: read
+    at two values of nu (`NYQUIST_NU` and its square root), it stands where they agree; a loop
+    that falls off there (GH(-1) = 0: Tustin's map of a strictly proper block) has no margin."""
     if w_plane.evaluate is None:
         return None
     with np.errstate(all="ignore"):
-        value = complex(w_plane.evaluate(np.array([NYQUIST_NU]))[0][0])
+        value, nearer = w_plane.evaluate(np.array([NYQUIST_NU, math.sqrt(NYQUIST_NU)]))[0].tolist()
     if not (np.isfinite(value) and value.real < 0 and abs(value.imag) <= 1e-9 * abs(value)):
         return None
+    if not abs(value - nearer) <= 1e-6 * abs(nearer):
+        return None  # no finite nonzero limit: GH(-1) = 0
     return single_margin("G", math.pi / sample_time, complex(value.real, 0.0))
 
 

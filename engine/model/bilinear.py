@@ -9,25 +9,25 @@ from __future__ import annotations
 
 import cmath
 import math
-from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.errors import BlockError
-from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
-from engine.model.expressions import substituted
-from engine.model.network import Network
-from engine.numerics.polynomials import Rational, degree, trim
+from engine.errors import BlockError, GridError
+from engine.model.blocks import ExpressionTransfer
+from engine.numerics.polynomials import Rational, trim
 
 
 def _scale(sample_time: float | None) -> float:
     """a in z = (1 + a w)/(1 - a w): 1 unscaled, T/2 scaled by 2/T."""
-    if sample_time is None:
-        return 1.0
+    return 1.0 if sample_time is None else check_sample_time(sample_time) / 2.0
+
+
+def check_sample_time(sample_time: float) -> float:
+    """The sample time, or a BlockError unless it is finite and > 0."""
     if not (np.isfinite(sample_time) and sample_time > 0):
         raise BlockError(f"sample time must be finite and > 0, not {sample_time!r}")
-    return sample_time / 2.0
+    return sample_time
 
 
 def z_to_w(h: Rational, sample_time: float | None = None) -> Rational:
@@ -85,15 +85,54 @@ def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:
         return np.where(w == 1, complex(np.inf), (1 + w) / (1 - w))
 
 
+def s_of_z(z: ArrayLike, sample_time: float) -> NDArray[np.complex128]:
+    """The s-plane equivalent s = ln(z)/T of points in z (the one place it is computed): the
+    principal branch, |Im s| <= pi/T; z = 0 is s = -inf (infinitely fast)."""
+    z = np.asarray(z, dtype=complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log(z) / sample_time
+
+
+def z_of_s(s: ArrayLike, sample_time: float) -> NDArray[np.complex128]:
+    """The point z = exp(s T) of s-plane points (`s_of_z` undone)."""
+    return np.exp(np.asarray(s, dtype=complex) * sample_time)
+
+
+def nyquist_frequency(sample_time: float) -> float:
+    """pi/T (rad/s): a loop in z is evaluated up to it (z = -1, where its Nyquist gain margin
+    is read) and refused above (`refuse_above_nyquist`); a session's grid ends below it."""
+    return math.pi / sample_time
+
+
+def refuse_above_nyquist(omega: ArrayLike, sample_time: float) -> None:
+    """The one Nyquist guard: a GridError naming the first frequency above pi/T (there
+    tan(omega T/2) wraps round: an alias, silently)."""
+    omega = np.asarray(omega, dtype=float)
+    above = np.flatnonzero(omega > nyquist_frequency(sample_time))
+    if above.size:
+        raise GridError(
+            f"{omega.flat[above[0]]:.6g} rad/s is above the Nyquist frequency pi/T = "
+            f"{nyquist_frequency(sample_time):.6g} rad/s of a loop sampled every {sample_time:g} s"
+        )
+
+
+def damping(root: complex, sample_time: float | None = None) -> tuple[float, float]:
+    """(zeta, wn) of a root in s, or in z (``sample_time``: of its s-plane equivalent
+    `s_of_z`; z = 0 is infinitely fast, damping 1); a root at 0 in s: damping 1, wn 0."""
+    s = complex(root) if sample_time is None else complex(s_of_z(root, sample_time))
+    if not cmath.isfinite(s):
+        return 1.0, math.inf
+    wn = abs(s)
+    return (-s.real / wn if wn > 0 else 1.0), wn
+
+
 def s_equivalent(w: complex, sample_time: float) -> tuple[complex, float, float]:
     """A sampled loop's w-plane root as (z, damping, natural frequency) of its s-plane equivalent
-    s = ln(z)/T, z = (1 + w)/(1 - w); z = 0 or inf: infinitely fast, damping 1."""
+    s = ln(z)/T (`s_of_z`), z = (1 + w)/(1 - w); z = 0 or inf: infinitely fast, damping 1."""
     z = complex(z_of_w(w))
-    if z == 0 or not cmath.isfinite(z):
+    if not cmath.isfinite(z):
         return z, 1.0, math.inf
-    s = cmath.log(z) / sample_time
-    wn = abs(s)
-    return z, (-s.real / wn if wn else 1.0), wn
+    return (z, *damping(z, sample_time))
 
 
 def realization_in_w(A: NDArray, B: NDArray, C: NDArray, D: NDArray) -> tuple[NDArray, ...]:
@@ -111,45 +150,3 @@ def realization_in_w(A: NDArray, B: NDArray, C: NDArray, D: NDArray) -> tuple[ND
 def z_transfer(transfer: ExpressionTransfer) -> ExpressionTransfer:
     """A sampled network's entry as it was typed, in z (`sampled_network` wrote each z as `Z_OF_W`)."""
     return ExpressionTransfer(transfer.text.replace(Z_OF_W, "z"), "z")
-
-
-GENERIC = 0.7371  # a parameter value no degree depends on (a block's degrees are read at it)
-
-
-def _check_causal(transfer: ExpressionTransfer, label: str) -> None:
-    """A block in z has no more zeros than poles: else its output leads its input (z^2/(z - 0.5)),
-    which no computer can run, though its w-plane form is proper."""
-    r = transfer.rational(dict.fromkeys(transfer.parameters, GENERIC))
-    zeros, poles = degree(r.num), degree(r.den)
-    if zeros > poles:
-        raise BlockError(
-            f"{label}: {transfer.text} has more zeros than poles in z ({zeros} over {poles}): not causal "
-            "(its output would lead its input by a sample)"
-        )
-
-
-def sampled_network(network: Network, sample_time: float) -> Network:
-    """A network of expressions in z as the sampled loop the engine analyzes: every z written
-    (1 + w)/(1 - w), variable w, with its sample time (`Network.sampled`).  The factored forms
-    cancel the (1 - w) this leaves exactly (`engine.model.factored`); no polynomial is expanded."""
-    _scale(sample_time)
-    entries = []
-    for e in network.entries:
-        t = e.transfer
-        if isinstance(t, StateSpaceTransfer):  # x[k+1] = A x[k] + B u[k]: in w, kept as state space
-            try:
-                w_form = StateSpaceTransfer(*realization_in_w(*t.realization()), source=f"{t.source}, in z")
-            except BlockError as exc:
-                raise BlockError(f"{e.label}: {exc}") from None
-            entries.append(replace(e, transfer=w_form))
-            continue
-        if not isinstance(t, ExpressionTransfer) or t.expression.variable != "z":
-            raise BlockError(
-                f"{e.label}: a loop in z takes expressions in z (polynomial, factored or typed) and state spaces, "
-                f"not a {type(t).__name__} (discretize a continuous block first)"
-            )
-        if "w" in t.parameters:
-            raise BlockError(f"{e.label}: a loop in z names w, the variable of its w-plane form: rename the parameter")
-        _check_causal(t, e.label)
-        entries.append(replace(e, transfer=ExpressionTransfer(substituted(t.text, "z", Z_OF_W), "w")))
-    return Network(network.signals, network.inputs, tuple(entries), "w", sample_time)

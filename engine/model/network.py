@@ -17,13 +17,16 @@ closed-loop characteristic equation at that point is 1 + GH = 0.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.errors import EngineError, GridError, InterconnectionError, ParameterError
-from engine.model.blocks import ExpressionTransfer, Transfer
+from engine.errors import BlockError, EngineError, GridError, InterconnectionError, ParameterError
+from engine.model.bilinear import Z_OF_W, check_sample_time, realization_in_w, refuse_above_nyquist
+from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer, Transfer
+from engine.model.expressions import substituted
+from engine.numerics.polynomials import degree
 
 
 @dataclass(frozen=True)
@@ -94,16 +97,11 @@ class Network:
 
     def points(self, omega: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
         """Where the blocks are evaluated at ``omega`` (rad/s), and d(point)/d(omega): j omega, or,
-        for a sampled loop, w = j nu with nu = tan(omega T/2) below the Nyquist frequency pi/T."""
+        for a sampled loop, w = j nu with nu = tan(omega T/2) up to the Nyquist frequency pi/T."""
         if self.sample_time is None:
             return 1j * omega, np.full(omega.shape, 1j)
         T = self.sample_time
-        above = np.flatnonzero(omega >= np.pi / T)
-        if above.size:
-            raise GridError(
-                f"{omega[above[0]]:.6g} rad/s is at or above the Nyquist frequency pi/T = {np.pi / T:.6g} rad/s "
-                f"of a loop sampled every {T:g} s"
-            )
+        refuse_above_nyquist(omega, T)
         nu, slope = warped(omega, T)
         return 1j * nu, 1j * slope
 
@@ -459,3 +457,46 @@ def sparse_solve(schedule: _Schedule, gains: Sequence[NDArray], B: NDArray, w: N
             f"the interconnection is singular at {w[bad][0]:.6g} rad/s (I - G has no inverse there)"
         )
     return A + np.einsum("ntf,ftm->nmf", C, tau)
+
+
+GENERIC = 0.7371  # a parameter value no degree depends on (a block's degrees are read at it)
+
+
+def _check_causal(transfer: ExpressionTransfer, label: str) -> None:
+    """A block in z has no more zeros than poles: else its output leads its input (z^2/(z - 0.5)),
+    which no computer can run, though its w-plane form is proper."""
+    r = transfer.rational(dict.fromkeys(transfer.parameters, GENERIC))
+    zeros, poles = degree(r.num), degree(r.den)
+    if zeros > poles:
+        raise BlockError(
+            f"{label}: {transfer.text} has more zeros than poles in z ({zeros} over {poles}): not causal "
+            "(its output would lead its input by a sample)"
+        )
+
+
+def sampled_network(network: Network, sample_time: float) -> Network:
+    """A network of expressions in z as the sampled loop the engine analyzes: every z written
+    (1 + w)/(1 - w), variable w, with its sample time (`Network.sampled`; the maps in
+    `engine.model.bilinear`).  The factored forms
+    cancel the (1 - w) this leaves exactly (`engine.model.factored`); no polynomial is expanded."""
+    check_sample_time(sample_time)
+    entries = []
+    for e in network.entries:
+        t = e.transfer
+        if isinstance(t, StateSpaceTransfer):  # x[k+1] = A x[k] + B u[k]: in w, kept as state space
+            try:
+                w_form = StateSpaceTransfer(*realization_in_w(*t.realization()), source=f"{t.source}, in z")
+            except BlockError as exc:
+                raise BlockError(f"{e.label}: {exc}") from None
+            entries.append(replace(e, transfer=w_form))
+            continue
+        if not isinstance(t, ExpressionTransfer) or t.expression.variable != "z":
+            raise BlockError(
+                f"{e.label}: a loop in z takes expressions in z (polynomial, factored or typed) and state spaces, "
+                f"not a {type(t).__name__} (discretize a continuous block first)"
+            )
+        if "w" in t.parameters:
+            raise BlockError(f"{e.label}: a loop in z names w, the variable of its w-plane form: rename the parameter")
+        _check_causal(t, e.label)
+        entries.append(replace(e, transfer=ExpressionTransfer(substituted(t.text, "z", Z_OF_W), "w")))
+    return Network(network.signals, network.inputs, tuple(entries), "w", sample_time)

@@ -37,7 +37,7 @@ from engine.loop.pole_zero import closed_loop_realization
 from engine.loop.realization import StateSpace, cascade
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
-from engine.model.bilinear import z_of_w
+from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.blocks import ExpressionTransfer
 from engine.slp.peaks import closed_loop_values
 
@@ -278,8 +278,7 @@ def stability_abscissa(ss: StateSpace, sample_time: float | None = None) -> floa
     poles = np.linalg.eigvals(ss.A)
     if sample_time is None:
         return float(-np.max(poles.real))
-    with np.errstate(divide="ignore"):
-        return float(-np.max(np.log(np.abs(z_of_w(poles)))) / sample_time)
+    return float(-np.max(s_of_z(z_of_w(poles), sample_time).real))
 
 
 def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -> float:

@@ -25,6 +25,7 @@ from engine.margins.peaks import (
     sensitivity_peak,
     transfer_evaluator,
 )
+from engine.model.bilinear import damping, z_of_s
 from tui.figures.axes import decade_ticks, finite_points
 from tui.figures.data import REFERENCE_COLOR, REFERENCE_MARKER, Figure, Series, role_color, role_style
 from tui.figures.navigation import Probe
@@ -236,7 +237,7 @@ def _z_grid(fig: Figure) -> None:
     grid = [Series(np.cos(angle).tolist(), np.sin(angle).tolist(), "|z| = 1", color="gray", marker="dot", beneath=True)]
     for n, zeta in enumerate(Z_GRID_DAMPINGS):  # s T = x (-zeta + j sqrt(1 - zeta^2)), x from 0 to pi/sqrt(1 - zeta^2)
         x = np.linspace(0.0, np.pi / math.sqrt(1 - zeta**2), 90)
-        upper = np.exp(x * complex(-zeta, math.sqrt(1 - zeta**2)))
+        upper = z_of_s(x * complex(-zeta, math.sqrt(1 - zeta**2)), 1.0)
         path = np.concatenate([upper, upper[::-1].conjugate()])
         label = f"zeta {', '.join(f'{z:g}' for z in Z_GRID_DAMPINGS)}; wn pi/T x {', '.join(f'{f:g}' for f in Z_GRID_FREQUENCIES)}"
         grid.append(
@@ -246,7 +247,7 @@ def _z_grid(fig: Figure) -> None:
         )
     for fraction in Z_GRID_FREQUENCIES:  # wn T = fraction pi, zeta from 0 to 1
         zeta = np.linspace(0.0, 1.0, 45)
-        upper = np.exp(fraction * np.pi * (-zeta + 1j * np.sqrt(1 - zeta**2)))
+        upper = z_of_s(fraction * np.pi * (-zeta + 1j * np.sqrt(1 - zeta**2)), 1.0)
         path = np.concatenate([upper, upper[::-1].conjugate()])
         grid.append(Series(path.real.tolist(), path.imag.tolist(), "", color="gray", marker="·", beneath=True))
     fig.series[:0] = grid
@@ -281,13 +282,13 @@ def _pole_probe(poles, variable: str, sample_time: float | None = None) -> Probe
     """A cursor over the closed-loop poles (one of each conjugate pair), the least damped
     first, reading each one's zeta and wn (in z: of its s-plane equivalent)."""
     found = sorted(
-        (p for p in np.asarray(poles) if np.isfinite(p) and p.imag >= 0), key=lambda p: _damping(p, sample_time)
+        (p for p in np.asarray(poles) if np.isfinite(p) and p.imag >= 0), key=lambda p: damping(p, sample_time)
     )
     unit = " rad/s" if variable == "s" or sample_time is not None else ""
 
     def readout(i: int) -> str:
         p = found[i]
-        zeta, wn = _damping(p, sample_time)
+        zeta, wn = damping(p, sample_time)
         return f"pole {p.real:.5g}{p.imag:+.5g}j  zeta {zeta:.4g}  wn {wn:.5g}{unit}"
 
     return Probe([float(p.real) for p in found], [float(p.imag) for p in found], readout, start=0)
@@ -305,8 +306,8 @@ def _locus_probe(locus, name: str, sample_time: float | None = None) -> Probe:
 
     def readout(i: int) -> str:
         poles = [p for p in branches[rows_of[i]] if np.isfinite(p) and p.imag >= 0]
-        least = min(poles, key=lambda p: _damping(p, sample_time)[0], default=None)
-        zeta, wn = (None, None) if least is None else _damping(least, sample_time)
+        least = min(poles, key=lambda p: damping(p, sample_time)[0], default=None)
+        zeta, wn = (None, None) if least is None else damping(least, sample_time)
         damped = "" if least is None else f"  least damped zeta {zeta:.3g} wn {wn:.4g}"
         return f"{name} = {values[i]:.5g}: poles " + ", ".join(_root_text(p) for p in poles[:4]) + damped
 
@@ -317,16 +318,6 @@ def _locus_probe(locus, name: str, sample_time: float | None = None) -> Probe:
 def _root_text(p: complex) -> str:
     """A closed-loop pole, a pair written once: '-0.5+-1.2j', '-8.1'."""
     return f"{p.real:.4g}" if p.imag == 0 else f"{p.real:.4g}+-{p.imag:.4g}j"
-
-
-def _damping(p: complex, sample_time: float | None = None) -> tuple[float, float]:
-    """(zeta, wn) of a pole (in z: of its s-plane equivalent s = ln(z)/T; z = 0: damping 1)."""
-    if sample_time is not None:
-        if p == 0:
-            return 1.0, math.inf
-        p = complex(np.log(complex(p))) / sample_time
-    wn = abs(p)
-    return (-p.real / wn if wn > 0 else 1.0), wn
 
 
 PARAMETER_LOCUS_POINTS = 300  # each point is a realization and its polish (~10 ms)
@@ -432,7 +423,7 @@ def _pole_text(poles, sample_time: float | None = None) -> str:
     """The slowest pole (nearest the imaginary axis; in z, the unit circle) with its zeta and wn."""
     points = np.asarray(poles)
     p = min(points, key=lambda z: abs(z.real) if sample_time is None else abs(1 - abs(z)))
-    zeta, wn = _damping(p, sample_time)
+    zeta, wn = damping(p, sample_time)
     return f"{p.real:.4g}{p.imag:+.4g}j, zeta {zeta:.3g}, wn {wn:.4g}"
 
 

@@ -7,12 +7,12 @@ legend entry names the target and its verdict."""
 
 from __future__ import annotations
 
-import cmath
 import math
 from collections.abc import Iterable
 
 import numpy as np
 
+from engine.model.bilinear import damping
 from tui.figures.data import Figure, Series
 from tui.figures.navigation import data_box
 from tui.figures.open_loop import disk_edge, m_circle
@@ -89,7 +89,7 @@ def corners(magnitude: Figure, roots: list[tuple[str, complex]], unit: str, samp
     x, y = np.asarray(magnitude.probe.x), np.asarray(magnitude.probe.y)
 
     def corner(r: complex) -> float:
-        return abs(r) if sample_time is None else abs(cmath.log(r)) / sample_time if r != 0 else 0.0
+        return 0.0 if r == 0 else damping(r, sample_time)[1]  # in z: its s-plane equivalent's wn
 
     for kind, marker in (("zero", "z"), ("pole", "p")):
         at = [math.log10(corner(r) / scale) for k, r in roots if k == kind and corner(r) > 0]
