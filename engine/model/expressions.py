@@ -23,7 +23,7 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.errors import ExpressionError, ParameterError
+from engine.errors import ExpressionError, ParameterError, shortened
 from engine.model.folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
 from engine.numerics.polynomials import Rational
 
@@ -241,7 +241,7 @@ class _Parser:
         if not isinstance(self.text, str) or not self.text.strip():
             raise ExpressionError("empty expression", str(self.text))
         if len(self.text) > MAX_LENGTH:
-            raise ExpressionError(f"expression longer than {MAX_LENGTH} characters", self.text[:40] + "...")
+            raise ExpressionError(f"expression longer than {MAX_LENGTH} characters", shortened(self.text, 43))
         # '^' means power; Python would read it as xor with a lower precedence than '+'
         self.carets = [i for i, ch in enumerate(self.text) if ch == "^"]
         source = self.text.replace("^", "**")

@@ -10,7 +10,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from tui.cli.common import CliError, finite_or_none
+from engine.stepping.memory_fields import finite_or_none
+from tui.cli.common import CliError
 
 if TYPE_CHECKING:
     from engine.analysis import LoopAnalysis
