@@ -30,7 +30,7 @@ def _peak_json(p) -> dict | None:
             "value": finite_or_none(p.value),
             "unbounded": p.value == math.inf,
             "db": finite_or_none(p.db),
-            "frequency": p.frequency if math.isfinite(p.frequency) else None,
+            "frequency": finite_or_none(p.frequency),
             "at_infinity": p.frequency == math.inf,
             "method": p.method,
             "notes": list(p.notes),
