@@ -9,7 +9,8 @@ signal, the parameter values).  The one rule is a bound: a store keeps its `most
 forms used last and drops the least recently used first (a run moves through parameter
 values, and the forms of the values it left are not asked again).  Thread-safe: the
 workbench's workers and its UI thread ask the same stores; two threads that make one
-form at once both return the first made, so a kept form is one object.
+form at once both return the first made, so a kept form is one object.  A store
+pickled or copied arrives empty (its lock cannot travel; its forms are made again).
 
 An attribute of one immutable object, made on first use and asked with nothing, is a
 `functools.cached_property` of it (a `Design`'s realization, a loop's levels): it has
@@ -58,3 +59,10 @@ class Derived:
             while len(self._kept) > self.most:
                 self._kept.popitem(last=False)
         return cast(T, found)
+
+    def __getstate__(self) -> dict:
+        """A copy (pickled for a sweep's worker, deep-copied) starts empty: its forms are made again."""
+        return {"most": self.most}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["most"])  # type: ignore[misc]

@@ -4,7 +4,9 @@ or expression's forms kept on it."""
 
 from __future__ import annotations
 
+import copy as copy_module
 import dataclasses
+import pickle
 import threading
 
 from engine.analysis import unity_feedback
@@ -61,6 +63,14 @@ def test_threads_that_make_one_form_at_once_share_the_first_made():
     for t in threads:
         t.join()
     assert len(found) == 4 and all(f is found[0] for f in found)
+
+
+def test_a_store_pickled_or_copied_arrives_empty():
+    e = Expression("K/(s + a)")
+    e.rational({"K": 2.0, "a": 1.0})
+    for copy in (pickle.loads(pickle.dumps(e)), copy_module.deepcopy(e)):
+        assert copy.derived._kept == {} and copy.derived.most == e.derived.most
+        assert copy.rational({"K": 2.0, "a": 1.0}).num.tolist() == e.rational({"K": 2.0, "a": 1.0}).num.tolist()
 
 
 def test_an_expression_keeps_its_forms_per_parameter_values():
