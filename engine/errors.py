@@ -1,4 +1,20 @@
-"""Typed errors raised by the engine; every message names what and where."""
+"""Typed errors raised by the engine; every message names what and where, and quotes
+what it refuses shortened (`shown`)."""
+
+SHOWN = 40  # characters of a value a message quotes
+
+
+def shortened(text: str, most: int = SHOWN, mark: str = "...") -> str:
+    """``text`` as a message quotes it: at most ``most`` characters, its end replaced by ``mark``
+    when it is cut."""
+    return text if len(text) <= most else text[: most - len(mark)] + mark
+
+
+def shown(value: object, most: int = SHOWN, typed: bool = False) -> str:
+    """A value as a message quotes it: its repr shortened (`shortened`); ``typed``: after its
+    type's name (a JSON field that holds the wrong kind of value)."""
+    text = shortened(repr(value), most)
+    return f"{type(value).__name__} {text}" if typed else text
 
 
 class EngineError(ValueError):

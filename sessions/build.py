@@ -34,7 +34,7 @@ from engine.design.problem import (
     Target,
     TimeResponse,
 )
-from engine.errors import EngineError
+from engine.errors import EngineError, shortened
 from engine.model.blocks import (
     ControllerFactor,
     DelayTransfer,
@@ -501,7 +501,7 @@ def _shown(cell: str | None) -> str:
     """An offending cell as quoted in a message: at most SHOWN_CELL characters of it."""
     if cell is None:
         return "(missing)"
-    return repr(cell if len(cell) <= SHOWN_CELL else cell[:SHOWN_CELL] + "...")
+    return repr(shortened(cell, SHOWN_CELL + 3))
 
 
 def _parameter(p: ParameterModel, path: str, conditions: int) -> Parameter:

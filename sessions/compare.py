@@ -20,11 +20,13 @@ import math
 from dataclasses import dataclass, field
 
 from engine.design.tableau import tableau
-from engine.errors import EngineError
+from engine.errors import EngineError, shortened
 from engine.stepping.driver import first_record
+from engine.stepping.memory_fields import finite_or_none
 from engine.stepping.protocol import MeasureRow
 from sessions.errors import SessionError
 from sessions.export.design_model import iteration_parameters
+from sessions.format.json_diff import changes, location
 from sessions.lifecycle import registration, stepper
 from sessions.store import Session
 
@@ -92,8 +94,10 @@ SHOWN_DIFFERENCES = 5  # the first paths where two problems differ that are list
 def problem_differences(a: Session, b: Session) -> tuple[str, ...]:
     """Where the two sessions' problems differ, as JSON paths with both values (the parameters'
     values aside: they are the designs compared); empty when they pose the same problem."""
-    found: list[str] = []
-    _differ(_problem(a), _problem(b), "problem", found)
+    found = [
+        f"{location(('problem', *c.path))}: {_brief(c.old)} in A, {_brief(c.new)} in B"
+        for c in changes(_problem(a), _problem(b), absent=None)
+    ]
     if len(found) > SHOWN_DIFFERENCES:
         found = found[:SHOWN_DIFFERENCES] + [f"and {len(found) - SHOWN_DIFFERENCES} more"]
     return tuple(found)
@@ -106,20 +110,9 @@ def _problem(session: Session) -> dict:
     return data
 
 
-def _differ(a: object, b: object, path: str, found: list[str]) -> None:
-    if isinstance(a, dict) and isinstance(b, dict):
-        for key in dict.fromkeys([*a, *b]):
-            _differ(a.get(key), b.get(key), f"{path}.{key}", found)
-    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
-        for k, (x, y) in enumerate(zip(a, b)):
-            _differ(x, y, f"{path}[{k}]", found)
-    elif a != b:
-        found.append(f"{path}: {_brief(a)} in A, {_brief(b)} in B")
-
-
 def _brief(value: object) -> str:
     text = "absent" if value is None else repr(value) if isinstance(value, str) else str(value)
-    return text if len(text) <= 60 else text[:59] + "…"
+    return shortened(text, 60, "…")
 
 
 def compare(a: Side, b: Side, differences: tuple[str, ...] = ()) -> Comparison:
@@ -147,14 +140,10 @@ def difference(ra: MeasureRow | None, rb: MeasureRow | None) -> float | None:
     return rb.value - ra.value
 
 
-def _finite(x: float | None) -> float | None:
-    return None if x is None or not math.isfinite(x) else float(x)
-
-
 def _row_json(r: MeasureRow | None) -> dict | None:
     if r is None:
         return None
-    return {"value": _finite(r.value), "frequency": _finite(r.frequency), "satisfied": bool(r.satisfied)}
+    return {"value": finite_or_none(r.value), "frequency": finite_or_none(r.frequency), "satisfied": bool(r.satisfied)}
 
 
 def comparison_json(c: Comparison) -> dict:
@@ -178,8 +167,8 @@ def comparison_json(c: Comparison) -> dict:
                 "condition": condition,
                 "kind": kind,
                 "name": name,
-                "target": _finite(desired),  # the JSON key other programs read
-                "desired": _finite(desired),
+                "target": finite_or_none(desired),  # the JSON key other programs read
+                "desired": finite_or_none(desired),
                 "a": _row_json(ra),
                 "b": _row_json(rb),
                 "difference": difference(ra, rb),

@@ -15,6 +15,7 @@ from engine.stepping.memory_fields import jsonable
 from engine.stepping.protocol import State, StepRecord
 from sessions.build import build_problem
 from sessions.errors import SessionError
+from sessions.format.json_diff import ABSENT, changes, location
 from sessions.format.schema import SessionModel
 from sessions.hand_history import chain_break
 from sessions.lifecycle import folder, forget_records, named_error, stepper
@@ -101,30 +102,25 @@ def difference(old: Any, new: Any, where: str = "") -> str | None:
     """Where two JSON values first differ, as "PATH: OLD recorded, NEW now" (None: they agree).
     Numbers agree within REPLAY_TOLERANCE relative or REPLAY_FLOOR absolute, NaN equals
     NaN; objects agree key by key, lists by length and then element by element."""
+    first = next(changes(old, new, same=_same), None)
+    if first is None:
+        return None
+    path, old, new = location((where, *first.path) if where else first.path), first.old, first.new
+    if new is ABSENT:
+        return f"{path}: {old!r} recorded, missing now"
+    if old is ABSENT:
+        return f"{path}: missing in the record, {new!r} now"
     old, new = _number(old), _number(new)
-    if isinstance(old, dict) and isinstance(new, dict):
-        return _dict_difference(old, new, where)
     if isinstance(old, list) and isinstance(new, list):
-        if len(old) != len(new):
-            return f"{where or '(top)'}: {len(old)} entries recorded, {len(new)} now"
-        return next(
-            (d for k, (a, b) in enumerate(zip(old, new)) if (d := difference(a, b, f"{where}[{k}]")) is not None), None
-        )
-    same = _close(old, new) if _is_number(old) and _is_number(new) else type(old) is type(new) and old == new
-    return None if same else f"{where or '(top)'}: {old!r} recorded, {new!r} now"
+        return f"{path}: {len(old)} entries recorded, {len(new)} now"
+    return f"{path}: {old!r} recorded, {new!r} now"
 
 
-def _dict_difference(old: dict, new: dict, where: str) -> str | None:
-    for key in list(old) + [k for k in new if k not in old]:
-        path = f"{where}.{key}" if where else str(key)
-        if key not in new:
-            return f"{path}: {old[key]!r} recorded, missing now"
-        if key not in old:
-            return f"{path}: missing in the record, {new[key]!r} now"
-        found = difference(old[key], new[key], path)
-        if found is not None:
-            return found
-    return None
+def _same(old: Any, new: Any) -> bool:
+    """Two leaves agree: numbers within the replay's tolerance (NaN equals NaN, a number kept
+    as text read as one), anything else of one type and equal."""
+    old, new = _number(old), _number(new)
+    return _close(old, new) if _is_number(old) and _is_number(new) else type(old) is type(new) and old == new
 
 
 def _number(value: Any) -> Any:

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.errors import EngineError
+from engine.errors import EngineError, shortened
 
 if TYPE_CHECKING:
     from engine.design.problem import Problem
@@ -56,7 +56,7 @@ class LinearInequality:
     def label(self) -> str:
         """The constraint as written (at most 60 characters of it), for messages and records."""
         text = self.text or self.normal
-        return text if len(text) <= 60 else text[:57] + "..."
+        return shortened(text, 60)
 
 
 @dataclass(frozen=True)

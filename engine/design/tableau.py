@@ -8,7 +8,7 @@ import numpy as np
 from engine.design.measure_kinds import absence, kind, met
 from engine.design.problem import Problem, Target
 from engine.errors import EngineError
-from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.design import closed_loop_realization
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
 from engine.margins.search import Band, Margin, margins

@@ -9,22 +9,30 @@ map (`engine.closed_loop.root_locus`), the closed-loop poles and their polish
 (`engine.analysis`, `engine.closed_loop.poles`) all ask `design(network,
 params)` for their forms, so a design's pole-zero form, realization and
 blocks' poles are computed once however many of them are shown
-(`tests/engine/test_design_loop.py` counts them).  A network keeps its latest
-design (a new parameter value is a new design).
+(`tests/engine/test_design_loop.py` counts them).  A network keeps its designs
+of the last few parameter values (a new value is a new design; `engine.derived`), and
+a design its one realization of each loop (`closed_loop_realization` reads it too).
 """
 
 from __future__ import annotations
 
 import functools
-import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.derived import Derived, Form
 from engine.loop.evaluator import LoopEvaluator
-from engine.loop.pole_zero import ZpkEvaluator, loop_realization, realized_roots, without_delays, zpk_evaluator
+from engine.loop.pole_zero import (
+    ZpkEvaluator,
+    closed_from_broken,
+    loop_realization,
+    realized_roots,
+    without_delays,
+    zpk_evaluator,
+)
 from engine.loop.realization import StateSpace, realize
 from engine.model.blocks import block_pole_zero
 from engine.model.network import Network
@@ -49,11 +57,14 @@ class DesignLoop:
         """The loop's pole-zero form when it matches the network (`engine.loop.pole_zero`)."""
         if not self.design.network.rational:
             return None
-        return zpk_evaluator(self.design.network, self.break_at, self.design.params, self.evaluator)
+        return zpk_evaluator(
+            self.design.network, self.break_at, self.design.params, self.evaluator, lambda: self.realization
+        )
 
     @functools.cached_property
     def realization(self) -> StateSpace:
-        """The broken network's state space (inputs: the network's, then the loop input)."""
+        """The broken network's state space (inputs: the network's, then the loop input): the one
+        kept realization of the loop (the pole-zero form, the time responses and the exports read it)."""
         return loop_realization(self.design.network, self.break_at, self.design.params)
 
     @functools.cached_property
@@ -81,7 +92,7 @@ class Design:
 
     network: Network
     values: tuple[tuple[str, float], ...]
-    loops: dict[str, DesignLoop] = field(default_factory=dict, compare=False, repr=False)
+    derived: Derived = field(default_factory=Derived, init=False, compare=False, repr=False)  # its loops, one per break
 
     @functools.cached_property
     def params(self) -> dict[str, float]:
@@ -89,10 +100,7 @@ class Design:
 
     def loop(self, break_at: str) -> DesignLoop:
         """The design's loop broken at ``break_at`` (one object per break)."""
-        found = self.loops.get(break_at)
-        if found is None:
-            found = self.loops.setdefault(break_at, DesignLoop(self, break_at))
-        return found
+        return self.derived.get(LOOP, lambda: DesignLoop(self, break_at), break_at)
 
     @functools.cached_property
     def block_poles(self) -> Roots:
@@ -107,15 +115,18 @@ class Design:
         return realize(self.network, self.params)
 
 
-_KEEPING = threading.Lock()
+LOOP: Form[DesignLoop] = Form("loop")  # a design's, asked with the signal broken
+DESIGN: Form[Design] = Form("design")  # a network's, asked with its parameters' values
 
 
 def design(network: Network, params: Mapping[str, float]) -> Design:
-    """The design of ``network`` at ``params``: the same object while the values are the same."""
+    """The design of ``network`` at ``params``: the same object while the values are the same
+    (kept on the network, `engine.derived`)."""
     values = tuple(sorted((name, float(params[name])) for name in network.parameters))
-    with _KEEPING:
-        kept = network.schedules.get("design")
-        if kept is None or kept.values != values:
-            kept = Design(network, values)
-            network.schedules["design"] = kept
-    return kept
+    return network.derived.get(DESIGN, lambda: Design(network, values), values)
+
+
+def closed_loop_realization(network: Network, break_at: str, params: Mapping[str, float]) -> StateSpace:
+    """The closed loop (all loops closed) of ``network`` at ``params``, from its design's
+    realization broken at ``break_at`` (`DesignLoop.realization`)."""
+    return closed_from_broken(network, break_at, design(network, params).loop(break_at).realization)

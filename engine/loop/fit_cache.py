@@ -2,37 +2,29 @@
 
 One design's margins, Ms, Mt and disk margin all fit the same table
 (`engine.margins.search.fitted_loop`); an AAA fit of a thousand points takes about
-a second, so it is made once and shared (a fit is immutable).  Thread-safe:
-the workbench's workers fit while the UI thread may ask too."""
+a second, so it is made once and shared (a fit is immutable), kept in an
+`engine.derived` store of the process (thread-safe: the workbench's workers fit
+while the UI thread may ask too).  A fit is a form of the table's content, not of
+one network: two conditions that tabulate one response share it."""
 
 from __future__ import annotations
 
 import hashlib
-import threading
-from collections import OrderedDict
 
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.derived import Derived, Form
 from engine.numerics.rational_fit import RationalFit, fit_response
 
 KEPT = 16
 
-_FITS: OrderedDict[bytes, RationalFit] = OrderedDict()
-_LOCK = threading.Lock()
+FIT: Form[RationalFit] = Form("rational fit")  # asked with a hash of the table's content
+_FITS = Derived(KEPT)
 
 
 def cached_fit(omega: NDArray[np.float64], gh: NDArray[np.complex128]) -> RationalFit:
-    """`fit_response(omega, gh)`, made once per table content (the last `KEPT` kept)."""
+    """`fit_response(omega, gh)`, made once per table content (the last `KEPT` used kept)."""
     w, f = np.ascontiguousarray(omega, dtype=float), np.ascontiguousarray(gh, dtype=complex)
     key = hashlib.blake2b(w.tobytes() + f.tobytes(), digest_size=20).digest()
-    with _LOCK:
-        if key in _FITS:
-            _FITS.move_to_end(key)
-            return _FITS[key]
-    fit = fit_response(w, f)
-    with _LOCK:
-        _FITS[key] = fit
-        while len(_FITS) > KEPT:
-            _FITS.popitem(last=False)
-    return fit
+    return _FITS.get(FIT, lambda: fit_response(w, f), key)

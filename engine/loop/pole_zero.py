@@ -18,12 +18,13 @@ otherwise the exact evaluator is kept.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.derived import Derived, Form
 from engine.errors import EngineError, InterconnectionError
 from engine.loop.realization import StateSpace, realize
 from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer, block_pole_zero
@@ -45,7 +46,7 @@ class ZpkEvaluator:
         self.zeros, self.poles = self.product.zeros, self.product.poles
         # what the grid-free searches derive from the form (`engine.margins.pole_zero.levels`), kept with it:
         # the margins and the closed-loop peaks of one loop share it
-        self.derived: dict[str, object] = {}
+        self.derived = Derived()
 
     def __call__(self, omega: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
         omega = np.asarray(omega, dtype=float).ravel()
@@ -74,25 +75,19 @@ def broken_network(network: Network, break_at: str) -> Network:
     )
 
 
+BROKEN: Form[Network] = Form("broken network")  # asked with the signal broken
+
+
 def loop_realization(network: Network, break_at: str, params: Mapping[str, float]) -> StateSpace:
-    """State space of the broken network (inputs: the network's, then the loop input),
-    kept on the network for the last parameter values asked (margins and time
-    responses of one design share it)."""
-    key = ("loop realization", break_at)
-    values = tuple(sorted((name, float(params[name])) for name in network.parameters))
-    cached = network.schedules.get(key)
-    if cached is None or cached[0] != values:
-        if ("broken network", break_at) not in network.schedules:
-            network.schedules[("broken network", break_at)] = broken_network(network, break_at)
-        broken = network.schedules[("broken network", break_at)]
-        cached = (values, realize(broken, params))
-        network.schedules[key] = cached
-    return cached[1]
+    """State space of the broken network (inputs: the network's, then the loop input); made
+    each time: a design's is kept once, as `engine.loop.design.DesignLoop.realization`."""
+    broken = network.derived.get(BROKEN, lambda: broken_network(network, break_at), break_at)
+    return realize(broken, params)
 
 
-def closed_loop_realization(network: Network, break_at: str, params: Mapping[str, float]) -> StateSpace:
-    """The closed loop (all loops closed) from the broken one: u = x_break."""
-    ss = loop_realization(network, break_at, params)
+def closed_from_broken(network: Network, break_at: str, ss: StateSpace) -> StateSpace:
+    """The closed loop (all loops closed) from the broken one ``ss`` (`loop_realization`):
+    u = x_break."""
     k = network.signal(break_at)
     Bu, Du = ss.B[:, -1:], ss.D[:-1, -1:]
     denominator = 1.0 - ss.D[k, -1]
@@ -103,11 +98,17 @@ def closed_loop_realization(network: Network, break_at: str, params: Mapping[str
     return StateSpace(ss.A + Bu @ Ck, ss.B[:, :-1] + Bu @ Dk, C + Du @ Ck, D + Du @ Dk, network.inputs, network.signals)
 
 
-def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], exact) -> ZpkEvaluator | None:
+def zpk_evaluator(
+    network: Network,
+    break_at: str,
+    params: Mapping[str, float],
+    exact,
+    realization: Callable[[], StateSpace] | None = None,
+) -> ZpkEvaluator | None:
     """The pole-zero form of the loop, or None when it does not match ``exact``
     (a callable giving GH and dGH/domega) closely enough: a cascade's from its
     blocks' own factored forms (exact to rounding), any other loop's from its
-    realization."""
+    realization (``realization()``: the design's; else `loop_realization`'s)."""
     chain = exact.cascade() if hasattr(exact, "cascade") else None
     if chain is not None:
         form = _cascade_form(network, chain, params)
@@ -119,7 +120,7 @@ def zpk_evaluator(network: Network, break_at: str, params: Mapping[str, float], 
     from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
 
     try:
-        ss = loop_realization(network, break_at, params)
+        ss = realization() if realization is not None else loop_realization(network, break_at, params)
     except (EngineError, linalg.LinAlgError, ValueError):
         return None
     if ss.A.shape[0] == 0:

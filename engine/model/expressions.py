@@ -16,14 +16,16 @@ from __future__ import annotations
 
 import ast
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.errors import ExpressionError, ParameterError
+from engine.derived import Derived, Form
+from engine.errors import ExpressionError, ParameterError, shortened
 from engine.model.folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
 from engine.numerics.polynomials import Rational
 
@@ -31,6 +33,9 @@ VARIABLES = ("s", "w", "z")
 MAX_POWER = 64
 MAX_LENGTH = 10_000
 MAX_DEPTH = 100  # levels of nesting after long chains are balanced: every walk of a tree recurses
+T = TypeVar("T")
+COMPILED: Form[Folded | Evaluator] = Form("compiled")  # `compile_tree`'s, at some parameter values
+RATIONAL: Form[Rational] = Form("rational")
 CHAIN = 64  # a longer run of + - (or * /) is balanced, a shorter one kept as Python reads it
 
 
@@ -101,18 +106,12 @@ class Expression:
         self.variable = variable
         read = _read if isinstance(text, str) else _read.__wrapped__  # the parser names a non-text
         self.root, self.parameters, self._constants = read(text, variable)
-        self._cache: dict[tuple, object] = {}
+        self.derived = Derived()  # forms at the last few parameter values (rational forms are reused a lot)
 
-    def _cached(self, what: str, params: Mapping[str, float], make):
-        """Results for the last few parameter values (rational forms are reused a lot)."""
+    def at(self, form: Form[T], params: Mapping[str, float], make: Callable[[], T]) -> T:
+        """The expression's ``form`` at the parameter values ``params``, made once (`self.derived`)."""
         self._check_params(params)
-        key = (what,) + tuple(float(params[p]) for p in self.parameters)
-        found = self._cache.get(key)
-        if found is None:
-            if len(self._cache) > 32:
-                self._cache.clear()
-            found = self._cache[key] = make()
-        return found
+        return self.derived.get(form, make, *(float(params[p]) for p in self.parameters))
 
     def __repr__(self) -> str:
         return f"Expression({self.text!r}, variable={self.variable!r})"
@@ -135,16 +134,19 @@ class Expression:
         (evaluated by Horner's rule); larger products stay products, so the
         accuracy of a factored form is kept.
         """
-        return as_callable(self._cached("compiled", params, lambda: compile_tree(self.root, params, self._constants)))
+        return as_callable(self._compiled(params))
 
     def folded(self, params: Mapping[str, float]) -> Rational | None:
         """The expression as a polynomial ratio of degree <= FOLD_DEGREE, else None."""
-        compiled = self._cached("compiled", params, lambda: compile_tree(self.root, params, self._constants))
+        compiled = self._compiled(params)
         return compiled.rational() if isinstance(compiled, Folded) else None
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """The expression as a ratio of polynomials in the variable."""
-        return self._cached("rational", params, lambda: to_rational(self.root, params))
+        return self.at(RATIONAL, params, lambda: to_rational(self.root, params))
+
+    def _compiled(self, params: Mapping[str, float]) -> Folded | Evaluator:
+        return self.at(COMPILED, params, lambda: compile_tree(self.root, params, self._constants))
 
     def value(self, params: Mapping[str, float]) -> float:
         """Evaluate a parameter expression that does not contain the variable."""
@@ -241,7 +243,7 @@ class _Parser:
         if not isinstance(self.text, str) or not self.text.strip():
             raise ExpressionError("empty expression", str(self.text))
         if len(self.text) > MAX_LENGTH:
-            raise ExpressionError(f"expression longer than {MAX_LENGTH} characters", self.text[:40] + "...")
+            raise ExpressionError(f"expression longer than {MAX_LENGTH} characters", shortened(self.text, 43))
         # '^' means power; Python would read it as xor with a lower precedence than '+'
         self.carets = [i for i, ch in enumerate(self.text) if ch == "^"]
         source = self.text.replace("^", "**")

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.derived import Form
 from engine.errors import ExpressionError
 from engine.model.expressions import Expression, Node
 from engine.model.folding import to_rational
@@ -83,11 +84,14 @@ class PoleZero:
         return PoleZero(self.gain, np.array(kept_zeros, dtype=complex), np.array(poles, dtype=complex))
 
 
+POLE_ZERO: Form[PoleZero] = Form("pole zero")
+
+
 def pole_zero(expression: Expression, params: Mapping[str, float]) -> PoleZero:
     """The expression's gain, zeros and poles, factor by factor, cancelled
     (kept on the expression for its last parameter values: the realization
     and the pole polishing both ask)."""
-    return expression._cached("pole zero", params, lambda: _checked(expression, params))
+    return expression.at(POLE_ZERO, params, lambda: _checked(expression, params))
 
 
 def _checked(expression: Expression, params: Mapping[str, float]) -> PoleZero:

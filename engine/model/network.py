@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from engine.derived import Derived, Form
 from engine.errors import BlockError, EngineError, GridError, InterconnectionError, ParameterError
 from engine.model.bilinear import Z_OF_W, check_sample_time, realization_in_w, refuse_above_nyquist
 from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer, Transfer
@@ -71,7 +72,7 @@ class Network:
     variable: str = "s"
     sample_time: float | None = None
     index: dict[str, int] = field(default_factory=dict, compare=False, repr=False)
-    schedules: dict = field(default_factory=dict, compare=False, repr=False)
+    derived: Derived = field(default_factory=Derived, init=False, compare=False, repr=False)  # schedules, designs
 
     def __post_init__(self) -> None:
         self.index.update({name: i for i, name in enumerate(self.signals)})
@@ -110,10 +111,7 @@ class Network:
         its designs are formed once."""
         if self.sample_time is None:
             return self
-        kept = self.schedules.get("w-plane")
-        if kept is None:
-            kept = self.schedules.setdefault("w-plane", Network(self.signals, self.inputs, self.entries, self.variable))
-        return kept
+        return self.derived.get(W_PLANE, lambda: Network(self.signals, self.inputs, self.entries, self.variable))
 
     def signal(self, name: str) -> int:
         if name not in self.index:
@@ -371,17 +369,22 @@ class _Schedule:
     feeds: tuple[tuple[tuple[int, int], ...], ...]
 
 
+SCHEDULE: Form[_Schedule] = Form("schedule")  # asked with the broken signal (or None) and whether transposed
+W_PLANE: Form[Network] = Form("w-plane")
+
+
 def _schedule(network: Network, broken: int | None, transposed: bool) -> _Schedule:
-    """The schedule of the network broken at ``broken`` (or not), cached per case."""
-    key = (broken, transposed)
-    if key not in network.schedules:
+    """The schedule of the network broken at ``broken`` (or not), kept per case."""
+
+    def made() -> _Schedule:
         edges = [
             ((e.col, e.row) if transposed else (e.row, e.col)) + (number,)
             for number, e in enumerate(network.entries)
             if e.col != broken
         ]
-        network.schedules[key] = schedule_edges(len(network.signals), edges)
-    return network.schedules[key]
+        return schedule_edges(len(network.signals), edges)
+
+    return network.derived.get(SCHEDULE, made, broken, transposed)
 
 
 def schedule_edges(n: int, edges: list[tuple[int, int, int]]) -> _Schedule:

@@ -33,7 +33,7 @@ from engine.closed_loop.time_response import PeakRule, Segment, final_value, sim
 from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
 from engine.design.problem import FREQUENCY_MEASURES, Problem
 from engine.errors import EngineError
-from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.design import closed_loop_realization
 from engine.loop.realization import StateSpace, cascade
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins

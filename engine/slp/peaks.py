@@ -27,8 +27,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.problem import Condition, Problem
+from engine.loop.design import closed_loop_realization
 from engine.loop.evaluator import LoopEvaluator
-from engine.loop.pole_zero import closed_loop_realization
 from engine.loop.realization import StateSpace
 from engine.loop.responses import LoopModel, open_loop
 from engine.margins.peak_measures import (

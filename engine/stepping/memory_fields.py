@@ -1,4 +1,5 @@
-"""JSON for algorithm memories: `jsonable` writes plain JSON types, `Fields`
+"""JSON numbers and algorithm memories: `finite_or_none` is a number as JSON output holds
+it, `jsonable` writes plain JSON types, `Fields`
 reads them back and rejects malformed data with an `EngineError` that names
 the field and what was expected (a missing field, a string where a number was
 wanted, a list of the wrong length, a non-finite number where a finite one is
@@ -12,9 +13,19 @@ from collections.abc import Mapping
 from enum import Enum
 from typing import Any
 
-from engine.errors import EngineError
+from engine.errors import EngineError, shown
 
 NON_FINITE = ("inf", "-inf", "nan")
+
+
+def finite_or_none(value: object) -> float | None:
+    """A number as JSON output holds it: a finite float, else None (JSON has no infinities;
+    a number kept as text, 'inf' or 'nan', reads as what it says)."""
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return None
+    return number if math.isfinite(number) else None
 
 
 def jsonable(value: Any) -> Any:
@@ -32,17 +43,12 @@ def jsonable(value: Any) -> Any:
     return value
 
 
-def _shown(value: Any) -> str:
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
-
-
 def to_float(value: Any, where: str, finite: bool = True) -> float:
     """A JSON number (or 'inf'/'-inf'/'nan') as a float; ``finite``: those strings are refused."""
     if isinstance(value, str) and value in NON_FINITE:
         value = float(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise EngineError(f"{where}: expected a {'finite ' if finite else ''}number, got {_shown(value)}")
+        raise EngineError(f"{where}: expected a {'finite ' if finite else ''}number, got {shown(value, typed=True)}")
     try:
         number = float(value)
     except OverflowError:  # a JSON integer beyond a float's range
@@ -59,7 +65,7 @@ class Fields:
 
     def __init__(self, data: Any, where: str):
         if not isinstance(data, Mapping):
-            raise EngineError(f"{where}: expected an object, got {_shown(data)}")
+            raise EngineError(f"{where}: expected an object, got {shown(data, typed=True)}")
         self.data, self.where = data, where
 
     def _name(self, name: str) -> str:
@@ -84,28 +90,28 @@ class Fields:
         value = self.get(name)
         if isinstance(value, bool) or not isinstance(value, int) or (minimum is not None and value < minimum):
             bound = "" if minimum is None else f" >= {minimum}"
-            raise EngineError(f"{self._name(name)}: expected an integer{bound}, got {_shown(value)}")
+            raise EngineError(f"{self._name(name)}: expected an integer{bound}, got {shown(value, typed=True)}")
         return value
 
     def boolean(self, name: str) -> bool:
         """A true/false field."""
         value = self.get(name)
         if not isinstance(value, bool):
-            raise EngineError(f"{self._name(name)}: expected true or false, got {_shown(value)}")
+            raise EngineError(f"{self._name(name)}: expected true or false, got {shown(value, typed=True)}")
         return value
 
     def text(self, name: str) -> str:
         """A string field."""
         value = self.get(name)
         if not isinstance(value, str):
-            raise EngineError(f"{self._name(name)}: expected a string, got {_shown(value)}")
+            raise EngineError(f"{self._name(name)}: expected a string, got {shown(value, typed=True)}")
         return value
 
     def items(self, name: str, length: int | None = None) -> list:
         """A list field (of ``length`` items when given)."""
         value = self.get(name)
         if not isinstance(value, list):
-            raise EngineError(f"{self._name(name)}: expected a list, got {_shown(value)}")
+            raise EngineError(f"{self._name(name)}: expected a list, got {shown(value, typed=True)}")
         if length is not None and len(value) != length:
             raise EngineError(f"{self._name(name)}: expected {length} items, got {len(value)}")
         return value
@@ -123,7 +129,7 @@ class Fields:
             where = f"{self._name(name)}[{i}]"
             if not isinstance(row, list) or (columns is not None and len(row) != columns):
                 wanted = "a list" if columns is None else f"a list of {columns} numbers"
-                got = f"{len(row)} numbers" if isinstance(row, list) else _shown(row)
+                got = f"{len(row)} numbers" if isinstance(row, list) else shown(row, typed=True)
                 raise EngineError(f"{where}: expected {wanted}, got {got}")
             out.append(tuple(to_float(v, f"{where}[{j}]", finite) for j, v in enumerate(row)))
             columns = len(row)

@@ -39,9 +39,12 @@ def tolerant(call: Callable[[], T], fallback: Callable[[], T]) -> T:
 
 
 def number(value: object, digits: int = 6) -> str:
-    """A number as the tableaux print it ('-' for a missing crossing, '' for none)."""
+    """A number as the tableaux and the report print it ('-' for a missing crossing, '' for none;
+    a list or tuple, one value per condition, joined by ' / ')."""
     if value is None:
         return ""
+    if isinstance(value, (list, tuple)):
+        return " / ".join(number(v, digits) for v in value)
     if isinstance(value, float) and math.isnan(value):
         return "-"
     if isinstance(value, float):

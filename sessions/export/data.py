@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from engine.errors import EngineError
-from engine.loop.pole_zero import closed_loop_realization, loop_realization
+from engine.loop.design import closed_loop_realization, design
 from engine.loop.responses import open_loop
 from engine.model.bilinear import realization_in_z
 from sessions.export.design_model import Design, ExportCondition, ExportEntry, not_finite, w_to_z
@@ -101,7 +101,7 @@ def _matrices(A, B, C, D) -> dict:
 def _state_spaces(c: ExportCondition) -> dict:
     """The broken loop's and the closed loop's A, B, C, D (None with the reason, for tables and delays)."""
     try:
-        ss = loop_realization(c.network, c.break_at, c.values)
+        ss = design(c.network, c.values).loop(c.break_at).realization
         closed = closed_loop_realization(c.network, c.break_at, c.values)
     except (EngineError, ValueError, ArithmeticError) as exc:  # LinAlgError is a ValueError
         return {"open_loop": None, "closed_loop": None, "state_space_note": not_finite(exc)}

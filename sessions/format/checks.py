@@ -17,30 +17,27 @@ from engine.stepping.memory_fields import Fields
 from engine.stepping.protocol import State, StepRecord
 from engine.stepping.registry import lookup
 from sessions.errors import SessionError
+from sessions.format.json_diff import location
 from sessions.format.schema import SessionModel
 
 MAX_DEPTH = 64  # levels of JSON nesting a session may have (a real one has about 8)
-
-
-def location(loc: tuple) -> str:
-    """A JSON path as text: ``problem.conditions[0].plant``."""
-    out = ""
-    for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-    return out or "(top)"
 
 
 # the union members pydantic adds to an error's location (value.float, value.list[float])
 PYDANTIC_TAG = re.compile(r"^(float|int|str|bool|none|list\[.*\]|dict\[.*\]|[a-z-]+\[.*\])$")
 
 
-def invalid(exc: ValidationError, root: str = "") -> str:
+def invalid(exc: ValueError, root: str = "", top: str = "(top)") -> str:
     """A pydantic validation error as one line that names where (a JSON path under ``root``)
-    and what, never pydantic's own dump: the first error, and how many more."""
+    and what, never pydantic's own dump: the first error, and how many more.  ``top`` names
+    the place of an error of the whole value ('': what alone, as a form's one value says it);
+    any other ValueError is its own text."""
+    if not isinstance(exc, ValidationError):
+        return str(exc)
     first = exc.errors()[0]
     loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and PYDANTIC_TAG.match(part)))
-    where = location((root,) + loc if root else loc)
-    return f"{where}: {invalid_what(exc)}"
+    where = location((root,) + loc) if root else location(loc) if loc else top
+    return f"{where}: {invalid_what(exc)}" if where else invalid_what(exc)
 
 
 def invalid_what(exc: ValidationError) -> str:

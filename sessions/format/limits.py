@@ -14,6 +14,7 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BeforeValidator, Field
 
+from engine.errors import shortened
 from engine.model.blocks import (
     MAX_TABLE_ROWS as MAX_TABLE_ROWS,  # rows of a table, inline or CSV: the engine's one limit
 )
@@ -48,9 +49,8 @@ def _coefficient(value: Any) -> Any:
         if value.strip().lower() in ("nan", "inf", "-inf", "+inf", "infinity", "-infinity"):
             raise ValueError(f"a coefficient must be finite, not {value!r}")
         if not IDENTIFIER.fullmatch(value):
-            shown = value if len(value) <= 40 else value[:37] + "..."
             raise ValueError(
-                f"a coefficient is a number or a parameter name, not {shown!r} "
+                f"a coefficient is a number or a parameter name, not {shortened(value)!r} "
                 "(an expression belongs in an expression block)"
             )
     elif isinstance(value, bool) or not isinstance(value, (int, float)):

@@ -10,6 +10,7 @@ from typing import Literal, NamedTuple
 
 from engine.errors import EngineError
 from engine.model.expressions import Expression
+from sessions.format.checks import invalid
 from sessions.format.schema import BandModel, PointModel, ResponseModel, SegmentModel
 
 Sense = Literal["at_least", "at_most"] | None
@@ -80,11 +81,8 @@ def _model(cls, **values):
     """A schema model, its validation error turned into a FormError."""
     try:
         return cls(**values)
-    except ValueError as exc:
-        first = exc.errors()[0] if hasattr(exc, "errors") else {"loc": (), "msg": str(exc)}
-        where = ".".join(str(p) for p in first["loc"])
-        message = first["msg"].removeprefix("Value error, ")
-        raise FormError(f"{where}: {message}" if where else message) from None
+    except ValueError as exc:  # pydantic's ValidationError is one
+        raise FormError(invalid(exc, top="")) from None
 
 
 def parse_expression(text: str, variable: str | None, what: str = "expression") -> str:

@@ -29,7 +29,7 @@ from pydantic import ValidationError
 
 from engine.errors import EngineError
 from engine.model.blocks import StateSpaceTransfer
-from sessions.format.checks import invalid_what
+from sessions.format.checks import invalid, invalid_what
 from sessions.format.schema import (
     ControllerBlock,
     ControllerFactorModel,
@@ -163,11 +163,7 @@ def parse_transfer(text: str, variable: str, current=None):
     try:
         return readers[kind](body, variable, current)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"])
-        raise FormError(
-            f"{kind}: {where + ': ' if where else ''}{first['msg'].removeprefix('Value error, ')}"
-        ) from None
+        raise FormError(f"{kind}: {invalid(exc, top='')}") from None
 
 
 def _items(body: str) -> list[tuple[str, str]]:

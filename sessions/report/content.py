@@ -26,12 +26,11 @@ from engine.errors import EngineError
 from engine.model.bilinear import z_transfer
 from engine.model.blocks import ExpressionTransfer
 from engine.stepping.driver import first_record
-from engine.stepping.presenter import tableau_text, tolerant
+from engine.stepping.presenter import number, tableau_text, tolerant
 from engine.stepping.protocol import StepRecord
 from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import registration, stepper
 from sessions.report import design_state, figures
-from sessions.report.design_state import number
 from sessions.store import Session
 from sessions.sweeps.dispersion import PERCENTILE_KEYS
 

@@ -20,6 +20,7 @@ from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
 from engine.model.bilinear import z_transfer
 from engine.model.blocks import ExpressionTransfer
+from engine.stepping.presenter import number
 from engine.stepping.protocol import MeasureRow, StepRecord
 from sessions.new.templates import LOOPCRAFT_VERSION
 from sessions.store import Session
@@ -27,17 +28,6 @@ from sessions.store import Session
 Block = tuple
 BINDS = 1e-6  # relative: a value this near a bound (or a constraint's slack this small) binds
 SETTLED = 1e-6  # a final value this small beside the response's peak is 0: a disturbance rejected
-
-
-def number(x: Any) -> str:
-    """A value as the report writes it: 6 significant digits, '-' for NaN, '' for None."""
-    if x is None:
-        return ""
-    if isinstance(x, (list, tuple)):
-        return " / ".join(number(v) for v in x)
-    if isinstance(x, float):
-        return "-" if math.isnan(x) else f"{x:.6g}"
-    return str(x)
 
 
 def provenance(session: Session, k: int) -> list[Block]:

@@ -12,7 +12,7 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.loop.batch_forms import batch_pole_zero
-from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.design import closed_loop_realization
 from engine.loop.responses import loop_model
 from engine.margins.batch import batch_margins
 from engine.margins.search import margins

@@ -17,8 +17,9 @@ from scipy import integrate
 
 from engine.design.problem import BandValue, Condition, Grid, LinearEquality, Parameter, Problem, Target, TimeResponse
 from engine.errors import EngineError
+from engine.loop.design import closed_loop_realization
 from engine.loop.evaluator import LoopEvaluator
-from engine.loop.pole_zero import closed_loop_realization, zpk_evaluator
+from engine.loop.pole_zero import zpk_evaluator
 from engine.loop.realization import realize
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Block, Junction, block_diagram

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.loop.pole_zero import closed_loop_realization
+from engine.loop.design import closed_loop_realization
 from engine.loop.realization import poles, stability
 from engine.loop.responses import loop_model, open_loop
 from engine.margins.search import margins

@@ -10,7 +10,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from tui.cli.common import CliError, finite_or_none
+from engine.stepping.memory_fields import finite_or_none
+from tui.cli.common import CliError
 
 if TYPE_CHECKING:
     from engine.analysis import LoopAnalysis
@@ -29,7 +30,7 @@ def _peak_json(p) -> dict | None:
             "value": finite_or_none(p.value),
             "unbounded": p.value == math.inf,
             "db": finite_or_none(p.db),
-            "frequency": p.frequency if math.isfinite(p.frequency) else None,
+            "frequency": finite_or_none(p.frequency),
             "at_infinity": p.frequency == math.inf,
             "method": p.method,
             "notes": list(p.notes),

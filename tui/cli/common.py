@@ -4,10 +4,11 @@ algorithm's presenter)."""
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from engine.stepping.memory_fields import finite_or_none
 
 if TYPE_CHECKING:
     from engine.stepping.protocol import MeasureRow, StepRecord
@@ -16,11 +17,6 @@ if TYPE_CHECKING:
 
 class CliError(Exception):
     """Bad input on the command line: printed as one line, exit status 2."""
-
-
-def finite_or_none(x: float | None) -> float | None:
-    """A finite float, else None (JSON has no infinities)."""
-    return None if x is None or not isinstance(x, (int, float)) or not math.isfinite(x) else float(x)
 
 
 def load(file: str) -> Session:

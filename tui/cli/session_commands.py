@@ -11,7 +11,8 @@ import shutil
 import sys
 from pathlib import Path
 
-from tui.cli.common import CliError, design_notes_now, finite_or_none, load, rows_now, summary_json
+from engine.stepping.memory_fields import finite_or_none
+from tui.cli.common import CliError, design_notes_now, load, rows_now, summary_json
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 

@@ -7,10 +7,9 @@ an arrow to its side), the 5th, 50th and 95th percentiles and the worst sample."
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from engine.stepping.memory_fields import finite_or_none
 from tui.figures.axes import finite_points
 from tui.figures.data import Figure, Series, role_style
 
@@ -152,27 +151,18 @@ def _outline(edges: list[float], counts: list[int]) -> tuple[list[float], list[f
 
 def _histogram_marks(fig: Figure, row: dict, top: float, span: tuple[float, float]) -> None:
     """The desired value (when within the drawn span), the percentiles and the worst sample."""
-    desired = _finite(row.get("desired"))
+    desired = finite_or_none(row.get("desired"))
     if desired is not None and span[0] <= desired <= span[1]:
         met = row["unmet_samples"] == 0
         fig.series.append(Series([desired] * 2, [0.0, top], "desired", marker="|", color="green" if met else "red"))
     elif desired is not None:  # the histogram keeps its scale: where the desired value lies is written
         fig.xlabel += f"; desired {desired:.4g} " + ("->" if desired > span[1] else "<-")
-    shown = [(key, _finite(row.get("percentiles", {}).get(key))) for key in ("p5", "p50", "p95")]
+    shown = [(key, finite_or_none(row.get("percentiles", {}).get(key))) for key in ("p5", "p50", "p95")]
     shown = [(key, value) for key, value in shown if value is not None]
     if shown:
         label = "5th, 50th, 95th percentiles"
         fig.series.append(Series([v for _, v in shown], [top * 0.95] * len(shown), label, marker="+", scatter=True))
-    worst = _finite(row.get("worst"))
+    worst = finite_or_none(row.get("worst"))
     if worst is not None:
         label = f"worst: sample {row['worst_sample']}"
         fig.series.append(Series([worst], [top * 0.95], label, marker="x", scatter=True, color="red"))
-
-
-def _finite(value) -> float | None:
-    """A number kept in JSON (infinities as text) as a float when it is finite."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        return None
-    return number if math.isfinite(number) else None

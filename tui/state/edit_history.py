@@ -15,6 +15,9 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+from engine.errors import shortened
+from sessions.format.json_diff import Change, Path, changes
+
 MAX_EDITS = 100  # undo depth: the oldest edit is forgotten beyond it
 BURST = 2.0  # seconds: a nudge of the same item within this joins the previous one's undo step
 
@@ -112,29 +115,41 @@ def _dump(problem_model, algorithm) -> dict:
 def describe_change(before: Any, after: Any, limit: int = 2) -> str | None:
     """The changed values between two JSON-like trees, as 'where: old -> new' (at most
     ``limit`` of them, then how many more); None when they are equal."""
-    changes: list[str] = []
-    _walk(before, after, [], changes)
-    if not changes:
+    found = [_said(change, before) for change in changes(before, after, whole=_shown_whole, absent=None)]
+    if not found:
         return None
-    more = f" (+{len(changes) - limit} more)" if len(changes) > limit else ""
-    return "; ".join(changes[:limit]) + more
+    more = f" (+{len(found) - limit} more)" if len(found) > limit else ""
+    return "; ".join(found[:limit]) + more
 
 
-def _walk(a: Any, b: Any, path: list[str], out: list[str]) -> None:
-    if isinstance(a, dict) and isinstance(b, dict):
-        for key in list(a) + [k for k in b if k not in a]:
-            _walk(a.get(key), b.get(key), path + [str(key)], out)
-    elif isinstance(a, list) and isinstance(b, list) and len(a) == len(b) and not _leafy(a):
-        for k, (x, y) in enumerate(zip(a, b)):
-            _walk(x, y, path + [_item_name(x, k)], out)
-    elif isinstance(a, list) and isinstance(b, list) and not (_leafy(a) and _leafy(b)):
+def _shown_whole(a: Any, b: Any) -> bool:
+    """A list of plain values is compared (and shown) whole."""
+    return isinstance(a, list) and _leafy(a)
+
+
+def _said(change: Change, before: Any) -> str:
+    """A change in the reader's words: a list's items added or removed, else 'where: old -> new'."""
+    a, b, path = change.old, change.new, _names(before, change.path)
+    if isinstance(a, list) and isinstance(b, list) and not (_leafy(a) and _leafy(b)):
         before, after = [_item_name(x, k) for k, x in enumerate(a)], [_item_name(x, k) for k, x in enumerate(b)]
         added = [n for n in after if n not in before] or ([after[-1]] if len(b) > len(a) else [])
         removed = [n for n in before if n not in after] or ([before[-1]] if len(a) > len(b) else [])
         parts = [f"added {', '.join(added)}"] * bool(added) + [f"removed {', '.join(removed)}"] * bool(removed)
-        out.append(f"{path[-1] if path else 'items'}: {'; '.join(parts) or 'reordered'}")
-    elif a != b:
-        out.append(f"{_where(path)}: {_short(a)} -> {_short(b)}")
+        return f"{path[-1] if path else 'items'}: {'; '.join(parts) or 'reordered'}"
+    return f"{_where(path)}: {_short(a)} -> {_short(b)}"
+
+
+def _names(tree: Any, path: Path) -> list[str]:
+    """The path's steps as the reader names them: keys, and list items by their name (or number)."""
+    names = []
+    for step in path:
+        if isinstance(step, int):
+            tree = tree[step]
+            names.append(_item_name(tree, step))
+        else:
+            tree = tree.get(step) if isinstance(tree, dict) else None
+            names.append(str(step))
+    return names
 
 
 def _leafy(items: list) -> bool:
@@ -170,4 +185,4 @@ def _short(value: Any) -> str:
         text = f"{len(value)} fields"
     else:
         text = str(value)
-    return text if len(text) <= 40 else text[:37] + "..."
+    return shortened(text)

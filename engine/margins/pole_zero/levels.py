@@ -12,6 +12,7 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.derived import Form
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.model.paired_product import ProductTerms
 from engine.numerics.fraction_sums import Fractions, poly, polynomial_sum, roots
@@ -21,6 +22,7 @@ UNDAMPED = 1e-9  # |Re r| / |r| at or below which a root is on the imaginary axi
 PROBE_DECADES = 3  # check points from the smallest root / 10**this to the largest * 10**this
 PROBES_PER_DECADE = 2
 UNIT_GAIN_REACH = 1e6  # the check points follow |GH|'s unit-gain asymptotes this far beyond the roots
+LEVELS: Form[LoopLevels | None] = Form("levels")  # kept on a pole-zero form: its margins and peaks share it
 ROUNDING = 8 * np.finfo(float).eps  # a slope's rounding, relative to the sizes it is formed from
 
 
@@ -69,9 +71,7 @@ class LoopLevels:
     def of(form: ZpkEvaluator) -> LoopLevels | None:
         """The loop when the method applies: few roots, none on the imaginary
         axis but at 0, a real nonzero gain (built once per form: kept in its ``derived``)."""
-        if "levels" not in form.derived:
-            form.derived["levels"] = LoopLevels._built(form)
-        return form.derived["levels"]
+        return form.derived.get(LEVELS, lambda: LoopLevels._built(form))
 
     @staticmethod
     def _built(form: ZpkEvaluator) -> LoopLevels | None:
