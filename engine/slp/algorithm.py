@@ -48,12 +48,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.constraints import check_start, project
-from engine.design.measure_kinds import absent_reason
+from engine.design.measure_kinds import Role, absence_role, absent_reason, surrogate_sign
 from engine.errors import EngineError
 from engine.slp.lp import LpResult, solve_step, step_box
 from engine.slp.measures import Spec, absent_row, evaluate, measure_specs
 from engine.slp.memory import SlpMemory, SlpPoint
 from engine.slp.partials import jacobian
+from engine.slp.surrogates import loop_level_db, surrogate_row
 from engine.stepping.guard import check_vector, guarded
 from engine.stepping.protocol import BoundStepper, MeasureRow, State, Status, StepRecord
 
@@ -274,13 +275,22 @@ class Slp(BoundStepper):
         s = self.settings
         signs = np.array([spec.sign for spec in self.specs])
         oriented, gradients = signs * values, signs[:, None] * J
-        absent = np.array([absent_row(spec, v, f) for spec, v, f in zip(self.specs, values, frequencies)], dtype=bool)
-        present = np.isfinite(oriented) & ~absent  # a feature the loop lacks is judged, not steered
+        roles = self._roles(values, frequencies)
+        present = np.isfinite(oriented) & np.array([role == "steered" for role in roles], dtype=bool)
+        for i, role in enumerate(roles):  # an unmet feature the loop lacks: its surrogate's level, toward 0
+            found = (
+                surrogate_row(self.problem, x0, self.specs[i], values[i], s.fd_step) if role == "surrogate" else None
+            )
+            if found is not None:
+                oriented[i], gradients[i] = found[0], found[1]
+                present[i] = True
         rows = [i for i, spec in enumerate(self.specs) if spec.required is not None and present[i]]
-        specs = np.array([self.specs[i].sign * self.specs[i].required for i in rows])
+        specs = np.array(
+            [0.0 if roles[i] == "surrogate" else self.specs[i].sign * self.specs[i].required for i in rows]
+        )
         steps = np.append(np.arange(1.0, 0.0, -s.relaxation_step), 0.0)
         box = step_box(x0, self.lower, self.upper, P, s.step_floor)
-        c = self._objective(values, gradients, present)
+        c = self._objective(values, gradients, present, roles)
         result = solve_step(
             c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps, s.backoff, self.inequalities
         )
@@ -288,13 +298,16 @@ class Slp(BoundStepper):
         duals[rows] = result.duals if result.duals.size == len(rows) else 0.0
         return LpResult(result.dx, result.step, result.solves, result.status, duals)
 
-    def _objective(self, values: NDArray, gradients: NDArray, present: NDArray) -> NDArray:
-        """The LP's objective vector: Y1 (weighted measure gains) or -Y2 (weighted peaks)."""
+    def _objective(self, values: NDArray, gradients: NDArray, present: NDArray, roles: list[Role]) -> NDArray:
+        """The LP's objective vector: Y1 (weighted measure gains) or -Y2 (weighted peaks); a
+        surrogate row's gain is its level's, in dB."""
         c = np.zeros(gradients.shape[1])
         for i, spec in enumerate(self.specs):
             if not present[i] or spec.weight == 0:
                 continue
-            if self.settings.objective == "load_relief":
+            if roles[i] == "surrogate":
+                c += spec.weight * gradients[i]
+            elif self.settings.objective == "load_relief":
                 if spec.kind in LOAD_KINDS:
                     c += spec.weight * spec.scale * gradients[i]
             elif spec.desired is not None:
@@ -314,11 +327,25 @@ class Slp(BoundStepper):
         stable = all(
             v > 0 for spec, v in zip(self.specs, values) if spec.kind == "stability_abscissa" and spec.target is None
         )
-        return Point(np.asarray(x, dtype=float), values, frequencies, int(counter), self._merit(values), stable)
+        merit = self._merit(values, self._judged(values, frequencies))
+        return Point(np.asarray(x, dtype=float), values, frequencies, int(counter), merit, stable)
 
-    def _merit(self, values: NDArray) -> float:
+    def _roles(self, values: NDArray, frequencies: NDArray) -> list[Role]:
+        """Each row's part under the absence rule (`engine.design.measure_kinds.absence_role`)."""
+        return [
+            absence_role(spec.kind, absent_row(spec, v, f), spec.met(v))
+            for spec, v, f in zip(self.specs, values, frequencies)
+        ]
+
+    def _judged(self, values: NDArray, frequencies: NDArray) -> frozenset[int]:
+        """The rows met on a feature the loop lacks: judged only, no term of the figure of merit."""
+        return frozenset(i for i, role in enumerate(self._roles(values, frequencies)) if role == "judged")
+
+    def _merit(self, values: NDArray, judged: frozenset[int] = frozenset()) -> float:
         total = 0.0
-        for spec, v in zip(self.specs, values):
+        for i, (spec, v) in enumerate(zip(self.specs, values)):
+            if i in judged:
+                continue
             if self.settings.objective == "load_relief":
                 if spec.kind in LOAD_KINDS and math.isfinite(v):
                     total += spec.weight * spec.scale * spec.sign * v
@@ -346,9 +373,46 @@ class Slp(BoundStepper):
             return False
         if trial.counter != best.counter:
             return trial.counter > best.counter
-        if not math.isfinite(best.merit):  # -inf (an unstable loop's peak): any finite merit is better
-            return trial.merit > best.merit
-        return trial.merit > best.merit + self.settings.improvement_percent / 100.0 * max(abs(best.merit), 1e-12)
+        trial_merit, best_merit = self._comparable_merits(trial, best)
+        if not math.isfinite(best_merit):  # -inf (an unstable loop's peak): any finite merit is better
+            return trial_merit > best_merit
+        movable = abs(best_merit - self._held_at_cap(trial, best))
+        return trial_merit > best_merit + self.settings.improvement_percent / 100.0 * max(movable, 1e-12)
+
+    def _held_at_cap(self, trial: Point, best: Point) -> float:
+        """The part of the figure of merit from rows at their desired value at both points: a
+        constant of the comparison, left out of the scale of the improvement a tie needs (else a
+        met phase margin, or several conditions' of them, outweighs what a step earns and every
+        trial is refused)."""
+        if self.settings.objective == "load_relief":
+            return 0.0
+        judged = self._judged(trial.values, trial.frequencies) | self._judged(best.values, best.frequencies)
+        total = 0.0
+        for i, spec in enumerate(self.specs):
+            if i in judged or spec.desired is None or spec.weight == 0:
+                continue
+            cap = spec.sign * spec.desired
+            if spec.sign * trial.values[i] >= cap and spec.sign * best.values[i] >= cap:
+                total += spec.weight * spec.scale * cap
+        return total
+
+    def _comparable_merits(self, trial: Point, best: Point) -> tuple[float, float]:
+        """The two points' figures of merit on the same rows: a row judged only at either point
+        (met on a feature one of them lacks) left out of both, and a row steered by its surrogate
+        at both points compared on the surrogate's level (weighted, in dB)."""
+        roles = list(zip(self._roles(trial.values, trial.frequencies), self._roles(best.values, best.frequencies)))
+        judged = frozenset(i for i, pair in enumerate(roles) if "judged" in pair)
+        surrogate = [i for i, pair in enumerate(roles) if pair == ("surrogate", "surrogate")]
+        if judged == self._judged(best.values, best.frequencies) == self._judged(trial.values, trial.frequencies):
+            trial_merit, best_merit = trial.merit, best.merit
+        else:
+            trial_merit, best_merit = self._merit(trial.values, judged), self._merit(best.values, judged)
+        for i in surrogate:
+            spec = self.specs[i]
+            rise = loop_level_db(self.problem, trial.x, spec) - loop_level_db(self.problem, best.x, spec)
+            if math.isfinite(rise):
+                trial_merit += spec.weight * surrogate_sign(best.values[i]) * rise
+        return trial_merit, best_merit
 
     def _feasible_start(self, x: NDArray) -> NDArray:
         """The start moved onto the linear equalities (least change), if it is off them."""
