@@ -74,11 +74,15 @@ def switch_algorithm(session: Session, name: str) -> None:
     forget_records(session)
 
 
-def rebuild(session: Session) -> None:
+def rebuild(session: Session, start_checked: bool = True) -> None:
     """Build the engine problem again from the edited model; the records are dropped.
-    A `SessionError` says why it does not build (the session is unchanged then)."""
+    A `SessionError` says why it does not build (the session is unchanged then);
+    ``start_checked`` False leaves the constraints to the end of a change (`build_problem`)."""
     session.problem = build_problem(
-        session.model.problem, folder(session), allow_outside_tables=session.allow_outside_tables or None
+        session.model.problem,
+        folder(session),
+        allow_outside_tables=session.allow_outside_tables or None,
+        start_checked=start_checked,
     )
     forget_records(session)
 
