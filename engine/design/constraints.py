@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from engine.design.problem import Problem
 
 TOLERANCE = 1e-9  # a row is met when A x - b <= TOLERANCE * its scale (`row_scale`)
+BINDS = 1e-6  # `binding`: a row whose slack is within this (relative) of its scale binds
 SLACK = 1e-12  # `project` leaves a point alone whose rows are met within this (relative)
 PENALTY_WEIGHT = 1e8  # qcg: F (1 + weight * sum (violation / scale)^2)
 PENALTY_MARGIN = 1e-7  # qcg: the violation counts from this far (relative) inside the boundary
@@ -177,6 +178,23 @@ def check_change(problem: Problem, changed: Mapping[str, str]) -> None:
         by = [text for name, text in changed.items() if name in named] or list(dict.fromkeys(changed.values()))
         more = f" (and {len(rows) - 1} more)" if len(rows) > 1 else ""
         raise EngineError(f"{', '.join(dict.fromkeys(by))}: {line}{more}: not set")
+
+
+def binding(problem: Problem, x: NDArray, within: float = BINDS) -> list[str]:
+    """The constraints that bind at ``x``: each row at its bound within ``within`` of its
+    scale (`row_scale`), named as written (``'T1 <= 20*T2' binds``), once per constraint
+    (with its condition where it holds in each)."""
+    rows = inequality_rows(problem)
+    if not rows.b.size:
+        return []
+    slack = rows.b - rows.A @ x
+    scale = row_scale(rows.A, rows.b, x)
+    out = []
+    for r in np.flatnonzero(slack <= within * scale):
+        k, condition = rows.origin[r]
+        where = "" if condition is None else f" in {problem.conditions[condition].name!r}"
+        out.append(f"{problem.inequalities[k].label!r} binds{where}")
+    return list(dict.fromkeys(out))
 
 
 def check_start(problem: Problem, x: NDArray, who: str) -> None:

@@ -245,8 +245,9 @@ class Slp(BoundStepper):
         best, base = _point_from(memory.best), _point_from(memory.base)
         s = self.settings
         improved = not np.array_equal(best.x, base.x)
-        if improved and self._complete(best):
-            return Status.CONVERGED, "every requirement met and every desired value reached", best, memory
+        if self._complete(best):  # not improved: complete at the start, nothing to reward
+            reached = "every requirement met and every desired value reached" + ("" if improved else " at the start")
+            return Status.CONVERGED, reached, best, memory
         if not improved:
             return (
                 Status.NO_IMPROVEMENT,

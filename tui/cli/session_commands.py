@@ -11,7 +11,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from tui.cli.common import CliError, design_notes_now, finite_or_none, load, rows_now, summary_json
+from tui.cli.common import CliError, design_notes_now, finite_or_none, load, rows_now, stop_notes_now, summary_json
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
@@ -67,6 +67,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         status = "not started" if record is None else record.status.value
         print(f"{session.model.algorithm.name}: iteration {session.model.current_iteration}, {status}")
         print(tableau_text(rows, session.problem.grid.unit))
+        if record is not None and record.reason:
+            print(f"stopped: {record.reason}" if record.status.finished else f"last step: {record.reason}")
+        print("".join(f"stop: {n}\n" for n in stop_notes_now(session)), end="")
         print("".join(f"note: {n}\n" for n in design_notes_now(session)), end="")
     return 0
 
