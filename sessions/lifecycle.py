@@ -22,6 +22,7 @@ from sessions.format.save_file import real_path
 from sessions.format.schema import AlgorithmModel
 from sessions.hand_history import keep_run, note_edit
 from sessions.store import Session
+from sessions.target_use import JudgedAside, read_targets
 
 
 def folder(session: Session) -> Path:
@@ -52,7 +53,9 @@ def bind(model: AlgorithmModel, problem: Problem) -> tuple[Registration, Stepper
         settings = make_settings(model.name, model.settings)
     except (EngineError, TypeError) as exc:
         raise SessionError(f"algorithm: {exc}") from None
-    return found, found.bind(problem, settings)
+    read, aside = read_targets(found, problem)
+    bound = found.bind(read, settings)
+    return found, bound if aside is None else JudgedAside(bound, aside)
 
 
 def forget_records(session: Session) -> None:

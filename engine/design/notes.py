@@ -110,7 +110,7 @@ def stop_notes(problem: Problem, status: Status, values: dict, rows: Sequence[Me
     if not status.finished or status is Status.FAILED:
         return []
     unmet = [row for row in rows if not row.satisfied]
-    if not unmet and all(_reached(row) for row in rows):
+    if not unmet and status is Status.CONVERGED and all(_reached(row) for row in rows):
         return [POLISH]
     if status not in STALLED:
         return []

@@ -184,7 +184,7 @@ class Slp(BoundStepper):
                 f"{len(self.specs)} x {len(x0)} (the stored state belongs to another problem)"
             )
         P = float(memory.P)
-        lp = self._program(x0, base.values, base.frequencies, J, P)
+        lp = self._program(x0, base.values, base.frequencies, J, P, memory.capped)
         trial, reason = self._trial(x0, lp)
         better = trial is not None and self._better(trial, _point_from(memory.best))
         memory = replace(
@@ -248,10 +248,20 @@ class Slp(BoundStepper):
         if self._complete(best):  # not improved: complete at the start, nothing to reward
             reached = "every requirement met and every desired value reached" + ("" if improved else " at the start")
             return Status.CONVERGED, reached, best, memory
+        if not improved and self._retry_capped(memory, best):
+            memory = replace(memory, major=memory.major + 1, minor=0, P=s.initial_step, P_failed=None, capped=True)
+            retry = "retry with the objective capped at the desired values (rows past theirs left out)"
+            return (
+                Status.RUNNING,
+                f"major iteration {memory.major - 1} found no better point ({why}); {retry}",
+                None,
+                memory,
+            )
         if not improved:
+            rule = f"a trial must meet more requirements or raise the figure of merit by {s.improvement_percent:g} %"
             return (
                 Status.NO_IMPROVEMENT,
-                f"major iteration {memory.major} found no better point ({why})",
+                f"major iteration {memory.major} found no better point ({why}; {rule})",
                 best,
                 memory,
             )
@@ -270,9 +280,24 @@ class Slp(BoundStepper):
         )
         return Status.RUNNING, reason or f"relinearize at the best point ({why})", None, memory
 
+    def _retry_capped(self, memory: SlpMemory, best: Point) -> bool:
+        """Whether a major iteration that found nothing better is tried again with the objective
+        capped: once, with requirements unmet.  The report's Y1 rewards every row, a phase margin
+        far past its desired value too, which the figure of merit (capped) does not: the LP heads
+        where no trial is better, and an unmet crossover is given up."""
+        unmet = best.counter < sum(spec.required is not None for spec in self.specs)
+        return (
+            unmet
+            and not memory.capped
+            and self.settings.objective == "margins"
+            and memory.major < self.settings.max_major
+        )
+
     # -- the linear program ------------------------------------------------
 
-    def _program(self, x0: NDArray, values: NDArray, frequencies: NDArray, J: NDArray, P: float) -> LpResult:
+    def _program(
+        self, x0: NDArray, values: NDArray, frequencies: NDArray, J: NDArray, P: float, capped: bool = False
+    ) -> LpResult:
         s = self.settings
         signs = np.array([spec.sign for spec in self.specs])
         oriented, gradients = signs * values, signs[:, None] * J
@@ -291,7 +316,7 @@ class Slp(BoundStepper):
         )
         steps = np.append(np.arange(1.0, 0.0, -s.relaxation_step), 0.0)
         box = step_box(x0, self.lower, self.upper, P, s.step_floor)
-        c = self._objective(values, gradients, present, roles)
+        c = self._objective(values, gradients, present, roles, capped)
         result = solve_step(
             c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps, s.backoff, self.inequalities
         )
@@ -299,9 +324,12 @@ class Slp(BoundStepper):
         duals[rows] = result.duals if result.duals.size == len(rows) else 0.0
         return LpResult(result.dx, result.step, result.solves, result.status, duals)
 
-    def _objective(self, values: NDArray, gradients: NDArray, present: NDArray, roles: list[Role]) -> NDArray:
+    def _objective(
+        self, values: NDArray, gradients: NDArray, present: NDArray, roles: list[Role], capped: bool
+    ) -> NDArray:
         """The LP's objective vector: Y1 (weighted measure gains) or -Y2 (weighted peaks); a
-        surrogate row's gain is its level's, in dB."""
+        surrogate row's gain is its level's, in dB; ``capped``: rows past their desired value
+        left out (`_retry_capped`)."""
         c = np.zeros(gradients.shape[1])
         for i, spec in enumerate(self.specs):
             if not present[i] or spec.weight == 0:
@@ -311,7 +339,7 @@ class Slp(BoundStepper):
             elif self.settings.objective == "load_relief":
                 if spec.kind in LOAD_KINDS:
                     c += spec.weight * spec.scale * gradients[i]
-            elif spec.desired is not None:
+            elif spec.desired is not None and not (capped and spec.sign * values[i] >= spec.sign * spec.desired):
                 c += w1(spec, values[i]) * spec.weight * spec.scale * gradients[i]
         return c
 
@@ -374,6 +402,9 @@ class Slp(BoundStepper):
             return False
         if trial.counter != best.counter:
             return trial.counter > best.counter
+        if not (best.stable or trial.stable):  # two unstable loops: the one nearer stability is better
+            nearer, now = self._stability(trial), self._stability(best)
+            return nearer > now + self.settings.improvement_percent / 100.0 * max(abs(now), 1e-12)
         trial_merit, best_merit = self._comparable_merits(trial, best)
         if not math.isfinite(best_merit):  # -inf (an unstable loop's peak): any finite merit is better
             return trial_merit > best_merit
@@ -396,6 +427,13 @@ class Slp(BoundStepper):
             if spec.sign * trial.values[i] >= cap and spec.sign * best.values[i] >= cap:
                 total += spec.weight * spec.scale * cap
         return total
+
+    def _stability(self, point: Point) -> float:
+        """The least stability abscissa of the point's conditions (`require_stable`'s rows)."""
+        rows = [
+            v for spec, v in zip(self.specs, point.values) if spec.kind == "stability_abscissa" and spec.target is None
+        ]
+        return float(min(rows, default=math.inf))
 
     def _comparable_merits(self, trial: Point, best: Point) -> tuple[float, float]:
         """The two points' figures of merit on the same rows: a row judged only at either point
