@@ -69,8 +69,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(tableau_text(rows, session.problem.grid.unit))
         if record is not None and record.reason:
             print(f"stopped: {record.reason}" if record.status.finished else f"last step: {record.reason}")
-        print("".join(f"stop: {n}\n" for n in stop_notes_now(session)), end="")
-        print("".join(f"note: {n}\n" for n in design_notes_now(session)), end="")
+        stops = stop_notes_now(session)
+        print("".join(f"stop: {n}\n" for n in stops), end="")
+        print("".join(f"note: {n}\n" for n in design_notes_now(session) if n not in stops), end="")
     return 0
 
 
