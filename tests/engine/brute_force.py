@@ -58,6 +58,9 @@ class Plant:
 
 @dataclass
 class SmallProblem:
+    """A drawn problem: its compensator template, plants (one per condition) and targets; the
+    free parameters' names once its session is made."""
+
     seed: int
     compensator: str
     plants: list[Plant]
