@@ -73,3 +73,12 @@ def test_an_iteration_limit_says_so_with_what_is_unmet(tmp_path, capsys, limit):
     code, out, _ = _run(capsys, "run", str(path), "--until-done", "--set", f"max_major={limit}")
     assert code == 0 and "iteration limit" in out.splitlines()[0]
     assert f"stopped: major-iteration limit ({limit})" in out and "stop: unmet: WC1" in out
+
+
+def test_a_stalled_run_names_the_requirement_that_holds_it(tmp_path, capsys):
+    # K/(s(s+1)): PM >= 45 deg caps the crossover at 1 rad/s (PM = 90 - atan(wc)), asked for 1
+    targets = [_target("phase_margin_deg", 45.0), _target("crossover_frequency", 1.0)]
+    path = _session(tmp_path, capsys, "gain", {"K": 0.05}, targets, {"K": (0.01, 10.0)})
+    code, out, _ = _run(capsys, "run", str(path), "--until-done")
+    assert code == 0 and "stop: holds: PM1 (phase_margin_deg, nominal) 45." in out
+    assert "at its requirement 45" in out and "stop: unmet: WC1" in out

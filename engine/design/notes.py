@@ -23,6 +23,7 @@ from engine.margins.search import margins
 from engine.model.blocks import ExpressionTransfer
 from engine.stepping.protocol import MeasureRow, Status
 
+HOLDING = 0.02  # a met requirement this close (relative) to its bound holds a stalled run back (slp's LP keeps 1 %)
 STALLED = (Status.NO_IMPROVEMENT, Status.STEP_BELOW_MINIMUM, Status.INFEASIBLE, Status.ITERATION_LIMIT)
 POLISH = (
     "every desired value reached: raise one to polish further "
@@ -114,9 +115,21 @@ def stop_notes(problem: Problem, status: Status, values: dict, rows: Sequence[Me
         return [POLISH]
     if status not in STALLED:
         return []
-    notes = binding(problem, problem.vector_from(values)) + [f"{note}" for note in at_bounds(problem, values)]
+    notes = binding(problem, problem.vector_from(values)) + at_bounds(problem, values)
+    notes += [f"holds: {_row_text(row)} at its requirement {row.desired:.6g}" for row in rows if _holding(row)]
     notes += [f"unmet: {_unmet_text(row)}" for row in unmet]
     return notes
+
+
+def _holding(row: MeasureRow) -> bool:
+    """A met requirement within `HOLDING` of its bound: one that holds the design back."""
+    if not row.satisfied or row.desired is None or not math.isfinite(row.value) or not math.isfinite(row.desired):
+        return False
+    return abs(row.value - row.desired) <= HOLDING * max(abs(row.desired), 1e-9)
+
+
+def _row_text(row: MeasureRow) -> str:
+    return f"{row.name} ({row.kind}, {row.condition}) {row.value:.6g}"
 
 
 def _reached(row: MeasureRow) -> bool:
@@ -128,5 +141,4 @@ def _reached(row: MeasureRow) -> bool:
 
 
 def _unmet_text(row: MeasureRow) -> str:
-    sense = "<" if row.at_least else ">"
-    return f"{row.name} ({row.kind}, {row.condition}) {row.value:.6g} {sense} {row.desired:.6g}"
+    return f"{_row_text(row)} {'<' if row.at_least else '>'} {row.desired:.6g}"
