@@ -58,20 +58,24 @@ class Plant:
 
 @dataclass
 class SmallProblem:
-    """A drawn problem: its compensator template, plants (one per condition) and targets; the
-    free parameters' names once its session is made."""
+    """A problem: its compensator template, plants (one per condition) and targets, the start
+    values and bounds that differ from the template's start and `BOX`; the free parameters'
+    names once its session is made."""
 
     seed: int
     compensator: str
     plants: list[Plant]
     targets: list[dict]
+    start: dict[str, float] = field(default_factory=dict)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
     names: list[str] = field(default_factory=list)
 
     def session(self) -> Session:
         data = new_session(self.plants[0].expression(), self.compensator, "slp")
         problem = data["problem"]
         for p in problem["parameters"]:
-            p["min"], p["max"] = BOX
+            p["min"], p["max"] = self.bounds.get(p["name"], BOX)
+            p["value"] = self.start.get(p["name"], p["value"])
         first = problem["conditions"][0]
         for k, plant in enumerate(self.plants[1:], start=2):
             other = json.loads(json.dumps(first))
