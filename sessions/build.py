@@ -94,17 +94,20 @@ def outside_tables_allowed(allowed: bool = True) -> Iterator[None]:
         _OUTSIDE_ALLOWED.reset(token)
 
 
-def build_problem(model: ProblemModel, folder: Path, *, allow_outside_tables: bool | None = None) -> Problem:
+def build_problem(
+    model: ProblemModel, folder: Path, *, allow_outside_tables: bool | None = None, start_checked: bool = True
+) -> Problem:
     """The engine problem of a session; errors name their JSON path.  Tables outside
     ``folder`` are refused unless ``allow_outside_tables`` (None: as the enclosing
-    `outside_tables_allowed` says; refused by default)."""
+    `outside_tables_allowed` says; refused by default).  ``start_checked`` False: the start is
+    not checked against the constraints (a change under way, checked as a whole at its end)."""
     if allow_outside_tables is None:
-        return _build_problem(model, folder)
+        return _build_problem(model, folder, start_checked)
     with outside_tables_allowed(allow_outside_tables):
-        return _build_problem(model, folder)
+        return _build_problem(model, folder, start_checked)
 
 
-def _build_problem(model: ProblemModel, folder: Path) -> Problem:
+def _build_problem(model: ProblemModel, folder: Path, start_checked: bool) -> Problem:
     conditions = tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
     parameters = tuple(
         _parameter(p, f"problem.parameters[{i}]", len(conditions)) for i, p in enumerate(model.parameters)
@@ -137,7 +140,8 @@ def _build_problem(model: ProblemModel, folder: Path) -> Problem:
         )
     except EngineError as exc:
         raise engine_error(exc) from None
-    check_start(problem)
+    if start_checked:
+        check_start(problem)
     return problem
 
 

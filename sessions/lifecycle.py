@@ -22,6 +22,7 @@ from sessions.format.save_file import real_path
 from sessions.format.schema import AlgorithmModel
 from sessions.hand_history import keep_run, note_edit
 from sessions.store import Session
+from sessions.target_use import JudgedAside, read_targets
 
 
 def folder(session: Session) -> Path:
@@ -52,7 +53,9 @@ def bind(model: AlgorithmModel, problem: Problem) -> tuple[Registration, Stepper
         settings = make_settings(model.name, model.settings)
     except (EngineError, TypeError) as exc:
         raise SessionError(f"algorithm: {exc}") from None
-    return found, found.bind(problem, settings)
+    read, aside = read_targets(found, problem)
+    bound = found.bind(read, settings)
+    return found, bound if aside is None else JudgedAside(bound, aside)
 
 
 def forget_records(session: Session) -> None:
@@ -74,11 +77,15 @@ def switch_algorithm(session: Session, name: str) -> None:
     forget_records(session)
 
 
-def rebuild(session: Session) -> None:
+def rebuild(session: Session, start_checked: bool = True) -> None:
     """Build the engine problem again from the edited model; the records are dropped.
-    A `SessionError` says why it does not build (the session is unchanged then)."""
+    A `SessionError` says why it does not build (the session is unchanged then);
+    ``start_checked`` False leaves the constraints to the end of a change (`build_problem`)."""
     session.problem = build_problem(
-        session.model.problem, folder(session), allow_outside_tables=session.allow_outside_tables or None
+        session.model.problem,
+        folder(session),
+        allow_outside_tables=session.allow_outside_tables or None,
+        start_checked=start_checked,
     )
     forget_records(session)
 

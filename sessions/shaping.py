@@ -2,21 +2,26 @@
 `loopcraft tune`): the design on screen (the current iteration's, else the start)
 becomes the start (the run that led there kept, and the change noted as a hand move:
 `sessions.hand_history`), then named parameters are set or scaled, or the loop gain is
-solved for a crossover frequency or a phase margin (`engine.design.gain_solves`).  Bounds are
-respected: a value outside its parameter's bounds is refused, naming them."""
+solved for a crossover frequency or a phase margin (`engine.design.gain_solves`).  A command's
+assignments are one change: bounds and constraints are checked once, on the design it asks for
+(`committed`); a refusal names the assignment and the bound or constraint, and changes nothing."""
 
 from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
+from engine.design.constraints import check_change
 from engine.design.gain_solves import GainSolution, gain_for
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
+from sessions.format.schema import ProblemModel
 from sessions.hand_history import note_edit, value_text
 from sessions.lifecycle import adopt_current, rebuild
 from sessions.store import Session
@@ -54,21 +59,46 @@ class Assignment:
 
 def assign(session: Session, assignments: list[Assignment]) -> list[str]:
     """Make the design on screen the start, then set or scale the named parameters (every
-    condition's value of a per-condition one); what changed, one line each."""
+    condition's value of a per-condition one), the assignments one change: bounds and
+    constraints checked once, at its end (`committed`); what changed, one line each."""
     adopt_current(session)
     before = session.model.problem.model_copy(deep=True)
-    lines = []
-    for item in assignments:
-        if "." in item.name:
-            lines.append(_move(session, item))
-        else:
-            lines.append(_set(session, item.name, lambda v, item=item: v * item.value if item.scale else item.value))
-        rebuild(session)  # the next assignment reads the values this one set
+    lines: list[str] = []
+    changed: dict[str, str] = {}
+    with committed(session, before, changed):
+        for item in assignments:
+            if "." in item.name:
+                line, names = _move(session, item)
+            else:
+                line = _set(session, item.name, lambda v, item=item: v * item.value if item.scale else item.value)
+                names = [item.name]
+            lines.append(line)
+            changed.update(dict.fromkeys(names, written(item)))
+            rebuild(session, start_checked=False)  # the next assignment reads the values this one set
     note_edit(session, before)
     return lines
 
 
-def _move(session: Session, assignment: Assignment) -> str:
+def written(item: Assignment) -> str:
+    """An assignment as a command line writes it (``T1=3``, ``K*=2``)."""
+    return f"{item.name}{'*=' if item.scale else '='}{item.value:g}"
+
+
+@contextmanager
+def committed(session: Session, before: ProblemModel, changed: dict[str, str]) -> Iterator[None]:
+    """A hand change as one transaction: the body changes the model (rebuilt without the start's
+    check); at its end the whole change is checked once (`engine.design.constraints.check_change`:
+    bounds and constraints, naming the assignment).  A refusal puts ``before`` back."""
+    try:
+        yield
+        check_change(session.problem, changed)
+    except (SessionError, EngineError) as exc:
+        session.model.problem = before.model_copy(deep=True)
+        rebuild(session)
+        raise SessionError(str(exc)) from None
+
+
+def _move(session: Session, assignment: Assignment) -> tuple[str, list[str]]:
     """Move a compensator's item (``BLOCK.ITEM[.zeta]``) of the first condition by solving
     for the parameters that own it (`compensator_moves.move_named`), within its bounds."""
     from engine.design.compensator_moves import move_named
@@ -83,7 +113,7 @@ def _move(session: Session, assignment: Assignment) -> str:
     except EngineError as exc:
         raise SessionError(str(exc)) from None
     lines = [_set(session, name, lambda v, value=value: value, 0) for name, value in move.values.items()]
-    return f"{assignment.name}: {move.now:.6g} -> {move.target:.6g} ({'; '.join(lines)})"
+    return f"{assignment.name}: {move.now:.6g} -> {move.target:.6g} ({'; '.join(lines)})", list(move.values)
 
 
 def tune(session: Session, goal: str, target: float, parameter: str | None, condition: int) -> tuple[GainSolution, str]:
@@ -93,8 +123,9 @@ def tune(session: Session, goal: str, target: float, parameter: str | None, cond
     adopt_current(session)
     before = session.model.problem.model_copy(deep=True)
     name, solution = solved_gain(session, condition, goal, target, parameter)
-    line = _set(session, name, lambda v: v * solution.factor, condition)
-    rebuild(session)
+    with committed(session, before, {name: f"--gain-for {goal}={target:g}"}):
+        line = _set(session, name, lambda v: v * solution.factor, condition)
+        rebuild(session, start_checked=False)
     note_edit(session, before)
     return solution, line
 
@@ -119,8 +150,8 @@ def solved_gain(
 
 
 def _set(session: Session, name: str, change, condition: int | None = None) -> str:
-    """Change a parameter's start value (each condition's, or one condition's), within
-    its bounds: the line that says what changed."""
+    """Change a parameter's start value (each condition's, or one condition's), its bounds
+    checked with the whole change (`committed`): the line that says what changed."""
     parameters = {p.name: p for p in session.model.problem.parameters}
     if name not in parameters:
         raise SessionError(f"{name}: no such parameter; the session has {', '.join(parameters)}")
@@ -130,8 +161,6 @@ def _set(session: Session, name: str, change, condition: int | None = None) -> s
         new = [change(v) if condition in (None, k) else v for k, v in enumerate(old)]
     else:
         new = change(old)
-    for v in new if isinstance(new, list) else [new]:
-        _check_bounds(name, v, p.min, p.max)
     p.value = new
     return f"{name}: {value_text(old)} -> {value_text(new)}"
 
@@ -165,10 +194,3 @@ def _scales(session: Session, condition: int, values: dict[str, float], name: st
         return False
     with np.errstate(all="ignore"):
         return bool(np.all(np.abs(after / before - 2.0) < LINEAR * 2))
-
-
-def _check_bounds(name: str, value: float, low: float | None, high: float | None) -> None:
-    if low is not None and value < low:
-        raise SessionError(f"{name} = {value:.6g} is below its bound {low:g} (min): not set")
-    if high is not None and value > high:
-        raise SessionError(f"{name} = {value:.6g} is above its bound {high:g} (max): not set")

@@ -170,3 +170,29 @@ def test_a_damping_is_a_pairs_alone(lead, capsys):
     before = lead.read_text()
     code, _, err = _run(capsys, "set", str(lead), "compensator.gain.zeta=0.5")
     assert code == 2 and "the gain has no damping" in err and lead.read_text() == before
+
+
+@pytest.mark.parametrize("order", [["T1=3", "T2=0.3"], ["T2=0.3", "T1=3"]])
+def test_set_checks_its_assignments_as_one_change(lead, capsys, order):
+    """Issue 51, section 4: the template holds T1 <= 20*T2 (T1 = 1, T2 = 0.1 at the start);
+    T1 = 3 alone breaks it, T1 = 3 with T2 = 0.3 does not: either order is the same change."""
+    code, out, err = _run(capsys, "set", str(lead), *order)
+    values = {p["name"]: p["value"] for p in json.loads(lead.read_text())["problem"]["parameters"]}
+    assert code == 0, err
+    assert values["T1"] == 3.0 and values["T2"] == 0.3
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["T1=30", "T2=0.3"], "T1=30, T2=0.3: constraints[0] 'T1 <= 20*T2' is not met after the change"),
+        (["T2=0.3", "T1=30"], "T2=0.3, T1=30: constraints[0] 'T1 <= 20*T2' is not met after the change"),
+        (["T2=2", "T1=0.05"], "T2=2, T1=0.05: constraints[1] 'T2 <= 20*T1' is not met after the change"),
+        (["T2=0.3", "T1=1e9"], "T1=1e+09: T1 = 1e+09 is above its bound 10000 (max): not set"),
+    ],
+)
+def test_a_change_that_breaks_a_constraint_names_it_and_changes_nothing(lead, capsys, args, message):
+    saved = lead.read_bytes()
+    code, _, err = _run(capsys, "set", str(lead), *args)
+    assert code == 2 and message in err and "Traceback" not in err
+    assert lead.read_bytes() == saved

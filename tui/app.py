@@ -558,7 +558,7 @@ class LoopcraftApp(App):
 
         def summary(name: str, text: str) -> str:
             count = len(unusable_targets(measures, name)) if lookup(name).targets.reads else 0
-            return f"{text} [refuses {count} of the targets]" if count else text
+            return f"{text} [{count} of the targets judged only]" if count else text
 
         choices = [(name, summary(name, registration.summary)) for name, registration in registrations().items()]
         if self.bench.algorithm_name not in dict(choices):  # a plug-in not installed, or no name at all

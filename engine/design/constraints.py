@@ -16,6 +16,7 @@ adds to its cost (`penalty`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -28,6 +29,7 @@ if TYPE_CHECKING:
     from engine.design.problem import Problem
 
 TOLERANCE = 1e-9  # a row is met when A x - b <= TOLERANCE * its scale (`row_scale`)
+BINDS = 1e-6  # `binding`: a row whose slack is within this (relative) of its scale binds
 SLACK = 1e-12  # `project` leaves a point alone whose rows are met within this (relative)
 PENALTY_WEIGHT = 1e8  # qcg: F (1 + weight * sum (violation / scale)^2)
 PENALTY_MARGIN = 1e-7  # qcg: the violation counts from this far (relative) inside the boundary
@@ -131,6 +133,11 @@ def row_scale(A: NDArray, b: NDArray, x: NDArray) -> NDArray:
 def unmet(problem: Problem, x: NDArray, when: str = "") -> list[str]:
     """A line for every row not met at ``x`` (within `TOLERANCE`), naming its constraint
     (``when``, e.g. " at the start", follows "is not met")."""
+    return [line for _, line in violations(problem, x, when)]
+
+
+def violations(problem: Problem, x: NDArray, when: str = "") -> list[tuple[int, str]]:
+    """`unmet`'s lines, each with the index of its inequality."""
     rows = inequality_rows(problem)
     if not rows.b.size:
         return []
@@ -143,10 +150,51 @@ def unmet(problem: Problem, x: NDArray, when: str = "") -> list[str]:
         inequality = problem.inequalities[k]
         left = rows.A[r] @ x + (inequality.bound - rows.b[r])
         out.append(
-            f"constraints[{k}] {inequality.label!r} is not met{where}{when}: violated by {excess[r]:.3g} "
-            f"(as {inequality.normal}, the left side is {left:.6g})"
+            (
+                k,
+                f"constraints[{k}] {inequality.label!r} is not met{where}{when}: violated by {excess[r]:.3g} "
+                f"(as {inequality.normal}, the left side is {left:.6g})",
+            )
         )
     return out
+
+
+def check_change(problem: Problem, changed: Mapping[str, str]) -> None:
+    """A change of parameters' values (a command's assignments, an edit's fields) checked once,
+    as a whole, at the problem's new start: every value within its bounds, every linear
+    constraint met.  ``changed``: each changed parameter's name -> the assignment that changed
+    it; an `EngineError` names the assignment and the bound or the constraint."""
+    for p in problem.parameters:
+        for value in p.value if p.per_condition else (p.value,):
+            side = "below" if value < p.lower() else "above" if value > p.upper() else ""
+            if side:
+                bound, which = (p.lower(), "min") if side == "below" else (p.upper(), "max")
+                where = changed.get(p.name, p.name)
+                raise EngineError(f"{where}: {p.name} = {value:.6g} is {side} its bound {bound:g} ({which}): not set")
+    rows = violations(problem, problem.vector(), " after the change")
+    if rows:
+        k, line = rows[0]
+        named = {name for name, _, _ in problem.inequalities[k].terms}
+        by = [text for name, text in changed.items() if name in named] or list(dict.fromkeys(changed.values()))
+        more = f" (and {len(rows) - 1} more)" if len(rows) > 1 else ""
+        raise EngineError(f"{', '.join(dict.fromkeys(by))}: {line}{more}: not set")
+
+
+def binding(problem: Problem, x: NDArray, within: float = BINDS) -> list[str]:
+    """The constraints that bind at ``x``: each row at its bound within ``within`` of its
+    scale (`row_scale`), named as written (``'T1 <= 20*T2' binds``), once per constraint
+    (with its condition where it holds in each)."""
+    rows = inequality_rows(problem)
+    if not rows.b.size:
+        return []
+    slack = rows.b - rows.A @ x
+    scale = row_scale(rows.A, rows.b, x)
+    out = []
+    for r in np.flatnonzero(slack <= within * scale):
+        k, condition = rows.origin[r]
+        where = "" if condition is None else f" in {problem.conditions[condition].name!r}"
+        out.append(f"{problem.inequalities[k].label!r} binds{where}")
+    return list(dict.fromkeys(out))
 
 
 def check_start(problem: Problem, x: NDArray, who: str) -> None:

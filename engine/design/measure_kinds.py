@@ -176,6 +176,30 @@ def absent_reason(name: str, value: float) -> str | None:
     return found[1] if found is not None and found[0] == value else None
 
 
+# How an algorithm treats a row whose feature the loop lacks (the absence rule, every algorithm's):
+# met and absent, it is judged only (no constraint row, no figure-of-merit term, never blocks a
+# step); unmet and absent, it is steered by its surrogate where it has one (a crossover: the
+# loop's log |GH(j omega_desired)| toward 0 dB, up from below when |GH| < 1 everywhere, down
+# from above when |GH| > 1 everywhere), else judged; a present row is steered on its value.
+Role = Literal["steered", "judged", "surrogate"]
+SURROGATES: dict[str, str] = {"crossover_frequency": "log|GH(j omega_desired)| toward 0 dB"}
+
+
+def absence_role(name: str, absent: bool, is_met: bool) -> Role:
+    """The absence rule above: how an algorithm treats a row of measure ``name``."""
+    if not absent:
+        return "steered"
+    if is_met or name not in SURROGATES:
+        return "judged"
+    return "surrogate"
+
+
+def surrogate_sign(value: float) -> float:
+    """The direction a crossover's surrogate log |GH(j omega_desired)| must move to create
+    the crossing: up (+1) from its absence below (value 0), down (-1) from above (value inf)."""
+    return 1.0 if value == NO_CROSSOVER["below"][0] else -1.0
+
+
 def met(value: float, desired: float | None, at_least: bool) -> bool:
     """The one verdict: no requirement is met; a NaN (an error, an undefined measure) never is."""
     if desired is None:

@@ -11,14 +11,24 @@ workbench's status and the sweep's optima list these notes beside the verdict.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from engine.design.constraints import binding
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.search import margins
 from engine.model.blocks import ExpressionTransfer
+from engine.stepping.protocol import MeasureRow, Status
+
+HOLDING = 0.02  # a met requirement this close (relative) to its bound holds a stalled run back (slp's LP keeps 1 %)
+STALLED = (Status.NO_IMPROVEMENT, Status.STEP_BELOW_MINIMUM, Status.INFEASIBLE, Status.ITERATION_LIMIT)
+POLISH = (
+    "every desired value reached: raise one to polish further "
+    "(Targets tab: 3, then e on a target, e.g. a band '55 / 45'; in the JSON, a band's desired)"
+)
 
 AT_BOUND = 1e-6  # relative distance to a bound within which a parameter is "at" it
 
@@ -91,3 +101,44 @@ def _high_frequency_gain(num: np.ndarray, den: np.ndarray) -> float:
     if num.size > den.size:
         return math.inf
     return abs(num[0] / den[0])
+
+
+def stop_notes(problem: Problem, status: Status, values: dict, rows: Sequence[MeasureRow]) -> list[str]:
+    """Why a run stopped where it did, in words and data, beside the algorithm's own reason:
+    every requirement met and every desired value reached (what to do to polish further); or,
+    for a run that found no better step or ran out of iterations, the constraints that bind
+    and the parameters held at a bound at its last design, and the requirements unmet."""
+    if not status.finished or status is Status.FAILED:
+        return []
+    unmet = [row for row in rows if not row.satisfied]
+    if not unmet and status is Status.CONVERGED and all(_reached(row) for row in rows):
+        return [POLISH]
+    if status not in STALLED:
+        return []
+    notes = binding(problem, problem.vector_from(values)) + at_bounds(problem, values)
+    notes += [f"holds: {_row_text(row)} at its requirement {row.desired:.6g}" for row in rows if _holding(row)]
+    notes += [f"unmet: {_unmet_text(row)}" for row in unmet]
+    return notes
+
+
+def _holding(row: MeasureRow) -> bool:
+    """A met requirement within `HOLDING` of its bound: one that holds the design back."""
+    if not row.satisfied or row.desired is None or not math.isfinite(row.value) or not math.isfinite(row.desired):
+        return False
+    return abs(row.value - row.desired) <= HOLDING * max(abs(row.desired), 1e-9)
+
+
+def _row_text(row: MeasureRow) -> str:
+    return f"{row.name} ({row.kind}, {row.condition}) {row.value:.6g}"
+
+
+def _reached(row: MeasureRow) -> bool:
+    if row.desired is None:
+        return True
+    if math.isnan(row.value):
+        return False
+    return row.value >= row.desired if row.at_least else row.value <= row.desired
+
+
+def _unmet_text(row: MeasureRow) -> str:
+    return f"{_row_text(row)} {'<' if row.at_least else '>'} {row.desired:.6g}"

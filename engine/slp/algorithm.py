@@ -40,6 +40,7 @@ LP (lp.py) and a trial is x0 + dx projected onto them and the bounds
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, replace
 from typing import ClassVar, Literal
@@ -47,13 +48,14 @@ from typing import ClassVar, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.design.constraints import check_start, project
-from engine.design.measure_kinds import absent_reason
+from engine.design.constraints import check_start, project, unmet
+from engine.design.measure_kinds import Role, absence_role, absent_reason, surrogate_sign
 from engine.errors import EngineError
 from engine.slp.lp import LpResult, solve_step, step_box
 from engine.slp.measures import Spec, absent_row, evaluate, measure_specs
 from engine.slp.memory import SlpMemory, SlpPoint
 from engine.slp.partials import jacobian
+from engine.slp.surrogates import loop_level_db, surrogate_row
 from engine.stepping.guard import check_vector, guarded
 from engine.stepping.protocol import BoundStepper, MeasureRow, State, Status, StepRecord
 
@@ -183,7 +185,7 @@ class Slp(BoundStepper):
                 f"{len(self.specs)} x {len(x0)} (the stored state belongs to another problem)"
             )
         P = float(memory.P)
-        lp = self._program(x0, base.values, base.frequencies, J, P)
+        lp = self._program(x0, base.values, base.frequencies, J, P, memory.capped)
         trial, reason = self._trial(x0, lp)
         better = trial is not None and self._better(trial, _point_from(memory.best))
         memory = replace(
@@ -244,12 +246,27 @@ class Slp(BoundStepper):
         best, base = _point_from(memory.best), _point_from(memory.base)
         s = self.settings
         improved = not np.array_equal(best.x, base.x)
-        if improved and self._complete(best):
-            return Status.CONVERGED, "every requirement met and every desired value reached", best, memory
+        if self._complete(best):  # not improved: complete at the start, nothing to reward
+            reached = "every requirement met and every desired value reached" + ("" if improved else " at the start")
+            return Status.CONVERGED, reached, best, memory
+        if not improved and self._retry_capped(memory, best):
+            memory = replace(memory, major=memory.major + 1, minor=0, P=s.initial_step, P_failed=None, capped=True)
+            retry = "retry with the objective capped at the desired values (rows past theirs left out)"
+            return (
+                Status.RUNNING,
+                f"major iteration {memory.major - 1} found no better point ({why}); {retry}",
+                None,
+                memory,
+            )
+        probed = None if improved else self._probe(best)
+        if probed is not None:  # a step of one parameter the linear program did not see: taken
+            memory = replace(memory, best=_stored(probed), evaluations=memory.evaluations + 2 * probed.x.size)
+            improved, why = True, f"{why}; a step of {s.min_step:g} (relative) in one parameter is better"
         if not improved:
+            rule = f"a trial must meet more requirements or raise the figure of merit by {s.improvement_percent:g} %"
             return (
                 Status.NO_IMPROVEMENT,
-                f"major iteration {memory.major} found no better point ({why})",
+                f"major iteration {memory.major} found no better point ({why}; {rule})",
                 best,
                 memory,
             )
@@ -268,19 +285,60 @@ class Slp(BoundStepper):
         )
         return Status.RUNNING, reason or f"relinearize at the best point ({why})", None, memory
 
+    def _probe(self, best: Point) -> Point | None:
+        """The first step of `min_step` (relative) in one free parameter, up or down, within the
+        bounds and constraints, that is better than ``best`` by the trials' own rule (`_better`):
+        what a run that found nothing better tries before it stops (2 n evaluations)."""
+        for i, sign in itertools.product(range(best.x.size), (1.0, -1.0)):
+            x = best.x.copy()
+            x[i] *= 1.0 + sign * self.settings.min_step
+            if not self.lower[i] <= x[i] <= self.upper[i] or unmet(self.problem, x):
+                continue
+            try:
+                point = self._point(x)
+            except (EngineError, np.linalg.LinAlgError, ValueError):
+                continue
+            if self._better(point, best):
+                return point
+        return None
+
+    def _retry_capped(self, memory: SlpMemory, best: Point) -> bool:
+        """Whether a major iteration that found nothing better is tried again with the objective
+        capped: once, with requirements unmet.  The report's Y1 rewards every row, a phase margin
+        far past its desired value too, which the figure of merit (capped) does not: the LP heads
+        where no trial is better, and an unmet crossover is given up."""
+        unmet = best.counter < sum(spec.required is not None for spec in self.specs)
+        return (
+            unmet
+            and not memory.capped
+            and self.settings.objective == "margins"
+            and memory.major < self.settings.max_major
+        )
+
     # -- the linear program ------------------------------------------------
 
-    def _program(self, x0: NDArray, values: NDArray, frequencies: NDArray, J: NDArray, P: float) -> LpResult:
+    def _program(
+        self, x0: NDArray, values: NDArray, frequencies: NDArray, J: NDArray, P: float, capped: bool = False
+    ) -> LpResult:
         s = self.settings
         signs = np.array([spec.sign for spec in self.specs])
         oriented, gradients = signs * values, signs[:, None] * J
-        absent = np.array([absent_row(spec, v, f) for spec, v, f in zip(self.specs, values, frequencies)], dtype=bool)
-        present = np.isfinite(oriented) & ~absent  # a feature the loop lacks is judged, not steered
+        roles = self._roles(values, frequencies)
+        present = np.isfinite(oriented) & np.array([role == "steered" for role in roles], dtype=bool)
+        for i, role in enumerate(roles):  # an unmet feature the loop lacks: its surrogate's level, toward 0
+            found = (
+                surrogate_row(self.problem, x0, self.specs[i], values[i], s.fd_step) if role == "surrogate" else None
+            )
+            if found is not None:
+                oriented[i], gradients[i] = found[0], found[1]
+                present[i] = True
         rows = [i for i, spec in enumerate(self.specs) if spec.required is not None and present[i]]
-        specs = np.array([self.specs[i].sign * self.specs[i].required for i in rows])
+        specs = np.array(
+            [0.0 if roles[i] == "surrogate" else self.specs[i].sign * self.specs[i].required for i in rows]
+        )
         steps = np.append(np.arange(1.0, 0.0, -s.relaxation_step), 0.0)
         box = step_box(x0, self.lower, self.upper, P, s.step_floor)
-        c = self._objective(values, gradients, present)
+        c = self._objective(values, gradients, present, roles, capped)
         result = solve_step(
             c, gradients[rows], oriented[rows], specs, box, self.equalities, x0, steps, s.backoff, self.inequalities
         )
@@ -288,16 +346,22 @@ class Slp(BoundStepper):
         duals[rows] = result.duals if result.duals.size == len(rows) else 0.0
         return LpResult(result.dx, result.step, result.solves, result.status, duals)
 
-    def _objective(self, values: NDArray, gradients: NDArray, present: NDArray) -> NDArray:
-        """The LP's objective vector: Y1 (weighted measure gains) or -Y2 (weighted peaks)."""
+    def _objective(
+        self, values: NDArray, gradients: NDArray, present: NDArray, roles: list[Role], capped: bool
+    ) -> NDArray:
+        """The LP's objective vector: Y1 (weighted measure gains) or -Y2 (weighted peaks); a
+        surrogate row's gain is its level's, in dB; ``capped``: rows past their desired value
+        left out (`_retry_capped`)."""
         c = np.zeros(gradients.shape[1])
         for i, spec in enumerate(self.specs):
             if not present[i] or spec.weight == 0:
                 continue
-            if self.settings.objective == "load_relief":
+            if roles[i] == "surrogate":
+                c += spec.weight * gradients[i]
+            elif self.settings.objective == "load_relief":
                 if spec.kind in LOAD_KINDS:
                     c += spec.weight * spec.scale * gradients[i]
-            elif spec.desired is not None:
+            elif spec.desired is not None and not (capped and spec.sign * values[i] >= spec.sign * spec.desired):
                 c += w1(spec, values[i]) * spec.weight * spec.scale * gradients[i]
         return c
 
@@ -314,11 +378,25 @@ class Slp(BoundStepper):
         stable = all(
             v > 0 for spec, v in zip(self.specs, values) if spec.kind == "stability_abscissa" and spec.target is None
         )
-        return Point(np.asarray(x, dtype=float), values, frequencies, int(counter), self._merit(values), stable)
+        merit = self._merit(values, self._judged(values, frequencies))
+        return Point(np.asarray(x, dtype=float), values, frequencies, int(counter), merit, stable)
 
-    def _merit(self, values: NDArray) -> float:
+    def _roles(self, values: NDArray, frequencies: NDArray) -> list[Role]:
+        """Each row's part under the absence rule (`engine.design.measure_kinds.absence_role`)."""
+        return [
+            absence_role(spec.kind, absent_row(spec, v, f), spec.met(v))
+            for spec, v, f in zip(self.specs, values, frequencies)
+        ]
+
+    def _judged(self, values: NDArray, frequencies: NDArray) -> frozenset[int]:
+        """The rows met on a feature the loop lacks: judged only, no term of the figure of merit."""
+        return frozenset(i for i, role in enumerate(self._roles(values, frequencies)) if role == "judged")
+
+    def _merit(self, values: NDArray, judged: frozenset[int] = frozenset()) -> float:
         total = 0.0
-        for spec, v in zip(self.specs, values):
+        for i, (spec, v) in enumerate(zip(self.specs, values)):
+            if i in judged:
+                continue
             if self.settings.objective == "load_relief":
                 if spec.kind in LOAD_KINDS and math.isfinite(v):
                     total += spec.weight * spec.scale * spec.sign * v
@@ -346,9 +424,56 @@ class Slp(BoundStepper):
             return False
         if trial.counter != best.counter:
             return trial.counter > best.counter
-        if not math.isfinite(best.merit):  # -inf (an unstable loop's peak): any finite merit is better
-            return trial.merit > best.merit
-        return trial.merit > best.merit + self.settings.improvement_percent / 100.0 * max(abs(best.merit), 1e-12)
+        if not (best.stable or trial.stable):  # two unstable loops: the one nearer stability is better
+            nearer, now = self._stability(trial), self._stability(best)
+            return nearer > now + self.settings.improvement_percent / 100.0 * max(abs(now), 1e-12)
+        trial_merit, best_merit = self._comparable_merits(trial, best)
+        if not math.isfinite(best_merit):  # -inf (an unstable loop's peak): any finite merit is better
+            return trial_merit > best_merit
+        movable = abs(best_merit - self._held_at_cap(trial, best))
+        return trial_merit > best_merit + self.settings.improvement_percent / 100.0 * max(movable, 1e-12)
+
+    def _held_at_cap(self, trial: Point, best: Point) -> float:
+        """The part of the figure of merit from rows at their desired value at both points: a
+        constant of the comparison, left out of the scale of the improvement a tie needs (else a
+        met phase margin, or several conditions' of them, outweighs what a step earns and every
+        trial is refused)."""
+        if self.settings.objective == "load_relief":
+            return 0.0
+        judged = self._judged(trial.values, trial.frequencies) | self._judged(best.values, best.frequencies)
+        total = 0.0
+        for i, spec in enumerate(self.specs):
+            if i in judged or spec.desired is None or spec.weight == 0:
+                continue
+            cap = spec.sign * spec.desired
+            if spec.sign * trial.values[i] >= cap and spec.sign * best.values[i] >= cap:
+                total += spec.weight * spec.scale * cap
+        return total
+
+    def _stability(self, point: Point) -> float:
+        """The least stability abscissa of the point's conditions (`require_stable`'s rows)."""
+        rows = [
+            v for spec, v in zip(self.specs, point.values) if spec.kind == "stability_abscissa" and spec.target is None
+        ]
+        return float(min(rows, default=math.inf))
+
+    def _comparable_merits(self, trial: Point, best: Point) -> tuple[float, float]:
+        """The two points' figures of merit on the same rows: a row judged only at either point
+        (met on a feature one of them lacks) left out of both, and a row steered by its surrogate
+        at both points compared on the surrogate's level (weighted, in dB)."""
+        roles = list(zip(self._roles(trial.values, trial.frequencies), self._roles(best.values, best.frequencies)))
+        judged = frozenset(i for i, pair in enumerate(roles) if "judged" in pair)
+        surrogate = [i for i, pair in enumerate(roles) if pair == ("surrogate", "surrogate")]
+        if judged == self._judged(best.values, best.frequencies) == self._judged(trial.values, trial.frequencies):
+            trial_merit, best_merit = trial.merit, best.merit
+        else:
+            trial_merit, best_merit = self._merit(trial.values, judged), self._merit(best.values, judged)
+        for i in surrogate:
+            spec = self.specs[i]
+            rise = loop_level_db(self.problem, trial.x, spec) - loop_level_db(self.problem, best.x, spec)
+            if math.isfinite(rise):
+                trial_merit += spec.weight * surrogate_sign(best.values[i]) * rise
+        return trial_merit, best_merit
 
     def _feasible_start(self, x: NDArray) -> NDArray:
         """The start moved onto the linear equalities (least change), if it is off them."""

@@ -67,11 +67,13 @@ class SlpMemory:
     P_failed: float | None
     evaluations: int
     lps: int
+    capped: bool = False  # the LP's objective leaves out rows past their desired value (`Slp._end_major`)
 
     def to_json(self) -> dict:
-        """Plain JSON types."""
+        """Plain JSON types (``capped`` only when set: a memory of the report's objective reads as before)."""
         return jsonable(
             {
+                **({"capped": True} if self.capped else {}),
                 "major": self.major,
                 "minor": self.minor,
                 "x0": self.x0,
@@ -112,6 +114,7 @@ class SlpMemory:
             fields.optional_number("P_failed"),
             fields.integer("evaluations"),
             fields.integer("lps"),
+            fields.boolean("capped") if "capped" in fields.data else False,
         )
 
 

@@ -37,10 +37,12 @@ async def test_a_crossover_target_is_marked_for_cip_and_listed_when_cip_is_chose
         await pilot.pause()
         dialog = app.screen
         assert isinstance(dialog, ChooseDialog)
-        assert dict(dialog.choices)["cip"].endswith("[refuses 1 of the targets]")
-        assert "refuses" not in dict(dialog.choices)["slp"]
+        assert dict(dialog.choices)["cip"].endswith("[1 of the targets judged only]")
+        assert "judged only" not in dict(dialog.choices)["slp"]
         dialog.dismiss("cip")
         await settle(app, pilot)
         assert app.bench.algorithm_name == "cip"
         assert str(table.get_row_at(row)[1]) == f"not cip ({used_by('crossover_frequency')})"  # slp, and plug-ins
-        assert any("crossover_frequency: refused by cip" in n.message for n in app._notifications)
+        assert any("crossover_frequency: judged only: cip does not read it" in n.message for n in app._notifications)
+        rows = app.bench.initial_record().measures  # cip runs on the margins, the crossover judged beside them
+        assert [r.method for r in rows if r.kind == "crossover_frequency"] == ["judged only: cip does not read it"]

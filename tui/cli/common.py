@@ -96,3 +96,16 @@ def design_notes_now(session: Session, iteration: int | None = None) -> list[str
     k = session.model.current_iteration if iteration is None else iteration
     values = dict(session.records[k - 1].parameters) if k else session.problem.named()
     return design_notes(session.problem, values)
+
+
+def stop_notes_now(session: Session) -> list[str]:
+    """Why the run stopped at the current iteration (`engine.design.notes.stop_notes`): the
+    binding constraints, the parameters at a bound and the unmet requirements of a stalled run,
+    or what to do when every desired value is reached."""
+    from engine.design.notes import stop_notes
+
+    k = session.model.current_iteration
+    if not k:
+        return []
+    record = session.records[k - 1]
+    return stop_notes(session.problem, record.status, dict(record.parameters), record.measures)

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 from engine.stepping.memory_fields import finite_or_none
-from tui.cli.common import CliError, design_notes_now, load, rows_now, summary_json
+from tui.cli.common import CliError, design_notes_now, load, rows_now, stop_notes_now, summary_json
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
@@ -68,7 +68,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         status = "not started" if record is None else record.status.value
         print(f"{session.model.algorithm.name}: iteration {session.model.current_iteration}, {status}")
         print(tableau_text(rows, session.problem.grid.unit))
-        print("".join(f"note: {n}\n" for n in design_notes_now(session)), end="")
+        if record is not None and record.reason:
+            print(f"stopped: {record.reason}" if record.status.finished else f"last step: {record.reason}")
+        stops = stop_notes_now(session)
+        print("".join(f"stop: {n}\n" for n in stops), end="")
+        print("".join(f"note: {n}\n" for n in design_notes_now(session) if n not in stops), end="")
     return 0
 
 

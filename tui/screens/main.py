@@ -15,6 +15,7 @@ from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import DataTable, TabbedContent, TabPane
 
+from engine.design.notes import stop_notes
 from engine.stepping.presenter import Presenter, number, tolerant
 from engine.stepping.protocol import StepRecord
 from sessions.forms import one_line as forms
@@ -383,6 +384,11 @@ class MainScreen(Screen):
         unit = view.problem.grid.unit
         width = self.query_one("#tableau-scroll").size.width or None
         text = tableau_text(rows, previous, unit, width)
+        stops = (
+            [] if record is None else stop_notes(view.problem, record.status, dict(record.parameters), record.measures)
+        )
+        if stops:  # a finished run: what binds, what sits at a bound, what is unmet
+            text.append("\n" + "\n".join(f"stop: {note}" for note in stops) + "\n")
         poles = self.pole_lines.text(view)
         if poles:
             text.append("\n" + poles + "\n")

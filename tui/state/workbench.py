@@ -14,6 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from engine.closed_loop.step_response import StepSetup
+from engine.design.notes import stop_notes
 from engine.errors import EngineError
 from engine.stepping.driver import first_record, resume
 from engine.stepping.presenter import Presenter
@@ -98,7 +99,8 @@ class Workbench:
             return "paused (s steps on, r runs on)"
         if not last.status.finished:  # the record's status says the algorithm goes on, not that it runs now
             return "not finished" + (f": {last.reason}" if last.reason else "") + " (s steps on, r runs on)"
-        return last.status.value + (f": {last.reason}" if last.reason else "")
+        why = stop_notes(self.session.problem, last.status, dict(last.parameters), last.measures)
+        return last.status.value + (f": {last.reason}" if last.reason else "") + "".join(f"; {n}" for n in why)
 
     def ensure_stepper(self) -> Stepper:
         """The algorithm bound to the problem, and the state before any iteration

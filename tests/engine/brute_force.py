@@ -1,0 +1,235 @@
+"""Small design problems drawn from a seed, and their brute-force reference (issue 51,
+section 5): plants of type 0-2 with or without a light mode, a gain, PI, lead or lag from the
+templates (at most three free parameters, the lead's and lag's ratio constraints), targets
+among PM, GM, crossover and Ms, one or two conditions.  The reference is written here, not
+read from the engine: every design of a log grid over the parameter box, its loop sampled
+densely with numpy, every crossing found on the samples and refined by interpolation, the
+closed loop's stability from the roots of its characteristic polynomial.  Time-domain targets
+are left out: slp reads report 003's first-half-cycle overshoot, which a reference would have
+to copy rather than check."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sessions.new.templates import new_session
+from sessions.store import Session, parse_session
+
+OMEGA = np.geomspace(1e-3, 1e3, 1500)
+BOX = (1e-2, 1e2)  # every parameter's bounds
+GRID_POINTS = {"K": 25, "Ti": 11, "T1": 11, "T2": 11}
+ROBUST = 0.01  # brute force counts a requirement met only with 1 % to spare (no borderline designs)
+TEMPLATE_SCALE = {"phase_margin_deg": 0.2}  # the templates' weighting of a degree
+
+
+@dataclass(frozen=True)
+class Plant:
+    """gain / (s^type (s + a) [(s + b)]) [* wn^2 / (s^2 + 2 zeta wn s + wn^2)]."""
+
+    gain: float
+    type: int
+    a: float
+    b: float
+    mode: tuple[float, float] | None
+
+    def polynomials(self) -> tuple[np.ndarray, np.ndarray]:
+        num, den = np.array([self.gain]), np.convolve([1.0, self.a], [1.0] + [0.0] * self.type)
+        if self.type == 0:
+            den = np.convolve(den, [1.0, self.b])
+        if self.mode is not None:
+            wn, zeta = self.mode
+            num, den = num * wn**2, np.convolve(den, [1.0, 2 * zeta * wn, wn**2])
+        return num, den
+
+    def expression(self) -> str:
+        text = f"{self.gain:.6g}/({'s^' + str(self.type) + '*' if self.type else ''}(s+{self.a:.6g})"
+        text += f"*(s+{self.b:.6g}))" if self.type == 0 else ")"
+        if self.mode is not None:
+            wn, zeta = self.mode
+            text += f"*{wn**2:.6g}/(s^2+{2 * zeta * wn:.6g}*s+{wn**2:.6g})"
+        return text
+
+
+@dataclass
+class SmallProblem:
+    """A problem: its compensator template, plants (one per condition) and targets, the start
+    values and bounds that differ from the template's start and `BOX`; the free parameters'
+    names once its session is made."""
+
+    seed: int
+    compensator: str
+    plants: list[Plant]
+    targets: list[dict]
+    start: dict[str, float] = field(default_factory=dict)
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    names: list[str] = field(default_factory=list)
+
+    def session(self) -> Session:
+        data = new_session(self.plants[0].expression(), self.compensator, "slp")
+        problem = data["problem"]
+        for p in problem["parameters"]:
+            p["min"], p["max"] = self.bounds.get(p["name"], BOX)
+            p["value"] = self.start.get(p["name"], p["value"])
+        first = problem["conditions"][0]
+        for k, plant in enumerate(self.plants[1:], start=2):
+            other = json.loads(json.dumps(first))
+            other["name"] = f"c{k}"
+            other["plant"]["blocks"][1]["transfer"]["expression"] = plant.expression()
+            problem["conditions"].append(other)
+        problem["targets"] = self.targets
+        problem["grid"] = {"start": 1e-3, "stop": 1e3, "points": 400, "spacing": "log"}
+        self.names = [p["name"] for p in problem["parameters"]]
+        return parse_session(json.dumps(data), f"seed {self.seed}", Path("."))
+
+
+def generate(seed: int) -> SmallProblem:
+    """The seed's problem (see the module docstring)."""
+    rng = np.random.default_rng(seed)
+    compensator = str(rng.choice(["gain", "pi", "lead", "lag"]))
+    kind = int(rng.integers(0, 3 if compensator == "lead" else 2))  # a type-2 plant needs a lead
+    a = float(10 ** rng.uniform(-0.5, 0.7))
+    mode = (float(a * 10 ** rng.uniform(0.7, 1.3)), 0.05) if rng.random() < 0.3 else None
+    base = Plant(float(10 ** rng.uniform(-0.5, 0.5)), kind, a, float(a * 10 ** rng.uniform(0.3, 1.0)), mode)
+    plants = [base]
+    if rng.random() < 0.3:
+        plants.append(Plant(base.gain * 1.5, kind, base.a * 0.7, base.b, mode))
+    chosen = rng.choice(4, size=int(rng.integers(2, 4)), replace=False)
+    targets = []
+    for which in sorted(chosen):
+        measure, desired = [
+            ("phase_margin_deg", float(rng.uniform(30.0, 50.0))),
+            ("gain_margin_db", float(rng.uniform(3.0, 8.0))),
+            ("crossover_frequency", float(a * 10 ** rng.uniform(-1.0, 0.0))),
+            ("sensitivity_peak", float(rng.uniform(1.5, 2.5))),
+        ][which]
+        scale = TEMPLATE_SCALE.get(measure, 1.0)
+        targets.append({"measure": measure, "bands": [{"desired": round(desired, 4)}], "scale": scale})
+    return SmallProblem(seed, compensator, plants, targets)
+
+
+def compensator_polynomials(kind: str, v: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    if kind == "gain":
+        return np.array([v["K"]]), np.array([1.0])
+    if kind == "pi":
+        return v["K"] * np.array([v["Ti"], 1.0]), np.array([v["Ti"], 0.0])
+    return v["K"] * np.array([v["T1"], 1.0]), np.array([v["T2"], 1.0])
+
+
+LOG_OMEGA = np.log(OMEGA)
+
+
+def _crossings(x: np.ndarray, period: float = math.inf, offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Where the sampled ``x`` crosses a level offset + k period (one level when the period is
+    infinite): the sample index before each crossing and the fraction of the step to it."""
+    band = np.floor((x - offset) / period) if math.isfinite(period) else (x > offset).astype(float)
+    i = np.flatnonzero(band[:-1] != band[1:])
+    level = offset + np.maximum(band[i], band[i + 1]) * period if math.isfinite(period) else offset
+    t = (level - x[i]) / (x[i + 1] - x[i])
+    return i, t
+
+
+def _at(values: np.ndarray, i: np.ndarray, t: np.ndarray) -> np.ndarray:
+    return values[i] + t * (values[i + 1] - values[i])
+
+
+def measures(num: np.ndarray, den: np.ndarray) -> dict[str, float] | None:
+    """PM (deg), GM (dB), the highest crossover (rad/s) and Ms of the loop num/den as loopcraft
+    defines them (the worst margin over every crossing, an absent one infinite, met), None
+    when the closed loop is unstable."""
+    closed = np.concatenate([np.zeros(den.size - num.size), num]) + den
+    if np.max(np.roots(closed).real) >= 0:
+        return None
+    s = 1j * OMEGA
+    loop = np.polyval(num, s) / np.polyval(den, s)
+    magnitude, phase = np.log(np.abs(loop)), np.unwrap(np.angle(loop))
+    i, t = _crossings(magnitude)
+    pms = (np.degrees(_at(phase, i, t)) + 360.0) % 360.0 - 180.0  # 180 + arg L, wrapped to [-180, 180)
+    j, u = _crossings(phase, 2 * math.pi, -math.pi)
+    gms = -20.0 * _at(magnitude, j, u) / math.log(10)
+    crossover = np.exp(_at(LOG_OMEGA, i, t))
+    return {
+        "phase_margin_deg": float(pms.min(initial=math.inf)),
+        "gain_margin_db": float(gms.min(initial=math.inf)),
+        "crossover_frequency": float(crossover.max()) if crossover.size else (0.0 if magnitude.max() < 0 else math.inf),
+        "sensitivity_peak": float(np.max(np.abs(1.0 / (1.0 + loop)))),
+    }
+
+
+def met_with_margin(problem: SmallProblem, values: dict[str, float] | None) -> int:
+    """How many requirements (target x condition) a design meets with `ROBUST` to spare."""
+    count = 0
+    for plant in problem.plants:
+        c_num, c_den = compensator_polynomials(problem.compensator, values)
+        p_num, p_den = plant.polynomials()
+        found = measures(np.convolve(c_num, p_num), np.convolve(c_den, p_den))
+        if found is None:
+            continue
+        for target in problem.targets:
+            value, desired = found[target["measure"]], target["bands"][0]["desired"]
+            at_most = target["measure"] == "sensitivity_peak"
+            count += value <= desired * (1 - ROBUST) if at_most else value >= desired * (1 + ROBUST)
+    return count
+
+
+def brute_force(problem: SmallProblem, names: list[str]) -> tuple[int, int]:
+    """(the most requirements a design of the log grid meets, how many there are)."""
+    axes = [np.geomspace(*BOX, GRID_POINTS[name]) for name in names]
+    best = 0
+    for point in itertools.product(*axes):
+        values = dict(zip(names, point))
+        if problem.compensator in ("lead", "lag") and not (
+            values["T1"] <= 20 * values["T2"] and values["T2"] <= 20 * values["T1"]
+        ):
+            continue
+        best = max(best, met_with_margin(problem, values))
+        if best == len(problem.targets) * len(problem.plants):
+            break
+    return best, len(problem.targets) * len(problem.plants)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One problem judged: brute force's best against slp's run from the template's start."""
+
+    seed: int
+    brute_force_meets_all: bool
+    slp_meets_all: bool
+    unnamed: str | None  # an improving step slp's stop did not name, or None
+
+
+def judged(seed: int) -> Outcome:
+    """Run slp on the seed's problem from the template's start and compare it with brute force;
+    at its last design, look for a step of 1e-3 (relative) in one free parameter, within bounds
+    and constraints, that slp's own rule would take (`Slp._better`: more requirements met, or
+    the figure of merit raised by its `improvement_percent`): a stop that leaves one is a
+    defect unless it says the iteration limit stopped it."""
+    from engine.design.constraints import unmet
+    from sessions.lifecycle import stepper
+    from sessions.runner import run_session
+
+    problem = generate(seed)
+    session = problem.session()
+    best, total = brute_force(problem, problem.names)
+    last = run_session(session, until_done=True, autosave=False)[-1]
+    slp = stepper(session)
+    x = session.problem.vector_from(dict(last.parameters))
+    here = slp._point(x)
+    lower, upper = session.problem.bounds()
+    unnamed = None
+    for i, sign in itertools.product(range(x.size), (1.0, -1.0)):
+        moved = x.copy()
+        moved[i] *= 1.0 + sign * 1e-3
+        if (
+            lower[i] <= moved[i] <= upper[i]
+            and not unmet(session.problem, moved)
+            and slp._better(slp._point(moved), here)
+        ):
+            if "iteration limit" not in last.status.value:
+                unnamed = f"seed {seed}: {problem.names[i]} {'up' if sign > 0 else 'down'} improves ({last.reason})"
+    return Outcome(seed, best == total, all(row.satisfied for row in last.measures), unnamed)
