@@ -256,7 +256,14 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
     if final == 0 or not math.isfinite(final):
         return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
     m = step_measures(
-        t, y, final, response.reference, response.settling_band, final_from=source, peak_rule=SLP_PEAK_RULE
+        t,
+        y,
+        final,
+        response.reference,
+        response.settling_band,
+        final_from=source,
+        peak_rule=SLP_PEAK_RULE,
+        held=ss.sample_time is not None,
     )
     value = {
         "rise_time": m.rise_time,

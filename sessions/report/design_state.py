@@ -271,4 +271,13 @@ def _step(network, values: dict[str, float]) -> list[Block]:
         ["peak time", seconds(m.peak_time)],
         ["settling time (5 %)", seconds(m.settling_time)],
     ]
-    return [("p", f"Step response of {response.name} (simulated, exact discretization):"), ("table", ("", ""), rows)]
+    how = (
+        "read on the samples, the output held between them: the peak is the largest sample, rise from the first "
+        "sample at or above 10 % to the first at or above 90 %, settling the first sample after which every "
+        "sample stays in the band"
+        if network.sampled
+        else "simulated by exact discretization, each measure refined on the exact response: the crossings of "
+        "10 %, 90 % and the band by root finding, the peak where the response's derivative vanishes"
+    )
+    blocks: list[Block] = [("p", f"Step response of {response.name} ({how}):"), ("table", ("", ""), rows)]
+    return blocks + ([("p", f"Note: {response.note}.")] if response.note else [])
