@@ -70,6 +70,29 @@ class LoopCurve:
     index: int = 0
     margins: Margins | None = None
 
+    @property
+    def phase_deg(self) -> NDArray[np.float64]:
+        """arg GH (deg), continuous over the curve (numpy's unwrap, from the lowest frequency's branch)."""
+        return np.degrees(np.unwrap(np.angle(self.gh)))
+
+    def on_branch(self, angle_deg: float, frequency: float) -> float:
+        """``angle_deg`` moved by whole turns onto the curve's branch at ``frequency``: the angle + k 360
+        nearest the curve's phase there (`phase_deg` interpolated in log frequency).  The one branch
+        rule of what is drawn on a phase axis: the phase-margin marks, the -180 deg and phase-margin
+        requirement lines, a cursor's readout."""
+        return on_branch(angle_deg, self.omega, self.phase_deg, frequency)
+
+
+def on_branch(angle_deg: float, omega: ArrayLike, phase_deg: ArrayLike, frequency: float) -> float:
+    """``angle_deg`` + k 360 nearest the continuous phase curve ``phase_deg`` (over ``omega``, rad/s) at
+    ``frequency``, read by linear interpolation in log frequency (the curve's end value outside it)."""
+    w, phase = np.asarray(omega, dtype=float), np.asarray(phase_deg, dtype=float)
+    keep = (w > 0) & np.isfinite(phase)
+    if not keep.any() or not math.isfinite(angle_deg):
+        return float(angle_deg)
+    there = float(np.interp(math.log(max(frequency, 1e-300)), np.log(w[keep]), phase[keep]))
+    return float(angle_deg + 360.0 * round((there - angle_deg) / 360.0))
+
 
 def loop_curve(
     network: Network,

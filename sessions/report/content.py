@@ -223,6 +223,7 @@ def _figures(session: Session, named: dict | None, final: StepRecord | None) -> 
         ]
         title = f"condition {condition.name}"
         rows = [r for r in (final.measures if final is not None else ()) if r.condition == condition.name]
+        targets = [t for t in problem.targets if t.condition in (None, condition.name)]
         blocks.append(("h3", f"Condition {condition.name}"))
         if not curves:
             blocks.append(("p", "The loop cannot be evaluated on the grid."))
@@ -232,7 +233,7 @@ def _figures(session: Session, named: dict | None, final: StepRecord | None) -> 
             (
                 "figure",
                 f"bode_{c}",
-                figures.bode(curves, unit, f"Bode, {title}", rows),
+                figures.bode(curves, unit, f"Bode, {title}", rows, targets),
                 f"Bode, {title}: margins and targets",
             ),
             (
@@ -241,7 +242,12 @@ def _figures(session: Session, named: dict | None, final: StepRecord | None) -> 
                 figures.nyquist(curves, _circles(session, condition.name), f"Nyquist, {title}"),
                 f"Nyquist, {title}: -1 and the margin targets as circles |1 + GH| around it",
             ),
-            ("figure", f"nichols_{c}", figures.nichols(curves, f"Nichols, {title}"), f"Nichols, {title}"),
+            (
+                "figure",
+                f"nichols_{c}",
+                figures.nichols(curves, f"Nichols, {title}", rows),
+                f"Nichols, {title}: the margins' requirements on the curve's branch",
+            ),
             (
                 "figure",
                 f"st_{c}",
