@@ -63,7 +63,7 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
     blocks += [("h2", "Constraints"), *design_state.constraints(session, design)]
     blocks += [("h2", "Loop analysis at the design"), *design_state.loop_analysis(session, design, found)]
     blocks += _problem(session)
-    blocks += _designs(initial, final, k, session.problem.grid.unit)
+    blocks += _designs(session, initial, final, k)
     blocks += _convergence(session, k)
     blocks += _figures(session, named, final)
     blocks += _tolerance_study(session)
@@ -146,14 +146,17 @@ def _band(b) -> str:
     return f"{where}{number(b.desired)}{required}"
 
 
-def _designs(initial: StepRecord | None, final: StepRecord | None, k: int, unit: str) -> list[Block]:
+def _designs(session: Session, initial: StepRecord | None, final: StepRecord | None, k: int) -> list[Block]:
+    """The initial and final tableaux, each margin's "how obtained" from its own design's analysis."""
     blocks: list[Block] = [("h2", "Initial and final design")]
     for title, record in (("Initial design (iteration 0)", initial), (f"Final design (iteration {k})", final)):
         blocks.append(("h3", title))
         if record is None:
             blocks.append(("p", "The loop cannot be evaluated at this design."))
             continue
-        verdict, table = design_state.requirement_rows(record, unit)
+        found = design_state.analyses(session, dict(record.parameters))
+        methods = {name: a.margins.label for name, a in found.items() if not isinstance(a, str)}
+        verdict, table = design_state.requirement_rows(record, session.problem.grid.unit, methods)
         values = ", ".join(f"{n} = {number(v)}" for n, v in record.parameters.items())
         blocks += [("p", f"{verdict}. Parameters: {values}"), table]
     return blocks

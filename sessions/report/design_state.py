@@ -71,7 +71,7 @@ def requirement_rows(record: StepRecord | None, unit: str, methods: dict[str, st
             r.condition,
             _target(r),
             _value(r),
-            "met" if r.satisfied else "UNMET",
+            "not judged" if r.desired is None else "met" if r.satisfied else "UNMET",
             "" if r.frequency is None else f"{number(r.frequency / (2 * math.pi if unit == 'hz' else 1.0))} {unit}",
             r.method or _method(r, (methods or {}).get(r.condition, "")),
         ]
