@@ -240,15 +240,20 @@ def _poles(found: LoopAnalysis) -> list[Block]:
     if found.closed_loop_poles is None:
         return [("p", f"Closed loop: {found.verdict} (closed-loop poles need a rational loop).")]
     rows = []
-    for p in found.closed_loop_poles:
+    poles = found.closed_loop_poles
+    for p, hidden in zip(poles, found.hidden or ("",) * len(poles)):
         z = complex(p.value)
         if z.imag < 0:
             continue
         text = f"{number(z.real)} +- {number(z.imag)}j" if z.imag > 0 else number(z.real)
-        rows.append([text, number(p.damping), number(p.natural_frequency)])
+        rows.append([text, number(p.damping), number(p.natural_frequency), f"fixed: {hidden}" if hidden else ""])
     return [
-        ("p", f"Closed loop: {found.verdict}; its poles (eigenvalues of the closed loop's realization):"),
-        ("table", ("pole", "zeta", "wn (rad/s)"), rows),
+        (
+            "p",
+            f"Closed loop: {found.verdict}; its poles (eigenvalues of the closed loop's realization; a fixed mode "
+            "is uncontrollable or unobservable from the loop, by the PBH test on the balanced realization):",
+        ),
+        ("table", ("pole", "zeta", "wn (rad/s)", "from the loop"), rows),
     ]
 
 
