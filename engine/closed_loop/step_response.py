@@ -225,7 +225,7 @@ class ExactStep:
             peak_time=peak_time,
             peak=peak,
             overshoot_percent=0.0 if peak_time is None else (peak / final - 1.0) * 100.0,
-            settling_time=self._settling(t, r, dy, final),
+            settling_time=self._settling(grid, t, r, dy),
         )
 
     def _peak(self, grid: StepMeasures, t: np.ndarray, r: np.ndarray, dy: np.ndarray) -> tuple[float | None, float]:
@@ -241,15 +241,14 @@ class ExactStep:
             found.append((time, self.value(time)))
         return max(found, key=lambda tv: tv[1] / grid.final)
 
-    def _settling(self, t: np.ndarray, r: np.ndarray, dy: np.ndarray, final: float) -> float | None:
-        """The last time |r - 1| = band: after the last sample outside, every extremum between samples
-        that comes within a sample's change of the band checked, the last one outside the start."""
+    def _settling(self, grid: StepMeasures, t: np.ndarray, r: np.ndarray, dy: np.ndarray) -> float | None:
+        """The last time |r - 1| = band: after the last sample outside (none: the grid's answer, t[0] or
+        None), every extremum between samples that comes within a sample's change of the band checked,
+        the last one outside the start."""
         outside = np.flatnonzero(np.abs(r - 1.0) > SETTLING_BAND)
-        if outside.size == 0:
-            return float(t[0])
-        last = int(outside[-1])
-        if last == r.size - 1:
-            return None
+        if outside.size == 0 or grid.settling_time is None:
+            return grid.settling_time
+        final, last = grid.final, int(outside[-1])
         reach = float(np.max(np.abs(np.diff(r[last:]))))
         turns = last + np.flatnonzero(np.sign(dy[last:-1]) * np.sign(dy[last + 1 :]) < 0)
         near = turns[np.maximum(np.abs(r[turns] - 1.0), np.abs(r[turns + 1] - 1.0)) > SETTLING_BAND - reach]
