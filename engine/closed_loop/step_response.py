@@ -112,15 +112,35 @@ def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -
     end = setup.horizon or span or horizon(ss)
     if ss.sample_time is not None:
         return _sampled_step(ss, source, output, end)
-    count, note = _samples(ss, end)
-    t = np.linspace(0.0, end, count)
-    segments = [Segment(0.0, step=1.0)]
+    t = np.linspace(0.0, end, SAMPLES)
     try:
-        y = simulate(ss, source, t, segments)[:, ss.outputs.index(output)]
+        y = _simulated(ss, source, output, t)
+        count, note = _samples(ss, end)
+        if count > SAMPLES and _measured(ss, source, output, y):  # a finer grid for the measures' brackets
+            t = np.linspace(0.0, end, count)
+            y = _simulated(ss, source, output, t)
+        else:
+            note = None
     except EngineError:
         return None
     measures = _measures(ss, source, output, t, y)
     return StepResponse(t.tolist(), y.tolist(), f"{output} (step at {source})", measures, note)
+
+
+def _simulated(ss: StateSpace, source: str, output: str, t: np.ndarray) -> np.ndarray:
+    return simulate(ss, source, t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
+
+
+RETURNS_TO_ZERO = 1e-6  # a final value this small beside the response's peak: a disturbance rejected
+
+
+def _measured(ss: StateSpace, source: str, output: str, y: np.ndarray) -> bool:
+    """Whether the response has step measures worth refining: finite, settling at a final value (the DC
+    gain's) that is not 0 beside its peak."""
+    if not np.all(np.isfinite(y)):
+        return False
+    final, origin = final_value(ss, source, output, [Segment(0.0, step=1.0)], y)
+    return origin == "dc_gain" and math.isfinite(final) and abs(final) > RETURNS_TO_ZERO * np.max(np.abs(y))
 
 
 def _samples(ss: StateSpace, end: float) -> tuple[int, str | None]:

@@ -14,7 +14,7 @@ import math
 from typing import Any
 
 from engine.analysis import LoopAnalysis, analyze
-from engine.closed_loop.step_response import StepSetup, realized, step_response
+from engine.closed_loop.step_response import RETURNS_TO_ZERO, StepSetup, realized, step_response
 from engine.design.compensator_items import compensators, pole_zero_form, time_constant_form
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
@@ -26,7 +26,6 @@ from sessions.store import Session
 
 Block = tuple
 BINDS = 1e-6  # relative: a value this near a bound (or a constraint's slack this small) binds
-SETTLED = 1e-6  # a final value this small beside the response's peak is 0: a disturbance rejected
 
 
 def number(x: Any) -> str:
@@ -263,7 +262,7 @@ def _step(network, values: dict[str, float]) -> list[Block]:
     if response is None or response.measures is None:
         return []
     m = response.measures
-    if abs(m.final) <= SETTLED * max(abs(v) for v in response.y):
+    if abs(m.final) <= RETURNS_TO_ZERO * max(abs(v) for v in response.y):
         return [("p", f"Step response of {response.name}: it returns to 0 (a disturbance rejected): no step measures.")]
 
     def seconds(x: float | None) -> str:
