@@ -65,10 +65,13 @@ def _stability_rows(problem: Problem, rows: list[MeasureRow]) -> list[MeasureRow
     for c, condition in enumerate(problem.conditions):
         if condition.name in covered or not condition.network.rational:
             continue
-        ss = closed_loop_realization(condition.network, condition.break_at, problem.condition_values(c))
-        value = stability_abscissa(ss, condition.network.sample_time)
         tag = kind("stability_abscissa").tag
         method = "closed-loop poles (eigenvalues of the closed loop's realization)"
+        try:
+            ss = closed_loop_realization(condition.network, condition.break_at, problem.condition_values(c))
+            value = stability_abscissa(ss, condition.network.sample_time)
+        except (EngineError, np.linalg.LinAlgError) as exc:  # no closed loop to read: the row says why, unmet
+            value, method = math.nan, f"no closed-loop realization: {exc}"
         found.append(MeasureRow(tag, "stability_abscissa", condition.name, value, 0.0, value > 0, None, True, method))
     return found
 
