@@ -11,8 +11,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.closed_loop.poles import checked, closed_loop_poles, z_pole
+from engine.closed_loop.hidden_modes import RELATIVE_TOLERANCE, hidden_modes
+from engine.closed_loop.poles import CONFIRMED, checked, closed_loop_poles, z_pole
 from engine.errors import EngineError
+from engine.loop.pole_zero import loop_realization
 from engine.loop.realization import Pole, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
@@ -47,6 +49,7 @@ class LoopAnalysis:
     disk_margin: DiskMargin | None = None
     sensitivity_peak: Peak | None = None  # Ms = max |S|
     complementary_peak: Peak | None = None  # Mt = max |T|
+    hidden: tuple[str, ...] = ()  # per closed-loop pole: "uncontrollable", "unobservable", ... from the loop, or ""
 
     @property
     def delay_margin(self) -> float | None:
@@ -69,6 +72,29 @@ class LoopCurve:
     role: str = "current"
     index: int = 0
     margins: Margins | None = None
+
+    @property
+    def phase_deg(self) -> NDArray[np.float64]:
+        """arg GH (deg), continuous over the curve (numpy's unwrap, from the lowest frequency's branch)."""
+        return np.degrees(np.unwrap(np.angle(self.gh)))
+
+    def on_branch(self, angle_deg: float, frequency: float) -> float:
+        """``angle_deg`` moved by whole turns onto the curve's branch at ``frequency``: the angle + k 360
+        nearest the curve's phase there (`phase_deg` interpolated in log frequency).  The one branch
+        rule of what is drawn on a phase axis: the phase-margin marks, the -180 deg and phase-margin
+        requirement lines, a cursor's readout."""
+        return on_branch(angle_deg, self.omega, self.phase_deg, frequency)
+
+
+def on_branch(angle_deg: float, omega: ArrayLike, phase_deg: ArrayLike, frequency: float) -> float:
+    """``angle_deg`` + k 360 nearest the continuous phase curve ``phase_deg`` (over ``omega``, rad/s) at
+    ``frequency``, read by linear interpolation in log frequency (the curve's end value outside it)."""
+    w, phase = np.asarray(omega, dtype=float), np.asarray(phase_deg, dtype=float)
+    keep = (w > 0) & np.isfinite(phase)
+    if not keep.any() or not math.isfinite(angle_deg):
+        return float(angle_deg)
+    there = float(np.interp(math.log(max(frequency, 1e-300)), np.log(w[keep]), phase[keep]))
+    return float(angle_deg + 360.0 * round((there - angle_deg) / 360.0))
 
 
 def loop_curve(
@@ -215,9 +241,12 @@ def analyze(
     pole_list: tuple[Pole, ...] | None = None
     pole_notes: tuple[str, ...] = ()
     verdict = "unknown"
+    hidden: tuple[str, ...] = ()
     if network.rational:
         pole_list, pole_notes = checked(network, params, closed_loop_poles(network, params))
         verdict = stability(list(pole_list))
+        hidden = fixed_modes(network, break_at, params, pole_list)
+        pole_notes = _fixed_notes(pole_list, hidden, pole_notes, network.sample_time)
         pole_notes += tuple(filter(None, [stability_note(list(pole_list))]))
         if network.sample_time is not None:  # stable when |z| < 1: Re w < 0, read above
             pole_list = tuple(z_pole(p, network.sample_time) for p in pole_list)
@@ -233,4 +262,40 @@ def analyze(
             f"the disk margin, Ms and Mt are those of the searched range (up to {every.crossovers_beyond:.6g} rad/s, "
             "where |GH| >= 1 still): beyond it they are not known"
         )
-    return LoopAnalysis(result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes) + failed, disk, ms, mt)
+    return LoopAnalysis(
+        result, pole_list, verdict, modal_peaks(every, peak_bands), tuple(notes) + failed, disk, ms, mt, hidden
+    )
+
+
+def fixed_modes(network: Network, break_at: str, params: Mapping[str, float], poles: Sequence[Pole]) -> tuple[str, ...]:
+    """Per closed-loop pole, whether the loop broken at ``break_at`` can move it (""), or it is a fixed
+    mode uncontrollable or unobservable from the loop (`engine.closed_loop.hidden_modes`); all ""
+    when the loop has no realization."""
+    try:
+        ss = loop_realization(network, break_at, params)
+    except EngineError:
+        return ("",) * len(poles)
+    k = network.signal(break_at)
+    b, c = ss.B[:, -1], ss.C[k] / (1.0 - ss.D[k, -1])
+    return hidden_modes(ss.A + np.outer(b, c), b, c, [p.value for p in poles])
+
+
+def _fixed_notes(
+    poles: Sequence[Pole], hidden: Sequence[str], notes: tuple[str, ...], sample_time: float | None
+) -> tuple[str, ...]:
+    """The poles notes with the fixed modes named as such; the note that a pole is no root of the
+    characteristic equation dropped when every such pole is a fixed mode (a cancelled factor's root is
+    none: that is what it is)."""
+    fixed = [(p, h) for p, h in zip(poles, hidden) if h]
+    if not fixed:
+        return notes
+    unexplained = [p for p, h in zip(poles, hidden) if not h and not (p.backward_error or 0.0) <= CONFIRMED]
+    kept = notes if unexplained else tuple(n for n in notes if "not roots of the characteristic" not in n)
+    named = ", ".join(
+        f"{(p.value if sample_time is None else z_pole(p, sample_time).value):.6g} ({h})" for p, h in fixed[:4]
+    )
+    more = f" and {len(fixed) - 4} more" if len(fixed) > 4 else ""
+    return kept + (
+        f"{len(fixed)} closed-loop pole(s) are fixed (hidden) modes, which no compensator gain moves: {named}{more} "
+        f"from the loop (PBH test on the balanced realization, relative tolerance {RELATIVE_TOLERANCE:g})",
+    )

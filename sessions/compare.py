@@ -68,7 +68,7 @@ def side(session: Session, iteration: int | None, source: str) -> Side:
     problem = session.problem
     parameters = problem.named() if named is None else dict(named)
     try:
-        rows = tableau(problem.with_vector(problem.vector_from(parameters)))
+        rows = tableau(problem.with_vector(problem.vector_from(parameters)), require_stable=True)
         return Side(source, k, parameters, tuple(rows), "tableau")
     except EngineError as exc:
         if "the tableau evaluates" not in str(exc):
@@ -168,7 +168,9 @@ def comparison_json(c: Comparison) -> dict:
                 "kind": kind,
                 "name": name,
                 "target": finite_or_none(desired),  # the JSON key other programs read
-                "desired": finite_or_none(desired),
+                "desired": finite_or_none(desired),  # A's (B's when A lacks the row)
+                "desired_a": None if ra is None else finite_or_none(ra.desired),
+                "desired_b": None if rb is None else finite_or_none(rb.desired),
                 "a": _row_json(ra),
                 "b": _row_json(rb),
                 "difference": difference(ra, rb),
@@ -195,13 +197,12 @@ def comparison_text(c: Comparison) -> str:
         f"A: {c.a.source}, iteration {c.a.iteration}",
         f"B: {c.b.source}, iteration {c.b.iteration}",
         "",
-        f"{'condition':<12} {'kind':<20} {'name':<5} {'desired':>10} {'A':>12} met {'B':>12} met {'B - A':>12}",
+        f"{'condition':<12} {'kind':<20} {'name':<5} {'desired':>15} {'A':>12} met {'B':>12} met {'B - A':>12}",
     ]
     for (condition, kind, name), ra, rb in c.rows:
-        desired = (ra or rb).desired
         d = difference(ra, rb)
         lines.append(
-            f"{condition:<12} {kind:<20} {name:<5} {'' if desired is None else f'{desired:.6g}':>10} "
+            f"{condition:<12} {kind:<20} {name:<5} {_desired(ra, rb):>15} "
             f"{cell(ra)} {cell(rb)} {'' if d is None else f'{d:.6g}':>12}"
         )
     lines += ["", f"{'parameter':<12} {'A':>14} {'B':>14}"]
@@ -215,6 +216,15 @@ def comparison_text(c: Comparison) -> str:
     lines.append(f"{verdict[c.better]}: A {c.a.met} of {len(c.a.rows)}, B {c.b.met} of {len(c.b.rows)}")
     lines += [f"note: {n}" for n in c.notes]
     return "\n".join(lines)
+
+
+def _desired(ra: MeasureRow | None, rb: MeasureRow | None) -> str:
+    """The desired value, or A's and B's ("8 / 6", "A: 8", "B: 6") where the two differ."""
+    a, b = (None if r is None else r.desired for r in (ra, rb))
+    text = {x: "" if x is None else f"{x:.6g}" for x in (a, b)}
+    if ra is None or rb is None or text[a] == text[b]:
+        return text[a if ra is not None else b]
+    return f"{text[a] or '-'} / {text[b] or '-'}"
 
 
 def _shown(value) -> str:

@@ -119,3 +119,29 @@ def test_different_problems_are_said_to_differ_and_where_before_the_verdict(runs
     assert main(["compare", str(runs[0]), str(runs[1]), "--json"]) == 0
     same = json.loads(capsys.readouterr().out)
     assert same["same_problem"] is True and same["differences"] == []  # other starts, one problem
+
+
+def test_the_stability_row_names_and_both_desired_values(tmp_path, capsys):
+    """The example's start is unstable (poles 3.97 +- 20.7j): compare keeps slp's and the report's
+    stability row (STAB = -max Re p, python-control's closed-loop poles), names the rows as every
+    command does (WC1, GM1, PM1) and shows both desired values where the sessions differ (10 / 8)."""
+    data = json.loads(EXAMPLE.read_text())
+    gain = next(t for t in data["problem"]["targets"] if t["measure"] == "gain_margin_db")
+    gain["bands"][0]["desired"] = 8.0
+    other = tmp_path / "gm8.json"
+    other.write_text(json.dumps(data))
+    assert main(["compare", str(EXAMPLE), str(other), "--json"]) == 0
+    rows = {r["name"]: r for r in json.loads(capsys.readouterr().out)["rows"]}
+    assert {"WC1", "GM1", "PM1", "STAB"} <= set(rows)
+    start = {p["name"]: p["value"] for p in data["problem"]["parameters"]}
+    T1, T2, T3, T4 = (start[k] for k in ("T1", "T2", "T3", "T4"))
+    compensator = control.tf(np.polymul([T1, 1.0], [T2, 1.0]), np.polymul([T3, 1.0], [T4, 1.0]))
+    abscissa = -max(control.poles(control.feedback(compensator * PLANT, 1)).real)
+    assert abscissa < 0 and rows["STAB"]["a"]["value"] == pytest.approx(abscissa, rel=1e-9)
+    assert rows["STAB"]["a"]["satisfied"] is False
+    assert (rows["GM1"]["desired_a"], rows["GM1"]["desired_b"]) == (10.0, 8.0)
+    assert main(["compare", str(EXAMPLE), str(other)]) == 0
+    text = capsys.readouterr().out
+    assert "A 1 of 4" in text
+    gm_line = next(line for line in text.splitlines() if " GM1 " in line)
+    assert "10 / 8" in gm_line

@@ -120,3 +120,50 @@ def test_compensators_with_per_condition_values_are_written_per_condition(tmp_pa
     rows = table[2]
     constants = [rows[k + 1][2] for k, row in enumerate(rows) if row[0].startswith("attitude path")]
     assert constants == ["0.5 / (1 + s/20)", "0.6 / (1 + s/20)", "0.7 / (1 + s/20)"]
+
+
+def test_rows_shown_not_judged_are_not_met_and_every_margin_says_how_obtained(tmp_path):
+    """The launch vehicle's PEAK rows (no desired value) read "not judged", never a green "met"; in the
+    initial and final tableaux as in the summary, each margin's "how obtained" is filled."""
+    from html.parser import HTMLParser
+    from pathlib import Path
+
+    examples = Path(__file__).resolve().parents[1] / "sessions" / "examples"
+    source = examples / "coebra_launch_vehicle.json"
+    assert main(["report", str(source), "--format", "html", "--out", str(tmp_path)]) == 0
+
+    class Rows(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.tables, self.cell = [], None
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "table":
+                self.tables.append([])
+            elif tag == "tr":
+                self.tables[-1].append([])
+            elif tag in ("td", "th"):
+                self.cell = [dict(attrs).get("class"), ""]
+
+        def handle_data(self, data):
+            if self.cell is not None:
+                self.cell[1] += data
+
+        def handle_endtag(self, tag):
+            if tag in ("td", "th") and self.cell is not None:
+                self.tables[-1][-1].append(tuple(self.cell))
+                self.cell = None
+
+    parser = Rows()
+    parser.feed((tmp_path / "coebra_launch_vehicle.html").read_text())
+    tableaux = [
+        t for t in parser.tables if t and [c[1] for c in t[0]][:5] == ["measure", "condition", "target", "value", "met"]
+    ]
+    assert len(tableaux) == 3  # the summary, the initial and the final design
+    for table in tableaux:
+        for row in table[1:]:
+            measure, target, met, how = row[0][1], row[2][1], row[4], row[6][1]
+            if target == "(shown, not judged)":
+                assert met == (None, "not judged"), measure
+            if "margin" in measure:
+                assert how.strip(), measure

@@ -6,20 +6,31 @@ default the first input and the output named y, c or x1.  The horizon, unless
 given, comes from the closed-loop poles (8 time constants of the slowest, 5 of the
 fastest unstable).  The measures: rise time (10-90 %), overshoot, settling band
 (+-5 %) and settling time (`time_response.step_measures`), from the DC gain's final
-value (none when the response has no settled final value to measure from).
+value (none when the response has no settled final value to measure from).  A continuous
+loop's are refined on the exact response y(t) = c x(t) + d, x(t) from
+expm([[A, b], [0, 0]] t): the crossings of 10, 50 and 90 % and of the band by Brent's
+method in their brackets on the grid, the peak where y'(t) = c (A x + b) vanishes (the
+grid's largest local maxima refined), and the stationary points after the last sample
+outside the band that come near it checked, so a brief excursion between samples counts.
 
 A sampled loop (its realization in w, `StateSpace.sample_time`) responds at its samples
-t = k T: its realization taken to z (w = (z - 1)/(z + 1)) and stepped sample by sample; the response is drawn as a staircase and measured at the
-samples, over a horizon from the poles' radii (8 time constants -T/ln|z| of the slowest).
+t = k T: its realization taken to z (w = (z - 1)/(z + 1)) and stepped sample by sample; the
+response is drawn as a staircase (the output held between samples) and every measure read on
+the samples (`step_measures(held=True)`: the peak the largest sample, rise from the first sample
+at or above 10 % to the first at or above 90 %, settling the first sample after which every
+sample stays in the band), over a horizon from the poles' radii (8 time constants -T/ln|z|
+of the slowest).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.linalg import expm
+from scipy.optimize import brentq
 
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
@@ -27,7 +38,9 @@ from engine.loop.realization import StateSpace, realize
 from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.network import Network
 
-SAMPLES = 400
+SAMPLES = 400  # at least, over the horizon
+PER_PERIOD = 16  # samples per period of the fastest closed-loop oscillation, so no peak falls between brackets
+MOST_SAMPLES = 20_000  # a continuous response's samples at most (then `StepResponse.note` says so)
 MIN_SAMPLES, MAX_SAMPLES = 20, 2000  # a sampled loop's step response: samples shown
 SETTLING_BAND = 0.05
 MAX_HORIZON = 1e4
@@ -48,6 +61,7 @@ class StepResponse:
     y: list[float]
     name: str  # 'y (step at r)'
     measures: StepMeasures | None  # None when the response has no settled final value to measure from
+    note: str | None = None  # what the measures cannot promise (a grid too coarse for an oscillation)
 
 
 def default_output(ss: StateSpace) -> str:
@@ -98,12 +112,50 @@ def step_response(ss: StateSpace, setup: StepSetup, span: float | None = None) -
     if ss.sample_time is not None:
         return _sampled_step(ss, source, output, end)
     t = np.linspace(0.0, end, SAMPLES)
-    segments = [Segment(0.0, step=1.0)]
     try:
-        y = simulate(ss, source, t, segments)[:, ss.outputs.index(output)]
+        y = _simulated(ss, source, output, t)
+        count, note = _samples(ss, end)
+        if count > SAMPLES and _measured(ss, source, output, y):  # a finer grid for the measures' brackets
+            t = np.linspace(0.0, end, count)
+            y = _simulated(ss, source, output, t)
+        else:
+            note = None
     except EngineError:
         return None
-    return StepResponse(t.tolist(), y.tolist(), f"{output} (step at {source})", _measures(ss, source, output, t, y))
+    measures = _measures(ss, source, output, t, y)
+    return StepResponse(t.tolist(), y.tolist(), f"{output} (step at {source})", measures, note)
+
+
+def _simulated(ss: StateSpace, source: str, output: str, t: np.ndarray) -> np.ndarray:
+    return simulate(ss, source, t, [Segment(0.0, step=1.0)])[:, ss.outputs.index(output)]
+
+
+RETURNS_TO_ZERO = 1e-6  # a final value this small beside the response's peak: a disturbance rejected
+
+
+def _measured(ss: StateSpace, source: str, output: str, y: np.ndarray) -> bool:
+    """Whether the response has step measures worth refining: finite, settling at a final value (the DC
+    gain's) that is not 0 beside its peak."""
+    if not np.all(np.isfinite(y)):
+        return False
+    final, origin = final_value(ss, source, output, [Segment(0.0, step=1.0)], y)
+    return origin == "dc_gain" and math.isfinite(final) and abs(final) > RETURNS_TO_ZERO * np.max(np.abs(y))
+
+
+def _samples(ss: StateSpace, end: float) -> tuple[int, str | None]:
+    """Samples over ``end`` seconds: `PER_PERIOD` per period of the fastest oscillation of the closed
+    loop, at least `SAMPLES`, at most `MOST_SAMPLES` (then a note says which oscillation is unresolved)."""
+    try:
+        fastest = float(np.max(np.abs(np.linalg.eigvals(ss.A).imag), initial=0.0))
+    except np.linalg.LinAlgError:
+        return SAMPLES, None
+    wanted = math.ceil(end * fastest / (2 * math.pi) * PER_PERIOD) + 1 if math.isfinite(fastest) else SAMPLES
+    if wanted <= MOST_SAMPLES:
+        return max(SAMPLES, wanted), None
+    return MOST_SAMPLES, (
+        f"{MOST_SAMPLES} samples over {end:.6g} s do not resolve the {fastest:.6g} rad/s oscillation: "
+        "a peak or an excursion from the band between samples may be missed"
+    )
 
 
 def _sampled_step(ss: StateSpace, source: str, output: str, end: float) -> StepResponse | None:
@@ -125,4 +177,105 @@ def _measures(ss: StateSpace, source: str, output: str, t: np.ndarray, y: np.nda
     final, origin = final_value(ss, source, output, [Segment(0.0, step=1.0)], y)
     if origin != "dc_gain" or final == 0 or not math.isfinite(final):
         return None
-    return step_measures(t, y, final, band=SETTLING_BAND)
+    on_grid = step_measures(t, y, final, band=SETTLING_BAND, held=ss.sample_time is not None)
+    if ss.sample_time is not None:
+        return on_grid
+    exact = ExactStep(ss, source, output)
+    slope = simulate(replace(ss, C=ss.C @ ss.A, D=ss.C @ ss.B), source, t, [Segment(0.0, step=1.0)])
+    return exact.refined(on_grid, t, y, slope[:, ss.outputs.index(output)])
+
+
+PEAK_CANDIDATES = 8  # the grid's largest local maxima refined for the peak
+SETTLING_CANDIDATES = 64  # the last extrema near the band checked for settling
+
+
+class ExactStep:
+    """One output's exact response to a unit step at one input of a continuous closed loop:
+    y(t) = c x(t) + d and y'(t) = c (A x(t) + b), x(t) from expm([[A, b], [0, 0]] t)."""
+
+    def __init__(self, ss: StateSpace, source: str, output: str) -> None:
+        k, j = ss.inputs.index(source), ss.outputs.index(output)
+        n = ss.A.shape[0]
+        self._augmented = np.zeros((n + 1, n + 1))
+        self._augmented[:n, :n], self._augmented[:n, n] = ss.A, ss.B[:, k]
+        self._A, self._b, self._c, self._d = ss.A, ss.B[:, k], ss.C[j], float(ss.D[j, k])
+
+    def _state(self, time: float) -> np.ndarray:
+        return expm(self._augmented * time)[:-1, -1]
+
+    def value(self, time: float) -> float:
+        return float(self._c @ self._state(time)) + self._d
+
+    def slope(self, time: float) -> float:
+        return float(self._c @ (self._A @ self._state(time) + self._b))
+
+    def _root(self, f, a: float, b: float) -> float:
+        fa, fb = f(a), f(b)
+        if fa == 0 or fb == 0 or fa * fb > 0:  # at a sample, or no sign change left: the sample nearer 0
+            return a if abs(fa) <= abs(fb) else b
+        return float(brentq(f, a, b, xtol=1e-15 * max(abs(a), abs(b), 1.0), rtol=4 * np.finfo(float).eps))
+
+    def crossing(self, level: float, a: float, b: float) -> float:
+        """Where y = ``level`` between a and b (a bracket)."""
+        return self._root(lambda time: self.value(time) - level, a, b)
+
+    def stationary(self, a: float, b: float) -> float:
+        """Where y' = 0 between a and b (a bracket)."""
+        return self._root(self.slope, a, b)
+
+    def refined(self, grid: StepMeasures, t: np.ndarray, y: np.ndarray, dy: np.ndarray) -> StepMeasures:
+        """``grid`` (the measures on the samples t, y; y' = dy there) refined on the exact response."""
+        final = grid.final
+        r = y / final
+
+        def first(level: float) -> float | None:
+            above = np.flatnonzero(r >= level)
+            if above.size == 0:
+                return None
+            i = int(above[0])
+            return float(t[0]) if i == 0 else self.crossing(level * final, t[i - 1], t[i])
+
+        t10, t90 = first(0.1), first(0.9)
+        peak_time, peak = self._peak(grid, t, r, dy)
+        return replace(
+            grid,
+            rise_time=None if t10 is None or t90 is None else t90 - t10,
+            delay_time=first(0.5),
+            peak_time=peak_time,
+            peak=peak,
+            overshoot_percent=0.0 if peak_time is None else (peak / final - 1.0) * 100.0,
+            settling_time=self._settling(grid, t, r, dy),
+        )
+
+    def _peak(self, grid: StepMeasures, t: np.ndarray, r: np.ndarray, dy: np.ndarray) -> tuple[float | None, float]:
+        """The peak's time and value (the global rule): the largest of the grid's peak sample and its
+        `PEAK_CANDIDATES` largest local maxima, each moved to where y' vanishes beside it."""
+        if grid.peak_time is None:
+            return None, grid.peak
+        maxima = np.flatnonzero((dy[:-1] > 0) & (dy[1:] <= 0))
+        candidates = maxima[np.argsort(-np.maximum(r[maxima], r[maxima + 1]))[:PEAK_CANDIDATES]]
+        found = [(grid.peak_time, grid.peak)]
+        for a in candidates:
+            time = self.stationary(t[a], t[a + 1])
+            found.append((time, self.value(time)))
+        return max(found, key=lambda tv: tv[1] / grid.final)
+
+    def _settling(self, grid: StepMeasures, t: np.ndarray, r: np.ndarray, dy: np.ndarray) -> float | None:
+        """The last time |r - 1| = band: after the last sample outside (none: the grid's answer, t[0] or
+        None), every extremum between samples that comes within a sample's change of the band checked,
+        the last one outside the start."""
+        outside = np.flatnonzero(np.abs(r - 1.0) > SETTLING_BAND)
+        if outside.size == 0 or grid.settling_time is None:
+            return grid.settling_time
+        final, last = grid.final, int(outside[-1])
+        reach = float(np.max(np.abs(np.diff(r[last:]))))
+        turns = last + np.flatnonzero(np.sign(dy[last:-1]) * np.sign(dy[last + 1 :]) < 0)
+        near = turns[np.maximum(np.abs(r[turns] - 1.0), np.abs(r[turns + 1] - 1.0)) > SETTLING_BAND - reach]
+        start, value = float(t[last]), float(r[last])
+        for a in near[::-1][:SETTLING_CANDIDATES]:  # the last extremum outside, if any
+            time = self.stationary(t[a], t[a + 1])
+            if abs(self.value(time) / final - 1.0) > SETTLING_BAND:
+                start, value, last = time, self.value(time) / final, int(a)
+                break
+        level = (1.0 + SETTLING_BAND if value > 1.0 else 1.0 - SETTLING_BAND) * final
+        return self.crossing(level, start, float(t[last + 1]))

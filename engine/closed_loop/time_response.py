@@ -16,7 +16,9 @@ how python-control's step_info (0.10) differs:
 
 - rise time: from r = 0.1 to r = 0.9, delay time: to r = 0.5, each the first
   crossing, interpolated linearly between samples (step_info: the first
-  sample at or above each level; within one time step);
+  sample at or above each level; within one time step); a sampled loop's
+  (``held``: its output held between samples) the first sample at or above
+  each level, no interpolation;
 - peak, peak time, overshoot: by ``peak_rule`` -- ``"global"`` (default) the
   largest r over the horizon, ``"first_half_cycle"`` report 003's rule, the
   first local maximum above the final value; no peak time and 0 % when the
@@ -25,7 +27,12 @@ how python-control's step_info (0.10) differs:
   overshoot, so they differ when an undershoot exceeds the overshoot);
 - settling time: the last time |r - 1| > band, interpolated linearly between
   the last sample outside and the first inside (step_info: that first sample
-  inside; within one time step); None when still outside at the horizon.
+  inside; within one time step); ``held``: that first sample inside, after
+  which every sample stays in the band; None when still outside at the horizon.
+
+A continuous loop's step plot and report refine these on the exact response
+(`engine.closed_loop.step_response`); what is interpolated here is what slp's
+time rows read on their grid.
 """
 
 from __future__ import annotations
@@ -233,25 +240,28 @@ def step_measures(
     *,
     final_from: FinalFrom = "dc_gain",
     peak_rule: PeakRule = "global",
+    held: bool = False,
 ) -> StepMeasures:
     """Rise (10-90 %), delay (50 %), peak by ``peak_rule``, overshoot, settling within
-    ``band`` of ``final`` (the caller's final value, see `final_value`)."""
+    ``band`` of ``final`` (the caller's final value, see `final_value`); ``held``: a sampled
+    loop's samples, each measure read on them (no interpolation between samples)."""
     if final == 0 or not math.isfinite(final):
         raise EngineError("step measures need a finite, non-zero final value")
     if peak_rule not in PEAK_RULES:
         raise EngineError(f"unknown peak rule {peak_rule!r}; rules are {', '.join(PEAK_RULES)}")
     r = np.asarray(y, dtype=float) / final
-    t10, t90 = _first_crossing(t, r, 0.1), _first_crossing(t, r, 0.9)
+    crossing = _first_sample_at if held else _first_crossing
+    t10, t90 = crossing(t, r, 0.1), crossing(t, r, 0.9)
     ipk = _peak_index(r, peak_rule)
     top = int(np.argmax(r)) if ipk is None else ipk
     return StepMeasures(
         final=float(final),
         rise_time=None if t10 is None or t90 is None else t90 - t10,
-        delay_time=_first_crossing(t, r, 0.5),
+        delay_time=crossing(t, r, 0.5),
         peak_time=None if ipk is None else float(t[ipk]),
         peak=float(y[top]),
         overshoot_percent=0.0 if ipk is None else float((r[ipk] - 1.0) * 100.0),
-        settling_time=_settling_time(t, r, band),
+        settling_time=_settling_time(t, r, band, held),
         steady_state_error=float(desired - final),
         final_from=final_from,
         peak_rule=peak_rule,
@@ -269,6 +279,12 @@ def _first_crossing(t: NDArray, r: NDArray, level: float) -> float | None:
     return float(t[i - 1] + (level - r[i - 1]) * (t[i] - t[i - 1]) / (r[i] - r[i - 1]))
 
 
+def _first_sample_at(t: NDArray, r: NDArray, level: float) -> float | None:
+    """The first sample at or above ``level`` (None: never)."""
+    idx = np.flatnonzero(r >= level)
+    return None if idx.size == 0 else float(t[idx[0]])
+
+
 def _peak_index(r: NDArray, rule: PeakRule) -> int | None:
     """The peak's sample by ``rule``, None when it finds none above the final value."""
     if rule == "first_half_cycle":
@@ -278,15 +294,18 @@ def _peak_index(r: NDArray, rule: PeakRule) -> int | None:
     return i if r[i] > 1.0 else None
 
 
-def _settling_time(t: NDArray, r: NDArray, band: float) -> float | None:
+def _settling_time(t: NDArray, r: NDArray, band: float, held: bool = False) -> float | None:
     """Last time |r - 1| > band, interpolated between the last sample outside and the
-    next (inside); t[0] when never outside, None when outside at the horizon."""
+    next (inside), or that next sample itself when ``held``; t[0] when never outside,
+    None when outside at the horizon."""
     outside = np.flatnonzero(np.abs(r - 1.0) > band)
     if outside.size == 0:
         return float(t[0])
     i = int(outside[-1])
     if i == r.size - 1:
         return None
+    if held:
+        return float(t[i + 1])
     level = 1.0 + band if r[i] > 1.0 else 1.0 - band
     return float(t[i] + (level - r[i]) * (t[i + 1] - t[i]) / (r[i + 1] - r[i]))
 

@@ -3,15 +3,20 @@ values and whether they are met (report 000's table, generalized)."""
 
 from __future__ import annotations
 
+import math
+from dataclasses import replace
+
 import numpy as np
 
 from engine.design.measure_kinds import absence, kind, met
 from engine.design.problem import Problem, Target
 from engine.errors import EngineError
 from engine.loop.design import closed_loop_realization
+from engine.loop.realization import StateSpace
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
 from engine.margins.search import Band, Margin, margins
+from engine.model.bilinear import s_of_z, z_of_w
 from engine.stepping.guard import numerical
 from engine.stepping.protocol import MeasureRow
 
@@ -28,11 +33,46 @@ ATTRIBUTE = {
 TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency", *CLOSED_LOOP_MEASURES)
 
 
-def tableau(problem: Problem) -> list[MeasureRow]:
-    """Rows for every target in every condition it applies to, sorted as declared (numerical
-    trouble on extreme values is an `EngineError`, never a warning)."""
+def tableau(problem: Problem, require_stable: bool = False) -> list[MeasureRow]:
+    """Rows for every target in every condition it applies to, sorted as declared, each named as
+    slp's rows are (the measure's tag and its count in the condition: WC1, GM1, PM2); with
+    ``require_stable`` a stability row (STAB, the stability abscissa, met when positive) for each
+    rational condition no stability target covers (numerical trouble on extreme values is an
+    `EngineError`, never a warning)."""
     with numerical("tableau"):
-        return _tableau(problem)
+        rows = _tableau(problem)
+        if require_stable:
+            rows += _stability_rows(problem, rows)
+        return rows
+
+
+def stability_abscissa(ss: StateSpace, sample_time: float | None = None) -> float:
+    """-max Re(closed-loop pole): positive when the closed loop is stable (inf with no states).  A
+    sampled loop's realization is in w: its poles' s-plane equivalents s = ln(z)/T, z = (1 + w)/(1 - w),
+    give -max ln|z|/T."""
+    if ss.A.size == 0:
+        return math.inf
+    poles = np.linalg.eigvals(ss.A)
+    if sample_time is None:
+        return float(-np.max(poles.real))
+    return float(-np.max(s_of_z(z_of_w(poles), sample_time).real))
+
+
+def _stability_rows(problem: Problem, rows: list[MeasureRow]) -> list[MeasureRow]:
+    covered = {r.condition for r in rows if r.kind == "stability_abscissa"}
+    found = []
+    for c, condition in enumerate(problem.conditions):
+        if condition.name in covered or not condition.network.rational:
+            continue
+        tag = kind("stability_abscissa").tag
+        method = "closed-loop poles (eigenvalues of the closed loop's realization)"
+        try:
+            ss = closed_loop_realization(condition.network, condition.break_at, problem.condition_values(c))
+            value = stability_abscissa(ss, condition.network.sample_time)
+        except (EngineError, np.linalg.LinAlgError) as exc:  # no closed loop to read: the row says why, unmet
+            value, method = math.nan, f"no closed-loop realization: {exc}"
+        found.append(MeasureRow(tag, "stability_abscissa", condition.name, value, 0.0, value > 0, None, True, method))
+    return found
 
 
 def _tableau(problem: Problem) -> list[MeasureRow]:
@@ -51,11 +91,15 @@ def _tableau(problem: Problem) -> list[MeasureRow]:
         attenuation_from = min((t.detect_low for t in targets if t.measure == "attenuation_margin"), default=None)
         found = margins(model, attenuation_above=attenuation_from)
         stable = _stable(problem, c) if any(t.measure in CLOSED_LOOP_MEASURES for t in targets) else None
+        counts: dict[str, int] = {}
         for target in targets:
             if target.measure in CLOSED_LOOP_MEASURES:
-                rows += _closed_loop_rows(target, model, found, condition.name, stable)
+                found_rows = _closed_loop_rows(target, model, found, condition.name, stable)
             else:
-                rows += _rows(target, found, condition.name, model)
+                found_rows = _rows(target, found, condition.name, model)
+            for row in found_rows:
+                counts[row.kind] = counts.get(row.kind, 0) + 1
+                rows.append(replace(row, name=f"{kind(row.kind).tag}{counts[row.kind]}"))
     return rows
 
 
@@ -71,8 +115,8 @@ def _stable(problem: Problem, c: int) -> bool | None:
 def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool | None) -> list[MeasureRow]:
     """One row per band: the disk margin, Ms or Mt refined over it (`engine.margins.peak_measures`), or the
     smallest delay margin of its gain crossovers (inf with none)."""
-    rows, short, at_least = [], kind(target.measure).short, target.at_least
-    for n, band in enumerate(target.bands, start=1):
+    rows, at_least = [], target.at_least
+    for band in target.bands:
         if target.measure in PEAK_MEASURES:
             value, frequency, peak = band_peak(model, target.measure, Band(band.low, band.high), stable)
             method = peak.method
@@ -82,7 +126,7 @@ def _closed_loop_rows(target: Target, model, found, condition: str, stable: bool
                 method = "the closed loop is unstable: no delay is tolerated"
         rows.append(
             MeasureRow(
-                f"{short}{n}",
+                "",  # named by `_tableau`
                 target.measure,
                 condition,
                 value,
@@ -104,7 +148,7 @@ def _rows(target: Target, found, condition: str, model: LoopModel) -> list[Measu
         value, method = (wc, found.label) if wc is not None else _no_crossover(model)
         return [
             MeasureRow(
-                "wc",
+                "",  # named by `_tableau`
                 "crossover_frequency",
                 condition,
                 value,
@@ -119,14 +163,12 @@ def _rows(target: Target, found, condition: str, model: LoopModel) -> list[Measu
     band = Band(target.detect_low, target.detect_high)
     chosen: list[Margin] = [m for m in found.all() if m.kind == family and band.contains(m.frequency)]
     rows = []
-    for n, m in enumerate(chosen, start=1):
+    for m in chosen:
         value = float(getattr(m, attribute))
         desired = target.desired(m.frequency)
         ok = met(value, desired, at_least)
         rows.append(
-            MeasureRow(
-                f"{family}{n}", target.measure, condition, value, desired, bool(ok), m.frequency, at_least, found.label
-            )
+            MeasureRow("", target.measure, condition, value, desired, bool(ok), m.frequency, at_least, found.label)
         )
     return rows
 

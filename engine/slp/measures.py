@@ -32,12 +32,12 @@ from numpy.typing import NDArray
 from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
 from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
 from engine.design.problem import FREQUENCY_MEASURES, Problem
+from engine.design.tableau import stability_abscissa
 from engine.errors import EngineError
 from engine.loop.design import closed_loop_realization
 from engine.loop.realization import StateSpace, cascade
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
-from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.blocks import ExpressionTransfer
 from engine.slp.peaks import closed_loop_values
 
@@ -256,7 +256,14 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
     if final == 0 or not math.isfinite(final):
         return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
     m = step_measures(
-        t, y, final, response.reference, response.settling_band, final_from=source, peak_rule=SLP_PEAK_RULE
+        t,
+        y,
+        final,
+        response.reference,
+        response.settling_band,
+        final_from=source,
+        peak_rule=SLP_PEAK_RULE,
+        held=ss.sample_time is not None,
     )
     value = {
         "rise_time": m.rise_time,
@@ -267,18 +274,6 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
     if value is None:
         return math.inf if spec.kind in ("rise_time", "settling_time") else math.nan
     return float(value)
-
-
-def stability_abscissa(ss: StateSpace, sample_time: float | None = None) -> float:
-    """-max Re(closed-loop pole): positive when the closed loop is stable (inf with no states).  A
-    sampled loop's realization is in w: its poles' s-plane equivalents s = ln(z)/T, z = (1 + w)/(1 - w),
-    give -max ln|z|/T."""
-    if ss.A.size == 0:
-        return math.inf
-    poles = np.linalg.eigvals(ss.A)
-    if sample_time is None:
-        return float(-np.max(poles.real))
-    return float(-np.max(s_of_z(z_of_w(poles), sample_time).real))
 
 
 def mean_square(ss: StateSpace, input_name: str, output: str, psd: str | None) -> float:

@@ -6,8 +6,14 @@ itself, or with ``--fit`` its AAA fit as a ``zpk``; a delay an exact
 models too);
 the uses of the break signal read an injected loop signal, so the open loop
 is ``L = -connect(..., loop, break)`` and ``allmargin(L)`` gives every
-margin.  Numbers are written with Python's ``repr`` (shortest round trip;
-MATLAB reads the same double).
+margin where it exists; GNU Octave's control package has none, so there the
+script calls ``margin(L)`` (the smallest gain and phase margins) and says why.
+The closed loop's poles are asked only of a loop with no table (``pole``
+refuses ``frd`` models).  The parameters' values are in a comment: every
+entry is written with its numbers.  Numbers are written with Python's
+``repr`` (shortest round trip; MATLAB reads the same double).  The script
+runs in MATLAB (Control System Toolbox) and in GNU Octave (``pkg load
+control``, done by the script when it runs there).
 """
 
 from __future__ import annotations
@@ -31,17 +37,18 @@ def matlab_script(d: Design, sample_time: float | None = None) -> str:
     lines = [
         f"% Design exported by loopcraft from {d.source}, iteration {d.iteration}"
         f"{' (the start)' if d.iteration == 0 else ''}.",
-        "% Needs the Control System Toolbox (tf, zpk, sumblk, connect, allmargin).",
+        "% Needs the Control System Toolbox (tf, zpk, frd, sumblk, connect, allmargin or margin),",
+        "% or GNU Octave with its control package (loaded here when run by Octave).",
         "% Each condition's loop is broken where the session breaks it: L = GH, 1 + L = 0 closes it.",
+        "if exist('OCTAVE_VERSION', 'builtin'), pkg load control; end",
     ]
     for e in fitted_entries(d):
         lines.append(
             f"% {e.label}: {e.text} is tabulated; here its AAA rational fit (engine/numerics/rational_fit.py) of "
             f"degree {e.degree}, relative residual {e.residual:.3e} on the table"
         )
-    lines += ["", f"% the parameters of iteration {d.iteration} (a vector: one value per condition)"]
-    for name, value in d.parameters.items():
-        lines.append(f"parameters.{_field(name)} = {_number_or_vector(value)};  % {name}")
+    lines += ["", f"% the parameters of iteration {d.iteration}, written into every entry below:"]
+    lines += [f"%   {name} = {_number_or_vector(value)}" for name, value in d.parameters.items()]
     for c in d.conditions:
         lines += [""] + _condition(c, names[c.name], sample_time)
     return "\n".join(lines) + "\n"
@@ -52,8 +59,9 @@ def _field(name: str) -> str:
 
 
 def _number_or_vector(value) -> str:
+    """A scalar, or a vector of one value per condition (a parameter that differs between them)."""
     if isinstance(value, list):
-        return "[" + " ".join(repr(float(v)) for v in value) + "]"
+        return "[" + " ".join(repr(float(v)) for v in value) + "] (one value per condition)"
     return repr(float(value))
 
 
@@ -83,12 +91,17 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list
     cells = f"blocks_{name}{{:}}"
     lines += [
         f"L_{name} = -connect({cells}, '{cut}', '{ident[c.break_at]}');  % open loop at '{c.break_at}'",
-        f"margins_{name} = allmargin(L_{name})",
-        f"[Gm_{name}, Pm_{name}, Wcg_{name}, Wcp_{name}] = margin(L_{name})",
+        "% every margin (allmargin); GNU Octave's control package has no allmargin: there margin gives",
+        "% the smallest gain margin (a ratio) and phase margin (deg) with their frequencies (rad/s)",
+        f"if exist('allmargin'), margins_{name} = allmargin(L_{name}), "
+        f"else, [Gm_{name}, Pm_{name}, Wcg_{name}, Wcp_{name}] = margin(L_{name}), end",
         f"closed_{name} = connect({cells}, sumblk('{cut} = {ident[c.break_at]}'), "
         f"{_cell(inputs)}, {_cell(produced)});  % all loops closed",
-        f"poles_{name} = pole(closed_{name})",
     ]
+    if any(e.kind == "table" for e in c.entries):
+        lines.append("% no closed-loop poles: a tabulated entry (frd) has none (pole refuses frd models)")
+    else:
+        lines.append(f"poles_{name} = pole(closed_{name})")
     if c.variable == "w":
         ts = "-1" if sample_time is None else repr(float(sample_time))
         for e in c.entries:

@@ -255,7 +255,12 @@ ZPK = '''def zpk(zeros, poles, gain, **names):
 MAIN = '''def stability_margins(loop):
     """Every crossing control.stability_margins finds (gain margins absolute, phase margins deg)."""
     gm, pm, sm, wpc, wgc, wms = control.stability_margins(loop, returnall=True)
-    return {"gain_margins": [float(x) for x in np.atleast_1d(gm)],
+    ratios = [float(x) for x in np.atleast_1d(gm)]
+    with np.errstate(divide="ignore"):
+        decibels = [float(20 * np.log10(x)) if x > 0 else None for x in ratios]
+    return {"gain_margins_ratio": ratios,
+            "gain_margins_db": decibels,
+            "gain_margins": ratios,  # the ratios' old key: kept one release (docs/export.md)
             "phase_crossovers": [float(x) for x in np.atleast_1d(wpc)],
             "phase_margins_deg": [float(x) for x in np.atleast_1d(pm)],
             "gain_crossovers": [float(x) for x in np.atleast_1d(wgc)],
@@ -263,8 +268,33 @@ MAIN = '''def stability_margins(loop):
             "stability_frequencies": [float(x) for x in np.atleast_1d(wms)]}
 
 
-def side_by_side(what, unit, theirs, ours):
-    """Each margin beside the other tool's at the nearest frequency (one listed alone: '-')."""
+def response(loop, w):
+    """L(j w) (z = exp(j w T) in z): a state space by solving (s I - A) x = B, a fraction in its
+    factored form k prod(s - z) / prod(s - p), so a high order overflows nothing."""
+    s = np.exp(1j * w * loop.dt) if loop.isdtime(strict=True) else 1j * w
+    if isinstance(loop, control.StateSpace):
+        A, B, C, D = (np.asarray(m, dtype=float) for m in (loop.A, loop.B, loop.C, loop.D))
+        return complex((C @ np.linalg.solve(s * np.eye(A.shape[0]) - A, B) + D)[0, 0])
+    num, den = loop.num[0][0], loop.den[0][0]
+    gain = num[np.flatnonzero(num)[0]] / den[np.flatnonzero(den)[0]]
+    return complex(gain * np.prod(s - np.roots(num)) / np.prod(s - np.roots(den)))
+
+
+def why_alone(loop, what, w):
+    """Why a crossing python-control lists alone is no margin: L where it puts it."""
+    if w == 0:
+        return "at 0 rad/s: the limit of a loop with integrators (|L| infinite), no crossing"
+    h = response(loop, w)
+    if what == "phase margin" and abs(abs(h) - 1) > 1e-3:
+        return f"not a gain crossover: |L| = {abs(h):.6g} there (rounding in its expanded polynomials)"
+    if what == "gain margin" and abs(np.angle(h, deg=True)) < 179.9:
+        return f"not a phase crossover: arg L = {np.angle(h, deg=True):.6g} deg there (rounding in its polynomials)"
+    return f"L = {h:.6g} there: a crossing loopcraft does not list"
+
+
+def side_by_side(what, unit, theirs, ours, loop):
+    """Each margin beside the other tool's at the nearest frequency; one python-control lists alone
+    with why it is not a margin (L evaluated there)."""
     left = list(theirs)
 
     def apart(a, b):
@@ -281,7 +311,17 @@ def side_by_side(what, unit, theirs, ours):
             text = "-"
         print(f"  {what:<14}{text:<30}{value:.6g} {unit} at {w:.6g} rad/s")
     for value, w in left:
-        print(f"  {what:<14}{f'{value:.6g} {unit} at {w:.6g}':<30}- (python-control alone)")
+        print(f"  {what:<14}{f'{value:.6g} {unit} at {w:.6g}':<30}- (python-control alone: {why_alone(loop, what, w)})")
+
+
+def summary(loop):
+    """L in one or a few lines: a fraction as its zeros, poles and gain; a state space by its size."""
+    if isinstance(loop, control.StateSpace):
+        return f"state space, {loop.nstates} states (python-control's interconnect; not printed)"
+    num, den = loop.num[0][0], loop.den[0][0]
+    gain = num[np.flatnonzero(num)[0]] / den[np.flatnonzero(den)[0]]
+    roots = lambda r: ", ".join(f"{x:.6g}" for x in sorted(r, key=lambda x: (abs(x), x.imag))) or "none"
+    return f"gain {gain:.6g}\\n  zeros: {roots(np.roots(num))}\\n  poles: {roots(np.roots(den))}"
 
 
 def main():
@@ -301,16 +341,16 @@ def main():
     for name, r in report.items():
         verdict = ("stable" if r["stable"] else "UNSTABLE") + " closed loop" if "stable" in r else "a table: no poles"
         print(f"condition {name}: {verdict}")
-        if not isinstance(CONDITIONS[name][0](), control.FrequencyResponseData):
-            fraction = str(CONDITIONS[name][0]()).split("\\n\\n", 1)[-1]  # without python-control's header
-            variable = "z" if CONDITIONS[name][0]().isdtime(strict=True) else "s"
-            print(f"  L({variable}) =\\n  " + fraction.strip("\\n").replace("\\n", "\\n  "))
+        loop = CONDITIONS[name][0]()
+        if not isinstance(loop, control.FrequencyResponseData):
+            variable = "z" if loop.isdtime(strict=True) else "s"
+            print(f"  L({variable}): {summary(loop)}")
         ours = r["loopcraft"]
         print(f"  {'':<14}{'python-control':<30}loopcraft ({ours.get('method', 'not given')})")
-        theirs = [(20 * np.log10(g), w) for g, w in zip(r["gain_margins"], r["phase_crossovers"])]
-        side_by_side("gain margin", "dB", theirs, ours.get("gain", []))
+        theirs = [(db, w) for db, w in zip(r["gain_margins_db"], r["phase_crossovers"]) if db is not None]
+        side_by_side("gain margin", "dB", theirs, ours.get("gain", []), loop)
         theirs = list(zip(r["phase_margins_deg"], r["gain_crossovers"]))
-        side_by_side("phase margin", "deg", theirs, ours.get("phase", []))
+        side_by_side("phase margin", "deg", theirs, ours.get("phase", []), loop)
         print(f"  where they differ: {DIFFERS[name]}")
         for label, sys_z in CONDITIONS[name][2]().items():
             print(f"  {label} in the z-domain:{sys_z}")

@@ -62,7 +62,7 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
     blocks += [("h2", "Constraints"), *design_state.constraints(session, design)]
     blocks += [("h2", "Loop analysis at the design"), *design_state.loop_analysis(session, design, found)]
     blocks += _problem(session)
-    blocks += _designs(initial, final, k, session.problem.grid.unit)
+    blocks += _designs(session, initial, final, k)
     blocks += _convergence(session, k)
     blocks += _figures(session, named, final)
     blocks += _tolerance_study(session)
@@ -145,14 +145,17 @@ def _band(b) -> str:
     return f"{where}{number(b.desired)}{required}"
 
 
-def _designs(initial: StepRecord | None, final: StepRecord | None, k: int, unit: str) -> list[Block]:
+def _designs(session: Session, initial: StepRecord | None, final: StepRecord | None, k: int) -> list[Block]:
+    """The initial and final tableaux, each margin's "how obtained" from its own design's analysis."""
     blocks: list[Block] = [("h2", "Initial and final design")]
     for title, record in (("Initial design (iteration 0)", initial), (f"Final design (iteration {k})", final)):
         blocks.append(("h3", title))
         if record is None:
             blocks.append(("p", "The loop cannot be evaluated at this design."))
             continue
-        verdict, table = design_state.requirement_rows(record, unit)
+        found = design_state.analyses(session, dict(record.parameters))
+        methods = {name: a.margins.label for name, a in found.items() if not isinstance(a, str)}
+        verdict, table = design_state.requirement_rows(record, session.problem.grid.unit, methods)
         values = ", ".join(f"{n} = {number(v)}" for n, v in record.parameters.items())
         blocks += [("p", f"{verdict}. Parameters: {values}"), table]
     return blocks
@@ -222,6 +225,7 @@ def _figures(session: Session, named: dict | None, final: StepRecord | None) -> 
         ]
         title = f"condition {condition.name}"
         rows = [r for r in (final.measures if final is not None else ()) if r.condition == condition.name]
+        targets = [t for t in problem.targets if t.condition in (None, condition.name)]
         blocks.append(("h3", f"Condition {condition.name}"))
         if not curves:
             blocks.append(("p", "The loop cannot be evaluated on the grid."))
@@ -231,7 +235,7 @@ def _figures(session: Session, named: dict | None, final: StepRecord | None) -> 
             (
                 "figure",
                 f"bode_{c}",
-                figures.bode(curves, unit, f"Bode, {title}", rows),
+                figures.bode(curves, unit, f"Bode, {title}", rows, targets),
                 f"Bode, {title}: margins and targets",
             ),
             (
@@ -240,7 +244,12 @@ def _figures(session: Session, named: dict | None, final: StepRecord | None) -> 
                 figures.nyquist(curves, _circles(session, condition.name), f"Nyquist, {title}"),
                 f"Nyquist, {title}: -1 and the margin targets as circles |1 + GH| around it",
             ),
-            ("figure", f"nichols_{c}", figures.nichols(curves, f"Nichols, {title}"), f"Nichols, {title}"),
+            (
+                "figure",
+                f"nichols_{c}",
+                figures.nichols(curves, f"Nichols, {title}", rows),
+                f"Nichols, {title}: the margins' requirements on the curve's branch",
+            ),
             (
                 "figure",
                 f"st_{c}",

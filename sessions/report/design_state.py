@@ -14,7 +14,7 @@ import math
 from typing import Any
 
 from engine.analysis import LoopAnalysis, analyze
-from engine.closed_loop.step_response import StepSetup, realized, step_response
+from engine.closed_loop.step_response import RETURNS_TO_ZERO, StepSetup, realized, step_response
 from engine.design.compensator_items import compensators, pole_zero_form, time_constant_form
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
@@ -27,7 +27,6 @@ from sessions.store import Session
 
 Block = tuple
 BINDS = 1e-6  # relative: a value this near a bound (or a constraint's slack this small) binds
-SETTLED = 1e-6  # a final value this small beside the response's peak is 0: a disturbance rejected
 
 
 def provenance(session: Session, k: int) -> list[Block]:
@@ -61,7 +60,7 @@ def requirement_rows(record: StepRecord | None, unit: str, methods: dict[str, st
             r.condition,
             _target(r),
             _value(r),
-            "met" if r.satisfied else "UNMET",
+            "not judged" if r.desired is None else "met" if r.satisfied else "UNMET",
             "" if r.frequency is None else f"{number(r.frequency / (2 * math.pi if unit == 'hz' else 1.0))} {unit}",
             r.method or _method(r, (methods or {}).get(r.condition, "")),
         ]
@@ -230,15 +229,20 @@ def _poles(found: LoopAnalysis) -> list[Block]:
     if found.closed_loop_poles is None:
         return [("p", f"Closed loop: {found.verdict} (closed-loop poles need a rational loop).")]
     rows = []
-    for p in found.closed_loop_poles:
+    poles = found.closed_loop_poles
+    for p, hidden in zip(poles, found.hidden or ("",) * len(poles)):
         z = complex(p.value)
         if z.imag < 0:
             continue
         text = f"{number(z.real)} +- {number(z.imag)}j" if z.imag > 0 else number(z.real)
-        rows.append([text, number(p.damping), number(p.natural_frequency)])
+        rows.append([text, number(p.damping), number(p.natural_frequency), f"fixed: {hidden}" if hidden else ""])
     return [
-        ("p", f"Closed loop: {found.verdict}; its poles (eigenvalues of the closed loop's realization):"),
-        ("table", ("pole", "zeta", "wn (rad/s)"), rows),
+        (
+            "p",
+            f"Closed loop: {found.verdict}; its poles (eigenvalues of the closed loop's realization; a fixed mode "
+            "is uncontrollable or unobservable from the loop, by the PBH test on the balanced realization):",
+        ),
+        ("table", ("pole", "zeta", "wn (rad/s)", "from the loop"), rows),
     ]
 
 
@@ -248,7 +252,7 @@ def _step(network, values: dict[str, float]) -> list[Block]:
     if response is None or response.measures is None:
         return []
     m = response.measures
-    if abs(m.final) <= SETTLED * max(abs(v) for v in response.y):
+    if abs(m.final) <= RETURNS_TO_ZERO * max(abs(v) for v in response.y):
         return [("p", f"Step response of {response.name}: it returns to 0 (a disturbance rejected): no step measures.")]
 
     def seconds(x: float | None) -> str:
@@ -261,4 +265,13 @@ def _step(network, values: dict[str, float]) -> list[Block]:
         ["peak time", seconds(m.peak_time)],
         ["settling time (5 %)", seconds(m.settling_time)],
     ]
-    return [("p", f"Step response of {response.name} (simulated, exact discretization):"), ("table", ("", ""), rows)]
+    how = (
+        "read on the samples, the output held between them: the peak is the largest sample, rise from the first "
+        "sample at or above 10 % to the first at or above 90 %, settling the first sample after which every "
+        "sample stays in the band"
+        if network.sampled
+        else "simulated by exact discretization, each measure refined on the exact response: the crossings of "
+        "10 %, 90 % and the band by root finding, the peak where the response's derivative vanishes"
+    )
+    blocks: list[Block] = [("p", f"Step response of {response.name} ({how}):"), ("table", ("", ""), rows)]
+    return blocks + ([("p", f"Note: {response.note}.")] if response.note else [])

@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import io
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from engine.analysis import LoopCurve
 from engine.closed_loop.root_locus import PoleZeroMap, RootLocus
 from engine.closed_loop.time_response import StepMeasures
+from engine.design.problem import Target
 from engine.stepping.protocol import MeasureRow
 from sessions.format.save_file import printable
 
@@ -71,10 +73,6 @@ def _db(gh: np.ndarray) -> np.ndarray:
         return 20 * np.log10(np.abs(gh))
 
 
-def _phase(gh: np.ndarray) -> np.ndarray:
-    return np.degrees(np.unwrap(np.angle(gh)))
-
-
 def _desired(rows: Sequence[MeasureRow], kind: str) -> MeasureRow | None:
     """The first row of a measure kind that has a desired value (None: no such target)."""
     return next((r for r in rows if r.kind == kind and r.desired is not None and np.isfinite(r.desired)), None)
@@ -85,46 +83,151 @@ def _requirement_style(row: MeasureRow) -> dict:
     return {"color": "tab:green" if row.satisfied else "tab:red", "ls": "--", "lw": 1.0}
 
 
-def _bode_requirements(mag, phase, rows: Sequence[MeasureRow], scale: float) -> None:
-    """The targets on a Bode plot: the GM level below 0 dB and the PM level above
-    -180 deg (at the crossings), a crossover bound, a modal-peak ceiling."""
-    gm, pm = _desired(rows, "gain_margin_db"), _desired(rows, "phase_margin_deg")
-    if gm is not None:
-        mag.axhline(-gm.desired, **_requirement_style(gm), label=f"GM >= {gm.desired:g} dB (at phase crossovers)")
-    if pm is not None:
-        phase.axhline(
-            -180 + pm.desired, **_requirement_style(pm), label=f"PM >= {pm.desired:g} deg (at gain crossovers)"
+@dataclass(frozen=True)
+class Requirement:
+    """A requirement's line on a figure's ``panel`` ("magnitude", "phase", "nichols"): from (x0, y0)
+    to (x1, y1) in its data units (frequencies in the figure's unit), its legend label, met or not."""
+
+    panel: str
+    x: tuple[float, float]
+    y: tuple[float, float]
+    label: str
+    met: bool
+
+
+SPAN = 2.0  # a margin's requirement is drawn from f/SPAN to f*SPAN about its crossing
+NICHOLS_SPAN = (15.0, 3.0)  # deg, dB: the half-widths of a margin's requirement on the Nichols chart
+PEAK_KINDS = ("modal_peak_db",)
+
+
+def _sense(row: MeasureRow) -> str:
+    return ">=" if row.at_least else "<="
+
+
+def _judged(rows: Sequence[MeasureRow], kind: str) -> list[MeasureRow]:
+    """The rows of a kind with a desired value and a crossing (each drawn at its own crossing)."""
+    return [
+        r
+        for r in rows
+        if r.kind == kind
+        and r.desired is not None
+        and np.isfinite(r.desired)
+        and r.frequency is not None
+        and np.isfinite(r.frequency)
+        and r.frequency > 0
+    ]
+
+
+def bode_requirements(
+    curve: LoopCurve | None, rows: Sequence[MeasureRow], targets: Sequence[Target] = (), scale: float = 1.0
+) -> list[Requirement]:
+    """The requirements a Bode plot draws: each gain-margin row at |GH| = -GM about its phase crossover and
+    each phase-margin row at -180 + PM on ``curve``'s branch about its gain crossover (its name, sense and
+    value in the legend); the crossover bound; each modal-peak band's ceiling over that band only."""
+    found = [
+        Requirement(
+            "magnitude",
+            (r.frequency / scale / SPAN, r.frequency / scale * SPAN),
+            (-r.desired,) * 2,
+            f"{r.name} {_sense(r)} {r.desired:g} dB",
+            r.satisfied,
         )
+        for r in _judged(rows, "gain_margin_db")
+    ]
+    for r in _judged(rows, "phase_margin_deg") if curve is not None else ():
+        level = curve.on_branch(-180.0 + r.desired, r.frequency)
+        span = (r.frequency / scale / SPAN, r.frequency / scale * SPAN)
+        found.append(Requirement("phase", span, (level, level), f"{r.name} {_sense(r)} {r.desired:g} deg", r.satisfied))
     wc = _desired(rows, "crossover_frequency")
     if wc is not None:
-        sense = ">=" if wc.at_least else "<="
-        mag.axvline(wc.desired / scale, **_requirement_style(wc), label=f"crossover {sense} {wc.desired:g} rad/s")
-    peak = _desired(rows, "modal_peak_db")
-    if peak is not None:
-        mag.axhline(peak.desired, **_requirement_style(peak), label=f"modal peak <= {peak.desired:g} dB")
+        x = wc.desired / scale
+        found.append(
+            Requirement(
+                "magnitude", (x, x), (np.nan, np.nan), f"crossover {_sense(wc)} {wc.desired:g} rad/s", wc.satisfied
+            )
+        )
+    for target in (t for t in targets if t.measure in PEAK_KINDS):
+        for band in target.bands:
+            inside = [
+                r
+                for r in rows
+                if r.kind == target.measure and r.frequency is not None and band.low <= r.frequency <= band.high
+            ]
+            level = next((r.desired for r in inside if r.desired is not None), band.requirement)  # as judged
+            names = "/".join(r.name for r in inside) or "modal peak"
+            high = band.high if np.isfinite(band.high) else (curve.omega[-1] if curve is not None else band.low * 10)
+            found.append(
+                Requirement(
+                    "magnitude",
+                    (max(band.low, 1e-300) / scale, high / scale),
+                    (level, level),
+                    f"{names} <= {level:g} dB in {band.low / scale:g}-{high / scale:g}",
+                    all(r.satisfied for r in inside),
+                )
+            )
+    return found
 
 
-def bode(curves: list[LoopCurve], unit: str, title: str, rows: Sequence[MeasureRow] = ()) -> bytes:
+def nichols_requirements(curve: LoopCurve | None, rows: Sequence[MeasureRow]) -> list[Requirement]:
+    """The margins' requirements on a Nichols chart, on ``curve``'s branch: each gain margin's level -GM dB
+    about -180 deg, each phase margin's -180 + PM deg about 0 dB."""
+    if curve is None:
+        return []
+    dx, dy = NICHOLS_SPAN
+    found = []
+    for r in _judged(rows, "gain_margin_db"):
+        x = curve.on_branch(-180.0, r.frequency)
+        found.append(
+            Requirement(
+                "nichols", (x - dx, x + dx), (-r.desired,) * 2, f"{r.name} {_sense(r)} {r.desired:g} dB", r.satisfied
+            )
+        )
+    for r in _judged(rows, "phase_margin_deg"):
+        x = curve.on_branch(-180.0 + r.desired, r.frequency)
+        found.append(Requirement("nichols", (x, x), (-dy, dy), f"{r.name} {_sense(r)} {r.desired:g} deg", r.satisfied))
+    return found
+
+
+def _draw(axes: dict, requirements: Sequence[Requirement]) -> None:
+    for q in requirements:
+        style = {"color": "tab:green" if q.met else "tab:red", "ls": "--", "lw": 1.2, "label": q.label}
+        ax = axes[q.panel]
+        if np.isnan(q.y[0]):  # a frequency bound: the whole height
+            ax.axvline(q.x[0], **style)
+        else:
+            ax.plot(q.x, q.y, **style)
+
+
+def _current(curves: list[LoopCurve]) -> LoopCurve | None:
+    """The curve the requirements are judged on: the final design's (the last drawn)."""
+    return curves[-1] if curves else None
+
+
+def bode(
+    curves: list[LoopCurve], unit: str, title: str, rows: Sequence[MeasureRow] = (), targets: Sequence[Target] = ()
+) -> bytes:
     """Magnitude and phase against frequency; gain margins (at phase crossovers) and
-    phase margins (at gain crossovers) of the curves that carry them, marked; the
-    requirements of ``rows`` (a tableau's) drawn."""
+    phase margins (at gain crossovers, on the curve's branch) of the curves that carry them, marked;
+    the requirements of ``rows`` (a tableau's) and ``targets``' modal-peak bands drawn."""
     fig, (mag, phase) = _figure(2)
     scale = 2 * np.pi if unit == "hz" else 1.0
     for c in curves:
         mag.semilogx(c.omega / scale, _db(c.gh), _style(c), label=c.label)
-        phase.semilogx(c.omega / scale, _phase(c.gh), _style(c), label=c.label)
+        phase.semilogx(c.omega / scale, c.phase_deg, _style(c), label=c.label)
         for m in c.margins.listed("G") if c.margins else ():  # a delay's periodic family: its few
             if m.frequency > 0 and m.gain_db is not None and np.isfinite(m.gain_db):
                 mag.plot([m.frequency / scale] * 2, [0.0, -m.gain_db], "r-", lw=1.5)
                 mag.annotate(f"GM {m.gain_db:.3g} dB", (m.frequency / scale, -m.gain_db), fontsize=7)
         for m in c.margins.phase if c.margins else ():
-            wrapped = np.degrees(np.angle(m.gh))
+            on_curve = c.on_branch(float(np.degrees(np.angle(m.gh))), m.frequency)
             mag.plot([m.frequency / scale], [0.0], "go", ms=4)
-            phase.annotate(f"PM {m.phase_deg:.3g} deg", (m.frequency / scale, wrapped), fontsize=7)
+            phase.plot([m.frequency / scale], [on_curve], "go", ms=4)
+            phase.annotate(f"PM {m.phase_deg:.3g} deg", (m.frequency / scale, on_curve), fontsize=7)
     mag.axhline(0.0, color="k", lw=0.5)
-    for k in (-180.0, -540.0, 180.0):
-        phase.axhline(k, color="k", lw=0.5, ls=":")
-    _bode_requirements(mag, phase, rows, scale)
+    low, high = phase.get_ylim()
+    for k in np.arange(np.ceil((low + 180) / 360), np.floor((high + 180) / 360) + 1) * 360 - 180:
+        phase.axhline(k, color="k", lw=0.5, ls=":")  # -180 deg on every branch in view
+    _draw({"magnitude": mag, "phase": phase}, bode_requirements(_current(curves), rows, targets, scale))
     _plain_log_ticks(mag, phase)
     mag.set_ylabel("magnitude (dB)")
     phase.set_ylabel("phase (deg)")
@@ -185,7 +288,7 @@ def locus(found: RootLocus, pole_zero: PoleZeroMap, title: str, sample_time: flo
         ax.plot(np.cos(theta), np.sin(theta), "k:", lw=0.6, label=f"|z| = 1 (T = {sample_time:g} s)")
         reach = max(reach, 1.5)
         ax.set_xlim(-reach, reach)
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal", adjustable="box")  # the limits are square: the box adjusts, no limit is ignored
     ax.set_ylim(-reach, reach)
     ax.set_xlabel("Re")
     ax.set_ylabel("Im")
@@ -217,12 +320,17 @@ def nyquist(curves: list[LoopCurve], circles: list[tuple[str, float]], title: st
     return _png(fig)
 
 
-def nichols(curves: list[LoopCurve], title: str) -> bytes:
-    """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB)."""
+def nichols(curves: list[LoopCurve], title: str, rows: Sequence[MeasureRow] = ()) -> bytes:
+    """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB) on the final
+    curve's branch at its crossover and the margins' requirements of ``rows`` (`nichols_requirements`)."""
     fig, (ax,) = _figure()
     for c in curves:
-        ax.plot(_phase(c.gh), _db(c.gh), _style(c), label=c.label)
-    ax.plot([-180.0], [0.0], "r+", ms=12, mew=2)
+        ax.plot(c.phase_deg, _db(c.gh), _style(c), label=c.label)
+    current = _current(curves)
+    crossings = [m.frequency for m in current.margins.phase] if current is not None and current.margins else []
+    critical = current.on_branch(-180.0, crossings[0]) if crossings else -180.0
+    ax.plot([critical], [0.0], "r+", ms=12, mew=2)
+    _draw({"nichols": ax}, nichols_requirements(current, rows))
     ax.set_xlabel("phase (deg)")
     ax.set_ylabel("magnitude (dB)")
     ax.set_title(title)

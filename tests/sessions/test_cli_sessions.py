@@ -44,7 +44,7 @@ def test_replay_exit_codes(matching, tmp_path, capsys):
     doc["records"][1]["measures"][0]["value"] += 1e-6
     matching.write_text(json.dumps(doc))
     assert main(["replay", str(matching)]) == 1
-    assert "iteration 2 diverges: measure P1" in capsys.readouterr().err
+    assert "iteration 2 diverges: measure PM1" in capsys.readouterr().err
     (tmp_path / "junk.json").write_text("{")
     assert main(["replay", str(tmp_path / "junk.json")]) == 2
 

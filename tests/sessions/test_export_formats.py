@@ -43,11 +43,11 @@ def test_matlab_script_has_every_block_and_full_precision_numbers(capsys):
     for p in session["problem"]["parameters"]:
         values = p["value"] if isinstance(p["value"], list) else [p["value"]]
         assert (
-            f"parameters.{p['name']} = "
+            f"%   {p['name']} = "
             + (
                 " ".join(repr(float(v)) for v in values)
                 if len(values) == 1
-                else "[" + " ".join(repr(float(v)) for v in values) + "]"
+                else "[" + " ".join(repr(float(v)) for v in values) + "] (one value per condition)"
             )
             in text
         )
@@ -61,7 +61,7 @@ def test_matlab_numbers_read_back_exactly(capsys):
     """Coefficients as repr writes them: the shortest text that reads back the same double."""
     text = _export(capsys, EXAMPLES / "report003_lag_lead.json", "matlab")
     assert "tf([16000.0], [1.0 28.0 160.0 0.0]" in text
-    assert "parameters.z1 = 1.0;" in text and "parameters.p2 = 50.0;" in text
+    assert "%   z1 = 1.0\n" in text and "%   p2 = 50.0\n" in text
 
 
 def test_json_compensators_and_state_spaces(capsys):

@@ -11,11 +11,13 @@ test_export_formats.py); projection_* (a 'dae' objective, no loop to export).
 from __future__ import annotations
 
 import json
+import runpy
 import shutil
 import subprocess
 import sys
 from pathlib import Path
 
+import control
 import numpy as np
 import pytest
 
@@ -78,7 +80,9 @@ def _check_margins(found: dict, engine: dict) -> None:
         for g in m.gain:
             k = _nearest(got["phase_crossovers"], g.frequency)
             assert got["phase_crossovers"][k] == pytest.approx(g.frequency, rel=REL)
-            assert 20 * np.log10(got["gain_margins"][k]) == pytest.approx(g.gain_db, rel=REL)
+            assert 20 * np.log10(got["gain_margins_ratio"][k]) == pytest.approx(g.gain_db, rel=REL)
+            assert got["gain_margins_db"][k] == pytest.approx(g.gain_db, rel=REL)
+            assert got["gain_margins"][k] == got["gain_margins_ratio"][k]  # the old key, kept one release
         for p in m.phase:
             k = _nearest(got["gain_crossovers"], p.frequency)
             assert got["gain_crossovers"][k] == pytest.approx(p.frequency, rel=REL)
@@ -115,6 +119,7 @@ def test_an_iteration_s_design_is_exported(tmp_path):
 
 DRIVER = """
 import json, runpy, sys
+import control
 import numpy as np
 ns = runpy.run_path(sys.argv[1])
 query = json.loads(sys.argv[2])
@@ -157,3 +162,31 @@ def test_high_order_loops_respond_as_loopcraft_s(name, tmp_path):
         for p, value in zip(m.phase, exported[len(m.gain) :]):
             assert abs(value) == pytest.approx(1.0, rel=REL)
             assert 180 + np.degrees(np.angle(value)) == pytest.approx(p.phase_deg, rel=REL, abs=1e-9)
+
+
+def test_a_high_order_script_prints_l_compactly_and_why_a_crossing_is_python_control_s_alone(tmp_path):
+    """The launch vehicle: L (28 states) in one line, not 616; each crossing python-control lists alone
+    says why it is no margin, and what it says (|L| there) is python-control's own response of L."""
+    source = EXAMPLES / "coebra_launch_vehicle.json"
+    script = _export(source, tmp_path / "lv.py")
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert len(lines) < 60 and any("L(s): state space, 28 states" in line for line in lines)
+    alone = [line for line in lines if "python-control alone" in line]
+    assert alone and all("python-control alone: " in line for line in alone)
+    namespace = runpy.run_path(str(script))
+    for line in alone:
+        if "not a gain crossover" not in line:
+            continue
+        w = float(line.split(" at ")[1].split()[0])
+        modulus = float(line.split("|L| = ")[1].split()[0])
+        loop = namespace["CONDITIONS"][_condition_of(lines, line)][0]()
+        expected = abs(control.evalfr(loop, 1j * w))
+        assert modulus == pytest.approx(expected, rel=1e-4) and abs(expected - 1) > 1e-3
+
+
+def _condition_of(lines: list[str], line: str) -> str:
+    """The condition whose block holds ``line`` (the last 'condition NAME:' above it)."""
+    above = lines[: lines.index(line)]
+    return next(x.split()[1].rstrip(":") for x in reversed(above) if x.startswith("condition "))

@@ -113,8 +113,9 @@ def analysis_to_json(
                 "zeta": p.zeta,
                 "wn": p.wn,
                 "backward_error": p.backward_error,
+                "fixed": h or None,  # "uncontrollable", "unobservable" or both from the loop: a fixed mode
             }
-            for p in a.closed_loop_poles
+            for p, h in zip(a.closed_loop_poles, a.hidden or ("",) * len(a.closed_loop_poles))
         ],
         "disk_margin": disk_to_json(a.disk_margin),
         "sensitivity_peak": _peak_json(a.sensitivity_peak),
@@ -195,7 +196,8 @@ def analysis_to_text(
         lines.append(f"delay margin: {'none' if samples is None else f'{samples:.6g} samples'}")
     lines.append(f"margins: {m.label}")
     lines.append(f"closed loop: {a.verdict}")
-    for p in a.closed_loop_poles or ():
+    poles = a.closed_loop_poles or ()
+    for p, hidden in zip(poles, a.hidden or ("",) * len(poles)):
         zeta = 0.0 if abs(p.damping) < 5e-13 else p.damping
         where = (
             f"z {p.value.real:+.6g} {p.value.imag:+.6g}j |z| {abs(p.value):.6g}"
@@ -203,7 +205,8 @@ def analysis_to_text(
             else (f"{p.value.real:+.6g} {p.value.imag:+.6g}j")
         )
         equivalent = " (s-plane equivalent)" if variable == "z" else ""
-        lines.append(f"  pole {where}   zeta {zeta:.4f}   wn {p.natural_frequency:.6g} {unit}{equivalent}")
+        fixed = f"   fixed: {hidden} from the loop" if hidden else ""
+        lines.append(f"  pole {where}   zeta {zeta:.4f}   wn {p.natural_frequency:.6g} {unit}{equivalent}{fixed}")
     lines.extend(_measure_lines(a, unit))
     lines.extend(f"note: {n}" for n in a.notes)
     lines.extend(f"note: {f.summary}" for f in m.families)

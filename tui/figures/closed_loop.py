@@ -456,6 +456,7 @@ def pole_text(view) -> str:
 def pole_lines(view) -> str:
     """The current design's closed-loop poles of the first plotted condition (a conjugate pair
     once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""
+    from engine.analysis import fixed_modes
     from engine.closed_loop.poles import polish, z_pole
     from engine.loop.realization import poles
 
@@ -469,18 +470,19 @@ def pole_lines(view) -> str:
         found = poles(ss, lambda eig: polish(c.network, params, eig))
     except EngineError:
         found = poles(ss)
+    hidden = fixed_modes(c.network, c.break_at, params, found)
     T = c.network.sample_time
     if T is not None:  # in z, with the damping and natural frequency of s = ln(z)/T
         found = [z_pole(p, T) for p in found]
-    shown = sorted((p for p in found if p.value.imag >= 0), key=lambda p: (p.zeta, p.wn))
+    shown = sorted(((p, h) for p, h in zip(found, hidden) if p.value.imag >= 0), key=lambda ph: (ph[0].zeta, ph[0].wn))
     plane = "z" if T is not None else c.network.variable
     lines = [
         f"closed-loop poles ({c.name})" if len(view.problem.conditions) > 1 else "closed-loop poles",
         f"{'pole (z)' if plane == 'z' else 'pole':>22} {'zeta':>7} {'wn (w)' if plane == 'w' else 'wn rad/s':>10}",
     ]
-    for p in shown[:MAX_POLES_LISTED]:
+    for p, h in shown[:MAX_POLES_LISTED]:
         value = f"{p.value.real:.5g}" + (f" +- {p.value.imag:.5g}j" if p.value.imag > 0 else "")
-        lines.append(f"{value:>22} {p.zeta:>7.3g} {p.wn:>10.5g}")
+        lines.append(f"{value:>22} {p.zeta:>7.3g} {p.wn:>10.5g}" + (f"  fixed: {h} from the loop" if h else ""))
     if len(shown) > MAX_POLES_LISTED:
         lines.append(f"... {len(shown) - MAX_POLES_LISTED} more (the Poles plot shows them all)")
     return "\n".join(lines)
