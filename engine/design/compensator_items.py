@@ -55,7 +55,7 @@ class Item:
             return f"{self.kind} at z = {at} ({wn:.6g} rad/s){by}"
         if self.kind == "gain":
             value = self.root.real
-            db = f" ({round(20 * math.log10(abs(value)), 9):.4g} dB)" if value else ""
+            db = f" ({round(20 * math.log10(abs(value)), 9) + 0.0:.4g} dB)" if value else ""  # + 0.0: never "-0 dB"
             return f"gain {value:.6g}{db}{by}"
         if self.kind in ("integrator", "differentiator"):
             return f"{self.kind}{by}"

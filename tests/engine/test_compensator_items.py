@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from engine.design.compensator_items import items
+from engine.design.compensator_items import Item, items
 from engine.model.blocks import ExpressionTransfer
 
 
@@ -125,3 +125,10 @@ def test_a_right_half_plane_pair_moves_with_its_damping_s_sign_kept():
         "x1": pytest.approx(-0.4, rel=1e-9),
         "x2": pytest.approx(1 / 9, rel=1e-9),
     }
+
+
+@pytest.mark.parametrize("gain", [1.0 - 2.0**-52, 1.0, 1.0 + 2.0**-52])
+def test_a_unit_gain_reads_0_db_never_minus_0(gain):
+    """A gain of 1 to rounding (the Bode gain of a product whose factors cancel) reads '(0 dB)':
+    cip_dual_channel's unit gains printed '-0 dB' or '0 dB' by their last bit."""
+    assert "(0 dB)" in Item("gain", complex(gain), ()).text
