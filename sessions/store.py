@@ -55,7 +55,7 @@ from sessions.format.save_file import (
     sweep_stale,
     write_atomic,
 )
-from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
+from sessions.format.schema import SCHEMA_VERSION, SessionModel, StateSpaceBlock, TableModel
 
 __all__ = [
     "AUTOSAVE_INTERVAL",
@@ -73,6 +73,7 @@ __all__ = [
     "prepare_save",
     "save_session",
     "tables_in",
+    "files_read",
     "write_autosave",
 ]
 
@@ -295,17 +296,35 @@ def prepare_save(session: Session, target: str | Path, force: bool = False) -> N
 
 def tables_in(node: Any):
     """Every `TableModel` inside a model (plants, channels, cascades, objective)."""
-    if isinstance(node, TableModel):
+    yield from models_in(node, TableModel)
+
+
+def models_in(node: Any, kind: type[BaseModel]):
+    """Every model of type ``kind`` inside a model (plants, channels, cascades, objective)."""
+    if isinstance(node, kind):
         yield node
     elif isinstance(node, BaseModel):
         for name in type(node).model_fields:
-            yield from tables_in(getattr(node, name))
+            yield from models_in(getattr(node, name), kind)
     elif isinstance(node, (list, tuple)):
         for item in node:
-            yield from tables_in(item)
+            yield from models_in(item, kind)
     elif isinstance(node, dict):
         for item in node.values():
-            yield from tables_in(item)
+            yield from models_in(item, kind)
+
+
+def files_read(session: Session) -> dict[Path, str]:
+    """Every file a command on ``session`` reads (path -> what it is): the session and the
+    CSV tables and state-space files it names (beside its real file), which no output may replace."""
+    if session.path is None:
+        return {}
+    folder = real_path(session.path).parent
+    files = {session.path: "the session"}
+    files |= {folder / t.csv: f"the session's table {t.csv}" for t in tables_in(session.model.problem) if t.csv}
+    blocks = models_in(session.model.problem, StateSpaceBlock)
+    files |= {folder / b.file: f"the session's state-space file {b.file}" for b in blocks if b.file}
+    return files
 
 
 def autosave_path(path: Path) -> Path:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from sessions.sweeps.dispersion import PERCENTILE_KEYS, run_count
 from sessions.sweeps.sampling import SAMPLINGS
-from tui.cli.common import CliError
+from tui.cli.common import CliError, check_session_out
 
 if TYPE_CHECKING:
     from sessions.sweeps.named_clusters import NamedCluster
@@ -72,6 +72,7 @@ def add_parser(sub) -> None:
         "desired value by the most) the session's start, to look at (records are cleared)",
     )
     p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true", help="print one JSON object: runs and optima")
     p.set_defaults(handler=cmd_sweep)
 
@@ -96,6 +97,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise CliError("--sampling and --adopt-worst are for a tolerance study (--tolerance)")
     target = Path(args.out or args.file)
     session = load_session(args.file)
+    check_session_out(session, args.out, args.force)
     prepare_save(session, target)  # before any run: the output can be written
     try:
         kind, settings, outcome = _run(args, session, Where(address, named, timeout))
