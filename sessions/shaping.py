@@ -49,7 +49,11 @@ class Assignment:
             raise SessionError(f"{text!r}: dB scales a value: write {name}*={number}dB")
         if not math.isfinite(value):
             raise SessionError(f"{text!r}: the value must be finite")
-        return Assignment(name, op == "*=", 10 ** (value / 20) if db else value)
+        try:
+            factor = 10 ** (value / 20) if db else value
+        except OverflowError:
+            raise SessionError(f"{text!r}: {number} dB is out of range (a factor above 1e308)") from None
+        return Assignment(name, op == "*=", factor)
 
 
 def assign(session: Session, assignments: list[Assignment]) -> list[str]:
@@ -131,6 +135,8 @@ def _set(session: Session, name: str, change, condition: int | None = None) -> s
     else:
         new = change(old)
     for v in new if isinstance(new, list) else [new]:
+        if not math.isfinite(v):
+            raise SessionError(f"{name} = {v:g}: not a finite number (the float range ends at 1.8e308): not set")
         _check_bounds(name, v, p.min, p.max)
     p.value = new
     return f"{name}: {value_text(old)} -> {value_text(new)}"

@@ -36,6 +36,7 @@ MAX_RESPONSE_POINTS = 100_000  # time points of a time response
 MAX_EQUALITIES = 1000
 MAX_CONSTRAINTS = 1000  # linear inequalities between parameters (1000 characters each)
 MAX_OPTIONS = 100  # options, tables of an objective
+MAX_NYQUIST = 1e306  # rad/s: a sample time T must keep pi/T (and the grid below it) within double precision
 MAX_SESSION_BYTES = 256 * 2**20  # a session file (its records included), read with a bounded read
 
 Number = Annotated[float, Field(allow_inf_nan=False)]

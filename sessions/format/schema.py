@@ -7,6 +7,7 @@ version this code writes; older files are migrated (`sessions.format.migrations`
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -26,6 +27,7 @@ from sessions.format.limits import (  # noqa: F401
     MAX_EQUALITIES,
     MAX_FACTORS,
     MAX_GRID_POINTS,
+    MAX_NYQUIST,
     MAX_JUNCTION_INPUTS,
     MAX_OPTIONS,
     MAX_PARAMETERS,
@@ -337,6 +339,8 @@ class ConditionModel(Strict):
             raise ValueError("a condition in z needs its sample_time (s)")
         if self.variable != "z" and self.sample_time is not None:
             raise ValueError(f"sample_time is for a condition in z, not in {self.variable}")
+        if self.sample_time is not None and self.sample_time * MAX_NYQUIST < math.pi:
+            raise ValueError(f"sample_time {self.sample_time:g} s: its Nyquist frequency pi/T is beyond 1e306 rad/s")
         return self
 
 
