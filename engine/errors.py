@@ -1,5 +1,8 @@
 """Typed errors raised by the engine; every message names what and where."""
 
+import json
+from typing import Any
+
 
 class EngineError(ValueError):
     """Base class of every error the engine raises on bad input."""
@@ -37,3 +40,17 @@ class InterconnectionError(EngineError):
 
 class ParameterError(EngineError):
     """A parameter is unknown, missing a value, or not finite."""
+
+
+def shown_json(value: Any) -> str:
+    """A value read from JSON as a message shows it: its kind and its JSON text (``a list
+    [true]``, ``null``, ``the string "x"``), never Python's repr, at most 40 characters."""
+    try:
+        text = json.dumps(value, default=str)
+    except (TypeError, ValueError, RecursionError):
+        text = str(value)
+    text = text if len(text) <= 40 else text[:37] + "..."
+    if value is None or isinstance(value, bool):
+        return text
+    kinds = ((str, "the string"), ((list, tuple), "a list"), (dict, "an object"), ((int, float), "the number"))
+    return f"{next((name for types, name in kinds if isinstance(value, types)), 'a value')} {text}"

@@ -17,6 +17,7 @@ from engine.design.gain_solves import GainSolution, gain_for
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
+from sessions.format.limits import MAX_NAME
 from sessions.hand_history import note_edit, value_text
 from sessions.lifecycle import adopt_current, rebuild
 from sessions.store import Session
@@ -41,6 +42,8 @@ class Assignment:
         if not match:
             raise SessionError(f"{text!r}: write NAME=VALUE, NAME*=FACTOR or NAME*=+3dB")
         name, op, number, db = match.groups()
+        if any(len(part) > MAX_NAME for part in name.split(".")):
+            raise SessionError(f"{text!r}: no name is that long (at most {MAX_NAME} characters between dots)")
         try:
             value = float(number)
         except ValueError:

@@ -32,6 +32,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from engine.design.problem import Problem
+from engine.errors import shown_json
 from engine.stepping.protocol import State, StepRecord
 from engine.stepping.registry import lookup
 from sessions.build import OutsideTable, build_problem
@@ -151,12 +152,12 @@ def validated_model(data: Any) -> SessionModel:
     try:
         return SessionModel.model_validate(data)
     except ValidationError as exc:
-        raise SessionError(invalid(exc)) from None
+        raise SessionError(invalid(exc, data=data)) from None
 
 
 def _migrate(data: Any) -> tuple[Any, list[str]]:
     if not isinstance(data, dict):
-        raise SessionError(f"a session is a JSON object, not {type(data).__name__}")
+        raise SessionError(f"a session is a JSON object, not {shown_json(data)}")
     version = data.get("schema_version")
     if not isinstance(version, int) or isinstance(version, bool):
         raise SessionError("schema_version: missing or not an integer")

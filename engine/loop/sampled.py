@@ -63,6 +63,7 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
         )
     for roots, side, sign in ((zeros, over, -1), (poles, under, 1)):
         for r in roots:
+            r = complex(r)  # Python's complex: an overflow is inf, never a numpy warning
             if r == -1:
                 gain *= 2.0 if sign < 0 else 0.5
                 power += sign
@@ -77,6 +78,8 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
                 side.append(f"(w^2-({float(2 * w.real)!r})*w+({float(abs(w) ** 2)!r}))")
             else:
                 side.append(f"(w-({float(w.real)!r}))")
+    if not np.isfinite(gain):
+        raise EngineError(f"{transfer.text}: its gain in the w-plane is beyond double precision (above 1.8e308)")
     factors = [f"({float(gain.real)!r})", *over] + ([f"(1-w)^{power}"] if power > 0 else [])
     under += [f"(1-w)^{-power}"] if power < 0 else []
     return "*".join(factors) + (f"/({'*'.join(under)})" if under else "")

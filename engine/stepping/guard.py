@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from engine.errors import EngineError
+from engine.errors import EngineError, shown_json
 from engine.stepping.memory_fields import jsonable
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -115,7 +115,7 @@ def setting_value(algorithm: str, name: str, kind: Any, value: Any) -> Any:
     `EngineError` naming the setting and what it takes."""
     ok, converted = _fits(kind, value)
     if not ok:
-        raise EngineError(f"{algorithm}: setting {name} takes {_described(kind)}, not {_shown(value)}")
+        raise EngineError(f"{algorithm}: setting {name} takes {_described(kind)}, not {shown_json(value)}")
     return converted
 
 
@@ -159,11 +159,6 @@ def _described(kind: Any) -> str:
     return {bool: "true or false", int: "an integer", float: "a finite number", str: "a text", type(None): "null"}.get(
         kind, getattr(kind, "__name__", str(kind))
     )
-
-
-def _shown(value: Any) -> str:
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
 
 
 def settings_types(cls: type) -> dict[str, Any]:

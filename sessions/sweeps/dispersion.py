@@ -240,6 +240,12 @@ def worst_row(rows: Sequence[dict], which: str | None = None) -> dict:
     those named by ``which`` (MEASURE or MEASURE@CONDITION; None: every row)."""
     if not rows:
         raise SessionError("no sample of the tolerance study finished")
+    return max(rows_named(rows, which), key=shortfall)
+
+
+def rows_named(rows: Sequence[dict], which: str | None) -> list[dict]:
+    """The rows (each with its ``name`` and ``condition``) that ``which`` names (MEASURE or
+    MEASURE@CONDITION; None: every row); a `SessionError` listing them when none is."""
     name, _, condition = (which or "").partition("@")
     chosen = [
         r for r in rows if which is None or (r["name"] == name and (not condition or r["condition"] == condition))
@@ -247,7 +253,7 @@ def worst_row(rows: Sequence[dict], which: str | None = None) -> dict:
     if not chosen:
         known = ", ".join(sorted({f"{r['name']}@{r['condition']}" for r in rows})) or "none"
         raise SessionError(f"no measure row {which!r} in the tolerance study (rows: {known})")
-    return max(chosen, key=shortfall)
+    return chosen
 
 
 def run_count(summary: dict) -> str:

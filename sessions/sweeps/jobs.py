@@ -43,7 +43,7 @@ from engine.stepping.driver import first_record, iterate
 from engine.stepping.presenter import Presenter, tolerant
 from engine.stepping.protocol import Stepper, StepRecord
 from sessions.build import build_problem
-from sessions.errors import SessionError
+from sessions.errors import SessionError, in_words
 from sessions.lifecycle import bind
 from sessions.store import validated_model
 from sessions.sweeps.cluster import (
@@ -85,7 +85,7 @@ def run_job(payload: dict) -> dict:
     except Exception as exc:  # noqa: BLE001 - a run's failure is data, never the sweep's end
         result.update(
             status="failed",
-            reason=f"{type(exc).__name__}: {exc}",
+            reason=in_words(exc),
             parameters={},
             ranking=None,
             measures=[],
@@ -409,7 +409,7 @@ def _workers_and_attempts(client, runs: dict[int, dict]) -> tuple[int, dict[int,
 def _lost(job, exc: BaseException | None) -> dict:
     """A run that did not finish: ``exc`` None or a CancelledError for a cancelled one."""
     kind = type(exc).__name__
-    reason = CANCELLED if exc is None or kind == "CancelledError" else f"{kind}: {exc}"
+    reason = CANCELLED if exc is None or kind == "CancelledError" else in_words(exc)
     return {
         "index": job.index,
         "label": job.label,

@@ -61,7 +61,7 @@ def test_a_failing_run_is_a_result_not_an_exception(tmp_path):
     data["problem"]["parameters"][0]["value"] = "ten"  # invalid: the worker's validation fails
     result = run_job(Job(4, "broken", data).payload())
     assert result["status"] == "failed" and result["index"] == 4
-    assert result["reason"].startswith("SessionError: problem.parameters[0].value: Input should be")
+    assert result["reason"].startswith("problem.parameters[0].value: Input should be")
 
 
 def test_optima_cluster_by_parameters_and_objective():

@@ -362,6 +362,7 @@ def _sampled(args: argparse.Namespace, network, omega, params):
 def _held(args: argparse.Namespace) -> list[str]:
     """The --held continuous blocks (expressions in s) discretized by --discretize (zero-order
     hold by default, --delay taken as whole and fractional samples): polynomials in z."""
+    from engine.analysis import split_delays
     from engine.errors import EngineError
     from engine.model.discretize import discretized_text
 
@@ -372,6 +373,8 @@ def _held(args: argparse.Namespace) -> list[str]:
     out = []
     for text in args.held or []:
         try:
+            if split_delays(text)[1]:
+                raise CliError(f"--held {text!r}: give its delay exp(-T*s) as --delay T (held with the block)")
             out.append(discretized_text(text, args.sample_time, args.discretize, args.delay))
         except EngineError as exc:
             raise CliError(f"--held {text!r}: {exc}") from None

@@ -98,6 +98,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     target = Path(args.out or args.file)
     session = load_session(args.file)
     check_session_out(session, args.out, args.force)
+    if args.adopt_worst:
+        _check_row_named(session, args.adopt_worst)
     prepare_save(session, target)  # before any run: the output can be written
     try:
         kind, settings, outcome = _run(args, session, Where(address, named, timeout))
@@ -106,6 +108,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return INTERRUPTED
     with sigint_ignored():
         return _keep(args, session, kind, settings, outcome, target)
+
+
+def _check_row_named(session, which: str) -> None:
+    """--adopt-worst MEASURE[@CONDITION] names a row of the session's tableau (the study's
+    rows), checked before any sample runs."""
+    from sessions.errors import SessionError
+    from sessions.sweeps.dispersion import rows_named
+    from tui.cli.common import rows_now
+
+    rows, _ = rows_now(session, 0)
+    try:
+        rows_named([{"name": r.name, "condition": r.condition} for r in rows], which)
+    except SessionError as exc:
+        raise CliError(f"--adopt-worst: {exc}; nothing ran") from None
 
 
 def _named_cluster(args: argparse.Namespace) -> NamedCluster | None:
