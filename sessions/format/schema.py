@@ -496,6 +496,9 @@ class SweepModel(Strict):
         "ranking, status, reason, measures, meets_requirements, worker, attempts",
     )
     failed: list[int] = []
+    excluded: dict[str, int] = Field(
+        default={}, description="tolerance sweeps: reason -> how many samples it left out of the statistics"
+    )
     retried: dict[str, list[str]] = Field(default={}, description="run index -> the workers it was started on")
     optima: list[dict[str, Any]] = Field(
         default=[], description="parameters, ranking, count, meets_requirements, best_run, runs"

@@ -289,7 +289,8 @@ def sweep_text(summary: dict) -> str:
     runs = summary["runs"]
     lines = [
         f"{summary['kind']} sweep: {run_count(summary)} on {summary['workers']} worker(s), "
-        f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"
+        + (excluded_text(summary) or f"{len(summary['failed'])} failed")
+        + f", {len(summary['retried'])} retried"
     ]
     lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'ranking':>12} {'meets':<6}{'tries':>5}")
     for r in runs:
@@ -320,6 +321,20 @@ def sweep_text(summary: dict) -> str:
             )
             lines += [f"{'':>13}note: {n}" for n in o.get("notes", [])]
     return "\n".join(lines)
+
+
+def excluded_text(summary: dict) -> str:
+    """A tolerance study's samples left out of its statistics, by reason: "statistics over
+    203 of 400 samples, 197 excluded (197: the loop is singular)" ("" when none is)."""
+    from sessions.errors import cut
+
+    excluded = summary.get("excluded") or {}
+    if not excluded:
+        return ""
+    total = sum(excluded.values())
+    samples = summary.get("settings", {}).get("samples", len(summary["runs"]))
+    reasons = "; ".join(f"{n}: {cut(reason, 120)}" for reason, n in excluded.items())
+    return f"statistics over {samples - total} of {samples} samples, {total} excluded ({reasons})"
 
 
 def _distribution_lines(rows: list[dict]) -> list[str]:
