@@ -119,8 +119,8 @@ def check_output(target: Path, inputs: dict[Path, str], force: bool, option: str
     real = real_path(target)
     try:
         st: os.stat_result | None = os.stat(real)
-    except FileNotFoundError:
-        st = None
+    except (FileNotFoundError, NotADirectoryError):
+        st = None  # nothing there (its folder's absence is the writer's to say)
     except OSError as exc:
         raise SessionError(f"{where}: cannot write: {describe(exc)}") from None
     for source, what in inputs.items():

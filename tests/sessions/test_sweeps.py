@@ -262,7 +262,7 @@ def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster,
     assert summary["retried"], "the run that was on the killed worker was restarted elsewhere"
     for index, workers in summary["retried"].items():
         assert len(workers) >= 2 and runs[int(index)]["attempts"] >= 2
-    assert summary["workers"] == 1
+    assert summary["workers"] == 2  # the workers that computed runs: the killed one had started some
 
 
 def test_a_tolerance_sample_outside_the_design_bounds_is_evaluated_at_its_value(tmp_path, capsys):
