@@ -321,12 +321,13 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         )
     if args.sample_time is not None and args.variable != "z":
         raise CliError("--sample-time is a loop in z's: give --variable z (and the loop in z)")
-    if args.variable == "z":
-        result = _sampled(args, network, omega, params)
-        locus = None
-    else:
-        result = analyze(network, "e", omega, params, skew=args.skew)
-        locus = _locus(args, network, params)
+    with np.errstate(all="ignore"):  # a typed loop's extreme numbers: said by the results, never warned about
+        if args.variable == "z":
+            result = _sampled(args, network, omega, params)
+            locus = None
+        else:
+            result = analyze(network, "e", omega, params, skew=args.skew)
+            locus = _locus(args, network, params)
     if args.json:
         print(json.dumps(analysis_to_json(result, args.variable, locus, args.sample_time), indent=2, sort_keys=True))
     else:
