@@ -29,7 +29,7 @@ import os
 import time
 import uuid
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -269,7 +269,8 @@ def _rest_batched(connection: Connection, jobs: Sequence, first: Outcome, each: 
     rest = _gather(connection.client, jobs[done:], _shifted(progress, done, len(jobs)), cancelled, size)
     note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
     attempts = {**first.attempts, **rest.attempts}
-    return Outcome(first.runs + rest.runs, rest.workers, attempts, rest.cancelled, rest.interrupted, note)
+    runs = first.runs + rest.runs
+    return Outcome(runs, computed_by(runs, attempts), attempts, rest.cancelled, rest.interrupted, note)
 
 
 def _shifted(progress: Callable[[int, int], None] | None, offset: int, total: int):
@@ -423,13 +424,18 @@ def _workers_and_attempts(
         run["attempts"] = count or (0 if run["status"] == "failed" else 1)
         if count:
             attempts[k] = named + [LOST_WORKER] * (count - len(named))
-    computed = {w for named in started.values() for w in named} | {
-        r["worker"] for r in runs.values() if r["status"] != "failed" and r.get("worker")
-    }
-    return len(computed - {LOST_WORKER}), attempts
+    return computed_by(runs.values(), attempts), attempts
 
 
 LOST_WORKER = "a lost worker"  # a start whose worker died before its event reached the scheduler
+
+
+def computed_by(runs: Iterable[dict], attempts: dict[int, list[str]]) -> int:
+    """How many workers are known to have computed runs: those that finished one, and those
+    its starts were logged on (a worker killed midway among them)."""
+    finished = {r["worker"] for r in runs if r["status"] != "failed" and r.get("worker")}
+    started = {w for workers in attempts.values() for w in workers}
+    return len((finished | started) - {LOST_WORKER})
 
 
 def _times_sent(client, keys: list[str]) -> dict[str, int]:
