@@ -6,7 +6,9 @@
 #              (BENCH_ARGS='--only margins,analyze --repeat 10' for a quick subset)
 # make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
 #              and the app fuzzer on 200 sessions under the pilot (make test runs 6),
-#              and 60 random key and mouse sequences a size on the plots (make test runs 4)
+#              and 60 random key and mouse sequences a size on the plots (make test runs 4),
+#              and 2000 command cases (set, tune, export and report onto every kind of target,
+#              discretized blocks, state-space plants; make test runs 60)
 PYTHON ?= python3
 # pytest-xdist processes for make test (the suite mostly waits on apps to settle: two halve its time)
 TEST_WORKERS ?= 2
@@ -49,6 +51,7 @@ lint: $(STAMP)
 fuzz: $(PLUGINS)
 	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} LOOPCRAFT_FUZZ_APP_CASES=$${LOOPCRAFT_FUZZ_APP_CASES:-200} \
 		LOOPCRAFT_FUZZ_PLOT_CASES=$${LOOPCRAFT_FUZZ_PLOT_CASES:-60} \
+		LOOPCRAFT_FUZZ_COMMAND_CASES=$${LOOPCRAFT_FUZZ_COMMAND_CASES:-2000} \
 		$(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
 
 bench: $(STAMP)

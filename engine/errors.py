@@ -1,5 +1,8 @@
 """Typed errors raised by the engine; every message names what and where, and quotes
-what it refuses shortened (`shown`)."""
+what it refuses shortened (`shown`, a value read from JSON as JSON: `shown_json`)."""
+
+import json
+from typing import Any
 
 SHOWN = 40  # characters of a value a message quotes
 
@@ -53,3 +56,17 @@ class InterconnectionError(EngineError):
 
 class ParameterError(EngineError):
     """A parameter is unknown, missing a value, or not finite."""
+
+
+def shown_json(value: Any) -> str:
+    """A value read from JSON as a message shows it: its kind and its JSON text (``a list
+    [true]``, ``null``, ``the string "x"``), never Python's repr, at most 40 characters."""
+    try:
+        text = json.dumps(value, default=str)
+    except (TypeError, ValueError, RecursionError):
+        text = str(value)
+    text = shortened(text)
+    if value is None or isinstance(value, bool):
+        return text
+    kinds = ((str, "the string"), ((list, tuple), "a list"), (dict, "an object"), ((int, float), "the number"))
+    return f"{next((name for types, name in kinds if isinstance(value, types)), 'a value')} {text}"

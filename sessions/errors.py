@@ -27,3 +27,14 @@ def cut(text: str, most: int) -> str:
         return text
     head, tail = most * 3 // 4, most // 4
     return f"{text[:head]} ... [{len(text)} characters] ... {text[-tail:]}"
+
+
+def in_words(exc: BaseException) -> str:
+    """What went wrong, in one line of words: an exception's message (a library's example on
+    a line of its own joined), never its Python type's name; a message-less exception its
+    type's words ("ZeroDivisionError" -> "zero division")."""
+    text = " ".join(str(exc).split())
+    if text:
+        return text
+    words = re.sub(r"(?<!^)(?=[A-Z])", " ", type(exc).__name__.removesuffix("Error")).lower()
+    return words or "failed"

@@ -14,7 +14,7 @@ from engine.stepping.driver import iterate, resume
 from engine.stepping.memory_fields import jsonable
 from engine.stepping.protocol import State, StepRecord
 from sessions.build import build_problem
-from sessions.errors import SessionError
+from sessions.errors import SessionError, in_words
 from sessions.format.json_diff import ABSENT, changes, location
 from sessions.format.schema import SessionModel
 from sessions.hand_history import chain_break
@@ -181,7 +181,7 @@ def replay(session: Session) -> ReplayResult:
     except EngineError as exc:
         raise SessionError(f"replay: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - any failure of a step is an error of the replay (exit 2)
-        raise SessionError(f"replay: {type(exc).__name__}: {exc}") from None
+        raise SessionError(f"replay: {in_words(exc)}") from None
     return ReplayResult(True, len(model.records), _success(model) + earlier)
 
 

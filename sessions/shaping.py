@@ -21,6 +21,7 @@ from engine.design.gain_solves import GainSolution, gain_for
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
+from sessions.format.limits import MAX_NAME
 from sessions.format.schema import ProblemModel
 from sessions.hand_history import note_edit, value_text
 from sessions.lifecycle import adopt_current, rebuild
@@ -46,6 +47,8 @@ class Assignment:
         if not match:
             raise SessionError(f"{text!r}: write NAME=VALUE, NAME*=FACTOR or NAME*=+3dB")
         name, op, number, db = match.groups()
+        if any(len(part) > MAX_NAME for part in name.split(".")):
+            raise SessionError(f"{text!r}: no name is that long (at most {MAX_NAME} characters between dots)")
         try:
             value = float(number)
         except ValueError:
@@ -54,7 +57,11 @@ class Assignment:
             raise SessionError(f"{text!r}: dB scales a value: write {name}*={number}dB")
         if not math.isfinite(value):
             raise SessionError(f"{text!r}: the value must be finite")
-        return Assignment(name, op == "*=", 10 ** (value / 20) if db else value)
+        try:
+            factor = 10 ** (value / 20) if db else value
+        except OverflowError:
+            raise SessionError(f"{text!r}: {number} dB is out of range (a factor above 1e308)") from None
+        return Assignment(name, op == "*=", factor)
 
 
 def assign(session: Session, assignments: list[Assignment]) -> list[str]:
@@ -161,6 +168,9 @@ def _set(session: Session, name: str, change, condition: int | None = None) -> s
         new = [change(v) if condition in (None, k) else v for k, v in enumerate(old)]
     else:
         new = change(old)
+    for v in new if isinstance(new, list) else [new]:
+        if not math.isfinite(v):
+            raise SessionError(f"{name} = {v:g}: not a finite number (the float range ends at 1.8e308): not set")
     p.value = new
     return f"{name}: {value_text(old)} -> {value_text(new)}"
 

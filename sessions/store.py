@@ -32,6 +32,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from engine.design.problem import Problem
+from engine.errors import shown_json
 from engine.stepping.protocol import State, StepRecord
 from engine.stepping.registry import lookup
 from sessions.build import OutsideTable, build_problem
@@ -55,7 +56,7 @@ from sessions.format.save_file import (
     sweep_stale,
     write_atomic,
 )
-from sessions.format.schema import SCHEMA_VERSION, SessionModel, TableModel
+from sessions.format.schema import SCHEMA_VERSION, SessionModel, StateSpaceBlock, TableModel
 
 __all__ = [
     "AUTOSAVE_INTERVAL",
@@ -73,6 +74,7 @@ __all__ = [
     "prepare_save",
     "save_session",
     "tables_in",
+    "files_read",
     "write_autosave",
 ]
 
@@ -150,12 +152,12 @@ def validated_model(data: Any) -> SessionModel:
     try:
         return SessionModel.model_validate(data)
     except ValidationError as exc:
-        raise SessionError(invalid(exc)) from None
+        raise SessionError(invalid(exc, data=data)) from None
 
 
 def _migrate(data: Any) -> tuple[Any, list[str]]:
     if not isinstance(data, dict):
-        raise SessionError(f"a session is a JSON object, not {type(data).__name__}")
+        raise SessionError(f"a session is a JSON object, not {shown_json(data)}")
     version = data.get("schema_version")
     if not isinstance(version, int) or isinstance(version, bool):
         raise SessionError("schema_version: missing or not an integer")
@@ -295,17 +297,35 @@ def prepare_save(session: Session, target: str | Path, force: bool = False) -> N
 
 def tables_in(node: Any):
     """Every `TableModel` inside a model (plants, channels, cascades, objective)."""
-    if isinstance(node, TableModel):
+    yield from models_in(node, TableModel)
+
+
+def models_in(node: Any, kind: type[BaseModel]):
+    """Every model of type ``kind`` inside a model (plants, channels, cascades, objective)."""
+    if isinstance(node, kind):
         yield node
     elif isinstance(node, BaseModel):
         for name in type(node).model_fields:
-            yield from tables_in(getattr(node, name))
+            yield from models_in(getattr(node, name), kind)
     elif isinstance(node, (list, tuple)):
         for item in node:
-            yield from tables_in(item)
+            yield from models_in(item, kind)
     elif isinstance(node, dict):
         for item in node.values():
-            yield from tables_in(item)
+            yield from models_in(item, kind)
+
+
+def files_read(session: Session) -> dict[Path, str]:
+    """Every file a command on ``session`` reads (path -> what it is): the session and the
+    CSV tables and state-space files it names (beside its real file), which no output may replace."""
+    if session.path is None:
+        return {}
+    folder = real_path(session.path).parent
+    files = {session.path: "the session"}
+    files |= {folder / t.csv: f"the session's table {t.csv}" for t in tables_in(session.model.problem) if t.csv}
+    blocks = models_in(session.model.problem, StateSpaceBlock)
+    files |= {folder / b.file: f"the session's state-space file {b.file}" for b in blocks if b.file}
+    return files
 
 
 def autosave_path(path: Path) -> Path:

@@ -161,6 +161,7 @@ class LoopcraftApp(App):
         self.sweeps = Sweeps(self)
         self.exports = Exports(self)
         self._refused_at = 0.0
+        self._last_action: object = None  # the latest key's action: another one ends a burst of edits
         self.config = Config()
         # Dask's worker processes, started from inside the running app, need the
         # resource tracker up before Textual takes over the terminal (docs/architecture.md)
@@ -272,7 +273,11 @@ class LoopcraftApp(App):
 
     async def run_action(self, action, default_namespace=None, namespaces=None) -> bool:
         """Run an action; a key that cannot act now says why (a run or a sweep goes, or the
-        target's `disabled_reason`)."""
+        target's `disabled_reason`).  Any other action than the previous one ends a burst of
+        edits (`EditHistory.end_burst`): a key repeated is one undo step, a key between splits it."""
+        if action != self._last_action and self.bench is not None:
+            self.bench.edits.end_burst()
+        self._last_action = action
         handled = await super().run_action(action, default_namespace, namespaces)
         if not handled:
             destination, name, params = action if isinstance(action, tuple) else parse_action(action)

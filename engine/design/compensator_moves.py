@@ -63,6 +63,9 @@ def move_named(
     kind = "damping" if suffix else "frequency"
     now = measure(found[index], kind)
     wanted = target(now)
+    if not (math.isfinite(wanted) and wanted > 0):
+        what = "gain" if found[index].kind == "gain" else kind
+        raise EngineError(f"{name}: {wanted:g} is no {what}: it is a positive finite number (now {now:.6g})")
     try:
         values = moved(entry.transfer, params, index, wanted, kind, bounds)
     except EngineError as exc:

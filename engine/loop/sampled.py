@@ -66,12 +66,15 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
         mapped = []
         for r in roots:
             power += sign
+            r = complex(r)  # Python's complex: an overflow is inf, never a numpy warning
             if r == -1:
                 gain *= 2.0 if sign < 0 else 0.5
                 continue
             gain *= (1 + r) if sign < 0 else 1 / (1 + r)
             mapped.append(0j if r == 1 else (r - 1) / (r + 1))  # z = 1: an integrator, w = 0 exactly
         side += root_factors(mapped, "w")
+    if not np.isfinite(gain):
+        raise EngineError(f"{transfer.text}: its gain in the w-plane is beyond double precision (above 1.8e308)")
     factors = [f"({float(gain.real)!r})", *over] + ([f"(1-w)^{power}"] if power > 0 else [])
     under += [f"(1-w)^{-power}"] if power < 0 else []
     return "*".join(factors) + (f"/({'*'.join(under)})" if under else "")

@@ -176,15 +176,35 @@ def discretized_text(
             f"{text!r} names {', '.join(transfer.parameters)}: a block discretized on the way in has numbers only"
         )
     r = transfer.rational({})
-    if method == "zoh":
-        num, den = zoh(r.num, r.den, sample_time, delay)
-    elif method == "tustin":
-        num, den = tustin(r.num, r.den, sample_time, prewarp)
-    else:
-        num, den = matched(r.num, r.den, sample_time)
-    at_origin = (_trailing_zeros(np.trim_zeros(r.num, "f")), _trailing_zeros(np.trim_zeros(r.den, "f")))
-    zeros, poles = (_at_one(np.roots(c), k) for c, k in zip((num, den), at_origin))
+    try:
+        with np.errstate(all="ignore"):
+            if method == "zoh":
+                num, den = zoh(r.num, r.den, sample_time, delay)
+            elif method == "tustin":
+                num, den = tustin(r.num, r.den, sample_time, prewarp)
+            else:
+                num, den = matched(r.num, r.den, sample_time)
+            finite = bool(np.all(np.isfinite(num)) and np.all(np.isfinite(den)) and den[0] != 0)
+            if finite:
+                at_origin = (_trailing_zeros(np.trim_zeros(r.num, "f")), _trailing_zeros(np.trim_zeros(r.den, "f")))
+                zeros, poles = (_at_one(np.roots(c), k) for c, k in zip((num, den), at_origin))
+    except (np.linalg.LinAlgError, ArithmeticError):
+        finite = False
+    if not finite:
+        raise BlockError(_beyond_precision(text, method, r.den, sample_time, delay))
     return f"({float(num[0] / den[0])!r})*{z_factors(zeros)}/{z_factors(poles)}"
+
+
+def _beyond_precision(text: str, method: str, den: NDArray, sample_time: float, delay: float) -> str:
+    """Why a discretization left double precision: the fastest pole and the delay in samples."""
+    with np.errstate(all="ignore"):
+        roots = np.roots(np.trim_zeros(den, "f"))
+        fastest = float(np.max(np.abs(roots))) * sample_time if roots.size else 0.0
+        samples = f", delay / T = {delay / sample_time:.3g}" if delay else ""
+    return (
+        f"{text!r} discretized by {method} at T = {sample_time:g} s cannot be computed in double precision "
+        f"(fastest pole x T = {fastest:.3g}{samples}); choose another sample time"
+    )
 
 
 def _at_one(roots: NDArray, count: int) -> NDArray:

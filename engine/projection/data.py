@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.errors import EngineError, shown
+from engine.errors import EngineError, shown_json
 
 MAX_STATES = 200  # n
 MAX_INPUTS = 200  # m (and algebraic equations)
@@ -29,7 +29,7 @@ def fail(key: str, message: str) -> EngineError:
 def number(value: Any, key: str, *, positive: bool = False) -> float:
     """A finite number (``positive``: > 0)."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise fail(key, f"expected a number, got {shown(value)}")
+        raise fail(key, f"expected a number, got {shown_json(value)}")
     try:
         x = float(value)
     except OverflowError:
@@ -46,14 +46,14 @@ def integer(value: Any, key: str, low: int, high: int) -> int:
     if isinstance(value, float) and value.is_integer():
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-        raise fail(key, f"expected an integer in {low}..{high}, got {shown(value)}")
+        raise fail(key, f"expected an integer in {low}..{high}, got {shown_json(value)}")
     return value
 
 
 def items(value: Any, key: str, most: int = MAX_ITEMS) -> list:
     """A list of at most ``most`` items."""
     if not isinstance(value, list):
-        raise fail(key, f"expected a list, got {shown(value)}")
+        raise fail(key, f"expected a list, got {shown_json(value)}")
     if len(value) > most:
         raise fail(key, f"at most {most} items, not {len(value)}")
     return value
@@ -62,7 +62,7 @@ def items(value: Any, key: str, most: int = MAX_ITEMS) -> list:
 def obj(value: Any, key: str) -> Mapping[str, Any]:
     """An object (a JSON dict)."""
     if not isinstance(value, Mapping):
-        raise fail(key, f"expected an object, got {shown(value)}")
+        raise fail(key, f"expected an object, got {shown_json(value)}")
     return value
 
 

@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from engine.errors import EngineError, shown
+from engine.errors import EngineError, shown_json
 from engine.stepping.memory_fields import jsonable
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -115,7 +115,7 @@ def setting_value(algorithm: str, name: str, kind: Any, value: Any) -> Any:
     `EngineError` naming the setting and what it takes."""
     ok, converted = _fits(kind, value)
     if not ok:
-        raise EngineError(f"{algorithm}: setting {name} takes {_described(kind)}, not {shown(value, typed=True)}")
+        raise EngineError(f"{algorithm}: setting {name} takes {_described(kind)}, not {shown_json(value)}")
     return converted
 
 

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from enum import Enum
 from typing import Any
 
-from engine.errors import EngineError, shown
+from engine.errors import EngineError, shown_json
 
 NON_FINITE = ("inf", "-inf", "nan")
 
@@ -48,7 +48,7 @@ def to_float(value: Any, where: str, finite: bool = True) -> float:
     if isinstance(value, str) and value in NON_FINITE:
         value = float(value)
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise EngineError(f"{where}: expected a {'finite ' if finite else ''}number, got {shown(value, typed=True)}")
+        raise EngineError(f"{where}: expected a {'finite ' if finite else ''}number, got {shown_json(value)}")
     try:
         number = float(value)
     except OverflowError:  # a JSON integer beyond a float's range
@@ -65,7 +65,7 @@ class Fields:
 
     def __init__(self, data: Any, where: str):
         if not isinstance(data, Mapping):
-            raise EngineError(f"{where}: expected an object, got {shown(data, typed=True)}")
+            raise EngineError(f"{where}: expected an object, got {shown_json(data)}")
         self.data, self.where = data, where
 
     def _name(self, name: str) -> str:
@@ -90,28 +90,28 @@ class Fields:
         value = self.get(name)
         if isinstance(value, bool) or not isinstance(value, int) or (minimum is not None and value < minimum):
             bound = "" if minimum is None else f" >= {minimum}"
-            raise EngineError(f"{self._name(name)}: expected an integer{bound}, got {shown(value, typed=True)}")
+            raise EngineError(f"{self._name(name)}: expected an integer{bound}, got {shown_json(value)}")
         return value
 
     def boolean(self, name: str) -> bool:
         """A true/false field."""
         value = self.get(name)
         if not isinstance(value, bool):
-            raise EngineError(f"{self._name(name)}: expected true or false, got {shown(value, typed=True)}")
+            raise EngineError(f"{self._name(name)}: expected true or false, got {shown_json(value)}")
         return value
 
     def text(self, name: str) -> str:
         """A string field."""
         value = self.get(name)
         if not isinstance(value, str):
-            raise EngineError(f"{self._name(name)}: expected a string, got {shown(value, typed=True)}")
+            raise EngineError(f"{self._name(name)}: expected a string, got {shown_json(value)}")
         return value
 
     def items(self, name: str, length: int | None = None) -> list:
         """A list field (of ``length`` items when given)."""
         value = self.get(name)
         if not isinstance(value, list):
-            raise EngineError(f"{self._name(name)}: expected a list, got {shown(value, typed=True)}")
+            raise EngineError(f"{self._name(name)}: expected a list, got {shown_json(value)}")
         if length is not None and len(value) != length:
             raise EngineError(f"{self._name(name)}: expected {length} items, got {len(value)}")
         return value
@@ -129,7 +129,7 @@ class Fields:
             where = f"{self._name(name)}[{i}]"
             if not isinstance(row, list) or (columns is not None and len(row) != columns):
                 wanted = "a list" if columns is None else f"a list of {columns} numbers"
-                got = f"{len(row)} numbers" if isinstance(row, list) else shown(row, typed=True)
+                got = f"{len(row)} numbers" if isinstance(row, list) else shown_json(row)
                 raise EngineError(f"{where}: expected {wanted}, got {got}")
             out.append(tuple(to_float(v, f"{where}[{j}]", finite) for j, v in enumerate(row)))
             columns = len(row)

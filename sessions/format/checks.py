@@ -12,7 +12,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from engine.design.problem import Problem
-from engine.errors import EngineError
+from engine.errors import EngineError, shown_json
 from engine.stepping.memory_fields import Fields
 from engine.stepping.protocol import State, StepRecord
 from engine.stepping.registry import lookup
@@ -27,17 +27,43 @@ MAX_DEPTH = 64  # levels of JSON nesting a session may have (a real one has abou
 PYDANTIC_TAG = re.compile(r"^(float|int|str|bool|none|list\[.*\]|dict\[.*\]|[a-z-]+\[.*\])$")
 
 
-def invalid(exc: ValueError, root: str = "", top: str = "(top)") -> str:
-    """A pydantic validation error as one line that names where (a JSON path under ``root``)
-    and what, never pydantic's own dump: the first error, and how many more.  ``top`` names
-    the place of an error of the whole value ('': what alone, as a form's one value says it);
-    any other ValueError is its own text."""
+def invalid(exc: ValueError, root: str = "", top: str = "(top)", data: Any = None) -> str:
+    """A pydantic validation error as one line that names where (a JSON path under ``root``
+    in ``data``, the input validated) and what, never pydantic's own dump: the first error,
+    and how many more.  The path holds only the input's keys and indices: pydantic's own
+    tags (a union member's type, a tagged union's tag such as ``state_space``) are left out.
+    ``top`` names the place of an error of the whole value ('': what alone, as a form's one
+    value says it); any other ValueError is its own text."""
     if not isinstance(exc, ValidationError):
         return str(exc)
     first = exc.errors()[0]
     loc = tuple(part for part in first["loc"] if not (isinstance(part, str) and PYDANTIC_TAG.match(part)))
+    loc = _input_path(loc, data) if data is not None else loc
     where = location((root,) + loc) if root else location(loc) if loc else top
     return f"{where}: {invalid_what(exc)}" if where else invalid_what(exc)
+
+
+TAGS = ("kind", "format")  # the schema's tagged unions' tag fields (`Field(discriminator=...)`)
+
+
+def _input_path(loc: tuple, data: Any) -> tuple:
+    """``loc`` without the tags pydantic puts in it: a tagged union's member is named by
+    its tag's value (``...transfer.state_space.A``), which is no key of the input."""
+    path: list = []
+    node, tag_read = data, False
+    for part in loc:
+        if not tag_read and isinstance(node, dict) and part in [node.get(tag) for tag in TAGS]:
+            tag_read = True  # the tag, once: a field of the same name may follow it
+            continue
+        tag_read = False
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+            node = node[part]
+        else:
+            node = None
+        path.append(part)
+    return tuple(path)
 
 
 def invalid_what(exc: ValidationError) -> str:
@@ -131,5 +157,5 @@ def check_record_parameters(model: SessionModel, problem: Problem) -> None:
                     f"{where}: expected a number ({name} has one value for all conditions), got a list of {len(value)}"
                 )
             if n is not None and not (isinstance(value, list) and len(value) == n):
-                got = f"a list of {len(value)}" if isinstance(value, list) else f"{type(value).__name__} {value!r}"
+                got = f"a list of {len(value)}" if isinstance(value, list) else shown_json(value)
                 raise SessionError(f"{where}: expected a list of {n} numbers (one per condition), got {got}")

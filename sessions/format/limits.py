@@ -14,7 +14,7 @@ from typing import Annotated, Any
 
 from pydantic import AfterValidator, BeforeValidator, Field
 
-from engine.errors import shortened
+from engine.errors import shortened, shown_json
 from engine.model.blocks import (
     MAX_TABLE_ROWS as MAX_TABLE_ROWS,  # rows of a table, inline or CSV: the engine's one limit
 )
@@ -37,10 +37,12 @@ MAX_RESPONSE_POINTS = 100_000  # time points of a time response
 MAX_EQUALITIES = 1000
 MAX_CONSTRAINTS = 1000  # linear inequalities between parameters (1000 characters each)
 MAX_OPTIONS = 100  # options, tables of an objective
+MAX_NYQUIST = 1e306  # rad/s: a sample time T must keep pi/T (and the grid below it) within double precision
 MAX_SESSION_BYTES = 256 * 2**20  # a session file (its records included), read with a bounded read
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
-Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=200)]
+MAX_NAME = 200  # characters of a name (a parameter's, a block's, a signal's)
+Name = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$", max_length=MAX_NAME)]
 
 
 def _coefficient(value: Any) -> Any:
@@ -54,7 +56,7 @@ def _coefficient(value: Any) -> Any:
                 "(an expression belongs in an expression block)"
             )
     elif isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"a coefficient is a number or a parameter name, not {type(value).__name__}")
+        raise ValueError(f"a coefficient is a number or a parameter name, not {shown_json(value)}")
     return value
 
 

@@ -108,6 +108,52 @@ def refuse_overwrite(target: Path, loaded: DiskStamp | None, force: bool) -> Non
         )
 
 
+def check_output(target: Path, inputs: dict[Path, str], force: bool, option: str = "--out") -> None:
+    """The one check of a command's output file, made before any work: a `SessionError`
+    when writing ``target`` would destroy something.  It is one of the command's
+    ``inputs`` (path -> what it is, e.g. "the session"; the same file by real path or
+    inode), it is not a regular file (a folder, FIFO, device or socket: an atomic rename
+    would replace it), or it exists and ``force`` is not given.  Messages name ``option``
+    (empty: the target alone)."""
+    where = f"{option} {target}" if option else str(target)
+    real = real_path(target)
+    try:
+        st: os.stat_result | None = os.stat(real)
+    except (FileNotFoundError, NotADirectoryError):
+        st = None  # nothing there (its folder's absence is the writer's to say)
+    except OSError as exc:
+        raise SessionError(f"{where}: cannot write: {describe(exc)}") from None
+    for source, what in inputs.items():
+        if _same_file(real, st, source):
+            raise SessionError(f"{where}: is {what}, an input of the command; write elsewhere")
+    if st is None:
+        return
+    if not stat.S_ISREG(st.st_mode):
+        raise SessionError(f"{where}: {_kind_of(st.st_mode)}, not a regular file; write to a file")
+    if not force:
+        raise SessionError(f"{where}: exists (--force replaces it)")
+
+
+def _same_file(real: Path, st: os.stat_result | None, source: Path) -> bool:
+    if real == real_path(source):
+        return True
+    try:
+        other = os.stat(source)
+    except OSError:
+        return False
+    return st is not None and (st.st_dev, st.st_ino) == (other.st_dev, other.st_ino)
+
+
+def _kind_of(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "a special file"
+
+
 def read_only_system(path: Path) -> bool:
     """Whether ``path`` lies on a file system mounted read-only (no save there can succeed)."""
     try:

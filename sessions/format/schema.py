@@ -7,6 +7,7 @@ version this code writes; older files are migrated (`sessions.format.migrations`
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -27,6 +28,7 @@ from sessions.format.limits import (  # noqa: F401
     MAX_FACTORS,
     MAX_GRID_POINTS,
     MAX_JUNCTION_INPUTS,
+    MAX_NYQUIST,
     MAX_OPTIONS,
     MAX_PARAMETERS,
     MAX_RESPONSE_POINTS,
@@ -337,6 +339,8 @@ class ConditionModel(Strict):
             raise ValueError("a condition in z needs its sample_time (s)")
         if self.variable != "z" and self.sample_time is not None:
             raise ValueError(f"sample_time is for a condition in z, not in {self.variable}")
+        if self.sample_time is not None and self.sample_time * MAX_NYQUIST < math.pi:
+            raise ValueError(f"sample_time {self.sample_time:g} s: its Nyquist frequency pi/T is beyond 1e306 rad/s")
         return self
 
 
@@ -492,6 +496,9 @@ class SweepModel(Strict):
         "ranking, status, reason, measures, meets_requirements, worker, attempts",
     )
     failed: list[int] = []
+    excluded: dict[str, int] = Field(
+        default={}, description="tolerance sweeps: reason -> how many samples it left out of the statistics"
+    )
     retried: dict[str, list[str]] = Field(default={}, description="run index -> the workers it was started on")
     optima: list[dict[str, Any]] = Field(
         default=[], description="parameters, ranking, count, meets_requirements, best_run, runs"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sessions.errors import SessionError
+from sessions.errors import SessionError, in_words
 from sessions.format.reading import decoded, read_regular
 
 MAX_MATRIX_BYTES = 20 * 2**20  # a state-space file (400 states take 1.3 MB in .npz, about 4 MB in .json)
@@ -47,8 +47,7 @@ def _npz(data: bytes, file: Path, where: str) -> dict[str, np.ndarray]:
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
             arrays = {name: archive[name] for name in archive.files}
     except Exception as exc:  # noqa: BLE001 - any reader failure on a malformed file (BadZipFile, ValueError...)
-        reason = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
-        raise SessionError(f"{where}: {file.name}: cannot read: {reason}") from None
+        raise SessionError(f"{where}: {file.name}: cannot read: {in_words(exc)}") from None
     for name, array in arrays.items():
         if array.dtype.kind not in "biuf":
             raise SessionError(f"{where}: {file.name}: {name} is not an array of real numbers ({array.dtype})")

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from engine.errors import EngineError
-from sessions.errors import SessionError
+from sessions.errors import SessionError, in_words
 from sessions.new.templates import corner_grid
 
 MAX_ORDER = 64  # a coefficient list of a polynomial block holds at most 65 numbers (sessions.format.limits)
@@ -74,7 +74,7 @@ def _arrays(path: Path) -> dict[str, np.ndarray]:
     except SessionError:
         raise
     except Exception as exc:  # noqa: BLE001 - a reader failing on a malformed file (IndexError, MatReadError...)
-        raise SessionError(f"{where}: cannot read: {type(exc).__name__}: {' '.join(str(exc).split())}") from None
+        raise SessionError(f"{where}: cannot read: {in_words(exc)}") from None
     return {k: _numeric(v, f"{where}: {k}") for k, v in raw.items()}
 
 

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 from engine.errors import EngineError
 from sessions.errors import SessionError
+from sessions.format.limits import MAX_NYQUIST
 
 if TYPE_CHECKING:
     import numpy as np
@@ -171,6 +172,8 @@ def sampled_session(data: dict, sample_time: float, discretize: str = "zoh") -> 
         b["output"] = "y" if b["name"] == "plant" else b["output"]
     condition.update(variable="z", sample_time=sample_time)
     nyquist = math.pi / sample_time
+    if sample_time * MAX_NYQUIST < math.pi:
+        raise SessionError(f"--sample-time {sample_time:g}: its Nyquist frequency pi/T is beyond 1e306 rad/s")
     data["problem"]["grid"] = {
         "unit": "rad/s",
         "start": _round(nyquist * 1e-4),

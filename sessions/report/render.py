@@ -6,6 +6,7 @@ PNGs written beside it (`sessions.report.content` gives the blocks)."""
 from __future__ import annotations
 
 import base64
+from collections.abc import Callable
 from pathlib import Path
 
 from sessions.errors import SessionError
@@ -67,21 +68,25 @@ def _md_table(header, rows) -> str:
     return "\n".join(lines)
 
 
-def write_report(blocks: list[Block], fmt: str, folder: Path, stem: str) -> list[Path]:
-    """Write the report as ``folder/stem.html`` or ``folder/stem.md`` (+ its PNGs); the files written."""
+def write_report(
+    blocks: list[Block], fmt: str, folder: Path, stem: str, check: Callable[[Path], None] = lambda _: None
+) -> list[Path]:
+    """Write the report as ``folder/stem.html`` or ``folder/stem.md`` (+ its PNGs); the files
+    written.  ``check`` sees every file before any is written (it raises to refuse one)."""
     folder = Path(folder)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
         if fmt == "html":
-            target = folder / f"{stem}.html"
-            write_atomic(target, render_html(blocks))
-            return [target]
-        text, files = render_markdown(blocks, stem)
+            files, target = {}, folder / f"{stem}.html"
+            text = render_html(blocks)
+        else:
+            (text, files), target = render_markdown(blocks, stem), folder / f"{stem}.md"
+        for path in [target, *(folder / name for name in files)]:
+            check(path)
+        folder.mkdir(parents=True, exist_ok=True)
         written = []
         for name, data in files.items():
-            (folder / name).write_bytes(data)
+            write_atomic(folder / name, data)
             written.append(folder / name)
-        target = folder / f"{stem}.md"
         write_atomic(target, text)
         return [target] + written
     except OSError as exc:

@@ -15,7 +15,7 @@ from contextlib import contextmanager
 from typing import TYPE_CHECKING, NamedTuple
 from urllib.parse import urlsplit
 
-from sessions.errors import SessionError
+from sessions.errors import SessionError, in_words
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -157,9 +157,9 @@ def local_cluster(workers: int):
 
 
 def reason(exc: BaseException) -> str:
-    """An exception in one line: its type and its message (dask-jobqueue's put an example on a line of its own)."""
-    text = " ".join(str(exc).split())
-    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    """An exception in one line of words (`in_words`: dask-jobqueue's put an example on a
+    line of its own; no Python type's name)."""
+    return in_words(exc)
 
 
 def close(client, cluster) -> None:

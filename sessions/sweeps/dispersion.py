@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
@@ -86,7 +87,7 @@ FAILED_RUNS_KEPT = 20  # ... a larger one the worst samples' runs and the first 
 class Tally:
     """A tolerance study's outputs gathered run by run (`add`, in job order): per measure row
     (name, kind, condition) its values as a float array, how many are unmet, its worst value
-    and sample; every failed run's index.  What it keeps of the runs themselves: every run,
+    and sample; every failed run's index, and how many failed for each reason (``excluded``).  What it keeps of the runs themselves: every run,
     or, when ``every_run`` is False (a study of more than `EVERY_RUN_KEPT` samples), only
     each row's worst sample's run and the first `FAILED_RUNS_KEPT` failed runs, so that its
     memory does not grow by a run (some 2 KB) per sample."""
@@ -96,6 +97,7 @@ class Tally:
         self.count = 0  # runs added
         self.cancelled = 0  # ... of which cancelled
         self.failed: list[int] = []  # every failed run's index, in the order added
+        self.excluded: Counter[str] = Counter()  # reason -> how many samples it left out of the statistics
         self._rows: dict[tuple, _Row] = {}  # in the order first seen
         self._runs: dict[int, dict] = {}  # index -> run: the runs kept
         self._every: list[dict] = []  # every run in the order added, when every run is kept
@@ -123,6 +125,7 @@ class Tally:
             self._runs[run["index"]] = run
         if run.get("status") == "failed":
             self.failed.append(run["index"])
+            self.excluded[run["reason"]] += 1
             self.cancelled += run["reason"] == CANCELLED
             if not self.every_run and len(self._failed_kept) < FAILED_RUNS_KEPT:
                 self._failed_kept.add(run["index"])
@@ -240,6 +243,12 @@ def worst_row(rows: Sequence[dict], which: str | None = None) -> dict:
     those named by ``which`` (MEASURE or MEASURE@CONDITION; None: every row)."""
     if not rows:
         raise SessionError("no sample of the tolerance study finished")
+    return max(rows_named(rows, which), key=shortfall)
+
+
+def rows_named(rows: Sequence[dict], which: str | None) -> list[dict]:
+    """The rows (each with its ``name`` and ``condition``) that ``which`` names (MEASURE or
+    MEASURE@CONDITION; None: every row); a `SessionError` listing them when none is."""
     name, _, condition = (which or "").partition("@")
     chosen = [
         r for r in rows if which is None or (r["name"] == name and (not condition or r["condition"] == condition))
@@ -247,7 +256,7 @@ def worst_row(rows: Sequence[dict], which: str | None = None) -> dict:
     if not chosen:
         known = ", ".join(sorted({f"{r['name']}@{r['condition']}" for r in rows})) or "none"
         raise SessionError(f"no measure row {which!r} in the tolerance study (rows: {known})")
-    return max(chosen, key=shortfall)
+    return chosen
 
 
 def run_count(summary: dict) -> str:

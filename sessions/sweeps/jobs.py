@@ -29,7 +29,7 @@ import os
 import time
 import uuid
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -43,7 +43,7 @@ from engine.stepping.driver import first_record, iterate
 from engine.stepping.presenter import Presenter, tolerant
 from engine.stepping.protocol import Stepper, StepRecord
 from sessions.build import build_problem
-from sessions.errors import SessionError
+from sessions.errors import SessionError, in_words
 from sessions.lifecycle import bind
 from sessions.store import validated_model
 from sessions.sweeps.cluster import (
@@ -85,7 +85,7 @@ def run_job(payload: dict) -> dict:
     except Exception as exc:  # noqa: BLE001 - a run's failure is data, never the sweep's end
         result.update(
             status="failed",
-            reason=f"{type(exc).__name__}: {exc}",
+            reason=in_words(exc),
             parameters={},
             ranking=None,
             measures=[],
@@ -269,7 +269,8 @@ def _rest_batched(connection: Connection, jobs: Sequence, first: Outcome, each: 
     rest = _gather(connection.client, jobs[done:], _shifted(progress, done, len(jobs)), cancelled, size)
     note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
     attempts = {**first.attempts, **rest.attempts}
-    return Outcome(first.runs + rest.runs, rest.workers, attempts, rest.cancelled, rest.interrupted, note)
+    runs = first.runs + rest.runs
+    return Outcome(runs, computed_by(runs, attempts), attempts, rest.cancelled, rest.interrupted, note)
 
 
 def _shifted(progress: Callable[[int, int], None] | None, offset: int, total: int):
@@ -325,6 +326,7 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
     tag = uuid.uuid4().hex[:8]
     tasks = _submit(client, task, [list(jobs[k : k + size]) for k in range(0, len(jobs), size)], tag)
     runs: dict[int, dict] = {}
+    retired: dict[str, list] = {}  # the key of a batch sent again one run to a task -> its batch
     stopped = interrupted = False
     try:
         waiting = as_completed(list(tasks))
@@ -332,6 +334,7 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
             batch = tasks[future]
             if len(batch) > 1 and future.status == "error" and not stopped and not cancelled():
                 alone = _submit(client, task, [[job] for job in batch], tag, "-alone")
+                retired[future.key] = batch
                 del tasks[future]
                 tasks.update(alone)
                 waiting.update(list(alone))
@@ -346,8 +349,15 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
         with sigint_ignored():
             stopped = interrupted = True
             _interrupted(client, tasks, runs)
+    keys: dict[int, list[str]] = {}  # run index -> the keys of the tasks it was in
+    for future, batch in tasks.items():
+        for job in batch:
+            keys.setdefault(job.index, []).append(future.key)
+    for key, batch in retired.items():
+        for job in batch:
+            keys.setdefault(job.index, []).append(key)
     with sigint_ignored() if interrupted else nullcontext():
-        workers, attempts = _workers_and_attempts(client, runs)
+        workers, attempts = _workers_and_attempts(client, runs, keys)
     return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted)
 
 
@@ -390,26 +400,62 @@ def _interrupted(client, tasks: dict, runs: dict[int, dict]) -> None:
             runs.setdefault(job.index, results[k] if results else _lost(job, None))
 
 
-def _workers_and_attempts(client, runs: dict[int, dict]) -> tuple[int, dict[int, list[str]]]:
-    """How many workers the scheduler has, and where each run was started (from its events)."""
+def _workers_and_attempts(
+    client, runs: dict[int, dict], keys: dict[int, list[str]]
+) -> tuple[int, dict[int, list[str]]]:
+    """How many workers computed the runs, and where each run was started: its attempts are
+    the times the scheduler sent its tasks (``keys``) to a worker, read from the scheduler's
+    transition log (a finished batch whose results died with its worker is sent again), its
+    workers those its starts' events name (a worker killed before its events reached the
+    scheduler is named "a lost worker")."""
     try:
-        workers = len(client.scheduler_info().get("workers", {}))
         events = client.get_events(EVENT_TOPIC)
+        sent = _times_sent(client, sorted({key for k in runs for key in keys.get(k, [])}))
     except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
-        workers, events = 0, ()
-    attempts: dict[int, list[str]] = {}
+        events, sent = (), {}
+    started: dict[int, list[str]] = {}
     for _, event in events:
         if isinstance(event, dict) and event.get("index") in runs:
-            attempts.setdefault(event["index"], []).append(event["worker"])
+            started.setdefault(event["index"], []).append(event["worker"])
+    attempts: dict[int, list[str]] = {}
     for k, run in runs.items():
-        run["attempts"] = len(attempts.get(k, [])) or (0 if run["status"] == "failed" else 1)
-    return workers, attempts
+        named = started.get(k, [])
+        count = max(len(named), sum(sent.get(key, 0) for key in keys.get(k, [])))
+        run["attempts"] = count or (0 if run["status"] == "failed" else 1)
+        if count:
+            attempts[k] = named + [LOST_WORKER] * (count - len(named))
+    return computed_by(runs.values(), attempts), attempts
+
+
+LOST_WORKER = "a lost worker"  # a start whose worker died before its event reached the scheduler
+
+
+def computed_by(runs: Iterable[dict], attempts: dict[int, list[str]]) -> int:
+    """How many workers are known to have computed runs: those that finished one, and those
+    its starts were logged on (a worker killed midway among them)."""
+    finished = {r["worker"] for r in runs if r["status"] != "failed" and r.get("worker")}
+    started = {w for workers in attempts.values() for w in workers}
+    return len((finished | started) - {LOST_WORKER})
+
+
+def _times_sent(client, keys: list[str]) -> dict[str, int]:
+    """How many times the scheduler sent each task to a worker: its transitions to
+    'processing' in the scheduler's own log (run there: the scheduler needs no loopcraft)."""
+
+    def counted(dask_scheduler, keys: list[str]) -> dict[str, int]:
+        wanted, counts = set(keys), dict.fromkeys(keys, 0)
+        for transition in dask_scheduler.transition_log:
+            if transition[0] in wanted and transition[2] == "processing":
+                counts[transition[0]] += 1
+        return counts
+
+    return client.run_on_scheduler(counted, keys=keys) if keys else {}
 
 
 def _lost(job, exc: BaseException | None) -> dict:
     """A run that did not finish: ``exc`` None or a CancelledError for a cancelled one."""
     kind = type(exc).__name__
-    reason = CANCELLED if exc is None or kind == "CancelledError" else f"{kind}: {exc}"
+    reason = CANCELLED if exc is None or kind == "CancelledError" else in_words(exc)
     return {
         "index": job.index,
         "label": job.label,

@@ -158,10 +158,14 @@ def tolerance_jobs(
     """Monte Carlo over the parameters' laws (`sessions.sweeps.sampling`: NAME=+-P%
     uniform, NAME=normal:P% normal; drawn at random or by Latin hypercube) about the
     session's current design; each job evaluates the tableau (no optimization) at the
-    drawn values, whatever the design bounds (they limit the optimizer: a sample's
-    bounds are widened to hold it).  The jobs are made when read (`ToleranceSamples`)."""
+    drawn values, whatever the design's bounds and constraints (they limit the designer's
+    choices, not the parts' spread: a sample's bounds are widened to hold it, the linear
+    constraints and equalities between parameters left out).  The jobs are made when
+    read (`ToleranceSamples`)."""
     laws = parse_tolerances(tolerances)
     base = _with_design(shippable(session), _current_design(session))
+    # a sample is the hardware as built: the constraints between parameters limit the designer's choices
+    base["problem"]["constraints"], base["problem"]["equalities"] = [], []
     entries = {p["name"]: p for p in base["problem"]["parameters"]}
     unknown = sorted(set(laws) - set(entries))
     if unknown:

@@ -144,7 +144,13 @@ def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> 
         "retried": {str(k): v for k, v in outcome.attempts.items() if len(v) > 1},
     }
     if tally is not None:  # a tolerance study: its rows from the tally; the runs it kept
-        data.update(runs=tally.runs(), failed=list(tally.failed), worst_case=tally.rows(), optima=[])
+        data.update(
+            runs=tally.runs(),
+            failed=list(tally.failed),
+            excluded=dict(tally.excluded.most_common()),
+            worst_case=tally.rows(),
+            optima=[],
+        )
     else:
         data["optima"] = [
             {**o, "notes": at_bounds(session.problem, o["parameters"])} for o in optima(outcome.runs, maximize)

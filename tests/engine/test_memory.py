@@ -81,7 +81,7 @@ def _shorten(path: str):
 @pytest.mark.parametrize(
     "name, corrupt, message",
     [
-        ("cip", _set("step", "fast"), r"cip memory\.step: expected a finite number, got str 'fast'"),
+        ("cip", _set("step", "fast"), r"cip memory\.step: expected a finite number, got the string \"fast\""),
         ("cip", _set("requirements.0.desired", ...), r"cip memory\.requirements\[0\]\.desired: missing"),
         ("cip", _set("best.x.0", "nan"), r"cip memory\.best\.x\[0\]: expected a finite number, got nan"),
         (
@@ -90,14 +90,18 @@ def _shorten(path: str):
             r"cip memory\.requirements\[1\]\.kind: expected one of A, D, G, P, S",
         ),
         ("qcg", _shorten("initial_scale"), r"qcg memory\.initial_scale: expected \d+ items, got \d+"),
-        ("qcg", _set("kount", 1.5), r"qcg memory\.kount: expected an integer >= 0, got float 1\.5"),
+        ("qcg", _set("kount", 1.5), r"qcg memory\.kount: expected an integer >= 0, got the number 1\.5"),
         ("slp", _set("P", "inf"), r"slp memory\.P: expected a finite number, got inf"),
         ("slp", _shorten("base.frequencies"), r"slp memory\.base\.frequencies: expected \d+ items, got \d+"),
         ("slp", _set("major", ...), r"slp memory\.major: missing"),
-        ("slp", _set("best.stable", "yes"), r"slp memory\.best\.stable: expected true or false, got str 'yes'"),
+        (
+            "slp",
+            _set("best.stable", "yes"),
+            r"slp memory\.best\.stable: expected true or false, got the string \"yes\"",
+        ),
         ("projection", _shorten("r.u"), r"projection memory\.r\.u: expected \d+ items, got \d+"),
         ("projection", _set("distances", ["1.0"]), r"projection memory\.distances\[0\]: expected a finite number"),
-        ("projection", _set("r.x.0", 3.0), r"projection memory\.r\.x\[0\]: expected a list, got float 3\.0"),
+        ("projection", _set("r.x.0", 3.0), r"projection memory\.r\.x\[0\]: expected a list, got the number 3\.0"),
     ],
 )
 def test_corrupt_memory_is_rejected_naming_the_field(states, name, corrupt, message):
@@ -111,8 +115,8 @@ def test_corrupt_memory_is_rejected_naming_the_field(states, name, corrupt, mess
     "change, message",
     [
         (("status", "asleep"), r"state\.status: expected one of running, .*, got 'asleep'"),
-        (("x", [1.0, "two"]), r"state\.x\[1\]: expected a finite number, got str 'two'"),
-        (("memory", [1, 2]), r"slp memory: expected an object, got list"),
+        (("x", [1.0, "two"]), r"state\.x\[1\]: expected a finite number, got the string \"two\""),
+        (("memory", [1, 2]), r"slp memory: expected an object, got a list"),
     ],
 )
 def test_corrupt_state_is_rejected_naming_the_field(states, change, message):

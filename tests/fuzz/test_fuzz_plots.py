@@ -1,5 +1,6 @@
 """Zoom, pan, cursor and reset never break a plot (issue 36, section 2): hypothesis drives
-random sequences of the plot keys and mouse events (wheel, drag, click) on every plot
+random sequences of the plot keys (one press, or one held up to 40 times) and mouse
+events (wheel, drag, click) on every plot
 kind (the Run tab's plots, the trajectories, History's views) at 120x40, 100x32 and
 80x24; no exception may escape and no plot may say it cannot draw.
 
@@ -32,6 +33,7 @@ actions = st.lists(
         st.tuples(st.just("plot"), st.integers(0, 8)),
         st.tuples(st.just("history"), st.integers(0, 7)),
         st.tuples(st.just("key"), st.sampled_from(KEYS)),
+        st.tuples(st.just("held"), st.sampled_from(("plus", "minus", "h", "l")), st.integers(2, 40)),
         st.tuples(st.just("wheel"), st.booleans(), fraction, fraction),
         st.tuples(st.just("drag"), fraction, fraction, fraction, fraction),
         st.tuples(st.just("click"), fraction, fraction),
@@ -63,6 +65,8 @@ async def _act(app, pilot, action) -> None:
         await pilot.press("P")
     if kind == "key" and isinstance(app.focused, FigurePlot):
         await pilot.press(args[0])
+    if kind == "held" and isinstance(app.focused, FigurePlot):  # a key held: '-' 13 times killed the app
+        await pilot.press(*[args[0]] * args[1])
     plot = app.focused if isinstance(app.focused, FigurePlot) else None
     if plot is None or plot.content_region.width == 0:
         return

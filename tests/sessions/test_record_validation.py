@@ -53,45 +53,48 @@ DELETE = object()
 CASES = [
     (
         _set("records", 1, "parameters", "K", "abc"),
-        r"records\[1\]\.parameters\.K: expected a finite number, got str 'abc'",
+        r"records\[1\]\.parameters\.K: expected a finite number, got the string \"abc\"",
     ),
     (_set("records", 1, "parameters", "K", "inf"), r"records\[1\]\.parameters\.K: expected a finite number, got inf"),
     (
         _set("records", 1, "parameters", "K", None),
-        r"records\[1\]\.parameters\.K: expected a finite number, got NoneType",
+        r"records\[1\]\.parameters\.K: expected a finite number, got null",
     ),
     (
         _set("records", 1, "parameters", "K", [1.0, 2.0]),
         r"records\[1\]\.parameters\.K: expected a number \(K has one value for all conditions\), got a list of 2",
     ),
     (_set("records", 1, "parameters", "Z", 1.0), r"records\[1\]\.parameters\.Z: not a parameter of the problem"),
-    (_set("records", 1, "parameters", [1, 2]), r"records\[1\]\.parameters: expected an object, got list"),
+    (_set("records", 1, "parameters", [1, 2]), r"records\[1\]\.parameters: expected an object, got a list"),
     (_set("records", 0, "status", "done"), r"records\[0\]\.status: expected one of running, converged"),
     (_set("records", 0, "status", DELETE), r"records\[0\]\.status: missing"),
     (_set("records", 2, "iteration", 5), r"records\[2\]\.iteration: expected 3 \(records are numbered 1\.\.n"),
-    (_set("records", 2, "iteration", "3"), r"records\[2\]\.iteration: expected an integer >= 0, got str '3'"),
+    (_set("records", 2, "iteration", "3"), r"records\[2\]\.iteration: expected an integer >= 0, got the string \"3\""),
     (
         _set("records", 1, "measures", 0, "value", "abc"),
-        r"records\[1\]\.measures\[0\]\.value: expected a number, got str",
+        r"records\[1\]\.measures\[0\]\.value: expected a number, got the string",
     ),
     (
         _set("records", 1, "measures", 0, "satisfied", "yes"),
-        r"records\[1\]\.measures\[0\]\.satisfied: expected true or false, got str 'yes'",
+        r"records\[1\]\.measures\[0\]\.satisfied: expected true or false, got the string \"yes\"",
     ),
     (_set("records", 1, "measures", 0, "name", DELETE), r"records\[1\]\.measures\[0\]\.name: missing"),
-    (_set("records", 1, "measures", 0, "name", 7), r"records\[1\]\.measures\[0\]\.name: expected a string, got int 7"),
+    (
+        _set("records", 1, "measures", 0, "name", 7),
+        r"records\[1\]\.measures\[0\]\.name: expected a string, got the number 7",
+    ),
     (_set("records", 1, "measures", 0, "frequency", "x"), r"records\[1\]\.measures\[0\]\.frequency: expected a number"),
     (
         _set("records", 1, "measures", 0, "colour", "red"),
         r"records\[1\]\.measures\[0\]\.colour: not a field of a measure",
     ),
-    (_set("records", 1, "measures", {}), r"records\[1\]\.measures: expected a list, got dict"),
-    (_set("records", 1, "measures", [3]), r"records\[1\]\.measures\[0\]: expected an object, got int 3"),
+    (_set("records", 1, "measures", {}), r"records\[1\]\.measures: expected a list, got an object"),
+    (_set("records", 1, "measures", [3]), r"records\[1\]\.measures\[0\]: expected an object, got the number 3"),
     (_set("records", 1, "counters", "evaluations", 1.5), r"records\[1\]\.counters\.evaluations: expected an integer"),
-    (_set("records", 1, "objective", "low"), r"records\[1\]\.objective: expected a number, got str 'low'"),
+    (_set("records", 1, "objective", "low"), r"records\[1\]\.objective: expected a number, got the string \"low\""),
     (_set("records", 1, "direction", ["x"]), r"records\[1\]\.direction\[0\]: expected a number"),
-    (_set("records", 1, "reason", 3), r"records\[1\]\.reason: expected a string, got int 3"),
-    (_set("records", 1, "extra", []), r"records\[1\]\.extra: expected an object, got list"),
+    (_set("records", 1, "reason", 3), r"records\[1\]\.reason: expected a string, got the number 3"),
+    (_set("records", 1, "extra", []), r"records\[1\]\.extra: expected an object, got a list"),
     (_set("records", 1, "colour", "red"), r"records\[1\]\.colour: not a field of a record"),
     (_set("records", 1, []), r"records\[1\]: Input should be a valid dictionary"),
     (_set("state", "iteration", 2), r"state\.iteration: 2, but current_iteration is 3"),
@@ -135,8 +138,8 @@ def test_a_per_condition_parameter_has_one_value_per_condition(matching_dict, tm
     assert load_session(path).records[0].parameters["K"] == [1.0, 2.0]
     for wrong, said in (
         ([1.0], r"expected a list of 2 numbers \(one per condition\), got a list of 1"),
-        (3.0, r"expected a list of 2 numbers \(one per condition\), got float 3\.0"),
-        ([1.0, "a"], r"\[1\]: expected a finite number, got str 'a'"),
+        (3.0, r"expected a list of 2 numbers \(one per condition\), got the number 3\.0"),
+        ([1.0, "a"], r"\[1\]: expected a finite number, got the string \"a\""),
     ):
         record["parameters"]["K"] = wrong
         path.write_text(json.dumps(matching_dict))
@@ -149,7 +152,7 @@ def test_the_cli_says_one_line_and_exits_2(ran, capsys, command):
     _corrupt(ran, _set("records", 1, "parameters", "K", "abc"))
     assert main([command[0], str(ran), *command[1:]]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "records[1].parameters.K: expected a finite number, got str 'abc'" in err[0]
+    assert len(err) == 1 and 'records[1].parameters.K: expected a finite number, got the string "abc"' in err[0]
 
 
 def _leaf_paths(node, prefix=()):

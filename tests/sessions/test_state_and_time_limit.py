@@ -24,7 +24,9 @@ def test_a_corrupt_stored_state_is_rejected_at_load_naming_the_field(matching):
     data = json.loads(matching.read_text())
     data["state"]["memory"]["step"] = "big"
     matching.write_text(json.dumps(data))
-    with pytest.raises(SessionError, match=r"state: gradient memory\.step: expected a finite number, got str 'big'"):
+    with pytest.raises(
+        SessionError, match=r"state: gradient memory\.step: expected a finite number, got the string \"big\""
+    ):
         load_session(matching)
 
 

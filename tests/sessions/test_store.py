@@ -63,7 +63,7 @@ def test_json_schema_file_is_current():
             lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"].update(
                 poles=[{"kind": "second_order", "zeta": -0.1, "omega": 3.0}]
             ),
-            r"problem\.conditions\[0\]\.plant\.diagram\.blocks\[1\]\.transfer\.factored\.poles\[0\]: zeta: must be > 0",
+            r"problem\.conditions\[0\]\.plant\.blocks\[1\]\.transfer\.poles\[0\]: zeta: must be > 0",
         ),
         (
             lambda d: d["problem"]["conditions"][0]["plant"]["blocks"][0]["transfer"].update(expression="K*(1+T s)"),

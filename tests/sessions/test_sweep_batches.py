@@ -89,7 +89,7 @@ def test_a_run_that_kills_its_worker_does_not_take_its_batch_with_it(tmp_path):
         close(client, cluster)
     assert [r["index"] for r in outcome.runs] == [j.index for j in jobs]
     failed = [r for r in outcome.runs if r["status"] == "failed"]
-    assert [r["index"] for r in failed] == [POISON] and "KilledWorker" in failed[0]["reason"]
+    assert [r["index"] for r in failed] == [POISON] and "workers died while running it" in failed[0]["reason"]
 
 
 class _Job:

@@ -87,7 +87,7 @@ BAD = [
     (["--cluster", "torque", "--starts", "2"], "--cluster 'torque': one of local, slurm, pbs, sge, lsf"),
     (
         ["--cluster", "slurm", "--starts", "2"],
-        "--cluster slurm: ValueError: You must specify how much cores and memory",
+        "--cluster slurm: You must specify how much cores and memory",
     ),
     (["--cluster", "slurm", "--print-job-script"], "jobqueue.slurm.*"),
     (["--cluster", "local", "--print-job-script"], "--print-job-script: a local cluster has no job script"),

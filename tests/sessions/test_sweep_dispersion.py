@@ -243,12 +243,13 @@ def test_bad_input_is_refused_with_exit_status_2(tmp_path, capsys, options, mess
     assert path.read_text() == before
 
 
-def test_adopt_worst_of_a_row_that_is_not_there_keeps_the_study_and_exits_2(tmp_path, capsys):
+def test_adopt_worst_of_a_row_that_is_not_there_is_refused_before_the_study_and_exits_2(tmp_path, capsys):
     path = _copy(tmp_path, "coebra_lag_lead")
+    before = path.read_bytes()
     argv = ["sweep", str(path), "--tolerance", "T1=+-1%", "--samples", "3", "--serial", "--adopt-worst", "GM9"]
     assert main(argv) == 2
     assert "--adopt-worst: no measure row 'GM9' in the tolerance study (rows: GM1@nominal" in capsys.readouterr().err
-    assert len(json.loads(path.read_text())["sweeps"]) == 1
+    assert path.read_bytes() == before  # nothing ran, nothing saved
 
 
 def test_the_apps_one_line_takes_laws_sampling_and_seed():

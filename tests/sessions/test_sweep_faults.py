@@ -93,10 +93,7 @@ def test_a_worker_dying_at_start_up_is_a_clean_error(tmp_path, capsys):
     path = _copy(tmp_path, "coebra_lag_lead")
     with dask.config.set({"distributed.worker.preload": ["loopcraft_no_such_module"]}):  # the worker dies
         assert main(["sweep", str(path), "--starts", "2", "--workers", "1"]) == 2
-    assert (
-        "cannot start a local Dask cluster of 1 worker(s): RuntimeError: Nanny failed to start"
-        in capsys.readouterr().err
-    )
+    assert "cannot start a local Dask cluster of 1 worker(s): Nanny failed to start" in capsys.readouterr().err
     assert not json.loads(path.read_text()).get("sweeps")
 
 
@@ -153,7 +150,7 @@ def test_an_output_that_cannot_be_written_is_refused_before_the_runs(tmp_path, c
     for out, said in (
         (tmp_path / "missing" / "x.json", "does not exist"),
         (tmp_path / "a-file" / "x.json", "does not exist"),
-        (tmp_path, "cannot save: it is a folder"),
+        (tmp_path, "a folder, not a regular file"),
     ):
         began = time.monotonic()
         assert main(["sweep", str(path), "--starts", "200", "--serial", "--out", str(out)]) == 2

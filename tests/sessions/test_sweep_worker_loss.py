@@ -1,6 +1,8 @@
 """A tolerance study on a `dask scheduler` and two `dask worker` processes started here on
 127.0.0.1 (real processes, not the in-process cluster), one of which is killed midway:
-every sample's result is found once, and equals a serial run's (issue 41, section 3)."""
+every sample's result is found once, and equals a serial run's (issue 41, section 3); the
+sweep's bookkeeping is the scheduler's: workers that computed, attempts and retries as its
+transition log has them (issue 50)."""
 
 from __future__ import annotations
 
@@ -81,6 +83,19 @@ def _kill_when_started(client, worker: subprocess.Popen, count: int, stop: threa
             return
 
 
+def _times_sent(client) -> dict[str, int]:
+    """Each loopcraft task's transitions to processing in the scheduler's log."""
+
+    def log(dask_scheduler) -> list[tuple[str, str]]:
+        return [(str(t[0]), t[2]) for t in dask_scheduler.transition_log]
+
+    sent: dict[str, int] = {}
+    for key, finish in client.run_on_scheduler(log):
+        if key.startswith("loopcraft-") and finish == "processing":
+            sent[key] = sent.get(key, 0) + 1
+    return sent
+
+
 @pytest.mark.slow
 def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(scheduler_and_two_workers, tmp_path):
     """The sweep in a process of its own, as it is run (this process's client only watches
@@ -105,8 +120,15 @@ def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(schedu
     assert processes[2].poll() is not None, "the worker was killed midway"
     runs = summary["runs"]
     assert not summary["failed"], {runs[k]["reason"] for k in summary["failed"]}
-    assert summary["workers"] == 1
+    assert summary["workers"] == 2  # both computed runs: the killed one before it died
     assert summary["retried"], "the runs of the batch on the killed worker were started again on the other"
+    attempts = {r["index"]: r["attempts"] for r in runs}
+    for index, workers in summary["retried"].items():
+        assert attempts[int(index)] == len(workers) >= 2
+    for key, sent in _times_sent(client).items():  # the scheduler's own log, read here
+        first = int(key.split("-")[2])  # loopcraft-TAG-FIRST[-alone]: the batch's first run
+        assert attempts[first] >= sent, (key, sent, attempts[first])
+    assert sum(sent > 1 for sent in _times_sent(client).values()) >= 1
     assert sorted(r["index"] for r in runs) == list(range(SAMPLES))  # every sample's result, once
     size = int(done.stderr.split(" at a time")[0].split()[-1])
     assert size > 1, done.stderr  # runs of a few ms go in batches: 600 samples are not 600 tasks

@@ -61,7 +61,7 @@ def test_a_failing_run_is_a_result_not_an_exception(tmp_path):
     data["problem"]["parameters"][0]["value"] = "ten"  # invalid: the worker's validation fails
     result = run_job(Job(4, "broken", data).payload())
     assert result["status"] == "failed" and result["index"] == 4
-    assert result["reason"].startswith("SessionError: problem.parameters[0].value: Input should be")
+    assert result["reason"].startswith("problem.parameters[0].value: Input should be")
 
 
 def test_optima_cluster_by_parameters_and_objective():
@@ -262,7 +262,9 @@ def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster,
     assert summary["retried"], "the run that was on the killed worker was restarted elsewhere"
     for index, workers in summary["retried"].items():
         assert len(workers) >= 2 and runs[int(index)]["attempts"] >= 2
-    assert summary["workers"] == 1
+    started = {w for workers in summary["retried"].values() for w in workers if w != "a lost worker"}
+    finished = {r["worker"] for r in runs if r["status"] != "failed"}
+    assert summary["workers"] == len(started | finished) >= 1  # the workers known to have computed runs
 
 
 def test_a_tolerance_sample_outside_the_design_bounds_is_evaluated_at_its_value(tmp_path, capsys):

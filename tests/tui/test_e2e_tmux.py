@@ -7,6 +7,7 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -22,15 +23,28 @@ def tmux(*args: str) -> str:
     return subprocess.run([TMUX, *args], capture_output=True, text=True, check=False).stdout
 
 
-def wait_for(session: str, text: str, timeout: float = 30.0) -> str:
-    deadline = time.monotonic() + timeout
-    screen = ""
-    while time.monotonic() < deadline:
-        screen = tmux("capture-pane", "-t", session, "-p")
-        if text in screen:
-            return screen
+HUNG = 900.0  # s: only a hung app reaches this; each wait is for a condition, however loaded the machine
+
+
+def wait_until(condition: Callable[[], bool], what: Callable[[], str]) -> None:
+    """Poll ``condition`` until it holds (``what``: the failure's message, should the app hang)."""
+    deadline = time.monotonic() + HUNG
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(what())
         time.sleep(0.2)
-    raise AssertionError(f"{text!r} never appeared; the screen:\n{screen}")
+
+
+def wait_for(session: str, *texts: str) -> str:
+    """The screen once every one of ``texts`` is on it (a screen half drawn is not yet it)."""
+    screens = [""]
+
+    def shown() -> bool:
+        screens[0] = tmux("capture-pane", "-t", session, "-p")
+        return all(text in screens[0] for text in texts)
+
+    wait_until(shown, lambda: f"{texts!r} never appeared; the screen:\n{screens[0]}")
+    return screens[0]
 
 
 def test_open_step_three_times_save_and_quit(workdir):
@@ -38,7 +52,7 @@ def test_open_step_three_times_save_and_quit(workdir):
     exit_file = workdir / "exit.txt"
     command = (
         f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
-        f"seidel_inlet_pi.json; echo EXIT:$? > {exit_file}"
+        f"seidel_inlet_pi.json; echo EXIT:$? > {exit_file}.tmp && mv {exit_file}.tmp {exit_file}"  # whole or absent
     )
     tmux("new-session", "-d", "-s", session, "-x", "120", "-y", "40", command)
     tmux("set-option", "-t", session, "window-size", "manual")
@@ -53,9 +67,7 @@ def test_open_step_three_times_save_and_quit(workdir):
         tmux("send-keys", "-t", session, "C-s")
         wait_for(session, "saved")
         tmux("send-keys", "-t", session, "q")
-        deadline = time.monotonic() + 20
-        while not exit_file.exists() and time.monotonic() < deadline:
-            time.sleep(0.2)
+        wait_until(exit_file.exists, lambda: "the app never exited")
         assert exit_file.read_text().strip() == "EXIT:0"
         assert len(json.loads((workdir / "seidel_inlet_pi.json").read_text())["records"]) == 3
     finally:
@@ -83,9 +95,7 @@ def test_every_tab_is_readable_at_80x24(workdir):
         wait_for(session, "Iteration 0")
         for key, words in expected.items():
             tmux("send-keys", "-t", session, key)
-            screen = wait_for(session, words[0])
-            for word in words:
-                assert word in screen, (key, word, screen)
+            screen = wait_for(session, *words, "? help", "^s save")
             footer = screen.rstrip().splitlines()[-1]
             assert "? help" in footer and "^s save" in footer, (key, footer)
     finally:

@@ -60,3 +60,37 @@ def test_zoomed_log_ticks_are_frequencies_inside_the_box():
     assert labels == ["5", "10", "20", "50"] and all(math.log10(3) <= t <= math.log10(70) for t in ticks)
     ticks, labels = log_ticks(0.301, 0.302)
     assert len(ticks) == 3 and all(0.301 <= t <= 0.302 for t in ticks)
+
+
+def test_zoom_and_pan_stay_within_what_a_float_can_draw():
+    """'-' pressed 13 times on the Bode plot killed the app (log_ticks took 10**-324 as 0);
+    a box is kept within 1e-300..1e300 on a log axis and +-1e300 on a linear one: a key that
+    would leave that does nothing, and every box left is drawn."""
+    from tui.drawing.text_canvas import draw
+    from tui.figures.data import Figure, Series
+    from tui.figures.navigation import ZOOM, Navigation
+
+    for log_x in (True, False):
+        figure = Figure(series=[Series([-1.0, 0.0, 2.0], [-40.0, 0.0, 30.0], "gain")], log_x=log_x)
+        navigation = Navigation()
+        for factor, moves in ((1 / ZOOM, 2000), (ZOOM, 4000)):
+            for _ in range(moves):
+                navigation.zoom(figure, factor)
+                navigation.pan(figure, 0.25, -0.25)
+            x0, x1, y0, y1 = navigation.box
+            assert x0 < x1 and y0 < y1 and max(abs(x0), abs(x1)) <= (300 if log_x else 1e300)
+            shown = navigation.applied(figure)
+            assert all(math.isfinite(t) for t in (shown.xticks or ([0.0], []))[0])
+            assert draw(shown, 80, 20, "dark") is not None
+
+
+def test_a_click_on_a_plot_with_an_empty_curve_puts_no_cursor():
+    from tui.figures.data import Figure, Series
+    from tui.figures.navigation import Navigation, xy_probe
+
+    empty = xy_probe(Series([], [], "nothing yet"), "x", "y")
+    navigation = Navigation()
+    navigation.pick(Figure(probe=empty), 0.5, 0.5, (10.0, 10.0))
+    assert navigation.cursor is None
+    navigation.pick(Figure(series=[Series([0.0, 1.0], [0.0, 0.9], "gain")], probe=empty), 0.9, 0.9, (10.0, 10.0))
+    assert navigation.cursor == 1 and navigation.picked.x == [0.0, 1.0]

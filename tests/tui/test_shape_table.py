@@ -187,3 +187,40 @@ async def test_a_notch_on_a_resonance_puts_its_zeros_on_the_modes_poles(workdir)
         (moved,) = [i for i in items(ExpressionTransfer(text), values) if i.kind == "zero pair"]
         assert -moved.root.real / abs(moved.root) == pytest.approx(0.01 * 1.1, rel=1e-9)  # zeta x 1.1 / 1.1 x 1.1
         assert abs(moved.root) == pytest.approx(24.0, rel=1e-9)  # wn kept
+
+
+class _SlowClock:
+    """A clock on a loaded machine: every reading ten seconds after the last."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def monotonic(self) -> float:
+        self.now += 10.0
+        return self.now
+
+
+@synchronous
+async def test_a_burst_is_what_the_user_did_not_a_timer(tmp_path, monkeypatch):
+    """Nudges by one key repeated are one undo step however slowly they come (a clock
+    that jumps 10 s between readings once split them); another key between splits them."""
+    from tui.state import edit_history
+
+    monkeypatch.setattr(edit_history, "time", _SlowClock(), raising=False)
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C")
+        await settle(app, pilot)
+        await pilot.press("down")
+        steps = len(app.bench.edits.undo_stack)
+        for _ in range(4):
+            await pilot.press("left")
+            await settle(app, pilot)
+        assert len(app.bench.edits.undo_stack) == steps + 1
+        await pilot.press("down", "up", "left")  # another key between: a new burst
+        await settle(app, pilot)
+        assert len(app.bench.edits.undo_stack) == steps + 2
+        await pilot.press("right")  # another key on the same item: a new burst too
+        await settle(app, pilot)
+        assert len(app.bench.edits.undo_stack) == steps + 3

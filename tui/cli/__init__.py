@@ -23,11 +23,13 @@ from tui.cli.options import check_options
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse's parser whose messages echo no more than `bounded_message` lets
-    through of a bad value (its subcommands' parsers are of this class too)."""
+    """argparse's parser whose errors are one line (what is wrong, and where the usage is;
+    argparse prints the usage over several lines first) echoing no more than
+    `bounded_message` lets through of a bad value (its subcommands' parsers are of this
+    class too)."""
 
     def error(self, message: str):  # type: ignore[override]
-        super().error(bounded_message(message))
+        self.exit(2, f"{self.prog}: error: {bounded_message(message)} ({self.prog} --help: the usage)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME",
         help="open the app on a bundled example (a working copy): " + ", ".join(_example_names()),
     )
-    sub = parser.add_subparsers(dest="command")
+    sub = parser.add_subparsers(dest="command", prog="loopcraft")
     analyze.add_parser(sub)
     session_commands.add_parsers(sub)
     sweep.add_parser(sub)

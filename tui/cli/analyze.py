@@ -325,12 +325,13 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         )
     if args.sample_time is not None and args.variable != "z":
         raise CliError("--sample-time is a loop in z's: give --variable z (and the loop in z)")
-    if args.variable == "z":
-        result = _sampled(args, network, omega, params)
-        locus = None
-    else:
-        result = analyze(network, "e", omega, params, skew=args.skew)
-        locus = _locus(args, network, params)
+    with np.errstate(all="ignore"):  # a typed loop's extreme numbers: said by the results, never warned about
+        if args.variable == "z":
+            result = _sampled(args, network, omega, params)
+            locus = None
+        else:
+            result = analyze(network, "e", omega, params, skew=args.skew)
+            locus = _locus(args, network, params)
     if args.json:
         print(json.dumps(analysis_to_json(result, args.variable, locus, args.sample_time), indent=2, sort_keys=True))
     else:
@@ -366,6 +367,7 @@ def _sampled(args: argparse.Namespace, network, omega, params):
 def _held(args: argparse.Namespace) -> list[str]:
     """The --held continuous blocks (expressions in s) discretized by --discretize (zero-order
     hold by default, --delay taken as whole and fractional samples): polynomials in z."""
+    from engine.analysis import split_delays
     from engine.errors import EngineError
     from engine.model.discretize import discretized_text
 
@@ -376,6 +378,8 @@ def _held(args: argparse.Namespace) -> list[str]:
     out = []
     for text in args.held or []:
         try:
+            if split_delays(text)[1]:
+                raise CliError(f"--held {text!r}: give its delay exp(-T*s) as --delay T (held with the block)")
             out.append(discretized_text(text, args.sample_time, args.discretize, args.delay))
         except EngineError as exc:
             raise CliError(f"--held {text!r}: {exc}") from None

@@ -34,6 +34,17 @@ def load(file: str) -> Session:
     return session
 
 
+def check_session_out(session: Session, out: str | None, force: bool) -> None:
+    """A command that saves its session (run, set, tune, sweep): without ``out`` it updates
+    the session in place, atomically; ``out`` is checked before any work as every output
+    is (`sessions.format.save_file.check_output`: no input, a regular file, --force to replace)."""
+    from sessions.format.save_file import check_output
+    from sessions.store import files_read
+
+    if out is not None:
+        check_output(Path(out), files_read(session), force)
+
+
 def initial_record(session: Session) -> StepRecord | None:
     """Iteration 0 as the algorithm's presenter gives it (cip: the report's Table 1;
     projection: the untrimmed open loop; others: the tableau at the start)."""

@@ -12,13 +12,6 @@ from sessions.export.formats import SUFFIX
 from tui.cli.common import CliError, load
 
 
-def export_text(file: str, iteration: int | None, to: str, sample_time: float | None, fit: bool = False) -> str:
-    """The exported text of a session's design at an iteration (default: its last)."""
-    from sessions.export.formats import export_text as text_of
-
-    return text_of(load(file), iteration, to, sample_time, fit)
-
-
 def target_path(file: str, out: str | None, to: str, iteration: int | None) -> Path | None:
     """Where to write: None for standard output; a folder gets NAME[_iterK].SUFFIX inside it."""
     if out is None or out == "-":
@@ -33,20 +26,26 @@ def target_path(file: str, out: str | None, to: str, iteration: int | None) -> P
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    """Write the design of one iteration in the chosen format."""
+    """Write the design of one iteration in the chosen format (never over an input of the
+    command, a file that is not a regular one, or an existing file without --force)."""
+    from sessions.export.formats import export_text
+    from sessions.format.save_file import check_output, write_atomic
+    from sessions.store import files_read
+
     if args.sample_time is not None and not (math.isfinite(args.sample_time) and args.sample_time > 0):
         raise CliError(f"--sample-time: {args.sample_time!r} must be a finite number > 0")
     target = target_path(args.file, args.out, args.to, args.iteration)
+    session = load(args.file)
+    if target is not None:
+        check_output(target, files_read(session), args.force)
     try:
-        text = export_text(args.file, args.iteration, args.to, args.sample_time, args.fit)
+        text = export_text(session, args.iteration, args.to, args.sample_time, args.fit)
     except ValueError as exc:  # e.g. JSON refusing a non-finite number
         raise CliError(f"--to {args.to}: {exc}") from None
     if target is None:
         sys.stdout.write(text)
         return 0
     try:
-        from sessions.format.save_file import write_atomic
-
         write_atomic(target, text)
     except OSError as exc:
         raise CliError(f"--out {target}: cannot write: {exc.strerror or exc}") from None
@@ -65,6 +64,7 @@ def add_parser(sub) -> None:
         metavar="PATH",
         help="a file, or a folder (NAME.py, .m, .export.json, .csv inside); default: standard output",
     )
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument(
         "--sample-time",
         type=float,

@@ -13,16 +13,17 @@ from tui.cli.common import CliError
 
 def cmd_new(args: argparse.Namespace) -> int:
     """Create FILE.json (refusing to overwrite one unless --force)."""
+    from sessions.format.save_file import check_output
     from sessions.new.templates import new_session
     from sessions.store import parse_session, save_session
 
     target = Path(args.file)
     if target.suffix != ".json":
         raise CliError(f"{args.file}: a session file ends in .json")
-    if target.exists() and not args.force:
-        raise CliError(f"{args.file}: exists (--force replaces it)")
     if not target.parent.is_dir():
         raise CliError(f"{args.file}: the folder {target.parent} does not exist")
+    inputs = {} if args.plant_file is None else {Path(args.plant_file): "the plant file"}
+    check_output(target, inputs, args.force, option="")
     if (args.plant is None) == (args.plant_file is None):
         raise CliError("give --plant EXPR or --plant-file F.mat|F.npz (one of them)")
     grid, table = None, None
@@ -46,6 +47,7 @@ def cmd_new(args: argparse.Namespace) -> int:
         discretize=args.discretize,
     )
     if table is not None and table.csv_name:
+        check_output(target.parent / table.csv_name, inputs, args.force, option="")
         _write(target.parent / table.csv_name, table.csv_text)
     session = parse_session(json.dumps(data), str(target), target.parent)  # what is written loads
     save_session(session, target, force=True)

@@ -12,11 +12,11 @@ import sys
 from pathlib import Path
 
 from engine.stepping.memory_fields import finite_or_none
-from tui.cli.common import CliError, design_notes_now, load, rows_now, stop_notes_now, summary_json
+from tui.cli.common import CliError, check_session_out, design_notes_now, load, rows_now, stop_notes_now, summary_json
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
-RUN_REMEDY = "run has no force: save elsewhere with --out FILE, or make the file writable"
+RUN_REMEDY = "save elsewhere with --out FILE, or make the file writable"
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -28,6 +28,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from sessions.store import OverwriteRefused, prepare_save, save_session
 
     session = load(args.file)
+    check_session_out(session, args.out, args.force)
     try:
         prepare_save(session, args.out or args.file)  # before any work: the output is writable; autosaves go there
     except OverwriteRefused as exc:
@@ -188,6 +189,7 @@ def cmd_set(args: argparse.Namespace) -> int:
     from sessions.shaping import Assignment, assign
 
     session = load(args.file)
+    check_session_out(session, args.out, args.force)
     lines = assign(session, [Assignment.parse(text) for text in args.assignments])
     _save(session, args)
     print("\n".join(lines))
@@ -207,6 +209,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     except ValueError:
         raise CliError(f"--gain-for {args.gain_for!r}: {number!r} is not a number") from None
     session = load(args.file)
+    check_session_out(session, args.out, args.force)
     condition = _condition(session, args.condition)
     solution, line = tune(session, goal, target, args.parameter, condition)
     _save(session, args)
@@ -260,6 +263,7 @@ def add_parsers(sub) -> None:
         help="stop stepping after this much wall-clock time (the records replay)",
     )
     p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true")
     p.add_argument(
         "--adopt", action="store_true", help="start from the current iteration's parameters (records are cleared)"
@@ -281,6 +285,7 @@ def add_parsers(sub) -> None:
     p.add_argument(
         "--out", metavar="DIR", help="html, md: the folder to write the design report in (default: the working folder)"
     )
+    p.add_argument("--force", action="store_true", help="html, md: replace the report's existing files")
     p.set_defaults(handler=cmd_report)
     p = sub.add_parser("tradeoff", help="qcg penalty sweep (report 001, Figure 4)")
     p.add_argument("file")
@@ -298,6 +303,7 @@ def add_parsers(sub) -> None:
     p.add_argument("file")
     p.add_argument("assignments", nargs="+", metavar="NAME=VALUE|NAME*=FACTOR|NAME*=+3dB")
     p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.set_defaults(handler=cmd_set)
     p = sub.add_parser("tune", help="solve the loop gain for a crossover frequency or a phase margin, exactly")
     p.add_argument("file")
@@ -307,4 +313,5 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--condition", metavar="NAME", help="the flight condition whose loop is solved (default: the first)")
     p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.set_defaults(handler=cmd_tune)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 from sessions.sweeps.dispersion import PERCENTILE_KEYS, run_count
 from sessions.sweeps.sampling import SAMPLINGS
-from tui.cli.common import CliError
+from tui.cli.common import CliError, check_session_out
 
 if TYPE_CHECKING:
     from sessions.sweeps.named_clusters import NamedCluster
@@ -72,6 +72,7 @@ def add_parser(sub) -> None:
         "desired value by the most) the session's start, to look at (records are cleared)",
     )
     p.add_argument("--out", help="save here instead of in place")
+    p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true", help="print one JSON object: runs and optima")
     p.set_defaults(handler=cmd_sweep)
 
@@ -96,6 +97,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise CliError("--sampling and --adopt-worst are for a tolerance study (--tolerance)")
     target = Path(args.out or args.file)
     session = load_session(args.file)
+    check_session_out(session, args.out, args.force)
+    if args.adopt_worst:
+        _check_row_named(session, args.adopt_worst)
     prepare_save(session, target)  # before any run: the output can be written
     try:
         kind, settings, outcome = _run(args, session, Where(address, named, timeout))
@@ -104,6 +108,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return INTERRUPTED
     with sigint_ignored():
         return _keep(args, session, kind, settings, outcome, target)
+
+
+def _check_row_named(session, which: str) -> None:
+    """--adopt-worst MEASURE[@CONDITION] names a row of the session's tableau (the study's
+    rows), checked before any sample runs."""
+    from sessions.errors import SessionError
+    from sessions.sweeps.dispersion import rows_named
+    from tui.cli.common import rows_now
+
+    rows, _ = rows_now(session, 0)
+    try:
+        rows_named([{"name": r.name, "condition": r.condition} for r in rows], which)
+    except SessionError as exc:
+        raise CliError(f"--adopt-worst: {exc}; nothing ran") from None
 
 
 def _named_cluster(args: argparse.Namespace) -> NamedCluster | None:
@@ -271,7 +289,8 @@ def sweep_text(summary: dict) -> str:
     runs = summary["runs"]
     lines = [
         f"{summary['kind']} sweep: {run_count(summary)} on {summary['workers']} worker(s), "
-        f"{len(summary['failed'])} failed, {len(summary['retried'])} retried"
+        + (excluded_text(summary) or f"{len(summary['failed'])} failed")
+        + f", {len(summary['retried'])} retried"
     ]
     lines.append(f"{'run':>4} {'label':<18}{'status':<24}{'ranking':>12} {'meets':<6}{'tries':>5}")
     for r in runs:
@@ -302,6 +321,20 @@ def sweep_text(summary: dict) -> str:
             )
             lines += [f"{'':>13}note: {n}" for n in o.get("notes", [])]
     return "\n".join(lines)
+
+
+def excluded_text(summary: dict) -> str:
+    """A tolerance study's samples left out of its statistics, by reason: "statistics over
+    203 of 400 samples, 197 excluded (197: the loop is singular)" ("" when none is)."""
+    from sessions.errors import cut
+
+    excluded = summary.get("excluded") or {}
+    if not excluded:
+        return ""
+    total = sum(excluded.values())
+    samples = summary.get("settings", {}).get("samples", len(summary["runs"]))
+    reasons = "; ".join(f"{n}: {cut(reason, 120)}" for reason, n in excluded.items())
+    return f"statistics over {samples - total} of {samples} samples, {total} excluded ({reasons})"
 
 
 def _distribution_lines(rows: list[dict]) -> list[str]:

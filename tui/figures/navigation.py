@@ -20,6 +20,8 @@ from tui.figures.data import Figure, Series
 Box = tuple[float, float, float, float]  # x0, x1, y0, y1
 ZOOM = 1.5
 PAN = 0.25
+LIMIT = 1e300  # a zoomed or panned box stays within +-LIMIT (its size and ticks stay finite)
+LOG_LIMIT = 300.0  # on a log10 axis (log_x): 1e-300 to 1e300, powers of ten a float holds
 
 
 @dataclass(frozen=True)
@@ -82,7 +84,7 @@ class Navigation:
         x0, x1, y0, y1 = self.box or data_box(figure)
         cx, cy = about
         box = (cx - (cx - x0) / factor, cx + (x1 - cx) / factor, cy - (cy - y0) / factor, cy + (y1 - cy) / factor)
-        if all(math.isfinite(v) for v in box) and box[1] > box[0] and box[3] > box[2]:
+        if _showable(box, figure.log_x):
             self.box = box
 
     def pan(self, figure: Figure, dx: float, dy: float) -> None:
@@ -94,7 +96,7 @@ class Navigation:
         """Move the box by data distances (a mouse drag)."""
         x0, x1, y0, y1 = self.box or data_box(figure)
         box = (x0 + dx, x1 + dx, y0 + dy, y1 + dy)
-        if all(math.isfinite(v) for v in box):
+        if _showable(box, figure.log_x):
             self.box = box
 
     def move(self, figure: Figure, step: int) -> None:
@@ -150,9 +152,20 @@ class Navigation:
         return out
 
 
+def _showable(box: Box, log_x: bool) -> bool:
+    """Whether a zoomed or panned box can be drawn: ordered, and within `LIMIT` (a log10
+    axis within `LOG_LIMIT`: 1e-300 to 1e300), so that its ticks' arithmetic stays finite;
+    a key that would leave it does nothing."""
+    x0, x1, y0, y1 = box
+    x_limit = LOG_LIMIT if log_x else LIMIT
+    return x0 < x1 and y0 < y1 and -x_limit <= x0 and x1 <= x_limit and -LIMIT <= y0 and y1 <= LIMIT
+
+
 def _nearest(xs, ys, x: float, y: float, scale: tuple[float, float]) -> tuple[float, int]:
-    """(distance in cells, index) of the point of a curve nearest (x, y)."""
+    """(distance in cells, index) of the point of a curve nearest (x, y); (inf, 0) for no point."""
     d = np.hypot((np.asarray(xs, dtype=float) - x) * scale[0], (np.asarray(ys, dtype=float) - y) * scale[1])
+    if d.size == 0:
+        return math.inf, 0
     d[~np.isfinite(d)] = math.inf
     i = int(np.argmin(d))
     return float(d[i]), i

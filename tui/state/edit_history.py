@@ -11,7 +11,6 @@ dropped come back with the edit's undo.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,7 +18,6 @@ from engine.errors import shortened
 from sessions.format.json_diff import Change, Path, changes
 
 MAX_EDITS = 100  # undo depth: the oldest edit is forgotten beyond it
-BURST = 2.0  # seconds: a nudge of the same item within this joins the previous one's undo step
 
 
 @dataclass
@@ -68,20 +66,18 @@ class EditHistory:
         self.undo_stack: list[tuple[str, Snapshot]] = []
         self.redo_stack: list[tuple[str, Snapshot]] = []
         self.last = ""  # what the latest edit, undo or redo did (the status line shows it)
-        self._burst: object = None  # the latest edit's burst (`push`) and when it came
-        self._burst_at = 0.0
+        self._burst: object = None  # the burst the latest edit belongs to (`push`); None: ended
 
     def push(self, before: Snapshot, after_bench, burst: object = None) -> str | None:
         """Keep ``before`` as the undo of an edit that led to ``after_bench``'s state;
         its description (None when nothing changed).  Edits of one ``burst`` (the same
-        item nudged again within BURST seconds) are one undo step, described from the
-        state before the first of them ("T1: 1 -> 1.34")."""
+        item nudged again by the same key, with no other action between: `end_burst`)
+        are one undo step, described from the state before the first of them
+        ("T1: 1 -> 1.34").  What joins them is what the user did, never a timer."""
         model = after_bench.session.model  # read as it is: no copy of it is kept
-        now = time.monotonic()
-        joined = burst is not None and burst == self._burst and now - self._burst_at < BURST and self.undo_stack
-        if joined:
+        if burst is not None and burst == self._burst and self.undo_stack:
             before = self.undo_stack.pop()[1]
-        self._burst, self._burst_at = burst, now
+        self._burst = burst
         text = describe_change(_dump(before.problem_model, before.algorithm), _dump(model.problem, model.algorithm))
         if text is None:
             return None
@@ -89,6 +85,10 @@ class EditHistory:
         self.redo_stack.clear()
         self.last = f"edit: {text}"
         return text
+
+    def end_burst(self) -> None:
+        """Another action came: the next edit starts a new undo step, whatever its burst."""
+        self._burst = None
 
     def undo(self, bench) -> str | None:
         """Put back the state before the latest edit; what was undone (None: nothing to undo)."""
@@ -102,6 +102,7 @@ class EditHistory:
         if not source:
             return None
         text, snapshot = source.pop()
+        self._burst = None
         target.append((text, Snapshot.of(bench)))
         snapshot.restore(bench)
         self.last = f"{verb}: {text}"

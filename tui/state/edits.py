@@ -60,12 +60,13 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
     draft = bench.session.model.problem.model_copy(deep=True)
     try:
         change(draft)
-        draft = ProblemModel.model_validate(draft.model_dump())
+        dumped = draft.model_dump()
+        draft = ProblemModel.model_validate(dumped)
         problem = build_problem(
             draft, folder(bench.session), allow_outside_tables=bench.session.allow_outside_tables or None
         )
     except ValidationError as exc:
-        raise SessionError(invalid(exc, "problem")) from None
+        raise SessionError(invalid(exc, "problem", dumped)) from None
     except (ValueError, EngineError) as exc:
         raise SessionError(str(exc)) from None
     before, bench.session.model.problem, bench.session.problem = bench.session.model.problem, draft, problem
