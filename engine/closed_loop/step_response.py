@@ -29,8 +29,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.linalg import expm
-from scipy.optimize import brentq
 
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
@@ -201,6 +199,8 @@ class ExactStep:
         self._A, self._b, self._c, self._d = ss.A, ss.B[:, k], ss.C[j], float(ss.D[j, k])
 
     def _state(self, time: float) -> np.ndarray:
+        from scipy.linalg import expm  # on first use: the workbench's first paint loads no scipy
+
         return expm(self._augmented * time)[:-1, -1]
 
     def value(self, time: float) -> float:
@@ -213,6 +213,8 @@ class ExactStep:
         fa, fb = f(a), f(b)
         if fa == 0 or fb == 0 or fa * fb > 0:  # at a sample, or no sign change left: the sample nearer 0
             return a if abs(fa) <= abs(fb) else b
+        from scipy.optimize import brentq  # on first use, as expm
+
         return float(brentq(f, a, b, xtol=1e-15 * max(abs(a), abs(b), 1.0), rtol=4 * np.finfo(float).eps))
 
     def crossing(self, level: float, a: float, b: float) -> float:

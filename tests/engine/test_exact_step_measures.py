@@ -77,7 +77,7 @@ def test_a_lead_s_measures_differ_from_grid_interpolation_in_the_printed_digits(
 def test_sampled_step_measures_are_read_on_the_samples():
     """Kuo's plant in z with a gain: every measure a sample time (no interpolation), the settling
     time the first sample after which all stay in the band, the peak the largest sample."""
-    from engine.model.bilinear import sampled_network
+    from engine.model.network import sampled_network
 
     T = 0.1
     plant = "0.0484*(z+0.9672)/((z-1)*(z-0.9048))"
