@@ -34,9 +34,7 @@ CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_
 LIGHT_DAMPING = 0.3
 DECADES_BEYOND = 2.0
 FIRST_TURN = 0.1  # rad of a delay's phase: a delay loop is searched from omega tau = this, below its first half-turn
-LOWEST_HALF_TURNS = (
-    24  # ... and up to omega tau = this times pi at least: the 10 lowest gain margins (two half-turns each)
-)
+LOWEST_HALF_TURNS = 24  # ... up to omega tau = this times pi at least: the 10 lowest gain margins
 RANGE = (1e-300, 1e300)  # the frequencies any search stays within (rad/s)
 DECADES_PER_LOOK = 8
 MAX_ROUNDS = 60

@@ -106,6 +106,8 @@ def balanced(m: Matrices) -> tuple[Matrices, NDArray[np.float64]]:
 
 
 def _real(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
+    if np.asarray(x).dtype.kind == "c":  # float() of it would drop the imaginary part
+        raise BlockError(f"{where}: {name} must be a matrix of real numbers, not complex")
     try:
         array = np.asarray(x, dtype=float)
     except (TypeError, ValueError, OverflowError):
