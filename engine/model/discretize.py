@@ -13,8 +13,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
+from engine.model.bilinear import z_of_s
 from engine.model.factor_text import root_factors
-from engine.model.factored import MAX_ORDER, pole_zero
+from engine.model.factored import MAX_ORDER, PoleZero, pole_zero
 
 Polynomials = tuple[NDArray[np.float64], NDArray[np.float64]]
 
@@ -195,7 +196,7 @@ def _held_poles(continuous: NDArray, sample_time: float, degree: int) -> NDArray
     """A hold's poles exactly: exp(p T) of each continuous pole (the roots of its expanded
     denominator in z lose digits where they cluster near z = 1: 5.8e-6 in a DC gain with
     poles within 1e-3 of 1), and z = 0 for the delay's samples and its fraction's state."""
-    held = np.exp(np.asarray(continuous, dtype=complex) * sample_time)
+    held = z_of_s(continuous, sample_time)
     held[continuous == 0] = 1.0
     return np.concatenate([held, np.zeros(max(degree - held.size, 0), dtype=complex)])
 
@@ -206,7 +207,8 @@ def _kept_dc_gain(num: NDArray, den: NDArray, zeros: NDArray, poles: NDArray, ga
     n0, d0 = float(np.polyval(num, 0.0)), float(np.polyval(den, 0.0))
     if n0 == 0 or d0 == 0:
         return gain
-    return float((n0 / d0 * np.prod(1.0 - poles) / np.prod(1.0 - zeros)).real)
+    unit = PoleZero(1.0, zeros, poles).evaluate(np.ones(1, dtype=complex))[0][0]
+    return float((n0 / d0 / unit).real)
 
 
 def _at_one(roots: NDArray, count: int) -> NDArray:
