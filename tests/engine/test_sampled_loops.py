@@ -189,3 +189,27 @@ def test_a_double_integrator_typed_expanded_in_z_is_at_z_equal_one(seed):
         a, b = ([m.frequency for m in getattr(x.margins, kind)] for x in (ours, theirs))
         assert len(a) == len(b) and np.allclose(a, b, rtol=1e-6), (kind, a, b)
     assert all(m.frequency > 0 for m in ours.margins.gain)
+
+
+def _w_integrator(seed: int) -> tuple[str, str]:
+    """K (Z + a)/(Z^2 - (1 + b) Z + b) with Z = (1 + w)/(1 - w): an integrator (Z = 1, w = 0)
+    inside a sum of typed decimals; and the same with (Z - 1)(Z - b) typed as factors."""
+    rng = np.random.default_rng(seed)
+    k, a, b = (round(float(x), 3) for x in (rng.uniform(0.05, 2.0), rng.uniform(-0.9, 0.9), rng.uniform(-0.9, 0.95)))
+    Z = "((1+w)/(1-w))"
+    return f"{k}*({Z}+{a})/({Z}**2-{1 + b!r}*{Z}+{b})", f"{k}*({Z}+{a})/(({Z}-1)*({Z}-{b}))"
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_an_integrator_inside_a_sum_in_w_has_no_gain_margin_at_zero(seed):
+    """Z^2 - 1.3 Z + 0.3 evaluates to 5.6e-17 at w = 0: its root there was left at 4e-17 and
+    its DC value finite, a gain margin of -322.6 dB at nu = 0.  Against the loop with
+    (Z - 1)(Z - b) typed as factors."""
+    from engine.analysis import analyze
+
+    summed, factored = _w_integrator(seed)
+    grid = np.geomspace(1e-3, 1e3, 300)
+    ours, theirs = (analyze(unity_feedback([t], variable="w"), "e", grid, {}) for t in (summed, factored))
+    for kind in ("gain", "phase"):
+        a, b = ([m.frequency for m in getattr(x.margins, kind)] for x in (ours, theirs))
+        assert len(a) == len(b) and np.allclose(a, b, rtol=1e-8), (kind, a, b)
