@@ -288,7 +288,19 @@ def _phase_resolved(gh: NDArray, k: int, residual: float) -> bool:
     uncertainty = np.arcsin(min(1.0, 2.0 * max(residual, 1e-15)))
     away = np.abs(np.angle(-gh))  # distance from -180 deg, rad
     before, after = away[max(0, k - 3) : k], away[k : k + 3]
-    return bool(before.size and after.size and before.max() > uncertainty and after.max() > uncertainty)
+    if before.size and after.size and before.max() > uncertainty and after.max() > uncertainty:
+        return True
+    return _straddled(gh[k - 1 : k + 1], away[k - 1 : k + 1], uncertainty)
+
+
+def _straddled(pair: NDArray, away: NDArray, uncertainty: float) -> bool:
+    """Do the two table points themselves lie on either side of the negative real axis (Re < 0,
+    Im of opposite signs), one of them beyond the fit's uncertainty?  Then the crossing is the
+    table's, whatever the fit (python-control's frd case: -176.4 and -213.1 deg at |GH| = 0.6,
+    the first 3.6 deg from -180, within a fit's 3.8)."""
+    return bool(
+        pair.size == 2 and np.all(pair.real < 0) and pair[0].imag * pair[1].imag < 0 and away.max() > uncertainty
+    )
 
 
 def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
