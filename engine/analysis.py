@@ -228,6 +228,11 @@ def unstable(peak: Peak, name: str) -> Peak:
     return replace(peak, value=math.inf, notes=peak.notes + (on_axis,))
 
 
+def _state_space_notes(network: Network) -> list[str]:
+    """What each state-space block cannot vouch for (ill-conditioned even balanced)."""
+    return [n for e in network.entries if isinstance(e.transfer, StateSpaceTransfer) and (n := e.transfer.note)]
+
+
 def analyze(
     network: Network,
     break_at: str,
@@ -253,7 +258,7 @@ def analyze(
     model = loop_model(network, break_at, omega, params)
     every = margins(model, attenuation_above=0.0)
     result = replace(every, attenuation=())
-    notes = list(result.notes) + list(pole_notes)
+    notes = list(result.notes) + list(pole_notes) + _state_space_notes(network)
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
     disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)

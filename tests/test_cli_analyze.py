@@ -173,3 +173,14 @@ def test_a_continuous_block_held_and_sampled_is_analyzed_in_z(capsys):
     assert gains and gains[0]["gain_db"] == pytest.approx(20 * math.log10(gm), rel=1e-8)
     assert main([*args[:-1], "--delay", "0.05", "--discretize", "tustin"]) == 2
     assert "discretized with its hold" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "args",
+    [["--tf", "exp(-2e6*s)/s"], ["--tf", "exp(-6e5*s)/(s+1)", "--delay", "5e5"], ["--tf", "1/s", "--delay", "2e6"]],
+)
+def test_a_loop_delay_over_a_million_seconds_is_refused(capsys, args):
+    """--delay over 1e6 s was refused, the same delay as an exp(-T*s) factor analyzed (issue 49)."""
+    assert main(["analyze", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "1e+06" in err and "Traceback" not in err

@@ -192,7 +192,9 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
         corners,
         damps,
         network.rational,
-        _dc_value(exact),
+        _dc_value(
+            evaluate if getattr(evaluate, "factored", False) else exact
+        ),  # a factored form's roots at 0 are exact
         delay=network_delay(network, params),
         axis_poles=corners[is_pole & (damps <= 1e-9)],
         exact=exact,

@@ -27,6 +27,7 @@ from engine.model.factor_text import root_factors
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 
+CENTRED = 1e-10  # an m-fold root's cluster centred on z = 1 or -1 this closely is there (`_snapped`)
 ON_CIRCLE = 1e-12  # a root this near z = 1 or z = -1 is there (the roots of a typed polynomial carry rounding)
 
 
@@ -82,12 +83,17 @@ def w_block(transfer: ExpressionTransfer, params: Mapping[str, float]) -> str:
 
 def _snapped(roots: NDArray, point: float) -> NDArray:
     """Roots at ``point`` (z = 1 or -1) made exact: m roots typed as an expanded polynomial
-    with an m-fold root there scatter by about eps^(1/m) around it."""
+    with an m-fold root there scatter by about (kappa eps)^(1/m) around it, kappa the
+    polynomial's conditioning (6e-7 from a double root beside roots near 0.99), while their
+    centroid stays within about kappa eps of it: m >= 2 roots centred there to `CENTRED` are
+    snapped within CENTRED^(1/m); any root within 10 eps^(1/m) is."""
     roots = np.asarray(roots, dtype=complex).copy()
     near = np.abs(roots - point) < 1e-4
     m = int(near.sum())
     if m:
         radius = max(ON_CIRCLE, 10 * np.finfo(float).eps ** (1.0 / m))
+        if m >= 2 and abs(np.mean(roots[near]) - point) <= CENTRED:
+            radius = max(radius, CENTRED ** (1.0 / m))
         roots[near & (np.abs(roots - point) <= radius)] = point
     return roots
 

@@ -33,6 +33,8 @@ POINTS_PER_DECADE = 20  # 10 missed shallow minima of |1 + GH| hidden with a max
 CLUSTER = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # around a mode, in zeta*omega_n
 LIGHT_DAMPING = 0.3
 DECADES_BEYOND = 2.0
+FIRST_TURN = 0.1  # rad of a delay's phase: a delay loop is searched from omega tau = this, below its first half-turn
+LOWEST_HALF_TURNS = 24  # ... up to omega tau = this times pi at least: the 10 lowest gain margins
 RANGE = (1e-300, 1e300)  # the frequencies any search stays within (rad/s)
 DECADES_PER_LOOK = 8
 MAX_ROUNDS = 60
@@ -249,8 +251,9 @@ def _may_hide_phase_pair(theta0: NDArray, theta1: NDArray, variation: NDArray) -
 
 
 def _searched_range(loop: LoopModel) -> tuple[float, float]:
-    """Where a delay loop is searched: the user's grid and, when its rational part's corners
-    are known, `DECADES_BEYOND` about them, extended to every crossover of |GH| (a delay
+    """Where a delay loop is searched: the user's grid, from below the delay's first half-turn
+    (`FIRST_TURN`) up past its first `LOWEST_HALF_TURNS`, and `DECADES_BEYOND` about its rational part's corners (with none, its
+    crossover in closed form: `_power_crossover`), extended to every crossover of |GH| (a delay
     leaves |GH| as it is): margins do not depend on the plot grid (2e-4/(s (1 + s/1e-4))
     exp(-3000 s) crosses over at 1.25e-4 rad/s, below the default grid's 1e-3).  The delay's
     grid bounds the top (`_delay_grid`, with a note); for rational loops the range is found in
@@ -258,10 +261,27 @@ def _searched_range(loop: LoopModel) -> tuple[float, float]:
     lo, hi = float(loop.omega[0]), float(loop.omega[-1])
     lo = lo if lo > 0 else min(float(loop.omega[1]) * 1e-3, 1e-6)
     corners = loop.corner_frequencies[loop.corner_frequencies > 0]
-    if loop.evaluate is None or not loop.delay > 0 or not corners.size:  # a table's fit: only its range
+    if loop.evaluate is None or not loop.delay > 0:  # a table's fit: only its range
         return lo, hi
+    lo = min(lo, FIRST_TURN / loop.delay)  # the delay's first half-turns: its lowest phase crossings
+    hi = max(hi, LOWEST_HALF_TURNS * math.pi / loop.delay)
+    if not corners.size:  # K s^m exp(-tau s): its crossover in closed form
+        corners = _power_crossover(loop)
+        if not corners.size:
+            return lo, hi
     low, high = _extend_to_crossovers(loop, corners.min() * 10.0**-DECADES_BEYOND, corners.max() * 10.0**DECADES_BEYOND)
     return min(lo, low), max(hi, high)
+
+
+def _power_crossover(loop: LoopModel) -> NDArray[np.float64]:
+    """The gain crossover of a loop with no corners, |GH| = |K| omega^m (m the count of
+    zeros less poles at the origin, read as the slope of log |GH| at omega = 1):
+    |K|^(-1/m); none when m = 0 (|GH| constant) or GH is not finite at 1."""
+    with np.errstate(all="ignore"):
+        gh, dgh = (x[0] for x in loop.evaluate(np.array([1.0])))
+        slope = round(float((dgh / gh).real)) if np.isfinite(gh) and gh != 0 and np.isfinite(dgh) else 0
+        crossover = abs(gh) ** (-1.0 / slope) if slope else np.nan
+    return np.array([crossover]) if np.isfinite(crossover) and crossover > 0 else np.zeros(0)
 
 
 def _beyond_note(loop: LoopModel, top: float) -> str:

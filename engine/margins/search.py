@@ -36,7 +36,7 @@ from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.sampled import sampled_margins
 from engine.margins.shape_notes import level_notes, shape_notes
-from engine.margins.values import Band, Margin, Margins, family, margins_of, single_margin
+from engine.margins.values import FAMILY_LOWEST, Band, Margin, Margins, family, margins_of, single_margin
 from engine.numerics.rational_fit import Trend
 from engine.numerics.refinement import Roots, refine, sign_changes
 
@@ -100,7 +100,7 @@ def margins(
     if dc is not None and dc.real < 0:
         gain = [single_margin("G", 0.0, dc)] + [m for m in gain if m.frequency > 0]
     if grid is not None:
-        notes = list(grid.notes) + shape_notes(loop, grid)
+        notes = list(grid.notes) + shape_notes(loop, grid) + _few_delay_margins(loop, grid, len(gain))
     if not loop.rational:
         lo, hi = (loop.omega[0], loop.omega[-1]) if grid is None else (grid.omega[0], grid.omega[-1])
         notes.insert(
@@ -120,6 +120,17 @@ def margins(
         crossovers_beyond=None if grid is None else grid.crossovers_beyond,
         families=families,
     )
+
+
+def _few_delay_margins(loop: LoopModel, grid: Detection, found: int) -> list[str]:
+    """A delay loop crosses the negative real axis without end: fewer than the `FAMILY_LOWEST`
+    lowest gain margins found means its search stopped below them (said where it stopped)."""
+    if not (loop.delay > 0 and found < FAMILY_LOWEST):
+        return []
+    return [
+        f"{found} gain margin(s) found, fewer than the {FAMILY_LOWEST} lowest: the search stops at "
+        f"{grid.omega[-1]:.6g} rad/s and the delay's crossings of the negative real axis go on above it"
+    ]
 
 
 def _without_grid(loop: LoopModel) -> tuple[dict[str, list[Margin]] | None, list[str]]:
@@ -277,7 +288,19 @@ def _phase_resolved(gh: NDArray, k: int, residual: float) -> bool:
     uncertainty = np.arcsin(min(1.0, 2.0 * max(residual, 1e-15)))
     away = np.abs(np.angle(-gh))  # distance from -180 deg, rad
     before, after = away[max(0, k - 3) : k], away[k : k + 3]
-    return bool(before.size and after.size and before.max() > uncertainty and after.max() > uncertainty)
+    if before.size and after.size and before.max() > uncertainty and after.max() > uncertainty:
+        return True
+    return _straddled(gh[k - 1 : k + 1], away[k - 1 : k + 1], uncertainty)
+
+
+def _straddled(pair: NDArray, away: NDArray, uncertainty: float) -> bool:
+    """Do the two table points themselves lie on either side of the negative real axis (Re < 0,
+    Im of opposite signs), one of them beyond the fit's uncertainty?  Then the crossing is the
+    table's, whatever the fit (python-control's frd case: -176.4 and -213.1 deg at |GH| = 0.6,
+    the first 3.6 deg from -180, within a fit's 3.8)."""
+    return bool(
+        pair.size == 2 and np.all(pair.real < 0) and pair[0].imag * pair[1].imag < 0 and away.max() > uncertainty
+    )
 
 
 def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 from engine.errors import BlockError, ExtrapolationError
 from engine.model.expressions import VARIABLES, Dual, Expression
 from engine.model.factored import PoleZero, pole_zero
-from engine.model.state_space import Response, checked, pole_zero_form
+from engine.model.state_space import Response, checked, conditioning_note, pole_zero_form
 from engine.numerics.polynomials import Rational, degree
 
 Coefficient = float | str  # a number or the name of a parameter
@@ -300,9 +300,15 @@ class StateSpaceTransfer:
         value, slope = self.response(x)
         return Dual(value, {}, slope if with_dvar else None)
 
+    @property
+    def note(self) -> str | None:
+        """One line when the model is ill-conditioned even balanced (`conditioning_note`)."""
+        return conditioning_note(self.response, self.source)
+
     def realization(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """(A, B, C, D) as n x n, n x 1, 1 x n and 1 x 1 arrays."""
-        m = self.matrices
+        """(A, B, C, D) balanced (the same system as given, `engine.model.state_space.balanced`)
+        as n x n, n x 1, 1 x n and 1 x 1 arrays."""
+        m = self.response.m
         return m.A, m.B[:, None], m.C[None, :], np.array([[m.D]])
 
 

@@ -4,6 +4,14 @@ pole-zero form read from the realization.  Nothing is multiplied out into
 polynomial coefficients, which overflow at high order (a plant of order 80
 with modes up to 1e3 rad/s has coefficients beyond 1e308).
 
+Coordinates.  The same system in other state coordinates (x scaled by powers of two,
+2^+-40) is the same transfer function, and its results must not depend on them: every
+model is balanced first (`balanced`: the realization [[A, B], [C, 0]] by LAPACK's gebal,
+powers of two on the states alone, so exact), and everything below reads the balanced
+matrices.  A pole's backward error is measured in the coordinates the model was given
+(`pole_backward_errors`), and a model whose eigenvector basis is still ill-conditioned
+after balancing (`ILL_CONDITIONED`) says so (`conditioning_note`).
+
 Evaluation.  When A is diagonalizable with well-conditioned eigenvectors V
 (cond(V) <= `MODAL_CONDITION`), G(s) = D + sum r_i / (s - lambda_i) with the
 residues r = (C V) * (V^-1 B): a few array operations per batch of points.
@@ -36,6 +44,8 @@ from engine.errors import BlockError
 from engine.model.factored import PoleZero
 
 MAX_STATES = 400  # states of one block (the order limit of a factored block, `engine.model.factored`)
+ILL_CONDITIONED = 1e12  # cond(V) after balancing beyond which a model's poles are not vouched for
+POLE_BACKWARD_ERROR = 1e-10  # a block pole's backward error (`pole_backward_errors`) beyond which a note names it
 MODAL_CONDITION = 1e4  # cond(V) up to which the residue sum is used (its error is about cond(V) eps)
 NEGLIGIBLE_FEEDTHROUGH = 1e-10  # |D| below this of |C| |B| / |A|: a zero beyond 1e10 |A|, taken as at infinity
 WORK_ELEMENTS = 1 << 20  # complex elements of one batch's elimination array (16 MB)
@@ -79,7 +89,25 @@ def checked(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) 
     return Matrices(a, b.reshape(n), c.reshape(n), float(d.reshape(-1)[0]))
 
 
+def balanced(m: Matrices) -> tuple[Matrices, NDArray[np.float64]]:
+    """The same system in balanced state coordinates, and the state scaling t (powers of
+    two: x = t * x_balanced): A_b = A t / t', B_b = B / t, C_b = C t."""
+    n = m.order
+    if n == 0:
+        return m, np.ones(0)
+    from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
+
+    system = np.zeros((n + 1, n + 1))
+    system[:n, :n], system[:n, n], system[n, :n] = m.A, m.B, m.C
+    with np.errstate(invalid="ignore"):  # scipy casts the scales to int for a permutation it does not use
+        _, (scale, _) = linalg.matrix_balance(system, permute=False, separate=True)
+    t = scale[:n] / scale[n]
+    return Matrices(m.A * t[None, :] / t[:, None], m.B / t, m.C * t, m.D), t
+
+
 def _real(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
+    if np.asarray(x).dtype.kind == "c":  # float() of it would drop the imaginary part
+        raise BlockError(f"{where}: {name} must be a matrix of real numbers, not complex")
     try:
         array = np.asarray(x, dtype=float)
     except (TypeError, ValueError, OverflowError):
@@ -96,13 +124,18 @@ def _shape(x: NDArray) -> str:
 class Response:
     """G(s) and dG/ds of a state space at complex points (module docstring)."""
 
-    def __init__(self, m: Matrices) -> None:
-        """The decompositions; a `BlockError` when their numbers leave the floating-point range."""
+    def __init__(self, given: Matrices) -> None:
+        """The decompositions of the balanced model (``m``; ``given``: as it came); a
+        `BlockError` when their numbers leave the floating-point range."""
+        self.given = given
+        m, self.scaling = balanced(given)
         self.m = m
         with np.errstate(all="ignore"):
             self.poles, vectors = np.linalg.eig(m.A) if m.order else (np.zeros(0, dtype=complex), np.zeros((0, 0)))
             _finite(self.poles, vectors)
-            self.modal = m.order > 0 and bool(np.linalg.cond(vectors) <= MODAL_CONDITION)
+            self.condition = float(np.linalg.cond(vectors)) if m.order else 1.0
+            self.pole_errors = pole_backward_errors(given, self.poles, vectors * self.scaling[:, None])
+            self.modal = m.order > 0 and bool(self.condition <= MODAL_CONDITION)
             if self.modal:
                 self.residues = (m.C @ vectors) * np.linalg.solve(vectors, m.B.astype(complex))
                 self.modal = bool(np.all(np.isfinite(self.residues)))
@@ -136,6 +169,35 @@ class Response:
             lu = HessenbergLU(self.h, s)
             x = lu.solve(np.broadcast_to(self.b, (s.size, self.b.size)))
             return x @ self.c, -(lu.solve(x) @ self.c)
+
+
+def pole_backward_errors(m: Matrices, poles: NDArray, vectors: NDArray) -> NDArray[np.float64]:
+    """Each eigenpair's componentwise relative backward error in the coordinates of ``m``:
+    max_k |(A v - p v)_k| / (|A| |v| + |p| |v|)_k, the smallest relative change of each entry
+    of A that makes (p, v) exact; a diagonal scaling of the states leaves it unchanged."""
+    if not poles.size:
+        return np.zeros(0)
+    with np.errstate(all="ignore"):
+        residual = np.abs(m.A @ vectors - vectors * poles[None, :])
+        size = np.abs(m.A) @ np.abs(vectors) + np.abs(vectors) * np.abs(poles)[None, :]
+        ratio = np.where(residual > 0, residual / size, 0.0)
+    return np.nan_to_num(ratio, nan=np.inf).max(axis=0)
+
+
+def conditioning_note(response: Response, source: str) -> str | None:
+    """One line when the balanced model's eigenvector basis is ill-conditioned
+    (`ILL_CONDITIONED`) or a pole's backward error exceeds `POLE_BACKWARD_ERROR`; None otherwise."""
+    doubtful = np.flatnonzero(~(response.pole_errors <= POLE_BACKWARD_ERROR))
+    if response.condition <= ILL_CONDITIONED and not doubtful.size:
+        return None
+    named = ", ".join(f"{response.poles[k]:.6g}" for k in doubtful[:3]) + (
+        f" and {doubtful.size - 3} more" if doubtful.size > 3 else ""
+    )
+    what = f"; poles with a backward error above {POLE_BACKWARD_ERROR:g}: {named}" if doubtful.size else ""
+    return (
+        f"{source}: ill-conditioned even balanced (eigenvector basis conditioned {response.condition:.1e}){what}: "
+        "its poles, zeros and the margins near them are not vouched for beyond that conditioning"
+    )
 
 
 class HessenbergLU:

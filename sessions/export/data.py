@@ -57,6 +57,11 @@ def _entry(e: ExportEntry, variable: str, sample_time: float | None) -> dict:
     if e.kind == "table":
         data.update(frequencies=list(e.omega), response=_pairs(e.response))
         return data
+    if e.kind == "state_space":
+        A, B, C, D = e.matrices
+        data.update(A=[list(r) for r in A], B=list(B), C=list(C), D=D, zeros=_pairs(e.zeros), poles=_pairs(e.poles))
+        data.update(gain=e.gain, sample_time=e.sample_time)
+        return data
     data.update(
         numerator=list(e.num), denominator=list(e.den), zeros=_pairs(e.zeros), poles=_pairs(e.poles), gain=e.gain
     )

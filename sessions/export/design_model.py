@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError
 from engine.model.bilinear import z_transfer
-from engine.model.blocks import DelayTransfer, ExpressionTransfer, TabulatedTransfer
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer, TabulatedTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 from sessions.errors import SessionError
@@ -31,8 +31,8 @@ from sessions.store import Session
 
 @dataclass(frozen=True)
 class ExportEntry:
-    """One entry: ``output += transfer * input``.  ``kind``: "rational", "delay" or
-    "fitted" (a table's AAA fit: ``residual``, ``degree``); ``num``/``den`` descending."""
+    """One entry: ``output += transfer * input``.  ``kind``: "rational", "delay", "state_space"
+    (``matrices``) or "fitted" (a table's AAA fit: ``residual``, ``degree``); ``num``/``den`` descending."""
 
     label: str
     input: str
@@ -51,6 +51,7 @@ class ExportEntry:
     omega: tuple[float, ...] = ()  # a table's frequencies (rad/s) and its response there
     response: tuple[complex, ...] = ()
     sample_time: float | None = None  # an entry of a condition in z: num/den, zeros and poles in z
+    matrices: tuple = ()  # a state-space block's (A rows, B, C, D) as given (kind "state_space")
 
     @property
     def constant(self) -> float | None:
@@ -193,6 +194,19 @@ def _numbers(network: Network, e, values: dict[str, float], fit: bool) -> Export
             gain=float(form.gain),
             zeros=tuple(form.zeros.tolist()),
             poles=tuple(form.poles.tolist()),
+            **common,
+        )
+    if isinstance(transfer, StateSpaceTransfer):
+        if network.sample_time is not None:
+            common["sample_time"] = network.sample_time
+        m, form = transfer.matrices, transfer.form
+        return ExportEntry(
+            kind="state_space",
+            text=transfer.text,
+            gain=float(form.gain),
+            zeros=tuple(form.zeros.tolist()),
+            poles=tuple(form.poles.tolist()),
+            matrices=(tuple(map(tuple, m.A.tolist())), tuple(m.B.tolist()), tuple(m.C.tolist()), m.D),
             **common,
         )
     if isinstance(transfer, DelayTransfer):

@@ -149,6 +149,12 @@ def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
     elif e.kind == "fitted":
         make = f"zpk({_vector(e.zeros)}, {_vector(e.poles)}, {e.gain!r}, {names})"
         comment = f"{e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}"
+    elif e.kind == "state_space":
+        A, B, C, D = e.matrices
+        dt = "" if e.sample_time is None else f", {e.sample_time!r}"
+        rows = "; ".join(" ".join(repr(x) for x in r) for r in A)
+        make = f"ss([{rows}], {_vector(B)}.', {_vector(C)}, {D!r}{dt}, {names})"
+        comment = f"{e.label} ({role}): {e.text}, A, B, C, D as given"
     elif e.sample_time is not None:  # in z
         make = f"tf({_vector(e.num)}, {_vector(e.den)}, {e.sample_time!r}, {names})"
         comment = f"{e.label} ({role}): {e.text} (in z, Ts {e.sample_time!r} s)"

@@ -151,6 +151,13 @@ def _make(e: ExportEntry, names: str) -> str:
     if e.kind == "fitted":
         return f"zpk({list(e.zeros)!r}, {list(e.poles)!r}, {e.gain!r}{named})"
     dt = "" if e.sample_time is None else f", {e.sample_time!r}"  # in z, every {sample_time} s
+    if e.kind == "state_space":
+        A, B, C, D = e.matrices
+        n = len(B)
+        return (
+            f"control.ss(np.array({[list(r) for r in A]!r}).reshape({n}, {n}), np.array({list(B)!r}).reshape({n}, 1), "
+            f"np.array({list(C)!r}).reshape(1, {n}), {D!r}{dt}{named})"
+        )
     return f"control.tf({list(e.num)!r}, {list(e.den)!r}{dt}{named})"
 
 

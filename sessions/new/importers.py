@@ -127,10 +127,10 @@ def _state_space(arrays: dict, where: str) -> ImportedPlant:
     which overflows at high order), and a grid two decades beyond its poles and zeros."""
     from engine.model.blocks import StateSpaceTransfer  # on use: `loopcraft new --help` stays light
 
-    A = np.atleast_2d(np.asarray(arrays["A"], dtype=float))
-    B = np.asarray(arrays["B"], dtype=float).reshape(A.shape[0], -1) if A.size else np.zeros((0, 1))
-    C = np.asarray(arrays["C"], dtype=float).reshape(-1, A.shape[0]) if A.size else np.zeros((1, 0))
-    D = np.atleast_2d(np.asarray(arrays.get("D", np.zeros((1, 1))), dtype=float))
+    A = np.atleast_2d(np.asarray(arrays["A"]))  # as stored: a complex matrix is refused by the block, not cast
+    B = np.asarray(arrays["B"]).reshape(A.shape[0], -1) if A.size else np.zeros((0, 1))
+    C = np.asarray(arrays["C"]).reshape(-1, A.shape[0]) if A.size else np.zeros((1, 0))
+    D = np.atleast_2d(np.asarray(arrays.get("D", np.zeros((1, 1)))))
     if A.shape[0] != A.shape[1] or B.shape[1] != 1 or C.shape[0] != 1 or D.shape != (1, 1):
         raise SessionError(
             f"{where}: A, B, C, D must be a SISO state space (A n x n, B n x 1, C 1 x n, D 1 x 1); "
@@ -143,7 +143,8 @@ def _state_space(arrays: dict, where: str) -> ImportedPlant:
         raise SessionError(f"{where}: {exc}") from None
     if form.gain == 0:
         raise SessionError(f"{where}: C (sI - A)^-1 B + D is 0 at every frequency (no loop to design)")
-    block = {"kind": "state_space", "A": A.tolist(), "B": B[:, 0].tolist(), "C": C[0].tolist(), "D": float(D[0, 0])}
+    m = plant.matrices
+    block = {"kind": "state_space", "A": m.A.tolist(), "B": m.B.tolist(), "C": m.C.tolist(), "D": m.D}
     grid = corner_grid(np.concatenate([form.zeros, form.poles]))
     return ImportedPlant(block, f"state space of order {plant.order} (A, B, C, D) from {plant.source}", grid)
 

@@ -6,19 +6,28 @@ on the command's default 400-point grid: the enforced ratio), and against
 python-control without the disk margin (the issue's first definition, from
 before analyze computed disk margins and peaks: reported), interleaved.
 The gain changes by 1e-12 between repetitions so no cache of a parsed or
-compiled expression answers."""
+compiled expression answers.
+
+`state_space_any_coordinates`: `loopcraft analyze --ss FILE.npz --json` in process on
+random models of order 20, 50 and 100 (tests/engine/test_state_space_coordinates.py's
+`model`, lightly damped modes over five decades) with their states scaled by powers of two
+up to 2^+-40, a new model at every repetition: at most 2 s each (issue 49; before balancing,
+an order-82 model took over 4 minutes)."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
 import io
+import tempfile
 import warnings
+from pathlib import Path
 
 import control as ct
 import numpy as np
 
-from tests.bench.common import compared
+from tests.bench.common import compared, median_time, timed
+from tests.engine.test_state_space_coordinates import model, scaled
 
 EXPRESSIONS = {  # order: (gain, the rest of the typed expression)
     4: (10.0, "*(s+2)/(s*(s+1)*(s+5)*(s+20))"),
@@ -76,4 +85,27 @@ def analyze_path(repeat: int) -> dict:
         out[f"order_{order}_without_disk_margins"] = compared(
             ours, lambda i=0: theirs(i, disk=False), repeat, order=order, note="python-control: margins and poles only"
         )
+    return out
+
+
+STATE_SPACE_ORDERS = (20, 50, 100)
+STATE_SPACE_TARGET_S = 2.0
+
+
+def state_space_any_coordinates(repeat: int) -> dict:
+    """Per order, `analyze --ss` on scaled models (see the module docstring)."""
+    parser, out = _parser(), {}
+    with tempfile.TemporaryDirectory() as folder:
+        for order in STATE_SPACE_ORDERS:
+
+            def ours(i=0, order=order):
+                A, B, C, D = model(order, i)
+                As, Bs, Cs = scaled(A, B, C, i)
+                path = Path(folder) / f"order_{order}_{i}.npz"
+                np.savez(path, A=As, B=Bs, C=Cs, D=D)
+                args = parser.parse_args(["analyze", "--ss", str(path), "--json"])
+                with contextlib.redirect_stdout(io.StringIO()):
+                    args.handler(args)
+
+            out[f"order_{order}"] = timed(median_time(ours, max(3, repeat // 5)), STATE_SPACE_TARGET_S, order=order)
     return out

@@ -31,7 +31,10 @@ GROUPS: dict[str, Callable[[int], dict]] = {
         "margins_with_building_order_40": loops.with_building(3 * r),
     },
     "response": lambda r: {"response_order_40": loops.responses(r)},
-    "analyze": lambda r: {"analyze_path": analyze_path.analyze_path(r)},
+    "analyze": lambda r: {
+        "analyze_path": analyze_path.analyze_path(r),
+        "state_space_any_coordinates": analyze_path.state_space_any_coordinates(r),
+    },
     "cip": lambda r: {"cip": algorithms.cip_figures(r)},
     "qcg": lambda r: {"qcg_sample_convergence": algorithms.qcg_figures(r)},
     "projection": lambda r: {"projection": algorithms.projection_figures(r)},

@@ -9,6 +9,7 @@ import math
 import mpmath
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from engine.analysis import analyze, unity_feedback
 
@@ -56,3 +57,66 @@ def test_a_search_cut_by_the_delay_grid_leaves_the_delay_margin_unknown() -> Non
     assert math.isnan(a.delay_margin)
     assert any("the delay margin is not known" in n for n in a.notes)
     assert any("Ms and Mt are those of the searched range" in n for n in a.notes)
+
+
+def _power_loop_truth(k: float, power: int, tau: float) -> tuple[float, float, float, float]:
+    """K/s^power exp(-tau s), K > 0, in closed form (mpmath): crossover |K|^(1/power), phase
+    margin 180 - 90 power - omega_c tau (deg), the lowest positive phase crossing
+    omega tau = (2 j + 1) pi - power pi/2 and its gain margin omega^power / K."""
+    mpmath.mp.dps = 40
+    K, t = mpmath.mpf(k), mpmath.mpf(tau)
+    wc = K ** (mpmath.mpf(1) / power)
+    pm = 180 - 90 * power - mpmath.degrees(wc * t)
+    j = 0
+    while (2 * j + 1) * mpmath.pi - power * mpmath.pi / 2 <= 0:
+        j += 1
+    w1 = ((2 * j + 1) * mpmath.pi - power * mpmath.pi / 2) / t
+    return float(wc), float(pm), float(w1), float(w1**power / K)
+
+
+def _random_power_loop(seed: int) -> tuple[float, int, float]:
+    """K/s^k exp(-tau s) crossing over at 1e-6..1e6 rad/s with omega_c tau in 1e-3..1e3
+    (the delay grid follows 5000 half-turns of the phase: beyond, its note says so)."""
+    rng = np.random.default_rng(seed)
+    wc, power = 10 ** rng.uniform(-6, 6), int(rng.integers(1, 4))
+    return float(wc**power), power, float(10 ** rng.uniform(-3, 3) / wc)
+
+
+POWER_LOOPS = [(1e8, 2, 1e-5), (1e-5, 1, 1000.0), (1.55e-8, 1, 990000.0)] + [_random_power_loop(s) for s in range(8)]
+
+
+@pytest.mark.parametrize(("k", "power", "tau"), POWER_LOOPS)
+def test_a_loop_with_no_corners_is_searched_about_its_crossover(k: float, power: int, tau: float) -> None:
+    """K/s^k with a delay has no corner: its search range came from the plot grid alone, so
+    1e8/s^2 exp(-1e-5 s) (crossover 1e4 rad/s, PM -5.73 deg) had no crossing, and 1.55e-8/s
+    exp(-990000 s) listed its first gain margin at 1e-3 rad/s (true: 1.587e-6)."""
+    a = analyze(unity_feedback([f"{k!r}/s**{power}"], delay=tau), "e", DEFAULT_GRID, {})
+    wc, pm, w1, gm = _power_loop_truth(k, power, tau)
+    assert [p.frequency for p in a.margins.phase] == [pytest.approx(wc, rel=1e-9)]
+    assert (a.margins.phase[0].phase_deg - pm + 180) % 360 - 180 == pytest.approx(0, abs=1e-6)
+    lowest = min(a.margins.listed("G"), key=lambda m: m.frequency)
+    assert lowest.frequency == pytest.approx(w1, rel=1e-9)
+    assert 10 ** (-lowest.gain_db / 20) == pytest.approx(1 / gm, rel=1e-8)
+
+
+def test_the_ten_lowest_gain_margins_are_found_above_the_plot_grid() -> None:
+    """1/(s + 1) exp(-1e-5 s): its phase crosses -180 deg first near 1.6e5 rad/s, above the
+    plot grid's 1e3 rad/s (none was listed); the 10 lowest, against brentq on its phase."""
+    a = analyze(unity_feedback(["1/(s+1)"], delay=1e-5), "e", DEFAULT_GRID, {})
+    first = [m.frequency for m in sorted(a.margins.listed("G"), key=lambda m: m.frequency)][:10]
+    truth = [brentq(lambda w: (2 * j + 1) * np.pi - np.arctan(w) - w * 1e-5, 0.0, 1e7) for j in range(10)]
+    np.testing.assert_allclose(first, truth, rtol=1e-9)
+
+
+def test_fewer_than_the_ten_lowest_gain_margins_are_said_where_the_search_stopped() -> None:
+    """Where a delay loop's search ends below its 10 lowest gain margins, a note names where."""
+    from engine.margins.detection_grid import Detection
+    from engine.margins.search import _few_delay_margins
+
+    a = analyze(unity_feedback(["1/(s+1)"], delay=1e-5), "e", DEFAULT_GRID, {})
+    assert not any("fewer than the 10 lowest" in n for n in a.notes)
+    loop = type("Loop", (), {"delay": 1e-5})()
+    grid = Detection(np.array([1e-3, 2e5]), np.ones(2, complex), np.ones(2, complex))
+    (note,) = _few_delay_margins(loop, grid, 3)
+    assert note.startswith("3 gain margin(s) found, fewer than the 10 lowest: the search stops at 200000 rad/s")
+    assert _few_delay_margins(loop, grid, 10) == []

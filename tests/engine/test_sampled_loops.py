@@ -163,3 +163,53 @@ def _once(frequencies: list[float]) -> list[float]:
         if not out or abs(x - out[-1]) > 1e-9 * max(x, 1e-300):
             out.append(x)
     return out
+
+
+def _double_integrator(seed: int) -> tuple[str, str, float]:
+    """K (z + 0.5)/((z - 1)^2 prod(z - r)) typed twice: its denominator expanded (each
+    coefficient's repr) and in factors; r uniform in -0.9..0.995 (roots near 1 make the
+    expanded polynomial's double root split by up to 6e-7)."""
+    rng = np.random.default_rng(seed)
+    others = rng.uniform(-0.9, 0.995, int(rng.integers(1, 7)))
+    den = np.poly(np.concatenate([[1.0, 1.0], others]))
+    expanded = "+".join(f"({float(c)!r})*z**{den.size - 1 - k}" for k, c in enumerate(den))
+    factored = "(z-1)**2*" + "*".join(f"(z-({float(r)!r}))" for r in others)
+    gain = float(10 ** rng.uniform(-4, -1))
+    return f"{gain!r}*(z+0.5)/({expanded})", f"{gain!r}*(z+0.5)/({factored})", 0.1
+
+
+@pytest.mark.parametrize("seed", [1, 8, 13, 18, 32])
+def test_a_double_integrator_typed_expanded_in_z_is_at_z_equal_one(seed):
+    """The expanded form's roots 1 +- 6e-7 were kept off z = 1: a gain margin of about
+    -200 dB at 0 rad/s.  Against the same loop with (z - 1)^2 typed as a factor."""
+    expanded, factored, T = _double_integrator(seed)
+    grid = np.geomspace(1e-4 / T, math.pi / T, 300)
+    ours, theirs = (analyze_sampled(unity_feedback([t], variable="z"), "e", grid, {}, T) for t in (expanded, factored))
+    for kind in ("gain", "phase"):
+        a, b = ([m.frequency for m in getattr(x.margins, kind)] for x in (ours, theirs))
+        assert len(a) == len(b) and np.allclose(a, b, rtol=1e-6), (kind, a, b)
+    assert all(m.frequency > 0 for m in ours.margins.gain)
+
+
+def _w_integrator(seed: int) -> tuple[str, str]:
+    """K (Z + a)/(Z^2 - (1 + b) Z + b) with Z = (1 + w)/(1 - w): an integrator (Z = 1, w = 0)
+    inside a sum of typed decimals; and the same with (Z - 1)(Z - b) typed as factors."""
+    rng = np.random.default_rng(seed)
+    k, a, b = (round(float(x), 3) for x in (rng.uniform(0.05, 2.0), rng.uniform(-0.9, 0.9), rng.uniform(-0.9, 0.95)))
+    Z = "((1+w)/(1-w))"
+    return f"{k}*({Z}+{a})/({Z}**2-{1 + b!r}*{Z}+{b})", f"{k}*({Z}+{a})/(({Z}-1)*({Z}-{b}))"
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_an_integrator_inside_a_sum_in_w_has_no_gain_margin_at_zero(seed):
+    """Z^2 - 1.3 Z + 0.3 evaluates to 5.6e-17 at w = 0: its root there was left at 4e-17 and
+    its DC value finite, a gain margin of -322.6 dB at nu = 0.  Against the loop with
+    (Z - 1)(Z - b) typed as factors."""
+    from engine.analysis import analyze
+
+    summed, factored = _w_integrator(seed)
+    grid = np.geomspace(1e-3, 1e3, 300)
+    ours, theirs = (analyze(unity_feedback([t], variable="w"), "e", grid, {}) for t in (summed, factored))
+    for kind in ("gain", "phase"):
+        a, b = ([m.frequency for m in getattr(x.margins, kind)] for x in (ours, theirs))
+        assert len(a) == len(b) and np.allclose(a, b, rtol=1e-8), (kind, a, b)

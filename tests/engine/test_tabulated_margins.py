@@ -82,3 +82,18 @@ def test_the_stated_residual_bounds_the_error_on_a_noisy_table():
     assert abs(np.radians(found.phase[0].phase_deg - pm[0])) <= np.arcsin(found.residual)
     gain = [m for m in found.gain if m.frequency > 0][0]
     assert abs(gain.frequency / wg[0] - 1) <= found.residual
+
+
+@pytest.mark.parametrize(("m", "points"), [(0.6, 11), (0.3, 11), (0.9, 15), (0.6, 21), (0.45, 13)])
+def test_a_table_crossing_the_negative_real_axis_between_its_points_lists_both_gain_margins(m, points):
+    """python-control's frd gain-margin case (margin_test.test_frd_indexing): |GH| = m, phase
+    -180 (2 omega - 1) deg on 0.99..2.01 rad/s crosses -180 deg at 1 and 2 rad/s (its first
+    points -176.4 and -213.1 deg); none was listed (the first point within the fit's
+    uncertainty of -180).  Against the closed form (1/m at 1 and 2 rad/s) and python-control."""
+    w = np.linspace(0.99, 2.01, points)
+    gh = m * np.exp(1j * np.radians(-180 * (2 * w - 1)))
+    found = margins(tabulated_loop(w, gh)).gain
+    gm, _, _, wg, _, _ = ct.stability_margins(ct.frd(gh, w), returnall=True)
+    np.testing.assert_allclose([g.frequency for g in found], [1.0, 2.0], atol=0.01)
+    np.testing.assert_allclose([g.frequency for g in found], np.sort(wg), atol=0.01)
+    np.testing.assert_allclose([10 ** (g.gain_db / 20) for g in found], [1 / m, 1 / m], rtol=0.01)

@@ -160,3 +160,35 @@ def test_a_fit_is_a_labelled_option_with_its_residual_or_refused_with_the_reason
     compile(text, "exported.py", "exec")
     assert main(["export", str(EXAMPLES / "seidel_inlet_pi.json"), "--to", "python", "--fit"]) == 2
     assert "misses the table by" in capsys.readouterr().err  # a fit that does not stand for the table
+
+
+def test_a_state_space_block_is_exported_as_its_matrices(capsys, tmp_path):
+    """A session whose plant is a state space (`new --plant-file`): python-control and MATLAB
+    get ss(A, B, C, D), JSON its matrices, CSV its response; before, every format refused it
+    ("it is a StateSpaceTransfer entry").  Against python-control's ss of the matrices written."""
+    rng = np.random.default_rng(4)
+    A = np.diag(-np.exp(rng.uniform(-1, 2, 5))) + np.triu(rng.standard_normal((5, 5)), 1)
+    B, C = rng.standard_normal((5, 1)), rng.standard_normal((1, 5))
+    np.savez(tmp_path / "plant.npz", A=A, B=B, C=C, D=np.zeros((1, 1)))
+    session = tmp_path / "s.json"
+    assert main(["new", "--plant-file", str(tmp_path / "plant.npz"), "--compensator", "gain", str(session)]) == 0
+    capsys.readouterr()
+    plant = control.ss(A, B, C, 0.0)
+    script = tmp_path / "exported.py"
+    script.write_text(_export(capsys, session, "python"))
+    loop = next(iter(runpy.run_path(str(script))["CONDITIONS"].values()))[0]()
+    w = np.array([0.1, 1.0, 7.0])
+    gain = loop(1j * w) / plant(1j * w)  # the compensator: a constant gain
+    assert np.allclose(gain, gain[0], rtol=1e-12) and "control.ss(" in script.read_text()
+    assert re.search(
+        r"= ss\(\[[-0-9.e ;]+\], \[[-0-9.e ]+\]\.', \[[-0-9.e ]+\], 0\.0", _export(capsys, session, "matlab")
+    )
+    (entry,) = [
+        e
+        for e in json.loads(_export(capsys, session, "json"))["conditions"][0]["entries"]
+        if e["kind"] == "state_space"
+    ]
+    assert np.array_equal(entry["A"], A) and np.array_equal(entry["B"], B[:, 0]) and np.array_equal(entry["C"], C[0])
+    rows = np.array([r[1:] for r in csv.reader(io.StringIO(_export(capsys, session, "csv")))][1:], dtype=float)
+    gh = rows[:, 3] + 1j * rows[:, 4]  # frequency, then GH's dB, phase, real and imaginary parts
+    assert rows.shape[0] > 10 and np.allclose(gh, gain[0] * plant(1j * rows[:, 0]), rtol=1e-10)

@@ -73,6 +73,8 @@ def test_frequency_response_becomes_a_table_beside_the_session(tmp_path, suffix)
         ({"num": np.array([1.0]), "den": np.array([0.0])}, "den is zero"),
         ({"num": np.array([1.0, np.nan]), "den": np.array([1.0, 1.0])}, "finite numbers"),
         ({"A": np.ones((2, 3)), "B": np.ones((2, 1)), "C": np.ones((1, 2))}, "SISO state space"),
+        ({"A": np.diag([-1 + 1j, -2]), "B": np.ones((2, 1)), "C": np.ones((1, 2))}, "A must be a matrix of real"),
+        ({"A": -np.eye(2), "B": np.ones((2, 1)) * 1j, "C": np.ones((1, 2))}, "B must be a matrix of real"),
         ({"freq": np.array([1.0, 0.5]), "resp": np.array([1.0, 2.0])}, "freq increasing"),
     ],
 )

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 from engine.stepping.memory_fields import finite_or_none
 from tui.cli.common import CliError
+from tui.cli.options import MAX_DELAY
 
 if TYPE_CHECKING:
     from engine.analysis import LoopAnalysis
@@ -257,6 +258,17 @@ def locus_to_text(r: RootLocus) -> str:
     return "\n".join(lines)
 
 
+def _check_delay(network, params: dict[str, float]) -> None:
+    """The loop's whole delay (--delay and exp(-T*s) factors) within `MAX_DELAY`, as --delay's."""
+    from engine.loop.responses import network_delay
+
+    tau = network_delay(network, params)
+    if tau > MAX_DELAY:
+        raise CliError(
+            f"--tf: the loop's delay, {tau:g} s (--delay and exp(-T*s) factors), is over the limit of {MAX_DELAY:g} s"
+        )
+
+
 def _table_loop(args: argparse.Namespace):
     """The network and grid of `analyze --table`: the table (times any --tf
     expressions) with unity negative feedback, on the table's own frequencies."""
@@ -325,6 +337,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         )
     if args.sample_time is not None and args.variable != "z":
         raise CliError("--sample-time is a loop in z's: give --variable z (and the loop in z)")
+    _check_delay(network, params)
     with np.errstate(all="ignore"):  # a typed loop's extreme numbers: said by the results, never warned about
         if args.variable == "z":
             result = _sampled(args, network, omega, params)
