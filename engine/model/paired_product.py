@@ -81,21 +81,20 @@ class PairedProduct:
             if n > 2 * m:
                 value = value * np.multiply.reduce(q[2 * m :] if self.extra_zeros else r[2 * m :], axis=0)
             pair = r[:m] * r[m : 2 * m]
-            slope = _weighted(self.gaps, pair)
+            slope = self.gaps @ pair if self.gaps.ndim == 1 and m else _weighted(self.gaps, pair)
             second = -_weighted(self.gaps, pair * (r[:m] + r[m : 2 * m])) if curvature else None
             if n > 2 * m:
                 rest = r[2 * m :]
                 slope = slope + _weighted(self.signs[2 * m :], rest)
                 second = None if second is None else second - _weighted(self.signs[2 * m :], rest * rest)
-            value = self._in_range(value, q)
+            if not (np.isfinite(value).all() and value.all()):  # two reductions on the fast path
+                value = self._in_range(value, q)
             spread = _spread(self.gaps, np.abs(r), m) if size else None
         return ProductTerms(value, slope, second, spread)
 
     def _in_range(self, value: NDArray, q: NDArray) -> NDArray:
         """``value`` recomputed by logarithms where it left the floating-point range."""
         lost = ~np.isfinite(value) | (value == 0)
-        if not lost.any():
-            return value
         lost &= np.all(q != 0, axis=0) & np.all(np.isfinite(q), axis=0)  # an exact zero or pole stays
         gain = np.broadcast_to(self.gain, value.shape)
         lost &= gain != 0

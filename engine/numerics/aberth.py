@@ -87,8 +87,8 @@ def aberth(
         relative = np.abs(step) / np.maximum(np.abs(half[index]), 1e-300)
         return work | {"last": work["relative"], "relative": relative, "failed": ~finite}
 
-    def finish(done: Work, why: NDArray[np.int8]) -> None:
-        status[done["index"]] = why
+    def finish(work: Work, which: NDArray[np.bool_], why: NDArray[np.int8]) -> None:
+        status[work["index"][which]] = why
 
     moving = np.flatnonzero(status == Status.RUNNING)
     work = {"index": moving, "relative": np.full(moving.size, np.inf), "last": np.full(moving.size, np.inf)}

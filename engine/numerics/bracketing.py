@@ -55,8 +55,8 @@ def bracketed_roots(fun: Function, lo: NDArray, hi: NDArray, noise: Noise | None
     work |= {"previous": inf, "before": inf, "proposed_before": inf, "widths": np.tile(np.abs(b - a), (STALL_STEPS, 1))}
     out = np.full(lo.size, np.nan)
 
-    def finish(done: Work, status: NDArray[np.int8]) -> None:
-        out[done["which"]] = np.where(status == Status.CONVERGED, done["x"], np.nan)
+    def finish(work: Work, which: NDArray[np.bool_], status: NDArray[np.int8]) -> None:
+        out[work["which"][which]] = np.where(status == Status.CONVERGED, work["x"][which], np.nan)
 
     with np.errstate(all="ignore"):
         outcome = iterate(work, _stopped, lambda work: _advanced(work, fun, noise), finish, MAX_STEPS)

@@ -100,10 +100,10 @@ def refine(
         "stalled": np.zeros(start.size, dtype=int),
     }
 
-    def finish(done: Work, status: NDArray[np.int8]) -> None:
+    def finish(work: Work, which: NDArray[np.bool_], status: NDArray[np.int8]) -> None:
         # settled: the estimate or the better end; the rounds ran out: the bracket's middle
-        middle = 0.5 * (done["lo"][0] + done["hi"][0])
-        out[done["slot"]] = np.where(status == Status.ROUNDS, middle, done["root"])
+        middle = 0.5 * (work["lo"][0][which] + work["hi"][0][which])
+        out[work["slot"][which]] = np.where(status == Status.ROUNDS, middle, work["root"][which])
 
     def advance(work: Work) -> Work:
         p, q, bisect = _next_points(work, work["x"], work["best"])

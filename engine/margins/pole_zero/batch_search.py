@@ -298,10 +298,11 @@ def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArra
         status = np.where(lost, Status.FAILED, status).astype(np.int8)
         return work | {"w": np.where(lost, work["w"], moved), "status": status, "previous": size, "second": bend}
 
-    def finish(done: Work, status: NDArray[np.int8]) -> None:
+    def finish(work: Work, which: NDArray[np.bool_], status: NDArray[np.int8]) -> None:
+        index = work["index"][which]
         found = (status == Status.CONVERGED) | (status == Status.STALLED)
-        points[done["index"][found]], second[done["index"][found]] = done["w"][found], done["second"][found]
-        noisy[done["index"]] = status == Status.STALLED
+        points[index[found]], second[index[found]] = work["w"][which][found], work["second"][which][found]
+        noisy[index] = status == Status.STALLED
 
     with np.errstate(all="ignore"):
         iterate(work, lambda work: work["status"], advance, finish, NEWTON_STEPS)
