@@ -1,5 +1,6 @@
 """The app fuzzer: a mutated session opened in the workbench under Textual's pilot,
-random keys pressed and random text typed into every dialog that asks for a line;
+random keys pressed (ctrl+n among them: the new-session dialogs, digital loops' sample
+times and holds) and random text typed into every dialog that asks for a line;
 then the judgement: the app never died, and the session file on disk is either
 as it was or a session that loads (never corrupted, never lost).
 
@@ -29,11 +30,13 @@ KEYS = (
     "s", "s", "n", "z", "Z", "a", "p", "space", "u", "d", "y", "L", "question_mark", "escape", "escape",
     "1", "2", "3", "4", "5", "tab", "up", "down", "down", "left", "right", "enter", "enter",
     "e", "e", "plus", "minus", "f", "ctrl+s", "ctrl+o", "ctrl+z", "ctrl+y", "c", "x",
+    "ctrl+n", "ctrl+n",  # the new-session dialogs (a plant, a structure, digital: a sample time, a hold)
 )  # fmt: skip
 TEXTS = (
     "", "0", "1", "3", "-5", "1e308", "nan", "inf", "K", "K + 1", "s/(s+1)", "1/(s", "\ud800",
     "x" * 300, "/" + "y" * 300 + ".json", "/dev/zero", "/tmp", "../../etc/passwd", "a\0b",
     "phase_margin_deg", "45", "0.5 1 2", "T1 >= 4*T2", "hz,mag,deg polar hz 1", "9" * 5000,
+    "1e100", "5e-324", "0.1", "1/(s+1e300)", "exp(-0.3*s)/(s+1)", "10/(s*(s+1)*(s+5))",
 )  # fmt: skip
 
 
