@@ -19,7 +19,7 @@ recomputed by logarithms, g exp(sum log q_zero - sum log q_pole).
 
 Roots are stored with the root axis first; the points ``x`` broadcast against the rest, so
 one loop (roots (n,) at points (F,)) and many samples at their own points (roots (n, K) at
-points (K,): `PairedProduct.columns`) share the arithmetic.
+points (K,): `PairedProduct.columns`, taken a pass of points at a time) share the arithmetic.
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
+
+CHUNK = 1 << 16  # root-point pairs a pass holds (1 MB of complex work array each)
 
 
 class ProductTerms(NamedTuple):
@@ -71,8 +73,29 @@ class PairedProduct:
         picked.roots, picked.gaps = self.roots[:, samples], self.gaps[:, samples]
         return picked
 
-    def terms(self, x: NDArray, curvature: bool = False, size: bool = False) -> ProductTerms:
-        """Value and u at ``x`` (and du/dx, sum |r| when asked), no warnings (module docstring)."""
+    def terms(
+        self, x: NDArray, curvature: bool = False, size: bool = False, samples: NDArray[np.intp] | None = None
+    ) -> ProductTerms:
+        """Value and u at ``x`` (and du/dx, the size of u's terms when asked), no warnings (module
+        docstring).  A product of many samples: point k is sample ``samples[k]``'s (default: point
+        k is sample k).  Many points go in passes of at most `CHUNK` root-point pairs, so the
+        memory a call holds is bounded whatever the number of points."""
+        if samples is None and self.roots.shape[1] > 1:
+            samples = np.arange(np.size(x))
+        step = max(16, CHUNK // max(1, self.roots.shape[0]))
+        if samples is None:
+            if np.ndim(x) != 1 or x.size <= step:
+                return self._terms(x, curvature, size)
+            pieces = [self._terms(x[a : a + step], curvature, size) for a in range(0, x.size, step)]
+        else:
+            pieces = [
+                self.columns(samples[a : a + step])._terms(x[a : a + step], curvature, size)
+                for a in range(0, max(x.size, 1), step)  # one pass at least: no points, empty terms
+            ]
+        return ProductTerms(*(None if part[0] is None else np.concatenate(part) for part in zip(*pieces)))
+
+    def _terms(self, x: NDArray, curvature: bool, size: bool) -> ProductTerms:
+        """`terms` in one pass."""
         m, n = self.paired, self.roots.shape[0]
         with np.errstate(all="ignore"):
             q = x - self.roots

@@ -78,7 +78,7 @@ class BatchLevels:
         """GH, u, du/ds at s = j w (S, P) and the size of u's terms (`engine.model.paired_product`),
         computed at the finite entries of ``w`` only (NaN elsewhere: rows are padded)."""
         at = np.isfinite(w)
-        terms = self.product.columns(np.nonzero(at)[0]).terms(1j * w[at], curvature=True, size=True)
+        terms = self.product.terms(1j * w[at], curvature=True, size=True, samples=np.nonzero(at)[0])
         out = [np.full(w.shape, np.nan, dtype=complex) for _ in range(3)] + [np.full(w.shape, np.nan)]
         for full, part in zip(out, terms):
             full[at] = part
@@ -100,7 +100,7 @@ class BatchLevels:
         """The slopes of log|GH| and arg GH at ``w`` and their rounding (`LoopLevels.slope_noise`),
         at the finite entries of ``w`` (the check points)."""
         at = np.isfinite(w)
-        terms = self.product.columns(np.nonzero(at)[0]).terms(1j * w[at], size=True)
+        terms = self.product.terms(1j * w[at], size=True, samples=np.nonzero(at)[0])
         u = terms.slope
         out = np.full((3, *w.shape), np.nan)
         out[0][at], out[1][at] = -u.imag, u.real
