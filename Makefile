@@ -7,6 +7,7 @@
 # make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
 #              and the app fuzzer on 200 sessions under the pilot (make test runs 6),
 #              and 60 random key and mouse sequences a size on the plots (make test runs 4),
+#              and slp against brute force on 280 more problems (make test runs 30),
 #              and 2000 command cases (set, tune, export and report onto every kind of target,
 #              discretized blocks, state-space plants; make test runs 60)
 PYTHON ?= python3
@@ -51,6 +52,7 @@ lint: $(STAMP)
 fuzz: $(PLUGINS)
 	LOOPCRAFT_FUZZ_CASES=$${LOOPCRAFT_FUZZ_CASES:-20000} LOOPCRAFT_FUZZ_APP_CASES=$${LOOPCRAFT_FUZZ_APP_CASES:-200} \
 		LOOPCRAFT_FUZZ_PLOT_CASES=$${LOOPCRAFT_FUZZ_PLOT_CASES:-60} \
+		LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES=$${LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES:-280} \
 		LOOPCRAFT_FUZZ_COMMAND_CASES=$${LOOPCRAFT_FUZZ_COMMAND_CASES:-2000} \
 		$(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
 
