@@ -259,9 +259,30 @@ ZPK = '''def zpk(zeros, poles, gain, **names):
     return control.tf(gain * np.real(np.poly(zeros)), np.real(np.poly(poles)), **names)'''
 
 
-MAIN = '''def stability_margins(loop):
-    """Every crossing control.stability_margins finds (gain margins absolute, phase margins deg)."""
-    gm, pm, sm, wpc, wgc, wms = control.stability_margins(loop, returnall=True)
+MAIN = '''def dense_grid(loop, points=20000):
+    """Frequencies two decades either side of the loop's poles and zeros (below Nyquist in z)."""
+    roots = np.concatenate([np.atleast_1d(control.poles(loop)), np.atleast_1d(control.zeros(loop))])
+    if loop.isdtime(strict=True):
+        roots = np.log(roots[roots != 0].astype(complex)) / loop.dt
+    size = np.abs(roots[np.isfinite(roots) & (roots != 0)])
+    low, high = (size.min() / 100, size.max() * 100) if size.size else (1e-3, 1e3)
+    w = np.logspace(np.log10(low), np.log10(high), points)
+    return w[w < np.pi / loop.dt] if loop.isdtime(strict=True) else w
+
+
+def stability_margins(loop):
+    """Every crossing control.stability_margins finds (gain margins absolute, phase margins deg).
+    Its polynomial method roots the expanded loop; at high order a spurious far root can overflow
+    numpy's evaluation there: that overflow is raised (not printed, not silenced) and python-control
+    is asked again on the loop's response on a dense grid (its FRD method), which "method" names."""
+    try:
+        with np.errstate(over="raise"):
+            gm, pm, sm, wpc, wgc, wms = control.stability_margins(loop, returnall=True)
+        method = "polynomial"
+    except FloatingPointError:
+        w = dense_grid(loop)
+        gm, pm, sm, wpc, wgc, wms = control.stability_margins(control.frd(loop, w, smooth=True), returnall=True)
+        method = f"FRD on {w.size} points (its polynomial method overflowed)"
     ratios = [float(x) for x in np.atleast_1d(gm)]
     with np.errstate(divide="ignore"):
         decibels = [float(20 * np.log10(x)) if x > 0 else None for x in ratios]
@@ -272,7 +293,8 @@ MAIN = '''def stability_margins(loop):
             "phase_margins_deg": [float(x) for x in np.atleast_1d(pm)],
             "gain_crossovers": [float(x) for x in np.atleast_1d(wgc)],
             "stability_margins": [float(x) for x in np.atleast_1d(sm)],
-            "stability_frequencies": [float(x) for x in np.atleast_1d(wms)]}
+            "stability_frequencies": [float(x) for x in np.atleast_1d(wms)],
+            "python_control_method": method}
 
 
 def response(loop, w):
@@ -353,6 +375,7 @@ def main():
             variable = "z" if loop.isdtime(strict=True) else "s"
             print(f"  L({variable}): {summary(loop)}")
         ours = r["loopcraft"]
+        print(f"  python-control's method: {r['python_control_method']}")
         print(f"  {'':<14}{'python-control':<30}loopcraft ({ours.get('method', 'not given')})")
         theirs = [(db, w) for db, w in zip(r["gain_margins_db"], r["phase_crossovers"]) if db is not None]
         side_by_side("gain margin", "dB", theirs, ours.get("gain", []), loop)

@@ -164,15 +164,21 @@ def test_high_order_loops_respond_as_loopcraft_s(name, tmp_path):
             assert 180 + np.degrees(np.angle(value)) == pytest.approx(p.phase_deg, rel=REL, abs=1e-9)
 
 
-def test_a_high_order_script_prints_l_compactly_and_why_a_crossing_is_python_control_s_alone(tmp_path):
+@pytest.mark.parametrize("name", ["coebra_launch_vehicle", "coebra_launch_vehicle_matrix"])
+def test_a_high_order_script_prints_l_compactly_and_why_a_crossing_is_python_control_s_alone(name, tmp_path):
     """The launch vehicle: L (28 states) in one line, not 616; each crossing python-control lists alone
-    says why it is no margin, and what it says (|L| there) is python-control's own response of L."""
-    source = EXAMPLES / "coebra_launch_vehicle.json"
+    says why it is no margin, and what it says (|L| there) is python-control's own response of L.
+    Run with every warning an error: python-control's polynomial method overflowed numpy on the
+    matrix form's switch-out condition ("overflow encountered in multiply" printed); the script now
+    catches that overflow and asks python-control again on a dense FRD, and says which it used."""
+    source = EXAMPLES / f"{name}.json"
     script = _export(source, tmp_path / "lv.py")
-    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
+    done = subprocess.run([sys.executable, "-W", "error", str(script)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and not done.stderr, done.stderr
     lines = done.stdout.splitlines()
     assert len(lines) < 60 and any("L(s): state space, 28 states" in line for line in lines)
+    methods = [line for line in lines if line.startswith("  python-control's method: ")]
+    assert len(methods) == 3 and all(m.split(": ")[1].startswith(("polynomial", "FRD on")) for m in methods)
     alone = [line for line in lines if "python-control alone" in line]
     assert alone and all("python-control alone: " in line for line in alone)
     namespace = runpy.run_path(str(script))
