@@ -4,12 +4,13 @@
 # make lint  : ruff (lint and format check) and mypy on the public seams
 # make bench : run the benchmarks, write bench-results.json; fails when a ratio target is missed
 #              (BENCH_ARGS='--only margins,analyze --repeat 10' for a quick subset)
-# make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 2000)
-#              and the app fuzzer on 200 sessions under the pilot (make test runs 6),
-#              and 60 random key and mouse sequences a size on the plots (make test runs 4),
-#              and slp against brute force on 280 more problems (make test runs 30),
+# make fuzz  : the session fuzzer on 20 000 mutated examples (make test runs 600)
+#              and the app fuzzer on 200 sessions under the pilot (make test runs 3),
+#              and 60 random key and mouse sequences a size on the plots (make test runs 2),
+#              and slp against brute force on 280 more problems (make test runs the twenty of tests/engine),
+#              and the polished gain loci of 80 more random loops (make test runs 21),
 #              and 2000 command cases (set, tune, export and report onto every kind of target,
-#              discretized blocks, state-space plants; make test runs 60)
+#              discretized blocks, state-space plants; make test runs 30)
 PYTHON ?= python3
 # pytest-xdist processes for make test (the suite mostly waits on apps to settle: two halve its time)
 TEST_WORKERS ?= 2
@@ -54,6 +55,7 @@ fuzz: $(PLUGINS)
 		LOOPCRAFT_FUZZ_PLOT_CASES=$${LOOPCRAFT_FUZZ_PLOT_CASES:-60} \
 		LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES=$${LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES:-280} \
 		LOOPCRAFT_FUZZ_COMMAND_CASES=$${LOOPCRAFT_FUZZ_COMMAND_CASES:-2000} \
+		LOOPCRAFT_FUZZ_LOCUS_CASES=$${LOOPCRAFT_FUZZ_LOCUS_CASES:-80} \
 		$(BIN)/python -m pytest -q tests/fuzz $(PYTEST_ARGS)
 
 bench: $(STAMP)

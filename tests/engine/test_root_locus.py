@@ -50,15 +50,27 @@ def relative_residual(num, den, k: float, s: complex) -> float:
 
 # seed 28 has a breakaway point (-1.79641 at k = 14.5955070), and at gains 1e4..2e7 (|A - k B C| up to
 # ~1e12) eigenvalues ~10 % off to wholly wrong: see the tests after this one for the mechanisms
+# twenty seeds and 28 here; tests/fuzz/test_root_locus_many.py runs seeds 20..49 and more under
+# `make fuzz` (a polished locus of these loops takes 1-15 s: the blocks' expressions evaluated
+# point by point, `engine.closed_loop.characteristic.GainCharacteristic`)
+SEEDS = [*range(20), 28]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", range(50))
+@pytest.mark.parametrize("seed", SEEDS)
 def test_gain_locus_points_solve_the_characteristic_equation_and_crossings_are_gain_margins(seed):
+    check_gain_locus(seed)
+
+
+def check_gain_locus(seed: int) -> None:
+    """Every point of the polished gain locus of `random_loop(seed)` is a root of D + k N to
+    1e-9 backward error, and its imaginary-axis crossings are the loop's gain margins."""
     num, den = random_loop(seed)
     network = loop_network(num, den)
     locus = root_locus(network, "e", {})
     assert locus.status == "complete"
     assert locus.values[0] == 0.0 and np.all(np.diff(locus.values) > 0)
-    rows = range(1, locus.values.size, max(1, locus.values.size // 60))  # about 60 rows, all poles each
+    rows = range(1, locus.values.size, max(1, locus.values.size // 20))  # about 20 rows, all poles each
     worst = max(
         relative_residual(num, den, float(locus.values[i]), complex(s)) for i in rows for s in locus.branches[i]
     )

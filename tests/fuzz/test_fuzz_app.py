@@ -2,7 +2,7 @@
 app under Textual's pilot, random keys and typed dialog text; the app must never die
 and the session file on disk must never be corrupted or lost.
 
-`make test` runs LOOPCRAFT_FUZZ_APP_CASES (default 6, about 30 s) cases; `make fuzz`
+`make test` runs LOOPCRAFT_FUZZ_APP_CASES (default 3, about 15 s) cases; `make fuzz`
 runs 200.  A failure prints its seed, case number and keys."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from tests.fuzz.app_fuzz import draw_app_case, run_case
 from tests.fuzz.campaign import DEFAULT_SEED, setting
 
-CASES = int(setting("APP_CASES", 6))
+CASES = int(setting("APP_CASES", 3))
 SEED = int(setting("SEED", DEFAULT_SEED))
 
 

@@ -1,7 +1,7 @@
 """Fuzz the commands issue 50 added surface to (`tests.fuzz.commands`): set, tune, export and
 report onto every kind of target, discretized blocks and sample times, state-space plants.
 
-`make test` runs LOOPCRAFT_FUZZ_COMMAND_CASES (default 60) seeded cases; `make fuzz` 2000.
+`make test` runs LOOPCRAFT_FUZZ_COMMAND_CASES (default 30) seeded cases; `make fuzz` 2000.
 A failure prints its seed and case and the command line that reproduces it."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 from tests.fuzz.campaign import DEFAULT_BUDGET, DEFAULT_SEED, setting
 from tests.fuzz.commands import draw, execute
 
-CASES = int(setting("COMMAND_CASES", 60))
+CASES = int(setting("COMMAND_CASES", 30))
 SEED = int(setting("SEED", DEFAULT_SEED))
 BUDGET = float(setting("BUDGET", DEFAULT_BUDGET))
 

@@ -4,7 +4,7 @@ events (wheel, drag, click) on every plot
 kind (the Run tab's plots, the trajectories, History's views) at 120x40, 100x32 and
 80x24; no exception may escape and no plot may say it cannot draw.
 
-`make test` runs LOOPCRAFT_FUZZ_PLOT_CASES (default 4) sequences a size; `make fuzz`
+`make test` runs LOOPCRAFT_FUZZ_PLOT_CASES (default 2) sequences a size; `make fuzz`
 runs 60."""
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from tests.fuzz.campaign import setting
 from tui.app import LoopcraftApp
 from tui.widgets.plots import FigurePlot
 
-CASES = int(setting("PLOT_CASES", 4))
+CASES = int(setting("PLOT_CASES", 2))
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 SESSIONS = ("lead_sensitivity_peak", "projection_reactor", "coebra_launch_vehicle")
 KEYS = ("plus", "minus", "h", "j", "k", "l", "left", "right", "shift+left", "shift+right", "0")

@@ -19,7 +19,7 @@ import pytest
 
 from sessions.errors import SessionError
 from sessions.store import load_session
-from sessions.sweeps.jobs import loop_signature, run_job
+from sessions.sweeps.jobs import EVENT_TOPIC, loop_signature, run_job
 from sessions.sweeps.plan import Job, shippable, start_jobs, tolerance_jobs, vary_jobs
 from sessions.sweeps.results import adopt_run, optima, worst_case
 from tui.cli import main
@@ -244,20 +244,42 @@ def dask_cluster(tmp_path):
         p.wait()
 
 
+def _kill_the_first_busy_worker(address: str, processes: list, killed: list, stop: threading.Event) -> None:
+    """Kill the worker on which a run starts first (each run logs its start and its worker on
+    the scheduler), while that run is going: the condition, not a timer."""
+    import os
+
+    from distributed import Client
+
+    with Client(address, timeout="30s") as client:
+        pids = client.run(os.getpid)  # worker address -> its process id
+        while not stop.wait(0.02):
+            events = client.get_events(EVENT_TOPIC)
+            if events:
+                pid = pids[events[0][1]["worker"]]
+                victim = next(p for p in processes if p.pid == pid)
+                victim.send_signal(signal.SIGKILL)
+                killed.append(victim)
+                return
+
+
 @pytest.mark.slow
 def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster, tmp_path, capsys):
     address, processes = dask_cluster
     path = _copy(tmp_path, "coebra_launch_vehicle")  # runs of a few seconds each
-    killer = threading.Timer(4.0, lambda: processes[2].send_signal(signal.SIGKILL))
+    killed: list = []
+    stop = threading.Event()
+    killer = threading.Thread(target=_kill_the_first_busy_worker, args=(address, processes, killed, stop))
     killer.start()
     try:
-        assert main(["sweep", str(path), "--starts", "8", "--spread", "1.5", "--scheduler", address, "--json"]) == 0
+        assert main(["sweep", str(path), "--starts", "4", "--spread", "1.5", "--scheduler", address, "--json"]) == 0
     finally:
-        killer.cancel()
+        stop.set()
+        killer.join(timeout=30)
     summary = json.loads(capsys.readouterr().out)
-    assert processes[2].poll() is not None  # the worker is gone
+    assert killed and killed[0].poll() is not None  # the worker is gone
     runs = summary["runs"]
-    assert len(runs) == 8
+    assert len(runs) == 4
     assert all(r["status"] != "failed" or r["reason"] for r in runs)
     assert summary["retried"], "the run that was on the killed worker was restarted elsewhere"
     for index, workers in summary["retried"].items():

@@ -26,6 +26,10 @@ def steps(*keys: str, wait_workers: bool = True):
             if wait_workers:
                 await pilot.app.workers.wait_for_complete()
                 await pilot.pause()
+        # a toast lives for seconds of wall time: shown or gone by the snapshot depending on the
+        # machine's load (a loaded run lost "iteration 1 marked" and failed), so none is kept
+        pilot.app.clear_notifications()
+        await pilot.pause()
 
     return run_before
 
