@@ -26,7 +26,15 @@ from numpy.typing import NDArray
 
 from engine.derived import Derived, Form
 from engine.errors import ExpressionError, ParameterError, shortened
-from engine.model.folding import Evaluator, Folded, as_callable, compile_tree, constant_subtrees, to_rational
+from engine.model.folding import (
+    FOLD_DEGREE,
+    Evaluator,
+    Folded,
+    as_callable,
+    compile_tree,
+    constant_subtrees,
+    to_rational,
+)
 from engine.numerics.polynomials import Rational
 
 VARIABLES = ("s", "w", "z")
@@ -139,7 +147,7 @@ class Expression:
     def folded(self, params: Mapping[str, float]) -> Rational | None:
         """The expression as a polynomial ratio of degree <= FOLD_DEGREE, else None."""
         compiled = self._compiled(params)
-        return compiled.rational() if isinstance(compiled, Folded) else None
+        return compiled.rational() if isinstance(compiled, Folded) and compiled.degree <= FOLD_DEGREE else None
 
     def rational(self, params: Mapping[str, float]) -> Rational:
         """The expression as a ratio of polynomials in the variable."""

@@ -70,18 +70,47 @@ def _padd(a: Poly, b: Poly) -> Poly:
 
 
 class Folded:
-    """A small polynomial ratio met while compiling; becomes a Rational at the end."""
+    """A small polynomial ratio met while compiling; becomes a Rational at the end.  ``typed``:
+    a polynomial as it was typed in the monomial basis (sums of constants times powers of the
+    variable), whose coefficients are the typed ones: Horner's rule on them is as accurate as
+    the typed terms evaluated one by one (both ~ n eps sum |c_i| |x|^i), so such a polynomial is
+    folded whatever its degree (an expanded polynomial of degree 8 was dozens of closures)."""
 
-    __slots__ = ("num", "den")
+    __slots__ = ("num", "den", "typed")
 
-    def __init__(self, num: Poly, den: Poly):
-        self.num, self.den = num, den
+    def __init__(self, num: Poly, den: Poly, typed: bool = False):
+        self.num, self.den, self.typed = num, den, typed
 
     @property
     def degree(self) -> int:
         return max(len(self.num), len(self.den)) - 1
 
+    @property
+    def monomial(self) -> bool:
+        return self.den == (1.0,) and sum(c != 0.0 for c in self.num) <= 1
+
     def combine(self, op: str, other: Folded | None, exponent: int) -> Folded:
+        out = self._combined(op, other, exponent)
+        out.typed = self._stays_typed(op, other, exponent)
+        return out
+
+    def _stays_typed(self, op: str, other: Folded | None, exponent: int) -> bool:
+        """Whether ``op`` keeps a typed polynomial's coefficients the typed ones (`Folded`)."""
+        if not self.typed or self.den != (1.0,):
+            return False
+        if op == "neg":
+            return True
+        if op == "pow":
+            return self.monomial and exponent >= 0
+        if other is None or not other.typed or other.den != (1.0,):
+            return False
+        if op in ("add", "sub"):
+            return True
+        if op == "mul":
+            return self.degree == 0 or other.degree == 0 or (self.monomial and other.monomial)
+        return other.degree == 0  # divided by a constant
+
+    def _combined(self, op: str, other: Folded | None, exponent: int) -> Folded:
         if op == "neg":
             return Folded(tuple(-c for c in self.num), self.den)
         if op == "pow":
@@ -154,15 +183,15 @@ def compile_tree(
         return constants[id(node)]
     op = node.op
     if op == "num":
-        return Folded((node.value,), (1.0,))
+        return Folded((node.value,), (1.0,), typed=True)
     if op == "var":
-        return Folded((1.0, 0.0), (1.0,))
+        return Folded((1.0, 0.0), (1.0,), typed=True)
     if op == "param":
-        return Folded((float(params[node.name]),), (1.0,))
+        return Folded((float(params[node.name]),), (1.0,), typed=True)
     args = [compile_tree(a, params, constants) for a in node.args]
     if all(isinstance(a, Folded) for a in args):
         folded = args[0].combine(op, args[1] if len(args) > 1 else None, node.exponent)
-        if folded.degree <= FOLD_DEGREE:
+        if folded.degree <= FOLD_DEGREE or folded.typed:
             return folded
     f = [as_callable(a) for a in args]
     if op == "neg":
