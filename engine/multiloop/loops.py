@@ -1,0 +1,56 @@
+"""Every loop of a square plant, one at a time and all together: at each break the
+single-input single-output loop with every other loop closed (`engine.multiloop.plant.loop_at`,
+a realization of the plant's n states) is analyzed as one loop is (`engine.analysis.analyze`:
+gain, phase and delay margins at every crossing, the disk margin, Ms and Mt, the closed-loop
+poles), and the multi-loop disk margin (`engine.multiloop.disk`) is computed once."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from engine.analysis import LoopAnalysis, analyze, unity_feedback
+from engine.errors import EngineError
+from engine.model.blocks import StateSpaceTransfer
+from engine.multiloop.disk import MultiLoopDiskMargin, multi_loop_disk_margin
+from engine.multiloop.plant import Plant, loop_at
+
+
+@dataclass(frozen=True)
+class LoopsAnalysis:
+    """``loops``: (break name, its single-loop analysis) for each break asked for;
+    ``together``: the multi-loop disk margin (None when not asked for)."""
+
+    loops: tuple[tuple[str, LoopAnalysis], ...]
+    together: MultiLoopDiskMargin | None
+
+
+def break_loop(plant: Plant, name: str, source: str = "plant") -> StateSpaceTransfer:
+    """The loop at the break ``name`` as a state-space block (an `EngineError` naming a break
+    that is not the plant's, or a loop that is 0 at every frequency: it opens no loop)."""
+    m = loop_at(plant, plant.index(name))
+    transfer = StateSpaceTransfer(m.A, m.B, m.C, m.D, f"{source} at {name}")
+    if transfer.form.gain == 0:
+        raise EngineError(f"break {name}: the loop seen there is 0 at every frequency (it opens no loop)")
+    return transfer
+
+
+def analyze_breaks(
+    plant: Plant,
+    omega: ArrayLike,
+    breaks: Sequence[str] | None = None,
+    skew: float = 0.0,
+    together: bool = True,
+    source: str = "plant",
+) -> LoopsAnalysis:
+    """Loop at a time at each of ``breaks`` (all when None) and, when ``together``, all at once."""
+    names = list(plant.names if breaks is None else breaks)
+    w = np.asarray(omega, dtype=float)
+    found = []
+    for name in names:
+        network = unity_feedback(["1"], state_space=break_loop(plant, name, source))
+        found.append((name, analyze(network, "e", w, {}, skew=skew)))
+    return LoopsAnalysis(tuple(found), multi_loop_disk_margin(plant, skew) if together else None)
