@@ -289,15 +289,29 @@ def _table_loop(args: argparse.Namespace):
     return network, table.omega
 
 
-def _state_space_loop(args: argparse.Namespace):
+def _state_space_file(args: argparse.Namespace) -> dict:
+    """The matrices of the `--ss` file."""
+    from sessions.format.state_space_files import read_matrices
+
+    return read_matrices(Path(args.ss), f"--ss {args.ss}")
+
+
+def _several_loops(m: dict) -> bool:
+    """Whether the --ss model has more than one input or output (a multi-loop plant)."""
+    from engine.multiloop.plant import input_count
+
+    return input_count(m["B"], m["C"]) != (1, 1)
+
+
+def _state_space_loop(args: argparse.Namespace, m: dict):
     """The network of `analyze --ss`: the state space in the file (times any --tf
     expressions, a delay) with unity negative feedback, kept as state space."""
     from engine.analysis import unity_feedback
     from engine.model.blocks import StateSpaceTransfer
-    from sessions.format.state_space_files import read_matrices
 
+    if args.break_name is not None:
+        raise CliError(f"--break {args.break_name}: the --ss model has one input and one output (one loop, at e)")
     path = Path(args.ss)
-    m = read_matrices(path, f"--ss {args.ss}")
     plant = StateSpaceTransfer(m["A"], m["B"], m["C"], m["D"], f"--ss {path.name}")
     return unity_feedback(args.tf or ["1"], args.variable, args.delay, state_space=plant)
 
@@ -312,10 +326,18 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         return _session_design(args)
     if args.table is not None and args.ss is not None:
         raise CliError("give --ss FILE or --table FILE.csv, not both")
+    if args.break_name is not None and args.ss is None:
+        raise CliError(
+            f"--break {args.break_name}: a loop break of a multi-loop --ss plant or of a session (FILE.json); "
+            "a loop typed with --tf or --table is broken at e"
+        )
     if args.table is not None:
         network, omega = _table_loop(args)
     elif args.ss is not None:
-        network = _state_space_loop(args)
+        matrices = _state_space_file(args)
+        if _several_loops(matrices):
+            return _multi_loop(args, matrices)
+        network = _state_space_loop(args, matrices)
         omega = np.geomspace(args.wmin, args.wmax, args.points)
     elif args.variable == "z" and (args.tf or args.held):
         if args.delay and not args.held:
@@ -354,6 +376,102 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         if locus is not None:
             print(locus_to_text(locus))
     return 0
+
+
+def _multi_loop_refused(args: argparse.Namespace) -> str | None:
+    """The option a multi-loop --ss plant does not take with it, said (None: none given)."""
+    given = [
+        ("--tf", args.tf),
+        ("--delay", args.delay),
+        ("--locus", args.locus),
+        ("--param", args.param),
+        ("--held", args.held),
+        ("--sample-time", args.sample_time),
+        ("--variable " + args.variable, args.variable != "s"),
+    ]
+    named = [name for name, value in given if value]
+    return ", ".join(named) or None
+
+
+def _multi_loop(args: argparse.Namespace, m: dict) -> int:
+    """`analyze --ss FILE` of a square plant of m > 1 inputs and outputs: every break (or the one
+    --break names) loop at a time, and all together (the multi-loop disk margin)."""
+    import numpy as np
+
+    from engine.multiloop.loops import analyze_breaks
+    from engine.multiloop.plant import checked_plant
+
+    refused = _multi_loop_refused(args)
+    if refused:
+        raise CliError(f"--ss {args.ss}: a multi-loop plant (unity feedback at its inputs) takes no {refused}")
+    where = f"--ss {Path(args.ss).name}"
+    plant = checked_plant(m["A"], m["B"], m["C"], m["D"], where)
+    if args.break_name is not None and args.break_name not in plant.names:
+        raise CliError(f"--break {args.break_name!r}: the plant's breaks are {', '.join(plant.names)}")
+    breaks = None if args.break_name is None else [args.break_name]
+    omega = np.geomspace(args.wmin, args.wmax, args.points)
+    with np.errstate(all="ignore"):
+        result = analyze_breaks(plant, omega, breaks, args.skew, together=breaks is None, source=where)
+    if args.json:
+        print(json.dumps(loops_to_json(result), indent=2, sort_keys=True))
+    else:
+        print(loops_to_text(result, args.ss))
+    return 0
+
+
+def multi_loop_to_json(d) -> dict | None:
+    """The `multi_loop_disk_margin` object of `analyze --json` of a multi-loop plant."""
+    if d is None:
+        return None
+    return {
+        "alpha": d.alpha,
+        "alpha_lower": d.alpha_lower,
+        "alpha_upper": finite_or_none(d.alpha_upper),
+        "gap": d.gap,
+        "skew": d.skew,
+        "frequency": finite_or_none(d.frequency),
+        "at_infinity": d.frequency == math.inf,
+        "gain_margin_low": d.gain_low,
+        "gain_margin_high": finite_or_none(d.gain_high),
+        "gain_margin_low_db": finite_or_none(d.gain_low_db),
+        "gain_margin_high_db": finite_or_none(d.gain_high_db),
+        "gain_margin_db": finite_or_none(d.gain_db),
+        "phase_margin_deg": finite_or_none(d.phase_deg),
+        "perturbation": [_pair(z) for z in d.delta],
+        "status": d.status,
+        "certified": d.status == "certified",
+        "intervals": d.intervals,
+        "method": d.method,
+        "notes": list(d.notes),
+    }
+
+
+def loops_to_json(result) -> dict:
+    """The JSON object of `analyze --ss FILE --json` for a multi-loop plant: ``loops`` (one object
+    per break: its name and the keys of one loop's analysis) and ``multi_loop_disk_margin``."""
+    return {
+        "variable": "s",
+        "breaks": [name for name, _ in result.loops],
+        "loops": [{"name": name, **analysis_to_json(a)} for name, a in result.loops],
+        "multi_loop_disk_margin": multi_loop_to_json(result.together),
+    }
+
+
+def loops_to_text(result, source: str) -> str:
+    """Each loop's table (`analysis_to_text`) under its break's name, then the multi-loop disk margin."""
+    parts = []
+    for name, a in result.loops:
+        parts.append(analysis_to_text(a, [f"loop at input {name} of {source}, every other loop closed"]))
+        parts.append("")
+    d = result.together
+    if d is not None:
+        parts.append(
+            f"multi-loop disk margin (skew {d.skew:g}, every input at once): alpha {d.alpha:.6g} "
+            f"in [{d.alpha_lower:.9g}, {d.alpha_upper:.9g}] ({d.status}), gain {_num(d.gain_low_db, 'dB', '.4f')}"
+            f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')} {_at(d.frequency, 'rad/s')}"
+        )
+        parts.extend(f"note: {n}" for n in d.notes)
+    return "\n".join(parts).rstrip()
 
 
 def _sampled(args: argparse.Namespace, network, omega, params):
@@ -422,7 +540,10 @@ def _session_design(args: argparse.Namespace) -> int:
     named = StepRecord.from_json(model.records[at - 1]).parameters if at else None
     c = problem.conditions[k]
     values = problem.condition_values(k, named=named)
-    result = analyze(c.network, c.break_at, problem.grid.omega, values)
+    break_at = c.break_at if args.break_name is None else args.break_name
+    if break_at not in c.network.signals:
+        raise CliError(f"--break {break_at!r}: {c.name}'s signals are {', '.join(c.network.signals)}")
+    result = analyze(c.network, break_at, problem.grid.omega, values)
     parts = compensators(c.network, values)
     T = c.network.sample_time
     variable = "z" if T is not None else c.network.variable
@@ -436,7 +557,7 @@ def _session_design(args: argparse.Namespace) -> int:
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
-        print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"], variable, 0.0, T))
+        print(analysis_to_text(result, [f"{c.name} at {break_at}, {design} of {args.file}"], variable, 0.0, T))
         for name, found in parts.items():
             lines = [
                 f"  {name}.{item_name}: {i.reading(c.network.sample_time)}"
@@ -512,6 +633,12 @@ def add_parser(sub) -> None:
         metavar="FILE",
         help="a state-space plant (times any --tf): a .npz with arrays A, B, C, D or a .json with those keys, "
         "kept as state space (no polynomial is multiplied out)",
+    )
+    p.add_argument(
+        "--break",
+        dest="break_name",
+        metavar="NAME",
+        help="--ss with several inputs: the one loop break to report (u1, u2, ...: the plant's inputs)",
     )
     p.add_argument(
         "--columns",
