@@ -1,0 +1,255 @@
+"""Several loops at once (issue 56): loop at a time and all together, against references
+written here (tests/engine/multiloop_references.py) and closed forms.
+
+The spinning satellite (a = 10, unity feedback broken at the plant inputs): Doyle's example,
+section 4 of Seiler, Packard and Gahinet 2020, "An introduction to disk margins" (IEEE
+Control Systems Magazine 40(5)): each loop alone is 1/s (infinite gain margin, 90 deg, disk
+margin alpha = 2), while both inputs perturbed at once give alpha = 0.0997 (gain
+0.905..1.105, -0.87..+0.87 dB, phase 5.71 deg) near 0.05 rad/s."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import optimize
+
+from engine.analysis import analyze, unity_feedback
+from engine.errors import EngineError
+from engine.multiloop.disk import GAP, multi_loop_disk_margin
+from engine.multiloop.loops import analyze_breaks, break_loop
+from engine.multiloop.plant import checked_plant, loop_at
+from tests.engine.multiloop_references import (
+    closed_loop_abscissa,
+    loop_from_matrix,
+    random_plant,
+    reference_lower,
+    reference_upper,
+    response,
+    sensitivity_response,
+)
+
+OMEGA = np.geomspace(1e-3, 1e3, 400)
+SLOW_CASES_LOOPS = [(200 + k, 8 + (k * 5) % 33, 2 + k % 3) for k in range(8)]
+A_SPIN = 10.0
+
+
+def satellite(a: float = A_SPIN):
+    """P(s) = [[s - a^2, a (s + 1)], [-a (s + 1), s - a^2]] / (s^2 + a^2) as (A, B, C, D)."""
+    return np.array([[0.0, a], [-a, 0.0]]), np.eye(2), np.array([[1.0, a], [-a, 1.0]]), np.zeros((2, 2))
+
+
+def satellite_transfer(s: complex, a: float = A_SPIN) -> np.ndarray:
+    return np.array([[s - a * a, a * (s + 1)], [-a * (s + 1), s - a * a]]) / (s * s + a * a)
+
+
+def test_the_satellite_realization_is_its_transfer_matrix():
+    w = np.array([0.1, 3.0, 47.0])
+    assert np.allclose(response(*satellite(), w), [satellite_transfer(1j * x) for x in w], rtol=1e-13, atol=1e-13)
+
+
+@pytest.mark.parametrize("name", ["u1", "u2"])
+def test_each_satellite_loop_alone_is_an_integrator(name):
+    """The loop at each input, others closed, is 1/s (from the transfer matrix: P11 - P12 P21 /
+    (1 + P22)); GM infinite, PM 90 deg at 1 rad/s, disk margin 2."""
+    plant = checked_plant(*satellite(), "satellite")
+    m = loop_at(plant, plant.index(name))
+    w = np.array([0.01, 0.5, 9.5, 333.0])
+    mine = np.array([m.C @ np.linalg.solve(1j * x * np.eye(2) - m.A, m.B) + m.D for x in w])
+    assert np.allclose(mine, 1.0 / (1j * w), rtol=1e-12)
+    assert np.allclose(loop_from_matrix(response(*satellite(), w), plant.index(name)), 1.0 / (1j * w), rtol=1e-12)
+    result = analyze(unity_feedback(["1"], state_space=break_loop(plant, name)), "e", OMEGA, {})
+    assert result.margins.listed("G") == ()
+    (pm,) = result.margins.phase
+    assert pm.frequency == pytest.approx(1.0, rel=1e-12) and pm.phase_deg == pytest.approx(90.0, rel=1e-12)
+    assert result.disk_margin.alpha == pytest.approx(2.0, rel=1e-9)
+
+
+def satellite_reference(skew: float) -> tuple[float, float]:
+    """(max over omega of the D-scale bound of mu(S + (skew - 1)/2 I), where): a grid of 4000
+    frequencies, the optimal scale by scipy's bounded Brent at each of the best, then the
+    frequency by bounded Brent (two scalar blocks: the bound is mu)."""
+    a, b, c, d = satellite()
+
+    def mu(w: float) -> float:
+        m = sensitivity_response(a, b, c, d, [w], skew)[0]
+
+        def f(t):
+            return np.linalg.norm(np.diag([np.exp(t), 1.0]) @ m @ np.diag([np.exp(-t), 1.0]), 2)
+
+        return optimize.minimize_scalar(f, bounds=(-20, 20), method="bounded", options={"xatol": 1e-12}).fun
+
+    grid = np.geomspace(1e-3, 1e3, 4001)  # not through the poles at +-10j
+    coarse = np.array([np.linalg.svd(x, compute_uv=False)[0] for x in sensitivity_response(a, b, c, d, grid, skew)])
+    best = max((mu(grid[k]), k) for k in np.argsort(coarse)[::-1][:40])
+    k = best[1]
+    found = optimize.minimize_scalar(
+        lambda w: -mu(w), bounds=(grid[max(k - 1, 0)], grid[k + 1]), method="bounded", options={"xatol": 1e-13}
+    )
+    return -found.fun, found.x
+
+
+def test_the_satellite_multi_loop_disk_margin_is_bracketed_within_1e_6():
+    plant = checked_plant(*satellite(), "satellite")
+    d = multi_loop_disk_margin(plant)
+    peak, where = satellite_reference(0.0)
+    assert d.status == "certified" and d.gap <= GAP
+    assert d.alpha_lower <= 1.0 / peak * (1 + 1e-12) and 1.0 / peak <= d.alpha_upper * (1 + 1e-9)
+    assert d.alpha == pytest.approx(1.0 / peak, rel=1e-6)
+    assert round(d.alpha, 5) == 0.09975  # the issue's (and the paper's) figure
+    assert d.frequency == pytest.approx(where, rel=1e-3) and round(d.frequency, 2) == 0.05
+    assert d.gain_low_db == pytest.approx(-0.87, abs=0.005) and d.gain_high_db == pytest.approx(0.87, abs=0.005)
+    assert d.phase_deg == pytest.approx(5.71, abs=0.005)
+
+
+def test_the_satellite_perturbation_found_destabilizes_it():
+    """f_i = (1 + delta_i/2)/(1 - delta_i/2) at both inputs: det(I + P(j w) F) = 0 at the worst frequency."""
+    plant = checked_plant(*satellite(), "satellite")
+    d = multi_loop_disk_margin(plant)
+    delta = np.array(d.delta)
+    assert np.allclose(np.abs(delta), d.alpha_upper, rtol=1e-12)
+    f = np.diag((1 + delta / 2) / (1 - delta / 2))
+    assert abs(np.linalg.det(np.eye(2) + satellite_transfer(1j * d.frequency) @ f)) < 1e-10
+
+
+@pytest.mark.parametrize("skew", [-0.5, 0.5, 1.0])
+def test_a_skewed_satellite_margin_matches_the_reference(skew):
+    d = multi_loop_disk_margin(checked_plant(*satellite(), "satellite"), skew)
+    peak, _ = satellite_reference(skew)
+    assert d.status == "certified" and d.gap <= GAP
+    assert d.alpha_lower <= 1.0 / peak * (1 + 1e-12) <= d.alpha_upper * (1 + 1e-9)
+
+
+def test_the_margin_does_not_depend_on_the_state_coordinates():
+    a, b, c, d = random_plant(np.random.default_rng(11), 12, 3)
+    t = 2.0 ** np.random.default_rng(12).integers(-30, 31, 12)
+    scaled = multi_loop_disk_margin(checked_plant(a * t[None, :] / t[:, None], b / t[:, None], c * t, d, "scaled"))
+    given = multi_loop_disk_margin(checked_plant(a, b, c, d, "given"))
+    assert scaled.alpha_upper == pytest.approx(given.alpha_upper, rel=1e-9)
+
+
+def test_an_unstable_closed_loop_has_no_multi_loop_disk_margin():
+    plant = checked_plant(-np.eye(2), np.eye(2), -2.0 * np.eye(2), 0.0, "unstable")  # P = -2/(s+1) I
+    d = multi_loop_disk_margin(plant)
+    assert (d.alpha, d.alpha_lower, d.alpha_upper, d.status) == (0.0, 0.0, 0.0, "unstable")
+    assert "not stable" in d.notes[0]
+
+
+@pytest.mark.parametrize(
+    ("matrices", "says"),
+    [
+        ((-np.eye(3), np.ones((3, 2)), np.ones((3, 3)), 0.0), "2 inputs and 3 outputs"),
+        ((-np.eye(2), np.eye(2), np.eye(2), np.ones((3, 3))), "D is 3 x 3"),
+        ((-np.eye(2), np.eye(2), np.eye(2), [[np.nan, 0], [0, 0]]), "not finite"),
+    ],
+)
+def test_a_bad_plant_is_refused_with_what_is_wrong(matrices, says):
+    with pytest.raises(EngineError, match=says):
+        checked_plant(*matrices, "--ss bad.npz")
+
+
+def test_a_bad_break_and_a_break_that_opens_no_loop_are_refused():
+    plant = checked_plant(*satellite(), "satellite")
+    with pytest.raises(EngineError, match="u1, u2"):
+        plant.index("u3")
+    decoupled = checked_plant(-np.eye(2), np.array([[1.0, 0.0], [0.0, 0.0]]), np.eye(2), 0.0, "open")
+    with pytest.raises(EngineError, match="u2: the loop seen there is 0"):
+        break_loop(decoupled, "u2")
+
+
+def reference_crossings(a, b, c, d, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """(gain crossovers |L| = 1, phase crossings of the negative real axis) of the loop at input i,
+    L from the transfer matrix (`loop_from_matrix`): sign changes on a dense grid refined about
+    every mode, each root by Brent's method to the last bits."""
+    modes = np.concatenate([np.linalg.eigvals(a), np.linalg.eigvals(a - b @ np.linalg.solve(np.eye(b.shape[1]) + d, c))])
+    sizes = np.abs(modes[np.abs(modes) > 0])
+    grid = [np.geomspace(sizes.min() / 1e3, sizes.max() * 1e3, 6000)]
+    grid += [abs(p.imag) + max(abs(p.real), 1e-3 * abs(p)) * np.linspace(-4, 4, 40) for p in modes]  # not on a pole
+    w = np.unique(np.concatenate(grid))
+    w = w[w > 0]
+
+    def loop(x):
+        return loop_from_matrix(response(a, b, c, d, np.atleast_1d(x)), i)
+
+    values = loop(w)
+
+    def roots(f, keep):
+        v = f(values)
+        found = []
+        for k in np.flatnonzero(np.sign(v[:-1]) * np.sign(v[1:]) < 0):
+            root = optimize.brentq(lambda x: f(loop(x))[0], w[k], w[k + 1], xtol=1e-300, rtol=1e-15)
+            if keep(loop(root)[0]):
+                found.append(root)
+        return np.array(found)
+
+    gain = roots(lambda v: np.log(np.abs(v)), lambda v: True)
+    phase = roots(lambda v: v.imag, lambda v: v.real < 0)
+    return gain, phase, loop
+
+
+def _compare_loops(seed: int, order: int, loops: int) -> int:
+    rng = np.random.default_rng(seed)
+    a, b, c, d = random_plant(rng, order, loops, feedthrough=seed % 3 == 1, axis=seed % 2)
+    result = analyze_breaks(checked_plant(a, b, c, d, "random"), OMEGA, together=False)
+    compared = 0
+    for i, (name, mine) in enumerate(result.loops):
+        gain, phase, loop = reference_crossings(a, b, c, d, i)
+        pm = np.array(sorted(p.frequency for p in mine.margins.phase if 0 < p.frequency < np.inf))
+        gm = np.array(sorted(g.frequency for g in mine.margins.listed("G") if 0 < g.frequency < np.inf))
+        assert pm.size == gain.size and gm.size == phase.size, name
+        assert np.allclose(pm, gain, rtol=1e-9, atol=0) and np.allclose(gm, phase, rtol=1e-9, atol=0), name
+        for p in mine.margins.phase:
+            if 0 < p.frequency < np.inf:
+                classical = 180.0 + np.degrees(np.angle(loop(p.frequency)[0]))
+                assert abs((p.phase_deg - classical + 180.0) % 360.0 - 180.0) < 1e-9 * 180.0, name
+        for g in mine.margins.listed("G"):
+            if 0 < g.frequency < np.inf:
+                assert g.gain_db == pytest.approx(-20 * np.log10(abs(loop(g.frequency)[0])), rel=1e-9, abs=1e-9)
+        compared += pm.size + gm.size
+    return compared
+
+
+@pytest.mark.parametrize(("seed", "order", "loops"), [(0, 4, 2), (2, 12, 3), (4, 20, 3), (5, 6, 4)])
+def test_loop_at_a_time_margins_match_the_transfer_matrix_to_1e_9(seed, order, loops):
+    assert _compare_loops(seed, order, loops) > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "order", "loops"), SLOW_CASES_LOOPS)
+def test_more_loop_at_a_time_margins_match(seed, order, loops):
+    assert _compare_loops(seed, order, loops) >= 0
+
+
+# --- random plants against the reference -------------------------------------------------
+
+CASES = [(seed, order, loops) for seed, (order, loops) in enumerate([(4, 2), (8, 2), (12, 3), (16, 2), (20, 3), (6, 4)])]
+SLOW_CASES = [(100 + k, 10 + (k * 7) % 31, 2 + k % 3) for k in range(12)]
+
+
+def _compare_together(seed: int, order: int, loops: int) -> None:
+    rng = np.random.default_rng(seed)
+    a, b, c, d = random_plant(rng, order, loops, feedthrough=seed % 3 == 1, axis=seed % 2)
+    assert closed_loop_abscissa(a, b, c, d) < 0
+    mine = multi_loop_disk_margin(checked_plant(a, b, c, d, "random"))
+    low, where = reference_lower(a, b, c, d)  # mu >= low somewhere: alpha <= 1/low
+    high = reference_upper(sensitivity_response(a, b, c, d, [where])[0])
+    assert mine.alpha_lower <= (1.0 / low) * (1 + 1e-9), "the certified lower bound exceeds a destabilizing perturbation"
+    assert max(mine.alpha_lower, 1.0 / high) <= min(mine.alpha_upper, 1.0 / low) * (1 + 1e-6), "brackets do not overlap"
+    if loops <= 3:
+        assert mine.status == "certified" and mine.gap <= GAP
+    p = response(a, b, c, d, [mine.frequency])[0]
+    delta = np.array(mine.delta)
+    f = np.diag((1 + delta / 2) / (1 - delta / 2))
+    assert abs(np.linalg.det(np.eye(loops) + p @ f)) < 1e-7 * max(1.0, np.abs(p).max()) ** loops
+
+
+@pytest.mark.parametrize(("seed", "order", "loops"), CASES)
+def test_random_plants_bracket_the_reference(seed, order, loops):
+    _compare_together(seed, order, loops)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "order", "loops"), SLOW_CASES)
+def test_more_random_plants_bracket_the_reference(seed, order, loops):
+    _compare_together(seed, order, loops)
