@@ -12,11 +12,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from engine.analysis import LoopAnalysis, analyze, unity_feedback
+from engine.analysis import LoopAnalysis, analyze, closed_loop_peaks, unity_feedback
 from engine.errors import EngineError
+from engine.loop.responses import loop_model
+from engine.margins.disk import DiskMargin
+from engine.margins.peaks import Peak
+from engine.margins.search import Margins, margins
 from engine.model.blocks import StateSpaceTransfer
-from engine.multiloop.disk import MultiLoopDiskMargin, multi_loop_disk_margin
-from engine.multiloop.plant import Plant, loop_at
+from engine.multiloop.disk import STABLE, MultiLoopDiskMargin, multi_loop_disk_margin
+from engine.multiloop.plant import Plant, closed_loop_poles, loop_at
 
 
 @dataclass(frozen=True)
@@ -54,3 +58,30 @@ def analyze_breaks(
         network = unity_feedback(["1"], state_space=break_loop(plant, name, source))
         found.append((name, analyze(network, "e", w, {}, skew=skew)))
     return LoopsAnalysis(tuple(found), multi_loop_disk_margin(plant, skew) if together else None)
+
+
+@dataclass(frozen=True)
+class BreakMargins:
+    """One break's margins alone (no closed-loop pole list, no fixed modes): gain, phase and delay
+    margins at every crossing, the disk margin, Ms and Mt."""
+
+    name: str
+    margins: Margins
+    disk_margin: DiskMargin | None
+    sensitivity_peak: Peak | None
+    complementary_peak: Peak | None
+
+
+def break_margins(plant: Plant, omega: ArrayLike, skew: float = 0.0) -> tuple[BreakMargins, ...]:
+    """Every break's margins by the single-loop search, the closed loop's stability read once from
+    the plant (the same closed loop at every break: eigenvalues of A - B (I + D)^-1 C)."""
+    poles = closed_loop_poles(plant)
+    size = 1.0 + (np.abs(plant.A).sum(axis=0).max() if plant.order else 0.0)
+    verdict = "stable" if not poles.size or poles.real.max() < -STABLE * size else "unstable"
+    w = np.asarray(omega, dtype=float)
+    out = []
+    for name in plant.names:
+        model = loop_model(unity_feedback(["1"], state_space=break_loop(plant, name)), "e", w, {})
+        disk, ms, mt, _ = closed_loop_peaks(model, verdict, skew)
+        out.append(BreakMargins(name, margins(model), disk, ms, mt))
+    return tuple(out)

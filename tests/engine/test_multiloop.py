@@ -9,7 +9,7 @@ margin alpha = 2), while both inputs perturbed at once give alpha = 0.0997 (gain
 
 from __future__ import annotations
 
-import math
+import time
 
 import numpy as np
 import pytest
@@ -17,9 +17,9 @@ from scipy import optimize
 
 from engine.analysis import analyze, unity_feedback
 from engine.errors import EngineError
-from engine.multiloop.disk import GAP, multi_loop_disk_margin
+from engine.multiloop.disk import GAP, LEVEL, System, certify, multi_loop_disk_margin, refined
 from engine.multiloop.loops import analyze_breaks, break_loop
-from engine.multiloop.plant import checked_plant, loop_at
+from engine.multiloop.plant import checked_plant, loop_at, sensitivity
 from tests.engine.multiloop_references import (
     closed_loop_abscissa,
     loop_from_matrix,
@@ -121,6 +121,21 @@ def test_a_skewed_satellite_margin_matches_the_reference(skew):
     assert d.alpha_lower <= 1.0 / peak * (1 + 1e-12) <= d.alpha_upper * (1 + 1e-9)
 
 
+def test_the_certificate_refuses_a_level_below_the_peak():
+    """The interval cover at gamma just above the peak's bound is certified; at 0.999 of the peak,
+    the certificate must stop at a frequency where mu's bound (scipy's, here) reaches gamma."""
+    plant = checked_plant(*satellite(), "satellite")
+    a, b, c, d = sensitivity(plant)
+    system = System(a, b, c, d - 0.5 * np.eye(2))
+    peak = refined(system, 0.04)
+    assert peak.low == pytest.approx(10.024937810560445, rel=1e-9)  # 1 / 0.0997512422417799, the reference's
+    assert certify(system, peak.high * (1 + LEVEL), peak, time.perf_counter())[0] == "certified"
+    gamma = 0.999 * peak.low
+    status, _, higher = certify(system, gamma, peak, time.perf_counter())
+    assert status == "higher peak"
+    assert reference_upper(sensitivity_response(*satellite(), [higher])[0]) >= gamma * (1 - 1e-12)
+
+
 def test_the_margin_does_not_depend_on_the_state_coordinates():
     a, b, c, d = random_plant(np.random.default_rng(11), 12, 3)
     t = 2.0 ** np.random.default_rng(12).integers(-30, 31, 12)
@@ -162,7 +177,9 @@ def reference_crossings(a, b, c, d, i: int) -> tuple[np.ndarray, np.ndarray]:
     """(gain crossovers |L| = 1, phase crossings of the negative real axis) of the loop at input i,
     L from the transfer matrix (`loop_from_matrix`): sign changes on a dense grid refined about
     every mode, each root by Brent's method to the last bits."""
-    modes = np.concatenate([np.linalg.eigvals(a), np.linalg.eigvals(a - b @ np.linalg.solve(np.eye(b.shape[1]) + d, c))])
+    modes = np.concatenate(
+        [np.linalg.eigvals(a), np.linalg.eigvals(a - b @ np.linalg.solve(np.eye(b.shape[1]) + d, c))]
+    )
     sizes = np.abs(modes[np.abs(modes) > 0])
     grid = [np.geomspace(sizes.min() / 1e3, sizes.max() * 1e3, 6000)]
     grid += [abs(p.imag) + max(abs(p.real), 1e-3 * abs(p)) * np.linspace(-4, 4, 40) for p in modes]  # not on a pole
@@ -223,8 +240,10 @@ def test_more_loop_at_a_time_margins_match(seed, order, loops):
 
 # --- random plants against the reference -------------------------------------------------
 
-CASES = [(seed, order, loops) for seed, (order, loops) in enumerate([(4, 2), (8, 2), (12, 3), (16, 2), (20, 3), (6, 4)])]
-SLOW_CASES = [(100 + k, 10 + (k * 7) % 31, 2 + k % 3) for k in range(12)]
+CASES = [
+    (seed, order, loops) for seed, (order, loops) in enumerate([(4, 2), (8, 2), (12, 3), (16, 2), (20, 3), (6, 4)])
+]
+SLOW_CASES = [(100 + k, 10 + (k * 7) % 31, 2 + k % 3) for k in range(30)]
 
 
 def _compare_together(seed: int, order: int, loops: int) -> None:
@@ -234,7 +253,9 @@ def _compare_together(seed: int, order: int, loops: int) -> None:
     mine = multi_loop_disk_margin(checked_plant(a, b, c, d, "random"))
     low, where = reference_lower(a, b, c, d)  # mu >= low somewhere: alpha <= 1/low
     high = reference_upper(sensitivity_response(a, b, c, d, [where])[0])
-    assert mine.alpha_lower <= (1.0 / low) * (1 + 1e-9), "the certified lower bound exceeds a destabilizing perturbation"
+    assert mine.alpha_lower <= (1.0 / low) * (1 + 1e-9), (
+        "the certified lower bound exceeds a destabilizing perturbation"
+    )
     assert max(mine.alpha_lower, 1.0 / high) <= min(mine.alpha_upper, 1.0 / low) * (1 + 1e-6), "brackets do not overlap"
     if loops <= 3:
         assert mine.status == "certified" and mine.gap <= GAP

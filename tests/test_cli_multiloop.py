@@ -1,0 +1,86 @@
+"""`loopcraft analyze --ss FILE` of a square plant of several inputs (issue 56): every loop
+at a time and the multi-loop disk margin, the JSON keys other programs read, and the
+refusals (a non-square plant, an unknown break, options a multi-loop plant does not take)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from tests.engine.test_multiloop import satellite
+from tui.cli import main
+
+
+def _run(capsys, *args) -> tuple[int, str, str]:
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture
+def satellite_file(tmp_path):
+    a, b, c, d = satellite()
+    path = tmp_path / "satellite.npz"
+    np.savez(path, A=a, B=b, C=c, D=d)
+    return str(path)
+
+
+def test_the_satellite_reports_both_loops_and_the_multi_loop_margin(capsys, satellite_file):
+    code, out, err = _run(capsys, "analyze", "--ss", satellite_file, "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert [loop["name"] for loop in data["loops"]] == ["u1", "u2"]
+    for loop in data["loops"]:
+        assert loop["gain_margins"] == [] and loop["closed_loop_stable"] is True
+        (pm,) = loop["phase_margins"]
+        assert pm["phase_deg"] == pytest.approx(90.0, rel=1e-12) and pm["frequency"] == pytest.approx(1.0, rel=1e-12)
+        assert loop["disk_margin"]["alpha"] == pytest.approx(2.0, rel=1e-9)
+    together = data["multi_loop_disk_margin"]
+    for key in ("alpha", "alpha_lower", "alpha_upper", "frequency", "gain_margin_db", "phase_margin_deg", "method"):
+        assert key in together
+    assert together["alpha_lower"] <= together["alpha"] <= together["alpha_upper"]
+    assert (together["alpha_upper"] - together["alpha_lower"]) / together["alpha_upper"] <= 1e-6
+    assert round(together["alpha"], 5) == 0.09975 and round(together["frequency"], 2) == 0.05
+    assert together["gain_margin_db"] == pytest.approx(0.87, abs=0.005)
+    assert together["phase_margin_deg"] == pytest.approx(5.71, abs=0.005)
+
+
+def test_one_break_is_reported_alone(capsys, satellite_file):
+    code, out, err = _run(capsys, "analyze", "--ss", satellite_file, "--break", "u2", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert [loop["name"] for loop in data["loops"]] == ["u2"] and data["multi_loop_disk_margin"] is None
+
+
+def test_the_text_names_every_loop_and_the_bracket(capsys, satellite_file):
+    code, out, _ = _run(capsys, "analyze", "--ss", satellite_file)
+    assert code == 0
+    assert "loop at input u1" in out and "loop at input u2" in out
+    assert "multi-loop disk margin (skew 0, every input at once): alpha 0.0997512" in out and "certified" in out
+
+
+@pytest.mark.parametrize(
+    ("extra", "says"),
+    [
+        (["--break", "u3"], "--break 'u3': the plant's breaks are u1, u2"),
+        (["--tf", "2"], "takes no --tf"),
+        (["--delay", "0.1"], "takes no --delay"),
+    ],
+)
+def test_what_a_multi_loop_plant_refuses_is_said(capsys, satellite_file, extra, says):
+    code, out, err = _run(capsys, "analyze", "--ss", satellite_file, *extra)
+    assert code == 2 and out == "" and says in err and "Traceback" not in err
+
+
+def test_a_non_square_plant_is_refused(capsys, tmp_path):
+    path = tmp_path / "wide.npz"
+    np.savez(path, A=-np.eye(3), B=np.ones((3, 2)), C=np.ones((3, 3)))
+    code, _, err = _run(capsys, "analyze", "--ss", str(path))
+    assert code == 2 and "2 inputs and 3 outputs" in err and "wide.npz" in err
+
+
+def test_a_break_of_a_typed_loop_is_refused(capsys):
+    code, _, err = _run(capsys, "analyze", "--tf", "1/s", "--break", "u1")
+    assert code == 2 and "--break u1" in err
