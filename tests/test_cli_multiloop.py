@@ -84,3 +84,20 @@ def test_a_non_square_plant_is_refused(capsys, tmp_path):
 def test_a_break_of_a_typed_loop_is_refused(capsys):
     code, _, err = _run(capsys, "analyze", "--tf", "1/s", "--break", "u1")
     assert code == 2 and "--break u1" in err
+
+
+def test_a_session_loop_broken_at_another_signal_of_one_loop_has_the_same_margins(capsys):
+    """One loop broken anywhere along it: the same loop gain turned round, so the same margins."""
+    from tests.test_layout import ROOT
+
+    session = str(ROOT / "sessions" / "examples" / "cip_launch_vehicle.json")
+    _, at_e, _ = _run(capsys, "analyze", session, "--json")
+    code, at_u, err = _run(capsys, "analyze", session, "--break", "vehicle.u", "--json")
+    assert code == 0, err
+    a, b = json.loads(at_e)["phase_margins"], json.loads(at_u)["phase_margins"]
+    assert len(a) == len(b) > 0
+    for x, y in zip(a, b):
+        assert x["frequency"] == pytest.approx(y["frequency"], rel=1e-9)
+        assert x["phase_deg"] == pytest.approx(y["phase_deg"], rel=1e-9)
+    code, _, err = _run(capsys, "analyze", session, "--break", "nope")
+    assert code == 2 and "--break 'nope'" in err and "vehicle.u" in err
