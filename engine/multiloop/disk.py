@@ -46,6 +46,7 @@ PER_DECADE = 24  # grid points a decade
 REFINED = 1  # local maxima of the grid refined (a higher one missed: the certificate finds it)
 CLOSE = 0.8  # ... those at least this fraction of the best
 EXACT_UP_TO = 3  # scalar blocks for which mu's D-scale bound is mu
+NUDGE = 1e-3  # log-scale step away from a scale under which gamma is a singular value of the feedthrough
 MODAL_CONDITION = 1e6  # cond(V) of the closed loop's eigenvectors up to which the searches use the modal sum
 
 
@@ -219,8 +220,9 @@ def _test(system: System, gamma: float, lo: float, hi: float, x: NDArray, cover:
     """One interval under one scale: the parts above gamma go back on the list with new scales."""
     cover.tests += 1
     cut = crossings(*system.scaled(x), gamma)
-    if cut is None:  # gamma a singular value of the scaled feedthrough: another scale, the interval halved
-        cut = np.array([_middle(lo, hi)])
+    if cut is None:  # gamma a singular value of the scaled feedthrough: no test; again with a scale moved
+        cover.todo.append((lo, hi, x + NUDGE * np.arange(x.size)[::-1]))
+        return
     points = [lo, *cut[(cut > lo) & (cut < hi)], hi]
     for a, b in zip(points[:-1], points[1:]):
         w = _middle(a, b)

@@ -5,10 +5,14 @@ The spinning satellite (a = 10, unity feedback broken at the plant inputs): Doyl
 section 4 of Seiler, Packard and Gahinet 2020, "An introduction to disk margins" (IEEE
 Control Systems Magazine 40(5)): each loop alone is 1/s (infinite gain margin, 90 deg, disk
 margin alpha = 2), while both inputs perturbed at once give alpha = 0.0997 (gain
-0.905..1.105, -0.87..+0.87 dB, phase 5.71 deg) near 0.05 rad/s."""
+0.905..1.105, -0.87..+0.87 dB, phase 5.71 deg) near 0.05 rad/s.
+
+Random plants: six of orders 4-20 (2-4 loops) in every run; LOOPCRAFT_MULTILOOP_CASES more
+(default 4) of orders 21-40 under the slow marker, and half as many loop-at-a-time ones."""
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -31,7 +35,8 @@ from tests.engine.multiloop_references import (
 )
 
 OMEGA = np.geomspace(1e-3, 1e3, 400)
-SLOW_CASES_LOOPS = [(200 + k, 8 + (k * 5) % 33, 2 + k % 3) for k in range(8)]
+MORE = int(os.environ.get("LOOPCRAFT_MULTILOOP_CASES", "4"))  # random plants of orders 21-40 beyond make test's
+SLOW_CASES_LOOPS = [(200 + k, 21 + (k * 5) % 20, 2 + k % 3) for k in range(max(MORE // 2, 1))]
 A_SPIN = 10.0
 
 
@@ -243,7 +248,7 @@ def test_more_loop_at_a_time_margins_match(seed, order, loops):
 CASES = [
     (seed, order, loops) for seed, (order, loops) in enumerate([(4, 2), (8, 2), (12, 3), (16, 2), (20, 3), (6, 4)])
 ]
-SLOW_CASES = [(100 + k, 10 + (k * 7) % 31, 2 + k % 3) for k in range(30)]
+SLOW_CASES = [(100 + k, 21 + (k * 7) % 20, 2 + k % 3) for k in range(MORE)]
 
 
 def _compare_together(seed: int, order: int, loops: int) -> None:
@@ -274,3 +279,35 @@ def test_random_plants_bracket_the_reference(seed, order, loops):
 @pytest.mark.parametrize(("seed", "order", "loops"), SLOW_CASES)
 def test_more_random_plants_bracket_the_reference(seed, order, loops):
     _compare_together(seed, order, loops)
+
+
+# --- python-control's MIMO disk_margins (SLICOT's AB13MD on a grid), where slycot is installed ---
+
+
+def _python_control_cases():
+    import control as ct
+
+    p = ct.ss([[0, 10], [-10, 0]], np.eye(2), [[1, 10], [-10, 1]], 0)
+    k = ct.ss([], [], [], [[1, -2], [0, 1]])  # the example of disk_margins' docstring (as MATLAB's diskmargin)
+    yield p
+    yield p * k
+    for seed in range(4):
+        yield ct.ss(*random_plant(np.random.default_rng(300 + seed), 10, 2 + seed % 2))
+
+
+@pytest.mark.slow
+def test_python_control_on_a_grid_agrees_within_its_resolution():
+    """On its grid python-control's alpha is the minimum of 1/mu over the grid's points, so at least
+    the true alpha (for up to three loops AB13MD's bound is mu): never below our alpha_lower; with our
+    worst frequency added to its grid it gives our alpha_upper."""
+    pytest.importorskip("slycot")
+    import control as ct
+
+    for loop in _python_control_cases():
+        mine = multi_loop_disk_margin(checked_plant(loop.A, loop.B, loop.C, loop.D, "python-control case"))
+        grid = np.logspace(-3, 3, 2000)
+        theirs = float(ct.disk_margins(loop, grid)[0])
+        there = float(ct.disk_margins(loop, np.array([mine.frequency]))[0])
+        assert mine.status == "certified"
+        assert mine.alpha_lower <= theirs * (1 + 1e-9)
+        assert there == pytest.approx(mine.alpha_upper, rel=1e-9)
