@@ -101,3 +101,20 @@ def test_a_session_loop_broken_at_another_signal_of_one_loop_has_the_same_margin
         assert x["phase_deg"] == pytest.approx(y["phase_deg"], rel=1e-9)
     code, _, err = _run(capsys, "analyze", session, "--break", "nope")
     assert code == 2 and "--break 'nope'" in err and "vehicle.u" in err
+
+
+def test_a_plant_in_z_reports_rad_s_and_needs_its_sample_time(capsys, tmp_path):
+    from scipy.signal import cont2discrete
+
+    a, b, c, d, _ = cont2discrete(satellite(), 0.01, method="zoh")
+    path = tmp_path / "in_z.npz"
+    np.savez(path, A=a, B=b, C=c, D=d)
+    code, out, err = _run(capsys, "analyze", "--ss", str(path), "--variable", "z", "--sample-time", "0.01", "--json")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["variable"] == "z" and data["sample_time"] == 0.01
+    assert all(loop["sample_time"] == 0.01 for loop in data["loops"])
+    together = data["multi_loop_disk_margin"]
+    assert together["certified"] and 0 < together["frequency"] < np.pi / 0.01
+    code, _, err = _run(capsys, "analyze", "--ss", str(path), "--variable", "z")
+    assert code == 2 and "--sample-time" in err

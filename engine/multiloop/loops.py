@@ -6,8 +6,9 @@ poles), and the multi-loop disk margin (`engine.multiloop.disk`) is computed onc
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -15,12 +16,14 @@ from numpy.typing import ArrayLike
 from engine.analysis import LoopAnalysis, analyze, closed_loop_peaks, unity_feedback
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
+from engine.loop.sampled import analyze_sampled
 from engine.margins.disk import DiskMargin
 from engine.margins.peaks import Peak
 from engine.margins.search import Margins, margins
+from engine.model.bilinear import real_frequency, realization_in_w
 from engine.model.blocks import StateSpaceTransfer
 from engine.multiloop.disk import STABLE, MultiLoopDiskMargin, multi_loop_disk_margin
-from engine.multiloop.plant import Plant, closed_loop_poles, loop_at
+from engine.multiloop.plant import Plant, balanced_plant, closed_loop_poles, loop_at
 
 
 @dataclass(frozen=True)
@@ -49,15 +52,40 @@ def analyze_breaks(
     skew: float = 0.0,
     together: bool = True,
     source: str = "plant",
+    sample_time: float | None = None,
 ) -> LoopsAnalysis:
-    """Loop at a time at each of ``breaks`` (all when None) and, when ``together``, all at once."""
+    """Loop at a time at each of ``breaks`` (all when None) and, when ``together``, all at once;
+    with a ``sample_time`` the plant is in z (x[k+1] = A x[k] + B u[k]): each loop by the sampled
+    analysis (`engine.loop.sampled`), all together on the plant's w-plane form (`sampled_together`)."""
     names = list(plant.names if breaks is None else breaks)
     w = np.asarray(omega, dtype=float)
     found = []
     for name in names:
-        network = unity_feedback(["1"], state_space=break_loop(plant, name, source))
-        found.append((name, analyze(network, "e", w, {}, skew=skew)))
-    return LoopsAnalysis(tuple(found), multi_loop_disk_margin(plant, skew) if together else None)
+        transfer = break_loop(plant, name, source)
+        if sample_time is None:
+            found.append((name, analyze(unity_feedback(["1"], state_space=transfer), "e", w, {}, skew=skew)))
+        else:
+            network = unity_feedback(["1"], "z", state_space=transfer)
+            found.append((name, analyze_sampled(network, "e", w, {}, sample_time, skew=skew)))
+    if not together:
+        return LoopsAnalysis(tuple(found), None)
+    return LoopsAnalysis(
+        tuple(found),
+        multi_loop_disk_margin(plant, skew) if sample_time is None else sampled_together(plant, sample_time, skew),
+    )
+
+
+def sampled_together(plant: Plant, sample_time: float, skew: float = 0.0) -> MultiLoopDiskMargin:
+    """The multi-loop disk margin of a plant in z: that of its w-plane form (z = (1 + w)/(1 - w) maps
+    the unit circle onto the imaginary axis, so the maximum of mu over frequency is the same), its
+    frequency nu back in rad/s, omega = 2 atan(nu) / T (inf: the Nyquist frequency)."""
+    a, b, c, d = realization_in_w(plant.A, plant.B, plant.C, plant.D)
+    found = multi_loop_disk_margin(balanced_plant(Plant(a, b, c, d, plant.names)), skew)
+    omega = float(real_frequency(found.frequency, sample_time)) if math.isfinite(found.frequency) else math.nan
+    if found.frequency == math.inf:
+        omega = math.pi / sample_time
+    note = f"a plant in z (sample time {sample_time:g} s): searched on its w-plane form, the frequency in rad/s"
+    return replace(found, frequency=omega, notes=found.notes + (note,))
 
 
 @dataclass(frozen=True)

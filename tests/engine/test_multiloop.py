@@ -25,6 +25,7 @@ from engine.multiloop.disk import GAP, LEVEL, System, certify, multi_loop_disk_m
 from engine.multiloop.loops import analyze_breaks, break_loop
 from engine.multiloop.plant import checked_plant, loop_at, sensitivity
 from tests.engine.multiloop_references import (
+    coarse_lower,
     closed_loop_abscissa,
     loop_from_matrix,
     random_plant,
@@ -311,3 +312,58 @@ def test_python_control_on_a_grid_agrees_within_its_resolution():
         assert mine.status == "certified"
         assert mine.alpha_lower <= theirs * (1 + 1e-9)
         assert there == pytest.approx(mine.alpha_upper, rel=1e-9)
+
+
+# --- a plant in z ---------------------------------------------------------------------------
+
+
+def z_reference(a, b, c, d, sample_time: float) -> float:
+    """max over 0 < omega < pi/T of mu's lower bound of S(e^{j omega T}) - I/2: a dense grid, phases
+    on a grid, the best three refined by Nelder-Mead over (log omega, phases)."""
+    m = b.shape[1]
+
+    def sens(w):
+        z = np.exp(1j * np.atleast_1d(w) * sample_time)
+        p = np.array([c @ np.linalg.solve(x * np.eye(a.shape[0]) - a, b) + d for x in z])
+        return np.linalg.inv(np.eye(m) + p) - 0.5 * np.eye(m)
+
+    omega = np.geomspace(1e-4, np.pi / sample_time * (1 - 1e-9), 4000)
+    low = coarse_lower(sens(omega))
+    best = 0.0
+    for k in np.argsort(low)[::-1][:3]:
+
+        def f(v):
+            mat = sens(min(np.exp(v[0]), np.pi / sample_time))[0]
+            return -np.abs(np.linalg.eigvals(mat * np.exp(1j * np.append(v[1:], 0.0))[None, :])).max()
+
+        found = optimize.minimize(
+            f, [np.log(omega[k]), *np.zeros(m - 1)], method="Nelder-Mead", options={"xatol": 1e-12}
+        )
+        best = max(best, -found.fun, low[k])
+    return best
+
+
+@pytest.mark.parametrize("seed", [None, 7])
+def test_a_plant_in_z_is_analyzed_through_its_w_plane_form(seed):
+    from scipy.signal import cont2discrete
+
+    T = 0.01 if seed is None else 0.05
+    plant = satellite() if seed is None else random_plant(np.random.default_rng(seed), 8, 2)
+    a, b, c, d, _ = cont2discrete(plant, T, method="zoh")
+    result = analyze_breaks(
+        checked_plant(a, b, c, d, "in z"), np.geomspace(1e-3, np.pi / T * 0.999, 300), sample_time=T
+    )
+    together = result.together
+    peak = z_reference(a, b, c, d, T)
+    assert together.status == "certified" and together.gap <= GAP
+    assert together.alpha_lower <= 1.0 / peak * (1 + 1e-12) and together.alpha_upper == pytest.approx(
+        1.0 / peak, rel=1e-6
+    )
+    assert 0 <= together.frequency <= np.pi / T
+    for i, (name, mine) in enumerate(result.loops):
+        assert mine.margins.phase, name
+        for p in mine.margins.phase:
+            z = np.exp(1j * p.frequency * T)
+            loop = loop_from_matrix((c @ np.linalg.solve(z * np.eye(a.shape[0]) - a, b) + d)[None], i)[0]
+            assert abs(loop) == pytest.approx(1.0, rel=1e-9), name
+            assert abs((p.phase_deg - 180.0 - np.degrees(np.angle(loop)) + 180.0) % 360.0 - 180.0) < 1e-7, name

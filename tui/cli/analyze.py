@@ -386,8 +386,7 @@ def _multi_loop_refused(args: argparse.Namespace) -> str | None:
         ("--locus", args.locus),
         ("--param", args.param),
         ("--held", args.held),
-        ("--sample-time", args.sample_time),
-        ("--variable " + args.variable, args.variable != "s"),
+        ("--variable w", args.variable == "w"),
     ]
     named = [name for name, value in given if value]
     return ", ".join(named) or None
@@ -409,14 +408,29 @@ def _multi_loop(args: argparse.Namespace, m: dict) -> int:
     if args.break_name is not None and args.break_name not in plant.names:
         raise CliError(f"--break {args.break_name!r}: the plant's breaks are {', '.join(plant.names)}")
     breaks = None if args.break_name is None else [args.break_name]
-    omega = np.geomspace(args.wmin, args.wmax, args.points)
+    omega, T = _multi_loop_grid(args)
     with np.errstate(all="ignore"):
-        result = analyze_breaks(plant, omega, breaks, args.skew, together=breaks is None, source=where)
+        result = analyze_breaks(plant, omega, breaks, args.skew, breaks is None, where, T)
     if args.json:
-        print(json.dumps(loops_to_json(result), indent=2, sort_keys=True))
+        print(json.dumps(loops_to_json(result, args.variable, T), indent=2, sort_keys=True))
     else:
-        print(loops_to_text(result, args.ss))
+        print(loops_to_text(result, args.ss, args.variable, T))
     return 0
+
+
+def _multi_loop_grid(args: argparse.Namespace):
+    """(the plot grid, the sample time or None) of a multi-loop plant: in z, up to the Nyquist frequency."""
+    import numpy as np
+
+    if args.variable != "z":
+        if args.sample_time is not None:
+            raise CliError("--sample-time is a loop in z's: give --variable z (and the plant in z)")
+        return np.geomspace(args.wmin, args.wmax, args.points), None
+    T = args.sample_time
+    if T is None or not (math.isfinite(T) and T > 0):
+        raise CliError("--variable z needs --sample-time T (seconds, finite, > 0): the frequencies are in rad/s")
+    nyquist = math.pi / T
+    return np.geomspace(min(args.wmin, 1e-3 * nyquist), nyquist * (1 - 1e-9), args.points), T
 
 
 def multi_loop_to_json(d) -> dict | None:
@@ -446,22 +460,24 @@ def multi_loop_to_json(d) -> dict | None:
     }
 
 
-def loops_to_json(result) -> dict:
+def loops_to_json(result, variable: str = "s", sample_time: float | None = None) -> dict:
     """The JSON object of `analyze --ss FILE --json` for a multi-loop plant: ``loops`` (one object
     per break: its name and the keys of one loop's analysis) and ``multi_loop_disk_margin``."""
     return {
-        "variable": "s",
+        "variable": variable,
+        "sample_time": sample_time,
         "breaks": [name for name, _ in result.loops],
-        "loops": [{"name": name, **analysis_to_json(a)} for name, a in result.loops],
+        "loops": [{"name": name, **analysis_to_json(a, variable, sample_time=sample_time)} for name, a in result.loops],
         "multi_loop_disk_margin": multi_loop_to_json(result.together),
     }
 
 
-def loops_to_text(result, source: str) -> str:
+def loops_to_text(result, source: str, variable: str = "s", sample_time: float | None = None) -> str:
     """Each loop's table (`analysis_to_text`) under its break's name, then the multi-loop disk margin."""
     parts = []
     for name, a in result.loops:
-        parts.append(analysis_to_text(a, [f"loop at input {name} of {source}, every other loop closed"]))
+        shown = [f"loop at input {name} of {source}, every other loop closed"]
+        parts.append(analysis_to_text(a, shown, variable, 0.0, sample_time))
         parts.append("")
     d = result.together
     if d is not None:
