@@ -25,8 +25,8 @@ from engine.multiloop.disk import GAP, LEVEL, System, certify, multi_loop_disk_m
 from engine.multiloop.loops import analyze_breaks, break_loop
 from engine.multiloop.plant import checked_plant, loop_at, sensitivity
 from tests.engine.multiloop_references import (
-    coarse_lower,
     closed_loop_abscissa,
+    coarse_lower,
     loop_from_matrix,
     random_plant,
     reference_lower,
