@@ -118,3 +118,17 @@ def test_a_plant_in_z_reports_rad_s_and_needs_its_sample_time(capsys, tmp_path):
     assert together["certified"] and 0 < together["frequency"] < np.pi / 0.01
     code, _, err = _run(capsys, "analyze", "--ss", str(path), "--variable", "z")
     assert code == 2 and "--sample-time" in err
+
+
+def test_the_simultaneous_margins_are_asked_for(capsys, satellite_file):
+    code, out, err = _run(capsys, "analyze", "--ss", satellite_file, "--simultaneous", "--json")
+    assert code == 0, err
+    found = json.loads(out)["simultaneous_margins"]
+    assert found["gain"]["unit"] == "dB" and found["gain"]["lower"] <= found["gain"]["upper"]
+    assert found["phase"]["status"] == "tight"
+    _, out, _ = _run(capsys, "analyze", "--ss", satellite_file, "--json")
+    assert json.loads(out)["simultaneous_margins"] is None
+    code, _, err = _run(capsys, "analyze", "--ss", satellite_file, "--simultaneous", "--break", "u1")
+    assert code == 2 and "--simultaneous" in err
+    code, _, err = _run(capsys, "analyze", "--tf", "1/s", "--simultaneous")
+    assert code == 2 and "--simultaneous" in err

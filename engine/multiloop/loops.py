@@ -24,15 +24,19 @@ from engine.model.bilinear import real_frequency, realization_in_w
 from engine.model.blocks import StateSpaceTransfer
 from engine.multiloop.disk import STABLE, MultiLoopDiskMargin, multi_loop_disk_margin
 from engine.multiloop.plant import Plant, balanced_plant, closed_loop_poles, loop_at
+from engine.multiloop.simultaneous import SimultaneousMargin, simultaneous
 
 
 @dataclass(frozen=True)
 class LoopsAnalysis:
     """``loops``: (break name, its single-loop analysis) for each break asked for;
-    ``together``: the multi-loop disk margin (None when not asked for)."""
+    ``together``: the multi-loop disk margin (None when not asked for); ``gain_only``,
+    ``phase_only``: the simultaneous margins (None when not asked for)."""
 
     loops: tuple[tuple[str, LoopAnalysis], ...]
     together: MultiLoopDiskMargin | None
+    gain_only: SimultaneousMargin | None = None
+    phase_only: SimultaneousMargin | None = None
 
 
 def break_loop(plant: Plant, name: str, source: str = "plant") -> StateSpaceTransfer:
@@ -53,10 +57,13 @@ def analyze_breaks(
     together: bool = True,
     source: str = "plant",
     sample_time: float | None = None,
+    both_kinds: bool = False,
 ) -> LoopsAnalysis:
     """Loop at a time at each of ``breaks`` (all when None) and, when ``together``, all at once;
     with a ``sample_time`` the plant is in z (x[k+1] = A x[k] + B u[k]): each loop by the sampled
-    analysis (`engine.loop.sampled`), all together on the plant's w-plane form (`sampled_together`)."""
+    analysis (`engine.loop.sampled`), all together on the plant's w-plane form (`sampled_together`);
+    ``both_kinds``: the simultaneous gain-only and phase-only margins too (a plant in s), bracketed
+    from the balanced (skew 0) disk (`engine.multiloop.simultaneous`)."""
     names = list(plant.names if breaks is None else breaks)
     w = np.asarray(omega, dtype=float)
     found = []
@@ -69,10 +76,12 @@ def analyze_breaks(
             found.append((name, analyze_sampled(network, "e", w, {}, sample_time, skew=skew)))
     if not together:
         return LoopsAnalysis(tuple(found), None)
-    return LoopsAnalysis(
-        tuple(found),
-        multi_loop_disk_margin(plant, skew) if sample_time is None else sampled_together(plant, sample_time, skew),
-    )
+    disk = multi_loop_disk_margin(plant, skew) if sample_time is None else sampled_together(plant, sample_time, skew)
+    if not both_kinds or sample_time is not None:
+        return LoopsAnalysis(tuple(found), disk)
+    balanced = disk if skew == 0 else multi_loop_disk_margin(plant)
+    gain, phase = simultaneous(plant, "gain", balanced), simultaneous(plant, "phase", balanced)
+    return LoopsAnalysis(tuple(found), disk, gain, phase)
 
 
 def sampled_together(plant: Plant, sample_time: float, skew: float = 0.0) -> MultiLoopDiskMargin:

@@ -24,6 +24,7 @@ from engine.errors import EngineError
 from engine.multiloop.disk import GAP, LEVEL, System, certify, multi_loop_disk_margin, refined
 from engine.multiloop.loops import analyze_breaks, break_loop
 from engine.multiloop.plant import checked_plant, loop_at, sensitivity
+from engine.multiloop.simultaneous import simultaneous
 from tests.engine.multiloop_references import (
     closed_loop_abscissa,
     coarse_lower,
@@ -367,3 +368,53 @@ def test_a_plant_in_z_is_analyzed_through_its_w_plane_form(seed):
             loop = loop_from_matrix((c @ np.linalg.solve(z * np.eye(a.shape[0]) - a, b) + d)[None], i)[0]
             assert abs(loop) == pytest.approx(1.0, rel=1e-9), name
             assert abs((p.phase_deg - 180.0 - np.degrees(np.angle(loop)) + 180.0) % 360.0 - 180.0) < 1e-7, name
+
+
+# --- simultaneous gain-only and phase-only margins -------------------------------------------
+
+
+def satellite_characteristic(f1: complex, f2: complex, a: float = A_SPIN) -> np.ndarray:
+    """Roots of det(sI - A + B F C) for the satellite with input factors f1, f2, worked out by hand:
+    s^2 + (f1 + f2) s + f1 f2 + a^2 (1 - f1)(1 - f2)."""
+    return np.roots([1.0, f1 + f2, f1 * f2 + a * a * (1 - f1) * (1 - f2)])
+
+
+def test_the_satellite_simultaneous_gain_margin_is_its_closed_form():
+    """Gains k and 1/k: the determinant 1 - a^2 (k - 1)^2 / k reaches 0 at (k - 1)^2 / k = 1/a^2."""
+    plant = checked_plant(*satellite(), "satellite")
+    disk = multi_loop_disk_margin(plant)
+    found = simultaneous(plant, "gain", disk)
+    k = optimize.brentq(lambda x: (x - 1) ** 2 / x - 1 / A_SPIN**2, 1.0 + 1e-9, 2.0, xtol=1e-15)
+    assert found.upper == pytest.approx(20 * np.log10(k), rel=1e-9)
+    assert found.lower == pytest.approx(disk.gain_db, rel=1e-12) and found.lower <= found.upper
+    f1, f2 = 10 ** (np.array(found.perturbation) / 20)
+    assert satellite_characteristic(f1, f2).real.max() == pytest.approx(0.0, abs=1e-9)
+
+
+def test_the_satellite_simultaneous_phase_margin_is_the_disk_s():
+    plant = checked_plant(*satellite(), "satellite")
+    disk = multi_loop_disk_margin(plant)
+    found = simultaneous(plant, "phase", disk)
+    assert found.status == "tight" and found.upper == pytest.approx(5.7106, abs=5e-5)
+    f1, f2 = np.exp(1j * np.radians(found.perturbation))
+    roots = satellite_characteristic(f1, f2)
+    k = np.argmax(roots.real)
+    assert abs(roots[k].real) < 1e-9 and abs(abs(roots[k].imag) - found.frequency) < 1e-9
+
+
+@pytest.mark.parametrize("kind", ["gain", "phase"])
+def test_simultaneous_changes_inside_the_lower_bound_are_stable_and_the_one_found_is_not(kind):
+    a, b, c, d = random_plant(np.random.default_rng(21), 10, 3)
+    plant = checked_plant(a, b, c, d, "random")
+    found = simultaneous(plant, kind, multi_loop_disk_margin(plant))
+    rng = np.random.default_rng(0)
+
+    def abscissa_of(values):
+        f = 10 ** (values / 20) if kind == "gain" else np.exp(1j * np.radians(values))
+        return np.linalg.eigvals(a - b @ np.diag(f) @ np.linalg.solve(np.eye(3) + d @ np.diag(f), c)).real.max()
+
+    inside = [abscissa_of(found.lower * rng.uniform(-1, 1, 3)) for _ in range(300)]
+    corners = [abscissa_of(found.lower * (1 - 1e-9) * (2 * np.array(s) - 1)) for s in np.ndindex(2, 2, 2)]
+    assert max(inside + corners) < 0
+    assert abscissa_of(np.array(found.perturbation)) == pytest.approx(0.0, abs=1e-9)
+    assert found.lower <= found.upper == pytest.approx(np.abs(found.perturbation).max(), rel=1e-12)

@@ -309,8 +309,9 @@ def _state_space_loop(args: argparse.Namespace, m: dict):
     from engine.analysis import unity_feedback
     from engine.model.blocks import StateSpaceTransfer
 
-    if args.break_name is not None:
-        raise CliError(f"--break {args.break_name}: the --ss model has one input and one output (one loop, at e)")
+    if args.break_name is not None or args.simultaneous:
+        what = f"--break {args.break_name}" if args.break_name is not None else "--simultaneous"
+        raise CliError(f"{what}: the --ss model has one input and one output (one loop, at e)")
     path = Path(args.ss)
     plant = StateSpaceTransfer(m["A"], m["B"], m["C"], m["D"], f"--ss {path.name}")
     return unity_feedback(args.tf or ["1"], args.variable, args.delay, state_space=plant)
@@ -326,6 +327,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         return _session_design(args)
     if args.table is not None and args.ss is not None:
         raise CliError("give --ss FILE or --table FILE.csv, not both")
+    if args.simultaneous and args.ss is None:
+        raise CliError("--simultaneous: the simultaneous margins of a multi-loop --ss plant (m inputs and m outputs)")
     if args.break_name is not None and args.ss is None:
         raise CliError(
             f"--break {args.break_name}: a loop break of a multi-loop --ss plant or of a session (FILE.json); "
@@ -409,8 +412,10 @@ def _multi_loop(args: argparse.Namespace, m: dict) -> int:
         raise CliError(f"--break {args.break_name!r}: the plant's breaks are {', '.join(plant.names)}")
     breaks = None if args.break_name is None else [args.break_name]
     omega, T = _multi_loop_grid(args)
+    if args.simultaneous and (T is not None or breaks is not None):
+        raise CliError("--simultaneous: every loop of a plant in s at once (not with --break or --variable z)")
     with np.errstate(all="ignore"):
-        result = analyze_breaks(plant, omega, breaks, args.skew, breaks is None, where, T)
+        result = analyze_breaks(plant, omega, breaks, args.skew, breaks is None, where, T, args.simultaneous)
     if args.json:
         print(json.dumps(loops_to_json(result, args.variable, T), indent=2, sort_keys=True))
     else:
@@ -469,6 +474,20 @@ def loops_to_json(result, variable: str = "s", sample_time: float | None = None)
         "breaks": [name for name, _ in result.loops],
         "loops": [{"name": name, **analysis_to_json(a, variable, sample_time=sample_time)} for name, a in result.loops],
         "multi_loop_disk_margin": multi_loop_to_json(result.together),
+        "simultaneous_margins": None
+        if result.gain_only is None
+        else {kind: _simultaneous_json(m) for kind, m in (("gain", result.gain_only), ("phase", result.phase_only))},
+    }
+
+
+def _simultaneous_json(m) -> dict:
+    return {
+        "lower": finite_or_none(m.lower),
+        "upper": finite_or_none(m.upper),
+        "unit": "dB" if m.kind == "gain" else "deg",
+        "perturbation": list(m.perturbation),
+        "frequency": finite_or_none(m.frequency),
+        "status": m.status,
     }
 
 
@@ -487,6 +506,13 @@ def loops_to_text(result, source: str, variable: str = "s", sample_time: float |
             f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')} {_at(d.frequency, 'rad/s')}"
         )
         parts.extend(f"note: {n}" for n in d.notes)
+    for m in (result.gain_only, result.phase_only):
+        if m is not None:
+            unit = "dB" if m.kind == "gain" else "deg"
+            parts.append(
+                f"simultaneous {m.kind}-only margin: +-{_num(m.lower, unit, '.6g')} guaranteed, "
+                f"destabilized at +-{_num(m.upper, unit, '.6g')} ({m.status})"
+            )
     return "\n".join(parts).rstrip()
 
 
@@ -655,6 +681,11 @@ def add_parser(sub) -> None:
         dest="break_name",
         metavar="NAME",
         help="--ss with several inputs: the one loop break to report (u1, u2, ...: the plant's inputs)",
+    )
+    p.add_argument(
+        "--simultaneous",
+        action="store_true",
+        help="--ss with several inputs: also the simultaneous gain-only and phase-only margins (bracketed)",
     )
     p.add_argument(
         "--columns",
