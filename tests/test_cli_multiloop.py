@@ -132,3 +132,26 @@ def test_the_simultaneous_margins_are_asked_for(capsys, satellite_file):
     assert code == 2 and "--simultaneous" in err
     code, _, err = _run(capsys, "analyze", "--tf", "1/s", "--simultaneous")
     assert code == 2 and "--simultaneous" in err
+
+
+def test_a_session_condition_lists_its_breaks_and_analyze_reports_each(capsys, tmp_path):
+    """`breaks` in the session format (absent: [break_at]): analyze FILE.json reports every one as
+    `loops`; each is the loop broken at that signal (one loop here: the same margins everywhere)."""
+    from tests.test_layout import ROOT
+
+    examples = ROOT / "sessions" / "examples"
+    data = json.loads((examples / "cip_launch_vehicle.json").read_text())
+    (tmp_path / "cip_launch_vehicle.csv").write_bytes((examples / "cip_launch_vehicle.csv").read_bytes())
+    data["problem"]["conditions"][0]["breaks"] = ["e", "vehicle.u"]
+    path = tmp_path / "breaks.json"
+    path.write_text(json.dumps(data))
+    code, out, err = _run(capsys, "analyze", str(path), "--json")
+    assert code == 0, err
+    found = json.loads(out)
+    assert [loop["name"] for loop in found["loops"]] == ["e", "vehicle.u"]
+    for loop in found["loops"]:
+        assert loop["phase_margins"][0]["frequency"] == pytest.approx(found["phase_margins"][0]["frequency"], rel=1e-9)
+    data["problem"]["conditions"][0]["breaks"] = ["e", "nowhere"]
+    path.write_text(json.dumps(data))
+    code, _, err = _run(capsys, "analyze", str(path))
+    assert code == 2 and "nowhere" in err

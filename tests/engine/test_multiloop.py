@@ -171,6 +171,15 @@ def test_a_bad_plant_is_refused_with_what_is_wrong(matrices, says):
         checked_plant(*matrices, "--ss bad.npz")
 
 
+def test_a_loop_that_is_not_well_posed_is_refused():
+    """D = -I: I + D is singular (an algebraic loop), at every break and all together."""
+    plant = checked_plant(-np.eye(2), np.eye(2), np.eye(2), -np.eye(2), "algebraic")
+    with pytest.raises(EngineError, match="not well posed"):
+        multi_loop_disk_margin(plant)
+    with pytest.raises(EngineError, match="u1: I \\+ D of the other loops is singular"):
+        loop_at(plant, 0)
+
+
 def test_a_bad_break_and_a_break_that_opens_no_loop_are_refused():
     plant = checked_plant(*satellite(), "satellite")
     with pytest.raises(EngineError, match="u1, u2"):

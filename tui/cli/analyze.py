@@ -586,6 +586,8 @@ def _session_design(args: argparse.Namespace) -> int:
     if break_at not in c.network.signals:
         raise CliError(f"--break {break_at!r}: {c.name}'s signals are {', '.join(c.network.signals)}")
     result = analyze(c.network, break_at, problem.grid.omega, values)
+    every = list(c.breaks) if args.break_name is None and tuple(c.breaks) not in ((), (c.break_at,)) else []
+    others = [(b, analyze(c.network, b, problem.grid.omega, values)) for b in every]
     parts = compensators(c.network, values)
     T = c.network.sample_time
     variable = "z" if T is not None else c.network.variable
@@ -596,10 +598,14 @@ def _session_design(args: argparse.Namespace) -> int:
                 for name, found in parts.items()
             }
         }
+        if others:
+            out["loops"] = [{"name": b, **analysis_to_json(r, variable, sample_time=T)} for b, r in others]
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
         print(analysis_to_text(result, [f"{c.name} at {break_at}, {design} of {args.file}"], variable, 0.0, T))
+        for b, r in others:
+            print("\n" + analysis_to_text(r, [f"{c.name} at {b} (breaks), {design} of {args.file}"], variable, 0.0, T))
         for name, found in parts.items():
             lines = [
                 f"  {name}.{item_name}: {i.reading(c.network.sample_time)}"
