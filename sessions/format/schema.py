@@ -20,9 +20,9 @@ from sessions.format.constraint_lines import ConstraintText
 from sessions.format.limits import (  # noqa: F401
     MAX_BANDS,
     MAX_BLOCKS,
+    MAX_BREAKS,
     MAX_CHANNELS,
     MAX_COEFFICIENTS,
-    MAX_BREAKS,
     MAX_CONDITIONS,
     MAX_CONSTRAINTS,
     MAX_EQUALITIES,
