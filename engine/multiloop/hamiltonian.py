@@ -26,6 +26,8 @@ def crossings(a: NDArray, b: NDArray, c: NDArray, d: NDArray, gamma: float) -> N
     """The frequencies omega >= 0 (sorted) where a singular value of G(j omega) may equal
     ``gamma`` (module docstring); None when gamma is a singular value of D (no test)."""
     m_in, m_out = b.shape[1], c.shape[0]
+    if a.shape[0] == 0:  # a static gain: its singular values are those of D at every frequency
+        return np.zeros(0) if np.all(np.abs(np.linalg.svd(d, compute_uv=False) - gamma) > 1e-12 * gamma) else None
     r = d.T @ d - gamma**2 * np.eye(m_in)
     s = d @ d.T - gamma**2 * np.eye(m_out)
     if min(abs(np.linalg.eigvalsh(r)).min(), abs(np.linalg.eigvalsh(s)).min()) <= 1e-12 * gamma**2:

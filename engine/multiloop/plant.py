@@ -78,6 +78,8 @@ def checked_plant(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where:
     """The plant of the four matrices (D 0 as a number: zero feedthrough), balanced; a
     `BlockError` naming ``where`` and what is wrong: not square, shapes, too many loops."""
     a, b, c, d = (_real(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D")))
+    if a.size == 0 and d.ndim == 2:  # no states: a static plant D ([] read as 0 x 0, B 0 x m, C m x 0)
+        a, b, c = np.zeros((0, 0)), np.zeros((0, d.shape[1])), np.zeros((d.shape[0], 0))
     n = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape[1] != n:
         raise BlockError(f"{where}: A must be a square matrix, not {' x '.join(map(str, a.shape)) or 'a number'}")

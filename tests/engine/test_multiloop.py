@@ -151,6 +151,18 @@ def test_the_margin_does_not_depend_on_the_state_coordinates():
     assert scaled.alpha_upper == pytest.approx(given.alpha_upper, rel=1e-9)
 
 
+@pytest.mark.parametrize("states", [0, 2])
+def test_a_worst_case_at_infinite_frequency_is_found_and_certified(states):
+    """A plant whose feedthrough couples the loops (a static gain, or with small fast dynamics): the
+    worst frequency is infinite, mu there that of (I + D)^-1 - I/2 (scipy's D-scale bound here)."""
+    d = np.array([[0.2, 1.5], [-1.2, 0.1]])
+    a, b, c = -5.0 * np.eye(states), 0.1 * np.eye(states)[:, :2], 0.1 * np.eye(states)[:2, :]
+    found = multi_loop_disk_margin(checked_plant(a, b.reshape(states, 2), c.reshape(2, states), d, "coupled"))
+    peak = reference_upper(np.linalg.inv(np.eye(2) + d) - 0.5 * np.eye(2))
+    assert found.status == "certified" and found.frequency == np.inf
+    assert found.alpha_lower <= 1.0 / peak * (1 + 1e-12) and found.alpha_upper == pytest.approx(1.0 / peak, rel=1e-9)
+
+
 def test_an_unstable_closed_loop_has_no_multi_loop_disk_margin():
     plant = checked_plant(-np.eye(2), np.eye(2), -2.0 * np.eye(2), 0.0, "unstable")  # P = -2/(s+1) I
     d = multi_loop_disk_margin(plant)
