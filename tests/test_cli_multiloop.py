@@ -149,6 +149,7 @@ def test_a_session_condition_lists_its_breaks_and_analyze_reports_each(capsys, t
     assert code == 0, err
     found = json.loads(out)
     assert [loop["name"] for loop in found["loops"]] == ["e", "vehicle.u"]
+    assert found["multi_loop_disk_margin"] is None and "no multi-loop disk margin" in err  # a table: no realization
     for loop in found["loops"]:
         assert loop["phase_margins"][0]["frequency"] == pytest.approx(found["phase_margins"][0]["frequency"], rel=1e-9)
     data["problem"]["conditions"][0]["breaks"] = ["e", "nowhere"]

@@ -439,3 +439,46 @@ def test_simultaneous_changes_inside_the_lower_bound_are_stable_and_the_one_foun
     assert max(inside + corners) < 0
     assert abscissa_of(np.array(found.perturbation)) == pytest.approx(0.0, abs=1e-9)
     assert found.lower <= found.upper == pytest.approx(np.abs(found.perturbation).max(), rel=1e-12)
+
+
+# --- breaks of a block diagram ----------------------------------------------------------------
+
+
+def two_by_two_diagram(k: float = 3.0):
+    """P = k [[1/(s+1), 0.5/(s+2)], [-0.8/(s+3), 2/(s+4)]] drawn as four blocks and two sums, u = r - y;
+    and the same plant realized by hand (A diag(-1, -2, -3, -4))."""
+    from engine.model.blocks import ExpressionTransfer
+    from engine.model.network import Block, Junction, block_diagram
+
+    entries = [("u1", "y1", f"{k}/(s+1)"), ("u2", "y1", f"{0.5 * k}/(s+2)"), ("u1", "y2", f"{-0.8 * k}/(s+3)")]
+    entries.append(("u2", "y2", f"{2 * k}/(s+4)"))
+    blocks = [Block(f"p{i}", u, f"a{i}", ExpressionTransfer(t)) for i, (u, _, t) in enumerate(entries)]
+    sums = [
+        Junction(f"s{y}", y, tuple((1.0, f"a{i}") for i, (_, to, _) in enumerate(entries) if to == y))
+        for y in ("y1", "y2")
+    ]
+    errors = [Junction(f"e{j}", f"u{j}", ((1.0, f"r{j}"), (-1.0, f"y{j}"))) for j in (1, 2)]
+    network = block_diagram(blocks, sums + errors, ["r1", "r2"], "s")
+    a = np.diag([-1.0, -2.0, -3.0, -4.0])
+    b = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 0.0], [0.0, 1.0]])
+    c = np.array([[k, 0.5 * k, 0.0, 0.0], [0.0, 0.0, -0.8 * k, 2 * k]])
+    return network, (a, b, c, np.zeros((2, 2)))
+
+
+def test_a_diagram_broken_at_two_signals_is_the_plant_realized_by_hand():
+    from engine.multiloop.network_breaks import diagram_disk_margin
+
+    network, matrices = two_by_two_diagram()
+    mine = diagram_disk_margin(network, ["u1", "u2"], {})
+    by_hand = multi_loop_disk_margin(checked_plant(*matrices, "by hand"))
+    peak, _ = reference_lower(*matrices)
+    assert mine.status == "certified" and mine.alpha_upper == pytest.approx(by_hand.alpha_upper, rel=1e-9)
+    assert mine.alpha_lower <= 1.0 / peak * (1 + 1e-12) and mine.alpha_upper == pytest.approx(1.0 / peak, rel=1e-6)
+    plant = checked_plant(*matrices, "by hand")
+    for name in ("u1", "u2"):
+        in_diagram = analyze(network, name, OMEGA, {})
+        alone = analyze(unity_feedback(["1"], state_space=break_loop(plant, name)), "e", OMEGA, {})
+        assert [p.frequency for p in in_diagram.margins.phase] == pytest.approx(
+            [p.frequency for p in alone.margins.phase], rel=1e-9
+        )
+        assert in_diagram.disk_margin.alpha == pytest.approx(alone.disk_margin.alpha, rel=1e-9)

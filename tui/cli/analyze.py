@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -588,6 +589,7 @@ def _session_design(args: argparse.Namespace) -> int:
     result = analyze(c.network, break_at, problem.grid.omega, values)
     every = list(c.breaks) if args.break_name is None and tuple(c.breaks) not in ((), (c.break_at,)) else []
     others = [(b, analyze(c.network, b, problem.grid.omega, values)) for b in every]
+    together = _diagram_together(c, every, values) if len(every) > 1 else None
     parts = compensators(c.network, values)
     T = c.network.sample_time
     variable = "z" if T is not None else c.network.variable
@@ -600,12 +602,17 @@ def _session_design(args: argparse.Namespace) -> int:
         }
         if others:
             out["loops"] = [{"name": b, **analysis_to_json(r, variable, sample_time=T)} for b, r in others]
+            out["multi_loop_disk_margin"] = multi_loop_to_json(together)
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
         print(analysis_to_text(result, [f"{c.name} at {break_at}, {design} of {args.file}"], variable, 0.0, T))
         for b, r in others:
             print("\n" + analysis_to_text(r, [f"{c.name} at {b} (breaks), {design} of {args.file}"], variable, 0.0, T))
+        if together is not None:
+            from engine.multiloop.loops import LoopsAnalysis
+
+            print("\n" + loops_to_text(LoopsAnalysis((), together), args.file))
         for name, found in parts.items():
             lines = [
                 f"  {name}.{item_name}: {i.reading(c.network.sample_time)}"
@@ -613,6 +620,19 @@ def _session_design(args: argparse.Namespace) -> int:
             ]
             print(f"compensator {name}:\n" + "\n".join(lines))
     return 0
+
+
+def _diagram_together(c, breaks: list[str], values):
+    """The multi-loop disk margin at a condition's breaks (None with a note on standard error when the
+    diagram has no realization: tables, delays)."""
+    from engine.errors import EngineError
+    from engine.multiloop.network_breaks import diagram_disk_margin
+
+    try:
+        return diagram_disk_margin(c.network, breaks, values)
+    except EngineError as exc:
+        print(f"note: {c.name}: no multi-loop disk margin at its breaks: {exc}", file=sys.stderr)
+        return None
 
 
 def _item_json(item) -> dict:
