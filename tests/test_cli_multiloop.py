@@ -156,3 +156,17 @@ def test_a_session_condition_lists_its_breaks_and_analyze_reports_each(capsys, t
     path.write_text(json.dumps(data))
     code, _, err = _run(capsys, "analyze", str(path))
     assert code == 2 and "nowhere" in err
+
+
+def test_a_break_that_opens_no_loop_and_an_unstable_loop_are_said(capsys, tmp_path):
+    path = tmp_path / "open.npz"
+    np.savez(path, A=-np.eye(2), B=[[1.0, 0.0], [0.0, 0.0]], C=np.eye(2))
+    code, out, err = _run(capsys, "analyze", "--ss", str(path))
+    assert code == 2 and out == "" and "u2: the loop seen there is 0 at every frequency" in err
+    path = tmp_path / "unstable.npz"
+    np.savez(path, A=-np.eye(2), B=np.eye(2), C=-2.0 * np.eye(2))  # P = -2/(s+1) I
+    code, out, err = _run(capsys, "analyze", "--ss", str(path), "--json")
+    assert code == 0, err
+    together = json.loads(out)["multi_loop_disk_margin"]
+    assert together["alpha"] == 0 and together["status"] == "unstable" and "not stable" in together["notes"][0]
+    assert all(loop["verdict"] == "unstable" for loop in json.loads(out)["loops"])
