@@ -240,14 +240,15 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
                 for j in plant.junctions
             ]
             network = block_diagram(blocks, junctions, plant.inputs, c.variable)
-        network.signal(c.break_at)
+        for name in [c.break_at, *(c.breaks or [])]:
+            network.signal(name)
         if c.sample_time is not None:
             network = sampled_network(network, c.sample_time)
     except SessionError:
         raise
     except EngineError as exc:
         raise SessionError(f"{path}: {exc}") from None
-    return Condition(c.name, network, c.break_at)
+    return Condition(c.name, network, c.break_at, tuple(c.breaks) if c.breaks else (c.break_at,))
 
 
 def _channels(plant: ChannelsModel, path: str, folder: Path, variable: str) -> Network:

@@ -67,6 +67,7 @@ class Condition:
     name: str
     network: Network
     break_at: str
+    breaks: tuple[str, ...] = ()  # every loop break analyze reports (empty: break_at alone)
 
 
 @dataclass(frozen=True)

@@ -72,16 +72,19 @@ class PoleZero:
             return terms.value.reshape(x.shape), (terms.value * terms.slope).reshape(x.shape)
 
     def cancelled(self) -> PoleZero:
-        """Without the zero-pole pairs that are the same root."""
-        zeros, poles = list(self.zeros), list(self.poles)
-        kept_zeros = []
-        for z in zeros:
-            match = _matching(poles, z)
-            if match is None:
-                kept_zeros.append(z)
-            else:
-                poles.pop(match)
-        return PoleZero(self.gain, np.array(kept_zeros, dtype=complex), np.array(poles, dtype=complex))
+        """Without the zero-pole pairs that are the same root (each zero in turn takes the first
+        pole left that is it within CANCEL, as `_matching`; all the distances in one array)."""
+        zeros, poles = np.asarray(self.zeros, dtype=complex), np.asarray(self.poles, dtype=complex)
+        with np.errstate(invalid="ignore"):
+            close = np.abs(zeros[:, None] - poles[None, :]) <= CANCEL * np.maximum(1.0, np.abs(poles))[None, :]
+        if not close.any():
+            return PoleZero(self.gain, zeros, poles)
+        left, kept = np.ones(poles.size, dtype=bool), np.ones(zeros.size, dtype=bool)
+        for i in np.flatnonzero(close.any(axis=1)):
+            match = np.flatnonzero(close[i] & left)
+            if match.size:
+                left[match[0]], kept[i] = False, False
+        return PoleZero(self.gain, zeros[kept], poles[left])
 
 
 POLE_ZERO: Form[PoleZero] = Form("pole zero")

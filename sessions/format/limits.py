@@ -23,6 +23,7 @@ from engine.model.state_space import (
 )
 
 MAX_CONDITIONS = 100
+MAX_BREAKS = 64  # loop breaks of one condition (its `breaks`)
 MAX_BLOCKS = 1000  # blocks of a diagram, entries of a matrix, compensators of a channel
 MAX_SIGNALS = 1000  # inputs of a diagram, its junctions, the signals of a matrix
 MAX_JUNCTION_INPUTS = 100  # signals into one junction (plus and minus each)

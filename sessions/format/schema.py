@@ -20,6 +20,7 @@ from sessions.format.constraint_lines import ConstraintText
 from sessions.format.limits import (  # noqa: F401
     MAX_BANDS,
     MAX_BLOCKS,
+    MAX_BREAKS,
     MAX_CHANNELS,
     MAX_COEFFICIENTS,
     MAX_CONDITIONS,
@@ -331,7 +332,16 @@ class ConditionModel(Strict):
     variable: Literal["s", "w", "z"] = "s"
     sample_time: Annotated[Number, Field(gt=0, description="s; a loop in z only")] | None = None
     break_at: str
+    breaks: _bounded(list[str], MAX_BREAKS) | None = Field(
+        default=None, description="every loop break (signals) analyze reports; absent: [break_at]"
+    )
     plant: Annotated[DiagramModel | MatrixModel | ChannelsModel | CascadeModel, Field(discriminator="format")]
+
+    @model_validator(mode="after")
+    def _breaks(self) -> ConditionModel:
+        if self.breaks is not None and len(set(self.breaks)) != len(self.breaks):
+            raise ValueError("breaks names a signal twice")
+        return self
 
     @model_validator(mode="after")
     def _sampled(self) -> ConditionModel:

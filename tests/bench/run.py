@@ -19,7 +19,7 @@ from collections.abc import Callable
 import control as ct
 import numpy as np
 
-from tests.bench import algorithms, analyze_path, loops, plots, shaping, startup, tolerance
+from tests.bench import algorithms, analyze_path, loops, multiloop, plots, shaping, startup, tolerance
 from tests.bench.common import missed, targets
 from tests.bench.loops import benchmark_loop  # tests/engine/test_margins_reference.py imports it from here
 
@@ -35,6 +35,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
         "analyze_path": analyze_path.analyze_path(r),
         "state_space_any_coordinates": analyze_path.state_space_any_coordinates(r),
     },
+    "multiloop": lambda r: multiloop.multiloop_figures(r),
     "cip": lambda r: {"cip": algorithms.cip_figures(r)},
     "qcg": lambda r: {"qcg_sample_convergence": algorithms.qcg_figures(r)},
     "projection": lambda r: {"projection": algorithms.projection_figures(r)},

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -289,15 +290,30 @@ def _table_loop(args: argparse.Namespace):
     return network, table.omega
 
 
-def _state_space_loop(args: argparse.Namespace):
+def _state_space_file(args: argparse.Namespace) -> dict:
+    """The matrices of the `--ss` file."""
+    from sessions.format.state_space_files import read_matrices
+
+    return read_matrices(Path(args.ss), f"--ss {args.ss}")
+
+
+def _several_loops(m: dict) -> bool:
+    """Whether the --ss model has more than one input or output (a multi-loop plant)."""
+    from engine.multiloop.plant import input_count
+
+    return input_count(m["B"], m["C"]) != (1, 1)
+
+
+def _state_space_loop(args: argparse.Namespace, m: dict):
     """The network of `analyze --ss`: the state space in the file (times any --tf
     expressions, a delay) with unity negative feedback, kept as state space."""
     from engine.analysis import unity_feedback
     from engine.model.blocks import StateSpaceTransfer
-    from sessions.format.state_space_files import read_matrices
 
+    if args.break_name is not None or args.simultaneous:
+        what = f"--break {args.break_name}" if args.break_name is not None else "--simultaneous"
+        raise CliError(f"{what}: the --ss model has one input and one output (one loop, at e)")
     path = Path(args.ss)
-    m = read_matrices(path, f"--ss {args.ss}")
     plant = StateSpaceTransfer(m["A"], m["B"], m["C"], m["D"], f"--ss {path.name}")
     return unity_feedback(args.tf or ["1"], args.variable, args.delay, state_space=plant)
 
@@ -312,10 +328,20 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         return _session_design(args)
     if args.table is not None and args.ss is not None:
         raise CliError("give --ss FILE or --table FILE.csv, not both")
+    if args.simultaneous and args.ss is None:
+        raise CliError("--simultaneous: the simultaneous margins of a multi-loop --ss plant (m inputs and m outputs)")
+    if args.break_name is not None and args.ss is None:
+        raise CliError(
+            f"--break {args.break_name}: a loop break of a multi-loop --ss plant or of a session (FILE.json); "
+            "a loop typed with --tf or --table is broken at e"
+        )
     if args.table is not None:
         network, omega = _table_loop(args)
     elif args.ss is not None:
-        network = _state_space_loop(args)
+        matrices = _state_space_file(args)
+        if _several_loops(matrices):
+            return _multi_loop(args, matrices)
+        network = _state_space_loop(args, matrices)
         omega = np.geomspace(args.wmin, args.wmax, args.points)
     elif args.variable == "z" and (args.tf or args.held):
         if args.delay and not args.held:
@@ -354,6 +380,141 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         if locus is not None:
             print(locus_to_text(locus))
     return 0
+
+
+def _multi_loop_refused(args: argparse.Namespace) -> str | None:
+    """The option a multi-loop --ss plant does not take with it, said (None: none given)."""
+    given = [
+        ("--tf", args.tf),
+        ("--delay", args.delay),
+        ("--locus", args.locus),
+        ("--param", args.param),
+        ("--held", args.held),
+        ("--variable w", args.variable == "w"),
+    ]
+    named = [name for name, value in given if value]
+    return ", ".join(named) or None
+
+
+def _multi_loop(args: argparse.Namespace, m: dict) -> int:
+    """`analyze --ss FILE` of a square plant of m > 1 inputs and outputs: every break (or the one
+    --break names) loop at a time, and all together (the multi-loop disk margin)."""
+    import numpy as np
+
+    from engine.multiloop.loops import analyze_breaks
+    from engine.multiloop.plant import checked_plant
+
+    refused = _multi_loop_refused(args)
+    if refused:
+        raise CliError(f"--ss {args.ss}: a multi-loop plant (unity feedback at its inputs) takes no {refused}")
+    where = f"--ss {Path(args.ss).name}"
+    plant = checked_plant(m["A"], m["B"], m["C"], m["D"], where)
+    if args.break_name is not None and args.break_name not in plant.names:
+        raise CliError(f"--break {args.break_name!r}: the plant's breaks are {', '.join(plant.names)}")
+    breaks = None if args.break_name is None else [args.break_name]
+    omega, T = _multi_loop_grid(args)
+    if args.simultaneous and (T is not None or breaks is not None):
+        raise CliError("--simultaneous: every loop of a plant in s at once (not with --break or --variable z)")
+    with np.errstate(all="ignore"):
+        result = analyze_breaks(plant, omega, breaks, args.skew, breaks is None, where, T, args.simultaneous)
+    if args.json:
+        print(json.dumps(loops_to_json(result, args.variable, T), indent=2, sort_keys=True))
+    else:
+        print(loops_to_text(result, args.ss, args.variable, T))
+    return 0
+
+
+def _multi_loop_grid(args: argparse.Namespace):
+    """(the plot grid, the sample time or None) of a multi-loop plant: in z, up to the Nyquist frequency."""
+    import numpy as np
+
+    if args.variable != "z":
+        if args.sample_time is not None:
+            raise CliError("--sample-time is a loop in z's: give --variable z (and the plant in z)")
+        return np.geomspace(args.wmin, args.wmax, args.points), None
+    T = args.sample_time
+    if T is None or not (math.isfinite(T) and T > 0):
+        raise CliError("--variable z needs --sample-time T (seconds, finite, > 0): the frequencies are in rad/s")
+    nyquist = math.pi / T
+    return np.geomspace(min(args.wmin, 1e-3 * nyquist), nyquist * (1 - 1e-9), args.points), T
+
+
+def multi_loop_to_json(d) -> dict | None:
+    """The `multi_loop_disk_margin` object of `analyze --json` of a multi-loop plant."""
+    if d is None:
+        return None
+    return {
+        "alpha": d.alpha,
+        "alpha_lower": d.alpha_lower,
+        "alpha_upper": finite_or_none(d.alpha_upper),
+        "gap": d.gap,
+        "skew": d.skew,
+        "frequency": finite_or_none(d.frequency),
+        "at_infinity": d.frequency == math.inf,
+        "gain_margin_low": d.gain_low,
+        "gain_margin_high": finite_or_none(d.gain_high),
+        "gain_margin_low_db": finite_or_none(d.gain_low_db),
+        "gain_margin_high_db": finite_or_none(d.gain_high_db),
+        "gain_margin_db": finite_or_none(d.gain_db),
+        "phase_margin_deg": finite_or_none(d.phase_deg),
+        "perturbation": [_pair(z) for z in d.delta],
+        "status": d.status,
+        "certified": d.status == "certified",
+        "intervals": d.intervals,
+        "method": d.method,
+        "notes": list(d.notes),
+    }
+
+
+def loops_to_json(result, variable: str = "s", sample_time: float | None = None) -> dict:
+    """The JSON object of `analyze --ss FILE --json` for a multi-loop plant: ``loops`` (one object
+    per break: its name and the keys of one loop's analysis) and ``multi_loop_disk_margin``."""
+    return {
+        "variable": variable,
+        "sample_time": sample_time,
+        "breaks": [name for name, _ in result.loops],
+        "loops": [{"name": name, **analysis_to_json(a, variable, sample_time=sample_time)} for name, a in result.loops],
+        "multi_loop_disk_margin": multi_loop_to_json(result.together),
+        "simultaneous_margins": None
+        if result.gain_only is None
+        else {kind: _simultaneous_json(m) for kind, m in (("gain", result.gain_only), ("phase", result.phase_only))},
+    }
+
+
+def _simultaneous_json(m) -> dict:
+    return {
+        "lower": finite_or_none(m.lower),
+        "upper": finite_or_none(m.upper),
+        "unit": "dB" if m.kind == "gain" else "deg",
+        "perturbation": list(m.perturbation),
+        "frequency": finite_or_none(m.frequency),
+        "status": m.status,
+    }
+
+
+def loops_to_text(result, source: str, variable: str = "s", sample_time: float | None = None) -> str:
+    """Each loop's table (`analysis_to_text`) under its break's name, then the multi-loop disk margin."""
+    parts = []
+    for name, a in result.loops:
+        shown = [f"loop at input {name} of {source}, every other loop closed"]
+        parts.append(analysis_to_text(a, shown, variable, 0.0, sample_time))
+        parts.append("")
+    d = result.together
+    if d is not None:
+        parts.append(
+            f"multi-loop disk margin (skew {d.skew:g}, every input at once): alpha {d.alpha:.6g} "
+            f"in [{d.alpha_lower:.9g}, {d.alpha_upper:.9g}] ({d.status}), gain {_num(d.gain_low_db, 'dB', '.4f')}"
+            f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')} {_at(d.frequency, 'rad/s')}"
+        )
+        parts.extend(f"note: {n}" for n in d.notes)
+    for m in (result.gain_only, result.phase_only):
+        if m is not None:
+            unit = "dB" if m.kind == "gain" else "deg"
+            parts.append(
+                f"simultaneous {m.kind}-only margin: +-{_num(m.lower, unit, '.6g')} guaranteed, "
+                f"destabilized at +-{_num(m.upper, unit, '.6g')} ({m.status})"
+            )
+    return "\n".join(parts).rstrip()
 
 
 def _sampled(args: argparse.Namespace, network, omega, params):
@@ -422,7 +583,13 @@ def _session_design(args: argparse.Namespace) -> int:
     named = StepRecord.from_json(model.records[at - 1]).parameters if at else None
     c = problem.conditions[k]
     values = problem.condition_values(k, named=named)
-    result = analyze(c.network, c.break_at, problem.grid.omega, values)
+    break_at = c.break_at if args.break_name is None else args.break_name
+    if break_at not in c.network.signals:
+        raise CliError(f"--break {break_at!r}: {c.name}'s signals are {', '.join(c.network.signals)}")
+    result = analyze(c.network, break_at, problem.grid.omega, values)
+    every = list(c.breaks) if args.break_name is None and tuple(c.breaks) not in ((), (c.break_at,)) else []
+    others = [(b, analyze(c.network, b, problem.grid.omega, values)) for b in every]
+    together = _diagram_together(c, every, values) if len(every) > 1 else None
     parts = compensators(c.network, values)
     T = c.network.sample_time
     variable = "z" if T is not None else c.network.variable
@@ -433,10 +600,19 @@ def _session_design(args: argparse.Namespace) -> int:
                 for name, found in parts.items()
             }
         }
+        if others:
+            out["loops"] = [{"name": b, **analysis_to_json(r, variable, sample_time=T)} for b, r in others]
+            out["multi_loop_disk_margin"] = multi_loop_to_json(together)
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
-        print(analysis_to_text(result, [f"{c.name} at {c.break_at}, {design} of {args.file}"], variable, 0.0, T))
+        print(analysis_to_text(result, [f"{c.name} at {break_at}, {design} of {args.file}"], variable, 0.0, T))
+        for b, r in others:
+            print("\n" + analysis_to_text(r, [f"{c.name} at {b} (breaks), {design} of {args.file}"], variable, 0.0, T))
+        if together is not None:
+            from engine.multiloop.loops import LoopsAnalysis
+
+            print("\n" + loops_to_text(LoopsAnalysis((), together), args.file))
         for name, found in parts.items():
             lines = [
                 f"  {name}.{item_name}: {i.reading(c.network.sample_time)}"
@@ -444,6 +620,19 @@ def _session_design(args: argparse.Namespace) -> int:
             ]
             print(f"compensator {name}:\n" + "\n".join(lines))
     return 0
+
+
+def _diagram_together(c, breaks: list[str], values):
+    """The multi-loop disk margin at a condition's breaks (None with a note on standard error when the
+    diagram has no realization: tables, delays)."""
+    from engine.errors import EngineError
+    from engine.multiloop.network_breaks import diagram_disk_margin
+
+    try:
+        return diagram_disk_margin(c.network, breaks, values)
+    except EngineError as exc:
+        print(f"note: {c.name}: no multi-loop disk margin at its breaks: {exc}", file=sys.stderr)
+        return None
 
 
 def _item_json(item) -> dict:
@@ -512,6 +701,17 @@ def add_parser(sub) -> None:
         metavar="FILE",
         help="a state-space plant (times any --tf): a .npz with arrays A, B, C, D or a .json with those keys, "
         "kept as state space (no polynomial is multiplied out)",
+    )
+    p.add_argument(
+        "--break",
+        dest="break_name",
+        metavar="NAME",
+        help="--ss with several inputs: the one loop break to report (u1, u2, ...: the plant's inputs)",
+    )
+    p.add_argument(
+        "--simultaneous",
+        action="store_true",
+        help="--ss with several inputs: also the simultaneous gain-only and phase-only margins (bracketed)",
     )
     p.add_argument(
         "--columns",
