@@ -148,8 +148,7 @@ def _light_mode_plant(rng: np.random.Generator) -> tuple[list[str], dict[str, fl
     poles = np.sort(10 ** rng.uniform(-0.5, 2.0, 3)).tolist()
     wn, zeta = float(10 ** rng.uniform(1.3, 1.9)), float(10 ** rng.uniform(-2.3, -1.3))
     plant = (
-        "/(s*" + "*".join(f"(s/{p!r}+1)" for p in poles) + ")"
-        f"*{wn**2!r}/(s**2+{2 * zeta * wn!r}*s+{wn**2!r})/(s/300+1)"
+        "/(s*" + "*".join(f"(s/{p!r}+1)" for p in poles) + f")*{wn**2!r}/(s**2+{2 * zeta * wn!r}*s+{wn**2!r})/(s/300+1)"
     )
     values = {"k": float(10 ** rng.uniform(-0.5, 1.5)), "a": 0.5, "b": 0.05}
     return ["k*(1+a*s)/(1+b*s)", f"1{plant}"], values
