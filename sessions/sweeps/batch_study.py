@@ -9,10 +9,11 @@ gives (its rows are slp's own, `Slp.point_at` and `Slp.rows`).
 It applies to slp studies with no linear constraints between parameters, whose drawn
 parameters are free.  Their samples are batched when the rows are margins, crossover
 frequencies and the closed-loop stability abscissa, of conditions whose loops are
-cascades of expression blocks.  A sample the batch cannot certify (its form is odd, its
+cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
+`engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
 sample of a study that is not batched (a delay, a table, a state-space block, a loop
-that is not one cascade, a loop in z, time or peak rows), is evaluated per loop, by slp's own
+that is not one cascade, time or peak rows), is evaluated per loop, by slp's own
 measures (`engine.slp.measures.evaluate`) on the problem built once: what `run_job`
 computes but for building the sample's session (a sample whose evaluation raises gets
 `run_job` itself).  The study's note says which samples went per loop, and why a study
@@ -174,8 +175,6 @@ def _study(jobs: Sequence) -> _Study | None:
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay, a table or a state-space block"
-    if not unbatched and any(c.network.sampled for c in problem.conditions):
-        unbatched = "a loop in z (its margins are searched on its w-plane form)"
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
@@ -292,7 +291,7 @@ def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) 
     if forms is None:
         study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
         return None
-    return batch_margins(forms)
+    return batch_margins(forms, condition.network.sample_time)
 
 
 def _run(

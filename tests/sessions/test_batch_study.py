@@ -9,6 +9,7 @@ its note says why; `sweep --serial` says what it did."""
 from __future__ import annotations
 
 import copy
+import math
 import json
 import shutil
 from pathlib import Path
@@ -164,9 +165,47 @@ def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
     _per_loop_equal(_jobs(_edited(tmp_path, inner), 6), why)
 
 
-def test_a_loop_in_z_is_evaluated_per_loop(tmp_path):
-    shutil.copy(EXAMPLES / "coebra_kuo_z.json", tmp_path / "z.json")
-    _per_loop_equal(_jobs(tmp_path / "z.json", 6), "a loop in z (its margins are searched on its w-plane form)")
+def _kuo_z(tmp_path: Path, plant: str | None = None, name: str = "z") -> Path:
+    """Kuo's loop in z (T = 0.5 s), its plant replaced when given."""
+    model = json.loads((EXAMPLES / "coebra_kuo_z.json").read_text())
+    if plant is not None:
+        model["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"]["expression"] = plant
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(model))
+    return path
+
+
+def test_a_loop_in_z_is_batched_and_equals_the_per_loop_path(tmp_path):
+    """Issue 53, section 1: Kuo's loop in z went per loop (not batched: a loop in z); its w-plane
+    form is batched now (the (1 - w) of each z = (1 + w)/(1 - w) cancelled as the per-loop path
+    cancels it), every run `run_job`'s, frequencies in rad/s."""
+    jobs = _jobs(_kuo_z(tmp_path), 60, ["T1=+-30%", "T2=+-30%"])
+    batch = batch_runs(jobs)
+    assert batch is not None and not batch.unbatched and batch.per_loop == 0
+    assert batch.done - batch.searched >= 50
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+
+
+def test_random_loops_in_z_equal_the_per_loop_path(tmp_path):
+    """Random plants in z (a gain, two real zeros inside or outside the unit circle, an
+    integrator z - 1, a real pole and a complex pair inside it, one a light one) under Kuo's
+    compensator, T1 and T2 +-50 %: every run is `run_job`'s."""
+    batched = total = 0
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        a, b = rng.uniform(-1.5, 0.9, 2).round(6).tolist()
+        p, r, theta = (float(rng.uniform(lo, hi)) for lo, hi in ((0.1, 0.95), (0.6, 0.995), (0.2, 2.5)))
+        k = float(10 ** rng.uniform(-1.5, -0.5))
+        plant = f"{k!r}*(z-({a!r}))*(z-({b!r}))/((z-1)*(z-{p!r})*(z**2-{2 * r * math.cos(theta)!r}*z+{r * r!r}))"
+        jobs = _jobs(_kuo_z(tmp_path, plant, f"z{seed}"), 20, ["T1=+-50%", "T2=+-50%"])
+        batch = batch_runs(jobs)
+        assert batch is not None and not batch.unbatched
+        for got, job in zip(batch.runs, jobs, strict=True):
+            _same_run(got, run_job(job.payload()))
+        batched += batch.done - batch.per_loop - batch.searched
+        total += batch.done
+    assert batched >= 0.7 * total
 
 
 def test_the_launch_vehicle_is_evaluated_per_loop(tmp_path):

@@ -58,6 +58,7 @@ class BatchCrossings:
     phase_gh: NDArray[np.complex128]
     abscissa: NDArray[np.float64]
     certified: NDArray[np.bool_]
+    closed: NDArray[np.complex128]  # the closed-loop poles (S, n), NaN rows where they cannot be had
 
 
 class BatchLevels:
@@ -177,9 +178,10 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
         bad |= ~_reach_limits(levels, points, maxima)
         crossings, values, enclosed = _crossings(levels, points, gains, phases)
         bad |= ~enclosed
-        abscissa = _abscissa(levels)
+        closed = _closed_loop_poles(levels)
+        abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
     certified = ~bad & np.isfinite(abscissa)
-    return BatchCrossings(crossings[0], values[0], crossings[1], values[1], abscissa, certified)
+    return BatchCrossings(crossings[0], values[0], crossings[1], values[1], abscissa, certified, closed)
 
 
 def _on_axis(roots: NDArray) -> NDArray[np.bool_]:
@@ -477,11 +479,11 @@ def _enclosed(ends: NDArray, phase: bool) -> NDArray:
     return np.where(valid, count, 0).sum(axis=1)
 
 
-def _abscissa(levels: BatchLevels) -> NDArray:
-    """-max Re of the closed-loop poles, the roots of D + k N (the variable scaled)."""
+def _closed_loop_poles(levels: BatchLevels) -> NDArray[np.complex128]:
+    """The closed-loop poles, the roots of D + k N (the variable scaled); NaN rows where they
+    cannot be had."""
     m, scale = levels.zero_count, levels.scale
     zeros, poles = levels.roots[:, :m] / scale[:, None], levels.roots[:, m:] / scale[:, None]
     factor = (levels.gain * scale ** (zeros.shape[1] - poles.shape[1]))[:, None]
     roots, bad = batch_roots(_aligned_sum(poly_rows(poles).real, factor * poly_rows(zeros).real))
-    abscissa = -np.max((roots * scale[:, None]).real, axis=1, initial=-np.inf)
-    return np.where(bad, np.nan, abscissa)
+    return np.where(bad[:, None], np.nan, roots * scale[:, None])
