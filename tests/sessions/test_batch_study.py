@@ -9,8 +9,8 @@ its note says why; `sweep --serial` says what it did."""
 from __future__ import annotations
 
 import copy
-import math
 import json
+import math
 import shutil
 from pathlib import Path
 
