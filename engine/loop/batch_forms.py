@@ -10,6 +10,10 @@ one batched eigenvalue call on the stacked companion matrices (numpy's
 ``np.roots`` matrix, so each sample's roots are the ones the per-loop path
 computes).  GH = -(the chain's product) for a loop that is one cascade.
 
+A zero-pole pair equal in every sample (a common factor of the structure: the
+(1 - w) each z = (1 + w)/(1 - w) of a loop in z's w-plane form brings) cancels, and
+a pole at one value in every sample that several terms of a sum hold is held once by
+their common denominator, as the per-loop path does.
 A sample whose numbers leave the shared structure is marked ``odd`` and left
 to the per-loop path: a pole shared by two terms of a sum (within
 `engine.model.factored.CANCEL`: the per-loop path merges it), a zero that
