@@ -342,3 +342,44 @@ def test_a_value_against_its_parameters_sign_goes_to_its_own_session(tmp_path):
     assert batch is not None and set(negative) <= set(batch.alone)
     for got, job in zip(batch.runs, jobs, strict=True):
         _same_run(got, run_job(job.payload()), exact=job.index in negative)
+
+
+@pytest.mark.parametrize("every_run", [True, False])
+def test_runs_held_as_arrays_tally_as_run_by_run(tmp_path, every_run):
+    """Issue 53: a study's batched samples reach its Tally as arrays (`Tally.add_records`), a
+    run made only when kept; the rows, worst samples, distributions and kept runs are those of
+    the same runs added one by one (a light-mode plant: some samples by the per-loop search,
+    interleaved)."""
+    from sessions.sweeps.dispersion import Tally
+    from tests.engine.test_batch_margins import _light_mode_plant
+
+    blocks, values = _light_mode_plant(np.random.default_rng(6))
+    jobs = _jobs(_loop_session(tmp_path, blocks, values), 120, [f"{name}=+-30%" for name in values])
+    arrays, one_by_one = Tally(every_run), Tally(every_run)
+    batch = batch_runs(jobs, tally=arrays)
+    assert batch is not None and batch.done == 120 and batch.runs == []
+    for run in batch_runs(jobs).runs:
+        one_by_one.add(run)
+    assert arrays.worst_case() == one_by_one.worst_case()
+    assert json.dumps(arrays.rows()) == json.dumps(one_by_one.rows())
+    strip = lambda runs: [{k: v for k, v in run.items() if k != "seconds"} for run in runs]  # noqa: E731
+    assert strip(arrays.runs()) == strip(one_by_one.runs())
+    assert len(arrays.runs()) == (120 if every_run else len({row["worst_sample"] for row in arrays.worst_case()}))
+
+
+def test_the_worst_of_a_stretch_follows_the_run_by_run_rule():
+    """`_worst_of` against `Tally.add`'s rule taken value by value: NaN worsts replaced by any
+    value, values by strictly worse ones, the first of equals kept (random values with NaN, inf
+    and ties)."""
+    from sessions.sweeps.dispersion import _worst_of
+
+    rng = np.random.default_rng(2)
+    pool = np.array([np.nan, np.inf, -np.inf, 0.0, 1.0, 1.0, 2.5, -3.0])
+    for _ in range(400):
+        values = rng.choice(pool, int(rng.integers(0, 6)))
+        start, at_least = float(rng.choice(pool)), bool(rng.integers(0, 2))
+        worst, expected = start, None
+        for j, value in enumerate(values):
+            if worst != worst or (value < worst if at_least else value > worst):
+                worst, expected = value, j
+        assert _worst_of(start, values, at_least) == expected, (start, values.tolist(), at_least)
