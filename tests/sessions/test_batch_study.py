@@ -383,3 +383,21 @@ def test_the_worst_of_a_stretch_follows_the_run_by_run_rule():
             if worst != worst or (value < worst if at_least else value > worst):
                 worst, expected = value, j
         assert _worst_of(start, values, at_least) == expected, (start, values.tolist(), at_least)
+
+
+def test_the_constrained_lead_of_loopcraft_new_is_batched(tmp_path):
+    """Issue 53's constrained lead: `loopcraft new`'s lead (T1 <= 20*T2, T2 <= 20*T1) at T1 = 2,
+    T2 = 0.1, where T1 <= 20*T2 binds; its study's samples (the constraints left out of the
+    study's document, 98f0f04) are all batched and every run is `run_job`'s."""
+    from sessions.new.templates import new_session
+
+    model = new_session("10/(s*(s+1)*(s+5))", "lead")
+    for entry in model["problem"]["parameters"]:
+        entry["value"] = {"K": 1.0, "T1": 2.0, "T2": 0.1}[entry["name"]]
+    path = tmp_path / "lead.json"
+    path.write_text(json.dumps(model))
+    jobs = plan(load_session(path), "tolerance", ["K=+-10%", "T1=+-10%", "T2=+-10%"], None, 7, 60, "lhs")[0]
+    batch = batch_runs(jobs)
+    assert batch is not None and batch.per_loop == 0 and batch.done - batch.searched >= 55
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
