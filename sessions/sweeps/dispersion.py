@@ -103,6 +103,7 @@ class Tally:
         self._runs: dict[int, dict] = {}  # index -> run: the runs kept
         self._every: list[dict] = []  # every run in the order added, when every run is kept
         self._failed_kept: set[int] = set()
+        self.counted = array("q")  # the samples whose rows' values were added, in that order
 
     @classmethod
     def of_study(cls, samples: int) -> Tally:
@@ -132,6 +133,7 @@ class Tally:
                 self._failed_kept.add(run["index"])
                 self._runs[run["index"]] = run
             return
+        self.counted.append(run["index"])
         rows = self._rows
         for m in run["measures"]:
             key = (m["name"], m["kind"], m["condition"])
@@ -163,6 +165,7 @@ class Tally:
             return made[j]
 
         self.count += len(indices)
+        self.counted.extend(indices)
         if self.every_run:
             for j in range(len(indices)):
                 self._every.append(run(j))
@@ -185,6 +188,14 @@ class Tally:
         if not self.every_run:
             for before in replaced:
                 self._release(before)
+
+    def sample_values(self) -> dict[str, np.ndarray]:
+        """Every counted sample's row values as arrays: "index" (the samples, in the order
+        counted) and one array per row, "NAME@CONDITION", aligned with it."""
+        out = {"index": np.frombuffer(self.counted, dtype=np.int64).copy()}
+        for (name, _, condition), row in self._rows.items():
+            out[f"{name}@{condition}"] = np.frombuffer(row.values, dtype=float).copy()
+        return out
 
     def _release(self, index: int | None) -> None:
         """Drop a run no row's worst sample is any more (when only those are kept)."""

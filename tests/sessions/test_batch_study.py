@@ -401,3 +401,39 @@ def test_the_constrained_lead_of_loopcraft_new_is_batched(tmp_path):
     assert batch is not None and batch.per_loop == 0 and batch.done - batch.searched >= 55
     for got, job in zip(batch.runs, jobs, strict=True):
         _same_run(got, run_job(job.payload()))
+
+
+@pytest.mark.parametrize("samples", [40, 10_050])
+def test_save_samples_writes_every_samples_values(tmp_path, capsys, samples):
+    """Issue 53, section 3: --save-samples FILE.npz holds every sample's drawn values and row
+    values; they are the runs' own (every run kept at 40 samples; at 10 050 the runs kept are
+    checked, and every row's values against the summary's percentiles)."""
+    from sessions.sweeps.dispersion import percentiles
+
+    path = tmp_path / "lag_lead.json"
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
+    out = tmp_path / "samples.npz"
+    args = ["sweep", str(path), "--tolerance", TOLERANCES[0], "--tolerance", TOLERANCES[1]]
+    assert main([*args, "--samples", str(samples), "--serial", "--json", "--save-samples", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    saved = np.load(out)
+    assert saved["index"].tolist() == list(range(samples))
+    assert saved["parameter/T1"].shape == (samples,)
+    runs = summary["runs"]
+    assert len(runs) == (samples if samples <= 10_000 else len(runs))
+    for run in runs:
+        k = run["index"]
+        assert run["start"] == {"T1": saved["parameter/T1"][k], "T2": saved["parameter/T2"][k]}
+        for m in run["measures"]:
+            assert float(m["value"]) == pytest.approx(saved[f"row/{m['name']}@{m['condition']}"][k], rel=0, nan_ok=True)
+    assert len(summary["worst_case"]) == 4
+    for row in summary["worst_case"]:
+        values = saved[f"row/{row['name']}@{row['condition']}"]
+        assert list(row["percentiles"].values()) == percentiles(values[~np.isnan(values)])
+
+
+def test_save_samples_is_for_a_tolerance_study(tmp_path, capsys):
+    path = tmp_path / "lag_lead.json"
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
+    assert main(["sweep", str(path), "--starts", "2", "--serial", "--save-samples", str(tmp_path / "x.npz")]) == 2
+    assert "--save-samples are for a tolerance study" in capsys.readouterr().err
