@@ -436,4 +436,4 @@ def test_save_samples_is_for_a_tolerance_study(tmp_path, capsys):
     path = tmp_path / "lag_lead.json"
     shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
     assert main(["sweep", str(path), "--starts", "2", "--serial", "--save-samples", str(tmp_path / "x.npz")]) == 2
-    assert "--save-samples are for a tolerance study" in capsys.readouterr().err
+    assert "--save-samples is for a tolerance study" in capsys.readouterr().err

@@ -98,8 +98,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 0
     if args.starts is None and args.vary is None and args.tolerance is None:
         raise CliError("one of --starts, --vary, --tolerance is required")
-    if args.tolerance is None and (args.sampling is not None or args.adopt_worst is not None or args.save_samples):
-        raise CliError("--sampling, --adopt-worst and --save-samples are for a tolerance study (--tolerance)")
+    if args.tolerance is None and (args.sampling is not None or args.adopt_worst is not None):
+        raise CliError("--sampling and --adopt-worst are for a tolerance study (--tolerance)")
+    if args.tolerance is None and args.save_samples:
+        raise CliError("--save-samples is for a tolerance study (--tolerance)")
     target = Path(args.out or args.file)
     session = load_session(args.file)
     check_session_out(session, args.out, args.force)
