@@ -152,6 +152,8 @@ def _sum(terms: list[tuple[float, Node]], columns: Mapping[str, NDArray], count:
         roots = np.concatenate([form.zeros, rest], axis=1)
         numerator = _added(numerator, (sign * form.gain)[:, None] * _poly(roots).real)
     common = np.concatenate([*own, shared], axis=1)
+    while numerator.shape[1] > 1 and (numerator[:, 0] == 0).all():  # a degree the structure drops ((z + 1) in w)
+        numerator = numerator[:, 1:]
     odd |= (numerator[:, 0] == 0) | ~np.isfinite(numerator).all(axis=1)
     zeros, bad = _roots(numerator)
     if common.shape[1] and zeros.shape[1]:  # a sum of fractions: its numerator's roots only estimate its zeros

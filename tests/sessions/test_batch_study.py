@@ -437,3 +437,25 @@ def test_save_samples_is_for_a_tolerance_study(tmp_path, capsys):
     shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
     assert main(["sweep", str(path), "--starts", "2", "--serial", "--save-samples", str(tmp_path / "x.npz")]) == 2
     assert "--save-samples is for a tolerance study" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "plant",
+    [
+        "0.2*(z+0.5)/((z-1)*(z-0.6))*z**-1",
+        "0.1*(z+0.9)*(z-0.3)/(z**2*(z-1)*(z-0.8))",
+        "0.05/((z-1)**2)*(z-0.95)",
+        "0.3*(z**2-1.2*z+0.5)/((z-1)*(z**2-1.6*z+0.8)*(z-0.2))",
+        "0.1*(z+1)/((z-1)*(z-0.5))",
+    ],
+    ids=["delay", "poles-at-0", "double-integrator", "pairs", "zero-at-minus-1"],
+)
+def test_loops_in_z_of_other_shapes_are_batched(tmp_path, plant):
+    """A sample delay (z**-1), poles at z = 0, a double integrator, complex pairs typed as
+    quadratics in z, and a zero at z = -1 (z + 1 is 2/(1 - w): its sum's leading coefficient
+    vanishes in every sample, which the batch form drops; the crash it was: an infinite root)."""
+    jobs = _jobs(_kuo_z(tmp_path, plant), 8, ["T1=+-30%", "T2=+-30%"])
+    batch = batch_runs(jobs)
+    assert batch is not None and not batch.unbatched and batch.per_loop == 0
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))

@@ -155,6 +155,7 @@ class BatchLevels:
 
 def batch_crossings(forms: BatchForms) -> BatchCrossings:
     """Every sample's crossings, certified or not (module docstring)."""
+    forms = _placeholders(forms)
     levels = BatchLevels(forms)
     odd = forms.odd | (levels.roots.shape[1] > MAX_BATCH_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
     with np.errstate(all="ignore"):
@@ -182,6 +183,21 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
         abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
     certified = ~bad & np.isfinite(abscissa)
     return BatchCrossings(crossings[0], values[0], crossings[1], values[1], abscissa, certified, closed)
+
+
+def _placeholders(forms: BatchForms) -> BatchForms:
+    """The forms with an odd sample's numbers (its roots may be infinite: a sum whose leading
+    coefficient vanishes in it alone) replaced by a stable loop's, so that the arrays the search
+    makes stay finite; the sample stays odd (its values mean nothing)."""
+    if not forms.odd.any():
+        return forms
+    odd = forms.odd[:, None]
+    return BatchForms(
+        np.where(forms.odd, 1.0, forms.gain),
+        np.where(odd, -1.0 + 0j, forms.zeros),
+        np.where(odd, -2.0 + 0j, forms.poles),
+        forms.odd,
+    )
 
 
 def _on_axis(roots: NDArray) -> NDArray[np.bool_]:
