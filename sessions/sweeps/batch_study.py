@@ -4,10 +4,13 @@ put in pole-zero form for a chunk of samples at once (`engine.loop.batch_forms`)
 its margins found by the certified grid-free search on each form
 (`engine.margins.batch`), without a session, a problem, a network response or a
 realization per sample.  Each sample's run is the one `sessions.sweeps.jobs.run_job`
-gives (its rows are slp's own, `Slp.point_at` and `Slp.rows`).
+gives (its rows are slp's own: `Slp.point_at` and `Slp.rows`, vectorized over the samples
+by `engine.slp.points`); consecutive batched samples are handed on as arrays
+(`sessions.sweeps.records.Records`), a run made only when it is kept.
 
-It applies to slp studies with no linear constraints between parameters, whose drawn
-parameters are free.  Their samples are batched when the rows are margins, crossover
+It applies to slp studies with no linear constraints between parameters (a tolerance
+study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
+drawn parameters are free.  Their samples are batched when the rows are margins, crossover
 frequencies and the closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
