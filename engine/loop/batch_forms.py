@@ -10,6 +10,10 @@ one batched eigenvalue call on the stacked companion matrices (numpy's
 ``np.roots`` matrix, so each sample's roots are the ones the per-loop path
 computes).  GH = -(the chain's product) for a loop that is one cascade.
 
+A zero-pole pair equal in every sample (a common factor of the structure: the
+(1 - w) each z = (1 + w)/(1 - w) of a loop in z's w-plane form brings) cancels, and
+a pole at one value in every sample that several terms of a sum hold is held once by
+their common denominator, as the per-loop path does.
 A sample whose numbers leave the shared structure is marked ``odd`` and left
 to the per-loop path: a pole shared by two terms of a sum (within
 `engine.model.factored.CANCEL`: the per-loop path merges it), a zero that
@@ -23,6 +27,7 @@ batch form (None).
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -72,9 +77,24 @@ def block_stack(expression_root: Node, columns: Mapping[str, NDArray[np.float64]
     """One expression's pole-zero form for every sample (``columns``: each parameter's
     values), its zero-pole pairs that cancel in any sample marking that sample odd."""
     with np.errstate(all="ignore"):
-        form = _node(expression_root, columns, count)
+        form = _cancelled(_node(expression_root, columns, count))
         finite = np.isfinite(form.gain) & _finite_rows(form.zeros) & _finite_rows(form.poles)
         return Stack(form.gain, form.zeros, form.poles, form.odd | ~finite | _meet(form.zeros, form.poles))
+
+
+def _cancelled(form: Stack) -> Stack:
+    """The form with every zero-pole pair equal in every sample removed: a common factor of the
+    structure, such as the (1 - w) each z = (1 + w)/(1 - w) of a loop in z brings (its root is
+    1 exactly), which the per-loop path cancels as well."""
+    if form.zeros.shape[1] == 0 or form.poles.shape[1] == 0:
+        return form
+    equal = (form.zeros[:, :, None] == form.poles[:, None, :]).all(axis=0)
+    zeros, poles = list(range(form.zeros.shape[1])), list(range(form.poles.shape[1]))
+    for i, j in zip(*np.nonzero(equal)):
+        if i in zeros and j in poles:
+            zeros.remove(i)
+            poles.remove(j)
+    return Stack(form.gain, form.zeros[:, zeros], form.poles[:, poles], form.odd)
 
 
 def _finite_rows(roots: NDArray) -> NDArray[np.bool_]:
@@ -116,29 +136,53 @@ def _leaf(node: Node, columns: Mapping[str, NDArray], count: int) -> Stack:
 
 def _sum(terms: list[tuple[float, Node]], columns: Mapping[str, NDArray], count: int) -> Stack:
     """A sum over its terms' common denominator, the terms' poles kept as roots; a sample where
-    two terms share a pole (the per-loop path merges them) is odd."""
+    two terms share a pole (the per-loop path merges them) is odd, but for a pole every sample
+    has exactly (a constant of the structure, such as the 1 of each (1 - w) in a loop in z's
+    w-plane form), which the common denominator holds once, at its largest multiplicity."""
     forms = [(sign, _node(term, columns, count)) for sign, term in terms]
+    own, shared, lacking = _shared_poles([form.poles for _, form in forms], count)
     odd = np.zeros(count, dtype=bool)
     for k, (_, form) in enumerate(forms):
         odd |= form.odd
-        for _, earlier in forms[:k]:
-            odd |= _meet(form.poles, earlier.poles)
+        for j, (_, earlier) in enumerate(forms[:k]):
+            odd |= _meet(own[k], earlier.poles) | _meet(form.poles, own[j])
+    others = [np.concatenate([lacking[k], *own[:k], *own[k + 1 :]], axis=1) for k in range(len(forms))]
     numerator = np.zeros((count, 1))
-    for k, (sign, form) in enumerate(forms):
-        rest = [f.poles for j, (_, f) in enumerate(forms) if j != k]
-        roots = np.concatenate([form.zeros, *rest], axis=1)
+    for (sign, form), rest in zip(forms, others):
+        roots = np.concatenate([form.zeros, rest], axis=1)
         numerator = _added(numerator, (sign * form.gain)[:, None] * _poly(roots).real)
-    common = np.concatenate([f.poles for _, f in forms], axis=1)
+    common = np.concatenate([*own, shared], axis=1)
+    while numerator.shape[1] > 1 and (numerator[:, 0] == 0).all():  # a degree the structure drops ((z + 1) in w)
+        numerator = numerator[:, 1:]
     odd |= (numerator[:, 0] == 0) | ~np.isfinite(numerator).all(axis=1)
     zeros, bad = _roots(numerator)
     if common.shape[1] and zeros.shape[1]:  # a sum of fractions: its numerator's roots only estimate its zeros
-        bad |= _backward_errors(forms, common, zeros) > BACKWARD
+        bad |= _backward_errors(forms, others, zeros) > BACKWARD
     return Stack(numerator[:, 0].copy(), zeros, common, odd | bad)
 
 
-def _backward_errors(forms: list[tuple[float, Stack]], common: NDArray, zeros: NDArray) -> NDArray[np.float64]:
+def _shared_poles(poles: list[NDArray], count: int) -> tuple[list[NDArray], NDArray, list[NDArray]]:
+    """Of the terms' poles: each term's own (all but those at a value several terms hold in
+    every sample exactly), the shared ones at their largest multiplicity, and the shared ones
+    each term lacks (its numerator's multiplier)."""
+    constant = [(roots == roots[:1]).all(axis=0) if count else np.zeros(roots.shape[1], dtype=bool) for roots in poles]
+    held = [Counter(roots[0, mask].tolist()) if count else Counter() for roots, mask in zip(poles, constant)]
+    shared = {v: max(c[v] for c in held) for v in set().union(*held) if sum(v in c for c in held) > 1}
+    own = [
+        roots[:, ~(mask & np.isin(roots[0], list(shared)))] if count else roots for roots, mask in zip(poles, constant)
+    ]
+
+    def column(values: list[complex]) -> NDArray:
+        return np.tile(np.array(values, dtype=complex).reshape(1, -1), (count, 1))
+
+    lacking = [column([v for v, n in shared.items() for _ in range(n - c[v])]) for c in held]
+    return own, column([v for v, n in shared.items() for _ in range(n)]), lacking
+
+
+def _backward_errors(forms: list[tuple[float, Stack]], others: list[NDArray], zeros: NDArray) -> NDArray[np.float64]:
     """Per sample, the largest backward error of its zeros as zeros of the sum's numerator N = sum N_k,
-    each N_k in factored form (never the expanded numerator): |N| / (sum |N_k| + |x| sum |N_k'|), the
+    each N_k in factored form (its zeros and ``others[k]``, the common denominator's poles it
+    lacks; never the expanded numerator): |N| / (sum |N_k| + |x| sum |N_k'|), the
     per-loop path's measure (`engine.model.factored`).  Beyond `BACKWARD` (lightly damped modes close
     together: the expanded numerator's roots are off) the sample goes to the per-loop path, which
     polishes them."""
@@ -146,9 +190,8 @@ def _backward_errors(forms: list[tuple[float, Stack]], common: NDArray, zeros: N
     value = np.zeros(zeros.shape, dtype=complex)
     size = np.zeros(zeros.shape)
     with np.errstate(all="ignore"):
-        for k, (sign, form) in enumerate(forms):
-            rest = [f.poles for j, (_, f) in enumerate(forms) if j != k]
-            roots = np.concatenate([form.zeros, *rest], axis=1)[:, None, :]  # (S, 1, r)
+        for (sign, form), rest in zip(forms, others):
+            roots = np.concatenate([form.zeros, rest], axis=1)[:, None, :]  # (S, 1, r)
             factors = x - roots
             term = (sign * form.gain)[:, None] * np.prod(factors, axis=2)
             slope = term * np.sum(1.0 / factors, axis=2)

@@ -12,12 +12,15 @@ degenerate level: the per-loop path takes its detection grid), or when a level i
 the per-loop path finds on the same form, to rounding: the same levels polished by the same
 Newton's method, GH(0) of a loop without an integrator as a gain margin at 0 when it is
 negative.  A batched sample's `Margins` hold its gain and phase margins only (rows that read
-the stability or attenuation margins are not batched).
+the stability or attenuation margins are not batched).  A loop in z is batched on its
+w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
+margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
@@ -28,7 +31,9 @@ from engine.loop.pole_zero import ZpkEvaluator
 from engine.margins.pole_zero.batch_search import batch_crossings
 from engine.margins.pole_zero.levels import LoopLevels
 from engine.margins.pole_zero.search import fast_margins
+from engine.margins.sampled import in_rad_per_s
 from engine.margins.values import Margin, Margins, margins_of, single_margin
+from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.paired_product import PairedProduct
 
 
@@ -42,23 +47,48 @@ class SampleLoop(NamedTuple):
     batched: bool
 
 
-def batch_margins(forms: BatchForms) -> list[SampleLoop | None]:
-    """Every sample's margins; None for a sample the per-loop path must take (module docstring)."""
+def batch_margins(forms: BatchForms, sample_time: float | None = None) -> list[SampleLoop | None]:
+    """Every sample's margins; None for a sample the per-loop path must take (module docstring).
+    With ``sample_time`` the forms are a loop in z's w-plane forms (`engine.margins.sampled`):
+    frequencies come back in rad/s, a gain margin at the Nyquist frequency where GH(-1) is
+    real and negative, the abscissa of the closed-loop poles' s-plane equivalents."""
     found = batch_crossings(forms)
     dc = _dc_values(forms)
     gain = _per_sample("G", found.phase, found.phase_gh)
     phase = _per_sample("P", found.gain, found.gain_gh)
-    odd, certified, abscissa = forms.odd.tolist(), found.certified.tolist(), found.abscissa.tolist()
+    odd, certified = forms.odd.tolist(), found.certified.tolist()
+    abscissa = (found.abscissa if sample_time is None else _sampled_abscissa(found.closed, sample_time)).tolist()
     out: list[SampleLoop | None] = []
     for k in range(forms.gain.size):
         if odd[k]:
             out.append(None)
         elif certified[k]:
             margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), (), method="refined")
-            out.append(SampleLoop(margins, abscissa[k], True))
+            out.append(_in_time(SampleLoop(margins, abscissa[k], True), forms, k, sample_time))
         else:
-            out.append(sample_loop(forms, k))
+            loop = sample_loop(forms, k, sample_time)
+            out.append(None if loop is None else _in_time(loop, forms, k, sample_time))
     return out
+
+
+def _sampled_abscissa(closed: NDArray, sample_time: float) -> NDArray:
+    """-max Re s of the closed-loop poles in w (rows), s = ln(z)/T, z = (1 + w)/(1 - w)."""
+    with np.errstate(all="ignore"):
+        return -np.max(s_of_z(z_of_w(closed), sample_time).real, axis=1, initial=-np.inf)
+
+
+def _in_time(loop: SampleLoop, forms: BatchForms, k: int, sample_time: float | None) -> SampleLoop:
+    """A w-plane sample's margins in rad/s with the Nyquist frequency's gain margin, as
+    `engine.margins.sampled.sampled_margins` makes them (the loop itself for an s loop).  GH(-1)
+    is GH's limit as w grows: the gain where as many zeros as poles, else 0 or infinite."""
+    if sample_time is None:
+        return loop
+    margins = in_rad_per_s(loop.margins, sample_time)
+    if forms.zeros.shape[1] == forms.poles.shape[1] and forms.gain[k] < 0:
+        nyquist = single_margin("G", math.pi / sample_time, complex(float(forms.gain[k]), 0.0))
+        if not any(abs(m.frequency - nyquist.frequency) <= 1e-9 * nyquist.frequency for m in margins.gain):
+            margins = replace(margins, gain=margins.gain + (nyquist,))
+    return SampleLoop(margins, loop.abscissa, loop.batched)
 
 
 def _per_sample(kind: str, w: NDArray, gh: NDArray) -> list[list[Margin]]:
@@ -84,8 +114,9 @@ def _dc_values(forms: BatchForms) -> list[complex | None]:
     return [complex(v, 0.0) if ok else None for v, ok in zip(value.real.tolist(), finite)]
 
 
-def sample_loop(forms: BatchForms, k: int) -> SampleLoop | None:
-    """Sample ``k``'s margins and abscissa by the per-loop search on its form, or None."""
+def sample_loop(forms: BatchForms, k: int, sample_time: float | None = None) -> SampleLoop | None:
+    """Sample ``k``'s margins and abscissa by the per-loop search on its form, or None (with
+    ``sample_time``: a w-plane form, its abscissa the s-plane equivalents')."""
     form = ZpkEvaluator(complex(float(forms.gain[k]), 0.0), forms.zeros[k], forms.poles[k], factored=True)
     frequencies = fast_margins(form)
     levels = LoopLevels.of(form)
@@ -100,5 +131,8 @@ def sample_loop(forms: BatchForms, k: int) -> SampleLoop | None:
         dc = form(np.zeros(1))[0][0]
     gain = _with_dc([m for m in found["G"] if m.gh.real < 0], complex(dc.real, 0.0) if np.isfinite(dc) else None)
     margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), (), method="refined")
-    abscissa = float(-np.max(levels.closed.real)) if levels.closed.size else math.inf
+    if sample_time is not None:
+        abscissa = float(_sampled_abscissa(levels.closed[None, :], sample_time)[0])
+    else:
+        abscissa = float(-np.max(levels.closed.real)) if levels.closed.size else math.inf
     return SampleLoop(margins, abscissa, False)

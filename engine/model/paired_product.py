@@ -154,4 +154,7 @@ def _weighted(weights: NDArray, rows: NDArray) -> NDArray:
         return np.zeros(rows.shape[1:], dtype=complex)
     if weights.ndim == 1:
         return weights @ rows
-    return np.sum(weights * rows, axis=0)
+    out = weights[0] * rows[0]  # np.sum(weights * rows, axis=0)'s additions in its order, without the (n, K) product
+    for weight, row in zip(weights[1:], rows[1:]):
+        out += weight * row
+    return out

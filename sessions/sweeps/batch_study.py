@@ -4,15 +4,19 @@ put in pole-zero form for a chunk of samples at once (`engine.loop.batch_forms`)
 its margins found by the certified grid-free search on each form
 (`engine.margins.batch`), without a session, a problem, a network response or a
 realization per sample.  Each sample's run is the one `sessions.sweeps.jobs.run_job`
-gives (its rows are slp's own, `Slp.point_at` and `Slp.rows`).
+gives (its rows are slp's own: `Slp.point_at` and `Slp.rows`, vectorized over the samples
+by `engine.slp.points`); consecutive batched samples are handed on as arrays
+(`sessions.sweeps.records.Records`), a run made only when it is kept.
 
-It applies to slp studies with no linear constraints between parameters, whose drawn
-parameters are free.  Their samples are batched when the rows are margins, crossover
+It applies to slp studies with no linear constraints between parameters (a tolerance
+study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
+drawn parameters are free.  Their samples are batched when the rows are margins, crossover
 frequencies and the closed-loop stability abscissa, of conditions whose loops are
-cascades of expression blocks.  A sample the batch cannot certify (its form is odd, its
+cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
+`engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
 sample of a study that is not batched (a delay, a table, a state-space block, a loop
-that is not one cascade, a loop in z, time or peak rows), is evaluated per loop, by slp's own
+that is not one cascade, time or peak rows), is evaluated per loop, by slp's own
 measures (`engine.slp.measures.evaluate`) on the problem built once: what `run_job`
 computes but for building the sample's session (a sample whose evaluation raises gets
 `run_job` itself).  The study's note says which samples went per loop, and why a study
@@ -37,6 +41,7 @@ from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
 from engine.slp.measures import evaluate, frequency_value
+from engine.slp.points import points
 from sessions.build import build_problem
 from sessions.errors import SessionError
 from sessions.lifecycle import bind
@@ -44,6 +49,7 @@ from sessions.store import validated_model
 from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import run_job
 from sessions.sweeps.plan import ToleranceSamples
+from sessions.sweeps.records import Records, RowHead, number, row_heads
 
 BATCH_KINDS = frozenset(
     ("crossover_frequency", "gain_margin", "gain_margin_db", "phase_margin", "phase_margin_deg", "stability_abscissa")
@@ -111,6 +117,7 @@ class _Study:
     slots: list[tuple[int, str, int | None]]
     unbatched: str  # why its samples are not batched ("" when they are)
     signed: tuple[np.ndarray, np.ndarray]  # each free slot's range by its parameter's sign (-inf, 0 or +inf)
+    row_heads: list[RowHead]  # what every run says of each row but its value
 
 
 def batch_runs(
@@ -132,13 +139,18 @@ def batch_runs(
     done = 0
     try:
         for first in range(0, len(jobs), CHUNK):
-            chunk = _chunk(study, jobs[first : first + CHUNK], alone, searched)
-            if tally is None:
-                runs += chunk
-            else:
-                for run in chunk:
-                    tally.add(run)
-            done += len(chunk)
+            part = jobs[first : first + CHUNK]
+            for item in _chunk(study, part, alone, searched):
+                if isinstance(item, Records):
+                    if tally is None:
+                        runs += item.runs()
+                    else:
+                        tally.add_records(item)
+                elif tally is None:
+                    runs.append(item)
+                else:
+                    tally.add(item)
+            done += len(part)
             if progress:
                 progress(done, len(jobs))
     except KeyboardInterrupt:
@@ -174,8 +186,6 @@ def _study(jobs: Sequence) -> _Study | None:
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay, a table or a state-space block"
-    if not unbatched and any(c.network.sampled for c in problem.conditions):
-        unbatched = "a loop in z (its margins are searched on its w-plane form)"
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
@@ -184,7 +194,8 @@ def _study(jobs: Sequence) -> _Study | None:
         np.array([0.0 if sign == "positive" else -math.inf for sign in signs]),
         np.array([0.0 if sign == "negative" else math.inf for sign in signs]),
     )
-    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, signed)
+    heads = row_heads(stepper.specs, [condition.name for condition in problem.conditions])
+    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, signed, heads)
 
 
 def _cascade(problem: Problem, c: int) -> BatchForms | None:
@@ -228,11 +239,12 @@ def _equal_but(a: dict, b: dict, skip: tuple[str, ...]) -> bool:
     return a.keys() == b.keys() and all(a[k] is b[k] or a[k] == b[k] for k in a if k not in skip)
 
 
-def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int]) -> list[dict]:
-    """One chunk's runs (the batch's, or the per-loop path's for the samples it leaves); the
-    samples that went the per-loop path added to ``alone``, those the per-loop search on
-    their batched forms found to ``searched``.  A chunk of `ToleranceSamples` makes a job
-    only for a sample that goes the per-loop path."""
+def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int]) -> list[dict | Records]:
+    """One chunk's runs in order: stretches of batched samples as arrays (`Records`), the
+    per-loop path's runs for the samples the batch leaves; the samples that went the
+    per-loop path added to ``alone``, those the per-loop search on their batched forms found
+    to ``searched``.  A chunk of `ToleranceSamples` makes a job only for a sample that goes
+    the per-loop path."""
     began = time.perf_counter()
     if isinstance(jobs, ToleranceSamples):
         heads = [(k, f"sample {k}", start) for k, start in zip(jobs.indices, jobs.drawn())]
@@ -245,22 +257,47 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1).tolist()
     loops = [] if study.unbatched else [_condition_loops(study, c, heads) for c in range(len(study.problem.conditions))]
     share = (time.perf_counter() - began) / max(len(heads), 1)
-    runs = []
+    items: list[dict | Records] = []
+    stretch: list[int] = []  # consecutive batched samples (positions in the chunk), their rows' values
+    stretch_rows: list[tuple[list[float], list[float]]] = []
     for k, head in enumerate(heads):
         mine = (
             None
             if study.unbatched or against_sign[k] or any(found is None for found in loops)
             else [found[k] for found in loops]
         )
-        run = None if mine is None else _run(study, head, xs[k], mine, share)
-        if run is None:
+        rows = None if mine is None else _row_values(study, mine)
+        if rows is None:
+            items += _records(study, [heads[j] for j in stretch], stretch_rows, share)
+            stretch, stretch_rows = [], []
             run = (None if against_sign[k] else _per_loop(study, head, xs[k])) or run_job(jobs[k].payload())
             alone.append(head[0])
-        elif not all(loop.batched for loop in mine):
+            run["attempts"] = 1
+            items.append(run)
+            continue
+        if not all(loop is not None and loop.batched for loop in mine):
             searched.append(head[0])
-        run["attempts"] = 1
-        runs.append(run)
-    return runs
+        stretch.append(k)
+        stretch_rows.append(rows)
+    return items + _records(study, [heads[j] for j in stretch], stretch_rows, share)
+
+
+def _records(
+    study: _Study, heads: list[tuple[int, str, dict]], rows: list[tuple[list[float], list[float]]], share: float
+) -> list[dict | Records]:
+    """Consecutive batched samples' runs as arrays (none for no samples; each sample's run
+    made whole under an objective the arrays do not judge, `engine.slp.points`)."""
+    if not heads:
+        return []
+    values = np.array([v for v, _ in rows], dtype=float)
+    frequencies = np.array([f for _, f in rows], dtype=float)
+    verdicts = points(study.stepper.specs, study.stepper.settings.objective, values, frequencies)
+    if verdicts is None:
+        return [
+            {**_sample_run(study, head, study.start, values[j], frequencies[j], share), "attempts": 1}
+            for j, head in enumerate(heads)
+        ]
+    return [Records(heads, study.row_heads, values, frequencies, verdicts, study.named, share)]
 
 
 def _per_loop(study: _Study, head: tuple[int, str, dict], x: np.ndarray) -> dict | None:
@@ -292,17 +329,14 @@ def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) 
     if forms is None:
         study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
         return None
-    return batch_margins(forms)
+    return batch_margins(forms, condition.network.sample_time)
 
 
-def _run(
-    study: _Study, head: tuple[int, str, dict], x: np.ndarray, loops: list[SampleLoop | None], share: float
-) -> dict | None:
-    """One sample's run as `run_job` makes it (``head``: its index, label and drawn values),
-    from its conditions' loops; None when a row needs the per-loop path."""
-    stepper = study.stepper
+def _row_values(study: _Study, loops: list[SampleLoop | None]) -> tuple[list[float], list[float]] | None:
+    """A sample's row values and frequencies from its conditions' loops; None when a row needs
+    the per-loop path."""
     values, frequencies = [], []
-    for spec in stepper.specs:
+    for spec in study.stepper.specs:
         loop = loops[spec.condition]
         if loop is None:
             return None
@@ -316,7 +350,7 @@ def _run(
             value, frequency = frequency_value(spec, loop.margins, None)
         values.append(value)
         frequencies.append(frequency)
-    return _sample_run(study, head, x, np.array(values, dtype=float), np.array(frequencies, dtype=float), share)
+    return values, frequencies
 
 
 def _sample_run(
@@ -356,14 +390,10 @@ def _row_json(fields: tuple) -> dict:
         "name": name,
         "kind": kind,
         "condition": condition,
-        "value": _number(value),
-        "desired": _number(desired),
+        "value": number(value),
+        "desired": number(desired),
         "satisfied": satisfied,
-        "frequency": _number(frequency),
+        "frequency": number(frequency),
         "at_least": at_least,
         "method": method,
     }
-
-
-def _number(value: float | None) -> float | str | None:
-    return value if value is None or math.isfinite(value) else repr(value)

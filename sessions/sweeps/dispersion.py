@@ -20,6 +20,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sessions.errors import SessionError
+from sessions.sweeps.records import Records
 
 PERCENTILES = (1, 5, 50, 95, 99)
 PERCENTILE_KEYS = tuple(f"p{p}" for p in PERCENTILES)  # a row's percentiles by these keys
@@ -102,6 +103,7 @@ class Tally:
         self._runs: dict[int, dict] = {}  # index -> run: the runs kept
         self._every: list[dict] = []  # every run in the order added, when every run is kept
         self._failed_kept: set[int] = set()
+        self.counted = array("q")  # the samples whose rows' values were added, in that order
 
     @classmethod
     def of_study(cls, samples: int) -> Tally:
@@ -131,6 +133,7 @@ class Tally:
                 self._failed_kept.add(run["index"])
                 self._runs[run["index"]] = run
             return
+        self.counted.append(run["index"])
         rows = self._rows
         for m in run["measures"]:
             key = (m["name"], m["kind"], m["condition"])
@@ -149,6 +152,50 @@ class Tally:
                 if not self.every_run:
                     self._runs[run["index"]] = run
                     self._release(before)
+
+    def add_records(self, records: Records) -> None:
+        """A stretch of batched samples' runs held as arrays, as `add` would take them one by one
+        (none failed): each row's values appended whole, its worst sample found by reductions,
+        a run made only when it is kept (every run, or a row's worst sample's)."""
+        indices, made = records.indices, {}
+
+        def run(j: int) -> dict:
+            if j not in made:
+                made[j] = records.run(j)
+            return made[j]
+
+        self.count += len(indices)
+        self.counted.extend(indices)
+        if self.every_run:
+            for j in range(len(indices)):
+                self._every.append(run(j))
+                self._runs[indices[j]] = made[j]
+        replaced = []
+        for i, head in enumerate(records.heads):
+            key = (head.name, head.kind, head.condition)
+            row = self._rows.get(key)
+            if row is None:
+                row = self._rows[key] = _Row(head.as_dict())
+            values = records.values[:, i]
+            row.values.frombytes(np.ascontiguousarray(values, dtype=float).tobytes())
+            row.unmet += int(np.count_nonzero(~records.points.met[:, i]))
+            j = _worst_of(row.worst, values, head.at_least)
+            if j is not None:
+                replaced.append(row.worst_sample)
+                row.worst, row.worst_sample = float(values[j]), indices[j]
+                if not self.every_run:
+                    self._runs[indices[j]] = run(j)
+        if not self.every_run:
+            for before in replaced:
+                self._release(before)
+
+    def sample_values(self) -> dict[str, np.ndarray]:
+        """Every counted sample's row values as arrays: "index" (the samples, in the order
+        counted) and one array per row, "NAME@CONDITION", aligned with it."""
+        out = {"index": np.frombuffer(self.counted, dtype=np.int64).copy()}
+        for (name, _, condition), row in self._rows.items():
+            out[f"{name}@{condition}"] = np.frombuffer(row.values, dtype=float).copy()
+        return out
 
     def _release(self, index: int | None) -> None:
         """Drop a run no row's worst sample is any more (when only those are kept)."""
@@ -198,6 +245,25 @@ class Tally:
             + (", the first failed" if self._failed_kept else "")
             + f"): a study of more than {EVERY_RUN_KEPT} samples keeps its distributions, not every run"
         )
+
+
+def _worst_of(worst: float, values: np.ndarray, at_least: bool) -> int | None:
+    """The position in ``values`` of the sample that is a row's worst after them, taken one by
+    one after the worst ``worst`` (`Tally.add`'s rule: a NaN worst is replaced by any value, a
+    value by a strictly worse one, the first of equals kept); None when it stays."""
+    start, best = 0, None
+    if worst != worst:
+        defined = np.flatnonzero(~np.isnan(values))
+        if defined.size == 0:
+            return values.size - 1 if values.size else None
+        best = start = int(defined[0])
+        worst, start = float(values[best]), best + 1
+    rest = values[start:]
+    if rest.size and not np.isnan(rest).all():
+        extreme = np.nanmin(rest) if at_least else np.nanmax(rest)
+        if extreme < worst if at_least else extreme > worst:
+            best = start + int(np.flatnonzero(rest == extreme)[0])
+    return best
 
 
 class _Row:

@@ -117,6 +117,33 @@ def worst_case(runs: Sequence[dict]) -> list[dict]:
     return Tally.of(runs).worst_case()
 
 
+def save_samples(path: Path, session: Session, settings: dict, outcome: Outcome) -> Path:
+    """A tolerance study's every sample as arrays in ``path`` (numpy's .npz): each drawn
+    parameter's values ("parameter/NAME", one per sample, or per sample and condition), the
+    counted samples ("index"; failed ones are in the summary) and each row's values aligned
+    with them ("row/NAME@CONDITION").  The draws are made again from the study's settings
+    (`plan.tolerance_jobs` replays a seed exactly): nothing per sample is kept for it."""
+    from sessions.sweeps.plan import tolerance_jobs
+
+    samples = tolerance_jobs(
+        session, settings["tolerance"], settings["samples"], settings["seed"], settings["sampling"]
+    )
+    entries = {entry["name"]: entry["value"] for entry in samples.base["problem"]["parameters"]}
+    arrays = {
+        f"parameter/{name}": np.asarray(entries[name], dtype=float) * (1 + deviation)
+        if isinstance(entries[name], list)
+        else entries[name] * (1 + deviation[:, 0])
+        for name, deviation in samples.deviations.items()
+    }
+    tally = outcome.tally or Tally.of(outcome.runs)
+    values = tally.sample_values()
+    arrays["index"] = values.pop("index")
+    arrays |= {f"row/{key}": column for key, column in values.items()}
+    with open(path, "wb") as out:
+        np.savez(out, **arrays)
+    return path
+
+
 def summarize(session: Session, kind: str, settings: dict, outcome: Outcome) -> dict:
     """The sweep as saved in the session and printed by --json (its settings with the
     outcome's: "scheduler" serial when the runs were made here, and its note)."""

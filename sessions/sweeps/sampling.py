@@ -76,6 +76,8 @@ def deviations(
     rng = np.random.default_rng(seed)
     if sampling == "lhs":
         return [_hypercube(rng, law, size, samples) for law, size in zip(laws, sizes)]
+    if len({law.law for law in laws}) == 1:  # one law: every sample's draws in one call, the same stream
+        return _all_at_random(rng, laws, sizes, samples)
     out = [np.empty((samples, size)) for size in sizes]
     for k in range(samples):
         for law, drawn in zip(laws, out):
@@ -87,6 +89,22 @@ def _at_random(rng: np.random.Generator, law: Tolerance, size: int) -> np.ndarra
     if law.law == "normal":
         return rng.normal(0.0, law.fraction, size)
     return rng.uniform(-law.fraction, law.fraction, size)
+
+
+def _all_at_random(
+    rng: np.random.Generator, laws: Sequence[Tolerance], sizes: Sequence[int], samples: int
+) -> list[np.ndarray]:
+    """`deviations` at random when every law is of one kind: the draws a sample at a time, law
+    after law (the loop's order), made by one call over a (samples, columns) array, whose
+    values come from the generator's stream in that order by the same formula (loc + scale *
+    a standard normal, low + (high - low) * a uniform double), so the same bits (1 000 000
+    samples: 15 s -> 0.1 s)."""
+    fractions = np.repeat([law.fraction for law in laws], sizes)
+    if laws[0].law == "normal":
+        drawn = rng.normal(0.0, fractions, (samples, fractions.size))
+    else:
+        drawn = rng.uniform(-fractions, fractions, (samples, fractions.size))
+    return np.split(drawn, np.cumsum(sizes)[:-1], axis=1)
 
 
 def _hypercube(rng: np.random.Generator, law: Tolerance, size: int, samples: int) -> np.ndarray:

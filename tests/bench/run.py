@@ -46,6 +46,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
     "startup": lambda r: {"startup": startup.cli_startup(min(r, 15))},
     "sweep": lambda r: {"sweep_throughput": startup.sweep_throughput()},
     "tolerance": lambda r: {"tolerance_study": tolerance.tolerance_figures(r)},
+    "studies": lambda r: {"tolerance_study_classes": tolerance.study_classes(max(3, r // 10))},  # issue 53's rows alone
 }
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -22,14 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from tests.bench.common import compared, samples, timed
+from tests.bench.common import compared, judged, samples, timed
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 LAG_LEAD = ["T1=+-10%", "T2=+-10%"]
 LAUNCH_VEHICLE = ["WF=+-10%", "ZF=+-10%", "TA=+-10%"]  # the bending filter's frequency and damping, the actuator lag
 EXACT = 1e-12
 LAUNCH_VEHICLE_BEFORE_S = 33.2  # its 1000 samples, each a session of its own (docs/benchmarks.md, a84e0b6)
-PEAK_MEMORY_MB = 300  # the 100 000-sample study's process at most (it was 711 MB: every run kept)
+PEAK_MEMORY_MB = 300  # the 100 000- and 1 000 000-sample studies' process at most (it was 711 MB: every run kept)
+MILLION_S = 180.0  # 1 000 000 lag-lead samples serially (issue 53), reported
 CHECKED_SAMPLES = 300  # samples whose runs the per-loop path makes again (the check, and today's time)
 
 
@@ -169,11 +171,11 @@ def _in_fresh_process(count: int, *options: str) -> dict:
 
 
 def hundred_thousand() -> dict:
-    """100 000 samples serially in a fresh process (time: target 30 s, reported; peak memory:
-    target `PEAK_MEMORY_MB`, enforced), beside 10 000 (the largest study that keeps every run)
+    """100 000 and 1 000 000 samples serially in a fresh process (time: targets 30 s and
+    `MILLION_S`, reported; peak memory: target `PEAK_MEMORY_MB`, enforced), beside 10 000 (the largest study that keeps every run)
     and 20 000 (the memory's growth per sample), and the study's own allocations traced at 20 000
     and 100 000."""
-    every, small, large = (_in_fresh_process(n) for n in (10_000, 20_000, 100_000))
+    every, small, large, million = (_in_fresh_process(n) for n in (10_000, 20_000, 100_000, 1_000_000))
     traced = {n: _in_fresh_process(n, "--traced")["traced_peak_mb"] for n in (20_000, 100_000)}
     return {
         "samples_100000": {**timed(large["seconds"], 30.0), **large},
@@ -185,6 +187,15 @@ def hundred_thousand() -> dict:
             "target": PEAK_MEMORY_MB,
             "target_kind": "max_mb",
             "met": large["peak_memory_mb"] <= PEAK_MEMORY_MB,
+            "enforced": True,
+        },
+        "samples_1000000": {**timed(million["seconds"], MILLION_S), **million},
+        "peak_memory_1000000": {
+            "value": million["peak_memory_mb"],
+            "unit": "MB",
+            "target": PEAK_MEMORY_MB,
+            "target_kind": "max_mb",
+            "met": million["peak_memory_mb"] <= PEAK_MEMORY_MB,
             "enforced": True,
         },
         "samples_10000": every,
@@ -217,12 +228,153 @@ def launch_vehicle(pairs: int = 3, count: int = 1000, compared_samples: int = 10
     }
 
 
+LIGHT_PLANT = "1/(s*(s/3.61+1)*(s/13.03+1)*(s/37.6+1))*2500/(s**2+2*0.02*50*s+2500)/(s/300+1)"
+LEAD_PLANT = "10/(s*(s+1)*(s+5))"
+CLASS_SAMPLES = 500  # a class's study against python-control (its loop in z: 21 ms a sample there)
+
+
+def _light_session(folder: Path) -> Path:
+    """A lead on a 7th-order plant with a zeta = 0.02 mode at 50 rad/s (issue 53's table)."""
+    model = json.loads((EXAMPLES / "coebra_lag_lead.json").read_text())
+    blocks = model["problem"]["conditions"][0]["plant"]["blocks"]
+    blocks[0]["transfer"]["expression"] = "K*(1+T1*s)/(1+T2*s)"
+    blocks[1]["transfer"]["expression"] = LIGHT_PLANT
+    model["problem"]["parameters"] = [
+        {"name": n, "value": v, "min": 1e-4, "max": 1e4} for n, v in (("K", 4.56), ("T1", 0.5), ("T2", 0.05))
+    ]
+    path = folder / "light.json"
+    path.write_text(json.dumps(model))
+    return path
+
+
+def _lead_session(folder: Path) -> Path:
+    """The lead of `loopcraft new` (its constraints T1 <= 20*T2, T2 <= 20*T1) at T1 = 2, T2 = 0.1,
+    where T1 <= 20*T2 binds."""
+    from sessions.new.templates import new_session
+
+    model = new_session(LEAD_PLANT, "lead")
+    for entry in model["problem"]["parameters"]:
+        entry["value"] = {"K": 1.0, "T1": 2.0, "T2": 0.1}[entry["name"]]
+    path = folder / "lead.json"
+    path.write_text(json.dumps(model))
+    return path
+
+
+def _class_loops(name: str):
+    """Each class's loop the python-control way, from a sample's parameter values."""
+    import control as ct
+
+    if name == "kuo_z":
+        plant = ct.tf(0.39 * np.polymul([1.0, 1.31], [1.0, 0.054]), np.polymul([1.0, -1.0, 0.0], [1.0, -0.368]), 0.5)
+        return lambda p: ct.tf([1 + p["T1"], -(p["T1"] - 1)], [1 + p["T2"], -(p["T2"] - 1)], 0.5) * plant
+    s = ct.tf("s")
+    plant = (
+        1
+        / (s * (s / 3.61 + 1) * (s / 13.03 + 1) * (s / 37.6 + 1))
+        * 2500
+        / (s**2 + 2 * 0.02 * 50 * s + 2500)
+        / (s / 300 + 1)
+        if name == "light_mode"
+        else ct.tf([10.0], np.polymul([1.0, 1.0, 0.0], [1.0, 5.0]))
+    )
+    return lambda p: ct.tf([p["K"] * p["T1"], p["K"]], [p["T2"], 1.0]) * plant
+
+
+def study_class(
+    name: str, path: Path, tolerances: list[str], target: float, repeat: int, sampling: str = "random"
+) -> dict:
+    """One class's study of `CLASS_SAMPLES` samples against python-control building each sample's
+    loop and calling stability_margins and feedback(...).poles() (interleaved), how many samples
+    the batch took, and its first samples' margins against the per-loop path."""
+    import control as ct
+
+    from sessions.store import load_session
+    from sessions.sweeps.jobs import execute_serial, run_job
+    from sessions.sweeps.plan import plan
+
+    jobs = plan(load_session(path), "tolerance", tolerances, None, 7, CLASS_SAMPLES, sampling)[0]
+    outcome = execute_serial(jobs)
+    values, loop_of = _parameters(jobs), _class_loops(name)
+
+    def theirs(i: int) -> None:
+        for p in values:
+            loop = loop_of(p)
+            ct.stability_margins(loop, returnall=True)
+            ct.feedback(loop, 1).poles()
+
+    figure = compared(lambda i: execute_serial(jobs), theirs, repeat, target=target)
+    first = jobs[: CHECKED_SAMPLES // 3]
+    margin, abscissa = _worst_difference(execute_serial(first).runs, [run_job(job.payload()) for job in first])
+    figure.update(
+        samples=len(jobs),
+        ours_per_sample_us=figure["ours_median_s"] / len(jobs) * 1e6,
+        theirs_per_sample_us=figure["theirs_median_s"] / len(jobs) * 1e6,
+        note=outcome.note,
+        margins_worst_relative_difference=margin,
+        stability_abscissa_worst_relative_difference=abscissa,
+    )
+    return figure
+
+
+def study_classes(repeat: int) -> dict:
+    """Issue 53's classes against python-control: the light-mode plant (target 5x), Kuo's loop
+    in z and the constrained lead (20x each); and the home case against numpy's floor."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        here = Path(folder)
+        return {
+            "light_mode": study_class(
+                "light_mode", _light_session(here), ["K=+-10%", "T1=+-10%", "T2=+-10%"], 5.0, repeat
+            ),
+            "kuo_z": study_class("kuo_z", EXAMPLES / "coebra_kuo_z.json", ["T1=+-10%", "T2=+-10%"], 20.0, repeat),
+            "constrained_lead": study_class(
+                "constrained_lead", _lead_session(here), ["K=+-10%", "T1=+-10%", "T2=+-10%"], 20.0, repeat, "lhs"
+            ),
+            "lag_lead_vs_numpy_floor": numpy_floor(repeat),
+        }
+
+
+def numpy_floor(repeat: int, count: int = 20_000) -> dict:
+    """The lag-lead study of ``count`` samples against numpy's floor: batched eigenvalues of the
+    same companion matrices (each sample's closed-loop characteristic polynomial), interleaved;
+    ratio ours / floor, target at most 2."""
+    from sessions.sweeps.jobs import execute_serial
+
+    jobs = _jobs("coebra_lag_lead.json", LAG_LEAD, count)
+    values = _parameters(jobs)
+    T1, T2, T3, T4 = (np.array([p[n] for p in values]) for n in ("T1", "T2", "T3", "T4"))
+
+    def floor(i: int) -> None:
+        numerator = 16000.0 * np.stack([T1 * T2, T1 + T2, np.ones_like(T1)], axis=1)
+        den_c = np.stack([T3 * T4, T3 + T4, np.ones_like(T3)], axis=1)
+        plant = np.array([1.0, 28.0, 160.0, 0.0])
+        den = np.stack([np.convolve(d, plant) for d in den_c])
+        char = den.copy()
+        char[:, -3:] += numerator
+        companion = np.zeros((count, 5, 5))
+        companion[:, 1:, :-1] = np.eye(4)
+        companion[:, 0, :] = -char[:, 1:] / char[:, :1]
+        np.linalg.eigvals(companion)
+
+    a, b = samples([lambda i: execute_serial(jobs), floor], max(3, repeat // 6))
+    ratio = statistics.median([o / f for o, f in zip(a, b)])
+    return {
+        "samples": count,
+        "ours_per_sample_us": statistics.median(a) / count * 1e6,
+        "floor_per_sample_us": statistics.median(b) / count * 1e6,
+        "ratio": ratio,
+        **judged(ratio, 2.0, "max_ratio"),
+    }
+
+
 def tolerance_figures(repeat: int) -> dict:
     """Every figure of the group (`make bench`: ``--only tolerance``)."""
     return {
         "lag_lead_2000": lag_lead(max(3, repeat // 6)),
         "lag_lead_serial": hundred_thousand(),
         "launch_vehicle": launch_vehicle(),
+        "classes": study_classes(max(3, repeat // 10)),
     }
 
 

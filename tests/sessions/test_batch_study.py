@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 import shutil
 from pathlib import Path
 
@@ -164,9 +165,47 @@ def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
     _per_loop_equal(_jobs(_edited(tmp_path, inner), 6), why)
 
 
-def test_a_loop_in_z_is_evaluated_per_loop(tmp_path):
-    shutil.copy(EXAMPLES / "coebra_kuo_z.json", tmp_path / "z.json")
-    _per_loop_equal(_jobs(tmp_path / "z.json", 6), "a loop in z (its margins are searched on its w-plane form)")
+def _kuo_z(tmp_path: Path, plant: str | None = None, name: str = "z") -> Path:
+    """Kuo's loop in z (T = 0.5 s), its plant replaced when given."""
+    model = json.loads((EXAMPLES / "coebra_kuo_z.json").read_text())
+    if plant is not None:
+        model["problem"]["conditions"][0]["plant"]["blocks"][1]["transfer"]["expression"] = plant
+    path = tmp_path / f"{name}.json"
+    path.write_text(json.dumps(model))
+    return path
+
+
+def test_a_loop_in_z_is_batched_and_equals_the_per_loop_path(tmp_path):
+    """Issue 53, section 1: Kuo's loop in z went per loop (not batched: a loop in z); its w-plane
+    form is batched now (the (1 - w) of each z = (1 + w)/(1 - w) cancelled as the per-loop path
+    cancels it), every run `run_job`'s, frequencies in rad/s."""
+    jobs = _jobs(_kuo_z(tmp_path), 60, ["T1=+-30%", "T2=+-30%"])
+    batch = batch_runs(jobs)
+    assert batch is not None and not batch.unbatched and batch.per_loop == 0
+    assert batch.done - batch.searched >= 50
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+
+
+def test_random_loops_in_z_equal_the_per_loop_path(tmp_path):
+    """Random plants in z (a gain, two real zeros inside or outside the unit circle, an
+    integrator z - 1, a real pole and a complex pair inside it, one a light one) under Kuo's
+    compensator, T1 and T2 +-50 %: every run is `run_job`'s."""
+    batched = total = 0
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        a, b = rng.uniform(-1.5, 0.9, 2).round(6).tolist()
+        p, r, theta = (float(rng.uniform(lo, hi)) for lo, hi in ((0.1, 0.95), (0.6, 0.995), (0.2, 2.5)))
+        k = float(10 ** rng.uniform(-1.5, -0.5))
+        plant = f"{k!r}*(z-({a!r}))*(z-({b!r}))/((z-1)*(z-{p!r})*(z**2-{2 * r * math.cos(theta)!r}*z+{r * r!r}))"
+        jobs = _jobs(_kuo_z(tmp_path, plant, f"z{seed}"), 20, ["T1=+-50%", "T2=+-50%"])
+        batch = batch_runs(jobs)
+        assert batch is not None and not batch.unbatched
+        for got, job in zip(batch.runs, jobs, strict=True):
+            _same_run(got, run_job(job.payload()))
+        batched += batch.done - batch.per_loop - batch.searched
+        total += batch.done
+    assert batched >= 0.7 * total
 
 
 def test_the_launch_vehicle_is_evaluated_per_loop(tmp_path):
@@ -303,3 +342,120 @@ def test_a_value_against_its_parameters_sign_goes_to_its_own_session(tmp_path):
     assert batch is not None and set(negative) <= set(batch.alone)
     for got, job in zip(batch.runs, jobs, strict=True):
         _same_run(got, run_job(job.payload()), exact=job.index in negative)
+
+
+@pytest.mark.parametrize("every_run", [True, False])
+def test_runs_held_as_arrays_tally_as_run_by_run(tmp_path, every_run):
+    """Issue 53: a study's batched samples reach its Tally as arrays (`Tally.add_records`), a
+    run made only when kept; the rows, worst samples, distributions and kept runs are those of
+    the same runs added one by one (a light-mode plant: some samples by the per-loop search,
+    interleaved)."""
+    from sessions.sweeps.dispersion import Tally
+    from tests.engine.test_batch_margins import _light_mode_plant
+
+    blocks, values = _light_mode_plant(np.random.default_rng(6))
+    jobs = _jobs(_loop_session(tmp_path, blocks, values), 120, [f"{name}=+-30%" for name in values])
+    arrays, one_by_one = Tally(every_run), Tally(every_run)
+    batch = batch_runs(jobs, tally=arrays)
+    assert batch is not None and batch.done == 120 and batch.runs == []
+    for run in batch_runs(jobs).runs:
+        one_by_one.add(run)
+    assert arrays.worst_case() == one_by_one.worst_case()
+    assert json.dumps(arrays.rows()) == json.dumps(one_by_one.rows())
+    strip = lambda runs: [{k: v for k, v in run.items() if k != "seconds"} for run in runs]  # noqa: E731
+    assert strip(arrays.runs()) == strip(one_by_one.runs())
+    assert len(arrays.runs()) == (120 if every_run else len({row["worst_sample"] for row in arrays.worst_case()}))
+
+
+def test_the_worst_of_a_stretch_follows_the_run_by_run_rule():
+    """`_worst_of` against `Tally.add`'s rule taken value by value: NaN worsts replaced by any
+    value, values by strictly worse ones, the first of equals kept (random values with NaN, inf
+    and ties)."""
+    from sessions.sweeps.dispersion import _worst_of
+
+    rng = np.random.default_rng(2)
+    pool = np.array([np.nan, np.inf, -np.inf, 0.0, 1.0, 1.0, 2.5, -3.0])
+    for _ in range(400):
+        values = rng.choice(pool, int(rng.integers(0, 6)))
+        start, at_least = float(rng.choice(pool)), bool(rng.integers(0, 2))
+        worst, expected = start, None
+        for j, value in enumerate(values):
+            if worst != worst or (value < worst if at_least else value > worst):
+                worst, expected = value, j
+        assert _worst_of(start, values, at_least) == expected, (start, values.tolist(), at_least)
+
+
+def test_the_constrained_lead_of_loopcraft_new_is_batched(tmp_path):
+    """Issue 53's constrained lead: `loopcraft new`'s lead (T1 <= 20*T2, T2 <= 20*T1) at T1 = 2,
+    T2 = 0.1, where T1 <= 20*T2 binds; its study's samples (the constraints left out of the
+    study's document, 98f0f04) are all batched and every run is `run_job`'s."""
+    from sessions.new.templates import new_session
+
+    model = new_session("10/(s*(s+1)*(s+5))", "lead")
+    for entry in model["problem"]["parameters"]:
+        entry["value"] = {"K": 1.0, "T1": 2.0, "T2": 0.1}[entry["name"]]
+    path = tmp_path / "lead.json"
+    path.write_text(json.dumps(model))
+    jobs = plan(load_session(path), "tolerance", ["K=+-10%", "T1=+-10%", "T2=+-10%"], None, 7, 60, "lhs")[0]
+    batch = batch_runs(jobs)
+    assert batch is not None and batch.per_loop == 0 and batch.done - batch.searched >= 55
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+
+
+@pytest.mark.parametrize("samples", [40, 10_050])
+def test_save_samples_writes_every_samples_values(tmp_path, capsys, samples):
+    """Issue 53, section 3: --save-samples FILE.npz holds every sample's drawn values and row
+    values; they are the runs' own (every run kept at 40 samples; at 10 050 the runs kept are
+    checked, and every row's values against the summary's percentiles)."""
+    from sessions.sweeps.dispersion import percentiles
+
+    path = tmp_path / "lag_lead.json"
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
+    out = tmp_path / "samples.npz"
+    args = ["sweep", str(path), "--tolerance", TOLERANCES[0], "--tolerance", TOLERANCES[1]]
+    assert main([*args, "--samples", str(samples), "--serial", "--json", "--save-samples", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    saved = np.load(out)
+    assert saved["index"].tolist() == list(range(samples))
+    assert saved["parameter/T1"].shape == (samples,)
+    runs = summary["runs"]
+    assert len(runs) == (samples if samples <= 10_000 else len(runs))
+    for run in runs:
+        k = run["index"]
+        assert run["start"] == {"T1": saved["parameter/T1"][k], "T2": saved["parameter/T2"][k]}
+        for m in run["measures"]:
+            assert float(m["value"]) == pytest.approx(saved[f"row/{m['name']}@{m['condition']}"][k], rel=0, nan_ok=True)
+    assert len(summary["worst_case"]) == 4
+    for row in summary["worst_case"]:
+        values = saved[f"row/{row['name']}@{row['condition']}"]
+        assert list(row["percentiles"].values()) == percentiles(values[~np.isnan(values)])
+
+
+def test_save_samples_is_for_a_tolerance_study(tmp_path, capsys):
+    path = tmp_path / "lag_lead.json"
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", path)
+    assert main(["sweep", str(path), "--starts", "2", "--serial", "--save-samples", str(tmp_path / "x.npz")]) == 2
+    assert "--save-samples is for a tolerance study" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "plant",
+    [
+        "0.2*(z+0.5)/((z-1)*(z-0.6))*z**-1",
+        "0.1*(z+0.9)*(z-0.3)/(z**2*(z-1)*(z-0.8))",
+        "0.05/((z-1)**2)*(z-0.95)",
+        "0.3*(z**2-1.2*z+0.5)/((z-1)*(z**2-1.6*z+0.8)*(z-0.2))",
+        "0.1*(z+1)/((z-1)*(z-0.5))",
+    ],
+    ids=["delay", "poles-at-0", "double-integrator", "pairs", "zero-at-minus-1"],
+)
+def test_loops_in_z_of_other_shapes_are_batched(tmp_path, plant):
+    """A sample delay (z**-1), poles at z = 0, a double integrator, complex pairs typed as
+    quadratics in z, and a zero at z = -1 (z + 1 is 2/(1 - w): its sum's leading coefficient
+    vanishes in every sample, which the batch form drops; the crash it was: an infinite root)."""
+    jobs = _jobs(_kuo_z(tmp_path, plant), 8, ["T1=+-30%", "T2=+-30%"])
+    batch = batch_runs(jobs)
+    assert batch is not None and not batch.unbatched and batch.per_loop == 0
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))

@@ -351,3 +351,22 @@ def test_a_large_study_counts_its_samples_not_the_runs_it_keeps():
     assert run_count(kept) == "100000 runs (3 kept)"
     assert run_count(every) == "2000 runs"
     assert run_count({"runs": [{}] * 16, "settings": {}}) == "16 runs"  # a starts sweep
+
+
+@pytest.mark.parametrize("laws", [["A=+-10%", "B=+-5%"], ["A=normal:10%", "B=normal:3%", "C=normal:1%"]])
+def test_draws_in_one_call_are_the_sample_at_a_time_draws(laws):
+    """Issue 53, section 3: laws of one kind are drawn for every sample in one call (1 000 000
+    samples: 15 s -> 0.1 s); the values are the sample-at-a-time loop's, bit for bit (its order:
+    sample after sample, law after law, a value per condition)."""
+    from sessions.sweeps.sampling import _at_random, deviations
+
+    tolerances = [parse_tolerance(text) for text in laws]
+    sizes = [1, 3, 2][: len(laws)]
+    for seed in (0, 9):
+        rng = np.random.default_rng(seed)
+        loop = [np.empty((500, size)) for size in sizes]
+        for k in range(500):
+            for law, drawn in zip(tolerances, loop):
+                drawn[k] = _at_random(rng, law, drawn.shape[1])
+        for got, want in zip(deviations(tolerances, sizes, 500, "random", seed), loop, strict=True):
+            assert np.array_equal(got, want)

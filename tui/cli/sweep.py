@@ -71,6 +71,11 @@ def add_parser(sub) -> None:
         help="a tolerance study: make the worst sample (of that measure, else of the row that misses its "
         "desired value by the most) the session's start, to look at (records are cleared)",
     )
+    p.add_argument(
+        "--save-samples",
+        metavar="FILE.npz",
+        help="a tolerance study's every sample as arrays: drawn parameter values and row values",
+    )
     p.add_argument("--out", help="save here instead of in place")
     p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.add_argument("--json", action="store_true", help="print one JSON object: runs and optima")
@@ -95,6 +100,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise CliError("one of --starts, --vary, --tolerance is required")
     if args.tolerance is None and (args.sampling is not None or args.adopt_worst is not None):
         raise CliError("--sampling and --adopt-worst are for a tolerance study (--tolerance)")
+    if args.tolerance is None and args.save_samples:
+        raise CliError("--save-samples is for a tolerance study (--tolerance)")
     target = Path(args.out or args.file)
     session = load_session(args.file)
     check_session_out(session, args.out, args.force)
@@ -178,6 +185,11 @@ def _keep(args: argparse.Namespace, session, kind: str, settings: dict, outcome,
     from sessions.sweeps.results import record_sweep, summarize
 
     summary = summarize(session, kind, settings, outcome)
+    if args.save_samples:
+        from sessions.sweeps.results import save_samples
+
+        saved = save_samples(Path(args.save_samples), session, settings, outcome)
+        print(f"loopcraft sweep: every sample's values in {saved}", file=sys.stderr)
     record_sweep(session, summary)
     adopt_error = _adopt(args, session, summary) if not outcome.interrupted else None
     kept, in_session = _save(session, summary, target)

@@ -1,0 +1,113 @@
+"""The runs of a stretch of batched tolerance samples held as arrays (`Records`): every
+sample's row values, frequencies and verdicts (`engine.slp.points`), each sample's run
+made only when it is kept (`run`), as `sessions.sweeps.jobs.run_job` makes it (its rows
+`engine.slp.algorithm.Slp.row_fields`'s, written as `StepRecord.to_json` writes them).
+A study's `Tally` takes such a stretch whole (`Tally.add_records`): its rows' values
+appended as arrays, its worst samples found by array reductions, no Python object made
+per sample and row but for the runs it keeps."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.design.measure_kinds import absent_reason
+from engine.slp.measures import Spec
+from engine.slp.points import Points
+
+
+class RowHead(NamedTuple):
+    """What every sample's run says of a measure row but its value: its name, kind,
+    condition's name, desired value (the row's requirement) and sense."""
+
+    name: str
+    kind: str
+    condition: str
+    desired: float | None
+    at_least: bool
+
+    def as_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "condition": self.condition,
+            "desired": self.desired,
+            "at_least": self.at_least,
+        }
+
+
+def row_heads(specs: tuple[Spec, ...], conditions: list[str]) -> list[RowHead]:
+    """The heads of slp's rows (`Slp.row_fields`' constant fields)."""
+    return [RowHead(s.name, s.kind, conditions[s.condition], s.required, s.at_least) for s in specs]
+
+
+@dataclass(frozen=True)
+class Records:
+    """Consecutive batched samples (``samples``: index, label and drawn values each) with their
+    free vectors ``xs``, row values and frequencies (samples, rows) and verdicts ``points``;
+    ``named``: the study's named start values; ``seconds``: each sample's share of the batch."""
+
+    samples: list[tuple[int, str, dict]]
+    heads: list[RowHead]
+    values: NDArray[np.float64]
+    frequencies: NDArray[np.float64]
+    points: Points
+    named: dict
+    seconds: float
+
+    @property
+    def indices(self) -> list[int]:
+        return [index for index, _, _ in self.samples]
+
+    def runs(self) -> list[dict]:
+        return [self.run(j) for j in range(len(self.samples))]
+
+    def run(self, j: int) -> dict:
+        """Sample ``j``'s run, as `run_job` makes it."""
+        index, label, start = self.samples[j]
+        met = self.points.met[j].tolist()
+        rows = [
+            _row(head, v, f, ok, absent)
+            for head, v, f, ok, absent in zip(
+                self.heads, self.values[j].tolist(), self.frequencies[j].tolist(), met, self.points.absent[j].tolist()
+            )
+        ]
+        return {
+            "index": index,
+            "label": label,
+            "start": start,
+            "worker": "local",
+            "status": "running",
+            "reason": "",
+            "iterations": 0,
+            "parameters": {**self.named, **start},
+            "ranking": float(self.points.merit[j]),
+            "measures": rows,
+            "meets_requirements": all(met),
+            "seconds": self.seconds,
+            "attempts": 1,
+        }
+
+
+def _row(head: RowHead, value: float, frequency: float, ok: bool, absent: bool) -> dict:
+    """A tableau row as `StepRecord.to_json` writes it (non-finite numbers as 'inf', '-inf', 'nan')."""
+    return {
+        "name": head.name,
+        "kind": head.kind,
+        "condition": head.condition,
+        "value": number(value),
+        "desired": number(head.desired),
+        "satisfied": ok,
+        "frequency": None if math.isnan(frequency) else number(frequency),
+        "at_least": head.at_least,
+        "method": absent_reason(head.kind, value) if absent else None,
+    }
+
+
+def number(value: float | None) -> float | str | None:
+    """A number as the session's JSON writes it: non-finite ones as 'inf', '-inf', 'nan'."""
+    return value if value is None or math.isfinite(value) else repr(value)
