@@ -33,7 +33,7 @@ def level_notes(loop: LoopModel, flat: frozenset[str], gh: complex, on_real_axis
         )
     if "phase" in flat:
         notes.append(
-            f"the phase of GH is constant ({math.degrees(np.angle(gh)):.6g} deg)"
+            f"the phase of GH is constant ({math.degrees(np.angle(gh)) + 0.0:.6g} deg)"  # + 0.0: no "-0"
             + (
                 ": on the negative real axis everywhere (gain crossings not isolated)"
                 if abs(abs(np.angle(gh)) - math.pi) < 1e-9

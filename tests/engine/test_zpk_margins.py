@@ -218,3 +218,11 @@ def _is_a_minimum_of_the_distance(form: ZpkEvaluator, w: float) -> bool:
         return abs(1 + g)
 
     return bool(distance(w) < distance(w / 2) and distance(w) < distance(2 * w))
+
+
+@pytest.mark.parametrize("expression", ["2", "(s + 1)/(s + 1)"])
+def test_a_positive_constant_loop_s_phase_is_0_deg_not_minus_0(expression):
+    """GH = 2 (its phase np.angle(2 - 0j) = -0.0): the note said "constant (-0 deg)"."""
+    found = margin_search.margins(loop_model(unity_feedback([expression]), "e", GRID, {}))
+    phase = [n for n in found.notes if n.startswith("the phase of GH is constant")]
+    assert phase == ["the phase of GH is constant (0 deg)"]
