@@ -325,6 +325,8 @@ class DelayedRun:
 
     t: NDArray
     y: NDArray
+    right: NDArray  # every signal just after each sample i step (rows)
+    complete: bool = True  # False: a signal left the floating-point range, the samples before it kept
 
 
 def simulate_delayed(
@@ -343,7 +345,7 @@ def simulate_delayed(
     cols = [k] + [d[1] for d in delays]
     B, D = ss.B[:, cols], ss.D[:, cols]
     n, p = ss.A.shape[0], len(cols)
-    Phi, G0, G1 = _foh_matrix(ss.A, B, step)
+    Phi, G0, G1 = foh_maps(ss.A, B, step)
     lags = np.array([d[0] for d in delays])
     rows = [d[2] for d in delays]
     right = np.zeros((count, len(ss.outputs)))  # signals just after each sample
@@ -377,16 +379,47 @@ def simulate_delayed(
             signals(i0 + 1, i1 + 1)
             i0 = i1
     times = np.arange(count) * step
-    jumps = np.any(np.abs(left - right) > 1e-12 * (np.abs(left) + np.abs(right)), axis=1)
+    complete = bool(np.all(np.isfinite(right)))
+    if not complete:  # grown past the float range: the samples before it
+        last = int(np.argmax(~np.all(np.isfinite(right), axis=1)))
+        times, left, right, count = times[:last], left[:last], right[:last], last
+    with np.errstate(all="ignore"):
+        jumps = np.any(np.abs(left - right) > 1e-12 * (np.abs(left) + np.abs(right)), axis=1)
     jumps[0] = False  # at 0 the response starts from its right limit
     order = np.repeat(np.arange(count), np.where(jumps, 2, 1))
     first = np.concatenate([[True], order[1:] != order[:-1]])
     y = np.where((first & jumps[order])[:, None], left[order], right[order])
-    return DelayedRun(times[order], y)
+    return DelayedRun(times[order], y, right, complete)
 
 
-def _foh_matrix(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
-    """`_foh` for several inputs (B: n x p): x+ = Phi x + G0 u0 + G1 du."""
+def delay_recurrence(ss: StateSpace, delays: Sequence[tuple[int, int, int]], step: float) -> NDArray:
+    """The free (unforced) recurrence `simulate_delayed` steps, as one matrix on (x_i, and per delay its
+    input's last ``samples`` values): its eigenvalues z approximate exp(lambda step) of the loop's
+    characteristic roots lambda (the rightmost to O(step^2))."""
+    n, lags = ss.A.shape[0], [d[0] for d in delays]
+    starts = np.cumsum([n] + lags)[:-1]
+    size = n + sum(lags)
+    Phi, G0, G1 = foh_maps(ss.A, ss.B[:, [d[1] for d in delays]], step)
+    rows = [d[2] for d in delays]
+    W = np.zeros((len(delays), size))  # the delays' outputs now: their inputs lag samples ago
+    for k, (lag, start) in enumerate(zip(lags, starts)):
+        W[k, start + lag - 1] = 1.0
+    X = np.zeros((n, size))
+    X[:, :n] = np.eye(n)
+    V = ss.C[rows] @ X + ss.D[np.ix_(rows, [d[1] for d in delays])] @ W  # the delays' inputs now
+    W_next = np.zeros_like(W)
+    for k, (lag, start) in enumerate(zip(lags, starts)):
+        W_next[k] = V[k] if lag == 1 else np.eye(size)[start + lag - 2]
+    M = np.zeros((size, size))
+    M[:n] = Phi @ X + (G0 - G1 / step) @ W + (G1 / step) @ W_next
+    for k, (lag, start) in enumerate(zip(lags, starts)):
+        M[start] = V[k]
+        M[start + 1 : start + lag, start : start + lag - 1] = np.eye(lag - 1)
+    return M
+
+
+def foh_maps(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
+    """Exact one-step maps for inputs linear over [0, h] (B: n x p): x+ = Phi x + G0 u0 + G1 du (du per s)."""
     n, p = B.shape
     big = np.zeros((n + 2 * p, n + 2 * p))
     big[:n, :n], big[:n, n : n + p], big[n : n + p, n + p :] = A * h, B * h, np.eye(p)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from engine.analysis import LoopCurve, loop_curve
-from engine.closed_loop.step_response import StepSetup, horizon, realized, step_response
+from engine.closed_loop.step_response import StepSetup, horizon, network_step, realized
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.presenter import tolerant
@@ -128,12 +128,14 @@ class View:
         return None if found is None else (found.t, found.y, found.name)
 
     def step(self, iteration: int | None = None, condition: int = 0, span: float | None = None):
-        """The `StepResponse` of one condition at an iteration (None: not a rational loop)."""
+        """The `StepResponse` of one condition at an iteration (None: neither a rational loop nor one
+        with delays, `network_step`)."""
         problem = self.problem
-        if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
+        if condition >= len(problem.conditions):
             return None
-        ss = realized(problem.conditions[condition].network, self.parameters(iteration, condition))
-        return None if ss is None else step_response(ss, self.step_setup, span)
+        return network_step(
+            problem.conditions[condition].network, self.parameters(iteration, condition), self.step_setup, span
+        )
 
     def step_loop(self, condition: int = 0):
         """The current design's closed loop (state space) of one condition, or None."""
