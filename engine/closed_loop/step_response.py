@@ -72,8 +72,14 @@ class StepResponse:
 
 
 def has_delays(network: Network) -> bool:
-    """Whether the network has a delay exp(-tau s) among its blocks."""
-    return any(isinstance(e.transfer, DelayTransfer) for e in network.entries)
+    """Whether the network is a continuous loop with delays exp(-tau s) and rational blocks besides (no
+    table): what `network_step` simulates."""
+    return (
+        network.sample_time is None
+        and network.variable == "s"
+        and any(isinstance(e.transfer, DelayTransfer) for e in network.entries)
+        and all(e.transfer.rational_form or isinstance(e.transfer, DelayTransfer) for e in network.entries)
+    )
 
 
 def network_step(

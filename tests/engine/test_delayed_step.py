@@ -128,3 +128,35 @@ def test_digits_follow_the_error():
     assert digits_supported(2.36788, 4e-3) == 3
     assert digits_supported(38.44, 0.05) == 3
     assert digits_supported(1.0, math.inf) == 1
+
+
+def test_the_settling_time_against_the_method_of_steps_integrated_finely():
+    """Beyond 3T the pieces are long to write: y' = -y + r(t - 1) - y(t - 1) integrated interval by interval
+    (solve_ivp, rtol 1e-12, each interval reading the previous one's dense output), and the last crossing
+    of the 5 % band about 1/2 found on it."""
+    from scipy.integrate import solve_ivp
+    from scipy.optimize import brentq
+
+    pieces = [lambda t: 0.0 * t]  # y on [-1, 0]
+    for k in range(12):
+        before = pieces[-1]
+        sol = solve_ivp(
+            lambda t, y, before=before, on=float(k >= 1): [-y[0] + on - before(t - 1.0)],  # r(t - 1) = 0 on [0, 1)
+            (k, k + 1.0),
+            [float(pieces[-1](k)) if k else 0.0],
+            rtol=1e-12,
+            atol=1e-14,
+            dense_output=True,
+        )
+        pieces.append(lambda t, f=sol.sol: f(t)[0])
+
+    def y(t: float) -> float:
+        return float(pieces[min(int(t), 11) + 1](t))
+
+    grid = np.linspace(0, 12, 12001)
+    outside = [t for t in grid if abs(y(t) / 0.5 - 1) > 0.05]
+    last = outside[-1]
+    level = 0.5 * (1.05 if y(last) > 0.5 else 0.95)
+    settling = brentq(lambda t: y(t) - level, last, last + 0.001, xtol=1e-13)
+    found = delayed_step(unity_feedback(["1/(s+1)*exp(-1*s)"]), {}, "r", "y")
+    assert abs(found.measures.settling_time - settling) <= 3 * found.errors["settling_time"] + 1e-9
