@@ -45,6 +45,7 @@ MOST_SAMPLES = 400_000  # the fine run's samples at most (then the horizon is cu
 ROOT_STATES = 600  # the free recurrence's size at most (the stability verdict and the horizon)
 COMMON_DENOMINATOR = 64  # delays whose ratios need a larger denominator have no common step
 MAX_HORIZON = 1e4
+SHOWN = 20_000  # the curve's points at most (thinned evenly; the measures read every sample)
 BAND = 0.05
 MEASURES = ("rise_time", "delay_time", "peak_time", "peak", "overshoot_percent", "settling_time")
 
@@ -124,14 +125,14 @@ def delayed_step(
         end = min(end, MAX_HORIZON)
     wanted = max(base * SAMPLES / end, base * PER_PERIOD * (root.imag if root is not None else 0.0) / (2 * math.pi))
     m = max(1, math.ceil(wanted))
-    note = None
+    note, cut = None, None
     if 2 * end * m / base > MOST_SAMPLES:
         m = max(1, math.floor(MOST_SAMPLES * base / (2 * end)))
         if 2 * end * m / base > MOST_SAMPLES:
             cut = MOST_SAMPLES * base / (2 * m)
             note = (
                 f"simulated over {cut:.6g} s, not {end:.6g} s: a grid whose step divides the delays "
-                f"({base:.6g} s) has at most {MOST_SAMPLES} samples"
+                f"({base:.6g} s) has at most {MOST_SAMPLES} samples; no measures on a response cut short"
             )
             end = cut
     runs = []
@@ -149,7 +150,7 @@ def delayed_step(
         note = "the response leaves the floating-point range within the horizon: shown until it does"
     final, final_from = _final(network, params, source, output, stable, fine.y[:, j])
     measures, errors = None, {}
-    if final_from == "dc_gain" and final != 0 and math.isfinite(final):
+    if final_from == "dc_gain" and final != 0 and math.isfinite(final) and cut is None:
         mc = _measures(coarse.t, coarse.y[:, j], final, h_c)
         mf = _measures(fine.t, fine.y[:, j], final, h_f)
         measures = mf
@@ -169,7 +170,10 @@ def delayed_step(
     )
     if root is not None:
         how += f"; rightmost characteristic root about {root.real:.3g} +- {root.imag:.3g}j"
-    return DelayedStep(fine.t, fine.y[:, j], measures, errors, curve_error, h_f, root, how, note)
+    shown = np.arange(fine.t.size)
+    if shown.size > SHOWN:  # the curve thinned for drawing (the measures read every sample)
+        shown = np.unique(np.concatenate([shown[:: math.ceil(shown.size / SHOWN)], shown[-1:]]))
+    return DelayedStep(fine.t[shown], fine.y[shown, j], measures, errors, curve_error, h_f, root, how, note)
 
 
 def _delays(opened: OpenedDelays, lags: list[int]) -> list[tuple[int, int, int]]:

@@ -160,3 +160,28 @@ def test_the_settling_time_against_the_method_of_steps_integrated_finely():
     settling = brentq(lambda t: y(t) - level, last, last + 0.001, xtol=1e-13)
     found = delayed_step(unity_feedback(["1/(s+1)*exp(-1*s)"]), {}, "r", "y")
     assert abs(found.measures.settling_time - settling) <= 3 * found.errors["settling_time"] + 1e-9
+
+
+@pytest.mark.parametrize(
+    "text", ["1/(s+1)*exp(-1*s)", "0.5*(s+2)/(s+1)*exp(-0.3*s)", "(s+3)/((s+1)*(s^2+s+4))*exp(-0.05*s)"]
+)
+def test_the_recurrence_and_the_blocks_are_one_scheme(text):
+    """Short delays are stepped as one recurrence on the state and the rings: the same numbers as block by block."""
+    from engine.closed_loop.time_response import simulate_delayed
+    from engine.loop.realization import realize_opened
+
+    opened = realize_opened(unity_feedback([text]), {})
+    lag = 7
+    delays = [(lag, opened.delay_inputs[0], opened.delay_outputs[0])]
+    h = opened.taus[0] / lag
+    a = simulate_delayed(opened.ss, "r", delays, h, 300, how="blocks")
+    b = simulate_delayed(opened.ss, "r", delays, h, 300, how="recurrence")
+    assert np.array_equal(a.t, b.t)
+    assert np.allclose(a.y, b.y, rtol=1e-10, atol=1e-12) and np.allclose(a.right, b.right, rtol=1e-10, atol=1e-12)
+
+
+def test_a_delay_too_short_for_the_horizon_is_cut_with_a_note_and_no_measures():
+    network = unity_feedback(["0.5/(s*(s+1))*exp(-1e-6*s)"])
+    response = network_step(network, {})
+    assert response is not None and response.measures is None and "no measures" in response.note
+    assert len(response.t) <= 20_001
