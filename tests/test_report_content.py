@@ -167,3 +167,30 @@ def test_rows_shown_not_judged_are_not_met_and_every_margin_says_how_obtained(tm
                 assert met == (None, "not judged"), measure
             if "margin" in measure:
                 assert how.strip(), measure
+
+
+def test_a_delay_loops_step_measures_are_simulated_and_given_to_their_digits(tmp_path, monkeypatch):
+    """K exp(-s)/(s+1), K = 1: by the method of steps the peak is at 2 + 1/e s, exp(-1/e), overshoot
+    2 exp(-1/e) - 1, and the rise time ln(0.95/0.55) s; the report prints each with its error and says
+    how the response was obtained (tests/engine/test_delayed_step.py checks the errors themselves)."""
+    import math
+    import re
+
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "delay.json"
+    assert main(["new", str(path), "--plant", "1/(s+1)*exp(-1*s)", "--compensator", "K"]) == 0
+    assert main(["report", str(path), "--format", "md"]) == 0
+    text = (tmp_path / "delay.md").read_text()
+    assert "simulated with the delay on a grid of" in text and "the curve's error about" in text
+    exact = {
+        "rise time (10-90 %)": math.log(0.95 / 0.55),
+        "overshoot": (2 * math.exp(-math.exp(-1)) - 1) * 100,
+        "peak time": 2 + math.exp(-1),
+    }
+    for row, value in exact.items():
+        found = re.search(rf"\| {re.escape(row)} \| ([0-9.e+-]+) \(\+- ([0-9.e+-]+)\)", text)
+        assert found is not None, row
+        shown, error = float(found[1]), float(found[2])
+        assert error < 1e-4 and abs(shown - value) <= 3 * error + 0.5 * 10 ** math.ceil(math.log10(error)), row
+    assert "Closed-loop step response, condition nominal: y (step at r, simulated) (simulated with" in text

@@ -20,6 +20,11 @@ the samples (`step_measures(held=True)`: the peak the largest sample, rise from 
 at or above 10 % to the first at or above 90 %, settling the first sample after which every
 sample stays in the band), over a horizon from the poles' radii (8 time constants -T/ln|z|
 of the slowest).
+
+A continuous loop with time delays exp(-tau s) has no finite realization: its response is simulated on
+a grid whose step divides every delay, on two grids (h and h/2) whose difference estimates each measure's
+error (`engine.closed_loop.delayed_step`); `StepResponse.errors` and `StepResponse.how` carry them, and
+`network_step` picks the way for a design's network.
 """
 
 from __future__ import annotations
@@ -30,10 +35,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from engine.closed_loop.delayed_step import delayed_step
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
 from engine.model.bilinear import s_of_z, z_of_w
+from engine.model.blocks import DelayTransfer
 from engine.model.network import Network
 
 SAMPLES = 400  # at least, over the horizon
@@ -60,6 +67,44 @@ class StepResponse:
     name: str  # 'y (step at r)'
     measures: StepMeasures | None  # None when the response has no settled final value to measure from
     note: str | None = None  # what the measures cannot promise (a grid too coarse for an oscillation)
+    errors: Mapping[str, float] | None = None  # a simulated response's (a loop with delays): each measure's error
+    how: str | None = None  # how a simulated response was obtained, and the curve's error
+
+
+def has_delays(network: Network) -> bool:
+    """Whether the network is a continuous loop with delays exp(-tau s) and rational blocks besides (no
+    table): what `network_step` simulates."""
+    return (
+        network.sample_time is None
+        and network.variable == "s"
+        and any(isinstance(e.transfer, DelayTransfer) for e in network.entries)
+        and all(e.transfer.rational_form or isinstance(e.transfer, DelayTransfer) for e in network.entries)
+    )
+
+
+def network_step(
+    network: Network, params: Mapping[str, float], setup: StepSetup = StepSetup(), span: float | None = None
+) -> StepResponse | None:
+    """A design's step response: a rational loop's on its realization (`realized`, `step_response`: exact,
+    its measures refined on the exact response), a continuous loop with delays simulated on a grid with
+    each measure's error (`engine.closed_loop.delayed_step`); None for any other loop (a table) or when it
+    cannot be computed."""
+    if network.rational:
+        ss = realized(network, params)
+        return None if ss is None else step_response(ss, setup, span)
+    if not has_delays(network) or not network.inputs:
+        return None
+    source = setup.input if setup.input in network.inputs else network.inputs[0]
+    signals = network.signals
+    output = (
+        setup.output if setup.output in signals else next((n for n in ("y", "c", "x1") if n in signals), signals[-1])
+    )
+    try:
+        found = delayed_step(network, params, source, output, setup.horizon or span)
+    except EngineError:
+        return None
+    name = f"{output} (step at {source}, simulated)"
+    return StepResponse(found.t.tolist(), found.y.tolist(), name, found.measures, found.note, found.errors, found.how)
 
 
 def default_output(ss: StateSpace) -> str:

@@ -316,3 +316,171 @@ def dc_gain(ss: StateSpace, input_name: str) -> NDArray:
     if ss.A.size == 0:
         return ss.D[:, k]
     return ss.D[:, k] - ss.C @ np.linalg.solve(ss.A, ss.B[:, k])
+
+
+@dataclass(frozen=True)
+class DelayedRun:
+    """A loop with delays stepped on a uniform grid (`simulate_delayed`): the times ``t`` (a time twice
+    where a signal jumps: its left limit, then its right), every signal at them (rows)."""
+
+    t: NDArray
+    y: NDArray
+    right: NDArray  # every signal just after each sample i step (rows)
+    complete: bool = True  # False: a signal left the floating-point range, the samples before it kept
+
+
+SHORT_DELAYS = 256  # more blocks of the shortest delay than this: the whole scheme as one recurrence
+RECURRENCE_STATES = 128  # ... when its state (x and both limits of every delay's ring) is at most this
+
+
+def simulate_delayed(
+    ss: StateSpace,
+    input_name: str,
+    delays: Sequence[tuple[int, int, int]],
+    step: float,
+    count: int,
+    how: Literal["auto", "blocks", "recurrence"] = "auto",
+) -> DelayedRun:
+    """A unit step at ``input_name`` of a loop whose delays are opened in ``ss`` (`realization.OpenedDelays`),
+    on the grid t_i = i ``step`` (i < ``count``), zero initial state.  Each delay (samples, input, output)
+    is a whole number of steps from the output signal to the input: a ring of past samples, both limits
+    kept at each (a jump falls on a sample: the step at 0 and its echoes).  Between samples every input is
+    linear (first-order hold), the state equation integrated exactly for it, so the error is O(step^2) where
+    the signals are smooth between samples.  Computed a block of the shortest delay at a time (its inputs
+    all known from the past: `_scan`), or, when the delays are short beside the horizon (more than
+    `SHORT_DELAYS` blocks), as one affine recurrence on the state and the rings (`_rings_recurrence`: the
+    same numbers, a few matrix products per 64 steps); ``how`` forces one way."""
+    if not delays or min(d[0] for d in delays) < 1:
+        raise EngineError("each delay must be a whole number (>= 1) of steps")
+    k = ss.inputs.index(input_name)
+    cols = [k] + [d[1] for d in delays]
+    B, D = ss.B[:, cols], ss.D[:, cols]
+    n, p = ss.A.shape[0], len(cols)
+    Phi, G0, G1 = foh_maps(ss.A, B, step)
+    lags = np.array([d[0] for d in delays])
+    rows = [d[2] for d in delays]
+    right = np.zeros((count, len(ss.outputs)))  # signals just after each sample
+    left = np.zeros((count, len(ss.outputs)))  # just before (0 before the step at t = 0)
+    x = np.zeros((count, n))
+    u_right, u_left = np.zeros((count, p)), np.zeros((count, p))
+    u_right[:, 0], u_left[1:, 0] = 1.0, 1.0
+
+    def delayed(i0: int, i1: int) -> None:  # the delays' outputs at samples i0..i1-1 from the past
+        for j, lag in enumerate(lags):
+            src = np.arange(i0, i1) - lag
+            on = src >= 0
+            u_right[i0:i1, j + 1] = np.where(on, right[np.maximum(src, 0), rows[j]], 0.0)
+            u_left[i0:i1, j + 1] = np.where(on, left[np.maximum(src, 0), rows[j]], 0.0)
+
+    def signals(i0: int, i1: int) -> None:
+        right[i0:i1] = x[i0:i1] @ ss.C.T + u_right[i0:i1] @ D.T
+        left[i0:i1] = x[i0:i1] @ ss.C.T + u_left[i0:i1] @ D.T
+
+    block = int(lags.min())
+    size = n + 2 * int(lags.sum())
+    ring = how == "recurrence" or (how == "auto" and count > SHORT_DELAYS * block and size <= RECURRENCE_STATES)
+    delayed(0, 1)
+    signals(0, 1)
+    i0 = count - 1 if ring and count > 1 else 0
+    if i0:
+        with np.errstate(all="ignore"):
+            x[1:], u_right[1:, 1:], u_left[1:, 1:] = _rings_recurrence(ss, k, delays, (Phi, G0, G1), step, count)
+            signals(1, count)
+    with np.errstate(all="ignore"):  # an unstable loop grows: shown until it leaves the float range
+        while i0 < count - 1:
+            i1 = min(i0 + block, count - 1)
+            delayed(i0 + 1, i1 + 1)
+            du = (u_left[i0 + 1 : i1 + 1] - u_right[i0:i1]) / step
+            if n:
+                x[i0 + 1 : i1 + 1] = _scan(Phi, x[i0], u_right[i0:i1] @ G0.T + du @ G1.T)
+            signals(i0 + 1, i1 + 1)
+            i0 = i1
+    times = np.arange(count) * step
+    complete = bool(np.all(np.isfinite(right)))
+    if not complete:  # grown past the float range: the samples before it
+        last = int(np.argmax(~np.all(np.isfinite(right), axis=1)))
+        times, left, right, count = times[:last], left[:last], right[:last], last
+    with np.errstate(all="ignore"):
+        jumps = np.any(np.abs(left - right) > 1e-12 * (np.abs(left) + np.abs(right)), axis=1)
+    jumps[0] = False  # at 0 the response starts from its right limit
+    order = np.repeat(np.arange(count), np.where(jumps, 2, 1))
+    first = np.concatenate([[True], order[1:] != order[:-1]])
+    y = np.where((first & jumps[order])[:, None], left[order], right[order])
+    return DelayedRun(times[order], y, right, complete)
+
+
+def _rings_recurrence(
+    ss: StateSpace, k: int, delays: Sequence[tuple[int, int, int]], maps: tuple[NDArray, ...], step: float, count: int
+) -> tuple[NDArray, NDArray, NDArray]:
+    """`simulate_delayed`'s scheme from sample 1 on as s+ = M s + f: s the state x, then per delay its input's
+    last ``lag`` right limits, then their left limits (the step r = 1 from sample 1 on: constant forcing).
+    The states and the delays' outputs (right and left limits) at samples 1 .. count - 1."""
+    Phi, G0, G1 = maps
+    n, lags, rows = ss.A.shape[0], [d[0] for d in delays], [d[2] for d in delays]
+    total = sum(lags)
+    size = n + 2 * total
+    starts = n + np.cumsum([0] + lags)[:-1]
+    eye = np.eye(size)
+    X = eye[:n]
+    Wp = np.array([eye[s + lag - 1] for s, lag in zip(starts, lags)])  # v(i - lag), right limits
+    Wm = np.array([eye[total + s + lag - 1] for s, lag in zip(starts, lags)])  # left limits
+    Cv, Dvr = ss.C[rows], ss.D[rows, k]
+    Dvw = ss.D[np.ix_(rows, [d[1] for d in delays])]
+    Vp, Vm = Cv @ X + Dvw @ Wp, Cv @ X + Dvw @ Wm  # the delays' inputs now, each + Dvr
+    Wm_next = np.array(
+        [Vm[j] if lag == 1 else eye[total + s + lag - 2] for j, (s, lag) in enumerate(zip(starts, lags))]
+    )
+    c_next = np.array([Dvr[j] if lag == 1 else 0.0 for j, lag in enumerate(lags)])
+    G0w, G1w = G0[:, 1:], G1[:, 1:] / step
+    M, f = np.zeros((size, size)), np.zeros(size)
+    M[:n] = Phi @ X + G0w @ Wp + G1w @ (Wm_next - Wp)
+    f[:n] = G0[:, 0] + G1w @ c_next
+    for j, (s, lag) in enumerate(zip(starts, lags)):
+        for base, V in ((s, Vp), (total + s, Vm)):
+            M[base], f[base] = V[j], Dvr[j]
+            M[base + 1 : base + lag, base : base + lag - 1] = np.eye(lag - 1)
+    first = np.zeros(size)  # sample 1: x = G0 r (nothing delayed yet), the rings hold v(0+) = Dvr, v(0-) = 0
+    first[:n] = G0[:, 0]
+    first[starts] = Dvr
+    s = np.empty((count - 1, size))
+    s[0] = first
+    if count > 2:
+        s[1:] = _scan(M, first, np.tile(f, (count - 2, 1)))
+    return s[:, :n], s @ Wp.T, s @ Wm.T
+
+
+def delay_recurrence(ss: StateSpace, delays: Sequence[tuple[int, int, int]], step: float) -> NDArray:
+    """The free (unforced) recurrence `simulate_delayed` steps, as one matrix on (x_i, and per delay its
+    input's last ``samples`` values): its eigenvalues z approximate exp(lambda step) of the loop's
+    characteristic roots lambda (the rightmost to O(step^2))."""
+    n, lags = ss.A.shape[0], [d[0] for d in delays]
+    starts = np.cumsum([n] + lags)[:-1]
+    size = n + sum(lags)
+    Phi, G0, G1 = foh_maps(ss.A, ss.B[:, [d[1] for d in delays]], step)
+    rows = [d[2] for d in delays]
+    W = np.zeros((len(delays), size))  # the delays' outputs now: their inputs lag samples ago
+    for k, (lag, start) in enumerate(zip(lags, starts)):
+        W[k, start + lag - 1] = 1.0
+    X = np.zeros((n, size))
+    X[:, :n] = np.eye(n)
+    V = ss.C[rows] @ X + ss.D[np.ix_(rows, [d[1] for d in delays])] @ W  # the delays' inputs now
+    W_next = np.zeros_like(W)
+    for k, (lag, start) in enumerate(zip(lags, starts)):
+        W_next[k] = V[k] if lag == 1 else np.eye(size)[start + lag - 2]
+    M = np.zeros((size, size))
+    M[:n] = Phi @ X + (G0 - G1 / step) @ W + (G1 / step) @ W_next
+    for k, (lag, start) in enumerate(zip(lags, starts)):
+        M[start] = V[k]
+        M[start + 1 : start + lag, start : start + lag - 1] = np.eye(lag - 1)
+    return M
+
+
+def foh_maps(A: NDArray, B: NDArray, h: float) -> tuple[NDArray, NDArray, NDArray]:
+    """Exact one-step maps for inputs linear over [0, h] (B: n x p): x+ = Phi x + G0 u0 + G1 du (du per s)."""
+    n, p = B.shape
+    big = np.zeros((n + 2 * p, n + 2 * p))
+    big[:n, :n], big[:n, n : n + p], big[n : n + p, n + p :] = A * h, B * h, np.eye(p)
+    from scipy.linalg import expm  # on first use (start-up)
+
+    E = expm(big)
+    return E[:n, :n], E[:n, n : n + p], E[:n, n + p :] * h

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import BlockError, InterconnectionError
-from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer
+from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
 from engine.numerics.polynomials import degree, trim
@@ -62,9 +62,65 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
     if not network.rational:
         kinds = sorted({type(e.transfer).__name__ for e in network.entries if not e.transfer.rational_form})
         raise InterconnectionError(f"no state-space realization: the network has {', '.join(kinds)} entries")
+    return _closed(network, params, {})
+
+
+@dataclass(frozen=True)
+class OpenedDelays:
+    """A continuous loop with time delays, each delay opened: ``ss`` realizes the rational rest, its inputs
+    the network's followed by one per delay (the delay's output, added to the signal it feeds), its outputs
+    every signal (among them each delay's input).  Delay k: ``taus[k]`` seconds from signal
+    ``ss.outputs[delay_outputs[k]]`` to input ``ss.inputs[delay_inputs[k]]``."""
+
+    ss: StateSpace
+    taus: tuple[float, ...]
+    delay_inputs: tuple[int, ...]
+    delay_outputs: tuple[int, ...]
+
+
+def realize_opened(network: Network, params: Mapping[str, float]) -> OpenedDelays:
+    """The loop with its delays exp(-tau s) opened (`OpenedDelays`); a delay of 0 is a unit gain.  An
+    `InterconnectionError` for a sampled network or any other entry that is not rational (a table)."""
+    if network.sample_time is not None or network.variable != "s":
+        raise InterconnectionError("delays are opened in a continuous loop (in s) only")
+    others = sorted(
+        {
+            type(e.transfer).__name__
+            for e in network.entries
+            if not e.transfer.rational_form and not isinstance(e.transfer, DelayTransfer)
+        }
+    )
+    if others:
+        raise InterconnectionError(f"no state-space realization: the network has {', '.join(others)} entries")
+    opened: dict[int, float] = {}
+    for number, entry in enumerate(network.entries):
+        if isinstance(entry.transfer, DelayTransfer):
+            tau = entry.transfer.tau
+            value = float(params[tau]) if isinstance(tau, str) else float(tau)
+            if not (np.isfinite(value) and value >= 0):
+                raise BlockError(f"{entry.label}: a delay must be finite and >= 0, not {value!r}")
+            opened[number] = value
+    ss = _closed(network, params, opened)
+    cut = [k for k, tau in opened.items() if tau > 0]
+    first = len(network.inputs)
+    return OpenedDelays(
+        ss,
+        tuple(opened[k] for k in cut),
+        tuple(first + i for i in range(len(cut))),
+        tuple(network.entries[k].col for k in cut),
+    )
+
+
+def _closed(network: Network, params: Mapping[str, float], opened: Mapping[int, float]) -> StateSpace:
+    """`realize`'s state space; the entries ``opened`` (number -> delay) are delays: one of 0 a unit
+    gain, each other left out, its output an extra input (after the network's) at the signal it feeds."""
     n = len(network.signals)
     blocks, feed, sizes = [], np.zeros((n, n)), []
+    cut = [k for k, tau in opened.items() if tau > 0]
     for number, entry in enumerate(network.entries):
+        if number in opened:
+            feed[entry.row, entry.col] += 0.0 if opened[number] > 0 else 1.0
+            continue
         a, b, c, d = _entry_realization(network, number, params)
         blocks.append((entry, a, b, c))
         feed[entry.row, entry.col] += d[0, 0] if d.size else 0.0
@@ -76,9 +132,12 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
         sl = slice(offset, offset + size)
         A_blk[sl, sl], B_blk[sl, entry.col], C_sig[entry.row, sl] = a, b[:, 0], c[0, :]
         offset += size
-    E = np.zeros((n, len(network.inputs)))
+    E = np.zeros((n, len(network.inputs) + len(cut)))
     for k, name in enumerate(network.inputs):
         E[network.signal(name), k] = 1.0
+    for i, number in enumerate(cut):
+        E[network.entries[number].row, len(network.inputs) + i] = 1.0
+    inputs = network.inputs + tuple(f"{network.entries[k].label} (delay opened)" for k in cut)
     lu = _factor_feedthrough(np.eye(n) - feed)
     from scipy import linalg  # on first use (start-up)
 
@@ -86,7 +145,7 @@ def realize(network: Network, params: Mapping[str, float]) -> StateSpace:
     A = A_blk + B_blk @ P_state
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(P_state)) and np.all(np.isfinite(P_input))):
         raise InterconnectionError("the closed loop's realization leaves the floating-point range")
-    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals, network.sample_time)
+    return StateSpace(A, B_blk @ P_input, P_state, P_input, inputs, network.signals, network.sample_time)
 
 
 def _factor_feedthrough(matrix: NDArray) -> tuple:

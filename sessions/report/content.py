@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from engine.analysis import LoopCurve, loop_curve
-from engine.closed_loop.step_response import StepSetup, realized, step_response
+from engine.closed_loop.step_response import network_step
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.design.notes import design_notes
 from engine.errors import EngineError
@@ -286,18 +286,19 @@ def _step_figure(session: Session, c: int, named: dict | None, title: str, rows)
         return []
     what = traces[0][4]
     chart = figures.step([t[:4] for t in traces], what, f"Step response, {title}", rows, traces[-1][5])
-    return [("figure", f"step_{c}", chart, f"Closed-loop step response, {title}: {what}")]
+    how = f" ({traces[-1][6]})" if traces[-1][6] else ""
+    return [("figure", f"step_{c}", chart, f"Closed-loop step response, {title}: {what}{how}")]
 
 
 def _step(session: Session, c: int, named: dict | None, label: str, style: str):
-    """The step response of the default output to the first input (rational loops): t,
-    y, label, style, what it is, its measures."""
+    """The step response of the default output to the first input (rational loops, and continuous loops
+    with delays, simulated): t, y, label, style, what it is, its measures, how it was obtained (None:
+    exactly)."""
     problem = session.problem
-    ss = realized(problem.conditions[c].network, problem.condition_values(c, named=named))
-    response = step_response(ss, StepSetup()) if ss is not None and problem.conditions[c].network.rational else None
+    response = network_step(problem.conditions[c].network, problem.condition_values(c, named=named))
     if response is None:
         return None
-    return np.array(response.t), np.array(response.y), label, style, response.name, response.measures
+    return np.array(response.t), np.array(response.y), label, style, response.name, response.measures, response.how
 
 
 def _tolerance_study(session: Session) -> list[Block]:

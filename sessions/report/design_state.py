@@ -14,7 +14,8 @@ import math
 from typing import Any
 
 from engine.analysis import LoopAnalysis, analyze
-from engine.closed_loop.step_response import RETURNS_TO_ZERO, StepSetup, realized, step_response
+from engine.closed_loop.delayed_step import digits_supported
+from engine.closed_loop.step_response import RETURNS_TO_ZERO, network_step
 from engine.design.compensator_items import compensators, pole_zero_form, time_constant_form
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
@@ -247,29 +248,39 @@ def _poles(found: LoopAnalysis) -> list[Block]:
 
 
 def _step(network, values: dict[str, float]) -> list[Block]:
-    ss = realized(network, values) if network.rational else None
-    response = step_response(ss, StepSetup()) if ss is not None else None
+    response = network_step(network, values)
     if response is None or response.measures is None:
         return []
     m = response.measures
     if abs(m.final) <= RETURNS_TO_ZERO * max(abs(v) for v in response.y):
         return [("p", f"Step response of {response.name}: it returns to 0 (a disturbance rejected): no step measures.")]
+    errors = response.errors or {}
 
-    def seconds(x: float | None) -> str:
-        return "not reached in the horizon" if x is None else f"{number(x)} s"
+    def shown(x: float, name: str) -> str:  # a simulated measure to the digits its error estimate supports
+        if name not in errors:
+            return number(x)
+        error = errors[name]
+        text = f"{x:.{digits_supported(x, error)}g}"
+        return text + (" (the two grids disagree)" if not math.isfinite(error) else f" (+- {error:.1g})")
+
+    def seconds(x: float | None, name: str) -> str:
+        return "not reached in the horizon" if x is None else f"{shown(x, name)} s"
 
     rows = [
         ["final value", number(m.final)],
-        ["rise time (10-90 %)", seconds(m.rise_time)],
-        ["overshoot", f"{number(m.overshoot_percent)} %"],
-        ["peak time", seconds(m.peak_time)],
-        ["settling time (5 %)", seconds(m.settling_time)],
+        ["rise time (10-90 %)", seconds(m.rise_time, "rise_time")],
+        ["overshoot", f"{shown(m.overshoot_percent, 'overshoot_percent')} %"],
+        ["peak time", seconds(m.peak_time, "peak_time")],
+        ["settling time (5 %)", seconds(m.settling_time, "settling_time")],
     ]
     how = (
         "read on the samples, the output held between them: the peak is the largest sample, rise from the first "
         "sample at or above 10 % to the first at or above 90 %, settling the first sample after which every "
         "sample stays in the band"
         if network.sampled
+        else f"{response.how}; each measure read on both grids, given to the digits their difference supports "
+        "(+- its estimated error)"
+        if response.how
         else "simulated by exact discretization, each measure refined on the exact response: the crossings of "
         "10 %, 90 % and the band by root finding, the peak where the response's derivative vanishes"
     )

@@ -78,3 +78,33 @@ async def test_t_opens_the_step_setup_and_the_plot_follows(workdir):
         await settle(app, pilot)
         assert app.bench.step_setup == StepSetup("r", "e", 2.0)
         assert app.bench.view().step_response()[2] == "e (step at r)"
+
+
+def test_a_loop_with_delay_has_a_step_plot(tmp_path):
+    """K exp(-s)/(s+1) (K = 1): the step plot draws its simulated response, marked (issue 52's delay case)."""
+    import json
+
+    from sessions.new.templates import new_session
+
+    (tmp_path / "d.json").write_text(json.dumps(new_session("1/(s+1)*exp(-1*s)", "K")))
+    session = load_session(tmp_path / "d.json")
+    name, traces, marks = Workbench(session).view().step_plot()
+    assert name == "y (step at r, simulated)" and traces and marks is not None
+    assert abs(marks.peak_time - (2 + np.exp(-1))) < 1e-4 and abs(marks.final - 0.5) < 1e-12
+    fig = step_figure(name, traces, marks)
+    assert "overshoot 38.4 %" in fig.title
+
+
+def test_a_delay_loops_step_signals_are_chosen(tmp_path):
+    import json
+
+    from sessions.new.templates import new_session
+
+    (tmp_path / "d.json").write_text(json.dumps(new_session("1/(s+1)*exp(-1*s)", "K")))
+    bench = Workbench(load_session(tmp_path / "d.json"))
+    inputs, outputs = bench.view().step_signals()
+    assert inputs == ("r",) and "e" in outputs and bench.view().step_loop() is None
+    bench.step_setup = parse_step_setup("r e 5", inputs, outputs)
+    t, y, name = bench.view().step_response()
+    assert name == "e (step at r, simulated)" and abs(t[-1] - 5.0) < 1e-9
+    assert y[0] == 1.0 and abs(y[-1] - 0.5) < 0.05  # e = r - y: 1 until the delay, then toward 1/2

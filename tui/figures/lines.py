@@ -27,7 +27,9 @@ def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str
     traces (not a reference's); ``marks`` (the
     current design's `StepMeasures`) adds the settling band, the peak and the
     settling and rise times."""
-    fig = Figure(xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant)")
+    fig = Figure(
+        xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant, or one with delays)"
+    )
     for index, (t, y, label, role) in enumerate(traces):
         fig.title = f"Step response: {name}"
         fig.series.append(Series(*finite_points(np.array(t), np.array(y)), label, **role_style(role, index)))

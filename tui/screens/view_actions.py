@@ -53,25 +53,35 @@ class ViewActions:
         """Ask which input is stepped, which output is plotted and for how long."""
         view = self.screen.bench.view()
         ss = view.step_loop(view.first_plotted)
-        if ss is None:
-            self.screen.app.notify("no step response here (it needs a rational plant)", severity="warning")
+        signals = view.step_signals(view.first_plotted)
+        if signals is None:
+            self.screen.app.notify(
+                "no step response here (it needs a rational plant, or a continuous one with delays)",
+                severity="warning",
+            )
             return
+        inputs, outputs = signals
 
         def check(text: str) -> str | None:
             try:
-                parse_step_setup(text, ss.inputs, ss.outputs)
+                parse_step_setup(text, inputs, outputs)
             except ValueError as exc:
                 return str(exc)
             return None
 
         def typed(text: str | None) -> None:
             if text is not None:
-                self.screen.bench.step_setup = parse_step_setup(text, ss.inputs, ss.outputs)
+                self.screen.bench.step_setup = parse_step_setup(text, inputs, outputs)
                 self.screen.refresh_plots()
 
+        default = (
+            f"horizon {horizon(ss):.3g} s from the slowest pole"
+            if ss is not None
+            else "the horizon from the rightmost characteristic root, simulated with the delays"
+        )
         title = (
-            f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, horizon {horizon(ss):.3g} s from the "
-            f"slowest pole)\ninputs: {', '.join(ss.inputs)}\nsignals: {', '.join(ss.outputs)}"
+            f"step plot: INPUT OUTPUT [HORIZON s] (empty: defaults, {default})\n"
+            f"inputs: {', '.join(inputs)}\nsignals: {', '.join(outputs)}"
         )
         self.screen.app.push_screen(
             EditDialog(title, format_step_setup(self.screen.bench.step_setup, ss), check), typed

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from engine.analysis import LoopCurve, loop_curve
-from engine.closed_loop.step_response import StepSetup, horizon, realized, step_response
+from engine.closed_loop.step_response import StepSetup, has_delays, horizon, network_step, realized
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.presenter import tolerant
@@ -128,12 +128,14 @@ class View:
         return None if found is None else (found.t, found.y, found.name)
 
     def step(self, iteration: int | None = None, condition: int = 0, span: float | None = None):
-        """The `StepResponse` of one condition at an iteration (None: not a rational loop)."""
+        """The `StepResponse` of one condition at an iteration (None: neither a rational loop nor one
+        with delays, `network_step`)."""
         problem = self.problem
-        if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
+        if condition >= len(problem.conditions):
             return None
-        ss = realized(problem.conditions[condition].network, self.parameters(iteration, condition))
-        return None if ss is None else step_response(ss, self.step_setup, span)
+        return network_step(
+            problem.conditions[condition].network, self.parameters(iteration, condition), self.step_setup, span
+        )
 
     def step_loop(self, condition: int = 0):
         """The current design's closed loop (state space) of one condition, or None."""
@@ -141,6 +143,17 @@ class View:
         if condition >= len(problem.conditions) or not problem.conditions[condition].network.rational:
             return None
         return realized(problem.conditions[condition].network, self.parameters(None, condition))
+
+    def step_signals(self, condition: int = 0) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
+        """The inputs and the signals the step plot chooses among (None: this condition has no step
+        response: neither rational nor a continuous loop with delays)."""
+        ss = self.step_loop(condition)
+        if ss is not None:
+            return ss.inputs, ss.outputs
+        if condition >= len(self.problem.conditions):
+            return None
+        network = self.problem.conditions[condition].network
+        return (network.inputs, network.signals) if has_delays(network) and network.inputs else None
 
     def step_plot(self) -> tuple[str, list[tuple[list[float], list[float], str, str]], Any]:
         """What the step plot draws (`shown`), each response simulated once: what is
