@@ -30,6 +30,7 @@ from tui.keys import identified
 from tui.screens.history_pane import HistoryPane
 from tui.screens.latest_work import LatestWork
 from tui.screens.pole_lines import PoleLines
+from tui.screens.shaping import Shaping
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
 from tui.state.field_edits import objective_rows
@@ -99,6 +100,12 @@ class MainScreen(Screen):
                 show=False,
                 tooltip="shape the compensator by hand: its gain, zeros, poles and pairs, moved with keys",
             ),
+            Binding("g", "shaping(\"gain_for('crossover')\")", "", show=False, id="main.shape_gain_for_crossover"),
+            Binding("G", "shaping(\"gain_for('pm')\")", "", show=False, id="main.shape_gain_for_pm"),
+            Binding("e", "shaping('type_value')", "", show=False, id="main.shape_type_value"),
+            Binding("N", "shaping('notch')", "", show=False, id="main.shape_notch"),
+            Binding("left_square_bracket", "shaping('damp(-1)')", "", show=False, id="main.shape_damp_down"),
+            Binding("right_square_bracket", "shaping('damp(1)')", "", show=False, id="main.shape_damp_up"),
             Binding(
                 "P",
                 "focus_plot",
@@ -168,6 +175,7 @@ class MainScreen(Screen):
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
+        self.shaping = Shaping(self)  # the shaping table's requests applied to the session
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -251,16 +259,32 @@ class MainScreen(Screen):
             table.remove_class("shown")
             self.focus_main("run")
             return
-        self.action_tab("run")
-        table.add_class("shown")
-        self.fill_shape()
-        self.call_after_refresh(table.focus)
+        self.show_shape()
 
-    def fill_shape(self) -> None:
-        """The shaping table's rows, when it is shown."""
+    def show_shape(self) -> ShapeTable:
+        """The shaping table shown on the Run tab, filled from the current design, focused."""
+        table = self.query_one("#shape", ShapeTable)
+        self.action_tab("run")
+        if not table.has_class("shown"):
+            table.add_class("shown")
+            self.fill_shape()
+        self.set_focus(table)
+        return table
+
+    async def action_shaping(self, action: str) -> None:
+        """A shaping key pressed anywhere on the Run tab: it acts on the shaping table's
+        selected item (the table shown and focused first); one that cannot act says why."""
+        await self.app.run_action(action, self.show_shape())
+
+    def fill_shape(self, view: View | None = None) -> None:
+        """The shaping table's rows from the current design, when it is shown."""
         table = self.query_one("#shape", ShapeTable)
         if table.has_class("shown"):
-            table.fill(edits.compensator_rows(self.bench))
+            table.fill(edits.compensator_rows(self.bench.view() if view is None else view))
+
+    @on(ShapeTable.Request)
+    def _shaping_requested(self, request: ShapeTable.Request) -> None:
+        self.shaping.handle(request)
 
     def tab_plot(self) -> FigurePlot | None:
         """The plot of the tab shown (the Run tab's: the first of its plot tab), if any."""
@@ -312,6 +336,8 @@ class MainScreen(Screen):
             return self.query_one(HistoryPane).check_action("next_view", parameters)
         if action == "focus_plot":
             return True if self.tab_plot() is not None else None
+        if action == "shaping":
+            return True if tabs is not None and tabs.active == "run" else None
         if action == "locus_parameter":
             there = (
                 "locus" in self.query_one(HistoryPane).views()
@@ -327,6 +353,8 @@ class MainScreen(Screen):
             return "no plot on this tab (Run, History and Sweep have one)"
         if action == "locus_parameter":
             return "no root locus here: it needs a rational loop (no table, no delay) and a loop-plot session"
+        if action == "shaping":
+            return "the shaping keys act on the Run tab (1, then C shows the shaping table)"
         return None
 
     def action_tab(self, name: str) -> None:
@@ -336,8 +364,10 @@ class MainScreen(Screen):
         self.focus_main(name)
 
     def focus_main(self, name: str) -> None:
-        """Focus the main widget of a tab: its first table, or the tableau."""
-        self.set_focus(self.query_one(MAIN_WIDGETS[name]))
+        """Focus the main widget of a tab: its first table, or on the Run tab the shaping
+        table when it is shown, else the tableau."""
+        shape = self.query_one("#shape", ShapeTable)
+        self.set_focus(shape if name == "run" and shape.has_class("shown") else self.query_one(MAIN_WIDGETS[name]))
 
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         if event.tabbed_content.id == "plots":
@@ -369,6 +399,7 @@ class MainScreen(Screen):
         name = b.session.path.name if b.session.path else "untitled"
         mark = " *" if b.dirty else ""
         busy = "  [b]stepping[/b] (space pauses)" if self.app.busy else ""
+        self.query_one("#shape", ShapeTable).frozen = self.app.busy
         edit = f"  [dim]{escape(b.edits.last)}[/dim]" if b.edits.last else ""
         self.query_one("#status", TextView).set(
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
@@ -394,7 +425,7 @@ class MainScreen(Screen):
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
-        self.fill_shape()
+        self.fill_shape(view)
         if plots:
             self.refresh_plots()
 

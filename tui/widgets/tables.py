@@ -32,6 +32,7 @@ class RefTable(DataTable):
     def __init__(self, **kwargs):
         super().__init__(cursor_type="row", **kwargs)
         self.refs: list[Ref | None] = []
+        self.pending: Ref | None = None  # the row to select at the next fill (a row just added)
 
     def fill(self, columns: tuple[str, ...], rows: list[tuple[tuple, Ref | None]]) -> None:
         """Replace the table's rows (each: its cells and its reference), keeping the cursor row."""
@@ -42,6 +43,8 @@ class RefTable(DataTable):
         for cells, ref in rows:
             self.add_row(*cells)
             self.refs.append(ref)
+        if self.pending in self.refs:
+            row, self.pending = self.refs.index(self.pending), None
         if rows:
             self.move_cursor(row=min(max(row, 0), len(rows) - 1))
 
@@ -210,12 +213,13 @@ class ParametersTable(RefTable):
         self.flow.change(lambda: edits_fields.toggle_per_condition(self.bench, ref), "switch shared/per condition")
 
     def action_add(self) -> None:
-        self.flow.line(
-            "new parameter: NAME VALUE [MIN MAX]",
-            edits_fields.ADD_PARAMETER_CHECK,
-            lambda text: edits_fields.add_parameter(self.bench, text),
-            "add it",
-        )
+        """A new parameter, selected once added (f then frees or fixes it, not another one)."""
+
+        def add(text: str) -> None:
+            edits_fields.add_parameter(self.bench, text)
+            self.pending = ("parameters", len(self.bench.session.model.problem.parameters) - 1)
+
+        self.flow.line("new parameter: NAME VALUE [MIN MAX]", edits_fields.ADD_PARAMETER_CHECK, add, "add it")
 
 
 class TargetsTable(RefTable):
