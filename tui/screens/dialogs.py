@@ -111,14 +111,17 @@ class ChooseDialog(ModalScreen[str | None]):
     ChooseDialog > Vertical { width: 70; height: auto; max-height: 20; border: round $accent; background: $panel; }
     """
 
-    def __init__(self, title: str, choices: list[tuple[str, str]]):
+    def __init__(self, title: str, choices: list[tuple[str, str]], highlighted: int = 0):
         super().__init__()
-        self.title_text, self.choices = title, choices
+        self.title_text, self.choices, self.highlighted = title, choices, highlighted
 
     def compose(self) -> ComposeResult:
         with Vertical():
             yield Label(self.title_text, markup=False)
             yield OptionList(*[Text(f"{name}  {summary}") for name, summary in self.choices])
+
+    def on_mount(self) -> None:
+        self.query_one(OptionList).highlighted = self.highlighted
 
     def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:
         self.dismiss(self.choices[event.option_index][0])

@@ -23,9 +23,11 @@ class EditFlow:
     def bench(self):
         return self.app.bench
 
-    def choose(self, title: str, choices: list[tuple[str, str]], then: Callable[[str], None]) -> None:
-        """Pick one of several names, then go on with it."""
-        self.app.push_screen(ChooseDialog(title, choices), lambda name: name and then(name))
+    def choose(
+        self, title: str, choices: list[tuple[str, str]], then: Callable[[str], None], highlighted: int = 0
+    ) -> None:
+        """Pick one of several names (``highlighted`` first), then go on with it."""
+        self.app.push_screen(ChooseDialog(title, choices, highlighted), lambda name: name and then(name))
 
     def open(self, edit: Edit | None) -> None:
         """Ask for the new text of a value (asking first when iterations would go), then apply it."""
@@ -58,6 +60,10 @@ class EditFlow:
                 )
 
         self.app.push_screen(EditDialog(title, text, check, error), typed)
+
+    def ask(self, title: str, check: Check | None, then: Callable[[str], None]) -> None:
+        """Ask for one line, then go on with it (nothing changed yet)."""
+        self.app.push_screen(EditDialog(title, "", check), lambda text: text and then(text))
 
     def line(self, title: str, check: Check | None, apply: Callable[[str], Any], what: str) -> None:
         """Ask for one line (e.g. a new parameter) and apply it."""

@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from tui.app import LoopcraftApp
     from tui.screens.edit_flow import EditFlow
     from tui.screens.main import MainScreen
+    from sessions.shaping import GainChoice
     from tui.state.workbench import Workbench
 
 
@@ -90,13 +91,49 @@ class Shaping:
         self.flow.line(f"{name}{unit}: now {measure(request.item):.6g}", positive, apply, f"set {name}")
 
     def gain_for(self, request: ShapeTable.GainFor) -> None:
-        bench, goal = self.bench, request.goal
-        title = "the crossover frequency (rad/s)" if goal == "crossover" else "the phase margin (deg)"
+        """g: the gain for a crossover; G: every gain for a phase margin, one picked (`pick_gain`)."""
+        bench = self.bench
+        if request.goal == "pm":
+            self.flow.ask("the loop gain for the phase margin (deg)", finite, lambda text: self.pick_gain(float(text)))
+            return
 
         def apply(text: str) -> None:
-            edits.gain_for(bench, goal, float(text))
+            edits.gain_for(bench, "crossover", float(text))
 
-        self.flow.line(f"the loop gain for {title}", finite, apply, f"the gain for {goal} {title}")
+        title = "the crossover frequency (rad/s)"
+        self.flow.line(f"the loop gain for {title}", finite, apply, f"the gain for crossover {title}")
+
+    def pick_gain(self, phase_margin: float) -> None:
+        """Every gain that gives the phase margin, by crossover frequency, with what else it
+        changes; one alone is taken, several are listed (the default highlighted: the first
+        that keeps every met requirement met, else the lowest crossover)."""
+        from sessions.shaping import default_choice
+
+        try:
+            choices = edits.phase_margin_choices(self.bench, phase_margin)
+        except SessionError as exc:
+            self.app.notify(str(exc), title="no gain gives that phase margin", severity="error", timeout=10)
+            return
+        what = f"the gain for PM {phase_margin:g} deg"
+        if len(choices) == 1:
+            self.take_gain(choices[0], what)
+            return
+        default = default_choice(choices)
+        listed = [(str(k + 1), c.text + ("  [default]" if k == default else "")) for k, c in enumerate(choices)]
+        self.flow.choose(
+            f"{what}: {len(choices)} solutions",
+            listed,
+            lambda k: self.take_gain(choices[int(k) - 1], what),
+            highlighted=default,
+        )
+
+    def take_gain(self, choice: GainChoice, what: str) -> None:
+        bench, k = self.bench, self.bench.view().first_plotted
+        self.change(
+            lambda: edits.scale_gain(bench, k, choice.solution.factor),
+            f"{what} at {choice.solution.frequency:.4g} rad/s",
+            done=lambda _: self.app.notify(choice.text, timeout=6),
+        )
 
     def add(self, request: ShapeTable.Add) -> None:
         from sessions.compensator_parts import PARTS  # scipy: never before the first paint

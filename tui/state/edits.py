@@ -32,6 +32,7 @@ from tui.state.workbench import Workbench
 if TYPE_CHECKING:  # scipy behind them: imported where used, never before the first paint
     from engine.design.compensator_items import Item
     from engine.design.resonances import Resonance
+    from sessions.shaping import GainChoice
 
 Ref = tuple[Any, ...]  # a path into the problem model: attribute names and list indices
 Check = Callable[[str], str | None]
@@ -214,6 +215,17 @@ def gain_for(bench: Workbench, goal: str, target: float) -> str:
     name, solution = solved_gain(bench.session, k, goal, target)
     set_parameters(bench, {name: bench.session.problem.condition_values(k)[name] * solution.factor}, k)
     return name
+
+
+def phase_margin_choices(bench: Workbench, phase_margin: float) -> list[GainChoice]:
+    """Every gain of the plotted condition's loop, at the design on screen, that gives
+    ``phase_margin`` deg, by crossover frequency, with what else each changes
+    (`sessions.shaping.phase_margin_choices`)."""
+    from sessions.shaping import phase_margin_choices as choices
+
+    view = bench.view()
+    named = dict(view.records[-1].parameters) if view.records else None
+    return choices(bench.session, view.first_plotted, phase_margin, named=named)
 
 
 def change_list(bench: Workbench, path: Ref, change: Callable[[list], None]) -> None:
