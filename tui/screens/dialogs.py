@@ -139,15 +139,18 @@ class HelpScreen(ModalScreen[None]):
     HelpScreen > VerticalScroll { width: 84; max-width: 100%; height: auto; max-height: 90%; border: round $accent;
                                   padding: 0 1;
                                   background: $panel; }
+    HelpScreen Label { width: 100%; }
     """
 
-    def __init__(self, groups: list[tuple[str, list[tuple[str, str]]]]):
+    def __init__(self, groups: list[tuple[str, list[tuple[str, str]]]], note: str = ""):
         super().__init__()
-        self.groups = groups
+        self.groups, self.note = groups, note
 
     def compose(self) -> ComposeResult:
         with VerticalScroll():
             yield Label("[b]loopcraft keys[/b]  (ctrl+p: the command palette)")
+            if self.note:
+                yield Label(self.note, markup=False)
             for title, keys in self.groups:
                 yield Label(f"[b]{title}[/b]")
                 for key, what in keys:

@@ -1,0 +1,42 @@
+"""Issue 54: while the workbench runs, standard error (a worker process's, a logging
+handler made before the app, Dask's tracebacks) goes to the log file the help names,
+never over the screen; Textual keeps the terminal on `sys.__stderr__`."""
+
+from __future__ import annotations
+
+import logging
+import os
+import subprocess
+import sys
+
+from tui.stderr_log import log_path, stderr_to_log
+
+
+def test_standard_error_goes_to_the_log_and_the_terminal_stays_textuals(tmp_path, capfd):
+    stream = os.fdopen(2, "w", buffering=1, closefd=False)  # the process's standard error, as at import
+    handler = logging.StreamHandler(stream)  # as distributed makes its own before the app runs
+    logger = logging.getLogger("loopcraft-test-stale-handler")
+    logger.addHandler(handler)
+    try:
+        screen_before = sys.__stderr__
+        with stderr_to_log(tmp_path / "app.log") as path:
+            subprocess.run([sys.executable, "-c", "import sys; sys.stderr.write('worker: heartbeat failed\\n')"])
+            logger.error("distributed.comm.tcp: retry_operation")
+            os.write(2, b"a C library's line\n")
+            sys.__stderr__.write("drawn by Textual\n")
+            sys.__stderr__.flush()
+            assert sys.__stderr__ is not screen_before
+        assert sys.__stderr__ is screen_before
+    finally:
+        logger.removeHandler(handler)
+    logged = path.read_text()
+    assert "worker: heartbeat failed" in logged and "retry_operation" in logged and "a C library's line" in logged
+    assert "drawn by Textual" not in logged
+    assert "drawn by Textual" in capfd.readouterr().err  # the terminal's descriptor, as before
+    os.write(2, b"after the app\n")
+    assert "after the app" in capfd.readouterr().err and "after the app" not in path.read_text()
+
+
+def test_the_log_lives_in_the_apps_folder(tmp_path, monkeypatch):
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    assert log_path() == tmp_path / "home" / "loopcraft.log"
