@@ -142,9 +142,8 @@ class GainChoice:
         s = self.solution
         changes = [f"breaks {', '.join(self.breaks)}"] if self.breaks else []
         changes += [f"meets {', '.join(self.meets)}"] if self.meets else []
-        return (
-            f"crossover {s.frequency:.6g} rad/s: {self.parameter} = {self.value:.6g} (x {s.factor:.6g}); "
-            + ("; ".join(changes) or "no requirement changes")
+        return f"crossover {s.frequency:.6g} rad/s: {self.parameter} = {self.value:.6g} (x {s.factor:.6g}); " + (
+            "; ".join(changes) or "no requirement changes"
         )
 
 

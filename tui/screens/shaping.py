@@ -15,10 +15,10 @@ from tui.state import edits
 from tui.widgets.shape_table import ShapeTable
 
 if TYPE_CHECKING:
+    from sessions.shaping import GainChoice
     from tui.app import LoopcraftApp
     from tui.screens.edit_flow import EditFlow
     from tui.screens.main import MainScreen
-    from sessions.shaping import GainChoice
     from tui.state.workbench import Workbench
 
 
