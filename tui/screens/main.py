@@ -31,6 +31,7 @@ from tui.screens.history_pane import HistoryPane
 from tui.screens.latest_work import LatestWork
 from tui.screens.pole_lines import PoleLines
 from tui.screens.shaping import Shaping
+from tui.screens.table_edits import TableEdits
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
 from tui.state.field_edits import objective_rows
@@ -42,7 +43,7 @@ from tui.widgets.footer import Footer
 from tui.widgets.matrix_table import MatrixTable
 from tui.widgets.plots import FigurePlot
 from tui.widgets.shape_table import ShapeTable
-from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
+from tui.widgets.tables import ParametersTable, PlantTable, RefTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 
 # the plot tabs, and the plots (figure ids) each shows
@@ -176,6 +177,8 @@ class MainScreen(Screen):
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
         self.shaping = Shaping(self)  # the shaping table's requests applied to the session
+        self.table_edits = TableEdits(self)  # the other tables' requests applied to the session
+        self._frozen: list[RefTable | MatrixTable | ShapeTable] = []  # the tables whose keys a run disables
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -233,6 +236,9 @@ class MainScreen(Screen):
                         yield FigurePlot(id=PLOT_TABS[tab][0])
 
     def on_mount(self) -> None:
+        for table in self.query(RefTable):
+            table.allows = self.table_edits.allows
+        self._frozen = [*self.query(RefTable), self.query_one(MatrixTable), self.query_one(ShapeTable)]
         self.app.refresh_workbench()
 
     def on_resize(self, event) -> None:
@@ -285,6 +291,14 @@ class MainScreen(Screen):
     @on(ShapeTable.Request)
     def _shaping_requested(self, request: ShapeTable.Request) -> None:
         self.shaping.handle(request)
+
+    @on(RefTable.Request)
+    def _table_requested(self, request: RefTable.Request) -> None:
+        self.table_edits.handle(request)
+
+    @on(MatrixTable.EditCell)
+    def _cell_requested(self, message: MatrixTable.EditCell) -> None:
+        self.table_edits.matrix_cell(message)
 
     def tab_plot(self) -> FigurePlot | None:
         """The plot of the tab shown (the Run tab's: the first of its plot tab), if any."""
@@ -399,7 +413,8 @@ class MainScreen(Screen):
         name = b.session.path.name if b.session.path else "untitled"
         mark = " *" if b.dirty else ""
         busy = "  [b]stepping[/b] (space pauses)" if self.app.busy else ""
-        self.query_one("#shape", ShapeTable).frozen = self.app.busy
+        for table in self._frozen:  # the tables' keys that change the session: disabled while work goes
+            table.frozen = self.app.busy
         edit = f"  [dim]{escape(b.edits.last)}[/dim]" if b.edits.last else ""
         self.query_one("#status", TextView).set(
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "

@@ -33,12 +33,41 @@ class ShapeTable(DataTable):
     BINDINGS = identified(
         "shape",
         [
-            Binding("left", "nudge(-1)", "lower", tooltip="the item 5 % lower in frequency (a gain 0.5 dB)"),
-            Binding("right", "nudge(1)", "higher", tooltip="the item 5 % higher in frequency (a gain 0.5 dB)"),
-            Binding("shift+left", "nudge(-5)", "", show=False, tooltip="25 % lower (a gain 3 dB)"),
-            Binding("shift+right", "nudge(5)", "", show=False, tooltip="25 % higher (a gain 3 dB)"),
-            Binding("left_square_bracket", "damp(-1)", "damping -", tooltip="a pair's damping 10 % lower"),
-            Binding("right_square_bracket", "damp(1)", "damping +", show=False, tooltip="a pair's damping 10 % higher"),
+            Binding(
+                "left",
+                "nudge(-1)",
+                "lower",
+                id="shape.lower",
+                tooltip="the item 5 % lower in frequency (a gain 0.5 dB)",
+            ),
+            Binding(
+                "right",
+                "nudge(1)",
+                "higher",
+                id="shape.higher",
+                tooltip="the item 5 % higher in frequency (a gain 0.5 dB)",
+            ),
+            Binding(
+                "shift+left", "nudge(-5)", "", show=False, id="shape.lower_big", tooltip="25 % lower (a gain 3 dB)"
+            ),
+            Binding(
+                "shift+right", "nudge(5)", "", show=False, id="shape.higher_big", tooltip="25 % higher (a gain 3 dB)"
+            ),
+            Binding(
+                "left_square_bracket",
+                "damp(-1)",
+                "damping -",
+                id="shape.damp_down",
+                tooltip="a pair's damping 10 % lower",
+            ),
+            Binding(
+                "right_square_bracket",
+                "damp(1)",
+                "damping +",
+                show=False,
+                id="shape.damp_up",
+                tooltip="a pair's damping 10 % higher",
+            ),
             Binding("e", "type_value", "set", tooltip="type the item's frequency (rad/s), or the gain"),
             Binding(
                 "g", "gain_for('crossover')", "gain for wc", tooltip="the gain that puts the crossover at a frequency"
@@ -107,6 +136,10 @@ class ShapeTable(DataTable):
             self.add_row(name, text)
         if rows:
             self.move_cursor(row=min(max(row, 0), len(rows) - 1))
+
+    def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
+        if self.has_focus:  # the footer shows what the newly selected item allows ([ ], delete)
+            self.refresh_bindings()
 
     @property
     def selected(self) -> tuple[str, Item] | None:
