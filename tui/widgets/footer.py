@@ -34,6 +34,8 @@ class Footer(TextualFooter):
         if self._built == self._asked:
             return  # built after the latest refresh already (it reads the bindings as they are then)
         self._built = self._asked
+        if not self.is_attached:  # its screen gone (popped before the rebuild ran): nothing to show
+            return
         shown = self._keys()
         if shown == self._shown and self.children:
             return  # the same keys, each as enabled as before
