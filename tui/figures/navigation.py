@@ -35,16 +35,20 @@ class Probe:
     chosen: Callable[[int], object] | None = None  # what enter on a point picks (a locus: the gain there)
 
 
-def loop_probe(x, y, omega, gh, unit: str) -> Probe:
-    """A probe on an open-loop curve: frequency (in ``unit``), gain (dB), phase (deg) and the point."""
+def loop_probe(x, y, omega, gh, unit: str, branch: Callable[[float, float], float] | None = None) -> Probe:
+    """A probe on an open-loop curve: frequency (in ``unit``), gain (dB), phase (deg) and the
+    point; the phase on the branch the phase axis draws (``branch``: the curve's
+    `LoopCurve.on_branch`, the one rule of the marks and lines), else in (-180, 180]."""
     scale = 2 * math.pi if unit == "hz" else 1.0
     omega, gh = np.asarray(omega, dtype=float), np.asarray(gh, dtype=complex)
 
     def readout(i: int) -> str:
         g = gh[i]
         db = 20 * math.log10(abs(g)) if g != 0 else -math.inf
+        angle = math.degrees(np.angle(g))
+        phase = angle if branch is None else branch(angle, float(omega[i]))
         return (
-            f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {math.degrees(np.angle(g)):.3f} deg"
+            f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {phase:.3f} deg"
             f"  GH = {g.real:.5g}{g.imag:+.5g}j"
         )
 

@@ -123,11 +123,15 @@ class TableEdits:
                 return
             self.flow.open(edit)
 
+        def typed(text: str | None) -> None:
+            if text:
+                chosen(text)
+
         self.app.push_screen(
             EditDialog(
                 "CSV file (relative to the session's folder)", "", lambda t: file_problem(base / Path(t).expanduser())
             ),
-            lambda text: text and chosen(text),
+            typed,
         )
 
     def matrix_cell(self, message: MatrixTable.EditCell) -> None:
@@ -212,7 +216,7 @@ class TableEdits:
         )
 
     def settings_delete(self, request: RefTable.Request) -> None:
-        bench, index = self.bench, (request.ref or ("", 0))[1]
+        bench, index = self.bench, request.ref[1]
         self.flow.change(
             lambda: edits.change_list(bench, ("constraints",), lambda items: items.pop(index)),
             "delete the selected constraint",
@@ -224,7 +228,7 @@ class TableEdits:
         self.flow.open(edits_fields.objective_edit(self.bench, request.ref))
 
     def history_start_here(self, request: RefTable.Request) -> None:
-        bench, iteration = self.bench, (request.ref or (0,))[0]
+        bench, iteration = self.bench, request.ref[0]
         self.flow.change(
             lambda: bench.start_from(iteration),
             f"make iteration {iteration} the current one (later iterations are dropped)",

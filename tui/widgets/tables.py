@@ -30,9 +30,9 @@ class RefTable(DataTable):
     DELETES = "row"  # what `-` deletes, in its question
 
     class Request(Message):
-        """A key's ``action`` on the selected row (``ref``; None: no row) of ``table``."""
+        """A key's ``action`` on the selected row (``ref``; empty: no row) of ``table``."""
 
-        def __init__(self, table: RefTable, action: str, ref: Ref | None) -> None:
+        def __init__(self, table: RefTable, action: str, ref: Ref) -> None:
             super().__init__()
             self.table, self.action, self.ref = table, action, ref
 
@@ -76,7 +76,7 @@ class RefTable(DataTable):
 
     def ask(self, action: str) -> None:
         """Post the request of a key (the controller applies it)."""
-        self.post_message(self.Request(self, action, self.ref))
+        self.post_message(self.Request(self, action, self.ref or ()))
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
         if self.has_focus:  # the footer shows what the newly selected row allows
