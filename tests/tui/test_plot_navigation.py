@@ -46,10 +46,14 @@ async def test_zoom_pan_cursor_and_reset_on_the_bode_plot(workdir):
         await pilot.press("l")
         await pilot.pause()
         assert math.isclose(plot.navigation.box[0], x0 + 0.25 * width) and plot.shown.xticks[1]
+        phase = app.screen.query_one("#bode-phase")  # linked (issue 54): its frequency range and cursor follow
+        assert phase.navigation.box[:2] == plot.navigation.box[:2] and phase.navigation.cursor == i
+        assert phase.navigation.box[2:] != plot.navigation.box[2:]  # its own phase range
         await pilot.press("minus")
         await pilot.press("0")
         await pilot.pause()
         assert plot.navigation.box is None and plot.navigation.cursor is None
+        assert phase.navigation.box is None and phase.navigation.cursor is None
         assert (plot.shown.xlim, plot.shown.ylim) == whole
         await pilot.press("1")  # the tab keys still work from a plot
         await pilot.pause()

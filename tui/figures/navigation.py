@@ -74,6 +74,18 @@ class Navigation:
         if self.picked is not None:
             self.picked, self.cursor = None, None
 
+    def follow(self, figure: Figure, leader: Navigation) -> None:
+        """Take another panel's frequency range and cursor (Bode's magnitude and phase share
+        their x axis): its box's x limits with this figure's own y range, its cursor when it
+        runs along the figure's probe (a curve picked by a click is that panel's own)."""
+        if leader.box is None:
+            self.box = None
+        else:
+            y0, y1 = (self.box or data_box(figure))[2:]
+            self.box = (leader.box[0], leader.box[1], y0, y1)
+        if leader.picked is None:
+            self.cursor, self.picked = leader.cursor, None
+
     def probe(self, figure: Figure) -> Probe | None:
         return self.picked or figure.probe
 

@@ -1,4 +1,6 @@
-"""Modal dialogs: edit a value with live validation, confirm, help, choose."""
+"""Modal dialogs: edit a value with live validation, confirm, help, choose; each in a double
+border, which shows where the dialog is without colour (as a focused table's or plot's
+thick left edge does)."""
 
 from __future__ import annotations
 
@@ -20,7 +22,7 @@ class EditDialog(ModalScreen[str | None]):
     BINDINGS = [Binding("escape", "cancel", "cancel")]
     DEFAULT_CSS = """
     EditDialog { align: center middle; }
-    EditDialog > Vertical { width: 70; height: auto; border: round $accent; padding: 0 1; background: $panel; }
+    EditDialog > Vertical { width: 70; height: auto; border: double $accent; padding: 0 1; background: $panel; }
     EditDialog #error { color: $error; height: auto; }
     EditDialog Label { width: 100%; }
     """
@@ -62,7 +64,7 @@ class QuestionDialog(ModalScreen):
     KEYS = ""
     DEFAULT_CSS = """
     QuestionDialog { align: center middle; }
-    QuestionDialog > Vertical { width: 64; height: auto; border: round $warning; padding: 0 1; background: $panel; }
+    QuestionDialog > Vertical { width: 64; height: auto; border: double $warning; padding: 0 1; background: $panel; }
     QuestionDialog Label { width: 100%; }
     """
 
@@ -108,7 +110,7 @@ class ChooseDialog(ModalScreen[str | None]):
     BINDINGS = [Binding("escape", "cancel", "cancel")]
     DEFAULT_CSS = """
     ChooseDialog { align: center middle; }
-    ChooseDialog > Vertical { width: 70; height: auto; max-height: 20; border: round $accent; background: $panel; }
+    ChooseDialog > Vertical { width: 70; height: auto; max-height: 20; border: double $accent; background: $panel; }
     """
 
     def __init__(self, title: str, choices: list[tuple[str, str]], highlighted: int = 0):
@@ -136,7 +138,7 @@ class HelpScreen(ModalScreen[None]):
     BINDINGS = [Binding("escape,question_mark,q", "close", "close")]
     DEFAULT_CSS = """
     HelpScreen { align: center middle; }
-    HelpScreen > VerticalScroll { width: 84; max-width: 100%; height: auto; max-height: 90%; border: round $accent;
+    HelpScreen > VerticalScroll { width: 84; max-width: 100%; height: auto; max-height: 90%; border: double $accent;
                                   padding: 0 1;
                                   background: $panel; }
     HelpScreen Label { width: 100%; }

@@ -145,6 +145,8 @@ class MainScreen(Screen):
     )
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
+    MainScreen DataTable, #tableau-scroll { border-left: blank; }
+    MainScreen DataTable:focus, #tableau-scroll:focus { border-left: thick $accent; }
     #plots { min-width: 38; }
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
     #tabs { height: 1fr; }
@@ -486,6 +488,13 @@ class MainScreen(Screen):
     def _plot_chosen(self, message: FigurePlot.Chosen) -> None:
         if message.plot.id == "locus":  # enter on the root locus: the design takes the gain there
             self.view_actions.adopt_locus_value(float(message.value))
+
+    @on(FigurePlot.Navigated)
+    def _plot_navigated(self, message: FigurePlot.Navigated) -> None:
+        """Bode's two panels are linked: zoom, pan and the cursor of one, the other's too."""
+        linked = {"bode-mag": "#bode-phase", "bode-phase": "#bode-mag"}.get(message.plot.id or "")
+        if linked is not None:
+            self.query_one(linked, FigurePlot).follow(message.plot)
 
     @on(FigurePlot.Shown)
     def _plot_shown(self) -> None:
