@@ -118,3 +118,30 @@ async def test_adoption_and_an_algorithm_switch_read_the_design_kept(tmp_path, m
         await settle(app, pilot)
         assert app.bench.algorithm_name == other
         assert_current(app)
+
+
+@synchronous
+async def test_a_hidden_tab_is_drawn_from_the_current_design_when_shown(tmp_path, monkeypatch):
+    """A nudge on the Run tab redraws no hidden table (issue 54's latency); the Plant tab
+    shown after a run and a nudge reads the design then, not the one it last drew."""
+    from tui.screens.main import MainScreen
+
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await pilot.press("2")  # the Plant tab drawn once, at the start
+        await settle(app, pilot)
+        await _shaped_and_run(app, pilot)
+        drawn = []
+        monkeypatch.setattr(MainScreen, "refresh_plant", lambda screen: drawn.append(1))
+        await pilot.press("right")  # a nudge of the gain on the Run tab (its design the start)
+        await pilot.pause()
+        assert isinstance(app.screen, StartDialog)
+        await pilot.press("y")
+        await settle(app, pilot)
+        assert app.bench.iteration == 0 and drawn == []
+        monkeypatch.undo()
+        await pilot.press("2")
+        await settle(app, pilot)
+        table = app.screen.query_one("#parameters")
+        row = [r for r in range(table.row_count) if table.get_row_at(r)[0] == "K"][0]
+        assert float(table.get_row_at(row)[1]) == pytest.approx(current(app)["K"], rel=1e-5)

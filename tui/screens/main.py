@@ -173,7 +173,7 @@ class MainScreen(Screen):
     def __init__(self, bench: Workbench):
         super().__init__()
         self.bench = bench
-        self._history_stale = True
+        self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
@@ -391,8 +391,7 @@ class MainScreen(Screen):
         if event.tabbed_content.id != "tabs":
             return
         self.refresh_bindings()
-        if self._history_stale:
-            self.refresh_history()
+        self.refresh_shown()
         pane = event.tabbed_content.active
         focused = self.focused
         if focused is None or pane not in [a.id for a in focused.ancestors_with_self]:
@@ -401,14 +400,24 @@ class MainScreen(Screen):
     # -- refreshing ---------------------------------------------------------
 
     def refresh_all(self, plots: bool = True) -> None:
+        """Everything from the session: the status line and the Run tab now, the tab shown
+        if another, the hidden ones when they are shown (a nudge redraws no hidden table)."""
         view = self.bench.view()
         self.refresh_status()
         self.refresh_run(view, plots=plots)
-        self.refresh_plant()
-        self.refresh_targets()
-        self.refresh_history(view)
-        self.refresh_sweep()
+        self._stale |= {"plant", "targets", "history", "sweep"}
+        self.refresh_shown(view)
         self.refresh_bindings()
+
+    def refresh_shown(self, view: View | None = None) -> None:
+        """The tab shown, when it is stale (the Run tab never is: `refresh_run`)."""
+        pane = self.query_one("#tabs", TabbedContent).active
+        if pane not in self._stale:
+            return
+        if pane == "history":
+            self.refresh_history(view)
+        else:
+            {"plant": self.refresh_plant, "targets": self.refresh_targets, "sweep": self.refresh_sweep}[pane]()
 
     def refresh_status(self) -> None:
         b = self.bench
@@ -529,6 +538,7 @@ class MainScreen(Screen):
         return Text("\n".join(lines + [f"note: {n}" for n in self.bench.design_notes(record)]))
 
     def refresh_plant(self) -> None:
+        self._stale.discard("plant")
         model = self.bench.session.model.problem
         self.query_one("#blocks", PlantTable).fill(
             ("condition", "block", "input", "output", "kind", "definition"),
@@ -570,6 +580,7 @@ class MainScreen(Screen):
         )
 
     def refresh_targets(self) -> None:
+        self._stale.discard("targets")
         model = self.bench.session.model.problem
         rows = []
         for k, t in enumerate(model.targets):
@@ -612,9 +623,9 @@ class MainScreen(Screen):
     def refresh_history(self, view: View | None = None) -> None:
         """The history table, rebuilt only while its tab is shown (else on the next visit)."""
         if self.query_one("#tabs", TabbedContent).active != "history":
-            self._history_stale = True
+            self._stale.add("history")
             return
-        self._history_stale = False
+        self._stale.discard("history")
         self.query_one(HistoryPane).fill(self.bench.view() if view is None else view)
 
     def refresh_sweep(self, progress: str | None = None) -> None:
@@ -622,6 +633,7 @@ class MainScreen(Screen):
         if progress is not None:
             self.query_one("#sweep-status", TextView).set(Text(progress))
             return
+        self._stale.discard("sweep")
         sweep = self.bench.latest_sweep()
         table = self.query_one("#optima-table", DataTable)
         table.clear(columns=True)
