@@ -40,3 +40,35 @@ def test_standard_error_goes_to_the_log_and_the_terminal_stays_textuals(tmp_path
 def test_the_log_lives_in_the_apps_folder(tmp_path, monkeypatch):
     monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
     assert log_path() == tmp_path / "home" / "loopcraft.log"
+
+
+def test_a_failing_study_is_a_message_and_the_keys_come_back(workdir, monkeypatch):
+    """A study whose cluster fails (here: the sweep raises in its worker, with Dask's kind of
+    log line on standard error) says so in a notification; nothing is printed over the
+    screen by the app, and the session's keys act again."""
+    import asyncio
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+    from tui.state.workbench import Workbench
+
+    def failing(self, text, progress=None, cancelled=lambda: False):
+        logging.getLogger("distributed.comm.tcp").error("heartbeat ... retry_operation")
+        raise OSError("Timed out trying to connect to tcp://127.0.0.1:9 after 1 s")
+
+    monkeypatch.setattr(Workbench, "run_sweep", failing)
+
+    async def scenario() -> None:
+        app = LoopcraftApp(workdir / "report003_lag_lead.json")
+        async with app.run_test(size=(120, 40)) as pilot:
+            await settle(app, pilot)
+            await pilot.press("w")
+            await pilot.pause()
+            app.screen.query_one("#value").value = "tolerance K=+-10% samples 4"
+            await pilot.press("enter")
+            await settle(app, pilot)
+            titles = [n.title for n in app._notifications]
+            assert "sweep failed" in titles and not app.busy
+            assert app.screen.query_one("#tabs").active == "sweep"
+
+    asyncio.run(scenario())
