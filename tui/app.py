@@ -512,9 +512,9 @@ class LoopcraftApp(App):
         self._ask_to_drop(lambda: self.exit(0), "quit")
 
     def action_help(self) -> None:
-        from tui.stderr_log import log_path
+        from tui.stderr_log import log_path_text
 
-        note = f"Dask's and the workers' logs and warnings go to {log_path()} while the app runs"
+        note = f"Dask's and the workers' logs and warnings go to {log_path_text()} while the app runs"
         self.push_screen(HelpScreen(key_help(), note))
 
     # -- the session ----------------------------------------------------------

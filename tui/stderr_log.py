@@ -24,6 +24,12 @@ def log_path() -> Path:
     return home() / LOG_NAME
 
 
+def log_path_text() -> str:
+    """The log's path as the help writes it: under ``$LOOPCRAFT_HOME`` when that is set,
+    else under ``~/.loopcraft`` (the same file as `log_path`, and the same text on every machine)."""
+    return f"$LOOPCRAFT_HOME/{LOG_NAME}" if os.environ.get("LOOPCRAFT_HOME") else f"~/.loopcraft/{LOG_NAME}"
+
+
 @contextmanager
 def stderr_to_log(path: Path | None = None) -> Iterator[Path]:
     """Standard error (descriptor 2) into ``path`` (appended), the terminal kept for

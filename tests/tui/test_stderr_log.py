@@ -8,8 +8,9 @@ import logging
 import os
 import subprocess
 import sys
+from pathlib import Path
 
-from tui.stderr_log import log_path, stderr_to_log
+from tui.stderr_log import log_path, log_path_text, stderr_to_log
 
 
 def test_standard_error_goes_to_the_log_and_the_terminal_stays_textuals(tmp_path, capfd):
@@ -37,9 +38,13 @@ def test_standard_error_goes_to_the_log_and_the_terminal_stays_textuals(tmp_path
     assert "after the app" in capfd.readouterr().err and "after the app" not in path.read_text()
 
 
-def test_the_log_lives_in_the_apps_folder(tmp_path, monkeypatch):
+def test_the_log_lives_in_the_apps_folder_and_the_help_names_it(tmp_path, monkeypatch):
     monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
-    assert log_path() == tmp_path / "home" / "loopcraft.log"
+    assert log_path() == tmp_path / "home" / "loopcraft.log" and log_path_text() == "$LOOPCRAFT_HOME/loopcraft.log"
+    monkeypatch.delenv("LOOPCRAFT_HOME")
+    assert (
+        log_path() == Path.home() / ".loopcraft" / "loopcraft.log" and log_path_text() == "~/.loopcraft/loopcraft.log"
+    )
 
 
 def test_a_failing_study_is_a_message_and_the_keys_come_back(workdir, monkeypatch):

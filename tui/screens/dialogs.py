@@ -9,7 +9,7 @@ from collections.abc import Callable
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import Vertical, VerticalScroll
+from textual.containers import Horizontal, Vertical, VerticalScroll
 from textual.screen import ModalScreen
 from textual.widgets import Input, Label, OptionList, Static
 
@@ -142,6 +142,9 @@ class HelpScreen(ModalScreen[None]):
                                   padding: 0 1;
                                   background: $panel; }
     HelpScreen Label { width: 100%; }
+    HelpScreen .key-row { height: auto; }
+    HelpScreen .key-row > .key { width: 19; text-style: bold; padding-left: 2; }
+    HelpScreen .key-row > .what { width: 1fr; }
     """
 
     def __init__(self, groups: list[tuple[str, list[tuple[str, str]]]], note: str = ""):
@@ -155,8 +158,10 @@ class HelpScreen(ModalScreen[None]):
                 yield Label(self.note, markup=False)
             for title, keys in self.groups:
                 yield Label(f"[b]{title}[/b]")
-                for key, what in keys:
-                    yield Label(Text.assemble(("  " + f"{key:<16}", "bold"), " ", what))
+                for key, what in keys:  # a description wraps in its own column, under itself
+                    with Horizontal(classes="key-row"):
+                        yield Label(key, classes="key", markup=False)
+                        yield Label(what, classes="what", markup=False)
 
     def action_close(self) -> None:
         self.dismiss(None)

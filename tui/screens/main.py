@@ -153,7 +153,7 @@ class MainScreen(Screen):
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
-    #tableau-side { width: 2fr; min-width: 41; }
+    #tableau-side { width: 2fr; min-width: 42; }  /* 41 columns of tableau beside the focus bar */
     #tableau-scroll { height: 1fr; }
     #tableau { height: auto; }
     #step-info { height: 6; }
