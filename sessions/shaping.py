@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from engine.design.constraints import check_change
 from engine.design.gain_solves import GainSolution, gain_for
+from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from sessions.errors import SessionError
@@ -123,18 +124,114 @@ def _move(session: Session, assignment: Assignment) -> tuple[str, list[str]]:
     return f"{assignment.name}: {move.now:.6g} -> {move.target:.6g} ({'; '.join(lines)})", list(move.values)
 
 
-def tune(session: Session, goal: str, target: float, parameter: str | None, condition: int) -> tuple[GainSolution, str]:
+@dataclass(frozen=True)
+class GainChoice:
+    """One gain that gives a phase margin: the solution, the gain parameter's value then,
+    and what else changes: the tableau's rows met now and not then (``breaks``), and not
+    met now but then (``meets``)."""
+
+    solution: GainSolution
+    parameter: str
+    value: float
+    breaks: tuple[str, ...]
+    meets: tuple[str, ...]
+
+    @property
+    def text(self) -> str:
+        """One line: the crossover, the gain, what else changes."""
+        s = self.solution
+        changes = [f"breaks {', '.join(self.breaks)}"] if self.breaks else []
+        changes += [f"meets {', '.join(self.meets)}"] if self.meets else []
+        return f"crossover {s.frequency:.6g} rad/s: {self.parameter} = {self.value:.6g} (x {s.factor:.6g}); " + (
+            "; ".join(changes) or "no requirement changes"
+        )
+
+
+def phase_margin_choices(
+    session: Session,
+    condition: int,
+    phase_margin: float,
+    parameter: str | None = None,
+    named: Mapping[str, float | Sequence[float]] | None = None,
+) -> list[GainChoice]:
+    """Every gain of a condition's loop that gives ``phase_margin`` deg, ordered by
+    crossover frequency, each with what else it changes in the tableau; at the start
+    values, or at ``named`` ones (the workbench's current design, as a record names them)."""
+    from engine.design.gain_solves import phase_margin_solutions
+    from engine.design.tableau import tableau
+
+    problem = session.problem if named is None else _with_values(session.problem, named)
+    name, values = _gain_of(session, condition, parameter, problem)
+    c = problem.conditions[condition]
+    try:
+        solutions = phase_margin_solutions(loop_model(c.network, c.break_at, problem.grid.omega, values), phase_margin)
+        now = {(r.name, r.condition): r.satisfied for r in tableau(problem)}
+        choices = []
+        for solution in solutions:
+            then = tableau(_scaled(problem, name, solution.factor, condition))
+            breaks = tuple(r.name for r in then if now.get((r.name, r.condition)) and not r.satisfied)
+            meets = tuple(r.name for r in then if now.get((r.name, r.condition)) is False and r.satisfied)
+            choices.append(GainChoice(solution, name, values[name] * solution.factor, breaks, meets))
+    except EngineError as exc:
+        raise SessionError(f"pm={phase_margin:g}: {exc}") from None
+    return choices
+
+
+def default_choice(choices: list[GainChoice]) -> int:
+    """The choice taken when none is picked: the first (lowest crossover) that keeps every
+    met requirement met, else the lowest crossover's."""
+    return next((k for k, choice in enumerate(choices) if not choice.breaks), 0)
+
+
+def _with_values(problem: Problem, named: Mapping[str, float | Sequence[float]]) -> Problem:
+    """The problem with the parameters ``named`` at those values."""
+    from dataclasses import replace
+
+    def value(v: float | Sequence[float]) -> float | tuple[float, ...]:
+        return float(v) if isinstance(v, (int, float)) else tuple(float(x) for x in v)
+
+    parameters = tuple(replace(p, value=value(named[p.name])) if p.name in named else p for p in problem.parameters)
+    return replace(problem, parameters=parameters)
+
+
+def _scaled(problem: Problem, name: str, factor: float, condition: int) -> Problem:
+    """The problem with the gain parameter ``name`` scaled (in ``condition`` alone when per condition)."""
+    from dataclasses import replace
+
+    def scaled(value: float | tuple[float, ...]) -> float | tuple[float, ...]:
+        if isinstance(value, tuple):
+            return tuple(v * factor if k == condition else v for k, v in enumerate(value))
+        return value * factor
+
+    parameters = tuple(replace(p, value=scaled(p.value)) if p.name == name else p for p in problem.parameters)
+    return replace(problem, parameters=parameters)
+
+
+def tune(
+    session: Session, goal: str, target: float, parameter: str | None, condition: int, pick: int | None = None
+) -> tuple[GainSolution, str, list[GainChoice], int | None]:
     """Solve the loop gain of a condition for ``goal`` ("crossover", rad/s, or "pm", deg)
     and scale the gain parameter by it, in that condition alone when it is per condition
-    (the design on screen first made the start): the solution and what changed."""
+    (the design on screen first made the start): the solution, what changed, and for a
+    phase margin every choice with the index of the one taken (``pick``, 1-based in
+    frequency order; default `default_choice`)."""
     adopt_current(session)
     before = session.model.problem.model_copy(deep=True)
-    name, solution = solved_gain(session, condition, goal, target, parameter)
+    choices: list[GainChoice] = []
+    index: int | None = None
+    if goal == "pm":
+        choices = phase_margin_choices(session, condition, target, parameter)
+        if pick is not None and not 1 <= pick <= len(choices):
+            raise SessionError(f"--pick {pick}: pm={target:g} has {len(choices)} solution(s), 1..{len(choices)}")
+        index = default_choice(choices) if pick is None else pick - 1
+        name, solution = choices[index].parameter, choices[index].solution
+    else:
+        name, solution = solved_gain(session, condition, goal, target, parameter)
     with committed(session, before, {name: f"--gain-for {goal}={target:g}"}):
         line = _set(session, name, lambda v: v * solution.factor, condition)
         rebuild(session, start_checked=False)
     note_edit(session, before)
-    return solution, line
+    return solution, line, choices, index
 
 
 def solved_gain(
@@ -143,17 +240,26 @@ def solved_gain(
     """The gain parameter of a condition's loop at the start values (``parameter``, checked,
     else the one the loop is proportional to) and the solution for ``goal`` (`gain_for`)."""
     problem = session.problem
-    if not 0 <= condition < len(problem.conditions):
-        raise SessionError(f"condition {condition} is outside 0..{len(problem.conditions) - 1}")
-    values = problem.condition_values(condition)
-    if parameter is not None and not _scales(session, condition, values, parameter):
-        raise SessionError(f"--parameter {parameter}: the loop is not proportional to it (no such gain)")
-    name = parameter or gain_parameter(session, condition, values)
+    name, values = _gain_of(session, condition, parameter)
     c = problem.conditions[condition]
     try:
         return name, gain_for(loop_model(c.network, c.break_at, problem.grid.omega, values), goal, target)
     except EngineError as exc:
         raise SessionError(f"{goal}={target:g}: {exc}") from None
+
+
+def _gain_of(
+    session: Session, condition: int, parameter: str | None, problem: Problem | None = None
+) -> tuple[str, dict[str, float]]:
+    """The gain parameter of a condition's loop (``parameter``, checked, else the one the
+    loop is proportional to) and the condition's values (the session's start, or ``problem``'s)."""
+    problem = session.problem if problem is None else problem
+    if not 0 <= condition < len(problem.conditions):
+        raise SessionError(f"condition {condition} is outside 0..{len(problem.conditions) - 1}")
+    values = problem.condition_values(condition)
+    if parameter is not None and not _scales(session, condition, values, parameter):
+        raise SessionError(f"--parameter {parameter}: the loop is not proportional to it (no such gain)")
+    return parameter or gain_parameter(session, condition, values), values
 
 
 def _set(session: Session, name: str, change, condition: int | None = None) -> str:

@@ -196,3 +196,44 @@ def test_a_change_that_breaks_a_constraint_names_it_and_changes_nothing(lead, ca
     code, _, err = _run(capsys, "set", str(lead), *args)
     assert code == 2 and message in err and "Traceback" not in err
     assert lead.read_bytes() == saved
+
+
+def _two_solutions(lead, capsys, crossover_target: bool = False):
+    """The lead with its zero at 0.535 rad/s: two gains give PM 47 deg (crossovers 0.80 and 2.9 rad/s)."""
+    assert _run(capsys, "set", str(lead), "T1=1.87")[0] == 0
+    if crossover_target:  # crossover >= 1 rad/s, met at K = 1... 7.14 (the tutorial's requirement)
+        data = json.loads(lead.read_text())
+        data["problem"]["targets"].append({"measure": "crossover_frequency", "bands": [{"desired": 1.0}]})
+        lead.write_text(json.dumps(data))
+        assert _run(capsys, "tune", str(lead), "--gain-for", "crossover=1.5")[0] == 0
+
+
+def test_tune_for_a_phase_margin_lists_every_solution_by_frequency(lead, capsys):
+    """Issue 54: every gain that gives the margin, ordered by crossover, the one taken marked;
+    --pick N takes the Nth; --json lists them; each checked with python-control."""
+    _two_solutions(lead, capsys)
+    before = lead.read_text()
+    code, out, _ = _run(capsys, "tune", str(lead), "--gain-for", "pm=47", "--out", str(lead.with_name("a.json")))
+    assert code == 0 and "2 gains give pm=47 deg" in out
+    first, second = [line for line in out.splitlines() if line[2:4] in ("1.", "2.")]
+    assert first.startswith("* 1. crossover 0.79") and second.startswith("  2. crossover 2.9")
+    _, pm, _, _, wc, _ = ct.stability_margins(_loop(lead.with_name("a.json")))
+    assert pm == pytest.approx(47, abs=1e-6) and wc == pytest.approx(0.7958, rel=1e-3)
+    lead.write_text(before)
+    code, out, _ = _run(capsys, "tune", str(lead), "--gain-for", "pm=47", "--pick", "2", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["picked"] == 2 and [c["pick"] for c in data["choices"]] == [1, 2]
+    assert data["choices"][0]["frequency"] < data["choices"][1]["frequency"] == data["frequency"]
+    _, pm, _, _, wc, _ = ct.stability_margins(_loop(lead))
+    assert pm == pytest.approx(47, abs=1e-6) and wc == pytest.approx(data["frequency"], rel=1e-8)
+    code, _, err = _run(capsys, "tune", str(lead), "--gain-for", "pm=47", "--pick", "3")
+    assert code == 2 and "--pick 3: pm=47 has 2 solution(s), 1..2" in err
+
+
+def test_tune_for_a_phase_margin_keeps_a_met_requirement_met_by_default(lead, capsys):
+    """The lowest crossover would break crossover >= 1 rad/s: the default is the next one."""
+    _two_solutions(lead, capsys, crossover_target=True)
+    code, out, _ = _run(capsys, "tune", str(lead), "--gain-for", "pm=47", "--json")
+    data = json.loads(out)
+    assert code == 0 and data["choices"][0]["breaks"] == ["WC1"] and data["choices"][1]["breaks"] == []
+    assert data["picked"] == 2 and data["frequency"] > 1

@@ -119,7 +119,14 @@ ACTIONS = (
         changes=True,
         needs_session=True,
     ),
-    KeyAction(Binding("ctrl+s", "save", "save", show=False, tooltip="save the session"), needs_session=True),
+    KeyAction(
+        Binding("ctrl+s", "save", "save", show=False, tooltip="save the session (a new one: asks for its name)"),
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding("f12", "save_as", "save as", show=False, tooltip="save the session under another name (asks for it)"),
+        needs_session=True,
+    ),
     KeyAction(Binding("ctrl+o", "open", "open", tooltip="open a session file"), changes=True),
     KeyAction(Binding("ctrl+n", "new", "new", show=False, tooltip="a new session from a template"), changes=True),
     KeyAction(
@@ -447,8 +454,10 @@ class LoopcraftApp(App):
             self.notify(str(exc), title="no new session", severity="error", timeout=10)
             return
         session.path = path
-        self._show(Workbench(session), dirty=True)
-        self.notify(f"a new session: ctrl+s saves it as {path}", timeout=6)
+        bench = Workbench(session)
+        bench.untitled = True
+        self._show(bench, dirty=True)
+        self.notify(f"a new session, kept in {path} until saved: ctrl+s asks for its name", timeout=6)
 
     def _ask_to_drop(self, then, what: str = "close this session") -> None:
         """Go on when nothing unsaved would be dropped, else autosave and ask first."""
@@ -459,16 +468,22 @@ class LoopcraftApp(App):
             then()
 
     def action_save(self) -> None:
+        """Save in place; a new session (untitled) asks for its name first."""
         if self.bench is None:
             return
-        if self.bench.session.path is None:
+        if self.bench.session.path is None or self.bench.untitled:
             self.action_save_as()
             return
         self._save(None)
 
     def action_save_as(self) -> None:
+        """Ask for the session's new name (a path; the current one to edit), then save there."""
+        if self.bench is None:
+            return
+        path = self.bench.session.path
         self.push_screen(
-            EditDialog("save as (path)", "", None), lambda text: text and self._save(Path(text).expanduser())
+            EditDialog("save as (a path ending in .json)", str(path) if path else "", _new_session_path),
+            lambda text: text and self._save(Path(text).expanduser()),
         )
 
     def _save(self, path: Path | None, force: bool = False) -> None:
@@ -487,7 +502,7 @@ class LoopcraftApp(App):
     def _terminal_lost(self) -> None:
         """The terminal hung up: no one can be asked, so a run stops, the unsaved
         changes go to the autosave (offered back on the next open), and the app ends."""
-        self._pause.set()
+        self.runs.pause()
         if self.bench is not None:
             self.bench.autosave()
         self.exit(HANGUP_EXIT)
@@ -497,7 +512,10 @@ class LoopcraftApp(App):
         self._ask_to_drop(lambda: self.exit(0), "quit")
 
     def action_help(self) -> None:
-        self.push_screen(HelpScreen(key_help()))
+        from tui.stderr_log import log_path_text
+
+        note = f"Dask's and the workers' logs and warnings go to {log_path_text()} while the app runs"
+        self.push_screen(HelpScreen(key_help(), note))
 
     # -- the session ----------------------------------------------------------
 
@@ -614,7 +632,6 @@ class LoopcraftApp(App):
                     f"{binding.tooltip} ({binding.key})",
                     lambda action=binding.action: self.run_action(action),
                 )
-        yield SystemCommand("Save as", "save under a new name", self.action_save_as)
         yield SystemCommand("New session", "a new session (asks before dropping unsaved work)", self.action_new)
         yield SystemCommand("Keys", "every key (?)", self.action_help)
 
@@ -640,6 +657,16 @@ def key_help() -> list[tuple[str, list[tuple[str, str]]]]:
     ):
         groups.append((name, rows(bindings)))
     return groups
+
+
+def _new_session_path(text: str) -> str | None:
+    """Why a typed path cannot take the session (None: it can; an existing file is asked about)."""
+    path = Path(text.strip()).expanduser()
+    if not text.strip() or path.suffix != ".json":
+        return "a path ending in .json"
+    if not path.parent.is_dir():
+        return f"no folder {path.parent}"
+    return None
 
 
 def _existing_file(text: str) -> str | None:

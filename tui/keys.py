@@ -8,10 +8,15 @@ from dataclasses import replace
 
 from textual.binding import Binding
 
+_IDENTIFIED: list[Binding] = []  # every binding made by `identified`, in the order the classes were defined
+
 
 def identified(prefix: str, bindings: list[Binding]) -> list[Binding]:
-    """The bindings, each with the id ``prefix.action`` (``tab('run')`` -> ``tab_run``)."""
-    return [replace(b, id=b.id or f"{prefix}.{_name(b.action)}") for b in bindings]
+    """The bindings, each with the id ``prefix.action`` (``tab('run')`` -> ``tab_run``),
+    kept for `binding_table`."""
+    named = [replace(b, id=b.id or f"{prefix}.{_name(b.action)}") for b in bindings]
+    _IDENTIFIED.extend(named)
+    return named
 
 
 def _name(action: str) -> str:
@@ -19,24 +24,7 @@ def _name(action: str) -> str:
 
 
 def binding_table() -> list[tuple[str, str, str]]:
-    """(id, keys, what it does) of every binding of the app, the workbench and its tables."""
-    from tui.app import LoopcraftApp
-    from tui.screens.history_pane import HistoryPane
-    from tui.screens.main import MainScreen
-    from tui.widgets.plots import FigurePlot
-    from tui.widgets.tables import HistoryTable, ParametersTable, PlantTable, SettingsTable, TargetsTable
-
-    rows = []
-    for owner in (
-        LoopcraftApp,
-        MainScreen,
-        PlantTable,
-        ParametersTable,
-        TargetsTable,
-        SettingsTable,
-        HistoryTable,
-        HistoryPane,
-        FigurePlot,
-    ):
-        rows += [(b.id, b.key, b.tooltip or b.description) for b in owner.BINDINGS]
-    return rows
+    """(id, keys, what it does) of every binding made by `identified` so far: the app's,
+    the workbench's, its tables' and plots' once `tui.app` is imported (this module
+    imports no widget: every widget imports it)."""
+    return [(b.id or "", b.key, b.tooltip or b.description) for b in _IDENTIFIED]

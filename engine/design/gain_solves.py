@@ -59,8 +59,15 @@ def gain_for_crossover(loop: LoopModel, frequency: float) -> GainSolution:
 
 def gain_for_phase_margin(loop: LoopModel, phase_margin: float) -> GainSolution:
     """The factor that gives the loop a phase margin of ``phase_margin`` deg at its
-    critical crossover (the lowest such crossover frequency when several gains do);
-    an `EngineError` says why none does."""
+    critical crossover, the lowest such crossover frequency when several gains do
+    (`phase_margin_solutions` lists them all); an `EngineError` says why none does."""
+    return phase_margin_solutions(loop, phase_margin)[0]
+
+
+def phase_margin_solutions(loop: LoopModel, phase_margin: float) -> list[GainSolution]:
+    """Every factor that gives the loop a phase margin of ``phase_margin`` deg at its
+    critical crossover, ordered by that crossover's frequency; an `EngineError` says
+    why none does."""
     exact, note, reach = _exact(loop)
     if not -180.0 < phase_margin < 180.0:
         raise EngineError(f"a phase margin lies in (-180, 180) deg, not {phase_margin!r}")
@@ -79,15 +86,18 @@ def gain_for_phase_margin(loop: LoopModel, phase_margin: float) -> GainSolution:
             f"the loop's phase never reaches {phase_margin - 180:g} deg (mod 360) between "
             f"{w[0]:.3g} and {w[-1]:.3g} rad/s: no gain gives a {phase_margin:g} deg phase margin"
         )
+    standing = []
     for root, value in found:
         factor = 1.0 / abs(value)
         worst = _worst_margin(w, factor * gh)
         if worst is None or worst >= phase_margin - GRID_MARGIN:
-            return GainSolution(factor, root, _margin(value), note)
-    raise EngineError(
-        f"at each gain that gives {phase_margin:g} deg at one crossover "
-        f"({', '.join(f'{r:.4g}' for r, _ in found)} rad/s), another crossover has a smaller phase margin"
-    )
+            standing.append(GainSolution(factor, root, _margin(value), note))
+    if not standing:
+        raise EngineError(
+            f"at each gain that gives {phase_margin:g} deg at one crossover "
+            f"({', '.join(f'{r:.4g}' for r, _ in found)} rad/s), another crossover has a smaller phase margin"
+        )
+    return standing
 
 
 def _exact(loop: LoopModel) -> tuple[LoopModel, str, float]:

@@ -70,3 +70,17 @@ def test_a_phase_margin_no_gain_gives_is_refused_with_the_reason():
     loop, _ = list(_loops())[4]  # 10 (s + 0.5) / (s^2 (s + 20)): the lead lifts the phase to about -140 deg
     with pytest.raises(EngineError, match="never reaches -100 deg"):
         gain_for_phase_margin(loop, 80.0)
+
+
+def test_every_gain_for_a_phase_margin_is_listed_by_frequency():
+    """Issue 54: a conditionally stable loop's phase crosses -180 + PM twice; both gains
+    give the margin (python-control on each scaled loop), ordered by crossover frequency."""
+    from engine.design.gain_solves import phase_margin_solutions
+
+    loop, plant = list(_loops())[0]  # 10 (s + 0.3) / (s^2 (s + 10) (s + 3)): a phase bump
+    solutions = phase_margin_solutions(loop, 20.0)
+    assert len(solutions) == 2 and solutions[0].frequency < solutions[1].frequency
+    assert gain_for_phase_margin(loop, 20.0) == solutions[0]
+    for solution in solutions:
+        _, margin, _, _, crossover, _ = ct.stability_margins(solution.factor * plant)
+        assert margin == pytest.approx(20.0, abs=1e-6) and crossover == pytest.approx(solution.frequency, rel=1e-8)

@@ -54,11 +54,13 @@ async def test_binding_refreshes_before_a_rebuild_make_one_rebuild(workdir, monk
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         rebuilds.clear()
+        app.runs.running = True  # the session's keys disabled: the footer has something new to show
         for _ in range(3):
             app.screen.refresh_bindings()
         await settle(app, pilot)
         assert len(rebuilds) == 1
-        app.screen.refresh_bindings()  # a later refresh rebuilds again
+        app.runs.running = False
+        app.screen.refresh_bindings()  # a later refresh that changes a key rebuilds again
         await settle(app, pilot)
         assert len(rebuilds) == 2
 
@@ -83,3 +85,28 @@ async def test_a_run_dims_the_session_keys_and_its_end_enables_them(workdir, mon
         await pilot.press("space")
         await settle(app, pilot)
         assert not app.busy and not _disabled(app, "step")
+
+
+@synchronous
+async def test_a_nudge_does_not_rebuild_the_footer(tmp_path, monkeypatch):
+    """Issue 54: a nudge in the shaping table changes no key (the profile found
+    `Footer.recompose` on every nudge, 7 % of its time); a key that changes state does."""
+    from tests.tui.test_shape_table import lead_app
+
+    rebuilds = _counted_rebuilds(monkeypatch)
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C")
+        await settle(app, pilot)
+        await pilot.press("down", "left")
+        await settle(app, pilot)  # the first edit: ctrl+z's key now acts (not shown in the footer)
+        rebuilds.clear()
+        before = app.bench.session.model.problem.model_dump()
+        for key in ("right", "left", "right"):
+            await pilot.press(key)
+            await settle(app, pilot)
+        assert app.bench.session.model.problem.model_dump() != before and rebuilds == []
+        await pilot.press("up")  # the gain selected: [ (a pair's damping) stays disabled, delete too
+        await settle(app, pilot)
+        assert len(rebuilds) == 1

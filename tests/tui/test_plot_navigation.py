@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
@@ -45,10 +46,14 @@ async def test_zoom_pan_cursor_and_reset_on_the_bode_plot(workdir):
         await pilot.press("l")
         await pilot.pause()
         assert math.isclose(plot.navigation.box[0], x0 + 0.25 * width) and plot.shown.xticks[1]
+        phase = app.screen.query_one("#bode-phase")  # linked (issue 54): its frequency range and cursor follow
+        assert phase.navigation.box[:2] == plot.navigation.box[:2] and phase.navigation.cursor == i
+        assert phase.navigation.box[2:] != plot.navigation.box[2:]  # its own phase range
         await pilot.press("minus")
         await pilot.press("0")
         await pilot.pause()
         assert plot.navigation.box is None and plot.navigation.cursor is None
+        assert phase.navigation.box is None and phase.navigation.cursor is None
         assert (plot.shown.xlim, plot.shown.ylim) == whole
         await pilot.press("1")  # the tab keys still work from a plot
         await pilot.pause()
@@ -94,3 +99,25 @@ def test_a_click_on_a_plot_with_an_empty_curve_puts_no_cursor():
     assert navigation.cursor is None
     navigation.pick(Figure(series=[Series([0.0, 1.0], [0.0, 0.9], "gain")], probe=empty), 0.9, 0.9, (10.0, 10.0))
     assert navigation.cursor == 1 and navigation.picked.x == [0.0, 1.0]
+
+
+def test_the_bode_cursor_reads_the_phase_on_the_branch_the_axis_draws():
+    """Issue 54: 7 (1 + s)/(s^2 (s + 10) (1 + s/5)) starts just above -180 deg and is drawn
+    down to about -232 deg at 20 rad/s, where the cursor read +128 (numpy's principal
+    angle).  Every probe of the loop (Bode magnitude and phase, Nichols, Nyquist) reads the
+    branch drawn, as the margin marks do (`LoopCurve.on_branch`)."""
+    from engine.analysis import LoopCurve
+    from tui.figures.open_loop import bode_figures, nichols_figure, nyquist_figure
+
+    omega = np.geomspace(0.01, 100, 401)
+    s = 1j * omega
+    curve = LoopCurve(omega, 7 * (1 + s) / (s**2 * (s + 10) * (1 + s / 5)), "current")
+    magnitude, phase = bode_figures([curve], "rad/s")
+    i = int(np.argmin(abs(omega - 20.0)))
+    drawn = phase.probe.y[i]
+    w = omega[i]
+    expected = -180 + math.degrees(math.atan(w) - math.atan(w / 10) - math.atan(w / 5))
+    assert drawn == pytest.approx(expected, abs=1e-9) and drawn < -200
+    probes = [magnitude.probe, phase.probe, nichols_figure([curve], "rad/s").probe, nyquist_figure([curve], []).probe]
+    for probe in probes:
+        assert f"phase = {drawn:.3f} deg" in probe.readout(i)

@@ -62,7 +62,13 @@ async def test_a_lead_shaped_by_keys(tmp_path, monkeypatch):
         after = start_values(app)
         assert after["T1"] == pytest.approx(before["T1"] * 1.05**6, rel=1e-9) and after["K"] == before["K"]
         assert app.bench.edits.last.startswith("edit: T1 value: 1 -> 1.34")
-        await _typed(app, pilot, "G", "45")  # then the gain for a 45 deg phase margin
+        await _typed(app, pilot, "G", "45")  # then the gain for a 45 deg phase margin: two gains give it
+        assert [text.split(":")[0] for _, text in app.screen.choices] == [
+            "crossover 1.25981 rad/s",
+            "crossover 2.5664 rad/s",
+        ]
+        await pilot.press("enter")  # the default (no met requirement broken): the lowest crossover
+        await settle(app, pilot)
         _, pm, _, _, wc, _ = ct.stability_margins(_loop(start_values(app)))
         assert pm == pytest.approx(45.0, abs=1e-6) and wc > 1.0
         await pilot.press("down")

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
-from tests.tui.test_app import synchronous
+from tests.tui.test_app import settle, synchronous
+from tests.tui.test_shape_table import lead_app
 from tui.app import LoopcraftApp
+from tui.screens.dialogs import EditDialog
 from tui.screens.main import MAIN_WIDGETS
 
 TABS = {"1": "run", "2": "plant", "3": "targets", "4": "history", "5": "sweep"}
@@ -52,3 +54,68 @@ async def test_tab_and_shift_tab_leave_a_table(workdir):
         await pilot.press("3")
         await pilot.pause()
         assert app.screen.query_one("#tabs").active == "targets"
+
+
+@synchronous
+async def test_shaping_keys_act_after_a_tab_switch_and_digits_go_to_the_dialog(tmp_path, monkeypatch):
+    """Issue 54: after C, a tab switch and back, G opens the phase-margin dialog and the
+    digits typed next go into it (they switched tabs: "50" opened the Sweep tab)."""
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C")
+        await settle(app, pilot)
+        await pilot.press("2", "1")
+        await settle(app, pilot)
+        await pilot.press("G", "5", "0")
+        await pilot.pause()
+        assert isinstance(app.screen, EditDialog) and "phase margin" in app.screen.title_text
+        assert app.screen.query_one("#value").value == "50"
+        await pilot.press("escape")
+        await pilot.pause()
+        assert app.screen.query_one("#tabs").active == "run"
+
+
+@synchronous
+async def test_shaping_keys_act_from_any_focus_on_the_run_tab(tmp_path, monkeypatch):
+    """g from the tableau (the shaping table hidden) shows the table and asks for the
+    crossover; on another tab it says where it acts and types nowhere."""
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        assert app.focused is app.screen.query_one("#tableau-scroll")
+        await pilot.press("g")
+        await pilot.pause()
+        assert isinstance(app.screen, EditDialog) and "crossover" in app.screen.title_text
+        await pilot.press("escape")
+        await pilot.pause()
+        assert app.focused is app.screen.query_one("#shape")
+        await pilot.press("4")  # History: G cannot act there
+        await pilot.pause()
+        await pilot.press("G")
+        await pilot.pause()
+        assert app.screen.query_one("#tabs").active == "history" and not isinstance(app.screen, EditDialog)
+        assert any("act on the Run tab" in str(n.message) for n in app._notifications)
+
+
+@synchronous
+async def test_a_parameter_added_on_the_plant_tab_is_selected(tmp_path, monkeypatch):
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("2")
+        table = app.screen.query_one("#parameters")
+        table.focus()
+        table.move_cursor(row=0)
+        await pilot.press("plus")
+        await pilot.pause()
+        app.screen.query_one("#value").value = "Kd 0.5 0 10"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        assert table.refs[table.cursor_row] == ("parameters", len(table.refs) - 1)
+        assert app.bench.session.model.problem.parameters[-1].name == "Kd"
+        before = [p.free for p in app.bench.session.model.problem.parameters]
+        await pilot.press("f")  # f acts on the new parameter, not the first one
+        await settle(app, pilot)
+        after = [p.free for p in app.bench.session.model.problem.parameters]
+        assert after[:-1] == before[:-1] and after[-1] != before[-1]

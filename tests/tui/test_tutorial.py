@@ -5,6 +5,8 @@ fewer than 100 keys; python-control confirms the design."""
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import control as ct
 
@@ -55,3 +57,28 @@ async def test_the_tutorial_designs_a_lead_compensator_in_under_100_keys(tmp_pat
         gm, pm, _, wc = ct.margin(loop)
         assert pm >= 50 - 1e-6 and 20 * math.log10(gm) >= 10 - 1e-6 and wc >= 3 - 1e-9, (values, gm, pm, wc)
         assert bench.records[-1].status.value == "converged"
+        page = _closing_numbers()
+        shown = {
+            "iterations": bench.iteration,
+            "K": values["K"],
+            "T1": values["T1"],
+            "T2": values["T2"],
+            "PM": pm,
+            "GM": 20 * math.log10(gm),
+            "crossover": wc,
+        }
+        for name, text in page.items():  # the page says what the app shows, to the digits it shows
+            decimals = len(text.split(".")[1]) if "." in text else 0
+            assert round(shown[name], decimals) == float(text), (name, text, shown[name])
+
+
+def _closing_numbers() -> dict[str, str]:
+    """The numbers docs/tutorial.md gives for the design the run ends with."""
+    page = (Path(__file__).resolve().parents[2] / "docs" / "tutorial.md").read_text()
+    found = re.search(
+        r"slp converges in (\d+) iterations to K = ([\d.]+), T1 = ([\d.]+), T2 = ([\d.]+): PM ([\d.]+) deg,\s+"
+        r"GM ([\d.]+) dB, crossover ([\d.]+) rad/s",
+        page,
+    )
+    assert found, "the tutorial's closing sentence"
+    return dict(zip(("iterations", "K", "T1", "T2", "PM", "GM", "crossover"), found.groups()))

@@ -88,6 +88,7 @@ class Sweeps:
             screen = app.main_screen()
             if screen is not None:
                 screen.action_tab("sweep")
+                screen.refresh_sweep()  # the tab as the session has it (a hidden tab is redrawn when shown)
                 screen.refresh_sweep(f"sweep {text}: starting the cluster ...  (space cancels)")
             app.run_worker(
                 functools.partial(self._work, text), thread=True, exclusive=True, exit_on_error=False, group="sweep"

@@ -115,7 +115,11 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
             file=sys.stderr,
         )
         return 2
-    result = LoopcraftApp(path, graphics=_graphics()).run()
+    from tui.stderr_log import stderr_to_log
+
+    graphics = _graphics()
+    with stderr_to_log():  # Dask's and the workers' logs never over the screen (the help names the file)
+        result = LoopcraftApp(path, graphics=graphics).run()
     return result if isinstance(result, int) else 0
 
 

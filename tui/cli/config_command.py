@@ -27,6 +27,7 @@ def cmd_config(args: argparse.Namespace) -> int:
     for binding_id, keys in sorted(config.keys.items()):
         print(f"keys.{binding_id} = {keys!r}")
     if args.keys:
+        import tui.app  # noqa: F401 - defines (and so identifies) every binding
         from tui.keys import binding_table
 
         print("\nbinding id                          keys              what it does")

@@ -63,6 +63,7 @@ BOUNDS: dict[str, dict[str, Bound]] = {
     "new": {"sample_time": POSITIVE},
     "export": {"iteration": Bound(0, MAX_ITERATIONS), "sample_time": POSITIVE},
     "compare": {"iterations": Bound(0, MAX_ITERATIONS)},
+    "tune": {"pick": Bound(1, 10_000)},
     "tradeoff": {"values": ANY},
     "sweep": {
         "starts": Bound(1, MAX_RUNS),

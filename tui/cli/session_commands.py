@@ -211,12 +211,45 @@ def cmd_tune(args: argparse.Namespace) -> int:
     session = load(args.file)
     check_session_out(session, args.out, args.force)
     condition = _condition(session, args.condition)
-    solution, line = tune(session, goal, target, args.parameter, condition)
+    if args.pick is not None and goal != "pm":
+        raise CliError("--pick: only with --gain-for pm=DEG (a crossover has one gain)")
+    solution, line, choices, picked = tune(session, goal, target, args.parameter, condition, args.pick)
     _save(session, args)
+    if args.json:
+        print(json.dumps(_tune_json(solution, line, choices, picked), indent=2, sort_keys=True))
+        return 0
+    if len(choices) > 1:  # every solution, by frequency; the one taken marked
+        print(f"{len(choices)} gains give pm={target:g} deg (--pick N takes another):")
+        for k, choice in enumerate(choices):
+            print(f"{'*' if k == picked else ' '} {k + 1}. {choice.text}")
     print(f"{line}  (x {solution.factor:.6g}, {solution.note})")
     print(f"crossover {solution.frequency:.6g} rad/s, phase margin {solution.phase_margin:.4f} deg there")
     print(_margins(session, condition))
     return 0
+
+
+def _tune_json(solution, line: str, choices: list, picked: int | None) -> dict:
+    """`tune --json`: what changed, the solution taken and, for a phase margin, every choice by frequency."""
+    return {
+        "changed": line,
+        "factor": solution.factor,
+        "frequency": solution.frequency,
+        "phase_margin": solution.phase_margin,
+        "note": solution.note,
+        "picked": None if picked is None else picked + 1,
+        "choices": [
+            {
+                "pick": k + 1,
+                "frequency": c.solution.frequency,
+                "factor": c.solution.factor,
+                "parameter": c.parameter,
+                "value": c.value,
+                "breaks": list(c.breaks),
+                "meets": list(c.meets),
+            }
+            for k, c in enumerate(choices)
+        ],
+    }
 
 
 def _condition(session, name: str | None) -> int:
@@ -312,6 +345,14 @@ def add_parsers(sub) -> None:
         "--parameter", metavar="NAME", help="the gain parameter (default: the one the loop is proportional to)"
     )
     p.add_argument("--condition", metavar="NAME", help="the flight condition whose loop is solved (default: the first)")
+    p.add_argument(
+        "--pick",
+        type=int,
+        metavar="N",
+        help="pm: the Nth solution by crossover frequency (default: the first that keeps every met "
+        "requirement met, else the lowest)",
+    )
+    p.add_argument("--json", action="store_true", help="what changed and every solution, as JSON")
     p.add_argument("--out", help="save here instead of in place")
     p.add_argument("--force", action="store_true", help="replace an existing --out file")
     p.set_defaults(handler=cmd_tune)

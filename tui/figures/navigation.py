@@ -35,16 +35,20 @@ class Probe:
     chosen: Callable[[int], object] | None = None  # what enter on a point picks (a locus: the gain there)
 
 
-def loop_probe(x, y, omega, gh, unit: str) -> Probe:
-    """A probe on an open-loop curve: frequency (in ``unit``), gain (dB), phase (deg) and the point."""
+def loop_probe(x, y, omega, gh, unit: str, branch: Callable[[float, float], float] | None = None) -> Probe:
+    """A probe on an open-loop curve: frequency (in ``unit``), gain (dB), phase (deg) and the
+    point; the phase on the branch the phase axis draws (``branch``: the curve's
+    `LoopCurve.on_branch`, the one rule of the marks and lines), else in (-180, 180]."""
     scale = 2 * math.pi if unit == "hz" else 1.0
     omega, gh = np.asarray(omega, dtype=float), np.asarray(gh, dtype=complex)
 
     def readout(i: int) -> str:
         g = gh[i]
         db = 20 * math.log10(abs(g)) if g != 0 else -math.inf
+        angle = math.degrees(np.angle(g))
+        phase = angle if branch is None else branch(angle, float(omega[i]))
         return (
-            f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {math.degrees(np.angle(g)):.3f} deg"
+            f"w = {omega[i] / scale:.6g} {unit}  |GH| = {db:.4f} dB  phase = {phase:.3f} deg"
             f"  GH = {g.real:.5g}{g.imag:+.5g}j"
         )
 
@@ -69,6 +73,18 @@ class Navigation:
         """A new figure: a picked curve is of the old one (the cursor goes with it)."""
         if self.picked is not None:
             self.picked, self.cursor = None, None
+
+    def follow(self, figure: Figure, leader: Navigation) -> None:
+        """Take another panel's frequency range and cursor (Bode's magnitude and phase share
+        their x axis): its box's x limits with this figure's own y range, its cursor when it
+        runs along the figure's probe (a curve picked by a click is that panel's own)."""
+        if leader.box is None:
+            self.box = None
+        else:
+            y0, y1 = (self.box or data_box(figure))[2:]
+            self.box = (leader.box[0], leader.box[1], y0, y1)
+        if leader.picked is None:
+            self.cursor, self.picked = leader.cursor, None
 
     def probe(self, figure: Figure) -> Probe | None:
         return self.picked or figure.probe

@@ -33,7 +33,7 @@ def nyquist_figure(
         fig.series.append(Series(x, [-v for v in y], "", color="gray", beneath=True))  # negative frequencies
         fig.series.append(Series(x, y, curve.label, **role_style(curve.role, curve.index)))
         if fig.probe is None:
-            fig.probe = loop_probe(gh.real, gh.imag, curve.omega, curve.gh, unit)
+            fig.probe = loop_probe(gh.real, gh.imag, curve.omega, curve.gh, unit, curve.on_branch)
     fig.series.append(Series([-1.0], [0.0], "-1", marker="x", scatter=True, color="red"))
     if points:
         fig.series.append(
@@ -75,8 +75,8 @@ def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
         magnitude.series.append(Series(*finite_points(lw, db), curve.label, **role_style(curve.role, curve.index)))
         phase.series.append(Series(*finite_points(lw, degrees), curve.label, **role_style(curve.role, curve.index)))
         if magnitude.probe is None:
-            magnitude.probe = loop_probe(lw, db, curve.omega[positive], gh, unit)
-            phase.probe = loop_probe(lw, degrees, curve.omega[positive], gh, unit)
+            magnitude.probe = loop_probe(lw, db, curve.omega[positive], gh, unit, curve.on_branch)
+            phase.probe = loop_probe(lw, degrees, curve.omega[positive], gh, unit, curve.on_branch)
         magnitude.xticks = phase.xticks = decade_ticks(lw)
         if curve.margins is not None:
             _mark_margins(magnitude, phase, curve, lw, degrees, scale)
@@ -136,7 +136,7 @@ def nichols_figure(curves, unit: str = "rad/s") -> Figure:
         degrees = np.degrees(np.unwrap(np.angle(curve.gh)))
         fig.series.append(Series(*finite_points(degrees, db), curve.label, **role_style(curve.role, curve.index)))
         if fig.probe is None:
-            fig.probe = loop_probe(degrees, db, curve.omega, curve.gh, unit)
+            fig.probe = loop_probe(degrees, db, curve.omega, curve.gh, unit, curve.on_branch)
     fig.series.append(Series([-180.0], [0.0], "critical", marker="x", scatter=True, color="red"))
     return fig
 

@@ -1,4 +1,6 @@
-"""Modal dialogs: edit a value with live validation, confirm, help, choose."""
+"""Modal dialogs: edit a value with live validation, confirm, help, choose; each in a double
+border, which shows where the dialog is without colour (as a focused table's or plot's
+thick left edge does)."""
 
 from __future__ import annotations
 
@@ -7,7 +9,7 @@ from collections.abc import Callable
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.containers import Vertical, VerticalScroll
+from textual.containers import Horizontal, Vertical, VerticalScroll
 from textual.screen import ModalScreen
 from textual.widgets import Input, Label, OptionList, Static
 
@@ -20,7 +22,7 @@ class EditDialog(ModalScreen[str | None]):
     BINDINGS = [Binding("escape", "cancel", "cancel")]
     DEFAULT_CSS = """
     EditDialog { align: center middle; }
-    EditDialog > Vertical { width: 70; height: auto; border: round $accent; padding: 0 1; background: $panel; }
+    EditDialog > Vertical { width: 70; height: auto; border: double $accent; padding: 0 1; background: $panel; }
     EditDialog #error { color: $error; height: auto; }
     EditDialog Label { width: 100%; }
     """
@@ -62,7 +64,7 @@ class QuestionDialog(ModalScreen):
     KEYS = ""
     DEFAULT_CSS = """
     QuestionDialog { align: center middle; }
-    QuestionDialog > Vertical { width: 64; height: auto; border: round $warning; padding: 0 1; background: $panel; }
+    QuestionDialog > Vertical { width: 64; height: auto; border: double $warning; padding: 0 1; background: $panel; }
     QuestionDialog Label { width: 100%; }
     """
 
@@ -108,17 +110,20 @@ class ChooseDialog(ModalScreen[str | None]):
     BINDINGS = [Binding("escape", "cancel", "cancel")]
     DEFAULT_CSS = """
     ChooseDialog { align: center middle; }
-    ChooseDialog > Vertical { width: 70; height: auto; max-height: 20; border: round $accent; background: $panel; }
+    ChooseDialog > Vertical { width: 70; height: auto; max-height: 20; border: double $accent; background: $panel; }
     """
 
-    def __init__(self, title: str, choices: list[tuple[str, str]]):
+    def __init__(self, title: str, choices: list[tuple[str, str]], highlighted: int = 0):
         super().__init__()
-        self.title_text, self.choices = title, choices
+        self.title_text, self.choices, self.highlighted = title, choices, highlighted
 
     def compose(self) -> ComposeResult:
         with Vertical():
             yield Label(self.title_text, markup=False)
             yield OptionList(*[Text(f"{name}  {summary}") for name, summary in self.choices])
+
+    def on_mount(self) -> None:
+        self.query_one(OptionList).highlighted = self.highlighted
 
     def on_option_list_option_selected(self, event: OptionList.OptionSelected) -> None:
         self.dismiss(self.choices[event.option_index][0])
@@ -133,22 +138,30 @@ class HelpScreen(ModalScreen[None]):
     BINDINGS = [Binding("escape,question_mark,q", "close", "close")]
     DEFAULT_CSS = """
     HelpScreen { align: center middle; }
-    HelpScreen > VerticalScroll { width: 84; max-width: 100%; height: auto; max-height: 90%; border: round $accent;
+    HelpScreen > VerticalScroll { width: 84; max-width: 100%; height: auto; max-height: 90%; border: double $accent;
                                   padding: 0 1;
                                   background: $panel; }
+    HelpScreen Label { width: 100%; }
+    HelpScreen .key-row { height: auto; }
+    HelpScreen .key-row > .key { width: 19; text-style: bold; padding-left: 2; }
+    HelpScreen .key-row > .what { width: 1fr; }
     """
 
-    def __init__(self, groups: list[tuple[str, list[tuple[str, str]]]]):
+    def __init__(self, groups: list[tuple[str, list[tuple[str, str]]]], note: str = ""):
         super().__init__()
-        self.groups = groups
+        self.groups, self.note = groups, note
 
     def compose(self) -> ComposeResult:
         with VerticalScroll():
             yield Label("[b]loopcraft keys[/b]  (ctrl+p: the command palette)")
+            if self.note:
+                yield Label(self.note, markup=False)
             for title, keys in self.groups:
                 yield Label(f"[b]{title}[/b]")
-                for key, what in keys:
-                    yield Label(Text.assemble(("  " + f"{key:<16}", "bold"), " ", what))
+                for key, what in keys:  # a description wraps in its own column, under itself
+                    with Horizontal(classes="key-row"):
+                        yield Label(key, classes="key", markup=False)
+                        yield Label(what, classes="what", markup=False)
 
     def action_close(self) -> None:
         self.dismiss(None)

@@ -5,27 +5,41 @@ apply it as a transaction, say what happened, refresh the screen."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING
 
 from sessions.errors import SessionError
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, StartDialog
 from tui.state.edit_history import Snapshot
 from tui.state.edits import Check, Edit
 
+if TYPE_CHECKING:
+    from tui.app import LoopcraftApp
+    from tui.state.workbench import Workbench
+
 
 class EditFlow:
     """Runs edits for the table widgets; one per app."""
 
-    def __init__(self, app: Any):
+    def __init__(self, app: LoopcraftApp) -> None:
         self.app = app
 
     @property
-    def bench(self):
-        return self.app.bench
+    def bench(self) -> Workbench:
+        bench = self.app.bench
+        if bench is None:  # an edit comes from a table of an open session only
+            raise SessionError("no session is open")
+        return bench
 
-    def choose(self, title: str, choices: list[tuple[str, str]], then: Callable[[str], None]) -> None:
-        """Pick one of several names, then go on with it."""
-        self.app.push_screen(ChooseDialog(title, choices), lambda name: name and then(name))
+    def choose(
+        self, title: str, choices: list[tuple[str, str]], then: Callable[[str], None], highlighted: int = 0
+    ) -> None:
+        """Pick one of several names (``highlighted`` first), then go on with it."""
+
+        def chosen(name: str | None) -> None:
+            if name:
+                then(name)
+
+        self.app.push_screen(ChooseDialog(title, choices, highlighted), chosen)
 
     def open(self, edit: Edit | None) -> None:
         """Ask for the new text of a value (asking first when iterations would go), then apply it."""
@@ -40,7 +54,7 @@ class EditFlow:
         title: str,
         text: str,
         check: Check | None,
-        apply: Callable[[str], Any],
+        apply: Callable[[str], object],
         what: str,
         error: str = "",
         empty: bool = False,
@@ -59,17 +73,26 @@ class EditFlow:
 
         self.app.push_screen(EditDialog(title, text, check, error), typed)
 
-    def line(self, title: str, check: Check | None, apply: Callable[[str], Any], what: str) -> None:
+    def ask(self, title: str, check: Check | None, then: Callable[[str], None]) -> None:
+        """Ask for one line, then go on with it (nothing changed yet)."""
+
+        def typed(text: str | None) -> None:
+            if text:
+                then(text)
+
+        self.app.push_screen(EditDialog(title, "", check), typed)
+
+    def line(self, title: str, check: Check | None, apply: Callable[[str], object], what: str) -> None:
         """Ask for one line (e.g. a new parameter) and apply it."""
         self._ask(title, "", check, apply, what)
 
     def change(
         self,
-        change: Callable[[], Any],
+        change: Callable[[], object],
         what: str,
         always_ask: bool = False,
         failed: str = "nothing changed",
-        done: Callable[[Any], None] | None = None,
+        done: Callable[[object], None] | None = None,
         refused: Callable[[str], None] | None = None,
         keeps_design: bool = True,
         burst: object = None,

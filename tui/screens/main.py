@@ -30,6 +30,8 @@ from tui.keys import identified
 from tui.screens.history_pane import HistoryPane
 from tui.screens.latest_work import LatestWork
 from tui.screens.pole_lines import PoleLines
+from tui.screens.shaping import Shaping
+from tui.screens.table_edits import TableEdits
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
 from tui.state.field_edits import objective_rows
@@ -41,7 +43,7 @@ from tui.widgets.footer import Footer
 from tui.widgets.matrix_table import MatrixTable
 from tui.widgets.plots import FigurePlot
 from tui.widgets.shape_table import ShapeTable
-from tui.widgets.tables import ParametersTable, PlantTable, SettingsTable, TargetsTable
+from tui.widgets.tables import ParametersTable, PlantTable, RefTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 
 # the plot tabs, and the plots (figure ids) each shows
@@ -99,6 +101,12 @@ class MainScreen(Screen):
                 show=False,
                 tooltip="shape the compensator by hand: its gain, zeros, poles and pairs, moved with keys",
             ),
+            Binding("g", "shaping(\"gain_for('crossover')\")", "", show=False, id="main.shape_gain_for_crossover"),
+            Binding("G", "shaping(\"gain_for('pm')\")", "", show=False, id="main.shape_gain_for_pm"),
+            Binding("e", "shaping('type_value')", "", show=False, id="main.shape_type_value"),
+            Binding("N", "shaping('notch')", "", show=False, id="main.shape_notch"),
+            Binding("left_square_bracket", "shaping('damp(-1)')", "", show=False, id="main.shape_damp_down"),
+            Binding("right_square_bracket", "shaping('damp(1)')", "", show=False, id="main.shape_damp_up"),
             Binding(
                 "P",
                 "focus_plot",
@@ -137,13 +145,15 @@ class MainScreen(Screen):
     )
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
+    MainScreen DataTable, #tableau-scroll { border-left: blank; }
+    MainScreen DataTable:focus, #tableau-scroll:focus { border-left: thick $accent; }
     #plots { min-width: 38; }
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
     #tabs { height: 1fr; }
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
-    #tableau-side { width: 2fr; min-width: 41; }
+    #tableau-side { width: 2fr; min-width: 42; }  /* 41 columns of tableau beside the focus bar */
     #tableau-scroll { height: 1fr; }
     #tableau { height: auto; }
     #step-info { height: 6; }
@@ -163,11 +173,14 @@ class MainScreen(Screen):
     def __init__(self, bench: Workbench):
         super().__init__()
         self.bench = bench
-        self._history_stale = True
+        self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
+        self.shaping = Shaping(self)  # the shaping table's requests applied to the session
+        self.table_edits = TableEdits(self)  # the other tables' requests applied to the session
+        self._frozen: list[RefTable | MatrixTable | ShapeTable] = []  # the tables whose keys a run disables
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -225,6 +238,9 @@ class MainScreen(Screen):
                         yield FigurePlot(id=PLOT_TABS[tab][0])
 
     def on_mount(self) -> None:
+        for table in self.query(RefTable):
+            table.allows = self.table_edits.allows
+        self._frozen = [*self.query(RefTable), self.query_one(MatrixTable), self.query_one(ShapeTable)]
         self.app.refresh_workbench()
 
     def on_resize(self, event) -> None:
@@ -251,16 +267,40 @@ class MainScreen(Screen):
             table.remove_class("shown")
             self.focus_main("run")
             return
-        self.action_tab("run")
-        table.add_class("shown")
-        self.fill_shape()
-        self.call_after_refresh(table.focus)
+        self.show_shape()
 
-    def fill_shape(self) -> None:
-        """The shaping table's rows, when it is shown."""
+    def show_shape(self) -> ShapeTable:
+        """The shaping table shown on the Run tab, filled from the current design, focused."""
+        table = self.query_one("#shape", ShapeTable)
+        self.action_tab("run")
+        if not table.has_class("shown"):
+            table.add_class("shown")
+            self.fill_shape()
+        self.set_focus(table)
+        return table
+
+    async def action_shaping(self, action: str) -> None:
+        """A shaping key pressed anywhere on the Run tab: it acts on the shaping table's
+        selected item (the table shown and focused first); one that cannot act says why."""
+        await self.app.run_action(action, self.show_shape())
+
+    def fill_shape(self, view: View | None = None) -> None:
+        """The shaping table's rows from the current design, when it is shown."""
         table = self.query_one("#shape", ShapeTable)
         if table.has_class("shown"):
-            table.fill(edits.compensator_rows(self.bench))
+            table.fill(edits.compensator_rows(self.bench.view() if view is None else view))
+
+    @on(ShapeTable.Request)
+    def _shaping_requested(self, request: ShapeTable.Request) -> None:
+        self.shaping.handle(request)
+
+    @on(RefTable.Request)
+    def _table_requested(self, request: RefTable.Request) -> None:
+        self.table_edits.handle(request)
+
+    @on(MatrixTable.EditCell)
+    def _cell_requested(self, message: MatrixTable.EditCell) -> None:
+        self.table_edits.matrix_cell(message)
 
     def tab_plot(self) -> FigurePlot | None:
         """The plot of the tab shown (the Run tab's: the first of its plot tab), if any."""
@@ -312,6 +352,8 @@ class MainScreen(Screen):
             return self.query_one(HistoryPane).check_action("next_view", parameters)
         if action == "focus_plot":
             return True if self.tab_plot() is not None else None
+        if action == "shaping":
+            return True if tabs is not None and tabs.active == "run" else None
         if action == "locus_parameter":
             there = (
                 "locus" in self.query_one(HistoryPane).views()
@@ -327,6 +369,8 @@ class MainScreen(Screen):
             return "no plot on this tab (Run, History and Sweep have one)"
         if action == "locus_parameter":
             return "no root locus here: it needs a rational loop (no table, no delay) and a loop-plot session"
+        if action == "shaping":
+            return "the shaping keys act on the Run tab (1, then C shows the shaping table)"
         return None
 
     def action_tab(self, name: str) -> None:
@@ -336,8 +380,10 @@ class MainScreen(Screen):
         self.focus_main(name)
 
     def focus_main(self, name: str) -> None:
-        """Focus the main widget of a tab: its first table, or the tableau."""
-        self.set_focus(self.query_one(MAIN_WIDGETS[name]))
+        """Focus the main widget of a tab: its first table, or on the Run tab the shaping
+        table when it is shown, else the tableau."""
+        shape = self.query_one("#shape", ShapeTable)
+        self.set_focus(shape if name == "run" and shape.has_class("shown") else self.query_one(MAIN_WIDGETS[name]))
 
     def on_tabbed_content_tab_activated(self, event: TabbedContent.TabActivated) -> None:
         if event.tabbed_content.id == "plots":
@@ -345,8 +391,7 @@ class MainScreen(Screen):
         if event.tabbed_content.id != "tabs":
             return
         self.refresh_bindings()
-        if self._history_stale:
-            self.refresh_history()
+        self.refresh_shown()
         pane = event.tabbed_content.active
         focused = self.focused
         if focused is None or pane not in [a.id for a in focused.ancestors_with_self]:
@@ -355,20 +400,32 @@ class MainScreen(Screen):
     # -- refreshing ---------------------------------------------------------
 
     def refresh_all(self, plots: bool = True) -> None:
+        """Everything from the session: the status line and the Run tab now, the tab shown
+        if another, the hidden ones when they are shown (a nudge redraws no hidden table)."""
         view = self.bench.view()
         self.refresh_status()
         self.refresh_run(view, plots=plots)
-        self.refresh_plant()
-        self.refresh_targets()
-        self.refresh_history(view)
-        self.refresh_sweep()
+        self._stale |= {"plant", "targets", "history", "sweep"}
+        self.refresh_shown(view)
         self.refresh_bindings()
+
+    def refresh_shown(self, view: View | None = None) -> None:
+        """The tab shown, when it is stale (the Run tab never is: `refresh_run`)."""
+        pane = self.query_one("#tabs", TabbedContent).active
+        if pane not in self._stale:
+            return
+        if pane == "history":
+            self.refresh_history(view)
+        else:
+            {"plant": self.refresh_plant, "targets": self.refresh_targets, "sweep": self.refresh_sweep}[pane]()
 
     def refresh_status(self) -> None:
         b = self.bench
         name = b.session.path.name if b.session.path else "untitled"
         mark = " *" if b.dirty else ""
         busy = "  [b]stepping[/b] (space pauses)" if self.app.busy else ""
+        for table in self._frozen:  # the tables' keys that change the session: disabled while work goes
+            table.frozen = self.app.busy
         edit = f"  [dim]{escape(b.edits.last)}[/dim]" if b.edits.last else ""
         self.query_one("#status", TextView).set(
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
@@ -394,7 +451,7 @@ class MainScreen(Screen):
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
-        self.fill_shape()
+        self.fill_shape(view)
         if plots:
             self.refresh_plots()
 
@@ -441,6 +498,13 @@ class MainScreen(Screen):
         if message.plot.id == "locus":  # enter on the root locus: the design takes the gain there
             self.view_actions.adopt_locus_value(float(message.value))
 
+    @on(FigurePlot.Navigated)
+    def _plot_navigated(self, message: FigurePlot.Navigated) -> None:
+        """Bode's two panels are linked: zoom, pan and the cursor of one, the other's too."""
+        linked = {"bode-mag": "#bode-phase", "bode-phase": "#bode-mag"}.get(message.plot.id or "")
+        if linked is not None:
+            self.query_one(linked, FigurePlot).follow(message.plot)
+
     @on(FigurePlot.Shown)
     def _plot_shown(self) -> None:
         """A plot that comes on screen (its tab, either level, shown) is drawn anew when its
@@ -474,6 +538,7 @@ class MainScreen(Screen):
         return Text("\n".join(lines + [f"note: {n}" for n in self.bench.design_notes(record)]))
 
     def refresh_plant(self) -> None:
+        self._stale.discard("plant")
         model = self.bench.session.model.problem
         self.query_one("#blocks", PlantTable).fill(
             ("condition", "block", "input", "output", "kind", "definition"),
@@ -515,6 +580,7 @@ class MainScreen(Screen):
         )
 
     def refresh_targets(self) -> None:
+        self._stale.discard("targets")
         model = self.bench.session.model.problem
         rows = []
         for k, t in enumerate(model.targets):
@@ -557,9 +623,9 @@ class MainScreen(Screen):
     def refresh_history(self, view: View | None = None) -> None:
         """The history table, rebuilt only while its tab is shown (else on the next visit)."""
         if self.query_one("#tabs", TabbedContent).active != "history":
-            self._history_stale = True
+            self._stale.add("history")
             return
-        self._history_stale = False
+        self._stale.discard("history")
         self.query_one(HistoryPane).fill(self.bench.view() if view is None else view)
 
     def refresh_sweep(self, progress: str | None = None) -> None:
@@ -567,6 +633,7 @@ class MainScreen(Screen):
         if progress is not None:
             self.query_one("#sweep-status", TextView).set(Text(progress))
             return
+        self._stale.discard("sweep")
         sweep = self.bench.latest_sweep()
         table = self.query_one("#optima-table", DataTable)
         table.clear(columns=True)

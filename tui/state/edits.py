@@ -26,11 +26,13 @@ from sessions.forms import one_line as forms
 from sessions.forms import transfers as transfer_forms
 from sessions.hand_history import note_edit
 from sessions.lifecycle import folder
+from tui.state.views import View
 from tui.state.workbench import Workbench
 
 if TYPE_CHECKING:  # scipy behind them: imported where used, never before the first paint
     from engine.design.compensator_items import Item
     from engine.design.resonances import Resonance
+    from sessions.shaping import GainChoice
 
 Ref = tuple[Any, ...]  # a path into the problem model: attribute names and list indices
 Check = Callable[[str], str | None]
@@ -114,17 +116,18 @@ def scale_gain(bench: Workbench, condition: int, factor: float) -> str:
     return name
 
 
-def compensator_rows(bench: Workbench) -> list[tuple[str, str, Any]]:
+def compensator_rows(view: View) -> list[tuple[str, str, Any]]:
     """The compensators of the plotted condition's loop as the shaping table lists them:
-    (block.item name, reading, the item), at the start values (the design an edit keeps)."""
+    (block.item name, reading, the item), at the current design's values (the design on
+    screen, the one an edit keeps: `EditFlow.change` makes it the start first)."""
     from engine.design.compensator_items import compensators, named
 
-    problem = bench.session.problem
+    problem = view.problem
     if not problem.conditions:
         return []
-    k = bench.view().first_plotted
+    k = view.first_plotted
     network = problem.conditions[k].network
-    parts = compensators(network, problem.condition_values(k))
+    parts = compensators(network, view.parameters(None, k))
     return [
         (f"{label}.{name}", item.reading(network.sample_time), item)
         for label, found in parts.items()
@@ -193,11 +196,12 @@ def remove_item(bench: Workbench, name: str, item: Item, draft: ProblemModel | N
     from sessions.compensator_parts import remove_item as removed
 
     block = name.rsplit(".", 1)[0]
-    k = bench.view().first_plotted
-    values = bench.session.problem.condition_values(k)
+    view = bench.view()
+    k = view.first_plotted
     lines: list[str] = []
-    if draft is not None:
-        return "; ".join(removed(draft, block, values, item.root, item.kind, k))
+    if draft is not None:  # what would go from the design on screen (the start once the edit is made)
+        return "; ".join(removed(draft, block, view.parameters(None, k), item.root, item.kind, k))
+    values = bench.session.problem.condition_values(k)
     transaction(bench, lambda draft: lines.extend(removed(draft, block, values, item.root, item.kind, k)))
     return "; ".join(lines)
 
@@ -211,6 +215,17 @@ def gain_for(bench: Workbench, goal: str, target: float) -> str:
     name, solution = solved_gain(bench.session, k, goal, target)
     set_parameters(bench, {name: bench.session.problem.condition_values(k)[name] * solution.factor}, k)
     return name
+
+
+def phase_margin_choices(bench: Workbench, phase_margin: float) -> list[GainChoice]:
+    """Every gain of the plotted condition's loop, at the design on screen, that gives
+    ``phase_margin`` deg, by crossover frequency, with what else each changes
+    (`sessions.shaping.phase_margin_choices`)."""
+    from sessions.shaping import phase_margin_choices as choices
+
+    view = bench.view()
+    named = dict(view.records[-1].parameters) if view.records else None
+    return choices(bench.session, view.first_plotted, phase_margin, named=named)
 
 
 def change_list(bench: Workbench, path: Ref, change: Callable[[list], None]) -> None:

@@ -37,6 +37,7 @@ class Workbench:
     def __init__(self, session: Session) -> None:
         self.session = session
         self.dirty = False
+        self.untitled = False  # a new session, not yet saved under a name of the user's: its first save asks one
         self._states: dict[int, State] = {}
         self._stepper: Stepper | None = None
         self._initial: StepRecord | None = None
@@ -329,6 +330,7 @@ class Workbench:
         """Save (``force``: over a file changed on disk since it was loaded, or a read-only one)."""
         target = save_session(self.session, path, force=force)
         self.dirty = False
+        self.untitled = self.untitled and path is None
         return target
 
     # -- what the screens show ---------------------------------------------

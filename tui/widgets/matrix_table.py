@@ -1,16 +1,16 @@
 """The Plant tab's grid of a matrix-format plant (`tui.state.matrix_grid`): one row
 per equation, one column per signal and the forcing; e edits the selected
-cell's entry in place (an empty cell gets a new entry)."""
+cell's entry in place (an empty cell gets a new entry): the grid posts
+`MatrixTable.EditCell` and the screen's controller (`tui.screens.table_edits`) edits."""
 
 from __future__ import annotations
 
 from textual.binding import Binding
+from textual.message import Message
 from textual.widgets import DataTable
 
-from sessions.forms import one_line as forms
+from sessions.format.schema import ProblemModel
 from tui.keys import identified
-from tui.state import edits
-from tui.state.edits import Edit
 from tui.state.matrix_grid import matrix_grid
 
 
@@ -22,21 +22,30 @@ class MatrixTable(DataTable):
         [Binding("e", "edit_cell", "edit entry", tooltip="edit the selected entry of A(s) (an empty cell adds one)")],
     )
 
-    def __init__(self, **kwargs):
-        super().__init__(cursor_type="cell", **kwargs)
+    class EditCell(Message):
+        """e on a cell: row ``row`` (0-based) and column ``col`` (1-based: 0 is the row's
+        label) of ``condition``'s matrix; ``index``: its entry's, None for an empty cell."""
+
+        def __init__(self, condition: int, row: int, col: int, index: int | None) -> None:
+            super().__init__()
+            self.condition, self.row, self.col, self.index = condition, row, col, index
+
+    def __init__(self, *, id: str | None = None) -> None:
+        super().__init__(cursor_type="cell", id=id)
         self.condition: int | None = None
         self.cells: list[list[int | None]] = []
+        self.frozen = False  # a run or a sweep goes (the screen says so)
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         if action == "edit_cell":
-            return None if self.app.busy or self.condition is None or not self._in_matrix() else True
+            return None if self.frozen or self.condition is None or not self._in_matrix() else True
         return True
 
     def _in_matrix(self) -> bool:
         row, col = self.cursor_coordinate
         return 0 <= row < len(self.cells) and 0 <= col - 1 < len(self.cells[row]) - 1
 
-    def fill(self, problem_model, plotted: int | None) -> None:
+    def fill(self, problem_model: ProblemModel, plotted: int | None) -> None:
         """Show the grid of a matrix-format condition; hidden when there is none."""
         matrix = [k for k, c in enumerate(problem_model.conditions) if c.plant.format == "matrix"]
         self.condition = (plotted if plotted in matrix else matrix[0]) if matrix else None
@@ -55,26 +64,5 @@ class MatrixTable(DataTable):
 
     def action_edit_cell(self) -> None:
         row, col = self.cursor_coordinate
-        index = self.cells[row][col - 1]
-        bench, k = self.app.bench, self.condition
-        base = ("conditions", k, "plant", "entries")
-        if index is not None:
-            self.app.edit_flow.open(edits.plant_edit(bench, base + (index,)))
-            return
-        variable = bench.session.model.problem.conditions[k].variable
-
-        def check(text: str) -> str | None:
-            try:
-                forms.parse_expression(text, variable)
-            except ValueError as exc:
-                return str(exc)
-            return None
-
-        self.app.edit_flow.open(
-            Edit(
-                f"new entry a[{row + 1},{col}] (expression in {variable})",
-                "",
-                check,
-                lambda text: edits.add_to_plant(bench, base[:-1] + ("entries", 0), f"{row + 1} {col} {text}"),
-            )
-        )
+        if self.condition is not None and self._in_matrix():
+            self.post_message(self.EditCell(self.condition, row, col, self.cells[row][col - 1]))

@@ -68,6 +68,13 @@ class FigurePlot(PlotextPlot):
             super().__init__()
             self.plot, self.value = plot, value
 
+    class Navigated(Message):
+        """Zoomed, panned or its cursor moved (a linked panel follows: `follow`)."""
+
+        def __init__(self, plot: FigurePlot) -> None:
+            super().__init__()
+            self.plot = plot
+
     class Shown(Message):
         """The plot came on screen (its tab shown, the screen resumed): whatever it shows
         may be of an earlier design, so the screen checks it against the current one."""
@@ -87,17 +94,27 @@ class FigurePlot(PlotextPlot):
         self._drag: tuple[int, int] | None = None  # the cell a mouse button went down on
         self._dragged = False
 
+    def navigated(self) -> None:
+        """Draw the new view and say so (a linked panel follows)."""
+        self.refresh()
+        self.post_message(self.Navigated(self))
+
+    def follow(self, leader: FigurePlot) -> None:
+        """Take a linked panel's x range and cursor (`Navigation.follow`)."""
+        self.navigation.follow(self.figure, leader.navigation)
+        self.refresh()
+
     def action_zoom(self, factor: float) -> None:
         self.navigation.zoom(self.figure, factor)
-        self.refresh()
+        self.navigated()
 
     def action_pan(self, dx: float, dy: float) -> None:
         self.navigation.pan(self.figure, dx, dy)
-        self.refresh()
+        self.navigated()
 
     def action_cursor(self, step: int) -> None:
         self.navigation.move(self.figure, step)
-        self.refresh()
+        self.navigated()
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """enter acts only on a cursor over a probe that picks a value (a root locus)."""
@@ -116,7 +133,7 @@ class FigurePlot(PlotextPlot):
 
     def action_reset_view(self) -> None:
         self.navigation.reset()
-        self.refresh()
+        self.navigated()
 
     def on_mouse_scroll_up(self, event: events.MouseScrollUp) -> None:
         self._zoom_at(event, 1.25)
@@ -132,7 +149,7 @@ class FigurePlot(PlotextPlot):
             self.action_zoom(factor)
             return
         self.navigation.zoom_at(self.figure, factor, frame.point(*cell))
-        self.refresh()
+        self.navigated()
 
     def on_mouse_down(self, event: events.MouseDown) -> None:
         self._drag, self._dragged = self._cell(event), False
@@ -150,7 +167,7 @@ class FigurePlot(PlotextPlot):
         x1, y1 = frame.point(*cell)
         self.navigation.shift(self.figure, x0 - x1, y0 - y1)
         self._drag, self._dragged = cell, True
-        self.refresh()
+        self.navigated()
 
     def on_mouse_up(self, event: events.MouseUp) -> None:
         """A click (no drag) puts the data tip on the nearest point of the nearest curve."""
@@ -163,7 +180,7 @@ class FigurePlot(PlotextPlot):
             across = (frame.right - frame.left) / ((x1 - x0) or 1.0)
             up = 2 * (frame.bottom - frame.top) / ((y1 - y0) or 1.0)  # a row is about two columns tall
             self.navigation.pick(self.figure, *frame.point(*cell), (across, up))
-            self.refresh()
+            self.navigated()
 
     def _cell(self, event: events.MouseEvent) -> tuple[int, int] | None:
         offset = event.get_content_offset(self)

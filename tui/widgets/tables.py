@@ -1,37 +1,48 @@
 """The workbench's editable tables, each a widget with its own keys.
 
 Every row carries a `Ref` (the path of the model object it shows), so an
-action acts on that object whatever the layout.  Keys that change the
-problem are disabled (dimmed in the footer) while a run or a sweep goes,
-and keys that do not apply to the selected row are disabled too; the app's
-`busy` says which.  The dialogs and the transaction are `EditFlow`'s.
+action acts on that object whatever the layout.  A table only asks: each key
+posts a `RefTable.Request` (the action and the selected row's reference) and
+the screen's controller (`tui.screens.table_edits`) applies it to the session
+through `EditFlow`.  Keys that change the problem are disabled (dimmed in the
+footer) while a run or a sweep goes (``frozen``, set by the screen), and keys
+that do not apply to the selected row are disabled too (``allows``, the
+controller's answer for what depends on the session).
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+from collections.abc import Callable
 
 from textual.binding import Binding
+from textual.message import Message
 from textual.widgets import DataTable
 
-from engine.design.measure_kinds import MEASURE_KINDS
-from sessions.lifecycle import folder
-from tui.files import file_problem
 from tui.keys import identified
-from tui.state import edits
-from tui.state import field_edits as edits_fields
 from tui.state.edits import Ref
 
 
 class RefTable(DataTable):
-    """A DataTable whose rows carry model references."""
+    """A DataTable whose rows carry model references; its keys post `Request`s."""
 
+    KIND = ""  # what the controller calls the table's requests: "plant", "parameters", ...
     MUTATING: frozenset[str] = frozenset()
     DELETES = "row"  # what `-` deletes, in its question
 
-    def __init__(self, **kwargs):
-        super().__init__(cursor_type="row", **kwargs)
+    class Request(Message):
+        """A key's ``action`` on the selected row (``ref``; empty: no row) of ``table``."""
+
+        def __init__(self, table: RefTable, action: str, ref: Ref) -> None:
+            super().__init__()
+            self.table, self.action, self.ref = table, action, ref
+
+    def __init__(self, *, id: str | None = None) -> None:
+        super().__init__(cursor_type="row", id=id)
         self.refs: list[Ref | None] = []
+        self.pending: Ref | None = None  # the row to select at the next fill (a row just added)
+        self.frozen = False  # a run or a sweep goes (the screen says so)
+        # whether an action can act on a row, where that depends on the session (the controller's)
+        self.allows: Callable[[RefTable, str, Ref], bool] = lambda table, action, ref: True
 
     def fill(self, columns: tuple[str, ...], rows: list[tuple[tuple, Ref | None]]) -> None:
         """Replace the table's rows (each: its cells and its reference), keeping the cursor row."""
@@ -42,6 +53,8 @@ class RefTable(DataTable):
         for cells, ref in rows:
             self.add_row(*cells)
             self.refs.append(ref)
+        if self.pending in self.refs:
+            row, self.pending = self.refs.index(self.pending), None
         if rows:
             self.move_cursor(row=min(max(row, 0), len(rows) - 1))
 
@@ -51,22 +64,19 @@ class RefTable(DataTable):
         k = self.cursor_row
         return self.refs[k] if 0 <= k < len(self.refs) else None
 
-    @property
-    def flow(self):
-        return self.app.edit_flow
-
-    @property
-    def bench(self):
-        return self.app.bench
-
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         if action in self.MUTATING or action == "select_cursor":
-            return None if self.app.busy or not self.applies(action) else True
+            return None if self.frozen or not self.applies(action) else True
         return True
 
     def applies(self, action: str) -> bool:
         """Whether an action can act on the selected row."""
-        return self.ref is not None
+        ref = self.ref
+        return ref is not None and self.allows(self, action, ref)
+
+    def ask(self, action: str) -> None:
+        """Post the request of a key (the controller applies it)."""
+        self.post_message(self.Request(self, action, self.ref or ()))
 
     def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
         if self.has_focus:  # the footer shows what the newly selected row allows
@@ -75,18 +85,18 @@ class RefTable(DataTable):
     def on_data_table_row_selected(self, event: DataTable.RowSelected) -> None:
         """enter edits the row, where the table edits rows."""
         event.stop()
-        if "edit" in self.MUTATING and not self.app.busy and self.applies("edit"):
-            self.action_edit()
+        if "edit" in self.MUTATING and not self.frozen and self.applies("edit"):
+            self.ask("edit")
+
+    def action_edit(self) -> None:
+        self.ask("edit")
+
+    def action_add(self) -> None:
+        self.ask("add")
 
     def action_delete(self) -> None:
         """Delete the selected model object (always asks first)."""
-        ref = self.ref
-        self.flow.change(
-            lambda: edits.delete_item(self.bench, ref),
-            f"delete the selected {self.DELETES}",
-            always_ask=True,
-            done=lambda what: self.app.notify(f"deleted {what}"),
-        )
+        self.ask("delete")
 
 
 class PlantTable(RefTable):
@@ -103,75 +113,27 @@ class PlantTable(RefTable):
             Binding("i", "import_table", "import CSV", show=False),
         ],
     )
+    KIND = "plant"
     MUTATING = frozenset({"edit", "add", "delete", "copy_condition", "delete_condition", "import_table"})
 
     def applies(self, action: str) -> bool:
         ref = self.ref
         if ref is None:
             return False
-        if action == "edit":
-            return edits.plant_edit(self.bench, ref) is not None
         if action == "delete":
             return isinstance(ref[-1], int) and ref[-2] in ("blocks", "entries")
         if action == "import_table":
             return isinstance(ref[-1], int) and ref[-2] == "blocks"
-        if action == "delete_condition":
-            return len(self.bench.session.model.problem.conditions) > 1
-        return True
-
-    def action_edit(self) -> None:
-        self.flow.open(edits.plant_edit(self.bench, self.ref))
-
-    def action_add(self) -> None:
-        ref = self.ref
-        self.flow.line(
-            "new block: NAME INPUT OUTPUT EXPRESSION, or matrix entry: ROW COL EXPRESSION",
-            edits.add_check(self.bench, ref),
-            lambda text: edits.add_to_plant(self.bench, ref, text),
-            "add it",
-        )
+        return self.allows(self, action, ref)
 
     def action_copy_condition(self) -> None:
-        ref = self.ref
-        self.flow.line(
-            "copy this condition as (a new name):",
-            lambda t: None if t.strip() else "a name",
-            lambda name: edits.copy_condition(self.bench, ref, name),
-            "add a condition",
-        )
+        self.ask("copy_condition")
 
     def action_delete_condition(self) -> None:
-        ref = self.ref
-        self.flow.change(
-            lambda: edits.delete_condition(self.bench, ref),
-            "delete the selected row's condition",
-            always_ask=True,
-            done=lambda name: self.app.notify(f"deleted condition {name}"),
-        )
+        self.ask("delete_condition")
 
     def action_import_table(self) -> None:
-        ref, base = self.ref, folder(self.bench.session)
-
-        def chosen(text: str) -> None:
-            path = Path(text).expanduser()
-            path = path if path.is_absolute() else base / path
-            try:
-                edit = edits_fields.table_import(self.bench, ref, path)
-            except (OSError, ValueError) as exc:
-                self.app.notify(str(exc), title="cannot read the table", severity="error")
-                return
-            self.flow.open(edit)
-
-        from tui.screens.dialogs import EditDialog
-
-        self.app.push_screen(
-            EditDialog(
-                "CSV file (relative to the session's folder)",
-                "",
-                lambda t: file_problem(base / Path(t).expanduser()),
-            ),
-            lambda text: text and chosen(text),
-        )
+        self.ask("import_table")
 
 
 class ParametersTable(RefTable):
@@ -187,35 +149,18 @@ class ParametersTable(RefTable):
             Binding("minus,delete", "delete", "delete"),
         ],
     )
+    KIND = "parameters"
     MUTATING = frozenset({"edit", "toggle_free", "toggle_per_condition", "add", "delete"})
     DELETES = "parameter"
 
     def applies(self, action: str) -> bool:
         return action == "add" or self.ref is not None
 
-    def action_edit(self) -> None:
-        ref = self.ref
-        self.flow.choose(
-            "edit which field of the parameter?",
-            edits_fields.PARAMETER_FIELDS,
-            lambda field: self.flow.open(edits_fields.parameter_edit(self.bench, ref, field)),
-        )
-
     def action_toggle_free(self) -> None:
-        ref = self.ref
-        self.flow.change(lambda: edits_fields.toggle_free(self.bench, ref), "free/fix the parameter")
+        self.ask("toggle_free")
 
     def action_toggle_per_condition(self) -> None:
-        ref = self.ref
-        self.flow.change(lambda: edits_fields.toggle_per_condition(self.bench, ref), "switch shared/per condition")
-
-    def action_add(self) -> None:
-        self.flow.line(
-            "new parameter: NAME VALUE [MIN MAX]",
-            edits_fields.ADD_PARAMETER_CHECK,
-            lambda text: edits_fields.add_parameter(self.bench, text),
-            "add it",
-        )
+        self.ask("toggle_per_condition")
 
 
 class TargetsTable(RefTable):
@@ -225,27 +170,12 @@ class TargetsTable(RefTable):
         "targets",
         [Binding("e", "edit", "edit"), Binding("plus", "add", "add"), Binding("minus,delete", "delete", "delete")],
     )
+    KIND = "targets"
     MUTATING = frozenset({"edit", "add", "delete"})
     DELETES = "target"
 
     def applies(self, action: str) -> bool:
         return action == "add" or self.ref is not None
-
-    def action_edit(self) -> None:
-        ref = self.ref
-        self.flow.choose(
-            "edit which part of the target?",
-            edits_fields.TARGET_FIELDS,
-            lambda field: self.flow.open(edits_fields.target_edit(self.bench, ref, field)),
-        )
-
-    def action_add(self) -> None:
-        choices = [(name, f"default desired {kind.default_desired:g}") for name, kind in MEASURE_KINDS.items()]
-        self.flow.choose(
-            "add a target: which measure?",
-            choices,
-            lambda m: self.flow.change(lambda: edits_fields.add_target(self.bench, m), f"add {m}"),
-        )
 
 
 class SettingsTable(RefTable):
@@ -259,6 +189,7 @@ class SettingsTable(RefTable):
             Binding("minus,delete", "delete", "delete constraint"),
         ],
     )
+    KIND = "settings"
     MUTATING = frozenset({"edit", "add", "delete"})
     DELETES = "constraint"
 
@@ -269,43 +200,14 @@ class SettingsTable(RefTable):
             return self.ref is not None and self.ref[0] == "constraint"
         return self.ref is not None
 
-    def action_add(self) -> None:
-        self.flow.line(
-            "new constraint: a1*p1 + a2*p2 ... <= c (or >=), e.g. T1 >= 4*T2",
-            edits_fields.constraint_check(self.bench, None),
-            lambda text: edits_fields.add_constraint(self.bench, text),
-            "add the constraint",
-        )
-
-    def action_delete(self) -> None:
-        index = self.ref[1]
-        self.flow.change(
-            lambda: edits.change_list(self.bench, ("constraints",), lambda items: items.pop(index)),
-            "delete the selected constraint",
-            always_ask=True,
-            done=lambda _: self.app.notify(f"deleted constraint {index + 1}"),
-        )
-
-    def action_edit(self) -> None:
-        self.flow.open(edits_fields.objective_edit(self.bench, self.ref))
-
 
 class HistoryTable(RefTable):
     """One row per iteration; b makes the selected one the current iteration (the
     History pane around it marks one and chooses the plot's view)."""
 
     BINDINGS = identified("history", [Binding("b", "start_here", "start here")])
+    KIND = "history"
     MUTATING = frozenset({"start_here"})
 
-    def applies(self, action: str) -> bool:
-        return self.ref is not None and self.ref[0] < self.bench.iteration
-
     def action_start_here(self) -> None:
-        iteration = self.ref[0]
-        self.flow.change(
-            lambda: self.bench.start_from(iteration),
-            f"make iteration {iteration} the current one (later iterations are dropped)",
-            always_ask=True,
-            keeps_design=False,
-            done=lambda _: self.app.notify(f"iteration {iteration} is the current one"),
-        )
+        self.ask("start_here")
