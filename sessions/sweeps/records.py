@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.measure_kinds import absent_reason
-from engine.slp.measures import Spec
-from engine.slp.points import Points
+
+if TYPE_CHECKING:  # the command line imports this module (a study's tally) and loads no algorithm
+    from engine.slp.measures import Spec
+    from engine.slp.points import Points
 
 
 class RowHead(NamedTuple):
