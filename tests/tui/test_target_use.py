@@ -30,6 +30,8 @@ async def test_a_crossover_target_is_marked_for_cip_and_listed_when_cip_is_chose
         assert app.bench.algorithm_name == "slp"
         measures = [t.measure for t in app.bench.session.model.problem.targets]
         assert "crossover_frequency" in measures
+        await pilot.press("3")  # the Targets tab: a hidden tab is drawn when it is shown
+        await settle(app, pilot)
         table = app.screen.query_one("#targets-table")
         row = measures.index("crossover_frequency")
         assert str(table.get_row_at(row)[1]) == "yes"
