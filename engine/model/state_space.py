@@ -68,7 +68,7 @@ class Matrices:
 def checked(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) -> Matrices:
     """The matrices of a SISO state space (B a column n x 1 or a vector of n, C a row 1 x n or a
     vector, D a number or 1 x 1), or a `BlockError` naming ``where`` and what is wrong."""
-    arrays = [_real(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D"))]
+    arrays = [real_matrix(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D"))]
     a, b, c, d = arrays
     a = a.reshape(0, 0) if a.size == 0 else a  # no states: a static gain D ([] read as 0 x 0)
     n = a.shape[0] if a.ndim == 2 else -1
@@ -105,7 +105,8 @@ def balanced(m: Matrices) -> tuple[Matrices, NDArray[np.float64]]:
     return Matrices(m.A * t[None, :] / t[:, None], m.B / t, m.C * t, m.D), t
 
 
-def _real(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
+def real_matrix(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
+    """``x`` as a finite real float array, else a `BlockError` naming ``name`` and ``where``."""
     if np.asarray(x).dtype.kind == "c":  # float() of it would drop the imaginary part
         raise BlockError(f"{where}: {name} must be a matrix of real numbers, not complex")
     try:

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError, EngineError
-from engine.model.state_space import MAX_STATES, Matrices
+from engine.model.state_space import MAX_STATES, Matrices, real_matrix
 
 MAX_LOOPS = 8  # loops of one plant (the structured singular value is searched over m - 1 scalings)
 SINGULAR = 1e-12  # reciprocal condition of I + D (or I + D_oo) below which the loop is not well posed
@@ -53,18 +53,6 @@ class Plant:
         return self.names.index(name)
 
 
-def _real(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
-    if np.asarray(x).dtype.kind == "c":
-        raise BlockError(f"{where}: {name} must be a matrix of real numbers, not complex")
-    try:
-        array = np.asarray(x, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise BlockError(f"{where}: {name} must be a matrix of real numbers") from None
-    if not np.all(np.isfinite(array)):
-        raise BlockError(f"{where}: {name} has a value that is not finite")
-    return array
-
-
 def input_count(B: ArrayLike, C: ArrayLike) -> tuple[int, int]:
     """(inputs, outputs) of a state space's B and C as given (a vector B: one input, a vector C:
     one output), for telling a single loop from several before either is built."""
@@ -77,7 +65,7 @@ def input_count(B: ArrayLike, C: ArrayLike) -> tuple[int, int]:
 def checked_plant(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) -> Plant:
     """The plant of the four matrices (D 0 as a number: zero feedthrough), balanced; a
     `BlockError` naming ``where`` and what is wrong: not square, shapes, too many loops."""
-    a, b, c, d = (_real(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D")))
+    a, b, c, d = (real_matrix(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D")))
     if a.size == 0 and d.ndim == 2:  # no states: a static plant D ([] read as 0 x 0, B 0 x m, C m x 0)
         a, b, c = np.zeros((0, 0)), np.zeros((0, d.shape[1])), np.zeros((d.shape[0], 0))
     n = a.shape[0] if a.ndim == 2 else -1
