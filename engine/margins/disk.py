@@ -32,19 +32,12 @@ from engine.margins.peaks import Peak, Transform, refined_peaks, sensitivity
 from engine.margins.search import Band
 
 
-@dataclass(frozen=True)
-class DiskMargin:
-    """A disk margin: alpha, its skew, the guaranteed gain factors (low <= 1 <= high,
-    high inf when unbounded), phase margin (deg), the worst disk's frequency."""
+class GuaranteedGains:
+    """The gain factors a disk guarantees (``gain_low`` <= 1 <= ``gain_high``, inf when unbounded)
+    in dB: one disk margin's (`DiskMargin`) or every loop's at once (`engine.multiloop.disk`)."""
 
-    alpha: float
-    skew: float
     gain_low: float
     gain_high: float
-    phase_deg: float
-    frequency: float
-    method: str = "refined"
-    notes: tuple[str, ...] = field(default=())
 
     @property
     def gain_low_db(self) -> float:
@@ -60,6 +53,21 @@ class DiskMargin:
     def gain_db(self) -> float:
         """python-control's DGM: the smaller of both in dB, 20 log10 min(1/gamma_min, gamma_max)."""
         return min(-self.gain_low_db, self.gain_high_db)
+
+
+@dataclass(frozen=True)
+class DiskMargin(GuaranteedGains):
+    """A disk margin: alpha, its skew, the guaranteed gain factors (low <= 1 <= high,
+    high inf when unbounded), phase margin (deg), the worst disk's frequency."""
+
+    alpha: float
+    skew: float
+    gain_low: float
+    gain_high: float
+    phase_deg: float
+    frequency: float
+    method: str = "refined"
+    notes: tuple[str, ...] = field(default=())
 
 
 def disk_transform(skew: float = 0.0) -> Transform:

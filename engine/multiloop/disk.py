@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.margins.disk import check_skew, disk_gain_phase
+from engine.margins.disk import GuaranteedGains, check_skew, disk_gain_phase
 from engine.multiloop import mu
 from engine.multiloop.hamiltonian import crossings, response
 from engine.multiloop.plant import Plant, closed_loop_poles, sensitivity
@@ -52,7 +52,7 @@ MODAL_CONDITION = 1e6  # cond(V) of the closed loop's eigenvectors up to which t
 
 
 @dataclass(frozen=True)
-class MultiLoopDiskMargin:
+class MultiLoopDiskMargin(GuaranteedGains):
     """alpha_lower <= alpha <= alpha_upper (``alpha`` reported: the certified alpha_lower);
     the gain and phase it guarantees at every loop at once, the worst frequency, the
     destabilizing perturbation there (``delta``, one complex number a loop) and a status:
@@ -78,19 +78,6 @@ class MultiLoopDiskMargin:
     @property
     def gap(self) -> float:
         return (self.alpha_upper - self.alpha_lower) / self.alpha_upper if self.alpha_upper > 0 else 0.0
-
-    @property
-    def gain_low_db(self) -> float:
-        return 20.0 * math.log10(self.gain_low) if self.gain_low > 0 else -math.inf
-
-    @property
-    def gain_high_db(self) -> float:
-        return 20.0 * math.log10(self.gain_high) if math.isfinite(self.gain_high) else math.inf
-
-    @property
-    def gain_db(self) -> float:
-        """The smaller of the guaranteed decrease and increase, dB (as the single-loop margin's)."""
-        return min(-self.gain_low_db, self.gain_high_db)
 
 
 class System:
