@@ -49,7 +49,7 @@ from sessions.store import validated_model
 from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import run_job
 from sessions.sweeps.plan import ToleranceSamples
-from sessions.sweeps.records import Records, RowHead, number, row_heads
+from sessions.sweeps.records import Records, RowHead, number, row_heads, sample_run
 
 BATCH_KINDS = frozenset(
     ("crossover_frequency", "gain_margin", "gain_margin_db", "phase_margin", "phase_margin_deg", "stability_abscissa")
@@ -362,24 +362,10 @@ def _sample_run(
     seconds: float,
 ) -> dict:
     """The run of a sample whose rows have these values and frequencies, as `run_job` makes it."""
-    index, label, start = head
     stepper = study.stepper
     point = stepper.point_at(x, values, frequencies)
     rows = [_row_json(fields) for fields in stepper.row_fields(point)]
-    return {
-        "index": index,
-        "label": label,
-        "start": start,
-        "worker": "local",
-        "status": "running",
-        "reason": "",
-        "iterations": 0,
-        "parameters": {**study.named, **start},
-        "ranking": point.merit,
-        "measures": rows,
-        "meets_requirements": all(row["satisfied"] for row in rows),
-        "seconds": seconds,
-    }
+    return sample_run(head, study.named, point.merit, rows, seconds)
 
 
 def _row_json(fields: tuple) -> dict:

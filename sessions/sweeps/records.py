@@ -70,7 +70,6 @@ class Records:
 
     def run(self, j: int) -> dict:
         """Sample ``j``'s run, as `run_job` makes it."""
-        index, label, start = self.samples[j]
         met = self.points.met[j].tolist()
         rows = [
             _row(head, v, f, ok, absent)
@@ -78,21 +77,29 @@ class Records:
                 self.heads, self.values[j].tolist(), self.frequencies[j].tolist(), met, self.points.absent[j].tolist()
             )
         ]
-        return {
-            "index": index,
-            "label": label,
-            "start": start,
-            "worker": "local",
-            "status": "running",
-            "reason": "",
-            "iterations": 0,
-            "parameters": {**self.named, **start},
-            "ranking": float(self.points.merit[j]),
-            "measures": rows,
-            "meets_requirements": all(met),
-            "seconds": self.seconds,
-            "attempts": 1,
-        }
+        run = sample_run(self.samples[j], self.named, float(self.points.merit[j]), rows, self.seconds)
+        return run | {"attempts": 1}
+
+
+def sample_run(
+    head: tuple[int, str, dict], named: dict[str, float], ranking: float, rows: list[dict], seconds: float
+) -> dict:
+    """A batched sample's run (``head``: its index, label and drawn values), as `run_job` makes it."""
+    index, label, start = head
+    return {
+        "index": index,
+        "label": label,
+        "start": start,
+        "worker": "local",
+        "status": "running",
+        "reason": "",
+        "iterations": 0,
+        "parameters": {**named, **start},
+        "ranking": ranking,
+        "measures": rows,
+        "meets_requirements": all(row["satisfied"] for row in rows),
+        "seconds": seconds,
+    }
 
 
 def _row(head: RowHead, value: float, frequency: float, ok: bool, absent: bool) -> dict:
