@@ -197,6 +197,36 @@ def binding(problem: Problem, x: NDArray, within: float = BINDS) -> list[str]:
     return list(dict.fromkeys(out))
 
 
+@dataclass(frozen=True)
+class ConstraintState:
+    """A linear constraint at a design: its least slack over its rows (b - A x: negative when
+    violated) and in a word whether it binds (within `BINDS`), holds or is violated."""
+
+    slack: float
+    state: str  # "binds", "holds" or "VIOLATED"
+
+
+def constraint_states(problem: Problem, x: NDArray) -> list[ConstraintState]:
+    """Each of ``problem.inequalities`` at the free vector ``x`` (a constraint that holds in every
+    condition is judged on its worst one)."""
+    rows = inequality_rows(problem)
+    slack = rows.b - rows.A @ x
+    scale = row_scale(rows.A, rows.b, x)
+    out = []
+    for k in range(len(problem.inequalities)):
+        mine = [r for r, (origin, _) in enumerate(rows.origin) if origin == k]
+        worst = min(mine, key=lambda r: slack[r] / scale[r])
+        state = (
+            "VIOLATED"
+            if slack[worst] < -TOLERANCE * scale[worst]
+            else "binds"
+            if slack[worst] <= BINDS * scale[worst]
+            else "holds"
+        )
+        out.append(ConstraintState(float(slack[worst]), state))
+    return out
+
+
 def check_start(problem: Problem, x: NDArray, who: str) -> None:
     """An `EngineError` naming the first constraint ``x`` does not meet."""
     found = unmet(problem, x, " at the start")

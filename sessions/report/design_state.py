@@ -17,6 +17,7 @@ from engine.analysis import LoopAnalysis, analyze
 from engine.closed_loop.delayed_step import digits_supported
 from engine.closed_loop.step_response import RETURNS_TO_ZERO, network_step
 from engine.design.compensator_items import compensators, pole_zero_form, time_constant_form
+from engine.design.constraints import constraint_states
 from engine.design.measure_kinds import MEASURE_KINDS
 from engine.errors import EngineError
 from engine.model.bilinear import z_transfer
@@ -27,7 +28,7 @@ from sessions.new.templates import LOOPCRAFT_VERSION
 from sessions.store import Session
 
 Block = tuple
-BINDS = 1e-6  # relative: a value this near a bound (or a constraint's slack this small) binds
+BINDS = 1e-6  # relative: a value this near a bound binds (constraints: `engine.design.constraints`)
 
 
 def provenance(session: Session, k: int) -> list[Block]:
@@ -103,19 +104,9 @@ def constraints(session: Session, named: dict[str, Any]) -> list[Block]:
     problem = session.problem
     if not problem.inequalities:
         return [("p", "No linear constraint.")]
-    rows = []
-    for c in problem.inequalities:
-        lhs = sum(coefficient * _at(named, name, condition) for name, condition, coefficient in c.terms)
-        size = max(1.0, abs(c.bound), sum(abs(k * _at(named, n, w)) for n, w, k in c.terms))
-        slack = c.bound - lhs
-        state = "binds" if abs(slack) <= BINDS * size else "VIOLATED" if slack < 0 else "holds"
-        rows.append([c.text or c.normal, c.normal, number(slack), state])
+    states = constraint_states(problem, problem.vector_from(named))
+    rows = [[c.text or c.normal, c.normal, number(at.slack), at.state] for c, at in zip(problem.inequalities, states)]
     return [("table", ("constraint", "as A x <= b", "slack", "at the design"), rows)]
-
-
-def _at(named: dict[str, Any], name: str, condition: int | None) -> float:
-    value = named[name]
-    return value[condition or 0] if isinstance(value, (list, tuple)) else value
 
 
 def parameters(session: Session, named: dict[str, Any]) -> list[Block]:

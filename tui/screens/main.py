@@ -35,7 +35,7 @@ from tui.screens.table_edits import TableEdits
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
 from tui.state.field_edits import objective_rows
-from tui.state.plant_rows import plant_rows
+from tui.state.plant_rows import constraint_marks, plant_rows
 from tui.state.tableau_text import tableau_text
 from tui.state.views import View
 from tui.state.workbench import Workbench
@@ -546,6 +546,7 @@ class MainScreen(Screen):
         )
         self.query_one("#matrix-grid", MatrixTable).fill(model, self.bench.plotted_condition)
         free = {p.name: p.free for p in self.bench.session.problem.parameters}
+        marks = constraint_marks(self.bench.session.problem, self.bench.constraint_states())
         records = self.bench.records
         current = records[-1].parameters if records else {}
         rows = []
@@ -562,6 +563,7 @@ class MainScreen(Screen):
                         number(p.max),
                         state,
                         "yes" if isinstance(p.value, list) else "shared",
+                        marks.get(p.name, ""),
                     ),
                     ("parameters", k),
                 )
@@ -575,6 +577,7 @@ class MainScreen(Screen):
                 "max",
                 "free",
                 "per condition",
+                "constraints",
             ),
             rows,
         )

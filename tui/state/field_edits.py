@@ -165,9 +165,12 @@ def objective_rows(bench: Workbench) -> list[tuple[str, str, Ref | None]]:
     if objective is not None:
         rows.append(("objective kind", objective.kind, None))
         rows += [(name, shown(value), ("objective", name)) for name, value in objective.options.items()]
+    lines = bench.session.model.problem.constraints
+    states = bench.constraint_states()
+    words = [at.state for at in states] if len(states) == len(lines) else [""] * len(lines)
     rows += [
-        (f"constraint {k + 1}", line, ("constraint", k))
-        for k, line in enumerate(bench.session.model.problem.constraints)
+        (f"constraint {k + 1}", f"{line}  ({word} at the design)" if word else line, ("constraint", k))
+        for k, (line, word) in enumerate(zip(lines, words))
     ]
     rows += [
         (f"{bench.algorithm_name}.{name}" + ("" if given else " (default)"), shown(value), ("setting", name))

@@ -13,6 +13,9 @@ from sessions.forms.transfers import describe_state_space, describe_transfer, fo
 from tui.state.edits import Ref
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from engine.design.constraints import ConstraintState
     from engine.design.problem import Problem
 
 Cells = tuple[str, str, str, str, str, str]
@@ -107,3 +110,14 @@ CASCADE = ("g1", "g2", "g1g2", "ga", "h1", "h2")  # report 001's Figure 2, in th
 def cascade_transfers(plant) -> list[tuple[str, object]]:
     """(attribute, transfer) of a cascade plant's blocks that are given."""
     return [(name, t) for name in CASCADE if (t := getattr(plant, name)) is not None]
+
+
+def constraint_marks(problem: Problem, states: Sequence[ConstraintState]) -> dict[str, str]:
+    """For each parameter a linear constraint names: the constraints' numbers as the Targets tab
+    lists them, each followed by 'binds' or 'VIOLATED' where it is so at ``states``' design."""
+    marks: dict[str, list[str]] = {}
+    for k, (inequality, at) in enumerate(zip(problem.inequalities, states), start=1):
+        word = "" if at.state == "holds" else f" {at.state}"
+        for name in dict.fromkeys(name for name, _, _ in inequality.terms):
+            marks.setdefault(name, []).append(f"{k}{word}")
+    return {name: ", ".join(numbers) for name, numbers in marks.items()}

@@ -14,7 +14,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from engine.closed_loop.step_response import StepSetup
-from engine.design.notes import stop_notes
+from engine.design.constraints import ConstraintState, binding, constraint_states
+from engine.design.notes import at_bounds, noise_notes, stop_notes
 from engine.errors import EngineError
 from engine.stepping.driver import first_record, resume
 from engine.stepping.presenter import Presenter
@@ -346,19 +347,28 @@ class Workbench:
         return self._initial
 
     def design_notes(self, record: StepRecord) -> list[str]:
-        """The notes on a record's design: its parameters at a bound after every step; once
-        the algorithm has finished, its compensator's noise amplification too (a margin
-        search: made once per finished record, `engine.design.notes`)."""
-        from engine.design.notes import at_bounds, noise_notes
-
+        """The notes on a record's design: the constraints that bind and its parameters at a
+        bound after every step; once the algorithm has finished, its compensator's noise
+        amplification too (a margin search: made once per finished record, `engine.design.notes`)."""
         values = dict(record.parameters)
-        notes = at_bounds(self.session.problem, values)
+        problem = self.session.problem
+        notes = binding(problem, problem.vector_from(values)) + at_bounds(problem, values)
         if record.status.finished:
             problem, kept = self._noise[:2]
             if problem is not self.session.problem or kept is not record:  # the objects held, not their ids
                 self._noise = (self.session.problem, record, noise_notes(self.session.problem, values))
             notes += self._noise[2]
         return notes
+
+    def constraint_states(self) -> list[ConstraintState]:
+        """Each linear constraint at the current design (the last record's, else the start); none
+        when the records no longer fit the problem (a parameter renamed since)."""
+        problem = self.session.problem
+        values = dict(self.records[-1].parameters) if self.records else {}
+        try:
+            return constraint_states(problem, problem.vector_from(values))
+        except EngineError:
+            return []
 
     def view(self) -> View:
         """A read-only snapshot of what the screens show now."""
