@@ -97,6 +97,7 @@ def test_the_app_without_a_terminal_exits_2_at_once(tmp_path):
     assert "Traceback" not in out.stderr and out.stdout == ""
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_unbounded_peaks_are_null_in_json_and_named_in_text():
     """1/s^2 closes with poles at +-1j: Ms and Mt are infinite; JSON has no

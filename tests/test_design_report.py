@@ -83,6 +83,7 @@ def test_html_is_self_contained_with_valid_figures(ran_lag_lead, tmp_path, capsy
     assert html.escape(own) in text
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_markdown_writes_its_pngs_beside_it(tmp_path):
     """Three flight conditions at the start: Bode, Nyquist, Nichols, S/T, root locus and

@@ -62,6 +62,7 @@ def test_every_figure_loads_and_no_text_is_cut(report, tmp_path):
     assert found["cut"] == [] and not found["wide"]
 
 
+@pytest.mark.long
 def test_the_screenshot_shows_the_figures(report, tmp_path):
     shot = tmp_path / "page.png"
     _chromium("--window-size=1200,9000", f"--screenshot={shot}", report.as_uri())

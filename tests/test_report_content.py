@@ -97,6 +97,7 @@ def test_frequencies_in_the_summary_are_in_the_grid_s_unit(tmp_path):
     assert at and all(row[5].endswith(" hz") for row in table[2] if row[5]) and max(at) <= 10.0
 
 
+@pytest.mark.long
 def test_compensators_with_per_condition_values_are_written_per_condition(tmp_path):
     """coebra_launch_vehicle's gains are per condition: each of its three conditions gets
     its own forms, labelled, with that condition's KD."""
@@ -122,6 +123,7 @@ def test_compensators_with_per_condition_values_are_written_per_condition(tmp_pa
     assert constants == ["0.5 / (1 + s/20)", "0.6 / (1 + s/20)", "0.7 / (1 + s/20)"]
 
 
+@pytest.mark.long
 def test_rows_shown_not_judged_are_not_met_and_every_margin_says_how_obtained(tmp_path):
     """The launch vehicle's PEAK rows (no desired value) read "not judged", never a green "met"; in the
     initial and final tableaux as in the summary, each margin's "how obtained" is filled."""

@@ -66,6 +66,7 @@ def _pages(pdf: Path) -> dict[str, tuple[int, float]]:
     return found
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("name", ["coebra_launch_vehicle", "coebra_lag_lead", "cip_launch_vehicle"])
 def test_no_table_is_split_where_it_fits_on_a_page(name, tmp_path):
     folder = tmp_path / "examples"

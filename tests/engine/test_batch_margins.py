@@ -71,6 +71,7 @@ def _check_against_per_loop(network: Network, columns: dict[str, np.ndarray]) ->
     return found
 
 
+@pytest.mark.long
 def test_random_loops_equal_the_per_loop_path():
     """12 random structures of 40 samples each; most samples certified by the batch (the rest,
     crossings near a light resonance whose rounding moves GH by more than 1e-13, go to the

@@ -101,6 +101,7 @@ def _placement(rng: np.random.Generator) -> tuple:
     return float(wp * 10 ** rng.uniform(-1, 1)), float(rng.uniform(0.05, 0.5) / wp), (wz, zz), (wp, zp)
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_close_light_pairs_no_block_has_are_resolved_on_the_grid_path() -> None:
     """100 random placements (seed fixed): every crossing and minimum of |1 + GH| within a

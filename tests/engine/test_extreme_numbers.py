@@ -49,6 +49,7 @@ def test_the_fuzzers_examples_end_cleanly(text: str) -> None:
     _ends_cleanly(text)
 
 
+@pytest.mark.long
 def test_random_extreme_expressions_end_cleanly() -> None:
     rng = np.random.default_rng(35)
     for _ in range(150):

@@ -80,6 +80,7 @@ def test_fixed_modes_stay_put_and_count_as_the_eigenvector_test_says(name, gain)
         assert sum(bool(hidden[j]) for j in cluster) == expected, (p, len(cluster))
 
 
+@pytest.mark.long
 def test_the_launch_vehicle_s_bending_copies_are_labelled_in_the_report_table(tmp_path):
     assert main(["report", str(EXAMPLES / "coebra_launch_vehicle.json"), "--format", "md", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "coebra_launch_vehicle.md").read_text()

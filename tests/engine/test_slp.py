@@ -259,6 +259,7 @@ def test_settings_are_checked():
         make_settings("slp", {"relaxation_step": 0.0})
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_launch_vehicle_phases():
     """Phase 1 meets every margin from a poor start; phase 2 (load relief) lowers

@@ -139,6 +139,7 @@ def _errors(case: dict) -> tuple[float, int]:
     return worst, miscount
 
 
+@pytest.mark.long
 def test_crossovers_and_margins_of_eight_mode_loops_match_mpmath() -> None:
     """60 random eight-mode loops: every gain crossover and phase crossing found, at its frequency to
     1e-11 relative, with |GH| there (the gain margin) and the phase margin to 1e-11 (`_errors`)."""

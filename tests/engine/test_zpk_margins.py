@@ -141,6 +141,7 @@ def genuine_shallow_extremum(loop, w: float, kind: str) -> bool:
     return bool(slope[0] * slope[1] < 0 and np.ptp(level) < 1e-3)
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_random_loops_agree_with_the_grid_search():
     """300 random loops of order 1..12 (light damping, right-half-plane roots):

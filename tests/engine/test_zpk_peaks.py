@@ -83,6 +83,7 @@ def test_a_degenerate_loop_is_left_to_the_grid(monkeypatch):
     assert moebius_peaks(form_of("3/s**2"), [t.moebius for t in TRANSFORMS]) is None
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_random_loops_agree_with_the_grid_search():
     """200 random loops of order 1..12: Ms, Mt and two disk peaks equal the
@@ -138,6 +139,7 @@ def resolved(loop, transform, frequency: float) -> bool:
     return bool(level[0] - level[1:].max() > 1e-13 * level[0])
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_the_peak_of_s_after_a_margin_search_is_the_one_searched_alone():
     """After the margin search of a form, a multiple of S takes its stationary points

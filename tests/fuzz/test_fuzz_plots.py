@@ -118,7 +118,11 @@ async def _drive(folder: Path, session: str, size: tuple[int, int], sequence) ->
         assert not _broken(app), (session, size, sequence)
 
 
-@pytest.mark.parametrize("size", [(120, 40), (100, 32), (80, 24)], ids=lambda s: f"{s[0]}x{s[1]}")
+@pytest.mark.parametrize(
+    "size",
+    [pytest.param((120, 40), marks=pytest.mark.long), pytest.param((100, 32), marks=pytest.mark.long), (80, 24)],
+    ids=["120x40", "100x32", "80x24"],
+)
 def test_random_plot_keys_and_mouse_never_break_a_plot(size, tmp_path_factory, monkeypatch):
     folder = tmp_path_factory.mktemp("plots")
     monkeypatch.setenv("LOOPCRAFT_HOME", str(folder / "home"))

@@ -164,6 +164,7 @@ def test_high_order_loops_respond_as_loopcraft_s(name, tmp_path):
             assert 180 + np.degrees(np.angle(value)) == pytest.approx(p.phase_deg, rel=REL, abs=1e-9)
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("name", ["coebra_launch_vehicle", "coebra_launch_vehicle_matrix"])
 def test_a_high_order_script_prints_l_compactly_and_why_a_crossing_is_python_control_s_alone(name, tmp_path):
     """The launch vehicle: L (28 states) in one line, not 616; each crossing python-control lists alone

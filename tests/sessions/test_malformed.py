@@ -58,6 +58,7 @@ MUTANTS = st.one_of(
 )
 
 
+@pytest.mark.long
 @pytest.mark.slow
 @settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=MUTANTS)

@@ -34,6 +34,7 @@ def dense(L: control.TransferFunction, w0: float, f) -> float:
     return float(np.max(np.abs(f(L(1j * w)))))
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_cip_meets_a_disk_margin_target_confirmed_by_python_control(tmp_path):
     session, last = run("report003_disk_margin", tmp_path)

@@ -65,6 +65,7 @@ def _loopcraft(path: Path, condition: str, capsys) -> dict:
     return json.loads(capsys.readouterr().out)
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("name", sorted(set(SESSIONS) - NOT_IN_OCTAVE))
 def test_the_matlab_export_runs_in_octave_and_its_margins_are_loopcraft_s(name, tmp_path, capsys):
     """At each of loopcraft's gain margins Octave's L is on the negative real axis with |L| = 10^(-GM/20),

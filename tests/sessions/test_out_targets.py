@@ -82,6 +82,7 @@ def test_a_fifo_or_a_folder_is_never_replaced(capsys, lag_lead, tmp_path):
     assert stat.S_ISFIFO((tmp_path / "s.html").lstat().st_mode)
 
 
+@pytest.mark.long
 def test_an_existing_file_is_replaced_only_with_force(capsys, lag_lead, tmp_path):
     out = tmp_path / "design.py"
     out.write_text("keep me")

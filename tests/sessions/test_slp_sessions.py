@@ -73,6 +73,7 @@ def test_time_measure_without_response_is_refused(tmp_path):
         load_session(path)
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_run_adopt_set_continues_with_load_relief(tmp_path, capsys):
     """Phase 1 to its end, then phase 2 from its design: `--adopt --set objective=load_relief`."""

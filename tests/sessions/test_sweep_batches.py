@@ -49,6 +49,7 @@ def _jobs(tmp_path: Path, count: int):
     return start_jobs(load_session(tmp_path / "s.json"), count, seed=4)
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_batches_give_the_serial_runs_in_order(tmp_path, client):
     jobs = _jobs(tmp_path, 7)
@@ -70,6 +71,7 @@ def test_a_cancelled_sweep_cancels_every_run_of_a_batch_not_finished(tmp_path, c
     assert len(finished) % 4 == 0 and 4 <= len(finished) <= 12  # whole batches, at least the first
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_a_run_that_kills_its_worker_does_not_take_its_batch_with_it(tmp_path):
     import dask

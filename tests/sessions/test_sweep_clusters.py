@@ -125,6 +125,7 @@ def test_the_bounds_of_the_jobs_come_from_the_options_else_the_profile():
     assert named_cluster("local") == named_clusters.NamedCluster("local")
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_an_adaptive_jobqueue_cluster_runs_a_study_in_batches(tmp_path, monkeypatch):
     """dask-jobqueue's own LocalCluster (its jobs are processes here) in place of SLURM's,

@@ -97,6 +97,7 @@ def test_a_worker_dying_at_start_up_is_a_clean_error(tmp_path, capsys):
     assert not json.loads(path.read_text()).get("sweeps")
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_ctrl_c_on_a_serial_sweep_keeps_the_finished_runs(tmp_path):
     """A real SIGINT to the process group, as a terminal's Ctrl-C sends it."""
@@ -135,6 +136,7 @@ def test_an_interrupted_serial_execution_is_an_outcome(tmp_path):
     assert [r["reason"] for r in outcome.runs[2:]] == ["cancelled"] * 3 and len(outcome.runs) == 5
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_an_interrupted_dask_execution_keeps_what_finished(tmp_path):
     jobs = start_jobs(load_session(_copy(tmp_path, "coebra_lag_lead")), 6, seed=1)
@@ -224,6 +226,7 @@ def _worker_view() -> dict:
     }
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(monkeypatch):
     """Dask's statistical profiler (a stack sample every 10 ms) is off on our local workers,

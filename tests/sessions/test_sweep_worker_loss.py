@@ -97,6 +97,7 @@ def _times_sent(client) -> dict[str, int]:
     return sent
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(scheduler_and_two_workers, tmp_path):
     """The sweep in a process of its own, as it is run (this process's client only watches

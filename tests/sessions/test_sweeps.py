@@ -171,6 +171,7 @@ def test_penalty_trade_off_is_monotone(tmp_path, capsys):
     assert len(saved) == 1 and saved[0]["version"] == 2 and saved[0]["kind"] == "vary"
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_thirty_two_starts_on_a_local_cluster(tmp_path, capsys):
     """Report 003's 'map the hill' on the lag-lead example: some starts meet every
@@ -263,6 +264,7 @@ def _kill_the_first_busy_worker(address: str, processes: list, killed: list, sto
                 return
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_a_worker_killed_midway_is_recorded_and_the_sweep_finishes(dask_cluster, tmp_path, capsys):
     address, processes = dask_cluster

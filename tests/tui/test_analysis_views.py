@@ -132,6 +132,7 @@ async def test_the_pole_lines_come_with_a_sweep_kept_in_the_session(workdir):
         assert app.bench.iteration == 1 and "closed-loop poles" in tableau and "computing" not in tableau
 
 
+@pytest.mark.long
 @synchronous
 async def test_L_draws_the_locus_in_a_parameter(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")

@@ -7,6 +7,8 @@ import functools
 import json
 import time
 
+import pytest
+
 from engine.errors import EngineError
 from tui.app import LoopcraftApp
 from tui.screens.main import MainScreen
@@ -98,6 +100,7 @@ async def test_pause_stops_a_run_within_one_iteration(workdir, monkeypatch):
         assert not app.bench.status().finished
 
 
+@pytest.mark.long
 @synchronous
 async def test_undo_and_start_from_an_earlier_iteration(workdir):
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
@@ -275,6 +278,7 @@ async def test_a_setting_is_checked_against_the_algorithm(workdir):
         assert app.bench.session.model.algorithm.settings["mode"] == "sifr"
 
 
+@pytest.mark.long
 @synchronous
 async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
     """slp on the launch vehicle: a trial per step, the tableau over three
@@ -304,6 +308,7 @@ async def test_an_slp_session_steps_and_edits_a_requirement(workdir):
         assert app.bench.iteration == 0  # the problem changed: the records are gone
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workdir):
     """w: a multi-start sweep on Dask from the workbench; the Sweep tab shows its
@@ -331,6 +336,7 @@ async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workd
         assert await stale_plots(app, pilot) == []  # every plot shows the adopted design
 
 
+@pytest.mark.long
 @synchronous
 async def test_targets_parameters_blocks_and_options_are_added_deleted_and_edited(workdir):
     """Nothing requires editing JSON: + adds a target (by measure), a parameter or a

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import pytest
+
 from tests.tui.test_app import select_row, settle, synchronous
 from tui.app import LoopcraftApp
 from tui.state.field_edits import objective_rows
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_constraint_is_added_checked_edited_and_deleted(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")

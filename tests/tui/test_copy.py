@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from engine.model.expressions import Expression
 from tests.tui.test_app import select_row, settle, synchronous
@@ -14,6 +15,7 @@ def test_values_are_put_in_place_of_parameter_names():
     assert with_values("K*(s+z1)/(s+z10)", {"K": 2.0, "z1": -0.5, "z10": 3.0}) == "2.0*(s+(-0.5))/(s+3.0)"
 
 
+@pytest.mark.long
 @synchronous
 async def test_y_copies_the_row_or_the_tableau_and_Y_the_design(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")

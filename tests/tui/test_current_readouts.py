@@ -56,6 +56,7 @@ async def _shaped_and_run(app, pilot) -> None:
     assert app.bench.iteration > 0 and current(app)["K"] != pytest.approx(start["K"], rel=1e-6)
 
 
+@pytest.mark.long
 @synchronous
 async def test_the_shaping_table_and_prompt_read_the_design_after_a_run_and_an_undo(tmp_path, monkeypatch):
     app = lead_app(tmp_path, monkeypatch)
@@ -92,6 +93,7 @@ async def test_a_session_reopened_at_a_later_iteration_reads_its_design(tmp_path
         assert_current(again)
 
 
+@pytest.mark.long
 @synchronous
 async def test_adoption_and_an_algorithm_switch_read_the_design_kept(tmp_path, monkeypatch):
     app = lead_app(tmp_path, monkeypatch)
@@ -120,6 +122,7 @@ async def test_adoption_and_an_algorithm_switch_read_the_design_kept(tmp_path, m
         assert_current(app)
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_hidden_tab_is_drawn_from_the_current_design_when_shown(tmp_path, monkeypatch):
     """A nudge on the Run tab redraws no hidden table (issue 54's latency); the Plant tab

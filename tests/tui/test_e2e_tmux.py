@@ -74,6 +74,7 @@ def test_open_step_three_times_save_and_quit(workdir):
         tmux("kill-session", "-t", session)
 
 
+@pytest.mark.long
 def test_every_tab_is_readable_at_80x24(workdir):
     """At 80x24: the tableau's target and frequency columns, each tab's key columns and the
     footer's ? and save are on the screen."""

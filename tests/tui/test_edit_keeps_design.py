@@ -5,6 +5,8 @@ ctrl+z brings them back with the old start."""
 
 from __future__ import annotations
 
+import pytest
+
 from tests.tui.test_app import edit_row, settle, synchronous
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import StartDialog
@@ -30,6 +32,7 @@ async def _edit_band(app, pilot, text: str) -> None:
     await pilot.pause()
 
 
+@pytest.mark.long
 @synchronous
 async def test_an_edit_keeps_the_design_on_screen_and_says_what_it_dropped(workdir):
     app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")
@@ -55,6 +58,7 @@ async def test_an_edit_keeps_the_design_on_screen_and_says_what_it_dropped(workd
         assert app.bench.iteration == 1 and all(_start(app)[n] == v for n, v in design.items())
 
 
+@pytest.mark.long
 @synchronous
 async def test_the_saved_start_is_the_other_answer_and_holds(workdir):
     app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")
@@ -74,6 +78,7 @@ async def test_the_saved_start_is_the_other_answer_and_holds(workdir):
         assert not isinstance(app.screen, StartDialog) and _start(app) == saved
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_run_after_an_edit_starts_from_the_kept_design(workdir):
     app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")

@@ -5,11 +5,14 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 from tui.screens.dialogs import ConfirmDialog
 
 
+@pytest.mark.long
 @synchronous
 async def test_export_and_screenshot_land_beside_the_session(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from tests.tui.test_app import settle, status, synchronous
 from tui.app import LoopcraftApp
 from tui.cli import main
@@ -33,6 +35,7 @@ def test_the_cli_runs_reports_and_replays_it(workdir, capsys):
     assert "all 3 recorded iterations reproduce" in capsys.readouterr().out
 
 
+@pytest.mark.long
 def test_a_sweep_ranks_its_runs_by_the_presenters_value(workdir, capsys):
     path = _compass_session(workdir)
     assert main(["sweep", str(path), "--starts", "3", "--workers", "2", "--json"]) == 0  # a local Dask cluster

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 
+import pytest
 from textual.widgets import Footer as TextualFooter
 from textual.widgets._footer import FooterKey
 
@@ -87,6 +88,7 @@ async def test_a_run_dims_the_session_keys_and_its_end_enables_them(workdir, mon
         assert not app.busy and not _disabled(app, "step")
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_nudge_does_not_rebuild_the_footer(tmp_path, monkeypatch):
     """Issue 54: a nudge in the shaping table changes no key (the profile found

@@ -13,6 +13,7 @@ from tests.tui.test_shape_table import lead_app, start_values
 from tui.screens.dialogs import StartDialog
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_hand_move_between_runs_is_kept_shown_and_replayed(tmp_path, monkeypatch):
     app = lead_app(tmp_path, monkeypatch)

@@ -3,10 +3,13 @@ side, curves overlaid; o or p chooses the view)."""
 
 from __future__ import annotations
 
+import pytest
+
 from tests.tui.test_app import select_row, settle, synchronous
 from tui.app import LoopcraftApp
 
 
+@pytest.mark.long
 @synchronous
 async def test_two_iterations_are_compared_and_their_curves_overlaid(workdir):
     app = LoopcraftApp(workdir / "coebra_lag_lead.json")

@@ -57,6 +57,7 @@ def _parameters(app, iteration: int) -> dict[str, float]:
     return app.bench.session.problem.condition_values(0, named=app.bench.records[iteration - 1].parameters)
 
 
+@pytest.mark.long
 @synchronous
 async def test_the_s_t_view_is_the_selected_iterations(workdir):
     app = LoopcraftApp(workdir / "lead_sensitivity_peak.json")
@@ -77,6 +78,7 @@ async def test_the_s_t_view_is_the_selected_iterations(workdir):
         assert f"Ms {ms_now:.4g}" in current.label and abs(ms_now - peak.value) > 0.01
 
 
+@pytest.mark.long
 @synchronous
 async def test_marked_pole_zero_maps_nichols_and_the_cursor(workdir):
     app = LoopcraftApp(workdir / "lead_sensitivity_peak.json")
@@ -172,6 +174,7 @@ async def test_keys_that_cannot_act_are_disabled(workdir):
         assert "no views" in app.screen.query_one("#history-plot").figure.empty_message
 
 
+@pytest.mark.long
 @synchronous
 async def test_undo_and_the_conditions_key_redraw_the_history_plot(workdir):
     app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")  # three flight conditions

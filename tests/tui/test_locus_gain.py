@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import control as ct
 import numpy as np
+import pytest
 
 from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
@@ -19,6 +20,7 @@ def _lead(tmp_path):
     return path
 
 
+@pytest.mark.long
 @synchronous
 async def test_enter_on_the_locus_adopts_the_gain_at_the_cursor(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))

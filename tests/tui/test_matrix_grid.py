@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from sessions.format.schema import MatrixModel
 from sessions.store import load_session
 from tui.state.matrix_grid import matrix_grid
@@ -73,6 +75,7 @@ def test_the_module_imports_no_textual():
     assert subprocess.run([sys.executable, "-c", code], cwd=EXAMPLES.parents[1], timeout=60).returncode == 0
 
 
+@pytest.mark.long
 def test_the_plant_tab_edits_the_matrix_grid_in_place(workdir):
     import asyncio
 

@@ -4,6 +4,8 @@ fresh figures of the current view."""
 
 from __future__ import annotations
 
+import pytest
+
 from tests.tui.test_app import edit_row, select_row, settle, synchronous
 from tui.app import LoopcraftApp
 from tui.figures.catalog import FIGURE_IDS, figures
@@ -33,6 +35,7 @@ async def stale_plots(app, pilot) -> list[str]:
     return stale
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_run_finished_on_another_tab_shows_on_every_plot(workdir):
     app = LoopcraftApp(workdir / "lead_sensitivity_peak.json")
@@ -45,6 +48,7 @@ async def test_a_run_finished_on_another_tab_shows_on_every_plot(workdir):
         assert await stale_plots(app, pilot) == []
 
 
+@pytest.mark.long
 @synchronous
 async def test_undo_and_redo_of_iterations_show_on_every_plot(workdir):
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
@@ -63,6 +67,7 @@ async def test_undo_and_redo_of_iterations_show_on_every_plot(workdir):
         assert app.bench.iteration == 3 and await stale_plots(app, pilot) == []
 
 
+@pytest.mark.long
 @synchronous
 async def test_an_edit_and_its_undo_show_on_every_plot(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
@@ -82,6 +87,7 @@ async def test_an_edit_and_its_undo_show_on_every_plot(workdir):
         assert app.bench.iteration == 1 and await stale_plots(app, pilot) == []
 
 
+@pytest.mark.long
 @synchronous
 async def test_starting_again_from_an_earlier_iteration_shows_on_every_plot(workdir):
     app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
@@ -99,6 +105,7 @@ async def test_starting_again_from_an_earlier_iteration_shows_on_every_plot(work
         assert app.bench.iteration == 1 and await stale_plots(app, pilot) == []
 
 
+@pytest.mark.long
 @synchronous
 async def test_each_flight_condition_shows_on_every_plot(workdir):
     app = LoopcraftApp(workdir / "coebra_launch_vehicle.json")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from tests.tui.test_app import settle, synchronous
 from tui.app import LoopcraftApp
 
@@ -13,6 +15,7 @@ async def _type(pilot, text: str) -> None:
     await pilot.pause()
 
 
+@pytest.mark.long
 @synchronous
 async def test_every_kind_of_new_session_opens(workdir):
     (workdir / "plant.csv").write_text("hz,mag,deg\n0.1,10,-90\n1,1,-120\n10,0.1,-170\n")

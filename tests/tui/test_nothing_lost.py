@@ -8,6 +8,8 @@ from __future__ import annotations
 import asyncio
 import time
 
+import pytest
+
 from engine.cip import Cip
 from tests.tui.test_app import edit_row, settle, status, synchronous
 from tests.tui.test_run_race import send_keys
@@ -20,6 +22,7 @@ def messages(app) -> list[str]:
     return [str(n.message) for n in app._notifications]
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_new_session_opens_from_the_start_screen_and_from_a_session(workdir):
     app = LoopcraftApp()

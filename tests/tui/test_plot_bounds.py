@@ -52,6 +52,7 @@ def test_axis_ticks_are_round_numbers_inside_the_axis():
         assert all(float(label) == pytest.approx(t, rel=1e-9, abs=1e-15) for label, t in zip(labels, ticks))
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("example", ["cip_dual_channel", "report003_lag_lead", "lead_sensitivity_peak"])
 def test_zoom_pan_and_cursor_never_break_a_plot(example):
     """Issue 36, section 2 (in part): zoomed past a curve's samples, plotext's legend indexed

@@ -16,6 +16,7 @@ def _loop(s):
     return (s + 1) * (s + 5) / ((s + 0.1) * (s + 50)) * 16000 / (s * (s + 8) * (s + 20))
 
 
+@pytest.mark.long
 @synchronous
 async def test_zoom_pan_cursor_and_reset_on_the_bode_plot(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")

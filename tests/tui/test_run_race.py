@@ -14,6 +14,7 @@ import os
 import random
 import time
 
+import pytest
 from textual import events
 
 from engine.cip import Cip
@@ -44,6 +45,7 @@ def _consistent(bench) -> None:
     assert [r["iteration"] for r in records] == list(range(1, len(records) + 1))
 
 
+@pytest.mark.long
 @synchronous
 async def test_keys_pressed_during_runs_never_corrupt_the_history(workdir, monkeypatch):
     step = Cip.step

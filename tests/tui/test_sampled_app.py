@@ -17,6 +17,7 @@ from tui.figures.closed_loop import pole_lines
 EXAMPLE = "coebra_kuo_z.json"
 
 
+@pytest.mark.long
 @synchronous
 async def test_the_z_example_reads_and_runs_in_the_app_as_on_the_command_line(workdir, tmp_path):
     cli = tmp_path / "cli" / EXAMPLE

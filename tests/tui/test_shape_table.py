@@ -83,6 +83,7 @@ async def test_a_lead_shaped_by_keys(tmp_path, monkeypatch):
 TUTORIAL = ["C", "g", "1", "enter", "down"]  # docs/tutorial.md, "Shaping a lead by hand"
 
 
+@pytest.mark.long
 @synchronous
 async def test_the_tutorials_lead_takes_well_under_thirty_keys(tmp_path, monkeypatch):
     """The issue's lead for 1/(s^2 (s+10)) by hand: the gain for a 1 rad/s crossover, then the
@@ -107,6 +108,7 @@ async def test_the_tutorials_lead_takes_well_under_thirty_keys(tmp_path, monkeyp
         assert pm >= 45 and keys == 12 and 20 * math.log10(gm) >= 8 and wc >= 1.0
 
 
+@pytest.mark.long
 @synchronous
 async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
     """+ adds a notch about the crossover (its zero and pole pairs, wn and zeta named for
@@ -153,6 +155,7 @@ async def test_parts_added_and_an_item_deleted_by_keys(tmp_path, monkeypatch):
         assert "T1" in start_values(app) and any("T1" in str(c) for c in app.bench.session.model.problem.constraints)
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_notch_on_a_resonance_puts_its_zeros_on_the_modes_poles(workdir):
     """N lists the plant's lightly damped pole pairs (the launch vehicle's bending modes,
@@ -206,6 +209,7 @@ class _SlowClock:
         return self.now
 
 
+@pytest.mark.long
 @synchronous
 async def test_a_burst_is_what_the_user_did_not_a_timer(tmp_path, monkeypatch):
     """Nudges by one key repeated are one undo step however slowly they come (a clock

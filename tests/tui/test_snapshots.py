@@ -12,7 +12,7 @@ from tui.figures.trajectories import trajectories_figure
 from tui.state.workbench import Workbench
 from tui.widgets.plots import FigurePlot
 
-SIZES = [(100, 32), (80, 24)]
+SIZES = [pytest.param((100, 32), marks=pytest.mark.long), (80, 24)]  # 80x24, the tightest, in `make test`
 
 
 def steps(*keys: str, wait_workers: bool = True):
@@ -62,7 +62,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
+@pytest.mark.parametrize("size", SIZES, ids=["100x32", "80x24"])
 @pytest.mark.parametrize("case", list(CASES))
 def test_screen(case, size, workdir, snap_compare):
     name, run_before = CASES[case]

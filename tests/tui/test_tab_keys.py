@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from tests.tui.test_app import settle, synchronous
 from tests.tui.test_shape_table import lead_app
 from tui.app import LoopcraftApp
@@ -11,6 +13,7 @@ from tui.screens.main import MAIN_WIDGETS
 TABS = {"1": "run", "2": "plant", "3": "targets", "4": "history", "5": "sweep"}
 
 
+@pytest.mark.long
 @synchronous
 async def test_every_tab_key_works_from_every_table_and_focuses_the_tab(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")
@@ -39,6 +42,7 @@ async def test_every_tab_key_works_from_every_table_and_focuses_the_tab(workdir)
                 assert app.focused is app.screen.query_one(MAIN_WIDGETS[pane]), (start, key, app.focused)
 
 
+@pytest.mark.long
 @synchronous
 async def test_tab_and_shift_tab_leave_a_table(workdir):
     app = LoopcraftApp(workdir / "report003_lag_lead.json")

@@ -5,6 +5,8 @@ finished."""
 
 from __future__ import annotations
 
+import pytest
+
 from sessions.format.schema import SweepModel
 from tests.tui.test_app import settle, synchronous
 from tests.tui.test_never_stale import stale_plots
@@ -20,6 +22,7 @@ def _studied(workdir) -> str:
     return path
 
 
+@pytest.mark.long
 @synchronous
 async def test_the_sweep_tab_shows_the_rows_histogram_and_u_opens_its_worst_sample(workdir, capsys):
     app = LoopcraftApp(_studied(workdir))
