@@ -1,0 +1,69 @@
+"""A loop with a tabulated plant is stepped with its table's rational fit, each measure with an error
+estimate (the fit of every other table point): checked against the step response of the rational plant
+the table samples, written from its residues (scipy.signal.residue, crossings by Brent's method on a
+dense grid of its own), so every measure printed to the digits its estimate supports is right."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+from scipy.signal import residue
+
+from engine.analysis import unity_feedback
+from engine.closed_loop.delayed_step import digits_supported
+from engine.closed_loop.step_response import network_step
+from engine.model.blocks import ExpressionTransfer, FrequencyTable
+
+# (compensator, plant): the plant tabulated at 300 points over 0.01..100 rad/s
+LOOPS = [
+    ("1", "3*(s+2)/(s*(s+1)*(s**2+0.4*s+9))"),
+    ("(1+1*s)/(1+0.1*s)", "1/(s**2*(s+10))"),
+    ("2", "1/(s*(s+1)*(0.2*s+1))"),
+]
+
+
+def _exact(compensator: str, plant: str) -> dict[str, float]:
+    """The measures of the rational loop's step response, from its residues."""
+    loop = ExpressionTransfer(f"({compensator})*({plant})").rational({})
+    num, den = np.asarray(loop.num, float), np.polyadd(loop.den, loop.num)
+    r, p, _ = residue(num, np.polymul(den, [1.0, 0.0]))
+    final = num[-1] / den[-1]
+    y = lambda t: np.real(np.exp(np.multiply.outer(t, p)) @ r) / final  # noqa: E731
+    dy = lambda t: np.real(np.exp(np.multiply.outer(t, p)) @ (r * p))  # noqa: E731
+    t = np.linspace(0.0, 8.0 / np.min(np.abs(p[p.real < 0].real)), 200_001)
+
+    def roots(f):
+        v = f(t)
+        return [brentq(f, t[i], t[i + 1], xtol=1e-14) for i in np.flatnonzero(np.sign(v[:-1]) * np.sign(v[1:]) < 0)]
+
+    t10, t50, t90 = (roots(lambda s, lv=level: y(s) - lv)[0] for level in (0.1, 0.5, 0.9))
+    peak_time = max(roots(dy), key=lambda s: y(s))
+    return {
+        "final": final,
+        "rise_time": t90 - t10,
+        "delay_time": t50,
+        "peak_time": peak_time,
+        "overshoot_percent": (y(peak_time) - 1.0) * 100.0,
+        "settling_time": roots(lambda s: np.abs(y(s) - 1.0) - 0.05)[-1],
+    }
+
+
+@pytest.mark.parametrize(("compensator", "plant"), LOOPS)
+def test_a_tabulated_loop_s_step_measures_are_right_to_the_digits_printed(compensator, plant):
+    omega = np.logspace(-2, 2, 300)
+    gh = ExpressionTransfer(plant).rational({})
+    response = np.polyval(gh.num, 1j * omega) / np.polyval(gh.den, 1j * omega)
+    table = FrequencyTable.from_cartesian(omega, response.real, response.imag)
+    found = network_step(unity_feedback([compensator], table=table), {})
+    assert found is not None and found.measures is not None  # (main: None, a table had no step response)
+    assert "rational fit" in found.how and "every other table point" in found.how
+    exact = _exact(compensator, plant)
+    for name, value in exact.items():
+        got, error = getattr(found.measures, name), found.errors[name]
+        assert abs(got - value) <= max(error, 1e-9 * abs(value)), (name, got, value, error)
+        digits = digits_supported(got, error)
+        assert digits >= 3, (name, digits, error)  # a table this fine supports three digits at least
+        assert float(f"{got:.{digits}g}") == pytest.approx(
+            value, abs=10 ** (np.floor(np.log10(abs(value))) - digits + 1)
+        )
