@@ -49,7 +49,10 @@ def _exact(compensator: str, plant: str) -> dict[str, float]:
     }
 
 
-@pytest.mark.parametrize(("compensator", "plant"), LOOPS)
+@pytest.mark.parametrize(
+    ("compensator", "plant"),  # (two of them under the slow marker: each fits two tables, about 2 s)
+    [LOOPS[0], *(pytest.param(*loop, marks=pytest.mark.slow) for loop in LOOPS[1:])],
+)
 def test_a_tabulated_loop_s_step_measures_are_right_to_the_digits_printed(compensator, plant):
     omega = np.logspace(-2, 2, 300)
     gh = ExpressionTransfer(plant).rational({})
