@@ -113,6 +113,11 @@ def table_model(omega: NDArray, response: NDArray, text: str, tolerance: float =
     zeros, poles = _clean(fit_zeros(fit), low), _clean(np.asarray(fit.poles), low)
     high = BAND_MARGIN * float(omega.max())
     zeros, poles = zeros[~_far_right(zeros, high)], poles[~_far_right(poles, high)]
+    both = min(int(np.sum(zeros == 0)), int(np.sum(poles == 0)))  # a zero and a pole put at 0 cancel
+    zeros, poles = (
+        np.delete(zeros, np.flatnonzero(zeros == 0)[:both]),
+        np.delete(poles, np.flatnonzero(poles == 0)[:both]),
+    )
     _refuse_artefacts(text, zeros, poles, float(omega.min()), float(omega.max()))
     w0 = float(np.sqrt(omega[0] * omega[-1]))
     shape = PairedProduct(1.0, zeros, poles)
