@@ -97,7 +97,7 @@ def network_step(
         ss = realized(network, params)
         return None if ss is None else step_response(ss, setup, span)
     if has_tables(network):
-        return tabulated_step(network, params, lambda ss, end: step_response(ss, setup, end), span)
+        return tabulated_step(network, lambda modelled, end: network_step(modelled, params, setup, end), span)
     if not has_delays(network) or not network.inputs:
         return None
     source = setup.input if setup.input in network.inputs else network.inputs[0]

@@ -83,3 +83,27 @@ def test_a_zero_and_a_pole_by_the_origin_are_put_there_and_cancel():
     model = table_model(omega, (s + 1e-6) / (s * (s + 1)), "test")
     assert model.zeros.size == 0 and model.poles == pytest.approx([-1.0], rel=1e-6)
     assert 5e-5 < model.residual < 2e-4
+
+
+def test_a_tabulated_plant_behind_a_delay_is_simulated_with_its_fit():
+    """exp(-s) / (s + 1) with the plant 1/(s + 1) a table (300 points, 0.01-100 rad/s), unity gain: by the
+    method of steps the peak is at 2 + 1/e s, overshoot 2 exp(-1/e) - 1, the rise time ln(0.95/0.55) s
+    (as tests/test_report_content.py's delay loop); each measure within its stated error (main: no step
+    response, a loop with a table and a delay)."""
+    import math
+
+    omega = np.logspace(-2, 2, 300)
+    response = 1 / (1j * omega + 1)
+    table = FrequencyTable.from_cartesian(omega, response.real, response.imag)
+    found = network_step(unity_feedback(["1"], delay=1.0, table=table), {})
+    assert found is not None and found.measures is not None
+    assert "simulated with the delay on a grid of" in found.how and "rational fit" in found.how
+    exact = {
+        "rise_time": math.log(0.95 / 0.55),
+        "overshoot_percent": (2 * math.exp(-math.exp(-1)) - 1) * 100,
+        "peak_time": 2 + math.exp(-1),
+        "final": 0.5,
+    }
+    for name, value in exact.items():
+        got, error = getattr(found.measures, name), found.errors[name]
+        assert error < 1e-4 and abs(got - value) <= 3 * error, (name, got, value, error)
