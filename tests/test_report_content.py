@@ -196,3 +196,31 @@ def test_a_delay_loops_step_measures_are_simulated_and_given_to_their_digits(tmp
         shown, error = float(found[1]), float(found[2])
         assert error < 1e-4 and abs(shown - value) <= 3 * error + 0.5 * 10 ** math.ceil(math.log10(error)), row
     assert "Closed-loop step response, condition nominal: y (step at r, simulated) (simulated with" in text
+
+
+def test_a_tabulated_loops_step_measures_come_from_its_fit_with_their_errors(tmp_path, monkeypatch):
+    """A plant given as a table of 3 (s + 2) / (s (s + 1) (s^2 + 0.4 s + 9)) (300 points, 0.01-100 rad/s),
+    unity gain: the report steps the loop with the table's rational fit and prints each measure with its
+    error; the values are those of the rational loop (python-control's step_info on a fine grid: 1e-3)
+    within the errors printed (tests/engine/test_tabulated_step.py checks them against the residues)."""
+    import re
+
+    import numpy as np
+
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    omega = np.logspace(-2, 2, 300)
+    s = 1j * omega
+    np.savez(tmp_path / "table.npz", freq=omega, resp=3 * (s + 2) / (s * (s + 1) * (s**2 + 0.4 * s + 9)))
+    path = tmp_path / "tabulated.json"
+    assert main(["new", str(path), "--plant-file", str(tmp_path / "table.npz"), "--compensator", "gain"]) == 0
+    assert main(["report", str(path), "--format", "md"]) == 0
+    text = (tmp_path / "tabulated.md").read_text()  # (main: no step response for a table)
+    assert "stepped exactly with each table replaced by its rational fit (degree" in text
+    loop = ct.feedback(ct.tf([3, 6], [1, 1.4, 9.4, 9, 0]), 1)
+    info = ct.step_info(loop, T=np.linspace(0, 150, 300_001), SettlingTimeThreshold=0.05)
+    expected = {"rise time (10-90 %)": info["RiseTime"], "overshoot": info["Overshoot"], "peak time": info["PeakTime"]}
+    for row, value in expected.items():
+        found = re.search(rf"\| {re.escape(row)} \| ([0-9.e+-]+) \(\+- ([0-9.e+-]+)\)", text)
+        assert found is not None, row
+        assert abs(float(found[1]) - value) <= 3 * float(found[2]) + 1e-3 * value, row

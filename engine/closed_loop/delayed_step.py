@@ -151,16 +151,8 @@ def delayed_step(
     final, final_from = _final(network, params, source, output, stable, fine.y[:, j])
     measures, errors = None, {}
     if final_from == "dc_gain" and final != 0 and math.isfinite(final) and cut is None:
-        mc = _measures(coarse.t, coarse.y[:, j], final, h_c)
-        mf = _measures(fine.t, fine.y[:, j], final, h_f)
-        measures = mf
-        for name in MEASURES:
-            a, b = getattr(mc, name), getattr(mf, name)
-            if a is None and b is None:
-                continue
-            errors[name] = (
-                math.inf if a is None or b is None else max(abs(a - b) / 3.0, 4 * np.finfo(float).eps * abs(b))
-            )
+        measures = _measures(fine.t, fine.y[:, j], final, h_f)
+        errors = measure_errors(_measures(coarse.t, coarse.y[:, j], final, h_c), measures, 3.0)
     largest = float(np.max(np.abs(fine.y[:, j]), initial=0.0)) or 1.0
     steps = ", ".join(f"{round(tau / h_f)}" for tau in taus)
     how = (
@@ -174,6 +166,21 @@ def delayed_step(
     if shown.size > SHOWN:  # the curve thinned for drawing (the measures read every sample)
         shown = np.unique(np.concatenate([shown[:: math.ceil(shown.size / SHOWN)], shown[-1:]]))
     return DelayedStep(fine.t[shown], fine.y[shown, j], measures, errors, curve_error, h_f, root, how, note)
+
+
+def measure_errors(coarse: StepMeasures | None, fine: StepMeasures | None, divisor: float) -> dict[str, float]:
+    """Each measure's estimated error: its difference between a coarse and a fine estimate over
+    ``divisor`` (3: Richardson's rule for O(h^2); 1: two estimates of no known order), at least 4 ulp of the
+    fine one; inf where only one of them has it (or there is no coarse estimate)."""
+    errors: dict[str, float] = {}
+    for name in MEASURES:
+        a, b = getattr(coarse, name, None), getattr(fine, name, None)
+        if a is None and b is None:
+            continue
+        errors[name] = (
+            math.inf if a is None or b is None else max(abs(a - b) / divisor, 4 * np.finfo(float).eps * abs(b))
+        )
+    return errors
 
 
 def _delays(opened: OpenedDelays, lags: list[int]) -> list[tuple[int, int, int]]:

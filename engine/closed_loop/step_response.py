@@ -24,7 +24,9 @@ of the slowest).
 A continuous loop with time delays exp(-tau s) has no finite realization: its response is simulated on
 a grid whose step divides every delay, on two grids (h and h/2) whose difference estimates each measure's
 error (`engine.closed_loop.delayed_step`); `StepResponse.errors` and `StepResponse.how` carry them, and
-`network_step` picks the way for a design's network.
+`network_step` picks the way for a design's network.  A continuous loop with tables is stepped with
+each table's rational model, each measure's error estimated by the models of every other table point
+(`engine.closed_loop.tabulated_step`).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from engine.closed_loop.delayed_step import delayed_step
+from engine.closed_loop.tabulated_step import has_tables, tabulated_step
 from engine.closed_loop.time_response import Segment, StepMeasures, final_value, simulate, step_measures
 from engine.errors import EngineError
 from engine.loop.realization import StateSpace, realize
@@ -87,11 +90,14 @@ def network_step(
 ) -> StepResponse | None:
     """A design's step response: a rational loop's on its realization (`realized`, `step_response`: exact,
     its measures refined on the exact response), a continuous loop with delays simulated on a grid with
-    each measure's error (`engine.closed_loop.delayed_step`); None for any other loop (a table) or when it
-    cannot be computed."""
+    each measure's error (`engine.closed_loop.delayed_step`), one with tables stepped with their rational
+    models, each measure's error from the models of every other point (`engine.closed_loop.tabulated_step`);
+    None for any other loop or when it cannot be computed."""
     if network.rational:
         ss = realized(network, params)
         return None if ss is None else step_response(ss, setup, span)
+    if has_tables(network):
+        return tabulated_step(network, lambda modelled, end: network_step(modelled, params, setup, end), span)
     if not has_delays(network) or not network.inputs:
         return None
     source = setup.input if setup.input in network.inputs else network.inputs[0]

@@ -9,7 +9,8 @@ is ``L = -connect(..., loop, break)`` and ``allmargin(L)`` gives every
 margin where it exists; GNU Octave's control package has none, so there the
 script calls ``margin(L)`` (the smallest gain and phase margins) and says why.
 The closed loop's poles are asked only of a loop with no table (``pole``
-refuses ``frd`` models).  The parameters' values are in a comment: every
+refuses ``frd`` models); GNU Octave, whose ``connect`` cannot join ``frd`` models, assembles
+a tabulated loop at the tables' frequencies instead (`octave_tables`).  The parameters' values are in a comment: every
 entry is written with its numbers.  Numbers are written with Python's
 ``repr`` (shortest round trip; MATLAB reads the same double).  The script
 runs in MATLAB (Control System Toolbox) and in GNU Octave (``pkg load
@@ -29,6 +30,7 @@ from sessions.export.design_model import (
     rows,
     w_to_z,
 )
+from sessions.export.octave_tables import assembled_loop, assembles, table_variable
 
 
 def matlab_script(d: Design, sample_time: float | None = None) -> str:
@@ -89,7 +91,7 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list
     for signal, entries in rows(c):
         lines += _row(c, name, signal, entries, cut)
     cells = f"blocks_{name}{{:}}"
-    lines += [
+    connected = [
         f"L_{name} = -connect({cells}, '{cut}', '{ident[c.break_at]}');  % open loop at '{c.break_at}'",
         "% every margin (allmargin); GNU Octave's control package has no allmargin: there margin gives",
         "% the smallest gain margin (a ratio) and phase margin (deg) with their frequencies (rad/s)",
@@ -98,6 +100,15 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list
         f"closed_{name} = connect({cells}, sumblk('{cut} = {ident[c.break_at]}'), "
         f"{_cell(inputs)}, {_cell(produced)});  % all loops closed",
     ]
+    if assembles(c):
+        connected = [
+            "if exist('OCTAVE_VERSION', 'builtin')",
+            *assembled_loop(c, name, _vector),
+            "else",
+            *(f"  {line}" for line in connected),
+            "end",
+        ]
+    lines += connected
     if any(e.kind == "table" for e in c.entries):
         lines.append("% no closed-loop poles: a tabulated entry (frd) has none (pole refuses frd models)")
     else:
@@ -144,8 +155,13 @@ def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
         make = f"tf(1, 1, 'InputDelay', {e.delay!r}, {names})"
         comment = f"{e.label} ({role}): {e.text}"
     elif e.kind == "table":
-        make = f"frd({_vector(e.response)}, {_vector(e.omega)}, {names})"
+        table = table_variable(name, e)
         comment = f"{e.label} ({role}): {e.text}, the table itself ({len(e.omega)} frequencies, rad/s)"
+        return [
+            f"% {comment}",
+            f"{table} = frd({_vector(e.response)}, {_vector(e.omega)}, {names});",
+            f"blocks_{name}{{end+1}} = {table};",
+        ]
     elif e.kind == "fitted":
         make = f"zpk({_vector(e.zeros)}, {_vector(e.poles)}, {e.gain!r}, {names})"
         comment = f"{e.label} ({role}): AAA fit of {e.text}, degree {e.degree}, residual {e.residual:.3e}"

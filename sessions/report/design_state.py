@@ -252,13 +252,13 @@ def _step(network, values: dict[str, float]) -> list[Block]:
             return number(x)
         error = errors[name]
         text = f"{x:.{digits_supported(x, error)}g}"
-        return text + (" (the two grids disagree)" if not math.isfinite(error) else f" (+- {error:.1g})")
+        return text + (" (its two estimates disagree)" if not math.isfinite(error) else f" (+- {error:.1g})")
 
     def seconds(x: float | None, name: str) -> str:
         return "not reached in the horizon" if x is None else f"{shown(x, name)} s"
 
     rows = [
-        ["final value", number(m.final)],
+        ["final value", shown(m.final, "final")],
         ["rise time (10-90 %)", seconds(m.rise_time, "rise_time")],
         ["overshoot", f"{shown(m.overshoot_percent, 'overshoot_percent')} %"],
         ["peak time", seconds(m.peak_time, "peak_time")],
@@ -269,8 +269,7 @@ def _step(network, values: dict[str, float]) -> list[Block]:
         "sample at or above 10 % to the first at or above 90 %, settling the first sample after which every "
         "sample stays in the band"
         if network.sampled
-        else f"{response.how}; each measure read on both grids, given to the digits their difference supports "
-        "(+- its estimated error)"
+        else f"{response.how}; each measure given to the digits its error estimate supports (+- that estimate)"
         if response.how
         else "simulated by exact discretization, each measure refined on the exact response: the crossings of "
         "10 %, 90 % and the band by root finding, the peak where the response's derivative vanishes"

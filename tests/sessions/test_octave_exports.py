@@ -13,9 +13,12 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from engine.loop.responses import open_loop
 from sessions.export.design_model import identifiers
+from sessions.store import load_session
 from tui.cli import main
 
 OCTAVE = shutil.which("octave-cli") or shutil.which("octave")
@@ -27,14 +30,16 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 SESSIONS = sorted(p.name for p in EXAMPLES.glob("*.json") if json.loads(p.read_text())["problem"].get("conditions"))
 TABULATED = {name for name in SESSIONS if '"kind": "table"' in (EXAMPLES / name).read_text()}
 # the seidel inlet's tables: export --fit refuses their fit (7.9e-2 off the table once far roots are
-# dropped) and Octave's control package cannot connect the frd models of the table itself
+# dropped); the tables themselves run in Octave (test_a_table_exported_as_frd_runs_in_octave_...)
 NOT_IN_OCTAVE = {name for name in TABULATED if name.startswith("seidel_inlet")}
+# compensators of numerator degree 2 over 1: Octave's connect of such tf blocks (as descriptor systems)
+# gives a loop whose |L| is 1.2e4 at loopcraft's crossover (where the table's, assembled per frequency, is 1)
+IMPROPER_BLOCKS = {"cip_dual_channel.json"}
 
 
 def _octave(script: Path, asked: dict[str, list[float]]) -> tuple[dict, dict]:
     """Run ``script`` in Octave; per condition its margin's (Gm, Pm, Wcg, Wcp) and L(j omega) at the
     frequencies ``asked`` (Octave's freqresp of the exported model)."""
-    assert OCTAVE is not None, "CI=true: octave must be installed (.ci/run installs it)"
     names = identifiers(tuple(asked))
     prints = ""
     for c, omegas in asked.items():
@@ -42,6 +47,25 @@ def _octave(script: Path, asked: dict[str, list[float]]) -> tuple[dict, dict]:
         prints += f"fprintf('MARGIN {c} %.17g %.17g %.17g %.17g\\n', Gm_{n}, Pm_{n}, Wcg_{n}, Wcp_{n});"
         for w in omegas:
             prints += f"h = freqresp(L_{n}, {w!r}); fprintf('L {c} %.17g %.17g %.17g\\n', {w!r}, real(h), imag(h));"
+    lines = _run(script, prints)
+    margins = {parts[1]: [float(v) for v in parts[2:]] for parts in lines if parts[:1] == ["MARGIN"]}
+    responses: dict = {}
+    for parts in (p for p in lines if p[:1] == ["L"]):
+        responses.setdefault(parts[1], {})[float(parts[2])] = complex(float(parts[3]), float(parts[4]))
+    assert set(margins) == set(asked), lines[-20:]
+    return margins, responses
+
+
+def _loop(session, condition: str, omega: float) -> complex:
+    """loopcraft's L(j omega) of the named condition (the network solved)."""
+    k = next(i for i, c in enumerate(session.problem.conditions) if c.name == condition)
+    c = session.problem.conditions[k]
+    return complex(open_loop(c.network, c.break_at, [omega], session.problem.condition_values(k)).value[0])
+
+
+def _run(script: Path, prints: str) -> list[list[str]]:
+    """The words of each line Octave prints running ``script`` and then ``prints``; no error."""
+    assert OCTAVE is not None, "CI=true: octave must be installed (.ci/run installs it)"
     found = subprocess.run(
         [OCTAVE, "--no-gui", "--quiet", "--no-init-file", "--eval", f"run('{script}'); {prints}"],
         capture_output=True,
@@ -51,13 +75,7 @@ def _octave(script: Path, asked: dict[str, list[float]]) -> tuple[dict, dict]:
     )
     errors = [line for line in found.stderr.splitlines() if "error" in line and "execution_exception" not in line]
     assert not errors, found.stderr[-2000:]  # (Octave 7 prints that exception line on every --eval exit)
-    lines = [line.split() for line in found.stdout.splitlines()]
-    margins = {parts[1]: [float(v) for v in parts[2:]] for parts in lines if parts[:1] == ["MARGIN"]}
-    responses: dict = {}
-    for parts in (p for p in lines if p[:1] == ["L"]):
-        responses.setdefault(parts[1], {})[float(parts[2])] = complex(float(parts[3]), float(parts[4]))
-    assert set(margins) == set(asked), found.stdout[-2000:]
-    return margins, responses
+    return [line.split() for line in found.stdout.splitlines()]
 
 
 def _loopcraft(path: Path, condition: str, capsys) -> dict:
@@ -87,9 +105,12 @@ def test_the_matlab_export_runs_in_octave_and_its_margins_are_loopcraft_s(name, 
     }
     asked = {c: [m["frequency"] for m in a["gain_margins"] + a["phase_margins"]] for c, a in ours.items()}
     margins, responses = _octave(script, asked)
-    if name in TABULATED:  # ran; its margins are those of the export's fit (far roots dropped), not the
-        return  # table's: cip_dual_channel's Octave crossover is 77 % from any of loopcraft's
-    rel = 1e-6
+    if name in IMPROPER_BLOCKS:  # ran, but Octave's connect of improper tf blocks is wrong (see above)
+        return
+    # a fit stands for its table to its residual (at most 1e-3, stated in the script; loopcraft's margins
+    # are the table's): there Octave's L and its margins are loopcraft's to 1e-3
+    rel = 1e-3 if name in TABULATED else 1e-6
+    session = load_session(path)
     for condition, found in ours.items():
         at = responses[condition]
         for m in found["gain_margins"]:
@@ -103,18 +124,48 @@ def test_the_matlab_export_runs_in_octave_and_its_margins_are_loopcraft_s(name, 
                 0, abs=rel * 100
             )
         gm, pm, wcg, wcp = margins[condition]
-        if math.isfinite(gm) and math.isfinite(wcg) and found["gain_margins"]:
+        if name in TABULATED:  # between table points loopcraft interpolates the table, Octave evaluates the
+            gm, pm = math.nan, math.nan  # fit: 6e-3 apart at cip_launch_vehicle's 54.3 rad/s (frequencies only)
+        if math.isfinite(wcg) and found["gain_margins"]:
             assert min(abs(m["frequency"] / wcg - 1) for m in found["gain_margins"]) < 1e-3
-        if math.isfinite(pm) and math.isfinite(wcp) and found["phase_margins"]:  # (Octave: NaN, not found)
+        if math.isfinite(wcp) and found["phase_margins"]:  # (Octave: NaN, not found)
             assert min(abs(m["frequency"] / wcp - 1) for m in found["phase_margins"]) < 1e-3
+        if math.isfinite(gm) and math.isfinite(wcg) and found["gain_margins"]:
+            assert 1 / gm == pytest.approx(abs(_loop(session, condition, wcg)), rel=rel)  # its value is L's there
+        if math.isfinite(pm) and math.isfinite(wcp) and found["phase_margins"]:  # (Octave: NaN, not found)
+            h = _loop(session, condition, wcp)
+            assert (math.degrees(math.atan2(h.imag, h.real)) + 180 - pm + 180) % 360 - 180 == pytest.approx(
+                0, abs=rel * 100
+            )
 
 
-@pytest.mark.parametrize("name", sorted(TABULATED))
-def test_a_table_exported_as_frd_asks_no_poles(name, tmp_path):
-    """MATLAB's pole refuses frd models: the script of a table says so instead of calling it."""
+@pytest.mark.parametrize(
+    "name",  # two tables and two channels in the normal suite, the other sessions under the slow marker
+    [n if n == "cip_dual_channel.json" else pytest.param(n, marks=pytest.mark.slow) for n in sorted(TABULATED)],
+)
+def test_a_table_exported_as_frd_runs_in_octave_as_loopcraft_s_loop(name, tmp_path):
+    """MATLAB's pole refuses frd models: the script of a table says so instead of calling it.  Octave's
+    connect cannot join frd models (main: the script stopped there, 'nonconformant arguments'): there the
+    script assembles L at the tables' frequencies, and it is loopcraft's L (engine.loop.responses.open_loop,
+    the network solved) at every one of them to 1e-12."""
     folder = tmp_path / "examples"
     shutil.copytree(EXAMPLES, folder, ignore=shutil.ignore_patterns("*.py", "__pycache__"))
     script = tmp_path / "design.m"
     assert main(["export", str(folder / name), "--to", "matlab", "--out", str(script)]) == 0
     text = script.read_text()
     assert "frd(" in text and "pole(" not in text and "pole refuses frd models" in text
+    session = load_session(folder / name)
+    conditions = session.problem.conditions
+    names = identifiers(tuple(c.name for c in conditions))
+    prints = "".join(
+        f"h = L_{names[c.name]}.H; w = L_{names[c.name]}.w; for k = 1:numel(w), "
+        f"fprintf('L {k_} %.17g %.17g %.17g\\n', w(k), real(h(k)), imag(h(k))); end;"
+        for k_, c in enumerate(conditions)
+    )
+    lines = _run(script, prints)
+    for k, c in enumerate(conditions):
+        found = np.array([[float(v) for v in line[2:]] for line in lines if line[:2] == ["L", str(k)]])
+        assert found.size, f"no L for condition {c.name}"
+        ours = open_loop(c.network, c.break_at, found[:, 0], session.problem.condition_values(k), sensitivities=False)
+        theirs = found[:, 1] + 1j * found[:, 2]
+        assert np.max(np.abs(theirs - ours.value) / np.abs(ours.value)) <= 1e-12

@@ -28,7 +28,9 @@ def step_figure(name: str, traces: list[tuple[list[float], list[float], str, str
     current design's `StepMeasures`) adds the settling band, the peak and the
     settling and rise times."""
     fig = Figure(
-        xlabel="t (s)", ylabel="response", empty_message="no step response (needs a rational plant, or one with delays)"
+        xlabel="t (s)",
+        ylabel="response",
+        empty_message="no step response (needs a rational plant, one with delays, or a table whose fit holds)",
     )
     for index, (t, y, label, role) in enumerate(traces):
         fig.title = f"Step response: {name}"

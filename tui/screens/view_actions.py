@@ -56,7 +56,7 @@ class ViewActions:
         signals = view.step_signals(view.first_plotted)
         if signals is None:
             self.screen.app.notify(
-                "no step response here (it needs a rational plant, or a continuous one with delays)",
+                "no step response here (it needs a rational plant, or a continuous one with delays or tables)",
                 severity="warning",
             )
             return

@@ -16,6 +16,7 @@ from typing import Any
 
 from engine.analysis import LoopCurve, loop_curve
 from engine.closed_loop.step_response import StepSetup, has_delays, horizon, network_step, realized
+from engine.closed_loop.tabulated_step import has_tables
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.stepping.presenter import tolerant
@@ -146,14 +147,15 @@ class View:
 
     def step_signals(self, condition: int = 0) -> tuple[tuple[str, ...], tuple[str, ...]] | None:
         """The inputs and the signals the step plot chooses among (None: this condition has no step
-        response: neither rational nor a continuous loop with delays)."""
+        response: neither rational nor a continuous loop with delays or tables)."""
         ss = self.step_loop(condition)
         if ss is not None:
             return ss.inputs, ss.outputs
         if condition >= len(self.problem.conditions):
             return None
         network = self.problem.conditions[condition].network
-        return (network.inputs, network.signals) if has_delays(network) and network.inputs else None
+        stepped = has_delays(network) or has_tables(network)
+        return (network.inputs, network.signals) if stepped and network.inputs else None
 
     def step_plot(self) -> tuple[str, list[tuple[list[float], list[float], str, str]], Any]:
         """What the step plot draws (`shown`), each response simulated once: what is
