@@ -140,8 +140,8 @@ def test_the_matlab_export_runs_in_octave_and_its_margins_are_loopcraft_s(name, 
 
 
 @pytest.mark.parametrize(
-    "name",  # two tables and two channels in the normal suite, the other sessions under the slow marker
-    [n if n == "cip_dual_channel.json" else pytest.param(n, marks=pytest.mark.slow) for n in sorted(TABULATED)],
+    "name",  # two tables and two channels in the normal suite, the other sessions in the long tier
+    [n if n == "cip_dual_channel.json" else pytest.param(n, marks=pytest.mark.long) for n in sorted(TABULATED)],
 )
 def test_a_table_exported_as_frd_runs_in_octave_as_loopcraft_s_loop(name, tmp_path):
     """MATLAB's pole refuses frd models: the script of a table says so instead of calling it.  Octave's
