@@ -147,7 +147,7 @@ class MainScreen(Screen):
     MainScreen { overflow: hidden; }
     MainScreen DataTable, #tableau-scroll { border-left: blank; }
     MainScreen DataTable:focus, #tableau-scroll:focus { border-left: thick $accent; }
-    #plots { min-width: 38; }
+    #plots { min-width: 37; margin-right: 1; }  /* a column between the plot tabs and the tableau */
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
     #tabs { height: 1fr; }
     #tabs > ContentSwitcher { height: 1fr; }
