@@ -11,9 +11,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.closed_loop.hidden_modes import RELATIVE_TOLERANCE, hidden_modes
+from engine.closed_loop.hidden_modes import RELATIVE_TOLERANCE, Factored, hidden_modes
 from engine.closed_loop.poles import CONFIRMED, checked, closed_loop_poles, z_pole
 from engine.errors import EngineError
+from engine.loop.design import design
 from engine.loop.pole_zero import loop_realization
 from engine.loop.realization import Pole, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
@@ -282,7 +283,9 @@ def fixed_modes(network: Network, break_at: str, params: Mapping[str, float], po
         return ("",) * len(poles)
     k = network.signal(break_at)
     b, c = ss.B[:, -1], ss.C[k] / (1.0 - ss.D[k, -1])
-    return hidden_modes(ss.A + np.outer(b, c), b, c, [p.value for p in poles])
+    form = design(network, params).loop(break_at).pole_zero
+    factored = Factored(form.zeros, form.poles) if form is not None and form.factored else None
+    return hidden_modes(ss.A, b, c, [p.value for p in poles], factored)
 
 
 def _fixed_notes(
