@@ -60,7 +60,7 @@ def hidden_modes(
         kind = " and ".join(k for k, lost in (("uncontrollable", lost_c), ("unobservable", lost_o)) if lost)
         hidden = min(len(copies), max(lost_c, lost_o))
         if factored is not None:
-            hidden = min(hidden, len(copies) - factored.kept(p))
+            hidden = min(hidden, factored.hideable(p, len(copies)))
         for j in copies[:hidden]:
             labels[j] = kind
     return tuple(labels)
@@ -72,10 +72,14 @@ class Factored(NamedTuple):
     zeros: NDArray[np.complex128]
     poles: NDArray[np.complex128]
 
-    def kept(self, mode: complex) -> int:
-        """How many of the loop's poles at ``mode`` (within `SAME_POLE`) no zero there cancels."""
+    def hideable(self, mode: complex, copies: int) -> int:
+        """How many of ``copies`` closed-loop poles at ``mode`` (within `SAME_POLE`) can be hidden: those
+        beyond the loop's poles there that no zero cancels; none where the loop has more zeros than poles
+        there (a high gain's closed-loop pole on a zero: no block has a mode there to hide)."""
         near = SAME_POLE * max(abs(mode), 1.0)
-        return max(0, int(np.sum(np.abs(self.poles - mode) <= near)) - int(np.sum(np.abs(self.zeros - mode) <= near)))
+        poles = int(np.sum(np.abs(self.poles - mode) <= near))
+        zeros = int(np.sum(np.abs(self.zeros - mode) <= near))
+        return 0 if zeros > poles else copies - (poles - zeros)
 
 
 def _an_open_loop_pole(pole: complex, open_loop: NDArray) -> bool:
