@@ -88,3 +88,29 @@ def exact_poles(loop: ManyPoleLoop, digits: int = 60, extra: int = 200) -> np.nd
         n = [mpmath.mpf(loop.gain) * x for x in expand(loop.zeros)]
         p = [a + b for a, b in zip(d, [mpmath.mpf(0)] * (len(d) - len(n)) + n)]
         return np.array([complex(r) for r in mpmath.polyroots(p, maxsteps=400, extraprec=extra)])
+
+
+def check_pole_list(loop: ManyPoleLoop, exact: np.ndarray) -> None:
+    """The analysis's closed-loop poles of ``loop`` are ``exact`` (matched one to one) to 1e-10
+    relative (below 1e-50 of the largest root: to that, the reference's own floor at 60 digits), in
+    exact conjugate pairs, each shown as a root (backward error within `CONFIRMED`), no fixed mode
+    named, and the verdict the exact roots give."""
+    from scipy.optimize import linear_sum_assignment
+
+    from engine.analysis import analyze, unity_feedback
+    from engine.closed_loop.poles import CONFIRMED
+
+    found = analyze(unity_feedback([loop.text]), "e", np.logspace(-2, 6, 200), {})
+    got = np.array([p.value for p in found.closed_loop_poles])
+    assert got.size == exact.size == loop.order
+    rows, cols = linear_sum_assignment(np.abs(got[:, None] - exact[None, :]))
+    error = np.abs(got[rows] - exact[cols])
+    assert np.all(error <= 1e-10 * np.abs(exact[cols]) + 1e-50 * np.max(np.abs(exact))), np.max(
+        error / np.abs(exact[cols])
+    )
+    upper, lower = np.sort_complex(got[got.imag > 0]), np.sort_complex(got[got.imag < 0].conj())
+    assert np.array_equal(upper, lower)
+    assert all(p.backward_error is not None and p.backward_error <= CONFIRMED for p in found.closed_loop_poles)
+    assert not any(found.hidden)
+    unstable = np.any(exact.real > 1e-12 * np.abs(exact))
+    assert (found.verdict == "unstable") == bool(unstable)
