@@ -74,15 +74,11 @@ def exact_poles(loop: ManyPoleLoop, digits: int = 60, extra: int = 200) -> np.nd
     polyroots at ``digits`` with ``extra`` bits more)."""
     with mpmath.workdps(digits):
 
-        def expand(factors: list[list[float]]) -> list:
-            c = [mpmath.mpf(1)]
+        def expand(factors: list[list[float]]) -> list:  # exact: numpy's convolution of mpf objects
+            out = np.array([mpmath.mpf(1)], dtype=object)
             for f in factors:
-                new = [mpmath.mpf(0)] * (len(c) + len(f) - 1)
-                for i, a in enumerate(c):
-                    for j, b in enumerate(f):
-                        new[i + j] += a * mpmath.mpf(b)
-                c = new
-            return c
+                out = np.convolve(out, np.array([mpmath.mpf(x) for x in f], dtype=object))
+            return list(out)
 
         d = expand(loop.poles) + [mpmath.mpf(0)] * loop.integrators
         n = [mpmath.mpf(loop.gain) * x for x in expand(loop.zeros)]
