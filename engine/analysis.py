@@ -11,15 +11,17 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.closed_loop.hidden_modes import RELATIVE_TOLERANCE, hidden_modes
+from engine.closed_loop.hidden_modes import RELATIVE_TOLERANCE, Factored, hidden_modes
 from engine.closed_loop.poles import CONFIRMED, checked, closed_loop_poles, z_pole
 from engine.errors import EngineError
+from engine.loop.design import design
 from engine.loop.pole_zero import loop_realization
 from engine.loop.realization import Pole, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
 from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
 from engine.margins.search import Band, Margins, margins
+from engine.margins.values import Margin
 from engine.model.blocks import (
     DelayTransfer,
     ExpressionTransfer,
@@ -28,6 +30,7 @@ from engine.model.blocks import (
     TabulatedTransfer,
 )
 from engine.model.network import Block, Junction, Network, block_diagram
+from engine.model.state_space import given_response
 
 
 @dataclass(frozen=True)
@@ -233,6 +236,56 @@ def _state_space_notes(network: Network) -> list[str]:
     return [n for e in network.entries if isinstance(e.transfer, StateSpaceTransfer) and (n := e.transfer.note)]
 
 
+CROSSING_BACKWARD_ERROR = 1e-10  # a crossing of a state-space loop beyond this (relative) is named
+
+
+def crossing_backward_errors(network: Network, model: LoopModel, found: Margins) -> list[tuple[Margin, float]]:
+    """Each gain and phase crossing of a continuous loop with one state-space block, with its relative
+    backward error in the coordinates the model was given: GH there (the block by `given_response`,
+    the rest of the loop as ``model`` evaluates it), Im GH (a gain crossing) or |GH| - 1 (a phase
+    crossing) over the size of GH's change under a relative change of every entry of A, B, C, D;
+    [] for other loops."""
+    blocks = [e.transfer for e in network.entries if isinstance(e.transfer, StateSpaceTransfer)]
+    if len(blocks) != 1 or network.sample_time is not None or network.variable != "s" or model.evaluate is None:
+        return []
+    block, out = blocks[0], []
+    crossings = [m for m in [g for g in found.gain if g.kind == "G"] + list(found.phase) if np.isfinite(m.frequency)]
+    if not crossings:
+        return []
+    omega = np.array([m.frequency for m in crossings])
+    loop = np.asarray(model.evaluate(omega)[0], dtype=complex)
+    balanced = block.response(1j * omega)[0]
+    for m, w, gh_model, g in zip(crossings, omega, loop, balanced):
+        if not (np.isfinite(gh_model) and np.isfinite(g) and g != 0):
+            continue
+        rest = gh_model / g
+        value, size = given_response(block.matrices, 1j * w)
+        gh = rest * value
+        residual = abs(gh.imag) if m.kind == "G" else abs(abs(gh) - 1.0)
+        out.append((m, residual / (abs(rest) * size) if size > 0 else 0.0))
+    return out
+
+
+def _crossing_note(network: Network, model: LoopModel, found: Margins) -> list[str]:
+    """One line: the state-space loop's crossings' largest backward error in the model's coordinates,
+    or each beyond `CROSSING_BACKWARD_ERROR` named."""
+    errors = crossing_backward_errors(network, model, found)
+    if not errors:
+        return []
+    doubtful = [(m, e) for m, e in errors if not e <= CROSSING_BACKWARD_ERROR]
+    if not doubtful:
+        largest = max(e for _, e in errors)
+        return [
+            f"{len(errors)} crossing(s) checked in the state space's own coordinates: relative backward error "
+            f"{largest:.1e} at most"
+        ]
+    named = ", ".join(f"{m.kind} at {m.frequency:.6g} rad/s ({e:.1g})" for m, e in doubtful)
+    return [
+        f"{len(doubtful)} of {len(errors)} crossing(s) have a relative backward error above {CROSSING_BACKWARD_ERROR:g} "
+        f"in the state space's own coordinates: {named}; their digits are not vouched for"
+    ]
+
+
 def analyze(
     network: Network,
     break_at: str,
@@ -258,7 +311,7 @@ def analyze(
     model = loop_model(network, break_at, omega, params)
     every = margins(model, attenuation_above=0.0)
     result = replace(every, attenuation=())
-    notes = list(result.notes) + list(pole_notes) + _state_space_notes(network)
+    notes = list(result.notes) + list(pole_notes) + _state_space_notes(network) + _crossing_note(network, model, result)
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
     disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)
@@ -282,7 +335,9 @@ def fixed_modes(network: Network, break_at: str, params: Mapping[str, float], po
         return ("",) * len(poles)
     k = network.signal(break_at)
     b, c = ss.B[:, -1], ss.C[k] / (1.0 - ss.D[k, -1])
-    return hidden_modes(ss.A + np.outer(b, c), b, c, [p.value for p in poles])
+    form = design(network, params).loop(break_at).pole_zero
+    factored = Factored(form.zeros, form.poles) if form is not None and form.factored else None
+    return hidden_modes(ss.A, b, c, [p.value for p in poles], factored)
 
 
 def _fixed_notes(

@@ -10,11 +10,14 @@ called closed loops with right-half-plane poles stable, and took seconds to minu
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import linalg
 
-from engine.analysis import analyze, unity_feedback
+from engine.analysis import CROSSING_BACKWARD_ERROR, _crossing_note, analyze, crossing_backward_errors, unity_feedback
+from engine.loop.responses import loop_model
 from engine.model.blocks import StateSpaceTransfer
 
 OMEGA = np.geomspace(1e-3, 1e4, 200)
@@ -95,3 +98,33 @@ def test_a_model_ill_conditioned_even_balanced_says_so_in_one_line():
     result = analyze(unity_feedback(["1"], state_space=block), "e", OMEGA, {})
     notes = [n for n in result.notes if n.startswith("chain.json: ill-conditioned even balanced")]
     assert len(notes) == 1 and "\n" not in notes[0] and "not vouched for" in notes[0]
+
+
+@pytest.mark.parametrize(("order", "seed"), [(15, 18), (20, 24)])
+def test_every_crossing_carries_its_backward_error_in_the_given_coordinates(order, seed):
+    """Issue 49, section 1: crossings within 1e-10 relative backward error measured in the scaled
+    coordinates (a note says how large at most), or a note naming each that is not: a crossing's
+    frequency moved by 1 % (no longer a crossing of the model: 4e-7) is named.  Reference for
+    the residual: GH of the rotated model by a dense solve, which the scaled one must match."""
+    A, B, C, D = model(order, seed)
+    network = unity_feedback(["1"], state_space=StateSpaceTransfer(*scaled(A, B, C, seed), D))
+    result = analyze(network, "e", OMEGA, {})
+    crossings = [m for m in result.margins.gain if m.kind == "G"] + list(result.margins.phase)
+    loop = loop_model(network, "e", OMEGA, {})
+    errors = crossing_backward_errors(network, loop, result.margins)
+    assert [m for m, _ in errors] == crossings and len(crossings) >= 4
+    assert all(e <= CROSSING_BACKWARD_ERROR for _, e in errors)
+    assert any(f"{len(crossings)} crossing(s) checked in the state space's own coordinates" in n for n in result.notes)
+    for m in crossings:  # the rotated model's GH = -G (unity negative feedback): a crossing there too
+        gh = -(C @ np.linalg.solve(1j * m.frequency * np.eye(order) - A, B) + D)
+        assert (abs(gh.imag) if m.kind == "G" else abs(abs(gh) - 1)) <= 1e-9 * abs(gh)
+    moved = replace(crossings[0], frequency=crossings[0].frequency * 1.01)
+    off = (
+        replace(result.margins, phase=(moved,), gain=())
+        if moved.kind == "P"
+        else replace(result.margins, gain=(moved,), phase=())
+    )
+    [(_, error)] = crossing_backward_errors(network, loop, off)
+    assert error > 10 * CROSSING_BACKWARD_ERROR
+    [note] = _crossing_note(network, loop, off)
+    assert f"{moved.kind} at {moved.frequency:.6g} rad/s" in note and "not vouched for" in note
