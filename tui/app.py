@@ -327,7 +327,7 @@ class LoopcraftApp(App):
             "adopt_design": (lambda: bench.iteration > 0, "no iteration yet: the start is the current design"),
         }.get(action, (lambda: True, None))
         if action == "use_best":  # why depends on the sweep: none yet, or none of its runs finished
-            return bench.adoption_refusal()
+            return bench.sweeps.refusal()
         return None if can() else reason
 
     def on_mount(self) -> None:

@@ -124,7 +124,7 @@ async def test_the_pole_lines_come_with_a_sweep_kept_in_the_session(workdir):
         app.bench.session.model.sweeps.append(
             SweepModel(version=2, kind="starts", created="x", algorithm=app.bench.algorithm_name)
         )
-        assert app.bench.latest_sweep() is app.bench.latest_sweep()
+        assert app.bench.sweeps.latest() is app.bench.sweeps.latest()
         await pilot.press("s")
         await settle(app, pilot)
         await settle(app, pilot)

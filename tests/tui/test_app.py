@@ -320,9 +320,9 @@ async def test_a_sweep_runs_on_a_local_cluster_and_its_best_design_is_used(workd
         await pilot.pause()
         await typo_then_enter(app, pilot, "starts 4 seed 2 at", "needs a scheduler address", "starts 4 seed 2")
         deadline = time.monotonic() + 120
-        while app.bench.latest_sweep() is None and time.monotonic() < deadline:
+        while app.bench.sweeps.latest() is None and time.monotonic() < deadline:
             await pilot.pause(0.2)
-        sweep = app.bench.latest_sweep()
+        sweep = app.bench.sweeps.latest()
         assert sweep is not None and len(sweep["runs"]) == 4 and sweep["workers"] >= 1
         table = app.screen.query_one("#optima-table")
         assert table.row_count == len(sweep["optima"]) >= 1

@@ -55,13 +55,13 @@ def test_a_failing_study_is_a_message_and_the_keys_come_back(workdir, monkeypatc
 
     from tests.tui.test_app import settle
     from tui.app import LoopcraftApp
-    from tui.state.workbench import Workbench
+    from tui.state.sweep_desk import SweepDesk
 
     def failing(self, text, progress=None, cancelled=lambda: False):
         logging.getLogger("distributed.comm.tcp").error("heartbeat ... retry_operation")
         raise OSError("Timed out trying to connect to tcp://127.0.0.1:9 after 1 s")
 
-    monkeypatch.setattr(Workbench, "run_sweep", failing)
+    monkeypatch.setattr(SweepDesk, "run", failing)
 
     async def scenario() -> None:
         app = LoopcraftApp(workdir / "report003_lag_lead.json")

@@ -31,7 +31,7 @@ async def test_the_sweep_tab_shows_the_rows_histogram_and_u_opens_its_worst_samp
         await settle(app, pilot)
         await pilot.press("5")
         await settle(app, pilot)
-        sweep = app.bench.latest_sweep()
+        sweep = app.bench.sweeps.latest()
         rows = sweep["worst_case"]
         plot, table = app.screen.query_one("#sweep-plot"), app.screen.query_one("#optima-table")
         assert plot.shown.title.startswith(f"{rows[0]['name']} at nominal: ")

@@ -107,7 +107,7 @@ class Sweeps:
             app.post_message(self.Progress(f"sweep {text}: {done}/{total} runs  (space cancels)"))
 
         try:
-            summary = app.bench.run_sweep(text, progress, self._cancel.is_set)
+            summary = app.bench.sweeps.run(text, progress, self._cancel.is_set)
         except Exception as exc:  # noqa: BLE001 - a cluster that cannot be reached must not close the app
             app.post_message(self.Failed(f"{type(exc).__name__}: {exc}"))
             return
@@ -127,7 +127,7 @@ class Sweeps:
     def done(self, message: Sweeps.Done) -> None:
         summary = message.summary
         self.sweeping = False
-        self.app.bench.keep_sweep(summary)
+        self.app.bench.sweeps.keep(summary)
         self.app.busy_changed()
         self.app.refresh_workbench()
         self.app.notify(f"sweep done: {run_count(summary)}, {len(summary['optima'])} optima")
@@ -136,13 +136,13 @@ class Sweeps:
         """Adopt the latest sweep's best run as the session's start, or a tolerance study's
         worst sample of the row highlighted, to look at (asks when iterations would go)."""
         app = self.app
-        if app.bench is None or app.bench.adoption_refusal() is not None:
+        if app.bench is None or app.bench.sweeps.refusal() is not None:
             return
-        if app.bench.latest_sweep()["kind"] == "tolerance":
+        if app.bench.sweeps.latest()["kind"] == "tolerance":
             self._use_worst()
             return
         app.edit_flow.change(
-            app.bench.adopt_best,
+            app.bench.sweeps.adopt_best,
             "use the best optimum's design as the start",
             keeps_design=False,
             done=lambda run: app.notify(
@@ -162,7 +162,7 @@ class Sweeps:
             app.notify("\n".join([*lines, values, *run.get("widened", [])]))
 
         app.edit_flow.change(
-            lambda: app.bench.adopt_worst(row),
+            lambda: app.bench.sweeps.adopt_worst(row),
             "open the tolerance study's worst sample as the start",
             keeps_design=False,
             done=adopted,

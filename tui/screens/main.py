@@ -637,7 +637,7 @@ class MainScreen(Screen):
             self.query_one("#sweep-status", TextView).set(Text(progress))
             return
         self._stale.discard("sweep")
-        sweep = self.bench.latest_sweep()
+        sweep = self.bench.sweeps.latest()
         table = self.query_one("#optima-table", DataTable)
         table.clear(columns=True)
         status = "no sweep yet.  [b]w[/b] starts one (starts 16 | vary NAME=V1,V2 | tolerance NAME=+-10%)"
@@ -663,7 +663,7 @@ class MainScreen(Screen):
     @on(DataTable.RowHighlighted, "#optima-table")
     def _sweep_row_highlighted(self) -> None:
         """A tolerance study's plot follows its table: the histogram of the row highlighted."""
-        sweep = self.bench.latest_sweep()
+        sweep = self.bench.sweeps.latest()
         if sweep is not None and sweep["kind"] == "tolerance":
             self.query_one("#sweep-plot", FigurePlot).show(sweep_figure(sweep, self.sweep_row()))
 

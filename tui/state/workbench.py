@@ -10,7 +10,6 @@ commits each record it posts back.  What the screens show comes from
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 from engine.closed_loop.step_response import StepSetup
@@ -22,13 +21,10 @@ from engine.stepping.presenter import Presenter
 from engine.stepping.protocol import State, Status, Stepper, StepRecord
 from sessions import lifecycle
 from sessions.errors import SessionError
-from sessions.format.schema import SweepModel
 from sessions.runner import record_json, settings_snapshot
 from sessions.store import AUTOSAVE_INTERVAL, Session, autosave_path, save_session, write_autosave
-from sessions.sweeps.jobs import execute
-from sessions.sweeps.plan import parse_sweep, plan
-from sessions.sweeps.results import adopt_run, record_sweep, summarize
 from tui.state.edit_history import EditHistory
+from tui.state.sweep_desk import SweepDesk
 from tui.state.views import View
 
 
@@ -52,7 +48,7 @@ class Workbench:
         self.start: str | None = None
         self.step_setup = StepSetup()  # the step plot's input, output and horizon
         self._redo: list[tuple[dict, StepRecord, State | None]] = []  # undone iterations, latest last
-        self._sweep_data: tuple[SweepModel, dict] | None = None  # the latest sweep and its JSON data
+        self.sweeps = SweepDesk(self)  # the session's sweeps: the latest, running one, adopting from it
         # a finished record's noise notes, with the problem and the record they are of
         self._noise: tuple[object, object, list[str]] = (None, None, [])
 
@@ -220,77 +216,6 @@ class Workbench:
         self.dirty = True
         return True
 
-    # -- sweeps ----------------------------------------------------------------
-
-    def latest_sweep(self) -> dict | None:
-        """The session's most recent sweep (JSON data), if any: the same dict while it is the
-        same sweep (dumped once: the Sweep tab reads it at every refresh)."""
-        sweeps = self.session.model.sweeps
-        if not sweeps:
-            return None
-        if self._sweep_data is None or self._sweep_data[0] is not sweeps[-1]:
-            self._sweep_data = (sweeps[-1], sweeps[-1].model_dump())
-        return self._sweep_data[1]
-
-    def run_sweep(
-        self,
-        text: str,
-        progress: Callable[[int, int], None] | None = None,
-        cancelled: Callable[[], bool] = lambda: False,
-    ) -> dict:
-        """Plan and run a sweep described by one line (`sessions.sweeps.plan.parse_sweep`);
-        safe in a worker thread while the session is not changed (the app disables
-        every change during a sweep).  The summary is returned, not yet kept:
-        `keep_sweep` does that on the UI thread."""
-        spec = parse_sweep(text)
-        jobs, settings = plan(
-            self.session,
-            spec["kind"],
-            spec["value"],
-            spec.get("spread"),
-            spec.get("seed", 0),
-            spec.get("samples", 32),
-            spec.get("sampling", "random"),
-        )
-        settings["scheduler"] = spec["scheduler"] or "local"
-        outcome = execute(jobs, spec["scheduler"], progress=progress, cancelled=cancelled)
-        return summarize(self.session, spec["kind"], settings, outcome)
-
-    def keep_sweep(self, summary: dict) -> None:
-        record_sweep(self.session, summary)
-        self.dirty = True
-
-    def adopt_best(self) -> dict:
-        """Make the latest sweep's best optimum the start (records dropped); its run."""
-        sweep = self.latest_sweep()
-        if not sweep or not sweep["optima"]:
-            raise SessionError("no sweep with a finished run to adopt")
-        run = sweep["runs"][sweep["optima"][0]["best_run"]]
-        widened = adopt_run(self.session, run)
-        self.reset()
-        return {**run, "widened": widened}
-
-    def adopt_worst(self, row: int) -> dict:
-        """Make the worst sample of a row of the latest tolerance study's worst case the
-        start, to look at (records dropped); its run, with the row."""
-        sweep = self.latest_sweep()
-        if not sweep or sweep["kind"] != "tolerance" or not 0 <= row < len(sweep["worst_case"]):
-            raise SessionError("no row of a tolerance study to adopt the worst sample of")
-        chosen = sweep["worst_case"][row]
-        run = next(r for r in sweep["runs"] if r["index"] == chosen["worst_sample"])
-        widened = adopt_run(self.session, run)
-        self.reset()
-        return {**run, "row": chosen, "widened": widened}
-
-    def adoption_refusal(self) -> str | None:
-        """Why the latest sweep has no design to adopt (None: it has)."""
-        sweep = self.latest_sweep()
-        if sweep is None:
-            return "no sweep yet (w starts one)"
-        if sweep["kind"] == "tolerance":
-            return None if sweep["worst_case"] else "no sample of the tolerance study finished"
-        return None if sweep["optima"] else "no run of the sweep finished"
-
     # -- changing the problem ------------------------------------------------------
 
     def start_from(self, iteration: int) -> None:
@@ -354,9 +279,9 @@ class Workbench:
         problem = self.session.problem
         notes = binding(problem, problem.vector_from(values)) + at_bounds(problem, values)
         if record.status.finished:
-            problem, kept = self._noise[:2]
-            if problem is not self.session.problem or kept is not record:  # the objects held, not their ids
-                self._noise = (self.session.problem, record, noise_notes(self.session.problem, values))
+            noted, kept = self._noise[:2]
+            if noted is not problem or kept is not record:  # the objects held, not their ids
+                self._noise = (problem, record, noise_notes(problem, values))
             notes += self._noise[2]
         return notes
 
