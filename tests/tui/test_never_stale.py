@@ -145,12 +145,12 @@ def test_the_noise_notes_are_those_of_the_record_asked_about(monkeypatch):
     from dataclasses import replace
     from pathlib import Path
 
-    import engine.design.notes as notes
+    import tui.state.workbench as workbench
     from engine.stepping.protocol import Status
     from sessions.store import load_session
     from tui.state.workbench import Workbench
 
-    monkeypatch.setattr(notes, "noise_notes", lambda problem, values: [f"noise of {sorted(values.items())[0]}"])
+    monkeypatch.setattr(workbench, "noise_notes", lambda problem, values: [f"noise of {sorted(values.items())[0]}"])
     path = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "lead_sensitivity_peak.json"
     bench = Workbench(load_session(path))
     bench.session.path = None
