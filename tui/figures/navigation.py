@@ -15,12 +15,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from tui.figures.data import Figure, Series
+from tui.figures.data import Figure, Handle, Series
 
 Box = tuple[float, float, float, float]  # x0, x1, y0, y1
 ZOOM = 1.5
 PAN = 0.25
 LIMIT = 1e300  # a zoomed or panned box stays within +-LIMIT (its size and ticks stay finite)
+GRAB_CELLS = 2.0  # a press this near (in cells) a handle or a draggable curve grabs it
 LOG_LIMIT = 300.0  # on a log10 axis (log_x): 1e-300 to 1e300, powers of ten a float holds
 
 
@@ -166,6 +167,27 @@ class Navigation:
                 series=out.series + [Series([point[0]], [point[1]], "cursor", marker="+", scatter=True, color="red")],
             )
         return out
+
+
+def grab(figure: Figure, x: float, y: float, scale: tuple[float, float]) -> Handle | None:
+    """What a press at (x, y) grabs: the nearest of the figure's handles within
+    `GRAB_CELLS`, else (a figure whose curve drags: `Figure.curve_motion`) its curve, when
+    a point of its probe is within them (the handle at the press's point: a drag moves by
+    the pointer's travel); None: the press pans.  ``scale`` as `Navigation.pick`'s."""
+    handles = figure.handles
+    distance, index = _nearest([h.x for h in handles], [h.y for h in handles], x, y, scale)
+    if distance <= GRAB_CELLS:
+        return handles[index]
+    probe = figure.probe
+    if figure.curve_motion and probe is not None:
+        if _nearest(probe.x, probe.y, x, y, scale)[0] <= GRAB_CELLS:
+            return Handle(x, y, "", figure.curve_motion)
+    return None
+
+
+def nearest_index(probe: Probe, x: float, y: float, scale: tuple[float, float]) -> int:
+    """The index of the probe's point nearest (x, y) (a drag along a locus branch)."""
+    return _nearest(probe.x, probe.y, x, y, scale)[1]
 
 
 def _showable(box: Box, log_x: bool) -> bool:

@@ -498,6 +498,10 @@ class MainScreen(Screen):
         if message.plot.id == "locus":  # enter on the root locus: the design takes the gain there
             self.view_actions.adopt_locus_value(float(message.value))
 
+    @on(FigurePlot.Dragged)
+    def _plot_dragged(self, message: FigurePlot.Dragged) -> None:
+        self.shaping.drag(message)
+
     @on(FigurePlot.Navigated)
     def _plot_navigated(self, message: FigurePlot.Navigated) -> None:
         """Bode's two panels are linked: zoom, pan and the cursor of one, the other's too."""

@@ -1,0 +1,168 @@
+"""Dragging on the plots (issue 55): a compensator's zero or pole on the pole map and the
+root locus, a corner along the Bode magnitude, the magnitude curve up and down for the
+gain, a locus branch for the gain; one drag one undo step, a bound said on release.  The
+mouse events are posted at cells computed from each plot's data-to-cell mapping (its
+`Frame`), and every design is checked against python-control's margins."""
+
+from __future__ import annotations
+
+import math
+
+import control as ct
+import pytest
+from textual import events
+
+from tests.tui.test_app import settle, synchronous
+from tests.tui.test_shape_table import lead_app, start_values
+
+
+def _loop(values) -> ct.TransferFunction:
+    """K (1 + T1 s) / (1 + T2 s) / (s^2 (s + 10)): the lead session's loop."""
+    return ct.tf([values["K"] * values["T1"], values["K"]], [values["T2"], 1]) * ct.tf([1], [1, 10, 0, 0])
+
+
+def _post(plot, kind, cell: tuple[int, int]) -> None:
+    """A mouse event at a cell of the plot's content, as the terminal's driver sends it."""
+    content = plot.content_region
+    sx, sy = content.x + cell[0], content.y + cell[1]
+    plot.app.post_message(kind(None, sx, sy, 0, 0, 1, False, False, False, screen_x=sx, screen_y=sy))
+
+
+def _cell(frame, x: float, y: float) -> tuple[int, int]:
+    col, row = frame.cells(x, y)
+    return round(col), round(row)
+
+
+async def _drag(app, pilot, plot, start: tuple[int, int], path: list[tuple[int, int]]) -> None:
+    """Press at ``start``, move along ``path``, release at its end; then wait until the
+    design's plots are drawn."""
+    _post(plot, events.MouseDown, start)
+    for cell in path:
+        _post(plot, events.MouseMove, cell)
+        await pilot.pause()
+    _post(plot, events.MouseUp, path[-1])
+    await settle(app, pilot)
+
+
+async def _shown(app, pilot, tab: str, plot_id: str):
+    app.screen.set_focus(None)  # a focused plot (a press focuses it) would keep its tab shown
+    app.screen.query_one("#plots").active = tab
+    await settle(app, pilot)
+    plot = app.screen.query_one(f"#{plot_id}")
+    await pilot.wait_for_scheduled_animations()
+    await settle(app, pilot)
+    return plot
+
+
+def _margins(values) -> tuple[float, float, float]:
+    """python-control's gain margin (dB), phase margin (deg) and crossover (rad/s)."""
+    gm, pm, _, _, wc, _ = ct.stability_margins(_loop(values))
+    return 20 * math.log10(gm), pm, wc
+
+
+def _tableau(app) -> dict[str, float]:
+    """The tableau's values by kind (the design on screen)."""
+    rows, _ = app.bench.view().tableau()
+    return {row.kind: row.value for row in rows}
+
+
+def _agrees(app) -> None:
+    """The tableau's margins are python-control's of the design the drag made."""
+    gm_db, pm, _ = _margins(start_values(app))
+    shown = _tableau(app)
+    assert shown["phase_margin_deg"] == pytest.approx(pm, abs=1e-6)
+    assert shown["gain_margin_db"] == pytest.approx(gm_db, abs=1e-6)
+
+
+@synchronous
+async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, monkeypatch):
+    app = lead_app(tmp_path, monkeypatch)
+    said: list[str] = []
+    notify = app.notify
+    monkeypatch.setattr(app, "notify", lambda message, **kw: (said.append(str(message)), notify(message, **kw)))
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        undo = len(app.bench.edits.undo_stack)
+
+        # the pole map: the zero (at 1/T1) dragged along the real axis, the pointer off it
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        assert {h.name for h in plot.figure.handles} == {"compensator.zero1", "compensator.pole1"}  # no plant mark
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 3, start[1] + 1)
+        await _drag(app, pilot, plot, start, [(start[0] - 1, start[1]), (start[0] - 2, start[1] - 1), end])
+        assert 1 / start_values(app)["T1"] == pytest.approx(-frame.point(*end)[0], rel=1e-9)
+        assert len(app.bench.edits.undo_stack) == undo + 1  # three positions, one undo step
+        assert plot.navigation.box is None  # the view held still while dragging, given back on release
+        _agrees(app)
+
+        # past its bound (the session keeps T1 <= 20 T2: the zero >= 0.5 rad/s): it stops there, said
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        beyond = _cell(frame, -0.05, 0.0)
+        await _drag(app, pilot, plot, start, [_cell(frame, -0.6, 0.0), beyond])
+        assert 1 / start_values(app)["T1"] == pytest.approx(-frame.point(*_cell(frame, -0.6, 0.0))[0], rel=1e-9)
+        assert any("T1 <= 20*T2" in text or "bound" in text for text in said[-1:]), said[-3:]
+        assert len(app.bench.edits.undo_stack) == undo + 2
+
+        # the Bode magnitude: the pole's corner along frequency, then the curve up for the gain
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        frame = plot.drawing.frames[0]
+        (pole,) = [h for h in plot.figure.handles if h.name == "compensator.pole1"]
+        start = _cell(frame, pole.x, pole.y)
+        end = (start[0] - 4, start[1])  # lower (higher, T1 <= 20 T2 soon bites: the zero is at 0.6)
+        await _drag(app, pilot, plot, start, [(start[0] - 2, start[1]), end])
+        assert 1 / start_values(app)["T2"] == pytest.approx(10 ** frame.point(*end)[0], rel=1e-9)
+        _agrees(app)
+        frame = plot.drawing.frames[0]
+        probe = plot.figure.probe
+        corners = [_cell(frame, h.x, h.y)[0] for h in plot.figure.handles]
+        i = max(range(len(probe.x)), key=lambda k: min(abs(_cell(frame, probe.x[k], 0)[0] - c) for c in corners))
+        start = _cell(frame, probe.x[i], probe.y[i])  # the curve's point farthest from the corners
+        gain = start_values(app)["K"]
+        end = (start[0] + 1, start[1] - 1)  # a row up (17 dB at this size)
+        await _drag(app, pilot, plot, start, [end])
+        rise = frame.point(*end)[1] - frame.point(*start)[1]
+        assert start_values(app)["K"] == pytest.approx(gain * 10 ** (rise / 20), rel=1e-9) and rise > 0
+        _agrees(app)
+        assert len(app.bench.edits.undo_stack) == undo + 4
+
+        # the root locus: along a branch, the loop gain at the nearest point
+        plot = await _shown(app, pilot, "p-locus", "locus")
+        for _ in range(20):  # the coarse locus, then the fine one (each drawn by a worker), then painted
+            drawn = plot.drawing is not None and plot.drawing.frames[0].xlim == plot.figure.xlim
+            if plot.figure.series and "coarse" not in plot.figure.title and drawn:
+                break
+            await settle(app, pilot)
+        assert "coarse" not in plot.figure.title and plot.drawing.frames[0].xlim == plot.figure.xlim
+        frame, probe = plot.drawing.frames[0], plot.figure.probe
+        values = start_values(app)
+        (x0, x1), (_, y1) = frame.xlim, frame.ylim
+        marks = [_cell(frame, h.x, h.y) for h in plot.figure.handles]
+
+        def clear(k: int) -> bool:  # a point of the upper half in view, away from the compensator's marks
+            col, row = _cell(frame, probe.x[k], probe.y[k])
+            inside = 0.3 * y1 < probe.y[k] < y1 and x0 < probe.x[k] < x1
+            return inside and all(max(abs(col - c), abs(row - r)) > 3 for c, r in marks)
+
+        upper = [k for k in range(len(probe.x)) if clear(k)]
+        a, b = upper[len(upper) // 3], upper[2 * len(upper) // 3]
+        start, end = _cell(frame, probe.x[a], probe.y[a]), _cell(frame, probe.x[b], probe.y[b])
+        await _drag(app, pilot, plot, start, [end])
+        x, y = frame.point(*end)
+        across, up = (frame.right - frame.left) / (x1 - x0), 2 * (frame.bottom - frame.top) / (y1 - frame.ylim[0])
+        nearest = min(range(len(probe.x)), key=lambda k: math.hypot((probe.x[k] - x) * across, (probe.y[k] - y) * up))
+        after = start_values(app)
+        assert after["K"] == pytest.approx(values["K"] * probe.chosen(nearest), rel=1e-9)
+        poles = ct.poles(ct.feedback(_loop(after), 1))
+        point = complex(probe.x[nearest], probe.y[nearest])
+        assert min(abs(poles - point)) <= 1e-6 * abs(point)  # the point is a closed-loop pole of the design
+        _agrees(app)
+
+        # undo takes the drags back one at a time
+        for _ in range(5):
+            await pilot.press("ctrl+z")
+            await settle(app, pilot)
+        assert start_values(app) == {"K": 1.0, "T1": 1.0, "T2": 0.1}
