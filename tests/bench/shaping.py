@@ -4,7 +4,14 @@ in the shaping table (`C`, `right`/`left` alternately, so the design does not dr
 first paint with the new tableau, and to the end of the paint after every plot is
 drawn again.  Targets: 50 ms median key to painted on a rational loop of order <= 20,
 100 ms on the tabulated launch vehicle (`cip_launch_vehicle`, its first compensator's
-zero1: a root of cip's polynomial, moved by its coefficients together)."""
+zero1: a root of cip's polynomial, moved by its coefficients together).
+
+A drag (issue 55, section 2): the same zeros' corner marks dragged along the Bode
+magnitude by mouse events (one column right, one left, alternately): each move to the
+paint with the new tableau, and to the paint after the dragged plot (with Bode's phase)
+is drawn again, the frame; then a release one column on to the paint after every plot
+on screen is drawn.  Targets: a frame <= 50 ms on the lead, <= 100 ms on the tabulated
+launch vehicle; release to every plot exact <= 150 ms on the lead."""
 
 from __future__ import annotations
 
@@ -20,6 +27,7 @@ from tests.bench.common import judged
 
 NUDGE_TARGET_S = 0.050
 TABULATED_TARGET_S = 0.100
+RELEASE_TARGET_S = 0.150
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 
 
@@ -98,5 +106,116 @@ def nudge_latency(repeat: int) -> dict:
             "key_to_tableau_painted": {"median_s": median, **judged(median, target, "max_s")},
             "key_to_plots_painted": {"median_s": statistics.median(plots)},
             "presses": len(tableau),
+        }
+    return out
+
+
+class _Paints:
+    """The end times of the app's paints (a screen's compositor refresh), while entered."""
+
+    def __enter__(self) -> list[float]:
+        from textual.screen import Screen
+
+        self.refresh, self.times = Screen._compositor_refresh, []
+        refresh, times = self.refresh, self.times
+
+        def noted(screen):
+            refresh(screen)
+            times.append(time.perf_counter())
+
+        Screen._compositor_refresh = noted
+        return self.times
+
+    def __exit__(self, *exc) -> None:
+        from textual.screen import Screen
+
+        Screen._compositor_refresh = self.refresh
+
+
+async def _until(condition, start: float, limit: float = 5.0) -> None:
+    while not condition():
+        if time.perf_counter() - start > limit:
+            raise RuntimeError(f"nothing happened within {limit} s")
+        await asyncio.sleep(0.001)
+
+
+def _mouse(plot, kind, cell: tuple[int, int]) -> None:
+    content = plot.content_region
+    sx, sy = content.x + cell[0], content.y + cell[1]
+    plot.app.post_message(kind(None, sx, sy, 0, 0, 1, False, False, False, screen_x=sx, screen_y=sy))
+
+
+async def _drag(path: Path, moves: int) -> tuple[list[float], list[float], float]:
+    """(move to tableau painted, move to dragged plot painted) per move, and release to every plot painted."""
+    from textual import events
+
+    from tui.app import LoopcraftApp
+
+    app = LoopcraftApp(path)
+    with _Paints() as paints:
+        async with app.run_test(size=(120, 40)) as pilot:
+            await pilot.pause()
+            app.screen.query_one("#plots").active = "p-bode"
+            await app.workers.wait_for_complete()
+            await pilot.pause()
+            plot = app.screen.query_one("#bode-mag")
+            await _until(lambda: plot.figure.handles and plot.drawing is not None, time.perf_counter(), 30)
+            await pilot.pause()
+            handle = next(h for h in plot.figure.handles if h.name.endswith(".zero1"))
+            col, row = plot.drawing.frames[0].cells(handle.x, handle.y)
+            cell = (round(col), round(row))
+            _mouse(plot, events.MouseDown, cell)
+            tableau, frames = [], []
+            for k in range(moves + 1):
+                before, painted = _values(app), len(paints)
+                cell = (cell[0] + (1 if k % 2 == 0 else -1), cell[1])
+                start = time.perf_counter()
+                _mouse(plot, events.MouseUp if k == moves else events.MouseMove, cell)
+                await _until(lambda: _values(app) != before, start)
+                await _until(lambda: len(paints) > painted, start)
+                tableau.append(paints[painted] - start)
+                await app.workers.wait_for_complete()
+                drawn = len(paints)
+                while len(paints) == drawn and time.perf_counter() - start < 1:  # (plots may have painted already)
+                    await asyncio.sleep(0.001)
+                frames.append(paints[-1] - start)
+                await pilot.pause()
+    return tableau[:-1], frames[:-1], frames[-1]
+
+
+def drag_latency(repeat: int) -> dict:
+    """Medians of a drag's move to painted tableau and to painted plot (the frame), and the
+    release to every plot painted, on the lead and on the tabulated launch vehicle."""
+    from tui.cli import main
+
+    folder = Path(tempfile.mkdtemp(prefix="loopcraft-bench-"))
+    os.environ["LOOPCRAFT_HOME"] = str(folder / "home")
+    lead = folder / "lead.json"
+    main(["new", str(lead), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"])
+    for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv"):
+        shutil.copy(EXAMPLES / name, folder / name)
+    out = {}
+    for label, path, target in (
+        ("lead", lead, NUDGE_TARGET_S),
+        ("tabulated", folder / "cip_launch_vehicle.json", TABULATED_TARGET_S),
+    ):
+        releases = []
+        tableau, frames = [], []
+        for _ in range(max(1, repeat // 5)):
+            moved, framed, released = asyncio.run(_drag(path, 6))
+            tableau += moved
+            frames += framed
+            releases.append(released)
+        median = statistics.median(frames)
+        release = statistics.median(releases)
+        out[label] = {
+            "move_to_tableau_painted": {"median_s": statistics.median(tableau)},
+            "drag_frame": {"median_s": median, **judged(median, target, "max_s")},
+            "release_to_plots_painted": {
+                "median_s": release,
+                **(judged(release, RELEASE_TARGET_S, "max_s") if label == "lead" else {}),
+            },
+            "moves": len(frames),
+            "releases": len(releases),
         }
     return out
