@@ -161,8 +161,44 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
         assert min(abs(poles - point)) <= 1e-6 * abs(point)  # the point is a closed-loop pole of the design
         _agrees(app)
 
+        # v types where the cursor goes: the Bode magnitude's point nearest 2.5 rad/s
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        plot.focus()
+        await pilot.press("v")
+        await pilot.pause()
+        app.screen.query_one("#value").value = "2.5"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        x = plot.figure.probe.x
+        assert plot.navigation.cursor == min(range(len(x)), key=lambda k: abs(x[k] - math.log10(2.5)))
+        assert app.screen.query_one("#bode-phase").navigation.cursor == plot.navigation.cursor  # linked
+
         # undo takes the drags back one at a time
         for _ in range(5):
             await pilot.press("ctrl+z")
             await settle(app, pilot)
         assert start_values(app) == {"K": 1.0, "T1": 1.0, "T2": 0.1}
+
+
+def test_the_cursor_steps_a_column_of_the_view_and_goes_to_a_typed_value():
+    """left/right move the cursor a column of the view (ten with shift), at least a point:
+    zoomed out a key jumps many points, zoomed in it moves one; v puts it at a value."""
+    from tui.figures.data import Figure, Series
+    from tui.figures.navigation import Navigation, xy_probe
+
+    x = [k / 100 for k in range(401)]  # log10 of 1 to 10^4 rad/s, 100 points a decade
+    curve = Series(x, [-20 * v for v in x])
+    figure = Figure(series=[curve], probe=xy_probe(curve), log_x=True)
+    nav = Navigation()
+    nav.move(figure, 1, column=0.0625)  # the cursor appears mid-curve
+    assert nav.cursor == 200
+    nav.move(figure, 1, column=0.0625)  # a column: 6.25 points, so the seventh
+    assert nav.cursor == 207
+    nav.move(figure, -10, column=0.0625)  # shift: ten columns back
+    assert nav.cursor == 207 - 63 == 144
+    nav.move(figure, 1, column=0.001)  # zoomed in: a column is less than a point
+    assert nav.cursor == 145
+    nav.move(figure, -1)  # no view known: a point
+    assert nav.cursor == 144
+    assert nav.go_to(figure, 50.0) and nav.cursor == 170  # log10(50) = 1.699
+    assert not nav.go_to(figure, -1.0) and nav.cursor == 170  # no frequency below zero

@@ -116,14 +116,41 @@ class Navigation:
         if _showable(box, figure.log_x):
             self.box = box
 
-    def move(self, figure: Figure, step: int) -> None:
-        """Move the cursor along the probe (it appears at its start, else the middle point, first)."""
+    def move(self, figure: Figure, step: int, column: float | None = None) -> None:
+        """Move the cursor along the probe (it appears at its start, else the middle point,
+        first): ``step`` points, or, on a probe that runs left to right with ``column`` (the
+        data width of one column of the view) given, to the first point ``step`` columns
+        away (one point at least): the step follows the zoom, a column zoomed out, a point
+        zoomed in."""
         probe = self.probe(figure)
         if probe is None or not probe.x:
             return
         n = len(probe.x)
-        first = n // 2 if probe.start is None else min(probe.start, n - 1)
-        self.cursor = first if self.cursor is None else min(max(self.cursor + step, 0), n - 1)
+        if self.cursor is None:
+            self.cursor = n // 2 if probe.start is None else min(probe.start, n - 1)
+            return
+        x = np.asarray(probe.x, dtype=float)
+        i = min(self.cursor, n - 1)
+        if column and column > 0 and n > 1 and bool(np.all(np.diff(x) > 0)):
+            target = x[i] + step * column
+            j = (
+                max(int(np.searchsorted(x, target)), i + 1)
+                if step > 0
+                else min(int(np.searchsorted(x, target, "right")) - 1, i - 1)
+            )
+        else:
+            j = i + step
+        self.cursor = min(max(j, 0), n - 1)
+
+    def go_to(self, figure: Figure, value: float) -> bool:
+        """Put the cursor on the probe's point nearest x = ``value`` (on a frequency axis,
+        ``value`` is the frequency: x is its log10); False when there is no such point."""
+        probe = self.probe(figure)
+        if probe is None or not probe.x or not math.isfinite(value) or (figure.log_x and value <= 0):
+            return False
+        x = math.log10(value) if figure.log_x else value
+        self.cursor = int(np.argmin(np.abs(np.asarray(probe.x, dtype=float) - x)))
+        return True
 
     def pick(self, figure: Figure, x: float, y: float, scale: tuple[float, float]) -> None:
         """Put the cursor on the point nearest (x, y) of the nearest curve; ``scale``: the

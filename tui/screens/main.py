@@ -498,6 +498,10 @@ class MainScreen(Screen):
         if message.plot.id == "locus":  # enter on the root locus: the design takes the gain there
             self.view_actions.adopt_locus_value(float(message.value))
 
+    @on(FigurePlot.AskValue)
+    def _plot_value_asked(self, message: FigurePlot.AskValue) -> None:
+        self.view_actions.go_to(message.plot)
+
     @on(FigurePlot.Dragged)
     def _plot_dragged(self, message: FigurePlot.Dragged) -> None:
         self.shaping.drag(message)

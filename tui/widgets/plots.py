@@ -68,6 +68,13 @@ class FigurePlot(PlotextPlot):
             Binding("right", "cursor(1)", "cursor", show=False, id="plot.cursor_right"),
             Binding("shift+left", "cursor(-10)", "", show=False, id="plot.cursor_left_10"),
             Binding("shift+right", "cursor(10)", "", show=False, id="plot.cursor_right_10"),
+            Binding(
+                "v",
+                "ask_value",
+                "go to",
+                tooltip="the cursor to a typed value of x (on a frequency axis, the frequency)",
+                id="plot.go_to",
+            ),
             Binding("h", "pan(-0.25, 0)", "pan", tooltip="pan: h j k l", id="plot.pan_left"),
             Binding("l", "pan(0.25, 0)", "", show=False, id="plot.pan_right"),
             Binding("k", "pan(0, 0.25)", "", show=False, id="plot.pan_up"),
@@ -89,6 +96,13 @@ class FigurePlot(PlotextPlot):
         def __init__(self, plot: FigurePlot, value: object) -> None:
             super().__init__()
             self.plot, self.value = plot, value
+
+    class AskValue(Message):
+        """v: the cursor to a typed value (the screen asks for it, then calls `go_to`)."""
+
+        def __init__(self, plot: FigurePlot) -> None:
+            super().__init__()
+            self.plot = plot
 
     class Navigated(Message):
         """Zoomed, panned or its cursor moved (a linked panel follows: `follow`)."""
@@ -150,8 +164,21 @@ class FigurePlot(PlotextPlot):
         self.navigated()
 
     def action_cursor(self, step: int) -> None:
-        self.navigation.move(self.figure, step)
+        """The cursor ``step`` columns of the view along the curve (points where it doubles back)."""
+        frame = self.drawing.frames[0] if self.drawing is not None and len(self.drawing.frames) == 1 else None
+        column = None if frame is None else (frame.xlim[1] - frame.xlim[0]) / max(frame.right - frame.left, 1)
+        self.navigation.move(self.figure, step, column)
         self.navigated()
+
+    def action_ask_value(self) -> None:
+        self.post_message(self.AskValue(self))
+
+    def go_to(self, value: float) -> bool:
+        """The cursor to the point nearest a value of x (`Navigation.go_to`); False: none."""
+        moved = self.navigation.go_to(self.figure, value)
+        if moved:
+            self.navigated()
+        return moved
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """enter acts only on a cursor over a probe that picks a value (a root locus)."""
