@@ -113,7 +113,16 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
         (pole,) = [h for h in plot.figure.handles if h.name == "compensator.pole1"]
         start = _cell(frame, pole.x, pole.y)
         end = (start[0] - 4, start[1])  # lower (higher, T1 <= 20 T2 soon bites: the zero is at 0.6)
-        await _drag(app, pilot, plot, start, [(start[0] - 2, start[1]), end])
+        phase = app.screen.query_one("#bode-phase")
+        drawn = phase.figure
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, (start[0] - 2, start[1]))
+        await settle(app, pilot)
+        assert plot.figure.handles[1].x < pole.x and phase.figure is drawn  # the dragged plot alone follows
+        _post(plot, events.MouseMove, end)
+        _post(plot, events.MouseUp, end)
+        await settle(app, pilot)
+        assert phase.figure is not drawn  # every plot on release
         assert 1 / start_values(app)["T2"] == pytest.approx(10 ** frame.point(*end)[0], rel=1e-9)
         _agrees(app)
         frame = plot.drawing.frames[0]

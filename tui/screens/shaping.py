@@ -76,13 +76,15 @@ class Shaping:
 
     def drag(self, message: FigurePlot.Dragged) -> None:
         """A handle dragged on a plot: the design follows the pointer, each position an edit
-        of one burst (one undo step a drag); a position refused (a bound, a constraint)
-        leaves the last one and is said once, on release.  Where the first edit must ask
+        of one burst (one undo step a drag), the tableau and the dragged plot redrawn, every
+        plot on release; a position refused (a bound, a constraint) leaves the last one and
+        is said once, on release.  Where the first edit must ask
         where to start from (recorded iterations), the design moves on release alone."""
         drag = self.dragging
         key = (message.plot.id, message.drag)
         if drag.key != key:
             self.dragging = drag = Drag(key)
+        self.screen.dragged_plot = None if message.done else message.plot.id  # the others on release
         if self.app.busy:
             if message.done:
                 self.app.notify("a drag: not while a run or a sweep goes (space pauses it)", timeout=3)
@@ -99,6 +101,7 @@ class Shaping:
             self.flow.change(change, what, burst=("drag", *key), refused=drag.refused)
         if message.done:
             self.bench.edits.end_burst()
+            self.screen.refresh_plots()  # every plot of the design the drag left (those of no change too)
             if drag.refusal:
                 self.app.notify(drag.refusal, title="the drag stopped short", severity="warning", timeout=8)
 
