@@ -85,9 +85,9 @@ def _values(app) -> list:
     return [p.value for p in app.bench.session.model.problem.parameters]
 
 
-def nudge_latency(repeat: int) -> dict:
-    """Medians of key to painted tableau and key to painted plots over ``repeat`` nudges,
-    on the lead and on the tabulated launch vehicle."""
+def _sessions() -> tuple[Path, Path]:
+    """A new lead session on 1/(s^2 (s+10)) and a copy of the tabulated launch vehicle, in a
+    folder of their own (LOOPCRAFT_HOME there)."""
     from tui.cli import main
 
     folder = Path(tempfile.mkdtemp(prefix="loopcraft-bench-"))
@@ -96,10 +96,17 @@ def nudge_latency(repeat: int) -> dict:
     main(["new", str(lead), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"])
     for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv"):
         shutil.copy(EXAMPLES / name, folder / name)
+    return lead, folder / "cip_launch_vehicle.json"
+
+
+def nudge_latency(repeat: int) -> dict:
+    """Medians of key to painted tableau and key to painted plots over ``repeat`` nudges,
+    on the lead and on the tabulated launch vehicle."""
+    lead, tabulated = _sessions()
     out = {}
     for label, path, downs, target in (
         ("lead", lead, 1, NUDGE_TARGET_S),
-        ("tabulated", folder / "cip_launch_vehicle.json", 2, TABULATED_TARGET_S),
+        ("tabulated", tabulated, 2, TABULATED_TARGET_S),
     ):
         tableau, plots = asyncio.run(_nudges(path, max(repeat, 5), downs))
         median = statistics.median(tableau)
@@ -210,18 +217,11 @@ async def _drag(path: Path, moves: int) -> tuple[list[float], list[float], float
 def drag_latency(repeat: int) -> dict:
     """Medians of a drag's move to painted tableau and to painted plot (the frame), and the
     release to every plot painted, on the lead and on the tabulated launch vehicle."""
-    from tui.cli import main
-
-    folder = Path(tempfile.mkdtemp(prefix="loopcraft-bench-"))
-    os.environ["LOOPCRAFT_HOME"] = str(folder / "home")
-    lead = folder / "lead.json"
-    main(["new", str(lead), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"])
-    for name in ("cip_launch_vehicle.json", "cip_launch_vehicle.csv"):
-        shutil.copy(EXAMPLES / name, folder / name)
+    lead, tabulated = _sessions()
     out = {}
     for label, path, target in (
         ("lead", lead, NUDGE_TARGET_S),
-        ("tabulated", folder / "cip_launch_vehicle.json", TABULATED_TARGET_S),
+        ("tabulated", tabulated, TABULATED_TARGET_S),
     ):
         releases = []
         tableau, frames = [], []
