@@ -14,6 +14,7 @@ from textual import events
 
 from tests.tui.test_app import settle, synchronous
 from tests.tui.test_shape_table import lead_app, start_values
+from tui.state import edits
 
 
 def _loop(values) -> ct.TransferFunction:
@@ -187,6 +188,22 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
             await pilot.press("ctrl+z")
             await settle(app, pilot)
         assert start_values(app) == {"K": 1.0, "T1": 1.0, "T2": 0.1}
+
+        # a pair: a notch added (its zeros zeta 0.05, its poles zeta 0.5), the poles' upper
+        # mark dragged on the pole map: the pair's upper root goes to the pointer (wn, zeta)
+        app.screen.shaping.change(lambda: edits.add_part(app.bench, "compensator", "notch"), "a notch")
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        (upper,) = [h for h in plot.figure.handles if h.name == "compensator.polepair1" and h.y > 0]
+        start = _cell(frame, upper.x, upper.y)
+        end = (start[0] - 1, start[1] - 1)  # up and to the left (a column is 0.3 rad/s here)
+        await _drag(app, pilot, plot, start, [(start[0], start[1] - 1), end])
+        target = complex(*frame.point(*end))
+        values = app.bench.session.problem.condition_values(0)
+        wn, zeta = values["notch1_wp"], values["notch1_zp"]
+        assert complex(-zeta * wn, wn * math.sqrt(1 - zeta**2)) == pytest.approx(target, rel=1e-9)
+        poles = ct.poles(ct.tf([1], [1 / wn**2, 2 * zeta / wn, 1]))  # python-control's roots of the pair's factor
+        assert min(abs(poles - target)) <= 1e-9 * abs(target)
 
 
 def test_the_cursor_steps_a_column_of_the_view_and_goes_to_a_typed_value():
