@@ -14,6 +14,7 @@ from textual import events
 
 from tests.tui.test_app import settle, synchronous
 from tests.tui.test_shape_table import lead_app, start_values
+from tui.screens.dialogs import StartDialog
 from tui.state import edits
 
 
@@ -204,6 +205,28 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
         assert complex(-zeta * wn, wn * math.sqrt(1 - zeta**2)) == pytest.approx(target, rel=1e-9)
         poles = ct.poles(ct.tf([1], [1 / wn**2, 2 * zeta / wn, 1]))  # python-control's roots of the pair's factor
         assert min(abs(poles - target)) <= 1e-9 * abs(target)
+
+        # after an iteration, the drag asks where to start from once, on release, and moves then
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1 and app.bench.start is None
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 2, start[1])
+        design = app.bench.view().parameters(None, 0)
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, (start[0] - 1, start[1]))
+        await settle(app, pilot)
+        assert not isinstance(app.screen, StartDialog) and app.bench.iteration == 1  # nothing moved yet
+        _post(plot, events.MouseUp, end)
+        await settle(app, pilot)
+        assert isinstance(app.screen, StartDialog)
+        await pilot.press("y")  # the design on screen is the start
+        await settle(app, pilot)
+        values = start_values(app)
+        assert app.bench.iteration == 0 and 1 / values["T1"] == pytest.approx(-frame.point(*end)[0], rel=1e-9)
+        assert values["K"] == pytest.approx(design["K"], rel=1e-12)  # the iteration's design, the zero moved
 
 
 def test_the_cursor_steps_a_column_of_the_view_and_goes_to_a_typed_value():

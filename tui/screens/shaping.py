@@ -77,33 +77,33 @@ class Shaping:
     def drag(self, message: FigurePlot.Dragged) -> None:
         """A handle dragged on a plot: the design follows the pointer, each position an edit
         of one burst (one undo step a drag), the tableau and the dragged plot redrawn, every
-        plot on release; a position refused (a bound, a constraint) leaves the last one and
-        is said once, on release.  Where the first edit must ask
+        plot on release; a position refused (a bound, a constraint) leaves the last one
+        accepted, and the release, refused too, says why.  Where the first edit must ask
         where to start from (recorded iterations), the design moves on release alone."""
-        drag = self.dragging
         key = (message.plot.id, message.drag)
-        if drag.key != key:
-            self.dragging = drag = Drag(key)
+        if self.dragging.key != key:
+            self.dragging = Drag(key)
         self.screen.dragged_plot = None if message.done else message.plot.id  # the others on release
         if self.app.busy:
             if message.done:
                 self.app.notify("a drag: not while a run or a sweep goes (space pauses it)", timeout=3)
             return
-        asks = self.bench.iteration > 0 and self.bench.start is None
-        if asks and not message.done:
-            return
+        if not message.done and self.bench.iteration > 0 and self.bench.start is None:
+            return  # the first edit asks where to start from: once, on release
+
+        def refused(reason: str) -> None:
+            if message.done:
+                self.app.notify(reason, title="the drag stopped short", severity="warning", timeout=8)
+
         try:
             change, what = self.dragged(message)
         except SessionError as exc:
-            drag.refusal = str(exc)
+            refused(str(exc))
         else:
-            drag.refusal = None
-            self.flow.change(change, what, burst=("drag", *key), refused=drag.refused)
+            self.flow.change(change, what, burst=("drag", *key), refused=refused)
         if message.done:
             self.bench.edits.end_burst()
             self.screen.refresh_plots()  # every plot of the design the drag left (those of no change too)
-            if drag.refusal:
-                self.app.notify(drag.refusal, title="the drag stopped short", severity="warning", timeout=8)
 
     def dragged(self, message: FigurePlot.Dragged) -> tuple[Callable[[], object], str]:
         """The edit that puts the dragged handle under the pointer, and what it does."""
@@ -247,16 +247,12 @@ class Shaping:
 
 
 class Drag:
-    """The drag going on: its key (plot, count), the gain parameter and its value at the
-    press (a gain or locus drag scales from there), and the last refusal's reason."""
+    """The drag going on: its key (plot, count) and the gain parameter and its value at
+    the press (a gain or locus drag scales from there)."""
 
     def __init__(self, key: tuple[object, ...] = ()) -> None:
         self.key = key
         self.gain: tuple[str, float] | None = None
-        self.refusal: str | None = None
-
-    def refused(self, reason: str) -> None:
-        self.refusal = reason
 
 
 def positive(text: str) -> str | None:
