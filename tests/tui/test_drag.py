@@ -14,6 +14,7 @@ from textual import events
 
 from tests.tui.test_app import settle, synchronous
 from tests.tui.test_shape_table import lead_app, start_values
+from tui.app import LoopcraftApp
 from tui.screens.dialogs import StartDialog
 from tui.state import edits
 
@@ -251,3 +252,41 @@ def test_the_cursor_steps_a_column_of_the_view_and_goes_to_a_typed_value():
     assert nav.cursor == 144
     assert nav.go_to(figure, 50.0) and nav.cursor == 170  # log10(50) = 1.699
     assert not nav.go_to(figure, -1.0) and nav.cursor == 170  # no frequency below zero
+
+
+@synchronous
+async def test_drags_on_a_sampled_loop_move_its_roots_in_z(tmp_path, monkeypatch):
+    """A lead in z (Tustin's map, T = 0.1 s): its zero dragged on the pole map (drawn in z)
+    goes to the pointer's real part in z, and its corner dragged along the Bode magnitude
+    puts its s-plane equivalent's frequency at the pointer's; python-control's Tustin
+    discretization of the lead gives the same zero."""
+    from tui.cli import main
+
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    path, T = tmp_path / "lead_z.json", 0.1
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead", "--sample-time", "0.1"]) == 0
+
+    def zero_in_z() -> float:
+        values = start_values(app)
+        (zero,) = ct.zeros(ct.sample_system(ct.tf([values["T1"], 1], [values["T2"], 1]), T, method="tustin"))
+        return float(zero.real)
+
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        assert zero.x == pytest.approx(zero_in_z(), rel=1e-9)  # drawn in z
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 2, start[1] - 1)  # a smaller z: a faster zero
+        await _drag(app, pilot, plot, start, [(start[0] - 1, start[1]), end])
+        assert zero_in_z() == pytest.approx(frame.point(*end)[0], rel=1e-9)
+
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        frame = plot.drawing.frames[0]
+        (corner,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, corner.x, corner.y)
+        end = (start[0] - 3, start[1])
+        await _drag(app, pilot, plot, start, [end])
+        assert -math.log(zero_in_z()) / T == pytest.approx(10 ** frame.point(*end)[0], rel=1e-9)

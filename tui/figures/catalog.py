@@ -97,7 +97,7 @@ def compensator_roots(view: View) -> list[overlays.CompensatorRoot]:
     """The zeros and poles (the upper root of a pair) of the plotted condition's
     compensators at the current design, each with its item's name as the shaping table
     gives it (`engine.design.compensator_items`; none when they do not read); a sampled
-    loop's in z, as its pole map and locus are drawn (and not draggable: named "")."""
+    loop's in z, as its pole map and locus are drawn."""
     from engine.design.compensator_items import items, named
     from engine.errors import EngineError
     from engine.model.bilinear import z_of_w
@@ -121,7 +121,7 @@ def compensator_roots(view: View) -> list[overlays.CompensatorRoot]:
                 if i.kind != "gain"
             ]
     if view.problem.conditions[k].network.sample_time is not None:
-        out = [overlays.CompensatorRoot(r.kind, complex(z_of_w(r.root)), "") for r in out]
+        out = [overlays.CompensatorRoot(r.kind, complex(z_of_w(r.root)), r.name) for r in out]
     return out
 
 

@@ -110,14 +110,16 @@ class Shaping:
         from sessions.shaping import gain_parameter
 
         bench, handle, drag = self.bench, message.handle, self.dragging
+        k = bench.view().first_plotted
         if handle.motion == "root":
             root = complex(message.x, message.y)
-            return lambda: edits.move_root(bench, handle.name, root), f"drag {handle.name}"
+            sampled = bench.session.problem.conditions[k].network.sample_time is not None  # drawn in z
+            move = edits.move_root_in_z if sampled else edits.move_root
+            return lambda: move(bench, handle.name, root), f"drag {handle.name}"
         if handle.motion == "corner":
             unit = 2 * math.pi if bench.session.problem.grid.unit == "hz" else 1.0
             frequency = 10**message.x * unit
-            return lambda: edits.move_item(bench, handle.name, lambda _: frequency), f"drag {handle.name}"
-        k = bench.view().first_plotted
+            return lambda: edits.move_corner(bench, handle.name, frequency), f"drag {handle.name}"
         parameter = self.screen.view_actions.locus_parameter
         if handle.motion == "locus" and parameter != "gain":
             value = float(cast(float, message.value))

@@ -162,6 +162,34 @@ def move_items(bench: Workbench, moves: list[tuple[str, Callable[[float], float]
     return ", ".join(solved)
 
 
+def move_root_in_z(bench: Workbench, name: str, z: complex) -> str:
+    """`move_root` on a sampled loop's plot (its roots drawn in z, its items in w): a real
+    root to the w of the point's real part, a pair's upper root to the point's w."""
+    from engine.model.bilinear import w_of_z
+
+    point = z if "pair" in name.rsplit(".", 1)[-1] else complex(z.real)
+    return move_root(bench, name, complex(w_of_z(point)))
+
+
+def move_corner(bench: Workbench, name: str, frequency: float) -> str:
+    """Move a compensator's item to a corner frequency (rad/s) of the Bode plot: its
+    frequency; in a sampled loop (its items in w), its s-plane equivalent's natural
+    frequency, the damping kept (as `overlays.corners` marks it)."""
+    import cmath
+
+    from engine.model.bilinear import s_equivalent
+
+    sample_time = bench.session.problem.conditions[bench.view().first_plotted].network.sample_time
+    if sample_time is None:
+        return move_item(bench, name, lambda _: frequency)
+    item = next((item for row, _, item in compensator_rows(bench.view()) if row == name), None)
+    if item is None:
+        raise SessionError(f"{name}: no such compensator item")
+    _, zeta, _ = s_equivalent(item.root, sample_time)
+    s = -frequency if "pair" not in name.rsplit(".", 1)[-1] else frequency * complex(-zeta, (1 - zeta**2) ** 0.5)
+    return move_root_in_z(bench, name, cmath.exp(s * sample_time))
+
+
 PAIR_DAMPING = (0.005, 0.995)  # a dragged pair's damping stays within: a pair in the left half-plane
 
 
