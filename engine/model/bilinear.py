@@ -85,6 +85,13 @@ def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:
         return np.where(w == 1, complex(np.inf), (1 + w) / (1 - w))
 
 
+def w_of_z(points: ArrayLike) -> NDArray[np.complex128]:
+    """Points in z in a sampled loop's w-plane, w = (z - 1)/(z + 1), the inverse of `z_of_w` (z = -1: w = inf)."""
+    z = np.asarray(points, dtype=complex)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(z == -1, complex(np.inf), (z - 1) / (z + 1))
+
+
 def s_of_z(z: ArrayLike, sample_time: float) -> NDArray[np.complex128]:
     """The s-plane equivalent s = ln(z)/T of points in z (the one place it is computed): the
     principal branch, |Im s| <= pi/T; z = 0 is s = -inf (infinitely fast)."""

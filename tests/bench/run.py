@@ -42,7 +42,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
     "slp": lambda r: {"slp_major_iteration": algorithms.slp_major_iteration(r)},
     "workbench": lambda r: {"workbench": _workbench()},
     "plots": lambda r: {"bode_600_points_120x40": plots.bode_render(r)},
-    "shaping": lambda r: {"shaping_nudge": shaping.nudge_latency(r)},
+    "shaping": lambda r: {"shaping_nudge": shaping.nudge_latency(r), "shaping_drag": shaping.drag_latency(r)},
     "startup": lambda r: {"startup": startup.cli_startup(min(r, 15))},
     "sweep": lambda r: {"sweep_throughput": startup.sweep_throughput()},
     "tolerance": lambda r: {"tolerance_study": tolerance.tolerance_figures(r)},

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import math
+import os
 import shutil
 import subprocess
 import sys
@@ -99,5 +101,64 @@ def test_every_tab_is_readable_at_80x24(workdir):
             screen = wait_for(session, *words, "? help", "^s save")
             footer = screen.rstrip().splitlines()[-1]
             assert "? help" in footer and "^s save" in footer, (key, footer)
+    finally:
+        tmux("kill-session", "-t", session)
+
+
+def _sgr(session: str, button: int, col: int, row: int, release: bool = False) -> None:
+    """An xterm SGR mouse report (1-based cell) typed into the pane, as a terminal sends it."""
+    tmux("send-keys", "-t", session, "-l", f"\x1b[<{button};{col};{row}{'m' if release else 'M'}")
+
+
+def _shown_number(screen: str, label: str) -> str:
+    """The value after ``label`` on the tableau's row (the first such row)."""
+    line = next(line for line in screen.splitlines() if label in line)
+    return line.split(label, 1)[1].split()[0]
+
+
+def _half_digit(text: str) -> float:
+    """Half the last digit shown: how far a number shown may be from the exact one."""
+    return 0.5 * 10.0 ** -len(text.split(".")[1]) if "." in text else 0.5
+
+
+def test_a_zero_dragged_with_the_mouse_moves_the_margins(workdir):
+    """The lead's zero dragged on the pole map by SGR mouse reports (press, three moves, release):
+    the design changes as one undo step and the tableau's margins are python-control's."""
+    import control as ct
+
+    from tui.cli import main
+
+    path = workdir / "lead.json"
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
+    session = f"loopcraft-e2e-{time.monotonic_ns()}"
+    python_path = f"PYTHONPATH={os.environ['PYTHONPATH']} " if os.environ.get("PYTHONPATH") else ""
+    command = (
+        f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {python_path}{LOOPCRAFT} lead.json"
+    )
+    tmux("new-session", "-d", "-s", session, "-x", "120", "-y", "40", command)
+    tmux("set-option", "-t", session, "window-size", "manual")
+    tmux("resize-window", "-t", session, "-x", "120", "-y", "40")
+    try:
+        wait_for(session, "Iteration 0", "PM deg")
+        for _ in range(4):  # Nyquist, Bode, Nichols, S/T, Poles
+            tmux("send-keys", "-t", session, "p")
+        screen = wait_for(session, "Poles and zeros", "compensator zeros")
+        rows = screen.splitlines()
+        (row,) = [k for k, line in enumerate(rows) if "0┤" in line and "z" in line.split("0┤", 1)[1]]
+        col = rows[row].index("z", rows[row].index("0┤"))
+        _sgr(session, 0, col + 1, row + 1)
+        for step in (1, 2, 3):  # three columns left: the zero at a higher frequency
+            _sgr(session, 32, col + 1 - step, row + 1)
+        _sgr(session, 0, col + 1 - 3, row + 1, release=True)
+        screen = wait_for(session, "edit: T1 value: 1 ->")
+        tmux("send-keys", "-t", session, "C-s")
+        screen = wait_for(session, "saved")
+        values = {p["name"]: p["value"] for p in json.loads(path.read_text())["problem"]["parameters"]}
+        assert values["T1"] < 1 and values["K"] == 1 and values["T2"] == 0.1
+        loop = ct.tf([values["T1"], 1], [values["T2"], 1]) * ct.tf([1], [1, 10, 0, 0])
+        gm, pm, _, _, _, _ = ct.stability_margins(loop)
+        shown_pm, shown_gm = _shown_number(screen, "PM deg"), _shown_number(screen, "GM dB")
+        assert abs(float(shown_pm) - pm) <= _half_digit(shown_pm)
+        assert abs(float(shown_gm) - 20 * math.log10(gm)) <= _half_digit(shown_gm)
     finally:
         tmux("kill-session", "-t", session)

@@ -70,6 +70,7 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
         sample_time = view.problem.conditions[view.first_plotted].network.sample_time
         overlays.corners(out["bode-mag"], roots, unit, sample_time)
+        overlays.gain_drag(out["bode-mag"])
         overlays.nyquist_frequency(out["bode-mag"], out["bode-phase"], sample_time, unit)
     if curves and asked("nichols"):
         out["nichols"] = nichols_figure(curves, unit)
@@ -92,11 +93,12 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
     return out
 
 
-def compensator_roots(view: View) -> list[tuple[str, complex]]:
-    """("zero" or "pole", root: the upper one of a pair) of the plotted condition's
-    compensators at the current design (`engine.design.compensator_items`; none when
-    they do not read); a sampled loop's in z, as its pole map and locus are drawn."""
-    from engine.design.compensator_items import items
+def compensator_roots(view: View) -> list[overlays.CompensatorRoot]:
+    """The zeros and poles (the upper root of a pair) of the plotted condition's
+    compensators at the current design, each with its item's name as the shaping table
+    gives it (`engine.design.compensator_items`; none when they do not read); a sampled
+    loop's in z, as its pole map and locus are drawn."""
+    from engine.design.compensator_items import items, named
     from engine.errors import EngineError
     from engine.model.bilinear import z_of_w
     from engine.model.blocks import ExpressionTransfer
@@ -113,9 +115,13 @@ def compensator_roots(view: View) -> list[tuple[str, complex]]:
             except (EngineError, ValueError):
                 continue
             kinds = {"zero": "zero", "zero pair": "zero", "differentiator": "zero"}
-            out += [(kinds.get(i.kind, "pole"), i.root) for i in found if i.kind != "gain"]
+            out += [
+                overlays.CompensatorRoot(kinds.get(i.kind, "pole"), i.root, f"{entry.label}.{name}")
+                for i, name in zip(found, named(found))
+                if i.kind != "gain"
+            ]
     if view.problem.conditions[k].network.sample_time is not None:
-        out = [(kind, complex(z_of_w(root))) for kind, root in out]
+        out = [overlays.CompensatorRoot(r.kind, complex(z_of_w(r.root)), r.name) for r in out]
     return out
 
 

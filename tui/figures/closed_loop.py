@@ -375,6 +375,7 @@ def locus_figure(
     if crossings:
         fig.xlabel = f"Re   {'jw-axis' if T is None else 'unit-circle'} crossings: {crossings}"
     fig.probe = _locus_probe(locus, name, T)
+    fig.curve_motion = "locus"  # dragged along a branch: the gain (or parameter) at the nearest point
     _square(fig, np.concatenate([current, branches[np.isfinite(branches)]]), current)
     if T is not None:
         _z_grid(fig)

@@ -19,6 +19,20 @@ class Series:
     beneath: bool = False  # drawn under the other series (a reference, a guide, a shaded region): it never hides them
 
 
+@dataclass(frozen=True)
+class Handle:
+    """A mark the mouse drags (`FigurePlot`): a compensator item's (``name``: block.item)
+    at (x, y) as drawn, or a point of the figure's curve (``name`` ""); ``motion`` says what
+    the pointer sets: "root" (the item's root: a real one along the axis, a pair's upper
+    root), "corner" (the item's frequency: x is log10 of it), "gain" (the loop gain: the dB
+    the pointer moved up or down), "locus" (the loop gain at the nearest locus point)."""
+
+    x: float
+    y: float
+    name: str
+    motion: str
+
+
 @dataclass
 class Figure:
     title: str = ""
@@ -35,6 +49,8 @@ class Figure:
     probe: Any = None  # a `navigation.Probe`: where a cursor moves and what it reads
     log_x: bool = False  # x is log10 of a frequency: zoomed ticks are labelled as frequencies
     legend: bool = True  # False: another plot beside it carries the same legend (Bode phase under magnitude)
+    handles: list[Handle] = field(default_factory=list)  # the marks the mouse drags (compensator items)
+    curve_motion: str = ""  # what dragging the probe's curve sets ("gain", "locus"; "": a press there pans)
 
 
 def in_view(series: Series, fig: Figure) -> bool:

@@ -15,12 +15,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from tui.figures.data import Figure, Series
+from tui.figures.data import Figure, Handle, Series
 
 Box = tuple[float, float, float, float]  # x0, x1, y0, y1
 ZOOM = 1.5
 PAN = 0.25
 LIMIT = 1e300  # a zoomed or panned box stays within +-LIMIT (its size and ticks stay finite)
+GRAB_CELLS = 2.0  # a press this near (in cells) a handle or a draggable curve grabs it
 LOG_LIMIT = 300.0  # on a log10 axis (log_x): 1e-300 to 1e300, powers of ten a float holds
 
 
@@ -115,14 +116,41 @@ class Navigation:
         if _showable(box, figure.log_x):
             self.box = box
 
-    def move(self, figure: Figure, step: int) -> None:
-        """Move the cursor along the probe (it appears at its start, else the middle point, first)."""
+    def move(self, figure: Figure, step: int, column: float | None = None) -> None:
+        """Move the cursor along the probe (it appears at its start, else the middle point,
+        first): ``step`` points, or, on a probe that runs left to right with ``column`` (the
+        data width of one column of the view) given, to the first point ``step`` columns
+        away (one point at least): the step follows the zoom, a column zoomed out, a point
+        zoomed in."""
         probe = self.probe(figure)
         if probe is None or not probe.x:
             return
         n = len(probe.x)
-        first = n // 2 if probe.start is None else min(probe.start, n - 1)
-        self.cursor = first if self.cursor is None else min(max(self.cursor + step, 0), n - 1)
+        if self.cursor is None:
+            self.cursor = n // 2 if probe.start is None else min(probe.start, n - 1)
+            return
+        x = np.asarray(probe.x, dtype=float)
+        i = min(self.cursor, n - 1)
+        if column and column > 0 and n > 1 and bool(np.all(np.diff(x) > 0)):
+            target = x[i] + step * column
+            j = (
+                max(int(np.searchsorted(x, target)), i + 1)
+                if step > 0
+                else min(int(np.searchsorted(x, target, "right")) - 1, i - 1)
+            )
+        else:
+            j = i + step
+        self.cursor = min(max(j, 0), n - 1)
+
+    def go_to(self, figure: Figure, value: float) -> bool:
+        """Put the cursor on the probe's point nearest x = ``value`` (on a frequency axis,
+        ``value`` is the frequency: x is its log10); False when there is no such point."""
+        probe = self.probe(figure)
+        if probe is None or not probe.x or not math.isfinite(value) or (figure.log_x and value <= 0):
+            return False
+        x = math.log10(value) if figure.log_x else value
+        self.cursor = int(np.argmin(np.abs(np.asarray(probe.x, dtype=float) - x)))
+        return True
 
     def pick(self, figure: Figure, x: float, y: float, scale: tuple[float, float]) -> None:
         """Put the cursor on the point nearest (x, y) of the nearest curve; ``scale``: the
@@ -166,6 +194,27 @@ class Navigation:
                 series=out.series + [Series([point[0]], [point[1]], "cursor", marker="+", scatter=True, color="red")],
             )
         return out
+
+
+def grab(figure: Figure, x: float, y: float, scale: tuple[float, float]) -> Handle | None:
+    """What a press at (x, y) grabs: the nearest of the figure's handles within
+    `GRAB_CELLS`, else (a figure whose curve drags: `Figure.curve_motion`) its curve, when
+    a point of its probe is within them (the handle at the press's point: a drag moves by
+    the pointer's travel); None: the press pans.  ``scale`` as `Navigation.pick`'s."""
+    handles = figure.handles
+    distance, index = _nearest([h.x for h in handles], [h.y for h in handles], x, y, scale)
+    if distance <= GRAB_CELLS:
+        return handles[index]
+    probe = figure.probe
+    if figure.curve_motion and probe is not None:
+        if _nearest(probe.x, probe.y, x, y, scale)[0] <= GRAB_CELLS:
+            return Handle(x, y, "", figure.curve_motion)
+    return None
+
+
+def nearest_index(probe: Probe, x: float, y: float, scale: tuple[float, float]) -> int:
+    """The index of the probe's point nearest (x, y) (a drag along a locus branch)."""
+    return _nearest(probe.x, probe.y, x, y, scale)[1]
 
 
 def _showable(box: Box, log_x: bool) -> bool:

@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
+from typing import NamedTuple
 
 import numpy as np
 
 from engine.model.bilinear import damping
-from tui.figures.data import Figure, Series
+from tui.figures.data import Figure, Handle, Series
 from tui.figures.navigation import data_box
 from tui.figures.open_loop import disk_edge, m_circle
 from tui.figures.requirements import SHADE, Requirement
@@ -79,10 +80,20 @@ def bode(magnitude: Figure, phase: Figure, found: list[Requirement], unit: str) 
             _shade(phase, req, *band, base, base + req.value)
 
 
-def corners(magnitude: Figure, roots: list[tuple[str, complex]], unit: str, sample_time: float | None = None) -> None:
+class CompensatorRoot(NamedTuple):
+    """A compensator's zero or pole (``kind``), its root (a pair's upper one) and the name
+    of its item (block.item: what a drag moves; "" when it cannot be dragged)."""
+
+    kind: str
+    root: complex
+    name: str
+
+
+def corners(magnitude: Figure, roots: list[CompensatorRoot], unit: str, sample_time: float | None = None) -> None:
     """The compensator's corner frequencies on the Bode magnitude, on the current curve:
     z for a zero (or a pair of zeros), p for a pole, where the shaping table moves them (a
-    root in z at the natural frequency |ln z|/T of its s-plane equivalent)."""
+    root in z at the natural frequency |ln z|/T of its s-plane equivalent); each a handle
+    the mouse drags along the frequency axis."""
     if magnitude.probe is None or not roots:
         return
     scale = 2 * math.pi if unit == "hz" else 1.0
@@ -92,11 +103,19 @@ def corners(magnitude: Figure, roots: list[tuple[str, complex]], unit: str, samp
         return 0.0 if r == 0 else damping(r, sample_time)[1]  # in z: its s-plane equivalent's wn
 
     for kind, marker in (("zero", "z"), ("pole", "p")):
-        at = [math.log10(corner(r) / scale) for k, r in roots if k == kind and corner(r) > 0]
-        at = [v for v in at if x[0] <= v <= x[-1]]
+        at = [(math.log10(corner(r.root) / scale), r.name) for r in roots if r.kind == kind and corner(r.root) > 0]
+        at = [(v, name) for v, name in at if x[0] <= v <= x[-1]]
         if at:
-            label = f"compensator {kind}s"
-            magnitude.series.append(Series(at, np.interp(at, x, y).tolist(), label, marker=marker, scatter=True))
+            xs = [v for v, _ in at]
+            ys = np.interp(xs, x, y).tolist()
+            magnitude.series.append(Series(xs, ys, f"compensator {kind}s", marker=marker, scatter=True))
+            magnitude.handles += [Handle(v, h, name, "corner") for (v, name), h in zip(at, ys) if name]
+
+
+def gain_drag(magnitude: Figure) -> None:
+    """The Bode magnitude's curve dragged up or down moves the loop gain (dB for dB)."""
+    if magnitude.probe is not None:
+        magnitude.curve_motion = "gain"
 
 
 def nyquist_frequency(magnitude: Figure, phase: Figure, sample_time: float | None, unit: str) -> None:
@@ -116,17 +135,30 @@ def _y_range(fig: Figure) -> tuple[float, float]:
     return (min(ys), max(ys)) if ys else (-1.0, 1.0)
 
 
-def compensator_roots(fig: Figure, roots: list[tuple[str, complex]]) -> None:
+def compensator_roots(fig: Figure, roots: list[CompensatorRoot]) -> None:
     """The compensator's zeros (z) and poles (p) on an s-plane figure (the pole map, the
-    root locus), each pair with its conjugate: what the shaping table moves."""
+    root locus), each pair with its conjugate: what the shaping table moves, and the
+    mouse drags (each mark a handle)."""
     if not roots or not fig.series:
         return
     for kind, marker in (("zero", "z"), ("pole", "p")):
-        at = [r for k, root in roots if k == kind for r in ([root, root.conjugate()] if root.imag else [root])]
+        at = [
+            (r, c.name)
+            for c in roots
+            if c.kind == kind
+            for r in ([c.root, c.root.conjugate()] if c.root.imag else [c.root])
+        ]
         if at:
             fig.series.append(
-                Series([r.real for r in at], [r.imag for r in at], f"compensator {kind}s", marker=marker, scatter=True)
+                Series(
+                    [r.real for r, _ in at],
+                    [r.imag for r, _ in at],
+                    f"compensator {kind}s",
+                    marker=marker,
+                    scatter=True,
+                )
             )
+            fig.handles += [Handle(r.real, r.imag, name, "root") for r, name in at if name]
 
 
 def nichols(fig: Figure, found: list[Requirement]) -> None:

@@ -175,6 +175,7 @@ class MainScreen(Screen):
         self.bench = bench
         self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
+        self.dragged_plot: str | None = None  # a drag goes on this plot: the others wait for its release
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
@@ -474,12 +475,14 @@ class MainScreen(Screen):
             self.query_one(HistoryPane).show_iteration(self.query_one(HistoryPane).selected, view)
 
     def draw_missing(self, view: View | None = None) -> None:
-        """The plots on screen whose figures are not of the current view, computed in a
-        thread worker (a tabulated loop's fit takes a second) and shown when done; a
-        newer request replaces one waiting (`LatestWork`).  A plot never drawn says it
-        is computing."""
+        """The plots on screen whose figures are not of the current view (while a drag
+        goes, the dragged one alone: `dragged_plot`), computed in a thread worker (a
+        tabulated loop's fit takes a second) and shown when done; a newer request
+        replaces one waiting (`LatestWork`).  A plot never drawn says it is computing."""
         view = self.bench.view() if view is None else view
         key, canvases = figure_key(view), self.canvases()
+        if self.dragged_plot is not None:  # while dragging, the dragged plot alone follows
+            canvases = {name: canvas for name, canvas in canvases.items() if name == self.dragged_plot}
         missing = {name for name in canvases if name in FIGURE_IDS and self._figure_keys.get(name) != key}
         if not missing:
             return
@@ -488,8 +491,9 @@ class MainScreen(Screen):
             if name not in self._figure_keys:
                 plot.show(Figure(empty_message="computing ..."))
 
-        def compute() -> None:
-            self.post_message(self.FiguresDrawn(key, *drawings(view, canvases, missing)))
+        def compute() -> None:  # (Bode's panels come as a pair: the one not asked for is left as it is)
+            drawn, prebuilt = drawings(view, canvases, missing)
+            self.post_message(self.FiguresDrawn(key, {n: f for n, f in drawn.items() if n in missing}, prebuilt))
 
         self.figure_work.request(compute, (key, frozenset(missing)))
 
@@ -497,6 +501,14 @@ class MainScreen(Screen):
     def _plot_chosen(self, message: FigurePlot.Chosen) -> None:
         if message.plot.id == "locus":  # enter on the root locus: the design takes the gain there
             self.view_actions.adopt_locus_value(float(message.value))
+
+    @on(FigurePlot.AskValue)
+    def _plot_value_asked(self, message: FigurePlot.AskValue) -> None:
+        self.view_actions.go_to(message.plot)
+
+    @on(FigurePlot.Dragged)
+    def _plot_dragged(self, message: FigurePlot.Dragged) -> None:
+        self.shaping.drag(message)
 
     @on(FigurePlot.Navigated)
     def _plot_navigated(self, message: FigurePlot.Navigated) -> None:

@@ -1,8 +1,10 @@
 """The shaping table's requests applied to the session (`ShapeTable.Request`): one route
 for every change a shaping key makes (a move, a typed value, a gain solve, a part added,
 a notch, a deletion), each an edit through `EditFlow.change` (the design on screen made
-the start first, one undo step per burst on one item).  A part composed into the main
-screen (``screen.shaping``); the widget only asks, this applies."""
+the start first, one undo step per burst on one item).  A plot's drags
+(`FigurePlot.Dragged`: a compensator's mark, the Bode magnitude, a locus branch) take the
+same route, one drag one undo step.  A part composed into the main screen
+(``screen.shaping``); the widgets only ask, this applies."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ from typing import TYPE_CHECKING, cast
 
 from sessions.errors import SessionError
 from tui.state import edits
+from tui.widgets.plots import FigurePlot
 from tui.widgets.shape_table import ShapeTable
 
 if TYPE_CHECKING:
@@ -27,6 +30,7 @@ class Shaping:
 
     def __init__(self, screen: MainScreen) -> None:
         self.screen = screen
+        self.dragging = Drag()  # the drag going on (its design at the press, what refused it last)
 
     @property
     def app(self) -> LoopcraftApp:
@@ -69,6 +73,64 @@ class Shaping:
     ) -> None:
         """The one route of a shaping key's change: an edit of the design on screen."""
         self.flow.change(change, what, always_ask=always_ask, done=done, burst=burst)
+
+    def drag(self, message: FigurePlot.Dragged) -> None:
+        """A handle dragged on a plot: the design follows the pointer, each position an edit
+        of one burst (one undo step a drag), the tableau and the dragged plot redrawn, every
+        plot on release; a position refused (a bound, a constraint) leaves the last one
+        accepted, and the release, refused too, says why.  Where the first edit must ask
+        where to start from (recorded iterations), the design moves on release alone."""
+        key = (message.plot.id, message.drag)
+        if self.dragging.key != key:
+            self.dragging = Drag(key)
+        self.screen.dragged_plot = None if message.done else message.plot.id  # the others on release
+        if self.app.busy:
+            if message.done:
+                self.app.notify("a drag: not while a run or a sweep goes (space pauses it)", timeout=3)
+            return
+        if not message.done and self.bench.iteration > 0 and self.bench.start is None:
+            return  # the first edit asks where to start from: once, on release
+
+        def refused(reason: str) -> None:
+            if message.done:
+                self.app.notify(reason, title="the drag stopped short", severity="warning", timeout=8)
+
+        try:
+            change, what = self.dragged(message)
+        except SessionError as exc:
+            refused(str(exc))
+        else:
+            self.flow.change(change, what, burst=("drag", *key), refused=refused)
+        if message.done:
+            self.bench.edits.end_burst()
+            self.screen.refresh_plots()  # every plot of the design the drag left (those of no change too)
+
+    def dragged(self, message: FigurePlot.Dragged) -> tuple[Callable[[], object], str]:
+        """The edit that puts the dragged handle under the pointer, and what it does."""
+        from sessions.shaping import gain_parameter
+
+        bench, handle, drag = self.bench, message.handle, self.dragging
+        k = bench.view().first_plotted
+        if handle.motion == "root":
+            root = complex(message.x, message.y)
+            sampled = bench.session.problem.conditions[k].network.sample_time is not None  # drawn in z
+            move = edits.move_root_in_z if sampled else edits.move_root
+            return lambda: move(bench, handle.name, root), f"drag {handle.name}"
+        if handle.motion == "corner":
+            unit = 2 * math.pi if bench.session.problem.grid.unit == "hz" else 1.0
+            frequency = 10**message.x * unit
+            return lambda: edits.move_corner(bench, handle.name, frequency), f"drag {handle.name}"
+        parameter = self.screen.view_actions.locus_parameter
+        if handle.motion == "locus" and parameter != "gain":
+            value = float(cast(float, message.value))
+            return lambda: edits.set_parameters(bench, {parameter: value}, k), f"drag {parameter} along the locus"
+        if drag.gain is None:  # the gain parameter and its value at the press
+            values = bench.session.problem.condition_values(k)
+            name = gain_parameter(bench.session, k, values)
+            drag.gain = (name, values[name])
+        name, start = drag.gain
+        factor = 10 ** ((message.y - handle.y) / 20) if handle.motion == "gain" else float(cast(float, message.value))
+        return lambda: edits.set_parameters(bench, {name: start * factor}, k), f"drag the loop gain ({name})"
 
     def move(self, request: ShapeTable.Move) -> None:
         """Scale an item's frequency, damping or gain; the nudges of one item, one burst."""
@@ -184,6 +246,15 @@ class Shaping:
             always_ask=True,
             done=lambda text: self.app.notify(str(text), timeout=8),
         )
+
+
+class Drag:
+    """The drag going on: its key (plot, count) and the gain parameter and its value at
+    the press (a gain or locus drag scales from there)."""
+
+    def __init__(self, key: tuple[object, ...] = ()) -> None:
+        self.key = key
+        self.gain: tuple[str, float] | None = None
 
 
 def positive(text: str) -> str | None:

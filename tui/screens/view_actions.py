@@ -182,6 +182,15 @@ class ViewActions:
             f"{parameter} = {value:.5g} (the root locus's cursor)",
         )
 
+    def go_to(self, plot: FigurePlot) -> None:
+        """v on a plot: ask for a value of x (a frequency on a frequency axis), then put the
+        cursor on the curve's point nearest it."""
+        from tui.screens.shaping import finite, positive
+
+        frequency = plot.figure.log_x
+        title = f"the cursor to {plot.figure.xlabel or 'x'}" + (" (a frequency)" if frequency else "")
+        self.screen.app.edit_flow.ask(title, positive if frequency else finite, lambda text: plot.go_to(float(text)))
+
     def locus_drawn(self, message: ViewActions.LocusDrawn) -> None:
         if message.key == self._locus_key:
             self.screen.query_one("#locus", FigurePlot).show(message.figure)

@@ -140,17 +140,72 @@ def move_item(bench: Workbench, name: str, target: Callable[[float], float]) -> 
     condition) to ``target(now)`` of its frequency, damping or gain, solving for the
     parameters that own it (`engine.design.compensator_moves.move_named`), as one
     transaction; their names."""
+    return move_items(bench, [(name, target)])
+
+
+def move_items(bench: Workbench, moves: list[tuple[str, Callable[[float], float]]]) -> str:
+    """`move_item` for several measures (a pair's frequency, then its damping), each solved
+    at the values the one before left, all set as one transaction; the parameters' names."""
     from engine.design.compensator_moves import move_named
 
     problem = bench.session.problem
     k = bench.view().first_plotted
     bounds = {p.name: (p.min, p.max) for p in bench.session.model.problem.parameters}
-    try:
-        move = move_named(problem.conditions[k].network, problem.condition_values(k), name, target, bounds)
-    except EngineError as exc:
-        raise SessionError(str(exc)) from None
-    set_parameters(bench, move.values, k)
-    return ", ".join(move.values)
+    values, solved = problem.condition_values(k), {}
+    for name, target in moves:
+        try:
+            move = move_named(problem.conditions[k].network, values, name, target, bounds)
+        except EngineError as exc:
+            raise SessionError(str(exc)) from None
+        values, solved = {**values, **move.values}, {**solved, **move.values}
+    set_parameters(bench, solved, k)
+    return ", ".join(solved)
+
+
+def move_root_in_z(bench: Workbench, name: str, z: complex) -> str:
+    """`move_root` on a sampled loop's plot (its roots drawn in z, its items in w): a real
+    root to the w of the point's real part, a pair's upper root to the point's w."""
+    from engine.model.bilinear import w_of_z
+
+    point = z if "pair" in name.rsplit(".", 1)[-1] else complex(z.real)
+    return move_root(bench, name, complex(w_of_z(point)))
+
+
+def move_corner(bench: Workbench, name: str, frequency: float) -> str:
+    """Move a compensator's item to a corner frequency (rad/s) of the Bode plot: its
+    frequency; in a sampled loop (its items in w), its s-plane equivalent's natural
+    frequency, the damping kept (as `overlays.corners` marks it)."""
+    import cmath
+
+    from engine.model.bilinear import s_equivalent
+
+    sample_time = bench.session.problem.conditions[bench.view().first_plotted].network.sample_time
+    if sample_time is None:
+        return move_item(bench, name, lambda _: frequency)
+    item = next((item for row, _, item in compensator_rows(bench.view()) if row == name), None)
+    if item is None:
+        raise SessionError(f"{name}: no such compensator item")
+    _, zeta, _ = s_equivalent(item.root, sample_time)
+    s = -frequency if "pair" not in name.rsplit(".", 1)[-1] else frequency * complex(-zeta, (1 - zeta**2) ** 0.5)
+    return move_root_in_z(bench, name, cmath.exp(s * sample_time))
+
+
+PAIR_DAMPING = (0.005, 0.995)  # a dragged pair's damping stays within: a pair in the left half-plane
+
+
+def move_root(bench: Workbench, name: str, root: complex) -> str:
+    """Move a compensator's zero or pole (``block.item``) to a point of the s-plane: a real
+    one to the frequency |Re root| (along its half of the axis), a pair's upper root to
+    ``root`` (its wn, then its zeta within `PAIR_DAMPING`), as one transaction."""
+    if "pair" not in name.rsplit(".", 1)[-1]:
+        if root.real == 0:
+            raise SessionError(f"{name}: not to the origin (drag it along the real axis)")
+        return move_item(bench, name, lambda _: abs(root.real))
+    if root == 0:
+        raise SessionError(f"{name}: a pair not to the origin")
+    low, high = PAIR_DAMPING
+    zeta = min(max(-root.real / abs(root), low), high)
+    return move_items(bench, [(name, lambda _: abs(root)), (f"{name}.zeta", lambda _: zeta)])
 
 
 def add_part(bench: Workbench, block: str, kind: str) -> str:

@@ -1,7 +1,11 @@
 """The plot widget: a `Figure` drawn on a text canvas (`tui.drawing.text_canvas`), with
-keys and the mouse to zoom, pan and move a data tip (`tui.figures.navigation`)."""
+keys and the mouse to zoom, pan and move a data tip (`tui.figures.navigation`), and the
+mouse to drag the figure's handles (a compensator's marks, the Bode magnitude, a locus
+branch): the widget only says where the pointer is (`FigurePlot.Dragged`)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from rich.text import Text
 from textual import events
@@ -11,11 +15,29 @@ from textual.widget import Widget
 from textual_plotext import PlotextPlot
 
 from tui.drawing.text_canvas import Drawing, Frame, draw
-from tui.figures.data import Figure
-from tui.figures.navigation import Navigation, xy_probe
+from tui.figures.data import Figure, Handle
+from tui.figures.navigation import Navigation, Probe, grab, nearest_index, xy_probe
 from tui.keys import identified
 
 Prebuilt = tuple[tuple[int, int, str], Drawing | None]
+
+
+@dataclass(frozen=True)
+class Grip:
+    """A handle grabbed by a press: the figure's probe then (a locus drag picks along it),
+    the data area pressed (the pointer's data point during the drag) and the view before
+    (the view is held still while dragging, then given back)."""
+
+    handle: Handle
+    probe: Probe | None
+    frame: Frame
+    box: tuple[float, float, float, float] | None
+
+
+def _cells_per_unit(frame: Frame) -> tuple[float, float]:
+    """Cells per data unit across and up (a row is about two columns tall): nearness as the eye sees it."""
+    (x0, x1), (y0, y1) = frame.xlim, frame.ylim
+    return (frame.right - frame.left) / ((x1 - x0) or 1.0), 2 * (frame.bottom - frame.top) / ((y1 - y0) or 1.0)
 
 
 class FigurePlot(PlotextPlot):
@@ -46,6 +68,13 @@ class FigurePlot(PlotextPlot):
             Binding("right", "cursor(1)", "cursor", show=False, id="plot.cursor_right"),
             Binding("shift+left", "cursor(-10)", "", show=False, id="plot.cursor_left_10"),
             Binding("shift+right", "cursor(10)", "", show=False, id="plot.cursor_right_10"),
+            Binding(
+                "v",
+                "ask_value",
+                "go to",
+                tooltip="the cursor to a typed value of x (on a frequency axis, the frequency)",
+                id="plot.go_to",
+            ),
             Binding("h", "pan(-0.25, 0)", "pan", tooltip="pan: h j k l", id="plot.pan_left"),
             Binding("l", "pan(0.25, 0)", "", show=False, id="plot.pan_right"),
             Binding("k", "pan(0, 0.25)", "", show=False, id="plot.pan_up"),
@@ -68,12 +97,32 @@ class FigurePlot(PlotextPlot):
             super().__init__()
             self.plot, self.value = plot, value
 
+    class AskValue(Message):
+        """v: the cursor to a typed value (the screen asks for it, then calls `go_to`)."""
+
+        def __init__(self, plot: FigurePlot) -> None:
+            super().__init__()
+            self.plot = plot
+
     class Navigated(Message):
         """Zoomed, panned or its cursor moved (a linked panel follows: `follow`)."""
 
         def __init__(self, plot: FigurePlot) -> None:
             super().__init__()
             self.plot = plot
+
+    class Dragged(Message):
+        """A handle (`Figure.handles`, or the figure's curve) dragged: the pointer at data
+        (x, y); ``value`` the locus's value at the point nearest it (a "locus" drag, on the
+        locus as pressed); ``done`` on release; ``drag`` counts the plot's drags (each one
+        undo step)."""
+
+        def __init__(
+            self, plot: FigurePlot, handle: Handle, x: float, y: float, value: object, done: bool, drag: int
+        ) -> None:
+            super().__init__()
+            self.plot, self.handle, self.x, self.y = plot, handle, x, y
+            self.value, self.done, self.drag = value, done, drag
 
     class Shown(Message):
         """The plot came on screen (its tab shown, the screen resumed): whatever it shows
@@ -93,6 +142,8 @@ class FigurePlot(PlotextPlot):
         self._imaged: tuple | None = None  # what the image shows: (figure, navigation, canvas)
         self._drag: tuple[int, int] | None = None  # the cell a mouse button went down on
         self._dragged = False
+        self._grip: Grip | None = None  # the handle a press grabbed (None: a press pans)
+        self._drags = 0  # the handle drags so far (each names its undo step)
 
     def navigated(self) -> None:
         """Draw the new view and say so (a linked panel follows)."""
@@ -113,8 +164,21 @@ class FigurePlot(PlotextPlot):
         self.navigated()
 
     def action_cursor(self, step: int) -> None:
-        self.navigation.move(self.figure, step)
+        """The cursor ``step`` columns of the view along the curve (points where it doubles back)."""
+        frame = self.drawing.frames[0] if self.drawing is not None and len(self.drawing.frames) == 1 else None
+        column = None if frame is None else (frame.xlim[1] - frame.xlim[0]) / max(frame.right - frame.left, 1)
+        self.navigation.move(self.figure, step, column)
         self.navigated()
+
+    def action_ask_value(self) -> None:
+        self.post_message(self.AskValue(self))
+
+    def go_to(self, value: float) -> bool:
+        """The cursor to the point nearest a value of x (`Navigation.go_to`); False: none."""
+        moved = self.navigation.go_to(self.figure, value)
+        if moved:
+            self.navigated()
+        return moved
 
     def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
         """enter acts only on a cursor over a probe that picks a value (a root locus)."""
@@ -152,15 +216,28 @@ class FigurePlot(PlotextPlot):
         self.navigated()
 
     def on_mouse_down(self, event: events.MouseDown) -> None:
+        """A press on a handle grabs it (the view held still while it is dragged), else pans."""
         self._drag, self._dragged = self._cell(event), False
+        frame = self._frame(self._drag)
+        handle = None if frame is None else grab(self.figure, *frame.point(*self._drag), _cells_per_unit(frame))
+        if handle is not None and frame is not None:
+            self._drags += 1
+            self._grip = Grip(handle, self.navigation.probe(self.figure), frame, self.navigation.box)
+            self.navigation.box = (*frame.xlim, *frame.ylim)
         self.capture_mouse()
 
     def on_mouse_move(self, event: events.MouseMove) -> None:
-        """A drag pans: the data under the pointer follows it."""
+        """A drag moves the grabbed handle, else pans: the data under the pointer follows it."""
         if self._drag is None:
             return
         offset = event.get_content_offset_capture(self)  # the mouse is captured: it may leave the plot
-        cell, frame = (offset.x, offset.y), self._frame(self._drag)
+        cell = (offset.x, offset.y)
+        if self._grip is not None:
+            if cell != self._drag:
+                self._drag, self._dragged = cell, True
+                self._post_drag(cell, done=False)
+            return
+        frame = self._frame(self._drag)
         if frame is None or cell == self._drag:
             return
         x0, y0 = frame.point(*self._drag)
@@ -170,17 +247,35 @@ class FigurePlot(PlotextPlot):
         self.navigated()
 
     def on_mouse_up(self, event: events.MouseUp) -> None:
-        """A click (no drag) puts the data tip on the nearest point of the nearest curve."""
+        """A drag's release commits it; a click (no drag) puts the data tip on the nearest
+        point of the nearest curve."""
         self.release_mouse()
         clicked, self._drag = self._drag is not None and not self._dragged, None
+        grip, self._grip = self._grip, None
+        if grip is not None:
+            self.navigation.box = grip.box
+            if not clicked:
+                offset = event.get_content_offset_capture(self)
+                self._post_drag((offset.x, offset.y), done=True, grip=grip)
+            self.refresh()
+            if not clicked:
+                return
         cell = self._cell(event)
         frame = self._frame(cell)
         if clicked and frame is not None:
-            (x0, x1), (y0, y1) = frame.xlim, frame.ylim
-            across = (frame.right - frame.left) / ((x1 - x0) or 1.0)
-            up = 2 * (frame.bottom - frame.top) / ((y1 - y0) or 1.0)  # a row is about two columns tall
-            self.navigation.pick(self.figure, *frame.point(*cell), (across, up))
+            self.navigation.pick(self.figure, *frame.point(*cell), _cells_per_unit(frame))
             self.navigated()
+
+    def _post_drag(self, cell: tuple[int, int], done: bool, grip: Grip | None = None) -> None:
+        """Say where the grabbed handle is dragged to (in the data units of the press's view)."""
+        grip = grip or self._grip
+        if grip is None:
+            return
+        x, y = grip.frame.point(*cell)
+        value = None
+        if grip.handle.motion == "locus" and grip.probe is not None and grip.probe.chosen is not None:
+            value = grip.probe.chosen(nearest_index(grip.probe, x, y, _cells_per_unit(grip.frame)))
+        self.post_message(self.Dragged(self, grip.handle, x, y, value, done, self._drags))
 
     def _cell(self, event: events.MouseEvent) -> tuple[int, int] | None:
         offset = event.get_content_offset(self)

@@ -1,0 +1,292 @@
+"""Dragging on the plots (issue 55): a compensator's zero or pole on the pole map and the
+root locus, a corner along the Bode magnitude, the magnitude curve up and down for the
+gain, a locus branch for the gain; one drag one undo step, a bound said on release.  The
+mouse events are posted at cells computed from each plot's data-to-cell mapping (its
+`Frame`), and every design is checked against python-control's margins."""
+
+from __future__ import annotations
+
+import math
+
+import control as ct
+import pytest
+from textual import events
+
+from tests.tui.test_app import settle, synchronous
+from tests.tui.test_shape_table import lead_app, start_values
+from tui.app import LoopcraftApp
+from tui.screens.dialogs import StartDialog
+from tui.state import edits
+
+
+def _loop(values) -> ct.TransferFunction:
+    """K (1 + T1 s) / (1 + T2 s) / (s^2 (s + 10)): the lead session's loop."""
+    return ct.tf([values["K"] * values["T1"], values["K"]], [values["T2"], 1]) * ct.tf([1], [1, 10, 0, 0])
+
+
+def _post(plot, kind, cell: tuple[int, int]) -> None:
+    """A mouse event at a cell of the plot's content, as the terminal's driver sends it."""
+    content = plot.content_region
+    sx, sy = content.x + cell[0], content.y + cell[1]
+    plot.app.post_message(kind(None, sx, sy, 0, 0, 1, False, False, False, screen_x=sx, screen_y=sy))
+
+
+def _cell(frame, x: float, y: float) -> tuple[int, int]:
+    col, row = frame.cells(x, y)
+    return round(col), round(row)
+
+
+async def _drag(app, pilot, plot, start: tuple[int, int], path: list[tuple[int, int]]) -> None:
+    """Press at ``start``, move along ``path``, release at its end; then wait until the
+    design's plots are drawn."""
+    _post(plot, events.MouseDown, start)
+    for cell in path:
+        _post(plot, events.MouseMove, cell)
+        await pilot.pause()
+    _post(plot, events.MouseUp, path[-1])
+    await settle(app, pilot)
+
+
+async def _shown(app, pilot, tab: str, plot_id: str):
+    app.screen.set_focus(None)  # a focused plot (a press focuses it) would keep its tab shown
+    app.screen.query_one("#plots").active = tab
+    await settle(app, pilot)
+    plot = app.screen.query_one(f"#{plot_id}")
+    await pilot.wait_for_scheduled_animations()
+    await settle(app, pilot)
+    return plot
+
+
+def _margins(values) -> tuple[float, float, float]:
+    """python-control's gain margin (dB), phase margin (deg) and crossover (rad/s)."""
+    gm, pm, _, _, wc, _ = ct.stability_margins(_loop(values))
+    return 20 * math.log10(gm), pm, wc
+
+
+def _tableau(app) -> dict[str, float]:
+    """The tableau's values by kind (the design on screen)."""
+    rows, _ = app.bench.view().tableau()
+    return {row.kind: row.value for row in rows}
+
+
+def _agrees(app) -> None:
+    """The tableau's margins are python-control's of the design the drag made."""
+    gm_db, pm, _ = _margins(start_values(app))
+    shown = _tableau(app)
+    assert shown["phase_margin_deg"] == pytest.approx(pm, abs=1e-6)
+    assert shown["gain_margin_db"] == pytest.approx(gm_db, abs=1e-6)
+
+
+@synchronous
+async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, monkeypatch):
+    app = lead_app(tmp_path, monkeypatch)
+    said: list[str] = []
+    notify = app.notify
+    monkeypatch.setattr(app, "notify", lambda message, **kw: (said.append(str(message)), notify(message, **kw)))
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        undo = len(app.bench.edits.undo_stack)
+
+        # the pole map: the zero (at 1/T1) dragged along the real axis, the pointer off it
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        assert {h.name for h in plot.figure.handles} == {"compensator.zero1", "compensator.pole1"}  # no plant mark
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 3, start[1] + 1)
+        await _drag(app, pilot, plot, start, [(start[0] - 1, start[1]), (start[0] - 2, start[1] - 1), end])
+        assert 1 / start_values(app)["T1"] == pytest.approx(-frame.point(*end)[0], rel=1e-9)
+        assert len(app.bench.edits.undo_stack) == undo + 1  # three positions, one undo step
+        assert plot.navigation.box is None  # the view held still while dragging, given back on release
+        _agrees(app)
+
+        # past its bound (the session keeps T1 <= 20 T2: the zero >= 0.5 rad/s): it stops there, said
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        beyond = _cell(frame, -0.05, 0.0)
+        await _drag(app, pilot, plot, start, [_cell(frame, -0.6, 0.0), beyond])
+        assert 1 / start_values(app)["T1"] == pytest.approx(-frame.point(*_cell(frame, -0.6, 0.0))[0], rel=1e-9)
+        assert any("T1 <= 20*T2" in text or "bound" in text for text in said[-1:]), said[-3:]
+        assert len(app.bench.edits.undo_stack) == undo + 2
+
+        # the Bode magnitude: the pole's corner along frequency, then the curve up for the gain
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        frame = plot.drawing.frames[0]
+        (pole,) = [h for h in plot.figure.handles if h.name == "compensator.pole1"]
+        start = _cell(frame, pole.x, pole.y)
+        end = (start[0] - 4, start[1])  # lower (higher, T1 <= 20 T2 soon bites: the zero is at 0.6)
+        phase = app.screen.query_one("#bode-phase")
+        drawn = phase.figure
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, (start[0] - 2, start[1]))
+        await settle(app, pilot)
+        assert plot.figure.handles[1].x < pole.x and phase.figure is drawn  # the dragged plot alone follows
+        _post(plot, events.MouseMove, end)
+        _post(plot, events.MouseUp, end)
+        await settle(app, pilot)
+        assert phase.figure is not drawn  # every plot on release
+        assert 1 / start_values(app)["T2"] == pytest.approx(10 ** frame.point(*end)[0], rel=1e-9)
+        _agrees(app)
+        frame = plot.drawing.frames[0]
+        probe = plot.figure.probe
+        corners = [_cell(frame, h.x, h.y)[0] for h in plot.figure.handles]
+        i = max(range(len(probe.x)), key=lambda k: min(abs(_cell(frame, probe.x[k], 0)[0] - c) for c in corners))
+        start = _cell(frame, probe.x[i], probe.y[i])  # the curve's point farthest from the corners
+        gain = start_values(app)["K"]
+        end = (start[0] + 1, start[1] - 1)  # a row up (17 dB at this size)
+        await _drag(app, pilot, plot, start, [end])
+        rise = frame.point(*end)[1] - frame.point(*start)[1]
+        assert start_values(app)["K"] == pytest.approx(gain * 10 ** (rise / 20), rel=1e-9) and rise > 0
+        _agrees(app)
+        assert len(app.bench.edits.undo_stack) == undo + 4
+
+        # the root locus: along a branch, the loop gain at the nearest point
+        plot = await _shown(app, pilot, "p-locus", "locus")
+        for _ in range(20):  # the coarse locus, then the fine one (each drawn by a worker), then painted
+            drawn = plot.drawing is not None and plot.drawing.frames[0].xlim == plot.figure.xlim
+            if plot.figure.series and "coarse" not in plot.figure.title and drawn:
+                break
+            await settle(app, pilot)
+        assert "coarse" not in plot.figure.title and plot.drawing.frames[0].xlim == plot.figure.xlim
+        frame, probe = plot.drawing.frames[0], plot.figure.probe
+        values = start_values(app)
+        (x0, x1), (_, y1) = frame.xlim, frame.ylim
+        marks = [_cell(frame, h.x, h.y) for h in plot.figure.handles]
+
+        def clear(k: int) -> bool:  # a point of the upper half in view, away from the compensator's marks
+            col, row = _cell(frame, probe.x[k], probe.y[k])
+            inside = 0.3 * y1 < probe.y[k] < y1 and x0 < probe.x[k] < x1
+            return inside and all(max(abs(col - c), abs(row - r)) > 3 for c, r in marks)
+
+        upper = [k for k in range(len(probe.x)) if clear(k)]
+        a, b = upper[len(upper) // 3], upper[2 * len(upper) // 3]
+        start, end = _cell(frame, probe.x[a], probe.y[a]), _cell(frame, probe.x[b], probe.y[b])
+        await _drag(app, pilot, plot, start, [end])
+        x, y = frame.point(*end)
+        across, up = (frame.right - frame.left) / (x1 - x0), 2 * (frame.bottom - frame.top) / (y1 - frame.ylim[0])
+        nearest = min(range(len(probe.x)), key=lambda k: math.hypot((probe.x[k] - x) * across, (probe.y[k] - y) * up))
+        after = start_values(app)
+        assert after["K"] == pytest.approx(values["K"] * probe.chosen(nearest), rel=1e-9)
+        poles = ct.poles(ct.feedback(_loop(after), 1))
+        point = complex(probe.x[nearest], probe.y[nearest])
+        assert min(abs(poles - point)) <= 1e-6 * abs(point)  # the point is a closed-loop pole of the design
+        _agrees(app)
+
+        # v types where the cursor goes: the Bode magnitude's point nearest 2.5 rad/s
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        plot.focus()
+        await pilot.press("v")
+        await pilot.pause()
+        app.screen.query_one("#value").value = "2.5"
+        await pilot.press("enter")
+        await settle(app, pilot)
+        x = plot.figure.probe.x
+        assert plot.navigation.cursor == min(range(len(x)), key=lambda k: abs(x[k] - math.log10(2.5)))
+        assert app.screen.query_one("#bode-phase").navigation.cursor == plot.navigation.cursor  # linked
+
+        # undo takes the drags back one at a time
+        for _ in range(5):
+            await pilot.press("ctrl+z")
+            await settle(app, pilot)
+        assert start_values(app) == {"K": 1.0, "T1": 1.0, "T2": 0.1}
+
+        # a pair: a notch added (its zeros zeta 0.05, its poles zeta 0.5), the poles' upper
+        # mark dragged on the pole map: the pair's upper root goes to the pointer (wn, zeta)
+        app.screen.shaping.change(lambda: edits.add_part(app.bench, "compensator", "notch"), "a notch")
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        (upper,) = [h for h in plot.figure.handles if h.name == "compensator.polepair1" and h.y > 0]
+        start = _cell(frame, upper.x, upper.y)
+        end = (start[0] - 1, start[1] - 1)  # up and to the left (a column is 0.3 rad/s here)
+        await _drag(app, pilot, plot, start, [(start[0], start[1] - 1), end])
+        target = complex(*frame.point(*end))
+        values = app.bench.session.problem.condition_values(0)
+        wn, zeta = values["notch1_wp"], values["notch1_zp"]
+        assert complex(-zeta * wn, wn * math.sqrt(1 - zeta**2)) == pytest.approx(target, rel=1e-9)
+        poles = ct.poles(ct.tf([1], [1 / wn**2, 2 * zeta / wn, 1]))  # python-control's roots of the pair's factor
+        assert min(abs(poles - target)) <= 1e-9 * abs(target)
+
+        # after an iteration, the drag asks where to start from once, on release, and moves then
+        await pilot.press("s")
+        await settle(app, pilot)
+        assert app.bench.iteration == 1 and app.bench.start is None
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 2, start[1])
+        design = app.bench.view().parameters(None, 0)
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, (start[0] - 1, start[1]))
+        await settle(app, pilot)
+        assert not isinstance(app.screen, StartDialog) and app.bench.iteration == 1  # nothing moved yet
+        _post(plot, events.MouseUp, end)
+        await settle(app, pilot)
+        assert isinstance(app.screen, StartDialog)
+        await pilot.press("y")  # the design on screen is the start
+        await settle(app, pilot)
+        values = start_values(app)
+        assert app.bench.iteration == 0 and 1 / values["T1"] == pytest.approx(-frame.point(*end)[0], rel=1e-9)
+        assert values["K"] == pytest.approx(design["K"], rel=1e-12)  # the iteration's design, the zero moved
+
+
+def test_the_cursor_steps_a_column_of_the_view_and_goes_to_a_typed_value():
+    """left/right move the cursor a column of the view (ten with shift), at least a point:
+    zoomed out a key jumps many points, zoomed in it moves one; v puts it at a value."""
+    from tui.figures.data import Figure, Series
+    from tui.figures.navigation import Navigation, xy_probe
+
+    x = [k / 100 for k in range(401)]  # log10 of 1 to 10^4 rad/s, 100 points a decade
+    curve = Series(x, [-20 * v for v in x])
+    figure = Figure(series=[curve], probe=xy_probe(curve), log_x=True)
+    nav = Navigation()
+    nav.move(figure, 1, column=0.0625)  # the cursor appears mid-curve
+    assert nav.cursor == 200
+    nav.move(figure, 1, column=0.0625)  # a column: 6.25 points, so the seventh
+    assert nav.cursor == 207
+    nav.move(figure, -10, column=0.0625)  # shift: ten columns back
+    assert nav.cursor == 207 - 63 == 144
+    nav.move(figure, 1, column=0.001)  # zoomed in: a column is less than a point
+    assert nav.cursor == 145
+    nav.move(figure, -1)  # no view known: a point
+    assert nav.cursor == 144
+    assert nav.go_to(figure, 50.0) and nav.cursor == 170  # log10(50) = 1.699
+    assert not nav.go_to(figure, -1.0) and nav.cursor == 170  # no frequency below zero
+
+
+@synchronous
+async def test_drags_on_a_sampled_loop_move_its_roots_in_z(tmp_path, monkeypatch):
+    """A lead in z (Tustin's map, T = 0.1 s): its zero dragged on the pole map (drawn in z)
+    goes to the pointer's real part in z, and its corner dragged along the Bode magnitude
+    puts its s-plane equivalent's frequency at the pointer's; python-control's Tustin
+    discretization of the lead gives the same zero."""
+    from tui.cli import main
+
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    path, T = tmp_path / "lead_z.json", 0.1
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead", "--sample-time", "0.1"]) == 0
+
+    def zero_in_z() -> float:
+        values = start_values(app)
+        (zero,) = ct.zeros(ct.sample_system(ct.tf([values["T1"], 1], [values["T2"], 1]), T, method="tustin"))
+        return float(zero.real)
+
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        assert zero.x == pytest.approx(zero_in_z(), rel=1e-9)  # drawn in z
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 2, start[1] - 1)  # a smaller z: a faster zero
+        await _drag(app, pilot, plot, start, [(start[0] - 1, start[1]), end])
+        assert zero_in_z() == pytest.approx(frame.point(*end)[0], rel=1e-9)
+
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        frame = plot.drawing.frames[0]
+        (corner,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, corner.x, corner.y)
+        end = (start[0] - 3, start[1])
+        await _drag(app, pilot, plot, start, [end])
+        assert -math.log(zero_in_z()) / T == pytest.approx(10 ** frame.point(*end)[0], rel=1e-9)
