@@ -77,6 +77,7 @@ def _agrees(app) -> None:
     assert shown["gain_margin_db"] == pytest.approx(gm_db, abs=1e-6)
 
 
+@pytest.mark.long
 @synchronous
 async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, monkeypatch):
     app = lead_app(tmp_path, monkeypatch)
