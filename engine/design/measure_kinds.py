@@ -29,12 +29,15 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
+
+if TYPE_CHECKING:
+    from engine.design.problem import Target
 
 Domain = Literal["frequency", "time", "poles"]
 DOMAINS: tuple[Domain, ...] = ("frequency", "time", "poles")
@@ -245,9 +248,25 @@ class TargetUse:
     reads: bool = True
     refusal: str = "is not a measure it reads"
     refusals: tuple[tuple[str, str], ...] = ()
+    breaks: bool = False  # whether it reads a target at another loop break than the design's (`break`)
 
     def accepts(self, name: str) -> bool:
         return self.reads and name in self.measures
+
+    def accepts_target(self, target: Target) -> bool:
+        """Whether it reads ``target``: its measure, and its break when it names one."""
+        return self.accepts(target.measure) and (target.loop_break is None or self.breaks)
+
+    def check_targets(self, algorithm: str, targets: Iterable[Target]) -> None:
+        """`check` of the targets' measures, and an `EngineError` naming a target at a break it does not read."""
+        targets = list(targets)
+        self.check(algorithm, (t.measure for t in targets))
+        for k, t in enumerate(targets):
+            if t.loop_break is not None and not self.breaks:
+                raise EngineError(
+                    f"{algorithm}: target {k} ({t.measure}) is read at the loop break {t.loop_break!r}: "
+                    f"{algorithm} reads its targets at the design's break only (slp reads them at any break)"
+                )
 
     def why_not(self, name: str) -> str:
         """Why the measure ``name`` is refused (a phrase after the measure's name)."""
