@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.design.measure_kinds import EVERY_BREAK
 from engine.design.problem import (
     FREQUENCY_MEASURES,
     BandValue,
@@ -155,10 +156,12 @@ def _check_break(t: TargetModel, path: str, conditions: tuple[Condition, ...]) -
         return
     if t.measure not in FREQUENCY_MEASURES:
         raise SessionError(f"{path}: a {t.measure} target is read on the whole closed loop, not at a loop break")
+    if t.measure in EVERY_BREAK:
+        raise SessionError(f"{path}: a {t.measure} target is read at every break of its conditions at once, not at one")
     for c in conditions:
-        if t.condition in (None, c.name) and t.at_break not in c.breaks:
+        if t.condition in (None, c.name) and t.at_break not in c.every_break:
             raise SessionError(
-                f"{path}: {t.at_break!r} is not a break of condition {c.name!r} (its breaks: {', '.join(c.breaks)})"
+                f"{path}: {t.at_break!r} is not a break of condition {c.name!r} (its breaks: {', '.join(c.every_break)})"
             )
 
 

@@ -117,6 +117,17 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
         "D",
     ),
     ("delay_margin", "delay margin", "delay", "s", True, 0.1, "frequency", "DLY", "P"),
+    (
+        "multi_loop_disk_margin",
+        "multi-loop disk margin alpha (every break at once, skew 0)",
+        "ML disk",
+        "",
+        True,
+        0.3,
+        "frequency",
+        "MDM",
+        "D",
+    ),
     ("rise_time", "rise time", "rise", "s", False, 1.0, "time", "TR"),
     ("settling_time", "settling time", "settle", "s", False, 5.0, "time", "TS"),
     ("overshoot_percent", "overshoot", "OS %", "%", False, 20.0, "time", "OS"),
@@ -135,6 +146,11 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
         "STAB",
     ),
 )
+
+
+# read at every loop break of a condition at once (its `breaks`), not on one loop: the certified
+# alpha of `engine.multiloop.network_breaks.diagram_disk_margin`, its worst frequency over the whole axis
+EVERY_BREAK = ("multi_loop_disk_margin",)
 
 
 # What a measure stands at when the loop has no such feature, and why: the one rule every

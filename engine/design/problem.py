@@ -69,6 +69,11 @@ class Condition:
     break_at: str
     breaks: tuple[str, ...] = ()  # every loop break analyze reports (empty: break_at alone)
 
+    @property
+    def every_break(self) -> tuple[str, ...]:
+        """Every loop break of the condition (its ``breaks``, else its ``break_at`` alone)."""
+        return self.breaks or (self.break_at,)
+
 
 @dataclass(frozen=True)
 class BandValue:

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
-from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
+from engine.design.measure_kinds import EVERY_BREAK, MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
 from engine.design.problem import FREQUENCY_MEASURES, Condition, Problem
 from engine.design.tableau import stability_abscissa
 from engine.errors import EngineError
@@ -39,6 +39,7 @@ from engine.loop.realization import StateSpace, cascade
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
 from engine.model.blocks import ExpressionTransfer
+from engine.multiloop.network_breaks import diagram_disk_margin
 from engine.slp.peaks import closed_loop_values
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
@@ -110,6 +111,11 @@ def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, 
                 raise EngineError(
                     f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
                     "(tables or delays): no time response"
+                )
+            if target.measure in EVERY_BREAK and not condition.network.rational:
+                raise EngineError(
+                    f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
+                    "(tables or delays): its breaks have no loop matrix"
                 )
             for band in target.bands or ():
                 counts[target.measure, at] = counts.get((target.measure, at), 0) + 1
@@ -184,6 +190,11 @@ def condition_values(
     for i, s in enumerate(specs):
         if s.kind not in FREQUENCY_MEASURES:
             values[i] = time_value(s, problem, ss, condition.network.sample_time)
+    every = [i for i, s in enumerate(specs) if s.kind in EVERY_BREAK]
+    if every:
+        together = diagram_disk_margin(condition.network, condition.every_break, params)
+        for i in every:
+            values[i], frequencies[i] = together.alpha, together.frequency
     return values, frequencies
 
 
@@ -195,10 +206,11 @@ def spec_break(spec: Spec, condition: Condition) -> str:
 def rows_by_break(
     condition: Condition, specs: Sequence[Spec], rows: Sequence[int] | None = None
 ) -> dict[str, list[int]]:
-    """The frequency rows among ``rows`` (default: all) of one condition, by the break their loop is read at."""
+    """The frequency rows among ``rows`` (default: all) of one condition read on one loop, by the break
+    their loop is read at (a row read at every break at once, `EVERY_BREAK`, is on none)."""
     out: dict[str, list[int]] = {}
     for i in range(len(specs)) if rows is None else rows:
-        if specs[i].kind in FREQUENCY_MEASURES:
+        if specs[i].kind in FREQUENCY_MEASURES and specs[i].kind not in EVERY_BREAK:
             out.setdefault(spec_break(specs[i], condition), []).append(i)
     return out
 

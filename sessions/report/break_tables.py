@@ -27,7 +27,7 @@ HEADER = ("break", "gain margins (dB at {unit})", "phase margins (deg at {unit})
 
 def several_breaks(c: Condition) -> bool:
     """Whether the condition names breaks beyond its primary one."""
-    return tuple(c.breaks) not in ((), (c.break_at,))
+    return c.every_break != (c.break_at,)
 
 
 def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
@@ -55,7 +55,7 @@ def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
 
 def _per_break(c: Condition, omega: np.ndarray, values: Mapping[str, float], unit: str, scale: float) -> Block:
     rows = []
-    for name in c.breaks:
+    for name in c.every_break:
         try:
             found = analyze(c.network, name, omega, dict(values))
         except EngineError as exc:
@@ -79,9 +79,9 @@ def _break_cells(found: LoopAnalysis, scale: float) -> list[str]:
 
 def _together(c: Condition, values: Mapping[str, float], unit: str, scale: float) -> Block:
     try:
-        d = diagram_disk_margin(c.network, list(c.breaks), dict(values))
+        d = diagram_disk_margin(c.network, c.every_break, dict(values))
     except EngineError as exc:
-        return ("p", f"Multi-loop disk margin at {', '.join(c.breaks)}: not computed ({exc}).")
+        return ("p", f"Multi-loop disk margin at {', '.join(c.every_break)}: not computed ({exc}).")
     return ("table", ("multi-loop disk margin", ""), _together_rows(d, unit, scale))
 
 

@@ -162,6 +162,11 @@ def test_slp_meets_a_target_at_a_second_break_and_the_run_replays(session, tmp_p
             {"measure": "stability_abscissa", "break": "u_att", "bands": [{"desired": 0.0}]},
             "problem.targets[0].break: a stability_abscissa target is read on the whole closed loop, not at a loop break",
         ),
+        (
+            {"measure": "multi_loop_disk_margin", "break": "u_att", "bands": [{"desired": 0.3}]},
+            "problem.targets[0].break: a multi_loop_disk_margin target is read at every break of its conditions "
+            "at once, not at one",
+        ),
     ],
 )
 def test_a_break_that_is_not_the_condition_s_is_refused_with_its_path(tmp_path, target, message):
@@ -217,6 +222,37 @@ def _mu(omega: float, ka: float, kr: float, start: np.ndarray | None = None) -> 
     return found.fun, found.x
 
 
+def _multi_loop_alpha(ka: float, kr: float) -> tuple[float, float]:
+    """(1 / max over omega of mu, the frequency of the max): mu on a grid of 161 points from 0.01 to
+    100 rad/s, its largest refined by Brent's bounded search."""
+    from scipy.optimize import minimize_scalar
+
+    grid, scales, mus = np.geomspace(0.01, 100, 161), None, []
+    for x in grid:  # each frequency's scales start from the last's
+        mu, scales = _mu(x, ka, kr, scales)
+        mus.append(mu)
+    peak = grid[int(np.argmax(mus))]
+    found = minimize_scalar(lambda x: -_mu(x, ka, kr)[0], bounds=(peak / 1.06, peak * 1.06), method="bounded")
+    return -1 / found.fun, found.x
+
+
+def test_slp_meets_a_multi_loop_disk_margin_target_and_the_run_replays(tmp_path):
+    """A target on every break at once (alpha >= 0.55, 0.111 at the start) beside the two phase margins."""
+    targets = document()["problem"]["targets"] + [{"measure": "multi_loop_disk_margin", "bands": [{"desired": 0.55}]}]
+    path = tmp_path / "together.json"
+    path.write_text(json.dumps(document(targets)))
+    session = load_session(path)
+    run_session(session, until_done=True, autosave=False)
+    last = session.model.records[-1]
+    row = next(m for m in last["measures"] if m["name"] == "MDM1")
+    assert row["satisfied"] and all(m["satisfied"] for m in last["measures"])
+    alpha, frequency = _multi_loop_alpha(last["parameters"]["KA"], last["parameters"]["KR"])
+    assert row["value"] == pytest.approx(alpha, rel=1e-5) and alpha >= 0.55
+    assert row["frequency"] == pytest.approx(frequency, rel=1e-3)
+    save_session(session, tmp_path / "ran.json")
+    assert replay(load_session(tmp_path / "ran.json")).ok
+
+
 def _table(text: str, header: str) -> list[list[str]]:
     """The Markdown table whose header row starts with ``header``: its body rows' cells."""
     lines = text.splitlines()
@@ -233,8 +269,6 @@ def test_the_report_gives_each_break_s_margins_and_the_multi_loop_disk_margin(se
     """The report's per-break table (every crossing, to its 6 digits) against python-control's
     `stability_margins` of each loop, the disk margin against dense sampling of |S - 1/2|, and the
     multi-loop disk margin against mu computed here (scipy's D-scales on a grid, refined)."""
-    from scipy.optimize import minimize_scalar
-
     from tui.cli import main
 
     assert main(["report", str(session.path), "--format", "md", "--out", str(tmp_path / "out")]) == 0
@@ -256,12 +290,7 @@ def test_the_report_gives_each_break_s_margins_and_the_multi_loop_disk_margin(se
         alpha = float(rows[name][4].split()[1])
         assert alpha == pytest.approx(sampled, rel=1e-5), name
     together = dict(_table(text, "multi-loop disk margin"))
-    grid, scales, mus = np.geomspace(0.01, 100, 161), None, []
-    for x in grid:  # each frequency's scales start from the last's
-        mu, scales = _mu(x, 1.0, 0.1, scales)
-        mus.append(mu)
-    peak = grid[int(np.argmax(mus))]
-    found = minimize_scalar(lambda x: -_mu(x, 1.0, 0.1)[0], bounds=(peak / 1.06, peak * 1.06), method="bounded")
-    assert float(together["alpha"]) == pytest.approx(-1 / found.fun, rel=1e-5)
-    assert float(together["worst frequency"].split()[0]) == pytest.approx(found.x, rel=1e-3)
+    alpha, frequency = _multi_loop_alpha(1.0, 0.1)
+    assert float(together["alpha"]) == pytest.approx(alpha, rel=1e-5)
+    assert float(together["worst frequency"].split()[0]) == pytest.approx(frequency, rel=1e-3)
     assert together["certified bracket"].endswith("(certified)")
