@@ -184,8 +184,6 @@ def _study(jobs: Sequence) -> _Study | None:
         return None  # a drawn parameter that is not free: the free vector does not carry it
     others = sorted({s.kind for s in stepper.specs} - BATCH_KINDS)
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
-    if not unbatched and any(s.at not in ("", problem.conditions[s.condition].break_at) for s in stepper.specs):
-        unbatched = "rows read at a loop break other than the design's (`break` on a target)"
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay, a table or a state-space block"
     for c, condition in enumerate(problem.conditions):

@@ -18,19 +18,11 @@ from engine.errors import EngineError
 from engine.slp.measures import evaluate, measure_specs
 from engine.slp.partials import jacobian
 from sessions.errors import SessionError
+from sessions.examples.coebra_launch_vehicle import _block  # a diagram's expression block
 from sessions.runner import replay, run_session
 from sessions.store import load_session, save_session
 
 control = pytest.importorskip("control")
-
-
-def _block(name: str, source: str, target: str, expression: str) -> dict:
-    return {
-        "name": name,
-        "input": source,
-        "output": target,
-        "transfer": {"kind": "expression", "expression": expression},
-    }
 
 
 def document(targets: list[dict] | None = None) -> dict:
