@@ -22,7 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.design.measure_kinds import EVERY_BREAK
 from engine.design.problem import (
+    FREQUENCY_MEASURES,
     BandValue,
     Condition,
     Grid,
@@ -116,6 +118,7 @@ def _build_problem(model: ProblemModel, folder: Path, start_checked: bool) -> Pr
     targets = tuple(_target(t) for t in model.targets)
     for k, t in enumerate(model.targets):
         _check_response(t, f"problem.targets[{k}].response", conditions)
+        _check_break(t, f"problem.targets[{k}].break", conditions)
     grid = _grid(model.grid)
     _check_sampled(model, conditions, grid)
     objective = (
@@ -143,6 +146,23 @@ def _build_problem(model: ProblemModel, folder: Path, start_checked: bool) -> Pr
     if start_checked:
         check_start(problem)
     return problem
+
+
+def _check_break(t: TargetModel, path: str, conditions: tuple[Condition, ...]) -> None:
+    """A target's break is a break of every condition it is read in, and its measure is read on an
+    open loop (a frequency measure: a time response or a pole is the whole closed loop's); else a
+    `SessionError` naming ``path``."""
+    if t.at_break is None:
+        return
+    if t.measure not in FREQUENCY_MEASURES:
+        raise SessionError(f"{path}: a {t.measure} target is read on the whole closed loop, not at a loop break")
+    if t.measure in EVERY_BREAK:
+        raise SessionError(f"{path}: a {t.measure} target is read at every break of its conditions at once, not at one")
+    for c in conditions:
+        if t.condition in (None, c.name) and t.at_break not in c.every_break:
+            raise SessionError(
+                f"{path}: {t.at_break!r} is not a break of condition {c.name!r} (its breaks: {', '.join(c.every_break)})"
+            )
 
 
 def _check_response(t: TargetModel, path: str, conditions: tuple[Condition, ...]) -> None:
@@ -551,6 +571,7 @@ def _target(t: TargetModel) -> Target:
         t.sense,
         t.requirement,
         response,
+        t.at_break,
     )
 
 

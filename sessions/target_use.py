@@ -66,10 +66,10 @@ def read_targets(registration: Registration, problem: Problem) -> tuple[Problem,
     """(the problem with the targets the algorithm reads, the problem with those it does not
     or None): an algorithm that reads targets but not all of them runs on the ones it reads."""
     use = registration.targets
-    refused = [t for t in problem.targets if not use.accepts(t.measure)]
+    refused = [t for t in problem.targets if not use.accepts_target(t)]
     if not use.reads or not refused or len(refused) == len(problem.targets):
         return problem, None
-    kept = tuple(t for t in problem.targets if use.accepts(t.measure))
+    kept = tuple(t for t in problem.targets if use.accepts_target(t))
     return dataclasses.replace(problem, targets=kept), dataclasses.replace(problem, targets=tuple(refused))
 
 

@@ -136,7 +136,7 @@ class Requirement:
 
 def check_targets(problem: Problem) -> None:
     """CIP works on the four margin kinds (and their classical forms) only."""
-    TARGETS.check("cip", (target.measure for target in problem.targets))
+    TARGETS.check_targets("cip", problem.targets)
     if not problem.targets:
         raise EngineError("cip: the problem has no targets to improve")
     from engine.cip.peaks import check_peak_targets  # peaks.py builds on this module's Requirement

@@ -29,12 +29,15 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from engine.errors import EngineError
+
+if TYPE_CHECKING:
+    from engine.design.problem import Target
 
 Domain = Literal["frequency", "time", "poles"]
 DOMAINS: tuple[Domain, ...] = ("frequency", "time", "poles")
@@ -114,6 +117,17 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
         "D",
     ),
     ("delay_margin", "delay margin", "delay", "s", True, 0.1, "frequency", "DLY", "P"),
+    (
+        "multi_loop_disk_margin",
+        "multi-loop disk margin alpha (every break at once, skew 0)",
+        "ML disk",
+        "",
+        True,
+        0.3,
+        "frequency",
+        "MDM",
+        "D",
+    ),
     ("rise_time", "rise time", "rise", "s", False, 1.0, "time", "TR"),
     ("settling_time", "settling time", "settle", "s", False, 5.0, "time", "TS"),
     ("overshoot_percent", "overshoot", "OS %", "%", False, 20.0, "time", "OS"),
@@ -132,6 +146,11 @@ MEASURE_KINDS: dict[str, MeasureKind] = _kinds(
         "STAB",
     ),
 )
+
+
+# read at every loop break of a condition at once (its `breaks`), not on one loop: the certified
+# alpha of `engine.multiloop.network_breaks.diagram_disk_margin`, its worst frequency over the whole axis
+EVERY_BREAK = ("multi_loop_disk_margin",)
 
 
 # What a measure stands at when the loop has no such feature, and why: the one rule every
@@ -245,9 +264,25 @@ class TargetUse:
     reads: bool = True
     refusal: str = "is not a measure it reads"
     refusals: tuple[tuple[str, str], ...] = ()
+    breaks: bool = False  # whether it reads a target at another loop break than the design's (`break`)
 
     def accepts(self, name: str) -> bool:
         return self.reads and name in self.measures
+
+    def accepts_target(self, target: Target) -> bool:
+        """Whether it reads ``target``: its measure, and its break when it names one."""
+        return self.accepts(target.measure) and (target.loop_break is None or self.breaks)
+
+    def check_targets(self, algorithm: str, targets: Iterable[Target]) -> None:
+        """`check` of the targets' measures, and an `EngineError` naming a target at a break it does not read."""
+        targets = list(targets)
+        self.check(algorithm, (t.measure for t in targets))
+        for k, t in enumerate(targets):
+            if t.loop_break is not None and not self.breaks:
+                raise EngineError(
+                    f"{algorithm}: target {k} ({t.measure}) is read at the loop break {t.loop_break!r}: "
+                    f"{algorithm} reads its targets at the design's break only (slp reads them at any break)"
+                )
 
     def why_not(self, name: str) -> str:
         """Why the measure ``name`` is refused (a phrase after the measure's name)."""

@@ -69,6 +69,11 @@ class Condition:
     break_at: str
     breaks: tuple[str, ...] = ()  # every loop break analyze reports (empty: break_at alone)
 
+    @property
+    def every_break(self) -> tuple[str, ...]:
+        """Every loop break of the condition (its ``breaks``, else its ``break_at`` alone)."""
+        return self.breaks or (self.break_at,)
+
 
 @dataclass(frozen=True)
 class BandValue:
@@ -140,6 +145,11 @@ class Target:
     sense: Literal["at_least", "at_most"] | None = None  # None: the measure's natural sense
     requirement: bool = True  # False: only in the objective (e.g. a peak load to minimize), never judged met
     response: TimeResponse | None = None  # for time-domain measures
+    loop_break: str | None = None  # the break the measure is read at (None: the condition's break_at)
+
+    def break_in(self, condition: Condition) -> str:
+        """The signal where this target's measure is read in ``condition``."""
+        return condition.break_at if self.loop_break is None else self.loop_break
 
     @property
     def at_least(self) -> bool:

@@ -15,7 +15,7 @@ from engine.loop.design import closed_loop_realization
 from engine.loop.realization import StateSpace
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES, PEAK_MEASURES, band_delay, band_peak, stable_realization
-from engine.margins.search import Band, Margin, margins
+from engine.margins.search import Band, Margin, Margins, margins
 from engine.model.bilinear import s_of_z, z_of_w
 from engine.stepping.guard import numerical
 from engine.stepping.protocol import MeasureRow
@@ -35,7 +35,8 @@ TABLEAU_MEASURES = (*ATTRIBUTE, "crossover_frequency", *CLOSED_LOOP_MEASURES)
 
 def tableau(problem: Problem, require_stable: bool = False) -> list[MeasureRow]:
     """Rows for every target in every condition it applies to, sorted as declared, each named as
-    slp's rows are (the measure's tag and its count in the condition: WC1, GM1, PM2); with
+    slp's rows are (the measure's tag and its count in the condition: WC1, GM1, PM2; a target at
+    another loop break than the condition's counts apart and names it: PM1@u_rate); with
     ``require_stable`` a stability row (STAB, the stability abscissa, met when positive) for each
     rational condition no stability target covers (numerical trouble on extreme values is an
     `EngineError`, never a warning)."""
@@ -87,19 +88,24 @@ def _tableau(problem: Problem) -> list[MeasureRow]:
         targets = [t for t in problem.targets if t.condition in (None, condition.name)]
         if not targets:
             continue
-        model = loop_model(condition.network, condition.break_at, problem.grid.omega, problem.condition_values(c))
         attenuation_from = min((t.detect_low for t in targets if t.measure == "attenuation_margin"), default=None)
-        found = margins(model, attenuation_above=attenuation_from)
         stable = _stable(problem, c) if any(t.measure in CLOSED_LOOP_MEASURES for t in targets) else None
-        counts: dict[str, int] = {}
+        loops: dict[str, tuple[LoopModel, Margins]] = {}  # by break: each loop a target reads, formed once
+        counts: dict[tuple[str, str], int] = {}
         for target in targets:
+            at = target.break_in(condition)
+            if at not in loops:
+                model = loop_model(condition.network, at, problem.grid.omega, problem.condition_values(c))
+                loops[at] = model, margins(model, attenuation_above=attenuation_from)
+            model, found = loops[at]
             if target.measure in CLOSED_LOOP_MEASURES:
                 found_rows = _closed_loop_rows(target, model, found, condition.name, stable)
             else:
                 found_rows = _rows(target, found, condition.name, model)
+            suffix = "" if at == condition.break_at else f"@{at}"  # a row at another break names it
             for row in found_rows:
-                counts[row.kind] = counts.get(row.kind, 0) + 1
-                rows.append(replace(row, name=f"{kind(row.kind).tag}{counts[row.kind]}"))
+                counts[row.kind, at] = counts.get((row.kind, at), 0) + 1
+                rows.append(replace(row, name=f"{kind(row.kind).tag}{counts[row.kind, at]}{suffix}"))
     return rows
 
 

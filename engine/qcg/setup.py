@@ -73,7 +73,7 @@ def _cascade_problem(problem: Problem) -> CascadeProblem:
     objective = problem.objective
     if objective is None or objective.kind != "quadratic_cost":
         raise EngineError("qcg: the problem needs an objective of kind 'quadratic_cost'")
-    TARGETS.check("qcg", (target.measure for target in problem.targets))
+    TARGETS.check_targets("qcg", problem.targets)
     unknown = sorted(set(objective.options) - set(OPTIONS))
     if unknown:
         raise EngineError(f"qcg: unknown objective option(s) {', '.join(unknown)}; options are {', '.join(OPTIONS)}")

@@ -30,8 +30,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
-from engine.design.measure_kinds import MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
-from engine.design.problem import FREQUENCY_MEASURES, Problem
+from engine.design.measure_kinds import EVERY_BREAK, MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
+from engine.design.problem import FREQUENCY_MEASURES, Condition, Problem
 from engine.design.tableau import stability_abscissa
 from engine.errors import EngineError
 from engine.loop.design import closed_loop_realization
@@ -39,6 +39,7 @@ from engine.loop.realization import StateSpace, cascade
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
 from engine.model.blocks import ExpressionTransfer
+from engine.multiloop.network_breaks import diagram_disk_margin
 from engine.slp.peaks import closed_loop_values
 
 SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
@@ -54,7 +55,7 @@ MARGIN_ATTRIBUTE = {
 }
 # a row's name: the measure's tag (COEBRA's listing: GM, PM, WC, ...) and its count in the condition
 SHORT = {name: k.tag for name, k in MEASURE_KINDS.items()}
-TARGETS = TargetUse(measures=names(), refusal="is not an slp measure")  # every measure of the table
+TARGETS = TargetUse(measures=names(), refusal="is not an slp measure", breaks=True)  # every measure, any break
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,7 @@ class Spec:
     desired: float | None
     weight: float = 1.0
     scale: float = 1.0
+    at: str = ""  # the loop break a frequency measure is read at ("": the condition's break_at)
 
     @property
     def sign(self) -> float:
@@ -95,24 +97,31 @@ class Spec:
 def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, ...]:
     """Every row: each target in each condition it applies to (one per band),
     plus a closed-loop stability row per rational condition if asked."""
-    TARGETS.check("slp", (target.measure for target in problem.targets))
+    TARGETS.check_targets("slp", problem.targets)
     specs: list[Spec] = []
     for c, condition in enumerate(problem.conditions):
-        counts: dict[str, int] = {}
+        counts: dict[tuple[str, str], int] = {}
         for k, target in enumerate(problem.targets):
             if target.condition not in (None, condition.name):
                 continue
+            at = target.break_in(condition)
+            suffix = "" if at == condition.break_at else f"@{at}"  # a row at another break names it
             needs_time = kind(target.measure).domain in ("time", "poles")
             if needs_time and not condition.network.rational:
                 raise EngineError(
                     f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
                     "(tables or delays): no time response"
                 )
+            if target.measure in EVERY_BREAK and not condition.network.rational:
+                raise EngineError(
+                    f"target {k} ({target.measure}): condition {condition.name!r} is not rational "
+                    "(tables or delays): its breaks have no loop matrix"
+                )
             for band in target.bands or ():
-                counts[target.measure] = counts.get(target.measure, 0) + 1
+                counts[target.measure, at] = counts.get((target.measure, at), 0) + 1
                 specs.append(
                     Spec(
-                        f"{SHORT[target.measure]}{counts[target.measure]}",
+                        f"{SHORT[target.measure]}{counts[target.measure, at]}{suffix}",
                         target.measure,
                         c,
                         k,
@@ -123,6 +132,7 @@ def measure_specs(problem: Problem, require_stable: bool = True) -> tuple[Spec, 
                         band.desired,
                         target.weight,
                         target.scale,
+                        at,
                     )
                 )
         has_stability = any(s.kind == "stability_abscissa" and s.condition == c for s in specs)
@@ -166,26 +176,43 @@ def condition_values(
     """Values and frequencies of one condition's rows at the free values ``x``."""
     condition = problem.conditions[c]
     params = problem.condition_values(c, x)
-    found: Margins | None = None
-    if any(s.kind in FREQUENCY_MEASURES for s in specs):
-        model = loop_model(condition.network, condition.break_at, problem.grid.omega, params)
-        peaks = any(s.kind in PEAK_KINDS for s in specs)
-        found = margins(model, attenuation_above=0.0 if peaks else None)
     ss = None
     if any(s.kind not in FREQUENCY_MEASURES for s in specs):
         ss = closed_loop_realization(condition.network, condition.break_at, params)
-    closed = closed_loop_values(condition, params, model, found, specs, ss) if found is not None else {}
-    values, frequencies = [], []
+    values, frequencies = [math.nan] * len(specs), [math.nan] * len(specs)
+    for at, rows in rows_by_break(condition, specs).items():
+        mine = [specs[i] for i in rows]
+        model = loop_model(condition.network, at, problem.grid.omega, params)
+        found = margins(model, attenuation_above=0.0 if any(s.kind in PEAK_KINDS for s in mine) else None)
+        closed = closed_loop_values(condition, params, model, found, mine, ss)
+        for k, (i, s) in enumerate(zip(rows, mine)):
+            values[i], frequencies[i] = closed[k] if k in closed else frequency_value(s, found, model)
     for i, s in enumerate(specs):
-        if i in closed:
-            value, frequency = closed[i]
-        elif s.kind in FREQUENCY_MEASURES:
-            value, frequency = frequency_value(s, found, model)
-        else:
-            value, frequency = time_value(s, problem, ss, condition.network.sample_time), math.nan
-        values.append(value)
-        frequencies.append(frequency)
+        if s.kind not in FREQUENCY_MEASURES:
+            values[i] = time_value(s, problem, ss, condition.network.sample_time)
+    every = [i for i, s in enumerate(specs) if s.kind in EVERY_BREAK]
+    if every:
+        together = diagram_disk_margin(condition.network, condition.every_break, params)
+        for i in every:
+            values[i], frequencies[i] = together.alpha, together.frequency
     return values, frequencies
+
+
+def spec_break(spec: Spec, condition: Condition) -> str:
+    """The signal where a row's loop is broken: its target's break, else the condition's."""
+    return spec.at or condition.break_at
+
+
+def rows_by_break(
+    condition: Condition, specs: Sequence[Spec], rows: Sequence[int] | None = None
+) -> dict[str, list[int]]:
+    """The frequency rows among ``rows`` (default: all) of one condition read on one loop, by the break
+    their loop is read at (a row read at every break at once, `EVERY_BREAK`, is on none)."""
+    out: dict[str, list[int]] = {}
+    for i in range(len(specs)) if rows is None else rows:
+        if specs[i].kind in FREQUENCY_MEASURES and specs[i].kind not in EVERY_BREAK:
+            out.setdefault(spec_break(specs[i], condition), []).append(i)
+    return out
 
 
 def frequency_value(spec: Spec, found: Margins, model: LoopModel) -> tuple[float, float]:

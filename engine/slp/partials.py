@@ -28,10 +28,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.problem import Problem
-from engine.loop.evaluator import LoopEvaluator
-from engine.loop.responses import open_loop
 from engine.slp.measures import Spec, evaluate
-from engine.slp.peaks import closed_loop_partials
+from engine.slp.peaks import analytic_row, closed_loop_row
+from engine.slp.sensitivities import loop_sensitivities
 
 ANALYTIC = (
     "gain_margin_db",
@@ -61,8 +60,6 @@ def jacobian(
     if method == "analytic":
         for i in _analytic_rows(problem, x, specs, values, frequencies, J):
             how[i] = "analytic"
-        for i in closed_loop_partials(problem, x, specs, values, frequencies, J):  # slp/peaks.py
-            how[i] = "analytic"
     numeric = [i for i, h in enumerate(how) if h == "finite difference"]
     if numeric:
         _finite_differences(problem, x, specs, values, numeric, J, fd_step)
@@ -72,28 +69,22 @@ def jacobian(
 def _analytic_rows(
     problem: Problem, x: NDArray, specs: Sequence[Spec], values: NDArray, frequencies: NDArray, J: NDArray
 ) -> list[int]:
+    """Fill the rows with analytic partials into J (the open loop's margins here, the closed-loop
+    measures by `engine.slp.peaks`), each from its loop's sensitivities; the rows done."""
+    margin_rows = [
+        i for i, s in enumerate(specs) if s.kind in ANALYTIC and np.isfinite(values[i]) and np.isfinite(frequencies[i])
+    ]
+    peak_rows = [i for i, s in enumerate(specs) if analytic_row(s.kind, values[i], frequencies[i])]
     done: list[int] = []
-    for c, condition in enumerate(problem.conditions):
-        rows = [
-            i
-            for i, s in enumerate(specs)
-            if s.condition == c and s.kind in ANALYTIC and np.isfinite(values[i]) and np.isfinite(frequencies[i])
-        ]
-        if not rows or not condition.network.exact:
-            continue
-        params = problem.condition_values(c, x)
-        w = np.array([frequencies[i] for i in rows])
-        positive = w > 0
-        response = open_loop(condition.network, condition.break_at, w, params, check=False)
-        slope = LoopEvaluator(condition.network, condition.break_at, params)(w)[1]
-        columns = [problem.slot_index.get((name, c)) for name in response.parameters]
+    for _, _, rows, loop in loop_sensitivities(problem, x, specs, frequencies, margin_rows + peak_rows):
         for r, i in enumerate(rows):
-            gh = response.value[r]
-            gh_x = response.sensitivity[r] if response.sensitivity is not None else np.zeros(0)
-            row = _row(specs[i].kind, gh, gh_x, slope[r], bool(positive[r]))
-            for k, slot in enumerate(columns):
-                if slot is not None:
-                    J[i, slot] += row[k]
+            gh, gh_x, gh_w = loop.at(r)
+            w = float(frequencies[i])
+            if specs[i].kind in ANALYTIC:
+                row = _row(specs[i].kind, gh, gh_x, gh_w, w > 0)
+            else:
+                row = closed_loop_row(specs[i].kind, gh, gh_x, gh_w, w, float(values[i]))
+            loop.add(J, i, row)
             done.append(i)
     return done
 

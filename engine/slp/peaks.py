@@ -23,14 +23,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numpy as np
 from numpy.typing import NDArray
 
-from engine.design.problem import Condition, Problem
+from engine.design.problem import Condition
 from engine.loop.design import closed_loop_realization
-from engine.loop.evaluator import LoopEvaluator
 from engine.loop.realization import StateSpace
-from engine.loop.responses import LoopModel, open_loop
+from engine.loop.responses import LoopModel
 from engine.margins.peak_measures import (
     CLOSED_LOOP_MEASURES,
     PEAK_MEASURES,
@@ -71,35 +69,14 @@ def closed_loop_values(
     return out
 
 
-def closed_loop_partials(
-    problem: Problem, x: NDArray, specs: Sequence, values: NDArray, frequencies: NDArray, J: NDArray
-) -> list[int]:
-    """Fill the analytic rows of the closed-loop measures into J; the rows done."""
-    done: list[int] = []
-    for c, condition in enumerate(problem.conditions):
-        rows = [i for i, s in enumerate(specs) if s.condition == c and _analytic(s.kind, values[i], frequencies[i])]
-        if not rows or not condition.network.exact:
-            continue
-        params = problem.condition_values(c, x)
-        w = np.array([frequencies[i] for i in rows])
-        response = open_loop(condition.network, condition.break_at, w, params, check=False)
-        slope = LoopEvaluator(condition.network, condition.break_at, params)(w)[1]
-        columns = [problem.slot_index.get((name, c)) for name in response.parameters]
-        for r, i in enumerate(rows):
-            gh = complex(response.value[r])
-            gh_x = response.sensitivity[r] if response.sensitivity is not None else np.zeros(0)
-            if specs[i].kind == "delay_margin":
-                row = delay_partial(gh, gh_x, complex(slope[r]), float(w[r]), float(values[i]))
-            else:
-                row = peak_partial(specs[i].kind, gh, gh_x)
-            for k, slot in enumerate(columns):
-                if slot is not None:
-                    J[i, slot] += row[k]
-            done.append(i)
-    return done
+def closed_loop_row(kind: str, gh: complex, gh_x: NDArray, gh_w: complex, omega: float, value: float) -> NDArray:
+    """d(measure)/d(parameters) of a closed-loop row at its frequency (the module docstring)."""
+    if kind == "delay_margin":
+        return delay_partial(gh, gh_x, gh_w, omega, value)
+    return peak_partial(kind, gh, gh_x)
 
 
-def _analytic(kind: str, value: float, frequency: float) -> bool:
+def analytic_row(kind: str, value: float, frequency: float) -> bool:
     """A row with analytic partials: a closed-loop measure at a finite positive frequency
     (a disk margin of 0, an unstable loop's, is not differentiable)."""
     if kind not in CLOSED_LOOP_MEASURES or not (math.isfinite(value) and math.isfinite(frequency)):

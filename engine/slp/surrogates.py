@@ -15,7 +15,7 @@ from engine.design.measure_kinds import surrogate_sign
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
-from engine.slp.measures import Spec
+from engine.slp.measures import Spec, spec_break
 
 
 def surrogate_frequency(spec: Spec) -> float:
@@ -25,17 +25,16 @@ def surrogate_frequency(spec: Spec) -> float:
 
 
 def loop_level_db(problem: Problem, x: NDArray, spec: Spec) -> float:
-    """20 log10 |GH(j omega_d)| of the row's condition at the free values ``x`` (NaN where the
-    loop cannot be evaluated there: a frequency outside the grid's reach or a sampled loop's
-    Nyquist band)."""
+    """20 log10 |GH(j omega_d)| of the row's loop (its condition broken at the row's break) at the free
+    values ``x`` (NaN where the loop cannot be evaluated there: a frequency outside the grid's reach or
+    a sampled loop's Nyquist band)."""
     omega = surrogate_frequency(spec)
     if not (math.isfinite(omega) and omega > 0):
         return math.nan
     condition = problem.conditions[spec.condition]
     try:
-        model = loop_model(
-            condition.network, condition.break_at, np.array([omega]), problem.condition_values(spec.condition, x)
-        )
+        at = spec_break(spec, condition)
+        model = loop_model(condition.network, at, np.array([omega]), problem.condition_values(spec.condition, x))
         magnitude = float(np.abs(model.gh[0]))
     except (EngineError, ValueError, ZeroDivisionError, np.linalg.LinAlgError):
         return math.nan

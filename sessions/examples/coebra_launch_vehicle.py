@@ -18,7 +18,9 @@ docs/algorithms/slp.md.  Per flight condition (load-relief switch-in, max-q, swi
 
 KD, KR and KL (attitude, rate, load-relief gains) have a value per flight
 condition; TA, TR, TL, ZF and WF are shared.  The loop is broken at the
-actuator command dc.  The wind is a shear: alpha_w ramps from 0 to 0.1 rad
+actuator command dc (the design's primary break); the condition's `breaks` add
+each sensor path's output (u_att, u_rate, u_acc): the margins of that path's
+loop with the others closed, and the multi-loop disk margin at all four.  The wind is a shear: alpha_w ramps from 0 to 0.1 rad
 over 2 s and holds (a true step would put its whole size into alpha at
 t = 0+, before any autopilot can act, so its peak could not be changed).
 """
@@ -73,6 +75,9 @@ CONDITIONS = {
     },
 }
 ACTUATOR = 40.0  # rad/s
+# every loop break analyze and the report show: the actuator command (the design's primary break) and each
+# sensor path's output (that path's loop, the actuator command and the other paths closed)
+BREAKS = ("dc", "u_att", "u_rate", "u_acc")
 # the poor start: gains too low for the max-q instability, a filter that eats the phase margin
 START = {
     "KD": [0.5, 0.5, 0.5],
@@ -150,6 +155,7 @@ def _condition(name: str, c: dict) -> dict:
     return {
         "name": name,
         "break_at": "dc",
+        "breaks": list(BREAKS),
         "variable": "s",
         "plant": {"format": "diagram", "inputs": ["alpha_w"], "blocks": blocks, "junctions": junctions},
     }

@@ -418,8 +418,16 @@ MeasureName = Literal[tuple(MEASURE_KINDS)]  # the measure kinds, from their one
 
 
 class TargetModel(Strict):
+    # "break" is a Python keyword: the field is at_break, read and written as "break"
+    model_config = ConfigDict(extra="forbid", validate_by_name=True, validate_by_alias=True, serialize_by_alias=True)
+
     measure: MeasureName
     condition: str | None = None
+    at_break: str | None = Field(
+        default=None,
+        alias="break",
+        description="the loop break the measure is read at: one of its conditions' breaks (null: their break_at)",
+    )
     bands: _bounded(list[BandModel], MAX_BANDS)
     weight: Number = 1.0
     scale: Number = 1.0

@@ -5,7 +5,9 @@ Blocks: ("h1"|"h2"|"h3", text), ("p", text), ("note", text), ("table", header,
 rows), ("figure", name, png bytes, caption), ("pre", text).  Content: provenance,
 the session's notes (as notes), the summary (every requirement with its sense, unit,
 value and method), the compensators in three forms, the parameters and constraints
-(which bind), the loop analysis of each condition (`sessions.report.design_state`),
+(which bind), the loop analysis of each condition (`sessions.report.design_state`), the
+loop-at-a-time margins at every break and the multi-loop disk margin of a condition with
+several breaks (`sessions.report.break_tables`),
 the conditions' blocks and the targets as set, the initial and final tableaux, the
 convergence history, the figures with the requirements drawn
 (`sessions.report.figures`), the latest tolerance study's distributions when the
@@ -30,7 +32,7 @@ from engine.stepping.presenter import number, tableau_text, tolerant
 from engine.stepping.protocol import StepRecord
 from sessions.export.design_model import iteration_parameters
 from sessions.lifecycle import registration, stepper
-from sessions.report import design_state, figures
+from sessions.report import break_tables, design_state, figures
 from sessions.store import Session
 from sessions.sweeps.dispersion import PERCENTILE_KEYS
 
@@ -61,6 +63,7 @@ def report_blocks(session: Session, iteration: int | None = None) -> list[Block]
     blocks += [("h2", "Parameters"), *design_state.parameters(session, design)]
     blocks += [("h2", "Constraints"), *design_state.constraints(session, design)]
     blocks += [("h2", "Loop analysis at the design"), *design_state.loop_analysis(session, design, found)]
+    blocks += break_tables.break_blocks(session, design)
     blocks += _problem(session)
     blocks += _designs(session, initial, final, k)
     blocks += _convergence(session, k)

@@ -607,7 +607,7 @@ def _session_design(args: argparse.Namespace) -> int:
     else:
         design = f"iteration {at}" if at else "the start"
         print(analysis_to_text(result, [f"{c.name} at {break_at}, {design} of {args.file}"], variable, 0.0, T))
-        for b, r in others:
+        for b, r in (found for found in others if found[0] != break_at):  # the primary break is above
             print("\n" + analysis_to_text(r, [f"{c.name} at {b} (breaks), {design} of {args.file}"], variable, 0.0, T))
         if together is not None:
             from engine.multiloop.loops import LoopsAnalysis

@@ -1,0 +1,98 @@
+"""The report's loops at every break (issue 57): for each flight condition whose `breaks` name
+more than its primary break, the loop-at-a-time margins at each break (the loop broken there,
+every other loop closed: `engine.analysis.analyze` at that signal, as `loopcraft analyze FILE.json`
+reports them) and the multi-loop disk margin at all of them at once
+(`engine.multiloop.network_breaks.diagram_disk_margin`).  Blocks as `sessions.report.content`
+describes them."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from engine.analysis import LoopAnalysis, analyze
+from engine.design.problem import Condition
+from engine.errors import EngineError
+from engine.multiloop.disk import MultiLoopDiskMargin
+from engine.multiloop.network_breaks import diagram_disk_margin
+from engine.stepping.presenter import number
+from sessions.store import Session
+
+Block = tuple
+HEADER = ("break", "gain margins (dB at {unit})", "phase margins (deg at {unit})", "crossover ({unit})", "disk margin")
+
+
+def several_breaks(c: Condition) -> bool:
+    """Whether the condition names breaks beyond its primary one."""
+    return c.every_break != (c.break_at,)
+
+
+def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
+    """A heading, then per condition with several breaks its per-break table and its multi-loop
+    disk margin (nothing when no condition has several breaks)."""
+    problem = session.problem
+    scale = 2 * math.pi if problem.grid.unit == "hz" else 1.0
+    blocks: list[Block] = []
+    for k, c in enumerate(problem.conditions):
+        if not several_breaks(c):
+            continue
+        values = problem.condition_values(k, named=named)
+        blocks.append(("h3", f"Condition {c.name}: every break"))
+        blocks.append(_per_break(c, problem.grid.omega, values, problem.grid.unit, scale))
+        blocks.append(_together(c, values, problem.grid.unit, scale))
+    if not blocks:
+        return []
+    intro = (
+        "Loop at a time: at each break the loop is broken at that signal and every other loop stays "
+        "closed (the grid-free margin search of one loop); the multi-loop disk margin perturbs every "
+        "break at once (independent complex perturbations, skew 0), certified between two bounds."
+    )
+    return [("h2", "Loops at every break"), ("p", intro), *blocks]
+
+
+def _per_break(c: Condition, omega: np.ndarray, values: Mapping[str, float], unit: str, scale: float) -> Block:
+    rows = []
+    for name in c.every_break:
+        try:
+            found = analyze(c.network, name, omega, dict(values))
+        except EngineError as exc:
+            rows.append([name, f"cannot be analyzed: {exc}", "", "", ""])
+            continue
+        rows.append([name, *_break_cells(found, scale)])
+    return ("table", tuple(h.format(unit=unit) for h in HEADER), rows)
+
+
+def _break_cells(found: LoopAnalysis, scale: float) -> list[str]:
+    m = found.margins
+    gains = "; ".join(f"{number(g.gain_db)} at {number(g.frequency / scale)}" for g in m.gain) or "none"
+    phases = "; ".join(f"{number(p.phase_deg)} at {number(p.frequency / scale)}" for p in m.phase) or "none"
+    wc = "none" if m.crossover_frequency is None else number(m.crossover_frequency / scale)
+    d = found.disk_margin
+    disk = "not computed" if d is None else f"alpha {number(d.alpha)} at {number(d.frequency / scale)}"
+    if found.verdict != "stable":
+        disk += f" (closed loop {found.verdict})"
+    return [gains, phases, wc, disk]
+
+
+def _together(c: Condition, values: Mapping[str, float], unit: str, scale: float) -> Block:
+    try:
+        d = diagram_disk_margin(c.network, c.every_break, dict(values))
+    except EngineError as exc:
+        return ("p", f"Multi-loop disk margin at {', '.join(c.every_break)}: not computed ({exc}).")
+    return ("table", ("multi-loop disk margin", ""), _together_rows(d, unit, scale))
+
+
+def _together_rows(d: MultiLoopDiskMargin, unit: str, scale: float) -> list[list[str]]:
+    at = "at infinity" if d.frequency == math.inf else f"{number(d.frequency / scale)} {unit}"
+    return [
+        ["alpha", number(d.alpha)],
+        ["certified bracket", f"[{number(d.alpha_lower, 9)}, {number(d.alpha_upper, 9)}] ({d.status})"],
+        ["gain (every break at once)", f"{number(d.gain_low_db)} .. {number(d.gain_high_db)} dB"],
+        ["phase (every break at once)", f"+- {number(d.phase_deg)} deg"],
+        ["worst frequency", at],
+        ["how obtained", d.method],
+        *[["note", n] for n in d.notes],
+    ]
