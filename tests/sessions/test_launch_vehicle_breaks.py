@@ -199,6 +199,7 @@ BREAK_TARGETS = [
 ]
 
 
+@pytest.mark.long
 @pytest.mark.slow
 def test_slp_meets_a_target_at_every_break_and_the_multi_loop_margin_and_replays(doc, tmp_path):
     """From the start (PM at u_att 8.3-10.4 deg, alpha together 0.063-0.076) slp meets every row (59
