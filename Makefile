@@ -17,7 +17,7 @@
 # the distribution's CPython when it is 3.11 or later: built with profile-guided and link-time
 # optimization, it runs the suite in about 20 % less time than an unoptimized build (pyenv's
 # default); any other python3 otherwise
-PYTHON ?= $(shell /usr/bin/python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' 2>/dev/null \
+PYTHON ?= $(shell /usr/bin/python3 -c 'import sys, venv, ensurepip; sys.exit(sys.version_info < (3, 11))' 2>/dev/null \
 	&& echo /usr/bin/python3 || echo python3)
 # pytest-xdist processes for make test (the suite mostly waits on apps to settle: two halve its time)
 TEST_WORKERS ?= 2
