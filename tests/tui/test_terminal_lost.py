@@ -83,3 +83,39 @@ def test_a_hang_up_signal_ends_the_app_with_its_work_autosaved(tmp_path):
     finally:
         os.close(master)
     assert json.loads(session.with_name(session.name + ".autosave").read_text())["current_iteration"] == 1
+
+
+class _Terminal:
+    """Standard input or output as the workbench's start sees it: a terminal."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+def test_an_app_ended_by_a_write_to_the_hung_up_terminal_exits_129_with_its_work_autosaved(tmp_path, monkeypatch):
+    """The race the pseudo-terminal test above lost once under load (exit 1): the app's last write
+    to the terminal fails (EIO) before the terminal watch's next look; whatever ended the app once
+    its terminal is gone, the step it took is in the autosave and the exit is the hang-up's."""
+    import tui.terminal_watch
+    from sessions.store import load_session
+    from tui.app import LoopcraftApp
+    from tui.cli import run_app
+    from tui.state.workbench import Workbench
+
+    session = tmp_path / EXAMPLE.name
+    shutil.copy2(EXAMPLE, session)
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    monkeypatch.setattr(sys, "stdin", _Terminal())
+    monkeypatch.setattr(sys, "stdout", _Terminal())
+    monkeypatch.setattr(tui.terminal_watch, "terminal_attached", lambda: False)
+
+    def run(self):  # one step taken, then the terminal's write fails
+        self.bench = Workbench(load_session(session))
+        self.bench.step()
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(LoopcraftApp, "run", run)
+    assert run_app(str(session)) == HANGUP_EXIT
+    autosave = json.loads(session.with_name(session.name + ".autosave").read_text())
+    assert autosave["current_iteration"] == 1 and len(autosave["records"]) == 1
+    assert json.loads(session.read_text())["records"] == []

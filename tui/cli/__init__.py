@@ -116,10 +116,20 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
         )
         return 2
     from tui.stderr_log import stderr_to_log
+    from tui.terminal_watch import HANGUP_EXIT, terminal_attached
 
-    graphics = _graphics()
-    with stderr_to_log():  # Dask's and the workers' logs never over the screen (the help names the file)
-        result = LoopcraftApp(path, graphics=graphics).run()
+    app = LoopcraftApp(path, graphics=_graphics())
+    try:
+        with stderr_to_log():  # Dask's and the workers' logs never over the screen (the help names the file)
+            result = app.run()
+    except Exception:
+        if terminal_attached():
+            raise
+        result = None  # a write to the hung-up terminal failed before the terminal watch noticed it
+    if not terminal_attached():  # whatever ended the app once its terminal went away: its work is autosaved
+        if app.bench is not None:
+            app.bench.autosave()
+        return HANGUP_EXIT
     return result if isinstance(result, int) else 0
 
 
