@@ -130,6 +130,13 @@ def row_scale(A: NDArray, b: NDArray, x: NDArray) -> NDArray:
     return np.maximum.reduce([np.ones(b.size), np.abs(b), np.abs(A) @ np.abs(x)])
 
 
+def _slack(problem: Problem, x: NDArray) -> tuple[Rows, NDArray, NDArray]:
+    """Every row of ``problem``'s inequalities at ``x``: the rows, their slack b - A x (negative:
+    violated) and the size it is measured against (`row_scale`)."""
+    rows = inequality_rows(problem)
+    return rows, rows.b - rows.A @ x, row_scale(rows.A, rows.b, x)
+
+
 def unmet(problem: Problem, x: NDArray, when: str = "") -> list[str]:
     """A line for every row not met at ``x`` (within `TOLERANCE`), naming its constraint
     (``when``, e.g. " at the start", follows "is not met")."""
@@ -138,11 +145,8 @@ def unmet(problem: Problem, x: NDArray, when: str = "") -> list[str]:
 
 def violations(problem: Problem, x: NDArray, when: str = "") -> list[tuple[int, str]]:
     """`unmet`'s lines, each with the index of its inequality."""
-    rows = inequality_rows(problem)
-    if not rows.b.size:
-        return []
-    excess = rows.A @ x - rows.b
-    scale = row_scale(rows.A, rows.b, x)
+    rows, slack, scale = _slack(problem, x)
+    excess = -slack
     out = []
     for r in np.flatnonzero(excess > TOLERANCE * scale):
         k, condition = rows.origin[r]
@@ -184,11 +188,7 @@ def binding(problem: Problem, x: NDArray, within: float = BINDS) -> list[str]:
     """The constraints that bind at ``x``: each row at its bound within ``within`` of its
     scale (`row_scale`), named as written (``'T1 <= 20*T2' binds``), once per constraint
     (with its condition where it holds in each)."""
-    rows = inequality_rows(problem)
-    if not rows.b.size:
-        return []
-    slack = rows.b - rows.A @ x
-    scale = row_scale(rows.A, rows.b, x)
+    rows, slack, scale = _slack(problem, x)
     out = []
     for r in np.flatnonzero(slack <= within * scale):
         k, condition = rows.origin[r]
@@ -209,9 +209,7 @@ class ConstraintState:
 def constraint_states(problem: Problem, x: NDArray) -> list[ConstraintState]:
     """Each of ``problem.inequalities`` at the free vector ``x`` (a constraint that holds in every
     condition is judged on its worst one)."""
-    rows = inequality_rows(problem)
-    slack = rows.b - rows.A @ x
-    scale = row_scale(rows.A, rows.b, x)
+    rows, slack, scale = _slack(problem, x)
     out = []
     for k in range(len(problem.inequalities)):
         mine = [r for r, (origin, _) in enumerate(rows.origin) if origin == k]
