@@ -49,6 +49,19 @@ def wait_for(session: str, *texts: str) -> str:
     return screens[0]
 
 
+def start(session: str, columns: int, rows: int, command: str) -> None:
+    """``command`` in a new detached session whose pane has its size before the command starts,
+    without COLUMNS and LINES: the app reads them first when they are set (Textual asks
+    `shutil.get_terminal_size`), and a tmux server started from a shell that exports them hands
+    them to every pane (the drag test's app drew 80x24 in a 120x40 pane, its mouse reports landed
+    beside the marks and it waited 900 s for an edit); a detached session also takes the server's
+    default size until it is resized."""
+    tmux("new-session", "-d", "-s", session, "-x", str(columns), "-y", str(rows), "cat")
+    tmux("set-option", "-t", session, "window-size", "manual")
+    tmux("resize-window", "-t", session, "-x", str(columns), "-y", str(rows))
+    tmux("respawn-pane", "-k", "-t", session, f"unset COLUMNS LINES; {command}")
+
+
 def test_open_step_three_times_save_and_quit(workdir):
     session = f"loopcraft-e2e-{time.monotonic_ns()}"
     exit_file = workdir / "exit.txt"
@@ -56,9 +69,7 @@ def test_open_step_three_times_save_and_quit(workdir):
         f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} "
         f"seidel_inlet_pi.json; echo EXIT:$? > {exit_file}.tmp && mv {exit_file}.tmp {exit_file}"  # whole or absent
     )
-    tmux("new-session", "-d", "-s", session, "-x", "120", "-y", "40", command)
-    tmux("set-option", "-t", session, "window-size", "manual")
-    tmux("resize-window", "-t", session, "-x", "120", "-y", "40")
+    start(session, 120, 40, command)
     try:
         wait_for(session, "Iteration 0")
         for k in (1, 2, 3):
@@ -84,9 +95,7 @@ def test_every_tab_is_readable_at_80x24(workdir):
     command = (
         f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {LOOPCRAFT} coebra_launch_vehicle.json"
     )
-    tmux("new-session", "-d", "-s", session, "-x", "80", "-y", "24", command)
-    tmux("set-option", "-t", session, "window-size", "manual")
-    tmux("resize-window", "-t", session, "-x", "80", "-y", "24")
+    start(session, 80, 24, command)
     expected = {
         "1": ["target", "freq rad/s", "PM deg"],
         "2": ["condition", "block", "parameter", "min"],
@@ -135,9 +144,7 @@ def test_a_zero_dragged_with_the_mouse_moves_the_margins(workdir):
     command = (
         f"cd {workdir} && LOOPCRAFT_HOME={workdir / 'home'} TERM=xterm-256color {python_path}{LOOPCRAFT} lead.json"
     )
-    tmux("new-session", "-d", "-s", session, "-x", "120", "-y", "40", command)
-    tmux("set-option", "-t", session, "window-size", "manual")
-    tmux("resize-window", "-t", session, "-x", "120", "-y", "40")
+    start(session, 120, 40, command)
     try:
         wait_for(session, "Iteration 0", "PM deg")
         for _ in range(4):  # Nyquist, Bode, Nichols, S/T, Poles
