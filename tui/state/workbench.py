@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from numpy.typing import NDArray
+
 from engine.closed_loop.step_response import StepSetup
 from engine.design.constraints import ConstraintState, binding, constraint_states
 from engine.design.notes import at_bounds, noise_notes, stop_notes
@@ -277,7 +279,7 @@ class Workbench:
         amplification too (a margin search: made once per finished record, `engine.design.notes`)."""
         values = dict(record.parameters)
         problem = self.session.problem
-        notes = binding(problem, problem.vector_from(values)) + at_bounds(problem, values)
+        notes = self._binding(values) + at_bounds(problem, values)
         if record.status.finished:
             noted, kept = self._noise[:2]
             if noted is not problem or kept is not record:  # the objects held, not their ids
@@ -289,11 +291,21 @@ class Workbench:
         """Each linear constraint at the current design (the last record's, else the start); none
         when the records no longer fit the problem (a parameter renamed since)."""
         problem = self.session.problem
-        values = dict(self.records[-1].parameters) if self.records else {}
+        x = self._vector(dict(self.records[-1].parameters) if self.records else {})
+        return [] if x is None else constraint_states(problem, x)
+
+    def _binding(self, values: dict) -> list[str]:
+        """The constraints that bind at a record's values (none when they no longer fit the problem)."""
+        x = self._vector(values)
+        return [] if x is None else binding(self.session.problem, x)
+
+    def _vector(self, values: dict) -> NDArray | None:
+        """The problem's free vector at named values; None when they no longer fit it (a
+        parameter renamed since the record was made)."""
         try:
-            return constraint_states(problem, problem.vector_from(values))
+            return self.session.problem.vector_from(values)
         except EngineError:
-            return []
+            return None
 
     def view(self) -> View:
         """A read-only snapshot of what the screens show now."""
