@@ -30,13 +30,14 @@ constraints are held like bounds and a trial is projected onto them
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.cip.direction import Direction, Rows, gradient_rows
+from engine.cip.direction import COMPROMISE, MOVING, REPORT, Direction, Rows, compromise_direction, gradient_rows
 from engine.cip.linear import held_direction, held_labels, trial_point
 from engine.cip.memory import CipBest, CipMemory
 from engine.cip.requirements import Requirement, check_targets, detect
@@ -72,6 +73,7 @@ class CipSettings:
     keep_met: bool = False  # reject a move that makes a met margin unmet
     hold_tolerance: float = 1e-5  # a coefficient this close to a bound is "at" it
     stability_guard: bool = True
+    tracking: bool = True  # when the report's D finds no step, try D with the crossings moving (direction.py)
 
     def __post_init__(self) -> None:
         if self.mode not in ("tifr", "sifr"):
@@ -135,43 +137,96 @@ class Cip(BoundStepper):
         k = state.iteration + 1
         if not active:
             return self._stop(state, Status.CONVERGED, "all system requirements have been met", requirements)
-        steering = active + self._near(requirements)
-        number = {id(c): n for n, c in enumerate(requirements, start=1)}
-        labels = [_label(c, number[id(c)]) for c in steering]
-        rows = _distinct(gradient_rows(self.problem, x, steering))
-        if rows.gradients.shape[0] > x.size and len(steering) > len(active):
-            rows = _distinct(gradient_rows(self.problem, x, active))  # guard rows are optional
-        direction = held_direction(
-            rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels, *self.problem.linear_constraints
-        )  # the report's D when no requirement is held
-        if direction.vector is None:
+        labels_of = {id(c): _label(c, n) for n, c in enumerate(requirements, start=1)}
+        rejected: dict[str, int] = {}
+        first, searched = None, None
+        for how, direction in self._directions(x, requirements, active, labels_of):
+            first = first or direction
+            if direction.vector is None:
+                continue
+            searched = direction
+            outcome = self._search(x, memory.step, direction.vector, requirements, active, memory.windings, rejected)
+            if outcome is not None:
+                trial, h, (new, windings, matched) = outcome
+                return self._accepted(state, k, trial, new, windings, matched, h, direction, rejected, len(active), how)
+        assert first is not None
+        if first.vector is None:
+            tried = f"; {COMPROMISE} found no accepted step either" if searched is not None else ""
             return self._stop(
                 state,
-                TERMINATION_STATUS[direction.termination],
-                direction.reason,
+                TERMINATION_STATUS[first.termination],
+                first.reason + tried,
                 requirements,
-                termination=direction.termination,
+                termination=first.termination,
+                rejected=rejected,
             )
-        h, rejected = memory.step, {}
-        while True:
-            trial = trial_point(x, h, direction.vector, *self.problem.linear_constraints, self.lower, self.upper)
-            outcome = self._trial(trial, requirements, active, memory.windings)
+        return self._stop(
+            state,
+            Status.STEP_BELOW_MINIMUM,
+            f"step size fell below the minimum {self.settings.min_step:g} after {sum(rejected.values())} trials"
+            + (f" ({REPORT}, then {MOVING})" if self._tracks() else ""),
+            requirements,
+            direction=None if searched is None else searched.vector,
+            rejected=rejected,
+        )
+
+    def _directions(
+        self, x: NDArray, requirements: list[Requirement], active: list[Requirement], labels_of: dict
+    ) -> Iterator[tuple[str, Direction]]:
+        """The directions tried in turn, each named: the report's D, then (exact loops, `tracking`)
+        D with the crossings moving or, where the report stops on Theorem 2 in sifr mode, the
+        least-squares compromise (direction.py)."""
+        steering = active + self._near(requirements)
+        report = self._direction(x, steering, active, labels_of, tracking=False)
+        yield REPORT, report
+        if not self._tracks():
+            return
+        if report.termination == "theorem2":
+            if self.settings.mode == "sifr":
+                rows = _distinct(gradient_rows(self.problem, x, active, tracking=True))
+                s = self.settings
+                yield COMPROMISE, compromise_direction(rows, x, self.lower, self.upper, s.hold_tolerance)
+            return
+        yield MOVING, self._direction(x, steering, active, labels_of, tracking=True)
+
+    def _direction(
+        self, x: NDArray, steering: list[Requirement], active: list[Requirement], labels_of: dict, tracking: bool
+    ) -> Direction:
+        """The report's D over the steering rows (the guard band's rows dropped when they leave
+        more rows than coefficients), with bounds and linear constraints held."""
+        rows = _distinct(gradient_rows(self.problem, x, steering, tracking))
+        if rows.gradients.shape[0] > x.size and len(steering) > len(active):
+            steering = active  # guard rows are optional
+            rows = _distinct(gradient_rows(self.problem, x, steering, tracking))
+        labels = [labels_of[id(c)] for c in steering]
+        return held_direction(
+            rows, x, self.lower, self.upper, self.settings.hold_tolerance, labels, *self.problem.linear_constraints
+        )  # the report's D when no requirement is held
+
+    def _search(
+        self,
+        x: NDArray,
+        h: float,
+        direction: NDArray,
+        requirements: list[Requirement],
+        active: list[Requirement],
+        windings: tuple[float, ...],
+        rejected: dict[str, int],
+    ) -> tuple[NDArray, float, tuple] | None:
+        """Trial moves along ``direction``, h halved after each rejection (counted in ``rejected``),
+        down to the minimum step: the accepted (point, h, outcome), or None."""
+        while h >= self.settings.min_step:
+            trial = trial_point(x, h, direction, *self.problem.linear_constraints, self.lower, self.upper)
+            outcome = self._trial(trial, requirements, active, windings)
             if not isinstance(outcome, str):
-                break
+                return trial, h, outcome
             rejected[outcome] = rejected.get(outcome, 0) + 1
             h /= 2.0
-            if h < self.settings.min_step:
-                return self._stop(
-                    state,
-                    Status.STEP_BELOW_MINIMUM,
-                    f"step size fell below the minimum {self.settings.min_step:g} "
-                    f"after {sum(rejected.values())} trials",
-                    requirements,
-                    direction=direction.vector,
-                    rejected=rejected,
-                )
-        new, windings, matched = outcome
-        return self._accepted(state, k, trial, new, windings, matched, h, direction, rejected, len(active))
+        return None
+
+    def _tracks(self) -> bool:
+        """Whether a second direction, the crossings moving, may be tried (exact loops only)."""
+        return self.settings.tracking and all(c.network.exact for c in self.problem.conditions)
 
     @guarded("cip")
     def initial_record(self, state: State) -> StepRecord:
@@ -232,7 +287,9 @@ class Cip(BoundStepper):
         direction: Direction,
         rejected: dict[str, int],
         before: int,
+        how: str,
     ) -> tuple[State, StepRecord]:
+        """The record and state of an accepted move; ``how`` names the direction taken."""
         s = self.settings
         best = state.memory.best
         smallest = smallest_stability_margin(requirements)
@@ -265,6 +322,7 @@ class Cip(BoundStepper):
             ],
             "held": [names[i] for i in np.flatnonzero(direction.held)] + held_labels(self.problem, direction),
             "partials": self._split(dict(zip(names, direction.vector.tolist()))),
+            "direction": how,
         }
         record = StepRecord(
             k,

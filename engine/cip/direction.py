@@ -13,6 +13,15 @@ matrix of unit gradient rows and c the weights (all ones in the report).
 Coefficients at a bound that the direction would push through are held and
 their columns removed, then D is recomputed (the listing's loop at 423-431,
 there for coefficients at zero).
+
+The report's rows hold each margin's frequency fixed.  A gain or phase margin
+sits at a crossing that moves with the design, so its distance can fall
+where the fixed-frequency row says it rises (a lone gain: raising K pushes
+GH(j w_c) away from -1 while the phase margin at the new crossover shrinks).
+``tracking`` rows add the crossing's motion, dGH/domega domega/dx, with
+domega/dx from the crossing's condition (Im GH = 0 at a phase crossover,
+|GH| = 1 at a gain crossover), as slp's partials do; the stepper uses them
+when the report's rows find no accepted step (algorithm.py).
 """
 
 from __future__ import annotations
@@ -24,7 +33,13 @@ from numpy.typing import NDArray
 
 from engine.cip.requirements import Requirement
 from engine.design.problem import Problem
+from engine.loop.evaluator import LoopEvaluator
 from engine.loop.responses import open_loop
+
+# the directions a step may take, as records name them (`extra["direction"]`)
+REPORT = "the report's direction"
+MOVING = "the direction with the crossings moving"  # rows whose crossings move with the design
+COMPROMISE = "the least-squares compromise"  # tried where the report stops on Theorem 2
 
 DEPENDENT = 1e-7  # smallest/largest singular value of G below this: dependent gradients
 ZERO = 1e-12  # relative size of a gradient treated as zero
@@ -51,8 +66,9 @@ class Direction:
     reason: str = ""
 
 
-def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement]) -> Rows:
-    """Gradients of d(w) for every active requirement and each of its points."""
+def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement], tracking: bool = False) -> Rows:
+    """Gradients of d(w) for every active requirement and each of its points; with ``tracking``,
+    a margin at a crossing of an exact loop moves with its crossing (the module docstring)."""
     slot_of = problem.slot_index
     m = len(problem.free_slots())
     rows, weights, owners, distances = [], [], [], []
@@ -61,7 +77,10 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement]) -> Ro
         if not mine:
             continue
         freqs = np.unique([con.frequency for _, con in mine])
-        response = open_loop(condition.network, condition.break_at, freqs, problem.condition_values(c, x), check=False)
+        params = problem.condition_values(c, x)
+        response = open_loop(condition.network, condition.break_at, freqs, params, check=False)
+        moving = tracking and condition.network.exact
+        slopes = LoopEvaluator(condition.network, condition.break_at, params)(freqs)[1] if moving else None
         columns = [slot_of.get((name, c)) for name in response.parameters]
         used = np.array([j for j, slot in enumerate(columns) if slot is not None], dtype=int)
         slots = np.array([columns[j] for j in used], dtype=int)
@@ -69,6 +88,8 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement]) -> Ro
             f = int(np.searchsorted(freqs, con.frequency))
             gh = response.value[f]
             dgh = response.sensitivity[f] if response.sensitivity is not None else np.zeros(0)
+            if slopes is not None:
+                dgh = dgh + slopes[f] * crossing_motion(con, gh, dgh, slopes[f])
             for point in con.points:
                 sign = 1.0 if point.mode == "push" else -1.0
                 partial = 2.0 * np.real(np.conj(gh - point.value) * dgh) * sign
@@ -80,6 +101,18 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement]) -> Ro
                 owners.append(k)
                 distances.append(abs(gh - point.value) ** 2)
     return Rows(np.array(rows).reshape(len(rows), m), np.array(weights), tuple(owners), np.array(distances))
+
+
+def crossing_motion(requirement: Requirement, gh: complex, gh_x: NDArray, gh_w: complex) -> NDArray:
+    """d omega / dx of the crossing a requirement sits at (zero for a margin at an extremum of its
+    distance, where the frequency's motion changes nothing to first order, and at omega = 0)."""
+    crossing = requirement.family.partition("<")[2] or requirement.kind
+    if requirement.frequency <= 0 or crossing not in ("G", "P") or gh_x.size == 0:
+        return np.zeros(gh_x.size)
+    if crossing == "G":  # GH real: Im GH stays 0
+        return -gh_x.imag / gh_w.imag if gh_w.imag != 0 else np.zeros(gh_x.size)
+    L_x, L_w = gh_x / gh, gh_w / gh  # |GH| = 1: Re ln GH stays 0
+    return -L_x.real / L_w.real if L_w.real != 0 else np.zeros(gh_x.size)
 
 
 def improvement_direction(
@@ -126,6 +159,26 @@ def improvement_direction(
         if not blocked.any():
             return Direction(d / np.linalg.norm(d), held)
         held |= blocked
+
+
+def compromise_direction(rows: Rows, x: NDArray, lower: NDArray, upper: NDArray, hold_tolerance: float) -> Direction:
+    """Beyond Theorem 2 (more active rows than free coefficients, where the report stops): the
+    least-squares D of G D = 1 over the distances' own gradients, d|GH - q|/dx (not unit rows, so
+    that its first-order gain c'G D = |P c|^2 >= 0 is a gain of the sum SIFR accepts on), with
+    coefficients held at the bounds it would push through."""
+    G = rows.gradients / (2.0 * np.sqrt(np.maximum(rows.distances, 1e-300)))[:, None]
+    held = np.zeros(x.size, dtype=bool)
+    for _ in range(x.size):
+        d = np.zeros(x.size)
+        d[~held] = np.linalg.lstsq(G[:, ~held], np.ones(G.shape[0]), rcond=None)[0]
+        blocked = ~held & (
+            (at_bound(x, lower, hold_tolerance) & (d < 0)) | (at_bound(x, upper, hold_tolerance) & (d > 0))
+        )
+        if not blocked.any():
+            norm = np.linalg.norm(d)
+            return Direction(d / norm if norm > 0 else None, held)
+        held |= blocked
+    return Direction(None, held)
 
 
 def at_bound(x: NDArray, bound: NDArray, tolerance: float) -> NDArray[np.bool_]:

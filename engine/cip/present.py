@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from engine.cip.direction import REPORT
 from engine.cip.requirements import KIND
 from engine.design.problem import Problem
 from engine.stepping.presenter import Presenter
@@ -35,6 +36,9 @@ def cip_report_text(record: StepRecord) -> str:
     if methods:
         lines += ["", f"  MARGINS DETECTED: {', '.join(methods)}"]
     lines += _partials(record.extra.get("partials"))
+    direction = record.extra.get("direction", "")
+    if direction and direction != REPORT:  # beyond the listing: say which
+        lines.append(f"  DIRECTION: {direction.upper()} (NOT THE REPORT'S)")
     for comp in record.extra.get("compensators", []):
         lines += _compensator(comp)
     best = record.extra.get("best")

@@ -195,12 +195,12 @@ def brute_force(problem: SmallProblem, names: list[str]) -> tuple[int, int]:
 
 @dataclass(frozen=True)
 class Outcome:
-    """One problem judged: brute force's best against slp's run from the template's start."""
+    """One problem judged: brute force's best against the algorithm's run from the template's start."""
 
     seed: int
     brute_force_meets_all: bool
-    slp_meets_all: bool
-    unnamed: str | None  # an improving step slp's stop did not name, or None
+    meets_all: bool  # the algorithm's run met every requirement
+    unnamed: str | None  # an improving step the algorithm's stop did not name, or None
 
 
 def judged(seed: int) -> Outcome:
@@ -232,4 +232,46 @@ def judged(seed: int) -> Outcome:
         ):
             if "iteration limit" not in last.status.value:
                 unnamed = f"seed {seed}: {problem.names[i]} {'up' if sign > 0 else 'down'} improves ({last.reason})"
+    return Outcome(seed, best == total, all(row.satisfied for row in last.measures), unnamed)
+
+
+def judged_cip(seed: int) -> Outcome | None:
+    """The same judgement for cip where it reads every target (None where it does not): the run
+    from the template's start, switched to cip; at its last design, a step of 1e-3 (relative) in
+    one free parameter that cip's own acceptance would take (its SIFR sum of the active margins
+    raised by more than 1e-6 relative, `improved`) is a defect unless the iteration limit stopped
+    it."""
+    from engine.cip.algorithm import improved, match_requirements
+    from engine.stepping.registry import lookup
+    from sessions.lifecycle import stepper, switch_algorithm
+    from sessions.runner import run_session
+
+    problem = generate(seed)
+    if not all(lookup("cip").targets.accepts(t["measure"]) for t in problem.targets):
+        return None
+    session = problem.session()
+    best, total = brute_force(problem, problem.names)
+    switch_algorithm(session, "cip")
+    last = run_session(session, until_done=True, autosave=False)[-1]
+    cip = stepper(session)
+    x = session.problem.vector_from(dict(last.parameters))
+    here = cip._detect(x)[0]
+    active = [c for c in here if c.active]
+    scale = sum(abs(c.goodness) for c in active)
+    lower, upper = session.problem.bounds()
+    unnamed = None
+    for i, sign in itertools.product(range(x.size), (1.0, -1.0)):
+        moved = x.copy()
+        moved[i] *= 1.0 + sign * 1e-3
+        if not (active and lower[i] <= moved[i] <= upper[i]):
+            continue
+        pairs = match_requirements(here, cip._detect(moved)[0], active)
+        gain = sum(n.goodness - o.goodness for o, n in pairs)
+        if (
+            pairs
+            and improved(pairs, "sifr", 0.0)
+            and gain > 1e-6 * scale
+            and "iteration limit" not in last.status.value
+        ):
+            unnamed = f"seed {seed}: {problem.names[i]} {'up' if sign > 0 else 'down'} improves ({last.reason})"
     return Outcome(seed, best == total, all(row.satisfied for row in last.measures), unnamed)

@@ -9,9 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from engine.cip import Cip, CipSettings
 from engine.cip.direction import gradient_rows
+from engine.cip.present import cip_report_text
 from engine.cip.requirements import Requirement
 from engine.design.problem import BandValue, Condition, Grid, Parameter, Point, Problem, Target
 from engine.errors import EngineError
@@ -147,9 +149,39 @@ def _first(problem: Problem, settings: CipSettings = CipSettings()):
 
 
 def test_more_active_requirements_than_coefficients_is_theorem_2():
-    state, record = _first(_loop_problem("K/(s*(s+1)*(s+2))", {"K": 3.0}, ("K",), (GM, PM)))
+    problem = _loop_problem("K/(s*(s+1)*(s+2))", {"K": 3.0}, ("K",), (GM, PM))
+    state, record = _first(problem, CipSettings(tracking=False))
     assert record.status is Status.INFEASIBLE and state.status is Status.INFEASIBLE
     assert record.extra["termination"] == "theorem2" and "Theorem 2" in record.reason
+
+
+def test_beyond_theorem_2_a_least_squares_compromise_raises_the_sum_and_says_so():
+    """Both margins unmet, one coefficient: the report stops; with `tracking` (the default) the
+    compromise lowers K, which raises both (K = 6 is the loop's stability limit)."""
+    problem = _loop_problem("K/(s*(s+1)*(s+2))", {"K": 3.0}, ("K",), (GM, PM))
+    state, record = _first(problem)
+    assert record.status is Status.RUNNING and record.parameters["K"] < 3.0
+    assert record.extra["direction"] == "the least-squares compromise"
+    assert all(m["after"] > m["before"] for m in record.extra["matched"])
+    assert "DIRECTION: THE LEAST-SQUARES COMPROMISE (NOT THE REPORT'S)" in cip_report_text(record)
+
+
+def test_a_lone_gain_steers_its_phase_margin_with_the_crossover_moving():
+    """PM unmet on K/(s (s+1)^2): the report's row holds the crossover's frequency, where raising K
+    pushes GH away from -1, while the phase margin at the moved crossover falls; every trial was
+    rejected.  The rows with the crossing moving lower K, and PM rises (closed form below)."""
+    target = Target("phase_margin_deg", (BandValue(0, np.inf, 40.0),))
+    problem = _loop_problem("K/(s*(s+1)^2)", {"K": 1.5}, ("K",), (target,))
+    stepper = Cip.bind(problem, CipSettings())
+    state, records = stepper.init(), []
+    while not state.status.finished and len(records) < 50:
+        state, record = stepper.step(state)
+        records.append(record)
+    assert state.status is Status.CONVERGED, records[-1].reason
+    K = records[-1].parameters["K"]
+    wc = brentq(lambda w: K - w * (1 + w * w), 1e-6, 10.0)  # |K / (jw (jw+1)^2)| = 1
+    assert 180 - 90 - 2 * np.degrees(np.arctan(wc)) >= 40.0 - 1e-9
+    assert any(r.extra.get("direction") == "the direction with the crossings moving" for r in records)
 
 
 def test_parallel_gradients_are_linearly_dependent():

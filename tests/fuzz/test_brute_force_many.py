@@ -3,13 +3,14 @@ tests/engine/test_brute_force.py (issue 51, section 5): at least 90 % of the pro
 force solves are solved by slp from the template's start, and no run ends with an improving
 step it does not name.  The issue caps `make test` at twenty problems (the twenty of
 tests/engine/test_brute_force.py), so this file runs under `make fuzz` alone: 280 problems
-(LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES; seeds 20..299, 300 with the twenty); unset, it is skipped."""
+(LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES; seeds 20..299, 300 with the twenty); unset, it is skipped.
+cip is judged on the same seeds where it reads every target."""
 
 from __future__ import annotations
 
 import pytest
 
-from tests.engine.brute_force import judged
+from tests.engine.brute_force import judged, judged_cip
 from tests.fuzz.campaign import setting
 
 FIRST = 20  # seeds 0..19 are tests/engine/test_brute_force.py's
@@ -20,7 +21,17 @@ SEEDS = range(FIRST, FIRST + int(setting("BRUTE_FORCE_CASES", 0)))
 def test_slp_meets_what_brute_force_meets_on_many_problems():
     outcomes = [judged(seed) for seed in SEEDS]
     feasible = [o for o in outcomes if o.brute_force_meets_all]
-    reached = [o.seed for o in feasible if o.slp_meets_all]
+    reached = [o.seed for o in feasible if o.meets_all]
     missed = sorted({o.seed for o in feasible} - set(reached))
     assert len(reached) >= 0.9 * len(feasible), f"slp missed {missed} of {len(feasible)}"
+    assert [o.unnamed for o in outcomes if o.unnamed] == []
+
+
+@pytest.mark.skipif(not SEEDS, reason="make fuzz runs it (LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES)")
+def test_cip_meets_what_brute_force_meets_on_many_problems():
+    outcomes = [o for o in (judged_cip(seed) for seed in SEEDS) if o is not None]
+    feasible = [o for o in outcomes if o.brute_force_meets_all]
+    reached = [o.seed for o in feasible if o.meets_all]
+    missed = sorted({o.seed for o in feasible} - set(reached))
+    assert len(reached) >= 0.9 * len(feasible), f"cip missed {missed} of {len(feasible)}"
     assert [o.unnamed for o in outcomes if o.unnamed] == []
