@@ -34,7 +34,7 @@ from numpy.typing import NDArray
 from engine.cip.requirements import Requirement
 from engine.design.problem import Problem
 from engine.loop.evaluator import LoopEvaluator
-from engine.loop.responses import open_loop
+from engine.loop.responses import crossing_motion, open_loop
 
 # the directions a step may take, as records name them (`extra["direction"]`)
 REPORT = "the report's direction"
@@ -89,7 +89,7 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement], track
             gh = response.value[f]
             dgh = response.sensitivity[f] if response.sensitivity is not None else np.zeros(0)
             if slopes is not None:
-                dgh = dgh + slopes[f] * crossing_motion(con, gh, dgh, slopes[f])
+                dgh = dgh + slopes[f] * _moving(con, gh, dgh, slopes[f])
             for point in con.points:
                 sign = 1.0 if point.mode == "push" else -1.0
                 partial = 2.0 * np.real(np.conj(gh - point.value) * dgh) * sign
@@ -103,16 +103,15 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement], track
     return Rows(np.array(rows).reshape(len(rows), m), np.array(weights), tuple(owners), np.array(distances))
 
 
-def crossing_motion(requirement: Requirement, gh: complex, gh_x: NDArray, gh_w: complex) -> NDArray:
-    """d omega / dx of the crossing a requirement sits at (zero for a margin at an extremum of its
-    distance, where the frequency's motion changes nothing to first order, and at omega = 0)."""
+def _moving(requirement: Requirement, gh: complex, gh_x: NDArray, gh_w: complex) -> NDArray:
+    """d omega / dx of the crossing a requirement sits at (`crossing_motion`); zero for a margin at an
+    extremum of its distance, where the frequency's motion changes nothing to first order, and at
+    omega = 0 or where the crossing's slope vanishes."""
     crossing = requirement.family.partition("<")[2] or requirement.kind
     if requirement.frequency <= 0 or crossing not in ("G", "P") or gh_x.size == 0:
         return np.zeros(gh_x.size)
-    if crossing == "G":  # GH real: Im GH stays 0
-        return -gh_x.imag / gh_w.imag if gh_w.imag != 0 else np.zeros(gh_x.size)
-    L_x, L_w = gh_x / gh, gh_w / gh  # |GH| = 1: Re ln GH stays 0
-    return -L_x.real / L_w.real if L_w.real != 0 else np.zeros(gh_x.size)
+    slope = (gh_w / gh).imag if crossing == "G" else (gh_w / gh).real
+    return crossing_motion(crossing, gh, gh_x, gh_w) if slope != 0 else np.zeros(gh_x.size)
 
 
 def improvement_direction(

@@ -33,6 +33,16 @@ class Response:
     sensitivity: NDArray[np.complex128] | None
 
 
+def crossing_motion(crossing: str, gh: complex, gh_x: NDArray, gh_w: complex) -> NDArray:
+    """d omega / dx of a crossing of the open loop whose frequency moves with the parameters, from
+    GH, dGH/dx and dGH/domega there: a phase crossover (``"G"``: arg GH stays put, Im ln GH) or a
+    gain crossover (``"P"``: |GH| stays 1, Re ln GH)."""
+    L_x, L_w = gh_x / gh, gh_w / gh
+    if crossing == "G":
+        return -L_x.imag / L_w.imag
+    return -L_x.real / L_w.real
+
+
 def open_loop(
     network: Network,
     break_at: str,

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.design.problem import Problem
+from engine.loop.responses import crossing_motion
 from engine.slp.measures import Spec, evaluate
 from engine.slp.peaks import analytic_row, closed_loop_row
 from engine.slp.sensitivities import loop_sensitivities
@@ -93,11 +94,11 @@ def _row(kind: str, gh: complex, gh_x: NDArray, gh_w: complex, moving: bool) -> 
     """d(measure)/d(parameters) at a row's frequency (see the module docstring)."""
     L_x, L_w = gh_x / gh, gh_w / gh
     if kind == "gain_margin_db":
-        return -DB * (L_x.real - (L_w.real * L_x.imag / L_w.imag if moving else 0.0))
+        return -DB * (L_x.real + (L_w.real * crossing_motion("G", gh, gh_x, gh_w) if moving else 0.0))
     if kind == "phase_margin_deg":
-        return np.degrees(L_x.imag - L_w.imag * L_x.real / L_w.real)
+        return np.degrees(L_x.imag + L_w.imag * crossing_motion("P", gh, gh_x, gh_w))
     if kind == "crossover_frequency":
-        return -L_x.real / L_w.real
+        return crossing_motion("P", gh, gh_x, gh_w)
     if kind == "modal_peak_db":
         return DB * L_x.real
     if kind == "attenuation_margin":
@@ -106,9 +107,9 @@ def _row(kind: str, gh: complex, gh_x: NDArray, gh_w: complex, moving: bool) -> 
     if kind == "stability_margin":
         return np.real(np.conj(one) * gh_x) / abs(one)
     if kind == "gain_margin":
-        w_x = -gh_x.imag / gh_w.imag if moving else 0.0
+        w_x = crossing_motion("G", gh, gh_x, gh_w) if moving else 0.0
     else:  # phase_margin: |GH| = 1
-        w_x = -L_x.real / L_w.real
+        w_x = crossing_motion("P", gh, gh_x, gh_w)
     return np.real(np.conj(one) * (gh_x + gh_w * w_x)) / abs(one)
 
 
