@@ -299,7 +299,11 @@ class Cip(BoundStepper):
         if not any(c.active for c in requirements):
             status, reason = Status.CONVERGED, "all system requirements have been met"
         elif k >= s.max_iterations:
-            status, reason = Status.ITERATION_LIMIT, f"maximum iterations ({s.max_iterations})"
+            status, reason = (
+                Status.ITERATION_LIMIT,
+                f"maximum iterations ({s.max_iterations}); the last step {h:.3g} (the maximum {s.max_step:g}): "
+                f"{sum(c.active for c in requirements)} requirement(s) unmet, raise max_iterations to go on",
+            )
         memory = replace(
             state.memory,
             requirements=tuple(requirements),

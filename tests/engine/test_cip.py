@@ -203,6 +203,7 @@ def test_iteration_limit_and_met_requirements():
     problem = _loop_problem("K*(1+T*s)/(s*(s+1)*(s+2))", {"K": 3.0, "T": 0.1}, ("K",), (GM,))
     limited = list(iterate(Cip.bind(problem, CipSettings(max_iterations=2, max_step=0.01)), max_iter=10))
     assert [r.status for _, r in limited] == [Status.RUNNING, Status.ITERATION_LIMIT]
+    assert "the last step 0.01 (the maximum 0.01): 1 requirement(s) unmet" in limited[-1][1].reason
     done = list(iterate(Cip.bind(problem, CipSettings(max_step=0.2)), max_iter=200))
     assert done[-1][1].status is Status.CONVERGED and done[-1][1].extra["unmet"] == 0
 
