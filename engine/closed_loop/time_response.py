@@ -21,7 +21,9 @@ how python-control's step_info (0.10) differs:
   each level, no interpolation;
 - peak, peak time, overshoot: by ``peak_rule`` -- ``"global"`` (default) the
   largest r over the horizon, ``"first_half_cycle"`` report 003's rule, the
-  first local maximum above the final value; no peak time and 0 % when the
+  largest r of the first half cycle above the final value (from the first
+  sample above it to the next at or below it: a structural mode's ripple on
+  the rise does not end the half cycle, its crest is not the peak); no peak time and 0 % when the
   rule finds no sample above the final value (step_info: overshoot from the
   largest r, peak and peak time those of the largest |y|, also without
   overshoot, so they differ when an undershoot exceeds the overshoot);
@@ -287,9 +289,14 @@ def _first_sample_at(t: NDArray, r: NDArray, level: float) -> float | None:
 
 def _peak_index(r: NDArray, rule: PeakRule) -> int | None:
     """The peak's sample by ``rule``, None when it finds none above the final value."""
-    if rule == "first_half_cycle":
-        peaks = np.flatnonzero((r[1:-1] >= r[:-2]) & (r[1:-1] > r[2:]) & (r[1:-1] > 1.0)) + 1
-        return int(peaks[0]) if peaks.size else None
+    if rule == "first_half_cycle":  # the largest r of the first excursion above the final value
+        above = np.flatnonzero(r > 1.0)
+        if not above.size:
+            return None
+        start = int(above[0])
+        back = np.flatnonzero(r[start:] <= 1.0)
+        end = start + int(back[0]) if back.size else r.size
+        return start + int(np.argmax(r[start:end]))
     i = int(np.argmax(r))
     return i if r[i] > 1.0 else None
 

@@ -42,7 +42,7 @@ from engine.model.blocks import ExpressionTransfer
 from engine.multiloop.network_breaks import diagram_disk_margin
 from engine.slp.peaks import closed_loop_values
 
-SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first local maximum above final
+SLP_PEAK_RULE: PeakRule = "first_half_cycle"  # report 003's overshoot: the first half cycle above final
 # the measures read from the attenuation minima (`engine.design.measure_kinds`: margin family A)
 PEAK_KINDS = tuple(name for name, k in MEASURE_KINDS.items() if k.margin == "A")
 MARGIN_ATTRIBUTE = {
