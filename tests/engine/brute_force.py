@@ -1,12 +1,11 @@
 """Small design problems drawn from a seed, and their brute-force reference (issue 51,
 section 5): plants of type 0-2 with or without a light mode, a gain, PI, lead or lag from the
 templates (at most three free parameters, the lead's and lag's ratio constraints), targets
-among PM, GM, crossover and Ms, one or two conditions.  The reference is written here, not
-read from the engine: every design of a log grid over the parameter box, its loop sampled
-densely with numpy, every crossing found on the samples and refined by interpolation, the
-closed loop's stability from the roots of its characteristic polynomial.  Time-domain targets
-are left out: slp reads report 003's first-half-cycle overshoot, which a reference would have
-to copy rather than check."""
+among PM, GM, crossover and Ms (and, when asked, in 30 % of the problems an overshoot or
+settling-time target), one or two conditions.  The reference is written here, not read from the engine: every design of
+a log grid over the parameter box, its loop sampled densely with numpy, every crossing found on
+the samples and refined by interpolation, the closed loop's stability from the roots of its
+characteristic polynomial, its step response from its partial fractions (`step_measures`)."""
 
 from __future__ import annotations
 
@@ -17,15 +16,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.signal import residue
 
 from sessions.new.templates import new_session
 from sessions.store import Session, parse_session
 
 OMEGA = np.geomspace(1e-3, 1e3, 1500)
+TIME_TARGETS = 0.3  # the share of problems with an overshoot or settling-time target
+HORIZON = 100.0  # a time target's horizon over the plant's first corner a (s times rad/s)
+STEP_POINTS = 2000  # its samples in loopcraft; the reference samples 10 times as densely
+SETTLING_BAND = 0.05  # loopcraft's default band
 BOX = (1e-2, 1e2)  # every parameter's bounds
 GRID_POINTS = {"K": 25, "Ti": 11, "T1": 11, "T2": 11}
 ROBUST = 0.01  # brute force counts a requirement met only with 1 % to spare (no borderline designs)
-TEMPLATE_SCALE = {"phase_margin_deg": 0.2}  # the templates' weighting of a degree
+TEMPLATE_SCALE = {"phase_margin_deg": 0.2}
+AT_MOST = ("sensitivity_peak", "overshoot_percent", "settling_time")  # the templates' weighting of a degree
 
 
 @dataclass(frozen=True)
@@ -88,8 +93,9 @@ class SmallProblem:
         return parse_session(json.dumps(data), f"seed {self.seed}", Path("."))
 
 
-def generate(seed: int) -> SmallProblem:
-    """The seed's problem (see the module docstring)."""
+def generate(seed: int, time_targets: bool = False) -> SmallProblem:
+    """The seed's problem (see the module docstring); with ``time_targets``, 30 % of the seeds add
+    an overshoot or settling-time target to the same frequency targets."""
     rng = np.random.default_rng(seed)
     compensator = str(rng.choice(["gain", "pi", "lead", "lag"]))
     kind = int(rng.integers(0, 3 if compensator == "lead" else 2))  # a type-2 plant needs a lead
@@ -110,6 +116,13 @@ def generate(seed: int) -> SmallProblem:
         ][which]
         scale = TEMPLATE_SCALE.get(measure, 1.0)
         targets.append({"measure": measure, "bands": [{"desired": round(desired, 4)}], "scale": scale})
+    if time_targets and rng.random() < TIME_TARGETS:  # drawn last: the frequency targets stay as they are
+        measure, desired = [
+            ("overshoot_percent", float(rng.uniform(10.0, 40.0))),
+            ("settling_time", float(rng.uniform(8.0, 30.0) / a)),
+        ][int(rng.integers(0, 2))]
+        response = {"input": "r", "output": "y", "horizon": round(HORIZON / a, 4), "points": STEP_POINTS}
+        targets.append({"measure": measure, "bands": [{"desired": round(desired, 4)}], "response": response})
     return SmallProblem(seed, compensator, plants, targets)
 
 
@@ -161,19 +174,63 @@ def measures(num: np.ndarray, den: np.ndarray) -> dict[str, float] | None:
     }
 
 
-def met_with_margin(problem: SmallProblem, values: dict[str, float] | None) -> int:
-    """How many requirements (target x condition) a design meets with `ROBUST` to spare."""
-    count = 0
+def step_measures(num: np.ndarray, den: np.ndarray, horizon: float) -> dict[str, float]:
+    """The overshoot (%) and the settling time (s, `SETTLING_BAND`) of the stable loop num/den's
+    unit step response under unity feedback: the inverse Laplace transform of T(s)/s from its
+    partial fractions (r t^(m-1)/(m-1)! e^(p t) for a pole of multiplicity m), sampled densely on
+    [0, horizon].  The overshoot is the global maximum's: loopcraft reads report 003's first half
+    cycle, whose peak is never higher, so a design this reference finds within a desired
+    overshoot is within it in loopcraft too.  A response outside the band at the horizon never
+    settles (inf)."""
+    closed = np.concatenate([np.zeros(den.size - num.size), num]) + den
+    numerator = np.concatenate([np.zeros(closed.size - num.size), num])
+    residues, poles, _ = residue(numerator, np.polymul(closed, [1.0, 0.0]))  # T(s)/s: strictly proper
+    t = np.linspace(0.0, horizon, 4 * STEP_POINTS)
+    power = np.zeros(poles.size, dtype=int)
+    for i in range(1, poles.size):
+        power[i] = power[i - 1] + 1 if poles[i] == poles[i - 1] else 0  # residue lists a repeated pole's powers in turn
+    terms = t[:, None] ** power / np.array([math.factorial(k) for k in power]) * np.exp(np.outer(t, poles))
+    y = np.real(terms @ residues)
+    final = numerator[-1] / closed[-1]
+    outside = np.flatnonzero(np.abs(y / final - 1.0) > SETTLING_BAND)
+    if outside.size and outside[-1] == t.size - 1:
+        settled = math.inf
+    else:
+        settled = float(t[outside[-1] + 1]) if outside.size else 0.0
+    return {"overshoot_percent": max(float(y.max() / final - 1.0) * 100.0, 0.0), "settling_time": settled}
+
+
+def met_with_margin(problem: SmallProblem, values: dict[str, float] | None, beat: int = -1) -> int:
+    """How many requirements (target x condition) a design meets with `ROBUST` to spare; the
+    step responses are simulated only where their requirements could lift the count above
+    ``beat`` (brute force's best so far)."""
+    counts, timed = [], [t for t in problem.targets if "response" in t]
+    loops = []
     for plant in problem.plants:
         c_num, c_den = compensator_polynomials(problem.compensator, values)
         p_num, p_den = plant.polynomials()
-        found = measures(np.convolve(c_num, p_num), np.convolve(c_den, p_den))
-        if found is None:
+        loops.append((np.convolve(c_num, p_num), np.convolve(c_den, p_den)))
+        found = measures(*loops[-1])
+        counts.append(None if found is None else _met(problem.targets, found, timed=False))
+    count = sum(c for c in counts if c is not None)
+    if not timed or count + len(timed) * sum(c is not None for c in counts) <= beat:
+        return count
+    for loop, frequency_count in zip(loops, counts):
+        if frequency_count is not None:
+            count += _met(timed, step_measures(*loop, timed[0]["response"]["horizon"]), timed=True)
+    return count
+
+
+def _met(targets: list[dict], found: dict[str, float], timed: bool) -> int:
+    """How many of ``targets`` (those with a response when ``timed``, the others when not) the
+    values ``found`` meet with `ROBUST` to spare."""
+    count = 0
+    for target in targets:
+        if ("response" in target) != timed:
             continue
-        for target in problem.targets:
-            value, desired = found[target["measure"]], target["bands"][0]["desired"]
-            at_most = target["measure"] == "sensitivity_peak"
-            count += value <= desired * (1 - ROBUST) if at_most else value >= desired * (1 + ROBUST)
+        value, desired = found[target["measure"]], target["bands"][0]["desired"]
+        at_most = target["measure"] in AT_MOST
+        count += value <= desired * (1 - ROBUST) if at_most else value >= desired * (1 + ROBUST)
     return count
 
 
@@ -187,7 +244,7 @@ def brute_force(problem: SmallProblem, names: list[str]) -> tuple[int, int]:
             values["T1"] <= 20 * values["T2"] and values["T2"] <= 20 * values["T1"]
         ):
             continue
-        best = max(best, met_with_margin(problem, values))
+        best = max(best, met_with_margin(problem, values, best))
         if best == len(problem.targets) * len(problem.plants):
             break
     return best, len(problem.targets) * len(problem.plants)
@@ -203,8 +260,9 @@ class Outcome:
     unnamed: str | None  # an improving step the algorithm's stop did not name, or None
 
 
-def judged(seed: int) -> Outcome:
-    """Run slp on the seed's problem from the template's start and compare it with brute force;
+def judged(seed: int, time_targets: bool = False) -> Outcome:
+    """Run slp on the seed's problem (`generate`) from the template's start and compare it with
+    brute force;
     at its last design, look for a step of 1e-3 (relative) in one free parameter, within bounds
     and constraints, that slp's own rule would take (`Slp._better`: more requirements met, or
     the figure of merit raised by its `improvement_percent`): a stop that leaves one is a
@@ -213,7 +271,7 @@ def judged(seed: int) -> Outcome:
     from sessions.lifecycle import stepper
     from sessions.runner import run_session
 
-    problem = generate(seed)
+    problem = generate(seed, time_targets)
     session = problem.session()
     best, total = brute_force(problem, problem.names)
     last = run_session(session, until_done=True, autosave=False)[-1]

@@ -4,13 +4,14 @@ force solves are solved by slp from the template's start, and no run ends with a
 step it does not name.  The issue caps `make test` at twenty problems (the twenty of
 tests/engine/test_brute_force.py), so this file runs under `make fuzz` alone: 280 problems
 (LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES; seeds 20..299, 300 with the twenty); unset, it is skipped.
-cip is judged on the same seeds where it reads every target."""
+cip is judged on the same seeds where it reads every target; slp again on the seeds that gain an
+overshoot or settling-time target (`generate(seed, time_targets=True)`)."""
 
 from __future__ import annotations
 
 import pytest
 
-from tests.engine.brute_force import judged, judged_cip
+from tests.engine.brute_force import generate, judged, judged_cip
 from tests.fuzz.campaign import setting
 
 FIRST = 20  # seeds 0..19 are tests/engine/test_brute_force.py's
@@ -34,4 +35,15 @@ def test_cip_meets_what_brute_force_meets_on_many_problems():
     reached = [o.seed for o in feasible if o.meets_all]
     missed = sorted({o.seed for o in feasible} - set(reached))
     assert len(reached) >= 0.9 * len(feasible), f"cip missed {missed} of {len(feasible)}"
+    assert [o.unnamed for o in outcomes if o.unnamed] == []
+
+
+@pytest.mark.skipif(not SEEDS, reason="make fuzz runs it (LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES)")
+def test_slp_meets_what_brute_force_meets_with_time_targets():
+    timed = [s for s in SEEDS if any("response" in t for t in generate(s, time_targets=True).targets)]
+    outcomes = [judged(seed, time_targets=True) for seed in timed]
+    feasible = [o for o in outcomes if o.brute_force_meets_all]
+    reached = [o.seed for o in feasible if o.meets_all]
+    missed = sorted({o.seed for o in feasible} - set(reached))
+    assert len(reached) >= 0.9 * len(feasible), f"slp missed {missed} of {len(feasible)}"
     assert [o.unnamed for o in outcomes if o.unnamed] == []
