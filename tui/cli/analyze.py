@@ -586,6 +586,8 @@ def _session_design(args: argparse.Namespace) -> int:
     break_at = c.break_at if args.break_name is None else args.break_name
     if break_at not in c.network.signals:
         raise CliError(f"--break {break_at!r}: {c.name}'s signals are {', '.join(c.network.signals)}")
+    if args.break_name is not None and not c.network.on_a_loop(break_at):
+        raise CliError(f"--break {break_at!r}: the signal lies on no loop of {c.name}'s diagram (it opens no loop)")
     result = analyze(c.network, break_at, problem.grid.omega, values)
     every = list(c.breaks) if args.break_name is None and tuple(c.breaks) not in ((), (c.break_at,)) else []
     others = [(b, analyze(c.network, b, problem.grid.omega, values)) for b in every]

@@ -1,0 +1,143 @@
+"""A state space x' = A x + B u, y = C x + D u with m inputs and m outputs as one block of a
+block diagram: each input port reads a signal, each output port produces one.
+
+One block, one set of states.  A diagram's network is a graph of single-input single-output
+entries (`engine.model.network`); the block enters it as its m x m channels, the entry from
+input j to output i being C_i (sI - A)^-1 B_j + D_ij (`StateSpaceChannel`: a SISO state space
+kept as state space, evaluated as any other), and every channel names the block it belongs
+to.  The network's realization (`engine.loop.realization`) places the block's states once:
+its B columns at the signals its inputs read, its C rows at the signals its outputs produce,
+D in the feedthrough; so the loop seen at any break is formed exactly as for SISO blocks, and
+no mode is copied (m^2 copies would be hidden modes of every closed loop).
+
+Coordinates.  The block is balanced once as a whole (LAPACK's gebal on [[A, B], [C, 0]],
+powers of two on the states alone, exact), as a SISO block is
+(`engine.model.state_space.balanced`): nothing formed from it depends on the coordinates
+given.  A block in z is brought to its w-plane form as a whole (`in_w`)."""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from engine.errors import BlockError
+from engine.model.bilinear import realization_in_w
+from engine.model.blocks import StateSpaceTransfer
+from engine.model.state_space import MAX_STATES, real_matrix
+
+MAX_PORTS = 8  # inputs (and outputs) of one block: the loops of one plant (`engine.multiloop.plant.MAX_LOOPS`)
+
+Matrices4 = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
+def checked_ports(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) -> Matrices4:
+    """A (n x n), B (n x m), C (m x n) and D (m x m; a number 0: no feedthrough) of a square block,
+    or a `BlockError` naming ``where`` and what is wrong."""
+    a, b, c, d = (real_matrix(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D")))
+    a = a.reshape(0, 0) if a.size == 0 else a
+    n = a.shape[0] if a.ndim == 2 else -1
+    if a.ndim != 2 or a.shape[1] != n:
+        raise BlockError(f"{where}: A must be a square matrix, not {_shape(a)}")
+    if n > MAX_STATES:
+        raise BlockError(f"{where}: order {n} is beyond the limit of {MAX_STATES} states for one block")
+    b = b.reshape(0, -1) if n == 0 and b.size == 0 and b.ndim == 2 else b
+    if b.ndim != 2 or b.shape[0] != n:
+        raise BlockError(f"{where}: B is {_shape(b)}; with A {n} x {n} it must be {n} x m (one column per input)")
+    if c.ndim != 2 or c.shape[1] != n:
+        raise BlockError(f"{where}: C is {_shape(c)}; with A {n} x {n} it must be m x {n} (one row per output)")
+    m, outputs = b.shape[1], c.shape[0]
+    if m != outputs:
+        raise BlockError(
+            f"{where}: {m} inputs (B's columns) and {outputs} outputs (C's rows): a block of several ports is "
+            "square (as many outputs as inputs)"
+        )
+    if not 1 <= m <= MAX_PORTS:
+        raise BlockError(f"{where}: {m} inputs; a block has 1 to {MAX_PORTS}")
+    d = np.zeros((m, m)) if d.size == 1 and not d.any() else d
+    if d.shape != (m, m):
+        raise BlockError(f"{where}: D is {_shape(d)}; with {m} inputs and {m} outputs it must be {m} x {m}")
+    return a, b, c, d
+
+
+def _shape(x: NDArray) -> str:
+    return " x ".join(map(str, x.shape)) if x.ndim else "a number"
+
+
+class PortedStateSpace:
+    """A checked square state space of m ports (``given``: as it came; ``A``, ``B``, ``C``, ``D``:
+    balanced) and its channels (module docstring)."""
+
+    def __init__(self, A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike = 0.0, source: str = "state space"):
+        self.given = checked_ports(A, B, C, D, source)
+        self.source = source
+        self.A, self.B, self.C, self.D = balanced_ports(*self.given)
+        self.channels = tuple(
+            tuple(StateSpaceChannel(self, i, j) for j in range(self.ports)) for i in range(self.ports)
+        )
+
+    @property
+    def ports(self) -> int:
+        return int(self.D.shape[0])
+
+    @property
+    def order(self) -> int:
+        return int(self.A.shape[0])
+
+    def channel_is_zero(self, output_port: int, input_port: int) -> bool:
+        """Is the channel 0 at every frequency by the block's structure: D_ij = 0 and every Markov
+        parameter C_i A^k B_j (k < n) exactly 0 (zeros that balancing keeps; an overflow is not 0)?"""
+        if self.D[output_port, input_port] != 0:
+            return False
+        c, v = self.C[output_port], self.B[:, input_port]
+        with np.errstate(all="ignore"):
+            for _ in range(self.order):
+                if c @ v != 0:
+                    return False
+                v = self.A @ v
+        return True
+
+    @cached_property
+    def poles(self) -> NDArray[np.complex128]:
+        """The eigenvalues of A: the block's modes, each once."""
+        return np.linalg.eigvals(self.A).astype(complex) if self.order else np.zeros(0, dtype=complex)
+
+    @cached_property
+    def in_w(self) -> PortedStateSpace:
+        """The block in z as its w-plane form, z = (1 + w)/(1 - w) (`realization_in_w`), made once."""
+        try:
+            return PortedStateSpace(*realization_in_w(self.A, self.B, self.C, self.D), source=f"{self.source}, in z")
+        except BlockError as exc:
+            raise BlockError(f"{self.source}: {exc}") from None
+
+
+def balanced_ports(a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> Matrices4:
+    """The same block with its states scaled by powers of two (module docstring)."""
+    n, m = a.shape[0], b.shape[1]
+    if n == 0:
+        return a, b, c, d
+    from scipy import linalg  # on first use (start-up)
+
+    system = np.zeros((n + m, n + m))
+    system[:n, :n], system[:n, n:], system[n:, :n] = a, b, c
+    with np.errstate(invalid="ignore"):  # scipy casts the scales to int for a permutation it does not use
+        _, (scale, _) = linalg.matrix_balance(system, permute=False, separate=True)
+    t = scale[:n]
+    return a * t[None, :] / t[:, None], b / t[:, None], c * t[None, :], d
+
+
+class StateSpaceChannel(StateSpaceTransfer):
+    """The channel of ``block`` from input ``input_port`` to output ``output_port`` (from 0): a SISO
+    state space of the block's balanced states, whose entry in a network the realization places
+    among the block's others (module docstring)."""
+
+    def __init__(self, block: PortedStateSpace, output_port: int, input_port: int) -> None:
+        i, j = output_port, input_port
+        where = f"{block.source}, output {i + 1} from input {j + 1}"
+        super().__init__(block.A, block.B[:, j], block.C[i], block.D[i, j], where)
+        self.block, self.output_port, self.input_port = block, i, j
+
+    def in_w(self) -> StateSpaceChannel:
+        """The same channel of the block's w-plane form (`PortedStateSpace.in_w`)."""
+        return self.block.in_w.channels[self.output_port][self.input_port]
