@@ -336,3 +336,13 @@ def test_the_plant_tab_s_row_replaces_the_block_s_matrices_and_keeps_its_ports(t
     plant_edit(bench, ref).apply("state_space: half.npz")
     block = bench.session.model.problem.conditions[0].plant.blocks[ref[-1]]
     assert block.transfer.file == "half.npz" and block.inputs == ["u1", "u2"] and block.outputs == ["y1", "y2"]
+
+
+@pytest.mark.parametrize("to", ["python", "matlab", "json"])
+def test_an_export_of_a_block_of_several_ports_is_refused_naming_it(tmp_path, capsys, to):
+    """Its channels written apart would each carry a copy of its states (hidden modes at +-10j in the
+    exported closed loop): refused until an export writes the block whole."""
+    assert main(["export", str(_write(tmp_path, satellite_session(["u1", "u2"]))), "--to", to]) == 2
+    err = capsys.readouterr().err
+    assert "condition 'spin', P: cannot be exported: a state space of several ports" in err
+    assert len(err.strip().splitlines()) == 1
