@@ -346,3 +346,53 @@ def test_an_export_of_a_block_of_several_ports_is_refused_naming_it(tmp_path, ca
     err = capsys.readouterr().err
     assert "condition 'spin', P: cannot be exported: a state space of several ports" in err
     assert len(err.strip().splitlines()) == 1
+
+
+# --- delays and tables: loops at a time, the multi-loop margin refused by name -----------------
+
+TAU = 0.05
+
+
+def with_block_before_u1(transfer: dict, name: str) -> dict:
+    """The compensated plant with ``transfer`` between K1 and the plant's first input."""
+    document = compensated_session()
+    blocks = document["problem"]["conditions"][0]["plant"]["blocks"]
+    blocks[1]["output"] = "v1"
+    blocks.append({"name": name, "input": "v1", "output": "u1", "transfer": transfer})
+    return document
+
+
+def test_a_delay_gives_exact_loops_and_names_itself_for_the_multi_loop_margin(tmp_path, capsys):
+    """Each loop at a time with exp(-0.05 s) after K1 is python-control's times exp(-j omega 0.05) at
+    its crossings; the multi-loop margin is null, the delay block named."""
+    path = _write(tmp_path, with_block_before_u1({"kind": "delay", "tau": TAU}, "lag"))
+    data = _analyze(capsys, path)
+    assert data["multi_loop_disk_margin"] is None and "delay block(s) lag" in data["multi_loop_disk_margin_refused"]
+    for loop in data["loops"]:
+        assert loop["phase_margins"]
+        for pm in loop["phase_margins"]:
+            value = delayed_loop(int(loop["name"][1]) - 1, pm["frequency"])
+            assert abs(value) == pytest.approx(1.0, abs=1e-9)
+            assert (pm["phase_deg"] - np.degrees(np.angle(value))) % 360.0 == pytest.approx(180.0, abs=1e-7)
+
+
+def delayed_loop(i: int, w: float) -> complex:
+    """The loop at input (or error) i with the other closed, K1 delayed by TAU, at j w: k_i (P_ii -
+    P_io k_o P_oi / (1 + k_o P_oo)), P and K evaluated by python-control."""
+    s = control.tf("s")
+    p = control.ss(*PLANT)(1j * w)
+    k = [complex(eval(text, {"s": s})(1j * w)) for text in COMPENSATORS]  # noqa: S307 - the test's own texts
+    k[0] *= np.exp(-1j * w * TAU)
+    o = 1 - i
+    return k[i] * (p[i, i] - p[i, o] * k[o] * p[o, i] / (1.0 + k[o] * p[o, o]))
+
+
+def test_a_table_gives_loops_at_a_time_and_names_itself_for_the_multi_loop_margin(tmp_path, capsys):
+    w = np.geomspace(0.01, 100.0, 200)
+    h = 1.0 / (1.0 + 0.01j * w)
+    table = {"form": "cartesian", "frequency": w.tolist(), "first": h.real.tolist(), "second": h.imag.tolist()}
+    data = _analyze(capsys, _write(tmp_path, with_block_before_u1({"kind": "table", "table": table}, "sensor")))
+    assert [loop["name"] for loop in data["loops"]] == ["u1", "u2", "e1", "e2"]
+    assert all(loop["phase_margins"] for loop in data["loops"])
+    assert data["multi_loop_disk_margin"] is None
+    assert data["multi_loop_disk_margin_refused"].startswith("table block(s) sensor: a table has no realization")
