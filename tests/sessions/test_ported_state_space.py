@@ -396,3 +396,53 @@ def test_a_table_gives_loops_at_a_time_and_names_itself_for_the_multi_loop_margi
     assert all(loop["phase_margins"] for loop in data["loops"])
     assert data["multi_loop_disk_margin"] is None
     assert data["multi_loop_disk_margin_refused"].startswith("table block(s) sensor: a table has no realization")
+
+
+def test_a_random_block_of_three_ports_with_feedthrough_is_analyze_ss(tmp_path, capsys):
+    """A seeded plant of order 12 and 3 loops (tests/engine/multiloop_references.random_plant), D
+    added, as one block: every loop's crossings to 1e-9 and the certified bracket equal --ss's."""
+    from tests.engine.multiloop_references import random_plant
+
+    a, b, c, d = random_plant(np.random.default_rng(3), 12, 3)
+    d = d + 0.01 * np.random.default_rng(4).standard_normal((3, 3))
+    np.savez(tmp_path / "plant.npz", A=a, B=b, C=c, D=d)
+    by_ss = _analyze(capsys, "--ss", tmp_path / "plant.npz")
+    names = ["u1", "u2", "u3"]
+    document = session([ported("P", names, ["y1", "y2", "y3"], a, b, c, d)], unity(3), ["r1", "r2", "r3"], names)
+    mine = _analyze(capsys, _write(tmp_path, document))
+    for one, two in zip(mine["loops"], by_ss["loops"], strict=True):
+        for kind in ("phase_margins", "gain_margins"):
+            assert [m["frequency"] for m in one[kind]] == pytest.approx([m["frequency"] for m in two[kind]], rel=1e-9)
+        assert one["disk_margin"]["alpha"] == pytest.approx(two["disk_margin"]["alpha"], rel=1e-9)
+    together, reference = mine["multi_loop_disk_margin"], by_ss["multi_loop_disk_margin"]
+    assert together["status"] == reference["status"] == "certified"
+    assert together["alpha_lower"] == pytest.approx(reference["alpha_lower"], rel=1e-6)
+    assert together["alpha_upper"] == pytest.approx(reference["alpha_upper"], rel=1e-6)
+
+
+def test_two_blocks_of_several_ports_are_analyze_ss_of_their_series(tmp_path, capsys):
+    """A 2 x 2 controller block K (first-order filters, coupled) before the satellite, e = r - y: the
+    loops at u1, u2 are those of --ss on python-control's series K P, each with 4 closed-loop poles
+    (not 8: each block's modes once; the closed loop is unstable, alpha 0 both ways).  --ss of it
+    raised numpy's LinAlgError before: a crossing's backward error was measured by a dense solve
+    exactly on an eigenvalue of A as given."""
+    a, b, c, _ = satellite()
+    k = (-20.0 * np.eye(2), 20.0 * np.eye(2), np.array([[1.0, 0.3], [0.0, 1.0]]))
+    blocks = [ported("P", ["u1", "u2"], ["y1", "y2"], a, b, c), ported("K", ["e1", "e2"], ["u1", "u2"], *k)]
+    mine = _analyze(capsys, _write(tmp_path, session(blocks, unity(2, "e"), ["r1", "r2"], ["u1", "u2"])))
+    series = control.series(control.ss(a, b, c, 0.0), control.ss(*k, 0.0))
+    np.savez(tmp_path / "series.npz", A=series.A, B=series.B, C=series.C, D=series.D)
+    by_ss = _analyze(capsys, "--ss", tmp_path / "series.npz")
+    for one, two in zip(mine["loops"], by_ss["loops"], strict=True):
+        assert [m["frequency"] for m in one["phase_margins"]] == pytest.approx(
+            [m["frequency"] for m in two["phase_margins"]], rel=1e-9
+        )
+        assert len(one["closed_loop_poles"]) == len(two["closed_loop_poles"]) == 4
+    assert mine["multi_loop_disk_margin"]["status"] == by_ss["multi_loop_disk_margin"]["status"]
+
+
+def test_a_backward_error_on_an_eigenvalue_of_the_given_a_is_not_measured():
+    from engine.model.state_space import checked, given_response
+
+    value, size = given_response(checked([[0.0, 10.0], [-10.0, 0.0]], [1.0, 0.0], [1.0, 10.0], 0.0, "here"), 10j)
+    assert np.isnan(value) and np.isnan(size)
