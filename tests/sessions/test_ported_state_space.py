@@ -24,11 +24,11 @@ from sessions.errors import SessionError
 from sessions.store import load_session
 from tests.engine.multiloop_references import reference_lower
 from tests.engine.test_multiloop import satellite
+from tests.sessions.test_two_path_breaks import document as two_path_document
 from tui.cli import main
 
 control = pytest.importorskip("control")
 OMEGA = np.geomspace(1e-3, 1e3, 400)
-STAMP = "2026-12-04T00:00:00+00:00"
 
 
 def _rows(x) -> list:
@@ -51,24 +51,14 @@ def expression(name: str, source: str, target: str, text: str) -> dict:
 
 
 def session(blocks: list[dict], junctions: list[dict], inputs: list[str], breaks: list[str], **condition) -> dict:
+    """A session of one condition whose diagram has ``blocks`` and ``junctions``, broken at ``breaks``
+    (the first the primary break); no parameters, no targets (tests/sessions/test_two_path_breaks'
+    document otherwise)."""
+    document = two_path_document(targets=[])
     plant = {"format": "diagram", "inputs": inputs, "blocks": blocks, "junctions": junctions}
-    return {
-        "schema_version": 2,
-        "provenance": {"loopcraft_version": "0.1.0", "created": STAMP, "modified": STAMP},
-        "notes": "",
-        "algorithm": {"name": "slp", "settings": {}},
-        "records": [],
-        "current_iteration": 0,
-        "state": None,
-        "problem": {
-            "grid": {"unit": "rad/s", "start": 0.01, "stop": 100.0, "points": 300, "spacing": "log"},
-            "parameters": [],
-            "targets": [],
-            "conditions": [
-                {"name": "spin", "break_at": breaks[0], "breaks": breaks, "variable": "s", "plant": plant} | condition
-            ],
-        },
-    }
+    first = {"name": "spin", "break_at": breaks[0], "breaks": breaks, "variable": "s", "plant": plant}
+    document["problem"].update(parameters=[], conditions=[first | condition])
+    return document
 
 
 def unity(k: int, source: str = "u", fed: str = "y") -> list[dict]:

@@ -27,37 +27,39 @@ from engine.model.bilinear import realization_in_w
 from engine.model.blocks import StateSpaceTransfer
 from engine.model.state_space import MAX_STATES, real_matrix
 
-MAX_PORTS = 8  # inputs (and outputs) of one block: the loops of one plant (`engine.multiloop.plant.MAX_LOOPS`)
+MAX_PORTS = 8  # inputs (and outputs) of a block, loops of a plant (mu is searched over m - 1 scalings)
 
 Matrices4 = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
 
 
 def checked_ports(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) -> Matrices4:
-    """A (n x n), B (n x m), C (m x n) and D (m x m; a number 0: no feedthrough) of a square block,
-    or a `BlockError` naming ``where`` and what is wrong."""
+    """A (n x n), B (n x m), C (m x n) and D (m x m; a number 0: no feedthrough) of a square state
+    space (a block of several ports, `analyze --ss`'s plant), or a `BlockError` naming ``where`` and
+    what is wrong.  No states: A [] and B, C empty, D m x m (a static plant)."""
     a, b, c, d = (real_matrix(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D")))
-    a = a.reshape(0, 0) if a.size == 0 else a
+    if a.size == 0 and d.ndim == 2:  # no states: a static plant D ([] read as 0 x 0, B 0 x m, C m x 0)
+        a, b, c = np.zeros((0, 0)), np.zeros((0, d.shape[1])), np.zeros((d.shape[0], 0))
     n = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape[1] != n:
         raise BlockError(f"{where}: A must be a square matrix, not {_shape(a)}")
     if n > MAX_STATES:
-        raise BlockError(f"{where}: order {n} is beyond the limit of {MAX_STATES} states for one block")
-    b = b.reshape(0, -1) if n == 0 and b.size == 0 and b.ndim == 2 else b
-    if b.ndim != 2 or b.shape[0] != n:
-        raise BlockError(f"{where}: B is {_shape(b)}; with A {n} x {n} it must be {n} x m (one column per input)")
-    if c.ndim != 2 or c.shape[1] != n:
-        raise BlockError(f"{where}: C is {_shape(c)}; with A {n} x {n} it must be m x {n} (one row per output)")
+        raise BlockError(f"{where}: order {n} is beyond the limit of {MAX_STATES} states")
+    if b.ndim != 2 or c.ndim != 2 or b.shape[0] != n or c.shape[1] != n:
+        raise BlockError(
+            f"{where}: B must be {n} x m and C m x {n} (A is {n} x {n}, m inputs and outputs), "
+            f"not {_shape(b)} and {_shape(c)}"
+        )
     m, outputs = b.shape[1], c.shape[0]
     if m != outputs:
         raise BlockError(
-            f"{where}: {m} inputs (B's columns) and {outputs} outputs (C's rows): a block of several ports is "
-            "square (as many outputs as inputs)"
+            f"{where}: {m} inputs and {outputs} outputs: unity feedback needs a square plant (as many outputs "
+            "as inputs)"
         )
     if not 1 <= m <= MAX_PORTS:
-        raise BlockError(f"{where}: {m} inputs; a block has 1 to {MAX_PORTS}")
+        raise BlockError(f"{where}: {m} inputs and outputs; the limit is 1 to {MAX_PORTS}")
     d = np.zeros((m, m)) if d.size == 1 and not d.any() else d
     if d.shape != (m, m):
-        raise BlockError(f"{where}: D is {_shape(d)}; with {m} inputs and {m} outputs it must be {m} x {m}")
+        raise BlockError(f"{where}: D is {_shape(d)}; it must be {m} x {m}")
     return a, b, c, d
 
 
