@@ -436,3 +436,19 @@ def test_a_backward_error_on_an_eigenvalue_of_the_given_a_is_not_measured():
 
     value, size = given_response(checked([[0.0, 10.0], [-10.0, 0.0]], [1.0, 0.0], [1.0, 10.0], 0.0, "here"), 10j)
     assert np.isnan(value) and np.isnan(size)
+
+
+def test_the_channels_shared_modal_sum_is_each_channel_s_own_evaluation():
+    """A block's channels evaluated together (one modal sum, kept for the same points) equal each
+    channel's own SISO evaluation; points changed in place are not answered from the kept ones."""
+    from tests.engine.multiloop_references import random_plant
+
+    block = PortedStateSpace(*random_plant(np.random.default_rng(5), 16, 3), source="random")
+    s = 1j * np.geomspace(0.01, 100.0, 50)
+    for row in block.channels:
+        for channel in row:
+            shared, own = channel(s), channel.response(s)
+            for mine, reference in zip(shared, own, strict=True):
+                assert np.allclose(mine, reference, rtol=1e-10, atol=1e-13 * np.abs(reference).max())
+    s *= 2.0
+    assert np.allclose(block.channels[0][1](s)[0], block.channels[0][1].response(s)[0], rtol=1e-10)

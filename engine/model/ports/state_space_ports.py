@@ -17,6 +17,7 @@ given.  A block in z is brought to its w-plane form as a whole (`in_w`)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from functools import cached_property
 
 import numpy as np
@@ -24,8 +25,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import BlockError
 from engine.model.bilinear import realization_in_w
-from engine.model.blocks import StateSpaceTransfer
-from engine.model.state_space import MAX_STATES, real_matrix
+from engine.model.blocks import Compiled, StateSpaceTransfer
+from engine.model.expressions import Dual
+from engine.model.state_space import MAX_STATES, MODAL_CONDITION, WORK_ELEMENTS, real_matrix
 
 MAX_PORTS = 8  # inputs (and outputs) of a block, loops of a plant (mu is searched over m - 1 scalings)
 
@@ -75,6 +77,7 @@ class PortedStateSpace:
         self.given = checked_ports(A, B, C, D, source)
         self.source = source
         self.A, self.B, self.C, self.D = balanced_ports(*self.given)
+        self._kept: tuple[NDArray, tuple[NDArray, NDArray]] | None = None  # last points, `shared_response`
         self.channels = tuple(
             tuple(StateSpaceChannel(self, i, j) for j in range(self.ports)) for i in range(self.ports)
         )
@@ -104,6 +107,39 @@ class PortedStateSpace:
     def poles(self) -> NDArray[np.complex128]:
         """The eigenvalues of A: the block's modes, each once."""
         return np.linalg.eigvals(self.A).astype(complex) if self.order else np.zeros(0, dtype=complex)
+
+    @cached_property
+    def modal(self) -> tuple[NDArray[np.complex128], NDArray[np.complex128]] | None:
+        """(poles, residues r[k, i, j] = (C V)[i, k] (V^-1 B)[k, j]) when A's eigenvectors are well
+        conditioned (`MODAL_CONDITION`, as a SISO block's modal sum), else None."""
+        if not self.order:
+            return None
+        with np.errstate(all="ignore"):
+            poles, vectors = np.linalg.eig(self.A)
+            if not (np.all(np.isfinite(vectors)) and np.linalg.cond(vectors) <= MODAL_CONDITION):
+                return None
+            into = np.linalg.solve(vectors, self.B.astype(complex))
+            residues = (self.C @ vectors).T[:, :, None] * into[:, None, :]
+        return (poles, residues) if np.all(np.isfinite(residues)) else None
+
+    def shared_response(self, s: NDArray[np.complex128]) -> tuple[NDArray, NDArray] | None:
+        """Every channel's value and slope at the points ``s`` (flat; arrays points x m x m) by the modal
+        sum, kept for the next channel asked at the same points (a network evaluates every channel at one
+        array of points); None when the block is not modal or the batch is large (each channel's own
+        evaluation then: `StateSpaceTransfer`)."""
+        if self.modal is None or s.size * self.order > WORK_ELEMENTS:
+            return None
+        kept = self._kept
+        if kept is not None and kept[0].shape == s.shape and np.array_equal(kept[0], s):
+            return kept[1]
+        poles, residues = self.modal
+        flat = residues.reshape(self.order, -1)
+        with np.errstate(all="ignore"):  # a pole hit exactly: not finite, reported by the caller
+            inverse = 1.0 / (s[:, None] - poles[None, :])
+            values = (inverse @ flat).reshape(s.size, self.ports, self.ports) + self.D[None, :, :]
+            slopes = -((inverse * inverse) @ flat).reshape(s.size, self.ports, self.ports)
+        self._kept = (s.copy(), (values, slopes))  # one tuple: a thread reading it sees the pair whole
+        return values, slopes
 
     @cached_property
     def in_w(self) -> PortedStateSpace:
@@ -139,6 +175,25 @@ class StateSpaceChannel(StateSpaceTransfer):
         where = f"{block.source}, output {i + 1} from input {j + 1}"
         super().__init__(block.A, block.B[:, j], block.C[i], block.D[i, j], where)
         self.block, self.output_port, self.input_port = block, i, j
+
+    def __call__(self, s: ArrayLike) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
+        """The channel's value and slope at ``s``: from the block's modal sum shared by its channels
+        (`PortedStateSpace.shared_response`), else from its own decomposition."""
+        s = np.asarray(s, dtype=complex)
+        shared = self.block.shared_response(s.ravel())
+        if shared is None:
+            return self.response(s)
+        i, j = self.output_port, self.input_port
+        return shared[0][:, i, j].reshape(s.shape), shared[1][:, i, j].reshape(s.shape)
+
+    def compile(self, params: Mapping[str, float]) -> Compiled:
+        return self
+
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
+        value, slope = self(x)
+        return Dual(value, {}, slope if with_dvar else None)
 
     def in_w(self) -> StateSpaceChannel:
         """The same channel of the block's w-plane form (`PortedStateSpace.in_w`)."""
