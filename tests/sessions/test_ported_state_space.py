@@ -238,10 +238,15 @@ def _refused_with(document: dict, tmp_path: Path, says: str, capsys) -> None:
             lambda b: b["transfer"].update(D=None, file="three.npz", A=None, B=None, C=None),
             "2 input signals for a state",
         ),
+        (
+            lambda b: b["transfer"].update(D=None, file="wide.npz", A=None, B=None, C=None),
+            "blocks[0]: wide.npz: 2 inputs and 3 outputs: not square",
+        ),
     ],
 )
 def test_a_bad_block_is_refused_naming_it(tmp_path, capsys, change, says):
     np.savez(tmp_path / "three.npz", A=-np.eye(2), B=np.ones((2, 3)), C=np.ones((3, 2)))
+    np.savez(tmp_path / "wide.npz", A=-np.eye(2), B=np.ones((2, 2)), C=np.ones((3, 2)))
     document = satellite_session(["u1", "u2"])
     change(_block_of(document))
     _refused_with(document, tmp_path, says, capsys)

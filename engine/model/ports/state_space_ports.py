@@ -54,8 +54,7 @@ def checked_ports(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where:
     m, outputs = b.shape[1], c.shape[0]
     if m != outputs:
         raise BlockError(
-            f"{where}: {m} inputs and {outputs} outputs: unity feedback needs a square plant (as many outputs "
-            "as inputs)"
+            f"{where}: {m} inputs and {outputs} outputs: not square (m loops need as many outputs as inputs)"
         )
     if not 1 <= m <= MAX_PORTS:
         raise BlockError(f"{where}: {m} inputs and outputs; the limit is 1 to {MAX_PORTS}")
