@@ -71,11 +71,12 @@ def multiloop_figures(repeat: int) -> dict:
 
 
 def one_block_diagram(matrices):
-    """The plant as one block of several ports in a diagram, u_k = r_k - y_k (`engine.model.ports`)."""
+    """The plant (A, B, C, D) as one block of m ports in a diagram, u_k = r_k - y_k (`engine.model.ports`)."""
     from engine.model.network import Junction, PortedBlock, block_diagram
     from engine.model.ports.state_space_ports import PortedStateSpace
 
-    ins, outs = tuple(f"u{k}" for k in range(1, LOOPS + 1)), tuple(f"y{k}" for k in range(1, LOOPS + 1))
-    sums = [Junction(f"e{k}", f"u{k}", ((1.0, f"r{k}"), (-1.0, f"y{k}"))) for k in range(1, LOOPS + 1)]
-    block = PortedBlock("P", ins, outs, PortedStateSpace(*matrices, source="bench"))
-    return block_diagram([block], sums, [f"r{k}" for k in range(1, LOOPS + 1)])
+    m = np.shape(matrices[1])[1]
+    ins, outs = tuple(f"u{k}" for k in range(1, m + 1)), tuple(f"y{k}" for k in range(1, m + 1))
+    sums = [Junction(f"e{k}", f"u{k}", ((1.0, f"r{k}"), (-1.0, f"y{k}"))) for k in range(1, m + 1)]
+    block = PortedBlock("P", ins, outs, PortedStateSpace(*matrices, source="plant"))
+    return block_diagram([block], sums, [f"r{k}" for k in range(1, m + 1)])
