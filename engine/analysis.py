@@ -260,6 +260,8 @@ def crossing_backward_errors(network: Network, model: LoopModel, found: Margins)
             continue
         rest = gh_model / g
         value, size = given_response(block.matrices, 1j * w)
+        if not (np.isfinite(value) and np.isfinite(size)):  # on an eigenvalue of A as given: not measured
+            continue
         gh = rest * value
         residual = abs(gh.imag) if m.kind == "G" else abs(abs(gh) - 1.0)
         out.append((m, residual / (abs(rest) * size) if size > 0 else 0.0))

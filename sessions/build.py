@@ -50,7 +50,8 @@ from engine.model.blocks import (
     polynomial_transfer,
 )
 from engine.model.discretize import discretized_text
-from engine.model.network import Block, Junction, Network, block_diagram, matrix_format, sampled_network
+from engine.model.network import Block, Junction, Network, PortedBlock, block_diagram, matrix_format, sampled_network
+from engine.model.ports.state_space_ports import PortedStateSpace
 from sessions.errors import SessionError
 from sessions.format.constraint_lines import build_inequalities, check_start, engine_error
 from sessions.format.limits import MAX_TABLE_ROWS
@@ -260,8 +261,8 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
                 for j in plant.junctions
             ]
             network = block_diagram(blocks, junctions, plant.inputs, c.variable)
-        for name in [c.break_at, *(c.breaks or [])]:
-            network.signal(name)
+        network.signal(c.break_at)
+        _check_breaks(network, c.breaks or [], f"{path}.breaks")
         if c.sample_time is not None:
             network = sampled_network(network, c.sample_time)
     except SessionError:
@@ -269,6 +270,18 @@ def _condition(c: ConditionModel, path: str, folder: Path) -> Condition:
     except EngineError as exc:
         raise SessionError(f"{path}: {exc}") from None
     return Condition(c.name, network, c.break_at, tuple(c.breaks) if c.breaks else (c.break_at,))
+
+
+def _check_breaks(network: Network, breaks: list[str], path: str) -> None:
+    """Each of a condition's ``breaks`` a signal of its diagram that lies on a loop, or an error naming it."""
+    for k, name in enumerate(breaks):
+        if name not in network.index:
+            raise SessionError(f"{path}[{k}]: unknown signal {name!r}; signals are {', '.join(network.signals)}")
+        if not network.on_a_loop(name):
+            raise SessionError(
+                f"{path}[{k}]: signal {name!r} lies on no loop of the diagram: breaking it opens no loop "
+                "(the loop seen there is 0)"
+            )
 
 
 def _channels(plant: ChannelsModel, path: str, folder: Path, variable: str) -> Network:
@@ -371,8 +384,25 @@ def _times(transfer, gain: float, variable: str):
     raise SessionError("the transducer gain applies to a table, an expression or a state space")
 
 
-def _block(b, path: str, folder: Path, variable: str, sample_time: float | None = None) -> Block:
+def _block(b, path: str, folder: Path, variable: str, sample_time: float | None = None) -> Block | PortedBlock:
+    if b.inputs is not None:
+        return _ported_block(b, path, folder)
     return Block(b.name, b.input, b.output, _transfer(b.transfer, f"{path}.transfer", folder, variable, sample_time))
+
+
+def _ported_block(b, path: str, folder: Path) -> PortedBlock:
+    """A state space of several ports (inline or from its file), its ports wired to the named signals;
+    a fault names the block's JSON path (a file of other shapes: `transfer.file`)."""
+    t = b.transfer
+    try:
+        if t.file is None:
+            matrices = PortedStateSpace(t.A, t.B, t.C, 0.0 if t.D is None else t.D, "inline")
+        else:
+            m = read_matrices(table_path(folder, t.file, f"{path}.transfer", field="file"), f"{path}.transfer.file")
+            matrices = PortedStateSpace(m["A"], m["B"], m["C"], m["D"], t.file)
+        return PortedBlock(b.name, tuple(b.inputs), tuple(b.outputs), matrices)
+    except EngineError as exc:
+        raise SessionError(f"{path}: {exc}") from None
 
 
 def _transfer(t, path: str, folder: Path, variable: str, sample_time: float | None = None):

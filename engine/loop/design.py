@@ -36,6 +36,7 @@ from engine.loop.pole_zero import (
 from engine.loop.realization import StateSpace, realize
 from engine.model.blocks import block_pole_zero
 from engine.model.network import Network
+from engine.model.ports.state_space_ports import StateSpaceChannel
 
 Roots = NDArray[np.complex128]
 
@@ -104,9 +105,16 @@ class Design:
 
     @functools.cached_property
     def block_poles(self) -> Roots:
-        """Every block's own poles, from its factored form (exact to rounding) or its realization."""
-        out = [np.zeros(0, dtype=complex)]
-        out += [block_pole_zero(e.transfer, self.params).poles for e in self.network.entries]
+        """Every block's own poles, from its factored form (exact to rounding) or its realization (a
+        block of several ports: the eigenvalues of its A, once for all its channels)."""
+        out, ported = [np.zeros(0, dtype=complex)], set()
+        for e in self.network.entries:
+            if isinstance(e.transfer, StateSpaceChannel):  # a block of several ports: its modes once
+                if id(e.transfer.block) not in ported:
+                    ported.add(id(e.transfer.block))
+                    out.append(e.transfer.block.poles)
+                continue
+            out.append(block_pole_zero(e.transfer, self.params).poles)
         return np.concatenate([np.asarray(p, dtype=complex) for p in out])
 
     @functools.cached_property

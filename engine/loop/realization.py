@@ -1,8 +1,9 @@
 """State-space realization of a rational interconnection, closed-loop poles.
 
 Every entry G_ij (proper, rational) is realized in controllable canonical
-form (a state-space block by its own A, B, C, D); with D the matrix of direct feedthroughs and C the state-to-signal map,
-the signal equation x = D x + C z + E u gives x = (I - D)^-1 (C z + E u),
+form (a state-space block by its own A, B, C, D; a block of several ports once, its
+states shared by its channels' entries: `engine.model.ports.state_space_ports`); with D
+the matrix of direct feedthroughs and C the state-to-signal map, the signal equation x = D x + C z + E u gives x = (I - D)^-1 (C z + E u),
 and the states obey z' = A_blk z + B_blk x.  The result maps the exogenous
 inputs to every signal, with all loops closed.
 """
@@ -21,6 +22,7 @@ from engine.errors import BlockError, InterconnectionError
 from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
+from engine.model.ports.state_space_ports import StateSpaceChannel
 from engine.numerics.polynomials import degree, trim
 
 
@@ -115,23 +117,38 @@ def _closed(network: Network, params: Mapping[str, float], opened: Mapping[int, 
     """`realize`'s state space; the entries ``opened`` (number -> delay) are delays: one of 0 a unit
     gain, each other left out, its output an extra input (after the network's) at the signal it feeds."""
     n = len(network.signals)
-    blocks, feed, sizes = [], np.zeros((n, n)), []
+    units: list[_Unit] = []
+    ported: dict[int, _Unit] = {}  # a block of several ports (id of it): its states once, every channel's wires
+    feed = np.zeros((n, n))
     cut = [k for k, tau in opened.items() if tau > 0]
     for number, entry in enumerate(network.entries):
         if number in opened:
             feed[entry.row, entry.col] += 0.0 if opened[number] > 0 else 1.0
             continue
+        t = entry.transfer
+        if isinstance(t, StateSpaceChannel):
+            if id(t.block) not in ported:
+                ported[id(t.block)] = _Unit(t.block.A, {}, {})
+                units.append(ported[id(t.block)])
+            unit = ported[id(t.block)]
+            unit.reads[(t.input_port, entry.col)] = t.block.B[:, t.input_port]
+            unit.writes[(t.output_port, entry.row)] = t.block.C[t.output_port]
+            feed[entry.row, entry.col] += t.block.D[t.output_port, t.input_port]
+            continue
         a, b, c, d = _entry_realization(network, number, params)
-        blocks.append((entry, a, b, c))
+        units.append(_Unit(a, {(0, entry.col): b[:, 0]}, {(0, entry.row): c[0, :]}))
         feed[entry.row, entry.col] += d[0, 0] if d.size else 0.0
-        sizes.append(a.shape[0])
-    m = int(np.sum(sizes))
+    m = sum(unit.a.shape[0] for unit in units)
     A_blk, B_blk, C_sig = np.zeros((m, m)), np.zeros((m, n)), np.zeros((n, m))
     offset = 0
-    for (entry, a, b, c), size in zip(blocks, sizes):
-        sl = slice(offset, offset + size)
-        A_blk[sl, sl], B_blk[sl, entry.col], C_sig[entry.row, sl] = a, b[:, 0], c[0, :]
-        offset += size
+    for unit in units:
+        sl = slice(offset, offset + unit.a.shape[0])
+        A_blk[sl, sl] = unit.a
+        for (_, col), b in unit.reads.items():
+            B_blk[sl, col] += b
+        for (_, row), c in unit.writes.items():
+            C_sig[row, sl] += c
+        offset += unit.a.shape[0]
     E = np.zeros((n, len(network.inputs) + len(cut)))
     for k, name in enumerate(network.inputs):
         E[network.signal(name), k] = 1.0
@@ -146,6 +163,16 @@ def _closed(network: Network, params: Mapping[str, float], opened: Mapping[int, 
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(P_state)) and np.all(np.isfinite(P_input))):
         raise InterconnectionError("the closed loop's realization leaves the floating-point range")
     return StateSpace(A, B_blk @ P_input, P_state, P_input, inputs, network.signals, network.sample_time)
+
+
+@dataclass(frozen=True)
+class _Unit:
+    """The states of one block in a network's realization: its A, and its input columns and output
+    rows by (port, signal) (a SISO block: one of each; a block of several ports: one per port)."""
+
+    a: NDArray[np.float64]
+    reads: dict[tuple[int, int], NDArray[np.float64]]
+    writes: dict[tuple[int, int], NDArray[np.float64]]
 
 
 def _factor_feedthrough(matrix: NDArray) -> tuple:

@@ -206,9 +206,22 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
             evaluate if getattr(evaluate, "factored", False) else exact
         ),  # a factored form's roots at 0 are exact
         delay=network_delay(network, params),
-        axis_poles=corners[is_pole & (damps <= 1e-9)],
+        axis_poles=_axis_poles_of(evaluate, corners[is_pole & (damps <= 1e-9)]),
         exact=exact,
     )
+
+
+def _axis_poles_of(evaluate: Evaluator, block_axis_poles: NDArray) -> NDArray:
+    """The blocks' poles on the imaginary axis (frequencies) that GH may have: all of them, unless the
+    loop's realized pole-zero form says which it has (an inner loop moves a block's poles: a plant's
+    modes at 10 rad/s inside a closed loop are no pole of the loop seen at another break)."""
+    if not isinstance(evaluate, ZpkEvaluator) or evaluate.factored or not block_axis_poles.size:
+        return block_axis_poles
+    poles = evaluate.poles  # (a pole at the origin is kept: a realized one is there only to rounding)
+    if not poles.size:
+        return block_axis_poles[block_axis_poles == 0]
+    distance = np.min(np.abs(1j * block_axis_poles[:, None] - poles[None, :]), axis=1)
+    return block_axis_poles[(block_axis_poles == 0) | (distance <= SAME_CORNER * block_axis_poles)]
 
 
 SAME_CORNER = 1e-6  # relative frequency plus damping difference within which a loop root is a block's corner

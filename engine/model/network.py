@@ -27,6 +27,7 @@ from engine.errors import BlockError, EngineError, GridError, InterconnectionErr
 from engine.model.bilinear import Z_OF_W, check_sample_time, realization_in_w, refuse_above_nyquist
 from engine.model.blocks import ExpressionTransfer, StateSpaceTransfer, Transfer
 from engine.model.expressions import substituted
+from engine.model.ports.state_space_ports import PortedStateSpace, StateSpaceChannel
 from engine.numerics.polynomials import degree
 
 
@@ -40,6 +41,35 @@ class Block:
     output: str
     transfer: Transfer
     group: str = ""
+
+
+@dataclass(frozen=True)
+class PortedBlock:
+    """A state space of m inputs and m outputs: ``outputs[i]`` = sum over j of its channel (i, j)
+    times ``inputs[j]`` (`engine.model.ports.state_space_ports`)."""
+
+    name: str
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    transfer: PortedStateSpace
+
+    def __post_init__(self) -> None:
+        m = self.transfer.ports
+        for names, what in ((self.inputs, "input"), (self.outputs, "output")):
+            if len(names) != m:
+                raise InterconnectionError(
+                    f"block {self.name!r}: {len(names)} {what} signals for a state space of {m} {what}s"
+                )
+
+    def blocks(self) -> list[Block]:
+        """Its channels as blocks, each named after it (their entries share its states); a channel that is
+        0 at every frequency is left out (no signal path: a decoupled block's off-diagonal)."""
+        return [
+            Block(self.name, self.inputs[j], self.outputs[i], self.transfer.channels[i][j])
+            for i in range(len(self.outputs))
+            for j in range(len(self.inputs))
+            if not self.transfer.channel_is_zero(i, j)
+        ]
 
 
 @dataclass(frozen=True)
@@ -118,6 +148,23 @@ class Network:
             raise InterconnectionError(f"unknown signal {name!r}; signals are {', '.join(self.signals)}")
         return self.index[name]
 
+    def on_a_loop(self, name: str) -> bool:
+        """Does signal ``name`` feed back to itself through the entries (a cycle of the signal graph)?
+        Breaking a signal on none opens no loop: the loop seen there is 0."""
+        start = self.signal(name)
+        users: dict[int, list[int]] = {}
+        for e in self.entries:
+            users.setdefault(e.col, []).append(e.row)
+        seen, pending = set(), list(users.get(start, []))
+        while pending:
+            k = pending.pop()
+            if k == start:
+                return True
+            if k not in seen:
+                seen.add(k)
+                pending.extend(users.get(k, []))
+        return False
+
 
 def warped(omega: NDArray[np.float64], sample_time: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """A sampled loop's w-plane frequency nu = tan(omega T/2) of ``omega`` (rad/s, below pi/T) and
@@ -127,17 +174,22 @@ def warped(omega: NDArray[np.float64], sample_time: float) -> tuple[NDArray[np.f
 
 
 def block_diagram(
-    blocks: Sequence[Block], junctions: Sequence[Junction] = (), inputs: Sequence[str] = (), variable: str = "s"
+    blocks: Sequence[Block | PortedBlock],
+    junctions: Sequence[Junction] = (),
+    inputs: Sequence[str] = (),
+    variable: str = "s",
 ) -> Network:
     """Compile a block diagram; every signal read must be produced or a declared input."""
     producers: dict[str, str] = {name: f"input {name!r}" for name in inputs}
     for item in list(blocks) + list(junctions):
-        kind = "block" if isinstance(item, Block) else "junction"
-        if item.output in producers:
-            raise InterconnectionError(
-                f"signal {item.output!r} is produced by both {producers[item.output]} and {kind} {item.name!r}"
-            )
-        producers[item.output] = f"{kind} {item.name!r}"
+        kind = "junction" if isinstance(item, Junction) else "block"
+        for output in item.outputs if isinstance(item, PortedBlock) else (item.output,):
+            if output in producers:
+                raise InterconnectionError(
+                    f"signal {output!r} is produced by both {producers[output]} and {kind} {item.name!r}"
+                )
+            producers[output] = f"{kind} {item.name!r}"
+    channels = [one for b in blocks for one in (b.blocks() if isinstance(b, PortedBlock) else [b])]
     signals = tuple(producers)
     index = {name: i for i, name in enumerate(signals)}
 
@@ -148,7 +200,9 @@ def block_diagram(
             )
         return index[signal]
 
-    entries = [Entry(index[b.output], read(b.input, f"block {b.name!r}"), b.transfer, b.name, b.group) for b in blocks]
+    entries = [
+        Entry(index[b.output], read(b.input, f"block {b.name!r}"), b.transfer, b.name, b.group) for b in channels
+    ]
     for j in junctions:
         for sign, signal in j.terms:
             if sign not in (1, -1, 1.0, -1.0):
@@ -488,7 +542,11 @@ def sampled_network(network: Network, sample_time: float) -> Network:
         t = e.transfer
         if isinstance(t, StateSpaceTransfer):  # x[k+1] = A x[k] + B u[k]: in w, kept as state space
             try:
-                w_form = StateSpaceTransfer(*realization_in_w(*t.realization()), source=f"{t.source}, in z")
+                w_form = (
+                    t.in_w()  # the whole block's w-plane form, its states shared
+                    if isinstance(t, StateSpaceChannel)
+                    else StateSpaceTransfer(*realization_in_w(*t.realization()), source=f"{t.source}, in z")
+                )
             except BlockError as exc:
                 raise BlockError(f"{e.label}: {exc}") from None
             entries.append(replace(e, transfer=w_form))

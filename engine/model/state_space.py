@@ -189,13 +189,17 @@ def given_response(m: Matrices, s: complex) -> tuple[complex, float]:
     """G(s) in the coordinates of ``m`` (a dense solve, no balancing) and the size of its first-order
     change when every entry of A, B, C, D changes by a relative 1: |y| |A| |x| + |y| |B| + |C| |x| + |D|
     with x = (sI - A)^-1 B, y = C (sI - A)^-1 (a diagonal scaling of the states leaves it unchanged).
-    A residual divided by it is a componentwise relative backward error in those coordinates."""
+    A residual divided by it is a componentwise relative backward error in those coordinates; NaN
+    for both when sI - A is exactly singular there."""
     if not m.order:
         return complex(m.D), abs(m.D)
     shifted = s * np.eye(m.order) - m.A
     with np.errstate(all="ignore"):
-        x = np.linalg.solve(shifted, m.B.astype(complex))
-        y = np.linalg.solve(shifted.T, m.C.astype(complex))
+        try:
+            x = np.linalg.solve(shifted, m.B.astype(complex))
+            y = np.linalg.solve(shifted.T, m.C.astype(complex))
+        except np.linalg.LinAlgError:  # s is an eigenvalue of A exactly, in these coordinates: not measured
+            return complex(np.nan, np.nan), np.nan
         size = np.abs(y) @ np.abs(m.A) @ np.abs(x) + np.abs(y) @ np.abs(m.B) + np.abs(m.C) @ np.abs(x) + abs(m.D)
     return complex(m.C @ x + m.D), float(size)
 

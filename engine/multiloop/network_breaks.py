@@ -16,6 +16,7 @@ import numpy as np
 from engine.errors import EngineError
 from engine.loop.realization import realize
 from engine.model.bilinear import real_frequency
+from engine.model.blocks import DelayTransfer, TabulatedTransfer
 from engine.model.network import Network
 from engine.multiloop.disk import MultiLoopDiskMargin, multi_loop_disk_margin
 from engine.multiloop.plant import Plant, balanced_plant
@@ -32,8 +33,34 @@ def broken_at(network: Network, breaks: Sequence[str]) -> Network:
     return Network(network.signals + names, network.inputs + names, entries, network.variable, network.sample_time)
 
 
+def refused_blocks(network: Network) -> str | None:
+    """Why the multi-loop disk margin is not computed on ``network`` (None: it is rational): its tables
+    (a table has no realization: loop at a time only) or delays (not built yet), named."""
+    kinds = {TabulatedTransfer: "table", DelayTransfer: "delay"}
+    named: dict[str, list[str]] = {}
+    for e in network.entries:
+        kind = kinds.get(type(e.transfer))
+        if kind is not None and e.label not in named.setdefault(kind, []):
+            named[kind].append(e.label)
+    if named.get("table"):
+        return (
+            f"table block(s) {', '.join(named['table'])}: a table has no realization, so its loops are analyzed "
+            "one at a time only (the multi-loop disk margin needs the diagram's state space)"
+        )
+    if named.get("delay"):
+        return (
+            f"delay block(s) {', '.join(named['delay'])}: the multi-loop disk margin of a loop with delays is not "
+            "built yet (its certificate tests a rational state space); the loops at a time are exact"
+        )
+    return None
+
+
 def breaks_plant(network: Network, breaks: Sequence[str], params: Mapping[str, float]) -> tuple[Plant, float | None]:
-    """(the loop matrix at ``breaks`` as a plant, the diagram's sample time: its realization is in w then)."""
+    """(the loop matrix at ``breaks`` as a plant, the diagram's sample time: its realization is in w then);
+    an `EngineError` naming a diagram's tables or delays (`refused_blocks`)."""
+    refused = refused_blocks(network)
+    if refused is not None:
+        raise EngineError(refused)
     ss = realize(broken_at(network, breaks), params)
     k = len(breaks)
     columns = list(range(len(ss.inputs) - k, len(ss.inputs)))

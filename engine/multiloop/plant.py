@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from engine.errors import BlockError, EngineError
-from engine.model.state_space import MAX_STATES, Matrices, real_matrix
+from engine.errors import EngineError
+from engine.model.ports.state_space_ports import balanced_ports, checked_ports
+from engine.model.state_space import Matrices
 
-MAX_LOOPS = 8  # loops of one plant (the structured singular value is searched over m - 1 scalings)
 SINGULAR = 1e-12  # reciprocal condition of I + D (or I + D_oo) below which the loop is not well posed
 
 
@@ -64,43 +64,16 @@ def input_count(B: ArrayLike, C: ArrayLike) -> tuple[int, int]:
 
 def checked_plant(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) -> Plant:
     """The plant of the four matrices (D 0 as a number: zero feedthrough), balanced; a
-    `BlockError` naming ``where`` and what is wrong: not square, shapes, too many loops."""
-    a, b, c, d = (real_matrix(x, name, where) for x, name in ((A, "A"), (B, "B"), (C, "C"), (D, "D")))
-    if a.size == 0 and d.ndim == 2:  # no states: a static plant D ([] read as 0 x 0, B 0 x m, C m x 0)
-        a, b, c = np.zeros((0, 0)), np.zeros((0, d.shape[1])), np.zeros((d.shape[0], 0))
-    n = a.shape[0] if a.ndim == 2 else -1
-    if a.ndim != 2 or a.shape[1] != n:
-        raise BlockError(f"{where}: A must be a square matrix, not {' x '.join(map(str, a.shape)) or 'a number'}")
-    if n > MAX_STATES:
-        raise BlockError(f"{where}: order {n} is beyond the limit of {MAX_STATES} states")
-    if b.ndim != 2 or c.ndim != 2 or b.shape[0] != n or c.shape[1] != n:
-        raise BlockError(f"{where}: B must be {n} x m and C m x {n} (A is {n} x {n}), not {b.shape} and {c.shape}")
-    m, outputs = b.shape[1], c.shape[0]
-    if m != outputs:
-        raise BlockError(
-            f"{where}: {m} inputs and {outputs} outputs: unity feedback needs a square plant (as many outputs as inputs)"
-        )
-    if m > MAX_LOOPS:
-        raise BlockError(f"{where}: {m} loops is beyond the limit of {MAX_LOOPS}")
-    d = np.zeros((m, m)) if d.size == 1 and not d.any() else d
-    if d.shape != (m, m):
-        raise BlockError(f"{where}: D is {' x '.join(map(str, d.shape)) or 'a number'}; it must be {m} x {m}")
-    return balanced_plant(Plant(a, b, c, d, tuple(f"u{k + 1}" for k in range(m))))
+    `BlockError` naming ``where`` and what is wrong: not square, shapes, too many loops
+    (`engine.model.ports.state_space_ports.checked_ports`, a block of several ports' check)."""
+    a, b, c, d = checked_ports(A, B, C, D, where)
+    return balanced_plant(Plant(a, b, c, d, tuple(f"u{k + 1}" for k in range(d.shape[0]))))
 
 
 def balanced_plant(p: Plant) -> Plant:
-    """The same plant with its states scaled by powers of two (module docstring)."""
-    n, m = p.order, p.loops
-    if n == 0:
-        return p
-    from scipy import linalg
-
-    system = np.zeros((n + m, n + m))
-    system[:n, :n], system[:n, n:], system[n:, :n] = p.A, p.B, p.C
-    with np.errstate(invalid="ignore"):
-        _, (scale, _) = linalg.matrix_balance(system, permute=False, separate=True)
-    t = scale[:n]
-    return Plant(p.A * t[None, :] / t[:, None], p.B / t[:, None], p.C * t[None, :], p.D, p.names)
+    """The same plant with its states scaled by powers of two (module docstring), as a block of
+    several ports is (`engine.model.ports.state_space_ports.balanced_ports`)."""
+    return Plant(*balanced_ports(p.A, p.B, p.C, p.D), p.names)
 
 
 def _solve_posed(matrix: NDArray, rhs: NDArray, what: str) -> NDArray:

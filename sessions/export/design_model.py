@@ -24,6 +24,7 @@ from engine.model.bilinear import z_transfer
 from engine.model.blocks import DelayTransfer, ExpressionTransfer, StateSpaceTransfer, TabulatedTransfer
 from engine.model.factored import pole_zero
 from engine.model.network import Network
+from engine.model.ports.state_space_ports import StateSpaceChannel
 from sessions.errors import SessionError
 from sessions.export.tables import fit_fields, table_fields
 from sessions.store import Session
@@ -195,6 +196,11 @@ def _numbers(network: Network, e, values: dict[str, float], fit: bool) -> Export
             zeros=tuple(form.zeros.tolist()),
             poles=tuple(form.poles.tolist()),
             **common,
+        )
+    if isinstance(transfer, StateSpaceChannel):  # its channels apart would each carry a copy of its states
+        raise SessionError(
+            "a state space of several ports is not exported yet (its channels written apart would each hold a "
+            "copy of its states: hidden modes in every closed loop)"
         )
     if isinstance(transfer, StateSpaceTransfer):
         if network.sample_time is not None:

@@ -18,6 +18,9 @@ from engine.errors import shortened, shown_json
 from engine.model.blocks import (
     MAX_TABLE_ROWS as MAX_TABLE_ROWS,  # rows of a table, inline or CSV: the engine's one limit
 )
+from engine.model.ports.state_space_ports import (
+    MAX_PORTS as MAX_PORTS,  # input (and output) ports of a state-space block: the engine's one limit
+)
 from engine.model.state_space import (
     MAX_STATES as MAX_STATES,  # states of a state-space block, inline or from a file: the engine's one limit
 )

@@ -32,6 +32,7 @@ from sessions.format.limits import (  # noqa: F401
     MAX_NYQUIST,
     MAX_OPTIONS,
     MAX_PARAMETERS,
+    MAX_PORTS,
     MAX_RESPONSE_POINTS,
     MAX_SIGNALS,
     MAX_STATES,
@@ -190,17 +191,25 @@ class DelayBlock(Strict):
 
 
 class StateSpaceBlock(Strict):
-    """A SISO state space x' = A x + B u, y = C x + D u, kept as state space: ``A`` (its rows),
-    ``B`` (the input column, n numbers), ``C`` (the output row, n numbers) and ``D`` inline, or
-    ``file``: a .npz (arrays A, B, C and optionally D) or a .json (keys A, B, C, D) beside the session."""
+    """A state space x' = A x + B u, y = C x + D u, kept as state space: ``A`` (its rows), ``B``,
+    ``C`` and ``D`` inline, or ``file``: a .npz (arrays A, B, C and optionally D) or a .json (keys
+    A, B, C, D) beside the session.  A SISO block: ``B`` the input column and ``C`` the output row
+    (n numbers each), ``D`` a number; a block of m ports (its block's ``inputs`` and ``outputs``):
+    ``B`` n rows of m numbers, ``C`` m rows of n numbers, ``D`` m rows of m numbers."""
 
     kind: Literal["state_space"]
     A: _bounded(list[_bounded(list[Number], MAX_STATES)], MAX_STATES) | None = Field(
         default=None, description="n rows of n numbers"
     )
-    B: _bounded(list[Number], MAX_STATES) | None = Field(default=None, description="the input column: n numbers")
-    C: _bounded(list[Number], MAX_STATES) | None = Field(default=None, description="the output row: n numbers")
-    D: Number | None = Field(default=None, description="the feedthrough (inline; null: 0)")
+    B: _bounded(list[Number], MAX_STATES) | _bounded(list[_bounded(list[Number], MAX_PORTS)], MAX_STATES) | None = (
+        Field(default=None, description="the input column: n numbers (m ports: n rows of m numbers)")
+    )
+    C: _bounded(list[Number], MAX_STATES) | _bounded(list[_bounded(list[Number], MAX_STATES)], MAX_PORTS) | None = (
+        Field(default=None, description="the output row: n numbers (m ports: m rows of n numbers)")
+    )
+    D: Number | _bounded(list[_bounded(list[Number], MAX_PORTS)], MAX_PORTS) | None = Field(
+        default=None, description="the feedthrough (inline; null: 0; m ports: m rows of m numbers)"
+    )
     file: str | None = Field(default=None, description="a .npz or .json file beside the session holding A, B, C, D")
 
     @model_validator(mode="after")
@@ -212,19 +221,49 @@ class StateSpaceBlock(Strict):
             missing = [name for name in ("A", "B", "C") if name not in given]
             if missing:
                 raise ValueError(f"an inline state space needs A, B and C (missing {', '.join(missing)})")
-            _check_shapes(self.A, self.B, self.C)
+            _check_square(self.A)
+            if not self.ported:
+                _check_siso_shapes(self)
         return self
 
+    @property
+    def ported(self) -> bool:
+        """Inline matrices of several ports (B, C or D given as rows of numbers)."""
+        return any(isinstance(x, list) and x and isinstance(x[0], list) for x in (self.B, self.C, self.D))
 
-def _check_shapes(a: list[list[float]], b: list[float], c: list[float]) -> None:
-    """A square (n x n), B and C of n numbers each, with messages naming what differs."""
+
+def _check_square(a: list[list[float]]) -> None:
     n = len(a)
     row = next((k for k, r in enumerate(a) if len(r) != n), None)
     if row is not None:
         raise ValueError(f"A must be square: it has {n} rows, and row {row + 1} has {len(a[row])} numbers")
-    for name, vector in (("B", b), ("C", c)):
-        if len(vector) != n:
+
+
+def _check_siso_shapes(t: StateSpaceBlock) -> None:
+    """B and C of n numbers each (n: A's size), with messages naming what differs."""
+    n = len(t.A or [])
+    for name, vector in (("B", t.B), ("C", t.C)):
+        if vector is not None and len(vector) != n:
             raise ValueError(f"{name} has {len(vector)} numbers; with A {n} x {n} it must have {n}")
+
+
+def _check_port_shapes(t: StateSpaceBlock, m: int) -> None:
+    """B n x m, C m x n and D m x m (or null) for a block of m ports, naming the first row that differs."""
+    n = len(t.A or [])
+    for name, rows, width in (("B", t.B, m), ("C", t.C, n), ("D", t.D, m)):
+        if name == "D" and (rows is None or rows == 0):
+            continue
+        wanted = f"{n if name == 'B' else m} rows of {width} numbers"
+        if not isinstance(rows, list) or any(not isinstance(r, list) for r in rows):
+            raise ValueError(f"transfer.{name} must be {wanted} (the block has {m} inputs and {m} outputs)")
+        if len(rows) != (n if name == "B" else m):
+            raise ValueError(f"transfer.{name} has {len(rows)} rows; it must be {wanted} (A is {n} x {n}, {m} ports)")
+        row = next((k for k, r in enumerate(rows) if len(r) != width), None)
+        if row is not None:
+            raise ValueError(
+                f"transfer.{name} row {row + 1} has {len(rows[row])} numbers; it must be {wanted} "
+                f"(A is {n} x {n}, {m} ports)"
+            )
 
 
 Transfer = Annotated[
@@ -241,10 +280,53 @@ Transfer = Annotated[
 
 
 class BlockModel(Strict):
+    """A block: ``input`` and ``output`` signals, or, for a state space of m inputs and m outputs,
+    ``inputs`` and ``outputs``: the signal each port reads or produces."""
+
     name: str
-    input: str
-    output: str
+    input: str | None = None
+    output: str | None = None
+    inputs: _bounded(list[str], MAX_PORTS, 1) | None = Field(
+        default=None, description="a state_space block's input ports: the signal each reads"
+    )
+    outputs: _bounded(list[str], MAX_PORTS, 1) | None = Field(
+        default=None, description="a state_space block's output ports: the signal each produces"
+    )
     transfer: Transfer
+
+    @model_validator(mode="after")
+    def _wired(self) -> BlockModel:
+        for one, several in (("input", "inputs"), ("output", "outputs")):
+            if (getattr(self, one) is None) == (getattr(self, several) is None):
+                raise ValueError(f"give either {one} (a signal) or {several} (a state space's ports), not both")
+        t = self.transfer
+        if self.inputs is None or self.outputs is None:
+            if t.kind == "state_space" and t.ported:
+                raise ValueError(
+                    "transfer: B, C or D as rows of numbers is a state space of several ports: name the signals "
+                    "in inputs and outputs"
+                )
+            return self
+        if t.kind != "state_space":
+            raise ValueError(f"inputs and outputs (several ports) belong to a state_space block, not a {t.kind} block")
+        if len(self.inputs) != len(self.outputs):
+            raise ValueError(
+                f"{len(self.inputs)} inputs and {len(self.outputs)} outputs: a block of several ports is square "
+                "(as many outputs as inputs)"
+            )
+        if t.file is None:
+            _check_port_shapes(t, len(self.inputs))
+        return self
+
+    @property
+    def signals_in(self) -> list[str]:
+        """The signals the block reads (one, or one per input port)."""
+        return list(self.inputs) if self.inputs is not None else [self.input or ""]
+
+    @property
+    def signals_out(self) -> list[str]:
+        """The signals the block produces (one, or one per output port)."""
+        return list(self.outputs) if self.outputs is not None else [self.output or ""]
 
 
 class JunctionModel(Strict):

@@ -110,10 +110,15 @@ def describe_transfer(t, variable: str = "s") -> str:
 
 def describe_state_space(transfer: StateSpaceTransfer, in_z: bool = False) -> str:
     """'state space, order 12: poles ..., zeros ...' (a pair once, as a +- b j; the slowest
-    `SHOWN_ROOTS` of each, and how many more); ``in_z``: a sampled loop's block (its w-plane
+    `SHOWN_ROOTS` of each, and how many more; a block of several ports: its poles); ``in_z``: a sampled loop's block (its w-plane
     form's roots shown in z)."""
     from engine.model.bilinear import z_of_w
+    from engine.model.ports.state_space_ports import StateSpaceChannel
 
+    if isinstance(transfer, StateSpaceChannel):  # a block of several ports: its modes, once
+        block, where = transfer.block, " in z" if in_z else ""
+        poles = z_of_w(block.poles) if in_z else block.poles
+        return f"state space, order {block.order}, {block.ports} inputs and outputs: poles{where} {_roots_text(poles)}"
     try:
         form = transfer.form
     except EngineError as exc:

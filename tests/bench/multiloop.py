@@ -4,7 +4,10 @@ plant at every repetition, the two jobs interleaved:
 
 - `loop_at_a_time`: every break's margins (`engine.multiloop.loops.break_margins`: gain, phase and
   delay margins at every crossing, the disk margin, Ms and Mt), target 50 ms a break;
-- `multi_loop_disk_margin`: certified (`engine.multiloop.disk`), target 200 ms.
+- `multi_loop_disk_margin`: certified (`engine.multiloop.disk`), target 200 ms;
+- `diagram_loop_at_a_time_per_break`, `diagram_multi_loop_disk_margin`: the same plant as one block of
+  several ports in a diagram with unity feedback (`analyze` at each input, `diagram_disk_margin`): the
+  diagram's path, no target.
 
 Absolute times: reported, not enforced (the machine's cores are shared)."""
 
@@ -22,14 +25,17 @@ GRID = np.geomspace(1e-3, 1e3, 400)
 
 
 def multiloop_figures(repeat: int) -> dict:
+    from engine.analysis import analyze
     from engine.multiloop.disk import multi_loop_disk_margin
     from engine.multiloop.loops import break_margins
+    from engine.multiloop.network_breaks import diagram_disk_margin
     from engine.multiloop.plant import checked_plant
 
-    plants = [
-        checked_plant(*random_plant(np.random.default_rng(4000 + i), ORDER, LOOPS), "bench") for i in range(repeat + 1)
-    ]
+    matrices = [random_plant(np.random.default_rng(4000 + i), ORDER, LOOPS) for i in range(repeat + 1)]
+    plants = [checked_plant(*m, "bench") for m in matrices]
+    diagrams = [one_block_diagram(m) for m in matrices]
     statuses: list[str] = []
+    breaks = [f"u{k}" for k in range(1, LOOPS + 1)]
 
     def loops(i: int) -> None:
         break_margins(plants[i], GRID)
@@ -37,9 +43,20 @@ def multiloop_figures(repeat: int) -> dict:
     def together(i: int) -> None:
         statuses.append(multi_loop_disk_margin(plants[i]).status)
 
-    each, whole = samples([loops, together], repeat)
+    def diagram_loops(i: int) -> None:
+        for name in breaks:
+            analyze(diagrams[i], name, GRID, {})
+
+    def diagram_together(i: int) -> None:
+        statuses.append(diagram_disk_margin(diagrams[i], breaks, {}).status)
+
+    each, whole, in_diagram, diagram_whole = samples([loops, together, diagram_loops, diagram_together], repeat)
     per_break = [t / LOOPS for t in each]
     return {
+        "diagram_loop_at_a_time_per_break": timed(
+            statistics.median([t / LOOPS for t in in_diagram]), None, order=ORDER, loops=LOOPS
+        ),
+        "diagram_multi_loop_disk_margin": timed(statistics.median(diagram_whole), None, order=ORDER, loops=LOOPS),
         "loop_at_a_time_per_break": timed(statistics.median(per_break), 0.050, order=ORDER, loops=LOOPS),
         "loop_at_a_time_every_break": timed(statistics.median(each), None, order=ORDER, loops=LOOPS),
         "multi_loop_disk_margin": timed(
@@ -48,6 +65,18 @@ def multiloop_figures(repeat: int) -> dict:
             order=ORDER,
             loops=LOOPS,
             certified=sum(s == "certified" for s in statuses),
-            runs=len(statuses),
+            runs=len(statuses),  # the plant's and the diagram's
         ),
     }
+
+
+def one_block_diagram(matrices):
+    """The plant (A, B, C, D) as one block of m ports in a diagram, u_k = r_k - y_k (`engine.model.ports`)."""
+    from engine.model.network import Junction, PortedBlock, block_diagram
+    from engine.model.ports.state_space_ports import PortedStateSpace
+
+    m = np.shape(matrices[1])[1]
+    ins, outs = tuple(f"u{k}" for k in range(1, m + 1)), tuple(f"y{k}" for k in range(1, m + 1))
+    sums = [Junction(f"e{k}", f"u{k}", ((1.0, f"r{k}"), (-1.0, f"y{k}"))) for k in range(1, m + 1)]
+    block = PortedBlock("P", ins, outs, PortedStateSpace(*matrices, source="plant"))
+    return block_diagram([block], sums, [f"r{k}" for k in range(1, m + 1)])

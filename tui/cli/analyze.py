@@ -586,10 +586,12 @@ def _session_design(args: argparse.Namespace) -> int:
     break_at = c.break_at if args.break_name is None else args.break_name
     if break_at not in c.network.signals:
         raise CliError(f"--break {break_at!r}: {c.name}'s signals are {', '.join(c.network.signals)}")
+    if args.break_name is not None and not c.network.on_a_loop(break_at):
+        raise CliError(f"--break {break_at!r}: the signal lies on no loop of {c.name}'s diagram (it opens no loop)")
     result = analyze(c.network, break_at, problem.grid.omega, values)
     every = list(c.breaks) if args.break_name is None and tuple(c.breaks) not in ((), (c.break_at,)) else []
     others = [(b, analyze(c.network, b, problem.grid.omega, values)) for b in every]
-    together = _diagram_together(c, every, values) if len(every) > 1 else None
+    together, refused = _diagram_together(c, every, values) if len(every) > 1 else (None, None)
     parts = compensators(c.network, values)
     T = c.network.sample_time
     variable = "z" if T is not None else c.network.variable
@@ -603,6 +605,8 @@ def _session_design(args: argparse.Namespace) -> int:
         if others:
             out["loops"] = [{"name": b, **analysis_to_json(r, variable, sample_time=T)} for b, r in others]
             out["multi_loop_disk_margin"] = multi_loop_to_json(together)
+            if refused is not None:
+                out["multi_loop_disk_margin_refused"] = refused
         print(json.dumps(out, indent=2, sort_keys=True))
     else:
         design = f"iteration {at}" if at else "the start"
@@ -623,16 +627,16 @@ def _session_design(args: argparse.Namespace) -> int:
 
 
 def _diagram_together(c, breaks: list[str], values):
-    """The multi-loop disk margin at a condition's breaks (None with a note on standard error when the
-    diagram has no realization: tables, delays)."""
+    """(the multi-loop disk margin at a condition's breaks, None) or (None, why not: also a note on standard
+    error) when it is not computed (tables, delays: named)."""
     from engine.errors import EngineError
     from engine.multiloop.network_breaks import diagram_disk_margin
 
     try:
-        return diagram_disk_margin(c.network, breaks, values)
+        return diagram_disk_margin(c.network, breaks, values), None
     except EngineError as exc:
         print(f"note: {c.name}: no multi-loop disk margin at its breaks: {exc}", file=sys.stderr)
-        return None
+        return None, str(exc)
 
 
 def _item_json(item) -> dict:

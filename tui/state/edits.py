@@ -401,6 +401,8 @@ def _block_edit(bench: Workbench, ref: Ref, title: str, variable: str) -> Edit:
     """'NAME INPUT OUTPUT DEFINITION': rename, re-wire and redefine a block in one
     edit; a definition alone keeps the name and the wiring."""
     block = resolve(bench.session.model.problem, ref)
+    if block.inputs is not None:
+        return _ported_block_edit(bench, ref, block, title, variable)
 
     def parse(text: str) -> dict:
         names, definition = transfer_forms.split_names(text, 3)
@@ -428,6 +430,18 @@ def _block_edit(bench: Workbench, ref: Ref, title: str, variable: str) -> Edit:
     return Edit(
         f"{title}: NAME INPUT OUTPUT and {TRANSFER_HELP}", text, check, lambda t: set_fields(bench, ref, **parse(t))
     )
+
+
+def _ported_block_edit(bench: Workbench, ref: Ref, block, title: str, variable: str) -> Edit:
+    """A state space of several ports: its definition replaced, its ports' wiring kept (edited in the file)."""
+
+    def parse(text: str) -> dict:
+        return dict(transfer=transfer_forms.parse_transfer(text, variable, block.transfer))
+
+    ports = f"{' '.join(block.inputs)} -> {' '.join(block.outputs)}"
+    text = transfer_forms.format_transfer(block.transfer, variable)
+    check = known_names(bench, parse, lambda found: transfer_forms.transfer_names(found["transfer"], variable))
+    return Edit(f"{title} ({ports}): {TRANSFER_HELP}", text, check, lambda t: set_fields(bench, ref, **parse(t)))
 
 
 def known_names(bench: Workbench, parse: Callable[[str], Any], names_of: Callable[[Any], set[str]]) -> Check:

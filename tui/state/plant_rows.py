@@ -57,7 +57,16 @@ def _condition_rows(
 
     if plant.format == "diagram":
         rows = [
-            ((b.name, b.input, b.output, b.transfer.kind, describe(b.transfer, b.name)), base + ("blocks", i))
+            (
+                (
+                    b.name,
+                    " ".join(b.signals_in),
+                    " ".join(b.signals_out),
+                    b.transfer.kind,
+                    describe(b.transfer, b.name),
+                ),
+                base + ("blocks", i),
+            )
             for i, b in enumerate(plant.blocks)
         ]
         rows += [
