@@ -11,7 +11,8 @@ reached within a connect timeout; a cluster named in Dask's configuration (a
 batch system's, through dask-jobqueue: `sessions.sweeps.named_clusters`) is
 started and scaled adaptively.  Short runs go to the workers in batches sized
 from the first runs' times, so that 100 000 samples do not become 100 000
-tasks.  Every failure to start or reach a cluster
+tasks; a tolerance study's samples go in chunks evaluated on the study's
+problem built once per worker (`sessions.sweeps.study_chunks`).  Every failure to start or reach a cluster
 is a `SessionError`.  Ctrl-C stops a sweep: the runs not finished are
 cancelled and the finished ones kept (the local workers ignore it, started
 with SIGINT ignored, so that only this process sees it).
@@ -209,7 +210,9 @@ def execute(
     too when a local cluster could not pay for its start-up.  Otherwise the first
     `FIRST_PER_WORKER` runs per worker are timed on the cluster, one to a task.  Runs
     shorter than `BATCH_SECONDS` then go to the workers in batches (`batch_size`); the
-    outcome's ``note`` says which.  Ctrl-C stops it: the finished runs are kept."""
+    outcome's ``note`` says which.  A tolerance study that `batch_study` evaluates on its
+    problem built once goes in chunks of samples instead (`sessions.sweeps.study_chunks`).
+    Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []

@@ -52,21 +52,25 @@ IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the wor
 class _Sizes:
     """The study's next chunk (a range of positions): the first ones `FIRST_CHUNK` samples,
     each later one sized from the last chunk timed to about `BATCH_SECONDS` of work
-    (`batch_size`: a chunk has a fixed cost of its own, so a chunk's size moves towards the
-    size that takes that long), in at least `BATCHES_PER_WORKER` chunks per worker, and
-    smaller at the end, so that the workers finish together."""
+    (`batch_size`), never smaller than one sized before (a chunk has a fixed cost of its own:
+    a small chunk's samples look slow, and sizing down from them would shrink the chunks to
+    nothing on a loaded machine; sized up, they move towards the size that takes that long),
+    in at least `BATCHES_PER_WORKER` chunks per worker, and smaller at the end, so that the
+    workers finish together."""
 
     count: int
     workers: int
     sent: int = 0
     used: list[int] = field(default_factory=list)
+    sized: int = 0  # the largest size the timings asked for so far
 
     def next(self, each: float | None) -> tuple[int, int]:
         """The next chunk's range (``each``: the seconds a sample took in the chunk timed last)."""
         first = max(1, min(FIRST_CHUNK, self.count // (BATCHES_PER_WORKER * self.workers)))
-        size = first if each is None else batch_size(each, self.count, self.workers)
+        if each is not None:
+            self.sized = max(self.sized, batch_size(each, self.count, self.workers))
         tail = math.ceil((self.count - self.sent) / (IN_FLIGHT * self.workers))
-        size = max(1, min(size, max(first, tail), self.count - self.sent))
+        size = max(1, min(max(first, self.sized), max(first, tail), self.count - self.sent))
         self.used.append(size)
         self.sent += size
         return self.sent - size, self.sent
