@@ -176,15 +176,15 @@ _BUILT_STUDY: Form[_Study] = Form("a tolerance study's problem and slp stepper, 
 class ChunkRuns:
     """A chunk of a study's samples evaluated (`chunk_runs`): its runs in order (stretches of
     batched samples as `Records`), the samples that went the per-loop path or the per-loop
-    search on their batched forms, why the study is not batched ("" when it is), the seconds its
-    samples took and those building the study's problem took (0 when it was built already)."""
+    search on their batched forms, why the study is not batched ("" when it is), and the CPU
+    seconds its samples took (the evaluating thread's, building the study's problem apart: the
+    work, whatever else a loaded machine runs meanwhile)."""
 
     items: list[dict | Records]
     alone: tuple[int, ...]
     by_search: tuple[int, ...]
     unbatched: str
-    seconds: float
-    build_seconds: float
+    cpu_seconds: float
 
 
 def study_key(samples: ToleranceSamples) -> str:
@@ -197,15 +197,14 @@ def chunk_runs(key: str, samples: ToleranceSamples) -> ChunkRuns:
     """A chunk of a study's samples evaluated as `batch_runs` evaluates them, on the study's
     problem built once in this process (kept under ``key``, `study_key`, for its next chunks:
     the last `STUDIES_KEPT` studies); a `SessionError` when the samples are not such a study."""
-    began = time.perf_counter()
     study = _built.get(_BUILT_STUDY, lambda: _one_study(samples), key)
-    built = time.perf_counter()
+    began = time.thread_time()
     items: list[dict | Records] = []
     alone: list[int] = []
     searched: list[int] = []
     for first in range(0, len(samples), CHUNK):
         items += _chunk(study, samples[first : first + CHUNK], alone, searched)
-    return ChunkRuns(items, tuple(alone), tuple(searched), study.unbatched, time.perf_counter() - built, built - began)
+    return ChunkRuns(items, tuple(alone), tuple(searched), study.unbatched, time.thread_time() - began)
 
 
 def _one_study(samples: ToleranceSamples) -> _Study:

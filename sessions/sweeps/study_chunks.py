@@ -7,9 +7,11 @@ the study's key for its next chunks) and evaluates the chunk as the serial study
 (`Records`), a run made only for a sample the study keeps, and go to the study's `Tally`
 in sample order.
 
-Each worker's first chunk is small (`FIRST_CHUNK`) and timed on the worker (its problem's
-building apart); the rest are sized from the first one to finish to about
-`sessions.sweeps.jobs.BATCH_SECONDS` of work, at least `BATCHES_PER_WORKER` per worker (`batch_size`).  A
+Each worker's first two chunks are small (`FIRST_CHUNK`) and timed on the worker in CPU
+seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits
+are not work); each later chunk is sized from the chunk timed last to about
+`sessions.sweeps.jobs.BATCH_SECONDS` of work, never smaller than one sized before, at
+least `BATCHES_PER_WORKER` per worker (`_Sizes`).  A
 chunk whose task fails (its worker died more often than Dask allows) is sent again as two
 halves, down to single samples: a sample that kills its worker does not take the others
 with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
@@ -65,7 +67,7 @@ class _Sizes:
     sized: int = 0  # the largest size the timings asked for so far
 
     def next(self, each: float | None) -> tuple[int, int]:
-        """The next chunk's range (``each``: the seconds a sample took in the chunk timed last)."""
+        """The next chunk's range (``each``: the CPU seconds a sample took in the chunk timed last)."""
         first = max(1, min(FIRST_CHUNK, self.count // (BATCHES_PER_WORKER * self.workers)))
         if each is not None:
             self.sized = max(self.sized, batch_size(each, self.count, self.workers))
@@ -199,7 +201,7 @@ def run_chunked(
                 waiting.update(tasks.send([(start, middle), (middle, stop)]))
                 continue
             if not stopped and sizes.sent < len(samples):  # the next chunk, sized from this one
-                timed = runs.seconds / (stop - start) if isinstance(runs, ChunkRuns) else None
+                timed = runs.cpu_seconds / (stop - start) if isinstance(runs, ChunkRuns) else None
                 waiting.update(tasks.send([sizes.next(timed)]))
             gathered.add(
                 start, stop, runs if runs is not None else [lost_run(job, None) for job in samples[start:stop]]
