@@ -7,11 +7,11 @@ the study's key for its next chunks) and evaluates the chunk as the serial study
 (`Records`), a run made only for a sample the study keeps, and go to the study's `Tally`
 in sample order.
 
-Each worker's first two chunks are small (`FIRST_CHUNK`) and timed on the worker in CPU
-seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits
-are not work); each later chunk is sized from the chunk timed last to about
-`sessions.sweeps.jobs.BATCH_SECONDS` of work, never smaller than one sized before, at
-least `BATCHES_PER_WORKER` per worker (`_Sizes`).  A
+The first chunks are small (`FIRST_CHUNK` samples and twice that) and timed on the
+workers in CPU seconds (the evaluating thread's, the problem's building apart: a loaded
+machine's waits are not work); the later ones are sized from them to about
+`sessions.sweeps.jobs.BATCH_SECONDS` of work, a chunk's fixed cost told from a sample's,
+at least `BATCHES_PER_WORKER` per worker, the last ones equal (`_Sizes`).  A
 chunk whose task fails (its worker died more often than Dask allows) is sent again as two
 halves, down to single samples: a sample that kills its worker does not take the others
 with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
@@ -27,6 +27,8 @@ from collections.abc import Callable, Sequence
 from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from sessions.sweeps.batch_study import BatchOutcome, ChunkRuns, chunk_runs, study_key
 from sessions.sweeps.cluster import Connection, sigint_ignored
 from sessions.sweeps.dispersion import Tally
@@ -38,7 +40,6 @@ from sessions.sweeps.jobs import (
     RESULT_WAIT,
     Outcome,
     announce,
-    batch_size,
     lost_run,
     times_sent,
     worker_count,
@@ -52,27 +53,58 @@ IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the wor
 
 @dataclass
 class _Sizes:
-    """The study's next chunk (a range of positions): the first ones `FIRST_CHUNK` samples,
-    each later one sized from the last chunk timed to about `BATCH_SECONDS` of work
-    (`batch_size`), never smaller than one sized before (a chunk has a fixed cost of its own:
-    a small chunk's samples look slow, and sizing down from them would shrink the chunks to
-    nothing on a loaded machine; sized up, they move towards the size that takes that long),
-    in at least `BATCHES_PER_WORKER` chunks per worker, and smaller at the end, so that the
-    workers finish together."""
+    """The study's chunks (ranges of positions).  The first round, `IN_FLIGHT` per worker, of
+    `FIRST_CHUNK` samples and twice that in turn: timed on the workers, two sizes tell a
+    chunk's fixed cost from a sample's (least squares over every chunk timed), and each later
+    chunk is sized to about `BATCH_SECONDS` of work with it (one size only: that chunk's time
+    per sample), never smaller than one sized before (a small chunk's samples look slow: sized
+    down from them, the chunks would shrink to nothing on a loaded machine), in at least
+    `BATCHES_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
+    many for each worker, so that the workers finish together and no chunk at the end is
+    small."""
 
     count: int
     workers: int
     sent: int = 0
     used: list[int] = field(default_factory=list)
+    timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each chunk timed
     sized: int = 0  # the largest size the timings asked for so far
+    split: tuple[int, int] = (0, 0)  # the size asked for when the samples left were split, and their chunks' size
 
-    def next(self, each: float | None) -> tuple[int, int]:
-        """The next chunk's range (``each``: the CPU seconds a sample took in the chunk timed last)."""
-        first = max(1, min(FIRST_CHUNK, self.count // (BATCHES_PER_WORKER * self.workers)))
-        if each is not None:
-            self.sized = max(self.sized, batch_size(each, self.count, self.workers))
-        tail = math.ceil((self.count - self.sent) / (IN_FLIGHT * self.workers))
-        size = max(1, min(max(first, self.sized), max(first, tail), self.count - self.sent))
+    @property
+    def first(self) -> int:
+        return max(1, min(FIRST_CHUNK, self.count // (2 * BATCHES_PER_WORKER * self.workers)))
+
+    def first_round(self) -> list[tuple[int, int]]:
+        return [self._take(self.first * (1 + k % 2)) for k in range(IN_FLIGHT * self.workers) if self.sent < self.count]
+
+    def next(self) -> tuple[int, int]:
+        """The next chunk's range, sized from the chunks timed so far."""
+        target = self._target()
+        if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
+            left = self.count - self.sent
+            chunks = math.ceil(math.ceil(left / target) / self.workers) * self.workers
+            self.split = (target, math.ceil(left / chunks))
+        return self._take(self.split[1])
+
+    def _target(self) -> int:
+        most = max(self.first, self.count // (BATCHES_PER_WORKER * self.workers))
+        sizes = {n for n, _ in self.timed}
+        if len(sizes) > 1:
+            per_sample, fixed = np.polyfit(*zip(*self.timed), 1)
+            wanted = (
+                (BATCH_SECONDS - max(fixed, 0.0)) / per_sample if per_sample > 0 and fixed < BATCH_SECONDS else most
+            )
+        elif self.timed:
+            n, seconds = self.timed[-1]
+            wanted = BATCH_SECONDS * n / seconds if seconds > 0 else most
+        else:
+            wanted = self.first
+        self.sized = max(self.sized, min(int(wanted), most))
+        return max(self.first, self.sized)
+
+    def _take(self, size: int) -> tuple[int, int]:
+        size = max(1, min(size, self.count - self.sent))
         self.used.append(size)
         self.sent += size
         return self.sent - size, self.sent
@@ -188,9 +220,7 @@ def run_chunked(
     gathered = _InOrder(samples, tally)
     tasks = _Tasks(client, samples, study_key(samples), task)
     sizes = _Sizes(len(samples), workers)
-    waiting = as_completed(
-        tasks.send([sizes.next(None) for _ in range(IN_FLIGHT * workers) if sizes.sent < len(samples)])
-    )
+    waiting = as_completed(tasks.send(sizes.first_round()))
     stopped = interrupted = False
     try:
         for future in waiting:
@@ -200,9 +230,10 @@ def run_chunked(
                 middle = (start + stop) // 2
                 waiting.update(tasks.send([(start, middle), (middle, stop)]))
                 continue
-            if not stopped and sizes.sent < len(samples):  # the next chunk, sized from this one
-                timed = runs.cpu_seconds / (stop - start) if isinstance(runs, ChunkRuns) else None
-                waiting.update(tasks.send([sizes.next(timed)]))
+            if isinstance(runs, ChunkRuns):
+                sizes.timed.append((stop - start, runs.cpu_seconds))
+            if not stopped and sizes.sent < len(samples):  # the next chunk, sized from those timed
+                waiting.update(tasks.send([sizes.next()]))
             gathered.add(
                 start, stop, runs if runs is not None else [lost_run(job, None) for job in samples[start:stop]]
             )

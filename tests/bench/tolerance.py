@@ -388,6 +388,7 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
     jobs, settings = plan(session, "tolerance", LAG_LEAD, None, 0, count)
     serial_s, cluster_s, with_start_s, outcomes = [], [], [], []
     cpu: dict[str, list[float]] = {"serial": [], "workers": [], "this_process": []}
+    start_s, close_s = [], []
     loads = [os.getloadavg()[0]]
     for _ in range(repeat):
         began, cpu_began = time.perf_counter(), time.process_time()
@@ -405,6 +406,8 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
         cpu["this_process"].append(time.process_time() - cpu_began)  # the tally, the summary, the scheduler
         cpu["workers"].append(sum(connection.client.run(time.process_time).values()) - sum(before.values()))
         close(connection.client, connection.cluster)
+        start_s.append(started - began)
+        close_s.append(time.perf_counter() - done)
         cluster_s.append(done - started)
         with_start_s.append(time.perf_counter() - began)
         outcomes.append(outcome)
@@ -424,6 +427,8 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
         "serial_median_s": statistics.median(serial_s),
         "cluster_median_s": statistics.median(cluster_s),
         "cluster_with_startup_median_s": statistics.median(with_start_s),
+        "startup_median_s": statistics.median(start_s),  # the local cluster's start and first client
+        "close_median_s": statistics.median(close_s),
         "load_average_1min": loads,  # before the first pair and after each (5 agents share 2 cores)
         # CPU seconds (medians): the serial study's, and the cluster's workers' and this process's
         # during the study; on a loaded machine the kernel's fair share per session caps the wall ratio

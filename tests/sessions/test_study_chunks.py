@@ -71,21 +71,23 @@ def test_samples_of_no_finished_chunk_are_cancelled_in_their_place(tmp_path):
 
 
 @pytest.mark.parametrize(("count", "workers"), [(20_000, 2), (1_000, 2), (10, 2), (1, 1), (5_001, 3)])
-def test_chunks_cover_the_study_once_and_grow_towards_a_quarter_second(count, workers):
+def test_chunks_cover_the_study_once_sized_to_a_quarter_second(count, workers):
+    """Chunks of 25 ms plus 0.1 ms a sample: 2250 samples are a quarter of a second."""
     sizes = _Sizes(count, workers)
-    ranges = [sizes.next(None) for _ in range(2 * workers) if sizes.sent < count]
-    first = max(1, min(FIRST_CHUNK, count // (4 * workers)))
-    assert all(b - a == min(first, count - a) for a, b in ranges)
-    slower = sizes.sent < count and sizes.next(1e-4)  # 0.1 ms a sample: 2500 samples are a quarter of a second
-    ranges += [slower] if slower else []
+    ranges = sizes.first_round()
+    first = max(1, min(FIRST_CHUNK, count // (8 * workers)))
+    assert [b - a for a, b in ranges] == [min(first * (1 + k % 2), count - a) for k, (a, _) in enumerate(ranges)]
+    for a, b in ranges[:2]:
+        sizes.timed.append((b - a, 0.025 + 1e-4 * (b - a)))
     while sizes.sent < count:
-        ranges.append(sizes.next(1e-3))  # a chunk that looked slower (a loaded machine) sizes none down
+        ranges.append(sizes.next())
+        sizes.timed.append((ranges[-1][1] - ranges[-1][0], 0.5))  # a chunk that looked slower sizes none down
     assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == count
-    largest = max(b - a for a, b in ranges)
-    assert largest == max(first, min(2500, count // (4 * workers)))  # at least four chunks per worker
-    if count == 20_000:
-        assert [b - a for a, b in ranges[2 * workers : 2 * workers + 3]] == [2500] * 3  # not sized down
-        assert ranges[-1][1] - ranges[-1][0] < 2500  # the last ones smaller: the workers end together
+    later = [b - a for a, b in ranges[2 * workers :]]
+    most = max(first, count // (4 * workers))
+    assert all(size <= min(2250, most) for size in later)  # at least four chunks per worker
+    if count == 20_000:  # 19 400 samples left after the first round: 10 equal chunks, five per worker
+        assert later == [1940] * 10
 
 
 @pytest.fixture(scope="module")
