@@ -26,6 +26,8 @@ loop from each sample's session.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -34,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
@@ -156,6 +159,59 @@ def batch_runs(
     except KeyboardInterrupt:
         return BatchOutcome(runs, done, tuple(alone), tuple(searched), True, study.unbatched)
     return BatchOutcome(runs, done, tuple(alone), tuple(searched), False, study.unbatched)
+
+
+def applies(jobs: Sequence) -> bool:
+    """Are the jobs a tolerance study's samples that `chunk_runs` evaluates on a problem built once
+    (batched or per loop: the module docstring)?"""
+    return isinstance(jobs, ToleranceSamples) and _study(jobs) is not None
+
+
+STUDIES_KEPT = 4  # the studies a worker keeps built, the latest used (a long-lived worker serves many)
+_built = Derived(STUDIES_KEPT)  # a study's problem built once, by its key (`study_key`)
+_BUILT_STUDY: Form[_Study] = Form("a tolerance study's problem and slp stepper, built once")
+
+
+@dataclass(frozen=True)
+class ChunkRuns:
+    """A chunk of a study's samples evaluated (`chunk_runs`): its runs in order (stretches of
+    batched samples as `Records`), the samples that went the per-loop path or the per-loop
+    search on their batched forms, why the study is not batched ("" when it is), and the CPU
+    seconds its samples took (the evaluating thread's, building the study's problem apart: the
+    work, whatever else a loaded machine runs meanwhile)."""
+
+    items: list[dict | Records]
+    alone: tuple[int, ...]
+    by_search: tuple[int, ...]
+    unbatched: str
+    cpu_seconds: float
+
+
+def study_key(samples: ToleranceSamples) -> str:
+    """What identifies a study's problem: its document and the parameters its samples draw."""
+    text = json.dumps([samples.base, sorted(samples.deviations)], sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def chunk_runs(key: str, samples: ToleranceSamples) -> ChunkRuns:
+    """A chunk of a study's samples evaluated as `batch_runs` evaluates them, on the study's
+    problem built once in this process (kept under ``key``, `study_key`, for its next chunks:
+    the last `STUDIES_KEPT` studies); a `SessionError` when the samples are not such a study."""
+    study = _built.get(_BUILT_STUDY, lambda: _one_study(samples), key)
+    began = time.thread_time()
+    items: list[dict | Records] = []
+    alone: list[int] = []
+    searched: list[int] = []
+    for first in range(0, len(samples), CHUNK):
+        items += _chunk(study, samples[first : first + CHUNK], alone, searched)
+    return ChunkRuns(items, tuple(alone), tuple(searched), study.unbatched, time.thread_time() - began)
+
+
+def _one_study(samples: ToleranceSamples) -> _Study:
+    study = _study(samples)
+    if study is None:
+        raise SessionError("the samples are not a study evaluated on its problem built once")
+    return study
 
 
 def _study(jobs: Sequence) -> _Study | None:

@@ -11,7 +11,8 @@ reached within a connect timeout; a cluster named in Dask's configuration (a
 batch system's, through dask-jobqueue: `sessions.sweeps.named_clusters`) is
 started and scaled adaptively.  Short runs go to the workers in batches sized
 from the first runs' times, so that 100 000 samples do not become 100 000
-tasks.  Every failure to start or reach a cluster
+tasks; a tolerance study's samples go in chunks evaluated on the study's
+problem built once per worker (`sessions.sweeps.study_chunks`).  Every failure to start or reach a cluster
 is a `SessionError`.  Ctrl-C stops a sweep: the runs not finished are
 cancelled and the finished ones kept (the local workers ignore it, started
 with SIGINT ignored, so that only this process sees it).
@@ -30,6 +31,7 @@ import time
 import uuid
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import CancelledError as FutureCancelled
 from contextlib import nullcontext
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -66,7 +68,7 @@ SIGNATURE_POINTS = 24  # frequencies (grid points spread over the grid) of a run
 def run_job(payload: dict) -> dict:
     """Run (or evaluate) one job; never raises: a failure is a result."""
     began = time.perf_counter()
-    worker = _announce(payload["index"])
+    worker = announce({"index": payload["index"]})
     result = {"index": payload["index"], "label": payload["label"], "start": payload["start"], "worker": worker}
     try:
         model = validated_model(payload["model"])
@@ -148,15 +150,16 @@ def loop_signature(problem: Problem, parameters: dict) -> list[list[float]] | No
     return signature
 
 
-def _announce(index: int) -> str:
-    """Log 'job started' on the scheduler (to count retries); the worker's address."""
+def announce(started: dict) -> str:
+    """Log what started (a job's index, or a chunk's task) on the scheduler, to count retries;
+    the worker's address ("local" outside a worker)."""
     try:
         from distributed import get_worker
 
         worker = get_worker()
     except (ImportError, ValueError):
         return "local"
-    worker.log_event(EVENT_TOPIC, {"index": index, "worker": worker.address})
+    worker.log_event(EVENT_TOPIC, {**started, "worker": worker.address})
     return worker.address
 
 
@@ -207,10 +210,15 @@ def execute(
     too when a local cluster could not pay for its start-up.  Otherwise the first
     `FIRST_PER_WORKER` runs per worker are timed on the cluster, one to a task.  Runs
     shorter than `BATCH_SECONDS` then go to the workers in batches (`batch_size`); the
-    outcome's ``note`` says which.  Ctrl-C stops it: the finished runs are kept."""
+    outcome's ``note`` says which.  A tolerance study that `batch_study` evaluates on its
+    problem built once goes in chunks of samples instead (`sessions.sweeps.study_chunks`).
+    Ctrl-C stops it: the finished runs are kept."""
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []
+    from sessions.sweeps.batch_study import applies  # (it imports this module)
+
+    chunked = applies(jobs)  # a tolerance study: its samples go in chunks to workers that build its problem once
     if address is None and workers is None and cluster is None and jobs:  # a local cluster: maybe not worth it
         # a batch in this process outruns a local cluster of single runs (a study evaluated per loop does not)
         batched = batch_here(jobs, progress, unbatched=False)
@@ -222,6 +230,10 @@ def execute(
     wait = connect_timeout(timeout)
     connection = connect(address, workers, wait) if cluster is None else connect_named(cluster, workers, wait)
     try:
+        if chunked:
+            from sessions.sweeps.study_chunks import run_chunked
+
+            return run_chunked(connection, jobs[len(here) :], progress, cancelled, made=here)
         if not here:
             return _timed_on_cluster(connection, jobs, progress, cancelled)
         return _rest_batched(connection, jobs, Outcome(here, 1), each, progress, cancelled)
@@ -251,11 +263,11 @@ def _timed_on_cluster(connection: Connection, jobs: Sequence, progress, cancelle
     """The first `FIRST_PER_WORKER` runs per worker one to a task, timed on the workers
     (the shortest counts: a worker's first run pays for its imports); the rest in
     batches sized from them."""
-    workers = max(connection.workers, _worker_count(connection.client))
+    workers = max(connection.workers, worker_count(connection.client))
     count = min(len(jobs), FIRST_PER_WORKER * workers)
     first = _gather(connection.client, jobs[:count], _shifted(progress, 0, len(jobs)), cancelled)
     if first.cancelled or count == len(jobs):
-        rest = [_lost(job, None) for job in jobs[count:]]
+        rest = [lost_run(job, None) for job in jobs[count:]]
         return Outcome(first.runs + rest, first.workers, first.attempts, first.cancelled, first.interrupted)
     timed = [r["seconds"] for r in first.runs if r["status"] != "failed" and r["seconds"] is not None]
     return _rest_batched(connection, jobs, first, min(timed, default=math.inf), progress, cancelled)
@@ -264,7 +276,7 @@ def _timed_on_cluster(connection: Connection, jobs: Sequence, progress, cancelle
 def _rest_batched(connection: Connection, jobs: Sequence, first: Outcome, each: float, progress, cancelled) -> Outcome:
     """The jobs after the ``first`` ones, in batches of runs of about ``each`` seconds (`batch_size`)."""
     done = len(first.runs)
-    workers = max(connection.workers, _worker_count(connection.client))
+    workers = max(connection.workers, worker_count(connection.client))
     size = batch_size(each, len(jobs) - done, workers)
     rest = _gather(connection.client, jobs[done:], _shifted(progress, done, len(jobs)), cancelled, size)
     note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
@@ -278,7 +290,7 @@ def _shifted(progress: Callable[[int, int], None] | None, offset: int, total: in
     return None if progress is None else lambda k, _: progress(k + offset, total)
 
 
-def _worker_count(client) -> int:
+def worker_count(client) -> int:
     try:
         return len(client.scheduler_info().get("workers", {})) or 1
     except Exception:  # noqa: BLE001 - a scheduler that cannot say: batches sized for one worker
@@ -378,7 +390,7 @@ def _results(future, batch: list) -> list[dict]:
     try:
         return future.result()
     except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled batch is recorded, not raised
-        return [_lost(job, exc) for job in batch]
+        return [lost_run(job, exc) for job in batch]
 
 
 def _interrupted(client, tasks: dict, runs: dict[int, dict]) -> None:
@@ -397,7 +409,7 @@ def _interrupted(client, tasks: dict, runs: dict[int, dict]) -> None:
             except Exception:  # noqa: BLE001, S110 - not fetched in time: cancelled like the rest
                 pass
         for k, job in enumerate(batch):
-            runs.setdefault(job.index, results[k] if results else _lost(job, None))
+            runs.setdefault(job.index, results[k] if results else lost_run(job, None))
 
 
 def _workers_and_attempts(
@@ -410,7 +422,7 @@ def _workers_and_attempts(
     scheduler is named "a lost worker")."""
     try:
         events = client.get_events(EVENT_TOPIC)
-        sent = _times_sent(client, sorted({key for k in runs for key in keys.get(k, [])}))
+        sent = times_sent(client, sorted({key for k in runs for key in keys.get(k, [])}))
     except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
         events, sent = (), {}
     started: dict[int, list[str]] = {}
@@ -438,7 +450,7 @@ def computed_by(runs: Iterable[dict], attempts: dict[int, list[str]]) -> int:
     return len((finished | started) - {LOST_WORKER})
 
 
-def _times_sent(client, keys: list[str]) -> dict[str, int]:
+def times_sent(client, keys: list[str]) -> dict[str, int]:
     """How many times the scheduler sent each task to a worker: its transitions to
     'processing' in the scheduler's own log (run there: the scheduler needs no loopcraft)."""
 
@@ -452,10 +464,10 @@ def _times_sent(client, keys: list[str]) -> dict[str, int]:
     return client.run_on_scheduler(counted, keys=keys) if keys else {}
 
 
-def _lost(job, exc: BaseException | None) -> dict:
-    """A run that did not finish: ``exc`` None or a CancelledError for a cancelled one."""
-    kind = type(exc).__name__
-    reason = CANCELLED if exc is None or kind == "CancelledError" else in_words(exc)
+def lost_run(job, exc: BaseException | None) -> dict:
+    """A run that did not finish: ``exc`` None or a cancelled future's error (Dask's
+    FutureCancelledError is one) for a cancelled one."""
+    reason = CANCELLED if exc is None or isinstance(exc, FutureCancelled) else in_words(exc)
     return {
         "index": job.index,
         "label": job.label,
@@ -486,7 +498,7 @@ def batch_here(
     if batch is None:
         return None
     for job in jobs[batch.done :]:
-        tally.add(_lost(job, None))
+        tally.add(lost_run(job, None))
     note = "; ".join(text for text in (batch.note, tally.note) if text)
     return Outcome(tally.runs(), 1, {}, batch.interrupted, batch.interrupted, note, serial=True, tally=tally)
 
@@ -521,7 +533,7 @@ def execute_serial(
                 progress(done, total)
     except KeyboardInterrupt:
         for job in jobs[done - len(made) :]:
-            keep(_lost(job, None))
+            keep(lost_run(job, None))
         kept = runs if tally is None else tally.runs()
         return Outcome(kept, 1, {}, cancelled=True, interrupted=True, serial=True, tally=tally)
     if tally is None:

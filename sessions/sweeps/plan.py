@@ -182,10 +182,12 @@ class ToleranceSamples(Sequence[Job]):
     100 000 jobs held at once took 157 MB.  `drawn` gives a chunk's drawn values without
     making its jobs (`sessions.sweeps.batch_study`)."""
 
-    def __init__(self, base: dict, deviations: dict[str, np.ndarray], indices: range) -> None:
+    def __init__(self, base: dict, deviations: dict[str, np.ndarray], indices: range, first_row: int = 0) -> None:
         self.base = base  # the document every sample is but for its drawn values and their bounds
-        self.deviations = deviations  # name -> (samples, values) relative deviations, every sample of the study
+        # name -> (samples, values) relative deviations: every sample's of the study from sample ``first_row`` on
+        self.deviations = deviations
         self.indices = indices  # the samples of this view
+        self.first_row = first_row  # the sample of the deviations' first row (`shipped`)
 
     def __len__(self) -> int:
         return len(self.indices)
@@ -196,14 +198,23 @@ class ToleranceSamples(Sequence[Job]):
     def __getitem__(self, key: slice) -> ToleranceSamples: ...
     def __getitem__(self, key: int | slice) -> Job | ToleranceSamples:
         if isinstance(key, slice):
-            return ToleranceSamples(self.base, self.deviations, self.indices[key])
+            return ToleranceSamples(self.base, self.deviations, self.indices[key], self.first_row)
         k = self.indices[key]
-        return _sample(self.base, k, {name: d[k] for name, d in self.deviations.items()})
+        return _sample(self.base, k, {name: d[k - self.first_row] for name, d in self.deviations.items()})
+
+    def shipped(self) -> ToleranceSamples:
+        """This view holding only its own samples' deviations (what a cluster's worker is sent:
+        a chunk of a study of a million samples is not sent every sample's draws); the view's
+        samples are consecutive."""
+        rows = slice(self.indices.start - self.first_row, self.indices.stop - self.first_row)
+        return ToleranceSamples(
+            self.base, {name: d[rows] for name, d in self.deviations.items()}, self.indices, self.indices.start
+        )
 
     def drawn(self) -> list[dict]:
         """Each sample's drawn values (a job's ``start``), without its document."""
         entries = {entry["name"]: entry["value"] for entry in self.base["problem"]["parameters"]}
-        rows = np.asarray(self.indices, dtype=np.intp)
+        rows = np.asarray(self.indices, dtype=np.intp) - self.first_row
         columns = [(name, _values(entries[name], 1 + d[rows])) for name, d in self.deviations.items()]
         return [{name: values[k] for name, values in columns} for k in range(len(self))]
 

@@ -60,6 +60,7 @@ class Records:
     points: Points
     named: dict
     seconds: float
+    worker: str = "local"  # where they were computed: a cluster worker's address, or this process
 
     @property
     def indices(self) -> list[int]:
@@ -77,20 +78,26 @@ class Records:
                 self.heads, self.values[j].tolist(), self.frequencies[j].tolist(), met, self.points.absent[j].tolist()
             )
         ]
-        run = sample_run(self.samples[j], self.named, float(self.points.merit[j]), rows, self.seconds)
+        run = sample_run(self.samples[j], self.named, float(self.points.merit[j]), rows, self.seconds, self.worker)
         return run | {"attempts": 1}
 
 
 def sample_run(
-    head: tuple[int, str, dict], named: dict[str, float], ranking: float, rows: list[dict], seconds: float
+    head: tuple[int, str, dict],
+    named: dict[str, float],
+    ranking: float,
+    rows: list[dict],
+    seconds: float,
+    worker: str = "local",
 ) -> dict:
-    """A batched sample's run (``head``: its index, label and drawn values), as `run_job` makes it."""
+    """A batched sample's run (``head``: its index, label and drawn values), as `run_job` makes it
+    (``worker``: where it was computed)."""
     index, label, start = head
     return {
         "index": index,
         "label": label,
         "start": start,
-        "worker": "local",
+        "worker": worker,
         "status": "running",
         "reason": "",
         "iterations": 0,

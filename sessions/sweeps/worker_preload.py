@@ -6,5 +6,6 @@ that a worker's first run does not pay for them."""
 
 from engine.stepping.registry import registrations
 from sessions.sweeps import jobs as sweep_jobs  # noqa: F401 - imported for what it imports
+from sessions.sweeps import study_chunks  # noqa: F401 - a tolerance study's chunks, and the batch they run
 
 registrations()

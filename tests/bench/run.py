@@ -47,6 +47,7 @@ GROUPS: dict[str, Callable[[int], dict]] = {
     "sweep": lambda r: {"sweep_throughput": startup.sweep_throughput()},
     "tolerance": lambda r: {"tolerance_study": tolerance.tolerance_figures(r)},
     "studies": lambda r: {"tolerance_study_classes": tolerance.study_classes(max(3, r // 10))},  # issue 53's rows alone
+    "cluster": lambda r: {"tolerance_study_cluster": tolerance.on_a_local_cluster(3)},  # issue 53's cluster row alone
 }
 
 

@@ -368,6 +368,84 @@ def numpy_floor(repeat: int, count: int = 20_000) -> dict:
     }
 
 
+def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> dict:
+    """The lag-lead study of ``count`` samples on a local cluster of ``workers`` processes (in
+    chunks, `sessions.sweeps.study_chunks`) against `--serial`, interleaved, each side the study's
+    runs and summary: the ratio on a started cluster (target 1.6x, enforced) and with the
+    cluster's start-up and close (reported), with the machine's load (`os.getloadavg`) and
+    each side's CPU seconds beside them, and every sample's rows equal to the serial study's
+    (to `EXACT`)."""
+    import os
+
+    from sessions.store import load_session
+    from sessions.sweeps.cluster import close, connect
+    from sessions.sweeps.jobs import execute_serial
+    from sessions.sweeps.plan import plan
+    from sessions.sweeps.results import summarize
+    from sessions.sweeps.study_chunks import run_chunked
+
+    session = load_session(EXAMPLES / "coebra_lag_lead.json")
+    jobs, settings = plan(session, "tolerance", LAG_LEAD, None, 0, count)
+    serial_s, cluster_s, with_start_s, outcomes = [], [], [], []
+    cpu: dict[str, list[float]] = {"serial": [], "workers": [], "this_process": []}
+    start_s, close_s = [], []
+    loads = [os.getloadavg()[0]]
+    for _ in range(repeat):
+        began, cpu_began = time.perf_counter(), time.process_time()
+        serial = execute_serial(jobs)
+        summarize(session, "tolerance", settings, serial)
+        serial_s.append(time.perf_counter() - began)
+        cpu["serial"].append(time.process_time() - cpu_began)
+        began = time.perf_counter()
+        connection = connect(None, workers, 30.0)  # as `loopcraft sweep --workers N` starts one
+        before, cpu_began = connection.client.run(time.process_time), time.process_time()
+        started = time.perf_counter()
+        outcome = run_chunked(connection, jobs)
+        summarize(session, "tolerance", settings, outcome)
+        done = time.perf_counter()
+        cpu["this_process"].append(time.process_time() - cpu_began)  # the tally, the summary, the scheduler
+        cpu["workers"].append(sum(connection.client.run(time.process_time).values()) - sum(before.values()))
+        close(connection.client, connection.cluster)
+        start_s.append(started - began)
+        close_s.append(time.perf_counter() - done)
+        cluster_s.append(done - started)
+        with_start_s.append(time.perf_counter() - began)
+        outcomes.append(outcome)
+        loads.append(os.getloadavg()[0])
+    ratio = statistics.median([a / b for a, b in zip(serial_s, cluster_s)])
+    with_start = statistics.median([a / b for a, b in zip(serial_s, with_start_s)])
+    ours, theirs = outcomes[-1].tally.sample_values(), serial.tally.sample_values()
+    worst = max(
+        float(np.max(np.abs(ours[k] - theirs[k]) / np.maximum(np.abs(theirs[k]), 1e-300), initial=0.0))
+        for k in theirs
+        if k != "index"
+    )
+    same = bool(np.array_equal(ours["index"], theirs["index"])) and worst <= EXACT
+    return {
+        "samples": count,
+        "workers": workers,
+        "serial_median_s": statistics.median(serial_s),
+        "cluster_median_s": statistics.median(cluster_s),
+        "cluster_with_startup_median_s": statistics.median(with_start_s),
+        "startup_median_s": statistics.median(start_s),  # the local cluster's start and first client
+        "close_median_s": statistics.median(close_s),
+        "load_average_1min": loads,  # before the first pair and after each (5 agents share 2 cores)
+        # CPU seconds (medians): the serial study's, and the cluster's workers' and this process's
+        # during the study; on a loaded machine the kernel's fair share per session caps the wall ratio
+        "cpu_median_s": {side: statistics.median(values) for side, values in cpu.items()},
+        "note": outcomes[-1].note,
+        "speedup": {"ratio": ratio, **judged(ratio, 1.6, "min_ratio")},
+        "speedup_with_startup": {"ratio": with_start},  # reported: a local cluster's start-up is seconds
+        "rows_equal_serial": {
+            "worst_relative_difference": worst,
+            "target": f"every sample's rows within {EXACT:g} relative, in sample order",
+            "target_kind": "check",
+            "met": same,
+            "enforced": True,
+        },
+    }
+
+
 def tolerance_figures(repeat: int) -> dict:
     """Every figure of the group (`make bench`: ``--only tolerance``)."""
     return {
@@ -375,6 +453,7 @@ def tolerance_figures(repeat: int) -> dict:
         "lag_lead_serial": hundred_thousand(),
         "launch_vehicle": launch_vehicle(),
         "classes": study_classes(max(3, repeat // 10)),
+        "lag_lead_20000_local_cluster": on_a_local_cluster(3),
     }
 
 

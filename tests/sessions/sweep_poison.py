@@ -1,11 +1,13 @@
-"""A stand-in for `sessions.sweeps.jobs.run_batch` whose run of job `POISON` kills
-its worker process (imported by the workers of tests/sessions/test_sweep_batches.py)."""
+"""Stand-ins for `sessions.sweeps.jobs.run_batch` and `sessions.sweeps.study_chunks.evaluate_chunk`
+whose run of job (or sample) `POISON` kills its worker process (imported by the workers of
+tests/sessions/test_sweep_batches.py and test_study_chunks.py)."""
 
 from __future__ import annotations
 
 import os
 
 from sessions.sweeps.jobs import run_batch
+from sessions.sweeps.study_chunks import evaluate_chunk
 
 POISON = 5
 
@@ -14,3 +16,9 @@ def poisoned(payloads: list[dict]) -> list[dict]:
     if any(payload["index"] == POISON for payload in payloads):
         os._exit(1)
     return run_batch(payloads)
+
+
+def poisoned_chunk(key: str, samples, task: str):
+    if POISON in samples.indices:
+        os._exit(1)
+    return evaluate_chunk(key, samples, task)

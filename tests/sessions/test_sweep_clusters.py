@@ -129,8 +129,8 @@ def test_the_bounds_of_the_jobs_come_from_the_options_else_the_profile():
 @pytest.mark.slow
 def test_an_adaptive_jobqueue_cluster_runs_a_study_in_batches(tmp_path, monkeypatch):
     """dask-jobqueue's own LocalCluster (its jobs are processes here) in place of SLURM's,
-    scaled adaptively up to two jobs: the first runs are timed on it, one to a task,
-    and the rest go in batches sized for the two workers it may have."""
+    scaled adaptively up to two jobs: the study's samples go in chunks, the first ones
+    timed on it and the rest sized for the two workers it may have."""
     from dask_jobqueue.local import LocalCluster
 
     monkeypatch.setattr(dask_jobqueue, "SLURMCluster", LocalCluster)
@@ -141,6 +141,6 @@ def test_an_adaptive_jobqueue_cluster_runs_a_study_in_batches(tmp_path, monkeypa
     ):
         outcome = execute(jobs, cluster=named_cluster("slurm", 0, 2))
     assert not outcome.serial and all(r["worker"].startswith("tcp://") for r in outcome.runs)
-    size = int(outcome.note.split(" at a time")[0].split()[-1])
-    assert 1 < size <= (200 - 4) // 8  # at least four batches for each of the two workers it may have
+    sizes = outcome.note.split(" chunks of ")[1].split()[0]
+    assert 1 < int(sizes.split("-")[-1]) <= 200 // 8, outcome.note  # at least four chunks per worker it may have
     assert_measures_agree([r["measures"] for r in outcome.runs], [r["measures"] for r in execute_serial(jobs).runs])

@@ -2,7 +2,8 @@
 127.0.0.1 (real processes, not the in-process cluster), one of which is killed midway:
 every sample's result is found once, and equals a serial run's (issue 41, section 3); the
 sweep's bookkeeping is the scheduler's: workers that computed, attempts and retries as its
-transition log has them (issue 50)."""
+transition log has them (issue 50).  The study goes to the workers in chunks of samples
+(issue 53, section 2): the kill comes while the victim is on a chunk."""
 
 from __future__ import annotations
 
@@ -25,7 +26,10 @@ from tests.sessions.study_agreement import assert_measures_agree
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "sessions" / "examples"
-SAMPLES = 600  # lag-lead samples of 5-9 ms: a study of 2-3 s on two workers, in batches of about 0.25 s
+# lag-lead samples of 0.1-0.5 ms batched: the study's chunks grow from 100 samples towards about 0.25 s
+# of work each (at most 1250: at least four per worker), every run kept (a study of at most 10 000)
+SAMPLES = 10_000
+VICTIM = "victim"  # the worker killed midway
 
 
 def _copy(tmp_path: Path) -> Path:
@@ -59,11 +63,11 @@ def scheduler_and_two_workers(tmp_path):
             time.sleep(0.05)
         assert file.exists(), "the scheduler did not start within 30 s"
         address = json.loads(file.read_text())["address"]
-        for _ in range(2):
+        for name in ("survivor", VICTIM):
             processes.append(
                 _started(
                     ["distributed.cli.dask_worker", address, "--host", "127.0.0.1", "--nthreads", "1"]
-                    + ["--no-nanny", "--no-dashboard"]
+                    + ["--no-nanny", "--no-dashboard", "--name", name]
                 )
             )
         with Client(address, timeout="30s") as client:
@@ -76,10 +80,14 @@ def scheduler_and_two_workers(tmp_path):
             process.wait(timeout=30)
 
 
-def _kill_when_started(client, worker: subprocess.Popen, count: int, stop: threading.Event) -> None:
-    """Kill ``worker`` once ``count`` runs have started (each run logs its start on the scheduler)."""
+def _kill_at_third_chunk(client, worker: subprocess.Popen, stop: threading.Event) -> None:
+    """Kill ``worker`` (the one named `VICTIM`) once it has started its third chunk (each chunk
+    logs its start on the scheduler): it has finished one at least, and the chunk it is on is
+    sized from a timed one (about 0.25 s of work, longer than this watch's look at the log)."""
+    victim = next(a for a, w in client.scheduler_info()["workers"].items() if w["name"] == VICTIM)
     while not stop.wait(0.02):
-        if len(client.get_events(EVENT_TOPIC)) >= count:
+        started = [e for _, e in client.get_events(EVENT_TOPIC) if e.get("chunk") and e["worker"] == victim]
+        if len(started) >= 3:
             worker.send_signal(signal.SIGKILL)
             return
 
@@ -107,7 +115,7 @@ def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(schedu
     path = _copy(tmp_path)
     jobs = tolerance_jobs(load_session(path), ["T1=+-10%"], SAMPLES)  # as the sweep plans them
     stop = threading.Event()
-    killer = threading.Thread(target=_kill_when_started, args=(client, processes[2], SAMPLES // 4, stop))
+    killer = threading.Thread(target=_kill_at_third_chunk, args=(client, processes[2], stop))
     killer.start()
     try:
         argv = ["sweep", str(path), "--tolerance", "T1=+-10%", "--samples", str(SAMPLES), "--scheduler", address]
@@ -128,12 +136,12 @@ def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(schedu
     for index, workers in summary["retried"].items():
         assert attempts[int(index)] == len(workers) >= 2
     for key, sent in _times_sent(client).items():  # the scheduler's own log, read here
-        first = int(key.split("-")[2])  # loopcraft-TAG-FIRST[-alone]: the batch's first run
-        assert attempts[first] >= sent, (key, sent, attempts[first])
+        first, stop = (int(part) for part in key.split("-")[2:4])  # loopcraft-TAG-FIRST-STOP: the chunk's samples
+        assert all(attempts[k] >= sent for k in range(first, stop)), (key, sent)
     assert sum(sent > 1 for sent in _times_sent(client).values()) >= 1
+    assert len(_times_sent(client)) < SAMPLES // 100  # chunks of samples, not a task per sample
     assert sorted(r["index"] for r in runs) == list(range(SAMPLES))  # every sample's result, once
-    size = int(done.stderr.split(" at a time")[0].split()[-1])
-    assert size > 1, done.stderr  # runs of a few ms go in batches: 600 samples are not 600 tasks
+    assert "samples sent to the workers in" in done.stderr, done.stderr
     serial = jsonable([[r["start"], r["measures"]] for r in execute_serial(jobs).runs])
     kept = json.loads(path.read_text())["sweeps"][-1]["runs"]  # as saved ("target" is only in --json's)
     assert [r["start"] for r in kept] == [start for start, _ in serial]

@@ -1,0 +1,325 @@
+"""A tolerance study on a Dask cluster in chunks of samples: what a task is sent is a
+consecutive range of the study's planned samples (`ToleranceSamples.shipped`: the study's
+document and the range's drawn deviations, never a document per sample); the worker
+builds the study's problem once (`sessions.sweeps.batch_study.chunk_runs` keeps it under
+the study's key for its next chunks) and evaluates the chunk as the serial study does
+(batched, or per loop on the problem built once); the chunk's runs come back as arrays
+(`Records`), a run made only for a sample the study keeps, and go to the study's `Tally`
+in sample order.
+
+The first chunks are small (`FIRST_CHUNK` samples and twice that) and timed on the
+workers in CPU seconds (the evaluating thread's, the problem's building apart: a loaded
+machine's waits are not work); the later ones are sized from them to about
+`sessions.sweeps.jobs.BATCH_SECONDS` of work, a chunk's fixed cost told from a sample's,
+at least `BATCHES_PER_WORKER` per worker, the last ones equal (`_Sizes`).  A
+chunk whose task fails (its worker died more often than Dask allows) is sent again as two
+halves, down to single samples: a sample that kills its worker does not take the others
+with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
+start (`announce`), the times each task was sent to a worker are read from the scheduler's
+transition log (`times_sent`), and ``workers`` counts the workers that finished a chunk or
+started one."""
+
+from __future__ import annotations
+
+import math
+import uuid
+from collections.abc import Callable, Sequence
+from contextlib import nullcontext
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from sessions.sweeps.batch_study import BatchOutcome, ChunkRuns, chunk_runs, study_key
+from sessions.sweeps.cluster import Connection, sigint_ignored
+from sessions.sweeps.dispersion import Tally
+from sessions.sweeps.jobs import (
+    BATCH_SECONDS,
+    BATCHES_PER_WORKER,
+    EVENT_TOPIC,
+    LOST_WORKER,
+    RESULT_WAIT,
+    Outcome,
+    announce,
+    lost_run,
+    times_sent,
+    worker_count,
+)
+from sessions.sweeps.plan import ToleranceSamples
+from sessions.sweeps.records import Records
+
+FIRST_CHUNK = 100  # samples in each worker's first chunks, timed there (the next ones are sized from them)
+IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
+
+
+@dataclass
+class _Sizes:
+    """The study's chunks (ranges of positions).  The first round, `IN_FLIGHT` per worker, of
+    `FIRST_CHUNK` samples and twice that in turn: timed on the workers, two sizes tell a
+    chunk's fixed cost from a sample's (least squares over every chunk timed), and each later
+    chunk is sized to about `BATCH_SECONDS` of work with it (one size only: that chunk's time
+    per sample), never smaller than one sized before (a small chunk's samples look slow: sized
+    down from them, the chunks would shrink to nothing on a loaded machine), in at least
+    `BATCHES_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
+    many for each worker, so that the workers finish together and no chunk at the end is
+    small."""
+
+    count: int
+    workers: int
+    sent: int = 0
+    used: list[int] = field(default_factory=list)
+    timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each chunk timed
+    sized: int = 0  # the largest size the timings asked for so far
+    split: tuple[int, int] = (0, 0)  # the size asked for when the samples left were split, and their chunks' size
+
+    @property
+    def first(self) -> int:
+        return max(1, min(FIRST_CHUNK, self.count // (2 * BATCHES_PER_WORKER * self.workers)))
+
+    def first_round(self) -> list[tuple[int, int]]:
+        return [self._take(self.first * (1 + k % 2)) for k in range(IN_FLIGHT * self.workers) if self.sent < self.count]
+
+    def next(self) -> tuple[int, int]:
+        """The next chunk's range, sized from the chunks timed so far."""
+        target = self._target()
+        if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
+            left = self.count - self.sent
+            chunks = math.ceil(math.ceil(left / target) / self.workers) * self.workers
+            self.split = (target, math.ceil(left / chunks))
+        return self._take(self.split[1])
+
+    def _target(self) -> int:
+        most = max(self.first, self.count // (BATCHES_PER_WORKER * self.workers))
+        sizes = {n for n, _ in self.timed}
+        if len(sizes) > 1:
+            per_sample, fixed = np.polyfit(*zip(*self.timed), 1)
+            wanted = (
+                (BATCH_SECONDS - max(fixed, 0.0)) / per_sample if per_sample > 0 and fixed < BATCH_SECONDS else most
+            )
+        elif self.timed:
+            n, seconds = self.timed[-1]
+            wanted = BATCH_SECONDS * n / seconds if seconds > 0 else most
+        else:
+            wanted = self.first
+        self.sized = max(self.sized, min(int(wanted), most))
+        return max(self.first, self.sized)
+
+    def _take(self, size: int) -> tuple[int, int]:
+        size = max(1, min(size, self.count - self.sent))
+        self.used.append(size)
+        self.sent += size
+        return self.sent - size, self.sent
+
+
+def evaluate_chunk(key: str, samples: ToleranceSamples, task: str) -> tuple[str, ChunkRuns]:
+    """On a worker: the chunk's start logged on the scheduler (as task ``task``), its samples
+    evaluated on the study's problem built once (``key``: `study_key`); (the worker's address,
+    the chunk's runs, each naming the worker)."""
+    worker = announce({"chunk": task})
+    runs = chunk_runs(key, samples)
+    items = [
+        replace(item, worker=worker) if isinstance(item, Records) else {**item, "worker": worker} for item in runs.items
+    ]
+    return worker, replace(runs, items=items)
+
+
+@dataclass
+class _InOrder:
+    """The chunks' runs added to the study's tally in sample order (chunks finish in any
+    order; a chunk is a range of positions in the study's samples)."""
+
+    samples: ToleranceSamples
+    tally: Tally
+    done: int = 0  # positions added so far
+    waiting: dict[int, tuple[int, ChunkRuns | list[dict]]] = field(default_factory=dict)  # start -> (stop, runs)
+    alone: list[int] = field(default_factory=list)
+    by_search: list[int] = field(default_factory=list)
+    unbatched: str = ""
+
+    def add(self, start: int, stop: int, runs: ChunkRuns | list[dict]) -> None:
+        self.waiting[start] = (stop, runs)
+        while self.done in self.waiting:
+            self._take(self.done)
+
+    def finish(self) -> None:
+        """Everything left, in order: the samples of no finished chunk as cancelled runs."""
+        while self.done < len(self.samples):
+            if self.done in self.waiting:
+                self._take(self.done)
+                continue
+            stop = min((start for start in self.waiting if start > self.done), default=len(self.samples))
+            for job in self.samples[self.done : stop]:
+                self.tally.add(lost_run(job, None))
+            self.done = stop
+
+    def _take(self, start: int) -> None:
+        stop, runs = self.waiting.pop(start)
+        if isinstance(runs, ChunkRuns):
+            for item in runs.items:
+                if isinstance(item, Records):
+                    self.tally.add_records(item)
+                else:
+                    self.tally.add(item)
+            self.alone += runs.alone
+            self.by_search += runs.by_search
+            self.unbatched = self.unbatched or runs.unbatched
+        else:
+            for run in runs:
+                self.tally.add(run)
+        self.done = stop
+
+
+@dataclass
+class _Tasks:
+    """The chunks sent: each task's future -> its range of positions, every task's key -> its
+    range (those sent again as halves included), the workers that finished one."""
+
+    client: object
+    samples: ToleranceSamples
+    study: str  # `study_key`
+    task: Callable = evaluate_chunk  # (a stand-in in tests)
+    tag: str = field(default_factory=lambda: uuid.uuid4().hex[:8])
+    running: dict = field(default_factory=dict)
+    ranges: dict[str, tuple[int, int]] = field(default_factory=dict)
+    finished_on: set[str] = field(default_factory=set)
+
+    def send(self, ranges: list[tuple[int, int]]) -> list:
+        keys = [f"loopcraft-{self.tag}-{self.samples.indices[a]}-{self.samples.indices[b - 1] + 1}" for a, b in ranges]
+        futures = self.client.map(  # type: ignore[attr-defined]
+            self.task,
+            [self.study] * len(ranges),
+            [self.samples[a:b].shipped() for a, b in ranges],
+            keys,
+            key=keys,
+            pure=False,
+            retries=1,
+        )
+        self.running.update(zip(futures, ranges))
+        self.ranges.update(zip(keys, ranges))
+        return futures
+
+
+def run_chunked(
+    connection: Connection,
+    samples: ToleranceSamples,
+    progress: Callable[[int, int], None] | None = None,
+    cancelled: Callable[[], bool] = lambda: False,
+    made: Sequence[dict] = (),
+    task: Callable = evaluate_chunk,
+) -> Outcome:
+    """The study's samples on the cluster in chunks (module docstring), gathered in a `Tally`;
+    ``made``: the runs of the samples before these, made already (they come first); ``task``:
+    `evaluate_chunk` or a stand-in.  Ctrl-C or ``cancelled`` stops it: the finished chunks are
+    kept, the rest cancelled."""
+    from distributed import as_completed
+
+    client = connection.client
+    workers = max(connection.workers, worker_count(client))
+    tally = Tally.of_study(len(made) + len(samples))
+    for run in made:
+        tally.add(run)
+    gathered = _InOrder(samples, tally)
+    tasks = _Tasks(client, samples, study_key(samples), task)
+    sizes = _Sizes(len(samples), workers)
+    waiting = as_completed(tasks.send(sizes.first_round()))
+    stopped = interrupted = False
+    try:
+        for future in waiting:
+            start, stop = tasks.running.pop(future)
+            runs = _result(future, samples[start:stop], tasks)
+            if runs is None and not stopped:  # its task failed: sent again as two halves
+                middle = (start + stop) // 2
+                waiting.update(tasks.send([(start, middle), (middle, stop)]))
+                continue
+            if isinstance(runs, ChunkRuns):
+                sizes.timed.append((stop - start, runs.cpu_seconds))
+            if not stopped and sizes.sent < len(samples):  # the next chunk, sized from those timed
+                waiting.update(tasks.send([sizes.next()]))
+            gathered.add(
+                start, stop, runs if runs is not None else [lost_run(job, None) for job in samples[start:stop]]
+            )
+            if progress:
+                progress(len(made) + gathered.done, len(made) + len(samples))
+            if not stopped and cancelled():
+                stopped = True
+                client.cancel([f for f in tasks.running if not f.done()])
+    except KeyboardInterrupt:
+        with sigint_ignored():
+            stopped = interrupted = True
+            _keep_finished(client, tasks, gathered)
+    gathered.finish()
+    with sigint_ignored() if interrupted else nullcontext():
+        attempts, workers_seen = _attempts(client, tasks)
+    computed = len((tasks.finished_on | workers_seen) - {LOST_WORKER})
+    for run in tally.runs():
+        if run["index"] in attempts:
+            run["attempts"] = len(attempts[run["index"]])
+    batch = BatchOutcome(
+        [], len(samples), tuple(gathered.alone), tuple(gathered.by_search), interrupted, gathered.unbatched
+    )
+    chunks = (
+        f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
+        f"(each sized from a chunk timed on its worker to about {BATCH_SECONDS:g} s of work)"
+    )
+    note = "; ".join(text for text in (batch.note, chunks, tally.note) if text)
+    retried = {k: v for k, v in attempts.items() if len(v) > 1}
+    return Outcome(tally.runs(), computed, retried, stopped, interrupted, note, tally=tally)
+
+
+def _result(future, part: ToleranceSamples, tasks: _Tasks) -> ChunkRuns | list[dict] | None:
+    """A finished chunk's runs; its samples' failed runs when its task failed for good (a single
+    sample, or cancelled); None when it failed and is to be sent again as halves."""
+    try:
+        worker, runs = future.result()
+    except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled chunk is recorded, not raised
+        if future.status == "error" and len(part) > 1:
+            return None
+        return [lost_run(job, exc) for job in part]
+    tasks.finished_on.add(worker)
+    return runs
+
+
+def _keep_finished(client, tasks: _Tasks, gathered: _InOrder) -> None:
+    """After Ctrl-C: cancel what has not finished, keep what has (fetched within `RESULT_WAIT`)."""
+    try:
+        client.cancel([f for f in tasks.running if not f.done()])
+    except Exception:  # noqa: BLE001, S110 - the runs are kept whatever the scheduler says
+        pass
+    for future, (start, stop) in tasks.running.items():
+        if future.status == "finished":
+            try:
+                worker, runs = future.result(timeout=RESULT_WAIT)
+            except Exception:  # noqa: BLE001, S110 - not fetched in time: cancelled like the rest
+                continue
+            tasks.finished_on.add(worker)
+            gathered.add(start, stop, runs)
+
+
+def _attempts(client, tasks: _Tasks) -> tuple[dict[int, list[str]], set[str]]:
+    """Where each sample was started, for the samples started more than once or in a chunk sent
+    again as halves (sample index -> workers; a start whose event never reached the scheduler
+    is `LOST_WORKER`'s), and every worker a chunk's start names.  A chunk's starts are the
+    times the scheduler sent its task to a worker (its transition log)."""
+    try:
+        events = client.get_events(EVENT_TOPIC)
+        sent = times_sent(client, list(tasks.ranges))
+    except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
+        events, sent = (), {}
+    named: dict[str, list[str]] = {}
+    for _, event in events:
+        if isinstance(event, dict) and event.get("chunk") in tasks.ranges:
+            named.setdefault(event["chunk"], []).append(event["worker"])
+    starts = {
+        key: named.get(key, []) + [LOST_WORKER] * (sent.get(key, 0) - len(named.get(key, []))) for key in tasks.ranges
+    }
+    split = {key for key, (a, b) in tasks.ranges.items() if _halved(tasks.ranges, a, b)}
+    notable = {k for key, (a, b) in tasks.ranges.items() if len(starts[key]) > 1 or key in split for k in range(a, b)}
+    attempts = {
+        tasks.samples.indices[k]: [w for key, (a, b) in tasks.ranges.items() if a <= k < b for w in starts[key]]
+        for k in sorted(notable)
+    }
+    return attempts, {w for workers in named.values() for w in workers}
+
+
+def _halved(ranges: dict[str, tuple[int, int]], a: int, b: int) -> bool:
+    """Was the chunk of positions [a, b) sent again as halves?"""
+    return b - a > 1 and (a, (a + b) // 2) in ranges.values()

@@ -1,0 +1,145 @@
+"""A tolerance study on a cluster in chunks of samples (issue 53, section 2): a chunk ships its
+own samples' draws, the worker builds the study's problem once and evaluates chunk after chunk
+as the serial study does, the chunks reach the tally in sample order, their sizes grow towards
+about a quarter of a second of work, and a sample that kills its worker takes no other with it."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from engine.derived import Derived
+from sessions.store import load_session
+from sessions.sweeps import batch_study
+from sessions.sweeps.batch_study import chunk_runs, study_key
+from sessions.sweeps.cluster import Connection
+from sessions.sweeps.dispersion import CANCELLED, Tally
+from sessions.sweeps.jobs import execute_serial
+from sessions.sweeps.plan import tolerance_jobs
+from sessions.sweeps.study_chunks import FIRST_CHUNK, _InOrder, _Sizes, run_chunked
+from tests.sessions.study_agreement import assert_measures_agree
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
+LAG_LEAD = ["T1=+-10%", "T2=+-10%"]
+
+
+def _samples(tmp_path: Path, count: int):
+    shutil.copy(EXAMPLES / "coebra_lag_lead.json", tmp_path / "s.json")
+    return tolerance_jobs(load_session(tmp_path / "s.json"), LAG_LEAD, count, seed=4)
+
+
+def test_a_shipped_chunk_holds_only_its_draws_and_makes_the_same_jobs(tmp_path):
+    samples = _samples(tmp_path, 50)
+    part = samples[10:20].shipped()
+    assert all(len(d) == 10 for d in part.deviations.values())
+    assert [job.payload() for job in part] == [job.payload() for job in samples[10:20]]
+    assert part.drawn() == samples[10:20].drawn()
+    assert [job.payload() for job in part[3:5]] == [job.payload() for job in samples[13:15]]
+
+
+def test_chunks_on_a_problem_built_once_reach_the_tally_as_the_serial_study(tmp_path, monkeypatch):
+    """Three chunks (one of a single sample) evaluated on the problem built for the first, added
+    last first: the tally's runs are the serial study's, in order."""
+    samples = _samples(tmp_path, 300)
+    built = []
+    monkeypatch.setattr(batch_study, "_built", Derived())
+    monkeypatch.setattr(batch_study, "_study", lambda jobs, build=batch_study._study: built.append(1) or build(jobs))
+    pieces = [(0, 70), (70, 71), (71, 300)]
+    chunks = [chunk_runs(study_key(samples), samples[a:b].shipped()) for a, b in pieces]
+    assert len(built) == 1  # the problem built for the first chunk serves the others
+    tally = Tally.of_study(len(samples))
+    gathered = _InOrder(samples, tally)
+    for (a, b), chunk in reversed(list(zip(pieces, chunks))):
+        gathered.add(a, b, chunk)
+    serial = execute_serial(samples).runs
+    runs = tally.runs()
+    assert [r["index"] for r in runs] == list(range(300)) and [r["start"] for r in runs] == [r["start"] for r in serial]
+    assert_measures_agree([r["measures"] for r in runs], [r["measures"] for r in serial])
+
+
+def test_samples_of_no_finished_chunk_are_cancelled_in_their_place(tmp_path):
+    samples = _samples(tmp_path, 30)
+    tally = Tally.of_study(len(samples))
+    gathered = _InOrder(samples, tally)
+    gathered.add(10, 20, chunk_runs(study_key(samples), samples[10:20].shipped()))
+    gathered.finish()
+    runs = tally.runs()
+    assert [r["index"] for r in runs] == list(range(30))
+    assert [r["index"] for r in runs if r["reason"] == CANCELLED] == [*range(10), *range(20, 30)]
+
+
+@pytest.mark.parametrize(("count", "workers"), [(20_000, 2), (1_000, 2), (10, 2), (1, 1), (5_001, 3)])
+def test_chunks_cover_the_study_once_sized_to_a_quarter_second(count, workers):
+    """Chunks of 25 ms plus 0.1 ms a sample: 2250 samples are a quarter of a second."""
+    sizes = _Sizes(count, workers)
+    ranges = sizes.first_round()
+    first = max(1, min(FIRST_CHUNK, count // (8 * workers)))
+    assert [b - a for a, b in ranges] == [min(first * (1 + k % 2), count - a) for k, (a, _) in enumerate(ranges)]
+    for a, b in ranges[:2]:
+        sizes.timed.append((b - a, 0.025 + 1e-4 * (b - a)))
+    while sizes.sent < count:
+        ranges.append(sizes.next())
+        sizes.timed.append((ranges[-1][1] - ranges[-1][0], 0.5))  # a chunk that looked slower sizes none down
+    assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == count
+    later = [b - a for a, b in ranges[2 * workers :]]
+    most = max(first, count // (4 * workers))
+    assert all(size <= min(2250, most) for size in later)  # at least four chunks per worker
+    if count == 20_000:  # 19 400 samples left after the first round: 10 equal chunks, five per worker
+        assert later == [1940] * 10
+
+
+@pytest.fixture(scope="module")
+def connection():
+    from distributed import Client
+
+    from sessions.sweeps.cluster import close, local_cluster
+
+    cluster = local_cluster(2)
+    client = Client(cluster)
+    yield Connection(client, cluster, 2)
+    close(client, None)  # the cluster: by its own fixture's end
+    cluster.close()
+
+
+@pytest.mark.long
+@pytest.mark.slow
+def test_a_cancelled_study_keeps_its_finished_chunks_whole(tmp_path, connection):
+    samples = _samples(tmp_path, 400)
+    outcome = run_chunked(connection, samples, cancelled=lambda: True)  # cancelled at the first finished chunk
+    runs = outcome.runs
+    assert outcome.cancelled and [r["index"] for r in runs] == list(range(400))
+    finished = [r["index"] for r in runs if r["reason"] != CANCELLED]
+    assert finished and finished == list(range(finished[0], finished[0] + len(finished)))
+    assert len(finished) % min(FIRST_CHUNK, 400 // 8) == 0  # whole chunks of the first size
+    assert all(r["worker"].startswith("tcp://") for r in runs if r["reason"] != CANCELLED)
+
+
+@pytest.mark.long
+@pytest.mark.slow
+def test_a_sample_that_kills_its_worker_takes_no_other_sample_with_it(tmp_path):
+    """Its chunk is sent again as halves down to the sample alone, which is recorded as failed
+    (a task may outlive one death of its worker: a sample queued beside the poison is not its
+    victim; 16 samples go in chunks of two)."""
+    import dask
+    from distributed import Client
+
+    from sessions.sweeps.cluster import close, local_cluster
+    from tests.sessions.sweep_poison import POISON, poisoned_chunk
+
+    samples = _samples(tmp_path, 16)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.scheduler.worker-saturation": 1.0}):
+        cluster = local_cluster(2)
+    client = Client(cluster)
+    try:
+        outcome = run_chunked(Connection(client, cluster, 2), samples, task=poisoned_chunk)
+    finally:
+        close(client, cluster)
+    runs = outcome.runs
+    assert [r["index"] for r in runs] == list(range(16))
+    failed = [r for r in runs if r["status"] == "failed"]
+    assert [r["index"] for r in failed] == [POISON] and "workers died while running it" in failed[0]["reason"], failed
+    serial = execute_serial(samples).runs
+    kept = [k for k in range(16) if k != POISON]
+    assert_measures_agree([runs[k]["measures"] for k in kept], [serial[k]["measures"] for k in kept])
