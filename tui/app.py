@@ -110,6 +110,16 @@ ACTIONS = (
         needs_session=True,
     ),
     KeyAction(
+        Binding(
+            "b",
+            "next_break",
+            "break",
+            show=False,
+            tooltip="Bode, Nyquist, Nichols: the loop at the next break (the others closed), then the primary again",
+        ),
+        needs_session=True,
+    ),
+    KeyAction(
         Binding("w", "sweep", "sweep", show=False, tooltip="many runs on Dask: starts, vary, tolerance"),
         changes=True,
         needs_session=True,
@@ -328,6 +338,8 @@ class LoopcraftApp(App):
         }.get(action, (lambda: True, None))
         if action == "use_best":  # why depends on the sweep: none yet, or none of its runs finished
             return bench.sweeps.refusal()
+        if action == "next_break":  # a session whose conditions name one break each
+            return bench.break_refusal()
         return None if can() else reason
 
     def on_mount(self) -> None:
@@ -594,6 +606,14 @@ class LoopcraftApp(App):
         if self.bench is None or screen is None:
             return
         self.notify(self.bench.next_plotted_condition(), timeout=3)
+        screen.refresh_plots()
+
+    def action_next_break(self) -> None:
+        """Bode, Nyquist and Nichols drawn at the next loop break (view state, never saved)."""
+        screen = self.main_screen()
+        if self.bench is None or screen is None:
+            return
+        self.notify(self.bench.next_plotted_break(), timeout=3)
         screen.refresh_plots()
 
     # -- helpers ----------------------------------------------------------------
