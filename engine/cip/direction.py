@@ -52,16 +52,18 @@ class Direction:
 
 
 def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement]) -> Rows:
-    """Gradients of d(w) for every active requirement and each of its points."""
+    """Gradients of d(w) for every active requirement and each of its points, each on the loop
+    at its break (`Requirement.loop_break`)."""
     slot_of = problem.slot_index
     m = len(problem.free_slots())
     rows, weights, owners, distances = [], [], [], []
-    for c, condition in enumerate(problem.conditions):
-        mine = [(k, con) for k, con in enumerate(active) if con.condition == c]
-        if not mine:
-            continue
+    for c, at in dict.fromkeys((con.condition, con.loop_break) for con in active):
+        condition = problem.conditions[c]
+        mine = [(k, con) for k, con in enumerate(active) if (con.condition, con.loop_break) == (c, at)]
         freqs = np.unique([con.frequency for _, con in mine])
-        response = open_loop(condition.network, condition.break_at, freqs, problem.condition_values(c, x), check=False)
+        response = open_loop(
+            condition.network, at or condition.break_at, freqs, problem.condition_values(c, x), check=False
+        )
         columns = [slot_of.get((name, c)) for name in response.parameters]
         used = np.array([j for j, slot in enumerate(columns) if slot is not None], dtype=int)
         slots = np.array([columns[j] for j in used], dtype=int)
