@@ -316,3 +316,27 @@ def test_the_report_gives_each_break_s_margins_and_the_multi_loop_disk_margin(se
     assert float(together["alpha"]) == pytest.approx(alpha, rel=1e-5)
     assert float(together["worst frequency"].split()[0]) == pytest.approx(frequency, rel=1e-3)
     assert together["certified bracket"].endswith("(certified)")
+
+
+@pytest.mark.parametrize("algorithm, row", [("slp", "PM1@u_att"), ("cip", "2@u_att")])
+def test_a_tolerance_study_reports_the_rows_at_a_break_and_adopts_their_worst(tmp_path, capsys, algorithm, row):
+    """A serial study of KA +-10 %: the row at u_att is there under its name, its worst value is
+    python-control's PM of the loop at u_att for the worst sample's drawn KA, and --adopt-worst
+    names it whole (PM1@u_att, PM1@u_att@cruise: its '@' is the break's, not a condition's)."""
+    from tui.cli import main
+
+    data = document()
+    data["algorithm"] = {"name": algorithm, "settings": {}}
+    for which in (row, f"{row}@cruise"):
+        path = tmp_path / f"{algorithm}_{which.count('@')}.json"
+        path.write_text(json.dumps(data))
+        argv = ["sweep", str(path), "--tolerance", "KA=+-10%", "--samples", "6", "--serial", "--json"]
+        status = main([*argv, "--adopt-worst", which])
+        out, err = capsys.readouterr()
+        assert status == 0, err
+        worst = next(r for r in json.loads(out)["worst_case"] if r["name"] == row)
+        assert worst["condition"] == "cruise" and worst["samples"] == 6
+        pm, _ = phase_margin(loop_at_u_att(worst["worst_parameters"]["KA"], 0.1))
+        assert worst["worst"] == pytest.approx(pm, abs=1e-9)
+        adopted = load_session(path).problem.named()
+        assert adopted["KA"] == pytest.approx(worst["worst_parameters"]["KA"], rel=1e-15)
