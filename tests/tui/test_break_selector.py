@@ -92,3 +92,25 @@ async def test_b_is_disabled_with_its_reason_on_a_single_break_session(tmp_path)
         assert any("one loop break" in str(n.message) for n in app._notifications)
         assert (await shown(app, pilot, "#bode-mag")).title == "Bode magnitude"
         assert "every break" not in str(app.screen.query_one("#tableau").render())
+
+
+def test_the_loop_plots_draw_the_requirements_of_the_targets_read_at_their_break(tmp_path):
+    """PM >= 40 at dc (13.8 deg: unmet) and PM >= 10 at u_att (14.6 deg: met): the Bode at dc draws
+    the first alone, at u_att the second alone, each judged by its own row (PM1, PM1@u_att)."""
+    from dataclasses import replace
+
+    from sessions.store import load_session
+    from tui.figures.requirements import requirements
+    from tui.state.workbench import Workbench
+
+    path = tmp_path / "two_paths.json"
+    targets = [
+        {"measure": "phase_margin_deg", "bands": [{"desired": 40.0}]},
+        {"measure": "phase_margin_deg", "break": "u_att", "bands": [{"desired": 10.0}]},
+    ]
+    path.write_text(json.dumps(document(targets)))
+    view = Workbench(load_session(path)).view()
+    assert [(r.value, r.met) for r in requirements(view)] == [(40.0, False)]
+    at_u_att = replace(view, plotted_break="u_att")
+    assert at_u_att.break_title() == " at u_att" and at_u_att.at_chosen_break()
+    assert [(r.value, r.met) for r in requirements(at_u_att)] == [(10.0, True)]
