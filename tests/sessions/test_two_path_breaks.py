@@ -9,6 +9,7 @@ analytic partials, its run meeting the target and the replay are checked against
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -182,7 +183,7 @@ def test_an_algorithm_that_reads_the_design_s_break_only_refuses_a_target_at_ano
         primary_only.check_targets("plug", session.problem.targets)
 
 
-def test_cip_meets_a_target_at_a_second_break_and_the_run_replays(tmp_path):
+def test_cip_meets_a_target_at_a_second_break_and_the_run_replays(tmp_path, capsys):
     """cip's requirement rows at u_att are read on the loop broken there (row 2@u_att), its gradient
     rows too: PM@u_att >= 45 (14.6 deg at the start) met, the row equal to python-control's."""
     data = document(
@@ -206,6 +207,11 @@ def test_cip_meets_a_target_at_a_second_break_and_the_run_replays(tmp_path):
     assert before < 45.0 and rows["1"]["value"] != pytest.approx(rows["2@u_att"]["value"], abs=0.1)
     save_session(session, tmp_path / "ran.json")
     assert replay(load_session(tmp_path / "ran.json")).ok
+    from tui.cli import main
+
+    assert main(["report", str(tmp_path / "ran.json")]) == 0  # report 000's listing names the break
+    listing = capsys.readouterr().out
+    assert re.search(r"PHASE MARGIN NO\.   2 = .* MARGIN TYPE = P   AT BREAK u_att", listing), listing
 
 
 def _loops_by_python_control(ka: float, kr: float) -> dict:
