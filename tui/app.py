@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import multiprocessing.resource_tracker
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -106,6 +107,16 @@ ACTIONS = (
             "conditions",
             show=False,
             tooltip="plots: every flight condition, or one with its initial design",
+        ),
+        needs_session=True,
+    ),
+    KeyAction(
+        Binding(
+            "b",
+            "next_break",
+            "break",
+            show=False,
+            tooltip="Bode, Nyquist, Nichols: the loop at the next break (the others closed), then the primary again",
         ),
         needs_session=True,
     ),
@@ -328,6 +339,8 @@ class LoopcraftApp(App):
         }.get(action, (lambda: True, None))
         if action == "use_best":  # why depends on the sweep: none yet, or none of its runs finished
             return bench.sweeps.refusal()
+        if action == "next_break":  # a session whose conditions name one break each
+            return bench.break_refusal()
         return None if can() else reason
 
     def on_mount(self) -> None:
@@ -590,10 +603,18 @@ class LoopcraftApp(App):
 
     def action_next_condition(self) -> None:
         """Plots: every flight condition together, then each alone with its initial design."""
+        self._plots_shown(Workbench.next_plotted_condition)
+
+    def action_next_break(self) -> None:
+        """Bode, Nyquist and Nichols drawn at the next loop break (view state, never saved)."""
+        self._plots_shown(Workbench.next_plotted_break)
+
+    def _plots_shown(self, change: Callable[[Workbench], str]) -> None:
+        """A change of what the plots show (view state), said in a notice, the plots drawn again."""
         screen = self.main_screen()
         if self.bench is None or screen is None:
             return
-        self.notify(self.bench.next_plotted_condition(), timeout=3)
+        self.notify(change(self.bench), timeout=3)
         screen.refresh_plots()
 
     # -- helpers ----------------------------------------------------------------

@@ -470,7 +470,7 @@ def _label(c: Requirement, number: int) -> str:
 def _rows(problem: Problem, requirements: list[Requirement]) -> tuple[MeasureRow, ...]:
     return tuple(
         MeasureRow(
-            str(n),
+            f"{n}@{c.loop_break}" if c.loop_break else str(n),  # a row at another break names it
             c.measure,
             problem.conditions[c.condition].name,
             c.shown,

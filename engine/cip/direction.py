@@ -67,20 +67,20 @@ class Direction:
 
 
 def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement], tracking: bool = False) -> Rows:
-    """Gradients of d(w) for every active requirement and each of its points; with ``tracking``,
-    a margin at a crossing of an exact loop moves with its crossing (the module docstring)."""
+    """Gradients of d(w) for every active requirement and each of its points, each on the loop
+    at its break (`Requirement.loop_break`); with ``tracking``, a margin at a crossing of an exact
+    loop moves with its crossing (the module docstring)."""
     slot_of = problem.slot_index
     m = len(problem.free_slots())
     rows, weights, owners, distances = [], [], [], []
-    for c, condition in enumerate(problem.conditions):
-        mine = [(k, con) for k, con in enumerate(active) if con.condition == c]
-        if not mine:
-            continue
+    for c, at in dict.fromkeys((con.condition, con.loop_break) for con in active):
+        condition = problem.conditions[c]
+        mine = [(k, con) for k, con in enumerate(active) if (con.condition, con.loop_break) == (c, at)]
         freqs = np.unique([con.frequency for _, con in mine])
-        params = problem.condition_values(c, x)
-        response = open_loop(condition.network, condition.break_at, freqs, params, check=False)
+        params, loop_break = problem.condition_values(c, x), at or condition.break_at
+        response = open_loop(condition.network, loop_break, freqs, params, check=False)
         moving = tracking and condition.network.exact
-        slopes = LoopEvaluator(condition.network, condition.break_at, params)(freqs)[1] if moving else None
+        slopes = LoopEvaluator(condition.network, loop_break, params)(freqs)[1] if moving else None
         columns = [slot_of.get((name, c)) for name in response.parameters]
         used = np.array([j for j, slot in enumerate(columns) if slot is not None], dtype=int)
         slots = np.array([columns[j] for j in used], dtype=int)

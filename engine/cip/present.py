@@ -60,8 +60,10 @@ CLASSICAL = {"gain_margin_db": ("GAIN MARGIN", "DB"), "phase_margin_deg": ("PHAS
 
 
 def _margin_line(n: int, r) -> str:
-    """The listing's line; a classical margin (dB, deg) says so instead of MARGIN RADIUS."""
+    """The listing's line; a classical margin (dB, deg) says so instead of MARGIN RADIUS; one read
+    at another loop break than the condition's (row 2@u_att) names it."""
     flag = "" if r.satisfied else "  ACTIVE"
+    flag += f"   AT BREAK {r.name.partition('@')[2]}" if "@" in r.name else ""
     label, unit = CLASSICAL.get(r.kind, ("MARGIN RADIUS", ""))
     unit = f" {unit}" if unit else ""
     return (

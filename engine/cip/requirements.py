@@ -16,7 +16,7 @@ listing's loop 220 would keep the gain-margin radius).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +42,7 @@ TARGETS = TargetUse(
         "complementary_sensitivity_peak",
     ),
     refusal="is not a margin (cip improves gain, phase, stability, attenuation and disk margins, Ms and Mt)",
+    breaks=True,  # a target may name a loop break: its margins are read on the loop broken there
     refusals=(
         (
             "delay_margin",
@@ -84,6 +85,7 @@ class Requirement:
     points: tuple[Point, ...]
     gh: complex
     method: str = "grid"  # how the margin was detected (`Margins.label`)
+    loop_break: str = ""  # the loop break it is read at ('': the condition's break_at)
 
     @property
     def at_least(self) -> bool:
@@ -125,6 +127,8 @@ class Requirement:
         }
         data["points"] = [[p.value.real, p.value.imag, p.mode] for p in self.points]
         data["gh"] = [self.gh.real, self.gh.imag]
+        if self.loop_break:  # written only at another break: earlier records read back as they were
+            data["loop_break"] = self.loop_break
         return data
 
     @staticmethod
@@ -156,37 +160,58 @@ def detect(
     report's tabulated examples are reproduced)."""
     found: list[Requirement] = []
     windings = []
+    copies = (gain_as_stability, phase_as_stability)
     for c, condition in enumerate(problem.conditions):
         targets = [(i, t) for i, t in enumerate(problem.targets) if t.condition in (None, condition.name)]
         if not targets:
             windings.append(0.0)
             continue
-        loop = _loop(problem, c, problem.condition_values(c, x), detection != "grid")
-        if not np.all(np.isfinite(loop.gh)):
-            bad = problem.grid.omega[np.flatnonzero(~np.isfinite(loop.gh))[0]]
-            raise EngineError(
-                f"cip: the open loop of {condition.name} is not finite at {bad:.6g} rad/s "
-                "(a value out of floating-point range, or a pole on the grid)"
-            )
-        above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
-        found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
-        found += _requirements(
-            found_margins.all(), targets, c, gain_as_stability, phase_as_stability, found_margins.label
-        )
-        from engine.cip.peaks import peak_requirements  # Mt and disk margins (family D); peaks.py imports Requirement
-
-        found += peak_requirements(loop, targets, c)
-        windings.append(winding(loop.gh))
+        breaks = dict.fromkeys([condition.break_at] + [t.break_in(condition) for _, t in targets])
+        for at in breaks:  # the primary break's loop first: its winding is the stability guard
+            read = [(i, t) for i, t in targets if t.break_in(condition) == at]
+            made, loop = _at_break(problem, x, c, at, read, detection, copies)
+            found += made
+            if at == condition.break_at:
+                windings.append(winding(loop.gh))
     return sorted(found, key=_tableau_order), windings
 
 
-def _loop(problem: Problem, c: int, params: dict[str, float], refined: bool) -> LoopModel:
+def _at_break(
+    problem: Problem,
+    x: NDArray,
+    c: int,
+    at: str,
+    targets: list[tuple[int, Target]],
+    detection: str,
+    copies: tuple[bool, bool],
+) -> tuple[list[Requirement], LoopModel]:
+    """The requirements of the targets read at the break ``at`` of condition ``c`` (the loop
+    broken there, every other loop closed), and that loop."""
+    condition = problem.conditions[c]
+    loop = _loop(problem, c, problem.condition_values(c, x), detection != "grid", at)
+    if not np.all(np.isfinite(loop.gh)):
+        bad = problem.grid.omega[np.flatnonzero(~np.isfinite(loop.gh))[0]]
+        raise EngineError(
+            f"cip: the open loop of {condition.name} at {at} is not finite at {bad:.6g} rad/s "
+            "(a value out of floating-point range, or a pole on the grid)"
+        )
+    above = min((t.detect_low for _, t in targets if KIND[t.measure] == "A"), default=None)
+    found_margins = margins(loop, attenuation_above=above, method="fitted" if detection == "refined" else "grid")
+    made = _requirements(found_margins.all(), targets, c, *copies, found_margins.label)
+    from engine.cip.peaks import peak_requirements  # Mt and disk margins (family D); peaks.py imports Requirement
+
+    made += peak_requirements(loop, targets, c)
+    if at != condition.break_at:
+        made = [replace(r, loop_break=at) for r in made]
+    return made, loop
+
+
+def _loop(problem: Problem, c: int, params: dict[str, float], refined: bool, at: str) -> LoopModel:
+    """Condition ``c``'s loop broken at ``at``: refined (exact loops), else on the grid."""
     condition = problem.conditions[c]
     if refined and condition.network.exact:
-        return loop_model(condition.network, condition.break_at, problem.grid.omega, params)
-    gh = open_loop(
-        condition.network, condition.break_at, problem.grid.omega, params, sensitivities=False, check=False
-    ).value
+        return loop_model(condition.network, at, problem.grid.omega, params)
+    gh = open_loop(condition.network, at, problem.grid.omega, params, sensitivities=False, check=False).value
     return LoopModel(problem.grid.omega, gh)  # the grid was checked when the problem was made
 
 

@@ -76,6 +76,7 @@ class ExportCondition:
     network: Network
     chain: tuple[int, ...] | None = None  # a unity loop: every entry on the one chain, L = sign * their product
     sample_time: float | None = None  # a condition in z (its entries in z)
+    breaks: tuple[str, ...] = ()  # every loop break when the condition names several (else none)
 
     def ident(self, signal: str) -> str:
         """The signal's name as an identifier, unique within the condition."""
@@ -128,6 +129,7 @@ def design(session: Session, iteration: int | None = None, fit: bool = False) ->
                 network,
                 unity_chain(entries, network.inputs, condition.break_at),
                 network.sample_time,
+                condition.every_break if condition.every_break != (condition.break_at,) else (),
             )
         )
     return Design(
@@ -238,10 +240,11 @@ def identifiers(names: tuple[str, ...]) -> dict[str, str]:
     return out
 
 
-def loop_input(condition: ExportCondition) -> str:
-    """The identifier of the injected loop signal (replacing the uses of ``break_at``)."""
+def loop_input(condition: ExportCondition, at: str | None = None) -> str:
+    """The identifier of the injected loop signal replacing the uses of the break ``at``
+    (None: ``break_at``)."""
     taken = set(identifiers(condition.signals).values())
-    name = condition.ident(condition.break_at) + "_loop"
+    name = condition.ident(condition.break_at if at is None else at) + "_loop"
     while name in taken:
         name += "_"
     return name

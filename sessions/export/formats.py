@@ -62,12 +62,41 @@ def loopcraft_margins(session: Session, d: Design) -> dict[str, dict]:
         except EngineError as exc:
             out[c.name] = {"method": f"not found: {exc}"}
             continue
-        out[c.name] = {
-            "method": found.label,
-            "gain": [(float(m.gain_db), float(m.frequency)) for m in found.gain if m.gain_db is not None],
-            "phase": [(float(m.phase_deg), float(m.frequency)) for m in found.phase if m.phase_deg is not None],
-        }
+        out[c.name] = _margin_lists(found)
+        if condition.breaks:
+            out[c.name].update(_at_breaks(c, condition.breaks, session.problem.grid.omega, condition.values))
     return out
+
+
+def _margin_lists(found) -> dict:
+    return {
+        "method": found.label,
+        "gain": [(float(m.gain_db), float(m.frequency)) for m in found.gain if m.gain_db is not None],
+        "phase": [(float(m.phase_deg), float(m.frequency)) for m in found.phase if m.phase_deg is not None],
+    }
+
+
+def _at_breaks(c, breaks: tuple[str, ...], omega, values: dict) -> dict:
+    """loopcraft's margins and disk margin at each break (the others closed) and the certified
+    multi-loop disk margin, for the script to print beside python-control's (None: not found)."""
+    from engine.analysis import analyze
+    from engine.errors import EngineError
+    from engine.multiloop.network_breaks import diagram_disk_margin
+
+    each = {}
+    for name in breaks:
+        try:
+            found = analyze(c.network, name, omega, values)
+        except EngineError as exc:
+            each[name] = {"method": f"not found: {exc}"}
+            continue
+        disk = found.disk_margin
+        each[name] = _margin_lists(found.margins) | {"disk": None if disk is None else float(disk.alpha)}
+    try:
+        together: float | None = float(diagram_disk_margin(c.network, breaks, values).alpha)
+    except EngineError:
+        together = None
+    return {"breaks": each, "multi_loop": together}
 
 
 def json_text(data: object) -> str:

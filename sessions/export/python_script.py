@@ -53,6 +53,13 @@ def python_script(d: Design, sample_time: float | None = None, ours: dict | None
         f"{c.name!r}: ({names[c.name]}_loop, {names[c.name]}_closed, {names[c.name]}_z)" for c in d.conditions
     )
     parts.append(f"# condition -> (open loop, closed loop, z-domain compensators)\nCONDITIONS = {{{table}}}\n")
+    several = ", ".join(
+        f"{c.name!r}: ({names[c.name]}_loop_at, {names[c.name]}_loops, {c.breaks!r})" for c in d.conditions if c.breaks
+    )
+    parts.append(
+        "# conditions with several loop breaks -> (the loop at one, the others closed; every break at once; "
+        f"the breaks)\nBREAKS = {{{several}}}\n"
+    )
     differs = {c.name: DIFFERS["table" if _has_table(c) else "rational"] for c in d.conditions}
     parts.append(f"# where python-control is known to differ, by condition\nDIFFERS = {differs!r}\n")
     parts.append(MAIN)
@@ -178,12 +185,7 @@ def _condition(c: ExportCondition, name: str) -> str:
     ident = identifiers(c.signals)
     produced = [ident[s] for s, _ in rows(c)]
     inputs = [ident[s] for s in c.inputs]
-    lines = [
-        f"def {name}_blocks():",
-        f'    """Condition {c.name!r} (variable {c.variable}): its blocks and junctions; the uses of '
-        f'{c.break_at!r} read the loop signal {cut!r}."""',
-        "    return [",
-    ]
+    lines = _blocks_head(c, name, cut)
     for signal, entries in rows(c):
         lines += ["        " + line for line in _row(c, signal, entries, cut)]
     lines += [
@@ -207,11 +209,68 @@ def _condition(c: ExportCondition, name: str) -> str:
         "    closed = control.feedback(broken, back, sign=1)   # solves an algebraic loop, if any",
         f"    return closed[:, :{len(inputs)}]" if inputs else "    return closed",
     ]
-    return "\n".join(lines)
+    return "\n".join(lines + _at_breaks(c, name))
+
+
+def _blocks_head(c: ExportCondition, name: str, cut: str) -> list[str]:
+    """The blocks function's head: broken at ``break_at`` alone, or (a condition with several
+    breaks) at the breaks ``cuts`` names, each use of one reading its loop signal (``reads``)."""
+    if not c.breaks:
+        return [
+            f"def {name}_blocks():",
+            f'    """Condition {c.name!r} (variable {c.variable}): its blocks and junctions; the uses of '
+            f'{c.break_at!r} read the loop signal {cut!r}."""',
+            "    return [",
+        ]
+    loops = {b: (c.ident(b), loop_input(c, b)) for b in c.breaks}
+    return [
+        f"# condition {c.name!r}'s loop breaks: name -> (signal, the loop signal its uses read when broken)",
+        f"{name.upper()}_BREAKS = {loops!r}",
+        "",
+        "",
+        f"def {name}_blocks(cuts=({c.break_at!r},)):",
+        f'    """Condition {c.name!r} (variable {c.variable}): its blocks and junctions; the uses of each '
+        f'break in cuts read its loop signal ({name.upper()}_BREAKS), every other loop stays closed."""',
+        f"    loops = {{{name.upper()}_BREAKS[b][0]: {name.upper()}_BREAKS[b][1] for b in cuts}}",
+        "",
+        "    def reads(signal):",
+        "        return loops.get(signal, signal)",
+        "",
+        "    return [",
+    ]
+
+
+def _at_breaks(c: ExportCondition, name: str) -> list[str]:
+    """A condition with several breaks: the loop at any one (the others closed by interconnect,
+    joined by name) and the loop matrix broken at every break at once."""
+    if not c.breaks:
+        return []
+    table = f"{name.upper()}_BREAKS"
+    return [
+        "",
+        "",
+        f"def {name}_loop_at(cut):",
+        f'    """The loop broken at the break cut ({table}), every other loop closed: L = -(cut)/(its loop signal)."""',
+        f"    signal, loop = {table}[cut]",
+        f"    broken = control.interconnect({name}_blocks((cut,)), inplist=[loop], outlist=[signal], check_unused=False)",
+        "    return -broken",
+        "",
+        "",
+        f"def {name}_loops():",
+        f'    """Every break at once: the square loop matrix L = -(breaks)/(their loop signals), in {table}\'s order."""',
+        f"    cuts = tuple({table})",
+        f"    broken = control.interconnect({name}_blocks(cuts), inplist=[{table}[b][1] for b in cuts], "
+        f"outlist=[{table}[b][0] for b in cuts], check_unused=False)",
+        "    return -broken",
+    ]
 
 
 def _reads(entry: ExportEntry, c: ExportCondition, cut: str) -> str:
-    return cut if entry.input == c.break_at else c.ident(entry.input)
+    """The text of the signal an entry reads: a literal, or (a condition with several breaks) a
+    break's ``reads(...)``, its loop signal where the blocks are cut there."""
+    if entry.input in c.breaks:
+        return f"reads({c.ident(entry.input)!r})"
+    return repr(cut if entry.input == c.break_at else c.ident(entry.input))
 
 
 def _row(c: ExportCondition, signal: str, entries: list[ExportEntry], cut: str) -> list[str]:
@@ -221,8 +280,8 @@ def _row(c: ExportCondition, signal: str, entries: list[ExportEntry], cut: str) 
     if len(entries) == 1:
         return _system(entries[0], _reads(entries[0], c, cut), out, labels[entries[0].label])
     if is_junction(entries):
-        signed = [("-" if e.constant < 0 else "") + _reads(e, c, cut) for e in entries]
-        return [f"control.summing_junction(inputs={signed!r}, output={out!r}, name={labels[entries[0].label]!r}),"]
+        signed = ", ".join(_signed(_reads(e, c, cut), e.constant < 0) for e in entries)
+        return [f"control.summing_junction(inputs=[{signed}], output={out!r}, name={labels[entries[0].label]!r}),"]
     lines, terms = [], []
     for k, e in enumerate(entries, start=1):
         lines += _system(e, _reads(e, c, cut), f"{out}__{k}", f"{labels[e.label]}__{k}")
@@ -230,10 +289,18 @@ def _row(c: ExportCondition, signal: str, entries: list[ExportEntry], cut: str) 
     return lines + [f"control.summing_junction(inputs={terms!r}, output={out!r}, name={out + '__sum'!r}),"]
 
 
+def _signed(source: str, negative: bool) -> str:
+    """A junction's input text with its sign: '-x' for a literal, '-' + reads('x') for a break."""
+    if not negative:
+        return source
+    return repr("-" + source[1:-1]) if source[0] in "'\"" else f"'-' + {source}"
+
+
 def _system(e: ExportEntry, source: str, out: str, name: str) -> list[str]:
-    """One entry as a named SISO system, with a comment saying what it is."""
+    """One entry as a named SISO system (``source``: the text of what it reads), with a comment
+    saying what it is."""
     role = "compensator" if e.compensator else "plant"
-    names = f"inputs={source!r}, outputs={out!r}, name={name!r}"
+    names = f"inputs={source}, outputs={out!r}, name={name!r}"
     return [f"# {e.label} ({role}): {_what(e)}", f"{_make(e, names)},"]
 
 
@@ -266,7 +333,10 @@ ZPK = '''def zpk(zeros, poles, gain, **names):
     return control.tf(gain * np.real(np.poly(zeros)), np.real(np.poly(poles)), **names)'''
 
 
-MAIN = '''def dense_grid(loop, points=20000):
+MAIN = '''DISK_GRID_POINTS = 2000  # python-control's disk_margins is evaluated on this many points
+
+
+def dense_grid(loop, points=20000):
     """Frequencies two decades either side of the loop's poles and zeros (below Nyquist in z)."""
     roots = np.concatenate([np.atleast_1d(control.poles(loop)), np.atleast_1d(control.zeros(loop))])
     if loop.isdtime(strict=True):
@@ -360,6 +430,57 @@ def summary(loop):
     return f"gain {gain:.6g}\\n  zeros: {roots(np.roots(num))}\\n  poles: {roots(np.roots(den))}"
 
 
+def disk_margin_grid(loop):
+    """python-control's disk_margins (skew 0) of one loop on the dense grid, and the grid's size:
+    grid-based, so an upper bound of alpha (a peak between two points is missed)."""
+    w = dense_grid(loop, DISK_GRID_POINTS)
+    return float(control.disk_margins(loop, w)[0]), int(w.size)
+
+
+def multi_loop_grid(loops):
+    """python-control's disk_margins of the loop matrix (every break at once) on a grid, and how
+    obtained; it needs slycot (ab13md, the mu upper bound): without it, None and why."""
+    try:
+        import slycot  # noqa: F401
+    except ImportError:
+        return None, "not compared: python-control's MIMO disk_margins needs slycot (ab13md), not installed"
+    w = dense_grid(loops, DISK_GRID_POINTS)
+    return float(control.disk_margins(loops, w)[0]), f"python-control's disk_margins (slycot's mu bound) on {w.size} points"
+
+
+def at_breaks(name):
+    """Every break of a condition loop at a time (python-control's margins, its grid disk margin)
+    and the multi-loop disk margin."""
+    loop_at, loops, names = BREAKS[name]
+    found = {}
+    for cut in names:
+        loop = loop_at(cut)
+        found[cut] = stability_margins(loop)
+        found[cut]["disk_margin_grid"], found[cut]["disk_grid_points"] = disk_margin_grid(loop)
+    alpha, how = multi_loop_grid(loops())
+    return found, {"alpha_grid": alpha, "how": how}
+
+
+def print_breaks(name, found, together, ours):
+    """Each break's margins beside loopcraft's, then the multi-loop disk margins."""
+    for cut, r in found.items():
+        mine = ours.get("breaks", {}).get(cut, {})
+        print(f"  at break {cut} (the other loops closed):")
+        theirs = [(db, w) for db, w in zip(r["gain_margins_db"], r["phase_crossovers"]) if db is not None]
+        side_by_side("gain margin", "dB", theirs, mine.get("gain", []), BREAKS[name][0](cut))
+        side_by_side("phase margin", "deg", list(zip(r["phase_margins_deg"], r["gain_crossovers"])),
+                     mine.get("phase", []), BREAKS[name][0](cut))
+        print(f"  {'disk margin':<14}{r['disk_margin_grid']:<30.6g}{shown(mine.get('disk'))}  "
+              f"(python-control: disk_margins on {r['disk_grid_points']} points, grid-based; loopcraft: refined)")
+    alpha = together["alpha_grid"]
+    print(f"  multi-loop disk margin: loopcraft {shown(ours.get('multi_loop'))} (certified); python-control "
+          + (f"{alpha:.6g}, {together['how']}" if alpha is not None else together["how"]))
+
+
+def shown(value):
+    return "not found" if value is None else f"{value:.6g}"
+
+
 def main():
     report = {}
     for name, (loop, closed, _) in CONDITIONS.items():
@@ -370,6 +491,8 @@ def main():
             found["closed_loop_poles"] = [[float(p.real), float(p.imag)] for p in poles]
             found["stable"] = bool(np.all(np.abs(poles) < 1) if system.isdtime(strict=True) else np.all(poles.real < 0))
         found["loopcraft"] = LOOPCRAFT.get(name, {})
+        if name in BREAKS:
+            found["breaks"], found["multi_loop"] = at_breaks(name)
         report[name] = found
     if "--json" in sys.argv[1:]:
         print(json.dumps(report, indent=2))
@@ -389,6 +512,8 @@ def main():
         theirs = list(zip(r["phase_margins_deg"], r["gain_crossovers"]))
         side_by_side("phase margin", "deg", theirs, ours.get("phase", []), loop)
         print(f"  where they differ: {DIFFERS[name]}")
+        if name in BREAKS:
+            print_breaks(name, r["breaks"], r["multi_loop"], ours)
         for label, sys_z in CONDITIONS[name][2]().items():
             print(f"  {label} in the z-domain:{sys_z}")
 

@@ -314,11 +314,10 @@ def worst_row(rows: Sequence[dict], which: str | None = None) -> dict:
 
 def rows_named(rows: Sequence[dict], which: str | None) -> list[dict]:
     """The rows (each with its ``name`` and ``condition``) that ``which`` names (MEASURE or
-    MEASURE@CONDITION; None: every row); a `SessionError` listing them when none is."""
-    name, _, condition = (which or "").partition("@")
-    chosen = [
-        r for r in rows if which is None or (r["name"] == name and (not condition or r["condition"] == condition))
-    ]
+    MEASURE@CONDITION; None: every row); a `SessionError` listing them when none is.  A row's
+    name may hold an '@' itself (a row at another loop break, PM1@u_att): ``which`` is matched
+    whole against the name and against NAME@CONDITION, never split."""
+    chosen = [r for r in rows if which is None or which in (r["name"], f"{r['name']}@{r['condition']}")]
     if not chosen:
         known = ", ".join(sorted({f"{r['name']}@{r['condition']}" for r in rows})) or "none"
         raise SessionError(f"no measure row {which!r} in the tolerance study (rows: {known})")

@@ -9,6 +9,7 @@ analytic partials, its run meeting the target and the replay are checked against
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -170,12 +171,47 @@ def test_a_break_that_is_not_the_condition_s_is_refused_with_its_path(tmp_path, 
 
 
 def test_an_algorithm_that_reads_the_design_s_break_only_refuses_a_target_at_another(session):
+    """slp and cip read targets at any break; an algorithm (a plug-in) that does not say so refuses them."""
     from engine.cip.requirements import TARGETS as CIP
+    from engine.design.measure_kinds import TargetUse
     from engine.slp.measures import TARGETS as SLP
 
     SLP.check_targets("slp", session.problem.targets)
-    with pytest.raises(EngineError, match=r"cip: target 1 \(phase_margin_deg\) is read at the loop break 'u_att'"):
-        CIP.check_targets("cip", session.problem.targets)
+    CIP.check_targets("cip", session.problem.targets)
+    primary_only = TargetUse(measures=("phase_margin_deg",))
+    with pytest.raises(EngineError, match=r"plug: target 1 \(phase_margin_deg\) is read at the loop break 'u_att'"):
+        primary_only.check_targets("plug", session.problem.targets)
+
+
+def test_cip_meets_a_target_at_a_second_break_and_the_run_replays(tmp_path, capsys):
+    """cip's requirement rows at u_att are read on the loop broken there (row 2@u_att), its gradient
+    rows too: PM@u_att >= 45 (14.6 deg at the start) met, the row equal to python-control's."""
+    data = document(
+        [
+            {"measure": "phase_margin_deg", "bands": [{"desired": 30.0}]},
+            {"measure": "phase_margin_deg", "break": "u_att", "bands": [{"desired": 45.0}]},
+        ]
+    )
+    data["algorithm"] = {"name": "cip", "settings": {}}
+    path = tmp_path / "cip.json"
+    path.write_text(json.dumps(data))
+    session = load_session(path)
+    run_session(session, until_done=True, autosave=False)
+    last = session.model.records[-1]
+    rows = {m["name"]: m for m in last["measures"]}
+    assert list(rows) == ["1", "2@u_att"] and all(m["satisfied"] for m in rows.values())
+    pm, wc = phase_margin(loop_at_u_att(last["parameters"]["KA"], last["parameters"]["KR"]))
+    assert rows["2@u_att"]["value"] == pytest.approx(pm, abs=1e-9) and pm >= 45.0
+    assert rows["2@u_att"]["frequency"] == pytest.approx(wc, rel=1e-9)
+    before = phase_margin(loop_at_u_att(1.0, 0.1))[0]
+    assert before < 45.0 and rows["1"]["value"] != pytest.approx(rows["2@u_att"]["value"], abs=0.1)
+    save_session(session, tmp_path / "ran.json")
+    assert replay(load_session(tmp_path / "ran.json")).ok
+    from tui.cli import main
+
+    assert main(["report", str(tmp_path / "ran.json")]) == 0  # report 000's listing names the break
+    listing = capsys.readouterr().out
+    assert re.search(r"PHASE MARGIN NO\.   2 = .* MARGIN TYPE = P   AT BREAK u_att", listing), listing
 
 
 def _loops_by_python_control(ka: float, kr: float) -> dict:
@@ -286,3 +322,27 @@ def test_the_report_gives_each_break_s_margins_and_the_multi_loop_disk_margin(se
     assert float(together["alpha"]) == pytest.approx(alpha, rel=1e-5)
     assert float(together["worst frequency"].split()[0]) == pytest.approx(frequency, rel=1e-3)
     assert together["certified bracket"].endswith("(certified)")
+
+
+@pytest.mark.parametrize("algorithm, row", [("slp", "PM1@u_att"), ("cip", "2@u_att")])
+def test_a_tolerance_study_reports_the_rows_at_a_break_and_adopts_their_worst(tmp_path, capsys, algorithm, row):
+    """A serial study of KA +-10 %: the row at u_att is there under its name, its worst value is
+    python-control's PM of the loop at u_att for the worst sample's drawn KA, and --adopt-worst
+    names it whole (PM1@u_att, PM1@u_att@cruise: its '@' is the break's, not a condition's)."""
+    from tui.cli import main
+
+    data = document()
+    data["algorithm"] = {"name": algorithm, "settings": {}}
+    for which in (row, f"{row}@cruise"):
+        path = tmp_path / f"{algorithm}_{which.count('@')}.json"
+        path.write_text(json.dumps(data))
+        argv = ["sweep", str(path), "--tolerance", "KA=+-10%", "--samples", "6", "--serial", "--json"]
+        status = main([*argv, "--adopt-worst", which])
+        out, err = capsys.readouterr()
+        assert status == 0, err
+        worst = next(r for r in json.loads(out)["worst_case"] if r["name"] == row)
+        assert worst["condition"] == "cruise" and worst["samples"] == 6
+        pm, _ = phase_margin(loop_at_u_att(worst["worst_parameters"]["KA"], 0.1))
+        assert worst["worst"] == pytest.approx(pm, abs=1e-9)
+        adopted = load_session(path).problem.named()
+        assert adopted["KA"] == pytest.approx(worst["worst_parameters"]["KA"], rel=1e-15)

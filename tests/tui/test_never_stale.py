@@ -132,7 +132,13 @@ def test_a_figure_key_is_never_matched_by_a_later_object_at_a_freed_address():
 
     def view(problem):
         return SimpleNamespace(
-            problem=problem, records=(), iteration=0, plotted_condition=None, step_setup=None, sweep=None
+            problem=problem,
+            records=(),
+            iteration=0,
+            plotted_condition=None,
+            step_setup=None,
+            sweep=None,
+            plotted_break=None,
         )
 
     kept = figure_key(view(Problem()))

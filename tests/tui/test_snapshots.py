@@ -94,3 +94,19 @@ def test_reactor_trajectories(size, workdir, snap_compare):
         bench.step()
     figure = trajectories_figure(bench.view().trajectories(), bench.session.problem.objective.data)
     assert snap_compare(PlotApp(figure), terminal_size=size, run_before=steps())
+
+
+# the break selector (issue 57): the launch vehicle's loops at u_att (b), its tableau's lines of
+# every break and the multi-loop disk margin; 80x24 in `make test`, 120x40 in the long tier
+BREAK_CASES = {
+    "break_nyquist": ("coebra_launch_vehicle.json", steps("b")),
+    "break_bode": ("coebra_launch_vehicle.json", steps("p", "b")),
+    "break_tableau": ("coebra_launch_vehicle.json", steps("b", "1", "end")),  # the lines of every break
+}
+
+
+@pytest.mark.parametrize("size", [(80, 24), pytest.param((120, 40), marks=pytest.mark.long)], ids=["80x24", "120x40"])
+@pytest.mark.parametrize("case", list(BREAK_CASES))
+def test_break_screen(case, size, workdir, snap_compare):
+    name, run_before = BREAK_CASES[case]
+    assert snap_compare(LoopcraftApp(workdir / name), terminal_size=size, run_before=run_before)

@@ -32,7 +32,7 @@ from textual.message import Message
 from engine.stepping.protocol import State, Stepper, StepRecord
 from sessions.errors import SessionError
 from tui.figures.catalog import figure_key, figures
-from tui.figures.closed_loop import pole_text
+from tui.screens.pole_lines import under_tableau
 from tui.state.views import View
 from tui.state.workbench import stored_json
 from tui.widgets.plots import FigurePlot
@@ -182,7 +182,7 @@ class RunLoop:
             final = record.status.finished or n == request.count - 1
             show = final or time.monotonic() - last >= REDRAW_INTERVAL
             self._painted.clear()
-            poles = (figure_key(view), pole_text(view), view) if show else None
+            poles = (figure_key(view), under_tableau(view), view) if show else None
             self.app.post_message(
                 self.Stepped(state, record, show, stored_json(state, record, request.settings), poles)
             )

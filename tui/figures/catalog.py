@@ -63,17 +63,19 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         else []
     )
     unit = view.problem.grid.unit
+    at = view.break_title()  # the break the loop plots are drawn at, in their titles
     roots = compensator_roots(view) if asked("bode-mag", "bode-phase", "poles") else []  # for both, read once
     if curves and asked("nyquist"):
-        out["nyquist"] = nyquist_figure(curves, points(view), unit=unit)  # circles: `overlays.nyquist`
+        out["nyquist"] = nyquist_figure(curves, points(view), f"Nyquist (GH plane){at}", unit)  # `overlays.nyquist`
     if curves and asked("bode-mag", "bode-phase"):
-        out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit)
+        out["bode-mag"], out["bode-phase"] = bode_figures(curves, unit, at)
         sample_time = view.problem.conditions[view.first_plotted].network.sample_time
         overlays.corners(out["bode-mag"], roots, unit, sample_time)
-        overlays.gain_drag(out["bode-mag"])
+        if not view.at_chosen_break():  # the compensator's gain moves another break's loop otherwise
+            overlays.gain_drag(out["bode-mag"])
         overlays.nyquist_frequency(out["bode-mag"], out["bode-phase"], sample_time, unit)
     if curves and asked("nichols"):
-        out["nichols"] = nichols_figure(curves, unit)
+        out["nichols"] = nichols_figure(curves, unit, f"Nichols{at}")
     if "closed_loop" in wanted and view.problem.conditions and asked("closed-loop"):
         out["closed-loop"] = sensitivity_figure(view)
     if "poles" in wanted and view.problem.conditions and asked("poles"):
@@ -159,7 +161,7 @@ class Same:
 
 def figure_key(view: View) -> tuple:
     """What a view's figures depend on: the problem, the records (the last one's
-    identity: an undo then a new step has the same count), the condition shown
-    and the step plot's setup."""
+    identity: an undo then a new step has the same count), the condition and the
+    break shown and the step plot's setup."""
     last = view.records[-1] if view.records else None
-    return (Same(view.problem), view.iteration, Same(last), view.plotted_condition, view.step_setup)
+    return (Same(view.problem), view.iteration, Same(last), view.plotted_condition, view.step_setup, view.plotted_break)

@@ -100,10 +100,11 @@ def history_figure(
         fig = _step_figure(view, drawn)
     one = drawn and (len({k for _, k, _, _ in drawn}) == 1 or kind == "poles")  # poles: the first's condition
     about = subject(view, iteration, marked, drawn[0][1] if one else None)
+    title = TITLES[kind] + (view.break_title() if kind in ("nyquist", "bode", "phase", "nichols") else "")
     if any(s.x for s in fig.series):
-        fig.title = f"{TITLES[kind]}: {about}" + _measures(fig.title, kind)
+        fig.title = f"{title}: {about}" + _measures(fig.title, kind)
     else:
-        fig.title, fig.empty_message = "", f"{TITLES[kind]}: {about}: {fig.empty_message or 'nothing to draw'}"
+        fig.title, fig.empty_message = "", f"{title}: {about}: {fig.empty_message or 'nothing to draw'}"
     return fig
 
 
@@ -130,7 +131,8 @@ def _margins_of_the_first(view: View, drawn: list[Design], curves: list[LoopCurv
     c = view.problem.conditions[k]
     try:
         out[0] = replace(
-            out[0], margins=margins(loop_model(c.network, c.break_at, view.problem.grid.omega, view.parameters(at, k)))
+            out[0],
+            margins=margins(loop_model(c.network, view.break_of(k), view.problem.grid.omega, view.parameters(at, k))),
         )
     except EngineError:
         pass
@@ -163,12 +165,13 @@ def _measures(title: str, kind: str) -> str:
 
 def figure_key(view: View, iteration: int, marked: int | None, kind: str, parameter: str) -> tuple:
     """What a history figure depends on besides the problem: the designs' parameter
-    values and labels, the locus parameter, the step setup."""
+    values, labels and loop breaks, the locus parameter, the step setup."""
     if kind == "locus":
         k = view.first_plotted
         return kind, iteration, _frozen(view.parameters(iteration, k)), k, parameter
     drawn = tuple(
-        (label, role, k, _frozen(view.parameters(at, k))) for at, k, label, role in designs(view, iteration, marked)
+        (label, role, k, view.break_of(k), _frozen(view.parameters(at, k)))
+        for at, k, label, role in designs(view, iteration, marked)
     )
     return kind, iteration, marked, drawn, view.step_setup if kind == "step" else None
 

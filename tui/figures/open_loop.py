@@ -58,12 +58,13 @@ def disk_edge(alpha: float, t: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(edge) & (np.abs(edge) < 1e3), edge, np.nan)
 
 
-def bode_figures(curves, unit: str) -> tuple[Figure, Figure]:
+def bode_figures(curves, unit: str, at: str = "") -> tuple[Figure, Figure]:
     """Magnitude (dB) and phase (deg) against log frequency; the current
-    design's gain and phase margins marked at their frequencies."""
+    design's gain and phase margins marked at their frequencies; ``at`` ends the titles
+    (the loop break drawn: ' at u_att')."""
     scale = 2 * np.pi if unit == "hz" else 1.0
-    magnitude = Figure(title="Bode magnitude", ylabel="dB", xlabel=f"frequency ({unit})", log_x=True)
-    phase = Figure(title="Bode phase", ylabel="deg", xlabel=f"frequency ({unit})", log_x=True)
+    magnitude = Figure(title=f"Bode magnitude{at}", ylabel="dB", xlabel=f"frequency ({unit})", log_x=True)
+    phase = Figure(title=f"Bode phase{at}", ylabel="deg", xlabel=f"frequency ({unit})", log_x=True)
     for curve in curves:
         w = curve.omega / scale
         positive = w > 0
@@ -114,10 +115,10 @@ def _mark_margins(magnitude: Figure, phase: Figure, curve, lw: np.ndarray, degre
         )
 
 
-def nichols_figure(curves, unit: str = "rad/s") -> Figure:
+def nichols_figure(curves, unit: str = "rad/s", title: str = "Nichols") -> Figure:
     """Magnitude (dB) against phase (deg), with the critical point (-180 deg, 0 dB) and
     the M-circles |T| = M dB (`M_CIRCLES_DB`) about it."""
-    fig = Figure(title="Nichols", xlabel="phase (deg)", ylabel="dB")
+    fig = Figure(title=title, xlabel="phase (deg)", ylabel="dB")
     for k, m_db in enumerate(M_CIRCLES_DB):
         phase, db = m_circle(m_db)
         fig.series.append(

@@ -7,7 +7,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from engine.design.measure_kinds import MEASURE_KINDS
+from engine.design.measure_kinds import EVERY_BREAK, MEASURE_KINDS
+from engine.design.problem import FREQUENCY_MEASURES, Target
 from tui.state.views import View
 
 SYMBOLS = {"gain_margin_db": "GM", "phase_margin_deg": "PM", "crossover_frequency": "wc"}
@@ -58,7 +59,14 @@ def requirements(view: View, iteration: int | None = None) -> list[Requirement]:
     for target in view.problem.targets:
         if not target.requirement or (target.condition is not None and target.condition not in plotted):
             continue
-        judged = [r.satisfied for r in rows if r.kind == target.measure and (not plotted or r.condition in plotted)]
+        if not _on_plotted_loop(view, target):
+            continue
+        at = _row_break(view, target)
+        judged = [
+            r.satisfied
+            for r in rows
+            if r.kind == target.measure and (not plotted or r.condition in plotted) and r.name.partition("@")[2] == at
+        ]
         met = all(judged) if judged else None
         response = target.response
         timing = (response.settling_band, response.reference) if response is not None else ()
@@ -69,3 +77,21 @@ def requirements(view: View, iteration: int | None = None) -> list[Requirement]:
                 )
                 out.append(found)
     return out
+
+
+def _on_plotted_loop(view: View, target: Target) -> bool:
+    """Whether a target's requirement belongs on the loop the plots draw: a measure read at one
+    loop break (`FREQUENCY_MEASURES`) when that break is the one drawn in the first plotted
+    condition; any other (a pole, a time response, the multi-loop disk margin) always."""
+    if target.measure not in FREQUENCY_MEASURES or target.measure in EVERY_BREAK or not view.problem.conditions:
+        return True
+    k = view.first_plotted
+    return target.break_in(view.problem.conditions[k]) == view.break_of(k)
+
+
+def _row_break(view: View, target: Target) -> str:
+    """The break a target's rows name (NAME@BREAK: read at another break than the first plotted
+    condition's primary one), '' for the primary break's."""
+    if target.loop_break is None or not view.problem.conditions:
+        return ""
+    return "" if target.loop_break == view.problem.conditions[view.first_plotted].break_at else target.loop_break

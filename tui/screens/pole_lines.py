@@ -1,5 +1,7 @@
-"""The closed-loop pole lines under the Run tab's tableau, made off the UI thread
-(a launch vehicle's take 25 ms; they were made on it five times per step): by
+"""The closed-loop pole lines under the Run tab's tableau, and the loops at every break of
+a condition with several (`tui.state.tableau_text.break_lines`: 0.1 to 1 s on the launch
+vehicle), made off the UI thread (a launch vehicle's pole lines take 25 ms; they were made
+on it five times per step): by
 the run's worker for the steps it shows (`tui.actions.run_loop.RunLoop.Stepped`),
 else by a thread worker, which posts them back (`PoleLines.Found`), the tableau
 drawn again when they come.  The lines of one view are kept, with the view.  A part composed into the main screen
@@ -11,14 +13,34 @@ from typing import TYPE_CHECKING
 
 from textual.message import Message
 
+from engine.stepping.presenter import tolerant
 from tui.figures.catalog import figure_key
 from tui.figures.closed_loop import pole_text
+from tui.state.tableau_text import break_lines
 from tui.state.views import View
 
 if TYPE_CHECKING:
     from tui.screens.main import MainScreen
 
-COMPUTING = "closed-loop poles: computing ..."
+COMPUTING = "closed-loop poles, loops at every break: computing ..."
+
+
+def several_breaks(view: View) -> bool:
+    """Whether the first plotted condition names breaks beyond its primary one."""
+    conditions = view.problem.conditions
+    return bool(conditions) and conditions[view.first_plotted].every_break != (conditions[view.first_plotted].break_at,)
+
+
+def under_tableau(view: View) -> str:
+    """The lines under the tableau (any thread, never raising): the closed-loop poles when the
+    presenter shows them, the loops at every break of the first plotted condition."""
+    k = view.first_plotted
+    breaks = (
+        tolerant(lambda: break_lines(view.problem, k, view.parameters(None, k)), lambda: "")
+        if several_breaks(view)
+        else ""
+    )
+    return "\n\n".join(part for part in (pole_text(view), breaks) if part)
 
 
 class PoleLines:
@@ -38,7 +60,7 @@ class PoleLines:
 
     def text(self, view: View) -> str:
         """The pole lines of ``view``: kept, or asked of a thread worker (`COMPUTING` meanwhile)."""
-        if "poles" not in view.presenter.plots:
+        if "poles" not in view.presenter.plots and not several_breaks(view):
             return ""
         key = figure_key(view)
         if self.kept is not None and self.kept[0] == key:
@@ -47,7 +69,7 @@ class PoleLines:
             self._asked = key
 
             def compute() -> None:
-                self.screen.post_message(self.Found(view, pole_text(view)))
+                self.screen.post_message(self.Found(view, under_tableau(view)))
 
             self.screen.run_worker(compute, thread=True, exclusive=True, group="poles")
         return COMPUTING

@@ -1,15 +1,25 @@
 """The Run tab's tableau as one rich text: far cheaper to draw than a table
 widget while a run goes.  Values changed since the previous iteration are
-bold, unmet rows are marked NO in red, the margins' method closes it."""
+bold, unmet rows are marked NO in red, the margins' method closes it; and the
+lines of the loops at every break of a condition that names several (`break_lines`)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 from rich.text import Text
 
+from engine.analysis import closed_loop_peaks
+from engine.closed_loop.poles import closed_loop_poles
 from engine.design.measure_kinds import shorts
-from engine.stepping.presenter import number
+from engine.design.problem import Condition, Problem
+from engine.errors import EngineError
+from engine.loop.realization import stability
+from engine.loop.responses import loop_model
+from engine.margins.search import margins
+from engine.multiloop.network_breaks import diagram_disk_margin
+from engine.stepping.presenter import number, tolerant
 from engine.stepping.protocol import MeasureRow
 
 SHORT = shorts()
@@ -55,3 +65,57 @@ def tableau_text(rows: list[MeasureRow], previous: list[MeasureRow], unit: str, 
     if methods:
         text.append(f"margins: {', '.join(methods)}\n", style="dim")
     return text
+
+
+def break_lines(problem: Problem, condition: int, values: Mapping[str, float]) -> str:
+    """The loops at every break of one condition, under the tableau (rows named as the targets'
+    rows are: GM@u_att): loop at a time (broken there, every other loop closed) the gain margin
+    and the phase margin nearest 0 (as the Bode legend gives them) and the disk margin (skew 0),
+    each with its frequency; then the multi-loop disk margin at every break at once (certified bracket).  ''
+    when the condition names one break."""
+    c = problem.conditions[condition]
+    if c.every_break == (c.break_at,):
+        return ""
+    scale = 1 / (2 * math.pi) if problem.grid.unit == "hz" else 1.0
+    verdict = "unknown"
+    if c.network.rational:
+        verdict = tolerant(lambda: stability(closed_loop_poles(c.network, values)), lambda: "unknown")
+    lines = [
+        f"every break of {c.name}: loop at a time, the others closed (closed loop {verdict})",
+        f"{'row':<12} {'value':>9} {'':<5} {'freq ' + problem.grid.unit:>10}",
+    ]
+    for name in c.every_break:
+        try:
+            model = loop_model(c.network, name, problem.grid.omega, values)
+            found, (disk, *_) = margins(model), closed_loop_peaks(model, verdict)
+        except EngineError as exc:
+            lines.append(f"{'@' + name:<12} cannot be analyzed: {exc}")
+            continue
+        gm = min(found.listed("G"), key=lambda m: abs(m.gain_db), default=None)
+        pm = min(found.phase, key=lambda m: abs(m.phase_deg), default=None)
+        rows = [
+            ("GM", gm and (gm.gain_db, gm.frequency), "dB"),
+            ("PM", pm and (pm.phase_deg, pm.frequency), "deg"),
+            ("disk", disk and (disk.alpha, disk.frequency), "alpha"),
+        ]
+        for short, pair, unit in rows:
+            value, w = (
+                ("none", "") if pair is None else (f"{number(pair[0], 5):>9} {unit:<5}", number(pair[1] * scale, 5))
+            )
+            lines.append(f"{short + '@' + name:<12} {value:>15} {w:>10}".rstrip())
+    return "\n".join(lines + [_together(c, values, scale)])
+
+
+def _together(c: Condition, values: Mapping[str, float], scale: float) -> str:
+    """The multi-loop disk margin's lines (row MDM, as its target's rows are named): alpha at its
+    worst frequency, its status and certified bracket."""
+    try:
+        d = diagram_disk_margin(c.network, c.every_break, dict(values))
+    except EngineError as exc:
+        return f"multi-loop disk margin: not computed ({exc})"
+    at = "inf" if d.frequency == math.inf else number(d.frequency * scale, 5)
+    return (
+        f"{'MDM':<12} {number(d.alpha, 5):>9} {'alpha':<5} {at:>10}\n"
+        f"  multi-loop disk margin, every break at once: {d.status} [{number(d.alpha_lower, 6)}, "
+        f"{number(d.alpha_upper, 6)}]"
+    )

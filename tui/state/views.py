@@ -33,6 +33,7 @@ class View:
     initial: StepRecord | None = None  # iteration 0's record (the presenter's)
     plotted_condition: int | None = None  # the flight condition the plots show; None: all
     step_setup: StepSetup = StepSetup()  # the step plot's input, output and horizon
+    plotted_break: str | None = None  # the break whose Bode, Nyquist and Nichols are drawn; None: each primary
 
     @property
     def iteration(self) -> int:
@@ -75,9 +76,30 @@ class View:
         values = self.parameters(iteration, condition)
         marked = iteration is None and with_margins
         try:
-            return loop_curve(c.network, c.break_at, problem.grid.omega, values, label, role, condition, marked)
+            return loop_curve(
+                c.network, self.break_of(condition), problem.grid.omega, values, label, role, condition, marked
+            )
         except EngineError:
             return None
+
+    def break_of(self, condition: int) -> str:
+        """The break the loop plots draw in a condition: the chosen one (`plotted_break`) where
+        the condition names it among its breaks, else the condition's primary break."""
+        c = self.problem.conditions[condition]
+        return self.plotted_break if self.plotted_break in c.every_break else c.break_at
+
+    def at_chosen_break(self) -> bool:
+        """Whether the loop plots draw another loop than the primary break's (a break chosen
+        that a plotted condition names)."""
+        return any(self.break_of(k) != self.problem.conditions[k].break_at for k in self.plotted())
+
+    def break_title(self) -> str:
+        """What the loop plots' titles say of the break: ' at NAME' when a plotted condition
+        has several breaks (each condition's break when they differ), '' otherwise."""
+        conditions = self.problem.conditions
+        plotted = [k for k in self.plotted() if conditions[k].every_break != (conditions[k].break_at,)]
+        names = list(dict.fromkeys(self.break_of(k) for k in plotted))
+        return f" at {', '.join(names)}" if names else ""
 
     def plotted(self) -> list[int]:
         """The conditions the plots show (`plotted_condition`; every one when None)."""

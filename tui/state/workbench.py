@@ -43,6 +43,7 @@ class Workbench:
         self._settings: dict | None = None
         self._records: list[StepRecord] = session.records  # parsed once, kept in step with the model
         self.plotted_condition: int | None = None  # the flight condition the plots show; None: all
+        self.plotted_break: str | None = None  # the break the loop plots draw (view state); None: the primary
         self.edits = EditHistory()
         self.paused_at: int | None = None  # the iteration a run was paused at
         # the start after an edit that drops iterations: "design" (the one on screen), "saved"
@@ -316,6 +317,7 @@ class Workbench:
             self.initial_record(),
             self.plotted_condition,
             self.step_setup,
+            self.plotted_break,
         )
 
     def next_plotted_condition(self) -> str:
@@ -331,6 +333,35 @@ class Workbench:
             if self.plotted_condition is None
             else f"plots: {names[self.plotted_condition]} (current and initial)"
         )
+
+    def break_choices(self) -> list[str]:
+        """The breaks the loop plots can be drawn at, in the conditions' order (every
+        condition's breaks, the primary ones first)."""
+        conditions = self.session.problem.conditions
+        primary = [c.break_at for c in conditions]
+        return list(dict.fromkeys(primary + [b for c in conditions for b in c.every_break]))
+
+    def break_refusal(self) -> str | None:
+        """Why the loop plots have no other break to draw (None: they have)."""
+        if len(self.break_choices()) > 1:
+            return None
+        return "one loop break: no flight condition names other breaks (conditions[k].breaks)"
+
+    def next_plotted_break(self) -> str:
+        """The loop plots drawn at the next break (after the last, each condition's primary
+        break again); says what they show now."""
+        choices = self.break_choices()
+        if len(choices) < 2:
+            self.plotted_break = None
+            return self.break_refusal() or ""
+        k = choices.index(self.plotted_break) if self.plotted_break in choices else 0
+        self.plotted_break = None if k + 1 >= len(choices) else choices[k + 1]
+        conditions = self.session.problem.conditions
+        if self.plotted_break is None:
+            return f"Bode, Nyquist, Nichols: the loop at {', '.join(dict.fromkeys(c.break_at for c in conditions))}"
+        lacking = [c.name for c in conditions if self.plotted_break not in c.every_break]
+        aside = f" ({', '.join(lacking)}: at its primary break)" if lacking else ""
+        return f"Bode, Nyquist, Nichols: the loop at {self.plotted_break}, the other loops closed{aside}"
 
 
 def stored_json(state: State, record: StepRecord, settings: dict | None) -> tuple[dict, dict]:
