@@ -58,14 +58,20 @@ def resolve(root: Any, path: Ref) -> Any:
 
 def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> None:
     """Apply ``change`` to a copy of the problem model; commit it when the problem
-    builds (the records are dropped), else raise `SessionError` and keep the old one."""
+    builds (the records are dropped), else raise `SessionError` and keep the old one.
+    A change that leaves the conditions as they were keeps the loops built (a drag's or a
+    nudge's parameter values: the plant's forms and tables are not made again)."""
     draft = bench.session.model.problem.model_copy(deep=True)
     try:
         change(draft)
         dumped = draft.model_dump()
         draft = ProblemModel.model_validate(dumped)
+        same = draft.conditions == bench.session.model.problem.conditions
         problem = build_problem(
-            draft, folder(bench.session), allow_outside_tables=bench.session.allow_outside_tables or None
+            draft,
+            folder(bench.session),
+            allow_outside_tables=bench.session.allow_outside_tables or None,
+            conditions=bench.session.problem.conditions if same else None,
         )
     except ValidationError as exc:
         raise SessionError(invalid(exc, "problem", dumped)) from None
