@@ -437,6 +437,16 @@ class MainScreen(Screen):
         """The tableau, the lines under it and (with ``plots``) the plots, drawn in a
         worker (`draw_missing`; a run's worker draws its own: `show_drawn`)."""
         view = self.bench.view() if view is None else view
+        record = self.refresh_tableau(view)
+        self.query_one("#step-info", TextView).set(self._step_info(view, record))
+        self.fill_shape(view)
+        if plots:
+            self.refresh_plots()
+
+    def refresh_tableau(self, view: View | None = None) -> StepRecord | None:
+        """The tableau with the lines under it (what binds at a stop, the closed-loop
+        poles); its record."""
+        view = self.bench.view() if view is None else view
         rows, record = view.tableau()
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
         unit = view.problem.grid.unit
@@ -451,10 +461,7 @@ class MainScreen(Screen):
         if poles:
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
-        self.query_one("#step-info", TextView).set(self._step_info(view, record))
-        self.fill_shape(view)
-        if plots:
-            self.refresh_plots()
+        return record
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""
