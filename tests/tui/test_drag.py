@@ -299,7 +299,8 @@ async def test_a_drag_is_coarse_while_held_exact_on_release_and_keeps_its_item_p
     at 1 rad/s: zero1) and its zero dragged along the Bode magnitude past the lead's zero.  While the button is
     held the magnitude alone is drawn anew, coarse (its title says so, `COARSE_POINTS`
     frequencies, no margin marks), from the worker's drawing in the view held still; the
-    drag keeps moving the zero it pressed (now zero2) while the lead's stays at 1 rad/s;
+    drag keeps moving the zero it pressed (now zero2) while the lead's stays at 1 rad/s, and
+    selects no text;
     on release every plot is exact, and the margins are python-control's of the design."""
     from tui.figures.catalog import COARSE_POINTS
 
@@ -323,6 +324,7 @@ async def test_a_drag_is_coarse_while_held_exact_on_release_and_keeps_its_item_p
         assert "coarse" in plot.figure.title and phase.figure is drawn
         assert len(plot.figure.series[0].x) <= COARSE_POINTS and not any("PM" in s.label for s in plot.figure.series)
         assert plot.drawing is plot._prebuilt[1]  # the worker's drawing, in the view held still
+        assert app.screen._select_state is None  # no text selected (the whole screen repainted a move)
         _post(plot, events.MouseUp, path[-1])
         await settle(app, pilot)
         values = start_values(app)

@@ -49,6 +49,7 @@ class FigurePlot(PlotextPlot):
     pans and moves a cursor along the current curve (`navigation`)."""
 
     can_focus = True
+    ALLOW_SELECT = False  # a press pans or drags: no text selection (Textual repainted the whole screen each move)
     DEFAULT_CSS = """
     FigurePlot { border-left: blank; }
     FigurePlot:focus { border-left: thick $accent; }
