@@ -98,20 +98,33 @@ def outside_tables_allowed(allowed: bool = True) -> Iterator[None]:
 
 
 def build_problem(
-    model: ProblemModel, folder: Path, *, allow_outside_tables: bool | None = None, start_checked: bool = True
+    model: ProblemModel,
+    folder: Path,
+    *,
+    allow_outside_tables: bool | None = None,
+    start_checked: bool = True,
+    conditions: tuple[Condition, ...] | None = None,
 ) -> Problem:
     """The engine problem of a session; errors name their JSON path.  Tables outside
     ``folder`` are refused unless ``allow_outside_tables`` (None: as the enclosing
     `outside_tables_allowed` says; refused by default).  ``start_checked`` False: the start is
-    not checked against the constraints (a change under way, checked as a whole at its end)."""
+    not checked against the constraints (a change under way, checked as a whole at its end).
+    ``conditions``: the model's conditions built already (an edit of parameter values alone
+    keeps its loops, their tables read and the forms kept on them: `engine.derived`)."""
     if allow_outside_tables is None:
-        return _build_problem(model, folder, start_checked)
+        return _build_problem(model, folder, start_checked, conditions)
     with outside_tables_allowed(allow_outside_tables):
-        return _build_problem(model, folder, start_checked)
+        return _build_problem(model, folder, start_checked, conditions)
 
 
-def _build_problem(model: ProblemModel, folder: Path, start_checked: bool) -> Problem:
-    conditions = tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
+def _build_problem(
+    model: ProblemModel, folder: Path, start_checked: bool, built: tuple[Condition, ...] | None = None
+) -> Problem:
+    conditions = (
+        tuple(_condition(c, f"problem.conditions[{i}]", folder) for i, c in enumerate(model.conditions))
+        if built is None
+        else built
+    )
     parameters = tuple(
         _parameter(p, f"problem.parameters[{i}]", len(conditions)) for i, p in enumerate(model.parameters)
     )

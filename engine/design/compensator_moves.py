@@ -22,6 +22,8 @@ Bounds = Mapping[str, tuple[float | None, float | None]]
 GROWTH = 2.0  # the bracket around a parameter's value grows by this factor a step
 BRACKET_STEPS = 40  # at most 2^40 either way
 TOLERANCE = 1e-12  # relative, on the solved parameter
+SECANT_STEPS = 8  # Newton-secant steps on log(measure) against log(parameter) before the bracket
+SECANT_MISS = 1e-14  # the relative miss of the measure a secant step may stop at (Brent's: TOLERANCE on the parameter)
 JOINT_EVALUATIONS = 400  # the most pole-zero forms a joint move may compute
 JOINT_MISS = 1e-9  # the largest relative miss a joint move may leave on any root or the gain
 APART = 1e3  # the miss charged per item when a trial's roots change structure
@@ -31,11 +33,14 @@ CLEAN = 1e-6  # a parameter moving the other measures this much relative to its 
 @dataclass(frozen=True)
 class Move:
     """An item moved by name: the parameters solved for and their values, the item's
-    measure before (``now``) and asked (``target``)."""
+    measure before (``now``) and asked (``target``), and the item's name after the move
+    (``name``: items are numbered by frequency, so a zero moved past another of its kind
+    is the other's number now)."""
 
     values: dict[str, float]
     now: float
     target: float
+    name: str
 
 
 def move_named(
@@ -67,10 +72,13 @@ def move_named(
         what = "gain" if found[index].kind == "gain" else kind
         raise EngineError(f"{name}: {wanted:g} is no {what}: it is a positive finite number (now {now:.6g})")
     try:
-        values = moved(entry.transfer, params, index, wanted, kind, bounds)
+        values = moved(entry.transfer, params, index, wanted, kind, bounds, found)
+        after = readings(entry.transfer, {**params, **values})
+        there = _tracked(after, found[index], found)
     except EngineError as exc:
         raise EngineError(f"{name}: {exc}") from None
-    return Move(values, now, wanted)
+    renamed = named(after)[next(k for k, i in enumerate(after) if i is there)]
+    return Move(values, now, wanted, f"{block}.{renamed}" + (f".{suffix}" if suffix else ""))
 
 
 def moved(
@@ -80,45 +88,61 @@ def moved(
     target: float,
     kind: str = "frequency",
     bounds: Bounds | None = None,
+    found: list[Item] | None = None,
 ) -> dict[str, float]:
-    """The parameters, and their values, that bring item ``index`` (of `items`) to
-    ``target``: the frequency of a zero, pole or pair, the damping of a pair (``kind=
-    "damping"``), the value of the gain.  One parameter where one owns the item (the one
-    that moves its measure most and the other items least); else the item's parameters
-    together, the gain and every other root kept.  Within ``bounds``; an `EngineError`
-    says why it cannot (a fixed item, a target out of reach)."""
-    found = items(transfer, params)
+    """The parameters, and their values, that bring item ``index`` (of `items`, given as
+    ``found`` when read already) to ``target``: the frequency of a zero, pole or pair, the
+    damping of a pair (``kind="damping"``), the value of the gain.  One parameter where one
+    owns the item (the one that moves its measure most and the other items least); else
+    the item's parameters together, the gain and every other root kept.  Within
+    ``bounds``; an `EngineError` says why it cannot (a fixed item, a target out of reach)."""
+    found = items(transfer, params) if found is None else found
     item = found[index]
     if not item.parameters:
         raise EngineError(f"the {item.kind} is fixed: no parameter moves it")
-    name, clean = _mover(transfer, params, found, index, kind)
+    name, clean, slope = _mover(transfer, params, found, index, kind)
     if clean:
-        return {name: _solved(transfer, params, item, name, target, kind, bounds or {})}
+        return {name: _solved(transfer, params, found, index, name, target, kind, bounds or {}, slope)}
     try:
         return _joint(transfer, params, found, index, target, kind, bounds or {})
     except EngineError:
         if name is None:
             raise
-    return {name: _solved(transfer, params, item, name, target, kind, bounds or {})}
+    return {name: _solved(transfer, params, found, index, name, target, kind, bounds or {}, slope)}
 
 
 def _solved(
-    transfer: ExpressionTransfer, params: Mapping[str, float], item: Item, name: str, target: float, kind: str, bounds
+    transfer: ExpressionTransfer,
+    params: Mapping[str, float],
+    found: list[Item],
+    index: int,
+    name: str,
+    target: float,
+    kind: str,
+    bounds,
+    slope: float,
 ) -> float:
-    """The value of ``name`` that brings ``item``'s measure to ``target`` (bracketed in
-    log scale, then Brent's method)."""
+    """The value of ``name`` that brings item ``index``'s measure to ``target``, on
+    log(measure) against u = log(parameter): Newton-secant steps from the nudge's
+    ``slope`` (a corner 1/T, a gain K, a pair's sqrt: two pole-zero forms), else bracketed
+    and Brent's method.  The item is followed past others of its kind (`_tracked`)."""
+    item = found[index]
     value = params[name]
     if not value or not math.isfinite(value):
         raise EngineError(f"{name} is {value!r}: a value of 0 cannot be scaled to move the {item.kind}")
     low, high = bounds.get(name, (None, None))
 
     def miss(log_scale: float) -> float:
-        found = _nearest(readings(transfer, {**params, name: value * math.exp(log_scale)}), item)
-        return math.log(measure(found, kind)) - math.log(target)
+        moved = _tracked(readings(transfer, {**params, name: value * math.exp(log_scale)}), item, found)
+        return math.log(measure(moved, kind)) - math.log(target)
 
-    here = miss(0.0)
+    here = math.log(measure(item, kind)) - math.log(target)  # miss(0): the items read at params
     if here == 0:
         return value
+    inside = _log_bounds(value, low, high)
+    secant = _secant(miss, here, slope, inside)
+    if secant is not None:
+        return value * math.exp(secant)
     for side in (1.0, -1.0):
         step = 0.0
         for _ in range(BRACKET_STEPS):
@@ -231,6 +255,28 @@ def _signature(found: list[Item]) -> tuple[tuple[int, ...], np.ndarray]:
     return tuple(counts), np.array(out)
 
 
+def _secant(miss: Callable[[float], float], here: float, slope: float, inside: tuple[float, float]) -> float | None:
+    """The root of ``miss`` (``here`` at 0, about ``slope`` there) by Newton's step then
+    secant steps, within ``inside``; None when a step leaves it, a form fails or
+    `SECANT_STEPS` do not bring the miss within `SECANT_MISS` (the bracket then takes over)."""
+    if not (math.isfinite(slope) and slope):
+        return None
+    u0, f0, u1 = 0.0, here, -here / slope
+    for _ in range(SECANT_STEPS):
+        if not inside[0] <= u1 <= inside[1]:
+            return None
+        try:
+            f1 = miss(u1)
+        except (EngineError, ValueError):
+            return None
+        if abs(f1) <= SECANT_MISS:
+            return u1
+        if not math.isfinite(f1) or f1 == f0:
+            return None
+        u0, f0, u1 = u1, f1, u1 - f1 * (u1 - u0) / (f1 - f0)
+    return None
+
+
 def _movable(bound: tuple[float | None, float | None] | None) -> bool:
     """Is a parameter free to move (not held by equal bounds)?"""
     return bound is None or bound[0] is None or bound[1] is None or bound[0] < bound[1]
@@ -255,45 +301,57 @@ def _damping(item: Item) -> float:
     return -item.root.real / abs(item.root)
 
 
-def _nearest(found: list[Item], like: Item) -> Item:
-    """The item of the same kind nearest ``like`` (in log frequency)."""
+def _tracked(found: list[Item], like: Item, base: list[Item]) -> Item:
+    """Item ``like`` of ``base`` among ``found`` (the items after a change): of its kind,
+    each other item of ``base`` takes the nearest of ``found`` first, and of those left
+    the nearest ``like`` is it (a zero moved past another of its kind stays itself while
+    the other stays put)."""
     same = [i for i in found if i.kind == like.kind]
     if not same:
         raise EngineError(f"the {like.kind} is gone at these values")
     if like.kind == "gain":
         return same[0]
-    return min(same, key=lambda i: abs(math.log(abs(i.root) or 1e-300) - math.log(abs(like.root) or 1e-300)))
+    for other in base:
+        if other is not like and other.kind == like.kind and len(same) > 1:
+            same.remove(min(same, key=lambda i: _apart(i, other)))
+    return min(same, key=lambda i: _apart(i, like))
+
+
+def _apart(a: Item, b: Item) -> float:
+    """How far apart two items are, in log frequency."""
+    return abs(math.log(abs(a.root) or 1e-300) - math.log(abs(b.root) or 1e-300))
 
 
 def _mover(
     transfer: ExpressionTransfer, params: Mapping[str, float], base: list[Item], index: int, kind: str
-) -> tuple[str | None, bool]:
+) -> tuple[str | None, bool, float]:
     """Of the parameters that move item ``index``, the one that moves its measure most
-    relative to how much it moves the others (None where none moves it alone), and
-    whether it leaves the others where they are."""
+    relative to how much it moves the others (None where none moves it alone), whether
+    it leaves the others where they are, and d log(measure) / d log(parameter) there."""
     item = base[index]
     shared = {n for i in base if i is not item and i.kind != "gain" for n in i.parameters}
     own = [n for n in item.parameters if n not in shared]
     if not own and item.kind == "gain":
         raise EngineError("no one parameter sets the gain alone: write the compensator as K*(...) with a gain K")
-    best, score = (own[0] if own else None), (-math.inf, math.inf)
+    best, score, slope = (own[0] if own else None), (-math.inf, math.inf), math.nan
     for name in own:
         value = params[name]
         nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
         try:
             after = readings(transfer, nudged)
-            change = abs(math.log(measure(_nearest(after, item), kind) / measure(item, kind)))
+            signed = math.log(measure(_tracked(after, item, base), kind) / measure(item, kind))
         except (EngineError, ValueError):
             continue
+        change = abs(signed)
         others = sum(
             abs(math.log(measure(a, "frequency") / measure(b, "frequency")))
             for a, b in zip(after, base)
             if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
         )
         if item.kind.endswith("pair") and kind == "frequency":
-            before, now = _damping(item), _damping(_nearest(after, item))
+            before, now = _damping(item), _damping(_tracked(after, item, base))
             others += abs(now - before) / max(abs(before), 1e-9)  # signed: a right-half-plane pair's too
         ratio = change / (others + change * 1e-3 + 1e-300)
         if ratio > score[0]:
-            best, score = name, (ratio, others / (change + 1e-300))
-    return best, score[1] <= CLEAN
+            best, score, slope = name, (ratio, others / (change + 1e-300)), signed / math.log1p(NUDGE)
+    return best, score[1] <= CLEAN, slope

@@ -132,3 +132,23 @@ def test_a_unit_gain_reads_0_db_never_minus_0(gain):
     """A gain of 1 to rounding (the Bode gain of a product whose factors cancel) reads '(0 dB)':
     cip_dual_channel's unit gains printed '-0 dB' or '0 dB' by their last bit."""
     assert "(0 dB)" in Item("gain", complex(gain), ()).text
+
+
+def test_a_zero_moved_past_another_of_its_kind_stays_itself_and_says_its_new_name():
+    """Items are numbered by frequency: zero1 at 1 rad/s moved to 3 rad/s, past zero2 at 2,
+    is the zero T1 owns at 3 rad/s, now named zero2, the other zero left at 2 (the
+    numerator's roots by numpy).  Before, the solve followed whichever zero was nearest the
+    start and found no T1 at all."""
+    from engine.analysis import unity_feedback
+    from engine.design.compensator_moves import move_named
+
+    network = unity_feedback(["K*(1+T1*s)*(1+T2*s)/((1+T3*s)*(1+T4*s))", "1/(s^2*(s+10))"], "s", 0.0)
+    label = next(e.label for e in network.entries if "K" in e.transfer.parameters)
+    values = {"K": 2.0, "T1": 1.0, "T2": 0.5, "T3": 0.05, "T4": 0.02}
+    move = move_named(network, values, f"{label}.zero1", lambda now: 3.0)
+    assert move.values == {"T1": pytest.approx(1 / 3, rel=1e-12)} and move.name == f"{label}.zero2"
+    after = {**values, **move.values}
+    zeros = np.roots(np.polymul([after["T1"], 1.0], [after["T2"], 1.0]))
+    assert sorted(abs(zeros)) == pytest.approx([2.0, 3.0], rel=1e-12)
+    back = move_named(network, after, move.name, lambda now: 1.5)  # by its new name, back past the other
+    assert back.values == {"T1": pytest.approx(1 / 1.5, rel=1e-12)} and back.name == f"{label}.zero1"

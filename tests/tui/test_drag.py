@@ -291,3 +291,51 @@ async def test_drags_on_a_sampled_loop_move_its_roots_in_z(tmp_path, monkeypatch
         end = (start[0] - 3, start[1])
         await _drag(app, pilot, plot, start, [end])
         assert -math.log(zero_in_z()) / T == pytest.approx(10 ** frame.point(*end)[0], rel=1e-9)
+
+
+@synchronous
+async def test_a_drag_is_coarse_while_held_exact_on_release_and_keeps_its_item_past_another(tmp_path, monkeypatch):
+    """A second lead added (its zero at a third of the crossover, below the first lead's
+    at 1 rad/s: zero1) and its zero dragged along the Bode magnitude past the lead's zero.  While the button is
+    held the magnitude alone is drawn anew, coarse (its title says so, `COARSE_POINTS`
+    frequencies, no margin marks), from the worker's drawing in the view held still; the
+    drag keeps moving the zero it pressed (now zero2) while the lead's stays at 1 rad/s, and
+    selects no text;
+    on release every plot is exact, and the margins are python-control's of the design."""
+    from tui.figures.catalog import COARSE_POINTS
+
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        app.screen.shaping.change(lambda: edits.add_part(app.bench, "compensator", "lead"), "a lead")
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        phase = app.screen.query_one("#bode-phase")
+        frame, drawn = plot.drawing.frames[0], phase.figure
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        added, pole = sorted(name for name in start_values(app) if name not in ("K", "T1", "T2"))[::-1]  # Tz, Tp
+        assert 10**zero.x == pytest.approx(1 / start_values(app)[added], rel=1e-9) and 10**zero.x < 1
+        start = _cell(frame, zero.x, zero.y)
+        beyond = _cell(frame, math.log10(3.0), zero.y)[0]
+        path = [(col, start[1]) for col in range(start[0] + 2, beyond + 1, 2)]
+        _post(plot, events.MouseDown, start)
+        for cell in path:
+            _post(plot, events.MouseMove, cell)
+            await settle(app, pilot)
+        assert "coarse" in plot.figure.title and phase.figure is drawn
+        assert len(plot.figure.series[0].x) <= COARSE_POINTS and not any("PM" in s.label for s in plot.figure.series)
+        assert plot.drawing is plot._prebuilt[1]  # the worker's drawing, in the view held still
+        assert app.screen._select_state is None  # no text selected (the whole screen repainted a move)
+        _post(plot, events.MouseUp, path[-1])
+        await settle(app, pilot)
+        values = start_values(app)
+        assert 1 / values[added] == pytest.approx(10 ** frame.point(*path[-1])[0], rel=1e-9) and values["T1"] == 1.0
+        names = {h.name: 10**h.x for h in plot.figure.handles}
+        assert names["compensator.zero2"] == pytest.approx(1 / values[added], rel=1e-9)
+        assert names["compensator.zero1"] == pytest.approx(1.0, rel=1e-9)
+        assert "coarse" not in plot.figure.title and phase.figure is not drawn
+        assert any("PM" in s.label for s in plot.figure.series) and len(plot.figure.series[0].x) > COARSE_POINTS
+        loop = _loop(values) * ct.tf([values[added], 1], [values[pole], 1])
+        gm, pm, _, _, _, _ = ct.stability_margins(loop)
+        shown = _tableau(app)
+        assert shown["phase_margin_deg"] == pytest.approx(pm, abs=1e-6)
+        assert shown["gain_margin_db"] == pytest.approx(20 * math.log10(gm), abs=1e-6)

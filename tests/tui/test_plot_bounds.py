@@ -24,7 +24,7 @@ def test_a_far_excursion_beside_a_bounded_axis_draws_at_once():
     fig.series.append(Series([0.0, 1.0, 2.0], [0.0, 1e36, 0.0], "u"))
     canvas = (60, 20, "textual-dark")
     built = FigurePlot.prebuild(fig, canvas)
-    assert built[1] is not None and built[0] == canvas and "bounded" in built[1].text.plain
+    assert built[1] is not None and built[0] == (canvas, (None, None)) and "bounded" in built[1].text.plain
 
 
 def test_values_near_the_float_limits_draw():

@@ -234,3 +234,48 @@ async def test_a_burst_is_what_the_user_did_not_a_timer(tmp_path, monkeypatch):
         await pilot.press("right")  # another key on the same item: a new burst too
         await settle(app, pilot)
         assert len(app.bench.edits.undo_stack) == steps + 3
+
+
+@synchronous
+async def test_a_nudge_repaints_its_readouts_without_a_layout_pass_or_a_footer_rebuilt(tmp_path, monkeypatch):
+    """A nudge changes no size and no key (issue 54): the shaping table's reading changes in
+    its cell (no rows made anew), the pole lines while computed keep the tableau's height,
+    so the screen is not laid out again and the footer not rebuilt; every readout is the
+    design's (the tableau's phase margin python-control's).  Before, each nudge laid the
+    screen out about five times (the rows made again, the tableau a line tall then long)."""
+    from textual.screen import Screen
+
+    from tui.widgets.footer import Footer
+
+    app = lead_app(tmp_path, monkeypatch)
+    passes, rebuilt = [], []
+    layout, recompose = Screen._refresh_layout, Footer.recompose
+
+    def laid_out(screen, *args, **kwargs):
+        passes.append(screen._layout_required)
+        return layout(screen, *args, **kwargs)
+
+    async def recomposed(footer):
+        rebuilt.append(footer._built != footer._asked and footer._keys() != footer._shown)
+        await recompose(footer)
+
+    monkeypatch.setattr(Screen, "_refresh_layout", laid_out)
+    monkeypatch.setattr(Footer, "recompose", recomposed)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down", "right")  # the zero: a first nudge
+        await settle(app, pilot)
+        table = app.screen.query_one("#shape")
+        row = table.get_row_at(1)
+        passes.clear()
+        rebuilt.clear()
+        for key in ("left", "right", "left"):  # readings no longer than the first nudge's: no column widened
+            await pilot.press(key)
+            await settle(app, pilot)
+        assert not any(passes) and not any(rebuilt)
+        values = start_values(app)
+        assert table.get_row_at(1)[1] == f"zero at {1 / values['T1']:.6g} rad/s (T {values['T1']:.6g} s) [T1]" != row[1]
+        _, pm, _, _, _, _ = ct.stability_margins(_loop(values))
+        rows, _ = app.bench.view().tableau()
+        assert next(r.value for r in rows if r.kind == "phase_margin_deg") == pytest.approx(pm, abs=1e-6)
+        assert "computing" not in app.screen.query_one("#tableau").text.plain

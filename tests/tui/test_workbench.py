@@ -206,3 +206,23 @@ def test_a_run_keeps_the_json_its_worker_made(workdir):
     assert json.dumps(given.session.model.records) == json.dumps(own.session.model.records)
     assert json.dumps(given.session.model.state) == json.dumps(own.session.model.state)
     assert given.iteration == own.iteration == 3
+
+
+def test_a_parameter_edit_keeps_the_loops_built_and_reads_as_the_saved_session_does(workdir):
+    """A drag's or a nudge's edit changes parameter values alone: the conditions' loops (the
+    launch vehicle's tables read, the plant's forms kept on them) are kept, not built again
+    (before, every edit built them from the model); the tableau is the one a fresh load of
+    the saved session reads.  An edit of the plant builds them anew."""
+    from sessions.store import save_session
+    from tui.state import edits
+
+    bench = Workbench(load_session(workdir / "cip_launch_vehicle.json"))
+    built = bench.session.problem.conditions
+    first = bench.session.problem.parameters[0]
+    edits.set_parameters(bench, {first.name: float(np.ravel(first.value)[0]) * 1.1})
+    assert all(a is b for a, b in zip(bench.session.problem.conditions, built, strict=True))
+    path = save_session(bench.session, workdir / "edited.json")
+    fresh = Workbench(load_session(path))
+    assert bench.view().tableau()[0] == fresh.view().tableau()[0]
+    edits.set_fields(bench, ("conditions", 0, "plant", "channels", 0), gain=2.0)
+    assert not any(a is b for a, b in zip(bench.session.problem.conditions, built, strict=True))

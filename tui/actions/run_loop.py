@@ -259,11 +259,24 @@ class RunLoop:
         self.app.refresh_workbench(plots=False)
 
 
-def drawings(view: View, canvases: dict, only: set[str] | None = None) -> tuple[dict, dict]:
+def drawings(
+    view: View,
+    canvases: dict,
+    only: set[str] | None = None,
+    held: dict | None = None,
+    coarse: bool = False,
+) -> tuple[dict, dict]:
     """The figures of a view's plots on screen (``canvases``; ``only``: of these), and
-    their text at the canvases' sizes (off the UI thread)."""
-    drawn = figures(view, set(canvases) if only is None else only)
-    return drawn, {name: FigurePlot.prebuild(drawn[name], canvas) for name, canvas in canvases.items() if name in drawn}
+    their text at the canvases' sizes in the plots' held views (``held``: `FigurePlot.held`
+    by plot id; none: the whole figure), off the UI thread; ``coarse``: a drag's frame
+    (`figures`)."""
+    drawn = figures(view, set(canvases) if only is None else only, coarse=coarse)
+    held = held or {}
+    return drawn, {
+        name: FigurePlot.prebuild(drawn[name], canvas, held.get(name, (None, None)))
+        for name, canvas in canvases.items()
+        if name in drawn
+    }
 
 
 def _positive_integer(text: str) -> str | None:

@@ -48,9 +48,15 @@ FIGURE_IDS = frozenset(
 )
 
 
-def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure]:
+COARSE_POINTS = 200  # the frequencies of a drag's frame (about two a column of a 120-column plot)
+
+
+def figures(view: View, only: Collection[str] | None = None, coarse: bool = False) -> dict[str, Figure]:
     """The figures of the plots the algorithm's presenter says apply, by plot id
-    (``only``: just these plot ids, those shown: each plot costs its own search)."""
+    (``only``: just these plot ids, those shown: each plot costs its own search).
+    ``coarse``: a drag's frame, the loop on `COARSE_POINTS` of the grid's frequencies
+    and its margins unmarked (a tabulated loop's are a rational fit's, seconds on a
+    large table), the titles saying so; the release draws them exact."""
     wanted = view.presenter.plots
 
     def asked(*names: str) -> bool:
@@ -58,7 +64,9 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
 
     out: dict[str, Figure] = {}
     curves = (
-        view.loop_curves(with_margins=asked("bode-mag", "bode-phase"))
+        view.loop_curves(
+            with_margins=asked("bode-mag", "bode-phase") and not coarse, points=COARSE_POINTS if coarse else None
+        )
         if wanted & {"nyquist", "bode", "nichols"} and asked("nyquist", "bode-mag", "bode-phase", "nichols")
         else []
     )
@@ -92,6 +100,9 @@ def figures(view: View, only: Collection[str] | None = None) -> dict[str, Figure
         out["step"] = step_figure(name, traces, marks)
         overlays.step(out["step"], requirements(view), marks.final if marks is not None else None)
     _overlay(out, requirements(view), unit)
+    if coarse:
+        for figure in out.values():
+            figure.title = f"{figure.title} (coarse: exact on release)"
     return out
 
 
@@ -100,7 +111,7 @@ def compensator_roots(view: View) -> list[overlays.CompensatorRoot]:
     compensators at the current design, each with its item's name as the shaping table
     gives it (`engine.design.compensator_items`; none when they do not read); a sampled
     loop's in z, as its pole map and locus are drawn."""
-    from engine.design.compensator_items import items, named
+    from engine.design.compensator_items import named, readings
     from engine.errors import EngineError
     from engine.model.bilinear import z_of_w
     from engine.model.blocks import ExpressionTransfer
@@ -113,7 +124,7 @@ def compensator_roots(view: View) -> list[overlays.CompensatorRoot]:
     for entry in view.problem.conditions[k].network.entries:
         if isinstance(entry.transfer, ExpressionTransfer) and entry.transfer.parameters:
             try:
-                found = items(entry.transfer, values)
+                found = readings(entry.transfer, values)  # (the parameters that move them are not drawn)
             except (EngineError, ValueError):
                 continue
             kinds = {"zero": "zero", "zero pair": "zero", "differentiator": "zero"}

@@ -437,6 +437,16 @@ class MainScreen(Screen):
         """The tableau, the lines under it and (with ``plots``) the plots, drawn in a
         worker (`draw_missing`; a run's worker draws its own: `show_drawn`)."""
         view = self.bench.view() if view is None else view
+        record = self.refresh_tableau(view)
+        self.query_one("#step-info", TextView).set(self._step_info(view, record))
+        self.fill_shape(view)
+        if plots:
+            self.refresh_plots()
+
+    def refresh_tableau(self, view: View | None = None) -> StepRecord | None:
+        """The tableau with the lines under it (what binds at a stop, the closed-loop
+        poles); its record."""
+        view = self.bench.view() if view is None else view
         rows, record = view.tableau()
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
         unit = view.problem.grid.unit
@@ -451,10 +461,7 @@ class MainScreen(Screen):
         if poles:
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)
-        self.query_one("#step-info", TextView).set(self._step_info(view, record))
-        self.fill_shape(view)
-        if plots:
-            self.refresh_plots()
+        return record
 
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""
@@ -480,19 +487,22 @@ class MainScreen(Screen):
         tabulated loop's fit takes a second) and shown when done; a newer request
         replaces one waiting (`LatestWork`).  A plot never drawn says it is computing."""
         view = self.bench.view() if view is None else view
-        key, canvases = figure_key(view), self.canvases()
-        if self.dragged_plot is not None:  # while dragging, the dragged plot alone follows
+        key, canvases = self._wanted_key(view), self.canvases()
+        coarse = self.dragged_plot is not None
+        if coarse:  # while dragging, the dragged plot alone follows, coarse (`figures`)
             canvases = {name: canvas for name, canvas in canvases.items() if name == self.dragged_plot}
         missing = {name for name in canvases if name in FIGURE_IDS and self._figure_keys.get(name) != key}
         if not missing:
             return
+        held = {}
         for name in missing:
             plot = self.query_one(f"#{name}", FigurePlot)
+            held[name] = plot.held()
             if name not in self._figure_keys:
                 plot.show(Figure(empty_message="computing ..."))
 
         def compute() -> None:  # (Bode's panels come as a pair: the one not asked for is left as it is)
-            drawn, prebuilt = drawings(view, canvases, missing)
+            drawn, prebuilt = drawings(view, canvases, missing, held, coarse)
             self.post_message(self.FiguresDrawn(key, {n: f for n, f in drawn.items() if n in missing}, prebuilt))
 
         self.figure_work.request(compute, (key, frozenset(missing)))
@@ -523,9 +533,15 @@ class MainScreen(Screen):
         figure is of an earlier design: a run finished, or an edit made, while it was hidden."""
         self.call_after_refresh(self.draw_missing)
 
+    def _wanted_key(self, view: View) -> tuple:
+        """The key the plots on screen should show: the view's `figure_key`, a drag's coarse
+        frame's apart (its release draws the plots anew, exact)."""
+        key = figure_key(view)
+        return key if self.dragged_plot is None else (*key, "coarse")
+
     @on(FiguresDrawn)
     def _figures_drawn(self, message: FiguresDrawn) -> None:
-        if message.key == figure_key(self.bench.view()):
+        if message.key == self._wanted_key(self.bench.view()):
             self._show_figures(message.key, message.drawn, message.prebuilt)
 
     def show_drawn(self, key: tuple, drawn: dict, prebuilt: dict) -> None:

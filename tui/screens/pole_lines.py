@@ -59,12 +59,15 @@ class PoleLines:
         self._asked: tuple | None = None  # the `figure_key` a thread worker makes lines for
 
     def text(self, view: View) -> str:
-        """The pole lines of ``view``: kept, or asked of a thread worker (`COMPUTING` meanwhile)."""
+        """The pole lines of ``view``: kept, or asked of a thread worker (`COMPUTING`
+        meanwhile, on as many lines as the lines kept: a nudge's tableau keeps its height,
+        and the screen no layout pass)."""
         if "poles" not in view.presenter.plots and not several_breaks(view):
             return ""
         key = figure_key(view)
         if self.kept is not None and self.kept[0] == key:
             return self.kept[1]
+        lines = self.kept[1].count("\n") if self.kept is not None else 0
         if self._asked != key:
             self._asked = key
 
@@ -72,7 +75,7 @@ class PoleLines:
                 self.screen.post_message(self.Found(view, under_tableau(view)))
 
             self.screen.run_worker(compute, thread=True, exclusive=True, group="poles")
-        return COMPUTING
+        return COMPUTING + "\n" * lines
 
     def found(self, message: PoleLines.Found) -> None:
         key = figure_key(message.view)
@@ -80,7 +83,7 @@ class PoleLines:
             self._asked = None
         if key == figure_key(self.screen.bench.view()):
             self.keep((key, message.text, message.view))
-            self.screen.refresh_run(plots=False)
+            self.screen.refresh_tableau()
 
     def keep(self, poles: tuple[tuple, str, View] | None) -> None:
         """Keep the pole lines of one view (from the run's worker, or a thread worker)."""

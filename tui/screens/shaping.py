@@ -111,15 +111,16 @@ class Shaping:
 
         bench, handle, drag = self.bench, message.handle, self.dragging
         k = bench.view().first_plotted
+        item = drag.item or handle.name  # the item pressed, by its name now
         if handle.motion == "root":
             root = complex(message.x, message.y)
             sampled = bench.session.problem.conditions[k].network.sample_time is not None  # drawn in z
             move = edits.move_root_in_z if sampled else edits.move_root
-            return lambda: move(bench, handle.name, root), f"drag {handle.name}"
+            return lambda: drag.moved(move(bench, item, root)), f"drag {item}"
         if handle.motion == "corner":
             unit = 2 * math.pi if bench.session.problem.grid.unit == "hz" else 1.0
             frequency = 10**message.x * unit
-            return lambda: edits.move_corner(bench, handle.name, frequency), f"drag {handle.name}"
+            return lambda: drag.moved(edits.move_corner(bench, item, frequency)), f"drag {item}"
         parameter = self.screen.view_actions.locus_parameter
         if handle.motion == "locus" and parameter != "gain":
             value = float(cast(float, message.value))
@@ -249,12 +250,20 @@ class Shaping:
 
 
 class Drag:
-    """The drag going on: its key (plot, count) and the gain parameter and its value at
-    the press (a gain or locus drag scales from there)."""
+    """The drag going on: its key (plot, count), the gain parameter and its value at the
+    press (a gain or locus drag scales from there), and the dragged item's name now
+    (items are numbered by frequency: a zero dragged past another of its kind takes the
+    other's number, and the drag goes on moving it, not the item now called as it was)."""
 
     def __init__(self, key: tuple[object, ...] = ()) -> None:
         self.key = key
         self.gain: tuple[str, float] | None = None
+        self.item: str | None = None
+
+    def moved(self, item: str) -> str:
+        """An accepted move left the dragged item named ``item``."""
+        self.item = item
+        return item
 
 
 def positive(text: str) -> str | None:

@@ -58,14 +58,20 @@ def resolve(root: Any, path: Ref) -> Any:
 
 def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> None:
     """Apply ``change`` to a copy of the problem model; commit it when the problem
-    builds (the records are dropped), else raise `SessionError` and keep the old one."""
+    builds (the records are dropped), else raise `SessionError` and keep the old one.
+    A change that leaves the conditions as they were keeps the loops built (a drag's or a
+    nudge's parameter values: the plant's forms and tables are not made again)."""
     draft = bench.session.model.problem.model_copy(deep=True)
     try:
         change(draft)
         dumped = draft.model_dump()
         draft = ProblemModel.model_validate(dumped)
+        same = draft.conditions == bench.session.model.problem.conditions
         problem = build_problem(
-            draft, folder(bench.session), allow_outside_tables=bench.session.allow_outside_tables or None
+            draft,
+            folder(bench.session),
+            allow_outside_tables=bench.session.allow_outside_tables or None,
+            conditions=bench.session.problem.conditions if same else None,
         )
     except ValidationError as exc:
         raise SessionError(invalid(exc, "problem", dumped)) from None
@@ -139,27 +145,30 @@ def move_item(bench: Workbench, name: str, target: Callable[[float], float]) -> 
     """Move a compensator's item (``block.item``, or ``block.item.zeta``, of the plotted
     condition) to ``target(now)`` of its frequency, damping or gain, solving for the
     parameters that own it (`engine.design.compensator_moves.move_named`), as one
-    transaction; their names."""
-    return move_items(bench, [(name, target)])
+    transaction; the item's name after the move (`move_items`)."""
+    item, zeta, _ = name.rpartition(".zeta") if name.endswith(".zeta") else (name, "", "")
+    return move_items(bench, item, [(zeta, target)])
 
 
-def move_items(bench: Workbench, moves: list[tuple[str, Callable[[float], float]]]) -> str:
-    """`move_item` for several measures (a pair's frequency, then its damping), each solved
-    at the values the one before left, all set as one transaction; the parameters' names."""
+def move_items(bench: Workbench, name: str, moves: list[tuple[str, Callable[[float], float]]]) -> str:
+    """`move_item` of one item for several measures (``("", f)`` its frequency, then
+    ``(".zeta", g)`` a pair's damping), each solved at the values the one before left, all
+    set as one transaction; the item's name after them (items are numbered by frequency:
+    a zero moved past another of its kind takes its number, `Move.name`)."""
     from engine.design.compensator_moves import move_named
 
     problem = bench.session.problem
     k = bench.view().first_plotted
     bounds = {p.name: (p.min, p.max) for p in bench.session.model.problem.parameters}
     values, solved = problem.condition_values(k), {}
-    for name, target in moves:
+    for suffix, target in moves:
         try:
-            move = move_named(problem.conditions[k].network, values, name, target, bounds)
+            move = move_named(problem.conditions[k].network, values, name + suffix, target, bounds)
         except EngineError as exc:
             raise SessionError(str(exc)) from None
-        values, solved = {**values, **move.values}, {**solved, **move.values}
+        values, solved, name = {**values, **move.values}, {**solved, **move.values}, move.name.removesuffix(suffix)
     set_parameters(bench, solved, k)
-    return ", ".join(solved)
+    return name
 
 
 def move_root_in_z(bench: Workbench, name: str, z: complex) -> str:
@@ -174,7 +183,8 @@ def move_root_in_z(bench: Workbench, name: str, z: complex) -> str:
 def move_corner(bench: Workbench, name: str, frequency: float) -> str:
     """Move a compensator's item to a corner frequency (rad/s) of the Bode plot: its
     frequency; in a sampled loop (its items in w), its s-plane equivalent's natural
-    frequency, the damping kept (as `overlays.corners` marks it)."""
+    frequency, the damping kept (as `overlays.corners` marks it); the item's name after
+    the move (`move_items`)."""
     import cmath
 
     from engine.model.bilinear import s_equivalent
@@ -196,7 +206,8 @@ PAIR_DAMPING = (0.005, 0.995)  # a dragged pair's damping stays within: a pair i
 def move_root(bench: Workbench, name: str, root: complex) -> str:
     """Move a compensator's zero or pole (``block.item``) to a point of the s-plane: a real
     one to the frequency |Re root| (along its half of the axis), a pair's upper root to
-    ``root`` (its wn, then its zeta within `PAIR_DAMPING`), as one transaction."""
+    ``root`` (its wn, then its zeta within `PAIR_DAMPING`), as one transaction; the item's
+    name after the move (`move_items`)."""
     if "pair" not in name.rsplit(".", 1)[-1]:
         if root.real == 0:
             raise SessionError(f"{name}: not to the origin (drag it along the real axis)")
@@ -205,7 +216,7 @@ def move_root(bench: Workbench, name: str, root: complex) -> str:
         raise SessionError(f"{name}: a pair not to the origin")
     low, high = PAIR_DAMPING
     zeta = min(max(-root.real / abs(root), low), high)
-    return move_items(bench, [(name, lambda _: abs(root)), (f"{name}.zeta", lambda _: zeta)])
+    return move_items(bench, name, [("", lambda _: abs(root)), (".zeta", lambda _: zeta)])
 
 
 def add_part(bench: Workbench, block: str, kind: str) -> str:

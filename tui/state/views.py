@@ -14,6 +14,8 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
+
 from engine.analysis import LoopCurve, loop_curve
 from engine.closed_loop.step_response import StepSetup, has_delays, horizon, network_step, realized
 from engine.closed_loop.tabulated_step import has_tables
@@ -66,19 +68,22 @@ class View:
         condition: int = 0,
         role: str = "current",
         with_margins: bool = True,
+        points: int | None = None,
     ) -> LoopCurve | None:
         """GH of one condition (None when the loop cannot be evaluated); the current one with
-        its margins (``with_margins``: a tabulated loop's margins are a rational fit's)."""
+        its margins (``with_margins``: a tabulated loop's margins are a rational fit's); on
+        ``points`` of the grid's frequencies, evenly spread along it with both ends (None: all)."""
         problem = self.problem
         if condition >= len(problem.conditions):
             return None
         c = problem.conditions[condition]
         values = self.parameters(iteration, condition)
         marked = iteration is None and with_margins
+        omega = problem.grid.omega
+        if points is not None and points < omega.size:
+            omega = omega[np.unique(np.linspace(0, omega.size - 1, points).round().astype(int))]
         try:
-            return loop_curve(
-                c.network, self.break_of(condition), problem.grid.omega, values, label, role, condition, marked
-            )
+            return loop_curve(c.network, self.break_of(condition), omega, values, label, role, condition, marked)
         except EngineError:
             return None
 
@@ -137,9 +142,14 @@ class View:
             wanted.append((0, k, prefix + "initial", "reference"))
         return wanted
 
-    def loop_curves(self, iteration: int | None = None, with_margins: bool = True) -> list[LoopCurve]:
-        """The open loops the plots draw (`shown`), the current one's with its margins."""
-        curves = [self.loop_curve(at, label, k, role, with_margins) for at, k, label, role in self.shown(iteration)]
+    def loop_curves(
+        self, iteration: int | None = None, with_margins: bool = True, points: int | None = None
+    ) -> list[LoopCurve]:
+        """The open loops the plots draw (`shown`), the current one's with its margins (on
+        ``points`` of the grid's frequencies: `loop_curve`)."""
+        curves = [
+            self.loop_curve(at, label, k, role, with_margins, points) for at, k, label, role in self.shown(iteration)
+        ]
         return [c for c in curves if c is not None]
 
     def step_response(

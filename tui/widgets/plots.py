@@ -19,7 +19,9 @@ from tui.figures.data import Figure, Handle
 from tui.figures.navigation import Navigation, Probe, grab, nearest_index, xy_probe
 from tui.keys import identified
 
-Prebuilt = tuple[tuple[int, int, str], Drawing | None]
+Canvas = tuple[int, int, str]  # (width, height, plotext theme)
+Held = tuple[tuple[float, float, float, float] | None, int | None]  # a view's box and cursor (`FigurePlot.held`)
+Prebuilt = tuple[tuple[Canvas, Held], Drawing | None]
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,7 @@ class FigurePlot(PlotextPlot):
     pans and moves a cursor along the current curve (`navigation`)."""
 
     can_focus = True
+    ALLOW_SELECT = False  # a press pans or drags: no text selection (Textual repainted the whole screen each move)
     DEFAULT_CSS = """
     FigurePlot { border-left: blank; }
     FigurePlot:focus { border-left: thick $accent; }
@@ -314,20 +317,28 @@ class FigurePlot(PlotextPlot):
             self.image.styles.margin = (0, 0, 1, 0)  # a sixel touching the last row moves the cursor off the screen
             self.mount(self.image)
 
-    def canvas(self) -> tuple[int, int, str]:
+    def canvas(self) -> Canvas:
         """(width, height, plotext theme) of the next render."""
         return self.content_size.width, self.content_size.height, self._get_plotext_theme_name(self.app.theme)
 
+    def held(self) -> Held:
+        """The view (box, cursor) a new figure will be shown in (`show` forgets a picked
+        curve's cursor): what `prebuild` draws a figure in, so that a zoomed plot, or one
+        held still while a handle is dragged, takes the worker's drawing too."""
+        return self.navigation.box, None if self.navigation.picked is not None else self.navigation.cursor
+
     @staticmethod
-    def prebuild(figure: Figure, canvas: tuple[int, int, str]) -> Prebuilt:
-        """The figure drawn at a canvas (any thread: a worker takes the drawing off the UI thread)."""
-        return canvas, draw(figure, *canvas)
+    def prebuild(figure: Figure, canvas: Canvas, held: Held = (None, None)) -> Prebuilt:
+        """The figure drawn at a canvas in a held view (any thread: a worker takes the
+        drawing off the UI thread)."""
+        return (canvas, held), draw(Navigation(*held).applied(figure), *canvas)
 
     def render(self) -> Text | str:
         if self.image is not None:
             return self._render_image()
         figure = self.shown
-        if self._prebuilt is not None and self._prebuilt[0] == self.canvas() and figure is self.figure:
+        held = (self.navigation.box, self.navigation.cursor)
+        if self._prebuilt is not None and self._prebuilt[0] == (self.canvas(), held) and self.navigation.picked is None:
             self.drawing = self._prebuilt[1]
         else:
             self.drawing = draw(figure, *self.canvas())

@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from textual.binding import Binding
+from textual.coordinate import Coordinate
 from textual.message import Message
 from textual.widgets import DataTable
 
@@ -125,7 +126,17 @@ class ShapeTable(DataTable):
         self.frozen = False  # a run or a sweep goes: the screen says so (`MainScreen.refresh_status`)
 
     def fill(self, rows: list[tuple[str, str, Item]]) -> None:
-        """The items (name, reading, item), the cursor kept on its row."""
+        """The items (name, reading, item), the cursor kept on its row; the items shown
+        already (a nudge's, a drag's) have their readings changed in place (no rows made
+        anew, no cursor moved: the keys' footer is not rebuilt, the screen not laid out)."""
+        names = [name for name, _, _ in rows]
+        if self.columns and names == self.names and self.row_count == len(rows):
+            self.found = [item for _, _, item in rows]
+            width = self.ordered_columns[1].content_width
+            for k, (_, text, _) in enumerate(rows):
+                if self.get_cell_at(Coordinate(k, 1)) != text:  # the column widened only for a longer reading
+                    self.update_cell_at(Coordinate(k, 1), text, update_width=len(text) > width)
+            return
         row = self.cursor_row
         self.clear(columns=not self.columns)
         if not self.columns:
