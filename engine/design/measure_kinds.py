@@ -281,7 +281,7 @@ class TargetUse:
             if t.loop_break is not None and not self.breaks:
                 raise EngineError(
                     f"{algorithm}: target {k} ({t.measure}) is read at the loop break {t.loop_break!r}: "
-                    f"{algorithm} reads its targets at the design's break only (slp reads them at any break)"
+                    f"{algorithm} reads its targets at the design's break only (slp and cip read them at any break)"
                 )
 
     def why_not(self, name: str) -> str:
