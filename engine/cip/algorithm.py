@@ -139,19 +139,20 @@ class Cip(BoundStepper):
             return self._stop(state, Status.CONVERGED, "all system requirements have been met", requirements)
         labels_of = {id(c): _label(c, n) for n, c in enumerate(requirements, start=1)}
         rejected: dict[str, int] = {}
-        first, searched = None, None
+        first, searched = None, []  # the first direction, and the names of those searched
         for how, direction in self._directions(x, requirements, active, labels_of):
             first = first or direction
             if direction.vector is None:
                 continue
-            searched = direction
+            searched.append((how, direction))
             outcome = self._search(x, memory.step, direction.vector, requirements, active, memory.windings, rejected)
             if outcome is not None:
                 trial, h, (new, windings, matched) = outcome
                 return self._accepted(state, k, trial, new, windings, matched, h, direction, rejected, len(active), how)
         assert first is not None
+        names = [how for how, _ in searched]
         if first.vector is None:
-            tried = f"; {COMPROMISE} found no accepted step either" if searched is not None else ""
+            tried = f"; {names[0]} found no accepted step either" if names else ""
             return self._stop(
                 state,
                 TERMINATION_STATUS[first.termination],
@@ -164,9 +165,9 @@ class Cip(BoundStepper):
             state,
             Status.STEP_BELOW_MINIMUM,
             f"step size fell below the minimum {self.settings.min_step:g} after {sum(rejected.values())} trials"
-            + (f" ({REPORT}, then {MOVING})" if self._tracks() else ""),
+            + (f" ({', then '.join(names)})" if len(names) > 1 else ""),
             requirements,
-            direction=None if searched is None else searched.vector,
+            direction=searched[-1][1].vector,
             rejected=rejected,
         )
 

@@ -106,12 +106,11 @@ def gradient_rows(problem: Problem, x: NDArray, active: list[Requirement], track
 def _moving(requirement: Requirement, gh: complex, gh_x: NDArray, gh_w: complex) -> NDArray:
     """d omega / dx of the crossing a requirement sits at (`crossing_motion`); zero for a margin at an
     extremum of its distance, where the frequency's motion changes nothing to first order, and at
-    omega = 0 or where the crossing's slope vanishes."""
+    omega = 0."""
     crossing = requirement.family.partition("<")[2] or requirement.kind
     if requirement.frequency <= 0 or crossing not in ("G", "P") or gh_x.size == 0:
         return np.zeros(gh_x.size)
-    slope = (gh_w / gh).imag if crossing == "G" else (gh_w / gh).real
-    return crossing_motion(crossing, gh, gh_x, gh_w) if slope != 0 else np.zeros(gh_x.size)
+    return crossing_motion(crossing, gh, gh_x, gh_w)
 
 
 def improvement_direction(

@@ -36,11 +36,11 @@ class Response:
 def crossing_motion(crossing: str, gh: complex, gh_x: NDArray, gh_w: complex) -> NDArray:
     """d omega / dx of a crossing of the open loop whose frequency moves with the parameters, from
     GH, dGH/dx and dGH/domega there: a phase crossover (``"G"``: arg GH stays put, Im ln GH) or a
-    gain crossover (``"P"``: |GH| stays 1, Re ln GH)."""
+    gain crossover (``"P"``: |GH| stays 1, Re ln GH); zero where the crossing's own slope is zero
+    (the crossing's frequency is not a smooth function of x there)."""
     L_x, L_w = gh_x / gh, gh_w / gh
-    if crossing == "G":
-        return -L_x.imag / L_w.imag
-    return -L_x.real / L_w.real
+    slope, moved = (L_w.imag, L_x.imag) if crossing == "G" else (L_w.real, L_x.real)
+    return -moved / slope if slope != 0 else np.zeros(np.shape(gh_x))
 
 
 def open_loop(

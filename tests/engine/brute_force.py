@@ -29,8 +29,8 @@ SETTLING_BAND = 0.05  # loopcraft's default band
 BOX = (1e-2, 1e2)  # every parameter's bounds
 GRID_POINTS = {"K": 25, "Ti": 11, "T1": 11, "T2": 11}
 ROBUST = 0.01  # brute force counts a requirement met only with 1 % to spare (no borderline designs)
-TEMPLATE_SCALE = {"phase_margin_deg": 0.2}
-AT_MOST = ("sensitivity_peak", "overshoot_percent", "settling_time")  # the templates' weighting of a degree
+TEMPLATE_SCALE = {"phase_margin_deg": 0.2}  # the templates' weighting of a degree
+AT_MOST = ("sensitivity_peak", "overshoot_percent", "settling_time")
 
 
 @dataclass(frozen=True)
@@ -262,12 +262,9 @@ class Outcome:
 
 def judged(seed: int, time_targets: bool = False) -> Outcome:
     """Run slp on the seed's problem (`generate`) from the template's start and compare it with
-    brute force;
-    at its last design, look for a step of 1e-3 (relative) in one free parameter, within bounds
-    and constraints, that slp's own rule would take (`Slp._better`: more requirements met, or
-    the figure of merit raised by its `improvement_percent`): a stop that leaves one is a
-    defect unless it says the iteration limit stopped it."""
-    from engine.design.constraints import unmet
+    brute force; at its last design, a step that slp's own rule would take (`Slp._better`: more
+    requirements met, or the figure of merit raised by its `improvement_percent`) is a defect
+    unless the stop says the iteration limit stopped it (`unnamed_step`)."""
     from sessions.lifecycle import stepper
     from sessions.runner import run_session
 
@@ -278,27 +275,15 @@ def judged(seed: int, time_targets: bool = False) -> Outcome:
     slp = stepper(session)
     x = session.problem.vector_from(dict(last.parameters))
     here = slp._point(x)
-    lower, upper = session.problem.bounds()
-    unnamed = None
-    for i, sign in itertools.product(range(x.size), (1.0, -1.0)):
-        moved = x.copy()
-        moved[i] *= 1.0 + sign * 1e-3
-        if (
-            lower[i] <= moved[i] <= upper[i]
-            and not unmet(session.problem, moved)
-            and slp._better(slp._point(moved), here)
-        ):
-            if "iteration limit" not in last.status.value:
-                unnamed = f"seed {seed}: {problem.names[i]} {'up' if sign > 0 else 'down'} improves ({last.reason})"
+    unnamed = unnamed_step(problem, session, last, x, lambda moved: slp._better(slp._point(moved), here))
     return Outcome(seed, best == total, all(row.satisfied for row in last.measures), unnamed)
 
 
 def judged_cip(seed: int) -> Outcome | None:
     """The same judgement for cip where it reads every target (None where it does not): the run
-    from the template's start, switched to cip; at its last design, a step of 1e-3 (relative) in
-    one free parameter that cip's own acceptance would take (its SIFR sum of the active margins
-    raised by more than 1e-6 relative, `improved`) is a defect unless the iteration limit stopped
-    it."""
+    from the template's start, switched to cip; at its last design, a step that cip's own
+    acceptance would take (its SIFR sum of the active margins raised by more than 1e-6 relative,
+    `improved`) is a defect unless the iteration limit stopped it (`unnamed_step`)."""
     from engine.cip.algorithm import improved, match_requirements
     from engine.stepping.registry import lookup
     from sessions.lifecycle import stepper, switch_algorithm
@@ -316,20 +301,39 @@ def judged_cip(seed: int) -> Outcome | None:
     here = cip._detect(x)[0]
     active = [c for c in here if c.active]
     scale = sum(abs(c.goodness) for c in active)
+
+    def takes(moved: np.ndarray) -> bool:
+        pairs = match_requirements(here, cip._detect(moved)[0], active)
+        gain = sum(n.goodness - o.goodness for o, n in pairs)
+        return bool(pairs) and improved(pairs, "sifr", 0.0) and gain > 1e-6 * scale
+
+    unnamed = unnamed_step(problem, session, last, x, takes) if active else None
+    return Outcome(seed, best == total, all(row.satisfied for row in last.measures), unnamed)
+
+
+def unnamed_step(problem: SmallProblem, session: Session, last, x: np.ndarray, takes) -> str | None:
+    """At the last design ``x``, a step of 1e-3 (relative) in one free parameter, within bounds
+    and constraints, that the algorithm's own rule ``takes``: described, unless the run's stop says
+    the iteration limit stopped it; None when there is none."""
+    from engine.design.constraints import unmet
+
+    if "iteration limit" in last.status.value:
+        return None
     lower, upper = session.problem.bounds()
-    unnamed = None
     for i, sign in itertools.product(range(x.size), (1.0, -1.0)):
         moved = x.copy()
         moved[i] *= 1.0 + sign * 1e-3
-        if not (active and lower[i] <= moved[i] <= upper[i]):
-            continue
-        pairs = match_requirements(here, cip._detect(moved)[0], active)
-        gain = sum(n.goodness - o.goodness for o, n in pairs)
-        if (
-            pairs
-            and improved(pairs, "sifr", 0.0)
-            and gain > 1e-6 * scale
-            and "iteration limit" not in last.status.value
-        ):
-            unnamed = f"seed {seed}: {problem.names[i]} {'up' if sign > 0 else 'down'} improves ({last.reason})"
-    return Outcome(seed, best == total, all(row.satisfied for row in last.measures), unnamed)
+        if lower[i] <= moved[i] <= upper[i] and not unmet(session.problem, moved) and takes(moved):
+            return f"seed {problem.seed}: {problem.names[i]} {'up' if sign > 0 else 'down'} improves ({last.reason})"
+    return None
+
+
+def check_judgements(outcomes: list[Outcome | None], algorithm: str, least: float = 0.9) -> None:
+    """The section's verdict on judged problems (None: not judged): the algorithm meets every
+    requirement on at least ``least`` of those brute force meets all of, and leaves no unnamed
+    improving step."""
+    judged_ones = [o for o in outcomes if o is not None]
+    feasible = [o for o in judged_ones if o.brute_force_meets_all]
+    missed = [o.seed for o in feasible if not o.meets_all]
+    assert len(feasible) - len(missed) >= least * len(feasible), f"{algorithm} missed {missed} of {len(feasible)}"
+    assert [o.unnamed for o in judged_ones if o.unnamed] == []

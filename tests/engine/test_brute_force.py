@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.engine.brute_force import judged, judged_cip
+from tests.engine.brute_force import check_judgements, judged, judged_cip
 
 SEEDS = range(20)
 
@@ -36,11 +36,8 @@ def test_defects_found_by_brute_force(seed, time_targets):
 @pytest.mark.slow
 def test_slp_meets_what_brute_force_meets():
     outcomes = [judged(seed) for seed in SEEDS]
-    feasible = [o for o in outcomes if o.brute_force_meets_all]
-    reached = [o.seed for o in feasible if o.meets_all]
-    assert len(feasible) >= 8  # the generator makes problems worth judging
-    assert len(reached) >= 0.9 * len(feasible), f"slp met all in {reached} of {[o.seed for o in feasible]}"
-    assert [o.unnamed for o in outcomes if o.unnamed] == []
+    assert sum(o.brute_force_meets_all for o in outcomes) >= 8  # the generator makes problems worth judging
+    check_judgements(outcomes, "slp")
 
 
 @pytest.mark.parametrize(
@@ -61,12 +58,9 @@ def test_cip_defects_found_by_brute_force(seed):
 @pytest.mark.slow
 def test_cip_meets_what_brute_force_meets():
     """The same twenty problems, those whose targets cip reads."""
-    outcomes = [o for o in (judged_cip(seed) for seed in SEEDS) if o is not None]
-    feasible = [o for o in outcomes if o.brute_force_meets_all]
-    reached = [o.seed for o in feasible if o.meets_all]
-    assert len(feasible) >= 3
-    assert len(reached) >= 0.9 * len(feasible), f"cip met all in {reached} of {[o.seed for o in feasible]}"
-    assert [o.unnamed for o in outcomes if o.unnamed] == []
+    outcomes = [judged_cip(seed) for seed in SEEDS]
+    assert sum(o is not None and o.brute_force_meets_all for o in outcomes) >= 3
+    check_judgements(outcomes, "cip")
 
 
 def test_the_step_reference_agrees_with_python_control():

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.engine.brute_force import generate, judged, judged_cip
+from tests.engine.brute_force import check_judgements, generate, judged, judged_cip
 from tests.fuzz.campaign import setting
 
 FIRST = 20  # seeds 0..19 are tests/engine/test_brute_force.py's
@@ -20,30 +20,15 @@ SEEDS = range(FIRST, FIRST + int(setting("BRUTE_FORCE_CASES", 0)))
 
 @pytest.mark.skipif(not SEEDS, reason="make fuzz runs it (LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES)")
 def test_slp_meets_what_brute_force_meets_on_many_problems():
-    outcomes = [judged(seed) for seed in SEEDS]
-    feasible = [o for o in outcomes if o.brute_force_meets_all]
-    reached = [o.seed for o in feasible if o.meets_all]
-    missed = sorted({o.seed for o in feasible} - set(reached))
-    assert len(reached) >= 0.9 * len(feasible), f"slp missed {missed} of {len(feasible)}"
-    assert [o.unnamed for o in outcomes if o.unnamed] == []
+    check_judgements([judged(seed) for seed in SEEDS], "slp")
 
 
 @pytest.mark.skipif(not SEEDS, reason="make fuzz runs it (LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES)")
 def test_cip_meets_what_brute_force_meets_on_many_problems():
-    outcomes = [o for o in (judged_cip(seed) for seed in SEEDS) if o is not None]
-    feasible = [o for o in outcomes if o.brute_force_meets_all]
-    reached = [o.seed for o in feasible if o.meets_all]
-    missed = sorted({o.seed for o in feasible} - set(reached))
-    assert len(reached) >= 0.9 * len(feasible), f"cip missed {missed} of {len(feasible)}"
-    assert [o.unnamed for o in outcomes if o.unnamed] == []
+    check_judgements([judged_cip(seed) for seed in SEEDS], "cip")
 
 
 @pytest.mark.skipif(not SEEDS, reason="make fuzz runs it (LOOPCRAFT_FUZZ_BRUTE_FORCE_CASES)")
 def test_slp_meets_what_brute_force_meets_with_time_targets():
     timed = [s for s in SEEDS if any("response" in t for t in generate(s, time_targets=True).targets)]
-    outcomes = [judged(seed, time_targets=True) for seed in timed]
-    feasible = [o for o in outcomes if o.brute_force_meets_all]
-    reached = [o.seed for o in feasible if o.meets_all]
-    missed = sorted({o.seed for o in feasible} - set(reached))
-    assert len(reached) >= 0.9 * len(feasible), f"slp missed {missed} of {len(feasible)}"
-    assert [o.unnamed for o in outcomes if o.unnamed] == []
+    check_judgements([judged(seed, time_targets=True) for seed in timed], "slp")
