@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import math
 import threading
 import time
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ from textual.message import Message
 from engine.stepping.protocol import State, Stepper, StepRecord
 from sessions.errors import SessionError
 from tui.figures.catalog import figure_key, figures
-from tui.screens.pole_lines import under_tableau
+from tui.screens.pole_lines import every_break_text, under_tableau
 from tui.state.views import View
 from tui.state.workbench import stored_json
 from tui.widgets.plots import FigurePlot
@@ -42,6 +43,7 @@ if TYPE_CHECKING:
 
 REDRAW_INTERVAL = 0.25  # while running, the plots are redrawn at most this often (s)
 PAINT_WAIT = 0.3  # s: after posting what the screen shows, the worker waits at most this for its paint
+BREAK_LINES_INTERVAL = 2.0  # while running, the loops at every break are made at most this often (s)
 
 
 @dataclass
@@ -173,6 +175,7 @@ class RunLoop:
         """In the worker: step, post every record, draw now and then; why it stopped,
         the last view and whether its plots were drawn."""
         state, view, last, drawn = request.state, request.view, 0.0, True
+        breaks = (-math.inf, 0, "")  # when the loops at every break were made, at which iteration, their lines
         self._painted.wait(PAINT_WAIT)  # the screen as the run starts is painted first
         for n in range(request.count):
             if self._pause.is_set():
@@ -182,7 +185,11 @@ class RunLoop:
             final = record.status.finished or n == request.count - 1
             show = final or time.monotonic() - last >= REDRAW_INTERVAL
             self._painted.clear()
-            poles = (figure_key(view), under_tableau(view), view) if show else None
+            poles = None
+            if show:
+                if final or time.monotonic() - breaks[0] >= BREAK_LINES_INTERVAL:
+                    breaks = (time.monotonic(), record.iteration, every_break_text(view))
+                poles = (figure_key(view), under_tableau(view, _dated(breaks, record.iteration)), view)
             self.app.post_message(
                 self.Stepped(state, record, show, stored_json(state, record, request.settings), poles)
             )
@@ -284,3 +291,11 @@ def _positive_integer(text: str) -> str | None:
         return None if int(float(text)) >= 1 else "at least 1"
     except (ValueError, OverflowError):
         return "a whole number"
+
+
+def _dated(breaks: tuple[float, int, str], iteration: int) -> str:
+    """The loops at every break made during a run, said to be of an earlier iteration when they are."""
+    _, made_at, lines = breaks
+    if not lines or made_at == iteration:
+        return lines
+    return f"{lines}\n(at iteration {made_at}: made every {BREAK_LINES_INTERVAL:g} s while running)"
