@@ -74,6 +74,11 @@ class Condition:
         """Every loop break of the condition (its ``breaks``, else its ``break_at`` alone)."""
         return self.breaks or (self.break_at,)
 
+    @property
+    def several_breaks(self) -> bool:
+        """Whether the condition names other loop breaks than its primary one."""
+        return self.every_break != (self.break_at,)
+
 
 @dataclass(frozen=True)
 class BandValue:

@@ -129,7 +129,7 @@ def design(session: Session, iteration: int | None = None, fit: bool = False) ->
                 network,
                 unity_chain(entries, network.inputs, condition.break_at),
                 network.sample_time,
-                condition.every_break if condition.every_break != (condition.break_at,) else (),
+                condition.every_break if condition.several_breaks else (),
             )
         )
     return Design(

@@ -25,11 +25,6 @@ Block = tuple
 HEADER = ("break", "gain margins (dB at {unit})", "phase margins (deg at {unit})", "crossover ({unit})", "disk margin")
 
 
-def several_breaks(c: Condition) -> bool:
-    """Whether the condition names breaks beyond its primary one."""
-    return c.every_break != (c.break_at,)
-
-
 def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
     """A heading, then per condition with several breaks its per-break table and its multi-loop
     disk margin (nothing when no condition has several breaks)."""
@@ -37,7 +32,7 @@ def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
     scale = 2 * math.pi if problem.grid.unit == "hz" else 1.0
     blocks: list[Block] = []
     for k, c in enumerate(problem.conditions):
-        if not several_breaks(c):
+        if not c.several_breaks:
             continue
         values = problem.condition_values(k, named=named)
         blocks.append(("h3", f"Condition {c.name}: every break"))

@@ -28,7 +28,7 @@ COMPUTING = "closed-loop poles, loops at every break: computing ..."
 def several_breaks(view: View) -> bool:
     """Whether the first plotted condition names breaks beyond its primary one."""
     conditions = view.problem.conditions
-    return bool(conditions) and conditions[view.first_plotted].every_break != (conditions[view.first_plotted].break_at,)
+    return bool(conditions) and conditions[view.first_plotted].several_breaks
 
 
 def under_tableau(view: View, breaks: str | None = None) -> str:

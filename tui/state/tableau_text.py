@@ -74,7 +74,7 @@ def break_lines(problem: Problem, condition: int, values: Mapping[str, float]) -
     each with its frequency; then the multi-loop disk margin at every break at once (certified bracket).  ''
     when the condition names one break."""
     c = problem.conditions[condition]
-    if c.every_break == (c.break_at,):
+    if not c.several_breaks:
         return ""
     scale = 1 / (2 * math.pi) if problem.grid.unit == "hz" else 1.0
     verdict = "unknown"

@@ -102,7 +102,7 @@ class View:
         """What the loop plots' titles say of the break: ' at NAME' when a plotted condition
         has several breaks (each condition's break when they differ), '' otherwise."""
         conditions = self.problem.conditions
-        plotted = [k for k in self.plotted() if conditions[k].every_break != (conditions[k].break_at,)]
+        plotted = [k for k in self.plotted() if conditions[k].several_breaks]
         names = list(dict.fromkeys(self.break_of(k) for k in plotted))
         return f" at {', '.join(names)}" if names else ""
 
