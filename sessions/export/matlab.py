@@ -27,6 +27,7 @@ from sessions.export.design_model import (
     identifiers,
     is_junction,
     loop_input,
+    refuse_improper,
     rows,
     w_to_z,
 )
@@ -78,7 +79,19 @@ def _complex(z) -> str:
     return f"{z.real!r}{'+' if z.imag >= 0 else '-'}{abs(z.imag)!r}i"
 
 
+# why an improper block is refused where GNU Octave joins the condition with connect (MATLAB's descriptor
+# models would take it, but the script must run in both): cip_dual_channel --fit gave |L| 666 at loopcraft's
+# crossover (where it is 1), the same loop with a pole at 1e4 rad/s added to each improper block gave 1.0
+OCTAVE_IMPROPER = (
+    "GNU Octave's connect joins improper blocks as descriptor systems, not reliably (wrong loops seen); give it "
+    "a far pole (as the pid template's filtered derivative)"
+)
+
+
 def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list[str]:
+    if not assembles(c):  # (an assembled loop evaluates each block's response: an improper one is exact)
+        fitted = any(e.kind == "fitted" for e in c.entries)
+        refuse_improper(c, OCTAVE_IMPROPER + (", or export the tables themselves (leave out --fit)" if fitted else ""))
     cut = loop_input(c)
     ident = identifiers(c.signals)
     produced = [ident[s] for s, _ in rows(c)]
