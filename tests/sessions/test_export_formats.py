@@ -51,7 +51,9 @@ def test_matlab_script_has_every_block_and_full_precision_numbers(capsys):
             )
             in text
         )
-    assert text.count("= -connect(") == 3 and text.count("allmargin(") == 3
+    # three conditions, each the loop at its four breaks (dc, u_att, u_rate, u_acc), the others closed
+    assert text.count("= -connect(") == 12 and text.count("allmargin(") == 12
+    assert "L_switch_out_at_u_att = -connect(" in text
     assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc', 'OutputName', 'delta')" not in text  # broken at dc
     assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc_loop', 'OutputName', 'delta')" in text
     assert "sumblk('dc_loop = dc')" in text
