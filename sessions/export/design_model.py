@@ -61,6 +61,12 @@ class ExportEntry:
             return self.num[0] / self.den[0]
         return None
 
+    @property
+    def degrees(self) -> tuple[int, int]:
+        """(numerator degree, denominator degree) of a rational or fitted entry, leading zeros dropped."""
+        zeros, poles = (len(np.trim_zeros(np.asarray(v, dtype=float), "f")) - 1 for v in (self.num, self.den))
+        return zeros, poles
+
 
 @dataclass(frozen=True)
 class ExportCondition:
@@ -248,6 +254,18 @@ def loop_input(condition: ExportCondition, at: str | None = None) -> str:
     while name in taken:
         name += "_"
     return name
+
+
+def refuse_improper(condition: ExportCondition, why: str) -> None:
+    """A `SessionError` naming the condition's first improper block (a rational or fitted entry
+    with more zeros than poles); ``why``: what the target tool would do with it."""
+    for e in condition.entries:
+        zeros, poles = e.degrees
+        if e.kind in ("rational", "fitted") and zeros > poles:
+            raise SessionError(
+                f"condition {condition.name!r}: block {e.label!r} is improper (numerator degree {zeros} > "
+                f"denominator degree {poles}): {why}"
+            )
 
 
 def rows(condition: ExportCondition) -> list[tuple[str, list[ExportEntry]]]:

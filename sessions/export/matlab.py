@@ -8,6 +8,9 @@ the uses of the break signal read an injected loop signal, so the open loop
 is ``L = -connect(..., loop, break)`` and ``allmargin(L)`` gives every
 margin where it exists; GNU Octave's control package has none, so there the
 script calls ``margin(L)`` (the smallest gain and phase margins) and says why.
+With several loop breaks, every break's uses read its own loop signal and the
+loop at each break (``L_<condition>_at_<break>`` beside the primary's) closes the
+others with a ``sumblk`` each: the loop-at-a-time margins.
 The closed loop's poles are asked only of a loop with no table (``pole``
 refuses ``frd`` models); GNU Octave, whose ``connect`` cannot join ``frd`` models, assembles
 a tabulated loop at the tables' frequencies instead (`octave_tables`).  The parameters' values are in a comment: every
@@ -27,6 +30,7 @@ from sessions.export.design_model import (
     identifiers,
     is_junction,
     loop_input,
+    refuse_improper,
     rows,
     w_to_z,
 )
@@ -78,28 +82,28 @@ def _complex(z) -> str:
     return f"{z.real!r}{'+' if z.imag >= 0 else '-'}{abs(z.imag)!r}i"
 
 
+# why an improper block is refused where GNU Octave joins the condition with connect (MATLAB's descriptor
+# models would take it, but the script must run in both): cip_dual_channel --fit gave |L| 666 at loopcraft's
+# crossover (where it is 1), the same loop with a pole at 1e4 rad/s added to each improper block gave 1.0
+OCTAVE_IMPROPER = (
+    "GNU Octave's connect joins improper blocks as descriptor systems, not reliably (wrong loops seen); give it "
+    "a far pole (as the pid template's filtered derivative)"
+)
+
+
 def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list[str]:
-    cut = loop_input(c)
-    ident = identifiers(c.signals)
-    produced = [ident[s] for s, _ in rows(c)]
-    inputs = [ident[s] for s in c.inputs]
+    if not assembles(c):  # (an assembled loop evaluates each block's response: an improper one is exact)
+        fitted = any(e.kind == "fitted" for e in c.entries)
+        refuse_improper(c, OCTAVE_IMPROPER + (", or export the tables themselves (leave out --fit)" if fitted else ""))
+    loops = {b: loop_input(c, b) for b in c.breaks or (c.break_at,)}
     lines = [
         f"%% condition '{c.name}' (variable {c.variable}"
         f"{'; the w-plane, w = (z - 1)/(z + 1), written as s' if c.variable == 'w' else ''})",
         f"blocks_{name} = {{}};",
     ]
     for signal, entries in rows(c):
-        lines += _row(c, name, signal, entries, cut)
-    cells = f"blocks_{name}{{:}}"
-    connected = [
-        f"L_{name} = -connect({cells}, '{cut}', '{ident[c.break_at]}');  % open loop at '{c.break_at}'",
-        "% every margin (allmargin); GNU Octave's control package has no allmargin: there margin gives",
-        "% the smallest gain margin (a ratio) and phase margin (deg) with their frequencies (rad/s)",
-        f"if exist('allmargin'), margins_{name} = allmargin(L_{name}), "
-        f"else, [Gm_{name}, Pm_{name}, Wcg_{name}, Wcp_{name}] = margin(L_{name}), end",
-        f"closed_{name} = connect({cells}, sumblk('{cut} = {ident[c.break_at]}'), "
-        f"{_cell(inputs)}, {_cell(produced)});  % all loops closed",
-    ]
+        lines += _row(c, name, signal, entries, loops)
+    connected = _connected(c, name, loops)
     if assembles(c):
         connected = [
             "if exist('OCTAVE_VERSION', 'builtin')",
@@ -113,15 +117,56 @@ def _condition(c: ExportCondition, name: str, sample_time: float | None) -> list
         lines.append("% no closed-loop poles: a tabulated entry (frd) has none (pole refuses frd models)")
     else:
         lines.append(f"poles_{name} = pole(closed_{name})")
-    if c.variable == "w":
-        ts = "-1" if sample_time is None else repr(float(sample_time))
-        for e in c.entries:
-            if e.compensator and e.kind == "rational":
-                numz, denz = w_to_z(e.num, e.den)
-                lines.append(
-                    f"Cz_{name}_{_field(e.label)} = tf({_vector(numz)}, {_vector(denz)}, {ts})  "
-                    f"% {e.label} in z (Ts {ts}{': unstated' if sample_time is None else ''})"
-                )
+    return lines + (_z_forms(c, name, sample_time) if c.variable == "w" else [])
+
+
+def _connected(c: ExportCondition, name: str, loops: dict[str, str]) -> list[str]:
+    """The open loop at the primary break (and, with several breaks, at each other one), every
+    other loop closed by a sumblk joining its loop signal to its break; their margins; the closed loop."""
+    ident = identifiers(c.signals)
+    produced = [ident[s] for s, _ in rows(c)]
+    inputs = [ident[s] for s in c.inputs]
+    cells = f"blocks_{name}{{:}}"
+
+    def closing(cut: str | None) -> str:  # connect's sumblks closing every loop but cut's
+        return "".join(f", sumblk('{loop} = {ident[b]}')" for b, loop in loops.items() if b != cut)
+
+    lines = [
+        f"L_{name} = -connect({cells}{closing(c.break_at)}, '{loops[c.break_at]}', '{ident[c.break_at]}');"
+        f"  % open loop at '{c.break_at}'{' (the other loops closed)' if c.breaks else ''}",
+        "% every margin (allmargin); GNU Octave's control package has no allmargin: there margin gives",
+        "% the smallest gain margin (a ratio) and phase margin (deg) with their frequencies (rad/s)",
+        _margins(name),
+    ]
+    for b in c.breaks:
+        if b != c.break_at:
+            at = f"{name}_at_{ident[b]}"
+            lines += [
+                f"L_{at} = -connect({cells}{closing(b)}, '{loops[b]}', '{ident[b]}');  % open loop at '{b}', "
+                "the other loops closed",
+                _margins(at),
+            ]
+    return lines + [
+        f"closed_{name} = connect({cells}{closing(None)}, {_cell(inputs)}, {_cell(produced)});  % all loops closed"
+    ]
+
+
+def _margins(at: str) -> str:
+    """The margins of L_<at>: allmargin where it exists (MATLAB), else margin (GNU Octave)."""
+    return f"if exist('allmargin'), margins_{at} = allmargin(L_{at}), else, [Gm_{at}, Pm_{at}, Wcg_{at}, Wcp_{at}] = margin(L_{at}), end"
+
+
+def _z_forms(c: ExportCondition, name: str, sample_time: float | None) -> list[str]:
+    """A w-plane condition's compensators in z (Ts: ``sample_time``, else -1, unstated)."""
+    ts = "-1" if sample_time is None else repr(float(sample_time))
+    lines = []
+    for e in c.entries:
+        if e.compensator and e.kind == "rational":
+            numz, denz = w_to_z(e.num, e.den)
+            lines.append(
+                f"Cz_{name}_{_field(e.label)} = tf({_vector(numz)}, {_vector(denz)}, {ts})  "
+                f"% {e.label} in z (Ts {ts}{': unstated' if sample_time is None else ''})"
+            )
     return lines
 
 
@@ -129,12 +174,13 @@ def _cell(names: list[str]) -> str:
     return "{" + ", ".join(f"'{n}'" for n in names) + "}"
 
 
-def _row(c: ExportCondition, name: str, signal: str, entries: list[ExportEntry], cut: str) -> list[str]:
-    """The systems defining one signal: a block, a sumblk, or blocks summed by a sumblk."""
+def _row(c: ExportCondition, name: str, signal: str, entries: list[ExportEntry], loops: dict[str, str]) -> list[str]:
+    """The systems defining one signal: a block, a sumblk, or blocks summed by a sumblk; a use of
+    a break reads its loop signal (``loops``)."""
     out = c.ident(signal)
 
     def reads(e: ExportEntry) -> str:
-        return cut if e.input == c.break_at else c.ident(e.input)
+        return loops.get(e.input) or c.ident(e.input)
 
     if len(entries) == 1:
         return _system(entries[0], reads(entries[0]), out, name)

@@ -27,6 +27,7 @@ from sessions.export.design_model import (
     identifiers,
     is_junction,
     loop_input,
+    refuse_improper,
     rows,
     w_to_z,
 )
@@ -174,13 +175,7 @@ def _condition(c: ExportCondition, name: str) -> str:
             f"condition {c.name!r}: a table in a diagram that is not a unity loop: python-control's interconnect "
             "joins no frd; export its rational fit with --fit"
         )
-    for e in c.entries:
-        zeros, poles = (len(np.trim_zeros(np.asarray(v, dtype=float), "f")) - 1 for v in (e.num, e.den))
-        if e.kind in ("rational", "fitted") and zeros > poles:
-            raise SessionError(
-                f"condition {c.name!r}: block {e.label!r} is improper (numerator degree {zeros} > denominator degree "
-                f"{poles}): python-control's interconnect cannot realize it in a diagram that is not a unity loop"
-            )
+    refuse_improper(c, "python-control's interconnect cannot realize it in a diagram that is not a unity loop")
     cut = loop_input(c)
     ident = identifiers(c.signals)
     produced = [ident[s] for s, _ in rows(c)]

@@ -51,7 +51,9 @@ def test_matlab_script_has_every_block_and_full_precision_numbers(capsys):
             )
             in text
         )
-    assert text.count("= -connect(") == 3 and text.count("allmargin(") == 3
+    # three conditions, each the loop at its four breaks (dc, u_att, u_rate, u_acc), the others closed
+    assert text.count("= -connect(") == 12 and text.count("allmargin(") == 12
+    assert "L_switch_out_at_u_att = -connect(" in text
     assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc', 'OutputName', 'delta')" not in text  # broken at dc
     assert "tf([-1600.0], [1.0 56.0 1600.0], 'InputName', 'dc_loop', 'OutputName', 'delta')" in text
     assert "sumblk('dc_loop = dc')" in text
@@ -154,15 +156,34 @@ def test_tabulated_plants_export_their_tables_which_a_peer_reads_back_exactly(ca
 
 
 def test_a_fit_is_a_labelled_option_with_its_residual_or_refused_with_the_reason(capsys):
-    text = _export(capsys, EXAMPLES / "cip_dual_channel.json", "matlab", "--fit")
+    text = _export(capsys, EXAMPLES / "cip_launch_vehicle.json", "matlab", "--fit")
     residuals = [float(r) for r in re.findall(r"AAA fit of table\(.*?\), degree \d+, residual ([0-9.e+-]+)", text)]
-    assert len(residuals) == 2 and all(0 < r < 1e-3 for r in residuals) and "zpk([" in text
-    # its compensators are improper (numerator degree 2 over 1) in a two-channel diagram: python-control's
-    # interconnect cannot realize them (main wrote a script that raised 'transfer function is non-proper')
-    assert main(["export", str(EXAMPLES / "cip_dual_channel.json"), "--to", "python", "--fit"]) == 2
-    assert "block 'attitude.1' is improper (numerator degree 2 > denominator degree 1)" in capsys.readouterr().err
+    assert len(residuals) == 1 and all(0 < r < 1e-3 for r in residuals) and "zpk([" in text
     assert main(["export", str(EXAMPLES / "seidel_inlet_pi.json"), "--to", "python", "--fit"]) == 2
     assert "misses the table by" in capsys.readouterr().err  # a fit that does not stand for the table
+
+
+def test_an_improper_block_is_refused_by_name_by_the_python_and_matlab_exports(capsys, tmp_path):
+    """python-control's interconnect cannot realize an improper block (main wrote a script that raised
+    'transfer function is non-proper'); GNU Octave's connect joins it as a descriptor system, wrongly on
+    cip_dual_channel --fit (|L| 666 at loopcraft's crossover, where it is 1): main wrote that MATLAB script
+    (exit 0).  Both exports refuse it in one line naming the block; MATLAB's in a unity loop too (a
+    proportional-derivative typed by hand).  The tables themselves are exported: Octave assembles that loop
+    from each block's response (exact for an improper one: test_octave_exports)."""
+    dual = EXAMPLES / "cip_dual_channel.json"
+    for to in ("python", "matlab"):
+        assert main(["export", str(dual), "--to", to, "--fit"]) == 2
+        err = capsys.readouterr().err
+        assert (
+            err.count("\n") == 1 and "block 'attitude.1' is improper (numerator degree 2 > denominator degree 1)" in err
+        )
+    pd = tmp_path / "pd.json"
+    assert main(["new", str(pd), "--plant", "1/(s*(s+1)*(s+5))", "--compensator", "K*(1+Td*s)"]) == 0
+    capsys.readouterr()
+    assert main(["export", str(pd), "--to", "matlab"]) == 2
+    err = capsys.readouterr().err
+    assert "block 'compensator' is improper (numerator degree 1 > denominator degree 0)" in err and "far pole" in err
+    assert "frd(" in _export(capsys, dual, "matlab")
 
 
 def test_a_state_space_block_is_exported_as_its_matrices(capsys, tmp_path):

@@ -30,11 +30,10 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 SESSIONS = sorted(p.name for p in EXAMPLES.glob("*.json") if json.loads(p.read_text())["problem"].get("conditions"))
 TABULATED = {name for name in SESSIONS if '"kind": "table"' in (EXAMPLES / name).read_text()}
 # the seidel inlet's tables: export --fit refuses their fit (7.9e-2 off the table once far roots are
-# dropped); the tables themselves run in Octave (test_a_table_exported_as_frd_runs_in_octave_...)
-NOT_IN_OCTAVE = {name for name in TABULATED if name.startswith("seidel_inlet")}
-# compensators of numerator degree 2 over 1: Octave's connect of such tf blocks (as descriptor systems)
-# gives a loop whose |L| is 1.2e4 at loopcraft's crossover (where the table's, assembled per frequency, is 1)
-IMPROPER_BLOCKS = {"cip_dual_channel.json"}
+# dropped); cip_dual_channel's compensators are improper (numerator degree 2 over 1), which the MATLAB
+# export refuses (Octave's connect joined them wrongly: test_export_formats); the tables themselves run in
+# Octave (test_a_table_exported_as_frd_runs_in_octave_...)
+NOT_IN_OCTAVE = {name for name in TABULATED if name.startswith("seidel_inlet") or name == "cip_dual_channel.json"}
 
 
 def _octave(script: Path, asked: dict[str, list[float]]) -> tuple[dict, dict]:
@@ -105,8 +104,6 @@ def test_the_matlab_export_runs_in_octave_and_its_margins_are_loopcraft_s(name, 
     }
     asked = {c: [m["frequency"] for m in a["gain_margins"] + a["phase_margins"]] for c, a in ours.items()}
     margins, responses = _octave(script, asked)
-    if name in IMPROPER_BLOCKS:  # ran, but Octave's connect of improper tf blocks is wrong (see above)
-        return
     # a fit stands for its table to its residual (at most 1e-3, stated in the script; loopcraft's margins
     # are the table's): there Octave's L and its margins are loopcraft's to 1e-3
     rel = 1e-3 if name in TABULATED else 1e-6
@@ -169,3 +166,36 @@ def test_a_table_exported_as_frd_runs_in_octave_as_loopcraft_s_loop(name, tmp_pa
         ours = open_loop(c.network, c.break_at, found[:, 0], session.problem.condition_values(k), sensitivities=False)
         theirs = found[:, 1] + 1j * found[:, 2]
         assert np.max(np.abs(theirs - ours.value) / np.abs(ours.value)) <= 1e-12
+
+
+@pytest.mark.long
+def test_the_matlab_export_gives_the_loop_at_each_break_with_the_others_closed(tmp_path):
+    """Issue 57: a condition with several breaks (the two-path autopilot of test_two_path_breaks:
+    dc, u_att, u_rate).  The script writes the loop at each break, every other loop closed by a
+    sumblk joining its loop signal to its break; before, it gave the loop at the primary break
+    alone (no L_cruise_at_u_att).  Octave's margin of each is one of loopcraft's margins at that
+    break (engine.analysis.analyze) to 1e-6, and at u_att python-control's -KA/s * feedback(B A, R, +1)
+    written in test_two_path_breaks gives the same phase margin."""
+    from engine.analysis import analyze
+    from tests.sessions.test_two_path_breaks import document, loop_at_u_att, phase_margin
+
+    path, script = tmp_path / "two_paths.json", tmp_path / "two_paths.m"
+    path.write_text(json.dumps(document()))
+    assert main(["export", str(path), "--to", "matlab", "--out", str(script)]) == 0
+    names = {"dc": "cruise", "u_att": "cruise_at_u_att", "u_rate": "cruise_at_u_rate"}
+    prints = "".join(
+        f"fprintf('M {b} %.17g %.17g %.17g %.17g\\n', Gm_{v}, Pm_{v}, Wcg_{v}, Wcp_{v});" for b, v in names.items()
+    )
+    found = {line[1]: [float(v) for v in line[2:]] for line in _run(script, prints) if line[:1] == ["M"]}
+    session = load_session(path)
+    c = session.problem.conditions[0]
+    for cut, (gm, pm, wcg, wcp) in found.items():
+        ours = analyze(c.network, cut, session.problem.grid.omega, session.problem.condition_values(0)).margins
+        gains = [(float(m.gain_db), float(m.frequency)) for m in ours.gain if m.gain_db is not None]
+        phases = [(float(m.phase_deg), float(m.frequency)) for m in ours.phase if m.phase_deg is not None]
+        assert any(
+            20 * math.log10(gm) == pytest.approx(db, rel=1e-6) and wcg == pytest.approx(w, rel=1e-6) for db, w in gains
+        ), cut
+        assert any(pm == pytest.approx(deg, rel=1e-6) and wcp == pytest.approx(w, rel=1e-6) for deg, w in phases), cut
+    pm, wc = phase_margin(loop_at_u_att(1.0, 0.1))
+    assert found["u_att"][1] == pytest.approx(pm, rel=1e-6) and found["u_att"][3] == pytest.approx(wc, rel=1e-6)

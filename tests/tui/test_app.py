@@ -118,7 +118,7 @@ async def test_undo_and_start_from_an_earlier_iteration(workdir):
         curves = [s for s in history_plot.series if s.label][:2]  # the unlabelled: unit circle, mirror images
         assert [s.label for s in curves] == ["iteration 1", "current"]
         assert curves[0].y != curves[1].y
-        await pilot.press("b")
+        await pilot.press("enter")  # start again from here
         await pilot.pause()
         await pilot.press("y")  # later iterations will be dropped: yes
         await settle(app, pilot)

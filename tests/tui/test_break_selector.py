@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from tests.sessions.test_two_path_breaks import document, loop_at_u_att, phase_margin
-from tests.tui.test_app import settle, synchronous
+from tests.tui.test_app import select_row, settle, synchronous
 from tui.app import LoopcraftApp
 from tui.screens.main import PLOT_TABS
 
@@ -114,3 +114,30 @@ def test_the_loop_plots_draw_the_requirements_of_the_targets_read_at_their_break
     at_u_att = replace(view, plotted_break="u_att")
     assert at_u_att.break_title() == " at u_att" and at_u_att.at_chosen_break()
     assert [(r.value, r.met) for r in requirements(at_u_att)] == [(10.0, True)]
+
+
+@synchronous
+async def test_b_picks_the_break_from_the_history_table_and_enter_starts_again_there(tmp_path):
+    """Before, the History table's own b (start again from here) shadowed the app's break key there
+    (Textual asks the focused widget first): b left plotted_break None.  Now b is the break key
+    everywhere and the table's start-again is enter, which asks first."""
+    path = tmp_path / "two_paths.json"
+    path.write_text(json.dumps(document()))
+    app = LoopcraftApp(path)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        await select_row(app, pilot, "4", "history-table", 0)
+        await settle(app, pilot)
+        assert app.screen.query_one("#history-table").has_focus
+        await pilot.press("b")
+        await settle(app, pilot)
+        assert app.bench.plotted_break == "u_att"
+        assert app.screen.query_one("#history-plot").figure.title == "Nyquist at u_att: start"
+        await pilot.press("enter")
+        await pilot.pause()
+        assert app.bench.iteration == 1  # asked first
+        await pilot.press("y")
+        await settle(app, pilot)
+        assert app.bench.iteration == 0

@@ -98,7 +98,7 @@ async def test_starting_again_from_an_earlier_iteration_shows_on_every_plot(work
             await settle(app, pilot)
         assert app.bench.iteration == 3
         await select_row(app, pilot, "4", "history-table", 1)
-        await pilot.press("b")
+        await pilot.press("enter")  # start again from here
         await pilot.pause()
         await pilot.press("y")
         await settle(app, pilot)

@@ -202,10 +202,14 @@ class SettingsTable(RefTable):
 
 
 class HistoryTable(RefTable):
-    """One row per iteration; b makes the selected one the current iteration (the
-    History pane around it marks one and chooses the plot's view)."""
+    """One row per iteration; enter makes the selected one the current iteration, after asking
+    (the History pane around it marks one and chooses the plot's view).  Not b: that is the app's
+    break key, which draws the History plot at the next loop break from this table too."""
 
-    BINDINGS = identified("history", [Binding("b", "start_here", "start here")])
+    BINDINGS = identified(
+        "history",
+        [Binding("enter", "start_here", "start here", tooltip="start again from the selected iteration (asks first)")],
+    )
     KIND = "history"
     MUTATING = frozenset({"start_here"})
 
