@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -346,3 +347,19 @@ def test_a_tolerance_study_reports_the_rows_at_a_break_and_adopts_their_worst(tm
         assert worst["worst"] == pytest.approx(pm, abs=1e-9)
         adopted = load_session(path).problem.named()
         assert adopted["KA"] == pytest.approx(worst["worst_parameters"]["KA"], rel=1e-15)
+
+
+def test_the_bundled_two_path_example_says_what_it_does():
+    """`sessions/examples/two_path_autopilot.json` is this module's autopilot with its example's
+    targets: its notes' start figures are the loops at each break (checked against python-control
+    above, `loop_at_u_att`), and slp meets every target, as the notes say, and replays."""
+    path = Path(__file__).resolve().parents[2] / "sessions" / "examples" / "two_path_autopilot.json"
+    data = json.loads(path.read_text())
+    assert data["problem"]["conditions"] == document()["problem"]["conditions"]
+    session = load_session(path)
+    pm, _ = phase_margin(loop_at_u_att(1.0, 0.1))
+    assert f"{pm:.1f} deg at u_att" in data["notes"]
+    records = run_session(session, until_done=True, autosave=False)
+    assert all(row.satisfied for row in records[-1].measures)
+    assert f"in {len(records)} iterations" in data["notes"]
+    assert replay(session).ok
