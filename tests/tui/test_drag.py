@@ -163,7 +163,13 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
         upper = [k for k in range(len(probe.x)) if clear(k)]
         a, b = upper[len(upper) // 3], upper[2 * len(upper) // 3]
         start, end = _cell(frame, probe.x[a], probe.y[a]), _cell(frame, probe.x[b], probe.y[b])
-        await _drag(app, pilot, plot, start, [end])
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, end)
+        await settle(app, pilot)
+        assert "coarse: exact on release" in plot.figure.title  # held: the coarse locus alone
+        _post(plot, events.MouseUp, end)
+        await settle(app, pilot)
+        assert "coarse" not in plot.figure.title  # released: refined
         x, y = frame.point(*end)
         across, up = (frame.right - frame.left) / (x1 - x0), 2 * (frame.bottom - frame.top) / (y1 - frame.ylim[0])
         nearest = min(range(len(probe.x)), key=lambda k: math.hypot((probe.x[k] - x) * across, (probe.y[k] - y) * up))
