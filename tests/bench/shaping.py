@@ -201,8 +201,9 @@ async def _drag(path: Path, moves: int) -> tuple[list[float], list[float], float
                 start = time.perf_counter()
                 _mouse(plot, events.MouseUp if k == moves else events.MouseMove, cell)
                 await _until(lambda: _values(app) != before, start)
-                await _until(lambda: len(paints) > painted, start)
-                tableau.append(paints[painted] - start)
+                changed = time.perf_counter()  # (a paint before the edit, such as a text selection's, shows no tableau)
+                await _until(lambda: paints[-1] >= changed if len(paints) > painted else False, start)
+                tableau.append(next(t for t in paints[painted:] if t >= changed) - start)
                 released = k == moves  # the phase panel follows on release alone
                 await _until(lambda: plot.id in drawn and (phase.id in phase_drawn or not released), start)
                 at = max(drawn[plot.id], phase_drawn.get(phase.id, 0.0))

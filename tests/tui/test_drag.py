@@ -163,7 +163,13 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
         upper = [k for k in range(len(probe.x)) if clear(k)]
         a, b = upper[len(upper) // 3], upper[2 * len(upper) // 3]
         start, end = _cell(frame, probe.x[a], probe.y[a]), _cell(frame, probe.x[b], probe.y[b])
-        await _drag(app, pilot, plot, start, [end])
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, end)
+        await settle(app, pilot)
+        assert "coarse: exact on release" in plot.figure.title  # held: the coarse locus alone
+        _post(plot, events.MouseUp, end)
+        await settle(app, pilot)
+        assert "coarse" not in plot.figure.title  # released: refined
         x, y = frame.point(*end)
         across, up = (frame.right - frame.left) / (x1 - x0), 2 * (frame.bottom - frame.top) / (y1 - frame.ylim[0])
         nearest = min(range(len(probe.x)), key=lambda k: math.hypot((probe.x[k] - x) * across, (probe.y[k] - y) * up))
@@ -301,7 +307,11 @@ async def test_a_drag_is_coarse_while_held_exact_on_release_and_keeps_its_item_p
     frequencies, no margin marks), from the worker's drawing in the view held still; the
     drag keeps moving the zero it pressed (now zero2) while the lead's stays at 1 rad/s, and
     selects no text;
-    on release every plot is exact, and the margins are python-control's of the design."""
+    on release every plot is exact, drawn by the worker alone (the coarse figure is not drawn
+    again in the view given back first), and the margins are python-control's of the design."""
+    import threading
+
+    from tui.drawing.text_canvas import draw
     from tui.figures.catalog import COARSE_POINTS
 
     app = lead_app(tmp_path, monkeypatch)
@@ -325,8 +335,17 @@ async def test_a_drag_is_coarse_while_held_exact_on_release_and_keeps_its_item_p
         assert len(plot.figure.series[0].x) <= COARSE_POINTS and not any("PM" in s.label for s in plot.figure.series)
         assert plot.drawing is plot._prebuilt[1]  # the worker's drawing, in the view held still
         assert app.screen._select_state is None  # no text selected (the whole screen repainted a move)
+        drawn_here = []  # drawings made on the UI thread (a plot's render without the worker's)
+
+        def counted(*args):
+            if threading.current_thread() is threading.main_thread():
+                drawn_here.append(args[0].title)
+            return draw(*args)
+
+        monkeypatch.setattr("tui.widgets.plots.draw", counted)
         _post(plot, events.MouseUp, path[-1])
         await settle(app, pilot)
+        assert not drawn_here and plot.drawing is plot._prebuilt[1]  # the release's figures: the worker's
         values = start_values(app)
         assert 1 / values[added] == pytest.approx(10 ** frame.point(*path[-1])[0], rel=1e-9) and values["T1"] == 1.0
         names = {h.name: 10**h.x for h in plot.figure.handles}

@@ -325,13 +325,19 @@ COARSE_LOCUS_POINTS = 60  # the first, coarse locus the workbench draws while th
 
 
 def locus_figure(
-    view, parameter: str = "gain", iteration: int | None = None, subject: str | None = None, points: int | None = None
+    view,
+    parameter: str = "gain",
+    iteration: int | None = None,
+    subject: str | None = None,
+    points: int | None = None,
+    refining: bool = True,
 ) -> Figure:
     """The root locus of the first plotted condition at an iteration's design (None: the
     current one) in the loop gain k (or in a named parameter, a decade either side of its
     value), that design's closed-loop poles marked, the imaginary-axis crossings below;
     the title names ``subject`` (default: the condition).  ``points``: a coarse locus
-    of at most so many points (its title says so), drawn while the fine one is computed."""
+    of at most so many points (its title says so), drawn while the fine one is computed
+    (``refining``), else while a drag goes (the fine one on release)."""
     fig = Figure(
         title="Root locus (loop gain k)",
         xlabel="Re",
@@ -368,7 +374,8 @@ def locus_figure(
     )
     name = "k" if parameter == "gain" else parameter
     crossings = ", ".join(f"{name}={x.value:.4g} at {x.frequency:.4g} rad/s" for x in locus.crossings[:3])
-    status = "coarse: refining ..." if points else "" if locus.status == "complete" else locus.status
+    coarse = "coarse: refining ..." if refining else "coarse: exact on release"
+    status = coarse if points else "" if locus.status == "complete" else locus.status
     fig.title = f"Root locus in {'the loop gain' if parameter == 'gain' else parameter}: {subject or c.name}" + (
         f" ({status})" if status else ""
     )

@@ -533,6 +533,14 @@ class MainScreen(Screen):
         figure is of an earlier design: a run finished, or an edit made, while it was hidden."""
         self.call_after_refresh(self.draw_missing)
 
+    def redraw_released(self, plot: FigurePlot) -> None:
+        """A dragged plot after the release, its view given back: drawn again now unless
+        a figure of the design is on its way (`draw_missing`: drawing the coarse figure in
+        the view given back first was a draw on the UI thread, 60 ms, before the release's edit)."""
+        coming = plot.id in FIGURE_IDS and self._figure_keys.get(plot.id) != self._wanted_key(self.bench.view())
+        if not coming:
+            plot.refresh()
+
     def _wanted_key(self, view: View) -> tuple:
         """The key the plots on screen should show: the view's `figure_key`, a drag's coarse
         frame's apart (its release draws the plots anew, exact)."""

@@ -87,6 +87,7 @@ class Shaping:
         if self.app.busy:
             if message.done:
                 self.app.notify("a drag: not while a run or a sweep goes (space pauses it)", timeout=3)
+                message.plot.refresh()  # its view given back
             return
         if not message.done and self.bench.iteration > 0 and self.bench.start is None:
             return  # the first edit asks where to start from: once, on release
@@ -104,6 +105,7 @@ class Shaping:
         if message.done:
             self.bench.edits.end_burst()
             self.screen.refresh_plots()  # every plot of the design the drag left (those of no change too)
+            self.screen.redraw_released(message.plot)
 
     def dragged(self, message: FigurePlot.Dragged) -> tuple[Callable[[], object], str]:
         """The edit that puts the dragged handle under the pointer, and what it does."""

@@ -115,26 +115,31 @@ class ViewActions:
         """The root locus, computed in a thread worker only while its tab is shown
         (a locus of a dozen bending modes takes seconds): coarse first, then refined, one
         design at a time and only the latest one waiting (`LatestWork`: a held shaping key
-        never queues stale loci); kept until the design changes."""
+        never queues stale loci); kept until the design changes.  While a drag on the
+        locus goes, the coarse one alone, the last one shown until it comes; the release
+        refines it."""
         screen = self.screen
         plots = screen.query_one_optional("#plots", TabbedContent)
         if plots is None or plots.active != "p-locus" or self.screen.query_one_optional("#locus") is None:
             return
         view = self.screen.bench.view() if view is None else view
-        key = (Same(view.problem), view.iteration, view.plotted_condition, self.locus_parameter)
+        dragged = screen.dragged_plot == "locus"
+        key = (Same(view.problem), view.iteration, view.plotted_condition, self.locus_parameter, dragged)
         if key == self._locus_key:
             return
         self._locus_key = key
-        self.screen.query_one("#locus", FigurePlot).show(Figure(empty_message="computing the root locus ..."))
+        if not dragged:
+            self.screen.query_one("#locus", FigurePlot).show(Figure(empty_message="computing the root locus ..."))
 
         parameter = self.locus_parameter
+        passes = (COARSE_LOCUS_POINTS,) if dragged else (COARSE_LOCUS_POINTS, None)  # coarse, then as fine as it goes
 
         def compute() -> None:
             roots = compensator_roots(view)  # the same for the coarse locus and the fine one
-            for points in (COARSE_LOCUS_POINTS, None):  # coarse first, then as fine as the engine goes
+            for points in passes:
                 if key != self._locus_key:
                     return  # a newer design is asked for: this one is passed over
-                figure = locus_figure(view, parameter, points=points)
+                figure = locus_figure(view, parameter, points=points, refining=not dragged)
                 overlays.poles(figure, requirements(view))
                 overlays.compensator_roots(figure, roots)
                 screen.post_message(self.LocusDrawn(key, figure))

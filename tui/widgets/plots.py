@@ -117,8 +117,9 @@ class FigurePlot(PlotextPlot):
     class Dragged(Message):
         """A handle (`Figure.handles`, or the figure's curve) dragged: the pointer at data
         (x, y); ``value`` the locus's value at the point nearest it (a "locus" drag, on the
-        locus as pressed); ``done`` on release; ``drag`` counts the plot's drags (each one
-        undo step)."""
+        locus as pressed); ``done`` on release (the view given back: the screen draws the
+        plot again, `MainScreen.redraw_released`); ``drag`` counts the plot's drags (each
+        one undo step)."""
 
         def __init__(
             self, plot: FigurePlot, handle: Handle, x: float, y: float, value: object, done: bool, drag: int
@@ -257,12 +258,11 @@ class FigurePlot(PlotextPlot):
         grip, self._grip = self._grip, None
         if grip is not None:
             self.navigation.box = grip.box
-            if not clicked:
+            if not clicked:  # the screen draws it again, in the view given back (a new figure, or this one)
                 offset = event.get_content_offset_capture(self)
                 self._post_drag((offset.x, offset.y), done=True, grip=grip)
-            self.refresh()
-            if not clicked:
                 return
+            self.refresh()
         cell = self._cell(event)
         frame = self._frame(cell)
         if clicked and frame is not None:
