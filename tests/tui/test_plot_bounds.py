@@ -123,3 +123,14 @@ def test_a_thinned_line_is_drawn_within_a_dot_of_the_whole_line(seed):
     near_a = {(c + i, r + j) for c, r in a for i in (-1, 0, 1) for j in (-1, 0, 1)}
     assert a <= near_b and b <= near_a
     assert len(canvas.thinned(x.tolist(), y.tolist(), (-2.0, 3.0), 140)[0]) < 0.4 * x.size
+
+
+def test_a_worker_s_drawing_in_a_held_cursor_reads_the_cursor_out():
+    """A figure without its own probe drawn by a worker with the cursor held (`prebuild`): the
+    cursor along its first curve is marked and read out in the title, as the UI thread's drawing
+    of the shown figure has it (the worker's drawing lost it: the default probe was set later,
+    in `show`, and render took the worker's drawing since the held view matched)."""
+    fig = Figure(title="step", xlabel="t", ylabel="y")
+    fig.series.append(Series([0.0, 1.0, 2.0, 3.0], [0.0, 0.6, 0.9, 1.0], "y"))
+    built = FigurePlot.prebuild(fig, (60, 20, "textual-dark"), (None, 2))[1]
+    assert built is not None and "t = 2" in built.text.plain and "y = 0.9" in built.text.plain

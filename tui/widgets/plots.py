@@ -296,11 +296,7 @@ class FigurePlot(PlotextPlot):
         return self.navigation.applied(self.figure)
 
     def show(self, figure: Figure, prebuilt: Prebuilt | None = None) -> None:
-        if figure.probe is None:  # a cursor on any plot: along its first curve
-            first = next((s for s in figure.series if s.x and not s.scatter), None)
-            if first is not None:
-                figure.probe = xy_probe(first, figure.xlabel or "x", figure.ylabel or "y")
-        self.figure, self._prebuilt = figure, prebuilt
+        self.figure, self._prebuilt = with_probe(figure), prebuilt
         self.navigation.forget_pick()
         self.refresh()
 
@@ -331,7 +327,7 @@ class FigurePlot(PlotextPlot):
     def prebuild(figure: Figure, canvas: Canvas, held: Held = (None, None)) -> Prebuilt:
         """The figure drawn at a canvas in a held view (any thread: a worker takes the
         drawing off the UI thread)."""
-        return (canvas, held), draw(Navigation(*held).applied(figure), *canvas)
+        return (canvas, held), draw(Navigation(*held).applied(with_probe(figure)), *canvas)
 
     def render(self) -> Text | str:
         if self.image is not None:
@@ -366,3 +362,14 @@ class FigurePlot(PlotextPlot):
         for part in [self.image, *self.image.walk_children()]:  # rows the image leaves uncovered: its own colour
             part.styles.background = image_canvas.face(self._imaged[-1])
         self.drawing = Drawing(Text(""), frames)
+
+
+def with_probe(figure: Figure) -> Figure:
+    """The figure with a cursor probe: its own, else one along its first curve (a cursor on any
+    plot), set before it is drawn anywhere, so that a worker's drawing in a held view has the
+    cursor a drawing on the UI thread would."""
+    if figure.probe is None:
+        first = next((s for s in figure.series if s.x and not s.scatter), None)
+        if first is not None:
+            figure.probe = xy_probe(first, figure.xlabel or "x", figure.ylabel or "y")
+    return figure
