@@ -216,9 +216,6 @@ def execute(
     if client is not None:
         return _gather(client, jobs, progress, cancelled)
     address, here = scheduler_address(scheduler), []
-    from sessions.sweeps.batch_study import applies  # (it imports this module)
-
-    chunked = applies(jobs)  # a tolerance study: its samples go in chunks to workers that build its problem once
     if address is None and workers is None and cluster is None and jobs:  # a local cluster: maybe not worth it
         # a batch in this process outruns a local cluster of single runs (a study evaluated per loop does not)
         batched = batch_here(jobs, progress, unbatched=False)
@@ -228,6 +225,9 @@ def execute(
         if serial is not None:
             return serial
     wait = connect_timeout(timeout)
+    from sessions.sweeps.batch_study import applies  # (it imports this module)
+
+    chunked = applies(jobs)  # a tolerance study: its samples go in chunks to workers that build its problem once
     connection = connect(address, workers, wait) if cluster is None else connect_named(cluster, workers, wait)
     try:
         if chunked:
