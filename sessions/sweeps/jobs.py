@@ -228,9 +228,6 @@ def execute(
 
     chunked = applies(jobs)  # a tolerance study: its samples go in chunks to workers that build its problem once
     wait = connect_timeout(timeout)
-    from sessions.sweeps.batch_study import applies  # (it imports this module)
-
-    chunked = applies(jobs)  # a tolerance study: its samples go in chunks to workers that build its problem once
     connection = connect(address, workers, wait) if cluster is None else connect_named(cluster, workers, wait)
     try:
         if chunked:
