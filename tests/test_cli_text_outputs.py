@@ -25,6 +25,8 @@ def surrogate_session(tmp_path) -> Path:
     doc = json.loads(json.dumps(MATCHING))
     doc["problem"]["conditions"][0]["name"] = LONE
     doc["notes"] = "notes \udfff"
+    blocks = doc["problem"]["conditions"][0]["plant"]["blocks"]
+    blocks[0]["transfer"]["expression"] = "K*(1+T*s)/(1+0.01*s)"  # proper: the MATLAB export refuses a PD as it is
     path = tmp_path / "s.json"
     path.write_text(json.dumps(doc))  # ASCII: the surrogate as its JSON escape
     return path
