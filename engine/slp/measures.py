@@ -17,7 +17,9 @@ overshoot and peak time are report 003's, the first half cycle's
 
 A row whose measure does not occur (no phase crossover in a gain-margin
 band, a mode whose peak left its band) is *absent*: its value is NaN and it
-counts as met, except rise and settling times that never happen (+inf).
+counts as met, except rise and settling times that never happen (+inf).  A time row of
+a condition whose closed loop is unstable is undefined (NaN: never met, earning nothing),
+whatever the response showed on its horizon.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from engine.design.problem import FREQUENCY_MEASURES, Condition, Problem
 from engine.design.tableau import stability_abscissa
 from engine.errors import EngineError
 from engine.loop.design import closed_loop_realization
-from engine.loop.realization import StateSpace, cascade
+from engine.loop.realization import StateSpace, cascade, poles, stability
 from engine.loop.responses import LoopModel, loop_model
 from engine.margins.search import Margins, margins
 from engine.model.blocks import ExpressionTransfer
@@ -258,6 +260,8 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
     s-plane equivalent, ``sample_time`` given: its realization is in w)."""
     if spec.kind == "stability_abscissa":
         return stability_abscissa(ss, sample_time)
+    if stability(poles(ss)) == "unstable":  # (a sampled loop's realization is in w: the same half-plane)
+        return math.nan  # its response grows without bound: a measure read on the horizon means nothing
     response = problem.targets[spec.target].response
     if spec.kind == "mean_square":
         return mean_square(ss, response.input, response.output, response.psd)

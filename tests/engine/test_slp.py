@@ -310,3 +310,20 @@ def test_a_time_limited_run_is_a_prefix_of_the_full_run():
 def test_time_limit_is_no_longer_a_setting():
     with pytest.raises(EngineError, match="'time_limit' is no longer a setting.*--time-limit"):
         make_settings("slp", {"time_limit": 5.0})
+
+
+def test_time_rows_of_an_unstable_closed_loop_are_never_met():
+    """The plant alone (compensator 1) under unity feedback is unstable (python-control's poles):
+    its response grows without bound, so a step measure read on the horizon (a finite overshoot,
+    rise or settling time of the first oscillations) says nothing: every time row is undefined
+    (NaN) and never met, whatever its target."""
+    kinds = ("overshoot_percent", "rise_time", "settling_time", "peak_time", "steady_state_error", "peak_response")
+    problem = lag_lead(
+        [Target(k, (BandValue(0, np.inf, 1e9),), response=TimeResponse("r", "y", 0.5, 501)) for k in kinds],
+        (1.0, 1.0, 1.0, 1.0),
+    )
+    assert max(ct.feedback(compensated((1.0, 1.0, 1.0, 1.0)), 1).poles().real) > 0
+    specs = measure_specs(problem, require_stable=False)
+    values = evaluate(problem, problem.vector(), specs)[0]
+    assert np.all(np.isnan(values)), dict(zip(kinds, values))
+    assert not any(spec.met(v) for spec, v in zip(specs, values))
