@@ -57,8 +57,8 @@ def test_one_break_is_reported_alone(capsys, satellite_file):
 def test_the_text_names_every_loop_and_the_bracket(capsys, satellite_file):
     code, out, _ = _run(capsys, "analyze", "--ss", satellite_file)
     assert code == 0
-    assert "loop at input u1" in out and "loop at input u2" in out
-    assert "multi-loop disk margin (skew 0, every input at once): alpha 0.0997512" in out and "certified" in out
+    assert "loop broken at u1" in out and "loop broken at u2" in out
+    assert "multi-loop disk margin (skew 0, every break at once): alpha 0.0997512" in out and "certified" in out
 
 
 @pytest.mark.parametrize(

@@ -496,13 +496,13 @@ def loops_to_text(result, source: str, variable: str = "s", sample_time: float |
     """Each loop's table (`analysis_to_text`) under its break's name, then the multi-loop disk margin."""
     parts = []
     for name, a in result.loops:
-        shown = [f"loop at input {name} of {source}, every other loop closed"]
+        shown = [f"loop broken at {name} of {source}, every other loop closed"]
         parts.append(analysis_to_text(a, shown, variable, 0.0, sample_time))
         parts.append("")
     d = result.together
     if d is not None:
         parts.append(
-            f"multi-loop disk margin (skew {d.skew:g}, every input at once): alpha {d.alpha:.6g} "
+            f"multi-loop disk margin (skew {d.skew:g}, every break at once): alpha {d.alpha:.6g} "
             f"in [{d.alpha_lower:.9g}, {d.alpha_upper:.9g}] ({d.status}), gain {_num(d.gain_low_db, 'dB', '.4f')}"
             f" .. {_num(d.gain_high_db, 'dB', '.4f')}, phase {_num(d.phase_deg, 'deg', '.4f')} {_at(d.frequency, 'rad/s')}"
         )
