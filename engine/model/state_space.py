@@ -73,7 +73,7 @@ def checked(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) 
     a = a.reshape(0, 0) if a.size == 0 else a  # no states: a static gain D ([] read as 0 x 0)
     n = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape[1] != n:
-        raise BlockError(f"{where}: A must be a square matrix, not {_shape(a)}")
+        raise BlockError(f"{where}: A must be a square matrix, not {shape_text(a)}")
     if n > MAX_STATES:
         raise BlockError(f"{where}: order {n} is beyond the limit of {MAX_STATES} states for one block")
     shapes = (
@@ -84,7 +84,7 @@ def checked(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) 
     for x, name, allowed, wanted in shapes:
         if x.shape not in allowed:
             raise BlockError(
-                f"{where}: {name} is {_shape(x)}; with A {n} x {n} it must be {wanted} (one input, one output)"
+                f"{where}: {name} is {shape_text(x)}; with A {n} x {n} it must be {wanted} (one input, one output)"
             )
     return Matrices(a, b.reshape(n), c.reshape(n), float(d.reshape(-1)[0]))
 
@@ -92,17 +92,23 @@ def checked(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where: str) 
 def balanced(m: Matrices) -> tuple[Matrices, NDArray[np.float64]]:
     """The same system in balanced state coordinates, and the state scaling t (powers of
     two: x = t * x_balanced): A_b = A t / t', B_b = B / t, C_b = C t."""
-    n = m.order
-    if n == 0:
+    if m.order == 0:
         return m, np.ones(0)
+    t = state_scales(m.A, m.B[:, None], m.C[None, :])
+    return Matrices(m.A * t[None, :] / t[:, None], m.B / t, m.C * t, m.D), t
+
+
+def state_scales(a: NDArray, b: NDArray, c: NDArray) -> NDArray[np.float64]:
+    """Powers of two t (x = t * x_balanced) that balance [[A, B], [C, 0]] (B n x m, C m x n,
+    n > 0), relative to the first port's scale."""
     from scipy import linalg  # on first use: scipy.linalg costs a fifth of a second of start-up
 
-    system = np.zeros((n + 1, n + 1))
-    system[:n, :n], system[:n, n], system[n, :n] = m.A, m.B, m.C
+    n, m = a.shape[0], b.shape[1]
+    system = np.zeros((n + m, n + m))
+    system[:n, :n], system[:n, n:], system[n:, :n] = a, b, c
     with np.errstate(invalid="ignore"):  # scipy casts the scales to int for a permutation it does not use
         _, (scale, _) = linalg.matrix_balance(system, permute=False, separate=True)
-    t = scale[:n] / scale[n]
-    return Matrices(m.A * t[None, :] / t[:, None], m.B / t, m.C * t, m.D), t
+    return scale[:n] / scale[n]
 
 
 def real_matrix(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
@@ -118,7 +124,8 @@ def real_matrix(x: ArrayLike, name: str, where: str) -> NDArray[np.float64]:
     return array
 
 
-def _shape(x: NDArray) -> str:
+def shape_text(x: NDArray) -> str:
+    """An array's shape as a message names it ('3 x 2', 'a number')."""
     return " x ".join(map(str, x.shape)) if x.ndim else "a number"
 
 

@@ -27,7 +27,7 @@ from engine.errors import BlockError
 from engine.model.bilinear import realization_in_w
 from engine.model.blocks import Compiled, StateSpaceTransfer
 from engine.model.expressions import Dual
-from engine.model.state_space import MAX_STATES, MODAL_CONDITION, WORK_ELEMENTS, real_matrix
+from engine.model.state_space import MAX_STATES, MODAL_CONDITION, WORK_ELEMENTS, real_matrix, shape_text, state_scales
 
 MAX_PORTS = 8  # inputs (and outputs) of a block, loops of a plant (mu is searched over m - 1 scalings)
 
@@ -43,13 +43,13 @@ def checked_ports(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where:
         a, b, c = np.zeros((0, 0)), np.zeros((0, d.shape[1])), np.zeros((d.shape[0], 0))
     n = a.shape[0] if a.ndim == 2 else -1
     if a.ndim != 2 or a.shape[1] != n:
-        raise BlockError(f"{where}: A must be a square matrix, not {_shape(a)}")
+        raise BlockError(f"{where}: A must be a square matrix, not {shape_text(a)}")
     if n > MAX_STATES:
         raise BlockError(f"{where}: order {n} is beyond the limit of {MAX_STATES} states")
     if b.ndim != 2 or c.ndim != 2 or b.shape[0] != n or c.shape[1] != n:
         raise BlockError(
             f"{where}: B must be {n} x m and C m x {n} (A is {n} x {n}, m inputs and outputs), "
-            f"not {_shape(b)} and {_shape(c)}"
+            f"not {shape_text(b)} and {shape_text(c)}"
         )
     m, outputs = b.shape[1], c.shape[0]
     if m != outputs:
@@ -60,12 +60,8 @@ def checked_ports(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, where:
         raise BlockError(f"{where}: {m} inputs and outputs; the limit is 1 to {MAX_PORTS}")
     d = np.zeros((m, m)) if d.size == 1 and not d.any() else d
     if d.shape != (m, m):
-        raise BlockError(f"{where}: D is {_shape(d)}; it must be {m} x {m}")
+        raise BlockError(f"{where}: D is {shape_text(d)}; it must be {m} x {m}")
     return a, b, c, d
-
-
-def _shape(x: NDArray) -> str:
-    return " x ".join(map(str, x.shape)) if x.ndim else "a number"
 
 
 class PortedStateSpace:
@@ -151,16 +147,9 @@ class PortedStateSpace:
 
 def balanced_ports(a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> Matrices4:
     """The same block with its states scaled by powers of two (module docstring)."""
-    n, m = a.shape[0], b.shape[1]
-    if n == 0:
+    if a.shape[0] == 0:
         return a, b, c, d
-    from scipy import linalg  # on first use (start-up)
-
-    system = np.zeros((n + m, n + m))
-    system[:n, :n], system[:n, n:], system[n:, :n] = a, b, c
-    with np.errstate(invalid="ignore"):  # scipy casts the scales to int for a permutation it does not use
-        _, (scale, _) = linalg.matrix_balance(system, permute=False, separate=True)
-    t = scale[:n]
+    t = state_scales(a, b, c)
     return a * t[None, :] / t[:, None], b / t[:, None], c * t[None, :], d
 
 
