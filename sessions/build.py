@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -406,13 +407,8 @@ def _block(b, path: str, folder: Path, variable: str, sample_time: float | None 
 def _ported_block(b, path: str, folder: Path) -> PortedBlock:
     """A state space of several ports (inline or from its file), its ports wired to the named signals;
     a fault names the block's JSON path (a file of other shapes: `transfer.file`)."""
-    t = b.transfer
     try:
-        if t.file is None:
-            matrices = PortedStateSpace(t.A, t.B, t.C, 0.0 if t.D is None else t.D, "inline")
-        else:
-            m = read_matrices(table_path(folder, t.file, f"{path}.transfer", field="file"), f"{path}.transfer.file")
-            matrices = PortedStateSpace(m["A"], m["B"], m["C"], m["D"], t.file)
+        matrices = PortedStateSpace(*_state_space_matrices(b.transfer, f"{path}.transfer", folder))
         return PortedBlock(b.name, tuple(b.inputs), tuple(b.outputs), matrices)
     except EngineError as exc:
         raise SessionError(f"{path}: {exc}") from None
@@ -458,10 +454,15 @@ def _transfer(t, path: str, folder: Path, variable: str, sample_time: float | No
 def state_space_transfer(t: StateSpaceBlock, path: str, folder: Path) -> StateSpaceTransfer:
     """A state-space block from its inline matrices or its file (beside the session, as a
     table's CSV is: `table_path`); errors name the JSON path and the file."""
+    return StateSpaceTransfer(*_state_space_matrices(t, path, folder))
+
+
+def _state_space_matrices(t: StateSpaceBlock, path: str, folder: Path) -> tuple[Any, Any, Any, Any, str]:
+    """A, B, C, D and their source ("inline" or the file's name) of a state-space block of any ports."""
     if t.file is None:
-        return StateSpaceTransfer(t.A, t.B, t.C, 0.0 if t.D is None else t.D, "inline")
+        return t.A, t.B, t.C, 0.0 if t.D is None else t.D, "inline"
     m = read_matrices(table_path(folder, t.file, path, field="file"), f"{path}.file")
-    return StateSpaceTransfer(m["A"], m["B"], m["C"], m["D"], t.file)
+    return m["A"], m["B"], m["C"], m["D"], t.file
 
 
 def frequency_table(t: TableModel, path: str, folder: Path) -> FrequencyTable:
