@@ -79,23 +79,17 @@ def _margin_lists(found) -> dict:
 def _at_breaks(c, breaks: tuple[str, ...], omega, values: dict) -> dict:
     """loopcraft's margins and disk margin at each break (the others closed) and the certified
     multi-loop disk margin, for the script to print beside python-control's (None: not found)."""
-    from engine.analysis import analyze
-    from engine.errors import EngineError
-    from engine.multiloop.network_breaks import diagram_disk_margin
+    from engine.multiloop.diagram_breaks import diagram_breaks
 
+    found = diagram_breaks(c.network, breaks, omega, values)
     each = {}
-    for name in breaks:
-        try:
-            found = analyze(c.network, name, omega, values)
-        except EngineError as exc:
-            each[name] = {"method": f"not found: {exc}"}
+    for b in found.loops:
+        if b.margins is None:
+            each[b.name] = {"method": f"not found: {b.failure}"}
             continue
-        disk = found.disk_margin
-        each[name] = _margin_lists(found.margins) | {"disk": None if disk is None else float(disk.alpha)}
-    try:
-        together: float | None = float(diagram_disk_margin(c.network, breaks, values).alpha)
-    except EngineError:
-        together = None
+        disk = b.disk_margin
+        each[b.name] = _margin_lists(b.margins) | {"disk": None if disk is None else float(disk.alpha)}
+    together = None if found.together is None else float(found.together.alpha)
     return {"breaks": each, "multi_loop": together}
 
 

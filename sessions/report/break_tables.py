@@ -1,23 +1,17 @@
 """The report's loops at every break (issue 57): for each flight condition whose `breaks` name
 more than its primary break, the loop-at-a-time margins at each break (the loop broken there,
-every other loop closed: `engine.analysis.analyze` at that signal, as `loopcraft analyze FILE.json`
-reports them) and the multi-loop disk margin at all of them at once
-(`engine.multiloop.network_breaks.diagram_disk_margin`).  Blocks as `sessions.report.content`
+every other loop closed) and the multi-loop disk margin at all of them at once, as
+`engine.multiloop.diagram_breaks` finds them.  Blocks as `sessions.report.content`
 describes them."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
-
-from engine.analysis import LoopAnalysis, analyze
 from engine.design.problem import Condition
-from engine.errors import EngineError
+from engine.multiloop.diagram_breaks import BreakLoop, DiagramBreaks, diagram_breaks
 from engine.multiloop.disk import MultiLoopDiskMargin
-from engine.multiloop.network_breaks import diagram_disk_margin
 from engine.stepping.presenter import number
 from sessions.store import Session
 
@@ -35,9 +29,10 @@ def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
         if not c.several_breaks:
             continue
         values = problem.condition_values(k, named=named)
+        found = diagram_breaks(c.network, c.every_break, problem.grid.omega, values)
         blocks.append(("h3", f"Condition {c.name}: every break"))
-        blocks.append(_per_break(c, problem.grid.omega, values, problem.grid.unit, scale))
-        blocks.append(_together(c, values, problem.grid.unit, scale))
+        blocks.append(_per_break(found, problem.grid.unit, scale))
+        blocks.append(_together(c, found, problem.grid.unit, scale))
     if not blocks:
         return []
     intro = (
@@ -48,36 +43,29 @@ def break_blocks(session: Session, named: dict[str, Any]) -> list[Block]:
     return [("h2", "Loops at every break"), ("p", intro), *blocks]
 
 
-def _per_break(c: Condition, omega: np.ndarray, values: Mapping[str, float], unit: str, scale: float) -> Block:
-    rows = []
-    for name in c.every_break:
-        try:
-            found = analyze(c.network, name, omega, dict(values))
-        except EngineError as exc:
-            rows.append([name, f"cannot be analyzed: {exc}", "", "", ""])
-            continue
-        rows.append([name, *_break_cells(found, scale)])
+def _per_break(found: DiagramBreaks, unit: str, scale: float) -> Block:
+    rows = [[b.name, *_break_cells(b, found.verdict, scale)] for b in found.loops]
     return ("table", tuple(h.format(unit=unit) for h in HEADER), rows)
 
 
-def _break_cells(found: LoopAnalysis, scale: float) -> list[str]:
-    m = found.margins
+def _break_cells(b: BreakLoop, verdict: str, scale: float) -> list[str]:
+    m = b.margins
+    if m is None:
+        return [f"cannot be analyzed: {b.failure}", "", "", ""]
     gains = "; ".join(f"{number(g.gain_db)} at {number(g.frequency / scale)}" for g in m.gain) or "none"
     phases = "; ".join(f"{number(p.phase_deg)} at {number(p.frequency / scale)}" for p in m.phase) or "none"
     wc = "none" if m.crossover_frequency is None else number(m.crossover_frequency / scale)
-    d = found.disk_margin
+    d = b.disk_margin
     disk = "not computed" if d is None else f"alpha {number(d.alpha)} at {number(d.frequency / scale)}"
-    if found.verdict != "stable":
-        disk += f" (closed loop {found.verdict})"
+    if verdict != "stable":
+        disk += f" (closed loop {verdict})"
     return [gains, phases, wc, disk]
 
 
-def _together(c: Condition, values: Mapping[str, float], unit: str, scale: float) -> Block:
-    try:
-        d = diagram_disk_margin(c.network, c.every_break, dict(values))
-    except EngineError as exc:
-        return ("p", f"Multi-loop disk margin at {', '.join(c.every_break)}: not computed ({exc}).")
-    return ("table", ("multi-loop disk margin", ""), _together_rows(d, unit, scale))
+def _together(c: Condition, found: DiagramBreaks, unit: str, scale: float) -> Block:
+    if found.together is None:
+        return ("p", f"Multi-loop disk margin at {', '.join(c.every_break)}: not computed ({found.together_failure}).")
+    return ("table", ("multi-loop disk margin", ""), _together_rows(found.together, unit, scale))
 
 
 def _together_rows(d: MultiLoopDiskMargin, unit: str, scale: float) -> list[list[str]]:

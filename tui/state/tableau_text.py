@@ -10,16 +10,10 @@ from collections.abc import Mapping
 
 from rich.text import Text
 
-from engine.analysis import closed_loop_peaks
-from engine.closed_loop.poles import closed_loop_poles
 from engine.design.measure_kinds import shorts
-from engine.design.problem import Condition, Problem
-from engine.errors import EngineError
-from engine.loop.realization import stability
-from engine.loop.responses import loop_model
-from engine.margins.search import margins
-from engine.multiloop.network_breaks import diagram_disk_margin
-from engine.stepping.presenter import number, tolerant
+from engine.design.problem import Problem
+from engine.multiloop.diagram_breaks import DiagramBreaks, diagram_breaks
+from engine.stepping.presenter import number
 from engine.stepping.protocol import MeasureRow
 
 SHORT = shorts()
@@ -77,22 +71,18 @@ def break_lines(problem: Problem, condition: int, values: Mapping[str, float]) -
     if not c.several_breaks:
         return ""
     scale = 1 / (2 * math.pi) if problem.grid.unit == "hz" else 1.0
-    verdict = "unknown"
-    if c.network.rational:
-        verdict = tolerant(lambda: stability(closed_loop_poles(c.network, values)), lambda: "unknown")
+    found = diagram_breaks(c.network, c.every_break, problem.grid.omega, values)
     lines = [
-        f"every break of {c.name}: loop at a time, the others closed (closed loop {verdict})",
+        f"every break of {c.name}: loop at a time, the others closed (closed loop {found.verdict})",
         f"{'row':<12} {'value':>9} {'':<5} {'freq ' + problem.grid.unit:>10}",
     ]
-    for name in c.every_break:
-        try:
-            model = loop_model(c.network, name, problem.grid.omega, values)
-            found, (disk, *_) = margins(model), closed_loop_peaks(model, verdict)
-        except EngineError as exc:
-            lines.append(f"{'@' + name:<12} cannot be analyzed: {exc}")
+    for b in found.loops:
+        if b.margins is None:
+            lines.append(f"{'@' + b.name:<12} cannot be analyzed: {b.failure}")
             continue
-        gm = min(found.listed("G"), key=lambda m: abs(m.gain_db), default=None)
-        pm = min(found.phase, key=lambda m: abs(m.phase_deg), default=None)
+        gm = min(b.margins.listed("G"), key=lambda m: abs(m.gain_db), default=None)
+        pm = min(b.margins.phase, key=lambda m: abs(m.phase_deg), default=None)
+        disk = b.disk_margin
         rows = [
             ("GM", gm and (gm.gain_db, gm.frequency), "dB"),
             ("PM", pm and (pm.phase_deg, pm.frequency), "deg"),
@@ -102,17 +92,16 @@ def break_lines(problem: Problem, condition: int, values: Mapping[str, float]) -
             value, w = (
                 ("none", "") if pair is None else (f"{number(pair[0], 5):>9} {unit:<5}", number(pair[1] * scale, 5))
             )
-            lines.append(f"{short + '@' + name:<12} {value:>15} {w:>10}".rstrip())
-    return "\n".join(lines + [_together(c, values, scale)])
+            lines.append(f"{short + '@' + b.name:<12} {value:>15} {w:>10}".rstrip())
+    return "\n".join(lines + [_together(found, scale)])
 
 
-def _together(c: Condition, values: Mapping[str, float], scale: float) -> str:
+def _together(found: DiagramBreaks, scale: float) -> str:
     """The multi-loop disk margin's lines (row MDM, as its target's rows are named): alpha at its
     worst frequency, its status and certified bracket."""
-    try:
-        d = diagram_disk_margin(c.network, c.every_break, dict(values))
-    except EngineError as exc:
-        return f"multi-loop disk margin: not computed ({exc})"
+    d = found.together
+    if d is None:
+        return f"multi-loop disk margin: not computed ({found.together_failure})"
     at = "inf" if d.frequency == math.inf else number(d.frequency * scale, 5)
     return (
         f"{'MDM':<12} {number(d.alpha, 5):>9} {'alpha':<5} {at:>10}\n"
