@@ -203,17 +203,10 @@ def _typed_coefficients(terms: list[tuple[float, Node]], params: Mapping[str, fl
     any other sum."""
     monomials = []
     for sign, term in terms:
-        coefficient, power = (term.args[0], term.args[1]) if term.op == "mul" else (None, term)
-        if coefficient is not None and coefficient.op not in ("num", "param"):
+        typed = monomial(term)
+        if typed is None:
             return None
-        if power.op == "var":
-            monomials.append((sign, coefficient, 1))
-        elif power.op == "pow" and power.args[0].op == "var" and power.exponent >= 0:
-            monomials.append((sign, coefficient, power.exponent))
-        elif coefficient is None and power.op in ("num", "param"):
-            monomials.append((sign, power, 0))
-        else:
-            return None
+        monomials.append((sign, *typed))
     order = max(k for _, _, k in monomials)
     if order > MAX_ORDER:
         raise ExpressionError(f"order {order} is beyond the limit of {MAX_ORDER} for one block")
@@ -221,6 +214,21 @@ def _typed_coefficients(terms: list[tuple[float, Node]], params: Mapping[str, fl
     for sign, coefficient, k in monomials:
         numerator[order - k] += sign * (1.0 if coefficient is None else _leaf(coefficient, params).gain)
     return trim(numerator)
+
+
+def monomial(term: Node) -> tuple[Node | None, int] | None:
+    """A term typed as c x^k, x^k or c (c a number or a parameter's node): (c or None, k);
+    None for any other term."""
+    coefficient, power = (term.args[0], term.args[1]) if term.op == "mul" else (None, term)
+    if coefficient is not None and coefficient.op not in ("num", "param"):
+        return None
+    if power.op == "var":
+        return coefficient, 1
+    if power.op == "pow" and power.args[0].op == "var" and power.exponent >= 0:
+        return coefficient, power.exponent
+    if coefficient is None and power.op in ("num", "param"):
+        return power, 0
+    return None
 
 
 def _typed_polynomial(forms: list[tuple[float, PoleZero]]) -> bool:

@@ -44,3 +44,44 @@ def test_a_typed_polynomial_s_form_is_the_general_reading_s(seed: int) -> None:
     numerator = [values.get(c, c) if isinstance(c, str) else c for c in NUMERATOR][::-1]
     expected = np.sort_complex(np.roots(numerator))  # numpy's roots of the coefficients
     assert np.allclose(np.sort_complex(fast.zeros), expected, rtol=1e-12)
+
+
+def _forms_counted(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Every pole-zero form computed (not read from an expression's store), counted."""
+    calls: list[int] = []
+    checked = factored._checked
+    monkeypatch.setattr(factored, "_checked", lambda *a: calls.append(1) or checked(*a))
+    return calls
+
+
+PAIRED = {"x0": 100.0, "x1": 6.0572, "x2": 7.5664, "y0": 100.0, "y1": 10.065, "y2": 6.3288}  # the vehicle's second
+
+
+@pytest.mark.parametrize(
+    ("values", "item", "factor"),
+    [(VALUES, "zero1", 1.3), (VALUES, "zero2", 0.9), (VALUES, "pole2", 0.8), (PAIRED, "zeropair1", 1.2)],
+)
+def test_a_root_of_typed_coefficients_moves_in_closed_form_checked_by_one_form(
+    monkeypatch: pytest.MonkeyPatch, values: dict, item: str, factor: float
+) -> None:
+    from engine.design.compensator_items import items, named
+    from engine.design.compensator_moves import moved
+
+    transfer = PolynomialTransfer(("x0", "x1", "x2"), DENOMINATOR)
+    found = items(transfer, values)
+    index = named(found).index(item)
+    forms = _forms_counted(monkeypatch)
+    target = abs(found[index].root) * factor
+    solved = moved(transfer, values, index, target, bounds={"x0": (1.0, 1.0), "y0": (1.0, 1.0)}, found=found)
+    assert len(forms) <= 1  # the least squares over the coefficients: twelve to sixteen
+    after = {**values, **solved}
+    side = ("x0", "x1", "x2") if item.startswith("zero") else DENOMINATOR
+    roots, old = (np.roots([v[c] for c in side][::-1]) for v in (after, values))  # numpy's roots of the coefficients
+    root = found[index].root
+    for r in old:
+        if min(abs(r - root), abs(r - root.conjugate())) > 1e-9 * abs(r):  # every other root kept
+            assert np.min(np.abs(roots - r)) <= 1e-9 * abs(r)
+    assert np.min(np.abs(np.abs(roots) - target)) <= 1e-9 * target
+    if item.endswith("pair"):
+        assert np.allclose(np.abs(roots.real) / np.abs(roots), -root.real / abs(root), rtol=1e-9)  # its damping kept
+    assert after[side[0]] == values[side[0]]  # the Bode gain kept: the constant terms as they were
