@@ -10,7 +10,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq, least_squares
 
 from engine.design.coefficient_moves import UNCHANGED, closed_form
 from engine.design.compensator_items import NUDGE, Item, items, measure, named, readings
@@ -156,6 +155,9 @@ def _solved(
             except EngineError:
                 break
             if np.sign(there) != np.sign(here):
+                # scipy.optimize: 1.4 s to import, which the secant's and the closed form's moves never ask
+                from scipy.optimize import brentq
+
                 root = brentq(miss, min(0.0, step), max(0.0, step), xtol=TOLERANCE)
                 return value * math.exp(root)
     raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {kind} to {target:.6g}")
@@ -208,6 +210,8 @@ def _least_squares(transfer, params, found, index, target, kind, bounds, unknown
     closed = _closed_form(transfer, params, item, _target_root(item, target, kind), unknowns, box)
     if closed is not None and np.max(np.abs(miss(closed))) <= JOINT_MISS:
         return {n: float(v) for n, v, u in zip(unknowns, start * np.exp(closed), closed) if abs(u) > TOLERANCE}
+    from scipy.optimize import least_squares  # imported here: see `_solved`
+
     fit = least_squares(
         miss,
         np.zeros(len(unknowns)),

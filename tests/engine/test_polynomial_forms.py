@@ -85,3 +85,27 @@ def test_a_root_of_typed_coefficients_moves_in_closed_form_checked_by_one_form(
     if item.endswith("pair"):
         assert np.allclose(np.abs(roots.real) / np.abs(roots), -root.real / abs(root), rtol=1e-9)  # its damping kept
     assert after[side[0]] == values[side[0]]  # the Bode gain kept: the constant terms as they were
+
+
+def test_moves_by_the_secant_or_in_closed_form_import_no_optimizer() -> None:
+    """scipy.optimize takes 1.4 s to import: a drag's first move waited for it (1.47 s to
+    the first frame on the lead, 0.81 s now at load 6), though only the bracket's and the
+    least squares' fallbacks use it."""
+    import subprocess
+    import sys
+
+    program = """
+import sys
+from engine.design.compensator_items import items, named
+from engine.design.compensator_moves import moved
+from engine.model.blocks import ExpressionTransfer, PolynomialTransfer
+lead, values = ExpressionTransfer("K*(1 + T1*s)/(1 + T2*s)"), {"K": 2.0, "T1": 1.0, "T2": 0.1}
+assert set(moved(lead, values, 1, 1.3)) == {"T1"}  # the zero at 1/T1: Newton-secant steps
+cip = PolynomialTransfer(("x0", "x1", "x2"), ("y0", "y1", "y2"))
+values = {"x0": 1.0, "x1": 11.7944, "x2": 28.592, "y0": 1.0, "y1": 21.565, "y2": 6.0565}
+found = items(cip, values)
+assert set(moved(cip, values, named(found).index("zero1"), 0.13, bounds={"x0": (1.0, 1.0)})) == {"x1", "x2"}
+print("scipy.optimize" in sys.modules)
+"""
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, timeout=120, check=True)
+    assert done.stdout.strip() == "False"
