@@ -69,7 +69,9 @@ class Item:
 def items(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Item]:
     """The gain, then the zeros and poles of a block, low frequency first."""
     base = pole_zero(transfer.expression, params)
-    moved = {name: _moved(transfer, params, name, base) for name in transfer.parameters}
+    scale = _scale(base)
+    gain = _bode_gain(base, scale)
+    moved = {name: _moved(transfer, params, name, base, scale, gain) for name in transfer.parameters}
     return _listed(base, lambda index, k: tuple(n for n, m in moved.items() if (m[0] if index == 0 else m[index][k])))
 
 
@@ -81,7 +83,7 @@ def readings(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[
 def _listed(base, by: Callable[[int, int], tuple[str, ...]]) -> list[Item]:
     """The items of a pole-zero form; ``by(0, 0)`` names the gain's parameters, ``by(1, k)``
     zero k's, ``by(2, k)`` pole k's."""
-    scale = max([abs(r) for r in [*base.zeros, *base.poles]], default=1.0) or 1.0
+    scale = _scale(base)
     out = [Item("gain", complex(_bode_gain(base, scale)), by(0, 0))]
     found = []
     for kind, roots, index in (("zero", base.zeros, 1), ("pole", base.poles, 2)):
@@ -119,6 +121,11 @@ def named(found: list[Item]) -> list[str]:
     return out
 
 
+def _scale(base) -> float:
+    """The largest root's size (1 without roots): what counts as the origin beside it (`ORIGIN`)."""
+    return max([abs(r) for r in [*base.zeros, *base.poles]], default=1.0) or 1.0
+
+
 def _bode_gain(base, scale: float) -> float:
     """The gain with each factor away from the origin written (1 + s/w): gain * prod(-z)/prod(-p)."""
     zeros = [z for z in base.zeros if abs(z) > ORIGIN * scale]
@@ -126,8 +133,10 @@ def _bode_gain(base, scale: float) -> float:
     return float(PairedProduct(base.gain, np.asarray(zeros), np.asarray(poles)).terms(np.zeros(1)).value[0].real)
 
 
-def _moved(transfer: ExpressionTransfer, params: Mapping[str, float], name: str, base) -> tuple:
-    """Does nudging ``name`` move the gain, and which zeros and poles (by index)?"""
+def _moved(
+    transfer: ExpressionTransfer, params: Mapping[str, float], name: str, base, scale: float, gain: float
+) -> tuple:
+    """Does nudging ``name`` move the Bode ``gain``, and which zeros and poles (by index)?"""
     value = params[name]
     nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
     try:
@@ -136,9 +145,8 @@ def _moved(transfer: ExpressionTransfer, params: Mapping[str, float], name: str,
         return False, [False] * base.zeros.size, [False] * base.poles.size
     if other.zeros.size != base.zeros.size or other.poles.size != base.poles.size:
         return True, [True] * base.zeros.size, [True] * base.poles.size  # the structure changed
-    scale = max([abs(r) for r in [*base.zeros, *base.poles]], default=1.0) or 1.0
-    gain = abs(_bode_gain(other, scale) / _bode_gain(base, scale) - 1) > MOVED if _bode_gain(base, scale) else True
-    return gain, _which(base.zeros, other.zeros, scale), _which(base.poles, other.poles, scale)
+    moves_gain = abs(_bode_gain(other, scale) / gain - 1) > MOVED if gain else True
+    return moves_gain, _which(base.zeros, other.zeros, scale), _which(base.poles, other.poles, scale)
 
 
 def _which(before: np.ndarray, after: np.ndarray, scale: float) -> list[bool]:

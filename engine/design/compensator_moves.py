@@ -10,8 +10,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq, least_squares
 
+from engine.design.coefficient_moves import UNCHANGED, closed_form
 from engine.design.compensator_items import NUDGE, Item, items, measure, named, readings
 from engine.errors import EngineError
 from engine.model.blocks import ExpressionTransfer
@@ -155,6 +155,9 @@ def _solved(
             except EngineError:
                 break
             if np.sign(there) != np.sign(here):
+                # scipy.optimize: 1.4 s to import, which the secant's and the closed form's moves never ask
+                from scipy.optimize import brentq
+
                 root = brentq(miss, min(0.0, step), max(0.0, step), xtol=TOLERANCE)
                 return value * math.exp(root)
     raise EngineError(f"no value of {name} within its bounds brings the {item.kind}'s {kind} to {target:.6g}")
@@ -204,6 +207,11 @@ def _least_squares(transfer, params, found, index, target, kind, bounds, unknown
         return got - wanted if shape == counts else np.full(wanted.size, APART)
 
     box = np.array([_log_bounds(v, *bounds.get(n, (None, None))) for n, v in zip(unknowns, start)]).T
+    closed = _closed_form(transfer, params, item, _target_root(item, target, kind), unknowns, box)
+    if closed is not None and np.max(np.abs(miss(closed))) <= JOINT_MISS:
+        return {n: float(v) for n, v, u in zip(unknowns, start * np.exp(closed), closed) if abs(u) > TOLERANCE}
+    from scipy.optimize import least_squares  # imported here: see `_solved`
+
     fit = least_squares(
         miss,
         np.zeros(len(unknowns)),
@@ -225,6 +233,11 @@ def _least_squares(transfer, params, found, index, target, kind, bounds, unknown
 def _goal(found: list[Item], index: int, target: float, kind: str) -> tuple[tuple[int, ...], np.ndarray]:
     """The signature (`_signature`) of the items with item ``index`` moved to ``target``."""
     item = found[index]
+    return _signature([*found[:index], Item(item.kind, _target_root(item, target, kind), ()), *found[index + 1 :]])
+
+
+def _target_root(item: Item, target: float, kind: str) -> complex:
+    """Item's root (the gain's value) with its frequency, damping or gain at ``target``."""
     w, zeta = abs(item.root), _damping(item)  # signed: a right-half-plane pair keeps its side
     if kind == "damping":
         zeta = target
@@ -235,7 +248,26 @@ def _goal(found: list[Item], index: int, target: float, kind: str) -> tuple[tupl
         root = complex(math.copysign(target, item.root.real))
     elif item.root.real > 0 and not item.kind.endswith("pair"):
         root = w
-    return _signature([*found[:index], Item(item.kind, complex(root), ()), *found[index + 1 :]])
+    return complex(root)
+
+
+def _closed_form(
+    transfer, params, item: Item, root: complex, unknowns: list[str], box: np.ndarray
+) -> np.ndarray | None:
+    """The move in closed form (`coefficient_moves`, a compensator typed by its polynomial
+    coefficients) as the least squares' log-scaled ``unknowns``; None where it changes
+    another parameter, a coefficient's sign, or leaves the bounds (the least squares then)."""
+    values = closed_form(transfer, params, item.kind, item.root, root)
+    if values is None:
+        return None
+    largest = max(abs(v) for v in values.values())
+    if any(abs(v - params[n]) > UNCHANGED * largest for n, v in values.items() if n not in unknowns):
+        return None
+    ratios = np.array([values.get(n, params[n]) / params[n] for n in unknowns])
+    if not np.all(ratios > 0):
+        return None
+    u = np.log(ratios)
+    return u if np.all((box[0] <= u) & (u <= box[1])) else None
 
 
 KINDS = ("zero", "pole", "zero pair", "pole pair", "integrator", "differentiator")

@@ -161,6 +161,9 @@ def _sum(terms: list[tuple[float, Node]], params: Mapping[str, float]) -> PoleZe
     of the denominators, Z^2 - 0.5 Z with Z = (1 + w)/(1 - w) had a third pole at w = 1 and
     a zero beside it, a pair that no longer cancelled once the roots were recomputed).
     Only the numerator is multiplied out; the terms' own factors are kept as roots."""
+    typed = _typed_coefficients(terms, params)
+    if typed is not None:  # its numerator is what was typed: its roots stand
+        return PoleZero(float(typed[0]), _numerator_roots(typed), np.zeros(0, dtype=complex))
     forms = [(sign, _node(term, params)) for sign, term in terms]
     common: list[complex] = []
     for _, form in forms:
@@ -178,13 +181,61 @@ def _sum(terms: list[tuple[float, Node]], params: Mapping[str, float]) -> PoleZe
         term = sign * form.gain * np.poly(np.concatenate([form.zeros, np.array(rest, dtype=complex)])).real
         numerator = np.polyadd(numerator, term)
     numerator = trim(numerator)
+    zeros = _numerator_roots(numerator)
+    if not _typed_polynomial(forms):  # a typed polynomial's numerator is what was typed: its roots stand
+        zeros = _origin_exact(forms, common, _sum_zeros(forms, common, zeros))
+    return PoleZero(float(numerator[0]), zeros, np.array(common, dtype=complex))
+
+
+def _numerator_roots(numerator: NDArray) -> NDArray:
+    """The roots of a sum's multiplied-out numerator (trimmed), as first estimates."""
     if not np.all(np.isfinite(numerator)):
         raise ExpressionError("polynomial coefficients overflow")
-    zeros = (
-        _roots(numerator).astype(complex) if numerator.size > 1 and numerator[0] != 0 else np.zeros(0, dtype=complex)
-    )
-    zeros = _origin_exact(forms, common, _sum_zeros(forms, common, zeros))
-    return PoleZero(float(numerator[0]), zeros, np.array(common, dtype=complex))
+    if numerator.size > 1 and numerator[0] != 0:
+        return _roots(numerator).astype(complex)
+    return np.zeros(0, dtype=complex)
+
+
+def _typed_coefficients(terms: list[tuple[float, Node]], params: Mapping[str, float]) -> NDArray | None:
+    """The trimmed descending coefficients of a sum whose every term is typed as c x^k, x^k or
+    c (c a number or a parameter; `PolynomialTransfer` writes c*x**k), read off the tree with
+    no pole-zero form of each term (the same sums, in the same order, as `_sum`'s); None for
+    any other sum."""
+    monomials = []
+    for sign, term in terms:
+        typed = monomial(term)
+        if typed is None:
+            return None
+        monomials.append((sign, *typed))
+    order = max(k for _, _, k in monomials)
+    if order > MAX_ORDER:
+        raise ExpressionError(f"order {order} is beyond the limit of {MAX_ORDER} for one block")
+    numerator = np.zeros(order + 1)
+    for sign, coefficient, k in monomials:
+        numerator[order - k] += sign * (1.0 if coefficient is None else _leaf(coefficient, params).gain)
+    return trim(numerator)
+
+
+def monomial(term: Node) -> tuple[Node | None, int] | None:
+    """A term typed as c x^k, x^k or c (c a number or a parameter's node): (c or None, k);
+    None for any other term."""
+    coefficient, power = (term.args[0], term.args[1]) if term.op == "mul" else (None, term)
+    if coefficient is not None and coefficient.op not in ("num", "param"):
+        return None
+    if power.op == "var":
+        return coefficient, 1
+    if power.op == "pow" and power.args[0].op == "var" and power.exponent >= 0:
+        return coefficient, power.exponent
+    if coefficient is None and power.op in ("num", "param"):
+        return power, 0
+    return None
+
+
+def _typed_polynomial(forms: list[tuple[float, PoleZero]]) -> bool:
+    """Is the sum a polynomial typed by its coefficients (terms c x^k)?  Its numerator is then
+    exactly what was typed: its roots are neither polished (`_sum_zeros`) nor snapped to the
+    origin (`_origin_exact`: a typed constant term is 0 or the sum's backward error at 0 is 1)."""
+    return all(form.poles.size == 0 and not np.any(form.zeros) for _, form in forms)
 
 
 def _origin_exact(forms: list[tuple[float, PoleZero]], common: list[complex], zeros: NDArray) -> NDArray:
@@ -218,8 +269,8 @@ def _sum_zeros(forms: list[tuple[float, PoleZero]], common: list[complex], zeros
     roots stand, as where the terms' numbers span 1e-146..1e-1).  Conjugate pairs stay exact pairs.  A root
     of the numerator on one of the common poles (within CANCEL: it cancels) is left as it is
     (a zero of the realization there is checked as any other)."""
-    if zeros.size == 0 or all(form.poles.size == 0 and not np.any(form.zeros) for _, form in forms):
-        return zeros  # a polynomial typed by its coefficients (terms c x^k): its numerator is what was typed
+    if zeros.size == 0:
+        return zeros
     if max(zeros.size, len(common)) > MAX_ORDER:
         return zeros  # the block is refused (`_checked`)
     poles = np.array(common, dtype=complex)

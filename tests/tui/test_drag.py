@@ -358,3 +358,44 @@ async def test_a_drag_is_coarse_while_held_exact_on_release_and_keeps_its_item_p
         shown = _tableau(app)
         assert shown["phase_margin_deg"] == pytest.approx(pm, abs=1e-6)
         assert shown["gain_margin_db"] == pytest.approx(20 * math.log10(gm), abs=1e-6)
+
+
+@synchronous
+async def test_a_drag_s_moves_render_the_dragged_plot_and_the_tableau_alone(tmp_path, monkeypatch):
+    """Each move of a drag after the first renders the dragged plot and the tableau again
+    and nothing else (a count of the widgets' renders, not a time): the status line says a
+    drag goes (one text for the drag; the edit on release), and a text set to what it shows
+    repaints nothing (the step's lines).  Before, the status line and the step's lines
+    were rendered again at every move."""
+    from textual.widget import Widget
+
+    from tui.screens.main import DRAGGING
+    from tui.screens.pole_lines import COMPUTING
+
+    app = lead_app(tmp_path, monkeypatch)
+    rendered: list[str | None] = []
+    render = Widget._render_content
+    monkeypatch.setattr(Widget, "_render_content", lambda self: rendered.append(self.id) or render(self))
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        tableau = app.screen.query_one("#tableau")
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(plot.drawing.frames[0], zero.x, zero.y)
+        _post(plot, events.MouseDown, start)
+        for k in range(4):
+            values, shown = start_values(app), plot.figure
+            rendered.clear()
+            _post(plot, events.MouseMove, (start[0] + 1 + k % 2, start[1]))
+            for _ in range(200):  # the move's frame drawn and painted, the pole lines under the tableau come
+                await settle(app, pilot)
+                if plot.figure is not shown and "bode-mag" in rendered and COMPUTING not in tableau.text.plain:
+                    break
+            await settle(app, pilot)
+            assert start_values(app) != values and "tableau" in rendered  # the design followed
+            if k:
+                assert set(rendered) == {"bode-mag", "tableau"}, rendered
+        _post(plot, events.MouseUp, (start[0] + 1, start[1]))
+        await settle(app, pilot)
+        status = app.screen.query_one("#status").text.plain
+        assert DRAGGING not in status and app.bench.edits.last in status  # released: the edit said

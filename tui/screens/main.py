@@ -46,6 +46,7 @@ from tui.widgets.shape_table import ShapeTable
 from tui.widgets.tables import ParametersTable, PlantTable, RefTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 
+DRAGGING = "a drag: the design follows the pointer, every plot exact on release"  # the status line's edit while held
 # the plot tabs, and the plots (figure ids) each shows
 PLOT_TABS = {
     "p-nyquist": ("nyquist",),
@@ -427,7 +428,8 @@ class MainScreen(Screen):
         busy = "  [b]stepping[/b] (space pauses)" if self.app.busy else ""
         for table in self._frozen:  # the tables' keys that change the session: disabled while work goes
             table.frozen = self.app.busy
-        edit = f"  [dim]{escape(b.edits.last)}[/dim]" if b.edits.last else ""
+        last = DRAGGING if self.dragged_plot is not None else b.edits.last  # one text a drag: no repaint a move
+        edit = f"  [dim]{escape(last)}[/dim]" if last else ""
         self.query_one("#status", TextView).set(
             f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
             f"{escape(b.status_text())}{busy}{edit}"

@@ -109,8 +109,6 @@ class Shaping:
 
     def dragged(self, message: FigurePlot.Dragged) -> tuple[Callable[[], object], str]:
         """The edit that puts the dragged handle under the pointer, and what it does."""
-        from sessions.shaping import gain_parameter
-
         bench, handle, drag = self.bench, message.handle, self.dragging
         k = bench.view().first_plotted
         item = drag.item or handle.name  # the item pressed, by its name now
@@ -128,6 +126,9 @@ class Shaping:
             value = float(cast(float, message.value))
             return lambda: edits.set_parameters(bench, {parameter: value}, k), f"drag {parameter} along the locus"
         if drag.gain is None:  # the gain parameter and its value at the press
+            # here: it imports scipy.optimize (1.4 s), which a root's or a corner's drag never needs
+            from sessions.shaping import gain_parameter
+
             values = bench.session.problem.condition_values(k)
             name = gain_parameter(bench.session, k, values)
             drag.gain = (name, values[name])
