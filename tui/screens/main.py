@@ -215,7 +215,7 @@ class MainScreen(Screen):
 
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
-        wanted = applicable(self.bench.presenter.plots, self.bench.session.problem)
+        wanted = applicable(self.bench.book.presenter.plots, self.bench.session.problem)
         titles = {
             "p-nyquist": "Nyquist",
             "p-bode": "Bode",

@@ -62,7 +62,7 @@ class SweepDesk:
     def keep(self, summary: dict) -> None:
         """Record a sweep's summary in the session (UI thread)."""
         record_sweep(self._bench.session, summary)
-        self._bench.dirty = True
+        self._bench.file.mark_changed()
 
     def adopt_best(self) -> dict:
         """Make the latest sweep's best optimum the start (records dropped); its run."""
@@ -71,7 +71,7 @@ class SweepDesk:
             raise SessionError("no sweep with a finished run to adopt")
         run = sweep["runs"][sweep["optima"][0]["best_run"]]
         widened = adopt_run(self._bench.session, run)
-        self._bench.reset()
+        self._bench.book.reset()
         return {**run, "widened": widened}
 
     def adopt_worst(self, row: int) -> dict:
@@ -83,7 +83,7 @@ class SweepDesk:
         chosen = sweep["worst_case"][row]
         run = next(r for r in sweep["runs"] if r["index"] == chosen["worst_sample"])
         widened = adopt_run(self._bench.session, run)
-        self._bench.reset()
+        self._bench.book.reset()
         return {**run, "row": chosen, "widened": widened}
 
     def refusal(self) -> str | None:
