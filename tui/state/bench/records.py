@@ -4,7 +4,8 @@ iterations, and the undo of edits of the problem (`tui.state.edit_history`).
 
 This part is the one writer of the session (a test keeps it so): an edit of the problem
 puts its model in place through `replace_problem`, inside `edit`, which records the undo
-step; every other change (a run's iteration, an undo, an algorithm switch) is a method here.
+step; every other change (a run's iteration, an undo, an algorithm switch, a sweep kept or
+adopted) is a method here.
 Only the UI thread calls them."""
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from sessions.format.schema import ProblemModel
 from sessions.hand_history import note_edit
 from sessions.runner import record_json, settings_snapshot
 from sessions.store import Session
+from sessions.sweeps.results import adopt_run, record_sweep
 from tui.state.bench.persistence import SessionFile
 from tui.state.edit_history import EditHistory, Snapshot
 
@@ -232,6 +234,18 @@ class RecordBook:
         self.forget_stepper()
         self._records[:] = snapshot.parsed_records
         self._redo.clear()  # the iterations undone before belonged to the state left
+        self._file.mark_changed()
+
+    def adopt_run(self, run: dict) -> list[str]:
+        """A sweep's run (its design) becomes the start (the records are dropped); the design
+        bounds widened to hold it, one line each (`sessions.sweeps.results.adopt_run`)."""
+        widened = adopt_run(self.session, run)
+        self.reset()
+        return widened
+
+    def keep_sweep(self, summary: dict) -> None:
+        """Record a sweep's summary in the session (`sessions.sweeps.results.record_sweep`)."""
+        record_sweep(self.session, summary)
         self._file.mark_changed()
 
     def adopt_current(self) -> None:
