@@ -40,7 +40,7 @@ def test_the_check_sees_imports():
 
 
 APP_PARTS = {"bench", "edit_flow", "busy", "runs", "sweeps", "exports"}
-APP_MODULES = ("tui.app", "tui.screens", "tui.actions", "tui.state.workbench")
+APP_MODULES = ("tui.app", "tui.screens", "tui.actions", "tui.state.workbench", "tui.state.bench")
 
 
 def seam_faults(path: Path) -> list[str]:
@@ -82,3 +82,84 @@ def test_the_key_table_imports_no_widget():
     tree = ast.parse((ROOT / "tui" / "keys.py").read_text())
     inner = [n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and (n.module or "").startswith("tui")]
     assert "tui" not in modules and inner == []
+
+
+SESSION_WRITER = ROOT / "tui" / "state" / "bench" / "records.py"
+MUTATORS = {"append", "extend", "insert", "pop", "remove", "clear", "update", "sort", "reverse", "setdefault"}
+
+
+def _reaches_session(node: ast.AST, aliases: set[str]) -> bool:
+    """Whether an attribute chain (``bench.session.model.problem``, ``model.records[0]``) goes
+    through a ``.session`` attribute or starts at a name bound to one."""
+    while isinstance(node, (ast.Attribute, ast.Subscript)):
+        if isinstance(node, ast.Attribute) and node.attr == "session":
+            return True
+        node = node.value
+    return isinstance(node, ast.Name) and node.id in aliases
+
+
+def _written(target: ast.AST) -> list[ast.AST]:
+    """The places an assignment's target writes (a tuple's items; a bare name writes nothing)."""
+    if isinstance(target, (ast.Tuple, ast.List)):
+        return [t for item in target.elts for t in _written(item)]
+    return [target] if isinstance(target, (ast.Attribute, ast.Subscript)) else []
+
+
+def session_writes(path: Path) -> list[str]:
+    """Where a module changes a session it reaches through ``.session``: an assignment, an
+    augmented assignment or a ``del`` of a place on it (directly or through a name bound to
+    it in the same function, ``model = bench.session.model``), or a list or dict method that
+    changes it in place (``...session.model.records.clear()``)."""
+    faults = []
+    scopes = [n for n in ast.walk(ast.parse(path.read_text(), filename=str(path))) if isinstance(n, ast.FunctionDef)]
+    for scope in scopes:
+        aliases: set[str] = set()
+        for node in ast.walk(scope):
+            if isinstance(node, ast.Assign) and _reaches_session(node.value, aliases):
+                aliases |= {t.id for t in node.targets if isinstance(t, ast.Name)}
+        for node in ast.walk(scope):
+            targets = (
+                node.targets
+                if isinstance(node, (ast.Assign, ast.Delete))
+                else [node.target]
+                if isinstance(node, (ast.AugAssign, ast.AnnAssign))
+                else []
+            )
+            places = [place for target in targets for place in _written(target)]
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in MUTATORS:
+                places.append(node.func.value)
+            faults += [f"{path.name}:{node.lineno}: {ast.unparse(p)}" for p in places if _reaches_session(p, aliases)]
+    return sorted(set(faults))
+
+
+def test_one_writer_of_the_session():
+    """Issue 54: the records part alone changes the open session (`RecordBook`: an edit's
+    problem through `replace_problem`, its undo step through `edit`); every other module of
+    the workbench asks it."""
+    paths = [p for p in (ROOT / "tui").rglob("*.py") if p != SESSION_WRITER]
+    assert [fault for path in paths for fault in session_writes(path)] == []
+
+
+def test_the_writer_check_sees_writes(tmp_path):
+    module = tmp_path / "edits.py"
+    module.write_text(
+        "def f(bench, draft):\n"
+        "    bench.session.model.problem, bench.session.problem = draft, 1\n"
+        "    settings = bench.session.model.algorithm.settings\n"
+        "    settings['x'] = 2\n"
+        "    model = bench.session.model\n"
+        "    model.records.clear()\n"
+        "    del model.records[1:]\n"
+        "    bench.session = None\n"
+        "    value = bench.session.model.state\n"
+        "    value = 3\n"
+    )
+    assert session_writes(module) == [
+        "edits.py:2: bench.session.model.problem",
+        "edits.py:2: bench.session.problem",
+        "edits.py:4: settings['x']",
+        "edits.py:6: model.records",
+        "edits.py:7: model.records[1:]",
+        "edits.py:8: bench.session",
+    ]
+    assert session_writes(SESSION_WRITER) != []  # the writer itself is seen writing

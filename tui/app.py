@@ -29,8 +29,6 @@ from sessions.format.save_file import OverwriteRefused, describe
 from sessions.store import (
     autosave_candidate,
     flush_autosaves,
-    load_autosave,
-    load_session,
     parse_session,
     set_aside_autosave,
 )
@@ -47,6 +45,7 @@ from tui.screens.edit_flow import EditFlow
 from tui.screens.main import MainScreen
 from tui.screens.new_flow import NewSessionFlow, copy_tables
 from tui.screens.start import StartScreen
+from tui.state.bench.persistence import reopen
 from tui.state.workbench import Workbench
 from tui.terminal_watch import HANGUP_EXIT, watch_terminal
 
@@ -417,11 +416,7 @@ class LoopcraftApp(App):
     def _open(self, path: Path, keep_path: Path | None = None, allow_outside_tables: bool = False) -> None:
         recovering = keep_path is not None and path != keep_path
         try:
-            session = (
-                load_autosave(keep_path, allow_outside_tables)
-                if recovering
-                else load_session(path, allow_outside_tables)
-            )
+            session = reopen(path, keep_path, allow_outside_tables)
         except OutsideTable as exc:
             question = f"this session reads a table outside its folder: {exc.name}. Read it?"
             self.push_screen(
@@ -467,15 +462,13 @@ class LoopcraftApp(App):
             self.notify(str(exc), title="no new session", severity="error", timeout=10)
             return
         session.path = path
-        bench = Workbench(session)
-        bench.untitled = True
-        self._show(bench, dirty=True)
+        self._show(Workbench(session, untitled=True), dirty=True)
         self.notify(f"a new session, kept in {path} until saved: ctrl+s asks for its name", timeout=6)
 
     def _ask_to_drop(self, then, what: str = "close this session") -> None:
         """Go on when nothing unsaved would be dropped, else autosave and ask first."""
         if self.bench is not None and self.bench.dirty:
-            where = self.bench.autosave()
+            where = self.bench.file.autosave()
             self.push_screen(ConfirmDialog(f"unsaved changes ({where}): {what} anyway?"), lambda yes: yes and then())
         else:
             then()
@@ -484,7 +477,7 @@ class LoopcraftApp(App):
         """Save in place; a new session (untitled) asks for its name first."""
         if self.bench is None:
             return
-        if self.bench.session.path is None or self.bench.untitled:
+        if self.bench.file.needs_name:
             self.action_save_as()
             return
         self._save(None)
@@ -501,7 +494,7 @@ class LoopcraftApp(App):
 
     def _save(self, path: Path | None, force: bool = False) -> None:
         try:
-            target = self.bench.save(path, force=force)
+            target = self.bench.file.save(path, force=force)
         except OverwriteRefused as exc:
             self.push_screen(ConfirmDialog(f"{exc}. Overwrite it?"), lambda yes: yes and self._save(path, True))
             return
@@ -517,7 +510,7 @@ class LoopcraftApp(App):
         changes go to the autosave (offered back on the next open), and the app ends."""
         self.runs.pause()
         if self.bench is not None:
-            self.bench.autosave()
+            self.bench.file.autosave()
         self.exit(HANGUP_EXIT)
 
     def action_quit(self) -> None:
@@ -556,10 +549,10 @@ class LoopcraftApp(App):
         self._edit_step(self.bench.edits.redo, "nothing to redo")
 
     def _edit_step(self, move, nothing: str) -> None:
-        if move(self.bench) is None:
+        if move(self.bench.book) is None:
             self.notify(nothing, timeout=3)
             return
-        self.bench.autosave(throttled=True)
+        self.bench.file.autosave(throttled=True)
         self.notify(self.bench.edits.last, timeout=4)
         self.refresh_workbench()
 
@@ -567,7 +560,7 @@ class LoopcraftApp(App):
         """The current iteration's design becomes the start (asks when iterations would go)."""
         iteration = self.bench.iteration
         self.edit_flow.change(
-            self.bench.adopt_current,
+            self.bench.book.adopt_current,
             f"make iteration {iteration}'s design the start",
             keeps_design=False,
             done=lambda _: self.notify(f"iteration {iteration}'s design is the start (ctrl+z undoes)"),

@@ -279,3 +279,43 @@ async def test_a_nudge_repaints_its_readouts_without_a_layout_pass_or_a_footer_r
         rows, _ = app.bench.view().tableau()
         assert next(r.value for r in rows if r.kind == "phase_margin_deg") == pytest.approx(pm, abs=1e-6)
         assert "computing" not in app.screen.query_one("#tableau").text.plain
+
+
+@synchronous
+async def test_a_nudge_repaints_the_readouts_it_changed_and_walks_no_widget_tree(tmp_path, monkeypatch):
+    """A nudge's paint holds what changed (the tableau, the status line's edit, the table's
+    reading), not the step lines it left as they were (before, every text was set again and
+    repainted: a paint over the screen's whole height), and finding the plots to draw walks
+    no widget tree (before, a query over every tab's widgets each nudge)."""
+    from textual.dom import DOMNode
+
+    from tui.widgets.plots import FigurePlot
+    from tui.widgets.textview import TextView
+
+    app = lead_app(tmp_path, monkeypatch)
+    repainted, queried = [], []
+    refresh, query = TextView.refresh, DOMNode.query
+
+    def noted_refresh(view, *args, **kwargs):
+        repainted.append(view.id)
+        return refresh(view, *args, **kwargs)
+
+    def noted_query(node, selector=None):
+        queried.append(selector)
+        return query(node, selector)
+
+    monkeypatch.setattr(TextView, "refresh", noted_refresh)
+    monkeypatch.setattr(DOMNode, "query", noted_query)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down", "right")
+        await settle(app, pilot)
+        step_lines = app.screen.query_one("#step-info").text.plain
+        repainted.clear()
+        queried.clear()
+        for key in ("left", "right"):
+            await pilot.press(key)
+            await settle(app, pilot)
+        assert {"tableau", "status"} <= set(repainted) and "step-info" not in repainted
+        assert app.screen.query_one("#step-info").text.plain == step_lines
+        assert FigurePlot not in queried

@@ -195,7 +195,7 @@ def test_a_run_keeps_the_json_its_worker_made(workdir):
     thread does not; the session keeps exactly what `commit` would have made."""
     import json
 
-    from tui.state.workbench import stored_json
+    from tui.state.bench.records import stored_json
 
     own, given = (Workbench(load_session(workdir / "cip_launch_vehicle.json")) for _ in range(2))
     for _ in range(3):

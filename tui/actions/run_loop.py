@@ -4,7 +4,7 @@
 workbench on the UI thread, then a thread worker steps: each iteration it
 computes the next (State, StepRecord) from its own state and view and posts
 a `Stepped` message (marked to be shown a few times a second, and always the
-last).  The UI thread alone appends the record (`Workbench.commit`; its JSON made
+last).  The UI thread alone appends the record (`RecordBook.commit`; its JSON made
 by the worker),
 autosaves and refreshes the tableau.  After a shown iteration, and once more
 after the run, the worker draws the plots on screen from its own view (sizes
@@ -34,8 +34,8 @@ from engine.stepping.protocol import State, Stepper, StepRecord
 from sessions.errors import SessionError
 from tui.figures.catalog import figure_key, figures
 from tui.screens.pole_lines import every_break_text, under_tableau
+from tui.state.bench.records import stored_json
 from tui.state.views import View
-from tui.state.workbench import stored_json
 from tui.widgets.plots import FigurePlot
 
 if TYPE_CHECKING:
@@ -55,7 +55,7 @@ class RunRequest:
     view: View
     count: int
     canvases: dict
-    settings: dict | None  # the snapshot the records are kept with (`Workbench.settings`)
+    settings: dict | None  # the snapshot the records are kept with (`RecordBook.settings`)
 
 
 class RunLoop:
@@ -141,7 +141,12 @@ class RunLoop:
             return
         screen = self.app.main_screen()
         request = RunRequest(
-            stepper, state, self.app.bench.view(), count, screen.canvases() if screen else {}, self.app.bench.settings
+            stepper,
+            state,
+            self.app.bench.view(),
+            count,
+            screen.canvases() if screen else {},
+            self.app.bench.settings,
         )
         self._pause.clear()
         self._painted.clear()
@@ -261,7 +266,7 @@ class RunLoop:
 
     def _run_done(self) -> None:
         """The keys are enabled again; everything but the plots (drawn by the worker) is refreshed."""
-        self.app.bench.autosave(wait=False)  # a long session's JSON: written off the UI thread
+        self.app.bench.file.autosave(wait=False)  # a long session's JSON: written off the UI thread
         self._set_running(False)
         self.app.refresh_workbench(plots=False)
 

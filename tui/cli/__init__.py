@@ -128,7 +128,7 @@ def run_app(target: str | None = None, example: str | None = None) -> int:
         result = None  # a write to the hung-up terminal failed before the terminal watch noticed it
     if not terminal_attached():  # whatever ended the app once its terminal went away: its work is autosaved
         if app.bench is not None:
-            app.bench.autosave()
+            app.bench.file.autosave()
         return HANGUP_EXIT
     return result if isinstance(result, int) else 0
 

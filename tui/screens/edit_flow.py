@@ -9,7 +9,6 @@ from typing import TYPE_CHECKING
 
 from sessions.errors import SessionError
 from tui.screens.dialogs import ChooseDialog, ConfirmDialog, EditDialog, StartDialog
-from tui.state.edit_history import Snapshot
 from tui.state.edits import Check, Edit
 
 if TYPE_CHECKING:
@@ -111,20 +110,21 @@ class EditFlow:
                 return
             if adopting:
                 self.bench.start = start
-            before = Snapshot.of(self.bench)
-            try:
+
+            def adopted_then_changed() -> object:
                 if adopting and start == "design":
-                    self.bench.adopt_current()
-                result = change()
+                    self.bench.book.adopt_current()
+                return change()
+
+            try:  # one undo step, put back whole when refused
+                result = self.bench.book.edit(adopted_then_changed, burst)
             except (SessionError, ValueError) as exc:
-                before.restore(self.bench)
                 if refused is not None:
                     refused(f"not applied ({failed}): {exc}")
                 else:
                     self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
             else:
-                self.bench.edits.push(before, self.bench, burst)
-                self.bench.autosave(throttled=True)  # an accepted edit is never only in memory
+                self.bench.file.autosave(throttled=True)  # an accepted edit is never only in memory
                 if adopting:
                     self.app.notify(_dropped(iterations, start), timeout=6)
                 if done is not None:

@@ -127,7 +127,7 @@ class HistoryPane(Horizontal):
 
     def views(self) -> list[str]:
         """The views that apply to the session's designs."""
-        return history_views(self.bench.presenter.plots, self.bench.session.problem)
+        return history_views(self.bench.book.presenter.plots, self.bench.session.problem)
 
     def fill(self, view: View) -> None:
         """The table of iterations (the selected row kept), then its plot and tableau."""

@@ -183,6 +183,7 @@ class MainScreen(Screen):
         self.shaping = Shaping(self)  # the shaping table's requests applied to the session
         self.table_edits = TableEdits(self)  # the other tables' requests applied to the session
         self._frozen: list[RefTable | MatrixTable | ShapeTable] = []  # the tables whose keys a run disables
+        self._shown_plots: list[FigurePlot] = []  # the plots on the tabs (`on_mount`), History's apart
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -216,7 +217,7 @@ class MainScreen(Screen):
 
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
-        wanted = applicable(self.bench.presenter.plots, self.bench.session.problem)
+        wanted = applicable(self.bench.book.presenter.plots, self.bench.session.problem)
         titles = {
             "p-nyquist": "Nyquist",
             "p-bode": "Bode",
@@ -243,6 +244,8 @@ class MainScreen(Screen):
         for table in self.query(RefTable):
             table.allows = self.table_edits.allows
         self._frozen = [*self.query(RefTable), self.query_one(MatrixTable), self.query_one(ShapeTable)]
+        # the plots a run or an edit draws (composed once: a query walks every widget of every tab)
+        self._shown_plots = [plot for plot in self.query(FigurePlot) if plot.id != "history-plot"]
         self.app.refresh_workbench()
 
     def on_resize(self, event) -> None:
@@ -443,7 +446,7 @@ class MainScreen(Screen):
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         self.fill_shape(view)
         if plots:
-            self.refresh_plots()
+            self.refresh_plots(view)
 
     def refresh_tableau(self, view: View | None = None) -> StepRecord | None:
         """The tableau with the lines under it (what binds at a stop, the closed-loop
@@ -468,15 +471,15 @@ class MainScreen(Screen):
     def canvases(self) -> dict[str, tuple[int, int, str]]:
         """The size and theme of every plot that is on screen now (UI thread)."""
         out = {}
-        for plot in self.query(FigurePlot):
-            if plot.id != "history-plot" and plot.display and plot.size.width > 0 and plot.region.width > 0:
+        for plot in self._shown_plots:
+            if plot.display and plot.size.width > 0 and plot.region.width > 0:
                 out[plot.id] = plot.canvas()
         return out
 
-    def refresh_plots(self) -> None:
+    def refresh_plots(self, view: View | None = None) -> None:
         """The plots on screen that are not of the current view, drawn in a worker
         (`draw_missing`); the root locus and History's plot as their tabs ask."""
-        view = self.bench.view()
+        view = self.bench.view() if view is None else view
         self.draw_missing(view)
         self.view_actions.forget_locus()
         self.view_actions.refresh_locus(view)

@@ -5,17 +5,20 @@ the problem model, the algorithm and its settings, the records and the
 current iteration, the earlier runs and hand moves, and the engine problem built from that model (so an undo
 needs no rebuild).  An accepted edit pushes the snapshot with a description
 of what changed, read off the two models ("parameter K value: 1 -> 2");
-undoing it puts the snapshot back, records included: iterations an edit
+undoing it puts the snapshot back (`RecordBook.restore`), records included: iterations an edit
 dropped come back with the edit's undo.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from engine.errors import shortened
 from sessions.format.json_diff import Change, Path, changes
+
+if TYPE_CHECKING:
+    from tui.state.bench.records import RecordBook
 
 MAX_EDITS = 100  # undo depth: the oldest edit is forgotten beyond it
 
@@ -34,29 +37,18 @@ class Snapshot:
     earlier: list
 
     @classmethod
-    def of(cls, bench) -> Snapshot:
-        model = bench.session.model
+    def of(cls, book: RecordBook) -> Snapshot:
+        model = book.session.model
         return cls(
             model.problem.model_copy(deep=True),
             model.algorithm.model_copy(deep=True),
             list(model.records),
             model.current_iteration,
             model.state,
-            bench.session.problem,
-            bench.parsed_records(),
+            book.session.problem,
+            book.parsed_records(),
             list(model.earlier),
         )
-
-    def restore(self, bench) -> None:
-        model = bench.session.model
-        model.problem, model.algorithm = self.problem_model.model_copy(deep=True), self.algorithm.model_copy(deep=True)
-        model.records[:] = self.records
-        model.current_iteration, model.state = self.current_iteration, self.state
-        model.earlier[:] = self.earlier
-        bench.session.problem = self.problem
-        bench.forget_stepper()
-        bench.put_back(self.parsed_records)
-        bench.dirty = True
 
 
 class EditHistory:
@@ -68,13 +60,13 @@ class EditHistory:
         self.last = ""  # what the latest edit, undo or redo did (the status line shows it)
         self._burst: object = None  # the burst the latest edit belongs to (`push`); None: ended
 
-    def push(self, before: Snapshot, after_bench, burst: object = None) -> str | None:
-        """Keep ``before`` as the undo of an edit that led to ``after_bench``'s state;
+    def push(self, before: Snapshot, after: RecordBook, burst: object = None) -> str | None:
+        """Keep ``before`` as the undo of an edit that led to ``after``'s state;
         its description (None when nothing changed).  Edits of one ``burst`` (the same
         item nudged again by the same key, with no other action between: `end_burst`)
         are one undo step, described from the state before the first of them
         ("T1: 1 -> 1.34").  What joins them is what the user did, never a timer."""
-        model = after_bench.session.model  # read as it is: no copy of it is kept
+        model = after.session.model  # read as it is: no copy of it is kept
         if burst is not None and burst == self._burst and self.undo_stack:
             before = self.undo_stack.pop()[1]
         self._burst = burst
@@ -90,21 +82,21 @@ class EditHistory:
         """Another action came: the next edit starts a new undo step, whatever its burst."""
         self._burst = None
 
-    def undo(self, bench) -> str | None:
+    def undo(self, book: RecordBook) -> str | None:
         """Put back the state before the latest edit; what was undone (None: nothing to undo)."""
-        return self._move(bench, self.undo_stack, self.redo_stack, "undid")
+        return self._move(book, self.undo_stack, self.redo_stack, "undid")
 
-    def redo(self, bench) -> str | None:
+    def redo(self, book: RecordBook) -> str | None:
         """Apply again the latest undone edit; what was redone (None: nothing to redo)."""
-        return self._move(bench, self.redo_stack, self.undo_stack, "redid")
+        return self._move(book, self.redo_stack, self.undo_stack, "redid")
 
-    def _move(self, bench, source: list, target: list, verb: str) -> str | None:
+    def _move(self, book: RecordBook, source: list, target: list, verb: str) -> str | None:
         if not source:
             return None
         text, snapshot = source.pop()
         self._burst = None
-        target.append((text, Snapshot.of(bench)))
-        snapshot.restore(bench)
+        target.append((text, Snapshot.of(book)))
+        book.restore(snapshot)
         self.last = f"{verb}: {text}"
         return text
 

@@ -24,7 +24,6 @@ from sessions.format.checks import invalid
 from sessions.format.schema import ProblemModel
 from sessions.forms import one_line as forms
 from sessions.forms import transfers as transfer_forms
-from sessions.hand_history import note_edit
 from sessions.lifecycle import folder
 from tui.state.views import View
 from tui.state.workbench import Workbench
@@ -77,9 +76,7 @@ def transaction(bench: Workbench, change: Callable[[ProblemModel], None]) -> Non
         raise SessionError(invalid(exc, "problem", dumped)) from None
     except (ValueError, EngineError) as exc:
         raise SessionError(str(exc)) from None
-    before, bench.session.model.problem, bench.session.problem = bench.session.model.problem, draft, problem
-    note_edit(bench.session, before)
-    bench.reset()
+    bench.book.replace_problem(draft, problem)
 
 
 def set_fields(bench: Workbench, path: Ref, **values: Any) -> None:

@@ -263,8 +263,7 @@ def setting_edit(bench: Workbench, name: str) -> Edit:
         return None
 
     def apply(text: str) -> None:
-        settings[name] = forms.parse_setting(text, current)
-        bench.reset()
+        bench.book.replace_settings({**settings, name: forms.parse_setting(text, current)})
 
     return Edit(f"{bench.algorithm_name} setting {name}", forms.format_setting(current), check, apply)
 

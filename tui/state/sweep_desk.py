@@ -11,7 +11,7 @@ from sessions.errors import SessionError
 from sessions.format.schema import SweepModel
 from sessions.sweeps.jobs import execute
 from sessions.sweeps.plan import parse_sweep, plan
-from sessions.sweeps.results import adopt_run, record_sweep, summarize
+from sessions.sweeps.results import summarize
 
 if TYPE_CHECKING:
     from tui.state.workbench import Workbench
@@ -61,8 +61,7 @@ class SweepDesk:
 
     def keep(self, summary: dict) -> None:
         """Record a sweep's summary in the session (UI thread)."""
-        record_sweep(self._bench.session, summary)
-        self._bench.dirty = True
+        self._bench.book.keep_sweep(summary)
 
     def adopt_best(self) -> dict:
         """Make the latest sweep's best optimum the start (records dropped); its run."""
@@ -70,8 +69,7 @@ class SweepDesk:
         if not sweep or not sweep["optima"]:
             raise SessionError("no sweep with a finished run to adopt")
         run = sweep["runs"][sweep["optima"][0]["best_run"]]
-        widened = adopt_run(self._bench.session, run)
-        self._bench.reset()
+        widened = self._bench.book.adopt_run(run)
         return {**run, "widened": widened}
 
     def adopt_worst(self, row: int) -> dict:
@@ -82,8 +80,7 @@ class SweepDesk:
             raise SessionError("no row of a tolerance study to adopt the worst sample of")
         chosen = sweep["worst_case"][row]
         run = next(r for r in sweep["runs"] if r["index"] == chosen["worst_sample"])
-        widened = adopt_run(self._bench.session, run)
-        self._bench.reset()
+        widened = self._bench.book.adopt_run(run)
         return {**run, "row": chosen, "widened": widened}
 
     def refusal(self) -> str | None:

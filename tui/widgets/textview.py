@@ -1,8 +1,7 @@
 """A text widget that repaints without a layout pass when its text changes
 (unlike `Static.update`), so a run's steady updates stay cheap; its height
-follows the number of lines only when that number changes, and the same text
-set again repaints nothing (a drag's frames set the status line and the step's
-lines to what they show)."""
+follows the number of lines only when that number changes; the same text set again is
+not repainted."""
 
 from __future__ import annotations
 
@@ -19,11 +18,12 @@ class TextView(Widget):
         self._lines = self._text.plain.count("\n") + 1
 
     def set(self, text: str | Text) -> None:
-        text = Text.from_markup(text) if isinstance(text, str) else text
-        if text == self._text and text.style == self._text.style:  # the characters, their spans, the base style
+        """Show ``text``; the same text again (a nudge's unchanged step lines) is not repainted."""
+        new = Text.from_markup(text) if isinstance(text, str) else text
+        if new is not self._text and _same(new, self._text):  # (the same object may have been changed)
             return
-        self._text = text
-        lines = self._text.plain.count("\n") + 1
+        self._text = new
+        lines = new.plain.count("\n") + 1
         self.refresh(layout=lines != self._lines)
         self._lines = lines
 
@@ -34,3 +34,9 @@ class TextView(Widget):
 
     def render(self) -> Text:
         return self._text
+
+
+def _same(a: Text, b: Text) -> bool:
+    """Whether two texts draw the same: their characters, spans and how they are laid out."""
+    laid_out = ("style", "justify", "overflow", "no_wrap", "end", "tab_size")
+    return a.plain == b.plain and a.spans == b.spans and all(getattr(a, k) == getattr(b, k) for k in laid_out)
