@@ -11,8 +11,9 @@ degenerate level: the per-loop path takes its detection grid), or when a level i
 (the per-loop path says what that means in its notes).  Otherwise its margins are the ones
 the per-loop path finds on the same form, to rounding: the same levels polished by the same
 Newton's method, GH(0) of a loop without an integrator as a gain margin at 0 when it is
-negative.  A batched sample's `Margins` hold its gain and phase margins only (rows that read
-the stability or attenuation margins are not batched).  A loop in z is batched on its
+negative.  A batched sample's `Margins` hold its gain and phase margins, and when asked its
+attenuation margins (the maxima of |GH| the search polished and certified; rows that read
+the stability margins are not batched).  A loop in z is batched on its
 w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
 margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents.
 """
@@ -47,23 +48,30 @@ class SampleLoop(NamedTuple):
     batched: bool
 
 
-def batch_margins(forms: BatchForms, sample_time: float | None = None) -> list[SampleLoop | None]:
+def batch_margins(
+    forms: BatchForms, sample_time: float | None = None, attenuation: bool = False
+) -> list[SampleLoop | None]:
     """Every sample's margins; None for a sample the per-loop path must take (module docstring).
     With ``sample_time`` the forms are a loop in z's w-plane forms (`engine.margins.sampled`):
     frequencies come back in rad/s, a gain margin at the Nyquist frequency where GH(-1) is
-    real and negative, the abscissa of the closed-loop poles' s-plane equivalents."""
+    real and negative, the abscissa of the closed-loop poles' s-plane equivalents.  With
+    ``attenuation`` the margins hold the attenuation margins too (the maxima of |GH|, the
+    modal peaks' rows): a sample with one that stopped in the rounding noise, not within 4
+    ulp, is not certified (the per-loop search may stop elsewhere in the noise)."""
     found = batch_crossings(forms)
     dc = _dc_values(forms)
     gain = _per_sample("G", found.phase, found.phase_gh)
     phase = _per_sample("P", found.gain, found.gain_gh)
-    odd, certified = forms.odd.tolist(), found.certified.tolist()
+    peaks = _per_sample("A", found.peaks, found.peaks_gh) if attenuation else [[]] * forms.gain.size
+    odd = forms.odd.tolist()
+    certified = (found.certified & (found.peaks_converged | (not attenuation))).tolist()
     abscissa = (found.abscissa if sample_time is None else _sampled_abscissa(found.closed, sample_time)).tolist()
     out: list[SampleLoop | None] = []
     for k in range(forms.gain.size):
         if odd[k]:
             out.append(None)
         elif certified[k]:
-            margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), (), method="refined")
+            margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), tuple(peaks[k]), method="refined")
             out.append(_in_time(SampleLoop(margins, abscissa[k], True), forms, k, sample_time))
         else:
             loop = sample_loop(forms, k, sample_time)
@@ -130,7 +138,7 @@ def sample_loop(forms: BatchForms, k: int, sample_time: float | None = None) -> 
     with np.errstate(all="ignore"):
         dc = form(np.zeros(1))[0][0]
     gain = _with_dc([m for m in found["G"] if m.gh.real < 0], complex(dc.real, 0.0) if np.isfinite(dc) else None)
-    margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), (), method="refined")
+    margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), tuple(found["A"]), method="refined")
     if sample_time is not None:
         abscissa = float(_sampled_abscissa(levels.closed[None, :], sample_time)[0])
     else:

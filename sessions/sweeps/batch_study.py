@@ -11,7 +11,7 @@ by `engine.slp.points`); consecutive batched samples are handed on as arrays
 It applies to slp studies with no linear constraints between parameters (a tolerance
 study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
 drawn parameters are free.  Their samples are batched when the rows are margins, crossover
-frequencies and the closed-loop stability abscissa, of conditions whose loops are
+frequencies, modal peaks (the attenuation margins) and the closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
@@ -43,7 +43,7 @@ from engine.loop.batch_forms import BatchForms, batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
-from engine.slp.measures import evaluate, frequency_value
+from engine.slp.measures import PEAK_KINDS, evaluate, frequency_value
 from engine.slp.points import points
 from sessions.build import build_problem
 from sessions.errors import SessionError
@@ -55,7 +55,15 @@ from sessions.sweeps.plan import ToleranceSamples
 from sessions.sweeps.records import Records, RowHead, number, row_heads, sample_run
 
 BATCH_KINDS = frozenset(
-    ("crossover_frequency", "gain_margin", "gain_margin_db", "phase_margin", "phase_margin_deg", "stability_abscissa")
+    (
+        "crossover_frequency",
+        "gain_margin",
+        "gain_margin_db",
+        "phase_margin",
+        "phase_margin_deg",
+        "stability_abscissa",
+        *PEAK_KINDS,
+    )
 )
 CHUNK = 2000  # samples whose forms are held at once: the memory stays bounded however large the study
 
@@ -385,7 +393,8 @@ def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) 
     if forms is None:
         study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
         return None
-    return batch_margins(forms, condition.network.sample_time)
+    peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in study.stepper.specs)
+    return batch_margins(forms, condition.network.sample_time, attenuation=peaks)
 
 
 def _row_values(study: _Study, loops: list[SampleLoop | None]) -> tuple[list[float], list[float]] | None:
