@@ -127,7 +127,7 @@ def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArra
     h = np.diff(grid)
     du = (u_left[1:] - u[:-1]) / h
     holds: dict[float, tuple[NDArray, NDArray, NDArray]] = {}
-    for a, b in _equal_step_runs(grid):
+    for a, b in equal_step_runs(grid):
         step = (grid[b] - grid[a]) / (b - a)
         if step not in holds:
             holds[step] = _foh(A, B, step)
@@ -137,7 +137,7 @@ def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArra
     return x
 
 
-def _equal_step_runs(grid: NDArray) -> list[tuple[int, int]]:
+def equal_step_runs(grid: NDArray) -> list[tuple[int, int]]:
     """Maximal ranges [a, b) of steps grid[i+1] - grid[i] equal to the rounding of the
     grid's times (4 eps |t|: the jitter of a linspace), the others one step each."""
     h = np.diff(grid)
@@ -168,7 +168,7 @@ def _scan(Phi: NDArray, x0: NDArray, forced: NDArray) -> NDArray:
     nb = -(-L // m)
     powers = Phi.T[None]  # powers[k] = (Phi^(k+1))^T
     while powers.shape[0] < m:
-        powers = np.concatenate([powers, _flush(powers @ powers[-1])])
+        powers = np.concatenate([powers, flush_subnormal(powers @ powers[-1])])
     z = np.zeros((nb * m, n))
     z[:L] = forced
     z = z.reshape(nb, m, n)
@@ -184,7 +184,7 @@ def _scan(Phi: NDArray, x0: NDArray, forced: NDArray) -> NDArray:
     return (free + z).reshape(nb * m, n)[:L]
 
 
-def _flush(P: NDArray) -> NDArray:
+def flush_subnormal(P: NDArray) -> NDArray:
     """P with the entries below 1e-250 set to 0 (no subnormal products: they are slow)."""
     P[np.abs(P) < 1e-250] = 0.0
     return P

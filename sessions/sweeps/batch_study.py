@@ -11,7 +11,10 @@ by `engine.slp.points`); consecutive batched samples are handed on as arrays
 It applies to slp studies with no linear constraints between parameters (a tolerance
 study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
 drawn parameters are free.  Their samples are batched when the rows are margins, crossover
-frequencies, modal peaks (the attenuation margins) and the closed-loop stability abscissa, of conditions whose loops are
+frequencies, modal peaks (the attenuation margins), time rows of continuous loops (step
+measures and the peak response, `engine.slp.batch_rows`: each sample's closed loop realized
+as the per-loop path realizes it, every response simulated in one recursion) and the
+closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
@@ -43,6 +46,7 @@ from engine.loop.batch_forms import BatchForms, batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
+from engine.slp.batch_rows import BATCH_TIME_KINDS, batch_time_rows
 from engine.slp.measures import PEAK_KINDS, evaluate, frequency_value
 from engine.slp.points import points
 from sessions.build import build_problem
@@ -63,6 +67,7 @@ BATCH_KINDS = frozenset(
         "phase_margin_deg",
         "stability_abscissa",
         *PEAK_KINDS,
+        *BATCH_TIME_KINDS,
     )
 )
 CHUNK = 2000  # samples whose forms are held at once: the memory stays bounded however large the study
@@ -250,6 +255,9 @@ def _study(jobs: Sequence) -> _Study | None:
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay, a table or a state-space block"
+    timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
+    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
+        unbatched = "time rows of a loop in z"
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
@@ -320,6 +328,7 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     # a value against its parameter's sign: its own session evaluates it at the sign's bound (slp clips its start)
     against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1).tolist()
     loops = [] if study.unbatched else [_condition_loops(study, c, heads) for c in range(len(study.problem.conditions))]
+    timed, timed_ok = _time_rows(study, xs)
     share = (time.perf_counter() - began) / max(len(heads), 1)
     items: list[dict | Records] = []
     stretch: list[int] = []  # consecutive batched samples (positions in the chunk), their rows' values
@@ -327,10 +336,10 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     for k, head in enumerate(heads):
         mine = (
             None
-            if study.unbatched or against_sign[k] or any(found is None for found in loops)
+            if study.unbatched or against_sign[k] or not timed_ok[k] or any(found is None for found in loops)
             else [found[k] for found in loops]
         )
-        rows = None if mine is None else _row_values(study, mine)
+        rows = None if mine is None else _row_values(study, mine, timed[k])
         if rows is None:
             items += _records(study, [heads[j] for j in stretch], stretch_rows, share)
             stretch, stretch_rows = [], []
@@ -397,16 +406,31 @@ def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) 
     return batch_margins(forms, condition.network.sample_time, attenuation=peaks)
 
 
-def _row_values(study: _Study, loops: list[SampleLoop | None]) -> tuple[list[float], list[float]] | None:
-    """A sample's row values and frequencies from its conditions' loops; None when a row needs
-    the per-loop path."""
+def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every sample's time rows and the stability rows of their conditions (`engine.slp.batch_rows`;
+    NaN columns for the other rows, all NaN when the study has no time rows), and which samples
+    have them."""
+    specs = study.stepper.specs
+    if study.unbatched or not any(s.kind in BATCH_TIME_KINDS for s in specs):
+        return np.full((xs.shape[0], len(specs)), np.nan), np.ones(xs.shape[0], dtype=bool)
+    return batch_time_rows(study.problem, specs, xs)
+
+
+def _row_values(
+    study: _Study, loops: list[SampleLoop | None], timed: np.ndarray
+) -> tuple[list[float], list[float]] | None:
+    """A sample's row values and frequencies from its conditions' loops and its time rows
+    (``timed``: NaN but for the time rows and their conditions' stability rows); None when a
+    row needs the per-loop path."""
     values, frequencies = [], []
-    for spec in study.stepper.specs:
+    for i, spec in enumerate(study.stepper.specs):
         loop = loops[spec.condition]
         if loop is None:
             return None
-        if spec.kind == "stability_abscissa":
-            value, frequency = loop.abscissa, math.nan
+        if spec.kind in BATCH_TIME_KINDS:
+            value, frequency = float(timed[i]), math.nan
+        elif spec.kind == "stability_abscissa":  # the closed loop's eigenvalues when it was realized
+            value, frequency = (float(timed[i]) if not math.isnan(timed[i]) else loop.abscissa), math.nan
         elif spec.kind == "crossover_frequency" and not any(
             spec.low <= m.frequency <= spec.high for m in loop.margins.phase
         ):

@@ -209,10 +209,10 @@ def test_random_loops_in_z_equal_the_per_loop_path(tmp_path):
 
 
 def test_the_launch_vehicle_is_evaluated_per_loop(tmp_path):
-    """Three conditions whose loops are not one cascade, with modal peak and peak response rows."""
+    """Three conditions whose loops are not one cascade (its modal peak and peak response rows alone would be batched)."""
     shutil.copy(EXAMPLES / "coebra_launch_vehicle.json", tmp_path / "lv.json")
     jobs = _jobs(tmp_path / "lv.json", 3, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
-    _per_loop_equal(jobs, "rows of kind peak_response")
+    _per_loop_equal(jobs, "condition 'switch-in''s loop is not one cascade of expression blocks")
 
 
 def test_a_sample_that_is_not_of_the_study_keeps_the_study_per_loop(tmp_path):
@@ -497,4 +497,42 @@ def test_modal_peak_rows_of_cascades_are_batched(tmp_path):
         batched += batch.done - batch.per_loop - batch.searched
         total += batch.done
     assert peaks >= 60  # rows that found a peak (80 of them), not only absent ones
+    assert batched >= 0.7 * total
+
+
+def _with_time_rows(path: Path) -> Path:
+    """The session with step rows on r -> y (overshoot, rise, settling, peak time, steady-state
+    error, over 3 s at 151 points) and a peak response to a ramp up and down."""
+    model = json.loads(path.read_text())
+    step = {"input": "r", "output": "y", "horizon": 3.0, "points": 151, "profile": [{"time": 0.0, "step": 1.0}]}
+    ramp = {**step, "profile": [{"time": 0.0, "slope": 1.0}, {"time": 0.5, "slope": -2.0}, {"time": 1.0, "slope": 1.0}]}
+    kinds = ("overshoot_percent", "rise_time", "settling_time", "peak_time", "steady_state_error")
+    model["problem"]["targets"] += [
+        {"measure": kind, "bands": [{"desired": 1.0}], "requirement": False, "response": step} for kind in kinds
+    ] + [{"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False, "response": ramp}]
+    path.write_text(json.dumps(model))
+    return path
+
+
+def test_time_rows_of_cascades_are_batched(tmp_path):
+    """Issue 53, section 1: a cascade with step and peak-response rows went per loop (not
+    batched: rows of kind overshoot_percent, ...); each sample's closed loop, realized as the
+    per-loop path realizes it, is simulated with the others in one recursion now.  The lag-lead
+    and random cascades: every run `run_job`'s (rows to 1e-12 relative), most samples batched."""
+    from tests.engine.test_batch_margins import _random_structure
+
+    batched = total = 0
+    studies = [(_with_time_rows(_session(tmp_path)), TOLERANCES)]
+    for seed in (2, 4, 9):
+        blocks, values = _random_structure(np.random.default_rng(seed))
+        path = _with_time_rows(_loop_session(tmp_path, blocks, values, f"timed{seed}"))
+        studies.append((path, [f"{name}=+-20%" for name in values]))
+    for path, tolerances in studies:
+        jobs = _jobs(path, 15, tolerances)
+        batch = batch_runs(jobs)
+        assert batch is not None and batch.unbatched == ""
+        for got, job in zip(batch.runs, jobs, strict=True):
+            _same_run(got, run_job(job.payload()))
+        batched += batch.done - batch.per_loop - batch.searched
+        total += batch.done
     assert batched >= 0.7 * total
