@@ -1,7 +1,7 @@
 """slp's time rows (`engine.slp.measures`: step measures and the peak response) and the
 closed-loop stability abscissa of many samples of one problem at once: each sample's closed
-loop realized as the per-loop path realizes it (`engine.loop.design.closed_loop_realization`),
-the realizations stacked, every sample's response to a target's profile simulated in one
+loop realized as the per-loop path realizes it (`engine.loop.design.closed_loop_realization`;
+all at once when the network allows, `engine.loop.batch_realization`), the realizations stacked, every sample's response to a target's profile simulated in one
 recursion (`engine.closed_loop.batch_time`) and read by the per-loop path's own rules
 (`engine.slp.measures.response_value`); the abscissa from one batched eigenvalue call on
 the stacked closed-loop matrices (each the per-loop path's own matrix).
@@ -23,6 +23,7 @@ from engine.closed_loop.batch_time import batch_simulate
 from engine.closed_loop.time_response import Segment
 from engine.design.problem import Problem
 from engine.errors import EngineError
+from engine.loop.batch_realization import batch_closed_loop
 from engine.loop.design import closed_loop_realization
 from engine.loop.realization import StateSpace
 from engine.slp.measures import Spec, response_times, response_value
@@ -53,7 +54,7 @@ def _condition_rows(
     problem: Problem, c: int, specs: list[Spec], xs: NDArray, values: NDArray, rows: list[int]
 ) -> NDArray[np.bool_]:
     """Condition ``c``'s rows of every sample written to ``values``' columns ``rows``; which samples have them."""
-    realized = [_realized(problem, c, x) for x in xs]
+    realized = _realizations(problem, c, xs)
     shape = next((ss.A.shape for ss in realized if ss is not None), None)
     ok = np.array([ss is not None and ss.A.shape == shape and np.isfinite(ss.A).all() for ss in realized])
     if shape is None or not ok.any():
@@ -79,6 +80,21 @@ def _condition_rows(
         for row, (sample, ss) in enumerate(zip(mine.tolist(), loops)):
             values[sample, column] = response_value(spec, response, ss, t, y[row])
     return ok
+
+
+def _realizations(problem: Problem, c: int, xs: NDArray) -> list[StateSpace | None]:
+    """Condition ``c``'s closed loop of every sample: realized for all at once when the network
+    allows it (`engine.loop.batch_realization`: the same matrices), else one by one."""
+    condition = problem.conditions[c]
+    values = [problem.condition_values(c, x) for x in xs]
+    columns = {name: np.array([v[name] for v in values]) for name in values[0]} if values else {}
+    stacked = batch_closed_loop(condition.network, condition.break_at, columns) if columns else None
+    if stacked is None:
+        return [_realized(problem, c, x) for x in xs]
+    return [
+        StateSpace(A, B, C, D, stacked.inputs, stacked.outputs)
+        for A, B, C, D in zip(stacked.A, stacked.B, stacked.C, stacked.D)
+    ]
 
 
 def _realized(problem: Problem, c: int, x: NDArray) -> StateSpace | None:
