@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from engine.errors import EngineError
 from engine.loop.pole_zero import BROKEN, broken_network
-from engine.loop.realization import entry_realization, factored_feedthrough
+from engine.loop.realization import StateSpace, entry_realization, factored_feedthrough
 from engine.model.blocks import ExpressionTransfer
 from engine.model.expressions import Node
 from engine.model.folding import FOLD_DEGREE
@@ -43,16 +43,28 @@ class BatchStateSpace:
     outputs: tuple[str, ...]
 
 
+def batch_loop_realization(
+    network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]
+) -> BatchStateSpace | None:
+    """Every sample's broken loop as `engine.loop.pole_zero.loop_realization` makes it (inputs: the
+    network's, then the loop input); None when there is no batched realization."""
+    broken = network.derived.get(BROKEN, lambda: broken_network(network, break_at), break_at)
+    return batch_realize(broken, columns)
+
+
 def batch_closed_loop(
     network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]
 ) -> BatchStateSpace | None:
     """Every sample's closed loop as `engine.loop.design.closed_loop_realization` makes it (the
     loop broken at ``break_at`` realized, then closed: `engine.loop.pole_zero.closed_from_broken`);
     None when there is no batched realization (module docstring)."""
-    broken = network.derived.get(BROKEN, lambda: broken_network(network, break_at), break_at)
-    ss = batch_realize(broken, columns)
-    if ss is None:
-        return None
+    ss = batch_loop_realization(network, break_at, columns)
+    return None if ss is None else closed_of(network, break_at, ss)
+
+
+def closed_of(network: Network, break_at: str, ss: BatchStateSpace) -> BatchStateSpace | None:
+    """The closed loops of the broken ones ``ss`` (`batch_loop_realization`), as
+    `engine.loop.pole_zero.closed_from_broken` closes each; None for a singular algebraic loop."""
     k = network.signal(break_at)
     Bu, Du = ss.B[:, :, -1:], ss.D[:, :-1, -1:]
     denominator = 1.0 - ss.D[:, k, -1][:, None, None]
@@ -67,6 +79,11 @@ def batch_closed_loop(
         network.inputs,
         network.signals,
     )
+
+
+def samples(ss: BatchStateSpace) -> list[StateSpace]:
+    """Each sample's realization on its own (views of the stacked arrays)."""
+    return [StateSpace(A, B, C, D, ss.inputs, ss.outputs) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
 
 
 def batch_realize(network: Network, columns: Mapping[str, NDArray[np.float64]]) -> BatchStateSpace | None:

@@ -14,7 +14,8 @@ per-loop path takes it).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,10 +24,10 @@ from engine.closed_loop.batch_time import batch_simulate
 from engine.closed_loop.time_response import Segment
 from engine.design.problem import Problem
 from engine.errors import EngineError
-from engine.loop.batch_realization import batch_closed_loop
-from engine.loop.design import closed_loop_realization
+from engine.loop.batch_realization import BatchStateSpace, batch_loop_realization, closed_of, samples
+from engine.loop.design import closed_loop_realization, seed_loop_realization
 from engine.loop.realization import StateSpace
-from engine.slp.measures import Spec, response_times, response_value
+from engine.slp.measures import Spec, evaluate, response_times, response_value
 
 # the time rows read from a simulated response (a mean square solves a Lyapunov equation: per loop)
 BATCH_TIME_KINDS = frozenset(
@@ -34,27 +35,48 @@ BATCH_TIME_KINDS = frozenset(
 )
 
 
+Stacks = tuple[BatchStateSpace, BatchStateSpace]  # a condition's broken and closed loops, every sample's
+
+
 def batch_time_rows(
-    problem: Problem, specs: Sequence[Spec], xs: NDArray[np.float64]
+    problem: Problem,
+    specs: Sequence[Spec],
+    xs: NDArray[np.float64],
+    stacks: Mapping[int, Stacks | None] | None = None,
+    stability: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Per sample (rows of the free vectors ``xs``): the values of ``specs``' time rows and
-    stability rows of conditions with time rows (NaN in the other columns), and whether the
-    sample has them all (else the per-loop path takes it)."""
+    """Per sample (rows of the free vectors ``xs``): the values of ``specs``' time rows and the
+    stability rows of conditions with time rows (of every condition with ``stability``; NaN in
+    the other columns), and whether the sample has them all (else the per-loop path takes it).
+    ``stacks``: the conditions' realizations already made (`condition_stacks`)."""
     values = np.full((xs.shape[0], len(specs)), np.nan)
     ok = np.ones(xs.shape[0], dtype=bool)
-    for c in sorted({s.condition for s in specs if s.kind in BATCH_TIME_KINDS}):
-        rows = [
-            i for i, s in enumerate(specs) if s.condition == c and s.kind in (*BATCH_TIME_KINDS, "stability_abscissa")
-        ]
-        ok &= _condition_rows(problem, c, [specs[i] for i in rows], xs, values, rows)
+    kinds = (*BATCH_TIME_KINDS, "stability_abscissa")
+    wanted = {s.condition for s in specs if s.kind in BATCH_TIME_KINDS or (stability and s.kind == kinds[-1])}
+    for c in sorted(wanted):
+        rows = [i for i, s in enumerate(specs) if s.condition == c and s.kind in kinds]
+        made = stacks[c] if stacks is not None and c in stacks else condition_stacks(problem, c, xs)
+        realized = samples(made[1]) if made is not None else [_realized(problem, c, x) for x in xs]
+        ok &= _condition_rows(problem, realized, [specs[i] for i in rows], values, rows)
     return values, ok
 
 
+def condition_stacks(problem: Problem, c: int, xs: NDArray) -> Stacks | None:
+    """Condition ``c``'s broken and closed loops of every sample at once (`engine.loop.batch_realization`:
+    the per-loop path's matrices); None when the network does not allow it."""
+    condition = problem.conditions[c]
+    values = [problem.condition_values(c, x) for x in xs]
+    columns = {name: np.array([v[name] for v in values]) for name in values[0]} if values else {}
+    broken = batch_loop_realization(condition.network, condition.break_at, columns) if columns else None
+    closed = None if broken is None else closed_of(condition.network, condition.break_at, broken)
+    return None if broken is None or closed is None else (broken, closed)
+
+
 def _condition_rows(
-    problem: Problem, c: int, specs: list[Spec], xs: NDArray, values: NDArray, rows: list[int]
+    problem: Problem, realized: list[StateSpace | None], specs: list[Spec], values: NDArray, rows: list[int]
 ) -> NDArray[np.bool_]:
-    """Condition ``c``'s rows of every sample written to ``values``' columns ``rows``; which samples have them."""
-    realized = _realizations(problem, c, xs)
+    """A condition's rows of every sample (its closed loops ``realized``) written to ``values``'
+    columns ``rows``; which samples have them."""
     shape = next((ss.A.shape for ss in realized if ss is not None), None)
     ok = np.array([ss is not None and ss.A.shape == shape and np.isfinite(ss.A).all() for ss in realized])
     if shape is None or not ok.any():
@@ -82,21 +104,6 @@ def _condition_rows(
     return ok
 
 
-def _realizations(problem: Problem, c: int, xs: NDArray) -> list[StateSpace | None]:
-    """Condition ``c``'s closed loop of every sample: realized for all at once when the network
-    allows it (`engine.loop.batch_realization`: the same matrices), else one by one."""
-    condition = problem.conditions[c]
-    values = [problem.condition_values(c, x) for x in xs]
-    columns = {name: np.array([v[name] for v in values]) for name in values[0]} if values else {}
-    stacked = batch_closed_loop(condition.network, condition.break_at, columns) if columns else None
-    if stacked is None:
-        return [_realized(problem, c, x) for x in xs]
-    return [
-        StateSpace(A, B, C, D, stacked.inputs, stacked.outputs)
-        for A, B, C, D in zip(stacked.A, stacked.B, stacked.C, stacked.D)
-    ]
-
-
 def _realized(problem: Problem, c: int, x: NDArray) -> StateSpace | None:
     """Condition ``c``'s closed loop at the free values ``x``, as the per-loop path realizes it; None when that fails."""
     condition = problem.conditions[c]
@@ -111,3 +118,45 @@ def _abscissa(A: NDArray) -> NDArray[np.float64]:
     if A.shape[1] == 0:
         return np.full(A.shape[0], math.inf)
     return -np.max(np.linalg.eigvals(A).real, axis=1)
+
+
+@dataclass(frozen=True)
+class Assisted:
+    """A chunk of samples evaluated per loop with their realizations, time rows and stability rows
+    made for all at once (`assisted`): what slp's measures (`engine.slp.measures.evaluate`)
+    compute per sample, the frequency rows per sample on the batched realizations."""
+
+    problem: Problem
+    specs: Sequence[Spec]
+    stacks: Mapping[int, Stacks]
+    values: NDArray[np.float64]  # (S, rows): the batched rows' values, NaN elsewhere
+    ok: NDArray[np.bool_]  # the samples whose batched rows are had
+    batched: NDArray[np.bool_]  # (rows,): which rows the batch gives
+
+    def evaluate(self, k: int, x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Sample ``k``'s (values, frequencies) at the free values ``x`` (its row of the chunk)."""
+        problem = self.problem
+        for c, (broken, _) in self.stacks.items():
+            condition = problem.conditions[c]
+            own = StateSpace(broken.A[k], broken.B[k], broken.C[k], broken.D[k], broken.inputs, broken.outputs)
+            seed_loop_realization(condition.network, condition.break_at, problem.condition_values(c, x), own)
+        rest = np.flatnonzero(~self.batched if self.ok[k] else np.ones(len(self.specs), dtype=bool))
+        values, frequencies = self.values[k].copy(), np.full(len(self.specs), np.nan)
+        if rest.size:
+            values[rest], frequencies[rest] = evaluate(problem, x, [self.specs[i] for i in rest])
+        return values, frequencies
+
+
+def assisted(problem: Problem, specs: Sequence[Spec], xs: NDArray[np.float64]) -> Assisted | None:
+    """The samples' realizations, time rows and stability rows made at once, for a study whose
+    frequency rows go per loop (a loop that is not one cascade); None when a condition has no
+    batched realization (`condition_stacks`) or is sampled."""
+    if any(condition.network.sample_time is not None for condition in problem.conditions):
+        return None
+    stacks = {c: condition_stacks(problem, c, xs) for c in range(len(problem.conditions))}
+    made = {c: stack for c, stack in stacks.items() if stack is not None}
+    if len(made) < len(stacks):
+        return None
+    values, ok = batch_time_rows(problem, specs, xs, made, stability=True)
+    batched = np.array([s.kind in BATCH_TIME_KINDS or s.kind == "stability_abscissa" for s in specs], dtype=bool)
+    return Assisted(problem, specs, made, values, ok, batched)

@@ -46,7 +46,7 @@ from engine.loop.batch_forms import BatchForms, batch_pole_zero
 from engine.margins.batch import SampleLoop, batch_margins
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
-from engine.slp.batch_rows import BATCH_TIME_KINDS, batch_time_rows
+from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
 from engine.slp.measures import PEAK_KINDS, evaluate, frequency_value
 from engine.slp.points import points
 from sessions.build import build_problem
@@ -132,6 +132,7 @@ class _Study:
     named: dict
     slots: list[tuple[int, str, int | None]]
     unbatched: str  # why its samples are not batched ("" when they are)
+    assisted: bool  # not batched, but its realizations, time and stability rows are (`engine.slp.batch_rows.assisted`)
     signed: tuple[np.ndarray, np.ndarray]  # each free slot's range by its parameter's sign (-inf, 0 or +inf)
     row_heads: list[RowHead]  # what every run says of each row but its value
 
@@ -261,13 +262,26 @@ def _study(jobs: Sequence) -> _Study | None:
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+    helped = bool(unbatched) and _assisted(problem)
+    if helped:
+        rows = "time rows and stability rows" if timed else "stability rows"
+        unbatched += f"; its realizations and {rows} batched, its frequency rows per loop"
     signs = [problem.parameters[i].sign for i, _ in problem.free_slots()]
     signed = (
         np.array([0.0 if sign == "positive" else -math.inf for sign in signs]),
         np.array([0.0 if sign == "negative" else math.inf for sign in signs]),
     )
     heads = row_heads(stepper.specs, [condition.name for condition in problem.conditions])
-    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, signed, heads)
+    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, helped, signed, heads)
+
+
+def _assisted(problem: Problem) -> bool:
+    """Can the study's realizations be made for all its samples at once (its frequency rows then
+    go per loop on them)?  Every condition continuous, its loop realized at once at the start."""
+    if any(condition.network.sample_time is not None for condition in problem.conditions):
+        return False
+    start = problem.vector()[None, :]
+    return all(condition_stacks(problem, c, start) is not None for c in range(len(problem.conditions)))
 
 
 def _cascade(problem: Problem, c: int) -> BatchForms | None:
@@ -329,6 +343,7 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1).tolist()
     loops = [] if study.unbatched else [_condition_loops(study, c, heads) for c in range(len(study.problem.conditions))]
     timed, timed_ok = _time_rows(study, xs)
+    helped = assisted(study.problem, study.stepper.specs, xs) if study.assisted else None
     share = (time.perf_counter() - began) / max(len(heads), 1)
     items: list[dict | Records] = []
     stretch: list[int] = []  # consecutive batched samples (positions in the chunk), their rows' values
@@ -343,7 +358,7 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
         if rows is None:
             items += _records(study, [heads[j] for j in stretch], stretch_rows, share)
             stretch, stretch_rows = [], []
-            run = (None if against_sign[k] else _per_loop(study, head, xs[k])) or run_job(jobs[k].payload())
+            run = (None if against_sign[k] else _per_loop(study, head, xs[k], helped, k)) or run_job(jobs[k].payload())
             alone.append(head[0])
             run["attempts"] = 1
             items.append(run)
@@ -373,12 +388,18 @@ def _records(
     return [Records(heads, study.row_heads, values, frequencies, verdicts, study.named, share)]
 
 
-def _per_loop(study: _Study, head: tuple[int, str, dict], x: np.ndarray) -> dict | None:
+def _per_loop(
+    study: _Study, head: tuple[int, str, dict], x: np.ndarray, helped: Assisted | None = None, k: int = 0
+) -> dict | None:
     """One sample's run by slp's own measures on the shared problem (what `run_job` computes
-    from the sample's session); None when they raise (`run_job` says how)."""
+    from the sample's session; ``helped``: with the chunk's batched realizations and rows, ``k``
+    its position there); None when they raise (`run_job` says how)."""
     began = time.perf_counter()
     try:
-        values, frequencies = evaluate(study.problem, x, study.stepper.specs)
+        if helped is not None:
+            values, frequencies = helped.evaluate(k, x)
+        else:
+            values, frequencies = evaluate(study.problem, x, study.stepper.specs)
     except Exception:  # noqa: BLE001 - the sample's own session then says what failed, as run_job does
         return None
     return _sample_run(study, head, x, values, frequencies, time.perf_counter() - began)
