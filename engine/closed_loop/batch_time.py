@@ -19,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.closed_loop.time_response import BLOCK, Segment, equal_step_runs, flush_subnormal, input_profile
+from engine.closed_loop.time_response import BLOCK, Segment, flush_subnormal, held_runs, input_profile
 
 GROUP_ELEMENTS = 1 << 20  # floats of a group's powers (BLOCK n x n per sample) or states: 8 MB at most
 
@@ -56,12 +56,7 @@ def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArra
     if n == 0:
         return x
     du = (u_left[1:] - u[:-1]) / np.diff(grid)
-    holds: dict[float, tuple[NDArray, NDArray, NDArray]] = {}
-    for a, b in equal_step_runs(grid):
-        step = (grid[b] - grid[a]) / (b - a)
-        if step not in holds:
-            holds[step] = _foh(A, B, step)
-        Phi, Gam0, Gam1 = holds[step]
+    for a, b, (Phi, Gam0, Gam1) in held_runs(grid, lambda step: _foh(A, B, step)):
         forced = u[None, a:b, None] * Gam0[:, None, :] + du[None, a:b, None] * Gam1[:, None, :]
         x[:, a + 1 : b + 1] = _scan(Phi, x[:, a], forced)
     return x

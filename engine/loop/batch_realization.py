@@ -1,6 +1,7 @@
 """The state-space realizations of many samples of one network at once (a tolerance study's
-samples: one diagram, other parameter values), stacked: A (S, N, N), B (S, N, I), C (S, n, N)
-and D (S, n, I), each sample's the one `engine.loop.realization.realize` makes for it.
+samples: one diagram, other parameter values), as one `StateSpace` of stacked arrays: A (S, N, N),
+B (S, N, I), C (S, n, N) and D (S, n, I), each sample's the one `engine.loop.realization.realize`
+makes for it.
 
 An entry whose parameters the samples do not vary is realized once, by `realize`'s own
 entry realization; an entry they vary must fold to a ratio of degree <= 2 in every sample
@@ -16,7 +17,6 @@ sample.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,30 +31,16 @@ from engine.model.network import Network
 from engine.model.ports.state_space_ports import StateSpaceChannel
 
 
-@dataclass(frozen=True)
-class BatchStateSpace:
-    """x' = A x + B u, y = C x + D u of every sample (leading axis)."""
-
-    A: NDArray[np.float64]
-    B: NDArray[np.float64]
-    C: NDArray[np.float64]
-    D: NDArray[np.float64]
-    inputs: tuple[str, ...]
-    outputs: tuple[str, ...]
-
-
 def batch_loop_realization(
     network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]
-) -> BatchStateSpace | None:
+) -> StateSpace | None:
     """Every sample's broken loop as `engine.loop.pole_zero.loop_realization` makes it (inputs: the
     network's, then the loop input); None when there is no batched realization."""
     broken = network.derived.get(BROKEN, lambda: broken_network(network, break_at), break_at)
     return batch_realize(broken, columns)
 
 
-def batch_closed_loop(
-    network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]
-) -> BatchStateSpace | None:
+def batch_closed_loop(network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]) -> StateSpace | None:
     """Every sample's closed loop as `engine.loop.design.closed_loop_realization` makes it (the
     loop broken at ``break_at`` realized, then closed: `engine.loop.pole_zero.closed_from_broken`);
     None when there is no batched realization (module docstring)."""
@@ -62,7 +48,7 @@ def batch_closed_loop(
     return None if ss is None else closed_of(network, break_at, ss)
 
 
-def closed_of(network: Network, break_at: str, ss: BatchStateSpace) -> BatchStateSpace | None:
+def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | None:
     """The closed loops of the broken ones ``ss`` (`batch_loop_realization`), as
     `engine.loop.pole_zero.closed_from_broken` closes each; None for a singular algebraic loop."""
     k = network.signal(break_at)
@@ -71,7 +57,7 @@ def closed_of(network: Network, break_at: str, ss: BatchStateSpace) -> BatchStat
     if (np.abs(denominator) < 1e-14).any():
         return None  # a singular algebraic loop: the per-sample realization says so
     Ck, Dk = ss.C[:, k : k + 1] / denominator, ss.D[:, k : k + 1, :-1] / denominator
-    return BatchStateSpace(
+    return StateSpace(
         ss.A + Bu @ Ck,
         ss.B[:, :, :-1] + Bu @ Dk,
         ss.C[:, :-1] + Du @ Ck,
@@ -81,12 +67,12 @@ def closed_of(network: Network, break_at: str, ss: BatchStateSpace) -> BatchStat
     )
 
 
-def samples(ss: BatchStateSpace) -> list[StateSpace]:
-    """Each sample's realization on its own (views of the stacked arrays)."""
+def samples(ss: StateSpace) -> list[StateSpace]:
+    """Each sample's realization on its own (views of a stack's arrays)."""
     return [StateSpace(A, B, C, D, ss.inputs, ss.outputs) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
 
 
-def batch_realize(network: Network, columns: Mapping[str, NDArray[np.float64]]) -> BatchStateSpace | None:
+def batch_realize(network: Network, columns: Mapping[str, NDArray[np.float64]]) -> StateSpace | None:
     """Every sample's `realize` (``columns``: each parameter's values, one per sample); None
     when there is no batched realization (module docstring)."""
     if not network.rational or network.variable != "s" or not columns:
@@ -151,7 +137,7 @@ def _varied_section(
 
 def _assembled(
     network: Network, blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]], factors: list, count: int
-) -> BatchStateSpace:
+) -> StateSpace:
     """`realize`'s assembly of the entries' states for every sample: z' = A_blk z + B_blk x,
     x = (I - D)^-1 (C z + E u), with I - D factored once (``factors``: one LU) or per sample."""
     from scipy import linalg  # on first use (start-up)
@@ -176,7 +162,7 @@ def _assembled(
         P_state = np.array([linalg.lu_solve(lu, c, check_finite=False) for lu, c in zip(factors, C_sig)])
         P_input = np.array([linalg.lu_solve(lu, E, check_finite=False) for lu in factors])
     A = A_blk + B_blk @ P_state
-    return BatchStateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
+    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
 
 
 Poly = tuple[NDArray, ...]  # descending coefficients, each every sample's (S,)

@@ -24,7 +24,7 @@ from engine.closed_loop.batch_time import batch_simulate
 from engine.closed_loop.time_response import Segment
 from engine.design.problem import Problem
 from engine.errors import EngineError
-from engine.loop.batch_realization import BatchStateSpace, batch_loop_realization, closed_of, samples
+from engine.loop.batch_realization import batch_loop_realization, closed_of, samples
 from engine.loop.design import closed_loop_realization, seed_loop_realization
 from engine.loop.realization import StateSpace
 from engine.slp.measures import Spec, evaluate, response_times, response_value
@@ -35,7 +35,7 @@ BATCH_TIME_KINDS = frozenset(
 )
 
 
-Stacks = tuple[BatchStateSpace, BatchStateSpace]  # a condition's broken and closed loops, every sample's
+Stacks = tuple[StateSpace, StateSpace]  # a condition's broken and closed loops, every sample's
 
 
 def batch_time_rows(

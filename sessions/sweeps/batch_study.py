@@ -264,8 +264,8 @@ def _study(jobs: Sequence) -> _Study | None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
     helped = bool(unbatched) and _assisted(problem)
     if helped:
-        rows = "time rows and stability rows" if timed else "stability rows"
-        unbatched += f"; its realizations and {rows} batched, its frequency rows per loop"
+        rows = "its realizations, time rows and stability rows" if timed else "its realizations and stability rows"
+        unbatched += f"; batched: {rows}; per loop: its frequency rows"
     signs = [problem.parameters[i].sign for i, _ in problem.free_slots()]
     signed = (
         np.array([0.0 if sign == "positive" else -math.inf for sign in signs]),

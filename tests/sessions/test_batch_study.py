@@ -162,8 +162,8 @@ def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
         plant["junctions"].append({"name": "inner", "output": "u2", "plus": ["u"], "minus": ["w"]})
 
     why = (
-        "condition 'nominal''s loop is not one cascade of expression blocks; its realizations and stability "
-        "rows batched, its frequency rows per loop"
+        "condition 'nominal''s loop is not one cascade of expression blocks; batched: its realizations and "
+        "stability rows; per loop: its frequency rows"
     )
     _per_loop_equal(_jobs(_edited(tmp_path, inner), 6), why)
 
@@ -220,8 +220,8 @@ def test_the_launch_vehicle_s_frequency_rows_go_per_loop_on_batched_realizations
     jobs = _jobs(tmp_path / "lv.json", 4, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
     _per_loop_equal(
         jobs,
-        "condition 'switch-in''s loop is not one cascade of expression blocks; its realizations and time rows "
-        "and stability rows batched, its frequency rows per loop",
+        "condition 'switch-in''s loop is not one cascade of expression blocks; batched: its realizations, time "
+        "rows and stability rows; per loop: its frequency rows",
     )
 
 
