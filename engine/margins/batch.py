@@ -21,6 +21,7 @@ margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -29,10 +30,14 @@ from numpy.typing import NDArray
 
 from engine.loop.batch_forms import BatchForms
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.peak_measures import band_delay, peak_values, transform
+from engine.margins.peaks import Peak
 from engine.margins.pole_zero.batch_search import batch_crossings
 from engine.margins.pole_zero.levels import LoopLevels
+from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.sampled import in_rad_per_s
+from engine.margins.search import Band
 from engine.margins.values import Margin, Margins, margins_of, single_margin
 from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.paired_product import PairedProduct
@@ -41,11 +46,60 @@ from engine.model.paired_product import PairedProduct
 class SampleLoop(NamedTuple):
     """One sample's margins, its closed-loop stability abscissa (-max Re of the closed-loop
     poles, the zeros of 1 + GH) and whether the batch certified it (else the per-loop search
-    on its form found them)."""
+    on its form found them); ``closed``: its closed-loop rows (`with_closed_rows`), by row."""
 
     margins: Margins
     abscissa: float
     batched: bool
+    closed: Mapping[int, tuple[float, float]] | None = None
+
+
+ClosedRow = tuple[int, str, float, float]  # a closed-loop row: its number, measure kind, band's low and high
+UNSETTLED = 1e-9  # |abscissa| within which the closed loop's stability is left to the per-loop path
+
+
+def with_closed_rows(
+    forms: BatchForms, loops: list[SampleLoop | None], rows: list[ClosedRow]
+) -> list[SampleLoop | None]:
+    """The samples' loops with their closed-loop rows (Ms, Mt, the disk and delay margins,
+    `engine.margins.peak_measures`) over the rows' bands: the peaks by the per-loop grid-free
+    peak search on each sample's batched form (`engine.margins.pole_zero.peaks.moebius_peaks`,
+    what the per-loop path runs on a cascade's factored form), the delay margins from the
+    sample's phase margins, the closed loop's stability from its abscissa.  None for a sample
+    where that search does not apply (the per-loop path's grid then) or whose abscissa is
+    within `UNSETTLED` of 0."""
+    out: list[SampleLoop | None] = []
+    for k, loop in enumerate(loops):
+        if loop is None or abs(loop.abscissa) <= UNSETTLED:
+            out.append(None)
+            continue
+        found = _closed_rows(forms, k, loop, rows, loop.abscissa > 0)
+        out.append(None if found is None else loop._replace(batched=False, closed=found))
+    return out
+
+
+def _closed_rows(
+    forms: BatchForms, k: int, loop: SampleLoop, rows: list[ClosedRow], stable: bool
+) -> dict[int, tuple[float, float]] | None:
+    """Sample ``k``'s closed-loop rows, band by band as `engine.slp.peaks.closed_loop_values` reads them."""
+    form = ZpkEvaluator(complex(float(forms.gain[k]), 0.0), forms.zeros[k], forms.poles[k], factored=True)
+    out: dict[int, tuple[float, float]] = {}
+    bands: dict[tuple[float, float], list[tuple[int, str]]] = {}
+    for number, kind, low, high in rows:
+        if kind == "delay_margin":
+            out[number] = band_delay(loop.margins, Band(low, high), stable)
+        else:
+            bands.setdefault((low, high), []).append((number, kind))
+    for (low, high), band_rows in bands.items():
+        kinds = [kind for _, kind in band_rows]
+        pairs = [getattr(transform(kind), "moebius", None) for kind in kinds]
+        found = None if None in pairs else moebius_peaks(form, pairs, low, high)
+        if found is None:
+            return None
+        values = peak_values(kinds, [Peak(value, frequency) for value, frequency in found], stable)
+        for (number, _), (value, frequency, _) in zip(band_rows, values):
+            out[number] = (value, frequency)
+    return out
 
 
 def batch_margins(

@@ -43,7 +43,8 @@ from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
-from engine.margins.batch import SampleLoop, batch_margins
+from engine.margins.batch import SampleLoop, batch_margins, with_closed_rows
+from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
 from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
@@ -68,6 +69,7 @@ BATCH_KINDS = frozenset(
         "stability_abscissa",
         *PEAK_KINDS,
         *BATCH_TIME_KINDS,
+        *CLOSED_LOOP_MEASURES,
     )
 )
 CHUNK = 2000  # samples whose forms are held at once: the memory stays bounded however large the study
@@ -259,6 +261,9 @@ def _study(jobs: Sequence) -> _Study | None:
     timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
     if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
         unbatched = "time rows of a loop in z"
+    closed = {s.condition for s in stepper.specs if s.kind in CLOSED_LOOP_MEASURES}
+    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in closed):
+        unbatched = "closed-loop peak rows of a loop in z"
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
@@ -423,8 +428,13 @@ def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) 
     if forms is None:
         study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
         return None
-    peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in study.stepper.specs)
-    return batch_margins(forms, condition.network.sample_time, attenuation=peaks)
+    specs = study.stepper.specs
+    peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in specs)
+    loops = batch_margins(forms, condition.network.sample_time, attenuation=peaks)
+    closed = [
+        (i, s.kind, s.low, s.high) for i, s in enumerate(specs) if s.condition == c and s.kind in CLOSED_LOOP_MEASURES
+    ]
+    return with_closed_rows(forms, loops, closed) if closed else loops
 
 
 def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -450,6 +460,8 @@ def _row_values(
             return None
         if spec.kind in BATCH_TIME_KINDS:
             value, frequency = float(timed[i]), math.nan
+        elif spec.kind in CLOSED_LOOP_MEASURES and loop.closed is not None:
+            value, frequency = loop.closed[i]
         elif spec.kind == "stability_abscissa":  # the closed loop's eigenvalues when it was realized
             value, frequency = (float(timed[i]) if not math.isnan(timed[i]) else loop.abscissa), math.nan
         elif spec.kind == "crossover_frequency" and not any(

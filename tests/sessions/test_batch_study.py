@@ -546,3 +546,33 @@ def test_time_rows_of_cascades_are_batched(tmp_path):
         batched += batch.done - batch.per_loop - batch.searched
         total += batch.done
     assert batched >= 0.7 * total
+
+
+def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_forms(tmp_path):
+    """Issue 53, section 1: a cascade with Ms, Mt, disk-margin and delay-margin rows went per loop
+    (not batched: rows of kind complementary_sensitivity_peak, ...); each sample's peaks are found
+    by the per-loop grid-free peak search on its batched form now (no network, no realization per
+    sample), its margins batched.  The lag-lead and random cascades, every run `run_job`'s."""
+    from tests.engine.test_batch_margins import _random_structure
+
+    studies = [(_session(tmp_path), TOLERANCES)]
+    for seed in (2, 6, 9):
+        blocks, values = _random_structure(np.random.default_rng(seed))
+        studies.append((_loop_session(tmp_path, blocks, values, f"closed{seed}"), [f"{n}=+-20%" for n in values]))
+    kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")
+    on_forms = total = 0
+    for path, tolerances in studies:
+        model = json.loads(path.read_text())
+        model["problem"]["targets"] += [{"measure": kind, "bands": [{"desired": 1.0}]} for kind in kinds]
+        model["problem"]["targets"].append(
+            {"measure": "sensitivity_peak", "bands": [{"low": 0.5, "high": 5.0, "desired": 1.5}]}
+        )
+        path.write_text(json.dumps(model))
+        jobs = _jobs(path, 15, tolerances)
+        batch = batch_runs(jobs)
+        assert batch is not None and batch.unbatched == ""
+        for got, job in zip(batch.runs, jobs, strict=True):
+            _same_run(got, run_job(job.payload()))
+        on_forms += batch.searched
+        total += batch.done
+    assert on_forms >= 0.7 * total
