@@ -138,7 +138,9 @@ class Assisted:
         problem = self.problem
         for c, (broken, _) in self.stacks.items():
             condition = problem.conditions[c]
-            own = StateSpace(broken.A[k], broken.B[k], broken.C[k], broken.D[k], broken.inputs, broken.outputs)
+            # copies: a design the network keeps must not hold the whole chunk's stack
+            matrices = (broken.A[k].copy(), broken.B[k].copy(), broken.C[k].copy(), broken.D[k].copy())
+            own = StateSpace(*matrices, broken.inputs, broken.outputs)
             seed_loop_realization(condition.network, condition.break_at, problem.condition_values(c, x), own)
         rest = np.flatnonzero(~self.batched if self.ok[k] else np.ones(len(self.specs), dtype=bool))
         values, frequencies = self.values[k].copy(), np.full(len(self.specs), np.nan)

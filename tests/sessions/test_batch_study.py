@@ -576,3 +576,26 @@ def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_for
         on_forms += batch.searched
         total += batch.done
     assert on_forms >= 0.7 * total
+
+
+@pytest.mark.parametrize(
+    ("target", "why"),
+    [
+        (
+            {"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False, "response": None},
+            "time rows of a loop in z",
+        ),
+        ({"measure": "sensitivity_peak", "bands": [{"desired": 2.0}]}, "closed-loop peak rows of a loop in z"),
+    ],
+)
+def test_a_loop_in_z_keeps_its_time_and_closed_loop_peak_rows_per_loop(tmp_path, target, why):
+    """Named exceptions: Kuo's loop in z with a peak response to a step (its samples stepped in z) or an Ms
+    row (searched on its w-plane form) is evaluated per loop, its note says why, every run `run_job`'s."""
+    path = _kuo_z(tmp_path)
+    model = json.loads(path.read_text())
+    if target["measure"] == "peak_response":
+        target = {**target, "response": {"input": "r", "output": "y", "horizon": 5.0, "points": 11}}
+        target["response"]["profile"] = [{"time": 0.0, "step": 1.0}]
+    model["problem"]["targets"].append(target)
+    path.write_text(json.dumps(model))
+    _per_loop_equal(_jobs(path, 4, ["T1=+-30%", "T2=+-30%"]), why)
