@@ -510,6 +510,16 @@ def test_modal_peak_rows_of_cascades_are_batched(tmp_path):
     assert batched >= 0.7 * total
 
 
+def _batched_equal(jobs) -> tuple[int, int, int]:
+    """The study evaluated as a batch, every run `run_job`'s: (samples batched, samples by the
+    per-loop search on their batched forms, samples)."""
+    batch = batch_runs(jobs)
+    assert batch is not None and batch.unbatched == ""
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+    return batch.done - batch.per_loop - batch.searched, batch.searched, batch.done
+
+
 def _with_time_rows(path: Path) -> Path:
     """The session with step rows on r -> y (overshoot, rise, settling, peak time, steady-state
     error, over 3 s at 151 points) and a peak response to a ramp up and down."""
@@ -538,13 +548,8 @@ def test_time_rows_of_cascades_are_batched(tmp_path):
         path = _with_time_rows(_loop_session(tmp_path, blocks, values, f"timed{seed}"))
         studies.append((path, [f"{name}=+-20%" for name in values]))
     for path, tolerances in studies:
-        jobs = _jobs(path, 15, tolerances)
-        batch = batch_runs(jobs)
-        assert batch is not None and batch.unbatched == ""
-        for got, job in zip(batch.runs, jobs, strict=True):
-            _same_run(got, run_job(job.payload()))
-        batched += batch.done - batch.per_loop - batch.searched
-        total += batch.done
+        found, _, done = _batched_equal(_jobs(path, 15, tolerances))
+        batched, total = batched + found, total + done
     assert batched >= 0.7 * total
 
 
@@ -568,13 +573,8 @@ def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_for
             {"measure": "sensitivity_peak", "bands": [{"low": 0.5, "high": 5.0, "desired": 1.5}]}
         )
         path.write_text(json.dumps(model))
-        jobs = _jobs(path, 15, tolerances)
-        batch = batch_runs(jobs)
-        assert batch is not None and batch.unbatched == ""
-        for got, job in zip(batch.runs, jobs, strict=True):
-            _same_run(got, run_job(job.payload()))
-        on_forms += batch.searched
-        total += batch.done
+        _, searched, done = _batched_equal(_jobs(path, 15, tolerances))
+        on_forms, total = on_forms + searched, total + done
     assert on_forms >= 0.7 * total
 
 
