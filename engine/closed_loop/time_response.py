@@ -40,9 +40,9 @@ time rows read on their grid.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -53,6 +53,7 @@ from engine.loop.realization import StateSpace
 PeakRule = Literal["global", "first_half_cycle"]
 FinalFrom = Literal["dc_gain", "horizon"]
 PEAK_RULES: tuple[PeakRule, ...] = ("global", "first_half_cycle")
+Maps = TypeVar("Maps")
 BLOCK = 64  # steps propagated together by `_scan`
 
 
@@ -126,18 +127,26 @@ def _propagate(A: NDArray, B: NDArray, grid: NDArray, u: NDArray, u_left: NDArra
         return x
     h = np.diff(grid)
     du = (u_left[1:] - u[:-1]) / h
-    holds: dict[float, tuple[NDArray, NDArray, NDArray]] = {}
-    for a, b in _equal_step_runs(grid):
-        step = (grid[b] - grid[a]) / (b - a)
-        if step not in holds:
-            holds[step] = _foh(A, B, step)
-        Phi, Gam0, Gam1 = holds[step]
+    for a, b, (Phi, Gam0, Gam1) in held_runs(grid, lambda step: _foh(A, B, step)):
         forced = np.outer(u[a:b], Gam0) + np.outer(du[a:b], Gam1)
         x[a + 1 : b + 1] = _scan(Phi, x[a], forced)
     return x
 
 
-def _equal_step_runs(grid: NDArray) -> list[tuple[int, int]]:
+def held_runs(grid: NDArray, maps: Callable[[float], Maps]) -> list[tuple[int, int, Maps]]:
+    """The runs of equal steps of ``grid`` (`equal_step_runs`), each with its step's one-step maps
+    (``maps(step)``, made once per step)."""
+    holds: dict[float, Maps] = {}
+    out = []
+    for a, b in equal_step_runs(grid):
+        step = (grid[b] - grid[a]) / (b - a)
+        if step not in holds:
+            holds[step] = maps(step)
+        out.append((a, b, holds[step]))
+    return out
+
+
+def equal_step_runs(grid: NDArray) -> list[tuple[int, int]]:
     """Maximal ranges [a, b) of steps grid[i+1] - grid[i] equal to the rounding of the
     grid's times (4 eps |t|: the jitter of a linspace), the others one step each."""
     h = np.diff(grid)
@@ -168,7 +177,7 @@ def _scan(Phi: NDArray, x0: NDArray, forced: NDArray) -> NDArray:
     nb = -(-L // m)
     powers = Phi.T[None]  # powers[k] = (Phi^(k+1))^T
     while powers.shape[0] < m:
-        powers = np.concatenate([powers, _flush(powers @ powers[-1])])
+        powers = np.concatenate([powers, flush_subnormal(powers @ powers[-1])])
     z = np.zeros((nb * m, n))
     z[:L] = forced
     z = z.reshape(nb, m, n)
@@ -184,7 +193,7 @@ def _scan(Phi: NDArray, x0: NDArray, forced: NDArray) -> NDArray:
     return (free + z).reshape(nb * m, n)[:L]
 
 
-def _flush(P: NDArray) -> NDArray:
+def flush_subnormal(P: NDArray) -> NDArray:
     """P with the entries below 1e-250 set to 0 (no subnormal products: they are slow)."""
     P[np.abs(P) < 1e-250] = 0.0
     return P

@@ -134,6 +134,14 @@ def design(network: Network, params: Mapping[str, float]) -> Design:
     return network.derived.get(DESIGN, lambda: Design(network, values), values)
 
 
+def seed_loop_realization(network: Network, break_at: str, params: Mapping[str, float], ss: StateSpace) -> None:
+    """Hand the design's loop at ``break_at`` its broken realization made elsewhere, the matrices
+    `loop_realization` makes (`engine.loop.batch_realization`: many samples' at once), so that
+    its pole-zero form and closed loop read it instead of realizing the network again."""
+    loop = design(network, params).loop(break_at)
+    loop.__dict__.setdefault("realization", ss)
+
+
 def closed_loop_realization(network: Network, break_at: str, params: Mapping[str, float]) -> StateSpace:
     """The closed loop (all loops closed) of ``network`` at ``params``, from its design's
     realization broken at ``break_at`` (`DesignLoop.realization`)."""

@@ -135,7 +135,7 @@ def _closed(network: Network, params: Mapping[str, float], opened: Mapping[int, 
             unit.writes[(t.output_port, entry.row)] = t.block.C[t.output_port]
             feed[entry.row, entry.col] += t.block.D[t.output_port, t.input_port]
             continue
-        a, b, c, d = _entry_realization(network, number, params)
+        a, b, c, d = entry_realization(network, number, params)
         units.append(_Unit(a, {(0, entry.col): b[:, 0]}, {(0, entry.row): c[0, :]}))
         feed[entry.row, entry.col] += d[0, 0] if d.size else 0.0
     m = sum(unit.a.shape[0] for unit in units)
@@ -155,7 +155,7 @@ def _closed(network: Network, params: Mapping[str, float], opened: Mapping[int, 
     for i, number in enumerate(cut):
         E[network.entries[number].row, len(network.inputs) + i] = 1.0
     inputs = network.inputs + tuple(f"{network.entries[k].label} (delay opened)" for k in cut)
-    lu = _factor_feedthrough(np.eye(n) - feed)
+    lu = factored_feedthrough(np.eye(n) - feed)
     from scipy import linalg  # on first use (start-up)
 
     P_state, P_input = linalg.lu_solve(lu, C_sig, check_finite=False), linalg.lu_solve(lu, E, check_finite=False)
@@ -175,7 +175,7 @@ class _Unit:
     writes: dict[tuple[int, int], NDArray[np.float64]]
 
 
-def _factor_feedthrough(matrix: NDArray) -> tuple:
+def factored_feedthrough(matrix: NDArray) -> tuple:
     """LU factors of I - D, or a clear error when it is singular.  A pivot
     is zero when it is rounding noise against the terms it was computed
     from (diag(|L| |U|)): the test is blind to scaling, so a chain of gains
@@ -213,7 +213,7 @@ def _without_one(r):
 _REALIZED: WeakKeyDictionary = WeakKeyDictionary()  # transfer without parameters -> its (A, B, C, D)
 
 
-def _entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:
+def entry_realization(network: Network, number: int, params: Mapping[str, float]) -> tuple[NDArray, ...]:
     """One entry's (A, B, C, D); kept on its transfer when that has no parameters
     (a network and its broken copy, `engine.loop.pole_zero`, share it)."""
     entry = network.entries[number]

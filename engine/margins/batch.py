@@ -11,8 +11,9 @@ degenerate level: the per-loop path takes its detection grid), or when a level i
 (the per-loop path says what that means in its notes).  Otherwise its margins are the ones
 the per-loop path finds on the same form, to rounding: the same levels polished by the same
 Newton's method, GH(0) of a loop without an integrator as a gain margin at 0 when it is
-negative.  A batched sample's `Margins` hold its gain and phase margins only (rows that read
-the stability or attenuation margins are not batched).  A loop in z is batched on its
+negative.  A batched sample's `Margins` hold its gain and phase margins, and when asked its
+attenuation margins (the maxima of |GH| the search polished and certified; rows that read
+the stability margins are not batched).  A loop in z is batched on its
 w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
 margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents.
 """
@@ -20,6 +21,7 @@ margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -28,10 +30,14 @@ from numpy.typing import NDArray
 
 from engine.loop.batch_forms import BatchForms
 from engine.loop.pole_zero import ZpkEvaluator
+from engine.margins.peak_measures import band_delay, peak_values, transform
+from engine.margins.peaks import Peak
 from engine.margins.pole_zero.batch_search import batch_crossings
 from engine.margins.pole_zero.levels import LoopLevels
+from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.sampled import in_rad_per_s
+from engine.margins.search import Band
 from engine.margins.values import Margin, Margins, margins_of, single_margin
 from engine.model.bilinear import s_of_z, z_of_w
 from engine.model.paired_product import PairedProduct
@@ -40,30 +46,86 @@ from engine.model.paired_product import PairedProduct
 class SampleLoop(NamedTuple):
     """One sample's margins, its closed-loop stability abscissa (-max Re of the closed-loop
     poles, the zeros of 1 + GH) and whether the batch certified it (else the per-loop search
-    on its form found them)."""
+    on its form found them); ``closed``: its closed-loop rows (`with_closed_rows`), by row."""
 
     margins: Margins
     abscissa: float
     batched: bool
+    closed: Mapping[int, tuple[float, float]] | None = None
 
 
-def batch_margins(forms: BatchForms, sample_time: float | None = None) -> list[SampleLoop | None]:
+ClosedRow = tuple[int, str, float, float]  # a closed-loop row: its number, measure kind, band's low and high
+UNSETTLED = 1e-9  # |abscissa| within which the closed loop's stability is left to the per-loop path
+
+
+def with_closed_rows(
+    forms: BatchForms, loops: list[SampleLoop | None], rows: list[ClosedRow]
+) -> list[SampleLoop | None]:
+    """The samples' loops with their closed-loop rows (Ms, Mt, the disk and delay margins,
+    `engine.margins.peak_measures`) over the rows' bands: the peaks by the per-loop grid-free
+    peak search on each sample's batched form (`engine.margins.pole_zero.peaks.moebius_peaks`,
+    what the per-loop path runs on a cascade's factored form), the delay margins from the
+    sample's phase margins, the closed loop's stability from its abscissa.  None for a sample
+    where that search does not apply (the per-loop path's grid then) or whose abscissa is
+    within `UNSETTLED` of 0."""
+    out: list[SampleLoop | None] = []
+    for k, loop in enumerate(loops):
+        if loop is None or abs(loop.abscissa) <= UNSETTLED:
+            out.append(None)
+            continue
+        found = _closed_rows(forms, k, loop, rows, loop.abscissa > 0)
+        out.append(None if found is None else loop._replace(batched=False, closed=found))
+    return out
+
+
+def _closed_rows(
+    forms: BatchForms, k: int, loop: SampleLoop, rows: list[ClosedRow], stable: bool
+) -> dict[int, tuple[float, float]] | None:
+    """Sample ``k``'s closed-loop rows, band by band as `engine.slp.peaks.closed_loop_values` reads them."""
+    form = ZpkEvaluator(complex(float(forms.gain[k]), 0.0), forms.zeros[k], forms.poles[k], factored=True)
+    out: dict[int, tuple[float, float]] = {}
+    bands: dict[tuple[float, float], list[tuple[int, str]]] = {}
+    for number, kind, low, high in rows:
+        if kind == "delay_margin":
+            out[number] = band_delay(loop.margins, Band(low, high), stable)
+        else:
+            bands.setdefault((low, high), []).append((number, kind))
+    for (low, high), band_rows in bands.items():
+        kinds = [kind for _, kind in band_rows]
+        pairs = [getattr(transform(kind), "moebius", None) for kind in kinds]
+        found = None if None in pairs else moebius_peaks(form, pairs, low, high)
+        if found is None:
+            return None
+        values = peak_values(kinds, [Peak(value, frequency) for value, frequency in found], stable)
+        for (number, _), (value, frequency, _) in zip(band_rows, values):
+            out[number] = (value, frequency)
+    return out
+
+
+def batch_margins(
+    forms: BatchForms, sample_time: float | None = None, attenuation: bool = False
+) -> list[SampleLoop | None]:
     """Every sample's margins; None for a sample the per-loop path must take (module docstring).
     With ``sample_time`` the forms are a loop in z's w-plane forms (`engine.margins.sampled`):
     frequencies come back in rad/s, a gain margin at the Nyquist frequency where GH(-1) is
-    real and negative, the abscissa of the closed-loop poles' s-plane equivalents."""
+    real and negative, the abscissa of the closed-loop poles' s-plane equivalents.  With
+    ``attenuation`` the margins hold the attenuation margins too (the maxima of |GH|, the
+    modal peaks' rows): a sample with one that stopped in the rounding noise, not within 4
+    ulp, is not certified (the per-loop search may stop elsewhere in the noise)."""
     found = batch_crossings(forms)
     dc = _dc_values(forms)
     gain = _per_sample("G", found.phase, found.phase_gh)
     phase = _per_sample("P", found.gain, found.gain_gh)
-    odd, certified = forms.odd.tolist(), found.certified.tolist()
+    peaks = _per_sample("A", found.peaks, found.peaks_gh) if attenuation else [[]] * forms.gain.size
+    odd = forms.odd.tolist()
+    certified = (found.certified & (found.peaks_converged | (not attenuation))).tolist()
     abscissa = (found.abscissa if sample_time is None else _sampled_abscissa(found.closed, sample_time)).tolist()
     out: list[SampleLoop | None] = []
     for k in range(forms.gain.size):
         if odd[k]:
             out.append(None)
         elif certified[k]:
-            margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), (), method="refined")
+            margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), tuple(peaks[k]), method="refined")
             out.append(_in_time(SampleLoop(margins, abscissa[k], True), forms, k, sample_time))
         else:
             loop = sample_loop(forms, k, sample_time)
@@ -130,7 +192,7 @@ def sample_loop(forms: BatchForms, k: int, sample_time: float | None = None) -> 
     with np.errstate(all="ignore"):
         dc = form(np.zeros(1))[0][0]
     gain = _with_dc([m for m in found["G"] if m.gh.real < 0], complex(dc.real, 0.0) if np.isfinite(dc) else None)
-    margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), (), method="refined")
+    margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), tuple(found["A"]), method="refined")
     if sample_time is not None:
         abscissa = float(_sampled_abscissa(levels.closed[None, :], sample_time)[0])
     else:

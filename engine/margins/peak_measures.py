@@ -72,7 +72,13 @@ def band_peaks(
     """(value, frequency, the refined peak) of each peak measure over ``band``, refined in one
     search.  An unstable closed loop (``stable`` False) has no disk margin (0) and no finite
     Ms or Mt (inf: S and T have poles in the right half-plane), at frequency NaN."""
-    found = refined_peaks(loop, [transform(m) for m in measures], band)
+    return peak_values(measures, refined_peaks(loop, [transform(m) for m in measures], band), stable)
+
+
+def peak_values(
+    measures: Sequence[str], found: Sequence[Peak], stable: bool | None = None
+) -> list[tuple[float, float, Peak]]:
+    """(value, frequency, the peak) of each peak measure from its transform's refined peak (`band_peaks`)."""
     out = []
     for measure, peak in zip(measures, found):
         if stable is False:

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from engine.closed_loop.time_response import PeakRule, Segment, final_value, simulate, step_measures
 from engine.design.measure_kinds import EVERY_BREAK, MEASURE_KINDS, TargetUse, absence, absent_reason, kind, met, names
-from engine.design.problem import FREQUENCY_MEASURES, Condition, Problem
+from engine.design.problem import FREQUENCY_MEASURES, Condition, Problem, TimeResponse
 from engine.design.tableau import stability_abscissa
 from engine.errors import EngineError
 from engine.loop.design import closed_loop_realization
@@ -272,15 +272,25 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
         )
     if response.output not in ss.outputs:
         raise EngineError(f"target {spec.target}: unknown output signal {response.output!r}")
-    t = (
-        np.linspace(0.0, response.horizon, response.points)
-        if ss.sample_time is None
-        else np.arange(math.floor(response.horizon / ss.sample_time + 1e-9) + 1) * ss.sample_time  # its samples
-    )
+    t = response_times(response, ss.sample_time)
     segments = [Segment(*p) for p in response.profile]
     y = simulate(ss, response.input, t, segments)[:, ss.outputs.index(response.output)]
+    return response_value(spec, response, ss, t, y)
+
+
+def response_times(response: TimeResponse, sample_time: float | None) -> NDArray[np.float64]:
+    """The times a response row is read at: its grid, or a sampled loop's samples up to its horizon."""
+    if sample_time is None:
+        return np.linspace(0.0, response.horizon, response.points)
+    return np.arange(math.floor(response.horizon / sample_time + 1e-9) + 1) * sample_time
+
+
+def response_value(spec: Spec, response: TimeResponse, ss: StateSpace, t: NDArray, y: NDArray) -> float:
+    """A time row's value from its output's response ``y`` at ``t`` (the closed loop ``ss``'s
+    response to the target's profile)."""
     if spec.kind == "peak_response":
         return float(np.max(np.abs(y)))
+    segments = [Segment(*p) for p in response.profile]
     final, source = final_value(ss, response.input, response.output, segments, y)
     if spec.kind == "steady_state_error":
         return abs(response.reference - final)

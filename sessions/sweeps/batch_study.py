@@ -11,7 +11,10 @@ by `engine.slp.points`); consecutive batched samples are handed on as arrays
 It applies to slp studies with no linear constraints between parameters (a tolerance
 study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
 drawn parameters are free.  Their samples are batched when the rows are margins, crossover
-frequencies and the closed-loop stability abscissa, of conditions whose loops are
+frequencies, modal peaks (the attenuation margins), time rows of continuous loops (step
+measures and the peak response, `engine.slp.batch_rows`: each sample's closed loop realized
+as the per-loop path realizes it, every response simulated in one recursion) and the
+closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
@@ -40,10 +43,12 @@ from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
-from engine.margins.batch import SampleLoop, batch_margins
+from engine.margins.batch import SampleLoop, batch_margins, with_closed_rows
+from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
-from engine.slp.measures import evaluate, frequency_value
+from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
+from engine.slp.measures import PEAK_KINDS, evaluate, frequency_value
 from engine.slp.points import points
 from sessions.build import build_problem
 from sessions.errors import SessionError
@@ -55,7 +60,17 @@ from sessions.sweeps.plan import ToleranceSamples
 from sessions.sweeps.records import Records, RowHead, number, row_heads, sample_run
 
 BATCH_KINDS = frozenset(
-    ("crossover_frequency", "gain_margin", "gain_margin_db", "phase_margin", "phase_margin_deg", "stability_abscissa")
+    (
+        "crossover_frequency",
+        "gain_margin",
+        "gain_margin_db",
+        "phase_margin",
+        "phase_margin_deg",
+        "stability_abscissa",
+        *PEAK_KINDS,
+        *BATCH_TIME_KINDS,
+        *CLOSED_LOOP_MEASURES,
+    )
 )
 CHUNK = 2000  # samples whose forms are held at once: the memory stays bounded however large the study
 
@@ -119,6 +134,7 @@ class _Study:
     named: dict
     slots: list[tuple[int, str, int | None]]
     unbatched: str  # why its samples are not batched ("" when they are)
+    assisted: bool  # not batched, but its realizations, time and stability rows are (`engine.slp.batch_rows.assisted`)
     signed: tuple[np.ndarray, np.ndarray]  # each free slot's range by its parameter's sign (-inf, 0 or +inf)
     row_heads: list[RowHead]  # what every run says of each row but its value
 
@@ -242,16 +258,35 @@ def _study(jobs: Sequence) -> _Study | None:
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay, a table or a state-space block"
+    timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
+    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
+        unbatched = "time rows of a loop in z"
+    closed = {s.condition for s in stepper.specs if s.kind in CLOSED_LOOP_MEASURES}
+    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in closed):
+        unbatched = "closed-loop peak rows of a loop in z"
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
             unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+    helped = bool(unbatched) and _assisted(problem)
+    if helped:
+        rows = "its realizations, time rows and stability rows" if timed else "its realizations and stability rows"
+        unbatched += f"; batched: {rows}; per loop: its frequency rows"
     signs = [problem.parameters[i].sign for i, _ in problem.free_slots()]
     signed = (
         np.array([0.0 if sign == "positive" else -math.inf for sign in signs]),
         np.array([0.0 if sign == "negative" else math.inf for sign in signs]),
     )
     heads = row_heads(stepper.specs, [condition.name for condition in problem.conditions])
-    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, signed, heads)
+    return _Study(problem, stepper, start, problem.named(start), slots, unbatched, helped, signed, heads)
+
+
+def _assisted(problem: Problem) -> bool:
+    """Can the study's realizations be made for all its samples at once (its frequency rows then
+    go per loop on them)?  Every condition continuous, its loop realized at once at the start."""
+    if any(condition.network.sample_time is not None for condition in problem.conditions):
+        return False
+    start = problem.vector()[None, :]
+    return all(condition_stacks(problem, c, start) is not None for c in range(len(problem.conditions)))
 
 
 def _cascade(problem: Problem, c: int) -> BatchForms | None:
@@ -312,6 +347,8 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     # a value against its parameter's sign: its own session evaluates it at the sign's bound (slp clips its start)
     against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1).tolist()
     loops = [] if study.unbatched else [_condition_loops(study, c, heads) for c in range(len(study.problem.conditions))]
+    timed, timed_ok = _time_rows(study, xs)
+    helped = assisted(study.problem, study.stepper.specs, xs) if study.assisted else None
     share = (time.perf_counter() - began) / max(len(heads), 1)
     items: list[dict | Records] = []
     stretch: list[int] = []  # consecutive batched samples (positions in the chunk), their rows' values
@@ -319,14 +356,14 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     for k, head in enumerate(heads):
         mine = (
             None
-            if study.unbatched or against_sign[k] or any(found is None for found in loops)
+            if study.unbatched or against_sign[k] or not timed_ok[k] or any(found is None for found in loops)
             else [found[k] for found in loops]
         )
-        rows = None if mine is None else _row_values(study, mine)
+        rows = None if mine is None else _row_values(study, mine, timed[k])
         if rows is None:
             items += _records(study, [heads[j] for j in stretch], stretch_rows, share)
             stretch, stretch_rows = [], []
-            run = (None if against_sign[k] else _per_loop(study, head, xs[k])) or run_job(jobs[k].payload())
+            run = (None if against_sign[k] else _per_loop(study, head, xs[k], helped, k)) or run_job(jobs[k].payload())
             alone.append(head[0])
             run["attempts"] = 1
             items.append(run)
@@ -356,12 +393,18 @@ def _records(
     return [Records(heads, study.row_heads, values, frequencies, verdicts, study.named, share)]
 
 
-def _per_loop(study: _Study, head: tuple[int, str, dict], x: np.ndarray) -> dict | None:
+def _per_loop(
+    study: _Study, head: tuple[int, str, dict], x: np.ndarray, helped: Assisted | None = None, k: int = 0
+) -> dict | None:
     """One sample's run by slp's own measures on the shared problem (what `run_job` computes
-    from the sample's session); None when they raise (`run_job` says how)."""
+    from the sample's session; ``helped``: with the chunk's batched realizations and rows, ``k``
+    its position there); None when they raise (`run_job` says how)."""
     began = time.perf_counter()
     try:
-        values, frequencies = evaluate(study.problem, x, study.stepper.specs)
+        if helped is not None:
+            values, frequencies = helped.evaluate(k, x)
+        else:
+            values, frequencies = evaluate(study.problem, x, study.stepper.specs)
     except Exception:  # noqa: BLE001 - the sample's own session then says what failed, as run_job does
         return None
     return _sample_run(study, head, x, values, frequencies, time.perf_counter() - began)
@@ -385,19 +428,42 @@ def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) 
     if forms is None:
         study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
         return None
-    return batch_margins(forms, condition.network.sample_time)
+    specs = study.stepper.specs
+    peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in specs)
+    loops = batch_margins(forms, condition.network.sample_time, attenuation=peaks)
+    closed = [
+        (i, s.kind, s.low, s.high) for i, s in enumerate(specs) if s.condition == c and s.kind in CLOSED_LOOP_MEASURES
+    ]
+    return with_closed_rows(forms, loops, closed) if closed else loops
 
 
-def _row_values(study: _Study, loops: list[SampleLoop | None]) -> tuple[list[float], list[float]] | None:
-    """A sample's row values and frequencies from its conditions' loops; None when a row needs
-    the per-loop path."""
+def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every sample's time rows and the stability rows of their conditions (`engine.slp.batch_rows`;
+    NaN columns for the other rows, all NaN when the study has no time rows), and which samples
+    have them."""
+    specs = study.stepper.specs
+    if study.unbatched or not any(s.kind in BATCH_TIME_KINDS for s in specs):
+        return np.full((xs.shape[0], len(specs)), np.nan), np.ones(xs.shape[0], dtype=bool)
+    return batch_time_rows(study.problem, specs, xs)
+
+
+def _row_values(
+    study: _Study, loops: list[SampleLoop | None], timed: np.ndarray
+) -> tuple[list[float], list[float]] | None:
+    """A sample's row values and frequencies from its conditions' loops and its time rows
+    (``timed``: NaN but for the time rows and their conditions' stability rows); None when a
+    row needs the per-loop path."""
     values, frequencies = [], []
-    for spec in study.stepper.specs:
+    for i, spec in enumerate(study.stepper.specs):
         loop = loops[spec.condition]
         if loop is None:
             return None
-        if spec.kind == "stability_abscissa":
-            value, frequency = loop.abscissa, math.nan
+        if spec.kind in BATCH_TIME_KINDS:
+            value, frequency = float(timed[i]), math.nan
+        elif spec.kind in CLOSED_LOOP_MEASURES and loop.closed is not None:
+            value, frequency = loop.closed[i]
+        elif spec.kind == "stability_abscissa":  # the closed loop's eigenvalues when it was realized
+            value, frequency = (float(timed[i]) if not math.isnan(timed[i]) else loop.abscissa), math.nan
         elif spec.kind == "crossover_frequency" and not any(
             spec.low <= m.frequency <= spec.high for m in loop.margins.phase
         ):

@@ -13,8 +13,8 @@ import pytest
 
 from engine.closed_loop.time_response import (
     Segment,
-    _equal_step_runs,
     _foh,
+    equal_step_runs,
     final_value,
     input_profile,
     simulate,
@@ -90,10 +90,10 @@ def test_simulate_on_an_uneven_grid_and_short_runs():
 
 
 def test_equal_steps_within_the_grid_rounding_share_one_map():
-    assert _equal_step_runs(np.linspace(0.0, 7.0, 1001)) == [(0, 1000)]
+    assert equal_step_runs(np.linspace(0.0, 7.0, 1001)) == [(0, 1000)]
     ulp, j = np.spacing(1000.0), np.arange(12)
     drifting = 1000.0 + j + 2 * ulp * j * (j - 1)  # each step 4 ulp longer: a drift, not jitter
-    assert _equal_step_runs(drifting) == [(i, i + 1) for i in range(11)]
+    assert equal_step_runs(drifting) == [(i, i + 1) for i in range(11)]
 
 
 def stable_loop(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:

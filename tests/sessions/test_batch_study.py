@@ -161,7 +161,10 @@ def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
         ]
         plant["junctions"].append({"name": "inner", "output": "u2", "plus": ["u"], "minus": ["w"]})
 
-    why = "condition 'nominal''s loop is not one cascade of expression blocks"
+    why = (
+        "condition 'nominal''s loop is not one cascade of expression blocks; batched: its realizations and "
+        "stability rows; per loop: its frequency rows"
+    )
     _per_loop_equal(_jobs(_edited(tmp_path, inner), 6), why)
 
 
@@ -208,11 +211,18 @@ def test_random_loops_in_z_equal_the_per_loop_path(tmp_path):
     assert batched >= 0.7 * total
 
 
-def test_the_launch_vehicle_is_evaluated_per_loop(tmp_path):
-    """Three conditions whose loops are not one cascade, with modal peak and peak response rows."""
+def test_the_launch_vehicle_s_frequency_rows_go_per_loop_on_batched_realizations(tmp_path):
+    """Three conditions whose loops are not one cascade: their frequency rows go per loop, its
+    realizations (28 states, parallel sensor paths), peak-response and stability rows are made
+    for all samples at once (issue 53: before, every sample realized and simulated its own); every
+    run is `run_job`'s exactly, and the note says what was batched."""
     shutil.copy(EXAMPLES / "coebra_launch_vehicle.json", tmp_path / "lv.json")
-    jobs = _jobs(tmp_path / "lv.json", 3, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
-    _per_loop_equal(jobs, "rows of kind modal_peak_db, peak_response")
+    jobs = _jobs(tmp_path / "lv.json", 4, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
+    _per_loop_equal(
+        jobs,
+        "condition 'switch-in''s loop is not one cascade of expression blocks; batched: its realizations, time "
+        "rows and stability rows; per loop: its frequency rows",
+    )
 
 
 def test_a_sample_that_is_not_of_the_study_keeps_the_study_per_loop(tmp_path):
@@ -459,3 +469,133 @@ def test_loops_in_z_of_other_shapes_are_batched(tmp_path, plant):
     assert batch is not None and not batch.unbatched and batch.per_loop == 0
     for got, job in zip(batch.runs, jobs, strict=True):
         _same_run(got, run_job(job.payload()))
+
+
+def _with_modal_peaks(path: Path) -> Path:
+    """The session with modal-peak rows (|GH|'s maxima in dB and their phase) over two bands."""
+    model = json.loads(path.read_text())
+    bands = [
+        {"low": 0.1, "high": 10.0, "desired": -10.0, "required": -6.0},
+        {"low": 10.0, "high": 1e4, "desired": -12.0},
+    ]
+    model["problem"]["targets"] += [
+        {"measure": "modal_peak_db", "bands": bands},
+        {"measure": "modal_peak_phase_deg", "bands": [{"low": 0.1, "high": 1e4, "desired": 90.0}]},
+    ]
+    path.write_text(json.dumps(model))
+    return path
+
+
+def test_modal_peak_rows_of_cascades_are_batched(tmp_path):
+    """Issue 53, section 1: a cascade with modal-peak rows went per loop (not batched: rows of
+    kind modal_peak_db); the maxima of |GH| the batched search polishes and certifies are its
+    attenuation margins now.  Random cascades with light pairs, every run `run_job`'s, most
+    samples batched."""
+    from tests.engine.test_batch_margins import _random_structure
+
+    batched = total = peaks = 0
+    for seed in (1, 2, 4, 6, 9):
+        blocks, values = _random_structure(np.random.default_rng(seed))
+        path = _with_modal_peaks(_loop_session(tmp_path, blocks, values, f"peaks{seed}"))
+        jobs = _jobs(path, 20, [f"{name}=+-20%" for name in values])
+        batch = batch_runs(jobs)
+        assert batch is not None and batch.unbatched == ""
+        for got, job in zip(batch.runs, jobs, strict=True):
+            want = run_job(job.payload())
+            _same_run(got, want)
+            peaks += sum(m["kind"] == "modal_peak_db" and isinstance(m["frequency"], float) for m in want["measures"])
+        batched += batch.done - batch.per_loop - batch.searched
+        total += batch.done
+    assert peaks >= 60  # rows that found a peak (80 of them), not only absent ones
+    assert batched >= 0.7 * total
+
+
+def _batched_equal(jobs) -> tuple[int, int, int]:
+    """The study evaluated as a batch, every run `run_job`'s: (samples batched, samples by the
+    per-loop search on their batched forms, samples)."""
+    batch = batch_runs(jobs)
+    assert batch is not None and batch.unbatched == ""
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+    return batch.done - batch.per_loop - batch.searched, batch.searched, batch.done
+
+
+def _with_time_rows(path: Path) -> Path:
+    """The session with step rows on r -> y (overshoot, rise, settling, peak time, steady-state
+    error, over 3 s at 151 points) and a peak response to a ramp up and down."""
+    model = json.loads(path.read_text())
+    step = {"input": "r", "output": "y", "horizon": 3.0, "points": 151, "profile": [{"time": 0.0, "step": 1.0}]}
+    ramp = {**step, "profile": [{"time": 0.0, "slope": 1.0}, {"time": 0.5, "slope": -2.0}, {"time": 1.0, "slope": 1.0}]}
+    kinds = ("overshoot_percent", "rise_time", "settling_time", "peak_time", "steady_state_error")
+    model["problem"]["targets"] += [
+        {"measure": kind, "bands": [{"desired": 1.0}], "requirement": False, "response": step} for kind in kinds
+    ] + [{"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False, "response": ramp}]
+    path.write_text(json.dumps(model))
+    return path
+
+
+def test_time_rows_of_cascades_are_batched(tmp_path):
+    """Issue 53, section 1: a cascade with step and peak-response rows went per loop (not
+    batched: rows of kind overshoot_percent, ...); each sample's closed loop, realized as the
+    per-loop path realizes it, is simulated with the others in one recursion now.  The lag-lead
+    and random cascades: every run `run_job`'s (rows to 1e-12 relative), most samples batched."""
+    from tests.engine.test_batch_margins import _random_structure
+
+    batched = total = 0
+    studies = [(_with_time_rows(_session(tmp_path)), TOLERANCES)]
+    for seed in (2, 4, 9):
+        blocks, values = _random_structure(np.random.default_rng(seed))
+        path = _with_time_rows(_loop_session(tmp_path, blocks, values, f"timed{seed}"))
+        studies.append((path, [f"{name}=+-20%" for name in values]))
+    for path, tolerances in studies:
+        found, _, done = _batched_equal(_jobs(path, 15, tolerances))
+        batched, total = batched + found, total + done
+    assert batched >= 0.7 * total
+
+
+def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_forms(tmp_path):
+    """Issue 53, section 1: a cascade with Ms, Mt, disk-margin and delay-margin rows went per loop
+    (not batched: rows of kind complementary_sensitivity_peak, ...); each sample's peaks are found
+    by the per-loop grid-free peak search on its batched form now (no network, no realization per
+    sample), its margins batched.  The lag-lead and random cascades, every run `run_job`'s."""
+    from tests.engine.test_batch_margins import _random_structure
+
+    studies = [(_session(tmp_path), TOLERANCES)]
+    for seed in (2, 6, 9):
+        blocks, values = _random_structure(np.random.default_rng(seed))
+        studies.append((_loop_session(tmp_path, blocks, values, f"closed{seed}"), [f"{n}=+-20%" for n in values]))
+    kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")
+    on_forms = total = 0
+    for path, tolerances in studies:
+        model = json.loads(path.read_text())
+        model["problem"]["targets"] += [{"measure": kind, "bands": [{"desired": 1.0}]} for kind in kinds]
+        model["problem"]["targets"].append(
+            {"measure": "sensitivity_peak", "bands": [{"low": 0.5, "high": 5.0, "desired": 1.5}]}
+        )
+        path.write_text(json.dumps(model))
+        _, searched, done = _batched_equal(_jobs(path, 15, tolerances))
+        on_forms, total = on_forms + searched, total + done
+    assert on_forms >= 0.7 * total
+
+
+@pytest.mark.parametrize(
+    ("target", "why"),
+    [
+        (
+            {"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False, "response": None},
+            "time rows of a loop in z",
+        ),
+        ({"measure": "sensitivity_peak", "bands": [{"desired": 2.0}]}, "closed-loop peak rows of a loop in z"),
+    ],
+)
+def test_a_loop_in_z_keeps_its_time_and_closed_loop_peak_rows_per_loop(tmp_path, target, why):
+    """Named exceptions: Kuo's loop in z with a peak response to a step (its samples stepped in z) or an Ms
+    row (searched on its w-plane form) is evaluated per loop, its note says why, every run `run_job`'s."""
+    path = _kuo_z(tmp_path)
+    model = json.loads(path.read_text())
+    if target["measure"] == "peak_response":
+        target = {**target, "response": {"input": "r", "output": "y", "horizon": 5.0, "points": 11}}
+        target["response"]["profile"] = [{"time": 0.0, "step": 1.0}]
+    model["problem"]["targets"].append(target)
+    path.write_text(json.dumps(model))
+    _per_loop_equal(_jobs(path, 4, ["T1=+-30%", "T2=+-30%"]), why)

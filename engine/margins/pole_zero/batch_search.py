@@ -59,6 +59,9 @@ class BatchCrossings:
     abscissa: NDArray[np.float64]
     certified: NDArray[np.bool_]
     closed: NDArray[np.complex128]  # the closed-loop poles (S, n), NaN rows where they cannot be had
+    peaks: NDArray[np.float64]  # the maxima of |GH| (the attenuation margins), sorted and NaN-padded
+    peaks_gh: NDArray[np.complex128]
+    peaks_converged: NDArray[np.bool_]  # every stationary point of |GH| converged within 4 ulp (not stalled)
 
 
 class BatchLevels:
@@ -168,12 +171,13 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
             near.append(np.where(close, np.sqrt(np.abs(x.real)), np.nan) * levels.scale[:, None])
             bad |= flat
         gains, phases, far = _crossing_starts(levels)
-        points, maxima = [], []
+        points, maxima, noisy = [], [], []
         for kind, starts in enumerate(stationary):
-            w, second, _ = _newton(levels, starts, kind)
+            w, second, stalled = _newton(levels, starts, kind)
             w, second = _distinct(w, second)
             points.append(w)
             maxima.append(second < 0)
+            noisy.append(stalled)
             bad |= (second == 0).any(axis=1)
         bad |= far | ~_signs_agree(levels, points, maxima, np.concatenate(near, axis=1))
         bad |= ~_reach_limits(levels, points, maxima)
@@ -181,8 +185,11 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
         bad |= ~enclosed
         closed = _closed_loop_poles(levels)
         abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
-    certified = ~bad & np.isfinite(abscissa)
-    return BatchCrossings(crossings[0], values[0], crossings[1], values[1], abscissa, certified, closed)
+        certified = ~bad & np.isfinite(abscissa)
+        peaks = _distinct(*(np.where(maxima[0], points[0], np.nan),) * 2)[0]
+        peaks_gh = levels.terms(peaks)[0]
+    gain, phase = crossings
+    return BatchCrossings(gain, values[0], phase, values[1], abscissa, certified, closed, peaks, peaks_gh, ~noisy[0])
 
 
 def _placeholders(forms: BatchForms) -> BatchForms:

@@ -1,0 +1,263 @@
+"""The state-space realizations of many samples of one network at once (a tolerance study's
+samples: one diagram, other parameter values), as one `StateSpace` of stacked arrays: A (S, N, N),
+B (S, N, I), C (S, n, N) and D (S, n, I), each sample's the one `engine.loop.realization.realize`
+makes for it.
+
+An entry whose parameters the samples do not vary is realized once, by `realize`'s own
+entry realization; an entry they vary must fold to a ratio of degree <= 2 in every sample
+(one controllable canonical section, `realize`'s for such a ratio), computed for every sample
+at once from its folded coefficients.  When the direct feedthroughs are the same in every
+sample, I - D is factored once, as `realize` factors it, and the signal equation solved for
+every sample's state-to-signal map in one call; otherwise per sample.  There is no batched
+realization (None; the per-sample realization is the way) for an entry of higher degree, a
+loop in z, a block of several ports, a delay or a table, or a singular algebraic loop in a
+sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.errors import EngineError
+from engine.loop.pole_zero import BROKEN, broken_network
+from engine.loop.realization import StateSpace, entry_realization, factored_feedthrough
+from engine.model.blocks import ExpressionTransfer
+from engine.model.expressions import Node
+from engine.model.folding import FOLD_DEGREE
+from engine.model.network import Network
+from engine.model.ports.state_space_ports import StateSpaceChannel
+
+
+def batch_loop_realization(
+    network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]
+) -> StateSpace | None:
+    """Every sample's broken loop as `engine.loop.pole_zero.loop_realization` makes it (inputs: the
+    network's, then the loop input); None when there is no batched realization."""
+    broken = network.derived.get(BROKEN, lambda: broken_network(network, break_at), break_at)
+    return batch_realize(broken, columns)
+
+
+def batch_closed_loop(network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]) -> StateSpace | None:
+    """Every sample's closed loop as `engine.loop.design.closed_loop_realization` makes it (the
+    loop broken at ``break_at`` realized, then closed: `engine.loop.pole_zero.closed_from_broken`);
+    None when there is no batched realization (module docstring)."""
+    ss = batch_loop_realization(network, break_at, columns)
+    return None if ss is None else closed_of(network, break_at, ss)
+
+
+def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | None:
+    """The closed loops of the broken ones ``ss`` (`batch_loop_realization`), as
+    `engine.loop.pole_zero.closed_from_broken` closes each; None for a singular algebraic loop."""
+    k = network.signal(break_at)
+    Bu, Du = ss.B[:, :, -1:], ss.D[:, :-1, -1:]
+    denominator = 1.0 - ss.D[:, k, -1][:, None, None]
+    if (np.abs(denominator) < 1e-14).any():
+        return None  # a singular algebraic loop: the per-sample realization says so
+    Ck, Dk = ss.C[:, k : k + 1] / denominator, ss.D[:, k : k + 1, :-1] / denominator
+    return StateSpace(
+        ss.A + Bu @ Ck,
+        ss.B[:, :, :-1] + Bu @ Dk,
+        ss.C[:, :-1] + Du @ Ck,
+        ss.D[:, :-1, :-1] + Du @ Dk,
+        network.inputs,
+        network.signals,
+    )
+
+
+def samples(ss: StateSpace) -> list[StateSpace]:
+    """Each sample's realization on its own (views of a stack's arrays)."""
+    return [StateSpace(A, B, C, D, ss.inputs, ss.outputs) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
+
+
+def batch_realize(network: Network, columns: Mapping[str, NDArray[np.float64]]) -> StateSpace | None:
+    """Every sample's `realize` (``columns``: each parameter's values, one per sample); None
+    when there is no batched realization (module docstring)."""
+    if not network.rational or network.variable != "s" or not columns:
+        return None
+    if any(isinstance(entry.transfer, StateSpaceChannel) for entry in network.entries):
+        return None  # a block of several ports: its states are shared by its channels (`realize`)
+    count = len(next(iter(columns.values())))
+    varied = {name for name, values in columns.items() if not (values == values[0]).all()}
+    first = {name: float(values[0]) for name, values in columns.items()}
+    n = len(network.signals)
+    blocks: list[tuple[NDArray, NDArray, NDArray, int, int]] = []  # A (S, k, k), B (S, k), C (S, k), row, col
+    feed = np.zeros((count, n, n))
+    try:
+        for number, entry in enumerate(network.entries):
+            if set(entry.transfer.parameters) & varied:
+                made = _varied_section(entry.transfer, columns, count)
+                if made is None:
+                    return None
+                a, b, c, d = made
+            else:
+                a1, b1, c1, d1 = entry_realization(network, number, first)
+                a, b, c = (np.broadcast_to(m, (count, *m.shape)) for m in (a1, b1[:, 0], c1[0]))
+                d = np.full(count, d1[0, 0] if d1.size else 0.0)
+            blocks.append((a, b, c, entry.row, entry.col))
+            feed[:, entry.row, entry.col] += d
+        same = bool((feed == feed[:1]).all())
+        factors = [factored_feedthrough(np.eye(n) - f) for f in (feed[:1] if same else feed)]
+    except (EngineError, AttributeError):
+        return None
+    return _assembled(network, blocks, factors, count)
+
+
+def _varied_section(
+    transfer, columns: Mapping[str, NDArray], count: int
+) -> tuple[NDArray, NDArray, NDArray, NDArray] | None:
+    """A varied entry's realization in every sample: its folded ratio's controllable canonical
+    section (`engine.loop.realization`'s for a ratio of degree <= 2), or None (not such a ratio
+    of one shape in every sample)."""
+    if not isinstance(transfer, ExpressionTransfer):
+        return None
+    folded = _folded(transfer.expression.root, columns, count)
+    if folded is None:
+        return None
+    num, den = (np.array(p).reshape(-1, count).T for p in folded)
+    first = transfer.expression.folded({name: float(columns[name][0]) for name in transfer.parameters})
+    if first is None or not (np.array_equal(first.num, num[0]) and np.array_equal(first.den, den[0])):
+        return None  # not the per-sample fold (checked on the first sample)
+    if not (num.shape[1] <= den.shape[1] <= 3) or (den[:, 0] == 0).any():
+        return None
+    if not (np.isfinite(num).all() and np.isfinite(den).all()):
+        return None
+    a = den / den[:, :1]
+    b = np.concatenate([np.zeros((count, den.shape[1] - num.shape[1])), num], axis=1) / den[:, :1]
+    k = den.shape[1] - 1
+    A = np.zeros((count, k, k))
+    A[:, 0] = -a[:, 1:]
+    A[:, np.arange(1, k), np.arange(k - 1)] = 1.0
+    B = np.zeros((count, k))
+    B[:, 0] = 1.0
+    return A, B, b[:, 1:] - b[:, :1] * a[:, 1:], b[:, 0]
+
+
+def _assembled(
+    network: Network, blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]], factors: list, count: int
+) -> StateSpace:
+    """`realize`'s assembly of the entries' states for every sample: z' = A_blk z + B_blk x,
+    x = (I - D)^-1 (C z + E u), with I - D factored once (``factors``: one LU) or per sample."""
+    from scipy import linalg  # on first use (start-up)
+
+    n, m = len(network.signals), sum(a.shape[1] for a, *_ in blocks)
+    A_blk, B_blk, C_sig = np.zeros((count, m, m)), np.zeros((count, m, n)), np.zeros((count, n, m))
+    offset = 0
+    for a, b, c, row, col in blocks:
+        sl = slice(offset, offset + a.shape[1])
+        A_blk[:, sl, sl] = a
+        B_blk[:, sl, col] += b
+        C_sig[:, row, sl] += c
+        offset += a.shape[1]
+    E = np.zeros((n, len(network.inputs)))
+    for k, name in enumerate(network.inputs):
+        E[network.signal(name), k] = 1.0
+    if len(factors) == 1:  # every sample's I - D alike: one solve for all
+        columns = C_sig.transpose(1, 0, 2).reshape(n, count * m)
+        P_state = linalg.lu_solve(factors[0], columns, check_finite=False).reshape(n, count, m).transpose(1, 0, 2)
+        P_input = np.broadcast_to(linalg.lu_solve(factors[0], E, check_finite=False), (count, *E.shape))
+    else:
+        P_state = np.array([linalg.lu_solve(lu, c, check_finite=False) for lu, c in zip(factors, C_sig)])
+        P_input = np.array([linalg.lu_solve(lu, E, check_finite=False) for lu in factors])
+    A = A_blk + B_blk @ P_state
+    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
+
+
+Poly = tuple[NDArray, ...]  # descending coefficients, each every sample's (S,)
+
+
+class _Apart(Exception):
+    """The samples take different branches of the fold (a coefficient 0 in some only)."""
+
+
+def _all(flags: NDArray) -> bool:
+    """True when every sample's flag is, False when none is; `_Apart` otherwise."""
+    if flags.all():
+        return True
+    if flags.any():
+        raise _Apart
+    return False
+
+
+def _trimmed(a: Poly) -> Poly:
+    i = 0
+    while i < len(a) - 1 and _all(a[i] == 0.0):
+        i += 1
+    return a[i:]
+
+
+def _times(a: Poly, b: Poly) -> Poly:
+    out = [np.zeros_like(a[0])] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for j, y in enumerate(b):
+            out[i + j] = out[i + j] + x * y
+    return _trimmed(tuple(out))
+
+
+def _plus(a: Poly, b: Poly) -> Poly:
+    if len(a) < len(b):
+        a, b = b, a
+    shift = len(a) - len(b)
+    return _trimmed(tuple(x + b[i - shift] if i >= shift else x for i, x in enumerate(a)))
+
+
+def _folded(root: Node, columns: Mapping[str, NDArray], count: int) -> tuple[Poly, Poly] | None:
+    """The expression's ratio of degree <= `FOLD_DEGREE` in every sample, by
+    `engine.model.folding.compile_tree`'s arithmetic on every sample at once (its branches taken
+    alike in every sample); None when it does not fold so (or the samples part ways)."""
+    try:
+        found = _fold(root, columns, np.ones(count))
+    except _Apart:
+        return None
+    if found is None or max(len(found[0]), len(found[1])) - 1 > FOLD_DEGREE:
+        return None
+    return found[0], found[1]
+
+
+def _fold(node: Node, columns: Mapping[str, NDArray], one: NDArray) -> tuple[Poly, Poly, bool] | None:
+    """(numerator, denominator, typed) of a subtree as `compile_tree` folds it; None when it does not."""
+    if node.op == "num":
+        return (node.value * one,), (one,), True
+    if node.op == "var":
+        return (one, 0 * one), (one,), True
+    if node.op == "param":
+        return (np.asarray(columns[node.name], dtype=float),), (one,), True
+    args = [_fold(a, columns, one) for a in node.args]
+    if any(a is None for a in args):
+        return None
+    num, den, typed = _combined(node, args, one)
+    return (num, den, typed) if max(len(num), len(den)) - 1 <= FOLD_DEGREE or typed else None
+
+
+def _unit(p: Poly) -> bool:
+    return len(p) == 1 and _all(p[0] == 1.0)
+
+
+def _combined(node: Node, args: list, one: NDArray) -> tuple[Poly, Poly, bool]:
+    """`Folded.combine` of the arguments' folds."""
+    (num, den, typed), other = args[0], args[1] if len(args) > 1 else None
+    op, exponent = node.op, node.exponent
+    monomial = _unit(den) and all(_all(c == 0.0) or _all(c != 0.0) for c in num)
+    monomial = monomial and sum(_all(c != 0.0) for c in num) <= 1
+    if op == "neg":
+        return tuple(-c for c in num), den, typed and _unit(den)
+    if op == "pow":
+        base = (num, den) if exponent >= 0 else (den, num)
+        top, bottom = (one,), (one,)
+        for _ in range(abs(exponent)):
+            top, bottom = _times(top, base[0]), _times(bottom, base[1])
+        return top, bottom, typed and _unit(den) and monomial and exponent >= 0
+    o_num, o_den, o_typed = other
+    kept = typed and _unit(den) and o_typed and _unit(o_den)
+    if op in ("add", "sub"):
+        signed = o_num if op == "add" else tuple(-c for c in o_num)
+        if len(den) == len(o_den) and all(_all(a == b) for a, b in zip(den, o_den)):
+            return _plus(num, signed), den, kept
+        return _plus(_times(num, o_den), _times(signed, den)), _times(den, o_den), kept
+    if op == "mul":
+        o_monomial = sum(_all(c != 0.0) for c in o_num) <= 1 and all(_all(c == 0.0) or _all(c != 0.0) for c in o_num)
+        degree_zero = max(len(num), len(den)) == 1 or max(len(o_num), len(o_den)) == 1
+        return _times(num, o_num), _times(den, o_den), kept and (degree_zero or (monomial and o_monomial))
+    return _times(num, o_den), _times(den, o_num), kept and max(len(o_num), len(o_den)) == 1
