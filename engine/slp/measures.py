@@ -260,11 +260,9 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
     s-plane equivalent, ``sample_time`` given: its realization is in w)."""
     if spec.kind == "stability_abscissa":
         return stability_abscissa(ss, sample_time)
-    if stability(poles(ss)) == "unstable":  # (a sampled loop's realization is in w: the same half-plane)
-        return math.nan  # its response grows without bound: a measure read on the horizon means nothing
     response = problem.targets[spec.target].response
     if spec.kind == "mean_square":
-        return mean_square(ss, response.input, response.output, response.psd)
+        return math.nan if grows(ss) else mean_square(ss, response.input, response.output, response.psd)
     if response.input not in ss.inputs:
         raise EngineError(
             f"target {spec.target}: {response.input!r} is not an input of condition "
@@ -278,6 +276,11 @@ def time_value(spec: Spec, problem: Problem, ss: StateSpace, sample_time: float 
     return response_value(spec, response, ss, t, y)
 
 
+def grows(ss: StateSpace) -> bool:
+    """Whether the closed loop ``ss`` is unstable (a sampled loop's realization is in w: the same half-plane)."""
+    return stability(poles(ss)) == "unstable"
+
+
 def response_times(response: TimeResponse, sample_time: float | None) -> NDArray[np.float64]:
     """The times a response row is read at: its grid, or a sampled loop's samples up to its horizon."""
     if sample_time is None:
@@ -288,6 +291,8 @@ def response_times(response: TimeResponse, sample_time: float | None) -> NDArray
 def response_value(spec: Spec, response: TimeResponse, ss: StateSpace, t: NDArray, y: NDArray) -> float:
     """A time row's value from its output's response ``y`` at ``t`` (the closed loop ``ss``'s
     response to the target's profile)."""
+    if grows(ss):
+        return math.nan  # an unstable loop's response grows without bound: what the horizon shows means nothing
     if spec.kind == "peak_response":
         return float(np.max(np.abs(y)))
     segments = [Segment(*p) for p in response.profile]
