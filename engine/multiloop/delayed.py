@@ -1,0 +1,246 @@
+"""The multi-loop disk margin of a block diagram with time delays exp(-tau s), the delays evaluated
+exactly (no Pade approximation).
+
+Form.  The diagram is cut at its breaks and its delays (`engine.loop.realization.realize_opened`),
+then closed again with every delay a unit gain: a rational system N(s) from (a disturbance e at
+the breaks, r_d at the delays' outputs) to (the breaks' inputs u less e, the delays' inputs z).
+The delays are r_d = H z with H = diag(exp(-s tau_k) - 1), so with c = (skew - 1)/2
+
+    M = S + c I = N11 + N12 H (I - N22 H)^-1 N21,   N11 = S0 + c I,
+
+S0 the input sensitivity of the diagram with every delay 0.  N's poles are those of the
+delay-free closed loop; |H_k| <= 2 and |dH_k/domega| = tau_k.
+
+Lower bound (alpha_upper).  mu's bounds on a grid of N's modes and of the delays' turns
+(`POINTS_PER_TURN` points per 2 pi / tau), the best maximum refined, as for a rational plant
+(`engine.multiloop.disk.bracketed`).
+
+Upper bound over frequency (alpha_lower).  gamma a little above the best upper bound found.
+On an interval [lo, hi] with middle w0 and one D-scale, sigma_max(D M(j omega) D^-1) is at most
+its value at w0 plus a bound of its change (`bounds`): N's change from its modes'
+distances to the interval (`engine.multiloop.modal_bounds`), H's change 2 sin(tau h/2), h the
+half width, carried through the inverse (I - H N22)^-1 by the Neumann bound.  Intervals whose
+bound reaches gamma are halved (their scale optimized at their middle every few halvings);
+one whose middle has mu's upper bound at or above gamma is a higher peak (a restart).  Above
+a frequency W no interval is needed: there |N - N(inf)| is small (`Modal.tail`) and, for
+every H with |H_k| <= 2, sigma_max(D M D^-1) <= |D N11(inf) D^-1| + its change (`tail_level`);
+W is doubled from N's largest mode until that bound is below gamma.  Bounded: `MOST_TESTS`
+interval tests, the certificate's time (`engine.multiloop.disk.MOST_SECONDS`), `MOST_DOUBLINGS`.
+
+The closed loop's stability with its delays is decided first (`engine.multiloop.delay_stability`):
+not stable, alpha = 0; undecided, alpha_lower = 0 and the reason said."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from engine.errors import EngineError
+from engine.loop.realization import OpenedDelays
+from engine.margins.disk import check_skew
+from engine.model.ports.state_space_ports import balanced_ports
+from engine.multiloop import mu
+from engine.multiloop.delay_stability import Verdict, delayed_verdict
+from engine.multiloop.disk import (
+    MOST_SECONDS,
+    MultiLoopDiskMargin,
+    Peak,
+    bracketed,
+    mode_grid,
+    result,
+)
+from engine.multiloop.modal_bounds import Modal, modal
+
+POINTS_PER_TURN = 16  # grid points per 2 pi / tau of the longest delay (the lower bound's search)
+MOST_GRID = 20_000  # ... at most (a longer grid: the certificate still covers every frequency)
+MOST_TESTS = 200_000  # interval tests of one certificate
+MOST_DOUBLINGS = 200  # of the tail's frequency W
+REOPTIMIZE = 3  # halvings after which an interval's D-scale is optimized again at its middle
+CERTIFICATE = "certified per interval by a bound of its change (delays exact)"
+
+
+@dataclass(frozen=True)
+class DelayedLoops:
+    """N in modal form (rows and columns: the loops, then the delays), the delays tau_k (s), the grid."""
+
+    modal: Modal
+    taus: NDArray[np.float64]
+    loops: int
+    omega: NDArray[np.float64]
+
+    def parts(self, omega: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+        """(N11, N12, N21, N22, h = exp(-j omega tau) - 1) at each frequency."""
+        n, m = self.modal.at(omega), self.loops
+        h = np.exp(-1j * np.asarray(omega, dtype=float)[:, None] * self.taus[None, :]) - 1.0
+        return n[:, :m, :m], n[:, :m, m:], n[:, m:, :m], n[:, m:, m:], h
+
+    def at(self, omega: NDArray) -> NDArray[np.complex128]:
+        """M(j omega) at each frequency (module docstring)."""
+        n11, n12, n21, n22, h = self.parts(omega)
+        r = np.linalg.solve(np.eye(self.taus.size) - h[:, :, None] * n22, h[:, :, None] * np.eye(self.taus.size))
+        return n11 + n12 @ r @ n21
+
+    fast = at
+
+
+def delayed_loops(opened: OpenedDelays, breaks: tuple[str, ...], skew: float) -> DelayedLoops:
+    """N of a diagram cut at ``breaks`` (inputs "break NAME") and at its delays (module docstring)."""
+    ss = opened.ss
+    cols = [ss.inputs.index(f"break {name}") for name in breaks] + list(opened.delay_inputs)
+    rows = [ss.outputs.index(name) for name in breaks] + list(opened.delay_outputs)
+    d = ss.D[np.ix_(rows, cols)]
+    closing = np.eye(len(cols)) - d
+    if 1.0 / np.linalg.cond(closing) < 1e-12:
+        raise EngineError("I - D of the loops with every delay 0 is singular: the closed loop is not well posed")
+    f = np.linalg.inv(closing)  # v = f (C x + r): the loops closed, every delay a unit gain
+    a, b, c = ss.A + ss.B[:, cols] @ f @ ss.C[rows], ss.B[:, cols] @ f, f @ ss.C[rows]
+    m = len(breaks)
+    n_d = f - np.eye(len(cols))
+    n_d[:m, :m] += (1.0 + 0.5 * (skew - 1.0)) * np.eye(m)
+    form = modal(*balanced_ports(a, b, c, n_d), m)
+    if form is None:
+        raise EngineError(
+            "the delay-free closed loop's modes are too ill-conditioned for the delays' certificate "
+            "(eigenvectors' condition above 1e8)"
+        )
+    taus = np.asarray(opened.taus, dtype=float)
+    return DelayedLoops(form, taus, m, _search_grid(form, taus))
+
+
+def _search_grid(form: Modal, taus: NDArray) -> NDArray[np.float64]:
+    """0, N's modes' grid and a linear grid over the delays' turns up to 100 times N's largest mode."""
+    sizes = np.abs(form.poles)
+    top = 100.0 * max(float(sizes.max()) if sizes.size else 1.0, 1.0 / taus.max())
+    count = min(MOST_GRID, int(POINTS_PER_TURN * top * taus.max() / (2.0 * math.pi)) + 2)
+    return np.unique(np.concatenate([[0.0], mode_grid(form.poles), np.linspace(0.0, top, count)]))
+
+
+def bounds(system: DelayedLoops, lo: NDArray, hi: NDArray, x: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """(sigma_max(D M D^-1) at the middles, a bound of it over each [lo, hi], M at the middles) under the
+    log scales ``x`` (module docstring)."""
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    n11, n12, n21, n22, h = system.parts(mid)
+    d = np.exp(x)
+    n11, n12, n21 = d[:, :, None] * n11 / d[:, None, :], d[:, :, None] * n12, n21 / d[:, None, :]
+    k = system.taus.size
+    inverse = np.linalg.inv(np.eye(k) - h[:, :, None] * n22)
+    r0 = inverse * h[:, None, :]
+    m0 = n11 + n12 @ r0 @ n21
+    norm = _norms
+    sigma, p0, r0n = norm(m0), norm(inverse), norm(r0)
+    n12n, n21n, n22n = norm(n12), norm(n21), norm(n22)
+    e = system.modal.change(lo, hi, x)
+    t = 2.0 * np.sin(np.minimum(system.taus.max() * half, math.pi) / 2.0)
+    eta = np.abs(h).max(axis=1)
+    pi = t * (n22n + e[1, 1]) + eta * e[1, 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.where(p0 * pi < 1.0, p0 * (t + pi * r0n) / (1.0 - p0 * pi), np.inf)
+    change = e[0, 0] + e[0, 1] * (r0n + rho) * (n21n + e[1, 0]) + n12n * rho * (n21n + e[1, 0]) + n12n * r0n * e[1, 0]
+    return sigma, np.nan_to_num(sigma + change, nan=np.inf), m0 * d[:, None, :] / d[:, :, None]
+
+
+def _norms(m: NDArray) -> NDArray[np.float64]:
+    """The spectral norm of each matrix of a stack (0 for an empty one)."""
+    if m.shape[-1] == 0 or m.shape[-2] == 0:
+        return np.zeros(m.shape[0])
+    return np.linalg.svd(m, compute_uv=False)[:, 0]
+
+
+def tail_level(system: DelayedLoops, top: float, x: NDArray) -> float:
+    """A bound of sigma_max(D M(j omega) D^-1) for every omega >= ``top`` (module docstring)."""
+    m, inf = system.loops, system.modal.d
+    d = np.exp(x)
+    n11 = d[:, None] * inf[:m, :m] / d[None, :]
+    n12, n21, n22 = d[:, None] * inf[:m, m:], inf[m:, :m] / d[None, :], inf[m:, m:]
+    e = {key: float(v[0]) for key, v in system.modal.tail(top, x[None, :], False).items()}
+    norm = float(np.linalg.norm(n22, 2)) if n22.size else 0.0
+    room = 1.0 - 2.0 * (norm + e[1, 1])
+    if room <= 0:
+        return math.inf
+    n12n, n21n = (float(np.linalg.norm(v, 2)) if v.size else 0.0 for v in (n12, n21))
+    return float(np.linalg.norm(n11, 2)) + e[0, 0] + (n12n + e[0, 1]) * (2.0 / room) * (n21n + e[1, 0])
+
+
+def tail_frequency(system: DelayedLoops, gamma: float) -> float | None:
+    """W above which mu < gamma (`tail_level` under a D-scale that makes it small there: Nelder and Mead
+    from no scaling, again at each W from the last); None when doubling W `MOST_DOUBLINGS` times does not bring the
+    bound below gamma."""
+    m = system.loops
+    x = np.zeros(m)
+    sizes = np.abs(system.modal.poles)
+    top = 2.0 * max(float(sizes.max()) if sizes.size else 1.0, float(system.omega.max()))
+    for _ in range(MOST_DOUBLINGS):
+        x = _tail_scales(system, top, x)
+        if tail_level(system, top, x) < gamma:
+            return top
+        top *= 2.0
+    return None
+
+
+def _tail_scales(system: DelayedLoops, top: float, start: NDArray) -> NDArray[np.float64]:
+    """Log scales lowering `tail_level` at ``top`` (Nelder and Mead from ``start``; the last 0)."""
+    from scipy import optimize
+
+    if system.loops == 1:
+        return start
+
+    def level(free: NDArray) -> float:
+        return tail_level(system, top, np.append(np.clip(free, -mu.SCALE_BOUND, mu.SCALE_BOUND), 0.0))
+
+    found = optimize.minimize(level, start[:-1], method="Nelder-Mead", options={"maxiter": 100 * system.loops})
+    return np.append(np.clip(found.x, -mu.SCALE_BOUND, mu.SCALE_BOUND), 0.0) if found.fun < level(start[:-1]) else start
+
+
+def certify_delayed(system: DelayedLoops, gamma: float, peak: Peak, started: float) -> tuple[str, int, float | None]:
+    """(status, interval tests, a higher peak's frequency or None) of mu < gamma at every frequency."""
+    top = tail_frequency(system, gamma)
+    if top is None:
+        return f"tail limit (mu's bound above every frequency W tried stays above {gamma:.6g})", 0, None
+    points = np.unique(np.concatenate([system.omega[system.omega < top], [top]]))
+    lo, hi = points[:-1], points[1:]
+    x = mu.osborne(system.at(0.5 * (lo + hi)))
+    age = np.zeros(lo.size, dtype=int)
+    tests = 0
+    while lo.size:
+        if tests >= MOST_TESTS:
+            return f"interval limit ({MOST_TESTS} tests)", tests, None
+        if time.perf_counter() - started > MOST_SECONDS:
+            return f"time limit ({MOST_SECONDS:g} s)", tests, None
+        sigma, bound, m0 = bounds(system, lo, hi, x)
+        tests += lo.size
+        bad = np.flatnonzero(bound >= gamma)
+        lo, hi, x, age, sigma, m0 = lo[bad], hi[bad], x[bad], age[bad], sigma[bad], m0[bad]
+        stale = np.flatnonzero((sigma >= gamma) | (age >= REOPTIMIZE))
+        sigma[stale], x[stale] = mu.descended(m0[stale], x[stale])
+        age[stale] = 0
+        for i in np.flatnonzero(sigma >= gamma):
+            high, x[i] = mu.upper(m0[i], x[i])
+            if high >= gamma:
+                return "higher peak", tests, float(0.5 * (lo[i] + hi[i]))
+        mid = 0.5 * (lo + hi)
+        lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
+        x, age = np.concatenate([x, x]), np.concatenate([age, age]) + 1
+    return "certified", tests, None
+
+
+def delayed_disk_margin(opened: OpenedDelays, breaks: tuple[str, ...], skew: float = 0.0) -> MultiLoopDiskMargin:
+    """The multi-loop disk margin at ``breaks`` of a diagram whose delays ``opened`` cut (module docstring)."""
+    skew = check_skew(skew)
+    started = time.perf_counter()
+    system = delayed_loops(opened, breaks, skew)
+    verdict = delayed_verdict(system.modal, system.taus)
+    if verdict.status == "unstable":
+        return _unstable(skew, verdict)
+    peak, gamma, status, tests = bracketed(system, system.omega, certify_delayed, started)
+    if verdict.status != "stable":
+        status = f"stability undecided: {verdict.note}"
+    return result(system.loops, skew, peak, gamma, status, tests, CERTIFICATE, (verdict.note,))
+
+
+def _unstable(skew: float, verdict: Verdict) -> MultiLoopDiskMargin:
+    note = f"the closed loop is not stable ({verdict.note}): no disk margin (alpha = 0)"
+    return MultiLoopDiskMargin(0.0, 0.0, 0.0, skew, 1.0, 1.0, 0.0, math.nan, "unstable", (), (note,), 0, CERTIFICATE)

@@ -1,0 +1,120 @@
+"""The multi-loop disk margin of a diagram with a delay (engine/multiloop/delayed.py, delay_stability.py):
+the compensated 2x2 plant of tests/sessions/test_ported_state_space with exp(-tau s) after K1, broken
+at the plant inputs u1, u2, against references written here: M = (I + K P)^-1 + (skew - 1)/2 I from
+the matrices and the compensators' texts, the delay exp(-j omega tau) itself; mu's D-scale bound of a
+2x2 matrix in closed form (sigma_max^2 = (F + sqrt(F^2 - 4 |det|^2)) / 2, F = |m11|^2 + |m22|^2 +
+2 |m12 m21| the least Frobenius norm over D, det unchanged by D), checked against scipy's minimization
+over log d; its maximum over a dense grid refined by scipy; stability against python-control's
+closed loop with a Pade approximation of order 12."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import optimize
+
+from engine.multiloop.network_breaks import diagram_disk_margin
+from sessions.store import load_session
+from tests.sessions.test_ported_state_space import (
+    COMPENSATORS,
+    PLANT,
+    _write,
+    compensated_session,
+    with_block_before_u1,
+)
+
+control = pytest.importorskip("control")
+
+
+def delayed_network(tmp_path, tau: float):
+    document = with_block_before_u1({"kind": "delay", "tau": tau}, "lag") if tau else compensated_session()
+    document["problem"]["conditions"][0]["breaks"] = ["u1", "u2"]
+    return load_session(_write(tmp_path, document)).problem.conditions[0].network
+
+
+def reference_m(omega: np.ndarray, tau: float, skew: float) -> np.ndarray:
+    """(I + K P)^-1 + (skew - 1)/2 I at j omega, K1 delayed by tau (module docstring)."""
+    a, b, c, d = PLANT
+    s = 1j * np.asarray(omega, dtype=float)
+    p = c @ np.linalg.solve(s[:, None, None] * np.eye(4) - a, np.broadcast_to(b.astype(complex), (s.size, 4, 2))) + d
+    k1 = 4 * (s + 1) / (s + 8) * np.exp(-s * tau)
+    k2 = -2.5 * (s + 2) / (s * (s + 10))
+    assert COMPENSATORS == ("4*(s+1)/(s+8)", "-2.5*(s+2)/(s*(s+10))")
+    loop = np.stack([k1, k2], axis=1)[:, :, None] * p
+    return np.linalg.inv(np.eye(2) + loop) + 0.5 * (skew - 1.0) * np.eye(2)
+
+
+def closed_form_upper(m: np.ndarray) -> np.ndarray:
+    """inf over D of sigma_max(D M D^-1) for 2x2 matrices (module docstring)."""
+    f = np.abs(m[:, 0, 0]) ** 2 + np.abs(m[:, 1, 1]) ** 2 + 2 * np.abs(m[:, 0, 1] * m[:, 1, 0])
+    det = np.abs(np.linalg.det(m))
+    return np.sqrt((f + np.sqrt(np.maximum(f**2 - 4 * det**2, 0.0))) / 2)
+
+
+def reference_peak(tau: float, skew: float) -> tuple[float, float]:
+    """(max over omega of mu's D-scale bound, where): a dense grid, the best point refined by scipy."""
+    omega = np.unique(np.concatenate([np.geomspace(1e-3, 1e4, 20_000), np.linspace(1e-3, 300.0, 200_000)]))
+    values = closed_form_upper(reference_m(omega, tau, skew))
+    k = int(np.argmax(values))
+    lo, hi = omega[max(k - 1, 0)], omega[min(k + 1, omega.size - 1)]
+    found = optimize.minimize_scalar(
+        lambda w: -closed_form_upper(reference_m(np.array([w]), tau, skew))[0],
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-12},
+    )
+    return -float(found.fun), float(found.x)
+
+
+def scipy_upper(m: np.ndarray) -> float:
+    """The D-scale bound of one 2x2 matrix by scipy's minimization over log d (the closed form's check)."""
+    found = optimize.minimize_scalar(
+        lambda t: np.linalg.norm(np.diag([np.exp(t), 1.0]) @ m @ np.diag([np.exp(-t), 1.0]), 2),
+        bounds=(-30.0, 30.0),
+        method="bounded",
+        options={"xatol": 1e-12},
+    )
+    return float(found.fun)
+
+
+@pytest.mark.parametrize("skew", [0.0, 0.5])
+def test_two_loops_with_a_delay_bracket_the_dense_reference(tmp_path, skew):
+    mine = diagram_disk_margin(delayed_network(tmp_path, 0.2), ["u1", "u2"], {}, skew)
+    peak, where = reference_peak(0.2, skew)
+    assert scipy_upper(reference_m(np.array([where]), 0.2, skew)[0]) == pytest.approx(peak, rel=1e-9)
+    assert mine.status == "certified" and "delays exact" in mine.method
+    assert mine.alpha_lower <= 1.0 / peak * (1 + 1e-9) <= mine.alpha_upper * (1 + 2e-9)
+    assert mine.alpha_upper == pytest.approx(1.0 / peak, rel=1e-6)
+    assert mine.frequency == pytest.approx(where, rel=1e-3)
+    delta = np.array(mine.delta)  # destabilizing: det(I - M Delta) = 0 at the worst frequency
+    m = reference_m(np.array([mine.frequency]), 0.2, skew)[0]
+    assert abs(np.linalg.det(np.eye(2) - m @ np.diag(delta))) <= 1e-6
+    assert np.abs(delta) == pytest.approx(mine.alpha_upper, rel=1e-9)
+
+
+def test_a_vanishing_delay_gives_the_delay_free_certified_margin(tmp_path):
+    """tau = 1e-9 s by the delays' certificate against tau = 0 by the Hamiltonian one."""
+    delayed = diagram_disk_margin(delayed_network(tmp_path, 1e-9), ["u1", "u2"], {})
+    free = diagram_disk_margin(delayed_network(tmp_path, 0.0), ["u1", "u2"], {})
+    assert delayed.status == free.status == "certified" and "Hamiltonian" in free.method
+    assert delayed.alpha_lower == pytest.approx(free.alpha_lower, rel=1e-6)
+    assert delayed.alpha_upper == pytest.approx(free.alpha_upper, rel=1e-6)
+
+
+def pade_right_roots(tau: float) -> int:
+    """Closed-loop poles with Re > 0 of python-control's loop with the delay as a Pade approximation of
+    order 12 (accurate far beyond the loop's bandwidth at these delays)."""
+    s = control.tf("s")
+    delay = control.tf(*control.pade(tau, 12))
+    gains = control.append(control.ss(4 * (s + 1) / (s + 8) * delay), control.ss(-2.5 * (s + 2) / (s * (s + 10))))
+    closed = control.feedback(control.series(gains, control.ss(*PLANT)), np.eye(2))
+    return int(np.sum(np.real(closed.poles()) > 0))
+
+
+@pytest.mark.parametrize("tau", [0.3, 1.0])
+def test_a_delay_that_destabilizes_gives_alpha_zero_said(tmp_path, tau):
+    mine = diagram_disk_margin(delayed_network(tmp_path, tau), ["u1", "u2"], {})
+    roots = pade_right_roots(tau)
+    assert roots > 0 and pade_right_roots(0.2) == 0
+    assert mine.status == "unstable" and mine.alpha == mine.alpha_lower == mine.alpha_upper == 0.0
+    assert f"{roots} root(s) in the right half-plane" in mine.notes[0] and "alpha = 0" in mine.notes[0]
