@@ -67,6 +67,19 @@ class Modal:
         weight = half[:, None] / (np.abs(1j * nearest - p) * np.abs(1j * mid[:, None] - p))
         return {key: (r * weight).sum(axis=1) for key, r in self.residues(x).items()}
 
+    def distance(self, omega: NDArray) -> NDArray[np.float64]:
+        """The distance from j omega to the nearest pole (inf without poles)."""
+        if not self.poles.size:
+            return np.full(np.shape(omega), np.inf)
+        return np.abs(1j * np.asarray(omega)[:, None] - self.poles[None, :]).min(axis=1)
+
+    def disc(self, mid: NDArray, radius: NDArray, x: NDArray) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """Bounds of |N_IJ(s) - N_IJ(j mid)| over each disc |s - j mid| <= radius (below the distance to
+        every pole): |1/(s - p) - 1/(j mid - p)| <= radius / ((d - radius) d), d = |j mid - p|."""
+        d = np.abs(1j * mid[:, None] - self.poles[None, :])
+        weight = radius[:, None] / ((d - radius[:, None]) * d)
+        return {key: (r * weight).sum(axis=1) for key, r in self.residues(x).items()}
+
     def tail(self, top: float, x: NDArray, half_plane: bool) -> dict[tuple[int, int], NDArray[np.float64]]:
         """Bounds of |N_IJ(s) - N_IJ(inf)| for s = j omega, omega >= ``top`` (and |s| >= top, Re s >= 0
         when ``half_plane``), under the log scales ``x`` (module docstring)."""
