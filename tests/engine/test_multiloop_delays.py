@@ -142,3 +142,16 @@ def test_the_interval_bound_holds_inside_every_interval(tmp_path):
         scaled = d[None, :, None] * reference_m(inside, 0.2, 0.0) / d[None, None, :]
         assert np.linalg.svd(scaled, compute_uv=False)[:, 0].max() <= bound[k] * (1 + 1e-12)
     assert np.all(np.isfinite(bound[width < 0.01]))
+
+
+def test_a_neutral_delay_loop_is_undecided_by_name():
+    """2 exp(-0.1 s) under unity feedback: the delay fed back to itself through a gain above 1/2 at every
+    frequency (a neutral system, roots without end near the axis): no argument count, alpha_lower 0, the
+    reason in the status; 0.5 exp(-0.1 s) is decided, alpha = 1/max |1/(1 + L) - 1/2| = 1/1.5."""
+    from engine.analysis import unity_feedback
+
+    neutral = diagram_disk_margin(unity_feedback(["2"], delay=0.1), ["e"], {})
+    assert neutral.alpha_lower == 0.0 and neutral.status.startswith("stability undecided: a delay's loop keeps")
+    decided = diagram_disk_margin(unity_feedback(["0.5"], delay=0.1), ["e"], {})
+    assert decided.status == "certified" and decided.alpha_upper == pytest.approx(1 / 1.5, rel=1e-9)
+    assert decided.alpha_lower == pytest.approx(1 / 1.5, rel=1e-6)
