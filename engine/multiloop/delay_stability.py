@@ -19,16 +19,18 @@ When N22(inf) alone is too large (a delay fed back to itself through direct feed
 neutral system) the verdict is undecided.
 
 The axis.  zeta(-j omega) is the conjugate of zeta(j omega) and zeta(0) = 1, so the change
-up the axis is twice that over [0, W].  On an interval with middle w0, zeta's change is at most
-k beta^(k-1) |X - X0| (X = N22 H; Bhatia's bound of a determinant's change, beta the larger
-norm of I - X); when that is below |zeta(w0)|, zeta stays in a disc about zeta(w0) that leaves
-out 0, and its change of arg is the principal angle of zeta(hi) / zeta(lo).  Intervals that
-fail are halved, at most `MOST_TESTS` tests: a root on or very near the axis leaves the
+up the axis is twice that over [0, W].  On an interval with middle w0 (X = N22 H, X0 there),
+zeta / zeta(w0) = det(I - E) with E = (I - X0)^-1 (X - X0); when q = |(I - X0)^-1| |X - X0| < 1
+every eigenvalue of I - E lies within q of 1, so arg zeta moves by less than k asin q from its
+value at w0; kept below `STEADY` (pi/2 each way), zeta's change of arg over the interval is the
+principal angle of zeta(hi) / zeta(lo).  Intervals that
+fail are halved, at most `MOST_TESTS` tests and `MOST_SECONDS`: a root on or very near the axis leaves the
 verdict undecided, said."""
 
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +45,8 @@ MOST_DOUBLINGS = 200  # of the tail's frequency W
 POINTS_PER_TURN = 8  # first intervals per 2 pi / tau of the longest delay
 MOST_START = 20_000  # ... at most
 WHOLE = 1e-6  # the count's distance from an integer taken as rounding
+STEADY = 0.45 * math.pi  # the most arg zeta may move from an interval's middle (below pi/2: module docstring)
+MOST_SECONDS = 10.0  # wall-clock bound of the argument count
 
 
 @dataclass(frozen=True)
@@ -73,7 +77,10 @@ def delayed_verdict(form: Modal, taus: NDArray) -> Verdict:
         )
     turn = _turn(form, taus, top)
     if turn is None:
-        return Verdict("undecided", f"det(I - N22 H) comes too near 0 on the imaginary axis ({MOST_TESTS} tests)")
+        return Verdict(
+            "undecided",
+            f"det(I - N22 H) comes too near 0 on the imaginary axis (limits: {MOST_TESTS} tests, {MOST_SECONDS:g} s)",
+        )
     end = complex(_zeta(form, taus, np.array([top]))[0])
     count = int(np.sum(poles.real > 0)) - (turn - math.atan2(end.imag, end.real)) / math.pi
     roots = round(count)
@@ -116,9 +123,9 @@ def _turn(form: Modal, taus: NDArray, top: float) -> float | None:
     grid = mode_grid(form.poles)
     points = np.unique(np.concatenate([np.linspace(0.0, top, count), grid[grid < top]]))
     lo, hi = points[:-1], points[1:]
-    turn, tests = 0.0, 0
+    turn, tests, started = 0.0, 0, time.perf_counter()
     while lo.size:
-        if tests >= MOST_TESTS:
+        if tests >= MOST_TESTS or time.perf_counter() - started > MOST_SECONDS:
             return None
         tests += lo.size
         ok = _steady(form, taus, lo, hi)
@@ -130,7 +137,7 @@ def _turn(form: Modal, taus: NDArray, top: float) -> float | None:
 
 
 def _steady(form: Modal, taus: NDArray, lo: NDArray, hi: NDArray) -> NDArray[np.bool_]:
-    """Whether zeta's change over each [lo, hi] is below |zeta| at its middle (module docstring)."""
+    """Whether zeta's change of arg over each [lo, hi] stays below pi/2 each way (module docstring)."""
     s, k = form.split, taus.size
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     n22 = form.at(mid)[:, s:, s:]
@@ -140,6 +147,7 @@ def _steady(form: Modal, taus: NDArray, lo: NDArray, hi: NDArray) -> NDArray[np.
     t = 2.0 * np.sin(np.minimum(taus.max() * half, math.pi) / 2.0)
     e22 = form.change(lo, hi, np.zeros((lo.size, s)))[1, 1]
     moved = e22 * (eta + t) + norm * t
-    beta = 1.0 + norm * eta + moved
-    zeta = np.linalg.det(np.eye(k) - n22 * h[:, None, :])
-    return k * beta ** (k - 1) * moved < np.abs(zeta)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse = 1.0 / np.linalg.svd(np.eye(k) - n22 * h[:, None, :], compute_uv=False)[:, -1]
+        q = np.nan_to_num(inverse * moved, nan=np.inf)
+    return (q < 1.0) & (k * np.arcsin(np.minimum(q, 1.0)) < STEADY)

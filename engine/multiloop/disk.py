@@ -159,12 +159,13 @@ def _grid_peaks(system: System, omega: NDArray) -> list[Peak]:
 
 
 def refined(system: System, start: float) -> Peak:
-    """Nelder and Mead on (log omega, phases) maximizing rho(M Q) from ``start`` (module docstring)."""
+    """Nelder and Mead on (log omega, phases) maximizing rho(M Q) from ``start`` and the phases of mu's
+    lower bound there (module docstring); the better of its end and ``start``."""
     from scipy import optimize
 
-    m0 = system.at(np.array([start]))[0]
-    phases0 = mu.vector_phases(m0, mu.osborne(m0)) if m0.shape[0] > 1 else np.zeros(1)
-    value0 = mu.radius(m0, phases0)[0]
+    first = at_point(system, start)
+    delta = np.asarray(first.delta)
+    phases0 = np.angle(delta) - np.angle(delta[-1]) if first.low > 0 else np.zeros(delta.size)
 
     def f(v: NDArray) -> float:
         m = system.fast(np.array([math.exp(v[0])]))[0]
@@ -172,10 +173,12 @@ def refined(system: System, start: float) -> Peak:
 
     v0 = np.append(math.log(start), phases0[:-1])
     found = optimize.minimize(
-        f, v0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-13 * value0, "maxiter": 200 * len(v0)}
+        f, v0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-13 * first.low, "maxiter": 200 * len(v0)}
     )
-    omega = math.exp(found.x[0]) if -found.fun > value0 else start
-    return at_point(system, omega)
+    if not -found.fun > first.low:
+        return first
+    other = at_point(system, math.exp(found.x[0]))
+    return other if other.low > first.low else first
 
 
 def at_point(system: System, omega: float) -> Peak:
