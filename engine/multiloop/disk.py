@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 from engine.margins.disk import GuaranteedGains, check_skew, disk_gain_phase
 from engine.multiloop import mu
 from engine.multiloop.hamiltonian import crossings, response
+from engine.multiloop.modal_bounds import modal
 from engine.multiloop.plant import Plant, closed_loop_poles, sensitivity
 
 GAP = 1e-6  # the relative gap between alpha_lower and alpha_upper promised when certified
@@ -91,23 +92,13 @@ class System:
 
     def __init__(self, a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> None:
         self.a, self.b, self.c, self.d = a, b, c, d
-        self.modal = False
-        if a.shape[0]:
-            values, vectors = np.linalg.eig(a)
-            if np.linalg.cond(vectors) <= MODAL_CONDITION:
-                self.modal, self.poles = True, values
-                self.left, self.right = c @ vectors, np.linalg.solve(vectors, b.astype(complex))
+        self.form = modal(a, b, c, d, d.shape[0], MODAL_CONDITION) if a.shape[0] else None
 
     def at(self, omega: NDArray) -> NDArray[np.complex128]:
         return response(self.a, self.b, self.c, self.d, omega)
 
     def fast(self, omega: NDArray) -> NDArray[np.complex128]:
-        if not self.modal:
-            return self.at(omega)
-        omega = np.asarray(omega, dtype=float)
-        with np.errstate(all="ignore"):
-            inverse = np.where(np.isfinite(omega)[:, None], 1.0 / (1j * omega[:, None] - self.poles[None, :]), 0.0)
-        return self.d[None, :, :] + (self.left[None, :, :] * inverse[:, None, :]) @ self.right[None, :, :]
+        return self.at(omega) if self.form is None else self.form.at(omega)
 
     def scaled(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         s = np.exp(x)

@@ -15,7 +15,8 @@ j (w0 - omega) / ((j omega - p)(j w0 - p))).  Beyond a frequency W, on the axis 
 |s| >= W in the right half-plane, |N_IJ(s) - N_IJ(inf)| <= sum_i |c_i,I| |b_i,J| / d_i with
 d_i the distance from p_i to those points (`tail`).  The modal form is built only when the
 eigenvectors are well conditioned (`MODAL_CONDITION`): its rounding is then far below the
-certificates' margins."""
+certificates' margins.  The plant path's searches evaluate their sensitivity by it too
+(`engine.multiloop.disk.System.fast`)."""
 
 from __future__ import annotations
 
@@ -39,8 +40,10 @@ class Modal:
     split: int
 
     def at(self, omega: NDArray) -> NDArray[np.complex128]:
-        """N(j omega) at each (finite) frequency: points x rows x columns."""
-        inverse = 1.0 / (1j * np.asarray(omega, dtype=float)[:, None] - self.poles[None, :])
+        """N(j omega) at each frequency (inf: d): points x rows x columns."""
+        omega = np.asarray(omega, dtype=float)
+        with np.errstate(all="ignore"):
+            inverse = np.where(np.isfinite(omega)[:, None], 1.0 / (1j * omega[:, None] - self.poles[None, :]), 0.0)
         return self.d[None, :, :] + (self.left[None, :, :] * inverse[:, None, :]) @ self.right[None, :, :]
 
     def residues(self, x: NDArray) -> dict[tuple[int, int], NDArray[np.float64]]:
@@ -93,12 +96,14 @@ class Modal:
         return {key: (r * weight[None, :]).sum(axis=1) for key, r in self.residues(x).items()}
 
 
-def modal(a: NDArray, b: NDArray, c: NDArray, d: NDArray, split: int) -> Modal | None:
-    """The modal form of (a, b, c, d); None when A's eigenvectors are ill-conditioned (`MODAL_CONDITION`)."""
+def modal(
+    a: NDArray, b: NDArray, c: NDArray, d: NDArray, split: int, condition: float = MODAL_CONDITION
+) -> Modal | None:
+    """The modal form of (a, b, c, d); None when A's eigenvectors' condition exceeds ``condition``."""
     if a.shape[0] == 0:
         empty = np.zeros((c.shape[0], 0), dtype=complex)
         return Modal(np.zeros(0, dtype=complex), empty, np.zeros((0, b.shape[1]), dtype=complex), d, split)
     values, vectors = np.linalg.eig(a)
-    if not np.linalg.cond(vectors) <= MODAL_CONDITION:
+    if not np.linalg.cond(vectors) <= condition:
         return None
     return Modal(values, c @ vectors, np.linalg.solve(vectors, b.astype(complex)), d, split)
