@@ -58,6 +58,16 @@ class Verdict:
     roots: int = 0
 
 
+def delays_less_one(taus: NDArray, omega: NDArray) -> NDArray[np.complex128]:
+    """H = exp(-j omega tau_k) - 1 at each frequency: points x delays."""
+    return np.exp(-1j * np.asarray(omega, dtype=float)[:, None] * taus[None, :]) - 1.0
+
+
+def delays_moved(taus: NDArray, half: NDArray) -> NDArray[np.float64]:
+    """The most any H_k moves within ``half`` of a frequency: 2 sin(tau h / 2), tau the longest delay."""
+    return 2.0 * np.sin(np.minimum(taus.max() * half, math.pi) / 2.0)
+
+
 def tail_room(k: int) -> float:
     """The largest q = 2 |N22| for which k asin q stays below 0.45 pi."""
     return math.sin(0.45 * math.pi / k)
@@ -95,7 +105,7 @@ def delayed_verdict(form: Modal, taus: NDArray) -> Verdict:
 def _zeta(form: Modal, taus: NDArray, omega: NDArray) -> NDArray[np.complex128]:
     s = form.split
     n22 = form.at(omega)[:, s:, s:]
-    h = np.exp(-1j * omega[:, None] * taus[None, :]) - 1.0
+    h = delays_less_one(taus, omega)
     return np.linalg.det(np.eye(taus.size) - n22 * h[:, None, :])
 
 
@@ -141,10 +151,10 @@ def _steady(form: Modal, taus: NDArray, lo: NDArray, hi: NDArray) -> NDArray[np.
     s, k = form.split, taus.size
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     n22 = form.at(mid)[:, s:, s:]
-    h = np.exp(-1j * mid[:, None] * taus[None, :]) - 1.0
+    h = delays_less_one(taus, mid)
     norm = np.linalg.svd(n22, compute_uv=False)[:, 0]
     eta = np.abs(h).max(axis=1)
-    t = 2.0 * np.sin(np.minimum(taus.max() * half, math.pi) / 2.0)
+    t = delays_moved(taus, half)
     e22 = form.change(lo, hi, np.zeros((lo.size, s)))[1, 1]
     moved = e22 * (eta + t) + norm * t
     with np.errstate(divide="ignore", invalid="ignore"):

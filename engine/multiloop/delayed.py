@@ -46,7 +46,7 @@ from engine.loop.realization import OpenedDelays
 from engine.margins.disk import check_skew
 from engine.model.ports.state_space_ports import balanced_ports
 from engine.multiloop import mu
-from engine.multiloop.delay_stability import Verdict, delayed_verdict
+from engine.multiloop.delay_stability import Verdict, delayed_verdict, delays_less_one, delays_moved
 from engine.multiloop.disk import (
     MOST_SECONDS,
     MultiLoopDiskMargin,
@@ -78,7 +78,7 @@ class DelayedLoops:
     def parts(self, omega: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
         """(N11, N12, N21, N22, h = exp(-j omega tau) - 1) at each frequency."""
         n, m = self.modal.at(omega), self.loops
-        h = np.exp(-1j * np.asarray(omega, dtype=float)[:, None] * self.taus[None, :]) - 1.0
+        h = delays_less_one(self.taus, omega)
         return n[:, :m, :m], n[:, :m, m:], n[:, m:, :m], n[:, m:, m:], h
 
     def at(self, omega: NDArray) -> NDArray[np.complex128]:
@@ -192,7 +192,7 @@ def bounds(system: DelayedLoops, lo: NDArray, hi: NDArray, x: NDArray) -> tuple[
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
     at = _at_middle(system, mid, x)
     tau = system.taus.max()
-    first = at.sigma + _change(at, system.modal.change(lo, hi, x), 2.0 * np.sin(np.minimum(tau * half, math.pi) / 2.0))
+    first = at.sigma + _change(at, system.modal.change(lo, hi, x), delays_moved(system.taus, half))
     widest = np.minimum(0.5 * system.modal.distance(mid), math.log(2.0) / tau)
     near = np.flatnonzero(half < 0.25 * widest)
     second = np.full(lo.size, np.inf)
