@@ -226,3 +226,37 @@ def test_random_plants_with_delays_smoke(seed):
 def test_random_plants_with_delays_many():
     statuses = [check_random(seed) for seed in range(100, 130)]
     assert statuses.count("certified") >= 5 and statuses.count("unstable") >= 5
+
+
+def with_sensor_delay(transfer: dict, breaks: list[str]) -> dict:
+    """The compensated plant with ``transfer`` on the first sensor's path (y1 -> y1d, e1 = r1 - y1d)."""
+    document = compensated_session()
+    condition = document["problem"]["conditions"][0]
+    for junction in condition["plant"]["junctions"]:
+        if junction["name"] == "e1":
+            junction["minus"] = ["y1d"]
+    condition["plant"]["blocks"].append({"name": "lag", "input": "y1", "output": "y1d", "transfer": transfer})
+    condition.update(breaks=breaks, break_at=breaks[0])
+    return document
+
+
+@pytest.mark.parametrize("breaks", [["e1", "e2"], ["y1", "u2"]])
+def test_a_delay_off_the_breaks_equals_its_pade_approximation(tmp_path, breaks):
+    """exp(-0.05 s) on a sensor path, breaks elsewhere: the delays' certificate against the Hamiltonian one
+    on the same diagram with python-control's Pade approximation of order 10 as an expression block (its
+    phase error at the worst frequency, 29 rad/s, is far below 1e-9)."""
+    num, den = control.pade(0.05, 10)
+
+    def poly(c) -> str:
+        return " + ".join(f"({v!r})*s**{len(c) - 1 - i}" for i, v in enumerate(c))
+
+    pade = {"kind": "expression", "expression": f"({poly(num)})/({poly(den)})"}
+    networks = [
+        load_session(_write(tmp_path, with_sensor_delay(t, breaks), f"{k}.json")).problem.conditions[0].network
+        for k, t in enumerate([{"kind": "delay", "tau": 0.05}, pade])
+    ]
+    exact, approximated = (diagram_disk_margin(n, breaks, {}) for n in networks)
+    assert exact.status == approximated.status == "certified" and "delays exact" in exact.method
+    assert exact.alpha_lower == pytest.approx(approximated.alpha_lower, rel=1e-6)
+    assert exact.alpha_upper == pytest.approx(approximated.alpha_upper, rel=1e-6)
+    assert exact.frequency == pytest.approx(approximated.frequency, rel=1e-4)
