@@ -22,9 +22,10 @@ distances to the interval (`engine.multiloop.modal_bounds`), H's change 2 sin(ta
 half width, carried through the inverse (I - H N22)^-1 by the Neumann bound; or, second order,
 the larger of its values at lo and hi plus Cauchy's bound of M's curvature from its change over
 a disc about j w0 (near a flat peak: 709 interval tests where the first order alone took 50721).
-An interval whose bound reaches gamma is bounded again with N frozen at its middle (`frozen_bound`:
-a light mode of N that the delays move away from the axis is a large term of N's blocks that
-cancels in M: 1131 tests where 94463 were needed without it), then halved (its scale optimized at
+An interval whose bound reaches `LOOSE` gamma is bounded again with N frozen at its middle
+(`frozen_bound`, at most `MOST_FROZEN` a round: a light mode of N that the delays move away from
+the axis is a large term of N's blocks that cancels in M: 1139 tests where 94463 were needed
+without it), then, still at gamma or above, halved (its scale optimized at
 its middle every few halvings); one whose middle has mu's upper bound at or above gamma is a
 higher peak (a restart).  Above a frequency W no interval is needed: there |N - N(inf)| is small
 (`Modal.tail`) and, for
@@ -65,8 +66,8 @@ MOST_GRID = 20_000  # ... at most (a longer grid: the certificate still covers e
 MOST_TESTS = 200_000  # interval tests of one certificate
 MOST_DOUBLINGS = 200  # of the tail's frequency W
 REOPTIMIZE = 3  # halvings after which an interval's D-scale is optimized again at its middle
-LOOSE = 1.0  # an interval bound this many times gamma is tried again with N frozen at its middle
-MOST_FROZEN = 400  # ... on at most this many intervals a round (each an eigenvalue problem)
+LOOSE = 2.0  # an interval bound this many times gamma is tried again with N frozen at its middle
+MOST_FROZEN = 100  # ... on at most this many intervals a round (each an eigenvalue problem)
 RADII = 4.0 ** np.arange(1, 9)  # the discs' radii tried by the second-order bound, in half widths
 CERTIFICATE = "certified per interval by a bound of its change (delays exact)"
 
