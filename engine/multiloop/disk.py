@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,6 +36,7 @@ from numpy.typing import NDArray
 from engine.margins.disk import GuaranteedGains, check_skew, disk_gain_phase
 from engine.multiloop import mu
 from engine.multiloop.hamiltonian import crossings, response
+from engine.multiloop.modal_bounds import modal
 from engine.multiloop.plant import Plant, closed_loop_poles, sensitivity
 
 GAP = 1e-6  # the relative gap between alpha_lower and alpha_upper promised when certified
@@ -49,6 +52,7 @@ EXACT_UP_TO = 3  # scalar blocks for which mu's D-scale bound is mu
 CHECK_POINTS = 6  # points inside each accepted interval where the scaled norm is checked again
 NUDGE = 1e-3  # log-scale step away from a scale under which gamma is a singular value of the feedthrough
 MODAL_CONDITION = 1e6  # cond(V) of the closed loop's eigenvectors up to which the searches use the modal sum
+HAMILTONIAN = "Hamiltonian-certified per interval"  # how the upper bound over frequency is certified
 
 
 @dataclass(frozen=True)
@@ -70,10 +74,11 @@ class MultiLoopDiskMargin(GuaranteedGains):
     delta: tuple[complex, ...] = ()
     notes: tuple[str, ...] = field(default=())
     intervals: int = 0
+    certificate: str = HAMILTONIAN
 
     @property
     def method(self) -> str:
-        return f"mu (diagonal complex, D-scales), Hamiltonian-certified per interval: {self.status}"
+        return f"mu (diagonal complex, D-scales), {self.certificate}: {self.status}"
 
     @property
     def gap(self) -> float:
@@ -87,23 +92,13 @@ class System:
 
     def __init__(self, a: NDArray, b: NDArray, c: NDArray, d: NDArray) -> None:
         self.a, self.b, self.c, self.d = a, b, c, d
-        self.modal = False
-        if a.shape[0]:
-            values, vectors = np.linalg.eig(a)
-            if np.linalg.cond(vectors) <= MODAL_CONDITION:
-                self.modal, self.poles = True, values
-                self.left, self.right = c @ vectors, np.linalg.solve(vectors, b.astype(complex))
+        self.form = modal(a, b, c, d, d.shape[0], MODAL_CONDITION) if a.shape[0] else None
 
     def at(self, omega: NDArray) -> NDArray[np.complex128]:
         return response(self.a, self.b, self.c, self.d, omega)
 
     def fast(self, omega: NDArray) -> NDArray[np.complex128]:
-        if not self.modal:
-            return self.at(omega)
-        omega = np.asarray(omega, dtype=float)
-        with np.errstate(all="ignore"):
-            inverse = np.where(np.isfinite(omega)[:, None], 1.0 / (1j * omega[:, None] - self.poles[None, :]), 0.0)
-        return self.d[None, :, :] + (self.left[None, :, :] * inverse[:, None, :]) @ self.right[None, :, :]
+        return self.at(omega) if self.form is None else self.form.at(omega)
 
     def scaled(self, x: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         s = np.exp(x)
@@ -127,7 +122,11 @@ def _unstable(skew: float, poles: NDArray) -> MultiLoopDiskMargin:
 
 def grid(plant: Plant, poles: NDArray) -> NDArray[np.float64]:
     """Frequencies spanning every open- and closed-loop mode, denser about light ones."""
-    modes = np.concatenate([poles, np.linalg.eigvals(plant.A) if plant.order else np.zeros(0)])
+    return mode_grid(np.concatenate([poles, np.linalg.eigvals(plant.A) if plant.order else np.zeros(0)]))
+
+
+def mode_grid(modes: NDArray) -> NDArray[np.float64]:
+    """Frequencies spanning every one of ``modes``, denser about light ones."""
     sizes = np.abs(modes[np.abs(modes) > 0])
     low, high = (sizes.min() / 100.0, sizes.max() * 100.0) if sizes.size else (1e-2, 1e2)
     count = int(min(2000, max(50, PER_DECADE * math.log10(high / low))))
@@ -138,8 +137,7 @@ def grid(plant: Plant, poles: NDArray) -> NDArray[np.float64]:
 
 
 def _grid_peaks(system: System, omega: NDArray) -> list[Peak]:
-    """The best `REFINED` local maxima of the batched lower bound on the grid (its ends 0 and inf)."""
-    omega = np.concatenate([[0.0], omega, [math.inf]])
+    """The best `REFINED` local maxima of the batched lower bound on the grid ``omega`` (its ends included)."""
     m = system.fast(omega)
     x = mu.osborne(m)
     phases = mu.vector_phases(m, x)
@@ -152,12 +150,13 @@ def _grid_peaks(system: System, omega: NDArray) -> list[Peak]:
 
 
 def refined(system: System, start: float) -> Peak:
-    """Nelder and Mead on (log omega, phases) maximizing rho(M Q) from ``start`` (module docstring)."""
+    """Nelder and Mead on (log omega, phases) maximizing rho(M Q) from ``start`` and the phases of mu's
+    lower bound there (module docstring); the better of its end and ``start``."""
     from scipy import optimize
 
-    m0 = system.at(np.array([start]))[0]
-    phases0 = mu.vector_phases(m0, mu.osborne(m0)) if m0.shape[0] > 1 else np.zeros(1)
-    value0 = mu.radius(m0, phases0)[0]
+    first = at_point(system, start)
+    delta = np.asarray(first.delta)
+    phases0 = np.angle(delta) - np.angle(delta[-1]) if first.low > 0 else np.zeros(delta.size)
 
     def f(v: NDArray) -> float:
         m = system.fast(np.array([math.exp(v[0])]))[0]
@@ -165,21 +164,23 @@ def refined(system: System, start: float) -> Peak:
 
     v0 = np.append(math.log(start), phases0[:-1])
     found = optimize.minimize(
-        f, v0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-13 * value0, "maxiter": 200 * len(v0)}
+        f, v0, method="Nelder-Mead", options={"xatol": 1e-9, "fatol": 1e-13 * first.low, "maxiter": 200 * len(v0)}
     )
-    omega = math.exp(found.x[0]) if -found.fun > value0 else start
-    return _at_point(system, omega)
+    if not -found.fun > first.low:
+        return first
+    other = at_point(system, math.exp(found.x[0]))
+    return other if other.low > first.low else first
 
 
-def _at_point(system: System, omega: float) -> Peak:
+def at_point(system: System, omega: float) -> Peak:
     b = mu.bracket(system.at(np.array([omega]))[0])
     return Peak(omega, b.low, b.delta, b.high, b.scales)
 
 
-def _candidates(system: System, omega: NDArray) -> Peak:
-    """The best peak: the refined grid maxima, omega = 0 and omega = inf."""
+def candidates(system: System, omega: NDArray) -> Peak:
+    """The best peak: the refined maxima of the grid ``omega`` (0 or inf among them: taken as they are)."""
     found = [
-        refined(system, p.omega) if 0 < p.omega < math.inf else _at_point(system, p.omega)
+        refined(system, p.omega) if 0 < p.omega < math.inf else at_point(system, p.omega)
         for p in _grid_peaks(system, omega)
     ]
     return max(found, key=lambda p: p.low)
@@ -256,6 +257,9 @@ def _checked(system: System, gamma: float, covered: list) -> bool:
     return True
 
 
+Certify = Callable[[Any, float, Peak, float], tuple[str, int, float | None]]
+
+
 def multi_loop_disk_margin(plant: Plant, skew: float = 0.0) -> MultiLoopDiskMargin:
     """The multi-loop disk margin of ``plant`` at its inputs (module docstring)."""
     skew = check_skew(skew)
@@ -265,40 +269,56 @@ def multi_loop_disk_margin(plant: Plant, skew: float = 0.0) -> MultiLoopDiskMarg
         return _unstable(skew, poles)
     a, b, c, d = sensitivity(plant)
     system = System(a, b, c, d + 0.5 * (skew - 1.0) * np.eye(plant.loops))
-    peak = _candidates(system, grid(plant, poles))
+    omega = np.concatenate([[0.0], grid(plant, poles), [math.inf]])
+    peak, gamma, status, tests = bracketed(system, omega, certify, started)
+    return result(plant.loops, skew, peak, gamma, status, tests)
+
+
+def bracketed(system: Any, omega: NDArray, certifier: Certify, started: float) -> tuple[Peak, float, str, int]:
+    """(the best peak, the level gamma certified or tried last, the status, interval tests): the peak of
+    the grid ``omega`` refined, then ``certifier``'s test of mu < gamma over every frequency, moving to a
+    higher peak it finds at most `RESTARTS` times."""
+    peak = candidates(system, omega)
     status, tests, gamma = "higher peak", 0, math.inf
     for _ in range(RESTARTS):
         gamma = max(peak.high, peak.low) * (1.0 + LEVEL)
-        status, used, higher = certify(system, gamma, peak, started)
+        status, used, higher = certifier(system, gamma, peak, started)
         tests += used
         if higher is None:
-            break
+            return peak, gamma, status, tests
         better = refined(system, higher)
-        peak = better if better.low > peak.low else _at_point(system, higher)
-    else:
-        status = f"restart limit ({RESTARTS} higher peaks)"
-    return _result(plant, skew, peak, gamma, status, tests)
+        peak = better if better.low > peak.low else at_point(system, higher)
+    return peak, gamma, f"restart limit ({RESTARTS} higher peaks)", tests
 
 
-def _result(plant: Plant, skew: float, peak: Peak, gamma: float, status: str, tests: int) -> MultiLoopDiskMargin:
+def result(
+    loops: int,
+    skew: float,
+    peak: Peak,
+    gamma: float,
+    status: str,
+    tests: int,
+    certificate: str = HAMILTONIAN,
+    notes: tuple[str, ...] = (),
+) -> MultiLoopDiskMargin:
     """The margin from the peak's lower bound and the certified level (module docstring)."""
     certified = status == "certified"
     alpha_upper = 1.0 / peak.low if peak.low > 0 else math.inf
     alpha_lower = 1.0 / gamma if certified else 0.0
-    notes = []
+    notes_out = list(notes)
     if not certified:
-        notes.append(
+        notes_out.append(
             f"not certified: {status}; alpha_lower 0 (the best upper bound of mu found gives {1.0 / gamma:.6g})"
         )
     gap = (alpha_upper - alpha_lower) / alpha_upper if math.isfinite(alpha_upper) and alpha_upper > 0 else 0.0
     if certified and gap > GAP:
         why = (
-            f"mu's D-scale bound exceeds mu for {plant.loops} scalar blocks"
-            if plant.loops > EXACT_UP_TO
+            f"mu's D-scale bound exceeds mu for {loops} scalar blocks"
+            if loops > EXACT_UP_TO
             else "the lower bound's search fell short"
         )
         status = f"gap {gap:.2e} ({why})"
-        notes.append(f"alpha is bracketed to {gap:.2e} relative: {why}")
+        notes_out.append(f"alpha is bracketed to {gap:.2e} relative: {why}")
     low, high, phase = disk_gain_phase(alpha_lower, skew) if math.isfinite(alpha_lower) else (0.0, math.inf, 90.0)
     return MultiLoopDiskMargin(
         alpha_lower,
@@ -311,6 +331,7 @@ def _result(plant: Plant, skew: float, peak: Peak, gamma: float, status: str, te
         peak.omega,
         status,
         tuple(complex(v) for v in peak.delta),
-        tuple(notes),
+        tuple(notes_out),
         tests,
+        certificate,
     )

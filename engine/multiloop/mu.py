@@ -27,6 +27,7 @@ SCALE_BOUND = 30.0  # |log d| of a D-scale: e^30 = 1e13 (a scale beyond is a loo
 PHASE_STARTS = 3  # random starts of the phase search after the singular vectors' phases
 MATCHED = 1e-10  # the lower bound within this (relative) of the upper: no phase search
 SWEEPS = 12  # Osborne sweeps of the batched start
+DESCENT_STEPS = 12  # gradient steps of the batched improvement of scales (`descended`)
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,27 @@ def osborne(m: NDArray) -> NDArray[np.float64]:
 def _norm_and_gradient(free: NDArray, m: NDArray) -> tuple[float, NDArray]:
     u, s, vh = np.linalg.svd(scaled(m, np.append(free, 0.0)))
     return float(s[0]), (s[0] * (np.abs(u[:, 0]) ** 2 - np.abs(vh[0]) ** 2))[:-1]
+
+
+def descended(m: NDArray, x: NDArray, steps: int = DESCENT_STEPS) -> tuple[NDArray, NDArray]:
+    """(sigma_max(e^X M e^-X), X) after ``steps`` of gradient descent on the log scales of a batch of
+    matrices (points x m x m) from ``x`` (points x m), each step halved where it does not lower the
+    norm: a cheap improvement of many scales at once (`upper` optimizes one to the end)."""
+    x = np.array(x, dtype=float)
+    rate = np.ones(x.shape[0])
+
+    def evaluate(at: NDArray) -> tuple[NDArray, NDArray]:
+        u, s, vh = np.linalg.svd(scaled(m, at))
+        return s[..., 0], np.abs(u[..., :, 0]) ** 2 - np.abs(vh[..., 0, :]) ** 2
+
+    value, gradient = evaluate(x)
+    for _ in range(steps):
+        trial = np.clip(x - rate[:, None] * gradient, -SCALE_BOUND, SCALE_BOUND)
+        trial_value, trial_gradient = evaluate(trial)
+        better = trial_value < value
+        x[better], value[better], gradient[better] = trial[better], trial_value[better], trial_gradient[better]
+        rate = np.where(better, rate * 1.5, rate * 0.5)
+    return value, x - x[..., -1:]
 
 
 def upper(m: NDArray, start: NDArray | None = None) -> tuple[float, NDArray[np.float64]]:

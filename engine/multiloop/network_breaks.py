@@ -3,7 +3,8 @@ it fed by a new input instead (as `engine.loop.pole_zero.broken_network` cuts on
 realization of that network (`engine.loop.realization.realize`) read as a square plant under
 unity negative feedback: the returns x_breaks = R u, so L = -R (L u = y, u = -y closes every
 break again).  The multi-loop disk margin at the breaks is that plant's
-(`engine.multiloop.disk`); a diagram in z is realized in w (its frequency brought back to rad/s)."""
+(`engine.multiloop.disk`); a diagram in z is realized in w (its frequency brought back to rad/s);
+one with delays is cut at them too, the delays evaluated exactly (`engine.multiloop.delayed`)."""
 
 from __future__ import annotations
 
@@ -14,10 +15,11 @@ from dataclasses import replace
 import numpy as np
 
 from engine.errors import EngineError
-from engine.loop.realization import realize
+from engine.loop.realization import StateSpace, realize, realize_opened
 from engine.model.bilinear import real_frequency
 from engine.model.blocks import DelayTransfer, TabulatedTransfer
 from engine.model.network import Network
+from engine.multiloop.delayed import delayed_disk_margin
 from engine.multiloop.disk import MultiLoopDiskMargin, multi_loop_disk_margin
 from engine.multiloop.plant import Plant, balanced_plant
 
@@ -34,36 +36,29 @@ def broken_at(network: Network, breaks: Sequence[str]) -> Network:
 
 
 def refused_blocks(network: Network) -> str | None:
-    """Why the multi-loop disk margin is not computed on ``network`` (None: it is rational): its tables
-    (a table has no realization: loop at a time only) or delays (not built yet), named."""
-    kinds = {TabulatedTransfer: "table", DelayTransfer: "delay"}
-    named: dict[str, list[str]] = {}
-    for e in network.entries:
-        kind = kinds.get(type(e.transfer))
-        if kind is not None and e.label not in named.setdefault(kind, []):
-            named[kind].append(e.label)
-    if named.get("table"):
+    """Why the multi-loop disk margin is not computed on ``network`` (None: it can be): its tables (a table
+    has no realization: loop at a time only), named."""
+    named = list(dict.fromkeys(e.label for e in network.entries if isinstance(e.transfer, TabulatedTransfer)))
+    if named:
         return (
-            f"table block(s) {', '.join(named['table'])}: a table has no realization, so its loops are analyzed "
+            f"table block(s) {', '.join(named)}: a table has no realization, so its loops are analyzed "
             "one at a time only (the multi-loop disk margin needs the diagram's state space)"
-        )
-    if named.get("delay"):
-        return (
-            f"delay block(s) {', '.join(named['delay'])}: the multi-loop disk margin of a loop with delays is not "
-            "built yet (its certificate tests a rational state space); the loops at a time are exact"
         )
     return None
 
 
 def breaks_plant(network: Network, breaks: Sequence[str], params: Mapping[str, float]) -> tuple[Plant, float | None]:
     """(the loop matrix at ``breaks`` as a plant, the diagram's sample time: its realization is in w then);
-    an `EngineError` naming a diagram's tables or delays (`refused_blocks`)."""
+    an `EngineError` naming a diagram's tables (`refused_blocks`) or delays (`diagram_disk_margin` takes them)."""
     refused = refused_blocks(network)
     if refused is not None:
         raise EngineError(refused)
-    ss = realize(broken_at(network, breaks), params)
-    k = len(breaks)
-    columns = list(range(len(ss.inputs) - k, len(ss.inputs)))
+    return _plant(realize(broken_at(network, breaks), params), breaks)
+
+
+def _plant(ss: StateSpace, breaks: Sequence[str]) -> tuple[Plant, float | None]:
+    """The loop matrix at ``breaks`` of the realization ``ss`` of the diagram cut there, as a plant."""
+    columns = [ss.inputs.index(f"break {name}") for name in breaks]
     rows = [ss.outputs.index(name) for name in breaks]
     plant = Plant(ss.A, ss.B[:, columns], -ss.C[rows], -ss.D[np.ix_(rows, columns)], tuple(breaks))
     return balanced_plant(plant), ss.sample_time
@@ -73,7 +68,13 @@ def diagram_disk_margin(
     network: Network, breaks: Sequence[str], params: Mapping[str, float], skew: float = 0.0
 ) -> MultiLoopDiskMargin:
     """The multi-loop disk margin at the diagram's ``breaks`` (module docstring)."""
-    plant, sample_time = breaks_plant(network, breaks, params)
+    if any(isinstance(e.transfer, DelayTransfer) for e in network.entries) and refused_blocks(network) is None:
+        opened = realize_opened(broken_at(network, breaks), params)
+        if opened.taus:
+            return delayed_disk_margin(opened, tuple(breaks), skew)
+        plant, sample_time = _plant(opened.ss, breaks)
+    else:
+        plant, sample_time = breaks_plant(network, breaks, params)
     found = multi_loop_disk_margin(plant, skew)
     if sample_time is None:
         return found

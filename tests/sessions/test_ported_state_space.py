@@ -343,7 +343,7 @@ def test_an_export_of_a_block_of_several_ports_is_refused_naming_it(tmp_path, ca
     assert len(err.strip().splitlines()) == 1
 
 
-# --- delays and tables: loops at a time, the multi-loop margin refused by name -----------------
+# --- delays and tables: loops at a time; the multi-loop margin with delays, refused with tables ---
 
 TAU = 0.05
 
@@ -357,12 +357,18 @@ def with_block_before_u1(transfer: dict, name: str) -> dict:
     return document
 
 
-def test_a_delay_gives_exact_loops_and_names_itself_for_the_multi_loop_margin(tmp_path, capsys):
+def test_a_delay_gives_exact_loops_and_a_multi_loop_margin(tmp_path, capsys):
     """Each loop at a time with exp(-0.05 s) after K1 is python-control's times exp(-j omega 0.05) at
-    its crossings; the multi-loop margin is null, the delay block named."""
-    path = _write(tmp_path, with_block_before_u1({"kind": "delay", "tau": TAU}, "lag"))
-    data = _analyze(capsys, path)
-    assert data["multi_loop_disk_margin"] is None and "delay block(s) lag" in data["multi_loop_disk_margin_refused"]
+    its crossings; the multi-loop margin at u1, u2 is a certified number, no refusal (it was refused
+    by name before the delays' certificate: tests/engine/test_multiloop_delays checks its value)."""
+    document = with_block_before_u1({"kind": "delay", "tau": TAU}, "lag")
+    document["problem"]["conditions"][0]["breaks"] = ["u1", "u2"]
+    data = _analyze(capsys, _write(tmp_path, document))
+    together = data["multi_loop_disk_margin"]
+    assert "multi_loop_disk_margin_refused" not in data
+    assert together["certified"] and 0 < together["alpha_lower"] <= together["alpha_upper"]
+    assert together["alpha_upper"] == pytest.approx(together["alpha_lower"], rel=1e-6)
+    assert "delays exact" in together["method"]
     for loop in data["loops"]:
         assert loop["phase_margins"]
         for pm in loop["phase_margins"]:
