@@ -127,11 +127,11 @@ def _varied_section(
     a = den / den[:, :1]
     b = np.concatenate([np.zeros((count, den.shape[1] - num.shape[1])), num], axis=1) / den[:, :1]
     k = den.shape[1] - 1
-    A = np.zeros((count, k, k))
-    A[:, 0] = -a[:, 1:]
-    A[:, np.arange(1, k), np.arange(k - 1)] = 1.0
-    B = np.zeros((count, k))
-    B[:, 0] = 1.0
+    A, B = np.zeros((count, k, k)), np.zeros((count, k))
+    if k:  # (a static gain, degree 0: no states, its gain the feedthrough, as `cascade` makes it)
+        A[:, 0] = -a[:, 1:]
+        A[:, np.arange(1, k), np.arange(k - 1)] = 1.0
+        B[:, 0] = 1.0
     return A, B, b[:, 1:] - b[:, :1] * a[:, 1:], b[:, 0]
 
 

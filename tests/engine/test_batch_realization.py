@@ -73,3 +73,11 @@ def test_an_entry_of_higher_degree_has_none():
     changed = Network(network.signals, network.inputs, entries)
     columns = {**_columns(problem.condition_values(0), (), 3, np.random.default_rng(0)), "K": np.array([1, 1.1, 0.9])}
     assert batch_closed_loop(changed, problem.conditions[0].break_at, columns) is None
+
+
+def test_a_static_gain_drawn():
+    """A varied entry of degree 0 (the two-path autopilot's gain KA: no states, its gain the
+    feedthrough) raised IndexError in the batch's canonical section."""
+    problem = _problem("two_path_autopilot.json")
+    columns = _columns(problem.condition_values(0), ("KA",), 20, np.random.default_rng(3))
+    _equal_per_sample(problem.conditions[0], columns)
