@@ -244,7 +244,9 @@ def run_chunked(
         with sigint_ignored():
             stopped = interrupted = True
             _keep_finished(client, tasks, gathered)
-    lost = _given_up(client, tasks, gathered, sizes, waiting.given_up) if waiting.given_up and not interrupted else ""
+    lost, not_computed = (
+        _given_up(client, tasks, gathered, sizes, waiting.given_up) if waiting.given_up and not interrupted else ("", 0)
+    )
     gathered.finish()
     with sigint_ignored() if interrupted else nullcontext():
         attempts, workers_seen = _attempts(client, tasks)
@@ -253,7 +255,12 @@ def run_chunked(
         if run["index"] in attempts:
             run["attempts"] = len(attempts[run["index"]])
     batch = BatchOutcome(
-        [], len(samples), tuple(gathered.alone), tuple(gathered.by_search), interrupted, gathered.unbatched
+        [],
+        len(samples) - not_computed,
+        tuple(gathered.alone),
+        tuple(gathered.by_search),
+        interrupted,
+        gathered.unbatched,
     )
     chunks = (
         f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
@@ -264,9 +271,10 @@ def run_chunked(
     return Outcome(tally.runs(), computed, retried, stopped, interrupted, note, tally=tally, given_up=lost)
 
 
-def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str) -> str:
+def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str) -> tuple[str, int]:
     """The chunks still running when the wait was given up (`InTurn`) cancelled, their samples and
-    those never sent recorded as failed, the reason ``why``; what the study's note says of them."""
+    those never sent recorded as failed, the reason ``why``: what the study's note says of them,
+    and how many they are."""
     try:
         client.cancel(list(tasks.running))
     except Exception:  # noqa: BLE001, S110 - the samples are recorded whatever the scheduler says
@@ -275,9 +283,15 @@ def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str
     tasks.running.clear()
     for start, stop in ranges:
         gathered.add(start, stop, [{**lost_run(job, None), "reason": why} for job in gathered.samples[start:stop]])
-    named = ", ".join(f"{gathered.samples.indices[a]}-{gathered.samples.indices[b - 1]}" for a, b in ranges)
+    joined: list[list[int]] = []
+    for start, stop in ranges:  # consecutive ranges named as one
+        if joined and joined[-1][1] == start:
+            joined[-1][1] = stop
+        else:
+            joined.append([start, stop])
+    named = ", ".join(f"{gathered.samples.indices[a]}-{gathered.samples.indices[b - 1]}" for a, b in joined)
     count = sum(b - a for a, b in ranges)
-    return f"{why}: samples {named} lost ({count} samples recorded as failed)"
+    return f"{why}: samples {named} lost ({count} samples recorded as failed)", count
 
 
 def _result(future, result, part: ToleranceSamples, tasks: _Tasks) -> ChunkRuns | list[dict] | None:

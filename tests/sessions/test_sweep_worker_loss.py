@@ -190,6 +190,7 @@ def test_a_study_whose_workers_all_die_finishes_with_its_lost_chunks_recorded(tm
     assert all(runs[k]["reason"].startswith(NOT_COMPUTED) or "workers died" in runs[k]["reason"] for k in failed)
     assert outcome.given_up.startswith(f"{NOT_COMPUTED}: the cluster had no worker for 2 s")
     assert outcome.given_up in outcome.note and f"({len(lost)} samples recorded as failed)" in outcome.note
+    assert outcome.note.startswith(f"{64 - len(lost)} of {64 - len(lost)} samples evaluated")  # the lost ones left out
     serial = execute_serial(samples).runs
     kept = [k for k in range(64) if k not in failed]
     assert_measures_agree([runs[k]["measures"] for k in kept], [serial[k]["measures"] for k in kept])
