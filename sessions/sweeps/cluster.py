@@ -175,7 +175,10 @@ def close(client, cluster) -> None:
 
 
 NO_WORKER_WAIT = 60.0  # s: a cluster with no worker this long is given up (a nanny restarts a killed worker in seconds)
-STALL_WAIT = 600.0  # s: no task finishing this long (a worker hung, a scheduler gone), the tasks left are given up
+# s: no result this long (a worker hung, a scheduler gone), nor STALL_FACTOR times the longest wait between two
+# results so far (a sweep of long runs: an optimization may take many minutes), the tasks left are given up
+STALL_WAIT = 3600.0
+STALL_FACTOR = 10.0
 POLL = 1.0  # s: how often a wait looks at the cluster
 NOT_COMPUTED = "not computed"  # the status of a task given up (`InTurn`): the reason of each of its runs begins so
 
@@ -185,7 +188,8 @@ class InTurn:
     `distributed.as_completed` hands them (``update`` adds more), every wait bounded: when the
     cluster has had no worker for `NO_WORKER_WAIT` seconds (every worker killed and none
     restarted: Dask then holds the tasks forever), or no result has come for `STALL_WAIT`
-    seconds, the iteration ends with futures ``left`` and ``given_up`` says why, beginning with
+    seconds and `STALL_FACTOR` times the longest wait between two results so far, the
+    iteration ends with futures ``left`` and ``given_up`` says why, beginning with
     `NOT_COMPUTED` ("" when every future finished).  A finished task's result is fetched within
     `POLL` seconds or waited for again: a result held by a worker that died is computed anew by
     the scheduler (a plain ``result()`` waits for it, forever when no worker is left)."""
@@ -200,7 +204,7 @@ class InTurn:
         self.left.update(futures)
 
     def __iter__(self) -> Iterator[tuple[Any, Any]]:
-        finished_at, alone_since = time.monotonic(), None
+        finished_at, alone_since, longest = time.monotonic(), None, 0.0
         while self.left:
             handed = False
             for future, result in self._finished():
@@ -209,13 +213,13 @@ class InTurn:
                 yield future, result
             now = time.monotonic()
             if handed:
-                finished_at, alone_since = now, None
+                finished_at, alone_since, longest = now, None, max(longest, now - finished_at)
                 continue
             alone_since = (alone_since or now) if self._workers() == 0 else None
             if alone_since is not None and now - alone_since >= self.bounds[0]:
                 self.given_up = f"{NOT_COMPUTED}: the cluster had no worker for {self.bounds[0]:g} s"
-            elif now - finished_at >= self.bounds[1]:
-                self.given_up = f"{NOT_COMPUTED}: no task finished for {self.bounds[1]:g} s"
+            elif now - finished_at >= (stall := max(self.bounds[1], STALL_FACTOR * longest)):
+                self.given_up = f"{NOT_COMPUTED}: no task finished for {stall:.3g} s"
             if self.given_up:
                 return
 
