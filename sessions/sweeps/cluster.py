@@ -1,7 +1,8 @@
 """Where a sweep's jobs run: a Dask scheduler's address checked before anything
 starts, the connect timeout, a local cluster (one quiet, preloaded process per
-core), and Ctrl-C kept for this process alone.  Every failure to start or
-reach a cluster is a `SessionError`."""
+core), Ctrl-C kept for this process alone, and the tasks' results waited for
+with every wait bounded (`InTurn`).  Every failure to start or reach a cluster
+is a `SessionError`."""
 
 from __future__ import annotations
 
@@ -10,9 +11,10 @@ import os
 import re
 import signal
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 from urllib.parse import urlsplit
 
 from sessions.errors import SessionError, in_words
@@ -170,3 +172,82 @@ def close(client, cluster) -> None:
                 thing.close()
             except Exception:  # noqa: BLE001, S110 - closing is best effort
                 pass
+
+
+NO_WORKER_WAIT = 60.0  # s: a cluster with no worker this long is given up (a nanny restarts a killed worker in seconds)
+# s: no result this long (a worker hung, a scheduler gone), nor STALL_FACTOR times the longest wait between two
+# results so far (a sweep of long runs: an optimization may take many minutes), the tasks left are given up
+STALL_WAIT = 3600.0
+STALL_FACTOR = 10.0
+POLL = 1.0  # s: how often a wait looks at the cluster
+NOT_COMPUTED = "not computed"  # the status of a task given up (`InTurn`): the reason of each of its runs begins so
+
+
+class InTurn:
+    """Futures handed out as they finish, each with its result (or the exception it raised), as
+    `distributed.as_completed` hands them (``update`` adds more), every wait bounded: when the
+    cluster has had no worker for `NO_WORKER_WAIT` seconds (every worker killed and none
+    restarted: Dask then holds the tasks forever), or no result has come for `STALL_WAIT`
+    seconds and `STALL_FACTOR` times the longest wait between two results so far, the
+    iteration ends with futures ``left`` and ``given_up`` says why, beginning with
+    `NOT_COMPUTED` ("" when every future finished).  A finished task's result is fetched within
+    `POLL` seconds or waited for again: a result held by a worker that died is computed anew by
+    the scheduler (a plain ``result()`` waits for it, forever when no worker is left)."""
+
+    def __init__(self, client: Client, futures: Iterable) -> None:
+        self.client = client
+        self.left = set(futures)
+        self.bounds = (NO_WORKER_WAIT, STALL_WAIT)
+        self.given_up = ""
+
+    def update(self, futures: Iterable) -> None:
+        self.left.update(futures)
+
+    def __iter__(self) -> Iterator[tuple[Any, Any]]:
+        finished_at, alone_since, longest = time.monotonic(), None, 0.0
+        while self.left:
+            handed = False
+            for future, result in self._finished():
+                self.left.discard(future)
+                handed = True
+                yield future, result
+            now = time.monotonic()
+            if handed:
+                finished_at, alone_since, longest = now, None, max(longest, now - finished_at)
+                continue
+            alone_since = (alone_since or now) if self._workers() == 0 else None
+            if alone_since is not None and now - alone_since >= self.bounds[0]:
+                self.given_up = f"{NOT_COMPUTED}: the cluster had no worker for {self.bounds[0]:g} s"
+            elif now - finished_at >= (stall := max(self.bounds[1], STALL_FACTOR * longest)):
+                self.given_up = f"{NOT_COMPUTED}: no task finished for {stall:.3g} s"
+            if self.given_up:
+                return
+
+    def _finished(self) -> list[tuple[Any, Any]]:
+        """The futures that finished within `POLL` seconds whose results came within `POLL` each."""
+        from distributed import wait
+
+        if not any(future.done() for future in self.left):
+            try:
+                wait(list(self.left), timeout=POLL, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                return []
+            except Exception:  # noqa: BLE001 - cancelled futures (they are done), or no scheduler to ask
+                if not any(future.done() for future in self.left):
+                    time.sleep(POLL)
+        out = []
+        for future in sorted((f for f in self.left if f.done()), key=lambda f: str(f.key)):
+            try:
+                out.append((future, future.result(timeout=POLL)))
+            except TimeoutError:  # its result died with its worker: the scheduler computes it again
+                continue
+            except Exception as exc:  # noqa: BLE001 - the task's failure, for the caller to record
+                out.append((future, exc))
+        return out
+
+    def _workers(self) -> int:
+        """The workers the scheduler has now (0 when it does not answer)."""
+        try:
+            return len(self.client.scheduler_info().get("workers", {}))
+        except Exception:  # noqa: BLE001 - a scheduler that cannot say has no worker to offer
+            return 0

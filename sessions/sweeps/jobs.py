@@ -51,6 +51,7 @@ from sessions.store import validated_model
 from sessions.sweeps.cluster import (
     DEFAULT_CONNECT_TIMEOUT,
     Connection,
+    InTurn,
     close,
     connect,
     connect_timeout,
@@ -182,6 +183,7 @@ class Outcome:
     serial: bool = False  # the runs were made in this process, one after the other
     # a tolerance study's outputs gathered as its runs were made (``runs``: the ones it kept, `Tally`)
     tally: Tally | None = None
+    given_up: str = ""  # why the cluster's runs left were not computed (`sessions.sweeps.cluster.InTurn`)
 
     @property
     def finished(self) -> int:
@@ -266,9 +268,11 @@ def _timed_on_cluster(connection: Connection, jobs: Sequence, progress, cancelle
     workers = max(connection.workers, worker_count(connection.client))
     count = min(len(jobs), FIRST_PER_WORKER * workers)
     first = _gather(connection.client, jobs[:count], _shifted(progress, 0, len(jobs)), cancelled)
-    if first.cancelled or count == len(jobs):
-        rest = [lost_run(job, None) for job in jobs[count:]]
-        return Outcome(first.runs + rest, first.workers, first.attempts, first.cancelled, first.interrupted)
+    if first.cancelled or first.given_up or count == len(jobs):
+        rest = [
+            {**lost_run(job, None), **({"reason": first.given_up} if first.given_up else {})} for job in jobs[count:]
+        ]
+        return replace(first, runs=first.runs + rest)
     timed = [r["seconds"] for r in first.runs if r["status"] != "failed" and r["seconds"] is not None]
     return _rest_batched(connection, jobs, first, min(timed, default=math.inf), progress, cancelled)
 
@@ -280,9 +284,10 @@ def _rest_batched(connection: Connection, jobs: Sequence, first: Outcome, each: 
     size = batch_size(each, len(jobs) - done, workers)
     rest = _gather(connection.client, jobs[done:], _shifted(progress, done, len(jobs)), cancelled, size)
     note = f"runs of about {each:.2g} s sent to the workers {size} at a time" if size > 1 else ""
+    note = "; ".join(text for text in (note, rest.note) if text)
     attempts = {**first.attempts, **rest.attempts}
     runs = first.runs + rest.runs
-    return Outcome(runs, computed_by(runs, attempts), attempts, rest.cancelled, rest.interrupted, note)
+    return replace(rest, runs=runs, workers=computed_by(runs, attempts), attempts=attempts, note=note)
 
 
 def _shifted(progress: Callable[[int, int], None] | None, offset: int, total: int):
@@ -333,16 +338,14 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
     """The jobs on the cluster, ``size`` to a task (``task``: `run_batch` or a stand-in);
     a batch whose task fails (its worker died under it) is sent again one run to a
     task, so that a run that kills its worker does not take the others with it."""
-    from distributed import as_completed
-
     tag = uuid.uuid4().hex[:8]
     tasks = _submit(client, task, [list(jobs[k : k + size]) for k in range(0, len(jobs), size)], tag)
     runs: dict[int, dict] = {}
     retired: dict[str, list] = {}  # the key of a batch sent again one run to a task -> its batch
     stopped = interrupted = False
+    waiting = InTurn(client, tasks)
     try:
-        waiting = as_completed(list(tasks))
-        for future in waiting:
+        for future, result in waiting:
             batch = tasks[future]
             if len(batch) > 1 and future.status == "error" and not stopped and not cancelled():
                 alone = _submit(client, task, [[job] for job in batch], tag, "-alone")
@@ -351,7 +354,7 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
                 tasks.update(alone)
                 waiting.update(list(alone))
                 continue
-            runs.update(zip((job.index for job in batch), _results(future, batch)))
+            runs.update(zip((job.index for job in batch), _results(result, batch)))
             if progress:
                 progress(len(runs), len(jobs))
             if not stopped and cancelled():
@@ -361,6 +364,8 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
         with sigint_ignored():
             stopped = interrupted = True
             _interrupted(client, tasks, runs)
+    if waiting.given_up and not interrupted:
+        _given_up(client, tasks, runs, waiting.given_up)
     keys: dict[int, list[str]] = {}  # run index -> the keys of the tasks it was in
     for future, batch in tasks.items():
         for job in batch:
@@ -370,7 +375,9 @@ def _gather(client, jobs, progress, cancelled, size: int = 1, task: Callable = r
             keys.setdefault(job.index, []).append(key)
     with sigint_ignored() if interrupted else nullcontext():
         workers, attempts = _workers_and_attempts(client, runs, keys)
-    return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted)
+    lost = sum(runs[j.index]["reason"] == waiting.given_up for j in jobs) if waiting.given_up else 0
+    note = f"{waiting.given_up}: {lost} run(s) recorded as failed" if lost else ""
+    return Outcome([runs[j.index] for j in jobs], workers, attempts, stopped, interrupted, note, given_up=note)
 
 
 def _submit(client, task: Callable, batches: list[list], tag: str, suffix: str = "") -> dict:
@@ -386,11 +393,12 @@ def _submit(client, task: Callable, batches: list[list], tag: str, suffix: str =
     return dict(zip(futures, batches))
 
 
-def _results(future, batch: list) -> list[dict]:
-    try:
-        return future.result()
-    except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled batch is recorded, not raised
-        return [lost_run(job, exc) for job in batch]
+def _results(result, batch: list) -> list[dict]:
+    """A finished batch's runs (``result``: its task's, or the exception it raised: a lost worker
+    or a cancelled batch is recorded, not raised)."""
+    if isinstance(result, BaseException):
+        return [lost_run(job, result) for job in batch]
+    return result
 
 
 def _interrupted(client, tasks: dict, runs: dict[int, dict]) -> None:
@@ -410,6 +418,17 @@ def _interrupted(client, tasks: dict, runs: dict[int, dict]) -> None:
                 pass
         for k, job in enumerate(batch):
             runs.setdefault(job.index, results[k] if results else lost_run(job, None))
+
+
+def _given_up(client, tasks: dict, runs: dict[int, dict], why: str) -> None:
+    """The wait given up (`InTurn`): the batches not finished cancelled, their runs failed for ``why``."""
+    try:
+        client.cancel([f for f in tasks if not f.done()])
+    except Exception:  # noqa: BLE001, S110 - the runs are recorded whatever the scheduler says
+        pass
+    for batch in tasks.values():
+        for job in batch:
+            runs.setdefault(job.index, {**lost_run(job, None), "reason": why})
 
 
 def _workers_and_attempts(

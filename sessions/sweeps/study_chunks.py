@@ -30,7 +30,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from sessions.sweeps.batch_study import BatchOutcome, ChunkRuns, chunk_runs, study_key
-from sessions.sweeps.cluster import Connection, sigint_ignored
+from sessions.sweeps.cluster import Connection, InTurn, sigint_ignored
 from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import (
     BATCH_SECONDS,
@@ -210,8 +210,6 @@ def run_chunked(
     ``made``: the runs of the samples before these, made already (they come first); ``task``:
     `evaluate_chunk` or a stand-in.  Ctrl-C or ``cancelled`` stops it: the finished chunks are
     kept, the rest cancelled."""
-    from distributed import as_completed
-
     client = connection.client
     workers = max(connection.workers, worker_count(client))
     tally = Tally.of_study(len(made) + len(samples))
@@ -220,12 +218,12 @@ def run_chunked(
     gathered = _InOrder(samples, tally)
     tasks = _Tasks(client, samples, study_key(samples), task)
     sizes = _Sizes(len(samples), workers)
-    waiting = as_completed(tasks.send(sizes.first_round()))
+    waiting = InTurn(client, tasks.send(sizes.first_round()))
     stopped = interrupted = False
     try:
-        for future in waiting:
+        for future, result in waiting:
             start, stop = tasks.running.pop(future)
-            runs = _result(future, samples[start:stop], tasks)
+            runs = _result(future, result, samples[start:stop], tasks)
             if runs is None and not stopped:  # its task failed: sent again as two halves
                 middle = (start + stop) // 2
                 waiting.update(tasks.send([(start, middle), (middle, stop)]))
@@ -246,6 +244,9 @@ def run_chunked(
         with sigint_ignored():
             stopped = interrupted = True
             _keep_finished(client, tasks, gathered)
+    lost, not_computed = (
+        _given_up(client, tasks, gathered, sizes, waiting.given_up) if waiting.given_up and not interrupted else ("", 0)
+    )
     gathered.finish()
     with sigint_ignored() if interrupted else nullcontext():
         attempts, workers_seen = _attempts(client, tasks)
@@ -254,26 +255,54 @@ def run_chunked(
         if run["index"] in attempts:
             run["attempts"] = len(attempts[run["index"]])
     batch = BatchOutcome(
-        [], len(samples), tuple(gathered.alone), tuple(gathered.by_search), interrupted, gathered.unbatched
+        [],
+        len(samples) - not_computed,
+        tuple(gathered.alone),
+        tuple(gathered.by_search),
+        interrupted,
+        gathered.unbatched,
     )
     chunks = (
         f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
         f"(each sized from a chunk timed on its worker to about {BATCH_SECONDS:g} s of work)"
     )
-    note = "; ".join(text for text in (batch.note, chunks, tally.note) if text)
+    note = "; ".join(text for text in (batch.note, chunks, lost, tally.note) if text)
     retried = {k: v for k, v in attempts.items() if len(v) > 1}
-    return Outcome(tally.runs(), computed, retried, stopped, interrupted, note, tally=tally)
+    return Outcome(tally.runs(), computed, retried, stopped, interrupted, note, tally=tally, given_up=lost)
 
 
-def _result(future, part: ToleranceSamples, tasks: _Tasks) -> ChunkRuns | list[dict] | None:
-    """A finished chunk's runs; its samples' failed runs when its task failed for good (a single
-    sample, or cancelled); None when it failed and is to be sent again as halves."""
+def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str) -> tuple[str, int]:
+    """The chunks still running when the wait was given up (`InTurn`) cancelled, their samples and
+    those never sent recorded as failed, the reason ``why``: what the study's note says of them,
+    and how many they are."""
     try:
-        worker, runs = future.result()
-    except Exception as exc:  # noqa: BLE001 - a lost worker or a cancelled chunk is recorded, not raised
+        client.cancel(list(tasks.running))
+    except Exception:  # noqa: BLE001, S110 - the samples are recorded whatever the scheduler says
+        pass
+    ranges = sorted(tasks.running.values()) + ([(sizes.sent, sizes.count)] if sizes.sent < sizes.count else [])
+    tasks.running.clear()
+    for start, stop in ranges:
+        gathered.add(start, stop, [{**lost_run(job, None), "reason": why} for job in gathered.samples[start:stop]])
+    joined: list[list[int]] = []
+    for start, stop in ranges:  # consecutive ranges named as one
+        if joined and joined[-1][1] == start:
+            joined[-1][1] = stop
+        else:
+            joined.append([start, stop])
+    named = ", ".join(f"{gathered.samples.indices[a]}-{gathered.samples.indices[b - 1]}" for a, b in joined)
+    count = sum(b - a for a, b in ranges)
+    return f"{why}: samples {named} lost ({count} samples recorded as failed)", count
+
+
+def _result(future, result, part: ToleranceSamples, tasks: _Tasks) -> ChunkRuns | list[dict] | None:
+    """A finished chunk's runs (``result``: its task's, or the exception it raised); its samples'
+    failed runs when its task failed for good (a single sample, or cancelled); None when it failed
+    and is to be sent again as halves."""
+    if isinstance(result, BaseException):  # a lost worker or a cancelled chunk is recorded, not raised
         if future.status == "error" and len(part) > 1:
             return None
-        return [lost_run(job, exc) for job in part]
+        return [lost_run(job, result) for job in part]
+    worker, runs = result
     tasks.finished_on.add(worker)
     return runs
 

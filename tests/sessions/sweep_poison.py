@@ -1,15 +1,18 @@
 """Stand-ins for `sessions.sweeps.jobs.run_batch` and `sessions.sweeps.study_chunks.evaluate_chunk`
 whose run of job (or sample) `POISON` kills its worker process (imported by the workers of
-tests/sessions/test_sweep_batches.py and test_study_chunks.py)."""
+tests/sessions/test_sweep_batches.py and test_study_chunks.py), or, on an in-process worker,
+hangs until `RELEASE` is set."""
 
 from __future__ import annotations
 
 import os
+import threading
 
 from sessions.sweeps.jobs import run_batch
 from sessions.sweeps.study_chunks import evaluate_chunk
 
 POISON = 5
+RELEASE = threading.Event()  # `hung_chunk`'s poisoned chunk returns once it is set
 
 
 def poisoned(payloads: list[dict]) -> list[dict]:
@@ -21,4 +24,10 @@ def poisoned(payloads: list[dict]) -> list[dict]:
 def poisoned_chunk(key: str, samples, task: str):
     if POISON in samples.indices:
         os._exit(1)
+    return evaluate_chunk(key, samples, task)
+
+
+def hung_chunk(key: str, samples, task: str):
+    if POISON in samples.indices:
+        RELEASE.wait()
     return evaluate_chunk(key, samples, task)

@@ -146,3 +146,34 @@ def test_a_sample_that_kills_its_worker_takes_no_other_sample_with_it(tmp_path):
     serial = execute_serial(samples).runs
     kept = [k for k in range(64) if k not in failed]
     assert_measures_agree([runs[k]["measures"] for k in kept], [serial[k]["measures"] for k in kept])
+
+
+@pytest.mark.slow
+def test_a_chunk_that_never_finishes_is_given_up_and_the_study_finishes(tmp_path, monkeypatch):
+    """A chunk whose task never returns (a hung worker: here it waits until the study is over)
+    while the others finish: once no result has come for the stall bound (1 s here, and once the
+    longest wait between results so far), its samples are recorded not computed and named in the
+    note; every other sample is the serial study's."""
+    from distributed import Client, LocalCluster
+
+    from sessions.sweeps import cluster
+    from sessions.sweeps.cluster import NOT_COMPUTED
+    from tests.sessions.sweep_poison import POISON, RELEASE, hung_chunk
+
+    monkeypatch.setattr(cluster, "STALL_WAIT", 1.0)
+    monkeypatch.setattr(cluster, "STALL_FACTOR", 1.0)
+    samples = _samples(tmp_path, 64)
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None) as local:
+        with Client(local) as client:
+            try:
+                outcome = run_chunked(Connection(client, local, 1), samples, task=hung_chunk)
+            finally:
+                RELEASE.set()
+    runs = outcome.runs
+    assert [r["index"] for r in runs] == list(range(64))
+    lost = {r["index"] for r in runs if r["status"] == "failed"}
+    assert POISON in lost and all(runs[k]["reason"].startswith(f"{NOT_COMPUTED}: no task finished for") for k in lost)
+    assert outcome.given_up in outcome.note and f"({len(lost)} samples recorded as failed)" in outcome.note
+    serial = execute_serial(samples).runs
+    kept = [k for k in range(64) if k not in lost]
+    assert_measures_agree([runs[k]["measures"] for k in kept], [serial[k]["measures"] for k in kept])

@@ -8,12 +8,14 @@ transition log has them (issue 50).  The study goes to the workers in chunks of 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import signal
 import subprocess
 import sys
 import threading
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -37,24 +39,29 @@ def _copy(tmp_path: Path) -> Path:
     return tmp_path / "s.json"
 
 
-def _started(arguments: list[str]) -> subprocess.Popen:
+def _started(arguments: list[str], environment: dict | None = None) -> subprocess.Popen:
     return subprocess.Popen(
-        [sys.executable, "-m", *arguments], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        [sys.executable, "-m", *arguments],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env=None if environment is None else {**os.environ, **environment},
     )
 
 
-@pytest.fixture
-def scheduler_and_two_workers(tmp_path):
-    """`dask scheduler` and two `dask worker` processes on 127.0.0.1, ports chosen by the
-    system (the scheduler's written to its scheduler file); the workers without a nanny,
-    so that a killed one stays dead.  Every process is killed at the end."""
+@contextmanager
+def _scheduler_and_workers(tmp_path: Path, names: tuple[str, ...], environment: dict | None = None):
+    """`dask scheduler` (its configuration from ``environment``) and a `dask worker` process per
+    name on 127.0.0.1, ports chosen by the system (the scheduler's written to its scheduler file);
+    the workers without a nanny, so that a killed one stays dead.  Every process is killed at the end."""
     from distributed import Client
 
     file = tmp_path / "scheduler.json"
     processes = [
         _started(
             ["distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
-            + ["--scheduler-file", str(file)]
+            + ["--scheduler-file", str(file)],
+            environment,
         )
     ]
     try:
@@ -63,7 +70,7 @@ def scheduler_and_two_workers(tmp_path):
             time.sleep(0.05)
         assert file.exists(), "the scheduler did not start within 30 s"
         address = json.loads(file.read_text())["address"]
-        for name in ("survivor", VICTIM):
+        for name in names:
             processes.append(
                 _started(
                     ["distributed.cli.dask_worker", address, "--host", "127.0.0.1", "--nthreads", "1"]
@@ -71,13 +78,20 @@ def scheduler_and_two_workers(tmp_path):
                 )
             )
         with Client(address, timeout="30s") as client:
-            client.wait_for_workers(2, timeout=30)
+            client.wait_for_workers(len(names), timeout=30)
             yield client, address, processes
     finally:
         for process in processes:
             process.kill()
         for process in processes:
             process.wait(timeout=30)
+
+
+@pytest.fixture
+def scheduler_and_two_workers(tmp_path):
+    """A scheduler and two workers, ``survivor`` and `VICTIM` (`_scheduler_and_workers`)."""
+    with _scheduler_and_workers(tmp_path, ("survivor", VICTIM)) as cluster:
+        yield cluster
 
 
 def _kill_at_third_chunk(client, worker: subprocess.Popen, stop: threading.Event) -> None:
@@ -146,3 +160,37 @@ def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(schedu
     kept = json.loads(path.read_text())["sweeps"][-1]["runs"]  # as saved ("target" is only in --json's)
     assert [r["start"] for r in kept] == [start for start, _ in serial]
     assert_measures_agree([r["measures"] for r in kept], [measures for _, measures in serial])
+
+
+@pytest.mark.long
+@pytest.mark.slow
+def test_a_study_whose_workers_all_die_finishes_with_its_lost_chunks_recorded(tmp_path, monkeypatch):
+    """A poisoned chunk kills its worker, and its retry the other one (no nanny restarts them;
+    ``allowed-failures`` 0): the chunks left, sent again as halves, would wait for a worker
+    forever (the study hung over 10 minutes).  The wait is bounded: the cluster without a worker
+    for `NO_WORKER_WAIT` (2 s here: no worker can come back), the study finishes, every sample
+    once, the samples not computed recorded as failed with the status and named in the note,
+    those computed equal to the serial study's."""
+    from sessions.sweeps import cluster
+    from sessions.sweeps.cluster import NOT_COMPUTED, Connection
+    from sessions.sweeps.study_chunks import run_chunked
+    from tests.sessions.sweep_poison import POISON, poisoned_chunk
+
+    monkeypatch.setattr(cluster, "NO_WORKER_WAIT", 2.0)
+    samples = tolerance_jobs(load_session(_copy(tmp_path)), ["T1=+-10%", "T2=+-10%"], 64, seed=4)
+    environment = {"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"}
+    with _scheduler_and_workers(tmp_path, ("one", "two"), environment) as (client, _, processes):
+        outcome = run_chunked(Connection(client, None, 0), samples, task=poisoned_chunk)
+        assert all(process.poll() is not None for process in processes[1:]), "both workers died"
+    runs = outcome.runs
+    assert [r["index"] for r in runs] == list(range(64))
+    failed = {r["index"] for r in runs if r["status"] == "failed"}
+    lost = {r["index"] for r in runs if r["reason"].startswith(NOT_COMPUTED)}
+    assert POISON in failed and lost and lost <= failed, (failed, lost)
+    assert all(runs[k]["reason"].startswith(NOT_COMPUTED) or "workers died" in runs[k]["reason"] for k in failed)
+    assert outcome.given_up.startswith(f"{NOT_COMPUTED}: the cluster had no worker for 2 s")
+    assert outcome.given_up in outcome.note and f"({len(lost)} samples recorded as failed)" in outcome.note
+    assert outcome.note.startswith(f"{64 - len(lost)} of {64 - len(lost)} samples evaluated")  # the lost ones left out
+    serial = execute_serial(samples).runs
+    kept = [k for k in range(64) if k not in failed]
+    assert_measures_agree([runs[k]["measures"] for k in kept], [serial[k]["measures"] for k in kept])
