@@ -11,10 +11,11 @@ degenerate level: the per-loop path takes its detection grid), or when a level i
 (the per-loop path says what that means in its notes).  Otherwise its margins are the ones
 the per-loop path finds on the same form, to rounding: the same levels polished by the same
 Newton's method, GH(0) of a loop without an integrator as a gain margin at 0 when it is
-negative.  A batched sample's `Margins` hold its gain and phase margins, and when asked its
-attenuation margins (the maxima of |GH| the search polished and certified; rows that read
-the stability margins are not batched).  A loop in z is batched on its
-w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
+negative.  The margins are kept as arrays over the samples (`BatchLoops`); a batched
+sample's `Margins`, made only when asked for (`BatchLoops.loop`), hold its gain and phase
+margins, and when asked its attenuation margins (the maxima of |GH| the search polished and
+certified; rows that read the stability margins are not batched).  A loop in z is batched on
+its w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
 margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents.
 """
 
