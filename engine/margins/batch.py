@@ -11,10 +11,11 @@ degenerate level: the per-loop path takes its detection grid), or when a level i
 (the per-loop path says what that means in its notes).  Otherwise its margins are the ones
 the per-loop path finds on the same form, to rounding: the same levels polished by the same
 Newton's method, GH(0) of a loop without an integrator as a gain margin at 0 when it is
-negative.  A batched sample's `Margins` hold its gain and phase margins, and when asked its
-attenuation margins (the maxima of |GH| the search polished and certified; rows that read
-the stability margins are not batched).  A loop in z is batched on its
-w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
+negative.  The margins are kept as arrays over the samples (`BatchLoops`); a batched
+sample's `Margins`, made only when asked for (`BatchLoops.loop`), hold its gain and phase
+margins, and when asked its attenuation margins (the maxima of |GH| the search polished and
+certified; rows that read the stability margins are not batched).  A loop in z is batched on
+its w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
 margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents.
 """
 
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -39,7 +40,7 @@ from engine.margins.pole_zero.search import fast_margins
 from engine.margins.sampled import in_rad_per_s
 from engine.margins.search import Band
 from engine.margins.values import Margin, Margins, margins_of, single_margin
-from engine.model.bilinear import s_of_z, z_of_w
+from engine.model.bilinear import real_frequency, s_of_z, z_of_w
 from engine.model.paired_product import PairedProduct
 
 
@@ -102,35 +103,104 @@ def _closed_rows(
     return out
 
 
+@dataclass(frozen=True)
+class BatchLoops:
+    """Every sample's margins as arrays (samples, margins): the gain, phase and (when asked)
+    attenuation margins' frequencies (rad/s) and GH at them, in the order the per-loop path lists
+    them, NaN-padded; the closed-loop stability abscissa; ``found``: False where the per-loop
+    path must take the sample; ``batched``: certified by the batch (else the per-loop search on
+    its form found it, kept whole in ``searched``).  No Python object is made per certified
+    sample (`loop` makes one)."""
+
+    gain: NDArray[np.float64]
+    gain_gh: NDArray[np.complex128]
+    phase: NDArray[np.float64]
+    phase_gh: NDArray[np.complex128]
+    peaks: NDArray[np.float64]
+    peaks_gh: NDArray[np.complex128]
+    abscissa: NDArray[np.float64]
+    found: NDArray[np.bool_]
+    batched: NDArray[np.bool_]
+    searched: dict[int, SampleLoop]
+
+    def loop(self, k: int) -> SampleLoop | None:
+        """Sample ``k``'s margins as `Margins` (None where the per-loop path must take it)."""
+        if not self.found[k]:
+            return None
+        if k in self.searched:
+            return self.searched[k]
+        gain = _margins_in("G", self.gain[k], self.gain_gh[k])
+        phase = _margins_in("P", self.phase[k], self.phase_gh[k])
+        peaks = _margins_in("A", self.peaks[k], self.peaks_gh[k])
+        return SampleLoop(Margins(gain, phase, (), peaks, method="refined"), float(self.abscissa[k]), True)
+
+
+def _margins_in(kind: str, w: NDArray, gh: NDArray) -> tuple[Margin, ...]:
+    """One padded row's margins of one kind (the NaN padding left out)."""
+    there = np.isfinite(w)
+    return tuple(margins_of(kind, w[there], gh[there]))
+
+
 def batch_margins(
     forms: BatchForms, sample_time: float | None = None, attenuation: bool = False
 ) -> list[SampleLoop | None]:
-    """Every sample's margins; None for a sample the per-loop path must take (module docstring).
-    With ``sample_time`` the forms are a loop in z's w-plane forms (`engine.margins.sampled`):
-    frequencies come back in rad/s, a gain margin at the Nyquist frequency where GH(-1) is
-    real and negative, the abscissa of the closed-loop poles' s-plane equivalents.  With
-    ``attenuation`` the margins hold the attenuation margins too (the maxima of |GH|, the
-    modal peaks' rows): a sample with one that stopped in the rounding noise, not within 4
-    ulp, is not certified (the per-loop search may stop elsewhere in the noise)."""
+    """Every sample's margins as `Margins` (`batch_loops`, one sample at a time); None for a
+    sample the per-loop path must take."""
+    loops = batch_loops(forms, sample_time, attenuation)
+    return [loops.loop(k) for k in range(forms.gain.size)]
+
+
+def batch_loops(forms: BatchForms, sample_time: float | None = None, attenuation: bool = False) -> BatchLoops:
+    """Every sample's margins as arrays (module docstring).  With ``sample_time`` the forms are a
+    loop in z's w-plane forms (`engine.margins.sampled`): frequencies come back in rad/s, a gain
+    margin at the Nyquist frequency where GH(-1) is real and negative, the abscissa of the
+    closed-loop poles' s-plane equivalents.  With ``attenuation`` the margins hold the
+    attenuation margins too (the maxima of |GH|, the modal peaks' rows): a sample with one that
+    stopped in the rounding noise, not within 4 ulp, is not certified (the per-loop search may
+    stop elsewhere in the noise)."""
     found = batch_crossings(forms)
-    dc = _dc_values(forms)
-    gain = _per_sample("G", found.phase, found.phase_gh)
-    phase = _per_sample("P", found.gain, found.gain_gh)
-    peaks = _per_sample("A", found.peaks, found.peaks_gh) if attenuation else [[]] * forms.gain.size
-    odd = forms.odd.tolist()
-    certified = (found.certified & (found.peaks_converged | (not attenuation))).tolist()
-    abscissa = (found.abscissa if sample_time is None else _sampled_abscissa(found.closed, sample_time)).tolist()
-    out: list[SampleLoop | None] = []
-    for k in range(forms.gain.size):
-        if odd[k]:
-            out.append(None)
-        elif certified[k]:
-            margins = Margins(_with_dc(gain[k], dc[k]), tuple(phase[k]), (), tuple(peaks[k]), method="refined")
-            out.append(_in_time(SampleLoop(margins, abscissa[k], True), forms, k, sample_time))
-        else:
-            loop = sample_loop(forms, k, sample_time)
-            out.append(None if loop is None else _in_time(loop, forms, k, sample_time))
-    return out
+    gain, gain_gh = _with_dc(found.phase, found.phase_gh, _dc_values(forms))
+    phase, phase_gh = found.gain, found.gain_gh
+    peaks, peaks_gh = (found.peaks, found.peaks_gh) if attenuation else _none(forms.gain.size)
+    abscissa = found.abscissa if sample_time is None else _sampled_abscissa(found.closed, sample_time)
+    if sample_time is not None:
+        gain, phase, peaks = (real_frequency(w, sample_time) for w in (gain, phase, peaks))
+        gain, gain_gh = _with_nyquist(gain, gain_gh, forms, sample_time)
+    certified = found.certified & (found.peaks_converged | (not attenuation)) & ~forms.odd
+    searched = {}
+    for k in np.flatnonzero(~certified & ~forms.odd).tolist():
+        loop = sample_loop(forms, k, sample_time)
+        if loop is not None:
+            searched[k] = _in_time(loop, forms, k, sample_time)
+    gain, gain_gh = _with_searched(gain, gain_gh, searched, "gain")
+    phase, phase_gh = _with_searched(phase, phase_gh, searched, "phase")
+    peaks, peaks_gh = _with_searched(peaks, peaks_gh, searched, "attenuation")
+    abscissa = abscissa.copy()
+    abscissa[list(searched)] = [loop.abscissa for loop in searched.values()]
+    found_mask = certified.copy()
+    found_mask[list(searched)] = True
+    return BatchLoops(gain, gain_gh, phase, phase_gh, peaks, peaks_gh, abscissa, found_mask, certified, searched)
+
+
+def _with_searched(w: NDArray, gh: NDArray, searched: dict[int, SampleLoop], family: str) -> tuple[NDArray, NDArray]:
+    """The arrays of one family of margins (a `Margins` field) with the searched samples' rows in
+    place of the batch's (NaN columns added where they hold more)."""
+    width = max((len(getattr(loop.margins, family)) for loop in searched.values()), default=0)
+    extra = max(0, width - w.shape[1])
+    if extra:
+        w = np.pad(w, ((0, 0), (0, extra)), constant_values=np.nan)
+        gh = np.pad(gh, ((0, 0), (0, extra)), constant_values=np.nan)
+    for k, loop in searched.items():
+        margins = getattr(loop.margins, family)
+        w[k], gh[k] = np.nan, np.nan
+        w[k, : len(margins)] = [m.frequency for m in margins]
+        gh[k, : len(margins)] = [m.gh for m in margins]
+    return w, gh
+
+
+def _none(count: int) -> tuple[NDArray, NDArray]:
+    """No margins of a kind for ``count`` samples."""
+    return np.zeros((count, 0)), np.zeros((count, 0), dtype=complex)
 
 
 def _sampled_abscissa(closed: NDArray, sample_time: float) -> NDArray:
@@ -141,8 +211,7 @@ def _sampled_abscissa(closed: NDArray, sample_time: float) -> NDArray:
 
 def _in_time(loop: SampleLoop, forms: BatchForms, k: int, sample_time: float | None) -> SampleLoop:
     """A w-plane sample's margins in rad/s with the Nyquist frequency's gain margin, as
-    `engine.margins.sampled.sampled_margins` makes them (the loop itself for an s loop).  GH(-1)
-    is GH's limit as w grows: the gain where as many zeros as poles, else 0 or infinite."""
+    `engine.margins.sampled.sampled_margins` makes them (the loop itself for an s loop)."""
     if sample_time is None:
         return loop
     margins = in_rad_per_s(loop.margins, sample_time)
@@ -153,27 +222,39 @@ def _in_time(loop: SampleLoop, forms: BatchForms, k: int, sample_time: float | N
     return SampleLoop(margins, loop.abscissa, loop.batched)
 
 
-def _per_sample(kind: str, w: NDArray, gh: NDArray) -> list[list[Margin]]:
-    """Each row's margins of one kind at its frequencies (NaN padding left out), made in one call."""
-    found = np.isfinite(w)
-    every = margins_of(kind, w[found], gh[found])
-    ends = np.concatenate([[0], np.cumsum(found.sum(axis=1))]).tolist()
-    return [every[ends[k] : ends[k + 1]] for k in range(w.shape[0])]
+def _with_nyquist(w: NDArray, gh: NDArray, forms: BatchForms, sample_time: float) -> tuple[NDArray, NDArray]:
+    """The gain margins (rad/s) with the Nyquist frequency's last where GH(-1), GH's limit as w
+    grows, is real and negative (as many zeros as poles, a negative gain) and no margin is there
+    already (`_in_time` for one sample)."""
+    nyquist = math.pi / sample_time
+    with np.errstate(invalid="ignore"):
+        there = (np.abs(w - nyquist) <= 1e-9 * nyquist).any(axis=1)
+    added = (forms.zeros.shape[1] == forms.poles.shape[1]) & (forms.gain < 0) & ~there
+    column = np.where(added, nyquist, np.nan)[:, None]
+    return _compact(np.concatenate([w, column], axis=1), np.concatenate([gh, forms.gain[:, None] + 0j], axis=1))
 
 
-def _with_dc(gain: list[Margin], dc: complex | None) -> tuple[Margin, ...]:
-    """The gain margins with GH(0) first when it is finite and negative (a loop without an
-    integrator whose DC gain is on the negative real axis), as the per-loop path lists them."""
-    if dc is not None and dc.real < 0:
-        return (single_margin("G", 0.0, dc), *(m for m in gain if m.frequency > 0))
-    return tuple(gain)
+def _with_dc(w: NDArray, gh: NDArray, dc: NDArray) -> tuple[NDArray, NDArray]:
+    """The gain margins with GH(0) first where it is finite and negative (a loop without an
+    integrator whose DC gain is on the negative real axis), then the others above 0, as the
+    per-loop path lists them (all of them where GH(0) is not such)."""
+    negative = np.isfinite(dc) & (dc.real < 0)
+    with np.errstate(invalid="ignore"):
+        kept = np.where(negative[:, None] & ~(w > 0), np.nan, w)
+    column = np.where(negative, 0.0, np.nan)[:, None]
+    return _compact(np.concatenate([column, kept], axis=1), np.concatenate([(dc.real + 0j)[:, None], gh], axis=1))
 
 
-def _dc_values(forms: BatchForms) -> list[complex | None]:
-    """GH(0) of every sample, real; None where it is not finite (an integrator)."""
-    value = PairedProduct(forms.gain, forms.zeros, forms.poles).terms(np.zeros(forms.gain.size)).value
-    finite = np.isfinite(value).tolist()
-    return [complex(v, 0.0) if ok else None for v, ok in zip(value.real.tolist(), finite)]
+def _compact(w: NDArray, gh: NDArray) -> tuple[NDArray, NDArray]:
+    """Each row's entries in their order, NaN ones last, the columns no row fills dropped."""
+    order = np.argsort(np.isnan(w), axis=1, kind="stable")
+    width = int(np.isfinite(w).sum(axis=1).max(initial=0))
+    return np.take_along_axis(w, order, 1)[:, :width], np.take_along_axis(gh, order, 1)[:, :width]
+
+
+def _dc_values(forms: BatchForms) -> NDArray[np.complex128]:
+    """GH(0) of every sample (real; not finite with an integrator)."""
+    return PairedProduct(forms.gain, forms.zeros, forms.poles).terms(np.zeros(forms.gain.size)).value
 
 
 def sample_loop(forms: BatchForms, k: int, sample_time: float | None = None) -> SampleLoop | None:
@@ -191,7 +272,13 @@ def sample_loop(forms: BatchForms, k: int, sample_time: float | None = None) -> 
         found[name], start = margins_of(name, points, values[start : start + points.size]), start + points.size
     with np.errstate(all="ignore"):
         dc = form(np.zeros(1))[0][0]
-    gain = _with_dc([m for m in found["G"] if m.gh.real < 0], complex(dc.real, 0.0) if np.isfinite(dc) else None)
+    crossings = [m for m in found["G"] if m.gh.real < 0]
+    w, gh = _with_dc(
+        np.array([m.frequency for m in crossings]).reshape(1, -1),
+        np.array([m.gh for m in crossings], dtype=complex).reshape(1, -1),
+        np.array([dc]),
+    )
+    gain = tuple(margins_of("G", w[0], gh[0]))
     margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), tuple(found["A"]), method="refined")
     if sample_time is not None:
         abscissa = float(_sampled_abscissa(levels.closed[None, :], sample_time)[0])

@@ -90,24 +90,34 @@ def margins_of(kind: str, w: NDArray, gh: NDArray) -> list[Margin]:
     """Margins of one kind at frequencies ``w`` where the loop is ``gh``:
     distance values and, for G and P, the classical forms (dB; degrees
     wrapped to (-180, 180] and the delay margin)."""
+    forms = margin_forms(kind, w, gh)
+    value = forms["value"].tolist()
+    if kind == "G":
+        return [
+            Margin("G", f, d, g, gain_db=x)
+            for f, d, g, x in zip(w.tolist(), value, gh.tolist(), forms["gain_db"].tolist())
+        ]
+    if kind == "P":
+        phase, delay = forms["phase_deg"].tolist(), forms["delay"].tolist()
+        return [
+            Margin("P", f, d, g, phase_deg=x, delay=t if f > 0 else None)
+            for f, d, g, x, t in zip(w.tolist(), value, gh.tolist(), phase, delay)
+        ]
+    return [Margin(kind, f, v, g) for f, v, g in zip(w.tolist(), value, gh.tolist())]
+
+
+def margin_forms(kind: str, w: NDArray, gh: NDArray) -> dict[str, NDArray]:
+    """The numbers of `margins_of`'s margins as arrays of the shape of ``w`` and ``gh`` (any shape):
+    ``value`` (|1 + GH|, |GH| for A) and, for G, ``gain_db``, for P, ``phase_deg`` and ``delay``."""
     with np.errstate(all="ignore"):
         magnitude, distance = np.abs(gh), np.abs(1.0 + gh)
         if kind == "G":
-            db = np.where(magnitude > 0, -20.0 * np.log10(magnitude), np.inf)
-            return [
-                Margin("G", f, d, g, gain_db=x)
-                for f, d, g, x in zip(w.tolist(), distance.tolist(), gh.tolist(), db.tolist())
-            ]
+            return {"value": distance, "gain_db": np.where(magnitude > 0, -20.0 * np.log10(magnitude), np.inf)}
         if kind == "P":
             phase = 180.0 + np.degrees(np.arctan2(gh.imag, gh.real))
             phase = np.where(phase > 180.0, phase - 360.0, phase)
-            delay = np.radians(phase) % (2 * np.pi) / w
-            return [
-                Margin("P", f, d, g, phase_deg=x, delay=t if f > 0 else None)
-                for f, d, g, x, t in zip(w.tolist(), distance.tolist(), gh.tolist(), phase.tolist(), delay.tolist())
-            ]
-    values = distance if kind == "S" else magnitude
-    return [Margin(kind, f, v, g) for f, v, g in zip(w.tolist(), values.tolist(), gh.tolist())]
+            return {"value": distance, "phase_deg": phase, "delay": np.radians(phase) % (2 * np.pi) / w}
+    return {"value": distance if kind == "S" else magnitude}
 
 
 FAMILY = 40  # more margins of one kind than this in a delay loop are a periodic family

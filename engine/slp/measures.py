@@ -39,7 +39,9 @@ from engine.errors import EngineError
 from engine.loop.design import closed_loop_realization
 from engine.loop.realization import StateSpace, cascade, poles, stability
 from engine.loop.responses import LoopModel, loop_model
+from engine.margins.batch import BatchLoops
 from engine.margins.search import Margins, margins
+from engine.margins.values import margin_forms
 from engine.model.blocks import ExpressionTransfer
 from engine.multiloop.network_breaks import diagram_disk_margin
 from engine.slp.peaks import closed_loop_values
@@ -242,6 +244,40 @@ def frequency_value(spec: Spec, found: Margins, model: LoopModel) -> tuple[float
     pick = min if spec.at_least else max
     worst = pick(candidates, key=lambda m: float(getattr(m, attribute)))
     return float(getattr(worst, attribute)), worst.frequency
+
+
+def frequency_values(spec: Spec, loops: BatchLoops) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """`frequency_value` of a margin, modal peak or crossover row for every sample of a batch
+    (`engine.margins.batch.BatchLoops`), without a `Margin` per sample: the values, the
+    frequencies, and the samples whose row the batch cannot give (a crossover absent from the
+    band: its absence value reads the grid response)."""
+    modal = spec.kind in ("modal_peak_db", "modal_peak_phase_deg")
+    family = (
+        "phase" if spec.kind == "crossover_frequency" else "attenuation" if modal else MARGIN_ATTRIBUTE[spec.kind][0]
+    )
+    w, gh = {"gain": (loops.gain, loops.gain_gh), "phase": (loops.phase, loops.phase_gh)}.get(
+        family, (loops.peaks, loops.peaks_gh)
+    )
+    empty = np.full((w.shape[0], 1), np.nan)
+    w, gh = np.concatenate([w, empty], axis=1), np.concatenate([gh, empty + 0j], axis=1)  # a column at least
+    with np.errstate(invalid="ignore"):
+        inside = (w >= spec.low) & (w <= spec.high)
+    some = inside.any(axis=1)
+    if spec.kind == "crossover_frequency":
+        top = np.max(np.where(inside, w, -np.inf), axis=1)
+        return top, top, ~some
+    key = np.abs(gh) if modal else margin_forms(family[0].upper(), w, gh)[MARGIN_ATTRIBUTE[spec.kind][1]]
+    if spec.at_least and not modal:
+        pick = np.argmin(np.where(inside, key, np.inf), axis=1)
+    else:
+        pick = np.argmax(np.where(inside, key, -np.inf), axis=1)
+    # every candidate at the sentinel (an infinite margin): the first candidate, as min() and max() take it
+    pick = np.where(np.take_along_axis(inside, pick[:, None], 1)[:, 0], pick, np.argmax(inside, axis=1))
+    value, frequency, top = (np.take_along_axis(a, pick[:, None], 1)[:, 0] for a in (key, w, gh))
+    if modal:
+        with np.errstate(divide="ignore"):
+            value = 20.0 * np.log10(np.abs(top)) if spec.kind == "modal_peak_db" else np.abs(np.degrees(np.angle(top)))
+    return np.where(some, value, _absent(spec)[0]), np.where(some, frequency, np.nan), np.zeros(w.shape[0], dtype=bool)
 
 
 def _absent(spec: Spec, magnitudes: NDArray | None = None) -> tuple[float, float]:

@@ -36,6 +36,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -43,12 +44,12 @@ from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
-from engine.margins.batch import SampleLoop, batch_margins, with_closed_rows
+from engine.margins.batch import BatchLoops, SampleLoop, batch_loops, with_closed_rows
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
 from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
-from engine.slp.measures import PEAK_KINDS, evaluate, frequency_value
+from engine.slp.measures import PEAK_KINDS, evaluate, frequency_values
 from engine.slp.points import points
 from sessions.build import build_problem
 from sessions.errors import SessionError
@@ -341,49 +342,46 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
         heads = [(k, f"sample {k}", start) for k, start in zip(jobs.indices, jobs.drawn())]
     else:
         heads = [(job.index, job.label, job.start) for job in jobs]
+    columns = jobs.columns() if isinstance(jobs, ToleranceSamples) else _columns(heads)
     xs = np.tile(study.start, (len(heads), 1))
     for k, name, c in study.slots:
-        xs[:, k] = [_drawn(start[name], c) for _, _, start in heads]
+        xs[:, k] = _seen_by(columns[name], c)
     # a value against its parameter's sign: its own session evaluates it at the sign's bound (slp clips its start)
-    against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1).tolist()
-    loops = [] if study.unbatched else [_condition_loops(study, c, heads) for c in range(len(study.problem.conditions))]
+    against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1)
+    conditions = range(len(study.problem.conditions))
+    loops = [] if study.unbatched else [_condition_loops(study, c, columns, len(heads)) for c in conditions]
     timed, timed_ok = _time_rows(study, xs)
     helped = assisted(study.problem, study.stepper.specs, xs) if study.assisted else None
+    if study.unbatched or any(found is None for found in loops):
+        values = frequencies = np.zeros((len(heads), 0))
+        batched = by_search = np.zeros(len(heads), dtype=bool)
+    else:
+        values, frequencies, batched, by_search = _row_values(study, [found for found in loops if found], timed)
+        batched &= ~against_sign & timed_ok
+        by_search &= batched
     share = (time.perf_counter() - began) / max(len(heads), 1)
+    searched += [heads[k][0] for k in np.flatnonzero(by_search).tolist()]
     items: list[dict | Records] = []
-    stretch: list[int] = []  # consecutive batched samples (positions in the chunk), their rows' values
-    stretch_rows: list[tuple[list[float], list[float]]] = []
-    for k, head in enumerate(heads):
-        mine = (
-            None
-            if study.unbatched or against_sign[k] or not timed_ok[k] or any(found is None for found in loops)
-            else [found[k] for found in loops]
-        )
-        rows = None if mine is None else _row_values(study, mine, timed[k])
-        if rows is None:
-            items += _records(study, [heads[j] for j in stretch], stretch_rows, share)
-            stretch, stretch_rows = [], []
-            run = (None if against_sign[k] else _per_loop(study, head, xs[k], helped, k)) or run_job(jobs[k].payload())
-            alone.append(head[0])
+    edges = np.flatnonzero(np.diff(batched.astype(np.int8))) + 1
+    for a, b in zip([0, *edges.tolist()], [*edges.tolist(), len(heads)]):
+        if a < b and batched[a]:
+            items += _records(study, heads[a:b], values[a:b], frequencies[a:b], share)
+            continue
+        for k in range(a, b):
+            run = (None if against_sign[k] else _per_loop(study, heads[k], xs[k], helped, k)) or run_job(
+                jobs[k].payload()
+            )
+            alone.append(heads[k][0])
             run["attempts"] = 1
             items.append(run)
-            continue
-        if not all(loop is not None and loop.batched for loop in mine):
-            searched.append(head[0])
-        stretch.append(k)
-        stretch_rows.append(rows)
-    return items + _records(study, [heads[j] for j in stretch], stretch_rows, share)
+    return items
 
 
 def _records(
-    study: _Study, heads: list[tuple[int, str, dict]], rows: list[tuple[list[float], list[float]]], share: float
+    study: _Study, heads: list[tuple[int, str, dict]], values: np.ndarray, frequencies: np.ndarray, share: float
 ) -> list[dict | Records]:
-    """Consecutive batched samples' runs as arrays (none for no samples; each sample's run
-    made whole under an objective the arrays do not judge, `engine.slp.points`)."""
-    if not heads:
-        return []
-    values = np.array([v for v, _ in rows], dtype=float)
-    frequencies = np.array([f for _, f in rows], dtype=float)
+    """Consecutive batched samples' runs as arrays (each sample's run made whole under an
+    objective the arrays do not judge, `engine.slp.points`)."""
     verdicts = points(study.stepper.specs, study.stepper.settings.objective, values, frequencies)
     if verdicts is None:
         return [
@@ -410,31 +408,47 @@ def _per_loop(
     return _sample_run(study, head, x, values, frequencies, time.perf_counter() - began)
 
 
-def _drawn(value: float | list[float], condition: int | None) -> float:
-    """A drawn value as one condition sees it (a per-condition parameter's entry)."""
-    return float(value[condition] if isinstance(value, list) and condition is not None else value)
+def _columns(heads: list[tuple[int, str, dict]]) -> dict[str, np.ndarray]:
+    """The drawn values of jobs (their heads' starts) as `ToleranceSamples.columns` gives them."""
+    return (
+        {name: np.array([start[name] for _, _, start in heads], dtype=float) for name in heads[0][2]} if heads else {}
+    )
 
 
-def _condition_loops(study: _Study, c: int, heads: list[tuple[int, str, dict]]) -> list[SampleLoop | None] | None:
-    """Condition ``c``'s loop of every sample (its index, label and drawn values), margins
-    found; None when it has no batch form (the study is then not batched: it says why)."""
+def _seen_by(column: np.ndarray, condition: int | None) -> np.ndarray:
+    """A drawn column as one condition sees it (a per-condition parameter's entries)."""
+    return column[:, condition] if column.ndim == 2 and condition is not None else column
+
+
+class _Loops(NamedTuple):
+    """A condition's loop of every sample: its margins as arrays and, when it has closed-loop rows,
+    each sample's loop with them (`engine.margins.batch.with_closed_rows`; None: per loop)."""
+
+    margins: BatchLoops
+    closed: list[SampleLoop | None] | None
+
+
+def _condition_loops(study: _Study, c: int, drawn: dict[str, np.ndarray], count: int) -> _Loops | None:
+    """Condition ``c``'s loop of every sample (``drawn``: the drawn parameters' columns, ``count``
+    samples), margins found; None when it has no batch form (the study is then not batched: it
+    says why)."""
     problem = study.problem
     condition = problem.conditions[c]
-    columns = {name: np.full(len(heads), value) for name, value in problem.condition_values(c).items()}
-    for name in heads[0][2]:
-        if name in columns:
-            columns[name] = np.array([_drawn(start[name], c) for _, _, start in heads])
+    columns = {name: np.full(count, value) for name, value in problem.condition_values(c).items()}
+    columns |= {name: _seen_by(column, c) for name, column in drawn.items() if name in columns}
     forms = batch_pole_zero(condition.network, condition.break_at, columns)
     if forms is None:
         study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
         return None
     specs = study.stepper.specs
     peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in specs)
-    loops = batch_margins(forms, condition.network.sample_time, attenuation=peaks)
+    loops = batch_loops(forms, condition.network.sample_time, attenuation=peaks)
     closed = [
         (i, s.kind, s.low, s.high) for i, s in enumerate(specs) if s.condition == c and s.kind in CLOSED_LOOP_MEASURES
     ]
-    return with_closed_rows(forms, loops, closed) if closed else loops
+    if not closed:
+        return _Loops(loops, None)
+    return _Loops(loops, with_closed_rows(forms, [loops.loop(k) for k in range(count)], closed))
 
 
 def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -448,31 +462,32 @@ def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _row_values(
-    study: _Study, loops: list[SampleLoop | None], timed: np.ndarray
-) -> tuple[list[float], list[float]] | None:
-    """A sample's row values and frequencies from its conditions' loops and its time rows
-    (``timed``: NaN but for the time rows and their conditions' stability rows); None when a
-    row needs the per-loop path."""
-    values, frequencies = [], []
-    for i, spec in enumerate(study.stepper.specs):
+    study: _Study, loops: list[_Loops], timed: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every sample's row values and frequencies (samples, rows) from its conditions' loops and
+    its time rows (``timed``: NaN but for the time rows and their conditions' stability rows),
+    the samples whose rows the batch gives (the others need the per-loop path), and those of
+    them some loop of which the per-loop search on its form found."""
+    specs = study.stepper.specs
+    values, frequencies = np.full((timed.shape[0], len(specs)), np.nan), np.full((timed.shape[0], len(specs)), np.nan)
+    ok = np.ones(timed.shape[0], dtype=bool)
+    for i, spec in enumerate(specs):
         loop = loops[spec.condition]
-        if loop is None:
-            return None
+        ok &= loop.margins.found
         if spec.kind in BATCH_TIME_KINDS:
-            value, frequency = float(timed[i]), math.nan
+            values[:, i] = timed[:, i]
         elif spec.kind in CLOSED_LOOP_MEASURES and loop.closed is not None:
-            value, frequency = loop.closed[i]
+            ok &= [one is not None for one in loop.closed]
+            for k, one in enumerate(loop.closed):
+                if one is not None and one.closed is not None:
+                    values[k, i], frequencies[k, i] = one.closed[i]
         elif spec.kind == "stability_abscissa":  # the closed loop's eigenvalues when it was realized
-            value, frequency = (float(timed[i]) if not math.isnan(timed[i]) else loop.abscissa), math.nan
-        elif spec.kind == "crossover_frequency" and not any(
-            spec.low <= m.frequency <= spec.high for m in loop.margins.phase
-        ):
-            return None  # its absence value reads the grid response: the per-loop path's
+            values[:, i] = np.where(np.isnan(timed[:, i]), loop.margins.abscissa, timed[:, i])
         else:
-            value, frequency = frequency_value(spec, loop.margins, None)
-        values.append(value)
-        frequencies.append(frequency)
-    return values, frequencies
+            values[:, i], frequencies[:, i], per_loop = frequency_values(spec, loop.margins)
+            ok &= ~per_loop
+    certified = [loop.margins.batched & (loop.closed is None) for loop in loops]
+    return values, frequencies, ok, ~np.logical_and.reduce(certified)
 
 
 def _sample_run(

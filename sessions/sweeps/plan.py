@@ -213,17 +213,22 @@ class ToleranceSamples(Sequence[Job]):
 
     def drawn(self) -> list[dict]:
         """Each sample's drawn values (a job's ``start``), without its document."""
-        entries = {entry["name"]: entry["value"] for entry in self.base["problem"]["parameters"]}
-        rows = np.asarray(self.indices, dtype=np.intp) - self.first_row
-        columns = [(name, _values(entries[name], 1 + d[rows])) for name, d in self.deviations.items()]
+        columns = [(name, values.tolist()) for name, values in self.columns().items()]
         return [{name: values[k] for name, values in columns} for k in range(len(self))]
 
+    def columns(self) -> dict[str, np.ndarray]:
+        """Each drawn parameter's values over the samples, as `_sample` computes them: (samples,),
+        or (samples, conditions) for a parameter with a value per condition (`drawn` as arrays)."""
+        entries = {entry["name"]: entry["value"] for entry in self.base["problem"]["parameters"]}
+        rows = np.asarray(self.indices, dtype=np.intp) - self.first_row
+        return {name: _values(entries[name], 1 + d[rows]) for name, d in self.deviations.items()}
 
-def _values(value: float | list[float], scales: np.ndarray) -> list:
-    """A parameter's value times each row of ``scales`` as `_sample` writes it: a float, or a list per condition."""
+
+def _values(value: float | list[float], scales: np.ndarray) -> np.ndarray:
+    """A parameter's value times each row of ``scales`` as `_sample` computes it: one per row, or a row per condition."""
     if isinstance(value, list):
-        return (np.asarray(value) * scales).tolist()
-    return (value * scales[:, 0]).tolist()
+        return np.asarray(value) * scales
+    return value * scales[:, 0]
 
 
 def _sample(base: dict, k: int, deviation: dict[str, np.ndarray]) -> Job:

@@ -176,3 +176,48 @@ def test_phase_margins_within_rounding_go_to_the_per_loop_search():
     network = unity_feedback(["k*(s+3)/(s**2*(s+1)*(s+100))"])
     found = _check_against_per_loop(network, {"k": np.array([1e-20, 1e-3, 1.0])})
     assert [sample is None or sample.batched for sample in found] == [False, False, True]
+
+
+ROW_KINDS = (
+    "gain_margin",
+    "gain_margin_db",
+    "phase_margin",
+    "phase_margin_deg",
+    "attenuation_margin",
+    "modal_peak_db",
+    "modal_peak_phase_deg",
+    "crossover_frequency",
+)
+
+
+def test_rows_read_from_the_arrays_equal_each_samples_rows():
+    """Issue 53: `engine.slp.measures.frequency_values` reads a row of every sample from the
+    batch's arrays (`batch_loops`, attenuation margins asked for) as `frequency_value` reads it
+    from the sample's `Margins` (`BatchLoops.loop`), exactly: same pick, same tie, same absence.
+    Random cascades with light pairs, random bands, both directions; a crossover absent from its
+    band is flagged (its absence value reads the grid response)."""
+    from engine.margins.batch import batch_loops
+    from engine.slp.measures import Spec, frequency_value, frequency_values
+
+    checked = present = 0
+    for seed in range(6):
+        rng = np.random.default_rng(seed)
+        blocks, values = _random_structure(rng)
+        forms = batch_pole_zero(unity_feedback(blocks), "e", _samples(values, 30, 0.3, rng))
+        loops = batch_loops(forms, attenuation=True)
+        for kind in ROW_KINDS:
+            low = float(10 ** rng.uniform(-3, 1))
+            spec = Spec(
+                "row", kind, 0, None, low, low * 10 ** rng.uniform(0.5, 4), bool(rng.random() < 0.5), None, None
+            )
+            got, at, flagged = frequency_values(spec, loops)
+            for k in np.flatnonzero(loops.found & ~flagged).tolist():
+                want = frequency_value(spec, loops.loop(k).margins, None)
+                assert (got[k], at[k]) == pytest.approx(want, rel=1e-15, nan_ok=True), (seed, kind, k)
+                checked += 1
+                present += not np.isnan(at[k])
+            assert all(
+                not any(spec.low <= m.frequency <= spec.high for m in loops.loop(k).margins.phase)
+                for k in np.flatnonzero(loops.found & flagged).tolist()
+            )
+    assert checked >= 0.7 * 6 * 30 * len(ROW_KINDS) and present >= 0.3 * checked  # rows found, not only absent

@@ -599,3 +599,36 @@ def test_a_loop_in_z_keeps_its_time_and_closed_loop_peak_rows_per_loop(tmp_path,
     model["problem"]["targets"].append(target)
     path.write_text(json.dumps(model))
     _per_loop_equal(_jobs(path, 4, ["T1=+-30%", "T2=+-30%"]), why)
+
+
+def test_a_certified_sample_makes_no_margin_object(tmp_path, monkeypatch):
+    """Issue 53 (the run record built from arrays): a certified sample's gain and phase margins
+    stay in the batch's arrays (`engine.margins.batch.BatchLoops`) and its rows are read from
+    them; a `Margin` per margin per sample was made before (80 for these 40 samples)."""
+    from engine.margins import values
+
+    made = []
+    plain = values.Margin.__init__
+    monkeypatch.setattr(values.Margin, "__init__", lambda self, *a, **k: made.append(1) or plain(self, *a, **k))
+    jobs = _jobs(_session(tmp_path), 40)
+    batch = batch_runs(jobs)
+    monkeypatch.undo()
+    assert batch is not None and batch.per_loop == 0 and batch.searched == 0
+    assert made == []
+    for got, job in zip(batch.runs, jobs, strict=True):
+        _same_run(got, run_job(job.payload()))
+
+
+def test_modal_peak_rows_of_a_loop_in_z_equal_the_per_loop_path(tmp_path):
+    """The attenuation margins of a loop in z read from the batch's arrays (frequencies turned to
+    rad/s there) equal the per-loop path's: Kuo's loop with a lightly damped pair in its plant
+    (poles at 0.97 exp(+-0.6j), a peak near 1.2 rad/s)."""
+    plant = "0.02*(z+1)/((z-1)*(z**2-1.6012*z+0.9409))"
+    jobs = _jobs(_with_modal_peaks(_kuo_z(tmp_path, plant)), 30, ["T1=+-30%", "T2=+-30%"])
+    batch = batch_runs(jobs)
+    assert batch is not None and not batch.unbatched and batch.per_loop == 0
+    for got, job in zip(batch.runs, jobs, strict=True):
+        want = run_job(job.payload())
+        _same_run(got, want)
+    found = [m for m in want["measures"] if m["kind"] == "modal_peak_db" and isinstance(m["frequency"], float)]
+    assert found
