@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.closed_loop.hidden_modes import RELATIVE_TOLERANCE, Factored, hidden_modes
-from engine.closed_loop.poles import CONFIRMED, checked, closed_loop_poles, z_pole
+from engine.closed_loop.poles import CONFIRMED, checked, closed_loop_poles, delayed_verdict, z_pole
 from engine.errors import EngineError
 from engine.loop.design import design
 from engine.loop.pole_zero import loop_realization
@@ -316,6 +316,8 @@ def analyze(
     notes = list(result.notes) + list(pole_notes) + _state_space_notes(network) + _crossing_note(network, model, result)
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
+        verdict, how = delayed_verdict(network, params)
+        notes += [how] if how else []
     disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)
     if every.crossovers_beyond is not None:
         notes.append(

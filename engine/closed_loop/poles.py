@@ -72,16 +72,41 @@ def closed_loop_poles(network: Network, params: Mapping[str, float]) -> list[Pol
 
 def closed_loop_verdict(network: Network, params: Mapping[str, float]) -> str:
     """'stable', 'unstable', 'marginally stable' (`engine.loop.realization.stability`, on
-    `closed_loop_poles`) or 'unknown' (no rational model, or no realization)."""
+    `closed_loop_poles`; a loop with delays by `delayed_verdict`) or 'unknown' (tables, no
+    realization, or a count that cannot decide)."""
     from engine.errors import EngineError
     from engine.loop.realization import stability
 
     if not network.rational:
-        return "unknown"
+        return delayed_verdict(network, params)[0]
     try:
         return stability(closed_loop_poles(network, params))
     except EngineError:
         return "unknown"
+
+
+def delayed_verdict(network: Network, params: Mapping[str, float]) -> tuple[str, str]:
+    """A continuous loop whose only entries without a rational form are delays: ('stable' or
+    'unstable', what it rests on) by the certified argument count with the delays exact
+    (`engine.multiloop.delay_stability`), or ('unknown', why not)."""
+    from engine.errors import EngineError
+    from engine.loop.realization import realize_opened
+    from engine.model.blocks import DelayTransfer
+    from engine.multiloop.delay_stability import delayed_verdict as counted
+    from engine.multiloop.delayed import delayed_loops
+
+    others = [e for e in network.entries if not e.transfer.rational_form and not isinstance(e.transfer, DelayTransfer)]
+    if others or network.sample_time is not None:
+        return "unknown", ""  # a table has no realization to count with
+    try:
+        opened = realize_opened(network, params)
+        system = delayed_loops(opened, (), 0.0)
+    except (EngineError, np.linalg.LinAlgError) as exc:
+        return "unknown", f"closed-loop stability not decided: {exc}"
+    if not opened.taus:
+        return "unknown", "closed-loop stability not decided: no delay to count with"
+    verdict = counted(system.modal, system.taus)
+    return ("unknown" if verdict.status == "undecided" else verdict.status), verdict.note
 
 
 def z_pole(pole: Pole, sample_time: float) -> Pole:

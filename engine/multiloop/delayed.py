@@ -126,7 +126,13 @@ def _search_grid(form: Modal, taus: NDArray) -> NDArray[np.float64]:
     """0, N's modes' grid and a linear grid over the delays' turns up to 100 times N's largest mode."""
     sizes = np.abs(form.poles)
     top = 100.0 * max(float(sizes.max()) if sizes.size else 1.0, 1.0 / taus.max())
-    count = min(MOST_GRID, int(POINTS_PER_TURN * top * taus.max() / (2.0 * math.pi)) + 2)
+    turns = POINTS_PER_TURN * top * taus.max() / (2.0 * math.pi)
+    if not math.isfinite(turns):
+        raise EngineError(
+            f"the loop's fastest mode ({float(sizes.max()):.3g} rad/s) with its delays leaves the floating-point "
+            "range: no grid for the delays' certificate"
+        )
+    count = min(MOST_GRID, int(turns) + 2)
     return np.unique(np.concatenate([[0.0], mode_grid(form.poles), np.linspace(0.0, top, count)]))
 
 

@@ -50,12 +50,19 @@ def test_margins_do_not_depend_on_the_plot_grid(seed: int) -> None:
             assert a.margins.crossover_frequency == pytest.approx(wc, rel=1e-9)
 
 
-def test_a_search_cut_by_the_delay_grid_leaves_the_delay_margin_unknown() -> None:
+def test_a_search_cut_by_the_delay_grid_still_has_the_closed_loop_s_verdict() -> None:
     """1e6/(s (1 + s/1e-4)) exp(-3000 s) crosses over at 10 rad/s, beyond the 5.2 rad/s the
-    delay's grid can follow."""
+    delay's grid can follow: its Ms and Mt are those of the searched range.  The closed loop is
+    unstable (a root of s (1 + s/1e-4) + 1e6 exp(-3000 s) at Re s > 0, found by mpmath): the
+    certified argument count says so, with the delay exact, so the delay margin is 0 (it was
+    left unknown when the loop's verdict was)."""
     a = analyze(unity_feedback(["1e6/(s*(1+s/1e-4))"], delay=3000.0), "e", DEFAULT_GRID, {})
-    assert math.isnan(a.delay_margin)
-    assert any("the delay margin is not known" in n for n in a.notes)
+    with mpmath.workdps(20):
+        f = lambda s: s * (1 + s / mpmath.mpf("1e-4")) + 1e6 * mpmath.exp(-3000 * s)  # noqa: E731
+        root = mpmath.findroot(f, mpmath.mpc("0.00423", "0.01692"), tol=1e-24)
+        assert root.real > 1e-3 and abs(f(root)) < 1e-12
+    assert a.verdict == "unstable" and a.delay_margin == 0.0
+    assert any("root(s) in the right half-plane" in n and "the delays exact" in n for n in a.notes)
     assert any("Ms and Mt are those of the searched range" in n for n in a.notes)
 
 
@@ -120,3 +127,17 @@ def test_fewer_than_the_ten_lowest_gain_margins_are_said_where_the_search_stoppe
     (note,) = _few_delay_margins(loop, grid, 3)
     assert note.startswith("3 gain margin(s) found, fewer than the 10 lowest: the search stops at 200000 rad/s")
     assert _few_delay_margins(loop, grid, 10) == []
+
+
+@pytest.mark.parametrize("k", [0.5, 1.0, 4.0])
+@pytest.mark.parametrize("side", [0.9, 1.1])
+def test_a_delayed_loop_s_closed_loop_verdict(k: float, side: float) -> None:
+    """K/(s (s+1)) exp(-tau s) is stable exactly while tau is below its delay margin
+    (pi/2 - atan(wc))/wc, wc from wc sqrt(1 + wc^2) = K (one crossover, closed form): the loop's
+    verdict comes from the certified argument count with the delay exact (it was 'unknown', and an
+    unstable loop's disk margin was reported as if it were stable)."""
+    wc = math.sqrt((math.sqrt(1 + 4 * k * k) - 1) / 2)
+    tau = side * (math.pi / 2 - math.atan(wc)) / wc
+    a = analyze(unity_feedback([f"{k}/(s*(s+1))"], delay=tau), "e", DEFAULT_GRID, {})
+    assert a.verdict == ("stable" if side < 1 else "unstable")
+    assert (a.disk_margin.alpha > 0) == (side < 1)
