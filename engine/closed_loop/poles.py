@@ -90,7 +90,7 @@ def delayed_verdict(network: Network, params: Mapping[str, float]) -> tuple[str,
     'unstable', what it rests on) by the certified argument count with the delays exact
     (`engine.multiloop.delay_stability`), or ('unknown', why not)."""
     from engine.errors import EngineError
-    from engine.loop.realization import realize_opened
+    from engine.loop.realization import poles, realize_opened, stability
     from engine.model.blocks import DelayTransfer
     from engine.multiloop.delay_stability import delayed_verdict as counted
     from engine.multiloop.delayed import delayed_loops
@@ -100,11 +100,11 @@ def delayed_verdict(network: Network, params: Mapping[str, float]) -> tuple[str,
         return "unknown", ""  # a table has no realization to count with
     try:
         opened = realize_opened(network, params)
+        if not opened.taus:  # every delay 0 (a unit gain): a rational closed loop
+            return stability(poles(opened.ss)), "every delay is 0: the closed loop's poles"
         system = delayed_loops(opened, (), 0.0)
     except (EngineError, np.linalg.LinAlgError) as exc:
         return "unknown", f"closed-loop stability not decided: {exc}"
-    if not opened.taus:
-        return "unknown", "closed-loop stability not decided: no delay to count with"
     verdict = counted(system.modal, system.taus)
     return ("unknown" if verdict.status == "undecided" else verdict.status), verdict.note
 

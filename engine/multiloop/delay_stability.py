@@ -85,6 +85,8 @@ def delayed_verdict(form: Modal, taus: NDArray) -> Verdict:
             "undecided",
             "a delay's loop keeps a direct feedthrough at high frequency (a neutral system): no argument count",
         )
+    if not math.isfinite(POINTS_PER_TURN * top * taus.max()):
+        return Verdict("undecided", "the loop's modes and delays leave the floating-point range: no argument count")
     turn = _turn(form, taus, top)
     if turn is None:
         return Verdict(

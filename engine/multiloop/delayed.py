@@ -285,6 +285,8 @@ def tail_frequency(system: DelayedLoops, gamma: float) -> float | None:
     sizes = np.abs(system.modal.poles)
     top = 2.0 * max(float(sizes.max()) if sizes.size else 1.0, float(system.omega.max()))
     for _ in range(MOST_DOUBLINGS):
+        if not math.isfinite(2.0 * top):  # (intervals up to it need finite middles)
+            return None
         x = _tail_scales(system, top, x)
         if tail_level(system, top, x) < gamma:
             return top

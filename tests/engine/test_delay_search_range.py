@@ -12,6 +12,9 @@ import pytest
 from scipy.optimize import brentq
 
 from engine.analysis import analyze, unity_feedback
+from engine.closed_loop.poles import closed_loop_verdict
+from engine.model.blocks import DelayTransfer, ExpressionTransfer
+from engine.model.network import Block, Junction, block_diagram
 
 DEFAULT_GRID = np.logspace(-3, 3, 400)
 
@@ -141,3 +144,16 @@ def test_a_delayed_loop_s_closed_loop_verdict(k: float, side: float) -> None:
     a = analyze(unity_feedback([f"{k}/(s*(s+1))"], delay=tau), "e", DEFAULT_GRID, {})
     assert a.verdict == ("stable" if side < 1 else "unstable")
     assert (a.disk_margin.alpha > 0) == (side < 1)
+
+
+@pytest.mark.parametrize(("gain", "verdict"), [(1.0, "stable"), (10.0, "unstable")])
+def test_a_delay_named_by_a_parameter_at_0_is_a_unit_gain(gain: float, verdict: str) -> None:
+    """A delay block whose parameter is 0 leaves a rational closed loop: its verdict is its poles'
+    (K/(s (s+1) (s+2)): s^3 + 3 s^2 + 2 s + K, stable while K < 6 by Routh); the count had no delay
+    to count with and said 'unknown'."""
+    blocks = [
+        Block("G", "e", "u", ExpressionTransfer(f"{gain}/(s*(s+1)*(s+2))")),
+        Block("lag", "u", "y", DelayTransfer("tau")),
+    ]
+    network = block_diagram(blocks, [Junction("sum", "e", ((1.0, "r"), (-1.0, "y")))], ["r"])
+    assert closed_loop_verdict(network, {"tau": 0.0}) == verdict
