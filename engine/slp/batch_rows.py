@@ -27,7 +27,7 @@ from engine.errors import EngineError
 from engine.loop.batch_realization import batch_loop_realization, closed_of, samples
 from engine.loop.design import closed_loop_realization, seed_loop_realization
 from engine.loop.realization import StateSpace
-from engine.slp.measures import Spec, evaluate, response_times, response_value
+from engine.slp.measures import Spec, evaluate, grows, response_times, response_value
 
 # the time rows read from a simulated response (a mean square solves a Lyapunov equation: per loop)
 BATCH_TIME_KINDS = frozenset(
@@ -84,6 +84,7 @@ def _condition_rows(
     mine = np.flatnonzero(ok)
     loops = [realized[k] for k in mine]
     A = np.array([ss.A for ss in loops])
+    unstable = [grows(ss) for ss in loops] if any(s.kind in BATCH_TIME_KINDS for s in specs) else []
     for spec, column in zip(specs, rows):
         if spec.kind == "stability_abscissa":
             values[mine, column] = _abscissa(A)
@@ -100,7 +101,7 @@ def _condition_rows(
         with np.errstate(all="ignore"):
             y = batch_simulate(A, B, C, D, t, segments)
         for row, (sample, ss) in enumerate(zip(mine.tolist(), loops)):
-            values[sample, column] = response_value(spec, response, ss, t, y[row])
+            values[sample, column] = response_value(spec, response, ss, t, y[row], unstable[row])
     return ok
 
 

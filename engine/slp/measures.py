@@ -324,10 +324,12 @@ def response_times(response: TimeResponse, sample_time: float | None) -> NDArray
     return np.arange(math.floor(response.horizon / sample_time + 1e-9) + 1) * sample_time
 
 
-def response_value(spec: Spec, response: TimeResponse, ss: StateSpace, t: NDArray, y: NDArray) -> float:
+def response_value(
+    spec: Spec, response: TimeResponse, ss: StateSpace, t: NDArray, y: NDArray, unstable: bool | None = None
+) -> float:
     """A time row's value from its output's response ``y`` at ``t`` (the closed loop ``ss``'s
-    response to the target's profile)."""
-    if grows(ss):
+    response to the target's profile); ``unstable``: `grows(ss)` when already known."""
+    if grows(ss) if unstable is None else unstable:
         return math.nan  # an unstable loop's response grows without bound: what the horizon shows means nothing
     if spec.kind == "peak_response":
         return float(np.max(np.abs(y)))
