@@ -327,7 +327,7 @@ async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
     (the shaping table's fill after one nudge is what the next nudge's move starts from:
     before, both found the parameters that own each item again, two passes a nudge), sets the
     algorithm up once (the tableau's first record) and leaves the autosave's write to its
-    thread (before, the handler waited for it every AUTOSAVE_INTERVAL)."""
+    thread, as an undo of the edits does (before, both waited for it every AUTOSAVE_INTERVAL)."""
     from engine.design import compensator_items
     from sessions import lifecycle, store
 
@@ -362,3 +362,7 @@ async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
         parameters = ["K", "T1", "T2"]  # K (1 + T1 s) / (1 + T2 s): each nudged once per design
         assert sorted(owners) == sorted(parameters * len(nudges))
         assert len(setups) == len(nudges) and waits and not any(waits)
+        waits.clear()
+        await pilot.press("ctrl+z")  # the edits' undo: its autosave left to the thread too
+        await settle(app, pilot)
+        assert waits and not any(waits)
