@@ -552,7 +552,7 @@ class LoopcraftApp(App):
         if move(self.bench.book) is None:
             self.notify(nothing, timeout=3)
             return
-        self.bench.file.autosave(throttled=True)
+        self.bench.file.autosave(throttled=True, wait=False)  # written by the autosave thread, as an edit's
         self.notify(self.bench.edits.last, timeout=4)
         self.refresh_workbench()
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -67,12 +68,39 @@ class Item:
 
 
 def items(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Item]:
-    """The gain, then the zeros and poles of a block, low frequency first."""
+    """The gain, then the zeros and poles of a block, low frequency first.  Kept for the
+    latest designs (`ITEMS_KEPT`, by the block itself and its parameters' values): a nudge
+    reads its block's items where the shaping table read them after the nudge before."""
+    return list(_items_at(_Same(transfer), tuple((name, params[name]) for name in transfer.parameters)))
+
+
+ITEMS_KEPT = 16  # the (block, values) whose items are kept (`items`)
+
+
+class _Same:
+    """A block as a key: equal to the same object alone (a block is never changed in place)."""
+
+    def __init__(self, transfer: ExpressionTransfer) -> None:
+        self.transfer = transfer
+
+    def __hash__(self) -> int:
+        return id(self.transfer)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, _Same) and other.transfer is self.transfer
+
+
+@lru_cache(maxsize=ITEMS_KEPT)
+def _items_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[Item, ...]:
+    """`items` of a block at its parameters' values (the key holds the block: its id stays its own)."""
+    transfer, params = block.transfer, dict(values)
     base = pole_zero(transfer.expression, params)
     scale = _scale(base)
     gain = _bode_gain(base, scale)
     moved = {name: _moved(transfer, params, name, base, scale, gain) for name in transfer.parameters}
-    return _listed(base, lambda index, k: tuple(n for n, m in moved.items() if (m[0] if index == 0 else m[index][k])))
+    return tuple(
+        _listed(base, lambda index, k: tuple(n for n, m in moved.items() if (m[0] if index == 0 else m[index][k])))
+    )
 
 
 def readings(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Item]:

@@ -162,7 +162,14 @@ def _described(kind: Any) -> str:
 
 
 def settings_types(cls: type) -> dict[str, Any]:
-    """The declared types of a settings dataclass's fields ({} when they cannot be resolved)."""
+    """The declared types of a settings dataclass's fields ({} when they cannot be resolved),
+    resolved once per class (every edit of a problem binds its algorithm again: resolving
+    the annotations each time was about 0.9 ms of a nudge)."""
+    return dict(_resolved_types(cls))
+
+
+@functools.cache
+def _resolved_types(cls: type) -> dict[str, Any]:
     try:
         return typing.get_type_hints(cls)
     except Exception:  # noqa: BLE001 -- an unresolvable annotation: leave the check to the class

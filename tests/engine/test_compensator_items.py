@@ -152,3 +152,30 @@ def test_a_zero_moved_past_another_of_its_kind_stays_itself_and_says_its_new_nam
     assert sorted(abs(zeros)) == pytest.approx([2.0, 3.0], rel=1e-12)
     back = move_named(network, after, move.name, lambda now: 1.5)  # by its new name, back past the other
     assert back.values == {"T1": pytest.approx(1 / 1.5, rel=1e-12)} and back.name == f"{label}.zero1"
+
+
+def test_items_kept_for_a_design_are_that_designs(monkeypatch):
+    """`items` keeps the latest designs' items (a nudge reads them where the shaping table
+    did): the same block at the same values is read once; other values, or another block of
+    the same text, are read for themselves (the zero at 1/T1 as numpy finds it)."""
+    from engine.analysis import unity_feedback
+    from engine.design import compensator_items
+
+    read, pole_zero = [], compensator_items.pole_zero
+    monkeypatch.setattr(compensator_items, "pole_zero", lambda e, p: read.append(dict(p)) or pole_zero(e, p))
+
+    def zero(found):
+        return next(abs(i.root) for i in found if i.kind == "zero")
+
+    network = unity_feedback(["K*(1+T1*s)/(1+T2*s)", "1/s^2"], "s", 0.0)
+    block = next(e.transfer for e in network.entries if "K" in e.transfer.parameters)
+    twin = ExpressionTransfer(block.text)
+    values = {"K": 2.0, "T1": 1.0, "T2": 0.1}
+    first = items(block, values)
+    assert len(read) == 4  # the block's form, and each parameter nudged (which items it moves)
+    assert items(block, values) == first and items(block, values) is not first  # a list of one's own
+    assert len(read) == 4
+    moved = items(block, {**values, "T1": 0.5})
+    assert zero(moved) == pytest.approx(abs(np.roots([0.5, 1.0])[0]), rel=1e-12)
+    assert zero(items(block, values)) == pytest.approx(1.0, rel=1e-12)
+    assert items(twin, values) == first and zero(items(twin, {**values, "T1": 0.25})) == pytest.approx(4.0)

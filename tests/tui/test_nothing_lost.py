@@ -11,6 +11,7 @@ import time
 import pytest
 
 from engine.cip import Cip
+from sessions.store import flush_autosaves
 from tests.tui.test_app import edit_row, settle, status, synchronous
 from tests.tui.test_run_race import send_keys
 from tui.app import LoopcraftApp
@@ -65,6 +66,7 @@ async def test_opening_another_file_and_quitting_ask_and_autosave_first(workdir)
         await settle(app, pilot)
         assert app.bench.dirty
         autosave = workdir / "report003_lag_lead.json.autosave"
+        flush_autosaves()  # written by the autosave thread (the edit's handler does not wait)
         assert autosave.exists() and "*1.5" in autosave.read_text()  # the accepted edit is on disk
         await pilot.press("ctrl+o")
         await pilot.pause()

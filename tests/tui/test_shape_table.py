@@ -319,3 +319,50 @@ async def test_a_nudge_repaints_the_readouts_it_changed_and_walks_no_widget_tree
         assert {"tableau", "status"} <= set(repainted) and "step-info" not in repainted
         assert app.screen.query_one("#step-info").text.plain == step_lines
         assert FigurePlot not in queried
+
+
+@synchronous
+async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
+    """A nudge's handler (issue 54, section 3) reads the compensator's items at a design once
+    (the shaping table's fill after one nudge is what the next nudge's move starts from:
+    before, both found the parameters that own each item again, two passes a nudge), sets the
+    algorithm up once (the tableau's first record) and leaves the autosave's write to its
+    thread, as an undo of the edits does (before, both waited for it every AUTOSAVE_INTERVAL)."""
+    from engine.design import compensator_items
+    from sessions import lifecycle, store
+
+    app = lead_app(tmp_path, monkeypatch)
+    owners, setups, waits = [], [], []
+    moved, stepper, write = compensator_items._moved, lifecycle.stepper, store.write_autosave
+
+    def noted_moved(transfer, params, name, *args):
+        owners.append(name)
+        return moved(transfer, params, name, *args)
+
+    def noted_stepper(session):
+        setups.append(session)
+        return stepper(session)
+
+    def noted_write(session, at_most_every=0.0, wait=True):
+        waits.append(wait)
+        return write(session, at_most_every, wait)
+
+    monkeypatch.setattr(compensator_items, "_moved", noted_moved)
+    monkeypatch.setattr(lifecycle, "stepper", noted_stepper)
+    monkeypatch.setattr("tui.state.bench.persistence.write_autosave", noted_write)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down", "right")
+        await settle(app, pilot)
+        owners.clear(), setups.clear(), waits.clear()
+        nudges = ("right", "right", "right")  # three new designs (back and forth would find those kept)
+        for key in nudges:
+            await pilot.press(key)
+            await settle(app, pilot)
+        parameters = ["K", "T1", "T2"]  # K (1 + T1 s) / (1 + T2 s): each nudged once per design
+        assert sorted(owners) == sorted(parameters * len(nudges))
+        assert len(setups) == len(nudges) and waits and not any(waits)
+        waits.clear()
+        await pilot.press("ctrl+z")  # the edits' undo: its autosave left to the thread too
+        await settle(app, pilot)
+        assert waits and not any(waits)

@@ -124,7 +124,9 @@ class EditFlow:
                 else:
                     self.app.notify(str(exc), title=f"not applied: {failed}", severity="error", timeout=10)
             else:
-                self.bench.file.autosave(throttled=True)  # an accepted edit is never only in memory
+                # an accepted edit is never only in memory: written by the autosave thread, in
+                # order, while the UI thread paints (waiting for it held a nudge's paint)
+                self.bench.file.autosave(throttled=True, wait=False)
                 if adopting:
                     self.app.notify(_dropped(iterations, start), timeout=6)
                 if done is not None:
