@@ -226,13 +226,12 @@ def resolved_grid(
     loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray, notes: list[str]
 ) -> tuple[NDArray, ...]:
     """The grid with every interval halved that could hide a pair of extrema of
-    some |f| (the detection grid's own test, `may_hide_pair`, on f), bounded."""
+    some |f| (the detection grid's own test, `may_hide_pair`, on f), bounded.
+    The test reads an interval's ends alone: each round tests only the halves
+    made by the last one (an interval left whole passed it already)."""
     budget = w.size + EXTRA_POINTS
+    split = _hiding(transforms, w, gh, dgh, np.arange(w.size - 1))
     for _ in range(MAX_ROUNDS):
-        split = np.zeros(w.size - 1, dtype=bool)
-        for t in transforms:
-            split |= _may_hide(*t(w, gh, dgh))
-        split &= (w[1:] - w[:-1]) > 1e-12 * w[1:]
         if not split.any():
             return w, gh, dgh
         if w.size + np.count_nonzero(split) > budget:
@@ -247,16 +246,31 @@ def resolved_grid(
         w, gh, dgh = np.concatenate([w, mid]), np.concatenate([gh, mg]), np.concatenate([dgh, mdg])
         order = np.argsort(w, kind="stable")
         w, gh, dgh = w[order], gh[order], dgh[order]
+        at = np.flatnonzero(order >= w.size - mid.size)  # the middles' places: each opens two new intervals
+        fresh = np.concatenate([at - 1, at])
+        split = np.zeros(w.size - 1, dtype=bool)
+        split[fresh] = _hiding(transforms, w, gh, dgh, fresh)
     notes.append(f"the peak search stopped after {MAX_ROUNDS} rounds of halving")
     return w, gh, dgh
 
 
-def _may_hide(f: NDArray, df: NDArray) -> NDArray[np.bool_]:
-    """Intervals over which |f| could have a maximum and a minimum inside."""
+def _hiding(transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray, index: NDArray) -> NDArray:
+    """Which of the intervals [w[i], w[i + 1]] (i in ``index``) could hide a pair of extrema
+    of some |f| and can still be halved."""
+    ends, k = np.concatenate([index, index + 1]), index.size
+    values = [t(w[ends], gh[ends], dgh[ends]) for t in transforms]
+    f, df = np.array([v[0] for v in values]), np.array([v[1] for v in values])  # a row per transform
+    hide = _may_hide(f[:, :k], df[:, :k], f[:, k:], df[:, k:]).any(axis=0)
+    return hide & ((w[index + 1] - w[index]) > 1e-12 * w[index + 1])
+
+
+def _may_hide(f0: NDArray, df0: NDArray, f1: NDArray, df1: NDArray) -> NDArray[np.bool_]:
+    """Intervals (ends: f and df/domega at 0 and 1) over which |f| could have a maximum and a minimum inside."""
     with np.errstate(all="ignore"):
-        theta = np.arctan2((df / f).imag, (df / f).real)
-        turn = np.abs(np.angle(f[1:] / f[:-1])) + np.abs(np.angle(df[1:] / df[:-1]))
-        hide = may_hide_pair(theta[:-1], theta[1:], turn)
+        ratio0, ratio1 = df0 / f0, df1 / f1
+        theta0, theta1 = np.arctan2(ratio0.imag, ratio0.real), np.arctan2(ratio1.imag, ratio1.real)
+        turn = np.abs(np.angle(f1 / f0)) + np.abs(np.angle(df1 / df0))
+        hide = may_hide_pair(theta0, theta1, turn)
     return hide & np.isfinite(turn)
 
 
@@ -322,23 +336,12 @@ def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float, facto
     """Per transform, log |f| as omega -> 0 (factor < 1) or inf, by steps of
     factor**(2**j) (at most `END_LOOKS`), and whether it settled (changed by
     at most 4 ulp).  A level still falling there is -inf (never the peak)."""
-    rows = []
-    for j in range(END_LOOKS):
-        x = np.array([start * factor ** (2 ** (j + 1))])
-        if not (0 < x[0] < np.inf):
-            break
-        try:
-            with np.errstate(all="ignore"):
-                g, dg = loop.evaluate(x)
-        except EngineError:  # the response overflows out there: the looks so far are the limit
-            break
-        with np.errstate(all="ignore"):
-            rows.append([log_level(*t(x, g, dg))[0][0] for t in transforms])
-        if len(rows) >= 2 and np.all(_settled(np.array(rows[-2]), np.array(rows[-1]))):
-            break
-    out = []
+    looks = [start * factor ** (2 ** (j + 1)) for j in range(END_LOOKS)]
+    within = next((j for j, x in enumerate(looks) if not 0 < x < np.inf), len(looks))
+    rows = _looked(loop, transforms, np.array(looks[:within]))
+    rows, out = rows[: _first_settled(rows)], []
     for k in range(len(transforms)):
-        values = np.array([row[k] for row in rows])
+        values = rows[:, k]
         values = values[~np.isnan(values)]
         if values.size < 2:
             out.append((-np.inf, True))
@@ -347,6 +350,25 @@ def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float, facto
         else:
             out.append((-np.inf, True) if values[-1] < values[-2] else (float(values[-1]), False))
     return out
+
+
+def _looked(loop: LoopModel, transforms: Sequence[Transform], x: NDArray) -> NDArray:
+    """log |f| at the looks ``x``, a row per look and a column per transform, in one evaluation; the
+    looks from the first whose response overflows on left out (an `EngineError`: those before are the limit)."""
+    try:
+        with np.errstate(all="ignore"):
+            g, dg = loop.evaluate(x)
+    except EngineError:
+        return _looked(loop, transforms, x[:-1]) if x.size > 1 else np.zeros((0, len(transforms)))
+    with np.errstate(all="ignore"):
+        return np.array([log_level(*t(x, g, dg))[0] for t in transforms]).reshape(len(transforms), x.size).T
+
+
+def _first_settled(rows: NDArray) -> int:
+    """How many looks the sequential search takes: up to the first whose every level is within 4 ulp of the
+    look before (all of them when none is)."""
+    calm = np.flatnonzero(_settled(rows[:-1], rows[1:]).all(axis=1))
+    return int(calm[0]) + 2 if calm.size else rows.shape[0]
 
 
 def _settled(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
