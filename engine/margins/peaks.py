@@ -187,10 +187,8 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     w, gh, dgh = resolved_grid(loop, transforms, w, gh, dgh, notes)
     levels = [log_level(*t(w, gh, dgh)) for t in transforms]
     at, group = refined_maxima(loop, transforms, w, levels)
-    found = [
-        _candidates(w, levels[k][0], at[group == k], _values(loop, transforms[k], at[group == k]))
-        for k in range(len(transforms))
-    ]
+    values = _levels_at(loop, transforms, at, group)[0]
+    found = [_candidates(w, levels[k][0], at[group == k], values[group == k]) for k in range(len(transforms))]
     ends = _ends(loop, transforms, w, band, notes) if loop.rational else [([], [])] * len(transforms)
     out = []
     for (points, values), (end_w, end_v) in zip(found, ends):
@@ -290,24 +288,21 @@ def refined_maxima(
     d1 = np.concatenate([levels[k][1][j + 1] for k, j in enumerate(index)])
 
     def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
-        g, dg = loop.evaluate(points)
-        h_out, d_out = np.empty(points.size), np.empty(points.size)
-        owner = group[which]
-        for k, t in enumerate(transforms):
-            sel = owner == k
-            if sel.any():
-                h_out[sel], d_out[sel] = log_level(*t(points[sel], g[sel], dg[sel]))
-        return h_out, d_out
+        return _levels_at(loop, transforms, points, group[which])
 
     roots = refine(fun, w[i], w[i + 1], h, h1, d, d1, True)
     return roots.at, group
 
 
-def _values(loop: LoopModel, transform: Transform, at: NDArray) -> NDArray:
+def _levels_at(loop: LoopModel, transforms: Sequence[Transform], at: NDArray, owner: NDArray) -> tuple[NDArray, ...]:
+    """h = log |f| and h' at each point ``at`` of its own transform (``owner``: its number), in one evaluation
+    of the loop: every transform on every point, each point's taken."""
     if at.size == 0:
-        return np.zeros(0)
+        return np.zeros(0), np.zeros(0)
     g, dg = loop.evaluate(at)
-    return log_level(*transform(at, g, dg))[0]
+    rows = [log_level(*t(at, g, dg)) for t in transforms]
+    column = np.arange(at.size)
+    return np.array([h for h, _ in rows])[owner, column], np.array([d for _, d in rows])[owner, column]
 
 
 def _candidates(w: NDArray, h: NDArray, at: NDArray, values: NDArray) -> tuple[NDArray, NDArray]:
