@@ -28,8 +28,8 @@ from engine.loop.responses import Evaluator, LoopModel, SampledLoop
 from engine.margins.detection_grid import detection_grid, may_hide_pair
 from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.sampled import sampled_peaks
-from engine.margins.search import FIT_LIMIT, Band, fitted_loop
-from engine.numerics.refinement import refine, sign_changes
+from engine.margins.search import FIT_LIMIT, Band, Margins, fitted_loop, margins, margins_alongside
+from engine.numerics.refinement import Job, Roots, refine, sign_changes
 
 # (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
 Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]
@@ -143,8 +143,7 @@ def magnitude_curves(loop: LoopModel, omega: NDArray | None = None) -> tuple[NDA
 
 def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band = Band()) -> tuple[Peak, ...]:
     """The peak of |f| over ``band`` for every transform f, refined together (module docstring)."""
-    if not band.low <= band.high or band.low < 0:
-        raise EngineError(f"a peak's band must be 0 <= low <= high, not {band.low!r}..{band.high!r}")
+    _check_band(band)
     if not transforms:
         return ()
     if isinstance(loop, SampledLoop):
@@ -154,9 +153,36 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
     peaks = _without_grid(loop, transforms, band)
     if peaks is not None:
         return peaks
-    peaks = _peaks_on(loop, transforms, band)
+    return _checked(loop, transforms, band, _peaks_on(loop, transforms, band))
+
+
+def margins_and_peaks(
+    loop: LoopModel, transforms: Sequence[Transform], attenuation_above: float | None = None
+) -> tuple[Margins, tuple[Peak, ...]]:
+    """``margins(loop, attenuation_above=...)`` and ``refined_peaks(loop, transforms)``, the same numbers;
+    when both search the loop's detection grid, the peaks' maxima are refined in the same vectorized
+    steps as the margins' crossings and extrema (`engine.margins.search.margins_alongside`): one
+    refinement of the loop, not two."""
+    if not transforms or isinstance(loop, SampledLoop) or loop.evaluate is None:
+        return margins(loop, attenuation_above=attenuation_above), refined_peaks(loop, transforms)
+    peaks = _without_grid(loop, transforms, Band())
+    if peaks is not None:
+        return margins(loop, attenuation_above=attenuation_above), peaks
+    search = _peak_search(loop, transforms, Band())
+    found, roots = margins_alongside(loop, search.job, attenuation_above)
+    peaks = _peaks_of(loop, transforms, Band(), search, search.refined() if roots is None else roots)
+    return found, _checked(loop, transforms, Band(), peaks)
+
+
+def _check_band(band: Band) -> None:
+    if not band.low <= band.high or band.low < 0:
+        raise EngineError(f"a peak's band must be 0 <= low <= high, not {band.low!r}..{band.high!r}")
+
+
+def _checked(loop: LoopModel, transforms: Sequence[Transform], band: Band, peaks: tuple[Peak, ...]) -> tuple[Peak, ...]:
+    """The peaks found on the loop's fast form, or searched again on the network where that form disagrees there."""
     if loop.exact is not loop.evaluate and not fast_form_agrees(loop, transforms, peaks):
-        peaks = _peaks_on(loop.on_exact(), transforms, band)
+        return _peaks_on(loop.on_exact(), transforms, band)
     return peaks
 
 
@@ -177,6 +203,27 @@ def _without_grid(loop: LoopModel, transforms: Sequence[Transform], band: Band) 
 
 
 def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...]:
+    search = _peak_search(loop, transforms, band)
+    return _peaks_of(loop, transforms, band, search, search.refined())
+
+
+@dataclass(frozen=True)
+class PeakSearch:
+    """A grid search of peaks up to its refinement: the resolved grid ``w``, each transform's levels on it,
+    the interior maxima's brackets (``job``, None when there are none) and which transform each is of."""
+
+    w: NDArray
+    levels: list[tuple[NDArray, NDArray]]
+    group: NDArray
+    job: Job | None
+    notes: list[str]
+
+    def refined(self) -> Roots | None:
+        """The maxima refined alone."""
+        return None if self.job is None else refine(*self.job)
+
+
+def _peak_search(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> PeakSearch:
     grid = detection_grid(loop)
     notes = list(grid.notes)
     if not loop.rational:
@@ -186,9 +233,18 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     w, gh, dgh = band_grid(loop, grid.omega, grid.gh, grid.dgh, band)
     w, gh, dgh = resolved_grid(loop, transforms, w, gh, dgh, notes)
     levels = [log_level(*t(w, gh, dgh)) for t in transforms]
-    at, group = refined_maxima(loop, transforms, w, levels)
+    job, group = maxima_job(loop, transforms, w, levels)
+    return PeakSearch(w, levels, group, job, notes)
+
+
+def _peaks_of(
+    loop: LoopModel, transforms: Sequence[Transform], band: Band, search: PeakSearch, roots: Roots | None
+) -> tuple[Peak, ...]:
+    """The peaks from the refined maxima (``roots``), the grid points and the ends."""
+    w, group, notes = search.w, search.group, search.notes
+    at = np.zeros(0) if roots is None else roots.at
     values = _levels_at(loop, transforms, at, group)[0]
-    found = [_candidates(w, levels[k][0], at[group == k], values[group == k]) for k in range(len(transforms))]
+    found = [_candidates(w, search.levels[k][0], at[group == k], values[group == k]) for k in range(len(transforms))]
     ends = _ends(loop, transforms, w, band, notes) if loop.rational else [([], [])] * len(transforms)
     out = []
     for (points, values), (end_w, end_v) in zip(found, ends):
@@ -277,10 +333,19 @@ def refined_maxima(
 ) -> tuple[NDArray, NDArray]:
     """Every interior maximum of every |f| (h' from + to -), refined in one
     vectorized `refine`; their frequencies and which transform each is of."""
+    job, group = maxima_job(loop, transforms, w, levels)
+    return (np.zeros(0) if job is None else refine(*job).at), group
+
+
+def maxima_job(
+    loop: LoopModel, transforms: Sequence[Transform], w: NDArray, levels: list[tuple[NDArray, NDArray]]
+) -> tuple[Job | None, NDArray]:
+    """`refined_maxima`'s brackets and level function (None: no interior maximum), and which
+    transform each bracket is of."""
     index = [sign_changes(d, falling_only=True) for _, d in levels]
     group = np.concatenate([np.full(i.size, k) for k, i in enumerate(index)]).astype(int)
     if group.size == 0:
-        return np.zeros(0), group
+        return None, group
     i = np.concatenate(index)
     h = np.concatenate([levels[k][0][j] for k, j in enumerate(index)])
     h1 = np.concatenate([levels[k][0][j + 1] for k, j in enumerate(index)])
@@ -290,8 +355,7 @@ def refined_maxima(
     def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
         return _levels_at(loop, transforms, points, group[which])
 
-    roots = refine(fun, w[i], w[i + 1], h, h1, d, d1, True)
-    return roots.at, group
+    return Job(fun, w[i], w[i + 1], h, h1, d, d1, True), group
 
 
 def _levels_at(loop: LoopModel, transforms: Sequence[Transform], at: NDArray, owner: NDArray) -> tuple[NDArray, ...]:

@@ -13,12 +13,12 @@ from dataclasses import dataclass
 
 from numpy.typing import ArrayLike
 
-from engine.analysis import closed_loop_peaks
+from engine.analysis import closed_loop_peaks, margins_with_peaks
 from engine.closed_loop.poles import closed_loop_verdict, delayed_verdict
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.disk import DiskMargin
-from engine.margins.search import Margins, margins
+from engine.margins.search import Margins
 from engine.model.network import Network
 from engine.multiloop.delay_stability import Verdict
 from engine.multiloop.disk import MultiLoopDiskMargin
@@ -70,7 +70,8 @@ def _verdict(network: Network, params: Mapping[str, float]) -> tuple[str, Verdic
 def _break_loop(network: Network, name: str, omega: ArrayLike, params: Mapping[str, float], verdict: str) -> BreakLoop:
     try:
         model = loop_model(network, name, omega, params)
-        disk, *_ = closed_loop_peaks(model, verdict)
-        return BreakLoop(name, margins(model), disk)
+        found, peaks = margins_with_peaks(model, 0.0)
+        disk, *_ = closed_loop_peaks(model, verdict, found=peaks)
+        return BreakLoop(name, found, disk)
     except EngineError as exc:
         return BreakLoop(name, None, None, str(exc))
