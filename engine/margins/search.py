@@ -105,7 +105,7 @@ def _searched(
     grid, (found, notes), shared = None, _without_grid(loop), None
     if found is None:
         grid = detection_grid(loop)
-        found, shared = _refined(loop, grid, job)
+        found, shared = _refined_alongside(loop, grid, job)
     if loop.exact is not loop.evaluate and not getattr(loop.evaluate, "factored", False):
         off = _disagreement(loop, found)
         if off > AGREEMENT:  # the pole-zero form is off where it matters: refine on the network
@@ -113,7 +113,7 @@ def _searched(
             found = _polished(loop, found) if off <= POLISH_LIMIT else None
             if found is None:  # or search it, from the form's grid
                 grid = detection_grid(loop, seed=None if grid is None else grid.omega)
-                found = _refined(loop, grid)[0]
+                found = _refined(loop, grid)
     gain = [m for m in found["G"] if m.gh.real < 0]
     dc = loop.dc_value
     if dc is not None and dc.real < 0:
@@ -352,7 +352,7 @@ def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
     return model, residual, int(fit.degree + abs(trend.low - trend.high) + abs(trend.low))
 
 
-def _refined(loop: LoopModel, grid: Detection, job: Job | None = None) -> tuple[dict[str, list[Margin]], Roots | None]:
+def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
     """Every crossing and extremum, refined together in one vectorized loop.
 
     The detection grid leaves at most one extremum of |GH|, of |1 + GH| and
@@ -362,6 +362,13 @@ def _refined(loop: LoopModel, grid: Detection, job: Job | None = None) -> tuple[
     watched while they are refined (`refine`'s ``hiding``): extrema of |GH|
     for gain crossovers, extrema of the phase for phase crossovers.
     """
+    return _refined_alongside(loop, grid, None)[0]
+
+
+def _refined_alongside(
+    loop: LoopModel, grid: Detection, job: Job | None
+) -> tuple[dict[str, list[Margin]], Roots | None]:
+    """`_refined`, and ``job``'s roots refined in the same steps (None without a job)."""
     w, gh, dgh = grid.omega, grid.gh, grid.dgh
     brackets = _grid_brackets(w, gh, dgh, grid.flat)
     if loop.axis_poles.size:
