@@ -19,7 +19,16 @@ from engine.loop.pole_zero import loop_realization
 from engine.loop.realization import Pole, stability, stability_note
 from engine.loop.responses import LoopModel, loop_model, open_loop
 from engine.margins.disk import DiskMargin, check_skew, disk_transform, from_peak
-from engine.margins.peaks import Peak, complementary, refined_peaks, reported, sensitivity, unbounded_note
+from engine.margins.peaks import (
+    Peak,
+    Transform,
+    complementary,
+    margins_and_peaks,
+    refined_peaks,
+    reported,
+    sensitivity,
+    unbounded_note,
+)
 from engine.margins.search import Band, Margins, margins
 from engine.margins.values import Margin
 from engine.model.blocks import (
@@ -203,13 +212,14 @@ def modal_peaks(model: LoopModel | Margins, bands: Sequence[Band]) -> tuple[Moda
 
 
 def closed_loop_peaks(
-    model: LoopModel, verdict: str, skew: float = 0.0
+    model: LoopModel, verdict: str, skew: float = 0.0, found: Sequence[Peak] | None = None
 ) -> tuple[DiskMargin | None, Peak | None, Peak | None, tuple[str, ...]]:
     """The disk margin, Ms and Mt of a loop, refined in one search
-    (`engine.margins.peaks.refined_peaks`); None each with a note when it fails."""
+    (`engine.margins.peaks.refined_peaks`; ``found``: its peaks when searched already, with the margins
+    by `margins_with_peaks`); None each with a note when it fails."""
     skew = check_skew(skew)
     try:
-        disk, ms, mt = refined_peaks(model, [disk_transform(skew), sensitivity, complementary])
+        disk, ms, mt = refined_peaks(model, closed_loop_transforms(skew)) if found is None else found
     except EngineError as exc:
         return None, None, None, (f"no disk margin or sensitivity peaks: {exc}",)
     stable = None if verdict == "unknown" else verdict == "stable"
@@ -217,6 +227,23 @@ def closed_loop_peaks(
         return from_peak(disk, skew, stable), unstable(ms, "S"), unstable(mt, "T"), (UNSTABLE_NOTE,)
     unbounded = tuple(dict.fromkeys(n for n in map(unbounded_note, (ms, mt)) if n))  # Ms and Mt: one note
     return from_peak(disk, skew, stable), reported(ms), reported(mt), unbounded
+
+
+def closed_loop_transforms(skew: float) -> list[Transform]:
+    """What `closed_loop_peaks` maximizes: |S + (skew - 1)/2| (the disk margin's), |S| and |T|."""
+    return [disk_transform(skew), sensitivity, complementary]
+
+
+def margins_with_peaks(
+    model: LoopModel, skew: float, attenuation_above: float | None = None
+) -> tuple[Margins, tuple[Peak, ...] | None]:
+    """The loop's margins and the peaks `closed_loop_peaks` reads, refined in the same steps
+    (`engine.margins.peaks.margins_and_peaks`); the peaks None when their search fails (`closed_loop_peaks`
+    then searches them again and says why)."""
+    try:
+        return margins_and_peaks(model, closed_loop_transforms(check_skew(skew)), attenuation_above)
+    except EngineError:
+        return margins(model, attenuation_above=attenuation_above), None
 
 
 UNSTABLE_NOTE = (
@@ -311,14 +338,14 @@ def analyze(
         if network.sample_time is not None:  # stable when |z| < 1: Re w < 0, read above
             pole_list = tuple(z_pole(p, network.sample_time) for p in pole_list)
     model = loop_model(network, break_at, omega, params)
-    every = margins(model, attenuation_above=0.0)
+    every, peaks = margins_with_peaks(model, skew, attenuation_above=0.0)
     result = replace(every, attenuation=())
     notes = list(result.notes) + list(pole_notes) + _state_space_notes(network) + _crossing_note(network, model, result)
     if not network.rational:
         notes.append("closed-loop poles need a rational model (no tables, no delays)")
         verdict, how = delayed_verdict(network, params)
         notes += [how] if how else []
-    disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew)
+    disk, ms, mt, failed = closed_loop_peaks(model, verdict, skew, peaks)
     if every.crossovers_beyond is not None:
         notes.append(
             f"the disk margin, Ms and Mt are those of the searched range (up to {every.crossovers_beyond:.6g} rad/s, "

@@ -28,8 +28,8 @@ from engine.loop.responses import Evaluator, LoopModel, SampledLoop
 from engine.margins.detection_grid import detection_grid, may_hide_pair
 from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.sampled import sampled_peaks
-from engine.margins.search import FIT_LIMIT, Band, fitted_loop
-from engine.numerics.refinement import refine, sign_changes
+from engine.margins.search import FIT_LIMIT, Band, Margins, fitted_loop, margins, margins_alongside
+from engine.numerics.refinement import Job, Roots, refine, sign_changes
 
 # (omega, GH, dGH/domega) -> (f, df/domega): the magnitude |f| is what a peak maximizes
 Transform = Callable[[NDArray, NDArray, NDArray], tuple[NDArray, NDArray]]
@@ -143,8 +143,7 @@ def magnitude_curves(loop: LoopModel, omega: NDArray | None = None) -> tuple[NDA
 
 def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band = Band()) -> tuple[Peak, ...]:
     """The peak of |f| over ``band`` for every transform f, refined together (module docstring)."""
-    if not band.low <= band.high or band.low < 0:
-        raise EngineError(f"a peak's band must be 0 <= low <= high, not {band.low!r}..{band.high!r}")
+    _check_band(band)
     if not transforms:
         return ()
     if isinstance(loop, SampledLoop):
@@ -154,9 +153,36 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
     peaks = _without_grid(loop, transforms, band)
     if peaks is not None:
         return peaks
-    peaks = _peaks_on(loop, transforms, band)
+    return _checked(loop, transforms, band, _peaks_on(loop, transforms, band))
+
+
+def margins_and_peaks(
+    loop: LoopModel, transforms: Sequence[Transform], attenuation_above: float | None = None
+) -> tuple[Margins, tuple[Peak, ...]]:
+    """``margins(loop, attenuation_above=...)`` and ``refined_peaks(loop, transforms)``, the same numbers;
+    when both search the loop's detection grid, the peaks' maxima are refined in the same vectorized
+    steps as the margins' crossings and extrema (`engine.margins.search.margins_alongside`): one
+    refinement of the loop, not two."""
+    if not transforms or isinstance(loop, SampledLoop) or loop.evaluate is None:
+        return margins(loop, attenuation_above=attenuation_above), refined_peaks(loop, transforms)
+    peaks = _without_grid(loop, transforms, Band())
+    if peaks is not None:
+        return margins(loop, attenuation_above=attenuation_above), peaks
+    search = _peak_search(loop, transforms, Band())
+    found, roots = margins_alongside(loop, search.job, attenuation_above)
+    peaks = _peaks_of(loop, transforms, Band(), search, search.refined() if roots is None else roots)
+    return found, _checked(loop, transforms, Band(), peaks)
+
+
+def _check_band(band: Band) -> None:
+    if not band.low <= band.high or band.low < 0:
+        raise EngineError(f"a peak's band must be 0 <= low <= high, not {band.low!r}..{band.high!r}")
+
+
+def _checked(loop: LoopModel, transforms: Sequence[Transform], band: Band, peaks: tuple[Peak, ...]) -> tuple[Peak, ...]:
+    """The peaks found on the loop's fast form, or searched again on the network where that form disagrees there."""
     if loop.exact is not loop.evaluate and not fast_form_agrees(loop, transforms, peaks):
-        peaks = _peaks_on(loop.on_exact(), transforms, band)
+        return _peaks_on(loop.on_exact(), transforms, band)
     return peaks
 
 
@@ -177,6 +203,27 @@ def _without_grid(loop: LoopModel, transforms: Sequence[Transform], band: Band) 
 
 
 def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> tuple[Peak, ...]:
+    search = _peak_search(loop, transforms, band)
+    return _peaks_of(loop, transforms, band, search, search.refined())
+
+
+@dataclass(frozen=True)
+class PeakSearch:
+    """A grid search of peaks up to its refinement: the resolved grid ``w``, each transform's levels on it,
+    the interior maxima's brackets (``job``, None when there are none) and which transform each is of."""
+
+    w: NDArray
+    levels: list[tuple[NDArray, NDArray]]
+    group: NDArray
+    job: Job | None
+    notes: list[str]
+
+    def refined(self) -> Roots | None:
+        """The maxima refined alone."""
+        return None if self.job is None else refine(*self.job)
+
+
+def _peak_search(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> PeakSearch:
     grid = detection_grid(loop)
     notes = list(grid.notes)
     if not loop.rational:
@@ -186,11 +233,18 @@ def _peaks_on(loop: LoopModel, transforms: Sequence[Transform], band: Band) -> t
     w, gh, dgh = band_grid(loop, grid.omega, grid.gh, grid.dgh, band)
     w, gh, dgh = resolved_grid(loop, transforms, w, gh, dgh, notes)
     levels = [log_level(*t(w, gh, dgh)) for t in transforms]
-    at, group = refined_maxima(loop, transforms, w, levels)
-    found = [
-        _candidates(w, levels[k][0], at[group == k], _values(loop, transforms[k], at[group == k]))
-        for k in range(len(transforms))
-    ]
+    job, group = maxima_job(loop, transforms, w, levels)
+    return PeakSearch(w, levels, group, job, notes)
+
+
+def _peaks_of(
+    loop: LoopModel, transforms: Sequence[Transform], band: Band, search: PeakSearch, roots: Roots | None
+) -> tuple[Peak, ...]:
+    """The peaks from the refined maxima (``roots``), the grid points and the ends."""
+    w, group, notes = search.w, search.group, search.notes
+    at = np.zeros(0) if roots is None else roots.at
+    values = _levels_at(loop, transforms, at, group)[0]
+    found = [_candidates(w, search.levels[k][0], at[group == k], values[group == k]) for k in range(len(transforms))]
     ends = _ends(loop, transforms, w, band, notes) if loop.rational else [([], [])] * len(transforms)
     out = []
     for (points, values), (end_w, end_v) in zip(found, ends):
@@ -226,13 +280,12 @@ def resolved_grid(
     loop: LoopModel, transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray, notes: list[str]
 ) -> tuple[NDArray, ...]:
     """The grid with every interval halved that could hide a pair of extrema of
-    some |f| (the detection grid's own test, `may_hide_pair`, on f), bounded."""
+    some |f| (the detection grid's own test, `may_hide_pair`, on f), bounded.
+    The test reads an interval's ends alone: each round tests only the halves
+    made by the last one (an interval left whole passed it already)."""
     budget = w.size + EXTRA_POINTS
+    split = _hiding(transforms, w, gh, dgh, np.arange(w.size - 1))
     for _ in range(MAX_ROUNDS):
-        split = np.zeros(w.size - 1, dtype=bool)
-        for t in transforms:
-            split |= _may_hide(*t(w, gh, dgh))
-        split &= (w[1:] - w[:-1]) > 1e-12 * w[1:]
         if not split.any():
             return w, gh, dgh
         if w.size + np.count_nonzero(split) > budget:
@@ -247,16 +300,31 @@ def resolved_grid(
         w, gh, dgh = np.concatenate([w, mid]), np.concatenate([gh, mg]), np.concatenate([dgh, mdg])
         order = np.argsort(w, kind="stable")
         w, gh, dgh = w[order], gh[order], dgh[order]
+        at = np.flatnonzero(order >= w.size - mid.size)  # the middles' places: each opens two new intervals
+        fresh = np.concatenate([at - 1, at])
+        split = np.zeros(w.size - 1, dtype=bool)
+        split[fresh] = _hiding(transforms, w, gh, dgh, fresh)
     notes.append(f"the peak search stopped after {MAX_ROUNDS} rounds of halving")
     return w, gh, dgh
 
 
-def _may_hide(f: NDArray, df: NDArray) -> NDArray[np.bool_]:
-    """Intervals over which |f| could have a maximum and a minimum inside."""
+def _hiding(transforms: Sequence[Transform], w: NDArray, gh: NDArray, dgh: NDArray, index: NDArray) -> NDArray:
+    """Which of the intervals [w[i], w[i + 1]] (i in ``index``) could hide a pair of extrema
+    of some |f| and can still be halved."""
+    ends, k = np.concatenate([index, index + 1]), index.size
+    values = [t(w[ends], gh[ends], dgh[ends]) for t in transforms]
+    f, df = np.array([v[0] for v in values]), np.array([v[1] for v in values])  # a row per transform
+    hide = _may_hide(f[:, :k], df[:, :k], f[:, k:], df[:, k:]).any(axis=0)
+    return hide & ((w[index + 1] - w[index]) > 1e-12 * w[index + 1])
+
+
+def _may_hide(f0: NDArray, df0: NDArray, f1: NDArray, df1: NDArray) -> NDArray[np.bool_]:
+    """Intervals (ends: f and df/domega at 0 and 1) over which |f| could have a maximum and a minimum inside."""
     with np.errstate(all="ignore"):
-        theta = np.arctan2((df / f).imag, (df / f).real)
-        turn = np.abs(np.angle(f[1:] / f[:-1])) + np.abs(np.angle(df[1:] / df[:-1]))
-        hide = may_hide_pair(theta[:-1], theta[1:], turn)
+        ratio0, ratio1 = df0 / f0, df1 / f1
+        theta0, theta1 = np.arctan2(ratio0.imag, ratio0.real), np.arctan2(ratio1.imag, ratio1.real)
+        turn = np.abs(np.angle(f1 / f0)) + np.abs(np.angle(df1 / df0))
+        hide = may_hide_pair(theta0, theta1, turn)
     return hide & np.isfinite(turn)
 
 
@@ -265,10 +333,19 @@ def refined_maxima(
 ) -> tuple[NDArray, NDArray]:
     """Every interior maximum of every |f| (h' from + to -), refined in one
     vectorized `refine`; their frequencies and which transform each is of."""
+    job, group = maxima_job(loop, transforms, w, levels)
+    return (np.zeros(0) if job is None else refine(*job).at), group
+
+
+def maxima_job(
+    loop: LoopModel, transforms: Sequence[Transform], w: NDArray, levels: list[tuple[NDArray, NDArray]]
+) -> tuple[Job | None, NDArray]:
+    """`refined_maxima`'s brackets and level function (None: no interior maximum), and which
+    transform each bracket is of."""
     index = [sign_changes(d, falling_only=True) for _, d in levels]
     group = np.concatenate([np.full(i.size, k) for k, i in enumerate(index)]).astype(int)
     if group.size == 0:
-        return np.zeros(0), group
+        return None, group
     i = np.concatenate(index)
     h = np.concatenate([levels[k][0][j] for k, j in enumerate(index)])
     h1 = np.concatenate([levels[k][0][j + 1] for k, j in enumerate(index)])
@@ -276,24 +353,20 @@ def refined_maxima(
     d1 = np.concatenate([levels[k][1][j + 1] for k, j in enumerate(index)])
 
     def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
-        g, dg = loop.evaluate(points)
-        h_out, d_out = np.empty(points.size), np.empty(points.size)
-        owner = group[which]
-        for k, t in enumerate(transforms):
-            sel = owner == k
-            if sel.any():
-                h_out[sel], d_out[sel] = log_level(*t(points[sel], g[sel], dg[sel]))
-        return h_out, d_out
+        return _levels_at(loop, transforms, points, group[which])
 
-    roots = refine(fun, w[i], w[i + 1], h, h1, d, d1, True)
-    return roots.at, group
+    return Job(fun, w[i], w[i + 1], h, h1, d, d1, True), group
 
 
-def _values(loop: LoopModel, transform: Transform, at: NDArray) -> NDArray:
+def _levels_at(loop: LoopModel, transforms: Sequence[Transform], at: NDArray, owner: NDArray) -> tuple[NDArray, ...]:
+    """h = log |f| and h' at each point ``at`` of its own transform (``owner``: its number), in one evaluation
+    of the loop: every transform on every point, each point's taken."""
     if at.size == 0:
-        return np.zeros(0)
+        return np.zeros(0), np.zeros(0)
     g, dg = loop.evaluate(at)
-    return log_level(*transform(at, g, dg))[0]
+    rows = [log_level(*t(at, g, dg)) for t in transforms]
+    column = np.arange(at.size)
+    return np.array([h for h, _ in rows])[owner, column], np.array([d for _, d in rows])[owner, column]
 
 
 def _candidates(w: NDArray, h: NDArray, at: NDArray, values: NDArray) -> tuple[NDArray, NDArray]:
@@ -322,23 +395,12 @@ def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float, facto
     """Per transform, log |f| as omega -> 0 (factor < 1) or inf, by steps of
     factor**(2**j) (at most `END_LOOKS`), and whether it settled (changed by
     at most 4 ulp).  A level still falling there is -inf (never the peak)."""
-    rows = []
-    for j in range(END_LOOKS):
-        x = np.array([start * factor ** (2 ** (j + 1))])
-        if not (0 < x[0] < np.inf):
-            break
-        try:
-            with np.errstate(all="ignore"):
-                g, dg = loop.evaluate(x)
-        except EngineError:  # the response overflows out there: the looks so far are the limit
-            break
-        with np.errstate(all="ignore"):
-            rows.append([log_level(*t(x, g, dg))[0][0] for t in transforms])
-        if len(rows) >= 2 and np.all(_settled(np.array(rows[-2]), np.array(rows[-1]))):
-            break
-    out = []
+    looks = [start * factor ** (2 ** (j + 1)) for j in range(END_LOOKS)]
+    within = next((j for j, x in enumerate(looks) if not 0 < x < np.inf), len(looks))
+    rows = _looked(loop, transforms, np.array(looks[:within]))
+    rows, out = rows[: _first_settled(rows)], []
     for k in range(len(transforms)):
-        values = np.array([row[k] for row in rows])
+        values = rows[:, k]
         values = values[~np.isnan(values)]
         if values.size < 2:
             out.append((-np.inf, True))
@@ -347,6 +409,25 @@ def _limit(loop: LoopModel, transforms: Sequence[Transform], start: float, facto
         else:
             out.append((-np.inf, True) if values[-1] < values[-2] else (float(values[-1]), False))
     return out
+
+
+def _looked(loop: LoopModel, transforms: Sequence[Transform], x: NDArray) -> NDArray:
+    """log |f| at the looks ``x``, a row per look and a column per transform, in one evaluation; the
+    looks from the first whose response overflows on left out (an `EngineError`: those before are the limit)."""
+    try:
+        with np.errstate(all="ignore"):
+            g, dg = loop.evaluate(x)
+    except EngineError:
+        return _looked(loop, transforms, x[:-1]) if x.size > 1 else np.zeros((0, len(transforms)))
+    with np.errstate(all="ignore"):
+        return np.array([log_level(*t(x, g, dg))[0] for t in transforms]).reshape(len(transforms), x.size).T
+
+
+def _first_settled(rows: NDArray) -> int:
+    """How many looks the sequential search takes: up to the first whose every level is within 4 ulp of the
+    look before (all of them when none is)."""
+    calm = np.flatnonzero(_settled(rows[:-1], rows[1:]).all(axis=1))
+    return int(calm[0]) + 2 if calm.size else rows.shape[0]
 
 
 def _settled(a: NDArray, b: NDArray) -> NDArray[np.bool_]:

@@ -38,7 +38,7 @@ from engine.margins.sampled import sampled_margins
 from engine.margins.shape_notes import level_notes, shape_notes
 from engine.margins.values import FAMILY_LOWEST, Band, Margin, Margins, family, margins_of, single_margin
 from engine.numerics.rational_fit import Trend
-from engine.numerics.refinement import Roots, refine, sign_changes
+from engine.numerics.refinement import Job, Roots, refine, refine_together, sign_changes
 
 
 def margins(
@@ -83,10 +83,29 @@ def margins(
             )
             + notes,
         )
-    grid, (found, notes) = None, _without_grid(loop)
+    return _searched(loop, gain_band, phase_band, attenuation_above)[0]
+
+
+def margins_alongside(
+    loop: LoopModel, job: Job | None, attenuation_above: float | None = None
+) -> tuple[Margins, Roots | None]:
+    """``margins(loop, attenuation_above=...)``, and another search's brackets on the same loop (``job``,
+    e.g. the closed-loop peaks') refined in the same steps as the margins' own when those are refined on
+    a detection grid: their `Roots`, as `refine` gives them alone; None when the margins took another way
+    (the caller refines them itself)."""
+    if isinstance(loop, SampledLoop) or loop.evaluate is None:
+        return margins(loop, attenuation_above=attenuation_above), None
+    return _searched(loop, Band(), Band(), attenuation_above, job)
+
+
+def _searched(
+    loop: LoopModel, gain_band: Band, phase_band: Band, attenuation_above: float | None, job: Job | None = None
+) -> tuple[Margins, Roots | None]:
+    """The margins of a loop with an evaluator (`margins`), and ``job``'s roots when refined with them."""
+    grid, (found, notes), shared = None, _without_grid(loop), None
     if found is None:
         grid = detection_grid(loop)
-        found = _refined(loop, grid)
+        found, shared = _refined_alongside(loop, grid, job)
     if loop.exact is not loop.evaluate and not getattr(loop.evaluate, "factored", False):
         off = _disagreement(loop, found)
         if off > AGREEMENT:  # the pole-zero form is off where it matters: refine on the network
@@ -110,7 +129,7 @@ def margins(
     above = float("inf") if attenuation_above is None else attenuation_above
     stability = found["S"]
     families = tuple(f for f in (family("G", gain, loop.delay), family("S", stability, loop.delay)) if f is not None)
-    return Margins(
+    found_margins = Margins(
         gain=tuple(m for m in gain if gain_band.contains(m.frequency)),
         phase=tuple(m for m in found["P"] if phase_band.contains(m.frequency)),
         stability=tuple(stability),
@@ -120,6 +139,7 @@ def margins(
         crossovers_beyond=None if grid is None else grid.crossovers_beyond,
         families=families,
     )
+    return found_margins, shared
 
 
 def _few_delay_margins(loop: LoopModel, grid: Detection, found: int) -> list[str]:
@@ -342,6 +362,13 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
     watched while they are refined (`refine`'s ``hiding``): extrema of |GH|
     for gain crossovers, extrema of the phase for phase crossovers.
     """
+    return _refined_alongside(loop, grid, None)[0]
+
+
+def _refined_alongside(
+    loop: LoopModel, grid: Detection, job: Job | None
+) -> tuple[dict[str, list[Margin]], Roots | None]:
+    """`_refined`, and ``job``'s roots refined in the same steps (None without a job)."""
     w, gh, dgh = grid.omega, grid.gh, grid.dgh
     brackets = _grid_brackets(w, gh, dgh, grid.flat)
     if loop.axis_poles.size:
@@ -349,13 +376,14 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
     names = list(brackets)
     index = np.concatenate([brackets[name].index for name in names])
     counts = [brackets[name].index.size for name in names]
-    roots = _refine(
+    mine = _job(
         loop,
         (w[index], gh[index], dgh[index]),
         (w[index + 1], gh[index + 1], dgh[index + 1]),
         [LEVELS[name] for name in names],
         counts,
     )
+    roots, shared = refine_together([mine, job]) if job is not None else (refine(*mine), None)
     bounds = np.cumsum([0] + counts)
     frequencies = {name: roots.at[start:stop] for name, start, stop in zip(names, bounds[:-1], bounds[1:])}
     for name, start, stop in zip(names, bounds[:-1], bounds[1:]):
@@ -373,7 +401,7 @@ def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:
             near = np.min(np.abs(unique[:, None] / loop.axis_poles[None, :] - 1.0), axis=1) < 1e-12
             unique, first = unique[~near], first[~near]
         margins[name] = margins_of(name, unique, at[first])
-    return margins
+    return margins, shared
 
 
 @dataclass(frozen=True)
@@ -498,6 +526,11 @@ def _level_values(
 def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: list[int]) -> Roots:
     """`refine` on brackets given by their ends' (omega, GH, dGH), ``counts[k]``
     of them on ``levels[k]``."""
+    return refine(*_job(loop, lo, hi, levels, counts))
+
+
+def _job(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: list[int]) -> Job:
+    """`_refine`'s brackets and level function as a `Job` (to refine alone or with another search's)."""
 
     def each(field: str, dtype: type) -> NDArray:
         return np.repeat(np.array([getattr(level, field) for level in levels], dtype=dtype), counts)
@@ -508,7 +541,7 @@ def _refine(loop: LoopModel, lo: tuple, hi: tuple, levels: list[Level], counts: 
     def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
         return _level_values(*loop.evaluate(points), shift[which], left[which], offset[which], angle[which])
 
-    return refine(fun, lo[0], hi[0], ha, hb, da, db, each("stationary", bool), each("watched", bool))
+    return Job(fun, lo[0], hi[0], ha, hb, da, db, each("stationary", bool), each("watched", bool))
 
 
 def _end_levels(shift: NDArray, angle: NDArray, lo: tuple, hi: tuple) -> tuple:

@@ -34,7 +34,7 @@ W is doubled from N's largest mode until that bound is below gamma.  Bounded: `M
 interval tests, the certificate's time (`engine.multiloop.disk.MOST_SECONDS`), `MOST_DOUBLINGS`.
 
 The closed loop's stability with its delays is decided first (`engine.multiloop.delay_stability`):
-not stable, alpha = 0; undecided, alpha_lower = 0 and the reason said."""
+not stable, alpha = 0; undecided, alpha_lower = 0 and the reason said, no certificate run."""
 
 from __future__ import annotations
 
@@ -52,10 +52,12 @@ from engine.model.ports.state_space_ports import balanced_ports
 from engine.multiloop import mu
 from engine.multiloop.delay_stability import Verdict, delayed_verdict, delays_less_one, delays_moved
 from engine.multiloop.disk import (
+    LEVEL,
     MOST_SECONDS,
     MultiLoopDiskMargin,
     Peak,
     bracketed,
+    candidates,
     mode_grid,
     result,
 )
@@ -351,18 +353,41 @@ def _frozen_where_loose(
         bound[i] = min(bound[i], frozen_bound(system, float(lo[i]), float(hi[i]), x[i]))
 
 
-def delayed_disk_margin(opened: OpenedDelays, breaks: tuple[str, ...], skew: float = 0.0) -> MultiLoopDiskMargin:
-    """The multi-loop disk margin at ``breaks`` of a diagram whose delays ``opened`` cut (module docstring)."""
+def delayed_disk_margin(
+    opened: OpenedDelays, breaks: tuple[str, ...], skew: float = 0.0, stability: Verdict | None = None
+) -> MultiLoopDiskMargin:
+    """The multi-loop disk margin at ``breaks`` of a diagram whose delays ``opened`` cut (module docstring);
+    ``stability``: the closed loop's verdict when the caller has counted it already (the same closed loop
+    whatever the breaks), else counted here."""
     skew = check_skew(skew)
     started = time.perf_counter()
     system = delayed_loops(opened, breaks, skew)
-    verdict = delayed_verdict(system.modal, system.taus)
+    verdict = delayed_verdict(system.modal, system.taus) if stability is None else stability
     if verdict.status == "unstable":
         return _unstable(skew, verdict)
-    peak, gamma, status, tests = bracketed(system, system.omega, certify_delayed, started)
     if verdict.status != "stable":
-        status = f"stability undecided: {verdict.note}"
+        return _undecided(system, skew, verdict)
+    peak, gamma, status, tests = bracketed(system, system.omega, certify_delayed, started)
     return result(system.loops, skew, peak, gamma, status, tests, CERTIFICATE, (verdict.note,))
+
+
+def _undecided(system: DelayedLoops, skew: float, verdict: Verdict) -> MultiLoopDiskMargin:
+    """Stability undecided: no certificate is run (a bound of mu over frequency is a margin only for a
+    stable closed loop), alpha_lower 0 and why; alpha_upper from the grid's best peak (a perturbation
+    found there destabilizes whatever the verdict), inf when mu cannot be evaluated on the grid (a
+    delay-free pole on the axis makes N infinite there)."""
+    status = f"stability undecided: {verdict.note}"
+    skipped = "the certificate over frequency is not run: it bounds mu of a stable closed loop only"
+    try:
+        with np.errstate(all="ignore"):
+            peak = candidates(system, system.omega)
+    except np.linalg.LinAlgError as exc:
+        note = f"mu could not be evaluated on the grid ({exc}): alpha_upper unknown (inf)"
+        return MultiLoopDiskMargin(
+            0.0, 0.0, math.inf, skew, 1.0, 1.0, 0.0, math.nan, status, (), (verdict.note, skipped, note), 0, CERTIFICATE
+        )
+    gamma = max(peak.high, peak.low) * (1.0 + LEVEL)
+    return result(system.loops, skew, peak, gamma, status, 0, CERTIFICATE, (verdict.note, skipped))
 
 
 def _unstable(skew: float, verdict: Verdict) -> MultiLoopDiskMargin:

@@ -13,13 +13,14 @@ from dataclasses import dataclass
 
 from numpy.typing import ArrayLike
 
-from engine.analysis import closed_loop_peaks
-from engine.closed_loop.poles import closed_loop_verdict
+from engine.analysis import closed_loop_peaks, margins_with_peaks
+from engine.closed_loop.poles import closed_loop_verdict, delayed_verdict
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.margins.disk import DiskMargin
-from engine.margins.search import Margins, margins
+from engine.margins.search import Margins
 from engine.model.network import Network
+from engine.multiloop.delay_stability import Verdict
 from engine.multiloop.disk import MultiLoopDiskMargin
 from engine.multiloop.network_breaks import diagram_disk_margin
 
@@ -49,18 +50,28 @@ def diagram_breaks(
     network: Network, breaks: Sequence[str], omega: ArrayLike, params: Mapping[str, float]
 ) -> DiagramBreaks:
     """The loops at ``breaks`` one at a time and all together (module docstring)."""
-    verdict = closed_loop_verdict(network, params)
+    verdict, counted = _verdict(network, params)
     loops = tuple(_break_loop(network, name, omega, params, verdict) for name in breaks)
     try:
-        return DiagramBreaks(verdict, loops, diagram_disk_margin(network, breaks, dict(params)))
+        return DiagramBreaks(verdict, loops, diagram_disk_margin(network, breaks, dict(params), stability=counted))
     except EngineError as exc:
         return DiagramBreaks(verdict, loops, None, str(exc))
+
+
+def _verdict(network: Network, params: Mapping[str, float]) -> tuple[str, Verdict | None]:
+    """The closed loop's verdict, and for a loop with delays the argument count it rests on (counted once:
+    the multi-loop margin takes it, the same closed loop whatever the breaks)."""
+    if network.rational:
+        return closed_loop_verdict(network, params), None
+    status, note = delayed_verdict(network, params)
+    return status, Verdict("undecided" if status == "unknown" else status, note)
 
 
 def _break_loop(network: Network, name: str, omega: ArrayLike, params: Mapping[str, float], verdict: str) -> BreakLoop:
     try:
         model = loop_model(network, name, omega, params)
-        disk, *_ = closed_loop_peaks(model, verdict)
-        return BreakLoop(name, margins(model), disk)
+        found, peaks = margins_with_peaks(model, 0.0)
+        disk, *_ = closed_loop_peaks(model, verdict, found=peaks)
+        return BreakLoop(name, found, disk)
     except EngineError as exc:
         return BreakLoop(name, None, None, str(exc))

@@ -13,13 +13,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike
 
-from engine.analysis import LoopAnalysis, analyze, closed_loop_peaks, unity_feedback
+from engine.analysis import LoopAnalysis, analyze, closed_loop_peaks, margins_with_peaks, unity_feedback
 from engine.errors import EngineError
 from engine.loop.responses import loop_model
 from engine.loop.sampled import analyze_sampled
 from engine.margins.disk import DiskMargin
 from engine.margins.peaks import Peak
-from engine.margins.search import Margins, margins
+from engine.margins.search import Margins
 from engine.model.bilinear import real_frequency, realization_in_w
 from engine.model.blocks import StateSpaceTransfer
 from engine.multiloop.disk import STABLE, MultiLoopDiskMargin, multi_loop_disk_margin
@@ -119,6 +119,7 @@ def break_margins(plant: Plant, omega: ArrayLike, skew: float = 0.0) -> tuple[Br
     out = []
     for name in plant.names:
         model = loop_model(unity_feedback(["1"], state_space=break_loop(plant, name)), "e", w, {})
-        disk, ms, mt, _ = closed_loop_peaks(model, verdict, skew)
-        out.append(BreakMargins(name, margins(model), disk, ms, mt))
+        found, peaks = margins_with_peaks(model, skew)
+        disk, ms, mt, _ = closed_loop_peaks(model, verdict, skew, peaks)
+        out.append(BreakMargins(name, found, disk, ms, mt))
     return tuple(out)

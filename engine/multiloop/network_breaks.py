@@ -19,6 +19,7 @@ from engine.loop.realization import StateSpace, realize, realize_opened
 from engine.model.bilinear import real_frequency
 from engine.model.blocks import DelayTransfer, TabulatedTransfer
 from engine.model.network import Network
+from engine.multiloop.delay_stability import Verdict
 from engine.multiloop.delayed import delayed_disk_margin
 from engine.multiloop.disk import MultiLoopDiskMargin, multi_loop_disk_margin
 from engine.multiloop.plant import Plant, balanced_plant
@@ -65,13 +66,18 @@ def _plant(ss: StateSpace, breaks: Sequence[str]) -> tuple[Plant, float | None]:
 
 
 def diagram_disk_margin(
-    network: Network, breaks: Sequence[str], params: Mapping[str, float], skew: float = 0.0
+    network: Network,
+    breaks: Sequence[str],
+    params: Mapping[str, float],
+    skew: float = 0.0,
+    stability: Verdict | None = None,
 ) -> MultiLoopDiskMargin:
-    """The multi-loop disk margin at the diagram's ``breaks`` (module docstring)."""
+    """The multi-loop disk margin at the diagram's ``breaks`` (module docstring); ``stability``: the
+    closed loop's verdict with its delays when the caller has it (`engine.multiloop.delayed`)."""
     if any(isinstance(e.transfer, DelayTransfer) for e in network.entries) and refused_blocks(network) is None:
         opened = realize_opened(broken_at(network, breaks), params)
         if opened.taus:
-            return delayed_disk_margin(opened, tuple(breaks), skew)
+            return delayed_disk_margin(opened, tuple(breaks), skew, stability)
         plant, sample_time = _plant(opened.ss, breaks)
     else:
         plant, sample_time = breaks_plant(network, breaks, params)

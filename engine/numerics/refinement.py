@@ -23,7 +23,7 @@ converging Newton or cubic step) or its width reaches 4 ulp."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -46,6 +46,7 @@ class Roots(NamedTuple):
     at: NDArray[np.float64]
     hidden: NDArray[np.float64]  # (brackets, 2): left and right crossing
     bounded: int = 0  # brackets the bound on rounds stopped (their middles stand): Status.ROUNDS
+    stopped: NDArray[np.bool_] | None = None  # which: the roots, then the hidden crossings (two a bracket)
 
 
 def refine(
@@ -100,10 +101,14 @@ def refine(
         "stalled": np.zeros(start.size, dtype=int),
     }
 
+    bounded = np.zeros(3 * n, dtype=bool)  # the slots the bound on rounds stopped
+
     def finish(work: Work, which: NDArray[np.bool_], status: NDArray[np.int8]) -> None:
         # settled: the estimate or the better end; the rounds ran out: the bracket's middle
         middle = 0.5 * (work["lo"][0][which] + work["hi"][0][which])
-        out[work["slot"][which]] = np.where(status == Status.ROUNDS, middle, work["root"][which])
+        slots, rounds = work["slot"][which], status == Status.ROUNDS
+        out[slots] = np.where(rounds, middle, work["root"][which])
+        bounded[slots[rounds]] = True
 
     def advance(work: Work) -> Work:
         p, q, bisect = _next_points(work, work["x"], work["best"])
@@ -118,8 +123,53 @@ def refine(
         return work
 
     with np.errstate(all="ignore"):
-        outcome = iterate(work, _stopped, advance, finish, max_iter)
-    return Roots(out[:n], out[n:].reshape(n, 2), outcome.bounded)
+        iterate(work, _stopped, advance, finish, max_iter)
+    return Roots(out[:n], out[n:].reshape(n, 2), int(np.count_nonzero(bounded)), bounded)
+
+
+class Job(NamedTuple):
+    """One caller's brackets and level function for `refine_together` (`refine`'s arguments)."""
+
+    fun: LevelFunction
+    a: NDArray
+    b: NDArray
+    ha: NDArray
+    hb: NDArray
+    da: NDArray
+    db: NDArray
+    stationary: bool | NDArray[np.bool_]
+    hiding: NDArray[np.bool_] | None = None
+
+
+def refine_together(jobs: Sequence[Job], max_iter: int = 200) -> list[Roots]:
+    """Several callers' brackets refined in one `refine` (one vectorized step a round for all of them,
+    each job's function evaluated on its own brackets' points): each job's `Roots` are what `refine`
+    gives it alone, every bracket being stepped on its own."""
+    sizes = [int(np.size(job.a)) for job in jobs]
+    starts = np.cumsum([0] + sizes)
+
+    def fun(points: NDArray, which: NDArray) -> tuple[NDArray, NDArray]:
+        h, d = np.empty(points.size), np.empty(points.size)
+        for job, lo, hi in zip(jobs, starts[:-1], starts[1:]):
+            mine = (which >= lo) & (which < hi)
+            if mine.any():
+                h[mine], d[mine] = job.fun(points[mine], which[mine] - lo)
+        return h, d
+
+    def joined(field: str, dtype: type) -> NDArray:
+        parts = [
+            np.zeros(size, dtype=bool) if getattr(job, field) is None else getattr(job, field)
+            for job, size in zip(jobs, sizes)
+        ]
+        return np.concatenate([np.broadcast_to(np.asarray(p, dtype=dtype), (size,)) for p, size in zip(parts, sizes)])
+
+    args = [joined(field, float) for field in ("a", "b", "ha", "hb", "da", "db")]
+    found = refine(fun, *args, joined("stationary", bool), joined("hiding", bool), max_iter)
+    n, out = starts[-1], []
+    for lo, hi in zip(starts[:-1], starts[1:]):
+        stopped = np.concatenate([found.stopped[lo:hi], found.stopped[n + 2 * lo : n + 2 * hi]])
+        out.append(Roots(found.at[lo:hi], found.hidden[lo:hi], int(np.count_nonzero(stopped)), stopped))
+    return out
 
 
 def _stopped(work: Work) -> NDArray[np.int8]:

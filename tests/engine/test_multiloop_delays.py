@@ -160,6 +160,49 @@ def test_a_neutral_delay_loop_is_undecided_by_name():
     assert decided.alpha_lower == pytest.approx(1 / 1.5, rel=1e-6)
 
 
+def test_an_undecided_verdict_runs_no_certificate(monkeypatch):
+    """Stability undecided: the certificate over frequency is not run (it bounds mu of a stable closed loop
+    only; the neutral loop spent its 200 doublings of the tail's W in it), alpha_lower 0, why said.  1/s^2
+    exp(-0.1 s): its delay-free closed-loop poles +-j make N infinite on the grid; the LinAlgError escaped,
+    now alpha_upper is inf, said."""
+    import engine.multiloop.delayed as delayed
+    from engine.analysis import unity_feedback
+
+    certified = []
+    monkeypatch.setattr(delayed, "certify_delayed", lambda *args: certified.append(args) or ("certified", 0, None))
+    neutral = diagram_disk_margin(unity_feedback(["2"], delay=0.1), ["e"], {})
+    assert neutral.status.startswith("stability undecided: a delay's loop keeps") and not certified
+    assert neutral.alpha_lower == 0.0 and neutral.alpha_upper == pytest.approx(1 / 1.5, rel=1e-9)  # |1/(1 + 2) - 1/2|
+    assert any(n.startswith("the certificate over frequency is not run") for n in neutral.notes)
+    on_axis = diagram_disk_margin(unity_feedback(["1/s^2"], delay=0.1), ["e"], {})
+    assert on_axis.status == "stability undecided: a pole of the loop with every delay 0 lies on the imaginary axis"
+    assert (on_axis.alpha_lower, on_axis.alpha_upper) == (0.0, np.inf) and not certified
+    assert any("alpha_upper unknown" in n for n in on_axis.notes)
+
+
+def test_every_break_of_a_delayed_diagram_counts_its_argument_once(tmp_path, monkeypatch):
+    """`diagram_breaks` decided the closed loop's stability with its delays, then the multi-loop margin
+    counted the same closed loop again: one argument count now, its verdict passed on; the margin is the
+    one `diagram_disk_margin` finds alone."""
+    import engine.multiloop.delay_stability as stability
+    import engine.multiloop.delayed as delayed
+    from engine.multiloop.diagram_breaks import diagram_breaks
+
+    network = delayed_network(tmp_path, 0.05)
+    alone = diagram_disk_margin(network, ["u1", "u2"], {})
+    counts, original = [], stability.delayed_verdict
+
+    def counted(*args):
+        counts.append(1)
+        return original(*args)
+
+    monkeypatch.setattr(stability, "delayed_verdict", counted)  # read by engine.closed_loop.poles when called
+    monkeypatch.setattr(delayed, "delayed_verdict", counted)
+    found = diagram_breaks(network, ["u1", "u2"], np.geomspace(1e-2, 1e2, 50), {})
+    assert len(counts) == 1 and found.verdict == "stable" and alone.status == "certified"
+    assert (found.together.alpha_lower, found.together.alpha_upper) == (alone.alpha_lower, alone.alpha_upper)
+
+
 # --- random 2-loop plants with delays at their inputs (seeded) -------------------------------------
 
 

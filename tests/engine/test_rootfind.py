@@ -108,3 +108,31 @@ def test_newton_takes_over_when_the_inverse_cubic_is_not_monotone():
     found = refine(fun, a, b, h[:1], h[1:], d[:1], d[1:], stationary=False).at
     np.testing.assert_allclose(found, [0.1], rtol=8 * np.finfo(float).eps)
     assert len(calls) <= 8
+
+
+def test_jobs_refined_together_give_what_each_gives_alone():
+    """`refine_together`: the watched maximum of 1 - (x - 2)^2 (revealing 1 and 3) and a crossing of
+    x^2 - 2 in one job, the extrema of sin x and (x - e)^2 + 1 in another: every root, hidden crossing
+    and bound count is `refine`'s for that job alone, to the bit; with 3 rounds, the bound bites
+    in both, each job counting its own brackets."""
+    from engine.numerics.refinement import Job, refine_together
+
+    first = [
+        lambda x: (1.0 - (x - 2.0) ** 2, -2.0 * (x - 2.0)),
+        lambda x: (x * x - 2.0, 2.0 * x),
+    ]
+    second = [lambda x: (math.sin(x), math.cos(x)), lambda x: ((x - math.e) ** 2 + 1.0, 2 * (x - math.e))]
+    a1, b1 = np.array([0.5, 1.0]), np.array([3.5, 2.0])
+    a2, b2 = np.array([1.0, 2.0]), np.array([3.0, 3.0])
+    jobs = [
+        Job(_levels(first), a1, b1, *_ends(first, a1, b1), np.array([True, False]), np.array([True, False])),
+        Job(_levels(second), a2, b2, *_ends(second, a2, b2), True),
+    ]
+    for rounds in (200, 3):
+        together = refine_together(jobs, max_iter=rounds)
+        for job, found in zip(jobs, together):
+            alone = refine(*job, max_iter=rounds)
+            np.testing.assert_array_equal(found.at, alone.at)
+            np.testing.assert_array_equal(found.hidden, alone.hidden)
+            assert found.bounded == alone.bounded and (found.bounded > 0) == (rounds == 3)
+    np.testing.assert_allclose(refine_together(jobs)[0].hidden[0], [1.0, 3.0], rtol=8 * np.finfo(float).eps)

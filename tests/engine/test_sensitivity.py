@@ -194,3 +194,29 @@ def test_a_closed_loop_pole_on_the_axis_makes_the_peaks_unbounded(text, at):
             assert math.isfinite(peak.value) and not any(n.startswith("unbounded") for n in peak.notes)
     if at is not None:
         assert sensitivity_peak(loop).frequency == pytest.approx(at, rel=1e-9)
+
+
+@pytest.mark.parametrize("case", ["order-40 break", "delay", "few roots"])
+def test_margins_and_peaks_together_are_each_alone(case):
+    """`margins_and_peaks` refines the peaks' maxima in the margins' steps: the margins and the peaks are
+    `margins` and `refined_peaks` alone, to the bit (a loop at a break of an order-40 3-loop plant and a
+    loop with a delay: the detection grid's path; a loop of few roots: the grid-free path)."""
+    from engine.margins.disk import disk_transform
+    from engine.margins.peaks import margins_and_peaks
+    from engine.margins.search import margins
+    from engine.multiloop.loops import break_loop
+    from engine.multiloop.plant import checked_plant
+    from tests.engine.multiloop_references import random_plant
+
+    if case == "order-40 break":
+        plant = checked_plant(*random_plant(np.random.default_rng(4001), 40, 3), "plant")
+        network = unity_feedback(["1"], state_space=break_loop(plant, plant.names[1]))
+    else:
+        network = unity_feedback(["5*(s+1)/(s*(s^2+0.05*s+4))"], delay=0.2 if case == "delay" else 0.0)
+    transforms = [disk_transform(0.0), sensitivity, complementary]
+    for attenuation in (None, 0.0):
+        model = loop_model(network, "e", GRID, {})
+        found, peaks = margins_and_peaks(model, transforms, attenuation)
+        alone = loop_model(network, "e", GRID, {})
+        assert repr(found) == repr(margins(alone, attenuation_above=attenuation))
+        assert repr(peaks) == repr(refined_peaks(alone, transforms))
