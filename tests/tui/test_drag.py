@@ -366,19 +366,16 @@ async def test_a_drag_s_moves_render_the_dragged_plot_and_the_tableau_alone(tmp_
     and nothing else (a count of the widgets' renders, not a time): the status line says a
     drag goes (one text for the drag; the edit on release), and a text set to what it shows
     repaints nothing (the step's lines).  Before, the status line and the step's lines
-    were rendered again at every move.  (A text view renders its changed lines alone: its
-    `render_line` calls count as its renders.)"""
+    were rendered again at every move."""
     from textual.widget import Widget
 
     from tui.screens.main import DRAGGING
     from tui.screens.pole_lines import COMPUTING
-    from tui.widgets.textview import TextView
 
     app = lead_app(tmp_path, monkeypatch)
     rendered: list[str | None] = []
-    render, render_line = Widget._render_content, TextView.render_line
+    render = Widget._render_content
     monkeypatch.setattr(Widget, "_render_content", lambda self: rendered.append(self.id) or render(self))
-    monkeypatch.setattr(TextView, "render_line", lambda self, y: rendered.append(self.id) or render_line(self, y))
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         plot = await _shown(app, pilot, "p-bode", "bode-mag")
