@@ -36,6 +36,7 @@ to G at frequencies among the roots.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -142,7 +143,7 @@ class Response:
             self.poles, vectors = np.linalg.eig(m.A) if m.order else (np.zeros(0, dtype=complex), np.zeros((0, 0)))
             _finite(self.poles, vectors)
             self.condition = float(np.linalg.cond(vectors)) if m.order else 1.0
-            self.pole_errors = pole_backward_errors(given, self.poles, vectors * self.scaling[:, None])
+            self._vectors = vectors
             self.modal = m.order > 0 and bool(self.condition <= MODAL_CONDITION)
             if self.modal:
                 self.residues = (m.C @ vectors) * np.linalg.solve(vectors, m.B.astype(complex))
@@ -153,6 +154,13 @@ class Response:
                 self.h, q = linalg.hessenberg(m.A, calc_q=True)
                 self.b, self.c = q.T @ m.B, m.C @ q
                 _finite(self.h, self.b, self.c)
+
+    @cached_property
+    def pole_errors(self) -> NDArray[np.float64]:
+        """Each pole's backward error in the given coordinates (`pole_backward_errors`), on first
+        use: only the conditioning note reads it (a loop's margins do not)."""
+        with np.errstate(all="ignore"):
+            return pole_backward_errors(self.given, self.poles, self._vectors * self.scaling[:, None])
 
     def __call__(self, s: ArrayLike) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
         s = np.asarray(s, dtype=complex)

@@ -112,10 +112,12 @@ def refine(
 
     def advance(work: Work) -> Work:
         p, q, bisect = _next_points(work, work["x"], work["best"])
-        h, d = fun(np.concatenate([p, q]), np.concatenate([work["which"], work["which"]]))
-        m, kind = p.size, work["stationary"]
-        at_p = np.array([p, h[:m], d[:m], np.where(kind, d[:m], h[:m])])
-        at_q = np.array([q, h[m:], d[m:], np.where(kind, d[m:], h[m:])])
+        points, m = np.concatenate([p, q]), p.size
+        h, d = fun(points, np.concatenate([work["which"], work["which"]]))
+        kind = work["stationary"]
+        # rows omega, h, h', target for p and q side by side: one array, viewed as two
+        rows = np.stack([points, h, d, np.where(np.concatenate([kind, kind]), d, h)])
+        at_p, at_q = rows[:, :m], rows[:, m:]
         watch, revealed = _revealed(work, at_p, at_q, n)
         work = _narrowed(work | {"watch": watch}, at_p, at_q, bisect)
         if revealed is not None:
@@ -214,8 +216,9 @@ def _narrowed(state: dict, at_p: NDArray, at_q: NDArray, bisect: NDArray[np.bool
     """Each bracket cut to the first of [lo, p], [p, q], [q, hi] over which
     its target changes sign (an exact zero counts as a change)."""
     lo, hi = state["lo"], state["hi"]
-    in_first = np.sign(at_p[3]) != np.sign(lo[3])
-    in_middle = ~in_first & (np.sign(at_q[3]) != np.sign(at_p[3]))
+    p_sign = np.sign(at_p[3])
+    in_first = p_sign != np.sign(lo[3])
+    in_middle = ~in_first & (np.sign(at_q[3]) != p_sign)
     lo, hi = (
         np.where(in_first, lo, np.where(in_middle, at_p, at_q)),
         np.where(in_first, at_p, np.where(in_middle, at_q, hi)),
@@ -277,9 +280,14 @@ def _crossing_step(lo: NDArray, hi: NDArray) -> NDArray:
     u = -lo[1] / rise
     slope_lo, slope_hi = rise / lo[2], rise / hi[2]  # d omega / du at the ends
     alpha, beta = slope_lo / width, slope_hi / width
-    u2, u3 = u * u, u * u * u
+    u2 = u * u
+    u3 = u2 * u
+    twice_u3, thrice_u2 = 2 * u3, 3 * u2  # each once (the Hermite basis uses them twice)
     inverse = (
-        (2 * u3 - 3 * u2 + 1) * lo[0] + (u3 - 2 * u2 + u) * slope_lo + (3 * u2 - 2 * u3) * hi[0] + (u3 - u2) * slope_hi
+        (twice_u3 - thrice_u2 + 1) * lo[0]
+        + (u3 - 2 * u2 + u) * slope_lo
+        + (thrice_u2 - twice_u3) * hi[0]
+        + (u3 - u2) * slope_hi
     )
     newton = np.where(np.abs(lo[1]) < np.abs(hi[1]), lo[0] - lo[1] / lo[2], hi[0] - hi[1] / hi[2])
     usable = (inverse > lo[0]) & (inverse < hi[0]) & (alpha > 0) & (beta > 0) & (alpha * alpha + beta * beta <= 9.0)

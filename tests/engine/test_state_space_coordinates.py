@@ -128,3 +128,25 @@ def test_every_crossing_carries_its_backward_error_in_the_given_coordinates(orde
     assert error > 10 * CROSSING_BACKWARD_ERROR
     [note] = _crossing_note(network, loop, off)
     assert f"{moved.kind} at {moved.frequency:.6g} rad/s" in note and "not vouched for" in note
+
+
+def test_a_plant_s_break_margins_compute_no_pole_backward_errors_which_the_note_computes_once(monkeypatch):
+    """The poles' backward errors serve the conditioning note alone: a plant's breaks build one state
+    space each and their margins do not read the note, so no break pays for them (each did: an
+    eigenvector residual per break); a note read computes them once, as at construction before."""
+    import engine.model.state_space as state_space
+    from engine.multiloop.loops import break_margins
+    from engine.multiloop.plant import checked_plant
+    from tests.engine.multiloop_references import random_plant
+
+    computed = []
+    original = state_space.pole_backward_errors
+    monkeypatch.setattr(
+        state_space, "pole_backward_errors", lambda *args: computed.append(1) or original(*args), raising=True
+    )
+    plant = checked_plant(*random_plant(np.random.default_rng(3), 10, 2), "plant")
+    assert len(break_margins(plant, OMEGA)) == 2 and not computed
+    A, B, C, D = model(12, 1)
+    block = StateSpaceTransfer(*scaled(A, B, C, 1), D)
+    assert not computed and block.note is None and block.note is None and len(computed) == 1
+    assert np.all(block.response.pole_errors <= 1e-13) and len(computed) == 1
