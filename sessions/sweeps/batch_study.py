@@ -44,8 +44,11 @@ from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
+from engine.loop.batch_realization import batch_loop_realization
+from engine.loop.batch_realized_forms import RealizedForms, realized_forms
 from engine.margins.batch import BatchLoops, SampleLoop, batch_loops, with_closed_rows
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
+from engine.model.network import Network
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
 from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
@@ -267,7 +270,7 @@ def _study(jobs: Sequence) -> _Study | None:
         unbatched = "closed-loop peak rows of a loop in z"
     for c, condition in enumerate(problem.conditions):
         if not unbatched and _cascade(problem, c) is None:
-            unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+            unbatched = f"condition {condition.name!r}'s loop has no batch form ({NO_FORM})"
     helped = bool(unbatched) and _assisted(problem)
     if helped:
         rows = "its realizations, time rows and stability rows" if timed else "its realizations and stability rows"
@@ -294,7 +297,25 @@ def _cascade(problem: Problem, c: int) -> BatchForms | None:
     """Condition ``c``'s loop at the design's values in batch form (None: it has none)."""
     condition = problem.conditions[c]
     columns = {name: np.array([value]) for name, value in problem.condition_values(c).items()}
-    return batch_pole_zero(condition.network, condition.break_at, columns)
+    return batch_form(condition.network, condition.break_at, columns)[0]
+
+
+NO_FORM = "neither one cascade of expression blocks nor a diagram realized for every sample at once"
+
+
+def batch_form(
+    network: Network, break_at: str, columns: dict[str, np.ndarray]
+) -> tuple[BatchForms | None, RealizedForms | None]:
+    """Every sample's loop in pole-zero form: a cascade's from its blocks' factors
+    (`engine.loop.batch_forms`), any other loop's minimal form from its stacked realizations
+    (`engine.loop.batch_realized_forms`, returned too: its margins are polished on them); (None,
+    None) when it has neither."""
+    forms = batch_pole_zero(network, break_at, columns)
+    if forms is not None or network.sample_time is not None:
+        return forms, None
+    broken = batch_loop_realization(network, break_at, columns)
+    exact = None if broken is None else realized_forms(broken, network.signal(break_at))
+    return (None, None) if exact is None else (exact.forms, exact)
 
 
 def _one_structure(jobs: Sequence) -> bool:
@@ -436,13 +457,13 @@ def _condition_loops(study: _Study, c: int, drawn: dict[str, np.ndarray], count:
     condition = problem.conditions[c]
     columns = {name: np.full(count, value) for name, value in problem.condition_values(c).items()}
     columns |= {name: _seen_by(column, c) for name, column in drawn.items() if name in columns}
-    forms = batch_pole_zero(condition.network, condition.break_at, columns)
+    forms, exact = batch_form(condition.network, condition.break_at, columns)
     if forms is None:
-        study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+        study.unbatched = f"condition {condition.name!r}'s loop has no batch form ({NO_FORM})"
         return None
     specs = study.stepper.specs
     peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in specs)
-    loops = batch_loops(forms, condition.network.sample_time, attenuation=peaks)
+    loops = batch_loops(forms, condition.network.sample_time, attenuation=peaks, exact=exact)
     closed = [
         (i, s.kind, s.low, s.high) for i, s in enumerate(specs) if s.condition == c and s.kind in CLOSED_LOOP_MEASURES
     ]

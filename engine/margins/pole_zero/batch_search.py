@@ -30,13 +30,12 @@ from numpy.typing import NDArray
 from engine.loop.batch_forms import BatchForms
 from engine.margins.pole_zero.certificate import CLEARANCE, DUPLICATE, LIMIT_SLACK
 from engine.margins.pole_zero.crossings import LIMIT_NOISE
-from engine.margins.pole_zero.levels import PROBE_DECADES, ROUNDING, UNDAMPED, UNIT_GAIN_REACH
+from engine.margins.pole_zero.levels import MAX_ROOTS, PROBE_DECADES, ROUNDING, UNDAMPED, UNIT_GAIN_REACH
 from engine.margins.pole_zero.search import NEAR_REAL, NEWTON_STEPS, REAL
 from engine.model.paired_product import PairedProduct
 from engine.numerics.bracketing import EPS, NOISE_STEP
 from engine.numerics.iteration import Status, Work, iterate
 
-MAX_BATCH_ROOTS = 24  # zeros + poles: beyond, the per-loop search
 LARGEST_LOG = 300.0  # a scaled gain whose square would overflow: the per-loop search
 # relative change of GH a crossing's rounding may make, at most (else the per-loop search): a
 # quarter of the 1e-12 the batch equals the per-loop path to.  The bound is the worst case (8 ulp
@@ -160,7 +159,7 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
     """Every sample's crossings, certified or not (module docstring)."""
     forms = _placeholders(forms)
     levels = BatchLevels(forms)
-    odd = forms.odd | (levels.roots.shape[1] > MAX_BATCH_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
+    odd = forms.odd | (levels.roots.shape[1] > MAX_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
     with np.errstate(all="ignore"):
         t = -(levels.roots**2) / (levels.scale**2)[:, None]
         stationary, near, bad = [], [], odd.copy()
