@@ -46,24 +46,25 @@ class RealizedForms:
 
     forms: BatchForms
     hidden: NDArray[np.complex128]
+    realization: StateSpace  # the stacked broken loops they come from
     A: NDArray[np.float64]
     b: NDArray[np.float64]
     c: NDArray[np.float64]
     d: NDArray[np.float64]
 
-    def response(self, w: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128]]:
-        """GH(j w) and dGH/domega at ``w`` (S, P) from the realizations (NaN where ``w`` is)."""
-        count, points = w.shape
-        at = np.where(np.isfinite(w), w, 0.0)
+    def response(
+        self, samples: NDArray[np.intp], w: NDArray[np.float64], slope: bool = False
+    ) -> tuple[NDArray[np.complex128], NDArray[np.complex128] | None]:
+        """GH(j w) of sample ``samples[i]`` at ``w[i]`` from its realization, and (``slope``)
+        dGH/domega there (None without)."""
         n = self.A.shape[1]
-        pencil = 1j * at[:, :, None, None] * np.eye(n) - self.A[:, None]
-        rhs = np.broadcast_to(self.b[:, None, :, None], (count, points, n, 1))
-        x = np.linalg.solve(pencil, rhs)
+        pencil = 1j * w[:, None, None] * np.eye(n) - self.A[samples]
+        x = np.linalg.solve(pencil, self.b[samples][:, :, None])
+        gh = np.einsum("in,in->i", self.c[samples], x[:, :, 0]) + self.d[samples]
+        if not slope:
+            return gh, None
         y = np.linalg.solve(pencil, x)
-        gh = np.einsum("sn,spn->sp", self.c, x[..., 0]) + self.d[:, None]
-        slope = -1j * np.einsum("sn,spn->sp", self.c, y[..., 0])
-        bad = ~np.isfinite(w)
-        return np.where(bad, np.nan, gh), np.where(bad, np.nan, slope)
+        return gh, -1j * np.einsum("in,in->i", self.c[samples], y[:, :, 0])
 
 
 def realized_forms(ss: StateSpace, k: int) -> RealizedForms | None:
@@ -84,7 +85,7 @@ def realized_forms(ss: StateSpace, k: int) -> RealizedForms | None:
     poles, zeros = (np.where(np.abs(r) <= AT_ZERO * size, 0j, r) for r in (poles, zeros))
     zeros, poles, hidden, apart = _cancelled(zeros, poles)
     odd |= apart | ~finite | ~np.isfinite(gain) | (gain == 0)
-    return RealizedForms(BatchForms(np.where(odd, 1.0, gain), zeros, poles, odd), hidden, A, b, c, d)
+    return RealizedForms(BatchForms(np.where(odd, 1.0, gain), zeros, poles, odd), hidden, ss, A, b, c, d)
 
 
 def _rows(mask: NDArray[np.bool_], m: NDArray) -> NDArray[np.bool_]:

@@ -44,14 +44,15 @@ from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
-from engine.loop.batch_realization import batch_loop_realization
+from engine.loop.batch_realization import batch_loop_realization, closed_of
 from engine.loop.batch_realized_forms import RealizedForms, realized_forms
+from engine.loop.realization import StateSpace
 from engine.margins.batch import BatchLoops, SampleLoop, batch_loops, with_closed_rows
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
 from engine.model.network import Network
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
-from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
+from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, Stacks, assisted, batch_time_rows, condition_stacks
 from engine.slp.measures import PEAK_KINDS, evaluate, frequency_values
 from engine.slp.points import points
 from sessions.build import build_problem
@@ -371,7 +372,7 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
     against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1)
     conditions = range(len(study.problem.conditions))
     loops = [] if study.unbatched else [_condition_loops(study, c, columns, len(heads)) for c in conditions]
-    timed, timed_ok = _time_rows(study, xs)
+    timed, timed_ok = _time_rows(study, xs, loops)
     helped = assisted(study.problem, study.stepper.specs, xs) if study.assisted else None
     if study.unbatched or any(found is None for found in loops):
         values = frequencies = np.zeros((len(heads), 0))
@@ -447,6 +448,7 @@ class _Loops(NamedTuple):
 
     margins: BatchLoops
     closed: list[SampleLoop | None] | None
+    realized: StateSpace | None = None  # its broken loops' stacked realizations, when its forms came from them
 
 
 def _condition_loops(study: _Study, c: int, drawn: dict[str, np.ndarray], count: int) -> _Loops | None:
@@ -467,19 +469,26 @@ def _condition_loops(study: _Study, c: int, drawn: dict[str, np.ndarray], count:
     closed = [
         (i, s.kind, s.low, s.high) for i, s in enumerate(specs) if s.condition == c and s.kind in CLOSED_LOOP_MEASURES
     ]
+    realized = None if exact is None else exact.realization
     if not closed:
-        return _Loops(loops, None)
-    return _Loops(loops, with_closed_rows(forms, [loops.loop(k) for k in range(count)], closed))
+        return _Loops(loops, None, realized)
+    return _Loops(loops, with_closed_rows(forms, [loops.loop(k) for k in range(count)], closed), realized)
 
 
-def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _time_rows(study: _Study, xs: np.ndarray, loops: list[_Loops | None]) -> tuple[np.ndarray, np.ndarray]:
     """Every sample's time rows and the stability rows of their conditions (`engine.slp.batch_rows`;
     NaN columns for the other rows, all NaN when the study has no time rows), and which samples
     have them."""
     specs = study.stepper.specs
     if study.unbatched or not any(s.kind in BATCH_TIME_KINDS for s in specs):
         return np.full((xs.shape[0], len(specs)), np.nan), np.ones(xs.shape[0], dtype=bool)
-    return batch_time_rows(study.problem, specs, xs)
+    stacks: dict[int, Stacks | None] = {}
+    for c, found in enumerate(loops):  # a condition's realizations its forms came from, closed here
+        if found is not None and found.realized is not None:
+            condition = study.problem.conditions[c]
+            closed = closed_of(condition.network, condition.break_at, found.realized)
+            stacks[c] = None if closed is None else (found.realized, closed)
+    return batch_time_rows(study.problem, specs, xs, stacks)
 
 
 def _row_values(

@@ -55,7 +55,7 @@ def test_the_launch_vehicle_s_minimal_forms(c):
     # 28 states: each of the three bending modes held three times, two copies hidden
     assert (found.forms.zeros.shape[1], found.forms.poles.shape[1], found.hidden.shape[1]) == (11, 16, 12)
     w = np.array([0.05, 0.3, 1.0, 2.5, 7.0, 11.3, 15.0, 23.0, 30.0, 41.0, 90.0, 400.0])
-    realized = found.response(np.tile(w, (6, 1)))[0]
+    realized = found.response(np.repeat(np.arange(6), w.size), np.tile(w, 6))[0].reshape(6, w.size)
     for s in range(6):
         A, b, cc, d = ss.A[s], ss.B[s][:, -1:], -ss.C[s][k : k + 1], -ss.D[s][k : k + 1, -1:]
         mass = np.zeros((29, 29))

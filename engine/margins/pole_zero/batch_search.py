@@ -155,8 +155,11 @@ class BatchLevels:
         return np.concatenate([np.where(at_zero, np.nan, np.abs(self.roots)), ladder], axis=1)
 
 
-def batch_crossings(forms: BatchForms) -> BatchCrossings:
-    """Every sample's crossings, certified or not (module docstring)."""
+def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings:
+    """Every sample's crossings, certified or not (module docstring).  ``polished``: the crossings
+    will be polished on the loops' own GH (`engine.margins.batch.polished`), so one that stopped
+    in the form's rounding noise rather than within 4 ulp is certified all the same (the form's
+    noise does not reach the margin; `CONDITION` still bounds the exact level's)."""
     forms = _placeholders(forms)
     levels = BatchLevels(forms)
     odd = forms.odd | (levels.roots.shape[1] > MAX_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
@@ -180,7 +183,7 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
             bad |= (second == 0).any(axis=1)
         bad |= far | ~_signs_agree(levels, points, maxima, np.concatenate(near, axis=1))
         bad |= ~_reach_limits(levels, points, maxima)
-        crossings, values, enclosed = _crossings(levels, points, gains, phases)
+        crossings, values, enclosed = _crossings(levels, points, gains, phases, polished)
         bad |= ~enclosed
         closed = _closed_loop_poles(levels)
         abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
@@ -424,10 +427,11 @@ def _level_values(levels: BatchLevels, w: NDArray, kind: int) -> NDArray:
 
 
 def _crossings(
-    levels: BatchLevels, points: list[NDArray], gains: NDArray, phases: NDArray
+    levels: BatchLevels, points: list[NDArray], gains: NDArray, phases: NDArray, polished: bool
 ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
     """The crossings polished ((S, a) each, NaN-padded), GH at them, and whether each sample's
-    are as many as the monotone pieces between the stationary points hold, each within 4 ulp."""
+    are as many as the monotone pieces between the stationary points hold, each within 4 ulp
+    (or in the rounding noise, when ``polished`` on the loop's own GH after)."""
     gain, _, noisy = _newton(levels, gains, 3)
     phase, _, noisy_phase = _newton(levels, phases, 4)
     gain, phase = _distinct(gain, gain)[0], _distinct(phase, phase)[0]
@@ -441,7 +445,9 @@ def _crossings(
     gain_gh, gain_u, _, _ = levels.terms(gain)
     phase_gh, phase_u, _, _ = levels.terms(phase)
     ok &= (
-        ~noisy & ~noisy_phase & _conditioned(levels, gain_u, gain_u.imag) & _conditioned(levels, phase_u, phase_u.real)
+        (polished | (~noisy & ~noisy_phase))
+        & _conditioned(levels, gain_u, gain_u.imag)
+        & _conditioned(levels, phase_u, phase_u.real)
     )
     return [gain, phase], [gain_gh, phase_gh], ok & _phase_margins_resolved(levels, gain_gh)
 
