@@ -136,8 +136,8 @@ def _cancelled(
     kept = np.ones(zeros.shape, dtype=bool)
     rows = np.arange(count)
     for i in range(zeros.shape[1]):
-        with np.errstate(all="ignore"):
-            gap = np.abs(poles - zeros[:, i : i + 1]) / np.abs(poles)
+        with np.errstate(all="ignore"):  # (a zero and a pole both at 0: a gap of 0)
+            gap = np.abs(poles - zeros[:, i : i + 1]) / np.maximum(np.abs(poles), 1e-300)
         gap = np.where(free & np.isfinite(gap), gap, np.inf)
         nearest = np.argmin(gap, axis=1)
         pair = gap[rows, nearest] <= CANCEL
