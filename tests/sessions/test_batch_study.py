@@ -630,3 +630,16 @@ def test_modal_peak_rows_of_a_loop_in_z_equal_the_per_loop_path(tmp_path):
         _same_run(got, want)
     found = [m for m in want["measures"] if m["kind"] == "modal_peak_db" and isinstance(m["frequency"], float)]
     assert found
+
+
+def test_rows_at_another_break_of_a_diagram_read_the_loop_there(tmp_path):
+    """The two-path autopilot (`tests.sessions.test_two_path_breaks`) with rows at u_att as well as
+    at its loop's break: each (condition, break) gets its own batched forms, every run is
+    `run_job`'s (0 of 6 batched before; reading every row at the condition's break put PM1@u_att
+    at dc's phase margin, 12.4 deg for 13.1)."""
+    from tests.sessions.test_two_path_breaks import document
+
+    path = tmp_path / "two_paths.json"
+    path.write_text(json.dumps({**document(), "algorithm": {"name": "slp", "settings": {}}}))
+    batched, searched, done = _batched_equal(_jobs(path, 6, ["KA=+-10%"]))
+    assert batched + searched == done == 6
