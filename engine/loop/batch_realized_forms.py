@@ -37,6 +37,7 @@ from engine.loop.realization import StateSpace
 STRUCTURAL = 1e-10  # a Markov parameter c A^j b below this of |c A^(j-1)| |A| |b| is a structural zero
 CANCEL = 1e-12  # relative distance of a zero to a pole below which the pair cancels (2e-15 measured)
 AT_ZERO = 1e-13  # a root below this times |A| is at 0
+POINTS = 2048  # points `RealizedForms.response` solves at once (their matrices: 26 MB at 28 states)
 
 
 @dataclass(frozen=True)
@@ -56,15 +57,18 @@ class RealizedForms:
         self, samples: NDArray[np.intp], w: NDArray[np.float64], slope: bool = False
     ) -> tuple[NDArray[np.complex128], NDArray[np.complex128] | None]:
         """GH(j w) of sample ``samples[i]`` at ``w[i]`` from its realization, and (``slope``)
-        dGH/domega there (None without)."""
+        dGH/domega there (None without), `POINTS` points at a time (the memory stays bounded)."""
+        gh = np.empty(w.size, dtype=complex)
+        dgh = np.empty(w.size, dtype=complex) if slope else None
         n = self.A.shape[1]
-        pencil = 1j * w[:, None, None] * np.eye(n) - self.A[samples]
-        x = np.linalg.solve(pencil, self.b[samples][:, :, None])
-        gh = np.einsum("in,in->i", self.c[samples], x[:, :, 0]) + self.d[samples]
-        if not slope:
-            return gh, None
-        y = np.linalg.solve(pencil, x)
-        return gh, -1j * np.einsum("in,in->i", self.c[samples], y[:, :, 0])
+        for first in range(0, w.size, POINTS):
+            part, rows = slice(first, first + POINTS), samples[first : first + POINTS]
+            pencil = 1j * w[part, None, None] * np.eye(n) - self.A[rows]
+            x = np.linalg.solve(pencil, self.b[rows][:, :, None])
+            gh[part] = np.einsum("in,in->i", self.c[rows], x[:, :, 0]) + self.d[rows]
+            if dgh is not None:
+                dgh[part] = -1j * np.einsum("in,in->i", self.c[rows], np.linalg.solve(pencil, x)[:, :, 0])
+        return gh, dgh
 
 
 def realized_forms(ss: StateSpace, k: int) -> RealizedForms | None:

@@ -97,3 +97,17 @@ def test_the_per_loop_margins_of_a_realized_form_are_the_network_s():
         exact = model.exact(np.array([m.frequency for m in every]))[0]
         worst = max(worst, float(np.max(np.abs(np.array([m.gh for m in every]) - exact) / np.abs(exact))))
     assert worst <= 1e-15
+
+
+def test_the_realizations_gh_in_passes_is_the_same(monkeypatch):
+    """`RealizedForms.response` solves `POINTS` points at a time (a 2000-sample chunk's margins
+    would hold 150 MB of pencils at once): passes of 5 give what one pass gives."""
+    import engine.loop.batch_realized_forms as module
+
+    condition, _, ss = _stack(1, 4, 5)
+    found = realized_forms(ss, condition.network.signal(condition.break_at))
+    samples, w = np.repeat(np.arange(4), 6), np.tile(np.geomspace(0.1, 60.0, 6), 4)
+    whole = found.response(samples, w, slope=True)
+    monkeypatch.setattr(module, "POINTS", 5)
+    parts = found.response(samples, w, slope=True)
+    assert np.array_equal(whole[0], parts[0]) and np.array_equal(whole[1], parts[1])
