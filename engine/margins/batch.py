@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.loop.batch_forms import BatchForms
+from engine.loop.batch_realized_forms import RealizedForms
 from engine.loop.pole_zero import ZpkEvaluator
 from engine.margins.peak_measures import band_delay, peak_values, transform
 from engine.margins.peaks import Peak
@@ -150,15 +151,20 @@ def batch_margins(
     return [loops.loop(k) for k in range(forms.gain.size)]
 
 
-def batch_loops(forms: BatchForms, sample_time: float | None = None, attenuation: bool = False) -> BatchLoops:
+def batch_loops(
+    forms: BatchForms, sample_time: float | None = None, attenuation: bool = False, exact: RealizedForms | None = None
+) -> BatchLoops:
     """Every sample's margins as arrays (module docstring).  With ``sample_time`` the forms are a
     loop in z's w-plane forms (`engine.margins.sampled`): frequencies come back in rad/s, a gain
     margin at the Nyquist frequency where GH(-1) is real and negative, the abscissa of the
     closed-loop poles' s-plane equivalents.  With ``attenuation`` the margins hold the
     attenuation margins too (the maxima of |GH|, the modal peaks' rows): a sample with one that
     stopped in the rounding noise, not within 4 ulp, is not certified (the per-loop search may
-    stop elsewhere in the noise)."""
-    found = batch_crossings(forms)
+    stop elsewhere in the noise).  With ``exact`` (the forms are realizations' minimal forms,
+    `engine.loop.batch_realized_forms`) every margin found is polished on the realization's own
+    GH (`polished`), as the per-loop path polishes a form that is not exact to rounding on the
+    network, and the abscissa reads the hidden poles too."""
+    found = batch_crossings(forms, polished=exact is not None)
     gain, gain_gh = _with_dc(found.phase, found.phase_gh, _dc_values(forms))
     phase, phase_gh = found.gain, found.gain_gh
     peaks, peaks_gh = (found.peaks, found.peaks_gh) if attenuation else _none(forms.gain.size)
@@ -179,7 +185,49 @@ def batch_loops(forms: BatchForms, sample_time: float | None = None, attenuation
     abscissa[list(searched)] = [loop.abscissa for loop in searched.values()]
     found_mask = certified.copy()
     found_mask[list(searched)] = True
+    if exact is not None:
+        gain, gain_gh, far = polished(exact, gain, gain_gh, 4)
+        phase, phase_gh, far_phase = polished(exact, phase, phase_gh, 3)
+        peaks, peaks_gh, far_peaks = polished(exact, peaks, peaks_gh, 0)
+        found_mask &= ~(far | far_phase | far_peaks)
+        with np.errstate(invalid="ignore"):
+            abscissa = np.minimum(abscissa, -np.max(exact.hidden.real, axis=1, initial=-np.inf))
+        searched = {}  # their margins are the arrays' (`BatchLoops.loop` reads them)
     return BatchLoops(gain, gain_gh, phase, phase_gh, peaks, peaks_gh, abscissa, found_mask, certified, searched)
+
+
+POLISH_REACH = 1e-8  # relative: a margin the form placed further from the realization's is not polished (per loop)
+
+
+def polished(exact: RealizedForms, w: NDArray, gh: NDArray, level: int) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """Margins found on the minimal forms polished by one Newton step on the realizations' GH
+    (`RealizedForms.response`), GH there, and the samples with a margin the step moved by more
+    than `POLISH_REACH` (the form is off there: the per-loop path takes them).  The form agrees
+    with the realization to about 1e-11, so the step's error is about its square: the step uses
+    the realization's value and the form's derivative (its error scales the step only), and GH
+    at the new point is the realization's GH plus its slope times the step (an error of the
+    step's square).  ``level`` 4: the crossings of the negative real axis (Im GH = 0), 3 the gain
+    crossovers (log|GH| = 0), 0 the maxima of |GH| (d log|GH|/domega = 0, its slope the
+    realization's).  A margin at 0 (GH(0)) stays."""
+    with np.errstate(invalid="ignore"):
+        samples, column = np.nonzero(w > 0)
+    at = w[samples, column]
+    form = PairedProduct(exact.forms.gain, exact.forms.zeros, exact.forms.poles)
+    terms = form.terms(1j * at, curvature=level == 0, samples=samples)
+    value, slope = exact.response(samples, at, slope=level == 0)
+    with np.errstate(all="ignore"):
+        if level == 4:  # d Im GH / domega = Re(GH u), u = d log GH / ds
+            step = value.imag / (terms.value * terms.slope).real
+        elif level == 3:  # d log|GH| / domega = -Im u
+            step = np.log(np.abs(value)) / -terms.slope.imag
+        else:  # d log|GH| / domega = Re(GH' / GH), its derivative -Re du/ds
+            step = (slope / value).real / -terms.curvature.real
+        moved = value - step * (slope if slope is not None else 1j * terms.value * terms.slope)
+    far = np.zeros(w.shape[0], dtype=bool)
+    far[samples[~(np.abs(step) <= POLISH_REACH * at)]] = True
+    w, gh = w.copy(), gh.copy()
+    w[samples, column], gh[samples, column] = at - step, moved
+    return w, gh, far
 
 
 def _with_searched(w: NDArray, gh: NDArray, searched: dict[int, SampleLoop], family: str) -> tuple[NDArray, NDArray]:

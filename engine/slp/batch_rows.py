@@ -26,8 +26,8 @@ from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_realization import batch_loop_realization, closed_of, samples
 from engine.loop.design import closed_loop_realization, seed_loop_realization
-from engine.loop.realization import StateSpace
-from engine.slp.measures import Spec, evaluate, grows, response_times, response_value
+from engine.loop.realization import AXIS, ORIGIN, StateSpace
+from engine.slp.measures import Spec, evaluate, response_times, response_value
 
 # the time rows read from a simulated response (a mean square solves a Lyapunov equation: per loop)
 BATCH_TIME_KINDS = frozenset(
@@ -84,10 +84,11 @@ def _condition_rows(
     mine = np.flatnonzero(ok)
     loops = [realized[k] for k in mine]
     A = np.array([ss.A for ss in loops])
-    unstable = [grows(ss) for ss in loops] if any(s.kind in BATCH_TIME_KINDS for s in specs) else []
+    eigenvalues = np.linalg.eigvals(A) if A.shape[1] else np.zeros((A.shape[0], 0), dtype=complex)
+    unstable = _unstable(eigenvalues)
     for spec, column in zip(specs, rows):
         if spec.kind == "stability_abscissa":
-            values[mine, column] = _abscissa(A)
+            values[mine, column] = -np.max(eigenvalues.real, axis=1, initial=-math.inf)
             continue
         response = problem.targets[spec.target].response
         first = loops[0]
@@ -114,11 +115,13 @@ def _realized(problem: Problem, c: int, x: NDArray) -> StateSpace | None:
         return None
 
 
-def _abscissa(A: NDArray) -> NDArray[np.float64]:
-    """-max Re of every stacked matrix's eigenvalues (`engine.design.tableau.stability_abscissa`; inf with no states)."""
-    if A.shape[1] == 0:
-        return np.full(A.shape[0], math.inf)
-    return -np.max(np.linalg.eigvals(A).real, axis=1)
+def _unstable(eigenvalues: NDArray[np.complex128]) -> NDArray[np.bool_]:
+    """Per row of closed-loop eigenvalues: `engine.slp.measures.grows`'s verdict (a pole right of
+    the axis that `engine.loop.realization.marginal_poles` does not put on it)."""
+    size = np.abs(eigenvalues)
+    scale = np.max(size, axis=1, initial=0.0)[:, None]
+    on_axis = (np.abs(eigenvalues.real) <= AXIS * size) | (size <= ORIGIN * scale)
+    return ((eigenvalues.real > 0) & ~on_axis).any(axis=1)
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,14 @@ measures and the peak response, `engine.slp.batch_rows`: each sample's closed lo
 as the per-loop path realizes it, every response simulated in one recursion) and the
 closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
-`engine.margins.batch`).  A sample the batch cannot certify (its form is odd, its
+`engine.margins.batch`), or diagrams in s realized for every sample at once
+(`engine.loop.batch_realization`: parallel paths, inner loops), whose minimal forms come
+from the stacked realizations (`engine.loop.batch_realized_forms`) and whose margins are
+polished on them; a row that names another break of its diagram reads the loop broken
+there (each (condition, break) its own forms).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
-sample of a study that is not batched (a delay, a table, a state-space block, a loop
-that is not one cascade, time or peak rows), is evaluated per loop, by slp's own
+sample of a study that is not batched (a delay, a table, a block of several ports, a
+diagram with no batched realization, a mean square), is evaluated per loop, by slp's own
 measures (`engine.slp.measures.evaluate`) on the problem built once: what `run_job`
 computes but for building the sample's session (a sample whose evaluation raises gets
 `run_job` itself).  The study's note says which samples went per loop, and why a study
@@ -44,12 +48,16 @@ from engine.derived import Derived, Form
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_forms import BatchForms, batch_pole_zero
+from engine.loop.batch_realization import batch_loop_realization, closed_of
+from engine.loop.batch_realized_forms import RealizedForms, realized_forms
+from engine.loop.realization import StateSpace
 from engine.margins.batch import BatchLoops, SampleLoop, batch_loops, with_closed_rows
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
+from engine.model.network import Network
 from engine.slp import REGISTRATION as SLP
 from engine.slp.algorithm import Slp
-from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, assisted, batch_time_rows, condition_stacks
-from engine.slp.measures import PEAK_KINDS, evaluate, frequency_values
+from engine.slp.batch_rows import BATCH_TIME_KINDS, Assisted, Stacks, assisted, batch_time_rows, condition_stacks
+from engine.slp.measures import PEAK_KINDS, Spec, evaluate, frequency_values, spec_break
 from engine.slp.points import points
 from sessions.build import build_problem
 from sessions.errors import SessionError
@@ -265,9 +273,10 @@ def _study(jobs: Sequence) -> _Study | None:
     closed = {s.condition for s in stepper.specs if s.kind in CLOSED_LOOP_MEASURES}
     if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in closed):
         unbatched = "closed-loop peak rows of a loop in z"
-    for c, condition in enumerate(problem.conditions):
-        if not unbatched and _cascade(problem, c) is None:
-            unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+    for c, break_at in _every_break(problem, stepper.specs):
+        if not unbatched and _cascade(problem, c, break_at) is None:
+            name = problem.conditions[c].name
+            unbatched = f"condition {name!r}'s loop at {break_at!r} has no batch form ({NO_FORM})"
     helped = bool(unbatched) and _assisted(problem)
     if helped:
         rows = "its realizations, time rows and stability rows" if timed else "its realizations and stability rows"
@@ -290,11 +299,29 @@ def _assisted(problem: Problem) -> bool:
     return all(condition_stacks(problem, c, start) is not None for c in range(len(problem.conditions)))
 
 
-def _cascade(problem: Problem, c: int) -> BatchForms | None:
-    """Condition ``c``'s loop at the design's values in batch form (None: it has none)."""
+def _cascade(problem: Problem, c: int, break_at: str) -> BatchForms | None:
+    """Condition ``c``'s loop broken at ``break_at`` at the design's values in batch form (None: it has none)."""
     condition = problem.conditions[c]
     columns = {name: np.array([value]) for name, value in problem.condition_values(c).items()}
-    return batch_pole_zero(condition.network, condition.break_at, columns)
+    return batch_form(condition.network, break_at, columns)[0]
+
+
+NO_FORM = "neither one cascade of expression blocks nor a diagram realized for every sample at once"
+
+
+def batch_form(
+    network: Network, break_at: str, columns: dict[str, np.ndarray]
+) -> tuple[BatchForms | None, RealizedForms | None]:
+    """Every sample's loop in pole-zero form: a cascade's from its blocks' factors
+    (`engine.loop.batch_forms`), any other loop's minimal form from its stacked realizations
+    (`engine.loop.batch_realized_forms`, returned too: its margins are polished on them); (None,
+    None) when it has neither."""
+    forms = batch_pole_zero(network, break_at, columns)
+    if forms is not None or network.sample_time is not None:
+        return forms, None
+    broken = batch_loop_realization(network, break_at, columns)
+    exact = None if broken is None else realized_forms(broken, network.signal(break_at))
+    return (None, None) if exact is None else (exact.forms, exact)
 
 
 def _one_structure(jobs: Sequence) -> bool:
@@ -348,15 +375,23 @@ def _chunk(study: _Study, jobs: Sequence, alone: list[int], searched: list[int])
         xs[:, k] = _seen_by(columns[name], c)
     # a value against its parameter's sign: its own session evaluates it at the sign's bound (slp clips its start)
     against_sign = ((xs < study.signed[0]) | (xs > study.signed[1])).any(axis=1)
-    conditions = range(len(study.problem.conditions))
-    loops = [] if study.unbatched else [_condition_loops(study, c, columns, len(heads)) for c in conditions]
-    timed, timed_ok = _time_rows(study, xs)
+    loops = (
+        {}
+        if study.unbatched
+        else {
+            at: _condition_loops(study, *at, columns, len(heads))
+            for at in _every_break(study.problem, study.stepper.specs)
+        }
+    )
+    timed, timed_ok = _time_rows(study, xs, loops)
     helped = assisted(study.problem, study.stepper.specs, xs) if study.assisted else None
-    if study.unbatched or any(found is None for found in loops):
+    if study.unbatched or any(found is None for found in loops.values()):
         values = frequencies = np.zeros((len(heads), 0))
         batched = by_search = np.zeros(len(heads), dtype=bool)
     else:
-        values, frequencies, batched, by_search = _row_values(study, [found for found in loops if found], timed)
+        values, frequencies, batched, by_search = _row_values(
+            study, {at: found for at, found in loops.items() if found}, timed
+        )
         batched &= ~against_sign & timed_ok
         by_search &= batched
     share = (time.perf_counter() - began) / max(len(heads), 1)
@@ -426,43 +461,68 @@ class _Loops(NamedTuple):
 
     margins: BatchLoops
     closed: list[SampleLoop | None] | None
+    realized: StateSpace | None = None  # its broken loops' stacked realizations, when its forms came from them
 
 
-def _condition_loops(study: _Study, c: int, drawn: dict[str, np.ndarray], count: int) -> _Loops | None:
-    """Condition ``c``'s loop of every sample (``drawn``: the drawn parameters' columns, ``count``
-    samples), margins found; None when it has no batch form (the study is then not batched: it
-    says why)."""
+def _every_break(problem: Problem, specs: Sequence[Spec]) -> list[tuple[int, str]]:
+    """Every (condition, break) a row reads its loop at, each condition's own break first
+    (`engine.slp.measures.spec_break`: a row may name another break of its diagram)."""
+    conditions = problem.conditions
+    out = [(c, condition.break_at) for c, condition in enumerate(conditions)]
+    for spec in specs:
+        at = (spec.condition, spec_break(spec, conditions[spec.condition]))
+        if at not in out:
+            out.append(at)
+    return out
+
+
+def _condition_loops(study: _Study, c: int, break_at: str, drawn: dict[str, np.ndarray], count: int) -> _Loops | None:
+    """Condition ``c``'s loop broken at ``break_at`` of every sample (``drawn``: the drawn
+    parameters' columns, ``count`` samples), margins found; None when it has no batch form (the
+    study is then not batched: it says why)."""
     problem = study.problem
     condition = problem.conditions[c]
     columns = {name: np.full(count, value) for name, value in problem.condition_values(c).items()}
     columns |= {name: _seen_by(column, c) for name, column in drawn.items() if name in columns}
-    forms = batch_pole_zero(condition.network, condition.break_at, columns)
+    forms, exact = batch_form(condition.network, break_at, columns)
     if forms is None:
-        study.unbatched = f"condition {condition.name!r}'s loop is not one cascade of expression blocks"
+        study.unbatched = f"condition {condition.name!r}'s loop at {break_at!r} has no batch form ({NO_FORM})"
         return None
-    specs = study.stepper.specs
-    peaks = any(spec.kind in PEAK_KINDS and spec.condition == c for spec in specs)
-    loops = batch_loops(forms, condition.network.sample_time, attenuation=peaks)
-    closed = [
-        (i, s.kind, s.low, s.high) for i, s in enumerate(specs) if s.condition == c and s.kind in CLOSED_LOOP_MEASURES
-    ]
+    mine = [(i, s) for i, s in enumerate(study.stepper.specs) if (s.condition, _at(study, s)) == (c, break_at)]
+    peaks = any(spec.kind in PEAK_KINDS for _, spec in mine)
+    loops = batch_loops(forms, condition.network.sample_time, attenuation=peaks, exact=exact)
+    closed = [(i, s.kind, s.low, s.high) for i, s in mine if s.kind in CLOSED_LOOP_MEASURES]
+    realized = None if exact is None else exact.realization
     if not closed:
-        return _Loops(loops, None)
-    return _Loops(loops, with_closed_rows(forms, [loops.loop(k) for k in range(count)], closed))
+        return _Loops(loops, None, realized)
+    return _Loops(loops, with_closed_rows(forms, [loops.loop(k) for k in range(count)], closed), realized)
 
 
-def _time_rows(study: _Study, xs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _at(study: _Study, spec: Spec) -> str:
+    """The break a row reads its loop at."""
+    return spec_break(spec, study.problem.conditions[spec.condition])
+
+
+def _time_rows(
+    study: _Study, xs: np.ndarray, loops: dict[tuple[int, str], _Loops | None]
+) -> tuple[np.ndarray, np.ndarray]:
     """Every sample's time rows and the stability rows of their conditions (`engine.slp.batch_rows`;
     NaN columns for the other rows, all NaN when the study has no time rows), and which samples
     have them."""
     specs = study.stepper.specs
     if study.unbatched or not any(s.kind in BATCH_TIME_KINDS for s in specs):
         return np.full((xs.shape[0], len(specs)), np.nan), np.ones(xs.shape[0], dtype=bool)
-    return batch_time_rows(study.problem, specs, xs)
+    stacks: dict[int, Stacks | None] = {}
+    for c, condition in enumerate(study.problem.conditions):  # the realizations its forms came from, closed here
+        found = loops.get((c, condition.break_at))
+        if found is not None and found.realized is not None:
+            closed = closed_of(condition.network, condition.break_at, found.realized)
+            stacks[c] = None if closed is None else (found.realized, closed)
+    return batch_time_rows(study.problem, specs, xs, stacks)
 
 
 def _row_values(
-    study: _Study, loops: list[_Loops], timed: np.ndarray
+    study: _Study, loops: dict[tuple[int, str], _Loops], timed: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every sample's row values and frequencies (samples, rows) from its conditions' loops and
     its time rows (``timed``: NaN but for the time rows and their conditions' stability rows),
@@ -472,7 +532,7 @@ def _row_values(
     values, frequencies = np.full((timed.shape[0], len(specs)), np.nan), np.full((timed.shape[0], len(specs)), np.nan)
     ok = np.ones(timed.shape[0], dtype=bool)
     for i, spec in enumerate(specs):
-        loop = loops[spec.condition]
+        loop = loops[spec.condition, _at(study, spec)]
         ok &= loop.margins.found
         if spec.kind in BATCH_TIME_KINDS:
             values[:, i] = timed[:, i]
@@ -486,7 +546,7 @@ def _row_values(
         else:
             values[:, i], frequencies[:, i], per_loop = frequency_values(spec, loop.margins)
             ok &= ~per_loop
-    certified = [loop.margins.batched & (loop.closed is None) for loop in loops]
+    certified = [loop.margins.batched & (loop.closed is None) for loop in loops.values()]
     return values, frequencies, ok, ~np.logical_and.reduce(certified)
 
 

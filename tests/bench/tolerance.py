@@ -4,8 +4,8 @@ closed-loop poles over the same samples (interleaved, median of per-pair ratios)
 its margins checked against the per-loop path; 100 000 samples serially in a fresh
 process (time and peak memory, beside 10 000 and 20 000 for the memory's growth, and the
 study's own allocations traced); the three-condition launch-vehicle study of 1000
-samples (its frequency rows per loop: its loop is not one cascade; its realizations,
-peak-response and stability rows batched) against today's per-loop path.
+samples (batched on its realizations' minimal forms since issue 53's lvb branch; before,
+its frequency rows went per loop) against today's per-loop path.
 
     python -m tests.bench.tolerance SAMPLES [--traced]   # one lag-lead study in this process: JSON on stdout
 """

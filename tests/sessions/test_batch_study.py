@@ -135,8 +135,9 @@ def test_a_tabulated_plant_is_evaluated_per_loop(tmp_path):
     _per_loop_equal(_jobs(_edited(tmp_path, tabulated), 6), "a loop with a delay, a table or a state-space block")
 
 
-def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
-    """The lag-lead's plant with a rate feedback around its lags (an inner loop)."""
+def test_a_loop_that_is_not_one_cascade_is_batched_on_its_realizations(tmp_path):
+    """The lag-lead's plant with a rate feedback around its lags (an inner loop): its minimal forms
+    from the stacked realizations, searched as a batch (issue 53)."""
 
     def inner(plant: dict) -> None:
         plant["blocks"][1:] = [
@@ -161,11 +162,8 @@ def test_a_loop_that_is_not_one_cascade_is_evaluated_per_loop(tmp_path):
         ]
         plant["junctions"].append({"name": "inner", "output": "u2", "plus": ["u"], "minus": ["w"]})
 
-    why = (
-        "condition 'nominal''s loop is not one cascade of expression blocks; batched: its realizations and "
-        "stability rows; per loop: its frequency rows"
-    )
-    _per_loop_equal(_jobs(_edited(tmp_path, inner), 6), why)
+    batched, searched, done = _batched_equal(_jobs(_edited(tmp_path, inner), 6))
+    assert batched + searched == done == 6  # (before: 0 of 6, its frequency rows per loop)
 
 
 def _kuo_z(tmp_path: Path, plant: str | None = None, name: str = "z") -> Path:
@@ -211,18 +209,18 @@ def test_random_loops_in_z_equal_the_per_loop_path(tmp_path):
     assert batched >= 0.7 * total
 
 
-def test_the_launch_vehicle_s_frequency_rows_go_per_loop_on_batched_realizations(tmp_path):
-    """Three conditions whose loops are not one cascade: their frequency rows go per loop, its
-    realizations (28 states, parallel sensor paths), peak-response and stability rows are made
-    for all samples at once (issue 53: before, every sample realized and simulated its own); every
-    run is `run_job`'s exactly, and the note says what was batched."""
+def test_the_launch_vehicle_is_batched_on_its_realizations_minimal_forms(tmp_path):
+    """Issue 53: three conditions whose loops are not one cascade (parallel sensor paths, each
+    bending mode held by three blocks): 0 of N samples were batched (their frequency rows went per
+    loop: a 52-root form from QZ, with a zero at 3e12 rad/s, beyond the batched search).  Their
+    minimal forms from the stacked realizations (`engine.loop.batch_realized_forms`) are searched
+    as a batch and polished on the realizations; every run is `run_job`'s to 1e-12 and no sample
+    goes the per-loop path."""
     shutil.copy(EXAMPLES / "coebra_launch_vehicle.json", tmp_path / "lv.json")
-    jobs = _jobs(tmp_path / "lv.json", 4, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
-    _per_loop_equal(
-        jobs,
-        "condition 'switch-in''s loop is not one cascade of expression blocks; batched: its realizations, time "
-        "rows and stability rows; per loop: its frequency rows",
-    )
+    jobs = _jobs(tmp_path / "lv.json", 12, ["WF=+-10%", "ZF=+-10%", "TA=+-10%"])
+    batched, searched, done = _batched_equal(jobs)
+    assert (batched + searched, done) == (12, 12)
+    assert batched >= 4  # certified by the batch in every condition (the others: the search on their forms)
 
 
 def test_a_sample_that_is_not_of_the_study_keeps_the_study_per_loop(tmp_path):
@@ -632,3 +630,16 @@ def test_modal_peak_rows_of_a_loop_in_z_equal_the_per_loop_path(tmp_path):
         _same_run(got, want)
     found = [m for m in want["measures"] if m["kind"] == "modal_peak_db" and isinstance(m["frequency"], float)]
     assert found
+
+
+def test_rows_at_another_break_of_a_diagram_read_the_loop_there(tmp_path):
+    """The two-path autopilot (`tests.sessions.test_two_path_breaks`) with rows at u_att as well as
+    at its loop's break: each (condition, break) gets its own batched forms, every run is
+    `run_job`'s (0 of 6 batched before; reading every row at the condition's break put PM1@u_att
+    at dc's phase margin, 12.4 deg for 13.1)."""
+    from tests.sessions.test_two_path_breaks import document
+
+    path = tmp_path / "two_paths.json"
+    path.write_text(json.dumps({**document(), "algorithm": {"name": "slp", "settings": {}}}))
+    batched, searched, done = _batched_equal(_jobs(path, 6, ["KA=+-10%"]))
+    assert batched + searched == done == 6

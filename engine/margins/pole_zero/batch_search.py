@@ -30,13 +30,12 @@ from numpy.typing import NDArray
 from engine.loop.batch_forms import BatchForms
 from engine.margins.pole_zero.certificate import CLEARANCE, DUPLICATE, LIMIT_SLACK
 from engine.margins.pole_zero.crossings import LIMIT_NOISE
-from engine.margins.pole_zero.levels import PROBE_DECADES, ROUNDING, UNDAMPED, UNIT_GAIN_REACH
+from engine.margins.pole_zero.levels import MAX_ROOTS, PROBE_DECADES, ROUNDING, UNDAMPED, UNIT_GAIN_REACH
 from engine.margins.pole_zero.search import NEAR_REAL, NEWTON_STEPS, REAL
 from engine.model.paired_product import PairedProduct
 from engine.numerics.bracketing import EPS, NOISE_STEP
 from engine.numerics.iteration import Status, Work, iterate
 
-MAX_BATCH_ROOTS = 24  # zeros + poles: beyond, the per-loop search
 LARGEST_LOG = 300.0  # a scaled gain whose square would overflow: the per-loop search
 # relative change of GH a crossing's rounding may make, at most (else the per-loop search): a
 # quarter of the 1e-12 the batch equals the per-loop path to.  The bound is the worst case (8 ulp
@@ -156,11 +155,14 @@ class BatchLevels:
         return np.concatenate([np.where(at_zero, np.nan, np.abs(self.roots)), ladder], axis=1)
 
 
-def batch_crossings(forms: BatchForms) -> BatchCrossings:
-    """Every sample's crossings, certified or not (module docstring)."""
+def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings:
+    """Every sample's crossings, certified or not (module docstring).  ``polished``: the crossings
+    will be polished on the loops' own GH (`engine.margins.batch.polished`), so one that stopped
+    in the form's rounding noise rather than within 4 ulp is certified all the same (the form's
+    noise does not reach the margin; `CONDITION` still bounds the exact level's)."""
     forms = _placeholders(forms)
     levels = BatchLevels(forms)
-    odd = forms.odd | (levels.roots.shape[1] > MAX_BATCH_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
+    odd = forms.odd | (levels.roots.shape[1] > MAX_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
     with np.errstate(all="ignore"):
         t = -(levels.roots**2) / (levels.scale**2)[:, None]
         stationary, near, bad = [], [], odd.copy()
@@ -181,7 +183,7 @@ def batch_crossings(forms: BatchForms) -> BatchCrossings:
             bad |= (second == 0).any(axis=1)
         bad |= far | ~_signs_agree(levels, points, maxima, np.concatenate(near, axis=1))
         bad |= ~_reach_limits(levels, points, maxima)
-        crossings, values, enclosed = _crossings(levels, points, gains, phases)
+        crossings, values, enclosed = _crossings(levels, points, gains, phases, polished)
         bad |= ~enclosed
         closed = _closed_loop_poles(levels)
         abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
@@ -425,10 +427,11 @@ def _level_values(levels: BatchLevels, w: NDArray, kind: int) -> NDArray:
 
 
 def _crossings(
-    levels: BatchLevels, points: list[NDArray], gains: NDArray, phases: NDArray
+    levels: BatchLevels, points: list[NDArray], gains: NDArray, phases: NDArray, polished: bool
 ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
     """The crossings polished ((S, a) each, NaN-padded), GH at them, and whether each sample's
-    are as many as the monotone pieces between the stationary points hold, each within 4 ulp."""
+    are as many as the monotone pieces between the stationary points hold, each within 4 ulp
+    (or in the rounding noise, when ``polished`` on the loop's own GH after)."""
     gain, _, noisy = _newton(levels, gains, 3)
     phase, _, noisy_phase = _newton(levels, phases, 4)
     gain, phase = _distinct(gain, gain)[0], _distinct(phase, phase)[0]
@@ -442,7 +445,9 @@ def _crossings(
     gain_gh, gain_u, _, _ = levels.terms(gain)
     phase_gh, phase_u, _, _ = levels.terms(phase)
     ok &= (
-        ~noisy & ~noisy_phase & _conditioned(levels, gain_u, gain_u.imag) & _conditioned(levels, phase_u, phase_u.real)
+        (polished | (~noisy & ~noisy_phase))
+        & _conditioned(levels, gain_u, gain_u.imag)
+        & _conditioned(levels, phase_u, phase_u.real)
     )
     return [gain, phase], [gain_gh, phase_gh], ok & _phase_margins_resolved(levels, gain_gh)
 
