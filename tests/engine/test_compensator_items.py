@@ -200,3 +200,44 @@ def test_a_root_that_moves_little_is_still_its_parameters():
     solved = {**coefficients, **moved(block, coefficients, 1, 2e-3)}
     after = np.sort(np.abs(np.roots([solved[n] for n in ("x1", "x2", "x3", "x4")])))
     assert after == pytest.approx([2e-3, 1.0, 10.0], rel=1e-9) and solved["x4"] == coefficients["x4"]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_every_root_of_a_typed_polynomial_is_every_coefficients(seed):
+    """Roots spread over five decades (seeded): a simple root r of sum x_k s^k moves with every
+    coefficient (dr/dx_k = -r^k / p'(r), never 0 away from the origin), and the Bode gain
+    x0 / y0 with the constant terms alone."""
+    rng = np.random.default_rng(seed)
+    zeros, poles = (-(10.0 ** rng.uniform(-3, 2, size=3)) for _ in range(2))
+    names = {"x": ("x0", "x1", "x2", "x3"), "y": ("y0", "y1", "y2", "y3")}
+    values = {}
+    for side, roots in (("x", zeros), ("y", poles)):
+        values.update(zip(names[side], (float(c) for c in np.poly(roots)[::-1])))
+    text = "(x0 + x1*s + x2*s^2 + x3*s^3)/(y0 + y1*s + y2*s^2 + y3*s^3)"
+    found = items(ExpressionTransfer(text), values)
+    assert found[0].parameters == ("x0", "y0")
+    for item in found[1:]:
+        side = "x" if item.kind == "zero" else "y"
+        assert item.parameters == names[side], item.text
+
+
+def test_the_derivatives_are_the_closed_forms_and_a_repeated_root_is_nudged():
+    """d root / d log x against closed forms (the zero -1/T1 of K (1 + T1 s): 1/T1; the Bode
+    gain K a / b of K (s + a) / (s + b): d log / d log of each 1, -1); a double zero has no
+    derivative (p'(r) = 0): its parameters are found by the nudge, as before."""
+    from engine.design.compensator_items import item_slopes
+
+    lead = ExpressionTransfer("K*(1+T1*s)/(1+T2*s)")
+    values = {"K": 7.0, "T1": 1.5, "T2": 0.1}
+    found = items(lead, values)
+    slopes = item_slopes(lead, values, found)
+    assert slopes["T1"][1] == pytest.approx(1 / 1.5, rel=1e-12) and abs(slopes["T1"][2]) == 0
+    assert slopes["T2"][2] == pytest.approx(1 / 0.1, rel=1e-12) and slopes["K"][0] == pytest.approx(1.0, rel=1e-12)
+    corner = ExpressionTransfer("K*(s+a)/(s+b)")
+    values = {"K": 2.0, "a": 1.0, "b": 10.0}
+    slopes = item_slopes(corner, values, items(corner, values))
+    assert [slopes[n][0].real for n in ("K", "a", "b")] == pytest.approx([1.0, 1.0, -1.0], rel=1e-12)
+    double = ExpressionTransfer("K*(s+a)^2/(s+b)")
+    values = {"K": 2.0, "a": 1.0, "b": 10.0}
+    assert item_slopes(double, values, items(double, values)) == {}
+    assert [i.parameters for i in items(double, values)] == [("K", "a", "b"), ("a",), ("a",), ("b",)]
