@@ -241,3 +241,12 @@ def test_the_derivatives_are_the_closed_forms_and_a_repeated_root_is_nudged():
     values = {"K": 2.0, "a": 1.0, "b": 10.0}
     assert item_slopes(double, values, items(double, values)) == {}
     assert [i.parameters for i in items(double, values)] == [("K", "a", "b"), ("a",), ("a",), ("b",)]
+
+
+def test_a_parameter_that_moves_a_pole_by_a_thousandth_owns_it():
+    """K (s + a)/(s + a + e), e = 1e-3: the pole -(a + e) moves with e, and the Bode gain
+    K a/(a + e) with a and e (d log / d log = 1e-3 each in closed form, 1e-9 under a nudge of
+    1e-6: the nudge's threshold, not above it, left them out: the gain [K], the pole [a] on
+    cdde28a)."""
+    found = items(ExpressionTransfer("K*(s+a)/(s+a+e)"), {"K": 1.0, "a": 1.0, "e": 1e-3})
+    assert [i.parameters for i in found] == [("K", "a", "e"), ("a",), ("a", "e")]
