@@ -19,7 +19,7 @@ from engine.errors import EngineError
 from engine.model.bilinear import s_equivalent
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factor_text import root_factors, time_constant_factor
-from engine.model.factored import pole_zero
+from engine.model.factored import PoleZero, pole_zero
 from engine.model.network import Network
 from engine.model.paired_product import PairedProduct
 
@@ -99,10 +99,9 @@ class _Same:
 def _items_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[Item, ...]:
     """`items` of a block at its parameters' values (the key holds the block: its id stays its own)."""
     transfer, params = block.transfer, dict(values)
-    base = pole_zero(transfer.expression, params)
+    base, exact = _exact_at(block, values)
     scale = _scale(base)
     gain = _bode_gain(base, scale)
-    exact = _slopes(transfer, params, base, scale)
     moved = {
         name: _owned(exact[name], params[name], base, scale, gain)
         if name in exact
@@ -178,9 +177,9 @@ def item_slopes(
     """By each parameter x whose derivatives are exact (`_slopes`), d(root)/d log x of every
     item of ``found`` (`items` at ``params``; the gain's: d log(Bode gain)/d log x; nan for a
     root at the origin)."""
-    base = pole_zero(transfer.expression, params)
+    base, exact = _exact_at(_Same(transfer), tuple((name, params[name]) for name in transfer.parameters))
     out = {}
-    for name, (dz, dp, log_gain) in _slopes(transfer, params, base, _scale(base)).items():
+    for name, (dz, dp, log_gain) in exact.items():
         x, row = params[name], []
         for item in found:
             zero = item.kind.startswith(("zero", "differentiator"))
@@ -194,6 +193,15 @@ def item_slopes(
 
 
 Slopes = tuple[np.ndarray, np.ndarray, complex]  # dz/dx, dp/dx, d log(Bode gain)/dx
+
+
+@lru_cache(maxsize=ITEMS_KEPT)
+def _exact_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[PoleZero, dict[str, Slopes]]:
+    """A block's pole-zero form and `_slopes` at its parameters' values, kept as `_items_at`'s
+    (a move reads them where the shaping table's items did)."""
+    params = dict(values)
+    base = pole_zero(block.transfer.expression, params)
+    return base, _slopes(block.transfer, params, base, _scale(base))
 
 
 def _slopes(transfer: ExpressionTransfer, params: Mapping[str, float], base, scale: float) -> dict[str, Slopes]:
