@@ -1,8 +1,10 @@
 """A compensator as the engineer reads it: its gain (the Bode gain, with every factor
 written as (1 + s/w)), its real zeros and poles as corner frequencies and time
 constants, its complex pairs as (wn, zeta), its integrators and differentiators, and
-for each the parameters that move it (found by nudging each parameter: a root that
-moves belongs to it).  Moving an item is `compensator_moves`."""
+for each the parameters that move it (a root belongs to a parameter whose derivative
+dr/dx = -(dp/dx)(r) / p'(r), p the tree's numerator or denominator, is not zero beside the
+root's size; a repeated root or a parameter at 0 is read by nudging it, `NUDGE`).  Moving an
+item is `compensator_moves`."""
 
 from __future__ import annotations
 
@@ -17,12 +19,15 @@ from engine.errors import EngineError
 from engine.model.bilinear import s_equivalent
 from engine.model.blocks import ExpressionTransfer
 from engine.model.factor_text import root_factors, time_constant_factor
-from engine.model.factored import pole_zero
+from engine.model.factored import PoleZero, pole_zero
 from engine.model.network import Network
 from engine.model.paired_product import PairedProduct
 
-NUDGE = 1e-6  # relative change of a parameter that tells which roots it moves
-MOVED = 1e-9  # relative change of a root (or the gain) that counts as moved
+NUDGE = 1e-6  # relative change of a parameter that tells which roots it moves, where no derivative is exact
+MOVED = 1e-9  # relative change of a root (or the gain) under a nudge that counts as moved
+OWNS = 1e-10  # |x dr/dx| beside |r| (and d log gain / d log x) above rounding: x moves it (x = 0: dr/dx)
+SIMPLE = 1e-2  # a root whose tangent misses p by more than this at PROBE beside it is not simple
+PROBE = 1e-5  # relative distance from a root at which its tangent is checked
 ORIGIN = 1e-12  # a root this small beside the largest is at the origin
 
 
@@ -94,10 +99,15 @@ class _Same:
 def _items_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[Item, ...]:
     """`items` of a block at its parameters' values (the key holds the block: its id stays its own)."""
     transfer, params = block.transfer, dict(values)
-    base = pole_zero(transfer.expression, params)
+    base, exact = _exact_at(block, values)
     scale = _scale(base)
     gain = _bode_gain(base, scale)
-    moved = {name: _moved(transfer, params, name, base, scale, gain) for name in transfer.parameters}
+    moved = {
+        name: _owned(exact[name], params[name], base, scale, gain)
+        if name in exact
+        else _moved(transfer, params, name, base, scale, gain)
+        for name in transfer.parameters
+    }
     return tuple(
         _listed(base, lambda index, k: tuple(n for n, m in moved.items() if (m[0] if index == 0 else m[index][k])))
     )
@@ -159,6 +169,110 @@ def _bode_gain(base, scale: float) -> float:
     zeros = [z for z in base.zeros if abs(z) > ORIGIN * scale]
     poles = [p for p in base.poles if abs(p) > ORIGIN * scale]
     return float(PairedProduct(base.gain, np.asarray(zeros), np.asarray(poles)).terms(np.zeros(1)).value[0].real)
+
+
+def item_slopes(
+    transfer: ExpressionTransfer, params: Mapping[str, float], found: list[Item]
+) -> dict[str, list[complex]]:
+    """By each parameter x whose derivatives are exact (`_slopes`), d(root)/d log x of every
+    item of ``found`` (`items` at ``params``; the gain's: d log(Bode gain)/d log x; nan for a
+    root at the origin)."""
+    base, exact = _exact_at(_Same(transfer), tuple((name, params[name]) for name in transfer.parameters))
+    out = {}
+    for name, (dz, dp, log_gain) in exact.items():
+        x, row = params[name], []
+        for item in found:
+            zero = item.kind.startswith(("zero", "differentiator"))
+            roots, slopes = (base.zeros, dz) if zero else (base.poles, dp)
+            at = np.flatnonzero(roots == item.root)
+            row.append(
+                log_gain * x if item.kind == "gain" else complex(slopes[at[0]] * x) if at.size else complex("nan")
+            )
+        out[name] = row
+    return out
+
+
+Slopes = tuple[np.ndarray, np.ndarray, complex]  # dz/dx, dp/dx, d log(Bode gain)/dx
+
+
+@lru_cache(maxsize=ITEMS_KEPT)
+def _exact_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[PoleZero, dict[str, Slopes]]:
+    """A block's pole-zero form and `_slopes` at its parameters' values, kept as `_items_at`'s
+    (a move reads them where the shaping table's items did)."""
+    params = dict(values)
+    base = pole_zero(block.transfer.expression, params)
+    return base, _slopes(block.transfer, params, base, _scale(base))
+
+
+def _slopes(transfer: ExpressionTransfer, params: Mapping[str, float], base, scale: float) -> dict[str, Slopes]:
+    """Each parameter's exact derivatives of the zeros, the poles and the log of the Bode gain,
+    for the parameters that have them: every root simple (`_simple`), the parameter not 0 (a
+    leading coefficient at 0 adds a root) and no root at the origin moved by it."""
+    roots = np.concatenate([base.zeros, base.poles])
+    n, origin = roots.size, np.abs(roots) <= ORIGIN * scale
+    size = np.maximum(np.abs(roots), ORIGIN * scale)
+    probe = roots + PROBE * size
+    s0 = _away(roots, scale)
+    num, den = transfer.expression.fraction(np.concatenate([roots, probe, [s0]]), params)
+    if not _simple(num, den, roots, probe, base.zeros.size):
+        return {}
+    slope = _rows(num.dvar, den.dvar, base.zeros.size, n)
+    weights = 1.0 / (s0 - roots) + np.divide(1.0, roots, out=np.zeros(n, dtype=complex), where=~origin)
+    sign = np.where(np.arange(n) < base.zeros.size, 1.0, -1.0)
+    out = {}
+    for name in transfer.parameters:
+        nothing = np.zeros(n + n + 1, dtype=complex)
+        d_num, d_den = num.grad.get(name, nothing), den.grad.get(name, nothing)
+        dr = -_rows(d_num, d_den, base.zeros.size, n) / slope
+        if params[name] == 0 or np.any(origin & (np.abs(dr * params[name]) > OWNS * size)):
+            continue
+        log_gain = d_num[-1] / num.value[-1] - d_den[-1] / den.value[-1] + np.sum(sign * dr * weights)
+        if not np.isfinite(log_gain):
+            continue
+        out[name] = (dr[: base.zeros.size], dr[base.zeros.size :], complex(log_gain))
+    return out
+
+
+def _rows(at_num: np.ndarray, at_den: np.ndarray, zeros: int, n: int) -> np.ndarray:
+    """Of values at the roots (the zeros, then the poles), the numerator's at the zeros and the
+    denominator's at the poles."""
+    return np.concatenate([at_num[:zeros], at_den[zeros:n]])
+
+
+def _simple(num, den, roots: np.ndarray, probe: np.ndarray, zeros: int) -> bool:
+    """Is every root a simple root of its polynomial, found to better than `PROBE`: p(r) small
+    beside p'(r) PROBE r, and its tangent meets p at the probe beside it within `SIMPLE`."""
+    n = roots.size
+    value, slope = _rows(num.value, den.value, zeros, n), _rows(num.dvar, den.dvar, zeros, n)
+    step = slope * (probe - roots)
+    at_probe = _rows(num.value[n:], den.value[n:], zeros, n)
+    with np.errstate(all="ignore"):
+        tangent = np.abs(at_probe - value - step) <= SIMPLE * np.abs(step)
+        accurate = np.abs(value) <= np.abs(step)
+    finite = np.all(np.isfinite(num.value)) and np.all(np.isfinite(den.value)) and np.all(np.isfinite(slope))
+    return bool(finite and np.all(tangent & accurate))
+
+
+def _away(roots: np.ndarray, scale: float) -> complex:
+    """A point of the size of the roots, a tenth of ``scale`` or more from every root (where
+    the gain's derivative is read), or the last tried."""
+    point = 0j
+    for angle in (2.0, 2.5, 1.5, 2.9, 0.5):
+        point = scale * complex(math.cos(angle), math.sin(angle))
+        if not roots.size or np.min(np.abs(roots - point)) >= 0.1 * scale:
+            break
+    return point
+
+
+def _owned(slopes: Slopes, value: float, base, scale: float, gain: float) -> tuple:
+    """`_moved` read from exact derivatives: moved where |x dr/dx| exceeds `OWNS` beside the root."""
+    dz, dp, log_gain = slopes
+    moves_gain = abs(log_gain * value) > OWNS if gain else True
+
+    def which(roots: np.ndarray, dr: np.ndarray) -> list[bool]:
+        return [bool(v) for v in np.abs(dr * value) > OWNS * np.maximum(np.abs(roots), ORIGIN * scale)]
+
+    return moves_gain, which(base.zeros, dz), which(base.poles, dp)
 
 
 def _moved(

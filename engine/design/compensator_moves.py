@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from engine.design.coefficient_moves import UNCHANGED, closed_form
-from engine.design.compensator_items import NUDGE, Item, items, measure, named, readings
+from engine.design.compensator_items import NUDGE, Item, item_slopes, items, measure, named, readings
 from engine.errors import EngineError
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Network
@@ -359,31 +359,73 @@ def _mover(
 ) -> tuple[str | None, bool, float]:
     """Of the parameters that move item ``index``, the one that moves its measure most
     relative to how much it moves the others (None where none moves it alone), whether
-    it leaves the others where they are, and d log(measure) / d log(parameter) there."""
+    it leaves the others where they are, and d log(measure) / d log(parameter) there
+    (exact derivatives, `item_slopes`; a parameter without them is nudged)."""
     item = base[index]
     shared = {n for i in base if i is not item and i.kind != "gain" for n in i.parameters}
     own = [n for n in item.parameters if n not in shared]
     if not own and item.kind == "gain":
         raise EngineError("no one parameter sets the gain alone: write the compensator as K*(...) with a gain K")
     best, score, slope = (own[0] if own else None), (-math.inf, math.inf), math.nan
+    exact = item_slopes(transfer, params, base)
     for name in own:
-        value = params[name]
-        nudged = {**params, name: value * (1 + NUDGE) if value else NUDGE}
         try:
-            after = readings(transfer, nudged)
-            signed = math.log(measure(_tracked(after, item, base), kind) / measure(item, kind))
-        except (EngineError, ValueError):
+            if name in exact:
+                signed, others = _exact_change(base, index, exact[name], kind)
+            else:
+                signed, others = _nudged_change(transfer, params, base, index, kind, name)
+        except (EngineError, ValueError, ZeroDivisionError):
             continue
         change = abs(signed)
-        others = sum(
-            abs(math.log(measure(a, "frequency") / measure(b, "frequency")))
-            for a, b in zip(after, base)
-            if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
-        )
-        if item.kind.endswith("pair") and kind == "frequency":
-            before, now = _damping(item), _damping(_tracked(after, item, base))
-            others += abs(now - before) / max(abs(before), 1e-9)  # signed: a right-half-plane pair's too
         ratio = change / (others + change * 1e-3 + 1e-300)
         if ratio > score[0]:
-            best, score, slope = name, (ratio, others / (change + 1e-300)), signed / math.log1p(NUDGE)
+            best, score, slope = name, (ratio, others / (change + 1e-300)), signed
     return best, score[1] <= CLEAN, slope
+
+
+def _exact_change(base: list[Item], index: int, row: list[complex], kind: str) -> tuple[float, float]:
+    """d log(measure) / d log x of item ``index`` and the sum of the other items' |d log
+    frequency / d log x| (and a pair's relative damping's), from ``row`` (`item_slopes`)."""
+    item = base[index]
+    if measure(item, kind) <= 1e-300:
+        raise ValueError("no measure to move")
+    damping = _damping(item) if item.kind.endswith("pair") else 0.0
+    if kind == "damping":
+        signed = _damping_slope(item, row[index]) / damping if damping > 1e-300 else 0.0
+    else:
+        signed = _log_frequency_slope(item, row[index])
+    others = sum(
+        abs(_log_frequency_slope(b, dr)) for k, (b, dr) in enumerate(zip(base, row)) if k != index and measure(b) > 0
+    )
+    if item.kind.endswith("pair") and kind == "frequency":
+        others += abs(_damping_slope(item, row[index])) / max(abs(damping), 1e-9)
+    return signed, others
+
+
+def _log_frequency_slope(item: Item, slope: complex) -> float:
+    """d log|root| from d root (the gain's d log(gain), as given)."""
+    return slope.real if item.kind == "gain" else (slope / item.root).real
+
+
+def _damping_slope(item: Item, slope: complex) -> float:
+    """d zeta from d root, zeta = -Re r / |r|."""
+    r = item.root
+    return -slope.real / abs(r) + r.real * (slope / r).real / abs(r)
+
+
+def _nudged_change(
+    transfer: ExpressionTransfer, params: Mapping[str, float], base: list[Item], index: int, kind: str, name: str
+) -> tuple[float, float]:
+    """`_exact_change` by nudging ``name`` (`NUDGE`): a parameter at 0, a repeated root."""
+    item, value = base[index], params[name]
+    after = readings(transfer, {**params, name: value * (1 + NUDGE) if value else NUDGE})
+    signed = math.log(measure(_tracked(after, item, base), kind) / measure(item, kind))
+    others = sum(
+        abs(math.log(measure(a, "frequency") / measure(b, "frequency")))
+        for a, b in zip(after, base)
+        if b is not item and a.kind == b.kind and measure(b, "frequency") > 0 and measure(a, "frequency") > 0
+    )
+    if item.kind.endswith("pair") and kind == "frequency":
+        before, now = _damping(item), _damping(_tracked(after, item, base))
+        others += abs(now - before) / max(abs(before), 1e-9)  # signed: a right-half-plane pair's too
+    return signed / math.log1p(NUDGE), others / math.log1p(NUDGE)

@@ -135,6 +135,16 @@ class Expression:
             dual = _evaluate(self.root, x, params, with_dvar, with_grad)
         return _broadcast(dual, x.shape, with_dvar)
 
+    def fraction(self, x: NDArray[np.complex128], params: Mapping[str, float]) -> tuple[Dual, Dual]:
+        """The numerator and the denominator at every point of ``x`` as the tree writes them
+        (nothing cancelled: (a/b)/(c/d) is (a d)/(b c)), each with its derivatives w.r.t. every
+        parameter and the variable: finite at a pole, where `evaluate` divides by zero."""
+        self._check_params(params)
+        x = np.asarray(x, dtype=complex)
+        with np.errstate(all="ignore"):
+            num, den = _fraction(self.root, x, params)
+        return _broadcast(num, x.shape, True), _broadcast(den, x.shape, True)
+
     def compile(self, params: Mapping[str, float]) -> Evaluator:
         """A fast evaluator of (value, d/dvariable) for fixed parameter values.
 
@@ -421,3 +431,21 @@ def _evaluate(node: Node, x: NDArray, params: Mapping[str, float], with_dvar: bo
     if op == "mul":
         return args[0].mul(args[1])
     return args[0].div(args[1])
+
+
+def _fraction(node: Node, x: NDArray, params: Mapping[str, float]) -> tuple[Dual, Dual]:
+    """`Expression.fraction` of a subtree: (numerator, denominator), forward mode."""
+    if not node.args:
+        return _evaluate(node, x, params, True), Dual(np.complex128(1.0))
+    (n, d), *rest = [_fraction(a, x, params) for a in node.args]
+    if node.op == "neg":
+        return n.mul(Dual(np.complex128(-1.0))), d
+    if node.op == "pow":
+        k = node.exponent
+        return (n.power(k), d.power(k)) if k >= 0 else (d.power(-k), n.power(-k))
+    m, e = rest[0]
+    if node.op == "mul":
+        return n.mul(m), d.mul(e)
+    if node.op == "div":
+        return n.mul(e), d.mul(m)
+    return n.mul(e).add(m.mul(d), 1.0 if node.op == "add" else -1.0), d.mul(e)

@@ -172,10 +172,81 @@ def test_items_kept_for_a_design_are_that_designs(monkeypatch):
     twin = ExpressionTransfer(block.text)
     values = {"K": 2.0, "T1": 1.0, "T2": 0.1}
     first = items(block, values)
-    assert len(read) == 4  # the block's form, and each parameter nudged (which items it moves)
+    assert len(read) == 1  # the block's form alone: its owners are exact derivatives (before: 4, one per nudge)
     assert items(block, values) == first and items(block, values) is not first  # a list of one's own
-    assert len(read) == 4
+    assert len(read) == 1
     moved = items(block, {**values, "T1": 0.5})
     assert zero(moved) == pytest.approx(abs(np.roots([0.5, 1.0])[0]), rel=1e-12)
     assert zero(items(block, values)) == pytest.approx(1.0, rel=1e-12)
     assert items(twin, values) == first and zero(items(twin, {**values, "T1": 0.25})) == pytest.approx(4.0)
+
+
+def test_a_root_that_moves_little_is_still_its_parameters():
+    """A cubic numerator's zeros at 0.001, 1 and 10 rad/s: each zero is a root of
+    x1 s^3 + x2 s^2 + x3 s + x4, so every coefficient moves it (dr/dx = -r^k / p'(r), not 0),
+    though x1 moves the lowest by 1e-7 and x4 the highest by 1e-5 of a relative change (a nudge
+    of 1e-6 read them as fixed: the low zero could not be moved).  The move is checked by
+    numpy's roots of the solved coefficients."""
+    from engine.design.compensator_moves import moved
+
+    roots = [-1e-3, -1.0, -10.0]
+    coefficients = dict(zip(["x1", "x2", "x3", "x4"], (float(c) for c in np.poly(roots))))
+    block = ExpressionTransfer("(x1*s^3 + x2*s^2 + x3*s + x4)/((s+100)*(s+200)*(s+300))")
+    found = items(block, coefficients)
+    zeros = [i for i in found if i.kind == "zero"]
+    assert [abs(i.root) for i in zeros] == pytest.approx([1e-3, 1.0, 10.0], rel=1e-9)
+    assert [i.parameters for i in zeros] == [("x1", "x2", "x3", "x4")] * 3
+    assert found[0].parameters == ("x4",)  # the Bode gain x4 / 6e6 alone
+    solved = {**coefficients, **moved(block, coefficients, 1, 2e-3)}
+    after = np.sort(np.abs(np.roots([solved[n] for n in ("x1", "x2", "x3", "x4")])))
+    assert after == pytest.approx([2e-3, 1.0, 10.0], rel=1e-9) and solved["x4"] == coefficients["x4"]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_every_root_of_a_typed_polynomial_is_every_coefficients(seed):
+    """Roots spread over five decades (seeded): a simple root r of sum x_k s^k moves with every
+    coefficient (dr/dx_k = -r^k / p'(r), never 0 away from the origin), and the Bode gain
+    x0 / y0 with the constant terms alone."""
+    rng = np.random.default_rng(seed)
+    zeros, poles = (-(10.0 ** rng.uniform(-3, 2, size=3)) for _ in range(2))
+    names = {"x": ("x0", "x1", "x2", "x3"), "y": ("y0", "y1", "y2", "y3")}
+    values = {}
+    for side, roots in (("x", zeros), ("y", poles)):
+        values.update(zip(names[side], (float(c) for c in np.poly(roots)[::-1])))
+    text = "(x0 + x1*s + x2*s^2 + x3*s^3)/(y0 + y1*s + y2*s^2 + y3*s^3)"
+    found = items(ExpressionTransfer(text), values)
+    assert found[0].parameters == ("x0", "y0")
+    for item in found[1:]:
+        side = "x" if item.kind == "zero" else "y"
+        assert item.parameters == names[side], item.text
+
+
+def test_the_derivatives_are_the_closed_forms_and_a_repeated_root_is_nudged():
+    """d root / d log x against closed forms (the zero -1/T1 of K (1 + T1 s): 1/T1; the Bode
+    gain K a / b of K (s + a) / (s + b): d log / d log of each 1, -1); a double zero has no
+    derivative (p'(r) = 0): its parameters are found by the nudge, as before."""
+    from engine.design.compensator_items import item_slopes
+
+    lead = ExpressionTransfer("K*(1+T1*s)/(1+T2*s)")
+    values = {"K": 7.0, "T1": 1.5, "T2": 0.1}
+    found = items(lead, values)
+    slopes = item_slopes(lead, values, found)
+    assert slopes["T1"][1] == pytest.approx(1 / 1.5, rel=1e-12) and abs(slopes["T1"][2]) == 0
+    assert slopes["T2"][2] == pytest.approx(1 / 0.1, rel=1e-12) and slopes["K"][0] == pytest.approx(1.0, rel=1e-12)
+    corner = ExpressionTransfer("K*(s+a)/(s+b)")
+    values = {"K": 2.0, "a": 1.0, "b": 10.0}
+    slopes = item_slopes(corner, values, items(corner, values))
+    assert [slopes[n][0].real for n in ("K", "a", "b")] == pytest.approx([1.0, 1.0, -1.0], rel=1e-12)
+    double = ExpressionTransfer("K*(s+a)^2/(s+b)")
+    values = {"K": 2.0, "a": 1.0, "b": 10.0}
+    assert item_slopes(double, values, items(double, values)) == {}
+    assert [i.parameters for i in items(double, values)] == [("K", "a", "b"), ("a",), ("a",), ("b",)]
+
+
+def test_a_parameter_that_moves_a_pole_by_a_thousandth_owns_it():
+    """K (s + a)/(s + a + e), e = 1e-3: the pole -(a + e) moves with e, and the Bode gain
+    K a/(a + e) with a and e (d log / d log = 1e-3 each in closed form, 1e-9 under a nudge of
+    1e-6: the nudge's threshold, not above it, left them out: the gain [K], the pole [a] on
+    cdde28a)."""
+    found = items(ExpressionTransfer("K*(s+a)/(s+a+e)"), {"K": 1.0, "a": 1.0, "e": 1e-3})
+    assert [i.parameters for i in found] == [("K", "a", "e"), ("a",), ("a", "e")]

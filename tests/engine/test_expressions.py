@@ -90,3 +90,26 @@ def test_forward_derivatives_equal_central_differences(name):
     dx = 1e-6 * np.abs(x)
     numeric_s = (e.evaluate(x + dx, params).value - e.evaluate(x - dx, params).value) / (2 * dx)
     np.testing.assert_allclose(analytic.dvar, numeric_s, rtol=1e-6)
+
+
+def test_the_fraction_is_the_expression_and_finite_at_its_poles():
+    """`Expression.fraction`: N/D and its quotient-rule derivatives are `evaluate`'s (nested
+    quotients, negative powers), and at a pole, where `evaluate` divides by zero, D is 0 with
+    D' and dD/dparameter finite (closed forms: K/((s + b)^2 (1 + s/c)) is K c / ((s + b)^2 (c + s)))."""
+    import numpy as np
+
+    e = Expression("K*(1+T*s)/((s+b)^2*(1+s/c)) - a/s^2 + (s+b)^-1")
+    params = {"K": 2.0, "T": 1.5, "b": 0.5, "c": 4.0, "a": 0.7}
+    x = np.array([0.3 + 0.2j, -2.0, 1j])
+    num, den = e.fraction(x, params)
+    full = e.evaluate(x, params, with_dvar=True)
+    assert np.allclose(num.value / den.value, full.value, rtol=1e-13)
+    assert np.allclose((num.dvar * den.value - den.dvar * num.value) / den.value**2, full.dvar, rtol=1e-12)
+    for name in params:
+        dn, dd = num.grad.get(name, 0.0), den.grad.get(name, 0.0)
+        assert np.allclose((dn * den.value - dd * num.value) / den.value**2, full.grad[name], rtol=1e-12)
+    pole = np.array([-0.5 + 0j])
+    num, den = Expression("K/((s+b)^2*(1+s/c))").fraction(pole, params)
+    assert den.value[0] == 0 and num.value[0] == 2.0 * 4.0 and den.dvar[0] == 0  # a double root of D
+    num, den = Expression("K/((s+b)*(1+s/c))").fraction(pole, params)
+    assert den.dvar[0] == pytest.approx(4.0 - 0.5) and den.grad["b"][0] == pytest.approx(4.0 - 0.5)  # (c + s)

@@ -333,11 +333,11 @@ async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
 
     app = lead_app(tmp_path, monkeypatch)
     owners, setups, waits = [], [], []
-    moved, stepper, write = compensator_items._moved, lifecycle.stepper, store.write_autosave
+    owned, stepper, write = compensator_items._owned, lifecycle.stepper, store.write_autosave
 
-    def noted_moved(transfer, params, name, *args):
-        owners.append(name)
-        return moved(transfer, params, name, *args)
+    def noted_owned(slopes, value, *args):
+        owners.append(value)  # one parameter's items, read from its exact derivatives
+        return owned(slopes, value, *args)
 
     def noted_stepper(session):
         setups.append(session)
@@ -347,7 +347,8 @@ async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
         waits.append(wait)
         return write(session, at_most_every, wait)
 
-    monkeypatch.setattr(compensator_items, "_moved", noted_moved)
+    monkeypatch.setattr(compensator_items, "_owned", noted_owned)
+    monkeypatch.setattr(compensator_items, "_moved", lambda *a: pytest.fail("a lead's parameter nudged"))
     monkeypatch.setattr(lifecycle, "stepper", noted_stepper)
     monkeypatch.setattr("tui.state.bench.persistence.write_autosave", noted_write)
     async with app.run_test(size=(120, 40)) as pilot:
@@ -359,8 +360,8 @@ async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
         for key in nudges:
             await pilot.press(key)
             await settle(app, pilot)
-        parameters = ["K", "T1", "T2"]  # K (1 + T1 s) / (1 + T2 s): each nudged once per design
-        assert sorted(owners) == sorted(parameters * len(nudges))
+        parameters = ["K", "T1", "T2"]  # K (1 + T1 s) / (1 + T2 s): each read once per design
+        assert len(owners) == len(parameters) * len(nudges)
         assert len(setups) == len(nudges) and waits and not any(waits)
         waits.clear()
         await pilot.press("ctrl+z")  # the edits' undo: its autosave left to the thread too
