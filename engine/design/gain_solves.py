@@ -108,8 +108,7 @@ def _exact(loop: LoopModel) -> tuple[LoopModel, str, float]:
     fitted = fitted_loop(loop)
     if fitted is None:
         raise EngineError("the table fits no rational model well enough to solve on it")
-    model, residual, degree = fitted
-    return model, f"on the table's rational fit (degree {degree}, residual {residual:.2g})", 0.0
+    return fitted.model, f"on {fitted.how} (residual {fitted.residual:.2g})", 0.0
 
 
 def _search_grid(loop: LoopModel, reach: float) -> NDArray[np.float64]:

@@ -75,6 +75,15 @@ def closed_loop(
     return Response(sol.omega, sol.x[:, j], sol.parameters, None if sol.dx is None else sol.dx[:, 0, :])
 
 
+@dataclass(frozen=True)
+class LoopSource:
+    """The network a loop is broken from, where (``break_at``) and at which parameter values."""
+
+    network: Network
+    break_at: str
+    params: Mapping[str, float]
+
+
 class LoopModel:
     """An open loop for margin analysis.
 
@@ -90,6 +99,8 @@ class LoopModel:
     rate a delay adds), ``axis_poles``: frequencies of block poles on the
     imaginary axis (GH may be infinite there), ``exact``: the network's own
     evaluator when ``evaluate`` is a faster form of it (`engine.loop.pole_zero`).
+    ``source``: for a loop with tables, the network, break and values it was built from (to evaluate
+    it off the table with each table's own fit in its place: `engine.margins.search.fitted_loop`).
     """
 
     def __init__(
@@ -104,6 +115,7 @@ class LoopModel:
         delay: float = 0.0,
         axis_poles: NDArray | None = None,
         exact: Evaluator | None = None,
+        source: LoopSource | None = None,
     ):
         if gh is None and evaluate is None:
             raise EngineError("a loop needs its response or an evaluator")
@@ -117,6 +129,7 @@ class LoopModel:
         self.delay = delay
         self.axis_poles = np.zeros(0) if axis_poles is None else axis_poles
         self.exact = exact if exact is not None else evaluate
+        self.source = source
 
     def on_exact(self) -> LoopModel:
         """The same loop evaluated on the exact network (not the pole-zero form)."""
@@ -187,7 +200,8 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
         nu, _ = warped(w, network.sample_time)
         return SampledLoop(loop_model(network.unsampled(), break_at, nu, params), w, network.sample_time)
     if not network.exact:
-        return LoopModel(w, open_loop(network, break_at, w, params, sensitivities=False).value)
+        gh = open_loop(network, break_at, w, params, sensitivities=False).value
+        return LoopModel(w, gh, source=LoopSource(network, break_at, dict(params)))
     loop = design(network, params).loop(break_at)
     exact = loop.evaluator
     corners, damps, is_pole = exact.corners(params)

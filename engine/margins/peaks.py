@@ -452,12 +452,9 @@ def _table_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band) -
     """Peaks of a tabulated loop: refined on its rational fit (the margins' fit), else grid maxima."""
     fitted = fitted_loop(loop)
     if fitted is not None:
-        model, residual, degree = fitted
-        note = (
-            f"tabulated loop: peaks refined on a rational fit of degree {degree} "
-            f"(relative residual {residual:.1e} on the table)"
-        )
-        found = _peaks_on(model, transforms, band)
+        residual = fitted.residual
+        note = f"tabulated loop: peaks refined on {fitted.how} (relative residual {residual:.1e} on the table)"
+        found = _peaks_on(fitted.model, transforms, band)
         return tuple(Peak(p.value, p.frequency, f"fitted (residual {residual:.1e})", (note,) + p.notes) for p in found)
     keep = (loop.omega >= band.low) & (loop.omega <= band.high)
     if not keep.any():

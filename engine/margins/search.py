@@ -22,21 +22,25 @@ method, with its bounds: docs/margins.md.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from engine.closed_loop.tabulated_step import has_tables
 from engine.errors import EngineError
 from engine.loop.fit_cache import cached_fit
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.loop.responses import LoopModel, SampledLoop
+from engine.loop.responses import Evaluator, LoopModel, SampledLoop, loop_model
 from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
 from engine.margins.sampled import sampled_margins
 from engine.margins.shape_notes import level_notes, shape_notes
 from engine.margins.values import FAMILY_LOWEST, Band, Margin, Margins, family, margins_of, single_margin
+from engine.model.blocks import FittedTableTransfer, TabulatedTransfer
+from engine.model.network import Network
 from engine.numerics.rational_fit import Trend
 from engine.numerics.refinement import Job, Roots, refine, refine_together, sign_changes
 
@@ -71,15 +75,15 @@ def margins(
                     + (f"the table could not be fitted within {FIT_LIMIT:g} relative: grid rule used",),
                 )
             )
-        found = supported(loop, margins(fitted[0], gain_band, phase_band, attenuation_above), fitted[1])
+        found = supported(loop, margins(fitted.model, gain_band, phase_band, attenuation_above), fitted.residual)
         notes = tuple(n for n in found.notes if not n.startswith("searched within"))
         return replace(
             found,
             method="fitted",
-            residual=fitted[1],
+            residual=fitted.residual,
             notes=(
-                f"tabulated loop: margins refined on a rational fit of degree {fitted[2]} "
-                f"(relative residual {fitted[1]:.1e} at every table point, the margins' stated uncertainty)",
+                f"tabulated loop: margins refined on {fitted.how} "
+                f"(relative residual {fitted.residual:.1e} at every table point, the margins' stated uncertainty)",
             )
             + notes,
         )
@@ -324,15 +328,101 @@ def _straddled(pair: NDArray, away: NDArray, uncertainty: float) -> bool:
     )
 
 
-def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
-    """A rational fit of a tabulated loop as a loop model (searched within
-    the table's range), its residual and degree; None when it fits badly."""
+@dataclass(frozen=True)
+class FittedLoop:
+    """A tabulated loop made rational (``model``, searched within the table's range), its largest
+    relative residual on the table's points, its degree and how it was made (``how``)."""
+
+    model: LoopModel
+    residual: float
+    degree: int
+    how: str
+
+
+def fitted_loop(loop: LoopModel) -> FittedLoop | None:
+    """A rational form of a tabulated loop: its network with each table's own fit in the table's place
+    (`_through_table_fits`: a table's fit is made once, so a new design fits nothing) where that meets the
+    loop's values on the table within `FIT_LIMIT`, else a fit of the whole loop (`_whole_loop_fit`: one per
+    design); None when neither does."""
+    return _through_table_fits(loop) or _whole_loop_fit(loop)
+
+
+def _through_table_fits(loop: LoopModel) -> FittedLoop | None:
+    """The loop's network with each table replaced by its own rational fit (`_trended_fit`, made once per
+    table's content), the rest exact; None without a network of tables and rational parts or delays, when
+    a table does not fit, or when the loop so evaluated misses its values on the table by more than
+    `FIT_LIMIT` (relative: in a feedback structure a table's residual is not the loop's)."""
+    source = loop.source
+    if source is None or not has_tables(source.network):
+        return None
+    entries, corners, dampings, degree = [], [np.zeros(0)], [np.zeros(0)], 0
+    for e in source.network.entries:
+        if isinstance(e.transfer, TabulatedTransfer):
+            table = e.transfer.table
+            keep = table.omega > 0
+            fitted = _trended_fit(table.omega[keep], table.response[keep])
+            if fitted is None:
+                return None
+            corners, dampings = corners + [fitted.corners], dampings + [fitted.dampings]
+            degree += fitted.degree
+            e = replace(e, transfer=FittedTableTransfer(fitted.evaluate, f"fit of {e.transfer.text}"))
+        entries.append(e)
+    network = Network(source.network.signals, source.network.inputs, tuple(entries), source.network.variable)
+    try:
+        exact = loop_model(network, source.break_at, loop.omega, source.params)
+        residual = _relative_residual(exact.evaluate, loop.omega, loop.gh)
+    except EngineError:
+        return None
+    if not residual <= FIT_LIMIT:
+        return None
+    model = LoopModel(
+        loop.omega,
+        loop.gh,
+        exact.evaluate,
+        np.concatenate([exact.corner_frequencies, *corners]),
+        np.concatenate([exact.dampings, *dampings]),
+        delay=exact.delay,
+        axis_poles=exact.axis_poles,
+        exact=exact.exact,
+    )
+    return FittedLoop(
+        model, residual, degree, f"the network with each table's rational fit in its place (degree {degree})"
+    )
+
+
+def _whole_loop_fit(loop: LoopModel) -> FittedLoop | None:
+    """A rational fit of the whole tabulated loop as a loop model, searched within the table's range;
+    None when it fits badly."""
     keep = loop.omega > 0
     omega, gh = loop.omega[keep], loop.gh[keep]
-    trend = Trend.of(omega, gh)
+    fitted = _trended_fit(omega, gh)
+    if fitted is None:
+        return None
+    residual = _relative_residual(fitted.evaluate, omega, gh)
+    if not residual <= FIT_LIMIT:
+        return None
+    model = LoopModel(omega, gh, fitted.evaluate, fitted.corners, fitted.dampings)
+    return FittedLoop(model, residual, fitted.degree, f"a rational fit of the whole loop (degree {fitted.degree})")
+
+
+@dataclass(frozen=True)
+class TrendedFit:
+    """A response's AAA fit times its trend (`Trend`): values and slopes d/domega at any frequencies, the
+    corners and dampings of its poles (and the trend's corner), its degree."""
+
+    evaluate: Evaluator
+    corners: NDArray[np.float64]
+    dampings: NDArray[np.float64]
+    degree: int
+
+
+def _trended_fit(omega: NDArray[np.float64], response: NDArray[np.complex128]) -> TrendedFit | None:
+    """The fit of ``response`` (above 0 rad/s) normalized by its trend (`cached_fit`: once per content);
+    None when it cannot be fitted."""
+    trend = Trend.of(omega, response)
     try:
         with np.errstate(all="ignore"):
-            fit = cached_fit(omega, gh / trend.evaluate(omega)[0])
+            fit = cached_fit(omega, response / trend.evaluate(omega)[0])
     except EngineError:
         return None
 
@@ -340,17 +430,19 @@ def fitted_loop(loop: LoopModel) -> tuple[LoopModel, float, int] | None:
         (g, dg), (t, dt) = fit.evaluate(w), trend.evaluate(w)
         return g * t, dg * t + g * dt
 
-    with np.errstate(all="ignore"):  # judged point by point, relative to each point's value
-        relative = np.abs(evaluate(omega)[0] - gh) / np.abs(gh)
-    residual = float(np.max(relative[gh != 0], initial=0.0))
-    if not residual <= FIT_LIMIT:
-        return None
-
     poles = fit.poles[np.isfinite(fit.poles) & (np.abs(fit.poles) > 0)]
-    corners = np.concatenate([np.abs(poles), [trend.corner] if trend.low != trend.high else []])
-    dampings = np.concatenate([np.abs(poles.real) / np.abs(poles), [1.0] if trend.low != trend.high else []])
-    model = LoopModel(omega, gh, evaluate, corners, dampings)
-    return model, residual, int(fit.degree + abs(trend.low - trend.high) + abs(trend.low))
+    bent = trend.low != trend.high
+    corners = np.concatenate([np.abs(poles), [trend.corner] if bent else []])
+    dampings = np.concatenate([np.abs(poles.real) / np.abs(poles), [1.0] if bent else []])
+    return TrendedFit(evaluate, corners, dampings, int(fit.degree + abs(trend.low - trend.high) + abs(trend.low)))
+
+
+def _relative_residual(evaluate: Evaluator, omega: NDArray[np.float64], gh: NDArray[np.complex128]) -> float:
+    """The largest relative miss of ``evaluate`` on the loop's values ``gh`` at ``omega`` (above 0 rad/s)."""
+    keep = (omega > 0) & (gh != 0)
+    with np.errstate(all="ignore"):  # judged point by point, relative to each point's value
+        relative = np.abs(evaluate(omega[keep])[0] - gh[keep]) / np.abs(gh[keep])
+    return float(np.max(relative, initial=0.0)) if np.all(np.isfinite(relative)) else math.inf
 
 
 def _refined(loop: LoopModel, grid: Detection) -> dict[str, list[Margin]]:

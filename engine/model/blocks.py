@@ -490,4 +490,30 @@ class TabulatedTransfer:
         return Dual(self.response(np.asarray(x).imag), {}, None)
 
 
-Transfer = ExpressionTransfer | StateSpaceTransfer | DelayTransfer | TabulatedTransfer
+class FittedTableTransfer:
+    """A table's rational fit in the table's place (`engine.margins.search.fitted_loop`): ``fit`` gives the
+    response and its slope d/domega at any frequencies (rad/s), as exact as the fit is off the table."""
+
+    exact = True
+    rational_form = False
+    parameters: tuple[str, ...] = ()
+
+    def __init__(self, fit: Callable[[NDArray], tuple[NDArray, NDArray]], text: str):
+        self.fit = fit
+        self.text = text
+
+    def compile(self, params: Mapping[str, float]) -> Compiled:
+        def evaluate(x: NDArray) -> tuple[NDArray, NDArray]:
+            value, slope = self.fit(np.asarray(x).imag)
+            return value, slope / 1j  # d/ds on s = j omega
+
+        return evaluate
+
+    def evaluate(
+        self, x: NDArray, params: Mapping[str, float], with_dvar: bool = False, with_grad: bool = True
+    ) -> Dual:
+        value, slope = self.compile(params)(x)
+        return Dual(value, {}, slope if with_dvar else None)
+
+
+Transfer = ExpressionTransfer | StateSpaceTransfer | DelayTransfer | TabulatedTransfer | FittedTableTransfer

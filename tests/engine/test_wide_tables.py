@@ -76,9 +76,9 @@ def test_the_stated_residual_holds_at_every_point() -> None:
 
     omega = np.logspace(-4, 5, 900)
     _, _, gh = _table_analysis("1e4*(1+s/3)**2/(s**3*(1+s/100)**2)", omega)
-    model, residual, _ = fitted_loop(LoopModel(omega, gh))
-    relative = np.abs(model.evaluate(omega)[0] - gh) / np.abs(gh)
-    assert np.max(relative) <= residual < 1e-6
+    fitted = fitted_loop(LoopModel(omega, gh))
+    relative = np.abs(fitted.model.evaluate(omega)[0] - gh) / np.abs(gh)
+    assert np.max(relative) <= fitted.residual < 1e-6
 
 
 def test_valley_prominences_are_scipys() -> None:
