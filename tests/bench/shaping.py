@@ -2,8 +2,7 @@
 in the shaping table (`C`, `right`/`left` alternately, so the design does not drift) on
 1/(s^2 (s+10)) at 120x40 with the Bode plots shown: the key press to the end of the
 first paint with the new tableau, and to the end of the paint after every plot is
-drawn again (the first paint whose tableau is new: it waits for its pole lines up to
-`tui.screens.pole_lines.WAIT_S`).  Targets (issue 54, section 3): key to painted tableau <= 30 ms; key to
+drawn again (the first paint whose tableau is new).  Targets (issue 54, section 3): key to painted tableau <= 30 ms; key to
 every visible plot repainted <= 120 ms on the lead, <= 250 ms on the tabulated launch
 vehicle (`cip_launch_vehicle`, its first compensator's zero1: a root of cip's
 polynomial, moved by its coefficients together).

@@ -450,13 +450,9 @@ class MainScreen(Screen):
 
     def refresh_tableau(self, view: View | None = None) -> StepRecord | None:
         """The tableau with the lines under it (what binds at a stop, the closed-loop
-        poles); its record.  While its pole lines are awaited the tableau is left as it is
-        (`PoleLines.text`: drawn once, when they come)."""
+        poles); its record."""
         view = self.bench.view() if view is None else view
-        poles = self.pole_lines.text(view)
         rows, record = view.tableau()
-        if poles is None:
-            return record
         previous = view.tableau(view.iteration - 1)[0] if view.iteration > 0 else []
         unit = view.problem.grid.unit
         width = self.query_one("#tableau-scroll").size.width or None
@@ -466,6 +462,7 @@ class MainScreen(Screen):
         )
         if stops:  # a finished run: what binds, what sits at a bound, what is unmet
             text.append("\n" + "\n".join(f"stop: {note}" for note in stops) + "\n")
+        poles = self.pole_lines.text(view)
         if poles:
             text.append("\n" + poles + "\n")
         self.query_one("#tableau", TextView).set(text)

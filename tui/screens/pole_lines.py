@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from textual.message import Message
-from textual.timer import Timer
 
 from engine.stepping.presenter import tolerant
 from tui.figures.catalog import figure_key
@@ -24,7 +23,6 @@ if TYPE_CHECKING:
     from tui.screens.main import MainScreen
 
 COMPUTING = "closed-loop poles, loops at every break: computing ..."
-WAIT_S = 0.05  # how long a new tableau waits for its pole lines before it shows them as computing
 
 
 def several_breaks(view: View) -> bool:
@@ -64,18 +62,17 @@ class PoleLines:
         self.screen = screen
         self.kept: tuple[tuple, str, View] | None = None  # (`figure_key`, the lines, the view)
         self._asked: tuple | None = None  # the `figure_key` a thread worker makes lines for
-        self._waiting: Timer | None = None  # while set, a new tableau waits for its pole lines
 
-    def text(self, view: View) -> str | None:
-        """The pole lines of ``view``: kept, or asked of a thread worker.  Meanwhile None for
-        up to `WAIT_S` (the tableau waits: painted once, with its lines, when they come in
-        time: `found`), then `COMPUTING`, on as many lines as the lines kept (a nudge's
-        tableau keeps its height, and the screen no layout pass)."""
+    def text(self, view: View) -> str:
+        """The pole lines of ``view``: kept, or asked of a thread worker (`COMPUTING`
+        meanwhile, on as many lines as the lines kept: a nudge's tableau keeps its height,
+        and the screen no layout pass)."""
         if "poles" not in view.presenter.plots and not several_breaks(view):
             return ""
         key = figure_key(view)
         if self.kept is not None and self.kept[0] == key:
             return self.kept[1]
+        lines = self.kept[1].count("\n") if self.kept is not None else 0
         if self._asked != key:
             self._asked = key
 
@@ -83,17 +80,7 @@ class PoleLines:
                 self.screen.post_message(self.Found(view, under_tableau(view)))
 
             self.screen.run_worker(compute, thread=True, exclusive=True, group="poles")
-            if self._waiting is None:  # (a held key's nudges wait WAIT_S at most, not once each)
-                self._waiting = self.screen.set_timer(WAIT_S, self._waited)
-        if self._waiting is not None:
-            return None
-        lines = self.kept[1].count("\n") if self.kept is not None else 0
         return COMPUTING + "\n" * lines
-
-    def _waited(self) -> None:
-        """The pole lines did not come in `WAIT_S`: the tableau is drawn, with them computing."""
-        self._waiting = None
-        self.screen.refresh_tableau()
 
     def found(self, message: PoleLines.Found) -> None:
         key = figure_key(message.view)
@@ -101,9 +88,6 @@ class PoleLines:
             self._asked = None
         if key == figure_key(self.screen.bench.view()):
             self.keep((key, message.text, message.view))
-            if self._waiting is not None:
-                self._waiting.stop()
-                self._waiting = None
             self.screen.refresh_tableau()
 
     def keep(self, poles: tuple[tuple, str, View] | None) -> None:
