@@ -53,3 +53,22 @@ def loop_network(num: np.ndarray, den: np.ndarray):
 def tabulated_loop(omega, gh) -> LoopModel:
     """A tabulated open loop (no exact evaluator): what a table of GH(j omega) gives the margins."""
     return LoopModel(check_grid(omega), np.asarray(gh, dtype=complex))
+
+
+def random_cascade_structure(rng: np.random.Generator) -> tuple[list[str], dict[str, float]]:
+    """A cascade of two proper factored blocks with parameters: a gain, real zeros and poles,
+    lightly damped pairs, maybe an integrator; the nominal values."""
+    values = {"k": float(10 ** rng.uniform(-0.5, 1.5)), "q": float(10 ** rng.uniform(0, 2))}
+    zeros = int(rng.integers(0, 3))
+    numerator, poles = ["k"], ["s"] if rng.random() < 0.5 else []
+    for j in range(zeros):
+        values[f"z{j}"] = float(10 ** rng.uniform(-1, 1.5))
+        numerator.append(f"(s/z{j} + 1)")
+    for j in range(zeros + int(rng.integers(0, 2))):
+        values[f"p{j}"] = float(10 ** rng.uniform(-1, 2))
+        poles.append(f"(s/p{j} + 1)")
+    for j in range(int(rng.integers(0, 3))):
+        values[f"w{j}"], values[f"d{j}"] = float(10 ** rng.uniform(-0.5, 2)), float(10 ** rng.uniform(-2.5, -0.5))
+        poles.append(f"(s**2/w{j}**2 + 2*d{j}*s/w{j} + 1)")
+    blocks = ["*".join(numerator) + ("/(" + "*".join(poles) + ")" if poles else ""), "1/(s/q + 1)"]
+    return blocks, values

@@ -18,28 +18,10 @@ from engine.margins.batch import batch_margins
 from engine.margins.search import margins
 from engine.model.blocks import FrequencyTable
 from engine.model.network import Network
+from tests.engine.loopfactory import random_cascade_structure
 
 OMEGA = np.logspace(-3, 3, 200)
 EXACT = 1e-12
-
-
-def _random_structure(rng: np.random.Generator) -> tuple[list[str], dict[str, float]]:
-    """A cascade of two proper factored blocks with parameters: a gain, real zeros and poles,
-    lightly damped pairs, maybe an integrator; the nominal values."""
-    values = {"k": float(10 ** rng.uniform(-0.5, 1.5)), "q": float(10 ** rng.uniform(0, 2))}
-    zeros = int(rng.integers(0, 3))
-    numerator, poles = ["k"], ["s"] if rng.random() < 0.5 else []
-    for j in range(zeros):
-        values[f"z{j}"] = float(10 ** rng.uniform(-1, 1.5))
-        numerator.append(f"(s/z{j} + 1)")
-    for j in range(zeros + int(rng.integers(0, 2))):
-        values[f"p{j}"] = float(10 ** rng.uniform(-1, 2))
-        poles.append(f"(s/p{j} + 1)")
-    for j in range(int(rng.integers(0, 3))):
-        values[f"w{j}"], values[f"d{j}"] = float(10 ** rng.uniform(-0.5, 2)), float(10 ** rng.uniform(-2.5, -0.5))
-        poles.append(f"(s**2/w{j}**2 + 2*d{j}*s/w{j} + 1)")
-    blocks = ["*".join(numerator) + ("/(" + "*".join(poles) + ")" if poles else ""), "1/(s/q + 1)"]
-    return blocks, values
 
 
 def _samples(values: dict[str, float], count: int, spread: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
@@ -79,7 +61,7 @@ def test_random_loops_equal_the_per_loop_path():
     batched = 0
     for seed in range(12):
         rng = np.random.default_rng(seed)
-        blocks, values = _random_structure(rng)
+        blocks, values = random_cascade_structure(rng)
         found = _check_against_per_loop(unity_feedback(blocks), _samples(values, 40, 0.2, rng))
         batched += sum(sample is not None and sample.batched for sample in found)
     assert batched >= 0.7 * 12 * 40
@@ -202,7 +184,7 @@ def test_rows_read_from_the_arrays_equal_each_samples_rows():
     checked = present = 0
     for seed in range(6):
         rng = np.random.default_rng(seed)
-        blocks, values = _random_structure(rng)
+        blocks, values = random_cascade_structure(rng)
         forms = batch_pole_zero(unity_feedback(blocks), "e", _samples(values, 30, 0.3, rng))
         loops = batch_loops(forms, attenuation=True)
         for kind in ROW_KINDS:

@@ -21,6 +21,7 @@ from sessions.store import load_session
 from sessions.sweeps.batch_study import batch_runs
 from sessions.sweeps.jobs import execute, execute_serial, run_job
 from sessions.sweeps.plan import plan
+from tests.engine.loopfactory import random_cascade_structure
 from tui.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -289,11 +290,10 @@ def test_random_loops_equal_the_per_loop_path(tmp_path):
     """Six random cascades (`tests.engine.test_batch_margins`: gains, real zeros and poles,
     light pairs, integrators), every parameter +-20 %, 25 samples each: every run is
     `run_job`'s; most samples batched, the rest named in the note."""
-    from tests.engine.test_batch_margins import _random_structure
 
     batched = 0
     for seed in range(6):
-        blocks, values = _random_structure(np.random.default_rng(seed))
+        blocks, values = random_cascade_structure(np.random.default_rng(seed))
         path = _loop_session(tmp_path, blocks, values, f"random{seed}")
         jobs = _jobs(path, 25, [f"{name}=+-20%" for name in values])
         batch = batch_runs(jobs)
@@ -489,11 +489,10 @@ def test_modal_peak_rows_of_cascades_are_batched(tmp_path):
     kind modal_peak_db); the maxima of |GH| the batched search polishes and certifies are its
     attenuation margins now.  Random cascades with light pairs, every run `run_job`'s, most
     samples batched."""
-    from tests.engine.test_batch_margins import _random_structure
 
     batched = total = peaks = 0
     for seed in (1, 2, 4, 6, 9):
-        blocks, values = _random_structure(np.random.default_rng(seed))
+        blocks, values = random_cascade_structure(np.random.default_rng(seed))
         path = _with_modal_peaks(_loop_session(tmp_path, blocks, values, f"peaks{seed}"))
         jobs = _jobs(path, 20, [f"{name}=+-20%" for name in values])
         batch = batch_runs(jobs)
@@ -537,12 +536,11 @@ def test_time_rows_of_cascades_are_batched(tmp_path):
     batched: rows of kind overshoot_percent, ...); each sample's closed loop, realized as the
     per-loop path realizes it, is simulated with the others in one recursion now.  The lag-lead
     and random cascades: every run `run_job`'s (rows to 1e-12 relative), most samples batched."""
-    from tests.engine.test_batch_margins import _random_structure
 
     batched = total = 0
     studies = [(_with_time_rows(_session(tmp_path)), TOLERANCES)]
     for seed in (2, 4, 9):
-        blocks, values = _random_structure(np.random.default_rng(seed))
+        blocks, values = random_cascade_structure(np.random.default_rng(seed))
         path = _with_time_rows(_loop_session(tmp_path, blocks, values, f"timed{seed}"))
         studies.append((path, [f"{name}=+-20%" for name in values]))
     for path, tolerances in studies:
@@ -556,11 +554,10 @@ def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_for
     (not batched: rows of kind complementary_sensitivity_peak, ...); each sample's peaks are found
     by the per-loop grid-free peak search on its batched form now (no network, no realization per
     sample), its margins batched.  The lag-lead and random cascades, every run `run_job`'s."""
-    from tests.engine.test_batch_margins import _random_structure
 
     studies = [(_session(tmp_path), TOLERANCES)]
     for seed in (2, 6, 9):
-        blocks, values = _random_structure(np.random.default_rng(seed))
+        blocks, values = random_cascade_structure(np.random.default_rng(seed))
         studies.append((_loop_session(tmp_path, blocks, values, f"closed{seed}"), [f"{n}=+-20%" for n in values]))
     kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")
     on_forms = total = 0
