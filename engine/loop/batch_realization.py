@@ -12,11 +12,20 @@ every sample's state-to-signal map in one call; otherwise per sample.  There is 
 realization (None; the per-sample realization is the way) for an entry of higher degree, a
 loop in z, a block of several ports, a delay or a table, or a singular algebraic loop in a
 sample.
+
+With ``shared``, blocks fed by one signal whose states move alike in every sample (the same A
+and B: one denominator's controllable canonical section, as a bending mode's gyro, rate gyro
+and accelerometer blocks are) share one set of states, each block's C reading them: the same
+transfer from every input exactly, with fewer states (the launch vehicle's 28 are 16).  The
+states left out are modes no input reaches (the copies' differences, autonomous: zero from a
+zero state); their poles, the copies' own, are kept as ``hidden`` (`SharedStateSpace`): they
+are poles of the loop, broken or closed, all the same.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,13 +40,22 @@ from engine.model.network import Network
 from engine.model.ports.state_space_ports import StateSpaceChannel
 
 
+@dataclass(frozen=True)
+class SharedStateSpace(StateSpace):
+    """Stacked realizations whose blocks of one input and one dynamics share their states
+    (module docstring); ``hidden`` (S, h): the poles of the states left out."""
+
+    hidden: NDArray[np.complex128] = field(default_factory=lambda: np.zeros((0, 0), dtype=complex))
+
+
 def batch_loop_realization(
-    network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]
+    network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]], shared: bool = False
 ) -> StateSpace | None:
     """Every sample's broken loop as `engine.loop.pole_zero.loop_realization` makes it (inputs: the
-    network's, then the loop input); None when there is no batched realization."""
+    network's, then the loop input), or with ``shared`` its blocks' states shared where they
+    move alike (a `SharedStateSpace`); None when there is no batched realization."""
     broken = network.derived.get(BROKEN, lambda: broken_network(network, break_at), break_at)
-    return batch_realize(broken, columns)
+    return batch_realize(broken, columns, shared)
 
 
 def batch_closed_loop(network: Network, break_at: str, columns: Mapping[str, NDArray[np.float64]]) -> StateSpace | None:
@@ -57,13 +75,14 @@ def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | N
     if (np.abs(denominator) < 1e-14).any():
         return None  # a singular algebraic loop: the per-sample realization says so
     Ck, Dk = ss.C[:, k : k + 1] / denominator, ss.D[:, k : k + 1, :-1] / denominator
-    return StateSpace(
-        ss.A + Bu @ Ck,
-        ss.B[:, :, :-1] + Bu @ Dk,
-        ss.C[:, :-1] + Du @ Ck,
-        ss.D[:, :-1, :-1] + Du @ Dk,
-        network.inputs,
-        network.signals,
+    return replace(  # (a `SharedStateSpace` keeps its hidden poles: no input reaches them, open or closed)
+        ss,
+        A=ss.A + Bu @ Ck,
+        B=ss.B[:, :, :-1] + Bu @ Dk,
+        C=ss.C[:, :-1] + Du @ Ck,
+        D=ss.D[:, :-1, :-1] + Du @ Dk,
+        inputs=network.inputs,
+        outputs=network.signals,
     )
 
 
@@ -72,9 +91,12 @@ def samples(ss: StateSpace) -> list[StateSpace]:
     return [StateSpace(A, B, C, D, ss.inputs, ss.outputs) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
 
 
-def batch_realize(network: Network, columns: Mapping[str, NDArray[np.float64]]) -> StateSpace | None:
-    """Every sample's `realize` (``columns``: each parameter's values, one per sample); None
-    when there is no batched realization (module docstring)."""
+def batch_realize(
+    network: Network, columns: Mapping[str, NDArray[np.float64]], shared: bool = False
+) -> StateSpace | None:
+    """Every sample's `realize` (``columns``: each parameter's values, one per sample), its
+    blocks' states shared where they move alike with ``shared``; None when there is no batched
+    realization (module docstring)."""
     if not network.rational or network.variable != "s" or not columns:
         return None
     if any(isinstance(entry.transfer, StateSpaceChannel) for entry in network.entries):
@@ -102,7 +124,41 @@ def batch_realize(network: Network, columns: Mapping[str, NDArray[np.float64]]) 
         factors = [factored_feedthrough(np.eye(n) - f) for f in (feed[:1] if same else feed)]
     except (EngineError, AttributeError):
         return None
-    return _assembled(network, blocks, factors, count)
+    if not shared:
+        return _assembled(network, blocks, factors, count)
+    owners = _owners(blocks)
+    kept = [
+        (a, b, c, row, col) if owner == i else (a[:, :0, :0], b[:, :0], c[:, :0], row, col)
+        for i, (owner, (a, b, c, row, col)) in enumerate(zip(owners, blocks))
+    ]
+    ss = _assembled(
+        network,
+        kept,
+        factors,
+        count,
+        [(owner, blocks[i][2], blocks[i][3]) for i, owner in enumerate(owners) if owner != i],
+    )
+    left = [blocks[i][0] for i, owner in enumerate(owners) if owner != i]
+    hidden = np.concatenate([np.linalg.eigvals(a) for a in left], axis=1) if left else np.zeros((count, 0), complex)
+    return SharedStateSpace(ss.A, ss.B, ss.C, ss.D, ss.inputs, ss.outputs, hidden=hidden)
+
+
+def _owners(blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]]) -> list[int]:
+    """For each block, the first block whose states it shares: fed by the same signal, the same A
+    and B in every sample (itself when none is)."""
+    owners = []
+    for i, (a, b, _, _, col) in enumerate(blocks):
+        same = (
+            j
+            for j in range(i)
+            if owners[j] == j
+            and blocks[j][4] == col
+            and a.shape[1]
+            and np.array_equal(blocks[j][0], a)
+            and np.array_equal(blocks[j][1], b)
+        )
+        owners.append(next(same, i))
+    return owners
 
 
 def _varied_section(
@@ -136,21 +192,29 @@ def _varied_section(
 
 
 def _assembled(
-    network: Network, blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]], factors: list, count: int
+    network: Network,
+    blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]],
+    factors: list,
+    count: int,
+    readers: Sequence[tuple[int, NDArray, int]] = (),
 ) -> StateSpace:
     """`realize`'s assembly of the entries' states for every sample: z' = A_blk z + B_blk x,
-    x = (I - D)^-1 (C z + E u), with I - D factored once (``factors``: one LU) or per sample."""
+    x = (I - D)^-1 (C z + E u), with I - D factored once (``factors``: one LU) or per sample;
+    ``readers``: (block, C, row) more outputs read from a block's states (blocks sharing them)."""
     from scipy import linalg  # on first use (start-up)
 
     n, m = len(network.signals), sum(a.shape[1] for a, *_ in blocks)
     A_blk, B_blk, C_sig = np.zeros((count, m, m)), np.zeros((count, m, n)), np.zeros((count, n, m))
-    offset = 0
+    offset, states = 0, []
     for a, b, c, row, col in blocks:
         sl = slice(offset, offset + a.shape[1])
         A_blk[:, sl, sl] = a
         B_blk[:, sl, col] += b
         C_sig[:, row, sl] += c
         offset += a.shape[1]
+        states.append(sl)
+    for block, c, row in readers:
+        C_sig[:, row, states[block]] += c
     E = np.zeros((n, len(network.inputs)))
     for k, name in enumerate(network.inputs):
         E[network.signal(name), k] = 1.0

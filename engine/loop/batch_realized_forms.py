@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.loop.batch_forms import BatchForms
+from engine.loop.batch_realization import SharedStateSpace
 from engine.loop.realization import StateSpace
 
 STRUCTURAL = 1e-10  # a Markov parameter c A^j b below this of |c A^(j-1)| |A| |b| is a structural zero
@@ -73,8 +74,9 @@ class RealizedForms:
 
 def realized_forms(ss: StateSpace, k: int) -> RealizedForms | None:
     """The minimal forms of the loops broken at signal ``k`` of the stacked broken networks
-    ``ss`` (`engine.loop.batch_realization.batch_loop_realization`); None when the first
-    sample has no finite form (no states, no nonzero Markov parameter)."""
+    ``ss`` (`engine.loop.batch_realization.batch_loop_realization`; the poles of states it
+    shared, `SharedStateSpace.hidden`, are hidden poles too); None when the first sample has no
+    finite form (no states, no nonzero Markov parameter)."""
     A, b, c, d = ss.A, ss.B[:, :, -1], -ss.C[:, k, :], -ss.D[:, k, -1]
     if A.shape[1] == 0:
         return None
@@ -88,6 +90,8 @@ def realized_forms(ss: StateSpace, k: int) -> RealizedForms | None:
     size = np.linalg.norm(A, axis=(1, 2))[:, None]
     poles, zeros = (np.where(np.abs(r) <= AT_ZERO * size, 0j, r) for r in (poles, zeros))
     zeros, poles, hidden, apart = _cancelled(zeros, poles)
+    if isinstance(ss, SharedStateSpace):
+        hidden = np.concatenate([hidden, ss.hidden], axis=1)
     odd |= apart | ~finite | ~np.isfinite(gain) | (gain == 0)
     return RealizedForms(BatchForms(np.where(odd, 1.0, gain), zeros, poles, odd), hidden, ss, A, b, c, d)
 
