@@ -24,7 +24,7 @@ from engine.closed_loop.batch_time import batch_simulate
 from engine.closed_loop.time_response import Segment
 from engine.design.problem import Problem
 from engine.errors import EngineError
-from engine.loop.batch_realization import batch_loop_realization, closed_of, samples
+from engine.loop.batch_realization import SharedStateSpace, batch_loop_realization, closed_of, samples
 from engine.loop.design import closed_loop_realization, seed_loop_realization
 from engine.loop.realization import AXIS, ORIGIN, StateSpace
 from engine.slp.measures import Spec, evaluate, response_times, response_value
@@ -57,7 +57,8 @@ def batch_time_rows(
         rows = [i for i, s in enumerate(specs) if s.condition == c and s.kind in kinds]
         made = stacks[c] if stacks is not None and c in stacks else condition_stacks(problem, c, xs)
         realized = samples(made[1]) if made is not None else [_realized(problem, c, x) for x in xs]
-        ok &= _condition_rows(problem, realized, [specs[i] for i in rows], values, rows)
+        hidden = made[1].hidden if made is not None and isinstance(made[1], SharedStateSpace) else None
+        ok &= _condition_rows(problem, realized, [specs[i] for i in rows], values, rows, hidden)
     return values, ok
 
 
@@ -73,10 +74,16 @@ def condition_stacks(problem: Problem, c: int, xs: NDArray) -> Stacks | None:
 
 
 def _condition_rows(
-    problem: Problem, realized: list[StateSpace | None], specs: list[Spec], values: NDArray, rows: list[int]
+    problem: Problem,
+    realized: list[StateSpace | None],
+    specs: list[Spec],
+    values: NDArray,
+    rows: list[int],
+    hidden: NDArray[np.complex128] | None = None,
 ) -> NDArray[np.bool_]:
-    """A condition's rows of every sample (its closed loops ``realized``) written to ``values``'
-    columns ``rows``; which samples have them."""
+    """A condition's rows of every sample (its closed loops ``realized``, ``hidden``: the poles of
+    the states they share, `SharedStateSpace`) written to ``values``' columns ``rows``; which
+    samples have them."""
     shape = next((ss.A.shape for ss in realized if ss is not None), None)
     ok = np.array([ss is not None and ss.A.shape == shape and np.isfinite(ss.A).all() for ss in realized])
     if shape is None or not ok.any():
@@ -85,6 +92,8 @@ def _condition_rows(
     loops = [realized[k] for k in mine]
     A = np.array([ss.A for ss in loops])
     eigenvalues = np.linalg.eigvals(A) if A.shape[1] else np.zeros((A.shape[0], 0), dtype=complex)
+    if hidden is not None:
+        eigenvalues = np.concatenate([eigenvalues, hidden[mine]], axis=1)
     unstable = _unstable(eigenvalues)
     for spec, column in zip(specs, rows):
         if spec.kind == "stability_abscissa":

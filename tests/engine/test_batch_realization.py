@@ -18,6 +18,8 @@ from engine.loop.batch_realization import SharedStateSpace, batch_closed_loop, b
 from engine.loop.design import closed_loop_realization
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Network
+from engine.slp.batch_rows import batch_time_rows
+from engine.slp.measures import measure_specs
 from sessions.build import build_problem
 from sessions.store import validated_model
 
@@ -136,3 +138,30 @@ def test_a_static_gain_drawn():
     problem = _problem("two_path_autopilot.json")
     columns = _columns(problem.condition_values(0), ("KA",), 20, np.random.default_rng(3))
     _equal_per_sample(problem.conditions[0], columns)
+
+
+def test_the_stability_rows_read_the_poles_of_the_states_left_out():
+    """Mode 1 damped 100 times less (zeta = 1e-4: its copies' poles, which no input reaches, the
+    closed loop's rightmost, Re = -0.001): every time and stability row from the shared
+    realizations is the full ones' (`engine.slp.batch_rows`)."""
+    text = (EXAMPLES / "coebra_launch_vehicle.json").read_text().replace("0.22*s+121", "0.002*s+121")
+    problem = build_problem(validated_model(json.loads(text)).problem, EXAMPLES)
+    specs = measure_specs(problem)
+    xs = np.tile(problem.vector(), (3, 1))
+    xs[:, 0] *= [0.9, 1.0, 1.1]
+    rows = []
+    for shared in (False, True):
+        stacks = {}
+        for c, condition in enumerate(problem.conditions):
+            values = [problem.condition_values(c, x) for x in xs]
+            columns = {name: np.array([v[name] for v in values]) for name in values[0]}
+            broken = batch_loop_realization(condition.network, condition.break_at, columns, shared)
+            stacks[c] = (broken, closed_of(condition.network, condition.break_at, broken))
+        values, ok = batch_time_rows(problem, specs, xs, stacks, stability=True)
+        assert ok.all()
+        rows.append(values)
+    stability = [i for i, spec in enumerate(specs) if spec.kind == "stability_abscissa"]
+    assert np.min(rows[0][:, stability]) == pytest.approx(0.001, rel=1e-9)
+    there = ~np.isnan(rows[0])
+    assert np.array_equal(there, ~np.isnan(rows[1]))
+    assert np.max(np.abs(rows[1][there] - rows[0][there]) / np.abs(rows[0][there])) <= 1e-9
