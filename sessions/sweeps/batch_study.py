@@ -319,7 +319,7 @@ def batch_form(
     forms = batch_pole_zero(network, break_at, columns)
     if forms is not None or network.sample_time is not None:
         return forms, None
-    broken = batch_loop_realization(network, break_at, columns)
+    broken = batch_loop_realization(network, break_at, columns, shared=True)
     exact = None if broken is None else realized_forms(broken, network.signal(break_at))
     return (None, None) if exact is None else (exact.forms, exact)
 
