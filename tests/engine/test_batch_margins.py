@@ -15,6 +15,7 @@ from engine.loop.batch_forms import batch_pole_zero
 from engine.loop.design import closed_loop_realization
 from engine.loop.responses import loop_model
 from engine.margins.batch import batch_margins
+from engine.margins.pole_zero.batch_search import leave_one_out
 from engine.margins.search import margins
 from engine.model.blocks import FrequencyTable
 from engine.model.network import Network
@@ -203,3 +204,19 @@ def test_rows_read_from_the_arrays_equal_each_samples_rows():
                 for k in np.flatnonzero(loops.found & flagged).tolist()
             )
     assert checked >= 0.7 * 6 * 30 * len(ROW_KINDS) and present >= 0.3 * checked  # rows found, not only absent
+
+
+@pytest.mark.parametrize("n", [1, 2, 5, 27])
+def test_every_polynomial_leaving_one_root_out_is_made_bit_for_bit(n):
+    """The stationary points' numerators (sum of w_i times the polynomial of the other roots):
+    every leave-one-out polynomial made at once, equal bit for bit to the product (x - r) times the
+    polynomial so far, one root after the other (a plain loop here), over roots from 1e-3 to 1e3."""
+    rng = np.random.default_rng(n)
+    t = rng.normal(size=(6, n)) * 10 ** rng.uniform(-3, 3, (6, n)) + 1j * rng.normal(size=(6, n))
+    got = leave_one_out(t)
+    for s in range(6):
+        for i in range(n):
+            want = np.array([1.0 + 0j])
+            for root in np.delete(t[s], i):
+                want = np.concatenate([want, [0]]) - root * np.concatenate([[0], want])
+            assert np.array_equal(got[i, :, s], want), (s, i)

@@ -165,9 +165,9 @@ def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings
     odd = forms.odd | (levels.roots.shape[1] > MAX_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
     with np.errstate(all="ignore"):
         t = -(levels.roots**2) / (levels.scale**2)[:, None]
-        stationary, near, bad = [], [], odd.copy()
+        stationary, near, bad, others = [], [], odd.copy(), leave_one_out(t)
         for weights in (levels.signs[None, :] + 0 * t, levels.signs[None, :] * levels.roots / levels.scale[:, None]):
-            x, flat = _fraction_zeros(t, weights)
+            x, flat = _fraction_zeros(t, weights, others)
             real, close = _real_positive(x)
             stationary.append(np.where(real, np.sqrt(x.real), np.nan) * levels.scale[:, None])
             near.append(np.where(close, np.sqrt(np.abs(x.real)), np.nan) * levels.scale[:, None])
@@ -251,14 +251,15 @@ def batch_roots(c: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
     return np.where(bad[:, None], np.nan, roots), bad
 
 
-def _fraction_zeros(t: NDArray, weights: NDArray) -> tuple[NDArray, NDArray[np.bool_]]:
-    """The zeros in x of sum w_i / (x - t_i) per row (the roots of its numerator), and the rows
-    where the sum vanishes identically (a constant level) or its roots cannot be had."""
+def _fraction_zeros(t: NDArray, weights: NDArray, others: NDArray) -> tuple[NDArray, NDArray[np.bool_]]:
+    """The zeros in x of sum w_i / (x - t_i) per row (the roots of its numerator; ``others``:
+    `leave_one_out` of ``t``), and the rows where the sum vanishes identically (a constant level)
+    or its roots cannot be had."""
     n = t.shape[1]
     numerator = np.zeros((t.shape[0], n), dtype=complex)
     size = np.zeros(t.shape[0])
     for i in range(n):
-        part = weights[:, i : i + 1] * poly_rows(np.delete(t, i, axis=1))
+        part = weights[:, i : i + 1] * others[i].T
         numerator += part
         size = np.maximum(size, np.abs(part).max(axis=1))
     c = numerator.real
@@ -267,6 +268,25 @@ def _fraction_zeros(t: NDArray, weights: NDArray) -> tuple[NDArray, NDArray[np.b
         c = c[:, 1:]
     x, bad = batch_roots(c)
     return x, flat | bad
+
+
+def leave_one_out(t: NDArray) -> NDArray[np.complex128]:
+    """(n, n, S), samples last (contiguous: the products run over them): [i, :, s] is `poly_rows`
+    of t[s] without t[s, i], bit for bit (the same products in the same order), every one made at
+    once: the polynomial of the roots before i is shared (the prefix), then each later root is
+    applied to every polynomial that has passed its own."""
+    count, n = t.shape
+    roots = np.ascontiguousarray(t.T)
+    out = np.zeros((n, n, count), dtype=complex)
+    prefix = np.zeros((n, count), dtype=complex)
+    prefix[0] = 1.0
+    for k in range(n):
+        out[k, : k + 1] = prefix[: k + 1]
+        if k:
+            out[:k, 1 : k + 1] -= roots[k] * out[:k, :k]
+        if k < n - 1:
+            prefix[1 : k + 2] -= roots[k] * prefix[: k + 1]
+    return out
 
 
 def _real_positive(x: NDArray) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
