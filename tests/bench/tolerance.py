@@ -29,6 +29,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
 LAG_LEAD = ["T1=+-10%", "T2=+-10%"]
 LAUNCH_VEHICLE = ["WF=+-10%", "ZF=+-10%", "TA=+-10%"]  # the bending filter's frequency and damping, the actuator lag
 EXACT = 1e-12
+ABSCISSA = 1e-9  # the stability abscissa against the per-loop path's (tests/sessions/test_batch_study.py)
 LAUNCH_VEHICLE_ISSUE_MS = 44.0  # a sample of its study when issue 53 was filed (the issue's table; reported)
 LAUNCH_VEHICLE_TARGET = 10.0  # issue 53: the study >= 10x faster than today's per-loop path, measured in the run
 PEAK_MEMORY_MB = 300  # the 100 000- and 1 000 000-sample studies' process at most (it was 711 MB: every run kept)
@@ -208,8 +209,8 @@ def hundred_thousand() -> dict:
 def launch_vehicle(pairs: int = 3, count: int = 1000) -> dict:
     """The 1000-sample three-condition study against today's per-loop path (a session built per
     sample, `run_job`) on its first `CHECKED_SAMPLES` samples, interleaved in this run: per
-    sample, wall and CPU time, the ratio per pair (target `LAUNCH_VEHICLE_TARGET`, judged on the
-    medians of wall time as every ratio of the group); beside it the issue's own figure
+    sample, wall and CPU time, the median of the per-pair ratios (target `LAUNCH_VEHICLE_TARGET`,
+    judged on wall time as every ratio of the group); beside it the issue's own figure
     (`LAUNCH_VEHICLE_ISSUE_MS`, reported: it is not reproducible here) over the study's; and
     the study's rows against the per-loop path's on those samples."""
     from sessions.sweeps.jobs import execute_serial, run_job
@@ -248,9 +249,10 @@ def launch_vehicle(pairs: int = 3, count: int = 1000) -> dict:
             "samples": len(first),
             "worst_relative_difference": margin,
             "stability_abscissa_worst_relative_difference": abscissa,
-            "target": f"every row's value and frequency within {EXACT:g} relative",
+            "target": f"every row's value and frequency within {EXACT:g} relative, the stability "
+            f"abscissa within {ABSCISSA:g} (eigenvalues of other matrices, as the tests allow)",
             "target_kind": "check",
-            "met": max(margin, abscissa) <= EXACT,
+            "met": margin <= EXACT and abscissa <= ABSCISSA,
             "enforced": True,
         },
     }
