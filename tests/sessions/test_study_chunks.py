@@ -8,6 +8,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from engine.derived import Derived
@@ -35,7 +36,8 @@ def test_a_shipped_chunk_holds_only_its_draws_and_makes_the_same_jobs(tmp_path):
     part = samples[10:20].shipped()
     assert all(len(d) == 10 for d in part.deviations.values())
     assert [job.payload() for job in part] == [job.payload() for job in samples[10:20]]
-    assert part.drawn() == samples[10:20].drawn()
+    mine, theirs = part.columns(), samples[10:20].columns()
+    assert mine.keys() == theirs.keys() and all(np.array_equal(mine[name], theirs[name]) for name in mine)
     assert [job.payload() for job in part[3:5]] == [job.payload() for job in samples[13:15]]
 
 
