@@ -266,13 +266,15 @@ def _fraction_zeros(t: NDArray, weight_sets: list[NDArray]) -> list[tuple[NDArra
     its numerator), and the rows where the sum vanishes identically (a constant level) or its
     roots cannot be had.  The products over all t_j but t_i are made once for every set."""
     n = t.shape[1]
-    others = [poly_rows(np.delete(t, i, axis=1)) for i in range(n)]
+    width = max(n - 1, 0)
+    but_one = np.array([[j for j in range(n) if j != i] for i in range(n)], dtype=np.intp).reshape(n, width)
+    others = poly_rows(t[:, but_one].reshape(t.shape[0] * n, width)).reshape(t.shape[0], n, n)  # [:, i]: but t_i
     out = []
     for weights in weight_sets:
         numerator = np.zeros((t.shape[0], n), dtype=complex)
         size = np.zeros(t.shape[0])
-        for i, product in enumerate(others):
-            part = weights[:, i : i + 1] * product
+        for i in range(n):
+            part = weights[:, i : i + 1] * others[:, i]
             numerator += part
             size = np.maximum(size, np.abs(part).max(axis=1))
         c = numerator.real
