@@ -81,7 +81,9 @@ BATCH_KINDS = frozenset(
         *CLOSED_LOOP_MEASURES,
     )
 )
-CHUNK = 2000  # samples whose forms are held at once: the memory stays bounded however large the study
+# samples whose forms are held at once: the memory stays bounded however large the study (100 000
+# lag-lead samples: 82 MB peak at 2000, 98 MB at 5000, where a chunk's fixed cost is 3 us a sample less)
+CHUNK = 5000
 
 
 @dataclass(frozen=True)
