@@ -69,7 +69,18 @@ def lru_by_hand(node: ast.AST) -> bool:
     return _is_call(node, "OrderedDict")
 
 
+def axis_rule_by_hand(node: ast.AST) -> bool:
+    """The imaginary axis's tolerances (``AXIS``, ``ORIGIN``) imported from the realization: the
+    rule of a pole on the axis written again (engine.loop.realization.on_the_axis, unstable_rows)."""
+    return (
+        isinstance(node, ast.ImportFrom)
+        and node.module == "engine.loop.realization"
+        and any(alias.name in ("AXIS", "ORIGIN") for alias in node.names)
+    )
+
+
 PATTERNS: dict[str, tuple[Callable[[ast.AST], bool], str]] = {
+    "the imaginary axis's rule by hand": (axis_rule_by_hand, "engine/loop/realization.py"),
     "truncated by hand": (truncated_by_hand, "engine/errors.py"),
     "finite-or-None by hand": (finite_or_none_by_hand, "engine/stepping/memory_fields.py"),
     "pydantic error read": (pydantic_error_read, "sessions/format/checks.py"),
@@ -100,6 +111,7 @@ def test_the_patterns_find_what_they_name():
         "pydantic error read": "first = exc.errors()[0]",
         "JSON trees walked": "same = isinstance(a, dict) and isinstance(b, dict)",
         "a cache kept by hand": "kept = OrderedDict()",
+        "the imaginary axis's rule by hand": "from engine.loop.realization import AXIS, StateSpace",
     }
     for name, (pattern, _) in PATTERNS.items():
         assert any(pattern(node) for node in ast.walk(ast.parse(samples[name]))), name

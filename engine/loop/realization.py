@@ -331,21 +331,32 @@ ORIGIN = 1e-12  # |p| within this of the largest pole's modulus: a pole at the o
 def stability(pole_list: list[Pole]) -> str:
     """'unstable' (a pole right of the axis), 'marginally stable' (none, and one on it by
     `marginal_poles`' rule) or 'stable'."""
-    on_axis = {id(p) for p in marginal_poles(pole_list)}
-    if any(p.value.real > 0 and id(p) not in on_axis for p in pole_list):
+    values = np.array([p.value for p in pole_list], dtype=complex)
+    if unstable_rows(values[None, :])[0]:
         return "unstable"
-    return "marginally stable" if on_axis else "stable"
+    return "marginally stable" if on_the_axis(values).any() else "stable"
 
 
 def marginal_poles(pole_list: list[Pole]) -> list[Pole]:
-    """The poles taken to lie on the imaginary axis: |zeta| < AXIS (relative to the pole's
-    own modulus), or |p| < ORIGIN times the largest pole's modulus (at the origin relative
-    to the loop's fastest pole).  A real pole at -2.8e-11 beside poles of modulus 3 is
-    stable (a time constant of 3.6e10 s: slow, not marginal)."""
-    if not pole_list:
-        return []
-    scale = max(abs(p.value) for p in pole_list)
-    return [p for p in pole_list if abs(p.value.real) <= AXIS * abs(p.value) or abs(p.value) <= ORIGIN * scale]
+    """The poles taken to lie on the imaginary axis (`on_the_axis`)."""
+    on_axis = on_the_axis(np.array([p.value for p in pole_list], dtype=complex))
+    return [p for p, there in zip(pole_list, on_axis.tolist()) if there]
+
+
+def on_the_axis(poles: NDArray[np.complex128]) -> NDArray[np.bool_]:
+    """Which poles (the last axis: one loop's; a leading axis of samples allowed) lie on the
+    imaginary axis: |zeta| <= AXIS (relative to the pole's own modulus), or |p| <= ORIGIN times
+    the largest pole's modulus (at the origin relative to the loop's fastest pole).  A real pole
+    at -2.8e-11 beside poles of modulus 3 is stable (a time constant of 3.6e10 s: slow, not
+    marginal)."""
+    size = np.abs(poles)
+    scale = np.max(size, axis=-1, initial=0.0, keepdims=True)
+    return (np.abs(poles.real) <= AXIS * size) | (size <= ORIGIN * scale)
+
+
+def unstable_rows(poles: NDArray[np.complex128]) -> NDArray[np.bool_]:
+    """Per row of poles (one loop's each): is a pole right of the axis that `on_the_axis` does not put on it?"""
+    return ((poles.real > 0) & ~on_the_axis(poles)).any(axis=-1)
 
 
 def stability_note(pole_list: list[Pole]) -> str | None:

@@ -110,8 +110,9 @@ class BatchLoops:
     attenuation margins' frequencies (rad/s) and GH at them, in the order the per-loop path lists
     them, NaN-padded; the closed-loop stability abscissa; ``found``: False where the per-loop
     path must take the sample; ``batched``: certified by the batch (else the per-loop search on
-    its form found it, kept whole in ``searched``).  No Python object is made per certified
-    sample (`loop` makes one)."""
+    its form found it: its record in ``searched``, whose margins `loop` reads from the arrays,
+    polished there with ``exact``).  No Python object is made per certified sample (`loop`
+    makes one)."""
 
     gain: NDArray[np.float64]
     gain_gh: NDArray[np.complex128]
@@ -128,12 +129,15 @@ class BatchLoops:
         """Sample ``k``'s margins as `Margins` (None where the per-loop path must take it)."""
         if not self.found[k]:
             return None
-        if k in self.searched:
-            return self.searched[k]
         gain = _margins_in("G", self.gain[k], self.gain_gh[k])
         phase = _margins_in("P", self.phase[k], self.phase_gh[k])
         peaks = _margins_in("A", self.peaks[k], self.peaks_gh[k])
-        return SampleLoop(Margins(gain, phase, (), peaks, method="refined"), float(self.abscissa[k]), True)
+        abscissa = float(self.abscissa[k])
+        own = self.searched.get(k)
+        if own is not None:  # the per-loop search's record, its margins as the arrays hold them (polished)
+            margins = replace(own.margins, gain=gain, phase=phase, attenuation=peaks)
+            return own._replace(margins=margins, abscissa=abscissa)
+        return SampleLoop(Margins(gain, phase, (), peaks, method="refined"), abscissa, True)
 
 
 def _margins_in(kind: str, w: NDArray, gh: NDArray) -> tuple[Margin, ...]:
@@ -192,7 +196,6 @@ def batch_loops(
         found_mask &= ~(far | far_phase | far_peaks)
         with np.errstate(invalid="ignore"):
             abscissa = np.minimum(abscissa, -np.max(exact.hidden.real, axis=1, initial=-np.inf))
-        searched = {}  # their margins are the arrays' (`BatchLoops.loop` reads them)
     return BatchLoops(gain, gain_gh, phase, phase_gh, peaks, peaks_gh, abscissa, found_mask, certified, searched)
 
 

@@ -19,7 +19,7 @@ recomputed by logarithms, g exp(sum log q_zero - sum log q_pole).
 
 Roots are stored with the root axis first; the points ``x`` broadcast against the rest, so
 one loop (roots (n,) at points (F,)) and many samples at their own points (roots (n, K) at
-points (K,): `PairedProduct.columns`, taken a pass of points at a time) share the arithmetic.
+points (K,): `PairedProduct._columns`, taken a pass of points at a time) share the arithmetic.
 """
 
 from __future__ import annotations
@@ -64,13 +64,14 @@ class PairedProduct:
         unpaired = self.roots.shape[0] - 2 * m
         self.signs = np.concatenate([np.ones(m), -np.ones(m), np.full(unpaired, 1.0 if self.extra_zeros else -1.0)])
 
-    def columns(self, samples: NDArray[np.intp]) -> PairedProduct:
-        """The product of each listed sample, one per point (roots (n, K) for K points)."""
+    def _columns(self, samples: NDArray[np.intp]) -> PairedProduct:
+        """The product of each listed sample, one per point (roots (n, K) for K points): what
+        `terms` evaluates (the paired rows; ``zeros`` and ``poles`` stay the samples', not gathered)."""
         picked = PairedProduct.__new__(PairedProduct)
-        picked.gain = np.asarray(self.gain)[samples]
-        picked.zeros, picked.poles = self.zeros[samples], self.poles[samples]
+        picked.gain = np.take(self.gain, samples)
+        picked.zeros, picked.poles = self.zeros, self.poles
         picked.paired, picked.extra_zeros, picked.signs = self.paired, self.extra_zeros, self.signs
-        picked.roots, picked.gaps = self.roots[:, samples], self.gaps[:, samples]
+        picked.roots, picked.gaps = np.take(self.roots, samples, axis=1), np.take(self.gaps, samples, axis=1)
         return picked
 
     def terms(
@@ -89,7 +90,7 @@ class PairedProduct:
             pieces = [self._terms(x[a : a + step], curvature, size) for a in range(0, x.size, step)]
         else:
             pieces = [
-                self.columns(samples[a : a + step])._terms(x[a : a + step], curvature, size)
+                self._columns(samples[a : a + step])._terms(x[a : a + step], curvature, size)
                 for a in range(0, max(x.size, 1), step)  # one pass at least: no points, empty terms
             ]
         return ProductTerms(*(None if part[0] is None else np.concatenate(part) for part in zip(*pieces)))

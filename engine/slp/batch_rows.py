@@ -26,7 +26,7 @@ from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_realization import SharedStateSpace, batch_loop_realization, closed_of, samples
 from engine.loop.design import closed_loop_realization, seed_loop_realization
-from engine.loop.realization import AXIS, ORIGIN, StateSpace
+from engine.loop.realization import StateSpace, unstable_rows
 from engine.slp.measures import Spec, evaluate, response_times, response_value
 
 # the time rows read from a simulated response (a mean square solves a Lyapunov equation: per loop)
@@ -94,7 +94,7 @@ def _condition_rows(
     eigenvalues = np.linalg.eigvals(A) if A.shape[1] else np.zeros((A.shape[0], 0), dtype=complex)
     if hidden is not None:
         eigenvalues = np.concatenate([eigenvalues, hidden[mine]], axis=1)
-    unstable = _unstable(eigenvalues)
+    unstable = unstable_rows(eigenvalues)  # `engine.slp.measures.grows`' verdict, per sample
     for spec, column in zip(specs, rows):
         if spec.kind == "stability_abscissa":
             values[mine, column] = -np.max(eigenvalues.real, axis=1, initial=-math.inf)
@@ -122,15 +122,6 @@ def _realized(problem: Problem, c: int, x: NDArray) -> StateSpace | None:
         return closed_loop_realization(condition.network, condition.break_at, problem.condition_values(c, x))
     except (EngineError, ValueError, np.linalg.LinAlgError):
         return None
-
-
-def _unstable(eigenvalues: NDArray[np.complex128]) -> NDArray[np.bool_]:
-    """Per row of closed-loop eigenvalues: `engine.slp.measures.grows`'s verdict (a pole right of
-    the axis that `engine.loop.realization.marginal_poles` does not put on it)."""
-    size = np.abs(eigenvalues)
-    scale = np.max(size, axis=1, initial=0.0)[:, None]
-    on_axis = (np.abs(eigenvalues.real) <= AXIS * size) | (size <= ORIGIN * scale)
-    return ((eigenvalues.real > 0) & ~on_axis).any(axis=1)
 
 
 @dataclass(frozen=True)

@@ -184,6 +184,9 @@ class Outcome:
     # a tolerance study's outputs gathered as its runs were made (``runs``: the ones it kept, `Tally`)
     tally: Tally | None = None
     given_up: str = ""  # why the cluster's runs left were not computed (`sessions.sweeps.cluster.InTurn`)
+    # a study's chunks on a cluster (`sessions.sweeps.study_chunks`): each one's samples and the CPU seconds
+    # its worker spent evaluating them (the batch's own, Dask's work on the worker apart)
+    chunks: tuple[tuple[int, float], ...] = ()
 
     @property
     def finished(self) -> int:

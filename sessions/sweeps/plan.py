@@ -179,7 +179,7 @@ def tolerance_jobs(
 class ToleranceSamples(Sequence[Job]):
     """A tolerance study's jobs, each made when it is read (a slice is a view): the study's
     document and every sample's drawn deviations as arrays, a few bytes a sample, where
-    100 000 jobs held at once took 157 MB.  `drawn` gives a chunk's drawn values without
+    100 000 jobs held at once took 157 MB.  `columns` gives a chunk's drawn values without
     making its jobs (`sessions.sweeps.batch_study`)."""
 
     def __init__(self, base: dict, deviations: dict[str, np.ndarray], indices: range, first_row: int = 0) -> None:
@@ -211,14 +211,9 @@ class ToleranceSamples(Sequence[Job]):
             self.base, {name: d[rows] for name, d in self.deviations.items()}, self.indices, self.indices.start
         )
 
-    def drawn(self) -> list[dict]:
-        """Each sample's drawn values (a job's ``start``), without its document."""
-        columns = [(name, values.tolist()) for name, values in self.columns().items()]
-        return [{name: values[k] for name, values in columns} for k in range(len(self))]
-
     def columns(self) -> dict[str, np.ndarray]:
         """Each drawn parameter's values over the samples, as `_sample` computes them: (samples,),
-        or (samples, conditions) for a parameter with a value per condition (`drawn` as arrays)."""
+        or (samples, conditions) for a parameter with a value per condition (each job's ``start`` as arrays)."""
         entries = {entry["name"]: entry["value"] for entry in self.base["problem"]["parameters"]}
         rows = np.asarray(self.indices, dtype=np.intp) - self.first_row
         return {name: _values(entries[name], 1 + d[rows]) for name, d in self.deviations.items()}

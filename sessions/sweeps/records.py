@@ -9,8 +9,9 @@ per sample and row but for the runs it keeps."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple, overload
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,13 +48,39 @@ def row_heads(specs: tuple[Spec, ...], conditions: list[str]) -> list[RowHead]:
     return [RowHead(s.name, s.kind, conditions[s.condition], s.required, s.at_least) for s in specs]
 
 
+Head = tuple[int, str, dict]  # a sample's index, label and drawn values (a job's ``start``)
+
+
+@dataclass(frozen=True)
+class Heads(Sequence[Head]):
+    """Samples' heads made when read from arrays: their ``indices`` and each drawn parameter's
+    values (``columns``: (samples,), or (samples, conditions)), labelled "sample INDEX"; no
+    Python object per sample until one is read (a run kept)."""
+
+    indices: NDArray[np.int64]
+    columns: Mapping[str, NDArray[np.float64]]
+
+    def __len__(self) -> int:
+        return self.indices.size
+
+    @overload
+    def __getitem__(self, key: int) -> Head: ...
+    @overload
+    def __getitem__(self, key: slice) -> Heads: ...
+    def __getitem__(self, key: int | slice) -> Head | Heads:
+        if isinstance(key, slice):
+            return Heads(self.indices[key], {name: column[key] for name, column in self.columns.items()})
+        index = int(self.indices[key])
+        return index, f"sample {index}", {name: column[key].tolist() for name, column in self.columns.items()}
+
+
 @dataclass(frozen=True)
 class Records:
     """Consecutive batched samples (``samples``: index, label and drawn values each) with their
     free vectors ``xs``, row values and frequencies (samples, rows) and verdicts ``points``;
     ``named``: the study's named start values; ``seconds``: each sample's share of the batch."""
 
-    samples: list[tuple[int, str, dict]]
+    samples: Sequence[Head]
     heads: list[RowHead]
     values: NDArray[np.float64]
     frequencies: NDArray[np.float64]
@@ -64,6 +91,8 @@ class Records:
 
     @property
     def indices(self) -> list[int]:
+        if isinstance(self.samples, Heads):
+            return self.samples.indices.tolist()
         return [index for index, _, _ in self.samples]
 
     def runs(self) -> list[dict]:
@@ -83,7 +112,7 @@ class Records:
 
 
 def sample_run(
-    head: tuple[int, str, dict],
+    head: Head,
     named: dict[str, float],
     ranking: float,
     rows: list[dict],

@@ -9,9 +9,9 @@ in sample order.
 
 The first chunks are small (`FIRST_CHUNK` samples and twice that) and timed on the
 workers in CPU seconds (the evaluating thread's, the problem's building apart: a loaded
-machine's waits are not work); the later ones are sized from them to about
-`sessions.sweeps.jobs.BATCH_SECONDS` of work, a chunk's fixed cost told from a sample's,
-at least `BATCHES_PER_WORKER` per worker, the last ones equal (`_Sizes`).  A
+machine's waits are not work); the later ones are sized from them to about `CHUNK_SECONDS`
+of work, a chunk's fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per
+worker, the last ones equal (`_Sizes`).  A
 chunk whose task fails (its worker died more often than Dask allows) is sent again as two
 halves, down to single samples: a sample that kills its worker does not take the others
 with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
@@ -33,8 +33,6 @@ from sessions.sweeps.batch_study import BatchOutcome, ChunkRuns, chunk_runs, stu
 from sessions.sweeps.cluster import Connection, InTurn, sigint_ignored
 from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import (
-    BATCH_SECONDS,
-    BATCHES_PER_WORKER,
     EVENT_TOPIC,
     LOST_WORKER,
     RESULT_WAIT,
@@ -48,6 +46,12 @@ from sessions.sweeps.plan import ToleranceSamples
 from sessions.sweeps.records import Records
 
 FIRST_CHUNK = 100  # samples in each worker's first chunks, timed there (the next ones are sized from them)
+# A chunk costs about 30 ms of CPU besides its samples (the batch's fixed cost, 12 ms of the lag-lead's, and
+# Dask's: the scheduler and the client in the main process, the task on its worker).  20 000 lag-lead
+# samples on 2 workers took 13 chunks at 0.25 s and 4 a worker: 1.46-1.64 s of the workers' CPU, 0.16-0.18 s
+# of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7)
+CHUNK_SECONDS = 0.5  # s of work a chunk is sized to
+CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal)
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
 
 
@@ -55,11 +59,11 @@ IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the wor
 class _Sizes:
     """The study's chunks (ranges of positions).  The first round, `IN_FLIGHT` per worker, of
     `FIRST_CHUNK` samples and twice that in turn: timed on the workers, two sizes tell a
-    chunk's fixed cost from a sample's (least squares over every chunk timed), and each later
-    chunk is sized to about `BATCH_SECONDS` of work with it (one size only: that chunk's time
-    per sample), never smaller than one sized before (a small chunk's samples look slow: sized
+    chunk's fixed cost from a sample's (least squares over every chunk timed; until two sizes
+    are timed, the next chunks are of the larger first size), and each later chunk is sized to
+    about `CHUNK_SECONDS` of work with it, never smaller than one sized before (a small chunk's samples look slow: sized
     down from them, the chunks would shrink to nothing on a loaded machine), in at least
-    `BATCHES_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
+    `CHUNKS_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
     many for each worker, so that the workers finish together and no chunk at the end is
     small."""
 
@@ -73,13 +77,17 @@ class _Sizes:
 
     @property
     def first(self) -> int:
-        return max(1, min(FIRST_CHUNK, self.count // (2 * BATCHES_PER_WORKER * self.workers)))
+        return max(1, min(FIRST_CHUNK, self.count // (2 * CHUNKS_PER_WORKER * self.workers)))
 
     def first_round(self) -> list[tuple[int, int]]:
         return [self._take(self.first * (1 + k % 2)) for k in range(IN_FLIGHT * self.workers) if self.sent < self.count]
 
     def next(self) -> tuple[int, int]:
-        """The next chunk's range, sized from the chunks timed so far."""
+        """The next chunk's range, sized from the chunks timed so far: until chunks of two sizes
+        are timed, one of the first round's larger size (sized from one size, it would be the
+        odd one out of the equal chunks after it, and one worker's share the larger)."""
+        if len({n for n, _ in self.timed}) < 2:
+            return self._take(2 * self.first)
         target = self._target()
         if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
             left = self.count - self.sent
@@ -88,18 +96,9 @@ class _Sizes:
         return self._take(self.split[1])
 
     def _target(self) -> int:
-        most = max(self.first, self.count // (BATCHES_PER_WORKER * self.workers))
-        sizes = {n for n, _ in self.timed}
-        if len(sizes) > 1:
-            per_sample, fixed = np.polyfit(*zip(*self.timed), 1)
-            wanted = (
-                (BATCH_SECONDS - max(fixed, 0.0)) / per_sample if per_sample > 0 and fixed < BATCH_SECONDS else most
-            )
-        elif self.timed:
-            n, seconds = self.timed[-1]
-            wanted = BATCH_SECONDS * n / seconds if seconds > 0 else most
-        else:
-            wanted = self.first
+        most = max(self.first, self.count // (CHUNKS_PER_WORKER * self.workers))
+        per_sample, fixed = np.polyfit(*zip(*self.timed), 1)
+        wanted = (CHUNK_SECONDS - max(fixed, 0.0)) / per_sample if per_sample > 0 and fixed < CHUNK_SECONDS else most
         self.sized = max(self.sized, min(int(wanted), most))
         return max(self.first, self.sized)
 
@@ -264,11 +263,21 @@ def run_chunked(
     )
     chunks = (
         f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
-        f"(each sized from a chunk timed on its worker to about {BATCH_SECONDS:g} s of work)"
+        f"(each sized from a chunk timed on its worker to about {CHUNK_SECONDS:g} s of work)"
     )
     note = "; ".join(text for text in (batch.note, chunks, lost, tally.note) if text)
     retried = {k: v for k, v in attempts.items() if len(v) > 1}
-    return Outcome(tally.runs(), computed, retried, stopped, interrupted, note, tally=tally, given_up=lost)
+    return Outcome(
+        tally.runs(),
+        computed,
+        retried,
+        stopped,
+        interrupted,
+        note,
+        tally=tally,
+        given_up=lost,
+        chunks=tuple(sizes.timed),
+    )
 
 
 def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str) -> tuple[str, int]:

@@ -506,7 +506,7 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
     session = load_session(EXAMPLES / "coebra_lag_lead.json")
     jobs, settings = plan(session, "tolerance", LAG_LEAD, None, 0, count)
     serial_s, cluster_s, with_start_s, outcomes = [], [], [], []
-    cpu: dict[str, list[float]] = {"serial": [], "workers": [], "this_process": []}
+    cpu: dict[str, list[float]] = {"serial": [], "workers": [], "in_chunks": [], "this_process": []}
     start_s, close_s = [], []
     loads = [os.getloadavg()[0]]
     for _ in range(repeat):
@@ -524,6 +524,7 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
         done = time.perf_counter()
         cpu["this_process"].append(time.process_time() - cpu_began)  # the tally, the summary, the scheduler
         cpu["workers"].append(sum(connection.client.run(time.process_time).values()) - sum(before.values()))
+        cpu["in_chunks"].append(sum(seconds for _, seconds in outcome.chunks))  # the batch's own, on the workers
         close(connection.client, connection.cluster)
         start_s.append(started - began)
         close_s.append(time.perf_counter() - done)
@@ -549,9 +550,12 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
         "startup_median_s": statistics.median(start_s),  # the local cluster's start and first client
         "close_median_s": statistics.median(close_s),
         "load_average_1min": loads,  # before the first pair and after each (5 agents share 2 cores)
-        # CPU seconds (medians): the serial study's, and the cluster's workers' and this process's
-        # during the study; on a loaded machine the kernel's fair share per session caps the wall ratio
+        # CPU seconds (medians): the serial study's, and the cluster's workers' (all of it, and what the
+        # chunks' evaluation took of it: the rest is Dask's work there) and this process's (the scheduler,
+        # the client, the tally) during the study; on a loaded machine the kernel's fair share per session
+        # caps the wall ratio
         "cpu_median_s": {side: statistics.median(values) for side, values in cpu.items()},
+        "chunks": [samples for samples, _ in outcomes[-1].chunks],  # the last study's chunks timed, as they finished
         "note": outcomes[-1].note,
         "speedup": {"ratio": ratio, **judged(ratio, 1.6, "min_ratio")},
         "speedup_with_startup": {"ratio": with_start},  # reported: a local cluster's start-up is seconds

@@ -220,3 +220,29 @@ def test_every_polynomial_leaving_one_root_out_is_made_bit_for_bit(n):
             for root in np.delete(t[s], i):
                 want = np.concatenate([want, [0]]) - root * np.concatenate([[0], want])
             assert np.array_equal(got[i, :, s], want), (s, i)
+
+
+def test_searched_samples_of_realized_forms_keep_their_own_record():
+    """With realizations' forms (``exact``), a sample the batch's certificate left to the per-loop
+    search (a near-tangent crossover) keeps that search's record, its margins polished: not batched,
+    its stability margins kept (they were dropped and the sample called batched)."""
+    from engine.loop.batch_realization import batch_loop_realization
+    from engine.loop.batch_realized_forms import realized_forms
+    from engine.margins.batch import POLISH_REACH, batch_loops, sample_loop
+
+    network = unity_feedback(["k", "25/(s**2 + 0.1*s + 25)", "1/(s/1000 + 1)"])
+    peak = max(
+        abs(m.gh) for m in margins(loop_model(network, "e", OMEGA, {"k": 1.0}), attenuation_above=0.0).attenuation
+    )
+    k = (1 + np.linspace(-1e-14, 1e-14, 5)) / peak
+    exact = realized_forms(batch_loop_realization(network, "e", {"k": k}), network.signal("e"))
+    loops = batch_loops(exact.forms, attenuation=True, exact=exact)
+    searched = np.flatnonzero(loops.found & ~loops.batched).tolist()
+    assert searched
+    for s in searched:
+        got, own = loops.loop(s), sample_loop(exact.forms, s)
+        assert not got.batched
+        assert got.margins.stability == own.margins.stability and got.margins.stability
+        for family in ("gain", "phase", "attenuation"):  # polished: moved by at most POLISH_REACH
+            mine, its = getattr(got.margins, family), getattr(own.margins, family)
+            assert [m.frequency for m in mine] == pytest.approx([m.frequency for m in its], rel=POLISH_REACH)

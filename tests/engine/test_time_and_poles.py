@@ -9,7 +9,7 @@ import pytest
 
 from engine.analysis import unity_feedback
 from engine.closed_loop.time_response import Segment, dc_gain, simulate, step_measures
-from engine.loop.realization import poles, realize, stability
+from engine.loop.realization import Pole, poles, realize, stability, unstable_rows
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Block, Junction, block_diagram
 from tests.engine.loopfactory import loop_network, random_loop
@@ -41,6 +41,24 @@ def test_stability_verdicts():
     assert stability(poles(realize(unity_feedback(["16000/(s*(s+8)*(s+20))"]), {}))) == "unstable"
     # an undamped closed loop: 1/s^2 with unity feedback -> s^2 + 1
     assert stability(poles(realize(unity_feedback(["1/s**2"]), {}))) == "marginally stable"
+
+
+def test_the_batched_verdict_is_the_per_loop_one():
+    """`unstable_rows` (a stack of loops' poles at once) gives `stability`'s 'unstable' on each row:
+    a pole right of the axis by less than `AXIS` of its modulus, or at the origin beside a fast
+    pole, is on the axis; by more, unstable."""
+    rows = np.array(
+        [
+            [-1.0, 3e-13 + 2j, 3e-13 - 2j],  # on the axis (|zeta| 1.5e-13)
+            [-1.0, 3e-12 + 2j, 3e-12 - 2j],  # right of it (|zeta| 1.5e-12)
+            [-5.0, 2e-12, -1.0],  # at the origin beside a pole of modulus 5
+            [-5.0, 1e-10, -1.0],  # a slow unstable pole
+            [-5.0, -1.0, -2.0],
+        ]
+    )
+    verdicts = [stability([Pole(complex(p), 0.0, abs(p)) for p in row]) == "unstable" for row in rows]
+    assert verdicts == [False, True, False, True, False]
+    assert unstable_rows(rows).tolist() == verdicts
 
 
 def test_step_response_matches_python_control():

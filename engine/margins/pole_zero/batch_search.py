@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -82,24 +83,23 @@ class BatchLevels:
         self.phase_offset = np.where(self.gain < 0, math.pi, 0.0) + math.pi * (right * self.signs).sum(axis=1)
         self.phase_turn = np.where(right, -self.signs, self.signs)
 
-    def terms(self, w: NDArray) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-        """GH, u, du/ds at s = j w (S, P) and the size of u's terms (`engine.model.paired_product`),
-        computed at the finite entries of ``w`` only (NaN elsewhere: rows are padded)."""
+    def terms(self, w: NDArray) -> tuple[NDArray, NDArray]:
+        """GH and u at s = j w (S, P) (`engine.model.paired_product`), computed at the finite
+        entries of ``w`` only (NaN elsewhere: rows are padded)."""
         at = np.isfinite(w)
-        terms = self.product.terms(1j * w[at], curvature=True, size=True, samples=np.nonzero(at)[0])
-        out = [np.full(w.shape, np.nan, dtype=complex) for _ in range(3)] + [np.full(w.shape, np.nan)]
-        for full, part in zip(out, terms):
-            full[at] = part
-        return out[0], out[1], out[2], out[3]
+        terms = self.product.terms(1j * w[at], samples=np.nonzero(at)[0])
+        gh, u = np.full(w.shape, np.nan, dtype=complex), np.full(w.shape, np.nan, dtype=complex)
+        gh[at], u[at] = terms.value, terms.slope
+        return gh, u
 
-    def row(self, w: NDArray, kind: int) -> tuple[NDArray, NDArray]:
+    def row(self, w: NDArray, samples: NDArray[np.intp], kind: int) -> tuple[NDArray, NDArray]:
         """Newton's (first, second) for the slopes of log|GH| (0) and arg GH (1), and the
-        levels log|GH| (3) and Im GH (4) (the rows of `LoopLevels.slopes`)."""
-        gh, u, du, _ = self.terms(w)
-        if kind == 0:
-            return -u.imag, -du.real
-        if kind == 1:
-            return u.real, -du.imag
+        levels log|GH| (3) and Im GH (4) (the rows of `LoopLevels.slopes`), at the points ``w``
+        (1-D), point k sample ``samples[k]``'s."""
+        terms = self.product.terms(1j * w, curvature=kind < 2, samples=samples)
+        gh, u, du = terms.value, terms.slope, terms.curvature
+        if du is not None:
+            return (-u.imag, -du.real) if kind == 0 else (u.real, -du.imag)
         if kind == 3:
             return np.log(np.abs(gh)), -u.imag
         return gh.imag, (gh * u).real
@@ -120,6 +120,14 @@ class BatchLevels:
         angles = np.arctan2(w[:, :, None] - self.roots.imag[:, None, :], np.abs(self.roots.real)[:, None, :])
         return self.phase_offset[:, None] + np.einsum("spn,sn->sp", angles, self.phase_turn)
 
+    @cached_property
+    def scaled(self) -> tuple[NDArray, NDArray]:
+        """The monic polynomials (real, descending) of the zeros and of the poles, the variable
+        scaled by `scale`: what the crossings' starts and the closed-loop poles are made of."""
+        m, scale = self.zero_count, self.scale[:, None]
+        return poly_rows(self.roots[:, :m] / scale).real, poly_rows(self.roots[:, m:] / scale).real
+
+    @cached_property
     def limits(self) -> tuple[NDArray, NDArray, NDArray, NDArray]:
         """log|GH| and arg GH as omega -> 0 and -> infinity (`LoopLevels.limits`)."""
         at_zero = self.roots == 0
@@ -135,7 +143,7 @@ class BatchLevels:
 
     def probes(self) -> NDArray:
         """Check points (S, Q): every nonzero root's frequency and the ladder (`LoopLevels.probes`)."""
-        mag0, _, _, _ = self.limits()
+        mag0, _, _, _ = self.limits
         at_zero = self.roots == 0
         n0, excess = (self.signs * at_zero).sum(axis=1), float(self.signs.sum())
         reach = [self.low, self.high]
@@ -182,14 +190,16 @@ def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings
             noisy.append(stalled)
             bad |= (second == 0).any(axis=1)
         bad |= far | ~_signs_agree(levels, points, maxima, np.concatenate(near, axis=1))
-        bad |= ~_reach_limits(levels, points, maxima)
-        crossings, values, enclosed = _crossings(levels, points, gains, phases, polished)
+        stationary_gh = levels.terms(points[0])[0]  # GH at the stationary points of |GH|
+        at_points = [np.log(np.abs(stationary_gh)), levels.phase(points[1])]
+        bad |= ~_reach_limits(levels, points, maxima, at_points)
+        crossings, values, enclosed = _crossings(levels, at_points, gains, phases, polished)
         bad |= ~enclosed
         closed = _closed_loop_poles(levels)
         abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
         certified = ~bad & np.isfinite(abscissa)
-        peaks = _distinct(*(np.where(maxima[0], points[0], np.nan),) * 2)[0]
-        peaks_gh = levels.terms(peaks)[0]
+        top = maxima[0]
+        peaks, peaks_gh = _distinct(np.where(top, points[0], np.nan), np.where(top, stationary_gh, np.nan))
     gain, phase = crossings
     return BatchCrossings(gain, values[0], phase, values[1], abscissa, certified, closed, peaks, peaks_gh, ~noisy[0])
 
@@ -307,9 +317,8 @@ def _crossing_starts(levels: BatchLevels) -> tuple[NDArray, NDArray, NDArray[np.
     far = ~(np.abs(log_gain) < LARGEST_LOG)
     factor = np.exp(2 * np.where(far, 0.0, log_gain))[:, None]
     difference = _aligned_sum(poly_rows(-(poles**2)).real, -factor * poly_rows(-(zeros**2)).real)
-    den = poly_rows(poles).real
+    numerator, den = levels.scaled
     mirrored = den * (-1.0) ** np.arange(den.shape[1] - 1, -1, -1)
-    numerator = poly_rows(zeros).real
     product = np.zeros((den.shape[0], den.shape[1] + numerator.shape[1] - 1))
     for i in range(numerator.shape[1]):
         product[:, i : i + den.shape[1]] += numerator[:, i : i + 1] * mirrored
@@ -338,9 +347,7 @@ def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArra
     work |= {"previous": np.full(start.size, np.inf), "second": np.zeros(start.size)}
 
     def advance(work: Work) -> Work:
-        at = np.full(w.size, np.nan)
-        at[work["index"]] = work["w"]
-        first, bend = (row.ravel()[work["index"]] for row in levels.row(at.reshape(w.shape), kind))
+        first, bend = levels.row(work["w"], work["index"] // max(w.shape[1], 1), kind)
         step = first / bend
         size, moved = np.abs(step), work["w"] - step
         exact = size <= 4 * EPS * work["w"]
@@ -417,14 +424,13 @@ def _near(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
     )
 
 
-def _reach_limits(levels: BatchLevels, points: list[NDArray], maxima: list[NDArray]) -> NDArray[np.bool_]:
-    """Per sample: are both levels' values at their stationary points consistent with their
-    limits at 0 and infinity (`engine.margins.pole_zero.certificate`)?"""
-    mag0, mag_inf, phase0, phase_inf = levels.limits()
-    rows = [
-        (_level_values(levels, points[0], 0), maxima[0], mag0, mag_inf),
-        (_level_values(levels, points[1], 1), maxima[1], phase0, phase_inf),
-    ]
+def _reach_limits(
+    levels: BatchLevels, points: list[NDArray], maxima: list[NDArray], at_points: list[NDArray]
+) -> NDArray[np.bool_]:
+    """Per sample: are both levels' values at their stationary points (``at_points``: log|GH| and
+    arg GH there) consistent with their limits at 0 and infinity (`engine.margins.pole_zero.certificate`)?"""
+    mag0, mag_inf, phase0, phase_inf = levels.limits
+    rows = [(at_points[0], maxima[0], mag0, mag_inf), (at_points[1], maxima[1], phase0, phase_inf)]
     ok = np.ones(levels.gain.size, dtype=bool)
     for (values, top, low, high), w in zip(rows, points):
         count = np.isfinite(w).sum(axis=1)
@@ -441,29 +447,25 @@ def _reach_limits(levels: BatchLevels, points: list[NDArray], maxima: list[NDArr
     return ok
 
 
-def _level_values(levels: BatchLevels, w: NDArray, kind: int) -> NDArray:
-    """log|GH| (``kind`` 0) or arg GH (1) at ``w``."""
-    return np.log(np.abs(levels.terms(w)[0])) if kind == 0 else levels.phase(w)
-
-
 def _crossings(
-    levels: BatchLevels, points: list[NDArray], gains: NDArray, phases: NDArray, polished: bool
+    levels: BatchLevels, at_points: list[NDArray], gains: NDArray, phases: NDArray, polished: bool
 ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
     """The crossings polished ((S, a) each, NaN-padded), GH at them, and whether each sample's
-    are as many as the monotone pieces between the stationary points hold, each within 4 ulp
-    (or in the rounding noise, when ``polished`` on the loop's own GH after)."""
+    are as many as the monotone pieces between the stationary points (``at_points``: log|GH| and
+    arg GH at them) hold, each within 4 ulp (or in the rounding noise, when ``polished`` on the
+    loop's own GH after)."""
     gain, _, noisy = _newton(levels, gains, 3)
     phase, _, noisy_phase = _newton(levels, phases, 4)
     gain, phase = _distinct(gain, gain)[0], _distinct(phase, phase)[0]
     phase_gh = levels.terms(phase)[0]
     phase = np.where(phase_gh.real < 0, phase, np.nan)
     phase, _ = _distinct(phase, phase)
-    mag0, mag_inf, phase0, phase_inf = levels.limits()
-    held = _enclosed(_ends(mag0, _level_values(levels, points[0], 0), mag_inf), False)
-    held_phase = _enclosed(_ends(phase0, _level_values(levels, points[1], 1), phase_inf), True)
+    mag0, mag_inf, phase0, phase_inf = levels.limits
+    held = _enclosed(_ends(mag0, at_points[0], mag_inf), False)
+    held_phase = _enclosed(_ends(phase0, at_points[1], phase_inf), True)
     ok = (np.isfinite(gain).sum(axis=1) == held) & (np.isfinite(phase).sum(axis=1) == held_phase)
-    gain_gh, gain_u, _, _ = levels.terms(gain)
-    phase_gh, phase_u, _, _ = levels.terms(phase)
+    gain_gh, gain_u = levels.terms(gain)
+    phase_gh, phase_u = levels.terms(phase)
     ok &= (
         (polished | (~noisy & ~noisy_phase))
         & _conditioned(levels, gain_u, gain_u.imag)
@@ -530,8 +532,7 @@ def _enclosed(ends: NDArray, phase: bool) -> NDArray:
 def _closed_loop_poles(levels: BatchLevels) -> NDArray[np.complex128]:
     """The closed-loop poles, the roots of D + k N (the variable scaled); NaN rows where they
     cannot be had."""
-    m, scale = levels.zero_count, levels.scale
-    zeros, poles = levels.roots[:, :m] / scale[:, None], levels.roots[:, m:] / scale[:, None]
-    factor = (levels.gain * scale ** (zeros.shape[1] - poles.shape[1]))[:, None]
-    roots, bad = batch_roots(_aligned_sum(poly_rows(poles).real, factor * poly_rows(zeros).real))
+    scale, (numerator, denominator) = levels.scale, levels.scaled
+    factor = (levels.gain * scale ** (numerator.shape[1] - denominator.shape[1]))[:, None]
+    roots, bad = batch_roots(_aligned_sum(denominator, factor * numerator))
     return np.where(bad[:, None], np.nan, roots * scale[:, None])
