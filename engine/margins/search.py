@@ -29,10 +29,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.tabulated_step import has_tables
+from engine.derived import Form
 from engine.errors import EngineError
-from engine.loop.fit_cache import cached_fit
+from engine.loop.design import design
+from engine.loop.fit_cache import cached_fit, content_key
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.loop.responses import Evaluator, LoopModel, SampledLoop, loop_model
+from engine.loop.responses import Evaluator, LoopModel, LoopSource, SampledLoop, loop_model
 from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
@@ -347,14 +349,25 @@ def fitted_loop(loop: LoopModel) -> FittedLoop | None:
     return _through_table_fits(loop) or _whole_loop_fit(loop)
 
 
+THROUGH_FITS: Form[FittedLoop | None] = Form("loop through the tables' fits")  # on a design, per break and table
+
+
 def _through_table_fits(loop: LoopModel) -> FittedLoop | None:
     """The loop's network with each table replaced by its own rational fit (`_trended_fit`, made once per
     table's content), the rest exact; None without a network of tables and rational parts or delays, when
     a table does not fit, or when the loop so evaluated misses its values on the table by more than
-    `FIT_LIMIT` (relative: in a feedback structure a table's residual is not the loop's)."""
+    `FIT_LIMIT` (relative: in a feedback structure a table's residual is not the loop's).  Made once per
+    design (kept on it: its margins, peaks and gain solves share it), break and loop values."""
     source = loop.source
     if source is None or not has_tables(source.network):
         return None
+    return design(source.network, source.params).derived.get(
+        THROUGH_FITS, lambda: _made_through_table_fits(loop, source), source.break_at, content_key(loop.omega, loop.gh)
+    )
+
+
+def _made_through_table_fits(loop: LoopModel, source: LoopSource) -> FittedLoop | None:
+    """`_through_table_fits`, made."""
     entries, corners, dampings, degree = [], [np.zeros(0)], [np.zeros(0)], 0
     for e in source.network.entries:
         if isinstance(e.transfer, TabulatedTransfer):
