@@ -121,7 +121,12 @@ def test_a_designs_loop_through_its_tables_fits_is_made_once(monkeypatch):
     found, peaks = margins_with_peaks(loop_model(network, "e", W, {"K": 31.0}), 0.0)
     solved = gain_for_crossover(loop_model(network, "e", W, {"K": 31.0}), 2.0)
     again = fitted_loop(loop_model(network, "e", W, {"K": 31.0}))
-    assert "each table's rational fit" in solved.note and found.method == "fitted" and peaks is not None and again is not None
+    assert (
+        "each table's rational fit" in solved.note
+        and found.method == "fitted"
+        and peaks is not None
+        and again is not None
+    )
     assert len(built) == 1
     other = fitted_loop(loop_model(network, "e", W, {"K": 32.0}))
     assert len(built) == 2 and other is not again
