@@ -62,6 +62,23 @@ def margins(
     fit worse than `FIT_LIMIT`) takes report 000's grid rule instead."""
     if method not in ("auto", "fitted", "grid"):
         raise ValueError(f"margin method must be auto, fitted or grid, not {method!r}")
+    return loop.derived.get(
+        MARGINS,
+        lambda: _margins(loop, gain_band, phase_band, attenuation_above, method),
+        gain_band,
+        phase_band,
+        attenuation_above,
+        method if loop.evaluate is None else "exact",  # a loop with an evaluator is refined on it whatever the method
+    )
+
+
+MARGINS: Form[Margins] = Form("margins")  # on a loop: asked with the bands, the attenuation's start and the method
+
+
+def _margins(
+    loop: LoopModel, gain_band: Band, phase_band: Band, attenuation_above: float | None, method: str
+) -> Margins:
+    """`margins`, found (kept on the loop: a loop is not changed, and `loop_model` gives one per design)."""
     if isinstance(loop, SampledLoop):
         return sampled_margins(loop, margins, gain_band, phase_band, attenuation_above, method)
     if loop.evaluate is None:

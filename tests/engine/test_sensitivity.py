@@ -232,8 +232,10 @@ def test_a_failed_peak_search_costs_no_second_margin_search(monkeypatch, case, f
     from engine.analysis import analyze, margins_with_peaks
     from engine.margins.search import margins
 
-    network = unity_feedback(["5*(s+1)/(s*(s^2+0.05*s+4))"], delay=0.2 if case == "delay" else 0.0)
-    expected = margins(loop_model(network, "e", GRID, {}), attenuation_above=0.0)
+    def network():  # each its own design (a design's loop keeps its margins)
+        return unity_feedback(["5*(s+1)/(s*(s^2+0.05*s+4))"], delay=0.2 if case == "delay" else 0.0)
+
+    expected = margins(loop_model(network(), "e", GRID, {}), attenuation_above=0.0)
     searched, tried = [], []
     search = search_module._searched
     monkeypatch.setattr(search_module, "_searched", lambda *a, **k: searched.append(1) or search(*a, **k))
@@ -243,10 +245,10 @@ def test_a_failed_peak_search_costs_no_second_margin_search(monkeypatch, case, f
         raise EngineError("the peaks' search failed here")
 
     monkeypatch.setattr(peaks_module, failing, failing_search)
-    found, peaks = margins_with_peaks(loop_model(network, "e", GRID, {}), 0.0, attenuation_above=0.0)
+    found, peaks = margins_with_peaks(loop_model(network(), "e", GRID, {}), 0.0, attenuation_above=0.0)
     assert (len(searched), len(tried)) == (1, 1)
     assert repr(found) == repr(expected) and isinstance(peaks, EngineError)
-    analysis = analyze(network, "e", GRID, {})
+    analysis = analyze(network(), "e", GRID, {})
     assert (len(searched), len(tried)) == (2, 2)
     assert (
         analysis.disk_margin is None
