@@ -205,7 +205,10 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     if any(p not in params for p in network.parameters):  # the network's own check names it
         return _loop_model(network, break_at, w, params)
     return design(network, params).derived.get(
-        LOOP_MODEL, lambda: _loop_model(network, break_at, w, params), break_at, w.tobytes()
+        LOOP_MODEL,
+        lambda: _loop_model(network, break_at, w.copy(), params),  # a copy: the caller may change its grid
+        break_at,
+        w.tobytes(),
     )
 
 

@@ -90,3 +90,7 @@ def test_a_designs_margins_are_found_once_for_the_tableau_and_the_plots(monkeypa
         loop_model(c.network, c.break_at, np.geomspace(1e-3, 1e3, 10), values),
     ):
         assert other is not loop
+    grid = np.geomspace(1e-2, 1e2, 50)
+    kept = loop_model(c.network, c.break_at, grid, values)
+    grid *= 2.0  # the caller's grid changed in place: the loop kept is still of the grid it was made on
+    assert loop_model(c.network, c.break_at, grid, values) is not kept and kept.omega[0] == 1e-2
