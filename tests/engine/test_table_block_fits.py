@@ -131,3 +131,23 @@ def test_a_designs_loop_through_its_tables_fits_is_made_once(monkeypatch):
     other = fitted_loop(loop_model(network, "e", W, {"K": 32.0}))
     assert len(built) == 2 and other is not again
     np.testing.assert_allclose(other.model.evaluate(W)[0], _closed_form(W, 32.0), rtol=1e-6)
+
+
+def test_the_tableau_and_the_plots_solve_a_tabulated_designs_loop_once(monkeypatch):
+    """cip's grid rule on the launch vehicle's tables read the loop from a solve of its own, the
+    plots' loop model from another (two network solves a nudge); now the design's loop model's
+    response serves both, the same values."""
+    import engine.loop.responses as responses
+    from engine.cip.requirements import detect
+
+    problem = load_session(EXAMPLES / "cip_launch_vehicle.json").problem
+    condition, x = problem.conditions[0], problem.vector() * 1.003
+    values = problem.condition_values(0, x)
+    alone = responses.open_loop(condition.network, condition.break_at, problem.grid.omega, values, False).value
+    solved = []
+    solve = responses.solve
+    monkeypatch.setattr(responses, "solve", lambda *a, **k: solved.append(1) or solve(*a, **k))
+    detect(problem, x, "auto")
+    plotted = loop_model(condition.network, condition.break_at, problem.grid.omega, values)
+    assert len(solved) == 1 and plotted.source is not None  # (the plots' loop keeps its network for the fits)
+    np.testing.assert_array_equal(plotted.gh, alone)
