@@ -24,6 +24,7 @@ from engine.margins.peaks import (
     Transform,
     complementary,
     margins_and_peaks,
+    peaks_or_failure,
     refined_peaks,
     reported,
     sensitivity,
@@ -212,16 +213,17 @@ def modal_peaks(model: LoopModel | Margins, bands: Sequence[Band]) -> tuple[Moda
 
 
 def closed_loop_peaks(
-    model: LoopModel, verdict: str, skew: float = 0.0, found: Sequence[Peak] | None = None
+    model: LoopModel, verdict: str, skew: float = 0.0, found: Sequence[Peak] | EngineError | None = None
 ) -> tuple[DiskMargin | None, Peak | None, Peak | None, tuple[str, ...]]:
     """The disk margin, Ms and Mt of a loop, refined in one search
-    (`engine.margins.peaks.refined_peaks`; ``found``: its peaks when searched already, with the margins
-    by `margins_with_peaks`); None each with a note when it fails."""
+    (`engine.margins.peaks.refined_peaks`; ``found``: its peaks, or why they failed, when searched
+    already with the margins by `margins_with_peaks`); None each with a note when it fails."""
     skew = check_skew(skew)
-    try:
-        disk, ms, mt = refined_peaks(model, closed_loop_transforms(skew)) if found is None else found
-    except EngineError as exc:
-        return None, None, None, (f"no disk margin or sensitivity peaks: {exc}",)
+    if found is None:
+        found = peaks_or_failure(lambda: refined_peaks(model, closed_loop_transforms(skew)))
+    if isinstance(found, EngineError):
+        return None, None, None, (f"no disk margin or sensitivity peaks: {found}",)
+    disk, ms, mt = found
     stable = None if verdict == "unknown" else verdict == "stable"
     if verdict == "unstable":
         return from_peak(disk, skew, stable), unstable(ms, "S"), unstable(mt, "T"), (UNSTABLE_NOTE,)
@@ -236,14 +238,15 @@ def closed_loop_transforms(skew: float) -> list[Transform]:
 
 def margins_with_peaks(
     model: LoopModel, skew: float, attenuation_above: float | None = None
-) -> tuple[Margins, tuple[Peak, ...] | None]:
+) -> tuple[Margins, tuple[Peak, ...] | EngineError]:
     """The loop's margins and the peaks `closed_loop_peaks` reads, refined in the same steps
-    (`engine.margins.peaks.margins_and_peaks`); the peaks None when their search fails (`closed_loop_peaks`
-    then searches them again and says why)."""
+    (`engine.margins.peaks.margins_and_peaks`); in the peaks' place the `EngineError` of their search when
+    it fails (`closed_loop_peaks` says why), the margins found once all the same."""
     try:
-        return margins_and_peaks(model, closed_loop_transforms(check_skew(skew)), attenuation_above)
-    except EngineError:
-        return margins(model, attenuation_above=attenuation_above), None
+        transforms = closed_loop_transforms(check_skew(skew))
+    except EngineError as exc:
+        return margins(model, attenuation_above=attenuation_above), exc
+    return margins_and_peaks(model, transforms, attenuation_above)
 
 
 UNSTABLE_NOTE = (

@@ -207,11 +207,14 @@ def _at_break(
 
 
 def _loop(problem: Problem, c: int, params: dict[str, float], refined: bool, at: str) -> LoopModel:
-    """Condition ``c``'s loop broken at ``at``: refined (exact loops), else on the grid."""
-    condition = problem.conditions[c]
-    if refined and condition.network.exact:
-        return loop_model(condition.network, at, problem.grid.omega, params)
-    gh = open_loop(condition.network, at, problem.grid.omega, params, sensitivities=False, check=False).value
+    """Condition ``c``'s loop broken at ``at``: refined (exact loops), else on the grid (a loop with
+    tables: the response of the design's loop model, the one the plots read, solved once)."""
+    network = problem.conditions[c].network
+    if refined and network.exact:
+        return loop_model(network, at, problem.grid.omega, params)
+    if not network.exact and network.sample_time is None:
+        return LoopModel(problem.grid.omega, loop_model(network, at, problem.grid.omega, params).gh)
+    gh = open_loop(network, at, problem.grid.omega, params, sensitivities=False, check=False).value
     return LoopModel(problem.grid.omega, gh)  # the grid was checked when the problem was made
 
 

@@ -11,10 +11,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
+from engine.derived import Form
 from engine.errors import EngineError
 from engine.model.bilinear import s_equivalent
 from engine.model.blocks import ExpressionTransfer
@@ -73,33 +73,19 @@ class Item:
 
 
 def items(transfer: ExpressionTransfer, params: Mapping[str, float]) -> list[Item]:
-    """The gain, then the zeros and poles of a block, low frequency first.  Kept for the
-    latest designs (`ITEMS_KEPT`, by the block itself and its parameters' values): a nudge
-    reads its block's items where the shaping table read them after the nudge before."""
-    return list(_items_at(_Same(transfer), tuple((name, params[name]) for name in transfer.parameters)))
+    """The gain, then the zeros and poles of a block, low frequency first.  Kept on the block's
+    expression at its parameters' values (`Expression.at`; a missing one is a `ParameterError`
+    naming it): a nudge reads its block's items where the shaping table read them after the
+    nudge before."""
+    return list(transfer.expression.at(ITEMS, params, lambda: _items_at(transfer, params)))
 
 
-ITEMS_KEPT = 16  # the (block, values) whose items are kept (`items`)
+ITEMS: Form[tuple[Item, ...]] = Form("compensator items")
 
 
-class _Same:
-    """A block as a key: equal to the same object alone (a block is never changed in place)."""
-
-    def __init__(self, transfer: ExpressionTransfer) -> None:
-        self.transfer = transfer
-
-    def __hash__(self) -> int:
-        return id(self.transfer)
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, _Same) and other.transfer is self.transfer
-
-
-@lru_cache(maxsize=ITEMS_KEPT)
-def _items_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[Item, ...]:
-    """`items` of a block at its parameters' values (the key holds the block: its id stays its own)."""
-    transfer, params = block.transfer, dict(values)
-    base, exact = _exact_at(block, values)
+def _items_at(transfer: ExpressionTransfer, params: Mapping[str, float]) -> tuple[Item, ...]:
+    """`items`, made."""
+    base, exact = _exact_at(transfer, params)
     scale = _scale(base)
     gain = _bode_gain(base, scale)
     moved = {
@@ -177,7 +163,7 @@ def item_slopes(
     """By each parameter x whose derivatives are exact (`_slopes`), d(root)/d log x of every
     item of ``found`` (`items` at ``params``; the gain's: d log(Bode gain)/d log x; nan for a
     root at the origin)."""
-    base, exact = _exact_at(_Same(transfer), tuple((name, params[name]) for name in transfer.parameters))
+    base, exact = _exact_at(transfer, params)
     out = {}
     for name, (dz, dp, log_gain) in exact.items():
         x, row = params[name], []
@@ -193,15 +179,18 @@ def item_slopes(
 
 
 Slopes = tuple[np.ndarray, np.ndarray, complex]  # dz/dx, dp/dx, d log(Bode gain)/dx
+EXACT: Form[tuple[PoleZero, dict[str, Slopes]]] = Form("pole-zero form and exact slopes")
 
 
-@lru_cache(maxsize=ITEMS_KEPT)
-def _exact_at(block: _Same, values: tuple[tuple[str, float], ...]) -> tuple[PoleZero, dict[str, Slopes]]:
-    """A block's pole-zero form and `_slopes` at its parameters' values, kept as `_items_at`'s
-    (a move reads them where the shaping table's items did)."""
-    params = dict(values)
-    base = pole_zero(block.transfer.expression, params)
-    return base, _slopes(block.transfer, params, base, _scale(base))
+def _exact_at(transfer: ExpressionTransfer, params: Mapping[str, float]) -> tuple[PoleZero, dict[str, Slopes]]:
+    """A block's pole-zero form and `_slopes` at its parameters' values, kept on its expression
+    as `items` are (a move reads them where the shaping table's items did)."""
+
+    def made() -> tuple[PoleZero, dict[str, Slopes]]:
+        base = pole_zero(transfer.expression, params)
+        return base, _slopes(transfer, params, base, _scale(base))
+
+    return transfer.expression.at(EXACT, params, made)
 
 
 def _slopes(transfer: ExpressionTransfer, params: Mapping[str, float], base, scale: float) -> dict[str, Slopes]:

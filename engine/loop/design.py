@@ -93,7 +93,8 @@ class Design:
 
     network: Network
     values: tuple[tuple[str, float], ...]
-    derived: Derived = field(default_factory=Derived, init=False, compare=False, repr=False)  # its loops, one per break
+    # its loops (one per break), its tables' fitted loops (`engine.margins.search.fitted_loop`)
+    derived: Derived = field(default_factory=Derived, init=False, compare=False, repr=False)
 
     @functools.cached_property
     def params(self) -> dict[str, float]:

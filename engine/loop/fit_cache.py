@@ -30,7 +30,7 @@ _FITS = Derived(KEPT)
 def cached_fit(omega: NDArray[np.float64], gh: NDArray[np.complex128]) -> RationalFit:
     """`fit_response(omega, gh)`, made once per table content (the last `KEPT` used kept)."""
     w, f = np.ascontiguousarray(omega, dtype=float), np.ascontiguousarray(gh, dtype=complex)
-    return _FITS.get(FIT, lambda: fit_response(w, f), _content(w, f))
+    return _FITS.get(FIT, lambda: fit_response(w, f), content_key(w, f))
 
 
 def cached_model(omega: NDArray[np.float64], response: NDArray[np.complex128], text: str) -> TableModel:
@@ -44,11 +44,12 @@ def cached_model(omega: NDArray[np.float64], response: NDArray[np.complex128], t
         except EngineError as exc:
             return exc
 
-    found = _FITS.get(MODEL, made, _content(w, f), text)
+    found = _FITS.get(MODEL, made, content_key(w, f), text)
     if isinstance(found, EngineError):
         raise found
     return found
 
 
-def _content(w: NDArray[np.float64], f: NDArray[np.complex128]) -> bytes:
+def content_key(w: NDArray[np.float64], f: NDArray[np.complex128]) -> bytes:
+    """A short digest of a response's frequencies and values (a key of forms made from them)."""
     return hashlib.blake2b(w.tobytes() + f.tobytes(), digest_size=20).digest()

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from engine.derived import Derived, Form
 from engine.errors import EngineError
 from engine.loop.design import DesignLoop, design
 from engine.loop.pole_zero import ZpkEvaluator
@@ -130,6 +131,7 @@ class LoopModel:
         self.axis_poles = np.zeros(0) if axis_poles is None else axis_poles
         self.exact = exact if exact is not None else evaluate
         self.source = source
+        self.derived = Derived()  # what is found on the loop (its margins), never stale: a loop is not changed
 
     def on_exact(self) -> LoopModel:
         """The same loop evaluated on the exact network (not the pole-zero form)."""
@@ -190,11 +192,28 @@ class SampledLoop(LoopModel):
         return SampledLoop(self.w_plane.on_exact(), self.omega, self.sample_time)
 
 
+LOOP_MODEL: Form[LoopModel] = Form("loop model")  # on a design: asked with the break and the grid
+
+
 def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mapping[str, float]) -> LoopModel:
     """The open loop at ``break_at`` with everything margins need (rational loops
     are evaluated in pole-zero form when it matches the network: `engine.loop.pole_zero`;
-    a sampled loop through its w-plane form: `SampledLoop`)."""
+    a sampled loop through its w-plane form: `SampledLoop`).  One object per design, break and
+    grid, kept on the design: what is found on it (its margins: `engine.margins.search.margins`) is
+    found once for the tableau and the plots."""
     w = check_grid(omega)
+    if any(p not in params for p in network.parameters):  # the network's own check names it
+        return _loop_model(network, break_at, w, params)
+    return design(network, params).derived.get(
+        LOOP_MODEL,
+        lambda: _loop_model(network, break_at, w.copy(), params),  # a copy: the caller may change its grid
+        break_at,
+        w.tobytes(),
+    )
+
+
+def _loop_model(network: Network, break_at: str, w: NDArray[np.float64], params: Mapping[str, float]) -> LoopModel:
+    """`loop_model`, made."""
     if network.sample_time is not None:
         network.points(w)  # below the Nyquist frequency, or a GridError that says so
         nu, _ = warped(w, network.sample_time)

@@ -158,20 +158,41 @@ def refined_peaks(loop: LoopModel, transforms: Sequence[Transform], band: Band =
 
 def margins_and_peaks(
     loop: LoopModel, transforms: Sequence[Transform], attenuation_above: float | None = None
-) -> tuple[Margins, tuple[Peak, ...]]:
+) -> tuple[Margins, tuple[Peak, ...] | EngineError]:
     """``margins(loop, attenuation_above=...)`` and ``refined_peaks(loop, transforms)``, the same numbers;
     when both search the loop's detection grid, the peaks' maxima are refined in the same vectorized
     steps as the margins' crossings and extrema (`engine.margins.search.margins_alongside`): one
-    refinement of the loop, not two."""
+    refinement of the loop, not two.  When the peaks' search fails, its `EngineError` stands in their
+    place and the margins are still found once; the margins' own failure is raised."""
     if not transforms or isinstance(loop, SampledLoop) or loop.evaluate is None:
-        return margins(loop, attenuation_above=attenuation_above), refined_peaks(loop, transforms)
-    peaks = _without_grid(loop, transforms, Band())
-    if peaks is not None:
-        return margins(loop, attenuation_above=attenuation_above), peaks
-    search = _peak_search(loop, transforms, Band())
-    found, roots = margins_alongside(loop, search.job, attenuation_above)
-    peaks = _peaks_of(loop, transforms, Band(), search, search.refined() if roots is None else roots)
-    return found, _checked(loop, transforms, Band(), peaks)
+        return margins(loop, attenuation_above=attenuation_above), peaks_or_failure(
+            lambda: refined_peaks(loop, transforms)
+        )
+    try:
+        grid_free = _without_grid(loop, transforms, Band())
+        search = grid_free if grid_free is not None else _peak_search(loop, transforms, Band())
+    except EngineError as exc:
+        return margins(loop, attenuation_above=attenuation_above), exc
+    if not isinstance(search, PeakSearch):  # found without a grid
+        return margins(loop, attenuation_above=attenuation_above), search
+    try:
+        found, roots = margins_alongside(loop, search.job, attenuation_above)
+    except EngineError:  # either part: each alone (the margins' failure raised again)
+        found, roots = margins(loop, attenuation_above=attenuation_above), None
+
+    def peaks() -> tuple[Peak, ...]:
+        refined = search.refined() if roots is None else roots
+        return _checked(loop, transforms, Band(), _peaks_of(loop, transforms, Band(), search, refined))
+
+    return found, peaks_or_failure(peaks)
+
+
+def peaks_or_failure(peaks: Callable[[], tuple[Peak, ...]]) -> tuple[Peak, ...] | EngineError:
+    """The peaks, or the `EngineError` that says why they could not be found."""
+    try:
+        return peaks()
+    except EngineError as exc:
+        return exc
 
 
 def _check_band(band: Band) -> None:

@@ -29,10 +29,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.closed_loop.tabulated_step import has_tables
+from engine.derived import Form
 from engine.errors import EngineError
-from engine.loop.fit_cache import cached_fit
+from engine.loop.design import design
+from engine.loop.fit_cache import cached_fit, content_key
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.loop.responses import Evaluator, LoopModel, SampledLoop, loop_model
+from engine.loop.responses import Evaluator, LoopModel, LoopSource, SampledLoop, loop_model
 from engine.margins.detection_grid import NOISE, Detection, detection_grid
 from engine.margins.pole_zero.levels import LoopLevels, log_distance
 from engine.margins.pole_zero.search import fast_margins
@@ -60,6 +62,23 @@ def margins(
     fit worse than `FIT_LIMIT`) takes report 000's grid rule instead."""
     if method not in ("auto", "fitted", "grid"):
         raise ValueError(f"margin method must be auto, fitted or grid, not {method!r}")
+    return loop.derived.get(
+        MARGINS,
+        lambda: _margins(loop, gain_band, phase_band, attenuation_above, method),
+        gain_band,
+        phase_band,
+        attenuation_above,
+        method if loop.evaluate is None else "exact",  # a loop with an evaluator is refined on it whatever the method
+    )
+
+
+MARGINS: Form[Margins] = Form("margins")  # on a loop: asked with the bands, the attenuation's start and the method
+
+
+def _margins(
+    loop: LoopModel, gain_band: Band, phase_band: Band, attenuation_above: float | None, method: str
+) -> Margins:
+    """`margins`, found (kept on the loop: a loop is not changed, and `loop_model` gives one per design)."""
     if isinstance(loop, SampledLoop):
         return sampled_margins(loop, margins, gain_band, phase_band, attenuation_above, method)
     if loop.evaluate is None:
@@ -347,14 +366,25 @@ def fitted_loop(loop: LoopModel) -> FittedLoop | None:
     return _through_table_fits(loop) or _whole_loop_fit(loop)
 
 
+THROUGH_FITS: Form[FittedLoop | None] = Form("loop through the tables' fits")  # on a design, per break and table
+
+
 def _through_table_fits(loop: LoopModel) -> FittedLoop | None:
     """The loop's network with each table replaced by its own rational fit (`_trended_fit`, made once per
     table's content), the rest exact; None without a network of tables and rational parts or delays, when
     a table does not fit, or when the loop so evaluated misses its values on the table by more than
-    `FIT_LIMIT` (relative: in a feedback structure a table's residual is not the loop's)."""
+    `FIT_LIMIT` (relative: in a feedback structure a table's residual is not the loop's).  Made once per
+    design (kept on it: its margins, peaks and gain solves share it), break and loop values."""
     source = loop.source
     if source is None or not has_tables(source.network):
         return None
+    return design(source.network, source.params).derived.get(
+        THROUGH_FITS, lambda: _made_through_table_fits(loop, source), source.break_at, content_key(loop.omega, loop.gh)
+    )
+
+
+def _made_through_table_fits(loop: LoopModel, source: LoopSource) -> FittedLoop | None:
+    """`_through_table_fits`, made."""
     entries, corners, dampings, degree = [], [np.zeros(0)], [np.zeros(0)], 0
     for e in source.network.entries:
         if isinstance(e.transfer, TabulatedTransfer):
@@ -727,26 +757,48 @@ def _deeper_than_noise(minima: NDArray[np.intp], distance: NDArray, floor: NDArr
     """The minima of ``distance`` whose prominence exceeds the noise ``floor`` there."""
     if minima.size == 0:
         return minima
-    prominence = valley_prominences(distance)
-    return minima[prominence[minima] > floor[minima]]
+    return minima[valley_prominences(distance, minima) > floor[minima]]
 
 
-def valley_prominences(d: NDArray) -> NDArray:
-    """Per point, how far it lies below the lower of the highest points between it and the
-    nearest lower point on either side (an edge where there is none): a valley's prominence."""
-    return np.minimum(_rise(d), _rise(d[::-1])[::-1]) - d
+def valley_prominences(d: NDArray, at: NDArray[np.intp] | None = None) -> NDArray:
+    """Per point (of ``at``, default all), how far it lies below the lower of the highest
+    points between it and the nearest lower point on either side (an edge where there is
+    none): a valley's prominence, as scipy.signal.peak_prominences has it (whose import
+    costs start-up)."""
+    at = np.arange(d.size) if at is None else np.asarray(at, dtype=np.intp)
+    return np.minimum(_rise(d, at), _rise(d[::-1], d.size - 1 - at)) - d[at]
 
 
-def _rise(d: NDArray) -> NDArray:
-    """Per point, the largest value between it and the nearest lower point to its left (all
-    the points before it where none is lower): with the same from the right, a valley's
-    prominence, as scipy.signal.peak_prominences has it (whose import costs start-up)."""
-    out, stack, cover = np.full(d.size, -np.inf), [], {}  # stack: indices of rising values
-    for i, value in enumerate(d.tolist()):
-        highest = -np.inf
-        while stack and d[stack[-1]] >= value:
-            top = stack.pop()
-            highest = max(highest, cover.pop(top), d[top])
-        out[i] = cover[i] = highest
-        stack.append(i)
+def _rise(d: NDArray, at: NDArray[np.intp]) -> NDArray:
+    """At each point of ``at``, the largest value between it and the nearest lower point to
+    its left (all the points before it where none is lower; -inf where there are none).  By
+    doubling, on the minima and maxima of every run of 2**k points: a point's reach left
+    (the points before it none lower, a NaN lower than all) grows by the runs that fit,
+    longest first; its largest value is that of two runs of 2**k covering the reach from
+    both ends."""
+    lows, highs = _run_extremes(d)
+    reach = np.zeros(at.size, dtype=np.intp)
+    for level in reversed(range(lows.shape[0])):
+        start = at - reach - (1 << level)
+        fits = start >= 0
+        fits[fits] = lows[level, start[fits]] >= d[at[fits]]
+        reach[fits] += 1 << level
+    out = np.full(at.size, -np.inf)
+    some = np.flatnonzero(reach)
+    level, ends = np.frexp(reach[some])[1] - 1, at[some]  # floor(log2 reach), exactly
+    out[some] = np.maximum(highs[level, ends - reach[some]], highs[level, ends - (1 << level)])
     return out
+
+
+def _run_extremes(d: NDArray) -> tuple[NDArray, NDArray]:
+    """Row k: the minimum (the maximum) of the 2**k points from each (-inf past the end),
+    for every k with 2**k <= d.size."""
+    lows, highs, width = [d], [d], 1
+    while 2 * width <= d.size:
+        lows.append(np.minimum(lows[-1][:-width], lows[-1][width:]))
+        highs.append(np.maximum(highs[-1][:-width], highs[-1][width:]))
+        width *= 2
+    padded = np.full((2, len(lows), d.size), -np.inf)
+    for k, (low, high) in enumerate(zip(lows, highs)):
+        padded[0, k, : low.size], padded[1, k, : high.size] = low, high
+    return padded[0], padded[1]

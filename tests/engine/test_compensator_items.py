@@ -181,6 +181,17 @@ def test_items_kept_for_a_design_are_that_designs(monkeypatch):
     assert items(twin, values) == first and zero(items(twin, {**values, "T1": 0.25})) == pytest.approx(4.0)
 
 
+def test_a_missing_parameter_is_named_not_a_bare_key_error():
+    """Before, `items` and `item_slopes` raised KeyError('T2'), which no caller turns into a message."""
+    from engine.design.compensator_items import item_slopes
+    from engine.errors import ParameterError
+
+    block = ExpressionTransfer("K*(1+T1*s)/(1+T2*s)")
+    for read in (lambda: items(block, {"K": 2.0, "T1": 1.0}), lambda: item_slopes(block, {"K": 2.0}, [])):
+        with pytest.raises(ParameterError, match="no value for parameter.*T2.*K\\*\\(1\\+T1\\*s\\)"):
+            read()
+
+
 def test_a_root_that_moves_little_is_still_its_parameters():
     """A cubic numerator's zeros at 0.001, 1 and 10 rad/s: each zero is a root of
     x1 s^3 + x2 s^2 + x3 s + x4, so every coefficient moves it (dr/dx = -r^k / p'(r), not 0),

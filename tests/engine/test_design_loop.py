@@ -4,6 +4,8 @@ the same pole-zero form, realizations and blocks' poles."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -58,3 +60,37 @@ def test_a_new_parameter_value_is_a_new_design(counted):
     second = design(network, PARAMS | {"K": 3.0})
     assert second is not first and second.params["K"] == 3.0
     assert first.loop("e") is first.loop("e")
+
+
+def test_a_designs_margins_are_found_once_for_the_tableau_and_the_plots(monkeypatch):
+    """cip's tableau (`detect`, margins "fitted") and the Bode marks (`margins` of `loop_model`,
+    "auto") searched one design's margins each (before: two searches a nudge, one per thread);
+    one loop object per design, break and grid now carries them.  Other values, another grid
+    or another break are a loop of their own."""
+    import engine.margins.search as search_module
+    from engine.cip.requirements import detect
+    from engine.loop.responses import loop_model
+    from sessions.store import load_session
+
+    problem = load_session(Path(__file__).resolve().parents[2] / "sessions/examples/report003_lag_lead.json").problem
+    searched, search = [], search_module._searched
+    monkeypatch.setattr(search_module, "_searched", lambda *a, **k: searched.append(1) or search(*a, **k))
+    x, c = problem.vector(), problem.conditions[0]
+    detect(problem, x, "auto")
+    loop = loop_model(c.network, c.break_at, problem.grid.omega, problem.condition_values(0, x))
+    assert len(searched) == 1
+    marks = search_module.margins(loop)
+    assert len(searched) == 1 and marks.phase
+    assert search_module.margins(loop, attenuation_above=1.0) is not marks and len(searched) == 2
+    values = problem.condition_values(0, x)
+    moved = {name: value * 1.01 for name, value in values.items()}
+    assert loop_model(c.network, c.break_at, problem.grid.omega, dict(values)) is loop
+    for other in (
+        loop_model(c.network, c.break_at, problem.grid.omega, moved),
+        loop_model(c.network, c.break_at, np.geomspace(1e-3, 1e3, 10), values),
+    ):
+        assert other is not loop
+    grid = np.geomspace(1e-2, 1e2, 50)
+    kept = loop_model(c.network, c.break_at, grid, values)
+    grid *= 2.0  # the caller's grid changed in place: the loop kept is still of the grid it was made on
+    assert loop_model(c.network, c.break_at, grid, values) is not kept and kept.omega[0] == 1e-2

@@ -220,3 +220,37 @@ def test_margins_and_peaks_together_are_each_alone(case):
         alone = loop_model(network, "e", GRID, {})
         assert repr(found) == repr(margins(alone, attenuation_above=attenuation))
         assert repr(peaks) == repr(refined_peaks(alone, transforms))
+
+
+@pytest.mark.parametrize(("case", "failing"), [("few roots", "_without_grid"), ("delay", "_peaks_of")])
+def test_a_failed_peak_search_costs_no_second_margin_search(monkeypatch, case, failing):
+    """When the peaks' search fails, the margins are searched once and the failure is said without
+    searching the peaks again (before: `margins_with_peaks` searched the margins a second time and
+    `closed_loop_peaks` the peaks)."""
+    import engine.margins.peaks as peaks_module
+    import engine.margins.search as search_module
+    from engine.analysis import analyze, margins_with_peaks
+    from engine.margins.search import margins
+
+    def network():  # each its own design (a design's loop keeps its margins)
+        return unity_feedback(["5*(s+1)/(s*(s^2+0.05*s+4))"], delay=0.2 if case == "delay" else 0.0)
+
+    expected = margins(loop_model(network(), "e", GRID, {}), attenuation_above=0.0)
+    searched, tried = [], []
+    search = search_module._searched
+    monkeypatch.setattr(search_module, "_searched", lambda *a, **k: searched.append(1) or search(*a, **k))
+
+    def failing_search(*args, **kwargs):
+        tried.append(1)
+        raise EngineError("the peaks' search failed here")
+
+    monkeypatch.setattr(peaks_module, failing, failing_search)
+    found, peaks = margins_with_peaks(loop_model(network(), "e", GRID, {}), 0.0, attenuation_above=0.0)
+    assert (len(searched), len(tried)) == (1, 1)
+    assert repr(found) == repr(expected) and isinstance(peaks, EngineError)
+    analysis = analyze(network(), "e", GRID, {})
+    assert (len(searched), len(tried)) == (2, 2)
+    assert (
+        analysis.disk_margin is None
+        and "no disk margin or sensitivity peaks: the peaks' search failed here" in analysis.notes
+    )

@@ -104,3 +104,50 @@ def test_a_design_changes_the_loop_not_the_tables_fit(points):
         assert through is not None and "in its place" in through.how
         exact = _closed_form(between, K)
         assert np.max(np.abs(through.model.evaluate(between)[0] - exact) / np.abs(exact)) < 1e-5
+
+
+def test_a_designs_loop_through_its_tables_fits_is_made_once(monkeypatch):
+    """Its margins, its peaks and a gain solve each built the loop through the fits again (2-3
+    times a design); now once per design: a loop of other values makes its own."""
+    import engine.margins.search as search
+    from engine.analysis import margins_with_peaks
+    from engine.design.gain_solves import gain_for_crossover
+
+    s = 1j * W
+    network = _inner_loop(TabulatedTransfer(FrequencyTable(W, 10 / ((s + 1) * (s + 5)), "plant")))
+    built = []
+    made = search.loop_model
+    monkeypatch.setattr(search, "loop_model", lambda *a, **k: built.append(a[3]) or made(*a, **k))
+    found, peaks = margins_with_peaks(loop_model(network, "e", W, {"K": 31.0}), 0.0)
+    solved = gain_for_crossover(loop_model(network, "e", W, {"K": 31.0}), 2.0)
+    again = fitted_loop(loop_model(network, "e", W, {"K": 31.0}))
+    assert (
+        "each table's rational fit" in solved.note
+        and found.method == "fitted"
+        and peaks is not None
+        and again is not None
+    )
+    assert len(built) == 1
+    other = fitted_loop(loop_model(network, "e", W, {"K": 32.0}))
+    assert len(built) == 2 and other is not again
+    np.testing.assert_allclose(other.model.evaluate(W)[0], _closed_form(W, 32.0), rtol=1e-6)
+
+
+def test_the_tableau_and_the_plots_solve_a_tabulated_designs_loop_once(monkeypatch):
+    """cip's grid rule on the launch vehicle's tables read the loop from a solve of its own, the
+    plots' loop model from another (two network solves a nudge); now the design's loop model's
+    response serves both, the same values."""
+    import engine.loop.responses as responses
+    from engine.cip.requirements import detect
+
+    problem = load_session(EXAMPLES / "cip_launch_vehicle.json").problem
+    condition, x = problem.conditions[0], problem.vector() * 1.003
+    values = problem.condition_values(0, x)
+    alone = responses.open_loop(condition.network, condition.break_at, problem.grid.omega, values, False).value
+    solved = []
+    solve = responses.solve
+    monkeypatch.setattr(responses, "solve", lambda *a, **k: solved.append(1) or solve(*a, **k))
+    detect(problem, x, "auto")
+    plotted = loop_model(condition.network, condition.break_at, problem.grid.omega, values)
+    assert len(solved) == 1 and plotted.source is not None  # (the plots' loop keeps its network for the fits)
+    np.testing.assert_array_equal(plotted.gh, alone)
