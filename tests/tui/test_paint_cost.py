@@ -59,3 +59,37 @@ async def test_a_plot_is_drawn_by_rich_with_textuals_cells(monkeypatch):
         textuals = Visual.to_strips(plot, visualize(plot, plot.drawing.text), width, height, plot.visual_style)
         assert len(ours) == len(textuals) == height and sum(len(_cells(a)) for a in ours) > width * height // 2
         assert [_cells(a) for a in ours] == [_cells(b) for b in textuals]
+
+
+@synchronous
+async def test_a_nudge_on_a_tabulated_loop_lays_out_nothing(workdir, monkeypatch):
+    """A nudge changes no widget's size, so the screen is not laid out again (issue 54,
+    section 3).  The launch vehicle's loop is tabulated: its pole lines are none, and the
+    tableau drawn while they were computed said "computing" on two more lines, then lost
+    them: two layout passes a nudge (37-56 ms each at 120x40)."""
+    from textual.screen import Screen
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+
+    layouts = []
+    refresh_layout = Screen._refresh_layout
+
+    def counted(self, *args, **kwargs):
+        layouts.append(self)
+        return refresh_layout(self, *args, **kwargs)
+
+    monkeypatch.setattr(Screen, "_refresh_layout", counted)
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down", "down", "right")  # the first compensator's zero1, moved once
+        await settle(app, pilot)
+        layouts.clear()
+        before = app.bench.session.model.problem.model_dump()
+        for key in ("right", "left", "right"):
+            await pilot.press(key)
+            await settle(app, pilot)
+        tableau = app.screen.query_one("#tableau")
+        assert app.bench.session.model.problem.model_dump() != before and "margins" in tableau.text.plain
+        assert layouts == []
