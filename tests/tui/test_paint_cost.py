@@ -8,6 +8,8 @@ from __future__ import annotations
 from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.content import Content
+from textual.coordinate import Coordinate
+from textual.geometry import Region
 from textual.strip import Strip
 from textual.visual import Visual, visualize
 
@@ -93,3 +95,98 @@ async def test_a_nudge_on_a_tabulated_loop_lays_out_nothing(workdir, monkeypatch
         tableau = app.screen.query_one("#tableau")
         assert app.bench.session.model.problem.model_dump() != before and "margins" in tableau.text.plain
         assert layouts == []
+
+
+class TablesApp(App):
+    """The shaping table beside Textual's `DataTable` with the same rows."""
+
+    def compose(self) -> ComposeResult:
+        from textual.widgets import DataTable
+
+        from tui.widgets.shape_table import ShapeTable
+
+        yield ShapeTable(id="shape")
+        yield DataTable(cursor_type="row", id="textual")
+
+
+ROWS = [("K", "gain 7.14178 (17.0753 dB) [K]"), ("zero1", "zero at 0.710681 rad/s [T1]"), ("pole1", "pole at 5 rad/s")]
+
+
+def _table_cells(table) -> list[list[tuple[str, object, object, bool]]]:
+    width, height = table.size
+    return [_cells(strip) for strip in table.render_lines(Region(0, 0, width, height))]
+
+
+@synchronous
+async def test_the_shaping_table_draws_the_cells_textuals_table_draws_and_a_nudge_one_row():
+    """The shaping table draws its own lines (a `DataTable` re-rendered its header and every
+    row on any cell's update: 7-11 ms of a nudge's first paint): the same cells as Textual's
+    table with the same rows, its cursor focused or not, after a reading changed in place;
+    and a reading changed draws that row again, no other."""
+    from rich.console import Console
+    from textual.renderables.styled import Styled
+    from textual.widgets import DataTable
+
+    app = TablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, textuals = app.query_one("#shape"), app.query_one("#textual", DataTable)
+        ours.fill([(name, text, None) for name, text in ROWS])
+        textuals.add_columns("item", "reads")
+        for row in ROWS:
+            textuals.add_row(*row)
+        for focus, row in ((False, 1), (True, 1), (True, 2)):
+            ours.move_cursor(row=row)
+            textuals.move_cursor(row=row)
+            drawn = {}
+            for table in (ours, textuals):
+                app.set_focus(table if focus else None)
+                await pilot.pause()
+                drawn[table] = _table_cells(table)
+            assert drawn[ours] == drawn[textuals]
+        app.set_focus(None)
+        await pilot.pause()
+        drawn = []
+        render_lines = Console.render_lines
+
+        def counted(console, *args, **kwargs):
+            if isinstance(args[0], Styled):  # a table's cell
+                drawn.append(args[0])
+            return render_lines(console, *args, **kwargs)
+
+        Console.render_lines = counted
+        try:
+            reading = "zero at 0.746215 rad/s [T1]"
+            ours.fill([(name, reading if name == "zero1" else text, None) for name, text in ROWS])
+            await pilot.pause()
+            cells, ours_drawn = _table_cells(ours), len(drawn)
+            textuals.update_cell_at(Coordinate(1, 1), reading)
+            await pilot.pause()
+            assert cells == _table_cells(textuals)
+            assert ours_drawn == 2 and len(drawn) - ours_drawn >= 8  # the row's two cells; Textual's: every cell
+            drawn.clear()
+            _table_cells(ours)
+        finally:
+            Console.render_lines = render_lines
+        assert len(drawn) == 0  # drawn once since the reading changed: kept
+
+
+@synchronous
+async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
+    """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table
+    scrolls across, its cells those of Textual's table scrolled as far."""
+    from textual.widgets import DataTable
+
+    app = TablesApp()
+    async with app.run_test(size=(30, 14)) as pilot:
+        ours, textuals = app.query_one("#shape"), app.query_one("#textual", DataTable)
+        ours.fill([(name, text, None) for name, text in ROWS])
+        textuals.add_columns("item", "reads")
+        for row in ROWS:
+            textuals.add_row(*row)
+        app.set_focus(None)
+        for x in (0, 7):
+            for table in (ours, textuals):
+                table.scroll_to(x=x, animate=False, immediate=True)
+            await pilot.pause()
+            assert ours.scroll_offset.x == textuals.scroll_offset.x == x
+            assert _table_cells(ours) == _table_cells(textuals)
