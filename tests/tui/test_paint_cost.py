@@ -112,6 +112,18 @@ class TablesApp(App):
 ROWS = [("K", "gain 7.14178 (17.0753 dB) [K]"), ("zero1", "zero at 0.710681 rad/s [T1]"), ("pole1", "pole at 5 rad/s")]
 
 
+def _filled(app: App) -> tuple:
+    """The shaping table and Textual's, each filled with ROWS."""
+    from textual.widgets import DataTable
+
+    ours, textuals = app.query_one("#shape"), app.query_one("#textual", DataTable)
+    ours.fill([(name, text, None) for name, text in ROWS])
+    textuals.add_columns("item", "reads")
+    for row in ROWS:
+        textuals.add_row(*row)
+    return ours, textuals
+
+
 def _table_cells(table) -> list[list[tuple[str, object, object, bool]]]:
     width, height = table.size
     return [_cells(strip) for strip in table.render_lines(Region(0, 0, width, height))]
@@ -125,15 +137,10 @@ async def test_the_shaping_table_draws_the_cells_textuals_table_draws_and_a_nudg
     and a reading changed draws that row again, no other."""
     from rich.console import Console
     from textual.renderables.styled import Styled
-    from textual.widgets import DataTable
 
     app = TablesApp()
     async with app.run_test(size=(80, 12)) as pilot:
-        ours, textuals = app.query_one("#shape"), app.query_one("#textual", DataTable)
-        ours.fill([(name, text, None) for name, text in ROWS])
-        textuals.add_columns("item", "reads")
-        for row in ROWS:
-            textuals.add_row(*row)
+        ours, textuals = _filled(app)
         for focus, row in ((False, 1), (True, 1), (True, 2)):
             ours.move_cursor(row=row)
             textuals.move_cursor(row=row)
@@ -174,15 +181,9 @@ async def test_the_shaping_table_draws_the_cells_textuals_table_draws_and_a_nudg
 async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
     """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table
     scrolls across, its cells those of Textual's table scrolled as far."""
-    from textual.widgets import DataTable
-
     app = TablesApp()
     async with app.run_test(size=(30, 14)) as pilot:
-        ours, textuals = app.query_one("#shape"), app.query_one("#textual", DataTable)
-        ours.fill([(name, text, None) for name, text in ROWS])
-        textuals.add_columns("item", "reads")
-        for row in ROWS:
-            textuals.add_row(*row)
+        ours, textuals = _filled(app)
         app.set_focus(None)
         for x in (0, 7):
             for table in (ours, textuals):
@@ -190,3 +191,57 @@ async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
             await pilot.pause()
             assert ours.scroll_offset.x == textuals.scroll_offset.x == x
             assert _table_cells(ours) == _table_cells(textuals)
+
+
+class TextsApp(App):
+    """A status line over a plot and a text side by side."""
+
+    CSS = "Horizontal > Vertical { width: 40; } #left { height: 5; }"
+
+    def compose(self) -> ComposeResult:
+        from textual.containers import Horizontal, Vertical
+
+        from tui.widgets.textview import TextView
+
+        yield TextView("lead.json *  algorithm slp  Iteration 0  edit: T1 value: 1 -> 0.952381", id="status")
+        with Horizontal():
+            with Vertical():  # (Textual renders the widgets whose container meets the changed box)
+                yield FigurePlot(id="left")
+            with Vertical():
+                yield TextView("PM 41.2\nGM 12.0\nwc 1.17", id="right")
+
+
+@synchronous
+async def test_a_text_repaints_the_cells_it_changed():
+    """A new text repaints each changed line from its first changed cell: the status line's
+    edit and the side's values changed, the plot beside them is not rendered (before, the
+    status line's whole row was repainted, and the paint, the box around every change, held
+    the plot)."""
+    from tui.widgets.textview import TextView
+
+    app = TextsApp()
+    async with app.run_test(size=(80, 8)) as pilot:
+        plot = app.query_one("#left", FigurePlot)
+        plot.show(_bode_like())
+        await pilot.pause()
+        await pilot.pause()
+        rendered = []
+        render_lines = plot.render_lines
+
+        def noted(crop):
+            rendered.append(crop)
+            return render_lines(crop)
+
+        plot.render_lines = noted
+        status, side = app.query_one("#status", TextView), app.query_one("#right", TextView)
+        status.set("lead.json *  algorithm slp  Iteration 0  edit: T1 value: 0.952381 -> 1")
+        side.set("PM 42.0\nGM 12.0\nwc 1.21")
+        await pilot.pause()
+        assert rendered == []  # (an export renders every widget: after)
+        screen = app.export_screenshot().replace("&#160;", " ")
+        assert "0.952381 -&gt; 1" in screen and "PM 42.0" in screen and "wc 1.21" in screen
+        status.set(Text("lead.json", style="bold"))  # shorter, its style changed: the whole line
+        side.set("PM 42.0\nGM 12.0")
+        await pilot.pause()
+        screen = app.export_screenshot().replace("&#160;", " ")
+        assert "algorithm" not in screen and "wc 1.21" not in screen and "GM 12.0" in screen
