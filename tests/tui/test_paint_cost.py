@@ -191,6 +191,11 @@ async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
             await pilot.pause()
             assert ours.scroll_offset.x == textuals.scroll_offset.x == x
             assert _table_cells(ours) == _table_cells(textuals)
+        ours.focus()
+        await pilot.press("end")  # as DataTable's home and end: across, the row kept
+        assert ours.scroll_offset.x == ours.max_scroll_x > 7 and ours.cursor_row == 0
+        await pilot.press("home")
+        assert ours.scroll_offset.x == 0
 
 
 class TextsApp(App):
@@ -245,3 +250,24 @@ async def test_a_text_repaints_the_cells_it_changed():
         await pilot.pause()
         screen = app.export_screenshot().replace("&#160;", " ")
         assert "algorithm" not in screen and "wc 1.21" not in screen and "GM 12.0" in screen
+
+
+@synchronous
+async def test_the_shaping_table_selects_by_click_and_keys():
+    """Drawing its own lines, the shaping table keeps DataTable's ways to select a row: a
+    click on a row, up and down, ctrl+home and ctrl+end (the header is not a row)."""
+    app = TablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, _ = _filled(app)
+        ours.focus()
+        await pilot.pause()
+        region = ours.content_region
+        await pilot.click(offset=(region.x + 3, region.y + 3))  # the third row, under the header
+        assert ours.cursor_row == 2 and ours.selected[0] == "pole1"
+        await pilot.click(offset=(region.x + 3, region.y))  # the header: no row
+        await pilot.press("up")
+        assert ours.cursor_row == 1
+        await pilot.press("ctrl+home")
+        assert ours.selected[0] == "K"
+        await pilot.press("ctrl+end", "down")
+        assert ours.cursor_row == len(ROWS) - 1

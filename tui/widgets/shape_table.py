@@ -78,10 +78,14 @@ class ShapeTable(ScrollView, can_focus=True):
         [
             Binding("up", "cursor(-1)", "", show=False, id="shape.up", tooltip="the item above"),
             Binding("down", "cursor(1)", "", show=False, id="shape.down", tooltip="the item below"),
-            Binding("pageup", "cursor(-8)", "", show=False, id="shape.page_up", tooltip="eight items up"),
-            Binding("pagedown", "cursor(8)", "", show=False, id="shape.page_down", tooltip="eight items down"),
-            Binding("home", "cursor(-1000)", "", show=False, id="shape.first", tooltip="the first item (the gain)"),
-            Binding("end", "cursor(1000)", "", show=False, id="shape.last", tooltip="the last item"),
+            Binding("pageup", "page(-1)", "", show=False, id="shape.page_up", tooltip="a page of items up"),
+            Binding("pagedown", "page(1)", "", show=False, id="shape.page_down", tooltip="a page of items down"),
+            Binding(
+                "ctrl+home", "cursor(-1000)", "", show=False, id="shape.first", tooltip="the first item (the gain)"
+            ),
+            Binding("ctrl+end", "cursor(1000)", "", show=False, id="shape.last", tooltip="the last item"),
+            Binding("home", "across(0)", "", show=False, id="shape.left_edge", tooltip="the readings' start"),
+            Binding("end", "across(1)", "", show=False, id="shape.right_edge", tooltip="the readings' end"),
             Binding(
                 "left",
                 "nudge(-1)",
@@ -224,6 +228,13 @@ class ShapeTable(ScrollView, can_focus=True):
 
     def action_cursor(self, rows: int) -> None:
         self.cursor_row += rows
+
+    def action_page(self, pages: int) -> None:
+        self.cursor_row += pages * max(self.scrollable_content_region.height - 1, 1)  # (under the header)
+
+    def action_across(self, end: int) -> None:
+        """Scroll to the start (0) or the end (1) of the readings, where they are wider than the table."""
+        self.scroll_x = self.max_scroll_x * end
 
     def _on_click(self, event: events.Click) -> None:
         row = event.style.meta.get("row")
