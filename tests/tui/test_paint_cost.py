@@ -8,6 +8,8 @@ from __future__ import annotations
 from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.content import Content
+from textual.coordinate import Coordinate
+from textual.geometry import Region
 from textual.strip import Strip
 from textual.visual import Visual, visualize
 
@@ -59,3 +61,213 @@ async def test_a_plot_is_drawn_by_rich_with_textuals_cells(monkeypatch):
         textuals = Visual.to_strips(plot, visualize(plot, plot.drawing.text), width, height, plot.visual_style)
         assert len(ours) == len(textuals) == height and sum(len(_cells(a)) for a in ours) > width * height // 2
         assert [_cells(a) for a in ours] == [_cells(b) for b in textuals]
+
+
+@synchronous
+async def test_a_nudge_on_a_tabulated_loop_lays_out_nothing(workdir, monkeypatch):
+    """A nudge changes no widget's size, so the screen is not laid out again (issue 54,
+    section 3).  The launch vehicle's loop is tabulated: its pole lines are none, and the
+    tableau drawn while they were computed said "computing" on two more lines, then lost
+    them: two layout passes a nudge (37-56 ms each at 120x40)."""
+    from textual.screen import Screen
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+
+    layouts = []
+    refresh_layout = Screen._refresh_layout
+
+    def counted(self, *args, **kwargs):
+        layouts.append(self)
+        return refresh_layout(self, *args, **kwargs)
+
+    monkeypatch.setattr(Screen, "_refresh_layout", counted)
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down", "down", "right")  # the first compensator's zero1, moved once
+        await settle(app, pilot)
+        layouts.clear()
+        before = app.bench.session.model.problem.model_dump()
+        for key in ("right", "left", "right"):
+            await pilot.press(key)
+            await settle(app, pilot)
+        tableau = app.screen.query_one("#tableau")
+        assert app.bench.session.model.problem.model_dump() != before and "margins" in tableau.text.plain
+        assert layouts == []
+
+
+class TablesApp(App):
+    """The shaping table beside Textual's `DataTable` with the same rows."""
+
+    def compose(self) -> ComposeResult:
+        from textual.widgets import DataTable
+
+        from tui.widgets.shape_table import ShapeTable
+
+        yield ShapeTable(id="shape")
+        yield DataTable(cursor_type="row", id="textual")
+
+
+ROWS = [("K", "gain 7.14178 (17.0753 dB) [K]"), ("zero1", "zero at 0.710681 rad/s [T1]"), ("pole1", "pole at 5 rad/s")]
+
+
+def _filled(app: App) -> tuple:
+    """The shaping table and Textual's, each filled with ROWS."""
+    from textual.widgets import DataTable
+
+    ours, textuals = app.query_one("#shape"), app.query_one("#textual", DataTable)
+    ours.fill([(name, text, None) for name, text in ROWS])
+    textuals.add_columns("item", "reads")
+    for row in ROWS:
+        textuals.add_row(*row)
+    return ours, textuals
+
+
+def _table_cells(table) -> list[list[tuple[str, object, object, bool]]]:
+    width, height = table.size
+    return [_cells(strip) for strip in table.render_lines(Region(0, 0, width, height))]
+
+
+@synchronous
+async def test_the_shaping_table_draws_the_cells_textuals_table_draws_and_a_nudge_one_row():
+    """The shaping table draws its own lines (a `DataTable` re-rendered its header and every
+    row on any cell's update: 7-11 ms of a nudge's first paint): the same cells as Textual's
+    table with the same rows, its cursor focused or not, after a reading changed in place;
+    and a reading changed draws that row again, no other."""
+    from rich.console import Console
+    from textual.renderables.styled import Styled
+
+    app = TablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, textuals = _filled(app)
+        for focus, row in ((False, 1), (True, 1), (True, 2)):
+            ours.move_cursor(row=row)
+            textuals.move_cursor(row=row)
+            drawn = {}
+            for table in (ours, textuals):
+                app.set_focus(table if focus else None)
+                await pilot.pause()
+                drawn[table] = _table_cells(table)
+            assert drawn[ours] == drawn[textuals]
+        app.set_focus(None)
+        await pilot.pause()
+        drawn = []
+        render_lines = Console.render_lines
+
+        def counted(console, *args, **kwargs):
+            if isinstance(args[0], Styled):  # a table's cell
+                drawn.append(args[0])
+            return render_lines(console, *args, **kwargs)
+
+        Console.render_lines = counted
+        try:
+            reading = "zero at 0.746215 rad/s [T1]"
+            ours.fill([(name, reading if name == "zero1" else text, None) for name, text in ROWS])
+            await pilot.pause()
+            cells, ours_drawn = _table_cells(ours), len(drawn)
+            textuals.update_cell_at(Coordinate(1, 1), reading)
+            await pilot.pause()
+            assert cells == _table_cells(textuals)
+            assert ours_drawn == 2 and len(drawn) - ours_drawn >= 8  # the row's two cells; Textual's: every cell
+            drawn.clear()
+            _table_cells(ours)
+        finally:
+            Console.render_lines = render_lines
+        assert len(drawn) == 0  # drawn once since the reading changed: kept
+
+
+@synchronous
+async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
+    """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table
+    scrolls across, its cells those of Textual's table scrolled as far."""
+    app = TablesApp()
+    async with app.run_test(size=(30, 14)) as pilot:
+        ours, textuals = _filled(app)
+        app.set_focus(None)
+        for x in (0, 7):
+            for table in (ours, textuals):
+                table.scroll_to(x=x, animate=False, immediate=True)
+            await pilot.pause()
+            assert ours.scroll_offset.x == textuals.scroll_offset.x == x
+            assert _table_cells(ours) == _table_cells(textuals)
+        ours.focus()
+        await pilot.press("end")  # as DataTable's home and end: across, the row kept
+        assert ours.scroll_offset.x == ours.max_scroll_x > 7 and ours.cursor_row == 0
+        await pilot.press("home")
+        assert ours.scroll_offset.x == 0
+
+
+class TextsApp(App):
+    """A status line over a plot and a text side by side."""
+
+    CSS = "Horizontal > Vertical { width: 40; } #left { height: 5; }"
+
+    def compose(self) -> ComposeResult:
+        from textual.containers import Horizontal, Vertical
+
+        from tui.widgets.textview import TextView
+
+        yield TextView("lead.json *  algorithm slp  Iteration 0  edit: T1 value: 1 -> 0.952381", id="status")
+        with Horizontal():
+            with Vertical():  # (Textual renders the widgets whose container meets the changed box)
+                yield FigurePlot(id="left")
+            with Vertical():
+                yield TextView("PM 41.2\nGM 12.0\nwc 1.17", id="right")
+
+
+@synchronous
+async def test_a_text_repaints_the_cells_it_changed():
+    """A new text repaints each changed line from its first changed cell: the status line's
+    edit and the side's values changed, the plot beside them is not rendered (before, the
+    status line's whole row was repainted, and the paint, the box around every change, held
+    the plot)."""
+    from tui.widgets.textview import TextView
+
+    app = TextsApp()
+    async with app.run_test(size=(80, 8)) as pilot:
+        plot = app.query_one("#left", FigurePlot)
+        plot.show(_bode_like())
+        await pilot.pause()
+        await pilot.pause()
+        rendered = []
+        render_lines = plot.render_lines
+
+        def noted(crop):
+            rendered.append(crop)
+            return render_lines(crop)
+
+        plot.render_lines = noted
+        status, side = app.query_one("#status", TextView), app.query_one("#right", TextView)
+        status.set("lead.json *  algorithm slp  Iteration 0  edit: T1 value: 0.952381 -> 1")
+        side.set("PM 42.0\nGM 12.0\nwc 1.21")
+        await pilot.pause()
+        assert rendered == []  # (an export renders every widget: after)
+        screen = app.export_screenshot().replace("&#160;", " ")
+        assert "0.952381 -&gt; 1" in screen and "PM 42.0" in screen and "wc 1.21" in screen
+        status.set(Text("lead.json", style="bold"))  # shorter, its style changed: the whole line
+        side.set("PM 42.0\nGM 12.0")
+        await pilot.pause()
+        screen = app.export_screenshot().replace("&#160;", " ")
+        assert "algorithm" not in screen and "wc 1.21" not in screen and "GM 12.0" in screen
+
+
+@synchronous
+async def test_the_shaping_table_selects_by_click_and_keys():
+    """Drawing its own lines, the shaping table keeps DataTable's ways to select a row: a
+    click on a row, up and down, ctrl+home and ctrl+end (the header is not a row)."""
+    app = TablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, _ = _filled(app)
+        ours.focus()
+        await pilot.pause()
+        region = ours.content_region
+        await pilot.click(offset=(region.x + 3, region.y + 3))  # the third row, under the header
+        assert ours.cursor_row == 2 and ours.selected[0] == "pole1"
+        await pilot.click(offset=(region.x + 3, region.y))  # the header: no row
+        await pilot.press("up")
+        assert ours.cursor_row == 1
+        await pilot.press("ctrl+home")
+        assert ours.selected[0] == "K"
+        await pilot.press("ctrl+end", "down")
+        assert ours.cursor_row == len(ROWS) - 1

@@ -146,8 +146,8 @@ class MainScreen(Screen):
     )
     DEFAULT_CSS = """
     MainScreen { overflow: hidden; }
-    MainScreen DataTable, #tableau-scroll { border-left: blank; }
-    MainScreen DataTable:focus, #tableau-scroll:focus { border-left: thick $accent; }
+    MainScreen DataTable, #shape, #tableau-scroll { border-left: blank; }
+    MainScreen DataTable:focus, #shape:focus, #tableau-scroll:focus { border-left: thick $accent; }
     #plots { min-width: 37; margin-right: 1; }  /* a column between the plot tabs and the tableau */
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
     #tabs { height: 1fr; }

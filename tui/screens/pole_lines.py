@@ -64,9 +64,9 @@ class PoleLines:
         self._asked: tuple | None = None  # the `figure_key` a thread worker makes lines for
 
     def text(self, view: View) -> str:
-        """The pole lines of ``view``: kept, or asked of a thread worker (`COMPUTING`
-        meanwhile, on as many lines as the lines kept: a nudge's tableau keeps its height,
-        and the screen no layout pass)."""
+        """The pole lines of ``view``: kept, or asked of a thread worker (meanwhile `COMPUTING`
+        on as many lines as the lines kept, or nothing when the lines kept are none, as a
+        tabulated loop's are: a nudge's tableau keeps its height, and the screen no layout pass)."""
         if "poles" not in view.presenter.plots and not several_breaks(view):
             return ""
         key = figure_key(view)
@@ -80,7 +80,7 @@ class PoleLines:
                 self.screen.post_message(self.Found(view, under_tableau(view)))
 
             self.screen.run_worker(compute, thread=True, exclusive=True, group="poles")
-        return COMPUTING + "\n" * lines
+        return "" if self.kept is not None and not self.kept[1] else COMPUTING + "\n" * lines
 
     def found(self, message: PoleLines.Found) -> None:
         key = figure_key(message.view)

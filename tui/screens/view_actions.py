@@ -23,6 +23,7 @@ from tui.state.clipboard import design_text, row_text
 from tui.state.step_view import format_step_setup, parse_step_setup
 from tui.state.views import View
 from tui.widgets.plots import FigurePlot
+from tui.widgets.shape_table import ShapeTable
 from tui.widgets.textview import TextView
 
 if TYPE_CHECKING:
@@ -90,7 +91,7 @@ class ViewActions:
     def copy(self) -> None:
         """The focused table's selected row, else the tableau, to the clipboard."""
         focused = self.screen.focused
-        if isinstance(focused, DataTable) and focused.row_count:
+        if isinstance(focused, (DataTable, ShapeTable)) and focused.row_count:
             text, what = row_text(focused.get_row_at(focused.cursor_row)), "the row"
         else:
             text, what = self.screen.query_one("#tableau", TextView).text.plain, "the tableau"

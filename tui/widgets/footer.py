@@ -1,16 +1,16 @@
-"""The key footer, rebuilt once for every binding refresh made before its rebuild.
+"""The key footer, rebuilt only when the keys it shows change.
 
-Textual's `Footer` rebuilds itself (some twenty keys with their styles: 10-20 ms
+Textual's `Footer` recomposes itself (some twenty keys with their styles: 10-20 ms
 at 120x40) after the next screen refresh each time the screen's bindings are
 refreshed; a step's end refreshes them more than once (the run's keys enabled
-again, the workbench redrawn), and each rebuild came after the other, between
-the key press and the painted iteration.  Here every refresh still asks for a
-rebuild, as Textual's does (one that is dropped, say with a screen popped
-before it ran, is made up by the next), and a rebuild for bindings the footer
-was already built for does nothing, nor one that would show the same keys: a
-nudge in the shaping table refreshes the bindings (the workbench redrawn) but
-changes no key, and its rebuild was 7 % of a nudge's time.  A disabled key's
-tooltip says why it cannot act now (the app's `key_reason`), as pressing it does."""
+again, the workbench redrawn), and a nudge in the shaping table refreshes them
+(the workbench redrawn) while changing no key.  Here a refresh schedules a check
+instead, after the next screen refresh, as Textual schedules its rebuild: the
+checks of refreshes made before one ran do nothing (one that is dropped, say with
+a screen popped before it ran, is made up by the next), and the footer is
+recomposed only when the keys it would show differ from those it shows (each
+key's action, description, whether it is enabled, its tooltip).  A disabled
+key's tooltip says why it cannot act now (the app's `key_reason`), as pressing it does."""
 
 from __future__ import annotations
 
@@ -20,27 +20,28 @@ from textual.widgets import Footer as TextualFooter
 
 
 class Footer(TextualFooter):
-    """`textual.widgets.Footer` that skips a rebuild for bindings it already shows."""
+    """`textual.widgets.Footer` recomposed only when its keys change."""
 
     _asked = 0  # binding refreshes seen
-    _built = -1  # the refresh the footer was last built after
-    _shown: tuple = ()  # the keys it shows: (key, action, description, enabled, tooltip) of each
+    _checked = -1  # the refresh the keys were last checked after
+    _shown: tuple = ()  # the keys it shows (`_keys`), set when composed
 
     def bindings_changed(self, screen: Screen) -> None:
+        """Textual's, with a check of the keys in place of the recompose."""
         self._asked += 1
-        super().bindings_changed(screen)
+        self._bindings_ready = True
+        if screen.app.app_focus and self.is_attached and screen is self.screen:
+            self.call_after_refresh(self._rebuild_if_changed)
 
-    async def recompose(self) -> None:
-        if self._built == self._asked:
-            return  # built after the latest refresh already (it reads the bindings as they are then)
-        self._built = self._asked
-        if not self.is_attached:  # its screen gone (popped before the rebuild ran): nothing to show
+    async def _rebuild_if_changed(self) -> None:
+        if self._checked == self._asked:
+            return  # checked after the latest refresh already (it read the bindings as they are then)
+        self._checked = self._asked
+        if not self.is_attached:  # its screen gone (popped before the check ran): nothing to show
             return
-        shown = self._keys()
-        if shown == self._shown and self.children:
+        if self._keys() == self._shown and self.children:
             return  # the same keys, each as enabled as before
-        self._shown = shown
-        await super().recompose()
+        await self.recompose()
 
     def _keys(self) -> tuple:
         """What the footer would show: each shown binding's key, action, description,
@@ -53,6 +54,8 @@ class Footer(TextualFooter):
         )
 
     def compose(self) -> ComposeResult:
+        if self._bindings_ready:
+            self._shown = self._keys()  # what this composition shows, whoever asked for it
         reason_of = getattr(self.app, "key_reason", lambda _: None)
         for widget in super().compose():
             action = getattr(widget, "action", None)  # a key (Textual's FooterKey, not exported)

@@ -4,16 +4,29 @@ only asks: each key posts a `ShapeTable.Request` (a move, a typed value, a gain 
 part added, a notch, a deletion) and the screen's controller (`tui.screens.shaping`)
 applies it to the session as an edit (undoable, one undo step per burst on one item).
 Its rows are the current design's (`MainScreen.refresh_run` fills them from the one view
-every readout is drawn from).  `C` on the Run tab shows it."""
+every readout is drawn from).  `C` on the Run tab shows it.
+
+It draws its own lines (Textual's line API), as Textual's `DataTable` with a row cursor
+looks: one `Strip` per row kept until that row's reading, the cursor, the focus or the
+width changes.  A `DataTable` dropped every row's render on any `update_cell` (its caches
+are keyed by an update count): a nudge re-rendered the header and every row, 7-11 ms of
+the 22-34 ms paint that shows the nudge's tableau."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from rich.padding import Padding
+from rich.segment import Segment
+from rich.style import Style
+from textual import events
 from textual.binding import Binding
-from textual.coordinate import Coordinate
+from textual.geometry import Region, Size, Spacing
 from textual.message import Message
-from textual.widgets import DataTable
+from textual.reactive import reactive
+from textual.renderables.styled import Styled
+from textual.scroll_view import ScrollView
+from textual.strip import Strip
 
 from tui.keys import identified
 
@@ -26,14 +39,53 @@ DAMPING_STEP = 1.1  # a pair's damping factor of a nudge
 SHAPING_ACTIONS = frozenset({"nudge", "damp", "type_value", "gain_for", "add", "delete", "notch"})
 
 
-class ShapeTable(DataTable):
+COLUMNS = ("item", "reads")
+
+
+class ShapeTable(ScrollView, can_focus=True):
     """One row per compensator item; left/right move it, [ and ] a pair's damping, e types
     a value, g and G solve the loop gain for a crossover or a phase margin, + adds a part,
-    N a notch on a resonance and - deletes the selected item."""
+    N a notch on a resonance and - deletes the selected item; up and down select."""
+
+    DEFAULT_CSS = """
+    ShapeTable {
+        background: $surface;
+        color: $foreground;
+        height: auto;
+        max-height: 100%;
+        &:focus {
+            background-tint: $foreground 5%;
+            & > .shape-table--cursor {
+                background: $block-cursor-background;
+                color: $block-cursor-foreground;
+                text-style: $block-cursor-text-style;
+            }
+            & > .shape-table--header { background-tint: $foreground 5%; }
+        }
+        & > .shape-table--header { text-style: bold; background: $panel; color: $foreground; }
+        &:ansi > .shape-table--header { background: ansi_bright_blue; color: ansi_default; }
+        & > .shape-table--cursor {
+            background: $block-cursor-blurred-background;
+            color: $block-cursor-blurred-foreground;
+            text-style: $block-cursor-blurred-text-style;
+        }
+    }
+    """  # (`DataTable`'s, for a row cursor)
+    COMPONENT_CLASSES = {"shape-table--header", "shape-table--cursor"}
 
     BINDINGS = identified(
         "shape",
         [
+            Binding("up", "cursor(-1)", "", show=False, id="shape.up", tooltip="the item above"),
+            Binding("down", "cursor(1)", "", show=False, id="shape.down", tooltip="the item below"),
+            Binding("pageup", "page(-1)", "", show=False, id="shape.page_up", tooltip="a page of items up"),
+            Binding("pagedown", "page(1)", "", show=False, id="shape.page_down", tooltip="a page of items down"),
+            Binding(
+                "ctrl+home", "cursor(-1000)", "", show=False, id="shape.first", tooltip="the first item (the gain)"
+            ),
+            Binding("ctrl+end", "cursor(1000)", "", show=False, id="shape.last", tooltip="the last item"),
+            Binding("home", "across(0)", "", show=False, id="shape.left_edge", tooltip="the readings' start"),
+            Binding("end", "across(1)", "", show=False, id="shape.right_edge", tooltip="the readings' end"),
             Binding(
                 "left",
                 "nudge(-1)",
@@ -119,38 +171,115 @@ class ShapeTable(DataTable):
     class Delete(Request):
         """Delete the item with its factor."""
 
+    cursor_row: reactive[int] = reactive(0, repaint=False)
+
     def __init__(self, *, id: str | None = None) -> None:
-        super().__init__(cursor_type="row", id=id)
+        super().__init__(id=id)
         self.names: list[str] = []
         self.found: list[Item] = []
+        self.readings: list[str] = []
+        self.widths = (0, 0)  # the columns' (the same rows' readings only widen them: no layout pass a nudge)
         self.frozen = False  # a run or a sweep goes: the screen says so (`MainScreen.refresh_status`)
+        self._strips: dict[int, tuple[tuple, Strip]] = {}  # line -> (what it was drawn from, its strip)
 
     def fill(self, rows: list[tuple[str, str, Item]]) -> None:
-        """The items (name, reading, item), the cursor kept on its row; the items shown
-        already (a nudge's, a drag's) have their readings changed in place (no rows made
-        anew, no cursor moved: the keys' footer is not rebuilt, the screen not laid out)."""
-        names = [name for name, _, _ in rows]
-        if self.columns and names == self.names and self.row_count == len(rows):
-            self.found = [item for _, _, item in rows]
-            width = self.ordered_columns[1].content_width
-            for k, (_, text, _) in enumerate(rows):
-                if self.get_cell_at(Coordinate(k, 1)) != text:  # the column widened only for a longer reading
-                    self.update_cell_at(Coordinate(k, 1), text, update_width=len(text) > width)
-            return
-        row = self.cursor_row
-        self.clear(columns=not self.columns)
-        if not self.columns:
-            self.add_columns("item", "reads")
-        self.names = [name for name, _, _ in rows]
+        """The items (name, reading, item), the cursor kept on its row; a row whose reading
+        is unchanged keeps its strip (a nudge's, a drag's: one row drawn again, no layout
+        pass unless a column widens or the number of rows changes)."""
+        names, readings = [name for name, _, _ in rows], [text for _, text, _ in rows]
         self.found = [item for _, _, item in rows]
-        for name, text, _ in rows:
-            self.add_row(name, text)
-        if rows:
-            self.move_cursor(row=min(max(row, 0), len(rows) - 1))
+        if names == self.names and readings == self.readings:
+            return
+        before, same_rows = self.widths, names == self.names
+        changed = [k for k, text in enumerate(readings) if not same_rows or text != self.readings[k]]
+        self.names, self.readings = names, readings
+        self.widths = _widths(names, readings, before if same_rows else (0, 0))
+        self.virtual_size = Size(sum(self.widths), len(rows) + 1)
+        self.cursor_row = self.cursor_row  # (validated: within the rows)
+        if self.widths != before or not same_rows:
+            self.refresh(layout=True)
+            return
+        for k in changed:
+            self._refresh_row(k)
 
-    def on_data_table_row_highlighted(self, event: DataTable.RowHighlighted) -> None:
+    def _refresh_row(self, row: int) -> None:
+        self.refresh(Region(0, row + 1 - self.scroll_offset.y, self.outer_size.width, 1))
+
+    @property
+    def row_count(self) -> int:
+        return len(self.names)
+
+    def get_row_at(self, row: int) -> list[str]:
+        """The cells of a row: the item's name and its reading."""
+        return [self.names[row], self.readings[row]]
+
+    def move_cursor(self, *, row: int) -> None:
+        self.cursor_row = row
+
+    def validate_cursor_row(self, row: int) -> int:
+        return min(max(row, 0), max(len(self.names) - 1, 0))
+
+    def watch_cursor_row(self, before: int, row: int) -> None:
+        self._refresh_row(before)
+        self._refresh_row(row)
+        self.scroll_to_region(Region(0, row + 1, 1, 1), spacing=Spacing(top=1), animate=False, force=True)
         if self.has_focus:  # the footer shows what the newly selected item allows ([ ], delete)
             self.refresh_bindings()
+
+    def action_cursor(self, rows: int) -> None:
+        self.cursor_row += rows
+
+    def action_page(self, pages: int) -> None:
+        self.cursor_row += pages * max(self.scrollable_content_region.height - 1, 1)  # (under the header)
+
+    def action_across(self, end: int) -> None:
+        """Scroll to the start (0) or the end (1) of the readings, where they are wider than the table."""
+        self.scroll_x = self.max_scroll_x * end
+
+    def _on_click(self, event: events.Click) -> None:
+        row = event.style.meta.get("row")
+        if isinstance(row, int) and row >= 0:
+            self.cursor_row = row
+
+    def render_line(self, y: int) -> Strip:
+        scroll_x, scroll_y = self.scroll_offset
+        line = y if y == 0 else y + scroll_y  # (the header stays on top)
+        base, width = self.rich_style, self.size.width
+        drawn = (self._cells(line), self.widths, line - 1 == self.cursor_row, self.has_focus, width, base)
+        kept = self._strips.get(line)
+        if kept is None or kept[0] != drawn:
+            kept = (drawn, self._line(line, base))
+            self._strips[line] = kept
+        return kept[1].crop(scroll_x, scroll_x + width)
+
+    def _cells(self, line: int) -> tuple[str, ...]:
+        return COLUMNS if line == 0 else tuple(self.get_row_at(line - 1)) if line <= len(self.names) else ()
+
+    def _line(self, line: int, base: Style) -> Strip:
+        """A whole line drawn as `DataTable` draws it: each cell padded by a space and styled
+        (the header's style, or the cursor's over the base), then the rest of the width in the
+        row's style."""
+        width, cells = max(self.size.width, sum(self.widths)), self._cells(line)
+        if not cells:
+            return Strip.blank(width, base)
+        row = line - 1
+        style = self.get_component_rich_style("shape-table--header") if row < 0 else base
+        cursor = self.get_component_rich_style("shape-table--cursor") if row == self.cursor_row else Style()
+        post = Style.from_color(color=cursor.color) + Style.from_color(bgcolor=cursor.bgcolor)
+        options = self.app.console_options.update(no_wrap=True)
+        segments: list[Segment] = []
+        for column, (cell, cell_width) in enumerate(zip(cells, self.widths)):
+            styled = Styled(
+                Padding(cell, (0, 1)),
+                pre_style=style + cursor + Style.from_meta({"row": row, "column": column}),
+                post_style=post,
+            )
+            segments += self.app.console.render_lines(styled, options.update_dimensions(cell_width, 1))[0]
+        rest = max(0, width - sum(self.widths))
+        segments.append(
+            Segment(" " * rest, style + cursor + Style.from_meta({"row": row, "column": 0, "out_of_bounds": True}))
+        )
+        return Strip(segments).adjust_cell_length(width, base).simplify()
 
     @property
     def selected(self) -> tuple[str, Item] | None:
@@ -212,3 +341,10 @@ class ShapeTable(DataTable):
 
     def action_delete(self) -> None:
         self._ask(self.Delete)
+
+
+def _widths(names: list[str], readings: list[str], at_least: tuple[int, int]) -> tuple[int, int]:
+    """The columns' widths: the widest cell's with a space either side, at least ``at_least``."""
+    name = max([len(COLUMNS[0])] + [len(cell) for cell in names]) + 2
+    reading = max([len(COLUMNS[1])] + [len(cell) for cell in readings]) + 2
+    return max(name, at_least[0]), max(reading, at_least[1])

@@ -1,12 +1,23 @@
 """A text widget that repaints without a layout pass when its text changes
 (unlike `Static.update`), so a run's steady updates stay cheap; its height
 follows the number of lines only when that number changes; the same text set again is
-not repainted."""
+not repainted, and a new text repaints only the cells it changed: each changed line
+from its first changed column (Textual paints the box around every changed region of a
+paint: a nudge's status line changed in its first column stretched the tableau's
+paint over the plots and the tabs, some forty widgets rendered where eight had changed)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from itertools import zip_longest
+from os.path import commonprefix
+
+from rich.cells import cell_len
 from rich.text import Text
+from textual.geometry import Region
 from textual.widget import Widget
+
+LAID_OUT = ("style", "justify", "overflow", "no_wrap", "end", "tab_size")  # how a text is laid out
 
 
 class TextView(Widget):
@@ -22,9 +33,12 @@ class TextView(Widget):
         new = Text.from_markup(text) if isinstance(text, str) else text
         if new is not self._text and _same(new, self._text):  # (the same object may have been changed)
             return
-        self._text = new
+        old, self._text = self._text, new
         lines = new.plain.count("\n") + 1
-        self.refresh(layout=lines != self._lines)
+        if lines != self._lines:
+            self.refresh(layout=True)
+        else:
+            self.refresh(*(Region(x, y, max(self.size.width - x, 1), 1) for x, y in _changed_cells(old, new)))
         self._lines = lines
 
     @property
@@ -38,5 +52,19 @@ class TextView(Widget):
 
 def _same(a: Text, b: Text) -> bool:
     """Whether two texts draw the same: their characters, spans and how they are laid out."""
-    laid_out = ("style", "justify", "overflow", "no_wrap", "end", "tab_size")
-    return a.plain == b.plain and a.spans == b.spans and all(getattr(a, k) == getattr(b, k) for k in laid_out)
+    return a.plain == b.plain and a.spans == b.spans and all(getattr(a, k) == getattr(b, k) for k in LAID_OUT)
+
+
+def _changed_cells(old: Text, new: Text) -> Iterator[tuple[int, int]]:
+    """(column, line) where each line that draws differently starts to differ: its first
+    changed character, or its start when its styles changed (texts of as many lines, no
+    character wider than a cell: the workbench's)."""
+    if any(getattr(old, k) != getattr(new, k) for k in ("style", "justify", "overflow", "no_wrap", "tab_size")):
+        yield from ((0, y) for y in range(new.plain.count("\n") + 1))
+        return
+    pairs = zip_longest(old.split("\n", allow_blank=True), new.split("\n", allow_blank=True))
+    for y, (a, b) in enumerate(pairs):
+        if a is None or b is None or a.spans != b.spans:
+            yield 0, y
+        elif a.plain != b.plain:
+            yield cell_len(commonprefix([a.plain, b.plain])), y
