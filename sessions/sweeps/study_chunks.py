@@ -8,7 +8,7 @@ the study's key for its next chunks) and evaluates the chunk as the serial study
 in sample order.
 
 The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHUNK` samples
-and twice that, each part timed apart on the worker: two sizes in one task) and timed in CPU
+and `PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed in CPU
 seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits are
 not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
 fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker, the last ones
@@ -46,7 +46,10 @@ from sessions.sweeps.jobs import (
 from sessions.sweeps.plan import ToleranceSamples
 from sessions.sweeps.records import Records
 
-FIRST_CHUNK = 100  # samples in a probe's first part, timed on its worker (its second: twice that)
+FIRST_CHUNK = 100  # samples in a probe's first part, timed on its worker
+# ... its second part this many times larger: the slope from 100 and 200 samples (12 ms of fixed cost, 60 us a
+# sample) was 6 ms of a loaded machine's noise, and sized the lag-lead's chunks to 3234 samples as often as 4850
+PROBE_RATIO = 4
 # A chunk costs about 30 ms of CPU besides its samples (the batch's fixed cost, 12 ms of the lag-lead's, and
 # Dask's: the scheduler and the client in the main process, the task on its worker).  20 000 lag-lead
 # samples on 2 workers took 13 chunks at 0.25 s and 4 a worker: 1.46-1.64 s of the workers' CPU, 0.16-0.18 s
@@ -59,7 +62,7 @@ IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the wor
 @dataclass
 class _Sizes:
     """The study's chunks (ranges of positions).  The first round, a probe per worker (at least
-    two), each of `FIRST_CHUNK` samples and twice that, timed apart on its worker (`chunk_runs`'s
+    two), each of `FIRST_CHUNK` samples and `PROBE_RATIO` times that, timed apart on its worker (`chunk_runs`'s
     ``split``): two sizes tell a chunk's fixed cost from a sample's (least squares over every
     part timed) from the first probe back, and each later chunk is sized to
     about `CHUNK_SECONDS` of work with it, never smaller than one sized before (a small chunk's samples look slow: sized
@@ -78,20 +81,22 @@ class _Sizes:
 
     @property
     def first(self) -> int:
-        """A probe's first part (its second is twice that): the probes, a sixth of the study at most."""
-        return max(1, min(FIRST_CHUNK, self.count // (6 * CHUNKS_PER_WORKER * self.workers)))
+        """A probe's first part: the probes, a tenth of the study at most."""
+        return max(1, min(FIRST_CHUNK, self.count // (2 * (1 + PROBE_RATIO) * CHUNKS_PER_WORKER * self.workers)))
 
     def first_round(self) -> list[tuple[int, int]]:
-        return [self._take(3 * self.first) for _ in range(max(2, self.workers)) if self.sent < self.count]
+        return [
+            self._take((1 + PROBE_RATIO) * self.first) for _ in range(max(2, self.workers)) if self.sent < self.count
+        ]
 
     def next(self, in_flight: int) -> tuple[int, int] | None:
         """The next chunk's range, sized from the parts timed so far; until two sizes are timed
         (the probes back untimed: failed, or sent again as halves), none while ``in_flight``
         chunks may still time one (a chunk sized from one size would be the odd one out of the
-        equal chunks after it, and one worker's share the larger), else one of twice the
-        probes' first part."""
+        equal chunks after it, and one worker's share the larger), else one of a probe's second
+        part's size."""
         if len({n for n, _ in self.timed}) < 2:
-            return None if in_flight else self._take(2 * self.first)
+            return None if in_flight else self._take(PROBE_RATIO * self.first)
         target = self._target()
         if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
             left = self.count - self.sent

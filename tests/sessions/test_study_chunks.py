@@ -19,7 +19,7 @@ from sessions.sweeps.cluster import Connection
 from sessions.sweeps.dispersion import CANCELLED, Tally
 from sessions.sweeps.jobs import execute_serial
 from sessions.sweeps.plan import tolerance_jobs
-from sessions.sweeps.study_chunks import FIRST_CHUNK, _InOrder, _Sizes, run_chunked
+from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _Sizes, run_chunked
 from tests.sessions.study_agreement import assert_measures_agree
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -91,20 +91,22 @@ def test_chunks_cover_the_study_once_sized_to_half_a_second(count, workers):
     """Chunks of 25 ms plus 0.1 ms a sample: 4750 samples are half a second; a chunk sized later
     that looked slower (0.5 s whatever its size) sizes none down."""
     sizes = _Sizes(count, workers)
-    first = max(1, min(FIRST_CHUNK, count // (12 * workers)))
+    first = max(1, min(FIRST_CHUNK, count // (4 * (1 + PROBE_RATIO) * workers)))
     probes = max(2, workers)
 
     def cost(n: int) -> float:
-        return 0.025 + 1e-4 * n if sizes.sent <= probes * 3 * first else 0.5
+        return 0.025 + 1e-4 * n if sizes.sent <= probes * (1 + PROBE_RATIO) * first else 0.5
 
     ranges = _sized(sizes, cost)
-    assert [b - a for a, b in ranges[:probes]] == [min(3 * first, count - a) for a, _ in ranges[:probes]]
+    assert [b - a for a, b in ranges[:probes]] == [
+        min((1 + PROBE_RATIO) * first, count - a) for a, _ in ranges[:probes]
+    ]
     assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == count
     later = [b - a for a, b in ranges[probes:]]
     most = max(first, count // (2 * workers))
     assert all(size <= min(4750, most) for size in later)  # at least two chunks per worker
-    if count == 20_000:  # 19 400 samples left after a probe per worker: 6 equal chunks, three per worker
-        assert later == [3234] * 5 + [3230]
+    if count == 20_000:  # 19 000 samples left after a probe per worker, at 4749 (4750 rounded down): 6 equal chunks
+        assert later == [3167] * 5 + [3165]
 
 
 def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
@@ -112,7 +114,7 @@ def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
     fixed cost, 10-20 ms of Dask's on the worker, 15 ms in the main process).  The timed probes
     were two chunks per worker (100, 200, 100, 200) and, the first one back alone (one size), it
     was followed by another of 200: 10 tasks for 20 000 lag-lead samples on 2 workers.  Now a
-    probe per worker times its two parts (100 and 200) apart, the first one back sizes the rest
+    probe per worker times its two parts (100 and 400) apart, the first one back sizes the rest
     in equal chunks, as many per worker: 6 tasks (chunks of 12 ms plus 60 us a sample, as the
     lag-lead's)."""
 
@@ -121,23 +123,23 @@ def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
 
     sizes = _Sizes(20_000, 2)
     ranges = sizes.first_round()
-    assert [b - a for a, b in ranges] == [300, 300] and sizes.first == 100
-    sizes.timed += [(100, cost(100)), (200, cost(200))]  # the first probe back, alone
+    assert [b - a for a, b in ranges] == [500, 500] and sizes.first == 100
+    sizes.timed += [(100, cost(100)), (400, cost(400))]  # the first probe back, alone
     while sizes.sent < 20_000:
         ranges.append(sizes.next(1) or (0, 0))
         sizes.timed.append((ranges[-1][1] - ranges[-1][0], cost(ranges[-1][1] - ranges[-1][0])))
-    assert len(ranges) == 6 and [b - a for a, b in ranges[2:]] == [4850] * 4
+    assert len(ranges) == 6 and [b - a for a, b in ranges[2:]] == [4750] * 4
 
 
 def test_untimed_probes_size_nothing_while_a_chunk_is_in_flight_and_never_stall_the_study():
     """Probes back untimed (failed, or sent again as halves) of one size: no chunk is sized from
     one size while another chunk may time a second; with nothing in flight, the next chunk is
-    of twice the probes' first part."""
+    of a probe's second part's size."""
     sizes = _Sizes(20_000, 2)
     sizes.first_round()
     sizes.timed.append((150, 0.02))
     assert sizes.next(1) is None
-    assert sizes.next(0) == (600, 800)
+    assert sizes.next(0) == (1000, 1400)
 
 
 def test_a_probe_times_its_two_parts_apart_and_its_runs_are_the_whole_chunk(tmp_path):
