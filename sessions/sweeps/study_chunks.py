@@ -278,7 +278,7 @@ def run_chunked(
     )
     chunks = (
         f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
-        f"(each sized from a chunk timed on its worker to about {CHUNK_SECONDS:g} s of work)"
+        f"(sized from a probe per worker, its parts timed there, to about {CHUNK_SECONDS:g} s of work)"
     )
     note = "; ".join(text for text in (batch.note, chunks, lost, tally.note) if text)
     retried = {k: v for k, v in attempts.items() if len(v) > 1}

@@ -186,8 +186,8 @@ def test_a_cancelled_study_keeps_its_finished_chunks_whole(tmp_path, connection)
 def test_a_sample_that_kills_its_worker_takes_no_other_sample_with_it(tmp_path):
     """Its chunk is sent again as halves down to the sample alone, which is recorded as failed
     (one death fails a task here: a sample whose task was on the worker when the poison killed it
-    may fail beside it, never one outside the poison's first chunk; 64 samples go in chunks of 8
-    and 16 first)."""
+    may fail beside it, never one outside the poison's first chunk; 64 samples go in probes of 5
+    first, one of 1 and 4 samples timed apart)."""
     import dask
     from distributed import Client
 
@@ -238,6 +238,8 @@ def test_a_chunk_that_never_finishes_is_given_up_and_the_study_finishes(tmp_path
     assert [r["index"] for r in runs] == list(range(64))
     lost = {r["index"] for r in runs if r["status"] == "failed"}
     assert POISON in lost and all(runs[k]["reason"].startswith(f"{NOT_COMPUTED}: no task finished for") for k in lost)
+    hung = next(range(a, b) for a, b in _Sizes(64, 1).first_round() if a <= POISON < b)
+    assert lost == set(hung), lost  # the other probe's timings sized the rest: none waited on the hung one
     assert outcome.given_up in outcome.note and f"({len(lost)} samples recorded as failed)" in outcome.note
     # every chunk that finished, timed on its worker (the bench's CPU accounting reads them)
     assert sum(n for n, _ in outcome.chunks) == 64 - len(lost) and all(seconds > 0 for _, seconds in outcome.chunks)
