@@ -53,7 +53,8 @@ PROBE_RATIO = 4
 # A chunk costs about 30 ms of CPU besides its samples (the batch's fixed cost, 12 ms of the lag-lead's, and
 # Dask's: the scheduler and the client in the main process, the task on its worker).  20 000 lag-lead
 # samples on 2 workers took 13 chunks at 0.25 s and 4 a worker: 1.46-1.64 s of the workers' CPU, 0.16-0.18 s
-# of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7)
+# of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7); 6 with a
+# probe per worker timing two sizes: 1.28-1.34 s and 0.07-0.08 s (c0189aa's 9-10: 1.35-1.41, 0.11-0.12; load 1.6-3.5)
 CHUNK_SECONDS = 0.5  # s of work a chunk is sized to
 CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal)
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
