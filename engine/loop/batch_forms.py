@@ -168,6 +168,9 @@ def _shared_poles(poles: list[NDArray], count: int) -> tuple[list[NDArray], NDAr
     constant = [(roots == roots[:1]).all(axis=0) if count else np.zeros(roots.shape[1], dtype=bool) for roots in poles]
     held = [Counter(roots[0, mask].tolist()) if count else Counter() for roots, mask in zip(poles, constant)]
     shared = {v: max(c[v] for c in held) for v in set().union(*held) if sum(v in c for c in held) > 1}
+    if not shared:  # the common case, a chunk's fixed cost: no term's poles to set apart
+        none = np.zeros((count, 0), dtype=complex)
+        return list(poles), none, [none] * len(poles)
     own = [
         roots[:, ~(mask & np.isin(roots[0], list(shared)))] if count else roots for roots, mask in zip(poles, constant)
     ]

@@ -204,14 +204,18 @@ class ChunkRuns:
     """A chunk of a study's samples evaluated (`chunk_runs`): its runs in order (stretches of
     batched samples as `Records`), the samples that went the per-loop path or the per-loop
     search on their batched forms, why the study is not batched ("" when it is), and the CPU
-    seconds its samples took (the evaluating thread's, building the study's problem apart: the
-    work, whatever else a loaded machine runs meanwhile)."""
+    seconds its parts' samples took, each part's (samples, seconds) (the evaluating thread's,
+    building the study's problem apart: the work, whatever else a loaded machine runs meanwhile)."""
 
     items: list[dict | Records]
     alone: tuple[int, ...]
     by_search: tuple[int, ...]
     unbatched: str
-    cpu_seconds: float
+    timed: tuple[tuple[int, float], ...]
+
+    @property
+    def cpu_seconds(self) -> float:
+        return sum(seconds for _, seconds in self.timed)
 
 
 def study_key(samples: ToleranceSamples) -> str:
@@ -220,18 +224,23 @@ def study_key(samples: ToleranceSamples) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def chunk_runs(key: str, samples: ToleranceSamples) -> ChunkRuns:
+def chunk_runs(key: str, samples: ToleranceSamples, split: int = 0) -> ChunkRuns:
     """A chunk of a study's samples evaluated as `batch_runs` evaluates them, on the study's
     problem built once in this process (kept under ``key``, `study_key`, for its next chunks:
-    the last `STUDIES_KEPT` studies); a `SessionError` when the samples are not such a study."""
+    the last `STUDIES_KEPT` studies), the first ``split`` samples (when 0 < split < len) a part
+    timed apart from the rest (a probe: two sizes timed in one task); a `SessionError` when the
+    samples are not such a study."""
     study = _built.get(_BUILT_STUDY, lambda: _one_study(samples), key)
-    began = time.thread_time()
     items: list[dict | Records] = []
     alone: list[int] = []
     searched: list[int] = []
-    for first in range(0, len(samples), CHUNK):
-        items += _chunk(study, samples[first : first + CHUNK], alone, searched)
-    return ChunkRuns(items, tuple(alone), tuple(searched), study.unbatched, time.thread_time() - began)
+    timed: list[tuple[int, float]] = []
+    for part in [samples[:split], samples[split:]] if 0 < split < len(samples) else [samples]:
+        began = time.thread_time()
+        for first in range(0, len(part), CHUNK):
+            items += _chunk(study, part[first : first + CHUNK], alone, searched)
+        timed.append((len(part), time.thread_time() - began))
+    return ChunkRuns(items, tuple(alone), tuple(searched), study.unbatched, tuple(timed))
 
 
 def _one_study(samples: ToleranceSamples) -> _Study:

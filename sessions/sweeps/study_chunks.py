@@ -7,11 +7,12 @@ the study's key for its next chunks) and evaluates the chunk as the serial study
 (`Records`), a run made only for a sample the study keeps, and go to the study's `Tally`
 in sample order.
 
-The first chunks are small (`FIRST_CHUNK` samples and twice that) and timed on the
-workers in CPU seconds (the evaluating thread's, the problem's building apart: a loaded
-machine's waits are not work); the later ones are sized from them to about `CHUNK_SECONDS`
-of work, a chunk's fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per
-worker, the last ones equal (`_Sizes`).  A
+The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHUNK` samples
+and `PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed in CPU
+seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits are
+not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
+fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker, the last ones
+equal (`_Sizes`): few tasks, since each costs tens of ms of CPU besides its samples.  A
 chunk whose task fails (its worker died more often than Dask allows) is sent again as two
 halves, down to single samples: a sample that kills its worker does not take the others
 with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
@@ -45,11 +46,15 @@ from sessions.sweeps.jobs import (
 from sessions.sweeps.plan import ToleranceSamples
 from sessions.sweeps.records import Records
 
-FIRST_CHUNK = 100  # samples in each worker's first chunks, timed there (the next ones are sized from them)
+FIRST_CHUNK = 100  # samples in a probe's first part, timed on its worker
+# ... its second part this many times larger: the slope from 100 and 200 samples (12 ms of fixed cost, 60 us a
+# sample) was 6 ms of a loaded machine's noise, and sized the lag-lead's chunks to 3234 samples as often as 4850
+PROBE_RATIO = 4
 # A chunk costs about 30 ms of CPU besides its samples (the batch's fixed cost, 12 ms of the lag-lead's, and
 # Dask's: the scheduler and the client in the main process, the task on its worker).  20 000 lag-lead
 # samples on 2 workers took 13 chunks at 0.25 s and 4 a worker: 1.46-1.64 s of the workers' CPU, 0.16-0.18 s
-# of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7)
+# of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7); 6 with a
+# probe per worker timing two sizes: 1.28-1.34 s and 0.07-0.08 s (c0189aa's 9-10: 1.35-1.41, 0.11-0.12; load 1.6-3.5)
 CHUNK_SECONDS = 0.5  # s of work a chunk is sized to
 CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal)
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
@@ -57,10 +62,10 @@ IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the wor
 
 @dataclass
 class _Sizes:
-    """The study's chunks (ranges of positions).  The first round, `IN_FLIGHT` per worker, of
-    `FIRST_CHUNK` samples and twice that in turn: timed on the workers, two sizes tell a
-    chunk's fixed cost from a sample's (least squares over every chunk timed; until two sizes
-    are timed, the next chunks are of the larger first size), and each later chunk is sized to
+    """The study's chunks (ranges of positions).  The first round, a probe per worker (at least
+    two), each of `FIRST_CHUNK` samples and `PROBE_RATIO` times that, timed apart on its worker (`chunk_runs`'s
+    ``split``): two sizes tell a chunk's fixed cost from a sample's (least squares over every
+    part timed) from the first probe back, and each later chunk is sized to
     about `CHUNK_SECONDS` of work with it, never smaller than one sized before (a small chunk's samples look slow: sized
     down from them, the chunks would shrink to nothing on a loaded machine), in at least
     `CHUNKS_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
@@ -71,23 +76,28 @@ class _Sizes:
     workers: int
     sent: int = 0
     used: list[int] = field(default_factory=list)
-    timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each chunk timed
+    timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each part timed
     sized: int = 0  # the largest size the timings asked for so far
     split: tuple[int, int] = (0, 0)  # the size asked for when the samples left were split, and their chunks' size
 
     @property
     def first(self) -> int:
-        return max(1, min(FIRST_CHUNK, self.count // (2 * CHUNKS_PER_WORKER * self.workers)))
+        """A probe's first part: the probes, a tenth of the study at most."""
+        return max(1, min(FIRST_CHUNK, self.count // (2 * (1 + PROBE_RATIO) * CHUNKS_PER_WORKER * self.workers)))
 
     def first_round(self) -> list[tuple[int, int]]:
-        return [self._take(self.first * (1 + k % 2)) for k in range(IN_FLIGHT * self.workers) if self.sent < self.count]
+        return [
+            self._take((1 + PROBE_RATIO) * self.first) for _ in range(max(2, self.workers)) if self.sent < self.count
+        ]
 
-    def next(self) -> tuple[int, int]:
-        """The next chunk's range, sized from the chunks timed so far: until chunks of two sizes
-        are timed, one of the first round's larger size (sized from one size, it would be the
-        odd one out of the equal chunks after it, and one worker's share the larger)."""
+    def next(self, in_flight: int) -> tuple[int, int] | None:
+        """The next chunk's range, sized from the parts timed so far; until two sizes are timed
+        (the probes back untimed: failed, or sent again as halves), none while ``in_flight``
+        chunks may still time one (a chunk sized from one size would be the odd one out of the
+        equal chunks after it, and one worker's share the larger), else one of a probe's second
+        part's size."""
         if len({n for n, _ in self.timed}) < 2:
-            return self._take(2 * self.first)
+            return None if in_flight else self._take(PROBE_RATIO * self.first)
         target = self._target()
         if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
             left = self.count - self.sent
@@ -109,12 +119,12 @@ class _Sizes:
         return self.sent - size, self.sent
 
 
-def evaluate_chunk(key: str, samples: ToleranceSamples, task: str) -> tuple[str, ChunkRuns]:
+def evaluate_chunk(key: str, samples: ToleranceSamples, task: str, split: int = 0) -> tuple[str, ChunkRuns]:
     """On a worker: the chunk's start logged on the scheduler (as task ``task``), its samples
-    evaluated on the study's problem built once (``key``: `study_key`); (the worker's address,
-    the chunk's runs, each naming the worker)."""
+    evaluated on the study's problem built once (``key``: `study_key`; its first ``split`` timed
+    apart: `chunk_runs`); (the worker's address, the chunk's runs, each naming the worker)."""
     worker = announce({"chunk": task})
-    runs = chunk_runs(key, samples)
+    runs = chunk_runs(key, samples, split)
     items = [
         replace(item, worker=worker) if isinstance(item, Records) else {**item, "worker": worker} for item in runs.items
     ]
@@ -181,13 +191,17 @@ class _Tasks:
     ranges: dict[str, tuple[int, int]] = field(default_factory=dict)
     finished_on: set[str] = field(default_factory=set)
 
-    def send(self, ranges: list[tuple[int, int]]) -> list:
+    def send(self, ranges: list[tuple[int, int]], split: int = 0) -> list:
+        """The chunks of these ranges sent, each one's first ``split`` samples timed apart (`chunk_runs`)."""
+        if not ranges:
+            return []
         keys = [f"loopcraft-{self.tag}-{self.samples.indices[a]}-{self.samples.indices[b - 1] + 1}" for a, b in ranges]
         futures = self.client.map(  # type: ignore[attr-defined]
             self.task,
             [self.study] * len(ranges),
             [self.samples[a:b].shipped() for a, b in ranges],
             keys,
+            [split] * len(ranges),
             key=keys,
             pure=False,
             retries=1,
@@ -217,7 +231,8 @@ def run_chunked(
     gathered = _InOrder(samples, tally)
     tasks = _Tasks(client, samples, study_key(samples), task)
     sizes = _Sizes(len(samples), workers)
-    waiting = InTurn(client, tasks.send(sizes.first_round()))
+    waiting = InTurn(client, tasks.send(sizes.first_round(), split=sizes.first))
+    timed: list[tuple[int, float]] = []  # each chunk's samples and CPU seconds
     stopped = interrupted = False
     try:
         for future, result in waiting:
@@ -228,9 +243,10 @@ def run_chunked(
                 waiting.update(tasks.send([(start, middle), (middle, stop)]))
                 continue
             if isinstance(runs, ChunkRuns):
-                sizes.timed.append((stop - start, runs.cpu_seconds))
-            if not stopped and sizes.sent < len(samples):  # the next chunk, sized from those timed
-                waiting.update(tasks.send([sizes.next()]))
+                sizes.timed += runs.timed
+                timed.append((stop - start, runs.cpu_seconds))
+            if not stopped:  # the next chunks, sized from those timed
+                waiting.update(tasks.send(_refill(sizes, len(tasks.running), IN_FLIGHT * workers)))
             gathered.add(
                 start, stop, runs if runs is not None else [lost_run(job, None) for job in samples[start:stop]]
             )
@@ -263,7 +279,7 @@ def run_chunked(
     )
     chunks = (
         f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
-        f"(each sized from a chunk timed on its worker to about {CHUNK_SECONDS:g} s of work)"
+        f"(sized from a probe per worker, its parts timed there, to about {CHUNK_SECONDS:g} s of work)"
     )
     note = "; ".join(text for text in (batch.note, chunks, lost, tally.note) if text)
     retried = {k: v for k, v in attempts.items() if len(v) > 1}
@@ -276,8 +292,20 @@ def run_chunked(
         note,
         tally=tally,
         given_up=lost,
-        chunks=tuple(sizes.timed),
+        chunks=tuple(timed),
     )
+
+
+def _refill(sizes: _Sizes, running: int, most: int) -> list[tuple[int, int]]:
+    """The chunks to send now, ``running`` in flight: up to ``most`` in flight while there are
+    samples left and `_Sizes.next` sizes one."""
+    ranges: list[tuple[int, int]] = []
+    while sizes.sent < sizes.count and running + len(ranges) < most:
+        chunk = sizes.next(running + len(ranges))
+        if chunk is None:
+            break
+        ranges.append(chunk)
+    return ranges
 
 
 def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str) -> tuple[str, int]:

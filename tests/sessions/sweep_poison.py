@@ -21,13 +21,13 @@ def poisoned(payloads: list[dict]) -> list[dict]:
     return run_batch(payloads)
 
 
-def poisoned_chunk(key: str, samples, task: str):
+def poisoned_chunk(key: str, samples, task: str, split: int = 0):
     if POISON in samples.indices:
         os._exit(1)
-    return evaluate_chunk(key, samples, task)
+    return evaluate_chunk(key, samples, task, split)
 
 
-def hung_chunk(key: str, samples, task: str):
+def hung_chunk(key: str, samples, task: str, split: int = 0):
     if POISON in samples.indices:
         RELEASE.wait()
-    return evaluate_chunk(key, samples, task)
+    return evaluate_chunk(key, samples, task, split)

@@ -1,7 +1,7 @@
 """A tolerance study on a cluster in chunks of samples (issue 53, section 2): a chunk ships its
 own samples' draws, the worker builds the study's problem once and evaluates chunk after chunk
-as the serial study does, the chunks reach the tally in sample order, their sizes grow towards
-about a quarter of a second of work, and a sample that kills its worker takes no other with it."""
+as the serial study does, the chunks reach the tally in sample order, a probe per worker then
+chunks sized to about half a second of work, and a sample that kills its worker takes no other with it."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from sessions.sweeps.cluster import Connection
 from sessions.sweeps.dispersion import CANCELLED, Tally
 from sessions.sweeps.jobs import execute_serial
 from sessions.sweeps.plan import tolerance_jobs
-from sessions.sweeps.study_chunks import FIRST_CHUNK, _InOrder, _Sizes, run_chunked
+from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _Sizes, run_chunked
 from tests.sessions.study_agreement import assert_measures_agree
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -72,47 +72,87 @@ def test_samples_of_no_finished_chunk_are_cancelled_in_their_place(tmp_path):
     assert [r["index"] for r in runs if r["reason"] == CANCELLED] == [*range(10), *range(20, 30)]
 
 
+def _sized(sizes: _Sizes, cost) -> list[tuple[int, int]]:
+    """Every chunk of a study: the probes timed in their two parts with ``cost`` (samples -> CPU
+    seconds), then each later chunk sent with one in flight and timed as it is sent."""
+    ranges = sizes.first_round()
+    for a, b in ranges:
+        sizes.timed += [(n, cost(n)) for n in (min(sizes.first, b - a), b - a - sizes.first) if n > 0]
+    while sizes.sent < sizes.count:
+        chunk = sizes.next(1)
+        assert chunk is not None
+        ranges.append(chunk)
+        sizes.timed.append((chunk[1] - chunk[0], cost(chunk[1] - chunk[0])))
+    return ranges
+
+
 @pytest.mark.parametrize(("count", "workers"), [(20_000, 2), (1_000, 2), (10, 2), (1, 1), (5_001, 3)])
 def test_chunks_cover_the_study_once_sized_to_half_a_second(count, workers):
-    """Chunks of 25 ms plus 0.1 ms a sample: 4750 samples are half a second."""
+    """Chunks of 25 ms plus 0.1 ms a sample: 4750 samples are half a second; a chunk sized later
+    that looked slower (0.5 s whatever its size) sizes none down."""
     sizes = _Sizes(count, workers)
-    ranges = sizes.first_round()
-    first = max(1, min(FIRST_CHUNK, count // (4 * workers)))
-    assert [b - a for a, b in ranges] == [min(first * (1 + k % 2), count - a) for k, (a, _) in enumerate(ranges)]
-    for a, b in ranges[:2]:
-        sizes.timed.append((b - a, 0.025 + 1e-4 * (b - a)))
-    while sizes.sent < count:
-        ranges.append(sizes.next())
-        sizes.timed.append((ranges[-1][1] - ranges[-1][0], 0.5))  # a chunk that looked slower sizes none down
+    first = max(1, min(FIRST_CHUNK, count // (4 * (1 + PROBE_RATIO) * workers)))
+    probes = max(2, workers)
+
+    def cost(n: int) -> float:
+        return 0.025 + 1e-4 * n if sizes.sent <= probes * (1 + PROBE_RATIO) * first else 0.5
+
+    ranges = _sized(sizes, cost)
+    assert [b - a for a, b in ranges[:probes]] == [
+        min((1 + PROBE_RATIO) * first, count - a) for a, _ in ranges[:probes]
+    ]
     assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == count
-    later = [b - a for a, b in ranges[2 * workers :]]
+    later = [b - a for a, b in ranges[probes:]]
     most = max(first, count // (2 * workers))
     assert all(size <= min(4750, most) for size in later)  # at least two chunks per worker
-    if count == 20_000:  # 19 400 samples left after the first round: 6 equal chunks, three per worker
-        assert later == [3234] * 5 + [3230]
+    if count == 20_000:  # 19 000 samples left after a probe per worker, at 4749 (4750 rounded down): 6 equal chunks
+        assert later == [3167] * 5 + [3165]
 
 
-def test_no_chunk_is_sized_from_one_size_so_the_sized_ones_are_equal():
-    """On a cluster the first timing (a 100-sample chunk) comes back alone: a chunk sized from it
-    was the odd one out of the equal chunks after it (20 000 lag-lead samples on 2 workers: 2425,
-    then 4 of 4244, one worker's share 1800 samples the larger).  Until two sizes are timed the
-    next chunk is of the first round's larger size; every chunk sized after is equal, as many
-    per worker (chunks of 12 ms plus 60 us a sample, as the lag-lead's)."""
+def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
+    """Each task costs tens of ms of CPU besides its samples (the lag-lead's: 12 ms of the batch's
+    fixed cost, 10-20 ms of Dask's on the worker, 15 ms in the main process).  The timed probes
+    were two chunks per worker (100, 200, 100, 200) and, the first one back alone (one size), it
+    was followed by another of 200: 10 tasks for 20 000 lag-lead samples on 2 workers.  Now a
+    probe per worker times its two parts (100 and 400) apart, the first one back sizes the rest
+    in equal chunks, as many per worker: 6 tasks (chunks of 12 ms plus 60 us a sample, as the
+    lag-lead's)."""
 
     def cost(n: int) -> float:
         return 0.012 + 6e-5 * n
 
     sizes = _Sizes(20_000, 2)
     ranges = sizes.first_round()
-    sizes.timed.append((100, cost(100)))  # the first chunk back, alone
-    ranges.append(sizes.next())
-    sizes.timed += [(n, cost(n)) for n in (100, 200, 200)]
+    assert [b - a for a, b in ranges] == [500, 500] and sizes.first == 100
+    sizes.timed += [(100, cost(100)), (400, cost(400))]  # the first probe back, alone
     while sizes.sent < 20_000:
-        ranges.append(sizes.next())
+        ranges.append(sizes.next(1) or (0, 0))
         sizes.timed.append((ranges[-1][1] - ranges[-1][0], cost(ranges[-1][1] - ranges[-1][0])))
-    assert [b - a for a, b in ranges[:5]] == [100, 200, 100, 200, 200]
-    sized = [b - a for a, b in ranges[5:]]
-    assert len(sized) % 2 == 0 and max(sized) - min(sized) < len(sized), sized  # the last takes the rest
+    assert len(ranges) == 6 and [b - a for a, b in ranges[2:]] == [4750] * 4
+
+
+def test_untimed_probes_size_nothing_while_a_chunk_is_in_flight_and_never_stall_the_study():
+    """Probes back untimed (failed, or sent again as halves) of one size: no chunk is sized from
+    one size while another chunk may time a second; with nothing in flight, the next chunk is
+    of a probe's second part's size."""
+    sizes = _Sizes(20_000, 2)
+    sizes.first_round()
+    sizes.timed.append((150, 0.02))
+    assert sizes.next(1) is None
+    assert sizes.next(0) == (1000, 1400)
+
+
+def test_a_probe_times_its_two_parts_apart_and_its_runs_are_the_whole_chunk(tmp_path):
+    samples = _samples(tmp_path, 30)
+    key = study_key(samples)
+    probe, whole = chunk_runs(key, samples, split=10), chunk_runs(key, samples)
+    assert [n for n, _ in probe.timed] == [10, 20] and all(seconds > 0 for _, seconds in probe.timed)
+    assert [n for n, _ in whole.timed] == [30]
+    ours, theirs = Tally.of_study(30), Tally.of_study(30)
+    for tally, runs in ((ours, probe), (theirs, whole)):
+        for item in runs.items:
+            tally.add_records(item) if not isinstance(item, dict) else tally.add(item)
+    assert [{**r, "seconds": 0} for r in ours.runs()] == [{**r, "seconds": 0} for r in theirs.runs()]
 
 
 @pytest.fixture(scope="module")
@@ -146,8 +186,8 @@ def test_a_cancelled_study_keeps_its_finished_chunks_whole(tmp_path, connection)
 def test_a_sample_that_kills_its_worker_takes_no_other_sample_with_it(tmp_path):
     """Its chunk is sent again as halves down to the sample alone, which is recorded as failed
     (one death fails a task here: a sample whose task was on the worker when the poison killed it
-    may fail beside it, never one outside the poison's first chunk; 64 samples go in chunks of 8
-    and 16 first)."""
+    may fail beside it, never one outside the poison's first chunk; 64 samples go in probes of 5
+    first, one of 1 and 4 samples timed apart)."""
     import dask
     from distributed import Client
 
@@ -198,6 +238,8 @@ def test_a_chunk_that_never_finishes_is_given_up_and_the_study_finishes(tmp_path
     assert [r["index"] for r in runs] == list(range(64))
     lost = {r["index"] for r in runs if r["status"] == "failed"}
     assert POISON in lost and all(runs[k]["reason"].startswith(f"{NOT_COMPUTED}: no task finished for") for k in lost)
+    hung = next(range(a, b) for a, b in _Sizes(64, 1).first_round() if a <= POISON < b)
+    assert lost == set(hung), lost  # the other probe's timings sized the rest: none waited on the hung one
     assert outcome.given_up in outcome.note and f"({len(lost)} samples recorded as failed)" in outcome.note
     # every chunk that finished, timed on its worker (the bench's CPU accounting reads them)
     assert sum(n for n, _ in outcome.chunks) == 64 - len(lost) and all(seconds > 0 for _, seconds in outcome.chunks)
