@@ -64,12 +64,13 @@ first.  Noise is fitted down to its level, not removed.  Poles beyond
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from engine.errors import EngineError, GridError
+from engine.numerics.point_memo import PointMemo
 
 FLOOR = 1e-13  # |GH| below this fraction of max |GH| is measured absolutely
 PATIENCE = 10  # stop after this many degrees without halving the rms ...
@@ -107,6 +108,7 @@ class RationalFit:
     residual: float
     residual_rms: float
     degree: int
+    seen: PointMemo = field(default_factory=PointMemo, init=False, repr=False)  # `evaluate`'s values so far
 
     def __post_init__(self) -> None:
         for array in (self.support, self.values, self.weights, self.poles):
@@ -117,8 +119,9 @@ class RationalFit:
         return self._eval(omega, derivative=False)[0]
 
     def evaluate(self, omega: ArrayLike) -> tuple[Complex, Complex]:
-        """(GH(j omega), dGH/domega) of the model, each shaped like omega."""
-        return self._eval(omega, derivative=True)
+        """(GH(j omega), dGH/domega) of the model, each shaped like omega; a frequency asked before is
+        not evaluated again (`seen`: a table's fit is asked at the same frequencies on every design)."""
+        return self.seen.values(np.asarray(omega, dtype=float), lambda w: self._eval(w, derivative=True))
 
     def _eval(self, omega: ArrayLike, derivative: bool) -> tuple[Complex, Complex]:
         """r and dr/domega in chunks of CHUNK frequencies (memory CHUNK x len(support))."""

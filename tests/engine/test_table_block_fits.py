@@ -151,3 +151,31 @@ def test_the_tableau_and_the_plots_solve_a_tabulated_designs_loop_once(monkeypat
     plotted = loop_model(condition.network, condition.break_at, problem.grid.omega, values)
     assert len(solved) == 1 and plotted.source is not None  # (the plots' loop keeps its network for the fits)
     np.testing.assert_array_equal(plotted.gh, alone)
+
+
+def test_a_new_design_evaluates_the_tables_fit_only_where_none_did_before(monkeypatch):
+    """The table's fit is the same on every design, yet each design's margins evaluated it again at the
+    table's points (the loop's residual) and on the detection grid (the launch vehicle: about 2 500
+    frequencies a nudge, 60-100 ms of a plots worker's 100); now a frequency asked once is kept
+    (`engine.numerics.point_memo`), and the margins are the same bit for bit."""
+    import engine.numerics.rational_fit as rational_fit
+    from engine.derived import Derived
+
+    s = 1j * W
+    table = TabulatedTransfer(FrequencyTable(W, 10 / ((s + 1) * (s + 5)), "plant"))
+
+    def found(K: float) -> list[tuple]:  # (a network of its own: its designs keep no margins found before)
+        m = margins(loop_model(_inner_loop(table), "e", W, {"K": K}))
+        assert m.method == "fitted"
+        return [(x.kind, x.frequency, x.value) for x in (*m.gain, *m.phase, *m.stability)]
+
+    monkeypatch.setattr(fit_cache, "_FITS", Derived(fit_cache.KEPT))  # a fresh fit: nothing asked of it yet
+    alone = found(32.0)
+    monkeypatch.setattr(fit_cache, "_FITS", Derived(fit_cache.KEPT))
+    found(31.0)
+    rows = []
+    evaluate = rational_fit._bary
+    monkeypatch.setattr(rational_fit, "_bary", lambda z, *a, **k: rows.append(z.size) or evaluate(z, *a, **k))
+    after = found(32.0)
+    assert after == alone and len(alone) >= 2
+    assert 0 < sum(rows) < W.size  # the refinement's new frequencies only (before: the table's 300 and the grid)
