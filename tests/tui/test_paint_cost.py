@@ -317,3 +317,32 @@ async def test_a_nudges_workers_start_after_its_tableau_is_painted(workdir, monk
         await settle(app, pilot)
         assert screen.query_one("#tableau").text is not shown and "PM deg" in painted[-1].plain
         assert started == {"figures": True, "poles": True}
+
+
+@synchronous
+async def test_a_start_held_for_a_paint_runs_when_another_screen_covers_the_workbench(workdir):
+    """A worker's start held for the screen's next paint (`MainScreen.after_paint`) is not
+    lost when another screen covers the workbench (a screen, a dialog): the workbench is
+    painted beneath it (Textual's background screen), or starts them when covered."""
+    from textual.screen import Screen
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+    from tui.screens.dialogs import ConfirmDialog
+
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        screen, started = app.screen, []
+        screen.after_paint(lambda: started.append("held"))
+        app.push_screen(Screen())
+        app.push_screen(ConfirmDialog("a question?"))  # the workbench no longer painted
+        await settle(app, pilot)
+        assert started == ["held"]
+        screen.after_paint(lambda: started.append("covered"))
+        assert started == ["held", "covered"]
+        app.pop_screen()
+        await settle(app, pilot)
+        screen.after_paint(lambda: started.append("beneath a screen"))
+        await settle(app, pilot)
+        assert started == ["held", "covered", "beneath a screen"]

@@ -256,7 +256,7 @@ class MainScreen(Screen):
         """Call ``start`` (a thread worker's start) once the screen has painted what the
         handler changed: a thread started in the handler holds the GIL half the time while the
         UI thread paints (a nudge's tableau took about twice its CPU time).  At once when this
-        screen is not the one shown (it paints nothing then)."""
+        screen is painted no more (covered: Textual's `is_current` is False)."""
         if not self.is_current:
             start()
             return
@@ -270,7 +270,8 @@ class MainScreen(Screen):
 
     @on(events.ScreenSuspend)
     def _start_held(self) -> None:
-        """Start the workers held for a paint (after one, or when a dialog covers the screen)."""
+        """Start the workers held for a paint (after one, or when another screen is pushed:
+        two pushed before the next paint would cover it for good)."""
         held, self._after_paint = self._after_paint, []
         for start in held:
             start()
