@@ -271,3 +271,78 @@ async def test_the_shaping_table_selects_by_click_and_keys():
         assert ours.selected[0] == "K"
         await pilot.press("ctrl+end", "down")
         assert ours.cursor_row == len(ROWS) - 1
+
+
+@synchronous
+async def test_a_nudges_workers_start_after_its_tableau_is_painted(workdir, monkeypatch):
+    """The threads a nudge starts (the plots' figures, the pole lines) start once the new
+    tableau is on screen: started in the key's handler, they held the GIL half the time of
+    the paint (issue 54, section 3: key to painted tableau 40-48 ms for 13-21 ms of CPU)."""
+    from textual.screen import Screen
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+    from tui.cli import main
+
+    lead = workdir / "lead.json"
+    main(["new", str(lead), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"])
+    app = LoopcraftApp(lead)
+    painted: list[object] = []  # the tableau's text at each paint of the screen
+    compositor_refresh = Screen._compositor_refresh
+
+    def noted(screen):
+        compositor_refresh(screen)
+        tableau = screen.query_one_optional("#tableau")
+        if tableau is not None:
+            painted.append(tableau.text)
+
+    monkeypatch.setattr(Screen, "_compositor_refresh", noted)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        screen = app.screen
+        screen.query_one("#plots").active = "p-bode"
+        await pilot.press("C", "down")
+        await settle(app, pilot)
+        started: dict[str, bool] = {}  # group -> the tableau on screen when its first worker started
+        run_worker = screen.run_worker
+
+        def noting(work, *args, group="default", **kwargs):
+            current = screen.query_one("#tableau").text
+            started.setdefault(group, bool(painted) and painted[-1] is current)
+            return run_worker(work, *args, group=group, **kwargs)
+
+        monkeypatch.setattr(screen, "run_worker", noting)
+        shown = screen.query_one("#tableau").text
+        await pilot.press("right")
+        await settle(app, pilot)
+        assert screen.query_one("#tableau").text is not shown and "PM deg" in painted[-1].plain
+        assert started == {"figures": True, "poles": True}
+
+
+@synchronous
+async def test_a_start_held_for_a_paint_runs_when_another_screen_covers_the_workbench(workdir):
+    """A worker's start held for the screen's next paint (`MainScreen.after_paint`) is not
+    lost when another screen covers the workbench (a screen, a dialog): the workbench is
+    painted beneath it (Textual's background screen), or starts them when covered."""
+    from textual.screen import Screen
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+    from tui.screens.dialogs import ConfirmDialog
+
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        screen, started = app.screen, []
+        screen.after_paint(lambda: started.append("held"))
+        app.push_screen(Screen())
+        app.push_screen(ConfirmDialog("a question?"))  # the workbench no longer painted
+        await settle(app, pilot)
+        assert started == ["held"]
+        screen.after_paint(lambda: started.append("covered"))
+        assert started == ["held", "covered"]
+        app.pop_screen()
+        await settle(app, pilot)
+        screen.after_paint(lambda: started.append("beneath a screen"))
+        await settle(app, pilot)
+        assert started == ["held", "covered", "beneath a screen"]

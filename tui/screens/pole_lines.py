@@ -79,7 +79,7 @@ class PoleLines:
             def compute() -> None:
                 self.screen.post_message(self.Found(view, under_tableau(view)))
 
-            self.screen.run_worker(compute, thread=True, exclusive=True, group="poles")
+            self.screen.after_paint(lambda: self.screen.run_worker(compute, thread=True, exclusive=True, group="poles"))
         return "" if self.kept is not None and not self.kept[1] else COMPUTING + "\n" * lines
 
     def found(self, message: PoleLines.Found) -> None:
