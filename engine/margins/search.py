@@ -68,8 +68,16 @@ def margins(
         gain_band,
         phase_band,
         attenuation_above,
-        method if loop.evaluate is None else "exact",  # a loop with an evaluator is refined on it whatever the method
+        _method_key(loop, method),
     )
+
+
+def _method_key(loop: LoopModel, method: str) -> str:
+    """The method as far as a loop's margins depend on it: a loop with an evaluator is refined on it
+    whatever the method; a sampled loop is searched on its w-plane form, which may have none."""
+    if isinstance(loop, SampledLoop):
+        return _method_key(loop.w_plane, method)
+    return method if loop.evaluate is None else "exact"
 
 
 MARGINS: Form[Margins] = Form("margins")  # on a loop: asked with the bands, the attenuation's start and the method

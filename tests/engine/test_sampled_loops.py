@@ -213,3 +213,21 @@ def test_an_integrator_inside_a_sum_in_w_has_no_gain_margin_at_zero(seed):
     for kind in ("gain", "phase"):
         a, b = ([m.frequency for m in getattr(x.margins, kind)] for x in (ours, theirs))
         assert len(a) == len(b) and np.allclose(a, b, rtol=1e-8), (kind, a, b)
+
+
+def test_a_sampled_loop_on_a_table_keeps_each_methods_margins_apart():
+    """A sampled loop's w-plane form without an evaluator (a table) is searched by the method asked:
+    its margins asked by the grid rule after a fitted search are the grid rule's, not the fit's kept."""
+    from engine.loop.responses import LoopModel, SampledLoop
+    from engine.margins.search import margins
+
+    T = 0.1
+    w = np.logspace(-2, np.log10(np.pi / T) - 1e-3, 400)
+    nu = np.tan(w * T / 2)
+    s = 1j * nu
+    table = LoopModel(nu, gh=4.0 / (s * (s + 1.0) * (s / 5.0 + 1.0)))
+    loop = SampledLoop(table, w, T)
+    first = margins(loop, method="fitted")
+    again = margins(SampledLoop(LoopModel(nu, gh=table.gh), w, T), method="grid")
+    assert first.method != again.method
+    assert margins(loop, method="grid").method == again.method
