@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.derived import Derived, Form
+from engine.errors import ParameterError
 from engine.loop.evaluator import LoopEvaluator
 from engine.loop.pole_zero import (
     ZpkEvaluator,
@@ -131,7 +132,10 @@ DESIGN: Form[Design] = Form("design")  # a network's, asked with its parameters'
 def design(network: Network, params: Mapping[str, float]) -> Design:
     """The design of ``network`` at ``params``: the same object while the values are the same
     (kept on the network, `engine.derived`)."""
-    values = tuple(sorted((name, float(params[name])) for name in network.parameters))
+    try:
+        values = tuple(sorted((name, float(params[name])) for name in network.parameters))
+    except KeyError as missing:
+        raise ParameterError(f"no value given for parameter {missing.args[0]!r}") from None
     return network.derived.get(DESIGN, lambda: Design(network, values), values)
 
 

@@ -202,7 +202,7 @@ def loop_model(network: Network, break_at: str, omega: ArrayLike, params: Mappin
     grid, kept on the design: what is found on it (its margins: `engine.margins.search.margins`) is
     found once for the tableau and the plots."""
     w = check_grid(omega)
-    if any(p not in params for p in network.parameters):  # the network's own check names it
+    if any(p not in params for p in network.parameters):  # the network's (or the design's) check names it
         return _loop_model(network, break_at, w, params)
     return design(network, params).derived.get(
         LOOP_MODEL,

@@ -94,3 +94,16 @@ def test_a_designs_margins_are_found_once_for_the_tableau_and_the_plots(monkeypa
     kept = loop_model(c.network, c.break_at, grid, values)
     grid *= 2.0  # the caller's grid changed in place: the loop kept is still of the grid it was made on
     assert loop_model(c.network, c.break_at, grid, values) is not kept and kept.omega[0] == 1e-2
+
+
+def test_a_design_without_a_parameters_value_names_it():
+    """An exact network's design (and its loop model) asked without a parameter's value: a
+    ParameterError naming the parameter, not a bare KeyError."""
+    from engine.errors import ParameterError
+    from engine.loop.responses import loop_model
+
+    network = unity_feedback(["k", "1/(s*(s + T))"])
+    with pytest.raises(ParameterError, match="'T'"):
+        design(network, {"k": 1.0})
+    with pytest.raises(ParameterError, match="'k'"):
+        loop_model(network, "e", np.logspace(-1, 1, 20), {"T": 1.0})
