@@ -64,7 +64,7 @@ async def _nudges(path: Path, presses: int, downs: int) -> tuple[list[float], li
                 await pilot.press("down")
                 await app.workers.wait_for_complete()
                 await pilot.pause()
-            for k in range(presses):
+            for _ in range(presses):
                 before, shown = _values(app), app.screen.query_one("#tableau").text
                 painted = len(paints)
                 start = time.perf_counter()

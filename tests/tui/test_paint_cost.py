@@ -346,3 +346,34 @@ async def test_a_start_held_for_a_paint_runs_when_another_screen_covers_the_work
         screen.after_paint(lambda: started.append("beneath a screen"))
         await settle(app, pilot)
         assert started == ["held", "covered", "beneath a screen"]
+
+
+@synchronous
+async def test_a_centred_text_repaints_its_whole_lines():
+    """A text laid out other than from the left (centred here) or holding a tab: a changed
+    character moves what stands before it on screen, so its lines are repainted whole (a
+    repaint from the first changed character left the old cells to its left)."""
+    from tui.widgets.textview import TextView
+
+    app = TextsApp()
+    async with app.run_test(size=(80, 8)) as pilot:
+        status = app.query_one("#status", TextView)
+        asked = []
+        refresh = status.refresh
+
+        def noted(*regions, **kwargs):
+            asked.append(regions)
+            return refresh(*regions, **kwargs)
+
+        status.refresh = noted
+        for text in (Text("PM 41.2 deg", justify="center"), Text("PM 41.2 deg, GM 12.0 dB", justify="center")):
+            status.set(text)
+            await pilot.pause()
+        status.set("PM\t41.2 deg, GM 12.0 dB")
+        await pilot.pause()
+        status.set("PM\t41.2 deg, GM 12.5 dB")
+        await pilot.pause()
+        assert asked and all(regions == () for regions in asked), asked
+        status.set("PM 41.2 deg, GM 12.5 dB")
+        status.set("PM 41.2 deg, GM 12.0 dB")  # from the left, no tab: from the changed cell on
+        assert asked[-1] == (Region(19, 0, status.size.width - 19, 1),)

@@ -37,8 +37,10 @@ class TextView(Widget):
         lines = new.plain.count("\n") + 1
         if lines != self._lines:
             self.refresh(layout=True)
-        else:
+        elif self.styles.text_align in ("left", "start") and _aligned_left(old) and _aligned_left(new):
             self.refresh(*(Region(x, y, max(self.size.width - x, 1), 1) for x, y in _changed_cells(old, new)))
+        else:  # a column of the text is not a column on screen: all of it
+            self.refresh()
         self._lines = lines
 
     @property
@@ -53,6 +55,12 @@ class TextView(Widget):
 def _same(a: Text, b: Text) -> bool:
     """Whether two texts draw the same: their characters, spans and how they are laid out."""
     return a.plain == b.plain and a.spans == b.spans and all(getattr(a, k) == getattr(b, k) for k in LAID_OUT)
+
+
+def _aligned_left(text: Text) -> bool:
+    """Whether each character of ``text`` stands at its column on screen: laid out from the left,
+    no tab (a changed character moves what a centred or right-aligned line shows before it)."""
+    return text.justify in (None, "default", "left") and "\t" not in text.plain
 
 
 def _changed_cells(old: Text, new: Text) -> Iterator[tuple[int, int]]:
