@@ -24,7 +24,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.derived import Derived, Form
-from engine.errors import ParameterError
 from engine.loop.evaluator import LoopEvaluator
 from engine.loop.pole_zero import (
     ZpkEvaluator,
@@ -36,7 +35,7 @@ from engine.loop.pole_zero import (
 )
 from engine.loop.realization import StateSpace, realize
 from engine.model.blocks import block_pole_zero
-from engine.model.network import Network
+from engine.model.network import Network, check_params
 from engine.model.ports.state_space_ports import StateSpaceChannel
 
 Roots = NDArray[np.complex128]
@@ -132,10 +131,8 @@ DESIGN: Form[Design] = Form("design")  # a network's, asked with its parameters'
 def design(network: Network, params: Mapping[str, float]) -> Design:
     """The design of ``network`` at ``params``: the same object while the values are the same
     (kept on the network, `engine.derived`)."""
-    try:
-        values = tuple(sorted((name, float(params[name])) for name in network.parameters))
-    except KeyError as missing:
-        raise ParameterError(f"no value given for parameter {missing.args[0]!r}") from None
+    check_params(network, params)
+    values = tuple(sorted((name, float(params[name])) for name in network.parameters))
     return network.derived.get(DESIGN, lambda: Design(network, values), values)
 
 

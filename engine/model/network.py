@@ -16,6 +16,7 @@ closed-loop characteristic equation at that point is 1 + GH = 0.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -310,7 +311,7 @@ def solve(
     """
     w = check_grid(omega) if check else np.asarray(omega, dtype=float)
     if check:
-        _check_params(network, params)
+        check_params(network, params)
     if d_omega and not network.exact:
         raise InterconnectionError("d/domega needs every block in closed form (a table has none)")
     n, k = len(network.signals), network.signal(inject)
@@ -379,11 +380,13 @@ def _adjoint(
     return Solution(w, x.T, names, dx if columns else None, dw, (out,))
 
 
-def _check_params(network: Network, params: Mapping[str, float]) -> None:
+def check_params(network: Network, params: Mapping[str, float]) -> None:
+    """A ParameterError naming the first of the network's parameters without a value or with a
+    value that is not finite (the one check of a network's parameters)."""
     for p in network.parameters:
         if p not in params:
             raise ParameterError(f"no value given for parameter {p!r}")
-        if not np.isfinite(float(params[p])):
+        if not math.isfinite(float(params[p])):
             raise ParameterError(f"parameter {p!r} is not finite ({params[p]!r})")
 
 

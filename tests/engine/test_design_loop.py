@@ -107,3 +107,15 @@ def test_a_design_without_a_parameters_value_names_it():
         design(network, {"k": 1.0})
     with pytest.raises(ParameterError, match="'k'"):
         loop_model(network, "e", np.logspace(-1, 1, 20), {"T": 1.0})
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -float("inf")])
+def test_a_design_at_a_value_that_is_not_finite_names_the_parameter(value):
+    """A design asked at a parameter value that is not finite is refused where it is asked, by
+    the network's one parameter check (before, a design was made at NaN and each consumer failed
+    its own way later)."""
+    from engine.errors import ParameterError
+
+    network = unity_feedback(["k", "1/(s*(s + T))"])
+    with pytest.raises(ParameterError, match="'T' is not finite"):
+        design(network, {"k": 1.0, "T": value})
