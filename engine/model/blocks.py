@@ -8,6 +8,7 @@ with derivatives with respect to its parameters and, when it can, to ``x``.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -470,15 +471,21 @@ class TabulatedTransfer:
     def __init__(self, table: FrequencyTable):
         self.table = table
         self._recent: dict[bytes, NDArray] = {}  # the same few grids are asked for again and again
+        self._recent_lock = threading.Lock()  # the workbench's workers share a network
 
     def response(self, omega: NDArray) -> NDArray[np.complex128]:
         """The interpolated response, remembered for the last few grids asked for."""
         key = np.asarray(omega, dtype=float).tobytes()
-        if key not in self._recent:
+        with self._recent_lock:
+            known = self._recent.get(key)
+        if known is not None:
+            return known
+        value = self.table.interpolate(omega)
+        with self._recent_lock:
             if len(self._recent) >= 4:
                 del self._recent[next(iter(self._recent))]
-            self._recent[key] = self.table.interpolate(omega)
-        return self._recent[key]
+            self._recent[key] = value
+        return value
 
     @property
     def text(self) -> str:

@@ -206,3 +206,37 @@ def test_bad_grids(grid, message):
 def test_missing_parameter_is_named():
     with pytest.raises(ParameterError, match="'tau'"):
         solve(multi_loop_diagram(), OMEGA, {k: v for k, v in PARAMS.items() if k != "tau"}, "r")
+
+
+def test_a_tables_remembered_responses_are_shared_by_threads_safely():
+    """The workbench's workers share a network: a table block's few remembered grids are read,
+    added and evicted by several threads at once (before, the eviction raced: 'dictionary
+    changed size during iteration' or a KeyError in some thread), with every answer the
+    table's interpolation at the grid asked."""
+    import sys
+    import threading
+
+    w = np.logspace(-1, 2, 50)
+    block = TabulatedTransfer(FrequencyTable(w, 1 / (1j * w + 1)))
+    grids = [np.logspace(-1, 2, 10 + k) for k in range(12)]
+    errors: list[str] = []
+
+    def ask(seed: int) -> None:
+        try:
+            for i in range(500):
+                grid = grids[(seed * 5 + i) % len(grids)]
+                assert np.array_equal(block.response(grid), block.table.interpolate(grid))
+        except Exception as error:  # noqa: BLE001 - what any thread met is the test's verdict
+            errors.append(repr(error))
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # threads switch often, as a loaded machine makes them
+    try:
+        threads = [threading.Thread(target=ask, args=(k,)) for k in range(6)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert errors == []
