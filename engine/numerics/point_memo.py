@@ -6,7 +6,11 @@ detection grid and its subdivisions (`engine.margins.detection_grid`, built from
 that mostly stay).  `PointMemo` keeps the last frequencies asked (sorted, at most
 `MOST_POINTS`) with their values and computes only the ones it has not seen.  Each point's
 value is the function's at that point alone (the fit's evaluation is row by row), so what
-it returns is what the function returns.  Thread-safe: the workbench's workers share a fit."""
+it returns is what the function returns at that point: the same to the last bit when the
+function's arithmetic per point does not depend on the other points asked with it, and
+otherwise within the rounding of the function's own vectorized arithmetic (a matrix
+product's blocking may differ with the array's length: an ulp or so).  Thread-safe: the
+workbench's workers share a fit."""
 
 from __future__ import annotations
 
