@@ -399,3 +399,47 @@ async def test_a_drag_s_moves_render_the_dragged_plot_and_the_tableau_alone(tmp_
         await settle(app, pilot)
         status = app.screen.query_one("#status").text.plain
         assert DRAGGING not in status and app.bench.edits.last in status  # released: the edit said
+
+
+@synchronous
+async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_path, monkeypatch):
+    """The lead's zero dragged along the Bode magnitude: the first frame is plotext's whole
+    drawing, the second builds the static layer (axes, ticks, the requirement line) and
+    every later frame builds nothing with plotext (a count of plotext's builds, not a time),
+    its text still plotext's whole drawing of the frame's figure in the held view.  Before,
+    plotext drew the whole plot again each frame."""
+    from plotext._monitor import monitor_class
+
+    from tui.drawing import text_canvas
+    from tui.drawing.text_layers import Layers
+
+    monkeypatch.setattr(text_canvas, "LAYERS", Layers())
+    builds: list[int] = []
+    build = monitor_class.build_plot
+    monkeypatch.setattr(monitor_class, "build_plot", lambda self: builds.append(1) or build(self))
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(plot.drawing.frames[0], zero.x, zero.y)
+        _post(plot, events.MouseDown, start)
+        await settle(app, pilot)
+        per_frame = []
+        for k in range(5):
+            shown = plot.figure
+            builds.clear()
+            _post(plot, events.MouseMove, (start[0] + 1 + k, start[1]))
+            for _ in range(200):
+                await settle(app, pilot)
+                if plot.figure is not shown and plot.drawing is plot._prebuilt[1]:
+                    break
+            per_frame.append(len(builds))
+            with monkeypatch.context() as whole:
+                whole.setattr(text_canvas, "layered_text", lambda *args: None)
+                expected = text_canvas.draw(plot.shown, *plot.canvas())
+            assert "coarse" in plot.figure.title and expected is not None
+            assert (plot.drawing.text.plain, plot.drawing.text.spans) == (expected.text.plain, expected.text.spans)
+        _post(plot, events.MouseUp, (start[0] + 5, start[1]))
+        await settle(app, pilot)
+    assert per_frame[2:] == [0, 0, 0] and text_canvas.LAYERS.builds == 1, per_frame
