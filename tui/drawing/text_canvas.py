@@ -25,7 +25,7 @@ from rich.text import Text
 from textual_plotext.plot import Plot
 
 from tui.drawing import legend
-from tui.drawing.text_layers import LAYERS, Drawn, Matrix, draw_series
+from tui.drawing.text_layers import LAYERS, Drawn, Matrix, draw_series, layerable
 from tui.figures.axes import nice_ticks, spaced
 from tui.figures.data import Figure, Series
 
@@ -119,29 +119,33 @@ def _fit(plot: Plot, width: int, height: int, theme: str) -> None:
 
 
 def layered_text(figure: Figure, spans: Spans, width: int, height: int, theme: str) -> Text | None:
-    """The figure's text from its static layer kept for this canvas and view (`text_layers`),
-    the series that changed drawn over it; None: to be drawn whole (no view to key the layer
-    by, a frame not drawn before, or a series only plotext draws)."""
-    if spans[0] is None or spans[1] is None:
-        return None
+    """The figure's text: its series drawn over its static layer (frame, axes, ticks, labels)
+    kept for this canvas and view (`text_layers`); None: to be drawn whole (no view to key the
+    layer by, no series, or a series only plotext draws)."""
     ordered = [s for s in sorted(figure.series, key=lambda s: not s.beneath) if s.x]
-    drawn = tuple(_as_drawn(s, spans, width) for s in ordered)
-    key = _frame_key(figure, spans, width, height, theme)
-    kept, matrix = LAYERS.split(key, drawn)
-    if kept < 0:
+    if spans[0] is None or spans[1] is None or not ordered:
         return None
-    if matrix is None:
-        plot = Plot()
-        _draw(plot, replace(figure, series=ordered[:kept]), [spans], height, width)
-        colours = (tuple(plot.monitor.color_sequence), list(plot.monitor.past_colors))
-        plot.plot([], [])  # a series, so that plotext draws the axes of a layer that has none
-        _fit(plot, width, height, theme)
-        static = _built_matrix(plot, colours)
-        if static.cols <= 0 or static.rows <= 0:
-            return None
-        matrix = LAYERS.keep(key, drawn[:kept], static)
-    draw_series(matrix, drawn[kept:])
+    drawn = tuple(_as_drawn(s, spans, width) for s in ordered)
+    if not all(map(layerable, drawn)):
+        return None
+    matrix = LAYERS.static(
+        _frame_key(figure, spans, width, height, theme), lambda: _static(figure, spans, width, height, theme)
+    )
+    if matrix.cols <= 0 or matrix.rows <= 0:
+        return None
+    draw_series(matrix, drawn)
     return matrix_text(matrix.marker, matrix.fullground, matrix.style, matrix.background)
+
+
+def _static(figure: Figure, spans: Spans, width: int, height: int, theme: str) -> Matrix:
+    """Plotext's matrices of the figure without its series (the colours they will take: from
+    the default theme's sequence, as when drawn whole)."""
+    plot = Plot()
+    _draw(plot, replace(figure, series=[]), [spans], height, width)
+    colours = (tuple(plot.monitor.color_sequence), list(plot.monitor.past_colors))
+    plot.plot([], [])  # a series: plotext draws the axes of a plot that has one
+    _fit(plot, width, height, theme)
+    return _built_matrix(plot, colours)
 
 
 def _frame_key(figure: Figure, spans: Spans, width: int, height: int, theme: str) -> Hashable:

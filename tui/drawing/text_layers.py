@@ -1,22 +1,21 @@
 """A figure's text drawn in two layers (issue 55, section 2: a drag frame's time was plotext
 drawing the whole plot again): the static layer, plotext's matrices of characters and colours
-for the axes, ticks, labels and the series that did not change, kept per canvas and view; and
-the series drawn over a copy of it, rasterized here as plotext rasterizes a series (its
-mapping to the canvas, its lines between points, its braille dots and glyphs), so the text is
-the one plotext draws for the whole figure (`tests/tui/test_text_layers.py` checks it cell by
-cell), a series without a colour taking the one plotext would give it (`Matrix.colour`).
+for the frame, axes, ticks and labels, kept per canvas and view (`Layers`); and the series
+drawn over a copy of it, rasterized here as plotext rasterizes a series (its mapping to the
+canvas, its lines between points, its braille dots and glyphs, its colour for a series
+without one: `Matrix.colour`), so the text is the one plotext draws for the whole figure
+(`tests/tui/test_text_layers.py` checks it cell by cell).
 
 Plotext draws every series after the axes, grid and labels, each over the ones before and
-each from its own points alone, so the matrix of a figure is the matrix of its first series
-with the others drawn over it in order.  Which series stay: the longest run of series, from
-the first, equal to the last figure drawn on the same frame (`Layers.split`); the series
-drawn here need a braille or one-character marker (plotext's `hd` markers are drawn
-otherwise): a figure with one of those moving is drawn whole by plotext, as before."""
+each from its own points alone, so the matrix of a figure is the matrix of its frame with the
+series drawn over it in order.  A drag frame (the view held) draws its series over the layer
+kept; a nudge (the view follows the data) builds the frame alone with plotext, a quarter of
+its whole drawing.  The series drawn here need a braille or one-character marker (plotext's
+`hd` markers are drawn otherwise): a figure with one of those is drawn whole by plotext."""
 
 from __future__ import annotations
 
-import threading
-from collections.abc import Hashable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,17 +134,7 @@ def _joined(px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.r_[lx, px[-1:]], np.r_[ly, py[-1:]]
 
 
-@dataclass
-class _Frame:
-    """A canvas and view's layers: the series drawn last on it, and the static layer built
-    (the matrix of the series ``kept``)."""
-
-    last: tuple[Drawn, ...]
-    kept: tuple[Drawn, ...] = ()
-    matrix: Matrix | None = None
-
-
-_FRAME: Form[_Frame] = Form("a canvas and view's layers")
+_FRAME: Form[Matrix] = Form("a canvas and view's static layer")
 
 
 class Layers:
@@ -154,32 +143,16 @@ class Layers:
 
     def __init__(self, kept: int = KEPT_FRAMES) -> None:
         self._frames = Derived(kept)
-        self._lock = threading.Lock()  # a frame's layers change as it is drawn
         self.builds = 0  # static layers built (a test counts them)
 
-    def split(self, key: Hashable, drawn: tuple[Drawn, ...]) -> tuple[int, Matrix | None]:
-        """How many of the series (first to last) the static layer holds, and the layer when
-        it is built already (a copy to draw over); (-1, None): draw the whole figure with
-        plotext (a frame not drawn before: nothing says yet which series move)."""
-        first: list[bool] = []
-        frame = self._frames.get(_FRAME, lambda: first.append(True) or _Frame(drawn), key)
-        if first:
-            return -1, None
-        with self._lock:
-            last, frame.last = frame.last, drawn
-            kept = len(frame.kept)
-            if frame.matrix is not None and drawn[:kept] == frame.kept:
-                return (kept, frame.matrix.copy()) if all(map(layerable, drawn[kept:])) else (-1, None)
-            kept = next((n for n, (a, b) in enumerate(zip(drawn, last)) if a != b), min(len(drawn), len(last)))
-            return (kept, None) if all(map(layerable, drawn[kept:])) else (-1, None)
+    def static(self, key: Hashable, build: Callable[[], Matrix]) -> Matrix:
+        """A copy, to draw over, of the frame's static layer (built by ``build`` when not kept)."""
 
-    def keep(self, key: Hashable, kept: tuple[Drawn, ...], matrix: Matrix) -> Matrix:
-        """Keep the static layer of a frame (the matrix of the series ``kept``); a copy to draw over."""
-        frame = self._frames.get(_FRAME, lambda: _Frame(kept), key)
-        with self._lock:
+        def built() -> Matrix:
             self.builds += 1
-            frame.kept, frame.matrix = kept, matrix
-        return matrix.copy()
+            return build()
+
+        return self._frames.get(_FRAME, built, key).copy()
 
 
 LAYERS = Layers()
