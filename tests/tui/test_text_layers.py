@@ -90,6 +90,29 @@ def test_a_static_layer_is_built_once_for_a_canvas_and_view(monkeypatch: pytest.
     assert builds == [1, 1, 1, 1, 2, 2]
 
 
+def test_canvas_points_are_plotext_s() -> None:
+    """`canvas_points` is plotext's `get_matrix_data` value for value: seeded values over and
+    beyond the limits, and values whose cell position lands on or within 1e-9 of a whole
+    number or a half (where its rounding to 8 digits decides the cell)."""
+    from plotext._utility import get_matrix_data
+
+    rng = random.Random(54)
+    for _ in range(200):
+        low = rng.uniform(-100, 100)
+        limits, bins = (low, low + rng.choice([1e-6, 0.3, 7.0, 1e3])), rng.randint(2, 300)
+        cells = [rng.randint(-bins, 2 * bins) + rng.choice([0.0, 0.5, 1e-9, -1e-9, 5e-9, -5e-9]) for _ in range(20)]
+        edges = [limits[0] + (c - 0.5) / (bins - 1) * (limits[1] - limits[0]) for c in cells]
+        values = edges + [rng.uniform(limits[0] - 5, limits[1] + 5) for _ in range(20)] + [math.nan]
+        ours = text_layers.canvas_points(values, limits, bins)
+        theirs = get_matrix_data(values, list(limits), bins)
+        assert math.isnan(ours[-1]) and math.isnan(theirs[-1])
+        assert ours[:-1].tolist() == theirs[:-1]
+    with pytest.raises(OverflowError):
+        text_layers.canvas_points([math.inf], (0.0, 1.0), 10)
+    with pytest.raises(ZeroDivisionError):
+        text_layers.canvas_points([1.0], (1.0, 1.0), 10)
+
+
 @synchronous
 async def test_a_drawing_s_strips_are_rich_s() -> None:
     """Every plot kind the workbench draws, at the dragged Bode plot's canvas and a compact

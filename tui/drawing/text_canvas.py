@@ -229,8 +229,8 @@ def frames(plain: str, spans: list[Spans]) -> tuple[Frame, ...]:
 
 
 def _draw(plt, fig: Figure, spans: list[Spans], height: int, width: int) -> None:
-    """Clear ``plt`` and draw ``fig`` on it (its panels as subplots in one column)."""
-    plt.clear_figure()
+    """Draw ``fig`` on a new plot ``plt`` (its panels as subplots in one column; a new plot is
+    cleared: plotext's `clear_figure` makes it anew, a deep copy of its defaults)."""
     if fig.panels:
         plt.subplots(len(fig.panels), 1)
         for row, (panel, panel_spans) in enumerate(zip(fig.panels, spans), start=1):

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from plotext._dict import braille_codes, marker_codes
-from plotext._utility import get_matrix_data, is_color, no_color
+from plotext._utility import is_color, no_color
 
 from engine.derived import Derived, Form
 
@@ -99,8 +99,8 @@ def _cells(
     mapped to the canvas (`get_matrix_data`: braille has 2 x 4 dots a cell), joined by
     plotext's lines (`_joined`), grouped into braille cells (a dot each) or one glyph a cell."""
     across, up = (2, 4) if glyph == BRAILLE else (1, 1)
-    px = np.asarray(get_matrix_data(list(x), matrix.xlim, matrix.cols * across), dtype=float)
-    py = np.asarray(get_matrix_data(list(y), matrix.ylim, matrix.rows * up), dtype=float)
+    px = canvas_points(x, matrix.xlim, matrix.cols * across)
+    py = canvas_points(y, matrix.ylim, matrix.rows * up)
     if lines and px.size:
         px, py = _joined(px, py)
     kept = np.isfinite(px) & np.isfinite(py)
@@ -115,6 +115,20 @@ def _cells(
     np.bitwise_or.at(dots, cell, 1 << ((3 - py % 4) * 2 + px % 2))
     marked = np.flatnonzero(dots)
     return [(int(c) % matrix.cols, int(c) // matrix.cols, _BRAILLE_GLYPHS[dots[c]]) for c in marked]
+
+
+def canvas_points(values: Sequence[float], limits: tuple[float, float], bins: int) -> np.ndarray:
+    """Plotext's `get_matrix_data` on arrays, the same operations in the same order (its
+    `round` to 8 digits rounds a half up, then `floor`); a missing value stays NaN, an
+    infinite one and empty limits raise as plotext does."""
+    v = np.asarray(values, dtype=float)
+    if np.isinf(v).any():
+        raise OverflowError("cannot convert float infinity to integer")
+    if limits[1] == limits[0]:
+        raise ZeroDivisionError("float division by zero")
+    n = (0.5 + (bins - 1) * (v - limits[0]) / (limits[1] - limits[0])) * 100000000
+    f = np.floor(n)
+    return np.floor(np.where(n - f < 0.5, f, np.ceil(n)) * 1e-08)
 
 
 def _joined(px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

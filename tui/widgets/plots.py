@@ -146,6 +146,7 @@ class FigurePlot(PlotextPlot):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        self.set_reactive(FigurePlot.auto_links, False)  # a plot has no links: its strips are not restyled for them
         self.figure = Figure()
         self.navigation = Navigation()
         self._prebuilt: Prebuilt | None = None
