@@ -406,9 +406,11 @@ async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_p
     """The lead's zero dragged along the Bode magnitude: the first frame builds the static
     layer of the view held (frame, axes, ticks, labels) and every later frame builds nothing
     with plotext (a count of plotext's builds, not a time), its text still plotext's whole
-    drawing of the frame's figure in that view.  Before, plotext drew the whole plot again
-    each frame."""
+    drawing of the frame's figure in that view; and the plot's strips are made without Rich's
+    render (`RichVisual.render_strips`: never called for it).  Before, plotext drew the whole
+    plot again each frame and Rich rendered its text."""
     from plotext._monitor import monitor_class
+    from textual.visual import RichVisual
 
     from tui.drawing import text_canvas
     from tui.drawing.text_layers import Layers
@@ -417,6 +419,11 @@ async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_p
     builds: list[int] = []
     build = monitor_class.build_plot
     monkeypatch.setattr(monitor_class, "build_plot", lambda self: builds.append(1) or build(self))
+    by_rich: list[str | None] = []
+    rich_strips = RichVisual.render_strips
+    monkeypatch.setattr(
+        RichVisual, "render_strips", lambda self, *args: by_rich.append(self._widget.id) or rich_strips(self, *args)
+    )
     app = lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
@@ -426,6 +433,7 @@ async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_p
         _post(plot, events.MouseDown, start)
         await settle(app, pilot)
         per_frame = []
+        by_rich.clear()
         for k in range(5):
             shown = plot.figure
             builds.clear()
@@ -443,3 +451,4 @@ async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_p
         _post(plot, events.MouseUp, (start[0] + 5, start[1]))
         await settle(app, pilot)
     assert per_frame == [1, 0, 0, 0, 0], per_frame
+    assert "bode-mag" not in by_rich
