@@ -381,7 +381,7 @@ class DrawingVisual(RichVisual):
     of no span) within a line, in the widget's style plus the run's, the strips `RichVisual`
     makes through Rich's render, wrap and line split (`tests/tui/test_text_layers.py` checks
     them segment by segment); a text it does not read so (a base style, overlapping spans, a
-    tab, a line wider than the widget, a justified widget) goes through `RichVisual`."""
+    tab, a line wider than the widget, a justified text or widget) goes through `RichVisual`."""
 
     def render_strips(self, width: int, height: int | None, style: Style, options: RenderOptions) -> list[Strip]:
         text = self._renderable
@@ -405,7 +405,8 @@ class DrawingVisual(RichVisual):
         """The text's runs in order, each with its span's style (None: no span); None when the
         text is not read this way."""
         plain = text.plain
-        if text.style or "\t" in plain or self._widget._get_justify_method() is not None:
+        justified = text.justify not in (None, "default") or self._widget._get_justify_method() is not None
+        if text.style or "\t" in plain or justified:
             return None
         if any(cell_len(line) > width for line in plain.split("\n")):
             return None  # Rich wraps it
