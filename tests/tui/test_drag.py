@@ -399,3 +399,56 @@ async def test_a_drag_s_moves_render_the_dragged_plot_and_the_tableau_alone(tmp_
         await settle(app, pilot)
         status = app.screen.query_one("#status").text.plain
         assert DRAGGING not in status and app.bench.edits.last in status  # released: the edit said
+
+
+@synchronous
+async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_path, monkeypatch):
+    """The lead's zero dragged along the Bode magnitude: the first frame builds the static
+    layer of the view held (frame, axes, ticks, labels) and every later frame builds nothing
+    with plotext (a count of plotext's builds, not a time), its text still plotext's whole
+    drawing of the frame's figure in that view; and the plot's strips are made without Rich's
+    render (`RichVisual.render_strips`: never called for it).  Before, plotext drew the whole
+    plot again each frame and Rich rendered its text."""
+    from plotext._monitor import monitor_class
+    from textual.visual import RichVisual
+
+    from tui.drawing import text_canvas
+    from tui.drawing.text_layers import Layers
+
+    monkeypatch.setattr(text_canvas, "LAYERS", Layers())
+    builds: list[int] = []
+    build = monitor_class.build_plot
+    monkeypatch.setattr(monitor_class, "build_plot", lambda self: builds.append(1) or build(self))
+    by_rich: list[str | None] = []
+    rich_strips = RichVisual.render_strips
+    monkeypatch.setattr(
+        RichVisual, "render_strips", lambda self, *args: by_rich.append(self._widget.id) or rich_strips(self, *args)
+    )
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(plot.drawing.frames[0], zero.x, zero.y)
+        _post(plot, events.MouseDown, start)
+        await settle(app, pilot)
+        per_frame = []
+        by_rich.clear()
+        for k in range(5):
+            shown = plot.figure
+            builds.clear()
+            _post(plot, events.MouseMove, (start[0] + 1 + k, start[1]))
+            for _ in range(200):
+                await settle(app, pilot)
+                if plot.figure is not shown and plot.drawing is plot._prebuilt[1]:
+                    break
+            per_frame.append(len(builds))
+            with monkeypatch.context() as whole:
+                whole.setattr(text_canvas, "layered_text", lambda *args: None)
+                expected = text_canvas.draw(plot.shown, *plot.canvas())
+            assert "coarse" in plot.figure.title and expected is not None
+            assert (plot.drawing.text.plain, plot.drawing.text.spans) == (expected.text.plain, expected.text.spans)
+        _post(plot, events.MouseUp, (start[0] + 5, start[1]))
+        await settle(app, pilot)
+    assert per_frame == [1, 0, 0, 0, 0], per_frame
+    assert "bode-mag" not in by_rich

@@ -10,7 +10,8 @@ log10(omega) on a linear axis with decade labels, never with plotext's log scale
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Hashable
+from dataclasses import dataclass, replace
 from functools import cache
 from itertools import groupby
 from operator import itemgetter
@@ -24,8 +25,9 @@ from rich.text import Text
 from textual_plotext.plot import Plot
 
 from tui.drawing import legend
+from tui.drawing.text_layers import LAYERS, Drawn, Matrix, draw_series, layerable
 from tui.figures.axes import nice_ticks, spaced
-from tui.figures.data import Figure
+from tui.figures.data import Figure, Series
 
 COMPACT_ROWS = 24  # a canvas shorter than this draws a figure's compact variant, its legend in one row
 PLOTTABLE = 1e150  # plotext's arithmetic on the canvas overflows near the float limits
@@ -84,15 +86,12 @@ def draw(figure: Figure, width: int, height: int, theme: str) -> Drawing | None:
     plot_height = height - len(legend_rows)
     if plot_height < 5:
         legend_rows, plot_height = [], height
-    plot = Plot()
     panels = figure.panels or [figure]
     spans = [_spans(panel) for panel in panels]
-    _draw(plot, figure, spans, plot_height, width)
-    plot.plotsize(width, plot_height)
-    plot._set_size(width, plot_height)
-    plot.theme(theme)
     try:
-        text = canvas_text(plot)
+        text = layered_text(figure, spans[0], width, plot_height, theme) if not figure.panels else None
+        if text is None:
+            text = canvas_text(_plotted(figure, spans, width, plot_height, theme))
     except (IndexError, ValueError, ZeroDivisionError, OverflowError):
         return None
     if legend_rows and text.plain.endswith("\n"):
@@ -103,22 +102,97 @@ def draw(figure: Figure, width: int, height: int, theme: str) -> Drawing | None:
     return Drawing(text, frames(text.plain, spans), len(legend_rows))
 
 
+def _plotted(figure: Figure, spans: list[Spans], width: int, height: int, theme: str) -> Plot:
+    """A plotext plot of the figure at a canvas, not built yet."""
+    plot = Plot()
+    _draw(plot, figure, spans, height, width)
+    _fit(plot, width, height, theme)
+    return plot
+
+
+def _fit(plot: Plot, width: int, height: int, theme: str) -> None:
+    """The plot's size and theme (set after its series: they take their colours from the
+    default theme's sequence, as they always have here)."""
+    plot.plotsize(width, height)
+    plot._set_size(width, height)
+    plot.theme(theme)
+
+
+def layered_text(figure: Figure, spans: Spans, width: int, height: int, theme: str) -> Text | None:
+    """The figure's text: its series drawn over its static layer (frame, axes, ticks, labels)
+    kept for this canvas and view (`text_layers`); None: to be drawn whole (no view to key the
+    layer by, no series, or a series only plotext draws)."""
+    ordered = [s for s in sorted(figure.series, key=lambda s: not s.beneath) if s.x]
+    if spans[0] is None or spans[1] is None or not ordered:
+        return None
+    drawn = tuple(_as_drawn(s, spans, width) for s in ordered)
+    if not all(map(layerable, drawn)):
+        return None
+    matrix = LAYERS.static(
+        _frame_key(figure, spans, width, height, theme), lambda: _static(figure, spans, width, height, theme)
+    )
+    if matrix.cols <= 0 or matrix.rows <= 0:
+        return None
+    draw_series(matrix, drawn)
+    return matrix_text(matrix.marker, matrix.fullground, matrix.style, matrix.background)
+
+
+def _static(figure: Figure, spans: Spans, width: int, height: int, theme: str) -> Matrix:
+    """Plotext's matrices of the figure without its series (the colours they will take: from
+    the default theme's sequence, as when drawn whole)."""
+    plot = Plot()
+    _draw(plot, replace(figure, series=[]), [spans], height, width)
+    colours = (tuple(plot.monitor.color_sequence), list(plot.monitor.past_colors))
+    plot.plot([], [])  # a series: plotext draws the axes of a plot that has one
+    _fit(plot, width, height, theme)
+    return _built_matrix(plot, colours)
+
+
+def _frame_key(figure: Figure, spans: Spans, width: int, height: int, theme: str) -> Hashable:
+    """What a figure's static layer depends on besides its series: the canvas, the view and
+    what `_draw_one` writes."""
+    ticks = tuple(None if t is None else (tuple(t[0]), tuple(t[1])) for t in (figure.xticks, figure.yticks))
+    return (width, height, theme, spans, figure.title or figure.empty_message, figure.xlabel, figure.ylabel, ticks)
+
+
+def _as_drawn(series: Series, spans: Spans, width: int) -> Drawn:
+    x, y = _points(series, spans, width)
+    return tuple(x), tuple(y), series.marker, series.scatter, series.color or None
+
+
+def _built_matrix(plot: Plot, colours: tuple[tuple, list]) -> Matrix:
+    """The plot built: plotext's matrices, where its data area landed, and the ``colours``
+    of its series (`Matrix.sequence`, `Matrix.used`)."""
+    plot._set_sizes()
+    plot._build_matrix()
+    m, monitor = plot.monitor.matrix, plot.monitor
+    xlim, ylim = monitor.xlim[0], monitor.ylim[0]
+    cols, rows = m.Cols_canvas, m.Rows_canvas
+    place = (cols.start, rows.start, len(cols), len(rows), (xlim[0], xlim[1]), (ylim[0], ylim[1]))
+    return Matrix(m.marker, m.fullground, m.style, m.background, *place, *colours)
+
+
 def canvas_text(plot: Plot) -> Text:
     """The plot built and read off plotext's matrices of characters and colours (its canvas
     keeps them: `monitor.matrix`): the text `Text.from_ansi(plot.build())` gives, with no
-    escape codes written and parsed (a third of plotext's drawing).  Each row a run of equal
-    colours at a time, each run one span of the style rich reads from plotext's codes for
-    those colours (`_run_style`), a newline after each row."""
+    escape codes written and parsed (a third of plotext's drawing)."""
     plot._set_sizes()
     plot._build_matrix()
-    matrix = plot.monitor.matrix
+    m = plot.monitor.matrix
+    return matrix_text(m.marker, m.fullground, m.style, m.background)
+
+
+def matrix_text(marker: list[list[str]], fullground: list, styles: list, background: list) -> Text:
+    """Plotext's matrices (rows from the bottom) as text: each row a run of equal colours at a
+    time, each run one span of the style rich reads from plotext's codes for those colours
+    (`_run_style`), a newline after each row."""
     parts: list[str] = []
     spans: list[StyledRun] = []
     offset = 0
-    for row in reversed(range(matrix.rows)):
-        colours = zip(matrix.fullground[row], matrix.style[row], matrix.background[row])
-        for colour, run in groupby(zip(matrix.marker[row], colours), key=itemgetter(1)):
-            chunk = "".join(marker for marker, _ in run)
+    for row in reversed(range(len(marker))):
+        colours = zip(fullground[row], styles[row], background[row])
+        for colour, run in groupby(zip(marker[row], colours), key=itemgetter(1)):
+            chunk = "".join(char for char, _ in run)
             style = _run_style(colors_to_ansi(*colour))
             if style is not None:
                 spans.append(StyledRun(offset, offset + len(chunk), style))
@@ -155,8 +229,8 @@ def frames(plain: str, spans: list[Spans]) -> tuple[Frame, ...]:
 
 
 def _draw(plt, fig: Figure, spans: list[Spans], height: int, width: int) -> None:
-    """Clear ``plt`` and draw ``fig`` on it (its panels as subplots in one column)."""
-    plt.clear_figure()
+    """Draw ``fig`` on a new plot ``plt`` (its panels as subplots in one column; a new plot is
+    cleared: plotext's `clear_figure` makes it anew, a deep copy of its defaults)."""
     if fig.panels:
         plt.subplots(len(fig.panels), 1)
         for row, (panel, panel_spans) in enumerate(zip(fig.panels, spans), start=1):
@@ -183,8 +257,7 @@ def _draw_one(plt, fig: Figure, spans: Spans, width: int, height: int) -> None:
         kwargs = {"marker": s.marker}
         if s.color:
             kwargs["color"] = s.color
-        x, y = (s.x, s.y) if s.scatter or xspan is None else thinned(s.x, s.y, xspan, 2 * width)
-        draw(near(x, xspan), near(y, yspan), **kwargs)
+        draw(*_points(s, spans, width), **kwargs)
     for limits, set_limits in ((xspan, plt.xlim), (yspan, plt.ylim)):
         if limits is not None:
             set_limits(*limits)
@@ -197,6 +270,16 @@ def _draw_one(plt, fig: Figure, spans: Spans, width: int, height: int) -> None:
             cells = rows if axis == "y" else width - _label_width(fig, yspan) - 2
             ticks = spaced(list(ticks[0]), list(ticks[1]), span, cells, axis)
         ticks_of(*ticks)
+
+
+def _points(series: Series, spans: Spans, width: int) -> tuple[list[float], list[float]]:
+    """A series' points as plotext gets them: a line thinned to the canvas's columns, every
+    value clipped near the view (`near`)."""
+    xspan, yspan = spans
+    x, y = series.x, series.y
+    if not series.scatter and xspan is not None:
+        x, y = thinned(x, y, xspan, 2 * width)
+    return near(x, xspan), near(y, yspan)
 
 
 def _label_width(fig: Figure, yspan: Span) -> int:

@@ -6,12 +6,19 @@ branch): the widget only says where the pointer is (`FigurePlot.Dragged`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from operator import attrgetter
 
+from rich.cells import cell_len
+from rich.segment import Segment
+from rich.style import Style as RichStyle
 from rich.text import Text
 from textual import events
+from textual._context import active_app
 from textual.binding import Binding
 from textual.message import Message
-from textual.visual import RichVisual
+from textual.strip import Strip
+from textual.style import Style
+from textual.visual import RenderOptions, RichVisual
 from textual.widget import Widget
 from textual_plotext import PlotextPlot
 
@@ -139,6 +146,7 @@ class FigurePlot(PlotextPlot):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        self.set_reactive(FigurePlot.auto_links, False)  # a plot has no links: its strips are not restyled for them
         self.figure = Figure()
         self.navigation = Navigation()
         self._prebuilt: Prebuilt | None = None
@@ -331,21 +339,20 @@ class FigurePlot(PlotextPlot):
         return (canvas, held), draw(Navigation(*held).applied(with_probe(figure)), *canvas)
 
     def render(self) -> RichVisual | str:
-        """The drawing's text, drawn by Rich (`RichVisual`), the same cells: Textual's own
+        """The drawing's text as strips (`DrawingVisual`), the cells Rich draws: Textual's own
         conversion of a Rich text (`visualize` makes it `Content`, span by span) took 27-72 ms
         for a Bode drawing at 120x40 (about 90 coloured runs) where Rich's render took 3-4 ms,
         on every paint of a new figure."""
         if self.image is not None:
             return self._render_image()
-        figure = self.shown
         held = (self.navigation.box, self.navigation.cursor)
         if self._prebuilt is not None and self._prebuilt[0] == (self.canvas(), held) and self.navigation.picked is None:
             self.drawing = self._prebuilt[1]
         else:
-            self.drawing = draw(figure, *self.canvas())
+            self.drawing = draw(self.shown, *self.canvas())
         if self.drawing is None:
             return f"{self.figure.title}: cannot draw at this size" if self.content_size.width else ""
-        return RichVisual(self, self.drawing.text)
+        return DrawingVisual(self, self.drawing.text)
 
     def _render_image(self) -> str:
         """Nothing here: the image child shows the figure, drawn anew (after this paint,
@@ -367,6 +374,55 @@ class FigurePlot(PlotextPlot):
         for part in [self.image, *self.image.walk_children()]:  # rows the image leaves uncovered: its own colour
             part.styles.background = image_canvas.face(self._imaged[-1])
         self.drawing = Drawing(Text(""), frames)
+
+
+class DrawingVisual(RichVisual):
+    """A drawing's text made strips straight from its runs: one segment a run of its spans (or
+    of no span) within a line, in the widget's style plus the run's, the strips `RichVisual`
+    makes through Rich's render, wrap and line split (`tests/tui/test_text_layers.py` checks
+    them segment by segment); a text it does not read so (a base style, overlapping spans, a
+    tab, a line wider than the widget, a justified text or widget) goes through `RichVisual`."""
+
+    def render_strips(self, width: int, height: int | None, style: Style, options: RenderOptions) -> list[Strip]:
+        text = self._renderable
+        runs = self._runs(text, width) if isinstance(text, Text) else None
+        if runs is None:
+            return super().render_strips(width, height, style, options)
+        base, get_style, null = style.rich_style, active_app.get().console.get_style, RichStyle.null()
+        strips, line = [], []
+        for chunk, run_style in runs:
+            styled = base + (null if run_style is None else get_style(run_style, default=null))
+            first, *rest = chunk.split("\n")
+            if first:
+                line.append(Segment(first, styled))
+            for part in rest:
+                strips.append(Strip(line))
+                line = [Segment(part, styled)] if part else []
+        strips.append(Strip(line))
+        return strips[:height] if height is not None else strips
+
+    def _runs(self, text: Text, width: int) -> list[tuple[str, object]] | None:
+        """The text's runs in order, each with its span's style (None: no span); None when the
+        text is not read this way."""
+        plain = text.plain
+        justified = text.justify not in (None, "default") or self._widget._get_justify_method() is not None
+        if text.style or "\t" in plain or justified:
+            return None
+        if any(cell_len(line) > width for line in plain.split("\n")):
+            return None  # Rich wraps it
+        runs: list[tuple[str, object]] = []
+        at = 0
+        for span in sorted(text.spans, key=attrgetter("start")):
+            if span.start < at:
+                return None  # overlapping spans: Rich combines their styles
+            if span.start > at:
+                runs.append((plain[at : span.start], None))
+            if span.end > span.start:
+                runs.append((plain[span.start : span.end], span.style))
+            at = max(at, span.end)
+        if at < len(plain):
+            runs.append((plain[at:], None))
+        return runs
 
 
 def with_probe(figure: Figure) -> Figure:
