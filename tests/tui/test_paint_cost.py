@@ -178,6 +178,51 @@ async def test_the_shaping_table_draws_the_cells_textuals_table_draws_and_a_nudg
 
 
 @synchronous
+async def test_a_column_widened_in_the_shaping_table_lays_out_nothing_unless_a_scroll_bar_comes():
+    """A reading longer than any before (a nudge's value with more digits) widens its column:
+    the lines are drawn again at the new widths, the cells those of Textual's table widened as
+    far, and the screen is laid out only when a scroll bar comes (before, every widening laid
+    the screen out: 3 of 20 nudges of the lead's zero at 120x40, where the table scrolls across)."""
+    from textual.screen import Screen
+
+    app = TablesApp()
+    layouts = []
+    refresh_layout = Screen._refresh_layout
+
+    def counted(screen, *args, **kwargs):
+        layouts.append(screen._layout_required)
+        return refresh_layout(screen, *args, **kwargs)
+
+    def widened(reading: str) -> list:
+        return [(name, reading if name == "zero1" else text, None) for name, text in ROWS]
+
+    Screen._refresh_layout = counted
+    try:
+        async with app.run_test(size=(80, 12)) as pilot:
+            ours, textuals = _filled(app)
+            app.set_focus(None)
+            await pilot.pause()
+            layouts.clear()
+            reading = "zero at 0.74621538 rad/s (T 1.3401 s) [T1]"  # wider than every reading before
+            ours.fill(widened(reading))
+            await pilot.pause()
+            assert not any(layouts) and ours.widths[1] == len(reading) + 2
+            textuals.update_cell_at(Coordinate(1, 1), reading, update_width=True)
+            await pilot.pause()
+            assert _table_cells(ours) == _table_cells(textuals)
+            ours.fill(widened("x" * 90))  # past the room: a scroll bar comes, laid out
+            await pilot.pause()
+            assert any(layouts) and ours.max_scroll_x == ours.widths[0] + 92 - 80
+            layouts.clear()
+            ours.fill(widened("x" * 95))  # wider still: the scroll bar follows, nothing laid out
+            await pilot.pause()
+            assert not any(layouts) and ours.max_scroll_x == ours.widths[0] + 97 - 80
+            assert ours.horizontal_scrollbar.window_virtual_size == sum(ours.widths)
+    finally:
+        Screen._refresh_layout = refresh_layout
+
+
+@synchronous
 async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
     """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table
     scrolls across, its cells those of Textual's table scrolled as far."""

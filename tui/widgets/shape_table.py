@@ -178,14 +178,15 @@ class ShapeTable(ScrollView, can_focus=True):
         self.names: list[str] = []
         self.found: list[Item] = []
         self.readings: list[str] = []
-        self.widths = (0, 0)  # the columns' (the same rows' readings only widen them: no layout pass a nudge)
+        self.widths = (0, 0)  # the columns' (the same rows' readings only widen them)
         self.frozen = False  # a run or a sweep goes: the screen says so (`MainScreen.refresh_status`)
         self._strips: dict[int, tuple[tuple, Strip]] = {}  # line -> (what it was drawn from, its strip)
 
     def fill(self, rows: list[tuple[str, str, Item]]) -> None:
         """The items (name, reading, item), the cursor kept on its row; a row whose reading
-        is unchanged keeps its strip (a nudge's, a drag's: one row drawn again, no layout
-        pass unless a column widens or the number of rows changes)."""
+        is unchanged keeps its strip (a nudge's, a drag's: one row drawn again; a column widened
+        draws every line again); no layout pass unless the number of rows changes or a scroll
+        bar comes or goes."""
         names, readings = [name for name, _, _ in rows], [text for _, text, _ in rows]
         self.found = [item for _, _, item in rows]
         if names == self.names and readings == self.readings:
@@ -194,13 +195,20 @@ class ShapeTable(ScrollView, can_focus=True):
         changed = [k for k, text in enumerate(readings) if not same_rows or text != self.readings[k]]
         self.names, self.readings = names, readings
         self.widths = _widths(names, readings, before if same_rows else (0, 0))
-        self.virtual_size = Size(sum(self.widths), len(rows) + 1)
+        size = Size(sum(self.widths), len(rows) + 1)
+        if same_rows:  # as tall as before: a layout pass only if a scroll bar comes or goes
+            self.set_reactive(ShapeTable.virtual_size, size)  # (assigned, the reactive lays the screen out)
+            self._scroll_update(size)  # (Textual's own update of the scroll bars: it asks a layout pass then)
+        else:
+            self.virtual_size = size
         self.cursor_row = self.cursor_row  # (validated: within the rows)
-        if self.widths != before or not same_rows:
+        if not same_rows:
             self.refresh(layout=True)
-            return
-        for k in changed:
-            self._refresh_row(k)
+        elif self.widths != before:
+            self.refresh()  # every line at the new widths
+        else:
+            for k in changed:
+                self._refresh_row(k)
 
     def _refresh_row(self, row: int) -> None:
         self.refresh(Region(0, row + 1 - self.scroll_offset.y, self.outer_size.width, 1))
