@@ -217,7 +217,13 @@ async def test_a_column_widened_in_the_shaping_table_lays_out_nothing_unless_a_s
             ours.fill(widened("x" * 95))  # wider still: the scroll bar follows, nothing laid out
             await pilot.pause()
             assert not any(layouts) and ours.max_scroll_x == ours.widths[0] + 97 - 80
-            assert ours.horizontal_scrollbar.window_virtual_size == sum(ours.widths)
+            bar = ours.horizontal_scrollbar
+            assert bar.window_virtual_size == sum(ours.widths)
+            repainted, refresh = [], bar.refresh
+            bar.refresh = lambda *args, **kwargs: repainted.append(args) or refresh(*args, **kwargs)
+            ours.fill(widened("y" * 95))  # a reading as wide: the scroll bar is left as it is
+            await pilot.pause()
+            assert repainted == [] and ours.get_row_at(1)[1] == "y" * 95
     finally:
         Screen._refresh_layout = refresh_layout
 

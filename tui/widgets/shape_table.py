@@ -196,11 +196,11 @@ class ShapeTable(ScrollView, can_focus=True):
         self.names, self.readings = names, readings
         self.widths = _widths(names, readings, before if same_rows else (0, 0))
         size = Size(sum(self.widths), len(rows) + 1)
-        if same_rows:  # as tall as before: a layout pass only if a scroll bar comes or goes
+        if not same_rows:
+            self.virtual_size = size
+        elif size != self.virtual_size:  # as tall as before: a layout pass only if a scroll bar comes or goes
             self.set_reactive(ShapeTable.virtual_size, size)  # (assigned, the reactive lays the screen out)
             self._scroll_update(size)  # (Textual's own update of the scroll bars: it asks a layout pass then)
-        else:
-            self.virtual_size = size
         self.cursor_row = self.cursor_row  # (validated: within the rows)
         if not same_rows:
             self.refresh(layout=True)
