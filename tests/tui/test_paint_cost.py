@@ -303,6 +303,67 @@ async def test_a_text_repaints_the_cells_it_changed():
         assert "algorithm" not in screen and "wc 1.21" not in screen and "GM 12.0" in screen
 
 
+class TableauApp(App):
+    """A tableau that keeps its height in its scroll, under a status line that does not."""
+
+    def compose(self) -> ComposeResult:
+        from textual.containers import VerticalScroll
+
+        from tui.widgets.textview import TextView
+
+        yield TextView("lead.json", id="status")
+        with VerticalScroll():
+            yield TextView("PM 41.2\nGM 12.0\nS 0.80", id="tableau", keep_height=True)
+
+
+@synchronous
+async def test_a_tableau_that_loses_a_row_is_painted_before_it_is_laid_out():
+    """A design that loses a margin's row (the launch vehicle's stability margins come and go
+    as a zero moves): the tableau's new text is painted at the height it had, then laid out
+    at its own (before, the layout pass of the whole screen came first: 2 of 14 one-way
+    nudges of its zero1); a row more is laid out at once; a text made without
+    ``keep_height`` follows its lines at once both ways."""
+    from textual.screen import Screen
+
+    from tui.widgets.textview import TextView
+
+    app = TableauApp()
+    events = []
+    refresh_layout, compositor_refresh = Screen._refresh_layout, Screen._compositor_refresh
+
+    def laid_out(screen, *args, **kwargs):
+        events.append("layout")
+        return refresh_layout(screen, *args, **kwargs)
+
+    def painted(screen):
+        compositor_refresh(screen)
+        events.append(("paint", app.query_one("#tableau", TextView).text.plain))
+
+    Screen._refresh_layout, Screen._compositor_refresh = laid_out, painted
+    try:
+        async with app.run_test(size=(40, 10)) as pilot:
+            tableau, status = app.query_one("#tableau", TextView), app.query_one("#status", TextView)
+            await pilot.pause()
+            events.clear()
+            tableau.set("PM 41.5\nGM 12.1")
+            for _ in range(3):
+                await pilot.pause()
+            assert events[0] == ("paint", "PM 41.5\nGM 12.1") and "layout" in events and tableau.size.height == 2
+            assert "S 0.80" not in app.export_screenshot().replace("&#160;", " ")
+            events.clear()
+            tableau.set("PM 41.5\nGM 12.1\nS 0.81\nS 0.92")
+            await pilot.pause()
+            assert events[0] == "layout" and tableau.size.height == 4
+            status.set("lead.json *\nsecond line")
+            await pilot.pause()
+            events.clear()
+            status.set("lead.json *")
+            await pilot.pause()
+            assert events[0] == "layout" and status.size.height == 1
+    finally:
+        Screen._refresh_layout, Screen._compositor_refresh = refresh_layout, compositor_refresh
+
+
 @synchronous
 async def test_the_shaping_table_selects_by_click_and_keys():
     """Drawing its own lines, the shaping table keeps DataTable's ways to select a row: a

@@ -198,7 +198,7 @@ class MainScreen(Screen):
                     yield from self._plots()
                     with Vertical(id="tableau-side"):
                         with VerticalScroll(id="tableau-scroll"):
-                            yield TextView("", id="tableau")
+                            yield TextView("", id="tableau", keep_height=True)
                         yield ShapeTable(id="shape")
                         yield TextView("", id="step-info")
             with TabPane("Plant", id="plant"):
