@@ -228,6 +228,37 @@ async def test_a_column_widened_in_the_shaping_table_lays_out_nothing_unless_a_s
         Screen._refresh_layout = refresh_layout
 
 
+class RestyledTablesApp(TablesApp):
+    """The two tables, whose cursor turns red with a class (the header and the rows' base kept)."""
+
+    CSS = """
+    ShapeTable.alarm > .shape-table--cursor { background: red; }
+    DataTable.alarm > .datatable--cursor { background: red; }
+    """
+
+
+@synchronous
+async def test_the_shaping_tables_lines_follow_a_change_of_its_cursors_style():
+    """A change of the styles (a theme, the CSS, a class) draws the shaping table's lines
+    again, as Textual's table does: here the cursor's style alone changes (before, each row's
+    strip was kept until its reading, the cursor's row, the focus, the width or the base style
+    changed: the old cursor's colours stayed on screen)."""
+    app = RestyledTablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, textuals = _filled(app)
+        for table in (ours, textuals):
+            table.move_cursor(row=1)
+        app.set_focus(None)
+        await pilot.pause()
+        before = _table_cells(ours)
+        assert before == _table_cells(textuals)
+        for table in (ours, textuals):
+            table.add_class("alarm")
+        await pilot.pause()
+        after = _table_cells(ours)
+        assert after == _table_cells(textuals) != before and after[2][1][2].triplet == (255, 0, 0)
+
+
 @synchronous
 async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
     """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table

@@ -210,6 +210,12 @@ class ShapeTable(ScrollView, can_focus=True):
             for k in changed:
                 self._refresh_row(k)
 
+    def notify_style_update(self) -> None:
+        """The styles changed (a theme, the CSS): every line drawn again (the strips keep the
+        cursor's and the header's styles of their drawing, as `DataTable`'s caches do)."""
+        super().notify_style_update()
+        self._strips.clear()
+
     def _refresh_row(self, row: int) -> None:
         self.refresh(Region(0, row + 1 - self.scroll_offset.y, self.outer_size.width, 1))
 
