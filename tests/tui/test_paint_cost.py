@@ -260,6 +260,36 @@ async def test_the_shaping_tables_lines_follow_a_change_of_its_cursors_style():
 
 
 @synchronous
+async def test_the_shaping_table_highlights_the_row_under_the_mouse_as_textuals():
+    """The row under the mouse is highlighted as in Textual's table (a row cursor's hover:
+    the header too), the highlight gone once a key moves the cursor or the mouse leaves
+    (lost when the table came to draw its own lines: no row followed the mouse)."""
+    app = TablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, textuals = _filled(app)
+        app.set_focus(None)
+        await pilot.pause()
+        plain = _table_cells(ours)
+        for row in (3, 0):  # the third row (under the header), the header
+            hovered = []
+            for table in (ours, textuals):  # (the mouse over one table has left the other)
+                await pilot.hover(table, offset=(4, row))
+                await pilot.pause()
+                hovered.append(_table_cells(table))
+            assert hovered[0] == hovered[1] != plain
+        await pilot.hover(ours, offset=(4, 2))
+        await pilot.pause()
+        assert ours.hover_row == 1
+        keyed = []
+        for table in (ours, textuals):  # the mouse still over ours: a key hides its row
+            table.focus()
+            await pilot.press("down")
+            await pilot.pause()
+            keyed.append(_table_cells(table))
+        assert ours.hover_row is None and keyed[0] == keyed[1]
+
+
+@synchronous
 async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
     """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table
     scrolls across, its cells those of Textual's table scrolled as far."""

@@ -69,9 +69,16 @@ class ShapeTable(ScrollView, can_focus=True):
             color: $block-cursor-blurred-foreground;
             text-style: $block-cursor-blurred-text-style;
         }
+        & > .shape-table--header-hover { background: $accent 30%; }
+        & > .shape-table--hover { background: $block-hover-background; }
     }
     """  # (`DataTable`'s, for a row cursor)
-    COMPONENT_CLASSES = {"shape-table--header", "shape-table--cursor"}
+    COMPONENT_CLASSES = {
+        "shape-table--header",
+        "shape-table--cursor",
+        "shape-table--hover",
+        "shape-table--header-hover",
+    }
 
     BINDINGS = identified(
         "shape",
@@ -172,6 +179,7 @@ class ShapeTable(ScrollView, can_focus=True):
         """Delete the item with its factor."""
 
     cursor_row: reactive[int] = reactive(0, repaint=False)
+    hover_row: reactive[int | None] = reactive(None, repaint=False)  # the row under the mouse (-1: the header)
 
     def __init__(self, *, id: str | None = None) -> None:
         super().__init__(id=id)
@@ -240,10 +248,25 @@ class ShapeTable(ScrollView, can_focus=True):
         if self.has_focus:  # the footer shows what the newly selected item allows ([ ], delete)
             self.refresh_bindings()
 
+    def watch_hover_row(self, before: int | None, row: int | None) -> None:
+        for hovered in (before, row):
+            if hovered is not None:
+                self._refresh_row(hovered)
+
+    def _on_mouse_move(self, event: events.MouseMove) -> None:
+        """The row under the mouse is highlighted, as in `DataTable` (a row cursor's)."""
+        row = event.style.meta.get("row")
+        self.hover_row = row if isinstance(row, int) else None
+
+    def _on_leave(self, event: events.Leave) -> None:
+        self.hover_row = None
+
     def action_cursor(self, rows: int) -> None:
+        self.hover_row = None  # (the keys move the cursor: the mouse's row is no longer shown)
         self.cursor_row += rows
 
     def action_page(self, pages: int) -> None:
+        self.hover_row = None
         self.cursor_row += pages * max(self.scrollable_content_region.height - 1, 1)  # (under the header)
 
     def action_across(self, end: int) -> None:
@@ -259,7 +282,16 @@ class ShapeTable(ScrollView, can_focus=True):
         scroll_x, scroll_y = self.scroll_offset
         line = y if y == 0 else y + scroll_y  # (the header stays on top)
         base, width = self.rich_style, self.size.width
-        drawn = (self._cells(line), self.widths, line - 1 == self.cursor_row, self.has_focus, width, base)
+        row = line - 1
+        drawn = (
+            self._cells(line),
+            self.widths,
+            row == self.cursor_row,
+            row == self.hover_row,
+            self.has_focus,
+            width,
+            base,
+        )
         kept = self._strips.get(line)
         if kept is None or kept[0] != drawn:
             kept = (drawn, self._line(line, base))
@@ -278,7 +310,13 @@ class ShapeTable(ScrollView, can_focus=True):
             return Strip.blank(width, base)
         row = line - 1
         style = self.get_component_rich_style("shape-table--header") if row < 0 else base
-        cursor = self.get_component_rich_style("shape-table--cursor") if row == self.cursor_row else Style()
+        cursor = Style()  # `DataTable`'s order: the mouse's row, then the cursor's
+        if row == self.hover_row:
+            cursor += self.get_component_rich_style("shape-table--hover")
+            if row < 0:
+                cursor += self.get_component_rich_style("shape-table--header-hover")
+        if row == self.cursor_row:
+            cursor += self.get_component_rich_style("shape-table--cursor")
         post = Style.from_color(color=cursor.color) + Style.from_color(bgcolor=cursor.bgcolor)
         options = self.app.console_options.update(no_wrap=True)
         segments: list[Segment] = []
