@@ -523,12 +523,10 @@ async def test_a_nudges_first_paint_holds_the_tableau_not_the_tab_bar(workdir, m
             first.append(list(rendered))
         rendered.clear()
 
-    def counted(widget, crop):
-        rendered.append(widget)
-        return render_lines(widget, crop)
-
     monkeypatch.setattr(Screen, "_compositor_refresh", noted)
-    monkeypatch.setattr(Widget, "render_lines", counted)
+    monkeypatch.setattr(
+        Widget, "render_lines", lambda widget, crop: rendered.append(widget) or render_lines(widget, crop)
+    )
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
         await pilot.press("C", "down", "right")
