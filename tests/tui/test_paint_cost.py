@@ -178,6 +178,118 @@ async def test_the_shaping_table_draws_the_cells_textuals_table_draws_and_a_nudg
 
 
 @synchronous
+async def test_a_column_widened_in_the_shaping_table_lays_out_nothing_unless_a_scroll_bar_comes():
+    """A reading longer than any before (a nudge's value with more digits) widens its column:
+    the lines are drawn again at the new widths, the cells those of Textual's table widened as
+    far, and the screen is laid out only when a scroll bar comes (before, every widening laid
+    the screen out: 3 of 20 nudges of the lead's zero at 120x40, where the table scrolls across)."""
+    from textual.screen import Screen
+
+    app = TablesApp()
+    layouts = []
+    refresh_layout = Screen._refresh_layout
+
+    def counted(screen, *args, **kwargs):
+        layouts.append(screen._layout_required)
+        return refresh_layout(screen, *args, **kwargs)
+
+    def widened(reading: str) -> list:
+        return [(name, reading if name == "zero1" else text, None) for name, text in ROWS]
+
+    Screen._refresh_layout = counted
+    try:
+        async with app.run_test(size=(80, 12)) as pilot:
+            ours, textuals = _filled(app)
+            app.set_focus(None)
+            await pilot.pause()
+            layouts.clear()
+            reading = "zero at 0.74621538 rad/s (T 1.3401 s) [T1]"  # wider than every reading before
+            ours.fill(widened(reading))
+            await pilot.pause()
+            assert not any(layouts) and ours.widths[1] == len(reading) + 2
+            textuals.update_cell_at(Coordinate(1, 1), reading, update_width=True)
+            await pilot.pause()
+            assert _table_cells(ours) == _table_cells(textuals)
+            ours.fill(widened("x" * 90))  # past the room: a scroll bar comes, laid out
+            await pilot.pause()
+            assert any(layouts) and ours.max_scroll_x == ours.widths[0] + 92 - 80
+            layouts.clear()
+            ours.fill(widened("x" * 95))  # wider still: the scroll bar follows, nothing laid out
+            await pilot.pause()
+            assert not any(layouts) and ours.max_scroll_x == ours.widths[0] + 97 - 80
+            bar = ours.horizontal_scrollbar
+            assert bar.window_virtual_size == sum(ours.widths)
+            repainted, refresh = [], bar.refresh
+            bar.refresh = lambda *args, **kwargs: repainted.append(args) or refresh(*args, **kwargs)
+            ours.fill(widened("y" * 95))  # a reading as wide: the scroll bar is left as it is
+            await pilot.pause()
+            assert repainted == [] and ours.get_row_at(1)[1] == "y" * 95
+    finally:
+        Screen._refresh_layout = refresh_layout
+
+
+class RestyledTablesApp(TablesApp):
+    """The two tables, whose cursor turns red with a class (the header and the rows' base kept)."""
+
+    CSS = """
+    ShapeTable.alarm > .shape-table--cursor { background: red; }
+    DataTable.alarm > .datatable--cursor { background: red; }
+    """
+
+
+@synchronous
+async def test_the_shaping_tables_lines_follow_a_change_of_its_cursors_style():
+    """A change of the styles (a theme, the CSS, a class) draws the shaping table's lines
+    again, as Textual's table does: here the cursor's style alone changes (before, each row's
+    strip was kept until its reading, the cursor's row, the focus, the width or the base style
+    changed: the old cursor's colours stayed on screen)."""
+    app = RestyledTablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, textuals = _filled(app)
+        for table in (ours, textuals):
+            table.move_cursor(row=1)
+        app.set_focus(None)
+        await pilot.pause()
+        before = _table_cells(ours)
+        assert before == _table_cells(textuals)
+        for table in (ours, textuals):
+            table.add_class("alarm")
+        await pilot.pause()
+        after = _table_cells(ours)
+        assert after == _table_cells(textuals) != before and after[2][1][2].triplet == (255, 0, 0)
+
+
+@synchronous
+async def test_the_shaping_table_highlights_the_row_under_the_mouse_as_textuals():
+    """The row under the mouse is highlighted as in Textual's table (a row cursor's hover:
+    the header too), the highlight gone once a key moves the cursor or the mouse leaves
+    (lost when the table came to draw its own lines: no row followed the mouse)."""
+    app = TablesApp()
+    async with app.run_test(size=(80, 12)) as pilot:
+        ours, textuals = _filled(app)
+        app.set_focus(None)
+        await pilot.pause()
+        plain = _table_cells(ours)
+        for row in (3, 0):  # the third row (under the header), the header
+            hovered = []
+            for table in (ours, textuals):  # (the mouse over one table has left the other)
+                await pilot.hover(table, offset=(4, row))
+                await pilot.pause()
+                hovered.append(_table_cells(table))
+            assert hovered[0] == hovered[1] != plain
+        await pilot.hover(ours, offset=(4, 2))
+        await pilot.pause()
+        assert ours.hover_row == 1
+        keyed = []
+        for table in (ours, textuals):  # the mouse still over ours: a key hides its row
+            table.focus()
+            await pilot.press("down")
+            await pilot.pause()
+            keyed.append(_table_cells(table))
+        assert ours.hover_row is None and keyed[0] == keyed[1]
+
+
+@synchronous
 async def test_a_shaping_table_wider_than_its_room_scrolls_as_textuals():
     """Narrower than its readings (an 80x24 terminal's tableau side), the shaping table
     scrolls across, its cells those of Textual's table scrolled as far."""
@@ -252,6 +364,67 @@ async def test_a_text_repaints_the_cells_it_changed():
         assert "algorithm" not in screen and "wc 1.21" not in screen and "GM 12.0" in screen
 
 
+class TableauApp(App):
+    """A tableau that keeps its height in its scroll, under a status line that does not."""
+
+    def compose(self) -> ComposeResult:
+        from textual.containers import VerticalScroll
+
+        from tui.widgets.textview import TextView
+
+        yield TextView("lead.json", id="status")
+        with VerticalScroll():
+            yield TextView("PM 41.2\nGM 12.0\nS 0.80", id="tableau", keep_height=True)
+
+
+@synchronous
+async def test_a_tableau_that_loses_a_row_is_painted_before_it_is_laid_out():
+    """A design that loses a margin's row (the launch vehicle's stability margins come and go
+    as a zero moves): the tableau's new text is painted at the height it had, then laid out
+    at its own (before, the layout pass of the whole screen came first: 2 of 14 one-way
+    nudges of its zero1); a row more is laid out at once; a text made without
+    ``keep_height`` follows its lines at once both ways."""
+    from textual.screen import Screen
+
+    from tui.widgets.textview import TextView
+
+    app = TableauApp()
+    events = []
+    refresh_layout, compositor_refresh = Screen._refresh_layout, Screen._compositor_refresh
+
+    def laid_out(screen, *args, **kwargs):
+        events.append("layout")
+        return refresh_layout(screen, *args, **kwargs)
+
+    def painted(screen):
+        compositor_refresh(screen)
+        events.append(("paint", app.query_one("#tableau", TextView).text.plain))
+
+    Screen._refresh_layout, Screen._compositor_refresh = laid_out, painted
+    try:
+        async with app.run_test(size=(40, 10)) as pilot:
+            tableau, status = app.query_one("#tableau", TextView), app.query_one("#status", TextView)
+            await pilot.pause()
+            events.clear()
+            tableau.set("PM 41.5\nGM 12.1")
+            for _ in range(3):
+                await pilot.pause()
+            assert events[0] == ("paint", "PM 41.5\nGM 12.1") and "layout" in events and tableau.size.height == 2
+            assert "S 0.80" not in app.export_screenshot().replace("&#160;", " ")
+            events.clear()
+            tableau.set("PM 41.5\nGM 12.1\nS 0.81\nS 0.92")
+            await pilot.pause()
+            assert events[0] == "layout" and tableau.size.height == 4
+            status.set("lead.json *\nsecond line")
+            await pilot.pause()
+            events.clear()
+            status.set("lead.json *")
+            await pilot.pause()
+            assert events[0] == "layout" and status.size.height == 1
+    finally:
+        Screen._refresh_layout, Screen._compositor_refresh = refresh_layout, compositor_refresh
+
+
 @synchronous
 async def test_the_shaping_table_selects_by_click_and_keys():
     """Drawing its own lines, the shaping table keeps DataTable's ways to select a row: a
@@ -317,6 +490,56 @@ async def test_a_nudges_workers_start_after_its_tableau_is_painted(workdir, monk
         await settle(app, pilot)
         assert screen.query_one("#tableau").text is not shown and "PM deg" in painted[-1].plain
         assert started == {"figures": True, "poles": True}
+
+
+@synchronous
+async def test_a_nudges_first_paint_holds_the_tableau_not_the_tab_bar(workdir, monkeypatch):
+    """The paint that shows a nudge's tableau renders the widgets beside it, not the tab bar:
+    the status line, on the screen's top row, is set once that paint is done (in the same
+    paint, Textual's box around every change reached from the top row to the tableau, and
+    the tab bar's dozen widgets were rendered: lead key to tableau 47.6-50.9 ms of UI-thread
+    CPU before, 40.7-44.6 after, alternated at load 3); the status line says the edit once
+    settled."""
+    from textual.screen import Screen
+    from textual.widget import Widget
+    from textual.widgets._tabbed_content import ContentTab
+
+    from tests.tui.test_app import settle
+    from tui.app import LoopcraftApp
+    from tui.cli import main
+
+    lead = workdir / "lead.json"
+    main(["new", str(lead), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"])
+    app = LoopcraftApp(lead)
+    rendered: list[Widget] = []
+    first: list[list[Widget]] = []  # what the first paint with the new tableau rendered
+    shown: list[object] = [None]  # the tableau's text before the nudge
+    compositor_refresh, render_lines = Screen._compositor_refresh, Widget.render_lines
+
+    def noted(screen):
+        compositor_refresh(screen)
+        tableau = screen.query_one_optional("#tableau")
+        if tableau is not None and tableau.text is not shown[0] and not first:
+            first.append(list(rendered))
+        rendered.clear()
+
+    monkeypatch.setattr(Screen, "_compositor_refresh", noted)
+    monkeypatch.setattr(
+        Widget, "render_lines", lambda widget, crop: rendered.append(widget) or render_lines(widget, crop)
+    )
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down", "right")
+        await settle(app, pilot)
+        shown[0] = app.screen.query_one("#tableau").text
+        first.clear()
+        status = app.screen.query_one("#status").text.plain
+        await pilot.press("right")
+        await settle(app, pilot)
+        assert first and app.screen.query_one("#tableau") in first[0]
+        assert not any(isinstance(w, ContentTab) for w in first[0])
+        now = app.screen.query_one("#status").text.plain
+        assert now != status and app.bench.edits.last in now
 
 
 @synchronous

@@ -367,3 +367,54 @@ async def test_a_nudges_handler_does_each_job_once(tmp_path, monkeypatch):
         await pilot.press("ctrl+z")  # the edits' undo: its autosave left to the thread too
         await settle(app, pilot)
         assert waits and not any(waits)
+
+
+@synchronous
+async def test_a_bursts_later_nudges_copy_nothing_and_a_refused_one_keeps_its_undo_step(tmp_path, monkeypatch):
+    """The nudges of a burst after its first copy no snapshot of the session (issue 54,
+    section 3: the burst's undo step is its first snapshot; before, each nudge copied the
+    problem and the algorithm, 1-3 ms, and dropped the copy), compare against the first
+    snapshot's JSON made once, and a nudge refused (past the parameter's bound) leaves the
+    design and the burst's one undo step as they were."""
+    import json
+
+    from tui.state import edit_history
+
+    lead_app(tmp_path, monkeypatch)
+    path = tmp_path / "lead.json"
+    data = json.loads(path.read_text())
+    for p in data["problem"]["parameters"]:
+        if p["name"] == "T1":
+            p["max"] = 1.12  # the zero's time constant: two nudges down in frequency and no more
+    path.write_text(json.dumps(data))
+    app = LoopcraftApp(path)
+    copied, dumped = [], []
+    of, dump = edit_history.Snapshot.of.__func__, edit_history._dump
+
+    def noted_of(cls, book):
+        copied.append(book)
+        return of(cls, book)
+
+    def noted_dump(*args):
+        dumped.append(args)
+        return dump(*args)
+
+    monkeypatch.setattr(edit_history.Snapshot, "of", classmethod(noted_of))
+    monkeypatch.setattr(edit_history, "_dump", noted_dump)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C", "down")
+        await settle(app, pilot)
+        steps = len(app.bench.edits.undo_stack)
+        await pilot.press("left")  # T1 1 -> 1.05: the burst's first nudge, its snapshot
+        await settle(app, pilot)
+        assert len(copied) == 1
+        copied.clear(), dumped.clear()
+        await pilot.press("left", "left")  # T1 -> 1.1025, then past 1.12: refused
+        await settle(app, pilot)
+        assert copied == [] and len(dumped) == 1  # the design after the second nudge; the first's JSON kept
+        assert start_values(app)["T1"] == pytest.approx(1.05**2, rel=1e-12)
+        assert len(app.bench.edits.undo_stack) == steps + 1
+        await pilot.press("ctrl+z")
+        await settle(app, pilot)
+        assert start_values(app)["T1"] == 1.0 and len(app.bench.edits.undo_stack) == steps

@@ -188,6 +188,7 @@ class MainScreen(Screen):
         self._frozen: list[RefTable | MatrixTable | ShapeTable] = []  # the tables whose keys a run disables
         self._shown_plots: list[FigurePlot] = []  # the plots on the tabs (`on_mount`), History's apart
         self._after_paint: list[Callable[[], None]] = []  # workers' starts held for the next paint
+        self._painted = False  # the held starts run: the screen has just painted (`after_paint`)
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
@@ -197,7 +198,7 @@ class MainScreen(Screen):
                     yield from self._plots()
                     with Vertical(id="tableau-side"):
                         with VerticalScroll(id="tableau-scroll"):
-                            yield TextView("", id="tableau")
+                            yield TextView("", id="tableau", keep_height=True)
                         yield ShapeTable(id="shape")
                         yield TextView("", id="step-info")
             with TabPane("Plant", id="plant"):
@@ -253,11 +254,12 @@ class MainScreen(Screen):
         self.app.refresh_workbench()
 
     def after_paint(self, start: Callable[[], None]) -> None:
-        """Call ``start`` (a thread worker's start) once the screen has painted what the
-        handler changed: a thread started in the handler holds the GIL half the time while the
-        UI thread paints (a nudge's tableau took about twice its CPU time).  At once when this
-        screen is painted no more (covered: Textual's `is_current` is False)."""
-        if not self.is_current:
+        """Call ``start`` (a thread worker's start, what the first paint can do without) once
+        the screen has painted what the handler changed: a thread started in the handler holds
+        the GIL half the time while the UI thread paints (a nudge's tableau took about twice its
+        CPU time).  At once when this screen is painted no more (covered: Textual's
+        `is_current` is False), or when the held starts run (it has just painted)."""
+        if not self.is_current or self._painted:
             start()
             return
         self._after_paint.append(start)
@@ -273,8 +275,12 @@ class MainScreen(Screen):
         """Start the workers held for a paint (after one, or when another screen is pushed:
         two pushed before the next paint would cover it for good)."""
         held, self._after_paint = self._after_paint, []
-        for start in held:
-            start()
+        self._painted = True
+        try:
+            for start in held:
+                start()
+        finally:
+            self._painted = False
 
     def on_resize(self, event) -> None:
         """The tableau's layout follows its width (compact below 58 columns)."""
@@ -433,10 +439,12 @@ class MainScreen(Screen):
     # -- refreshing ---------------------------------------------------------
 
     def refresh_all(self, plots: bool = True) -> None:
-        """Everything from the session: the status line and the Run tab now, the tab shown
-        if another, the hidden ones when they are shown (a nudge redraws no hidden table)."""
+        """Everything from the session: the Run tab now and the status line once it is
+        painted (in one paint, the status line's row at the top stretched the box Textual
+        paints over the tab bar: a dozen more widgets rendered), the tab shown if another, the
+        hidden ones when they are shown (a nudge redraws no hidden table)."""
         view = self.bench.view()
-        self.refresh_status()
+        self.after_paint(self.refresh_status)
         self.refresh_run(view, plots=plots)
         self._stale |= {"plant", "targets", "history", "sweep"}
         self.refresh_shown(view)
@@ -468,13 +476,16 @@ class MainScreen(Screen):
 
     def refresh_run(self, view: View | None = None, plots: bool = True) -> None:
         """The tableau, the lines under it and (with ``plots``) the plots, drawn in a
-        worker (`draw_missing`; a run's worker draws its own: `show_drawn`)."""
+        worker (`draw_missing`; a run's worker draws its own: `show_drawn`) asked once the
+        tableau is painted (a drag's dragged plot at once: its frame)."""
         view = self.bench.view() if view is None else view
         record = self.refresh_tableau(view)
         self.query_one("#step-info", TextView).set(self._step_info(view, record))
         self.fill_shape(view)
-        if plots:
+        if plots and self.dragged_plot is not None:
             self.refresh_plots(view)
+        elif plots:
+            self.after_paint(self.refresh_plots)
 
     def refresh_tableau(self, view: View | None = None) -> StepRecord | None:
         """The tableau with the lines under it (what binds at a stop, the closed-loop

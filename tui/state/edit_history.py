@@ -12,6 +12,7 @@ dropped come back with the edit's undo.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 from engine.errors import shortened
@@ -50,6 +51,12 @@ class Snapshot:
             list(model.earlier),
         )
 
+    @cached_property
+    def dumped(self) -> dict:
+        """The problem model and the algorithm as JSON data (what `describe_change` compares
+        against: a burst's first snapshot is compared at each of its edits)."""
+        return _dump(self.problem_model, self.algorithm)
+
 
 class EditHistory:
     """The undo and redo stacks of one workbench's edits."""
@@ -60,17 +67,23 @@ class EditHistory:
         self.last = ""  # what the latest edit, undo or redo did (the status line shows it)
         self._burst: object = None  # the burst the latest edit belongs to (`push`); None: ended
 
-    def push(self, before: Snapshot, after: RecordBook, burst: object = None) -> str | None:
+    def continues(self, burst: object) -> bool:
+        """Whether an edit of ``burst`` joins the undo step of the edits before it."""
+        return burst is not None and burst == self._burst and bool(self.undo_stack)
+
+    def push(self, before: Snapshot | None, after: RecordBook, burst: object = None) -> str | None:
         """Keep ``before`` as the undo of an edit that led to ``after``'s state;
         its description (None when nothing changed).  Edits of one ``burst`` (the same
         item nudged again by the same key, with no other action between: `end_burst`)
         are one undo step, described from the state before the first of them
-        ("T1: 1 -> 1.34").  What joins them is what the user did, never a timer."""
+        ("T1: 1 -> 1.34"; ``before`` None: an edit that `continues` one).  What joins
+        them is what the user did, never a timer."""
         model = after.session.model  # read as it is: no copy of it is kept
-        if burst is not None and burst == self._burst and self.undo_stack:
+        if self.continues(burst):
             before = self.undo_stack.pop()[1]
+        assert before is not None, "an edit without its snapshot continues a burst"
         self._burst = burst
-        text = describe_change(_dump(before.problem_model, before.algorithm), _dump(model.problem, model.algorithm))
+        text = describe_change(before.dumped, _dump(model.problem, model.algorithm))
         if text is None:
             return None
         self.undo_stack = (self.undo_stack + [(text, before)])[-MAX_EDITS:]

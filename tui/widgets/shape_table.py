@@ -69,9 +69,16 @@ class ShapeTable(ScrollView, can_focus=True):
             color: $block-cursor-blurred-foreground;
             text-style: $block-cursor-blurred-text-style;
         }
+        & > .shape-table--header-hover { background: $accent 30%; }
+        & > .shape-table--hover { background: $block-hover-background; }
     }
     """  # (`DataTable`'s, for a row cursor)
-    COMPONENT_CLASSES = {"shape-table--header", "shape-table--cursor"}
+    COMPONENT_CLASSES = {
+        "shape-table--header",
+        "shape-table--cursor",
+        "shape-table--hover",
+        "shape-table--header-hover",
+    }
 
     BINDINGS = identified(
         "shape",
@@ -172,20 +179,22 @@ class ShapeTable(ScrollView, can_focus=True):
         """Delete the item with its factor."""
 
     cursor_row: reactive[int] = reactive(0, repaint=False)
+    hover_row: reactive[int | None] = reactive(None, repaint=False)  # the row under the mouse (-1: the header)
 
     def __init__(self, *, id: str | None = None) -> None:
         super().__init__(id=id)
         self.names: list[str] = []
         self.found: list[Item] = []
         self.readings: list[str] = []
-        self.widths = (0, 0)  # the columns' (the same rows' readings only widen them: no layout pass a nudge)
+        self.widths = (0, 0)  # the columns' (the same rows' readings only widen them)
         self.frozen = False  # a run or a sweep goes: the screen says so (`MainScreen.refresh_status`)
         self._strips: dict[int, tuple[tuple, Strip]] = {}  # line -> (what it was drawn from, its strip)
 
     def fill(self, rows: list[tuple[str, str, Item]]) -> None:
         """The items (name, reading, item), the cursor kept on its row; a row whose reading
-        is unchanged keeps its strip (a nudge's, a drag's: one row drawn again, no layout
-        pass unless a column widens or the number of rows changes)."""
+        is unchanged keeps its strip (a nudge's, a drag's: one row drawn again; a column widened
+        draws every line again); no layout pass unless the number of rows changes or a scroll
+        bar comes or goes."""
         names, readings = [name for name, _, _ in rows], [text for _, text, _ in rows]
         self.found = [item for _, _, item in rows]
         if names == self.names and readings == self.readings:
@@ -194,13 +203,26 @@ class ShapeTable(ScrollView, can_focus=True):
         changed = [k for k, text in enumerate(readings) if not same_rows or text != self.readings[k]]
         self.names, self.readings = names, readings
         self.widths = _widths(names, readings, before if same_rows else (0, 0))
-        self.virtual_size = Size(sum(self.widths), len(rows) + 1)
+        size = Size(sum(self.widths), len(rows) + 1)
+        if not same_rows:
+            self.virtual_size = size
+        elif size != self.virtual_size:  # as tall as before: a layout pass only if a scroll bar comes or goes
+            self.set_reactive(ShapeTable.virtual_size, size)  # (assigned, the reactive lays the screen out)
+            self._scroll_update(size)  # (Textual's own update of the scroll bars: it asks a layout pass then)
         self.cursor_row = self.cursor_row  # (validated: within the rows)
-        if self.widths != before or not same_rows:
+        if not same_rows:
             self.refresh(layout=True)
-            return
-        for k in changed:
-            self._refresh_row(k)
+        elif self.widths != before:
+            self.refresh()  # every line at the new widths
+        else:
+            for k in changed:
+                self._refresh_row(k)
+
+    def notify_style_update(self) -> None:
+        """The styles changed (a theme, the CSS): every line drawn again (the strips keep the
+        cursor's and the header's styles of their drawing, as `DataTable`'s caches do)."""
+        super().notify_style_update()
+        self._strips.clear()
 
     def _refresh_row(self, row: int) -> None:
         self.refresh(Region(0, row + 1 - self.scroll_offset.y, self.outer_size.width, 1))
@@ -226,10 +248,25 @@ class ShapeTable(ScrollView, can_focus=True):
         if self.has_focus:  # the footer shows what the newly selected item allows ([ ], delete)
             self.refresh_bindings()
 
+    def watch_hover_row(self, before: int | None, row: int | None) -> None:
+        for hovered in (before, row):
+            if hovered is not None:
+                self._refresh_row(hovered)
+
+    def _on_mouse_move(self, event: events.MouseMove) -> None:
+        """The row under the mouse is highlighted, as in `DataTable` (a row cursor's)."""
+        row = event.style.meta.get("row")
+        self.hover_row = row if isinstance(row, int) else None
+
+    def _on_leave(self, event: events.Leave) -> None:
+        self.hover_row = None
+
     def action_cursor(self, rows: int) -> None:
+        self.hover_row = None  # (the keys move the cursor: the mouse's row is no longer shown)
         self.cursor_row += rows
 
     def action_page(self, pages: int) -> None:
+        self.hover_row = None
         self.cursor_row += pages * max(self.scrollable_content_region.height - 1, 1)  # (under the header)
 
     def action_across(self, end: int) -> None:
@@ -245,7 +282,16 @@ class ShapeTable(ScrollView, can_focus=True):
         scroll_x, scroll_y = self.scroll_offset
         line = y if y == 0 else y + scroll_y  # (the header stays on top)
         base, width = self.rich_style, self.size.width
-        drawn = (self._cells(line), self.widths, line - 1 == self.cursor_row, self.has_focus, width, base)
+        row = line - 1
+        drawn = (
+            self._cells(line),
+            self.widths,
+            row == self.cursor_row,
+            row == self.hover_row,
+            self.has_focus,
+            width,
+            base,
+        )
         kept = self._strips.get(line)
         if kept is None or kept[0] != drawn:
             kept = (drawn, self._line(line, base))
@@ -264,7 +310,13 @@ class ShapeTable(ScrollView, can_focus=True):
             return Strip.blank(width, base)
         row = line - 1
         style = self.get_component_rich_style("shape-table--header") if row < 0 else base
-        cursor = self.get_component_rich_style("shape-table--cursor") if row == self.cursor_row else Style()
+        cursor = Style()  # `DataTable`'s order: the mouse's row, then the cursor's
+        if row == self.hover_row:
+            cursor += self.get_component_rich_style("shape-table--hover")
+            if row < 0:
+                cursor += self.get_component_rich_style("shape-table--header-hover")
+        if row == self.cursor_row:
+            cursor += self.get_component_rich_style("shape-table--cursor")
         post = Style.from_color(color=cursor.color) + Style.from_color(bgcolor=cursor.bgcolor)
         options = self.app.console_options.update(no_wrap=True)
         segments: list[Segment] = []

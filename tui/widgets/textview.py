@@ -4,7 +4,11 @@ follows the number of lines only when that number changes; the same text set aga
 not repainted, and a new text repaints only the cells it changed: each changed line
 from its first changed column (Textual paints the box around every changed region of a
 paint: a nudge's status line changed in its first column stretched the tableau's
-paint over the plots and the tabs, some forty widgets rendered where eight had changed)."""
+paint over the plots and the tabs, some forty widgets rendered where eight had changed).
+One made with ``keep_height`` shrinks after the paint of a text with fewer lines: the
+tableau, whose rows come and go as a design moves (a margin found or lost), shows a nudge's
+new text first and is laid out after (the layout pass of the whole screen, 2 of 14 one-way
+nudges of the launch vehicle, held the tableau's paint)."""
 
 from __future__ import annotations
 
@@ -14,7 +18,7 @@ from os.path import commonprefix
 
 from rich.cells import cell_len
 from rich.text import Text
-from textual.geometry import Region
+from textual.geometry import Region, Size
 from textual.widget import Widget
 
 LAID_OUT = ("style", "justify", "overflow", "no_wrap", "end", "tab_size")  # how a text is laid out
@@ -23,10 +27,12 @@ LAID_OUT = ("style", "justify", "overflow", "no_wrap", "end", "tab_size")  # how
 class TextView(Widget):
     DEFAULT_CSS = "TextView { height: auto; text-wrap: nowrap; text-overflow: clip; }"
 
-    def __init__(self, text: str | Text = "", **kwargs):
+    def __init__(self, text: str | Text = "", *, keep_height: bool = False, **kwargs):
         super().__init__(**kwargs)
         self._text = Text.from_markup(text) if isinstance(text, str) else text
         self._lines = self._text.plain.count("\n") + 1
+        self.keep_height = keep_height
+        self._held = 0  # lines of height held until the paint (`keep_height`)
 
     def set(self, text: str | Text) -> None:
         """Show ``text``; the same text again (a nudge's unchanged step lines) is not repainted."""
@@ -35,13 +41,25 @@ class TextView(Widget):
             return
         old, self._text = self._text, new
         lines = new.plain.count("\n") + 1
-        if lines != self._lines:
+        if self.keep_height and lines < max(self._lines, self._held):  # as tall until painted
+            if not self._held:
+                self.call_after_refresh(self._shrink)
+            self._held = max(self._lines, self._held)
+        if lines > max(self._lines, self._held) or (lines != self._lines and not self.keep_height):
             self.refresh(layout=True)
         elif self.styles.text_align in ("left", "start") and _aligned_left(old) and _aligned_left(new):
             self.refresh(*(Region(x, y, max(self.size.width - x, 1), 1) for x, y in _changed_cells(old, new)))
         else:  # a column of the text is not a column on screen: all of it
             self.refresh()
         self._lines = lines
+
+    def _shrink(self) -> None:
+        """The height the text has, laid out after its paint (`keep_height`)."""
+        self._held = 0
+        self.refresh(layout=True)
+
+    def get_content_height(self, container: Size, viewport: Size, width: int) -> int:
+        return max(super().get_content_height(container, viewport, width), self._held)
 
     @property
     def text(self) -> Text:

@@ -198,12 +198,17 @@ class RecordBook:
     def edit(self, change: Callable[[], Result], burst: object = None) -> Result:
         """Make an edit of the problem one undo step (`EditHistory.push`; edits of one
         ``burst`` join one step): what the session held before is kept, and put back whole
-        when ``change`` raises `SessionError` or `ValueError` (raised again)."""
-        before = Snapshot.of(self)
+        when ``change`` raises `SessionError` or `ValueError` (raised again).  An edit that
+        continues a burst with no iteration recorded copies nothing (its undo step is the
+        burst's first snapshot; a burst's changes are transactions, `tui.state.edits`, which
+        put nothing in place when refused, and with no iteration none is adopted first): a
+        copy of the session's problem each nudge, 1-3 ms, dropped at once."""
+        before = None if self.iteration == 0 and self.edits.continues(burst) else Snapshot.of(self)
         try:
             result = change()
         except (SessionError, ValueError):
-            self.restore(before)
+            if before is not None:
+                self.restore(before)
             raise
         self.edits.push(before, self, burst)
         return result
