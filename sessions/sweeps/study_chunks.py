@@ -17,8 +17,8 @@ chunk whose task fails (its worker died more often than Dask allows) is sent aga
 halves, down to single samples: a sample that kills its worker does not take the others
 with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
 start (`announce`), the times each task was sent to a worker are read from the scheduler's
-transition log (`times_sent`), and ``workers`` counts the workers that finished a chunk or
-started one."""
+transition log (`starts_and_sends`, with the starts: one call at the end), and ``workers``
+counts the workers that finished a chunk or started one."""
 
 from __future__ import annotations
 
@@ -34,13 +34,12 @@ from sessions.sweeps.batch_study import BatchOutcome, ChunkRuns, chunk_runs, stu
 from sessions.sweeps.cluster import Connection, InTurn, sigint_ignored
 from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import (
-    EVENT_TOPIC,
     LOST_WORKER,
     RESULT_WAIT,
     Outcome,
     announce,
     lost_run,
-    times_sent,
+    starts_and_sends,
     worker_count,
 )
 from sessions.sweeps.plan import ToleranceSamples
@@ -224,7 +223,8 @@ def run_chunked(
     `evaluate_chunk` or a stand-in.  Ctrl-C or ``cancelled`` stops it: the finished chunks are
     kept, the rest cancelled."""
     client = connection.client
-    workers = max(connection.workers, worker_count(client))
+    # a cluster started here has the workers planned (never more): the scheduler is asked only of its own
+    workers = connection.workers or worker_count(client)
     tally = Tally.of_study(len(made) + len(samples))
     for run in made:
         tally.add(run)
@@ -366,8 +366,7 @@ def _attempts(client, tasks: _Tasks) -> tuple[dict[int, list[str]], set[str]]:
     is `LOST_WORKER`'s), and every worker a chunk's start names.  A chunk's starts are the
     times the scheduler sent its task to a worker (its transition log)."""
     try:
-        events = client.get_events(EVENT_TOPIC)
-        sent = times_sent(client, list(tasks.ranges))
+        events, sent = starts_and_sends(client, list(tasks.ranges))
     except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
         events, sent = (), {}
     named: dict[str, list[str]] = {}
