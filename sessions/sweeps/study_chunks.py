@@ -1,24 +1,23 @@
-"""A tolerance study on a Dask cluster in chunks of samples: what a task is sent is a
-consecutive range of the study's planned samples (`ToleranceSamples.shipped`: the study's
-document and the range's drawn deviations, never a document per sample); the worker
-builds the study's problem once (`sessions.sweeps.batch_study.chunk_runs` keeps it under
-the study's key for its next chunks) and evaluates the chunk as the serial study does
-(batched, or per loop on the problem built once); the chunk's runs come back as arrays
-(`Records`), a run made only for a sample the study keeps, and go to the study's `Tally`
-in sample order.
+"""A tolerance study on a Dask cluster in chunks of samples: what a task is sent is a consecutive
+range of the study's planned samples (`ToleranceSamples.shipped`: the study's document and the
+range's drawn deviations, never a document per sample); the worker builds the study's problem
+once (`sessions.sweeps.batch_study.chunk_runs` keeps it under the study's key for its next
+chunks) and evaluates the chunk as the serial study does (batched, or per loop on the problem
+built once); the chunk's runs come back as arrays (`Records`), a run made only for a sample the
+study keeps, and go to the study's `Tally` in sample order.
 
-The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHUNK` samples
-and `PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed in CPU
-seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits are
-not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
-fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker, the last ones
-equal (`_Sizes`): few tasks, since each costs tens of ms of CPU besides its samples.  A
-chunk whose task fails (its worker died more often than Dask allows) is sent again as two
-halves, down to single samples: a sample that kills its worker does not take the others
-with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
-start (`announce`), the times each task was sent to a worker are read from the scheduler's
-transition log (`starts_and_sends`, with the starts: one call at the end), and ``workers``
-counts the workers that finished a chunk or started one."""
+The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHUNK` samples and
+`PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed
+in CPU seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits
+are not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
+fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker (one on a cluster
+started here, all its workers there from the start), the last ones equal (`_Sizes`): few tasks,
+since each costs tens of ms of CPU besides its samples.  A chunk whose task fails (its worker
+died more often than Dask allows) is sent again as two halves, down to single samples: a sample
+that kills its worker does not take the others with it, and the splitting ends.  The bookkeeping
+is the scheduler's: each chunk logs its start (`announce`), the times each task was sent to a
+worker are read from the scheduler's transition log (`starts_and_sends`, with the starts: one
+call at the end), and ``workers`` counts the workers that finished a chunk or started one."""
 
 from __future__ import annotations
 
@@ -54,8 +53,13 @@ PROBE_RATIO = 4
 # samples on 2 workers took 13 chunks at 0.25 s and 4 a worker: 1.46-1.64 s of the workers' CPU, 0.16-0.18 s
 # of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7); 6 with a
 # probe per worker timing two sizes: 1.28-1.34 s and 0.07-0.08 s (c0189aa's 9-10: 1.35-1.41, 0.11-0.12; load 1.6-3.5)
-CHUNK_SECONDS = 0.5  # s of work a chunk is sized to
-CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal)
+# With the probes, a cluster started here (all its workers there from the start) takes its study in one chunk per
+# worker when a chunk of CHUNK_SECONDS holds it: 20 000 lag-lead samples on 2 local workers in 4 tasks (500, 500,
+# 9500, 9500), not 6 (4 x 4750 after the probes at 0.5 s and two a worker): this process's CPU 0.098-0.134 s against
+# 0.127-0.175 (lower in each of 6 interleaved pairs, medians 0.121 and 0.147; load 2.7-2.9), the workers' the same
+# (the batch evaluates 5000 samples at a time: as many evaluations), and no wait between two chunks on a worker
+CHUNK_SECONDS = 1.0  # s of work a chunk is sized to
+CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal) on a cluster that may grow
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
 
 
@@ -67,12 +71,14 @@ class _Sizes:
     part timed) from the first probe back, and each later chunk is sized to
     about `CHUNK_SECONDS` of work with it, never smaller than one sized before (a small chunk's samples look slow: sized
     down from them, the chunks would shrink to nothing on a loaded machine), in at least
-    `CHUNKS_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
+    ``per_worker`` chunks per worker (`CHUNKS_PER_WORKER`, so that a worker joining later finds
+    one; 1 when every worker is there from the start); the samples left are split in equal chunks, as
     many for each worker, so that the workers finish together and no chunk at the end is
     small."""
 
     count: int
     workers: int
+    per_worker: int = CHUNKS_PER_WORKER  # chunks a worker is sent at least (1: a cluster whose workers are all there)
     sent: int = 0
     used: list[int] = field(default_factory=list)
     timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each part timed
@@ -105,7 +111,7 @@ class _Sizes:
         return self._take(self.split[1])
 
     def _target(self) -> int:
-        most = max(self.first, self.count // (CHUNKS_PER_WORKER * self.workers))
+        most = max(self.first, self.count // (self.per_worker * self.workers))
         per_sample, fixed = np.polyfit(*zip(*self.timed), 1)
         wanted = (CHUNK_SECONDS - max(fixed, 0.0)) / per_sample if per_sample > 0 and fixed < CHUNK_SECONDS else most
         self.sized = max(self.sized, min(int(wanted), most))
@@ -230,7 +236,7 @@ def run_chunked(
         tally.add(run)
     gathered = _InOrder(samples, tally)
     tasks = _Tasks(client, samples, study_key(samples), task)
-    sizes = _Sizes(len(samples), workers)
+    sizes = _Sizes(len(samples), workers, 1 if connection.fixed else CHUNKS_PER_WORKER)
     waiting = InTurn(client, tasks.send(sizes.first_round(), split=sizes.first))
     timed: list[tuple[int, float]] = []  # each chunk's samples and CPU seconds
     stopped = interrupted = False

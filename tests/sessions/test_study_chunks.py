@@ -87,9 +87,9 @@ def _sized(sizes: _Sizes, cost) -> list[tuple[int, int]]:
 
 
 @pytest.mark.parametrize(("count", "workers"), [(20_000, 2), (1_000, 2), (10, 2), (1, 1), (5_001, 3)])
-def test_chunks_cover_the_study_once_sized_to_half_a_second(count, workers):
-    """Chunks of 25 ms plus 0.1 ms a sample: 4750 samples are half a second; a chunk sized later
-    that looked slower (0.5 s whatever its size) sizes none down."""
+def test_chunks_cover_the_study_once_sized_to_a_second(count, workers):
+    """Chunks of 25 ms plus 0.1 ms a sample: 9750 samples are a second, more than a worker's
+    two chunks hold; a chunk sized later that looked slower (0.5 s whatever its size) sizes none down."""
     sizes = _Sizes(count, workers)
     first = max(1, min(FIRST_CHUNK, count // (4 * (1 + PROBE_RATIO) * workers)))
     probes = max(2, workers)
@@ -104,9 +104,9 @@ def test_chunks_cover_the_study_once_sized_to_half_a_second(count, workers):
     assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == count
     later = [b - a for a, b in ranges[probes:]]
     most = max(first, count // (2 * workers))
-    assert all(size <= min(4750, most) for size in later)  # at least two chunks per worker
-    if count == 20_000:  # 19 000 samples left after a probe per worker, at 4749 (4750 rounded down): 6 equal chunks
-        assert later == [3167] * 5 + [3165]
+    assert all(size <= min(9750, most) for size in later)  # at least two chunks per worker
+    if count == 20_000:  # 19 000 samples left after a probe per worker, at most 5000 a chunk: 4 equal chunks
+        assert later == [4750] * 4
 
 
 def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
@@ -129,6 +129,21 @@ def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
         ranges.append(sizes.next(1) or (0, 0))
         sizes.timed.append((ranges[-1][1] - ranges[-1][0], cost(ranges[-1][1] - ranges[-1][0])))
     assert len(ranges) == 6 and [b - a for a, b in ranges[2:]] == [4750] * 4
+
+
+def test_a_cluster_whose_workers_are_all_there_takes_a_chunk_per_worker_after_the_probes():
+    """A local cluster started here has every worker from the start: no chunk is left over for a
+    worker joining later, so 20 000 lag-lead samples (12 ms plus 60 us a sample: 9500 samples are
+    0.58 s) take 4 tasks on 2 workers, not 6, and so do slower samples (0.1 ms: 9880 fit in a
+    second); a cluster that may grow keeps two a worker (the test above)."""
+    for each, expected in ((6e-5, [9500, 9500]), (1e-4, [9500, 9500])):
+        sizes = _Sizes(20_000, 2, per_worker=1)
+        ranges = sizes.first_round()
+        sizes.timed += [(100, 0.012 + each * 100), (400, 0.012 + each * 400)]  # the first probe back
+        while sizes.sent < 20_000:
+            ranges.append(sizes.next(1) or (0, 0))
+            sizes.timed.append((ranges[-1][1] - ranges[-1][0], 0.012 + each * (ranges[-1][1] - ranges[-1][0])))
+        assert [b - a for a, b in ranges] == [500, 500, *expected], each
 
 
 def test_untimed_probes_size_nothing_while_a_chunk_is_in_flight_and_never_stall_the_study():
