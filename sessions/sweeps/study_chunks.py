@@ -196,24 +196,52 @@ class _Tasks:
     ranges: dict[str, tuple[int, int]] = field(default_factory=dict)
     finished_on: set[str] = field(default_factory=set)
 
-    def send(self, ranges: list[tuple[int, int]], split: int = 0) -> list:
-        """The chunks of these ranges sent, each one's first ``split`` samples timed apart (`chunk_runs`)."""
-        if not ranges:
-            return []
-        keys = [f"loopcraft-{self.tag}-{self.samples.indices[a]}-{self.samples.indices[b - 1] + 1}" for a, b in ranges]
-        futures = self.client.map(  # type: ignore[attr-defined]
-            self.task,
-            [self.study] * len(ranges),
-            [self.samples[a:b].shipped() for a, b in ranges],
-            keys,
-            [split] * len(ranges),
-            key=keys,
-            pure=False,
-            retries=1,
-        )
-        self.running.update(zip(futures, ranges))
-        self.ranges.update(zip(keys, ranges))
+    def send(self, ranges: list[tuple[int, int]], split: int = 0, on: Sequence[str | None] = ()) -> list:
+        """The chunks of these ranges sent, each one's first ``split`` samples timed apart
+        (`chunk_runs`); ``on``: the worker each is sent to (None: where the scheduler puts it),
+        loosely (elsewhere when that worker is gone)."""
+        targets = list(on) or [None] * len(ranges)
+        futures = []
+        for worker in dict.fromkeys(targets):  # one call per worker named, in order
+            mine = [r for r, target in zip(ranges, targets) if target == worker]
+            keys = [
+                f"loopcraft-{self.tag}-{self.samples.indices[a]}-{self.samples.indices[b - 1] + 1}" for a, b in mine
+            ]
+            sent = self.client.map(  # type: ignore[attr-defined]
+                self.task,
+                [self.study] * len(mine),
+                [self.samples[a:b].shipped() for a, b in mine],
+                keys,
+                [split] * len(mine),
+                key=keys,
+                pure=False,
+                retries=1,
+                **({"workers": [worker], "allow_other_workers": True} if worker else {}),
+            )
+            self.running.update(zip(sent, mine))
+            self.ranges.update(zip(keys, mine))
+            futures += sent
         return futures
+
+
+def _one_each(ranges: list[tuple[int, int]], sizes: _Sizes, back: str | None, workers: list[str]) -> list[str | None]:
+    """The workers a round of one chunk per worker goes to (``sizes.per_worker`` 1: the first
+    round sized, sent as the first probe comes ``back``): the first chunk to that probe's worker
+    (idle now), the others to the workers still on their probes.  Left to the scheduler, both
+    chunks of 20 000 lag-lead samples on 2 workers were once put on one worker: the other sat idle
+    0.76 s after its probe until Dask's work stealing moved the chunk (seen at load 3.1).  None
+    (the scheduler's choice) for any other round."""
+    if sizes.per_worker != 1 or back not in workers or len(ranges) != len(workers):
+        return [None] * len(ranges)
+    return [back] + [worker for worker in workers if worker != back]
+
+
+def _addresses(client) -> list[str]:
+    """The scheduler's workers' addresses ([] when it does not answer)."""
+    try:
+        return list(client.scheduler_info().get("workers", {}))
+    except Exception:  # noqa: BLE001 - no chunk is sent to a named worker then
+        return []
 
 
 def run_chunked(
@@ -238,6 +266,7 @@ def run_chunked(
     tasks = _Tasks(client, samples, study_key(samples), task)
     sizes = _Sizes(len(samples), workers, 1 if connection.fixed else CHUNKS_PER_WORKER)
     waiting = InTurn(client, tasks.send(sizes.first_round(), split=sizes.first))
+    every = _addresses(client) if sizes.per_worker == 1 else []  # asked while the probes run
     timed: list[tuple[int, float]] = []  # each chunk's samples and CPU seconds
     stopped = interrupted = False
     try:
@@ -252,7 +281,9 @@ def run_chunked(
                 sizes.timed += runs.timed
                 timed.append((stop - start, runs.cpu_seconds))
             if not stopped:  # the next chunks, sized from those timed
-                waiting.update(tasks.send(_refill(sizes, len(tasks.running), IN_FLIGHT * workers)))
+                ranges = _refill(sizes, len(tasks.running), IN_FLIGHT * workers)
+                back = result[0] if isinstance(runs, ChunkRuns) else None
+                waiting.update(tasks.send(ranges, on=_one_each(ranges, sizes, back, every)))
             gathered.add(
                 start, stop, runs if runs is not None else [lost_run(job, None) for job in samples[start:stop]]
             )

@@ -6,6 +6,7 @@ chunks sized to about half a second of work, and a sample that kills its worker 
 from __future__ import annotations
 
 import shutil
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from sessions.sweeps.cluster import Connection
 from sessions.sweeps.dispersion import CANCELLED, Tally
 from sessions.sweeps.jobs import execute_serial
 from sessions.sweeps.plan import tolerance_jobs
-from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _Sizes, run_chunked
+from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _one_each, _Sizes, run_chunked
 from tests.sessions.study_agreement import assert_measures_agree
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -146,6 +147,24 @@ def test_a_cluster_whose_workers_are_all_there_takes_a_chunk_per_worker_after_th
         assert [b - a for a, b in ranges] == [500, 500, *expected], each
 
 
+def test_a_chunk_per_worker_goes_to_each_worker_the_first_to_the_probe_back():
+    """The round of one chunk per worker is not left to the scheduler (it once queued both on one
+    worker): the first to the worker whose probe came back, the others to the workers still on
+    theirs; any other round (two a worker, halves sent again, a worker not known) goes where the
+    scheduler puts it."""
+    workers = ["tcp://a:1", "tcp://b:2", "tcp://c:3"]
+    ranges = [(1500, 7667), (7667, 13834), (13834, 20000)]
+    assert _one_each(ranges, _Sizes(20_000, 3, per_worker=1), "tcp://b:2", workers) == [
+        "tcp://b:2",
+        "tcp://a:1",
+        "tcp://c:3",
+    ]
+    assert _one_each(ranges, _Sizes(20_000, 3), "tcp://b:2", workers) == [None] * 3
+    assert _one_each(ranges[:2], _Sizes(20_000, 3, per_worker=1), "tcp://b:2", workers) == [None] * 2
+    assert _one_each(ranges, _Sizes(20_000, 3, per_worker=1), None, workers) == [None] * 3
+    assert _one_each(ranges, _Sizes(20_000, 3, per_worker=1), "tcp://b:2", []) == [None] * 3
+
+
 def test_untimed_probes_size_nothing_while_a_chunk_is_in_flight_and_never_stall_the_study():
     """Probes back untimed (failed, or sent again as halves) of one size: no chunk is sized from
     one size while another chunk may time a second; with nothing in flight, the next chunk is
@@ -181,6 +200,23 @@ def connection():
     yield Connection(client, cluster, 2)
     close(client, None)  # the cluster: by its own fixture's end
     cluster.close()
+
+
+@pytest.mark.long
+@pytest.mark.slow
+def test_on_a_local_cluster_each_worker_takes_its_probe_and_one_chunk(tmp_path, connection):
+    """Its workers all there from the start (`Connection.fixed`): 4000 samples in 4 tasks, a
+    probe and a chunk on each worker (their starts, as the scheduler logged them), equal to serial."""
+    from sessions.sweeps.jobs import EVENT_TOPIC
+
+    samples = _samples(tmp_path, 4000)
+    earlier = {e["chunk"] for _, e in connection.client.get_events(EVENT_TOPIC) if isinstance(e, dict)}
+    outcome = run_chunked(connection._replace(fixed=True), samples)
+    starts = [e for _, e in connection.client.get_events(EVENT_TOPIC) if e.get("chunk") not in earlier]
+    assert len(starts) == 4 and sorted(Counter(e["worker"] for e in starts).values()) == [2, 2], starts
+    assert outcome.workers == 2 and "4 chunks of 500-1500" in outcome.note
+    serial = execute_serial(samples).runs
+    assert_measures_agree([r["measures"] for r in outcome.runs], [r["measures"] for r in serial])
 
 
 @pytest.mark.long
