@@ -28,8 +28,8 @@ from tests.sessions.study_agreement import assert_measures_agree
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "sessions" / "examples"
-# lag-lead samples of 0.1-0.5 ms batched: the study's chunks grow from 100 samples towards about 0.25 s
-# of work each (at most 1250: at least four per worker), every run kept (a study of at most 10 000)
+# lag-lead samples batched: a probe of 500 per worker, then 4 chunks of 2250 (at least two per worker on a
+# running scheduler), every run kept (a study of at most 10 000)
 SAMPLES = 10_000
 VICTIM = "victim"  # the worker killed midway
 
