@@ -210,7 +210,7 @@ def test_on_a_local_cluster_each_worker_takes_its_probe_and_one_chunk(tmp_path, 
     from sessions.sweeps.jobs import EVENT_TOPIC
 
     samples = _samples(tmp_path, 4000)
-    earlier = {e["chunk"] for _, e in connection.client.get_events(EVENT_TOPIC) if isinstance(e, dict)}
+    earlier = {e.get("chunk") for _, e in connection.client.get_events(EVENT_TOPIC) if isinstance(e, dict)}
     outcome = run_chunked(connection._replace(fixed=True), samples)
     starts = [e for _, e in connection.client.get_events(EVENT_TOPIC) if e.get("chunk") not in earlier]
     assert len(starts) == 4 and sorted(Counter(e["worker"] for e in starts).values()) == [2, 2], starts
