@@ -80,12 +80,15 @@ def sigint_ignored() -> Iterator[None]:
 
 
 class Connection(NamedTuple):
-    """A client, the cluster started for it (None: a running scheduler's), and how many
-    workers the cluster is planned to have (0: as many as the scheduler has)."""
+    """A client, the cluster started for it (None: a running scheduler's), how many workers
+    the cluster is planned to have (0: as many as the scheduler has), and whether those are
+    all it will have, there from the start (a local cluster started here: no worker joins
+    later to take a chunk left over for it)."""
 
     client: Client
     cluster: Cluster | None
     workers: int
+    fixed: bool = False
 
 
 def connect(address: str | None, workers: int | None, timeout: float) -> Connection:
@@ -105,7 +108,7 @@ def connect(address: str | None, workers: int | None, timeout: float) -> Connect
             cluster = local_cluster(n)
     except Exception as exc:  # noqa: BLE001 - e.g. "Nanny failed to start": one clean error
         raise SessionError(f"cannot start a local Dask cluster of {n} worker(s): {reason(exc)}") from None
-    return Connection(cluster_client(cluster, timeout, "the local Dask cluster"), cluster, n)
+    return Connection(cluster_client(cluster, timeout, "the local Dask cluster"), cluster, n, fixed=True)
 
 
 def cluster_client(cluster: Cluster, timeout: float, label: str) -> Client:

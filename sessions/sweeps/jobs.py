@@ -443,8 +443,7 @@ def _workers_and_attempts(
     workers those its starts' events name (a worker killed before its events reached the
     scheduler is named "a lost worker")."""
     try:
-        events = client.get_events(EVENT_TOPIC)
-        sent = times_sent(client, sorted({key for k in runs for key in keys.get(k, [])}))
+        events, sent = starts_and_sends(client, sorted({key for k in runs for key in keys.get(k, [])}))
     except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
         events, sent = (), {}
     started: dict[int, list[str]] = {}
@@ -472,18 +471,21 @@ def computed_by(runs: Iterable[dict], attempts: dict[int, list[str]]) -> int:
     return len((finished | started) - {LOST_WORKER})
 
 
-def times_sent(client, keys: list[str]) -> dict[str, int]:
-    """How many times the scheduler sent each task to a worker: its transitions to
-    'processing' in the scheduler's own log (run there: the scheduler needs no loopcraft)."""
+def starts_and_sends(client, keys: list[str]) -> tuple[tuple, dict[str, int]]:
+    """The starts logged on the scheduler (`announce`: its events of `EVENT_TOPIC`) and how many
+    times it sent each task to a worker (its transitions to 'processing' in its own log), read
+    there in one call at the study's end (two were two waits on the scheduler after the last
+    result; run there: the scheduler needs no loopcraft)."""
 
-    def counted(dask_scheduler, keys: list[str]) -> dict[str, int]:
+    def read(dask_scheduler, topic: str, keys: list[str]) -> tuple[tuple, dict[str, int]]:
         wanted, counts = set(keys), dict.fromkeys(keys, 0)
-        for transition in dask_scheduler.transition_log:
-            if transition[0] in wanted and transition[2] == "processing":
-                counts[transition[0]] += 1
-        return counts
+        if wanted:
+            for transition in dask_scheduler.transition_log:
+                if transition[0] in wanted and transition[2] == "processing":
+                    counts[transition[0]] += 1
+        return tuple(dask_scheduler.get_events(topic)), counts
 
-    return client.run_on_scheduler(counted, keys=keys) if keys else {}
+    return client.run_on_scheduler(read, topic=EVENT_TOPIC, keys=keys)
 
 
 def lost_run(job, exc: BaseException | None) -> dict:

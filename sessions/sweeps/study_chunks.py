@@ -1,24 +1,23 @@
-"""A tolerance study on a Dask cluster in chunks of samples: what a task is sent is a
-consecutive range of the study's planned samples (`ToleranceSamples.shipped`: the study's
-document and the range's drawn deviations, never a document per sample); the worker
-builds the study's problem once (`sessions.sweeps.batch_study.chunk_runs` keeps it under
-the study's key for its next chunks) and evaluates the chunk as the serial study does
-(batched, or per loop on the problem built once); the chunk's runs come back as arrays
-(`Records`), a run made only for a sample the study keeps, and go to the study's `Tally`
-in sample order.
+"""A tolerance study on a Dask cluster in chunks of samples: what a task is sent is a consecutive
+range of the study's planned samples (`ToleranceSamples.shipped`: the study's document and the
+range's drawn deviations, never a document per sample); the worker builds the study's problem
+once (`sessions.sweeps.batch_study.chunk_runs` keeps it under the study's key for its next
+chunks) and evaluates the chunk as the serial study does (batched, or per loop on the problem
+built once); the chunk's runs come back as arrays (`Records`), a run made only for a sample the
+study keeps, and go to the study's `Tally` in sample order.
 
-The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHUNK` samples
-and `PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed in CPU
-seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits are
-not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
-fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker, the last ones
-equal (`_Sizes`): few tasks, since each costs tens of ms of CPU besides its samples.  A
-chunk whose task fails (its worker died more often than Dask allows) is sent again as two
-halves, down to single samples: a sample that kills its worker does not take the others
-with it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its
-start (`announce`), the times each task was sent to a worker are read from the scheduler's
-transition log (`times_sent`), and ``workers`` counts the workers that finished a chunk or
-started one."""
+The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHUNK` samples and
+`PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed
+in CPU seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits
+are not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
+fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker (one on a cluster
+started here, all its workers there from the start), the last ones equal (`_Sizes`): few tasks,
+since each costs tens of ms of CPU besides its samples.  A chunk whose task fails (its worker
+died more often than Dask allows) is sent again as two halves, down to single samples: a sample
+that kills its worker does not take the others with it, and the splitting ends.  The bookkeeping
+is the scheduler's: each chunk logs its start (`announce`), the times each task was sent to a
+worker are read from the scheduler's transition log (`starts_and_sends`, with the starts: one
+call at the end), and ``workers`` counts the workers that finished a chunk or started one."""
 
 from __future__ import annotations
 
@@ -34,13 +33,12 @@ from sessions.sweeps.batch_study import BatchOutcome, ChunkRuns, chunk_runs, stu
 from sessions.sweeps.cluster import Connection, InTurn, sigint_ignored
 from sessions.sweeps.dispersion import Tally
 from sessions.sweeps.jobs import (
-    EVENT_TOPIC,
     LOST_WORKER,
     RESULT_WAIT,
     Outcome,
     announce,
     lost_run,
-    times_sent,
+    starts_and_sends,
     worker_count,
 )
 from sessions.sweeps.plan import ToleranceSamples
@@ -55,8 +53,13 @@ PROBE_RATIO = 4
 # samples on 2 workers took 13 chunks at 0.25 s and 4 a worker: 1.46-1.64 s of the workers' CPU, 0.16-0.18 s
 # of the main process's; 9 chunks at these: 1.39-1.42 s and 0.12-0.13 s (interleaved, load 3.4-3.7); 6 with a
 # probe per worker timing two sizes: 1.28-1.34 s and 0.07-0.08 s (c0189aa's 9-10: 1.35-1.41, 0.11-0.12; load 1.6-3.5)
-CHUNK_SECONDS = 0.5  # s of work a chunk is sized to
-CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal)
+# With the probes, a cluster started here (all its workers there from the start) takes its study in one chunk per
+# worker when a chunk of CHUNK_SECONDS holds it: 20 000 lag-lead samples on 2 local workers in 4 tasks (500, 500,
+# 9500, 9500), not 6 (4 x 4750 after the probes at 0.5 s and two a worker): this process's CPU 0.098-0.134 s against
+# 0.127-0.175 (lower in each of 6 interleaved pairs, medians 0.121 and 0.147; load 2.7-2.9), the workers' the same
+# (the batch evaluates 5000 samples at a time: as many evaluations), and no wait between two chunks on a worker
+CHUNK_SECONDS = 1.0  # s of work a chunk is sized to
+CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal) on a cluster that may grow
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
 
 
@@ -68,12 +71,14 @@ class _Sizes:
     part timed) from the first probe back, and each later chunk is sized to
     about `CHUNK_SECONDS` of work with it, never smaller than one sized before (a small chunk's samples look slow: sized
     down from them, the chunks would shrink to nothing on a loaded machine), in at least
-    `CHUNKS_PER_WORKER` chunks per worker; the samples left are split in equal chunks, as
+    ``per_worker`` chunks per worker (`CHUNKS_PER_WORKER`, so that a worker joining later finds
+    one; 1 when every worker is there from the start); the samples left are split in equal chunks, as
     many for each worker, so that the workers finish together and no chunk at the end is
     small."""
 
     count: int
     workers: int
+    per_worker: int = CHUNKS_PER_WORKER  # chunks a worker is sent at least (1: a cluster whose workers are all there)
     sent: int = 0
     used: list[int] = field(default_factory=list)
     timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each part timed
@@ -106,7 +111,7 @@ class _Sizes:
         return self._take(self.split[1])
 
     def _target(self) -> int:
-        most = max(self.first, self.count // (CHUNKS_PER_WORKER * self.workers))
+        most = max(self.first, self.count // (self.per_worker * self.workers))
         per_sample, fixed = np.polyfit(*zip(*self.timed), 1)
         wanted = (CHUNK_SECONDS - max(fixed, 0.0)) / per_sample if per_sample > 0 and fixed < CHUNK_SECONDS else most
         self.sized = max(self.sized, min(int(wanted), most))
@@ -191,24 +196,52 @@ class _Tasks:
     ranges: dict[str, tuple[int, int]] = field(default_factory=dict)
     finished_on: set[str] = field(default_factory=set)
 
-    def send(self, ranges: list[tuple[int, int]], split: int = 0) -> list:
-        """The chunks of these ranges sent, each one's first ``split`` samples timed apart (`chunk_runs`)."""
-        if not ranges:
-            return []
-        keys = [f"loopcraft-{self.tag}-{self.samples.indices[a]}-{self.samples.indices[b - 1] + 1}" for a, b in ranges]
-        futures = self.client.map(  # type: ignore[attr-defined]
-            self.task,
-            [self.study] * len(ranges),
-            [self.samples[a:b].shipped() for a, b in ranges],
-            keys,
-            [split] * len(ranges),
-            key=keys,
-            pure=False,
-            retries=1,
-        )
-        self.running.update(zip(futures, ranges))
-        self.ranges.update(zip(keys, ranges))
+    def send(self, ranges: list[tuple[int, int]], split: int = 0, on: Sequence[str | None] = ()) -> list:
+        """The chunks of these ranges sent, each one's first ``split`` samples timed apart
+        (`chunk_runs`); ``on``: the worker each is sent to (None: where the scheduler puts it),
+        loosely (elsewhere when that worker is gone)."""
+        targets = list(on) or [None] * len(ranges)
+        futures = []
+        for worker in dict.fromkeys(targets):  # one call per worker named, in order
+            mine = [r for r, target in zip(ranges, targets) if target == worker]
+            keys = [
+                f"loopcraft-{self.tag}-{self.samples.indices[a]}-{self.samples.indices[b - 1] + 1}" for a, b in mine
+            ]
+            sent = self.client.map(  # type: ignore[attr-defined]
+                self.task,
+                [self.study] * len(mine),
+                [self.samples[a:b].shipped() for a, b in mine],
+                keys,
+                [split] * len(mine),
+                key=keys,
+                pure=False,
+                retries=1,
+                **({"workers": [worker], "allow_other_workers": True} if worker else {}),
+            )
+            self.running.update(zip(sent, mine))
+            self.ranges.update(zip(keys, mine))
+            futures += sent
         return futures
+
+
+def _one_each(ranges: list[tuple[int, int]], sizes: _Sizes, back: str | None, workers: list[str]) -> list[str | None]:
+    """The workers a round of one chunk per worker goes to (``sizes.per_worker`` 1: the first
+    round sized, sent as the first probe comes ``back``): the first chunk to that probe's worker
+    (idle now), the others to the workers still on their probes.  Left to the scheduler, both
+    chunks of 20 000 lag-lead samples on 2 workers were once put on one worker: the other sat idle
+    0.76 s after its probe until Dask's work stealing moved the chunk (seen at load 3.1).  None
+    (the scheduler's choice) for any other round."""
+    if sizes.per_worker != 1 or back not in workers or len(ranges) != len(workers):
+        return [None] * len(ranges)
+    return [back] + [worker for worker in workers if worker != back]
+
+
+def _addresses(client) -> list[str]:
+    """The scheduler's workers' addresses ([] when it does not answer)."""
+    try:
+        return list(client.scheduler_info().get("workers", {}))
+    except Exception:  # noqa: BLE001 - no chunk is sent to a named worker then
+        return []
 
 
 def run_chunked(
@@ -224,14 +257,16 @@ def run_chunked(
     `evaluate_chunk` or a stand-in.  Ctrl-C or ``cancelled`` stops it: the finished chunks are
     kept, the rest cancelled."""
     client = connection.client
-    workers = max(connection.workers, worker_count(client))
+    # a cluster started here has the workers planned (never more): the scheduler is asked only of its own
+    workers = connection.workers or worker_count(client)
     tally = Tally.of_study(len(made) + len(samples))
     for run in made:
         tally.add(run)
     gathered = _InOrder(samples, tally)
     tasks = _Tasks(client, samples, study_key(samples), task)
-    sizes = _Sizes(len(samples), workers)
+    sizes = _Sizes(len(samples), workers, 1 if connection.fixed else CHUNKS_PER_WORKER)
     waiting = InTurn(client, tasks.send(sizes.first_round(), split=sizes.first))
+    every = _addresses(client) if sizes.per_worker == 1 else []  # asked while the probes run
     timed: list[tuple[int, float]] = []  # each chunk's samples and CPU seconds
     stopped = interrupted = False
     try:
@@ -246,7 +281,9 @@ def run_chunked(
                 sizes.timed += runs.timed
                 timed.append((stop - start, runs.cpu_seconds))
             if not stopped:  # the next chunks, sized from those timed
-                waiting.update(tasks.send(_refill(sizes, len(tasks.running), IN_FLIGHT * workers)))
+                ranges = _refill(sizes, len(tasks.running), IN_FLIGHT * workers)
+                back = result[0] if isinstance(runs, ChunkRuns) else None
+                waiting.update(tasks.send(ranges, on=_one_each(ranges, sizes, back, every)))
             gathered.add(
                 start, stop, runs if runs is not None else [lost_run(job, None) for job in samples[start:stop]]
             )
@@ -366,8 +403,7 @@ def _attempts(client, tasks: _Tasks) -> tuple[dict[int, list[str]], set[str]]:
     is `LOST_WORKER`'s), and every worker a chunk's start names.  A chunk's starts are the
     times the scheduler sent its task to a worker (its transition log)."""
     try:
-        events = client.get_events(EVENT_TOPIC)
-        sent = times_sent(client, list(tasks.ranges))
+        events, sent = starts_and_sends(client, list(tasks.ranges))
     except Exception:  # noqa: BLE001 - a scheduler gone by now: the runs are kept without
         events, sent = (), {}
     named: dict[str, list[str]] = {}

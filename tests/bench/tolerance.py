@@ -523,7 +523,9 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
         summarize(session, "tolerance", settings, outcome)
         done = time.perf_counter()
         cpu["this_process"].append(time.process_time() - cpu_began)  # the tally, the summary, the scheduler
-        cpu["workers"].append(sum(connection.client.run(time.process_time).values()) - sum(before.values()))
+        after = connection.client.run(time.process_time)
+        cpu["workers"].append(sum(after.values()) - sum(before.values()))
+        each = sorted(after[w] - before.get(w, 0.0) for w in after)  # the balance: each worker's share
         cpu["in_chunks"].append(sum(seconds for _, seconds in outcome.chunks))  # the batch's own, on the workers
         close(connection.client, connection.cluster)
         start_s.append(started - began)
@@ -556,6 +558,7 @@ def on_a_local_cluster(repeat: int, count: int = 20_000, workers: int = 2) -> di
         # caps the wall ratio
         "cpu_median_s": {side: statistics.median(values) for side, values in cpu.items()},
         "chunks": [samples for samples, _ in outcomes[-1].chunks],  # the last study's chunks timed, as they finished
+        "workers_cpu_each_s": each,  # the last study's, each worker's CPU seconds (sorted)
         "note": outcomes[-1].note,
         "speedup": {"ratio": ratio, **judged(ratio, 1.6, "min_ratio")},
         "speedup_with_startup": {"ratio": with_start},  # reported: a local cluster's start-up is seconds

@@ -6,6 +6,7 @@ chunks sized to about half a second of work, and a sample that kills its worker 
 from __future__ import annotations
 
 import shutil
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from sessions.sweeps.cluster import Connection
 from sessions.sweeps.dispersion import CANCELLED, Tally
 from sessions.sweeps.jobs import execute_serial
 from sessions.sweeps.plan import tolerance_jobs
-from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _Sizes, run_chunked
+from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _one_each, _Sizes, run_chunked
 from tests.sessions.study_agreement import assert_measures_agree
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -87,9 +88,9 @@ def _sized(sizes: _Sizes, cost) -> list[tuple[int, int]]:
 
 
 @pytest.mark.parametrize(("count", "workers"), [(20_000, 2), (1_000, 2), (10, 2), (1, 1), (5_001, 3)])
-def test_chunks_cover_the_study_once_sized_to_half_a_second(count, workers):
-    """Chunks of 25 ms plus 0.1 ms a sample: 4750 samples are half a second; a chunk sized later
-    that looked slower (0.5 s whatever its size) sizes none down."""
+def test_chunks_cover_the_study_once_sized_to_a_second(count, workers):
+    """Chunks of 25 ms plus 0.1 ms a sample: 9750 samples are a second, more than a worker's
+    two chunks hold; a chunk sized later that looked slower (0.5 s whatever its size) sizes none down."""
     sizes = _Sizes(count, workers)
     first = max(1, min(FIRST_CHUNK, count // (4 * (1 + PROBE_RATIO) * workers)))
     probes = max(2, workers)
@@ -104,9 +105,9 @@ def test_chunks_cover_the_study_once_sized_to_half_a_second(count, workers):
     assert [a for a, _ in ranges] == [0] + [b for _, b in ranges[:-1]] and ranges[-1][1] == count
     later = [b - a for a, b in ranges[probes:]]
     most = max(first, count // (2 * workers))
-    assert all(size <= min(4750, most) for size in later)  # at least two chunks per worker
-    if count == 20_000:  # 19 000 samples left after a probe per worker, at 4749 (4750 rounded down): 6 equal chunks
-        assert later == [3167] * 5 + [3165]
+    assert all(size <= min(9750, most) for size in later)  # at least two chunks per worker
+    if count == 20_000:  # 19 000 samples left after a probe per worker, at most 5000 a chunk: 4 equal chunks
+        assert later == [4750] * 4
 
 
 def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
@@ -129,6 +130,39 @@ def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
         ranges.append(sizes.next(1) or (0, 0))
         sizes.timed.append((ranges[-1][1] - ranges[-1][0], cost(ranges[-1][1] - ranges[-1][0])))
     assert len(ranges) == 6 and [b - a for a, b in ranges[2:]] == [4750] * 4
+
+
+def test_a_cluster_whose_workers_are_all_there_takes_a_chunk_per_worker_after_the_probes():
+    """A local cluster started here has every worker from the start: no chunk is left over for a
+    worker joining later, so 20 000 lag-lead samples (12 ms plus 60 us a sample: 9500 samples are
+    0.58 s) take 4 tasks on 2 workers, not 6, and so do slower samples (0.1 ms: 9880 fit in a
+    second); a cluster that may grow keeps two a worker (the test above)."""
+    for each, expected in ((6e-5, [9500, 9500]), (1e-4, [9500, 9500])):
+        sizes = _Sizes(20_000, 2, per_worker=1)
+        ranges = sizes.first_round()
+        sizes.timed += [(100, 0.012 + each * 100), (400, 0.012 + each * 400)]  # the first probe back
+        while sizes.sent < 20_000:
+            ranges.append(sizes.next(1) or (0, 0))
+            sizes.timed.append((ranges[-1][1] - ranges[-1][0], 0.012 + each * (ranges[-1][1] - ranges[-1][0])))
+        assert [b - a for a, b in ranges] == [500, 500, *expected], each
+
+
+def test_a_chunk_per_worker_goes_to_each_worker_the_first_to_the_probe_back():
+    """The round of one chunk per worker is not left to the scheduler (it once queued both on one
+    worker): the first to the worker whose probe came back, the others to the workers still on
+    theirs; any other round (two a worker, halves sent again, a worker not known) goes where the
+    scheduler puts it."""
+    workers = ["tcp://a:1", "tcp://b:2", "tcp://c:3"]
+    ranges = [(1500, 7667), (7667, 13834), (13834, 20000)]
+    assert _one_each(ranges, _Sizes(20_000, 3, per_worker=1), "tcp://b:2", workers) == [
+        "tcp://b:2",
+        "tcp://a:1",
+        "tcp://c:3",
+    ]
+    assert _one_each(ranges, _Sizes(20_000, 3), "tcp://b:2", workers) == [None] * 3
+    assert _one_each(ranges[:2], _Sizes(20_000, 3, per_worker=1), "tcp://b:2", workers) == [None] * 2
+    assert _one_each(ranges, _Sizes(20_000, 3, per_worker=1), None, workers) == [None] * 3
+    assert _one_each(ranges, _Sizes(20_000, 3, per_worker=1), "tcp://b:2", []) == [None] * 3
 
 
 def test_untimed_probes_size_nothing_while_a_chunk_is_in_flight_and_never_stall_the_study():
@@ -166,6 +200,23 @@ def connection():
     yield Connection(client, cluster, 2)
     close(client, None)  # the cluster: by its own fixture's end
     cluster.close()
+
+
+@pytest.mark.long
+@pytest.mark.slow
+def test_on_a_local_cluster_each_worker_takes_its_probe_and_one_chunk(tmp_path, connection):
+    """Its workers all there from the start (`Connection.fixed`): 4000 samples in 4 tasks, a
+    probe and a chunk on each worker (their starts, as the scheduler logged them), equal to serial."""
+    from sessions.sweeps.jobs import EVENT_TOPIC
+
+    samples = _samples(tmp_path, 4000)
+    earlier = {e.get("chunk") for _, e in connection.client.get_events(EVENT_TOPIC) if isinstance(e, dict)}
+    outcome = run_chunked(connection._replace(fixed=True), samples)
+    starts = [e for _, e in connection.client.get_events(EVENT_TOPIC) if e.get("chunk") not in earlier]
+    assert len(starts) == 4 and sorted(Counter(e["worker"] for e in starts).values()) == [2, 2], starts
+    assert outcome.workers == 2 and "4 chunks of 500-1500" in outcome.note
+    serial = execute_serial(samples).runs
+    assert_measures_agree([r["measures"] for r in outcome.runs], [r["measures"] for r in serial])
 
 
 @pytest.mark.long

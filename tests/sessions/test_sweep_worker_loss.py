@@ -28,8 +28,8 @@ from tests.sessions.study_agreement import assert_measures_agree
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "sessions" / "examples"
-# lag-lead samples of 0.1-0.5 ms batched: the study's chunks grow from 100 samples towards about 0.25 s
-# of work each (at most 1250: at least four per worker), every run kept (a study of at most 10 000)
+# lag-lead samples batched: a probe of 500 per worker, then 4 chunks of 2250 (at least two per worker on a
+# running scheduler), every run kept (a study of at most 10 000)
 SAMPLES = 10_000
 VICTIM = "victim"  # the worker killed midway
 
@@ -94,16 +94,29 @@ def scheduler_and_two_workers(tmp_path):
         yield cluster
 
 
-def _kill_at_third_chunk(client, worker: subprocess.Popen, stop: threading.Event) -> None:
-    """Kill ``worker`` (the one named `VICTIM`) once it has started its third chunk (each chunk
-    logs its start on the scheduler): it has finished one at least, and the chunk it is on is
-    sized from a timed one (about 0.25 s of work, longer than this watch's look at the log)."""
+def _kill_on_a_chunk(client, worker: subprocess.Popen, stop: threading.Event) -> None:
+    """Kill ``worker`` (the one named `VICTIM`) while a chunk is on it, once it has started two
+    (each chunk logs its start on the scheduler): it has finished its probe at least.  Whether a
+    chunk is still on it is asked of the scheduler with the worker stopped (SIGSTOP), so it
+    cannot finish that chunk between the look and the kill; with none on it, it goes on
+    (SIGCONT) and is looked at again.  (Killed at its third start, as it was, the victim could
+    finish that chunk, its last, before the watch saw the start on a loaded machine, or start
+    only two when the survivor took the third: then nothing was retried, or nothing killed.)"""
     victim = next(a for a, w in client.scheduler_info()["workers"].items() if w["name"] == VICTIM)
+
+    def chunks_on(dask_scheduler, address: str) -> int:
+        state = dask_scheduler.workers.get(address)
+        return 0 if state is None else sum(str(task.key).startswith("loopcraft-") for task in state.processing)
+
     while not stop.wait(0.02):
         started = [e for _, e in client.get_events(EVENT_TOPIC) if e.get("chunk") and e["worker"] == victim]
-        if len(started) >= 3:
+        if len(started) < 2:
+            continue
+        worker.send_signal(signal.SIGSTOP)
+        if client.run_on_scheduler(chunks_on, address=victim):
             worker.send_signal(signal.SIGKILL)
             return
+        worker.send_signal(signal.SIGCONT)
 
 
 def _times_sent(client) -> dict[str, int]:
@@ -129,7 +142,7 @@ def test_a_worker_killed_midway_through_a_tolerance_study_loses_no_sample(schedu
     path = _copy(tmp_path)
     jobs = tolerance_jobs(load_session(path), ["T1=+-10%"], SAMPLES)  # as the sweep plans them
     stop = threading.Event()
-    killer = threading.Thread(target=_kill_at_third_chunk, args=(client, processes[2], stop))
+    killer = threading.Thread(target=_kill_on_a_chunk, args=(client, processes[2], stop))
     killer.start()
     try:
         argv = ["sweep", str(path), "--tolerance", "T1=+-10%", "--samples", str(SAMPLES), "--scheduler", address]
