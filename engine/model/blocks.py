@@ -8,7 +8,6 @@ with derivatives with respect to its parameters and, when it can, to ``x``.
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -17,6 +16,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from engine.derived import Derived, Form
 from engine.errors import BlockError, ExtrapolationError
 from engine.model.expressions import VARIABLES, Dual, Expression
 from engine.model.factored import PoleZero, pole_zero
@@ -461,6 +461,9 @@ def _columns(source: str, *columns: ArrayLike) -> list[NDArray[np.float64]]:
     return arrays
 
 
+_AT_GRID: Form[NDArray[np.complex128]] = Form("a table's response on a grid")
+
+
 class TabulatedTransfer:
     """A block known only from a `FrequencyTable` (grid rule for margins)."""
 
@@ -470,22 +473,12 @@ class TabulatedTransfer:
 
     def __init__(self, table: FrequencyTable):
         self.table = table
-        self._recent: dict[bytes, NDArray] = {}  # the same few grids are asked for again and again
-        self._recent_lock = threading.Lock()  # the workbench's workers share a network
+        self._recent = Derived(4)  # the same few grids are asked for again and again (any thread)
 
     def response(self, omega: NDArray) -> NDArray[np.complex128]:
         """The interpolated response, remembered for the last few grids asked for."""
-        key = np.asarray(omega, dtype=float).tobytes()
-        with self._recent_lock:
-            known = self._recent.get(key)
-        if known is not None:
-            return known
-        value = self.table.interpolate(omega)
-        with self._recent_lock:
-            if len(self._recent) >= 4:
-                del self._recent[next(iter(self._recent))]
-            self._recent[key] = value
-        return value
+        w = np.asarray(omega, dtype=float)
+        return self._recent.get(_AT_GRID, lambda: self.table.interpolate(omega), w.tobytes())
 
     @property
     def text(self) -> str:

@@ -90,3 +90,19 @@ def test_a_network_keeps_its_designs_and_a_copy_starts_its_own_store():
     realization = kept.loop("e").realization
     closed = closed_loop_realization(network, "e", params)  # from the one kept realization
     assert kept.loop("e").realization is realization and closed.A.shape == realization.A.shape
+
+
+def test_a_table_block_pickled_or_copied_remembers_nothing_and_answers_the_same():
+    """A table block's remembered grids are a store like the others: a copy (a session's
+    problem deep-copied, a network pickled) arrives empty and answers as the original (a bare
+    lock in the block made both raise 'cannot pickle _thread.lock')."""
+    import numpy as np
+
+    from engine.model.blocks import FrequencyTable, TabulatedTransfer
+
+    w = np.logspace(-1, 2, 30)
+    block = TabulatedTransfer(FrequencyTable(w, 1 / (1j * w + 1)))
+    grid = np.logspace(-1, 2, 7)
+    block.response(grid)
+    for copy in (pickle.loads(pickle.dumps(block)), copy_module.deepcopy(block)):
+        assert np.array_equal(copy.response(grid), block.response(grid))
