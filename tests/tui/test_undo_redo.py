@@ -97,3 +97,39 @@ def test_an_edit_is_described_without_a_python_repr():
     assert describe_change(two, one) == "targets: removed gain_margin_db"
     lines = describe_change({"problem": {"constraints": ["T1 >= 4*T2"]}}, {"problem": {"constraints": []}})
     assert lines == "constraints: T1 >= 4*T2 -> none" and "[" not in lines and "'" not in lines
+
+
+def test_a_burst_back_at_its_start_leaves_the_step_before_it_alone():
+    """A burst (a drag, nudges of one item) that comes back exactly where it began has no undo
+    step; its next edit starts a step of its own (before, it still continued the burst, popped
+    the earlier, unrelated edit's step and merged it into the drag's: one undo reverted both)."""
+    from types import SimpleNamespace
+
+    from tui.state.edit_history import EditHistory, Snapshot
+
+    class Model:  # the two methods `EditHistory` asks of a problem model and an algorithm
+        def __init__(self, value: float) -> None:
+            self.value = value
+
+        def model_dump(self) -> dict:
+            return {"K": self.value}
+
+    gain = {"K": 1.0}
+
+    def book():
+        return SimpleNamespace(
+            session=SimpleNamespace(model=SimpleNamespace(problem=Model(gain["K"]), algorithm=Model(0)))
+        )
+
+    def edit(value: float, burst: object) -> str | None:
+        before = None if history.continues(burst) else Snapshot(Model(gain["K"]), Model(0), [], 0, None, None, [], [])
+        gain["K"] = value
+        return history.push(before, book(), burst)
+
+    history = EditHistory()
+    assert edit(2.0, None) == "K: 1 -> 2"
+    history.end_burst()
+    assert edit(3.0, "drag") == "K: 2 -> 3"
+    assert edit(2.0, "drag") is None  # back at the drag's start
+    assert edit(4.0, "drag") == "K: 2 -> 4"
+    assert [text for text, _ in history.undo_stack] == ["K: 1 -> 2", "K: 2 -> 4"]

@@ -84,7 +84,8 @@ class EditHistory:
         assert before is not None, "an edit without its snapshot continues a burst"
         self._burst = burst
         text = describe_change(before.dumped, _dump(model.problem, model.algorithm))
-        if text is None:
+        if text is None:  # back where the step began: no step, and the burst's next edit starts one
+            self._burst = None
             return None
         self.undo_stack = (self.undo_stack + [(text, before)])[-MAX_EDITS:]
         self.redo_stack.clear()
