@@ -600,3 +600,33 @@ async def test_a_centred_text_repaints_its_whole_lines():
         status.set("PM 41.2 deg, GM 12.5 dB")
         status.set("PM 41.2 deg, GM 12.0 dB")  # from the left, no tab: from the changed cell on
         assert asked[-1] == (Region(19, 0, status.size.width - 19, 1),)
+
+
+@synchronous
+async def test_the_shaping_tables_header_is_repainted_where_it_stands_when_scrolled():
+    """The header stays at the top: a hover on it repaints the table's first line whatever
+    the scroll (before, its region was placed as a row's, above the table once scrolled)."""
+    from tui.widgets.shape_table import ShapeTable
+
+    app = TablesApp()
+    async with app.run_test(size=(80, 8)) as pilot:
+        ours, _ = _filled(app)
+        ours.fill([(f"item{k}", f"zero at {k} rad/s", None) for k in range(30)])
+        ours.styles.height = 5
+        await pilot.pause()
+        ours.scroll_to(y=5, animate=False, immediate=True)
+        await pilot.pause()
+        assert ours.scroll_offset.y == 5
+        regions: list[Region] = []
+        refresh = ShapeTable.refresh
+
+        def noted(self, *asked, **options):
+            regions.extend(asked)
+            return refresh(self, *asked, **options)
+
+        ShapeTable.refresh = noted
+        try:
+            ours.hover_row = -1  # the header under the mouse
+        finally:
+            ShapeTable.refresh = refresh
+        assert regions and all(region.y == 0 for region in regions)

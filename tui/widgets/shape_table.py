@@ -225,7 +225,9 @@ class ShapeTable(ScrollView, can_focus=True):
         self._strips.clear()
 
     def _refresh_row(self, row: int) -> None:
-        self.refresh(Region(0, row + 1 - self.scroll_offset.y, self.outer_size.width, 1))
+        """Repaint a row where it shows (row -1: the header, which stays at the top)."""
+        y = 0 if row < 0 else row + 1 - self.scroll_offset.y
+        self.refresh(Region(0, y, self.outer_size.width, 1))
 
     @property
     def row_count(self) -> int:
