@@ -452,3 +452,135 @@ async def test_a_drag_s_frames_draw_the_moving_curve_over_one_static_layer(tmp_p
         await settle(app, pilot)
     assert per_frame == [1, 0, 0, 0, 0], per_frame
     assert "bode-mag" not in by_rich
+
+
+async def _frames(app, pilot, monkeypatch, frames: int) -> tuple[list[bool], list[bool]]:
+    """The lead's zero dragged one column at a time along the Bode magnitude: per move,
+    whether its frame was asked of the figures' worker, and whether the dragged plot
+    already showed the move's design when the move had been handled (before any worker
+    ran or the screen painted again)."""
+    from tui.screens.shaping import Shaping
+
+    plot = await _shown(app, pilot, "p-bode", "bode-mag")
+    screen = app.screen
+    asked: list[object] = []
+    request = screen.figure_work.request
+    monkeypatch.setattr(screen.figure_work, "request", lambda *args: asked.append(1) or request(*args))
+    at_once: list[bool] = []
+    handled = Shaping.drag
+
+    def noted(self, message) -> None:
+        shown = plot.figure
+        handled(self, message)
+        at_once.append(plot.figure is not shown)
+
+    monkeypatch.setattr(Shaping, "drag", noted)
+    (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+    start = _cell(plot.drawing.frames[0], zero.x, zero.y)
+    _post(plot, events.MouseDown, start)
+    await settle(app, pilot)
+    by_worker = []
+    for k in range(frames):
+        asked.clear()
+        values = start_values(app)
+        _post(plot, events.MouseMove, (start[0] + 1 + k, start[1]))
+        await settle(app, pilot)
+        assert start_values(app) != values and "coarse" in plot.figure.title
+        by_worker.append(bool(asked))
+    _post(plot, events.MouseUp, (start[0] + frames, start[1]))
+    await settle(app, pilot)
+    _agrees(app)
+    return by_worker, at_once[:frames]
+
+
+@synchronous
+async def test_a_drag_s_quick_frames_are_drawn_at_once_with_the_tableau(tmp_path, monkeypatch):
+    """A plot's first drag frame is drawn by the figures' worker (its cost unknown); once a
+    frame took less than `INLINE_FRAME_S` to draw (a few ms on the lead), the next ones are
+    drawn while the move is handled, so that the tableau and the plot come in one paint
+    (a worker's frame waited for a second paint); with a bound that nothing meets, every
+    frame goes to the worker and the plot follows once it is done.  Before, every frame was
+    the worker's."""
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        by_worker, at_once = await _frames(app, pilot, monkeypatch, 4)
+    assert by_worker[0] and not any(by_worker[1:]), by_worker
+    assert at_once[1:] == [True, True, True], at_once
+    monkeypatch.setattr("tui.screens.main.INLINE_FRAME_S", 0.0)
+    (tmp_path / "unmet").mkdir()
+    app = lead_app(tmp_path / "unmet", monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        by_worker, at_once = await _frames(app, pilot, monkeypatch, 3)
+    assert by_worker == [True, True, True] and not any(at_once), (by_worker, at_once)
+
+
+@synchronous
+async def test_positions_a_drag_has_not_handled_yet_give_way_to_the_latest(tmp_path, monkeypatch):
+    """Three positions of one drag posted before the screen handles any: it handles the
+    last alone (Textual drops a message whose `can_replace` says the next supersedes it),
+    so a pointer faster than the frames is followed to where it is; a release and another
+    drag's position are never dropped."""
+    from tui.screens.shaping import Shaping
+    from tui.widgets.plots import FigurePlot
+
+    app = lead_app(tmp_path, monkeypatch)
+    seen: list[tuple[float, bool]] = []
+    drag = Shaping.drag
+    monkeypatch.setattr(
+        Shaping, "drag", lambda self, message: seen.append((message.x, message.done)) or drag(self, message)
+    )
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+
+        def dragged(x: float, done: bool = False, drag: int = 1) -> FigurePlot.Dragged:
+            return FigurePlot.Dragged(plot, zero, x, zero.y, None, done, drag)
+
+        for x in (zero.x + 0.01, zero.x + 0.02, zero.x + 0.03):
+            plot.post_message(dragged(x))
+        await settle(app, pilot)
+        assert seen == [(zero.x + 0.03, False)], seen
+        seen.clear()
+        for message in (
+            dragged(zero.x + 0.04, done=True),
+            dragged(zero.x + 0.05, drag=2),
+            dragged(zero.x + 0.06, drag=2),
+        ):
+            plot.post_message(message)
+        await settle(app, pilot)
+        assert seen == [(zero.x + 0.04, True), (zero.x + 0.06, False)], seen
+        plot.post_message(dragged(zero.x + 0.06, done=True, drag=2))
+        await settle(app, pilot)
+
+
+@synchronous
+async def test_a_frame_that_cannot_be_drawn_at_once_goes_to_the_worker_which_says_why(tmp_path, monkeypatch):
+    """A drag frame drawn on the UI thread that raises (a figure that cannot be made) does
+    not end the app: the frame is asked of the worker, which says what failed, and the
+    plot's later frames stay with the worker."""
+    from tui.screens import main
+
+    app = lead_app(tmp_path, monkeypatch)
+    notes: list[str] = []
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        monkeypatch.setattr(app.screen, "notify", lambda message, **kw: notes.append(message))
+        plot = await _shown(app, pilot, "p-bode", "bode-mag")
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(plot.drawing.frames[0], zero.x, zero.y)
+        _post(plot, events.MouseDown, start)
+        _post(plot, events.MouseMove, (start[0] + 1, start[1]))
+        await settle(app, pilot)
+        assert app.screen._frame_s["bode-mag"] <= main.INLINE_FRAME_S  # the next frame is drawn at once
+
+        def broken(*args, **kwargs):
+            raise ValueError("no figure here")
+
+        monkeypatch.setattr(main, "drawings", broken)
+        _post(plot, events.MouseMove, (start[0] + 2, start[1]))
+        await settle(app, pilot)
+        assert app.is_running and notes == ["ValueError: no figure here"], notes
+        assert app.screen._frame_s["bode-mag"] == math.inf

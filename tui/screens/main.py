@@ -5,6 +5,8 @@ the app's run loop."""
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable
 
 from rich.markup import escape
@@ -49,6 +51,7 @@ from tui.widgets.shape_table import ShapeTable
 from tui.widgets.tables import ParametersTable, PlantTable, RefTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 
+INLINE_FRAME_S = 0.025  # a drag's frame drawn on the UI thread when the plot's last one took at most this
 DRAGGING = "a drag: the design follows the pointer, every plot exact on release"  # the status line's edit while held
 # the plot tabs, and the plots (figure ids) each shows
 PLOT_TABS = {
@@ -168,11 +171,12 @@ class MainScreen(Screen):
     """
 
     class FiguresDrawn(Message):
-        """A thread worker's figures of the plots on screen for the view of ``key``."""
+        """The figures of the plots on screen for the view of ``key`` (a thread worker's, or
+        a drag's frame drawn inline); ``frame_s``: how long a drag's frame took to draw."""
 
-        def __init__(self, key: tuple, drawn: dict, prebuilt: dict) -> None:
+        def __init__(self, key: tuple, drawn: dict, prebuilt: dict, frame_s: float | None = None) -> None:
             super().__init__()
-            self.key, self.drawn, self.prebuilt = key, drawn, prebuilt
+            self.key, self.drawn, self.prebuilt, self.frame_s = key, drawn, prebuilt, frame_s
 
     def __init__(self, bench: Workbench):
         super().__init__()
@@ -180,6 +184,7 @@ class MainScreen(Screen):
         self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
         self.dragged_plot: str | None = None  # a drag goes on this plot: the others wait for its release
+        self._frame_s: dict[str, float] = {}  # plot id -> how long its last drag frame took to draw
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
@@ -530,7 +535,8 @@ class MainScreen(Screen):
         goes, the dragged one alone: `dragged_plot`), computed in a thread worker (a
         tabulated loop's fit takes a second) and shown when done; a newer request
         replaces one waiting (`LatestWork`), started once the screen has painted (a drag's
-        at once).  A plot never drawn says it is computing."""
+        at once, or a drag's quick frame drawn right here: `_inline_frame`).  A plot never
+        drawn says it is computing."""
         view = self.bench.view() if view is None else view
         key, canvases = self._wanted_key(view), self.canvases()
         coarse = self.dragged_plot is not None
@@ -546,17 +552,35 @@ class MainScreen(Screen):
             if name not in self._figure_keys:
                 plot.show(Figure(empty_message="computing ..."))
 
-        def compute() -> None:  # (Bode's panels come as a pair: the one not asked for is left as it is)
+        def figures() -> MainScreen.FiguresDrawn:  # (Bode's panels come as a pair: the one not asked for is left)
+            began = time.perf_counter()
             drawn, prebuilt = drawings(view, canvases, missing, held, coarse)
-            self.post_message(self.FiguresDrawn(key, {n: f for n, f in drawn.items() if n in missing}, prebuilt))
+            took = time.perf_counter() - began if coarse else None
+            return self.FiguresDrawn(key, {n: f for n, f in drawn.items() if n in missing}, prebuilt, took)
 
         def start() -> None:
-            self.figure_work.request(compute, (key, frozenset(missing)))
+            self.figure_work.request(lambda: self.post_message(figures()), (key, frozenset(missing)))
 
-        if coarse:  # a drag's frame is its plot: computed while the tableau paints (frames 65-68 ms, 70-75 after)
+        if coarse and self._inline_frame(missing):  # shown now: painted with the tableau, in one paint
+            try:
+                self._figures_drawn(figures())
+            except Exception:  # noqa: BLE001 - the worker draws it again and says what failed (`LatestWork`)
+                self._frame_s.update(dict.fromkeys(missing, math.inf))
+                start()
+        elif coarse:  # a frame too slow to draw inline: computed while the tableau paints
             start()
         else:  # a nudge's tableau painted first, then the plots (`after_paint`)
             self.after_paint(start)
+
+    def _inline_frame(self, missing: set[str]) -> bool:
+        """Whether a drag's frame is drawn on the UI thread: when no drawing is under way and
+        the plot's last frame was quick (`INLINE_FRAME_S`: a few ms on the lead and on the
+        tabulated launch vehicle).  A worker's frame waits for a paint of its own (the tableau
+        painted first, then the plot: two waits on Textual's 60 Hz tick); a plot's first frame,
+        of unknown cost, is drawn in the worker."""
+        if self.figure_work.running is not None:
+            return False
+        return all(self._frame_s.get(name, INLINE_FRAME_S + 1) <= INLINE_FRAME_S for name in missing)
 
     @on(FigurePlot.Chosen)
     def _plot_chosen(self, message: FigurePlot.Chosen) -> None:
@@ -600,6 +624,8 @@ class MainScreen(Screen):
 
     @on(FiguresDrawn)
     def _figures_drawn(self, message: FiguresDrawn) -> None:
+        if message.frame_s is not None:
+            self._frame_s.update(dict.fromkeys(message.drawn, message.frame_s))
         if message.key == self._wanted_key(self.bench.view()):
             self._show_figures(message.key, message.drawn, message.prebuilt)
 

@@ -136,6 +136,13 @@ class FigurePlot(PlotextPlot):
             self.plot, self.handle, self.x, self.y = plot, handle, x, y
             self.value, self.done, self.drag = value, done, drag
 
+        def can_replace(self, message: Message) -> bool:
+            """A position not yet handled gives way to the next one of the same drag (Textual
+            drops this message for it): a pointer that moves faster than frames are drawn is
+            followed to where it is, not through every cell it crossed."""
+            same = isinstance(message, FigurePlot.Dragged) and (message.plot, message.drag) == (self.plot, self.drag)
+            return same and not self.done
+
     class Shown(Message):
         """The plot came on screen (its tab shown, the screen resumed): whatever it shows
         may be of an earlier design, so the screen checks it against the current one."""
