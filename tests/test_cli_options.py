@@ -58,3 +58,19 @@ def test_every_numeric_option_has_bounds():
 
 def test_options_within_bounds_still_work(capsys):
     assert main(["analyze", *TF, "--points", "50", "--wmin", "0.01", "--wmax", "100"]) == 0
+
+
+def test_a_tolerance_study_takes_a_million_samples_and_no_more():
+    """Issue 53, section 3: a study of 1 000 000 samples keeps its distributions, not its
+    runs (peak memory 227 MB on the lag-lead, docs/benchmarks.md), so `--samples` goes to a
+    million; a multi-start sweep keeps every run and stays at 100 000 starts."""
+    from tui.cli.common import CliError
+    from tui.cli.options import check_options
+
+    parser = build_parser()
+    study = ["sweep", "S.json", "--tolerance", "K=+-1%", "--samples"]
+    check_options(parser.parse_args([*study, "1000000"]))
+    with pytest.raises(CliError, match=r"--samples: 1000001 is not in 1\.\.1000000"):
+        check_options(parser.parse_args([*study, "1000001"]))
+    with pytest.raises(CliError, match=r"--starts: 100001 is not in 1\.\.100000"):
+        check_options(parser.parse_args(["sweep", "S.json", "--starts", "100001"]))

@@ -14,7 +14,8 @@ from sessions.sweeps.named_clusters import MAX_JOBS
 from tui.cli.common import CliError
 
 MAX_ITERATIONS = 1_000_000  # of one run
-MAX_RUNS = 100_000  # runs or samples of one sweep
+MAX_RUNS = 100_000  # runs of one multi-start sweep (each kept in the session)
+MAX_SAMPLES = 1_000_000  # samples of one tolerance study (over 10 000: their distributions kept, not every run)
 MAX_SECONDS = 1e7  # a time limit or timeout (about four months)
 MAX_DELAY = 1e6  # seconds of a loop delay
 
@@ -68,7 +69,7 @@ BOUNDS: dict[str, dict[str, Bound]] = {
     "sweep": {
         "starts": Bound(1, MAX_RUNS),
         "spread": Bound(1.0, 1e6, above=True),
-        "samples": Bound(1, MAX_RUNS),
+        "samples": Bound(1, MAX_SAMPLES),
         "seed": Bound(0, 2**32 - 1),
         "connect_timeout": SECONDS,
         "workers": Bound(1, 1024),
