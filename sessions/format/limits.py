@@ -43,6 +43,8 @@ MAX_CONSTRAINTS = 1000  # linear inequalities between parameters (1000 character
 MAX_OPTIONS = 100  # options, tables of an objective
 MAX_NYQUIST = 1e306  # rad/s: a sample time T must keep pi/T (and the grid below it) within double precision
 MAX_SESSION_BYTES = 256 * 2**20  # a session file (its records included), read with a bounded read
+MAX_STARTS = 100_000  # runs of a multi-start sweep: each a copy of the session, each run kept
+MAX_SAMPLES = 1_000_000  # of a tolerance study: over 10 000 its distributions are kept, not its runs
 
 Number = Annotated[float, Field(allow_inf_nan=False)]
 MAX_NAME = 200  # characters of a name (a parameter's, a block's, a signal's)

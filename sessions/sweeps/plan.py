@@ -17,6 +17,7 @@ import numpy as np
 
 from sessions.build import read_csv, table_path
 from sessions.errors import SessionError
+from sessions.format.limits import MAX_STARTS
 from sessions.lifecycle import bounds_holding, folder
 from sessions.store import Session, tables_in
 from sessions.sweeps.cluster import scheduler_address
@@ -61,8 +62,8 @@ def start_jobs(session: Session, starts: int, spread: float | None = None, seed:
     """``starts`` runs from points drawn around the session's start: log-uniform within
     the bounds when both are positive and finite; with ``spread`` F (or unbounded),
     log-uniform in [x/F, x F] (F = 10 by default) clipped to the bounds."""
-    if starts < 1:
-        raise SessionError("--starts must be at least 1")
+    if not 1 <= starts <= MAX_STARTS:  # each start a copy of the session, its run kept: memory bounded
+        raise SessionError(f"--starts: {starts} is not in 1..{MAX_STARTS}")
     if spread is not None and spread <= 1:
         raise SessionError("--spread must exceed 1 (a factor)")
     base = shippable(session)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sessions.errors import SessionError
+from sessions.format.limits import MAX_SAMPLES
 
 LAWS = ("uniform", "normal")
 SAMPLINGS = ("random", "lhs")
@@ -71,8 +72,8 @@ def deviations(
     parameter with a value per condition)."""
     if sampling not in SAMPLINGS:
         raise SessionError(f"sampling {sampling!r}: random or lhs")
-    if samples < 1:
-        raise SessionError("--samples must be at least 1")
+    if not 1 <= samples <= MAX_SAMPLES:  # a float a sample and parameter drawn at once: memory bounded
+        raise SessionError(f"--samples: {samples} is not in 1..{MAX_SAMPLES}")
     rng = np.random.default_rng(seed)
     if sampling == "lhs":
         return [_hypercube(rng, law, size, samples) for law, size in zip(laws, sizes)]

@@ -261,3 +261,26 @@ def test_a_local_cluster_is_quiet_and_preloaded_after_the_configured_preloads(mo
     finally:
         cluster.close()
     assert seen["environ"]["MALLOC_TRIM_THRESHOLD_"] == str(1 << 20)
+
+
+@pytest.mark.parametrize(
+    ("line", "said"),
+    [
+        ("starts 100001", "--starts: 100001 is not in 1..100000"),
+        ("starts 0", "--starts: 0 is not in 1..100000"),
+        ("tolerance T1=+-10% samples 1000000001", "--samples: 1000000001 is not in 1..1000000"),
+        ("tolerance T1=+-10% samples 0", "--samples: 0 is not in 1..1000000"),
+    ],
+)
+def test_a_sweep_beyond_its_size_is_refused_when_planned_whoever_asks(line, said):
+    """The app's Sweep tab plans from one line with no option bounds of its own: a sweep
+    of 10^9 samples drew 8 GB of deviations a parameter, 10^7 starts copied the session
+    10^7 times.  The plan refuses them with the command line's bounds (one limit each,
+    `sessions.format.limits`), before any allocation."""
+    from sessions.sweeps.plan import plan
+
+    session = load_session(EXAMPLES / "coebra_lag_lead.json")
+    spec = parse_sweep(line)
+    with pytest.raises(SessionError) as refused:
+        plan(session, spec["kind"], spec["value"], seed=0, samples=spec.get("samples", 32))
+    assert str(refused.value) == said

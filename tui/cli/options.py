@@ -9,13 +9,11 @@ import argparse
 import math
 from dataclasses import dataclass
 
-from sessions.format.limits import MAX_GRID_POINTS
+from sessions.format.limits import MAX_GRID_POINTS, MAX_SAMPLES, MAX_STARTS
 from sessions.sweeps.named_clusters import MAX_JOBS
 from tui.cli.common import CliError
 
 MAX_ITERATIONS = 1_000_000  # of one run
-MAX_RUNS = 100_000  # runs of one multi-start sweep (each kept in the session)
-MAX_SAMPLES = 1_000_000  # samples of one tolerance study (over 10 000: their distributions kept, not every run)
 MAX_SECONDS = 1e7  # a time limit or timeout (about four months)
 MAX_DELAY = 1e6  # seconds of a loop delay
 
@@ -67,7 +65,7 @@ BOUNDS: dict[str, dict[str, Bound]] = {
     "tune": {"pick": Bound(1, 10_000)},
     "tradeoff": {"values": ANY},
     "sweep": {
-        "starts": Bound(1, MAX_RUNS),
+        "starts": Bound(1, MAX_STARTS),
         "spread": Bound(1.0, 1e6, above=True),
         "samples": Bound(1, MAX_SAMPLES),
         "seed": Bound(0, 2**32 - 1),
