@@ -1,10 +1,12 @@
 """One computation at a time in a thread worker, and only the latest request waiting:
 while a key is held (a nudge thirty times a second) the figures of the designs passed
 over are never computed, and no thread piles up behind another (a thread worker cannot
-be stopped midway, so an exclusive worker per request would run them all at once)."""
+be stopped midway, so an exclusive worker per request would run them all at once).
+And when a drag's frame is quick enough to be drawn at once instead (`FrameTimes`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from textual.dom import DOMNode
@@ -62,3 +64,29 @@ class LatestWork:
         if self.waiting is not None:
             (key, compute), self.waiting = self.waiting, None
             self._start(key, compute)
+
+
+INLINE_FRAME_S = 0.025  # a drag's frame drawn on the UI thread when the plot's last one took at most this
+
+
+class FrameTimes:
+    """How long each plot's last drag frame took to draw, and so whether the next is drawn
+    on the UI thread, at once, rather than by a worker.  A worker's frame waits for a
+    paint of its own (the tableau painted first, then the plot: two waits on Textual's
+    60 Hz tick); a frame drawn at once is painted with the tableau.  A plot's first
+    frame, of unknown cost, goes to the worker, as does one after a frame slower than
+    `INLINE_FRAME_S` (a few ms on the lead and on the tabulated launch vehicle) or one
+    that raised."""
+
+    def __init__(self) -> None:
+        self._seconds: dict[str, float] = {}  # plot id -> its last drag frame's drawing time
+
+    def at_once(self, names: set[str] | frozenset[str], work: LatestWork) -> bool:
+        """Whether the frames of these plots are drawn now (no drawing of ``work`` under way)."""
+        if work.running is not None:
+            return False
+        return all(self._seconds.get(name, math.inf) <= INLINE_FRAME_S for name in names)
+
+    def took(self, names: set[str] | frozenset[str], seconds: float) -> None:
+        """A frame of these plots was drawn in ``seconds`` (math.inf: it failed)."""
+        self._seconds.update(dict.fromkeys(names, seconds))

@@ -33,7 +33,7 @@ from tui.figures.data import Figure
 from tui.figures.lines import sweep_figure
 from tui.keys import identified
 from tui.screens.history_pane import HistoryPane
-from tui.screens.latest_work import LatestWork
+from tui.screens.latest_work import FrameTimes, LatestWork
 from tui.screens.pole_lines import PoleLines
 from tui.screens.shaping import Shaping
 from tui.screens.table_edits import TableEdits
@@ -51,7 +51,6 @@ from tui.widgets.shape_table import ShapeTable
 from tui.widgets.tables import ParametersTable, PlantTable, RefTable, SettingsTable, TargetsTable
 from tui.widgets.textview import TextView
 
-INLINE_FRAME_S = 0.025  # a drag's frame drawn on the UI thread when the plot's last one took at most this
 DRAGGING = "a drag: the design follows the pointer, every plot exact on release"  # the status line's edit while held
 # the plot tabs, and the plots (figure ids) each shows
 PLOT_TABS = {
@@ -184,7 +183,7 @@ class MainScreen(Screen):
         self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
         self.dragged_plot: str | None = None  # a drag goes on this plot: the others wait for its release
-        self._frame_s: dict[str, float] = {}  # plot id -> how long its last drag frame took to draw
+        self.frame_times = FrameTimes()  # a drag's frame drawn at once when the plot's last was quick
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
         self.view_actions = ViewActions(self)  # the step plot's signals, copies, the root locus
@@ -535,7 +534,7 @@ class MainScreen(Screen):
         goes, the dragged one alone: `dragged_plot`), computed in a thread worker (a
         tabulated loop's fit takes a second) and shown when done; a newer request
         replaces one waiting (`LatestWork`), started once the screen has painted (a drag's
-        at once, or a drag's quick frame drawn right here: `_inline_frame`).  A plot never
+        at once, or a drag's quick frame drawn right here: `FrameTimes`).  A plot never
         drawn says it is computing."""
         view = self.bench.view() if view is None else view
         key, canvases = self._wanted_key(view), self.canvases()
@@ -561,26 +560,16 @@ class MainScreen(Screen):
         def start() -> None:
             self.figure_work.request(lambda: self.post_message(figures()), (key, frozenset(missing)))
 
-        if coarse and self._inline_frame(missing):  # shown now: painted with the tableau, in one paint
+        if coarse and self.frame_times.at_once(missing, self.figure_work):  # painted with the tableau
             try:
                 self._figures_drawn(figures())
             except Exception:  # noqa: BLE001 - the worker draws it again and says what failed (`LatestWork`)
-                self._frame_s.update(dict.fromkeys(missing, math.inf))
+                self.frame_times.took(missing, math.inf)
                 start()
         elif coarse:  # a frame too slow to draw inline: computed while the tableau paints
             start()
         else:  # a nudge's tableau painted first, then the plots (`after_paint`)
             self.after_paint(start)
-
-    def _inline_frame(self, missing: set[str]) -> bool:
-        """Whether a drag's frame is drawn on the UI thread: when no drawing is under way and
-        the plot's last frame was quick (`INLINE_FRAME_S`: a few ms on the lead and on the
-        tabulated launch vehicle).  A worker's frame waits for a paint of its own (the tableau
-        painted first, then the plot: two waits on Textual's 60 Hz tick); a plot's first frame,
-        of unknown cost, is drawn in the worker."""
-        if self.figure_work.running is not None:
-            return False
-        return all(self._frame_s.get(name, INLINE_FRAME_S + 1) <= INLINE_FRAME_S for name in missing)
 
     @on(FigurePlot.Chosen)
     def _plot_chosen(self, message: FigurePlot.Chosen) -> None:
@@ -625,7 +614,7 @@ class MainScreen(Screen):
     @on(FiguresDrawn)
     def _figures_drawn(self, message: FiguresDrawn) -> None:
         if message.frame_s is not None:
-            self._frame_s.update(dict.fromkeys(message.drawn, message.frame_s))
+            self.frame_times.took(set(message.drawn), message.frame_s)
         if message.key == self._wanted_key(self.bench.view()):
             self._show_figures(message.key, message.drawn, message.prebuilt)
 

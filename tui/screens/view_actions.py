@@ -5,6 +5,8 @@ posts it back: `ViewActions.LocusDrawn`).  A part composed into the main screen
 
 from __future__ import annotations
 
+import math
+import time
 from typing import TYPE_CHECKING
 
 from textual.message import Message
@@ -29,6 +31,8 @@ from tui.widgets.textview import TextView
 if TYPE_CHECKING:
     from tui.screens.main import MainScreen
 
+LOCUS = frozenset({"locus"})  # the plot a locus drag's frames are timed for (`FrameTimes`)
+
 
 class ViewActions:
     """The step plot's signals, copies to the clipboard, the root locus."""
@@ -36,9 +40,9 @@ class ViewActions:
     class LocusDrawn(Message):
         """A thread worker's root locus for the design of ``key``."""
 
-        def __init__(self, key: tuple, figure: Figure) -> None:
+        def __init__(self, key: tuple, figure: Figure, frame_s: float | None = None) -> None:
             super().__init__()
-            self.key, self.figure = key, figure
+            self.key, self.figure, self.frame_s = key, figure, frame_s  # frame_s: a drag frame's drawing time
 
     def __init__(self, screen: MainScreen) -> None:
         self.screen = screen
@@ -117,8 +121,8 @@ class ViewActions:
         (a locus of a dozen bending modes takes seconds): coarse first, then refined, one
         design at a time and only the latest one waiting (`LatestWork`: a held shaping key
         never queues stale loci); kept until the design changes.  While a drag on the
-        locus goes, the coarse one alone, the last one shown until it comes; the release
-        refines it."""
+        locus goes, the coarse one alone, the last one shown until it comes (or drawn at once
+        when the last frame was quick: `FrameTimes`); the release refines it."""
         screen = self.screen
         plots = screen.query_one_optional("#plots", TabbedContent)
         if plots is None or plots.active != "p-locus" or self.screen.query_one_optional("#locus") is None:
@@ -135,16 +139,26 @@ class ViewActions:
         parameter = self.locus_parameter
         passes = (COARSE_LOCUS_POINTS,) if dragged else (COARSE_LOCUS_POINTS, None)  # coarse, then as fine as it goes
 
+        def drawn(points: int | None, roots: list) -> ViewActions.LocusDrawn:
+            began = time.perf_counter()
+            figure = locus_figure(view, parameter, points=points, refining=not dragged)
+            overlays.poles(figure, requirements(view))
+            overlays.compensator_roots(figure, roots)
+            return self.LocusDrawn(key, figure, time.perf_counter() - began if dragged else None)
+
         def compute() -> None:
             roots = compensator_roots(view)  # the same for the coarse locus and the fine one
             for points in passes:
                 if key != self._locus_key:
                     return  # a newer design is asked for: this one is passed over
-                figure = locus_figure(view, parameter, points=points, refining=not dragged)
-                overlays.poles(figure, requirements(view))
-                overlays.compensator_roots(figure, roots)
-                screen.post_message(self.LocusDrawn(key, figure))
+                screen.post_message(drawn(points, roots))
 
+        if dragged and screen.frame_times.at_once(LOCUS, self._locus_work):  # painted with the tableau
+            try:
+                self.locus_drawn(drawn(COARSE_LOCUS_POINTS, compensator_roots(view)))
+                return
+            except Exception:  # noqa: BLE001 - the worker draws it again and says what failed (`LatestWork`)
+                screen.frame_times.took(LOCUS, math.inf)
         self._locus_work.request(compute, key)
 
     def choose_locus_parameter(self) -> None:
@@ -198,5 +212,7 @@ class ViewActions:
         self.screen.app.edit_flow.ask(title, positive if frequency else finite, lambda text: plot.go_to(float(text)))
 
     def locus_drawn(self, message: ViewActions.LocusDrawn) -> None:
+        if message.frame_s is not None:
+            self.screen.frame_times.took(LOCUS, message.frame_s)
         if message.key == self._locus_key:
             self.screen.query_one("#locus", FigurePlot).show(message.figure)
