@@ -278,7 +278,7 @@ def _study(jobs: Sequence) -> _Study | None:
     others = sorted({s.kind for s in stepper.specs} - BATCH_KINDS)
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
     if not unbatched and not all(c.network.rational for c in problem.conditions):
-        unbatched = "a loop with a delay, a table or a state-space block"
+        unbatched = "a loop with a delay or a table"  # (a state-space block is rational: realized in batch)
     timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
     if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
         unbatched = "time rows of a loop in z"

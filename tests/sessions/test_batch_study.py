@@ -119,7 +119,7 @@ def test_a_loop_with_a_delay_is_evaluated_per_loop(tmp_path):
         plant["blocks"].append(delay)
 
     jobs = _jobs(_edited(tmp_path, delayed), 6)
-    _per_loop_equal(jobs, "a loop with a delay, a table or a state-space block")
+    _per_loop_equal(jobs, "a loop with a delay or a table")
     outcome = execute_serial(jobs)
     assert "not batched: a loop with a delay" in outcome.note
     assert [run["status"] for run in outcome.runs] == ["running"] * 6
@@ -134,7 +134,7 @@ def test_a_tabulated_plant_is_evaluated_per_loop(tmp_path):
         table = {"form": "cartesian", "frequency": omega.tolist(), "first": response.real.tolist()}
         plant["blocks"][1]["transfer"] = {"kind": "table", "table": {**table, "second": response.imag.tolist()}}
 
-    _per_loop_equal(_jobs(_edited(tmp_path, tabulated), 6), "a loop with a delay, a table or a state-space block")
+    _per_loop_equal(_jobs(_edited(tmp_path, tabulated), 6), "a loop with a delay or a table")
 
 
 def test_a_loop_that_is_not_one_cascade_is_batched_on_its_realizations(tmp_path):
