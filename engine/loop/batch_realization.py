@@ -153,7 +153,7 @@ def _units(
         t = entry.transfer
         if isinstance(t, StateSpaceChannel):  # its matrices are numbers: realized once, every sample's
             place, reads, writes = ported.setdefault(id(t.block), (len(units), {}, {}))
-            if place == len(units):
+            if place == len(units):  # its first channel: its states go here
                 units.append(_Unit(np.broadcast_to(t.block.A, (count, *t.block.A.shape)), (), ()))
             reads[(t.input_port, entry.col)] = np.broadcast_to(t.block.B[:, t.input_port], (count, t.block.order))
             writes[(t.output_port, entry.row)] = np.broadcast_to(t.block.C[t.output_port], (count, t.block.order))
