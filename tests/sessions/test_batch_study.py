@@ -1,10 +1,11 @@
 """A tolerance study evaluated as a batch (issue 41, section 1): every sample's run is
 the per-loop path's (`run_job`), its margins equal to 1e-12 relative, on the lag-lead and on
-random loops; samples the batch cannot certify (an odd form, a certificate that fails at a
-near-tangent crossover) go per loop, alone, and the study's note names them; a study that is
-not batched (a delay, a tabulated plant, an inner loop, the launch vehicle's peak and time
-rows) is evaluated per loop on its problem built once, every run equal to `run_job`'s, and
-its note says why; `sweep --serial` says what it did."""
+random loops, diagrams (an inner loop, parallel paths, the launch vehicle, blocks of several
+ports: issue 53) and loops in z; samples the batch cannot certify (an odd form, a certificate
+that fails at a near-tangent crossover) go per loop, alone, and the study's note names them; a
+study that is not batched (a delay, a tabulated plant, a loop in z's time or closed-loop peak
+rows) is evaluated per loop on its problem built once, every run equal to `run_job`'s, and its
+note says why; `sweep --serial` says what it did."""
 
 from __future__ import annotations
 
