@@ -6,12 +6,15 @@ makes for it.
 An entry whose parameters the samples do not vary is realized once, by `realize`'s own
 entry realization; an entry they vary must fold to a ratio of degree <= 2 in every sample
 (one controllable canonical section, `realize`'s for such a ratio), computed for every sample
-at once from its folded coefficients.  When the direct feedthroughs are the same in every
-sample, I - D is factored once, as `realize` factors it, and the signal equation solved for
-every sample's state-to-signal map in one call; otherwise per sample.  There is no batched
-realization (None; the per-sample realization is the way) for an entry of higher degree, a
-loop in z, a block of several ports, a delay or a table, or a singular algebraic loop in a
-sample.
+at once from its folded coefficients.  A block of several ports
+(`engine.model.ports.state_space_ports`) holds numbers, never parameters: its states are placed
+once, where its first channel is, its B columns at the signals its inputs read and its C rows
+at the signals its outputs write, its D in the feedthrough, as `realize` places them, and the
+same in every sample.  When the direct feedthroughs are the same in every sample, I - D is
+factored once, as `realize` factors it, and the signal equation solved for every sample's
+state-to-signal map in one call; otherwise per sample.  There is no batched realization (None;
+the per-sample realization is the way) for a varied entry of higher degree, a loop in z, a
+delay or a table, or a singular algebraic loop in a sample.
 
 With ``shared``, blocks fed by one signal whose states move alike in every sample (the same A
 and B: one denominator's controllable canonical section, as a bending mode's gyro, rate gyro
@@ -99,63 +102,97 @@ def batch_realize(
     realization (module docstring)."""
     if not network.rational or network.variable != "s" or not columns:
         return None
-    if any(isinstance(entry.transfer, StateSpaceChannel) for entry in network.entries):
-        return None  # a block of several ports: its states are shared by its channels (`realize`)
     count = len(next(iter(columns.values())))
-    varied = {name for name, values in columns.items() if not (values == values[0]).all()}
-    first = {name: float(values[0]) for name, values in columns.items()}
-    n = len(network.signals)
-    blocks: list[tuple[NDArray, NDArray, NDArray, int, int]] = []  # A (S, k, k), B (S, k), C (S, k), row, col
-    feed = np.zeros((count, n, n))
     try:
-        for number, entry in enumerate(network.entries):
-            if set(entry.transfer.parameters) & varied:
-                made = _varied_section(entry.transfer, columns, count)
-                if made is None:
-                    return None
-                a, b, c, d = made
-            else:
-                a1, b1, c1, d1 = entry_realization(network, number, first)
-                a, b, c = (np.broadcast_to(m, (count, *m.shape)) for m in (a1, b1[:, 0], c1[0]))
-                d = np.full(count, d1[0, 0] if d1.size else 0.0)
-            blocks.append((a, b, c, entry.row, entry.col))
-            feed[:, entry.row, entry.col] += d
+        units, feed = _units(network, columns, count)
         same = bool((feed == feed[:1]).all())
-        factors = [factored_feedthrough(np.eye(n) - f) for f in (feed[:1] if same else feed)]
-    except (EngineError, AttributeError):
+        factors = [factored_feedthrough(np.eye(len(network.signals)) - f) for f in (feed[:1] if same else feed)]
+    except (EngineError, AttributeError, _Unbatched):
         return None
     if not shared:
-        return _assembled(network, blocks, factors, count)
-    owners = _owners(blocks)
+        return _assembled(network, units, factors, count)
+    owners = _owners(units)
     kept = [
-        (a, b, c, row, col) if owner == i else (a[:, :0, :0], b[:, :0], c[:, :0], row, col)
-        for i, (owner, (a, b, c, row, col)) in enumerate(zip(owners, blocks))
+        unit if owner == i else _Unit(unit.a[:, :0, :0], (), ()) for i, (owner, unit) in enumerate(zip(owners, units))
     ]
-    ss = _assembled(
-        network,
-        kept,
-        factors,
-        count,
-        [(owner, blocks[i][2], blocks[i][3]) for i, owner in enumerate(owners) if owner != i],
-    )
-    left = [blocks[i][0] for i, owner in enumerate(owners) if owner != i]
+    readers = [(owner, c, row) for i, owner in enumerate(owners) if owner != i for row, c in units[i].writes]
+    ss = _assembled(network, kept, factors, count, readers)
+    left = [units[i].a for i, owner in enumerate(owners) if owner != i]
     hidden = np.concatenate([np.linalg.eigvals(a) for a in left], axis=1) if left else np.zeros((count, 0), complex)
     return SharedStateSpace(ss.A, ss.B, ss.C, ss.D, ss.inputs, ss.outputs, hidden=hidden)
 
 
-def _owners(blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]]) -> list[int]:
-    """For each block, the first block whose states it shares: fed by the same signal, the same A
-    and B in every sample (itself when none is)."""
-    owners = []
-    for i, (a, b, _, _, col) in enumerate(blocks):
+@dataclass(frozen=True)
+class _Unit:
+    """One block's states in every sample: A (S, k, k), the columns of B by the signal each reads
+    ((signal, (S, k)) pairs) and the rows of C by the signal each writes (a SISO entry: one of
+    each; a block of several ports: one per port and signal, as `realize` places them)."""
+
+    a: NDArray[np.float64]
+    reads: tuple[tuple[int, NDArray[np.float64]], ...]
+    writes: tuple[tuple[int, NDArray[np.float64]], ...]
+
+
+class _Unbatched(Exception):
+    """An entry with no batched realization (module docstring)."""
+
+
+def _units(
+    network: Network, columns: Mapping[str, NDArray[np.float64]], count: int
+) -> tuple[list[_Unit], NDArray[np.float64]]:
+    """The network's blocks' states in `realize`'s order, each sample's (a block of several ports
+    once, where its first channel is) and the direct feedthroughs D (S, n, n); `_Unbatched` for an
+    entry with no batched realization."""
+    varied = {name for name, values in columns.items() if not (values == values[0]).all()}
+    first = {name: float(values[0]) for name, values in columns.items()}
+    n = len(network.signals)
+    units: list[_Unit] = []
+    ported: dict[int, tuple[int, dict, dict]] = {}  # id of a block -> its unit's place, reads, writes
+    feed = np.zeros((count, n, n))
+    for number, entry in enumerate(network.entries):
+        t = entry.transfer
+        if isinstance(t, StateSpaceChannel):  # its matrices are numbers: realized once, every sample's
+            place, reads, writes = ported.setdefault(id(t.block), (len(units), {}, {}))
+            if place == len(units):  # its first channel: its states go here
+                units.append(_Unit(np.broadcast_to(t.block.A, (count, *t.block.A.shape)), (), ()))
+            reads[(t.input_port, entry.col)] = np.broadcast_to(t.block.B[:, t.input_port], (count, t.block.order))
+            writes[(t.output_port, entry.row)] = np.broadcast_to(t.block.C[t.output_port], (count, t.block.order))
+            feed[:, entry.row, entry.col] += t.block.D[t.output_port, t.input_port]
+            continue
+        if set(t.parameters) & varied:
+            made = _varied_section(t, columns, count)
+            if made is None:
+                raise _Unbatched
+            a, b, c, d = made
+        else:
+            a1, b1, c1, d1 = entry_realization(network, number, first)
+            a, b, c = (np.broadcast_to(m, (count, *m.shape)) for m in (a1, b1[:, 0], c1[0]))
+            d = np.full(count, d1[0, 0] if d1.size else 0.0)
+        units.append(_Unit(a, ((entry.col, b),), ((entry.row, c),)))
+        feed[:, entry.row, entry.col] += d
+    for place, reads, writes in ported.values():
+        units[place] = replace(
+            units[place],
+            reads=tuple((col, b) for (_, col), b in reads.items()),
+            writes=tuple((row, c) for (_, row), c in writes.items()),
+        )
+    return units, feed
+
+
+def _owners(units: Sequence[_Unit]) -> list[int]:
+    """For each block, the first block whose states it shares: fed by the one same signal, the
+    same A and B in every sample (itself when none is)."""
+    owners: list[int] = []
+    for i, unit in enumerate(units):
         same = (
             j
             for j in range(i)
             if owners[j] == j
-            and blocks[j][4] == col
-            and a.shape[1]
-            and np.array_equal(blocks[j][0], a)
-            and np.array_equal(blocks[j][1], b)
+            and len(unit.reads) == len(units[j].reads) == 1
+            and units[j].reads[0][0] == unit.reads[0][0]
+            and unit.a.shape[1]
+            and np.array_equal(units[j].a, unit.a)
+            and np.array_equal(units[j].reads[0][1], unit.reads[0][1])
         )
         owners.append(next(same, i))
     return owners
@@ -193,25 +230,27 @@ def _varied_section(
 
 def _assembled(
     network: Network,
-    blocks: Sequence[tuple[NDArray, NDArray, NDArray, int, int]],
+    units: Sequence[_Unit],
     factors: list,
     count: int,
     readers: Sequence[tuple[int, NDArray, int]] = (),
 ) -> StateSpace:
-    """`realize`'s assembly of the entries' states for every sample: z' = A_blk z + B_blk x,
+    """`realize`'s assembly of the blocks' states for every sample: z' = A_blk z + B_blk x,
     x = (I - D)^-1 (C z + E u), with I - D factored once (``factors``: one LU) or per sample;
     ``readers``: (block, C, row) more outputs read from a block's states (blocks sharing them)."""
     from scipy import linalg  # on first use (start-up)
 
-    n, m = len(network.signals), sum(a.shape[1] for a, *_ in blocks)
+    n, m = len(network.signals), sum(unit.a.shape[1] for unit in units)
     A_blk, B_blk, C_sig = np.zeros((count, m, m)), np.zeros((count, m, n)), np.zeros((count, n, m))
     offset, states = 0, []
-    for a, b, c, row, col in blocks:
-        sl = slice(offset, offset + a.shape[1])
-        A_blk[:, sl, sl] = a
-        B_blk[:, sl, col] += b
-        C_sig[:, row, sl] += c
-        offset += a.shape[1]
+    for unit in units:
+        sl = slice(offset, offset + unit.a.shape[1])
+        A_blk[:, sl, sl] = unit.a
+        for col, b in unit.reads:
+            B_blk[:, sl, col] += b
+        for row, c in unit.writes:
+            C_sig[:, row, sl] += c
+        offset += unit.a.shape[1]
         states.append(sl)
     for block, c, row in readers:
         C_sig[:, row, states[block]] += c

@@ -17,16 +17,17 @@ as the per-loop path realizes it, every response simulated in one recursion) and
 closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`), or diagrams in s realized for every sample at once
-(`engine.loop.batch_realization`: parallel paths, inner loops), whose minimal forms come
+(`engine.loop.batch_realization`: parallel paths, inner loops, state-space blocks of one
+port or several), whose minimal forms come
 from the stacked realizations (`engine.loop.batch_realized_forms`) and whose margins are
 polished on them; a row that names another break of its diagram reads the loop broken
 there (each (condition, break) its own forms).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
-sample of a study that is not batched (a delay, a table, a block of several ports, a
-diagram with no batched realization, a mean square), is evaluated per loop, by slp's own
-measures (`engine.slp.measures.evaluate`) on the problem built once: what `run_job`
-computes but for building the sample's session (a sample whose evaluation raises gets
-`run_job` itself).  The study's note says which samples went per loop, and why a study
+sample of a study that is not batched (a delay, a table, a loop in z that is not one
+cascade of expression blocks, a diagram with no batched realization, a mean square), is
+evaluated per loop, by slp's own measures (`engine.slp.measures.evaluate`) on the problem
+built once: what `run_job` computes but for building the sample's session (a sample whose
+evaluation raises gets `run_job` itself).  The study's note says which samples went per loop, and why a study
 is not batched.  Another algorithm's study, or one with linear constraints, runs per
 loop from each sample's session.
 """
@@ -277,7 +278,7 @@ def _study(jobs: Sequence) -> _Study | None:
     others = sorted({s.kind for s in stepper.specs} - BATCH_KINDS)
     unbatched = f"rows of kind {', '.join(others)}" if others else ""
     if not unbatched and not all(c.network.rational for c in problem.conditions):
-        unbatched = "a loop with a delay, a table or a state-space block"
+        unbatched = "a loop with a delay or a table"  # (a state-space block is rational: realized in batch)
     timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
     if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
         unbatched = "time rows of a loop in z"

@@ -165,3 +165,25 @@ def test_the_stability_rows_read_the_poles_of_the_states_left_out():
     there = ~np.isnan(rows[0])
     assert np.array_equal(there, ~np.isnan(rows[1]))
     assert np.max(np.abs(rows[1][there] - rows[0][there]) / np.abs(rows[0][there])) <= 1e-9
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_a_block_of_several_ports_is_placed_as_realize_places_it(tmp_path, seed):
+    """Random loops around a random block of two ports (parallel sensor paths, an inner loop
+    through its second port, `tests.sessions.test_batch_study._random_ported_session`), every
+    parameter drawn: each sample's closed loop is the one `closed_loop_realization` makes (its
+    states once, the same states; before: no batched realization), and sharing leaves it as it is."""
+    from tests.sessions.test_batch_study import _random_ported_session
+
+    path = tmp_path / "ported.json"
+    _random_ported_session(np.random.default_rng(seed), path)
+    problem = build_problem(validated_model(json.loads(path.read_text())).problem, tmp_path)
+    values = problem.condition_values(0)
+    columns = _columns(values, tuple(values), 20, np.random.default_rng(seed))
+    _equal_per_sample(problem.conditions[0], columns)
+    condition = problem.conditions[0]
+    full = batch_loop_realization(condition.network, condition.break_at, columns)
+    shared = batch_loop_realization(condition.network, condition.break_at, columns, shared=True)
+    assert shared.hidden.shape == (20, 0)
+    for got, want in zip((shared.A, shared.B, shared.C, shared.D), (full.A, full.B, full.C, full.D)):
+        assert np.array_equal(got, want)

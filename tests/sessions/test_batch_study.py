@@ -1,10 +1,11 @@
 """A tolerance study evaluated as a batch (issue 41, section 1): every sample's run is
 the per-loop path's (`run_job`), its margins equal to 1e-12 relative, on the lag-lead and on
-random loops; samples the batch cannot certify (an odd form, a certificate that fails at a
-near-tangent crossover) go per loop, alone, and the study's note names them; a study that is
-not batched (a delay, a tabulated plant, an inner loop, the launch vehicle's peak and time
-rows) is evaluated per loop on its problem built once, every run equal to `run_job`'s, and
-its note says why; `sweep --serial` says what it did."""
+random loops, diagrams (an inner loop, parallel paths, the launch vehicle, blocks of several
+ports: issue 53) and loops in z; samples the batch cannot certify (an odd form, a certificate
+that fails at a near-tangent crossover) go per loop, alone, and the study's note names them; a
+study that is not batched (a delay, a tabulated plant, a loop in z's time or closed-loop peak
+rows) is evaluated per loop on its problem built once, every run equal to `run_job`'s, and its
+note says why; `sweep --serial` says what it did."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sessions.examples.coebra_launch_vehicle import _block  # a diagram's expression block
 from sessions.store import load_session
 from sessions.sweeps.batch_study import batch_runs
 from sessions.sweeps.jobs import execute, execute_serial, run_job
@@ -118,7 +120,7 @@ def test_a_loop_with_a_delay_is_evaluated_per_loop(tmp_path):
         plant["blocks"].append(delay)
 
     jobs = _jobs(_edited(tmp_path, delayed), 6)
-    _per_loop_equal(jobs, "a loop with a delay, a table or a state-space block")
+    _per_loop_equal(jobs, "a loop with a delay or a table")
     outcome = execute_serial(jobs)
     assert "not batched: a loop with a delay" in outcome.note
     assert [run["status"] for run in outcome.runs] == ["running"] * 6
@@ -133,7 +135,7 @@ def test_a_tabulated_plant_is_evaluated_per_loop(tmp_path):
         table = {"form": "cartesian", "frequency": omega.tolist(), "first": response.real.tolist()}
         plant["blocks"][1]["transfer"] = {"kind": "table", "table": {**table, "second": response.imag.tolist()}}
 
-    _per_loop_equal(_jobs(_edited(tmp_path, tabulated), 6), "a loop with a delay, a table or a state-space block")
+    _per_loop_equal(_jobs(_edited(tmp_path, tabulated), 6), "a loop with a delay or a table")
 
 
 def test_a_loop_that_is_not_one_cascade_is_batched_on_its_realizations(tmp_path):
@@ -640,3 +642,96 @@ def test_rows_at_another_break_of_a_diagram_read_the_loop_there(tmp_path):
     path.write_text(json.dumps({**document(), "algorithm": {"name": "slp", "settings": {}}}))
     batched, searched, done = _batched_equal(_jobs(path, 6, ["KA=+-10%"]))
     assert batched + searched == done == 6
+
+
+def _airframe_block(a, b, c, d=None) -> dict:
+    """A block of two ports (inputs u and v, outputs y and y2) of the given matrices."""
+    transfer = {"kind": "state_space", "A": a, "B": b, "C": c, "D": d}
+    return {"name": "airframe", "inputs": ["u", "v"], "outputs": ["y", "y2"], "transfer": transfer}
+
+
+def test_a_diagram_with_a_block_of_several_ports_is_batched(tmp_path):
+    """The two-path autopilot with its body and attitude as one block of two ports (the fin
+    deflection and the disturbance moment in, the rate and the attitude out): 0 of 6 samples were
+    batched (its loops had no batch form: a block of several ports had no batched realization);
+    now every sample is, every run `run_job`'s to 1e-12."""
+    from tests.sessions.test_two_path_breaks import document
+
+    model = {**document(), "algorithm": {"name": "slp", "settings": {}}}
+    plant = model["problem"]["conditions"][0]["plant"]
+    block = _airframe_block([[-0.5, 0.0], [1.0, 0.0]], [[4.0, 4.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 1.0]])
+    block.update(inputs=["delta", "d"], outputs=["q", "theta"])
+    plant["blocks"] = [b for b in plant["blocks"] if b["name"] not in ("body", "attitude")] + [block]
+    plant["junctions"] = [j for j in plant["junctions"] if j["name"] != "moment"]
+    path = tmp_path / "ported.json"
+    path.write_text(json.dumps(model))
+    batched, searched, done = _batched_equal(_jobs(path, 6, ["KA=+-10%", "KR=+-10%"]))
+    assert (batched + searched, done) == (6, 6)
+
+
+def _random_ported_session(rng: np.random.Generator, path: Path) -> list[str]:
+    """A random loop around a block of two ports (random stable A, B, C, D: its modes real poles and
+    light or damped pairs, in random coordinates): a lead u = K (1 + T1 s)/(1 + T2 s) e, two
+    parallel sensor paths from its outputs (K1 y and K2 y2/(1 + T3 s), summed and fed back: e = r
+    - K1 y - K2 y2/(1 + T3 s)), an inner loop from its second output into its second input (v = d - KI y2);
+    broken at u.  Returns the tolerances of its parameters."""
+    modes = [[-rng.uniform(0.5, 5.0)]]
+    for _ in range(rng.integers(1, 3)):
+        wn, zeta = rng.uniform(1.0, 20.0), 10 ** rng.uniform(-2, -0.2)
+        modes.append([[-zeta * wn, wn * np.sqrt(1 - zeta**2)], [-wn * np.sqrt(1 - zeta**2), -zeta * wn]])
+    n = sum(len(m) for m in modes)
+    modal, at = np.zeros((n, n)), 0
+    for m in modes:
+        modal[at : at + len(m), at : at + len(m)] = m
+        at += len(m)
+    t = np.eye(n) + 0.3 * rng.standard_normal((n, n))
+    a = t @ modal @ np.linalg.inv(t)
+    b, c = rng.standard_normal((n, 2)), rng.standard_normal((2, n))
+    d = (0.1 * rng.standard_normal((2, 2))).tolist() if rng.random() < 0.5 else None
+    blocks = [
+        _airframe_block(a.tolist(), b.tolist(), c.tolist(), d),
+        _block("lead", "e", "u", "K*(1+T1*s)/(1+T2*s)"),
+        _block("sensor 1", "y", "m1", "K1"),
+        _block("sensor 2", "y2", "m2", "K2/(1+T3*s)"),
+        _block("inner", "y2", "w", "KI"),
+    ]
+    junctions = [
+        {"name": "error", "output": "e", "plus": ["r"], "minus": ["m1", "m2"]},
+        {"name": "moment", "output": "v", "plus": ["d"], "minus": ["w"]},
+    ]
+    values = {
+        "K": 10 ** rng.uniform(-0.5, 1.0),
+        "T1": rng.uniform(0.2, 1.0),
+        "T2": rng.uniform(0.01, 0.1),
+        "K1": rng.uniform(0.5, 2.0),
+        "K2": rng.uniform(0.1, 1.0),
+        "T3": rng.uniform(0.01, 0.2),
+        "KI": rng.uniform(0.1, 1.0),
+    }
+    model = json.loads((EXAMPLES / "coebra_lag_lead.json").read_text())
+    condition = model["problem"]["conditions"][0]
+    condition["break_at"] = "u"
+    condition["plant"] = {"format": "diagram", "inputs": ["r", "d"], "blocks": blocks, "junctions": junctions}
+    model["problem"]["parameters"] = [{"name": k, "value": v, "min": 1e-9, "max": 1e9} for k, v in values.items()]
+    path.write_text(json.dumps(model))
+    drawn = rng.choice(sorted(values), size=4, replace=False)
+    return [f"{name}=+-20%" for name in drawn]
+
+
+def test_random_diagrams_with_a_block_of_several_ports_equal_the_per_loop_path(tmp_path):
+    """Issue 53: random multi-path loops around a random block of two ports
+    (`_random_ported_session`; two of them with time rows on r -> y and modal peaks), four of
+    their parameters drawn +-20 %: each study is batched
+    (before: none was, its loop had no batch form) and every run is `run_job`'s, its rows to
+    1e-12 relative; most samples certified by the batch."""
+    batched = total = 0
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        path = tmp_path / f"ported{seed}.json"
+        tolerances = _random_ported_session(rng, path)
+        if seed % 2:
+            _with_modal_peaks(_with_time_rows(path))
+        done_batched, searched, done = _batched_equal(_jobs(path, 10, tolerances))
+        batched += done_batched + searched
+        total += done
+    assert batched >= 0.7 * total
