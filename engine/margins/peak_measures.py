@@ -90,6 +90,18 @@ def peak_values(
     return out
 
 
+def peak_arrays(
+    measure: str, values: NDArray, frequencies: NDArray, stable: NDArray[np.bool_]
+) -> tuple[NDArray, NDArray]:
+    """`peak_values` of one measure for many loops at once: (values, frequencies) from its
+    transform's peaks |f| at ``frequencies`` and each loop's closed-loop stability."""
+    if measure == "disk_margin":
+        with np.errstate(divide="ignore"):
+            values = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), math.inf)
+    unstable = 0.0 if measure == "disk_margin" else math.inf
+    return np.where(stable, values, unstable), np.where(stable, frequencies, math.nan)
+
+
 def band_peak(loop: LoopModel, measure: str, band: Band, stable: bool | None = None) -> tuple[float, float, Peak]:
     """(value, frequency, the refined peak) of one peak measure over ``band`` (`band_peaks`)."""
     return band_peaks(loop, [measure], band, stable)[0]

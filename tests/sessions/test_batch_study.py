@@ -549,18 +549,20 @@ def test_time_rows_of_cascades_are_batched(tmp_path):
     assert batched >= 0.7 * total
 
 
-def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_forms(tmp_path):
-    """Issue 53, section 1: a cascade with Ms, Mt, disk-margin and delay-margin rows went per loop
-    (not batched: rows of kind complementary_sensitivity_peak, ...); each sample's peaks are found
-    by the per-loop grid-free peak search on its batched form now (no network, no realization per
-    sample), its margins batched.  The lag-lead and random cascades, every run `run_job`'s."""
+def test_closed_loop_peak_rows_of_cascades_are_batched(tmp_path):
+    """Issue 53, section 1: a cascade with Ms, Mt, disk-margin and delay-margin rows had each
+    sample's peaks found by the per-loop grid-free peak search on its batched form (every sample
+    "by the per-loop search"); they are found for every sample at once now
+    (`engine.margins.pole_zero.batch_peaks`, the delay margins from the phase margins' arrays), a
+    sample the batched search does not certify by the per-loop search, named in the note.  The
+    lag-lead and random cascades, every run `run_job`'s (53 of 60 samples batched, 0 before)."""
 
     studies = [(_session(tmp_path), TOLERANCES)]
     for seed in (2, 6, 9):
         blocks, values = random_cascade_structure(np.random.default_rng(seed))
         studies.append((_loop_session(tmp_path, blocks, values, f"closed{seed}"), [f"{n}=+-20%" for n in values]))
     kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")
-    on_forms = total = 0
+    batched = total = 0
     for path, tolerances in studies:
         model = json.loads(path.read_text())
         model["problem"]["targets"] += [{"measure": kind, "bands": [{"desired": 1.0}]} for kind in kinds]
@@ -568,9 +570,9 @@ def test_closed_loop_peak_rows_of_cascades_go_by_the_search_on_their_batched_for
             {"measure": "sensitivity_peak", "bands": [{"low": 0.5, "high": 5.0, "desired": 1.5}]}
         )
         path.write_text(json.dumps(model))
-        _, searched, done = _batched_equal(_jobs(path, 15, tolerances))
-        on_forms, total = on_forms + searched, total + done
-    assert on_forms >= 0.7 * total
+        together, _, done = _batched_equal(_jobs(path, 15, tolerances))
+        batched, total = batched + together, total + done
+    assert batched >= 0.8 * total
 
 
 @pytest.mark.parametrize(
