@@ -39,7 +39,7 @@ from engine.margins.pole_zero.batch_search import batch_crossings
 from engine.margins.pole_zero.levels import LoopLevels
 from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.pole_zero.search import fast_margins
-from engine.margins.sampled import in_rad_per_s
+from engine.margins.sampled import band_in_nu, in_rad_per_s
 from engine.margins.search import Band
 from engine.margins.values import Margin, Margins, margin_forms, margins_of, single_margin
 from engine.model.bilinear import real_frequency, s_of_z, z_of_w
@@ -73,7 +73,9 @@ class ClosedRows(NamedTuple):
     batched: NDArray[np.bool_]
 
 
-def closed_rows(forms: BatchForms, loops: BatchLoops, rows: list[ClosedRow]) -> ClosedRows:
+def closed_rows(
+    forms: BatchForms, loops: BatchLoops, rows: list[ClosedRow], sample_time: float | None = None
+) -> ClosedRows:
     """Every sample's closed-loop rows (Ms, Mt, the disk and delay margins,
     `engine.margins.peak_measures`) over the rows' bands, as `engine.slp.peaks.closed_loop_values`
     reads them: the peaks by the batched grid-free peak search
@@ -82,7 +84,8 @@ def closed_rows(forms: BatchForms, loops: BatchLoops, rows: list[ClosedRow]) -> 
     on a cascade's factored form); the delay margins from the phase margins' arrays, the closed
     loop's stability from the abscissa.  Not found: a sample the per-loop path must take, where
     neither search applies (the per-loop path's grid then) or whose abscissa is within `UNSETTLED`
-    of 0."""
+    of 0.  With ``sample_time`` the forms are a loop in z's w-plane forms: the bands searched in
+    nu = tan(omega T/2), the peaks' frequencies back in rad/s (`engine.margins.sampled`)."""
     count = forms.gain.size
     settled = loops.found & (np.abs(loops.abscissa) > UNSETTLED)
     stable = loops.abscissa > 0
@@ -96,14 +99,14 @@ def closed_rows(forms: BatchForms, loops: BatchLoops, rows: list[ClosedRow]) -> 
         if kind == "delay_margin":
             values[:, column], frequencies[:, column] = _band_delays(loops, low, high, stable)
         elif found is not None:
-            values[:, column], frequencies[:, column] = peak_arrays(
-                kind, *found.peak(kinds.index(kind), low, high), stable
-            )
+            value, at = found.peak(kinds.index(kind), *_searched_band(low, high, sample_time))
+            at = at if sample_time is None else real_frequency(at, sample_time)
+            values[:, column], frequencies[:, column] = peak_arrays(kind, value, at, stable)
     columns = {row[0]: column for column, row in enumerate(rows)}
     done = batched | ~settled
     for k in np.flatnonzero(~done).tolist():
         loop = loops.loop(k)
-        one = None if loop is None else _closed_rows(forms, k, loop, rows, bool(stable[k]))
+        one = None if loop is None else _closed_rows(forms, k, loop, rows, bool(stable[k]), sample_time)
         if one is None:
             settled[k] = False
             continue
@@ -126,8 +129,16 @@ def _band_delays(loops: BatchLoops, low: float, high: float, stable: NDArray) ->
     return np.where(stable, value, 0.0), np.where(stable, at, np.nan)
 
 
+def _searched_band(low: float, high: float, sample_time: float | None) -> tuple[float, float]:
+    """A band in rad/s as the peak search reads it: in nu = tan(omega T/2) for a loop in z."""
+    if sample_time is None:
+        return low, high
+    band = band_in_nu(Band(low, high), sample_time)
+    return band.low, band.high
+
+
 def _closed_rows(
-    forms: BatchForms, k: int, loop: SampleLoop, rows: list[ClosedRow], stable: bool
+    forms: BatchForms, k: int, loop: SampleLoop, rows: list[ClosedRow], stable: bool, sample_time: float | None
 ) -> dict[int, tuple[float, float]] | None:
     """Sample ``k``'s closed-loop rows by the per-loop search on its form, band by band as
     `engine.slp.peaks.closed_loop_values` reads them."""
@@ -142,9 +153,11 @@ def _closed_rows(
     for (low, high), band_rows in bands.items():
         kinds = [kind for _, kind in band_rows]
         pairs = [getattr(transform(kind), "moebius", None) for kind in kinds]
-        found = None if None in pairs else moebius_peaks(form, pairs, low, high)
+        found = None if None in pairs else moebius_peaks(form, pairs, *_searched_band(low, high, sample_time))
         if found is None:
             return None
+        if sample_time is not None:
+            found = [(value, float(real_frequency(nu, sample_time))) for value, nu in found]
         values = peak_values(kinds, [Peak(value, frequency) for value, frequency in found], stable)
         for (number, _), (value, frequency, _) in zip(band_rows, values):
             out[number] = (value, frequency)

@@ -14,8 +14,7 @@ drawn parameters are free.  Their samples are batched when the rows are margins,
 frequencies, modal peaks (the attenuation margins), time rows of continuous loops (step
 measures and the peak response, `engine.slp.batch_rows`: each sample's closed loop realized
 as the per-loop path realizes it, every response simulated in one recursion), Ms, Mt, disk and
-delay margins of loops in s (`engine.margins.batch.closed_rows`: the peaks of every sample
-found at once) and the closed-loop stability abscissa, of conditions whose loops are
+delay margins (`engine.margins.batch.closed_rows`: the peaks of every sample found at once) and the closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`), or diagrams in s realized for every sample at once
 (`engine.loop.batch_realization`: parallel paths, inner loops), whose minimal forms come
@@ -282,9 +281,6 @@ def _study(jobs: Sequence) -> _Study | None:
     timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
     if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
         unbatched = "time rows of a loop in z"
-    closed = {s.condition for s in stepper.specs if s.kind in CLOSED_LOOP_MEASURES}
-    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in closed):
-        unbatched = "closed-loop peak rows of a loop in z"
     for c, break_at in _every_break(problem, stepper.specs):
         if not unbatched and _cascade(problem, c, break_at) is None:
             name = problem.conditions[c].name
@@ -507,7 +503,7 @@ def _condition_loops(study: _Study, c: int, break_at: str, drawn: dict[str, np.n
     realized = None if exact is None else exact.realization
     if not closed:
         return _Loops(loops, None, realized)
-    return _Loops(loops, closed_rows(forms, loops, closed), realized)
+    return _Loops(loops, closed_rows(forms, loops, closed, condition.network.sample_time), realized)
 
 
 def _at(study: _Study, spec: Spec) -> str:

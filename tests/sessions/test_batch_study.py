@@ -575,27 +575,35 @@ def test_closed_loop_peak_rows_of_cascades_are_batched(tmp_path):
     assert batched >= 0.8 * total
 
 
-@pytest.mark.parametrize(
-    ("target", "why"),
-    [
-        (
-            {"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False, "response": None},
-            "time rows of a loop in z",
-        ),
-        ({"measure": "sensitivity_peak", "bands": [{"desired": 2.0}]}, "closed-loop peak rows of a loop in z"),
-    ],
-)
-def test_a_loop_in_z_keeps_its_time_and_closed_loop_peak_rows_per_loop(tmp_path, target, why):
-    """Named exceptions: Kuo's loop in z with a peak response to a step (its samples stepped in z) or an Ms
-    row (searched on its w-plane form) is evaluated per loop, its note says why, every run `run_job`'s."""
+def test_a_loop_in_z_keeps_its_time_rows_per_loop(tmp_path):
+    """Named exception: Kuo's loop in z with a peak response to a step (its samples stepped in z) is
+    evaluated per loop, its note says why, every run `run_job`'s."""
     path = _kuo_z(tmp_path)
     model = json.loads(path.read_text())
-    if target["measure"] == "peak_response":
-        target = {**target, "response": {"input": "r", "output": "y", "horizon": 5.0, "points": 11}}
-        target["response"]["profile"] = [{"time": 0.0, "step": 1.0}]
+    target = {"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False}
+    target["response"] = {"input": "r", "output": "y", "horizon": 5.0, "points": 11}
+    target["response"]["profile"] = [{"time": 0.0, "step": 1.0}]
     model["problem"]["targets"].append(target)
     path.write_text(json.dumps(model))
-    _per_loop_equal(_jobs(path, 4, ["T1=+-30%", "T2=+-30%"]), why)
+    _per_loop_equal(_jobs(path, 4, ["T1=+-30%", "T2=+-30%"]), "time rows of a loop in z")
+
+
+@pytest.mark.parametrize("plant", [None, "0.02*(z+1)/((z-1)*(z**2-1.6012*z+0.9409))"])
+def test_closed_loop_peak_rows_of_a_loop_in_z_are_batched(tmp_path, plant):
+    """Issue 53, section 1: Kuo's loop in z with Ms, Mt, disk and delay margin rows (over the whole
+    axis, and Ms over 0.5-3 rad/s) went per loop (not batched: closed-loop peak rows of a loop in
+    z); its samples' peaks are found at once on their w-plane forms now (bands in nu = tan(omega
+    T/2), frequencies back in rad/s), every run `run_job`'s.  Kuo's plant and one with a lightly
+    damped pair (poles at 0.97 exp(+-0.6j)): 59 of 60 samples batched."""
+    path = _kuo_z(tmp_path, plant)
+    model = json.loads(path.read_text())
+    kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")
+    model["problem"]["targets"] += [{"measure": kind, "bands": [{"desired": 1.0}]} for kind in kinds]
+    band = {"low": 0.5, "high": 3.0, "desired": 1.5}
+    model["problem"]["targets"].append({"measure": "sensitivity_peak", "bands": [band]})
+    path.write_text(json.dumps(model))
+    batched, _, done = _batched_equal(_jobs(path, 30, ["T1=+-30%", "T2=+-30%"]))
+    assert batched >= 0.9 * done
 
 
 def test_a_certified_sample_makes_no_margin_object(tmp_path, monkeypatch):
