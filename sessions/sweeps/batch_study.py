@@ -11,9 +11,9 @@ by `engine.slp.points`); consecutive batched samples are handed on as arrays
 It applies to slp studies with no linear constraints between parameters (a tolerance
 study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
 drawn parameters are free.  Their samples are batched when the rows are margins, crossover
-frequencies, modal peaks (the attenuation margins), time rows of continuous loops (step
-measures and the peak response, `engine.slp.batch_rows`: each sample's closed loop realized
-as the per-loop path realizes it, every response simulated in one recursion), Ms, Mt, disk and
+frequencies, modal peaks (the attenuation margins), time rows (step measures and the peak
+response, `engine.slp.batch_rows`: each sample's closed loop realized as the per-loop path
+realizes it, every response simulated in one recursion, a loop in z's stepped in z), Ms, Mt, disk and
 delay margins (`engine.margins.batch.closed_rows`: the peaks of every sample found at once) and the closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`), or diagrams in s realized for every sample at once
@@ -279,8 +279,6 @@ def _study(jobs: Sequence) -> _Study | None:
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay, a table or a state-space block"
     timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
-    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
-        unbatched = "time rows of a loop in z"
     for c, break_at in _every_break(problem, stepper.specs):
         if not unbatched and _cascade(problem, c, break_at) is None:
             name = problem.conditions[c].name

@@ -575,17 +575,37 @@ def test_closed_loop_peak_rows_of_cascades_are_batched(tmp_path):
     assert batched >= 0.8 * total
 
 
-def test_a_loop_in_z_keeps_its_time_rows_per_loop(tmp_path):
-    """Named exception: Kuo's loop in z with a peak response to a step (its samples stepped in z) is
-    evaluated per loop, its note says why, every run `run_job`'s."""
-    path = _kuo_z(tmp_path)
+def test_time_rows_of_a_loop_in_z_are_batched_and_stepped_in_z(tmp_path):
+    """Issue 53, section 1: Kuo's loop in z with step rows and a peak response to a ramp went per loop
+    (not batched: time rows of a loop in z); every sample's closed loop is stepped in z with the
+    others in one recursion now (`engine.closed_loop.batch_time.batch_simulate_sampled`), every run
+    `run_job`'s.  The per-loop path stepped its realization in w as if it were continuous (its sample
+    time was lost when the loop was closed); the peak response to a unit step equals
+    python-control's discrete closed loop's at the samples."""
+    control = pytest.importorskip("control")
+    path = _with_time_rows(_kuo_z(tmp_path))
     model = json.loads(path.read_text())
-    target = {"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False}
-    target["response"] = {"input": "r", "output": "y", "horizon": 5.0, "points": 11}
-    target["response"]["profile"] = [{"time": 0.0, "step": 1.0}]
-    model["problem"]["targets"].append(target)
+    step = {"input": "r", "output": "y", "horizon": 10.0, "points": 11, "profile": [{"time": 0.0, "step": 1.0}]}
+    for target in model["problem"]["targets"]:
+        if target.get("response"):
+            target["response"]["horizon"] = 10.0
+    model["problem"]["targets"].append(
+        {"measure": "peak_response", "bands": [{"desired": 0.0}], "requirement": False, "response": step}
+    )
     path.write_text(json.dumps(model))
-    _per_loop_equal(_jobs(path, 4, ["T1=+-30%", "T2=+-30%"]), "time rows of a loop in z")
+    jobs = _jobs(path, 20, ["T1=+-30%", "T2=+-30%"])
+    batched, _, done = _batched_equal(jobs)
+    assert batched == done
+    z = control.tf("z")
+    for run in batch_runs(jobs).runs:
+        t1, t2 = run["start"]["T1"], run["start"]["T2"]
+        loop = ((1 + t1) * z - (t1 - 1)) / ((1 + t2) * z - (t2 - 1)) * 0.39 * (z + 1.31) * (z + 0.054)
+        loop = control.tf(loop.num, loop.den, 0.5) / control.tf([1, -1.368, 0.368, 0], [1], 0.5)
+        closed = control.feedback(loop, 1)
+        _, y = control.step_response(closed, T=np.arange(21) * 0.5)
+        stable = bool(np.all(np.abs(closed.poles()) < 1))
+        peak = [m["value"] for m in run["measures"] if m["kind"] == "peak_response"][-1]
+        assert peak == (pytest.approx(float(np.max(np.abs(y))), rel=1e-12) if stable else "nan")
 
 
 @pytest.mark.parametrize("plant", [None, "0.02*(z+1)/((z-1)*(z**2-1.6012*z+0.9409))"])
