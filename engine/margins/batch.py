@@ -99,7 +99,8 @@ def closed_rows(
         if kind == "delay_margin":
             values[:, column], frequencies[:, column] = _band_delays(loops, low, high, stable)
         elif found is not None:
-            value, at = found.peak(kinds.index(kind), *_searched_band(low, high, sample_time))
+            value, at, sure = found.peak(kinds.index(kind), *_searched_band(low, high, sample_time))
+            batched &= sure
             at = at if sample_time is None else real_frequency(at, sample_time)
             values[:, column], frequencies[:, column] = peak_arrays(kind, value, at, stable)
     columns = {row[0]: column for column, row in enumerate(rows)}

@@ -212,7 +212,7 @@ def test_random_loops_in_z_equal_the_per_loop_path(tmp_path):
 
 def test_random_loops_in_z_with_time_and_peak_rows_equal_the_per_loop_path(tmp_path):
     """Random plants in z (as above) with step rows, a ramp's peak response, Ms, Mt, disk and delay
-    margin rows: 54 of 60 samples batched (0 before: time and peak rows of a loop in z went per
+    margin rows: 58 of 60 samples batched (0 before: time and peak rows of a loop in z went per
     loop), the rest by the per-loop search on their forms, every run `run_job`'s to 1e-12."""
     batched = total = 0
     kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")
@@ -228,7 +228,7 @@ def test_random_loops_in_z_with_time_and_peak_rows_equal_the_per_loop_path(tmp_p
         path.write_text(json.dumps(model))
         together, _, done = _batched_equal(_jobs(path, 15, ["T1=+-50%", "T2=+-50%"]))
         batched, total = batched + together, total + done
-    assert batched >= 0.8 * total
+    assert batched >= 0.9 * total
 
 
 def test_the_launch_vehicle_is_batched_on_its_realizations_minimal_forms(tmp_path):
@@ -576,7 +576,7 @@ def test_closed_loop_peak_rows_of_cascades_are_batched(tmp_path):
     "by the per-loop search"); they are found for every sample at once now
     (`engine.margins.pole_zero.batch_peaks`, the delay margins from the phase margins' arrays), a
     sample the batched search does not certify by the per-loop search, named in the note.  The
-    lag-lead and random cascades, every run `run_job`'s (53 of 60 samples batched, 0 before)."""
+    lag-lead and random cascades, every run `run_job`'s (59 of 60 samples batched, 0 before)."""
 
     studies = [(_session(tmp_path), TOLERANCES)]
     for seed in (2, 6, 9):
@@ -593,7 +593,7 @@ def test_closed_loop_peak_rows_of_cascades_are_batched(tmp_path):
         path.write_text(json.dumps(model))
         together, _, done = _batched_equal(_jobs(path, 15, tolerances))
         batched, total = batched + together, total + done
-    assert batched >= 0.8 * total
+    assert batched >= 0.95 * total
 
 
 def test_time_rows_of_a_loop_in_z_are_batched_and_stepped_in_z(tmp_path):
@@ -635,7 +635,7 @@ def test_closed_loop_peak_rows_of_a_loop_in_z_are_batched(tmp_path, plant):
     axis, and Ms over 0.5-3 rad/s) went per loop (not batched: closed-loop peak rows of a loop in
     z); its samples' peaks are found at once on their w-plane forms now (bands in nu = tan(omega
     T/2), frequencies back in rad/s), every run `run_job`'s.  Kuo's plant and one with a lightly
-    damped pair (poles at 0.97 exp(+-0.6j)): 59 of 60 samples batched."""
+    damped pair (poles at 0.97 exp(+-0.6j)): 60 of 60 samples batched."""
     path = _kuo_z(tmp_path, plant)
     model = json.loads(path.read_text())
     kinds = ("sensitivity_peak", "complementary_sensitivity_peak", "disk_margin", "delay_margin")

@@ -11,9 +11,9 @@ steps and stopping rule, through the iteration driver).  The certificate is the 
 without its repair: the slope of log|f| has the sign the stationary points predict at every check
 point (`batch_search.check_points`), and the values at the first and last stationary points are
 consistent with |f|'s limits at 0 and infinity.  A sample whose roots cannot be had, whose sum
-vanishes (a constant |f|), with a maximum that stopped in the rounding noise rather than within 4 ulp
-(the per-loop search may stop elsewhere in it; a minimum is never a peak), or that fails a check is not ``certified``: the
-per-loop search on its form takes it.  The peak over a band is the largest |f| at the maxima inside
+vanishes (a constant |f|) or that fails a check is not ``certified``, nor is a peak at (or within
+rounding of) a maximum that stopped in the rounding noise rather than within 4 ulp (the per-loop
+search may stop elsewhere in it): the per-loop search on its form takes it.  The peak over a band is the largest |f| at the maxima inside
 it, at its finite ends and at the limits it reaches, as the per-loop search takes it.
 """
 
@@ -45,27 +45,34 @@ from engine.margins.pole_zero.batch_search import (
 from engine.margins.pole_zero.levels import ROUNDING
 from engine.margins.pole_zero.peaks import Moebius, moebius, moebius_noise, moebius_slopes
 
+TIE = 1e-12  # relative: a maximum within this of the peak could be the per-loop search's peak
+
 
 @dataclass(frozen=True)
 class BatchPeaks:
-    """Per transform, every sample's maxima of |f| (S, m: sorted, NaN-padded) and |f|'s limits at 0
-    and at infinity (S each); which samples are ``certified`` (the others' numbers mean nothing)."""
+    """Per transform, every sample's maxima of |f| (S, m: sorted, NaN-padded), which of them stopped
+    in the rounding noise (``noisy``) and |f|'s limits at 0 and at infinity (S each); which samples
+    are ``certified`` (the others' numbers mean nothing)."""
 
     levels: BatchLevels
     transforms: tuple[Moebius, ...]
     maxima: tuple[NDArray[np.float64], ...]
+    noisy: tuple[NDArray[np.bool_], ...]
     limits: tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...]
     certified: NDArray[np.bool_]
 
-    def peak(self, number: int, low: float, high: float) -> tuple[NDArray, NDArray]:
+    def peak(self, number: int, low: float, high: float) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
         """Every sample's (max |f| over [low, high], where: 0 or inf for a limit at an end) for
         transform ``number``, the largest of the maxima inside, the finite ends and the limits
-        reached (a tie taken at the higher frequency, as the per-loop search's `max` takes it)."""
+        reached (a tie taken at the higher frequency, as the per-loop search's `max` takes it), and
+        whether it is sure: not at, nor within `TIE` of, a maximum that stopped in the rounding
+        noise (the per-loop search may stop elsewhere in it: its frequency is not the batch's)."""
         ab, maxima = self.transforms[number], self.maxima[number]
         count = maxima.shape[0]
         ends = np.array([w for w in (low, high) if 0 < w < math.inf])
         with np.errstate(invalid="ignore"):
             inside = np.where((maxima >= low) & (maxima <= high), maxima, np.nan)
+        noisy = np.concatenate([self.noisy[number], np.zeros((count, ends.size + 2), dtype=bool)], axis=1)
         points = np.concatenate([inside, np.tile(ends, (count, 1))], axis=1)
         with np.errstate(all="ignore"):
             values = np.abs(moebius(ab, self.levels.terms(points)[0]))
@@ -77,7 +84,8 @@ class BatchPeaks:
         values = np.where(np.isnan(values), -np.inf, values)
         best = values.max(axis=1, initial=-np.inf)
         where = np.where(values == best[:, None], points, -np.inf).max(axis=1, initial=-np.inf)
-        return best, where
+        near = values >= (best - TIE * np.abs(best))[:, None]
+        return best, where, ~(near & noisy[:, : values.shape[1]]).any(axis=1)
 
 
 def batch_moebius_peaks(forms: BatchForms, transforms: Sequence[Moebius], eligible: NDArray[np.bool_]) -> BatchPeaks:
@@ -88,21 +96,24 @@ def batch_moebius_peaks(forms: BatchForms, transforms: Sequence[Moebius], eligib
     ok = eligible & ~forms.odd & (forms.zeros.shape[1] <= forms.poles.shape[1])
     closed = closed_loop_poles(levels)
     ok &= np.isfinite(closed).all(axis=1)
-    maxima, limits = [], []
+    maxima, noisy, limits = [], [], []
     with np.errstate(all="ignore"):
         for ab in transforms:
-            w, top, fine = _stationary(levels, ab, closed)
+            w, top, stalled, fine = _stationary(levels, ab, closed)
             zero, infinity = _limits(levels, ab)
             values = np.log(np.abs(moebius(ab, levels.terms(w)[0])))
             ok &= fine & reach_limits(w, values, top, np.log(zero), np.log(infinity))
             maxima.append(np.where(top, w, np.nan))
+            noisy.append(stalled & top)
             limits.append((zero, infinity))
-    return BatchPeaks(levels, tuple(transforms), tuple(maxima), tuple(limits), ok)
+    return BatchPeaks(levels, tuple(transforms), tuple(maxima), tuple(noisy), tuple(limits), ok)
 
 
-def _stationary(levels: BatchLevels, ab: Moebius, closed: NDArray) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
-    """Every sample's stationary points of |f| (S, P: sorted, NaN-padded), which are maxima, and
-    whether they are certified (module docstring)."""
+def _stationary(
+    levels: BatchLevels, ab: Moebius, closed: NDArray
+) -> tuple[NDArray, NDArray, NDArray[np.bool_], NDArray[np.bool_]]:
+    """Every sample's stationary points of |f| (S, P: sorted, NaN-padded), which are maxima, which
+    stopped in the rounding noise, and whether they are certified (module docstring)."""
     scale = levels.scale[:, None]
     top_roots = _numerator_roots(levels, ab)
     roots = np.concatenate([top_roots, closed], axis=1) / scale
@@ -115,12 +126,10 @@ def _stationary(levels: BatchLevels, ab: Moebius, closed: NDArray) -> tuple[NDAr
     w, second, stalled = batch_newton(lambda at, samples: _slopes(levels, ab, at, samples), starts)
     stalled = distinct_rows(w, stalled.astype(float))[1] == 1.0  # the same order as the points'
     w, second = distinct_rows(w, second)
-    fine = (
-        np.isfinite(top_roots).all(axis=1) & ~flat & ~(second == 0).any(axis=1) & ~(stalled & (second < 0)).any(axis=1)
-    )
+    fine = np.isfinite(top_roots).all(axis=1) & ~flat & ~(second == 0).any(axis=1)
     probes = check_points(levels, [w], near)
     first, noise = _slopes_and_noise(levels, ab, probes)
-    return w, second < 0, fine & signs_agree(probes, first, noise, w, second < 0)
+    return w, second < 0, stalled, fine & signs_agree(probes, first, noise, w, second < 0)
 
 
 def _numerator_roots(levels: BatchLevels, ab: Moebius) -> NDArray:

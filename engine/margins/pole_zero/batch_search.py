@@ -38,6 +38,7 @@ from engine.model.paired_product import PairedProduct
 from engine.numerics.bracketing import EPS, NOISE_STEP
 from engine.numerics.iteration import Status, Work, iterate
 
+NEGLIGIBLE = 1e-12  # relative to its terms, a coefficient of a sum of fractions that is 0 but for rounding
 LARGEST_LOG = 300.0  # a scaled gain whose square would overflow: the per-loop search
 # relative change of GH a crossing's rounding may make, at most (else the per-loop search): a
 # quarter of the 1e-12 the batch equals the per-loop path to.  The bound is the worst case (8 ulp
@@ -265,18 +266,22 @@ def batch_roots(c: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
 def fraction_zeros(t: NDArray, weights: NDArray, others: NDArray) -> tuple[NDArray, NDArray[np.bool_]]:
     """The zeros in x of sum w_i / (x - t_i) per row (the roots of its numerator; ``others``:
     `leave_one_out` of ``t``), and the rows where the sum vanishes identically (a constant level)
-    or its roots cannot be had."""
+    or its roots cannot be had.  Leading coefficients within `NEGLIGIBLE` of their terms in every
+    row are dropped: a structure's sum can lose degrees whatever its numbers (the peaks' sums over
+    the closed-loop poles and D's or N's roots, whose first moments agree when the relative degree
+    is high), where the rounding would leave an exact 0 in some rows (no roots) and a spurious
+    root beyond reach in others."""
     n = t.shape[1]
     numerator = np.zeros((t.shape[0], n), dtype=complex)
-    size = np.zeros(t.shape[0])
+    sizes = np.zeros((t.shape[0], n))
     for i in range(n):
         part = weights[:, i : i + 1] * others[i].T
         numerator += part
-        size = np.maximum(size, np.abs(part).max(axis=1))
+        sizes = np.maximum(sizes, np.abs(part))
     c = numerator.real
-    flat = np.abs(c).max(axis=1, initial=0.0) <= 1e-12 * size
-    while c.shape[1] > 1 and (c[:, 0] == 0).all():
-        c = c[:, 1:]
+    flat = np.abs(c).max(axis=1, initial=0.0) <= NEGLIGIBLE * sizes.max(axis=1, initial=0.0)
+    while c.shape[1] > 1 and (np.abs(c[:, 0]) <= NEGLIGIBLE * sizes[:, 0]).all():
+        c, sizes = c[:, 1:], sizes[:, 1:]
     x, bad = batch_roots(c)
     return x, flat | bad
 
