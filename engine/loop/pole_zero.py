@@ -87,7 +87,7 @@ def loop_realization(network: Network, break_at: str, params: Mapping[str, float
 
 def closed_from_broken(network: Network, break_at: str, ss: StateSpace) -> StateSpace:
     """The closed loop (all loops closed) from the broken one ``ss`` (`loop_realization`):
-    u = x_break."""
+    u = x_break; a sampled network's realization in w keeps its sample time (it is stepped in z)."""
     k = network.signal(break_at)
     Bu, Du = ss.B[:, -1:], ss.D[:-1, -1:]
     denominator = 1.0 - ss.D[k, -1]
@@ -95,7 +95,15 @@ def closed_from_broken(network: Network, break_at: str, ss: StateSpace) -> State
         raise InterconnectionError(f"algebraic loop through {break_at!r} is singular")
     Ck, Dk = ss.C[k : k + 1] / denominator, ss.D[k : k + 1, :-1] / denominator
     C, D = ss.C[:-1], ss.D[:-1, :-1]
-    return StateSpace(ss.A + Bu @ Ck, ss.B[:, :-1] + Bu @ Dk, C + Du @ Ck, D + Du @ Dk, network.inputs, network.signals)
+    return StateSpace(
+        ss.A + Bu @ Ck,
+        ss.B[:, :-1] + Bu @ Dk,
+        C + Du @ Ck,
+        D + Du @ Dk,
+        network.inputs,
+        network.signals,
+        network.sample_time,
+    )
 
 
 def zpk_evaluator(

@@ -32,15 +32,16 @@ from numpy.typing import NDArray
 from engine.loop.batch_forms import BatchForms
 from engine.loop.batch_realized_forms import RealizedForms
 from engine.loop.pole_zero import ZpkEvaluator
-from engine.margins.peak_measures import band_delay, peak_values, transform
+from engine.margins.peak_measures import band_delay, peak_arrays, peak_values, transform
 from engine.margins.peaks import Peak
+from engine.margins.pole_zero.batch_peaks import batch_moebius_peaks
 from engine.margins.pole_zero.batch_search import batch_crossings
 from engine.margins.pole_zero.levels import LoopLevels
 from engine.margins.pole_zero.peaks import moebius_peaks
 from engine.margins.pole_zero.search import fast_margins
-from engine.margins.sampled import in_rad_per_s
+from engine.margins.sampled import band_in_nu, in_rad_per_s
 from engine.margins.search import Band
-from engine.margins.values import Margin, Margins, margins_of, single_margin
+from engine.margins.values import Margin, Margins, margin_forms, margins_of, single_margin
 from engine.model.bilinear import real_frequency, s_of_z, z_of_w
 from engine.model.paired_product import PairedProduct
 
@@ -60,30 +61,88 @@ ClosedRow = tuple[int, str, float, float]  # a closed-loop row: its number, meas
 UNSETTLED = 1e-9  # |abscissa| within which the closed loop's stability is left to the per-loop path
 
 
-def with_closed_rows(
-    forms: BatchForms, loops: list[SampleLoop | None], rows: list[ClosedRow]
-) -> list[SampleLoop | None]:
-    """The samples' loops with their closed-loop rows (Ms, Mt, the disk and delay margins,
-    `engine.margins.peak_measures`) over the rows' bands: the peaks by the per-loop grid-free
-    peak search on each sample's batched form (`engine.margins.pole_zero.peaks.moebius_peaks`,
-    what the per-loop path runs on a cascade's factored form), the delay margins from the
-    sample's phase margins, the closed loop's stability from its abscissa.  None for a sample
-    where that search does not apply (the per-loop path's grid then) or whose abscissa is
-    within `UNSETTLED` of 0."""
-    out: list[SampleLoop | None] = []
-    for k, loop in enumerate(loops):
-        if loop is None or abs(loop.abscissa) <= UNSETTLED:
-            out.append(None)
+class ClosedRows(NamedTuple):
+    """Every sample's closed-loop rows (`closed_rows`): values and frequencies (samples, rows: the
+    rows' column ``columns[number]``), ``found``: False where the per-loop path must take the sample,
+    ``batched``: found by the batched peak search (else by the per-loop search on its form)."""
+
+    values: NDArray[np.float64]
+    frequencies: NDArray[np.float64]
+    columns: dict[int, int]
+    found: NDArray[np.bool_]
+    batched: NDArray[np.bool_]
+
+
+def closed_rows(
+    forms: BatchForms, loops: BatchLoops, rows: list[ClosedRow], sample_time: float | None = None
+) -> ClosedRows:
+    """Every sample's closed-loop rows (Ms, Mt, the disk and delay margins,
+    `engine.margins.peak_measures`) over the rows' bands, as `engine.slp.peaks.closed_loop_values`
+    reads them: the peaks by the batched grid-free peak search
+    (`engine.margins.pole_zero.batch_peaks`), a sample it does not certify by the per-loop search
+    on its batched form (`engine.margins.pole_zero.peaks.moebius_peaks`, what the per-loop path runs
+    on a cascade's factored form); the delay margins from the phase margins' arrays, the closed
+    loop's stability from the abscissa.  Not found: a sample the per-loop path must take, where
+    neither search applies (the per-loop path's grid then) or whose abscissa is within `UNSETTLED`
+    of 0.  With ``sample_time`` the forms are a loop in z's w-plane forms: the bands searched in
+    nu = tan(omega T/2), the peaks' frequencies back in rad/s (`engine.margins.sampled`)."""
+    count = forms.gain.size
+    settled = loops.found & (np.abs(loops.abscissa) > UNSETTLED)
+    stable = loops.abscissa > 0
+    values, frequencies = np.full((count, len(rows)), np.nan), np.full((count, len(rows)), np.nan)
+    peaks = [row for row in rows if row[1] != "delay_margin"]
+    kinds = sorted({kind for _, kind, _, _ in peaks})
+    pairs = [getattr(transform(kind), "moebius", None) for kind in kinds]
+    found = batch_moebius_peaks(forms, pairs, settled) if None not in pairs else None
+    batched = settled & (found is not None and found.certified)
+    for column, (_, kind, low, high) in enumerate(rows):
+        if kind == "delay_margin":
+            values[:, column], frequencies[:, column] = _band_delays(loops, low, high, stable)
+        elif found is not None:
+            value, at, sure = found.peak(kinds.index(kind), *_searched_band(low, high, sample_time))
+            batched &= sure
+            at = at if sample_time is None else real_frequency(at, sample_time)
+            values[:, column], frequencies[:, column] = peak_arrays(kind, value, at, stable)
+    columns = {row[0]: column for column, row in enumerate(rows)}
+    done = batched | ~settled
+    for k in np.flatnonzero(~done).tolist():
+        loop = loops.loop(k)
+        one = None if loop is None else _closed_rows(forms, k, loop, rows, bool(stable[k]), sample_time)
+        if one is None:
+            settled[k] = False
             continue
-        found = _closed_rows(forms, k, loop, rows, loop.abscissa > 0)
-        out.append(None if found is None else loop._replace(batched=False, closed=found))
-    return out
+        for number, (value, frequency) in one.items():
+            values[k, columns[number]], frequencies[k, columns[number]] = value, frequency
+    return ClosedRows(values, frequencies, columns, settled, batched)
+
+
+def _band_delays(loops: BatchLoops, low: float, high: float, stable: NDArray) -> tuple[NDArray, NDArray]:
+    """Every sample's smallest delay margin of the gain crossovers in [low, high] and its frequency
+    (`engine.margins.peak_measures.band_delay` over the phase margins' arrays)."""
+    w = loops.phase
+    with np.errstate(invalid="ignore"):
+        delay = margin_forms("P", w, loops.phase_gh)["delay"]
+        delay = np.where((w > 0) & (w >= low) & (w <= high) & ~np.isnan(delay), delay, np.inf)
+    first = np.argmin(delay, axis=1)[:, None] if w.shape[1] else np.zeros((w.shape[0], 1), dtype=int)
+    padded = np.concatenate([delay, np.full((w.shape[0], 1), np.inf)], axis=1)
+    value = np.take_along_axis(padded, first, 1)[:, 0]
+    at = np.where(np.isfinite(value), np.take_along_axis(np.pad(w, ((0, 0), (0, 1))), first, 1)[:, 0], np.nan)
+    return np.where(stable, value, 0.0), np.where(stable, at, np.nan)
+
+
+def _searched_band(low: float, high: float, sample_time: float | None) -> tuple[float, float]:
+    """A band in rad/s as the peak search reads it: in nu = tan(omega T/2) for a loop in z."""
+    if sample_time is None:
+        return low, high
+    band = band_in_nu(Band(low, high), sample_time)
+    return band.low, band.high
 
 
 def _closed_rows(
-    forms: BatchForms, k: int, loop: SampleLoop, rows: list[ClosedRow], stable: bool
+    forms: BatchForms, k: int, loop: SampleLoop, rows: list[ClosedRow], stable: bool, sample_time: float | None
 ) -> dict[int, tuple[float, float]] | None:
-    """Sample ``k``'s closed-loop rows, band by band as `engine.slp.peaks.closed_loop_values` reads them."""
+    """Sample ``k``'s closed-loop rows by the per-loop search on its form, band by band as
+    `engine.slp.peaks.closed_loop_values` reads them."""
     form = ZpkEvaluator(complex(float(forms.gain[k]), 0.0), forms.zeros[k], forms.poles[k], factored=True)
     out: dict[int, tuple[float, float]] = {}
     bands: dict[tuple[float, float], list[tuple[int, str]]] = {}
@@ -95,9 +154,11 @@ def _closed_rows(
     for (low, high), band_rows in bands.items():
         kinds = [kind for _, kind in band_rows]
         pairs = [getattr(transform(kind), "moebius", None) for kind in kinds]
-        found = None if None in pairs else moebius_peaks(form, pairs, low, high)
+        found = None if None in pairs else moebius_peaks(form, pairs, *_searched_band(low, high, sample_time))
         if found is None:
             return None
+        if sample_time is not None:
+            found = [(value, float(real_frequency(nu, sample_time))) for value, nu in found]
         values = peak_values(kinds, [Peak(value, frequency) for value, frequency in found], stable)
         for (number, _), (value, frequency, _) in zip(band_rows, values):
             out[number] = (value, frequency)

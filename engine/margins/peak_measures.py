@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from engine.loop.responses import LoopModel
 from engine.margins.detection_grid import detection_grid
-from engine.margins.disk import disk_transform, from_peak
+from engine.margins.disk import disk_transform
 
 # the peak search's own steps, reused to keep every local maximum, not only the largest
 from engine.margins.peaks import (
@@ -81,13 +81,25 @@ def peak_values(
     """(value, frequency, the peak) of each peak measure from its transform's refined peak (`band_peaks`)."""
     out = []
     for measure, peak in zip(measures, found):
-        if stable is False:
-            out.append((0.0 if measure == "disk_margin" else math.inf, math.nan, peak))
-        elif measure == "disk_margin":
-            out.append((from_peak(peak, DISK_SKEW, stable).alpha, peak.frequency, peak))
-        else:
-            out.append((peak.value, peak.frequency, peak))
+        value, frequency = peak_arrays(
+            measure, np.array(peak.value), np.array(peak.frequency), np.array(stable is not False)
+        )
+        out.append((float(value), float(frequency), peak))
     return out
+
+
+def peak_arrays(
+    measure: str, values: NDArray, frequencies: NDArray, stable: NDArray[np.bool_]
+) -> tuple[NDArray, NDArray]:
+    """`peak_values` of one measure for many loops at once: (values, frequencies) from its
+    transform's peaks |f| at ``frequencies`` and each loop's closed-loop stability (an unstable
+    one has no disk margin, 0, and no finite Ms or Mt, inf, at frequency NaN; the disk margin is
+    alpha = 1/max |f|, `engine.margins.disk.from_peak`)."""
+    if measure == "disk_margin":
+        with np.errstate(divide="ignore"):
+            values = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), math.inf)
+    unstable = 0.0 if measure == "disk_margin" else math.inf
+    return np.where(stable, values, unstable), np.where(stable, frequencies, math.nan)
 
 
 def band_peak(loop: LoopModel, measure: str, band: Band, stable: bool | None = None) -> tuple[float, float, Peak]:

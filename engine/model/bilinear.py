@@ -72,10 +72,12 @@ Z_OF_W = "((1+w)/(1-w))"
 
 def realization_in_z(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray) -> tuple[np.ndarray, ...]:
     """A realization in w as one in z, w = (z - 1)/(z + 1): with M = (I - A)^-1, A_z = (I + A) M,
-    B_z = sqrt(2) M B, C_z = sqrt(2) C M, D_z = D + C M B (= H(w = 1), z = inf)."""
-    M = np.linalg.inv(np.eye(A.shape[0]) - A)
+    B_z = sqrt(2) M B, C_z = sqrt(2) C M, D_z = D + C M B (= H(w = 1), z = inf); stacked
+    realizations (a leading axis of samples) alike."""
+    eye = np.eye(A.shape[-1])
+    M = np.linalg.inv(eye - A)
     root2 = math.sqrt(2.0)
-    return (np.eye(A.shape[0]) + A) @ M, root2 * M @ B, root2 * C @ M, D + C @ M @ B
+    return (eye + A) @ M, root2 * M @ B, root2 * C @ M, D + C @ M @ B
 
 
 def z_of_w(points: ArrayLike) -> NDArray[np.complex128]:

@@ -12,8 +12,8 @@ never a silent stop.
 
 Clients: the bracketed refinement of crossings and extrema (`engine.numerics.refinement`),
 the bracketed roots of the delay search (`engine.numerics.bracketing`), the Aberth
-polisher of roots (`engine.numerics.aberth`) and the batched Newton of the margins'
-batch search (`engine.margins.pole_zero.batch_search`).
+polisher of roots (`engine.numerics.aberth`) and the batched Newton of the margins' and the
+peaks' batch searches (`engine.margins.pole_zero.batch_search`, `batch_peaks`).
 """
 
 from __future__ import annotations

@@ -6,7 +6,10 @@ recursion (`engine.closed_loop.batch_time`) and read by the per-loop path's own 
 (`engine.slp.measures.response_value`); the abscissa from one batched eigenvalue call on
 the stacked closed-loop matrices (each the per-loop path's own matrix).
 
-Continuous loops only (a loop in z steps its samples in z: per loop).  A sample whose
+A loop in z is realized per sample (its realization in w, as the per-loop path makes it), its
+responses stepped in z at its samples for all of them at once
+(`engine.closed_loop.batch_time.batch_simulate_sampled`), its abscissa the poles' s-plane
+equivalents.  A sample whose
 realization fails, or whose realization is not of the study's shape, gets no values (the
 per-loop path takes it).
 """
@@ -20,13 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from engine.closed_loop.batch_time import batch_simulate
+from engine.closed_loop.batch_time import batch_simulate, batch_simulate_sampled
 from engine.closed_loop.time_response import Segment
 from engine.design.problem import Problem
 from engine.errors import EngineError
 from engine.loop.batch_realization import SharedStateSpace, batch_loop_realization, closed_of, samples
 from engine.loop.design import closed_loop_realization, seed_loop_realization
 from engine.loop.realization import StateSpace, unstable_rows
+from engine.model.bilinear import s_of_z, z_of_w
 from engine.slp.measures import Spec, evaluate, response_times, response_value
 
 # the time rows read from a simulated response (a mean square solves a Lyapunov equation: per loop)
@@ -66,6 +70,8 @@ def condition_stacks(problem: Problem, c: int, xs: NDArray) -> Stacks | None:
     """Condition ``c``'s broken and closed loops of every sample at once (`engine.loop.batch_realization`:
     the per-loop path's matrices); None when the network does not allow it."""
     condition = problem.conditions[c]
+    if condition.network.sample_time is not None:
+        return None  # a loop in z: realized per sample (its realization in w, `_realized`)
     values = [problem.condition_values(c, x) for x in xs]
     columns = {name: np.array([v[name] for v in values]) for name in values[0]} if values else {}
     broken = batch_loop_realization(condition.network, condition.break_at, columns) if columns else None
@@ -94,25 +100,40 @@ def _condition_rows(
     eigenvalues = np.linalg.eigvals(A) if A.shape[1] else np.zeros((A.shape[0], 0), dtype=complex)
     if hidden is not None:
         eigenvalues = np.concatenate([eigenvalues, hidden[mine]], axis=1)
-    unstable = unstable_rows(eigenvalues)  # `engine.slp.measures.grows`' verdict, per sample
+    unstable = unstable_rows(
+        eigenvalues
+    )  # `engine.slp.measures.grows`' verdict, per sample (in w: the same half-plane)
+    sample_time = loops[0].sample_time
     for spec, column in zip(specs, rows):
         if spec.kind == "stability_abscissa":
-            values[mine, column] = -np.max(eigenvalues.real, axis=1, initial=-math.inf)
+            values[mine, column] = _abscissa(eigenvalues, sample_time)
             continue
         response = problem.targets[spec.target].response
         first = loops[0]
         if response.input not in first.inputs or response.output not in first.outputs:
             return np.zeros_like(ok)  # the per-loop path says what is wrong
         k, j = first.inputs.index(response.input), first.outputs.index(response.output)
-        t = response_times(response, None)
+        t = response_times(response, sample_time)
         segments = [Segment(*p) for p in response.profile]
         B, C = np.array([ss.B[:, k] for ss in loops]), np.array([ss.C[j] for ss in loops])
         D = np.array([ss.D[j, k] for ss in loops])
         with np.errstate(all="ignore"):
-            y = batch_simulate(A, B, C, D, t, segments)
+            if sample_time is None:
+                y = batch_simulate(A, B, C, D, t, segments)
+            else:
+                y = batch_simulate_sampled(A, B, C, D, t, segments, sample_time)
         for row, (sample, ss) in enumerate(zip(mine.tolist(), loops)):
             values[sample, column] = response_value(spec, response, ss, t, y[row], unstable[row])
     return ok
+
+
+def _abscissa(eigenvalues: NDArray, sample_time: float | None) -> NDArray:
+    """-max Re of every sample's closed-loop poles (`engine.design.tableau.stability_abscissa`: a
+    sampled loop's poles in w taken to their s-plane equivalents)."""
+    if sample_time is not None:
+        with np.errstate(all="ignore"):
+            eigenvalues = s_of_z(z_of_w(eigenvalues), sample_time)
+    return -np.max(eigenvalues.real, axis=1, initial=-math.inf)
 
 
 def _realized(problem: Problem, c: int, x: NDArray) -> StateSpace | None:

@@ -11,10 +11,10 @@ by `engine.slp.points`); consecutive batched samples are handed on as arrays
 It applies to slp studies with no linear constraints between parameters (a tolerance
 study's document has none: `sessions.sweeps.plan.tolerance_jobs` leaves them out), whose
 drawn parameters are free.  Their samples are batched when the rows are margins, crossover
-frequencies, modal peaks (the attenuation margins), time rows of continuous loops (step
-measures and the peak response, `engine.slp.batch_rows`: each sample's closed loop realized
-as the per-loop path realizes it, every response simulated in one recursion) and the
-closed-loop stability abscissa, of conditions whose loops are
+frequencies, modal peaks (the attenuation margins), time rows (step measures and the peak
+response, `engine.slp.batch_rows`: each sample's closed loop realized as the per-loop path
+realizes it, every response simulated in one recursion, a loop in z's stepped in z), Ms, Mt, disk and
+delay margins (`engine.margins.batch.closed_rows`: the peaks of every sample found at once) and the closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
 `engine.margins.batch`), or diagrams in s realized for every sample at once
 (`engine.loop.batch_realization`: parallel paths, inner loops, state-space blocks of one
@@ -52,7 +52,7 @@ from engine.loop.batch_forms import BatchForms, batch_pole_zero
 from engine.loop.batch_realization import batch_loop_realization, closed_of
 from engine.loop.batch_realized_forms import RealizedForms, realized_forms
 from engine.loop.realization import StateSpace
-from engine.margins.batch import BatchLoops, SampleLoop, batch_loops, with_closed_rows
+from engine.margins.batch import BatchLoops, ClosedRows, batch_loops, closed_rows
 from engine.margins.peak_measures import CLOSED_LOOP_MEASURES
 from engine.model.network import Network
 from engine.slp import REGISTRATION as SLP
@@ -280,11 +280,6 @@ def _study(jobs: Sequence) -> _Study | None:
     if not unbatched and not all(c.network.rational for c in problem.conditions):
         unbatched = "a loop with a delay or a table"  # (a state-space block is rational: realized in batch)
     timed = {s.condition for s in stepper.specs if s.kind in BATCH_TIME_KINDS}
-    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in timed):
-        unbatched = "time rows of a loop in z"
-    closed = {s.condition for s in stepper.specs if s.kind in CLOSED_LOOP_MEASURES}
-    if not unbatched and any(problem.conditions[c].network.sample_time is not None for c in closed):
-        unbatched = "closed-loop peak rows of a loop in z"
     for c, break_at in _every_break(problem, stepper.specs):
         if not unbatched and _cascade(problem, c, break_at) is None:
             name = problem.conditions[c].name
@@ -469,10 +464,10 @@ def _seen_by(column: np.ndarray, condition: int | None) -> np.ndarray:
 
 class _Loops(NamedTuple):
     """A condition's loop of every sample: its margins as arrays and, when it has closed-loop rows,
-    each sample's loop with them (`engine.margins.batch.with_closed_rows`; None: per loop)."""
+    every sample's rows (`engine.margins.batch.closed_rows`)."""
 
     margins: BatchLoops
-    closed: list[SampleLoop | None] | None
+    closed: ClosedRows | None
     realized: StateSpace | None = None  # its broken loops' stacked realizations, when its forms came from them
 
 
@@ -507,7 +502,7 @@ def _condition_loops(study: _Study, c: int, break_at: str, drawn: dict[str, np.n
     realized = None if exact is None else exact.realization
     if not closed:
         return _Loops(loops, None, realized)
-    return _Loops(loops, with_closed_rows(forms, [loops.loop(k) for k in range(count)], closed), realized)
+    return _Loops(loops, closed_rows(forms, loops, closed, condition.network.sample_time), realized)
 
 
 def _at(study: _Study, spec: Spec) -> str:
@@ -549,16 +544,17 @@ def _row_values(
         if spec.kind in BATCH_TIME_KINDS:
             values[:, i] = timed[:, i]
         elif spec.kind in CLOSED_LOOP_MEASURES and loop.closed is not None:
-            ok &= [one is not None for one in loop.closed]
-            for k, one in enumerate(loop.closed):
-                if one is not None and one.closed is not None:
-                    values[k, i], frequencies[k, i] = one.closed[i]
+            ok &= loop.closed.found
+            column = loop.closed.columns[i]
+            values[:, i], frequencies[:, i] = loop.closed.values[:, column], loop.closed.frequencies[:, column]
         elif spec.kind == "stability_abscissa":  # the closed loop's eigenvalues when it was realized
             values[:, i] = np.where(np.isnan(timed[:, i]), loop.margins.abscissa, timed[:, i])
         else:
             values[:, i], frequencies[:, i], per_loop = frequency_values(spec, loop.margins)
             ok &= ~per_loop
-    certified = [loop.margins.batched & (loop.closed is None) for loop in loops.values()]
+    certified = [
+        loop.margins.batched & (True if loop.closed is None else loop.closed.batched) for loop in loops.values()
+    ]
     return values, frequencies, ok, ~np.logical_and.reduce(certified)
 
 

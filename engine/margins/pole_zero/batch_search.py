@@ -22,6 +22,7 @@ The closed-loop poles (the roots of D + k N) come from a batched eigenvalue call
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -37,6 +38,7 @@ from engine.model.paired_product import PairedProduct
 from engine.numerics.bracketing import EPS, NOISE_STEP
 from engine.numerics.iteration import Status, Work, iterate
 
+NEGLIGIBLE = 1e-12  # relative to its terms, a coefficient of a sum of fractions that is 0 but for rounding
 LARGEST_LOG = 300.0  # a scaled gain whose square would overflow: the per-loop search
 # relative change of GH a crossing's rounding may make, at most (else the per-loop search): a
 # quarter of the 1e-12 the batch equals the per-loop path to.  The bound is the worst case (8 ulp
@@ -168,15 +170,15 @@ def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings
     will be polished on the loops' own GH (`engine.margins.batch.polished`), so one that stopped
     in the form's rounding noise rather than within 4 ulp is certified all the same (the form's
     noise does not reach the margin; `CONDITION` still bounds the exact level's)."""
-    forms = _placeholders(forms)
+    forms = placeholders(forms)
     levels = BatchLevels(forms)
     odd = forms.odd | (levels.roots.shape[1] > MAX_ROOTS) | _on_axis(levels.roots) | (levels.gain == 0)
     with np.errstate(all="ignore"):
         t = -(levels.roots**2) / (levels.scale**2)[:, None]
         stationary, near, bad, others = [], [], odd.copy(), leave_one_out(t)
         for weights in (levels.signs[None, :] + 0 * t, levels.signs[None, :] * levels.roots / levels.scale[:, None]):
-            x, flat = _fraction_zeros(t, weights, others)
-            real, close = _real_positive(x)
+            x, flat = fraction_zeros(t, weights, others)
+            real, close = real_positive(x)
             stationary.append(np.where(real, np.sqrt(x.real), np.nan) * levels.scale[:, None])
             near.append(np.where(close, np.sqrt(np.abs(x.real)), np.nan) * levels.scale[:, None])
             bad |= flat
@@ -184,7 +186,7 @@ def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings
         points, maxima, noisy = [], [], []
         for kind, starts in enumerate(stationary):
             w, second, stalled = _newton(levels, starts, kind)
-            w, second = _distinct(w, second)
+            w, second = distinct_rows(w, second)
             points.append(w)
             maxima.append(second < 0)
             noisy.append(stalled)
@@ -195,16 +197,16 @@ def batch_crossings(forms: BatchForms, polished: bool = False) -> BatchCrossings
         bad |= ~_reach_limits(levels, points, maxima, at_points)
         crossings, values, enclosed = _crossings(levels, at_points, gains, phases, polished)
         bad |= ~enclosed
-        closed = _closed_loop_poles(levels)
+        closed = closed_loop_poles(levels)
         abscissa = -np.max(closed.real, axis=1, initial=-np.inf)
         certified = ~bad & np.isfinite(abscissa)
         top = maxima[0]
-        peaks, peaks_gh = _distinct(np.where(top, points[0], np.nan), np.where(top, stationary_gh, np.nan))
+        peaks, peaks_gh = distinct_rows(np.where(top, points[0], np.nan), np.where(top, stationary_gh, np.nan))
     gain, phase = crossings
     return BatchCrossings(gain, values[0], phase, values[1], abscissa, certified, closed, peaks, peaks_gh, ~noisy[0])
 
 
-def _placeholders(forms: BatchForms) -> BatchForms:
+def placeholders(forms: BatchForms) -> BatchForms:
     """The forms with an odd sample's numbers (its roots may be infinite: a sum whose leading
     coefficient vanishes in it alone) replaced by a stable loop's, so that the arrays the search
     makes stay finite; the sample stays odd (its values mean nothing)."""
@@ -235,7 +237,7 @@ def poly_rows(roots: NDArray) -> NDArray[np.complex128]:
     return c
 
 
-def _aligned_sum(a: NDArray, b: NDArray) -> NDArray:
+def aligned_sum(a: NDArray, b: NDArray) -> NDArray:
     """a + b, polynomials in descending powers aligned at the constant term."""
     if a.shape[1] < b.shape[1]:
         a, b = b, a
@@ -261,21 +263,25 @@ def batch_roots(c: NDArray) -> tuple[NDArray[np.complex128], NDArray[np.bool_]]:
     return np.where(bad[:, None], np.nan, roots), bad
 
 
-def _fraction_zeros(t: NDArray, weights: NDArray, others: NDArray) -> tuple[NDArray, NDArray[np.bool_]]:
+def fraction_zeros(t: NDArray, weights: NDArray, others: NDArray) -> tuple[NDArray, NDArray[np.bool_]]:
     """The zeros in x of sum w_i / (x - t_i) per row (the roots of its numerator; ``others``:
     `leave_one_out` of ``t``), and the rows where the sum vanishes identically (a constant level)
-    or its roots cannot be had."""
+    or its roots cannot be had.  Leading coefficients within `NEGLIGIBLE` of their terms in every
+    row are dropped: a structure's sum can lose degrees whatever its numbers (the peaks' sums over
+    the closed-loop poles and D's or N's roots, whose first moments agree when the relative degree
+    is high), where the rounding would leave an exact 0 in some rows (no roots) and a spurious
+    root beyond reach in others."""
     n = t.shape[1]
     numerator = np.zeros((t.shape[0], n), dtype=complex)
-    size = np.zeros(t.shape[0])
+    sizes = np.zeros((t.shape[0], n))
     for i in range(n):
         part = weights[:, i : i + 1] * others[i].T
         numerator += part
-        size = np.maximum(size, np.abs(part).max(axis=1))
+        sizes = np.maximum(sizes, np.abs(part))
     c = numerator.real
-    flat = np.abs(c).max(axis=1, initial=0.0) <= 1e-12 * size
-    while c.shape[1] > 1 and (c[:, 0] == 0).all():
-        c = c[:, 1:]
+    flat = np.abs(c).max(axis=1, initial=0.0) <= NEGLIGIBLE * sizes.max(axis=1, initial=0.0)
+    while c.shape[1] > 1 and (np.abs(c[:, 0]) <= NEGLIGIBLE * sizes[:, 0]).all():
+        c, sizes = c[:, 1:], sizes[:, 1:]
     x, bad = batch_roots(c)
     return x, flat | bad
 
@@ -299,7 +305,7 @@ def leave_one_out(t: NDArray) -> NDArray[np.complex128]:
     return out
 
 
-def _real_positive(x: NDArray) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+def real_positive(x: NDArray) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Which eigenvalues x = omega^2 are real and positive (Newton's starts), and which only
     near it (check points), as `engine.margins.pole_zero.search.real_eigenvalues` judges."""
     positive = x.real > 0
@@ -316,7 +322,7 @@ def _crossing_starts(levels: BatchLevels) -> tuple[NDArray, NDArray, NDArray[np.
     log_gain = np.log(np.abs(levels.gain)) + (zeros.shape[1] - poles.shape[1]) * np.log(levels.scale)
     far = ~(np.abs(log_gain) < LARGEST_LOG)
     factor = np.exp(2 * np.where(far, 0.0, log_gain))[:, None]
-    difference = _aligned_sum(poly_rows(-(poles**2)).real, -factor * poly_rows(-(zeros**2)).real)
+    difference = aligned_sum(poly_rows(-(poles**2)).real, -factor * poly_rows(-(zeros**2)).real)
     numerator, den = levels.scaled
     mirrored = den * (-1.0) ** np.arange(den.shape[1] - 1, -1, -1)
     product = np.zeros((den.shape[0], den.shape[1] + numerator.shape[1] - 1))
@@ -334,12 +340,22 @@ def _crossing_starts(levels: BatchLevels) -> tuple[NDArray, NDArray, NDArray[np.
 
 
 def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
-    """Newton's method on row ``kind`` (`BatchLevels.row`) from every start, stopped as the per-loop
-    search stops (`engine.margins.pole_zero.search.newton`), through the iteration driver: the points
-    converged (NaN where not), the second derivatives there, and the samples with a point that
-    stopped on rounding noise rather than within 4 ulp (STALLED: an ill-conditioned point, where
-    the per-loop search may stop elsewhere in the noise).  A step that leaves w > 0 or is not
-    finite would be the same step again: FAILED."""
+    """`batch_newton` on row ``kind`` of `BatchLevels.row`, the samples with a point that stalled."""
+    points, second, noisy = batch_newton(lambda at, samples: levels.row(at, samples, kind), w)
+    return points, second, noisy.any(axis=1)
+
+
+# (points, each point's sample) -> (a level's first, its derivative): Newton's step is first / derivative
+Row = Callable[[NDArray, NDArray[np.intp]], tuple[NDArray, NDArray]]
+
+
+def batch_newton(row: Row, w: NDArray) -> tuple[NDArray, NDArray, NDArray[np.bool_]]:
+    """Newton's method on ``row`` from every start (S, P), stopped as the per-loop search stops
+    (`engine.margins.pole_zero.search.newton`), through the iteration driver: the points
+    converged (NaN where not), the second derivatives there, and the points that stopped on
+    rounding noise rather than within 4 ulp (STALLED: an ill-conditioned point, where the per-loop
+    search may stop elsewhere in the noise).  A step that leaves w > 0 or is not finite would be
+    the same step again: FAILED."""
     points, second = np.full(w.size, np.nan), np.full(w.size, np.nan)
     noisy = np.zeros(w.size, dtype=bool)
     start = np.flatnonzero(np.isfinite(w.ravel()))
@@ -347,7 +363,7 @@ def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArra
     work |= {"previous": np.full(start.size, np.inf), "second": np.zeros(start.size)}
 
     def advance(work: Work) -> Work:
-        first, bend = levels.row(work["w"], work["index"] // max(w.shape[1], 1), kind)
+        first, bend = row(work["w"], work["index"] // max(w.shape[1], 1))
         step = first / bend
         size, moved = np.abs(step), work["w"] - step
         exact = size <= 4 * EPS * work["w"]
@@ -366,10 +382,10 @@ def _newton(levels: BatchLevels, w: NDArray, kind: int) -> tuple[NDArray, NDArra
     with np.errstate(all="ignore"):
         iterate(work, lambda work: work["status"], advance, finish, NEWTON_STEPS)
     shape = w.shape
-    return points.reshape(shape), second.reshape(shape), noisy.reshape(shape).any(axis=1)
+    return points.reshape(shape), second.reshape(shape), noisy.reshape(shape)
 
 
-def _distinct(w: NDArray, second: NDArray) -> tuple[NDArray, NDArray]:
+def distinct_rows(w: NDArray, second: NDArray) -> tuple[NDArray, NDArray]:
     """Every row's points sorted (NaN last), two that met merged."""
     order = np.argsort(w, axis=1)
     w, second = np.take_along_axis(w, order, 1), np.take_along_axis(second, order, 1)
@@ -384,39 +400,54 @@ def _distinct(w: NDArray, second: NDArray) -> tuple[NDArray, NDArray]:
 def _signs_agree(levels: BatchLevels, points: list[NDArray], maxima: list[NDArray], near: NDArray) -> NDArray:
     """Per sample: do the slopes of log|GH| and arg GH at the check points have the signs their
     stationary points predict (`engine.margins.pole_zero.certificate`, without its repair)?"""
+    probes = check_points(levels, points, near)
+    *slopes, noise = levels.slopes_and_noise(probes)
+    agree = np.ones(probes.shape[0], dtype=bool)
+    for w, top, first in zip(points, maxima, slopes):
+        agree &= signs_agree(probes, first, noise, w, top)
+    return agree
+
+
+def check_points(levels: BatchLevels, points: list[NDArray], near: NDArray) -> NDArray:
+    """The certificate's check points (S, Q), NaN-padded: every root's frequency, the ladder, the
+    near-real eigenvalues (``near``), between and around the stationary points (``points``), those
+    within `CLEARANCE` of a stationary point left out (NaN)."""
     parts = [levels.probes(), near]
     for w in points:
         if w.shape[1]:
-            parts += [np.sqrt(w[:, 1:] * w[:, :-1]), w[:, :1] / 4, _last(w) * 4]
+            parts += [np.sqrt(w[:, 1:] * w[:, :-1]), w[:, :1] / 4, last_column(w) * 4]
     probes = np.concatenate(parts, axis=1)
     every = np.concatenate(points, axis=1)
     if every.shape[1]:
         gap = np.abs(probes[:, :, None] / every[:, None, :] - 1.0)
         clear = np.where(np.isnan(gap), np.inf, gap).min(axis=2) > CLEARANCE
         probes = np.where(clear, probes, np.nan)
-    *slopes, noise = levels.slopes_and_noise(probes)
-    agree = np.ones(probes.shape[0], dtype=bool)
-    for w, top, first in zip(points, maxima, slopes):
-        known = np.isfinite(probes) & (np.abs(first) > noise)
-        agree &= ~(np.isfinite(probes) & np.isnan(first)).any(axis=1)
-        after = np.where(top, -1.0, 1.0)
-        at = np.concatenate([np.where(np.isfinite(w), w, np.inf), np.where(known, probes, np.inf)], axis=1)
-        left = np.concatenate([-after, np.sign(first)], axis=1)
-        right = np.concatenate([after, np.sign(first)], axis=1)
-        order = np.argsort(at, axis=1, kind="stable")
-        at, left, right = (np.take_along_axis(a, order, 1) for a in (at, left, right))
-        both = np.isfinite(at[:, :-1]) & np.isfinite(at[:, 1:])
-        agree &= ~(both & (right[:, :-1] != left[:, 1:])).any(axis=1)
-    return agree
+    return probes
 
 
-def _last(w: NDArray) -> NDArray:
+def signs_agree(probes: NDArray, first: NDArray, noise: NDArray, w: NDArray, top: NDArray) -> NDArray[np.bool_]:
+    """Per sample: does a level's slope (``first``, its rounding ``noise``) at the check points
+    (``probes``) have the sign its stationary points ``w`` (maxima: ``top``) predict?  A slope
+    within its rounding has no sign; one that is not finite at a check point fails."""
+    known = np.isfinite(probes) & (np.abs(first) > noise)
+    agree = ~(np.isfinite(probes) & np.isnan(first)).any(axis=1)
+    after = np.where(top, -1.0, 1.0)
+    at = np.concatenate([np.where(np.isfinite(w), w, np.inf), np.where(known, probes, np.inf)], axis=1)
+    left = np.concatenate([-after, np.sign(first)], axis=1)
+    right = np.concatenate([after, np.sign(first)], axis=1)
+    order = np.argsort(at, axis=1, kind="stable")
+    at, left, right = (np.take_along_axis(a, order, 1) for a in (at, left, right))
+    both = np.isfinite(at[:, :-1]) & np.isfinite(at[:, 1:])
+    return agree & ~(both & (right[:, :-1] != left[:, 1:])).any(axis=1)
+
+
+def last_column(w: NDArray) -> NDArray:
     """Each row's last point (rows sorted, NaN last; NaN for a row without one), as a column."""
     count = np.isfinite(w).sum(axis=1)
     return np.where(count > 0, np.take_along_axis(w, np.maximum(count - 1, 0)[:, None], 1)[:, 0], np.nan)[:, None]
 
 
-def _near(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
+def near_limit(a: NDArray, b: NDArray) -> NDArray[np.bool_]:
     return (
         np.isfinite(a)
         & np.isfinite(b)
@@ -433,17 +464,25 @@ def _reach_limits(
     rows = [(at_points[0], maxima[0], mag0, mag_inf), (at_points[1], maxima[1], phase0, phase_inf)]
     ok = np.ones(levels.gain.size, dtype=bool)
     for (values, top, low, high), w in zip(rows, points):
-        count = np.isfinite(w).sum(axis=1)
-        ok &= np.where(count == 0, ~_near(low, high), True)
-        last = np.maximum(count - 1, 0)[:, None]
-        if not w.shape[1]:
-            continue
-        for value, peak, limit in (
-            (values[:, 0], top[:, 0], low),
-            (np.take_along_axis(values, last, 1)[:, 0], np.take_along_axis(top, last, 1)[:, 0], high),
-        ):
-            wrong = np.where(peak, value < limit, value > limit)
-            ok &= (count == 0) | _near(value, limit) | ~wrong
+        ok &= reach_limits(w, values, top, low, high)
+    return ok
+
+
+def reach_limits(w: NDArray, values: NDArray, top: NDArray, low: NDArray, high: NDArray) -> NDArray[np.bool_]:
+    """Per sample: are a level's ``values`` at its stationary points ``w`` (maxima: ``top``) consistent
+    with its limits ``low`` at 0 and ``high`` at infinity: the first maximum not below the limit at 0,
+    the last not below the limit at infinity (minima alike), a level with none not equal at both ends?"""
+    count = np.isfinite(w).sum(axis=1)
+    ok = np.where(count == 0, ~near_limit(low, high), True)
+    last = np.maximum(count - 1, 0)[:, None]
+    if not w.shape[1]:
+        return ok
+    for value, peak, limit in (
+        (values[:, 0], top[:, 0], low),
+        (np.take_along_axis(values, last, 1)[:, 0], np.take_along_axis(top, last, 1)[:, 0], high),
+    ):
+        wrong = np.where(peak, value < limit, value > limit)
+        ok &= (count == 0) | near_limit(value, limit) | ~wrong
     return ok
 
 
@@ -456,10 +495,10 @@ def _crossings(
     loop's own GH after)."""
     gain, _, noisy = _newton(levels, gains, 3)
     phase, _, noisy_phase = _newton(levels, phases, 4)
-    gain, phase = _distinct(gain, gain)[0], _distinct(phase, phase)[0]
+    gain, phase = distinct_rows(gain, gain)[0], distinct_rows(phase, phase)[0]
     phase_gh = levels.terms(phase)[0]
     phase = np.where(phase_gh.real < 0, phase, np.nan)
-    phase, _ = _distinct(phase, phase)
+    phase, _ = distinct_rows(phase, phase)
     mag0, mag_inf, phase0, phase_inf = levels.limits
     held = _enclosed(_ends(mag0, at_points[0], mag_inf), False)
     held_phase = _enclosed(_ends(phase0, at_points[1], phase_inf), True)
@@ -529,10 +568,10 @@ def _enclosed(ends: NDArray, phase: bool) -> NDArray:
     return np.where(valid, count, 0).sum(axis=1)
 
 
-def _closed_loop_poles(levels: BatchLevels) -> NDArray[np.complex128]:
+def closed_loop_poles(levels: BatchLevels) -> NDArray[np.complex128]:
     """The closed-loop poles, the roots of D + k N (the variable scaled); NaN rows where they
     cannot be had."""
     scale, (numerator, denominator) = levels.scale, levels.scaled
     factor = (levels.gain * scale ** (numerator.shape[1] - denominator.shape[1]))[:, None]
-    roots, bad = batch_roots(_aligned_sum(denominator, factor * numerator))
+    roots, bad = batch_roots(aligned_sum(denominator, factor * numerator))
     return np.where(bad[:, None], np.nan, roots * scale[:, None])

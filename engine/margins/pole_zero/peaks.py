@@ -87,7 +87,7 @@ def _ends(loop: LoopLevels, transforms: list[Moebius]):
 
     def levels(omega: NDArray) -> NDArray:
         gh = loop.terms(omega)[0]
-        return np.array([np.log(np.abs(_moebius(ab, gh))) for ab in transforms])
+        return np.array([np.log(np.abs(moebius(ab, gh))) for ab in transforms])
 
     def log(value: float) -> float:
         return math.log(value) if value > 0 else -math.inf
@@ -140,28 +140,37 @@ def _starts(loop: LoopLevels, transforms: list[Moebius]) -> tuple[NDArray, NDArr
 
 
 def _moebius_slopes(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> tuple[NDArray, NDArray]:
-    """Rows per transform: d log|f| / domega and its derivative.  With A = a + b GH
+    """Rows per transform: d log|f| / domega and its derivative (`moebius_slopes`)."""
+    gh, u, du = loop.terms(w)
+    rows = [moebius_slopes(ab, gh, u, du) for ab in transforms]
+    return np.array([first for first, _ in rows]), np.array([second for _, second in rows])
+
+
+def moebius_slopes(ab: Moebius, gh: NDArray, u: NDArray, du: NDArray) -> tuple[NDArray, NDArray]:
+    """d log|f| / domega and its derivative from GH, u = d log GH / ds and du/ds.  With A = a + b GH
     and C = 1 + GH, d/ds log f = b GH u / A - GH u / C = (b - a) GH u / (A C), and
     its derivative (b - a) GH / (A C) (u^2 + u' - u^2 GH (b C + A) / (A C)): no
     difference of two nearly equal terms (|T| of a type-2 loop is 1 to 1e-12 at
     low frequency, and its slope that small, not the rounding of 1)."""
-    gh, u, du = loop.terms(w)
-    first, second = [], []
-    for a, b in transforms:
-        top, bottom = a + b * gh, 1.0 + gh
-        base = (b - a) * gh / (top * bottom)
-        square = u * u
-        first.append(-(base * u).imag)
-        second.append(-(base * (square + du - square * gh * (b * bottom + top) / (top * bottom))).real)
-    return np.array(first), np.array(second)
+    a, b = ab
+    top, bottom = a + b * gh, 1.0 + gh
+    base = (b - a) * gh / (top * bottom)
+    square = u * u
+    first = -(base * u).imag
+    return first, -(base * (square + du - square * gh * (b * bottom + top) / (top * bottom))).real
 
 
 def _moebius_noise(loop: LoopLevels, w: NDArray, transforms: list[Moebius]) -> NDArray:
-    """Rows per transform: the rounding of `_moebius_slopes`' first rows (as
-    `LoopLevels.slope_noise`: a part of (b - a) GH u / (A C), each factor a few
-    ulp per root, u's error a few ulp of the sum of its terms' sizes)."""
+    """Rows per transform: the rounding of `_moebius_slopes`' first rows (`moebius_noise`)."""
     gh, noise = loop.u_rounding(w)
-    return np.array([np.abs((b - a) * gh / ((a + b * gh) * (1.0 + gh))) * noise for a, b in transforms])
+    return np.array([moebius_noise(ab, gh, noise) for ab in transforms])
+
+
+def moebius_noise(ab: Moebius, gh: NDArray, u_noise: NDArray) -> NDArray:
+    """The rounding of `moebius_slopes`' first (as `LoopLevels.slope_noise`: a part of
+    (b - a) GH u / (A C), each factor a few ulp per root, u's error ``u_noise``)."""
+    a, b = ab
+    return np.abs((b - a) * gh / ((a + b * gh) * (1.0 + gh))) * u_noise
 
 
 def _peak(loop: LoopLevels, ab: Moebius, maxima: NDArray, low: float, high: float) -> tuple[float, float]:
@@ -169,7 +178,7 @@ def _peak(loop: LoopLevels, ab: Moebius, maxima: NDArray, low: float, high: floa
     inside = maxima[(maxima >= low) & (maxima <= high)]
     ends = [w for w in (low, high) if 0 < w < math.inf]
     points = np.concatenate([inside, ends])
-    values = np.abs(_moebius(ab, loop.terms(points)[0])) if points.size else np.zeros(0)
+    values = np.abs(moebius(ab, loop.terms(points)[0])) if points.size else np.zeros(0)
     candidates = list(zip(values.tolist(), points.tolist()))
     for w, limit in ((0.0, low == 0.0), (math.inf, high == math.inf)):
         if limit:
@@ -177,7 +186,8 @@ def _peak(loop: LoopLevels, ab: Moebius, maxima: NDArray, low: float, high: floa
     return max(candidates)
 
 
-def _moebius(ab: Moebius, gh: NDArray) -> NDArray:
+def moebius(ab: Moebius, gh: NDArray) -> NDArray:
+    """f = (a + b GH)/(1 + GH), from 1/GH where |GH| > 1."""
     a, b = ab
     return np.where(np.abs(gh) > 1.0, (a / gh + b) / (1.0 / gh + 1.0), (a + b * gh) / (1.0 + gh))
 
@@ -193,4 +203,4 @@ def _limit(loop: LoopLevels, ab: Moebius, w: float) -> float:
         return abs(a)
     at = 0.0 if w == 0.0 else math.inf
     gh = loop.form.gain.real if at == math.inf else complex(loop.form(np.zeros(1))[0][0])
-    return float(abs(_moebius(ab, np.array([gh]))[0]))
+    return float(abs(moebius(ab, np.array([gh]))[0]))
