@@ -37,12 +37,25 @@ def run(script, *args: str) -> str:
     return done.stdout
 
 
+def rounding_at_dc(db: float, w: float) -> bool:
+    """python-control's phase crossover at 0 rad/s of a loop with a zero at s = 0 (the loop at
+    u_rate: L(0) = 0), where |L| is the rounding of its polynomial evaluation (1.3e-15 with
+    python-control 0.10.2 and numpy 2.4.6, a "gain margin" of 298 dB; the stop-65 CI's
+    install did not report it): not a crossing of the loop, and loopcraft reports none.  A
+    margin above 240 dB (|L| below 1e-12) at 0 rad/s is such a rounding."""
+    return w == 0.0 and db > 240.0
+
+
 def test_the_script_reproduces_every_break_s_margins_with_the_others_closed(script):
     cruise = json.loads(run(script, "--json"))["cruise"]
     ours = cruise["loopcraft"]["breaks"]
     assert list(cruise["breaks"]) == ["dc", "u_att", "u_rate"]
     for cut, theirs in cruise["breaks"].items():
-        gains = [(db, w) for db, w in zip(theirs["gain_margins_db"], theirs["phase_crossovers"]) if db is not None]
+        gains = [
+            (db, w)
+            for db, w in zip(theirs["gain_margins_db"], theirs["phase_crossovers"])
+            if db is not None and not rounding_at_dc(db, w)
+        ]
         phases = list(zip(theirs["phase_margins_deg"], theirs["gain_crossovers"]))
         for kind, found in (("gain", gains), ("phase", phases)):
             assert len(found) == len(ours[cut][kind]), (cut, kind)
