@@ -775,12 +775,13 @@ def test_a_diagram_in_z_is_batched_on_its_realizations(tmp_path):
     assert batched >= 8
 
 
-def _random_z_diagram(rng: np.random.Generator, path: Path) -> list[str]:
+def _random_z_diagram(rng: np.random.Generator, path: Path, ported: bool = False) -> list[str]:
     """A random diagram in z: Kuo's compensator, a plant that is a random stable state-space block
     in z (a real pole and a light or damped pair inside the unit circle, in random coordinates)
     followed by an integrator 0.5/(z - 1), a rate feedback Kt (z - 1)/(z - q) from the block's
     output into its input (an inner loop), two parallel sensor paths K1 and K2 (1 - p)/(z - p)
-    summed into the error.  Returns the tolerances of four of its parameters."""
+    summed into the error; ``ported``: the block has two ports (r its second input, the rate
+    feedback from its second output).  Returns the tolerances of four of its parameters."""
     pole, radius, angle = rng.uniform(0.2, 0.9), rng.uniform(0.6, 0.98), rng.uniform(0.2, 2.0)
     modal = np.zeros((3, 3))
     modal[0, 0] = pole
@@ -791,10 +792,15 @@ def _random_z_diagram(rng: np.random.Generator, path: Path) -> list[str]:
     dc = c @ np.linalg.solve(np.eye(3) - a, b)
     c *= rng.uniform(0.3, 1.0) / dc  # a DC gain of 0.3 to 1
     block = {"kind": "state_space", "A": a.tolist(), "B": b.tolist(), "C": c.tolist(), "D": 0.0}
+    wired = {"input": "u2", "output": "v"}
+    if ported:
+        b2, c2 = np.stack([b, rng.standard_normal(3)], axis=1), np.stack([c, 0.3 * rng.standard_normal(3)])
+        block = {"kind": "state_space", "A": a.tolist(), "B": b2.tolist(), "C": c2.tolist(), "D": None}
+        wired = {"inputs": ["u2", "r"], "outputs": ["v", "v2"]}
     plant = [
-        {"name": "plant", "input": "u2", "output": "v", "transfer": block},
+        {"name": "plant", **wired, "transfer": block},
         _block("integrator", "v", "y", "0.5/(z-1)"),
-        _block("tachometer", "v", "w", f"Kt*(z-1)/(z-{rng.uniform(0.1, 0.6)!r})"),
+        _block("tachometer", "v2" if ported else "v", "w", f"Kt*(z-1)/(z-{rng.uniform(0.1, 0.6)!r})"),
         _block("sensor 1", "y", "m1", "K1"),
         _block("sensor 2", "y", "m2", f"K2*{1 - (p := rng.uniform(0.2, 0.8))!r}/(z-{p!r})"),
     ]
@@ -814,15 +820,15 @@ def _random_z_diagram(rng: np.random.Generator, path: Path) -> list[str]:
 
 
 def test_random_diagrams_in_z_equal_the_per_loop_path(tmp_path):
-    """Issue 53: random diagrams in z (`_random_z_diagram`: a state-space block in z, an inner
-    loop, parallel sensor paths), four parameters drawn +-20 %: each study is batched (before:
-    none was, a loop in z that is not one cascade had no batch form) and every run is
-    `run_job`'s, its rows to 1e-12 relative; most samples certified by the batch."""
+    """Issue 53: random diagrams in z (`_random_z_diagram`: a state-space block in z, of two ports
+    in every other one, an inner loop, parallel sensor paths), four parameters drawn +-20 %: each
+    study is batched (before: none was, a loop in z that is not one cascade had no batch form) and
+    every run is `run_job`'s, its rows to 1e-12 relative; most samples certified by the batch."""
     batched = total = 0
-    for seed in range(4):
+    for seed in range(6):
         rng = np.random.default_rng(seed)
         path = tmp_path / f"zdiagram{seed}.json"
-        tolerances = _random_z_diagram(rng, path)
+        tolerances = _random_z_diagram(rng, path, ported=seed % 2 == 1)
         done_batched, searched, done = _batched_equal(_jobs(path, 10, tolerances))
         assert done_batched + searched == done
         batched += done_batched
