@@ -821,16 +821,21 @@ def _random_z_diagram(rng: np.random.Generator, path: Path, ported: bool = False
 
 def test_random_diagrams_in_z_equal_the_per_loop_path(tmp_path):
     """Issue 53: random diagrams in z (`_random_z_diagram`: a state-space block in z, of two ports
-    in every other one, an inner loop, parallel sensor paths), four parameters drawn +-20 %: each
-    study is batched (before: none was, a loop in z that is not one cascade had no batch form) and
-    every run is `run_job`'s, its rows to 1e-12 relative; most samples certified by the batch."""
+    in every other one, an inner loop, parallel sensor paths; two with modal-peak rows, their
+    maxima polished in w), four parameters drawn +-20 %: each study is batched (before: none was,
+    a loop in z that is not one cascade had no batch form) and every run is `run_job`'s, its rows
+    to 1e-12 relative; most samples certified by the batch."""
     batched = total = 0
     for seed in range(6):
         rng = np.random.default_rng(seed)
         path = tmp_path / f"zdiagram{seed}.json"
         tolerances = _random_z_diagram(rng, path, ported=seed % 2 == 1)
+        if seed % 3 == 2:
+            _with_modal_peaks(path)
         done_batched, searched, done = _batched_equal(_jobs(path, 10, tolerances))
         assert done_batched + searched == done
         batched += done_batched
         total += done
     assert batched >= 0.7 * total
+    found = [m for m in run_job(_jobs(path, 1, tolerances)[0].payload())["measures"] if m["kind"] == "modal_peak_db"]
+    assert any(isinstance(m["frequency"], float) for m in found)  # a peak found, not only absent ones
