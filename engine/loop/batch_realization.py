@@ -93,8 +93,8 @@ def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | N
 
 
 def samples(ss: StateSpace) -> list[StateSpace]:
-    """Each sample's realization on its own (views of a stack's arrays)."""
-    return [StateSpace(A, B, C, D, ss.inputs, ss.outputs) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
+    """Each sample's realization on its own (views of a stack's arrays; a loop in z's in w, with its sample time)."""
+    return [StateSpace(A, B, C, D, ss.inputs, ss.outputs, ss.sample_time) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
 
 
 def batch_realize(

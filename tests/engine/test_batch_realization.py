@@ -14,7 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.loop.batch_realization import SharedStateSpace, batch_closed_loop, batch_loop_realization, closed_of
+from engine.loop.batch_realization import (
+    SharedStateSpace,
+    batch_closed_loop,
+    batch_loop_realization,
+    closed_of,
+    samples,
+)
 from engine.loop.design import closed_loop_realization
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Network
@@ -67,6 +73,7 @@ def test_a_loop_in_z_is_realized_in_its_w_plane_form():
     _equal_per_sample(condition, columns)
     stacked = batch_closed_loop(condition.network, condition.break_at, columns)
     assert stacked is not None and stacked.sample_time == 0.5 and stacked.A.shape[1] == 4  # 1 + 3 states
+    assert {one.sample_time for one in samples(stacked)} == {0.5}
 
 
 def _response(ss, k: int, w: np.ndarray, i: int, j: int) -> np.ndarray:
