@@ -75,7 +75,27 @@ def batch_closed_loop(network: Network, break_at: str, columns: Mapping[str, NDA
 def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | None:
     """The closed loops of the broken ones ``ss`` (`batch_loop_realization`), as
     `engine.loop.pole_zero.closed_from_broken` closes each; None for a singular algebraic loop."""
-    k = network.signal(break_at)
+    closed = _closed(ss, network.signal(break_at))
+    return None if closed is None else replace(closed, inputs=network.inputs, outputs=network.signals)
+
+
+def closed_poles(ss: StateSpace, k: int) -> NDArray[np.complex128] | None:
+    """Every sample's closed-loop poles (S, n) from its broken loop ``ss`` closed at signal ``k``
+    (`closed_of`): the eigenvalues of the closed realization, as the per-loop stability row reads
+    them (`engine.design.tableau.stability_abscissa`), and a `SharedStateSpace`'s hidden poles;
+    None for a singular algebraic loop."""
+    closed = _closed(ss, k)
+    if closed is None:
+        return None
+    count, n = closed.A.shape[0], closed.A.shape[1]
+    finite = np.isfinite(closed.A).all(axis=(1, 2))  # (a sample out of range: NaN poles, its forms odd)
+    poles = np.linalg.eigvals(np.where(finite[:, None, None], closed.A, 0.0)) if n else np.zeros((count, 0), complex)
+    poles = np.where(finite[:, None], poles, np.nan)
+    return np.concatenate([poles, ss.hidden], axis=1) if isinstance(ss, SharedStateSpace) else poles
+
+
+def _closed(ss: StateSpace, k: int) -> StateSpace | None:
+    """`closed_of`'s matrices (the broken loop's inputs and outputs but the loop input's)."""
     Bu, Du = ss.B[:, :, -1:], ss.D[:, :-1, -1:]
     denominator = 1.0 - ss.D[:, k, -1][:, None, None]
     if (np.abs(denominator) < 1e-14).any():
@@ -87,8 +107,8 @@ def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | N
         B=ss.B[:, :, :-1] + Bu @ Dk,
         C=ss.C[:, :-1] + Du @ Ck,
         D=ss.D[:, :-1, :-1] + Du @ Dk,
-        inputs=network.inputs,
-        outputs=network.signals,
+        inputs=ss.inputs[:-1],
+        outputs=ss.outputs[:-1],
     )
 
 

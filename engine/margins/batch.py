@@ -168,7 +168,9 @@ def batch_loops(
     stop elsewhere in the noise).  With ``exact`` (the forms are realizations' minimal forms,
     `engine.loop.batch_realized_forms`) every margin found is polished on the realization's own
     GH (`polished`), as the per-loop path polishes a form that is not exact to rounding on the
-    network, and the abscissa reads the hidden poles too."""
+    network, and the abscissa is that of the closed realizations' eigenvalues and hidden poles
+    (`RealizedForms.closed`, the per-loop stability row's matrices; the form's closed-loop roots and
+    the hidden poles for a singular algebraic loop)."""
     found = batch_crossings(forms, polished=exact is not None)
     gain, gain_gh = _with_dc(found.phase, found.phase_gh, _dc_values(forms))
     phase, phase_gh = found.gain, found.gain_gh
@@ -192,7 +194,8 @@ def batch_loops(
         phase, phase_gh, far_phase = polished(exact, phase, phase_gh, 3)
         peaks, peaks_gh, far_peaks = polished(exact, peaks, peaks_gh, 0)
         found_mask &= ~(far | far_phase | far_peaks)
-        abscissa = np.minimum(abscissa, _abscissa(exact.hidden, sample_time))
+        of_forms = np.minimum(abscissa, _abscissa(exact.hidden, sample_time))
+        abscissa = of_forms if exact.closed is None else _abscissa(exact.closed, sample_time)
     if sample_time is not None:
         gain, phase, peaks = (real_frequency(w, sample_time) for w in (gain, phase, peaks))
         gain, gain_gh = _with_nyquist(gain, gain_gh, forms, sample_time)
