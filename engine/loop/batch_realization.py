@@ -12,9 +12,12 @@ once, where its first channel is, its B columns at the signals its inputs read a
 at the signals its outputs write, its D in the feedthrough, as `realize` places them, and the
 same in every sample.  When the direct feedthroughs are the same in every sample, I - D is
 factored once, as `realize` factors it, and the signal equation solved for every sample's
-state-to-signal map in one call; otherwise per sample.  There is no batched realization (None;
-the per-sample realization is the way) for a varied entry of higher degree, a loop in z, a
-delay or a table, or a singular algebraic loop in a sample.
+state-to-signal map in one call; otherwise per sample.  A loop in z is realized in its w-plane
+form (`engine.model.network.sampled_network`: variable w, each z written (1 + w)/(1 - w)), as
+`realize` realizes it: a varied entry's (1 - w) factors its numerator and denominator share are
+divided out before its section is made.  There is no batched realization (None; the per-sample
+realization is the way) for a varied entry of higher degree, a delay or a table, or a singular
+algebraic loop in a sample.
 
 With ``shared``, blocks fed by one signal whose states move alike in every sample (the same A
 and B: one denominator's controllable canonical section, as a bending mode's gyro, rate gyro
@@ -72,7 +75,27 @@ def batch_closed_loop(network: Network, break_at: str, columns: Mapping[str, NDA
 def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | None:
     """The closed loops of the broken ones ``ss`` (`batch_loop_realization`), as
     `engine.loop.pole_zero.closed_from_broken` closes each; None for a singular algebraic loop."""
-    k = network.signal(break_at)
+    closed = _closed(ss, network.signal(break_at))
+    return None if closed is None else replace(closed, inputs=network.inputs, outputs=network.signals)
+
+
+def closed_poles(ss: StateSpace, k: int) -> NDArray[np.complex128] | None:
+    """Every sample's closed-loop poles (S, n) from its broken loop ``ss`` closed at signal ``k``
+    (`closed_of`): the eigenvalues of the closed realization, as the per-loop stability row reads
+    them (`engine.design.tableau.stability_abscissa`), and a `SharedStateSpace`'s hidden poles;
+    None for a singular algebraic loop."""
+    closed = _closed(ss, k)
+    if closed is None:
+        return None
+    count, n = closed.A.shape[0], closed.A.shape[1]
+    finite = np.isfinite(closed.A).all(axis=(1, 2))  # (a sample out of range: NaN poles, its forms odd)
+    poles = np.linalg.eigvals(np.where(finite[:, None, None], closed.A, 0.0)) if n else np.zeros((count, 0), complex)
+    poles = np.where(finite[:, None], poles, np.nan)
+    return np.concatenate([poles, ss.hidden], axis=1) if isinstance(ss, SharedStateSpace) else poles
+
+
+def _closed(ss: StateSpace, k: int) -> StateSpace | None:
+    """`closed_of`'s matrices (the broken loop's inputs and outputs but the loop input's)."""
     Bu, Du = ss.B[:, :, -1:], ss.D[:, :-1, -1:]
     denominator = 1.0 - ss.D[:, k, -1][:, None, None]
     if (np.abs(denominator) < 1e-14).any():
@@ -84,14 +107,14 @@ def closed_of(network: Network, break_at: str, ss: StateSpace) -> StateSpace | N
         B=ss.B[:, :, :-1] + Bu @ Dk,
         C=ss.C[:, :-1] + Du @ Ck,
         D=ss.D[:, :-1, :-1] + Du @ Dk,
-        inputs=network.inputs,
-        outputs=network.signals,
+        inputs=ss.inputs[:-1],
+        outputs=ss.outputs[:-1],
     )
 
 
 def samples(ss: StateSpace) -> list[StateSpace]:
-    """Each sample's realization on its own (views of a stack's arrays)."""
-    return [StateSpace(A, B, C, D, ss.inputs, ss.outputs) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
+    """Each sample's realization on its own (views of a stack's arrays; a loop in z's in w, with its sample time)."""
+    return [StateSpace(A, B, C, D, ss.inputs, ss.outputs, ss.sample_time) for A, B, C, D in zip(ss.A, ss.B, ss.C, ss.D)]
 
 
 def batch_realize(
@@ -100,7 +123,7 @@ def batch_realize(
     """Every sample's `realize` (``columns``: each parameter's values, one per sample), its
     blocks' states shared where they move alike with ``shared``; None when there is no batched
     realization (module docstring)."""
-    if not network.rational or network.variable != "s" or not columns:
+    if not network.rational or network.variable != ("s" if network.sample_time is None else "w") or not columns:
         return None
     count = len(next(iter(columns.values())))
     try:
@@ -119,7 +142,7 @@ def batch_realize(
     ss = _assembled(network, kept, factors, count, readers)
     left = [units[i].a for i, owner in enumerate(owners) if owner != i]
     hidden = np.concatenate([np.linalg.eigvals(a) for a in left], axis=1) if left else np.zeros((count, 0), complex)
-    return SharedStateSpace(ss.A, ss.B, ss.C, ss.D, ss.inputs, ss.outputs, hidden=hidden)
+    return SharedStateSpace(ss.A, ss.B, ss.C, ss.D, ss.inputs, ss.outputs, ss.sample_time, hidden=hidden)
 
 
 @dataclass(frozen=True)
@@ -160,7 +183,7 @@ def _units(
             feed[:, entry.row, entry.col] += t.block.D[t.output_port, t.input_port]
             continue
         if set(t.parameters) & varied:
-            made = _varied_section(t, columns, count)
+            made = _varied_section(t, columns, count, network.variable == "w")
             if made is None:
                 raise _Unbatched
             a, b, c, d = made
@@ -199,11 +222,12 @@ def _owners(units: Sequence[_Unit]) -> list[int]:
 
 
 def _varied_section(
-    transfer, columns: Mapping[str, NDArray], count: int
+    transfer, columns: Mapping[str, NDArray], count: int, sampled: bool = False
 ) -> tuple[NDArray, NDArray, NDArray, NDArray] | None:
     """A varied entry's realization in every sample: its folded ratio's controllable canonical
-    section (`engine.loop.realization`'s for a ratio of degree <= 2), or None (not such a ratio
-    of one shape in every sample)."""
+    section (`engine.loop.realization`'s for a ratio of degree <= 2; ``sampled``: an entry of a
+    loop in z's w-plane form, its (1 - w) factors divided out first, `_without_ones`), or None
+    (not such a ratio of one shape in every sample)."""
     if not isinstance(transfer, ExpressionTransfer):
         return None
     folded = _folded(transfer.expression.root, columns, count)
@@ -213,6 +237,11 @@ def _varied_section(
     first = transfer.expression.folded({name: float(columns[name][0]) for name in transfer.parameters})
     if first is None or not (np.array_equal(first.num, num[0]) and np.array_equal(first.den, den[0])):
         return None  # not the per-sample fold (checked on the first sample)
+    if sampled:
+        divided = _without_ones(num, den)
+        if divided is None:
+            return None
+        num, den = divided
     if not (num.shape[1] <= den.shape[1] <= 3) or (den[:, 0] == 0).any():
         return None
     if not (np.isfinite(num).all() and np.isfinite(den).all()):
@@ -226,6 +255,44 @@ def _varied_section(
         A[:, np.arange(1, k), np.arange(k - 1)] = 1.0
         B[:, 0] = 1.0
     return A, B, b[:, 1:] - b[:, :1] * a[:, 1:], b[:, 0]
+
+
+def _without_ones(num: NDArray, den: NDArray) -> tuple[NDArray, NDArray] | None:
+    """`engine.loop.realization`'s division of the factors (1 - w) that a w-plane entry's numerator
+    and denominator share (both 0 at w = 1 to rounding, its test) for every sample (rows of
+    descending coefficients), by the same arithmetic as np.polydiv's; None when the samples
+    part ways (one divides where another does not) or a leading coefficient is 0 in some."""
+    while True:
+        if (num.shape[1] > 1 and (num[:, 0] == 0).any()) or (den[:, 0] == 0).any():
+            return None  # (the per-loop path trims a leading zero: not batched)
+        both = _vanishes(num) & _vanishes(den)
+        if not both.any():
+            return num, den
+        if not both.all():
+            return None
+        num, den = _over_one_minus(num), _over_one_minus(den)
+
+
+def _vanishes(p: NDArray) -> NDArray[np.bool_]:
+    """Per row: is the polynomial 0 at w = 1 to rounding (np.polyval's Horner sum, against the
+    sum of |coefficients|), as `engine.loop.realization` tests it?"""
+    if p.shape[1] <= 1:
+        return np.zeros(p.shape[0], dtype=bool)
+    value = p[:, 0] * 1.0
+    for j in range(1, p.shape[1]):
+        value = value * 1.0 + p[:, j]
+    return np.abs(value) <= 1e-12 * np.maximum(np.abs(p).sum(axis=1), 1e-300)
+
+
+def _over_one_minus(p: NDArray) -> NDArray:
+    """The quotient of every row by (w - 1), np.polydiv's steps: q_k = r_k, r_(k+1) += q_k."""
+    q = np.empty((p.shape[0], p.shape[1] - 1))
+    carry = p[:, 0] * 1.0
+    q[:, 0] = carry
+    for k in range(1, p.shape[1] - 1):
+        carry = p[:, k] + carry
+        q[:, k] = carry
+    return q
 
 
 def _assembled(
@@ -265,7 +332,7 @@ def _assembled(
         P_state = np.array([linalg.lu_solve(lu, c, check_finite=False) for lu, c in zip(factors, C_sig)])
         P_input = np.array([linalg.lu_solve(lu, E, check_finite=False) for lu in factors])
     A = A_blk + B_blk @ P_state
-    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals)
+    return StateSpace(A, B_blk @ P_input, P_state, P_input, network.inputs, network.signals, network.sample_time)
 
 
 Poly = tuple[NDArray, ...]  # descending coefficients, each every sample's (S,)

@@ -17,8 +17,9 @@ A mode the loop holds several times (the same bending mode realized by a gyro's,
 gyro's and an accelerometer's block: only one combination of the copies reaches the loop)
 is a pole cancelled by a zero; such pairs, equal to `CANCEL` of the pole, are left out of
 the form and kept as ``hidden`` poles (they are closed-loop poles all the same: the
-stability abscissa reads them).  A root within `AT_ZERO` of the matrix's size is an
-integrator (eigenvalues place it at 1e-16 off the axis): it is put at 0.
+closed-loop poles of the closed realizations, `closed`, include them).  A root within
+`AT_ZERO` of the matrix's size is an integrator (eigenvalues place it at 1e-16 off the axis):
+it is put at 0.
 
 A sample whose relative degree differs from the first sample's, whose number of cancelled
 pairs differs from most samples', or whose numbers are not finite, is ``odd`` (the per-loop
@@ -32,7 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from engine.loop.batch_forms import BatchForms
-from engine.loop.batch_realization import SharedStateSpace
+from engine.loop.batch_realization import SharedStateSpace, closed_poles
 from engine.loop.realization import StateSpace
 
 STRUCTURAL = 1e-10  # a Markov parameter c A^j b below this of |c A^(j-1)| |A| |b| is a structural zero
@@ -44,7 +45,9 @@ POINTS = 2048  # points `RealizedForms.response` solves at once (their matrices:
 @dataclass(frozen=True)
 class RealizedForms:
     """Every sample's minimal form, its cancelled (hidden) poles (S, h), and its loop's
-    realization GH(s) = gh_c (sI - A)^-1 gh_b + gh_d, for evaluating GH exactly."""
+    realization GH(s) = gh_c (sI - A)^-1 gh_b + gh_d, for evaluating GH exactly; ``closed``: the
+    closed-loop poles from the closed realizations (`engine.loop.batch_realization.closed_poles`,
+    as the per-loop path reads them; None for a singular algebraic loop)."""
 
     forms: BatchForms
     hidden: NDArray[np.complex128]
@@ -53,6 +56,7 @@ class RealizedForms:
     b: NDArray[np.float64]
     c: NDArray[np.float64]
     d: NDArray[np.float64]
+    closed: NDArray[np.complex128] | None = None
 
     def response(
         self, samples: NDArray[np.intp], w: NDArray[np.float64], slope: bool = False
@@ -93,7 +97,9 @@ def realized_forms(ss: StateSpace, k: int) -> RealizedForms | None:
     if isinstance(ss, SharedStateSpace):
         hidden = np.concatenate([hidden, ss.hidden], axis=1)
     odd |= apart | ~finite | ~np.isfinite(gain) | (gain == 0)
-    return RealizedForms(BatchForms(np.where(odd, 1.0, gain), zeros, poles, odd), hidden, ss, A, b, c, d)
+    closed = closed_poles(ss, k)
+    forms = BatchForms(np.where(odd, 1.0, gain), zeros, poles, odd)
+    return RealizedForms(forms, hidden, ss, A, b, c, d, closed)
 
 
 def _rows(mask: NDArray[np.bool_], m: NDArray) -> NDArray[np.bool_]:

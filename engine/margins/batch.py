@@ -16,7 +16,8 @@ sample's `Margins`, made only when asked for (`BatchLoops.loop`), hold its gain 
 margins, and when asked its attenuation margins (the maxima of |GH| the search polished and
 certified; rows that read the stability margins are not batched).  A loop in z is batched on
 its w-plane form, as `engine.margins.sampled` searches it: frequencies in rad/s, the gain
-margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents.
+margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane equivalents
+(a diagram in z's margins polished on its w-plane realizations first, in w).
 """
 
 from __future__ import annotations
@@ -228,35 +229,38 @@ def batch_loops(
     stop elsewhere in the noise).  With ``exact`` (the forms are realizations' minimal forms,
     `engine.loop.batch_realized_forms`) every margin found is polished on the realization's own
     GH (`polished`), as the per-loop path polishes a form that is not exact to rounding on the
-    network, and the abscissa reads the hidden poles too."""
+    network, and the abscissa is that of the closed realizations' eigenvalues and hidden poles
+    (`RealizedForms.closed`, the per-loop stability row's matrices; the form's closed-loop roots and
+    the hidden poles for a singular algebraic loop)."""
     found = batch_crossings(forms, polished=exact is not None)
     gain, gain_gh = _with_dc(found.phase, found.phase_gh, _dc_values(forms))
     phase, phase_gh = found.gain, found.gain_gh
     peaks, peaks_gh = (found.peaks, found.peaks_gh) if attenuation else _none(forms.gain.size)
-    abscissa = found.abscissa if sample_time is None else _sampled_abscissa(found.closed, sample_time)
-    if sample_time is not None:
-        gain, phase, peaks = (real_frequency(w, sample_time) for w in (gain, phase, peaks))
-        gain, gain_gh = _with_nyquist(gain, gain_gh, forms, sample_time)
+    abscissa = _abscissa(found.closed, sample_time) if sample_time is not None else found.abscissa
     certified = found.certified & (found.peaks_converged | (not attenuation)) & ~forms.odd
-    searched = {}
+    own = {}  # the per-loop search's loops on their forms (w-plane frequencies for a loop in z)
     for k in np.flatnonzero(~certified & ~forms.odd).tolist():
         loop = sample_loop(forms, k, sample_time)
         if loop is not None:
-            searched[k] = _in_time(loop, forms, k, sample_time)
-    gain, gain_gh = _with_searched(gain, gain_gh, searched, "gain")
-    phase, phase_gh = _with_searched(phase, phase_gh, searched, "phase")
-    peaks, peaks_gh = _with_searched(peaks, peaks_gh, searched, "attenuation")
+            own[k] = loop
+    gain, gain_gh = _with_searched(gain, gain_gh, own, "gain")
+    phase, phase_gh = _with_searched(phase, phase_gh, own, "phase")
+    peaks, peaks_gh = _with_searched(peaks, peaks_gh, own, "attenuation")
     abscissa = abscissa.copy()
-    abscissa[list(searched)] = [loop.abscissa for loop in searched.values()]
+    abscissa[list(own)] = [loop.abscissa for loop in own.values()]
     found_mask = certified.copy()
-    found_mask[list(searched)] = True
-    if exact is not None:
+    found_mask[list(own)] = True
+    if exact is not None:  # (a loop in z's on its w-plane realizations, before its frequencies go to rad/s)
         gain, gain_gh, far = polished(exact, gain, gain_gh, 4)
         phase, phase_gh, far_phase = polished(exact, phase, phase_gh, 3)
         peaks, peaks_gh, far_peaks = polished(exact, peaks, peaks_gh, 0)
         found_mask &= ~(far | far_phase | far_peaks)
-        with np.errstate(invalid="ignore"):
-            abscissa = np.minimum(abscissa, -np.max(exact.hidden.real, axis=1, initial=-np.inf))
+        of_forms = np.minimum(abscissa, _abscissa(exact.hidden, sample_time))
+        abscissa = of_forms if exact.closed is None else _abscissa(exact.closed, sample_time)
+    if sample_time is not None:
+        gain, phase, peaks = (real_frequency(w, sample_time) for w in (gain, phase, peaks))
+        gain, gain_gh = _with_nyquist(gain, gain_gh, forms, sample_time)
+    searched = {k: _in_time(loop, forms, k, sample_time) for k, loop in own.items()}
     return BatchLoops(gain, gain_gh, phase, phase_gh, peaks, peaks_gh, abscissa, found_mask, certified, searched)
 
 
@@ -315,10 +319,12 @@ def _none(count: int) -> tuple[NDArray, NDArray]:
     return np.zeros((count, 0)), np.zeros((count, 0), dtype=complex)
 
 
-def _sampled_abscissa(closed: NDArray, sample_time: float) -> NDArray:
-    """-max Re s of the closed-loop poles in w (rows), s = ln(z)/T, z = (1 + w)/(1 - w)."""
+def _abscissa(closed: NDArray, sample_time: float | None) -> NDArray:
+    """-max Re of the closed-loop poles (rows); with ``sample_time``, poles in w: of their
+    s-plane equivalents s = ln(z)/T, z = (1 + w)/(1 - w)."""
     with np.errstate(all="ignore"):
-        return -np.max(s_of_z(z_of_w(closed), sample_time).real, axis=1, initial=-np.inf)
+        s = closed if sample_time is None else s_of_z(z_of_w(closed), sample_time)
+        return -np.max(s.real, axis=1, initial=-np.inf)
 
 
 def _in_time(loop: SampleLoop, forms: BatchForms, k: int, sample_time: float | None) -> SampleLoop:
@@ -393,7 +399,7 @@ def sample_loop(forms: BatchForms, k: int, sample_time: float | None = None) -> 
     gain = tuple(margins_of("G", w[0], gh[0]))
     margins = Margins(gain, tuple(found["P"]), tuple(found["S"]), tuple(found["A"]), method="refined")
     if sample_time is not None:
-        abscissa = float(_sampled_abscissa(levels.closed[None, :], sample_time)[0])
+        abscissa = float(_abscissa(levels.closed[None, :], sample_time)[0])
     else:
         abscissa = float(-np.max(levels.closed.real)) if levels.closed.size else math.inf
     return SampleLoop(margins, abscissa, False)

@@ -16,15 +16,15 @@ response, `engine.slp.batch_rows`: each sample's closed loop realized as the per
 realizes it, every response simulated in one recursion, a loop in z's stepped in z), Ms, Mt, disk and
 delay margins (`engine.margins.batch.closed_rows`: the peaks of every sample found at once) and the closed-loop stability abscissa, of conditions whose loops are
 cascades of expression blocks, in s or in z (through the w-plane form the problem holds,
-`engine.margins.batch`), or diagrams in s realized for every sample at once
-(`engine.loop.batch_realization`: parallel paths, inner loops, state-space blocks of one
+`engine.margins.batch`), or diagrams in s or in z (their w-plane form) realized for every sample
+at once (`engine.loop.batch_realization`: parallel paths, inner loops, state-space blocks of one
 port or several), whose minimal forms come
 from the stacked realizations (`engine.loop.batch_realized_forms`) and whose margins are
 polished on them; a row that names another break of its diagram reads the loop broken
 there (each (condition, break) its own forms).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
-sample of a study that is not batched (a delay, a table, a loop in z that is not one
-cascade of expression blocks, a diagram with no batched realization, a mean square), is
+sample of a study that is not batched (a delay, a table, a diagram with no batched
+realization, a mean square, a loop in z's time or closed-loop peak rows), is
 evaluated per loop, by slp's own measures (`engine.slp.measures.evaluate`) on the problem
 built once: what `run_job` computes but for building the sample's session (a sample whose
 evaluation raises gets `run_job` itself).  The study's note says which samples went per loop, and why a study
@@ -321,10 +321,10 @@ def batch_form(
 ) -> tuple[BatchForms | None, RealizedForms | None]:
     """Every sample's loop in pole-zero form: a cascade's from its blocks' factors
     (`engine.loop.batch_forms`), any other loop's minimal form from its stacked realizations
-    (`engine.loop.batch_realized_forms`, returned too: its margins are polished on them); (None,
-    None) when it has neither."""
+    (`engine.loop.batch_realized_forms`, returned too: its margins are polished on them; a loop
+    in z's in its w-plane form); (None, None) when it has neither."""
     forms = batch_pole_zero(network, break_at, columns)
-    if forms is not None or network.sample_time is not None:
+    if forms is not None:
         return forms, None
     broken = batch_loop_realization(network, break_at, columns, shared=True)
     exact = None if broken is None else realized_forms(broken, network.signal(break_at))

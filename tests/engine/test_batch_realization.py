@@ -2,8 +2,8 @@
 whole diagram): every sample's closed loop from `engine.loop.batch_realization` is the one
 `closed_loop_realization` makes for it, on the launch vehicle's three conditions (parallel
 sensor paths, the bending filter's WF, ZF and the attitude path's TA drawn) and on the
-lag-lead (a biproper compensator: I - D differs by sample); an entry of higher degree has no
-batched realization."""
+lag-lead (a biproper compensator: I - D differs by sample) and on a loop in z's w-plane form; an
+entry of higher degree has no batched realization."""
 
 from __future__ import annotations
 
@@ -14,7 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from engine.loop.batch_realization import SharedStateSpace, batch_closed_loop, batch_loop_realization, closed_of
+from engine.loop.batch_realization import (
+    SharedStateSpace,
+    batch_closed_loop,
+    batch_loop_realization,
+    closed_of,
+    samples,
+)
 from engine.loop.design import closed_loop_realization
 from engine.model.blocks import ExpressionTransfer
 from engine.model.network import Network
@@ -54,6 +60,20 @@ def test_the_launch_vehicle_s_conditions(c):
     problem = _problem("coebra_launch_vehicle.json")
     columns = _columns(problem.condition_values(c), ("WF", "ZF", "TA"), 30, np.random.default_rng(c))
     _equal_per_sample(problem.conditions[c], columns)
+
+
+def test_a_loop_in_z_is_realized_in_its_w_plane_form():
+    """Kuo's loop in z (T = 0.5 s) as the problem holds it (variable w, each z written
+    (1 + w)/(1 - w)): its compensator's (1 - w) factors divided out as `realize` divides them,
+    every sample's closed loop the per-sample one, with the sample time."""
+    problem = _problem("coebra_kuo_z.json")
+    condition = problem.conditions[0]
+    assert (condition.network.variable, condition.network.sample_time) == ("w", 0.5)
+    columns = _columns(problem.condition_values(0), ("T1", "T2"), 30, np.random.default_rng(5))
+    _equal_per_sample(condition, columns)
+    stacked = batch_closed_loop(condition.network, condition.break_at, columns)
+    assert stacked is not None and stacked.sample_time == 0.5 and stacked.A.shape[1] == 4  # 1 + 3 states
+    assert {one.sample_time for one in samples(stacked)} == {0.5}
 
 
 def _response(ss, k: int, w: np.ndarray, i: int, j: int) -> np.ndarray:
