@@ -14,7 +14,7 @@ from tui.app import LoopcraftApp
 from tui.cli import main
 
 
-def _studied(workdir) -> str:
+def studied(workdir) -> str:
     """The lag-lead with a tolerance study of 30 samples kept in it (run serially, here)."""
     path = workdir / "coebra_lag_lead.json"
     argv = ["sweep", str(path), "--tolerance", "T1=+-10%", "--tolerance", "T2=normal:5%"]
@@ -25,7 +25,7 @@ def _studied(workdir) -> str:
 @pytest.mark.long
 @synchronous
 async def test_the_sweep_tab_shows_the_rows_histogram_and_u_opens_its_worst_sample(workdir, capsys):
-    app = LoopcraftApp(_studied(workdir))
+    app = LoopcraftApp(studied(workdir))
     capsys.readouterr()
     async with app.run_test(size=(160, 45)) as pilot:
         await settle(app, pilot)

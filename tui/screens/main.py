@@ -157,6 +157,7 @@ class MainScreen(Screen):
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
+    #sweep-status { text-wrap: wrap; }  /* the study's line wraps: nothing of it off screen */
     #tableau-side { width: 2fr; min-width: 42; }  /* 41 columns of tableau beside the focus bar */
     #tableau-scroll { height: 1fr; }
     #tableau { height: auto; }
