@@ -75,6 +75,34 @@ PRESENTER_PLOTS = {
 }
 
 
+# each plot tab's label, and its short form where the strip is narrow (80 columns)
+TAB_LABELS = {
+    "p-nyquist": ("Nyquist", "Nyq"),
+    "p-bode": ("Bode", "Bode"),
+    "p-nichols": ("Nichols", "Nich"),
+    "p-closed": ("S/T", "S/T"),
+    "p-poles": ("Poles", "Pole"),
+    "p-locus": ("Locus", "Loc"),
+    "p-convergence": ("Convergence", "Conv"),
+    "p-step": ("Step", "Step"),
+    "p-trajectories": ("Trajectories", "Traj"),
+}
+
+
+def fitted_labels(tabs: list[str], room: int) -> tuple[list[str], bool]:
+    """The plot tabs' labels that fit in ``room`` cells, and whether their padding is one cell
+    (not two): the full labels when they fit, else the longest ones shortened first."""
+    labels = [TAB_LABELS[tab][0] for tab in tabs]
+    if sum(len(label) + 2 for label in labels) <= room:
+        return labels, False
+    by_saving = sorted(range(len(tabs)), key=lambda k: len(TAB_LABELS[tabs[k]][1]) - len(labels[k]))
+    for k in by_saving:
+        if sum(len(label) + 1 for label in labels) <= room:
+            break
+        labels[k] = TAB_LABELS[tabs[k]][1]
+    return labels, True
+
+
 def _values(value) -> str:
     """A parameter's value, or its values per condition."""
     return ", ".join(number(v) for v in value) if isinstance(value, list) else number(value)
@@ -157,6 +185,7 @@ class MainScreen(Screen):
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
+    #plots.tight Tab { padding: 0 0 0 1; }  /* `fitted_labels` */
     #sweep-status { text-wrap: wrap; }  /* the study's line wraps: nothing of it off screen */
     #tableau-side { width: 2fr; min-width: 42; }  /* 41 columns of tableau beside the focus bar */
     #tableau-scroll { height: 1fr; }
@@ -224,21 +253,10 @@ class MainScreen(Screen):
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
         wanted = applicable(self.bench.book.presenter.plots, self.bench.session.problem)
-        titles = {
-            "p-nyquist": "Nyquist",
-            "p-bode": "Bode",
-            "p-nichols": "Nichols",
-            "p-closed": "S/T",
-            "p-poles": "Poles",
-            "p-locus": "Locus",
-            "p-convergence": "Convergence",
-            "p-step": "Step",
-            "p-trajectories": "Trajectories",
-        }
         self.plot_tabs = [tab for tab in PLOT_TABS if PRESENTER_PLOTS[tab] in wanted]
         with TabbedContent(id="plots"):
             for tab in self.plot_tabs:
-                with TabPane(titles[tab], id=tab):
+                with TabPane(TAB_LABELS[tab][0], id=tab):
                     if tab == "p-bode":
                         with Vertical():
                             yield FigurePlot(id="bode-mag")
@@ -284,8 +302,19 @@ class MainScreen(Screen):
             self._painted = False
 
     def on_resize(self, event) -> None:
-        """The tableau's layout follows its width (compact below 58 columns)."""
+        """The tableau's layout follows its width (compact below 58 columns), the plot tabs'
+        labels theirs (`fitted_labels`)."""
         self.call_after_refresh(lambda: self.refresh_run(plots=False))
+        self.call_after_refresh(self._fit_plot_tabs)
+
+    def _fit_plot_tabs(self) -> None:
+        """The plot tabs' labels, shortened where the strip is too narrow for them."""
+        plots = self.query_one("#plots", TabbedContent)
+        labels, tight = fitted_labels(self.plot_tabs, plots.size.width)
+        plots.set_class(tight, "tight")
+        for tab, label in zip(self.plot_tabs, labels):
+            if plots.get_tab(tab).label_text != label:
+                plots.get_tab(tab).label = label
 
     def action_next_plot(self) -> None:
         """The next plot of the Run tab, or the History plot's next view."""
