@@ -181,6 +181,8 @@ class MainScreen(Screen):
     MainScreen DataTable:focus, #shape:focus, #tableau-scroll:focus { border-left: thick $accent; }
     #plots { min-width: 37; margin-right: 1; }  /* a column between the plot tabs and the tableau */
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
+    #refused { display: none; text-wrap: wrap; background: $boost; padding: 0 1; text-style: bold; }
+    #refused.shown { display: block; }
     #tabs { height: 1fr; }
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
@@ -209,6 +211,7 @@ class MainScreen(Screen):
         self.bench = bench
         self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
+        self.refused = ""  # why the key just pressed cannot act, under the status line (`say_refused`)
         self.dragged_plot: str | None = None  # a drag goes on this plot: the others wait for its release
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
         self.figure_work = LatestWork(self, "figures")  # the plots' figures, the latest design's alone
@@ -222,6 +225,7 @@ class MainScreen(Screen):
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
+        yield TextView("", id="refused")  # why a key cannot act (`say_refused`)
         with TabbedContent(id="tabs", initial="run"):
             with TabPane("Run", id="run"):
                 with Horizontal():
@@ -489,6 +493,15 @@ class MainScreen(Screen):
             self.refresh_history(view)
         else:
             {"plant": self.refresh_plant, "targets": self.refresh_targets, "sweep": self.refresh_sweep}[pane]()
+
+    def say_refused(self, text: str) -> None:
+        """The line under the status says why the key just pressed cannot act (``text``,
+        wrapped: whole at 80 columns), shown until the next key ("": hidden)."""
+        if text != self.refused:
+            self.refused = text
+            line = self.query_one("#refused", TextView)
+            line.set(Text(text))
+            line.set_class(bool(text), "shown")
 
     def refresh_status(self) -> None:
         b = self.bench
