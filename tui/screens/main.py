@@ -38,6 +38,7 @@ from tui.screens.table_edits import TableEdits
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
 from tui.state.field_edits import objective_rows
+from tui.state.matrix_grid import shown_grid
 from tui.state.plant_rows import constraint_marks, plant_rows
 from tui.state.tableau_text import tableau_text
 from tui.state.views import View
@@ -674,7 +675,7 @@ class MainScreen(Screen):
             ("condition", "block", "input", "output", "kind", "definition"),
             plant_rows(model, self.bench.session.problem),
         )
-        self.query_one("#matrix-grid", MatrixTable).fill(model, self.bench.plotted_condition)
+        self.query_one("#matrix-grid", MatrixTable).fill(shown_grid(model, self.bench.plotted_condition))
         free = {p.name: p.free for p in self.bench.session.problem.parameters}
         marks = constraint_marks(self.bench.session.problem, self.bench.constraint_states())
         records = self.bench.records
