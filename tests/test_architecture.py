@@ -76,6 +76,55 @@ def test_the_seam_check_sees_a_reach_into_the_app(tmp_path):
     assert seam_faults(widget) == ["widget.py:1: imports tui.state.workbench", "widget.py:4: app.bench"]
 
 
+def imports_of(path: Path) -> list[tuple[int, str]]:
+    """The modules a module imports (line, module), at its top, in a function or for a type hint
+    (under ``if TYPE_CHECKING:``)."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.append((node.lineno, node.module))
+    return found
+
+
+def engine_imports(path: Path) -> list[str]:
+    """Where a module imports the engine or the sessions package (anywhere: a type hint's too)."""
+    return [f"{path.name}:{line}: imports {m}" for line, m in imports_of(path) if m.split(".")[0] in ENGINE_SIDE]
+
+
+ENGINE_SIDE = {"engine", "sessions"}
+
+
+def test_widgets_and_drawing_never_call_the_engine():
+    """Issue 54: `tui/figures` may call the engine (in workers); `tui/drawing` and the widgets
+    never do: they import nothing of `engine` or `sessions`, not even for a type hint (the
+    drawing's cache of static layers is its own, not `engine.derived`'s; the matrix grid is
+    chosen in `tui.state`; the shaping table reads its items through a protocol of its own)."""
+    paths = [*(ROOT / "tui" / "widgets").rglob("*.py"), *(ROOT / "tui" / "drawing").rglob("*.py")]
+    assert [fault for path in paths for fault in engine_imports(path)] == []
+
+
+def test_the_engine_check_sees_an_import(tmp_path):
+    drawing = tmp_path / "drawing.py"
+    drawing.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "from engine.derived import Derived\n"
+        "import sessions.store, numpy\n"
+        "if TYPE_CHECKING:\n"
+        "    from engine.design.compensator_items import Item\n"
+        "def f():\n"
+        "    from engine.margins import margins\n"
+        "    return margins\n"
+    )
+    assert engine_imports(drawing) == [
+        "drawing.py:2: imports engine.derived",
+        "drawing.py:3: imports sessions.store",
+        "drawing.py:5: imports engine.design.compensator_items",
+        "drawing.py:7: imports engine.margins",
+    ]
+
+
 def test_the_key_table_imports_no_widget():
     """`tui.keys` is imported by every widget: it imports nothing of the app (no circle)."""
     modules = {mod for mod, path in imported_top_levels("tui") if path.endswith("tui/keys.py")}

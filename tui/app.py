@@ -290,11 +290,15 @@ class LoopcraftApp(App):
 
     async def run_action(self, action, default_namespace=None, namespaces=None) -> bool:
         """Run an action; a key that cannot act now says why (a run or a sweep goes, or the
-        target's `disabled_reason`).  Any other action than the previous one ends a burst of
-        edits (`EditHistory.end_burst`): a key repeated is one undo step, a key between splits it."""
+        target's `disabled_reason`) in a notice and on a line under the status, until the next key.
+        Any other action than the previous one ends a burst of edits (`EditHistory.end_burst`):
+        a key repeated is one undo step, a key between splits it."""
         if action != self._last_action and self.bench is not None:
             self.bench.edits.end_burst()
         self._last_action = action
+        main = self.main_screen()
+        if main is not None:  # what a key refused before said goes (a shaping key's own refusal comes after)
+            main.say_refused("")
         handled = await super().run_action(action, default_namespace, namespaces)
         if not handled:
             destination, name, params = action if isinstance(action, tuple) else parse_action(action)
@@ -302,10 +306,13 @@ class LoopcraftApp(App):
             target = target or (self if default_namespace is None else default_namespace)
             if target.check_action(name, params) is None and name != "pause":
                 reason = self.key_reason(name, target)
+                refused = f"{name.replace('_', ' ')}: {reason}"
+                if reason and main is not None:  # on the status line until the next key
+                    main.say_refused(refused)
                 now = time.monotonic()
                 if reason and now - self._refused_at > 1.0:
                     self._refused_at = now
-                    self.notify(f"{name.replace('_', ' ')}: {reason}", timeout=3)
+                    self.notify(refused, timeout=3)
         return handled
 
     def key_reason(self, action: str, target: object | None = None) -> str | None:

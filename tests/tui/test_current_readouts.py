@@ -1,16 +1,22 @@
 """Every readout shows the current design (issue 54, section 2): after a run, an undo, a
 reopen at a later iteration, an adoption and an algorithm switch, the shaping table
-(`C`), `e`'s prompt, the tableau and the status line read the design the moves act on:
-the current iteration's, never the start's."""
+(`C`), `e`'s prompt, the tableau, the plots and the status line read the design the moves
+act on: the current iteration's, never the start's.  The tableau's margins and the Bode
+plot's curve are checked against python-control's of that design."""
 
 from __future__ import annotations
 
+import control
+import numpy as np
 import pytest
 
 from tests.tui.test_app import settle, status, synchronous
 from tests.tui.test_shape_table import lead_app
 from tui.app import LoopcraftApp
+from tui.figures.catalog import figure_key
 from tui.screens.dialogs import StartDialog
+
+PLANT = control.tf([1], [1, 10, 0, 0])  # lead_app's 1/(s^2 (s+10))
 
 
 def current(app) -> dict[str, float]:
@@ -40,6 +46,35 @@ def assert_current(app) -> None:
     assert f"Iteration {app.bench.iteration}" in status(app)
 
 
+def loop(values: dict[str, float]) -> control.TransferFunction:
+    """The lead's loop K (1 + T1 s) / (1 + T2 s) / (s^2 (s+10)) at ``values``."""
+    return control.tf([values["K"] * values["T1"], values["K"]], [values["T2"], 1]) * PLANT
+
+
+def tableau_value(app, kind: str) -> tuple[float, float]:
+    """The value and frequency the tableau shows on its ``kind`` row ("PM deg")."""
+    line = next(line for line in app.screen.query_one("#tableau").text.plain.split("\n") if line.startswith(kind))
+    words = line[len(kind) :].split()
+    return float(words[0]), float(words[-1])
+
+
+async def assert_drawn_current(app, pilot) -> None:
+    """The tableau's PM and GM (value and frequency) are python-control's of the current design,
+    and the Bode plot shows that design: its key the current view's, its magnitude curve
+    20 log10 |L(jw)| at each point.  A tableau or plot left on the start (or an earlier design) fails."""
+    gm, pm, wcg, wcp = control.margin(loop(current(app)))
+    assert tableau_value(app, "PM deg") == pytest.approx((pm, wcp), rel=2e-4)
+    assert tableau_value(app, "GM dB") == pytest.approx((20 * np.log10(gm), wcg), rel=2e-4)
+    app.screen.query_one("#plots").active = "p-bode"
+    await settle(app, pilot)
+    assert app.screen._figure_keys["bode-mag"] == figure_key(app.bench.view())
+    curve = next(s for s in app.screen.query_one("#bode-mag").figure.series if s.label == "current")
+    w = 10.0 ** np.array(curve.x)
+    assert curve.y == pytest.approx(20 * np.log10(abs(loop(current(app))(1j * w))), abs=1e-6)
+    app.screen.query_one("#plots").active = "p-nyquist"
+    await settle(app, pilot)
+
+
 async def _shaped_and_run(app, pilot) -> None:
     """C, the gain for a 1 rad/s crossover, then r: a run that moves the design."""
     await settle(app, pilot)
@@ -63,6 +98,7 @@ async def test_the_shaping_table_and_prompt_read_the_design_after_a_run_and_an_u
     async with app.run_test(size=(120, 40)) as pilot:
         await _shaped_and_run(app, pilot)
         assert_current(app)
+        await assert_drawn_current(app, pilot)
         table = app.screen.query_one("#shape")
         table.focus()
         table.move_cursor(row=table.names.index("compensator.zero1"))
@@ -74,6 +110,7 @@ async def test_the_shaping_table_and_prompt_read_the_design_after_a_run_and_an_u
         await pilot.press("z")  # an iteration undone
         await settle(app, pilot)
         assert_current(app)
+        await assert_drawn_current(app, pilot)
 
 
 @synchronous
@@ -91,6 +128,7 @@ async def test_a_session_reopened_at_a_later_iteration_reads_its_design(tmp_path
         await pilot.press("C")
         await settle(again, pilot)
         assert_current(again)
+        await assert_drawn_current(again, pilot)
 
 
 @pytest.mark.long
@@ -106,6 +144,7 @@ async def test_adoption_and_an_algorithm_switch_read_the_design_kept(tmp_path, m
         await settle(app, pilot)
         assert app.bench.iteration == 0 and current(app)["K"] == pytest.approx(design["K"], rel=1e-12)
         assert_current(app)
+        await assert_drawn_current(app, pilot)
         await pilot.press("r")
         await settle(app, pilot)
         await pilot.press("a")  # another algorithm: the records go, the design on screen is kept
@@ -120,6 +159,7 @@ async def test_adoption_and_an_algorithm_switch_read_the_design_kept(tmp_path, m
         await settle(app, pilot)
         assert app.bench.algorithm_name == other
         assert_current(app)
+        await assert_drawn_current(app, pilot)
 
 
 @pytest.mark.long

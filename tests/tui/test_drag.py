@@ -1,6 +1,7 @@
-"""Dragging on the plots (issue 55): a compensator's zero or pole on the pole map and the
-root locus, a corner along the Bode magnitude, the magnitude curve up and down for the
-gain, a locus branch for the gain; one drag one undo step, a bound said on release.  The
+"""Dragging on the plots (issue 55): a compensator's zero or pole (a real root, a pair's
+wn and zeta) on the pole map and the root locus, a corner along the Bode magnitude, the
+magnitude curve up and down for the gain, a locus branch for the gain; one drag one undo
+step, a constraint or a parameter's own bound said on release.  The
 mouse events are posted at cells computed from each plot's data-to-cell mapping (its
 `Frame`), and every design is checked against python-control's margins."""
 
@@ -143,13 +144,7 @@ async def test_drags_on_the_pole_map_the_bode_magnitude_and_the_locus(tmp_path, 
         assert len(app.bench.edits.undo_stack) == undo + 4
 
         # the root locus: along a branch, the loop gain at the nearest point
-        plot = await _shown(app, pilot, "p-locus", "locus")
-        for _ in range(20):  # the coarse locus, then the fine one (each drawn by a worker), then painted
-            drawn = plot.drawing is not None and plot.drawing.frames[0].xlim == plot.figure.xlim
-            if plot.figure.series and "coarse" not in plot.figure.title and drawn:
-                break
-            await settle(app, pilot)
-        assert "coarse" not in plot.figure.title and plot.drawing.frames[0].xlim == plot.figure.xlim
+        plot = await _fine_locus(app, pilot)
         frame, probe = plot.drawing.frames[0], plot.figure.probe
         values = start_values(app)
         (x0, x1), (_, y1) = frame.xlim, frame.ylim
@@ -591,3 +586,92 @@ async def test_a_frame_that_cannot_be_drawn_at_once_goes_to_the_worker_which_say
         await settle(app, pilot)
         assert app.is_running and notes == ["ValueError: no figure here"], notes
         assert app.screen.frame_times._seconds["bode-mag"] == math.inf
+
+
+async def _fine_locus(app, pilot):
+    """The root locus shown, its fine pass drawn and painted (a worker draws the coarse one first)."""
+    plot = await _shown(app, pilot, "p-locus", "locus")
+    for _ in range(20):
+        drawn = plot.drawing is not None and plot.drawing.frames[0].xlim == plot.figure.xlim
+        if plot.figure.series and "coarse" not in plot.figure.title and drawn:
+            break
+        await settle(app, pilot)
+    assert "coarse" not in plot.figure.title and plot.drawing.frames[0].xlim == plot.figure.xlim
+    return plot
+
+
+def _notched(values) -> ct.TransferFunction:
+    """The lead's loop with the notch part's factor (1 + 2 zz s/wz + (s/wz)^2) / (1 + 2 zp s/wp + (s/wp)^2)."""
+    wz, zz, wp, zp = (values[f"notch1_{p}"] for p in ("wz", "zz", "wp", "zp"))
+    return _loop(values) * ct.tf([1 / wz**2, 2 * zz / wz, 1], [1 / wp**2, 2 * zp / wp, 1])
+
+
+@synchronous
+async def test_the_compensator_s_marks_dragged_on_the_root_locus(tmp_path, monkeypatch):
+    """On the root locus, as on the pole map: the lead's zero mark dragged along the real axis
+    goes to the pointer's abscissa, then a notch's upper pole mark to the pointer (its pair's wn
+    and zeta); the tableau's margins are python-control's of each design."""
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _fine_locus(app, pilot)
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        start = _cell(frame, zero.x, zero.y)
+        end = (start[0] - 2, start[1] - 1)  # a faster zero (the pointer off the axis: its abscissa counts)
+        await _drag(app, pilot, plot, start, [(start[0] - 1, start[1]), end])
+        assert 1 / start_values(app)["T1"] == pytest.approx(-frame.point(*end)[0], rel=1e-9)
+        assert -frame.point(*end)[0] > 1.0
+        _agrees(app)
+
+        app.screen.shaping.change(lambda: edits.add_part(app.bench, "compensator", "notch"), "a notch")
+        plot = await _fine_locus(app, pilot)
+        frame = plot.drawing.frames[0]
+        (upper,) = [h for h in plot.figure.handles if h.name == "compensator.polepair1" and h.y > 0]
+        start = _cell(frame, upper.x, upper.y)
+        end = (start[0] - 1, start[1] - 1)
+        await _drag(app, pilot, plot, start, [(start[0], start[1] - 1), end])
+        target = complex(*frame.point(*end))
+        values = start_values(app)
+        wn, zeta = values["notch1_wp"], values["notch1_zp"]
+        assert complex(-zeta * wn, wn * math.sqrt(1 - zeta**2)) == pytest.approx(target, rel=1e-9)
+        gm, pm, _, _, _, _ = ct.stability_margins(_notched(values))
+        shown = _tableau(app)
+        assert shown["phase_margin_deg"] == pytest.approx(pm, abs=1e-6)
+        assert shown["gain_margin_db"] == pytest.approx(20 * math.log10(gm), abs=1e-6)
+
+
+@synchronous
+async def test_a_drag_past_a_parameter_s_own_bound_stops_at_it_and_says_so(tmp_path, monkeypatch):
+    """T1 given a min of 0.5 (its own bound; the constraints T1 <= 20 T2 and T2 <= 20 T1 hold
+    throughout): the lead's zero (at 1/T1) dragged on the pole map from 1 to 1.5 rad/s follows,
+    past 2 rad/s it stays at the last position accepted, and the release says which bound."""
+    import json
+
+    from tui.cli import main
+
+    monkeypatch.setenv("LOOPCRAFT_HOME", str(tmp_path / "home"))
+    path = tmp_path / "lead.json"
+    assert main(["new", str(path), "--plant", "1/(s^2*(s+10))", "--compensator", "lead"]) == 0
+    session = json.loads(path.read_text())
+    (t1,) = [p for p in session["problem"]["parameters"] if p["name"] == "T1"]
+    t1["min"] = 0.5
+    path.write_text(json.dumps(session))
+    app = LoopcraftApp(path)
+    said: list[str] = []
+    notify = app.notify
+    monkeypatch.setattr(app, "notify", lambda message, **kw: (said.append(str(message)), notify(message, **kw)))
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        plot = await _shown(app, pilot, "p-poles", "poles")
+        frame = plot.drawing.frames[0]
+        (zero,) = [h for h in plot.figure.handles if h.name == "compensator.zero1"]
+        inside, beyond = _cell(frame, -1.5, 0.0), _cell(frame, -3.0, 0.0)
+        await _drag(app, pilot, plot, _cell(frame, zero.x, zero.y), [inside, beyond])
+        values = start_values(app)
+        assert 1 / values["T1"] == pytest.approx(-frame.point(*inside)[0], rel=1e-9) and values["T1"] > 0.5
+        frequency = -frame.point(*beyond)[0]
+        assert said[-1] == (
+            "not applied (nothing changed): compensator.zero1: no value of T1 within its bounds brings the zero's "
+            f"frequency to {frequency:.6g} (T1: min 0.5, max 10000)"
+        )

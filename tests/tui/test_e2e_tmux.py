@@ -132,7 +132,8 @@ def _half_digit(text: str) -> float:
 
 def test_a_zero_dragged_with_the_mouse_moves_the_margins(workdir):
     """The lead's zero dragged on the pole map by SGR mouse reports (press, three moves, release):
-    the design changes as one undo step and the tableau's margins are python-control's."""
+    the tableau's margins are python-control's of the design, and the undo key pressed once
+    brings back the start's (python-control's of T1 = 1): the drag was one undo step."""
     import control as ct
 
     from tui.cli import main
@@ -167,5 +168,20 @@ def test_a_zero_dragged_with_the_mouse_moves_the_margins(workdir):
         shown_pm, shown_gm = _shown_number(screen, "PM deg"), _shown_number(screen, "GM dB")
         assert abs(float(shown_pm) - pm) <= _half_digit(shown_pm)
         assert abs(float(shown_gm) - 20 * math.log10(gm)) <= _half_digit(shown_gm)
+
+        # one undo step: ctrl+z pressed once brings back the start's margins (T1 = 1)
+        gm, pm, _, _, _, _ = ct.stability_margins(ct.tf([1, 1], [0.1, 1]) * ct.tf([1], [1, 10, 0, 0]))
+        tmux("send-keys", "-t", session, "C-z")
+        screens = [wait_for(session, "PM deg", "GM dB")]
+
+        def at_start() -> bool:
+            screens[0] = tmux("capture-pane", "-t", session, "-p")
+            shown = _shown_number(screens[0], "PM deg"), _shown_number(screens[0], "GM dB")
+            return abs(float(shown[0]) - pm) <= _half_digit(shown[0]) and abs(
+                float(shown[1]) - 20 * math.log10(gm)
+            ) <= _half_digit(shown[1])
+
+        wait_until(at_start, lambda: f"the start's margins never came back; the screen:\n{screens[0]}")
+        assert "undid: T1 value: 1 -> " in screens[0].splitlines()[0]  # the whole drag's edit, from the start's T1
     finally:
         tmux("kill-session", "-t", session)

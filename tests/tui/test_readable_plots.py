@@ -3,16 +3,21 @@ are told apart without colour, tick labels never touch."""
 
 from __future__ import annotations
 
+import asyncio
 import re
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from textual.widgets import TabbedContent, Tabs
 
 from sessions.store import load_session
+from tests.tui.test_app import settle
+from tui.app import LoopcraftApp
 from tui.drawing import legend
 from tui.drawing.text_canvas import COMPACT_ROWS, draw
 from tui.figures.catalog import figures
+from tui.screens.main import TAB_LABELS, fitted_labels
 from tui.state.workbench import Workbench
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -105,3 +110,52 @@ def _value(word: str) -> float:
     match = re.fullmatch(r"(-?\d+(?:\.\d+)?(?:e[-+]?\d+)?)([nµmkMG]?)", word)
     assert match, word
     return float(match[1]) * SUFFIX.get(match[2], 1.0)
+
+
+def test_a_legend_entry_is_shown_whole_or_counted():
+    """An entry that does not fit beside others is counted ("+1"), never cut ("S >= 0.505 tar…"
+    at 80x24); one alone on its row, wider than the row, is cut."""
+    found = [legend.Entry("⠒⠒", "current", None), legend.Entry("x", "-1", None)]
+    found.append(legend.Entry("••", "S >= 0.505 target: NOT met", None))
+    whole = [e.sample + " " + e.label for e in found]
+    assert [r.plain for r in legend.rows(found, 36, 2)] == ["  ".join(whole[:2]), whole[2]]
+    assert [r.plain for r in legend.rows(found, 36, 1)] == ["  ".join(whole[:2]) + " +1"]
+    assert [r.plain for r in legend.rows(found, 18, 1)] == [whole[0] + " +2"]  # "x -1" too: " +1" did not fit
+    assert [r.plain for r in legend.rows(found[2:], 12, 1)] == [whole[2][:11] + "…"]
+    for width in range(8, 60):
+        for most in (1, 2):
+            drawn = legend.rows(found, width, most)
+            assert len(drawn) <= most and all(r.cell_len <= width for r in drawn), (width, most)
+            for row in drawn:
+                parts = re.sub(r" \+\d+$", "", row.plain).split("  ")
+                assert all(p in whole for p in parts) or (len(parts) == 1 and parts[0].endswith("…")), row
+
+
+@pytest.mark.parametrize("size", [(80, 24), (120, 40)], ids=["80x24", "120x40"])
+@pytest.mark.parametrize("example", ["lead_sensitivity_peak", "cip_launch_vehicle"])  # eight plot tabs, six
+def test_every_plot_tab_label_is_whole_in_the_strip(example, size, workdir):
+    """The plot tabs' strip shows each label whole (at 80x24 "Converg" was cut at its edge):
+    shortened where it is narrow, the full names where they fit."""
+
+    async def check() -> None:
+        app = LoopcraftApp(workdir / f"{example}.json")
+        async with app.run_test(size=size) as pilot:
+            await settle(app, pilot)
+            plots = app.screen.query_one("#plots", TabbedContent)
+            strip = plots.query_one(Tabs).region
+            for pane in app.screen.plot_tabs:
+                tab = plots.get_tab(pane)
+                assert strip.contains_region(tab.region), (pane, tab.region, strip)
+                assert tab.label_text in TAB_LABELS[pane] and tab.content_region.width >= len(tab.label_text)
+            shown = [plots.get_tab(pane).label_text for pane in app.screen.plot_tabs]
+            assert (shown == [TAB_LABELS[pane][0] for pane in app.screen.plot_tabs]) == (size == (120, 40))
+
+    asyncio.run(check())
+
+
+def test_the_plot_tab_labels_shortened_are_the_longest_first():
+    tabs = ["p-nyquist", "p-bode", "p-nichols", "p-closed", "p-convergence", "p-step"]
+    full = [TAB_LABELS[tab][0] for tab in tabs]
+    assert fitted_labels(tabs, sum(len(label) + 2 for label in full)) == (full, False)
+    assert fitted_labels(tabs, 37) == (["Nyquist", "Bode", "Nichols", "S/T", "Conv", "Step"], True)
+    assert fitted_labels(tabs, 30) == (["Nyq", "Bode", "Nich", "S/T", "Conv", "Step"], True)

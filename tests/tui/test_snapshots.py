@@ -1,18 +1,23 @@
-"""Snapshots of every screen with a bundled example, at 100x32 and 80x24
+"""Snapshots of every screen with a bundled example, at 120x40, 100x32 and 80x24
 (`pytest --snapshot-update` accepts changes after looking at them)."""
 
 from __future__ import annotations
+
+import json
+from pathlib import Path
 
 import pytest
 from textual.app import App, ComposeResult
 
 from sessions.store import load_session
+from tests.tui.test_tolerance_study import studied
 from tui.app import LoopcraftApp
 from tui.figures.trajectories import trajectories_figure
 from tui.state.workbench import Workbench
 from tui.widgets.plots import FigurePlot
 
-SIZES = [pytest.param((100, 32), marks=pytest.mark.long), (80, 24)]  # 80x24, the tightest, in `make test`
+# 80x24, the tightest, in `make test`; 120x40 and 100x32 in the long tier
+SIZES = [pytest.param((120, 40), marks=pytest.mark.long), pytest.param((100, 32), marks=pytest.mark.long), (80, 24)]
 
 
 def steps(*keys: str, wait_workers: bool = True):
@@ -62,12 +67,45 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("size", SIZES, ids=["100x32", "80x24"])
+@pytest.mark.parametrize("size", SIZES, ids=["120x40", "100x32", "80x24"])
 @pytest.mark.parametrize("case", list(CASES))
 def test_screen(case, size, workdir, snap_compare):
     name, run_before = CASES[case]
     app = LoopcraftApp(workdir / name if name else None)
     assert snap_compare(app, terminal_size=size, run_before=run_before)
+
+
+async def scrolled_right(pilot) -> None:
+    """The Sweep tab, its table scrolled by the right key to its last columns."""
+    await steps("5")(pilot)
+    table = pilot.app.screen.query_one("#optima-table")
+    assert table.has_focus and table.max_scroll_x > 0
+    while table.scroll_x < table.max_scroll_x:
+        await pilot.press("right")
+        await pilot.wait_for_scheduled_animations()
+        await pilot.pause()
+
+
+SWEEP_CASES = {
+    "120x40": ((120, 40), steps("5")),
+    "80x24": ((80, 24), steps("5")),
+    "80x24-right": ((80, 24), scrolled_right),
+}
+
+
+@pytest.mark.long  # a tolerance study of 30 samples first
+@pytest.mark.parametrize("case", list(SWEEP_CASES))
+def test_sweep_tab(case, workdir, snap_compare, capsys):
+    """The Sweep tab after the lag-lead's tolerance study: the histogram of the first row beside
+    the table, whose percentile and worst-sample columns scroll (a scroll bar under them; the right
+    key shows them)."""
+    size, run_before = SWEEP_CASES[case]
+    path = studied(workdir)
+    capsys.readouterr()
+    session = json.loads(Path(path).read_text())
+    session["sweeps"][-1]["created"] = "2026-01-02T03:04:05+00:00"  # the study's time, the same each run
+    Path(path).write_text(json.dumps(session))
+    assert snap_compare(LoopcraftApp(path), terminal_size=size, run_before=run_before)
 
 
 class PlotApp(App):

@@ -99,7 +99,49 @@ async def test_shaping_keys_act_from_any_focus_on_the_run_tab(tmp_path, monkeypa
         await pilot.press("G")
         await pilot.pause()
         assert app.screen.query_one("#tabs").active == "history" and not isinstance(app.screen, EditDialog)
-        assert any("act on the Run tab" in str(n.message) for n in app._notifications)
+        why = "the shaping keys act on the Run tab (1, then C shows the shaping table)"
+        assert any(str(n.message) == f"shaping: {why}" for n in app._notifications)
+        assert said(app) == f"shaping: {why}"  # the line under the status says it too
+        await pilot.press("1")  # a key that acts: the line goes
+        await pilot.pause()
+        assert said(app) is None and app.screen.query_one("#tabs").active == "run"
+
+
+def said(app) -> str | None:
+    """What the line under the status says of a key that cannot act (None: hidden)."""
+    line = app.screen.query_one("#refused")
+    return line.text.plain if line.display else None
+
+
+def footer_keys(app) -> dict[str, tuple[bool, str]]:
+    """The footer's keys: their description, whether enabled, their tooltip."""
+    return {
+        key.description: (not key.has_class("-disabled"), str(key.tooltip)) for key in app.screen.query("FooterKey")
+    }
+
+
+@synchronous
+async def test_a_shaping_key_that_cannot_act_says_why_on_the_status_line_and_in_the_footer(tmp_path, monkeypatch):
+    """On the gain row [ and ] (a pair's damping) cannot act: the footer's key is dimmed with
+    the reason as its tooltip, and pressing it says the reason on the status line, changing
+    nothing; on a pair they act."""
+    app = lead_app(tmp_path, monkeypatch)
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("C")
+        await settle(app, pilot)
+        table = app.screen.query_one("#shape")
+        assert app.focused is table and table.selected[1].kind == "gain"
+        why = "[ and ] move a pair's damping: select a zero pair or a pole pair"
+        assert footer_keys(app)["damping -"] == (False, f"damping -: {why}")
+        design = app.bench.session.model.model_dump()
+        await pilot.press("left_square_bracket")
+        await settle(app, pilot)
+        assert said(app) == f"damp: {why}" and app.bench.session.model.model_dump() == design
+        assert app.focused is table  # typed into nothing else
+        await pilot.press("down")  # a key that acts: the reason goes
+        await pilot.pause()
+        assert said(app) is None
 
 
 @synchronous

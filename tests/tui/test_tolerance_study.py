@@ -14,7 +14,7 @@ from tui.app import LoopcraftApp
 from tui.cli import main
 
 
-def _studied(workdir) -> str:
+def studied(workdir) -> str:
     """The lag-lead with a tolerance study of 30 samples kept in it (run serially, here)."""
     path = workdir / "coebra_lag_lead.json"
     argv = ["sweep", str(path), "--tolerance", "T1=+-10%", "--tolerance", "T2=normal:5%"]
@@ -25,7 +25,7 @@ def _studied(workdir) -> str:
 @pytest.mark.long
 @synchronous
 async def test_the_sweep_tab_shows_the_rows_histogram_and_u_opens_its_worst_sample(workdir, capsys):
-    app = LoopcraftApp(_studied(workdir))
+    app = LoopcraftApp(studied(workdir))
     capsys.readouterr()
     async with app.run_test(size=(160, 45)) as pilot:
         await settle(app, pilot)
@@ -77,3 +77,18 @@ async def test_u_says_why_it_cannot_open_a_sample_when_none_finished(workdir):
         await pilot.press("5")
         await settle(app, pilot)
         assert app.screen.query_one("#sweep-plot").shown.empty_message == "no sample of the tolerance study finished"
+
+
+def test_the_histogram_s_compact_variant_fits_a_short_plot():
+    """At 80x24 (a plot under `COMPACT_ROWS`) the histogram's title leaves out the interval and its
+    axis names the measure alone: both were cut ("WC1 at nominal: 0.0 % unmet (95 %:…")."""
+    from tui.figures.lines import histogram_figure
+
+    histogram = {"edges": [20.0, 21.0, 22.0], "counts": [4, 6], "below": 0, "above": 0}
+    row = {"name": "WC1", "kind": "crossover_frequency", "condition": "nominal", "unmet_fraction": 0.0}
+    row |= {"unmet_interval": [0.0, 0.116], "histogram": histogram, "desired": 10.0, "unmet_samples": 0}
+    fig = histogram_figure(row)
+    assert fig.title == "WC1 at nominal: 0.0 % unmet (95 %: 0.0-11.6 %)"
+    assert fig.xlabel == "WC1 (crossover_frequency) at nominal; desired 10 <-"
+    assert (fig.compact.title, fig.compact.xlabel) == ("WC1 at nominal: 0.0 % unmet", "WC1; desired 10 <-")
+    assert fig.compact.series == fig.series and fig.compact.compact is None

@@ -39,30 +39,37 @@ def entries(figure: Figure) -> list[Entry]:
 
 
 def rows(found: list[Entry], width: int, most: int) -> list[Text]:
-    """The entries packed into at most ``most`` rows of ``width`` cells; what does not fit
-    is counted at the end of the last row ("+3")."""
-    lines: list[Text] = []
-    line = Text()
+    """The entries packed into at most ``most`` rows of ``width`` cells, each whole; what does
+    not fit is counted at the end of the last row ("+3").  An entry is cut ("…") only alone
+    on its row (wider than the row): beside others it is counted (a cut one read "S >= 0.505 tar…")."""
+    lines: list[list[Text]] = [[]]
     for k, entry in enumerate(found):
         piece = Text.assemble((entry.sample, entry.color or ""), " ", entry.label)
-        room = width - line.cell_len - (len(GAP) if line.cell_len else 0)
-        if piece.cell_len <= room:
-            line.append_text(Text(GAP) + piece if line.cell_len else piece)
+        if _joined([*lines[-1], piece]).cell_len <= width:
+            lines[-1].append(piece)
             continue
-        if line.cell_len and len(lines) + 1 < most:
-            lines.append(line)
-            line = Text()
+        if lines[-1] and len(lines) < most:  # on the next row
+            lines.append([])
             if piece.cell_len <= width:
-                line.append_text(piece)
+                lines[-1].append(piece)
                 continue
-        line.append_text(Text(GAP if line.cell_len else "") + piece)
-        line.truncate(width, overflow="ellipsis")
-        more = len(found) - k - 1
-        if more:
-            tail = f" +{more}"
-            line.truncate(max(width - len(tail), 1), overflow="ellipsis")
-            line.append(tail, style="dim")
-        break
-    if line.cell_len:
-        lines.append(line)
-    return lines[:most]
+        return [*map(_joined, lines[:-1]), _counted(lines[-1], piece, len(found) - k - 1, width)]
+    return [_joined(line) for line in lines if line]
+
+
+def _joined(pieces: list[Text]) -> Text:
+    return Text(GAP).join(pieces)
+
+
+def _counted(row: list[Text], piece: Text, more: int, width: int) -> Text:
+    """The last row, ``piece`` and ``more`` entries after it left out: counted at its end, its
+    own last entries counted too until the count fits; ``piece`` cut alone on an empty row."""
+    if row:
+        more += 1
+        while len(row) > 1 and _joined(row).cell_len + len(f" +{more}") > width:
+            row, more = row[:-1], more + 1
+    line = _joined(row or [piece])
+    tail = f" +{more}" if more else ""
+    line.truncate(max(width - len(tail), 1), overflow="ellipsis")
+    line.append(tail, style="dim")
+    return line

@@ -29,7 +29,8 @@ from tui.drawing.text_layers import LAYERS, Drawn, Matrix, draw_series, layerabl
 from tui.figures.axes import nice_ticks, spaced
 from tui.figures.data import Figure, Series
 
-COMPACT_ROWS = 24  # a canvas shorter than this draws a figure's compact variant, its legend in one row
+COMPACT_ROWS = 24  # a canvas shorter than this draws a figure's compact variant
+ROOMY_ROWS = 18  # a canvas this tall or taller gives its legend two rows (one below: Bode's panels at 80x24)
 PLOTTABLE = 1e150  # plotext's arithmetic on the canvas overflows near the float limits
 LEGEND_ROWS = 2
 
@@ -82,7 +83,7 @@ def draw(figure: Figure, width: int, height: int, theme: str) -> Drawing | None:
         return None
     if figure.compact is not None and height < COMPACT_ROWS:
         figure = figure.compact
-    legend_rows = legend.rows(legend.entries(figure), width, 1 if height < COMPACT_ROWS else LEGEND_ROWS)
+    legend_rows = legend.rows(legend.entries(figure), width, LEGEND_ROWS if height >= ROOMY_ROWS else 1)
     plot_height = height - len(legend_rows)
     if plot_height < 5:
         legend_rows, plot_height = [], height

@@ -7,6 +7,8 @@ an arrow to its side), the 5th, 50th and 95th percentiles and the worst sample."
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from engine.stepping.memory_fields import finite_or_none
@@ -130,17 +132,23 @@ def histogram_figure(row: dict) -> Figure:
     top = max(counts) * 1.1 or 1.0
     fig.ylim = (0.0, top)
     _histogram_marks(fig, row, top, (edges[0], edges[-1]))
+    long_name = f"{row['name']} ({row['kind']}) at {row['condition']}"
+    # on a short canvas (80x24) the title without its interval, the axis by the measure's name
+    fig.compact = replace(
+        fig, title=_histogram_title(row, interval=False), xlabel=fig.xlabel.replace(long_name, row["name"])
+    )
     return fig
 
 
-def _histogram_title(row: dict) -> str:
+def _histogram_title(row: dict, interval: bool = True) -> str:
     low, high = row["unmet_interval"]
     histogram = row["histogram"]
     off = [f"{n} at {sign}inf" for n, sign in ((histogram["below"], "-"), (histogram["above"], "+")) if n]
     off += [f"{row['undefined']} undefined"] if row.get("undefined") else []
     return (
-        f"{row['name']} at {row['condition']}: {100 * row['unmet_fraction']:.1f} % unmet "
-        f"(95 %: {100 * low:.1f}-{100 * high:.1f} %)" + "".join(f", {text}" for text in off)
+        f"{row['name']} at {row['condition']}: {100 * row['unmet_fraction']:.1f} % unmet"
+        + (f" (95 %: {100 * low:.1f}-{100 * high:.1f} %)" if interval else "")
+        + "".join(f", {text}" for text in off)
     )
 
 

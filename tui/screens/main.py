@@ -40,6 +40,7 @@ from tui.screens.table_edits import TableEdits
 from tui.screens.view_actions import ViewActions
 from tui.state import edits
 from tui.state.field_edits import objective_rows
+from tui.state.matrix_grid import shown_grid
 from tui.state.plant_rows import constraint_marks, plant_rows
 from tui.state.tableau_text import tableau_text
 from tui.state.views import View
@@ -75,6 +76,34 @@ PRESENTER_PLOTS = {
     "p-step": "step",
     "p-trajectories": "trajectories",
 }
+
+
+# each plot tab's label, and its short form where the strip is narrow (80 columns)
+TAB_LABELS = {
+    "p-nyquist": ("Nyquist", "Nyq"),
+    "p-bode": ("Bode", "Bode"),
+    "p-nichols": ("Nichols", "Nich"),
+    "p-closed": ("S/T", "S/T"),
+    "p-poles": ("Poles", "Pole"),
+    "p-locus": ("Locus", "Loc"),
+    "p-convergence": ("Convergence", "Conv"),
+    "p-step": ("Step", "Step"),
+    "p-trajectories": ("Trajectories", "Traj"),
+}
+
+
+def fitted_labels(tabs: list[str], room: int) -> tuple[list[str], bool]:
+    """The plot tabs' labels that fit in ``room`` cells, and whether their padding is one cell
+    (not two): the full labels when they fit, else the longest ones shortened first."""
+    labels = [TAB_LABELS[tab][0] for tab in tabs]
+    if sum(len(label) + 2 for label in labels) <= room:
+        return labels, False
+    by_saving = sorted(range(len(tabs)), key=lambda k: len(TAB_LABELS[tabs[k]][1]) - len(labels[k]))
+    for k in by_saving:
+        if sum(len(label) + 1 for label in labels) <= room:
+            break
+        labels[k] = TAB_LABELS[tabs[k]][1]
+    return labels, True
 
 
 def _values(value) -> str:
@@ -155,10 +184,14 @@ class MainScreen(Screen):
     MainScreen DataTable:focus, #shape:focus, #tableau-scroll:focus { border-left: thick $accent; }
     #plots { min-width: 37; margin-right: 1; }  /* a column between the plot tabs and the tableau */
     #status { height: auto; max-height: 2; background: $boost; padding: 0 1; }
+    #refused { display: none; text-wrap: wrap; background: $boost; padding: 0 1; text-style: bold; }
+    #refused.shown { display: block; }
     #tabs { height: 1fr; }
     #tabs > ContentSwitcher { height: 1fr; }
     #plots > ContentSwitcher { height: 1fr; }
     #plots { width: 3fr; }
+    #plots.tight Tab { padding: 0 0 0 1; }  /* `fitted_labels` */
+    #sweep-status { text-wrap: wrap; }  /* the study's line wraps: nothing of it off screen */
     #tableau-side { width: 2fr; min-width: 42; }  /* 41 columns of tableau beside the focus bar */
     #tableau-scroll { height: 1fr; }
     #tableau { height: auto; }
@@ -182,6 +215,7 @@ class MainScreen(Screen):
         self.bench = bench
         self._stale = {"plant", "targets", "history", "sweep"}  # tabs redrawn when next shown
         self._figure_keys: dict[str, tuple] = {}  # plot id -> the `figure_key` of the view it shows
+        self.refused = ""  # why the key just pressed cannot act, under the status line (`say_refused`)
         self.dragged_plot: str | None = None  # a drag goes on this plot: the others wait for its release
         self.frame_times = FrameTimes()  # a drag's frame drawn at once when the plot's last was quick
         self.pole_lines = PoleLines(self)  # the closed-loop poles under the tableau
@@ -196,6 +230,7 @@ class MainScreen(Screen):
 
     def compose(self) -> ComposeResult:
         yield TextView("", id="status")
+        yield TextView("", id="refused")  # why a key cannot act (`say_refused`)
         with TabbedContent(id="tabs", initial="run"):
             with TabPane("Run", id="run"):
                 with Horizontal():
@@ -227,21 +262,10 @@ class MainScreen(Screen):
     def _plots(self) -> ComposeResult:
         """The plot tabs that apply to the algorithm (its presenter's `plots`)."""
         wanted = applicable(self.bench.book.presenter.plots, self.bench.session.problem)
-        titles = {
-            "p-nyquist": "Nyquist",
-            "p-bode": "Bode",
-            "p-nichols": "Nichols",
-            "p-closed": "S/T",
-            "p-poles": "Poles",
-            "p-locus": "Locus",
-            "p-convergence": "Convergence",
-            "p-step": "Step",
-            "p-trajectories": "Trajectories",
-        }
         self.plot_tabs = [tab for tab in PLOT_TABS if PRESENTER_PLOTS[tab] in wanted]
         with TabbedContent(id="plots"):
             for tab in self.plot_tabs:
-                with TabPane(titles[tab], id=tab):
+                with TabPane(TAB_LABELS[tab][0], id=tab):
                     if tab == "p-bode":
                         with Vertical():
                             yield FigurePlot(id="bode-mag")
@@ -287,8 +311,19 @@ class MainScreen(Screen):
             self._painted = False
 
     def on_resize(self, event) -> None:
-        """The tableau's layout follows its width (compact below 58 columns)."""
+        """The tableau's layout follows its width (compact below 58 columns), the plot tabs'
+        labels theirs (`fitted_labels`)."""
         self.call_after_refresh(lambda: self.refresh_run(plots=False))
+        self.call_after_refresh(self._fit_plot_tabs)
+
+    def _fit_plot_tabs(self) -> None:
+        """The plot tabs' labels, shortened where the strip is too narrow for them."""
+        plots = self.query_one("#plots", TabbedContent)
+        labels, tight = fitted_labels(self.plot_tabs, plots.size.width)
+        plots.set_class(tight, "tight")
+        for tab, label in zip(self.plot_tabs, labels):
+            if plots.get_tab(tab).label_text != label:
+                plots.get_tab(tab).label = label
 
     def action_next_plot(self) -> None:
         """The next plot of the Run tab, or the History plot's next view."""
@@ -463,6 +498,15 @@ class MainScreen(Screen):
             self.refresh_history(view)
         else:
             {"plant": self.refresh_plant, "targets": self.refresh_targets, "sweep": self.refresh_sweep}[pane]()
+
+    def say_refused(self, text: str) -> None:
+        """The line under the status says why the key just pressed cannot act (``text``,
+        wrapped: whole at 80 columns), shown until the next key ("": hidden)."""
+        if text != self.refused:
+            self.refused = text
+            line = self.query_one("#refused", TextView)
+            line.set(Text(text))
+            line.set_class(bool(text), "shown")
 
     def refresh_status(self) -> None:
         b = self.bench
@@ -646,7 +690,7 @@ class MainScreen(Screen):
             ("condition", "block", "input", "output", "kind", "definition"),
             plant_rows(model, self.bench.session.problem),
         )
-        self.query_one("#matrix-grid", MatrixTable).fill(model, self.bench.plotted_condition)
+        self.query_one("#matrix-grid", MatrixTable).fill(shown_grid(model, self.bench.plotted_condition))
         free = {p.name: p.free for p in self.bench.session.problem.parameters}
         marks = constraint_marks(self.bench.session.problem, self.bench.constraint_states())
         records = self.bench.records

@@ -18,6 +18,7 @@ from tui.widgets.plots import FigurePlot
 from tui.widgets.shape_table import ShapeTable
 
 if TYPE_CHECKING:
+    from engine.design.compensator_items import Item
     from sessions.shaping import GainChoice
     from tui.app import LoopcraftApp
     from tui.screens.edit_flow import EditFlow
@@ -154,7 +155,8 @@ class Shaping:
         def apply(text: str) -> None:
             edits.move_item(bench, name, lambda _: float(text))
 
-        self.flow.line(f"{name}{unit}: now {measure(request.item):.6g}", positive, apply, f"set {name}")
+        item = cast("Item", request.item)  # the table's items are the engine's (`edits.compensator_rows`)
+        self.flow.line(f"{name}{unit}: now {measure(item):.6g}", positive, apply, f"set {name}")
 
     def gain_for(self, request: ShapeTable.GainFor) -> None:
         """g: the gain for a crossover; G: every gain for a phase margin, one picked (`pick_gain`)."""
@@ -238,7 +240,7 @@ class Shaping:
         self.flow.choose(f"a notch in {block} on", [(str(k), r.text) for k, r in enumerate(found)], add)
 
     def delete(self, request: ShapeTable.Delete) -> None:
-        bench, name, item = self.bench, request.name, request.item
+        bench, name, item = self.bench, request.name, cast("Item", request.item)  # the engine's (`type_value`)
         try:
             plan = edits.remove_item(bench, name, item, bench.session.model.problem.model_copy(deep=True))
         except SessionError as exc:

@@ -162,10 +162,22 @@ def move_items(bench: Workbench, name: str, moves: list[tuple[str, Callable[[flo
         try:
             move = move_named(problem.conditions[k].network, values, name + suffix, target, bounds)
         except EngineError as exc:
-            raise SessionError(str(exc)) from None
+            raise SessionError(f"{exc}{bounds_said(bench, name, bounds) if 'bounds' in str(exc) else ''}") from None
         values, solved, name = {**values, **move.values}, {**solved, **move.values}, move.name.removesuffix(suffix)
     set_parameters(bench, solved, k)
     return name
+
+
+def bounds_said(bench: Workbench, name: str, bounds: Mapping[str, tuple[float | None, float | None]]) -> str:
+    """The bounds of the parameters that move item ``name``, as a move they refused names them:
+    " (T1: min 0.5, max 10000)"."""
+    item = next((item for row, _, item in compensator_rows(bench.view()) if row == name), None)
+    said = []
+    for p in item.parameters if item is not None else ():
+        low, high = bounds.get(p, (None, None))
+        sides = [f"{side} {value:g}" for side, value in (("min", low), ("max", high)) if value is not None]
+        said += [f"{p}: {', '.join(sides)}"] if sides else []
+    return f" ({'; '.join(said)})" if said else ""
 
 
 def move_root_in_z(bench: Workbench, name: str, z: complex) -> str:

@@ -5,10 +5,23 @@ plant's entries it shows, so the tab can edit that entry in place."""
 
 from __future__ import annotations
 
-from sessions.format.schema import MatrixModel
+from sessions.format.schema import MatrixModel, ProblemModel
 
 Cell = tuple[str, int | None]  # (the text shown, the index in plant.entries or None)
 GridRow = tuple[str, list[Cell]]  # (the row's label, one cell per column)
+Shown = tuple[int, str, list[str], list[GridRow]]  # a condition's index and name, the grid's headers and rows
+
+
+def shown_grid(problem: ProblemModel, plotted: int | None) -> Shown | None:
+    """The grid the Plant tab shows: of the plotted condition when its plant is a matrix,
+    else of the first matrix-format condition (None: no condition has one)."""
+    matrix = [k for k, c in enumerate(problem.conditions) if c.plant.format == "matrix"]
+    if not matrix:
+        return None
+    k = plotted if plotted in matrix else matrix[0]
+    condition = problem.conditions[k]
+    assert isinstance(condition.plant, MatrixModel)
+    return (k, condition.name, *matrix_grid(condition.plant))
 
 
 def matrix_grid(plant: MatrixModel) -> tuple[list[str], list[GridRow]]:

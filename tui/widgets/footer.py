@@ -10,7 +10,8 @@ checks of refreshes made before one ran do nothing (one that is dropped, say wit
 a screen popped before it ran, is made up by the next), and the footer is
 recomposed only when the keys it would show differ from those it shows (each
 key's action, description, whether it is enabled, its tooltip).  A disabled
-key's tooltip says why it cannot act now (the app's `key_reason`), as pressing it does."""
+key's tooltip says why it cannot act now (the app's `key_reason` of the widget the key
+belongs to: the shaping table's `[` on its gain row names the pair it needs), as pressing it does."""
 
 from __future__ import annotations
 
@@ -46,21 +47,22 @@ class Footer(TextualFooter):
     def _keys(self) -> tuple:
         """What the footer would show: each shown binding's key, action, description,
         whether it is enabled, and its tooltip (a disabled key's: why, `key_reason`)."""
-        reason_of = getattr(self.app, "key_reason", lambda _: None)
+        reason_of = getattr(self.app, "key_reason", lambda *_: None)
         return tuple(
-            (key, b.action, b.description, enabled, tooltip if enabled else (tooltip, reason_of(b.action)))
-            for key, (_, b, enabled, tooltip) in self.screen.active_bindings.items()
+            (key, b.action, b.description, enabled, tooltip if enabled else (tooltip, reason_of(b.action, node)))
+            for key, (node, b, enabled, tooltip) in self.screen.active_bindings.items()
             if b.show
         )
 
     def compose(self) -> ComposeResult:
         if self._bindings_ready:
             self._shown = self._keys()  # what this composition shows, whoever asked for it
-        reason_of = getattr(self.app, "key_reason", lambda _: None)
+        reason_of = getattr(self.app, "key_reason", lambda *_: None)
+        owners = {b.action: node for node, b, enabled, _ in self.screen.active_bindings.values() if not enabled}
         for widget in super().compose():
             action = getattr(widget, "action", None)  # a key (Textual's FooterKey, not exported)
             if action and widget.has_class("-disabled"):
-                reason = reason_of(action)
+                reason = reason_of(action, owners.get(action))
                 if reason:
                     widget.tooltip = f"{getattr(widget, 'description', '') or action}: {reason}"
             yield widget

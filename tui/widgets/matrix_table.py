@@ -9,9 +9,8 @@ from textual.binding import Binding
 from textual.message import Message
 from textual.widgets import DataTable
 
-from sessions.format.schema import ProblemModel
 from tui.keys import identified
-from tui.state.matrix_grid import matrix_grid
+from tui.state.matrix_grid import Shown
 
 
 class MatrixTable(DataTable):
@@ -45,17 +44,17 @@ class MatrixTable(DataTable):
         row, col = self.cursor_coordinate
         return 0 <= row < len(self.cells) and 0 <= col - 1 < len(self.cells[row]) - 1
 
-    def fill(self, problem_model: ProblemModel, plotted: int | None) -> None:
-        """Show the grid of a matrix-format condition; hidden when there is none."""
-        matrix = [k for k, c in enumerate(problem_model.conditions) if c.plant.format == "matrix"]
-        self.condition = (plotted if plotted in matrix else matrix[0]) if matrix else None
-        self.display = self.condition is not None
-        if self.condition is None:
+    def fill(self, grid: Shown | None) -> None:
+        """Show a matrix-format condition's grid (`tui.state.matrix_grid.shown_grid`); hidden
+        when there is none."""
+        self.condition = None if grid is None else grid[0]
+        self.display = grid is not None
+        if grid is None:
             return
         cursor = self.cursor_coordinate
-        headers, rows = matrix_grid(problem_model.conditions[self.condition].plant)
+        _, name, headers, rows = grid
         self.clear(columns=True)
-        self.add_columns(f"{problem_model.conditions[self.condition].name}: row", *headers)
+        self.add_columns(f"{name}: row", *headers)
         self.cells = []
         for label, cells in rows:
             self.add_row(label, *[text for text, _ in cells])

@@ -14,7 +14,8 @@ the 22-34 ms paint that shows the nudge's tableau."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from typing import Protocol
 
 from rich.padding import Padding
 from rich.segment import Segment
@@ -30,8 +31,14 @@ from textual.strip import Strip
 
 from tui.keys import identified
 
-if TYPE_CHECKING:  # scipy behind it: never imported before the first paint
-    from engine.design.compensator_items import Item
+
+class Shaped(Protocol):
+    """What the table reads of a compensator's item (an `engine.design.compensator_items.Item`,
+    which the screen's controller gets back in the requests): its kind."""
+
+    @property
+    def kind(self) -> str: ...
+
 
 STEP, BIG_STEP = 1.05, 1.25  # frequency factors of a nudge (shift: a big one)
 STEP_DB, BIG_STEP_DB = 0.5, 3.0  # the gain's nudges, dB
@@ -144,7 +151,7 @@ class ShapeTable(ScrollView, can_focus=True):
     class Request(Message):
         """A shaping key's request of the selected item (``name``: ``block.item``)."""
 
-        def __init__(self, name: str, item: Item) -> None:
+        def __init__(self, name: str, item: Shaped) -> None:
             super().__init__()
             self.name, self.item = name, item
 
@@ -155,7 +162,7 @@ class ShapeTable(ScrollView, can_focus=True):
     class Move(Request):
         """Scale the item's measure (``measure``: ``block.item`` or ``block.item.zeta``) by ``scale``."""
 
-        def __init__(self, name: str, item: Item, measure: str, scale: float, what: str) -> None:
+        def __init__(self, name: str, item: Shaped, measure: str, scale: float, what: str) -> None:
             super().__init__(name, item)
             self.measure, self.scale, self.what = measure, scale, what
 
@@ -165,7 +172,7 @@ class ShapeTable(ScrollView, can_focus=True):
     class GainFor(Request):
         """Solve the loop gain for ``goal``: "crossover" or "pm"."""
 
-        def __init__(self, name: str, item: Item, goal: str) -> None:
+        def __init__(self, name: str, item: Shaped, goal: str) -> None:
             super().__init__(name, item)
             self.goal = goal
 
@@ -184,13 +191,13 @@ class ShapeTable(ScrollView, can_focus=True):
     def __init__(self, *, id: str | None = None) -> None:
         super().__init__(id=id)
         self.names: list[str] = []
-        self.found: list[Item] = []
+        self.found: list[Shaped] = []
         self.readings: list[str] = []
         self.widths = (0, 0)  # the columns' (the same rows' readings only widen them)
         self.frozen = False  # a run or a sweep goes: the screen says so (`MainScreen.refresh_status`)
         self._strips: dict[int, tuple[tuple, Strip]] = {}  # line -> (what it was drawn from, its strip)
 
-    def fill(self, rows: list[tuple[str, str, Item]]) -> None:
+    def fill(self, rows: Sequence[tuple[str, str, Shaped]]) -> None:
         """The items (name, reading, item), the cursor kept on its row; a row whose reading
         is unchanged keeps its strip (a nudge's, a drag's: one row drawn again; a column widened
         draws every line again); no layout pass unless the number of rows changes or a scroll
@@ -336,7 +343,7 @@ class ShapeTable(ScrollView, can_focus=True):
         return Strip(segments).adjust_cell_length(width, base).simplify()
 
     @property
-    def selected(self) -> tuple[str, Item] | None:
+    def selected(self) -> tuple[str, Shaped] | None:
         k = self.cursor_row
         return (self.names[k], self.found[k]) if 0 <= k < len(self.names) else None
 

@@ -8,7 +8,8 @@ paint over the plots and the tabs, some forty widgets rendered where eight had c
 One made with ``keep_height`` shrinks after the paint of a text with fewer lines: the
 tableau, whose rows come and go as a design moves (a margin found or lost), shows a nudge's
 new text first and is laid out after (the layout pass of the whole screen, 2 of 14 one-way
-nudges of the launch vehicle, held the tableau's paint)."""
+nudges of the launch vehicle, held the tableau's paint).  One styled ``text-wrap: wrap`` (the
+Sweep tab's status) wraps at its width and is laid out again on every change."""
 
 from __future__ import annotations
 
@@ -45,7 +46,9 @@ class TextView(Widget):
             if not self._held:
                 self.call_after_refresh(self._shrink)
             self._held = max(self._lines, self._held)
-        if lines > max(self._lines, self._held) or (lines != self._lines and not self.keep_height):
+        if self.styles.text_wrap == "wrap":  # its rows on screen are not its lines: laid out again
+            self.refresh(layout=True)
+        elif lines > max(self._lines, self._held) or (lines != self._lines and not self.keep_height):
             self.refresh(layout=True)
         elif self.styles.text_align in ("left", "start") and _aligned_left(old) and _aligned_left(new):
             self.refresh(*(Region(x, y, max(self.size.width - x, 1), 1) for x, y in _changed_cells(old, new)))
