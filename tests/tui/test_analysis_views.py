@@ -176,3 +176,20 @@ def test_an_unstable_loop_marks_its_peaks_unbounded(tmp_path):
     assert "unbounded" in fig.title
     assert any(label.startswith("Ms unbounded") for label in labels)
     assert any("max|KS| unbounded" in label for label in labels)
+
+
+def test_poles_of_one_damping_are_listed_by_frequency_whatever_their_last_bits():
+    """Two modes of one damping (zeta = 0.01: a launch vehicle's bending modes) whose computed
+    dampings differ in the last bits, either way round: listed by frequency, the slower first
+    (a LAPACK build's rounding swapped them in the tableau's pole lines, and a snapshot failed)."""
+    from types import SimpleNamespace
+
+    from tui.figures.closed_loop import _listed_order
+
+    def pole(re: float, im: float, zeta: float):
+        return SimpleNamespace(value=complex(re, im), zeta=zeta, wn=abs(complex(re, im)))
+
+    for tiny in (1e-17, -1e-17):
+        fast, slow, lighter = pole(-0.24, 23.999, 0.01 + tiny), pole(-0.11, 10.999, 0.01), pole(-0.2, 23.9, 0.0088)
+        listed = sorted([fast, slow, lighter], key=_listed_order)
+        assert listed == [lighter, slow, fast]

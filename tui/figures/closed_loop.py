@@ -461,6 +461,14 @@ def pole_text(view) -> str:
     return tolerant(lambda: pole_lines(view), lambda: "")
 
 
+def _listed_order(pole) -> tuple[float, float, float]:
+    """The least damped first, then the slowest: damping and frequency compared to 9 digits, so
+    that two modes of one damping (a launch vehicle's bending modes, zeta = 0.01 each) are listed
+    by frequency whatever the last bits their eigenvalues come out with (a LAPACK build's
+    rounding swapped them: -0.24 +- 24j before -0.11 +- 11j on one machine, after on another)."""
+    return round(pole.zeta, 9), round(pole.wn, 9), pole.value.real
+
+
 def pole_lines(view) -> str:
     """The current design's closed-loop poles of the first plotted condition (a conjugate pair
     once, as re +- im j) with zeta and wn, the least damped first; '' for a tabulated loop."""
@@ -482,7 +490,7 @@ def pole_lines(view) -> str:
     T = c.network.sample_time
     if T is not None:  # in z, with the damping and natural frequency of s = ln(z)/T
         found = [z_pole(p, T) for p in found]
-    shown = sorted(((p, h) for p, h in zip(found, hidden) if p.value.imag >= 0), key=lambda ph: (ph[0].zeta, ph[0].wn))
+    shown = sorted(((p, h) for p, h in zip(found, hidden) if p.value.imag >= 0), key=lambda ph: _listed_order(ph[0]))
     plane = "z" if T is not None else c.network.variable
     lines = [
         f"closed-loop poles ({c.name})" if len(view.problem.conditions) > 1 else "closed-loop poles",
