@@ -414,3 +414,22 @@ async def test_v_cycles_the_plots_through_the_flight_conditions(workdir):
             await pilot.press("v")
         await pilot.pause()
         assert labels() == names
+
+
+@pytest.mark.parametrize(("size", "hinted"), [((80, 24), False), ((120, 40), True)])
+@synchronous
+async def test_the_status_line_keeps_the_state_whole_at_80_columns(workdir, size, hinted):
+    """At 80 columns the status line ('cip_launch_vehicle.json *  algorithm cip  Iteration 1
+    not finished (s steps on, r runs on)', 91 cells) was cut in the middle of its hint; where it
+    does not fit, the word 'algorithm' and the keys the footer shows go, and the state is whole;
+    where it fits, all of it."""
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=size) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        status = app.screen.query_one("#status")
+        shown = status.text.plain
+        assert "Iteration 1" in shown and "not finished" in shown, shown
+        assert ("(s steps on, r runs on)" in shown and "algorithm cip" in shown) == hinted, shown
+        assert len(shown) <= status.content_size.width, shown

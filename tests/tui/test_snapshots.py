@@ -43,7 +43,7 @@ CASES = {
     "start": (None, steps()),
     "run_initial": ("cip_launch_vehicle.json", steps()),
     "run_after_steps": ("cip_launch_vehicle.json", steps("s", "s")),
-    "bode": ("cip_launch_vehicle.json", steps("s", "right")),
+    "bode": ("cip_launch_vehicle.json", steps("s", "p")),  # p: the next plot, the Bode plot
     "plant": ("cip_launch_vehicle.json", steps("2")),
     "targets": ("cip_dual_channel.json", steps("3")),
     "history": ("cip_launch_vehicle.json", steps("s", "s", "s", "4")),

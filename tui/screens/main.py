@@ -517,10 +517,14 @@ class MainScreen(Screen):
             table.frozen = self.app.busy
         last = DRAGGING if self.dragged_plot is not None else b.edits.last  # one text a drag: no repaint a move
         edit = f"  [dim]{escape(last)}[/dim]" if last else ""
-        self.query_one("#status", TextView).set(
-            f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
-            f"{escape(b.status_text())}{busy}{edit}"
-        )
+        status = self.query_one("#status", TextView)
+        head = f"[b]{escape(name)}{mark}[/b]  algorithm [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
+        text = f"{head}{escape(b.status_text())}{busy}"
+        if status.size.width and Text.from_markup(text).cell_len > status.content_size.width:
+            # narrow (80 columns): the keys the footer shows and the word "algorithm" go first, the state stays whole
+            head = f"[b]{escape(name)}{mark}[/b]  [b]{escape(b.algorithm_name)}[/b]  Iteration {b.iteration}  "
+            text = f"{head}{escape(b.status_text(hints=False))}{'  [b]stepping[/b]' if busy else ''}"
+        status.set(text + edit)
 
     def refresh_run(self, view: View | None = None, plots: bool = True) -> None:
         """The tableau, the lines under it and (with ``plots``) the plots, drawn in a

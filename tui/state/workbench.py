@@ -120,15 +120,17 @@ class Workbench:
     def initial_record(self) -> StepRecord | None:
         return self.book.initial_record()
 
-    def status_text(self) -> str:
+    def status_text(self, hints: bool = True) -> str:
+        """Where the algorithm stands (``hints``: with the keys that go on, where it has not finished)."""
         records = self.records
         if not records:
             return "not started"
         last = records[-1]
+        hint = " (s steps on, r runs on)" if hints else ""
         if self.paused_at == self.iteration and not last.status.finished:
-            return "paused (s steps on, r runs on)"
+            return "paused" + hint
         if not last.status.finished:  # the record's status says the algorithm goes on, not that it runs now
-            return "not finished" + (f": {last.reason}" if last.reason else "") + " (s steps on, r runs on)"
+            return "not finished" + (f": {last.reason}" if last.reason else "") + hint
         why = stop_notes(self.session.problem, last.status, dict(last.parameters), last.measures)
         return last.status.value + (f": {last.reason}" if last.reason else "") + "".join(f"; {n}" for n in why)
 
