@@ -63,9 +63,9 @@ PROBE_RATIO = 4
 # (the batch evaluates 5000 samples at a time: as many evaluations), and no wait between two chunks on a worker
 CHUNK_SECONDS = 1.0  # s of work a chunk is sized to
 # A worker's share in the first round on a cluster whose workers are all there (`_Sizes.ahead`) at most: the
-# samples shipped with its probe, of which it evaluates what fits in CHUNK_SECONDS (200 000 samples' draws:
-# a few MB; the lag-lead's second is about 25 000)
-FIRST_SHARE = 200_000
+# samples shipped with its probe, of which it evaluates what fits in CHUNK_SECONDS (50 000 samples' draws of
+# 4 parameters: 1.6 MB; the lag-lead's second on a worker is about 25 000 samples)
+FIRST_SHARE = 50_000
 CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal) on a cluster that may grow
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
 
