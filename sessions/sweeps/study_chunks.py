@@ -67,6 +67,9 @@ CHUNK_SECONDS = 1.0  # s of work a chunk is sized to
 # 4 parameters: 1.6 MB; the lag-lead's second on a worker is about 25 000 samples)
 FIRST_SHARE = 50_000
 CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal) on a cluster that may grow
+# A worker goes on to the end of its share when what it would leave is at most this fraction of what fits in
+# CHUNK_SECONDS: seen at load 4.4, a worker left 312 of 10 000 lag-lead samples, sent as 2 chunks of 156
+SLACK = 0.25
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
 
 
@@ -81,9 +84,10 @@ class _Sizes:
     ``per_worker`` chunks per worker (`CHUNKS_PER_WORKER`, so that a worker joining later finds
     one; 1 when every worker is there from the start); the samples left are split in equal chunks, as
     many for each worker, so that the workers finish together and no chunk at the end is
-    small.  With every worker there from the start, a worker's probe goes on into its share of the
+    small (nor any smaller than a probe's second part: a few samples left go in one chunk).  With every worker there from the start, a worker's probe goes on into its share of the
     study (`ahead`): the first round is a share per worker, and each worker evaluates of it what its
-    probe's parts say fits in `CHUNK_SECONDS`; what it leaves is ``given_back`` and sent first."""
+    probe's parts say fits in `CHUNK_SECONDS` (all of it when the rest is within `SLACK` of that);
+    what it leaves is ``given_back`` and sent first."""
 
     count: int
     workers: int
@@ -130,6 +134,7 @@ class _Sizes:
         target = self._target()
         if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
             chunks = math.ceil(math.ceil(self.left / target) / self.workers) * self.workers
+            chunks = max(1, min(chunks, self.left // (PROBE_RATIO * self.first)))  # none smaller than a probe's part
             self.split = (target, math.ceil(self.left / chunks))
         return self._take(self.split[1])
 
@@ -177,7 +182,8 @@ def evaluate_chunk(
     worker = announce({"chunk": task})
     runs = chunk_runs(key, samples[:probe] if 0 < probe < len(samples) else samples, split)
     if 0 < probe < len(samples) and len(runs.timed) == 2:
-        more = min(fitting(runs.timed, CHUNK_SECONDS), len(samples) - probe)
+        fits, rest = fitting(runs.timed, CHUNK_SECONDS), len(samples) - probe
+        more = rest if rest <= fits * (1 + SLACK) else fits  # a small rest is not worth a chunk of its own
         if more:
             rest = chunk_runs(key, samples[probe : probe + more])
             runs = replace(

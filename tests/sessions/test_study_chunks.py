@@ -163,6 +163,11 @@ def test_a_cluster_whose_workers_are_all_there_sends_a_share_per_worker_its_prob
         assert chunk is not None and chunk[0] == first[1]
         first = chunk
     assert first[1] == FIRST_SHARE and sizes.next(1) == (2 * FIRST_SHARE, 2 * FIRST_SHARE + sizes.split[1])
+    sizes = _Sizes(20_000, 2, per_worker=1)
+    sizes.first_round()
+    sizes.timed += [(100, 0.016), (400, 0.04), (9188, 0.95)]  # a loaded worker: 312 samples of its share left
+    sizes.give_back(9688, 10_000)
+    assert sizes.next(1) == (9688, 10_000) and sizes.left == 0  # in one chunk, not one a worker of 156
 
 
 def test_a_probe_going_on_into_its_share_evaluates_what_fits_and_leaves_the_rest(tmp_path, monkeypatch):
@@ -180,7 +185,7 @@ def test_a_probe_going_on_into_its_share_evaluates_what_fits_and_leaves_the_rest
     monkeypatch.setattr(study_chunks, "fitting", lambda timed, seconds: 30)
     _, runs = evaluate_chunk(key, samples.shipped(), "t", split=2, probe=10)
     assert [n for n, _ in runs.timed] == [2, 8, 30]
-    monkeypatch.setattr(study_chunks, "fitting", lambda timed, seconds: 100)
+    monkeypatch.setattr(study_chunks, "fitting", lambda timed, seconds: 42)  # 50 left, within a quarter of 42
     _, runs = evaluate_chunk(key, samples.shipped(), "t", split=2, probe=10)
     assert [n for n, _ in runs.timed] == [2, 8, 50]
     ours, theirs = Tally.of_study(60), Tally.of_study(60)
