@@ -15,12 +15,13 @@ fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker, the la
 started here (all its workers there from the start) the probe goes on into its worker's share of
 the study, in the same task: the worker evaluates of the share what its probe's parts say fits in
 `CHUNK_SECONDS` (`fitting`), and what it leaves is sent again first, sized from the parts timed;
-a study that fits takes one task a worker, with no round trip between a probe and its chunk.  A chunk whose task fails (its worker
-died more often than Dask allows) is sent again as two halves, down to single samples: a sample
-that kills its worker does not take the others with it, and the splitting ends.  The bookkeeping
-is the scheduler's: each chunk logs its start (`announce`), the times each task was sent to a
-worker are read from the scheduler's transition log (`starts_and_sends`, with the starts: one
-call at the end), and ``workers`` counts the workers that finished a chunk or started one."""
+a study that fits takes one task a worker, with no round trip between a probe and its chunk.  A
+chunk whose task fails (its worker died more often than Dask allows) is sent again as two
+halves, down to single samples: a sample that kills its worker does not take the others with
+it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its start
+(`announce`), the times each task was sent to a worker are read from the scheduler's
+transition log (`starts_and_sends`, with the starts: one call at the end), and ``workers``
+counts the workers that finished a chunk or started one."""
 
 from __future__ import annotations
 
@@ -84,8 +85,9 @@ class _Sizes:
     ``per_worker`` chunks per worker (`CHUNKS_PER_WORKER`, so that a worker joining later finds
     one; 1 when every worker is there from the start); the samples left are split in equal chunks, as
     many for each worker, so that the workers finish together and no chunk at the end is
-    small (nor any smaller than a probe's second part: a few samples left go in one chunk).  With every worker there from the start, a worker's probe goes on into its share of the
-    study (`ahead`): the first round is a share per worker, and each worker evaluates of it what its
+    small (nor any smaller than a probe's second part: a few samples left go in one chunk).  With
+    every worker there from the start, a worker's probe goes on into its share of the study
+    (`ahead`): the first round is a share per worker, and each worker evaluates of it what its
     probe's parts say fits in `CHUNK_SECONDS` (all of it when the rest is within `SLACK` of that);
     what it leaves is ``given_back`` and sent first."""
 
@@ -178,20 +180,20 @@ def evaluate_chunk(
     apart: `chunk_runs`); (the worker's address, the chunk's runs, each naming the worker).  With
     ``probe`` (a worker's share, `_Sizes.ahead`): the first ``probe`` samples are the probe (its
     first ``split`` timed apart), then as many more as its parts say fit in `CHUNK_SECONDS` of work
-    (`fitting`), the rest left (the runs' ``done`` says how many were evaluated)."""
+    (`fitting`), the rest left (the runs' timed parts count the samples evaluated)."""
     worker = announce({"chunk": task})
     runs = chunk_runs(key, samples[:probe] if 0 < probe < len(samples) else samples, split)
     if 0 < probe < len(samples) and len(runs.timed) == 2:
         fits, rest = fitting(runs.timed, CHUNK_SECONDS), len(samples) - probe
         more = rest if rest <= fits * (1 + SLACK) else fits  # a small rest is not worth a chunk of its own
         if more:
-            rest = chunk_runs(key, samples[probe : probe + more])
+            tail = chunk_runs(key, samples[probe : probe + more])
             runs = replace(
                 runs,
-                items=runs.items + rest.items,
-                alone=runs.alone + rest.alone,
-                by_search=runs.by_search + rest.by_search,
-                timed=runs.timed + rest.timed,
+                items=runs.items + tail.items,
+                alone=runs.alone + tail.alone,
+                by_search=runs.by_search + tail.by_search,
+                timed=runs.timed + tail.timed,
             )
     items = [
         replace(item, worker=worker) if isinstance(item, Records) else {**item, "worker": worker} for item in runs.items
