@@ -10,14 +10,18 @@ The first chunks, a probe per worker (two for one worker), are small (`FIRST_CHU
 `PROBE_RATIO` times that, each part timed apart on the worker: two sizes in one task) and timed
 in CPU seconds (the evaluating thread's, the problem's building apart: a loaded machine's waits
 are not work); the later ones are sized from them to about `CHUNK_SECONDS` of work, a chunk's
-fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker (one on a cluster
-started here, all its workers there from the start), the last ones equal (`_Sizes`): few tasks,
-since each costs tens of ms of CPU besides its samples.  A chunk whose task fails (its worker
-died more often than Dask allows) is sent again as two halves, down to single samples: a sample
-that kills its worker does not take the others with it, and the splitting ends.  The bookkeeping
-is the scheduler's: each chunk logs its start (`announce`), the times each task was sent to a
-worker are read from the scheduler's transition log (`starts_and_sends`, with the starts: one
-call at the end), and ``workers`` counts the workers that finished a chunk or started one."""
+fixed cost told from a sample's, at least `CHUNKS_PER_WORKER` per worker, the last ones equal
+(`_Sizes`): few tasks, since each costs tens of ms of CPU besides its samples.  On a cluster
+started here (all its workers there from the start) the probe goes on into its worker's share of
+the study, in the same task: the worker evaluates of the share what its probe's parts say fits in
+`CHUNK_SECONDS` (`fitting`), and what it leaves is sent again first, sized from the parts timed;
+a study that fits takes one task a worker, with no round trip between a probe and its chunk.  A
+chunk whose task fails (its worker died more often than Dask allows) is sent again as two
+halves, down to single samples: a sample that kills its worker does not take the others with
+it, and the splitting ends.  The bookkeeping is the scheduler's: each chunk logs its start
+(`announce`), the times each task was sent to a worker are read from the scheduler's
+transition log (`starts_and_sends`, with the starts: one call at the end), and ``workers``
+counts the workers that finished a chunk or started one."""
 
 from __future__ import annotations
 
@@ -59,7 +63,14 @@ PROBE_RATIO = 4
 # 0.127-0.175 (lower in each of 6 interleaved pairs, medians 0.121 and 0.147; load 2.7-2.9), the workers' the same
 # (the batch evaluates 5000 samples at a time: as many evaluations), and no wait between two chunks on a worker
 CHUNK_SECONDS = 1.0  # s of work a chunk is sized to
+# A worker's share in the first round on a cluster whose workers are all there (`_Sizes.ahead`) at most: the
+# samples shipped with its probe, of which it evaluates what fits in CHUNK_SECONDS (50 000 samples' draws of
+# 4 parameters: 1.6 MB; the lag-lead's second on a worker is about 25 000 samples)
+FIRST_SHARE = 50_000
 CHUNKS_PER_WORKER = 2  # ... in at least this many chunks per worker (the last ones equal) on a cluster that may grow
+# A worker goes on to the end of its share when what it would leave is at most this fraction of what fits in
+# CHUNK_SECONDS: seen at load 4.4, a worker left 312 of 10 000 lag-lead samples, sent as 2 chunks of 156
+SLACK = 0.25
 IN_FLIGHT = 2  # chunks sent per worker at a time: the next one waits on the worker while the main process sizes another
 
 
@@ -74,26 +85,45 @@ class _Sizes:
     ``per_worker`` chunks per worker (`CHUNKS_PER_WORKER`, so that a worker joining later finds
     one; 1 when every worker is there from the start); the samples left are split in equal chunks, as
     many for each worker, so that the workers finish together and no chunk at the end is
-    small."""
+    small (nor any smaller than a probe's second part: a few samples left go in one chunk).  With
+    every worker there from the start, a worker's probe goes on into its share of the study
+    (`ahead`): the first round is a share per worker, and each worker evaluates of it what its
+    probe's parts say fits in `CHUNK_SECONDS` (all of it when the rest is within `SLACK` of that);
+    what it leaves is ``given_back`` and sent first."""
 
     count: int
     workers: int
     per_worker: int = CHUNKS_PER_WORKER  # chunks a worker is sent at least (1: a cluster whose workers are all there)
     sent: int = 0
-    used: list[int] = field(default_factory=list)
     timed: list[tuple[int, float]] = field(default_factory=list)  # (samples, CPU seconds) of each part timed
     sized: int = 0  # the largest size the timings asked for so far
     split: tuple[int, int] = (0, 0)  # the size asked for when the samples left were split, and their chunks' size
+    returned: list[tuple[int, int]] = field(default_factory=list)  # ranges sent and given back unevaluated
 
     @property
     def first(self) -> int:
         """A probe's first part: the probes, a tenth of the study at most."""
         return max(1, min(FIRST_CHUNK, self.count // (2 * (1 + PROBE_RATIO) * CHUNKS_PER_WORKER * self.workers)))
 
+    @property
+    def ahead(self) -> bool:
+        """Does a probe go on into its worker's share (every worker there from the start)?"""
+        return self.per_worker == 1
+
+    @property
+    def left(self) -> int:
+        """The samples not sent, or given back."""
+        return self.count - self.sent + sum(b - a for a, b in self.returned)
+
     def first_round(self) -> list[tuple[int, int]]:
-        return [
-            self._take((1 + PROBE_RATIO) * self.first) for _ in range(max(2, self.workers)) if self.sent < self.count
-        ]
+        probe = (1 + PROBE_RATIO) * self.first
+        share = max(probe, min(math.ceil(self.count / self.workers), FIRST_SHARE)) if self.ahead else probe
+        return [self._take(share) for _ in range(max(2, self.workers)) if self.sent < self.count]
+
+    def give_back(self, start: int, stop: int) -> None:
+        """A range a worker left of its share: sent again first."""
+        if start < stop:
+            self.returned.append((start, stop))
 
     def next(self, in_flight: int) -> tuple[int, int] | None:
         """The next chunk's range, sized from the parts timed so far; until two sizes are timed
@@ -105,9 +135,9 @@ class _Sizes:
             return None if in_flight else self._take(PROBE_RATIO * self.first)
         target = self._target()
         if target != self.split[0]:  # the samples left split anew, in equal chunks, as many per worker
-            left = self.count - self.sent
-            chunks = math.ceil(math.ceil(left / target) / self.workers) * self.workers
-            self.split = (target, math.ceil(left / chunks))
+            chunks = math.ceil(math.ceil(self.left / target) / self.workers) * self.workers
+            chunks = max(1, min(chunks, self.left // (PROBE_RATIO * self.first)))  # none smaller than a probe's part
+            self.split = (target, math.ceil(self.left / chunks))
         return self._take(self.split[1])
 
     def _target(self) -> int:
@@ -118,18 +148,53 @@ class _Sizes:
         return max(self.first, self.sized)
 
     def _take(self, size: int) -> tuple[int, int]:
+        if self.returned:  # a range given back first, whole or its beginning
+            start, stop = self.returned[0]
+            size = max(1, min(size, stop - start))
+            self.returned[0] = (start + size, stop)
+            if start + size == stop:
+                self.returned.pop(0)
+            return start, start + size
         size = max(1, min(size, self.count - self.sent))
-        self.used.append(size)
         self.sent += size
         return self.sent - size, self.sent
 
 
-def evaluate_chunk(key: str, samples: ToleranceSamples, task: str, split: int = 0) -> tuple[str, ChunkRuns]:
+def fitting(timed: Sequence[tuple[int, float]], seconds: float) -> int:
+    """How many more samples fit in ``seconds`` of work after the parts ``timed`` (samples, CPU
+    seconds; two sizes at least): their fixed cost told from a sample's by the first two."""
+    (n1, t1), (n2, t2) = timed[:2]
+    spent = sum(t for _, t in timed)
+    per_sample = (t2 - t1) / (n2 - n1) if n2 != n1 else 0.0
+    if per_sample <= 0:  # within the noise: every second of the parts counted as the samples'
+        per_sample = spent / max(n1 + n2, 1)
+    fixed = max(t1 - per_sample * n1, 0.0)
+    return max(int((seconds - spent - fixed) / per_sample), 0) if per_sample > 0 else 0
+
+
+def evaluate_chunk(
+    key: str, samples: ToleranceSamples, task: str, split: int = 0, probe: int = 0
+) -> tuple[str, ChunkRuns]:
     """On a worker: the chunk's start logged on the scheduler (as task ``task``), its samples
     evaluated on the study's problem built once (``key``: `study_key`; its first ``split`` timed
-    apart: `chunk_runs`); (the worker's address, the chunk's runs, each naming the worker)."""
+    apart: `chunk_runs`); (the worker's address, the chunk's runs, each naming the worker).  With
+    ``probe`` (a worker's share, `_Sizes.ahead`): the first ``probe`` samples are the probe (its
+    first ``split`` timed apart), then as many more as its parts say fit in `CHUNK_SECONDS` of work
+    (`fitting`), the rest left (the runs' timed parts count the samples evaluated)."""
     worker = announce({"chunk": task})
-    runs = chunk_runs(key, samples, split)
+    runs = chunk_runs(key, samples[:probe] if 0 < probe < len(samples) else samples, split)
+    if 0 < probe < len(samples) and len(runs.timed) == 2:
+        fits, rest = fitting(runs.timed, CHUNK_SECONDS), len(samples) - probe
+        more = rest if rest <= fits * (1 + SLACK) else fits  # a small rest is not worth a chunk of its own
+        if more:
+            tail = chunk_runs(key, samples[probe : probe + more])
+            runs = replace(
+                runs,
+                items=runs.items + tail.items,
+                alone=runs.alone + tail.alone,
+                by_search=runs.by_search + tail.by_search,
+                timed=runs.timed + tail.timed,
+            )
     items = [
         replace(item, worker=worker) if isinstance(item, Records) else {**item, "worker": worker} for item in runs.items
     ]
@@ -196,10 +261,13 @@ class _Tasks:
     ranges: dict[str, tuple[int, int]] = field(default_factory=dict)
     finished_on: set[str] = field(default_factory=set)
 
-    def send(self, ranges: list[tuple[int, int]], split: int = 0, on: Sequence[str | None] = ()) -> list:
+    def send(
+        self, ranges: list[tuple[int, int]], split: int = 0, on: Sequence[str | None] = (), probe: int = 0
+    ) -> list:
         """The chunks of these ranges sent, each one's first ``split`` samples timed apart
-        (`chunk_runs`); ``on``: the worker each is sent to (None: where the scheduler puts it),
-        loosely (elsewhere when that worker is gone)."""
+        (`chunk_runs`), or its first ``probe`` a probe going on into the rest (`evaluate_chunk`);
+        ``on``: the worker each is sent to (None: where the scheduler puts it), loosely (elsewhere
+        when that worker is gone)."""
         targets = list(on) or [None] * len(ranges)
         futures = []
         for worker in dict.fromkeys(targets):  # one call per worker named, in order
@@ -213,6 +281,7 @@ class _Tasks:
                 [self.samples[a:b].shipped() for a, b in mine],
                 keys,
                 [split] * len(mine),
+                *([[probe] * len(mine)] if probe else []),
                 key=keys,
                 pure=False,
                 retries=1,
@@ -265,8 +334,11 @@ def run_chunked(
     gathered = _InOrder(samples, tally)
     tasks = _Tasks(client, samples, study_key(samples), task)
     sizes = _Sizes(len(samples), workers, 1 if connection.fixed else CHUNKS_PER_WORKER)
-    waiting = InTurn(client, tasks.send(sizes.first_round(), split=sizes.first))
-    every = _addresses(client) if sizes.per_worker == 1 else []  # asked while the probes run
+    every = _addresses(client) if sizes.ahead else []
+    first = sizes.first_round()
+    probe = (1 + PROBE_RATIO) * sizes.first if sizes.ahead else 0
+    on = every if len(every) == len(first) else ()  # a share a worker, each to its own
+    waiting = InTurn(client, tasks.send(first, split=sizes.first, on=on, probe=probe))
     timed: list[tuple[int, float]] = []  # each chunk's samples and CPU seconds
     stopped = interrupted = False
     try:
@@ -279,6 +351,7 @@ def run_chunked(
                 continue
             if isinstance(runs, ChunkRuns):
                 sizes.timed += runs.timed
+                stop = _evaluated(tasks, future.key, start, stop, runs, None if stopped else sizes)
                 timed.append((stop - start, runs.cpu_seconds))
             if not stopped:  # the next chunks, sized from those timed
                 ranges = _refill(sizes, len(tasks.running), IN_FLIGHT * workers)
@@ -314,9 +387,11 @@ def run_chunked(
         interrupted,
         gathered.unbatched,
     )
+    sent = [b - a for a, b in tasks.ranges.values()]
+    how = "a share per worker, its probe's parts timed there" if sizes.ahead else "sized from a probe per worker"
     chunks = (
-        f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sizes.used)}-{max(sizes.used)} "
-        f"(sized from a probe per worker, its parts timed there, to about {CHUNK_SECONDS:g} s of work)"
+        f"samples sent to the workers in {len(tasks.ranges)} chunks of {min(sent)}-{max(sent)} "
+        f"({how}, to about {CHUNK_SECONDS:g} s of work)"
     )
     note = "; ".join(text for text in (batch.note, chunks, lost, tally.note) if text)
     retried = {k: v for k, v in attempts.items() if len(v) > 1}
@@ -333,11 +408,22 @@ def run_chunked(
     )
 
 
+def _evaluated(tasks: _Tasks, key: str, start: int, stop: int, runs: ChunkRuns, sizes: _Sizes | None) -> int:
+    """Where the samples a chunk evaluated end (a share's probe leaves the rest, `evaluate_chunk`):
+    its task's range cut there, what it left given back to ``sizes`` (None: sent no more)."""
+    end = start + sum(n for n, _ in runs.timed)
+    if end < stop:
+        tasks.ranges[key] = (start, end)
+        if sizes is not None:
+            sizes.give_back(end, stop)
+    return end
+
+
 def _refill(sizes: _Sizes, running: int, most: int) -> list[tuple[int, int]]:
     """The chunks to send now, ``running`` in flight: up to ``most`` in flight while there are
     samples left and `_Sizes.next` sizes one."""
     ranges: list[tuple[int, int]] = []
-    while sizes.sent < sizes.count and running + len(ranges) < most:
+    while sizes.left > 0 and running + len(ranges) < most:
         chunk = sizes.next(running + len(ranges))
         if chunk is None:
             break
@@ -353,7 +439,8 @@ def _given_up(client, tasks: _Tasks, gathered: _InOrder, sizes: _Sizes, why: str
         client.cancel(list(tasks.running))
     except Exception:  # noqa: BLE001, S110 - the samples are recorded whatever the scheduler says
         pass
-    ranges = sorted(tasks.running.values()) + ([(sizes.sent, sizes.count)] if sizes.sent < sizes.count else [])
+    unsent = sizes.returned + ([(sizes.sent, sizes.count)] if sizes.sent < sizes.count else [])
+    ranges = sorted(list(tasks.running.values()) + unsent)
     tasks.running.clear()
     for start, stop in ranges:
         gathered.add(start, stop, [{**lost_run(job, None), "reason": why} for job in gathered.samples[start:stop]])
@@ -394,7 +481,7 @@ def _keep_finished(client, tasks: _Tasks, gathered: _InOrder) -> None:
             except Exception:  # noqa: BLE001, S110 - not fetched in time: cancelled like the rest
                 continue
             tasks.finished_on.add(worker)
-            gathered.add(start, stop, runs)
+            gathered.add(start, _evaluated(tasks, future.key, start, stop, runs, None), runs)
 
 
 def _attempts(client, tasks: _Tasks) -> tuple[dict[int, list[str]], set[str]]:

@@ -21,13 +21,13 @@ def poisoned(payloads: list[dict]) -> list[dict]:
     return run_batch(payloads)
 
 
-def poisoned_chunk(key: str, samples, task: str, split: int = 0):
+def poisoned_chunk(key: str, samples, task: str, split: int = 0, probe: int = 0):
     if POISON in samples.indices:
         os._exit(1)
-    return evaluate_chunk(key, samples, task, split)
+    return evaluate_chunk(key, samples, task, split, probe)
 
 
-def hung_chunk(key: str, samples, task: str, split: int = 0):
+def hung_chunk(key: str, samples, task: str, split: int = 0, probe: int = 0):
     if POISON in samples.indices:
         RELEASE.wait()
-    return evaluate_chunk(key, samples, task, split)
+    return evaluate_chunk(key, samples, task, split, probe)

@@ -1,7 +1,8 @@
 """A tolerance study on a cluster in chunks of samples (issue 53, section 2): a chunk ships its
 own samples' draws, the worker builds the study's problem once and evaluates chunk after chunk
 as the serial study does, the chunks reach the tally in sample order, a probe per worker then
-chunks sized to about half a second of work, and a sample that kills its worker takes no other with it."""
+chunks sized to about a second of work (on a local cluster, a share per worker, its probe going on
+into it), and a sample that kills its worker takes no other with it."""
 
 from __future__ import annotations
 
@@ -20,7 +21,15 @@ from sessions.sweeps.cluster import Connection
 from sessions.sweeps.dispersion import CANCELLED, Tally
 from sessions.sweeps.jobs import execute_serial
 from sessions.sweeps.plan import tolerance_jobs
-from sessions.sweeps.study_chunks import FIRST_CHUNK, PROBE_RATIO, _InOrder, _one_each, _Sizes, run_chunked
+from sessions.sweeps.study_chunks import (
+    FIRST_CHUNK,
+    FIRST_SHARE,
+    PROBE_RATIO,
+    _InOrder,
+    _one_each,
+    _Sizes,
+    run_chunked,
+)
 from tests.sessions.study_agreement import assert_measures_agree
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "sessions" / "examples"
@@ -132,19 +141,59 @@ def test_a_probe_per_worker_times_two_sizes_so_the_study_takes_six_tasks():
     assert len(ranges) == 6 and [b - a for a, b in ranges[2:]] == [4750] * 4
 
 
-def test_a_cluster_whose_workers_are_all_there_takes_a_chunk_per_worker_after_the_probes():
+def test_a_cluster_whose_workers_are_all_there_sends_a_share_per_worker_its_probe_going_on_into_it():
     """A local cluster started here has every worker from the start: no chunk is left over for a
-    worker joining later, so 20 000 lag-lead samples (12 ms plus 60 us a sample: 9500 samples are
-    0.58 s) take 4 tasks on 2 workers, not 6, and so do slower samples (0.1 ms: 9880 fit in a
-    second); a cluster that may grow keeps two a worker (the test above)."""
-    for each, expected in ((6e-5, [9500, 9500]), (1e-4, [9500, 9500])):
-        sizes = _Sizes(20_000, 2, per_worker=1)
-        ranges = sizes.first_round()
-        sizes.timed += [(100, 0.012 + each * 100), (400, 0.012 + each * 400)]  # the first probe back
-        while sizes.sent < 20_000:
-            ranges.append(sizes.next(1) or (0, 0))
-            sizes.timed.append((ranges[-1][1] - ranges[-1][0], 0.012 + each * (ranges[-1][1] - ranges[-1][0])))
-        assert [b - a for a, b in ranges] == [500, 500, *expected], each
+    worker joining later, and no round trip is needed between a probe and its worker's chunk, so
+    the first round is a share per worker (20 000 lag-lead samples on 2 workers: 2 tasks, not the 4
+    of a probe then a chunk a worker), each worker evaluating of it what its probe says fits in a
+    second (`evaluate_chunk`); what it leaves is sent first, sized from the parts timed, before the
+    samples never sent.  A study too large to ship whole is shipped in shares of `FIRST_SHARE`."""
+    sizes = _Sizes(20_000, 2, per_worker=1)
+    assert sizes.ahead and sizes.first_round() == [(0, 10_000), (10_000, 20_000)] and sizes.left == 0
+    assert not _Sizes(20_000, 2).ahead and [b - a for a, b in _Sizes(20_000, 2).first_round()] == [500, 500]
+    sizes = _Sizes(1_000_000, 2, per_worker=1)
+    assert sizes.first_round() == [(0, FIRST_SHARE), (FIRST_SHARE, 2 * FIRST_SHARE)]
+    sizes.timed += [(100, 0.012 + 6e-5 * 100), (400, 0.012 + 6e-5 * 400), (16_000, 0.012 + 6e-5 * 16_000)]
+    sizes.give_back(16_500, FIRST_SHARE)  # the first worker left the rest of its share
+    assert sizes.left == 1_000_000 - 16_500 - FIRST_SHARE
+    first = sizes.next(1)
+    assert first is not None and first[0] == 16_500 and first[1] - first[0] == sizes.split[1] <= 16_500
+    while sizes.returned:  # the share given back goes first, in chunks of the study's size
+        chunk = sizes.next(1)
+        assert chunk is not None and chunk[0] == first[1]
+        first = chunk
+    assert first[1] == FIRST_SHARE and sizes.next(1) == (2 * FIRST_SHARE, 2 * FIRST_SHARE + sizes.split[1])
+    sizes = _Sizes(20_000, 2, per_worker=1)
+    sizes.first_round()
+    sizes.timed += [(100, 0.016), (400, 0.04), (9188, 0.95)]  # a loaded worker: 312 samples of its share left
+    sizes.give_back(9688, 10_000)
+    assert sizes.next(1) == (9688, 10_000) and sizes.left == 0  # in one chunk, not one a worker of 156
+
+
+def test_a_probe_going_on_into_its_share_evaluates_what_fits_and_leaves_the_rest(tmp_path, monkeypatch):
+    """`fitting` tells a chunk's fixed cost from a sample's by the probe's two parts; the share's
+    runs are the probe's and those of the samples that fit after it, equal to the whole share's."""
+    from sessions.sweeps import study_chunks
+    from sessions.sweeps.study_chunks import evaluate_chunk, fitting
+
+    assert fitting([(100, 0.016), (400, 0.034)], 1.0) == 15_666  # 10 ms + 60 us a sample, 50 ms spent
+    assert fitting([(100, 0.02), (400, 0.02)], 0.1) == 600  # no slope seen: 80 us a sample (all of it), 12 ms fixed
+    assert fitting([(100, 0.5), (400, 0.8)], 1.0) == 0
+    samples = _samples(tmp_path, 60)
+    key = study_key(samples)
+    whole = chunk_runs(key, samples)
+    monkeypatch.setattr(study_chunks, "fitting", lambda timed, seconds: 30)
+    _, runs = evaluate_chunk(key, samples.shipped(), "t", split=2, probe=10)
+    assert [n for n, _ in runs.timed] == [2, 8, 30]
+    monkeypatch.setattr(study_chunks, "fitting", lambda timed, seconds: 42)  # 50 left, within a quarter of 42
+    _, runs = evaluate_chunk(key, samples.shipped(), "t", split=2, probe=10)
+    assert [n for n, _ in runs.timed] == [2, 8, 50]
+    ours, theirs = Tally.of_study(60), Tally.of_study(60)
+    for tally, chunk in ((ours, runs), (theirs, whole)):
+        for item in chunk.items:
+            tally.add_records(item) if not isinstance(item, dict) else tally.add(item)
+    strip = {"seconds": 0, "worker": None}
+    assert [{**r, **strip} for r in ours.runs()] == [{**r, **strip} for r in theirs.runs()]
 
 
 def test_a_chunk_per_worker_goes_to_each_worker_the_first_to_the_probe_back():
@@ -204,19 +253,43 @@ def connection():
 
 @pytest.mark.long
 @pytest.mark.slow
-def test_on_a_local_cluster_each_worker_takes_its_probe_and_one_chunk(tmp_path, connection):
-    """Its workers all there from the start (`Connection.fixed`): 4000 samples in 4 tasks, a
-    probe and a chunk on each worker (their starts, as the scheduler logged them), equal to serial."""
+def test_on_a_local_cluster_each_worker_takes_its_share_in_one_task(tmp_path, connection):
+    """Its workers all there from the start (`Connection.fixed`): 4000 samples in 2 tasks, a
+    share on each worker, its probe going on into it (their starts, as the scheduler logged them),
+    equal to serial."""
     from sessions.sweeps.jobs import EVENT_TOPIC
 
     samples = _samples(tmp_path, 4000)
     earlier = {e.get("chunk") for _, e in connection.client.get_events(EVENT_TOPIC) if isinstance(e, dict)}
     outcome = run_chunked(connection._replace(fixed=True), samples)
     starts = [e for _, e in connection.client.get_events(EVENT_TOPIC) if e.get("chunk") not in earlier]
-    assert len(starts) == 4 and sorted(Counter(e["worker"] for e in starts).values()) == [2, 2], starts
-    assert outcome.workers == 2 and "4 chunks of 500-1500" in outcome.note
+    assert len(starts) == 2 and sorted(Counter(e["worker"] for e in starts).values()) == [1, 1], starts
+    assert outcome.workers == 2 and "2 chunks of 2000-2000" in outcome.note
     serial = execute_serial(samples).runs
     assert_measures_agree([r["measures"] for r in outcome.runs], [r["measures"] for r in serial])
+
+
+@pytest.mark.slow
+def test_the_rest_a_share_leaves_is_sent_again_and_counted_once(tmp_path, monkeypatch):
+    """Each worker's share evaluated only as far as its probe (nothing fits after it here): the rest
+    of each share goes in later chunks, every sample evaluated once (no retry recorded), the note's
+    chunks the ranges each task evaluated, the rows the serial study's."""
+    from distributed import Client, LocalCluster
+
+    from sessions.sweeps import study_chunks
+
+    monkeypatch.setattr(study_chunks, "fitting", lambda timed, seconds: 0)
+    samples = _samples(tmp_path, 400)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as local:
+        with Client(local) as client:
+            outcome = run_chunked(Connection(client, local, 2, fixed=True), samples)
+    runs = outcome.runs
+    assert [r["index"] for r in runs] == list(range(400)) and not outcome.attempts
+    assert all(r["status"] != "failed" and r.get("attempts", 1) == 1 for r in runs)
+    assert sum(n for n, _ in outcome.chunks) == 400 and len(outcome.chunks) > 2
+    assert f"in {len(outcome.chunks)} chunks of " in outcome.note, outcome.note
+    serial = execute_serial(samples).runs
+    assert_measures_agree([r["measures"] for r in runs], [r["measures"] for r in serial])
 
 
 @pytest.mark.long
