@@ -23,7 +23,6 @@ margin at the Nyquist frequency, the abscissa of the closed-loop poles' s-plane 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
@@ -50,12 +49,11 @@ from engine.model.paired_product import PairedProduct
 class SampleLoop(NamedTuple):
     """One sample's margins, its closed-loop stability abscissa (-max Re of the closed-loop
     poles, the zeros of 1 + GH) and whether the batch certified it (else the per-loop search
-    on its form found them); ``closed``: its closed-loop rows (`with_closed_rows`), by row."""
+    on its form found them); its closed-loop rows are the batch's (`closed_rows`)."""
 
     margins: Margins
     abscissa: float
     batched: bool
-    closed: Mapping[int, tuple[float, float]] | None = None
 
 
 ClosedRow = tuple[int, str, float, float]  # a closed-loop row: its number, measure kind, band's low and high

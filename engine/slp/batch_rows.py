@@ -34,6 +34,7 @@ from engine.model.bilinear import s_of_z, z_of_w
 from engine.slp.measures import Spec, evaluate, response_times, response_value
 
 # the time rows read from a simulated response (a mean square solves a Lyapunov equation: per loop)
+RESPONSE_FLOATS = 1 << 20  # responses' samples held at once (8 MB): a loop in z's horizon may be 10^6 samples
 BATCH_TIME_KINDS = frozenset(
     ("peak_response", "overshoot_percent", "settling_time", "rise_time", "peak_time", "steady_state_error")
 )
@@ -117,13 +118,16 @@ def _condition_rows(
         segments = [Segment(*p) for p in response.profile]
         B, C = np.array([ss.B[:, k] for ss in loops]), np.array([ss.C[j] for ss in loops])
         D = np.array([ss.D[j, k] for ss in loops])
-        with np.errstate(all="ignore"):
-            if sample_time is None:
-                y = batch_simulate(A, B, C, D, t, segments)
-            else:
-                y = batch_simulate_sampled(A, B, C, D, t, segments, sample_time)
-        for row, (sample, ss) in enumerate(zip(mine.tolist(), loops)):
-            values[sample, column] = response_value(spec, response, ss, t, y[row], unstable[row])
+        group = max(1, RESPONSE_FLOATS // max(1, t.size))  # samples simulated at once: memory bounded
+        for first in range(0, len(loops), group):
+            part = slice(first, first + group)
+            with np.errstate(all="ignore"):
+                if sample_time is None:
+                    y = batch_simulate(A[part], B[part], C[part], D[part], t, segments)
+                else:
+                    y = batch_simulate_sampled(A[part], B[part], C[part], D[part], t, segments, sample_time)
+            for row, (sample, ss) in enumerate(zip(mine[part].tolist(), loops[part])):
+                values[sample, column] = response_value(spec, response, ss, t, y[row], unstable[part][row])
     return ok
 
 

@@ -24,7 +24,7 @@ polished on them; a row that names another break of its diagram reads the loop b
 there (each (condition, break) its own forms).  A sample the batch cannot certify (its form is odd, its
 search fails its certificate, a level is constant, a crossover is absent), and every
 sample of a study that is not batched (a delay, a table, a diagram with no batched
-realization, a mean square, a loop in z's time or closed-loop peak rows), is
+realization, a mean square), is
 evaluated per loop, by slp's own measures (`engine.slp.measures.evaluate`) on the problem
 built once: what `run_job` computes but for building the sample's session (a sample whose
 evaluation raises gets `run_job` itself).  The study's note says which samples went per loop, and why a study

@@ -892,3 +892,25 @@ def test_random_diagrams_in_z_equal_the_per_loop_path(tmp_path):
     assert batched >= 0.7 * total
     found = [m for m in run_job(_jobs(path, 1, tolerances)[0].payload())["measures"] if m["kind"] == "modal_peak_db"]
     assert any(isinstance(m["frequency"], float) for m in found)  # a peak found, not only absent ones
+
+
+@pytest.mark.parametrize("in_z", [False, True])
+def test_time_rows_simulate_a_bounded_group_of_samples_at_once(tmp_path, monkeypatch, in_z):
+    """A batch's time rows hold at most `RESPONSE_FLOATS` response samples at once: a loop in z's
+    horizon of 10 s at T = 1 ms is 10 001 samples a response, and the whole chunk's (5000
+    samples) was 0.4 GB a row.  With the bound set below one response here, each simulation is
+    given one sample, and every run is the one made with no bound."""
+    from engine.slp import batch_rows
+
+    path = _with_time_rows(_kuo_z(tmp_path) if in_z else _session(tmp_path))
+    jobs = _jobs(path, 12, ["T1=+-30%", "T2=+-30%"])
+    whole = batch_runs(jobs).runs
+    sizes: list[int] = []
+    for name in ("batch_simulate", "batch_simulate_sampled"):
+        simulate = getattr(batch_rows, name)
+        monkeypatch.setattr(batch_rows, name, lambda A, *rest, _f=simulate: sizes.append(len(A)) or _f(A, *rest))
+    monkeypatch.setattr(batch_rows, "RESPONSE_FLOATS", 1)  # less than one response: one sample at a time
+    grouped = batch_runs(jobs).runs
+    assert sizes and max(sizes) == 1 and sum(sizes) >= 12, sizes
+    for got, want in zip(grouped, whole, strict=True):
+        assert {k: v for k, v in got.items() if k != "seconds"} == {k: v for k, v in want.items() if k != "seconds"}

@@ -433,3 +433,20 @@ async def test_the_status_line_keeps_the_state_whole_at_80_columns(workdir, size
         assert "Iteration 1" in shown and "not finished" in shown, shown
         assert ("(s steps on, r runs on)" in shown and "algorithm cip" in shown) == hinted, shown
         assert len(shown) <= status.content_size.width, shown
+
+
+@synchronous
+async def test_the_status_line_follows_a_resize(workdir):
+    """The status line's form is chosen again when the terminal is resized: 120 columns to 80
+    (short: whole), and back (the hints again)."""
+    app = LoopcraftApp(workdir / "cip_launch_vehicle.json")
+    async with app.run_test(size=(120, 40)) as pilot:
+        await settle(app, pilot)
+        await pilot.press("s")
+        await settle(app, pilot)
+        status = app.screen.query_one("#status")
+        for size, hinted in (((80, 24), False), ((120, 40), True)):
+            await pilot.resize_terminal(*size)
+            await settle(app, pilot)
+            shown = status.text.plain
+            assert ("(s steps on, r runs on)" in shown) == hinted and len(shown) <= status.content_size.width, shown

@@ -505,9 +505,10 @@ async def test_a_drag_s_quick_frames_are_drawn_at_once_with_the_tableau(tmp_path
     app = lead_app(tmp_path, monkeypatch)
     async with app.run_test(size=(120, 40)) as pilot:
         await settle(app, pilot)
-        by_worker, at_once = await _frames(app, pilot, monkeypatch, 4, tab, plot_id)
-    assert by_worker[0] and not any(by_worker[1:]), by_worker
-    assert at_once[1:] == [True, True, True], at_once
+        for _ in range(2):  # a second drag's first frame is of unknown cost again: the worker's
+            by_worker, at_once = await _frames(app, pilot, monkeypatch, 4, tab, plot_id)
+            assert by_worker[0] and not any(by_worker[1:]), by_worker
+            assert at_once[1:] == [True, True, True], at_once
     monkeypatch.setattr("tui.screens.latest_work.INLINE_FRAME_S", 0.0)
     (tmp_path / "unmet").mkdir()
     app = lead_app(tmp_path / "unmet", monkeypatch)

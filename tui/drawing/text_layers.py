@@ -15,14 +15,14 @@ its whole drawing.  The series drawn here need a braille or one-character marker
 
 from __future__ import annotations
 
-import threading
-from collections import OrderedDict
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from plotext._dict import braille_codes, marker_codes
 from plotext._utility import is_color, no_color
+
+from engine.derived import Derived, Form
 
 BRAILLE = "braille"
 KEPT_FRAMES = 8  # static layers kept (a plot's canvas and view each; the least recently used dropped first)
@@ -148,32 +148,25 @@ def _joined(px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.r_[lx, px[-1:]], np.r_[ly, py[-1:]]
 
 
+_FRAME: Form[Matrix] = Form("a canvas and view's static layer")
+
+
 class Layers:
     """The static layers kept, by frame key (canvas, theme, view, labels, ticks), the ``kept``
-    used last (the least recently used dropped first); any thread (the figures are drawn in
-    workers): two threads that build one layer at once both draw on the first built."""
+    used last (`engine.derived.Derived`); any thread (the figures are drawn in workers)."""
 
     def __init__(self, kept: int = KEPT_FRAMES) -> None:
-        self.kept = kept
-        self._frames: OrderedDict[Hashable, Matrix] = OrderedDict()
-        self._lock = threading.Lock()
+        self._frames = Derived(kept)
         self.builds = 0  # static layers built (a test counts them)
 
     def static(self, key: Hashable, build: Callable[[], Matrix]) -> Matrix:
         """A copy, to draw over, of the frame's static layer (built by ``build`` when not kept)."""
-        with self._lock:
-            found = self._frames.get(key)
-            if found is not None:
-                self._frames.move_to_end(key)
-                return found.copy()
-        built = build()  # (outside the lock: plotext's drawing of a frame takes milliseconds)
-        with self._lock:
+
+        def built() -> Matrix:
             self.builds += 1
-            found = self._frames.setdefault(key, built)
-            self._frames.move_to_end(key)
-            while len(self._frames) > self.kept:
-                self._frames.popitem(last=False)
-        return found.copy()
+            return build()
+
+        return self._frames.get(_FRAME, built, key).copy()
 
 
 LAYERS = Layers()

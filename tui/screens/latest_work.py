@@ -88,5 +88,10 @@ class FrameTimes:
         return all(self._seconds.get(name, math.inf) <= INLINE_FRAME_S for name in names)
 
     def took(self, names: set[str] | frozenset[str], seconds: float) -> None:
-        """A frame of these plots was drawn in ``seconds`` (math.inf: it failed)."""
+        """A frame of these plots was drawn in ``seconds`` of its thread's time (math.inf: it failed)."""
         self._seconds.update(dict.fromkeys(names, seconds))
+
+    def forget(self, name: str) -> None:
+        """A drag of this plot begins: its first frame's cost is unknown again (a part added,
+        another condition or locus parameter since the last drag may have changed it)."""
+        self._seconds.pop(name, None)

@@ -84,6 +84,7 @@ class Shaping:
         key = (message.plot.id, message.drag)
         if self.dragging.key != key:
             self.dragging = Drag(key)
+            self.screen.frame_times.forget(message.plot.id or "")  # its first frame goes to the worker
         self.screen.dragged_plot = None if message.done else message.plot.id  # the others on release
         if self.app.busy:
             if message.done:

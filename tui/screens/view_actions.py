@@ -140,11 +140,11 @@ class ViewActions:
         passes = (COARSE_LOCUS_POINTS,) if dragged else (COARSE_LOCUS_POINTS, None)  # coarse, then as fine as it goes
 
         def drawn(points: int | None, roots: list) -> ViewActions.LocusDrawn:
-            began = time.perf_counter()
+            began = time.thread_time()  # the drawing's own time, not the paints it waited on
             figure = locus_figure(view, parameter, points=points, refining=not dragged)
             overlays.poles(figure, requirements(view))
             overlays.compensator_roots(figure, roots)
-            return self.LocusDrawn(key, figure, time.perf_counter() - began if dragged else None)
+            return self.LocusDrawn(key, figure, time.thread_time() - began if dragged else None)
 
         def compute() -> None:
             roots = compensator_roots(view)  # the same for the coarse locus and the fine one
